@@ -1,0 +1,1078 @@
+//! Turns a checked [`Schema`] into Rust source: one module per XML file and a
+//! `mod.rs` that includes them.
+//!
+//! Items are built as token streams with `quote` and printed with
+//! `prettyplease`, so the output is deterministic and reads like hand-written
+//! code. Bitmask enums are the exception: they are `bitflags!` invocations,
+//! which `prettyplease` would print on one line, so they are formatted here.
+
+use crate::diag::{Diagnostic, Severity};
+use crate::layout::Layout;
+use crate::model::{Entry, Field, Message, Primitive};
+use crate::names::{camel, doc_lines, entry_suffix, ident, snake};
+use crate::schema::{MergedEnum, MessageRef, Schema};
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::fmt::Write as _;
+
+const DOC_WIDTH: usize = 90;
+
+/// Code generation settings (see [`crate::Config`] for the builder).
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Path of the runtime crate in the generated code, e.g. `::mavwire`.
+    pub runtime: String,
+    /// Generate only these messages (and the enums they use).
+    pub messages: Option<BTreeSet<String>>,
+    /// Shown in each file's header as the command that regenerates it.
+    pub regenerate_hint: Option<String>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            runtime: "::mavwire".into(),
+            messages: None,
+            regenerate_hint: None,
+        }
+    }
+}
+
+/// Generated files: `(file name, contents)`, `mod.rs` first.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Output {
+    /// The files, in a stable order.
+    pub files: Vec<(String, String)>,
+}
+
+/// How a field is represented in Rust.
+enum Kind {
+    Scalar(Primitive),
+    /// An unsigned scalar carrying an enum's value.
+    Enum {
+        prim: Primitive,
+        path: TokenStream,
+        repr: Primitive,
+        bitmask: bool,
+    },
+    Array(Primitive, usize),
+    Chars(usize),
+}
+
+/// Rust-side facts about one merged enum.
+struct EnumInfo {
+    module: usize,
+    rust_name: String,
+    repr: Primitive,
+    bitmask: bool,
+}
+
+struct Gen<'s> {
+    schema: &'s Schema,
+    rt: TokenStream,
+    modules: Vec<String>,
+    selected: BTreeSet<MessageRef>,
+    enums: BTreeMap<String, EnumInfo>,
+}
+
+/// Generates the Rust modules for `schema`.
+pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnostic>> {
+    let mut errors = Vec::new();
+    let err = |errors: &mut Vec<Diagnostic>, position, message: String| {
+        errors.push(Diagnostic {
+            severity: Severity::Error,
+            position,
+            message,
+        })
+    };
+    let rt: TokenStream = match syn::parse_str::<syn::Path>(&opts.runtime) {
+        Ok(p) => quote!(#p),
+        Err(e) => {
+            err(
+                &mut errors,
+                None,
+                format!(
+                    "runtime crate path `{}` is not a Rust path: {e}",
+                    opts.runtime
+                ),
+            );
+            return Err(errors);
+        }
+    };
+
+    // One module per file, named after the file.
+    let mut modules = Vec::new();
+    let mut module_files: HashMap<String, usize> = HashMap::new();
+    for (i, f) in schema.files.iter().enumerate() {
+        let stem = f
+            .path
+            .file_stem()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let name = snake(&stem);
+        if let Some(&other) = module_files.get(&name) {
+            err(
+                &mut errors,
+                None,
+                format!(
+                    "{} and {} would both become module `{name}`",
+                    schema.files[other].path.display(),
+                    f.path.display()
+                ),
+            );
+        }
+        module_files.insert(name.clone(), i);
+        modules.push(name);
+    }
+
+    // The messages to generate.
+    let all: Vec<MessageRef> = schema.messages().collect();
+    let selected: BTreeSet<MessageRef> = match &opts.messages {
+        None => all.iter().copied().collect(),
+        Some(names) => {
+            let by_name: HashMap<&str, MessageRef> = all
+                .iter()
+                .map(|&r| (schema.message(r).name.as_str(), r))
+                .collect();
+            let mut sel = BTreeSet::new();
+            for n in names {
+                match by_name.get(n.as_str()) {
+                    Some(&r) => {
+                        sel.insert(r);
+                    }
+                    None => err(
+                        &mut errors,
+                        None,
+                        format!("message filter names {n}, which the dialect does not define"),
+                    ),
+                }
+            }
+            sel
+        }
+    };
+
+    // Enums: all of them, or those the selected messages use.
+    let used: BTreeSet<&str> = selected
+        .iter()
+        .flat_map(|&r| schema.message(r).fields.iter())
+        .filter_map(|f| f.enum_name.as_deref())
+        .collect();
+    let mut enums = BTreeMap::new();
+    for (name, m) in &schema.enums {
+        if opts.messages.is_some() && !used.contains(name.as_str()) {
+            continue;
+        }
+        enums.insert(name.clone(), enum_info(schema, name, m));
+    }
+
+    let gen = Gen {
+        schema,
+        rt,
+        modules,
+        selected,
+        enums,
+    };
+    errors.extend(gen.check_names());
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+
+    let header = |file: &str| {
+        let mut h = String::new();
+        let _ = writeln!(
+            h,
+            "// @generated by mavgen-rs {} from {file}. Do not edit.",
+            env!("CARGO_PKG_VERSION")
+        );
+        if let Some(hint) = &opts.regenerate_hint {
+            let _ = writeln!(h, "// Regenerate with: {hint}");
+        }
+        h.push('\n');
+        h
+    };
+    let mut files = Vec::new();
+    let mut mod_rs = header("the files below");
+    for (i, f) in schema.files.iter().enumerate() {
+        let fname = f
+            .path
+            .file_name()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let (tokens, flags) = gen.module(i);
+        let file: syn::File = match syn::parse2(tokens) {
+            Ok(f) => f,
+            Err(e) => {
+                err(
+                    &mut errors,
+                    None,
+                    format!("internal error: generated code for {fname} does not parse: {e}"),
+                );
+                return Err(errors);
+            }
+        };
+        let mut text = header(&fname);
+        text.push_str(&prettyplease::unparse(&file));
+        text.push_str(&flags);
+        let module = &gen.modules[i];
+        let mut doc = format!("Definitions of `{fname}`");
+        if schema.roots.contains(&i) {
+            doc.push_str(" (a dialect: see [`");
+            doc.push_str(module);
+            doc.push_str("::Message`])");
+        }
+        let _ = writeln!(mod_rs, "#[doc = {:?}]", doc + ".");
+        mod_rs.push_str("#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::doc_lazy_continuation)]\n");
+        let _ = writeln!(
+            mod_rs,
+            "pub mod {module} {{\n    include!(\"{module}.rs\");\n}}"
+        );
+        files.push((format!("{module}.rs"), text));
+    }
+    files.insert(0, ("mod.rs".to_string(), mod_rs));
+    Ok(Output { files })
+}
+
+/// Chooses an enum's Rust representation: wide enough for its values and for
+/// every unsigned field that carries it, so conversions never lose bits.
+fn enum_info(schema: &Schema, name: &str, m: &MergedEnum) -> EnumInfo {
+    let max = m.def.entries.iter().map(|e| e.value).max().unwrap_or(0);
+    let mut repr = if max <= u8::MAX as u64 {
+        Primitive::U8
+    } else if max <= u16::MAX as u64 {
+        Primitive::U16
+    } else if max <= u32::MAX as u64 {
+        Primitive::U32
+    } else {
+        Primitive::U64
+    };
+    let mut bitmask = m.def.bitmask;
+    for r in schema.messages() {
+        for f in &schema.message(r).fields {
+            if f.enum_name.as_deref() == Some(name)
+                && f.array_len.is_none()
+                && f.primitive.is_unsigned_int()
+                && !f.mavlink_version
+            {
+                if f.primitive.size() > repr.size() {
+                    repr = f.primitive;
+                }
+                bitmask |= f.display.as_deref() == Some("bitmask");
+            }
+        }
+    }
+    EnumInfo {
+        module: m.home,
+        rust_name: camel(name),
+        repr,
+        bitmask,
+    }
+}
+
+/// An integer literal without a type suffix (the context gives the type).
+fn lit(value: impl Into<u64>) -> Literal {
+    Literal::u64_unsuffixed(value.into())
+}
+
+/// `0` or `0.0`, as the type needs.
+fn zero(p: Primitive) -> TokenStream {
+    if matches!(p, Primitive::F32 | Primitive::F64) {
+        quote!(0.0)
+    } else {
+        quote!(0)
+    }
+}
+
+fn docs(lines: &[String]) -> TokenStream {
+    let attrs = lines.iter().map(|l| {
+        let l = format!(" {l}");
+        quote!(#[doc = #l])
+    });
+    quote!(#(#attrs)*)
+}
+
+fn deprecated_note(d: &crate::model::Deprecated) -> String {
+    let mut s = format!("**Deprecated** since {}", d.since);
+    if !d.replaced_by.is_empty() {
+        s.push_str(&format!(", replaced by `{}`", d.replaced_by));
+    }
+    s.push('.');
+    let t = d.text.split_whitespace().collect::<Vec<_>>().join(" ");
+    if !t.is_empty() {
+        s.push(' ');
+        s.push_str(&t);
+    }
+    s
+}
+
+impl Gen<'_> {
+    fn check_names(&self) -> Vec<Diagnostic> {
+        let mut out = Vec::new();
+        for (i, _) in self.schema.files.iter().enumerate() {
+            let mut taken: HashMap<String, String> = HashMap::new();
+            if self.schema.roots.contains(&i) {
+                for n in ["Message", "MessageView", "Dialect", "MESSAGES"] {
+                    taken.insert(n.into(), "the dialect's own items".into());
+                }
+            }
+            let mut claim = |rust: String, what: String, loc: crate::diag::Loc| {
+                if let Some(prev) = taken.get(&rust) {
+                    out.push(Diagnostic {
+                        severity: Severity::Error,
+                        position: Some(self.schema.sources[loc.file].position(loc.offset)),
+                        message: format!(
+                            "{what} would be named `{rust}` in Rust, which {prev} already uses"
+                        ),
+                    });
+                } else {
+                    taken.insert(rust, what);
+                }
+            };
+            for r in self.selected.iter().filter(|r| r.file == i) {
+                let m = self.schema.message(*r);
+                let base = camel(&m.name);
+                for suffix in ["", "View", "Mut"] {
+                    claim(
+                        format!("{base}{suffix}"),
+                        format!("message {}", m.name),
+                        m.loc,
+                    );
+                }
+            }
+            for (name, info) in self.enums.iter().filter(|(_, e)| e.module == i) {
+                let loc = self.schema.enums[name].def.loc;
+                claim(info.rust_name.clone(), format!("enum {name}"), loc);
+            }
+        }
+        out
+    }
+
+    /// Path from module `from` to item `name` of module `to`.
+    fn path(&self, from: usize, to: usize, name: &str) -> TokenStream {
+        let item = format_ident!("{}", name);
+        if from == to {
+            quote!(#item)
+        } else {
+            let m = ident(&self.modules[to]);
+            quote!(super::#m::#item)
+        }
+    }
+
+    fn doc_path(&self, from: usize, to: usize, name: &str) -> String {
+        if from == to {
+            name.to_string()
+        } else {
+            format!("super::{}::{name}", self.modules[to])
+        }
+    }
+
+    fn kind(&self, module: usize, f: &Field) -> Kind {
+        match (f.array_len, f.primitive) {
+            (Some(n), Primitive::Char) => Kind::Chars(n),
+            (Some(n), p) => Kind::Array(p, n),
+            (None, p) => match f.enum_name.as_deref().and_then(|e| self.enums.get(e)) {
+                Some(info) if p.is_unsigned_int() && !f.mavlink_version => Kind::Enum {
+                    prim: p,
+                    path: self.path(module, info.module, &info.rust_name),
+                    repr: info.repr,
+                    bitmask: info.bitmask,
+                },
+                _ => Kind::Scalar(p),
+            },
+        }
+    }
+
+    /// Returns the module's items and, separately, its formatted bitflags.
+    fn module(&self, i: usize) -> (TokenStream, String) {
+        let mut items = Vec::new();
+        let mut flags = String::new();
+        for (name, info) in self.enums.iter().filter(|(_, e)| e.module == i) {
+            let def = &self.schema.enums[name];
+            if info.bitmask {
+                flags.push('\n');
+                flags.push_str(&self.bitflags(def, info));
+            } else {
+                items.push(self.value_enum(def, info));
+            }
+        }
+        for r in self.selected.iter().filter(|r| r.file == i) {
+            items.push(self.message(i, self.schema.message(*r), self.schema.layout(*r)));
+        }
+        if self.schema.roots.contains(&i) {
+            items.push(self.dialect(i));
+        }
+        (quote!(#(#items)*), flags)
+    }
+
+    fn entry_docs(&self, e: &Entry) -> Vec<String> {
+        let mut lines = doc_lines(&e.description, DOC_WIDTH);
+        if lines.is_empty() {
+            lines.push(format!("`{}`", e.name));
+        }
+        if e.wip {
+            lines.push(String::new());
+            lines.push("**Work in progress**: may change.".into());
+        }
+        if let Some(d) = &e.deprecated {
+            lines.push(String::new());
+            lines.extend(doc_lines(&deprecated_note(d), DOC_WIDTH));
+        }
+        let params: Vec<_> = e
+            .params
+            .iter()
+            .filter(|p| !p.description.trim().is_empty() || p.label.is_some())
+            .collect();
+        if !params.is_empty() {
+            lines.push(String::new());
+            for p in params {
+                let mut head = format!("Param {}", p.index);
+                match (&p.label, &p.units) {
+                    (Some(l), Some(u)) => head.push_str(&format!(" ({l}, {u})")),
+                    (Some(l), None) => head.push_str(&format!(" ({l})")),
+                    (None, Some(u)) => head.push_str(&format!(" ({u})")),
+                    (None, None) => {}
+                }
+                let text = format!("- {head}: {}", p.description);
+                lines.extend(doc_lines(&text, DOC_WIDTH));
+            }
+        }
+        lines
+    }
+
+    fn enum_docs(&self, def: &MergedEnum) -> Vec<String> {
+        let mut lines = doc_lines(&def.def.description, DOC_WIDTH);
+        if lines.is_empty() {
+            lines.push(format!("`{}`", def.def.name));
+        }
+        lines.push(String::new());
+        lines.push(format!("MAVLink enum `{}`.", def.def.name));
+        if let Some(d) = &def.def.deprecated {
+            lines.extend(doc_lines(&deprecated_note(d), DOC_WIDTH));
+        }
+        lines
+    }
+
+    /// Variant or constant names for the entries, unique within the enum.
+    fn entry_names(def: &MergedEnum, convert: fn(&str) -> String, reserved: &str) -> Vec<String> {
+        let mut seen = BTreeSet::new();
+        seen.insert(reserved.to_string());
+        def.def
+            .entries
+            .iter()
+            .map(|e| {
+                let mut n = convert(entry_suffix(&def.def.name, &e.name));
+                if !seen.insert(n.clone()) {
+                    n = format!("{n}{}", e.value);
+                    seen.insert(n.clone());
+                }
+                n
+            })
+            .collect()
+    }
+
+    fn value_enum(&self, def: &MergedEnum, info: &EnumInfo) -> TokenStream {
+        let name = format_ident!("{}", info.rust_name);
+        let repr = format_ident!("{}", info.repr.rust_name());
+        let doc = docs(&self.enum_docs(def));
+        let names = Self::entry_names(def, camel, "Unlisted");
+        let variants: Vec<_> = names.iter().map(|n| format_ident!("{}", n)).collect();
+        let entry_docs: Vec<_> = def
+            .def
+            .entries
+            .iter()
+            .map(|e| docs(&self.entry_docs(e)))
+            .collect();
+        let values: Vec<_> = def.def.entries.iter().map(|e| lit(e.value)).collect();
+        let xml_names: Vec<_> = def.def.entries.iter().map(|e| e.name.as_str()).collect();
+        quote! {
+            #doc
+            ///
+            /// Values the XML does not list are kept in [`Self::Unlisted`], so a
+            /// message is never rejected for carrying one.
+            #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+            pub enum #name {
+                #( #entry_docs #variants, )*
+                /// A value this dialect does not define.
+                Unlisted(#repr),
+            }
+
+            impl #name {
+                /// The enum for a raw wire value.
+                pub const fn from_raw(value: #repr) -> Self {
+                    match value {
+                        #( #values => Self::#variants, )*
+                        other => Self::Unlisted(other),
+                    }
+                }
+
+                /// The raw wire value.
+                pub const fn to_raw(self) -> #repr {
+                    match self {
+                        #( Self::#variants => #values, )*
+                        Self::Unlisted(value) => value,
+                    }
+                }
+
+                /// The entry's name in the XML, `None` for unlisted values.
+                pub const fn name(self) -> Option<&'static str> {
+                    match self {
+                        #( Self::#variants => Some(#xml_names), )*
+                        Self::Unlisted(_) => None,
+                    }
+                }
+            }
+
+            impl From<#repr> for #name {
+                fn from(value: #repr) -> Self {
+                    Self::from_raw(value)
+                }
+            }
+
+            impl From<#name> for #repr {
+                fn from(value: #name) -> Self {
+                    value.to_raw()
+                }
+            }
+
+            impl Default for #name {
+                /// The value 0, as in a zero-filled payload.
+                fn default() -> Self {
+                    Self::from_raw(0)
+                }
+            }
+        }
+    }
+
+    /// A `bitflags!` invocation, formatted by hand (see the module docs).
+    fn bitflags(&self, def: &MergedEnum, info: &EnumInfo) -> String {
+        let mut s = String::new();
+        let rt = self.rt.to_string().replace(' ', "");
+        let _ = writeln!(s, "{rt}::bitflags::bitflags! {{");
+        for l in self.enum_docs(def) {
+            let _ = writeln!(s, "    ///{}{l}", if l.is_empty() { "" } else { " " });
+        }
+        s.push_str(
+            "    ///\n    /// A flag set: bits the XML does not list are kept, not dropped.\n",
+        );
+        s.push_str("    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]\n");
+        let _ = writeln!(
+            s,
+            "    pub struct {}: {} {{",
+            info.rust_name,
+            info.repr.rust_name()
+        );
+        let names = Self::entry_names(def, |s| s.to_string(), "_");
+        for (e, n) in def.def.entries.iter().zip(&names) {
+            for l in self.entry_docs(e) {
+                let _ = writeln!(s, "        ///{}{l}", if l.is_empty() { "" } else { " " });
+            }
+            let _ = writeln!(s, "        const {n} = {};", e.value);
+        }
+        s.push_str("        /// Keep bits this dialect does not define.\n        const _ = !0;\n    }\n}\n");
+        s
+    }
+
+    fn field_docs(&self, module: usize, f: &Field, layout_offset: usize) -> Vec<String> {
+        let mut lines = doc_lines(&f.description, DOC_WIDTH);
+        if lines.is_empty() {
+            lines.push(format!("`{}`", f.name));
+        }
+        let mut facts = Vec::new();
+        if let Some(u) = &f.units {
+            facts.push(format!("Units: `{u}`."));
+        }
+        if let Some(m) = &f.multiplier {
+            facts.push(format!("Multiplier: `{m}`."));
+        }
+        if let Some(e) = &f.enum_name {
+            match self.enums.get(e) {
+                Some(info) => facts.push(format!(
+                    "Values: [`{}`].",
+                    self.doc_path(module, info.module, &info.rust_name)
+                )),
+                None => facts.push(format!("Values: `{e}`.")),
+            }
+        }
+        if let Some(v) = &f.invalid {
+            facts.push(format!("Invalid / unknown: `{v}`."));
+        }
+        if let Some(v) = &f.default {
+            facts.push(format!("Default: `{v}`."));
+        }
+        if f.instance {
+            facts.push("Instance field: tells apart several sources of this message.".into());
+        }
+        if f.mavlink_version {
+            facts.push("Set to the dialect's MAVLink version by `Default`.".into());
+        }
+        if f.extension {
+            facts.push(
+                "Extension field: absent from MAVLink 1 frames, reads 0 when not sent.".into(),
+            );
+        }
+        facts.push(format!(
+            "Wire: `{}{}` at payload offset {layout_offset}.",
+            f.primitive.c_name(),
+            f.array_len.map_or(String::new(), |n| format!("[{n}]"))
+        ));
+        lines.push(String::new());
+        lines.extend(doc_lines(&facts.join(" "), DOC_WIDTH).into_iter().map(|l| {
+            l.replace("\\`", "`")
+                .replace("\\[", "[")
+                .replace("\\]", "]")
+                .replace("\\_", "_")
+        }));
+        lines
+    }
+
+    fn message(&self, module: usize, m: &Message, layout: &Layout) -> TokenStream {
+        let rt = &self.rt;
+        let base = camel(&m.name);
+        let owned = format_ident!("{}", base);
+        let view = format_ident!("{}View", base);
+        let writer = format_ident!("{}Mut", base);
+        let (id, name, crc, min, max) = (
+            lit(m.id),
+            m.name.as_str(),
+            lit(layout.crc_extra),
+            lit(layout.min_len as u64),
+            lit(layout.max_len as u64),
+        );
+        let opt = |o: Option<usize>| match o {
+            Some(v) => {
+                let v = lit(v as u64);
+                quote!(Some(#v))
+            }
+            None => quote!(None),
+        };
+        let (ts, tc) = (opt(layout.target_system), opt(layout.target_component));
+
+        let mut mdoc = doc_lines(&m.description, DOC_WIDTH);
+        if mdoc.is_empty() {
+            mdoc.push(format!("`{}`", m.name));
+        }
+        mdoc.push(String::new());
+        mdoc.push(format!(
+            "MAVLink message `{}`: id {}, CRC_EXTRA {}, payload {} bytes ({} without extensions).",
+            m.name, m.id, layout.crc_extra, layout.max_len, layout.min_len
+        ));
+        if m.wip {
+            mdoc.push("**Work in progress**: may change.".into());
+        }
+        if let Some(d) = &m.deprecated {
+            mdoc.extend(doc_lines(&deprecated_note(d), DOC_WIDTH));
+        }
+        let mdoc = docs(&mdoc);
+        let view_doc = format!(" A zero-copy view over a [`{base}`] payload: fields are read in place at their wire offsets.");
+        let mut_doc = format!(" Writes the fields of a [`{base}`] payload in place.");
+        let new_doc = format!(
+            " A writer over `payload`, which must hold at least [`{base}::MAX_LEN`] bytes."
+        );
+
+        let mut struct_fields = Vec::new();
+        let mut getters = Vec::new();
+        let mut setters = Vec::new();
+        let mut from_view = Vec::new();
+        let mut emit = Vec::new();
+        let mut defaults = Vec::new();
+        for (fi, f) in m.fields.iter().enumerate() {
+            let fid = ident(&f.name);
+            let setter = format_ident!("set_{}", f.name);
+            let fdoc = docs(&self.field_docs(module, f, layout.offsets[fi]));
+            let off = lit(layout.offsets[fi] as u64);
+            let kind = self.kind(module, f);
+            let (owned_ty, get_ty, get_body, set_ty, set_body, default, to_owned, by_ref) =
+                match &kind {
+                    Kind::Scalar(p) => {
+                        let t = format_ident!("{}", p.rust_name());
+                        let default = if f.mavlink_version {
+                            let v = lit(self.schema.files[module].version);
+                            quote!(#v)
+                        } else {
+                            zero(*p)
+                        };
+                        (
+                            quote!(#t),
+                            quote!(#t),
+                            quote!(#rt::field::read::<#t>(self.payload, #off)),
+                            quote!(#t),
+                            quote!(#rt::field::Scalar::write(value, self.payload, #off)),
+                            default,
+                            quote!(),
+                            false,
+                        )
+                    }
+                    Kind::Enum {
+                        prim,
+                        path,
+                        repr,
+                        bitmask,
+                    } => {
+                        let t = format_ident!("{}", prim.rust_name());
+                        let r = format_ident!("{}", repr.rust_name());
+                        let raw = quote!(#rt::field::read::<#t>(self.payload, #off));
+                        let widened = if prim == repr {
+                            raw
+                        } else {
+                            quote!(#r::from(#raw))
+                        };
+                        let (get_body, to_raw) = if *bitmask {
+                            (
+                                quote!(#path::from_bits_retain(#widened)),
+                                quote!(value.bits()),
+                            )
+                        } else {
+                            (quote!(#path::from_raw(#widened)), quote!(value.to_raw()))
+                        };
+                        // The representation is at least as wide as the field; the
+                        // narrowing keeps the low bits, which is all the field holds.
+                        let narrowed = if prim == repr {
+                            to_raw
+                        } else {
+                            quote!(#to_raw as #t)
+                        };
+                        (
+                            path.clone(),
+                            path.clone(),
+                            get_body,
+                            path.clone(),
+                            quote!(#rt::field::Scalar::write(#narrowed, self.payload, #off)),
+                            quote!(#path::default()),
+                            quote!(),
+                            false,
+                        )
+                    }
+                    Kind::Array(p, n) => {
+                        let t = format_ident!("{}", p.rust_name());
+                        let z = zero(*p);
+                        let n = lit(*n as u64);
+                        (
+                            quote!([#t; #n]),
+                            quote!(#rt::field::ArrayView<'a, #t, #n>),
+                            quote!(#rt::field::ArrayView::new(self.payload, #off)),
+                            quote!(&[#t; #n]),
+                            quote!(#rt::field::write_array(self.payload, #off, value)),
+                            quote!([#z; #n]),
+                            quote!(.to_array()),
+                            true,
+                        )
+                    }
+                    Kind::Chars(n) => {
+                        let n = lit(*n as u64);
+                        (
+                            quote!([u8; #n]),
+                            quote!(#rt::field::CharArray<'a, #n>),
+                            quote!(#rt::field::CharArray::new(self.payload, #off)),
+                            quote!(&[u8; #n]),
+                            quote!(#rt::field::write_array(self.payload, #off, value)),
+                            quote!([0; #n]),
+                            quote!(.to_array()),
+                            true,
+                        )
+                    }
+                };
+            struct_fields.push(quote!(#fdoc pub #fid: #owned_ty,));
+            getters.push(quote! {
+                #fdoc
+                #[inline]
+                pub fn #fid(&self) -> #get_ty {
+                    #get_body
+                }
+            });
+            let set_doc = format!(" Sets the `{}` field.", f.name);
+            setters.push(quote! {
+                #[doc = #set_doc]
+                #[inline]
+                pub fn #setter(&mut self, value: #set_ty) {
+                    #set_body
+                }
+            });
+            from_view.push(quote!(#fid: view.#fid() #to_owned,));
+            emit.push(if by_ref {
+                quote!(out.#setter(&self.#fid);)
+            } else {
+                quote!(out.#setter(self.#fid);)
+            });
+            defaults.push(quote!(#fid: #default,));
+        }
+
+        quote! {
+            #mdoc
+            #[derive(Debug, Clone, PartialEq)]
+            pub struct #owned {
+                #(#struct_fields)*
+            }
+
+            impl #owned {
+                /// Message id.
+                pub const ID: u32 = #id;
+                /// Message name in the XML.
+                pub const NAME: &'static str = #name;
+                /// CRC_EXTRA seed of the frame checksum.
+                pub const CRC_EXTRA: u8 = #crc;
+                /// Payload length without extension fields.
+                pub const MIN_LEN: usize = #min;
+                /// Payload length with all extension fields.
+                pub const MAX_LEN: usize = #max;
+                /// This message's row of the dialect table.
+                pub const META: #rt::MessageMeta = #rt::MessageMeta {
+                    id: Self::ID,
+                    name: Self::NAME,
+                    crc_extra: Self::CRC_EXTRA,
+                    min_len: Self::MIN_LEN as u8,
+                    max_len: Self::MAX_LEN as u8,
+                    target_system_offset: #ts,
+                    target_component_offset: #tc,
+                };
+
+                /// Reads a payload of any length (missing bytes read as zero).
+                pub fn parse(payload: &[u8]) -> Self {
+                    Self::from_view(&#view::new(payload))
+                }
+
+                /// Copies every field out of a view.
+                pub fn from_view(view: &#view<'_>) -> Self {
+                    Self { #(#from_view)* }
+                }
+
+                /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
+                /// `payload`; returns that length.
+                pub fn emit(&self, payload: &mut [u8]) -> Result<usize, #rt::BufferTooSmall> {
+                    let mut out = #writer::new(payload)?;
+                    #(#emit)*
+                    Ok(Self::MAX_LEN)
+                }
+            }
+
+            impl Default for #owned {
+                fn default() -> Self {
+                    Self { #(#defaults)* }
+                }
+            }
+
+            impl #rt::Message for #owned {
+                const META: #rt::MessageMeta = #owned::META;
+                type View<'a> = #view<'a>;
+
+                fn parse(payload: &[u8]) -> Self {
+                    #owned::parse(payload)
+                }
+
+                fn emit(&self, payload: &mut [u8]) -> Result<usize, #rt::BufferTooSmall> {
+                    #owned::emit(self, payload)
+                }
+
+                fn view(payload: &[u8]) -> #view<'_> {
+                    #view::new(payload)
+                }
+            }
+
+            #[doc = #view_doc]
+            ///
+            /// Any slice length is accepted and no accessor panics: bytes past
+            /// the end of a truncated payload read as zero.
+            #[derive(Debug, Clone, Copy)]
+            pub struct #view<'a> {
+                payload: &'a [u8],
+            }
+
+            impl<'a> #view<'a> {
+                /// Views `payload` (any length).
+                #[inline]
+                pub const fn new(payload: &'a [u8]) -> Self {
+                    Self { payload }
+                }
+
+                /// The payload bytes this view reads.
+                #[inline]
+                pub const fn payload(&self) -> &'a [u8] {
+                    self.payload
+                }
+
+                /// Copies every field out.
+                pub fn to_message(&self) -> #owned {
+                    #owned::from_view(self)
+                }
+
+                #(#getters)*
+            }
+
+            #[doc = #mut_doc]
+            #[derive(Debug)]
+            pub struct #writer<'a> {
+                payload: &'a mut [u8],
+            }
+
+            impl<'a> #writer<'a> {
+                #[doc = #new_doc]
+                pub fn new(payload: &'a mut [u8]) -> Result<Self, #rt::BufferTooSmall> {
+                    if payload.len() < #owned::MAX_LEN {
+                        return Err(#rt::BufferTooSmall { needed: #owned::MAX_LEN, got: payload.len() });
+                    }
+                    Ok(Self { payload })
+                }
+
+                /// A view of the fields written so far.
+                pub fn view(&self) -> #view<'_> {
+                    #view::new(self.payload)
+                }
+
+                #(#setters)*
+            }
+        }
+    }
+
+    fn dialect(&self, root: usize) -> TokenStream {
+        let rt = &self.rt;
+        let reach: BTreeSet<usize> = self.schema.reachable(root).into_iter().collect();
+        let mut msgs: Vec<MessageRef> = self
+            .selected
+            .iter()
+            .copied()
+            .filter(|r| reach.contains(&r.file))
+            .collect();
+        msgs.sort_by_key(|&r| self.schema.message(r).id);
+        let variants: Vec<_> = msgs
+            .iter()
+            .map(|&r| format_ident!("{}", camel(&self.schema.message(r).name)))
+            .collect();
+        let paths: Vec<_> = msgs
+            .iter()
+            .map(|&r| self.path(root, r.file, &camel(&self.schema.message(r).name)))
+            .collect();
+        let views: Vec<_> = msgs
+            .iter()
+            .map(|&r| {
+                self.path(
+                    root,
+                    r.file,
+                    &format!("{}View", camel(&self.schema.message(r).name)),
+                )
+            })
+            .collect();
+        let ids: Vec<_> = msgs
+            .iter()
+            .map(|&r| lit(self.schema.message(r).id))
+            .collect();
+        let vdocs: Vec<_> = msgs
+            .iter()
+            .map(|&r| {
+                format!(
+                    " `{}` (id {}).",
+                    self.schema.message(r).name,
+                    self.schema.message(r).id
+                )
+            })
+            .collect();
+        let fname = self.schema.files[root]
+            .path
+            .file_name()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let enum_doc = format!(
+            " Every message of the `{fname}` dialect ({} messages, its includes' too).",
+            msgs.len()
+        );
+        let view_doc = format!(" A zero-copy view of any message of the `{fname}` dialect.");
+        quote! {
+            #[doc = #enum_doc]
+            #[derive(Debug, Clone, PartialEq)]
+            pub enum Message {
+                #( #[doc = #vdocs] #variants(#paths), )*
+            }
+
+            #[doc = #view_doc]
+            #[derive(Debug, Clone, Copy)]
+            pub enum MessageView<'a> {
+                #( #[doc = #vdocs] #variants(#views<'a>), )*
+            }
+
+            /// The dialect's table: id, name, CRC_EXTRA and lengths of every
+            /// message, sorted by id.
+            pub const MESSAGES: &[#rt::MessageMeta] = &[ #( #paths::META, )* ];
+
+            /// This dialect, for code generic over dialects.
+            #[derive(Debug, Clone, Copy, Default)]
+            pub struct Dialect;
+
+            impl #rt::Dialect for Dialect {
+                type Message = Message;
+                type View<'a> = MessageView<'a>;
+                const MESSAGES: &'static [#rt::MessageMeta] = MESSAGES;
+
+                fn parse(id: u32, payload: &[u8]) -> Option<Message> {
+                    Message::parse(id, payload)
+                }
+
+                fn view(id: u32, payload: &[u8]) -> Option<MessageView<'_>> {
+                    MessageView::new(id, payload)
+                }
+            }
+
+            impl Message {
+                /// Reads the payload of message `id`; `None` when the dialect
+                /// does not know `id`.
+                pub fn parse(id: u32, payload: &[u8]) -> Option<Self> {
+                    Some(match id {
+                        #( #ids => Self::#variants(#paths::parse(payload)), )*
+                        _ => return None,
+                    })
+                }
+
+                /// The message's table row.
+                pub fn meta(&self) -> &'static #rt::MessageMeta {
+                    match self {
+                        #( Self::#variants(_) => &#paths::META, )*
+                    }
+                }
+
+                /// The message id.
+                pub fn id(&self) -> u32 {
+                    self.meta().id
+                }
+
+                /// The message name in the XML.
+                pub fn name(&self) -> &'static str {
+                    self.meta().name
+                }
+
+                /// Writes the full payload; returns its length.
+                pub fn emit(&self, payload: &mut [u8]) -> Result<usize, #rt::BufferTooSmall> {
+                    match self {
+                        #( Self::#variants(m) => m.emit(payload), )*
+                    }
+                }
+            }
+
+            impl<'a> MessageView<'a> {
+                /// Views the payload of message `id`; `None` when the dialect
+                /// does not know `id`.
+                pub fn new(id: u32, payload: &'a [u8]) -> Option<Self> {
+                    Some(match id {
+                        #( #ids => Self::#variants(#views::new(payload)), )*
+                        _ => return None,
+                    })
+                }
+
+                /// The message's table row.
+                pub fn meta(&self) -> &'static #rt::MessageMeta {
+                    match self {
+                        #( Self::#variants(_) => &#paths::META, )*
+                    }
+                }
+
+                /// Copies the message out.
+                pub fn to_message(&self) -> Message {
+                    match self {
+                        #( Self::#variants(v) => Message::#variants(v.to_message()), )*
+                    }
+                }
+            }
+
+            #(
+                impl From<#paths> for Message {
+                    fn from(m: #paths) -> Self {
+                        Self::#variants(m)
+                    }
+                }
+            )*
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! The build-script API, in the style of `prost-build`:
+//!
+//! ```no_run
+//! // build.rs
+//! fn main() {
+//!     mavgen::Config::new()
+//!         .messages(["HEARTBEAT", "FBWAG_NOTICE"]) // optional filter
+//!         .compile(&["message_definitions/fbwag.xml"])
+//!         .unwrap_or_else(|e| panic!("{e}"));
+//! }
+//! // lib.rs: include!(concat!(env!("OUT_DIR"), "/mod.rs"));
+//! ```
+
+use crate::codegen::{self, Options, Output};
+use crate::diag::{Diagnostic, Severity};
+use crate::schema::Schema;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Builds Rust bindings from MAVLink XML.
+#[derive(Debug, Clone, Default)]
+pub struct Config {
+    options: Options,
+    out_dir: Option<PathBuf>,
+    cargo_output: Option<bool>,
+}
+
+/// What a generation produced.
+#[derive(Debug, Clone)]
+pub struct Generated {
+    /// The files (`mod.rs` first).
+    pub output: Output,
+    /// Warnings about the input.
+    pub warnings: Vec<Diagnostic>,
+    /// Every XML file read.
+    pub inputs: Vec<PathBuf>,
+    /// Messages generated.
+    pub messages: usize,
+    /// Enums generated.
+    pub enums: usize,
+}
+
+/// Why generation failed.
+#[derive(Debug)]
+pub enum Error {
+    /// The input is invalid; nothing was written.
+    Invalid(Vec<Diagnostic>),
+    /// Writing the output failed.
+    Io(PathBuf, std::io::Error),
+    /// No output directory was given and `OUT_DIR` is not set.
+    NoOutDir,
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Invalid(diags) => {
+                let errors = diags
+                    .iter()
+                    .filter(|d| d.severity == Severity::Error)
+                    .count();
+                for d in diags {
+                    writeln!(f, "{d}")?;
+                }
+                write!(f, "{errors} error(s): no bindings generated")
+            }
+            Error::Io(p, e) => write!(f, "cannot write {}: {e}", p.display()),
+            Error::NoOutDir => write!(
+                f,
+                "no output directory: call Config::out_dir or run from a build script (OUT_DIR)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+impl Config {
+    /// Default settings: every message, runtime crate `::mavwire`, output in
+    /// `OUT_DIR`.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Where [`compile`](Self::compile) writes (default: `$OUT_DIR`).
+    pub fn out_dir(&mut self, dir: impl Into<PathBuf>) -> &mut Self {
+        self.out_dir = Some(dir.into());
+        self
+    }
+
+    /// Generates only these messages (XML names) and the enums they use, so
+    /// a flight-controller or companion build compiles only what it speaks.
+    /// Frames of other messages are still routable as raw frames.
+    pub fn messages<I, S>(&mut self, names: I) -> &mut Self
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<String>,
+    {
+        self.options.messages = Some(names.into_iter().map(Into::into).collect());
+        self
+    }
+
+    /// The path generated code uses for the runtime crate (default
+    /// `::mavwire`), e.g. `::fbwag_dialect::mavwire` for a crate that only
+    /// depends on a dialect crate re-exporting it.
+    pub fn runtime_crate(&mut self, path: impl Into<String>) -> &mut Self {
+        self.options.runtime = path.into();
+        self
+    }
+
+    /// A command shown in each generated file's header.
+    pub fn regenerate_hint(&mut self, hint: impl Into<String>) -> &mut Self {
+        self.options.regenerate_hint = Some(hint.into());
+        self
+    }
+
+    /// Whether [`compile`](Self::compile) prints `cargo:rerun-if-changed`
+    /// for every file read and `cargo:warning` for every warning (default:
+    /// when `OUT_DIR` is set, i.e. inside a build script).
+    pub fn cargo_output(&mut self, on: bool) -> &mut Self {
+        self.cargo_output = Some(on);
+        self
+    }
+
+    /// Loads, checks and renders `xml` (the dialect files) without writing.
+    pub fn generate<P: AsRef<Path>>(&self, xml: &[P]) -> Result<Generated, Error> {
+        let schema = Schema::load(xml).map_err(Error::Invalid)?;
+        let output = codegen::generate(&schema, &self.options).map_err(|mut e| {
+            e.extend(schema.warnings.iter().cloned());
+            Error::Invalid(e)
+        })?;
+        let messages = output_messages(&schema, &self.options);
+        let enums = match &self.options.messages {
+            None => schema.enums.len(),
+            Some(_) => output
+                .files
+                .iter()
+                .map(|(_, t)| {
+                    t.matches("pub const fn from_raw").count()
+                        + t.matches("::bitflags::bitflags! {").count()
+                })
+                .sum(),
+        };
+        Ok(Generated {
+            output,
+            warnings: schema.warnings.clone(),
+            inputs: schema.paths().map(Path::to_path_buf).collect(),
+            messages,
+            enums,
+        })
+    }
+
+    /// Generates and writes the files into the output directory. Nothing is
+    /// written unless the whole input is valid; unchanged files are not
+    /// rewritten (so cargo does not rebuild), and stale generated files left
+    /// by an earlier run are removed.
+    pub fn compile<P: AsRef<Path>>(&self, xml: &[P]) -> Result<Generated, Error> {
+        let in_build_script = std::env::var_os("OUT_DIR").is_some();
+        let cargo = self.cargo_output.unwrap_or(in_build_script);
+        if cargo {
+            // Even when the input is invalid: fixing it must trigger a rerun.
+            for p in xml {
+                println!("cargo:rerun-if-changed={}", p.as_ref().display());
+            }
+        }
+        let out_dir = match (&self.out_dir, std::env::var_os("OUT_DIR")) {
+            (Some(d), _) => d.clone(),
+            (None, Some(d)) => PathBuf::from(d),
+            (None, None) => return Err(Error::NoOutDir),
+        };
+        let generated = self.generate(xml)?;
+        if cargo {
+            for p in &generated.inputs {
+                println!("cargo:rerun-if-changed={}", p.display());
+            }
+            for w in &generated.warnings {
+                println!("cargo:warning={w}");
+            }
+        }
+        write_output(&out_dir, &generated.output)?;
+        Ok(generated)
+    }
+}
+
+fn output_messages(schema: &Schema, opts: &Options) -> usize {
+    match &opts.messages {
+        None => schema.messages().count(),
+        Some(names) => names.len(),
+    }
+}
+
+/// The first line every generated file starts with; files carrying it are
+/// ours to replace or remove.
+pub(crate) const GENERATED_MARK: &str = "// @generated by mavgen-rs";
+
+fn write_output(dir: &Path, output: &Output) -> Result<(), Error> {
+    let io = |p: &Path| {
+        let p = p.to_path_buf();
+        move |e| Error::Io(p, e)
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    for (name, text) in &output.files {
+        let path = dir.join(name);
+        if std::fs::read_to_string(&path).is_ok_and(|old| old == *text) {
+            continue;
+        }
+        // Write then rename, so a reader never sees half a file.
+        let tmp = dir.join(format!(".{name}.tmp"));
+        std::fs::write(&tmp, text).map_err(io(&tmp))?;
+        std::fs::rename(&tmp, &path).map_err(io(&path))?;
+    }
+    let keep: Vec<&str> = output.files.iter().map(|(n, _)| n.as_str()).collect();
+    for entry in std::fs::read_dir(dir).map_err(io(dir))?.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.ends_with(".rs") && !keep.contains(&name.as_str()) {
+            let path = entry.path();
+            if std::fs::read_to_string(&path).is_ok_and(|t| t.starts_with(GENERATED_MARK)) {
+                std::fs::remove_file(&path).map_err(io(&path))?;
+            }
+        }
+    }
+    Ok(())
+}

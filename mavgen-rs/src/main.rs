@@ -1,0 +1,165 @@
+//! `mavgen-rs`: generate, check and tabulate MAVLink XML dialects.
+
+use clap::{Parser, Subcommand};
+use mavgen::{Config, Diagnostic, Error, Schema};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// MAVLink XML dialects to Rust: zero-copy views, owned messages, CRC_EXTRA tables.
+///
+/// Every command reads the given XML files and everything they <include>
+/// (relative to the including file), merges enums across files the way
+/// pymavlink does, and checks the result. Problems are reported as
+/// FILE:LINE:COL: error: … on stderr, and the exit status is 1.
+#[derive(Parser)]
+#[command(name = "mavgen-rs", version, after_help = EXAMPLES)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+const EXAMPLES: &str = "\
+Examples:
+  mavgen-rs check message_definitions/fbwag.xml
+  mavgen-rs table message_definitions/fbwag.xml | grep FBWAG
+      15001 FBWAG_NOTICE 30 12 12
+  mavgen-rs generate message_definitions/fbwag.xml -o bindings/fbwag
+  mavgen-rs generate message_definitions/fbwag.xml -o cc/ --messages HEARTBEAT,FBWAG_NOTICE,RC_CHANNELS_OVERRIDE
+
+Use the output with `include!(\"bindings/fbwag/mod.rs\");` in a crate that
+depends on `mavwire`, or generate at build time with mavgen::Config in build.rs.";
+
+#[derive(Subcommand)]
+enum Command {
+    /// Write Rust bindings: DIR/mod.rs plus one module file per XML file.
+    ///
+    /// Nothing is written unless all input is valid. Unchanged files are left
+    /// untouched; generated files of an earlier run that are no longer
+    /// produced are removed (only files carrying mavgen-rs's header).
+    Generate {
+        /// Dialect files (each becomes a module with a `Message` enum).
+        #[arg(required = true)]
+        xml: Vec<PathBuf>,
+        /// Output directory (created if missing).
+        #[arg(short, long, value_name = "DIR")]
+        out: PathBuf,
+        /// Only these messages (XML names, comma separated) and the enums they use.
+        #[arg(long, value_name = "A,B,…", value_delimiter = ',')]
+        messages: Option<Vec<String>>,
+        /// Path of the runtime crate in the generated code.
+        #[arg(long, value_name = "PATH", default_value = "::mavwire")]
+        runtime: String,
+    },
+    /// Validate only: report errors and warnings, write nothing.
+    Check {
+        /// Dialect files.
+        #[arg(required = true)]
+        xml: Vec<PathBuf>,
+    },
+    /// Print `ID NAME CRC_EXTRA MIN_LEN MAX_LEN` for every message, by id.
+    ///
+    /// Covers the file and everything it includes, one line per message,
+    /// nothing else on stdout (the format pymavlink's tables are compared in).
+    Table {
+        /// Dialect file.
+        xml: PathBuf,
+    },
+}
+
+fn report(diags: &[Diagnostic]) {
+    for d in diags {
+        eprintln!("{d}");
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Generate {
+            xml,
+            out,
+            messages,
+            runtime,
+        } => {
+            let mut config = Config::new();
+            config
+                .out_dir(&out)
+                .runtime_crate(runtime)
+                .cargo_output(false);
+            config.regenerate_hint(format!(
+                "mavgen-rs generate {} -o {}{}",
+                xml.iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(" "),
+                out.display(),
+                messages
+                    .as_ref()
+                    .map_or(String::new(), |m| format!(" --messages {}", m.join(",")))
+            ));
+            if let Some(m) = messages {
+                config.messages(m);
+            }
+            match config.compile(&xml) {
+                Ok(g) => {
+                    report(&g.warnings);
+                    eprintln!(
+                        "wrote {} files to {} ({} messages, {} enums, from {} XML files)",
+                        g.output.files.len(),
+                        out.display(),
+                        g.messages,
+                        g.enums,
+                        g.inputs.len()
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(Error::Invalid(diags)) => {
+                    report(&diags);
+                    ExitCode::FAILURE
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Command::Check { xml } => match Schema::load(&xml) {
+            Ok(schema) => {
+                report(&schema.warnings);
+                eprintln!(
+                    "ok: {} messages, {} enums in {} files",
+                    schema.messages().count(),
+                    schema.enums.len(),
+                    schema.files.len()
+                );
+                ExitCode::SUCCESS
+            }
+            Err(diags) => {
+                report(&diags);
+                ExitCode::FAILURE
+            }
+        },
+        Command::Table { xml } => match Schema::load(&[xml]) {
+            Ok(schema) => {
+                let mut rows: Vec<_> = schema
+                    .messages()
+                    .map(|r| (schema.message(r), schema.layout(r)))
+                    .collect();
+                rows.sort_by_key(|(m, _)| m.id);
+                let mut out = String::new();
+                for (m, l) in rows {
+                    out.push_str(&format!(
+                        "{} {} {} {} {}\n",
+                        m.id, m.name, l.crc_extra, l.min_len, l.max_len
+                    ));
+                }
+                print!("{out}");
+                ExitCode::SUCCESS
+            }
+            Err(diags) => {
+                report(&diags);
+                ExitCode::FAILURE
+            }
+        },
+    }
+}

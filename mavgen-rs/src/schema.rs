@@ -1,0 +1,499 @@
+//! Loads a set of dialect files with everything they include, merges enums
+//! across files and checks the result, the way pymavlink's mavgen does, but
+//! reporting every problem with its position instead of stopping at one.
+
+use crate::diag::{Diagnostic, Diagnostics, Loc, Source};
+use crate::layout::Layout;
+use crate::model::{Enum, XmlFile};
+use crate::xml;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// Highest message id MAVLink 2 can carry (24 bits).
+pub const MAX_MESSAGE_ID: u64 = 0xFF_FFFF;
+/// Longest payload a frame can carry.
+pub const MAX_PAYLOAD: usize = 255;
+/// Most fields pymavlink (and the C library's field bitmaps) allow.
+pub const MAX_FIELDS: usize = 64;
+
+/// Field names that make the official C generator's output wrong: its
+/// `mavlink_msg_*_pack`/`_pack_chan`/`_send` functions have parameters (and
+/// locals) with these names, so a field of the same name shadows them. See
+/// `docs/c-generator-name-clash.md`.
+pub const C_CLASHING_FIELD_NAMES: &[&str] =
+    &["system_id", "component_id", "msg", "chan", "packet", "buf"];
+
+/// An enum after merging every file's declaration of it.
+#[derive(Debug, Clone)]
+pub struct MergedEnum {
+    /// The merged definition: entries sorted by value, as pymavlink sorts them.
+    pub def: Enum,
+    /// The file whose module holds the enum: the most basic (last in load
+    /// order) of the files declaring it, so `common.xml`'s `MAV_CMD` stays in
+    /// `common` while the ArduPilot entries merged into it are included.
+    pub home: usize,
+}
+
+/// A loaded, checked set of dialect files.
+#[derive(Debug)]
+pub struct Schema {
+    /// File texts, for positions.
+    pub sources: Vec<Source>,
+    /// Files in pymavlink's order: the roots, then includes breadth first.
+    pub files: Vec<XmlFile>,
+    /// Indices of the files asked for (the dialects).
+    pub roots: Vec<usize>,
+    /// For each file, the file each of its `<include>`s names (`None` where
+    /// it could not be read), aligned with [`XmlFile::includes`].
+    pub includes: Vec<Vec<Option<usize>>>,
+    /// Layout of each message: `layouts[file][message]`.
+    pub layouts: Vec<Vec<Layout>>,
+    /// Merged enums by name.
+    pub enums: BTreeMap<String, MergedEnum>,
+    /// Warnings found while loading.
+    pub warnings: Vec<Diagnostic>,
+}
+
+/// A message of the schema: file index and message index.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct MessageRef {
+    /// Index into [`Schema::files`].
+    pub file: usize,
+    /// Index into that file's messages.
+    pub index: usize,
+}
+
+impl Schema {
+    /// Loads `roots` and all they include, and checks them. On failure, the
+    /// diagnostics (errors first found, warnings too) are returned.
+    pub fn load<P: AsRef<Path>>(roots: &[P]) -> Result<Schema, Vec<Diagnostic>> {
+        let mut diags = Diagnostics::default();
+        let mut loader = Loader::default();
+        let mut root_ids = Vec::new();
+        for root in roots {
+            let root = root.as_ref();
+            match loader.read(root, None, &mut diags) {
+                Some(id) if !root_ids.contains(&id) => root_ids.push(id),
+                _ => {}
+            }
+        }
+        if diags.has_errors() {
+            return Err(diags.into_vec());
+        }
+        // Breadth first, one level per pass, as mavgen's expand_includes.
+        let mut includes: Vec<Vec<Option<usize>>> = Vec::new();
+        let mut next = 0;
+        while next < loader.files.len() {
+            let level_end = loader.files.len();
+            for f in next..level_end {
+                let mut targets = Vec::new();
+                for inc in loader.files[f].includes.clone() {
+                    let base = loader.files[f].path.parent().unwrap_or(Path::new("."));
+                    let shown = loader.sources[f]
+                        .path
+                        .parent()
+                        .map_or_else(|| PathBuf::from(&inc.name), |p| p.join(&inc.name));
+                    targets.push(loader.read(
+                        &base.join(&inc.name),
+                        Some((inc.loc, shown)),
+                        &mut diags,
+                    ));
+                }
+                includes.push(targets);
+            }
+            next = level_end;
+        }
+        let Loader { sources, files, .. } = loader;
+        let mut schema = Schema {
+            sources,
+            files,
+            roots: root_ids,
+            includes,
+            layouts: Vec::new(),
+            enums: BTreeMap::new(),
+            warnings: Vec::new(),
+        };
+        schema.check_cycles(&mut diags);
+        schema.merge_enums(&mut diags);
+        schema.check_messages(&mut diags);
+        if diags.has_errors() {
+            return Err(diags.into_vec());
+        }
+        schema.warnings = diags.into_vec();
+        Ok(schema)
+    }
+
+    /// Every message, in load order.
+    pub fn messages(&self) -> impl Iterator<Item = MessageRef> + '_ {
+        self.files.iter().enumerate().flat_map(|(file, f)| {
+            (0..f.messages.len()).map(move |index| MessageRef { file, index })
+        })
+    }
+
+    /// The message behind `r`.
+    pub fn message(&self, r: MessageRef) -> &crate::model::Message {
+        &self.files[r.file].messages[r.index]
+    }
+
+    /// The layout of `r`.
+    pub fn layout(&self, r: MessageRef) -> &Layout {
+        &self.layouts[r.file][r.index]
+    }
+
+    /// Files reachable from `root` (itself included), in load order.
+    pub fn reachable(&self, root: usize) -> Vec<usize> {
+        let mut seen = vec![false; self.files.len()];
+        let mut stack = vec![root];
+        while let Some(f) = stack.pop() {
+            if !std::mem::replace(&mut seen[f], true) {
+                stack.extend(self.includes[f].iter().flatten());
+            }
+        }
+        (0..self.files.len()).filter(|&f| seen[f]).collect()
+    }
+
+    /// Every file read, for `cargo:rerun-if-changed`.
+    pub fn paths(&self) -> impl Iterator<Item = &Path> {
+        self.files.iter().map(|f| f.path.as_path())
+    }
+
+    fn check_cycles(&self, diags: &mut Diagnostics) {
+        // Depth-first search; an edge back to a file on the stack closes a cycle.
+        fn visit(
+            s: &Schema,
+            f: usize,
+            state: &mut [u8],
+            stack: &mut Vec<usize>,
+            diags: &mut Diagnostics,
+        ) {
+            state[f] = 1;
+            stack.push(f);
+            for (inc, target) in s.includes[f].iter().enumerate() {
+                let Some(t) = *target else { continue };
+                if state[t] == 1 {
+                    let start = stack.iter().position(|&x| x == t).unwrap_or(0);
+                    let names: Vec<String> = stack[start..]
+                        .iter()
+                        .chain(std::iter::once(&t))
+                        .map(|&x| file_name(&s.files[x].path))
+                        .collect();
+                    diags.error(
+                        &s.sources,
+                        s.files[f].includes[inc].loc,
+                        format!("include cycle: {}", names.join(" -> ")),
+                    );
+                } else if state[t] == 0 {
+                    visit(s, t, state, stack, diags);
+                }
+            }
+            stack.pop();
+            state[f] = 2;
+        }
+        let mut state = vec![0u8; self.files.len()];
+        for f in 0..self.files.len() {
+            if state[f] == 0 {
+                visit(self, f, &mut state, &mut Vec::new(), diags);
+            }
+        }
+    }
+
+    /// pymavlink's `merge_enums`, step for step: a later declaration of an
+    /// enum appends its entries to the first one; auto-numbered entries of
+    /// the first that overlap the later range are renumbered above it.
+    fn merge_enums(&mut self, diags: &mut Diagnostics) {
+        let mut merged: BTreeMap<String, MergedEnum> = BTreeMap::new();
+        for (f, file) in self.files.iter().enumerate() {
+            for e in &file.enums {
+                let mut incoming = e.clone();
+                match merged.get_mut(&e.name) {
+                    None => {
+                        merged.insert(
+                            e.name.clone(),
+                            MergedEnum {
+                                def: incoming,
+                                home: f,
+                            },
+                        );
+                    }
+                    Some(m) => {
+                        let first = &mut m.def;
+                        let start = first.start_value.unwrap_or(0);
+                        if start <= incoming.highest_value
+                            && first.highest_value >= incoming.start_value.unwrap_or(0)
+                        {
+                            for entry in &mut first.entries {
+                                if entry.value <= incoming.highest_value && entry.autovalue {
+                                    entry.value = incoming.highest_value + 1;
+                                    incoming.highest_value = entry.value;
+                                }
+                            }
+                        }
+                        first.entries.extend(incoming.entries);
+                        if first.description.trim().is_empty() {
+                            first.description = incoming.description;
+                        }
+                        first.bitmask |= incoming.bitmask;
+                        m.home = f;
+                    }
+                }
+            }
+        }
+        for m in merged.values_mut() {
+            m.def.entries.sort_by_key(|e| e.value); // stable, as Python's sorted
+            let mut names: HashMap<&str, Loc> = HashMap::new();
+            let mut values: HashMap<u64, (&str, Loc)> = HashMap::new();
+            for entry in &m.def.entries {
+                if let Some(prev) = names.insert(&entry.name, entry.loc) {
+                    let at = self.sources[prev.file].position(prev.offset);
+                    diags.error(
+                        &self.sources,
+                        entry.loc,
+                        format!(
+                            "duplicate enum entry name {}.{} (first declared at {}:{})",
+                            m.def.name,
+                            entry.name,
+                            at.file.display(),
+                            at.line
+                        ),
+                    );
+                } else if let Some((prev_name, prev)) =
+                    values.insert(entry.value, (&entry.name, entry.loc))
+                {
+                    let at = self.sources[prev.file].position(prev.offset);
+                    diags.error(
+                        &self.sources,
+                        entry.loc,
+                        format!(
+                            "duplicate enum value {} = {} in {} (already used by {} at {}:{})",
+                            entry.name,
+                            entry.value,
+                            m.def.name,
+                            prev_name,
+                            at.file.display(),
+                            at.line
+                        ),
+                    );
+                }
+            }
+        }
+        self.enums = merged;
+    }
+
+    fn check_messages(&mut self, diags: &mut Diagnostics) {
+        let mut by_id: HashMap<u64, (String, Loc)> = HashMap::new();
+        let mut by_name: HashMap<String, Loc> = HashMap::new();
+        let mut layouts = Vec::with_capacity(self.files.len());
+        for file in &self.files {
+            let mut file_layouts = Vec::with_capacity(file.messages.len());
+            for m in &file.messages {
+                let here = |l: Loc| {
+                    let p = self.sources[l.file].position(l.offset);
+                    format!("{}:{}", p.file.display(), p.line)
+                };
+                if !is_identifier(&m.name) {
+                    diags.error(
+                        &self.sources,
+                        m.loc,
+                        format!(
+                            "message name `{}` is not an identifier ([A-Za-z_][A-Za-z0-9_]*)",
+                            m.name
+                        ),
+                    );
+                }
+                if m.id > MAX_MESSAGE_ID {
+                    diags.error(&self.sources, m.id_loc, format!("message {}: id {} is above {MAX_MESSAGE_ID}, the largest a MAVLink 2 frame carries", m.name, m.id));
+                }
+                if let Some((other, l)) = by_id.get(&m.id) {
+                    diags.error(
+                        &self.sources,
+                        m.id_loc,
+                        format!(
+                            "duplicate message id {} for {} (also used by {other} at {})",
+                            m.id,
+                            m.name,
+                            here(*l)
+                        ),
+                    );
+                } else {
+                    by_id.insert(m.id, (m.name.clone(), m.loc));
+                }
+                if let Some(l) = by_name.get(&m.name) {
+                    diags.error(
+                        &self.sources,
+                        m.loc,
+                        format!(
+                            "duplicate message name {} (first declared at {})",
+                            m.name,
+                            here(*l)
+                        ),
+                    );
+                } else {
+                    by_name.insert(m.name.clone(), m.loc);
+                }
+                if m.fields.is_empty() {
+                    diags.error(
+                        &self.sources,
+                        m.loc,
+                        format!("message {} has no fields", m.name),
+                    );
+                }
+                if m.fields.len() > MAX_FIELDS {
+                    diags.error(
+                        &self.sources,
+                        m.loc,
+                        format!(
+                            "message {} has {} fields; at most {MAX_FIELDS} are allowed",
+                            m.name,
+                            m.fields.len()
+                        ),
+                    );
+                }
+                let mut seen: HashMap<&str, Loc> = HashMap::new();
+                for f in &m.fields {
+                    if !is_identifier(&f.name) {
+                        diags.error(
+                            &self.sources,
+                            f.loc,
+                            format!("field name `{}` in {} is not an identifier", f.name, m.name),
+                        );
+                    }
+                    if let Some(l) = seen.insert(&f.name, f.loc) {
+                        diags.error(
+                            &self.sources,
+                            f.loc,
+                            format!(
+                                "duplicate field {} in message {} (first at {})",
+                                f.name,
+                                m.name,
+                                here(l)
+                            ),
+                        );
+                    }
+                    if let Some(e) = &f.enum_name {
+                        if !self.enums.contains_key(e) {
+                            diags.error(
+                                &self.sources,
+                                f.enum_loc,
+                                format!("field {}.{} refers to unknown enum {e}", m.name, f.name),
+                            );
+                        }
+                    }
+                    if C_CLASHING_FIELD_NAMES.contains(&f.name.as_str()) {
+                        diags.warning(
+                            &self.sources,
+                            f.loc,
+                            format!(
+                                "field {}.{} has the name of a parameter of the official C generator's mavlink_msg_{}_pack/_send functions; C code generated by pymavlink will shadow it (see docs/c-generator-name-clash.md)",
+                                m.name,
+                                f.name,
+                                m.name.to_lowercase()
+                            ),
+                        );
+                    }
+                }
+                let layout = Layout::of(m);
+                if layout.max_len > MAX_PAYLOAD {
+                    diags.error(&self.sources, m.loc, format!("message {} has a {}-byte payload; a frame carries at most {MAX_PAYLOAD}", m.name, layout.max_len));
+                }
+                file_layouts.push(layout);
+            }
+            layouts.push(file_layouts);
+        }
+        self.layouts = layouts;
+    }
+}
+
+/// Reads files once each, by canonical path.
+#[derive(Default)]
+struct Loader {
+    sources: Vec<Source>,
+    files: Vec<XmlFile>,
+    by_path: HashMap<PathBuf, usize>,
+}
+
+impl Loader {
+    /// Reads and parses `path` unless already read; `from` is the include
+    /// that names it (its position, and the path to show).
+    fn read(
+        &mut self,
+        path: &Path,
+        from: Option<(Loc, PathBuf)>,
+        diags: &mut Diagnostics,
+    ) -> Option<usize> {
+        let canonical = match path.canonicalize() {
+            Ok(p) => p,
+            Err(e) => {
+                self.missing(path, &from, &e, diags);
+                return None;
+            }
+        };
+        if let Some(&id) = self.by_path.get(&canonical) {
+            return Some(id);
+        }
+        let text = match std::fs::read(&canonical) {
+            Ok(bytes) => match String::from_utf8(bytes) {
+                Ok(t) => t,
+                Err(e) => {
+                    let msg = format!(
+                        "{} is not UTF-8 (byte {})",
+                        path.display(),
+                        e.utf8_error().valid_up_to()
+                    );
+                    match &from {
+                        Some((loc, _)) => diags.error(&self.sources, *loc, msg),
+                        None => diags.push(crate::diag::Severity::Error, None, msg),
+                    }
+                    return None;
+                }
+            },
+            Err(e) => {
+                self.missing(path, &from, &e, diags);
+                return None;
+            }
+        };
+        let id = self.files.len();
+        let shown = from.map_or_else(|| path.to_path_buf(), |(_, p)| p);
+        self.sources.push(Source::new(&shown, text));
+        let file = xml::parse(&self.sources, id, canonical.clone(), diags);
+        self.files.push(file);
+        self.by_path.insert(canonical, id);
+        Some(id)
+    }
+
+    fn missing(
+        &self,
+        path: &Path,
+        from: &Option<(Loc, PathBuf)>,
+        e: &std::io::Error,
+        diags: &mut Diagnostics,
+    ) {
+        match from {
+            Some((loc, shown)) => diags.error(
+                &self.sources,
+                *loc,
+                format!("cannot read included file {}: {e}", shown.display()),
+            ),
+            None => diags.push(
+                crate::diag::Severity::Error,
+                None,
+                format!("cannot read {}: {e}", path.display()),
+            ),
+        }
+    }
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// `[A-Za-z_][A-Za-z0-9_]*`
+pub fn is_identifier(s: &str) -> bool {
+    let mut chars = s.chars();
+    chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}

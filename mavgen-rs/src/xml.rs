@@ -1,0 +1,587 @@
+//! Reads one MAVLink XML file into the [`model`](crate::model).
+//!
+//! Element paths follow pymavlink's `mavparse`: only `mavlink.messages.*`,
+//! `mavlink.enums.*`, `mavlink.include`, `mavlink.version` and
+//! `mavlink.dialect` carry meaning; anything else is ignored as it is there.
+
+use crate::diag::{Diagnostics, Loc, Source};
+use crate::model::{Deprecated, Entry, Enum, Field, Include, Message, Param, Primitive, XmlFile};
+use quick_xml::events::{BytesStart, Event};
+use quick_xml::Reader;
+use std::path::PathBuf;
+
+/// Parses `sources[file]`. Problems go to `diags`; the returned model holds
+/// what could be read (callers stop when `diags` has errors).
+pub fn parse(sources: &[Source], file: usize, path: PathBuf, diags: &mut Diagnostics) -> XmlFile {
+    let mut p = Parser {
+        sources,
+        file,
+        diags,
+        out: XmlFile {
+            path,
+            version: 2,
+            dialect: None,
+            includes: Vec::new(),
+            enums: Vec::new(),
+            messages: Vec::new(),
+        },
+        stack: Vec::new(),
+        in_extensions: false,
+        text_target: None,
+    };
+    p.run();
+    p.out
+}
+
+/// Where character data goes, by element path.
+#[derive(Clone, Copy, PartialEq)]
+enum Text {
+    MessageDescription,
+    MessageDeprecated,
+    Field,
+    EnumDescription,
+    EnumDeprecated,
+    EntryDescription,
+    EntryDeprecated,
+    Param,
+    Version,
+    Dialect,
+    Include,
+}
+
+struct Parser<'s, 'd> {
+    sources: &'s [Source],
+    file: usize,
+    diags: &'d mut Diagnostics,
+    out: XmlFile,
+    stack: Vec<String>,
+    in_extensions: bool,
+    text_target: Option<(Text, String, Loc)>,
+}
+
+impl Parser<'_, '_> {
+    fn loc(&self, offset: usize) -> Loc {
+        Loc {
+            file: self.file,
+            offset,
+        }
+    }
+
+    fn error(&mut self, offset: usize, msg: impl Into<String>) {
+        let loc = self.loc(offset);
+        self.diags.error(self.sources, loc, msg);
+    }
+
+    fn run(&mut self) {
+        let text = &self.sources[self.file].text;
+        let mut reader = Reader::from_str(text);
+        reader.config_mut().trim_text(false);
+        loop {
+            let start = reader.buffer_position() as usize;
+            match reader.read_event() {
+                Ok(Event::Start(e)) => {
+                    let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+                    self.stack.push(name);
+                    self.start(&e, start);
+                }
+                Ok(Event::Empty(e)) => {
+                    let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+                    self.stack.push(name);
+                    self.start(&e, start);
+                    self.end();
+                }
+                Ok(Event::End(_)) => self.end(),
+                Ok(Event::Text(t)) => match t.unescape() {
+                    Ok(s) => self.text(&s),
+                    Err(e) => self.error(start, format!("malformed XML: {e}")),
+                },
+                Ok(Event::CData(t)) => self.text(&String::from_utf8_lossy(&t)),
+                Ok(Event::Eof) => break,
+                Ok(_) => {}
+                Err(e) => {
+                    let at = reader.error_position() as usize;
+                    self.error(at, format!("malformed XML: {e}"));
+                    return;
+                }
+            }
+        }
+        if self.out.messages.is_empty() && self.out.enums.is_empty() && self.stack.is_empty() {
+            let root_seen = text.contains("<mavlink");
+            if !root_seen {
+                self.error(0, "not a MAVLink definition: no <mavlink> root element");
+            }
+        }
+    }
+
+    fn path(&self) -> String {
+        self.stack.join(".")
+    }
+
+    /// The offset of attribute `name` inside the element starting at `start`,
+    /// so a bad value is pointed at precisely.
+    fn attr_offset(&self, start: usize, name: &str) -> usize {
+        let text = &self.sources[self.file].text[start..];
+        let end = text.find('>').unwrap_or(text.len());
+        let needle = format!("{name}=");
+        text[..end]
+            .match_indices(&needle)
+            .find(|(i, _)| text[..*i].ends_with(char::is_whitespace))
+            .map_or(start, |(i, _)| start + i)
+    }
+
+    fn attrs(&mut self, e: &BytesStart, start: usize) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        for a in e.attributes() {
+            match a {
+                Ok(a) => {
+                    let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
+                    match a.unescape_value() {
+                        Ok(v) => out.push((key, v.into_owned())),
+                        Err(err) => {
+                            let at = self.attr_offset(start, &key);
+                            self.error(at, format!("malformed XML: attribute `{key}`: {err}"));
+                        }
+                    }
+                }
+                Err(err) => self.error(start, format!("malformed XML: {err}")),
+            }
+        }
+        out
+    }
+
+    fn required(
+        &mut self,
+        attrs: &[(String, String)],
+        name: &str,
+        what: &str,
+        start: usize,
+    ) -> Option<String> {
+        let v = get(attrs, name);
+        if v.is_none() {
+            self.error(start, format!("{what} is missing its `{name}` attribute"));
+        }
+        v
+    }
+
+    fn start(&mut self, e: &BytesStart, start: usize) {
+        let path = self.path();
+        let loc = self.loc(start);
+        match path.as_str() {
+            "mavlink.messages.message" => {
+                let attrs = self.attrs(e, start);
+                let name = self
+                    .required(&attrs, "name", "message", start)
+                    .unwrap_or_default();
+                let id_text = self.required(&attrs, "id", "message", start);
+                let id_loc = self.loc(self.attr_offset(start, "id"));
+                let id = match id_text.as_deref().map(parse_int) {
+                    Some(Some(v)) => v,
+                    Some(None) => {
+                        let msg = format!(
+                            "message {name}: id `{}` is not a non-negative integer",
+                            id_text.unwrap_or_default()
+                        );
+                        self.error(id_loc.offset, msg);
+                        0
+                    }
+                    None => 0,
+                };
+                self.in_extensions = false;
+                self.out.messages.push(Message {
+                    id,
+                    name,
+                    description: String::new(),
+                    deprecated: None,
+                    wip: false,
+                    fields: Vec::new(),
+                    loc,
+                    id_loc,
+                });
+            }
+            "mavlink.messages.message.wip" => {
+                if let Some(m) = self.out.messages.last_mut() {
+                    m.wip = true;
+                }
+            }
+            "mavlink.messages.message.extensions" => self.in_extensions = true,
+            "mavlink.messages.message.deprecated" => {
+                let d = self.deprecated(e, start);
+                if let Some(m) = self.out.messages.last_mut() {
+                    m.deprecated = Some(d);
+                }
+                self.text_target = Some((Text::MessageDeprecated, String::new(), loc));
+            }
+            "mavlink.messages.message.description" => {
+                self.text_target = Some((Text::MessageDescription, String::new(), loc));
+            }
+            "mavlink.messages.message.field" => {
+                let attrs = self.attrs(e, start);
+                let name = self
+                    .required(&attrs, "name", "field", start)
+                    .unwrap_or_default();
+                let ty = self
+                    .required(&attrs, "type", "field", start)
+                    .unwrap_or_else(|| "uint8_t".into());
+                let type_loc = self.loc(self.attr_offset(start, "type"));
+                let enum_loc = self.loc(self.attr_offset(start, "enum"));
+                let (primitive, array_len, mavlink_version) = match parse_type(&ty) {
+                    Ok(t) => t,
+                    Err(msg) => {
+                        self.error(type_loc.offset, format!("field {name}: {msg}"));
+                        (Primitive::U8, None, false)
+                    }
+                };
+                let field = Field {
+                    name,
+                    primitive,
+                    array_len,
+                    mavlink_version,
+                    enum_name: get(&attrs, "enum").filter(|s| !s.is_empty()),
+                    display: get(&attrs, "display"),
+                    units: get(&attrs, "units").filter(|s| !s.is_empty()),
+                    multiplier: get(&attrs, "multiplier"),
+                    instance: get(&attrs, "instance").is_some_and(|v| v == "true"),
+                    invalid: get(&attrs, "invalid"),
+                    default: get(&attrs, "default"),
+                    description: String::new(),
+                    extension: self.in_extensions,
+                    loc,
+                    type_loc,
+                    enum_loc,
+                };
+                if let Some(m) = self.out.messages.last_mut() {
+                    m.fields.push(field);
+                }
+                self.text_target = Some((Text::Field, String::new(), loc));
+            }
+            "mavlink.enums.enum" => {
+                let attrs = self.attrs(e, start);
+                let name = self
+                    .required(&attrs, "name", "enum", start)
+                    .unwrap_or_default();
+                self.out.enums.push(Enum {
+                    name,
+                    description: String::new(),
+                    bitmask: get(&attrs, "bitmask").is_some_and(|v| v == "true"),
+                    deprecated: None,
+                    entries: Vec::new(),
+                    start_value: None,
+                    highest_value: 0,
+                    loc,
+                });
+            }
+            "mavlink.enums.enum.description" => {
+                self.text_target = Some((Text::EnumDescription, String::new(), loc));
+            }
+            "mavlink.enums.enum.deprecated" => {
+                let d = self.deprecated(e, start);
+                if let Some(en) = self.out.enums.last_mut() {
+                    en.deprecated = Some(d);
+                }
+                self.text_target = Some((Text::EnumDeprecated, String::new(), loc));
+            }
+            "mavlink.enums.enum.entry" => {
+                let attrs = self.attrs(e, start);
+                let name = self
+                    .required(&attrs, "name", "enum entry", start)
+                    .unwrap_or_default();
+                let value_text = get(&attrs, "value");
+                let value_at = self.attr_offset(start, "value");
+                let Some(en) = self.out.enums.last() else {
+                    return;
+                };
+                // pymavlink: an entry without a value is one above the highest
+                // so far, and the highest starts at 0 (so the first is 1).
+                let (value, autovalue) = match value_text.as_deref() {
+                    None => (en.highest_value + 1, true),
+                    Some(t) => match parse_value(t) {
+                        Some(v) => (v, false),
+                        None => {
+                            self.error(value_at, format!("enum entry {name}: value `{t}` is not a non-negative integer (decimal, 0x…, 0b…, 0o… or A**B)"));
+                            (0, false)
+                        }
+                    },
+                };
+                let en = self.out.enums.last_mut().expect("checked above");
+                if en.start_value.is_none_or(|s| value < s) {
+                    en.start_value = Some(value);
+                }
+                en.highest_value = en.highest_value.max(value);
+                en.entries.push(Entry {
+                    name,
+                    value,
+                    autovalue,
+                    description: String::new(),
+                    deprecated: None,
+                    wip: false,
+                    params: Vec::new(),
+                    loc,
+                });
+            }
+            "mavlink.enums.enum.entry.description" => {
+                self.text_target = Some((Text::EntryDescription, String::new(), loc));
+            }
+            "mavlink.enums.enum.entry.wip" => {
+                if let Some(en) = self.out.enums.last_mut().and_then(|e| e.entries.last_mut()) {
+                    en.wip = true;
+                }
+            }
+            "mavlink.enums.enum.entry.deprecated" => {
+                let d = self.deprecated(e, start);
+                if let Some(en) = self.out.enums.last_mut().and_then(|e| e.entries.last_mut()) {
+                    en.deprecated = Some(d);
+                }
+                self.text_target = Some((Text::EntryDeprecated, String::new(), loc));
+            }
+            "mavlink.enums.enum.entry.param" => {
+                let attrs = self.attrs(e, start);
+                let index = self
+                    .required(&attrs, "index", "enum param", start)
+                    .unwrap_or_default();
+                if let Some(en) = self.out.enums.last_mut().and_then(|e| e.entries.last_mut()) {
+                    en.params.push(Param {
+                        index,
+                        label: get(&attrs, "label").filter(|s| !s.is_empty()),
+                        units: get(&attrs, "units").filter(|s| !s.is_empty()),
+                        description: String::new(),
+                    });
+                }
+                self.text_target = Some((Text::Param, String::new(), loc));
+            }
+            "mavlink.include" => self.text_target = Some((Text::Include, String::new(), loc)),
+            "mavlink.version" => self.text_target = Some((Text::Version, String::new(), loc)),
+            "mavlink.dialect" => self.text_target = Some((Text::Dialect, String::new(), loc)),
+            _ => {}
+        }
+    }
+
+    fn deprecated(&mut self, e: &BytesStart, start: usize) -> Deprecated {
+        let attrs = self.attrs(e, start);
+        Deprecated {
+            since: self
+                .required(&attrs, "since", "deprecated", start)
+                .unwrap_or_default(),
+            replaced_by: self
+                .required(&attrs, "replaced_by", "deprecated", start)
+                .unwrap_or_default(),
+            text: String::new(),
+        }
+    }
+
+    fn text(&mut self, s: &str) {
+        if let Some((_, buf, _)) = &mut self.text_target {
+            buf.push_str(s);
+        }
+    }
+
+    fn end(&mut self) {
+        let path = self.path();
+        self.stack.pop();
+        let Some((target, text, loc)) = self.text_target.take() else {
+            return;
+        };
+        // Only the element that opened the text target closes it; a nested
+        // element (none in valid files) keeps collecting into its parent.
+        let closes = matches!(
+            (target, path.as_str()),
+            (
+                Text::MessageDescription,
+                "mavlink.messages.message.description"
+            ) | (
+                Text::MessageDeprecated,
+                "mavlink.messages.message.deprecated"
+            ) | (Text::Field, "mavlink.messages.message.field")
+                | (Text::EnumDescription, "mavlink.enums.enum.description")
+                | (Text::EnumDeprecated, "mavlink.enums.enum.deprecated")
+                | (
+                    Text::EntryDescription,
+                    "mavlink.enums.enum.entry.description"
+                )
+                | (Text::EntryDeprecated, "mavlink.enums.enum.entry.deprecated")
+                | (Text::Param, "mavlink.enums.enum.entry.param")
+                | (Text::Include, "mavlink.include")
+                | (Text::Version, "mavlink.version")
+                | (Text::Dialect, "mavlink.dialect")
+        );
+        if !closes {
+            self.text_target = Some((target, text, loc));
+            return;
+        }
+        let msg = self.out.messages.last_mut();
+        let en = self.out.enums.last_mut();
+        match target {
+            Text::MessageDescription => {
+                if let Some(m) = msg {
+                    m.description = text;
+                }
+            }
+            Text::MessageDeprecated => {
+                if let Some(d) = msg.and_then(|m| m.deprecated.as_mut()) {
+                    d.text = text;
+                }
+            }
+            Text::Field => {
+                if let Some(f) = msg.and_then(|m| m.fields.last_mut()) {
+                    f.description = text;
+                }
+            }
+            Text::EnumDescription => {
+                if let Some(e) = en {
+                    e.description = text;
+                }
+            }
+            Text::EnumDeprecated => {
+                if let Some(d) = en.and_then(|e| e.deprecated.as_mut()) {
+                    d.text = text;
+                }
+            }
+            Text::EntryDescription => {
+                if let Some(e) = en.and_then(|e| e.entries.last_mut()) {
+                    e.description = text;
+                }
+            }
+            Text::EntryDeprecated => {
+                if let Some(d) = en
+                    .and_then(|e| e.entries.last_mut())
+                    .and_then(|e| e.deprecated.as_mut())
+                {
+                    d.text = text;
+                }
+            }
+            Text::Param => {
+                if let Some(p) = en
+                    .and_then(|e| e.entries.last_mut())
+                    .and_then(|e| e.params.last_mut())
+                {
+                    p.description = text;
+                }
+            }
+            Text::Include => {
+                let name = text.trim().to_string();
+                if name.is_empty() {
+                    self.error(loc.offset, "empty <include>");
+                } else {
+                    self.out.includes.push(Include { name, loc });
+                }
+            }
+            Text::Version => match text.trim().parse::<u8>() {
+                Ok(v) => self.out.version = v,
+                Err(_) => self.error(
+                    loc.offset,
+                    format!(
+                        "<version> `{}` is not an integer from 0 to 255",
+                        text.trim()
+                    ),
+                ),
+            },
+            Text::Dialect => match text.trim().parse::<u32>() {
+                Ok(v) => self.out.dialect = Some(v),
+                Err(_) => self.error(
+                    loc.offset,
+                    format!("<dialect> `{}` is not a non-negative integer", text.trim()),
+                ),
+            },
+        }
+    }
+}
+
+fn get(attrs: &[(String, String)], name: &str) -> Option<String> {
+    attrs
+        .iter()
+        .find(|(k, _)| k == name)
+        .map(|(_, v)| v.clone())
+}
+
+/// Parses a field type: `uint16_t`, `char[5]`, `uint8_t_mavlink_version`,
+/// and pymavlink's legacy `array[N]` (an `int8_t` array).
+fn parse_type(ty: &str) -> Result<(Primitive, Option<usize>, bool), String> {
+    if ty == "uint8_t_mavlink_version" {
+        return Ok((Primitive::U8, None, true));
+    }
+    let (base, len) = match ty.find('[') {
+        None => (ty, None),
+        Some(i) => {
+            let inner = ty[i + 1..]
+                .strip_suffix(']')
+                .ok_or_else(|| format!("type `{ty}` has an unterminated array length"))?;
+            let n: usize = inner.parse().map_err(|_| {
+                format!("type `{ty}`: array length `{inner}` is not a positive integer")
+            })?;
+            if n == 0 || n > 255 {
+                return Err(format!("type `{ty}`: array length must be 1 to 255"));
+            }
+            (&ty[..i], Some(n))
+        }
+    };
+    let prim = if base == "array" && len.is_some() {
+        Some(Primitive::I8)
+    } else {
+        Primitive::from_xml(base)
+    };
+    let prim = prim.ok_or_else(|| {
+        format!("unknown type `{ty}` (expected char, [u]int8_t … [u]int64_t, float, double, optionally with [N], or uint8_t_mavlink_version)")
+    })?;
+    Ok((prim, len, false))
+}
+
+/// A plain integer: decimal or `0x`/`0o`/`0b` prefixed (Python literal rules,
+/// underscores allowed).
+fn parse_int(text: &str) -> Option<u64> {
+    let t = text.trim().replace('_', "");
+    let (digits, radix) = match t.get(..2) {
+        Some("0x" | "0X") => (&t[2..], 16),
+        Some("0o" | "0O") => (&t[2..], 8),
+        Some("0b" | "0B") => (&t[2..], 2),
+        _ => (t.as_str(), 10),
+    };
+    if digits.is_empty() || digits.starts_with(['+', '-']) {
+        return None;
+    }
+    u64::from_str_radix(digits, radix).ok()
+}
+
+/// An enum entry value: an integer, or the `A**B` and `A<<B` forms used by
+/// bitmask enums (pymavlink evaluates them with Python's `eval`).
+fn parse_value(text: &str) -> Option<u64> {
+    if let Some((a, b)) = text.split_once("**") {
+        return parse_int(a)?.checked_pow(u32::try_from(parse_int(b)?).ok()?);
+    }
+    if let Some((a, b)) = text.split_once("<<") {
+        return parse_int(a)?.checked_shl(u32::try_from(parse_int(b)?).ok()?);
+    }
+    parse_int(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn types_parse_as_pymavlink_reads_them() {
+        assert_eq!(parse_type("uint8_t"), Ok((Primitive::U8, None, false)));
+        assert_eq!(parse_type("uint8"), Ok((Primitive::U8, None, false)));
+        assert_eq!(parse_type("char[5]"), Ok((Primitive::Char, Some(5), false)));
+        assert_eq!(parse_type("array[3]"), Ok((Primitive::I8, Some(3), false)));
+        assert_eq!(
+            parse_type("uint8_t_mavlink_version"),
+            Ok((Primitive::U8, None, true))
+        );
+        assert!(parse_type("float_t").is_err());
+        assert!(parse_type("uint128_t").is_err());
+        assert!(parse_type("char[0]").is_err());
+        assert!(parse_type("char[5").is_err());
+    }
+
+    #[test]
+    fn values_accept_python_integer_forms() {
+        assert_eq!(parse_value("42"), Some(42));
+        assert_eq!(parse_value("0x40"), Some(64));
+        assert_eq!(parse_value("0b101"), Some(5));
+        assert_eq!(parse_value("2**31"), Some(1 << 31));
+        assert_eq!(parse_value("1<<3"), Some(8));
+        assert_eq!(parse_value("1_000"), Some(1000));
+        assert_eq!(parse_value("-1"), None);
+        assert_eq!(parse_value("x"), None);
+        assert_eq!(parse_value("2**99"), None);
+    }
+}

@@ -1,0 +1,91 @@
+//! What every generated message and dialect provides.
+
+use core::fmt;
+
+/// The payload buffer handed to an `emit` was shorter than the message's
+/// wire length.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BufferTooSmall {
+    /// Bytes the message needs.
+    pub needed: usize,
+    /// Bytes the buffer had.
+    pub got: usize,
+}
+
+impl fmt::Display for BufferTooSmall {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "payload buffer of {} bytes is too small: the message needs {}",
+            self.got, self.needed
+        )
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for BufferTooSmall {}
+
+/// Wire facts of one message: one row of a dialect's table (the C library's
+/// `mavlink_msg_entry_t`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct MessageMeta {
+    /// Message id (24 bits in MAVLink 2, 8 bits in MAVLink 1).
+    pub id: u32,
+    /// Name as in the XML, e.g. `"HEARTBEAT"`.
+    pub name: &'static str,
+    /// Seed mixed into the frame CRC: a hash of the message's name and base
+    /// fields, so peers with different definitions reject each other.
+    pub crc_extra: u8,
+    /// Payload length without extension fields (the MAVLink 1 length).
+    pub min_len: u8,
+    /// Payload length with all extension fields.
+    pub max_len: u8,
+    /// Offset of the `target_system` field in the payload, for routing.
+    pub target_system_offset: Option<u8>,
+    /// Offset of the `target_component` field in the payload, for routing.
+    pub target_component_offset: Option<u8>,
+}
+
+/// An owned message of a generated dialect.
+pub trait Message: Sized + Clone + fmt::Debug + PartialEq + Default {
+    /// This message's table row.
+    const META: MessageMeta;
+    /// The zero-copy view over this message's payload bytes.
+    type View<'a>: Copy;
+
+    /// Reads a message from a payload of any length: missing bytes of a
+    /// truncated payload read as zero, bytes past the wire length are ignored.
+    fn parse(payload: &[u8]) -> Self;
+
+    /// Writes all `max_len` payload bytes (extensions included, no
+    /// truncation) at the start of `payload`; returns `max_len`.
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, BufferTooSmall>;
+
+    /// A view over `payload` (any length).
+    fn view(payload: &[u8]) -> Self::View<'_>;
+}
+
+/// A generated dialect: the set of messages a link understands.
+pub trait Dialect {
+    /// The owned message enum.
+    type Message: Clone + fmt::Debug + PartialEq;
+    /// The borrowed view enum.
+    type View<'a>: Copy;
+
+    /// Every message of the dialect, sorted by id.
+    const MESSAGES: &'static [MessageMeta];
+
+    /// Table row for `id`, if the dialect knows it.
+    fn meta(id: u32) -> Option<&'static MessageMeta> {
+        Self::MESSAGES
+            .binary_search_by_key(&id, |m| m.id)
+            .ok()
+            .map(|i| &Self::MESSAGES[i])
+    }
+
+    /// Parses a payload into an owned message; `None` for an unknown id.
+    fn parse(id: u32, payload: &[u8]) -> Option<Self::Message>;
+
+    /// A view over a payload; `None` for an unknown id.
+    fn view(id: u32, payload: &[u8]) -> Option<Self::View<'_>>;
+}

@@ -9,7 +9,7 @@
 use crate::diag::{Diagnostic, Severity};
 use crate::layout::Layout;
 use crate::model::{Entry, Field, Message, Primitive};
-use crate::names::{camel, doc_lines, entry_suffix, ident, snake};
+use crate::names::{self, camel, doc_lines, doc_list_item, entry_suffix, ident, snake};
 use crate::schema::{MergedEnum, MessageRef, Schema};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
@@ -17,6 +17,9 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt::Write as _;
 
 const DOC_WIDTH: usize = 90;
+
+/// Methods every message view has besides its field accessors.
+const VIEW_METHODS: &[&str] = &["new", "as_bytes", "to_message"];
 
 /// Code generation settings (see [`crate::Config`] for the builder).
 #[derive(Debug, Clone)]
@@ -210,7 +213,7 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
             }
         };
         let mut text = header(&fname);
-        text.push_str(&prettyplease::unparse(&file));
+        text.push_str(&space_items(&prettyplease::unparse(&file)));
         text.push_str(&flags);
         let module = &gen.modules[i];
         let mut doc = format!("Definitions of `{fname}`");
@@ -220,7 +223,7 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
             doc.push_str("::Message`])");
         }
         let _ = writeln!(mod_rs, "#[doc = {:?}]", doc + ".");
-        mod_rs.push_str("#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::doc_lazy_continuation)]\n");
+        mod_rs.push_str("#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]\n");
         let _ = writeln!(
             mod_rs,
             "pub mod {module} {{\n    include!(\"{module}.rs\");\n}}"
@@ -229,6 +232,28 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
     }
     files.insert(0, ("mod.rs".to_string(), mod_rs));
     Ok(Output { files })
+}
+
+/// Puts a blank line after every item that ends at the top level or at the
+/// first indentation level (methods), which prettyplease leaves packed.
+fn space_items(code: &str) -> String {
+    let mut out = String::with_capacity(code.len() + code.len() / 20);
+    let mut prev = "";
+    for line in code.lines() {
+        let closes_item = prev == "}" || prev == "    }" || prev == "};";
+        let same_level = if prev == "    }" {
+            line.starts_with("    ") && !line.starts_with("    }")
+        } else {
+            !line.is_empty()
+        };
+        if closes_item && same_level && !line.starts_with('}') {
+            out.push('\n');
+        }
+        out.push_str(line);
+        out.push('\n');
+        prev = line;
+    }
+    out
 }
 
 /// Chooses an enum's Rust representation: wide enough for its values and for
@@ -311,6 +336,33 @@ impl Gen<'_> {
             if self.schema.roots.contains(&i) {
                 for n in ["Message", "MessageView", "Dialect", "MESSAGES"] {
                     taken.insert(n.into(), "the dialect's own items".into());
+                }
+            }
+            for r in self.selected.iter().filter(|r| r.file == i) {
+                let m = self.schema.message(*r);
+                let mut seen: HashMap<String, &str> = HashMap::new();
+                for f in &m.fields {
+                    let rust = names::field(&f.name);
+                    if let Some(prev) = seen.insert(rust.clone(), &f.name) {
+                        out.push(Diagnostic {
+                            severity: Severity::Error,
+                            position: Some(self.schema.sources[f.loc.file].position(f.loc.offset)),
+                            message: format!(
+                                "fields {}.{prev} and {} would both be `{rust}` in Rust",
+                                m.name, f.name
+                            ),
+                        });
+                    }
+                    if VIEW_METHODS.contains(&rust.as_str()) {
+                        out.push(Diagnostic {
+                            severity: Severity::Error,
+                            position: Some(self.schema.sources[f.loc.file].position(f.loc.offset)),
+                            message: format!(
+                                "field {}.{} would clash with the view method `{}`",
+                                m.name, f.name, f.name
+                            ),
+                        });
+                    }
                 }
             }
             let mut claim = |rust: String, what: String, loc: crate::diag::Loc| {
@@ -430,8 +482,10 @@ impl Gen<'_> {
                     (None, Some(u)) => head.push_str(&format!(" ({u})")),
                     (None, None) => {}
                 }
-                let text = format!("- {head}: {}", p.description);
-                lines.extend(doc_lines(&text, DOC_WIDTH));
+                lines.extend(doc_list_item(
+                    &format!("{head}: {}", p.description),
+                    DOC_WIDTH,
+                ));
             }
         }
         lines
@@ -576,6 +630,9 @@ impl Gen<'_> {
             lines.push(format!("`{}`", f.name));
         }
         let mut facts = Vec::new();
+        if names::field(&f.name) != f.name {
+            facts.push(format!("XML name: `{}`.", f.name));
+        }
         if let Some(u) = &f.units {
             facts.push(format!("Units: `{u}`."));
         }
@@ -584,10 +641,11 @@ impl Gen<'_> {
         }
         if let Some(e) = &f.enum_name {
             match self.enums.get(e) {
-                Some(info) => facts.push(format!(
-                    "Values: [`{}`].",
-                    self.doc_path(module, info.module, &info.rust_name)
-                )),
+                Some(info) => {
+                    let kind = if info.bitmask { "struct" } else { "enum" };
+                    let path = self.doc_path(module, info.module, &info.rust_name);
+                    facts.push(format!("Values: [`{}`]({kind}@{path}).", info.rust_name));
+                }
                 None => facts.push(format!("Values: `{e}`.")),
             }
         }
@@ -661,11 +719,11 @@ impl Gen<'_> {
             mdoc.extend(doc_lines(&deprecated_note(d), DOC_WIDTH));
         }
         let mdoc = docs(&mdoc);
-        let view_doc = format!(" A zero-copy view over a [`{base}`] payload: fields are read in place at their wire offsets.");
-        let mut_doc = format!(" Writes the fields of a [`{base}`] payload in place.");
-        let new_doc = format!(
-            " A writer over `payload`, which must hold at least [`{base}::MAX_LEN`] bytes."
-        );
+        // `struct@`: a message may be named like a prelude item (DEBUG).
+        let view_doc = format!(" A zero-copy view over a [`{base}`](struct@{base}) payload: fields are read in place at their wire offsets.");
+        let mut_doc =
+            format!(" Writes the fields of a [`{base}`](struct@{base}) payload in place.");
+        let new_doc = format!(" A writer over `payload`, which must hold at least [`{base}::MAX_LEN`](struct@{base}) bytes.");
 
         let mut struct_fields = Vec::new();
         let mut getters = Vec::new();
@@ -674,8 +732,9 @@ impl Gen<'_> {
         let mut emit = Vec::new();
         let mut defaults = Vec::new();
         for (fi, f) in m.fields.iter().enumerate() {
-            let fid = ident(&f.name);
-            let setter = format_ident!("set_{}", f.name);
+            let rust_name = names::field(&f.name);
+            let fid = ident(&rust_name);
+            let setter = format_ident!("set_{}", rust_name);
             let fdoc = docs(&self.field_docs(module, f, layout.offsets[fi]));
             let off = lit(layout.offsets[fi] as u64);
             let kind = self.kind(module, f);
@@ -794,9 +853,32 @@ impl Gen<'_> {
             defaults.push(quote!(#fid: #default,));
         }
 
+        // `Default` derives for arrays up to 32 elements only; the version
+        // field defaults to the dialect version, not 0.
+        let derive_default = m
+            .fields
+            .iter()
+            .all(|f| !f.mavlink_version && f.array_len.is_none_or(|n| n <= 32));
+        let (derives, default_impl) = if derive_default {
+            (
+                quote!(#[derive(Debug, Clone, PartialEq, Default)]),
+                quote!(),
+            )
+        } else {
+            (
+                quote!(#[derive(Debug, Clone, PartialEq)]),
+                quote! {
+                    impl Default for #owned {
+                        fn default() -> Self {
+                            Self { #(#defaults)* }
+                        }
+                    }
+                },
+            )
+        };
         quote! {
             #mdoc
-            #[derive(Debug, Clone, PartialEq)]
+            #derives
             pub struct #owned {
                 #(#struct_fields)*
             }
@@ -842,11 +924,7 @@ impl Gen<'_> {
                 }
             }
 
-            impl Default for #owned {
-                fn default() -> Self {
-                    Self { #(#defaults)* }
-                }
-            }
+            #default_impl
 
             impl #rt::Message for #owned {
                 const META: #rt::MessageMeta = #owned::META;
@@ -883,7 +961,7 @@ impl Gen<'_> {
 
                 /// The payload bytes this view reads.
                 #[inline]
-                pub const fn payload(&self) -> &'a [u8] {
+                pub const fn as_bytes(&self) -> &'a [u8] {
                     self.payload
                 }
 

@@ -1,14 +1,12 @@
 //! The build-script API, in the style of `prost-build`:
 //!
 //! ```no_run
-//! // build.rs
-//! fn main() {
-//!     mavgen::Config::new()
-//!         .messages(["HEARTBEAT", "FBWAG_NOTICE"]) // optional filter
-//!         .compile(&["message_definitions/fbwag.xml"])
-//!         .unwrap_or_else(|e| panic!("{e}"));
-//! }
-//! // lib.rs: include!(concat!(env!("OUT_DIR"), "/mod.rs"));
+//! // In build.rs's main:
+//! mavgen::Config::new()
+//!     .messages(["HEARTBEAT", "FBWAG_NOTICE"]) // optional filter
+//!     .compile(&["message_definitions/fbwag.xml"])
+//!     .unwrap_or_else(|e| panic!("{e}"));
+//! // In lib.rs: include!(concat!(env!("OUT_DIR"), "/mod.rs"));
 //! ```
 
 use crate::codegen::{self, Options, Output};

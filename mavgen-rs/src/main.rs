@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 /// MAVLink XML dialects to Rust: zero-copy views, owned messages, CRC_EXTRA tables.
 ///
-/// Every command reads the given XML files and everything they <include>
+/// Every command reads the given XML files and everything they `<include>`
 /// (relative to the including file), merges enums across files the way
 /// pymavlink does, and checks the result. Problems are reported as
 /// FILE:LINE:COL: error: … on stderr, and the exit status is 1.

@@ -42,7 +42,27 @@ pub fn camel(name: &str) -> String {
     out
 }
 
-/// `fieldName`/`FIELD_NAME` → `field_name` for module names.
+/// A field name as a Rust method/field name: `omegaIx` → `omega_ix`,
+/// `Vcc` → `vcc`; snake_case names are unchanged.
+pub fn field(name: &str) -> String {
+    let mut out = String::with_capacity(name.len() + 4);
+    let mut prev_lower = false;
+    for c in name.chars() {
+        if c.is_ascii_uppercase() {
+            if prev_lower {
+                out.push('_');
+            }
+            out.push(c.to_ascii_lowercase());
+            prev_lower = false;
+        } else {
+            out.push(c);
+            prev_lower = c.is_ascii_lowercase() || c.is_ascii_digit();
+        }
+    }
+    out
+}
+
+/// `uAvionix` → `uavionix`, `python_array_test` unchanged: module names.
 pub fn snake(name: &str) -> String {
     let mut out = String::with_capacity(name.len() + 4);
     for c in name.chars() {
@@ -80,40 +100,72 @@ pub fn entry_suffix<'a>(enum_name: &str, entry: &'a str) -> &'a str {
 }
 
 /// Turns XML description text into rustdoc lines: whitespace folded (so no
-/// accidental code blocks or doctests), Markdown-significant brackets and
-/// HTML escaped, bare URLs wrapped so rustdoc links them without warnings.
+/// accidental code blocks or doctests), brackets and HTML escaped (rustdoc
+/// would take them for links and tags), bare URLs wrapped so rustdoc links
+/// them, and a line that would start a list or heading escaped.
 pub fn doc_lines(text: &str, width: usize) -> Vec<String> {
-    let folded = text.split_whitespace().collect::<Vec<_>>().join(" ");
-    let mut escaped = String::with_capacity(folded.len());
-    for word in folded.split(' ') {
-        if !escaped.is_empty() {
-            escaped.push(' ');
+    wrap(&escape(text), width)
+        .into_iter()
+        .map(|l| escape_line_start(&l))
+        .collect()
+}
+
+/// Like [`doc_lines`], as one Markdown list item (`- ` then indented lines).
+pub fn doc_list_item(text: &str, width: usize) -> Vec<String> {
+    wrap(&escape(text), width.saturating_sub(2))
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                format!("- {l}")
+            } else {
+                format!("  {}", escape_line_start(&l))
+            }
+        })
+        .collect()
+}
+
+fn escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for word in text.split_whitespace() {
+        if !out.is_empty() {
+            out.push(' ');
         }
-        if word.starts_with("http://") || word.starts_with("https://") {
-            let trimmed = word.trim_end_matches(['.', ',', ')', ';']);
-            escaped.push('<');
-            escaped.push_str(trimmed);
-            escaped.push('>');
-            escaped.push_str(&word[trimmed.len()..]);
-            continue;
-        }
+        let (word, url) = match word.find("http://").or_else(|| word.find("https://")) {
+            Some(at) => (&word[..at], Some(&word[at..])),
+            None => (word, None),
+        };
         for c in word.chars() {
             match c {
-                '[' => escaped.push_str("\\["),
-                ']' => escaped.push_str("\\]"),
-                '<' => escaped.push_str("&lt;"),
-                '>' => escaped.push_str("&gt;"),
-                '*' => escaped.push_str("\\*"),
-                '_' => escaped.push_str("\\_"),
-                '`' => escaped.push_str("\\`"),
-                '#' => escaped.push_str("\\#"),
-                '|' => escaped.push_str("\\|"),
-                '\\' => escaped.push_str("\\\\"),
-                _ => escaped.push(c),
+                '[' => out.push_str("\\["),
+                ']' => out.push_str("\\]"),
+                '<' => out.push_str("&lt;"),
+                '>' => out.push_str("&gt;"),
+                '\\' => out.push_str("\\\\"),
+                _ => out.push(c),
             }
         }
+        if let Some(url) = url {
+            let link = url.trim_end_matches(['.', ',', ')', ';', ':', ']', '\'']);
+            out.push('<');
+            out.push_str(link);
+            out.push('>');
+            out.push_str(&url[link.len()..]);
+        }
     }
-    wrap(&escaped, width)
+    out
+}
+
+/// Markdown reads `- x`, `+ x`, `* x`, `# x` and `1. x` at a line start as
+/// structure; in the middle of a wrapped sentence they are text.
+fn escape_line_start(line: &str) -> String {
+    let digits = line.chars().take_while(char::is_ascii_digit).count();
+    let numbered = digits > 0 && matches!(line[digits..].chars().next(), Some('.' | ')'));
+    if line.starts_with(['-', '+', '*', '#', '=']) || numbered {
+        format!("\\{line}")
+    } else {
+        line.to_string()
+    }
 }
 
 /// Greedy word wrap.
@@ -145,6 +197,14 @@ mod tests {
         assert_eq!(camel("GPS2_RAW"), "Gps2Raw");
         assert_eq!(camel("MAV_CMD"), "MavCmd");
         assert_eq!(camel("2D"), "M2d");
+    }
+
+    #[test]
+    fn field_names_become_snake_case() {
+        assert_eq!(field("omegaIx"), "omega_ix");
+        assert_eq!(field("Vcc"), "vcc");
+        assert_eq!(field("time_boot_ms"), "time_boot_ms");
+        assert_eq!(field("xacc2"), "xacc2");
     }
 
     #[test]

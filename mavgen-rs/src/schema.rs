@@ -28,10 +28,12 @@ pub const C_CLASHING_FIELD_NAMES: &[&str] =
 pub struct MergedEnum {
     /// The merged definition: entries sorted by value, as pymavlink sorts them.
     pub def: Enum,
-    /// The file whose module holds the enum: the most basic (last in load
-    /// order) of the files declaring it, so `common.xml`'s `MAV_CMD` stays in
-    /// `common` while the ArduPilot entries merged into it are included.
+    /// The file whose module holds the enum: of the files declaring it, the
+    /// one the others include (so `common.xml`'s `MAV_CMD` stays in `common`,
+    /// with the entries ArduPilot and vendors merge into it).
     pub home: usize,
+    /// Every file declaring the enum, in load order.
+    pub declared_in: Vec<usize>,
 }
 
 /// A loaded, checked set of dialect files.
@@ -212,6 +214,7 @@ impl Schema {
                             MergedEnum {
                                 def: incoming,
                                 home: f,
+                                declared_in: vec![f],
                             },
                         );
                     }
@@ -233,12 +236,31 @@ impl Schema {
                             first.description = incoming.description;
                         }
                         first.bitmask |= incoming.bitmask;
-                        m.home = f;
+                        if !m.declared_in.contains(&f) {
+                            m.declared_in.push(f);
+                        }
                     }
                 }
             }
         }
+        let reach: Vec<Vec<usize>> = (0..self.files.len()).map(|f| self.reachable(f)).collect();
         for m in merged.values_mut() {
+            // Home: included by the most other declaring files; ties go to
+            // the file loaded first (common.xml before a vendor file that
+            // extends MAV_CMD without including common.xml).
+            m.home = *m
+                .declared_in
+                .iter()
+                .max_by_key(|&&d| {
+                    (
+                        m.declared_in
+                            .iter()
+                            .filter(|&&e| reach[e].contains(&d))
+                            .count(),
+                        std::cmp::Reverse(d),
+                    )
+                })
+                .expect("declared at least once");
             m.def.entries.sort_by_key(|e| e.value); // stable, as Python's sorted
             let mut names: HashMap<&str, Loc> = HashMap::new();
             let mut values: HashMap<u64, (&str, Loc)> = HashMap::new();

@@ -240,8 +240,8 @@ fn space_items(code: &str) -> String {
     let mut out = String::with_capacity(code.len() + code.len() / 20);
     let mut prev = "";
     for line in code.lines() {
-        let closes_item = prev == "}" || prev == "    }" || prev == "};";
-        let same_level = if prev == "    }" {
+        let closes_item = prev == "}" || prev == "    }" || prev == "};" || prev == "    };";
+        let same_level = if prev == "    }" || prev == "    };" {
             line.starts_with("    ") && !line.starts_with("    }")
         } else {
             !line.is_empty()
@@ -342,7 +342,8 @@ impl Gen<'_> {
                 let m = self.schema.message(*r);
                 let mut seen: HashMap<String, &str> = HashMap::new();
                 for f in &m.fields {
-                    let rust = names::field(&f.name);
+                    // Compare escaped identifiers: `self` becomes `self_`.
+                    let rust = ident(&names::field(&f.name)).to_string();
                     if let Some(prev) = seen.insert(rust.clone(), &f.name) {
                         out.push(Diagnostic {
                             severity: Severity::Error,

@@ -159,9 +159,20 @@ fn escape(text: &str) -> String {
 /// Markdown reads `- x`, `+ x`, `* x`, `# x` and `1. x` at a line start as
 /// structure; in the middle of a wrapped sentence they are text.
 fn escape_line_start(line: &str) -> String {
+    let mut chars = line.chars();
+    let first = chars.next();
+    let second = chars.next();
     let digits = line.chars().take_while(char::is_ascii_digit).count();
-    let numbered = digits > 0 && matches!(line[digits..].chars().next(), Some('.' | ')'));
-    if line.starts_with(['-', '+', '*', '#', '=']) || numbered {
+    let after_digits = line[digits..].chars().collect::<Vec<_>>();
+    let structural = match first {
+        Some('-' | '+' | '*') => {
+            second.is_none_or(|c| c == ' ') || line.chars().all(|c| c == first.unwrap())
+        }
+        Some('#') => second.is_none_or(|c| c == ' ' || c == '#'),
+        Some('=') => line.chars().all(|c| c == '='),
+        _ => digits > 0 && matches!(after_digits.as_slice(), ['.' | ')'] | ['.' | ')', ' ', ..]),
+    };
+    if structural {
         format!("\\{line}")
     } else {
         line.to_string()

@@ -105,6 +105,11 @@ impl Schema {
             }
             next = level_end;
         }
+        // A file that did not parse has holes (messages without ids or
+        // fields): checking it further would only report follow-up errors.
+        if diags.has_errors() {
+            return Err(diags.into_vec());
+        }
         let Loader { sources, files, .. } = loader;
         let mut schema = Schema {
             sources,
@@ -261,7 +266,6 @@ impl Schema {
                     )
                 })
                 .expect("declared at least once");
-            m.def.entries.sort_by_key(|e| e.value); // stable, as Python's sorted
             let mut names: HashMap<&str, Loc> = HashMap::new();
             let mut values: HashMap<u64, (&str, Loc)> = HashMap::new();
             for entry in &m.def.entries {
@@ -297,6 +301,8 @@ impl Schema {
                     );
                 }
             }
+            // After the checks, so "first declared" means first in the files.
+            m.def.entries.sort_by_key(|e| e.value); // stable, as Python's sorted
         }
         self.enums = merged;
     }

@@ -5,17 +5,17 @@
 #![no_std]
 
 /// Every dialect pymavlink 2.4.50 ships, through `all.xml`.
-pub mod all {
+pub mod all_xml {
     include!(concat!(env!("OUT_DIR"), "/all/mod.rs"));
 }
 
 /// A companion-computer build of `fbwag.xml`: only the messages it speaks.
-pub mod cc {
+pub mod cc_subset {
     include!(concat!(env!("OUT_DIR"), "/cc/mod.rs"));
 }
 
 /// The checked-in snapshot of mavgen-rs's output for its test XML: proof that
 /// the code the snapshot test pins also compiles without warnings.
-pub mod snapshot {
+pub mod snapshot_xml {
     include!("../../mavgen-rs/tests/snapshot/expected/mod.rs");
 }

@@ -1,7 +1,7 @@
 //! Behaviour of the code mavgen-rs generates, on the real FBWAG dialect.
 
 use fbwag_dialect::dialects::{common, minimal};
-use fbwag_dialect::mavwire::{field::chars, Dialect as _, Message as _};
+use fbwag_dialect::mavwire::{field::chars, Dialect as _};
 use fbwag_dialect::{
     Dialect, FbwagFailsafeStatus, FbwagNotice, FbwagNoticeMut, FbwagNoticeView, Message,
     MessageView, MESSAGES,

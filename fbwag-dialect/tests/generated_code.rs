@@ -17,7 +17,7 @@ fn notice() -> FbwagNotice {
     FbwagNotice {
         system_id: 1,
         component_id: 1,
-        failsafe_status: FbwagFailsafeStatus::RcLost,
+        failsafe_status: FbwagFailsafeStatus::RC_LOST,
         text: chars("FBWAG"),
         timestamp: 123_456,
     }
@@ -46,7 +46,7 @@ fn fbwag_notice_emits_the_reference_payload() {
 fn view_reads_fields_in_place_and_parse_round_trips() {
     let v = FbwagNoticeView::new(&NOTICE_PAYLOAD);
     assert_eq!(v.timestamp(), 123_456);
-    assert_eq!(v.failsafe_status(), FbwagFailsafeStatus::RcLost);
+    assert_eq!(v.failsafe_status(), FbwagFailsafeStatus::RC_LOST);
     assert_eq!(v.text().as_bytes(), b"FBWAG");
     assert!(
         core::ptr::eq(v.text().as_bytes().as_ptr(), &NOTICE_PAYLOAD[7]),
@@ -83,7 +83,7 @@ fn unknown_enum_values_and_flag_bits_are_kept() {
     let mut p = NOTICE_PAYLOAD;
     p[6] = 7;
     let n = FbwagNotice::parse(&p);
-    assert_eq!(n.failsafe_status, FbwagFailsafeStatus::Unlisted(7));
+    assert_eq!(n.failsafe_status, FbwagFailsafeStatus(7));
     let mut out = [0u8; 12];
     n.emit(&mut out).unwrap();
     assert_eq!(out, p, "an unlisted value survives a round trip");
@@ -115,7 +115,7 @@ fn writer_sets_fields_in_place() {
     w.set_timestamp(123_456);
     w.set_system_id(1);
     w.set_component_id(1);
-    w.set_failsafe_status(FbwagFailsafeStatus::RcLost);
+    w.set_failsafe_status(FbwagFailsafeStatus::RC_LOST);
     w.set_text(&chars("FBWAG"));
     assert_eq!(w.view().timestamp(), 123_456);
     assert_eq!(buf, NOTICE_PAYLOAD);
@@ -167,11 +167,8 @@ fn merged_enums_hold_entries_of_every_file() {
         common::MavCmd::from_raw(42428).name(),
         Some("MAV_CMD_DO_SEND_BANNER")
     );
-    assert_eq!(common::MavCmd::from_raw(16), common::MavCmd::NavWaypoint);
-    assert_eq!(
-        common::MavCmd::from_raw(65000),
-        common::MavCmd::Unlisted(65000)
-    );
+    assert_eq!(common::MavCmd::from_raw(16), common::MavCmd::NAV_WAYPOINT);
+    assert_eq!(common::MavCmd::from_raw(65000), common::MavCmd(65000));
 }
 
 #[test]

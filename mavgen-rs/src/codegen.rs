@@ -73,7 +73,9 @@ struct EnumInfo {
 
 struct Gen<'s> {
     schema: &'s Schema,
-    rt: TokenStream,
+    /// The runtime crate path; a string because token types are not
+    /// `Send`, and workers build their own tokens.
+    rt: String,
     modules: Vec<String>,
     selected: BTreeSet<MessageRef>,
     enums: BTreeMap<String, EnumInfo>,
@@ -89,8 +91,8 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
             message,
         })
     };
-    let rt: TokenStream = match syn::parse_str::<syn::Path>(&opts.runtime) {
-        Ok(p) => quote!(#p),
+    let rt = match syn::parse_str::<syn::Path>(&opts.runtime) {
+        Ok(p) => quote!(#p).to_string().replace(' ', ""),
         Err(e) => {
             err(
                 &mut errors,
@@ -193,6 +195,41 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
         h.push('\n');
         h
     };
+    // Work units of a few dozen items each, rendered on every core (syn's
+    // parse and prettyplease dominate the run time) and joined in order.
+    let mut jobs: Vec<(usize, Vec<Item>)> = Vec::new();
+    let mut flags = Vec::new();
+    for i in 0..schema.files.len() {
+        let (items, f) = gen.module_items(i);
+        flags.push(f);
+        if items.is_empty() {
+            jobs.push((i, Vec::new()));
+        }
+        for chunk in items.chunks(CHUNK_ITEMS) {
+            jobs.push((i, chunk.to_vec()));
+        }
+    }
+    let rendered = parallel_map(&jobs, |(i, items)| gen.render(*i, items));
+    let mut bodies = vec![String::new(); schema.files.len()];
+    for ((i, _), r) in jobs.iter().zip(rendered) {
+        match r {
+            Ok(text) => {
+                if !bodies[*i].is_empty() {
+                    bodies[*i].push('\n');
+                }
+                bodies[*i].push_str(&text);
+            }
+            Err(e) => {
+                err(
+                    &mut errors,
+                    None,
+                    format!("internal error: generated code does not parse: {e}"),
+                );
+                return Err(errors);
+            }
+        }
+    }
+
     let mut files = Vec::new();
     let mut mod_rs = header("the files below");
     for (i, f) in schema.files.iter().enumerate() {
@@ -200,21 +237,9 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
             .path
             .file_name()
             .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-        let (tokens, flags) = gen.module(i);
-        let file: syn::File = match syn::parse2(tokens) {
-            Ok(f) => f,
-            Err(e) => {
-                err(
-                    &mut errors,
-                    None,
-                    format!("internal error: generated code for {fname} does not parse: {e}"),
-                );
-                return Err(errors);
-            }
-        };
         let mut text = header(&fname);
-        text.push_str(&space_items(&prettyplease::unparse(&file)));
-        text.push_str(&flags);
+        text.push_str(&bodies[i]);
+        text.push_str(&flags[i]);
         let module = &gen.modules[i];
         let mut doc = format!("Definitions of `{fname}`");
         if schema.roots.contains(&i) {
@@ -232,6 +257,47 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
     }
     files.insert(0, ("mod.rs".to_string(), mod_rs));
     Ok(Output { files })
+}
+
+/// Items per rendering job: small enough to balance cores, large enough
+/// that per-job overhead does not matter.
+const CHUNK_ITEMS: usize = 48;
+
+/// One top-level item to render.
+#[derive(Debug, Clone)]
+enum Item {
+    Enum(String),
+    Message(MessageRef),
+    Dialect,
+}
+
+/// `f` over `jobs` on all cores, results in job order.
+fn parallel_map<J: Sync, R: Send>(jobs: &[J], f: impl Fn(&J) -> R + Sync) -> Vec<R> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(jobs.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut results: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut done = Vec::new();
+                    loop {
+                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(job) = jobs.get(k) else { break };
+                        done.push((k, f(job)));
+                    }
+                    done
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().expect("render worker panicked"))
+            .collect()
+    });
+    results.sort_by_key(|(k, _)| *k);
+    results.into_iter().map(|(_, r)| r).collect()
 }
 
 /// Puts a blank line after every item that ends at the top level or at the
@@ -433,26 +499,49 @@ impl Gen<'_> {
         }
     }
 
-    /// Returns the module's items and, separately, its formatted bitflags.
-    fn module(&self, i: usize) -> (TokenStream, String) {
+    fn rt(&self) -> TokenStream {
+        self.rt.parse().expect("runtime path checked in generate()")
+    }
+
+    /// The module's token-built items, in output order, and separately its
+    /// formatted bitflags.
+    fn module_items(&self, i: usize) -> (Vec<Item>, String) {
         let mut items = Vec::new();
         let mut flags = String::new();
         for (name, info) in self.enums.iter().filter(|(_, e)| e.module == i) {
-            let def = &self.schema.enums[name];
             if info.bitmask {
                 flags.push('\n');
-                flags.push_str(&self.bitflags(def, info));
+                flags.push_str(&self.bitflags(&self.schema.enums[name], info));
             } else {
-                items.push(self.value_enum(def, info));
+                items.push(Item::Enum(name.clone()));
             }
         }
-        for r in self.selected.iter().filter(|r| r.file == i) {
-            items.push(self.message(i, self.schema.message(*r), self.schema.layout(*r)));
-        }
+        items.extend(
+            self.selected
+                .iter()
+                .filter(|r| r.file == i)
+                .map(|&r| Item::Message(r)),
+        );
         if self.schema.roots.contains(&i) {
-            items.push(self.dialect(i));
+            items.push(Item::Dialect);
         }
-        (quote!(#(#items)*), flags)
+        (items, flags)
+    }
+
+    /// Renders items of module `i` to formatted Rust.
+    fn render(&self, i: usize, items: &[Item]) -> Result<String, String> {
+        let tokens: Vec<TokenStream> = items
+            .iter()
+            .map(|item| match item {
+                Item::Enum(name) => self.value_enum(&self.schema.enums[name], &self.enums[name]),
+                Item::Message(r) => {
+                    self.message(i, self.schema.message(*r), self.schema.layout(*r))
+                }
+                Item::Dialect => self.dialect(i),
+            })
+            .collect();
+        let file: syn::File = syn::parse2(quote!(#(#tokens)*)).map_err(|e| e.to_string())?;
+        Ok(space_items(&prettyplease::unparse(&file)))
     }
 
     fn entry_docs(&self, e: &Entry) -> Vec<String> {
@@ -523,12 +612,16 @@ impl Gen<'_> {
             .collect()
     }
 
+    /// A value enum as a newtype over its wire value with one associated
+    /// constant per entry: any value is representable (an unlisted one is
+    /// kept, never rejected), conversions are free, and constants match in
+    /// patterns like enum variants.
     fn value_enum(&self, def: &MergedEnum, info: &EnumInfo) -> TokenStream {
         let name = format_ident!("{}", info.rust_name);
         let repr = format_ident!("{}", info.repr.rust_name());
         let doc = docs(&self.enum_docs(def));
-        let names = Self::entry_names(def, camel, "Unlisted");
-        let variants: Vec<_> = names.iter().map(|n| format_ident!("{}", n)).collect();
+        let names = Self::entry_names(def, |s| s.to_ascii_uppercase(), "_");
+        let consts: Vec<_> = names.iter().map(|n| format_ident!("{}", n)).collect();
         let entry_docs: Vec<_> = def
             .def
             .entries
@@ -540,57 +633,51 @@ impl Gen<'_> {
         quote! {
             #doc
             ///
-            /// Values the XML does not list are kept in [`Self::Unlisted`], so a
-            /// message is never rejected for carrying one.
-            #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-            pub enum #name {
-                #( #entry_docs #variants, )*
-                /// A value this dialect does not define.
-                Unlisted(#repr),
-            }
+            /// The wire value itself: values the XML does not list are kept, so
+            /// a message is never rejected for carrying one.
+            #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+            pub struct #name(pub #repr);
 
             impl #name {
+                #( #entry_docs pub const #consts: Self = Self(#values); )*
+
                 /// The enum for a raw wire value.
                 pub const fn from_raw(value: #repr) -> Self {
-                    match value {
-                        #( #values => Self::#variants, )*
-                        other => Self::Unlisted(other),
-                    }
+                    Self(value)
                 }
 
                 /// The raw wire value.
                 pub const fn to_raw(self) -> #repr {
-                    match self {
-                        #( Self::#variants => #values, )*
-                        Self::Unlisted(value) => value,
-                    }
+                    self.0
                 }
 
-                /// The entry's name in the XML, `None` for unlisted values.
+                /// The entry's name in the XML, `None` for a value it does not list.
                 pub const fn name(self) -> Option<&'static str> {
-                    match self {
-                        #( Self::#variants => Some(#xml_names), )*
-                        Self::Unlisted(_) => None,
+                    Some(match self.0 {
+                        #( #values => #xml_names, )*
+                        _ => return None,
+                    })
+                }
+            }
+
+            impl ::core::fmt::Debug for #name {
+                fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
+                    match self.name() {
+                        Some(name) => f.write_str(name),
+                        None => write!(f, "{}({})", stringify!(#name), self.0),
                     }
                 }
             }
 
             impl From<#repr> for #name {
                 fn from(value: #repr) -> Self {
-                    Self::from_raw(value)
+                    Self(value)
                 }
             }
 
             impl From<#name> for #repr {
                 fn from(value: #name) -> Self {
-                    value.to_raw()
-                }
-            }
-
-            impl Default for #name {
-                /// The value 0, as in a zero-filled payload.
-                fn default() -> Self {
-                    Self::from_raw(0)
+                    value.0
                 }
             }
         }
@@ -599,7 +686,8 @@ impl Gen<'_> {
     /// A `bitflags!` invocation, formatted by hand (see the module docs).
     fn bitflags(&self, def: &MergedEnum, info: &EnumInfo) -> String {
         let mut s = String::new();
-        let rt = self.rt.to_string().replace(' ', "");
+        let rt = self.rt();
+        let rt = &rt;
         let _ = writeln!(s, "{rt}::bitflags::bitflags! {{");
         for l in self.enum_docs(def) {
             let _ = writeln!(s, "    ///{}{l}", if l.is_empty() { "" } else { " " });
@@ -614,7 +702,7 @@ impl Gen<'_> {
             info.rust_name,
             info.repr.rust_name()
         );
-        let names = Self::entry_names(def, |s| s.to_string(), "_");
+        let names = Self::entry_names(def, |s| s.to_ascii_uppercase(), "_");
         for (e, n) in def.def.entries.iter().zip(&names) {
             for l in self.entry_docs(e) {
                 let _ = writeln!(s, "        ///{}{l}", if l.is_empty() { "" } else { " " });
@@ -643,9 +731,8 @@ impl Gen<'_> {
         if let Some(e) = &f.enum_name {
             match self.enums.get(e) {
                 Some(info) => {
-                    let kind = if info.bitmask { "struct" } else { "enum" };
                     let path = self.doc_path(module, info.module, &info.rust_name);
-                    facts.push(format!("Values: [`{}`]({kind}@{path}).", info.rust_name));
+                    facts.push(format!("Values: [`{}`](struct@{path}).", info.rust_name));
                 }
                 None => facts.push(format!("Values: `{e}`.")),
             }
@@ -683,7 +770,8 @@ impl Gen<'_> {
     }
 
     fn message(&self, module: usize, m: &Message, layout: &Layout) -> TokenStream {
-        let rt = &self.rt;
+        let rt = self.rt();
+        let rt = &rt;
         let base = camel(&m.name);
         let owned = format_ident!("{}", base);
         let view = format_ident!("{}View", base);
@@ -830,8 +918,18 @@ impl Gen<'_> {
                     }
                 };
             struct_fields.push(quote!(#fdoc pub #fid: #owned_ty,));
+            // rustdoc cannot resolve raw identifiers: link the struct instead.
+            let target = if fid.to_string().starts_with("r#") {
+                format!("struct@{base}")
+            } else {
+                format!("{base}::{fid}")
+            };
+            let get_doc = format!(
+                " Reads [`{base}::{rust_name}`]({target}) (`{}` at offset {}).",
+                f.name, layout.offsets[fi]
+            );
             getters.push(quote! {
-                #fdoc
+                #[doc = #get_doc]
                 #[inline]
                 pub fn #fid(&self) -> #get_ty {
                     #get_body
@@ -1000,7 +1098,8 @@ impl Gen<'_> {
     }
 
     fn dialect(&self, root: usize) -> TokenStream {
-        let rt = &self.rt;
+        let rt = self.rt();
+        let rt = &rt;
         let reach: BTreeSet<usize> = self.schema.reachable(root).into_iter().collect();
         let mut msgs: Vec<MessageRef> = self
             .selected

@@ -5,6 +5,9 @@ use mavgen::{Config, Diagnostic, Error, Schema};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// MAVLink XML dialects to Rust: zero-copy views, owned messages, CRC_EXTRA tables.
 ///
 /// Every command reads the given XML files and everything they `<include>`
@@ -86,17 +89,6 @@ fn main() -> ExitCode {
                 .out_dir(&out)
                 .runtime_crate(runtime)
                 .cargo_output(false);
-            config.regenerate_hint(format!(
-                "mavgen-rs generate {} -o {}{}",
-                xml.iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(" "),
-                out.display(),
-                messages
-                    .as_ref()
-                    .map_or(String::new(), |m| format!(" --messages {}", m.join(",")))
-            ));
             if let Some(m) = messages {
                 config.messages(m);
             }

@@ -1,4 +1,6 @@
 //! Shared helpers: paths and the pinned pymavlink environment.
+// Each test binary uses a different subset of these.
+#![allow(dead_code)]
 
 use std::path::PathBuf;
 use std::process::Command;

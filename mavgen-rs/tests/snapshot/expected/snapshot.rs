@@ -4,62 +4,56 @@
 ///
 /// MAVLink enum `SNAP_CMD`.
 ///
-/// Values the XML does not list are kept in [`Self::Unlisted`], so a
-/// message is never rejected for carrying one.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum SnapCmd {
+/// The wire value itself: values the XML does not list are kept, so
+/// a message is never rejected for carrying one.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+pub struct SnapCmd(pub u8);
+impl SnapCmd {
     /// A command with parameters.
     ///
     /// - Param 1 (Speed, m/s): Target speed; a long description that wraps onto a second line of
     ///   the rustdoc list item.
     /// - Param 2: Unused.
-    Go,
-    /// A value this dialect does not define.
-    Unlisted(u8),
-}
-
-impl SnapCmd {
+    pub const GO: Self = Self(7);
     /// The enum for a raw wire value.
     pub const fn from_raw(value: u8) -> Self {
-        match value {
-            7 => Self::Go,
-            other => Self::Unlisted(other),
-        }
+        Self(value)
     }
 
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
-        match self {
-            Self::Go => 7,
-            Self::Unlisted(value) => value,
-        }
+        self.0
     }
 
-    /// The entry's name in the XML, `None` for unlisted values.
+    /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
-        match self {
-            Self::Go => Some("SNAP_CMD_GO"),
-            Self::Unlisted(_) => None,
+        Some(
+            match self.0 {
+                7 => "SNAP_CMD_GO",
+                _ => return None,
+            },
+        )
+    }
+}
+
+impl ::core::fmt::Debug for SnapCmd {
+    fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
+        match self.name() {
+            Some(name) => f.write_str(name),
+            None => write!(f, "{}({})", stringify!(SnapCmd), self.0),
         }
     }
 }
 
 impl From<u8> for SnapCmd {
     fn from(value: u8) -> Self {
-        Self::from_raw(value)
+        Self(value)
     }
 }
 
 impl From<SnapCmd> for u8 {
     fn from(value: SnapCmd) -> Self {
-        value.to_raw()
-    }
-}
-
-impl Default for SnapCmd {
-    /// The value 0, as in a zero-filled payload.
-    fn default() -> Self {
-        Self::from_raw(0)
+        value.0
     }
 }
 
@@ -67,75 +61,63 @@ impl Default for SnapCmd {
 ///
 /// MAVLink enum `SNAP_MODE`.
 ///
-/// Values the XML does not list are kept in [`Self::Unlisted`], so a
-/// message is never rejected for carrying one.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum SnapMode {
+/// The wire value itself: values the XML does not list are kept, so
+/// a message is never rejected for carrying one.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+pub struct SnapMode(pub u16);
+impl SnapMode {
     /// Off.
-    Off,
+    pub const OFF: Self = Self(0);
     /// Two-dimensional: the name starts with a digit once the prefix is gone.
-    Mode2d,
+    pub const MODE_2D: Self = Self(16);
     /// Automatic value (pymavlink: highest + 1).
-    Auto,
+    pub const AUTO: Self = Self(17);
     /// Needs more than 8 bits.
     ///
     /// **Deprecated** since 2024-01, replaced by `SNAP_MODE_OFF`. Do not use.
-    Wide,
-    /// A value this dialect does not define.
-    Unlisted(u16),
-}
-
-impl SnapMode {
+    pub const WIDE: Self = Self(256);
     /// The enum for a raw wire value.
     pub const fn from_raw(value: u16) -> Self {
-        match value {
-            0 => Self::Off,
-            16 => Self::Mode2d,
-            17 => Self::Auto,
-            256 => Self::Wide,
-            other => Self::Unlisted(other),
-        }
+        Self(value)
     }
 
     /// The raw wire value.
     pub const fn to_raw(self) -> u16 {
-        match self {
-            Self::Off => 0,
-            Self::Mode2d => 16,
-            Self::Auto => 17,
-            Self::Wide => 256,
-            Self::Unlisted(value) => value,
-        }
+        self.0
     }
 
-    /// The entry's name in the XML, `None` for unlisted values.
+    /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
-        match self {
-            Self::Off => Some("SNAP_MODE_OFF"),
-            Self::Mode2d => Some("SNAP_MODE_2D"),
-            Self::Auto => Some("SNAP_MODE_AUTO"),
-            Self::Wide => Some("SNAP_MODE_WIDE"),
-            Self::Unlisted(_) => None,
+        Some(
+            match self.0 {
+                0 => "SNAP_MODE_OFF",
+                16 => "SNAP_MODE_2D",
+                17 => "SNAP_MODE_AUTO",
+                256 => "SNAP_MODE_WIDE",
+                _ => return None,
+            },
+        )
+    }
+}
+
+impl ::core::fmt::Debug for SnapMode {
+    fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
+        match self.name() {
+            Some(name) => f.write_str(name),
+            None => write!(f, "{}({})", stringify!(SnapMode), self.0),
         }
     }
 }
 
 impl From<u16> for SnapMode {
     fn from(value: u16) -> Self {
-        Self::from_raw(value)
+        Self(value)
     }
 }
 
 impl From<SnapMode> for u16 {
     fn from(value: SnapMode) -> Self {
-        value.to_raw()
-    }
-}
-
-impl Default for SnapMode {
-    /// The value 0, as in a zero-filled payload.
-    fn default() -> Self {
-        Self::from_raw(0)
+        value.0
     }
 }
 
@@ -154,7 +136,7 @@ pub struct SnapAllTypes {
     pub i8v: i8,
     /// An enum wider than its values in a u16 field.
     ///
-    /// Values: [`SnapMode`](enum@SnapMode). Wire: `uint16_t` at payload offset 36.
+    /// Values: [`SnapMode`](struct@SnapMode). Wire: `uint16_t` at payload offset 36.
     pub mode: SnapMode,
     /// Signed short.
     ///
@@ -345,124 +327,91 @@ impl<'a> SnapAllTypesView<'a> {
         SnapAllTypes::from_view(self)
     }
 
-    /// A byte.
-    ///
-    /// Wire: `uint8_t` at payload offset 46.
+    /// Reads [`SnapAllTypes::u8v`](SnapAllTypes::u8v) (`u8v` at offset 46).
     #[inline]
     pub fn u8v(&self) -> u8 {
         ::mavwire::field::read::<u8>(self.payload, 46)
     }
 
-    /// Signed byte.
-    ///
-    /// Units: `degC`. Wire: `int8_t` at payload offset 47.
+    /// Reads [`SnapAllTypes::i8v`](SnapAllTypes::i8v) (`i8v` at offset 47).
     #[inline]
     pub fn i8v(&self) -> i8 {
         ::mavwire::field::read::<i8>(self.payload, 47)
     }
 
-    /// An enum wider than its values in a u16 field.
-    ///
-    /// Values: [`SnapMode`](enum@SnapMode). Wire: `uint16_t` at payload offset 36.
+    /// Reads [`SnapAllTypes::mode`](SnapAllTypes::mode) (`mode` at offset 36).
     #[inline]
     pub fn mode(&self) -> SnapMode {
         SnapMode::from_raw(::mavwire::field::read::<u16>(self.payload, 36))
     }
 
-    /// Signed short.
-    ///
-    /// Invalid / unknown: `INT16_MAX`. Wire: `int16_t` at payload offset 38.
+    /// Reads [`SnapAllTypes::i16v`](SnapAllTypes::i16v) (`i16v` at offset 38).
     #[inline]
     pub fn i16v(&self) -> i16 {
         ::mavwire::field::read::<i16>(self.payload, 38)
     }
 
-    /// A bitmask.
-    ///
-    /// Values: [`SnapFlags`](struct@SnapFlags). Wire: `uint32_t` at payload offset 24.
+    /// Reads [`SnapAllTypes::flags`](SnapAllTypes::flags) (`flags` at offset 24).
     #[inline]
     pub fn flags(&self) -> SnapFlags {
         SnapFlags::from_bits_retain(::mavwire::field::read::<u32>(self.payload, 24))
     }
 
-    /// Latitude.
-    ///
-    /// Units: `degE7`. Multiplier: `1E-7`. Wire: `int32_t` at payload offset 28.
+    /// Reads [`SnapAllTypes::lat`](SnapAllTypes::lat) (`lat` at offset 28).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavwire::field::read::<i32>(self.payload, 28)
     }
 
-    /// Time.
-    ///
-    /// Units: `us`. Wire: `uint64_t` at payload offset 0.
+    /// Reads [`SnapAllTypes::time_usec`](SnapAllTypes::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
         ::mavwire::field::read::<u64>(self.payload, 0)
     }
 
-    /// Signed long.
-    ///
-    /// Wire: `int64_t` at payload offset 8.
+    /// Reads [`SnapAllTypes::i64v`](SnapAllTypes::i64v) (`i64v` at offset 8).
     #[inline]
     pub fn i64v(&self) -> i64 {
         ::mavwire::field::read::<i64>(self.payload, 8)
     }
 
-    /// A Rust keyword as a field name.
-    ///
-    /// Wire: `float` at payload offset 32.
+    /// Reads [`SnapAllTypes::type`](struct@SnapAllTypes) (`type` at offset 32).
     #[inline]
     pub fn r#type(&self) -> f32 {
         ::mavwire::field::read::<f32>(self.payload, 32)
     }
 
-    /// Double.
-    ///
-    /// Wire: `double` at payload offset 16.
+    /// Reads [`SnapAllTypes::f64v`](SnapAllTypes::f64v) (`f64v` at offset 16).
     #[inline]
     pub fn f64v(&self) -> f64 {
         ::mavwire::field::read::<f64>(self.payload, 16)
     }
 
-    /// A string.
-    ///
-    /// Wire: `char[4]` at payload offset 48.
+    /// Reads [`SnapAllTypes::tag`](SnapAllTypes::tag) (`tag` at offset 48).
     #[inline]
     pub fn tag(&self) -> ::mavwire::field::CharArray<'a, 4> {
         ::mavwire::field::CharArray::new(self.payload, 48)
     }
 
-    /// An array.
-    ///
-    /// Instance field: tells apart several sources of this message. Wire: `uint16_t[3]` at
-    /// payload offset 40.
+    /// Reads [`SnapAllTypes::vals`](SnapAllTypes::vals) (`vals` at offset 40).
     #[inline]
     pub fn vals(&self) -> ::mavwire::field::ArrayView<'a, u16, 3> {
         ::mavwire::field::ArrayView::new(self.payload, 40)
     }
 
-    /// Set to the dialect version.
-    ///
-    /// Set to the dialect's MAVLink version by `Default`. Wire: `uint8_t` at payload offset 52.
+    /// Reads [`SnapAllTypes::version`](SnapAllTypes::version) (`version` at offset 52).
     #[inline]
     pub fn version(&self) -> u8 {
         ::mavwire::field::read::<u8>(self.payload, 52)
     }
 
-    /// Extension array.
-    ///
-    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `float[2]`
-    /// at payload offset 53.
+    /// Reads [`SnapAllTypes::ext_pair`](SnapAllTypes::ext_pair) (`ext_pair` at offset 53).
     #[inline]
     pub fn ext_pair(&self) -> ::mavwire::field::ArrayView<'a, f32, 2> {
         ::mavwire::field::ArrayView::new(self.payload, 53)
     }
 
-    /// camelCase name.
-    ///
-    /// XML name: `omegaIx`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent.
-    /// Wire: `uint8_t` at payload offset 61.
+    /// Reads [`SnapAllTypes::omega_ix`](SnapAllTypes::omega_ix) (`omegaIx` at offset 61).
     #[inline]
     pub fn omega_ix(&self) -> u8 {
         ::mavwire::field::read::<u8>(self.payload, 61)
@@ -703,25 +652,19 @@ impl<'a> SnapMaxIdView<'a> {
         SnapMaxId::from_view(self)
     }
 
-    /// System.
-    ///
-    /// Wire: `uint8_t` at payload offset 0.
+    /// Reads [`SnapMaxId::target_system`](SnapMaxId::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavwire::field::read::<u8>(self.payload, 0)
     }
 
-    /// Component.
-    ///
-    /// Wire: `uint8_t` at payload offset 1.
+    /// Reads [`SnapMaxId::target_component`](SnapMaxId::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavwire::field::read::<u8>(self.payload, 1)
     }
 
-    /// Longer than Default derives for.
-    ///
-    /// Wire: `uint8_t[40]` at payload offset 2.
+    /// Reads [`SnapMaxId::data`](SnapMaxId::data) (`data` at offset 2).
     #[inline]
     pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 40> {
         ::mavwire::field::ArrayView::new(self.payload, 2)
@@ -889,7 +832,7 @@ impl From<SnapMaxId> for Message {
     }
 }
 
-::mavwire::bitflags::bitflags! {
+:: mavwire::bitflags::bitflags! {
     /// A bitmask enum.
     ///
     /// MAVLink enum `SNAP_FLAGS`.

@@ -6,13 +6,20 @@ fn main() {
         env!("CARGO_MANIFEST_DIR"),
         "/../message_definitions/fbwag.xml"
     );
-    let mut config = mavgen::Config::new();
-    // FBWAG_NOTICE's system_id/component_id names are the paper's wire
-    // definition (they are hashed into CRC_EXTRA); the C-generator clash they
-    // cause is documented in docs/c-generator-name-clash.md, not fixable here.
-    config.cargo_output(true);
-    if let Err(e) = config.compile(&[xml]) {
-        eprintln!("{e}");
-        std::process::exit(1);
+    println!("cargo:rerun-if-changed={xml}");
+    // Not `cargo_output(true)`: that would also repeat, on every build, the one
+    // warning this dialect always has. FBWAG_NOTICE's system_id/component_id
+    // are the paper's wire definition (hashed into CRC_EXTRA 30); their clash
+    // with the official C generator is documented in
+    // docs/c-generator-name-clash.md and cannot be fixed here.
+    let generated = mavgen::Config::new()
+        .cargo_output(false)
+        .compile(&[xml])
+        .unwrap_or_else(|e| {
+            eprintln!("{e}");
+            std::process::exit(1);
+        });
+    for input in &generated.inputs {
+        println!("cargo:rerun-if-changed={}", input.display());
     }
 }

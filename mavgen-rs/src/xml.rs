@@ -56,7 +56,9 @@ struct Parser<'s, 'd> {
     out: XmlFile,
     stack: Vec<String>,
     in_extensions: bool,
-    text_target: Option<(Text, String, Loc)>,
+    /// Where character data goes: the target, the text so far, where the
+    /// element starts, and its nesting depth (its end closes the target).
+    text_target: Option<(Text, String, Loc, usize)>,
 }
 
 impl Parser<'_, '_> {
@@ -209,10 +211,10 @@ impl Parser<'_, '_> {
                 if let Some(m) = self.out.messages.last_mut() {
                     m.deprecated = Some(d);
                 }
-                self.text_target = Some((Text::MessageDeprecated, String::new(), loc));
+                self.collect(Text::MessageDeprecated, loc);
             }
             "mavlink.messages.message.description" => {
-                self.text_target = Some((Text::MessageDescription, String::new(), loc));
+                self.collect(Text::MessageDescription, loc);
             }
             "mavlink.messages.message.field" => {
                 let attrs = self.attrs(e, start);
@@ -252,7 +254,7 @@ impl Parser<'_, '_> {
                 if let Some(m) = self.out.messages.last_mut() {
                     m.fields.push(field);
                 }
-                self.text_target = Some((Text::Field, String::new(), loc));
+                self.collect(Text::Field, loc);
             }
             "mavlink.enums.enum" => {
                 let attrs = self.attrs(e, start);
@@ -271,14 +273,14 @@ impl Parser<'_, '_> {
                 });
             }
             "mavlink.enums.enum.description" => {
-                self.text_target = Some((Text::EnumDescription, String::new(), loc));
+                self.collect(Text::EnumDescription, loc);
             }
             "mavlink.enums.enum.deprecated" => {
                 let d = self.deprecated(e, start);
                 if let Some(en) = self.out.enums.last_mut() {
                     en.deprecated = Some(d);
                 }
-                self.text_target = Some((Text::EnumDeprecated, String::new(), loc));
+                self.collect(Text::EnumDeprecated, loc);
             }
             "mavlink.enums.enum.entry" => {
                 let attrs = self.attrs(e, start);
@@ -319,7 +321,7 @@ impl Parser<'_, '_> {
                 });
             }
             "mavlink.enums.enum.entry.description" => {
-                self.text_target = Some((Text::EntryDescription, String::new(), loc));
+                self.collect(Text::EntryDescription, loc);
             }
             "mavlink.enums.enum.entry.wip" => {
                 if let Some(en) = self.out.enums.last_mut().and_then(|e| e.entries.last_mut()) {
@@ -331,7 +333,7 @@ impl Parser<'_, '_> {
                 if let Some(en) = self.out.enums.last_mut().and_then(|e| e.entries.last_mut()) {
                     en.deprecated = Some(d);
                 }
-                self.text_target = Some((Text::EntryDeprecated, String::new(), loc));
+                self.collect(Text::EntryDeprecated, loc);
             }
             "mavlink.enums.enum.entry.param" => {
                 let attrs = self.attrs(e, start);
@@ -346,11 +348,11 @@ impl Parser<'_, '_> {
                         description: String::new(),
                     });
                 }
-                self.text_target = Some((Text::Param, String::new(), loc));
+                self.collect(Text::Param, loc);
             }
-            "mavlink.include" => self.text_target = Some((Text::Include, String::new(), loc)),
-            "mavlink.version" => self.text_target = Some((Text::Version, String::new(), loc)),
-            "mavlink.dialect" => self.text_target = Some((Text::Dialect, String::new(), loc)),
+            "mavlink.include" => self.collect(Text::Include, loc),
+            "mavlink.version" => self.collect(Text::Version, loc),
+            "mavlink.dialect" => self.collect(Text::Dialect, loc),
             _ => {}
         }
     }
@@ -369,93 +371,55 @@ impl Parser<'_, '_> {
     }
 
     fn text(&mut self, s: &str) {
-        if let Some((_, buf, _)) = &mut self.text_target {
+        if let Some((_, buf, _, _)) = &mut self.text_target {
             buf.push_str(s);
         }
     }
 
+    /// Starts collecting the text of the element just opened.
+    fn collect(&mut self, target: Text, loc: Loc) {
+        self.text_target = Some((target, String::new(), loc, self.stack.len()));
+    }
+
     fn end(&mut self) {
-        let path = self.path();
+        let depth = self.stack.len();
         self.stack.pop();
-        let Some((target, text, loc)) = self.text_target.take() else {
-            return;
-        };
-        // Only the element that opened the text target closes it; a nested
-        // element (none in valid files) keeps collecting into its parent.
-        let closes = matches!(
-            (target, path.as_str()),
-            (
-                Text::MessageDescription,
-                "mavlink.messages.message.description"
-            ) | (
-                Text::MessageDeprecated,
-                "mavlink.messages.message.deprecated"
-            ) | (Text::Field, "mavlink.messages.message.field")
-                | (Text::EnumDescription, "mavlink.enums.enum.description")
-                | (Text::EnumDeprecated, "mavlink.enums.enum.deprecated")
-                | (
-                    Text::EntryDescription,
-                    "mavlink.enums.enum.entry.description"
-                )
-                | (Text::EntryDeprecated, "mavlink.enums.enum.entry.deprecated")
-                | (Text::Param, "mavlink.enums.enum.entry.param")
-                | (Text::Include, "mavlink.include")
-                | (Text::Version, "mavlink.version")
-                | (Text::Dialect, "mavlink.dialect")
-        );
-        if !closes {
-            self.text_target = Some((target, text, loc));
+        // Only the element that opened the target closes it; text of nested
+        // elements (`<b>` in a description) is kept in its parent's text.
+        if !matches!(self.text_target, Some((_, _, _, d)) if d == depth) {
             return;
         }
+        let Some((target, text, loc, _)) = self.text_target.take() else {
+            return;
+        };
         let msg = self.out.messages.last_mut();
         let en = self.out.enums.last_mut();
+        let slot: Option<&mut String> = match target {
+            Text::MessageDescription => msg.map(|m| &mut m.description),
+            Text::MessageDeprecated => msg.and_then(|m| m.deprecated.as_mut()).map(|d| &mut d.text),
+            Text::Field => msg
+                .and_then(|m| m.fields.last_mut())
+                .map(|f| &mut f.description),
+            Text::EnumDescription => en.map(|e| &mut e.description),
+            Text::EnumDeprecated => en.and_then(|e| e.deprecated.as_mut()).map(|d| &mut d.text),
+            Text::EntryDescription => en
+                .and_then(|e| e.entries.last_mut())
+                .map(|e| &mut e.description),
+            Text::EntryDeprecated => en
+                .and_then(|e| e.entries.last_mut())
+                .and_then(|e| e.deprecated.as_mut())
+                .map(|d| &mut d.text),
+            Text::Param => en
+                .and_then(|e| e.entries.last_mut())
+                .and_then(|e| e.params.last_mut())
+                .map(|p| &mut p.description),
+            Text::Include | Text::Version | Text::Dialect => None,
+        };
+        if let Some(slot) = slot {
+            *slot = text;
+            return;
+        }
         match target {
-            Text::MessageDescription => {
-                if let Some(m) = msg {
-                    m.description = text;
-                }
-            }
-            Text::MessageDeprecated => {
-                if let Some(d) = msg.and_then(|m| m.deprecated.as_mut()) {
-                    d.text = text;
-                }
-            }
-            Text::Field => {
-                if let Some(f) = msg.and_then(|m| m.fields.last_mut()) {
-                    f.description = text;
-                }
-            }
-            Text::EnumDescription => {
-                if let Some(e) = en {
-                    e.description = text;
-                }
-            }
-            Text::EnumDeprecated => {
-                if let Some(d) = en.and_then(|e| e.deprecated.as_mut()) {
-                    d.text = text;
-                }
-            }
-            Text::EntryDescription => {
-                if let Some(e) = en.and_then(|e| e.entries.last_mut()) {
-                    e.description = text;
-                }
-            }
-            Text::EntryDeprecated => {
-                if let Some(d) = en
-                    .and_then(|e| e.entries.last_mut())
-                    .and_then(|e| e.deprecated.as_mut())
-                {
-                    d.text = text;
-                }
-            }
-            Text::Param => {
-                if let Some(p) = en
-                    .and_then(|e| e.entries.last_mut())
-                    .and_then(|e| e.params.last_mut())
-                {
-                    p.description = text;
-                }
-            }
             Text::Include => {
                 let name = text.trim().to_string();
                 if name.is_empty() {
@@ -481,6 +445,8 @@ impl Parser<'_, '_> {
                     format!("<dialect> `{}` is not a non-negative integer", text.trim()),
                 ),
             },
+            // Stored through `slot` above.
+            _ => {}
         }
     }
 }

@@ -791,6 +791,12 @@ impl Gen<'_> {
             None => quote!(None),
         };
         let (ts, tc) = (opt(layout.target_system), opt(layout.target_component));
+        let field_metas = layout.order.iter().map(|&i| {
+            let f = &m.fields[i];
+            let (fname, ty) = (f.name.as_str(), format_ident!("{}", f.primitive.field_type()));
+            let (n, off, ext) = (lit(f.array_len.unwrap_or(0) as u64), lit(layout.offsets[i] as u64), f.extension);
+            quote!(#rt::FieldMeta { name: #fname, ty: #rt::FieldType::#ty, array_len: #n, offset: #off, extension: #ext })
+        });
 
         let mut mdoc = doc_lines(&m.description, DOC_WIDTH);
         if mdoc.is_empty() {
@@ -1002,6 +1008,7 @@ impl Gen<'_> {
                     max_len: Self::MAX_LEN as u8,
                     target_system_offset: #ts,
                     target_component_offset: #tc,
+                    fields: &[ #(#field_metas),* ],
                 };
 
                 /// Reads a payload of any length (missing bytes read as zero).

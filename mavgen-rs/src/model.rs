@@ -80,6 +80,23 @@ impl Primitive {
         }
     }
 
+    /// The variant name of `mavwire::FieldType`.
+    pub fn field_type(self) -> &'static str {
+        match self {
+            Primitive::Char => "Char",
+            Primitive::U8 => "U8",
+            Primitive::I8 => "I8",
+            Primitive::U16 => "U16",
+            Primitive::I16 => "I16",
+            Primitive::U32 => "U32",
+            Primitive::I32 => "I32",
+            Primitive::U64 => "U64",
+            Primitive::I64 => "I64",
+            Primitive::F32 => "F32",
+            Primitive::F64 => "F64",
+        }
+    }
+
     /// The Rust type (`char` is a byte).
     pub fn rust_name(self) -> &'static str {
         match self {

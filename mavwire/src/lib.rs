@@ -11,10 +11,15 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod crc;
 pub mod field;
+pub mod frame;
 pub mod message;
+pub mod signing;
 
-pub use message::{BufferTooSmall, Dialect, Message, MessageMeta};
+pub use frame::{encode, Frame, FrameError, Header, Version};
+pub use message::{BufferTooSmall, Dialect, FieldMeta, FieldType, Message, MessageMeta};
+pub use signing::{Signer, Verifier};
 
 /// Re-exported for generated bitmask enums, so dialect crates need no direct
 /// dependency on it.

@@ -25,6 +25,90 @@ impl fmt::Display for BufferTooSmall {
 #[cfg(feature = "std")]
 impl std::error::Error for BufferTooSmall {}
 
+/// The wire type of a field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FieldType {
+    /// `char`: one byte; `char[N]` is a NUL-padded string.
+    Char,
+    /// `uint8_t`
+    U8,
+    /// `int8_t`
+    I8,
+    /// `uint16_t`
+    U16,
+    /// `int16_t`
+    I16,
+    /// `uint32_t`
+    U32,
+    /// `int32_t`
+    I32,
+    /// `uint64_t`
+    U64,
+    /// `int64_t`
+    I64,
+    /// `float`
+    F32,
+    /// `double`
+    F64,
+}
+
+impl FieldType {
+    /// Bytes of one element on the wire.
+    pub const fn size(self) -> usize {
+        match self {
+            FieldType::Char | FieldType::U8 | FieldType::I8 => 1,
+            FieldType::U16 | FieldType::I16 => 2,
+            FieldType::U32 | FieldType::I32 | FieldType::F32 => 4,
+            FieldType::U64 | FieldType::I64 | FieldType::F64 => 8,
+        }
+    }
+
+    /// The C name used in MAVLink XML (`uint16_t`, `float`, …).
+    pub const fn c_name(self) -> &'static str {
+        match self {
+            FieldType::Char => "char",
+            FieldType::U8 => "uint8_t",
+            FieldType::I8 => "int8_t",
+            FieldType::U16 => "uint16_t",
+            FieldType::I16 => "int16_t",
+            FieldType::U32 => "uint32_t",
+            FieldType::I32 => "int32_t",
+            FieldType::U64 => "uint64_t",
+            FieldType::I64 => "int64_t",
+            FieldType::F32 => "float",
+            FieldType::F64 => "double",
+        }
+    }
+}
+
+/// Where one field sits in a payload: enough to read or write any message
+/// generically (JSON tools, routers, fuzzers) without per-message code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct FieldMeta {
+    /// Name as in the XML.
+    pub name: &'static str,
+    /// Element type.
+    pub ty: FieldType,
+    /// Elements: 0 for a scalar, `N` for `type[N]`.
+    pub array_len: u8,
+    /// Payload offset of the first element.
+    pub offset: u8,
+    /// Declared after `<extensions/>` (not sent in MAVLink 1).
+    pub extension: bool,
+}
+
+impl FieldMeta {
+    /// Bytes on the wire.
+    pub const fn wire_len(&self) -> usize {
+        self.ty.size()
+            * if self.array_len == 0 {
+                1
+            } else {
+                self.array_len as usize
+            }
+    }
+}
+
 /// Wire facts of one message: one row of a dialect's table (the C library's
 /// `mavlink_msg_entry_t`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -44,6 +128,8 @@ pub struct MessageMeta {
     pub target_system_offset: Option<u8>,
     /// Offset of the `target_component` field in the payload, for routing.
     pub target_component_offset: Option<u8>,
+    /// The fields in wire order.
+    pub fields: &'static [FieldMeta],
 }
 
 /// An owned message of a generated dialect.

@@ -15,10 +15,12 @@ pub mod crc;
 pub mod field;
 pub mod frame;
 pub mod message;
+pub mod parser;
 pub mod signing;
 
 pub use frame::{encode, Frame, FrameError, Header, Version};
 pub use message::{BufferTooSmall, Dialect, FieldMeta, FieldType, Message, MessageMeta};
+pub use parser::{Parser, Received};
 pub use signing::{Signer, Verifier};
 
 /// Re-exported for generated bitmask enums, so dialect crates need no direct

@@ -3091,6 +3091,92 @@ impl SensorOffsets {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "mag_declination",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "raw_press",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "raw_temp",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gyro_cal_x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gyro_cal_y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gyro_cal_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "accel_cal_x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "accel_cal_y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "accel_cal_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mag_ofs_x",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mag_ofs_y",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 38,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mag_ofs_z",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -3396,6 +3482,43 @@ impl SetMagOffsets {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(6),
         target_component_offset: Some(7),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "mag_ofs_x",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mag_ofs_y",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mag_ofs_z",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -3595,6 +3718,29 @@ impl Meminfo {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "brkval",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "freemem",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "freemem32",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 4,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -3777,6 +3923,50 @@ impl ApAdc {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "adc1",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "adc2",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "adc3",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "adc4",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "adc5",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "adc6",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -4022,6 +4212,85 @@ impl DigicamConfigure {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(6),
         target_component_offset: Some(7),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "extra_value",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "shutter_speed",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mode",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "aperture",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 9,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "iso",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "exposure_type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 11,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "command_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "engine_cut_off",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 13,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "extra_param",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 14,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -4333,6 +4602,78 @@ impl DigicamControl {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(4),
         target_component_offset: Some(5),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "extra_value",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "session",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "zoom_pos",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "zoom_step",
+                ty: ::mavwire::FieldType::I8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "focus_lock",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 9,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "shot",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "command_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 11,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "extra_param",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -4614,6 +4955,50 @@ impl MountConfigure {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mount_mode",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "stab_roll",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 3,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "stab_pitch",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "stab_yaw",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -4841,6 +5226,50 @@ impl MountControl {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(12),
         target_component_offset: Some(13),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "input_a",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "input_b",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "input_c",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 13,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "save_position",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 14,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -5066,6 +5495,50 @@ impl MountStatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(12),
         target_component_offset: Some(13),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "pointing_a",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pointing_b",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pointing_c",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 13,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mount_mode",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 14,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -5293,6 +5766,50 @@ impl FencePoint {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(8),
         target_component_offset: Some(9),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lng",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 9,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "idx",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 11,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -5505,6 +6022,29 @@ impl FenceFetchPoint {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "idx",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -5691,6 +6231,57 @@ impl Ahrs {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "omegaIx",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "omegaIy",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "omegaIz",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "accel_weight",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "renorm_val",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "error_rp",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "error_yaw",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -5949,6 +6540,85 @@ impl Simstate {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "roll",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pitch",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "yaw",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "xacc",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "yacc",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "zacc",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "xgyro",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "ygyro",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "zgyro",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lng",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -6229,6 +6899,22 @@ impl Hwstatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "Vcc",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "I2Cerr",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -6401,6 +7087,57 @@ impl Radio {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "rxerrors",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "fixed",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rssi",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "remrssi",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "txbuf",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "noise",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "remnoise",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -6651,6 +7388,71 @@ impl LimitsStatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "last_trigger",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "last_action",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "last_recovery",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "last_clear",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "breach_count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "limits_state",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 18,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mods_enabled",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 19,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mods_required",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mods_triggered",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 21,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -6905,6 +7707,29 @@ impl Wind {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "direction",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "speed",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "speed_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -7075,6 +7900,29 @@ impl Data16 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "len",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 16,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -7245,6 +8093,29 @@ impl Data32 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "len",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 32,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -7415,6 +8286,29 @@ impl Data64 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "len",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 64,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -7595,6 +8489,29 @@ impl Data96 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "len",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 96,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -7771,6 +8688,22 @@ impl Rangefinder {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "distance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -7963,6 +8896,92 @@ impl AirspeedAutocal {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "vx",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "vy",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "vz",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "diff_pressure",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "EAS2TAS",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "ratio",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "state_x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "state_y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "state_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "Pax",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "Pby",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "Pcz",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 44,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -8288,6 +9307,78 @@ impl RallyPoint {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(14),
         target_component_offset: Some(15),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lng",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "alt",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "break_alt",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "land_dir",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 14,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 15,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "idx",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 17,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "flags",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 18,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -8557,6 +9648,29 @@ impl RallyFetchPoint {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "idx",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -8739,6 +9853,50 @@ impl CompassmotStatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "CompensationX",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "CompensationY",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "CompensationZ",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "throttle",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "interference",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 18,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -8963,6 +10121,50 @@ impl Ahrs2 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "roll",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pitch",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "yaw",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "altitude",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lng",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -9200,6 +10402,71 @@ impl CameraStatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(26),
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_usec",
+                ty: ::mavwire::FieldType::U64,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "p1",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "p2",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "p3",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "p4",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "img_idx",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 26,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cam_idx",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 27,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "event_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -9501,6 +10768,106 @@ impl CameraFeedback {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(42),
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_usec",
+                ty: ::mavwire::FieldType::U64,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lng",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "alt_msl",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "alt_rel",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "roll",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pitch",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "yaw",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "foc_len",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "img_idx",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 42,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cam_idx",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 43,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "flags",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 44,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "completed_captures",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 45,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -9822,6 +11189,22 @@ impl Battery2 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current_battery",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -10006,6 +11389,78 @@ impl Ahrs3 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "roll",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pitch",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "yaw",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "altitude",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lng",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "v1",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "v2",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "v3",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "v4",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -10270,6 +11725,22 @@ impl AutopilotVersionRequest {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -10431,6 +11902,36 @@ impl RemoteLogDataBlock {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(4),
         target_component_offset: Some(5),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "seqno",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 200,
+                offset: 6,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -10633,6 +12134,36 @@ impl RemoteLogBlockStatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(4),
         target_component_offset: Some(5),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "seqno",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -10831,6 +12362,50 @@ impl LedControl {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "instance",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pattern",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 3,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "custom_len",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "custom_bytes",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 24,
+                offset: 5,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -11069,6 +12644,71 @@ impl MagCalProgress {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "direction_x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "direction_y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "direction_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "compass_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cal_mask",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 13,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cal_status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 14,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "attempt",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 15,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "completion_pct",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "completion_mask",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 10,
+                offset: 17,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -11343,6 +12983,57 @@ impl EkfStatusReport {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "velocity_variance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pos_horiz_variance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pos_vert_variance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "compass_variance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "terrain_alt_variance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "flags",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "airspeed_variance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 22,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -11596,6 +13287,71 @@ impl PidTuning {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "desired",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "achieved",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "FF",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "P",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "I",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "D",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "axis",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "SRate",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 25,
+                extension: true,
+            },
+            ::mavwire::FieldMeta {
+                name: "PDmod",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 29,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -11878,6 +13634,78 @@ impl Deepstall {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "landing_lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "landing_lon",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "path_lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "path_lon",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "arc_entry_lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "arc_entry_lon",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "altitude",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "expected_travel_distance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cross_track_error",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "stage",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -12182,6 +14010,92 @@ impl GimbalReport {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(40),
         target_component_offset: Some(41),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "delta_time",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "delta_angle_x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "delta_angle_y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "delta_angle_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "delta_velocity_x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "delta_velocity_y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "delta_velocity_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "joint_roll",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "joint_el",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "joint_az",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 41,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -12486,6 +14400,43 @@ impl GimbalControl {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(12),
         target_component_offset: Some(13),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "demanded_rate_x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "demanded_rate_y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "demanded_rate_z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 13,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -12692,6 +14643,43 @@ impl GimbalTorqueCmdReport {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(6),
         target_component_offset: Some(7),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "rl_torque_cmd",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "el_torque_cmd",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "az_torque_cmd",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -12893,6 +14881,29 @@ impl GoproHeartbeat {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "capture_mode",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "flags",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -13065,6 +15076,29 @@ impl GoproGetRequest {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cmd_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -13236,6 +15270,29 @@ impl GoproGetResponse {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "cmd_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "value",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -13410,6 +15467,36 @@ impl GoproSetRequest {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cmd_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "value",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 3,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -13591,6 +15678,22 @@ impl GoproSetResponse {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "cmd_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -13743,6 +15846,22 @@ impl Rpm {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "rpm1",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm2",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -13929,6 +16048,78 @@ impl DeviceOpRead {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(4),
         target_component_offset: Some(5),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bustype",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bus",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "address",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "busname",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 40,
+                offset: 9,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "regstart",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 49,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 50,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bank",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 51,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -14227,6 +16418,50 @@ impl DeviceOpReadReply {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "result",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "regstart",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 128,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bank",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 135,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -14486,6 +16721,85 @@ impl DeviceOpWrite {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(4),
         target_component_offset: Some(5),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bustype",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bus",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "address",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "busname",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 40,
+                offset: 9,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "regstart",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 49,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 50,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 128,
+                offset: 51,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bank",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 179,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -14782,6 +17096,22 @@ impl DeviceOpWriteReply {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "result",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -14960,6 +17290,57 @@ impl SecureCommand {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(8),
         target_component_offset: Some(9),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "sequence",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "operation",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 9,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data_length",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "sig_length",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 11,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 220,
+                offset: 12,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -15210,6 +17591,43 @@ impl SecureCommandReply {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "sequence",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "operation",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "result",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data_length",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 9,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 220,
+                offset: 10,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -15461,6 +17879,99 @@ impl AdapTuning {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "desired",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "achieved",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "error",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "theta",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "omega",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "sigma",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "theta_dot",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "omega_dot",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "sigma_dot",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "f",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "f_dot",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "u",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 44,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "axis",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 48,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -15781,6 +18292,43 @@ impl VisionPositionDelta {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_usec",
+                ty: ::mavwire::FieldType::U64,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "time_delta_usec",
+                ty: ::mavwire::FieldType::U64,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "angle_delta",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 3,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "position_delta",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 3,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "confidence",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -15979,6 +18527,29 @@ impl AoaSsa {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_usec",
+                ty: ::mavwire::FieldType::U64,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "AOA",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "SSA",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -16161,6 +18732,50 @@ impl EscTelemetry1To4 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -16385,6 +19000,50 @@ impl EscTelemetry5To8 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -16609,6 +19268,50 @@ impl EscTelemetry9To12 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -16852,6 +19555,78 @@ impl OsdParamConfig {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(16),
         target_component_offset: Some(17),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "min_value",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max_value",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "increment",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 17,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "osd_screen",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 18,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "osd_index",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 19,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "param_id",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 16,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "config_type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -17117,6 +19892,22 @@ impl OsdParamConfigReply {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "result",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -17281,6 +20072,43 @@ impl OsdParamShowConfig {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(4),
         target_component_offset: Some(5),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "osd_screen",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "osd_index",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -17499,6 +20327,57 @@ impl OsdParamShowConfigReply {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "request_id",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "min_value",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max_value",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "increment",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "result",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "param_id",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 16,
+                offset: 17,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "config_type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 33,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -17753,6 +20632,71 @@ impl ObstacleDistance3d {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_boot_ms",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "x",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "y",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "z",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "min_distance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max_distance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "obstacle_id",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "sensor_type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 26,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "frame",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 27,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -18042,6 +20986,85 @@ impl WaterDepth {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_boot_ms",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lng",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "alt",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "roll",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "pitch",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "yaw",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "distance",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "healthy",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 37,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -18334,6 +21357,43 @@ impl McuStatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "MCU_temperature",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "MCU_voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "MCU_voltage_min",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "MCU_voltage_max",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -18544,6 +21604,50 @@ impl EscTelemetry13To16 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -18768,6 +21872,50 @@ impl EscTelemetry17To20 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -18992,6 +22140,50 @@ impl EscTelemetry21To24 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -19216,6 +22408,50 @@ impl EscTelemetry25To28 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -19440,6 +22676,50 @@ impl EscTelemetry29To32 {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "voltage",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "current",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "totalcurrent",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rpm",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "count",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 4,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "temperature",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 4,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -19655,6 +22935,29 @@ impl NamedValueString {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_boot_ms",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "name",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 10,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "value",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 64,
+                offset: 14,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

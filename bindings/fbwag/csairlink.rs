@@ -91,6 +91,22 @@ impl AirlinkAuth {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "login",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 50,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "password",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 50,
+                offset: 50,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -249,6 +265,15 @@ impl AirlinkAuthResponse {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "resp_type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

@@ -31,6 +31,15 @@ impl CubepilotRawRc {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "rc_raw",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 32,
+                offset: 0,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -194,6 +203,64 @@ impl HerelinkVideoStreamInformation {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "framerate",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "bitrate",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "resolution_h",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "resolution_v",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rotation",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "camera_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 14,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 15,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "uri",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 230,
+                offset: 16,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -465,6 +532,57 @@ impl HerelinkTelem {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "rf_freq",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "link_bw",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "link_rate",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "snr",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "cpu_temp",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 14,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "board_temp",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rssi",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 18,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -695,6 +813,36 @@ impl CubepilotFirmwareUpdateStart {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(8),
         target_component_offset: Some(9),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "size",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "crc",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 9,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -879,6 +1027,29 @@ impl CubepilotFirmwareUpdateResp {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(4),
         target_component_offset: Some(5),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "offset",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

@@ -113,6 +113,43 @@ impl FbwagNotice {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "timestamp",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "system_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "component_id",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "failsafe_status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "text",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 5,
+                offset: 7,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

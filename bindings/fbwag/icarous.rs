@@ -159,6 +159,15 @@ impl IcarousHeartbeat {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -356,6 +365,120 @@ impl IcarousKinematicBands {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "min1",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max1",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "min2",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max2",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "min3",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max3",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "min4",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max4",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "min5",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "max5",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "numBands",
+                ty: ::mavwire::FieldType::I8,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "type1",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 41,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "type2",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 42,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "type3",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 43,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "type4",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 44,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "type5",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 45,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

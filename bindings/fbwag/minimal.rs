@@ -1018,6 +1018,50 @@ impl Heartbeat {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "custom_mode",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "type",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "autopilot",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "base_mode",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "system_status",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mavlink_version",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

@@ -564,6 +564,64 @@ impl UavionixAdsbOutCfg {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "ICAO",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "stallSpeed",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "callsign",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 9,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "emitterType",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 15,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "aircraftSize",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gpsOffsetLat",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 17,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gpsOffsetLon",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 18,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "rfSelect",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 19,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -872,6 +930,120 @@ impl UavionixAdsbOutDynamic {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "utcTime",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gpsLat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gpsLon",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gpsAlt",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 12,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "baroAltMSL",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "accuracyHor",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 20,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "accuracyVert",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "accuracyVel",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 26,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "velVert",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "velNS",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 30,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "VelEW",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "state",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 34,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "squawk",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "gpsFix",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 38,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "numSats",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 39,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "emergencyStatus",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 40,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -1223,6 +1395,15 @@ impl UavionixAdsbTransceiverHealthReport {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "rfHealth",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -1360,6 +1541,15 @@ impl UavionixAdsbOutCfgRegistration {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "registration",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 9,
+                offset: 0,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -1496,6 +1686,15 @@ impl UavionixAdsbOutCfgFlightid {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "flight_id",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 9,
+                offset: 0,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -1630,6 +1829,15 @@ impl UavionixAdsbGet {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "ReqMessageId",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -1790,6 +1998,50 @@ impl UavionixAdsbOutControl {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "baroAltMSL",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "squawk",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "state",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "emergencyStatus",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 7,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "flight_id",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 8,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "x_bit",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -2027,6 +2279,50 @@ impl UavionixAdsbOutStatus {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "squawk",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "state",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "NIC_NACp",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 3,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "boardTemp",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "fault",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 5,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "flight_id",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 8,
+                offset: 6,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

@@ -211,6 +211,113 @@ impl SnapAllTypes {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: None,
         target_component_offset: None,
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "time_usec",
+                ty: ::mavwire::FieldType::U64,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "i64v",
+                ty: ::mavwire::FieldType::I64,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "f64v",
+                ty: ::mavwire::FieldType::F64,
+                array_len: 0,
+                offset: 16,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "flags",
+                ty: ::mavwire::FieldType::U32,
+                array_len: 0,
+                offset: 24,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "lat",
+                ty: ::mavwire::FieldType::I32,
+                array_len: 0,
+                offset: 28,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "type",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 0,
+                offset: 32,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "mode",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 0,
+                offset: 36,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "i16v",
+                ty: ::mavwire::FieldType::I16,
+                array_len: 0,
+                offset: 38,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "vals",
+                ty: ::mavwire::FieldType::U16,
+                array_len: 3,
+                offset: 40,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "u8v",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 46,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "i8v",
+                ty: ::mavwire::FieldType::I8,
+                array_len: 0,
+                offset: 47,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "tag",
+                ty: ::mavwire::FieldType::Char,
+                array_len: 4,
+                offset: 48,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "version",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 52,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "ext_pair",
+                ty: ::mavwire::FieldType::F32,
+                array_len: 2,
+                offset: 53,
+                extension: true,
+            },
+            ::mavwire::FieldMeta {
+                name: "omegaIx",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 61,
+                extension: true,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).
@@ -572,6 +679,29 @@ impl SnapMaxId {
         max_len: Self::MAX_LEN as u8,
         target_system_offset: Some(0),
         target_component_offset: Some(1),
+        fields: &[
+            ::mavwire::FieldMeta {
+                name: "target_system",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "target_component",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 0,
+                offset: 1,
+                extension: false,
+            },
+            ::mavwire::FieldMeta {
+                name: "data",
+                ty: ::mavwire::FieldType::U8,
+                array_len: 40,
+                offset: 2,
+                extension: false,
+            },
+        ],
     };
 
     /// Reads a payload of any length (missing bytes read as zero).

@@ -405,7 +405,7 @@ pub fn finish(
             let crc = frame_crc(&out[1..crc_at], meta.crc_extra);
             out[crc_at..crc_at + 2].copy_from_slice(&crc.to_le_bytes());
             if let Some(signer) = signer {
-                signer.sign(&mut out[..total]);
+                signer.sign_frame(&mut out[..total]);
             }
             Ok(total)
         }

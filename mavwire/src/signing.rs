@@ -82,9 +82,14 @@ impl Signer {
         self.link_id
     }
 
-    /// Fills the last 13 bytes of `frame` (a MAVLink 2 frame with the signed
-    /// flag set) with the signature block, then advances the timestamp.
-    pub(crate) fn sign(&mut self, frame: &mut [u8]) {
+    /// Fills the last 13 bytes of `frame` (a whole MAVLink 2 frame with the
+    /// signed flag set and its checksum written) with the signature block,
+    /// then advances the timestamp. Frames shorter than a signature block are
+    /// left alone.
+    pub fn sign_frame(&mut self, frame: &mut [u8]) {
+        if frame.len() < SIGNATURE_LEN {
+            return;
+        }
         let at = frame.len() - SIGNATURE_LEN;
         let ts = self.timestamp.to_le_bytes();
         let sig = signature(&self.key, &frame[..at], self.link_id, self.timestamp);

@@ -25,3 +25,7 @@ RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
 
 step "cargo test"
 cargo test --workspace --locked
+
+step "no_std and filtered builds of fbwag-dialect"
+cargo build -p fbwag-dialect --no-default-features --locked
+cargo test -p fbwag-dialect --no-default-features --features cc-subset --locked

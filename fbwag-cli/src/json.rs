@@ -382,13 +382,38 @@ pub fn json_to_frame(
         _ => None,
     };
     let canonical = payload_len.is_none() && compat == 0 && verbatim_sig.is_none();
-    if version == Version::V1 || canonical {
-        let signer = if version == Version::V2 {
-            opts.signer.as_deref_mut()
-        } else {
-            None
-        };
-        return frame::finish(version, header, meta, max, signer, out).map_err(|e| e.to_string());
+    if version == Version::V1 {
+        if meta.id > 255 {
+            return Err(format!(
+                "{} (id {}) cannot be sent as MAVLink 1",
+                meta.name, meta.id
+            ));
+        }
+        // pymavlink's MAVLink 1 frames carry extension fields (C's do not):
+        // `payload_len` says how many bytes this one had.
+        let len = payload_len.unwrap_or(meta.min_len as usize);
+        if len > max {
+            return Err(format!(
+                "payload_len {len} exceeds {}'s {max} bytes",
+                meta.name
+            ));
+        }
+        let total = HEADER_LEN_V1 + len + 2;
+        out[..HEADER_LEN_V1].copy_from_slice(&[
+            0xFE,
+            len as u8,
+            header.seq,
+            header.sysid,
+            header.compid,
+            meta.id as u8,
+        ]);
+        let crc = frame_crc(&out[1..HEADER_LEN_V1 + len], meta.crc_extra);
+        out[HEADER_LEN_V1 + len..total].copy_from_slice(&crc.to_le_bytes());
+        return Ok(total);
+    }
+    if canonical {
+        return frame::finish(version, header, meta, max, opts.signer.as_deref_mut(), out)
+            .map_err(|e| e.to_string());
     }
     // Reproduce exactly what the JSON says: length, flags, signature block.
     let len = payload_len.unwrap_or_else(|| truncated_len(&out[start..start + max]));

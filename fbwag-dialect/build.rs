@@ -24,14 +24,21 @@ const CC_SUBSET: &[&str] = &[
 ];
 
 fn main() {
-    let xml = concat!(env!("CARGO_MANIFEST_DIR"), "/../message_definitions/fbwag.xml");
+    let xml = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../message_definitions/fbwag.xml"
+    );
     println!("cargo:rerun-if-changed={xml}");
     println!("cargo:rerun-if-env-changed=FBWAG_DIALECT_MESSAGES");
     let mut config = mavgen::Config::new();
-    let env_list = std::env::var("FBWAG_DIALECT_MESSAGES").ok().filter(|s| !s.trim().is_empty());
+    let env_list = std::env::var("FBWAG_DIALECT_MESSAGES")
+        .ok()
+        .filter(|s| !s.trim().is_empty());
     let filter: Option<Vec<String>> = match env_list {
         Some(list) => Some(list.split(',').map(|s| s.trim().to_string()).collect()),
-        None if std::env::var_os("CARGO_FEATURE_CC_SUBSET").is_some() => Some(CC_SUBSET.iter().map(|s| s.to_string()).collect()),
+        None if std::env::var_os("CARGO_FEATURE_CC_SUBSET").is_some() => {
+            Some(CC_SUBSET.iter().map(|s| s.to_string()).collect())
+        }
         None => None,
     };
     if let Some(mut names) = filter {
@@ -47,10 +54,13 @@ fn main() {
     // are the paper's wire definition (hashed into CRC_EXTRA 30); their clash
     // with the official C generator is documented in
     // docs/c-generator-name-clash.md and cannot be fixed here.
-    let generated = config.cargo_output(false).compile(&[xml]).unwrap_or_else(|e| {
-        eprintln!("{e}");
-        std::process::exit(1);
-    });
+    let generated = config
+        .cargo_output(false)
+        .compile(&[xml])
+        .unwrap_or_else(|e| {
+            eprintln!("{e}");
+            std::process::exit(1);
+        });
     for input in &generated.inputs {
         println!("cargo:rerun-if-changed={}", input.display());
     }

@@ -17,14 +17,18 @@ python="$(bash scripts/python-env.sh)"
 step "cargo fmt --check"
 cargo fmt --all -- --check
 
-step "cargo clippy -D warnings"
+step "cargo clippy -D warnings (default features, then all: serial, tokio)"
 cargo clippy --workspace --all-targets --locked -- -D warnings
+cargo clippy --workspace --all-targets --all-features --locked -- -D warnings
 
 step "cargo doc -D warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
 
 step "cargo test"
 cargo test --workspace --locked
+
+step "mavwire with every feature (serial over a pseudo-terminal, tokio)"
+cargo test -p mavwire --all-features --locked
 
 step "no_std and filtered builds of fbwag-dialect"
 cargo build -p fbwag-dialect --no-default-features --locked

@@ -127,7 +127,6 @@ fn decode(file: Option<PathBuf>, hex: bool, tlog: bool) -> Result<bool, String> 
     while let Some(r) = parser.flush() {
         emit(json::frame_to_json(&r.frame, r.meta, None))?;
     }
-    drop(emit);
     out.flush().map_err(|e| format!("cannot write: {e}"))?;
     let s = parser.stats();
     let mut summary = format!(

@@ -10,7 +10,13 @@ use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice, MESSAGES};
 fn only_the_cc_messages_are_generated() {
     let names: Vec<&str> = MESSAGES.iter().map(|m| m.name).collect();
     assert_eq!(names.len(), 12, "{names:?}");
-    for n in ["HEARTBEAT", "FBWAG_NOTICE", "RC_CHANNELS_OVERRIDE", "SET_ATTITUDE_TARGET", "STATUSTEXT"] {
+    for n in [
+        "HEARTBEAT",
+        "FBWAG_NOTICE",
+        "RC_CHANNELS_OVERRIDE",
+        "SET_ATTITUDE_TARGET",
+        "STATUSTEXT",
+    ] {
         assert!(names.contains(&n), "{n} missing");
     }
     assert!(!names.contains(&"SCALED_IMU"));

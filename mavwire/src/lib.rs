@@ -2,8 +2,13 @@
 //!
 //! Generated code depends on this crate only: field codecs that read
 //! little-endian values in place from (possibly truncated) payloads, and the
-//! [`Message`] and [`Dialect`] traits with their table rows. It is `no_std`
-//! and allocates nothing; the `std` feature adds `std::error::Error` impls.
+//! [`Message`] and [`Dialect`] traits with their table rows. On top of them:
+//! MAVLink 1/2 [`frame`]s, the [`crc`], [`signing`], and the streaming
+//! [`parser`]. All of that is `no_std` and allocates nothing.
+//!
+//! Features: `std` adds the blocking transports and connection strings
+//! (`conn`: UDP, TCP, via mio) and `std::error::Error` impls; `serial` adds
+//! serial ports (serialport crate); `tokio` adds async UDP and TCP.
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -11,6 +16,8 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+#[cfg(feature = "std")]
+pub mod conn;
 pub mod crc;
 pub mod field;
 pub mod frame;
@@ -18,6 +25,8 @@ pub mod message;
 pub mod parser;
 pub mod signing;
 
+#[cfg(feature = "std")]
+pub use conn::{Connection, Endpoint, ReceivedFrame, Transport};
 pub use frame::{encode, Frame, FrameError, Header, Version};
 pub use message::{BufferTooSmall, Dialect, FieldMeta, FieldType, Message, MessageMeta};
 pub use parser::{Parser, Received};

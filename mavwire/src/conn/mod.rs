@@ -1,0 +1,485 @@
+//! Links to other MAVLink systems (feature `std`): MAVProxy-style
+//! connection strings, blocking byte transports (UDP, TCP client and
+//! server, serial with feature `serial`), and [`Connection`], which frames
+//! messages over a transport and parses what comes back. Feature `tokio`
+//! adds `conn::tokio::AsyncConnection` (UDP and TCP client).
+//!
+//! ```no_run
+//! # use mavwire::{Dialect, MessageMeta};
+//! # struct MyDialect; impl Dialect for MyDialect { type Message = (); type View<'a> = ();
+//! #   const MESSAGES: &'static [MessageMeta] = &[];
+//! #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
+//! use mavwire::conn::{Connection, Endpoint};
+//! use std::time::Duration;
+//!
+//! let endpoint: Endpoint = "udpin:0.0.0.0:14550".parse()?;
+//! let mut link = Connection::<MyDialect>::open(&endpoint)?;
+//! while let Some(received) = link.recv(Some(Duration::from_secs(1)))? {
+//!     println!("{:?} {:?}", received.frame(), received.message());
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod endpoint;
+#[cfg(feature = "serial")]
+mod serial;
+mod tcp;
+#[cfg(test)]
+mod test_dialect;
+#[cfg(feature = "tokio")]
+pub mod tokio;
+mod transport;
+mod udp;
+
+pub use endpoint::{Endpoint, ParseEndpointError, DEFAULT_BAUD};
+#[cfg(feature = "serial")]
+pub use serial::{Serial, WRITE_TIMEOUT as SERIAL_WRITE_TIMEOUT};
+pub use tcp::{TcpClient, TcpServer, MAX_PENDING_OUTPUT};
+pub use transport::{open, AnyTransport, Transport};
+pub use udp::{UdpIn, UdpOut};
+
+use crate::frame::{encode, Frame, Header, Version, MAX_FRAME_LEN};
+use crate::message::{Dialect, Message, MessageMeta};
+use crate::parser::{LinkStats, Parser, Received, Stats};
+use crate::signing::{timestamp_now, Signer};
+use core::fmt;
+use core::marker::PhantomData;
+use std::boxed::Box;
+use std::io;
+use std::time::Duration;
+use std::vec;
+use transport::Deadline;
+
+/// Receive buffer of a connection: one whole UDP datagram (65,507 bytes at
+/// most), so none is cut short; stream transports fill it as they can.
+pub const RECV_BUFFER_LEN: usize = 64 * 1024;
+
+/// A frame a [`Connection`] accepted, copied out of the parser so it
+/// outlives the next receive. No heap: the bytes sit inline (at most
+/// [`MAX_FRAME_LEN`]).
+pub struct ReceivedFrame<D: Dialect> {
+    bytes: [u8; MAX_FRAME_LEN],
+    len: usize,
+    meta: Option<&'static MessageMeta>,
+    authenticated: bool,
+    // fn() -> D: the dialect is a type-level tag, it does not make the frame
+    // !Send or !Sync.
+    _dialect: PhantomData<fn() -> D>,
+}
+
+impl<D: Dialect> ReceivedFrame<D> {
+    /// The frame.
+    pub fn frame(&self) -> Frame<'_> {
+        // Only ever built from a frame the parser checked: cannot fail.
+        Frame::new_checked(self.as_bytes())
+            .unwrap_or_else(|_| unreachable!("ReceivedFrame holds a whole frame"))
+    }
+
+    /// The frame's bytes, as received.
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.bytes[..self.len]
+    }
+
+    /// The sender's header fields.
+    pub fn header(&self) -> Header {
+        self.frame().header()
+    }
+
+    /// Message id.
+    pub fn msg_id(&self) -> u32 {
+        self.frame().msg_id()
+    }
+
+    /// The message's table row; `None` for an id the dialect does not know
+    /// (a raw frame, forwarded unverified).
+    pub fn meta(&self) -> Option<&'static MessageMeta> {
+        self.meta
+    }
+
+    /// True when the frame's signature was verified with the parser's key.
+    pub fn is_authenticated(&self) -> bool {
+        self.authenticated
+    }
+
+    /// The message, parsed; `None` for an unknown id.
+    pub fn message(&self) -> Option<D::Message> {
+        self.meta?;
+        let f = self.frame();
+        D::parse(f.msg_id(), f.payload())
+    }
+
+    /// A zero-copy view of the message; `None` for an unknown id.
+    pub fn view(&self) -> Option<D::View<'_>> {
+        self.meta?;
+        let f = self.frame();
+        D::view(f.msg_id(), f.payload())
+    }
+}
+
+impl<D: Dialect> From<&Received<'_, D>> for ReceivedFrame<D> {
+    fn from(r: &Received<'_, D>) -> Self {
+        let src = r.frame.as_bytes();
+        let mut bytes = [0u8; MAX_FRAME_LEN];
+        // A frame is never longer than MAX_FRAME_LEN; min() keeps this total.
+        let len = src.len().min(MAX_FRAME_LEN);
+        bytes[..len].copy_from_slice(&src[..len]);
+        ReceivedFrame {
+            bytes,
+            len,
+            meta: r.meta,
+            authenticated: r.authenticated,
+            _dialect: PhantomData,
+        }
+    }
+}
+
+impl<D: Dialect> Clone for ReceivedFrame<D> {
+    fn clone(&self) -> Self {
+        ReceivedFrame {
+            bytes: self.bytes,
+            len: self.len,
+            meta: self.meta,
+            authenticated: self.authenticated,
+            _dialect: PhantomData,
+        }
+    }
+}
+
+impl<D: Dialect> fmt::Debug for ReceivedFrame<D> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("ReceivedFrame")
+            .field("frame", &self.frame())
+            .field("name", &self.meta.map(|m| m.name))
+            .field("authenticated", &self.authenticated)
+            .finish()
+    }
+}
+
+/// The receive side shared by the blocking and async connections: the
+/// parser and the bytes read but not parsed yet.
+pub(crate) struct Inbox<D: Dialect> {
+    parser: Parser<D>,
+    buf: Box<[u8]>,
+    start: usize,
+    end: usize,
+}
+
+impl<D: Dialect> Inbox<D> {
+    pub(crate) fn new(parser: Parser<D>) -> Self {
+        Inbox {
+            parser,
+            buf: vec![0u8; RECV_BUFFER_LEN].into_boxed_slice(),
+            start: 0,
+            end: 0,
+        }
+    }
+
+    /// The next frame in the bytes already read.
+    pub(crate) fn next(&mut self) -> Option<ReceivedFrame<D>> {
+        while self.start < self.end {
+            let mut input = &self.buf[self.start..self.end];
+            let got = self
+                .parser
+                .next(&mut input)
+                .map(|r| ReceivedFrame::from(&r));
+            let start = self.end - input.len();
+            let progressed = start != self.start;
+            self.start = start;
+            if got.is_some() {
+                return got;
+            }
+            // The parser consumes its whole input before it says None; this
+            // only guards against spinning should that ever change.
+            if !progressed {
+                self.start = self.end;
+            }
+        }
+        None
+    }
+
+    /// Where the transport reads to: the whole buffer, since it is read
+    /// into only once parsed to the end (the parser keeps a partial frame).
+    pub(crate) fn space(&mut self) -> &mut [u8] {
+        &mut self.buf
+    }
+
+    /// `n` bytes were read into [`space`](Self::space).
+    pub(crate) fn filled(&mut self, n: usize) {
+        self.start = 0;
+        self.end = n.min(self.buf.len());
+    }
+}
+
+/// The send side shared by the blocking and async connections.
+pub(crate) struct Outbox {
+    pub(crate) signer: Option<Signer>,
+    pub(crate) version: Version,
+    pub(crate) seq: u8,
+    buf: [u8; MAX_FRAME_LEN],
+}
+
+impl Outbox {
+    pub(crate) fn new() -> Self {
+        Outbox {
+            signer: None,
+            version: Version::V2,
+            seq: 0,
+            buf: [0; MAX_FRAME_LEN],
+        }
+    }
+
+    /// The header for an automatically numbered frame.
+    pub(crate) fn auto_header(&mut self, sysid: u8, compid: u8) -> Header {
+        let seq = self.seq;
+        self.seq = seq.wrapping_add(1);
+        Header { seq, sysid, compid }
+    }
+
+    /// Encodes a frame and returns its bytes.
+    pub(crate) fn encode<M: Message>(
+        &mut self,
+        version: Version,
+        header: Header,
+        msg: &M,
+    ) -> io::Result<&[u8]> {
+        if let Some(signer) = &mut self.signer {
+            // Receivers drop a stream whose timestamps fall a minute behind
+            // theirs: keep up with the clock, never going back.
+            signer.advance_to(timestamp_now());
+        }
+        let n = encode(version, header, msg, self.signer.as_mut(), &mut self.buf)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        Ok(&self.buf[..n])
+    }
+}
+
+/// A MAVLink link: a transport, a parser for dialect `D`, and the sending
+/// state (protocol version, sequence number, signer).
+///
+/// `T` is any [`Transport`]; the default, [`AnyTransport`], is what
+/// [`Connection::open`] makes from an [`Endpoint`].
+pub struct Connection<D: Dialect, T: Transport = AnyTransport> {
+    transport: T,
+    inbox: Inbox<D>,
+    outbox: Outbox,
+}
+
+impl<D: Dialect, T: Transport + fmt::Debug> fmt::Debug for Connection<D, T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Connection")
+            .field("transport", &self.transport)
+            .field("parser", &self.inbox.parser)
+            .field("version", &self.outbox.version)
+            .field("next_seq", &self.outbox.seq)
+            .field("signer", &self.outbox.signer)
+            .finish()
+    }
+}
+
+impl<D: Dialect> Connection<D, AnyTransport> {
+    /// Opens `endpoint` (see [`open`]) with a parser without signing.
+    pub fn open(endpoint: &Endpoint) -> io::Result<Self> {
+        Ok(Self::new(open(endpoint)?))
+    }
+}
+
+impl<D: Dialect, T: Transport> Connection<D, T> {
+    /// A connection over `transport`, with a parser without signing
+    /// (signed frames are accepted unverified).
+    pub fn new(transport: T) -> Self {
+        Self::with_parser(transport, Parser::new())
+    }
+
+    /// A connection whose frames go through `parser`: one made with
+    /// [`Parser::with_signing`] verifies signatures.
+    pub fn with_parser(transport: T, parser: Parser<D>) -> Self {
+        Connection {
+            transport,
+            inbox: Inbox::new(parser),
+            outbox: Outbox::new(),
+        }
+    }
+
+    /// The next frame the parser accepts, waiting up to `timeout` in all
+    /// (`None`: without limit; zero: only bytes already there); `Ok(None)`
+    /// when the time runs out first. Frames already read are returned
+    /// without touching the transport.
+    pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedFrame<D>>> {
+        let deadline = Deadline::after(timeout);
+        loop {
+            if let Some(frame) = self.inbox.next() {
+                return Ok(Some(frame));
+            }
+            let n = self
+                .transport
+                .recv(self.inbox.space(), deadline.remaining())?;
+            if n == 0 {
+                return Ok(None);
+            }
+            self.inbox.filled(n);
+        }
+    }
+
+    /// Sends `msg` with `header` in the connection's protocol version
+    /// ([`set_version`](Self::set_version); MAVLink 2 unless changed),
+    /// signed when a signer is set.
+    pub fn send<M: Message>(&mut self, header: Header, msg: &M) -> io::Result<()> {
+        self.send_version(self.outbox.version, header, msg)
+    }
+
+    /// Sends `msg` with `header` in `version`. MAVLink 1 frames are never
+    /// signed; a message id above 255 cannot be sent as MAVLink 1
+    /// (`InvalidInput`).
+    pub fn send_version<M: Message>(
+        &mut self,
+        version: Version,
+        header: Header,
+        msg: &M,
+    ) -> io::Result<()> {
+        let frame = self.outbox.encode(version, header, msg)?;
+        self.transport.send(frame)
+    }
+
+    /// Sends `msg` as `sysid`/`compid` with the connection's next sequence
+    /// number, which then advances (wrapping at 255), whether or not the
+    /// transport succeeds: a receiver counts a failed send as lost.
+    pub fn send_auto<M: Message>(&mut self, sysid: u8, compid: u8, msg: &M) -> io::Result<()> {
+        let header = self.outbox.auto_header(sysid, compid);
+        self.send(header, msg)
+    }
+
+    /// Sends bytes as they are: a frame received elsewhere and forwarded
+    /// (routers), or anything a test needs on the wire.
+    pub fn send_raw(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.transport.send(bytes)
+    }
+
+    /// Sets the protocol version of [`send`](Self::send) and
+    /// [`send_auto`](Self::send_auto).
+    pub fn set_version(&mut self, version: Version) {
+        self.outbox.version = version;
+    }
+
+    /// The protocol version of [`send`](Self::send).
+    pub fn version(&self) -> Version {
+        self.outbox.version
+    }
+
+    /// Signs every MAVLink 2 frame sent from now on (`None`: stop signing).
+    /// The signer's timestamp is kept at least at the current time.
+    pub fn set_signer(&mut self, signer: Option<Signer>) {
+        self.outbox.signer = signer;
+    }
+
+    /// The signer, if frames are signed.
+    pub fn signer(&self) -> Option<&Signer> {
+        self.outbox.signer.as_ref()
+    }
+
+    /// The sequence number [`send_auto`](Self::send_auto) uses next.
+    pub fn next_seq(&self) -> u8 {
+        self.outbox.seq
+    }
+
+    /// Sets the sequence number [`send_auto`](Self::send_auto) uses next.
+    pub fn set_next_seq(&mut self, seq: u8) {
+        self.outbox.seq = seq;
+    }
+
+    /// The parser's counters (frames, bad checksums, dropped bytes, …).
+    pub fn stats(&self) -> &Stats {
+        self.inbox.parser.stats()
+    }
+
+    /// Sequence statistics per sender.
+    pub fn links(&self) -> &[LinkStats] {
+        self.inbox.parser.links()
+    }
+
+    /// The parser.
+    pub fn parser(&self) -> &Parser<D> {
+        &self.inbox.parser
+    }
+
+    /// The transport.
+    pub fn transport(&self) -> &T {
+        &self.transport
+    }
+
+    /// The transport, mutably (bytes sent or read through it bypass the
+    /// connection's framing and parser).
+    pub fn transport_mut(&mut self) -> &mut T {
+        &mut self.transport
+    }
+
+    /// The transport, dropping the parser and any bytes it held.
+    pub fn into_transport(self) -> T {
+        self.transport
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_dialect::{Ping, TestDialect};
+    use super::*;
+    use std::net::SocketAddr;
+    use std::string::ToString;
+
+    fn udp_pair() -> (Connection<TestDialect>, Connection<TestDialect>) {
+        let server =
+            Connection::<TestDialect>::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap();
+        let port = server.transport().local_addr().unwrap().port();
+        let client = Connection::<TestDialect>::open(&Endpoint::UdpOut(SocketAddr::from((
+            [127, 0, 0, 1],
+            port,
+        ))))
+        .unwrap();
+        (server, client)
+    }
+
+    #[test]
+    fn several_frames_in_one_datagram_are_all_returned() {
+        let (mut server, mut client) = udp_pair();
+        let mut bytes = std::vec::Vec::new();
+        let mut out = Outbox::new();
+        for v in 0..3 {
+            let h = out.auto_header(1, 1);
+            bytes.extend_from_slice(out.encode(Version::V2, h, &Ping { value: v }).unwrap());
+        }
+        client.send_raw(&bytes).unwrap();
+        for v in 0..3 {
+            let f = server.recv(Some(Duration::from_secs(2))).unwrap().unwrap();
+            assert_eq!(f.message(), Some(Ping { value: v }));
+            assert_eq!(f.header().seq, v as u8);
+        }
+        assert!(server.recv(Some(Duration::ZERO)).unwrap().is_none());
+    }
+
+    #[test]
+    fn v1_cannot_carry_large_ids_and_says_so() {
+        let (_server, mut client) = udp_pair();
+        let err = client
+            .send_version(
+                Version::V1,
+                Header::default(),
+                &test_dialect::Big::default(),
+            )
+            .unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+        assert_eq!(
+            err.to_string(),
+            "message id 300 does not fit MAVLink 1 (at most 255)"
+        );
+    }
+
+    #[test]
+    fn types_cross_threads_and_frames_stay_small() {
+        fn check<T: Send + Sync>() {}
+        fn check_send<T: Send>() {}
+        check::<ReceivedFrame<TestDialect>>();
+        check::<Endpoint>();
+        check_send::<AnyTransport>();
+        check_send::<Connection<TestDialect>>();
+        assert!(core::mem::size_of::<ReceivedFrame<TestDialect>>() <= MAX_FRAME_LEN + 32);
+    }
+}

@@ -1,0 +1,225 @@
+//! The blocking byte transport under a [`Connection`](super::Connection),
+//! and [`open`] for an [`Endpoint`].
+
+use super::endpoint::Endpoint;
+use super::tcp::{TcpClient, TcpServer};
+use super::udp::{UdpIn, UdpOut};
+use std::boxed::Box;
+use std::io;
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
+
+/// Moves bytes over one link, blocking.
+///
+/// MAVLink frames go out whole (one `send` per frame, so a datagram
+/// transport sends one frame per datagram); bytes come in as the link
+/// delivers them, in any chunking: the parser above reassembles frames.
+pub trait Transport {
+    /// Sends one frame (or any bytes) to the peer or peers.
+    fn send(&mut self, frame: &[u8]) -> io::Result<()>;
+
+    /// Waits up to `timeout` (`None`: without limit; zero: only what is
+    /// already there) for bytes and reads them into `buf`; returns their
+    /// count, never 0 except when the time ran out with no data. A stream
+    /// closed by its peer is an error (`UnexpectedEof`), not 0.
+    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize>;
+}
+
+impl<T: Transport + ?Sized> Transport for Box<T> {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        (**self).send(frame)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
+        (**self).recv(buf, timeout)
+    }
+}
+
+impl<T: Transport + ?Sized> Transport for &mut T {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        (**self).send(frame)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
+        (**self).recv(buf, timeout)
+    }
+}
+
+/// Any transport an [`Endpoint`] names, as [`open`] returns it.
+///
+/// An enum rather than `Box<dyn Transport>`: no allocation or dynamic call
+/// per frame, the concrete transport stays reachable (its local address,
+/// the last UDP peer, the TCP server's clients), and `Send` follows from the
+/// variants. Custom transports plug into
+/// [`Connection`](super::Connection) through its type parameter instead.
+/// Non-exhaustive because the `serial` feature adds a variant.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum AnyTransport {
+    /// `udpin:`
+    UdpIn(UdpIn),
+    /// `udpout:`
+    UdpOut(UdpOut),
+    /// `tcp:`
+    Tcp(TcpClient),
+    /// `tcpin:`
+    TcpIn(TcpServer),
+    /// `serial:` (feature `serial`)
+    #[cfg(feature = "serial")]
+    Serial(super::serial::Serial),
+}
+
+/// Opens the transport `endpoint` names: binds, connects or opens the
+/// device now, so errors (address in use, connection refused, no such
+/// device) surface here.
+///
+/// Without the `serial` feature a `serial:` endpoint fails with
+/// [`io::ErrorKind::Unsupported`].
+pub fn open(endpoint: &Endpoint) -> io::Result<AnyTransport> {
+    Ok(match endpoint {
+        Endpoint::UdpIn(addr) => AnyTransport::UdpIn(UdpIn::bind(*addr)?),
+        Endpoint::UdpOut(addr) => AnyTransport::UdpOut(UdpOut::new(*addr)?),
+        Endpoint::Tcp(addr) => AnyTransport::Tcp(TcpClient::connect(*addr)?),
+        Endpoint::TcpIn(addr) => AnyTransport::TcpIn(TcpServer::bind(*addr)?),
+        #[cfg(feature = "serial")]
+        Endpoint::Serial { path, baud } => {
+            AnyTransport::Serial(super::serial::Serial::open(path, *baud)?)
+        }
+        #[cfg(not(feature = "serial"))]
+        Endpoint::Serial { .. } => {
+            return Err(io::Error::new(
+                io::ErrorKind::Unsupported,
+                "serial endpoints need mavwire's `serial` feature",
+            ))
+        }
+    })
+}
+
+impl AnyTransport {
+    /// The local address of a network transport (the port the system chose
+    /// when the endpoint said 0); `Unsupported` for a serial port.
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        match self {
+            AnyTransport::UdpIn(t) => t.local_addr(),
+            AnyTransport::UdpOut(t) => t.local_addr(),
+            AnyTransport::Tcp(t) => t.local_addr(),
+            AnyTransport::TcpIn(t) => t.local_addr(),
+            #[cfg(feature = "serial")]
+            AnyTransport::Serial(_) => Err(io::Error::new(
+                io::ErrorKind::Unsupported,
+                "a serial port has no network address",
+            )),
+        }
+    }
+}
+
+impl Transport for AnyTransport {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        match self {
+            AnyTransport::UdpIn(t) => t.send(frame),
+            AnyTransport::UdpOut(t) => t.send(frame),
+            AnyTransport::Tcp(t) => t.send(frame),
+            AnyTransport::TcpIn(t) => t.send(frame),
+            #[cfg(feature = "serial")]
+            AnyTransport::Serial(t) => t.send(frame),
+        }
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
+        match self {
+            AnyTransport::UdpIn(t) => t.recv(buf, timeout),
+            AnyTransport::UdpOut(t) => t.recv(buf, timeout),
+            AnyTransport::Tcp(t) => t.recv(buf, timeout),
+            AnyTransport::TcpIn(t) => t.recv(buf, timeout),
+            #[cfg(feature = "serial")]
+            AnyTransport::Serial(t) => t.recv(buf, timeout),
+        }
+    }
+}
+
+/// A point in time a wait must end by, from a caller's timeout.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Deadline(Option<Instant>);
+
+impl Deadline {
+    pub(crate) fn after(timeout: Option<Duration>) -> Self {
+        // A timeout too far ahead to represent is no limit.
+        Deadline(timeout.and_then(|t| Instant::now().checked_add(t)))
+    }
+
+    /// Time left: `None` without a limit, zero once passed.
+    pub(crate) fn remaining(&self) -> Option<Duration> {
+        self.0.map(|d| d.saturating_duration_since(Instant::now()))
+    }
+
+    pub(crate) fn passed(&self) -> bool {
+        self.remaining() == Some(Duration::ZERO)
+    }
+}
+
+/// How a std socket is set up to wait, as far as known, so a read with the
+/// same timeout as the last one costs no system call to set up.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct ReadMode {
+    /// `None` while unknown (new socket, or a call failed half-way).
+    nonblocking: Option<bool>,
+    read_timeout: Option<Option<Duration>>,
+}
+
+/// Mode setters shared by `UdpSocket` and `TcpStream`.
+pub(crate) trait SetReadMode {
+    fn set_nonblocking(&self, on: bool) -> io::Result<()>;
+    fn set_read_timeout(&self, t: Option<Duration>) -> io::Result<()>;
+
+    /// Makes the socket block (or not), if it does not already.
+    fn ensure_nonblocking(&self, mode: &mut ReadMode, on: bool) -> io::Result<()> {
+        if mode.nonblocking != Some(on) {
+            mode.nonblocking = None;
+            self.set_nonblocking(on)?;
+            mode.nonblocking = Some(on);
+        }
+        Ok(())
+    }
+
+    /// Sets the socket up for a read waiting `timeout`. A zero timeout is
+    /// a non-blocking read: std refuses a zero read timeout.
+    fn prepare_read(&self, mode: &mut ReadMode, timeout: Option<Duration>) -> io::Result<()> {
+        if timeout == Some(Duration::ZERO) {
+            return self.ensure_nonblocking(mode, true);
+        }
+        self.ensure_nonblocking(mode, false)?;
+        if mode.read_timeout != Some(timeout) {
+            mode.read_timeout = None;
+            self.set_read_timeout(timeout)?;
+            mode.read_timeout = Some(timeout);
+        }
+        Ok(())
+    }
+}
+
+impl SetReadMode for std::net::UdpSocket {
+    fn set_nonblocking(&self, on: bool) -> io::Result<()> {
+        std::net::UdpSocket::set_nonblocking(self, on)
+    }
+    fn set_read_timeout(&self, t: Option<Duration>) -> io::Result<()> {
+        std::net::UdpSocket::set_read_timeout(self, t)
+    }
+}
+
+impl SetReadMode for std::net::TcpStream {
+    fn set_nonblocking(&self, on: bool) -> io::Result<()> {
+        std::net::TcpStream::set_nonblocking(self, on)
+    }
+    fn set_read_timeout(&self, t: Option<Duration>) -> io::Result<()> {
+        std::net::TcpStream::set_read_timeout(self, t)
+    }
+}
+
+/// True for the errors a timed-out or non-blocking read reports (Unix says
+/// `WouldBlock`, Windows `TimedOut`).
+pub(crate) fn is_timeout(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+    )
+}

@@ -1,0 +1,396 @@
+//! The companion computer's side: answer the FC's notices, stream control
+//! while delegated, stop on hand-back. See `docs/delegation.md`.
+//!
+//! The companion *controls* (streams overrides) from its acknowledgement
+//! until the FC ends the episode, but it *believes it is in control* only
+//! while the FC confirms it: the takeover STATUSTEXT, then HEARTBEATs in
+//! mode FBWAG, each valid for a lease of one retry period. So the belief
+//! never outlives the FC's decision by more than that, whatever the link
+//! loses; the FC, for its part, ignores overrides outside companion control.
+
+use crate::outbox::Outbox;
+use crate::{mode, Instant, Origin, Peer, Status};
+use core::time::Duration;
+
+/// Settings; [`CcConfig::default`] holds the paper's values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CcConfig {
+    /// This companion's ids.
+    pub own: Peer,
+    /// The flight controller it serves.
+    pub fc: Peer,
+    /// Accept the FC's messages only when their signature verified.
+    pub require_signed: bool,
+    /// Time between repeated acknowledgements while the FC's confirmation
+    /// is missing.
+    pub ack_retry_interval: Duration,
+    /// Acknowledgements repeated after the first, per event.
+    pub max_ack_retries: u8,
+    /// How long one confirmation (takeover text, FBWAG heartbeat) keeps the
+    /// belief of being in control. With the link's delay it must stay within
+    /// one retry period, so the belief never outlives the FC's decision by
+    /// more than that; the FC confirms every 200 ms in companion control.
+    pub control_lease: Duration,
+    /// Stop controlling when the takeover is not confirmed within this time
+    /// (the FC has fallen back by then).
+    pub confirm_timeout: Duration,
+    /// Period of the control stream (RC_CHANNELS_OVERRIDE), well below
+    /// ArduPlane's RC_OVERRIDE_TIME.
+    pub control_period: Duration,
+    /// Stop controlling when the FC has not been heard for this long.
+    pub fc_timeout: Duration,
+}
+
+impl Default for CcConfig {
+    fn default() -> Self {
+        CcConfig {
+            own: Peer::new(1, 191),
+            fc: Peer::new(1, 1),
+            require_signed: false,
+            ack_retry_interval: Duration::from_secs(1),
+            max_ack_retries: 3,
+            control_lease: Duration::from_millis(750),
+            confirm_timeout: Duration::from_secs(5),
+            control_period: Duration::from_millis(50),
+            fc_timeout: Duration::from_secs(3),
+        }
+    }
+}
+
+/// What the companion is told.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CcInput<'a> {
+    /// A HEARTBEAT arrived.
+    Heartbeat {
+        /// Sender and signature.
+        from: Origin,
+        /// Its `custom_mode` (the flight mode).
+        custom_mode: u32,
+    },
+    /// A FBWAG_NOTICE arrived.
+    Notice {
+        /// Sender and signature.
+        from: Origin,
+        /// `failsafe_status`.
+        status: Status,
+        /// `timestamp`: the event.
+        timestamp: u32,
+    },
+    /// A STATUSTEXT arrived.
+    StatusText {
+        /// Sender and signature.
+        from: Origin,
+        /// The text up to its first NUL.
+        text: &'a str,
+        /// Its `id` field (the FC puts the event's low 16 bits there).
+        id: u16,
+    },
+    /// The companion restarted: everything is forgotten.
+    Reboot,
+}
+
+/// What the companion must do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CcAction {
+    /// Send FBWAG_NOTICE to the FC.
+    SendNotice {
+        /// `failsafe_status`.
+        status: Status,
+        /// `timestamp`: the FC's event being answered.
+        timestamp: u32,
+    },
+    /// Send one control message now (RC_CHANNELS_OVERRIDE from the
+    /// controller); emitted every `control_period` while controlling.
+    SendControl,
+    /// Control starts (log it; prepare the controller).
+    StartControl,
+    /// Control ends: stop overriding.
+    StopControl,
+}
+
+/// The companion's view of the link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum CcState {
+    /// No FC heard yet (or no longer).
+    Idle,
+    /// The FC is there; the pilot flies.
+    Standby,
+    /// Delegated: acknowledging, streaming control.
+    Controlling,
+}
+
+/// Counters for logs and tests.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CcStats {
+    /// Takeover requests answered (events).
+    pub takeovers: u32,
+    /// Acknowledgements sent, all statuses.
+    pub acks_sent: u32,
+    /// Control messages sent.
+    pub controls_sent: u32,
+    /// Messages from the wrong sender, or unsigned where required: ignored.
+    pub rejected_senders: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    Idle,
+    Standby,
+    Controlling {
+        event: u32,
+        since: Instant,
+        acks: u8,
+        next_ack: Instant,
+        /// When the FC last confirmed companion control.
+        confirmed: Option<Instant>,
+        next_control: Instant,
+    },
+}
+
+/// The companion computer's state machine.
+#[derive(Debug, Clone)]
+pub struct Companion {
+    cfg: CcConfig,
+    state: State,
+    last_fc: Option<Instant>,
+    /// The last hand-back event acknowledged, and how often.
+    normal_acks: (u32, u8),
+    stats: CcStats,
+    out: Outbox<CcAction, 8>,
+}
+
+impl Companion {
+    /// A companion that has not heard the FC yet.
+    pub fn new(cfg: CcConfig) -> Self {
+        Companion {
+            cfg,
+            state: State::Idle,
+            last_fc: None,
+            normal_acks: (0, 0),
+            stats: CcStats::default(),
+            out: Outbox::new(),
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &CcConfig {
+        &self.cfg
+    }
+
+    /// Where the companion stands.
+    pub fn state(&self) -> CcState {
+        match self.state {
+            State::Idle => CcState::Idle,
+            State::Standby => CcState::Standby,
+            State::Controlling { .. } => CcState::Controlling,
+        }
+    }
+
+    /// True while the FC's confirmation of companion control is fresh.
+    pub fn believes_in_control(&self, now: Instant) -> bool {
+        matches!(self.state, State::Controlling { confirmed: Some(at), .. } if now.since(at) <= self.cfg.control_lease)
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> &CcStats {
+        &self.stats
+    }
+
+    /// The next action to carry out, if any.
+    pub fn poll_action(&mut self) -> Option<CcAction> {
+        self.out.pop()
+    }
+
+    /// When [`handle_timeout`](Self::handle_timeout) must next be called.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let fc_gone = self.last_fc.map(|t| t + self.cfg.fc_timeout);
+        match self.state {
+            State::Idle => None,
+            State::Standby => fc_gone,
+            State::Controlling {
+                since,
+                acks,
+                next_ack,
+                confirmed,
+                next_control,
+                ..
+            } => {
+                let mut t = next_control;
+                if confirmed.is_none() {
+                    t = t.min(since + self.cfg.confirm_timeout);
+                    if acks <= self.cfg.max_ack_retries {
+                        t = t.min(next_ack);
+                    }
+                }
+                Some(fc_gone.map_or(t, |g| t.min(g)))
+            }
+        }
+    }
+
+    /// Timers: the control stream, repeated acknowledgements, time-outs.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        if self.last_fc.is_some_and(|t| now >= t + self.cfg.fc_timeout) && self.state != State::Idle
+        {
+            self.stop(State::Idle);
+            self.last_fc = None;
+            return;
+        }
+        let State::Controlling {
+            event,
+            since,
+            acks,
+            next_ack,
+            confirmed,
+            next_control,
+        } = self.state
+        else {
+            return;
+        };
+        if confirmed.is_none() && now >= since + self.cfg.confirm_timeout {
+            self.stop(State::Standby);
+            return;
+        }
+        let mut acks = acks;
+        let mut next_ack = next_ack;
+        if confirmed.is_none() && now >= next_ack && acks <= self.cfg.max_ack_retries {
+            self.ack(Status::CC_TAKEOVER_CONFIRMED, event);
+            acks += 1;
+            next_ack = next_ack + self.cfg.ack_retry_interval;
+        }
+        let mut next_control = next_control;
+        if now >= next_control {
+            self.stats.controls_sent += 1;
+            self.out.push(CcAction::SendControl);
+            // Keep the cadence; after a long stall, restart it from now.
+            next_control = (next_control + self.cfg.control_period).max(now);
+        }
+        self.state = State::Controlling {
+            event,
+            since,
+            acks,
+            next_ack,
+            confirmed,
+            next_control,
+        };
+    }
+
+    /// An input at time `now`.
+    pub fn handle_input(&mut self, now: Instant, input: CcInput<'_>) {
+        let from = match input {
+            CcInput::Reboot => {
+                self.state = State::Idle;
+                self.last_fc = None;
+                return;
+            }
+            CcInput::Heartbeat { from, .. }
+            | CcInput::Notice { from, .. }
+            | CcInput::StatusText { from, .. } => from,
+        };
+        if from.peer != self.cfg.fc || (self.cfg.require_signed && !from.authenticated) {
+            self.stats.rejected_senders += 1;
+            return;
+        }
+        self.last_fc = Some(now);
+        if self.state == State::Idle {
+            self.state = State::Standby;
+        }
+        match input {
+            CcInput::Heartbeat { custom_mode, .. } => self.heartbeat(now, custom_mode),
+            CcInput::StatusText { text, id, .. } => {
+                // Bound to the event, so a late confirmation of an earlier
+                // episode confirms nothing.
+                let current =
+                    matches!(self.state, State::Controlling { event, .. } if event as u16 == id);
+                if text == crate::TEXT_CC_TOOK_OVER && current {
+                    self.confirm(now);
+                }
+            }
+            CcInput::Notice {
+                status, timestamp, ..
+            } => self.notice(now, status, timestamp),
+            CcInput::Reboot => {}
+        }
+    }
+
+    fn heartbeat(&mut self, now: Instant, custom_mode: u32) {
+        match self.state {
+            State::Controlling {
+                confirmed: Some(_), ..
+            } if custom_mode != mode::FBWAG => {
+                // The FC has left companion control (RTL, or the pilot): stop.
+                self.stop(State::Standby);
+            }
+            State::Controlling { .. } if custom_mode == mode::FBWAG => self.confirm(now),
+            _ => {}
+        }
+    }
+
+    fn confirm(&mut self, now: Instant) {
+        if let State::Controlling { confirmed, .. } = &mut self.state {
+            *confirmed = Some(now);
+        }
+    }
+
+    fn notice(&mut self, now: Instant, status: Status, timestamp: u32) {
+        match status {
+            Status::RC_LOST => match self.state {
+                State::Controlling { event, acks, .. } if event == timestamp => {
+                    // The FC did not get our acknowledgement: repeat it,
+                    // within the per-event bound.
+                    if acks <= self.cfg.max_ack_retries {
+                        self.ack(Status::CC_TAKEOVER_CONFIRMED, timestamp);
+                        if let State::Controlling { acks, .. } = &mut self.state {
+                            *acks += 1;
+                        }
+                    }
+                }
+                _ => {
+                    self.stats.takeovers += 1;
+                    // The first control message goes out with the
+                    // acknowledgement; the stream follows every period.
+                    self.state = State::Controlling {
+                        event: timestamp,
+                        since: now,
+                        acks: 1,
+                        next_ack: now + self.cfg.ack_retry_interval,
+                        confirmed: None,
+                        next_control: now + self.cfg.control_period,
+                    };
+                    self.ack(Status::CC_TAKEOVER_CONFIRMED, timestamp);
+                    self.out.push(CcAction::StartControl);
+                    self.stats.controls_sent += 1;
+                    self.out.push(CcAction::SendControl);
+                }
+            },
+            Status::NORMAL => {
+                // The FC no longer delegates: stop, and acknowledge every
+                // time asked (the FC retries until it hears us).
+                if matches!(self.state, State::Controlling { .. }) {
+                    self.stop(State::Standby);
+                }
+                let count = if self.normal_acks.0 == timestamp {
+                    self.normal_acks.1
+                } else {
+                    0
+                };
+                if count <= self.cfg.max_ack_retries {
+                    self.normal_acks = (timestamp, count + 1);
+                    self.ack(Status::NORMAL, timestamp);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn stop(&mut self, next: State) {
+        if matches!(self.state, State::Controlling { .. }) {
+            self.out.push(CcAction::StopControl);
+        }
+        self.state = next;
+    }
+
+    fn ack(&mut self, status: Status, timestamp: u32) {
+        self.stats.acks_sent += 1;
+        self.out.push(CcAction::SendNotice { status, timestamp });
+    }
+}

@@ -1,0 +1,504 @@
+//! The flight controller's side: detect RC loss, delegate to the companion
+//! with an acknowledged, bounded handshake, fall back to RTL, hand back to
+//! the pilot. See `docs/delegation.md` for the specification.
+//!
+//! The FC tracks the real receiver (fed as [`FcInput::RcSample`]), never RC
+//! overrides: in ArduPlane an override counts as valid RC and would end the
+//! failsafe. Overrides are accepted only in companion control
+//! ([`FcAction::AcceptOverrides`]), so a companion that still believes it
+//! controls the aircraft cannot move a surface once the FC has given control
+//! elsewhere.
+
+use crate::outbox::Outbox;
+use crate::{Instant, Origin, Peer, Status};
+use core::time::Duration;
+
+/// Who flies the aircraft, as the FC decides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Authority {
+    /// The pilot, through the RC receiver.
+    Pilot,
+    /// The FC itself, flying its short failsafe (CIRCLE) while it asks the
+    /// companion to take over.
+    Handshake,
+    /// The companion computer, through RC overrides (mode FBWAG).
+    Companion,
+    /// Return to launch: the fallback.
+    Rtl,
+}
+
+/// Settings; [`FcConfig::default`] holds the paper's values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FcConfig {
+    /// This FC's ids (the notices' `system_id`/`component_id`).
+    pub own: Peer,
+    /// The companion allowed to take over.
+    pub companion: Peer,
+    /// Accept the companion's messages only when their signature verified.
+    pub require_signed: bool,
+    /// Consecutive bad receiver samples that make an RC loss (the paper: 2).
+    pub rc_loss_samples: u8,
+    /// Consecutive good receiver samples that make RC return.
+    pub rc_regain_samples: u8,
+    /// Time between notices of one event (the paper: about 1 s).
+    pub retry_interval: Duration,
+    /// Notices repeated after the first (the paper: 3).
+    pub max_retries: u8,
+    /// From the first notice to RTL without an acknowledgement (about 5 s).
+    pub handshake_timeout: Duration,
+    /// Companion control ends (RTL) when no RC override has come for this
+    /// long; below ArduPlane's RC_OVERRIDE_TIME (3 s), after which
+    /// overrides expire anyway.
+    pub override_timeout: Duration,
+    /// Companion control ends (RTL) when the companion has been silent (no
+    /// HEARTBEAT, override or notice) for this long.
+    pub heartbeat_timeout: Duration,
+}
+
+impl Default for FcConfig {
+    fn default() -> Self {
+        FcConfig {
+            own: Peer::new(1, 1),
+            companion: Peer::new(1, 191),
+            require_signed: false,
+            rc_loss_samples: 2,
+            rc_regain_samples: 2,
+            retry_interval: Duration::from_secs(1),
+            max_retries: 3,
+            handshake_timeout: Duration::from_secs(5),
+            override_timeout: Duration::from_secs(1),
+            heartbeat_timeout: Duration::from_secs(3),
+        }
+    }
+}
+
+/// What the FC is told.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FcInput {
+    /// One sample of the real receiver (not of overrides), at the RC check
+    /// rate (10 Hz on ArduPlane).
+    RcSample {
+        /// The receiver delivers valid frames (no failsafe flag, not stale).
+        receiver_ok: bool,
+    },
+    /// A FBWAG_NOTICE arrived.
+    Notice {
+        /// Sender and signature.
+        from: Origin,
+        /// `failsafe_status`.
+        status: Status,
+        /// `timestamp`: the event it answers.
+        timestamp: u32,
+    },
+    /// An RC_CHANNELS_OVERRIDE (or SET_ATTITUDE_TARGET) arrived.
+    Control {
+        /// Sender and signature.
+        from: Origin,
+    },
+    /// A HEARTBEAT arrived.
+    Heartbeat {
+        /// Sender and signature.
+        from: Origin,
+    },
+}
+
+/// What the FC must do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FcAction {
+    /// Send FBWAG_NOTICE on every active channel (an event, never a stream).
+    SendNotice {
+        /// `failsafe_status`.
+        status: Status,
+        /// `timestamp`: the event id.
+        timestamp: u32,
+    },
+    /// Send this STATUSTEXT; its `id` field carries the event's low 16 bits
+    /// so the companion can tell which event it confirms.
+    SendStatusText {
+        /// The text.
+        text: &'static str,
+        /// The event it is about.
+        event: u32,
+    },
+    /// Switch who flies (map to a flight mode: see [`crate::mode`]).
+    SetAuthority(Authority),
+    /// Apply (true) or discard and ignore (false) RC overrides.
+    AcceptOverrides(bool),
+}
+
+/// Counters for logs and tests.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FcStats {
+    /// RC losses detected (events started).
+    pub rc_losses: u32,
+    /// Notices sent, all statuses.
+    pub notices_sent: u32,
+    /// Takeovers confirmed.
+    pub takeovers: u32,
+    /// RTL fallbacks.
+    pub fallbacks: u32,
+    /// Acknowledgements from the wrong sender, or unsigned where signing is
+    /// required: ignored.
+    pub rejected_senders: u32,
+    /// Acknowledgements of another (older) event: ignored.
+    pub stale_acks: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    Pilot,
+    Handshake {
+        event: u32,
+        started: Instant,
+        sent: u8,
+        next: Instant,
+    },
+    Companion {
+        event: u32,
+        last_control: Instant,
+        last_heartbeat: Instant,
+    },
+    Rtl,
+}
+
+/// An announcement of status 0 awaiting the companion's acknowledgement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct HandBack {
+    event: u32,
+    sent: u8,
+    next: Instant,
+}
+
+/// The flight controller's state machine.
+#[derive(Debug, Clone)]
+pub struct FlightController {
+    cfg: FcConfig,
+    state: State,
+    /// Debounced receiver state and the run of samples disagreeing with it.
+    receiver_ok: bool,
+    run: u8,
+    /// The status last announced, to send none twice (the paper's no-flooding rule).
+    announced: Status,
+    handback: Option<HandBack>,
+    last_event: Option<u32>,
+    stats: FcStats,
+    out: Outbox<FcAction, 8>,
+}
+
+impl FlightController {
+    /// An FC with the pilot in control and a healthy receiver.
+    pub fn new(cfg: FcConfig) -> Self {
+        FlightController {
+            cfg,
+            state: State::Pilot,
+            receiver_ok: true,
+            run: 0,
+            announced: Status::NORMAL,
+            handback: None,
+            last_event: None,
+            stats: FcStats::default(),
+            out: Outbox::new(),
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &FcConfig {
+        &self.cfg
+    }
+
+    /// Who flies now.
+    pub fn authority(&self) -> Authority {
+        match self.state {
+            State::Pilot => Authority::Pilot,
+            State::Handshake { .. } => Authority::Handshake,
+            State::Companion { .. } => Authority::Companion,
+            State::Rtl => Authority::Rtl,
+        }
+    }
+
+    /// The debounced receiver state.
+    pub fn receiver_ok(&self) -> bool {
+        self.receiver_ok
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> &FcStats {
+        &self.stats
+    }
+
+    /// The next action to carry out, if any.
+    pub fn poll_action(&mut self) -> Option<FcAction> {
+        self.out.pop()
+    }
+
+    /// When [`handle_timeout`](Self::handle_timeout) must next be called.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let state = match self.state {
+            State::Handshake {
+                started,
+                sent,
+                next,
+                ..
+            } => {
+                let deadline = started + self.cfg.handshake_timeout;
+                Some(if sent <= self.cfg.max_retries {
+                    next.min(deadline)
+                } else {
+                    deadline
+                })
+            }
+            State::Companion {
+                last_control,
+                last_heartbeat,
+                ..
+            } => Some(
+                (last_control + self.cfg.override_timeout)
+                    .min(last_heartbeat + self.cfg.heartbeat_timeout),
+            ),
+            State::Pilot | State::Rtl => None,
+        };
+        let handback = self
+            .handback
+            .filter(|h| h.sent <= self.cfg.max_retries)
+            .map(|h| h.next);
+        match (state, handback) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Timers: retries, the handshake deadline, companion silence.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        match self.state {
+            State::Handshake {
+                event,
+                started,
+                sent,
+                next,
+            } => {
+                if now >= started + self.cfg.handshake_timeout {
+                    self.fall_back(now);
+                } else if now >= next && sent <= self.cfg.max_retries {
+                    self.send_notice(Status::RC_LOST, event);
+                    self.state = State::Handshake {
+                        event,
+                        started,
+                        sent: sent + 1,
+                        next: next + self.cfg.retry_interval,
+                    };
+                }
+            }
+            State::Companion {
+                last_control,
+                last_heartbeat,
+                ..
+            } => {
+                if now >= last_control + self.cfg.override_timeout
+                    || now >= last_heartbeat + self.cfg.heartbeat_timeout
+                {
+                    self.fall_back(now);
+                }
+            }
+            State::Pilot | State::Rtl => {}
+        }
+        if let Some(h) = self.handback {
+            if now >= h.next && h.sent <= self.cfg.max_retries {
+                self.send_notice(Status::NORMAL, h.event);
+                self.handback = Some(HandBack {
+                    event: h.event,
+                    sent: h.sent + 1,
+                    next: h.next + self.cfg.retry_interval,
+                });
+            }
+        }
+    }
+
+    /// An input at time `now`.
+    pub fn handle_input(&mut self, now: Instant, input: FcInput) {
+        match input {
+            FcInput::RcSample { receiver_ok } => self.rc_sample(now, receiver_ok),
+            FcInput::Notice {
+                from,
+                status,
+                timestamp,
+            } => {
+                if !self.trusted(from) {
+                    self.stats.rejected_senders += 1;
+                    return;
+                }
+                if let State::Companion { last_heartbeat, .. } = &mut self.state {
+                    *last_heartbeat = now;
+                }
+                self.notice(now, status, timestamp);
+            }
+            FcInput::Control { from } => {
+                // The control stream is also proof of life.
+                if let (
+                    true,
+                    State::Companion {
+                        last_control,
+                        last_heartbeat,
+                        ..
+                    },
+                ) = (self.trusted(from), &mut self.state)
+                {
+                    *last_control = now;
+                    *last_heartbeat = now;
+                }
+            }
+            FcInput::Heartbeat { from } => {
+                if let (true, State::Companion { last_heartbeat, .. }) =
+                    (self.trusted(from), &mut self.state)
+                {
+                    *last_heartbeat = now;
+                }
+            }
+        }
+    }
+
+    fn trusted(&self, from: Origin) -> bool {
+        from.peer == self.cfg.companion && (from.authenticated || !self.cfg.require_signed)
+    }
+
+    fn rc_sample(&mut self, now: Instant, ok: bool) {
+        if ok == self.receiver_ok {
+            self.run = 0;
+            return;
+        }
+        self.run += 1;
+        let needed = if ok {
+            self.cfg.rc_regain_samples
+        } else {
+            self.cfg.rc_loss_samples
+        };
+        if self.run < needed.max(1) {
+            return;
+        }
+        self.run = 0;
+        self.receiver_ok = ok;
+        if ok {
+            self.rc_regained(now);
+        } else {
+            self.rc_lost(now);
+        }
+    }
+
+    fn rc_lost(&mut self, now: Instant) {
+        if self.state != State::Pilot {
+            return;
+        }
+        self.stats.rc_losses += 1;
+        let event = self.new_event(now);
+        // A hand-back still being announced is superseded by this event.
+        self.handback = None;
+        self.state = State::Handshake {
+            event,
+            started: now,
+            sent: 1,
+            next: now + self.cfg.retry_interval,
+        };
+        self.out.push(FcAction::SetAuthority(Authority::Handshake));
+        self.send_notice(Status::RC_LOST, event);
+    }
+
+    fn rc_regained(&mut self, now: Instant) {
+        if self.state == State::Pilot {
+            return;
+        }
+        // The pilot has authority over everything else, at once.
+        self.state = State::Pilot;
+        self.out.push(FcAction::AcceptOverrides(false));
+        self.out.push(FcAction::SetAuthority(Authority::Pilot));
+        self.announce_normal(now);
+    }
+
+    /// RTL, and tell the companion it no longer controls anything.
+    fn fall_back(&mut self, now: Instant) {
+        self.stats.fallbacks += 1;
+        self.state = State::Rtl;
+        self.out.push(FcAction::AcceptOverrides(false));
+        self.out.push(FcAction::SetAuthority(Authority::Rtl));
+        self.announce_normal(now);
+    }
+
+    /// Announces status 0 (retried until acknowledged), unless it is already
+    /// the status announced.
+    fn announce_normal(&mut self, now: Instant) {
+        if self.announced == Status::NORMAL {
+            return;
+        }
+        let event = self.new_event(now);
+        self.handback = Some(HandBack {
+            event,
+            sent: 1,
+            next: now + self.cfg.retry_interval,
+        });
+        self.send_notice(Status::NORMAL, event);
+    }
+
+    fn notice(&mut self, now: Instant, status: Status, timestamp: u32) {
+        match (status, self.state) {
+            (Status::CC_TAKEOVER_CONFIRMED, State::Handshake { event, .. })
+                if event == timestamp =>
+            {
+                self.stats.takeovers += 1;
+                self.announced = Status::CC_TAKEOVER_CONFIRMED;
+                self.state = State::Companion {
+                    event,
+                    last_control: now,
+                    last_heartbeat: now,
+                };
+                self.out.push(FcAction::SetAuthority(Authority::Companion));
+                self.out.push(FcAction::AcceptOverrides(true));
+                self.out.push(FcAction::SendStatusText {
+                    text: crate::TEXT_CC_TOOK_OVER,
+                    event,
+                });
+            }
+            (Status::CC_TAKEOVER_CONFIRMED, State::Companion { event, .. })
+                if event == timestamp =>
+            {
+                // A repeated acknowledgement: the companion missed the
+                // confirmation; repeat it (bounded by the companion's
+                // per-event acknowledgement limit).
+                self.out.push(FcAction::SendStatusText {
+                    text: crate::TEXT_CC_TOOK_OVER,
+                    event,
+                });
+            }
+            (Status::NORMAL, _) if self.handback.is_some_and(|h| h.event == timestamp) => {
+                self.handback = None;
+                self.out.push(FcAction::SendStatusText {
+                    text: crate::TEXT_RC_TOOK_OVER,
+                    event: timestamp,
+                });
+            }
+            (Status::CC_TAKEOVER_CONFIRMED | Status::NORMAL, _) => self.stats.stale_acks += 1,
+            _ => {}
+        }
+    }
+
+    fn send_notice(&mut self, status: Status, event: u32) {
+        self.stats.notices_sent += 1;
+        if status != Status::CC_TAKEOVER_CONFIRMED {
+            self.announced = status;
+        }
+        self.out.push(FcAction::SendNotice {
+            status,
+            timestamp: event,
+        });
+    }
+
+    /// The event id: milliseconds since boot, as the paper sends
+    /// `AP_HAL::millis()`, made unique if two events share a millisecond.
+    fn new_event(&mut self, now: Instant) -> u32 {
+        let mut id = now.as_millis() as u32;
+        if let Some(last) = self.last_event {
+            if id <= last && last.wrapping_sub(id) < u32::MAX / 2 {
+                id = last.wrapping_add(1);
+            }
+        }
+        self.last_event = Some(id);
+        id
+    }
+}

@@ -219,11 +219,7 @@ pub fn table1_text(rows: &[Row]) -> String {
             ms(row.quantile_ms(1.0)),
             row.fallbacks,
             row.false_takeovers,
-            if row.scenario == Scenario::MessageLoss {
-                "retries (≤3), then RTL".to_string()
-            } else {
-                backup
-            }
+            backup
         );
     }
     let _ = writeln!(

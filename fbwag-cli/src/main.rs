@@ -1,6 +1,7 @@
 //! `fbwag`: the FBWAG MAVLink toolbox.
 
 mod json;
+mod sim;
 
 use clap::{Parser as ClapParser, Subcommand};
 use fbwag_dialect::mavwire::frame::{frame_len, Frame, MAX_FRAME_LEN};
@@ -25,7 +26,10 @@ Examples:
   fbwag decode capture.bin > frames.jsonl
   fbwag decode --tlog flight.tlog | grep FBWAG_NOTICE
   fbwag decode capture.bin | fbwag encode > same.bin        # byte-exact
-  fbwag encode --hex --sign-key $(printf '%064x' 0) --link-id 0 --sign-timestamp 1000 < frames.jsonl";
+  fbwag encode --hex --sign-key $(printf '%064x' 0) --link-id 0 --sign-timestamp 1000 < frames.jsonl
+  fbwag sim --table1                                        # the paper's Table I, 10,000 trials per row
+  fbwag sim --scenario message-loss --loss 0.5 --trials 10000 --seed 7 --json
+  fbwag sim --sweep --svg sweep.svg";
 
 #[derive(Subcommand)]
 enum Command {
@@ -74,6 +78,46 @@ enum Command {
         /// Write a .tlog (timestamps from "tlog_us", else 0).
         #[arg(long, conflicts_with = "hex")]
         tlog: bool,
+    },
+    /// Run the delegation protocol in the deterministic simulator.
+    ///
+    /// Both state machines exchange real MAVLink frames over modelled links
+    /// (latency, jitter, loss, bursts) on a virtual clock; every trial is
+    /// checked against the protocol's invariants (exit status 1 if any
+    /// breaks). Results depend only on the arguments and the seed.
+    Sim {
+        /// Reproduce the paper's Table I beside its figures.
+        #[arg(long, conflicts_with_all = ["sweep", "scenario"])]
+        table1: bool,
+        /// Sweep loss 0–90 % for a scenario (default message-loss).
+        #[arg(long)]
+        sweep: bool,
+        /// List the scenarios.
+        #[arg(long)]
+        list: bool,
+        /// The scenario to run (see --list).
+        #[arg(long, value_name = "NAME")]
+        scenario: Option<String>,
+        /// Share of frames lost in each direction, 0–1.
+        #[arg(long, default_value_t = 0.0)]
+        loss: f64,
+        /// Bursty (Gilbert–Elliott) loss with bursts of this many frames on
+        /// average, instead of independent loss.
+        #[arg(long, value_name = "FRAMES")]
+        burst: Option<f64>,
+        /// Trials per row (default 10,000; 1,000 per sweep point).
+        #[arg(long)]
+        trials: Option<u32>,
+        /// Seed of the first trial (trial k uses seed + k).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// One JSON object per row.
+        #[arg(long)]
+        json: bool,
+        /// With --sweep: write the chart (success rate and handover time
+        /// against loss) as SVG.
+        #[arg(long, value_name = "FILE", requires = "sweep")]
+        svg: Option<PathBuf>,
     },
 }
 
@@ -264,6 +308,29 @@ fn main() -> ExitCode {
             sign_key.map(|k| (k, link_id, sign_timestamp)),
             tlog,
         ),
+        Command::Sim {
+            table1,
+            sweep,
+            list,
+            scenario,
+            loss,
+            burst,
+            trials,
+            seed,
+            json,
+            svg,
+        } => sim::run(sim::SimArgs {
+            table1,
+            sweep,
+            list,
+            scenario,
+            loss,
+            burst,
+            trials,
+            seed,
+            json,
+            svg,
+        }),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

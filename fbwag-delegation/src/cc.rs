@@ -37,8 +37,12 @@ pub struct CcConfig {
     /// Period of the control stream (RC_CHANNELS_OVERRIDE), well below
     /// ArduPlane's RC_OVERRIDE_TIME.
     pub control_period: Duration,
-    /// Stop controlling when the FC has not been heard for this long.
+    /// Standing by, forget the FC when it has not been heard for this long.
     pub fc_timeout: Duration,
+    /// Controlling, stop only when the FC has not been heard for this long:
+    /// the FC decides and gates overrides, so a downlink outage must not end
+    /// companion control (the uplink may still carry the control stream).
+    pub control_fc_timeout: Duration,
 }
 
 impl Default for CcConfig {
@@ -53,6 +57,7 @@ impl Default for CcConfig {
             confirm_timeout: Duration::from_secs(5),
             control_period: Duration::from_millis(50),
             fc_timeout: Duration::from_secs(3),
+            control_fc_timeout: Duration::from_secs(10),
         }
     }
 }
@@ -141,8 +146,9 @@ enum State {
         since: Instant,
         acks: u8,
         next_ack: Instant,
-        /// When the FC last confirmed companion control.
-        confirmed: Option<Instant>,
+        /// When the FC last confirmed companion control, and the sequence
+        /// number of the frame that did.
+        confirmed: Option<(Instant, u8)>,
         next_control: Instant,
     },
 }
@@ -188,7 +194,7 @@ impl Companion {
 
     /// True while the FC's confirmation of companion control is fresh.
     pub fn believes_in_control(&self, now: Instant) -> bool {
-        matches!(self.state, State::Controlling { confirmed: Some(at), .. } if now.since(at) <= self.cfg.control_lease)
+        matches!(self.state, State::Controlling { confirmed: Some((at, _)), .. } if now.since(at) <= self.cfg.control_lease)
     }
 
     /// Counters.
@@ -203,7 +209,7 @@ impl Companion {
 
     /// When [`handle_timeout`](Self::handle_timeout) must next be called.
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let fc_gone = self.last_fc.map(|t| t + self.cfg.fc_timeout);
+        let fc_gone = self.last_fc.map(|t| t + self.fc_timeout());
         match self.state {
             State::Idle => None,
             State::Standby => fc_gone,
@@ -229,8 +235,7 @@ impl Companion {
 
     /// Timers: the control stream, repeated acknowledgements, time-outs.
     pub fn handle_timeout(&mut self, now: Instant) {
-        if self.last_fc.is_some_and(|t| now >= t + self.cfg.fc_timeout) && self.state != State::Idle
-        {
+        if self.last_fc.is_some_and(|t| now >= t + self.fc_timeout()) && self.state != State::Idle {
             self.stop(State::Idle);
             self.last_fc = None;
             return;
@@ -295,14 +300,14 @@ impl Companion {
             self.state = State::Standby;
         }
         match input {
-            CcInput::Heartbeat { custom_mode, .. } => self.heartbeat(now, custom_mode),
+            CcInput::Heartbeat { custom_mode, .. } => self.heartbeat(now, custom_mode, from.seq),
             CcInput::StatusText { text, id, .. } => {
                 // Bound to the event, so a late confirmation of an earlier
                 // episode confirms nothing.
                 let current =
                     matches!(self.state, State::Controlling { event, .. } if event as u16 == id);
                 if text == crate::TEXT_CC_TOOK_OVER && current {
-                    self.confirm(now);
+                    self.confirm(now, from.seq);
                 }
             }
             CcInput::Notice {
@@ -312,22 +317,29 @@ impl Companion {
         }
     }
 
-    fn heartbeat(&mut self, now: Instant, custom_mode: u32) {
-        match self.state {
-            State::Controlling {
-                confirmed: Some(_), ..
-            } if custom_mode != mode::FBWAG => {
-                // The FC has left companion control (RTL, or the pilot): stop.
-                self.stop(State::Standby);
-            }
-            State::Controlling { .. } if custom_mode == mode::FBWAG => self.confirm(now),
-            _ => {}
+    fn heartbeat(&mut self, now: Instant, custom_mode: u32, seq: u8) {
+        let State::Controlling { confirmed, .. } = self.state else {
+            return;
+        };
+        // Only a frame sent after the last confirmation says anything new:
+        // the link may deliver an older heartbeat late.
+        let newer = confirmed.is_none_or(|(_, s)| crate::seq_after(seq, s));
+        if !newer {
+            return;
+        }
+        if custom_mode == mode::FBWAG {
+            self.confirm(now, seq);
+        } else if confirmed.is_some() {
+            // The FC has left companion control (RTL, or the pilot): stop.
+            self.stop(State::Standby);
         }
     }
 
-    fn confirm(&mut self, now: Instant) {
+    fn confirm(&mut self, now: Instant, seq: u8) {
         if let State::Controlling { confirmed, .. } = &mut self.state {
-            *confirmed = Some(now);
+            if confirmed.is_none_or(|(_, s)| crate::seq_after(seq, s)) {
+                *confirmed = Some((now, seq));
+            }
         }
     }
 
@@ -379,6 +391,13 @@ impl Companion {
                 }
             }
             _ => {}
+        }
+    }
+
+    fn fc_timeout(&self) -> Duration {
+        match self.state {
+            State::Controlling { .. } => self.cfg.control_fc_timeout,
+            _ => self.cfg.fc_timeout,
         }
     }
 

@@ -44,6 +44,15 @@ pub struct Origin {
     pub peer: Peer,
     /// The frame's MAVLink 2 signature verified with the link key.
     pub authenticated: bool,
+    /// The frame's sequence number: tells a late frame from a new one when
+    /// the link reorders.
+    pub seq: u8,
+}
+
+/// True when sequence number `a` was sent after `b` (within half the
+/// 8-bit wrap, plenty for one lease of frames).
+pub(crate) fn seq_after(a: u8, b: u8) -> bool {
+    (a.wrapping_sub(b) as i8) > 0
 }
 
 /// ArduPlane flight modes as HEARTBEAT `custom_mode` values, plus the

@@ -114,6 +114,8 @@ pub struct Trial {
     pub fc: FcConfig,
     /// Companion settings.
     pub cc: CcConfig,
+    /// Record a timeline of protocol events in [`Outcome::trace`].
+    pub trace: bool,
 }
 
 impl Trial {
@@ -128,6 +130,7 @@ impl Trial {
             drop_pattern: None,
             fc: FcConfig::default(),
             cc: CcConfig::default(),
+            trace: false,
         }
     }
 
@@ -170,6 +173,8 @@ pub struct Outcome {
     pub final_authority: Authority,
     /// Frames sent, both directions.
     pub frames: u64,
+    /// The timeline, when [`Trial::trace`] is set.
+    pub trace: Vec<String>,
 }
 
 const FC: Peer = Peer::new(1, 1);
@@ -275,6 +280,7 @@ struct World {
     acks: HashMap<(u8, u32), u8>,
     violations: Vec<Violation>,
     frames: u64,
+    trace: Vec<String>,
 }
 
 impl World {
@@ -339,6 +345,14 @@ impl World {
             acks: HashMap::new(),
             violations: Vec::new(),
             frames: 0,
+            trace: Vec::new(),
+        }
+    }
+
+    fn log(&mut self, what: impl FnOnce() -> String) {
+        if self.trial.trace {
+            let line = format!("{:>9.3} s  {}", self.now.0 as f64 / 1e6, what());
+            self.trace.push(line);
         }
     }
 
@@ -454,6 +468,7 @@ impl World {
                 self.at(self.now + RC_SAMPLE, Event::RcSample);
             }
             Event::Rc(ok) => {
+                self.log(|| format!("receiver {}", if ok { "back" } else { "lost" }));
                 self.receiver_ok = ok;
                 if !ok && self.rc_lost_at.is_none() {
                     self.rc_lost_at = Some(self.now);
@@ -501,6 +516,12 @@ impl World {
                 }
             }
             Event::CcPower(on) => {
+                self.log(|| {
+                    format!(
+                        "companion powered {}",
+                        if on { "on (reboot)" } else { "off" }
+                    )
+                });
                 self.cc_powered = on;
                 if on {
                     self.cc.handle_input(self.now, CcInput::Reboot);
@@ -538,9 +559,11 @@ impl World {
         let mut input = bytes;
         let mut inputs = Vec::new();
         while let Some(r) = self.fc_end.parser.next(&mut input) {
+            let h = r.frame.header();
             let from = Origin {
-                peer: Peer::new(r.frame.header().sysid, r.frame.header().compid),
+                peer: Peer::new(h.sysid, h.compid),
                 authenticated: r.authenticated,
+                seq: h.seq,
             };
             match r.message() {
                 Some(Message::FbwagNotice(n)) => inputs.push(FcInput::Notice {
@@ -562,9 +585,11 @@ impl World {
         let mut input = bytes;
         let mut msgs = Vec::new();
         while let Some(r) = self.cc_end.parser.next(&mut input) {
+            let h = r.frame.header();
             let from = Origin {
-                peer: Peer::new(r.frame.header().sysid, r.frame.header().compid),
+                peer: Peer::new(h.sysid, h.compid),
                 authenticated: r.authenticated,
+                seq: h.seq,
             };
             if let Some(m) = r.message() {
                 msgs.push((from, m));
@@ -609,6 +634,7 @@ impl World {
         while let Some(a) = self.fc.poll_action() {
             match a {
                 FcAction::SendNotice { status, timestamp } => {
+                    self.log(|| format!("FC -> notice status {} event {timestamp}", status.0));
                     let count = self.notices.entry((status.0, timestamp)).or_insert(0);
                     *count += 1;
                     if *count > 1 + self.fc.config().max_retries {
@@ -632,6 +658,7 @@ impl World {
                     self.send(Node::Fc, bytes);
                 }
                 FcAction::SendStatusText { text, event } => {
+                    self.log(|| format!("FC -> STATUSTEXT {text:?} (event {event})"));
                     let t = Statustext {
                         severity: fbwag_dialect::dialects::common::MavSeverity::INFO,
                         text: chars(text),
@@ -651,6 +678,7 @@ impl World {
             }
             match a {
                 CcAction::SendNotice { status, timestamp } => {
+                    self.log(|| format!("CC -> notice status {} event {timestamp}", status.0));
                     let count = self.acks.entry((status.0, timestamp)).or_insert(0);
                     *count += 1;
                     if *count > 1 + self.cc.config().max_ack_retries {
@@ -684,7 +712,8 @@ impl World {
                     let bytes = self.cc_end.frame(&o);
                     self.send(Node::Cc, bytes);
                 }
-                CcAction::StartControl | CcAction::StopControl => {}
+                CcAction::StartControl => self.log(|| "CC starts controlling".into()),
+                CcAction::StopControl => self.log(|| "CC stops controlling".into()),
             }
         }
         if let Some(t) = self.fc.poll_timeout() {
@@ -703,8 +732,7 @@ impl World {
     }
 
     fn authority_changed(&mut self, a: Authority) {
-        let before = self.fc.authority();
-        let _ = before;
+        self.log(|| format!("FC authority -> {a:?}"));
         match a {
             Authority::Companion => {
                 self.takeovers += 1;
@@ -790,6 +818,7 @@ impl World {
             violations: self.violations,
             final_authority: auth,
             frames: self.frames,
+            trace: self.trace,
         }
     }
 }

@@ -189,15 +189,7 @@ pub fn table1_text(rows: &[Row]) -> String {
     let _ = writeln!(
         out,
         "{:<30} {:>11} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>10} {:>9} | backup behaviour (ours)",
-        "test",
-        "paper",
-        "paper t",
-        "success",
-        "p50",
-        "p95",
-        "max",
-        "fallbacks",
-        "false TO",
+        "test", "paper", "paper t", "success", "p50", "p95", "max", "fallbacks", "false TO",
     );
     for (row, paper) in rows.iter().zip(PAPER) {
         let ms = |v: Option<f64>| v.map_or("N/A".to_string(), |v| format!("{:.0} ms", v));

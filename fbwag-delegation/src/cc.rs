@@ -161,6 +161,9 @@ pub struct Companion {
     last_fc: Option<Instant>,
     /// The last hand-back event acknowledged, and how often.
     normal_acks: (u32, u8),
+    /// The newest takeover event handled: a late or duplicated notice of
+    /// it (or of an older one) must not start control again.
+    newest_event: Option<u32>,
     stats: CcStats,
     out: Outbox<CcAction, 8>,
 }
@@ -173,6 +176,7 @@ impl Companion {
             state: State::Idle,
             last_fc: None,
             normal_acks: (0, 0),
+            newest_event: None,
             stats: CcStats::default(),
             out: Outbox::new(),
         }
@@ -283,8 +287,8 @@ impl Companion {
     pub fn handle_input(&mut self, now: Instant, input: CcInput<'_>) {
         let from = match input {
             CcInput::Reboot => {
-                self.state = State::Idle;
-                self.last_fc = None;
+                // A restart forgets everything; the FC's events stay ordered.
+                *self = Companion::new(self.cfg);
                 return;
             }
             CcInput::Heartbeat { from, .. }
@@ -356,7 +360,12 @@ impl Companion {
                         }
                     }
                 }
+                // An event already handled, or older: late or duplicated.
+                _ if self
+                    .newest_event
+                    .is_some_and(|n| !event_after(timestamp, n)) => {}
                 _ => {
+                    self.newest_event = Some(timestamp);
                     self.stats.takeovers += 1;
                     // The first control message goes out with the
                     // acknowledgement; the stream follows every period.
@@ -375,6 +384,7 @@ impl Companion {
                 }
             },
             Status::NORMAL => {
+                self.saw_event(timestamp);
                 // The FC no longer delegates: stop, and acknowledge every
                 // time asked (the FC retries until it hears us).
                 if matches!(self.state, State::Controlling { .. }) {
@@ -391,6 +401,13 @@ impl Companion {
                 }
             }
             _ => {}
+        }
+    }
+
+    /// Hand-back events count too: a status 1 older than a hand-back is stale.
+    fn saw_event(&mut self, timestamp: u32) {
+        if self.newest_event.is_none_or(|n| event_after(timestamp, n)) {
+            self.newest_event = Some(timestamp);
         }
     }
 
@@ -412,4 +429,10 @@ impl Companion {
         self.stats.acks_sent += 1;
         self.out.push(CcAction::SendNotice { status, timestamp });
     }
+}
+
+/// True when FC event `a` is newer than `b`: events are milliseconds since
+/// the FC booted (wrapping after 49 days).
+fn event_after(a: u32, b: u32) -> bool {
+    (a.wrapping_sub(b) as i32) > 0
 }

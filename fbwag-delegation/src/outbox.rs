@@ -1,8 +1,9 @@
 //! A fixed-capacity action queue: the machines allocate nothing.
 
-/// Actions waiting for `poll_action`. No transition emits more than a few
-/// actions; overflowing is a bug in this crate, caught by a debug assertion
-/// (release builds drop the newest action rather than panic).
+/// Actions waiting for `poll_action`. No single call emits more than four;
+/// the contract is to drain after every `handle_*` call. Overflowing means
+/// a caller broke it: a debug assertion says so (release builds drop the
+/// newest action rather than panic).
 #[derive(Debug, Clone)]
 pub(crate) struct Outbox<T: Copy, const N: usize> {
     items: [Option<T>; N],

@@ -1,6 +1,7 @@
 //! `fbwag`: the FBWAG MAVLink toolbox.
 
 mod json;
+mod live;
 mod sim;
 
 use clap::{Parser as ClapParser, Subcommand};
@@ -29,7 +30,10 @@ Examples:
   fbwag encode --hex --sign-key $(printf '%064x' 0) --link-id 0 --sign-timestamp 1000 < frames.jsonl
   fbwag sim --table1                                        # the paper's Table I, 10,000 trials per row
   fbwag sim --scenario message-loss --loss 0.5 --trials 10000 --seed 7 --json
-  fbwag sim --sweep --svg sweep.svg";
+  fbwag sim --sweep --svg sweep.svg
+  fbwag demo                                                # FC + companion over a lossy loopback relay
+  fbwag cc --link serial:/dev/serial0:460800                # the companion daemon
+  fbwag fc-sim --link udpout:127.0.0.1:14550 --rc-loss-at 3 --rc-back-at 12";
 
 #[derive(Subcommand)]
 enum Command {
@@ -78,6 +82,108 @@ enum Command {
         /// Write a .tlog (timestamps from "tlog_us", else 0).
         #[arg(long, conflicts_with = "hex")]
         tlog: bool,
+    },
+    /// The companion-computer daemon: answer the FC's FBWAG notices.
+    ///
+    /// Waits for the flight controller, acknowledges RC-loss notices with
+    /// status 2 (echoing the event timestamp), streams RC_CHANNELS_OVERRIDE
+    /// from the controller while delegated, stops and acknowledges on status
+    /// 0. Logs every transition with a timestamp.
+    Cc {
+        /// Connection string: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
+        /// tcpin:IP:PORT, serial:PATH:BAUD.
+        #[arg(long, value_name = "CONN")]
+        link: String,
+        /// Our system id.
+        #[arg(long, default_value_t = 1)]
+        sysid: u8,
+        /// Our component id (191: onboard computer).
+        #[arg(long, default_value_t = 191)]
+        compid: u8,
+        /// The flight controller's system id.
+        #[arg(long, default_value_t = 1)]
+        fc_sysid: u8,
+        /// The flight controller's component id.
+        #[arg(long, default_value_t = 1)]
+        fc_compid: u8,
+        /// Control stream rate (Hz).
+        #[arg(long, default_value_t = 20.0)]
+        rate: f64,
+        /// Controller: wings-level (cruise throttle) or circle.
+        #[arg(long, default_value = "wings-level")]
+        controller: String,
+        /// Cruise throttle (PWM µs).
+        #[arg(long, default_value_t = 1600)]
+        throttle: u16,
+        /// Sign outgoing frames and verify incoming ones with this key (64 hex digits).
+        #[arg(long, value_name = "HEX64")]
+        sign_key: Option<String>,
+        /// Act only on the FC's frames whose signature verified.
+        #[arg(long, requires = "sign_key")]
+        require_signed: bool,
+        /// Stop after this many seconds.
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+        /// Exit once control has been handed back to the pilot.
+        #[arg(long)]
+        exit_after_handback: bool,
+    },
+    /// A flight-controller simulator speaking like ArduPlane.
+    ///
+    /// Sends HEARTBEAT (plane modes), SYS_STATUS, ATTITUDE and RC_CHANNELS,
+    /// loses and regains its receiver on schedule, runs the FC state machine
+    /// and reports every mode change (companion control, RTL, the pilot)
+    /// with a timestamp.
+    FcSim {
+        /// Connection string (see `fbwag cc --help`).
+        #[arg(long, value_name = "CONN")]
+        link: String,
+        /// Lose the receiver at this time (seconds after start).
+        #[arg(long, value_name = "SECONDS")]
+        rc_loss_at: Option<f64>,
+        /// Get the receiver back at this time.
+        #[arg(long, value_name = "SECONDS")]
+        rc_back_at: Option<f64>,
+        /// The companion allowed to take over: system id.
+        #[arg(long, default_value_t = 1)]
+        cc_sysid: u8,
+        /// The companion allowed to take over: component id.
+        #[arg(long, default_value_t = 191)]
+        cc_compid: u8,
+        /// Our system id.
+        #[arg(long, default_value_t = 1)]
+        sysid: u8,
+        /// Our component id.
+        #[arg(long, default_value_t = 1)]
+        compid: u8,
+        /// Run this long (seconds).
+        #[arg(long, default_value_t = 20.0)]
+        duration: f64,
+        /// Sign and verify with this key (64 hex digits).
+        #[arg(long, value_name = "HEX64")]
+        sign_key: Option<String>,
+        /// Accept the companion's takeover only from signed frames.
+        #[arg(long, requires = "sign_key")]
+        require_signed: bool,
+    },
+    /// Both programs over loopback UDP through a lossy relay: a timeline and
+    /// the measured handover time.
+    Demo {
+        /// Share of datagrams the relay drops in each direction.
+        #[arg(long, default_value_t = 0.2)]
+        loss: f64,
+        /// Receiver lost at (s).
+        #[arg(long, default_value_t = 2.0)]
+        rc_loss_at: f64,
+        /// Receiver back at (s).
+        #[arg(long, default_value_t = 7.0)]
+        rc_back_at: f64,
+        /// Total run time (s).
+        #[arg(long, default_value_t = 9.0)]
+        duration: f64,
+        /// Seed of the relay's losses.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
     },
     /// Run the delegation protocol in the deterministic simulator.
     ///
@@ -289,6 +395,14 @@ fn encode(
     Ok(errors == 0)
 }
 
+/// A 32-byte key from 64 hex digits.
+fn key(hex: &str) -> Result<[u8; 32], String> {
+    let bytes = json::unhex(hex)?;
+    bytes
+        .try_into()
+        .map_err(|b: Vec<u8>| format!("a signing key is 32 bytes (64 hex digits), got {}", b.len()))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -331,6 +445,81 @@ fn main() -> ExitCode {
             json,
             svg,
         }),
+        Command::Cc {
+            link,
+            sysid,
+            compid,
+            fc_sysid,
+            fc_compid,
+            rate,
+            controller,
+            throttle,
+            sign_key,
+            require_signed,
+            duration,
+            exit_after_handback,
+        } => (|| {
+            let controller: Box<dyn live::Controller + Send> = match controller.as_str() {
+                "wings-level" => Box::new(live::WingsLevel { throttle }),
+                "circle" => Box::new(live::Circle { throttle }),
+                other => {
+                    return Err(format!(
+                        "unknown controller `{other}` (wings-level or circle)"
+                    ))
+                }
+            };
+            let opts = live::CcOptions {
+                link: link.parse().map_err(|e| format!("--link: {e}"))?,
+                sysid,
+                compid,
+                fc_sysid,
+                fc_compid,
+                rate_hz: rate,
+                controller,
+                sign_key: sign_key.as_deref().map(key).transpose()?,
+                require_signed,
+                duration: duration.map(std::time::Duration::from_secs_f64),
+                exit_after_handback,
+            };
+            live::run_cc(opts, &mut std::io::stdout())
+                .map(|_| true)
+                .map_err(|e| format!("link: {e}"))
+        })(),
+        Command::FcSim {
+            link,
+            rc_loss_at,
+            rc_back_at,
+            cc_sysid,
+            cc_compid,
+            sysid,
+            compid,
+            duration,
+            sign_key,
+            require_signed,
+        } => (|| {
+            let opts = live::FcOptions {
+                link: link.parse().map_err(|e| format!("--link: {e}"))?,
+                sysid,
+                compid,
+                cc_sysid,
+                cc_compid,
+                rc_loss_at,
+                rc_back_at,
+                duration,
+                sign_key: sign_key.as_deref().map(key).transpose()?,
+                require_signed,
+            };
+            live::run_fc(opts, &mut std::io::stdout())
+                .map(|_| true)
+                .map_err(|e| format!("link: {e}"))
+        })(),
+        Command::Demo {
+            loss,
+            rc_loss_at,
+            rc_back_at,
+            duration,
+            seed,
+        } => live::demo(loss, rc_loss_at, rc_back_at, duration, seed).map(|r| r.handover.is_some()),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

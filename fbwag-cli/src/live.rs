@@ -413,7 +413,7 @@ pub fn run_fc(o: FcOptions, out: &mut dyn Write) -> std::io::Result<FcReport> {
                 time_boot_ms: (t * 1000.0) as u32,
                 roll,
                 pitch: 0.02,
-                yaw: (t as f32 * 0.05) % 6.28,
+                yaw: (t as f32 * 0.05) % std::f32::consts::TAU,
                 ..Default::default()
             };
             link.send_auto(o.sysid, o.compid, &att)?;

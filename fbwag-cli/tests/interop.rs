@@ -1,0 +1,151 @@
+//! Interop with the real client library over UDP on 127.0.0.1: a pymavlink
+//! 2.4.50 companion (the paper's Fig. 8 listener, written anew, on
+//! pymavlink's own generated FBWAG dialect) drives `fbwag fc-sim` into
+//! companion control and back; `fbwag cc` answers a pymavlink-scripted FC.
+
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn python() -> String {
+    let out = Command::new("bash")
+        .arg(repo().join("scripts/python-env.sh"))
+        .output()
+        .expect("python-env.sh");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap().trim().to_string()
+}
+
+/// A free UDP port on 127.0.0.1 (bound then released).
+fn free_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+#[test]
+fn pymavlink_companion_drives_fc_sim_into_companion_control_and_back() {
+    let py = python();
+    let port = free_port();
+    let cc = Command::new(&py)
+        .arg(repo().join("interop/cc_listener.py"))
+        .arg(format!("udpin:127.0.0.1:{port}"))
+        .args(["--seconds", "8"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("cc_listener.py");
+    // Let the listener bind (pymavlink imports take a moment).
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let fc = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        .args([
+            "fc-sim",
+            "--link",
+            &format!("udpout:127.0.0.1:{port}"),
+            "--rc-loss-at",
+            "1",
+            "--rc-back-at",
+            "4",
+            "--duration",
+            "6",
+        ])
+        .output()
+        .expect("fbwag fc-sim");
+    let cc = cc.wait_with_output().unwrap();
+    let fc_log = String::from_utf8_lossy(&fc.stdout);
+    let cc_log = String::from_utf8_lossy(&cc.stdout);
+    let both = format!(
+        "--- fbwag fc-sim\n{fc_log}\n--- pymavlink companion\n{cc_log}{}",
+        String::from_utf8_lossy(&cc.stderr)
+    );
+    assert!(fc.status.success(), "{both}");
+    let order = [
+        "MODE CHANGE -> CIRCLE",
+        "MODE CHANGE -> FBWAG (companion control)",
+        "MODE CHANGE -> FBWA (pilot in control)",
+        "RC has taken over",
+    ];
+    let mut at = 0;
+    for step in order {
+        let found = fc_log[at..]
+            .find(step)
+            .unwrap_or_else(|| panic!("{step:?} missing or out of order\n{both}"));
+        at += found;
+    }
+    assert!(!fc_log.contains("RTL"), "no fallback expected\n{both}");
+    assert!(
+        cc_log.contains("done: 1 takeover(s), 1 hand-back(s)"),
+        "{both}"
+    );
+}
+
+#[test]
+fn fbwag_cc_answers_a_pymavlink_flight_controller() {
+    let py = python();
+    let port = free_port();
+    let cc = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        .args([
+            "cc",
+            "--link",
+            &format!("udpin:127.0.0.1:{port}"),
+            "--duration",
+            "12",
+            "--exit-after-handback",
+        ])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("fbwag cc");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let fc = Command::new(&py)
+        .arg(repo().join("interop/fc_script.py"))
+        .arg(format!("udpout:127.0.0.1:{port}"))
+        .output()
+        .expect("fc_script.py");
+    let cc = cc.wait_with_output().unwrap();
+    let report = format!(
+        "--- pymavlink FC\n{}{}\n--- fbwag cc\n{}",
+        String::from_utf8_lossy(&fc.stdout),
+        String::from_utf8_lossy(&fc.stderr),
+        String::from_utf8_lossy(&cc.stdout)
+    );
+    assert!(fc.status.success(), "{report}");
+    assert!(
+        String::from_utf8_lossy(&fc.stdout).contains("0 check(s) failed"),
+        "{report}"
+    );
+    assert!(cc.status.success(), "{report}");
+}
+
+#[test]
+fn demo_hands_over_through_a_lossy_relay() {
+    let out = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        .args([
+            "demo",
+            "--loss",
+            "0.2",
+            "--rc-loss-at",
+            "1",
+            "--rc-back-at",
+            "4",
+            "--duration",
+            "5.5",
+        ])
+        .output()
+        .expect("fbwag demo");
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert!(
+        log.contains("handover time (receiver failure → companion control):"),
+        "{log}"
+    );
+    assert!(log.contains("Pilot"), "RC came back: {log}");
+}

@@ -7,14 +7,11 @@
 
 use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, Companion};
 use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
-use fbwag_delegation::{mode, Origin, Peer, Status};
-use fbwag_dialect::dialects::common::{
-    Attitude, MavSeverity, RcChannels, RcChannelsOverride, Statustext, SysStatus,
-};
+use fbwag_delegation::{wire, Origin, Peer, Status};
+use fbwag_dialect::dialects::common::{Attitude, RcChannels, RcChannelsOverride, SysStatus};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType};
 use fbwag_dialect::mavwire::conn::Endpoint;
-use fbwag_dialect::mavwire::field::chars;
-use fbwag_dialect::{Connection, FbwagNotice, Message, ReceivedFrame, Signer, Verifier};
+use fbwag_dialect::{Connection, Message, ReceivedFrame, Signer, Verifier};
 use std::io::Write;
 use std::time::{Duration, Instant as WallInstant};
 
@@ -54,6 +51,26 @@ fn origin(r: &ReceivedFrame<fbwag_dialect::Dialect>) -> Origin {
         authenticated: r.is_authenticated(),
         seq: h.seq,
     }
+}
+
+/// Opens `endpoint`; with a key, signs what is sent and verifies what
+/// comes (unsigned frames still arrive, marked unauthenticated: whether they
+/// count is the state machine's policy).
+fn open_link(endpoint: &Endpoint, key: Option<[u8; 32]>) -> std::io::Result<Connection> {
+    let Some(k) = key else {
+        return Connection::open(endpoint);
+    };
+    let transport = fbwag_dialect::mavwire::conn::open(endpoint)?;
+    let mut link = Connection::with_parser(
+        transport,
+        fbwag_dialect::Parser::with_signing(Verifier::new(k), true),
+    );
+    link.set_signer(Some(Signer::new(
+        k,
+        0,
+        fbwag_dialect::mavwire::signing::timestamp_now(),
+    )));
+    Ok(link)
 }
 
 /// Channel values a controller outputs (PWM µs, 0 = release the channel).
@@ -110,20 +127,7 @@ pub struct CcOptions {
 /// The companion daemon. Returns (takeovers, hand-backs) when it ends.
 pub fn run_cc(mut o: CcOptions, out: &mut dyn Write) -> std::io::Result<(u32, u32)> {
     let clock = Clock::start();
-    let mut link = match o.sign_key {
-        Some(k) => Connection::with_parser(
-            fbwag_dialect::mavwire::conn::open(&o.link)?,
-            fbwag_dialect::Parser::with_signing(Verifier::new(k), true),
-        ),
-        None => Connection::open(&o.link)?,
-    };
-    if let Some(k) = o.sign_key {
-        link.set_signer(Some(Signer::new(
-            k,
-            0,
-            fbwag_dialect::mavwire::signing::timestamp_now(),
-        )));
-    }
+    let mut link = open_link(&o.link, o.sign_key)?;
     let cfg = CcConfig {
         own: Peer::new(o.sysid, o.compid),
         fc: Peer::new(o.fc_sysid, o.fc_compid),
@@ -221,13 +225,7 @@ pub fn run_cc(mut o: CcOptions, out: &mut dyn Write) -> std::io::Result<(u32, u3
         while let Some(a) = cc.poll_action() {
             match a {
                 CcAction::SendNotice { status, timestamp } => {
-                    let n = FbwagNotice {
-                        system_id: o.fc_sysid,
-                        component_id: o.fc_compid,
-                        failsafe_status: status,
-                        text: chars("FBWAG"),
-                        timestamp,
-                    };
+                    let n = wire::notice(Peer::new(o.fc_sysid, o.fc_compid), status, timestamp);
                     link.send_auto(o.sysid, o.compid, &n)?;
                     log(
                         out,
@@ -312,33 +310,11 @@ pub struct FcReport {
     pub rc_lost_at: Option<f64>,
 }
 
-fn custom_mode(a: Authority) -> u32 {
-    match a {
-        Authority::Pilot => mode::FBWA,
-        Authority::Handshake => mode::CIRCLE,
-        Authority::Companion => mode::FBWAG,
-        Authority::Rtl => mode::RTL,
-    }
-}
-
 /// The flight-controller simulator: ArduPlane-like telemetry, a receiver
 /// that fails and returns on schedule, and the FC state machine.
 pub fn run_fc(o: FcOptions, out: &mut dyn Write) -> std::io::Result<FcReport> {
     let clock = Clock::start();
-    let mut link = match o.sign_key {
-        Some(k) => Connection::with_parser(
-            fbwag_dialect::mavwire::conn::open(&o.link)?,
-            fbwag_dialect::Parser::with_signing(Verifier::new(k), true),
-        ),
-        None => Connection::open(&o.link)?,
-    };
-    if let Some(k) = o.sign_key {
-        link.set_signer(Some(Signer::new(
-            k,
-            0,
-            fbwag_dialect::mavwire::signing::timestamp_now(),
-        )));
-    }
+    let mut link = open_link(&o.link, o.sign_key)?;
     let cfg = FcConfig {
         own: Peer::new(o.sysid, o.compid),
         companion: Peer::new(o.cc_sysid, o.cc_compid),
@@ -388,7 +364,7 @@ pub fn run_fc(o: FcOptions, out: &mut dyn Write) -> std::io::Result<FcReport> {
                 base_mode: MavModeFlag::CUSTOM_MODE_ENABLED
                     | MavModeFlag::STABILIZE_ENABLED
                     | MavModeFlag::SAFETY_ARMED,
-                custom_mode: custom_mode(a),
+                custom_mode: wire::custom_mode(a),
                 system_status: MavState::ACTIVE,
                 mavlink_version: 3,
             };
@@ -508,13 +484,7 @@ pub fn run_fc(o: FcOptions, out: &mut dyn Write) -> std::io::Result<FcReport> {
         while let Some(a) = fc.poll_action() {
             match a {
                 FcAction::SendNotice { status, timestamp } => {
-                    let n = FbwagNotice {
-                        system_id: o.sysid,
-                        component_id: o.compid,
-                        failsafe_status: status,
-                        text: chars("FBWAG"),
-                        timestamp,
-                    };
+                    let n = wire::notice(Peer::new(o.sysid, o.compid), status, timestamp);
                     link.send_auto(o.sysid, o.compid, &n)?;
                     log(
                         out,
@@ -524,12 +494,7 @@ pub fn run_fc(o: FcOptions, out: &mut dyn Write) -> std::io::Result<FcReport> {
                     );
                 }
                 FcAction::SendStatusText { text, event } => {
-                    let s = Statustext {
-                        severity: MavSeverity::INFO,
-                        text: chars(text),
-                        id: event as u16,
-                        chunk_seq: 0,
-                    };
+                    let s = wire::status_text(text, event);
                     link.send_auto(o.sysid, o.compid, &s)?;
                     log(out, &clock, "fc", &format!("-> STATUSTEXT {text:?}"));
                 }

@@ -17,6 +17,7 @@ mod outbox;
 #[cfg(feature = "std")]
 pub mod sim;
 mod time;
+pub mod wire;
 
 pub use fbwag_dialect::FbwagFailsafeStatus as Status;
 pub use time::Instant;

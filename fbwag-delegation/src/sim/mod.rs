@@ -11,11 +11,10 @@ pub mod report;
 
 use crate::cc::{CcAction, CcConfig, CcInput, Companion};
 use crate::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
-use crate::{mode, Instant, Origin, Peer, Status};
-use fbwag_dialect::dialects::common::{RcChannelsOverride, Statustext};
+use crate::{Instant, Origin, Peer, Status};
+use fbwag_dialect::dialects::common::RcChannelsOverride;
 use fbwag_dialect::dialects::minimal::Heartbeat;
-use fbwag_dialect::mavwire::field::chars;
-use fbwag_dialect::{encode, FbwagNotice, Header, Message, Parser, Signer, Verifier, Version};
+use fbwag_dialect::{encode, Header, Message, Parser, Signer, Verifier, Version};
 use link::{GilbertElliott, Link, LinkModel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -475,12 +474,7 @@ impl World {
                 }
             }
             Event::FcHeartbeat => {
-                let custom_mode = match self.fc.authority() {
-                    Authority::Pilot => mode::FBWA,
-                    Authority::Handshake => mode::CIRCLE,
-                    Authority::Companion => mode::FBWAG,
-                    Authority::Rtl => mode::RTL,
-                };
+                let custom_mode = crate::wire::custom_mode(self.fc.authority());
                 let hb = Heartbeat {
                     custom_mode,
                     ..Heartbeat::default()
@@ -532,13 +526,7 @@ impl World {
                 // as a ground station, unsigned.
                 if let Some(event) = self.last_event {
                     for k in 0..2 {
-                        let forged = FbwagNotice {
-                            system_id: 1,
-                            component_id: 1,
-                            failsafe_status: Status::CC_TAKEOVER_CONFIRMED,
-                            text: chars("FBWAG"),
-                            timestamp: event,
-                        };
+                        let forged = crate::wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, event);
                         let bytes = self.spoof_end[k].frame(&forged);
                         self.send(Node::Cc, bytes);
                     }
@@ -647,25 +635,14 @@ impl World {
                     if status == Status::RC_LOST {
                         self.last_event = Some(timestamp);
                     }
-                    let n = FbwagNotice {
-                        system_id: FC.sysid,
-                        component_id: FC.compid,
-                        failsafe_status: status,
-                        text: chars("FBWAG"),
-                        timestamp,
-                    };
-                    let bytes = self.fc_end.frame(&n);
+                    let bytes = self
+                        .fc_end
+                        .frame(&crate::wire::notice(FC, status, timestamp));
                     self.send(Node::Fc, bytes);
                 }
                 FcAction::SendStatusText { text, event } => {
                     self.log(|| format!("FC -> STATUSTEXT {text:?} (event {event})"));
-                    let t = Statustext {
-                        severity: fbwag_dialect::dialects::common::MavSeverity::INFO,
-                        text: chars(text),
-                        id: event as u16,
-                        chunk_seq: 0,
-                    };
-                    let bytes = self.fc_end.frame(&t);
+                    let bytes = self.fc_end.frame(&crate::wire::status_text(text, event));
                     self.send(Node::Fc, bytes);
                 }
                 FcAction::SetAuthority(a) => self.authority_changed(a),
@@ -688,14 +665,9 @@ impl World {
                             status.0
                         ));
                     }
-                    let n = FbwagNotice {
-                        system_id: FC.sysid,
-                        component_id: FC.compid,
-                        failsafe_status: status,
-                        text: chars("FBWAG"),
-                        timestamp,
-                    };
-                    let bytes = self.cc_end.frame(&n);
+                    let bytes = self
+                        .cc_end
+                        .frame(&crate::wire::notice(FC, status, timestamp));
                     self.send(Node::Cc, bytes);
                 }
                 CcAction::SendControl => {

@@ -30,6 +30,20 @@ cargo test --workspace --locked
 step "mavwire with every feature (serial over a pseudo-terminal, tokio)"
 cargo test -p mavwire --all-features --locked
 
-step "no_std and filtered builds of fbwag-dialect"
+# --- conformance (issue 6) ---
+# The conformance tests ran in `cargo test` above (conformance/tests/wire.rs
+# prints its report: every message of fbwag.xml and all.xml against pymavlink
+# 2.4.50 and the MAVLink C library, and the corrupted streams). Here: the
+# bounded libFuzzer run (stable toolchain, 4 targets x 15 s) and the summary.
+# What each check proves: docs/conformance.md.
+step "conformance: bounded fuzz run (parser, frame, view, xml: 15 s each)"
+bash conformance/scripts/fuzz.sh run 15
+
+step "conformance: summary"
+bash conformance/scripts/summary.sh
+# --- end conformance (issue 6) ---
+
+step "no_std builds: fbwag-dialect (full and filtered), fbwag-delegation"
 cargo build -p fbwag-dialect --no-default-features --locked
 cargo test -p fbwag-dialect --no-default-features --features cc-subset --locked
+cargo build -p fbwag-delegation --no-default-features --locked

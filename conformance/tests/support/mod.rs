@@ -39,3 +39,9 @@ pub fn xml_files() -> Vec<PathBuf> {
     v.sort();
     v
 }
+
+pub mod frames;
+pub mod peers;
+pub mod streams;
+pub mod three_way;
+pub mod values;

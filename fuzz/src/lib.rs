@@ -1,0 +1,285 @@
+//! The bodies of the fuzz targets, one function per target. libFuzzer runs
+//! them through `fuzz_targets/*.rs`; `conformance/tests/fuzz_regressions.rs`
+//! compiles this file too (`#[path]`) and replays every file of
+//! `fuzz/corpus/<target>/` and `fuzz/regressions/<target>/` through them
+//! under `cargo test`. Each function panics exactly when an invariant breaks.
+//!
+//! - [`parser`]: the streaming parser over any bytes, any chunking, any
+//!   signing policy: same result for every chunking, returned frames whole,
+//!   in order, checksums valid, policy respected, every byte accounted for.
+//! - [`frame`]: `frame_len` / `Frame::new_checked` and every accessor over
+//!   any bytes; signature check; canonical frames re-encode identically.
+//! - [`view`]: every message's zero-copy view and owned message over any
+//!   payload (any length): accessors never panic, view and owned message
+//!   agree, emit writes what was read, parse/emit is idempotent.
+//! - [`xml`]: mavgen-rs's XML reader and whole front end (includes aside)
+//!   over any text: diagnostics instead of panics; accepted layouts sane.
+
+use fbwag_dialect::mavwire::field::read;
+use fbwag_dialect::mavwire::frame::{
+    finish, frame_len, truncated_len, Frame, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN,
+    SIGNATURE_LEN,
+};
+use fbwag_dialect::mavwire::parser::{Parser, Stats};
+use fbwag_dialect::mavwire::signing::Verifier;
+use fbwag_dialect::mavwire::{Dialect as _, FieldType};
+use fbwag_dialect::{Dialect, Message, MessageView};
+
+/// The key of the signing policies (frames in the corpus are signed with it).
+pub const KEY: [u8; 32] = [0x42; 32];
+
+type Got = (Vec<u8>, bool, bool);
+
+fn run_parser(
+    stream: &[u8],
+    policy: u8,
+    mut chunk: impl FnMut(usize) -> usize,
+) -> (Vec<Got>, Stats) {
+    let mut p = match policy {
+        0 => Parser::<Dialect>::new(),
+        1 => Parser::<Dialect>::with_signing(Verifier::new(KEY), true),
+        _ => Parser::<Dialect>::with_signing(Verifier::new(KEY), false),
+    };
+    let mut out = Vec::new();
+    let mut rest = stream;
+    let mut i = 0;
+    while !rest.is_empty() {
+        let n = chunk(i).clamp(1, rest.len());
+        i += 1;
+        let (mut c, tail) = rest.split_at(n);
+        rest = tail;
+        while let Some(rx) = p.next(&mut c) {
+            out.push((
+                rx.frame.as_bytes().to_vec(),
+                rx.meta.is_some(),
+                rx.authenticated,
+            ));
+        }
+        assert!(c.is_empty(), "input left unconsumed");
+    }
+    while let Some(rx) = p.flush() {
+        out.push((
+            rx.frame.as_bytes().to_vec(),
+            rx.meta.is_some(),
+            rx.authenticated,
+        ));
+    }
+    (out, *p.stats())
+}
+
+/// Byte 0: signing policy (no key / key, unsigned accepted / key, unsigned
+/// refused) and chunking; the rest is the stream.
+pub fn parser(data: &[u8]) {
+    let Some((&cfg, stream)) = data.split_first() else {
+        return;
+    };
+    let policy = cfg % 3;
+    let seed = (cfg / 3) as usize;
+    let (chunked, stats) = run_parser(stream, policy, |i| 1 + (seed * 7 + i * 13) % (seed + 1));
+    let (whole, whole_stats) = run_parser(stream, policy, |_| usize::MAX);
+    assert_eq!(chunked, whole, "chunking changed the frames");
+    assert_eq!(stats, whole_stats, "chunking changed the counters");
+    assert_eq!(
+        stats.frames + stats.unknown_frames,
+        whole.len() as u64,
+        "frame counters"
+    );
+    let mut at = 0;
+    let mut returned = 0u64;
+    for (bytes, known, authenticated) in &whole {
+        let f = Frame::new_checked(bytes).expect("returned frames are whole");
+        assert_eq!(f.as_bytes().len(), bytes.len());
+        // In stream order, without overlap.
+        let pos = stream[at..]
+            .windows(bytes.len())
+            .position(|w| w == &bytes[..])
+            .expect("returned frame is in the stream after the previous one");
+        at += pos + bytes.len();
+        returned += bytes.len() as u64;
+        if *known {
+            let m = Dialect::meta(f.msg_id()).expect("known id");
+            assert!(f.check_crc(m.crc_extra), "known frame with a bad checksum");
+            if policy != 0 && f.is_signed() {
+                assert!(*authenticated, "signed frame accepted unverified");
+            }
+        }
+        if policy == 2 {
+            assert!(f.is_signed(), "unsigned frame accepted while refused");
+        }
+        if policy == 0 {
+            assert!(!*authenticated);
+        }
+    }
+    let total = stream.len() as u64;
+    let skipped = stats.bad_signature + stats.unsigned_rejected;
+    assert!(
+        returned + stats.bytes_dropped <= total,
+        "more bytes than input"
+    );
+    let rest = total - returned - stats.bytes_dropped;
+    assert!(
+        rest <= skipped * MAX_FRAME_LEN as u64,
+        "{rest} bytes neither returned, dropped nor in a counted rejected frame"
+    );
+}
+
+/// Any bytes as a frame.
+pub fn frame(data: &[u8]) {
+    let len = frame_len(data);
+    let f = match Frame::new_checked(data) {
+        Ok(f) => f,
+        Err(_) => {
+            if let Ok(n) = len {
+                assert!(data.len() < n, "new_checked refused a whole frame");
+            }
+            return;
+        }
+    };
+    let n = f.as_bytes().len();
+    assert_eq!(len, Ok(n));
+    let (version, h, id, payload) = (f.version(), f.header(), f.msg_id(), f.payload());
+    assert_eq!(payload.len(), f.payload_len());
+    let _ = (f.checksum(), f.incompat_flags(), f.compat_flags());
+    for extra in [0u8, 50, 255] {
+        let _ = f.computed_checksum(extra);
+    }
+    if let Some(s) = f.signature() {
+        assert!(f.is_signed());
+        assert_eq!(s.as_bytes().len(), SIGNATURE_LEN);
+        let _ = (s.link_id(), s.timestamp(), s.signature());
+    }
+    let mut v = Verifier::<2>::new(KEY);
+    let _ = v.verify(&f);
+    let _ = v.verify(&f);
+    // A canonical frame of a known message re-encodes identically.
+    let Some(m) = Dialect::meta(id) else {
+        return;
+    };
+    if !f.check_crc(m.crc_extra) || f.is_signed() || f.compat_flags() != 0 {
+        return;
+    }
+    let canonical = match version {
+        Version::V2 => {
+            payload.len() <= m.max_len as usize && truncated_len(payload) == payload.len()
+        }
+        Version::V1 => payload.len() == m.min_len as usize,
+    };
+    if canonical {
+        let start = if version == Version::V2 {
+            HEADER_LEN_V2
+        } else {
+            HEADER_LEN_V1
+        };
+        let mut out = [0u8; MAX_FRAME_LEN];
+        out[start..start + payload.len()].copy_from_slice(payload);
+        let n = finish(version, h, m, payload.len(), None, &mut out).expect("fits");
+        assert_eq!(
+            &out[..n],
+            f.as_bytes(),
+            "canonical frame re-encodes differently"
+        );
+    }
+}
+
+/// Bytes 0-1 choose a message (or, past the table, bytes 2-4 a raw id);
+/// the rest is its payload, of any length.
+pub fn view(data: &[u8]) {
+    if data.len() < 2 {
+        return;
+    }
+    let msgs = Dialect::MESSAGES;
+    let pick = u16::from_le_bytes([data[0], data[1]]) as usize % (msgs.len() + 1);
+    let (id, payload) = if pick < msgs.len() {
+        (msgs[pick].id, &data[2..])
+    } else {
+        let raw = data.get(2..5).unwrap_or(&[]);
+        let mut b = [0u8; 4];
+        b[..raw.len()].copy_from_slice(raw);
+        (u32::from_le_bytes(b), data.get(5..).unwrap_or(&[]))
+    };
+    let Some(view) = MessageView::new(id, payload) else {
+        assert!(Dialect::meta(id).is_none());
+        assert!(Message::parse(id, payload).is_none());
+        return;
+    };
+    let meta = view.meta();
+    assert_eq!(meta.id, id);
+    let owned = view.to_message();
+    assert_eq!(owned.id(), id);
+    let mut a = [0u8; 256];
+    let na = owned.emit(&mut a).expect("emit");
+    assert_eq!(na, meta.max_len as usize);
+    let mut b = [0u8; 256];
+    let parsed = Message::parse(id, payload).expect("known");
+    let nb = parsed.emit(&mut b).expect("emit");
+    assert_eq!(a[..na], b[..nb], "view and parse disagree");
+    // What was emitted is what was read, field by field.
+    for f in meta.fields {
+        let at = f.offset as usize;
+        let len = f.wire_len();
+        let wire: Vec<u8> = (0..len).map(|k| read::<u8>(payload, at + k)).collect();
+        let out = &a[at..at + len];
+        if f.ty == FieldType::Char && f.array_len > 0 {
+            // A string: up to its first NUL (bytes after it are not kept:
+            // docs/conformance.md, known bug B1).
+            let end = wire.iter().position(|&c| c == 0).unwrap_or(len);
+            assert_eq!(&out[..end], &wire[..end], "{}.{}", meta.name, f.name);
+            assert!(
+                out[end..].iter().all(|&c| c == 0),
+                "{}.{}",
+                meta.name,
+                f.name
+            );
+        } else {
+            assert_eq!(out, &wire[..], "{}.{}", meta.name, f.name);
+        }
+    }
+    // Idempotent: parsing what was emitted emits the same bytes.
+    let again = Message::parse(id, &a[..na]).expect("known");
+    let mut c = [0u8; 256];
+    let nc = again.emit(&mut c).expect("emit");
+    assert_eq!(a[..na], c[..nc]);
+    let _ = format!("{owned:?} {view:?}");
+}
+
+/// Any bytes as an XML dialect file: the reader alone, then (when it names
+/// no include, so nothing else is read) the whole front end.
+pub fn xml(data: &[u8]) {
+    use mavgen::diag::{Diagnostics, Source};
+    use std::path::{Path, PathBuf};
+    let text = String::from_utf8_lossy(data).into_owned();
+    let path = Path::new("fuzz.xml");
+    let sources = vec![Source::new(path, text.clone())];
+    let mut diags = Diagnostics::default();
+    let _model = mavgen::xml::parse(&sources, 0, PathBuf::from(path), &mut diags);
+    for d in diags.into_vec() {
+        let _ = d.to_string();
+    }
+    if text.contains("include") {
+        return;
+    }
+    thread_local! {
+        static FILE: PathBuf = {
+            let dir = std::env::temp_dir().join(format!("fbwag-fuzz-xml-{}", std::process::id()));
+            std::fs::create_dir_all(&dir).expect("temp dir");
+            dir.join("dialect.xml")
+        };
+    }
+    FILE.with(|file| {
+        std::fs::write(file, &text).expect("write temp file");
+        match mavgen::Schema::load(&[file]) {
+            Ok(schema) => {
+                for r in schema.messages() {
+                    let l = schema.layout(r);
+                    assert!(l.min_len <= l.max_len && l.max_len <= 255);
+                    assert!(l.offsets.iter().all(|&o| o < l.max_len.max(1)));
+                }
+            }
+            Err(diags) => {
+                for d in diags {
+                    let _ = d.to_string();
+                }
+            }
+        }
+    });
+}

@@ -291,7 +291,7 @@ fn pymavlink_forged_signature_advances_stream_timestamp() {
 /// the checksum is intact, so without a key the cut frame plus the next
 /// frame's first bytes is a valid frame for all three parsers, and that good
 /// frame is lost to all (nothing can tell). tests/wire.rs counts such frames
-/// apart. With a key see tests/known_bugs.rs.
+/// apart. With a key see tests/fixed_bugs.rs (B2).
 #[test]
 fn truncated_signature_block_without_key() {
     let hb = fbwag("HEARTBEAT");

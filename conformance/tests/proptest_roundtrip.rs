@@ -3,7 +3,7 @@
 //! streaming parser:
 //!
 //! 1. payload identity: for any payload whose `char[N]` fields are strings
-//!    (nothing after the first NUL: see known bug B1), `emit(parse(p)) == p`;
+//!    (nothing after the first NUL; bytes after it: tests/fixed_bugs.rs), `emit(parse(p)) == p`;
 //! 2. frame identity: that message framed as MAVLink 2, MAVLink 2 signed
 //!    and MAVLink 1 (ids <= 255), with any header and signing link/timestamp,
 //!    comes out of a fresh `Parser` exactly once, whole, authenticated when

@@ -31,8 +31,15 @@ macro_rules! scalar {
                     Some(src) => bytes.copy_from_slice(src),
                     None => {
                         // Truncated payload: the present prefix, zeros after.
+                        // Byte by byte (N ≤ 8, unrolled): a variable-length
+                        // copy here compiles to a `memcpy` call for every
+                        // field past the end of a truncated payload.
                         let tail = buf.get(offset..).unwrap_or(&[]);
-                        bytes[..tail.len()].copy_from_slice(tail);
+                        for (i, dst) in bytes.iter_mut().enumerate() {
+                            if let Some(&b) = tail.get(i) {
+                                *dst = b;
+                            }
+                        }
                     }
                 }
                 <$t>::from_le_bytes(bytes)
@@ -149,29 +156,46 @@ impl<'a, const N: usize> CharArray<'a, N> {
     #[inline(always)]
     pub fn new(payload: &'a [u8], offset: usize) -> Self {
         let bytes = payload.get(offset..).unwrap_or(&[]);
-        let bytes = bytes.get(..N).unwrap_or(bytes);
-        // Up to the first NUL: what pymavlink and the C library's users see.
-        let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+        // All N bytes (fewer in a truncated payload), even after a NUL: the
+        // wire carries them, and re-encoding must not change them.
         CharArray {
-            bytes: &bytes[..end],
+            bytes: bytes.get(..N).unwrap_or(bytes),
         }
     }
 
-    /// The string's bytes, up to (not including) the first NUL.
+    /// The string's bytes, up to (not including) the first NUL: what
+    /// pymavlink and the C library's users see as the text.
     #[inline(always)]
     pub fn as_bytes(&self) -> &'a [u8] {
+        let end = self.bytes.iter().position(|&b| b == 0).unwrap_or(self.bytes.len());
+        &self.bytes[..end]
+    }
+
+    /// Every byte of the field present in the payload, NULs and what
+    /// follows them included.
+    #[inline(always)]
+    pub fn raw(&self) -> &'a [u8] {
         self.bytes
     }
 
-    /// The string as UTF-8, if it is.
+    /// The string as UTF-8, if it is (up to the first NUL).
     pub fn to_str(&self) -> Result<&'a str, core::str::Utf8Error> {
-        core::str::from_utf8(self.bytes)
+        core::str::from_utf8(self.as_bytes())
     }
 
-    /// Copies the string into a zero-padded array.
+    /// Copies every byte of the field (zero-padded past a truncated
+    /// payload), so parse → emit reproduces the payload exactly.
+    #[inline]
     pub fn to_array(&self) -> [u8; N] {
         let mut out = [0u8; N];
-        out[..self.bytes.len()].copy_from_slice(self.bytes);
+        // Not `copy_from_slice`: its variable length makes it a `memcpy`
+        // call, whose result is then read back through a store-forwarding
+        // stall; strings are short, and this loop is unrolled or vectorised.
+        for (i, slot) in out.iter_mut().enumerate() {
+            if let Some(&b) = self.bytes.get(i) {
+                *slot = b;
+            }
+        }
         out
     }
 }
@@ -180,7 +204,7 @@ impl<const N: usize> fmt::Debug for CharArray<'_, N> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.to_str() {
             Ok(s) => fmt::Debug::fmt(s, f),
-            Err(_) => fmt::Debug::fmt(self.bytes, f),
+            Err(_) => fmt::Debug::fmt(self.as_bytes(), f),
         }
     }
 }
@@ -239,6 +263,11 @@ mod tests {
         assert_eq!(CharArray::<5>::new(&buf, 0).as_bytes(), b"ABCDE");
         assert_eq!(CharArray::<3>::new(&buf, 3).as_bytes(), b"DE");
         assert_eq!(CharArray::<5>::new(&buf, 2).to_array(), *b"CDE\0\0");
+        // Bytes after a NUL are kept by to_array and raw (not as_bytes).
+        let odd = *b"AB\0CD";
+        assert_eq!(CharArray::<5>::new(&odd, 0).as_bytes(), b"AB");
+        assert_eq!(CharArray::<5>::new(&odd, 0).raw(), &odd);
+        assert_eq!(CharArray::<5>::new(&odd, 0).to_array(), odd);
         assert_eq!(CharArray::<5>::new(b"AB", 0).to_str(), Ok("AB"));
         assert_eq!(chars::<3>("FBWAG"), *b"FBW");
     }

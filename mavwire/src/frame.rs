@@ -107,6 +107,7 @@ impl std::error::Error for FrameError {}
 /// length is then the header's), `Err(NotStart)` if `bytes[0]` is not a start
 /// byte. Unknown incompatibility flags are reported too: the frame cannot be
 /// delimited reliably, since the flags may change its layout.
+#[inline]
 pub fn frame_len(bytes: &[u8]) -> Result<usize, FrameError> {
     match bytes.first() {
         Some(&STX_V2) => {
@@ -153,6 +154,15 @@ impl<'a> Frame<'a> {
             Some(bytes) => Ok(Frame { bytes }),
             None => Err(FrameError::Incomplete { needed: len }),
         }
+    }
+
+    /// The frame over `bytes`, which the caller has delimited with
+    /// [`frame_len`] (`bytes.len() == frame_len(bytes)`): what
+    /// [`Frame::new_checked`] would return, without checking again.
+    #[inline]
+    pub(crate) fn from_delimited(bytes: &'a [u8]) -> Frame<'a> {
+        debug_assert_eq!(frame_len(bytes), Ok(bytes.len()));
+        Frame { bytes }
     }
 
     /// Protocol version.
@@ -252,7 +262,16 @@ impl<'a> Frame<'a> {
     /// True when the carried checksum matches `crc_extra`'s.
     #[inline]
     pub fn check_crc(&self, crc_extra: u8) -> bool {
-        self.checksum() == self.computed_checksum(crc_extra)
+        let end = self.header_len() + self.payload_len();
+        match (
+            self.bytes.get(1..end),
+            self.bytes.get(end..end + CHECKSUM_LEN),
+        ) {
+            (Some(covered), Some(&[lo, hi])) => {
+                frame_crc(covered, crc_extra) == u16::from_le_bytes([lo, hi])
+            }
+            _ => false,
+        }
     }
 
     /// True for a signed MAVLink 2 frame.

@@ -50,7 +50,9 @@ pub struct Stats {
     pub unsigned_rejected: u64,
     /// Candidate frames rejected for unknown incompatibility flags.
     pub bad_incompat_flags: u64,
-    /// Bytes discarded while looking for a frame (garbage, rejected candidates).
+    /// Bytes discarded: garbage, rejected candidates, and frames the signing
+    /// policy refused. With the bytes of returned frames, they account for
+    /// every byte pushed.
     pub bytes_dropped: u64,
     /// Frames missing according to sequence numbers, over all senders.
     pub seq_lost: u64,
@@ -243,7 +245,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                         meta,
                         authenticated,
                     } => break Found::InInput(len, meta, authenticated),
-                    Verdict::Skip(len) => *input = &input[len..],
+                    Verdict::Skip(len) => {
+                        self.stats.bytes_dropped += len as u64;
+                        *input = &input[len..];
+                    }
                     Verdict::Reject => {
                         self.stats.bytes_dropped += 1;
                         *input = &input[1..];
@@ -272,7 +277,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                         meta,
                         authenticated,
                     } => break Found::InBuf(len, meta, authenticated),
-                    Verdict::Skip(len) => self.drop_front(len),
+                    Verdict::Skip(len) => {
+                        self.stats.bytes_dropped += len as u64;
+                        self.drop_front(len);
+                    }
                     Verdict::Reject => {
                         self.stats.bytes_dropped += 1;
                         self.drop_front(1);
@@ -291,7 +299,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 (&self.buf[..len], meta, auth)
             }
         };
-        let frame = Frame::new_checked(bytes).ok()?;
+        // `check` delimited these bytes with `frame_len`.
+        let frame = Frame::from_delimited(bytes);
         Self::record(
             &mut self.stats,
             &mut self.links,
@@ -338,6 +347,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         self.len -= n + next;
     }
 
+    #[inline(always)]
     fn check_at_input(&mut self, bytes: &[u8]) -> Verdict {
         check::<D, STREAMS>(
             bytes,
@@ -401,6 +411,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     }
 }
 
+#[inline(always)]
 fn check<D: Dialect, const N: usize>(
     bytes: &[u8],
     verifier: &mut Option<Verifier<N>>,
@@ -434,9 +445,7 @@ fn check<D: Dialect, const N: usize>(
         }
         Err(_) => return Verdict::Reject,
     };
-    let Ok(frame) = Frame::new_checked(&bytes[..len]) else {
-        return Verdict::Reject;
-    };
+    let frame = Frame::from_delimited(&bytes[..len]);
     let meta = D::meta(frame.msg_id());
     if let Some(m) = meta {
         if !frame.check_crc(m.crc_extra) {
@@ -477,10 +486,13 @@ fn check<D: Dialect, const N: usize>(
             }
             Err(_) => {
                 stats.bad_signature += 1;
-                // With an unverifiable checksum the "frame" may be garbage:
-                // resume inside it rather than skip its claimed length.
+                // A good checksum vouches for the header and payload only: the
+                // 13 bytes after it may be the head of the next frame (a frame
+                // cut inside its signature block), so those are searched
+                // again. With an unverifiable checksum the "frame" may be
+                // garbage: resume inside it.
                 return if meta.is_some() {
-                    Verdict::Skip(len)
+                    Verdict::Skip(len - crate::frame::SIGNATURE_LEN)
                 } else {
                     Verdict::Reject
                 };

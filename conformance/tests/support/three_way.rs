@@ -1,5 +1,5 @@
 //! One frame through all three implementations, for the focused tests of
-//! documented differences and known bugs (the bulk comparison is
+//! documented differences and fixed bugs (the bulk comparison is
 //! tests/wire.rs).
 
 use super::frames::{build_frame, Mode, KEY};

@@ -92,9 +92,9 @@ pub struct Opts {
     pub f32_snan: bool,
     /// Sprinkle start bytes (0xFD, 0xFE) over the payload: false starts.
     pub start_bytes: bool,
-    /// `char[N]` values may hold bytes after their first NUL. The owned
-    /// messages of mavgen-rs drop those bytes (a bug: docs/conformance.md,
-    /// tests/known_bugs.rs), so the byte-exact corpus leaves them out.
+    /// `char[N]` values may hold bytes after their first NUL: pymavlink's
+    /// decoded strings stop there, so the value corpus leaves them out; the
+    /// byte-exact case is tests/fixed_bugs.rs (B1).
     pub bytes_after_nul: bool,
 }
 

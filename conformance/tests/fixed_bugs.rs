@@ -1,8 +1,6 @@
-//! Bugs found by the conformance work in code this crate does not own. Each
-//! test states the correct behaviour and fails today; it is `#[ignore]`d with
-//! the bug's description so the test command stays green, and runs with
-//! `cargo test -p conformance --test known_bugs -- --ignored`. Remove the
-//! `ignore` when the bug is fixed. docs/conformance.md lists them.
+//! Bugs the conformance work found in the runtime, kept as regression tests:
+//! each states the correct behaviour, which the fix made true
+//! (docs/conformance.md).
 
 mod support;
 
@@ -28,7 +26,6 @@ fn fbwag(name: &str) -> &'static mavwire::MessageMeta {
 /// in mavgen-rs's codegen (`from_view`: copy the field's N raw bytes) or in
 /// mavwire (`CharArray::to_array` keeping the raw array).
 #[test]
-#[ignore = "bug B1: owned messages drop char[N] bytes after the first NUL (mavgen-rs from_view via CharArray::to_array); parse→emit is not the identity"]
 fn owned_messages_keep_char_bytes_after_the_first_nul() {
     let meta = fbwag("STATUSTEXT");
     let mut payload = vec![0u8; meta.max_len as usize];
@@ -53,7 +50,6 @@ fn owned_messages_keep_char_bytes_after_the_first_nul() {
 /// signature, drop the frame up to its checksum and rescan the 13 signature
 /// bytes (counting them dropped when nothing starts there).
 #[test]
-#[ignore = "bug B2: a bad-signature frame is skipped whole (parser.rs Verdict::Skip), losing a good frame that starts in its signature block"]
 fn bad_signature_frame_does_not_hide_the_next_frame() {
     let hb = fbwag("HEARTBEAT");
     let header = Header {

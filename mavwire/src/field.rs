@@ -167,7 +167,11 @@ impl<'a, const N: usize> CharArray<'a, N> {
     /// pymavlink and the C library's users see as the text.
     #[inline(always)]
     pub fn as_bytes(&self) -> &'a [u8] {
-        let end = self.bytes.iter().position(|&b| b == 0).unwrap_or(self.bytes.len());
+        let end = self
+            .bytes
+            .iter()
+            .position(|&b| b == 0)
+            .unwrap_or(self.bytes.len());
         &self.bytes[..end]
     }
 

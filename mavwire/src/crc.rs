@@ -1,7 +1,99 @@
 //! CRC-16/MCRF4XX, the MAVLink frame checksum ("X.25" in MAVLink sources).
 //!
-//! The byte-at-a-time update of the MAVLink specification: no table, four
-//! shifts and xors per byte. crc-any's CRC-16/MCRF4XX is the test oracle.
+//! Reflected polynomial 0x8408, initial value 0xFFFF, no final xor. The
+//! MAVLink specification updates it a byte at a time with four shifts and
+//! xors: a chain of about ten dependent operations per byte, which was most
+//! of the time of stream decoding. This module computes the same function
+//! "slice-by-16": sixteen tables of 256 entries (8 KiB, built at compile
+//! time), so sixteen bytes cost one xor of the register into the first two,
+//! sixteen independent table loads and their xors; only the first two loads
+//! wait for the previous block. Tails of 8, 4, 2 and 1 bytes use the first
+//! tables. Over the frames of a telemetry capture (36 bytes on average) it
+//! is about eight times faster than the byte loop or crc-any's byte table;
+//! against plain slice-by-8, slice-by-16 with the interleaved sums of
+//! `block` makes stream decoding 15 % and encoding 37 % faster
+//! (BENCHMARKS.md).
+//!
+//! The specification's byte update is kept as the reference
+//! ([`update_bytewise`]); crc-any's CRC-16/MCRF4XX is the test oracle of both.
+
+/// Reflected CRC-16/MCRF4XX polynomial (0x1021 bit-reversed).
+const POLY: u16 = 0x8408;
+
+/// Number of tables: bytes folded per step of the main loop.
+const SLICES: usize = 16;
+
+/// `TABLES[0][b]`: the CRC register after shifting byte `b` through a zero
+/// register; `TABLES[k][b]`: the same followed by `k` zero bytes. A byte `k`
+/// positions before the end of a block is looked up in `TABLES[k]`.
+static TABLES: [[u16; 256]; SLICES] = tables();
+
+const fn tables() -> [[u16; 256]; SLICES] {
+    let mut t = [[0u16; 256]; SLICES];
+    let mut b = 0;
+    while b < 256 {
+        let mut crc = b as u16;
+        let mut bit = 0;
+        while bit < 8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ POLY
+            } else {
+                crc >> 1
+            };
+            bit += 1;
+        }
+        t[0][b] = crc;
+        b += 1;
+    }
+    let mut k = 1;
+    while k < SLICES {
+        let mut b = 0;
+        while b < 256 {
+            let prev = t[k - 1][b];
+            t[k][b] = (prev >> 8) ^ t[0][(prev & 0xFF) as usize];
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+}
+
+/// Folds an `N`-byte block (2 ≤ `N` ≤ `SLICES`) into `crc`. The register
+/// is xored into the block's first two bytes; every other byte is looked up
+/// independently of it. Those lookups are summed first, in four interleaved
+/// sums (a shorter chain than one running xor), so that the chain from one
+/// block's register to the next is only: xor, two loads, two xors.
+#[inline(always)]
+fn block<const N: usize>(crc: u16, bytes: &[u8; N]) -> u16 {
+    let mut rest = [0u16; 4];
+    let mut i = 2;
+    while i < N {
+        rest[i % 4] ^= TABLES[N - 1 - i][usize::from(bytes[i])];
+        i += 1;
+    }
+    let first = crc ^ u16::from_le_bytes([bytes[0], bytes[1]]);
+    (rest[0] ^ rest[1])
+        ^ (rest[2] ^ rest[3])
+        ^ TABLES[N - 1][usize::from(first as u8)]
+        ^ TABLES[N - 2][usize::from(first >> 8)]
+}
+
+/// Folds one byte into `crc`.
+#[inline(always)]
+fn byte(crc: u16, b: u8) -> u16 {
+    (crc >> 8) ^ TABLES[0][usize::from(crc as u8 ^ b)]
+}
+
+/// The specification's byte-at-a-time update (MAVLink `crc_accumulate`):
+/// the reference the table-driven [`Crc::update`] equals.
+pub fn update_bytewise(mut crc: u16, bytes: &[u8]) -> u16 {
+    for &b in bytes {
+        let tmp = b ^ (crc as u8);
+        let tmp = tmp ^ (tmp << 4);
+        crc = (crc >> 8) ^ ((tmp as u16) << 8) ^ ((tmp as u16) << 3) ^ ((tmp as u16) >> 4);
+    }
+    crc
+}
 
 /// A running MAVLink checksum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -18,12 +110,37 @@ impl Crc {
     #[inline]
     pub fn update(&mut self, bytes: &[u8]) {
         let mut crc = self.0;
-        for &b in bytes {
-            let tmp = b ^ (crc as u8);
-            let tmp = tmp ^ (tmp << 4);
-            crc = (crc >> 8) ^ ((tmp as u16) << 8) ^ ((tmp as u16) << 3) ^ ((tmp as u16) >> 4);
+        let mut blocks = bytes.chunks_exact(SLICES);
+        for b in &mut blocks {
+            // `chunks_exact` yields SLICES bytes: the conversion cannot fail
+            // and compiles to nothing.
+            if let Ok(b) = b.try_into() {
+                crc = block::<SLICES>(crc, b);
+            }
+        }
+        let mut rest = blocks.remainder();
+        if let Some((b, tail)) = rest.split_first_chunk::<8>() {
+            crc = block(crc, b);
+            rest = tail;
+        }
+        if let Some((b, tail)) = rest.split_first_chunk::<4>() {
+            crc = block(crc, b);
+            rest = tail;
+        }
+        if let Some((b, tail)) = rest.split_first_chunk::<2>() {
+            crc = block(crc, b);
+            rest = tail;
+        }
+        if let Some(&b) = rest.first() {
+            crc = byte(crc, b);
         }
         self.0 = crc;
+    }
+
+    /// Adds one byte.
+    #[inline]
+    pub fn update_byte(&mut self, b: u8) {
+        self.0 = byte(self.0, b);
     }
 
     /// The checksum so far.
@@ -45,7 +162,7 @@ impl Default for Crc {
 pub fn frame_crc(bytes: &[u8], crc_extra: u8) -> u16 {
     let mut crc = Crc::new();
     crc.update(bytes);
-    crc.update(&[crc_extra]);
+    crc.update_byte(crc_extra);
     crc.get()
 }
 
@@ -59,17 +176,7 @@ mod tests {
         c.get_crc()
     }
 
-    #[test]
-    fn check_value_of_crc16_mcrf4xx() {
-        // The catalogue check value for CRC-16/MCRF4XX over "123456789".
-        let mut c = Crc::new();
-        c.update(b"123456789");
-        assert_eq!(c.get(), 0x6F91);
-    }
-
-    #[test]
-    fn equals_crc_any_on_every_length_and_pattern() {
-        let mut data = [0u8; 300];
+    fn pseudo_random(data: &mut [u8]) {
         let mut x: u32 = 0x1234_5678;
         for b in data.iter_mut() {
             x ^= x << 13;
@@ -77,10 +184,61 @@ mod tests {
             x ^= x << 5;
             *b = x as u8;
         }
+    }
+
+    #[test]
+    fn check_value_of_crc16_mcrf4xx() {
+        // The catalogue check value for CRC-16/MCRF4XX over "123456789".
+        let mut c = Crc::new();
+        c.update(b"123456789");
+        assert_eq!(c.get(), 0x6F91);
+        assert_eq!(update_bytewise(0xFFFF, b"123456789"), 0x6F91);
+    }
+
+    #[test]
+    fn equals_crc_any_on_every_length_and_pattern() {
+        let mut data = [0u8; 300];
+        pseudo_random(&mut data);
+        for pattern in [&data[..], &[0u8; 300][..], &[0xFFu8; 300][..]] {
+            for len in 0..pattern.len() {
+                let mut c = Crc::new();
+                c.update(&pattern[..len]);
+                assert_eq!(c.get(), oracle(&pattern[..len]), "length {len}");
+                assert_eq!(
+                    update_bytewise(0xFFFF, &pattern[..len]),
+                    oracle(&pattern[..len]),
+                    "bytewise, length {len}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn one_byte_step_equals_the_byte_loop_exhaustively() {
+        for crc in 0..=u16::MAX {
+            for b in 0..=u8::MAX {
+                assert_eq!(byte(crc, b), update_bytewise(crc, &[b]));
+            }
+        }
+    }
+
+    #[test]
+    fn split_updates_equal_one_update() {
+        // Any split of the input (block boundaries anywhere) gives the same
+        // checksum, including the one-byte CRC_EXTRA step of frame_crc.
+        let mut data = [0u8; 64];
+        pseudo_random(&mut data);
         for len in 0..data.len() {
-            let mut c = Crc::new();
-            c.update(&data[..len]);
-            assert_eq!(c.get(), oracle(&data[..len]), "length {len}");
+            for cut in 0..=len {
+                let mut c = Crc::new();
+                c.update(&data[..cut]);
+                c.update(&data[cut..len]);
+                assert_eq!(c.get(), oracle(&data[..len]), "length {len}, cut {cut}");
+            }
+            let mut extra = crc_any::CRCu16::crc16mcrf4cc();
+            extra.digest(&data[..len]);
+            extra.digest(&[0x32]);
+            assert_eq!(frame_crc(&data[..len], 0x32), extra.get_crc());
         }
     }
 }

@@ -871,6 +871,20 @@ impl ::mavwire::Dialect for Dialect {
     type Message = Message;
     type View<'a> = MessageView<'a>;
     const MESSAGES: &'static [::mavwire::MessageMeta] = MESSAGES;
+    /// The table row of `id`, by a `match` (jump tables over the
+    /// dense id ranges): the parser looks up every frame, and this
+    /// is several times faster than the default binary search.
+    #[inline]
+    fn meta(id: u32) -> Option<&'static ::mavwire::MessageMeta> {
+        Some(
+            match id {
+                42 => &MESSAGES[0],
+                16777215 => &MESSAGES[1],
+                _ => return None,
+            },
+        )
+    }
+
     fn parse(id: u32, payload: &[u8]) -> Option<Message> {
         Message::parse(id, payload)
     }

@@ -1,0 +1,92 @@
+//! What the benchmarks rely on, checked without the telemetry capture: both
+//! libraries see the same FBWAG_NOTICE, and the generated `Dialect::meta`
+//! (a `match`) is the table lookup it replaces.
+
+use benches::mavlink_fbwag::fbwag::MavMessage as TheirFbwag;
+use benches::{mavlink_header, OurEncoder, TheirEncoder, Theirs, KEY};
+use fbwag_dialect::mavwire::{Dialect as _, Verifier};
+use fbwag_dialect::{Dialect, FbwagNotice, Header, Message, MessageView, Parser, MESSAGES};
+use mavlink::Message as _;
+
+#[test]
+fn generated_meta_equals_the_table_lookup() {
+    let lookup = |id: u32| {
+        MESSAGES
+            .binary_search_by_key(&id, |m| m.id)
+            .ok()
+            .map(|i| &MESSAGES[i])
+    };
+    let ids = (0..=70_000u32)
+        .chain(
+            MESSAGES
+                .iter()
+                .flat_map(|m| [m.id.saturating_sub(1), m.id, m.id + 1]),
+        )
+        .chain([(1 << 24) - 1, 1 << 24, u32::MAX]);
+    for id in ids {
+        assert_eq!(Dialect::meta(id), lookup(id), "id {id}");
+    }
+}
+
+#[test]
+fn mavlink_bindgen_gives_fbwag_notice_our_crc_extra() {
+    assert_eq!(
+        TheirFbwag::extra_crc(FbwagNotice::ID),
+        FbwagNotice::CRC_EXTRA
+    );
+}
+
+#[test]
+fn both_libraries_decode_the_notice_stream_alike() {
+    let stream = benches::notice_stream(30);
+    let mut ours = Vec::new();
+    let mut parser = Parser::new();
+    let mut input = &stream[..];
+    while let Some(r) = parser.next(&mut input) {
+        let Some(MessageView::FbwagNotice(v)) = r.view() else {
+            panic!("not a notice")
+        };
+        ours.push((
+            v.timestamp(),
+            v.failsafe_status().to_raw(),
+            v.text().to_array(),
+        ));
+    }
+    let mut theirs = Vec::new();
+    let mut reader = mavlink::MavlinkReader::new(&stream[..]);
+    while let Ok((_, TheirFbwag::FBWAG_NOTICE(m))) = reader.read_any_message::<TheirFbwag>() {
+        theirs.push((m.timestamp, m.failsafe_status as u8, *m.text));
+    }
+    assert_eq!(ours.len(), 30);
+    assert_eq!(ours, theirs);
+}
+
+#[test]
+fn signed_frames_of_each_library_verify_with_ours() {
+    let notice = Message::FbwagNotice(FbwagNotice {
+        timestamp: 42,
+        ..Default::default()
+    });
+    let header = Header {
+        seq: 1,
+        sysid: 1,
+        compid: 191,
+    };
+    let frame = OurEncoder::new(false).encode(header, &notice).to_vec();
+    let theirs = Theirs::Fbwag(
+        mavlink::MavlinkReader::new(&frame[..])
+            .read_any_message()
+            .expect("mavlink decodes it")
+            .1,
+    );
+    let mut stream = OurEncoder::new(true).encode(header, &notice).to_vec();
+    stream.extend_from_slice(TheirEncoder::new(true).encode_any(mavlink_header(header), &theirs));
+    let mut parser = Parser::with_signing(Verifier::new(KEY), false);
+    let mut input = &stream[..];
+    let mut authenticated = 0;
+    while let Some(r) = parser.next(&mut input) {
+        assert!(r.authenticated);
+        authenticated += 1;
+    }
+    assert_eq!(authenticated, 2, "{:?}", parser.stats());
+}

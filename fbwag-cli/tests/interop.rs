@@ -3,25 +3,11 @@
 //! pymavlink's own generated FBWAG dialect) drives `fbwag fc-sim` into
 //! companion control and back; `fbwag cc` answers a pymavlink-scripted FC.
 
-use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+mod common;
 
-fn python() -> String {
-    let out = Command::new("bash")
-        .arg(repo().join("scripts/python-env.sh"))
-        .output()
-        .expect("python-env.sh");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap().trim().to_string()
-}
+use common::{python, repo};
 
 /// A free UDP port on 127.0.0.1 (bound then released).
 fn free_port() -> u16 {

@@ -7,22 +7,9 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+mod common;
 
-fn python() -> String {
-    let out = Command::new("bash")
-        .arg(repo().join("scripts/python-env.sh"))
-        .output()
-        .expect("python-env.sh");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap().trim().to_string()
-}
+use common::{python, repo};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = repo().join("target/test-scratch");

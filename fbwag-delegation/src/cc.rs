@@ -247,10 +247,8 @@ impl Companion {
         let State::Controlling {
             event,
             since,
-            acks,
-            next_ack,
             confirmed,
-            next_control,
+            ..
         } = self.state
         else {
             return;
@@ -259,28 +257,33 @@ impl Companion {
             self.stop(State::Standby);
             return;
         }
-        let mut acks = acks;
-        let mut next_ack = next_ack;
-        if confirmed.is_none() && now >= next_ack && acks <= self.cfg.max_ack_retries {
-            self.ack(Status::CC_TAKEOVER_CONFIRMED, event);
-            acks += 1;
-            next_ack = next_ack + self.cfg.ack_retry_interval;
-        }
-        let mut next_control = next_control;
-        if now >= next_control {
-            self.stats.controls_sent += 1;
-            self.out.push(CcAction::SendControl);
-            // Keep the cadence; after a long stall, restart it from now.
-            next_control = (next_control + self.cfg.control_period).max(now);
-        }
-        self.state = State::Controlling {
-            event,
-            since,
+        // Decide and advance the timers in place, then emit.
+        let (mut ack_due, mut control_due) = (false, false);
+        if let State::Controlling {
             acks,
             next_ack,
-            confirmed,
             next_control,
-        };
+            ..
+        } = &mut self.state
+        {
+            if confirmed.is_none() && now >= *next_ack && *acks <= self.cfg.max_ack_retries {
+                *acks += 1;
+                *next_ack = *next_ack + self.cfg.ack_retry_interval;
+                ack_due = true;
+            }
+            if now >= *next_control {
+                // Keep the cadence; after a long stall, restart it from now.
+                *next_control = (*next_control + self.cfg.control_period).max(now);
+                control_due = true;
+            }
+        }
+        if ack_due {
+            self.ack(Status::CC_TAKEOVER_CONFIRMED, event);
+        }
+        if control_due {
+            self.stats.controls_sent += 1;
+            self.out.push(CcAction::SendControl);
+        }
     }
 
     /// An input at time `now`.

@@ -243,8 +243,17 @@ impl Outbox {
         msg: &M,
     ) -> io::Result<&[u8]> {
         if let Some(signer) = &mut self.signer {
-            // Receivers drop a stream whose timestamps fall a minute behind
-            // theirs: keep up with the clock, never going back.
+            // Receivers drop a new stream whose timestamps are more than a
+            // minute behind the newest they have seen: keep up with the
+            // clock, never going back. The clock is read for every frame, on
+            // purpose: the signer counts one tick (10 µs) per frame, so a
+            // sender slower than 100,000 frames/s falls behind real time by
+            // however long it paused, which only a clock can tell; reading
+            // it every N frames instead leaves the lag unbounded (a link
+            // that sends once a minute would lag N minutes). std has no
+            // cheaper clock (a coarse one needs `unsafe` libc or another
+            // dependency), and the read is ~35 ns of a send that costs a
+            // system call.
             signer.advance_to(timestamp_now());
         }
         let n = encode(version, header, msg, self.signer.as_mut(), &mut self.buf)
@@ -453,6 +462,41 @@ mod tests {
             assert_eq!(f.header().seq, v as u8);
         }
         assert!(server.recv(Some(Duration::ZERO)).unwrap().is_none());
+    }
+
+    /// The signing timestamps `send` uses: strictly increasing in a burst
+    /// (faster than the clock's 10 µs ticks), at the clock after a pause,
+    /// and never back when the signer ran ahead of the clock.
+    #[test]
+    fn signed_frames_keep_up_with_the_clock_and_always_increase() {
+        use crate::frame::Frame;
+        use crate::signing::{timestamp_now, Signer};
+        fn stamp(out: &mut Outbox) -> u64 {
+            let h = out.auto_header(1, 1);
+            let bytes = out.encode(Version::V2, h, &Ping { value: 1 }).unwrap();
+            Frame::new_checked(bytes)
+                .unwrap()
+                .signature()
+                .unwrap()
+                .timestamp()
+        }
+        let mut out = Outbox::new();
+        out.signer = Some(Signer::new([3; 32], 0, 0));
+        let start = timestamp_now();
+        let burst: std::vec::Vec<u64> = (0..1000).map(|_| stamp(&mut out)).collect();
+        assert!(burst[0] >= start);
+        assert!(burst.windows(2).all(|w| w[1] > w[0]));
+        std::thread::sleep(Duration::from_millis(20));
+        let before = timestamp_now();
+        let after_pause = stamp(&mut out);
+        assert!(after_pause >= before, "{after_pause} < {before}");
+        assert!(after_pause > burst[999]);
+        // A signer ahead of the clock (timestamps may run ahead) goes on from
+        // where it is.
+        let ahead = timestamp_now() + 6_000_000;
+        out.signer = Some(Signer::new([3; 32], 0, ahead));
+        assert_eq!(stamp(&mut out), ahead);
+        assert_eq!(stamp(&mut out), ahead + 1);
     }
 
     #[test]

@@ -1,35 +1,34 @@
-//! Generates the FBWAG dialect from `message_definitions/fbwag.xml` into
-//! `OUT_DIR` (included by `src/lib.rs`).
+//! With the `codegen` feature: generates the FBWAG dialect from
+//! `message_definitions/fbwag.xml` into `OUT_DIR` (included by `src/lib.rs`).
+//! Without it there is nothing to do: the crate compiles the checked-in
+//! `bindings/fbwag` (or `bindings/fbwag-cc`), the very same code.
 //!
 //! A filtered build generates only some messages (and the enums they use):
-//! the `cc-subset` feature selects what a companion computer speaks, and the
-//! environment variable `FBWAG_DIALECT_MESSAGES=A,B,…` any list. FBWAG_NOTICE
-//! and HEARTBEAT are always kept (the crate's API re-exports them). Frames of
+//! the `cc-subset` feature selects `cc-subset.txt`, and the environment
+//! variable `FBWAG_DIALECT_MESSAGES=A,B,…` any list. FBWAG_NOTICE and
+//! HEARTBEAT are always kept (the crate's API re-exports them). Frames of
 //! other messages still parse, as raw frames.
 
-/// What the companion computer of the paper sends and reads.
-const CC_SUBSET: &[&str] = &[
-    "HEARTBEAT",
-    "FBWAG_NOTICE",
-    "RC_CHANNELS_OVERRIDE",
-    "SET_ATTITUDE_TARGET",
-    "STATUSTEXT",
-    "COMMAND_LONG",
-    "COMMAND_ACK",
-    "SYS_STATUS",
-    "ATTITUDE",
-    "GLOBAL_POSITION_INT",
-    "RC_CHANNELS",
-    "VFR_HUD",
-];
-
 fn main() {
-    let xml = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../message_definitions/fbwag.xml"
-    );
-    println!("cargo:rerun-if-changed={xml}");
+    println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=FBWAG_DIALECT_MESSAGES");
+    #[cfg(feature = "codegen")]
+    codegen();
+    #[cfg(not(feature = "codegen"))]
+    if std::env::var("FBWAG_DIALECT_MESSAGES").is_ok_and(|s| !s.trim().is_empty()) {
+        println!(
+            "cargo:warning=FBWAG_DIALECT_MESSAGES is ignored: a custom message list needs \
+             fbwag-dialect's `codegen` feature (the checked-in bindings are compiled)"
+        );
+    }
+}
+
+#[cfg(feature = "codegen")]
+fn codegen() {
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let xml = format!("{dir}/../message_definitions/fbwag.xml");
+    let cc_list = format!("{dir}/cc-subset.txt");
+    println!("cargo:rerun-if-changed={cc_list}");
     let mut config = mavgen::Config::new();
     let env_list = std::env::var("FBWAG_DIALECT_MESSAGES")
         .ok()
@@ -37,7 +36,14 @@ fn main() {
     let filter: Option<Vec<String>> = match env_list {
         Some(list) => Some(list.split(',').map(|s| s.trim().to_string()).collect()),
         None if std::env::var_os("CARGO_FEATURE_CC_SUBSET").is_some() => {
-            Some(CC_SUBSET.iter().map(|s| s.to_string()).collect())
+            let text = std::fs::read_to_string(&cc_list)
+                .unwrap_or_else(|e| panic!("cannot read {cc_list}: {e}"));
+            Some(
+                text.lines()
+                    .map(|l| l.split('#').next().unwrap_or("").trim().to_string())
+                    .filter(|l| !l.is_empty())
+                    .collect(),
+            )
         }
         None => None,
     };

@@ -46,4 +46,10 @@ bash conformance/scripts/summary.sh
 step "no_std builds: fbwag-dialect (full and filtered), fbwag-delegation"
 cargo build -p fbwag-dialect --no-default-features --locked
 cargo test -p fbwag-dialect --no-default-features --features cc-subset --locked
+
+step "fbwag-dialect generated at build time (feature codegen): full, cc-subset, a custom list"
+cargo test -p fbwag-dialect --features codegen --locked
+cargo test -p fbwag-dialect --no-default-features --features codegen,cc-subset --locked
+FBWAG_DIALECT_MESSAGES=ATTITUDE,COMMAND_LONG \
+    cargo build -p fbwag-dialect --no-default-features --features codegen --locked
 cargo build -p fbwag-delegation --no-default-features --locked

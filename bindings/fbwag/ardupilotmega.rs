@@ -466,6 +466,47 @@ impl From<DeviceOpBustype> for u8 {
     }
 }
 
+/// Flags in EKF_STATUS message.
+///
+/// MAVLink enum `EKF_STATUS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct EkfStatusFlags(pub u16);
+impl EkfStatusFlags {
+    /// Set if EKF's attitude estimate is good.
+    pub const EKF_ATTITUDE: Self = Self(1);
+    /// Set if EKF's horizontal velocity estimate is good.
+    pub const EKF_VELOCITY_HORIZ: Self = Self(2);
+    /// Set if EKF's vertical velocity estimate is good.
+    pub const EKF_VELOCITY_VERT: Self = Self(4);
+    /// Set if EKF's horizontal position (relative) estimate is good.
+    pub const EKF_POS_HORIZ_REL: Self = Self(8);
+    /// Set if EKF's horizontal position (absolute) estimate is good.
+    pub const EKF_POS_HORIZ_ABS: Self = Self(16);
+    /// Set if EKF's vertical position (absolute) estimate is good.
+    pub const EKF_POS_VERT_ABS: Self = Self(32);
+    /// Set if EKF's vertical position (above ground) estimate is good.
+    pub const EKF_POS_VERT_AGL: Self = Self(64);
+    /// EKF is in constant position mode and does not know it's absolute or relative position.
+    pub const EKF_CONST_POS_MODE: Self = Self(128);
+    /// Set if EKF's predicted horizontal position (relative) estimate is good.
+    pub const EKF_PRED_POS_HORIZ_REL: Self = Self(256);
+    /// Set if EKF's predicted horizontal position (absolute) estimate is good.
+    pub const EKF_PRED_POS_HORIZ_ABS: Self = Self(512);
+    /// Set if EKF has never been healthy.
+    pub const EKF_UNINITIALIZED: Self = Self(1024);
+    /// Set if EKF believes the GPS input data is faulty.
+    pub const EKF_GPS_GLITCHING: Self = Self(32768);
+}
+
+::mavwire::flag_set!(
+    EkfStatusFlags, u16, [EKF_ATTITUDE, EKF_VELOCITY_HORIZ, EKF_VELOCITY_VERT,
+    EKF_POS_HORIZ_REL, EKF_POS_HORIZ_ABS, EKF_POS_VERT_ABS, EKF_POS_VERT_AGL,
+    EKF_CONST_POS_MODE, EKF_PRED_POS_HORIZ_REL, EKF_PRED_POS_HORIZ_ABS,
+    EKF_UNINITIALIZED, EKF_GPS_GLITCHING]
+);
+
 /// `GIMBAL_AXIS`
 ///
 /// MAVLink enum `GIMBAL_AXIS`.
@@ -1103,6 +1144,20 @@ impl From<GoproFrameRate> for u8 {
         value.0
     }
 }
+
+/// `GOPRO_HEARTBEAT_FLAGS`
+///
+/// MAVLink enum `GOPRO_HEARTBEAT_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GoproHeartbeatFlags(pub u8);
+impl GoproHeartbeatFlags {
+    /// GoPro is currently recording.
+    pub const GOPRO_FLAG_RECORDING: Self = Self(1);
+}
+
+::mavwire::flag_set!(GoproHeartbeatFlags, u8, [GOPRO_FLAG_RECORDING]);
 
 /// `GOPRO_HEARTBEAT_STATUS`
 ///
@@ -1803,6 +1858,20 @@ impl From<GoproResolution> for u8 {
     }
 }
 
+/// `GOPRO_VIDEO_SETTINGS_FLAGS`
+///
+/// MAVLink enum `GOPRO_VIDEO_SETTINGS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GoproVideoSettingsFlags(pub u8);
+impl GoproVideoSettingsFlags {
+    /// 0=NTSC, 1=PAL.
+    pub const GOPRO_VIDEO_SETTINGS_TV_MODE: Self = Self(1);
+}
+
+::mavwire::flag_set!(GoproVideoSettingsFlags, u8, [GOPRO_VIDEO_SETTINGS_TV_MODE]);
+
 /// `LED_CONTROL_PATTERN`
 ///
 /// MAVLink enum `LED_CONTROL_PATTERN`.
@@ -1929,6 +1998,24 @@ impl From<LimitsState> for u8 {
         value.0
     }
 }
+
+/// `LIMIT_MODULE`
+///
+/// MAVLink enum `LIMIT_MODULE`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct LimitModule(pub u8);
+impl LimitModule {
+    /// Pre-initialization.
+    pub const LIMIT_GPSLOCK: Self = Self(1);
+    /// Disabled.
+    pub const LIMIT_GEOFENCE: Self = Self(2);
+    /// Checking limits.
+    pub const LIMIT_ALTITUDE: Self = Self(4);
+}
+
+::mavwire::flag_set!(LimitModule, u8, [LIMIT_GPSLOCK, LIMIT_GEOFENCE, LIMIT_ALTITUDE]);
 
 /// `MAV_CMD_DO_AUX_FUNCTION_SWITCH_LEVEL`
 ///
@@ -23096,91 +23183,5 @@ impl<'a> NamedValueStringMut<'a> {
     #[inline]
     pub fn set_value(&mut self, value: &[u8; 64]) {
         ::mavwire::field::write_array(self.payload, 14, value)
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags in EKF_STATUS message.
-    ///
-    /// MAVLink enum `EKF_STATUS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct EkfStatusFlags: u16 {
-        /// Set if EKF's attitude estimate is good.
-        const EKF_ATTITUDE = 1;
-        /// Set if EKF's horizontal velocity estimate is good.
-        const EKF_VELOCITY_HORIZ = 2;
-        /// Set if EKF's vertical velocity estimate is good.
-        const EKF_VELOCITY_VERT = 4;
-        /// Set if EKF's horizontal position (relative) estimate is good.
-        const EKF_POS_HORIZ_REL = 8;
-        /// Set if EKF's horizontal position (absolute) estimate is good.
-        const EKF_POS_HORIZ_ABS = 16;
-        /// Set if EKF's vertical position (absolute) estimate is good.
-        const EKF_POS_VERT_ABS = 32;
-        /// Set if EKF's vertical position (above ground) estimate is good.
-        const EKF_POS_VERT_AGL = 64;
-        /// EKF is in constant position mode and does not know it's absolute or relative position.
-        const EKF_CONST_POS_MODE = 128;
-        /// Set if EKF's predicted horizontal position (relative) estimate is good.
-        const EKF_PRED_POS_HORIZ_REL = 256;
-        /// Set if EKF's predicted horizontal position (absolute) estimate is good.
-        const EKF_PRED_POS_HORIZ_ABS = 512;
-        /// Set if EKF has never been healthy.
-        const EKF_UNINITIALIZED = 1024;
-        /// Set if EKF believes the GPS input data is faulty.
-        const EKF_GPS_GLITCHING = 32768;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// `GOPRO_HEARTBEAT_FLAGS`
-    ///
-    /// MAVLink enum `GOPRO_HEARTBEAT_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GoproHeartbeatFlags: u8 {
-        /// GoPro is currently recording.
-        const GOPRO_FLAG_RECORDING = 1;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// `GOPRO_VIDEO_SETTINGS_FLAGS`
-    ///
-    /// MAVLink enum `GOPRO_VIDEO_SETTINGS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GoproVideoSettingsFlags: u8 {
-        /// 0=NTSC, 1=PAL.
-        const GOPRO_VIDEO_SETTINGS_TV_MODE = 1;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// `LIMIT_MODULE`
-    ///
-    /// MAVLink enum `LIMIT_MODULE`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct LimitModule: u8 {
-        /// Pre-initialization.
-        const LIMIT_GPSLOCK = 1;
-        /// Disabled.
-        const LIMIT_GEOFENCE = 2;
-        /// Checking limits.
-        const LIMIT_ALTITUDE = 4;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
     }
 }

@@ -385,6 +385,106 @@ impl From<AdsbEmitterType> for u8 {
     }
 }
 
+/// These flags indicate status such as data validity of each data source. Set = data valid
+///
+/// MAVLink enum `ADSB_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct AdsbFlags(pub u16);
+impl AdsbFlags {
+    /// `ADSB_FLAGS_VALID_COORDS`
+    pub const VALID_COORDS: Self = Self(1);
+    /// `ADSB_FLAGS_VALID_ALTITUDE`
+    pub const VALID_ALTITUDE: Self = Self(2);
+    /// `ADSB_FLAGS_VALID_HEADING`
+    pub const VALID_HEADING: Self = Self(4);
+    /// `ADSB_FLAGS_VALID_VELOCITY`
+    pub const VALID_VELOCITY: Self = Self(8);
+    /// `ADSB_FLAGS_VALID_CALLSIGN`
+    pub const VALID_CALLSIGN: Self = Self(16);
+    /// `ADSB_FLAGS_VALID_SQUAWK`
+    pub const VALID_SQUAWK: Self = Self(32);
+    /// `ADSB_FLAGS_SIMULATED`
+    pub const SIMULATED: Self = Self(64);
+    /// `ADSB_FLAGS_VERTICAL_VELOCITY_VALID`
+    pub const VERTICAL_VELOCITY_VALID: Self = Self(128);
+    /// `ADSB_FLAGS_BARO_VALID`
+    pub const BARO_VALID: Self = Self(256);
+    /// `ADSB_FLAGS_SOURCE_UAT`
+    pub const SOURCE_UAT: Self = Self(32768);
+}
+
+::mavwire::flag_set!(
+    AdsbFlags, u16, [VALID_COORDS, VALID_ALTITUDE, VALID_HEADING, VALID_VELOCITY,
+    VALID_CALLSIGN, VALID_SQUAWK, SIMULATED, VERTICAL_VELOCITY_VALID, BARO_VALID,
+    SOURCE_UAT]
+);
+
+/// Airspeed sensor flags
+///
+/// MAVLink enum `AIRSPEED_SENSOR_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct AirspeedSensorFlags(pub u8);
+impl AirspeedSensorFlags {
+    /// Airspeed sensor is unhealthy
+    pub const AIRSPEED_SENSOR_UNHEALTHY: Self = Self(1);
+    /// True if the data from this sensor is being actively used by the flight controller for
+    /// guidance, navigation or control.
+    pub const AIRSPEED_SENSOR_USING: Self = Self(2);
+}
+
+::mavwire::flag_set!(
+    AirspeedSensorFlags, u8, [AIRSPEED_SENSOR_UNHEALTHY, AIRSPEED_SENSOR_USING]
+);
+
+/// These flags are used in the AIS_VESSEL.fields bitmask to indicate validity of data in the
+/// other message fields. When set, the data is valid.
+///
+/// MAVLink enum `AIS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct AisFlags(pub u16);
+impl AisFlags {
+    /// 1 = Position accuracy less than 10m, 0 = position accuracy greater than 10m.
+    pub const POSITION_ACCURACY: Self = Self(1);
+    /// `AIS_FLAGS_VALID_COG`
+    pub const VALID_COG: Self = Self(2);
+    /// `AIS_FLAGS_VALID_VELOCITY`
+    pub const VALID_VELOCITY: Self = Self(4);
+    /// 1 = Velocity over 52.5765m/s (102.2 knots)
+    pub const HIGH_VELOCITY: Self = Self(8);
+    /// `AIS_FLAGS_VALID_TURN_RATE`
+    pub const VALID_TURN_RATE: Self = Self(16);
+    /// Only the sign of the returned turn rate value is valid, either greater than 5deg/30s or
+    /// less than -5deg/30s
+    pub const TURN_RATE_SIGN_ONLY: Self = Self(32);
+    /// `AIS_FLAGS_VALID_DIMENSIONS`
+    pub const VALID_DIMENSIONS: Self = Self(64);
+    /// Distance to bow is larger than 511m
+    pub const LARGE_BOW_DIMENSION: Self = Self(128);
+    /// Distance to stern is larger than 511m
+    pub const LARGE_STERN_DIMENSION: Self = Self(256);
+    /// Distance to port side is larger than 63m
+    pub const LARGE_PORT_DIMENSION: Self = Self(512);
+    /// Distance to starboard side is larger than 63m
+    pub const LARGE_STARBOARD_DIMENSION: Self = Self(1024);
+    /// `AIS_FLAGS_VALID_CALLSIGN`
+    pub const VALID_CALLSIGN: Self = Self(2048);
+    /// `AIS_FLAGS_VALID_NAME`
+    pub const VALID_NAME: Self = Self(4096);
+}
+
+::mavwire::flag_set!(
+    AisFlags, u16, [POSITION_ACCURACY, VALID_COG, VALID_VELOCITY, HIGH_VELOCITY,
+    VALID_TURN_RATE, TURN_RATE_SIGN_ONLY, VALID_DIMENSIONS, LARGE_BOW_DIMENSION,
+    LARGE_STERN_DIMENSION, LARGE_PORT_DIMENSION, LARGE_STARBOARD_DIMENSION,
+    VALID_CALLSIGN, VALID_NAME]
+);
+
 /// Navigational status of AIS vessel, enum duplicated from AIS standard,
 /// <https://gpsd.gitlab.io/gpsd/AIVDM.html>
 ///
@@ -835,6 +935,103 @@ impl From<AisType> for u8 {
     }
 }
 
+/// Bitmap to indicate which dimensions should be ignored by the vehicle: a value of
+/// 0b00000000 indicates that none of the setpoint dimensions should be ignored.
+///
+/// MAVLink enum `ATTITUDE_TARGET_TYPEMASK`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct AttitudeTargetTypemask(pub u8);
+impl AttitudeTargetTypemask {
+    /// Ignore body roll rate
+    pub const BODY_ROLL_RATE_IGNORE: Self = Self(1);
+    /// Ignore body pitch rate
+    pub const BODY_PITCH_RATE_IGNORE: Self = Self(2);
+    /// Ignore body yaw rate
+    pub const BODY_YAW_RATE_IGNORE: Self = Self(4);
+    /// Ignore throttle
+    pub const THROTTLE_IGNORE: Self = Self(64);
+    /// Ignore attitude
+    pub const ATTITUDE_IGNORE: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    AttitudeTargetTypemask, u8, [BODY_ROLL_RATE_IGNORE, BODY_PITCH_RATE_IGNORE,
+    BODY_YAW_RATE_IGNORE, THROTTLE_IGNORE, ATTITUDE_IGNORE]
+);
+
+/// Axes that will be autotuned by MAV_CMD_DO_AUTOTUNE_ENABLE. Note that at least one flag
+/// must be set in MAV_CMD_DO_AUTOTUNE_ENABLE.param2: if none are set, the flight stack will
+/// tune its default set of axes.
+///
+/// MAVLink enum `AUTOTUNE_AXIS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct AutotuneAxis(pub u8);
+impl AutotuneAxis {
+    /// Autotune roll axis.
+    pub const ROLL: Self = Self(1);
+    /// Autotune pitch axis.
+    pub const PITCH: Self = Self(2);
+    /// Autotune yaw axis.
+    pub const YAW: Self = Self(4);
+}
+
+::mavwire::flag_set!(AutotuneAxis, u8, [ROLL, PITCH, YAW]);
+
+/// Camera capability flags (Bitmap)
+///
+/// MAVLink enum `CAMERA_CAP_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct CameraCapFlags(pub u32);
+impl CameraCapFlags {
+    /// Camera is able to record video
+    pub const CAPTURE_VIDEO: Self = Self(1);
+    /// Camera is able to capture images
+    pub const CAPTURE_IMAGE: Self = Self(2);
+    /// Camera has separate Video and Image/Photo modes (MAV_CMD_SET_CAMERA_MODE)
+    pub const HAS_MODES: Self = Self(4);
+    /// Camera can capture images while in video mode
+    pub const CAN_CAPTURE_IMAGE_IN_VIDEO_MODE: Self = Self(8);
+    /// Camera can capture videos while in Photo/Image mode
+    pub const CAN_CAPTURE_VIDEO_IN_IMAGE_MODE: Self = Self(16);
+    /// Camera has image survey mode (MAV_CMD_SET_CAMERA_MODE)
+    pub const HAS_IMAGE_SURVEY_MODE: Self = Self(32);
+    /// Camera has basic zoom control (MAV_CMD_SET_CAMERA_ZOOM)
+    pub const HAS_BASIC_ZOOM: Self = Self(64);
+    /// Camera has basic focus control (MAV_CMD_SET_CAMERA_FOCUS)
+    pub const HAS_BASIC_FOCUS: Self = Self(128);
+    /// Camera has video streaming capabilities (request VIDEO_STREAM_INFORMATION with
+    /// MAV_CMD_REQUEST_MESSAGE for video streaming info)
+    pub const HAS_VIDEO_STREAM: Self = Self(256);
+    /// Camera supports tracking of a point on the camera view.
+    pub const HAS_TRACKING_POINT: Self = Self(512);
+    /// Camera supports tracking of a selection rectangle on the camera view.
+    pub const HAS_TRACKING_RECTANGLE: Self = Self(1024);
+    /// Camera supports tracking geo status (CAMERA_TRACKING_GEO_STATUS).
+    pub const HAS_TRACKING_GEO_STATUS: Self = Self(2048);
+    /// Camera supports absolute thermal range (request CAMERA_THERMAL_RANGE with
+    /// MAV_CMD_REQUEST_MESSAGE).
+    pub const HAS_THERMAL_RANGE: Self = Self(4096);
+    /// Camera supports Moving Target Indicators (MTI) on the camera view (using
+    /// MAV_CMD_CAMERA_START_MTI).
+    ///
+    /// **Work in progress**: may change.
+    pub const HAS_MTI: Self = Self(8192);
+}
+
+::mavwire::flag_set!(
+    CameraCapFlags, u32, [CAPTURE_VIDEO, CAPTURE_IMAGE, HAS_MODES,
+    CAN_CAPTURE_IMAGE_IN_VIDEO_MODE, CAN_CAPTURE_VIDEO_IN_IMAGE_MODE,
+    HAS_IMAGE_SURVEY_MODE, HAS_BASIC_ZOOM, HAS_BASIC_FOCUS, HAS_VIDEO_STREAM,
+    HAS_TRACKING_POINT, HAS_TRACKING_RECTANGLE, HAS_TRACKING_GEO_STATUS,
+    HAS_THERMAL_RANGE, HAS_MTI]
+);
+
 /// Camera Modes.
 ///
 /// MAVLink enum `CAMERA_MODE`.
@@ -1016,6 +1213,52 @@ impl From<CameraTrackingMode> for u8 {
     }
 }
 
+/// Camera tracking status flags
+///
+/// MAVLink enum `CAMERA_TRACKING_STATUS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct CameraTrackingStatusFlags(pub u8);
+impl CameraTrackingStatusFlags {
+    /// Camera is not tracking
+    pub const IDLE: Self = Self(0);
+    /// Camera is tracking
+    pub const ACTIVE: Self = Self(1);
+    /// Camera tracking in error state
+    pub const ERROR: Self = Self(2);
+    /// Camera Moving Target Indicators (MTI) are active
+    ///
+    /// **Work in progress**: may change.
+    pub const MTI: Self = Self(4);
+    /// Camera tracking target is obscured and is being predicted
+    ///
+    /// **Work in progress**: may change.
+    pub const COASTING: Self = Self(8);
+}
+
+::mavwire::flag_set!(
+    CameraTrackingStatusFlags, u8, [IDLE, ACTIVE, ERROR, MTI, COASTING]
+);
+
+/// Camera tracking target data (shows where tracked target is within image)
+///
+/// MAVLink enum `CAMERA_TRACKING_TARGET_DATA`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct CameraTrackingTargetData(pub u8);
+impl CameraTrackingTargetData {
+    /// Target data embedded in image data (proprietary)
+    pub const EMBEDDED: Self = Self(1);
+    /// Target data rendered in image
+    pub const RENDERED: Self = Self(2);
+    /// Target data within status message (Point or Rectangle)
+    pub const IN_STATUS: Self = Self(4);
+}
+
+::mavwire::flag_set!(CameraTrackingTargetData, u8, [EMBEDDED, RENDERED, IN_STATUS]);
+
 /// Zoom types for MAV_CMD_SET_CAMERA_ZOOM
 ///
 /// MAVLink enum `CAMERA_ZOOM_TYPE`.
@@ -1143,6 +1386,89 @@ impl From<CanFilterOp> for u8 {
         value.0
     }
 }
+
+/// Flags used to report computer status.
+///
+/// MAVLink enum `COMPUTER_STATUS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct ComputerStatusFlags(pub u16);
+impl ComputerStatusFlags {
+    /// Indicates if the system is experiencing voltage outside of acceptable range.
+    pub const UNDER_VOLTAGE: Self = Self(1);
+    /// Indicates if CPU throttling is active.
+    pub const CPU_THROTTLE: Self = Self(2);
+    /// Indicates if thermal throttling is active.
+    pub const THERMAL_THROTTLE: Self = Self(4);
+    /// Indicates if main disk is full.
+    pub const DISK_FULL: Self = Self(8);
+}
+
+::mavwire::flag_set!(
+    ComputerStatusFlags, u16, [UNDER_VOLTAGE, CPU_THROTTLE, THERMAL_THROTTLE, DISK_FULL]
+);
+
+/// Engine control options
+///
+/// MAVLink enum `ENGINE_CONTROL_OPTIONS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct EngineControlOptions(pub u8);
+impl EngineControlOptions {
+    /// Allow starting the engine while disarmed (without changing the vehicle's armed state).
+    /// This effectively arms just the ICE, without arming the vehicle to start other motors or
+    /// propellers.
+    pub const ALLOW_START_WHILE_DISARMED: Self = Self(1);
+}
+
+::mavwire::flag_set!(EngineControlOptions, u8, [ALLOW_START_WHILE_DISARMED]);
+
+/// Flags in ESTIMATOR_STATUS message
+///
+/// MAVLink enum `ESTIMATOR_STATUS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct EstimatorStatusFlags(pub u16);
+impl EstimatorStatusFlags {
+    /// True if the attitude estimate is good
+    pub const ESTIMATOR_ATTITUDE: Self = Self(1);
+    /// True if the horizontal velocity estimate is good
+    pub const ESTIMATOR_VELOCITY_HORIZ: Self = Self(2);
+    /// True if the vertical velocity estimate is good
+    pub const ESTIMATOR_VELOCITY_VERT: Self = Self(4);
+    /// True if the horizontal position (relative) estimate is good
+    pub const ESTIMATOR_POS_HORIZ_REL: Self = Self(8);
+    /// True if the horizontal position (absolute) estimate is good
+    pub const ESTIMATOR_POS_HORIZ_ABS: Self = Self(16);
+    /// True if the vertical position (absolute) estimate is good
+    pub const ESTIMATOR_POS_VERT_ABS: Self = Self(32);
+    /// True if the vertical position (above ground) estimate is good
+    pub const ESTIMATOR_POS_VERT_AGL: Self = Self(64);
+    /// True if the EKF is in a constant position mode and is not using external measurements (eg
+    /// GPS or optical flow)
+    pub const ESTIMATOR_CONST_POS_MODE: Self = Self(128);
+    /// True if the EKF has sufficient data to enter a mode that will provide a (relative)
+    /// position estimate
+    pub const ESTIMATOR_PRED_POS_HORIZ_REL: Self = Self(256);
+    /// True if the EKF has sufficient data to enter a mode that will provide a (absolute)
+    /// position estimate
+    pub const ESTIMATOR_PRED_POS_HORIZ_ABS: Self = Self(512);
+    /// True if the EKF has detected a GPS glitch
+    pub const ESTIMATOR_GPS_GLITCH: Self = Self(1024);
+    /// True if the EKF has detected bad accelerometer data
+    pub const ESTIMATOR_ACCEL_ERROR: Self = Self(2048);
+}
+
+::mavwire::flag_set!(
+    EstimatorStatusFlags, u16, [ESTIMATOR_ATTITUDE, ESTIMATOR_VELOCITY_HORIZ,
+    ESTIMATOR_VELOCITY_VERT, ESTIMATOR_POS_HORIZ_REL, ESTIMATOR_POS_HORIZ_ABS,
+    ESTIMATOR_POS_VERT_ABS, ESTIMATOR_POS_VERT_AGL, ESTIMATOR_CONST_POS_MODE,
+    ESTIMATOR_PRED_POS_HORIZ_REL, ESTIMATOR_PRED_POS_HORIZ_ABS, ESTIMATOR_GPS_GLITCH,
+    ESTIMATOR_ACCEL_ERROR]
+);
 
 /// List of possible failure type to inject.
 ///
@@ -1434,6 +1760,280 @@ impl From<FenceMitigate> for u8 {
     }
 }
 
+/// Fence types to enable or disable when using MAV_CMD_DO_FENCE_ENABLE. Note that at least
+/// one of these flags must be set in MAV_CMD_DO_FENCE_ENABLE.param2. If none are set, the
+/// flight stack will ignore the field and enable/disable its default set of fences (usually
+/// all of them).
+///
+/// MAVLink enum `FENCE_TYPE`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct FenceType(pub u8);
+impl FenceType {
+    /// Maximum altitude fence
+    pub const ALT_MAX: Self = Self(1);
+    /// Circle fence
+    pub const CIRCLE: Self = Self(2);
+    /// Polygon fence
+    pub const POLYGON: Self = Self(4);
+    /// Minimum altitude fence
+    pub const ALT_MIN: Self = Self(8);
+}
+
+::mavwire::flag_set!(FenceType, u8, [ALT_MAX, CIRCLE, POLYGON, ALT_MIN]);
+
+/// Gimbal device (low level) capability flags (bitmap).
+///
+/// MAVLink enum `GIMBAL_DEVICE_CAP_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GimbalDeviceCapFlags(pub u32);
+impl GimbalDeviceCapFlags {
+    /// Gimbal device supports a retracted position.
+    pub const HAS_RETRACT: Self = Self(1);
+    /// Gimbal device supports a horizontal, forward looking position, stabilized.
+    pub const HAS_NEUTRAL: Self = Self(2);
+    /// Gimbal device supports rotating around roll axis.
+    pub const HAS_ROLL_AXIS: Self = Self(4);
+    /// Gimbal device supports to follow a roll angle relative to the vehicle.
+    pub const HAS_ROLL_FOLLOW: Self = Self(8);
+    /// Gimbal device supports locking to a roll angle (generally that's the default with roll
+    /// stabilized).
+    pub const HAS_ROLL_LOCK: Self = Self(16);
+    /// Gimbal device supports rotating around pitch axis.
+    pub const HAS_PITCH_AXIS: Self = Self(32);
+    /// Gimbal device supports to follow a pitch angle relative to the vehicle.
+    pub const HAS_PITCH_FOLLOW: Self = Self(64);
+    /// Gimbal device supports locking to a pitch angle (generally that's the default with pitch
+    /// stabilized).
+    pub const HAS_PITCH_LOCK: Self = Self(128);
+    /// Gimbal device supports rotating around yaw axis.
+    pub const HAS_YAW_AXIS: Self = Self(256);
+    /// Gimbal device supports to follow a yaw angle relative to the vehicle (generally that's the
+    /// default).
+    pub const HAS_YAW_FOLLOW: Self = Self(512);
+    /// Gimbal device supports locking to an absolute heading, i.e., yaw angle relative to North
+    /// (earth frame, often this is an option available).
+    pub const HAS_YAW_LOCK: Self = Self(1024);
+    /// Gimbal device supports yawing/panning infinitely (e.g. using slip disk).
+    pub const SUPPORTS_INFINITE_YAW: Self = Self(2048);
+    /// Gimbal device supports yaw angles and angular velocities relative to North (earth frame).
+    /// This usually requires support by an autopilot via AUTOPILOT_STATE_FOR_GIMBAL_DEVICE.
+    /// Support can go on and off during runtime, which is reported by the flag
+    /// GIMBAL_DEVICE_FLAGS_CAN_ACCEPT_YAW_IN_EARTH_FRAME.
+    pub const SUPPORTS_YAW_IN_EARTH_FRAME: Self = Self(4096);
+    /// Gimbal device supports radio control inputs as an alternative input for controlling the
+    /// gimbal orientation.
+    pub const HAS_RC_INPUTS: Self = Self(8192);
+    /// Gimbal device supports to point to a local position.
+    pub const CAN_POINT_LOCATION_LOCAL: Self = Self(65536);
+    /// Gimbal device supports to point to a global latitude, longitude, altitude position.
+    pub const CAN_POINT_LOCATION_GLOBAL: Self = Self(131072);
+}
+
+::mavwire::flag_set!(
+    GimbalDeviceCapFlags, u32, [HAS_RETRACT, HAS_NEUTRAL, HAS_ROLL_AXIS, HAS_ROLL_FOLLOW,
+    HAS_ROLL_LOCK, HAS_PITCH_AXIS, HAS_PITCH_FOLLOW, HAS_PITCH_LOCK, HAS_YAW_AXIS,
+    HAS_YAW_FOLLOW, HAS_YAW_LOCK, SUPPORTS_INFINITE_YAW, SUPPORTS_YAW_IN_EARTH_FRAME,
+    HAS_RC_INPUTS, CAN_POINT_LOCATION_LOCAL, CAN_POINT_LOCATION_GLOBAL]
+);
+
+/// Gimbal device (low level) error flags (bitmap, 0 means no error)
+///
+/// MAVLink enum `GIMBAL_DEVICE_ERROR_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GimbalDeviceErrorFlags(pub u32);
+impl GimbalDeviceErrorFlags {
+    /// Gimbal device is limited by hardware roll limit.
+    pub const AT_ROLL_LIMIT: Self = Self(1);
+    /// Gimbal device is limited by hardware pitch limit.
+    pub const AT_PITCH_LIMIT: Self = Self(2);
+    /// Gimbal device is limited by hardware yaw limit.
+    pub const AT_YAW_LIMIT: Self = Self(4);
+    /// There is an error with the gimbal encoders.
+    pub const ENCODER_ERROR: Self = Self(8);
+    /// There is an error with the gimbal power source.
+    pub const POWER_ERROR: Self = Self(16);
+    /// There is an error with the gimbal motors.
+    pub const MOTOR_ERROR: Self = Self(32);
+    /// There is an error with the gimbal's software.
+    pub const SOFTWARE_ERROR: Self = Self(64);
+    /// There is an error with the gimbal's communication.
+    pub const COMMS_ERROR: Self = Self(128);
+    /// Gimbal device is currently calibrating.
+    pub const CALIBRATION_RUNNING: Self = Self(256);
+    /// Gimbal device is not assigned to a gimbal manager.
+    pub const NO_MANAGER: Self = Self(512);
+}
+
+::mavwire::flag_set!(
+    GimbalDeviceErrorFlags, u32, [AT_ROLL_LIMIT, AT_PITCH_LIMIT, AT_YAW_LIMIT,
+    ENCODER_ERROR, POWER_ERROR, MOTOR_ERROR, SOFTWARE_ERROR, COMMS_ERROR,
+    CALIBRATION_RUNNING, NO_MANAGER]
+);
+
+/// Flags for gimbal device (lower level) operation.
+///
+/// MAVLink enum `GIMBAL_DEVICE_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GimbalDeviceFlags(pub u16);
+impl GimbalDeviceFlags {
+    /// Set to retracted safe position (no stabilization), takes precedence over all other flags.
+    pub const RETRACT: Self = Self(1);
+    /// Set to neutral/default position, taking precedence over all other flags except RETRACT.
+    /// Neutral is commonly forward-facing and horizontal (roll=pitch=yaw=0) but may be any
+    /// orientation.
+    pub const NEUTRAL: Self = Self(2);
+    /// Lock roll angle to absolute angle relative to horizon (not relative to vehicle). This is
+    /// generally the default with a stabilizing gimbal.
+    pub const ROLL_LOCK: Self = Self(4);
+    /// Lock pitch angle to absolute angle relative to horizon (not relative to vehicle). This is
+    /// generally the default with a stabilizing gimbal.
+    pub const PITCH_LOCK: Self = Self(8);
+    /// Lock yaw angle to absolute angle relative to North (not relative to vehicle). If this flag
+    /// is set, the yaw angle and z component of angular velocity are relative to North (earth
+    /// frame, x-axis pointing North), else they are relative to the vehicle heading (vehicle
+    /// frame, earth frame rotated so that the x-axis is pointing forward).
+    pub const YAW_LOCK: Self = Self(16);
+    /// Yaw angle and z component of angular velocity are relative to the vehicle heading (vehicle
+    /// frame, earth frame rotated such that the x-axis is pointing forward).
+    pub const YAW_IN_VEHICLE_FRAME: Self = Self(32);
+    /// Yaw angle and z component of angular velocity are relative to North (earth frame, x-axis
+    /// is pointing North).
+    pub const YAW_IN_EARTH_FRAME: Self = Self(64);
+    /// Gimbal device can accept yaw angle inputs relative to North (earth frame). This flag is
+    /// only for reporting (attempts to set this flag are ignored).
+    pub const ACCEPTS_YAW_IN_EARTH_FRAME: Self = Self(128);
+    /// The gimbal orientation is set exclusively by the RC signals feed to the gimbal's radio
+    /// control inputs. MAVLink messages for setting the gimbal orientation
+    /// (GIMBAL_DEVICE_SET_ATTITUDE) are ignored.
+    pub const RC_EXCLUSIVE: Self = Self(256);
+    /// The gimbal orientation is determined by combining/mixing the RC signals feed to the
+    /// gimbal's radio control inputs and the MAVLink messages for setting the gimbal orientation
+    /// (GIMBAL_DEVICE_SET_ATTITUDE). How these two controls are combined or mixed is not defined
+    /// by the protocol but is up to the implementation.
+    pub const RC_MIXED: Self = Self(512);
+}
+
+::mavwire::flag_set!(
+    GimbalDeviceFlags, u16, [RETRACT, NEUTRAL, ROLL_LOCK, PITCH_LOCK, YAW_LOCK,
+    YAW_IN_VEHICLE_FRAME, YAW_IN_EARTH_FRAME, ACCEPTS_YAW_IN_EARTH_FRAME, RC_EXCLUSIVE,
+    RC_MIXED]
+);
+
+/// Gimbal manager high level capability flags (bitmap). The flags are identical to the
+/// GIMBAL_DEVICE_CAP_FLAGS. However, the gimbal manager does not need to copy the flags from
+/// the gimbal but can also enhance the capabilities and thus add flags.
+///
+/// MAVLink enum `GIMBAL_MANAGER_CAP_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GimbalManagerCapFlags(pub u32);
+impl GimbalManagerCapFlags {
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_RETRACT.
+    pub const HAS_RETRACT: Self = Self(1);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_NEUTRAL.
+    pub const HAS_NEUTRAL: Self = Self(2);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_AXIS.
+    pub const HAS_ROLL_AXIS: Self = Self(4);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_FOLLOW.
+    pub const HAS_ROLL_FOLLOW: Self = Self(8);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_LOCK.
+    pub const HAS_ROLL_LOCK: Self = Self(16);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_AXIS.
+    pub const HAS_PITCH_AXIS: Self = Self(32);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_FOLLOW.
+    pub const HAS_PITCH_FOLLOW: Self = Self(64);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_LOCK.
+    pub const HAS_PITCH_LOCK: Self = Self(128);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_AXIS.
+    pub const HAS_YAW_AXIS: Self = Self(256);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_FOLLOW.
+    pub const HAS_YAW_FOLLOW: Self = Self(512);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_LOCK.
+    pub const HAS_YAW_LOCK: Self = Self(1024);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_SUPPORTS_INFINITE_YAW.
+    pub const SUPPORTS_INFINITE_YAW: Self = Self(2048);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_SUPPORTS_YAW_IN_EARTH_FRAME.
+    pub const SUPPORTS_YAW_IN_EARTH_FRAME: Self = Self(4096);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_RC_INPUTS.
+    pub const HAS_RC_INPUTS: Self = Self(8192);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_CAN_POINT_LOCATION_LOCAL.
+    pub const CAN_POINT_LOCATION_LOCAL: Self = Self(65536);
+    /// Based on GIMBAL_DEVICE_CAP_FLAGS_CAN_POINT_LOCATION_GLOBAL.
+    pub const CAN_POINT_LOCATION_GLOBAL: Self = Self(131072);
+}
+
+::mavwire::flag_set!(
+    GimbalManagerCapFlags, u32, [HAS_RETRACT, HAS_NEUTRAL, HAS_ROLL_AXIS,
+    HAS_ROLL_FOLLOW, HAS_ROLL_LOCK, HAS_PITCH_AXIS, HAS_PITCH_FOLLOW, HAS_PITCH_LOCK,
+    HAS_YAW_AXIS, HAS_YAW_FOLLOW, HAS_YAW_LOCK, SUPPORTS_INFINITE_YAW,
+    SUPPORTS_YAW_IN_EARTH_FRAME, HAS_RC_INPUTS, CAN_POINT_LOCATION_LOCAL,
+    CAN_POINT_LOCATION_GLOBAL]
+);
+
+/// Flags for high level gimbal manager operation The first 16 bits are identical to the
+/// GIMBAL_DEVICE_FLAGS.
+///
+/// MAVLink enum `GIMBAL_MANAGER_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GimbalManagerFlags(pub u32);
+impl GimbalManagerFlags {
+    /// Based on GIMBAL_DEVICE_FLAGS_RETRACT.
+    pub const RETRACT: Self = Self(1);
+    /// Based on GIMBAL_DEVICE_FLAGS_NEUTRAL.
+    pub const NEUTRAL: Self = Self(2);
+    /// Based on GIMBAL_DEVICE_FLAGS_ROLL_LOCK.
+    pub const ROLL_LOCK: Self = Self(4);
+    /// Based on GIMBAL_DEVICE_FLAGS_PITCH_LOCK.
+    pub const PITCH_LOCK: Self = Self(8);
+    /// Based on GIMBAL_DEVICE_FLAGS_YAW_LOCK.
+    pub const YAW_LOCK: Self = Self(16);
+    /// Based on GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME.
+    pub const YAW_IN_VEHICLE_FRAME: Self = Self(32);
+    /// Based on GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME.
+    pub const YAW_IN_EARTH_FRAME: Self = Self(64);
+    /// Based on GIMBAL_DEVICE_FLAGS_ACCEPTS_YAW_IN_EARTH_FRAME.
+    pub const ACCEPTS_YAW_IN_EARTH_FRAME: Self = Self(128);
+    /// Based on GIMBAL_DEVICE_FLAGS_RC_EXCLUSIVE.
+    pub const RC_EXCLUSIVE: Self = Self(256);
+    /// Based on GIMBAL_DEVICE_FLAGS_RC_MIXED.
+    pub const RC_MIXED: Self = Self(512);
+}
+
+::mavwire::flag_set!(
+    GimbalManagerFlags, u32, [RETRACT, NEUTRAL, ROLL_LOCK, PITCH_LOCK, YAW_LOCK,
+    YAW_IN_VEHICLE_FRAME, YAW_IN_EARTH_FRAME, ACCEPTS_YAW_IN_EARTH_FRAME, RC_EXCLUSIVE,
+    RC_MIXED]
+);
+
+/// Status flags for GLOBAL_POSITION
+///
+/// MAVLink enum `GLOBAL_POSITION_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GlobalPositionFlags(pub u8);
+impl GlobalPositionFlags {
+    /// Unhealthy sensor/estimator.
+    pub const GLOBAL_POSITION_UNHEALTHY: Self = Self(1);
+    /// True if the data originates from or is consumed by the primary estimator.
+    pub const GLOBAL_POSITION_PRIMARY: Self = Self(2);
+}
+
+::mavwire::flag_set!(
+    GlobalPositionFlags, u8, [GLOBAL_POSITION_UNHEALTHY, GLOBAL_POSITION_PRIMARY]
+);
+
 /// Source for GLOBAL_POSITION measurement or estimate.
 ///
 /// MAVLink enum `GLOBAL_POSITION_SRC`.
@@ -1582,6 +2182,39 @@ impl From<GpsFixType> for u8 {
     }
 }
 
+/// `GPS_INPUT_IGNORE_FLAGS`
+///
+/// MAVLink enum `GPS_INPUT_IGNORE_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct GpsInputIgnoreFlags(pub u16);
+impl GpsInputIgnoreFlags {
+    /// ignore altitude field
+    pub const GPS_INPUT_IGNORE_FLAG_ALT: Self = Self(1);
+    /// ignore hdop field
+    pub const GPS_INPUT_IGNORE_FLAG_HDOP: Self = Self(2);
+    /// ignore vdop field
+    pub const GPS_INPUT_IGNORE_FLAG_VDOP: Self = Self(4);
+    /// ignore horizontal velocity field (vn and ve)
+    pub const GPS_INPUT_IGNORE_FLAG_VEL_HORIZ: Self = Self(8);
+    /// ignore vertical velocity field (vd)
+    pub const GPS_INPUT_IGNORE_FLAG_VEL_VERT: Self = Self(16);
+    /// ignore speed accuracy field
+    pub const GPS_INPUT_IGNORE_FLAG_SPEED_ACCURACY: Self = Self(32);
+    /// ignore horizontal accuracy field
+    pub const GPS_INPUT_IGNORE_FLAG_HORIZONTAL_ACCURACY: Self = Self(64);
+    /// ignore vertical accuracy field
+    pub const GPS_INPUT_IGNORE_FLAG_VERTICAL_ACCURACY: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    GpsInputIgnoreFlags, u16, [GPS_INPUT_IGNORE_FLAG_ALT, GPS_INPUT_IGNORE_FLAG_HDOP,
+    GPS_INPUT_IGNORE_FLAG_VDOP, GPS_INPUT_IGNORE_FLAG_VEL_HORIZ,
+    GPS_INPUT_IGNORE_FLAG_VEL_VERT, GPS_INPUT_IGNORE_FLAG_SPEED_ACCURACY,
+    GPS_INPUT_IGNORE_FLAG_HORIZONTAL_ACCURACY, GPS_INPUT_IGNORE_FLAG_VERTICAL_ACCURACY]
+);
+
 /// Gripper actions.
 ///
 /// MAVLink enum `GRIPPER_ACTIONS`.
@@ -1699,6 +2332,177 @@ impl From<HeadingType> for u8 {
         value.0
     }
 }
+
+/// Flags in the HIGHRES_IMU message indicate which fields have updated since the last message
+///
+/// MAVLink enum `HIGHRES_IMU_UPDATED_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct HighresImuUpdatedFlags(pub u16);
+impl HighresImuUpdatedFlags {
+    /// The value in the xacc field has been updated
+    pub const HIGHRES_IMU_UPDATED_XACC: Self = Self(1);
+    /// The value in the yacc field has been updated
+    pub const HIGHRES_IMU_UPDATED_YACC: Self = Self(2);
+    /// The value in the zacc field has been updated since
+    pub const HIGHRES_IMU_UPDATED_ZACC: Self = Self(4);
+    /// The value in the xgyro field has been updated
+    pub const HIGHRES_IMU_UPDATED_XGYRO: Self = Self(8);
+    /// The value in the ygyro field has been updated
+    pub const HIGHRES_IMU_UPDATED_YGYRO: Self = Self(16);
+    /// The value in the zgyro field has been updated
+    pub const HIGHRES_IMU_UPDATED_ZGYRO: Self = Self(32);
+    /// The value in the xmag field has been updated
+    pub const HIGHRES_IMU_UPDATED_XMAG: Self = Self(64);
+    /// The value in the ymag field has been updated
+    pub const HIGHRES_IMU_UPDATED_YMAG: Self = Self(128);
+    /// The value in the zmag field has been updated
+    pub const HIGHRES_IMU_UPDATED_ZMAG: Self = Self(256);
+    /// The value in the abs_pressure field has been updated
+    pub const HIGHRES_IMU_UPDATED_ABS_PRESSURE: Self = Self(512);
+    /// The value in the diff_pressure field has been updated
+    pub const HIGHRES_IMU_UPDATED_DIFF_PRESSURE: Self = Self(1024);
+    /// The value in the pressure_alt field has been updated
+    pub const HIGHRES_IMU_UPDATED_PRESSURE_ALT: Self = Self(2048);
+    /// The value in the temperature field has been updated
+    pub const HIGHRES_IMU_UPDATED_TEMPERATURE: Self = Self(4096);
+}
+
+::mavwire::flag_set!(
+    HighresImuUpdatedFlags, u16, [HIGHRES_IMU_UPDATED_XACC, HIGHRES_IMU_UPDATED_YACC,
+    HIGHRES_IMU_UPDATED_ZACC, HIGHRES_IMU_UPDATED_XGYRO, HIGHRES_IMU_UPDATED_YGYRO,
+    HIGHRES_IMU_UPDATED_ZGYRO, HIGHRES_IMU_UPDATED_XMAG, HIGHRES_IMU_UPDATED_YMAG,
+    HIGHRES_IMU_UPDATED_ZMAG, HIGHRES_IMU_UPDATED_ABS_PRESSURE,
+    HIGHRES_IMU_UPDATED_DIFF_PRESSURE, HIGHRES_IMU_UPDATED_PRESSURE_ALT,
+    HIGHRES_IMU_UPDATED_TEMPERATURE]
+);
+
+/// Flags used in HIL_ACTUATOR_CONTROLS message.
+///
+/// MAVLink enum `HIL_ACTUATOR_CONTROLS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct HilActuatorControlsFlags(pub u64);
+impl HilActuatorControlsFlags {
+    /// Simulation is using lockstep
+    pub const LOCKSTEP: Self = Self(1);
+}
+
+::mavwire::flag_set!(HilActuatorControlsFlags, u64, [LOCKSTEP]);
+
+/// Flags in the HIL_SENSOR message indicate which fields have updated since the last message
+///
+/// MAVLink enum `HIL_SENSOR_UPDATED_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct HilSensorUpdatedFlags(pub u32);
+impl HilSensorUpdatedFlags {
+    /// The value in the xacc field has been updated
+    pub const HIL_SENSOR_UPDATED_XACC: Self = Self(1);
+    /// The value in the yacc field has been updated
+    pub const HIL_SENSOR_UPDATED_YACC: Self = Self(2);
+    /// The value in the zacc field has been updated
+    pub const HIL_SENSOR_UPDATED_ZACC: Self = Self(4);
+    /// The value in the xgyro field has been updated
+    pub const HIL_SENSOR_UPDATED_XGYRO: Self = Self(8);
+    /// The value in the ygyro field has been updated
+    pub const HIL_SENSOR_UPDATED_YGYRO: Self = Self(16);
+    /// The value in the zgyro field has been updated
+    pub const HIL_SENSOR_UPDATED_ZGYRO: Self = Self(32);
+    /// The value in the xmag field has been updated
+    pub const HIL_SENSOR_UPDATED_XMAG: Self = Self(64);
+    /// The value in the ymag field has been updated
+    pub const HIL_SENSOR_UPDATED_YMAG: Self = Self(128);
+    /// The value in the zmag field has been updated
+    pub const HIL_SENSOR_UPDATED_ZMAG: Self = Self(256);
+    /// The value in the abs_pressure field has been updated
+    pub const HIL_SENSOR_UPDATED_ABS_PRESSURE: Self = Self(512);
+    /// The value in the diff_pressure field has been updated
+    pub const HIL_SENSOR_UPDATED_DIFF_PRESSURE: Self = Self(1024);
+    /// The value in the pressure_alt field has been updated
+    pub const HIL_SENSOR_UPDATED_PRESSURE_ALT: Self = Self(2048);
+    /// The value in the temperature field has been updated
+    pub const HIL_SENSOR_UPDATED_TEMPERATURE: Self = Self(4096);
+    /// Full reset of attitude/position/velocities/etc was performed in sim (Bit 31).
+    pub const HIL_SENSOR_UPDATED_RESET: Self = Self(2147483648);
+}
+
+::mavwire::flag_set!(
+    HilSensorUpdatedFlags, u32, [HIL_SENSOR_UPDATED_XACC, HIL_SENSOR_UPDATED_YACC,
+    HIL_SENSOR_UPDATED_ZACC, HIL_SENSOR_UPDATED_XGYRO, HIL_SENSOR_UPDATED_YGYRO,
+    HIL_SENSOR_UPDATED_ZGYRO, HIL_SENSOR_UPDATED_XMAG, HIL_SENSOR_UPDATED_YMAG,
+    HIL_SENSOR_UPDATED_ZMAG, HIL_SENSOR_UPDATED_ABS_PRESSURE,
+    HIL_SENSOR_UPDATED_DIFF_PRESSURE, HIL_SENSOR_UPDATED_PRESSURE_ALT,
+    HIL_SENSOR_UPDATED_TEMPERATURE, HIL_SENSOR_UPDATED_RESET]
+);
+
+/// Flags to report failure cases over the high latency telemetry.
+///
+/// MAVLink enum `HL_FAILURE_FLAG`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct HlFailureFlag(pub u16);
+impl HlFailureFlag {
+    /// GPS failure.
+    pub const GPS: Self = Self(1);
+    /// Differential pressure sensor failure.
+    pub const DIFFERENTIAL_PRESSURE: Self = Self(2);
+    /// Absolute pressure sensor failure.
+    pub const ABSOLUTE_PRESSURE: Self = Self(4);
+    /// Accelerometer sensor failure.
+    pub const FLAG_3D_ACCEL: Self = Self(8);
+    /// Gyroscope sensor failure.
+    pub const FLAG_3D_GYRO: Self = Self(16);
+    /// Magnetometer sensor failure.
+    pub const FLAG_3D_MAG: Self = Self(32);
+    /// Terrain subsystem failure.
+    pub const TERRAIN: Self = Self(64);
+    /// Battery failure/critical low battery.
+    pub const BATTERY: Self = Self(128);
+    /// RC receiver failure/no RC connection.
+    pub const RC_RECEIVER: Self = Self(256);
+    /// Offboard link failure.
+    pub const OFFBOARD_LINK: Self = Self(512);
+    /// Engine failure.
+    pub const ENGINE: Self = Self(1024);
+    /// Geofence violation.
+    pub const GEOFENCE: Self = Self(2048);
+    /// Estimator failure, for example measurement rejection or large variances.
+    pub const ESTIMATOR: Self = Self(4096);
+    /// Mission failure.
+    pub const MISSION: Self = Self(8192);
+}
+
+::mavwire::flag_set!(
+    HlFailureFlag, u16, [GPS, DIFFERENTIAL_PRESSURE, ABSOLUTE_PRESSURE, FLAG_3D_ACCEL,
+    FLAG_3D_GYRO, FLAG_3D_MAG, TERRAIN, BATTERY, RC_RECEIVER, OFFBOARD_LINK, ENGINE,
+    GEOFENCE, ESTIMATOR, MISSION]
+);
+
+/// Illuminator module error flags (bitmap, 0 means no error)
+///
+/// MAVLink enum `ILLUMINATOR_ERROR_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct IlluminatorErrorFlags(pub u8);
+impl IlluminatorErrorFlags {
+    /// Illuminator thermal throttling error.
+    pub const THERMAL_THROTTLING: Self = Self(1);
+    /// Illuminator over temperature shutdown error.
+    pub const OVER_TEMPERATURE_SHUTDOWN: Self = Self(2);
+    /// Illuminator thermistor failure.
+    pub const THERMISTOR_FAILURE: Self = Self(4);
+}
+
+::mavwire::flag_set!(
+    IlluminatorErrorFlags, u8, [THERMAL_THROTTLING, OVER_TEMPERATURE_SHUTDOWN,
+    THERMISTOR_FAILURE]
+);
 
 /// Modes of illuminator
 ///
@@ -2121,6 +2925,44 @@ impl From<MavBatteryChargeState> for u8 {
         value.0
     }
 }
+
+/// Smart battery supply status/fault flags (bitmask) for health indication. The battery must
+/// also report either MAV_BATTERY_CHARGE_STATE_FAILED or MAV_BATTERY_CHARGE_STATE_UNHEALTHY
+/// if any of these are set.
+///
+/// MAVLink enum `MAV_BATTERY_FAULT`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavBatteryFault(pub u32);
+impl MavBatteryFault {
+    /// Battery has deep discharged.
+    pub const DEEP_DISCHARGE: Self = Self(1);
+    /// Voltage spikes.
+    pub const SPIKES: Self = Self(2);
+    /// One or more cells have failed. Battery should also report MAV_BATTERY_CHARGE_STATE_FAILE
+    /// (and should not be used).
+    pub const CELL_FAIL: Self = Self(4);
+    /// Over-current fault.
+    pub const OVER_CURRENT: Self = Self(8);
+    /// Over-temperature fault.
+    pub const OVER_TEMPERATURE: Self = Self(16);
+    /// Under-temperature fault.
+    pub const UNDER_TEMPERATURE: Self = Self(32);
+    /// Vehicle voltage is not compatible with this battery (batteries on same power rail should
+    /// have similar voltage).
+    pub const INCOMPATIBLE_VOLTAGE: Self = Self(64);
+    /// Battery firmware is not compatible with current autopilot firmware.
+    pub const INCOMPATIBLE_FIRMWARE: Self = Self(128);
+    /// Battery is not compatible due to cell configuration (e.g. 5s1p when vehicle requires 6s).
+    pub const BATTERY_FAULT_INCOMPATIBLE_CELLS_CONFIGURATION: Self = Self(256);
+}
+
+::mavwire::flag_set!(
+    MavBatteryFault, u32, [DEEP_DISCHARGE, SPIKES, CELL_FAIL, OVER_CURRENT,
+    OVER_TEMPERATURE, UNDER_TEMPERATURE, INCOMPATIBLE_VOLTAGE, INCOMPATIBLE_FIRMWARE,
+    BATTERY_FAULT_INCOMPATIBLE_CELLS_CONFIGURATION]
+);
 
 /// Enumeration of battery functions
 ///
@@ -5188,6 +6030,23 @@ impl From<MavDistanceSensor> for u8 {
     }
 }
 
+/// Bitmap of options for the MAV_CMD_DO_REPOSITION
+///
+/// MAVLink enum `MAV_DO_REPOSITION_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavDoRepositionFlags(pub u8);
+impl MavDoRepositionFlags {
+    /// The aircraft should immediately transition into guided. This should not be set for follow
+    /// me applications
+    pub const CHANGE_MODE: Self = Self(1);
+    /// Yaw relative to the vehicle current heading (if not set, relative to North).
+    pub const RELATIVE_YAW: Self = Self(2);
+}
+
+::mavwire::flag_set!(MavDoRepositionFlags, u8, [CHANGE_MODE, RELATIVE_YAW]);
+
 /// Enumeration of estimator types
 ///
 /// MAVLink enum `MAV_ESTIMATOR_TYPE`.
@@ -5607,6 +6466,79 @@ impl From<MavFtpOpcode> for u8 {
         value.0
     }
 }
+
+/// Flags to report status/failure cases for a power generator (used in GENERATOR_STATUS).
+/// Note that FAULTS are conditions that cause the generator to fail. Warnings are conditions
+/// that require attention before the next use (they indicate the system is not operating
+/// properly).
+///
+/// MAVLink enum `MAV_GENERATOR_STATUS_FLAG`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavGeneratorStatusFlag(pub u64);
+impl MavGeneratorStatusFlag {
+    /// Generator is off.
+    pub const OFF: Self = Self(1);
+    /// Generator is ready to start generating power.
+    pub const READY: Self = Self(2);
+    /// Generator is generating power.
+    pub const GENERATING: Self = Self(4);
+    /// Generator is charging the batteries (generating enough power to charge and provide the
+    /// load).
+    pub const CHARGING: Self = Self(8);
+    /// Generator is operating at a reduced maximum power.
+    pub const REDUCED_POWER: Self = Self(16);
+    /// Generator is providing the maximum output.
+    pub const MAXPOWER: Self = Self(32);
+    /// Generator is near the maximum operating temperature, cooling is insufficient.
+    pub const OVERTEMP_WARNING: Self = Self(64);
+    /// Generator hit the maximum operating temperature and shutdown.
+    pub const OVERTEMP_FAULT: Self = Self(128);
+    /// Power electronics are near the maximum operating temperature, cooling is insufficient.
+    pub const ELECTRONICS_OVERTEMP_WARNING: Self = Self(256);
+    /// Power electronics hit the maximum operating temperature and shutdown.
+    pub const ELECTRONICS_OVERTEMP_FAULT: Self = Self(512);
+    /// Power electronics experienced a fault and shutdown.
+    pub const ELECTRONICS_FAULT: Self = Self(1024);
+    /// The power source supplying the generator failed e.g. mechanical generator stopped, tether
+    /// is no longer providing power, solar cell is in shade, hydrogen reaction no longer
+    /// happening.
+    pub const POWERSOURCE_FAULT: Self = Self(2048);
+    /// Generator controller having communication problems.
+    pub const COMMUNICATION_WARNING: Self = Self(4096);
+    /// Power electronic or generator cooling system error.
+    pub const COOLING_WARNING: Self = Self(8192);
+    /// Generator controller power rail experienced a fault.
+    pub const POWER_RAIL_FAULT: Self = Self(16384);
+    /// Generator controller exceeded the overcurrent threshold and shutdown to prevent damage.
+    pub const OVERCURRENT_FAULT: Self = Self(32768);
+    /// Generator controller detected a high current going into the batteries and shutdown to
+    /// prevent battery damage.
+    pub const BATTERY_OVERCHARGE_CURRENT_FAULT: Self = Self(65536);
+    /// Generator controller exceeded it's overvoltage threshold and shutdown to prevent it
+    /// exceeding the voltage rating.
+    pub const OVERVOLTAGE_FAULT: Self = Self(131072);
+    /// Batteries are under voltage (generator will not start).
+    pub const BATTERY_UNDERVOLT_FAULT: Self = Self(262144);
+    /// Generator start is inhibited by e.g. a safety switch.
+    pub const START_INHIBITED: Self = Self(524288);
+    /// Generator requires maintenance.
+    pub const MAINTENANCE_REQUIRED: Self = Self(1048576);
+    /// Generator is not ready to generate yet.
+    pub const WARMING_UP: Self = Self(2097152);
+    /// Generator is idle.
+    pub const IDLE: Self = Self(4194304);
+}
+
+::mavwire::flag_set!(
+    MavGeneratorStatusFlag, u64, [OFF, READY, GENERATING, CHARGING, REDUCED_POWER,
+    MAXPOWER, OVERTEMP_WARNING, OVERTEMP_FAULT, ELECTRONICS_OVERTEMP_WARNING,
+    ELECTRONICS_OVERTEMP_FAULT, ELECTRONICS_FAULT, POWERSOURCE_FAULT,
+    COMMUNICATION_WARNING, COOLING_WARNING, POWER_RAIL_FAULT, OVERCURRENT_FAULT,
+    BATTERY_OVERCHARGE_CURRENT_FAULT, OVERVOLTAGE_FAULT, BATTERY_UNDERVOLT_FAULT,
+    START_INHIBITED, MAINTENANCE_REQUIRED, WARMING_UP, IDLE]
+);
 
 /// Actions that may be specified in MAV_CMD_OVERRIDE_GOTO to override mission execution.
 ///
@@ -7404,6 +8336,33 @@ impl From<MavParamType> for u8 {
     }
 }
 
+/// Power supply status flags (bitmask)
+///
+/// MAVLink enum `MAV_POWER_STATUS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavPowerStatus(pub u16);
+impl MavPowerStatus {
+    /// main brick power supply valid
+    pub const BRICK_VALID: Self = Self(1);
+    /// main servo power supply valid for FMU
+    pub const SERVO_VALID: Self = Self(2);
+    /// USB power is connected
+    pub const USB_CONNECTED: Self = Self(4);
+    /// peripheral supply is in over-current state
+    pub const PERIPH_OVERCURRENT: Self = Self(8);
+    /// hi-power peripheral supply is in over-current state
+    pub const PERIPH_HIPOWER_OVERCURRENT: Self = Self(16);
+    /// Power status has changed since boot
+    pub const CHANGED: Self = Self(32);
+}
+
+::mavwire::flag_set!(
+    MavPowerStatus, u16, [BRICK_VALID, SERVO_VALID, USB_CONNECTED, PERIPH_OVERCURRENT,
+    PERIPH_HIPOWER_OVERCURRENT, CHANGED]
+);
+
 /// Result from a MAVLink command (MAV_CMD)
 ///
 /// MAVLink enum `MAV_RESULT`.
@@ -7933,6 +8892,112 @@ impl From<MavStandardMode> for u8 {
     }
 }
 
+/// These encode the sensors whose status is sent as part of the SYS_STATUS message.
+///
+/// MAVLink enum `MAV_SYS_STATUS_SENSOR`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavSysStatusSensor(pub u32);
+impl MavSysStatusSensor {
+    /// 0x01 3D gyro
+    pub const SENSOR_3D_GYRO: Self = Self(1);
+    /// 0x02 3D accelerometer
+    pub const SENSOR_3D_ACCEL: Self = Self(2);
+    /// 0x04 3D magnetometer
+    pub const SENSOR_3D_MAG: Self = Self(4);
+    /// 0x08 absolute pressure
+    pub const ABSOLUTE_PRESSURE: Self = Self(8);
+    /// 0x10 differential pressure
+    pub const DIFFERENTIAL_PRESSURE: Self = Self(16);
+    /// 0x20 GPS
+    pub const GPS: Self = Self(32);
+    /// 0x40 optical flow
+    pub const OPTICAL_FLOW: Self = Self(64);
+    /// 0x80 computer vision position
+    pub const VISION_POSITION: Self = Self(128);
+    /// 0x100 laser based position
+    pub const LASER_POSITION: Self = Self(256);
+    /// 0x200 external ground truth (Vicon or Leica)
+    pub const EXTERNAL_GROUND_TRUTH: Self = Self(512);
+    /// 0x400 3D angular rate control
+    pub const ANGULAR_RATE_CONTROL: Self = Self(1024);
+    /// 0x800 attitude stabilization
+    pub const ATTITUDE_STABILIZATION: Self = Self(2048);
+    /// 0x1000 yaw position
+    pub const YAW_POSITION: Self = Self(4096);
+    /// 0x2000 z/altitude control
+    pub const Z_ALTITUDE_CONTROL: Self = Self(8192);
+    /// 0x4000 x/y position control
+    pub const XY_POSITION_CONTROL: Self = Self(16384);
+    /// 0x8000 motor outputs / control
+    pub const MOTOR_OUTPUTS: Self = Self(32768);
+    /// 0x10000 RC receiver
+    pub const RC_RECEIVER: Self = Self(65536);
+    /// 0x20000 2nd 3D gyro
+    pub const SENSOR_3D_GYRO2: Self = Self(131072);
+    /// 0x40000 2nd 3D accelerometer
+    pub const SENSOR_3D_ACCEL2: Self = Self(262144);
+    /// 0x80000 2nd 3D magnetometer
+    pub const SENSOR_3D_MAG2: Self = Self(524288);
+    /// 0x100000 geofence
+    pub const MAV_SYS_STATUS_GEOFENCE: Self = Self(1048576);
+    /// 0x200000 AHRS subsystem health
+    pub const MAV_SYS_STATUS_AHRS: Self = Self(2097152);
+    /// 0x400000 Terrain subsystem health
+    pub const MAV_SYS_STATUS_TERRAIN: Self = Self(4194304);
+    /// 0x800000 Motors are reversed
+    pub const MAV_SYS_STATUS_REVERSE_MOTOR: Self = Self(8388608);
+    /// 0x1000000 Logging
+    pub const MAV_SYS_STATUS_LOGGING: Self = Self(16777216);
+    /// 0x2000000 Battery
+    pub const BATTERY: Self = Self(33554432);
+    /// 0x4000000 Proximity
+    pub const PROXIMITY: Self = Self(67108864);
+    /// 0x8000000 Satellite Communication
+    pub const SATCOM: Self = Self(134217728);
+    /// 0x10000000 pre-arm check status. Always healthy when armed
+    pub const MAV_SYS_STATUS_PREARM_CHECK: Self = Self(268435456);
+    /// 0x20000000 Avoidance/collision prevention
+    pub const MAV_SYS_STATUS_OBSTACLE_AVOIDANCE: Self = Self(536870912);
+    /// 0x40000000 propulsion (actuator, esc, motor or propellor)
+    pub const PROPULSION: Self = Self(1073741824);
+    /// 0x80000000 Extended bit-field are used for further sensor status bits (needs to be set in
+    /// onboard_control_sensors_present only)
+    pub const MAV_SYS_STATUS_EXTENSION_USED: Self = Self(2147483648);
+}
+
+::mavwire::flag_set!(
+    MavSysStatusSensor, u32, [SENSOR_3D_GYRO, SENSOR_3D_ACCEL, SENSOR_3D_MAG,
+    ABSOLUTE_PRESSURE, DIFFERENTIAL_PRESSURE, GPS, OPTICAL_FLOW, VISION_POSITION,
+    LASER_POSITION, EXTERNAL_GROUND_TRUTH, ANGULAR_RATE_CONTROL, ATTITUDE_STABILIZATION,
+    YAW_POSITION, Z_ALTITUDE_CONTROL, XY_POSITION_CONTROL, MOTOR_OUTPUTS, RC_RECEIVER,
+    SENSOR_3D_GYRO2, SENSOR_3D_ACCEL2, SENSOR_3D_MAG2, MAV_SYS_STATUS_GEOFENCE,
+    MAV_SYS_STATUS_AHRS, MAV_SYS_STATUS_TERRAIN, MAV_SYS_STATUS_REVERSE_MOTOR,
+    MAV_SYS_STATUS_LOGGING, BATTERY, PROXIMITY, SATCOM, MAV_SYS_STATUS_PREARM_CHECK,
+    MAV_SYS_STATUS_OBSTACLE_AVOIDANCE, PROPULSION, MAV_SYS_STATUS_EXTENSION_USED]
+);
+
+/// These encode the sensors whose status is sent as part of the SYS_STATUS message in the
+/// extended fields.
+///
+/// MAVLink enum `MAV_SYS_STATUS_SENSOR_EXTENDED`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavSysStatusSensorExtended(pub u32);
+impl MavSysStatusSensorExtended {
+    /// 0x01 Recovery system (parachute, balloon, retracts etc)
+    pub const MAV_SYS_STATUS_RECOVERY_SYSTEM: Self = Self(1);
+    /// 0x02 Leak detection
+    pub const MAV_SYS_STATUS_SENSOR_LEAK: Self = Self(2);
+}
+
+::mavwire::flag_set!(
+    MavSysStatusSensorExtended, u32, [MAV_SYS_STATUS_RECOVERY_SYSTEM,
+    MAV_SYS_STATUS_SENSOR_LEAK]
+);
+
 /// `MAV_TUNNEL_PAYLOAD_TYPE`
 ///
 /// MAVLink enum `MAV_TUNNEL_PAYLOAD_TYPE`.
@@ -8089,6 +9154,29 @@ impl From<MavVtolState> for u8 {
         value.0
     }
 }
+
+/// Winch status flags used in WINCH_STATUS
+///
+/// MAVLink enum `MAV_WINCH_STATUS_FLAG`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavWinchStatusFlag(pub u32);
+impl MavWinchStatusFlag {
+    /// Winch is healthy
+    pub const MAV_WINCH_STATUS_HEALTHY: Self = Self(1);
+    /// Winch thread is fully retracted
+    pub const MAV_WINCH_STATUS_FULLY_RETRACTED: Self = Self(2);
+    /// Winch motor is moving
+    pub const MAV_WINCH_STATUS_MOVING: Self = Self(4);
+    /// Winch clutch is engaged allowing motor to move freely
+    pub const MAV_WINCH_STATUS_CLUTCH_ENGAGED: Self = Self(8);
+}
+
+::mavwire::flag_set!(
+    MavWinchStatusFlag, u32, [MAV_WINCH_STATUS_HEALTHY, MAV_WINCH_STATUS_FULLY_RETRACTED,
+    MAV_WINCH_STATUS_MOVING, MAV_WINCH_STATUS_CLUTCH_ENGAGED]
+);
 
 /// States of the mission state machine. Note that these states are independent of whether the
 /// mission is in a mode that can execute mission items or not (is suspended). They may not
@@ -8281,6 +9369,21 @@ impl From<MotorTestThrottleType> for u8 {
         value.0
     }
 }
+
+/// `NAV_TAKEOFF_FLAGS`
+///
+/// MAVLink enum `NAV_TAKEOFF_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct NavTakeoffFlags(pub u8);
+impl NavTakeoffFlags {
+    /// Accept the command even if the autopilot does not have control over its horizontal
+    /// position (note that it might not have altitude control either).
+    pub const HORIZONTAL_POSITION_NOT_REQUIRED: Self = Self(1);
+}
+
+::mavwire::flag_set!(NavTakeoffFlags, u8, [HORIZONTAL_POSITION_NOT_REQUIRED]);
 
 /// `NAV_VTOL_LAND_OPTIONS`
 ///
@@ -8533,6 +9636,48 @@ impl From<ParamAck> for u8 {
         value.0
     }
 }
+
+/// Bitmap to indicate which dimensions should be ignored by the vehicle: a value of
+/// 0b0000000000000000 or 0b0000001000000000 indicates that none of the setpoint dimensions
+/// should be ignored. If bit 9 is set the floats afx afy afz should be interpreted as force
+/// instead of acceleration.
+///
+/// MAVLink enum `POSITION_TARGET_TYPEMASK`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct PositionTargetTypemask(pub u16);
+impl PositionTargetTypemask {
+    /// Ignore position x
+    pub const X_IGNORE: Self = Self(1);
+    /// Ignore position y
+    pub const Y_IGNORE: Self = Self(2);
+    /// Ignore position z
+    pub const Z_IGNORE: Self = Self(4);
+    /// Ignore velocity x
+    pub const VX_IGNORE: Self = Self(8);
+    /// Ignore velocity y
+    pub const VY_IGNORE: Self = Self(16);
+    /// Ignore velocity z
+    pub const VZ_IGNORE: Self = Self(32);
+    /// Ignore acceleration x
+    pub const AX_IGNORE: Self = Self(64);
+    /// Ignore acceleration y
+    pub const AY_IGNORE: Self = Self(128);
+    /// Ignore acceleration z
+    pub const AZ_IGNORE: Self = Self(256);
+    /// Use force instead of acceleration
+    pub const FORCE_SET: Self = Self(512);
+    /// Ignore yaw
+    pub const YAW_IGNORE: Self = Self(1024);
+    /// Ignore yaw rate
+    pub const YAW_RATE_IGNORE: Self = Self(2048);
+}
+
+::mavwire::flag_set!(
+    PositionTargetTypemask, u16, [X_IGNORE, Y_IGNORE, Z_IGNORE, VX_IGNORE, VY_IGNORE,
+    VZ_IGNORE, AX_IGNORE, AY_IGNORE, AZ_IGNORE, FORCE_SET, YAW_IGNORE, YAW_RATE_IGNORE]
+);
 
 /// Precision land modes (used in MAV_CMD_NAV_LAND).
 ///
@@ -9318,6 +10463,32 @@ impl From<SerialControlDev> for u8 {
     }
 }
 
+/// SERIAL_CONTROL flags (bitmask)
+///
+/// MAVLink enum `SERIAL_CONTROL_FLAG`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct SerialControlFlag(pub u8);
+impl SerialControlFlag {
+    /// Set if this is a reply
+    pub const REPLY: Self = Self(1);
+    /// Set if the sender wants the receiver to send a response as another SERIAL_CONTROL message
+    pub const RESPOND: Self = Self(2);
+    /// Set if access to the serial port should be removed from whatever driver is currently using
+    /// it, giving exclusive access to the SERIAL_CONTROL protocol. The port can be handed back by
+    /// sending a request without this flag set
+    pub const EXCLUSIVE: Self = Self(4);
+    /// Block on writes to the serial port
+    pub const BLOCKING: Self = Self(8);
+    /// Send multiple replies until port is drained
+    pub const MULTI: Self = Self(16);
+}
+
+::mavwire::flag_set!(
+    SerialControlFlag, u8, [REPLY, RESPOND, EXCLUSIVE, BLOCKING, MULTI]
+);
+
 /// Focus types for MAV_CMD_SET_CAMERA_FOCUS
 ///
 /// MAVLink enum `SET_FOCUS_TYPE`.
@@ -9595,6 +10766,27 @@ impl From<StorageType> for u8 {
     }
 }
 
+/// Flags to indicate usage for a particular storage (see STORAGE_INFORMATION.storage_usage
+/// and MAV_CMD_SET_STORAGE_USAGE).
+///
+/// MAVLink enum `STORAGE_USAGE_FLAG`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct StorageUsageFlag(pub u8);
+impl StorageUsageFlag {
+    /// Always set to 1 (indicates STORAGE_INFORMATION.storage_usage is supported).
+    pub const SET: Self = Self(1);
+    /// Storage for saving photos.
+    pub const PHOTO: Self = Self(2);
+    /// Storage for saving videos.
+    pub const VIDEO: Self = Self(4);
+    /// Storage for saving logs.
+    pub const LOGS: Self = Self(8);
+}
+
+::mavwire::flag_set!(StorageUsageFlag, u8, [SET, PHOTO, VIDEO, LOGS]);
+
 /// Generalized UAVCAN node health
 ///
 /// MAVLink enum `UAVCAN_NODE_HEALTH`.
@@ -9722,6 +10914,38 @@ impl From<UavcanNodeMode> for u8 {
     }
 }
 
+/// Flags for the global position report.
+///
+/// MAVLink enum `UTM_DATA_AVAIL_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UtmDataAvailFlags(pub u8);
+impl UtmDataAvailFlags {
+    /// The field time contains valid data.
+    pub const TIME_VALID: Self = Self(1);
+    /// The field uas_id contains valid data.
+    pub const UAS_ID_AVAILABLE: Self = Self(2);
+    /// The fields lat, lon and h_acc contain valid data.
+    pub const POSITION_AVAILABLE: Self = Self(4);
+    /// The fields alt and v_acc contain valid data.
+    pub const ALTITUDE_AVAILABLE: Self = Self(8);
+    /// The field relative_alt contains valid data.
+    pub const RELATIVE_ALTITUDE_AVAILABLE: Self = Self(16);
+    /// The fields vx and vy contain valid data.
+    pub const HORIZONTAL_VELO_AVAILABLE: Self = Self(32);
+    /// The field vz contains valid data.
+    pub const VERTICAL_VELO_AVAILABLE: Self = Self(64);
+    /// The fields next_lat, next_lon and next_alt contain valid data.
+    pub const NEXT_WAYPOINT_AVAILABLE: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    UtmDataAvailFlags, u8, [TIME_VALID, UAS_ID_AVAILABLE, POSITION_AVAILABLE,
+    ALTITUDE_AVAILABLE, RELATIVE_ALTITUDE_AVAILABLE, HORIZONTAL_VELO_AVAILABLE,
+    VERTICAL_VELO_AVAILABLE, NEXT_WAYPOINT_AVAILABLE]
+);
+
 /// Airborne status of UAS.
 ///
 /// MAVLink enum `UTM_FLIGHT_STATE`.
@@ -9845,6 +11069,26 @@ impl From<VideoStreamEncoding> for u8 {
         value.0
     }
 }
+
+/// Stream status flags (Bitmap)
+///
+/// MAVLink enum `VIDEO_STREAM_STATUS_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct VideoStreamStatusFlags(pub u16);
+impl VideoStreamStatusFlags {
+    /// Stream is active (running)
+    pub const RUNNING: Self = Self(1);
+    /// Stream is thermal imaging
+    pub const THERMAL: Self = Self(2);
+    /// Stream can report absolute thermal range (see CAMERA_THERMAL_RANGE).
+    pub const THERMAL_RANGE_ENABLED: Self = Self(4);
+}
+
+::mavwire::flag_set!(
+    VideoStreamStatusFlags, u16, [RUNNING, THERMAL, THERMAL_RANGE_ENABLED]
+);
 
 /// Video stream types
 ///
@@ -79405,1165 +80649,5 @@ impl<'a> HygrometerSensorMut<'a> {
     #[inline]
     pub fn set_humidity(&mut self, value: u16) {
         ::mavwire::field::Scalar::write(value, self.payload, 2)
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// These flags indicate status such as data validity of each data source. Set = data valid
-    ///
-    /// MAVLink enum `ADSB_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct AdsbFlags: u16 {
-        /// `ADSB_FLAGS_VALID_COORDS`
-        const VALID_COORDS = 1;
-        /// `ADSB_FLAGS_VALID_ALTITUDE`
-        const VALID_ALTITUDE = 2;
-        /// `ADSB_FLAGS_VALID_HEADING`
-        const VALID_HEADING = 4;
-        /// `ADSB_FLAGS_VALID_VELOCITY`
-        const VALID_VELOCITY = 8;
-        /// `ADSB_FLAGS_VALID_CALLSIGN`
-        const VALID_CALLSIGN = 16;
-        /// `ADSB_FLAGS_VALID_SQUAWK`
-        const VALID_SQUAWK = 32;
-        /// `ADSB_FLAGS_SIMULATED`
-        const SIMULATED = 64;
-        /// `ADSB_FLAGS_VERTICAL_VELOCITY_VALID`
-        const VERTICAL_VELOCITY_VALID = 128;
-        /// `ADSB_FLAGS_BARO_VALID`
-        const BARO_VALID = 256;
-        /// `ADSB_FLAGS_SOURCE_UAT`
-        const SOURCE_UAT = 32768;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Airspeed sensor flags
-    ///
-    /// MAVLink enum `AIRSPEED_SENSOR_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct AirspeedSensorFlags: u8 {
-        /// Airspeed sensor is unhealthy
-        const AIRSPEED_SENSOR_UNHEALTHY = 1;
-        /// True if the data from this sensor is being actively used by the flight controller for
-        /// guidance, navigation or control.
-        const AIRSPEED_SENSOR_USING = 2;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// These flags are used in the AIS_VESSEL.fields bitmask to indicate validity of data in the
-    /// other message fields. When set, the data is valid.
-    ///
-    /// MAVLink enum `AIS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct AisFlags: u16 {
-        /// 1 = Position accuracy less than 10m, 0 = position accuracy greater than 10m.
-        const POSITION_ACCURACY = 1;
-        /// `AIS_FLAGS_VALID_COG`
-        const VALID_COG = 2;
-        /// `AIS_FLAGS_VALID_VELOCITY`
-        const VALID_VELOCITY = 4;
-        /// 1 = Velocity over 52.5765m/s (102.2 knots)
-        const HIGH_VELOCITY = 8;
-        /// `AIS_FLAGS_VALID_TURN_RATE`
-        const VALID_TURN_RATE = 16;
-        /// Only the sign of the returned turn rate value is valid, either greater than 5deg/30s or
-        /// less than -5deg/30s
-        const TURN_RATE_SIGN_ONLY = 32;
-        /// `AIS_FLAGS_VALID_DIMENSIONS`
-        const VALID_DIMENSIONS = 64;
-        /// Distance to bow is larger than 511m
-        const LARGE_BOW_DIMENSION = 128;
-        /// Distance to stern is larger than 511m
-        const LARGE_STERN_DIMENSION = 256;
-        /// Distance to port side is larger than 63m
-        const LARGE_PORT_DIMENSION = 512;
-        /// Distance to starboard side is larger than 63m
-        const LARGE_STARBOARD_DIMENSION = 1024;
-        /// `AIS_FLAGS_VALID_CALLSIGN`
-        const VALID_CALLSIGN = 2048;
-        /// `AIS_FLAGS_VALID_NAME`
-        const VALID_NAME = 4096;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Bitmap to indicate which dimensions should be ignored by the vehicle: a value of
-    /// 0b00000000 indicates that none of the setpoint dimensions should be ignored.
-    ///
-    /// MAVLink enum `ATTITUDE_TARGET_TYPEMASK`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct AttitudeTargetTypemask: u8 {
-        /// Ignore body roll rate
-        const BODY_ROLL_RATE_IGNORE = 1;
-        /// Ignore body pitch rate
-        const BODY_PITCH_RATE_IGNORE = 2;
-        /// Ignore body yaw rate
-        const BODY_YAW_RATE_IGNORE = 4;
-        /// Ignore throttle
-        const THROTTLE_IGNORE = 64;
-        /// Ignore attitude
-        const ATTITUDE_IGNORE = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Axes that will be autotuned by MAV_CMD_DO_AUTOTUNE_ENABLE. Note that at least one flag
-    /// must be set in MAV_CMD_DO_AUTOTUNE_ENABLE.param2: if none are set, the flight stack will
-    /// tune its default set of axes.
-    ///
-    /// MAVLink enum `AUTOTUNE_AXIS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct AutotuneAxis: u8 {
-        /// Autotune roll axis.
-        const ROLL = 1;
-        /// Autotune pitch axis.
-        const PITCH = 2;
-        /// Autotune yaw axis.
-        const YAW = 4;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Camera capability flags (Bitmap)
-    ///
-    /// MAVLink enum `CAMERA_CAP_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct CameraCapFlags: u32 {
-        /// Camera is able to record video
-        const CAPTURE_VIDEO = 1;
-        /// Camera is able to capture images
-        const CAPTURE_IMAGE = 2;
-        /// Camera has separate Video and Image/Photo modes (MAV_CMD_SET_CAMERA_MODE)
-        const HAS_MODES = 4;
-        /// Camera can capture images while in video mode
-        const CAN_CAPTURE_IMAGE_IN_VIDEO_MODE = 8;
-        /// Camera can capture videos while in Photo/Image mode
-        const CAN_CAPTURE_VIDEO_IN_IMAGE_MODE = 16;
-        /// Camera has image survey mode (MAV_CMD_SET_CAMERA_MODE)
-        const HAS_IMAGE_SURVEY_MODE = 32;
-        /// Camera has basic zoom control (MAV_CMD_SET_CAMERA_ZOOM)
-        const HAS_BASIC_ZOOM = 64;
-        /// Camera has basic focus control (MAV_CMD_SET_CAMERA_FOCUS)
-        const HAS_BASIC_FOCUS = 128;
-        /// Camera has video streaming capabilities (request VIDEO_STREAM_INFORMATION with
-        /// MAV_CMD_REQUEST_MESSAGE for video streaming info)
-        const HAS_VIDEO_STREAM = 256;
-        /// Camera supports tracking of a point on the camera view.
-        const HAS_TRACKING_POINT = 512;
-        /// Camera supports tracking of a selection rectangle on the camera view.
-        const HAS_TRACKING_RECTANGLE = 1024;
-        /// Camera supports tracking geo status (CAMERA_TRACKING_GEO_STATUS).
-        const HAS_TRACKING_GEO_STATUS = 2048;
-        /// Camera supports absolute thermal range (request CAMERA_THERMAL_RANGE with
-        /// MAV_CMD_REQUEST_MESSAGE).
-        const HAS_THERMAL_RANGE = 4096;
-        /// Camera supports Moving Target Indicators (MTI) on the camera view (using
-        /// MAV_CMD_CAMERA_START_MTI).
-        ///
-        /// **Work in progress**: may change.
-        const HAS_MTI = 8192;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Camera tracking status flags
-    ///
-    /// MAVLink enum `CAMERA_TRACKING_STATUS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct CameraTrackingStatusFlags: u8 {
-        /// Camera is not tracking
-        const IDLE = 0;
-        /// Camera is tracking
-        const ACTIVE = 1;
-        /// Camera tracking in error state
-        const ERROR = 2;
-        /// Camera Moving Target Indicators (MTI) are active
-        ///
-        /// **Work in progress**: may change.
-        const MTI = 4;
-        /// Camera tracking target is obscured and is being predicted
-        ///
-        /// **Work in progress**: may change.
-        const COASTING = 8;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Camera tracking target data (shows where tracked target is within image)
-    ///
-    /// MAVLink enum `CAMERA_TRACKING_TARGET_DATA`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct CameraTrackingTargetData: u8 {
-        /// Target data embedded in image data (proprietary)
-        const EMBEDDED = 1;
-        /// Target data rendered in image
-        const RENDERED = 2;
-        /// Target data within status message (Point or Rectangle)
-        const IN_STATUS = 4;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags used to report computer status.
-    ///
-    /// MAVLink enum `COMPUTER_STATUS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct ComputerStatusFlags: u16 {
-        /// Indicates if the system is experiencing voltage outside of acceptable range.
-        const UNDER_VOLTAGE = 1;
-        /// Indicates if CPU throttling is active.
-        const CPU_THROTTLE = 2;
-        /// Indicates if thermal throttling is active.
-        const THERMAL_THROTTLE = 4;
-        /// Indicates if main disk is full.
-        const DISK_FULL = 8;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Engine control options
-    ///
-    /// MAVLink enum `ENGINE_CONTROL_OPTIONS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct EngineControlOptions: u8 {
-        /// Allow starting the engine while disarmed (without changing the vehicle's armed state).
-        /// This effectively arms just the ICE, without arming the vehicle to start other motors or
-        /// propellers.
-        const ALLOW_START_WHILE_DISARMED = 1;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags in ESTIMATOR_STATUS message
-    ///
-    /// MAVLink enum `ESTIMATOR_STATUS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct EstimatorStatusFlags: u16 {
-        /// True if the attitude estimate is good
-        const ESTIMATOR_ATTITUDE = 1;
-        /// True if the horizontal velocity estimate is good
-        const ESTIMATOR_VELOCITY_HORIZ = 2;
-        /// True if the vertical velocity estimate is good
-        const ESTIMATOR_VELOCITY_VERT = 4;
-        /// True if the horizontal position (relative) estimate is good
-        const ESTIMATOR_POS_HORIZ_REL = 8;
-        /// True if the horizontal position (absolute) estimate is good
-        const ESTIMATOR_POS_HORIZ_ABS = 16;
-        /// True if the vertical position (absolute) estimate is good
-        const ESTIMATOR_POS_VERT_ABS = 32;
-        /// True if the vertical position (above ground) estimate is good
-        const ESTIMATOR_POS_VERT_AGL = 64;
-        /// True if the EKF is in a constant position mode and is not using external measurements (eg
-        /// GPS or optical flow)
-        const ESTIMATOR_CONST_POS_MODE = 128;
-        /// True if the EKF has sufficient data to enter a mode that will provide a (relative)
-        /// position estimate
-        const ESTIMATOR_PRED_POS_HORIZ_REL = 256;
-        /// True if the EKF has sufficient data to enter a mode that will provide a (absolute)
-        /// position estimate
-        const ESTIMATOR_PRED_POS_HORIZ_ABS = 512;
-        /// True if the EKF has detected a GPS glitch
-        const ESTIMATOR_GPS_GLITCH = 1024;
-        /// True if the EKF has detected bad accelerometer data
-        const ESTIMATOR_ACCEL_ERROR = 2048;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Fence types to enable or disable when using MAV_CMD_DO_FENCE_ENABLE. Note that at least
-    /// one of these flags must be set in MAV_CMD_DO_FENCE_ENABLE.param2. If none are set, the
-    /// flight stack will ignore the field and enable/disable its default set of fences (usually
-    /// all of them).
-    ///
-    /// MAVLink enum `FENCE_TYPE`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct FenceType: u8 {
-        /// Maximum altitude fence
-        const ALT_MAX = 1;
-        /// Circle fence
-        const CIRCLE = 2;
-        /// Polygon fence
-        const POLYGON = 4;
-        /// Minimum altitude fence
-        const ALT_MIN = 8;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Gimbal device (low level) capability flags (bitmap).
-    ///
-    /// MAVLink enum `GIMBAL_DEVICE_CAP_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GimbalDeviceCapFlags: u32 {
-        /// Gimbal device supports a retracted position.
-        const HAS_RETRACT = 1;
-        /// Gimbal device supports a horizontal, forward looking position, stabilized.
-        const HAS_NEUTRAL = 2;
-        /// Gimbal device supports rotating around roll axis.
-        const HAS_ROLL_AXIS = 4;
-        /// Gimbal device supports to follow a roll angle relative to the vehicle.
-        const HAS_ROLL_FOLLOW = 8;
-        /// Gimbal device supports locking to a roll angle (generally that's the default with roll
-        /// stabilized).
-        const HAS_ROLL_LOCK = 16;
-        /// Gimbal device supports rotating around pitch axis.
-        const HAS_PITCH_AXIS = 32;
-        /// Gimbal device supports to follow a pitch angle relative to the vehicle.
-        const HAS_PITCH_FOLLOW = 64;
-        /// Gimbal device supports locking to a pitch angle (generally that's the default with pitch
-        /// stabilized).
-        const HAS_PITCH_LOCK = 128;
-        /// Gimbal device supports rotating around yaw axis.
-        const HAS_YAW_AXIS = 256;
-        /// Gimbal device supports to follow a yaw angle relative to the vehicle (generally that's the
-        /// default).
-        const HAS_YAW_FOLLOW = 512;
-        /// Gimbal device supports locking to an absolute heading, i.e., yaw angle relative to North
-        /// (earth frame, often this is an option available).
-        const HAS_YAW_LOCK = 1024;
-        /// Gimbal device supports yawing/panning infinitely (e.g. using slip disk).
-        const SUPPORTS_INFINITE_YAW = 2048;
-        /// Gimbal device supports yaw angles and angular velocities relative to North (earth frame).
-        /// This usually requires support by an autopilot via AUTOPILOT_STATE_FOR_GIMBAL_DEVICE.
-        /// Support can go on and off during runtime, which is reported by the flag
-        /// GIMBAL_DEVICE_FLAGS_CAN_ACCEPT_YAW_IN_EARTH_FRAME.
-        const SUPPORTS_YAW_IN_EARTH_FRAME = 4096;
-        /// Gimbal device supports radio control inputs as an alternative input for controlling the
-        /// gimbal orientation.
-        const HAS_RC_INPUTS = 8192;
-        /// Gimbal device supports to point to a local position.
-        const CAN_POINT_LOCATION_LOCAL = 65536;
-        /// Gimbal device supports to point to a global latitude, longitude, altitude position.
-        const CAN_POINT_LOCATION_GLOBAL = 131072;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Gimbal device (low level) error flags (bitmap, 0 means no error)
-    ///
-    /// MAVLink enum `GIMBAL_DEVICE_ERROR_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GimbalDeviceErrorFlags: u32 {
-        /// Gimbal device is limited by hardware roll limit.
-        const AT_ROLL_LIMIT = 1;
-        /// Gimbal device is limited by hardware pitch limit.
-        const AT_PITCH_LIMIT = 2;
-        /// Gimbal device is limited by hardware yaw limit.
-        const AT_YAW_LIMIT = 4;
-        /// There is an error with the gimbal encoders.
-        const ENCODER_ERROR = 8;
-        /// There is an error with the gimbal power source.
-        const POWER_ERROR = 16;
-        /// There is an error with the gimbal motors.
-        const MOTOR_ERROR = 32;
-        /// There is an error with the gimbal's software.
-        const SOFTWARE_ERROR = 64;
-        /// There is an error with the gimbal's communication.
-        const COMMS_ERROR = 128;
-        /// Gimbal device is currently calibrating.
-        const CALIBRATION_RUNNING = 256;
-        /// Gimbal device is not assigned to a gimbal manager.
-        const NO_MANAGER = 512;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags for gimbal device (lower level) operation.
-    ///
-    /// MAVLink enum `GIMBAL_DEVICE_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GimbalDeviceFlags: u16 {
-        /// Set to retracted safe position (no stabilization), takes precedence over all other flags.
-        const RETRACT = 1;
-        /// Set to neutral/default position, taking precedence over all other flags except RETRACT.
-        /// Neutral is commonly forward-facing and horizontal (roll=pitch=yaw=0) but may be any
-        /// orientation.
-        const NEUTRAL = 2;
-        /// Lock roll angle to absolute angle relative to horizon (not relative to vehicle). This is
-        /// generally the default with a stabilizing gimbal.
-        const ROLL_LOCK = 4;
-        /// Lock pitch angle to absolute angle relative to horizon (not relative to vehicle). This is
-        /// generally the default with a stabilizing gimbal.
-        const PITCH_LOCK = 8;
-        /// Lock yaw angle to absolute angle relative to North (not relative to vehicle). If this flag
-        /// is set, the yaw angle and z component of angular velocity are relative to North (earth
-        /// frame, x-axis pointing North), else they are relative to the vehicle heading (vehicle
-        /// frame, earth frame rotated so that the x-axis is pointing forward).
-        const YAW_LOCK = 16;
-        /// Yaw angle and z component of angular velocity are relative to the vehicle heading (vehicle
-        /// frame, earth frame rotated such that the x-axis is pointing forward).
-        const YAW_IN_VEHICLE_FRAME = 32;
-        /// Yaw angle and z component of angular velocity are relative to North (earth frame, x-axis
-        /// is pointing North).
-        const YAW_IN_EARTH_FRAME = 64;
-        /// Gimbal device can accept yaw angle inputs relative to North (earth frame). This flag is
-        /// only for reporting (attempts to set this flag are ignored).
-        const ACCEPTS_YAW_IN_EARTH_FRAME = 128;
-        /// The gimbal orientation is set exclusively by the RC signals feed to the gimbal's radio
-        /// control inputs. MAVLink messages for setting the gimbal orientation
-        /// (GIMBAL_DEVICE_SET_ATTITUDE) are ignored.
-        const RC_EXCLUSIVE = 256;
-        /// The gimbal orientation is determined by combining/mixing the RC signals feed to the
-        /// gimbal's radio control inputs and the MAVLink messages for setting the gimbal orientation
-        /// (GIMBAL_DEVICE_SET_ATTITUDE). How these two controls are combined or mixed is not defined
-        /// by the protocol but is up to the implementation.
-        const RC_MIXED = 512;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Gimbal manager high level capability flags (bitmap). The flags are identical to the
-    /// GIMBAL_DEVICE_CAP_FLAGS. However, the gimbal manager does not need to copy the flags from
-    /// the gimbal but can also enhance the capabilities and thus add flags.
-    ///
-    /// MAVLink enum `GIMBAL_MANAGER_CAP_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GimbalManagerCapFlags: u32 {
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_RETRACT.
-        const HAS_RETRACT = 1;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_NEUTRAL.
-        const HAS_NEUTRAL = 2;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_AXIS.
-        const HAS_ROLL_AXIS = 4;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_FOLLOW.
-        const HAS_ROLL_FOLLOW = 8;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_LOCK.
-        const HAS_ROLL_LOCK = 16;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_AXIS.
-        const HAS_PITCH_AXIS = 32;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_FOLLOW.
-        const HAS_PITCH_FOLLOW = 64;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_LOCK.
-        const HAS_PITCH_LOCK = 128;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_AXIS.
-        const HAS_YAW_AXIS = 256;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_FOLLOW.
-        const HAS_YAW_FOLLOW = 512;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_LOCK.
-        const HAS_YAW_LOCK = 1024;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_SUPPORTS_INFINITE_YAW.
-        const SUPPORTS_INFINITE_YAW = 2048;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_SUPPORTS_YAW_IN_EARTH_FRAME.
-        const SUPPORTS_YAW_IN_EARTH_FRAME = 4096;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_HAS_RC_INPUTS.
-        const HAS_RC_INPUTS = 8192;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_CAN_POINT_LOCATION_LOCAL.
-        const CAN_POINT_LOCATION_LOCAL = 65536;
-        /// Based on GIMBAL_DEVICE_CAP_FLAGS_CAN_POINT_LOCATION_GLOBAL.
-        const CAN_POINT_LOCATION_GLOBAL = 131072;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags for high level gimbal manager operation The first 16 bits are identical to the
-    /// GIMBAL_DEVICE_FLAGS.
-    ///
-    /// MAVLink enum `GIMBAL_MANAGER_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GimbalManagerFlags: u32 {
-        /// Based on GIMBAL_DEVICE_FLAGS_RETRACT.
-        const RETRACT = 1;
-        /// Based on GIMBAL_DEVICE_FLAGS_NEUTRAL.
-        const NEUTRAL = 2;
-        /// Based on GIMBAL_DEVICE_FLAGS_ROLL_LOCK.
-        const ROLL_LOCK = 4;
-        /// Based on GIMBAL_DEVICE_FLAGS_PITCH_LOCK.
-        const PITCH_LOCK = 8;
-        /// Based on GIMBAL_DEVICE_FLAGS_YAW_LOCK.
-        const YAW_LOCK = 16;
-        /// Based on GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME.
-        const YAW_IN_VEHICLE_FRAME = 32;
-        /// Based on GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME.
-        const YAW_IN_EARTH_FRAME = 64;
-        /// Based on GIMBAL_DEVICE_FLAGS_ACCEPTS_YAW_IN_EARTH_FRAME.
-        const ACCEPTS_YAW_IN_EARTH_FRAME = 128;
-        /// Based on GIMBAL_DEVICE_FLAGS_RC_EXCLUSIVE.
-        const RC_EXCLUSIVE = 256;
-        /// Based on GIMBAL_DEVICE_FLAGS_RC_MIXED.
-        const RC_MIXED = 512;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Status flags for GLOBAL_POSITION
-    ///
-    /// MAVLink enum `GLOBAL_POSITION_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GlobalPositionFlags: u8 {
-        /// Unhealthy sensor/estimator.
-        const GLOBAL_POSITION_UNHEALTHY = 1;
-        /// True if the data originates from or is consumed by the primary estimator.
-        const GLOBAL_POSITION_PRIMARY = 2;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// `GPS_INPUT_IGNORE_FLAGS`
-    ///
-    /// MAVLink enum `GPS_INPUT_IGNORE_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct GpsInputIgnoreFlags: u16 {
-        /// ignore altitude field
-        const GPS_INPUT_IGNORE_FLAG_ALT = 1;
-        /// ignore hdop field
-        const GPS_INPUT_IGNORE_FLAG_HDOP = 2;
-        /// ignore vdop field
-        const GPS_INPUT_IGNORE_FLAG_VDOP = 4;
-        /// ignore horizontal velocity field (vn and ve)
-        const GPS_INPUT_IGNORE_FLAG_VEL_HORIZ = 8;
-        /// ignore vertical velocity field (vd)
-        const GPS_INPUT_IGNORE_FLAG_VEL_VERT = 16;
-        /// ignore speed accuracy field
-        const GPS_INPUT_IGNORE_FLAG_SPEED_ACCURACY = 32;
-        /// ignore horizontal accuracy field
-        const GPS_INPUT_IGNORE_FLAG_HORIZONTAL_ACCURACY = 64;
-        /// ignore vertical accuracy field
-        const GPS_INPUT_IGNORE_FLAG_VERTICAL_ACCURACY = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags in the HIGHRES_IMU message indicate which fields have updated since the last message
-    ///
-    /// MAVLink enum `HIGHRES_IMU_UPDATED_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct HighresImuUpdatedFlags: u16 {
-        /// The value in the xacc field has been updated
-        const HIGHRES_IMU_UPDATED_XACC = 1;
-        /// The value in the yacc field has been updated
-        const HIGHRES_IMU_UPDATED_YACC = 2;
-        /// The value in the zacc field has been updated since
-        const HIGHRES_IMU_UPDATED_ZACC = 4;
-        /// The value in the xgyro field has been updated
-        const HIGHRES_IMU_UPDATED_XGYRO = 8;
-        /// The value in the ygyro field has been updated
-        const HIGHRES_IMU_UPDATED_YGYRO = 16;
-        /// The value in the zgyro field has been updated
-        const HIGHRES_IMU_UPDATED_ZGYRO = 32;
-        /// The value in the xmag field has been updated
-        const HIGHRES_IMU_UPDATED_XMAG = 64;
-        /// The value in the ymag field has been updated
-        const HIGHRES_IMU_UPDATED_YMAG = 128;
-        /// The value in the zmag field has been updated
-        const HIGHRES_IMU_UPDATED_ZMAG = 256;
-        /// The value in the abs_pressure field has been updated
-        const HIGHRES_IMU_UPDATED_ABS_PRESSURE = 512;
-        /// The value in the diff_pressure field has been updated
-        const HIGHRES_IMU_UPDATED_DIFF_PRESSURE = 1024;
-        /// The value in the pressure_alt field has been updated
-        const HIGHRES_IMU_UPDATED_PRESSURE_ALT = 2048;
-        /// The value in the temperature field has been updated
-        const HIGHRES_IMU_UPDATED_TEMPERATURE = 4096;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags used in HIL_ACTUATOR_CONTROLS message.
-    ///
-    /// MAVLink enum `HIL_ACTUATOR_CONTROLS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct HilActuatorControlsFlags: u64 {
-        /// Simulation is using lockstep
-        const LOCKSTEP = 1;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags in the HIL_SENSOR message indicate which fields have updated since the last message
-    ///
-    /// MAVLink enum `HIL_SENSOR_UPDATED_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct HilSensorUpdatedFlags: u32 {
-        /// The value in the xacc field has been updated
-        const HIL_SENSOR_UPDATED_XACC = 1;
-        /// The value in the yacc field has been updated
-        const HIL_SENSOR_UPDATED_YACC = 2;
-        /// The value in the zacc field has been updated
-        const HIL_SENSOR_UPDATED_ZACC = 4;
-        /// The value in the xgyro field has been updated
-        const HIL_SENSOR_UPDATED_XGYRO = 8;
-        /// The value in the ygyro field has been updated
-        const HIL_SENSOR_UPDATED_YGYRO = 16;
-        /// The value in the zgyro field has been updated
-        const HIL_SENSOR_UPDATED_ZGYRO = 32;
-        /// The value in the xmag field has been updated
-        const HIL_SENSOR_UPDATED_XMAG = 64;
-        /// The value in the ymag field has been updated
-        const HIL_SENSOR_UPDATED_YMAG = 128;
-        /// The value in the zmag field has been updated
-        const HIL_SENSOR_UPDATED_ZMAG = 256;
-        /// The value in the abs_pressure field has been updated
-        const HIL_SENSOR_UPDATED_ABS_PRESSURE = 512;
-        /// The value in the diff_pressure field has been updated
-        const HIL_SENSOR_UPDATED_DIFF_PRESSURE = 1024;
-        /// The value in the pressure_alt field has been updated
-        const HIL_SENSOR_UPDATED_PRESSURE_ALT = 2048;
-        /// The value in the temperature field has been updated
-        const HIL_SENSOR_UPDATED_TEMPERATURE = 4096;
-        /// Full reset of attitude/position/velocities/etc was performed in sim (Bit 31).
-        const HIL_SENSOR_UPDATED_RESET = 2147483648;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags to report failure cases over the high latency telemetry.
-    ///
-    /// MAVLink enum `HL_FAILURE_FLAG`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct HlFailureFlag: u16 {
-        /// GPS failure.
-        const GPS = 1;
-        /// Differential pressure sensor failure.
-        const DIFFERENTIAL_PRESSURE = 2;
-        /// Absolute pressure sensor failure.
-        const ABSOLUTE_PRESSURE = 4;
-        /// Accelerometer sensor failure.
-        const FLAG_3D_ACCEL = 8;
-        /// Gyroscope sensor failure.
-        const FLAG_3D_GYRO = 16;
-        /// Magnetometer sensor failure.
-        const FLAG_3D_MAG = 32;
-        /// Terrain subsystem failure.
-        const TERRAIN = 64;
-        /// Battery failure/critical low battery.
-        const BATTERY = 128;
-        /// RC receiver failure/no RC connection.
-        const RC_RECEIVER = 256;
-        /// Offboard link failure.
-        const OFFBOARD_LINK = 512;
-        /// Engine failure.
-        const ENGINE = 1024;
-        /// Geofence violation.
-        const GEOFENCE = 2048;
-        /// Estimator failure, for example measurement rejection or large variances.
-        const ESTIMATOR = 4096;
-        /// Mission failure.
-        const MISSION = 8192;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Illuminator module error flags (bitmap, 0 means no error)
-    ///
-    /// MAVLink enum `ILLUMINATOR_ERROR_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct IlluminatorErrorFlags: u8 {
-        /// Illuminator thermal throttling error.
-        const THERMAL_THROTTLING = 1;
-        /// Illuminator over temperature shutdown error.
-        const OVER_TEMPERATURE_SHUTDOWN = 2;
-        /// Illuminator thermistor failure.
-        const THERMISTOR_FAILURE = 4;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Smart battery supply status/fault flags (bitmask) for health indication. The battery must
-    /// also report either MAV_BATTERY_CHARGE_STATE_FAILED or MAV_BATTERY_CHARGE_STATE_UNHEALTHY
-    /// if any of these are set.
-    ///
-    /// MAVLink enum `MAV_BATTERY_FAULT`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavBatteryFault: u32 {
-        /// Battery has deep discharged.
-        const DEEP_DISCHARGE = 1;
-        /// Voltage spikes.
-        const SPIKES = 2;
-        /// One or more cells have failed. Battery should also report MAV_BATTERY_CHARGE_STATE_FAILE
-        /// (and should not be used).
-        const CELL_FAIL = 4;
-        /// Over-current fault.
-        const OVER_CURRENT = 8;
-        /// Over-temperature fault.
-        const OVER_TEMPERATURE = 16;
-        /// Under-temperature fault.
-        const UNDER_TEMPERATURE = 32;
-        /// Vehicle voltage is not compatible with this battery (batteries on same power rail should
-        /// have similar voltage).
-        const INCOMPATIBLE_VOLTAGE = 64;
-        /// Battery firmware is not compatible with current autopilot firmware.
-        const INCOMPATIBLE_FIRMWARE = 128;
-        /// Battery is not compatible due to cell configuration (e.g. 5s1p when vehicle requires 6s).
-        const BATTERY_FAULT_INCOMPATIBLE_CELLS_CONFIGURATION = 256;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Bitmap of options for the MAV_CMD_DO_REPOSITION
-    ///
-    /// MAVLink enum `MAV_DO_REPOSITION_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavDoRepositionFlags: u8 {
-        /// The aircraft should immediately transition into guided. This should not be set for follow
-        /// me applications
-        const CHANGE_MODE = 1;
-        /// Yaw relative to the vehicle current heading (if not set, relative to North).
-        const RELATIVE_YAW = 2;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags to report status/failure cases for a power generator (used in GENERATOR_STATUS).
-    /// Note that FAULTS are conditions that cause the generator to fail. Warnings are conditions
-    /// that require attention before the next use (they indicate the system is not operating
-    /// properly).
-    ///
-    /// MAVLink enum `MAV_GENERATOR_STATUS_FLAG`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavGeneratorStatusFlag: u64 {
-        /// Generator is off.
-        const OFF = 1;
-        /// Generator is ready to start generating power.
-        const READY = 2;
-        /// Generator is generating power.
-        const GENERATING = 4;
-        /// Generator is charging the batteries (generating enough power to charge and provide the
-        /// load).
-        const CHARGING = 8;
-        /// Generator is operating at a reduced maximum power.
-        const REDUCED_POWER = 16;
-        /// Generator is providing the maximum output.
-        const MAXPOWER = 32;
-        /// Generator is near the maximum operating temperature, cooling is insufficient.
-        const OVERTEMP_WARNING = 64;
-        /// Generator hit the maximum operating temperature and shutdown.
-        const OVERTEMP_FAULT = 128;
-        /// Power electronics are near the maximum operating temperature, cooling is insufficient.
-        const ELECTRONICS_OVERTEMP_WARNING = 256;
-        /// Power electronics hit the maximum operating temperature and shutdown.
-        const ELECTRONICS_OVERTEMP_FAULT = 512;
-        /// Power electronics experienced a fault and shutdown.
-        const ELECTRONICS_FAULT = 1024;
-        /// The power source supplying the generator failed e.g. mechanical generator stopped, tether
-        /// is no longer providing power, solar cell is in shade, hydrogen reaction no longer
-        /// happening.
-        const POWERSOURCE_FAULT = 2048;
-        /// Generator controller having communication problems.
-        const COMMUNICATION_WARNING = 4096;
-        /// Power electronic or generator cooling system error.
-        const COOLING_WARNING = 8192;
-        /// Generator controller power rail experienced a fault.
-        const POWER_RAIL_FAULT = 16384;
-        /// Generator controller exceeded the overcurrent threshold and shutdown to prevent damage.
-        const OVERCURRENT_FAULT = 32768;
-        /// Generator controller detected a high current going into the batteries and shutdown to
-        /// prevent battery damage.
-        const BATTERY_OVERCHARGE_CURRENT_FAULT = 65536;
-        /// Generator controller exceeded it's overvoltage threshold and shutdown to prevent it
-        /// exceeding the voltage rating.
-        const OVERVOLTAGE_FAULT = 131072;
-        /// Batteries are under voltage (generator will not start).
-        const BATTERY_UNDERVOLT_FAULT = 262144;
-        /// Generator start is inhibited by e.g. a safety switch.
-        const START_INHIBITED = 524288;
-        /// Generator requires maintenance.
-        const MAINTENANCE_REQUIRED = 1048576;
-        /// Generator is not ready to generate yet.
-        const WARMING_UP = 2097152;
-        /// Generator is idle.
-        const IDLE = 4194304;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Power supply status flags (bitmask)
-    ///
-    /// MAVLink enum `MAV_POWER_STATUS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavPowerStatus: u16 {
-        /// main brick power supply valid
-        const BRICK_VALID = 1;
-        /// main servo power supply valid for FMU
-        const SERVO_VALID = 2;
-        /// USB power is connected
-        const USB_CONNECTED = 4;
-        /// peripheral supply is in over-current state
-        const PERIPH_OVERCURRENT = 8;
-        /// hi-power peripheral supply is in over-current state
-        const PERIPH_HIPOWER_OVERCURRENT = 16;
-        /// Power status has changed since boot
-        const CHANGED = 32;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// These encode the sensors whose status is sent as part of the SYS_STATUS message.
-    ///
-    /// MAVLink enum `MAV_SYS_STATUS_SENSOR`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavSysStatusSensor: u32 {
-        /// 0x01 3D gyro
-        const SENSOR_3D_GYRO = 1;
-        /// 0x02 3D accelerometer
-        const SENSOR_3D_ACCEL = 2;
-        /// 0x04 3D magnetometer
-        const SENSOR_3D_MAG = 4;
-        /// 0x08 absolute pressure
-        const ABSOLUTE_PRESSURE = 8;
-        /// 0x10 differential pressure
-        const DIFFERENTIAL_PRESSURE = 16;
-        /// 0x20 GPS
-        const GPS = 32;
-        /// 0x40 optical flow
-        const OPTICAL_FLOW = 64;
-        /// 0x80 computer vision position
-        const VISION_POSITION = 128;
-        /// 0x100 laser based position
-        const LASER_POSITION = 256;
-        /// 0x200 external ground truth (Vicon or Leica)
-        const EXTERNAL_GROUND_TRUTH = 512;
-        /// 0x400 3D angular rate control
-        const ANGULAR_RATE_CONTROL = 1024;
-        /// 0x800 attitude stabilization
-        const ATTITUDE_STABILIZATION = 2048;
-        /// 0x1000 yaw position
-        const YAW_POSITION = 4096;
-        /// 0x2000 z/altitude control
-        const Z_ALTITUDE_CONTROL = 8192;
-        /// 0x4000 x/y position control
-        const XY_POSITION_CONTROL = 16384;
-        /// 0x8000 motor outputs / control
-        const MOTOR_OUTPUTS = 32768;
-        /// 0x10000 RC receiver
-        const RC_RECEIVER = 65536;
-        /// 0x20000 2nd 3D gyro
-        const SENSOR_3D_GYRO2 = 131072;
-        /// 0x40000 2nd 3D accelerometer
-        const SENSOR_3D_ACCEL2 = 262144;
-        /// 0x80000 2nd 3D magnetometer
-        const SENSOR_3D_MAG2 = 524288;
-        /// 0x100000 geofence
-        const MAV_SYS_STATUS_GEOFENCE = 1048576;
-        /// 0x200000 AHRS subsystem health
-        const MAV_SYS_STATUS_AHRS = 2097152;
-        /// 0x400000 Terrain subsystem health
-        const MAV_SYS_STATUS_TERRAIN = 4194304;
-        /// 0x800000 Motors are reversed
-        const MAV_SYS_STATUS_REVERSE_MOTOR = 8388608;
-        /// 0x1000000 Logging
-        const MAV_SYS_STATUS_LOGGING = 16777216;
-        /// 0x2000000 Battery
-        const BATTERY = 33554432;
-        /// 0x4000000 Proximity
-        const PROXIMITY = 67108864;
-        /// 0x8000000 Satellite Communication
-        const SATCOM = 134217728;
-        /// 0x10000000 pre-arm check status. Always healthy when armed
-        const MAV_SYS_STATUS_PREARM_CHECK = 268435456;
-        /// 0x20000000 Avoidance/collision prevention
-        const MAV_SYS_STATUS_OBSTACLE_AVOIDANCE = 536870912;
-        /// 0x40000000 propulsion (actuator, esc, motor or propellor)
-        const PROPULSION = 1073741824;
-        /// 0x80000000 Extended bit-field are used for further sensor status bits (needs to be set in
-        /// onboard_control_sensors_present only)
-        const MAV_SYS_STATUS_EXTENSION_USED = 2147483648;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// These encode the sensors whose status is sent as part of the SYS_STATUS message in the
-    /// extended fields.
-    ///
-    /// MAVLink enum `MAV_SYS_STATUS_SENSOR_EXTENDED`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavSysStatusSensorExtended: u32 {
-        /// 0x01 Recovery system (parachute, balloon, retracts etc)
-        const MAV_SYS_STATUS_RECOVERY_SYSTEM = 1;
-        /// 0x02 Leak detection
-        const MAV_SYS_STATUS_SENSOR_LEAK = 2;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Winch status flags used in WINCH_STATUS
-    ///
-    /// MAVLink enum `MAV_WINCH_STATUS_FLAG`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavWinchStatusFlag: u32 {
-        /// Winch is healthy
-        const MAV_WINCH_STATUS_HEALTHY = 1;
-        /// Winch thread is fully retracted
-        const MAV_WINCH_STATUS_FULLY_RETRACTED = 2;
-        /// Winch motor is moving
-        const MAV_WINCH_STATUS_MOVING = 4;
-        /// Winch clutch is engaged allowing motor to move freely
-        const MAV_WINCH_STATUS_CLUTCH_ENGAGED = 8;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// `NAV_TAKEOFF_FLAGS`
-    ///
-    /// MAVLink enum `NAV_TAKEOFF_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct NavTakeoffFlags: u8 {
-        /// Accept the command even if the autopilot does not have control over its horizontal
-        /// position (note that it might not have altitude control either).
-        const HORIZONTAL_POSITION_NOT_REQUIRED = 1;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Bitmap to indicate which dimensions should be ignored by the vehicle: a value of
-    /// 0b0000000000000000 or 0b0000001000000000 indicates that none of the setpoint dimensions
-    /// should be ignored. If bit 9 is set the floats afx afy afz should be interpreted as force
-    /// instead of acceleration.
-    ///
-    /// MAVLink enum `POSITION_TARGET_TYPEMASK`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct PositionTargetTypemask: u16 {
-        /// Ignore position x
-        const X_IGNORE = 1;
-        /// Ignore position y
-        const Y_IGNORE = 2;
-        /// Ignore position z
-        const Z_IGNORE = 4;
-        /// Ignore velocity x
-        const VX_IGNORE = 8;
-        /// Ignore velocity y
-        const VY_IGNORE = 16;
-        /// Ignore velocity z
-        const VZ_IGNORE = 32;
-        /// Ignore acceleration x
-        const AX_IGNORE = 64;
-        /// Ignore acceleration y
-        const AY_IGNORE = 128;
-        /// Ignore acceleration z
-        const AZ_IGNORE = 256;
-        /// Use force instead of acceleration
-        const FORCE_SET = 512;
-        /// Ignore yaw
-        const YAW_IGNORE = 1024;
-        /// Ignore yaw rate
-        const YAW_RATE_IGNORE = 2048;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// SERIAL_CONTROL flags (bitmask)
-    ///
-    /// MAVLink enum `SERIAL_CONTROL_FLAG`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct SerialControlFlag: u8 {
-        /// Set if this is a reply
-        const REPLY = 1;
-        /// Set if the sender wants the receiver to send a response as another SERIAL_CONTROL message
-        const RESPOND = 2;
-        /// Set if access to the serial port should be removed from whatever driver is currently using
-        /// it, giving exclusive access to the SERIAL_CONTROL protocol. The port can be handed back by
-        /// sending a request without this flag set
-        const EXCLUSIVE = 4;
-        /// Block on writes to the serial port
-        const BLOCKING = 8;
-        /// Send multiple replies until port is drained
-        const MULTI = 16;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags to indicate usage for a particular storage (see STORAGE_INFORMATION.storage_usage
-    /// and MAV_CMD_SET_STORAGE_USAGE).
-    ///
-    /// MAVLink enum `STORAGE_USAGE_FLAG`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct StorageUsageFlag: u8 {
-        /// Always set to 1 (indicates STORAGE_INFORMATION.storage_usage is supported).
-        const SET = 1;
-        /// Storage for saving photos.
-        const PHOTO = 2;
-        /// Storage for saving videos.
-        const VIDEO = 4;
-        /// Storage for saving logs.
-        const LOGS = 8;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Flags for the global position report.
-    ///
-    /// MAVLink enum `UTM_DATA_AVAIL_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UtmDataAvailFlags: u8 {
-        /// The field time contains valid data.
-        const TIME_VALID = 1;
-        /// The field uas_id contains valid data.
-        const UAS_ID_AVAILABLE = 2;
-        /// The fields lat, lon and h_acc contain valid data.
-        const POSITION_AVAILABLE = 4;
-        /// The fields alt and v_acc contain valid data.
-        const ALTITUDE_AVAILABLE = 8;
-        /// The field relative_alt contains valid data.
-        const RELATIVE_ALTITUDE_AVAILABLE = 16;
-        /// The fields vx and vy contain valid data.
-        const HORIZONTAL_VELO_AVAILABLE = 32;
-        /// The field vz contains valid data.
-        const VERTICAL_VELO_AVAILABLE = 64;
-        /// The fields next_lat, next_lon and next_alt contain valid data.
-        const NEXT_WAYPOINT_AVAILABLE = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Stream status flags (Bitmap)
-    ///
-    /// MAVLink enum `VIDEO_STREAM_STATUS_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct VideoStreamStatusFlags: u16 {
-        /// Stream is active (running)
-        const RUNNING = 1;
-        /// Stream is thermal imaging
-        const THERMAL = 2;
-        /// Stream can report absolute thermal range (see CAMERA_THERMAL_RANGE).
-        const THERMAL_RANGE_ENABLED = 4;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
     }
 }

@@ -676,6 +676,77 @@ impl From<MavComponent> for u8 {
     }
 }
 
+/// These flags encode the MAV mode, see MAV_MODE enum for useful combinations.
+///
+/// MAVLink enum `MAV_MODE_FLAG`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavModeFlag(pub u8);
+impl MavModeFlag {
+    /// 0b00000001 Reserved for future use.
+    pub const CUSTOM_MODE_ENABLED: Self = Self(1);
+    /// 0b00000010 system has a test mode enabled. This flag is intended for temporary system
+    /// tests and should not be used for stable implementations.
+    pub const TEST_ENABLED: Self = Self(2);
+    /// 0b00000100 autonomous mode enabled, system finds its own goal positions. Guided flag can
+    /// be set or not, depends on the actual implementation.
+    pub const AUTO_ENABLED: Self = Self(4);
+    /// 0b00001000 guided mode enabled, system flies waypoints / mission items.
+    pub const GUIDED_ENABLED: Self = Self(8);
+    /// 0b00010000 system stabilizes electronically its attitude (and optionally position). It
+    /// needs however further control inputs to move around.
+    pub const STABILIZE_ENABLED: Self = Self(16);
+    /// 0b00100000 hardware in the loop simulation. All motors / actuators are blocked, but
+    /// internal software is full operational.
+    pub const HIL_ENABLED: Self = Self(32);
+    /// 0b01000000 remote control input is enabled.
+    pub const MANUAL_INPUT_ENABLED: Self = Self(64);
+    /// 0b10000000 MAV safety set to armed. Motors are enabled / running / can start. Ready to
+    /// fly. Additional note: this flag is to be ignore when sent in the command
+    /// MAV_CMD_DO_SET_MODE and MAV_CMD_COMPONENT_ARM_DISARM shall be used instead. The flag can
+    /// still be used to report the armed state.
+    pub const SAFETY_ARMED: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    MavModeFlag, u8, [CUSTOM_MODE_ENABLED, TEST_ENABLED, AUTO_ENABLED, GUIDED_ENABLED,
+    STABILIZE_ENABLED, HIL_ENABLED, MANUAL_INPUT_ENABLED, SAFETY_ARMED]
+);
+
+/// These values encode the bit positions of the decode position. These values can be used to
+/// read the value of a flag bit by combining the base_mode variable with AND with the flag
+/// position value. The result will be either 0 or 1, depending on if the flag is set or not.
+///
+/// MAVLink enum `MAV_MODE_FLAG_DECODE_POSITION`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavModeFlagDecodePosition(pub u8);
+impl MavModeFlagDecodePosition {
+    /// Eighth bit: 00000001
+    pub const CUSTOM_MODE: Self = Self(1);
+    /// Seventh bit: 00000010
+    pub const TEST: Self = Self(2);
+    /// Sixth bit: 00000100
+    pub const AUTO: Self = Self(4);
+    /// Fifth bit: 00001000
+    pub const GUIDED: Self = Self(8);
+    /// Fourth bit: 00010000
+    pub const STABILIZE: Self = Self(16);
+    /// Third bit: 00100000
+    pub const HIL: Self = Self(32);
+    /// Second bit: 01000000
+    pub const MANUAL: Self = Self(64);
+    /// First bit: 10000000
+    pub const SAFETY: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    MavModeFlagDecodePosition, u8, [CUSTOM_MODE, TEST, AUTO, GUIDED, STABILIZE, HIL,
+    MANUAL, SAFETY]
+);
+
 /// `MAV_STATE`
 ///
 /// MAVLink enum `MAV_STATE`.
@@ -1245,72 +1316,5 @@ impl<'a> HeartbeatMut<'a> {
     #[inline]
     pub fn set_mavlink_version(&mut self, value: u8) {
         ::mavwire::field::Scalar::write(value, self.payload, 8)
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// These flags encode the MAV mode, see MAV_MODE enum for useful combinations.
-    ///
-    /// MAVLink enum `MAV_MODE_FLAG`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavModeFlag: u8 {
-        /// 0b00000001 Reserved for future use.
-        const CUSTOM_MODE_ENABLED = 1;
-        /// 0b00000010 system has a test mode enabled. This flag is intended for temporary system
-        /// tests and should not be used for stable implementations.
-        const TEST_ENABLED = 2;
-        /// 0b00000100 autonomous mode enabled, system finds its own goal positions. Guided flag can
-        /// be set or not, depends on the actual implementation.
-        const AUTO_ENABLED = 4;
-        /// 0b00001000 guided mode enabled, system flies waypoints / mission items.
-        const GUIDED_ENABLED = 8;
-        /// 0b00010000 system stabilizes electronically its attitude (and optionally position). It
-        /// needs however further control inputs to move around.
-        const STABILIZE_ENABLED = 16;
-        /// 0b00100000 hardware in the loop simulation. All motors / actuators are blocked, but
-        /// internal software is full operational.
-        const HIL_ENABLED = 32;
-        /// 0b01000000 remote control input is enabled.
-        const MANUAL_INPUT_ENABLED = 64;
-        /// 0b10000000 MAV safety set to armed. Motors are enabled / running / can start. Ready to
-        /// fly. Additional note: this flag is to be ignore when sent in the command
-        /// MAV_CMD_DO_SET_MODE and MAV_CMD_COMPONENT_ARM_DISARM shall be used instead. The flag can
-        /// still be used to report the armed state.
-        const SAFETY_ARMED = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// These values encode the bit positions of the decode position. These values can be used to
-    /// read the value of a flag bit by combining the base_mode variable with AND with the flag
-    /// position value. The result will be either 0 or 1, depending on if the flag is set or not.
-    ///
-    /// MAVLink enum `MAV_MODE_FLAG_DECODE_POSITION`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavModeFlagDecodePosition: u8 {
-        /// Eighth bit: 00000001
-        const CUSTOM_MODE = 1;
-        /// Seventh bit: 00000010
-        const TEST = 2;
-        /// Sixth bit: 00000100
-        const AUTO = 4;
-        /// Fifth bit: 00001000
-        const GUIDED = 8;
-        /// Fourth bit: 00010000
-        const STABILIZE = 16;
-        /// Third bit: 00100000
-        const HIL = 32;
-        /// Second bit: 01000000
-        const MANUAL = 64;
-        /// First bit: 10000000
-        const SAFETY = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
     }
 }

@@ -67,6 +67,103 @@ impl From<FirmwareVersionType> for u8 {
     }
 }
 
+/// Enum used to indicate true or false (also: success or failure, enabled or disabled, active
+/// or inactive).
+///
+/// MAVLink enum `MAV_BOOL`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavBool(pub u8);
+impl MavBool {
+    /// False.
+    pub const FALSE: Self = Self(0);
+    /// True.
+    pub const TRUE: Self = Self(1);
+}
+
+::mavwire::flag_set!(MavBool, u8, [FALSE, TRUE]);
+
+/// Bitmask of (optional) autopilot capabilities (64 bit). If a bit is set, the autopilot
+/// supports this capability.
+///
+/// MAVLink enum `MAV_PROTOCOL_CAPABILITY`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct MavProtocolCapability(pub u64);
+impl MavProtocolCapability {
+    /// Autopilot supports the MISSION_ITEM float message type. Note that MISSION_ITEM is
+    /// deprecated, and autopilots should use MISSION_ITEM_INT instead.
+    pub const MISSION_FLOAT: Self = Self(1);
+    /// Autopilot supports the new param float message type.
+    ///
+    /// **Deprecated** since 2022-03, replaced by `MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST`.
+    pub const PARAM_FLOAT: Self = Self(2);
+    /// Autopilot supports MISSION_ITEM_INT scaled integer message type. Note that this flag must
+    /// always be set if missions are supported, because missions must always use MISSION_ITEM_INT
+    /// (rather than MISSION_ITEM, which is deprecated).
+    pub const MISSION_INT: Self = Self(4);
+    /// Autopilot supports COMMAND_INT scaled integer message type.
+    pub const COMMAND_INT: Self = Self(8);
+    /// Parameter protocol uses byte-wise encoding of parameter values into param_value (float)
+    /// fields: <https://mavlink.io/en/services/parameter.html#parameter-encoding>. Note that
+    /// either this flag or MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST should be set if the
+    /// parameter protocol is supported.
+    pub const PARAM_ENCODE_BYTEWISE: Self = Self(16);
+    /// Autopilot supports the File Transfer Protocol v1:
+    /// <https://mavlink.io/en/services/ftp.html>.
+    pub const FTP: Self = Self(32);
+    /// Autopilot supports commanding attitude offboard.
+    pub const SET_ATTITUDE_TARGET: Self = Self(64);
+    /// Autopilot supports commanding position and velocity targets in local NED frame.
+    pub const SET_POSITION_TARGET_LOCAL_NED: Self = Self(128);
+    /// Autopilot supports commanding position and velocity targets in global scaled integers.
+    pub const SET_POSITION_TARGET_GLOBAL_INT: Self = Self(256);
+    /// Autopilot supports terrain protocol / data handling.
+    pub const TERRAIN: Self = Self(512);
+    /// Reserved for future use.
+    pub const RESERVED3: Self = Self(1024);
+    /// Autopilot supports the MAV_CMD_DO_FLIGHTTERMINATION command (flight termination).
+    pub const FLIGHT_TERMINATION: Self = Self(2048);
+    /// Autopilot supports onboard compass calibration.
+    pub const COMPASS_CALIBRATION: Self = Self(4096);
+    /// Autopilot supports MAVLink version 2.
+    pub const MAVLINK2: Self = Self(8192);
+    /// Autopilot supports mission fence protocol.
+    pub const MISSION_FENCE: Self = Self(16384);
+    /// Autopilot supports mission rally point protocol.
+    pub const MISSION_RALLY: Self = Self(32768);
+    /// Reserved for future use.
+    pub const RESERVED2: Self = Self(65536);
+    /// Parameter protocol uses C-cast of parameter values to set the param_value (float) fields:
+    /// <https://mavlink.io/en/services/parameter.html#parameter-encoding>. Note that either this
+    /// flag or MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE should be set if the parameter
+    /// protocol is supported.
+    pub const PARAM_ENCODE_C_CAST: Self = Self(131072);
+    /// This component implements/is a gimbal manager. This means the GIMBAL_MANAGER_INFORMATION,
+    /// and other messages can be requested.
+    pub const COMPONENT_IMPLEMENTS_GIMBAL_MANAGER: Self = Self(262144);
+    /// Component supports locking control to a particular GCS independent of its system (via
+    /// MAV_CMD_REQUEST_OPERATOR_CONTROL).
+    ///
+    /// **Work in progress**: may change.
+    pub const COMPONENT_ACCEPTS_GCS_CONTROL: Self = Self(524288);
+    /// Autopilot has a connected gripper. MAVLink Grippers would set MAV_TYPE_GRIPPER instead.
+    ///
+    /// **Work in progress**: may change.
+    pub const GRIPPER: Self = Self(1048576);
+}
+
+::mavwire::flag_set!(
+    MavProtocolCapability, u64, [MISSION_FLOAT, PARAM_FLOAT, MISSION_INT, COMMAND_INT,
+    PARAM_ENCODE_BYTEWISE, FTP, SET_ATTITUDE_TARGET, SET_POSITION_TARGET_LOCAL_NED,
+    SET_POSITION_TARGET_GLOBAL_INT, TERRAIN, RESERVED3, FLIGHT_TERMINATION,
+    COMPASS_CALIBRATION, MAVLINK2, MISSION_FENCE, MISSION_RALLY, RESERVED2,
+    PARAM_ENCODE_C_CAST, COMPONENT_IMPLEMENTS_GIMBAL_MANAGER,
+    COMPONENT_ACCEPTS_GCS_CONTROL, GRIPPER]
+);
+
 /// The filtered global position (e.g. fused GPS and accelerometers). The position is in
 /// GPS-frame (right-handed, Z-up). It is designed as scaled integer message since the
 /// resolution of float is not sufficient.
@@ -845,97 +942,5 @@ impl<'a> AutopilotVersionMut<'a> {
     #[inline]
     pub fn set_uid2(&mut self, value: &[u8; 18]) {
         ::mavwire::field::write_array(self.payload, 60, value)
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Enum used to indicate true or false (also: success or failure, enabled or disabled, active
-    /// or inactive).
-    ///
-    /// MAVLink enum `MAV_BOOL`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavBool: u8 {
-        /// False.
-        const FALSE = 0;
-        /// True.
-        const TRUE = 1;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Bitmask of (optional) autopilot capabilities (64 bit). If a bit is set, the autopilot
-    /// supports this capability.
-    ///
-    /// MAVLink enum `MAV_PROTOCOL_CAPABILITY`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct MavProtocolCapability: u64 {
-        /// Autopilot supports the MISSION_ITEM float message type. Note that MISSION_ITEM is
-        /// deprecated, and autopilots should use MISSION_ITEM_INT instead.
-        const MISSION_FLOAT = 1;
-        /// Autopilot supports the new param float message type.
-        ///
-        /// **Deprecated** since 2022-03, replaced by `MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST`.
-        const PARAM_FLOAT = 2;
-        /// Autopilot supports MISSION_ITEM_INT scaled integer message type. Note that this flag must
-        /// always be set if missions are supported, because missions must always use MISSION_ITEM_INT
-        /// (rather than MISSION_ITEM, which is deprecated).
-        const MISSION_INT = 4;
-        /// Autopilot supports COMMAND_INT scaled integer message type.
-        const COMMAND_INT = 8;
-        /// Parameter protocol uses byte-wise encoding of parameter values into param_value (float)
-        /// fields: <https://mavlink.io/en/services/parameter.html#parameter-encoding>. Note that
-        /// either this flag or MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST should be set if the
-        /// parameter protocol is supported.
-        const PARAM_ENCODE_BYTEWISE = 16;
-        /// Autopilot supports the File Transfer Protocol v1:
-        /// <https://mavlink.io/en/services/ftp.html>.
-        const FTP = 32;
-        /// Autopilot supports commanding attitude offboard.
-        const SET_ATTITUDE_TARGET = 64;
-        /// Autopilot supports commanding position and velocity targets in local NED frame.
-        const SET_POSITION_TARGET_LOCAL_NED = 128;
-        /// Autopilot supports commanding position and velocity targets in global scaled integers.
-        const SET_POSITION_TARGET_GLOBAL_INT = 256;
-        /// Autopilot supports terrain protocol / data handling.
-        const TERRAIN = 512;
-        /// Reserved for future use.
-        const RESERVED3 = 1024;
-        /// Autopilot supports the MAV_CMD_DO_FLIGHTTERMINATION command (flight termination).
-        const FLIGHT_TERMINATION = 2048;
-        /// Autopilot supports onboard compass calibration.
-        const COMPASS_CALIBRATION = 4096;
-        /// Autopilot supports MAVLink version 2.
-        const MAVLINK2 = 8192;
-        /// Autopilot supports mission fence protocol.
-        const MISSION_FENCE = 16384;
-        /// Autopilot supports mission rally point protocol.
-        const MISSION_RALLY = 32768;
-        /// Reserved for future use.
-        const RESERVED2 = 65536;
-        /// Parameter protocol uses C-cast of parameter values to set the param_value (float) fields:
-        /// <https://mavlink.io/en/services/parameter.html#parameter-encoding>. Note that either this
-        /// flag or MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE should be set if the parameter
-        /// protocol is supported.
-        const PARAM_ENCODE_C_CAST = 131072;
-        /// This component implements/is a gimbal manager. This means the GIMBAL_MANAGER_INFORMATION,
-        /// and other messages can be requested.
-        const COMPONENT_IMPLEMENTS_GIMBAL_MANAGER = 262144;
-        /// Component supports locking control to a particular GCS independent of its system (via
-        /// MAV_CMD_REQUEST_OPERATOR_CONTROL).
-        ///
-        /// **Work in progress**: may change.
-        const COMPONENT_ACCEPTS_GCS_CONTROL = 524288;
-        /// Autopilot has a connected gripper. MAVLink Grippers would set MAV_TYPE_GRIPPER instead.
-        ///
-        /// **Work in progress**: may change.
-        const GRIPPER = 1048576;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
     }
 }

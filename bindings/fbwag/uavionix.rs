@@ -308,6 +308,36 @@ impl From<UavionixAdsbOutCfgGpsOffsetLon> for u8 {
     }
 }
 
+/// State flags for ADS-B transponder dynamic report
+///
+/// MAVLink enum `UAVIONIX_ADSB_OUT_CONTROL_STATE`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UavionixAdsbOutControlState(pub u8);
+impl UavionixAdsbOutControlState {
+    /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_EXTERNAL_BARO_CROSSCHECKED`
+    pub const EXTERNAL_BARO_CROSSCHECKED: Self = Self(1);
+    /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_ON_GROUND`
+    pub const ON_GROUND: Self = Self(4);
+    /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_IDENT_BUTTON_ACTIVE`
+    pub const IDENT_BUTTON_ACTIVE: Self = Self(8);
+    /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_A_ENABLED`
+    pub const MODE_A_ENABLED: Self = Self(16);
+    /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_C_ENABLED`
+    pub const MODE_C_ENABLED: Self = Self(32);
+    /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_S_ENABLED`
+    pub const MODE_S_ENABLED: Self = Self(64);
+    /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_1090ES_TX_ENABLED`
+    pub const STATE_1090ES_TX_ENABLED: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    UavionixAdsbOutControlState, u8, [EXTERNAL_BARO_CROSSCHECKED, ON_GROUND,
+    IDENT_BUTTON_ACTIVE, MODE_A_ENABLED, MODE_C_ENABLED, MODE_S_ENABLED,
+    STATE_1090ES_TX_ENABLED]
+);
+
 /// Status for ADS-B transponder dynamic input
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX`.
@@ -375,6 +405,72 @@ impl From<UavionixAdsbOutDynamicGpsFix> for u8 {
         value.0
     }
 }
+
+/// State flags for ADS-B transponder dynamic report
+///
+/// MAVLink enum `UAVIONIX_ADSB_OUT_DYNAMIC_STATE`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UavionixAdsbOutDynamicState(pub u16);
+impl UavionixAdsbOutDynamicState {
+    /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_INTENT_CHANGE`
+    pub const INTENT_CHANGE: Self = Self(1);
+    /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_AUTOPILOT_ENABLED`
+    pub const AUTOPILOT_ENABLED: Self = Self(2);
+    /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_NICBARO_CROSSCHECKED`
+    pub const NICBARO_CROSSCHECKED: Self = Self(4);
+    /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_ON_GROUND`
+    pub const ON_GROUND: Self = Self(8);
+    /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_IDENT`
+    pub const IDENT: Self = Self(16);
+}
+
+::mavwire::flag_set!(
+    UavionixAdsbOutDynamicState, u16, [INTENT_CHANGE, AUTOPILOT_ENABLED,
+    NICBARO_CROSSCHECKED, ON_GROUND, IDENT]
+);
+
+/// Transceiver RF control flags for ADS-B transponder dynamic reports
+///
+/// MAVLink enum `UAVIONIX_ADSB_OUT_RF_SELECT`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UavionixAdsbOutRfSelect(pub u8);
+impl UavionixAdsbOutRfSelect {
+    /// `UAVIONIX_ADSB_OUT_RF_SELECT_RX_ENABLED`
+    pub const RX_ENABLED: Self = Self(1);
+    /// `UAVIONIX_ADSB_OUT_RF_SELECT_TX_ENABLED`
+    pub const TX_ENABLED: Self = Self(2);
+}
+
+::mavwire::flag_set!(UavionixAdsbOutRfSelect, u8, [RX_ENABLED, TX_ENABLED]);
+
+/// State flags for ADS-B transponder fault report
+///
+/// MAVLink enum `UAVIONIX_ADSB_OUT_STATUS_FAULT`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UavionixAdsbOutStatusFault(pub u8);
+impl UavionixAdsbOutStatusFault {
+    /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_STATUS_MESSAGE_UNAVAIL`
+    pub const STATUS_MESSAGE_UNAVAIL: Self = Self(8);
+    /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_GPS_NO_POS`
+    pub const GPS_NO_POS: Self = Self(16);
+    /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_GPS_UNAVAIL`
+    pub const GPS_UNAVAIL: Self = Self(32);
+    /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_TX_SYSTEM_FAIL`
+    pub const TX_SYSTEM_FAIL: Self = Self(64);
+    /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_MAINT_REQ`
+    pub const MAINT_REQ: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    UavionixAdsbOutStatusFault, u8, [STATUS_MESSAGE_UNAVAIL, GPS_NO_POS, GPS_UNAVAIL,
+    TX_SYSTEM_FAIL, MAINT_REQ]
+);
 
 /// State flags for ADS-B transponder status report
 ///
@@ -491,6 +587,70 @@ impl From<UavionixAdsbOutStatusNicNacp> for u8 {
         value.0
     }
 }
+
+/// State flags for ADS-B transponder status report
+///
+/// MAVLink enum `UAVIONIX_ADSB_OUT_STATUS_STATE`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UavionixAdsbOutStatusState(pub u8);
+impl UavionixAdsbOutStatusState {
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_ON_GROUND`
+    pub const ON_GROUND: Self = Self(1);
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_INTERROGATED_SINCE_LAST`
+    pub const INTERROGATED_SINCE_LAST: Self = Self(2);
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_XBIT_ENABLED`
+    pub const XBIT_ENABLED: Self = Self(4);
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_IDENT_ACTIVE`
+    pub const IDENT_ACTIVE: Self = Self(8);
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_A_ENABLED`
+    pub const MODE_A_ENABLED: Self = Self(16);
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_C_ENABLED`
+    pub const MODE_C_ENABLED: Self = Self(32);
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_S_ENABLED`
+    pub const MODE_S_ENABLED: Self = Self(64);
+    /// `UAVIONIX_ADSB_OUT_STATUS_STATE_1090ES_TX_ENABLED`
+    pub const STATE_1090ES_TX_ENABLED: Self = Self(128);
+}
+
+::mavwire::flag_set!(
+    UavionixAdsbOutStatusState, u8, [ON_GROUND, INTERROGATED_SINCE_LAST, XBIT_ENABLED,
+    IDENT_ACTIVE, MODE_A_ENABLED, MODE_C_ENABLED, MODE_S_ENABLED,
+    STATE_1090ES_TX_ENABLED]
+);
+
+/// Status flags for ADS-B transponder dynamic output
+///
+/// MAVLink enum `UAVIONIX_ADSB_RF_HEALTH`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UavionixAdsbRfHealth(pub u8);
+impl UavionixAdsbRfHealth {
+    /// `UAVIONIX_ADSB_RF_HEALTH_OK`
+    pub const OK: Self = Self(1);
+    /// `UAVIONIX_ADSB_RF_HEALTH_FAIL_TX`
+    pub const FAIL_TX: Self = Self(2);
+    /// `UAVIONIX_ADSB_RF_HEALTH_FAIL_RX`
+    pub const FAIL_RX: Self = Self(16);
+}
+
+::mavwire::flag_set!(UavionixAdsbRfHealth, u8, [OK, FAIL_TX, FAIL_RX]);
+
+/// State flags for X-Bit and reserved fields.
+///
+/// MAVLink enum `UAVIONIX_ADSB_XBIT`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct UavionixAdsbXbit(pub u8);
+impl UavionixAdsbXbit {
+    /// `UAVIONIX_ADSB_XBIT_ENABLED`
+    pub const ENABLED: Self = Self(128);
+}
+
+::mavwire::flag_set!(UavionixAdsbXbit, u8, [ENABLED]);
 
 /// Static data to configure the ADS-B transponder (send within 10 sec of a POR and every 10
 /// sec thereafter)
@@ -2499,158 +2659,5 @@ impl<'a> UavionixAdsbOutStatusMut<'a> {
     #[inline]
     pub fn set_flight_id(&mut self, value: &[u8; 8]) {
         ::mavwire::field::write_array(self.payload, 6, value)
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// State flags for ADS-B transponder dynamic report
-    ///
-    /// MAVLink enum `UAVIONIX_ADSB_OUT_CONTROL_STATE`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UavionixAdsbOutControlState: u8 {
-        /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_EXTERNAL_BARO_CROSSCHECKED`
-        const EXTERNAL_BARO_CROSSCHECKED = 1;
-        /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_ON_GROUND`
-        const ON_GROUND = 4;
-        /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_IDENT_BUTTON_ACTIVE`
-        const IDENT_BUTTON_ACTIVE = 8;
-        /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_A_ENABLED`
-        const MODE_A_ENABLED = 16;
-        /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_C_ENABLED`
-        const MODE_C_ENABLED = 32;
-        /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_S_ENABLED`
-        const MODE_S_ENABLED = 64;
-        /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_1090ES_TX_ENABLED`
-        const STATE_1090ES_TX_ENABLED = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// State flags for ADS-B transponder dynamic report
-    ///
-    /// MAVLink enum `UAVIONIX_ADSB_OUT_DYNAMIC_STATE`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UavionixAdsbOutDynamicState: u16 {
-        /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_INTENT_CHANGE`
-        const INTENT_CHANGE = 1;
-        /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_AUTOPILOT_ENABLED`
-        const AUTOPILOT_ENABLED = 2;
-        /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_NICBARO_CROSSCHECKED`
-        const NICBARO_CROSSCHECKED = 4;
-        /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_ON_GROUND`
-        const ON_GROUND = 8;
-        /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_IDENT`
-        const IDENT = 16;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Transceiver RF control flags for ADS-B transponder dynamic reports
-    ///
-    /// MAVLink enum `UAVIONIX_ADSB_OUT_RF_SELECT`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UavionixAdsbOutRfSelect: u8 {
-        /// `UAVIONIX_ADSB_OUT_RF_SELECT_RX_ENABLED`
-        const RX_ENABLED = 1;
-        /// `UAVIONIX_ADSB_OUT_RF_SELECT_TX_ENABLED`
-        const TX_ENABLED = 2;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// State flags for ADS-B transponder fault report
-    ///
-    /// MAVLink enum `UAVIONIX_ADSB_OUT_STATUS_FAULT`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UavionixAdsbOutStatusFault: u8 {
-        /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_STATUS_MESSAGE_UNAVAIL`
-        const STATUS_MESSAGE_UNAVAIL = 8;
-        /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_GPS_NO_POS`
-        const GPS_NO_POS = 16;
-        /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_GPS_UNAVAIL`
-        const GPS_UNAVAIL = 32;
-        /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_TX_SYSTEM_FAIL`
-        const TX_SYSTEM_FAIL = 64;
-        /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_MAINT_REQ`
-        const MAINT_REQ = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// State flags for ADS-B transponder status report
-    ///
-    /// MAVLink enum `UAVIONIX_ADSB_OUT_STATUS_STATE`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UavionixAdsbOutStatusState: u8 {
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_ON_GROUND`
-        const ON_GROUND = 1;
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_INTERROGATED_SINCE_LAST`
-        const INTERROGATED_SINCE_LAST = 2;
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_XBIT_ENABLED`
-        const XBIT_ENABLED = 4;
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_IDENT_ACTIVE`
-        const IDENT_ACTIVE = 8;
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_A_ENABLED`
-        const MODE_A_ENABLED = 16;
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_C_ENABLED`
-        const MODE_C_ENABLED = 32;
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_S_ENABLED`
-        const MODE_S_ENABLED = 64;
-        /// `UAVIONIX_ADSB_OUT_STATUS_STATE_1090ES_TX_ENABLED`
-        const STATE_1090ES_TX_ENABLED = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// Status flags for ADS-B transponder dynamic output
-    ///
-    /// MAVLink enum `UAVIONIX_ADSB_RF_HEALTH`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UavionixAdsbRfHealth: u8 {
-        /// `UAVIONIX_ADSB_RF_HEALTH_OK`
-        const OK = 1;
-        /// `UAVIONIX_ADSB_RF_HEALTH_FAIL_TX`
-        const FAIL_TX = 2;
-        /// `UAVIONIX_ADSB_RF_HEALTH_FAIL_RX`
-        const FAIL_RX = 16;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// State flags for X-Bit and reserved fields.
-    ///
-    /// MAVLink enum `UAVIONIX_ADSB_XBIT`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct UavionixAdsbXbit: u8 {
-        /// `UAVIONIX_ADSB_XBIT_ENABLED`
-        const ENABLED = 128;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
     }
 }

@@ -3,8 +3,7 @@
 //!
 //! Items are built as token streams with `quote` and printed with
 //! `prettyplease`, so the output is deterministic and reads like hand-written
-//! code. Bitmask enums are the exception: they are `bitflags!` invocations,
-//! which `prettyplease` would print on one line, so they are formatted here.
+//! code.
 
 use crate::diag::{Diagnostic, Severity};
 use crate::layout::Layout;
@@ -47,6 +46,9 @@ impl Default for Options {
 pub struct Output {
     /// The files, in a stable order.
     pub files: Vec<(String, String)>,
+    /// Enums generated (all of the schema's, or those the selected
+    /// messages use).
+    pub enums: usize,
 }
 
 /// How a field is represented in Rust.
@@ -198,10 +200,8 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
     // Work units of a few items each, rendered on every core (syn's
     // parse and prettyplease dominate the run time) and joined in order.
     let mut jobs: Vec<(usize, Vec<Item>)> = Vec::new();
-    let mut flags = Vec::new();
     for i in 0..schema.files.len() {
-        let (items, f) = gen.module_items(i);
-        flags.push(f);
+        let items = gen.module_items(i);
         if items.is_empty() {
             jobs.push((i, Vec::new()));
         }
@@ -239,7 +239,6 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
             .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
         let mut text = header(&fname);
         text.push_str(&bodies[i]);
-        text.push_str(&flags[i]);
         let module = &gen.modules[i];
         let mut doc = format!("Definitions of `{fname}`");
         if schema.roots.contains(&i) {
@@ -256,7 +255,10 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
         files.push((format!("{module}.rs"), text));
     }
     files.insert(0, ("mod.rs".to_string(), mod_rs));
-    Ok(Output { files })
+    Ok(Output {
+        files,
+        enums: gen.enums.len(),
+    })
 }
 
 /// Items per rendering job. Small jobs balance the cores, and keep syn's
@@ -308,7 +310,13 @@ fn space_items(code: &str) -> String {
     let mut out = String::with_capacity(code.len() + code.len() / 20);
     let mut prev = "";
     for line in code.lines() {
-        let closes_item = prev == "}" || prev == "    }" || prev == "};" || prev == "    };";
+        // A top-level macro call (`flag_set!(…);`) ends an item too.
+        let closes_item = prev == "}"
+            || prev == "    }"
+            || prev == "};"
+            || prev == "    };"
+            || prev == ");"
+            || (!prev.starts_with(' ') && prev.contains("!(") && prev.ends_with(");"));
         let same_level = if prev == "    }" || prev == "    };" {
             line.starts_with("    ") && !line.starts_with("    }")
         } else {
@@ -505,18 +513,11 @@ impl Gen<'_> {
         self.rt.parse().expect("runtime path checked in generate()")
     }
 
-    /// The module's token-built items, in output order, and separately its
-    /// formatted bitflags.
-    fn module_items(&self, i: usize) -> (Vec<Item>, String) {
+    /// The module's items, in output order.
+    fn module_items(&self, i: usize) -> Vec<Item> {
         let mut items = Vec::new();
-        let mut flags = String::new();
-        for (name, info) in self.enums.iter().filter(|(_, e)| e.module == i) {
-            if info.bitmask {
-                flags.push('\n');
-                flags.push_str(&self.bitflags(&self.schema.enums[name], info));
-            } else {
-                items.push(Item::Enum(name.clone()));
-            }
+        for (name, _) in self.enums.iter().filter(|(_, e)| e.module == i) {
+            items.push(Item::Enum(name.clone()));
         }
         items.extend(
             self.selected
@@ -527,7 +528,7 @@ impl Gen<'_> {
         if self.schema.roots.contains(&i) {
             items.push(Item::Dialect);
         }
-        (items, flags)
+        items
     }
 
     /// Renders items of module `i` to formatted Rust.
@@ -535,7 +536,14 @@ impl Gen<'_> {
         let tokens: Vec<TokenStream> = items
             .iter()
             .map(|item| match item {
-                Item::Enum(name) => self.value_enum(&self.schema.enums[name], &self.enums[name]),
+                Item::Enum(name) => {
+                    let (def, info) = (&self.schema.enums[name], &self.enums[name]);
+                    if info.bitmask {
+                        self.flag_set(def, info)
+                    } else {
+                        self.value_enum(def, info)
+                    }
+                }
                 Item::Message(r) => {
                     self.message(i, self.schema.message(*r), self.schema.layout(*r))
                 }
@@ -685,34 +693,36 @@ impl Gen<'_> {
         }
     }
 
-    /// A `bitflags!` invocation, formatted by hand (see the module docs).
-    fn bitflags(&self, def: &MergedEnum, info: &EnumInfo) -> String {
-        let mut s = String::new();
+    /// A bitmask enum: a newtype over its wire value with one associated
+    /// constant per flag, as a value enum, and the set operations from the
+    /// runtime's `flag_set!` (see `mavwire::flags` for why not `bitflags!`).
+    fn flag_set(&self, def: &MergedEnum, info: &EnumInfo) -> TokenStream {
         let rt = self.rt();
-        let rt = &rt;
-        let _ = writeln!(s, "{rt}::bitflags::bitflags! {{");
-        for l in self.enum_docs(def) {
-            let _ = writeln!(s, "    ///{}{l}", if l.is_empty() { "" } else { " " });
-        }
-        s.push_str(
-            "    ///\n    /// A flag set: bits the XML does not list are kept, not dropped.\n",
-        );
-        s.push_str("    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]\n");
-        let _ = writeln!(
-            s,
-            "    pub struct {}: {} {{",
-            info.rust_name,
-            info.repr.rust_name()
-        );
+        let name = format_ident!("{}", info.rust_name);
+        let repr = format_ident!("{}", info.repr.rust_name());
+        let doc = docs(&self.enum_docs(def));
         let names = Self::entry_names(def, |s| s.to_ascii_uppercase(), "_");
-        for (e, n) in def.def.entries.iter().zip(&names) {
-            for l in self.entry_docs(e) {
-                let _ = writeln!(s, "        ///{}{l}", if l.is_empty() { "" } else { " " });
+        let consts: Vec<_> = names.iter().map(|n| format_ident!("{}", n)).collect();
+        let entry_docs: Vec<_> = def
+            .def
+            .entries
+            .iter()
+            .map(|e| docs(&self.entry_docs(e)))
+            .collect();
+        let values: Vec<_> = def.def.entries.iter().map(|e| lit(e.value)).collect();
+        quote! {
+            #doc
+            ///
+            /// A flag set: bits the XML does not list are kept, not dropped.
+            #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+            pub struct #name(pub #repr);
+
+            impl #name {
+                #( #entry_docs pub const #consts: Self = Self(#values); )*
             }
-            let _ = writeln!(s, "        const {n} = {};", e.value);
+
+            #rt::flag_set!(#name, #repr, [#(#consts),*]);
         }
-        s.push_str("        /// Keep bits this dialect does not define.\n        const _ = !0;\n    }\n}\n");
-        s
     }
 
     fn field_docs(&self, module: usize, f: &Field, layout_offset: usize) -> Vec<String> {

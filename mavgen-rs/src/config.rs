@@ -128,17 +128,7 @@ impl Config {
             Error::Invalid(e)
         })?;
         let messages = output_messages(&schema, &self.options);
-        let enums = match &self.options.messages {
-            None => schema.enums.len(),
-            Some(_) => output
-                .files
-                .iter()
-                .map(|(_, t)| {
-                    t.matches("pub const fn from_raw").count()
-                        + t.matches("::bitflags::bitflags! {").count()
-                })
-                .sum(),
-        };
+        let enums = output.enums;
         Ok(Generated {
             output,
             warnings: schema.warnings.clone(),

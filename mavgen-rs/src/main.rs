@@ -28,6 +28,7 @@ Examples:
       15001 FBWAG_NOTICE 30 12 12
   mavgen-rs generate message_definitions/fbwag.xml -o bindings/fbwag
   mavgen-rs generate message_definitions/fbwag.xml -o cc/ --messages HEARTBEAT,FBWAG_NOTICE,RC_CHANNELS_OVERRIDE
+  mavgen-rs generate message_definitions/fbwag.xml -o bindings/fbwag-cc --messages @fbwag-dialect/cc-subset.txt
 
 Use the output with `include!(\"bindings/fbwag/mod.rs\");` in a crate that
 depends on `mavwire`, or generate at build time with mavgen::Config in build.rs.";
@@ -46,8 +47,10 @@ enum Command {
         /// Output directory (created if missing).
         #[arg(short, long, value_name = "DIR")]
         out: PathBuf,
-        /// Only these messages (XML names, comma separated) and the enums they use.
-        #[arg(long, value_name = "A,B,…", value_delimiter = ',')]
+        /// Only these messages and the enums they use: XML names, comma
+        /// separated, or `@FILE` for a file of names (one or more per line,
+        /// separated by commas or spaces; `#` starts a comment).
+        #[arg(long, value_name = "A,B,…|@FILE", value_delimiter = ',')]
         messages: Option<Vec<String>>,
         /// Path of the runtime crate in the generated code.
         #[arg(long, value_name = "PATH", default_value = "::mavwire")]
@@ -67,6 +70,32 @@ enum Command {
         /// Dialect file.
         xml: PathBuf,
     },
+}
+
+/// Replaces every `@FILE` argument of `--messages` by the names in FILE.
+fn expand_message_files(args: Vec<String>) -> Result<Vec<String>, String> {
+    let mut names = Vec::new();
+    for arg in args {
+        let Some(path) = arg.strip_prefix('@') else {
+            names.push(arg.trim().to_string());
+            continue;
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| format!("--messages @{path}: {e}"))?;
+        let before = names.len();
+        for line in text.lines() {
+            let line = line.split('#').next().unwrap_or("");
+            names.extend(
+                line.split(|c: char| c == ',' || c.is_whitespace())
+                    .filter(|n| !n.is_empty())
+                    .map(str::to_string),
+            );
+        }
+        if names.len() == before {
+            return Err(format!("--messages @{path}: the file names no message"));
+        }
+    }
+    names.retain(|n| !n.is_empty());
+    Ok(names)
 }
 
 fn report(diags: &[Diagnostic]) {
@@ -90,7 +119,15 @@ fn main() -> ExitCode {
                 .runtime_crate(runtime)
                 .cargo_output(false);
             if let Some(m) = messages {
-                config.messages(m);
+                match expand_message_files(m) {
+                    Ok(names) => {
+                        config.messages(names);
+                    }
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::FAILURE;
+                    }
+                }
             }
             match config.compile(&xml) {
                 Ok(g) => {

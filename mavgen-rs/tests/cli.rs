@@ -200,3 +200,64 @@ fn help_mentions_every_subcommand() {
         assert!(stdout.contains(sub), "--help lacks `{sub}`:\n{stdout}");
     }
 }
+
+#[test]
+fn generate_reads_message_names_from_a_file() {
+    let tmp = TempDir::new("generate_reads_message_names_from_a_file");
+    let xml = fixtures_dir().join("valid_root.xml");
+    std::fs::write(
+        tmp.0.join("subset.txt"),
+        "# what the test keeps\nSMALL_PING  # trailing comment\n\nHEARTBEAT,\n",
+    )
+    .unwrap();
+    let (code, _, stderr) = run(mavgen_in(&tmp.0).arg("generate").arg(&xml).args([
+        "-o",
+        "from-file",
+        "--messages",
+        "@subset.txt",
+    ]));
+    assert_eq!(code, Some(0), "stderr: {stderr}");
+    assert!(stderr.contains("(2 messages"), "stderr: {stderr}");
+    let (code, _, stderr) = run(mavgen_in(&tmp.0).arg("generate").arg(&xml).args([
+        "-o",
+        "inline",
+        "--messages",
+        "SMALL_PING,HEARTBEAT",
+    ]));
+    assert_eq!(code, Some(0), "stderr: {stderr}");
+    let strip_hint = |files: BTreeMap<String, Vec<u8>>| -> BTreeMap<String, String> {
+        files
+            .into_iter()
+            .map(|(n, b)| {
+                let text = String::from_utf8(b).unwrap();
+                let text: String = text
+                    .lines()
+                    .filter(|l| !l.starts_with("// Regenerate"))
+                    .collect::<Vec<_>>()
+                    .join("\n");
+                (n, text)
+            })
+            .collect()
+    };
+    assert_eq!(
+        strip_hint(contents(&tmp.0.join("from-file"))),
+        strip_hint(contents(&tmp.0.join("inline")))
+    );
+
+    // A missing or empty file is an error, and nothing is written.
+    std::fs::write(tmp.0.join("empty.txt"), "# nothing\n").unwrap();
+    for (arg, says) in [
+        ("@missing.txt", "missing.txt"),
+        ("@empty.txt", "names no message"),
+    ] {
+        let (code, _, stderr) = run(mavgen_in(&tmp.0).arg("generate").arg(&xml).args([
+            "-o",
+            "never",
+            "--messages",
+            arg,
+        ]));
+        assert_eq!(code, Some(1), "{arg}: stderr: {stderr}");
+        assert!(stderr.contains(says), "{arg}: stderr: {stderr}");
+        assert!(!tmp.0.join("never").exists());
+    }
+}

@@ -20,6 +20,7 @@ extern crate std;
 pub mod conn;
 pub mod crc;
 pub mod field;
+pub mod flags;
 pub mod frame;
 pub mod message;
 pub mod parser;
@@ -32,6 +33,7 @@ pub use message::{BufferTooSmall, Dialect, FieldMeta, FieldType, Message, Messag
 pub use parser::{Parser, Received};
 pub use signing::{Signer, Verifier};
 
-/// Re-exported for generated bitmask enums, so dialect crates need no direct
+/// Re-exported for generated bitmask enums (they implement
+/// [`bitflags::Flags`], see [`flags`]), so dialect crates need no direct
 /// dependency on it.
 pub use bitflags;

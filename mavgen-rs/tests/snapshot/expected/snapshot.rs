@@ -57,6 +57,22 @@ impl From<SnapCmd> for u8 {
     }
 }
 
+/// A bitmask enum.
+///
+/// MAVLink enum `SNAP_FLAGS`.
+///
+/// A flag set: bits the XML does not list are kept, not dropped.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct SnapFlags(pub u32);
+impl SnapFlags {
+    /// Bit 0.
+    pub const A: Self = Self(1);
+    /// Bit 2.
+    pub const C: Self = Self(4);
+}
+
+::mavwire::flag_set!(SnapFlags, u32, [A, C]);
+
 /// A value enum with \[brackets\], html and a URL: <https://mavlink.io/en/>.
 ///
 /// MAVLink enum `SNAP_MODE`.
@@ -973,22 +989,5 @@ impl From<SnapAllTypes> for Message {
 impl From<SnapMaxId> for Message {
     fn from(m: SnapMaxId) -> Self {
         Self::SnapMaxId(m)
-    }
-}
-
-:: mavwire::bitflags::bitflags! {
-    /// A bitmask enum.
-    ///
-    /// MAVLink enum `SNAP_FLAGS`.
-    ///
-    /// A flag set: bits the XML does not list are kept, not dropped.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct SnapFlags: u32 {
-        /// Bit 0.
-        const A = 1;
-        /// Bit 2.
-        const C = 4;
-        /// Keep bits this dialect does not define.
-        const _ = !0;
     }
 }

@@ -3076,59 +3076,89 @@ impl SysStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SysStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            onboard_control_sensors_present: MavSysStatusSensor::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 0),
+            ),
+            onboard_control_sensors_enabled: MavSysStatusSensor::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 4),
+            ),
+            onboard_control_sensors_health: MavSysStatusSensor::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 8),
+            ),
+            load: ::mavwire::field::read::<u16>(p, 12),
+            voltage_battery: ::mavwire::field::read::<u16>(p, 14),
+            current_battery: ::mavwire::field::read::<i16>(p, 16),
+            battery_remaining: ::mavwire::field::read::<i8>(p, 30),
+            drop_rate_comm: ::mavwire::field::read::<u16>(p, 18),
+            errors_comm: ::mavwire::field::read::<u16>(p, 20),
+            errors_count1: ::mavwire::field::read::<u16>(p, 22),
+            errors_count2: ::mavwire::field::read::<u16>(p, 24),
+            errors_count3: ::mavwire::field::read::<u16>(p, 26),
+            errors_count4: ::mavwire::field::read::<u16>(p, 28),
+            onboard_control_sensors_present_extended: MavSysStatusSensorExtended::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 31),
+            ),
+            onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 35),
+            ),
+            onboard_control_sensors_health_extended: MavSysStatusSensorExtended::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 39),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SysStatusView<'_>) -> Self {
-        Self {
-            onboard_control_sensors_present: view.onboard_control_sensors_present(),
-            onboard_control_sensors_enabled: view.onboard_control_sensors_enabled(),
-            onboard_control_sensors_health: view.onboard_control_sensors_health(),
-            load: view.load(),
-            voltage_battery: view.voltage_battery(),
-            current_battery: view.current_battery(),
-            battery_remaining: view.battery_remaining(),
-            drop_rate_comm: view.drop_rate_comm(),
-            errors_comm: view.errors_comm(),
-            errors_count1: view.errors_count1(),
-            errors_count2: view.errors_count2(),
-            errors_count3: view.errors_count3(),
-            errors_count4: view.errors_count4(),
-            onboard_control_sensors_present_extended: view
-                .onboard_control_sensors_present_extended(),
-            onboard_control_sensors_enabled_extended: view
-                .onboard_control_sensors_enabled_extended(),
-            onboard_control_sensors_health_extended: view
-                .onboard_control_sensors_health_extended(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SysStatusMut::new(payload)?;
-        out.set_onboard_control_sensors_present(self.onboard_control_sensors_present);
-        out.set_onboard_control_sensors_enabled(self.onboard_control_sensors_enabled);
-        out.set_onboard_control_sensors_health(self.onboard_control_sensors_health);
-        out.set_load(self.load);
-        out.set_voltage_battery(self.voltage_battery);
-        out.set_current_battery(self.current_battery);
-        out.set_battery_remaining(self.battery_remaining);
-        out.set_drop_rate_comm(self.drop_rate_comm);
-        out.set_errors_comm(self.errors_comm);
-        out.set_errors_count1(self.errors_count1);
-        out.set_errors_count2(self.errors_count2);
-        out.set_errors_count3(self.errors_count3);
-        out.set_errors_count4(self.errors_count4);
-        out.set_onboard_control_sensors_present_extended(
-            self.onboard_control_sensors_present_extended,
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_present.bits(),
+            out,
+            0,
         );
-        out.set_onboard_control_sensors_enabled_extended(
-            self.onboard_control_sensors_enabled_extended,
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_enabled.bits(),
+            out,
+            4,
         );
-        out.set_onboard_control_sensors_health_extended(
-            self.onboard_control_sensors_health_extended,
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_health.bits(),
+            out,
+            8,
+        );
+        ::mavwire::field::Scalar::write(self.load, out, 12);
+        ::mavwire::field::Scalar::write(self.voltage_battery, out, 14);
+        ::mavwire::field::Scalar::write(self.current_battery, out, 16);
+        ::mavwire::field::Scalar::write(self.battery_remaining, out, 30);
+        ::mavwire::field::Scalar::write(self.drop_rate_comm, out, 18);
+        ::mavwire::field::Scalar::write(self.errors_comm, out, 20);
+        ::mavwire::field::Scalar::write(self.errors_count1, out, 22);
+        ::mavwire::field::Scalar::write(self.errors_count2, out, 24);
+        ::mavwire::field::Scalar::write(self.errors_count3, out, 26);
+        ::mavwire::field::Scalar::write(self.errors_count4, out, 28);
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_present_extended.bits(),
+            out,
+            31,
+        );
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_enabled_extended.bits(),
+            out,
+            35,
+        );
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_health_extended.bits(),
+            out,
+            39,
         );
         Ok(Self::MAX_LEN)
     }
@@ -3137,14 +3167,17 @@ impl SysStatus {
 impl ::mavwire::Message for SysStatus {
     const META: ::mavwire::MessageMeta = SysStatus::META;
     type View<'a> = SysStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SysStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SysStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SysStatusView<'_> {
         SysStatusView::new(payload)
     }
@@ -3173,6 +3206,7 @@ impl<'a> SysStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SysStatus {
         SysStatus::from_view(self)
     }
@@ -3530,33 +3564,36 @@ impl Attitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AttitudeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            roll: ::mavwire::field::read::<f32>(p, 4),
+            pitch: ::mavwire::field::read::<f32>(p, 8),
+            yaw: ::mavwire::field::read::<f32>(p, 12),
+            rollspeed: ::mavwire::field::read::<f32>(p, 16),
+            pitchspeed: ::mavwire::field::read::<f32>(p, 20),
+            yawspeed: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AttitudeView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            rollspeed: view.rollspeed(),
-            pitchspeed: view.pitchspeed(),
-            yawspeed: view.yawspeed(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AttitudeMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_rollspeed(self.rollspeed);
-        out.set_pitchspeed(self.pitchspeed);
-        out.set_yawspeed(self.yawspeed);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.roll, out, 4);
+        ::mavwire::field::Scalar::write(self.pitch, out, 8);
+        ::mavwire::field::Scalar::write(self.yaw, out, 12);
+        ::mavwire::field::Scalar::write(self.rollspeed, out, 16);
+        ::mavwire::field::Scalar::write(self.pitchspeed, out, 20);
+        ::mavwire::field::Scalar::write(self.yawspeed, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -3564,14 +3601,17 @@ impl Attitude {
 impl ::mavwire::Message for Attitude {
     const META: ::mavwire::MessageMeta = Attitude::META;
     type View<'a> = AttitudeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Attitude::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Attitude::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AttitudeView<'_> {
         AttitudeView::new(payload)
     }
@@ -3600,6 +3640,7 @@ impl<'a> AttitudeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Attitude {
         Attitude::from_view(self)
     }
@@ -3982,61 +4023,64 @@ impl RcChannels {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RcChannelsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            chancount: ::mavwire::field::read::<u8>(p, 40),
+            chan1_raw: ::mavwire::field::read::<u16>(p, 4),
+            chan2_raw: ::mavwire::field::read::<u16>(p, 6),
+            chan3_raw: ::mavwire::field::read::<u16>(p, 8),
+            chan4_raw: ::mavwire::field::read::<u16>(p, 10),
+            chan5_raw: ::mavwire::field::read::<u16>(p, 12),
+            chan6_raw: ::mavwire::field::read::<u16>(p, 14),
+            chan7_raw: ::mavwire::field::read::<u16>(p, 16),
+            chan8_raw: ::mavwire::field::read::<u16>(p, 18),
+            chan9_raw: ::mavwire::field::read::<u16>(p, 20),
+            chan10_raw: ::mavwire::field::read::<u16>(p, 22),
+            chan11_raw: ::mavwire::field::read::<u16>(p, 24),
+            chan12_raw: ::mavwire::field::read::<u16>(p, 26),
+            chan13_raw: ::mavwire::field::read::<u16>(p, 28),
+            chan14_raw: ::mavwire::field::read::<u16>(p, 30),
+            chan15_raw: ::mavwire::field::read::<u16>(p, 32),
+            chan16_raw: ::mavwire::field::read::<u16>(p, 34),
+            chan17_raw: ::mavwire::field::read::<u16>(p, 36),
+            chan18_raw: ::mavwire::field::read::<u16>(p, 38),
+            rssi: ::mavwire::field::read::<u8>(p, 41),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RcChannelsView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            chancount: view.chancount(),
-            chan1_raw: view.chan1_raw(),
-            chan2_raw: view.chan2_raw(),
-            chan3_raw: view.chan3_raw(),
-            chan4_raw: view.chan4_raw(),
-            chan5_raw: view.chan5_raw(),
-            chan6_raw: view.chan6_raw(),
-            chan7_raw: view.chan7_raw(),
-            chan8_raw: view.chan8_raw(),
-            chan9_raw: view.chan9_raw(),
-            chan10_raw: view.chan10_raw(),
-            chan11_raw: view.chan11_raw(),
-            chan12_raw: view.chan12_raw(),
-            chan13_raw: view.chan13_raw(),
-            chan14_raw: view.chan14_raw(),
-            chan15_raw: view.chan15_raw(),
-            chan16_raw: view.chan16_raw(),
-            chan17_raw: view.chan17_raw(),
-            chan18_raw: view.chan18_raw(),
-            rssi: view.rssi(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RcChannelsMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_chancount(self.chancount);
-        out.set_chan1_raw(self.chan1_raw);
-        out.set_chan2_raw(self.chan2_raw);
-        out.set_chan3_raw(self.chan3_raw);
-        out.set_chan4_raw(self.chan4_raw);
-        out.set_chan5_raw(self.chan5_raw);
-        out.set_chan6_raw(self.chan6_raw);
-        out.set_chan7_raw(self.chan7_raw);
-        out.set_chan8_raw(self.chan8_raw);
-        out.set_chan9_raw(self.chan9_raw);
-        out.set_chan10_raw(self.chan10_raw);
-        out.set_chan11_raw(self.chan11_raw);
-        out.set_chan12_raw(self.chan12_raw);
-        out.set_chan13_raw(self.chan13_raw);
-        out.set_chan14_raw(self.chan14_raw);
-        out.set_chan15_raw(self.chan15_raw);
-        out.set_chan16_raw(self.chan16_raw);
-        out.set_chan17_raw(self.chan17_raw);
-        out.set_chan18_raw(self.chan18_raw);
-        out.set_rssi(self.rssi);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.chancount, out, 40);
+        ::mavwire::field::Scalar::write(self.chan1_raw, out, 4);
+        ::mavwire::field::Scalar::write(self.chan2_raw, out, 6);
+        ::mavwire::field::Scalar::write(self.chan3_raw, out, 8);
+        ::mavwire::field::Scalar::write(self.chan4_raw, out, 10);
+        ::mavwire::field::Scalar::write(self.chan5_raw, out, 12);
+        ::mavwire::field::Scalar::write(self.chan6_raw, out, 14);
+        ::mavwire::field::Scalar::write(self.chan7_raw, out, 16);
+        ::mavwire::field::Scalar::write(self.chan8_raw, out, 18);
+        ::mavwire::field::Scalar::write(self.chan9_raw, out, 20);
+        ::mavwire::field::Scalar::write(self.chan10_raw, out, 22);
+        ::mavwire::field::Scalar::write(self.chan11_raw, out, 24);
+        ::mavwire::field::Scalar::write(self.chan12_raw, out, 26);
+        ::mavwire::field::Scalar::write(self.chan13_raw, out, 28);
+        ::mavwire::field::Scalar::write(self.chan14_raw, out, 30);
+        ::mavwire::field::Scalar::write(self.chan15_raw, out, 32);
+        ::mavwire::field::Scalar::write(self.chan16_raw, out, 34);
+        ::mavwire::field::Scalar::write(self.chan17_raw, out, 36);
+        ::mavwire::field::Scalar::write(self.chan18_raw, out, 38);
+        ::mavwire::field::Scalar::write(self.rssi, out, 41);
         Ok(Self::MAX_LEN)
     }
 }
@@ -4044,14 +4088,17 @@ impl RcChannels {
 impl ::mavwire::Message for RcChannels {
     const META: ::mavwire::MessageMeta = RcChannels::META;
     type View<'a> = RcChannelsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RcChannels::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RcChannels::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RcChannelsView<'_> {
         RcChannelsView::new(payload)
     }
@@ -4080,6 +4127,7 @@ impl<'a> RcChannelsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RcChannels {
         RcChannels::from_view(self)
     }
@@ -4646,59 +4694,62 @@ impl RcChannelsOverride {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RcChannelsOverrideView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 16),
+            target_component: ::mavwire::field::read::<u8>(p, 17),
+            chan1_raw: ::mavwire::field::read::<u16>(p, 0),
+            chan2_raw: ::mavwire::field::read::<u16>(p, 2),
+            chan3_raw: ::mavwire::field::read::<u16>(p, 4),
+            chan4_raw: ::mavwire::field::read::<u16>(p, 6),
+            chan5_raw: ::mavwire::field::read::<u16>(p, 8),
+            chan6_raw: ::mavwire::field::read::<u16>(p, 10),
+            chan7_raw: ::mavwire::field::read::<u16>(p, 12),
+            chan8_raw: ::mavwire::field::read::<u16>(p, 14),
+            chan9_raw: ::mavwire::field::read::<u16>(p, 18),
+            chan10_raw: ::mavwire::field::read::<u16>(p, 20),
+            chan11_raw: ::mavwire::field::read::<u16>(p, 22),
+            chan12_raw: ::mavwire::field::read::<u16>(p, 24),
+            chan13_raw: ::mavwire::field::read::<u16>(p, 26),
+            chan14_raw: ::mavwire::field::read::<u16>(p, 28),
+            chan15_raw: ::mavwire::field::read::<u16>(p, 30),
+            chan16_raw: ::mavwire::field::read::<u16>(p, 32),
+            chan17_raw: ::mavwire::field::read::<u16>(p, 34),
+            chan18_raw: ::mavwire::field::read::<u16>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RcChannelsOverrideView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            chan1_raw: view.chan1_raw(),
-            chan2_raw: view.chan2_raw(),
-            chan3_raw: view.chan3_raw(),
-            chan4_raw: view.chan4_raw(),
-            chan5_raw: view.chan5_raw(),
-            chan6_raw: view.chan6_raw(),
-            chan7_raw: view.chan7_raw(),
-            chan8_raw: view.chan8_raw(),
-            chan9_raw: view.chan9_raw(),
-            chan10_raw: view.chan10_raw(),
-            chan11_raw: view.chan11_raw(),
-            chan12_raw: view.chan12_raw(),
-            chan13_raw: view.chan13_raw(),
-            chan14_raw: view.chan14_raw(),
-            chan15_raw: view.chan15_raw(),
-            chan16_raw: view.chan16_raw(),
-            chan17_raw: view.chan17_raw(),
-            chan18_raw: view.chan18_raw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RcChannelsOverrideMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_chan1_raw(self.chan1_raw);
-        out.set_chan2_raw(self.chan2_raw);
-        out.set_chan3_raw(self.chan3_raw);
-        out.set_chan4_raw(self.chan4_raw);
-        out.set_chan5_raw(self.chan5_raw);
-        out.set_chan6_raw(self.chan6_raw);
-        out.set_chan7_raw(self.chan7_raw);
-        out.set_chan8_raw(self.chan8_raw);
-        out.set_chan9_raw(self.chan9_raw);
-        out.set_chan10_raw(self.chan10_raw);
-        out.set_chan11_raw(self.chan11_raw);
-        out.set_chan12_raw(self.chan12_raw);
-        out.set_chan13_raw(self.chan13_raw);
-        out.set_chan14_raw(self.chan14_raw);
-        out.set_chan15_raw(self.chan15_raw);
-        out.set_chan16_raw(self.chan16_raw);
-        out.set_chan17_raw(self.chan17_raw);
-        out.set_chan18_raw(self.chan18_raw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 16);
+        ::mavwire::field::Scalar::write(self.target_component, out, 17);
+        ::mavwire::field::Scalar::write(self.chan1_raw, out, 0);
+        ::mavwire::field::Scalar::write(self.chan2_raw, out, 2);
+        ::mavwire::field::Scalar::write(self.chan3_raw, out, 4);
+        ::mavwire::field::Scalar::write(self.chan4_raw, out, 6);
+        ::mavwire::field::Scalar::write(self.chan5_raw, out, 8);
+        ::mavwire::field::Scalar::write(self.chan6_raw, out, 10);
+        ::mavwire::field::Scalar::write(self.chan7_raw, out, 12);
+        ::mavwire::field::Scalar::write(self.chan8_raw, out, 14);
+        ::mavwire::field::Scalar::write(self.chan9_raw, out, 18);
+        ::mavwire::field::Scalar::write(self.chan10_raw, out, 20);
+        ::mavwire::field::Scalar::write(self.chan11_raw, out, 22);
+        ::mavwire::field::Scalar::write(self.chan12_raw, out, 24);
+        ::mavwire::field::Scalar::write(self.chan13_raw, out, 26);
+        ::mavwire::field::Scalar::write(self.chan14_raw, out, 28);
+        ::mavwire::field::Scalar::write(self.chan15_raw, out, 30);
+        ::mavwire::field::Scalar::write(self.chan16_raw, out, 32);
+        ::mavwire::field::Scalar::write(self.chan17_raw, out, 34);
+        ::mavwire::field::Scalar::write(self.chan18_raw, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -4706,14 +4757,17 @@ impl RcChannelsOverride {
 impl ::mavwire::Message for RcChannelsOverride {
     const META: ::mavwire::MessageMeta = RcChannelsOverride::META;
     type View<'a> = RcChannelsOverrideView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RcChannelsOverride::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RcChannelsOverride::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RcChannelsOverrideView<'_> {
         RcChannelsOverrideView::new(payload)
     }
@@ -4742,6 +4796,7 @@ impl<'a> RcChannelsOverrideView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RcChannelsOverride {
         RcChannelsOverride::from_view(self)
     }
@@ -5112,31 +5167,34 @@ impl VfrHud {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VfrHudView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            airspeed: ::mavwire::field::read::<f32>(p, 0),
+            groundspeed: ::mavwire::field::read::<f32>(p, 4),
+            heading: ::mavwire::field::read::<i16>(p, 16),
+            throttle: ::mavwire::field::read::<u16>(p, 18),
+            alt: ::mavwire::field::read::<f32>(p, 8),
+            climb: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VfrHudView<'_>) -> Self {
-        Self {
-            airspeed: view.airspeed(),
-            groundspeed: view.groundspeed(),
-            heading: view.heading(),
-            throttle: view.throttle(),
-            alt: view.alt(),
-            climb: view.climb(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VfrHudMut::new(payload)?;
-        out.set_airspeed(self.airspeed);
-        out.set_groundspeed(self.groundspeed);
-        out.set_heading(self.heading);
-        out.set_throttle(self.throttle);
-        out.set_alt(self.alt);
-        out.set_climb(self.climb);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.airspeed, out, 0);
+        ::mavwire::field::Scalar::write(self.groundspeed, out, 4);
+        ::mavwire::field::Scalar::write(self.heading, out, 16);
+        ::mavwire::field::Scalar::write(self.throttle, out, 18);
+        ::mavwire::field::Scalar::write(self.alt, out, 8);
+        ::mavwire::field::Scalar::write(self.climb, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -5144,14 +5202,17 @@ impl VfrHud {
 impl ::mavwire::Message for VfrHud {
     const META: ::mavwire::MessageMeta = VfrHud::META;
     type View<'a> = VfrHudView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         VfrHud::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         VfrHud::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VfrHudView<'_> {
         VfrHudView::new(payload)
     }
@@ -5180,6 +5241,7 @@ impl<'a> VfrHudView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> VfrHud {
         VfrHud::from_view(self)
     }
@@ -5440,41 +5502,44 @@ impl CommandLong {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CommandLongView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 30),
+            target_component: ::mavwire::field::read::<u8>(p, 31),
+            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 28)),
+            confirmation: ::mavwire::field::read::<u8>(p, 32),
+            param1: ::mavwire::field::read::<f32>(p, 0),
+            param2: ::mavwire::field::read::<f32>(p, 4),
+            param3: ::mavwire::field::read::<f32>(p, 8),
+            param4: ::mavwire::field::read::<f32>(p, 12),
+            param5: ::mavwire::field::read::<f32>(p, 16),
+            param6: ::mavwire::field::read::<f32>(p, 20),
+            param7: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CommandLongView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            command: view.command(),
-            confirmation: view.confirmation(),
-            param1: view.param1(),
-            param2: view.param2(),
-            param3: view.param3(),
-            param4: view.param4(),
-            param5: view.param5(),
-            param6: view.param6(),
-            param7: view.param7(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CommandLongMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_command(self.command);
-        out.set_confirmation(self.confirmation);
-        out.set_param1(self.param1);
-        out.set_param2(self.param2);
-        out.set_param3(self.param3);
-        out.set_param4(self.param4);
-        out.set_param5(self.param5);
-        out.set_param6(self.param6);
-        out.set_param7(self.param7);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 30);
+        ::mavwire::field::Scalar::write(self.target_component, out, 31);
+        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 28);
+        ::mavwire::field::Scalar::write(self.confirmation, out, 32);
+        ::mavwire::field::Scalar::write(self.param1, out, 0);
+        ::mavwire::field::Scalar::write(self.param2, out, 4);
+        ::mavwire::field::Scalar::write(self.param3, out, 8);
+        ::mavwire::field::Scalar::write(self.param4, out, 12);
+        ::mavwire::field::Scalar::write(self.param5, out, 16);
+        ::mavwire::field::Scalar::write(self.param6, out, 20);
+        ::mavwire::field::Scalar::write(self.param7, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -5482,14 +5547,17 @@ impl CommandLong {
 impl ::mavwire::Message for CommandLong {
     const META: ::mavwire::MessageMeta = CommandLong::META;
     type View<'a> = CommandLongView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CommandLong::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CommandLong::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CommandLongView<'_> {
         CommandLongView::new(payload)
     }
@@ -5518,6 +5586,7 @@ impl<'a> CommandLongView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CommandLong {
         CommandLong::from_view(self)
     }
@@ -5786,31 +5855,34 @@ impl CommandAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CommandAckView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 0)),
+            result: MavResult::from_raw(::mavwire::field::read::<u8>(p, 2)),
+            progress: ::mavwire::field::read::<u8>(p, 3),
+            result_param2: ::mavwire::field::read::<i32>(p, 4),
+            target_system: ::mavwire::field::read::<u8>(p, 8),
+            target_component: ::mavwire::field::read::<u8>(p, 9),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CommandAckView<'_>) -> Self {
-        Self {
-            command: view.command(),
-            result: view.result(),
-            progress: view.progress(),
-            result_param2: view.result_param2(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CommandAckMut::new(payload)?;
-        out.set_command(self.command);
-        out.set_result(self.result);
-        out.set_progress(self.progress);
-        out.set_result_param2(self.result_param2);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 0);
+        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 2);
+        ::mavwire::field::Scalar::write(self.progress, out, 3);
+        ::mavwire::field::Scalar::write(self.result_param2, out, 4);
+        ::mavwire::field::Scalar::write(self.target_system, out, 8);
+        ::mavwire::field::Scalar::write(self.target_component, out, 9);
         Ok(Self::MAX_LEN)
     }
 }
@@ -5818,14 +5890,17 @@ impl CommandAck {
 impl ::mavwire::Message for CommandAck {
     const META: ::mavwire::MessageMeta = CommandAck::META;
     type View<'a> = CommandAckView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CommandAck::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CommandAck::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CommandAckView<'_> {
         CommandAckView::new(payload)
     }
@@ -5854,6 +5929,7 @@ impl<'a> CommandAckView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CommandAck {
         CommandAck::from_view(self)
     }
@@ -6089,37 +6165,42 @@ impl SetAttitudeTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetAttitudeTargetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            target_system: ::mavwire::field::read::<u8>(p, 36),
+            target_component: ::mavwire::field::read::<u8>(p, 37),
+            type_mask: AttitudeTargetTypemask::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 38),
+            ),
+            q: ::mavwire::field::ArrayView::new(p, 4).to_array(),
+            body_roll_rate: ::mavwire::field::read::<f32>(p, 20),
+            body_pitch_rate: ::mavwire::field::read::<f32>(p, 24),
+            body_yaw_rate: ::mavwire::field::read::<f32>(p, 28),
+            thrust: ::mavwire::field::read::<f32>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetAttitudeTargetView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            type_mask: view.type_mask(),
-            q: view.q().to_array(),
-            body_roll_rate: view.body_roll_rate(),
-            body_pitch_rate: view.body_pitch_rate(),
-            body_yaw_rate: view.body_yaw_rate(),
-            thrust: view.thrust(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetAttitudeTargetMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_type_mask(self.type_mask);
-        out.set_q(&self.q);
-        out.set_body_roll_rate(self.body_roll_rate);
-        out.set_body_pitch_rate(self.body_pitch_rate);
-        out.set_body_yaw_rate(self.body_yaw_rate);
-        out.set_thrust(self.thrust);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.target_system, out, 36);
+        ::mavwire::field::Scalar::write(self.target_component, out, 37);
+        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 38);
+        ::mavwire::field::write_array(out, 4, &self.q);
+        ::mavwire::field::Scalar::write(self.body_roll_rate, out, 20);
+        ::mavwire::field::Scalar::write(self.body_pitch_rate, out, 24);
+        ::mavwire::field::Scalar::write(self.body_yaw_rate, out, 28);
+        ::mavwire::field::Scalar::write(self.thrust, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -6127,14 +6208,17 @@ impl SetAttitudeTarget {
 impl ::mavwire::Message for SetAttitudeTarget {
     const META: ::mavwire::MessageMeta = SetAttitudeTarget::META;
     type View<'a> = SetAttitudeTargetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetAttitudeTarget::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetAttitudeTarget::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetAttitudeTargetView<'_> {
         SetAttitudeTargetView::new(payload)
     }
@@ -6163,6 +6247,7 @@ impl<'a> SetAttitudeTargetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetAttitudeTarget {
         SetAttitudeTarget::from_view(self)
     }
@@ -6387,27 +6472,30 @@ impl Statustext {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&StatustextView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            severity: MavSeverity::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            text: ::mavwire::field::CharArray::new(p, 1).to_array(),
+            id: ::mavwire::field::read::<u16>(p, 51),
+            chunk_seq: ::mavwire::field::read::<u8>(p, 53),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &StatustextView<'_>) -> Self {
-        Self {
-            severity: view.severity(),
-            text: view.text().to_array(),
-            id: view.id(),
-            chunk_seq: view.chunk_seq(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = StatustextMut::new(payload)?;
-        out.set_severity(self.severity);
-        out.set_text(&self.text);
-        out.set_id(self.id);
-        out.set_chunk_seq(self.chunk_seq);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.severity.to_raw(), out, 0);
+        ::mavwire::field::write_array(out, 1, &self.text);
+        ::mavwire::field::Scalar::write(self.id, out, 51);
+        ::mavwire::field::Scalar::write(self.chunk_seq, out, 53);
         Ok(Self::MAX_LEN)
     }
 }
@@ -6426,14 +6514,17 @@ impl Default for Statustext {
 impl ::mavwire::Message for Statustext {
     const META: ::mavwire::MessageMeta = Statustext::META;
     type View<'a> = StatustextView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Statustext::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Statustext::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> StatustextView<'_> {
         StatustextView::new(payload)
     }
@@ -6462,6 +6553,7 @@ impl<'a> StatustextView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Statustext {
         Statustext::from_view(self)
     }

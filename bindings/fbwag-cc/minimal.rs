@@ -541,31 +541,34 @@ impl Heartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HeartbeatView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            r#type: MavType::from_raw(::mavwire::field::read::<u8>(p, 4)),
+            autopilot: MavAutopilot::from_raw(::mavwire::field::read::<u8>(p, 5)),
+            base_mode: MavModeFlag::from_bits_retain(::mavwire::field::read::<u8>(p, 6)),
+            custom_mode: ::mavwire::field::read::<u32>(p, 0),
+            system_status: MavState::from_raw(::mavwire::field::read::<u8>(p, 7)),
+            mavlink_version: ::mavwire::field::read::<u8>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HeartbeatView<'_>) -> Self {
-        Self {
-            r#type: view.r#type(),
-            autopilot: view.autopilot(),
-            base_mode: view.base_mode(),
-            custom_mode: view.custom_mode(),
-            system_status: view.system_status(),
-            mavlink_version: view.mavlink_version(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HeartbeatMut::new(payload)?;
-        out.set_type(self.r#type);
-        out.set_autopilot(self.autopilot);
-        out.set_base_mode(self.base_mode);
-        out.set_custom_mode(self.custom_mode);
-        out.set_system_status(self.system_status);
-        out.set_mavlink_version(self.mavlink_version);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 4);
+        ::mavwire::field::Scalar::write(self.autopilot.to_raw(), out, 5);
+        ::mavwire::field::Scalar::write(self.base_mode.bits(), out, 6);
+        ::mavwire::field::Scalar::write(self.custom_mode, out, 0);
+        ::mavwire::field::Scalar::write(self.system_status.to_raw(), out, 7);
+        ::mavwire::field::Scalar::write(self.mavlink_version, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -586,14 +589,17 @@ impl Default for Heartbeat {
 impl ::mavwire::Message for Heartbeat {
     const META: ::mavwire::MessageMeta = Heartbeat::META;
     type View<'a> = HeartbeatView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Heartbeat::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Heartbeat::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HeartbeatView<'_> {
         HeartbeatView::new(payload)
     }
@@ -622,6 +628,7 @@ impl<'a> HeartbeatView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Heartbeat {
         Heartbeat::from_view(self)
     }

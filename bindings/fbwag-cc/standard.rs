@@ -134,37 +134,40 @@ impl GlobalPositionInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GlobalPositionIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            lat: ::mavwire::field::read::<i32>(p, 4),
+            lon: ::mavwire::field::read::<i32>(p, 8),
+            alt: ::mavwire::field::read::<i32>(p, 12),
+            relative_alt: ::mavwire::field::read::<i32>(p, 16),
+            vx: ::mavwire::field::read::<i16>(p, 20),
+            vy: ::mavwire::field::read::<i16>(p, 22),
+            vz: ::mavwire::field::read::<i16>(p, 24),
+            hdg: ::mavwire::field::read::<u16>(p, 26),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GlobalPositionIntView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            relative_alt: view.relative_alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            hdg: view.hdg(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GlobalPositionIntMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_relative_alt(self.relative_alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_hdg(self.hdg);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.lat, out, 4);
+        ::mavwire::field::Scalar::write(self.lon, out, 8);
+        ::mavwire::field::Scalar::write(self.alt, out, 12);
+        ::mavwire::field::Scalar::write(self.relative_alt, out, 16);
+        ::mavwire::field::Scalar::write(self.vx, out, 20);
+        ::mavwire::field::Scalar::write(self.vy, out, 22);
+        ::mavwire::field::Scalar::write(self.vz, out, 24);
+        ::mavwire::field::Scalar::write(self.hdg, out, 26);
         Ok(Self::MAX_LEN)
     }
 }
@@ -172,14 +175,17 @@ impl GlobalPositionInt {
 impl ::mavwire::Message for GlobalPositionInt {
     const META: ::mavwire::MessageMeta = GlobalPositionInt::META;
     type View<'a> = GlobalPositionIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GlobalPositionInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GlobalPositionInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GlobalPositionIntView<'_> {
         GlobalPositionIntView::new(payload)
     }
@@ -208,6 +214,7 @@ impl<'a> GlobalPositionIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GlobalPositionInt {
         GlobalPositionInt::from_view(self)
     }

@@ -3268,43 +3268,46 @@ impl SensorOffsets {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SensorOffsetsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            mag_ofs_x: ::mavwire::field::read::<i16>(p, 36),
+            mag_ofs_y: ::mavwire::field::read::<i16>(p, 38),
+            mag_ofs_z: ::mavwire::field::read::<i16>(p, 40),
+            mag_declination: ::mavwire::field::read::<f32>(p, 0),
+            raw_press: ::mavwire::field::read::<i32>(p, 4),
+            raw_temp: ::mavwire::field::read::<i32>(p, 8),
+            gyro_cal_x: ::mavwire::field::read::<f32>(p, 12),
+            gyro_cal_y: ::mavwire::field::read::<f32>(p, 16),
+            gyro_cal_z: ::mavwire::field::read::<f32>(p, 20),
+            accel_cal_x: ::mavwire::field::read::<f32>(p, 24),
+            accel_cal_y: ::mavwire::field::read::<f32>(p, 28),
+            accel_cal_z: ::mavwire::field::read::<f32>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SensorOffsetsView<'_>) -> Self {
-        Self {
-            mag_ofs_x: view.mag_ofs_x(),
-            mag_ofs_y: view.mag_ofs_y(),
-            mag_ofs_z: view.mag_ofs_z(),
-            mag_declination: view.mag_declination(),
-            raw_press: view.raw_press(),
-            raw_temp: view.raw_temp(),
-            gyro_cal_x: view.gyro_cal_x(),
-            gyro_cal_y: view.gyro_cal_y(),
-            gyro_cal_z: view.gyro_cal_z(),
-            accel_cal_x: view.accel_cal_x(),
-            accel_cal_y: view.accel_cal_y(),
-            accel_cal_z: view.accel_cal_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SensorOffsetsMut::new(payload)?;
-        out.set_mag_ofs_x(self.mag_ofs_x);
-        out.set_mag_ofs_y(self.mag_ofs_y);
-        out.set_mag_ofs_z(self.mag_ofs_z);
-        out.set_mag_declination(self.mag_declination);
-        out.set_raw_press(self.raw_press);
-        out.set_raw_temp(self.raw_temp);
-        out.set_gyro_cal_x(self.gyro_cal_x);
-        out.set_gyro_cal_y(self.gyro_cal_y);
-        out.set_gyro_cal_z(self.gyro_cal_z);
-        out.set_accel_cal_x(self.accel_cal_x);
-        out.set_accel_cal_y(self.accel_cal_y);
-        out.set_accel_cal_z(self.accel_cal_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.mag_ofs_x, out, 36);
+        ::mavwire::field::Scalar::write(self.mag_ofs_y, out, 38);
+        ::mavwire::field::Scalar::write(self.mag_ofs_z, out, 40);
+        ::mavwire::field::Scalar::write(self.mag_declination, out, 0);
+        ::mavwire::field::Scalar::write(self.raw_press, out, 4);
+        ::mavwire::field::Scalar::write(self.raw_temp, out, 8);
+        ::mavwire::field::Scalar::write(self.gyro_cal_x, out, 12);
+        ::mavwire::field::Scalar::write(self.gyro_cal_y, out, 16);
+        ::mavwire::field::Scalar::write(self.gyro_cal_z, out, 20);
+        ::mavwire::field::Scalar::write(self.accel_cal_x, out, 24);
+        ::mavwire::field::Scalar::write(self.accel_cal_y, out, 28);
+        ::mavwire::field::Scalar::write(self.accel_cal_z, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -3312,14 +3315,17 @@ impl SensorOffsets {
 impl ::mavwire::Message for SensorOffsets {
     const META: ::mavwire::MessageMeta = SensorOffsets::META;
     type View<'a> = SensorOffsetsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SensorOffsets::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SensorOffsets::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SensorOffsetsView<'_> {
         SensorOffsetsView::new(payload)
     }
@@ -3348,6 +3354,7 @@ impl<'a> SensorOffsetsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SensorOffsets {
         SensorOffsets::from_view(self)
     }
@@ -3610,29 +3617,32 @@ impl SetMagOffsets {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetMagOffsetsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 6),
+            target_component: ::mavwire::field::read::<u8>(p, 7),
+            mag_ofs_x: ::mavwire::field::read::<i16>(p, 0),
+            mag_ofs_y: ::mavwire::field::read::<i16>(p, 2),
+            mag_ofs_z: ::mavwire::field::read::<i16>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetMagOffsetsView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            mag_ofs_x: view.mag_ofs_x(),
-            mag_ofs_y: view.mag_ofs_y(),
-            mag_ofs_z: view.mag_ofs_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetMagOffsetsMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_mag_ofs_x(self.mag_ofs_x);
-        out.set_mag_ofs_y(self.mag_ofs_y);
-        out.set_mag_ofs_z(self.mag_ofs_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 6);
+        ::mavwire::field::Scalar::write(self.target_component, out, 7);
+        ::mavwire::field::Scalar::write(self.mag_ofs_x, out, 0);
+        ::mavwire::field::Scalar::write(self.mag_ofs_y, out, 2);
+        ::mavwire::field::Scalar::write(self.mag_ofs_z, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -3640,14 +3650,17 @@ impl SetMagOffsets {
 impl ::mavwire::Message for SetMagOffsets {
     const META: ::mavwire::MessageMeta = SetMagOffsets::META;
     type View<'a> = SetMagOffsetsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetMagOffsets::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetMagOffsets::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetMagOffsetsView<'_> {
         SetMagOffsetsView::new(payload)
     }
@@ -3676,6 +3689,7 @@ impl<'a> SetMagOffsetsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetMagOffsets {
         SetMagOffsets::from_view(self)
     }
@@ -3832,25 +3846,28 @@ impl Meminfo {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MeminfoView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            brkval: ::mavwire::field::read::<u16>(p, 0),
+            freemem: ::mavwire::field::read::<u16>(p, 2),
+            freemem32: ::mavwire::field::read::<u32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MeminfoView<'_>) -> Self {
-        Self {
-            brkval: view.brkval(),
-            freemem: view.freemem(),
-            freemem32: view.freemem32(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MeminfoMut::new(payload)?;
-        out.set_brkval(self.brkval);
-        out.set_freemem(self.freemem);
-        out.set_freemem32(self.freemem32);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.brkval, out, 0);
+        ::mavwire::field::Scalar::write(self.freemem, out, 2);
+        ::mavwire::field::Scalar::write(self.freemem32, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -3858,14 +3875,17 @@ impl Meminfo {
 impl ::mavwire::Message for Meminfo {
     const META: ::mavwire::MessageMeta = Meminfo::META;
     type View<'a> = MeminfoView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Meminfo::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Meminfo::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MeminfoView<'_> {
         MeminfoView::new(payload)
     }
@@ -3894,6 +3914,7 @@ impl<'a> MeminfoView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Meminfo {
         Meminfo::from_view(self)
     }
@@ -4058,31 +4079,34 @@ impl ApAdc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ApAdcView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            adc1: ::mavwire::field::read::<u16>(p, 0),
+            adc2: ::mavwire::field::read::<u16>(p, 2),
+            adc3: ::mavwire::field::read::<u16>(p, 4),
+            adc4: ::mavwire::field::read::<u16>(p, 6),
+            adc5: ::mavwire::field::read::<u16>(p, 8),
+            adc6: ::mavwire::field::read::<u16>(p, 10),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ApAdcView<'_>) -> Self {
-        Self {
-            adc1: view.adc1(),
-            adc2: view.adc2(),
-            adc3: view.adc3(),
-            adc4: view.adc4(),
-            adc5: view.adc5(),
-            adc6: view.adc6(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ApAdcMut::new(payload)?;
-        out.set_adc1(self.adc1);
-        out.set_adc2(self.adc2);
-        out.set_adc3(self.adc3);
-        out.set_adc4(self.adc4);
-        out.set_adc5(self.adc5);
-        out.set_adc6(self.adc6);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.adc1, out, 0);
+        ::mavwire::field::Scalar::write(self.adc2, out, 2);
+        ::mavwire::field::Scalar::write(self.adc3, out, 4);
+        ::mavwire::field::Scalar::write(self.adc4, out, 6);
+        ::mavwire::field::Scalar::write(self.adc5, out, 8);
+        ::mavwire::field::Scalar::write(self.adc6, out, 10);
         Ok(Self::MAX_LEN)
     }
 }
@@ -4090,14 +4114,17 @@ impl ApAdc {
 impl ::mavwire::Message for ApAdc {
     const META: ::mavwire::MessageMeta = ApAdc::META;
     type View<'a> = ApAdcView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ApAdc::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ApAdc::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ApAdcView<'_> {
         ApAdcView::new(payload)
     }
@@ -4126,6 +4153,7 @@ impl<'a> ApAdcView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ApAdc {
         ApAdc::from_view(self)
     }
@@ -4382,41 +4410,44 @@ impl DigicamConfigure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DigicamConfigureView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 6),
+            target_component: ::mavwire::field::read::<u8>(p, 7),
+            mode: ::mavwire::field::read::<u8>(p, 8),
+            shutter_speed: ::mavwire::field::read::<u16>(p, 4),
+            aperture: ::mavwire::field::read::<u8>(p, 9),
+            iso: ::mavwire::field::read::<u8>(p, 10),
+            exposure_type: ::mavwire::field::read::<u8>(p, 11),
+            command_id: ::mavwire::field::read::<u8>(p, 12),
+            engine_cut_off: ::mavwire::field::read::<u8>(p, 13),
+            extra_param: ::mavwire::field::read::<u8>(p, 14),
+            extra_value: ::mavwire::field::read::<f32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DigicamConfigureView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            mode: view.mode(),
-            shutter_speed: view.shutter_speed(),
-            aperture: view.aperture(),
-            iso: view.iso(),
-            exposure_type: view.exposure_type(),
-            command_id: view.command_id(),
-            engine_cut_off: view.engine_cut_off(),
-            extra_param: view.extra_param(),
-            extra_value: view.extra_value(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DigicamConfigureMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_mode(self.mode);
-        out.set_shutter_speed(self.shutter_speed);
-        out.set_aperture(self.aperture);
-        out.set_iso(self.iso);
-        out.set_exposure_type(self.exposure_type);
-        out.set_command_id(self.command_id);
-        out.set_engine_cut_off(self.engine_cut_off);
-        out.set_extra_param(self.extra_param);
-        out.set_extra_value(self.extra_value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 6);
+        ::mavwire::field::Scalar::write(self.target_component, out, 7);
+        ::mavwire::field::Scalar::write(self.mode, out, 8);
+        ::mavwire::field::Scalar::write(self.shutter_speed, out, 4);
+        ::mavwire::field::Scalar::write(self.aperture, out, 9);
+        ::mavwire::field::Scalar::write(self.iso, out, 10);
+        ::mavwire::field::Scalar::write(self.exposure_type, out, 11);
+        ::mavwire::field::Scalar::write(self.command_id, out, 12);
+        ::mavwire::field::Scalar::write(self.engine_cut_off, out, 13);
+        ::mavwire::field::Scalar::write(self.extra_param, out, 14);
+        ::mavwire::field::Scalar::write(self.extra_value, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -4424,14 +4455,17 @@ impl DigicamConfigure {
 impl ::mavwire::Message for DigicamConfigure {
     const META: ::mavwire::MessageMeta = DigicamConfigure::META;
     type View<'a> = DigicamConfigureView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DigicamConfigure::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DigicamConfigure::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DigicamConfigureView<'_> {
         DigicamConfigureView::new(payload)
     }
@@ -4460,6 +4494,7 @@ impl<'a> DigicamConfigureView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DigicamConfigure {
         DigicamConfigure::from_view(self)
     }
@@ -4765,39 +4800,42 @@ impl DigicamControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DigicamControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            session: ::mavwire::field::read::<u8>(p, 6),
+            zoom_pos: ::mavwire::field::read::<u8>(p, 7),
+            zoom_step: ::mavwire::field::read::<i8>(p, 8),
+            focus_lock: ::mavwire::field::read::<u8>(p, 9),
+            shot: ::mavwire::field::read::<u8>(p, 10),
+            command_id: ::mavwire::field::read::<u8>(p, 11),
+            extra_param: ::mavwire::field::read::<u8>(p, 12),
+            extra_value: ::mavwire::field::read::<f32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DigicamControlView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            session: view.session(),
-            zoom_pos: view.zoom_pos(),
-            zoom_step: view.zoom_step(),
-            focus_lock: view.focus_lock(),
-            shot: view.shot(),
-            command_id: view.command_id(),
-            extra_param: view.extra_param(),
-            extra_value: view.extra_value(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DigicamControlMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_session(self.session);
-        out.set_zoom_pos(self.zoom_pos);
-        out.set_zoom_step(self.zoom_step);
-        out.set_focus_lock(self.focus_lock);
-        out.set_shot(self.shot);
-        out.set_command_id(self.command_id);
-        out.set_extra_param(self.extra_param);
-        out.set_extra_value(self.extra_value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.session, out, 6);
+        ::mavwire::field::Scalar::write(self.zoom_pos, out, 7);
+        ::mavwire::field::Scalar::write(self.zoom_step, out, 8);
+        ::mavwire::field::Scalar::write(self.focus_lock, out, 9);
+        ::mavwire::field::Scalar::write(self.shot, out, 10);
+        ::mavwire::field::Scalar::write(self.command_id, out, 11);
+        ::mavwire::field::Scalar::write(self.extra_param, out, 12);
+        ::mavwire::field::Scalar::write(self.extra_value, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -4805,14 +4843,17 @@ impl DigicamControl {
 impl ::mavwire::Message for DigicamControl {
     const META: ::mavwire::MessageMeta = DigicamControl::META;
     type View<'a> = DigicamControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DigicamControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DigicamControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DigicamControlView<'_> {
         DigicamControlView::new(payload)
     }
@@ -4841,6 +4882,7 @@ impl<'a> DigicamControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DigicamControl {
         DigicamControl::from_view(self)
     }
@@ -5090,31 +5132,36 @@ impl MountConfigure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MountConfigureView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            mount_mode: super::common::MavMountMode::from_raw(
+                ::mavwire::field::read::<u8>(p, 2),
+            ),
+            stab_roll: ::mavwire::field::read::<u8>(p, 3),
+            stab_pitch: ::mavwire::field::read::<u8>(p, 4),
+            stab_yaw: ::mavwire::field::read::<u8>(p, 5),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MountConfigureView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            mount_mode: view.mount_mode(),
-            stab_roll: view.stab_roll(),
-            stab_pitch: view.stab_pitch(),
-            stab_yaw: view.stab_yaw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MountConfigureMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_mount_mode(self.mount_mode);
-        out.set_stab_roll(self.stab_roll);
-        out.set_stab_pitch(self.stab_pitch);
-        out.set_stab_yaw(self.stab_yaw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.mount_mode.to_raw(), out, 2);
+        ::mavwire::field::Scalar::write(self.stab_roll, out, 3);
+        ::mavwire::field::Scalar::write(self.stab_pitch, out, 4);
+        ::mavwire::field::Scalar::write(self.stab_yaw, out, 5);
         Ok(Self::MAX_LEN)
     }
 }
@@ -5122,14 +5169,17 @@ impl MountConfigure {
 impl ::mavwire::Message for MountConfigure {
     const META: ::mavwire::MessageMeta = MountConfigure::META;
     type View<'a> = MountConfigureView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MountConfigure::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MountConfigure::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MountConfigureView<'_> {
         MountConfigureView::new(payload)
     }
@@ -5158,6 +5208,7 @@ impl<'a> MountConfigureView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MountConfigure {
         MountConfigure::from_view(self)
     }
@@ -5361,31 +5412,34 @@ impl MountControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MountControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 12),
+            target_component: ::mavwire::field::read::<u8>(p, 13),
+            input_a: ::mavwire::field::read::<i32>(p, 0),
+            input_b: ::mavwire::field::read::<i32>(p, 4),
+            input_c: ::mavwire::field::read::<i32>(p, 8),
+            save_position: ::mavwire::field::read::<u8>(p, 14),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MountControlView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            input_a: view.input_a(),
-            input_b: view.input_b(),
-            input_c: view.input_c(),
-            save_position: view.save_position(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MountControlMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_input_a(self.input_a);
-        out.set_input_b(self.input_b);
-        out.set_input_c(self.input_c);
-        out.set_save_position(self.save_position);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 12);
+        ::mavwire::field::Scalar::write(self.target_component, out, 13);
+        ::mavwire::field::Scalar::write(self.input_a, out, 0);
+        ::mavwire::field::Scalar::write(self.input_b, out, 4);
+        ::mavwire::field::Scalar::write(self.input_c, out, 8);
+        ::mavwire::field::Scalar::write(self.save_position, out, 14);
         Ok(Self::MAX_LEN)
     }
 }
@@ -5393,14 +5447,17 @@ impl MountControl {
 impl ::mavwire::Message for MountControl {
     const META: ::mavwire::MessageMeta = MountControl::META;
     type View<'a> = MountControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MountControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MountControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MountControlView<'_> {
         MountControlView::new(payload)
     }
@@ -5429,6 +5486,7 @@ impl<'a> MountControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MountControl {
         MountControl::from_view(self)
     }
@@ -5630,31 +5688,36 @@ impl MountStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MountStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 12),
+            target_component: ::mavwire::field::read::<u8>(p, 13),
+            pointing_a: ::mavwire::field::read::<i32>(p, 0),
+            pointing_b: ::mavwire::field::read::<i32>(p, 4),
+            pointing_c: ::mavwire::field::read::<i32>(p, 8),
+            mount_mode: super::common::MavMountMode::from_raw(
+                ::mavwire::field::read::<u8>(p, 14),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MountStatusView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            pointing_a: view.pointing_a(),
-            pointing_b: view.pointing_b(),
-            pointing_c: view.pointing_c(),
-            mount_mode: view.mount_mode(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MountStatusMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_pointing_a(self.pointing_a);
-        out.set_pointing_b(self.pointing_b);
-        out.set_pointing_c(self.pointing_c);
-        out.set_mount_mode(self.mount_mode);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 12);
+        ::mavwire::field::Scalar::write(self.target_component, out, 13);
+        ::mavwire::field::Scalar::write(self.pointing_a, out, 0);
+        ::mavwire::field::Scalar::write(self.pointing_b, out, 4);
+        ::mavwire::field::Scalar::write(self.pointing_c, out, 8);
+        ::mavwire::field::Scalar::write(self.mount_mode.to_raw(), out, 14);
         Ok(Self::MAX_LEN)
     }
 }
@@ -5662,14 +5725,17 @@ impl MountStatus {
 impl ::mavwire::Message for MountStatus {
     const META: ::mavwire::MessageMeta = MountStatus::META;
     type View<'a> = MountStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MountStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MountStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MountStatusView<'_> {
         MountStatusView::new(payload)
     }
@@ -5698,6 +5764,7 @@ impl<'a> MountStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MountStatus {
         MountStatus::from_view(self)
     }
@@ -5901,31 +5968,34 @@ impl FencePoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&FencePointView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 8),
+            target_component: ::mavwire::field::read::<u8>(p, 9),
+            idx: ::mavwire::field::read::<u8>(p, 10),
+            count: ::mavwire::field::read::<u8>(p, 11),
+            lat: ::mavwire::field::read::<f32>(p, 0),
+            lng: ::mavwire::field::read::<f32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &FencePointView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            idx: view.idx(),
-            count: view.count(),
-            lat: view.lat(),
-            lng: view.lng(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = FencePointMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_idx(self.idx);
-        out.set_count(self.count);
-        out.set_lat(self.lat);
-        out.set_lng(self.lng);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 8);
+        ::mavwire::field::Scalar::write(self.target_component, out, 9);
+        ::mavwire::field::Scalar::write(self.idx, out, 10);
+        ::mavwire::field::Scalar::write(self.count, out, 11);
+        ::mavwire::field::Scalar::write(self.lat, out, 0);
+        ::mavwire::field::Scalar::write(self.lng, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -5933,14 +6003,17 @@ impl FencePoint {
 impl ::mavwire::Message for FencePoint {
     const META: ::mavwire::MessageMeta = FencePoint::META;
     type View<'a> = FencePointView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         FencePoint::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         FencePoint::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> FencePointView<'_> {
         FencePointView::new(payload)
     }
@@ -5969,6 +6042,7 @@ impl<'a> FencePointView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> FencePoint {
         FencePoint::from_view(self)
     }
@@ -6136,25 +6210,28 @@ impl FenceFetchPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&FenceFetchPointView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            idx: ::mavwire::field::read::<u8>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &FenceFetchPointView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            idx: view.idx(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = FenceFetchPointMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_idx(self.idx);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.idx, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -6162,14 +6239,17 @@ impl FenceFetchPoint {
 impl ::mavwire::Message for FenceFetchPoint {
     const META: ::mavwire::MessageMeta = FenceFetchPoint::META;
     type View<'a> = FenceFetchPointView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         FenceFetchPoint::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         FenceFetchPoint::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> FenceFetchPointView<'_> {
         FenceFetchPointView::new(payload)
     }
@@ -6198,6 +6278,7 @@ impl<'a> FenceFetchPointView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> FenceFetchPoint {
         FenceFetchPoint::from_view(self)
     }
@@ -6373,33 +6454,36 @@ impl Ahrs {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AhrsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            omega_ix: ::mavwire::field::read::<f32>(p, 0),
+            omega_iy: ::mavwire::field::read::<f32>(p, 4),
+            omega_iz: ::mavwire::field::read::<f32>(p, 8),
+            accel_weight: ::mavwire::field::read::<f32>(p, 12),
+            renorm_val: ::mavwire::field::read::<f32>(p, 16),
+            error_rp: ::mavwire::field::read::<f32>(p, 20),
+            error_yaw: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AhrsView<'_>) -> Self {
-        Self {
-            omega_ix: view.omega_ix(),
-            omega_iy: view.omega_iy(),
-            omega_iz: view.omega_iz(),
-            accel_weight: view.accel_weight(),
-            renorm_val: view.renorm_val(),
-            error_rp: view.error_rp(),
-            error_yaw: view.error_yaw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AhrsMut::new(payload)?;
-        out.set_omega_ix(self.omega_ix);
-        out.set_omega_iy(self.omega_iy);
-        out.set_omega_iz(self.omega_iz);
-        out.set_accel_weight(self.accel_weight);
-        out.set_renorm_val(self.renorm_val);
-        out.set_error_rp(self.error_rp);
-        out.set_error_yaw(self.error_yaw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.omega_ix, out, 0);
+        ::mavwire::field::Scalar::write(self.omega_iy, out, 4);
+        ::mavwire::field::Scalar::write(self.omega_iz, out, 8);
+        ::mavwire::field::Scalar::write(self.accel_weight, out, 12);
+        ::mavwire::field::Scalar::write(self.renorm_val, out, 16);
+        ::mavwire::field::Scalar::write(self.error_rp, out, 20);
+        ::mavwire::field::Scalar::write(self.error_yaw, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -6407,14 +6491,17 @@ impl Ahrs {
 impl ::mavwire::Message for Ahrs {
     const META: ::mavwire::MessageMeta = Ahrs::META;
     type View<'a> = AhrsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Ahrs::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Ahrs::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AhrsView<'_> {
         AhrsView::new(payload)
     }
@@ -6443,6 +6530,7 @@ impl<'a> AhrsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Ahrs {
         Ahrs::from_view(self)
     }
@@ -6710,41 +6798,44 @@ impl Simstate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SimstateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            roll: ::mavwire::field::read::<f32>(p, 0),
+            pitch: ::mavwire::field::read::<f32>(p, 4),
+            yaw: ::mavwire::field::read::<f32>(p, 8),
+            xacc: ::mavwire::field::read::<f32>(p, 12),
+            yacc: ::mavwire::field::read::<f32>(p, 16),
+            zacc: ::mavwire::field::read::<f32>(p, 20),
+            xgyro: ::mavwire::field::read::<f32>(p, 24),
+            ygyro: ::mavwire::field::read::<f32>(p, 28),
+            zgyro: ::mavwire::field::read::<f32>(p, 32),
+            lat: ::mavwire::field::read::<i32>(p, 36),
+            lng: ::mavwire::field::read::<i32>(p, 40),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SimstateView<'_>) -> Self {
-        Self {
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            lat: view.lat(),
-            lng: view.lng(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SimstateMut::new(payload)?;
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_lat(self.lat);
-        out.set_lng(self.lng);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.roll, out, 0);
+        ::mavwire::field::Scalar::write(self.pitch, out, 4);
+        ::mavwire::field::Scalar::write(self.yaw, out, 8);
+        ::mavwire::field::Scalar::write(self.xacc, out, 12);
+        ::mavwire::field::Scalar::write(self.yacc, out, 16);
+        ::mavwire::field::Scalar::write(self.zacc, out, 20);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 24);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 28);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 32);
+        ::mavwire::field::Scalar::write(self.lat, out, 36);
+        ::mavwire::field::Scalar::write(self.lng, out, 40);
         Ok(Self::MAX_LEN)
     }
 }
@@ -6752,14 +6843,17 @@ impl Simstate {
 impl ::mavwire::Message for Simstate {
     const META: ::mavwire::MessageMeta = Simstate::META;
     type View<'a> = SimstateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Simstate::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Simstate::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SimstateView<'_> {
         SimstateView::new(payload)
     }
@@ -6788,6 +6882,7 @@ impl<'a> SimstateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Simstate {
         Simstate::from_view(self)
     }
@@ -7006,23 +7101,26 @@ impl Hwstatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HwstatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            vcc: ::mavwire::field::read::<u16>(p, 0),
+            i2_cerr: ::mavwire::field::read::<u8>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HwstatusView<'_>) -> Self {
-        Self {
-            vcc: view.vcc(),
-            i2_cerr: view.i2_cerr(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HwstatusMut::new(payload)?;
-        out.set_vcc(self.vcc);
-        out.set_i2_cerr(self.i2_cerr);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.vcc, out, 0);
+        ::mavwire::field::Scalar::write(self.i2_cerr, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -7030,14 +7128,17 @@ impl Hwstatus {
 impl ::mavwire::Message for Hwstatus {
     const META: ::mavwire::MessageMeta = Hwstatus::META;
     type View<'a> = HwstatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Hwstatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Hwstatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HwstatusView<'_> {
         HwstatusView::new(payload)
     }
@@ -7066,6 +7167,7 @@ impl<'a> HwstatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Hwstatus {
         Hwstatus::from_view(self)
     }
@@ -7229,33 +7331,36 @@ impl Radio {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RadioView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            rssi: ::mavwire::field::read::<u8>(p, 4),
+            remrssi: ::mavwire::field::read::<u8>(p, 5),
+            txbuf: ::mavwire::field::read::<u8>(p, 6),
+            noise: ::mavwire::field::read::<u8>(p, 7),
+            remnoise: ::mavwire::field::read::<u8>(p, 8),
+            rxerrors: ::mavwire::field::read::<u16>(p, 0),
+            fixed: ::mavwire::field::read::<u16>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RadioView<'_>) -> Self {
-        Self {
-            rssi: view.rssi(),
-            remrssi: view.remrssi(),
-            txbuf: view.txbuf(),
-            noise: view.noise(),
-            remnoise: view.remnoise(),
-            rxerrors: view.rxerrors(),
-            fixed: view.fixed(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RadioMut::new(payload)?;
-        out.set_rssi(self.rssi);
-        out.set_remrssi(self.remrssi);
-        out.set_txbuf(self.txbuf);
-        out.set_noise(self.noise);
-        out.set_remnoise(self.remnoise);
-        out.set_rxerrors(self.rxerrors);
-        out.set_fixed(self.fixed);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.rssi, out, 4);
+        ::mavwire::field::Scalar::write(self.remrssi, out, 5);
+        ::mavwire::field::Scalar::write(self.txbuf, out, 6);
+        ::mavwire::field::Scalar::write(self.noise, out, 7);
+        ::mavwire::field::Scalar::write(self.remnoise, out, 8);
+        ::mavwire::field::Scalar::write(self.rxerrors, out, 0);
+        ::mavwire::field::Scalar::write(self.fixed, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -7263,14 +7368,17 @@ impl Radio {
 impl ::mavwire::Message for Radio {
     const META: ::mavwire::MessageMeta = Radio::META;
     type View<'a> = RadioView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Radio::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Radio::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RadioView<'_> {
         RadioView::new(payload)
     }
@@ -7299,6 +7407,7 @@ impl<'a> RadioView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Radio {
         Radio::from_view(self)
     }
@@ -7544,37 +7653,46 @@ impl LimitsStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LimitsStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            limits_state: LimitsState::from_raw(::mavwire::field::read::<u8>(p, 18)),
+            last_trigger: ::mavwire::field::read::<u32>(p, 0),
+            last_action: ::mavwire::field::read::<u32>(p, 4),
+            last_recovery: ::mavwire::field::read::<u32>(p, 8),
+            last_clear: ::mavwire::field::read::<u32>(p, 12),
+            breach_count: ::mavwire::field::read::<u16>(p, 16),
+            mods_enabled: LimitModule::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 19),
+            ),
+            mods_required: LimitModule::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 20),
+            ),
+            mods_triggered: LimitModule::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 21),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LimitsStatusView<'_>) -> Self {
-        Self {
-            limits_state: view.limits_state(),
-            last_trigger: view.last_trigger(),
-            last_action: view.last_action(),
-            last_recovery: view.last_recovery(),
-            last_clear: view.last_clear(),
-            breach_count: view.breach_count(),
-            mods_enabled: view.mods_enabled(),
-            mods_required: view.mods_required(),
-            mods_triggered: view.mods_triggered(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LimitsStatusMut::new(payload)?;
-        out.set_limits_state(self.limits_state);
-        out.set_last_trigger(self.last_trigger);
-        out.set_last_action(self.last_action);
-        out.set_last_recovery(self.last_recovery);
-        out.set_last_clear(self.last_clear);
-        out.set_breach_count(self.breach_count);
-        out.set_mods_enabled(self.mods_enabled);
-        out.set_mods_required(self.mods_required);
-        out.set_mods_triggered(self.mods_triggered);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.limits_state.to_raw(), out, 18);
+        ::mavwire::field::Scalar::write(self.last_trigger, out, 0);
+        ::mavwire::field::Scalar::write(self.last_action, out, 4);
+        ::mavwire::field::Scalar::write(self.last_recovery, out, 8);
+        ::mavwire::field::Scalar::write(self.last_clear, out, 12);
+        ::mavwire::field::Scalar::write(self.breach_count, out, 16);
+        ::mavwire::field::Scalar::write(self.mods_enabled.bits(), out, 19);
+        ::mavwire::field::Scalar::write(self.mods_required.bits(), out, 20);
+        ::mavwire::field::Scalar::write(self.mods_triggered.bits(), out, 21);
         Ok(Self::MAX_LEN)
     }
 }
@@ -7582,14 +7700,17 @@ impl LimitsStatus {
 impl ::mavwire::Message for LimitsStatus {
     const META: ::mavwire::MessageMeta = LimitsStatus::META;
     type View<'a> = LimitsStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LimitsStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LimitsStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LimitsStatusView<'_> {
         LimitsStatusView::new(payload)
     }
@@ -7618,6 +7739,7 @@ impl<'a> LimitsStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LimitsStatus {
         LimitsStatus::from_view(self)
     }
@@ -7821,25 +7943,28 @@ impl Wind {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&WindView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            direction: ::mavwire::field::read::<f32>(p, 0),
+            speed: ::mavwire::field::read::<f32>(p, 4),
+            speed_z: ::mavwire::field::read::<f32>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &WindView<'_>) -> Self {
-        Self {
-            direction: view.direction(),
-            speed: view.speed(),
-            speed_z: view.speed_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = WindMut::new(payload)?;
-        out.set_direction(self.direction);
-        out.set_speed(self.speed);
-        out.set_speed_z(self.speed_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.direction, out, 0);
+        ::mavwire::field::Scalar::write(self.speed, out, 4);
+        ::mavwire::field::Scalar::write(self.speed_z, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -7847,14 +7972,17 @@ impl Wind {
 impl ::mavwire::Message for Wind {
     const META: ::mavwire::MessageMeta = Wind::META;
     type View<'a> = WindView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Wind::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Wind::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> WindView<'_> {
         WindView::new(payload)
     }
@@ -7883,6 +8011,7 @@ impl<'a> WindView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Wind {
         Wind::from_view(self)
     }
@@ -8014,25 +8143,28 @@ impl Data16 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Data16View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            r#type: ::mavwire::field::read::<u8>(p, 0),
+            len: ::mavwire::field::read::<u8>(p, 1),
+            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Data16View<'_>) -> Self {
-        Self {
-            r#type: view.r#type(),
-            len: view.len(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Data16Mut::new(payload)?;
-        out.set_type(self.r#type);
-        out.set_len(self.len);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.r#type, out, 0);
+        ::mavwire::field::Scalar::write(self.len, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -8040,14 +8172,17 @@ impl Data16 {
 impl ::mavwire::Message for Data16 {
     const META: ::mavwire::MessageMeta = Data16::META;
     type View<'a> = Data16View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Data16::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Data16::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Data16View<'_> {
         Data16View::new(payload)
     }
@@ -8076,6 +8211,7 @@ impl<'a> Data16View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Data16 {
         Data16::from_view(self)
     }
@@ -8207,25 +8343,28 @@ impl Data32 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Data32View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            r#type: ::mavwire::field::read::<u8>(p, 0),
+            len: ::mavwire::field::read::<u8>(p, 1),
+            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Data32View<'_>) -> Self {
-        Self {
-            r#type: view.r#type(),
-            len: view.len(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Data32Mut::new(payload)?;
-        out.set_type(self.r#type);
-        out.set_len(self.len);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.r#type, out, 0);
+        ::mavwire::field::Scalar::write(self.len, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -8233,14 +8372,17 @@ impl Data32 {
 impl ::mavwire::Message for Data32 {
     const META: ::mavwire::MessageMeta = Data32::META;
     type View<'a> = Data32View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Data32::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Data32::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Data32View<'_> {
         Data32View::new(payload)
     }
@@ -8269,6 +8411,7 @@ impl<'a> Data32View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Data32 {
         Data32::from_view(self)
     }
@@ -8400,25 +8543,28 @@ impl Data64 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Data64View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            r#type: ::mavwire::field::read::<u8>(p, 0),
+            len: ::mavwire::field::read::<u8>(p, 1),
+            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Data64View<'_>) -> Self {
-        Self {
-            r#type: view.r#type(),
-            len: view.len(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Data64Mut::new(payload)?;
-        out.set_type(self.r#type);
-        out.set_len(self.len);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.r#type, out, 0);
+        ::mavwire::field::Scalar::write(self.len, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -8436,14 +8582,17 @@ impl Default for Data64 {
 impl ::mavwire::Message for Data64 {
     const META: ::mavwire::MessageMeta = Data64::META;
     type View<'a> = Data64View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Data64::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Data64::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Data64View<'_> {
         Data64View::new(payload)
     }
@@ -8472,6 +8621,7 @@ impl<'a> Data64View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Data64 {
         Data64::from_view(self)
     }
@@ -8603,25 +8753,28 @@ impl Data96 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Data96View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            r#type: ::mavwire::field::read::<u8>(p, 0),
+            len: ::mavwire::field::read::<u8>(p, 1),
+            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Data96View<'_>) -> Self {
-        Self {
-            r#type: view.r#type(),
-            len: view.len(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Data96Mut::new(payload)?;
-        out.set_type(self.r#type);
-        out.set_len(self.len);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.r#type, out, 0);
+        ::mavwire::field::Scalar::write(self.len, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -8639,14 +8792,17 @@ impl Default for Data96 {
 impl ::mavwire::Message for Data96 {
     const META: ::mavwire::MessageMeta = Data96::META;
     type View<'a> = Data96View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Data96::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Data96::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Data96View<'_> {
         Data96View::new(payload)
     }
@@ -8675,6 +8831,7 @@ impl<'a> Data96View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Data96 {
         Data96::from_view(self)
     }
@@ -8795,23 +8952,26 @@ impl Rangefinder {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RangefinderView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            distance: ::mavwire::field::read::<f32>(p, 0),
+            voltage: ::mavwire::field::read::<f32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RangefinderView<'_>) -> Self {
-        Self {
-            distance: view.distance(),
-            voltage: view.voltage(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RangefinderMut::new(payload)?;
-        out.set_distance(self.distance);
-        out.set_voltage(self.voltage);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.distance, out, 0);
+        ::mavwire::field::Scalar::write(self.voltage, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -8819,14 +8979,17 @@ impl Rangefinder {
 impl ::mavwire::Message for Rangefinder {
     const META: ::mavwire::MessageMeta = Rangefinder::META;
     type View<'a> = RangefinderView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Rangefinder::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Rangefinder::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RangefinderView<'_> {
         RangefinderView::new(payload)
     }
@@ -8855,6 +9018,7 @@ impl<'a> RangefinderView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Rangefinder {
         Rangefinder::from_view(self)
     }
@@ -9073,43 +9237,46 @@ impl AirspeedAutocal {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AirspeedAutocalView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            vx: ::mavwire::field::read::<f32>(p, 0),
+            vy: ::mavwire::field::read::<f32>(p, 4),
+            vz: ::mavwire::field::read::<f32>(p, 8),
+            diff_pressure: ::mavwire::field::read::<f32>(p, 12),
+            eas2_tas: ::mavwire::field::read::<f32>(p, 16),
+            ratio: ::mavwire::field::read::<f32>(p, 20),
+            state_x: ::mavwire::field::read::<f32>(p, 24),
+            state_y: ::mavwire::field::read::<f32>(p, 28),
+            state_z: ::mavwire::field::read::<f32>(p, 32),
+            pax: ::mavwire::field::read::<f32>(p, 36),
+            pby: ::mavwire::field::read::<f32>(p, 40),
+            pcz: ::mavwire::field::read::<f32>(p, 44),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AirspeedAutocalView<'_>) -> Self {
-        Self {
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            diff_pressure: view.diff_pressure(),
-            eas2_tas: view.eas2_tas(),
-            ratio: view.ratio(),
-            state_x: view.state_x(),
-            state_y: view.state_y(),
-            state_z: view.state_z(),
-            pax: view.pax(),
-            pby: view.pby(),
-            pcz: view.pcz(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AirspeedAutocalMut::new(payload)?;
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_diff_pressure(self.diff_pressure);
-        out.set_eas2_tas(self.eas2_tas);
-        out.set_ratio(self.ratio);
-        out.set_state_x(self.state_x);
-        out.set_state_y(self.state_y);
-        out.set_state_z(self.state_z);
-        out.set_pax(self.pax);
-        out.set_pby(self.pby);
-        out.set_pcz(self.pcz);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.vx, out, 0);
+        ::mavwire::field::Scalar::write(self.vy, out, 4);
+        ::mavwire::field::Scalar::write(self.vz, out, 8);
+        ::mavwire::field::Scalar::write(self.diff_pressure, out, 12);
+        ::mavwire::field::Scalar::write(self.eas2_tas, out, 16);
+        ::mavwire::field::Scalar::write(self.ratio, out, 20);
+        ::mavwire::field::Scalar::write(self.state_x, out, 24);
+        ::mavwire::field::Scalar::write(self.state_y, out, 28);
+        ::mavwire::field::Scalar::write(self.state_z, out, 32);
+        ::mavwire::field::Scalar::write(self.pax, out, 36);
+        ::mavwire::field::Scalar::write(self.pby, out, 40);
+        ::mavwire::field::Scalar::write(self.pcz, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
@@ -9117,14 +9284,17 @@ impl AirspeedAutocal {
 impl ::mavwire::Message for AirspeedAutocal {
     const META: ::mavwire::MessageMeta = AirspeedAutocal::META;
     type View<'a> = AirspeedAutocalView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AirspeedAutocal::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AirspeedAutocal::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AirspeedAutocalView<'_> {
         AirspeedAutocalView::new(payload)
     }
@@ -9153,6 +9323,7 @@ impl<'a> AirspeedAutocalView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AirspeedAutocal {
         AirspeedAutocal::from_view(self)
     }
@@ -9470,39 +9641,42 @@ impl RallyPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RallyPointView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 14),
+            target_component: ::mavwire::field::read::<u8>(p, 15),
+            idx: ::mavwire::field::read::<u8>(p, 16),
+            count: ::mavwire::field::read::<u8>(p, 17),
+            lat: ::mavwire::field::read::<i32>(p, 0),
+            lng: ::mavwire::field::read::<i32>(p, 4),
+            alt: ::mavwire::field::read::<i16>(p, 8),
+            break_alt: ::mavwire::field::read::<i16>(p, 10),
+            land_dir: ::mavwire::field::read::<u16>(p, 12),
+            flags: RallyFlags::from_raw(::mavwire::field::read::<u8>(p, 18)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RallyPointView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            idx: view.idx(),
-            count: view.count(),
-            lat: view.lat(),
-            lng: view.lng(),
-            alt: view.alt(),
-            break_alt: view.break_alt(),
-            land_dir: view.land_dir(),
-            flags: view.flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RallyPointMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_idx(self.idx);
-        out.set_count(self.count);
-        out.set_lat(self.lat);
-        out.set_lng(self.lng);
-        out.set_alt(self.alt);
-        out.set_break_alt(self.break_alt);
-        out.set_land_dir(self.land_dir);
-        out.set_flags(self.flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 14);
+        ::mavwire::field::Scalar::write(self.target_component, out, 15);
+        ::mavwire::field::Scalar::write(self.idx, out, 16);
+        ::mavwire::field::Scalar::write(self.count, out, 17);
+        ::mavwire::field::Scalar::write(self.lat, out, 0);
+        ::mavwire::field::Scalar::write(self.lng, out, 4);
+        ::mavwire::field::Scalar::write(self.alt, out, 8);
+        ::mavwire::field::Scalar::write(self.break_alt, out, 10);
+        ::mavwire::field::Scalar::write(self.land_dir, out, 12);
+        ::mavwire::field::Scalar::write(self.flags.to_raw(), out, 18);
         Ok(Self::MAX_LEN)
     }
 }
@@ -9510,14 +9684,17 @@ impl RallyPoint {
 impl ::mavwire::Message for RallyPoint {
     const META: ::mavwire::MessageMeta = RallyPoint::META;
     type View<'a> = RallyPointView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RallyPoint::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RallyPoint::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RallyPointView<'_> {
         RallyPointView::new(payload)
     }
@@ -9546,6 +9723,7 @@ impl<'a> RallyPointView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RallyPoint {
         RallyPoint::from_view(self)
     }
@@ -9762,25 +9940,28 @@ impl RallyFetchPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RallyFetchPointView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            idx: ::mavwire::field::read::<u8>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RallyFetchPointView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            idx: view.idx(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RallyFetchPointMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_idx(self.idx);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.idx, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -9788,14 +9969,17 @@ impl RallyFetchPoint {
 impl ::mavwire::Message for RallyFetchPoint {
     const META: ::mavwire::MessageMeta = RallyFetchPoint::META;
     type View<'a> = RallyFetchPointView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RallyFetchPoint::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RallyFetchPoint::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RallyFetchPointView<'_> {
         RallyFetchPointView::new(payload)
     }
@@ -9824,6 +10008,7 @@ impl<'a> RallyFetchPointView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RallyFetchPoint {
         RallyFetchPoint::from_view(self)
     }
@@ -9988,31 +10173,34 @@ impl CompassmotStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CompassmotStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            throttle: ::mavwire::field::read::<u16>(p, 16),
+            current: ::mavwire::field::read::<f32>(p, 0),
+            interference: ::mavwire::field::read::<u16>(p, 18),
+            compensation_x: ::mavwire::field::read::<f32>(p, 4),
+            compensation_y: ::mavwire::field::read::<f32>(p, 8),
+            compensation_z: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CompassmotStatusView<'_>) -> Self {
-        Self {
-            throttle: view.throttle(),
-            current: view.current(),
-            interference: view.interference(),
-            compensation_x: view.compensation_x(),
-            compensation_y: view.compensation_y(),
-            compensation_z: view.compensation_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CompassmotStatusMut::new(payload)?;
-        out.set_throttle(self.throttle);
-        out.set_current(self.current);
-        out.set_interference(self.interference);
-        out.set_compensation_x(self.compensation_x);
-        out.set_compensation_y(self.compensation_y);
-        out.set_compensation_z(self.compensation_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.throttle, out, 16);
+        ::mavwire::field::Scalar::write(self.current, out, 0);
+        ::mavwire::field::Scalar::write(self.interference, out, 18);
+        ::mavwire::field::Scalar::write(self.compensation_x, out, 4);
+        ::mavwire::field::Scalar::write(self.compensation_y, out, 8);
+        ::mavwire::field::Scalar::write(self.compensation_z, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -10020,14 +10208,17 @@ impl CompassmotStatus {
 impl ::mavwire::Message for CompassmotStatus {
     const META: ::mavwire::MessageMeta = CompassmotStatus::META;
     type View<'a> = CompassmotStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CompassmotStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CompassmotStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CompassmotStatusView<'_> {
         CompassmotStatusView::new(payload)
     }
@@ -10056,6 +10247,7 @@ impl<'a> CompassmotStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CompassmotStatus {
         CompassmotStatus::from_view(self)
     }
@@ -10256,31 +10448,34 @@ impl Ahrs2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Ahrs2View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            roll: ::mavwire::field::read::<f32>(p, 0),
+            pitch: ::mavwire::field::read::<f32>(p, 4),
+            yaw: ::mavwire::field::read::<f32>(p, 8),
+            altitude: ::mavwire::field::read::<f32>(p, 12),
+            lat: ::mavwire::field::read::<i32>(p, 16),
+            lng: ::mavwire::field::read::<i32>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Ahrs2View<'_>) -> Self {
-        Self {
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            altitude: view.altitude(),
-            lat: view.lat(),
-            lng: view.lng(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Ahrs2Mut::new(payload)?;
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_altitude(self.altitude);
-        out.set_lat(self.lat);
-        out.set_lng(self.lng);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.roll, out, 0);
+        ::mavwire::field::Scalar::write(self.pitch, out, 4);
+        ::mavwire::field::Scalar::write(self.yaw, out, 8);
+        ::mavwire::field::Scalar::write(self.altitude, out, 12);
+        ::mavwire::field::Scalar::write(self.lat, out, 16);
+        ::mavwire::field::Scalar::write(self.lng, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -10288,14 +10483,17 @@ impl Ahrs2 {
 impl ::mavwire::Message for Ahrs2 {
     const META: ::mavwire::MessageMeta = Ahrs2::META;
     type View<'a> = Ahrs2View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Ahrs2::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Ahrs2::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Ahrs2View<'_> {
         Ahrs2View::new(payload)
     }
@@ -10324,6 +10522,7 @@ impl<'a> Ahrs2View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Ahrs2 {
         Ahrs2::from_view(self)
     }
@@ -10558,37 +10757,40 @@ impl CameraStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            target_system: ::mavwire::field::read::<u8>(p, 26),
+            cam_idx: ::mavwire::field::read::<u8>(p, 27),
+            img_idx: ::mavwire::field::read::<u16>(p, 24),
+            event_id: CameraStatusTypes::from_raw(::mavwire::field::read::<u8>(p, 28)),
+            p1: ::mavwire::field::read::<f32>(p, 8),
+            p2: ::mavwire::field::read::<f32>(p, 12),
+            p3: ::mavwire::field::read::<f32>(p, 16),
+            p4: ::mavwire::field::read::<f32>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraStatusView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            target_system: view.target_system(),
-            cam_idx: view.cam_idx(),
-            img_idx: view.img_idx(),
-            event_id: view.event_id(),
-            p1: view.p1(),
-            p2: view.p2(),
-            p3: view.p3(),
-            p4: view.p4(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraStatusMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_target_system(self.target_system);
-        out.set_cam_idx(self.cam_idx);
-        out.set_img_idx(self.img_idx);
-        out.set_event_id(self.event_id);
-        out.set_p1(self.p1);
-        out.set_p2(self.p2);
-        out.set_p3(self.p3);
-        out.set_p4(self.p4);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.target_system, out, 26);
+        ::mavwire::field::Scalar::write(self.cam_idx, out, 27);
+        ::mavwire::field::Scalar::write(self.img_idx, out, 24);
+        ::mavwire::field::Scalar::write(self.event_id.to_raw(), out, 28);
+        ::mavwire::field::Scalar::write(self.p1, out, 8);
+        ::mavwire::field::Scalar::write(self.p2, out, 12);
+        ::mavwire::field::Scalar::write(self.p3, out, 16);
+        ::mavwire::field::Scalar::write(self.p4, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -10596,14 +10798,17 @@ impl CameraStatus {
 impl ::mavwire::Message for CameraStatus {
     const META: ::mavwire::MessageMeta = CameraStatus::META;
     type View<'a> = CameraStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraStatusView<'_> {
         CameraStatusView::new(payload)
     }
@@ -10632,6 +10837,7 @@ impl<'a> CameraStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraStatus {
         CameraStatus::from_view(self)
     }
@@ -10959,47 +11165,50 @@ impl CameraFeedback {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraFeedbackView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            target_system: ::mavwire::field::read::<u8>(p, 42),
+            cam_idx: ::mavwire::field::read::<u8>(p, 43),
+            img_idx: ::mavwire::field::read::<u16>(p, 40),
+            lat: ::mavwire::field::read::<i32>(p, 8),
+            lng: ::mavwire::field::read::<i32>(p, 12),
+            alt_msl: ::mavwire::field::read::<f32>(p, 16),
+            alt_rel: ::mavwire::field::read::<f32>(p, 20),
+            roll: ::mavwire::field::read::<f32>(p, 24),
+            pitch: ::mavwire::field::read::<f32>(p, 28),
+            yaw: ::mavwire::field::read::<f32>(p, 32),
+            foc_len: ::mavwire::field::read::<f32>(p, 36),
+            flags: CameraFeedbackFlags::from_raw(::mavwire::field::read::<u8>(p, 44)),
+            completed_captures: ::mavwire::field::read::<u16>(p, 45),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraFeedbackView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            target_system: view.target_system(),
-            cam_idx: view.cam_idx(),
-            img_idx: view.img_idx(),
-            lat: view.lat(),
-            lng: view.lng(),
-            alt_msl: view.alt_msl(),
-            alt_rel: view.alt_rel(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            foc_len: view.foc_len(),
-            flags: view.flags(),
-            completed_captures: view.completed_captures(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraFeedbackMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_target_system(self.target_system);
-        out.set_cam_idx(self.cam_idx);
-        out.set_img_idx(self.img_idx);
-        out.set_lat(self.lat);
-        out.set_lng(self.lng);
-        out.set_alt_msl(self.alt_msl);
-        out.set_alt_rel(self.alt_rel);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_foc_len(self.foc_len);
-        out.set_flags(self.flags);
-        out.set_completed_captures(self.completed_captures);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.target_system, out, 42);
+        ::mavwire::field::Scalar::write(self.cam_idx, out, 43);
+        ::mavwire::field::Scalar::write(self.img_idx, out, 40);
+        ::mavwire::field::Scalar::write(self.lat, out, 8);
+        ::mavwire::field::Scalar::write(self.lng, out, 12);
+        ::mavwire::field::Scalar::write(self.alt_msl, out, 16);
+        ::mavwire::field::Scalar::write(self.alt_rel, out, 20);
+        ::mavwire::field::Scalar::write(self.roll, out, 24);
+        ::mavwire::field::Scalar::write(self.pitch, out, 28);
+        ::mavwire::field::Scalar::write(self.yaw, out, 32);
+        ::mavwire::field::Scalar::write(self.foc_len, out, 36);
+        ::mavwire::field::Scalar::write(self.flags.to_raw(), out, 44);
+        ::mavwire::field::Scalar::write(self.completed_captures, out, 45);
         Ok(Self::MAX_LEN)
     }
 }
@@ -11007,14 +11216,17 @@ impl CameraFeedback {
 impl ::mavwire::Message for CameraFeedback {
     const META: ::mavwire::MessageMeta = CameraFeedback::META;
     type View<'a> = CameraFeedbackView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraFeedback::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraFeedback::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraFeedbackView<'_> {
         CameraFeedbackView::new(payload)
     }
@@ -11043,6 +11255,7 @@ impl<'a> CameraFeedbackView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraFeedback {
         CameraFeedback::from_view(self)
     }
@@ -11296,23 +11509,26 @@ impl Battery2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Battery2View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            voltage: ::mavwire::field::read::<u16>(p, 0),
+            current_battery: ::mavwire::field::read::<i16>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Battery2View<'_>) -> Self {
-        Self {
-            voltage: view.voltage(),
-            current_battery: view.current_battery(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Battery2Mut::new(payload)?;
-        out.set_voltage(self.voltage);
-        out.set_current_battery(self.current_battery);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.voltage, out, 0);
+        ::mavwire::field::Scalar::write(self.current_battery, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -11320,14 +11536,17 @@ impl Battery2 {
 impl ::mavwire::Message for Battery2 {
     const META: ::mavwire::MessageMeta = Battery2::META;
     type View<'a> = Battery2View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Battery2::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Battery2::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Battery2View<'_> {
         Battery2View::new(payload)
     }
@@ -11356,6 +11575,7 @@ impl<'a> Battery2View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Battery2 {
         Battery2::from_view(self)
     }
@@ -11552,39 +11772,42 @@ impl Ahrs3 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Ahrs3View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            roll: ::mavwire::field::read::<f32>(p, 0),
+            pitch: ::mavwire::field::read::<f32>(p, 4),
+            yaw: ::mavwire::field::read::<f32>(p, 8),
+            altitude: ::mavwire::field::read::<f32>(p, 12),
+            lat: ::mavwire::field::read::<i32>(p, 16),
+            lng: ::mavwire::field::read::<i32>(p, 20),
+            v1: ::mavwire::field::read::<f32>(p, 24),
+            v2: ::mavwire::field::read::<f32>(p, 28),
+            v3: ::mavwire::field::read::<f32>(p, 32),
+            v4: ::mavwire::field::read::<f32>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Ahrs3View<'_>) -> Self {
-        Self {
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            altitude: view.altitude(),
-            lat: view.lat(),
-            lng: view.lng(),
-            v1: view.v1(),
-            v2: view.v2(),
-            v3: view.v3(),
-            v4: view.v4(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Ahrs3Mut::new(payload)?;
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_altitude(self.altitude);
-        out.set_lat(self.lat);
-        out.set_lng(self.lng);
-        out.set_v1(self.v1);
-        out.set_v2(self.v2);
-        out.set_v3(self.v3);
-        out.set_v4(self.v4);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.roll, out, 0);
+        ::mavwire::field::Scalar::write(self.pitch, out, 4);
+        ::mavwire::field::Scalar::write(self.yaw, out, 8);
+        ::mavwire::field::Scalar::write(self.altitude, out, 12);
+        ::mavwire::field::Scalar::write(self.lat, out, 16);
+        ::mavwire::field::Scalar::write(self.lng, out, 20);
+        ::mavwire::field::Scalar::write(self.v1, out, 24);
+        ::mavwire::field::Scalar::write(self.v2, out, 28);
+        ::mavwire::field::Scalar::write(self.v3, out, 32);
+        ::mavwire::field::Scalar::write(self.v4, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -11592,14 +11815,17 @@ impl Ahrs3 {
 impl ::mavwire::Message for Ahrs3 {
     const META: ::mavwire::MessageMeta = Ahrs3::META;
     type View<'a> = Ahrs3View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Ahrs3::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Ahrs3::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Ahrs3View<'_> {
         Ahrs3View::new(payload)
     }
@@ -11628,6 +11854,7 @@ impl<'a> Ahrs3View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Ahrs3 {
         Ahrs3::from_view(self)
     }
@@ -11832,23 +12059,26 @@ impl AutopilotVersionRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AutopilotVersionRequestView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AutopilotVersionRequestView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AutopilotVersionRequestMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
         Ok(Self::MAX_LEN)
     }
 }
@@ -11856,14 +12086,17 @@ impl AutopilotVersionRequest {
 impl ::mavwire::Message for AutopilotVersionRequest {
     const META: ::mavwire::MessageMeta = AutopilotVersionRequest::META;
     type View<'a> = AutopilotVersionRequestView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AutopilotVersionRequest::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AutopilotVersionRequest::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AutopilotVersionRequestView<'_> {
         AutopilotVersionRequestView::new(payload)
     }
@@ -11892,6 +12125,7 @@ impl<'a> AutopilotVersionRequestView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AutopilotVersionRequest {
         AutopilotVersionRequest::from_view(self)
     }
@@ -12023,27 +12257,32 @@ impl RemoteLogDataBlock {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RemoteLogDataBlockView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            seqno: MavRemoteLogDataBlockCommands::from_raw(
+                ::mavwire::field::read::<u32>(p, 0),
+            ),
+            data: ::mavwire::field::ArrayView::new(p, 6).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RemoteLogDataBlockView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            seqno: view.seqno(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RemoteLogDataBlockMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_seqno(self.seqno);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.seqno.to_raw(), out, 0);
+        ::mavwire::field::write_array(out, 6, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12062,14 +12301,17 @@ impl Default for RemoteLogDataBlock {
 impl ::mavwire::Message for RemoteLogDataBlock {
     const META: ::mavwire::MessageMeta = RemoteLogDataBlock::META;
     type View<'a> = RemoteLogDataBlockView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RemoteLogDataBlock::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RemoteLogDataBlock::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RemoteLogDataBlockView<'_> {
         RemoteLogDataBlockView::new(payload)
     }
@@ -12098,6 +12340,7 @@ impl<'a> RemoteLogDataBlockView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RemoteLogDataBlock {
         RemoteLogDataBlock::from_view(self)
     }
@@ -12255,27 +12498,32 @@ impl RemoteLogBlockStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RemoteLogBlockStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            seqno: ::mavwire::field::read::<u32>(p, 0),
+            status: MavRemoteLogDataBlockStatuses::from_raw(
+                ::mavwire::field::read::<u8>(p, 6),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RemoteLogBlockStatusView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            seqno: view.seqno(),
-            status: view.status(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RemoteLogBlockStatusMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_seqno(self.seqno);
-        out.set_status(self.status);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.seqno, out, 0);
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 6);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12283,14 +12531,17 @@ impl RemoteLogBlockStatus {
 impl ::mavwire::Message for RemoteLogBlockStatus {
     const META: ::mavwire::MessageMeta = RemoteLogBlockStatus::META;
     type View<'a> = RemoteLogBlockStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RemoteLogBlockStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RemoteLogBlockStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RemoteLogBlockStatusView<'_> {
         RemoteLogBlockStatusView::new(payload)
     }
@@ -12319,6 +12570,7 @@ impl<'a> RemoteLogBlockStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RemoteLogBlockStatus {
         RemoteLogBlockStatus::from_view(self)
     }
@@ -12497,31 +12749,34 @@ impl LedControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LedControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            instance: ::mavwire::field::read::<u8>(p, 2),
+            pattern: ::mavwire::field::read::<u8>(p, 3),
+            custom_len: ::mavwire::field::read::<u8>(p, 4),
+            custom_bytes: ::mavwire::field::ArrayView::new(p, 5).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LedControlView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            instance: view.instance(),
-            pattern: view.pattern(),
-            custom_len: view.custom_len(),
-            custom_bytes: view.custom_bytes().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LedControlMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_instance(self.instance);
-        out.set_pattern(self.pattern);
-        out.set_custom_len(self.custom_len);
-        out.set_custom_bytes(&self.custom_bytes);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.instance, out, 2);
+        ::mavwire::field::Scalar::write(self.pattern, out, 3);
+        ::mavwire::field::Scalar::write(self.custom_len, out, 4);
+        ::mavwire::field::write_array(out, 5, &self.custom_bytes);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12529,14 +12784,17 @@ impl LedControl {
 impl ::mavwire::Message for LedControl {
     const META: ::mavwire::MessageMeta = LedControl::META;
     type View<'a> = LedControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LedControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LedControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LedControlView<'_> {
         LedControlView::new(payload)
     }
@@ -12565,6 +12823,7 @@ impl<'a> LedControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LedControl {
         LedControl::from_view(self)
     }
@@ -12800,37 +13059,42 @@ impl MagCalProgress {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MagCalProgressView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            compass_id: ::mavwire::field::read::<u8>(p, 12),
+            cal_mask: ::mavwire::field::read::<u8>(p, 13),
+            cal_status: super::common::MagCalStatus::from_raw(
+                ::mavwire::field::read::<u8>(p, 14),
+            ),
+            attempt: ::mavwire::field::read::<u8>(p, 15),
+            completion_pct: ::mavwire::field::read::<u8>(p, 16),
+            completion_mask: ::mavwire::field::ArrayView::new(p, 17).to_array(),
+            direction_x: ::mavwire::field::read::<f32>(p, 0),
+            direction_y: ::mavwire::field::read::<f32>(p, 4),
+            direction_z: ::mavwire::field::read::<f32>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MagCalProgressView<'_>) -> Self {
-        Self {
-            compass_id: view.compass_id(),
-            cal_mask: view.cal_mask(),
-            cal_status: view.cal_status(),
-            attempt: view.attempt(),
-            completion_pct: view.completion_pct(),
-            completion_mask: view.completion_mask().to_array(),
-            direction_x: view.direction_x(),
-            direction_y: view.direction_y(),
-            direction_z: view.direction_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MagCalProgressMut::new(payload)?;
-        out.set_compass_id(self.compass_id);
-        out.set_cal_mask(self.cal_mask);
-        out.set_cal_status(self.cal_status);
-        out.set_attempt(self.attempt);
-        out.set_completion_pct(self.completion_pct);
-        out.set_completion_mask(&self.completion_mask);
-        out.set_direction_x(self.direction_x);
-        out.set_direction_y(self.direction_y);
-        out.set_direction_z(self.direction_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.compass_id, out, 12);
+        ::mavwire::field::Scalar::write(self.cal_mask, out, 13);
+        ::mavwire::field::Scalar::write(self.cal_status.to_raw(), out, 14);
+        ::mavwire::field::Scalar::write(self.attempt, out, 15);
+        ::mavwire::field::Scalar::write(self.completion_pct, out, 16);
+        ::mavwire::field::write_array(out, 17, &self.completion_mask);
+        ::mavwire::field::Scalar::write(self.direction_x, out, 0);
+        ::mavwire::field::Scalar::write(self.direction_y, out, 4);
+        ::mavwire::field::Scalar::write(self.direction_z, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12838,14 +13102,17 @@ impl MagCalProgress {
 impl ::mavwire::Message for MagCalProgress {
     const META: ::mavwire::MessageMeta = MagCalProgress::META;
     type View<'a> = MagCalProgressView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MagCalProgress::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MagCalProgress::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MagCalProgressView<'_> {
         MagCalProgressView::new(payload)
     }
@@ -12874,6 +13141,7 @@ impl<'a> MagCalProgressView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MagCalProgress {
         MagCalProgress::from_view(self)
     }
@@ -13125,33 +13393,38 @@ impl EkfStatusReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EkfStatusReportView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            flags: EkfStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 20),
+            ),
+            velocity_variance: ::mavwire::field::read::<f32>(p, 0),
+            pos_horiz_variance: ::mavwire::field::read::<f32>(p, 4),
+            pos_vert_variance: ::mavwire::field::read::<f32>(p, 8),
+            compass_variance: ::mavwire::field::read::<f32>(p, 12),
+            terrain_alt_variance: ::mavwire::field::read::<f32>(p, 16),
+            airspeed_variance: ::mavwire::field::read::<f32>(p, 22),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EkfStatusReportView<'_>) -> Self {
-        Self {
-            flags: view.flags(),
-            velocity_variance: view.velocity_variance(),
-            pos_horiz_variance: view.pos_horiz_variance(),
-            pos_vert_variance: view.pos_vert_variance(),
-            compass_variance: view.compass_variance(),
-            terrain_alt_variance: view.terrain_alt_variance(),
-            airspeed_variance: view.airspeed_variance(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EkfStatusReportMut::new(payload)?;
-        out.set_flags(self.flags);
-        out.set_velocity_variance(self.velocity_variance);
-        out.set_pos_horiz_variance(self.pos_horiz_variance);
-        out.set_pos_vert_variance(self.pos_vert_variance);
-        out.set_compass_variance(self.compass_variance);
-        out.set_terrain_alt_variance(self.terrain_alt_variance);
-        out.set_airspeed_variance(self.airspeed_variance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 20);
+        ::mavwire::field::Scalar::write(self.velocity_variance, out, 0);
+        ::mavwire::field::Scalar::write(self.pos_horiz_variance, out, 4);
+        ::mavwire::field::Scalar::write(self.pos_vert_variance, out, 8);
+        ::mavwire::field::Scalar::write(self.compass_variance, out, 12);
+        ::mavwire::field::Scalar::write(self.terrain_alt_variance, out, 16);
+        ::mavwire::field::Scalar::write(self.airspeed_variance, out, 22);
         Ok(Self::MAX_LEN)
     }
 }
@@ -13159,14 +13432,17 @@ impl EkfStatusReport {
 impl ::mavwire::Message for EkfStatusReport {
     const META: ::mavwire::MessageMeta = EkfStatusReport::META;
     type View<'a> = EkfStatusReportView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EkfStatusReport::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EkfStatusReport::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EkfStatusReportView<'_> {
         EkfStatusReportView::new(payload)
     }
@@ -13195,6 +13471,7 @@ impl<'a> EkfStatusReportView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EkfStatusReport {
         EkfStatusReport::from_view(self)
     }
@@ -13443,37 +13720,40 @@ impl PidTuning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&PidTuningView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            axis: PidTuningAxis::from_raw(::mavwire::field::read::<u8>(p, 24)),
+            desired: ::mavwire::field::read::<f32>(p, 0),
+            achieved: ::mavwire::field::read::<f32>(p, 4),
+            ff: ::mavwire::field::read::<f32>(p, 8),
+            p: ::mavwire::field::read::<f32>(p, 12),
+            i: ::mavwire::field::read::<f32>(p, 16),
+            d: ::mavwire::field::read::<f32>(p, 20),
+            srate: ::mavwire::field::read::<f32>(p, 25),
+            pdmod: ::mavwire::field::read::<f32>(p, 29),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &PidTuningView<'_>) -> Self {
-        Self {
-            axis: view.axis(),
-            desired: view.desired(),
-            achieved: view.achieved(),
-            ff: view.ff(),
-            p: view.p(),
-            i: view.i(),
-            d: view.d(),
-            srate: view.srate(),
-            pdmod: view.pdmod(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = PidTuningMut::new(payload)?;
-        out.set_axis(self.axis);
-        out.set_desired(self.desired);
-        out.set_achieved(self.achieved);
-        out.set_ff(self.ff);
-        out.set_p(self.p);
-        out.set_i(self.i);
-        out.set_d(self.d);
-        out.set_srate(self.srate);
-        out.set_pdmod(self.pdmod);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.axis.to_raw(), out, 24);
+        ::mavwire::field::Scalar::write(self.desired, out, 0);
+        ::mavwire::field::Scalar::write(self.achieved, out, 4);
+        ::mavwire::field::Scalar::write(self.ff, out, 8);
+        ::mavwire::field::Scalar::write(self.p, out, 12);
+        ::mavwire::field::Scalar::write(self.i, out, 16);
+        ::mavwire::field::Scalar::write(self.d, out, 20);
+        ::mavwire::field::Scalar::write(self.srate, out, 25);
+        ::mavwire::field::Scalar::write(self.pdmod, out, 29);
         Ok(Self::MAX_LEN)
     }
 }
@@ -13481,14 +13761,17 @@ impl PidTuning {
 impl ::mavwire::Message for PidTuning {
     const META: ::mavwire::MessageMeta = PidTuning::META;
     type View<'a> = PidTuningView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         PidTuning::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         PidTuning::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> PidTuningView<'_> {
         PidTuningView::new(payload)
     }
@@ -13517,6 +13800,7 @@ impl<'a> PidTuningView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> PidTuning {
         PidTuning::from_view(self)
     }
@@ -13797,39 +14081,42 @@ impl Deepstall {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DeepstallView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            landing_lat: ::mavwire::field::read::<i32>(p, 0),
+            landing_lon: ::mavwire::field::read::<i32>(p, 4),
+            path_lat: ::mavwire::field::read::<i32>(p, 8),
+            path_lon: ::mavwire::field::read::<i32>(p, 12),
+            arc_entry_lat: ::mavwire::field::read::<i32>(p, 16),
+            arc_entry_lon: ::mavwire::field::read::<i32>(p, 20),
+            altitude: ::mavwire::field::read::<f32>(p, 24),
+            expected_travel_distance: ::mavwire::field::read::<f32>(p, 28),
+            cross_track_error: ::mavwire::field::read::<f32>(p, 32),
+            stage: DeepstallStage::from_raw(::mavwire::field::read::<u8>(p, 36)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DeepstallView<'_>) -> Self {
-        Self {
-            landing_lat: view.landing_lat(),
-            landing_lon: view.landing_lon(),
-            path_lat: view.path_lat(),
-            path_lon: view.path_lon(),
-            arc_entry_lat: view.arc_entry_lat(),
-            arc_entry_lon: view.arc_entry_lon(),
-            altitude: view.altitude(),
-            expected_travel_distance: view.expected_travel_distance(),
-            cross_track_error: view.cross_track_error(),
-            stage: view.stage(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DeepstallMut::new(payload)?;
-        out.set_landing_lat(self.landing_lat);
-        out.set_landing_lon(self.landing_lon);
-        out.set_path_lat(self.path_lat);
-        out.set_path_lon(self.path_lon);
-        out.set_arc_entry_lat(self.arc_entry_lat);
-        out.set_arc_entry_lon(self.arc_entry_lon);
-        out.set_altitude(self.altitude);
-        out.set_expected_travel_distance(self.expected_travel_distance);
-        out.set_cross_track_error(self.cross_track_error);
-        out.set_stage(self.stage);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.landing_lat, out, 0);
+        ::mavwire::field::Scalar::write(self.landing_lon, out, 4);
+        ::mavwire::field::Scalar::write(self.path_lat, out, 8);
+        ::mavwire::field::Scalar::write(self.path_lon, out, 12);
+        ::mavwire::field::Scalar::write(self.arc_entry_lat, out, 16);
+        ::mavwire::field::Scalar::write(self.arc_entry_lon, out, 20);
+        ::mavwire::field::Scalar::write(self.altitude, out, 24);
+        ::mavwire::field::Scalar::write(self.expected_travel_distance, out, 28);
+        ::mavwire::field::Scalar::write(self.cross_track_error, out, 32);
+        ::mavwire::field::Scalar::write(self.stage.to_raw(), out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -13837,14 +14124,17 @@ impl Deepstall {
 impl ::mavwire::Message for Deepstall {
     const META: ::mavwire::MessageMeta = Deepstall::META;
     type View<'a> = DeepstallView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Deepstall::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Deepstall::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DeepstallView<'_> {
         DeepstallView::new(payload)
     }
@@ -13873,6 +14163,7 @@ impl<'a> DeepstallView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Deepstall {
         Deepstall::from_view(self)
     }
@@ -14187,43 +14478,46 @@ impl GimbalReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalReportView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 40),
+            target_component: ::mavwire::field::read::<u8>(p, 41),
+            delta_time: ::mavwire::field::read::<f32>(p, 0),
+            delta_angle_x: ::mavwire::field::read::<f32>(p, 4),
+            delta_angle_y: ::mavwire::field::read::<f32>(p, 8),
+            delta_angle_z: ::mavwire::field::read::<f32>(p, 12),
+            delta_velocity_x: ::mavwire::field::read::<f32>(p, 16),
+            delta_velocity_y: ::mavwire::field::read::<f32>(p, 20),
+            delta_velocity_z: ::mavwire::field::read::<f32>(p, 24),
+            joint_roll: ::mavwire::field::read::<f32>(p, 28),
+            joint_el: ::mavwire::field::read::<f32>(p, 32),
+            joint_az: ::mavwire::field::read::<f32>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalReportView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            delta_time: view.delta_time(),
-            delta_angle_x: view.delta_angle_x(),
-            delta_angle_y: view.delta_angle_y(),
-            delta_angle_z: view.delta_angle_z(),
-            delta_velocity_x: view.delta_velocity_x(),
-            delta_velocity_y: view.delta_velocity_y(),
-            delta_velocity_z: view.delta_velocity_z(),
-            joint_roll: view.joint_roll(),
-            joint_el: view.joint_el(),
-            joint_az: view.joint_az(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalReportMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_delta_time(self.delta_time);
-        out.set_delta_angle_x(self.delta_angle_x);
-        out.set_delta_angle_y(self.delta_angle_y);
-        out.set_delta_angle_z(self.delta_angle_z);
-        out.set_delta_velocity_x(self.delta_velocity_x);
-        out.set_delta_velocity_y(self.delta_velocity_y);
-        out.set_delta_velocity_z(self.delta_velocity_z);
-        out.set_joint_roll(self.joint_roll);
-        out.set_joint_el(self.joint_el);
-        out.set_joint_az(self.joint_az);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 40);
+        ::mavwire::field::Scalar::write(self.target_component, out, 41);
+        ::mavwire::field::Scalar::write(self.delta_time, out, 0);
+        ::mavwire::field::Scalar::write(self.delta_angle_x, out, 4);
+        ::mavwire::field::Scalar::write(self.delta_angle_y, out, 8);
+        ::mavwire::field::Scalar::write(self.delta_angle_z, out, 12);
+        ::mavwire::field::Scalar::write(self.delta_velocity_x, out, 16);
+        ::mavwire::field::Scalar::write(self.delta_velocity_y, out, 20);
+        ::mavwire::field::Scalar::write(self.delta_velocity_z, out, 24);
+        ::mavwire::field::Scalar::write(self.joint_roll, out, 28);
+        ::mavwire::field::Scalar::write(self.joint_el, out, 32);
+        ::mavwire::field::Scalar::write(self.joint_az, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -14231,14 +14525,17 @@ impl GimbalReport {
 impl ::mavwire::Message for GimbalReport {
     const META: ::mavwire::MessageMeta = GimbalReport::META;
     type View<'a> = GimbalReportView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalReport::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalReport::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalReportView<'_> {
         GimbalReportView::new(payload)
     }
@@ -14267,6 +14564,7 @@ impl<'a> GimbalReportView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalReport {
         GimbalReport::from_view(self)
     }
@@ -14528,29 +14826,32 @@ impl GimbalControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 12),
+            target_component: ::mavwire::field::read::<u8>(p, 13),
+            demanded_rate_x: ::mavwire::field::read::<f32>(p, 0),
+            demanded_rate_y: ::mavwire::field::read::<f32>(p, 4),
+            demanded_rate_z: ::mavwire::field::read::<f32>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalControlView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            demanded_rate_x: view.demanded_rate_x(),
-            demanded_rate_y: view.demanded_rate_y(),
-            demanded_rate_z: view.demanded_rate_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalControlMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_demanded_rate_x(self.demanded_rate_x);
-        out.set_demanded_rate_y(self.demanded_rate_y);
-        out.set_demanded_rate_z(self.demanded_rate_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 12);
+        ::mavwire::field::Scalar::write(self.target_component, out, 13);
+        ::mavwire::field::Scalar::write(self.demanded_rate_x, out, 0);
+        ::mavwire::field::Scalar::write(self.demanded_rate_y, out, 4);
+        ::mavwire::field::Scalar::write(self.demanded_rate_z, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -14558,14 +14859,17 @@ impl GimbalControl {
 impl ::mavwire::Message for GimbalControl {
     const META: ::mavwire::MessageMeta = GimbalControl::META;
     type View<'a> = GimbalControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalControlView<'_> {
         GimbalControlView::new(payload)
     }
@@ -14594,6 +14898,7 @@ impl<'a> GimbalControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalControl {
         GimbalControl::from_view(self)
     }
@@ -14771,29 +15076,32 @@ impl GimbalTorqueCmdReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalTorqueCmdReportView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 6),
+            target_component: ::mavwire::field::read::<u8>(p, 7),
+            rl_torque_cmd: ::mavwire::field::read::<i16>(p, 0),
+            el_torque_cmd: ::mavwire::field::read::<i16>(p, 2),
+            az_torque_cmd: ::mavwire::field::read::<i16>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalTorqueCmdReportView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            rl_torque_cmd: view.rl_torque_cmd(),
-            el_torque_cmd: view.el_torque_cmd(),
-            az_torque_cmd: view.az_torque_cmd(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalTorqueCmdReportMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_rl_torque_cmd(self.rl_torque_cmd);
-        out.set_el_torque_cmd(self.el_torque_cmd);
-        out.set_az_torque_cmd(self.az_torque_cmd);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 6);
+        ::mavwire::field::Scalar::write(self.target_component, out, 7);
+        ::mavwire::field::Scalar::write(self.rl_torque_cmd, out, 0);
+        ::mavwire::field::Scalar::write(self.el_torque_cmd, out, 2);
+        ::mavwire::field::Scalar::write(self.az_torque_cmd, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -14801,14 +15109,17 @@ impl GimbalTorqueCmdReport {
 impl ::mavwire::Message for GimbalTorqueCmdReport {
     const META: ::mavwire::MessageMeta = GimbalTorqueCmdReport::META;
     type View<'a> = GimbalTorqueCmdReportView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalTorqueCmdReport::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalTorqueCmdReport::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalTorqueCmdReportView<'_> {
         GimbalTorqueCmdReportView::new(payload)
     }
@@ -14837,6 +15148,7 @@ impl<'a> GimbalTorqueCmdReportView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalTorqueCmdReport {
         GimbalTorqueCmdReport::from_view(self)
     }
@@ -14995,25 +15307,30 @@ impl GoproHeartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GoproHeartbeatView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            status: GoproHeartbeatStatus::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            capture_mode: GoproCaptureMode::from_raw(::mavwire::field::read::<u8>(p, 1)),
+            flags: GoproHeartbeatFlags::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 2),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GoproHeartbeatView<'_>) -> Self {
-        Self {
-            status: view.status(),
-            capture_mode: view.capture_mode(),
-            flags: view.flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GoproHeartbeatMut::new(payload)?;
-        out.set_status(self.status);
-        out.set_capture_mode(self.capture_mode);
-        out.set_flags(self.flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 0);
+        ::mavwire::field::Scalar::write(self.capture_mode.to_raw(), out, 1);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15021,14 +15338,17 @@ impl GoproHeartbeat {
 impl ::mavwire::Message for GoproHeartbeat {
     const META: ::mavwire::MessageMeta = GoproHeartbeat::META;
     type View<'a> = GoproHeartbeatView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GoproHeartbeat::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GoproHeartbeat::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GoproHeartbeatView<'_> {
         GoproHeartbeatView::new(payload)
     }
@@ -15057,6 +15377,7 @@ impl<'a> GoproHeartbeatView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GoproHeartbeat {
         GoproHeartbeat::from_view(self)
     }
@@ -15190,25 +15511,28 @@ impl GoproGetRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GoproGetRequestView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 2)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GoproGetRequestView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            cmd_id: view.cmd_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GoproGetRequestMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_cmd_id(self.cmd_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15216,14 +15540,17 @@ impl GoproGetRequest {
 impl ::mavwire::Message for GoproGetRequest {
     const META: ::mavwire::MessageMeta = GoproGetRequest::META;
     type View<'a> = GoproGetRequestView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GoproGetRequest::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GoproGetRequest::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GoproGetRequestView<'_> {
         GoproGetRequestView::new(payload)
     }
@@ -15252,6 +15579,7 @@ impl<'a> GoproGetRequestView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GoproGetRequest {
         GoproGetRequest::from_view(self)
     }
@@ -15384,25 +15712,28 @@ impl GoproGetResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GoproGetResponseView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            status: GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(p, 1)),
+            value: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GoproGetResponseView<'_>) -> Self {
-        Self {
-            cmd_id: view.cmd_id(),
-            status: view.status(),
-            value: view.value().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GoproGetResponseMut::new(payload)?;
-        out.set_cmd_id(self.cmd_id);
-        out.set_status(self.status);
-        out.set_value(&self.value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 0);
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 1);
+        ::mavwire::field::write_array(out, 2, &self.value);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15410,14 +15741,17 @@ impl GoproGetResponse {
 impl ::mavwire::Message for GoproGetResponse {
     const META: ::mavwire::MessageMeta = GoproGetResponse::META;
     type View<'a> = GoproGetResponseView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GoproGetResponse::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GoproGetResponse::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GoproGetResponseView<'_> {
         GoproGetResponseView::new(payload)
     }
@@ -15446,6 +15780,7 @@ impl<'a> GoproGetResponseView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GoproGetResponse {
         GoproGetResponse::from_view(self)
     }
@@ -15588,27 +15923,30 @@ impl GoproSetRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GoproSetRequestView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 2)),
+            value: ::mavwire::field::ArrayView::new(p, 3).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GoproSetRequestView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            cmd_id: view.cmd_id(),
-            value: view.value().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GoproSetRequestMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_cmd_id(self.cmd_id);
-        out.set_value(&self.value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 2);
+        ::mavwire::field::write_array(out, 3, &self.value);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15616,14 +15954,17 @@ impl GoproSetRequest {
 impl ::mavwire::Message for GoproSetRequest {
     const META: ::mavwire::MessageMeta = GoproSetRequest::META;
     type View<'a> = GoproSetRequestView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GoproSetRequest::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GoproSetRequest::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GoproSetRequestView<'_> {
         GoproSetRequestView::new(payload)
     }
@@ -15652,6 +15993,7 @@ impl<'a> GoproSetRequestView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GoproSetRequest {
         GoproSetRequest::from_view(self)
     }
@@ -15785,23 +16127,26 @@ impl GoproSetResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GoproSetResponseView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            status: GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(p, 1)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GoproSetResponseView<'_>) -> Self {
-        Self {
-            cmd_id: view.cmd_id(),
-            status: view.status(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GoproSetResponseMut::new(payload)?;
-        out.set_cmd_id(self.cmd_id);
-        out.set_status(self.status);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 0);
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 1);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15809,14 +16154,17 @@ impl GoproSetResponse {
 impl ::mavwire::Message for GoproSetResponse {
     const META: ::mavwire::MessageMeta = GoproSetResponse::META;
     type View<'a> = GoproSetResponseView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GoproSetResponse::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GoproSetResponse::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GoproSetResponseView<'_> {
         GoproSetResponseView::new(payload)
     }
@@ -15845,6 +16193,7 @@ impl<'a> GoproSetResponseView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GoproSetResponse {
         GoproSetResponse::from_view(self)
     }
@@ -15953,23 +16302,26 @@ impl Rpm {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RpmView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            rpm1: ::mavwire::field::read::<f32>(p, 0),
+            rpm2: ::mavwire::field::read::<f32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RpmView<'_>) -> Self {
-        Self {
-            rpm1: view.rpm1(),
-            rpm2: view.rpm2(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RpmMut::new(payload)?;
-        out.set_rpm1(self.rpm1);
-        out.set_rpm2(self.rpm2);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.rpm1, out, 0);
+        ::mavwire::field::Scalar::write(self.rpm2, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15977,14 +16329,17 @@ impl Rpm {
 impl ::mavwire::Message for Rpm {
     const META: ::mavwire::MessageMeta = Rpm::META;
     type View<'a> = RpmView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Rpm::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Rpm::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RpmView<'_> {
         RpmView::new(payload)
     }
@@ -16013,6 +16368,7 @@ impl<'a> RpmView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Rpm {
         Rpm::from_view(self)
     }
@@ -16211,39 +16567,42 @@ impl DeviceOpRead {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DeviceOpReadView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            bustype: DeviceOpBustype::from_raw(::mavwire::field::read::<u8>(p, 6)),
+            bus: ::mavwire::field::read::<u8>(p, 7),
+            address: ::mavwire::field::read::<u8>(p, 8),
+            busname: ::mavwire::field::CharArray::new(p, 9).to_array(),
+            regstart: ::mavwire::field::read::<u8>(p, 49),
+            count: ::mavwire::field::read::<u8>(p, 50),
+            bank: ::mavwire::field::read::<u8>(p, 51),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DeviceOpReadView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            request_id: view.request_id(),
-            bustype: view.bustype(),
-            bus: view.bus(),
-            address: view.address(),
-            busname: view.busname().to_array(),
-            regstart: view.regstart(),
-            count: view.count(),
-            bank: view.bank(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DeviceOpReadMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_request_id(self.request_id);
-        out.set_bustype(self.bustype);
-        out.set_bus(self.bus);
-        out.set_address(self.address);
-        out.set_busname(&self.busname);
-        out.set_regstart(self.regstart);
-        out.set_count(self.count);
-        out.set_bank(self.bank);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.bustype.to_raw(), out, 6);
+        ::mavwire::field::Scalar::write(self.bus, out, 7);
+        ::mavwire::field::Scalar::write(self.address, out, 8);
+        ::mavwire::field::write_array(out, 9, &self.busname);
+        ::mavwire::field::Scalar::write(self.regstart, out, 49);
+        ::mavwire::field::Scalar::write(self.count, out, 50);
+        ::mavwire::field::Scalar::write(self.bank, out, 51);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16268,14 +16627,17 @@ impl Default for DeviceOpRead {
 impl ::mavwire::Message for DeviceOpRead {
     const META: ::mavwire::MessageMeta = DeviceOpRead::META;
     type View<'a> = DeviceOpReadView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DeviceOpRead::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DeviceOpRead::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DeviceOpReadView<'_> {
         DeviceOpReadView::new(payload)
     }
@@ -16304,6 +16666,7 @@ impl<'a> DeviceOpReadView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DeviceOpRead {
         DeviceOpRead::from_view(self)
     }
@@ -16553,31 +16916,34 @@ impl DeviceOpReadReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DeviceOpReadReplyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            result: ::mavwire::field::read::<u8>(p, 4),
+            regstart: ::mavwire::field::read::<u8>(p, 5),
+            count: ::mavwire::field::read::<u8>(p, 6),
+            data: ::mavwire::field::ArrayView::new(p, 7).to_array(),
+            bank: ::mavwire::field::read::<u8>(p, 135),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DeviceOpReadReplyView<'_>) -> Self {
-        Self {
-            request_id: view.request_id(),
-            result: view.result(),
-            regstart: view.regstart(),
-            count: view.count(),
-            data: view.data().to_array(),
-            bank: view.bank(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DeviceOpReadReplyMut::new(payload)?;
-        out.set_request_id(self.request_id);
-        out.set_result(self.result);
-        out.set_regstart(self.regstart);
-        out.set_count(self.count);
-        out.set_data(&self.data);
-        out.set_bank(self.bank);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.result, out, 4);
+        ::mavwire::field::Scalar::write(self.regstart, out, 5);
+        ::mavwire::field::Scalar::write(self.count, out, 6);
+        ::mavwire::field::write_array(out, 7, &self.data);
+        ::mavwire::field::Scalar::write(self.bank, out, 135);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16598,14 +16964,17 @@ impl Default for DeviceOpReadReply {
 impl ::mavwire::Message for DeviceOpReadReply {
     const META: ::mavwire::MessageMeta = DeviceOpReadReply::META;
     type View<'a> = DeviceOpReadReplyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DeviceOpReadReply::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DeviceOpReadReply::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DeviceOpReadReplyView<'_> {
         DeviceOpReadReplyView::new(payload)
     }
@@ -16634,6 +17003,7 @@ impl<'a> DeviceOpReadReplyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DeviceOpReadReply {
         DeviceOpReadReply::from_view(self)
     }
@@ -16891,41 +17261,44 @@ impl DeviceOpWrite {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DeviceOpWriteView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            bustype: DeviceOpBustype::from_raw(::mavwire::field::read::<u8>(p, 6)),
+            bus: ::mavwire::field::read::<u8>(p, 7),
+            address: ::mavwire::field::read::<u8>(p, 8),
+            busname: ::mavwire::field::CharArray::new(p, 9).to_array(),
+            regstart: ::mavwire::field::read::<u8>(p, 49),
+            count: ::mavwire::field::read::<u8>(p, 50),
+            data: ::mavwire::field::ArrayView::new(p, 51).to_array(),
+            bank: ::mavwire::field::read::<u8>(p, 179),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DeviceOpWriteView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            request_id: view.request_id(),
-            bustype: view.bustype(),
-            bus: view.bus(),
-            address: view.address(),
-            busname: view.busname().to_array(),
-            regstart: view.regstart(),
-            count: view.count(),
-            data: view.data().to_array(),
-            bank: view.bank(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DeviceOpWriteMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_request_id(self.request_id);
-        out.set_bustype(self.bustype);
-        out.set_bus(self.bus);
-        out.set_address(self.address);
-        out.set_busname(&self.busname);
-        out.set_regstart(self.regstart);
-        out.set_count(self.count);
-        out.set_data(&self.data);
-        out.set_bank(self.bank);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.bustype.to_raw(), out, 6);
+        ::mavwire::field::Scalar::write(self.bus, out, 7);
+        ::mavwire::field::Scalar::write(self.address, out, 8);
+        ::mavwire::field::write_array(out, 9, &self.busname);
+        ::mavwire::field::Scalar::write(self.regstart, out, 49);
+        ::mavwire::field::Scalar::write(self.count, out, 50);
+        ::mavwire::field::write_array(out, 51, &self.data);
+        ::mavwire::field::Scalar::write(self.bank, out, 179);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16951,14 +17324,17 @@ impl Default for DeviceOpWrite {
 impl ::mavwire::Message for DeviceOpWrite {
     const META: ::mavwire::MessageMeta = DeviceOpWrite::META;
     type View<'a> = DeviceOpWriteView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DeviceOpWrite::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DeviceOpWrite::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DeviceOpWriteView<'_> {
         DeviceOpWriteView::new(payload)
     }
@@ -16987,6 +17363,7 @@ impl<'a> DeviceOpWriteView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DeviceOpWrite {
         DeviceOpWrite::from_view(self)
     }
@@ -17203,23 +17580,26 @@ impl DeviceOpWriteReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DeviceOpWriteReplyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            result: ::mavwire::field::read::<u8>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DeviceOpWriteReplyView<'_>) -> Self {
-        Self {
-            request_id: view.request_id(),
-            result: view.result(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DeviceOpWriteReplyMut::new(payload)?;
-        out.set_request_id(self.request_id);
-        out.set_result(self.result);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.result, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -17227,14 +17607,17 @@ impl DeviceOpWriteReply {
 impl ::mavwire::Message for DeviceOpWriteReply {
     const META: ::mavwire::MessageMeta = DeviceOpWriteReply::META;
     type View<'a> = DeviceOpWriteReplyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DeviceOpWriteReply::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DeviceOpWriteReply::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DeviceOpWriteReplyView<'_> {
         DeviceOpWriteReplyView::new(payload)
     }
@@ -17263,6 +17646,7 @@ impl<'a> DeviceOpWriteReplyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DeviceOpWriteReply {
         DeviceOpWriteReply::from_view(self)
     }
@@ -17432,33 +17816,36 @@ impl SecureCommand {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SecureCommandView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 8),
+            target_component: ::mavwire::field::read::<u8>(p, 9),
+            sequence: ::mavwire::field::read::<u32>(p, 0),
+            operation: SecureCommandOp::from_raw(::mavwire::field::read::<u32>(p, 4)),
+            data_length: ::mavwire::field::read::<u8>(p, 10),
+            sig_length: ::mavwire::field::read::<u8>(p, 11),
+            data: ::mavwire::field::ArrayView::new(p, 12).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SecureCommandView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            sequence: view.sequence(),
-            operation: view.operation(),
-            data_length: view.data_length(),
-            sig_length: view.sig_length(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SecureCommandMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_sequence(self.sequence);
-        out.set_operation(self.operation);
-        out.set_data_length(self.data_length);
-        out.set_sig_length(self.sig_length);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 8);
+        ::mavwire::field::Scalar::write(self.target_component, out, 9);
+        ::mavwire::field::Scalar::write(self.sequence, out, 0);
+        ::mavwire::field::Scalar::write(self.operation.to_raw(), out, 4);
+        ::mavwire::field::Scalar::write(self.data_length, out, 10);
+        ::mavwire::field::Scalar::write(self.sig_length, out, 11);
+        ::mavwire::field::write_array(out, 12, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -17480,14 +17867,17 @@ impl Default for SecureCommand {
 impl ::mavwire::Message for SecureCommand {
     const META: ::mavwire::MessageMeta = SecureCommand::META;
     type View<'a> = SecureCommandView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SecureCommand::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SecureCommand::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SecureCommandView<'_> {
         SecureCommandView::new(payload)
     }
@@ -17516,6 +17906,7 @@ impl<'a> SecureCommandView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SecureCommand {
         SecureCommand::from_view(self)
     }
@@ -17719,29 +18110,34 @@ impl SecureCommandReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SecureCommandReplyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            sequence: ::mavwire::field::read::<u32>(p, 0),
+            operation: SecureCommandOp::from_raw(::mavwire::field::read::<u32>(p, 4)),
+            result: super::common::MavResult::from_raw(
+                ::mavwire::field::read::<u8>(p, 8),
+            ),
+            data_length: ::mavwire::field::read::<u8>(p, 9),
+            data: ::mavwire::field::ArrayView::new(p, 10).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SecureCommandReplyView<'_>) -> Self {
-        Self {
-            sequence: view.sequence(),
-            operation: view.operation(),
-            result: view.result(),
-            data_length: view.data_length(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SecureCommandReplyMut::new(payload)?;
-        out.set_sequence(self.sequence);
-        out.set_operation(self.operation);
-        out.set_result(self.result);
-        out.set_data_length(self.data_length);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.sequence, out, 0);
+        ::mavwire::field::Scalar::write(self.operation.to_raw(), out, 4);
+        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 8);
+        ::mavwire::field::Scalar::write(self.data_length, out, 9);
+        ::mavwire::field::write_array(out, 10, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -17761,14 +18157,17 @@ impl Default for SecureCommandReply {
 impl ::mavwire::Message for SecureCommandReply {
     const META: ::mavwire::MessageMeta = SecureCommandReply::META;
     type View<'a> = SecureCommandReplyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SecureCommandReply::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SecureCommandReply::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SecureCommandReplyView<'_> {
         SecureCommandReplyView::new(payload)
     }
@@ -17797,6 +18196,7 @@ impl<'a> SecureCommandReplyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SecureCommandReply {
         SecureCommandReply::from_view(self)
     }
@@ -18063,45 +18463,48 @@ impl AdapTuning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AdapTuningView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            axis: PidTuningAxis::from_raw(::mavwire::field::read::<u8>(p, 48)),
+            desired: ::mavwire::field::read::<f32>(p, 0),
+            achieved: ::mavwire::field::read::<f32>(p, 4),
+            error: ::mavwire::field::read::<f32>(p, 8),
+            theta: ::mavwire::field::read::<f32>(p, 12),
+            omega: ::mavwire::field::read::<f32>(p, 16),
+            sigma: ::mavwire::field::read::<f32>(p, 20),
+            theta_dot: ::mavwire::field::read::<f32>(p, 24),
+            omega_dot: ::mavwire::field::read::<f32>(p, 28),
+            sigma_dot: ::mavwire::field::read::<f32>(p, 32),
+            f: ::mavwire::field::read::<f32>(p, 36),
+            f_dot: ::mavwire::field::read::<f32>(p, 40),
+            u: ::mavwire::field::read::<f32>(p, 44),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AdapTuningView<'_>) -> Self {
-        Self {
-            axis: view.axis(),
-            desired: view.desired(),
-            achieved: view.achieved(),
-            error: view.error(),
-            theta: view.theta(),
-            omega: view.omega(),
-            sigma: view.sigma(),
-            theta_dot: view.theta_dot(),
-            omega_dot: view.omega_dot(),
-            sigma_dot: view.sigma_dot(),
-            f: view.f(),
-            f_dot: view.f_dot(),
-            u: view.u(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AdapTuningMut::new(payload)?;
-        out.set_axis(self.axis);
-        out.set_desired(self.desired);
-        out.set_achieved(self.achieved);
-        out.set_error(self.error);
-        out.set_theta(self.theta);
-        out.set_omega(self.omega);
-        out.set_sigma(self.sigma);
-        out.set_theta_dot(self.theta_dot);
-        out.set_omega_dot(self.omega_dot);
-        out.set_sigma_dot(self.sigma_dot);
-        out.set_f(self.f);
-        out.set_f_dot(self.f_dot);
-        out.set_u(self.u);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.axis.to_raw(), out, 48);
+        ::mavwire::field::Scalar::write(self.desired, out, 0);
+        ::mavwire::field::Scalar::write(self.achieved, out, 4);
+        ::mavwire::field::Scalar::write(self.error, out, 8);
+        ::mavwire::field::Scalar::write(self.theta, out, 12);
+        ::mavwire::field::Scalar::write(self.omega, out, 16);
+        ::mavwire::field::Scalar::write(self.sigma, out, 20);
+        ::mavwire::field::Scalar::write(self.theta_dot, out, 24);
+        ::mavwire::field::Scalar::write(self.omega_dot, out, 28);
+        ::mavwire::field::Scalar::write(self.sigma_dot, out, 32);
+        ::mavwire::field::Scalar::write(self.f, out, 36);
+        ::mavwire::field::Scalar::write(self.f_dot, out, 40);
+        ::mavwire::field::Scalar::write(self.u, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18109,14 +18512,17 @@ impl AdapTuning {
 impl ::mavwire::Message for AdapTuning {
     const META: ::mavwire::MessageMeta = AdapTuning::META;
     type View<'a> = AdapTuningView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AdapTuning::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AdapTuning::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AdapTuningView<'_> {
         AdapTuningView::new(payload)
     }
@@ -18145,6 +18551,7 @@ impl<'a> AdapTuningView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AdapTuning {
         AdapTuning::from_view(self)
     }
@@ -18420,29 +18827,32 @@ impl VisionPositionDelta {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VisionPositionDeltaView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            time_delta_usec: ::mavwire::field::read::<u64>(p, 8),
+            angle_delta: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            position_delta: ::mavwire::field::ArrayView::new(p, 28).to_array(),
+            confidence: ::mavwire::field::read::<f32>(p, 40),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VisionPositionDeltaView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            time_delta_usec: view.time_delta_usec(),
-            angle_delta: view.angle_delta().to_array(),
-            position_delta: view.position_delta().to_array(),
-            confidence: view.confidence(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VisionPositionDeltaMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_time_delta_usec(self.time_delta_usec);
-        out.set_angle_delta(&self.angle_delta);
-        out.set_position_delta(&self.position_delta);
-        out.set_confidence(self.confidence);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.time_delta_usec, out, 8);
+        ::mavwire::field::write_array(out, 16, &self.angle_delta);
+        ::mavwire::field::write_array(out, 28, &self.position_delta);
+        ::mavwire::field::Scalar::write(self.confidence, out, 40);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18450,14 +18860,17 @@ impl VisionPositionDelta {
 impl ::mavwire::Message for VisionPositionDelta {
     const META: ::mavwire::MessageMeta = VisionPositionDelta::META;
     type View<'a> = VisionPositionDeltaView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         VisionPositionDelta::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         VisionPositionDelta::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VisionPositionDeltaView<'_> {
         VisionPositionDeltaView::new(payload)
     }
@@ -18486,6 +18899,7 @@ impl<'a> VisionPositionDeltaView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> VisionPositionDelta {
         VisionPositionDelta::from_view(self)
     }
@@ -18641,25 +19055,28 @@ impl AoaSsa {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AoaSsaView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            aoa: ::mavwire::field::read::<f32>(p, 8),
+            ssa: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AoaSsaView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            aoa: view.aoa(),
-            ssa: view.ssa(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AoaSsaMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_aoa(self.aoa);
-        out.set_ssa(self.ssa);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.aoa, out, 8);
+        ::mavwire::field::Scalar::write(self.ssa, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18667,14 +19084,17 @@ impl AoaSsa {
 impl ::mavwire::Message for AoaSsa {
     const META: ::mavwire::MessageMeta = AoaSsa::META;
     type View<'a> = AoaSsaView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AoaSsa::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AoaSsa::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AoaSsaView<'_> {
         AoaSsaView::new(payload)
     }
@@ -18703,6 +19123,7 @@ impl<'a> AoaSsaView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AoaSsa {
         AoaSsa::from_view(self)
     }
@@ -18867,31 +19288,34 @@ impl EscTelemetry1To4 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry1To4View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry1To4View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry1To4Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18899,14 +19323,17 @@ impl EscTelemetry1To4 {
 impl ::mavwire::Message for EscTelemetry1To4 {
     const META: ::mavwire::MessageMeta = EscTelemetry1To4::META;
     type View<'a> = EscTelemetry1To4View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry1To4::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry1To4::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry1To4View<'_> {
         EscTelemetry1To4View::new(payload)
     }
@@ -18935,6 +19362,7 @@ impl<'a> EscTelemetry1To4View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry1To4 {
         EscTelemetry1To4::from_view(self)
     }
@@ -19135,31 +19563,34 @@ impl EscTelemetry5To8 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry5To8View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry5To8View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry5To8Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -19167,14 +19598,17 @@ impl EscTelemetry5To8 {
 impl ::mavwire::Message for EscTelemetry5To8 {
     const META: ::mavwire::MessageMeta = EscTelemetry5To8::META;
     type View<'a> = EscTelemetry5To8View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry5To8::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry5To8::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry5To8View<'_> {
         EscTelemetry5To8View::new(payload)
     }
@@ -19203,6 +19637,7 @@ impl<'a> EscTelemetry5To8View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry5To8 {
         EscTelemetry5To8::from_view(self)
     }
@@ -19403,31 +19838,34 @@ impl EscTelemetry9To12 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry9To12View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry9To12View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry9To12Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -19435,14 +19873,17 @@ impl EscTelemetry9To12 {
 impl ::mavwire::Message for EscTelemetry9To12 {
     const META: ::mavwire::MessageMeta = EscTelemetry9To12::META;
     type View<'a> = EscTelemetry9To12View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry9To12::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry9To12::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry9To12View<'_> {
         EscTelemetry9To12View::new(payload)
     }
@@ -19471,6 +19912,7 @@ impl<'a> EscTelemetry9To12View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry9To12 {
         EscTelemetry9To12::from_view(self)
     }
@@ -19718,39 +20160,44 @@ impl OsdParamConfig {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OsdParamConfigView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 16),
+            target_component: ::mavwire::field::read::<u8>(p, 17),
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            osd_screen: ::mavwire::field::read::<u8>(p, 18),
+            osd_index: ::mavwire::field::read::<u8>(p, 19),
+            param_id: ::mavwire::field::CharArray::new(p, 20).to_array(),
+            config_type: OsdParamConfigType::from_raw(
+                ::mavwire::field::read::<u8>(p, 36),
+            ),
+            min_value: ::mavwire::field::read::<f32>(p, 4),
+            max_value: ::mavwire::field::read::<f32>(p, 8),
+            increment: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OsdParamConfigView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            request_id: view.request_id(),
-            osd_screen: view.osd_screen(),
-            osd_index: view.osd_index(),
-            param_id: view.param_id().to_array(),
-            config_type: view.config_type(),
-            min_value: view.min_value(),
-            max_value: view.max_value(),
-            increment: view.increment(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OsdParamConfigMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_request_id(self.request_id);
-        out.set_osd_screen(self.osd_screen);
-        out.set_osd_index(self.osd_index);
-        out.set_param_id(&self.param_id);
-        out.set_config_type(self.config_type);
-        out.set_min_value(self.min_value);
-        out.set_max_value(self.max_value);
-        out.set_increment(self.increment);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 16);
+        ::mavwire::field::Scalar::write(self.target_component, out, 17);
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.osd_screen, out, 18);
+        ::mavwire::field::Scalar::write(self.osd_index, out, 19);
+        ::mavwire::field::write_array(out, 20, &self.param_id);
+        ::mavwire::field::Scalar::write(self.config_type.to_raw(), out, 36);
+        ::mavwire::field::Scalar::write(self.min_value, out, 4);
+        ::mavwire::field::Scalar::write(self.max_value, out, 8);
+        ::mavwire::field::Scalar::write(self.increment, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -19758,14 +20205,17 @@ impl OsdParamConfig {
 impl ::mavwire::Message for OsdParamConfig {
     const META: ::mavwire::MessageMeta = OsdParamConfig::META;
     type View<'a> = OsdParamConfigView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OsdParamConfig::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OsdParamConfig::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OsdParamConfigView<'_> {
         OsdParamConfigView::new(payload)
     }
@@ -19794,6 +20244,7 @@ impl<'a> OsdParamConfigView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OsdParamConfig {
         OsdParamConfig::from_view(self)
     }
@@ -19999,23 +20450,26 @@ impl OsdParamConfigReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OsdParamConfigReplyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            result: OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(p, 4)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OsdParamConfigReplyView<'_>) -> Self {
-        Self {
-            request_id: view.request_id(),
-            result: view.result(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OsdParamConfigReplyMut::new(payload)?;
-        out.set_request_id(self.request_id);
-        out.set_result(self.result);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20023,14 +20477,17 @@ impl OsdParamConfigReply {
 impl ::mavwire::Message for OsdParamConfigReply {
     const META: ::mavwire::MessageMeta = OsdParamConfigReply::META;
     type View<'a> = OsdParamConfigReplyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OsdParamConfigReply::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OsdParamConfigReply::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OsdParamConfigReplyView<'_> {
         OsdParamConfigReplyView::new(payload)
     }
@@ -20059,6 +20516,7 @@ impl<'a> OsdParamConfigReplyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OsdParamConfigReply {
         OsdParamConfigReply::from_view(self)
     }
@@ -20200,29 +20658,32 @@ impl OsdParamShowConfig {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OsdParamShowConfigView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            osd_screen: ::mavwire::field::read::<u8>(p, 6),
+            osd_index: ::mavwire::field::read::<u8>(p, 7),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OsdParamShowConfigView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            request_id: view.request_id(),
-            osd_screen: view.osd_screen(),
-            osd_index: view.osd_index(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OsdParamShowConfigMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_request_id(self.request_id);
-        out.set_osd_screen(self.osd_screen);
-        out.set_osd_index(self.osd_index);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.osd_screen, out, 6);
+        ::mavwire::field::Scalar::write(self.osd_index, out, 7);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20230,14 +20691,17 @@ impl OsdParamShowConfig {
 impl ::mavwire::Message for OsdParamShowConfig {
     const META: ::mavwire::MessageMeta = OsdParamShowConfig::META;
     type View<'a> = OsdParamShowConfigView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OsdParamShowConfig::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OsdParamShowConfig::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OsdParamShowConfigView<'_> {
         OsdParamShowConfigView::new(payload)
     }
@@ -20266,6 +20730,7 @@ impl<'a> OsdParamShowConfigView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OsdParamShowConfig {
         OsdParamShowConfig::from_view(self)
     }
@@ -20469,33 +20934,38 @@ impl OsdParamShowConfigReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OsdParamShowConfigReplyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            request_id: ::mavwire::field::read::<u32>(p, 0),
+            result: OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(p, 16)),
+            param_id: ::mavwire::field::CharArray::new(p, 17).to_array(),
+            config_type: OsdParamConfigType::from_raw(
+                ::mavwire::field::read::<u8>(p, 33),
+            ),
+            min_value: ::mavwire::field::read::<f32>(p, 4),
+            max_value: ::mavwire::field::read::<f32>(p, 8),
+            increment: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OsdParamShowConfigReplyView<'_>) -> Self {
-        Self {
-            request_id: view.request_id(),
-            result: view.result(),
-            param_id: view.param_id().to_array(),
-            config_type: view.config_type(),
-            min_value: view.min_value(),
-            max_value: view.max_value(),
-            increment: view.increment(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OsdParamShowConfigReplyMut::new(payload)?;
-        out.set_request_id(self.request_id);
-        out.set_result(self.result);
-        out.set_param_id(&self.param_id);
-        out.set_config_type(self.config_type);
-        out.set_min_value(self.min_value);
-        out.set_max_value(self.max_value);
-        out.set_increment(self.increment);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 16);
+        ::mavwire::field::write_array(out, 17, &self.param_id);
+        ::mavwire::field::Scalar::write(self.config_type.to_raw(), out, 33);
+        ::mavwire::field::Scalar::write(self.min_value, out, 4);
+        ::mavwire::field::Scalar::write(self.max_value, out, 8);
+        ::mavwire::field::Scalar::write(self.increment, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20503,14 +20973,17 @@ impl OsdParamShowConfigReply {
 impl ::mavwire::Message for OsdParamShowConfigReply {
     const META: ::mavwire::MessageMeta = OsdParamShowConfigReply::META;
     type View<'a> = OsdParamShowConfigReplyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OsdParamShowConfigReply::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OsdParamShowConfigReply::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OsdParamShowConfigReplyView<'_> {
         OsdParamShowConfigReplyView::new(payload)
     }
@@ -20539,6 +21012,7 @@ impl<'a> OsdParamShowConfigReplyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OsdParamShowConfigReply {
         OsdParamShowConfigReply::from_view(self)
     }
@@ -20788,37 +21262,44 @@ impl ObstacleDistance3d {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ObstacleDistance3dView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            sensor_type: super::common::MavDistanceSensor::from_raw(
+                ::mavwire::field::read::<u8>(p, 26),
+            ),
+            frame: super::common::MavFrame::from_raw(
+                ::mavwire::field::read::<u8>(p, 27),
+            ),
+            obstacle_id: ::mavwire::field::read::<u16>(p, 24),
+            x: ::mavwire::field::read::<f32>(p, 4),
+            y: ::mavwire::field::read::<f32>(p, 8),
+            z: ::mavwire::field::read::<f32>(p, 12),
+            min_distance: ::mavwire::field::read::<f32>(p, 16),
+            max_distance: ::mavwire::field::read::<f32>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ObstacleDistance3dView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            sensor_type: view.sensor_type(),
-            frame: view.frame(),
-            obstacle_id: view.obstacle_id(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            min_distance: view.min_distance(),
-            max_distance: view.max_distance(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ObstacleDistance3dMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_sensor_type(self.sensor_type);
-        out.set_frame(self.frame);
-        out.set_obstacle_id(self.obstacle_id);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_min_distance(self.min_distance);
-        out.set_max_distance(self.max_distance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.sensor_type.to_raw(), out, 26);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 27);
+        ::mavwire::field::Scalar::write(self.obstacle_id, out, 24);
+        ::mavwire::field::Scalar::write(self.x, out, 4);
+        ::mavwire::field::Scalar::write(self.y, out, 8);
+        ::mavwire::field::Scalar::write(self.z, out, 12);
+        ::mavwire::field::Scalar::write(self.min_distance, out, 16);
+        ::mavwire::field::Scalar::write(self.max_distance, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20826,14 +21307,17 @@ impl ObstacleDistance3d {
 impl ::mavwire::Message for ObstacleDistance3d {
     const META: ::mavwire::MessageMeta = ObstacleDistance3d::META;
     type View<'a> = ObstacleDistance3dView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ObstacleDistance3d::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ObstacleDistance3d::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ObstacleDistance3dView<'_> {
         ObstacleDistance3dView::new(payload)
     }
@@ -20862,6 +21346,7 @@ impl<'a> ObstacleDistance3dView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ObstacleDistance3d {
         ObstacleDistance3d::from_view(self)
     }
@@ -21156,41 +21641,44 @@ impl WaterDepth {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&WaterDepthView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            id: ::mavwire::field::read::<u8>(p, 36),
+            healthy: ::mavwire::field::read::<u8>(p, 37),
+            lat: ::mavwire::field::read::<i32>(p, 4),
+            lng: ::mavwire::field::read::<i32>(p, 8),
+            alt: ::mavwire::field::read::<f32>(p, 12),
+            roll: ::mavwire::field::read::<f32>(p, 16),
+            pitch: ::mavwire::field::read::<f32>(p, 20),
+            yaw: ::mavwire::field::read::<f32>(p, 24),
+            distance: ::mavwire::field::read::<f32>(p, 28),
+            temperature: ::mavwire::field::read::<f32>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &WaterDepthView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            id: view.id(),
-            healthy: view.healthy(),
-            lat: view.lat(),
-            lng: view.lng(),
-            alt: view.alt(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            distance: view.distance(),
-            temperature: view.temperature(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = WaterDepthMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_id(self.id);
-        out.set_healthy(self.healthy);
-        out.set_lat(self.lat);
-        out.set_lng(self.lng);
-        out.set_alt(self.alt);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_distance(self.distance);
-        out.set_temperature(self.temperature);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.id, out, 36);
+        ::mavwire::field::Scalar::write(self.healthy, out, 37);
+        ::mavwire::field::Scalar::write(self.lat, out, 4);
+        ::mavwire::field::Scalar::write(self.lng, out, 8);
+        ::mavwire::field::Scalar::write(self.alt, out, 12);
+        ::mavwire::field::Scalar::write(self.roll, out, 16);
+        ::mavwire::field::Scalar::write(self.pitch, out, 20);
+        ::mavwire::field::Scalar::write(self.yaw, out, 24);
+        ::mavwire::field::Scalar::write(self.distance, out, 28);
+        ::mavwire::field::Scalar::write(self.temperature, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -21198,14 +21686,17 @@ impl WaterDepth {
 impl ::mavwire::Message for WaterDepth {
     const META: ::mavwire::MessageMeta = WaterDepth::META;
     type View<'a> = WaterDepthView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         WaterDepth::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         WaterDepth::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> WaterDepthView<'_> {
         WaterDepthView::new(payload)
     }
@@ -21234,6 +21725,7 @@ impl<'a> WaterDepthView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> WaterDepth {
         WaterDepth::from_view(self)
     }
@@ -21485,29 +21977,32 @@ impl McuStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&McuStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            id: ::mavwire::field::read::<u8>(p, 8),
+            mcu_temperature: ::mavwire::field::read::<i16>(p, 0),
+            mcu_voltage: ::mavwire::field::read::<u16>(p, 2),
+            mcu_voltage_min: ::mavwire::field::read::<u16>(p, 4),
+            mcu_voltage_max: ::mavwire::field::read::<u16>(p, 6),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &McuStatusView<'_>) -> Self {
-        Self {
-            id: view.id(),
-            mcu_temperature: view.mcu_temperature(),
-            mcu_voltage: view.mcu_voltage(),
-            mcu_voltage_min: view.mcu_voltage_min(),
-            mcu_voltage_max: view.mcu_voltage_max(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = McuStatusMut::new(payload)?;
-        out.set_id(self.id);
-        out.set_mcu_temperature(self.mcu_temperature);
-        out.set_mcu_voltage(self.mcu_voltage);
-        out.set_mcu_voltage_min(self.mcu_voltage_min);
-        out.set_mcu_voltage_max(self.mcu_voltage_max);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.id, out, 8);
+        ::mavwire::field::Scalar::write(self.mcu_temperature, out, 0);
+        ::mavwire::field::Scalar::write(self.mcu_voltage, out, 2);
+        ::mavwire::field::Scalar::write(self.mcu_voltage_min, out, 4);
+        ::mavwire::field::Scalar::write(self.mcu_voltage_max, out, 6);
         Ok(Self::MAX_LEN)
     }
 }
@@ -21515,14 +22010,17 @@ impl McuStatus {
 impl ::mavwire::Message for McuStatus {
     const META: ::mavwire::MessageMeta = McuStatus::META;
     type View<'a> = McuStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         McuStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         McuStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> McuStatusView<'_> {
         McuStatusView::new(payload)
     }
@@ -21551,6 +22049,7 @@ impl<'a> McuStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> McuStatus {
         McuStatus::from_view(self)
     }
@@ -21739,31 +22238,34 @@ impl EscTelemetry13To16 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry13To16View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry13To16View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry13To16Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -21771,14 +22273,17 @@ impl EscTelemetry13To16 {
 impl ::mavwire::Message for EscTelemetry13To16 {
     const META: ::mavwire::MessageMeta = EscTelemetry13To16::META;
     type View<'a> = EscTelemetry13To16View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry13To16::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry13To16::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry13To16View<'_> {
         EscTelemetry13To16View::new(payload)
     }
@@ -21807,6 +22312,7 @@ impl<'a> EscTelemetry13To16View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry13To16 {
         EscTelemetry13To16::from_view(self)
     }
@@ -22007,31 +22513,34 @@ impl EscTelemetry17To20 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry17To20View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry17To20View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry17To20Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -22039,14 +22548,17 @@ impl EscTelemetry17To20 {
 impl ::mavwire::Message for EscTelemetry17To20 {
     const META: ::mavwire::MessageMeta = EscTelemetry17To20::META;
     type View<'a> = EscTelemetry17To20View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry17To20::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry17To20::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry17To20View<'_> {
         EscTelemetry17To20View::new(payload)
     }
@@ -22075,6 +22587,7 @@ impl<'a> EscTelemetry17To20View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry17To20 {
         EscTelemetry17To20::from_view(self)
     }
@@ -22275,31 +22788,34 @@ impl EscTelemetry21To24 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry21To24View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry21To24View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry21To24Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -22307,14 +22823,17 @@ impl EscTelemetry21To24 {
 impl ::mavwire::Message for EscTelemetry21To24 {
     const META: ::mavwire::MessageMeta = EscTelemetry21To24::META;
     type View<'a> = EscTelemetry21To24View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry21To24::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry21To24::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry21To24View<'_> {
         EscTelemetry21To24View::new(payload)
     }
@@ -22343,6 +22862,7 @@ impl<'a> EscTelemetry21To24View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry21To24 {
         EscTelemetry21To24::from_view(self)
     }
@@ -22543,31 +23063,34 @@ impl EscTelemetry25To28 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry25To28View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry25To28View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry25To28Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -22575,14 +23098,17 @@ impl EscTelemetry25To28 {
 impl ::mavwire::Message for EscTelemetry25To28 {
     const META: ::mavwire::MessageMeta = EscTelemetry25To28::META;
     type View<'a> = EscTelemetry25To28View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry25To28::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry25To28::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry25To28View<'_> {
         EscTelemetry25To28View::new(payload)
     }
@@ -22611,6 +23137,7 @@ impl<'a> EscTelemetry25To28View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry25To28 {
         EscTelemetry25To28::from_view(self)
     }
@@ -22811,31 +23338,34 @@ impl EscTelemetry29To32 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EscTelemetry29To32View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EscTelemetry29To32View<'_>) -> Self {
-        Self {
-            temperature: view.temperature().to_array(),
-            voltage: view.voltage().to_array(),
-            current: view.current().to_array(),
-            totalcurrent: view.totalcurrent().to_array(),
-            rpm: view.rpm().to_array(),
-            count: view.count().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EscTelemetry29To32Mut::new(payload)?;
-        out.set_temperature(&self.temperature);
-        out.set_voltage(&self.voltage);
-        out.set_current(&self.current);
-        out.set_totalcurrent(&self.totalcurrent);
-        out.set_rpm(&self.rpm);
-        out.set_count(&self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 40, &self.temperature);
+        ::mavwire::field::write_array(out, 0, &self.voltage);
+        ::mavwire::field::write_array(out, 8, &self.current);
+        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
+        ::mavwire::field::write_array(out, 24, &self.rpm);
+        ::mavwire::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
@@ -22843,14 +23373,17 @@ impl EscTelemetry29To32 {
 impl ::mavwire::Message for EscTelemetry29To32 {
     const META: ::mavwire::MessageMeta = EscTelemetry29To32::META;
     type View<'a> = EscTelemetry29To32View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry29To32::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EscTelemetry29To32::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EscTelemetry29To32View<'_> {
         EscTelemetry29To32View::new(payload)
     }
@@ -22879,6 +23412,7 @@ impl<'a> EscTelemetry29To32View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EscTelemetry29To32 {
         EscTelemetry29To32::from_view(self)
     }
@@ -23049,25 +23583,28 @@ impl NamedValueString {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&NamedValueStringView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            name: ::mavwire::field::CharArray::new(p, 4).to_array(),
+            value: ::mavwire::field::CharArray::new(p, 14).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &NamedValueStringView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            name: view.name().to_array(),
-            value: view.value().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = NamedValueStringMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_name(&self.name);
-        out.set_value(&self.value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::write_array(out, 4, &self.name);
+        ::mavwire::field::write_array(out, 14, &self.value);
         Ok(Self::MAX_LEN)
     }
 }
@@ -23085,14 +23622,17 @@ impl Default for NamedValueString {
 impl ::mavwire::Message for NamedValueString {
     const META: ::mavwire::MessageMeta = NamedValueString::META;
     type View<'a> = NamedValueStringView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         NamedValueString::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         NamedValueString::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> NamedValueStringView<'_> {
         NamedValueStringView::new(payload)
     }
@@ -23121,6 +23661,7 @@ impl<'a> NamedValueStringView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> NamedValueString {
         NamedValueString::from_view(self)
     }

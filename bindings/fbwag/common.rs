@@ -11541,59 +11541,89 @@ impl SysStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SysStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            onboard_control_sensors_present: MavSysStatusSensor::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 0),
+            ),
+            onboard_control_sensors_enabled: MavSysStatusSensor::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 4),
+            ),
+            onboard_control_sensors_health: MavSysStatusSensor::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 8),
+            ),
+            load: ::mavwire::field::read::<u16>(p, 12),
+            voltage_battery: ::mavwire::field::read::<u16>(p, 14),
+            current_battery: ::mavwire::field::read::<i16>(p, 16),
+            battery_remaining: ::mavwire::field::read::<i8>(p, 30),
+            drop_rate_comm: ::mavwire::field::read::<u16>(p, 18),
+            errors_comm: ::mavwire::field::read::<u16>(p, 20),
+            errors_count1: ::mavwire::field::read::<u16>(p, 22),
+            errors_count2: ::mavwire::field::read::<u16>(p, 24),
+            errors_count3: ::mavwire::field::read::<u16>(p, 26),
+            errors_count4: ::mavwire::field::read::<u16>(p, 28),
+            onboard_control_sensors_present_extended: MavSysStatusSensorExtended::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 31),
+            ),
+            onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 35),
+            ),
+            onboard_control_sensors_health_extended: MavSysStatusSensorExtended::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 39),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SysStatusView<'_>) -> Self {
-        Self {
-            onboard_control_sensors_present: view.onboard_control_sensors_present(),
-            onboard_control_sensors_enabled: view.onboard_control_sensors_enabled(),
-            onboard_control_sensors_health: view.onboard_control_sensors_health(),
-            load: view.load(),
-            voltage_battery: view.voltage_battery(),
-            current_battery: view.current_battery(),
-            battery_remaining: view.battery_remaining(),
-            drop_rate_comm: view.drop_rate_comm(),
-            errors_comm: view.errors_comm(),
-            errors_count1: view.errors_count1(),
-            errors_count2: view.errors_count2(),
-            errors_count3: view.errors_count3(),
-            errors_count4: view.errors_count4(),
-            onboard_control_sensors_present_extended: view
-                .onboard_control_sensors_present_extended(),
-            onboard_control_sensors_enabled_extended: view
-                .onboard_control_sensors_enabled_extended(),
-            onboard_control_sensors_health_extended: view
-                .onboard_control_sensors_health_extended(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SysStatusMut::new(payload)?;
-        out.set_onboard_control_sensors_present(self.onboard_control_sensors_present);
-        out.set_onboard_control_sensors_enabled(self.onboard_control_sensors_enabled);
-        out.set_onboard_control_sensors_health(self.onboard_control_sensors_health);
-        out.set_load(self.load);
-        out.set_voltage_battery(self.voltage_battery);
-        out.set_current_battery(self.current_battery);
-        out.set_battery_remaining(self.battery_remaining);
-        out.set_drop_rate_comm(self.drop_rate_comm);
-        out.set_errors_comm(self.errors_comm);
-        out.set_errors_count1(self.errors_count1);
-        out.set_errors_count2(self.errors_count2);
-        out.set_errors_count3(self.errors_count3);
-        out.set_errors_count4(self.errors_count4);
-        out.set_onboard_control_sensors_present_extended(
-            self.onboard_control_sensors_present_extended,
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_present.bits(),
+            out,
+            0,
         );
-        out.set_onboard_control_sensors_enabled_extended(
-            self.onboard_control_sensors_enabled_extended,
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_enabled.bits(),
+            out,
+            4,
         );
-        out.set_onboard_control_sensors_health_extended(
-            self.onboard_control_sensors_health_extended,
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_health.bits(),
+            out,
+            8,
+        );
+        ::mavwire::field::Scalar::write(self.load, out, 12);
+        ::mavwire::field::Scalar::write(self.voltage_battery, out, 14);
+        ::mavwire::field::Scalar::write(self.current_battery, out, 16);
+        ::mavwire::field::Scalar::write(self.battery_remaining, out, 30);
+        ::mavwire::field::Scalar::write(self.drop_rate_comm, out, 18);
+        ::mavwire::field::Scalar::write(self.errors_comm, out, 20);
+        ::mavwire::field::Scalar::write(self.errors_count1, out, 22);
+        ::mavwire::field::Scalar::write(self.errors_count2, out, 24);
+        ::mavwire::field::Scalar::write(self.errors_count3, out, 26);
+        ::mavwire::field::Scalar::write(self.errors_count4, out, 28);
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_present_extended.bits(),
+            out,
+            31,
+        );
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_enabled_extended.bits(),
+            out,
+            35,
+        );
+        ::mavwire::field::Scalar::write(
+            self.onboard_control_sensors_health_extended.bits(),
+            out,
+            39,
         );
         Ok(Self::MAX_LEN)
     }
@@ -11602,14 +11632,17 @@ impl SysStatus {
 impl ::mavwire::Message for SysStatus {
     const META: ::mavwire::MessageMeta = SysStatus::META;
     type View<'a> = SysStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SysStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SysStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SysStatusView<'_> {
         SysStatusView::new(payload)
     }
@@ -11638,6 +11671,7 @@ impl<'a> SysStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SysStatus {
         SysStatus::from_view(self)
     }
@@ -11944,23 +11978,26 @@ impl SystemTime {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SystemTimeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_unix_usec: ::mavwire::field::read::<u64>(p, 0),
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SystemTimeView<'_>) -> Self {
-        Self {
-            time_unix_usec: view.time_unix_usec(),
-            time_boot_ms: view.time_boot_ms(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SystemTimeMut::new(payload)?;
-        out.set_time_unix_usec(self.time_unix_usec);
-        out.set_time_boot_ms(self.time_boot_ms);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_unix_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -11968,14 +12005,17 @@ impl SystemTime {
 impl ::mavwire::Message for SystemTime {
     const META: ::mavwire::MessageMeta = SystemTime::META;
     type View<'a> = SystemTimeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SystemTime::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SystemTime::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SystemTimeView<'_> {
         SystemTimeView::new(payload)
     }
@@ -12004,6 +12044,7 @@ impl<'a> SystemTimeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SystemTime {
         SystemTime::from_view(self)
     }
@@ -12140,27 +12181,30 @@ impl Ping {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&PingView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            seq: ::mavwire::field::read::<u32>(p, 8),
+            target_system: ::mavwire::field::read::<u8>(p, 12),
+            target_component: ::mavwire::field::read::<u8>(p, 13),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &PingView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            seq: view.seq(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = PingMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_seq(self.seq);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.seq, out, 8);
+        ::mavwire::field::Scalar::write(self.target_system, out, 12);
+        ::mavwire::field::Scalar::write(self.target_component, out, 13);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12168,14 +12212,17 @@ impl Ping {
 impl ::mavwire::Message for Ping {
     const META: ::mavwire::MessageMeta = Ping::META;
     type View<'a> = PingView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Ping::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Ping::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> PingView<'_> {
         PingView::new(payload)
     }
@@ -12204,6 +12251,7 @@ impl<'a> PingView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Ping {
         Ping::from_view(self)
     }
@@ -12361,27 +12409,30 @@ impl ChangeOperatorControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ChangeOperatorControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            control_request: ::mavwire::field::read::<u8>(p, 1),
+            version: ::mavwire::field::read::<u8>(p, 2),
+            passkey: ::mavwire::field::CharArray::new(p, 3).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ChangeOperatorControlView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            control_request: view.control_request(),
-            version: view.version(),
-            passkey: view.passkey().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ChangeOperatorControlMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_control_request(self.control_request);
-        out.set_version(self.version);
-        out.set_passkey(&self.passkey);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.control_request, out, 1);
+        ::mavwire::field::Scalar::write(self.version, out, 2);
+        ::mavwire::field::write_array(out, 3, &self.passkey);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12389,14 +12440,17 @@ impl ChangeOperatorControl {
 impl ::mavwire::Message for ChangeOperatorControl {
     const META: ::mavwire::MessageMeta = ChangeOperatorControl::META;
     type View<'a> = ChangeOperatorControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ChangeOperatorControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ChangeOperatorControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ChangeOperatorControlView<'_> {
         ChangeOperatorControlView::new(payload)
     }
@@ -12425,6 +12479,7 @@ impl<'a> ChangeOperatorControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ChangeOperatorControl {
         ChangeOperatorControl::from_view(self)
     }
@@ -12569,25 +12624,28 @@ impl ChangeOperatorControlAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ChangeOperatorControlAckView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            gcs_system_id: ::mavwire::field::read::<u8>(p, 0),
+            control_request: ::mavwire::field::read::<u8>(p, 1),
+            ack: ::mavwire::field::read::<u8>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ChangeOperatorControlAckView<'_>) -> Self {
-        Self {
-            gcs_system_id: view.gcs_system_id(),
-            control_request: view.control_request(),
-            ack: view.ack(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ChangeOperatorControlAckMut::new(payload)?;
-        out.set_gcs_system_id(self.gcs_system_id);
-        out.set_control_request(self.control_request);
-        out.set_ack(self.ack);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.gcs_system_id, out, 0);
+        ::mavwire::field::Scalar::write(self.control_request, out, 1);
+        ::mavwire::field::Scalar::write(self.ack, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12595,14 +12653,17 @@ impl ChangeOperatorControlAck {
 impl ::mavwire::Message for ChangeOperatorControlAck {
     const META: ::mavwire::MessageMeta = ChangeOperatorControlAck::META;
     type View<'a> = ChangeOperatorControlAckView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ChangeOperatorControlAck::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ChangeOperatorControlAck::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ChangeOperatorControlAckView<'_> {
         ChangeOperatorControlAckView::new(payload)
     }
@@ -12631,6 +12692,7 @@ impl<'a> ChangeOperatorControlAckView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ChangeOperatorControlAck {
         ChangeOperatorControlAck::from_view(self)
     }
@@ -12741,19 +12803,24 @@ impl AuthKey {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AuthKeyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            key: ::mavwire::field::CharArray::new(p, 0).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AuthKeyView<'_>) -> Self {
-        Self { key: view.key().to_array() }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AuthKeyMut::new(payload)?;
-        out.set_key(&self.key);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 0, &self.key);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12761,14 +12828,17 @@ impl AuthKey {
 impl ::mavwire::Message for AuthKey {
     const META: ::mavwire::MessageMeta = AuthKey::META;
     type View<'a> = AuthKeyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AuthKey::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AuthKey::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AuthKeyView<'_> {
         AuthKeyView::new(payload)
     }
@@ -12797,6 +12867,7 @@ impl<'a> AuthKeyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AuthKey {
         AuthKey::from_view(self)
     }
@@ -12905,25 +12976,28 @@ impl SetMode {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetModeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            base_mode: MavMode::from_raw(::mavwire::field::read::<u8>(p, 5)),
+            custom_mode: ::mavwire::field::read::<u32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetModeView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            base_mode: view.base_mode(),
-            custom_mode: view.custom_mode(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetModeMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_base_mode(self.base_mode);
-        out.set_custom_mode(self.custom_mode);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.base_mode.to_raw(), out, 5);
+        ::mavwire::field::Scalar::write(self.custom_mode, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12931,14 +13005,17 @@ impl SetMode {
 impl ::mavwire::Message for SetMode {
     const META: ::mavwire::MessageMeta = SetMode::META;
     type View<'a> = SetModeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetMode::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetMode::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetModeView<'_> {
         SetModeView::new(payload)
     }
@@ -12967,6 +13044,7 @@ impl<'a> SetModeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetMode {
         SetMode::from_view(self)
     }
@@ -13117,27 +13195,30 @@ impl ParamRequestRead {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamRequestReadView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            param_id: ::mavwire::field::CharArray::new(p, 4).to_array(),
+            param_index: ::mavwire::field::read::<i16>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamRequestReadView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            param_id: view.param_id().to_array(),
-            param_index: view.param_index(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamRequestReadMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_param_id(&self.param_id);
-        out.set_param_index(self.param_index);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::write_array(out, 4, &self.param_id);
+        ::mavwire::field::Scalar::write(self.param_index, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -13145,14 +13226,17 @@ impl ParamRequestRead {
 impl ::mavwire::Message for ParamRequestRead {
     const META: ::mavwire::MessageMeta = ParamRequestRead::META;
     type View<'a> = ParamRequestReadView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamRequestRead::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamRequestRead::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamRequestReadView<'_> {
         ParamRequestReadView::new(payload)
     }
@@ -13181,6 +13265,7 @@ impl<'a> ParamRequestReadView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamRequestRead {
         ParamRequestRead::from_view(self)
     }
@@ -13315,23 +13400,26 @@ impl ParamRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamRequestListView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamRequestListView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamRequestListMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
         Ok(Self::MAX_LEN)
     }
 }
@@ -13339,14 +13427,17 @@ impl ParamRequestList {
 impl ::mavwire::Message for ParamRequestList {
     const META: ::mavwire::MessageMeta = ParamRequestList::META;
     type View<'a> = ParamRequestListView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamRequestList::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamRequestList::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamRequestListView<'_> {
         ParamRequestListView::new(payload)
     }
@@ -13375,6 +13466,7 @@ impl<'a> ParamRequestListView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamRequestList {
         ParamRequestList::from_view(self)
     }
@@ -13521,29 +13613,32 @@ impl ParamValue {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamValueView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            param_id: ::mavwire::field::CharArray::new(p, 8).to_array(),
+            param_value: ::mavwire::field::read::<f32>(p, 0),
+            param_type: MavParamType::from_raw(::mavwire::field::read::<u8>(p, 24)),
+            param_count: ::mavwire::field::read::<u16>(p, 4),
+            param_index: ::mavwire::field::read::<u16>(p, 6),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamValueView<'_>) -> Self {
-        Self {
-            param_id: view.param_id().to_array(),
-            param_value: view.param_value(),
-            param_type: view.param_type(),
-            param_count: view.param_count(),
-            param_index: view.param_index(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamValueMut::new(payload)?;
-        out.set_param_id(&self.param_id);
-        out.set_param_value(self.param_value);
-        out.set_param_type(self.param_type);
-        out.set_param_count(self.param_count);
-        out.set_param_index(self.param_index);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 8, &self.param_id);
+        ::mavwire::field::Scalar::write(self.param_value, out, 0);
+        ::mavwire::field::Scalar::write(self.param_type.to_raw(), out, 24);
+        ::mavwire::field::Scalar::write(self.param_count, out, 4);
+        ::mavwire::field::Scalar::write(self.param_index, out, 6);
         Ok(Self::MAX_LEN)
     }
 }
@@ -13551,14 +13646,17 @@ impl ParamValue {
 impl ::mavwire::Message for ParamValue {
     const META: ::mavwire::MessageMeta = ParamValue::META;
     type View<'a> = ParamValueView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamValue::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamValue::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamValueView<'_> {
         ParamValueView::new(payload)
     }
@@ -13587,6 +13685,7 @@ impl<'a> ParamValueView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamValue {
         ParamValue::from_view(self)
     }
@@ -13771,29 +13870,32 @@ impl ParamSet {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamSetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            param_id: ::mavwire::field::CharArray::new(p, 6).to_array(),
+            param_value: ::mavwire::field::read::<f32>(p, 0),
+            param_type: MavParamType::from_raw(::mavwire::field::read::<u8>(p, 22)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamSetView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            param_id: view.param_id().to_array(),
-            param_value: view.param_value(),
-            param_type: view.param_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamSetMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_param_id(&self.param_id);
-        out.set_param_value(self.param_value);
-        out.set_param_type(self.param_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::write_array(out, 6, &self.param_id);
+        ::mavwire::field::Scalar::write(self.param_value, out, 0);
+        ::mavwire::field::Scalar::write(self.param_type.to_raw(), out, 22);
         Ok(Self::MAX_LEN)
     }
 }
@@ -13801,14 +13903,17 @@ impl ParamSet {
 impl ::mavwire::Message for ParamSet {
     const META: ::mavwire::MessageMeta = ParamSet::META;
     type View<'a> = ParamSetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamSet::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamSet::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamSetView<'_> {
         ParamSetView::new(payload)
     }
@@ -13837,6 +13942,7 @@ impl<'a> ParamSetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamSet {
         ParamSet::from_view(self)
     }
@@ -14151,51 +14257,54 @@ impl GpsRawInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GpsRawIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            fix_type: GpsFixType::from_raw(::mavwire::field::read::<u8>(p, 28)),
+            lat: ::mavwire::field::read::<i32>(p, 8),
+            lon: ::mavwire::field::read::<i32>(p, 12),
+            alt: ::mavwire::field::read::<i32>(p, 16),
+            eph: ::mavwire::field::read::<u16>(p, 20),
+            epv: ::mavwire::field::read::<u16>(p, 22),
+            vel: ::mavwire::field::read::<u16>(p, 24),
+            cog: ::mavwire::field::read::<u16>(p, 26),
+            satellites_visible: ::mavwire::field::read::<u8>(p, 29),
+            alt_ellipsoid: ::mavwire::field::read::<i32>(p, 30),
+            h_acc: ::mavwire::field::read::<u32>(p, 34),
+            v_acc: ::mavwire::field::read::<u32>(p, 38),
+            vel_acc: ::mavwire::field::read::<u32>(p, 42),
+            hdg_acc: ::mavwire::field::read::<u32>(p, 46),
+            yaw: ::mavwire::field::read::<u16>(p, 50),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GpsRawIntView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            fix_type: view.fix_type(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            eph: view.eph(),
-            epv: view.epv(),
-            vel: view.vel(),
-            cog: view.cog(),
-            satellites_visible: view.satellites_visible(),
-            alt_ellipsoid: view.alt_ellipsoid(),
-            h_acc: view.h_acc(),
-            v_acc: view.v_acc(),
-            vel_acc: view.vel_acc(),
-            hdg_acc: view.hdg_acc(),
-            yaw: view.yaw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GpsRawIntMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_fix_type(self.fix_type);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_eph(self.eph);
-        out.set_epv(self.epv);
-        out.set_vel(self.vel);
-        out.set_cog(self.cog);
-        out.set_satellites_visible(self.satellites_visible);
-        out.set_alt_ellipsoid(self.alt_ellipsoid);
-        out.set_h_acc(self.h_acc);
-        out.set_v_acc(self.v_acc);
-        out.set_vel_acc(self.vel_acc);
-        out.set_hdg_acc(self.hdg_acc);
-        out.set_yaw(self.yaw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.fix_type.to_raw(), out, 28);
+        ::mavwire::field::Scalar::write(self.lat, out, 8);
+        ::mavwire::field::Scalar::write(self.lon, out, 12);
+        ::mavwire::field::Scalar::write(self.alt, out, 16);
+        ::mavwire::field::Scalar::write(self.eph, out, 20);
+        ::mavwire::field::Scalar::write(self.epv, out, 22);
+        ::mavwire::field::Scalar::write(self.vel, out, 24);
+        ::mavwire::field::Scalar::write(self.cog, out, 26);
+        ::mavwire::field::Scalar::write(self.satellites_visible, out, 29);
+        ::mavwire::field::Scalar::write(self.alt_ellipsoid, out, 30);
+        ::mavwire::field::Scalar::write(self.h_acc, out, 34);
+        ::mavwire::field::Scalar::write(self.v_acc, out, 38);
+        ::mavwire::field::Scalar::write(self.vel_acc, out, 42);
+        ::mavwire::field::Scalar::write(self.hdg_acc, out, 46);
+        ::mavwire::field::Scalar::write(self.yaw, out, 50);
         Ok(Self::MAX_LEN)
     }
 }
@@ -14203,14 +14312,17 @@ impl GpsRawInt {
 impl ::mavwire::Message for GpsRawInt {
     const META: ::mavwire::MessageMeta = GpsRawInt::META;
     type View<'a> = GpsRawIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GpsRawInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GpsRawInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GpsRawIntView<'_> {
         GpsRawIntView::new(payload)
     }
@@ -14239,6 +14351,7 @@ impl<'a> GpsRawIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GpsRawInt {
         GpsRawInt::from_view(self)
     }
@@ -14562,31 +14675,34 @@ impl GpsStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GpsStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            satellites_visible: ::mavwire::field::read::<u8>(p, 0),
+            satellite_prn: ::mavwire::field::ArrayView::new(p, 1).to_array(),
+            satellite_used: ::mavwire::field::ArrayView::new(p, 21).to_array(),
+            satellite_elevation: ::mavwire::field::ArrayView::new(p, 41).to_array(),
+            satellite_azimuth: ::mavwire::field::ArrayView::new(p, 61).to_array(),
+            satellite_snr: ::mavwire::field::ArrayView::new(p, 81).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GpsStatusView<'_>) -> Self {
-        Self {
-            satellites_visible: view.satellites_visible(),
-            satellite_prn: view.satellite_prn().to_array(),
-            satellite_used: view.satellite_used().to_array(),
-            satellite_elevation: view.satellite_elevation().to_array(),
-            satellite_azimuth: view.satellite_azimuth().to_array(),
-            satellite_snr: view.satellite_snr().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GpsStatusMut::new(payload)?;
-        out.set_satellites_visible(self.satellites_visible);
-        out.set_satellite_prn(&self.satellite_prn);
-        out.set_satellite_used(&self.satellite_used);
-        out.set_satellite_elevation(&self.satellite_elevation);
-        out.set_satellite_azimuth(&self.satellite_azimuth);
-        out.set_satellite_snr(&self.satellite_snr);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.satellites_visible, out, 0);
+        ::mavwire::field::write_array(out, 1, &self.satellite_prn);
+        ::mavwire::field::write_array(out, 21, &self.satellite_used);
+        ::mavwire::field::write_array(out, 41, &self.satellite_elevation);
+        ::mavwire::field::write_array(out, 61, &self.satellite_azimuth);
+        ::mavwire::field::write_array(out, 81, &self.satellite_snr);
         Ok(Self::MAX_LEN)
     }
 }
@@ -14594,14 +14710,17 @@ impl GpsStatus {
 impl ::mavwire::Message for GpsStatus {
     const META: ::mavwire::MessageMeta = GpsStatus::META;
     type View<'a> = GpsStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GpsStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GpsStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GpsStatusView<'_> {
         GpsStatusView::new(payload)
     }
@@ -14630,6 +14749,7 @@ impl<'a> GpsStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GpsStatus {
         GpsStatus::from_view(self)
     }
@@ -14888,41 +15008,44 @@ impl ScaledImu {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ScaledImuView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            xacc: ::mavwire::field::read::<i16>(p, 4),
+            yacc: ::mavwire::field::read::<i16>(p, 6),
+            zacc: ::mavwire::field::read::<i16>(p, 8),
+            xgyro: ::mavwire::field::read::<i16>(p, 10),
+            ygyro: ::mavwire::field::read::<i16>(p, 12),
+            zgyro: ::mavwire::field::read::<i16>(p, 14),
+            xmag: ::mavwire::field::read::<i16>(p, 16),
+            ymag: ::mavwire::field::read::<i16>(p, 18),
+            zmag: ::mavwire::field::read::<i16>(p, 20),
+            temperature: ::mavwire::field::read::<i16>(p, 22),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ScaledImuView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            xmag: view.xmag(),
-            ymag: view.ymag(),
-            zmag: view.zmag(),
-            temperature: view.temperature(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ScaledImuMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_xmag(self.xmag);
-        out.set_ymag(self.ymag);
-        out.set_zmag(self.zmag);
-        out.set_temperature(self.temperature);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.xacc, out, 4);
+        ::mavwire::field::Scalar::write(self.yacc, out, 6);
+        ::mavwire::field::Scalar::write(self.zacc, out, 8);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 10);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 12);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 14);
+        ::mavwire::field::Scalar::write(self.xmag, out, 16);
+        ::mavwire::field::Scalar::write(self.ymag, out, 18);
+        ::mavwire::field::Scalar::write(self.zmag, out, 20);
+        ::mavwire::field::Scalar::write(self.temperature, out, 22);
         Ok(Self::MAX_LEN)
     }
 }
@@ -14930,14 +15053,17 @@ impl ScaledImu {
 impl ::mavwire::Message for ScaledImu {
     const META: ::mavwire::MessageMeta = ScaledImu::META;
     type View<'a> = ScaledImuView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ScaledImu::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ScaledImu::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ScaledImuView<'_> {
         ScaledImuView::new(payload)
     }
@@ -14966,6 +15092,7 @@ impl<'a> ScaledImuView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ScaledImu {
         ScaledImu::from_view(self)
     }
@@ -15302,43 +15429,46 @@ impl RawImu {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RawImuView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            xacc: ::mavwire::field::read::<i16>(p, 8),
+            yacc: ::mavwire::field::read::<i16>(p, 10),
+            zacc: ::mavwire::field::read::<i16>(p, 12),
+            xgyro: ::mavwire::field::read::<i16>(p, 14),
+            ygyro: ::mavwire::field::read::<i16>(p, 16),
+            zgyro: ::mavwire::field::read::<i16>(p, 18),
+            xmag: ::mavwire::field::read::<i16>(p, 20),
+            ymag: ::mavwire::field::read::<i16>(p, 22),
+            zmag: ::mavwire::field::read::<i16>(p, 24),
+            id: ::mavwire::field::read::<u8>(p, 26),
+            temperature: ::mavwire::field::read::<i16>(p, 27),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RawImuView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            xmag: view.xmag(),
-            ymag: view.ymag(),
-            zmag: view.zmag(),
-            id: view.id(),
-            temperature: view.temperature(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RawImuMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_xmag(self.xmag);
-        out.set_ymag(self.ymag);
-        out.set_zmag(self.zmag);
-        out.set_id(self.id);
-        out.set_temperature(self.temperature);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.xacc, out, 8);
+        ::mavwire::field::Scalar::write(self.yacc, out, 10);
+        ::mavwire::field::Scalar::write(self.zacc, out, 12);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 14);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 16);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 18);
+        ::mavwire::field::Scalar::write(self.xmag, out, 20);
+        ::mavwire::field::Scalar::write(self.ymag, out, 22);
+        ::mavwire::field::Scalar::write(self.zmag, out, 24);
+        ::mavwire::field::Scalar::write(self.id, out, 26);
+        ::mavwire::field::Scalar::write(self.temperature, out, 27);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15346,14 +15476,17 @@ impl RawImu {
 impl ::mavwire::Message for RawImu {
     const META: ::mavwire::MessageMeta = RawImu::META;
     type View<'a> = RawImuView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RawImu::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RawImu::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RawImuView<'_> {
         RawImuView::new(payload)
     }
@@ -15382,6 +15515,7 @@ impl<'a> RawImuView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RawImu {
         RawImu::from_view(self)
     }
@@ -15646,29 +15780,32 @@ impl RawPressure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RawPressureView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            press_abs: ::mavwire::field::read::<i16>(p, 8),
+            press_diff1: ::mavwire::field::read::<i16>(p, 10),
+            press_diff2: ::mavwire::field::read::<i16>(p, 12),
+            temperature: ::mavwire::field::read::<i16>(p, 14),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RawPressureView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            press_abs: view.press_abs(),
-            press_diff1: view.press_diff1(),
-            press_diff2: view.press_diff2(),
-            temperature: view.temperature(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RawPressureMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_press_abs(self.press_abs);
-        out.set_press_diff1(self.press_diff1);
-        out.set_press_diff2(self.press_diff2);
-        out.set_temperature(self.temperature);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.press_abs, out, 8);
+        ::mavwire::field::Scalar::write(self.press_diff1, out, 10);
+        ::mavwire::field::Scalar::write(self.press_diff2, out, 12);
+        ::mavwire::field::Scalar::write(self.temperature, out, 14);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15676,14 +15813,17 @@ impl RawPressure {
 impl ::mavwire::Message for RawPressure {
     const META: ::mavwire::MessageMeta = RawPressure::META;
     type View<'a> = RawPressureView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RawPressure::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RawPressure::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RawPressureView<'_> {
         RawPressureView::new(payload)
     }
@@ -15712,6 +15852,7 @@ impl<'a> RawPressureView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RawPressure {
         RawPressure::from_view(self)
     }
@@ -15892,29 +16033,32 @@ impl ScaledPressure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ScaledPressureView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            press_abs: ::mavwire::field::read::<f32>(p, 4),
+            press_diff: ::mavwire::field::read::<f32>(p, 8),
+            temperature: ::mavwire::field::read::<i16>(p, 12),
+            temperature_press_diff: ::mavwire::field::read::<i16>(p, 14),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ScaledPressureView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            press_abs: view.press_abs(),
-            press_diff: view.press_diff(),
-            temperature: view.temperature(),
-            temperature_press_diff: view.temperature_press_diff(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ScaledPressureMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_press_abs(self.press_abs);
-        out.set_press_diff(self.press_diff);
-        out.set_temperature(self.temperature);
-        out.set_temperature_press_diff(self.temperature_press_diff);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.press_abs, out, 4);
+        ::mavwire::field::Scalar::write(self.press_diff, out, 8);
+        ::mavwire::field::Scalar::write(self.temperature, out, 12);
+        ::mavwire::field::Scalar::write(self.temperature_press_diff, out, 14);
         Ok(Self::MAX_LEN)
     }
 }
@@ -15922,14 +16066,17 @@ impl ScaledPressure {
 impl ::mavwire::Message for ScaledPressure {
     const META: ::mavwire::MessageMeta = ScaledPressure::META;
     type View<'a> = ScaledPressureView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ScaledPressure::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ScaledPressure::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ScaledPressureView<'_> {
         ScaledPressureView::new(payload)
     }
@@ -15958,6 +16105,7 @@ impl<'a> ScaledPressureView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ScaledPressure {
         ScaledPressure::from_view(self)
     }
@@ -16158,33 +16306,36 @@ impl Attitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AttitudeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            roll: ::mavwire::field::read::<f32>(p, 4),
+            pitch: ::mavwire::field::read::<f32>(p, 8),
+            yaw: ::mavwire::field::read::<f32>(p, 12),
+            rollspeed: ::mavwire::field::read::<f32>(p, 16),
+            pitchspeed: ::mavwire::field::read::<f32>(p, 20),
+            yawspeed: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AttitudeView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            rollspeed: view.rollspeed(),
-            pitchspeed: view.pitchspeed(),
-            yawspeed: view.yawspeed(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AttitudeMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_rollspeed(self.rollspeed);
-        out.set_pitchspeed(self.pitchspeed);
-        out.set_yawspeed(self.yawspeed);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.roll, out, 4);
+        ::mavwire::field::Scalar::write(self.pitch, out, 8);
+        ::mavwire::field::Scalar::write(self.yaw, out, 12);
+        ::mavwire::field::Scalar::write(self.rollspeed, out, 16);
+        ::mavwire::field::Scalar::write(self.pitchspeed, out, 20);
+        ::mavwire::field::Scalar::write(self.yawspeed, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16192,14 +16343,17 @@ impl Attitude {
 impl ::mavwire::Message for Attitude {
     const META: ::mavwire::MessageMeta = Attitude::META;
     type View<'a> = AttitudeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Attitude::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Attitude::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AttitudeView<'_> {
         AttitudeView::new(payload)
     }
@@ -16228,6 +16382,7 @@ impl<'a> AttitudeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Attitude {
         Attitude::from_view(self)
     }
@@ -16482,37 +16637,40 @@ impl AttitudeQuaternion {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AttitudeQuaternionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            q1: ::mavwire::field::read::<f32>(p, 4),
+            q2: ::mavwire::field::read::<f32>(p, 8),
+            q3: ::mavwire::field::read::<f32>(p, 12),
+            q4: ::mavwire::field::read::<f32>(p, 16),
+            rollspeed: ::mavwire::field::read::<f32>(p, 20),
+            pitchspeed: ::mavwire::field::read::<f32>(p, 24),
+            yawspeed: ::mavwire::field::read::<f32>(p, 28),
+            repr_offset_q: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AttitudeQuaternionView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            q1: view.q1(),
-            q2: view.q2(),
-            q3: view.q3(),
-            q4: view.q4(),
-            rollspeed: view.rollspeed(),
-            pitchspeed: view.pitchspeed(),
-            yawspeed: view.yawspeed(),
-            repr_offset_q: view.repr_offset_q().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AttitudeQuaternionMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_q1(self.q1);
-        out.set_q2(self.q2);
-        out.set_q3(self.q3);
-        out.set_q4(self.q4);
-        out.set_rollspeed(self.rollspeed);
-        out.set_pitchspeed(self.pitchspeed);
-        out.set_yawspeed(self.yawspeed);
-        out.set_repr_offset_q(&self.repr_offset_q);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.q1, out, 4);
+        ::mavwire::field::Scalar::write(self.q2, out, 8);
+        ::mavwire::field::Scalar::write(self.q3, out, 12);
+        ::mavwire::field::Scalar::write(self.q4, out, 16);
+        ::mavwire::field::Scalar::write(self.rollspeed, out, 20);
+        ::mavwire::field::Scalar::write(self.pitchspeed, out, 24);
+        ::mavwire::field::Scalar::write(self.yawspeed, out, 28);
+        ::mavwire::field::write_array(out, 32, &self.repr_offset_q);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16520,14 +16678,17 @@ impl AttitudeQuaternion {
 impl ::mavwire::Message for AttitudeQuaternion {
     const META: ::mavwire::MessageMeta = AttitudeQuaternion::META;
     type View<'a> = AttitudeQuaternionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AttitudeQuaternion::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AttitudeQuaternion::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AttitudeQuaternionView<'_> {
         AttitudeQuaternionView::new(payload)
     }
@@ -16556,6 +16717,7 @@ impl<'a> AttitudeQuaternionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AttitudeQuaternion {
         AttitudeQuaternion::from_view(self)
     }
@@ -16804,33 +16966,36 @@ impl LocalPositionNed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LocalPositionNedView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            x: ::mavwire::field::read::<f32>(p, 4),
+            y: ::mavwire::field::read::<f32>(p, 8),
+            z: ::mavwire::field::read::<f32>(p, 12),
+            vx: ::mavwire::field::read::<f32>(p, 16),
+            vy: ::mavwire::field::read::<f32>(p, 20),
+            vz: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LocalPositionNedView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LocalPositionNedMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.x, out, 4);
+        ::mavwire::field::Scalar::write(self.y, out, 8);
+        ::mavwire::field::Scalar::write(self.z, out, 12);
+        ::mavwire::field::Scalar::write(self.vx, out, 16);
+        ::mavwire::field::Scalar::write(self.vy, out, 20);
+        ::mavwire::field::Scalar::write(self.vz, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16838,14 +17003,17 @@ impl LocalPositionNed {
 impl ::mavwire::Message for LocalPositionNed {
     const META: ::mavwire::MessageMeta = LocalPositionNed::META;
     type View<'a> = LocalPositionNedView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LocalPositionNed::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LocalPositionNed::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LocalPositionNedView<'_> {
         LocalPositionNedView::new(payload)
     }
@@ -16874,6 +17042,7 @@ impl<'a> LocalPositionNedView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LocalPositionNed {
         LocalPositionNed::from_view(self)
     }
@@ -17144,41 +17313,44 @@ impl RcChannelsScaled {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RcChannelsScaledView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            port: ::mavwire::field::read::<u8>(p, 20),
+            chan1_scaled: ::mavwire::field::read::<i16>(p, 4),
+            chan2_scaled: ::mavwire::field::read::<i16>(p, 6),
+            chan3_scaled: ::mavwire::field::read::<i16>(p, 8),
+            chan4_scaled: ::mavwire::field::read::<i16>(p, 10),
+            chan5_scaled: ::mavwire::field::read::<i16>(p, 12),
+            chan6_scaled: ::mavwire::field::read::<i16>(p, 14),
+            chan7_scaled: ::mavwire::field::read::<i16>(p, 16),
+            chan8_scaled: ::mavwire::field::read::<i16>(p, 18),
+            rssi: ::mavwire::field::read::<u8>(p, 21),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RcChannelsScaledView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            port: view.port(),
-            chan1_scaled: view.chan1_scaled(),
-            chan2_scaled: view.chan2_scaled(),
-            chan3_scaled: view.chan3_scaled(),
-            chan4_scaled: view.chan4_scaled(),
-            chan5_scaled: view.chan5_scaled(),
-            chan6_scaled: view.chan6_scaled(),
-            chan7_scaled: view.chan7_scaled(),
-            chan8_scaled: view.chan8_scaled(),
-            rssi: view.rssi(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RcChannelsScaledMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_port(self.port);
-        out.set_chan1_scaled(self.chan1_scaled);
-        out.set_chan2_scaled(self.chan2_scaled);
-        out.set_chan3_scaled(self.chan3_scaled);
-        out.set_chan4_scaled(self.chan4_scaled);
-        out.set_chan5_scaled(self.chan5_scaled);
-        out.set_chan6_scaled(self.chan6_scaled);
-        out.set_chan7_scaled(self.chan7_scaled);
-        out.set_chan8_scaled(self.chan8_scaled);
-        out.set_rssi(self.rssi);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.port, out, 20);
+        ::mavwire::field::Scalar::write(self.chan1_scaled, out, 4);
+        ::mavwire::field::Scalar::write(self.chan2_scaled, out, 6);
+        ::mavwire::field::Scalar::write(self.chan3_scaled, out, 8);
+        ::mavwire::field::Scalar::write(self.chan4_scaled, out, 10);
+        ::mavwire::field::Scalar::write(self.chan5_scaled, out, 12);
+        ::mavwire::field::Scalar::write(self.chan6_scaled, out, 14);
+        ::mavwire::field::Scalar::write(self.chan7_scaled, out, 16);
+        ::mavwire::field::Scalar::write(self.chan8_scaled, out, 18);
+        ::mavwire::field::Scalar::write(self.rssi, out, 21);
         Ok(Self::MAX_LEN)
     }
 }
@@ -17186,14 +17358,17 @@ impl RcChannelsScaled {
 impl ::mavwire::Message for RcChannelsScaled {
     const META: ::mavwire::MessageMeta = RcChannelsScaled::META;
     type View<'a> = RcChannelsScaledView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RcChannelsScaled::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RcChannelsScaled::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RcChannelsScaledView<'_> {
         RcChannelsScaledView::new(payload)
     }
@@ -17222,6 +17397,7 @@ impl<'a> RcChannelsScaledView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RcChannelsScaled {
         RcChannelsScaled::from_view(self)
     }
@@ -17541,41 +17717,44 @@ impl RcChannelsRaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RcChannelsRawView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            port: ::mavwire::field::read::<u8>(p, 20),
+            chan1_raw: ::mavwire::field::read::<u16>(p, 4),
+            chan2_raw: ::mavwire::field::read::<u16>(p, 6),
+            chan3_raw: ::mavwire::field::read::<u16>(p, 8),
+            chan4_raw: ::mavwire::field::read::<u16>(p, 10),
+            chan5_raw: ::mavwire::field::read::<u16>(p, 12),
+            chan6_raw: ::mavwire::field::read::<u16>(p, 14),
+            chan7_raw: ::mavwire::field::read::<u16>(p, 16),
+            chan8_raw: ::mavwire::field::read::<u16>(p, 18),
+            rssi: ::mavwire::field::read::<u8>(p, 21),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RcChannelsRawView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            port: view.port(),
-            chan1_raw: view.chan1_raw(),
-            chan2_raw: view.chan2_raw(),
-            chan3_raw: view.chan3_raw(),
-            chan4_raw: view.chan4_raw(),
-            chan5_raw: view.chan5_raw(),
-            chan6_raw: view.chan6_raw(),
-            chan7_raw: view.chan7_raw(),
-            chan8_raw: view.chan8_raw(),
-            rssi: view.rssi(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RcChannelsRawMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_port(self.port);
-        out.set_chan1_raw(self.chan1_raw);
-        out.set_chan2_raw(self.chan2_raw);
-        out.set_chan3_raw(self.chan3_raw);
-        out.set_chan4_raw(self.chan4_raw);
-        out.set_chan5_raw(self.chan5_raw);
-        out.set_chan6_raw(self.chan6_raw);
-        out.set_chan7_raw(self.chan7_raw);
-        out.set_chan8_raw(self.chan8_raw);
-        out.set_rssi(self.rssi);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.port, out, 20);
+        ::mavwire::field::Scalar::write(self.chan1_raw, out, 4);
+        ::mavwire::field::Scalar::write(self.chan2_raw, out, 6);
+        ::mavwire::field::Scalar::write(self.chan3_raw, out, 8);
+        ::mavwire::field::Scalar::write(self.chan4_raw, out, 10);
+        ::mavwire::field::Scalar::write(self.chan5_raw, out, 12);
+        ::mavwire::field::Scalar::write(self.chan6_raw, out, 14);
+        ::mavwire::field::Scalar::write(self.chan7_raw, out, 16);
+        ::mavwire::field::Scalar::write(self.chan8_raw, out, 18);
+        ::mavwire::field::Scalar::write(self.rssi, out, 21);
         Ok(Self::MAX_LEN)
     }
 }
@@ -17583,14 +17762,17 @@ impl RcChannelsRaw {
 impl ::mavwire::Message for RcChannelsRaw {
     const META: ::mavwire::MessageMeta = RcChannelsRaw::META;
     type View<'a> = RcChannelsRawView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RcChannelsRaw::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RcChannelsRaw::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RcChannelsRawView<'_> {
         RcChannelsRawView::new(payload)
     }
@@ -17619,6 +17801,7 @@ impl<'a> RcChannelsRawView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RcChannelsRaw {
         RcChannelsRaw::from_view(self)
     }
@@ -18025,55 +18208,58 @@ impl ServoOutputRaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ServoOutputRawView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u32>(p, 0),
+            port: ::mavwire::field::read::<u8>(p, 20),
+            servo1_raw: ::mavwire::field::read::<u16>(p, 4),
+            servo2_raw: ::mavwire::field::read::<u16>(p, 6),
+            servo3_raw: ::mavwire::field::read::<u16>(p, 8),
+            servo4_raw: ::mavwire::field::read::<u16>(p, 10),
+            servo5_raw: ::mavwire::field::read::<u16>(p, 12),
+            servo6_raw: ::mavwire::field::read::<u16>(p, 14),
+            servo7_raw: ::mavwire::field::read::<u16>(p, 16),
+            servo8_raw: ::mavwire::field::read::<u16>(p, 18),
+            servo9_raw: ::mavwire::field::read::<u16>(p, 21),
+            servo10_raw: ::mavwire::field::read::<u16>(p, 23),
+            servo11_raw: ::mavwire::field::read::<u16>(p, 25),
+            servo12_raw: ::mavwire::field::read::<u16>(p, 27),
+            servo13_raw: ::mavwire::field::read::<u16>(p, 29),
+            servo14_raw: ::mavwire::field::read::<u16>(p, 31),
+            servo15_raw: ::mavwire::field::read::<u16>(p, 33),
+            servo16_raw: ::mavwire::field::read::<u16>(p, 35),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ServoOutputRawView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            port: view.port(),
-            servo1_raw: view.servo1_raw(),
-            servo2_raw: view.servo2_raw(),
-            servo3_raw: view.servo3_raw(),
-            servo4_raw: view.servo4_raw(),
-            servo5_raw: view.servo5_raw(),
-            servo6_raw: view.servo6_raw(),
-            servo7_raw: view.servo7_raw(),
-            servo8_raw: view.servo8_raw(),
-            servo9_raw: view.servo9_raw(),
-            servo10_raw: view.servo10_raw(),
-            servo11_raw: view.servo11_raw(),
-            servo12_raw: view.servo12_raw(),
-            servo13_raw: view.servo13_raw(),
-            servo14_raw: view.servo14_raw(),
-            servo15_raw: view.servo15_raw(),
-            servo16_raw: view.servo16_raw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ServoOutputRawMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_port(self.port);
-        out.set_servo1_raw(self.servo1_raw);
-        out.set_servo2_raw(self.servo2_raw);
-        out.set_servo3_raw(self.servo3_raw);
-        out.set_servo4_raw(self.servo4_raw);
-        out.set_servo5_raw(self.servo5_raw);
-        out.set_servo6_raw(self.servo6_raw);
-        out.set_servo7_raw(self.servo7_raw);
-        out.set_servo8_raw(self.servo8_raw);
-        out.set_servo9_raw(self.servo9_raw);
-        out.set_servo10_raw(self.servo10_raw);
-        out.set_servo11_raw(self.servo11_raw);
-        out.set_servo12_raw(self.servo12_raw);
-        out.set_servo13_raw(self.servo13_raw);
-        out.set_servo14_raw(self.servo14_raw);
-        out.set_servo15_raw(self.servo15_raw);
-        out.set_servo16_raw(self.servo16_raw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.port, out, 20);
+        ::mavwire::field::Scalar::write(self.servo1_raw, out, 4);
+        ::mavwire::field::Scalar::write(self.servo2_raw, out, 6);
+        ::mavwire::field::Scalar::write(self.servo3_raw, out, 8);
+        ::mavwire::field::Scalar::write(self.servo4_raw, out, 10);
+        ::mavwire::field::Scalar::write(self.servo5_raw, out, 12);
+        ::mavwire::field::Scalar::write(self.servo6_raw, out, 14);
+        ::mavwire::field::Scalar::write(self.servo7_raw, out, 16);
+        ::mavwire::field::Scalar::write(self.servo8_raw, out, 18);
+        ::mavwire::field::Scalar::write(self.servo9_raw, out, 21);
+        ::mavwire::field::Scalar::write(self.servo10_raw, out, 23);
+        ::mavwire::field::Scalar::write(self.servo11_raw, out, 25);
+        ::mavwire::field::Scalar::write(self.servo12_raw, out, 27);
+        ::mavwire::field::Scalar::write(self.servo13_raw, out, 29);
+        ::mavwire::field::Scalar::write(self.servo14_raw, out, 31);
+        ::mavwire::field::Scalar::write(self.servo15_raw, out, 33);
+        ::mavwire::field::Scalar::write(self.servo16_raw, out, 35);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18081,14 +18267,17 @@ impl ServoOutputRaw {
 impl ::mavwire::Message for ServoOutputRaw {
     const META: ::mavwire::MessageMeta = ServoOutputRaw::META;
     type View<'a> = ServoOutputRawView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ServoOutputRaw::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ServoOutputRaw::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ServoOutputRawView<'_> {
         ServoOutputRawView::new(payload)
     }
@@ -18117,6 +18306,7 @@ impl<'a> ServoOutputRawView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ServoOutputRaw {
         ServoOutputRaw::from_view(self)
     }
@@ -18453,29 +18643,32 @@ impl MissionRequestPartialList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionRequestPartialListView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            start_index: ::mavwire::field::read::<i16>(p, 0),
+            end_index: ::mavwire::field::read::<i16>(p, 2),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 6)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionRequestPartialListView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            start_index: view.start_index(),
-            end_index: view.end_index(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionRequestPartialListMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_start_index(self.start_index);
-        out.set_end_index(self.end_index);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.start_index, out, 0);
+        ::mavwire::field::Scalar::write(self.end_index, out, 2);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 6);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18483,14 +18676,17 @@ impl MissionRequestPartialList {
 impl ::mavwire::Message for MissionRequestPartialList {
     const META: ::mavwire::MessageMeta = MissionRequestPartialList::META;
     type View<'a> = MissionRequestPartialListView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionRequestPartialList::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionRequestPartialList::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionRequestPartialListView<'_> {
         MissionRequestPartialListView::new(payload)
     }
@@ -18519,6 +18715,7 @@ impl<'a> MissionRequestPartialListView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionRequestPartialList {
         MissionRequestPartialList::from_view(self)
     }
@@ -18699,29 +18896,32 @@ impl MissionWritePartialList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionWritePartialListView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            start_index: ::mavwire::field::read::<i16>(p, 0),
+            end_index: ::mavwire::field::read::<i16>(p, 2),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 6)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionWritePartialListView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            start_index: view.start_index(),
-            end_index: view.end_index(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionWritePartialListMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_start_index(self.start_index);
-        out.set_end_index(self.end_index);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.start_index, out, 0);
+        ::mavwire::field::Scalar::write(self.end_index, out, 2);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 6);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18729,14 +18929,17 @@ impl MissionWritePartialList {
 impl ::mavwire::Message for MissionWritePartialList {
     const META: ::mavwire::MessageMeta = MissionWritePartialList::META;
     type View<'a> = MissionWritePartialListView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionWritePartialList::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionWritePartialList::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionWritePartialListView<'_> {
         MissionWritePartialListView::new(payload)
     }
@@ -18765,6 +18968,7 @@ impl<'a> MissionWritePartialListView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionWritePartialList {
         MissionWritePartialList::from_view(self)
     }
@@ -19060,49 +19264,52 @@ impl MissionItem {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionItemView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 32),
+            target_component: ::mavwire::field::read::<u8>(p, 33),
+            seq: ::mavwire::field::read::<u16>(p, 28),
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 34)),
+            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 30)),
+            current: ::mavwire::field::read::<u8>(p, 35),
+            autocontinue: ::mavwire::field::read::<u8>(p, 36),
+            param1: ::mavwire::field::read::<f32>(p, 0),
+            param2: ::mavwire::field::read::<f32>(p, 4),
+            param3: ::mavwire::field::read::<f32>(p, 8),
+            param4: ::mavwire::field::read::<f32>(p, 12),
+            x: ::mavwire::field::read::<f32>(p, 16),
+            y: ::mavwire::field::read::<f32>(p, 20),
+            z: ::mavwire::field::read::<f32>(p, 24),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 37)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionItemView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            seq: view.seq(),
-            frame: view.frame(),
-            command: view.command(),
-            current: view.current(),
-            autocontinue: view.autocontinue(),
-            param1: view.param1(),
-            param2: view.param2(),
-            param3: view.param3(),
-            param4: view.param4(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionItemMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_seq(self.seq);
-        out.set_frame(self.frame);
-        out.set_command(self.command);
-        out.set_current(self.current);
-        out.set_autocontinue(self.autocontinue);
-        out.set_param1(self.param1);
-        out.set_param2(self.param2);
-        out.set_param3(self.param3);
-        out.set_param4(self.param4);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 32);
+        ::mavwire::field::Scalar::write(self.target_component, out, 33);
+        ::mavwire::field::Scalar::write(self.seq, out, 28);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 34);
+        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 30);
+        ::mavwire::field::Scalar::write(self.current, out, 35);
+        ::mavwire::field::Scalar::write(self.autocontinue, out, 36);
+        ::mavwire::field::Scalar::write(self.param1, out, 0);
+        ::mavwire::field::Scalar::write(self.param2, out, 4);
+        ::mavwire::field::Scalar::write(self.param3, out, 8);
+        ::mavwire::field::Scalar::write(self.param4, out, 12);
+        ::mavwire::field::Scalar::write(self.x, out, 16);
+        ::mavwire::field::Scalar::write(self.y, out, 20);
+        ::mavwire::field::Scalar::write(self.z, out, 24);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 37);
         Ok(Self::MAX_LEN)
     }
 }
@@ -19110,14 +19317,17 @@ impl MissionItem {
 impl ::mavwire::Message for MissionItem {
     const META: ::mavwire::MessageMeta = MissionItem::META;
     type View<'a> = MissionItemView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionItem::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionItem::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionItemView<'_> {
         MissionItemView::new(payload)
     }
@@ -19146,6 +19356,7 @@ impl<'a> MissionItemView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionItem {
         MissionItem::from_view(self)
     }
@@ -19437,27 +19648,30 @@ impl MissionRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionRequestView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            seq: ::mavwire::field::read::<u16>(p, 0),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 4)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionRequestView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            seq: view.seq(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionRequestMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_seq(self.seq);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.seq, out, 0);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -19465,14 +19679,17 @@ impl MissionRequest {
 impl ::mavwire::Message for MissionRequest {
     const META: ::mavwire::MessageMeta = MissionRequest::META;
     type View<'a> = MissionRequestView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionRequest::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionRequest::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionRequestView<'_> {
         MissionRequestView::new(payload)
     }
@@ -19501,6 +19718,7 @@ impl<'a> MissionRequestView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionRequest {
         MissionRequest::from_view(self)
     }
@@ -19652,25 +19870,28 @@ impl MissionSetCurrent {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionSetCurrentView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            seq: ::mavwire::field::read::<u16>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionSetCurrentView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            seq: view.seq(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionSetCurrentMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_seq(self.seq);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.seq, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -19678,14 +19899,17 @@ impl MissionSetCurrent {
 impl ::mavwire::Message for MissionSetCurrent {
     const META: ::mavwire::MessageMeta = MissionSetCurrent::META;
     type View<'a> = MissionSetCurrentView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionSetCurrent::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionSetCurrent::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionSetCurrentView<'_> {
         MissionSetCurrentView::new(payload)
     }
@@ -19714,6 +19938,7 @@ impl<'a> MissionSetCurrentView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionSetCurrent {
         MissionSetCurrent::from_view(self)
     }
@@ -19865,27 +20090,30 @@ impl MissionCurrent {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionCurrentView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            seq: ::mavwire::field::read::<u16>(p, 0),
+            total: ::mavwire::field::read::<u16>(p, 2),
+            mission_state: MissionState::from_raw(::mavwire::field::read::<u8>(p, 4)),
+            mission_mode: ::mavwire::field::read::<u8>(p, 5),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionCurrentView<'_>) -> Self {
-        Self {
-            seq: view.seq(),
-            total: view.total(),
-            mission_state: view.mission_state(),
-            mission_mode: view.mission_mode(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionCurrentMut::new(payload)?;
-        out.set_seq(self.seq);
-        out.set_total(self.total);
-        out.set_mission_state(self.mission_state);
-        out.set_mission_mode(self.mission_mode);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.seq, out, 0);
+        ::mavwire::field::Scalar::write(self.total, out, 2);
+        ::mavwire::field::Scalar::write(self.mission_state.to_raw(), out, 4);
+        ::mavwire::field::Scalar::write(self.mission_mode, out, 5);
         Ok(Self::MAX_LEN)
     }
 }
@@ -19893,14 +20121,17 @@ impl MissionCurrent {
 impl ::mavwire::Message for MissionCurrent {
     const META: ::mavwire::MessageMeta = MissionCurrent::META;
     type View<'a> = MissionCurrentView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionCurrent::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionCurrent::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionCurrentView<'_> {
         MissionCurrentView::new(payload)
     }
@@ -19929,6 +20160,7 @@ impl<'a> MissionCurrentView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionCurrent {
         MissionCurrent::from_view(self)
     }
@@ -20073,25 +20305,28 @@ impl MissionRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionRequestListView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 2)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionRequestListView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionRequestListMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20099,14 +20334,17 @@ impl MissionRequestList {
 impl ::mavwire::Message for MissionRequestList {
     const META: ::mavwire::MessageMeta = MissionRequestList::META;
     type View<'a> = MissionRequestListView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionRequestList::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionRequestList::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionRequestListView<'_> {
         MissionRequestListView::new(payload)
     }
@@ -20135,6 +20373,7 @@ impl<'a> MissionRequestListView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionRequestList {
         MissionRequestList::from_view(self)
     }
@@ -20280,27 +20519,30 @@ impl MissionCount {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionCountView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            count: ::mavwire::field::read::<u16>(p, 0),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 4)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionCountView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            count: view.count(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionCountMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_count(self.count);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.count, out, 0);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20308,14 +20550,17 @@ impl MissionCount {
 impl ::mavwire::Message for MissionCount {
     const META: ::mavwire::MessageMeta = MissionCount::META;
     type View<'a> = MissionCountView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionCount::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionCount::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionCountView<'_> {
         MissionCountView::new(payload)
     }
@@ -20344,6 +20589,7 @@ impl<'a> MissionCountView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionCount {
         MissionCount::from_view(self)
     }
@@ -20488,25 +20734,28 @@ impl MissionClearAll {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionClearAllView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 2)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionClearAllView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionClearAllMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20514,14 +20763,17 @@ impl MissionClearAll {
 impl ::mavwire::Message for MissionClearAll {
     const META: ::mavwire::MessageMeta = MissionClearAll::META;
     type View<'a> = MissionClearAllView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionClearAll::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionClearAll::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionClearAllView<'_> {
         MissionClearAllView::new(payload)
     }
@@ -20550,6 +20802,7 @@ impl<'a> MissionClearAllView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionClearAll {
         MissionClearAll::from_view(self)
     }
@@ -20661,19 +20914,24 @@ impl MissionItemReached {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionItemReachedView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            seq: ::mavwire::field::read::<u16>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionItemReachedView<'_>) -> Self {
-        Self { seq: view.seq() }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionItemReachedMut::new(payload)?;
-        out.set_seq(self.seq);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.seq, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20681,14 +20939,17 @@ impl MissionItemReached {
 impl ::mavwire::Message for MissionItemReached {
     const META: ::mavwire::MessageMeta = MissionItemReached::META;
     type View<'a> = MissionItemReachedView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionItemReached::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionItemReached::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionItemReachedView<'_> {
         MissionItemReachedView::new(payload)
     }
@@ -20717,6 +20978,7 @@ impl<'a> MissionItemReachedView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionItemReached {
         MissionItemReached::from_view(self)
     }
@@ -20838,27 +21100,30 @@ impl MissionAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionAckView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            r#type: MavMissionResult::from_raw(::mavwire::field::read::<u8>(p, 2)),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 3)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionAckView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            r#type: view.r#type(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionAckMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_type(self.r#type);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 2);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 3);
         Ok(Self::MAX_LEN)
     }
 }
@@ -20866,14 +21131,17 @@ impl MissionAck {
 impl ::mavwire::Message for MissionAck {
     const META: ::mavwire::MessageMeta = MissionAck::META;
     type View<'a> = MissionAckView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionAck::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionAck::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionAckView<'_> {
         MissionAckView::new(payload)
     }
@@ -20902,6 +21170,7 @@ impl<'a> MissionAckView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionAck {
         MissionAck::from_view(self)
     }
@@ -21074,29 +21343,32 @@ impl SetGpsGlobalOrigin {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetGpsGlobalOriginView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 12),
+            latitude: ::mavwire::field::read::<i32>(p, 0),
+            longitude: ::mavwire::field::read::<i32>(p, 4),
+            altitude: ::mavwire::field::read::<i32>(p, 8),
+            time_usec: ::mavwire::field::read::<u64>(p, 13),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetGpsGlobalOriginView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            latitude: view.latitude(),
-            longitude: view.longitude(),
-            altitude: view.altitude(),
-            time_usec: view.time_usec(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetGpsGlobalOriginMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_latitude(self.latitude);
-        out.set_longitude(self.longitude);
-        out.set_altitude(self.altitude);
-        out.set_time_usec(self.time_usec);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 12);
+        ::mavwire::field::Scalar::write(self.latitude, out, 0);
+        ::mavwire::field::Scalar::write(self.longitude, out, 4);
+        ::mavwire::field::Scalar::write(self.altitude, out, 8);
+        ::mavwire::field::Scalar::write(self.time_usec, out, 13);
         Ok(Self::MAX_LEN)
     }
 }
@@ -21104,14 +21376,17 @@ impl SetGpsGlobalOrigin {
 impl ::mavwire::Message for SetGpsGlobalOrigin {
     const META: ::mavwire::MessageMeta = SetGpsGlobalOrigin::META;
     type View<'a> = SetGpsGlobalOriginView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetGpsGlobalOrigin::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetGpsGlobalOrigin::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetGpsGlobalOriginView<'_> {
         SetGpsGlobalOriginView::new(payload)
     }
@@ -21140,6 +21415,7 @@ impl<'a> SetGpsGlobalOriginView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetGpsGlobalOrigin {
         SetGpsGlobalOrigin::from_view(self)
     }
@@ -21311,27 +21587,30 @@ impl GpsGlobalOrigin {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GpsGlobalOriginView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            latitude: ::mavwire::field::read::<i32>(p, 0),
+            longitude: ::mavwire::field::read::<i32>(p, 4),
+            altitude: ::mavwire::field::read::<i32>(p, 8),
+            time_usec: ::mavwire::field::read::<u64>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GpsGlobalOriginView<'_>) -> Self {
-        Self {
-            latitude: view.latitude(),
-            longitude: view.longitude(),
-            altitude: view.altitude(),
-            time_usec: view.time_usec(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GpsGlobalOriginMut::new(payload)?;
-        out.set_latitude(self.latitude);
-        out.set_longitude(self.longitude);
-        out.set_altitude(self.altitude);
-        out.set_time_usec(self.time_usec);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.latitude, out, 0);
+        ::mavwire::field::Scalar::write(self.longitude, out, 4);
+        ::mavwire::field::Scalar::write(self.altitude, out, 8);
+        ::mavwire::field::Scalar::write(self.time_usec, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -21339,14 +21618,17 @@ impl GpsGlobalOrigin {
 impl ::mavwire::Message for GpsGlobalOrigin {
     const META: ::mavwire::MessageMeta = GpsGlobalOrigin::META;
     type View<'a> = GpsGlobalOriginView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GpsGlobalOrigin::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GpsGlobalOrigin::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GpsGlobalOriginView<'_> {
         GpsGlobalOriginView::new(payload)
     }
@@ -21375,6 +21657,7 @@ impl<'a> GpsGlobalOriginView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GpsGlobalOrigin {
         GpsGlobalOrigin::from_view(self)
     }
@@ -21591,37 +21874,40 @@ impl ParamMapRc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamMapRcView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 18),
+            target_component: ::mavwire::field::read::<u8>(p, 19),
+            param_id: ::mavwire::field::CharArray::new(p, 20).to_array(),
+            param_index: ::mavwire::field::read::<i16>(p, 16),
+            parameter_rc_channel_index: ::mavwire::field::read::<u8>(p, 36),
+            param_value0: ::mavwire::field::read::<f32>(p, 0),
+            scale: ::mavwire::field::read::<f32>(p, 4),
+            param_value_min: ::mavwire::field::read::<f32>(p, 8),
+            param_value_max: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamMapRcView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            param_id: view.param_id().to_array(),
-            param_index: view.param_index(),
-            parameter_rc_channel_index: view.parameter_rc_channel_index(),
-            param_value0: view.param_value0(),
-            scale: view.scale(),
-            param_value_min: view.param_value_min(),
-            param_value_max: view.param_value_max(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamMapRcMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_param_id(&self.param_id);
-        out.set_param_index(self.param_index);
-        out.set_parameter_rc_channel_index(self.parameter_rc_channel_index);
-        out.set_param_value0(self.param_value0);
-        out.set_scale(self.scale);
-        out.set_param_value_min(self.param_value_min);
-        out.set_param_value_max(self.param_value_max);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 18);
+        ::mavwire::field::Scalar::write(self.target_component, out, 19);
+        ::mavwire::field::write_array(out, 20, &self.param_id);
+        ::mavwire::field::Scalar::write(self.param_index, out, 16);
+        ::mavwire::field::Scalar::write(self.parameter_rc_channel_index, out, 36);
+        ::mavwire::field::Scalar::write(self.param_value0, out, 0);
+        ::mavwire::field::Scalar::write(self.scale, out, 4);
+        ::mavwire::field::Scalar::write(self.param_value_min, out, 8);
+        ::mavwire::field::Scalar::write(self.param_value_max, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -21629,14 +21915,17 @@ impl ParamMapRc {
 impl ::mavwire::Message for ParamMapRc {
     const META: ::mavwire::MessageMeta = ParamMapRc::META;
     type View<'a> = ParamMapRcView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamMapRc::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamMapRc::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamMapRcView<'_> {
         ParamMapRcView::new(payload)
     }
@@ -21665,6 +21954,7 @@ impl<'a> ParamMapRcView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamMapRc {
         ParamMapRc::from_view(self)
     }
@@ -21882,27 +22172,30 @@ impl MissionRequestInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionRequestIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            seq: ::mavwire::field::read::<u16>(p, 0),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 4)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionRequestIntView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            seq: view.seq(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionRequestIntMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_seq(self.seq);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.seq, out, 0);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -21910,14 +22203,17 @@ impl MissionRequestInt {
 impl ::mavwire::Message for MissionRequestInt {
     const META: ::mavwire::MessageMeta = MissionRequestInt::META;
     type View<'a> = MissionRequestIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionRequestInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionRequestInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionRequestIntView<'_> {
         MissionRequestIntView::new(payload)
     }
@@ -21946,6 +22242,7 @@ impl<'a> MissionRequestIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionRequestInt {
         MissionRequestInt::from_view(self)
     }
@@ -22158,37 +22455,40 @@ impl SafetySetAllowedArea {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SafetySetAllowedAreaView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 24),
+            target_component: ::mavwire::field::read::<u8>(p, 25),
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 26)),
+            p1x: ::mavwire::field::read::<f32>(p, 0),
+            p1y: ::mavwire::field::read::<f32>(p, 4),
+            p1z: ::mavwire::field::read::<f32>(p, 8),
+            p2x: ::mavwire::field::read::<f32>(p, 12),
+            p2y: ::mavwire::field::read::<f32>(p, 16),
+            p2z: ::mavwire::field::read::<f32>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SafetySetAllowedAreaView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            frame: view.frame(),
-            p1x: view.p1x(),
-            p1y: view.p1y(),
-            p1z: view.p1z(),
-            p2x: view.p2x(),
-            p2y: view.p2y(),
-            p2z: view.p2z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SafetySetAllowedAreaMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_frame(self.frame);
-        out.set_p1x(self.p1x);
-        out.set_p1y(self.p1y);
-        out.set_p1z(self.p1z);
-        out.set_p2x(self.p2x);
-        out.set_p2y(self.p2y);
-        out.set_p2z(self.p2z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 24);
+        ::mavwire::field::Scalar::write(self.target_component, out, 25);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 26);
+        ::mavwire::field::Scalar::write(self.p1x, out, 0);
+        ::mavwire::field::Scalar::write(self.p1y, out, 4);
+        ::mavwire::field::Scalar::write(self.p1z, out, 8);
+        ::mavwire::field::Scalar::write(self.p2x, out, 12);
+        ::mavwire::field::Scalar::write(self.p2y, out, 16);
+        ::mavwire::field::Scalar::write(self.p2z, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -22196,14 +22496,17 @@ impl SafetySetAllowedArea {
 impl ::mavwire::Message for SafetySetAllowedArea {
     const META: ::mavwire::MessageMeta = SafetySetAllowedArea::META;
     type View<'a> = SafetySetAllowedAreaView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SafetySetAllowedArea::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SafetySetAllowedArea::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SafetySetAllowedAreaView<'_> {
         SafetySetAllowedAreaView::new(payload)
     }
@@ -22232,6 +22535,7 @@ impl<'a> SafetySetAllowedAreaView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SafetySetAllowedArea {
         SafetySetAllowedArea::from_view(self)
     }
@@ -22480,33 +22784,36 @@ impl SafetyAllowedArea {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SafetyAllowedAreaView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 24)),
+            p1x: ::mavwire::field::read::<f32>(p, 0),
+            p1y: ::mavwire::field::read::<f32>(p, 4),
+            p1z: ::mavwire::field::read::<f32>(p, 8),
+            p2x: ::mavwire::field::read::<f32>(p, 12),
+            p2y: ::mavwire::field::read::<f32>(p, 16),
+            p2z: ::mavwire::field::read::<f32>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SafetyAllowedAreaView<'_>) -> Self {
-        Self {
-            frame: view.frame(),
-            p1x: view.p1x(),
-            p1y: view.p1y(),
-            p1z: view.p1z(),
-            p2x: view.p2x(),
-            p2y: view.p2y(),
-            p2z: view.p2z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SafetyAllowedAreaMut::new(payload)?;
-        out.set_frame(self.frame);
-        out.set_p1x(self.p1x);
-        out.set_p1y(self.p1y);
-        out.set_p1z(self.p1z);
-        out.set_p2x(self.p2x);
-        out.set_p2y(self.p2y);
-        out.set_p2z(self.p2z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 24);
+        ::mavwire::field::Scalar::write(self.p1x, out, 0);
+        ::mavwire::field::Scalar::write(self.p1y, out, 4);
+        ::mavwire::field::Scalar::write(self.p1z, out, 8);
+        ::mavwire::field::Scalar::write(self.p2x, out, 12);
+        ::mavwire::field::Scalar::write(self.p2y, out, 16);
+        ::mavwire::field::Scalar::write(self.p2z, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -22514,14 +22821,17 @@ impl SafetyAllowedArea {
 impl ::mavwire::Message for SafetyAllowedArea {
     const META: ::mavwire::MessageMeta = SafetyAllowedArea::META;
     type View<'a> = SafetyAllowedAreaView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SafetyAllowedArea::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SafetyAllowedArea::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SafetyAllowedAreaView<'_> {
         SafetyAllowedAreaView::new(payload)
     }
@@ -22550,6 +22860,7 @@ impl<'a> SafetyAllowedAreaView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SafetyAllowedArea {
         SafetyAllowedArea::from_view(self)
     }
@@ -22768,31 +23079,34 @@ impl AttitudeQuaternionCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AttitudeQuaternionCovView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            q: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            rollspeed: ::mavwire::field::read::<f32>(p, 24),
+            pitchspeed: ::mavwire::field::read::<f32>(p, 28),
+            yawspeed: ::mavwire::field::read::<f32>(p, 32),
+            covariance: ::mavwire::field::ArrayView::new(p, 36).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AttitudeQuaternionCovView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            q: view.q().to_array(),
-            rollspeed: view.rollspeed(),
-            pitchspeed: view.pitchspeed(),
-            yawspeed: view.yawspeed(),
-            covariance: view.covariance().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AttitudeQuaternionCovMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_q(&self.q);
-        out.set_rollspeed(self.rollspeed);
-        out.set_pitchspeed(self.pitchspeed);
-        out.set_yawspeed(self.yawspeed);
-        out.set_covariance(&self.covariance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.q);
+        ::mavwire::field::Scalar::write(self.rollspeed, out, 24);
+        ::mavwire::field::Scalar::write(self.pitchspeed, out, 28);
+        ::mavwire::field::Scalar::write(self.yawspeed, out, 32);
+        ::mavwire::field::write_array(out, 36, &self.covariance);
         Ok(Self::MAX_LEN)
     }
 }
@@ -22800,14 +23114,17 @@ impl AttitudeQuaternionCov {
 impl ::mavwire::Message for AttitudeQuaternionCov {
     const META: ::mavwire::MessageMeta = AttitudeQuaternionCov::META;
     type View<'a> = AttitudeQuaternionCovView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AttitudeQuaternionCov::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AttitudeQuaternionCov::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AttitudeQuaternionCovView<'_> {
         AttitudeQuaternionCovView::new(payload)
     }
@@ -22836,6 +23153,7 @@ impl<'a> AttitudeQuaternionCovView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AttitudeQuaternionCov {
         AttitudeQuaternionCov::from_view(self)
     }
@@ -23058,35 +23376,38 @@ impl NavControllerOutput {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&NavControllerOutputView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            nav_roll: ::mavwire::field::read::<f32>(p, 0),
+            nav_pitch: ::mavwire::field::read::<f32>(p, 4),
+            nav_bearing: ::mavwire::field::read::<i16>(p, 20),
+            target_bearing: ::mavwire::field::read::<i16>(p, 22),
+            wp_dist: ::mavwire::field::read::<u16>(p, 24),
+            alt_error: ::mavwire::field::read::<f32>(p, 8),
+            aspd_error: ::mavwire::field::read::<f32>(p, 12),
+            xtrack_error: ::mavwire::field::read::<f32>(p, 16),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &NavControllerOutputView<'_>) -> Self {
-        Self {
-            nav_roll: view.nav_roll(),
-            nav_pitch: view.nav_pitch(),
-            nav_bearing: view.nav_bearing(),
-            target_bearing: view.target_bearing(),
-            wp_dist: view.wp_dist(),
-            alt_error: view.alt_error(),
-            aspd_error: view.aspd_error(),
-            xtrack_error: view.xtrack_error(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = NavControllerOutputMut::new(payload)?;
-        out.set_nav_roll(self.nav_roll);
-        out.set_nav_pitch(self.nav_pitch);
-        out.set_nav_bearing(self.nav_bearing);
-        out.set_target_bearing(self.target_bearing);
-        out.set_wp_dist(self.wp_dist);
-        out.set_alt_error(self.alt_error);
-        out.set_aspd_error(self.aspd_error);
-        out.set_xtrack_error(self.xtrack_error);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.nav_roll, out, 0);
+        ::mavwire::field::Scalar::write(self.nav_pitch, out, 4);
+        ::mavwire::field::Scalar::write(self.nav_bearing, out, 20);
+        ::mavwire::field::Scalar::write(self.target_bearing, out, 22);
+        ::mavwire::field::Scalar::write(self.wp_dist, out, 24);
+        ::mavwire::field::Scalar::write(self.alt_error, out, 8);
+        ::mavwire::field::Scalar::write(self.aspd_error, out, 12);
+        ::mavwire::field::Scalar::write(self.xtrack_error, out, 16);
         Ok(Self::MAX_LEN)
     }
 }
@@ -23094,14 +23415,17 @@ impl NavControllerOutput {
 impl ::mavwire::Message for NavControllerOutput {
     const META: ::mavwire::MessageMeta = NavControllerOutput::META;
     type View<'a> = NavControllerOutputView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         NavControllerOutput::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         NavControllerOutput::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> NavControllerOutputView<'_> {
         NavControllerOutputView::new(payload)
     }
@@ -23130,6 +23454,7 @@ impl<'a> NavControllerOutputView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> NavControllerOutput {
         NavControllerOutput::from_view(self)
     }
@@ -23407,39 +23732,44 @@ impl GlobalPositionIntCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GlobalPositionIntCovView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            estimator_type: MavEstimatorType::from_raw(
+                ::mavwire::field::read::<u8>(p, 180),
+            ),
+            lat: ::mavwire::field::read::<i32>(p, 8),
+            lon: ::mavwire::field::read::<i32>(p, 12),
+            alt: ::mavwire::field::read::<i32>(p, 16),
+            relative_alt: ::mavwire::field::read::<i32>(p, 20),
+            vx: ::mavwire::field::read::<f32>(p, 24),
+            vy: ::mavwire::field::read::<f32>(p, 28),
+            vz: ::mavwire::field::read::<f32>(p, 32),
+            covariance: ::mavwire::field::ArrayView::new(p, 36).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GlobalPositionIntCovView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            estimator_type: view.estimator_type(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            relative_alt: view.relative_alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            covariance: view.covariance().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GlobalPositionIntCovMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_estimator_type(self.estimator_type);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_relative_alt(self.relative_alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_covariance(&self.covariance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.estimator_type.to_raw(), out, 180);
+        ::mavwire::field::Scalar::write(self.lat, out, 8);
+        ::mavwire::field::Scalar::write(self.lon, out, 12);
+        ::mavwire::field::Scalar::write(self.alt, out, 16);
+        ::mavwire::field::Scalar::write(self.relative_alt, out, 20);
+        ::mavwire::field::Scalar::write(self.vx, out, 24);
+        ::mavwire::field::Scalar::write(self.vy, out, 28);
+        ::mavwire::field::Scalar::write(self.vz, out, 32);
+        ::mavwire::field::write_array(out, 36, &self.covariance);
         Ok(Self::MAX_LEN)
     }
 }
@@ -23464,14 +23794,17 @@ impl Default for GlobalPositionIntCov {
 impl ::mavwire::Message for GlobalPositionIntCov {
     const META: ::mavwire::MessageMeta = GlobalPositionIntCov::META;
     type View<'a> = GlobalPositionIntCovView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GlobalPositionIntCov::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GlobalPositionIntCov::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GlobalPositionIntCovView<'_> {
         GlobalPositionIntCovView::new(payload)
     }
@@ -23500,6 +23833,7 @@ impl<'a> GlobalPositionIntCovView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GlobalPositionIntCov {
         GlobalPositionIntCov::from_view(self)
     }
@@ -23821,43 +24155,48 @@ impl LocalPositionNedCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LocalPositionNedCovView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            estimator_type: MavEstimatorType::from_raw(
+                ::mavwire::field::read::<u8>(p, 224),
+            ),
+            x: ::mavwire::field::read::<f32>(p, 8),
+            y: ::mavwire::field::read::<f32>(p, 12),
+            z: ::mavwire::field::read::<f32>(p, 16),
+            vx: ::mavwire::field::read::<f32>(p, 20),
+            vy: ::mavwire::field::read::<f32>(p, 24),
+            vz: ::mavwire::field::read::<f32>(p, 28),
+            ax: ::mavwire::field::read::<f32>(p, 32),
+            ay: ::mavwire::field::read::<f32>(p, 36),
+            az: ::mavwire::field::read::<f32>(p, 40),
+            covariance: ::mavwire::field::ArrayView::new(p, 44).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LocalPositionNedCovView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            estimator_type: view.estimator_type(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            ax: view.ax(),
-            ay: view.ay(),
-            az: view.az(),
-            covariance: view.covariance().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LocalPositionNedCovMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_estimator_type(self.estimator_type);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_ax(self.ax);
-        out.set_ay(self.ay);
-        out.set_az(self.az);
-        out.set_covariance(&self.covariance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.estimator_type.to_raw(), out, 224);
+        ::mavwire::field::Scalar::write(self.x, out, 8);
+        ::mavwire::field::Scalar::write(self.y, out, 12);
+        ::mavwire::field::Scalar::write(self.z, out, 16);
+        ::mavwire::field::Scalar::write(self.vx, out, 20);
+        ::mavwire::field::Scalar::write(self.vy, out, 24);
+        ::mavwire::field::Scalar::write(self.vz, out, 28);
+        ::mavwire::field::Scalar::write(self.ax, out, 32);
+        ::mavwire::field::Scalar::write(self.ay, out, 36);
+        ::mavwire::field::Scalar::write(self.az, out, 40);
+        ::mavwire::field::write_array(out, 44, &self.covariance);
         Ok(Self::MAX_LEN)
     }
 }
@@ -23884,14 +24223,17 @@ impl Default for LocalPositionNedCov {
 impl ::mavwire::Message for LocalPositionNedCov {
     const META: ::mavwire::MessageMeta = LocalPositionNedCov::META;
     type View<'a> = LocalPositionNedCovView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LocalPositionNedCov::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LocalPositionNedCov::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LocalPositionNedCovView<'_> {
         LocalPositionNedCovView::new(payload)
     }
@@ -23920,6 +24262,7 @@ impl<'a> LocalPositionNedCovView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LocalPositionNedCov {
         LocalPositionNedCov::from_view(self)
     }
@@ -24362,61 +24705,64 @@ impl RcChannels {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RcChannelsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            chancount: ::mavwire::field::read::<u8>(p, 40),
+            chan1_raw: ::mavwire::field::read::<u16>(p, 4),
+            chan2_raw: ::mavwire::field::read::<u16>(p, 6),
+            chan3_raw: ::mavwire::field::read::<u16>(p, 8),
+            chan4_raw: ::mavwire::field::read::<u16>(p, 10),
+            chan5_raw: ::mavwire::field::read::<u16>(p, 12),
+            chan6_raw: ::mavwire::field::read::<u16>(p, 14),
+            chan7_raw: ::mavwire::field::read::<u16>(p, 16),
+            chan8_raw: ::mavwire::field::read::<u16>(p, 18),
+            chan9_raw: ::mavwire::field::read::<u16>(p, 20),
+            chan10_raw: ::mavwire::field::read::<u16>(p, 22),
+            chan11_raw: ::mavwire::field::read::<u16>(p, 24),
+            chan12_raw: ::mavwire::field::read::<u16>(p, 26),
+            chan13_raw: ::mavwire::field::read::<u16>(p, 28),
+            chan14_raw: ::mavwire::field::read::<u16>(p, 30),
+            chan15_raw: ::mavwire::field::read::<u16>(p, 32),
+            chan16_raw: ::mavwire::field::read::<u16>(p, 34),
+            chan17_raw: ::mavwire::field::read::<u16>(p, 36),
+            chan18_raw: ::mavwire::field::read::<u16>(p, 38),
+            rssi: ::mavwire::field::read::<u8>(p, 41),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RcChannelsView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            chancount: view.chancount(),
-            chan1_raw: view.chan1_raw(),
-            chan2_raw: view.chan2_raw(),
-            chan3_raw: view.chan3_raw(),
-            chan4_raw: view.chan4_raw(),
-            chan5_raw: view.chan5_raw(),
-            chan6_raw: view.chan6_raw(),
-            chan7_raw: view.chan7_raw(),
-            chan8_raw: view.chan8_raw(),
-            chan9_raw: view.chan9_raw(),
-            chan10_raw: view.chan10_raw(),
-            chan11_raw: view.chan11_raw(),
-            chan12_raw: view.chan12_raw(),
-            chan13_raw: view.chan13_raw(),
-            chan14_raw: view.chan14_raw(),
-            chan15_raw: view.chan15_raw(),
-            chan16_raw: view.chan16_raw(),
-            chan17_raw: view.chan17_raw(),
-            chan18_raw: view.chan18_raw(),
-            rssi: view.rssi(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RcChannelsMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_chancount(self.chancount);
-        out.set_chan1_raw(self.chan1_raw);
-        out.set_chan2_raw(self.chan2_raw);
-        out.set_chan3_raw(self.chan3_raw);
-        out.set_chan4_raw(self.chan4_raw);
-        out.set_chan5_raw(self.chan5_raw);
-        out.set_chan6_raw(self.chan6_raw);
-        out.set_chan7_raw(self.chan7_raw);
-        out.set_chan8_raw(self.chan8_raw);
-        out.set_chan9_raw(self.chan9_raw);
-        out.set_chan10_raw(self.chan10_raw);
-        out.set_chan11_raw(self.chan11_raw);
-        out.set_chan12_raw(self.chan12_raw);
-        out.set_chan13_raw(self.chan13_raw);
-        out.set_chan14_raw(self.chan14_raw);
-        out.set_chan15_raw(self.chan15_raw);
-        out.set_chan16_raw(self.chan16_raw);
-        out.set_chan17_raw(self.chan17_raw);
-        out.set_chan18_raw(self.chan18_raw);
-        out.set_rssi(self.rssi);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.chancount, out, 40);
+        ::mavwire::field::Scalar::write(self.chan1_raw, out, 4);
+        ::mavwire::field::Scalar::write(self.chan2_raw, out, 6);
+        ::mavwire::field::Scalar::write(self.chan3_raw, out, 8);
+        ::mavwire::field::Scalar::write(self.chan4_raw, out, 10);
+        ::mavwire::field::Scalar::write(self.chan5_raw, out, 12);
+        ::mavwire::field::Scalar::write(self.chan6_raw, out, 14);
+        ::mavwire::field::Scalar::write(self.chan7_raw, out, 16);
+        ::mavwire::field::Scalar::write(self.chan8_raw, out, 18);
+        ::mavwire::field::Scalar::write(self.chan9_raw, out, 20);
+        ::mavwire::field::Scalar::write(self.chan10_raw, out, 22);
+        ::mavwire::field::Scalar::write(self.chan11_raw, out, 24);
+        ::mavwire::field::Scalar::write(self.chan12_raw, out, 26);
+        ::mavwire::field::Scalar::write(self.chan13_raw, out, 28);
+        ::mavwire::field::Scalar::write(self.chan14_raw, out, 30);
+        ::mavwire::field::Scalar::write(self.chan15_raw, out, 32);
+        ::mavwire::field::Scalar::write(self.chan16_raw, out, 34);
+        ::mavwire::field::Scalar::write(self.chan17_raw, out, 36);
+        ::mavwire::field::Scalar::write(self.chan18_raw, out, 38);
+        ::mavwire::field::Scalar::write(self.rssi, out, 41);
         Ok(Self::MAX_LEN)
     }
 }
@@ -24424,14 +24770,17 @@ impl RcChannels {
 impl ::mavwire::Message for RcChannels {
     const META: ::mavwire::MessageMeta = RcChannels::META;
     type View<'a> = RcChannelsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RcChannels::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RcChannels::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RcChannelsView<'_> {
         RcChannelsView::new(payload)
     }
@@ -24460,6 +24809,7 @@ impl<'a> RcChannelsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RcChannels {
         RcChannels::from_view(self)
     }
@@ -24829,29 +25179,32 @@ impl RequestDataStream {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RequestDataStreamView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            req_stream_id: MavDataStream::from_raw(::mavwire::field::read::<u8>(p, 4)),
+            req_message_rate: ::mavwire::field::read::<u16>(p, 0),
+            start_stop: ::mavwire::field::read::<u8>(p, 5),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RequestDataStreamView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            req_stream_id: view.req_stream_id(),
-            req_message_rate: view.req_message_rate(),
-            start_stop: view.start_stop(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RequestDataStreamMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_req_stream_id(self.req_stream_id);
-        out.set_req_message_rate(self.req_message_rate);
-        out.set_start_stop(self.start_stop);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.req_stream_id.to_raw(), out, 4);
+        ::mavwire::field::Scalar::write(self.req_message_rate, out, 0);
+        ::mavwire::field::Scalar::write(self.start_stop, out, 5);
         Ok(Self::MAX_LEN)
     }
 }
@@ -24859,14 +25212,17 @@ impl RequestDataStream {
 impl ::mavwire::Message for RequestDataStream {
     const META: ::mavwire::MessageMeta = RequestDataStream::META;
     type View<'a> = RequestDataStreamView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RequestDataStream::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RequestDataStream::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RequestDataStreamView<'_> {
         RequestDataStreamView::new(payload)
     }
@@ -24895,6 +25251,7 @@ impl<'a> RequestDataStreamView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RequestDataStream {
         RequestDataStream::from_view(self)
     }
@@ -25050,25 +25407,28 @@ impl DataStream {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DataStreamView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            stream_id: MavDataStream::from_raw(::mavwire::field::read::<u8>(p, 2)),
+            message_rate: ::mavwire::field::read::<u16>(p, 0),
+            on_off: ::mavwire::field::read::<u8>(p, 3),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DataStreamView<'_>) -> Self {
-        Self {
-            stream_id: view.stream_id(),
-            message_rate: view.message_rate(),
-            on_off: view.on_off(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DataStreamMut::new(payload)?;
-        out.set_stream_id(self.stream_id);
-        out.set_message_rate(self.message_rate);
-        out.set_on_off(self.on_off);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.stream_id.to_raw(), out, 2);
+        ::mavwire::field::Scalar::write(self.message_rate, out, 0);
+        ::mavwire::field::Scalar::write(self.on_off, out, 3);
         Ok(Self::MAX_LEN)
     }
 }
@@ -25076,14 +25436,17 @@ impl DataStream {
 impl ::mavwire::Message for DataStream {
     const META: ::mavwire::MessageMeta = DataStream::META;
     type View<'a> = DataStreamView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DataStream::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DataStream::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DataStreamView<'_> {
         DataStreamView::new(payload)
     }
@@ -25112,6 +25475,7 @@ impl<'a> DataStreamView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DataStream {
         DataStream::from_view(self)
     }
@@ -25421,51 +25785,54 @@ impl ManualControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ManualControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target: ::mavwire::field::read::<u8>(p, 10),
+            x: ::mavwire::field::read::<i16>(p, 0),
+            y: ::mavwire::field::read::<i16>(p, 2),
+            z: ::mavwire::field::read::<i16>(p, 4),
+            r: ::mavwire::field::read::<i16>(p, 6),
+            buttons: ::mavwire::field::read::<u16>(p, 8),
+            buttons2: ::mavwire::field::read::<u16>(p, 11),
+            enabled_extensions: ::mavwire::field::read::<u8>(p, 13),
+            s: ::mavwire::field::read::<i16>(p, 14),
+            t: ::mavwire::field::read::<i16>(p, 16),
+            aux1: ::mavwire::field::read::<i16>(p, 18),
+            aux2: ::mavwire::field::read::<i16>(p, 20),
+            aux3: ::mavwire::field::read::<i16>(p, 22),
+            aux4: ::mavwire::field::read::<i16>(p, 24),
+            aux5: ::mavwire::field::read::<i16>(p, 26),
+            aux6: ::mavwire::field::read::<i16>(p, 28),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ManualControlView<'_>) -> Self {
-        Self {
-            target: view.target(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            r: view.r(),
-            buttons: view.buttons(),
-            buttons2: view.buttons2(),
-            enabled_extensions: view.enabled_extensions(),
-            s: view.s(),
-            t: view.t(),
-            aux1: view.aux1(),
-            aux2: view.aux2(),
-            aux3: view.aux3(),
-            aux4: view.aux4(),
-            aux5: view.aux5(),
-            aux6: view.aux6(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ManualControlMut::new(payload)?;
-        out.set_target(self.target);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_r(self.r);
-        out.set_buttons(self.buttons);
-        out.set_buttons2(self.buttons2);
-        out.set_enabled_extensions(self.enabled_extensions);
-        out.set_s(self.s);
-        out.set_t(self.t);
-        out.set_aux1(self.aux1);
-        out.set_aux2(self.aux2);
-        out.set_aux3(self.aux3);
-        out.set_aux4(self.aux4);
-        out.set_aux5(self.aux5);
-        out.set_aux6(self.aux6);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target, out, 10);
+        ::mavwire::field::Scalar::write(self.x, out, 0);
+        ::mavwire::field::Scalar::write(self.y, out, 2);
+        ::mavwire::field::Scalar::write(self.z, out, 4);
+        ::mavwire::field::Scalar::write(self.r, out, 6);
+        ::mavwire::field::Scalar::write(self.buttons, out, 8);
+        ::mavwire::field::Scalar::write(self.buttons2, out, 11);
+        ::mavwire::field::Scalar::write(self.enabled_extensions, out, 13);
+        ::mavwire::field::Scalar::write(self.s, out, 14);
+        ::mavwire::field::Scalar::write(self.t, out, 16);
+        ::mavwire::field::Scalar::write(self.aux1, out, 18);
+        ::mavwire::field::Scalar::write(self.aux2, out, 20);
+        ::mavwire::field::Scalar::write(self.aux3, out, 22);
+        ::mavwire::field::Scalar::write(self.aux4, out, 24);
+        ::mavwire::field::Scalar::write(self.aux5, out, 26);
+        ::mavwire::field::Scalar::write(self.aux6, out, 28);
         Ok(Self::MAX_LEN)
     }
 }
@@ -25473,14 +25840,17 @@ impl ManualControl {
 impl ::mavwire::Message for ManualControl {
     const META: ::mavwire::MessageMeta = ManualControl::META;
     type View<'a> = ManualControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ManualControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ManualControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ManualControlView<'_> {
         ManualControlView::new(payload)
     }
@@ -25509,6 +25879,7 @@ impl<'a> ManualControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ManualControl {
         ManualControl::from_view(self)
     }
@@ -26015,59 +26386,62 @@ impl RcChannelsOverride {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RcChannelsOverrideView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 16),
+            target_component: ::mavwire::field::read::<u8>(p, 17),
+            chan1_raw: ::mavwire::field::read::<u16>(p, 0),
+            chan2_raw: ::mavwire::field::read::<u16>(p, 2),
+            chan3_raw: ::mavwire::field::read::<u16>(p, 4),
+            chan4_raw: ::mavwire::field::read::<u16>(p, 6),
+            chan5_raw: ::mavwire::field::read::<u16>(p, 8),
+            chan6_raw: ::mavwire::field::read::<u16>(p, 10),
+            chan7_raw: ::mavwire::field::read::<u16>(p, 12),
+            chan8_raw: ::mavwire::field::read::<u16>(p, 14),
+            chan9_raw: ::mavwire::field::read::<u16>(p, 18),
+            chan10_raw: ::mavwire::field::read::<u16>(p, 20),
+            chan11_raw: ::mavwire::field::read::<u16>(p, 22),
+            chan12_raw: ::mavwire::field::read::<u16>(p, 24),
+            chan13_raw: ::mavwire::field::read::<u16>(p, 26),
+            chan14_raw: ::mavwire::field::read::<u16>(p, 28),
+            chan15_raw: ::mavwire::field::read::<u16>(p, 30),
+            chan16_raw: ::mavwire::field::read::<u16>(p, 32),
+            chan17_raw: ::mavwire::field::read::<u16>(p, 34),
+            chan18_raw: ::mavwire::field::read::<u16>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RcChannelsOverrideView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            chan1_raw: view.chan1_raw(),
-            chan2_raw: view.chan2_raw(),
-            chan3_raw: view.chan3_raw(),
-            chan4_raw: view.chan4_raw(),
-            chan5_raw: view.chan5_raw(),
-            chan6_raw: view.chan6_raw(),
-            chan7_raw: view.chan7_raw(),
-            chan8_raw: view.chan8_raw(),
-            chan9_raw: view.chan9_raw(),
-            chan10_raw: view.chan10_raw(),
-            chan11_raw: view.chan11_raw(),
-            chan12_raw: view.chan12_raw(),
-            chan13_raw: view.chan13_raw(),
-            chan14_raw: view.chan14_raw(),
-            chan15_raw: view.chan15_raw(),
-            chan16_raw: view.chan16_raw(),
-            chan17_raw: view.chan17_raw(),
-            chan18_raw: view.chan18_raw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RcChannelsOverrideMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_chan1_raw(self.chan1_raw);
-        out.set_chan2_raw(self.chan2_raw);
-        out.set_chan3_raw(self.chan3_raw);
-        out.set_chan4_raw(self.chan4_raw);
-        out.set_chan5_raw(self.chan5_raw);
-        out.set_chan6_raw(self.chan6_raw);
-        out.set_chan7_raw(self.chan7_raw);
-        out.set_chan8_raw(self.chan8_raw);
-        out.set_chan9_raw(self.chan9_raw);
-        out.set_chan10_raw(self.chan10_raw);
-        out.set_chan11_raw(self.chan11_raw);
-        out.set_chan12_raw(self.chan12_raw);
-        out.set_chan13_raw(self.chan13_raw);
-        out.set_chan14_raw(self.chan14_raw);
-        out.set_chan15_raw(self.chan15_raw);
-        out.set_chan16_raw(self.chan16_raw);
-        out.set_chan17_raw(self.chan17_raw);
-        out.set_chan18_raw(self.chan18_raw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 16);
+        ::mavwire::field::Scalar::write(self.target_component, out, 17);
+        ::mavwire::field::Scalar::write(self.chan1_raw, out, 0);
+        ::mavwire::field::Scalar::write(self.chan2_raw, out, 2);
+        ::mavwire::field::Scalar::write(self.chan3_raw, out, 4);
+        ::mavwire::field::Scalar::write(self.chan4_raw, out, 6);
+        ::mavwire::field::Scalar::write(self.chan5_raw, out, 8);
+        ::mavwire::field::Scalar::write(self.chan6_raw, out, 10);
+        ::mavwire::field::Scalar::write(self.chan7_raw, out, 12);
+        ::mavwire::field::Scalar::write(self.chan8_raw, out, 14);
+        ::mavwire::field::Scalar::write(self.chan9_raw, out, 18);
+        ::mavwire::field::Scalar::write(self.chan10_raw, out, 20);
+        ::mavwire::field::Scalar::write(self.chan11_raw, out, 22);
+        ::mavwire::field::Scalar::write(self.chan12_raw, out, 24);
+        ::mavwire::field::Scalar::write(self.chan13_raw, out, 26);
+        ::mavwire::field::Scalar::write(self.chan14_raw, out, 28);
+        ::mavwire::field::Scalar::write(self.chan15_raw, out, 30);
+        ::mavwire::field::Scalar::write(self.chan16_raw, out, 32);
+        ::mavwire::field::Scalar::write(self.chan17_raw, out, 34);
+        ::mavwire::field::Scalar::write(self.chan18_raw, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -26075,14 +26449,17 @@ impl RcChannelsOverride {
 impl ::mavwire::Message for RcChannelsOverride {
     const META: ::mavwire::MessageMeta = RcChannelsOverride::META;
     type View<'a> = RcChannelsOverrideView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RcChannelsOverride::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RcChannelsOverride::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RcChannelsOverrideView<'_> {
         RcChannelsOverrideView::new(payload)
     }
@@ -26111,6 +26488,7 @@ impl<'a> RcChannelsOverrideView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RcChannelsOverride {
         RcChannelsOverride::from_view(self)
     }
@@ -26587,49 +26965,52 @@ impl MissionItemInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MissionItemIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 32),
+            target_component: ::mavwire::field::read::<u8>(p, 33),
+            seq: ::mavwire::field::read::<u16>(p, 28),
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 34)),
+            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 30)),
+            current: ::mavwire::field::read::<u8>(p, 35),
+            autocontinue: ::mavwire::field::read::<u8>(p, 36),
+            param1: ::mavwire::field::read::<f32>(p, 0),
+            param2: ::mavwire::field::read::<f32>(p, 4),
+            param3: ::mavwire::field::read::<f32>(p, 8),
+            param4: ::mavwire::field::read::<f32>(p, 12),
+            x: ::mavwire::field::read::<i32>(p, 16),
+            y: ::mavwire::field::read::<i32>(p, 20),
+            z: ::mavwire::field::read::<f32>(p, 24),
+            mission_type: MavMissionType::from_raw(::mavwire::field::read::<u8>(p, 37)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MissionItemIntView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            seq: view.seq(),
-            frame: view.frame(),
-            command: view.command(),
-            current: view.current(),
-            autocontinue: view.autocontinue(),
-            param1: view.param1(),
-            param2: view.param2(),
-            param3: view.param3(),
-            param4: view.param4(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            mission_type: view.mission_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MissionItemIntMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_seq(self.seq);
-        out.set_frame(self.frame);
-        out.set_command(self.command);
-        out.set_current(self.current);
-        out.set_autocontinue(self.autocontinue);
-        out.set_param1(self.param1);
-        out.set_param2(self.param2);
-        out.set_param3(self.param3);
-        out.set_param4(self.param4);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_mission_type(self.mission_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 32);
+        ::mavwire::field::Scalar::write(self.target_component, out, 33);
+        ::mavwire::field::Scalar::write(self.seq, out, 28);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 34);
+        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 30);
+        ::mavwire::field::Scalar::write(self.current, out, 35);
+        ::mavwire::field::Scalar::write(self.autocontinue, out, 36);
+        ::mavwire::field::Scalar::write(self.param1, out, 0);
+        ::mavwire::field::Scalar::write(self.param2, out, 4);
+        ::mavwire::field::Scalar::write(self.param3, out, 8);
+        ::mavwire::field::Scalar::write(self.param4, out, 12);
+        ::mavwire::field::Scalar::write(self.x, out, 16);
+        ::mavwire::field::Scalar::write(self.y, out, 20);
+        ::mavwire::field::Scalar::write(self.z, out, 24);
+        ::mavwire::field::Scalar::write(self.mission_type.to_raw(), out, 37);
         Ok(Self::MAX_LEN)
     }
 }
@@ -26637,14 +27018,17 @@ impl MissionItemInt {
 impl ::mavwire::Message for MissionItemInt {
     const META: ::mavwire::MessageMeta = MissionItemInt::META;
     type View<'a> = MissionItemIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MissionItemInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MissionItemInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MissionItemIntView<'_> {
         MissionItemIntView::new(payload)
     }
@@ -26673,6 +27057,7 @@ impl<'a> MissionItemIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MissionItemInt {
         MissionItemInt::from_view(self)
     }
@@ -26983,31 +27368,34 @@ impl VfrHud {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VfrHudView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            airspeed: ::mavwire::field::read::<f32>(p, 0),
+            groundspeed: ::mavwire::field::read::<f32>(p, 4),
+            heading: ::mavwire::field::read::<i16>(p, 16),
+            throttle: ::mavwire::field::read::<u16>(p, 18),
+            alt: ::mavwire::field::read::<f32>(p, 8),
+            climb: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VfrHudView<'_>) -> Self {
-        Self {
-            airspeed: view.airspeed(),
-            groundspeed: view.groundspeed(),
-            heading: view.heading(),
-            throttle: view.throttle(),
-            alt: view.alt(),
-            climb: view.climb(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VfrHudMut::new(payload)?;
-        out.set_airspeed(self.airspeed);
-        out.set_groundspeed(self.groundspeed);
-        out.set_heading(self.heading);
-        out.set_throttle(self.throttle);
-        out.set_alt(self.alt);
-        out.set_climb(self.climb);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.airspeed, out, 0);
+        ::mavwire::field::Scalar::write(self.groundspeed, out, 4);
+        ::mavwire::field::Scalar::write(self.heading, out, 16);
+        ::mavwire::field::Scalar::write(self.throttle, out, 18);
+        ::mavwire::field::Scalar::write(self.alt, out, 8);
+        ::mavwire::field::Scalar::write(self.climb, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -27015,14 +27403,17 @@ impl VfrHud {
 impl ::mavwire::Message for VfrHud {
     const META: ::mavwire::MessageMeta = VfrHud::META;
     type View<'a> = VfrHudView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         VfrHud::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         VfrHud::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VfrHudView<'_> {
         VfrHudView::new(payload)
     }
@@ -27051,6 +27442,7 @@ impl<'a> VfrHudView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> VfrHud {
         VfrHud::from_view(self)
     }
@@ -27331,45 +27723,48 @@ impl CommandInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CommandIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 30),
+            target_component: ::mavwire::field::read::<u8>(p, 31),
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 32)),
+            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 28)),
+            current: ::mavwire::field::read::<u8>(p, 33),
+            autocontinue: ::mavwire::field::read::<u8>(p, 34),
+            param1: ::mavwire::field::read::<f32>(p, 0),
+            param2: ::mavwire::field::read::<f32>(p, 4),
+            param3: ::mavwire::field::read::<f32>(p, 8),
+            param4: ::mavwire::field::read::<f32>(p, 12),
+            x: ::mavwire::field::read::<i32>(p, 16),
+            y: ::mavwire::field::read::<i32>(p, 20),
+            z: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CommandIntView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            frame: view.frame(),
-            command: view.command(),
-            current: view.current(),
-            autocontinue: view.autocontinue(),
-            param1: view.param1(),
-            param2: view.param2(),
-            param3: view.param3(),
-            param4: view.param4(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CommandIntMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_frame(self.frame);
-        out.set_command(self.command);
-        out.set_current(self.current);
-        out.set_autocontinue(self.autocontinue);
-        out.set_param1(self.param1);
-        out.set_param2(self.param2);
-        out.set_param3(self.param3);
-        out.set_param4(self.param4);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 30);
+        ::mavwire::field::Scalar::write(self.target_component, out, 31);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 32);
+        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 28);
+        ::mavwire::field::Scalar::write(self.current, out, 33);
+        ::mavwire::field::Scalar::write(self.autocontinue, out, 34);
+        ::mavwire::field::Scalar::write(self.param1, out, 0);
+        ::mavwire::field::Scalar::write(self.param2, out, 4);
+        ::mavwire::field::Scalar::write(self.param3, out, 8);
+        ::mavwire::field::Scalar::write(self.param4, out, 12);
+        ::mavwire::field::Scalar::write(self.x, out, 16);
+        ::mavwire::field::Scalar::write(self.y, out, 20);
+        ::mavwire::field::Scalar::write(self.z, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -27377,14 +27772,17 @@ impl CommandInt {
 impl ::mavwire::Message for CommandInt {
     const META: ::mavwire::MessageMeta = CommandInt::META;
     type View<'a> = CommandIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CommandInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CommandInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CommandIntView<'_> {
         CommandIntView::new(payload)
     }
@@ -27413,6 +27811,7 @@ impl<'a> CommandIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CommandInt {
         CommandInt::from_view(self)
     }
@@ -27757,41 +28156,44 @@ impl CommandLong {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CommandLongView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 30),
+            target_component: ::mavwire::field::read::<u8>(p, 31),
+            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 28)),
+            confirmation: ::mavwire::field::read::<u8>(p, 32),
+            param1: ::mavwire::field::read::<f32>(p, 0),
+            param2: ::mavwire::field::read::<f32>(p, 4),
+            param3: ::mavwire::field::read::<f32>(p, 8),
+            param4: ::mavwire::field::read::<f32>(p, 12),
+            param5: ::mavwire::field::read::<f32>(p, 16),
+            param6: ::mavwire::field::read::<f32>(p, 20),
+            param7: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CommandLongView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            command: view.command(),
-            confirmation: view.confirmation(),
-            param1: view.param1(),
-            param2: view.param2(),
-            param3: view.param3(),
-            param4: view.param4(),
-            param5: view.param5(),
-            param6: view.param6(),
-            param7: view.param7(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CommandLongMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_command(self.command);
-        out.set_confirmation(self.confirmation);
-        out.set_param1(self.param1);
-        out.set_param2(self.param2);
-        out.set_param3(self.param3);
-        out.set_param4(self.param4);
-        out.set_param5(self.param5);
-        out.set_param6(self.param6);
-        out.set_param7(self.param7);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 30);
+        ::mavwire::field::Scalar::write(self.target_component, out, 31);
+        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 28);
+        ::mavwire::field::Scalar::write(self.confirmation, out, 32);
+        ::mavwire::field::Scalar::write(self.param1, out, 0);
+        ::mavwire::field::Scalar::write(self.param2, out, 4);
+        ::mavwire::field::Scalar::write(self.param3, out, 8);
+        ::mavwire::field::Scalar::write(self.param4, out, 12);
+        ::mavwire::field::Scalar::write(self.param5, out, 16);
+        ::mavwire::field::Scalar::write(self.param6, out, 20);
+        ::mavwire::field::Scalar::write(self.param7, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -27799,14 +28201,17 @@ impl CommandLong {
 impl ::mavwire::Message for CommandLong {
     const META: ::mavwire::MessageMeta = CommandLong::META;
     type View<'a> = CommandLongView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CommandLong::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CommandLong::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CommandLongView<'_> {
         CommandLongView::new(payload)
     }
@@ -27835,6 +28240,7 @@ impl<'a> CommandLongView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CommandLong {
         CommandLong::from_view(self)
     }
@@ -28103,31 +28509,34 @@ impl CommandAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CommandAckView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 0)),
+            result: MavResult::from_raw(::mavwire::field::read::<u8>(p, 2)),
+            progress: ::mavwire::field::read::<u8>(p, 3),
+            result_param2: ::mavwire::field::read::<i32>(p, 4),
+            target_system: ::mavwire::field::read::<u8>(p, 8),
+            target_component: ::mavwire::field::read::<u8>(p, 9),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CommandAckView<'_>) -> Self {
-        Self {
-            command: view.command(),
-            result: view.result(),
-            progress: view.progress(),
-            result_param2: view.result_param2(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CommandAckMut::new(payload)?;
-        out.set_command(self.command);
-        out.set_result(self.result);
-        out.set_progress(self.progress);
-        out.set_result_param2(self.result_param2);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 0);
+        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 2);
+        ::mavwire::field::Scalar::write(self.progress, out, 3);
+        ::mavwire::field::Scalar::write(self.result_param2, out, 4);
+        ::mavwire::field::Scalar::write(self.target_system, out, 8);
+        ::mavwire::field::Scalar::write(self.target_component, out, 9);
         Ok(Self::MAX_LEN)
     }
 }
@@ -28135,14 +28544,17 @@ impl CommandAck {
 impl ::mavwire::Message for CommandAck {
     const META: ::mavwire::MessageMeta = CommandAck::META;
     type View<'a> = CommandAckView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CommandAck::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CommandAck::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CommandAckView<'_> {
         CommandAckView::new(payload)
     }
@@ -28171,6 +28583,7 @@ impl<'a> CommandAckView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CommandAck {
         CommandAck::from_view(self)
     }
@@ -28382,33 +28795,36 @@ impl ManualSetpoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ManualSetpointView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            roll: ::mavwire::field::read::<f32>(p, 4),
+            pitch: ::mavwire::field::read::<f32>(p, 8),
+            yaw: ::mavwire::field::read::<f32>(p, 12),
+            thrust: ::mavwire::field::read::<f32>(p, 16),
+            mode_switch: ::mavwire::field::read::<u8>(p, 20),
+            manual_override_switch: ::mavwire::field::read::<u8>(p, 21),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ManualSetpointView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            thrust: view.thrust(),
-            mode_switch: view.mode_switch(),
-            manual_override_switch: view.manual_override_switch(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ManualSetpointMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_thrust(self.thrust);
-        out.set_mode_switch(self.mode_switch);
-        out.set_manual_override_switch(self.manual_override_switch);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.roll, out, 4);
+        ::mavwire::field::Scalar::write(self.pitch, out, 8);
+        ::mavwire::field::Scalar::write(self.yaw, out, 12);
+        ::mavwire::field::Scalar::write(self.thrust, out, 16);
+        ::mavwire::field::Scalar::write(self.mode_switch, out, 20);
+        ::mavwire::field::Scalar::write(self.manual_override_switch, out, 21);
         Ok(Self::MAX_LEN)
     }
 }
@@ -28416,14 +28832,17 @@ impl ManualSetpoint {
 impl ::mavwire::Message for ManualSetpoint {
     const META: ::mavwire::MessageMeta = ManualSetpoint::META;
     type View<'a> = ManualSetpointView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ManualSetpoint::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ManualSetpoint::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ManualSetpointView<'_> {
         ManualSetpointView::new(payload)
     }
@@ -28452,6 +28871,7 @@ impl<'a> ManualSetpointView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ManualSetpoint {
         ManualSetpoint::from_view(self)
     }
@@ -28699,37 +29119,42 @@ impl SetAttitudeTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetAttitudeTargetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            target_system: ::mavwire::field::read::<u8>(p, 36),
+            target_component: ::mavwire::field::read::<u8>(p, 37),
+            type_mask: AttitudeTargetTypemask::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 38),
+            ),
+            q: ::mavwire::field::ArrayView::new(p, 4).to_array(),
+            body_roll_rate: ::mavwire::field::read::<f32>(p, 20),
+            body_pitch_rate: ::mavwire::field::read::<f32>(p, 24),
+            body_yaw_rate: ::mavwire::field::read::<f32>(p, 28),
+            thrust: ::mavwire::field::read::<f32>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetAttitudeTargetView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            type_mask: view.type_mask(),
-            q: view.q().to_array(),
-            body_roll_rate: view.body_roll_rate(),
-            body_pitch_rate: view.body_pitch_rate(),
-            body_yaw_rate: view.body_yaw_rate(),
-            thrust: view.thrust(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetAttitudeTargetMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_type_mask(self.type_mask);
-        out.set_q(&self.q);
-        out.set_body_roll_rate(self.body_roll_rate);
-        out.set_body_pitch_rate(self.body_pitch_rate);
-        out.set_body_yaw_rate(self.body_yaw_rate);
-        out.set_thrust(self.thrust);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.target_system, out, 36);
+        ::mavwire::field::Scalar::write(self.target_component, out, 37);
+        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 38);
+        ::mavwire::field::write_array(out, 4, &self.q);
+        ::mavwire::field::Scalar::write(self.body_roll_rate, out, 20);
+        ::mavwire::field::Scalar::write(self.body_pitch_rate, out, 24);
+        ::mavwire::field::Scalar::write(self.body_yaw_rate, out, 28);
+        ::mavwire::field::Scalar::write(self.thrust, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -28737,14 +29162,17 @@ impl SetAttitudeTarget {
 impl ::mavwire::Message for SetAttitudeTarget {
     const META: ::mavwire::MessageMeta = SetAttitudeTarget::META;
     type View<'a> = SetAttitudeTargetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetAttitudeTarget::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetAttitudeTarget::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetAttitudeTargetView<'_> {
         SetAttitudeTargetView::new(payload)
     }
@@ -28773,6 +29201,7 @@ impl<'a> SetAttitudeTargetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetAttitudeTarget {
         SetAttitudeTarget::from_view(self)
     }
@@ -29025,33 +29454,38 @@ impl AttitudeTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AttitudeTargetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            type_mask: AttitudeTargetTypemask::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 36),
+            ),
+            q: ::mavwire::field::ArrayView::new(p, 4).to_array(),
+            body_roll_rate: ::mavwire::field::read::<f32>(p, 20),
+            body_pitch_rate: ::mavwire::field::read::<f32>(p, 24),
+            body_yaw_rate: ::mavwire::field::read::<f32>(p, 28),
+            thrust: ::mavwire::field::read::<f32>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AttitudeTargetView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            type_mask: view.type_mask(),
-            q: view.q().to_array(),
-            body_roll_rate: view.body_roll_rate(),
-            body_pitch_rate: view.body_pitch_rate(),
-            body_yaw_rate: view.body_yaw_rate(),
-            thrust: view.thrust(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AttitudeTargetMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_type_mask(self.type_mask);
-        out.set_q(&self.q);
-        out.set_body_roll_rate(self.body_roll_rate);
-        out.set_body_pitch_rate(self.body_pitch_rate);
-        out.set_body_yaw_rate(self.body_yaw_rate);
-        out.set_thrust(self.thrust);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 36);
+        ::mavwire::field::write_array(out, 4, &self.q);
+        ::mavwire::field::Scalar::write(self.body_roll_rate, out, 20);
+        ::mavwire::field::Scalar::write(self.body_pitch_rate, out, 24);
+        ::mavwire::field::Scalar::write(self.body_yaw_rate, out, 28);
+        ::mavwire::field::Scalar::write(self.thrust, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -29059,14 +29493,17 @@ impl AttitudeTarget {
 impl ::mavwire::Message for AttitudeTarget {
     const META: ::mavwire::MessageMeta = AttitudeTarget::META;
     type View<'a> = AttitudeTargetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AttitudeTarget::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AttitudeTarget::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AttitudeTargetView<'_> {
         AttitudeTargetView::new(payload)
     }
@@ -29095,6 +29532,7 @@ impl<'a> AttitudeTargetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AttitudeTarget {
         AttitudeTarget::from_view(self)
     }
@@ -29422,51 +29860,56 @@ impl SetPositionTargetLocalNed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetPositionTargetLocalNedView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            target_system: ::mavwire::field::read::<u8>(p, 50),
+            target_component: ::mavwire::field::read::<u8>(p, 51),
+            coordinate_frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 52)),
+            type_mask: PositionTargetTypemask::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 48),
+            ),
+            x: ::mavwire::field::read::<f32>(p, 4),
+            y: ::mavwire::field::read::<f32>(p, 8),
+            z: ::mavwire::field::read::<f32>(p, 12),
+            vx: ::mavwire::field::read::<f32>(p, 16),
+            vy: ::mavwire::field::read::<f32>(p, 20),
+            vz: ::mavwire::field::read::<f32>(p, 24),
+            afx: ::mavwire::field::read::<f32>(p, 28),
+            afy: ::mavwire::field::read::<f32>(p, 32),
+            afz: ::mavwire::field::read::<f32>(p, 36),
+            yaw: ::mavwire::field::read::<f32>(p, 40),
+            yaw_rate: ::mavwire::field::read::<f32>(p, 44),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetPositionTargetLocalNedView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            coordinate_frame: view.coordinate_frame(),
-            type_mask: view.type_mask(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            afx: view.afx(),
-            afy: view.afy(),
-            afz: view.afz(),
-            yaw: view.yaw(),
-            yaw_rate: view.yaw_rate(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetPositionTargetLocalNedMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_coordinate_frame(self.coordinate_frame);
-        out.set_type_mask(self.type_mask);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_afx(self.afx);
-        out.set_afy(self.afy);
-        out.set_afz(self.afz);
-        out.set_yaw(self.yaw);
-        out.set_yaw_rate(self.yaw_rate);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.target_system, out, 50);
+        ::mavwire::field::Scalar::write(self.target_component, out, 51);
+        ::mavwire::field::Scalar::write(self.coordinate_frame.to_raw(), out, 52);
+        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 48);
+        ::mavwire::field::Scalar::write(self.x, out, 4);
+        ::mavwire::field::Scalar::write(self.y, out, 8);
+        ::mavwire::field::Scalar::write(self.z, out, 12);
+        ::mavwire::field::Scalar::write(self.vx, out, 16);
+        ::mavwire::field::Scalar::write(self.vy, out, 20);
+        ::mavwire::field::Scalar::write(self.vz, out, 24);
+        ::mavwire::field::Scalar::write(self.afx, out, 28);
+        ::mavwire::field::Scalar::write(self.afy, out, 32);
+        ::mavwire::field::Scalar::write(self.afz, out, 36);
+        ::mavwire::field::Scalar::write(self.yaw, out, 40);
+        ::mavwire::field::Scalar::write(self.yaw_rate, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
@@ -29474,14 +29917,17 @@ impl SetPositionTargetLocalNed {
 impl ::mavwire::Message for SetPositionTargetLocalNed {
     const META: ::mavwire::MessageMeta = SetPositionTargetLocalNed::META;
     type View<'a> = SetPositionTargetLocalNedView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetPositionTargetLocalNed::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetPositionTargetLocalNed::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetPositionTargetLocalNedView<'_> {
         SetPositionTargetLocalNedView::new(payload)
     }
@@ -29510,6 +29956,7 @@ impl<'a> SetPositionTargetLocalNedView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetPositionTargetLocalNed {
         SetPositionTargetLocalNed::from_view(self)
     }
@@ -29924,47 +30371,52 @@ impl PositionTargetLocalNed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&PositionTargetLocalNedView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            coordinate_frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 50)),
+            type_mask: PositionTargetTypemask::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 48),
+            ),
+            x: ::mavwire::field::read::<f32>(p, 4),
+            y: ::mavwire::field::read::<f32>(p, 8),
+            z: ::mavwire::field::read::<f32>(p, 12),
+            vx: ::mavwire::field::read::<f32>(p, 16),
+            vy: ::mavwire::field::read::<f32>(p, 20),
+            vz: ::mavwire::field::read::<f32>(p, 24),
+            afx: ::mavwire::field::read::<f32>(p, 28),
+            afy: ::mavwire::field::read::<f32>(p, 32),
+            afz: ::mavwire::field::read::<f32>(p, 36),
+            yaw: ::mavwire::field::read::<f32>(p, 40),
+            yaw_rate: ::mavwire::field::read::<f32>(p, 44),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &PositionTargetLocalNedView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            coordinate_frame: view.coordinate_frame(),
-            type_mask: view.type_mask(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            afx: view.afx(),
-            afy: view.afy(),
-            afz: view.afz(),
-            yaw: view.yaw(),
-            yaw_rate: view.yaw_rate(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = PositionTargetLocalNedMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_coordinate_frame(self.coordinate_frame);
-        out.set_type_mask(self.type_mask);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_afx(self.afx);
-        out.set_afy(self.afy);
-        out.set_afz(self.afz);
-        out.set_yaw(self.yaw);
-        out.set_yaw_rate(self.yaw_rate);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.coordinate_frame.to_raw(), out, 50);
+        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 48);
+        ::mavwire::field::Scalar::write(self.x, out, 4);
+        ::mavwire::field::Scalar::write(self.y, out, 8);
+        ::mavwire::field::Scalar::write(self.z, out, 12);
+        ::mavwire::field::Scalar::write(self.vx, out, 16);
+        ::mavwire::field::Scalar::write(self.vy, out, 20);
+        ::mavwire::field::Scalar::write(self.vz, out, 24);
+        ::mavwire::field::Scalar::write(self.afx, out, 28);
+        ::mavwire::field::Scalar::write(self.afy, out, 32);
+        ::mavwire::field::Scalar::write(self.afz, out, 36);
+        ::mavwire::field::Scalar::write(self.yaw, out, 40);
+        ::mavwire::field::Scalar::write(self.yaw_rate, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
@@ -29972,14 +30424,17 @@ impl PositionTargetLocalNed {
 impl ::mavwire::Message for PositionTargetLocalNed {
     const META: ::mavwire::MessageMeta = PositionTargetLocalNed::META;
     type View<'a> = PositionTargetLocalNedView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         PositionTargetLocalNed::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         PositionTargetLocalNed::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> PositionTargetLocalNedView<'_> {
         PositionTargetLocalNedView::new(payload)
     }
@@ -30008,6 +30463,7 @@ impl<'a> PositionTargetLocalNedView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> PositionTargetLocalNed {
         PositionTargetLocalNed::from_view(self)
     }
@@ -30424,51 +30880,56 @@ impl SetPositionTargetGlobalInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetPositionTargetGlobalIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            target_system: ::mavwire::field::read::<u8>(p, 50),
+            target_component: ::mavwire::field::read::<u8>(p, 51),
+            coordinate_frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 52)),
+            type_mask: PositionTargetTypemask::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 48),
+            ),
+            lat_int: ::mavwire::field::read::<i32>(p, 4),
+            lon_int: ::mavwire::field::read::<i32>(p, 8),
+            alt: ::mavwire::field::read::<f32>(p, 12),
+            vx: ::mavwire::field::read::<f32>(p, 16),
+            vy: ::mavwire::field::read::<f32>(p, 20),
+            vz: ::mavwire::field::read::<f32>(p, 24),
+            afx: ::mavwire::field::read::<f32>(p, 28),
+            afy: ::mavwire::field::read::<f32>(p, 32),
+            afz: ::mavwire::field::read::<f32>(p, 36),
+            yaw: ::mavwire::field::read::<f32>(p, 40),
+            yaw_rate: ::mavwire::field::read::<f32>(p, 44),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetPositionTargetGlobalIntView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            coordinate_frame: view.coordinate_frame(),
-            type_mask: view.type_mask(),
-            lat_int: view.lat_int(),
-            lon_int: view.lon_int(),
-            alt: view.alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            afx: view.afx(),
-            afy: view.afy(),
-            afz: view.afz(),
-            yaw: view.yaw(),
-            yaw_rate: view.yaw_rate(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetPositionTargetGlobalIntMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_coordinate_frame(self.coordinate_frame);
-        out.set_type_mask(self.type_mask);
-        out.set_lat_int(self.lat_int);
-        out.set_lon_int(self.lon_int);
-        out.set_alt(self.alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_afx(self.afx);
-        out.set_afy(self.afy);
-        out.set_afz(self.afz);
-        out.set_yaw(self.yaw);
-        out.set_yaw_rate(self.yaw_rate);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.target_system, out, 50);
+        ::mavwire::field::Scalar::write(self.target_component, out, 51);
+        ::mavwire::field::Scalar::write(self.coordinate_frame.to_raw(), out, 52);
+        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 48);
+        ::mavwire::field::Scalar::write(self.lat_int, out, 4);
+        ::mavwire::field::Scalar::write(self.lon_int, out, 8);
+        ::mavwire::field::Scalar::write(self.alt, out, 12);
+        ::mavwire::field::Scalar::write(self.vx, out, 16);
+        ::mavwire::field::Scalar::write(self.vy, out, 20);
+        ::mavwire::field::Scalar::write(self.vz, out, 24);
+        ::mavwire::field::Scalar::write(self.afx, out, 28);
+        ::mavwire::field::Scalar::write(self.afy, out, 32);
+        ::mavwire::field::Scalar::write(self.afz, out, 36);
+        ::mavwire::field::Scalar::write(self.yaw, out, 40);
+        ::mavwire::field::Scalar::write(self.yaw_rate, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
@@ -30476,14 +30937,17 @@ impl SetPositionTargetGlobalInt {
 impl ::mavwire::Message for SetPositionTargetGlobalInt {
     const META: ::mavwire::MessageMeta = SetPositionTargetGlobalInt::META;
     type View<'a> = SetPositionTargetGlobalIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetPositionTargetGlobalInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetPositionTargetGlobalInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetPositionTargetGlobalIntView<'_> {
         SetPositionTargetGlobalIntView::new(payload)
     }
@@ -30512,6 +30976,7 @@ impl<'a> SetPositionTargetGlobalIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetPositionTargetGlobalInt {
         SetPositionTargetGlobalInt::from_view(self)
     }
@@ -30930,47 +31395,52 @@ impl PositionTargetGlobalInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&PositionTargetGlobalIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            coordinate_frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 50)),
+            type_mask: PositionTargetTypemask::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 48),
+            ),
+            lat_int: ::mavwire::field::read::<i32>(p, 4),
+            lon_int: ::mavwire::field::read::<i32>(p, 8),
+            alt: ::mavwire::field::read::<f32>(p, 12),
+            vx: ::mavwire::field::read::<f32>(p, 16),
+            vy: ::mavwire::field::read::<f32>(p, 20),
+            vz: ::mavwire::field::read::<f32>(p, 24),
+            afx: ::mavwire::field::read::<f32>(p, 28),
+            afy: ::mavwire::field::read::<f32>(p, 32),
+            afz: ::mavwire::field::read::<f32>(p, 36),
+            yaw: ::mavwire::field::read::<f32>(p, 40),
+            yaw_rate: ::mavwire::field::read::<f32>(p, 44),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &PositionTargetGlobalIntView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            coordinate_frame: view.coordinate_frame(),
-            type_mask: view.type_mask(),
-            lat_int: view.lat_int(),
-            lon_int: view.lon_int(),
-            alt: view.alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            afx: view.afx(),
-            afy: view.afy(),
-            afz: view.afz(),
-            yaw: view.yaw(),
-            yaw_rate: view.yaw_rate(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = PositionTargetGlobalIntMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_coordinate_frame(self.coordinate_frame);
-        out.set_type_mask(self.type_mask);
-        out.set_lat_int(self.lat_int);
-        out.set_lon_int(self.lon_int);
-        out.set_alt(self.alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_afx(self.afx);
-        out.set_afy(self.afy);
-        out.set_afz(self.afz);
-        out.set_yaw(self.yaw);
-        out.set_yaw_rate(self.yaw_rate);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.coordinate_frame.to_raw(), out, 50);
+        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 48);
+        ::mavwire::field::Scalar::write(self.lat_int, out, 4);
+        ::mavwire::field::Scalar::write(self.lon_int, out, 8);
+        ::mavwire::field::Scalar::write(self.alt, out, 12);
+        ::mavwire::field::Scalar::write(self.vx, out, 16);
+        ::mavwire::field::Scalar::write(self.vy, out, 20);
+        ::mavwire::field::Scalar::write(self.vz, out, 24);
+        ::mavwire::field::Scalar::write(self.afx, out, 28);
+        ::mavwire::field::Scalar::write(self.afy, out, 32);
+        ::mavwire::field::Scalar::write(self.afz, out, 36);
+        ::mavwire::field::Scalar::write(self.yaw, out, 40);
+        ::mavwire::field::Scalar::write(self.yaw_rate, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
@@ -30978,14 +31448,17 @@ impl PositionTargetGlobalInt {
 impl ::mavwire::Message for PositionTargetGlobalInt {
     const META: ::mavwire::MessageMeta = PositionTargetGlobalInt::META;
     type View<'a> = PositionTargetGlobalIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         PositionTargetGlobalInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         PositionTargetGlobalInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> PositionTargetGlobalIntView<'_> {
         PositionTargetGlobalIntView::new(payload)
     }
@@ -31014,6 +31487,7 @@ impl<'a> PositionTargetGlobalIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> PositionTargetGlobalInt {
         PositionTargetGlobalInt::from_view(self)
     }
@@ -31325,33 +31799,36 @@ impl LocalPositionNedSystemGlobalOffset {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LocalPositionNedSystemGlobalOffsetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            x: ::mavwire::field::read::<f32>(p, 4),
+            y: ::mavwire::field::read::<f32>(p, 8),
+            z: ::mavwire::field::read::<f32>(p, 12),
+            roll: ::mavwire::field::read::<f32>(p, 16),
+            pitch: ::mavwire::field::read::<f32>(p, 20),
+            yaw: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LocalPositionNedSystemGlobalOffsetView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LocalPositionNedSystemGlobalOffsetMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.x, out, 4);
+        ::mavwire::field::Scalar::write(self.y, out, 8);
+        ::mavwire::field::Scalar::write(self.z, out, 12);
+        ::mavwire::field::Scalar::write(self.roll, out, 16);
+        ::mavwire::field::Scalar::write(self.pitch, out, 20);
+        ::mavwire::field::Scalar::write(self.yaw, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -31359,14 +31836,17 @@ impl LocalPositionNedSystemGlobalOffset {
 impl ::mavwire::Message for LocalPositionNedSystemGlobalOffset {
     const META: ::mavwire::MessageMeta = LocalPositionNedSystemGlobalOffset::META;
     type View<'a> = LocalPositionNedSystemGlobalOffsetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LocalPositionNedSystemGlobalOffset::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LocalPositionNedSystemGlobalOffset::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LocalPositionNedSystemGlobalOffsetView<'_> {
         LocalPositionNedSystemGlobalOffsetView::new(payload)
     }
@@ -31395,6 +31875,7 @@ impl<'a> LocalPositionNedSystemGlobalOffsetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LocalPositionNedSystemGlobalOffset {
         LocalPositionNedSystemGlobalOffset::from_view(self)
     }
@@ -31720,51 +32201,54 @@ impl HilState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilStateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            roll: ::mavwire::field::read::<f32>(p, 8),
+            pitch: ::mavwire::field::read::<f32>(p, 12),
+            yaw: ::mavwire::field::read::<f32>(p, 16),
+            rollspeed: ::mavwire::field::read::<f32>(p, 20),
+            pitchspeed: ::mavwire::field::read::<f32>(p, 24),
+            yawspeed: ::mavwire::field::read::<f32>(p, 28),
+            lat: ::mavwire::field::read::<i32>(p, 32),
+            lon: ::mavwire::field::read::<i32>(p, 36),
+            alt: ::mavwire::field::read::<i32>(p, 40),
+            vx: ::mavwire::field::read::<i16>(p, 44),
+            vy: ::mavwire::field::read::<i16>(p, 46),
+            vz: ::mavwire::field::read::<i16>(p, 48),
+            xacc: ::mavwire::field::read::<i16>(p, 50),
+            yacc: ::mavwire::field::read::<i16>(p, 52),
+            zacc: ::mavwire::field::read::<i16>(p, 54),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilStateView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            rollspeed: view.rollspeed(),
-            pitchspeed: view.pitchspeed(),
-            yawspeed: view.yawspeed(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilStateMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_rollspeed(self.rollspeed);
-        out.set_pitchspeed(self.pitchspeed);
-        out.set_yawspeed(self.yawspeed);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.roll, out, 8);
+        ::mavwire::field::Scalar::write(self.pitch, out, 12);
+        ::mavwire::field::Scalar::write(self.yaw, out, 16);
+        ::mavwire::field::Scalar::write(self.rollspeed, out, 20);
+        ::mavwire::field::Scalar::write(self.pitchspeed, out, 24);
+        ::mavwire::field::Scalar::write(self.yawspeed, out, 28);
+        ::mavwire::field::Scalar::write(self.lat, out, 32);
+        ::mavwire::field::Scalar::write(self.lon, out, 36);
+        ::mavwire::field::Scalar::write(self.alt, out, 40);
+        ::mavwire::field::Scalar::write(self.vx, out, 44);
+        ::mavwire::field::Scalar::write(self.vy, out, 46);
+        ::mavwire::field::Scalar::write(self.vz, out, 48);
+        ::mavwire::field::Scalar::write(self.xacc, out, 50);
+        ::mavwire::field::Scalar::write(self.yacc, out, 52);
+        ::mavwire::field::Scalar::write(self.zacc, out, 54);
         Ok(Self::MAX_LEN)
     }
 }
@@ -31772,14 +32256,17 @@ impl HilState {
 impl ::mavwire::Message for HilState {
     const META: ::mavwire::MessageMeta = HilState::META;
     type View<'a> = HilStateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilState::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilState::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilStateView<'_> {
         HilStateView::new(payload)
     }
@@ -31808,6 +32295,7 @@ impl<'a> HilStateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilState {
         HilState::from_view(self)
     }
@@ -32186,41 +32674,44 @@ impl HilControls {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilControlsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            roll_ailerons: ::mavwire::field::read::<f32>(p, 8),
+            pitch_elevator: ::mavwire::field::read::<f32>(p, 12),
+            yaw_rudder: ::mavwire::field::read::<f32>(p, 16),
+            throttle: ::mavwire::field::read::<f32>(p, 20),
+            aux1: ::mavwire::field::read::<f32>(p, 24),
+            aux2: ::mavwire::field::read::<f32>(p, 28),
+            aux3: ::mavwire::field::read::<f32>(p, 32),
+            aux4: ::mavwire::field::read::<f32>(p, 36),
+            mode: MavMode::from_raw(::mavwire::field::read::<u8>(p, 40)),
+            nav_mode: ::mavwire::field::read::<u8>(p, 41),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilControlsView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            roll_ailerons: view.roll_ailerons(),
-            pitch_elevator: view.pitch_elevator(),
-            yaw_rudder: view.yaw_rudder(),
-            throttle: view.throttle(),
-            aux1: view.aux1(),
-            aux2: view.aux2(),
-            aux3: view.aux3(),
-            aux4: view.aux4(),
-            mode: view.mode(),
-            nav_mode: view.nav_mode(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilControlsMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_roll_ailerons(self.roll_ailerons);
-        out.set_pitch_elevator(self.pitch_elevator);
-        out.set_yaw_rudder(self.yaw_rudder);
-        out.set_throttle(self.throttle);
-        out.set_aux1(self.aux1);
-        out.set_aux2(self.aux2);
-        out.set_aux3(self.aux3);
-        out.set_aux4(self.aux4);
-        out.set_mode(self.mode);
-        out.set_nav_mode(self.nav_mode);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.roll_ailerons, out, 8);
+        ::mavwire::field::Scalar::write(self.pitch_elevator, out, 12);
+        ::mavwire::field::Scalar::write(self.yaw_rudder, out, 16);
+        ::mavwire::field::Scalar::write(self.throttle, out, 20);
+        ::mavwire::field::Scalar::write(self.aux1, out, 24);
+        ::mavwire::field::Scalar::write(self.aux2, out, 28);
+        ::mavwire::field::Scalar::write(self.aux3, out, 32);
+        ::mavwire::field::Scalar::write(self.aux4, out, 36);
+        ::mavwire::field::Scalar::write(self.mode.to_raw(), out, 40);
+        ::mavwire::field::Scalar::write(self.nav_mode, out, 41);
         Ok(Self::MAX_LEN)
     }
 }
@@ -32228,14 +32719,17 @@ impl HilControls {
 impl ::mavwire::Message for HilControls {
     const META: ::mavwire::MessageMeta = HilControls::META;
     type View<'a> = HilControlsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilControls::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilControls::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilControlsView<'_> {
         HilControlsView::new(payload)
     }
@@ -32264,6 +32758,7 @@ impl<'a> HilControlsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilControls {
         HilControls::from_view(self)
     }
@@ -32617,47 +33112,50 @@ impl HilRcInputsRaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilRcInputsRawView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            chan1_raw: ::mavwire::field::read::<u16>(p, 8),
+            chan2_raw: ::mavwire::field::read::<u16>(p, 10),
+            chan3_raw: ::mavwire::field::read::<u16>(p, 12),
+            chan4_raw: ::mavwire::field::read::<u16>(p, 14),
+            chan5_raw: ::mavwire::field::read::<u16>(p, 16),
+            chan6_raw: ::mavwire::field::read::<u16>(p, 18),
+            chan7_raw: ::mavwire::field::read::<u16>(p, 20),
+            chan8_raw: ::mavwire::field::read::<u16>(p, 22),
+            chan9_raw: ::mavwire::field::read::<u16>(p, 24),
+            chan10_raw: ::mavwire::field::read::<u16>(p, 26),
+            chan11_raw: ::mavwire::field::read::<u16>(p, 28),
+            chan12_raw: ::mavwire::field::read::<u16>(p, 30),
+            rssi: ::mavwire::field::read::<u8>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilRcInputsRawView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            chan1_raw: view.chan1_raw(),
-            chan2_raw: view.chan2_raw(),
-            chan3_raw: view.chan3_raw(),
-            chan4_raw: view.chan4_raw(),
-            chan5_raw: view.chan5_raw(),
-            chan6_raw: view.chan6_raw(),
-            chan7_raw: view.chan7_raw(),
-            chan8_raw: view.chan8_raw(),
-            chan9_raw: view.chan9_raw(),
-            chan10_raw: view.chan10_raw(),
-            chan11_raw: view.chan11_raw(),
-            chan12_raw: view.chan12_raw(),
-            rssi: view.rssi(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilRcInputsRawMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_chan1_raw(self.chan1_raw);
-        out.set_chan2_raw(self.chan2_raw);
-        out.set_chan3_raw(self.chan3_raw);
-        out.set_chan4_raw(self.chan4_raw);
-        out.set_chan5_raw(self.chan5_raw);
-        out.set_chan6_raw(self.chan6_raw);
-        out.set_chan7_raw(self.chan7_raw);
-        out.set_chan8_raw(self.chan8_raw);
-        out.set_chan9_raw(self.chan9_raw);
-        out.set_chan10_raw(self.chan10_raw);
-        out.set_chan11_raw(self.chan11_raw);
-        out.set_chan12_raw(self.chan12_raw);
-        out.set_rssi(self.rssi);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.chan1_raw, out, 8);
+        ::mavwire::field::Scalar::write(self.chan2_raw, out, 10);
+        ::mavwire::field::Scalar::write(self.chan3_raw, out, 12);
+        ::mavwire::field::Scalar::write(self.chan4_raw, out, 14);
+        ::mavwire::field::Scalar::write(self.chan5_raw, out, 16);
+        ::mavwire::field::Scalar::write(self.chan6_raw, out, 18);
+        ::mavwire::field::Scalar::write(self.chan7_raw, out, 20);
+        ::mavwire::field::Scalar::write(self.chan8_raw, out, 22);
+        ::mavwire::field::Scalar::write(self.chan9_raw, out, 24);
+        ::mavwire::field::Scalar::write(self.chan10_raw, out, 26);
+        ::mavwire::field::Scalar::write(self.chan11_raw, out, 28);
+        ::mavwire::field::Scalar::write(self.chan12_raw, out, 30);
+        ::mavwire::field::Scalar::write(self.rssi, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -32665,14 +33163,17 @@ impl HilRcInputsRaw {
 impl ::mavwire::Message for HilRcInputsRaw {
     const META: ::mavwire::MessageMeta = HilRcInputsRaw::META;
     type View<'a> = HilRcInputsRawView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilRcInputsRaw::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilRcInputsRaw::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilRcInputsRawView<'_> {
         HilRcInputsRawView::new(payload)
     }
@@ -32701,6 +33202,7 @@ impl<'a> HilRcInputsRawView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilRcInputsRaw {
         HilRcInputsRaw::from_view(self)
     }
@@ -32980,27 +33482,34 @@ impl HilActuatorControls {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilActuatorControlsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            controls: ::mavwire::field::ArrayView::new(p, 16).to_array(),
+            mode: super::minimal::MavModeFlag::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 80),
+            ),
+            flags: HilActuatorControlsFlags::from_bits_retain(
+                ::mavwire::field::read::<u64>(p, 8),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilActuatorControlsView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            controls: view.controls().to_array(),
-            mode: view.mode(),
-            flags: view.flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilActuatorControlsMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_controls(&self.controls);
-        out.set_mode(self.mode);
-        out.set_flags(self.flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::write_array(out, 16, &self.controls);
+        ::mavwire::field::Scalar::write(self.mode.bits(), out, 80);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -33008,14 +33517,17 @@ impl HilActuatorControls {
 impl ::mavwire::Message for HilActuatorControls {
     const META: ::mavwire::MessageMeta = HilActuatorControls::META;
     type View<'a> = HilActuatorControlsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilActuatorControls::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilActuatorControls::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilActuatorControlsView<'_> {
         HilActuatorControlsView::new(payload)
     }
@@ -33044,6 +33556,7 @@ impl<'a> HilActuatorControlsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilActuatorControls {
         HilActuatorControls::from_view(self)
     }
@@ -33272,39 +33785,42 @@ impl OpticalFlow {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpticalFlowView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            sensor_id: ::mavwire::field::read::<u8>(p, 24),
+            flow_x: ::mavwire::field::read::<i16>(p, 20),
+            flow_y: ::mavwire::field::read::<i16>(p, 22),
+            flow_comp_m_x: ::mavwire::field::read::<f32>(p, 8),
+            flow_comp_m_y: ::mavwire::field::read::<f32>(p, 12),
+            quality: ::mavwire::field::read::<u8>(p, 25),
+            ground_distance: ::mavwire::field::read::<f32>(p, 16),
+            flow_rate_x: ::mavwire::field::read::<f32>(p, 26),
+            flow_rate_y: ::mavwire::field::read::<f32>(p, 30),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpticalFlowView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            sensor_id: view.sensor_id(),
-            flow_x: view.flow_x(),
-            flow_y: view.flow_y(),
-            flow_comp_m_x: view.flow_comp_m_x(),
-            flow_comp_m_y: view.flow_comp_m_y(),
-            quality: view.quality(),
-            ground_distance: view.ground_distance(),
-            flow_rate_x: view.flow_rate_x(),
-            flow_rate_y: view.flow_rate_y(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpticalFlowMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_sensor_id(self.sensor_id);
-        out.set_flow_x(self.flow_x);
-        out.set_flow_y(self.flow_y);
-        out.set_flow_comp_m_x(self.flow_comp_m_x);
-        out.set_flow_comp_m_y(self.flow_comp_m_y);
-        out.set_quality(self.quality);
-        out.set_ground_distance(self.ground_distance);
-        out.set_flow_rate_x(self.flow_rate_x);
-        out.set_flow_rate_y(self.flow_rate_y);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.sensor_id, out, 24);
+        ::mavwire::field::Scalar::write(self.flow_x, out, 20);
+        ::mavwire::field::Scalar::write(self.flow_y, out, 22);
+        ::mavwire::field::Scalar::write(self.flow_comp_m_x, out, 8);
+        ::mavwire::field::Scalar::write(self.flow_comp_m_y, out, 12);
+        ::mavwire::field::Scalar::write(self.quality, out, 25);
+        ::mavwire::field::Scalar::write(self.ground_distance, out, 16);
+        ::mavwire::field::Scalar::write(self.flow_rate_x, out, 26);
+        ::mavwire::field::Scalar::write(self.flow_rate_y, out, 30);
         Ok(Self::MAX_LEN)
     }
 }
@@ -33312,14 +33828,17 @@ impl OpticalFlow {
 impl ::mavwire::Message for OpticalFlow {
     const META: ::mavwire::MessageMeta = OpticalFlow::META;
     type View<'a> = OpticalFlowView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpticalFlow::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpticalFlow::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpticalFlowView<'_> {
         OpticalFlowView::new(payload)
     }
@@ -33348,6 +33867,7 @@ impl<'a> OpticalFlowView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpticalFlow {
         OpticalFlow::from_view(self)
     }
@@ -33636,37 +34156,40 @@ impl GlobalVisionPositionEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GlobalVisionPositionEstimateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            usec: ::mavwire::field::read::<u64>(p, 0),
+            x: ::mavwire::field::read::<f32>(p, 8),
+            y: ::mavwire::field::read::<f32>(p, 12),
+            z: ::mavwire::field::read::<f32>(p, 16),
+            roll: ::mavwire::field::read::<f32>(p, 20),
+            pitch: ::mavwire::field::read::<f32>(p, 24),
+            yaw: ::mavwire::field::read::<f32>(p, 28),
+            covariance: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            reset_counter: ::mavwire::field::read::<u8>(p, 116),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GlobalVisionPositionEstimateView<'_>) -> Self {
-        Self {
-            usec: view.usec(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            covariance: view.covariance().to_array(),
-            reset_counter: view.reset_counter(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GlobalVisionPositionEstimateMut::new(payload)?;
-        out.set_usec(self.usec);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_covariance(&self.covariance);
-        out.set_reset_counter(self.reset_counter);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.usec, out, 0);
+        ::mavwire::field::Scalar::write(self.x, out, 8);
+        ::mavwire::field::Scalar::write(self.y, out, 12);
+        ::mavwire::field::Scalar::write(self.z, out, 16);
+        ::mavwire::field::Scalar::write(self.roll, out, 20);
+        ::mavwire::field::Scalar::write(self.pitch, out, 24);
+        ::mavwire::field::Scalar::write(self.yaw, out, 28);
+        ::mavwire::field::write_array(out, 32, &self.covariance);
+        ::mavwire::field::Scalar::write(self.reset_counter, out, 116);
         Ok(Self::MAX_LEN)
     }
 }
@@ -33674,14 +34197,17 @@ impl GlobalVisionPositionEstimate {
 impl ::mavwire::Message for GlobalVisionPositionEstimate {
     const META: ::mavwire::MessageMeta = GlobalVisionPositionEstimate::META;
     type View<'a> = GlobalVisionPositionEstimateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GlobalVisionPositionEstimate::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GlobalVisionPositionEstimate::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GlobalVisionPositionEstimateView<'_> {
         GlobalVisionPositionEstimateView::new(payload)
     }
@@ -33710,6 +34236,7 @@ impl<'a> GlobalVisionPositionEstimateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GlobalVisionPositionEstimate {
         GlobalVisionPositionEstimate::from_view(self)
     }
@@ -33985,37 +34512,40 @@ impl VisionPositionEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VisionPositionEstimateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            usec: ::mavwire::field::read::<u64>(p, 0),
+            x: ::mavwire::field::read::<f32>(p, 8),
+            y: ::mavwire::field::read::<f32>(p, 12),
+            z: ::mavwire::field::read::<f32>(p, 16),
+            roll: ::mavwire::field::read::<f32>(p, 20),
+            pitch: ::mavwire::field::read::<f32>(p, 24),
+            yaw: ::mavwire::field::read::<f32>(p, 28),
+            covariance: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            reset_counter: ::mavwire::field::read::<u8>(p, 116),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VisionPositionEstimateView<'_>) -> Self {
-        Self {
-            usec: view.usec(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            covariance: view.covariance().to_array(),
-            reset_counter: view.reset_counter(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VisionPositionEstimateMut::new(payload)?;
-        out.set_usec(self.usec);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_covariance(&self.covariance);
-        out.set_reset_counter(self.reset_counter);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.usec, out, 0);
+        ::mavwire::field::Scalar::write(self.x, out, 8);
+        ::mavwire::field::Scalar::write(self.y, out, 12);
+        ::mavwire::field::Scalar::write(self.z, out, 16);
+        ::mavwire::field::Scalar::write(self.roll, out, 20);
+        ::mavwire::field::Scalar::write(self.pitch, out, 24);
+        ::mavwire::field::Scalar::write(self.yaw, out, 28);
+        ::mavwire::field::write_array(out, 32, &self.covariance);
+        ::mavwire::field::Scalar::write(self.reset_counter, out, 116);
         Ok(Self::MAX_LEN)
     }
 }
@@ -34023,14 +34553,17 @@ impl VisionPositionEstimate {
 impl ::mavwire::Message for VisionPositionEstimate {
     const META: ::mavwire::MessageMeta = VisionPositionEstimate::META;
     type View<'a> = VisionPositionEstimateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         VisionPositionEstimate::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         VisionPositionEstimate::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VisionPositionEstimateView<'_> {
         VisionPositionEstimateView::new(payload)
     }
@@ -34059,6 +34592,7 @@ impl<'a> VisionPositionEstimateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> VisionPositionEstimate {
         VisionPositionEstimate::from_view(self)
     }
@@ -34301,31 +34835,34 @@ impl VisionSpeedEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VisionSpeedEstimateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            usec: ::mavwire::field::read::<u64>(p, 0),
+            x: ::mavwire::field::read::<f32>(p, 8),
+            y: ::mavwire::field::read::<f32>(p, 12),
+            z: ::mavwire::field::read::<f32>(p, 16),
+            covariance: ::mavwire::field::ArrayView::new(p, 20).to_array(),
+            reset_counter: ::mavwire::field::read::<u8>(p, 56),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VisionSpeedEstimateView<'_>) -> Self {
-        Self {
-            usec: view.usec(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            covariance: view.covariance().to_array(),
-            reset_counter: view.reset_counter(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VisionSpeedEstimateMut::new(payload)?;
-        out.set_usec(self.usec);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_covariance(&self.covariance);
-        out.set_reset_counter(self.reset_counter);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.usec, out, 0);
+        ::mavwire::field::Scalar::write(self.x, out, 8);
+        ::mavwire::field::Scalar::write(self.y, out, 12);
+        ::mavwire::field::Scalar::write(self.z, out, 16);
+        ::mavwire::field::write_array(out, 20, &self.covariance);
+        ::mavwire::field::Scalar::write(self.reset_counter, out, 56);
         Ok(Self::MAX_LEN)
     }
 }
@@ -34333,14 +34870,17 @@ impl VisionSpeedEstimate {
 impl ::mavwire::Message for VisionSpeedEstimate {
     const META: ::mavwire::MessageMeta = VisionSpeedEstimate::META;
     type View<'a> = VisionSpeedEstimateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         VisionSpeedEstimate::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         VisionSpeedEstimate::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VisionSpeedEstimateView<'_> {
         VisionSpeedEstimateView::new(payload)
     }
@@ -34369,6 +34909,7 @@ impl<'a> VisionSpeedEstimateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> VisionSpeedEstimate {
         VisionSpeedEstimate::from_view(self)
     }
@@ -34594,35 +35135,38 @@ impl ViconPositionEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ViconPositionEstimateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            usec: ::mavwire::field::read::<u64>(p, 0),
+            x: ::mavwire::field::read::<f32>(p, 8),
+            y: ::mavwire::field::read::<f32>(p, 12),
+            z: ::mavwire::field::read::<f32>(p, 16),
+            roll: ::mavwire::field::read::<f32>(p, 20),
+            pitch: ::mavwire::field::read::<f32>(p, 24),
+            yaw: ::mavwire::field::read::<f32>(p, 28),
+            covariance: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ViconPositionEstimateView<'_>) -> Self {
-        Self {
-            usec: view.usec(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            covariance: view.covariance().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ViconPositionEstimateMut::new(payload)?;
-        out.set_usec(self.usec);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_covariance(&self.covariance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.usec, out, 0);
+        ::mavwire::field::Scalar::write(self.x, out, 8);
+        ::mavwire::field::Scalar::write(self.y, out, 12);
+        ::mavwire::field::Scalar::write(self.z, out, 16);
+        ::mavwire::field::Scalar::write(self.roll, out, 20);
+        ::mavwire::field::Scalar::write(self.pitch, out, 24);
+        ::mavwire::field::Scalar::write(self.yaw, out, 28);
+        ::mavwire::field::write_array(out, 32, &self.covariance);
         Ok(Self::MAX_LEN)
     }
 }
@@ -34630,14 +35174,17 @@ impl ViconPositionEstimate {
 impl ::mavwire::Message for ViconPositionEstimate {
     const META: ::mavwire::MessageMeta = ViconPositionEstimate::META;
     type View<'a> = ViconPositionEstimateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ViconPositionEstimate::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ViconPositionEstimate::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ViconPositionEstimateView<'_> {
         ViconPositionEstimateView::new(payload)
     }
@@ -34666,6 +35213,7 @@ impl<'a> ViconPositionEstimateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ViconPositionEstimate {
         ViconPositionEstimate::from_view(self)
     }
@@ -35005,51 +35553,56 @@ impl HighresImu {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HighresImuView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            xacc: ::mavwire::field::read::<f32>(p, 8),
+            yacc: ::mavwire::field::read::<f32>(p, 12),
+            zacc: ::mavwire::field::read::<f32>(p, 16),
+            xgyro: ::mavwire::field::read::<f32>(p, 20),
+            ygyro: ::mavwire::field::read::<f32>(p, 24),
+            zgyro: ::mavwire::field::read::<f32>(p, 28),
+            xmag: ::mavwire::field::read::<f32>(p, 32),
+            ymag: ::mavwire::field::read::<f32>(p, 36),
+            zmag: ::mavwire::field::read::<f32>(p, 40),
+            abs_pressure: ::mavwire::field::read::<f32>(p, 44),
+            diff_pressure: ::mavwire::field::read::<f32>(p, 48),
+            pressure_alt: ::mavwire::field::read::<f32>(p, 52),
+            temperature: ::mavwire::field::read::<f32>(p, 56),
+            fields_updated: HighresImuUpdatedFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 60),
+            ),
+            id: ::mavwire::field::read::<u8>(p, 62),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HighresImuView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            xmag: view.xmag(),
-            ymag: view.ymag(),
-            zmag: view.zmag(),
-            abs_pressure: view.abs_pressure(),
-            diff_pressure: view.diff_pressure(),
-            pressure_alt: view.pressure_alt(),
-            temperature: view.temperature(),
-            fields_updated: view.fields_updated(),
-            id: view.id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HighresImuMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_xmag(self.xmag);
-        out.set_ymag(self.ymag);
-        out.set_zmag(self.zmag);
-        out.set_abs_pressure(self.abs_pressure);
-        out.set_diff_pressure(self.diff_pressure);
-        out.set_pressure_alt(self.pressure_alt);
-        out.set_temperature(self.temperature);
-        out.set_fields_updated(self.fields_updated);
-        out.set_id(self.id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.xacc, out, 8);
+        ::mavwire::field::Scalar::write(self.yacc, out, 12);
+        ::mavwire::field::Scalar::write(self.zacc, out, 16);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 20);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 24);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 28);
+        ::mavwire::field::Scalar::write(self.xmag, out, 32);
+        ::mavwire::field::Scalar::write(self.ymag, out, 36);
+        ::mavwire::field::Scalar::write(self.zmag, out, 40);
+        ::mavwire::field::Scalar::write(self.abs_pressure, out, 44);
+        ::mavwire::field::Scalar::write(self.diff_pressure, out, 48);
+        ::mavwire::field::Scalar::write(self.pressure_alt, out, 52);
+        ::mavwire::field::Scalar::write(self.temperature, out, 56);
+        ::mavwire::field::Scalar::write(self.fields_updated.bits(), out, 60);
+        ::mavwire::field::Scalar::write(self.id, out, 62);
         Ok(Self::MAX_LEN)
     }
 }
@@ -35057,14 +35610,17 @@ impl HighresImu {
 impl ::mavwire::Message for HighresImu {
     const META: ::mavwire::MessageMeta = HighresImu::META;
     type View<'a> = HighresImuView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HighresImu::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HighresImu::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HighresImuView<'_> {
         HighresImuView::new(payload)
     }
@@ -35093,6 +35649,7 @@ impl<'a> HighresImuView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HighresImu {
         HighresImu::from_view(self)
     }
@@ -35488,43 +36045,46 @@ impl OpticalFlowRad {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpticalFlowRadView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            sensor_id: ::mavwire::field::read::<u8>(p, 42),
+            integration_time_us: ::mavwire::field::read::<u32>(p, 8),
+            integrated_x: ::mavwire::field::read::<f32>(p, 12),
+            integrated_y: ::mavwire::field::read::<f32>(p, 16),
+            integrated_xgyro: ::mavwire::field::read::<f32>(p, 20),
+            integrated_ygyro: ::mavwire::field::read::<f32>(p, 24),
+            integrated_zgyro: ::mavwire::field::read::<f32>(p, 28),
+            temperature: ::mavwire::field::read::<i16>(p, 40),
+            quality: ::mavwire::field::read::<u8>(p, 43),
+            time_delta_distance_us: ::mavwire::field::read::<u32>(p, 32),
+            distance: ::mavwire::field::read::<f32>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpticalFlowRadView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            sensor_id: view.sensor_id(),
-            integration_time_us: view.integration_time_us(),
-            integrated_x: view.integrated_x(),
-            integrated_y: view.integrated_y(),
-            integrated_xgyro: view.integrated_xgyro(),
-            integrated_ygyro: view.integrated_ygyro(),
-            integrated_zgyro: view.integrated_zgyro(),
-            temperature: view.temperature(),
-            quality: view.quality(),
-            time_delta_distance_us: view.time_delta_distance_us(),
-            distance: view.distance(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpticalFlowRadMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_sensor_id(self.sensor_id);
-        out.set_integration_time_us(self.integration_time_us);
-        out.set_integrated_x(self.integrated_x);
-        out.set_integrated_y(self.integrated_y);
-        out.set_integrated_xgyro(self.integrated_xgyro);
-        out.set_integrated_ygyro(self.integrated_ygyro);
-        out.set_integrated_zgyro(self.integrated_zgyro);
-        out.set_temperature(self.temperature);
-        out.set_quality(self.quality);
-        out.set_time_delta_distance_us(self.time_delta_distance_us);
-        out.set_distance(self.distance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.sensor_id, out, 42);
+        ::mavwire::field::Scalar::write(self.integration_time_us, out, 8);
+        ::mavwire::field::Scalar::write(self.integrated_x, out, 12);
+        ::mavwire::field::Scalar::write(self.integrated_y, out, 16);
+        ::mavwire::field::Scalar::write(self.integrated_xgyro, out, 20);
+        ::mavwire::field::Scalar::write(self.integrated_ygyro, out, 24);
+        ::mavwire::field::Scalar::write(self.integrated_zgyro, out, 28);
+        ::mavwire::field::Scalar::write(self.temperature, out, 40);
+        ::mavwire::field::Scalar::write(self.quality, out, 43);
+        ::mavwire::field::Scalar::write(self.time_delta_distance_us, out, 32);
+        ::mavwire::field::Scalar::write(self.distance, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -35532,14 +36092,17 @@ impl OpticalFlowRad {
 impl ::mavwire::Message for OpticalFlowRad {
     const META: ::mavwire::MessageMeta = OpticalFlowRad::META;
     type View<'a> = OpticalFlowRadView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpticalFlowRad::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpticalFlowRad::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpticalFlowRadView<'_> {
         OpticalFlowRadView::new(payload)
     }
@@ -35568,6 +36131,7 @@ impl<'a> OpticalFlowRadView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpticalFlowRad {
         OpticalFlowRad::from_view(self)
     }
@@ -35954,51 +36518,56 @@ impl HilSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilSensorView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            xacc: ::mavwire::field::read::<f32>(p, 8),
+            yacc: ::mavwire::field::read::<f32>(p, 12),
+            zacc: ::mavwire::field::read::<f32>(p, 16),
+            xgyro: ::mavwire::field::read::<f32>(p, 20),
+            ygyro: ::mavwire::field::read::<f32>(p, 24),
+            zgyro: ::mavwire::field::read::<f32>(p, 28),
+            xmag: ::mavwire::field::read::<f32>(p, 32),
+            ymag: ::mavwire::field::read::<f32>(p, 36),
+            zmag: ::mavwire::field::read::<f32>(p, 40),
+            abs_pressure: ::mavwire::field::read::<f32>(p, 44),
+            diff_pressure: ::mavwire::field::read::<f32>(p, 48),
+            pressure_alt: ::mavwire::field::read::<f32>(p, 52),
+            temperature: ::mavwire::field::read::<f32>(p, 56),
+            fields_updated: HilSensorUpdatedFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 60),
+            ),
+            id: ::mavwire::field::read::<u8>(p, 64),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilSensorView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            xmag: view.xmag(),
-            ymag: view.ymag(),
-            zmag: view.zmag(),
-            abs_pressure: view.abs_pressure(),
-            diff_pressure: view.diff_pressure(),
-            pressure_alt: view.pressure_alt(),
-            temperature: view.temperature(),
-            fields_updated: view.fields_updated(),
-            id: view.id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilSensorMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_xmag(self.xmag);
-        out.set_ymag(self.ymag);
-        out.set_zmag(self.zmag);
-        out.set_abs_pressure(self.abs_pressure);
-        out.set_diff_pressure(self.diff_pressure);
-        out.set_pressure_alt(self.pressure_alt);
-        out.set_temperature(self.temperature);
-        out.set_fields_updated(self.fields_updated);
-        out.set_id(self.id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.xacc, out, 8);
+        ::mavwire::field::Scalar::write(self.yacc, out, 12);
+        ::mavwire::field::Scalar::write(self.zacc, out, 16);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 20);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 24);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 28);
+        ::mavwire::field::Scalar::write(self.xmag, out, 32);
+        ::mavwire::field::Scalar::write(self.ymag, out, 36);
+        ::mavwire::field::Scalar::write(self.zmag, out, 40);
+        ::mavwire::field::Scalar::write(self.abs_pressure, out, 44);
+        ::mavwire::field::Scalar::write(self.diff_pressure, out, 48);
+        ::mavwire::field::Scalar::write(self.pressure_alt, out, 52);
+        ::mavwire::field::Scalar::write(self.temperature, out, 56);
+        ::mavwire::field::Scalar::write(self.fields_updated.bits(), out, 60);
+        ::mavwire::field::Scalar::write(self.id, out, 64);
         Ok(Self::MAX_LEN)
     }
 }
@@ -36006,14 +36575,17 @@ impl HilSensor {
 impl ::mavwire::Message for HilSensor {
     const META: ::mavwire::MessageMeta = HilSensor::META;
     type View<'a> = HilSensorView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilSensor::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilSensor::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilSensorView<'_> {
         HilSensorView::new(payload)
     }
@@ -36042,6 +36614,7 @@ impl<'a> HilSensorView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilSensor {
         HilSensor::from_view(self)
     }
@@ -36556,65 +37129,68 @@ impl SimState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SimStateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            q1: ::mavwire::field::read::<f32>(p, 0),
+            q2: ::mavwire::field::read::<f32>(p, 4),
+            q3: ::mavwire::field::read::<f32>(p, 8),
+            q4: ::mavwire::field::read::<f32>(p, 12),
+            roll: ::mavwire::field::read::<f32>(p, 16),
+            pitch: ::mavwire::field::read::<f32>(p, 20),
+            yaw: ::mavwire::field::read::<f32>(p, 24),
+            xacc: ::mavwire::field::read::<f32>(p, 28),
+            yacc: ::mavwire::field::read::<f32>(p, 32),
+            zacc: ::mavwire::field::read::<f32>(p, 36),
+            xgyro: ::mavwire::field::read::<f32>(p, 40),
+            ygyro: ::mavwire::field::read::<f32>(p, 44),
+            zgyro: ::mavwire::field::read::<f32>(p, 48),
+            lat: ::mavwire::field::read::<f32>(p, 52),
+            lon: ::mavwire::field::read::<f32>(p, 56),
+            alt: ::mavwire::field::read::<f32>(p, 60),
+            std_dev_horz: ::mavwire::field::read::<f32>(p, 64),
+            std_dev_vert: ::mavwire::field::read::<f32>(p, 68),
+            vn: ::mavwire::field::read::<f32>(p, 72),
+            ve: ::mavwire::field::read::<f32>(p, 76),
+            vd: ::mavwire::field::read::<f32>(p, 80),
+            lat_int: ::mavwire::field::read::<i32>(p, 84),
+            lon_int: ::mavwire::field::read::<i32>(p, 88),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SimStateView<'_>) -> Self {
-        Self {
-            q1: view.q1(),
-            q2: view.q2(),
-            q3: view.q3(),
-            q4: view.q4(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            std_dev_horz: view.std_dev_horz(),
-            std_dev_vert: view.std_dev_vert(),
-            vn: view.vn(),
-            ve: view.ve(),
-            vd: view.vd(),
-            lat_int: view.lat_int(),
-            lon_int: view.lon_int(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SimStateMut::new(payload)?;
-        out.set_q1(self.q1);
-        out.set_q2(self.q2);
-        out.set_q3(self.q3);
-        out.set_q4(self.q4);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_std_dev_horz(self.std_dev_horz);
-        out.set_std_dev_vert(self.std_dev_vert);
-        out.set_vn(self.vn);
-        out.set_ve(self.ve);
-        out.set_vd(self.vd);
-        out.set_lat_int(self.lat_int);
-        out.set_lon_int(self.lon_int);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.q1, out, 0);
+        ::mavwire::field::Scalar::write(self.q2, out, 4);
+        ::mavwire::field::Scalar::write(self.q3, out, 8);
+        ::mavwire::field::Scalar::write(self.q4, out, 12);
+        ::mavwire::field::Scalar::write(self.roll, out, 16);
+        ::mavwire::field::Scalar::write(self.pitch, out, 20);
+        ::mavwire::field::Scalar::write(self.yaw, out, 24);
+        ::mavwire::field::Scalar::write(self.xacc, out, 28);
+        ::mavwire::field::Scalar::write(self.yacc, out, 32);
+        ::mavwire::field::Scalar::write(self.zacc, out, 36);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 40);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 44);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 48);
+        ::mavwire::field::Scalar::write(self.lat, out, 52);
+        ::mavwire::field::Scalar::write(self.lon, out, 56);
+        ::mavwire::field::Scalar::write(self.alt, out, 60);
+        ::mavwire::field::Scalar::write(self.std_dev_horz, out, 64);
+        ::mavwire::field::Scalar::write(self.std_dev_vert, out, 68);
+        ::mavwire::field::Scalar::write(self.vn, out, 72);
+        ::mavwire::field::Scalar::write(self.ve, out, 76);
+        ::mavwire::field::Scalar::write(self.vd, out, 80);
+        ::mavwire::field::Scalar::write(self.lat_int, out, 84);
+        ::mavwire::field::Scalar::write(self.lon_int, out, 88);
         Ok(Self::MAX_LEN)
     }
 }
@@ -36622,14 +37198,17 @@ impl SimState {
 impl ::mavwire::Message for SimState {
     const META: ::mavwire::MessageMeta = SimState::META;
     type View<'a> = SimStateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SimState::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SimState::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SimStateView<'_> {
         SimStateView::new(payload)
     }
@@ -36658,6 +37237,7 @@ impl<'a> SimStateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SimState {
         SimState::from_view(self)
     }
@@ -37077,33 +37657,36 @@ impl RadioStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RadioStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            rssi: ::mavwire::field::read::<u8>(p, 4),
+            remrssi: ::mavwire::field::read::<u8>(p, 5),
+            txbuf: ::mavwire::field::read::<u8>(p, 6),
+            noise: ::mavwire::field::read::<u8>(p, 7),
+            remnoise: ::mavwire::field::read::<u8>(p, 8),
+            rxerrors: ::mavwire::field::read::<u16>(p, 0),
+            fixed: ::mavwire::field::read::<u16>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RadioStatusView<'_>) -> Self {
-        Self {
-            rssi: view.rssi(),
-            remrssi: view.remrssi(),
-            txbuf: view.txbuf(),
-            noise: view.noise(),
-            remnoise: view.remnoise(),
-            rxerrors: view.rxerrors(),
-            fixed: view.fixed(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RadioStatusMut::new(payload)?;
-        out.set_rssi(self.rssi);
-        out.set_remrssi(self.remrssi);
-        out.set_txbuf(self.txbuf);
-        out.set_noise(self.noise);
-        out.set_remnoise(self.remnoise);
-        out.set_rxerrors(self.rxerrors);
-        out.set_fixed(self.fixed);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.rssi, out, 4);
+        ::mavwire::field::Scalar::write(self.remrssi, out, 5);
+        ::mavwire::field::Scalar::write(self.txbuf, out, 6);
+        ::mavwire::field::Scalar::write(self.noise, out, 7);
+        ::mavwire::field::Scalar::write(self.remnoise, out, 8);
+        ::mavwire::field::Scalar::write(self.rxerrors, out, 0);
+        ::mavwire::field::Scalar::write(self.fixed, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -37111,14 +37694,17 @@ impl RadioStatus {
 impl ::mavwire::Message for RadioStatus {
     const META: ::mavwire::MessageMeta = RadioStatus::META;
     type View<'a> = RadioStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RadioStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RadioStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RadioStatusView<'_> {
         RadioStatusView::new(payload)
     }
@@ -37147,6 +37733,7 @@ impl<'a> RadioStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RadioStatus {
         RadioStatus::from_view(self)
     }
@@ -37339,27 +37926,30 @@ impl FileTransferProtocol {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&FileTransferProtocolView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_network: ::mavwire::field::read::<u8>(p, 0),
+            target_system: ::mavwire::field::read::<u8>(p, 1),
+            target_component: ::mavwire::field::read::<u8>(p, 2),
+            payload: ::mavwire::field::ArrayView::new(p, 3).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &FileTransferProtocolView<'_>) -> Self {
-        Self {
-            target_network: view.target_network(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            payload: view.payload().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = FileTransferProtocolMut::new(payload)?;
-        out.set_target_network(self.target_network);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_payload(&self.payload);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_network, out, 0);
+        ::mavwire::field::Scalar::write(self.target_system, out, 1);
+        ::mavwire::field::Scalar::write(self.target_component, out, 2);
+        ::mavwire::field::write_array(out, 3, &self.payload);
         Ok(Self::MAX_LEN)
     }
 }
@@ -37378,14 +37968,17 @@ impl Default for FileTransferProtocol {
 impl ::mavwire::Message for FileTransferProtocol {
     const META: ::mavwire::MessageMeta = FileTransferProtocol::META;
     type View<'a> = FileTransferProtocolView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         FileTransferProtocol::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         FileTransferProtocol::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> FileTransferProtocolView<'_> {
         FileTransferProtocolView::new(payload)
     }
@@ -37414,6 +38007,7 @@ impl<'a> FileTransferProtocolView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> FileTransferProtocol {
         FileTransferProtocol::from_view(self)
     }
@@ -37558,23 +38152,26 @@ impl Timesync {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TimesyncView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            tc1: ::mavwire::field::read::<i64>(p, 0),
+            ts1: ::mavwire::field::read::<i64>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TimesyncView<'_>) -> Self {
-        Self {
-            tc1: view.tc1(),
-            ts1: view.ts1(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TimesyncMut::new(payload)?;
-        out.set_tc1(self.tc1);
-        out.set_ts1(self.ts1);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.tc1, out, 0);
+        ::mavwire::field::Scalar::write(self.ts1, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -37582,14 +38179,17 @@ impl Timesync {
 impl ::mavwire::Message for Timesync {
     const META: ::mavwire::MessageMeta = Timesync::META;
     type View<'a> = TimesyncView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Timesync::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Timesync::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TimesyncView<'_> {
         TimesyncView::new(payload)
     }
@@ -37618,6 +38218,7 @@ impl<'a> TimesyncView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Timesync {
         Timesync::from_view(self)
     }
@@ -37728,23 +38329,26 @@ impl CameraTrigger {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraTriggerView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            seq: ::mavwire::field::read::<u32>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraTriggerView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            seq: view.seq(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraTriggerMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_seq(self.seq);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.seq, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -37752,14 +38356,17 @@ impl CameraTrigger {
 impl ::mavwire::Message for CameraTrigger {
     const META: ::mavwire::MessageMeta = CameraTrigger::META;
     type View<'a> = CameraTriggerView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraTrigger::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraTrigger::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraTriggerView<'_> {
         CameraTriggerView::new(payload)
     }
@@ -37788,6 +38395,7 @@ impl<'a> CameraTriggerView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraTrigger {
         CameraTrigger::from_view(self)
     }
@@ -38049,49 +38657,52 @@ impl HilGps {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilGpsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            fix_type: ::mavwire::field::read::<u8>(p, 34),
+            lat: ::mavwire::field::read::<i32>(p, 8),
+            lon: ::mavwire::field::read::<i32>(p, 12),
+            alt: ::mavwire::field::read::<i32>(p, 16),
+            eph: ::mavwire::field::read::<u16>(p, 20),
+            epv: ::mavwire::field::read::<u16>(p, 22),
+            vel: ::mavwire::field::read::<u16>(p, 24),
+            vn: ::mavwire::field::read::<i16>(p, 26),
+            ve: ::mavwire::field::read::<i16>(p, 28),
+            vd: ::mavwire::field::read::<i16>(p, 30),
+            cog: ::mavwire::field::read::<u16>(p, 32),
+            satellites_visible: ::mavwire::field::read::<u8>(p, 35),
+            id: ::mavwire::field::read::<u8>(p, 36),
+            yaw: ::mavwire::field::read::<u16>(p, 37),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilGpsView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            fix_type: view.fix_type(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            eph: view.eph(),
-            epv: view.epv(),
-            vel: view.vel(),
-            vn: view.vn(),
-            ve: view.ve(),
-            vd: view.vd(),
-            cog: view.cog(),
-            satellites_visible: view.satellites_visible(),
-            id: view.id(),
-            yaw: view.yaw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilGpsMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_fix_type(self.fix_type);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_eph(self.eph);
-        out.set_epv(self.epv);
-        out.set_vel(self.vel);
-        out.set_vn(self.vn);
-        out.set_ve(self.ve);
-        out.set_vd(self.vd);
-        out.set_cog(self.cog);
-        out.set_satellites_visible(self.satellites_visible);
-        out.set_id(self.id);
-        out.set_yaw(self.yaw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.fix_type, out, 34);
+        ::mavwire::field::Scalar::write(self.lat, out, 8);
+        ::mavwire::field::Scalar::write(self.lon, out, 12);
+        ::mavwire::field::Scalar::write(self.alt, out, 16);
+        ::mavwire::field::Scalar::write(self.eph, out, 20);
+        ::mavwire::field::Scalar::write(self.epv, out, 22);
+        ::mavwire::field::Scalar::write(self.vel, out, 24);
+        ::mavwire::field::Scalar::write(self.vn, out, 26);
+        ::mavwire::field::Scalar::write(self.ve, out, 28);
+        ::mavwire::field::Scalar::write(self.vd, out, 30);
+        ::mavwire::field::Scalar::write(self.cog, out, 32);
+        ::mavwire::field::Scalar::write(self.satellites_visible, out, 35);
+        ::mavwire::field::Scalar::write(self.id, out, 36);
+        ::mavwire::field::Scalar::write(self.yaw, out, 37);
         Ok(Self::MAX_LEN)
     }
 }
@@ -38099,14 +38710,17 @@ impl HilGps {
 impl ::mavwire::Message for HilGps {
     const META: ::mavwire::MessageMeta = HilGps::META;
     type View<'a> = HilGpsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilGps::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilGps::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilGpsView<'_> {
         HilGpsView::new(payload)
     }
@@ -38135,6 +38749,7 @@ impl<'a> HilGpsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilGps {
         HilGps::from_view(self)
     }
@@ -38515,43 +39130,46 @@ impl HilOpticalFlow {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilOpticalFlowView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            sensor_id: ::mavwire::field::read::<u8>(p, 42),
+            integration_time_us: ::mavwire::field::read::<u32>(p, 8),
+            integrated_x: ::mavwire::field::read::<f32>(p, 12),
+            integrated_y: ::mavwire::field::read::<f32>(p, 16),
+            integrated_xgyro: ::mavwire::field::read::<f32>(p, 20),
+            integrated_ygyro: ::mavwire::field::read::<f32>(p, 24),
+            integrated_zgyro: ::mavwire::field::read::<f32>(p, 28),
+            temperature: ::mavwire::field::read::<i16>(p, 40),
+            quality: ::mavwire::field::read::<u8>(p, 43),
+            time_delta_distance_us: ::mavwire::field::read::<u32>(p, 32),
+            distance: ::mavwire::field::read::<f32>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilOpticalFlowView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            sensor_id: view.sensor_id(),
-            integration_time_us: view.integration_time_us(),
-            integrated_x: view.integrated_x(),
-            integrated_y: view.integrated_y(),
-            integrated_xgyro: view.integrated_xgyro(),
-            integrated_ygyro: view.integrated_ygyro(),
-            integrated_zgyro: view.integrated_zgyro(),
-            temperature: view.temperature(),
-            quality: view.quality(),
-            time_delta_distance_us: view.time_delta_distance_us(),
-            distance: view.distance(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilOpticalFlowMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_sensor_id(self.sensor_id);
-        out.set_integration_time_us(self.integration_time_us);
-        out.set_integrated_x(self.integrated_x);
-        out.set_integrated_y(self.integrated_y);
-        out.set_integrated_xgyro(self.integrated_xgyro);
-        out.set_integrated_ygyro(self.integrated_ygyro);
-        out.set_integrated_zgyro(self.integrated_zgyro);
-        out.set_temperature(self.temperature);
-        out.set_quality(self.quality);
-        out.set_time_delta_distance_us(self.time_delta_distance_us);
-        out.set_distance(self.distance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.sensor_id, out, 42);
+        ::mavwire::field::Scalar::write(self.integration_time_us, out, 8);
+        ::mavwire::field::Scalar::write(self.integrated_x, out, 12);
+        ::mavwire::field::Scalar::write(self.integrated_y, out, 16);
+        ::mavwire::field::Scalar::write(self.integrated_xgyro, out, 20);
+        ::mavwire::field::Scalar::write(self.integrated_ygyro, out, 24);
+        ::mavwire::field::Scalar::write(self.integrated_zgyro, out, 28);
+        ::mavwire::field::Scalar::write(self.temperature, out, 40);
+        ::mavwire::field::Scalar::write(self.quality, out, 43);
+        ::mavwire::field::Scalar::write(self.time_delta_distance_us, out, 32);
+        ::mavwire::field::Scalar::write(self.distance, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -38559,14 +39177,17 @@ impl HilOpticalFlow {
 impl ::mavwire::Message for HilOpticalFlow {
     const META: ::mavwire::MessageMeta = HilOpticalFlow::META;
     type View<'a> = HilOpticalFlowView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilOpticalFlow::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilOpticalFlow::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilOpticalFlowView<'_> {
         HilOpticalFlowView::new(payload)
     }
@@ -38595,6 +39216,7 @@ impl<'a> HilOpticalFlowView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilOpticalFlow {
         HilOpticalFlow::from_view(self)
     }
@@ -38982,51 +39604,54 @@ impl HilStateQuaternion {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HilStateQuaternionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            attitude_quaternion: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            rollspeed: ::mavwire::field::read::<f32>(p, 24),
+            pitchspeed: ::mavwire::field::read::<f32>(p, 28),
+            yawspeed: ::mavwire::field::read::<f32>(p, 32),
+            lat: ::mavwire::field::read::<i32>(p, 36),
+            lon: ::mavwire::field::read::<i32>(p, 40),
+            alt: ::mavwire::field::read::<i32>(p, 44),
+            vx: ::mavwire::field::read::<i16>(p, 48),
+            vy: ::mavwire::field::read::<i16>(p, 50),
+            vz: ::mavwire::field::read::<i16>(p, 52),
+            ind_airspeed: ::mavwire::field::read::<u16>(p, 54),
+            true_airspeed: ::mavwire::field::read::<u16>(p, 56),
+            xacc: ::mavwire::field::read::<i16>(p, 58),
+            yacc: ::mavwire::field::read::<i16>(p, 60),
+            zacc: ::mavwire::field::read::<i16>(p, 62),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HilStateQuaternionView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            attitude_quaternion: view.attitude_quaternion().to_array(),
-            rollspeed: view.rollspeed(),
-            pitchspeed: view.pitchspeed(),
-            yawspeed: view.yawspeed(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            ind_airspeed: view.ind_airspeed(),
-            true_airspeed: view.true_airspeed(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HilStateQuaternionMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_attitude_quaternion(&self.attitude_quaternion);
-        out.set_rollspeed(self.rollspeed);
-        out.set_pitchspeed(self.pitchspeed);
-        out.set_yawspeed(self.yawspeed);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_ind_airspeed(self.ind_airspeed);
-        out.set_true_airspeed(self.true_airspeed);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.attitude_quaternion);
+        ::mavwire::field::Scalar::write(self.rollspeed, out, 24);
+        ::mavwire::field::Scalar::write(self.pitchspeed, out, 28);
+        ::mavwire::field::Scalar::write(self.yawspeed, out, 32);
+        ::mavwire::field::Scalar::write(self.lat, out, 36);
+        ::mavwire::field::Scalar::write(self.lon, out, 40);
+        ::mavwire::field::Scalar::write(self.alt, out, 44);
+        ::mavwire::field::Scalar::write(self.vx, out, 48);
+        ::mavwire::field::Scalar::write(self.vy, out, 50);
+        ::mavwire::field::Scalar::write(self.vz, out, 52);
+        ::mavwire::field::Scalar::write(self.ind_airspeed, out, 54);
+        ::mavwire::field::Scalar::write(self.true_airspeed, out, 56);
+        ::mavwire::field::Scalar::write(self.xacc, out, 58);
+        ::mavwire::field::Scalar::write(self.yacc, out, 60);
+        ::mavwire::field::Scalar::write(self.zacc, out, 62);
         Ok(Self::MAX_LEN)
     }
 }
@@ -39034,14 +39659,17 @@ impl HilStateQuaternion {
 impl ::mavwire::Message for HilStateQuaternion {
     const META: ::mavwire::MessageMeta = HilStateQuaternion::META;
     type View<'a> = HilStateQuaternionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HilStateQuaternion::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HilStateQuaternion::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HilStateQuaternionView<'_> {
         HilStateQuaternionView::new(payload)
     }
@@ -39070,6 +39698,7 @@ impl<'a> HilStateQuaternionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HilStateQuaternion {
         HilStateQuaternion::from_view(self)
     }
@@ -39448,41 +40077,44 @@ impl ScaledImu2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ScaledImu2View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            xacc: ::mavwire::field::read::<i16>(p, 4),
+            yacc: ::mavwire::field::read::<i16>(p, 6),
+            zacc: ::mavwire::field::read::<i16>(p, 8),
+            xgyro: ::mavwire::field::read::<i16>(p, 10),
+            ygyro: ::mavwire::field::read::<i16>(p, 12),
+            zgyro: ::mavwire::field::read::<i16>(p, 14),
+            xmag: ::mavwire::field::read::<i16>(p, 16),
+            ymag: ::mavwire::field::read::<i16>(p, 18),
+            zmag: ::mavwire::field::read::<i16>(p, 20),
+            temperature: ::mavwire::field::read::<i16>(p, 22),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ScaledImu2View<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            xmag: view.xmag(),
-            ymag: view.ymag(),
-            zmag: view.zmag(),
-            temperature: view.temperature(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ScaledImu2Mut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_xmag(self.xmag);
-        out.set_ymag(self.ymag);
-        out.set_zmag(self.zmag);
-        out.set_temperature(self.temperature);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.xacc, out, 4);
+        ::mavwire::field::Scalar::write(self.yacc, out, 6);
+        ::mavwire::field::Scalar::write(self.zacc, out, 8);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 10);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 12);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 14);
+        ::mavwire::field::Scalar::write(self.xmag, out, 16);
+        ::mavwire::field::Scalar::write(self.ymag, out, 18);
+        ::mavwire::field::Scalar::write(self.zmag, out, 20);
+        ::mavwire::field::Scalar::write(self.temperature, out, 22);
         Ok(Self::MAX_LEN)
     }
 }
@@ -39490,14 +40122,17 @@ impl ScaledImu2 {
 impl ::mavwire::Message for ScaledImu2 {
     const META: ::mavwire::MessageMeta = ScaledImu2::META;
     type View<'a> = ScaledImu2View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ScaledImu2::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ScaledImu2::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ScaledImu2View<'_> {
         ScaledImu2View::new(payload)
     }
@@ -39526,6 +40161,7 @@ impl<'a> ScaledImu2View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ScaledImu2 {
         ScaledImu2::from_view(self)
     }
@@ -39767,27 +40403,30 @@ impl LogRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LogRequestListView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            start: ::mavwire::field::read::<u16>(p, 0),
+            end: ::mavwire::field::read::<u16>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LogRequestListView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            start: view.start(),
-            end: view.end(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LogRequestListMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_start(self.start);
-        out.set_end(self.end);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.start, out, 0);
+        ::mavwire::field::Scalar::write(self.end, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -39795,14 +40434,17 @@ impl LogRequestList {
 impl ::mavwire::Message for LogRequestList {
     const META: ::mavwire::MessageMeta = LogRequestList::META;
     type View<'a> = LogRequestListView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LogRequestList::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LogRequestList::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LogRequestListView<'_> {
         LogRequestListView::new(payload)
     }
@@ -39831,6 +40473,7 @@ impl<'a> LogRequestListView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LogRequestList {
         LogRequestList::from_view(self)
     }
@@ -39996,29 +40639,32 @@ impl LogEntry {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LogEntryView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            id: ::mavwire::field::read::<u16>(p, 8),
+            num_logs: ::mavwire::field::read::<u16>(p, 10),
+            last_log_num: ::mavwire::field::read::<u16>(p, 12),
+            time_utc: ::mavwire::field::read::<u32>(p, 0),
+            size: ::mavwire::field::read::<u32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LogEntryView<'_>) -> Self {
-        Self {
-            id: view.id(),
-            num_logs: view.num_logs(),
-            last_log_num: view.last_log_num(),
-            time_utc: view.time_utc(),
-            size: view.size(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LogEntryMut::new(payload)?;
-        out.set_id(self.id);
-        out.set_num_logs(self.num_logs);
-        out.set_last_log_num(self.last_log_num);
-        out.set_time_utc(self.time_utc);
-        out.set_size(self.size);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.id, out, 8);
+        ::mavwire::field::Scalar::write(self.num_logs, out, 10);
+        ::mavwire::field::Scalar::write(self.last_log_num, out, 12);
+        ::mavwire::field::Scalar::write(self.time_utc, out, 0);
+        ::mavwire::field::Scalar::write(self.size, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -40026,14 +40672,17 @@ impl LogEntry {
 impl ::mavwire::Message for LogEntry {
     const META: ::mavwire::MessageMeta = LogEntry::META;
     type View<'a> = LogEntryView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LogEntry::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LogEntry::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LogEntryView<'_> {
         LogEntryView::new(payload)
     }
@@ -40062,6 +40711,7 @@ impl<'a> LogEntryView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LogEntry {
         LogEntry::from_view(self)
     }
@@ -40239,29 +40889,32 @@ impl LogRequestData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LogRequestDataView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 10),
+            target_component: ::mavwire::field::read::<u8>(p, 11),
+            id: ::mavwire::field::read::<u16>(p, 8),
+            ofs: ::mavwire::field::read::<u32>(p, 0),
+            count: ::mavwire::field::read::<u32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LogRequestDataView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id: view.id(),
-            ofs: view.ofs(),
-            count: view.count(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LogRequestDataMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id(self.id);
-        out.set_ofs(self.ofs);
-        out.set_count(self.count);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 10);
+        ::mavwire::field::Scalar::write(self.target_component, out, 11);
+        ::mavwire::field::Scalar::write(self.id, out, 8);
+        ::mavwire::field::Scalar::write(self.ofs, out, 0);
+        ::mavwire::field::Scalar::write(self.count, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -40269,14 +40922,17 @@ impl LogRequestData {
 impl ::mavwire::Message for LogRequestData {
     const META: ::mavwire::MessageMeta = LogRequestData::META;
     type View<'a> = LogRequestDataView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LogRequestData::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LogRequestData::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LogRequestDataView<'_> {
         LogRequestDataView::new(payload)
     }
@@ -40305,6 +40961,7 @@ impl<'a> LogRequestDataView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LogRequestData {
         LogRequestData::from_view(self)
     }
@@ -40471,27 +41128,30 @@ impl LogData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LogDataView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            id: ::mavwire::field::read::<u16>(p, 4),
+            ofs: ::mavwire::field::read::<u32>(p, 0),
+            count: ::mavwire::field::read::<u8>(p, 6),
+            data: ::mavwire::field::ArrayView::new(p, 7).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LogDataView<'_>) -> Self {
-        Self {
-            id: view.id(),
-            ofs: view.ofs(),
-            count: view.count(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LogDataMut::new(payload)?;
-        out.set_id(self.id);
-        out.set_ofs(self.ofs);
-        out.set_count(self.count);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.id, out, 4);
+        ::mavwire::field::Scalar::write(self.ofs, out, 0);
+        ::mavwire::field::Scalar::write(self.count, out, 6);
+        ::mavwire::field::write_array(out, 7, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -40510,14 +41170,17 @@ impl Default for LogData {
 impl ::mavwire::Message for LogData {
     const META: ::mavwire::MessageMeta = LogData::META;
     type View<'a> = LogDataView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LogData::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LogData::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LogDataView<'_> {
         LogDataView::new(payload)
     }
@@ -40546,6 +41209,7 @@ impl<'a> LogDataView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LogData {
         LogData::from_view(self)
     }
@@ -40678,23 +41342,26 @@ impl LogErase {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LogEraseView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LogEraseView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LogEraseMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
         Ok(Self::MAX_LEN)
     }
 }
@@ -40702,14 +41369,17 @@ impl LogErase {
 impl ::mavwire::Message for LogErase {
     const META: ::mavwire::MessageMeta = LogErase::META;
     type View<'a> = LogEraseView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LogErase::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LogErase::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LogEraseView<'_> {
         LogEraseView::new(payload)
     }
@@ -40738,6 +41408,7 @@ impl<'a> LogEraseView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LogErase {
         LogErase::from_view(self)
     }
@@ -40846,23 +41517,26 @@ impl LogRequestEnd {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LogRequestEndView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LogRequestEndView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LogRequestEndMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
         Ok(Self::MAX_LEN)
     }
 }
@@ -40870,14 +41544,17 @@ impl LogRequestEnd {
 impl ::mavwire::Message for LogRequestEnd {
     const META: ::mavwire::MessageMeta = LogRequestEnd::META;
     type View<'a> = LogRequestEndView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LogRequestEnd::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LogRequestEnd::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LogRequestEndView<'_> {
         LogRequestEndView::new(payload)
     }
@@ -40906,6 +41583,7 @@ impl<'a> LogRequestEndView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LogRequestEnd {
         LogRequestEnd::from_view(self)
     }
@@ -41036,27 +41714,30 @@ impl GpsInjectData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GpsInjectDataView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            len: ::mavwire::field::read::<u8>(p, 2),
+            data: ::mavwire::field::ArrayView::new(p, 3).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GpsInjectDataView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            len: view.len(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GpsInjectDataMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_len(self.len);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::Scalar::write(self.len, out, 2);
+        ::mavwire::field::write_array(out, 3, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -41075,14 +41756,17 @@ impl Default for GpsInjectData {
 impl ::mavwire::Message for GpsInjectData {
     const META: ::mavwire::MessageMeta = GpsInjectData::META;
     type View<'a> = GpsInjectDataView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GpsInjectData::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GpsInjectData::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GpsInjectDataView<'_> {
         GpsInjectDataView::new(payload)
     }
@@ -41111,6 +41795,7 @@ impl<'a> GpsInjectDataView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GpsInjectData {
         GpsInjectData::from_view(self)
     }
@@ -41430,55 +42115,58 @@ impl Gps2Raw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Gps2RawView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            fix_type: GpsFixType::from_raw(::mavwire::field::read::<u8>(p, 32)),
+            lat: ::mavwire::field::read::<i32>(p, 8),
+            lon: ::mavwire::field::read::<i32>(p, 12),
+            alt: ::mavwire::field::read::<i32>(p, 16),
+            eph: ::mavwire::field::read::<u16>(p, 24),
+            epv: ::mavwire::field::read::<u16>(p, 26),
+            vel: ::mavwire::field::read::<u16>(p, 28),
+            cog: ::mavwire::field::read::<u16>(p, 30),
+            satellites_visible: ::mavwire::field::read::<u8>(p, 33),
+            dgps_numch: ::mavwire::field::read::<u8>(p, 34),
+            dgps_age: ::mavwire::field::read::<u32>(p, 20),
+            yaw: ::mavwire::field::read::<u16>(p, 35),
+            alt_ellipsoid: ::mavwire::field::read::<i32>(p, 37),
+            h_acc: ::mavwire::field::read::<u32>(p, 41),
+            v_acc: ::mavwire::field::read::<u32>(p, 45),
+            vel_acc: ::mavwire::field::read::<u32>(p, 49),
+            hdg_acc: ::mavwire::field::read::<u32>(p, 53),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Gps2RawView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            fix_type: view.fix_type(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            eph: view.eph(),
-            epv: view.epv(),
-            vel: view.vel(),
-            cog: view.cog(),
-            satellites_visible: view.satellites_visible(),
-            dgps_numch: view.dgps_numch(),
-            dgps_age: view.dgps_age(),
-            yaw: view.yaw(),
-            alt_ellipsoid: view.alt_ellipsoid(),
-            h_acc: view.h_acc(),
-            v_acc: view.v_acc(),
-            vel_acc: view.vel_acc(),
-            hdg_acc: view.hdg_acc(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Gps2RawMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_fix_type(self.fix_type);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_eph(self.eph);
-        out.set_epv(self.epv);
-        out.set_vel(self.vel);
-        out.set_cog(self.cog);
-        out.set_satellites_visible(self.satellites_visible);
-        out.set_dgps_numch(self.dgps_numch);
-        out.set_dgps_age(self.dgps_age);
-        out.set_yaw(self.yaw);
-        out.set_alt_ellipsoid(self.alt_ellipsoid);
-        out.set_h_acc(self.h_acc);
-        out.set_v_acc(self.v_acc);
-        out.set_vel_acc(self.vel_acc);
-        out.set_hdg_acc(self.hdg_acc);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.fix_type.to_raw(), out, 32);
+        ::mavwire::field::Scalar::write(self.lat, out, 8);
+        ::mavwire::field::Scalar::write(self.lon, out, 12);
+        ::mavwire::field::Scalar::write(self.alt, out, 16);
+        ::mavwire::field::Scalar::write(self.eph, out, 24);
+        ::mavwire::field::Scalar::write(self.epv, out, 26);
+        ::mavwire::field::Scalar::write(self.vel, out, 28);
+        ::mavwire::field::Scalar::write(self.cog, out, 30);
+        ::mavwire::field::Scalar::write(self.satellites_visible, out, 33);
+        ::mavwire::field::Scalar::write(self.dgps_numch, out, 34);
+        ::mavwire::field::Scalar::write(self.dgps_age, out, 20);
+        ::mavwire::field::Scalar::write(self.yaw, out, 35);
+        ::mavwire::field::Scalar::write(self.alt_ellipsoid, out, 37);
+        ::mavwire::field::Scalar::write(self.h_acc, out, 41);
+        ::mavwire::field::Scalar::write(self.v_acc, out, 45);
+        ::mavwire::field::Scalar::write(self.vel_acc, out, 49);
+        ::mavwire::field::Scalar::write(self.hdg_acc, out, 53);
         Ok(Self::MAX_LEN)
     }
 }
@@ -41486,14 +42174,17 @@ impl Gps2Raw {
 impl ::mavwire::Message for Gps2Raw {
     const META: ::mavwire::MessageMeta = Gps2Raw::META;
     type View<'a> = Gps2RawView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Gps2Raw::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Gps2Raw::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Gps2RawView<'_> {
         Gps2RawView::new(payload)
     }
@@ -41522,6 +42213,7 @@ impl<'a> Gps2RawView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Gps2Raw {
         Gps2Raw::from_view(self)
     }
@@ -41833,25 +42525,28 @@ impl PowerStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&PowerStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            vcc: ::mavwire::field::read::<u16>(p, 0),
+            vservo: ::mavwire::field::read::<u16>(p, 2),
+            flags: MavPowerStatus::from_bits_retain(::mavwire::field::read::<u16>(p, 4)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &PowerStatusView<'_>) -> Self {
-        Self {
-            vcc: view.vcc(),
-            vservo: view.vservo(),
-            flags: view.flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = PowerStatusMut::new(payload)?;
-        out.set_vcc(self.vcc);
-        out.set_vservo(self.vservo);
-        out.set_flags(self.flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.vcc, out, 0);
+        ::mavwire::field::Scalar::write(self.vservo, out, 2);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -41859,14 +42554,17 @@ impl PowerStatus {
 impl ::mavwire::Message for PowerStatus {
     const META: ::mavwire::MessageMeta = PowerStatus::META;
     type View<'a> = PowerStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         PowerStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         PowerStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> PowerStatusView<'_> {
         PowerStatusView::new(payload)
     }
@@ -41895,6 +42593,7 @@ impl<'a> PowerStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> PowerStatus {
         PowerStatus::from_view(self)
     }
@@ -42064,31 +42763,36 @@ impl SerialControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SerialControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            device: SerialControlDev::from_raw(::mavwire::field::read::<u8>(p, 6)),
+            flags: SerialControlFlag::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 7),
+            ),
+            timeout: ::mavwire::field::read::<u16>(p, 4),
+            baudrate: ::mavwire::field::read::<u32>(p, 0),
+            count: ::mavwire::field::read::<u8>(p, 8),
+            data: ::mavwire::field::ArrayView::new(p, 9).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SerialControlView<'_>) -> Self {
-        Self {
-            device: view.device(),
-            flags: view.flags(),
-            timeout: view.timeout(),
-            baudrate: view.baudrate(),
-            count: view.count(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SerialControlMut::new(payload)?;
-        out.set_device(self.device);
-        out.set_flags(self.flags);
-        out.set_timeout(self.timeout);
-        out.set_baudrate(self.baudrate);
-        out.set_count(self.count);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.device.to_raw(), out, 6);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 7);
+        ::mavwire::field::Scalar::write(self.timeout, out, 4);
+        ::mavwire::field::Scalar::write(self.baudrate, out, 0);
+        ::mavwire::field::Scalar::write(self.count, out, 8);
+        ::mavwire::field::write_array(out, 9, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -42109,14 +42813,17 @@ impl Default for SerialControl {
 impl ::mavwire::Message for SerialControl {
     const META: ::mavwire::MessageMeta = SerialControl::META;
     type View<'a> = SerialControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SerialControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SerialControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SerialControlView<'_> {
         SerialControlView::new(payload)
     }
@@ -42145,6 +42852,7 @@ impl<'a> SerialControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SerialControl {
         SerialControl::from_view(self)
     }
@@ -42425,45 +43133,50 @@ impl GpsRtk {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GpsRtkView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_last_baseline_ms: ::mavwire::field::read::<u32>(p, 0),
+            rtk_receiver_id: ::mavwire::field::read::<u8>(p, 30),
+            wn: ::mavwire::field::read::<u16>(p, 28),
+            tow: ::mavwire::field::read::<u32>(p, 4),
+            rtk_health: ::mavwire::field::read::<u8>(p, 31),
+            rtk_rate: ::mavwire::field::read::<u8>(p, 32),
+            nsats: ::mavwire::field::read::<u8>(p, 33),
+            baseline_coords_type: RtkBaselineCoordinateSystem::from_raw(
+                ::mavwire::field::read::<u8>(p, 34),
+            ),
+            baseline_a_mm: ::mavwire::field::read::<i32>(p, 8),
+            baseline_b_mm: ::mavwire::field::read::<i32>(p, 12),
+            baseline_c_mm: ::mavwire::field::read::<i32>(p, 16),
+            accuracy: ::mavwire::field::read::<u32>(p, 20),
+            iar_num_hypotheses: ::mavwire::field::read::<i32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GpsRtkView<'_>) -> Self {
-        Self {
-            time_last_baseline_ms: view.time_last_baseline_ms(),
-            rtk_receiver_id: view.rtk_receiver_id(),
-            wn: view.wn(),
-            tow: view.tow(),
-            rtk_health: view.rtk_health(),
-            rtk_rate: view.rtk_rate(),
-            nsats: view.nsats(),
-            baseline_coords_type: view.baseline_coords_type(),
-            baseline_a_mm: view.baseline_a_mm(),
-            baseline_b_mm: view.baseline_b_mm(),
-            baseline_c_mm: view.baseline_c_mm(),
-            accuracy: view.accuracy(),
-            iar_num_hypotheses: view.iar_num_hypotheses(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GpsRtkMut::new(payload)?;
-        out.set_time_last_baseline_ms(self.time_last_baseline_ms);
-        out.set_rtk_receiver_id(self.rtk_receiver_id);
-        out.set_wn(self.wn);
-        out.set_tow(self.tow);
-        out.set_rtk_health(self.rtk_health);
-        out.set_rtk_rate(self.rtk_rate);
-        out.set_nsats(self.nsats);
-        out.set_baseline_coords_type(self.baseline_coords_type);
-        out.set_baseline_a_mm(self.baseline_a_mm);
-        out.set_baseline_b_mm(self.baseline_b_mm);
-        out.set_baseline_c_mm(self.baseline_c_mm);
-        out.set_accuracy(self.accuracy);
-        out.set_iar_num_hypotheses(self.iar_num_hypotheses);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_last_baseline_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.rtk_receiver_id, out, 30);
+        ::mavwire::field::Scalar::write(self.wn, out, 28);
+        ::mavwire::field::Scalar::write(self.tow, out, 4);
+        ::mavwire::field::Scalar::write(self.rtk_health, out, 31);
+        ::mavwire::field::Scalar::write(self.rtk_rate, out, 32);
+        ::mavwire::field::Scalar::write(self.nsats, out, 33);
+        ::mavwire::field::Scalar::write(self.baseline_coords_type.to_raw(), out, 34);
+        ::mavwire::field::Scalar::write(self.baseline_a_mm, out, 8);
+        ::mavwire::field::Scalar::write(self.baseline_b_mm, out, 12);
+        ::mavwire::field::Scalar::write(self.baseline_c_mm, out, 16);
+        ::mavwire::field::Scalar::write(self.accuracy, out, 20);
+        ::mavwire::field::Scalar::write(self.iar_num_hypotheses, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -42471,14 +43184,17 @@ impl GpsRtk {
 impl ::mavwire::Message for GpsRtk {
     const META: ::mavwire::MessageMeta = GpsRtk::META;
     type View<'a> = GpsRtkView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GpsRtk::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GpsRtk::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GpsRtkView<'_> {
         GpsRtkView::new(payload)
     }
@@ -42507,6 +43223,7 @@ impl<'a> GpsRtkView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GpsRtk {
         GpsRtk::from_view(self)
     }
@@ -42871,45 +43588,50 @@ impl Gps2Rtk {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&Gps2RtkView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_last_baseline_ms: ::mavwire::field::read::<u32>(p, 0),
+            rtk_receiver_id: ::mavwire::field::read::<u8>(p, 30),
+            wn: ::mavwire::field::read::<u16>(p, 28),
+            tow: ::mavwire::field::read::<u32>(p, 4),
+            rtk_health: ::mavwire::field::read::<u8>(p, 31),
+            rtk_rate: ::mavwire::field::read::<u8>(p, 32),
+            nsats: ::mavwire::field::read::<u8>(p, 33),
+            baseline_coords_type: RtkBaselineCoordinateSystem::from_raw(
+                ::mavwire::field::read::<u8>(p, 34),
+            ),
+            baseline_a_mm: ::mavwire::field::read::<i32>(p, 8),
+            baseline_b_mm: ::mavwire::field::read::<i32>(p, 12),
+            baseline_c_mm: ::mavwire::field::read::<i32>(p, 16),
+            accuracy: ::mavwire::field::read::<u32>(p, 20),
+            iar_num_hypotheses: ::mavwire::field::read::<i32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &Gps2RtkView<'_>) -> Self {
-        Self {
-            time_last_baseline_ms: view.time_last_baseline_ms(),
-            rtk_receiver_id: view.rtk_receiver_id(),
-            wn: view.wn(),
-            tow: view.tow(),
-            rtk_health: view.rtk_health(),
-            rtk_rate: view.rtk_rate(),
-            nsats: view.nsats(),
-            baseline_coords_type: view.baseline_coords_type(),
-            baseline_a_mm: view.baseline_a_mm(),
-            baseline_b_mm: view.baseline_b_mm(),
-            baseline_c_mm: view.baseline_c_mm(),
-            accuracy: view.accuracy(),
-            iar_num_hypotheses: view.iar_num_hypotheses(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = Gps2RtkMut::new(payload)?;
-        out.set_time_last_baseline_ms(self.time_last_baseline_ms);
-        out.set_rtk_receiver_id(self.rtk_receiver_id);
-        out.set_wn(self.wn);
-        out.set_tow(self.tow);
-        out.set_rtk_health(self.rtk_health);
-        out.set_rtk_rate(self.rtk_rate);
-        out.set_nsats(self.nsats);
-        out.set_baseline_coords_type(self.baseline_coords_type);
-        out.set_baseline_a_mm(self.baseline_a_mm);
-        out.set_baseline_b_mm(self.baseline_b_mm);
-        out.set_baseline_c_mm(self.baseline_c_mm);
-        out.set_accuracy(self.accuracy);
-        out.set_iar_num_hypotheses(self.iar_num_hypotheses);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_last_baseline_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.rtk_receiver_id, out, 30);
+        ::mavwire::field::Scalar::write(self.wn, out, 28);
+        ::mavwire::field::Scalar::write(self.tow, out, 4);
+        ::mavwire::field::Scalar::write(self.rtk_health, out, 31);
+        ::mavwire::field::Scalar::write(self.rtk_rate, out, 32);
+        ::mavwire::field::Scalar::write(self.nsats, out, 33);
+        ::mavwire::field::Scalar::write(self.baseline_coords_type.to_raw(), out, 34);
+        ::mavwire::field::Scalar::write(self.baseline_a_mm, out, 8);
+        ::mavwire::field::Scalar::write(self.baseline_b_mm, out, 12);
+        ::mavwire::field::Scalar::write(self.baseline_c_mm, out, 16);
+        ::mavwire::field::Scalar::write(self.accuracy, out, 20);
+        ::mavwire::field::Scalar::write(self.iar_num_hypotheses, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -42917,14 +43639,17 @@ impl Gps2Rtk {
 impl ::mavwire::Message for Gps2Rtk {
     const META: ::mavwire::MessageMeta = Gps2Rtk::META;
     type View<'a> = Gps2RtkView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Gps2Rtk::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Gps2Rtk::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> Gps2RtkView<'_> {
         Gps2RtkView::new(payload)
     }
@@ -42953,6 +43678,7 @@ impl<'a> Gps2RtkView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Gps2Rtk {
         Gps2Rtk::from_view(self)
     }
@@ -43297,41 +44023,44 @@ impl ScaledImu3 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ScaledImu3View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            xacc: ::mavwire::field::read::<i16>(p, 4),
+            yacc: ::mavwire::field::read::<i16>(p, 6),
+            zacc: ::mavwire::field::read::<i16>(p, 8),
+            xgyro: ::mavwire::field::read::<i16>(p, 10),
+            ygyro: ::mavwire::field::read::<i16>(p, 12),
+            zgyro: ::mavwire::field::read::<i16>(p, 14),
+            xmag: ::mavwire::field::read::<i16>(p, 16),
+            ymag: ::mavwire::field::read::<i16>(p, 18),
+            zmag: ::mavwire::field::read::<i16>(p, 20),
+            temperature: ::mavwire::field::read::<i16>(p, 22),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ScaledImu3View<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            xacc: view.xacc(),
-            yacc: view.yacc(),
-            zacc: view.zacc(),
-            xgyro: view.xgyro(),
-            ygyro: view.ygyro(),
-            zgyro: view.zgyro(),
-            xmag: view.xmag(),
-            ymag: view.ymag(),
-            zmag: view.zmag(),
-            temperature: view.temperature(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ScaledImu3Mut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_xacc(self.xacc);
-        out.set_yacc(self.yacc);
-        out.set_zacc(self.zacc);
-        out.set_xgyro(self.xgyro);
-        out.set_ygyro(self.ygyro);
-        out.set_zgyro(self.zgyro);
-        out.set_xmag(self.xmag);
-        out.set_ymag(self.ymag);
-        out.set_zmag(self.zmag);
-        out.set_temperature(self.temperature);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.xacc, out, 4);
+        ::mavwire::field::Scalar::write(self.yacc, out, 6);
+        ::mavwire::field::Scalar::write(self.zacc, out, 8);
+        ::mavwire::field::Scalar::write(self.xgyro, out, 10);
+        ::mavwire::field::Scalar::write(self.ygyro, out, 12);
+        ::mavwire::field::Scalar::write(self.zgyro, out, 14);
+        ::mavwire::field::Scalar::write(self.xmag, out, 16);
+        ::mavwire::field::Scalar::write(self.ymag, out, 18);
+        ::mavwire::field::Scalar::write(self.zmag, out, 20);
+        ::mavwire::field::Scalar::write(self.temperature, out, 22);
         Ok(Self::MAX_LEN)
     }
 }
@@ -43339,14 +44068,17 @@ impl ScaledImu3 {
 impl ::mavwire::Message for ScaledImu3 {
     const META: ::mavwire::MessageMeta = ScaledImu3::META;
     type View<'a> = ScaledImu3View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ScaledImu3::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ScaledImu3::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ScaledImu3View<'_> {
         ScaledImu3View::new(payload)
     }
@@ -43375,6 +44107,7 @@ impl<'a> ScaledImu3View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ScaledImu3 {
         ScaledImu3::from_view(self)
     }
@@ -43649,33 +44382,36 @@ impl DataTransmissionHandshake {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DataTransmissionHandshakeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            r#type: MavlinkDataStreamType::from_raw(::mavwire::field::read::<u8>(p, 10)),
+            size: ::mavwire::field::read::<u32>(p, 0),
+            width: ::mavwire::field::read::<u16>(p, 4),
+            height: ::mavwire::field::read::<u16>(p, 6),
+            packets: ::mavwire::field::read::<u16>(p, 8),
+            payload: ::mavwire::field::read::<u8>(p, 11),
+            jpg_quality: ::mavwire::field::read::<u8>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DataTransmissionHandshakeView<'_>) -> Self {
-        Self {
-            r#type: view.r#type(),
-            size: view.size(),
-            width: view.width(),
-            height: view.height(),
-            packets: view.packets(),
-            payload: view.payload(),
-            jpg_quality: view.jpg_quality(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DataTransmissionHandshakeMut::new(payload)?;
-        out.set_type(self.r#type);
-        out.set_size(self.size);
-        out.set_width(self.width);
-        out.set_height(self.height);
-        out.set_packets(self.packets);
-        out.set_payload(self.payload);
-        out.set_jpg_quality(self.jpg_quality);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 10);
+        ::mavwire::field::Scalar::write(self.size, out, 0);
+        ::mavwire::field::Scalar::write(self.width, out, 4);
+        ::mavwire::field::Scalar::write(self.height, out, 6);
+        ::mavwire::field::Scalar::write(self.packets, out, 8);
+        ::mavwire::field::Scalar::write(self.payload, out, 11);
+        ::mavwire::field::Scalar::write(self.jpg_quality, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -43683,14 +44419,17 @@ impl DataTransmissionHandshake {
 impl ::mavwire::Message for DataTransmissionHandshake {
     const META: ::mavwire::MessageMeta = DataTransmissionHandshake::META;
     type View<'a> = DataTransmissionHandshakeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DataTransmissionHandshake::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DataTransmissionHandshake::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DataTransmissionHandshakeView<'_> {
         DataTransmissionHandshakeView::new(payload)
     }
@@ -43719,6 +44458,7 @@ impl<'a> DataTransmissionHandshakeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DataTransmissionHandshake {
         DataTransmissionHandshake::from_view(self)
     }
@@ -43888,23 +44628,26 @@ impl EncapsulatedData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EncapsulatedDataView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            seqnr: ::mavwire::field::read::<u16>(p, 0),
+            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EncapsulatedDataView<'_>) -> Self {
-        Self {
-            seqnr: view.seqnr(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EncapsulatedDataMut::new(payload)?;
-        out.set_seqnr(self.seqnr);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.seqnr, out, 0);
+        ::mavwire::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -43918,14 +44661,17 @@ impl Default for EncapsulatedData {
 impl ::mavwire::Message for EncapsulatedData {
     const META: ::mavwire::MessageMeta = EncapsulatedData::META;
     type View<'a> = EncapsulatedDataView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EncapsulatedData::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EncapsulatedData::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EncapsulatedDataView<'_> {
         EncapsulatedDataView::new(payload)
     }
@@ -43954,6 +44700,7 @@ impl<'a> EncapsulatedDataView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EncapsulatedData {
         EncapsulatedData::from_view(self)
     }
@@ -44189,43 +44936,48 @@ impl DistanceSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DistanceSensorView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            min_distance: ::mavwire::field::read::<u16>(p, 4),
+            max_distance: ::mavwire::field::read::<u16>(p, 6),
+            current_distance: ::mavwire::field::read::<u16>(p, 8),
+            r#type: MavDistanceSensor::from_raw(::mavwire::field::read::<u8>(p, 10)),
+            id: ::mavwire::field::read::<u8>(p, 11),
+            orientation: MavSensorOrientation::from_raw(
+                ::mavwire::field::read::<u8>(p, 12),
+            ),
+            covariance: ::mavwire::field::read::<u8>(p, 13),
+            horizontal_fov: ::mavwire::field::read::<f32>(p, 14),
+            vertical_fov: ::mavwire::field::read::<f32>(p, 18),
+            quaternion: ::mavwire::field::ArrayView::new(p, 22).to_array(),
+            signal_quality: ::mavwire::field::read::<u8>(p, 38),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DistanceSensorView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            min_distance: view.min_distance(),
-            max_distance: view.max_distance(),
-            current_distance: view.current_distance(),
-            r#type: view.r#type(),
-            id: view.id(),
-            orientation: view.orientation(),
-            covariance: view.covariance(),
-            horizontal_fov: view.horizontal_fov(),
-            vertical_fov: view.vertical_fov(),
-            quaternion: view.quaternion().to_array(),
-            signal_quality: view.signal_quality(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DistanceSensorMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_min_distance(self.min_distance);
-        out.set_max_distance(self.max_distance);
-        out.set_current_distance(self.current_distance);
-        out.set_type(self.r#type);
-        out.set_id(self.id);
-        out.set_orientation(self.orientation);
-        out.set_covariance(self.covariance);
-        out.set_horizontal_fov(self.horizontal_fov);
-        out.set_vertical_fov(self.vertical_fov);
-        out.set_quaternion(&self.quaternion);
-        out.set_signal_quality(self.signal_quality);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.min_distance, out, 4);
+        ::mavwire::field::Scalar::write(self.max_distance, out, 6);
+        ::mavwire::field::Scalar::write(self.current_distance, out, 8);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 10);
+        ::mavwire::field::Scalar::write(self.id, out, 11);
+        ::mavwire::field::Scalar::write(self.orientation.to_raw(), out, 12);
+        ::mavwire::field::Scalar::write(self.covariance, out, 13);
+        ::mavwire::field::Scalar::write(self.horizontal_fov, out, 14);
+        ::mavwire::field::Scalar::write(self.vertical_fov, out, 18);
+        ::mavwire::field::write_array(out, 22, &self.quaternion);
+        ::mavwire::field::Scalar::write(self.signal_quality, out, 38);
         Ok(Self::MAX_LEN)
     }
 }
@@ -44233,14 +44985,17 @@ impl DistanceSensor {
 impl ::mavwire::Message for DistanceSensor {
     const META: ::mavwire::MessageMeta = DistanceSensor::META;
     type View<'a> = DistanceSensorView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DistanceSensor::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DistanceSensor::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DistanceSensorView<'_> {
         DistanceSensorView::new(payload)
     }
@@ -44269,6 +45024,7 @@ impl<'a> DistanceSensorView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DistanceSensor {
         DistanceSensor::from_view(self)
     }
@@ -44520,27 +45276,30 @@ impl TerrainRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TerrainRequestView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            lat: ::mavwire::field::read::<i32>(p, 8),
+            lon: ::mavwire::field::read::<i32>(p, 12),
+            grid_spacing: ::mavwire::field::read::<u16>(p, 16),
+            mask: ::mavwire::field::read::<u64>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TerrainRequestView<'_>) -> Self {
-        Self {
-            lat: view.lat(),
-            lon: view.lon(),
-            grid_spacing: view.grid_spacing(),
-            mask: view.mask(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TerrainRequestMut::new(payload)?;
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_grid_spacing(self.grid_spacing);
-        out.set_mask(self.mask);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.lat, out, 8);
+        ::mavwire::field::Scalar::write(self.lon, out, 12);
+        ::mavwire::field::Scalar::write(self.grid_spacing, out, 16);
+        ::mavwire::field::Scalar::write(self.mask, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -44548,14 +45307,17 @@ impl TerrainRequest {
 impl ::mavwire::Message for TerrainRequest {
     const META: ::mavwire::MessageMeta = TerrainRequest::META;
     type View<'a> = TerrainRequestView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         TerrainRequest::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         TerrainRequest::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TerrainRequestView<'_> {
         TerrainRequestView::new(payload)
     }
@@ -44584,6 +45346,7 @@ impl<'a> TerrainRequestView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> TerrainRequest {
         TerrainRequest::from_view(self)
     }
@@ -44751,29 +45514,32 @@ impl TerrainData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TerrainDataView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            lat: ::mavwire::field::read::<i32>(p, 0),
+            lon: ::mavwire::field::read::<i32>(p, 4),
+            grid_spacing: ::mavwire::field::read::<u16>(p, 8),
+            gridbit: ::mavwire::field::read::<u8>(p, 42),
+            data: ::mavwire::field::ArrayView::new(p, 10).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TerrainDataView<'_>) -> Self {
-        Self {
-            lat: view.lat(),
-            lon: view.lon(),
-            grid_spacing: view.grid_spacing(),
-            gridbit: view.gridbit(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TerrainDataMut::new(payload)?;
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_grid_spacing(self.grid_spacing);
-        out.set_gridbit(self.gridbit);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.lat, out, 0);
+        ::mavwire::field::Scalar::write(self.lon, out, 4);
+        ::mavwire::field::Scalar::write(self.grid_spacing, out, 8);
+        ::mavwire::field::Scalar::write(self.gridbit, out, 42);
+        ::mavwire::field::write_array(out, 10, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -44781,14 +45547,17 @@ impl TerrainData {
 impl ::mavwire::Message for TerrainData {
     const META: ::mavwire::MessageMeta = TerrainData::META;
     type View<'a> = TerrainDataView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         TerrainData::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         TerrainData::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TerrainDataView<'_> {
         TerrainDataView::new(payload)
     }
@@ -44817,6 +45586,7 @@ impl<'a> TerrainDataView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> TerrainData {
         TerrainData::from_view(self)
     }
@@ -44963,23 +45733,26 @@ impl TerrainCheck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TerrainCheckView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            lat: ::mavwire::field::read::<i32>(p, 0),
+            lon: ::mavwire::field::read::<i32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TerrainCheckView<'_>) -> Self {
-        Self {
-            lat: view.lat(),
-            lon: view.lon(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TerrainCheckMut::new(payload)?;
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.lat, out, 0);
+        ::mavwire::field::Scalar::write(self.lon, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -44987,14 +45760,17 @@ impl TerrainCheck {
 impl ::mavwire::Message for TerrainCheck {
     const META: ::mavwire::MessageMeta = TerrainCheck::META;
     type View<'a> = TerrainCheckView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         TerrainCheck::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         TerrainCheck::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TerrainCheckView<'_> {
         TerrainCheckView::new(payload)
     }
@@ -45023,6 +45799,7 @@ impl<'a> TerrainCheckView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> TerrainCheck {
         TerrainCheck::from_view(self)
     }
@@ -45188,33 +45965,36 @@ impl TerrainReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TerrainReportView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            lat: ::mavwire::field::read::<i32>(p, 0),
+            lon: ::mavwire::field::read::<i32>(p, 4),
+            spacing: ::mavwire::field::read::<u16>(p, 16),
+            terrain_height: ::mavwire::field::read::<f32>(p, 8),
+            current_height: ::mavwire::field::read::<f32>(p, 12),
+            pending: ::mavwire::field::read::<u16>(p, 18),
+            loaded: ::mavwire::field::read::<u16>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TerrainReportView<'_>) -> Self {
-        Self {
-            lat: view.lat(),
-            lon: view.lon(),
-            spacing: view.spacing(),
-            terrain_height: view.terrain_height(),
-            current_height: view.current_height(),
-            pending: view.pending(),
-            loaded: view.loaded(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TerrainReportMut::new(payload)?;
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_spacing(self.spacing);
-        out.set_terrain_height(self.terrain_height);
-        out.set_current_height(self.current_height);
-        out.set_pending(self.pending);
-        out.set_loaded(self.loaded);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.lat, out, 0);
+        ::mavwire::field::Scalar::write(self.lon, out, 4);
+        ::mavwire::field::Scalar::write(self.spacing, out, 16);
+        ::mavwire::field::Scalar::write(self.terrain_height, out, 8);
+        ::mavwire::field::Scalar::write(self.current_height, out, 12);
+        ::mavwire::field::Scalar::write(self.pending, out, 18);
+        ::mavwire::field::Scalar::write(self.loaded, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -45222,14 +46002,17 @@ impl TerrainReport {
 impl ::mavwire::Message for TerrainReport {
     const META: ::mavwire::MessageMeta = TerrainReport::META;
     type View<'a> = TerrainReportView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         TerrainReport::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         TerrainReport::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TerrainReportView<'_> {
         TerrainReportView::new(payload)
     }
@@ -45258,6 +46041,7 @@ impl<'a> TerrainReportView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> TerrainReport {
         TerrainReport::from_view(self)
     }
@@ -45461,29 +46245,32 @@ impl ScaledPressure2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ScaledPressure2View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            press_abs: ::mavwire::field::read::<f32>(p, 4),
+            press_diff: ::mavwire::field::read::<f32>(p, 8),
+            temperature: ::mavwire::field::read::<i16>(p, 12),
+            temperature_press_diff: ::mavwire::field::read::<i16>(p, 14),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ScaledPressure2View<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            press_abs: view.press_abs(),
-            press_diff: view.press_diff(),
-            temperature: view.temperature(),
-            temperature_press_diff: view.temperature_press_diff(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ScaledPressure2Mut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_press_abs(self.press_abs);
-        out.set_press_diff(self.press_diff);
-        out.set_temperature(self.temperature);
-        out.set_temperature_press_diff(self.temperature_press_diff);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.press_abs, out, 4);
+        ::mavwire::field::Scalar::write(self.press_diff, out, 8);
+        ::mavwire::field::Scalar::write(self.temperature, out, 12);
+        ::mavwire::field::Scalar::write(self.temperature_press_diff, out, 14);
         Ok(Self::MAX_LEN)
     }
 }
@@ -45491,14 +46278,17 @@ impl ScaledPressure2 {
 impl ::mavwire::Message for ScaledPressure2 {
     const META: ::mavwire::MessageMeta = ScaledPressure2::META;
     type View<'a> = ScaledPressure2View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ScaledPressure2::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ScaledPressure2::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ScaledPressure2View<'_> {
         ScaledPressure2View::new(payload)
     }
@@ -45527,6 +46317,7 @@ impl<'a> ScaledPressure2View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ScaledPressure2 {
         ScaledPressure2::from_view(self)
     }
@@ -45720,31 +46511,34 @@ impl AttPosMocap {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AttPosMocapView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            q: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            x: ::mavwire::field::read::<f32>(p, 24),
+            y: ::mavwire::field::read::<f32>(p, 28),
+            z: ::mavwire::field::read::<f32>(p, 32),
+            covariance: ::mavwire::field::ArrayView::new(p, 36).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AttPosMocapView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            q: view.q().to_array(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            covariance: view.covariance().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AttPosMocapMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_q(&self.q);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_covariance(&self.covariance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.q);
+        ::mavwire::field::Scalar::write(self.x, out, 24);
+        ::mavwire::field::Scalar::write(self.y, out, 28);
+        ::mavwire::field::Scalar::write(self.z, out, 32);
+        ::mavwire::field::write_array(out, 36, &self.covariance);
         Ok(Self::MAX_LEN)
     }
 }
@@ -45752,14 +46546,17 @@ impl AttPosMocap {
 impl ::mavwire::Message for AttPosMocap {
     const META: ::mavwire::MessageMeta = AttPosMocap::META;
     type View<'a> = AttPosMocapView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AttPosMocap::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AttPosMocap::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AttPosMocapView<'_> {
         AttPosMocapView::new(payload)
     }
@@ -45788,6 +46585,7 @@ impl<'a> AttPosMocapView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AttPosMocap {
         AttPosMocap::from_view(self)
     }
@@ -45983,29 +46781,32 @@ impl SetActuatorControlTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetActuatorControlTargetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            group_mlx: ::mavwire::field::read::<u8>(p, 40),
+            target_system: ::mavwire::field::read::<u8>(p, 41),
+            target_component: ::mavwire::field::read::<u8>(p, 42),
+            controls: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetActuatorControlTargetView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            group_mlx: view.group_mlx(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            controls: view.controls().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetActuatorControlTargetMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_group_mlx(self.group_mlx);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_controls(&self.controls);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.group_mlx, out, 40);
+        ::mavwire::field::Scalar::write(self.target_system, out, 41);
+        ::mavwire::field::Scalar::write(self.target_component, out, 42);
+        ::mavwire::field::write_array(out, 8, &self.controls);
         Ok(Self::MAX_LEN)
     }
 }
@@ -46013,14 +46814,17 @@ impl SetActuatorControlTarget {
 impl ::mavwire::Message for SetActuatorControlTarget {
     const META: ::mavwire::MessageMeta = SetActuatorControlTarget::META;
     type View<'a> = SetActuatorControlTargetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetActuatorControlTarget::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetActuatorControlTarget::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetActuatorControlTargetView<'_> {
         SetActuatorControlTargetView::new(payload)
     }
@@ -46049,6 +46853,7 @@ impl<'a> SetActuatorControlTargetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetActuatorControlTarget {
         SetActuatorControlTarget::from_view(self)
     }
@@ -46210,25 +47015,28 @@ impl ActuatorControlTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ActuatorControlTargetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            group_mlx: ::mavwire::field::read::<u8>(p, 40),
+            controls: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ActuatorControlTargetView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            group_mlx: view.group_mlx(),
-            controls: view.controls().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ActuatorControlTargetMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_group_mlx(self.group_mlx);
-        out.set_controls(&self.controls);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.group_mlx, out, 40);
+        ::mavwire::field::write_array(out, 8, &self.controls);
         Ok(Self::MAX_LEN)
     }
 }
@@ -46236,14 +47044,17 @@ impl ActuatorControlTarget {
 impl ::mavwire::Message for ActuatorControlTarget {
     const META: ::mavwire::MessageMeta = ActuatorControlTarget::META;
     type View<'a> = ActuatorControlTargetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ActuatorControlTarget::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ActuatorControlTarget::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ActuatorControlTargetView<'_> {
         ActuatorControlTargetView::new(payload)
     }
@@ -46272,6 +47083,7 @@ impl<'a> ActuatorControlTargetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ActuatorControlTarget {
         ActuatorControlTarget::from_view(self)
     }
@@ -46463,33 +47275,36 @@ impl Altitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AltitudeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            altitude_monotonic: ::mavwire::field::read::<f32>(p, 8),
+            altitude_amsl: ::mavwire::field::read::<f32>(p, 12),
+            altitude_local: ::mavwire::field::read::<f32>(p, 16),
+            altitude_relative: ::mavwire::field::read::<f32>(p, 20),
+            altitude_terrain: ::mavwire::field::read::<f32>(p, 24),
+            bottom_clearance: ::mavwire::field::read::<f32>(p, 28),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AltitudeView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            altitude_monotonic: view.altitude_monotonic(),
-            altitude_amsl: view.altitude_amsl(),
-            altitude_local: view.altitude_local(),
-            altitude_relative: view.altitude_relative(),
-            altitude_terrain: view.altitude_terrain(),
-            bottom_clearance: view.bottom_clearance(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AltitudeMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_altitude_monotonic(self.altitude_monotonic);
-        out.set_altitude_amsl(self.altitude_amsl);
-        out.set_altitude_local(self.altitude_local);
-        out.set_altitude_relative(self.altitude_relative);
-        out.set_altitude_terrain(self.altitude_terrain);
-        out.set_bottom_clearance(self.bottom_clearance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.altitude_monotonic, out, 8);
+        ::mavwire::field::Scalar::write(self.altitude_amsl, out, 12);
+        ::mavwire::field::Scalar::write(self.altitude_local, out, 16);
+        ::mavwire::field::Scalar::write(self.altitude_relative, out, 20);
+        ::mavwire::field::Scalar::write(self.altitude_terrain, out, 24);
+        ::mavwire::field::Scalar::write(self.bottom_clearance, out, 28);
         Ok(Self::MAX_LEN)
     }
 }
@@ -46497,14 +47312,17 @@ impl Altitude {
 impl ::mavwire::Message for Altitude {
     const META: ::mavwire::MessageMeta = Altitude::META;
     type View<'a> = AltitudeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Altitude::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Altitude::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AltitudeView<'_> {
         AltitudeView::new(payload)
     }
@@ -46533,6 +47351,7 @@ impl<'a> AltitudeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Altitude {
         Altitude::from_view(self)
     }
@@ -46736,29 +47555,32 @@ impl ResourceRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ResourceRequestView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            request_id: ::mavwire::field::read::<u8>(p, 0),
+            uri_type: ::mavwire::field::read::<u8>(p, 1),
+            uri: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            transfer_type: ::mavwire::field::read::<u8>(p, 122),
+            storage: ::mavwire::field::ArrayView::new(p, 123).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ResourceRequestView<'_>) -> Self {
-        Self {
-            request_id: view.request_id(),
-            uri_type: view.uri_type(),
-            uri: view.uri().to_array(),
-            transfer_type: view.transfer_type(),
-            storage: view.storage().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ResourceRequestMut::new(payload)?;
-        out.set_request_id(self.request_id);
-        out.set_uri_type(self.uri_type);
-        out.set_uri(&self.uri);
-        out.set_transfer_type(self.transfer_type);
-        out.set_storage(&self.storage);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.request_id, out, 0);
+        ::mavwire::field::Scalar::write(self.uri_type, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.uri);
+        ::mavwire::field::Scalar::write(self.transfer_type, out, 122);
+        ::mavwire::field::write_array(out, 123, &self.storage);
         Ok(Self::MAX_LEN)
     }
 }
@@ -46778,14 +47600,17 @@ impl Default for ResourceRequest {
 impl ::mavwire::Message for ResourceRequest {
     const META: ::mavwire::MessageMeta = ResourceRequest::META;
     type View<'a> = ResourceRequestView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ResourceRequest::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ResourceRequest::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ResourceRequestView<'_> {
         ResourceRequestView::new(payload)
     }
@@ -46814,6 +47639,7 @@ impl<'a> ResourceRequestView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ResourceRequest {
         ResourceRequest::from_view(self)
     }
@@ -46993,29 +47819,32 @@ impl ScaledPressure3 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ScaledPressure3View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            press_abs: ::mavwire::field::read::<f32>(p, 4),
+            press_diff: ::mavwire::field::read::<f32>(p, 8),
+            temperature: ::mavwire::field::read::<i16>(p, 12),
+            temperature_press_diff: ::mavwire::field::read::<i16>(p, 14),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ScaledPressure3View<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            press_abs: view.press_abs(),
-            press_diff: view.press_diff(),
-            temperature: view.temperature(),
-            temperature_press_diff: view.temperature_press_diff(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ScaledPressure3Mut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_press_abs(self.press_abs);
-        out.set_press_diff(self.press_diff);
-        out.set_temperature(self.temperature);
-        out.set_temperature_press_diff(self.temperature_press_diff);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.press_abs, out, 4);
+        ::mavwire::field::Scalar::write(self.press_diff, out, 8);
+        ::mavwire::field::Scalar::write(self.temperature, out, 12);
+        ::mavwire::field::Scalar::write(self.temperature_press_diff, out, 14);
         Ok(Self::MAX_LEN)
     }
 }
@@ -47023,14 +47852,17 @@ impl ScaledPressure3 {
 impl ::mavwire::Message for ScaledPressure3 {
     const META: ::mavwire::MessageMeta = ScaledPressure3::META;
     type View<'a> = ScaledPressure3View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ScaledPressure3::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ScaledPressure3::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ScaledPressure3View<'_> {
         ScaledPressure3View::new(payload)
     }
@@ -47059,6 +47891,7 @@ impl<'a> ScaledPressure3View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ScaledPressure3 {
         ScaledPressure3::from_view(self)
     }
@@ -47303,41 +48136,44 @@ impl FollowTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&FollowTargetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            timestamp: ::mavwire::field::read::<u64>(p, 0),
+            est_capabilities: ::mavwire::field::read::<u8>(p, 92),
+            lat: ::mavwire::field::read::<i32>(p, 16),
+            lon: ::mavwire::field::read::<i32>(p, 20),
+            alt: ::mavwire::field::read::<f32>(p, 24),
+            vel: ::mavwire::field::ArrayView::new(p, 28).to_array(),
+            acc: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            attitude_q: ::mavwire::field::ArrayView::new(p, 52).to_array(),
+            rates: ::mavwire::field::ArrayView::new(p, 68).to_array(),
+            position_cov: ::mavwire::field::ArrayView::new(p, 80).to_array(),
+            custom_state: ::mavwire::field::read::<u64>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &FollowTargetView<'_>) -> Self {
-        Self {
-            timestamp: view.timestamp(),
-            est_capabilities: view.est_capabilities(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            vel: view.vel().to_array(),
-            acc: view.acc().to_array(),
-            attitude_q: view.attitude_q().to_array(),
-            rates: view.rates().to_array(),
-            position_cov: view.position_cov().to_array(),
-            custom_state: view.custom_state(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = FollowTargetMut::new(payload)?;
-        out.set_timestamp(self.timestamp);
-        out.set_est_capabilities(self.est_capabilities);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_vel(&self.vel);
-        out.set_acc(&self.acc);
-        out.set_attitude_q(&self.attitude_q);
-        out.set_rates(&self.rates);
-        out.set_position_cov(&self.position_cov);
-        out.set_custom_state(self.custom_state);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.timestamp, out, 0);
+        ::mavwire::field::Scalar::write(self.est_capabilities, out, 92);
+        ::mavwire::field::Scalar::write(self.lat, out, 16);
+        ::mavwire::field::Scalar::write(self.lon, out, 20);
+        ::mavwire::field::Scalar::write(self.alt, out, 24);
+        ::mavwire::field::write_array(out, 28, &self.vel);
+        ::mavwire::field::write_array(out, 40, &self.acc);
+        ::mavwire::field::write_array(out, 52, &self.attitude_q);
+        ::mavwire::field::write_array(out, 68, &self.rates);
+        ::mavwire::field::write_array(out, 80, &self.position_cov);
+        ::mavwire::field::Scalar::write(self.custom_state, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -47345,14 +48181,17 @@ impl FollowTarget {
 impl ::mavwire::Message for FollowTarget {
     const META: ::mavwire::MessageMeta = FollowTarget::META;
     type View<'a> = FollowTargetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         FollowTarget::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         FollowTarget::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> FollowTargetView<'_> {
         FollowTargetView::new(payload)
     }
@@ -47381,6 +48220,7 @@ impl<'a> FollowTargetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> FollowTarget {
         FollowTarget::from_view(self)
     }
@@ -47764,53 +48604,56 @@ impl ControlSystemState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ControlSystemStateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            x_acc: ::mavwire::field::read::<f32>(p, 8),
+            y_acc: ::mavwire::field::read::<f32>(p, 12),
+            z_acc: ::mavwire::field::read::<f32>(p, 16),
+            x_vel: ::mavwire::field::read::<f32>(p, 20),
+            y_vel: ::mavwire::field::read::<f32>(p, 24),
+            z_vel: ::mavwire::field::read::<f32>(p, 28),
+            x_pos: ::mavwire::field::read::<f32>(p, 32),
+            y_pos: ::mavwire::field::read::<f32>(p, 36),
+            z_pos: ::mavwire::field::read::<f32>(p, 40),
+            airspeed: ::mavwire::field::read::<f32>(p, 44),
+            vel_variance: ::mavwire::field::ArrayView::new(p, 48).to_array(),
+            pos_variance: ::mavwire::field::ArrayView::new(p, 60).to_array(),
+            q: ::mavwire::field::ArrayView::new(p, 72).to_array(),
+            roll_rate: ::mavwire::field::read::<f32>(p, 88),
+            pitch_rate: ::mavwire::field::read::<f32>(p, 92),
+            yaw_rate: ::mavwire::field::read::<f32>(p, 96),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ControlSystemStateView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            x_acc: view.x_acc(),
-            y_acc: view.y_acc(),
-            z_acc: view.z_acc(),
-            x_vel: view.x_vel(),
-            y_vel: view.y_vel(),
-            z_vel: view.z_vel(),
-            x_pos: view.x_pos(),
-            y_pos: view.y_pos(),
-            z_pos: view.z_pos(),
-            airspeed: view.airspeed(),
-            vel_variance: view.vel_variance().to_array(),
-            pos_variance: view.pos_variance().to_array(),
-            q: view.q().to_array(),
-            roll_rate: view.roll_rate(),
-            pitch_rate: view.pitch_rate(),
-            yaw_rate: view.yaw_rate(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ControlSystemStateMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_x_acc(self.x_acc);
-        out.set_y_acc(self.y_acc);
-        out.set_z_acc(self.z_acc);
-        out.set_x_vel(self.x_vel);
-        out.set_y_vel(self.y_vel);
-        out.set_z_vel(self.z_vel);
-        out.set_x_pos(self.x_pos);
-        out.set_y_pos(self.y_pos);
-        out.set_z_pos(self.z_pos);
-        out.set_airspeed(self.airspeed);
-        out.set_vel_variance(&self.vel_variance);
-        out.set_pos_variance(&self.pos_variance);
-        out.set_q(&self.q);
-        out.set_roll_rate(self.roll_rate);
-        out.set_pitch_rate(self.pitch_rate);
-        out.set_yaw_rate(self.yaw_rate);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.x_acc, out, 8);
+        ::mavwire::field::Scalar::write(self.y_acc, out, 12);
+        ::mavwire::field::Scalar::write(self.z_acc, out, 16);
+        ::mavwire::field::Scalar::write(self.x_vel, out, 20);
+        ::mavwire::field::Scalar::write(self.y_vel, out, 24);
+        ::mavwire::field::Scalar::write(self.z_vel, out, 28);
+        ::mavwire::field::Scalar::write(self.x_pos, out, 32);
+        ::mavwire::field::Scalar::write(self.y_pos, out, 36);
+        ::mavwire::field::Scalar::write(self.z_pos, out, 40);
+        ::mavwire::field::Scalar::write(self.airspeed, out, 44);
+        ::mavwire::field::write_array(out, 48, &self.vel_variance);
+        ::mavwire::field::write_array(out, 60, &self.pos_variance);
+        ::mavwire::field::write_array(out, 72, &self.q);
+        ::mavwire::field::Scalar::write(self.roll_rate, out, 88);
+        ::mavwire::field::Scalar::write(self.pitch_rate, out, 92);
+        ::mavwire::field::Scalar::write(self.yaw_rate, out, 96);
         Ok(Self::MAX_LEN)
     }
 }
@@ -47818,14 +48661,17 @@ impl ControlSystemState {
 impl ::mavwire::Message for ControlSystemState {
     const META: ::mavwire::MessageMeta = ControlSystemState::META;
     type View<'a> = ControlSystemStateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ControlSystemState::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ControlSystemState::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ControlSystemStateView<'_> {
         ControlSystemStateView::new(payload)
     }
@@ -47854,6 +48700,7 @@ impl<'a> ControlSystemStateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ControlSystemState {
         ControlSystemState::from_view(self)
     }
@@ -48296,47 +49143,56 @@ impl BatteryStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&BatteryStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            id: ::mavwire::field::read::<u8>(p, 32),
+            battery_function: MavBatteryFunction::from_raw(
+                ::mavwire::field::read::<u8>(p, 33),
+            ),
+            r#type: MavBatteryType::from_raw(::mavwire::field::read::<u8>(p, 34)),
+            temperature: ::mavwire::field::read::<i16>(p, 8),
+            voltages: ::mavwire::field::ArrayView::new(p, 10).to_array(),
+            current_battery: ::mavwire::field::read::<i16>(p, 30),
+            current_consumed: ::mavwire::field::read::<i32>(p, 0),
+            energy_consumed: ::mavwire::field::read::<i32>(p, 4),
+            battery_remaining: ::mavwire::field::read::<i8>(p, 35),
+            time_remaining: ::mavwire::field::read::<i32>(p, 36),
+            charge_state: MavBatteryChargeState::from_raw(
+                ::mavwire::field::read::<u8>(p, 40),
+            ),
+            voltages_ext: ::mavwire::field::ArrayView::new(p, 41).to_array(),
+            mode: MavBatteryMode::from_raw(::mavwire::field::read::<u8>(p, 49)),
+            fault_bitmask: MavBatteryFault::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 50),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &BatteryStatusView<'_>) -> Self {
-        Self {
-            id: view.id(),
-            battery_function: view.battery_function(),
-            r#type: view.r#type(),
-            temperature: view.temperature(),
-            voltages: view.voltages().to_array(),
-            current_battery: view.current_battery(),
-            current_consumed: view.current_consumed(),
-            energy_consumed: view.energy_consumed(),
-            battery_remaining: view.battery_remaining(),
-            time_remaining: view.time_remaining(),
-            charge_state: view.charge_state(),
-            voltages_ext: view.voltages_ext().to_array(),
-            mode: view.mode(),
-            fault_bitmask: view.fault_bitmask(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = BatteryStatusMut::new(payload)?;
-        out.set_id(self.id);
-        out.set_battery_function(self.battery_function);
-        out.set_type(self.r#type);
-        out.set_temperature(self.temperature);
-        out.set_voltages(&self.voltages);
-        out.set_current_battery(self.current_battery);
-        out.set_current_consumed(self.current_consumed);
-        out.set_energy_consumed(self.energy_consumed);
-        out.set_battery_remaining(self.battery_remaining);
-        out.set_time_remaining(self.time_remaining);
-        out.set_charge_state(self.charge_state);
-        out.set_voltages_ext(&self.voltages_ext);
-        out.set_mode(self.mode);
-        out.set_fault_bitmask(self.fault_bitmask);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.id, out, 32);
+        ::mavwire::field::Scalar::write(self.battery_function.to_raw(), out, 33);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 34);
+        ::mavwire::field::Scalar::write(self.temperature, out, 8);
+        ::mavwire::field::write_array(out, 10, &self.voltages);
+        ::mavwire::field::Scalar::write(self.current_battery, out, 30);
+        ::mavwire::field::Scalar::write(self.current_consumed, out, 0);
+        ::mavwire::field::Scalar::write(self.energy_consumed, out, 4);
+        ::mavwire::field::Scalar::write(self.battery_remaining, out, 35);
+        ::mavwire::field::Scalar::write(self.time_remaining, out, 36);
+        ::mavwire::field::Scalar::write(self.charge_state.to_raw(), out, 40);
+        ::mavwire::field::write_array(out, 41, &self.voltages_ext);
+        ::mavwire::field::Scalar::write(self.mode.to_raw(), out, 49);
+        ::mavwire::field::Scalar::write(self.fault_bitmask.bits(), out, 50);
         Ok(Self::MAX_LEN)
     }
 }
@@ -48344,14 +49200,17 @@ impl BatteryStatus {
 impl ::mavwire::Message for BatteryStatus {
     const META: ::mavwire::MessageMeta = BatteryStatus::META;
     type View<'a> = BatteryStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         BatteryStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         BatteryStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> BatteryStatusView<'_> {
         BatteryStatusView::new(payload)
     }
@@ -48380,6 +49239,7 @@ impl<'a> BatteryStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> BatteryStatus {
         BatteryStatus::from_view(self)
     }
@@ -48776,47 +49636,52 @@ impl LandingTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LandingTargetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            target_num: ::mavwire::field::read::<u8>(p, 28),
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 29)),
+            angle_x: ::mavwire::field::read::<f32>(p, 8),
+            angle_y: ::mavwire::field::read::<f32>(p, 12),
+            distance: ::mavwire::field::read::<f32>(p, 16),
+            size_x: ::mavwire::field::read::<f32>(p, 20),
+            size_y: ::mavwire::field::read::<f32>(p, 24),
+            x: ::mavwire::field::read::<f32>(p, 30),
+            y: ::mavwire::field::read::<f32>(p, 34),
+            z: ::mavwire::field::read::<f32>(p, 38),
+            q: ::mavwire::field::ArrayView::new(p, 42).to_array(),
+            r#type: LandingTargetType::from_raw(::mavwire::field::read::<u8>(p, 58)),
+            position_valid: super::standard::MavBool::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 59),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LandingTargetView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            target_num: view.target_num(),
-            frame: view.frame(),
-            angle_x: view.angle_x(),
-            angle_y: view.angle_y(),
-            distance: view.distance(),
-            size_x: view.size_x(),
-            size_y: view.size_y(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            q: view.q().to_array(),
-            r#type: view.r#type(),
-            position_valid: view.position_valid(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LandingTargetMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_target_num(self.target_num);
-        out.set_frame(self.frame);
-        out.set_angle_x(self.angle_x);
-        out.set_angle_y(self.angle_y);
-        out.set_distance(self.distance);
-        out.set_size_x(self.size_x);
-        out.set_size_y(self.size_y);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_q(&self.q);
-        out.set_type(self.r#type);
-        out.set_position_valid(self.position_valid);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.target_num, out, 28);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 29);
+        ::mavwire::field::Scalar::write(self.angle_x, out, 8);
+        ::mavwire::field::Scalar::write(self.angle_y, out, 12);
+        ::mavwire::field::Scalar::write(self.distance, out, 16);
+        ::mavwire::field::Scalar::write(self.size_x, out, 20);
+        ::mavwire::field::Scalar::write(self.size_y, out, 24);
+        ::mavwire::field::Scalar::write(self.x, out, 30);
+        ::mavwire::field::Scalar::write(self.y, out, 34);
+        ::mavwire::field::Scalar::write(self.z, out, 38);
+        ::mavwire::field::write_array(out, 42, &self.q);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 58);
+        ::mavwire::field::Scalar::write(self.position_valid.bits(), out, 59);
         Ok(Self::MAX_LEN)
     }
 }
@@ -48824,14 +49689,17 @@ impl LandingTarget {
 impl ::mavwire::Message for LandingTarget {
     const META: ::mavwire::MessageMeta = LandingTarget::META;
     type View<'a> = LandingTargetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LandingTarget::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LandingTarget::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LandingTargetView<'_> {
         LandingTargetView::new(payload)
     }
@@ -48860,6 +49728,7 @@ impl<'a> LandingTargetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LandingTarget {
         LandingTarget::from_view(self)
     }
@@ -49148,29 +50017,34 @@ impl FenceStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&FenceStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            breach_status: ::mavwire::field::read::<u8>(p, 6),
+            breach_count: ::mavwire::field::read::<u16>(p, 4),
+            breach_type: FenceBreach::from_raw(::mavwire::field::read::<u8>(p, 7)),
+            breach_time: ::mavwire::field::read::<u32>(p, 0),
+            breach_mitigation: FenceMitigate::from_raw(
+                ::mavwire::field::read::<u8>(p, 8),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &FenceStatusView<'_>) -> Self {
-        Self {
-            breach_status: view.breach_status(),
-            breach_count: view.breach_count(),
-            breach_type: view.breach_type(),
-            breach_time: view.breach_time(),
-            breach_mitigation: view.breach_mitigation(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = FenceStatusMut::new(payload)?;
-        out.set_breach_status(self.breach_status);
-        out.set_breach_count(self.breach_count);
-        out.set_breach_type(self.breach_type);
-        out.set_breach_time(self.breach_time);
-        out.set_breach_mitigation(self.breach_mitigation);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.breach_status, out, 6);
+        ::mavwire::field::Scalar::write(self.breach_count, out, 4);
+        ::mavwire::field::Scalar::write(self.breach_type.to_raw(), out, 7);
+        ::mavwire::field::Scalar::write(self.breach_time, out, 0);
+        ::mavwire::field::Scalar::write(self.breach_mitigation.to_raw(), out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -49178,14 +50052,17 @@ impl FenceStatus {
 impl ::mavwire::Message for FenceStatus {
     const META: ::mavwire::MessageMeta = FenceStatus::META;
     type View<'a> = FenceStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         FenceStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         FenceStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> FenceStatusView<'_> {
         FenceStatusView::new(payload)
     }
@@ -49214,6 +50091,7 @@ impl<'a> FenceStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> FenceStatus {
         FenceStatus::from_view(self)
     }
@@ -49539,55 +50417,62 @@ impl MagCalReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MagCalReportView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            compass_id: ::mavwire::field::read::<u8>(p, 40),
+            cal_mask: ::mavwire::field::read::<u8>(p, 41),
+            cal_status: MagCalStatus::from_raw(::mavwire::field::read::<u8>(p, 42)),
+            autosaved: ::mavwire::field::read::<u8>(p, 43),
+            fitness: ::mavwire::field::read::<f32>(p, 0),
+            ofs_x: ::mavwire::field::read::<f32>(p, 4),
+            ofs_y: ::mavwire::field::read::<f32>(p, 8),
+            ofs_z: ::mavwire::field::read::<f32>(p, 12),
+            diag_x: ::mavwire::field::read::<f32>(p, 16),
+            diag_y: ::mavwire::field::read::<f32>(p, 20),
+            diag_z: ::mavwire::field::read::<f32>(p, 24),
+            offdiag_x: ::mavwire::field::read::<f32>(p, 28),
+            offdiag_y: ::mavwire::field::read::<f32>(p, 32),
+            offdiag_z: ::mavwire::field::read::<f32>(p, 36),
+            orientation_confidence: ::mavwire::field::read::<f32>(p, 44),
+            old_orientation: MavSensorOrientation::from_raw(
+                ::mavwire::field::read::<u8>(p, 48),
+            ),
+            new_orientation: MavSensorOrientation::from_raw(
+                ::mavwire::field::read::<u8>(p, 49),
+            ),
+            scale_factor: ::mavwire::field::read::<f32>(p, 50),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MagCalReportView<'_>) -> Self {
-        Self {
-            compass_id: view.compass_id(),
-            cal_mask: view.cal_mask(),
-            cal_status: view.cal_status(),
-            autosaved: view.autosaved(),
-            fitness: view.fitness(),
-            ofs_x: view.ofs_x(),
-            ofs_y: view.ofs_y(),
-            ofs_z: view.ofs_z(),
-            diag_x: view.diag_x(),
-            diag_y: view.diag_y(),
-            diag_z: view.diag_z(),
-            offdiag_x: view.offdiag_x(),
-            offdiag_y: view.offdiag_y(),
-            offdiag_z: view.offdiag_z(),
-            orientation_confidence: view.orientation_confidence(),
-            old_orientation: view.old_orientation(),
-            new_orientation: view.new_orientation(),
-            scale_factor: view.scale_factor(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MagCalReportMut::new(payload)?;
-        out.set_compass_id(self.compass_id);
-        out.set_cal_mask(self.cal_mask);
-        out.set_cal_status(self.cal_status);
-        out.set_autosaved(self.autosaved);
-        out.set_fitness(self.fitness);
-        out.set_ofs_x(self.ofs_x);
-        out.set_ofs_y(self.ofs_y);
-        out.set_ofs_z(self.ofs_z);
-        out.set_diag_x(self.diag_x);
-        out.set_diag_y(self.diag_y);
-        out.set_diag_z(self.diag_z);
-        out.set_offdiag_x(self.offdiag_x);
-        out.set_offdiag_y(self.offdiag_y);
-        out.set_offdiag_z(self.offdiag_z);
-        out.set_orientation_confidence(self.orientation_confidence);
-        out.set_old_orientation(self.old_orientation);
-        out.set_new_orientation(self.new_orientation);
-        out.set_scale_factor(self.scale_factor);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.compass_id, out, 40);
+        ::mavwire::field::Scalar::write(self.cal_mask, out, 41);
+        ::mavwire::field::Scalar::write(self.cal_status.to_raw(), out, 42);
+        ::mavwire::field::Scalar::write(self.autosaved, out, 43);
+        ::mavwire::field::Scalar::write(self.fitness, out, 0);
+        ::mavwire::field::Scalar::write(self.ofs_x, out, 4);
+        ::mavwire::field::Scalar::write(self.ofs_y, out, 8);
+        ::mavwire::field::Scalar::write(self.ofs_z, out, 12);
+        ::mavwire::field::Scalar::write(self.diag_x, out, 16);
+        ::mavwire::field::Scalar::write(self.diag_y, out, 20);
+        ::mavwire::field::Scalar::write(self.diag_z, out, 24);
+        ::mavwire::field::Scalar::write(self.offdiag_x, out, 28);
+        ::mavwire::field::Scalar::write(self.offdiag_y, out, 32);
+        ::mavwire::field::Scalar::write(self.offdiag_z, out, 36);
+        ::mavwire::field::Scalar::write(self.orientation_confidence, out, 44);
+        ::mavwire::field::Scalar::write(self.old_orientation.to_raw(), out, 48);
+        ::mavwire::field::Scalar::write(self.new_orientation.to_raw(), out, 49);
+        ::mavwire::field::Scalar::write(self.scale_factor, out, 50);
         Ok(Self::MAX_LEN)
     }
 }
@@ -49595,14 +50480,17 @@ impl MagCalReport {
 impl ::mavwire::Message for MagCalReport {
     const META: ::mavwire::MessageMeta = MagCalReport::META;
     type View<'a> = MagCalReportView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MagCalReport::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MagCalReport::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MagCalReportView<'_> {
         MagCalReportView::new(payload)
     }
@@ -49631,6 +50519,7 @@ impl<'a> MagCalReportView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MagCalReport {
         MagCalReport::from_view(self)
     }
@@ -50122,57 +51011,60 @@ impl EfiStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EfiStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            health: ::mavwire::field::read::<u8>(p, 64),
+            ecu_index: ::mavwire::field::read::<f32>(p, 0),
+            rpm: ::mavwire::field::read::<f32>(p, 4),
+            fuel_consumed: ::mavwire::field::read::<f32>(p, 8),
+            fuel_flow: ::mavwire::field::read::<f32>(p, 12),
+            engine_load: ::mavwire::field::read::<f32>(p, 16),
+            throttle_position: ::mavwire::field::read::<f32>(p, 20),
+            spark_dwell_time: ::mavwire::field::read::<f32>(p, 24),
+            barometric_pressure: ::mavwire::field::read::<f32>(p, 28),
+            intake_manifold_pressure: ::mavwire::field::read::<f32>(p, 32),
+            intake_manifold_temperature: ::mavwire::field::read::<f32>(p, 36),
+            cylinder_head_temperature: ::mavwire::field::read::<f32>(p, 40),
+            ignition_timing: ::mavwire::field::read::<f32>(p, 44),
+            injection_time: ::mavwire::field::read::<f32>(p, 48),
+            exhaust_gas_temperature: ::mavwire::field::read::<f32>(p, 52),
+            throttle_out: ::mavwire::field::read::<f32>(p, 56),
+            pt_compensation: ::mavwire::field::read::<f32>(p, 60),
+            ignition_voltage: ::mavwire::field::read::<f32>(p, 65),
+            fuel_pressure: ::mavwire::field::read::<f32>(p, 69),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EfiStatusView<'_>) -> Self {
-        Self {
-            health: view.health(),
-            ecu_index: view.ecu_index(),
-            rpm: view.rpm(),
-            fuel_consumed: view.fuel_consumed(),
-            fuel_flow: view.fuel_flow(),
-            engine_load: view.engine_load(),
-            throttle_position: view.throttle_position(),
-            spark_dwell_time: view.spark_dwell_time(),
-            barometric_pressure: view.barometric_pressure(),
-            intake_manifold_pressure: view.intake_manifold_pressure(),
-            intake_manifold_temperature: view.intake_manifold_temperature(),
-            cylinder_head_temperature: view.cylinder_head_temperature(),
-            ignition_timing: view.ignition_timing(),
-            injection_time: view.injection_time(),
-            exhaust_gas_temperature: view.exhaust_gas_temperature(),
-            throttle_out: view.throttle_out(),
-            pt_compensation: view.pt_compensation(),
-            ignition_voltage: view.ignition_voltage(),
-            fuel_pressure: view.fuel_pressure(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EfiStatusMut::new(payload)?;
-        out.set_health(self.health);
-        out.set_ecu_index(self.ecu_index);
-        out.set_rpm(self.rpm);
-        out.set_fuel_consumed(self.fuel_consumed);
-        out.set_fuel_flow(self.fuel_flow);
-        out.set_engine_load(self.engine_load);
-        out.set_throttle_position(self.throttle_position);
-        out.set_spark_dwell_time(self.spark_dwell_time);
-        out.set_barometric_pressure(self.barometric_pressure);
-        out.set_intake_manifold_pressure(self.intake_manifold_pressure);
-        out.set_intake_manifold_temperature(self.intake_manifold_temperature);
-        out.set_cylinder_head_temperature(self.cylinder_head_temperature);
-        out.set_ignition_timing(self.ignition_timing);
-        out.set_injection_time(self.injection_time);
-        out.set_exhaust_gas_temperature(self.exhaust_gas_temperature);
-        out.set_throttle_out(self.throttle_out);
-        out.set_pt_compensation(self.pt_compensation);
-        out.set_ignition_voltage(self.ignition_voltage);
-        out.set_fuel_pressure(self.fuel_pressure);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.health, out, 64);
+        ::mavwire::field::Scalar::write(self.ecu_index, out, 0);
+        ::mavwire::field::Scalar::write(self.rpm, out, 4);
+        ::mavwire::field::Scalar::write(self.fuel_consumed, out, 8);
+        ::mavwire::field::Scalar::write(self.fuel_flow, out, 12);
+        ::mavwire::field::Scalar::write(self.engine_load, out, 16);
+        ::mavwire::field::Scalar::write(self.throttle_position, out, 20);
+        ::mavwire::field::Scalar::write(self.spark_dwell_time, out, 24);
+        ::mavwire::field::Scalar::write(self.barometric_pressure, out, 28);
+        ::mavwire::field::Scalar::write(self.intake_manifold_pressure, out, 32);
+        ::mavwire::field::Scalar::write(self.intake_manifold_temperature, out, 36);
+        ::mavwire::field::Scalar::write(self.cylinder_head_temperature, out, 40);
+        ::mavwire::field::Scalar::write(self.ignition_timing, out, 44);
+        ::mavwire::field::Scalar::write(self.injection_time, out, 48);
+        ::mavwire::field::Scalar::write(self.exhaust_gas_temperature, out, 52);
+        ::mavwire::field::Scalar::write(self.throttle_out, out, 56);
+        ::mavwire::field::Scalar::write(self.pt_compensation, out, 60);
+        ::mavwire::field::Scalar::write(self.ignition_voltage, out, 65);
+        ::mavwire::field::Scalar::write(self.fuel_pressure, out, 69);
         Ok(Self::MAX_LEN)
     }
 }
@@ -50180,14 +51072,17 @@ impl EfiStatus {
 impl ::mavwire::Message for EfiStatus {
     const META: ::mavwire::MessageMeta = EfiStatus::META;
     type View<'a> = EfiStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EfiStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EfiStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EfiStatusView<'_> {
         EfiStatusView::new(payload)
     }
@@ -50216,6 +51111,7 @@ impl<'a> EfiStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EfiStatus {
         EfiStatus::from_view(self)
     }
@@ -50628,39 +51524,44 @@ impl EstimatorStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&EstimatorStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            flags: EstimatorStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 40),
+            ),
+            vel_ratio: ::mavwire::field::read::<f32>(p, 8),
+            pos_horiz_ratio: ::mavwire::field::read::<f32>(p, 12),
+            pos_vert_ratio: ::mavwire::field::read::<f32>(p, 16),
+            mag_ratio: ::mavwire::field::read::<f32>(p, 20),
+            hagl_ratio: ::mavwire::field::read::<f32>(p, 24),
+            tas_ratio: ::mavwire::field::read::<f32>(p, 28),
+            pos_horiz_accuracy: ::mavwire::field::read::<f32>(p, 32),
+            pos_vert_accuracy: ::mavwire::field::read::<f32>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &EstimatorStatusView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            flags: view.flags(),
-            vel_ratio: view.vel_ratio(),
-            pos_horiz_ratio: view.pos_horiz_ratio(),
-            pos_vert_ratio: view.pos_vert_ratio(),
-            mag_ratio: view.mag_ratio(),
-            hagl_ratio: view.hagl_ratio(),
-            tas_ratio: view.tas_ratio(),
-            pos_horiz_accuracy: view.pos_horiz_accuracy(),
-            pos_vert_accuracy: view.pos_vert_accuracy(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = EstimatorStatusMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_flags(self.flags);
-        out.set_vel_ratio(self.vel_ratio);
-        out.set_pos_horiz_ratio(self.pos_horiz_ratio);
-        out.set_pos_vert_ratio(self.pos_vert_ratio);
-        out.set_mag_ratio(self.mag_ratio);
-        out.set_hagl_ratio(self.hagl_ratio);
-        out.set_tas_ratio(self.tas_ratio);
-        out.set_pos_horiz_accuracy(self.pos_horiz_accuracy);
-        out.set_pos_vert_accuracy(self.pos_vert_accuracy);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 40);
+        ::mavwire::field::Scalar::write(self.vel_ratio, out, 8);
+        ::mavwire::field::Scalar::write(self.pos_horiz_ratio, out, 12);
+        ::mavwire::field::Scalar::write(self.pos_vert_ratio, out, 16);
+        ::mavwire::field::Scalar::write(self.mag_ratio, out, 20);
+        ::mavwire::field::Scalar::write(self.hagl_ratio, out, 24);
+        ::mavwire::field::Scalar::write(self.tas_ratio, out, 28);
+        ::mavwire::field::Scalar::write(self.pos_horiz_accuracy, out, 32);
+        ::mavwire::field::Scalar::write(self.pos_vert_accuracy, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -50668,14 +51569,17 @@ impl EstimatorStatus {
 impl ::mavwire::Message for EstimatorStatus {
     const META: ::mavwire::MessageMeta = EstimatorStatus::META;
     type View<'a> = EstimatorStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         EstimatorStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         EstimatorStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> EstimatorStatusView<'_> {
         EstimatorStatusView::new(payload)
     }
@@ -50704,6 +51608,7 @@ impl<'a> EstimatorStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> EstimatorStatus {
         EstimatorStatus::from_view(self)
     }
@@ -50993,37 +51898,40 @@ impl WindCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&WindCovView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            wind_x: ::mavwire::field::read::<f32>(p, 8),
+            wind_y: ::mavwire::field::read::<f32>(p, 12),
+            wind_z: ::mavwire::field::read::<f32>(p, 16),
+            var_horiz: ::mavwire::field::read::<f32>(p, 20),
+            var_vert: ::mavwire::field::read::<f32>(p, 24),
+            wind_alt: ::mavwire::field::read::<f32>(p, 28),
+            horiz_accuracy: ::mavwire::field::read::<f32>(p, 32),
+            vert_accuracy: ::mavwire::field::read::<f32>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &WindCovView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            wind_x: view.wind_x(),
-            wind_y: view.wind_y(),
-            wind_z: view.wind_z(),
-            var_horiz: view.var_horiz(),
-            var_vert: view.var_vert(),
-            wind_alt: view.wind_alt(),
-            horiz_accuracy: view.horiz_accuracy(),
-            vert_accuracy: view.vert_accuracy(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = WindCovMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_wind_x(self.wind_x);
-        out.set_wind_y(self.wind_y);
-        out.set_wind_z(self.wind_z);
-        out.set_var_horiz(self.var_horiz);
-        out.set_var_vert(self.var_vert);
-        out.set_wind_alt(self.wind_alt);
-        out.set_horiz_accuracy(self.horiz_accuracy);
-        out.set_vert_accuracy(self.vert_accuracy);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.wind_x, out, 8);
+        ::mavwire::field::Scalar::write(self.wind_y, out, 12);
+        ::mavwire::field::Scalar::write(self.wind_z, out, 16);
+        ::mavwire::field::Scalar::write(self.var_horiz, out, 20);
+        ::mavwire::field::Scalar::write(self.var_vert, out, 24);
+        ::mavwire::field::Scalar::write(self.wind_alt, out, 28);
+        ::mavwire::field::Scalar::write(self.horiz_accuracy, out, 32);
+        ::mavwire::field::Scalar::write(self.vert_accuracy, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -51031,14 +51939,17 @@ impl WindCov {
 impl ::mavwire::Message for WindCov {
     const META: ::mavwire::MessageMeta = WindCov::META;
     type View<'a> = WindCovView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         WindCov::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         WindCov::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> WindCovView<'_> {
         WindCovView::new(payload)
     }
@@ -51067,6 +51978,7 @@ impl<'a> WindCovView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> WindCov {
         WindCov::from_view(self)
     }
@@ -51453,57 +52365,62 @@ impl GpsInput {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GpsInputView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            gps_id: ::mavwire::field::read::<u8>(p, 60),
+            ignore_flags: GpsInputIgnoreFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 56),
+            ),
+            time_week_ms: ::mavwire::field::read::<u32>(p, 8),
+            time_week: ::mavwire::field::read::<u16>(p, 58),
+            fix_type: ::mavwire::field::read::<u8>(p, 61),
+            lat: ::mavwire::field::read::<i32>(p, 12),
+            lon: ::mavwire::field::read::<i32>(p, 16),
+            alt: ::mavwire::field::read::<f32>(p, 20),
+            hdop: ::mavwire::field::read::<f32>(p, 24),
+            vdop: ::mavwire::field::read::<f32>(p, 28),
+            vn: ::mavwire::field::read::<f32>(p, 32),
+            ve: ::mavwire::field::read::<f32>(p, 36),
+            vd: ::mavwire::field::read::<f32>(p, 40),
+            speed_accuracy: ::mavwire::field::read::<f32>(p, 44),
+            horiz_accuracy: ::mavwire::field::read::<f32>(p, 48),
+            vert_accuracy: ::mavwire::field::read::<f32>(p, 52),
+            satellites_visible: ::mavwire::field::read::<u8>(p, 62),
+            yaw: ::mavwire::field::read::<u16>(p, 63),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GpsInputView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            gps_id: view.gps_id(),
-            ignore_flags: view.ignore_flags(),
-            time_week_ms: view.time_week_ms(),
-            time_week: view.time_week(),
-            fix_type: view.fix_type(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            hdop: view.hdop(),
-            vdop: view.vdop(),
-            vn: view.vn(),
-            ve: view.ve(),
-            vd: view.vd(),
-            speed_accuracy: view.speed_accuracy(),
-            horiz_accuracy: view.horiz_accuracy(),
-            vert_accuracy: view.vert_accuracy(),
-            satellites_visible: view.satellites_visible(),
-            yaw: view.yaw(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GpsInputMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_gps_id(self.gps_id);
-        out.set_ignore_flags(self.ignore_flags);
-        out.set_time_week_ms(self.time_week_ms);
-        out.set_time_week(self.time_week);
-        out.set_fix_type(self.fix_type);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_hdop(self.hdop);
-        out.set_vdop(self.vdop);
-        out.set_vn(self.vn);
-        out.set_ve(self.ve);
-        out.set_vd(self.vd);
-        out.set_speed_accuracy(self.speed_accuracy);
-        out.set_horiz_accuracy(self.horiz_accuracy);
-        out.set_vert_accuracy(self.vert_accuracy);
-        out.set_satellites_visible(self.satellites_visible);
-        out.set_yaw(self.yaw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.gps_id, out, 60);
+        ::mavwire::field::Scalar::write(self.ignore_flags.bits(), out, 56);
+        ::mavwire::field::Scalar::write(self.time_week_ms, out, 8);
+        ::mavwire::field::Scalar::write(self.time_week, out, 58);
+        ::mavwire::field::Scalar::write(self.fix_type, out, 61);
+        ::mavwire::field::Scalar::write(self.lat, out, 12);
+        ::mavwire::field::Scalar::write(self.lon, out, 16);
+        ::mavwire::field::Scalar::write(self.alt, out, 20);
+        ::mavwire::field::Scalar::write(self.hdop, out, 24);
+        ::mavwire::field::Scalar::write(self.vdop, out, 28);
+        ::mavwire::field::Scalar::write(self.vn, out, 32);
+        ::mavwire::field::Scalar::write(self.ve, out, 36);
+        ::mavwire::field::Scalar::write(self.vd, out, 40);
+        ::mavwire::field::Scalar::write(self.speed_accuracy, out, 44);
+        ::mavwire::field::Scalar::write(self.horiz_accuracy, out, 48);
+        ::mavwire::field::Scalar::write(self.vert_accuracy, out, 52);
+        ::mavwire::field::Scalar::write(self.satellites_visible, out, 62);
+        ::mavwire::field::Scalar::write(self.yaw, out, 63);
         Ok(Self::MAX_LEN)
     }
 }
@@ -51511,14 +52428,17 @@ impl GpsInput {
 impl ::mavwire::Message for GpsInput {
     const META: ::mavwire::MessageMeta = GpsInput::META;
     type View<'a> = GpsInputView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GpsInput::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GpsInput::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GpsInputView<'_> {
         GpsInputView::new(payload)
     }
@@ -51547,6 +52467,7 @@ impl<'a> GpsInputView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GpsInput {
         GpsInput::from_view(self)
     }
@@ -51879,25 +52800,28 @@ impl GpsRtcmData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GpsRtcmDataView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            flags: ::mavwire::field::read::<u8>(p, 0),
+            len: ::mavwire::field::read::<u8>(p, 1),
+            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GpsRtcmDataView<'_>) -> Self {
-        Self {
-            flags: view.flags(),
-            len: view.len(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GpsRtcmDataMut::new(payload)?;
-        out.set_flags(self.flags);
-        out.set_len(self.len);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.flags, out, 0);
+        ::mavwire::field::Scalar::write(self.len, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -51915,14 +52839,17 @@ impl Default for GpsRtcmData {
 impl ::mavwire::Message for GpsRtcmData {
     const META: ::mavwire::MessageMeta = GpsRtcmData::META;
     type View<'a> = GpsRtcmDataView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GpsRtcmData::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GpsRtcmData::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GpsRtcmDataView<'_> {
         GpsRtcmDataView::new(payload)
     }
@@ -51951,6 +52878,7 @@ impl<'a> GpsRtcmDataView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GpsRtcmData {
         GpsRtcmData::from_view(self)
     }
@@ -52315,67 +53243,72 @@ impl HighLatency {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HighLatencyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            base_mode: super::minimal::MavModeFlag::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 26),
+            ),
+            custom_mode: ::mavwire::field::read::<u32>(p, 0),
+            landed_state: MavLandedState::from_raw(::mavwire::field::read::<u8>(p, 27)),
+            roll: ::mavwire::field::read::<i16>(p, 12),
+            pitch: ::mavwire::field::read::<i16>(p, 14),
+            heading: ::mavwire::field::read::<u16>(p, 16),
+            throttle: ::mavwire::field::read::<i8>(p, 28),
+            heading_sp: ::mavwire::field::read::<i16>(p, 18),
+            latitude: ::mavwire::field::read::<i32>(p, 4),
+            longitude: ::mavwire::field::read::<i32>(p, 8),
+            altitude_amsl: ::mavwire::field::read::<i16>(p, 20),
+            altitude_sp: ::mavwire::field::read::<i16>(p, 22),
+            airspeed: ::mavwire::field::read::<u8>(p, 29),
+            airspeed_sp: ::mavwire::field::read::<u8>(p, 30),
+            groundspeed: ::mavwire::field::read::<u8>(p, 31),
+            climb_rate: ::mavwire::field::read::<i8>(p, 32),
+            gps_nsat: ::mavwire::field::read::<u8>(p, 33),
+            gps_fix_type: GpsFixType::from_raw(::mavwire::field::read::<u8>(p, 34)),
+            battery_remaining: ::mavwire::field::read::<u8>(p, 35),
+            temperature: ::mavwire::field::read::<i8>(p, 36),
+            temperature_air: ::mavwire::field::read::<i8>(p, 37),
+            failsafe: ::mavwire::field::read::<u8>(p, 38),
+            wp_num: ::mavwire::field::read::<u8>(p, 39),
+            wp_distance: ::mavwire::field::read::<u16>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HighLatencyView<'_>) -> Self {
-        Self {
-            base_mode: view.base_mode(),
-            custom_mode: view.custom_mode(),
-            landed_state: view.landed_state(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            heading: view.heading(),
-            throttle: view.throttle(),
-            heading_sp: view.heading_sp(),
-            latitude: view.latitude(),
-            longitude: view.longitude(),
-            altitude_amsl: view.altitude_amsl(),
-            altitude_sp: view.altitude_sp(),
-            airspeed: view.airspeed(),
-            airspeed_sp: view.airspeed_sp(),
-            groundspeed: view.groundspeed(),
-            climb_rate: view.climb_rate(),
-            gps_nsat: view.gps_nsat(),
-            gps_fix_type: view.gps_fix_type(),
-            battery_remaining: view.battery_remaining(),
-            temperature: view.temperature(),
-            temperature_air: view.temperature_air(),
-            failsafe: view.failsafe(),
-            wp_num: view.wp_num(),
-            wp_distance: view.wp_distance(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HighLatencyMut::new(payload)?;
-        out.set_base_mode(self.base_mode);
-        out.set_custom_mode(self.custom_mode);
-        out.set_landed_state(self.landed_state);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_heading(self.heading);
-        out.set_throttle(self.throttle);
-        out.set_heading_sp(self.heading_sp);
-        out.set_latitude(self.latitude);
-        out.set_longitude(self.longitude);
-        out.set_altitude_amsl(self.altitude_amsl);
-        out.set_altitude_sp(self.altitude_sp);
-        out.set_airspeed(self.airspeed);
-        out.set_airspeed_sp(self.airspeed_sp);
-        out.set_groundspeed(self.groundspeed);
-        out.set_climb_rate(self.climb_rate);
-        out.set_gps_nsat(self.gps_nsat);
-        out.set_gps_fix_type(self.gps_fix_type);
-        out.set_battery_remaining(self.battery_remaining);
-        out.set_temperature(self.temperature);
-        out.set_temperature_air(self.temperature_air);
-        out.set_failsafe(self.failsafe);
-        out.set_wp_num(self.wp_num);
-        out.set_wp_distance(self.wp_distance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.base_mode.bits(), out, 26);
+        ::mavwire::field::Scalar::write(self.custom_mode, out, 0);
+        ::mavwire::field::Scalar::write(self.landed_state.to_raw(), out, 27);
+        ::mavwire::field::Scalar::write(self.roll, out, 12);
+        ::mavwire::field::Scalar::write(self.pitch, out, 14);
+        ::mavwire::field::Scalar::write(self.heading, out, 16);
+        ::mavwire::field::Scalar::write(self.throttle, out, 28);
+        ::mavwire::field::Scalar::write(self.heading_sp, out, 18);
+        ::mavwire::field::Scalar::write(self.latitude, out, 4);
+        ::mavwire::field::Scalar::write(self.longitude, out, 8);
+        ::mavwire::field::Scalar::write(self.altitude_amsl, out, 20);
+        ::mavwire::field::Scalar::write(self.altitude_sp, out, 22);
+        ::mavwire::field::Scalar::write(self.airspeed, out, 29);
+        ::mavwire::field::Scalar::write(self.airspeed_sp, out, 30);
+        ::mavwire::field::Scalar::write(self.groundspeed, out, 31);
+        ::mavwire::field::Scalar::write(self.climb_rate, out, 32);
+        ::mavwire::field::Scalar::write(self.gps_nsat, out, 33);
+        ::mavwire::field::Scalar::write(self.gps_fix_type.to_raw(), out, 34);
+        ::mavwire::field::Scalar::write(self.battery_remaining, out, 35);
+        ::mavwire::field::Scalar::write(self.temperature, out, 36);
+        ::mavwire::field::Scalar::write(self.temperature_air, out, 37);
+        ::mavwire::field::Scalar::write(self.failsafe, out, 38);
+        ::mavwire::field::Scalar::write(self.wp_num, out, 39);
+        ::mavwire::field::Scalar::write(self.wp_distance, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -52383,14 +53316,17 @@ impl HighLatency {
 impl ::mavwire::Message for HighLatency {
     const META: ::mavwire::MessageMeta = HighLatency::META;
     type View<'a> = HighLatencyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HighLatency::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HighLatency::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HighLatencyView<'_> {
         HighLatencyView::new(payload)
     }
@@ -52419,6 +53355,7 @@ impl<'a> HighLatencyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HighLatency {
         HighLatency::from_view(self)
     }
@@ -53071,73 +54008,82 @@ impl HighLatency2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HighLatency2View::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            timestamp: ::mavwire::field::read::<u32>(p, 0),
+            r#type: super::minimal::MavType::from_raw(
+                ::mavwire::field::read::<u8>(p, 24),
+            ),
+            autopilot: super::minimal::MavAutopilot::from_raw(
+                ::mavwire::field::read::<u8>(p, 25),
+            ),
+            custom_mode: ::mavwire::field::read::<u16>(p, 12),
+            latitude: ::mavwire::field::read::<i32>(p, 4),
+            longitude: ::mavwire::field::read::<i32>(p, 8),
+            altitude: ::mavwire::field::read::<i16>(p, 14),
+            target_altitude: ::mavwire::field::read::<i16>(p, 16),
+            heading: ::mavwire::field::read::<u8>(p, 26),
+            target_heading: ::mavwire::field::read::<u8>(p, 27),
+            target_distance: ::mavwire::field::read::<u16>(p, 18),
+            throttle: ::mavwire::field::read::<u8>(p, 28),
+            airspeed: ::mavwire::field::read::<u8>(p, 29),
+            airspeed_sp: ::mavwire::field::read::<u8>(p, 30),
+            groundspeed: ::mavwire::field::read::<u8>(p, 31),
+            windspeed: ::mavwire::field::read::<u8>(p, 32),
+            wind_heading: ::mavwire::field::read::<u8>(p, 33),
+            eph: ::mavwire::field::read::<u8>(p, 34),
+            epv: ::mavwire::field::read::<u8>(p, 35),
+            temperature_air: ::mavwire::field::read::<i8>(p, 36),
+            climb_rate: ::mavwire::field::read::<i8>(p, 37),
+            battery: ::mavwire::field::read::<i8>(p, 38),
+            wp_num: ::mavwire::field::read::<u16>(p, 20),
+            failure_flags: HlFailureFlag::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 22),
+            ),
+            custom0: ::mavwire::field::read::<i8>(p, 39),
+            custom1: ::mavwire::field::read::<i8>(p, 40),
+            custom2: ::mavwire::field::read::<i8>(p, 41),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HighLatency2View<'_>) -> Self {
-        Self {
-            timestamp: view.timestamp(),
-            r#type: view.r#type(),
-            autopilot: view.autopilot(),
-            custom_mode: view.custom_mode(),
-            latitude: view.latitude(),
-            longitude: view.longitude(),
-            altitude: view.altitude(),
-            target_altitude: view.target_altitude(),
-            heading: view.heading(),
-            target_heading: view.target_heading(),
-            target_distance: view.target_distance(),
-            throttle: view.throttle(),
-            airspeed: view.airspeed(),
-            airspeed_sp: view.airspeed_sp(),
-            groundspeed: view.groundspeed(),
-            windspeed: view.windspeed(),
-            wind_heading: view.wind_heading(),
-            eph: view.eph(),
-            epv: view.epv(),
-            temperature_air: view.temperature_air(),
-            climb_rate: view.climb_rate(),
-            battery: view.battery(),
-            wp_num: view.wp_num(),
-            failure_flags: view.failure_flags(),
-            custom0: view.custom0(),
-            custom1: view.custom1(),
-            custom2: view.custom2(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HighLatency2Mut::new(payload)?;
-        out.set_timestamp(self.timestamp);
-        out.set_type(self.r#type);
-        out.set_autopilot(self.autopilot);
-        out.set_custom_mode(self.custom_mode);
-        out.set_latitude(self.latitude);
-        out.set_longitude(self.longitude);
-        out.set_altitude(self.altitude);
-        out.set_target_altitude(self.target_altitude);
-        out.set_heading(self.heading);
-        out.set_target_heading(self.target_heading);
-        out.set_target_distance(self.target_distance);
-        out.set_throttle(self.throttle);
-        out.set_airspeed(self.airspeed);
-        out.set_airspeed_sp(self.airspeed_sp);
-        out.set_groundspeed(self.groundspeed);
-        out.set_windspeed(self.windspeed);
-        out.set_wind_heading(self.wind_heading);
-        out.set_eph(self.eph);
-        out.set_epv(self.epv);
-        out.set_temperature_air(self.temperature_air);
-        out.set_climb_rate(self.climb_rate);
-        out.set_battery(self.battery);
-        out.set_wp_num(self.wp_num);
-        out.set_failure_flags(self.failure_flags);
-        out.set_custom0(self.custom0);
-        out.set_custom1(self.custom1);
-        out.set_custom2(self.custom2);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.timestamp, out, 0);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 24);
+        ::mavwire::field::Scalar::write(self.autopilot.to_raw(), out, 25);
+        ::mavwire::field::Scalar::write(self.custom_mode, out, 12);
+        ::mavwire::field::Scalar::write(self.latitude, out, 4);
+        ::mavwire::field::Scalar::write(self.longitude, out, 8);
+        ::mavwire::field::Scalar::write(self.altitude, out, 14);
+        ::mavwire::field::Scalar::write(self.target_altitude, out, 16);
+        ::mavwire::field::Scalar::write(self.heading, out, 26);
+        ::mavwire::field::Scalar::write(self.target_heading, out, 27);
+        ::mavwire::field::Scalar::write(self.target_distance, out, 18);
+        ::mavwire::field::Scalar::write(self.throttle, out, 28);
+        ::mavwire::field::Scalar::write(self.airspeed, out, 29);
+        ::mavwire::field::Scalar::write(self.airspeed_sp, out, 30);
+        ::mavwire::field::Scalar::write(self.groundspeed, out, 31);
+        ::mavwire::field::Scalar::write(self.windspeed, out, 32);
+        ::mavwire::field::Scalar::write(self.wind_heading, out, 33);
+        ::mavwire::field::Scalar::write(self.eph, out, 34);
+        ::mavwire::field::Scalar::write(self.epv, out, 35);
+        ::mavwire::field::Scalar::write(self.temperature_air, out, 36);
+        ::mavwire::field::Scalar::write(self.climb_rate, out, 37);
+        ::mavwire::field::Scalar::write(self.battery, out, 38);
+        ::mavwire::field::Scalar::write(self.wp_num, out, 20);
+        ::mavwire::field::Scalar::write(self.failure_flags.bits(), out, 22);
+        ::mavwire::field::Scalar::write(self.custom0, out, 39);
+        ::mavwire::field::Scalar::write(self.custom1, out, 40);
+        ::mavwire::field::Scalar::write(self.custom2, out, 41);
         Ok(Self::MAX_LEN)
     }
 }
@@ -53145,14 +54091,17 @@ impl HighLatency2 {
 impl ::mavwire::Message for HighLatency2 {
     const META: ::mavwire::MessageMeta = HighLatency2::META;
     type View<'a> = HighLatency2View<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HighLatency2::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HighLatency2::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HighLatency2View<'_> {
         HighLatency2View::new(payload)
     }
@@ -53181,6 +54130,7 @@ impl<'a> HighLatency2View<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HighLatency2 {
         HighLatency2::from_view(self)
     }
@@ -53648,33 +54598,36 @@ impl Vibration {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VibrationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            vibration_x: ::mavwire::field::read::<f32>(p, 8),
+            vibration_y: ::mavwire::field::read::<f32>(p, 12),
+            vibration_z: ::mavwire::field::read::<f32>(p, 16),
+            clipping_0: ::mavwire::field::read::<u32>(p, 20),
+            clipping_1: ::mavwire::field::read::<u32>(p, 24),
+            clipping_2: ::mavwire::field::read::<u32>(p, 28),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VibrationView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            vibration_x: view.vibration_x(),
-            vibration_y: view.vibration_y(),
-            vibration_z: view.vibration_z(),
-            clipping_0: view.clipping_0(),
-            clipping_1: view.clipping_1(),
-            clipping_2: view.clipping_2(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VibrationMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_vibration_x(self.vibration_x);
-        out.set_vibration_y(self.vibration_y);
-        out.set_vibration_z(self.vibration_z);
-        out.set_clipping_0(self.clipping_0);
-        out.set_clipping_1(self.clipping_1);
-        out.set_clipping_2(self.clipping_2);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.vibration_x, out, 8);
+        ::mavwire::field::Scalar::write(self.vibration_y, out, 12);
+        ::mavwire::field::Scalar::write(self.vibration_z, out, 16);
+        ::mavwire::field::Scalar::write(self.clipping_0, out, 20);
+        ::mavwire::field::Scalar::write(self.clipping_1, out, 24);
+        ::mavwire::field::Scalar::write(self.clipping_2, out, 28);
         Ok(Self::MAX_LEN)
     }
 }
@@ -53682,14 +54635,17 @@ impl Vibration {
 impl ::mavwire::Message for Vibration {
     const META: ::mavwire::MessageMeta = Vibration::META;
     type View<'a> = VibrationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Vibration::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Vibration::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VibrationView<'_> {
         VibrationView::new(payload)
     }
@@ -53718,6 +54674,7 @@ impl<'a> VibrationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Vibration {
         Vibration::from_view(self)
     }
@@ -54008,41 +54965,44 @@ impl HomePosition {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HomePositionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            latitude: ::mavwire::field::read::<i32>(p, 0),
+            longitude: ::mavwire::field::read::<i32>(p, 4),
+            altitude: ::mavwire::field::read::<i32>(p, 8),
+            x: ::mavwire::field::read::<f32>(p, 12),
+            y: ::mavwire::field::read::<f32>(p, 16),
+            z: ::mavwire::field::read::<f32>(p, 20),
+            q: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            approach_x: ::mavwire::field::read::<f32>(p, 40),
+            approach_y: ::mavwire::field::read::<f32>(p, 44),
+            approach_z: ::mavwire::field::read::<f32>(p, 48),
+            time_usec: ::mavwire::field::read::<u64>(p, 52),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HomePositionView<'_>) -> Self {
-        Self {
-            latitude: view.latitude(),
-            longitude: view.longitude(),
-            altitude: view.altitude(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            q: view.q().to_array(),
-            approach_x: view.approach_x(),
-            approach_y: view.approach_y(),
-            approach_z: view.approach_z(),
-            time_usec: view.time_usec(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HomePositionMut::new(payload)?;
-        out.set_latitude(self.latitude);
-        out.set_longitude(self.longitude);
-        out.set_altitude(self.altitude);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_q(&self.q);
-        out.set_approach_x(self.approach_x);
-        out.set_approach_y(self.approach_y);
-        out.set_approach_z(self.approach_z);
-        out.set_time_usec(self.time_usec);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.latitude, out, 0);
+        ::mavwire::field::Scalar::write(self.longitude, out, 4);
+        ::mavwire::field::Scalar::write(self.altitude, out, 8);
+        ::mavwire::field::Scalar::write(self.x, out, 12);
+        ::mavwire::field::Scalar::write(self.y, out, 16);
+        ::mavwire::field::Scalar::write(self.z, out, 20);
+        ::mavwire::field::write_array(out, 24, &self.q);
+        ::mavwire::field::Scalar::write(self.approach_x, out, 40);
+        ::mavwire::field::Scalar::write(self.approach_y, out, 44);
+        ::mavwire::field::Scalar::write(self.approach_z, out, 48);
+        ::mavwire::field::Scalar::write(self.time_usec, out, 52);
         Ok(Self::MAX_LEN)
     }
 }
@@ -54050,14 +55010,17 @@ impl HomePosition {
 impl ::mavwire::Message for HomePosition {
     const META: ::mavwire::MessageMeta = HomePosition::META;
     type View<'a> = HomePositionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HomePosition::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HomePosition::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HomePositionView<'_> {
         HomePositionView::new(payload)
     }
@@ -54086,6 +55049,7 @@ impl<'a> HomePositionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HomePosition {
         HomePosition::from_view(self)
     }
@@ -54436,43 +55400,46 @@ impl SetHomePosition {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetHomePositionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 52),
+            latitude: ::mavwire::field::read::<i32>(p, 0),
+            longitude: ::mavwire::field::read::<i32>(p, 4),
+            altitude: ::mavwire::field::read::<i32>(p, 8),
+            x: ::mavwire::field::read::<f32>(p, 12),
+            y: ::mavwire::field::read::<f32>(p, 16),
+            z: ::mavwire::field::read::<f32>(p, 20),
+            q: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+            approach_x: ::mavwire::field::read::<f32>(p, 40),
+            approach_y: ::mavwire::field::read::<f32>(p, 44),
+            approach_z: ::mavwire::field::read::<f32>(p, 48),
+            time_usec: ::mavwire::field::read::<u64>(p, 53),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetHomePositionView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            latitude: view.latitude(),
-            longitude: view.longitude(),
-            altitude: view.altitude(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            q: view.q().to_array(),
-            approach_x: view.approach_x(),
-            approach_y: view.approach_y(),
-            approach_z: view.approach_z(),
-            time_usec: view.time_usec(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetHomePositionMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_latitude(self.latitude);
-        out.set_longitude(self.longitude);
-        out.set_altitude(self.altitude);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_q(&self.q);
-        out.set_approach_x(self.approach_x);
-        out.set_approach_y(self.approach_y);
-        out.set_approach_z(self.approach_z);
-        out.set_time_usec(self.time_usec);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 52);
+        ::mavwire::field::Scalar::write(self.latitude, out, 0);
+        ::mavwire::field::Scalar::write(self.longitude, out, 4);
+        ::mavwire::field::Scalar::write(self.altitude, out, 8);
+        ::mavwire::field::Scalar::write(self.x, out, 12);
+        ::mavwire::field::Scalar::write(self.y, out, 16);
+        ::mavwire::field::Scalar::write(self.z, out, 20);
+        ::mavwire::field::write_array(out, 24, &self.q);
+        ::mavwire::field::Scalar::write(self.approach_x, out, 40);
+        ::mavwire::field::Scalar::write(self.approach_y, out, 44);
+        ::mavwire::field::Scalar::write(self.approach_z, out, 48);
+        ::mavwire::field::Scalar::write(self.time_usec, out, 53);
         Ok(Self::MAX_LEN)
     }
 }
@@ -54480,14 +55447,17 @@ impl SetHomePosition {
 impl ::mavwire::Message for SetHomePosition {
     const META: ::mavwire::MessageMeta = SetHomePosition::META;
     type View<'a> = SetHomePositionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetHomePosition::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetHomePosition::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetHomePositionView<'_> {
         SetHomePositionView::new(payload)
     }
@@ -54516,6 +55486,7 @@ impl<'a> SetHomePositionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetHomePosition {
         SetHomePosition::from_view(self)
     }
@@ -54748,23 +55719,26 @@ impl MessageInterval {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MessageIntervalView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            message_id: ::mavwire::field::read::<u16>(p, 4),
+            interval_us: ::mavwire::field::read::<i32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MessageIntervalView<'_>) -> Self {
-        Self {
-            message_id: view.message_id(),
-            interval_us: view.interval_us(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MessageIntervalMut::new(payload)?;
-        out.set_message_id(self.message_id);
-        out.set_interval_us(self.interval_us);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.message_id, out, 4);
+        ::mavwire::field::Scalar::write(self.interval_us, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -54772,14 +55746,17 @@ impl MessageInterval {
 impl ::mavwire::Message for MessageInterval {
     const META: ::mavwire::MessageMeta = MessageInterval::META;
     type View<'a> = MessageIntervalView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MessageInterval::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MessageInterval::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MessageIntervalView<'_> {
         MessageIntervalView::new(payload)
     }
@@ -54808,6 +55785,7 @@ impl<'a> MessageIntervalView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MessageInterval {
         MessageInterval::from_view(self)
     }
@@ -54917,23 +55895,26 @@ impl ExtendedSysState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ExtendedSysStateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            vtol_state: MavVtolState::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            landed_state: MavLandedState::from_raw(::mavwire::field::read::<u8>(p, 1)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ExtendedSysStateView<'_>) -> Self {
-        Self {
-            vtol_state: view.vtol_state(),
-            landed_state: view.landed_state(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ExtendedSysStateMut::new(payload)?;
-        out.set_vtol_state(self.vtol_state);
-        out.set_landed_state(self.landed_state);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.vtol_state.to_raw(), out, 0);
+        ::mavwire::field::Scalar::write(self.landed_state.to_raw(), out, 1);
         Ok(Self::MAX_LEN)
     }
 }
@@ -54941,14 +55922,17 @@ impl ExtendedSysState {
 impl ::mavwire::Message for ExtendedSysState {
     const META: ::mavwire::MessageMeta = ExtendedSysState::META;
     type View<'a> = ExtendedSysStateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ExtendedSysState::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ExtendedSysState::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ExtendedSysStateView<'_> {
         ExtendedSysStateView::new(payload)
     }
@@ -54977,6 +55961,7 @@ impl<'a> ExtendedSysStateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ExtendedSysState {
         ExtendedSysState::from_view(self)
     }
@@ -55209,45 +56194,50 @@ impl AdsbVehicle {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AdsbVehicleView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            icao_address: ::mavwire::field::read::<u32>(p, 0),
+            lat: ::mavwire::field::read::<i32>(p, 4),
+            lon: ::mavwire::field::read::<i32>(p, 8),
+            altitude_type: AdsbAltitudeType::from_raw(
+                ::mavwire::field::read::<u8>(p, 26),
+            ),
+            altitude: ::mavwire::field::read::<i32>(p, 12),
+            heading: ::mavwire::field::read::<u16>(p, 16),
+            hor_velocity: ::mavwire::field::read::<u16>(p, 18),
+            ver_velocity: ::mavwire::field::read::<i16>(p, 20),
+            callsign: ::mavwire::field::CharArray::new(p, 27).to_array(),
+            emitter_type: AdsbEmitterType::from_raw(::mavwire::field::read::<u8>(p, 36)),
+            tslc: ::mavwire::field::read::<u8>(p, 37),
+            flags: AdsbFlags::from_bits_retain(::mavwire::field::read::<u16>(p, 22)),
+            squawk: ::mavwire::field::read::<u16>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AdsbVehicleView<'_>) -> Self {
-        Self {
-            icao_address: view.icao_address(),
-            lat: view.lat(),
-            lon: view.lon(),
-            altitude_type: view.altitude_type(),
-            altitude: view.altitude(),
-            heading: view.heading(),
-            hor_velocity: view.hor_velocity(),
-            ver_velocity: view.ver_velocity(),
-            callsign: view.callsign().to_array(),
-            emitter_type: view.emitter_type(),
-            tslc: view.tslc(),
-            flags: view.flags(),
-            squawk: view.squawk(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AdsbVehicleMut::new(payload)?;
-        out.set_icao_address(self.icao_address);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_altitude_type(self.altitude_type);
-        out.set_altitude(self.altitude);
-        out.set_heading(self.heading);
-        out.set_hor_velocity(self.hor_velocity);
-        out.set_ver_velocity(self.ver_velocity);
-        out.set_callsign(&self.callsign);
-        out.set_emitter_type(self.emitter_type);
-        out.set_tslc(self.tslc);
-        out.set_flags(self.flags);
-        out.set_squawk(self.squawk);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.icao_address, out, 0);
+        ::mavwire::field::Scalar::write(self.lat, out, 4);
+        ::mavwire::field::Scalar::write(self.lon, out, 8);
+        ::mavwire::field::Scalar::write(self.altitude_type.to_raw(), out, 26);
+        ::mavwire::field::Scalar::write(self.altitude, out, 12);
+        ::mavwire::field::Scalar::write(self.heading, out, 16);
+        ::mavwire::field::Scalar::write(self.hor_velocity, out, 18);
+        ::mavwire::field::Scalar::write(self.ver_velocity, out, 20);
+        ::mavwire::field::write_array(out, 27, &self.callsign);
+        ::mavwire::field::Scalar::write(self.emitter_type.to_raw(), out, 36);
+        ::mavwire::field::Scalar::write(self.tslc, out, 37);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 22);
+        ::mavwire::field::Scalar::write(self.squawk, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -55255,14 +56245,17 @@ impl AdsbVehicle {
 impl ::mavwire::Message for AdsbVehicle {
     const META: ::mavwire::MessageMeta = AdsbVehicle::META;
     type View<'a> = AdsbVehicleView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AdsbVehicle::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AdsbVehicle::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AdsbVehicleView<'_> {
         AdsbVehicleView::new(payload)
     }
@@ -55291,6 +56284,7 @@ impl<'a> AdsbVehicleView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AdsbVehicle {
         AdsbVehicle::from_view(self)
     }
@@ -55589,33 +56583,38 @@ impl Collision {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CollisionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            src: MavCollisionSrc::from_raw(::mavwire::field::read::<u8>(p, 16)),
+            id: ::mavwire::field::read::<u32>(p, 0),
+            action: MavCollisionAction::from_raw(::mavwire::field::read::<u8>(p, 17)),
+            threat_level: MavCollisionThreatLevel::from_raw(
+                ::mavwire::field::read::<u8>(p, 18),
+            ),
+            time_to_minimum_delta: ::mavwire::field::read::<f32>(p, 4),
+            altitude_minimum_delta: ::mavwire::field::read::<f32>(p, 8),
+            horizontal_minimum_delta: ::mavwire::field::read::<f32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CollisionView<'_>) -> Self {
-        Self {
-            src: view.src(),
-            id: view.id(),
-            action: view.action(),
-            threat_level: view.threat_level(),
-            time_to_minimum_delta: view.time_to_minimum_delta(),
-            altitude_minimum_delta: view.altitude_minimum_delta(),
-            horizontal_minimum_delta: view.horizontal_minimum_delta(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CollisionMut::new(payload)?;
-        out.set_src(self.src);
-        out.set_id(self.id);
-        out.set_action(self.action);
-        out.set_threat_level(self.threat_level);
-        out.set_time_to_minimum_delta(self.time_to_minimum_delta);
-        out.set_altitude_minimum_delta(self.altitude_minimum_delta);
-        out.set_horizontal_minimum_delta(self.horizontal_minimum_delta);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.src.to_raw(), out, 16);
+        ::mavwire::field::Scalar::write(self.id, out, 0);
+        ::mavwire::field::Scalar::write(self.action.to_raw(), out, 17);
+        ::mavwire::field::Scalar::write(self.threat_level.to_raw(), out, 18);
+        ::mavwire::field::Scalar::write(self.time_to_minimum_delta, out, 4);
+        ::mavwire::field::Scalar::write(self.altitude_minimum_delta, out, 8);
+        ::mavwire::field::Scalar::write(self.horizontal_minimum_delta, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -55623,14 +56622,17 @@ impl Collision {
 impl ::mavwire::Message for Collision {
     const META: ::mavwire::MessageMeta = Collision::META;
     type View<'a> = CollisionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Collision::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Collision::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CollisionView<'_> {
         CollisionView::new(payload)
     }
@@ -55659,6 +56661,7 @@ impl<'a> CollisionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Collision {
         Collision::from_view(self)
     }
@@ -55872,29 +56875,32 @@ impl V2Extension {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&V2ExtensionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_network: ::mavwire::field::read::<u8>(p, 2),
+            target_system: ::mavwire::field::read::<u8>(p, 3),
+            target_component: ::mavwire::field::read::<u8>(p, 4),
+            message_type: ::mavwire::field::read::<u16>(p, 0),
+            payload: ::mavwire::field::ArrayView::new(p, 5).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &V2ExtensionView<'_>) -> Self {
-        Self {
-            target_network: view.target_network(),
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            message_type: view.message_type(),
-            payload: view.payload().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = V2ExtensionMut::new(payload)?;
-        out.set_target_network(self.target_network);
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_message_type(self.message_type);
-        out.set_payload(&self.payload);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_network, out, 2);
+        ::mavwire::field::Scalar::write(self.target_system, out, 3);
+        ::mavwire::field::Scalar::write(self.target_component, out, 4);
+        ::mavwire::field::Scalar::write(self.message_type, out, 0);
+        ::mavwire::field::write_array(out, 5, &self.payload);
         Ok(Self::MAX_LEN)
     }
 }
@@ -55914,14 +56920,17 @@ impl Default for V2Extension {
 impl ::mavwire::Message for V2Extension {
     const META: ::mavwire::MessageMeta = V2Extension::META;
     type View<'a> = V2ExtensionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         V2Extension::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         V2Extension::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> V2ExtensionView<'_> {
         V2ExtensionView::new(payload)
     }
@@ -55950,6 +56959,7 @@ impl<'a> V2ExtensionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> V2Extension {
         V2Extension::from_view(self)
     }
@@ -56118,27 +57128,30 @@ impl MemoryVect {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MemoryVectView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            address: ::mavwire::field::read::<u16>(p, 0),
+            ver: ::mavwire::field::read::<u8>(p, 2),
+            r#type: ::mavwire::field::read::<u8>(p, 3),
+            value: ::mavwire::field::ArrayView::new(p, 4).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MemoryVectView<'_>) -> Self {
-        Self {
-            address: view.address(),
-            ver: view.ver(),
-            r#type: view.r#type(),
-            value: view.value().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MemoryVectMut::new(payload)?;
-        out.set_address(self.address);
-        out.set_ver(self.ver);
-        out.set_type(self.r#type);
-        out.set_value(&self.value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.address, out, 0);
+        ::mavwire::field::Scalar::write(self.ver, out, 2);
+        ::mavwire::field::Scalar::write(self.r#type, out, 3);
+        ::mavwire::field::write_array(out, 4, &self.value);
         Ok(Self::MAX_LEN)
     }
 }
@@ -56146,14 +57159,17 @@ impl MemoryVect {
 impl ::mavwire::Message for MemoryVect {
     const META: ::mavwire::MessageMeta = MemoryVect::META;
     type View<'a> = MemoryVectView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MemoryVect::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MemoryVect::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MemoryVectView<'_> {
         MemoryVectView::new(payload)
     }
@@ -56182,6 +57198,7 @@ impl<'a> MemoryVectView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MemoryVect {
         MemoryVect::from_view(self)
     }
@@ -56350,29 +57367,32 @@ impl DebugVect {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DebugVectView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            name: ::mavwire::field::CharArray::new(p, 20).to_array(),
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            x: ::mavwire::field::read::<f32>(p, 8),
+            y: ::mavwire::field::read::<f32>(p, 12),
+            z: ::mavwire::field::read::<f32>(p, 16),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DebugVectView<'_>) -> Self {
-        Self {
-            name: view.name().to_array(),
-            time_usec: view.time_usec(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DebugVectMut::new(payload)?;
-        out.set_name(&self.name);
-        out.set_time_usec(self.time_usec);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 20, &self.name);
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.x, out, 8);
+        ::mavwire::field::Scalar::write(self.y, out, 12);
+        ::mavwire::field::Scalar::write(self.z, out, 16);
         Ok(Self::MAX_LEN)
     }
 }
@@ -56380,14 +57400,17 @@ impl DebugVect {
 impl ::mavwire::Message for DebugVect {
     const META: ::mavwire::MessageMeta = DebugVect::META;
     type View<'a> = DebugVectView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DebugVect::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DebugVect::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DebugVectView<'_> {
         DebugVectView::new(payload)
     }
@@ -56416,6 +57439,7 @@ impl<'a> DebugVectView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DebugVect {
         DebugVect::from_view(self)
     }
@@ -56573,25 +57597,28 @@ impl NamedValueFloat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&NamedValueFloatView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            name: ::mavwire::field::CharArray::new(p, 8).to_array(),
+            value: ::mavwire::field::read::<f32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &NamedValueFloatView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            name: view.name().to_array(),
-            value: view.value(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = NamedValueFloatMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_name(&self.name);
-        out.set_value(self.value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.name);
+        ::mavwire::field::Scalar::write(self.value, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -56599,14 +57626,17 @@ impl NamedValueFloat {
 impl ::mavwire::Message for NamedValueFloat {
     const META: ::mavwire::MessageMeta = NamedValueFloat::META;
     type View<'a> = NamedValueFloatView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         NamedValueFloat::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         NamedValueFloat::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> NamedValueFloatView<'_> {
         NamedValueFloatView::new(payload)
     }
@@ -56635,6 +57665,7 @@ impl<'a> NamedValueFloatView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> NamedValueFloat {
         NamedValueFloat::from_view(self)
     }
@@ -56769,25 +57800,28 @@ impl NamedValueInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&NamedValueIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            name: ::mavwire::field::CharArray::new(p, 8).to_array(),
+            value: ::mavwire::field::read::<i32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &NamedValueIntView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            name: view.name().to_array(),
-            value: view.value(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = NamedValueIntMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_name(&self.name);
-        out.set_value(self.value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.name);
+        ::mavwire::field::Scalar::write(self.value, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -56795,14 +57829,17 @@ impl NamedValueInt {
 impl ::mavwire::Message for NamedValueInt {
     const META: ::mavwire::MessageMeta = NamedValueInt::META;
     type View<'a> = NamedValueIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         NamedValueInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         NamedValueInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> NamedValueIntView<'_> {
         NamedValueIntView::new(payload)
     }
@@ -56831,6 +57868,7 @@ impl<'a> NamedValueIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> NamedValueInt {
         NamedValueInt::from_view(self)
     }
@@ -56981,27 +58019,30 @@ impl Statustext {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&StatustextView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            severity: MavSeverity::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            text: ::mavwire::field::CharArray::new(p, 1).to_array(),
+            id: ::mavwire::field::read::<u16>(p, 51),
+            chunk_seq: ::mavwire::field::read::<u8>(p, 53),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &StatustextView<'_>) -> Self {
-        Self {
-            severity: view.severity(),
-            text: view.text().to_array(),
-            id: view.id(),
-            chunk_seq: view.chunk_seq(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = StatustextMut::new(payload)?;
-        out.set_severity(self.severity);
-        out.set_text(&self.text);
-        out.set_id(self.id);
-        out.set_chunk_seq(self.chunk_seq);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.severity.to_raw(), out, 0);
+        ::mavwire::field::write_array(out, 1, &self.text);
+        ::mavwire::field::Scalar::write(self.id, out, 51);
+        ::mavwire::field::Scalar::write(self.chunk_seq, out, 53);
         Ok(Self::MAX_LEN)
     }
 }
@@ -57020,14 +58061,17 @@ impl Default for Statustext {
 impl ::mavwire::Message for Statustext {
     const META: ::mavwire::MessageMeta = Statustext::META;
     type View<'a> = StatustextView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Statustext::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Statustext::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> StatustextView<'_> {
         StatustextView::new(payload)
     }
@@ -57056,6 +58100,7 @@ impl<'a> StatustextView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Statustext {
         Statustext::from_view(self)
     }
@@ -57200,25 +58245,28 @@ impl Debug {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DebugView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            ind: ::mavwire::field::read::<u8>(p, 8),
+            value: ::mavwire::field::read::<f32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DebugView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            ind: view.ind(),
-            value: view.value(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DebugMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_ind(self.ind);
-        out.set_value(self.value);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.ind, out, 8);
+        ::mavwire::field::Scalar::write(self.value, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -57226,14 +58274,17 @@ impl Debug {
 impl ::mavwire::Message for Debug {
     const META: ::mavwire::MessageMeta = Debug::META;
     type View<'a> = DebugView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Debug::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Debug::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DebugView<'_> {
         DebugView::new(payload)
     }
@@ -57262,6 +58313,7 @@ impl<'a> DebugView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Debug {
         Debug::from_view(self)
     }
@@ -57405,27 +58457,30 @@ impl SetupSigning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SetupSigningView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 8),
+            target_component: ::mavwire::field::read::<u8>(p, 9),
+            secret_key: ::mavwire::field::ArrayView::new(p, 10).to_array(),
+            initial_timestamp: ::mavwire::field::read::<u64>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SetupSigningView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            secret_key: view.secret_key().to_array(),
-            initial_timestamp: view.initial_timestamp(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SetupSigningMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_secret_key(&self.secret_key);
-        out.set_initial_timestamp(self.initial_timestamp);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 8);
+        ::mavwire::field::Scalar::write(self.target_component, out, 9);
+        ::mavwire::field::write_array(out, 10, &self.secret_key);
+        ::mavwire::field::Scalar::write(self.initial_timestamp, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -57433,14 +58488,17 @@ impl SetupSigning {
 impl ::mavwire::Message for SetupSigning {
     const META: ::mavwire::MessageMeta = SetupSigning::META;
     type View<'a> = SetupSigningView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SetupSigning::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SetupSigning::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SetupSigningView<'_> {
         SetupSigningView::new(payload)
     }
@@ -57469,6 +58527,7 @@ impl<'a> SetupSigningView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SetupSigning {
         SetupSigning::from_view(self)
     }
@@ -57612,25 +58671,28 @@ impl ButtonChange {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ButtonChangeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            last_change_ms: ::mavwire::field::read::<u32>(p, 4),
+            state: ::mavwire::field::read::<u8>(p, 8),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ButtonChangeView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            last_change_ms: view.last_change_ms(),
-            state: view.state(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ButtonChangeMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_last_change_ms(self.last_change_ms);
-        out.set_state(self.state);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.last_change_ms, out, 4);
+        ::mavwire::field::Scalar::write(self.state, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -57638,14 +58700,17 @@ impl ButtonChange {
 impl ::mavwire::Message for ButtonChange {
     const META: ::mavwire::MessageMeta = ButtonChange::META;
     type View<'a> = ButtonChangeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ButtonChange::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ButtonChange::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ButtonChangeView<'_> {
         ButtonChangeView::new(payload)
     }
@@ -57674,6 +58739,7 @@ impl<'a> ButtonChangeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ButtonChange {
         ButtonChange::from_view(self)
     }
@@ -57817,27 +58883,30 @@ impl PlayTune {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&PlayTuneView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            tune: ::mavwire::field::CharArray::new(p, 2).to_array(),
+            tune2: ::mavwire::field::CharArray::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &PlayTuneView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            tune: view.tune().to_array(),
-            tune2: view.tune2().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = PlayTuneMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_tune(&self.tune);
-        out.set_tune2(&self.tune2);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.tune);
+        ::mavwire::field::write_array(out, 32, &self.tune2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -57856,14 +58925,17 @@ impl Default for PlayTune {
 impl ::mavwire::Message for PlayTune {
     const META: ::mavwire::MessageMeta = PlayTune::META;
     type View<'a> = PlayTuneView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         PlayTune::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         PlayTune::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> PlayTuneView<'_> {
         PlayTuneView::new(payload)
     }
@@ -57892,6 +58964,7 @@ impl<'a> PlayTuneView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> PlayTune {
         PlayTune::from_view(self)
     }
@@ -58178,49 +59251,54 @@ impl CameraInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraInformationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            vendor_name: ::mavwire::field::ArrayView::new(p, 30).to_array(),
+            model_name: ::mavwire::field::ArrayView::new(p, 62).to_array(),
+            firmware_version: ::mavwire::field::read::<u32>(p, 4),
+            focal_length: ::mavwire::field::read::<f32>(p, 8),
+            sensor_size_h: ::mavwire::field::read::<f32>(p, 12),
+            sensor_size_v: ::mavwire::field::read::<f32>(p, 16),
+            resolution_h: ::mavwire::field::read::<u16>(p, 24),
+            resolution_v: ::mavwire::field::read::<u16>(p, 26),
+            lens_id: ::mavwire::field::read::<u8>(p, 94),
+            flags: CameraCapFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 20),
+            ),
+            cam_definition_version: ::mavwire::field::read::<u16>(p, 28),
+            cam_definition_uri: ::mavwire::field::CharArray::new(p, 95).to_array(),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 235),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 236),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraInformationView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            vendor_name: view.vendor_name().to_array(),
-            model_name: view.model_name().to_array(),
-            firmware_version: view.firmware_version(),
-            focal_length: view.focal_length(),
-            sensor_size_h: view.sensor_size_h(),
-            sensor_size_v: view.sensor_size_v(),
-            resolution_h: view.resolution_h(),
-            resolution_v: view.resolution_v(),
-            lens_id: view.lens_id(),
-            flags: view.flags(),
-            cam_definition_version: view.cam_definition_version(),
-            cam_definition_uri: view.cam_definition_uri().to_array(),
-            gimbal_device_id: view.gimbal_device_id(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraInformationMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_vendor_name(&self.vendor_name);
-        out.set_model_name(&self.model_name);
-        out.set_firmware_version(self.firmware_version);
-        out.set_focal_length(self.focal_length);
-        out.set_sensor_size_h(self.sensor_size_h);
-        out.set_sensor_size_v(self.sensor_size_v);
-        out.set_resolution_h(self.resolution_h);
-        out.set_resolution_v(self.resolution_v);
-        out.set_lens_id(self.lens_id);
-        out.set_flags(self.flags);
-        out.set_cam_definition_version(self.cam_definition_version);
-        out.set_cam_definition_uri(&self.cam_definition_uri);
-        out.set_gimbal_device_id(self.gimbal_device_id);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::write_array(out, 30, &self.vendor_name);
+        ::mavwire::field::write_array(out, 62, &self.model_name);
+        ::mavwire::field::Scalar::write(self.firmware_version, out, 4);
+        ::mavwire::field::Scalar::write(self.focal_length, out, 8);
+        ::mavwire::field::Scalar::write(self.sensor_size_h, out, 12);
+        ::mavwire::field::Scalar::write(self.sensor_size_v, out, 16);
+        ::mavwire::field::Scalar::write(self.resolution_h, out, 24);
+        ::mavwire::field::Scalar::write(self.resolution_v, out, 26);
+        ::mavwire::field::Scalar::write(self.lens_id, out, 94);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 20);
+        ::mavwire::field::Scalar::write(self.cam_definition_version, out, 28);
+        ::mavwire::field::write_array(out, 95, &self.cam_definition_uri);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 235);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 236);
         Ok(Self::MAX_LEN)
     }
 }
@@ -58250,14 +59328,17 @@ impl Default for CameraInformation {
 impl ::mavwire::Message for CameraInformation {
     const META: ::mavwire::MessageMeta = CameraInformation::META;
     type View<'a> = CameraInformationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraInformation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraInformation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraInformationView<'_> {
         CameraInformationView::new(payload)
     }
@@ -58286,6 +59367,7 @@ impl<'a> CameraInformationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraInformation {
         CameraInformation::from_view(self)
     }
@@ -58587,29 +59669,32 @@ impl CameraSettings {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraSettingsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            mode_id: CameraMode::from_raw(::mavwire::field::read::<u8>(p, 4)),
+            zoom_level: ::mavwire::field::read::<f32>(p, 5),
+            focus_level: ::mavwire::field::read::<f32>(p, 9),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 13),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraSettingsView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            mode_id: view.mode_id(),
-            zoom_level: view.zoom_level(),
-            focus_level: view.focus_level(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraSettingsMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_mode_id(self.mode_id);
-        out.set_zoom_level(self.zoom_level);
-        out.set_focus_level(self.focus_level);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.mode_id.to_raw(), out, 4);
+        ::mavwire::field::Scalar::write(self.zoom_level, out, 5);
+        ::mavwire::field::Scalar::write(self.focus_level, out, 9);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 13);
         Ok(Self::MAX_LEN)
     }
 }
@@ -58617,14 +59702,17 @@ impl CameraSettings {
 impl ::mavwire::Message for CameraSettings {
     const META: ::mavwire::MessageMeta = CameraSettings::META;
     type View<'a> = CameraSettingsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraSettings::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraSettings::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraSettingsView<'_> {
         CameraSettingsView::new(payload)
     }
@@ -58653,6 +59741,7 @@ impl<'a> CameraSettingsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraSettings {
         CameraSettings::from_view(self)
     }
@@ -58921,43 +60010,48 @@ impl StorageInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&StorageInformationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            storage_id: ::mavwire::field::read::<u8>(p, 24),
+            storage_count: ::mavwire::field::read::<u8>(p, 25),
+            status: StorageStatus::from_raw(::mavwire::field::read::<u8>(p, 26)),
+            total_capacity: ::mavwire::field::read::<f32>(p, 4),
+            used_capacity: ::mavwire::field::read::<f32>(p, 8),
+            available_capacity: ::mavwire::field::read::<f32>(p, 12),
+            read_speed: ::mavwire::field::read::<f32>(p, 16),
+            write_speed: ::mavwire::field::read::<f32>(p, 20),
+            r#type: StorageType::from_raw(::mavwire::field::read::<u8>(p, 27)),
+            name: ::mavwire::field::CharArray::new(p, 28).to_array(),
+            storage_usage: StorageUsageFlag::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 60),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &StorageInformationView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            storage_id: view.storage_id(),
-            storage_count: view.storage_count(),
-            status: view.status(),
-            total_capacity: view.total_capacity(),
-            used_capacity: view.used_capacity(),
-            available_capacity: view.available_capacity(),
-            read_speed: view.read_speed(),
-            write_speed: view.write_speed(),
-            r#type: view.r#type(),
-            name: view.name().to_array(),
-            storage_usage: view.storage_usage(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = StorageInformationMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_storage_id(self.storage_id);
-        out.set_storage_count(self.storage_count);
-        out.set_status(self.status);
-        out.set_total_capacity(self.total_capacity);
-        out.set_used_capacity(self.used_capacity);
-        out.set_available_capacity(self.available_capacity);
-        out.set_read_speed(self.read_speed);
-        out.set_write_speed(self.write_speed);
-        out.set_type(self.r#type);
-        out.set_name(&self.name);
-        out.set_storage_usage(self.storage_usage);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.storage_id, out, 24);
+        ::mavwire::field::Scalar::write(self.storage_count, out, 25);
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 26);
+        ::mavwire::field::Scalar::write(self.total_capacity, out, 4);
+        ::mavwire::field::Scalar::write(self.used_capacity, out, 8);
+        ::mavwire::field::Scalar::write(self.available_capacity, out, 12);
+        ::mavwire::field::Scalar::write(self.read_speed, out, 16);
+        ::mavwire::field::Scalar::write(self.write_speed, out, 20);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 27);
+        ::mavwire::field::write_array(out, 28, &self.name);
+        ::mavwire::field::Scalar::write(self.storage_usage.bits(), out, 60);
         Ok(Self::MAX_LEN)
     }
 }
@@ -58965,14 +60059,17 @@ impl StorageInformation {
 impl ::mavwire::Message for StorageInformation {
     const META: ::mavwire::MessageMeta = StorageInformation::META;
     type View<'a> = StorageInformationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         StorageInformation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         StorageInformation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> StorageInformationView<'_> {
         StorageInformationView::new(payload)
     }
@@ -59001,6 +60098,7 @@ impl<'a> StorageInformationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> StorageInformation {
         StorageInformation::from_view(self)
     }
@@ -59303,35 +60401,38 @@ impl CameraCaptureStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraCaptureStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            image_status: ::mavwire::field::read::<u8>(p, 16),
+            video_status: ::mavwire::field::read::<u8>(p, 17),
+            image_interval: ::mavwire::field::read::<f32>(p, 4),
+            recording_time_ms: ::mavwire::field::read::<u32>(p, 8),
+            available_capacity: ::mavwire::field::read::<f32>(p, 12),
+            image_count: ::mavwire::field::read::<i32>(p, 18),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 22),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraCaptureStatusView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            image_status: view.image_status(),
-            video_status: view.video_status(),
-            image_interval: view.image_interval(),
-            recording_time_ms: view.recording_time_ms(),
-            available_capacity: view.available_capacity(),
-            image_count: view.image_count(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraCaptureStatusMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_image_status(self.image_status);
-        out.set_video_status(self.video_status);
-        out.set_image_interval(self.image_interval);
-        out.set_recording_time_ms(self.recording_time_ms);
-        out.set_available_capacity(self.available_capacity);
-        out.set_image_count(self.image_count);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.image_status, out, 16);
+        ::mavwire::field::Scalar::write(self.video_status, out, 17);
+        ::mavwire::field::Scalar::write(self.image_interval, out, 4);
+        ::mavwire::field::Scalar::write(self.recording_time_ms, out, 8);
+        ::mavwire::field::Scalar::write(self.available_capacity, out, 12);
+        ::mavwire::field::Scalar::write(self.image_count, out, 18);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 22);
         Ok(Self::MAX_LEN)
     }
 }
@@ -59339,14 +60440,17 @@ impl CameraCaptureStatus {
 impl ::mavwire::Message for CameraCaptureStatus {
     const META: ::mavwire::MessageMeta = CameraCaptureStatus::META;
     type View<'a> = CameraCaptureStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraCaptureStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraCaptureStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraCaptureStatusView<'_> {
         CameraCaptureStatusView::new(payload)
     }
@@ -59375,6 +60479,7 @@ impl<'a> CameraCaptureStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraCaptureStatus {
         CameraCaptureStatus::from_view(self)
     }
@@ -59665,41 +60770,44 @@ impl CameraImageCaptured {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraImageCapturedView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 8),
+            time_utc: ::mavwire::field::read::<u64>(p, 0),
+            camera_id: ::mavwire::field::read::<u8>(p, 48),
+            lat: ::mavwire::field::read::<i32>(p, 12),
+            lon: ::mavwire::field::read::<i32>(p, 16),
+            alt: ::mavwire::field::read::<i32>(p, 20),
+            relative_alt: ::mavwire::field::read::<i32>(p, 24),
+            q: ::mavwire::field::ArrayView::new(p, 28).to_array(),
+            image_index: ::mavwire::field::read::<i32>(p, 44),
+            capture_result: ::mavwire::field::read::<i8>(p, 49),
+            file_url: ::mavwire::field::CharArray::new(p, 50).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraImageCapturedView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            time_utc: view.time_utc(),
-            camera_id: view.camera_id(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            relative_alt: view.relative_alt(),
-            q: view.q().to_array(),
-            image_index: view.image_index(),
-            capture_result: view.capture_result(),
-            file_url: view.file_url().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraImageCapturedMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_time_utc(self.time_utc);
-        out.set_camera_id(self.camera_id);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_relative_alt(self.relative_alt);
-        out.set_q(&self.q);
-        out.set_image_index(self.image_index);
-        out.set_capture_result(self.capture_result);
-        out.set_file_url(&self.file_url);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 8);
+        ::mavwire::field::Scalar::write(self.time_utc, out, 0);
+        ::mavwire::field::Scalar::write(self.camera_id, out, 48);
+        ::mavwire::field::Scalar::write(self.lat, out, 12);
+        ::mavwire::field::Scalar::write(self.lon, out, 16);
+        ::mavwire::field::Scalar::write(self.alt, out, 20);
+        ::mavwire::field::Scalar::write(self.relative_alt, out, 24);
+        ::mavwire::field::write_array(out, 28, &self.q);
+        ::mavwire::field::Scalar::write(self.image_index, out, 44);
+        ::mavwire::field::Scalar::write(self.capture_result, out, 49);
+        ::mavwire::field::write_array(out, 50, &self.file_url);
         Ok(Self::MAX_LEN)
     }
 }
@@ -59725,14 +60833,17 @@ impl Default for CameraImageCaptured {
 impl ::mavwire::Message for CameraImageCaptured {
     const META: ::mavwire::MessageMeta = CameraImageCaptured::META;
     type View<'a> = CameraImageCapturedView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraImageCaptured::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraImageCaptured::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraImageCapturedView<'_> {
         CameraImageCapturedView::new(payload)
     }
@@ -59761,6 +60872,7 @@ impl<'a> CameraImageCapturedView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraImageCaptured {
         CameraImageCaptured::from_view(self)
     }
@@ -60016,29 +61128,32 @@ impl FlightInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&FlightInformationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 24),
+            arming_time_utc: ::mavwire::field::read::<u64>(p, 0),
+            takeoff_time_utc: ::mavwire::field::read::<u64>(p, 8),
+            flight_uuid: ::mavwire::field::read::<u64>(p, 16),
+            landing_time: ::mavwire::field::read::<u32>(p, 28),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &FlightInformationView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            arming_time_utc: view.arming_time_utc(),
-            takeoff_time_utc: view.takeoff_time_utc(),
-            flight_uuid: view.flight_uuid(),
-            landing_time: view.landing_time(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = FlightInformationMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_arming_time_utc(self.arming_time_utc);
-        out.set_takeoff_time_utc(self.takeoff_time_utc);
-        out.set_flight_uuid(self.flight_uuid);
-        out.set_landing_time(self.landing_time);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 24);
+        ::mavwire::field::Scalar::write(self.arming_time_utc, out, 0);
+        ::mavwire::field::Scalar::write(self.takeoff_time_utc, out, 8);
+        ::mavwire::field::Scalar::write(self.flight_uuid, out, 16);
+        ::mavwire::field::Scalar::write(self.landing_time, out, 28);
         Ok(Self::MAX_LEN)
     }
 }
@@ -60046,14 +61161,17 @@ impl FlightInformation {
 impl ::mavwire::Message for FlightInformation {
     const META: ::mavwire::MessageMeta = FlightInformation::META;
     type View<'a> = FlightInformationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         FlightInformation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         FlightInformation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> FlightInformationView<'_> {
         FlightInformationView::new(payload)
     }
@@ -60082,6 +61200,7 @@ impl<'a> FlightInformationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> FlightInformation {
         FlightInformation::from_view(self)
     }
@@ -60260,29 +61379,32 @@ impl MountOrientation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&MountOrientationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            roll: ::mavwire::field::read::<f32>(p, 4),
+            pitch: ::mavwire::field::read::<f32>(p, 8),
+            yaw: ::mavwire::field::read::<f32>(p, 12),
+            yaw_absolute: ::mavwire::field::read::<f32>(p, 16),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &MountOrientationView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            roll: view.roll(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            yaw_absolute: view.yaw_absolute(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = MountOrientationMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_roll(self.roll);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_yaw_absolute(self.yaw_absolute);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.roll, out, 4);
+        ::mavwire::field::Scalar::write(self.pitch, out, 8);
+        ::mavwire::field::Scalar::write(self.yaw, out, 12);
+        ::mavwire::field::Scalar::write(self.yaw_absolute, out, 16);
         Ok(Self::MAX_LEN)
     }
 }
@@ -60290,14 +61412,17 @@ impl MountOrientation {
 impl ::mavwire::Message for MountOrientation {
     const META: ::mavwire::MessageMeta = MountOrientation::META;
     type View<'a> = MountOrientationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         MountOrientation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         MountOrientation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> MountOrientationView<'_> {
         MountOrientationView::new(payload)
     }
@@ -60326,6 +61451,7 @@ impl<'a> MountOrientationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> MountOrientation {
         MountOrientation::from_view(self)
     }
@@ -60515,31 +61641,34 @@ impl LoggingData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LoggingDataView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            sequence: ::mavwire::field::read::<u16>(p, 0),
+            length: ::mavwire::field::read::<u8>(p, 4),
+            first_message_offset: ::mavwire::field::read::<u8>(p, 5),
+            data: ::mavwire::field::ArrayView::new(p, 6).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LoggingDataView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            sequence: view.sequence(),
-            length: view.length(),
-            first_message_offset: view.first_message_offset(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LoggingDataMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_sequence(self.sequence);
-        out.set_length(self.length);
-        out.set_first_message_offset(self.first_message_offset);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.sequence, out, 0);
+        ::mavwire::field::Scalar::write(self.length, out, 4);
+        ::mavwire::field::Scalar::write(self.first_message_offset, out, 5);
+        ::mavwire::field::write_array(out, 6, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -60560,14 +61689,17 @@ impl Default for LoggingData {
 impl ::mavwire::Message for LoggingData {
     const META: ::mavwire::MessageMeta = LoggingData::META;
     type View<'a> = LoggingDataView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LoggingData::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LoggingData::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LoggingDataView<'_> {
         LoggingDataView::new(payload)
     }
@@ -60596,6 +61728,7 @@ impl<'a> LoggingDataView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LoggingData {
         LoggingData::from_view(self)
     }
@@ -60797,31 +61930,34 @@ impl LoggingDataAcked {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LoggingDataAckedView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            sequence: ::mavwire::field::read::<u16>(p, 0),
+            length: ::mavwire::field::read::<u8>(p, 4),
+            first_message_offset: ::mavwire::field::read::<u8>(p, 5),
+            data: ::mavwire::field::ArrayView::new(p, 6).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LoggingDataAckedView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            sequence: view.sequence(),
-            length: view.length(),
-            first_message_offset: view.first_message_offset(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LoggingDataAckedMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_sequence(self.sequence);
-        out.set_length(self.length);
-        out.set_first_message_offset(self.first_message_offset);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.sequence, out, 0);
+        ::mavwire::field::Scalar::write(self.length, out, 4);
+        ::mavwire::field::Scalar::write(self.first_message_offset, out, 5);
+        ::mavwire::field::write_array(out, 6, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -60842,14 +61978,17 @@ impl Default for LoggingDataAcked {
 impl ::mavwire::Message for LoggingDataAcked {
     const META: ::mavwire::MessageMeta = LoggingDataAcked::META;
     type View<'a> = LoggingDataAckedView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LoggingDataAcked::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LoggingDataAcked::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LoggingDataAckedView<'_> {
         LoggingDataAckedView::new(payload)
     }
@@ -60878,6 +62017,7 @@ impl<'a> LoggingDataAckedView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LoggingDataAcked {
         LoggingDataAcked::from_view(self)
     }
@@ -61045,25 +62185,28 @@ impl LoggingAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LoggingAckView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            sequence: ::mavwire::field::read::<u16>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LoggingAckView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            sequence: view.sequence(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LoggingAckMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_sequence(self.sequence);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.sequence, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -61071,14 +62214,17 @@ impl LoggingAck {
 impl ::mavwire::Message for LoggingAck {
     const META: ::mavwire::MessageMeta = LoggingAck::META;
     type View<'a> = LoggingAckView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LoggingAck::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LoggingAck::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LoggingAckView<'_> {
         LoggingAckView::new(payload)
     }
@@ -61107,6 +62253,7 @@ impl<'a> LoggingAckView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LoggingAck {
         LoggingAck::from_view(self)
     }
@@ -61367,47 +62514,54 @@ impl VideoStreamInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VideoStreamInformationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            stream_id: ::mavwire::field::read::<u8>(p, 18),
+            count: ::mavwire::field::read::<u8>(p, 19),
+            r#type: VideoStreamType::from_raw(::mavwire::field::read::<u8>(p, 20)),
+            flags: VideoStreamStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 8),
+            ),
+            framerate: ::mavwire::field::read::<f32>(p, 0),
+            resolution_h: ::mavwire::field::read::<u16>(p, 10),
+            resolution_v: ::mavwire::field::read::<u16>(p, 12),
+            bitrate: ::mavwire::field::read::<u32>(p, 4),
+            rotation: ::mavwire::field::read::<u16>(p, 14),
+            hfov: ::mavwire::field::read::<u16>(p, 16),
+            name: ::mavwire::field::CharArray::new(p, 21).to_array(),
+            uri: ::mavwire::field::CharArray::new(p, 53).to_array(),
+            encoding: VideoStreamEncoding::from_raw(
+                ::mavwire::field::read::<u8>(p, 213),
+            ),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 214),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VideoStreamInformationView<'_>) -> Self {
-        Self {
-            stream_id: view.stream_id(),
-            count: view.count(),
-            r#type: view.r#type(),
-            flags: view.flags(),
-            framerate: view.framerate(),
-            resolution_h: view.resolution_h(),
-            resolution_v: view.resolution_v(),
-            bitrate: view.bitrate(),
-            rotation: view.rotation(),
-            hfov: view.hfov(),
-            name: view.name().to_array(),
-            uri: view.uri().to_array(),
-            encoding: view.encoding(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VideoStreamInformationMut::new(payload)?;
-        out.set_stream_id(self.stream_id);
-        out.set_count(self.count);
-        out.set_type(self.r#type);
-        out.set_flags(self.flags);
-        out.set_framerate(self.framerate);
-        out.set_resolution_h(self.resolution_h);
-        out.set_resolution_v(self.resolution_v);
-        out.set_bitrate(self.bitrate);
-        out.set_rotation(self.rotation);
-        out.set_hfov(self.hfov);
-        out.set_name(&self.name);
-        out.set_uri(&self.uri);
-        out.set_encoding(self.encoding);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.stream_id, out, 18);
+        ::mavwire::field::Scalar::write(self.count, out, 19);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 20);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 8);
+        ::mavwire::field::Scalar::write(self.framerate, out, 0);
+        ::mavwire::field::Scalar::write(self.resolution_h, out, 10);
+        ::mavwire::field::Scalar::write(self.resolution_v, out, 12);
+        ::mavwire::field::Scalar::write(self.bitrate, out, 4);
+        ::mavwire::field::Scalar::write(self.rotation, out, 14);
+        ::mavwire::field::Scalar::write(self.hfov, out, 16);
+        ::mavwire::field::write_array(out, 21, &self.name);
+        ::mavwire::field::write_array(out, 53, &self.uri);
+        ::mavwire::field::Scalar::write(self.encoding.to_raw(), out, 213);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 214);
         Ok(Self::MAX_LEN)
     }
 }
@@ -61436,14 +62590,17 @@ impl Default for VideoStreamInformation {
 impl ::mavwire::Message for VideoStreamInformation {
     const META: ::mavwire::MessageMeta = VideoStreamInformation::META;
     type View<'a> = VideoStreamInformationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         VideoStreamInformation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         VideoStreamInformation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VideoStreamInformationView<'_> {
         VideoStreamInformationView::new(payload)
     }
@@ -61472,6 +62629,7 @@ impl<'a> VideoStreamInformationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> VideoStreamInformation {
         VideoStreamInformation::from_view(self)
     }
@@ -61808,37 +62966,42 @@ impl VideoStreamStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&VideoStreamStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            stream_id: ::mavwire::field::read::<u8>(p, 18),
+            flags: VideoStreamStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 8),
+            ),
+            framerate: ::mavwire::field::read::<f32>(p, 0),
+            resolution_h: ::mavwire::field::read::<u16>(p, 10),
+            resolution_v: ::mavwire::field::read::<u16>(p, 12),
+            bitrate: ::mavwire::field::read::<u32>(p, 4),
+            rotation: ::mavwire::field::read::<u16>(p, 14),
+            hfov: ::mavwire::field::read::<u16>(p, 16),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 19),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &VideoStreamStatusView<'_>) -> Self {
-        Self {
-            stream_id: view.stream_id(),
-            flags: view.flags(),
-            framerate: view.framerate(),
-            resolution_h: view.resolution_h(),
-            resolution_v: view.resolution_v(),
-            bitrate: view.bitrate(),
-            rotation: view.rotation(),
-            hfov: view.hfov(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = VideoStreamStatusMut::new(payload)?;
-        out.set_stream_id(self.stream_id);
-        out.set_flags(self.flags);
-        out.set_framerate(self.framerate);
-        out.set_resolution_h(self.resolution_h);
-        out.set_resolution_v(self.resolution_v);
-        out.set_bitrate(self.bitrate);
-        out.set_rotation(self.rotation);
-        out.set_hfov(self.hfov);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.stream_id, out, 18);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 8);
+        ::mavwire::field::Scalar::write(self.framerate, out, 0);
+        ::mavwire::field::Scalar::write(self.resolution_h, out, 10);
+        ::mavwire::field::Scalar::write(self.resolution_v, out, 12);
+        ::mavwire::field::Scalar::write(self.bitrate, out, 4);
+        ::mavwire::field::Scalar::write(self.rotation, out, 14);
+        ::mavwire::field::Scalar::write(self.hfov, out, 16);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 19);
         Ok(Self::MAX_LEN)
     }
 }
@@ -61846,14 +63009,17 @@ impl VideoStreamStatus {
 impl ::mavwire::Message for VideoStreamStatus {
     const META: ::mavwire::MessageMeta = VideoStreamStatus::META;
     type View<'a> = VideoStreamStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         VideoStreamStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         VideoStreamStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> VideoStreamStatusView<'_> {
         VideoStreamStatusView::new(payload)
     }
@@ -61882,6 +63048,7 @@ impl<'a> VideoStreamStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> VideoStreamStatus {
         VideoStreamStatus::from_view(self)
     }
@@ -62181,41 +63348,44 @@ impl CameraFovStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraFovStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            lat_camera: ::mavwire::field::read::<i32>(p, 4),
+            lon_camera: ::mavwire::field::read::<i32>(p, 8),
+            alt_camera: ::mavwire::field::read::<i32>(p, 12),
+            lat_image: ::mavwire::field::read::<i32>(p, 16),
+            lon_image: ::mavwire::field::read::<i32>(p, 20),
+            alt_image: ::mavwire::field::read::<i32>(p, 24),
+            q: ::mavwire::field::ArrayView::new(p, 28).to_array(),
+            hfov: ::mavwire::field::read::<f32>(p, 44),
+            vfov: ::mavwire::field::read::<f32>(p, 48),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 52),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraFovStatusView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            lat_camera: view.lat_camera(),
-            lon_camera: view.lon_camera(),
-            alt_camera: view.alt_camera(),
-            lat_image: view.lat_image(),
-            lon_image: view.lon_image(),
-            alt_image: view.alt_image(),
-            q: view.q().to_array(),
-            hfov: view.hfov(),
-            vfov: view.vfov(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraFovStatusMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_lat_camera(self.lat_camera);
-        out.set_lon_camera(self.lon_camera);
-        out.set_alt_camera(self.alt_camera);
-        out.set_lat_image(self.lat_image);
-        out.set_lon_image(self.lon_image);
-        out.set_alt_image(self.alt_image);
-        out.set_q(&self.q);
-        out.set_hfov(self.hfov);
-        out.set_vfov(self.vfov);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.lat_camera, out, 4);
+        ::mavwire::field::Scalar::write(self.lon_camera, out, 8);
+        ::mavwire::field::Scalar::write(self.alt_camera, out, 12);
+        ::mavwire::field::Scalar::write(self.lat_image, out, 16);
+        ::mavwire::field::Scalar::write(self.lon_image, out, 20);
+        ::mavwire::field::Scalar::write(self.alt_image, out, 24);
+        ::mavwire::field::write_array(out, 28, &self.q);
+        ::mavwire::field::Scalar::write(self.hfov, out, 44);
+        ::mavwire::field::Scalar::write(self.vfov, out, 48);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 52);
         Ok(Self::MAX_LEN)
     }
 }
@@ -62223,14 +63393,17 @@ impl CameraFovStatus {
 impl ::mavwire::Message for CameraFovStatus {
     const META: ::mavwire::MessageMeta = CameraFovStatus::META;
     type View<'a> = CameraFovStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraFovStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraFovStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraFovStatusView<'_> {
         CameraFovStatusView::new(payload)
     }
@@ -62259,6 +63432,7 @@ impl<'a> CameraFovStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraFovStatus {
         CameraFovStatus::from_view(self)
     }
@@ -62587,41 +63761,50 @@ impl CameraTrackingImageStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraTrackingImageStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            tracking_status: CameraTrackingStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 28),
+            ),
+            tracking_mode: CameraTrackingMode::from_raw(
+                ::mavwire::field::read::<u8>(p, 29),
+            ),
+            target_data: CameraTrackingTargetData::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 30),
+            ),
+            point_x: ::mavwire::field::read::<f32>(p, 0),
+            point_y: ::mavwire::field::read::<f32>(p, 4),
+            radius: ::mavwire::field::read::<f32>(p, 8),
+            rec_top_x: ::mavwire::field::read::<f32>(p, 12),
+            rec_top_y: ::mavwire::field::read::<f32>(p, 16),
+            rec_bottom_x: ::mavwire::field::read::<f32>(p, 20),
+            rec_bottom_y: ::mavwire::field::read::<f32>(p, 24),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 31),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraTrackingImageStatusView<'_>) -> Self {
-        Self {
-            tracking_status: view.tracking_status(),
-            tracking_mode: view.tracking_mode(),
-            target_data: view.target_data(),
-            point_x: view.point_x(),
-            point_y: view.point_y(),
-            radius: view.radius(),
-            rec_top_x: view.rec_top_x(),
-            rec_top_y: view.rec_top_y(),
-            rec_bottom_x: view.rec_bottom_x(),
-            rec_bottom_y: view.rec_bottom_y(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraTrackingImageStatusMut::new(payload)?;
-        out.set_tracking_status(self.tracking_status);
-        out.set_tracking_mode(self.tracking_mode);
-        out.set_target_data(self.target_data);
-        out.set_point_x(self.point_x);
-        out.set_point_y(self.point_y);
-        out.set_radius(self.radius);
-        out.set_rec_top_x(self.rec_top_x);
-        out.set_rec_top_y(self.rec_top_y);
-        out.set_rec_bottom_x(self.rec_bottom_x);
-        out.set_rec_bottom_y(self.rec_bottom_y);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.tracking_status.bits(), out, 28);
+        ::mavwire::field::Scalar::write(self.tracking_mode.to_raw(), out, 29);
+        ::mavwire::field::Scalar::write(self.target_data.bits(), out, 30);
+        ::mavwire::field::Scalar::write(self.point_x, out, 0);
+        ::mavwire::field::Scalar::write(self.point_y, out, 4);
+        ::mavwire::field::Scalar::write(self.radius, out, 8);
+        ::mavwire::field::Scalar::write(self.rec_top_x, out, 12);
+        ::mavwire::field::Scalar::write(self.rec_top_y, out, 16);
+        ::mavwire::field::Scalar::write(self.rec_bottom_x, out, 20);
+        ::mavwire::field::Scalar::write(self.rec_bottom_y, out, 24);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 31);
         Ok(Self::MAX_LEN)
     }
 }
@@ -62629,14 +63812,17 @@ impl CameraTrackingImageStatus {
 impl ::mavwire::Message for CameraTrackingImageStatus {
     const META: ::mavwire::MessageMeta = CameraTrackingImageStatus::META;
     type View<'a> = CameraTrackingImageStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraTrackingImageStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraTrackingImageStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraTrackingImageStatusView<'_> {
         CameraTrackingImageStatusView::new(payload)
     }
@@ -62665,6 +63851,7 @@ impl<'a> CameraTrackingImageStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraTrackingImageStatus {
         CameraTrackingImageStatus::from_view(self)
     }
@@ -63021,47 +64208,52 @@ impl CameraTrackingGeoStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraTrackingGeoStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            tracking_status: CameraTrackingStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 48),
+            ),
+            lat: ::mavwire::field::read::<i32>(p, 0),
+            lon: ::mavwire::field::read::<i32>(p, 4),
+            alt: ::mavwire::field::read::<f32>(p, 8),
+            h_acc: ::mavwire::field::read::<f32>(p, 12),
+            v_acc: ::mavwire::field::read::<f32>(p, 16),
+            vel_n: ::mavwire::field::read::<f32>(p, 20),
+            vel_e: ::mavwire::field::read::<f32>(p, 24),
+            vel_d: ::mavwire::field::read::<f32>(p, 28),
+            vel_acc: ::mavwire::field::read::<f32>(p, 32),
+            dist: ::mavwire::field::read::<f32>(p, 36),
+            hdg: ::mavwire::field::read::<f32>(p, 40),
+            hdg_acc: ::mavwire::field::read::<f32>(p, 44),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 49),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraTrackingGeoStatusView<'_>) -> Self {
-        Self {
-            tracking_status: view.tracking_status(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            h_acc: view.h_acc(),
-            v_acc: view.v_acc(),
-            vel_n: view.vel_n(),
-            vel_e: view.vel_e(),
-            vel_d: view.vel_d(),
-            vel_acc: view.vel_acc(),
-            dist: view.dist(),
-            hdg: view.hdg(),
-            hdg_acc: view.hdg_acc(),
-            camera_device_id: view.camera_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraTrackingGeoStatusMut::new(payload)?;
-        out.set_tracking_status(self.tracking_status);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_h_acc(self.h_acc);
-        out.set_v_acc(self.v_acc);
-        out.set_vel_n(self.vel_n);
-        out.set_vel_e(self.vel_e);
-        out.set_vel_d(self.vel_d);
-        out.set_vel_acc(self.vel_acc);
-        out.set_dist(self.dist);
-        out.set_hdg(self.hdg);
-        out.set_hdg_acc(self.hdg_acc);
-        out.set_camera_device_id(self.camera_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.tracking_status.bits(), out, 48);
+        ::mavwire::field::Scalar::write(self.lat, out, 0);
+        ::mavwire::field::Scalar::write(self.lon, out, 4);
+        ::mavwire::field::Scalar::write(self.alt, out, 8);
+        ::mavwire::field::Scalar::write(self.h_acc, out, 12);
+        ::mavwire::field::Scalar::write(self.v_acc, out, 16);
+        ::mavwire::field::Scalar::write(self.vel_n, out, 20);
+        ::mavwire::field::Scalar::write(self.vel_e, out, 24);
+        ::mavwire::field::Scalar::write(self.vel_d, out, 28);
+        ::mavwire::field::Scalar::write(self.vel_acc, out, 32);
+        ::mavwire::field::Scalar::write(self.dist, out, 36);
+        ::mavwire::field::Scalar::write(self.hdg, out, 40);
+        ::mavwire::field::Scalar::write(self.hdg_acc, out, 44);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 49);
         Ok(Self::MAX_LEN)
     }
 }
@@ -63069,14 +64261,17 @@ impl CameraTrackingGeoStatus {
 impl ::mavwire::Message for CameraTrackingGeoStatus {
     const META: ::mavwire::MessageMeta = CameraTrackingGeoStatus::META;
     type View<'a> = CameraTrackingGeoStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraTrackingGeoStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraTrackingGeoStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraTrackingGeoStatusView<'_> {
         CameraTrackingGeoStatusView::new(payload)
     }
@@ -63105,6 +64300,7 @@ impl<'a> CameraTrackingGeoStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraTrackingGeoStatus {
         CameraTrackingGeoStatus::from_view(self)
     }
@@ -63443,37 +64639,40 @@ impl CameraThermalRange {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CameraThermalRangeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            stream_id: ::mavwire::field::read::<u8>(p, 28),
+            camera_device_id: ::mavwire::field::read::<u8>(p, 29),
+            max: ::mavwire::field::read::<f32>(p, 4),
+            max_point_x: ::mavwire::field::read::<f32>(p, 8),
+            max_point_y: ::mavwire::field::read::<f32>(p, 12),
+            min: ::mavwire::field::read::<f32>(p, 16),
+            min_point_x: ::mavwire::field::read::<f32>(p, 20),
+            min_point_y: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CameraThermalRangeView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            stream_id: view.stream_id(),
-            camera_device_id: view.camera_device_id(),
-            max: view.max(),
-            max_point_x: view.max_point_x(),
-            max_point_y: view.max_point_y(),
-            min: view.min(),
-            min_point_x: view.min_point_x(),
-            min_point_y: view.min_point_y(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CameraThermalRangeMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_stream_id(self.stream_id);
-        out.set_camera_device_id(self.camera_device_id);
-        out.set_max(self.max);
-        out.set_max_point_x(self.max_point_x);
-        out.set_max_point_y(self.max_point_y);
-        out.set_min(self.min);
-        out.set_min_point_x(self.min_point_x);
-        out.set_min_point_y(self.min_point_y);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.stream_id, out, 28);
+        ::mavwire::field::Scalar::write(self.camera_device_id, out, 29);
+        ::mavwire::field::Scalar::write(self.max, out, 4);
+        ::mavwire::field::Scalar::write(self.max_point_x, out, 8);
+        ::mavwire::field::Scalar::write(self.max_point_y, out, 12);
+        ::mavwire::field::Scalar::write(self.min, out, 16);
+        ::mavwire::field::Scalar::write(self.min_point_x, out, 20);
+        ::mavwire::field::Scalar::write(self.min_point_y, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -63481,14 +64680,17 @@ impl CameraThermalRange {
 impl ::mavwire::Message for CameraThermalRange {
     const META: ::mavwire::MessageMeta = CameraThermalRange::META;
     type View<'a> = CameraThermalRangeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CameraThermalRange::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CameraThermalRange::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CameraThermalRangeView<'_> {
         CameraThermalRangeView::new(payload)
     }
@@ -63517,6 +64719,7 @@ impl<'a> CameraThermalRangeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CameraThermalRange {
         CameraThermalRange::from_view(self)
     }
@@ -63792,37 +64995,42 @@ impl GimbalManagerInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalManagerInformationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            cap_flags: GimbalManagerCapFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 4),
+            ),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 32),
+            roll_min: ::mavwire::field::read::<f32>(p, 8),
+            roll_max: ::mavwire::field::read::<f32>(p, 12),
+            pitch_min: ::mavwire::field::read::<f32>(p, 16),
+            pitch_max: ::mavwire::field::read::<f32>(p, 20),
+            yaw_min: ::mavwire::field::read::<f32>(p, 24),
+            yaw_max: ::mavwire::field::read::<f32>(p, 28),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalManagerInformationView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            cap_flags: view.cap_flags(),
-            gimbal_device_id: view.gimbal_device_id(),
-            roll_min: view.roll_min(),
-            roll_max: view.roll_max(),
-            pitch_min: view.pitch_min(),
-            pitch_max: view.pitch_max(),
-            yaw_min: view.yaw_min(),
-            yaw_max: view.yaw_max(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalManagerInformationMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_cap_flags(self.cap_flags);
-        out.set_gimbal_device_id(self.gimbal_device_id);
-        out.set_roll_min(self.roll_min);
-        out.set_roll_max(self.roll_max);
-        out.set_pitch_min(self.pitch_min);
-        out.set_pitch_max(self.pitch_max);
-        out.set_yaw_min(self.yaw_min);
-        out.set_yaw_max(self.yaw_max);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.cap_flags.bits(), out, 4);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 32);
+        ::mavwire::field::Scalar::write(self.roll_min, out, 8);
+        ::mavwire::field::Scalar::write(self.roll_max, out, 12);
+        ::mavwire::field::Scalar::write(self.pitch_min, out, 16);
+        ::mavwire::field::Scalar::write(self.pitch_max, out, 20);
+        ::mavwire::field::Scalar::write(self.yaw_min, out, 24);
+        ::mavwire::field::Scalar::write(self.yaw_max, out, 28);
         Ok(Self::MAX_LEN)
     }
 }
@@ -63830,14 +65038,17 @@ impl GimbalManagerInformation {
 impl ::mavwire::Message for GimbalManagerInformation {
     const META: ::mavwire::MessageMeta = GimbalManagerInformation::META;
     type View<'a> = GimbalManagerInformationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalManagerInformation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalManagerInformation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalManagerInformationView<'_> {
         GimbalManagerInformationView::new(payload)
     }
@@ -63866,6 +65077,7 @@ impl<'a> GimbalManagerInformationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalManagerInformation {
         GimbalManagerInformation::from_view(self)
     }
@@ -64119,33 +65331,38 @@ impl GimbalManagerStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalManagerStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            flags: GimbalManagerFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 4),
+            ),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 8),
+            primary_control_sysid: ::mavwire::field::read::<u8>(p, 9),
+            primary_control_compid: ::mavwire::field::read::<u8>(p, 10),
+            secondary_control_sysid: ::mavwire::field::read::<u8>(p, 11),
+            secondary_control_compid: ::mavwire::field::read::<u8>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalManagerStatusView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            flags: view.flags(),
-            gimbal_device_id: view.gimbal_device_id(),
-            primary_control_sysid: view.primary_control_sysid(),
-            primary_control_compid: view.primary_control_compid(),
-            secondary_control_sysid: view.secondary_control_sysid(),
-            secondary_control_compid: view.secondary_control_compid(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalManagerStatusMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_flags(self.flags);
-        out.set_gimbal_device_id(self.gimbal_device_id);
-        out.set_primary_control_sysid(self.primary_control_sysid);
-        out.set_primary_control_compid(self.primary_control_compid);
-        out.set_secondary_control_sysid(self.secondary_control_sysid);
-        out.set_secondary_control_compid(self.secondary_control_compid);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 4);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 8);
+        ::mavwire::field::Scalar::write(self.primary_control_sysid, out, 9);
+        ::mavwire::field::Scalar::write(self.primary_control_compid, out, 10);
+        ::mavwire::field::Scalar::write(self.secondary_control_sysid, out, 11);
+        ::mavwire::field::Scalar::write(self.secondary_control_compid, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -64153,14 +65370,17 @@ impl GimbalManagerStatus {
 impl ::mavwire::Message for GimbalManagerStatus {
     const META: ::mavwire::MessageMeta = GimbalManagerStatus::META;
     type View<'a> = GimbalManagerStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalManagerStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalManagerStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalManagerStatusView<'_> {
         GimbalManagerStatusView::new(payload)
     }
@@ -64189,6 +65409,7 @@ impl<'a> GimbalManagerStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalManagerStatus {
         GimbalManagerStatus::from_view(self)
     }
@@ -64432,35 +65653,40 @@ impl GimbalManagerSetAttitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalManagerSetAttitudeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 32),
+            target_component: ::mavwire::field::read::<u8>(p, 33),
+            flags: GimbalManagerFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 0),
+            ),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 34),
+            q: ::mavwire::field::ArrayView::new(p, 4).to_array(),
+            angular_velocity_x: ::mavwire::field::read::<f32>(p, 20),
+            angular_velocity_y: ::mavwire::field::read::<f32>(p, 24),
+            angular_velocity_z: ::mavwire::field::read::<f32>(p, 28),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalManagerSetAttitudeView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            flags: view.flags(),
-            gimbal_device_id: view.gimbal_device_id(),
-            q: view.q().to_array(),
-            angular_velocity_x: view.angular_velocity_x(),
-            angular_velocity_y: view.angular_velocity_y(),
-            angular_velocity_z: view.angular_velocity_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalManagerSetAttitudeMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_flags(self.flags);
-        out.set_gimbal_device_id(self.gimbal_device_id);
-        out.set_q(&self.q);
-        out.set_angular_velocity_x(self.angular_velocity_x);
-        out.set_angular_velocity_y(self.angular_velocity_y);
-        out.set_angular_velocity_z(self.angular_velocity_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 32);
+        ::mavwire::field::Scalar::write(self.target_component, out, 33);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 0);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 34);
+        ::mavwire::field::write_array(out, 4, &self.q);
+        ::mavwire::field::Scalar::write(self.angular_velocity_x, out, 20);
+        ::mavwire::field::Scalar::write(self.angular_velocity_y, out, 24);
+        ::mavwire::field::Scalar::write(self.angular_velocity_z, out, 28);
         Ok(Self::MAX_LEN)
     }
 }
@@ -64468,14 +65694,17 @@ impl GimbalManagerSetAttitude {
 impl ::mavwire::Message for GimbalManagerSetAttitude {
     const META: ::mavwire::MessageMeta = GimbalManagerSetAttitude::META;
     type View<'a> = GimbalManagerSetAttitudeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalManagerSetAttitude::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalManagerSetAttitude::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalManagerSetAttitudeView<'_> {
         GimbalManagerSetAttitudeView::new(payload)
     }
@@ -64504,6 +65733,7 @@ impl<'a> GimbalManagerSetAttitudeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalManagerSetAttitude {
         GimbalManagerSetAttitude::from_view(self)
     }
@@ -64868,53 +66098,60 @@ impl GimbalDeviceInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalDeviceInformationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 8),
+            vendor_name: ::mavwire::field::CharArray::new(p, 48).to_array(),
+            model_name: ::mavwire::field::CharArray::new(p, 80).to_array(),
+            custom_name: ::mavwire::field::CharArray::new(p, 112).to_array(),
+            firmware_version: ::mavwire::field::read::<u32>(p, 12),
+            hardware_version: ::mavwire::field::read::<u32>(p, 16),
+            uid: ::mavwire::field::read::<u64>(p, 0),
+            cap_flags: GimbalDeviceCapFlags::from_bits_retain(
+                u32::from(::mavwire::field::read::<u16>(p, 44)),
+            ),
+            custom_cap_flags: ::mavwire::field::read::<u16>(p, 46),
+            roll_min: ::mavwire::field::read::<f32>(p, 20),
+            roll_max: ::mavwire::field::read::<f32>(p, 24),
+            pitch_min: ::mavwire::field::read::<f32>(p, 28),
+            pitch_max: ::mavwire::field::read::<f32>(p, 32),
+            yaw_min: ::mavwire::field::read::<f32>(p, 36),
+            yaw_max: ::mavwire::field::read::<f32>(p, 40),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 144),
+            cap_flags2: GimbalDeviceCapFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 145),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalDeviceInformationView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            vendor_name: view.vendor_name().to_array(),
-            model_name: view.model_name().to_array(),
-            custom_name: view.custom_name().to_array(),
-            firmware_version: view.firmware_version(),
-            hardware_version: view.hardware_version(),
-            uid: view.uid(),
-            cap_flags: view.cap_flags(),
-            custom_cap_flags: view.custom_cap_flags(),
-            roll_min: view.roll_min(),
-            roll_max: view.roll_max(),
-            pitch_min: view.pitch_min(),
-            pitch_max: view.pitch_max(),
-            yaw_min: view.yaw_min(),
-            yaw_max: view.yaw_max(),
-            gimbal_device_id: view.gimbal_device_id(),
-            cap_flags2: view.cap_flags2(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalDeviceInformationMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_vendor_name(&self.vendor_name);
-        out.set_model_name(&self.model_name);
-        out.set_custom_name(&self.custom_name);
-        out.set_firmware_version(self.firmware_version);
-        out.set_hardware_version(self.hardware_version);
-        out.set_uid(self.uid);
-        out.set_cap_flags(self.cap_flags);
-        out.set_custom_cap_flags(self.custom_cap_flags);
-        out.set_roll_min(self.roll_min);
-        out.set_roll_max(self.roll_max);
-        out.set_pitch_min(self.pitch_min);
-        out.set_pitch_max(self.pitch_max);
-        out.set_yaw_min(self.yaw_min);
-        out.set_yaw_max(self.yaw_max);
-        out.set_gimbal_device_id(self.gimbal_device_id);
-        out.set_cap_flags2(self.cap_flags2);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 8);
+        ::mavwire::field::write_array(out, 48, &self.vendor_name);
+        ::mavwire::field::write_array(out, 80, &self.model_name);
+        ::mavwire::field::write_array(out, 112, &self.custom_name);
+        ::mavwire::field::Scalar::write(self.firmware_version, out, 12);
+        ::mavwire::field::Scalar::write(self.hardware_version, out, 16);
+        ::mavwire::field::Scalar::write(self.uid, out, 0);
+        ::mavwire::field::Scalar::write(self.cap_flags.bits() as u16, out, 44);
+        ::mavwire::field::Scalar::write(self.custom_cap_flags, out, 46);
+        ::mavwire::field::Scalar::write(self.roll_min, out, 20);
+        ::mavwire::field::Scalar::write(self.roll_max, out, 24);
+        ::mavwire::field::Scalar::write(self.pitch_min, out, 28);
+        ::mavwire::field::Scalar::write(self.pitch_max, out, 32);
+        ::mavwire::field::Scalar::write(self.yaw_min, out, 36);
+        ::mavwire::field::Scalar::write(self.yaw_max, out, 40);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 144);
+        ::mavwire::field::Scalar::write(self.cap_flags2.bits(), out, 145);
         Ok(Self::MAX_LEN)
     }
 }
@@ -64922,14 +66159,17 @@ impl GimbalDeviceInformation {
 impl ::mavwire::Message for GimbalDeviceInformation {
     const META: ::mavwire::MessageMeta = GimbalDeviceInformation::META;
     type View<'a> = GimbalDeviceInformationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalDeviceInformation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalDeviceInformation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalDeviceInformationView<'_> {
         GimbalDeviceInformationView::new(payload)
     }
@@ -64958,6 +66198,7 @@ impl<'a> GimbalDeviceInformationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalDeviceInformation {
         GimbalDeviceInformation::from_view(self)
     }
@@ -65322,33 +66563,38 @@ impl GimbalDeviceSetAttitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalDeviceSetAttitudeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 30),
+            target_component: ::mavwire::field::read::<u8>(p, 31),
+            flags: GimbalDeviceFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 28),
+            ),
+            q: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            angular_velocity_x: ::mavwire::field::read::<f32>(p, 16),
+            angular_velocity_y: ::mavwire::field::read::<f32>(p, 20),
+            angular_velocity_z: ::mavwire::field::read::<f32>(p, 24),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalDeviceSetAttitudeView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            flags: view.flags(),
-            q: view.q().to_array(),
-            angular_velocity_x: view.angular_velocity_x(),
-            angular_velocity_y: view.angular_velocity_y(),
-            angular_velocity_z: view.angular_velocity_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalDeviceSetAttitudeMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_flags(self.flags);
-        out.set_q(&self.q);
-        out.set_angular_velocity_x(self.angular_velocity_x);
-        out.set_angular_velocity_y(self.angular_velocity_y);
-        out.set_angular_velocity_z(self.angular_velocity_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 30);
+        ::mavwire::field::Scalar::write(self.target_component, out, 31);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 28);
+        ::mavwire::field::write_array(out, 0, &self.q);
+        ::mavwire::field::Scalar::write(self.angular_velocity_x, out, 16);
+        ::mavwire::field::Scalar::write(self.angular_velocity_y, out, 20);
+        ::mavwire::field::Scalar::write(self.angular_velocity_z, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -65356,14 +66602,17 @@ impl GimbalDeviceSetAttitude {
 impl ::mavwire::Message for GimbalDeviceSetAttitude {
     const META: ::mavwire::MessageMeta = GimbalDeviceSetAttitude::META;
     type View<'a> = GimbalDeviceSetAttitudeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalDeviceSetAttitude::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalDeviceSetAttitude::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalDeviceSetAttitudeView<'_> {
         GimbalDeviceSetAttitudeView::new(payload)
     }
@@ -65392,6 +66641,7 @@ impl<'a> GimbalDeviceSetAttitudeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalDeviceSetAttitude {
         GimbalDeviceSetAttitude::from_view(self)
     }
@@ -65701,43 +66951,50 @@ impl GimbalDeviceAttitudeStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalDeviceAttitudeStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 38),
+            target_component: ::mavwire::field::read::<u8>(p, 39),
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            flags: GimbalDeviceFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 36),
+            ),
+            q: ::mavwire::field::ArrayView::new(p, 4).to_array(),
+            angular_velocity_x: ::mavwire::field::read::<f32>(p, 20),
+            angular_velocity_y: ::mavwire::field::read::<f32>(p, 24),
+            angular_velocity_z: ::mavwire::field::read::<f32>(p, 28),
+            failure_flags: GimbalDeviceErrorFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 32),
+            ),
+            delta_yaw: ::mavwire::field::read::<f32>(p, 40),
+            delta_yaw_velocity: ::mavwire::field::read::<f32>(p, 44),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 48),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalDeviceAttitudeStatusView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            time_boot_ms: view.time_boot_ms(),
-            flags: view.flags(),
-            q: view.q().to_array(),
-            angular_velocity_x: view.angular_velocity_x(),
-            angular_velocity_y: view.angular_velocity_y(),
-            angular_velocity_z: view.angular_velocity_z(),
-            failure_flags: view.failure_flags(),
-            delta_yaw: view.delta_yaw(),
-            delta_yaw_velocity: view.delta_yaw_velocity(),
-            gimbal_device_id: view.gimbal_device_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalDeviceAttitudeStatusMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_flags(self.flags);
-        out.set_q(&self.q);
-        out.set_angular_velocity_x(self.angular_velocity_x);
-        out.set_angular_velocity_y(self.angular_velocity_y);
-        out.set_angular_velocity_z(self.angular_velocity_z);
-        out.set_failure_flags(self.failure_flags);
-        out.set_delta_yaw(self.delta_yaw);
-        out.set_delta_yaw_velocity(self.delta_yaw_velocity);
-        out.set_gimbal_device_id(self.gimbal_device_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 38);
+        ::mavwire::field::Scalar::write(self.target_component, out, 39);
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 36);
+        ::mavwire::field::write_array(out, 4, &self.q);
+        ::mavwire::field::Scalar::write(self.angular_velocity_x, out, 20);
+        ::mavwire::field::Scalar::write(self.angular_velocity_y, out, 24);
+        ::mavwire::field::Scalar::write(self.angular_velocity_z, out, 28);
+        ::mavwire::field::Scalar::write(self.failure_flags.bits(), out, 32);
+        ::mavwire::field::Scalar::write(self.delta_yaw, out, 40);
+        ::mavwire::field::Scalar::write(self.delta_yaw_velocity, out, 44);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 48);
         Ok(Self::MAX_LEN)
     }
 }
@@ -65745,14 +67002,17 @@ impl GimbalDeviceAttitudeStatus {
 impl ::mavwire::Message for GimbalDeviceAttitudeStatus {
     const META: ::mavwire::MessageMeta = GimbalDeviceAttitudeStatus::META;
     type View<'a> = GimbalDeviceAttitudeStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalDeviceAttitudeStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalDeviceAttitudeStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalDeviceAttitudeStatusView<'_> {
         GimbalDeviceAttitudeStatusView::new(payload)
     }
@@ -65781,6 +67041,7 @@ impl<'a> GimbalDeviceAttitudeStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalDeviceAttitudeStatus {
         GimbalDeviceAttitudeStatus::from_view(self)
     }
@@ -66144,45 +67405,50 @@ impl AutopilotStateForGimbalDevice {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AutopilotStateForGimbalDeviceView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 50),
+            target_component: ::mavwire::field::read::<u8>(p, 51),
+            time_boot_us: ::mavwire::field::read::<u64>(p, 0),
+            q: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            q_estimated_delay_us: ::mavwire::field::read::<u32>(p, 24),
+            vx: ::mavwire::field::read::<f32>(p, 28),
+            vy: ::mavwire::field::read::<f32>(p, 32),
+            vz: ::mavwire::field::read::<f32>(p, 36),
+            v_estimated_delay_us: ::mavwire::field::read::<u32>(p, 40),
+            feed_forward_angular_velocity_z: ::mavwire::field::read::<f32>(p, 44),
+            estimator_status: EstimatorStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 48),
+            ),
+            landed_state: MavLandedState::from_raw(::mavwire::field::read::<u8>(p, 52)),
+            angular_velocity_z: ::mavwire::field::read::<f32>(p, 53),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AutopilotStateForGimbalDeviceView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            time_boot_us: view.time_boot_us(),
-            q: view.q().to_array(),
-            q_estimated_delay_us: view.q_estimated_delay_us(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            v_estimated_delay_us: view.v_estimated_delay_us(),
-            feed_forward_angular_velocity_z: view.feed_forward_angular_velocity_z(),
-            estimator_status: view.estimator_status(),
-            landed_state: view.landed_state(),
-            angular_velocity_z: view.angular_velocity_z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AutopilotStateForGimbalDeviceMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_time_boot_us(self.time_boot_us);
-        out.set_q(&self.q);
-        out.set_q_estimated_delay_us(self.q_estimated_delay_us);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_v_estimated_delay_us(self.v_estimated_delay_us);
-        out.set_feed_forward_angular_velocity_z(self.feed_forward_angular_velocity_z);
-        out.set_estimator_status(self.estimator_status);
-        out.set_landed_state(self.landed_state);
-        out.set_angular_velocity_z(self.angular_velocity_z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 50);
+        ::mavwire::field::Scalar::write(self.target_component, out, 51);
+        ::mavwire::field::Scalar::write(self.time_boot_us, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.q);
+        ::mavwire::field::Scalar::write(self.q_estimated_delay_us, out, 24);
+        ::mavwire::field::Scalar::write(self.vx, out, 28);
+        ::mavwire::field::Scalar::write(self.vy, out, 32);
+        ::mavwire::field::Scalar::write(self.vz, out, 36);
+        ::mavwire::field::Scalar::write(self.v_estimated_delay_us, out, 40);
+        ::mavwire::field::Scalar::write(self.feed_forward_angular_velocity_z, out, 44);
+        ::mavwire::field::Scalar::write(self.estimator_status.bits(), out, 48);
+        ::mavwire::field::Scalar::write(self.landed_state.to_raw(), out, 52);
+        ::mavwire::field::Scalar::write(self.angular_velocity_z, out, 53);
         Ok(Self::MAX_LEN)
     }
 }
@@ -66190,14 +67456,17 @@ impl AutopilotStateForGimbalDevice {
 impl ::mavwire::Message for AutopilotStateForGimbalDevice {
     const META: ::mavwire::MessageMeta = AutopilotStateForGimbalDevice::META;
     type View<'a> = AutopilotStateForGimbalDeviceView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AutopilotStateForGimbalDevice::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AutopilotStateForGimbalDevice::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AutopilotStateForGimbalDeviceView<'_> {
         AutopilotStateForGimbalDeviceView::new(payload)
     }
@@ -66226,6 +67495,7 @@ impl<'a> AutopilotStateForGimbalDeviceView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AutopilotStateForGimbalDevice {
         AutopilotStateForGimbalDevice::from_view(self)
     }
@@ -66541,35 +67811,40 @@ impl GimbalManagerSetPitchyaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalManagerSetPitchyawView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 20),
+            target_component: ::mavwire::field::read::<u8>(p, 21),
+            flags: GimbalManagerFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 0),
+            ),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 22),
+            pitch: ::mavwire::field::read::<f32>(p, 4),
+            yaw: ::mavwire::field::read::<f32>(p, 8),
+            pitch_rate: ::mavwire::field::read::<f32>(p, 12),
+            yaw_rate: ::mavwire::field::read::<f32>(p, 16),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalManagerSetPitchyawView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            flags: view.flags(),
-            gimbal_device_id: view.gimbal_device_id(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            pitch_rate: view.pitch_rate(),
-            yaw_rate: view.yaw_rate(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalManagerSetPitchyawMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_flags(self.flags);
-        out.set_gimbal_device_id(self.gimbal_device_id);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_pitch_rate(self.pitch_rate);
-        out.set_yaw_rate(self.yaw_rate);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 20);
+        ::mavwire::field::Scalar::write(self.target_component, out, 21);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 0);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 22);
+        ::mavwire::field::Scalar::write(self.pitch, out, 4);
+        ::mavwire::field::Scalar::write(self.yaw, out, 8);
+        ::mavwire::field::Scalar::write(self.pitch_rate, out, 12);
+        ::mavwire::field::Scalar::write(self.yaw_rate, out, 16);
         Ok(Self::MAX_LEN)
     }
 }
@@ -66577,14 +67852,17 @@ impl GimbalManagerSetPitchyaw {
 impl ::mavwire::Message for GimbalManagerSetPitchyaw {
     const META: ::mavwire::MessageMeta = GimbalManagerSetPitchyaw::META;
     type View<'a> = GimbalManagerSetPitchyawView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalManagerSetPitchyaw::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalManagerSetPitchyaw::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalManagerSetPitchyawView<'_> {
         GimbalManagerSetPitchyawView::new(payload)
     }
@@ -66613,6 +67891,7 @@ impl<'a> GimbalManagerSetPitchyawView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalManagerSetPitchyaw {
         GimbalManagerSetPitchyaw::from_view(self)
     }
@@ -66870,35 +68149,40 @@ impl GimbalManagerSetManualControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GimbalManagerSetManualControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 20),
+            target_component: ::mavwire::field::read::<u8>(p, 21),
+            flags: GimbalManagerFlags::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 0),
+            ),
+            gimbal_device_id: ::mavwire::field::read::<u8>(p, 22),
+            pitch: ::mavwire::field::read::<f32>(p, 4),
+            yaw: ::mavwire::field::read::<f32>(p, 8),
+            pitch_rate: ::mavwire::field::read::<f32>(p, 12),
+            yaw_rate: ::mavwire::field::read::<f32>(p, 16),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GimbalManagerSetManualControlView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            flags: view.flags(),
-            gimbal_device_id: view.gimbal_device_id(),
-            pitch: view.pitch(),
-            yaw: view.yaw(),
-            pitch_rate: view.pitch_rate(),
-            yaw_rate: view.yaw_rate(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GimbalManagerSetManualControlMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_flags(self.flags);
-        out.set_gimbal_device_id(self.gimbal_device_id);
-        out.set_pitch(self.pitch);
-        out.set_yaw(self.yaw);
-        out.set_pitch_rate(self.pitch_rate);
-        out.set_yaw_rate(self.yaw_rate);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 20);
+        ::mavwire::field::Scalar::write(self.target_component, out, 21);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 0);
+        ::mavwire::field::Scalar::write(self.gimbal_device_id, out, 22);
+        ::mavwire::field::Scalar::write(self.pitch, out, 4);
+        ::mavwire::field::Scalar::write(self.yaw, out, 8);
+        ::mavwire::field::Scalar::write(self.pitch_rate, out, 12);
+        ::mavwire::field::Scalar::write(self.yaw_rate, out, 16);
         Ok(Self::MAX_LEN)
     }
 }
@@ -66906,14 +68190,17 @@ impl GimbalManagerSetManualControl {
 impl ::mavwire::Message for GimbalManagerSetManualControl {
     const META: ::mavwire::MessageMeta = GimbalManagerSetManualControl::META;
     type View<'a> = GimbalManagerSetManualControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GimbalManagerSetManualControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GimbalManagerSetManualControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GimbalManagerSetManualControlView<'_> {
         GimbalManagerSetManualControlView::new(payload)
     }
@@ -66942,6 +68229,7 @@ impl<'a> GimbalManagerSetManualControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GimbalManagerSetManualControl {
         GimbalManagerSetManualControl::from_view(self)
     }
@@ -67159,29 +68447,34 @@ impl Airspeed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AirspeedView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            id: ::mavwire::field::read::<u8>(p, 10),
+            airspeed: ::mavwire::field::read::<f32>(p, 0),
+            temperature: ::mavwire::field::read::<i16>(p, 8),
+            raw_press: ::mavwire::field::read::<f32>(p, 4),
+            flags: AirspeedSensorFlags::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 11),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AirspeedView<'_>) -> Self {
-        Self {
-            id: view.id(),
-            airspeed: view.airspeed(),
-            temperature: view.temperature(),
-            raw_press: view.raw_press(),
-            flags: view.flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AirspeedMut::new(payload)?;
-        out.set_id(self.id);
-        out.set_airspeed(self.airspeed);
-        out.set_temperature(self.temperature);
-        out.set_raw_press(self.raw_press);
-        out.set_flags(self.flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.id, out, 10);
+        ::mavwire::field::Scalar::write(self.airspeed, out, 0);
+        ::mavwire::field::Scalar::write(self.temperature, out, 8);
+        ::mavwire::field::Scalar::write(self.raw_press, out, 4);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 11);
         Ok(Self::MAX_LEN)
     }
 }
@@ -67189,14 +68482,17 @@ impl Airspeed {
 impl ::mavwire::Message for Airspeed {
     const META: ::mavwire::MessageMeta = Airspeed::META;
     type View<'a> = AirspeedView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Airspeed::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Airspeed::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AirspeedView<'_> {
         AirspeedView::new(payload)
     }
@@ -67225,6 +68521,7 @@ impl<'a> AirspeedView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Airspeed {
         Airspeed::from_view(self)
     }
@@ -67501,45 +68798,50 @@ impl GlobalPositionSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GlobalPositionSensorView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 36),
+            target_component: ::mavwire::field::read::<u8>(p, 37),
+            id: ::mavwire::field::read::<u8>(p, 38),
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            processing_time: ::mavwire::field::read::<u32>(p, 8),
+            source: GlobalPositionSrc::from_raw(::mavwire::field::read::<u8>(p, 39)),
+            flags: GlobalPositionFlags::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 40),
+            ),
+            lat: ::mavwire::field::read::<i32>(p, 12),
+            lon: ::mavwire::field::read::<i32>(p, 16),
+            alt_ellipsoid: ::mavwire::field::read::<f32>(p, 20),
+            alt: ::mavwire::field::read::<f32>(p, 24),
+            eph: ::mavwire::field::read::<f32>(p, 28),
+            epv: ::mavwire::field::read::<f32>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GlobalPositionSensorView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id: view.id(),
-            time_usec: view.time_usec(),
-            processing_time: view.processing_time(),
-            source: view.source(),
-            flags: view.flags(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt_ellipsoid: view.alt_ellipsoid(),
-            alt: view.alt(),
-            eph: view.eph(),
-            epv: view.epv(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GlobalPositionSensorMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id(self.id);
-        out.set_time_usec(self.time_usec);
-        out.set_processing_time(self.processing_time);
-        out.set_source(self.source);
-        out.set_flags(self.flags);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt_ellipsoid(self.alt_ellipsoid);
-        out.set_alt(self.alt);
-        out.set_eph(self.eph);
-        out.set_epv(self.epv);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 36);
+        ::mavwire::field::Scalar::write(self.target_component, out, 37);
+        ::mavwire::field::Scalar::write(self.id, out, 38);
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.processing_time, out, 8);
+        ::mavwire::field::Scalar::write(self.source.to_raw(), out, 39);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 40);
+        ::mavwire::field::Scalar::write(self.lat, out, 12);
+        ::mavwire::field::Scalar::write(self.lon, out, 16);
+        ::mavwire::field::Scalar::write(self.alt_ellipsoid, out, 20);
+        ::mavwire::field::Scalar::write(self.alt, out, 24);
+        ::mavwire::field::Scalar::write(self.eph, out, 28);
+        ::mavwire::field::Scalar::write(self.epv, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -67547,14 +68849,17 @@ impl GlobalPositionSensor {
 impl ::mavwire::Message for GlobalPositionSensor {
     const META: ::mavwire::MessageMeta = GlobalPositionSensor::META;
     type View<'a> = GlobalPositionSensorView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GlobalPositionSensor::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GlobalPositionSensor::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GlobalPositionSensorView<'_> {
         GlobalPositionSensorView::new(payload)
     }
@@ -67583,6 +68888,7 @@ impl<'a> GlobalPositionSensorView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GlobalPositionSensor {
         GlobalPositionSensor::from_view(self)
     }
@@ -67828,23 +69134,26 @@ impl WifiConfigAp {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&WifiConfigApView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            ssid: ::mavwire::field::CharArray::new(p, 0).to_array(),
+            password: ::mavwire::field::CharArray::new(p, 32).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &WifiConfigApView<'_>) -> Self {
-        Self {
-            ssid: view.ssid().to_array(),
-            password: view.password().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = WifiConfigApMut::new(payload)?;
-        out.set_ssid(&self.ssid);
-        out.set_password(&self.password);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 0, &self.ssid);
+        ::mavwire::field::write_array(out, 32, &self.password);
         Ok(Self::MAX_LEN)
     }
 }
@@ -67861,14 +69170,17 @@ impl Default for WifiConfigAp {
 impl ::mavwire::Message for WifiConfigAp {
     const META: ::mavwire::MessageMeta = WifiConfigAp::META;
     type View<'a> = WifiConfigApView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         WifiConfigAp::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         WifiConfigAp::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> WifiConfigApView<'_> {
         WifiConfigApView::new(payload)
     }
@@ -67897,6 +69209,7 @@ impl<'a> WifiConfigApView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> WifiConfigAp {
         WifiConfigAp::from_view(self)
     }
@@ -68170,53 +69483,58 @@ impl AisVessel {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AisVesselView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            mmsi: ::mavwire::field::read::<u32>(p, 0),
+            lat: ::mavwire::field::read::<i32>(p, 4),
+            lon: ::mavwire::field::read::<i32>(p, 8),
+            cog: ::mavwire::field::read::<u16>(p, 12),
+            heading: ::mavwire::field::read::<u16>(p, 14),
+            velocity: ::mavwire::field::read::<u16>(p, 16),
+            turn_rate: ::mavwire::field::read::<i8>(p, 26),
+            navigational_status: AisNavStatus::from_raw(
+                ::mavwire::field::read::<u8>(p, 27),
+            ),
+            r#type: AisType::from_raw(::mavwire::field::read::<u8>(p, 28)),
+            dimension_bow: ::mavwire::field::read::<u16>(p, 18),
+            dimension_stern: ::mavwire::field::read::<u16>(p, 20),
+            dimension_port: ::mavwire::field::read::<u8>(p, 29),
+            dimension_starboard: ::mavwire::field::read::<u8>(p, 30),
+            callsign: ::mavwire::field::CharArray::new(p, 31).to_array(),
+            name: ::mavwire::field::CharArray::new(p, 38).to_array(),
+            tslc: ::mavwire::field::read::<u16>(p, 22),
+            flags: AisFlags::from_bits_retain(::mavwire::field::read::<u16>(p, 24)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AisVesselView<'_>) -> Self {
-        Self {
-            mmsi: view.mmsi(),
-            lat: view.lat(),
-            lon: view.lon(),
-            cog: view.cog(),
-            heading: view.heading(),
-            velocity: view.velocity(),
-            turn_rate: view.turn_rate(),
-            navigational_status: view.navigational_status(),
-            r#type: view.r#type(),
-            dimension_bow: view.dimension_bow(),
-            dimension_stern: view.dimension_stern(),
-            dimension_port: view.dimension_port(),
-            dimension_starboard: view.dimension_starboard(),
-            callsign: view.callsign().to_array(),
-            name: view.name().to_array(),
-            tslc: view.tslc(),
-            flags: view.flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AisVesselMut::new(payload)?;
-        out.set_mmsi(self.mmsi);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_cog(self.cog);
-        out.set_heading(self.heading);
-        out.set_velocity(self.velocity);
-        out.set_turn_rate(self.turn_rate);
-        out.set_navigational_status(self.navigational_status);
-        out.set_type(self.r#type);
-        out.set_dimension_bow(self.dimension_bow);
-        out.set_dimension_stern(self.dimension_stern);
-        out.set_dimension_port(self.dimension_port);
-        out.set_dimension_starboard(self.dimension_starboard);
-        out.set_callsign(&self.callsign);
-        out.set_name(&self.name);
-        out.set_tslc(self.tslc);
-        out.set_flags(self.flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.mmsi, out, 0);
+        ::mavwire::field::Scalar::write(self.lat, out, 4);
+        ::mavwire::field::Scalar::write(self.lon, out, 8);
+        ::mavwire::field::Scalar::write(self.cog, out, 12);
+        ::mavwire::field::Scalar::write(self.heading, out, 14);
+        ::mavwire::field::Scalar::write(self.velocity, out, 16);
+        ::mavwire::field::Scalar::write(self.turn_rate, out, 26);
+        ::mavwire::field::Scalar::write(self.navigational_status.to_raw(), out, 27);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 28);
+        ::mavwire::field::Scalar::write(self.dimension_bow, out, 18);
+        ::mavwire::field::Scalar::write(self.dimension_stern, out, 20);
+        ::mavwire::field::Scalar::write(self.dimension_port, out, 29);
+        ::mavwire::field::Scalar::write(self.dimension_starboard, out, 30);
+        ::mavwire::field::write_array(out, 31, &self.callsign);
+        ::mavwire::field::write_array(out, 38, &self.name);
+        ::mavwire::field::Scalar::write(self.tslc, out, 22);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 24);
         Ok(Self::MAX_LEN)
     }
 }
@@ -68224,14 +69542,17 @@ impl AisVessel {
 impl ::mavwire::Message for AisVessel {
     const META: ::mavwire::MessageMeta = AisVessel::META;
     type View<'a> = AisVesselView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AisVessel::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AisVessel::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AisVesselView<'_> {
         AisVesselView::new(payload)
     }
@@ -68260,6 +69581,7 @@ impl<'a> AisVesselView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AisVessel {
         AisVessel::from_view(self)
     }
@@ -68597,31 +69919,34 @@ impl UavcanNodeStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavcanNodeStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            uptime_sec: ::mavwire::field::read::<u32>(p, 8),
+            health: UavcanNodeHealth::from_raw(::mavwire::field::read::<u8>(p, 14)),
+            mode: UavcanNodeMode::from_raw(::mavwire::field::read::<u8>(p, 15)),
+            sub_mode: ::mavwire::field::read::<u8>(p, 16),
+            vendor_specific_status_code: ::mavwire::field::read::<u16>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavcanNodeStatusView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            uptime_sec: view.uptime_sec(),
-            health: view.health(),
-            mode: view.mode(),
-            sub_mode: view.sub_mode(),
-            vendor_specific_status_code: view.vendor_specific_status_code(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavcanNodeStatusMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_uptime_sec(self.uptime_sec);
-        out.set_health(self.health);
-        out.set_mode(self.mode);
-        out.set_sub_mode(self.sub_mode);
-        out.set_vendor_specific_status_code(self.vendor_specific_status_code);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.uptime_sec, out, 8);
+        ::mavwire::field::Scalar::write(self.health.to_raw(), out, 14);
+        ::mavwire::field::Scalar::write(self.mode.to_raw(), out, 15);
+        ::mavwire::field::Scalar::write(self.sub_mode, out, 16);
+        ::mavwire::field::Scalar::write(self.vendor_specific_status_code, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -68629,14 +69954,17 @@ impl UavcanNodeStatus {
 impl ::mavwire::Message for UavcanNodeStatus {
     const META: ::mavwire::MessageMeta = UavcanNodeStatus::META;
     type View<'a> = UavcanNodeStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavcanNodeStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavcanNodeStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavcanNodeStatusView<'_> {
         UavcanNodeStatusView::new(payload)
     }
@@ -68665,6 +69993,7 @@ impl<'a> UavcanNodeStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavcanNodeStatus {
         UavcanNodeStatus::from_view(self)
     }
@@ -68907,37 +70236,40 @@ impl UavcanNodeInfo {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavcanNodeInfoView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            uptime_sec: ::mavwire::field::read::<u32>(p, 8),
+            name: ::mavwire::field::CharArray::new(p, 16).to_array(),
+            hw_version_major: ::mavwire::field::read::<u8>(p, 96),
+            hw_version_minor: ::mavwire::field::read::<u8>(p, 97),
+            hw_unique_id: ::mavwire::field::ArrayView::new(p, 98).to_array(),
+            sw_version_major: ::mavwire::field::read::<u8>(p, 114),
+            sw_version_minor: ::mavwire::field::read::<u8>(p, 115),
+            sw_vcs_commit: ::mavwire::field::read::<u32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavcanNodeInfoView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            uptime_sec: view.uptime_sec(),
-            name: view.name().to_array(),
-            hw_version_major: view.hw_version_major(),
-            hw_version_minor: view.hw_version_minor(),
-            hw_unique_id: view.hw_unique_id().to_array(),
-            sw_version_major: view.sw_version_major(),
-            sw_version_minor: view.sw_version_minor(),
-            sw_vcs_commit: view.sw_vcs_commit(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavcanNodeInfoMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_uptime_sec(self.uptime_sec);
-        out.set_name(&self.name);
-        out.set_hw_version_major(self.hw_version_major);
-        out.set_hw_version_minor(self.hw_version_minor);
-        out.set_hw_unique_id(&self.hw_unique_id);
-        out.set_sw_version_major(self.sw_version_major);
-        out.set_sw_version_minor(self.sw_version_minor);
-        out.set_sw_vcs_commit(self.sw_vcs_commit);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.uptime_sec, out, 8);
+        ::mavwire::field::write_array(out, 16, &self.name);
+        ::mavwire::field::Scalar::write(self.hw_version_major, out, 96);
+        ::mavwire::field::Scalar::write(self.hw_version_minor, out, 97);
+        ::mavwire::field::write_array(out, 98, &self.hw_unique_id);
+        ::mavwire::field::Scalar::write(self.sw_version_major, out, 114);
+        ::mavwire::field::Scalar::write(self.sw_version_minor, out, 115);
+        ::mavwire::field::Scalar::write(self.sw_vcs_commit, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -68961,14 +70293,17 @@ impl Default for UavcanNodeInfo {
 impl ::mavwire::Message for UavcanNodeInfo {
     const META: ::mavwire::MessageMeta = UavcanNodeInfo::META;
     type View<'a> = UavcanNodeInfoView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavcanNodeInfo::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavcanNodeInfo::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavcanNodeInfoView<'_> {
         UavcanNodeInfoView::new(payload)
     }
@@ -68997,6 +70332,7 @@ impl<'a> UavcanNodeInfoView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavcanNodeInfo {
         UavcanNodeInfo::from_view(self)
     }
@@ -69215,27 +70551,30 @@ impl ParamExtRequestRead {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamExtRequestReadView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            param_id: ::mavwire::field::CharArray::new(p, 4).to_array(),
+            param_index: ::mavwire::field::read::<i16>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamExtRequestReadView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            param_id: view.param_id().to_array(),
-            param_index: view.param_index(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamExtRequestReadMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_param_id(&self.param_id);
-        out.set_param_index(self.param_index);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::write_array(out, 4, &self.param_id);
+        ::mavwire::field::Scalar::write(self.param_index, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -69243,14 +70582,17 @@ impl ParamExtRequestRead {
 impl ::mavwire::Message for ParamExtRequestRead {
     const META: ::mavwire::MessageMeta = ParamExtRequestRead::META;
     type View<'a> = ParamExtRequestReadView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamExtRequestRead::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamExtRequestRead::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamExtRequestReadView<'_> {
         ParamExtRequestReadView::new(payload)
     }
@@ -69279,6 +70621,7 @@ impl<'a> ParamExtRequestReadView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamExtRequestRead {
         ParamExtRequestRead::from_view(self)
     }
@@ -69412,23 +70755,26 @@ impl ParamExtRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamExtRequestListView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamExtRequestListView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamExtRequestListMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
         Ok(Self::MAX_LEN)
     }
 }
@@ -69436,14 +70782,17 @@ impl ParamExtRequestList {
 impl ::mavwire::Message for ParamExtRequestList {
     const META: ::mavwire::MessageMeta = ParamExtRequestList::META;
     type View<'a> = ParamExtRequestListView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamExtRequestList::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamExtRequestList::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamExtRequestListView<'_> {
         ParamExtRequestListView::new(payload)
     }
@@ -69472,6 +70821,7 @@ impl<'a> ParamExtRequestListView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamExtRequestList {
         ParamExtRequestList::from_view(self)
     }
@@ -69618,29 +70968,32 @@ impl ParamExtValue {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamExtValueView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            param_id: ::mavwire::field::CharArray::new(p, 4).to_array(),
+            param_value: ::mavwire::field::CharArray::new(p, 20).to_array(),
+            param_type: MavParamExtType::from_raw(::mavwire::field::read::<u8>(p, 148)),
+            param_count: ::mavwire::field::read::<u16>(p, 0),
+            param_index: ::mavwire::field::read::<u16>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamExtValueView<'_>) -> Self {
-        Self {
-            param_id: view.param_id().to_array(),
-            param_value: view.param_value().to_array(),
-            param_type: view.param_type(),
-            param_count: view.param_count(),
-            param_index: view.param_index(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamExtValueMut::new(payload)?;
-        out.set_param_id(&self.param_id);
-        out.set_param_value(&self.param_value);
-        out.set_param_type(self.param_type);
-        out.set_param_count(self.param_count);
-        out.set_param_index(self.param_index);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 4, &self.param_id);
+        ::mavwire::field::write_array(out, 20, &self.param_value);
+        ::mavwire::field::Scalar::write(self.param_type.to_raw(), out, 148);
+        ::mavwire::field::Scalar::write(self.param_count, out, 0);
+        ::mavwire::field::Scalar::write(self.param_index, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -69660,14 +71013,17 @@ impl Default for ParamExtValue {
 impl ::mavwire::Message for ParamExtValue {
     const META: ::mavwire::MessageMeta = ParamExtValue::META;
     type View<'a> = ParamExtValueView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamExtValue::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamExtValue::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamExtValueView<'_> {
         ParamExtValueView::new(payload)
     }
@@ -69696,6 +71052,7 @@ impl<'a> ParamExtValueView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamExtValue {
         ParamExtValue::from_view(self)
     }
@@ -69880,29 +71237,32 @@ impl ParamExtSet {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamExtSetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            param_id: ::mavwire::field::CharArray::new(p, 2).to_array(),
+            param_value: ::mavwire::field::CharArray::new(p, 18).to_array(),
+            param_type: MavParamExtType::from_raw(::mavwire::field::read::<u8>(p, 146)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamExtSetView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            param_id: view.param_id().to_array(),
-            param_value: view.param_value().to_array(),
-            param_type: view.param_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamExtSetMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_param_id(&self.param_id);
-        out.set_param_value(&self.param_value);
-        out.set_param_type(self.param_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.param_id);
+        ::mavwire::field::write_array(out, 18, &self.param_value);
+        ::mavwire::field::Scalar::write(self.param_type.to_raw(), out, 146);
         Ok(Self::MAX_LEN)
     }
 }
@@ -69922,14 +71282,17 @@ impl Default for ParamExtSet {
 impl ::mavwire::Message for ParamExtSet {
     const META: ::mavwire::MessageMeta = ParamExtSet::META;
     type View<'a> = ParamExtSetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamExtSet::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamExtSet::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamExtSetView<'_> {
         ParamExtSetView::new(payload)
     }
@@ -69958,6 +71321,7 @@ impl<'a> ParamExtSetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamExtSet {
         ParamExtSet::from_view(self)
     }
@@ -70127,27 +71491,30 @@ impl ParamExtAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamExtAckView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            param_id: ::mavwire::field::CharArray::new(p, 0).to_array(),
+            param_value: ::mavwire::field::CharArray::new(p, 16).to_array(),
+            param_type: MavParamExtType::from_raw(::mavwire::field::read::<u8>(p, 144)),
+            param_result: ParamAck::from_raw(::mavwire::field::read::<u8>(p, 145)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamExtAckView<'_>) -> Self {
-        Self {
-            param_id: view.param_id().to_array(),
-            param_value: view.param_value().to_array(),
-            param_type: view.param_type(),
-            param_result: view.param_result(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamExtAckMut::new(payload)?;
-        out.set_param_id(&self.param_id);
-        out.set_param_value(&self.param_value);
-        out.set_param_type(self.param_type);
-        out.set_param_result(self.param_result);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 0, &self.param_id);
+        ::mavwire::field::write_array(out, 16, &self.param_value);
+        ::mavwire::field::Scalar::write(self.param_type.to_raw(), out, 144);
+        ::mavwire::field::Scalar::write(self.param_result.to_raw(), out, 145);
         Ok(Self::MAX_LEN)
     }
 }
@@ -70166,14 +71533,17 @@ impl Default for ParamExtAck {
 impl ::mavwire::Message for ParamExtAck {
     const META: ::mavwire::MessageMeta = ParamExtAck::META;
     type View<'a> = ParamExtAckView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamExtAck::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamExtAck::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamExtAckView<'_> {
         ParamExtAckView::new(payload)
     }
@@ -70202,6 +71572,7 @@ impl<'a> ParamExtAckView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamExtAck {
         ParamExtAck::from_view(self)
     }
@@ -70429,37 +71800,42 @@ impl ObstacleDistance {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ObstacleDistanceView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            sensor_type: MavDistanceSensor::from_raw(
+                ::mavwire::field::read::<u8>(p, 156),
+            ),
+            distances: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            increment: ::mavwire::field::read::<u8>(p, 157),
+            min_distance: ::mavwire::field::read::<u16>(p, 152),
+            max_distance: ::mavwire::field::read::<u16>(p, 154),
+            increment_f: ::mavwire::field::read::<f32>(p, 158),
+            angle_offset: ::mavwire::field::read::<f32>(p, 162),
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 166)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ObstacleDistanceView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            sensor_type: view.sensor_type(),
-            distances: view.distances().to_array(),
-            increment: view.increment(),
-            min_distance: view.min_distance(),
-            max_distance: view.max_distance(),
-            increment_f: view.increment_f(),
-            angle_offset: view.angle_offset(),
-            frame: view.frame(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ObstacleDistanceMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_sensor_type(self.sensor_type);
-        out.set_distances(&self.distances);
-        out.set_increment(self.increment);
-        out.set_min_distance(self.min_distance);
-        out.set_max_distance(self.max_distance);
-        out.set_increment_f(self.increment_f);
-        out.set_angle_offset(self.angle_offset);
-        out.set_frame(self.frame);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.sensor_type.to_raw(), out, 156);
+        ::mavwire::field::write_array(out, 8, &self.distances);
+        ::mavwire::field::Scalar::write(self.increment, out, 157);
+        ::mavwire::field::Scalar::write(self.min_distance, out, 152);
+        ::mavwire::field::Scalar::write(self.max_distance, out, 154);
+        ::mavwire::field::Scalar::write(self.increment_f, out, 158);
+        ::mavwire::field::Scalar::write(self.angle_offset, out, 162);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 166);
         Ok(Self::MAX_LEN)
     }
 }
@@ -70483,14 +71859,17 @@ impl Default for ObstacleDistance {
 impl ::mavwire::Message for ObstacleDistance {
     const META: ::mavwire::MessageMeta = ObstacleDistance::META;
     type View<'a> = ObstacleDistanceView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ObstacleDistance::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ObstacleDistance::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ObstacleDistanceView<'_> {
         ObstacleDistanceView::new(payload)
     }
@@ -70519,6 +71898,7 @@ impl<'a> ObstacleDistanceView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ObstacleDistance {
         ObstacleDistance::from_view(self)
     }
@@ -70901,55 +72281,60 @@ impl Odometry {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OdometryView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            frame_id: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 228)),
+            child_frame_id: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 229)),
+            x: ::mavwire::field::read::<f32>(p, 8),
+            y: ::mavwire::field::read::<f32>(p, 12),
+            z: ::mavwire::field::read::<f32>(p, 16),
+            q: ::mavwire::field::ArrayView::new(p, 20).to_array(),
+            vx: ::mavwire::field::read::<f32>(p, 36),
+            vy: ::mavwire::field::read::<f32>(p, 40),
+            vz: ::mavwire::field::read::<f32>(p, 44),
+            rollspeed: ::mavwire::field::read::<f32>(p, 48),
+            pitchspeed: ::mavwire::field::read::<f32>(p, 52),
+            yawspeed: ::mavwire::field::read::<f32>(p, 56),
+            pose_covariance: ::mavwire::field::ArrayView::new(p, 60).to_array(),
+            velocity_covariance: ::mavwire::field::ArrayView::new(p, 144).to_array(),
+            reset_counter: ::mavwire::field::read::<u8>(p, 230),
+            estimator_type: MavEstimatorType::from_raw(
+                ::mavwire::field::read::<u8>(p, 231),
+            ),
+            quality: ::mavwire::field::read::<i8>(p, 232),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OdometryView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            frame_id: view.frame_id(),
-            child_frame_id: view.child_frame_id(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-            q: view.q().to_array(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            rollspeed: view.rollspeed(),
-            pitchspeed: view.pitchspeed(),
-            yawspeed: view.yawspeed(),
-            pose_covariance: view.pose_covariance().to_array(),
-            velocity_covariance: view.velocity_covariance().to_array(),
-            reset_counter: view.reset_counter(),
-            estimator_type: view.estimator_type(),
-            quality: view.quality(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OdometryMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_frame_id(self.frame_id);
-        out.set_child_frame_id(self.child_frame_id);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
-        out.set_q(&self.q);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_rollspeed(self.rollspeed);
-        out.set_pitchspeed(self.pitchspeed);
-        out.set_yawspeed(self.yawspeed);
-        out.set_pose_covariance(&self.pose_covariance);
-        out.set_velocity_covariance(&self.velocity_covariance);
-        out.set_reset_counter(self.reset_counter);
-        out.set_estimator_type(self.estimator_type);
-        out.set_quality(self.quality);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.frame_id.to_raw(), out, 228);
+        ::mavwire::field::Scalar::write(self.child_frame_id.to_raw(), out, 229);
+        ::mavwire::field::Scalar::write(self.x, out, 8);
+        ::mavwire::field::Scalar::write(self.y, out, 12);
+        ::mavwire::field::Scalar::write(self.z, out, 16);
+        ::mavwire::field::write_array(out, 20, &self.q);
+        ::mavwire::field::Scalar::write(self.vx, out, 36);
+        ::mavwire::field::Scalar::write(self.vy, out, 40);
+        ::mavwire::field::Scalar::write(self.vz, out, 44);
+        ::mavwire::field::Scalar::write(self.rollspeed, out, 48);
+        ::mavwire::field::Scalar::write(self.pitchspeed, out, 52);
+        ::mavwire::field::Scalar::write(self.yawspeed, out, 56);
+        ::mavwire::field::write_array(out, 60, &self.pose_covariance);
+        ::mavwire::field::write_array(out, 144, &self.velocity_covariance);
+        ::mavwire::field::Scalar::write(self.reset_counter, out, 230);
+        ::mavwire::field::Scalar::write(self.estimator_type.to_raw(), out, 231);
+        ::mavwire::field::Scalar::write(self.quality, out, 232);
         Ok(Self::MAX_LEN)
     }
 }
@@ -70957,14 +72342,17 @@ impl Odometry {
 impl ::mavwire::Message for Odometry {
     const META: ::mavwire::MessageMeta = Odometry::META;
     type View<'a> = OdometryView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Odometry::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Odometry::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OdometryView<'_> {
         OdometryView::new(payload)
     }
@@ -70993,6 +72381,7 @@ impl<'a> OdometryView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Odometry {
         Odometry::from_view(self)
     }
@@ -71431,47 +72820,50 @@ impl TrajectoryRepresentationWaypoints {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TrajectoryRepresentationWaypointsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            valid_points: ::mavwire::field::read::<u8>(p, 238),
+            pos_x: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            pos_y: ::mavwire::field::ArrayView::new(p, 28).to_array(),
+            pos_z: ::mavwire::field::ArrayView::new(p, 48).to_array(),
+            vel_x: ::mavwire::field::ArrayView::new(p, 68).to_array(),
+            vel_y: ::mavwire::field::ArrayView::new(p, 88).to_array(),
+            vel_z: ::mavwire::field::ArrayView::new(p, 108).to_array(),
+            acc_x: ::mavwire::field::ArrayView::new(p, 128).to_array(),
+            acc_y: ::mavwire::field::ArrayView::new(p, 148).to_array(),
+            acc_z: ::mavwire::field::ArrayView::new(p, 168).to_array(),
+            pos_yaw: ::mavwire::field::ArrayView::new(p, 188).to_array(),
+            vel_yaw: ::mavwire::field::ArrayView::new(p, 208).to_array(),
+            command: ::mavwire::field::ArrayView::new(p, 228).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TrajectoryRepresentationWaypointsView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            valid_points: view.valid_points(),
-            pos_x: view.pos_x().to_array(),
-            pos_y: view.pos_y().to_array(),
-            pos_z: view.pos_z().to_array(),
-            vel_x: view.vel_x().to_array(),
-            vel_y: view.vel_y().to_array(),
-            vel_z: view.vel_z().to_array(),
-            acc_x: view.acc_x().to_array(),
-            acc_y: view.acc_y().to_array(),
-            acc_z: view.acc_z().to_array(),
-            pos_yaw: view.pos_yaw().to_array(),
-            vel_yaw: view.vel_yaw().to_array(),
-            command: view.command().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TrajectoryRepresentationWaypointsMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_valid_points(self.valid_points);
-        out.set_pos_x(&self.pos_x);
-        out.set_pos_y(&self.pos_y);
-        out.set_pos_z(&self.pos_z);
-        out.set_vel_x(&self.vel_x);
-        out.set_vel_y(&self.vel_y);
-        out.set_vel_z(&self.vel_z);
-        out.set_acc_x(&self.acc_x);
-        out.set_acc_y(&self.acc_y);
-        out.set_acc_z(&self.acc_z);
-        out.set_pos_yaw(&self.pos_yaw);
-        out.set_vel_yaw(&self.vel_yaw);
-        out.set_command(&self.command);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.valid_points, out, 238);
+        ::mavwire::field::write_array(out, 8, &self.pos_x);
+        ::mavwire::field::write_array(out, 28, &self.pos_y);
+        ::mavwire::field::write_array(out, 48, &self.pos_z);
+        ::mavwire::field::write_array(out, 68, &self.vel_x);
+        ::mavwire::field::write_array(out, 88, &self.vel_y);
+        ::mavwire::field::write_array(out, 108, &self.vel_z);
+        ::mavwire::field::write_array(out, 128, &self.acc_x);
+        ::mavwire::field::write_array(out, 148, &self.acc_y);
+        ::mavwire::field::write_array(out, 168, &self.acc_z);
+        ::mavwire::field::write_array(out, 188, &self.pos_yaw);
+        ::mavwire::field::write_array(out, 208, &self.vel_yaw);
+        ::mavwire::field::write_array(out, 228, &self.command);
         Ok(Self::MAX_LEN)
     }
 }
@@ -71479,14 +72871,17 @@ impl TrajectoryRepresentationWaypoints {
 impl ::mavwire::Message for TrajectoryRepresentationWaypoints {
     const META: ::mavwire::MessageMeta = TrajectoryRepresentationWaypoints::META;
     type View<'a> = TrajectoryRepresentationWaypointsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         TrajectoryRepresentationWaypoints::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         TrajectoryRepresentationWaypoints::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TrajectoryRepresentationWaypointsView<'_> {
         TrajectoryRepresentationWaypointsView::new(payload)
     }
@@ -71515,6 +72910,7 @@ impl<'a> TrajectoryRepresentationWaypointsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> TrajectoryRepresentationWaypoints {
         TrajectoryRepresentationWaypoints::from_view(self)
     }
@@ -71827,33 +73223,36 @@ impl TrajectoryRepresentationBezier {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TrajectoryRepresentationBezierView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            valid_points: ::mavwire::field::read::<u8>(p, 108),
+            pos_x: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+            pos_y: ::mavwire::field::ArrayView::new(p, 28).to_array(),
+            pos_z: ::mavwire::field::ArrayView::new(p, 48).to_array(),
+            delta: ::mavwire::field::ArrayView::new(p, 68).to_array(),
+            pos_yaw: ::mavwire::field::ArrayView::new(p, 88).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TrajectoryRepresentationBezierView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            valid_points: view.valid_points(),
-            pos_x: view.pos_x().to_array(),
-            pos_y: view.pos_y().to_array(),
-            pos_z: view.pos_z().to_array(),
-            delta: view.delta().to_array(),
-            pos_yaw: view.pos_yaw().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TrajectoryRepresentationBezierMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_valid_points(self.valid_points);
-        out.set_pos_x(&self.pos_x);
-        out.set_pos_y(&self.pos_y);
-        out.set_pos_z(&self.pos_z);
-        out.set_delta(&self.delta);
-        out.set_pos_yaw(&self.pos_yaw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.valid_points, out, 108);
+        ::mavwire::field::write_array(out, 8, &self.pos_x);
+        ::mavwire::field::write_array(out, 28, &self.pos_y);
+        ::mavwire::field::write_array(out, 48, &self.pos_z);
+        ::mavwire::field::write_array(out, 68, &self.delta);
+        ::mavwire::field::write_array(out, 88, &self.pos_yaw);
         Ok(Self::MAX_LEN)
     }
 }
@@ -71861,14 +73260,17 @@ impl TrajectoryRepresentationBezier {
 impl ::mavwire::Message for TrajectoryRepresentationBezier {
     const META: ::mavwire::MessageMeta = TrajectoryRepresentationBezier::META;
     type View<'a> = TrajectoryRepresentationBezierView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         TrajectoryRepresentationBezier::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         TrajectoryRepresentationBezier::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TrajectoryRepresentationBezierView<'_> {
         TrajectoryRepresentationBezierView::new(payload)
     }
@@ -71897,6 +73299,7 @@ impl<'a> TrajectoryRepresentationBezierView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> TrajectoryRepresentationBezier {
         TrajectoryRepresentationBezier::from_view(self)
     }
@@ -72135,35 +73538,38 @@ impl IsbdLinkStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&IsbdLinkStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            timestamp: ::mavwire::field::read::<u64>(p, 0),
+            last_heartbeat: ::mavwire::field::read::<u64>(p, 8),
+            failed_sessions: ::mavwire::field::read::<u16>(p, 16),
+            successful_sessions: ::mavwire::field::read::<u16>(p, 18),
+            signal_quality: ::mavwire::field::read::<u8>(p, 20),
+            ring_pending: ::mavwire::field::read::<u8>(p, 21),
+            tx_session_pending: ::mavwire::field::read::<u8>(p, 22),
+            rx_session_pending: ::mavwire::field::read::<u8>(p, 23),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &IsbdLinkStatusView<'_>) -> Self {
-        Self {
-            timestamp: view.timestamp(),
-            last_heartbeat: view.last_heartbeat(),
-            failed_sessions: view.failed_sessions(),
-            successful_sessions: view.successful_sessions(),
-            signal_quality: view.signal_quality(),
-            ring_pending: view.ring_pending(),
-            tx_session_pending: view.tx_session_pending(),
-            rx_session_pending: view.rx_session_pending(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = IsbdLinkStatusMut::new(payload)?;
-        out.set_timestamp(self.timestamp);
-        out.set_last_heartbeat(self.last_heartbeat);
-        out.set_failed_sessions(self.failed_sessions);
-        out.set_successful_sessions(self.successful_sessions);
-        out.set_signal_quality(self.signal_quality);
-        out.set_ring_pending(self.ring_pending);
-        out.set_tx_session_pending(self.tx_session_pending);
-        out.set_rx_session_pending(self.rx_session_pending);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.timestamp, out, 0);
+        ::mavwire::field::Scalar::write(self.last_heartbeat, out, 8);
+        ::mavwire::field::Scalar::write(self.failed_sessions, out, 16);
+        ::mavwire::field::Scalar::write(self.successful_sessions, out, 18);
+        ::mavwire::field::Scalar::write(self.signal_quality, out, 20);
+        ::mavwire::field::Scalar::write(self.ring_pending, out, 21);
+        ::mavwire::field::Scalar::write(self.tx_session_pending, out, 22);
+        ::mavwire::field::Scalar::write(self.rx_session_pending, out, 23);
         Ok(Self::MAX_LEN)
     }
 }
@@ -72171,14 +73577,17 @@ impl IsbdLinkStatus {
 impl ::mavwire::Message for IsbdLinkStatus {
     const META: ::mavwire::MessageMeta = IsbdLinkStatus::META;
     type View<'a> = IsbdLinkStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         IsbdLinkStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         IsbdLinkStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> IsbdLinkStatusView<'_> {
         IsbdLinkStatusView::new(payload)
     }
@@ -72207,6 +73616,7 @@ impl<'a> IsbdLinkStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> IsbdLinkStatus {
         IsbdLinkStatus::from_view(self)
     }
@@ -72387,23 +73797,26 @@ impl RawRpm {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RawRpmView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            index: ::mavwire::field::read::<u8>(p, 4),
+            frequency: ::mavwire::field::read::<f32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RawRpmView<'_>) -> Self {
-        Self {
-            index: view.index(),
-            frequency: view.frequency(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RawRpmMut::new(payload)?;
-        out.set_index(self.index);
-        out.set_frequency(self.frequency);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.index, out, 4);
+        ::mavwire::field::Scalar::write(self.frequency, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -72411,14 +73824,17 @@ impl RawRpm {
 impl ::mavwire::Message for RawRpm {
     const META: ::mavwire::MessageMeta = RawRpm::META;
     type View<'a> = RawRpmView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RawRpm::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RawRpm::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RawRpmView<'_> {
         RawRpmView::new(payload)
     }
@@ -72447,6 +73863,7 @@ impl<'a> RawRpmView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RawRpm {
         RawRpm::from_view(self)
     }
@@ -72732,55 +74149,60 @@ impl UtmGlobalPosition {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UtmGlobalPositionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time: ::mavwire::field::read::<u64>(p, 0),
+            uas_id: ::mavwire::field::ArrayView::new(p, 50).to_array(),
+            lat: ::mavwire::field::read::<i32>(p, 8),
+            lon: ::mavwire::field::read::<i32>(p, 12),
+            alt: ::mavwire::field::read::<i32>(p, 16),
+            relative_alt: ::mavwire::field::read::<i32>(p, 20),
+            vx: ::mavwire::field::read::<i16>(p, 36),
+            vy: ::mavwire::field::read::<i16>(p, 38),
+            vz: ::mavwire::field::read::<i16>(p, 40),
+            h_acc: ::mavwire::field::read::<u16>(p, 42),
+            v_acc: ::mavwire::field::read::<u16>(p, 44),
+            vel_acc: ::mavwire::field::read::<u16>(p, 46),
+            next_lat: ::mavwire::field::read::<i32>(p, 24),
+            next_lon: ::mavwire::field::read::<i32>(p, 28),
+            next_alt: ::mavwire::field::read::<i32>(p, 32),
+            update_rate: ::mavwire::field::read::<u16>(p, 48),
+            flight_state: UtmFlightState::from_raw(::mavwire::field::read::<u8>(p, 68)),
+            flags: UtmDataAvailFlags::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 69),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UtmGlobalPositionView<'_>) -> Self {
-        Self {
-            time: view.time(),
-            uas_id: view.uas_id().to_array(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            relative_alt: view.relative_alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            h_acc: view.h_acc(),
-            v_acc: view.v_acc(),
-            vel_acc: view.vel_acc(),
-            next_lat: view.next_lat(),
-            next_lon: view.next_lon(),
-            next_alt: view.next_alt(),
-            update_rate: view.update_rate(),
-            flight_state: view.flight_state(),
-            flags: view.flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UtmGlobalPositionMut::new(payload)?;
-        out.set_time(self.time);
-        out.set_uas_id(&self.uas_id);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_relative_alt(self.relative_alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_h_acc(self.h_acc);
-        out.set_v_acc(self.v_acc);
-        out.set_vel_acc(self.vel_acc);
-        out.set_next_lat(self.next_lat);
-        out.set_next_lon(self.next_lon);
-        out.set_next_alt(self.next_alt);
-        out.set_update_rate(self.update_rate);
-        out.set_flight_state(self.flight_state);
-        out.set_flags(self.flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time, out, 0);
+        ::mavwire::field::write_array(out, 50, &self.uas_id);
+        ::mavwire::field::Scalar::write(self.lat, out, 8);
+        ::mavwire::field::Scalar::write(self.lon, out, 12);
+        ::mavwire::field::Scalar::write(self.alt, out, 16);
+        ::mavwire::field::Scalar::write(self.relative_alt, out, 20);
+        ::mavwire::field::Scalar::write(self.vx, out, 36);
+        ::mavwire::field::Scalar::write(self.vy, out, 38);
+        ::mavwire::field::Scalar::write(self.vz, out, 40);
+        ::mavwire::field::Scalar::write(self.h_acc, out, 42);
+        ::mavwire::field::Scalar::write(self.v_acc, out, 44);
+        ::mavwire::field::Scalar::write(self.vel_acc, out, 46);
+        ::mavwire::field::Scalar::write(self.next_lat, out, 24);
+        ::mavwire::field::Scalar::write(self.next_lon, out, 28);
+        ::mavwire::field::Scalar::write(self.next_alt, out, 32);
+        ::mavwire::field::Scalar::write(self.update_rate, out, 48);
+        ::mavwire::field::Scalar::write(self.flight_state.to_raw(), out, 68);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 69);
         Ok(Self::MAX_LEN)
     }
 }
@@ -72788,14 +74210,17 @@ impl UtmGlobalPosition {
 impl ::mavwire::Message for UtmGlobalPosition {
     const META: ::mavwire::MessageMeta = UtmGlobalPosition::META;
     type View<'a> = UtmGlobalPositionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UtmGlobalPosition::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UtmGlobalPosition::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UtmGlobalPositionView<'_> {
         UtmGlobalPositionView::new(payload)
     }
@@ -72824,6 +74249,7 @@ impl<'a> UtmGlobalPositionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UtmGlobalPosition {
         UtmGlobalPosition::from_view(self)
     }
@@ -73164,29 +74590,32 @@ impl ParamError {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ParamErrorView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            param_id: ::mavwire::field::CharArray::new(p, 4).to_array(),
+            param_index: ::mavwire::field::read::<i16>(p, 0),
+            error: MavParamError::from_raw(::mavwire::field::read::<u8>(p, 20)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ParamErrorView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            param_id: view.param_id().to_array(),
-            param_index: view.param_index(),
-            error: view.error(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ParamErrorMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_param_id(&self.param_id);
-        out.set_param_index(self.param_index);
-        out.set_error(self.error);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::write_array(out, 4, &self.param_id);
+        ::mavwire::field::Scalar::write(self.param_index, out, 0);
+        ::mavwire::field::Scalar::write(self.error.to_raw(), out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -73194,14 +74623,17 @@ impl ParamError {
 impl ::mavwire::Message for ParamError {
     const META: ::mavwire::MessageMeta = ParamError::META;
     type View<'a> = ParamErrorView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ParamError::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ParamError::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ParamErrorView<'_> {
         ParamErrorView::new(payload)
     }
@@ -73230,6 +74662,7 @@ impl<'a> ParamErrorView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ParamError {
         ParamError::from_view(self)
     }
@@ -73402,27 +74835,30 @@ impl DebugFloatArray {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&DebugFloatArrayView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            name: ::mavwire::field::CharArray::new(p, 10).to_array(),
+            array_id: ::mavwire::field::read::<u16>(p, 8),
+            data: ::mavwire::field::ArrayView::new(p, 20).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &DebugFloatArrayView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            name: view.name().to_array(),
-            array_id: view.array_id(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = DebugFloatArrayMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_name(&self.name);
-        out.set_array_id(self.array_id);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::write_array(out, 10, &self.name);
+        ::mavwire::field::Scalar::write(self.array_id, out, 8);
+        ::mavwire::field::write_array(out, 20, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -73441,14 +74877,17 @@ impl Default for DebugFloatArray {
 impl ::mavwire::Message for DebugFloatArray {
     const META: ::mavwire::MessageMeta = DebugFloatArray::META;
     type View<'a> = DebugFloatArrayView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         DebugFloatArray::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         DebugFloatArray::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> DebugFloatArrayView<'_> {
         DebugFloatArrayView::new(payload)
     }
@@ -73477,6 +74916,7 @@ impl<'a> DebugFloatArrayView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> DebugFloatArray {
         DebugFloatArray::from_view(self)
     }
@@ -73659,31 +75099,34 @@ impl OrbitExecutionStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OrbitExecutionStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            radius: ::mavwire::field::read::<f32>(p, 8),
+            frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 24)),
+            x: ::mavwire::field::read::<i32>(p, 12),
+            y: ::mavwire::field::read::<i32>(p, 16),
+            z: ::mavwire::field::read::<f32>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OrbitExecutionStatusView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            radius: view.radius(),
-            frame: view.frame(),
-            x: view.x(),
-            y: view.y(),
-            z: view.z(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OrbitExecutionStatusMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_radius(self.radius);
-        out.set_frame(self.frame);
-        out.set_x(self.x);
-        out.set_y(self.y);
-        out.set_z(self.z);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.radius, out, 8);
+        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 24);
+        ::mavwire::field::Scalar::write(self.x, out, 12);
+        ::mavwire::field::Scalar::write(self.y, out, 16);
+        ::mavwire::field::Scalar::write(self.z, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -73691,14 +75134,17 @@ impl OrbitExecutionStatus {
 impl ::mavwire::Message for OrbitExecutionStatus {
     const META: ::mavwire::MessageMeta = OrbitExecutionStatus::META;
     type View<'a> = OrbitExecutionStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OrbitExecutionStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OrbitExecutionStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OrbitExecutionStatusView<'_> {
         OrbitExecutionStatusView::new(payload)
     }
@@ -73727,6 +75173,7 @@ impl<'a> OrbitExecutionStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OrbitExecutionStatus {
         OrbitExecutionStatus::from_view(self)
     }
@@ -74059,53 +75506,58 @@ impl SmartBatteryInfo {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SmartBatteryInfoView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            id: ::mavwire::field::read::<u8>(p, 18),
+            battery_function: MavBatteryFunction::from_raw(
+                ::mavwire::field::read::<u8>(p, 19),
+            ),
+            r#type: MavBatteryType::from_raw(::mavwire::field::read::<u8>(p, 20)),
+            capacity_full_specification: ::mavwire::field::read::<i32>(p, 0),
+            capacity_full: ::mavwire::field::read::<i32>(p, 4),
+            cycle_count: ::mavwire::field::read::<u16>(p, 8),
+            serial_number: ::mavwire::field::CharArray::new(p, 21).to_array(),
+            device_name: ::mavwire::field::CharArray::new(p, 37).to_array(),
+            weight: ::mavwire::field::read::<u16>(p, 10),
+            discharge_minimum_voltage: ::mavwire::field::read::<u16>(p, 12),
+            charging_minimum_voltage: ::mavwire::field::read::<u16>(p, 14),
+            resting_minimum_voltage: ::mavwire::field::read::<u16>(p, 16),
+            charging_maximum_voltage: ::mavwire::field::read::<u16>(p, 87),
+            cells_in_series: ::mavwire::field::read::<u8>(p, 89),
+            discharge_maximum_current: ::mavwire::field::read::<u32>(p, 90),
+            discharge_maximum_burst_current: ::mavwire::field::read::<u32>(p, 94),
+            manufacture_date: ::mavwire::field::CharArray::new(p, 98).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SmartBatteryInfoView<'_>) -> Self {
-        Self {
-            id: view.id(),
-            battery_function: view.battery_function(),
-            r#type: view.r#type(),
-            capacity_full_specification: view.capacity_full_specification(),
-            capacity_full: view.capacity_full(),
-            cycle_count: view.cycle_count(),
-            serial_number: view.serial_number().to_array(),
-            device_name: view.device_name().to_array(),
-            weight: view.weight(),
-            discharge_minimum_voltage: view.discharge_minimum_voltage(),
-            charging_minimum_voltage: view.charging_minimum_voltage(),
-            resting_minimum_voltage: view.resting_minimum_voltage(),
-            charging_maximum_voltage: view.charging_maximum_voltage(),
-            cells_in_series: view.cells_in_series(),
-            discharge_maximum_current: view.discharge_maximum_current(),
-            discharge_maximum_burst_current: view.discharge_maximum_burst_current(),
-            manufacture_date: view.manufacture_date().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SmartBatteryInfoMut::new(payload)?;
-        out.set_id(self.id);
-        out.set_battery_function(self.battery_function);
-        out.set_type(self.r#type);
-        out.set_capacity_full_specification(self.capacity_full_specification);
-        out.set_capacity_full(self.capacity_full);
-        out.set_cycle_count(self.cycle_count);
-        out.set_serial_number(&self.serial_number);
-        out.set_device_name(&self.device_name);
-        out.set_weight(self.weight);
-        out.set_discharge_minimum_voltage(self.discharge_minimum_voltage);
-        out.set_charging_minimum_voltage(self.charging_minimum_voltage);
-        out.set_resting_minimum_voltage(self.resting_minimum_voltage);
-        out.set_charging_maximum_voltage(self.charging_maximum_voltage);
-        out.set_cells_in_series(self.cells_in_series);
-        out.set_discharge_maximum_current(self.discharge_maximum_current);
-        out.set_discharge_maximum_burst_current(self.discharge_maximum_burst_current);
-        out.set_manufacture_date(&self.manufacture_date);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.id, out, 18);
+        ::mavwire::field::Scalar::write(self.battery_function.to_raw(), out, 19);
+        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 20);
+        ::mavwire::field::Scalar::write(self.capacity_full_specification, out, 0);
+        ::mavwire::field::Scalar::write(self.capacity_full, out, 4);
+        ::mavwire::field::Scalar::write(self.cycle_count, out, 8);
+        ::mavwire::field::write_array(out, 21, &self.serial_number);
+        ::mavwire::field::write_array(out, 37, &self.device_name);
+        ::mavwire::field::Scalar::write(self.weight, out, 10);
+        ::mavwire::field::Scalar::write(self.discharge_minimum_voltage, out, 12);
+        ::mavwire::field::Scalar::write(self.charging_minimum_voltage, out, 14);
+        ::mavwire::field::Scalar::write(self.resting_minimum_voltage, out, 16);
+        ::mavwire::field::Scalar::write(self.charging_maximum_voltage, out, 87);
+        ::mavwire::field::Scalar::write(self.cells_in_series, out, 89);
+        ::mavwire::field::Scalar::write(self.discharge_maximum_current, out, 90);
+        ::mavwire::field::Scalar::write(self.discharge_maximum_burst_current, out, 94);
+        ::mavwire::field::write_array(out, 98, &self.manufacture_date);
         Ok(Self::MAX_LEN)
     }
 }
@@ -74137,14 +75589,17 @@ impl Default for SmartBatteryInfo {
 impl ::mavwire::Message for SmartBatteryInfo {
     const META: ::mavwire::MessageMeta = SmartBatteryInfo::META;
     type View<'a> = SmartBatteryInfoView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SmartBatteryInfo::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SmartBatteryInfo::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SmartBatteryInfoView<'_> {
         SmartBatteryInfoView::new(payload)
     }
@@ -74173,6 +75628,7 @@ impl<'a> SmartBatteryInfoView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SmartBatteryInfo {
         SmartBatteryInfo::from_view(self)
     }
@@ -74565,41 +76021,46 @@ impl GeneratorStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GeneratorStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            status: MavGeneratorStatusFlag::from_bits_retain(
+                ::mavwire::field::read::<u64>(p, 0),
+            ),
+            generator_speed: ::mavwire::field::read::<u16>(p, 36),
+            battery_current: ::mavwire::field::read::<f32>(p, 8),
+            load_current: ::mavwire::field::read::<f32>(p, 12),
+            power_generated: ::mavwire::field::read::<f32>(p, 16),
+            bus_voltage: ::mavwire::field::read::<f32>(p, 20),
+            rectifier_temperature: ::mavwire::field::read::<i16>(p, 38),
+            bat_current_setpoint: ::mavwire::field::read::<f32>(p, 24),
+            generator_temperature: ::mavwire::field::read::<i16>(p, 40),
+            runtime: ::mavwire::field::read::<u32>(p, 28),
+            time_until_maintenance: ::mavwire::field::read::<i32>(p, 32),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GeneratorStatusView<'_>) -> Self {
-        Self {
-            status: view.status(),
-            generator_speed: view.generator_speed(),
-            battery_current: view.battery_current(),
-            load_current: view.load_current(),
-            power_generated: view.power_generated(),
-            bus_voltage: view.bus_voltage(),
-            rectifier_temperature: view.rectifier_temperature(),
-            bat_current_setpoint: view.bat_current_setpoint(),
-            generator_temperature: view.generator_temperature(),
-            runtime: view.runtime(),
-            time_until_maintenance: view.time_until_maintenance(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GeneratorStatusMut::new(payload)?;
-        out.set_status(self.status);
-        out.set_generator_speed(self.generator_speed);
-        out.set_battery_current(self.battery_current);
-        out.set_load_current(self.load_current);
-        out.set_power_generated(self.power_generated);
-        out.set_bus_voltage(self.bus_voltage);
-        out.set_rectifier_temperature(self.rectifier_temperature);
-        out.set_bat_current_setpoint(self.bat_current_setpoint);
-        out.set_generator_temperature(self.generator_temperature);
-        out.set_runtime(self.runtime);
-        out.set_time_until_maintenance(self.time_until_maintenance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.status.bits(), out, 0);
+        ::mavwire::field::Scalar::write(self.generator_speed, out, 36);
+        ::mavwire::field::Scalar::write(self.battery_current, out, 8);
+        ::mavwire::field::Scalar::write(self.load_current, out, 12);
+        ::mavwire::field::Scalar::write(self.power_generated, out, 16);
+        ::mavwire::field::Scalar::write(self.bus_voltage, out, 20);
+        ::mavwire::field::Scalar::write(self.rectifier_temperature, out, 38);
+        ::mavwire::field::Scalar::write(self.bat_current_setpoint, out, 24);
+        ::mavwire::field::Scalar::write(self.generator_temperature, out, 40);
+        ::mavwire::field::Scalar::write(self.runtime, out, 28);
+        ::mavwire::field::Scalar::write(self.time_until_maintenance, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
@@ -74607,14 +76068,17 @@ impl GeneratorStatus {
 impl ::mavwire::Message for GeneratorStatus {
     const META: ::mavwire::MessageMeta = GeneratorStatus::META;
     type View<'a> = GeneratorStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GeneratorStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GeneratorStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GeneratorStatusView<'_> {
         GeneratorStatusView::new(payload)
     }
@@ -74643,6 +76107,7 @@ impl<'a> GeneratorStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GeneratorStatus {
         GeneratorStatus::from_view(self)
     }
@@ -74873,25 +76338,28 @@ impl ActuatorOutputStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&ActuatorOutputStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            active: ::mavwire::field::read::<u32>(p, 8),
+            actuator: ::mavwire::field::ArrayView::new(p, 12).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &ActuatorOutputStatusView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            active: view.active(),
-            actuator: view.actuator().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = ActuatorOutputStatusMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_active(self.active);
-        out.set_actuator(&self.actuator);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.active, out, 8);
+        ::mavwire::field::write_array(out, 12, &self.actuator);
         Ok(Self::MAX_LEN)
     }
 }
@@ -74899,14 +76367,17 @@ impl ActuatorOutputStatus {
 impl ::mavwire::Message for ActuatorOutputStatus {
     const META: ::mavwire::MessageMeta = ActuatorOutputStatus::META;
     type View<'a> = ActuatorOutputStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         ActuatorOutputStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         ActuatorOutputStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> ActuatorOutputStatusView<'_> {
         ActuatorOutputStatusView::new(payload)
     }
@@ -74935,6 +76406,7 @@ impl<'a> ActuatorOutputStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> ActuatorOutputStatus {
         ActuatorOutputStatus::from_view(self)
     }
@@ -75070,25 +76542,28 @@ impl RelayStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&RelayStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            on: ::mavwire::field::read::<u16>(p, 4),
+            present: ::mavwire::field::read::<u16>(p, 6),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &RelayStatusView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            on: view.on(),
-            present: view.present(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = RelayStatusMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_on(self.on);
-        out.set_present(self.present);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.on, out, 4);
+        ::mavwire::field::Scalar::write(self.present, out, 6);
         Ok(Self::MAX_LEN)
     }
 }
@@ -75096,14 +76571,17 @@ impl RelayStatus {
 impl ::mavwire::Message for RelayStatus {
     const META: ::mavwire::MessageMeta = RelayStatus::META;
     type View<'a> = RelayStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         RelayStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         RelayStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> RelayStatusView<'_> {
         RelayStatusView::new(payload)
     }
@@ -75132,6 +76610,7 @@ impl<'a> RelayStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> RelayStatus {
         RelayStatus::from_view(self)
     }
@@ -75295,29 +76774,34 @@ impl Tunnel {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&TunnelView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 2),
+            target_component: ::mavwire::field::read::<u8>(p, 3),
+            payload_type: MavTunnelPayloadType::from_raw(
+                ::mavwire::field::read::<u16>(p, 0),
+            ),
+            payload_length: ::mavwire::field::read::<u8>(p, 4),
+            payload: ::mavwire::field::ArrayView::new(p, 5).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &TunnelView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            payload_type: view.payload_type(),
-            payload_length: view.payload_length(),
-            payload: view.payload().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = TunnelMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_payload_type(self.payload_type);
-        out.set_payload_length(self.payload_length);
-        out.set_payload(&self.payload);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 2);
+        ::mavwire::field::Scalar::write(self.target_component, out, 3);
+        ::mavwire::field::Scalar::write(self.payload_type.to_raw(), out, 0);
+        ::mavwire::field::Scalar::write(self.payload_length, out, 4);
+        ::mavwire::field::write_array(out, 5, &self.payload);
         Ok(Self::MAX_LEN)
     }
 }
@@ -75337,14 +76821,17 @@ impl Default for Tunnel {
 impl ::mavwire::Message for Tunnel {
     const META: ::mavwire::MessageMeta = Tunnel::META;
     type View<'a> = TunnelView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         Tunnel::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         Tunnel::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> TunnelView<'_> {
         TunnelView::new(payload)
     }
@@ -75373,6 +76860,7 @@ impl<'a> TunnelView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> Tunnel {
         Tunnel::from_view(self)
     }
@@ -75561,31 +77049,34 @@ impl CanFrame {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CanFrameView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            bus: ::mavwire::field::read::<u8>(p, 6),
+            len: ::mavwire::field::read::<u8>(p, 7),
+            id: ::mavwire::field::read::<u32>(p, 0),
+            data: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CanFrameView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            bus: view.bus(),
-            len: view.len(),
-            id: view.id(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CanFrameMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_bus(self.bus);
-        out.set_len(self.len);
-        out.set_id(self.id);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.bus, out, 6);
+        ::mavwire::field::Scalar::write(self.len, out, 7);
+        ::mavwire::field::Scalar::write(self.id, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -75593,14 +77084,17 @@ impl CanFrame {
 impl ::mavwire::Message for CanFrame {
     const META: ::mavwire::MessageMeta = CanFrame::META;
     type View<'a> = CanFrameView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CanFrame::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CanFrame::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CanFrameView<'_> {
         CanFrameView::new(payload)
     }
@@ -75629,6 +77123,7 @@ impl<'a> CanFrameView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CanFrame {
         CanFrame::from_view(self)
     }
@@ -75830,31 +77325,34 @@ impl CanfdFrame {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CanfdFrameView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            bus: ::mavwire::field::read::<u8>(p, 6),
+            len: ::mavwire::field::read::<u8>(p, 7),
+            id: ::mavwire::field::read::<u32>(p, 0),
+            data: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CanfdFrameView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            bus: view.bus(),
-            len: view.len(),
-            id: view.id(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CanfdFrameMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_bus(self.bus);
-        out.set_len(self.len);
-        out.set_id(self.id);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.bus, out, 6);
+        ::mavwire::field::Scalar::write(self.len, out, 7);
+        ::mavwire::field::Scalar::write(self.id, out, 0);
+        ::mavwire::field::write_array(out, 8, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -75875,14 +77373,17 @@ impl Default for CanfdFrame {
 impl ::mavwire::Message for CanfdFrame {
     const META: ::mavwire::MessageMeta = CanfdFrame::META;
     type View<'a> = CanfdFrameView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CanfdFrame::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CanfdFrame::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CanfdFrameView<'_> {
         CanfdFrameView::new(payload)
     }
@@ -75911,6 +77412,7 @@ impl<'a> CanfdFrameView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CanfdFrame {
         CanfdFrame::from_view(self)
     }
@@ -76115,31 +77617,34 @@ impl CanFilterModify {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CanFilterModifyView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 32),
+            target_component: ::mavwire::field::read::<u8>(p, 33),
+            bus: ::mavwire::field::read::<u8>(p, 34),
+            operation: CanFilterOp::from_raw(::mavwire::field::read::<u8>(p, 35)),
+            num_ids: ::mavwire::field::read::<u8>(p, 36),
+            ids: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CanFilterModifyView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            bus: view.bus(),
-            operation: view.operation(),
-            num_ids: view.num_ids(),
-            ids: view.ids().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CanFilterModifyMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_bus(self.bus);
-        out.set_operation(self.operation);
-        out.set_num_ids(self.num_ids);
-        out.set_ids(&self.ids);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 32);
+        ::mavwire::field::Scalar::write(self.target_component, out, 33);
+        ::mavwire::field::Scalar::write(self.bus, out, 34);
+        ::mavwire::field::Scalar::write(self.operation.to_raw(), out, 35);
+        ::mavwire::field::Scalar::write(self.num_ids, out, 36);
+        ::mavwire::field::write_array(out, 0, &self.ids);
         Ok(Self::MAX_LEN)
     }
 }
@@ -76147,14 +77652,17 @@ impl CanFilterModify {
 impl ::mavwire::Message for CanFilterModify {
     const META: ::mavwire::MessageMeta = CanFilterModify::META;
     type View<'a> = CanFilterModifyView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CanFilterModify::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CanFilterModify::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CanFilterModifyView<'_> {
         CanFilterModifyView::new(payload)
     }
@@ -76183,6 +77691,7 @@ impl<'a> CanFilterModifyView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CanFilterModify {
         CanFilterModify::from_view(self)
     }
@@ -76577,61 +78086,66 @@ impl OnboardComputerStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OnboardComputerStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            uptime: ::mavwire::field::read::<u32>(p, 8),
+            r#type: ::mavwire::field::read::<u8>(p, 196),
+            cpu_cores: ::mavwire::field::ArrayView::new(p, 197).to_array(),
+            cpu_combined: ::mavwire::field::ArrayView::new(p, 205).to_array(),
+            gpu_cores: ::mavwire::field::ArrayView::new(p, 215).to_array(),
+            gpu_combined: ::mavwire::field::ArrayView::new(p, 219).to_array(),
+            temperature_board: ::mavwire::field::read::<i8>(p, 229),
+            temperature_core: ::mavwire::field::ArrayView::new(p, 230).to_array(),
+            fan_speed: ::mavwire::field::ArrayView::new(p, 188).to_array(),
+            ram_usage: ::mavwire::field::read::<u32>(p, 12),
+            ram_total: ::mavwire::field::read::<u32>(p, 16),
+            storage_type: ::mavwire::field::ArrayView::new(p, 20).to_array(),
+            storage_usage: ::mavwire::field::ArrayView::new(p, 36).to_array(),
+            storage_total: ::mavwire::field::ArrayView::new(p, 52).to_array(),
+            link_type: ::mavwire::field::ArrayView::new(p, 68).to_array(),
+            link_tx_rate: ::mavwire::field::ArrayView::new(p, 92).to_array(),
+            link_rx_rate: ::mavwire::field::ArrayView::new(p, 116).to_array(),
+            link_tx_max: ::mavwire::field::ArrayView::new(p, 140).to_array(),
+            link_rx_max: ::mavwire::field::ArrayView::new(p, 164).to_array(),
+            status_flags: ComputerStatusFlags::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 238),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OnboardComputerStatusView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            uptime: view.uptime(),
-            r#type: view.r#type(),
-            cpu_cores: view.cpu_cores().to_array(),
-            cpu_combined: view.cpu_combined().to_array(),
-            gpu_cores: view.gpu_cores().to_array(),
-            gpu_combined: view.gpu_combined().to_array(),
-            temperature_board: view.temperature_board(),
-            temperature_core: view.temperature_core().to_array(),
-            fan_speed: view.fan_speed().to_array(),
-            ram_usage: view.ram_usage(),
-            ram_total: view.ram_total(),
-            storage_type: view.storage_type().to_array(),
-            storage_usage: view.storage_usage().to_array(),
-            storage_total: view.storage_total().to_array(),
-            link_type: view.link_type().to_array(),
-            link_tx_rate: view.link_tx_rate().to_array(),
-            link_rx_rate: view.link_rx_rate().to_array(),
-            link_tx_max: view.link_tx_max().to_array(),
-            link_rx_max: view.link_rx_max().to_array(),
-            status_flags: view.status_flags(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OnboardComputerStatusMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_uptime(self.uptime);
-        out.set_type(self.r#type);
-        out.set_cpu_cores(&self.cpu_cores);
-        out.set_cpu_combined(&self.cpu_combined);
-        out.set_gpu_cores(&self.gpu_cores);
-        out.set_gpu_combined(&self.gpu_combined);
-        out.set_temperature_board(self.temperature_board);
-        out.set_temperature_core(&self.temperature_core);
-        out.set_fan_speed(&self.fan_speed);
-        out.set_ram_usage(self.ram_usage);
-        out.set_ram_total(self.ram_total);
-        out.set_storage_type(&self.storage_type);
-        out.set_storage_usage(&self.storage_usage);
-        out.set_storage_total(&self.storage_total);
-        out.set_link_type(&self.link_type);
-        out.set_link_tx_rate(&self.link_tx_rate);
-        out.set_link_rx_rate(&self.link_rx_rate);
-        out.set_link_tx_max(&self.link_tx_max);
-        out.set_link_rx_max(&self.link_rx_max);
-        out.set_status_flags(self.status_flags);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.uptime, out, 8);
+        ::mavwire::field::Scalar::write(self.r#type, out, 196);
+        ::mavwire::field::write_array(out, 197, &self.cpu_cores);
+        ::mavwire::field::write_array(out, 205, &self.cpu_combined);
+        ::mavwire::field::write_array(out, 215, &self.gpu_cores);
+        ::mavwire::field::write_array(out, 219, &self.gpu_combined);
+        ::mavwire::field::Scalar::write(self.temperature_board, out, 229);
+        ::mavwire::field::write_array(out, 230, &self.temperature_core);
+        ::mavwire::field::write_array(out, 188, &self.fan_speed);
+        ::mavwire::field::Scalar::write(self.ram_usage, out, 12);
+        ::mavwire::field::Scalar::write(self.ram_total, out, 16);
+        ::mavwire::field::write_array(out, 20, &self.storage_type);
+        ::mavwire::field::write_array(out, 36, &self.storage_usage);
+        ::mavwire::field::write_array(out, 52, &self.storage_total);
+        ::mavwire::field::write_array(out, 68, &self.link_type);
+        ::mavwire::field::write_array(out, 92, &self.link_tx_rate);
+        ::mavwire::field::write_array(out, 116, &self.link_rx_rate);
+        ::mavwire::field::write_array(out, 140, &self.link_tx_max);
+        ::mavwire::field::write_array(out, 164, &self.link_rx_max);
+        ::mavwire::field::Scalar::write(self.status_flags.bits(), out, 238);
         Ok(Self::MAX_LEN)
     }
 }
@@ -76639,14 +78153,17 @@ impl OnboardComputerStatus {
 impl ::mavwire::Message for OnboardComputerStatus {
     const META: ::mavwire::MessageMeta = OnboardComputerStatus::META;
     type View<'a> = OnboardComputerStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OnboardComputerStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OnboardComputerStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OnboardComputerStatusView<'_> {
         OnboardComputerStatusView::new(payload)
     }
@@ -76675,6 +78192,7 @@ impl<'a> OnboardComputerStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OnboardComputerStatus {
         OnboardComputerStatus::from_view(self)
     }
@@ -77026,25 +78544,28 @@ impl WheelDistance {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&WheelDistanceView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            count: ::mavwire::field::read::<u8>(p, 136),
+            distance: ::mavwire::field::ArrayView::new(p, 8).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &WheelDistanceView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            count: view.count(),
-            distance: view.distance().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = WheelDistanceMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_count(self.count);
-        out.set_distance(&self.distance);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.count, out, 136);
+        ::mavwire::field::write_array(out, 8, &self.distance);
         Ok(Self::MAX_LEN)
     }
 }
@@ -77052,14 +78573,17 @@ impl WheelDistance {
 impl ::mavwire::Message for WheelDistance {
     const META: ::mavwire::MessageMeta = WheelDistance::META;
     type View<'a> = WheelDistanceView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         WheelDistance::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         WheelDistance::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> WheelDistanceView<'_> {
         WheelDistanceView::new(payload)
     }
@@ -77088,6 +78612,7 @@ impl<'a> WheelDistanceView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> WheelDistance {
         WheelDistance::from_view(self)
     }
@@ -77276,35 +78801,40 @@ impl WinchStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&WinchStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            line_length: ::mavwire::field::read::<f32>(p, 8),
+            speed: ::mavwire::field::read::<f32>(p, 12),
+            tension: ::mavwire::field::read::<f32>(p, 16),
+            voltage: ::mavwire::field::read::<f32>(p, 20),
+            current: ::mavwire::field::read::<f32>(p, 24),
+            temperature: ::mavwire::field::read::<i16>(p, 32),
+            status: MavWinchStatusFlag::from_bits_retain(
+                ::mavwire::field::read::<u32>(p, 28),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &WinchStatusView<'_>) -> Self {
-        Self {
-            time_usec: view.time_usec(),
-            line_length: view.line_length(),
-            speed: view.speed(),
-            tension: view.tension(),
-            voltage: view.voltage(),
-            current: view.current(),
-            temperature: view.temperature(),
-            status: view.status(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = WinchStatusMut::new(payload)?;
-        out.set_time_usec(self.time_usec);
-        out.set_line_length(self.line_length);
-        out.set_speed(self.speed);
-        out.set_tension(self.tension);
-        out.set_voltage(self.voltage);
-        out.set_current(self.current);
-        out.set_temperature(self.temperature);
-        out.set_status(self.status);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.line_length, out, 8);
+        ::mavwire::field::Scalar::write(self.speed, out, 12);
+        ::mavwire::field::Scalar::write(self.tension, out, 16);
+        ::mavwire::field::Scalar::write(self.voltage, out, 20);
+        ::mavwire::field::Scalar::write(self.current, out, 24);
+        ::mavwire::field::Scalar::write(self.temperature, out, 32);
+        ::mavwire::field::Scalar::write(self.status.bits(), out, 28);
         Ok(Self::MAX_LEN)
     }
 }
@@ -77312,14 +78842,17 @@ impl WinchStatus {
 impl ::mavwire::Message for WinchStatus {
     const META: ::mavwire::MessageMeta = WinchStatus::META;
     type View<'a> = WinchStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         WinchStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         WinchStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> WinchStatusView<'_> {
         WinchStatusView::new(payload)
     }
@@ -77348,6 +78881,7 @@ impl<'a> WinchStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> WinchStatus {
         WinchStatus::from_view(self)
     }
@@ -77581,31 +79115,34 @@ impl OpenDroneIdBasicId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdBasicIdView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            id_or_mac: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            id_type: MavOdidIdType::from_raw(::mavwire::field::read::<u8>(p, 22)),
+            ua_type: MavOdidUaType::from_raw(::mavwire::field::read::<u8>(p, 23)),
+            uas_id: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdBasicIdView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id_or_mac: view.id_or_mac().to_array(),
-            id_type: view.id_type(),
-            ua_type: view.ua_type(),
-            uas_id: view.uas_id().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdBasicIdMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id_or_mac(&self.id_or_mac);
-        out.set_id_type(self.id_type);
-        out.set_ua_type(self.ua_type);
-        out.set_uas_id(&self.uas_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.id_or_mac);
+        ::mavwire::field::Scalar::write(self.id_type.to_raw(), out, 22);
+        ::mavwire::field::Scalar::write(self.ua_type.to_raw(), out, 23);
+        ::mavwire::field::write_array(out, 24, &self.uas_id);
         Ok(Self::MAX_LEN)
     }
 }
@@ -77613,14 +79150,17 @@ impl OpenDroneIdBasicId {
 impl ::mavwire::Message for OpenDroneIdBasicId {
     const META: ::mavwire::MessageMeta = OpenDroneIdBasicId::META;
     type View<'a> = OpenDroneIdBasicIdView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdBasicId::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdBasicId::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdBasicIdView<'_> {
         OpenDroneIdBasicIdView::new(payload)
     }
@@ -77649,6 +79189,7 @@ impl<'a> OpenDroneIdBasicIdView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdBasicId {
         OpenDroneIdBasicId::from_view(self)
     }
@@ -78004,57 +79545,72 @@ impl OpenDroneIdLocation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdLocationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 30),
+            target_component: ::mavwire::field::read::<u8>(p, 31),
+            id_or_mac: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            status: MavOdidStatus::from_raw(::mavwire::field::read::<u8>(p, 52)),
+            direction: ::mavwire::field::read::<u16>(p, 24),
+            speed_horizontal: ::mavwire::field::read::<u16>(p, 26),
+            speed_vertical: ::mavwire::field::read::<i16>(p, 28),
+            latitude: ::mavwire::field::read::<i32>(p, 0),
+            longitude: ::mavwire::field::read::<i32>(p, 4),
+            altitude_barometric: ::mavwire::field::read::<f32>(p, 8),
+            altitude_geodetic: ::mavwire::field::read::<f32>(p, 12),
+            height_reference: MavOdidHeightRef::from_raw(
+                ::mavwire::field::read::<u8>(p, 53),
+            ),
+            height: ::mavwire::field::read::<f32>(p, 16),
+            horizontal_accuracy: MavOdidHorAcc::from_raw(
+                ::mavwire::field::read::<u8>(p, 54),
+            ),
+            vertical_accuracy: MavOdidVerAcc::from_raw(
+                ::mavwire::field::read::<u8>(p, 55),
+            ),
+            barometer_accuracy: MavOdidVerAcc::from_raw(
+                ::mavwire::field::read::<u8>(p, 56),
+            ),
+            speed_accuracy: MavOdidSpeedAcc::from_raw(
+                ::mavwire::field::read::<u8>(p, 57),
+            ),
+            timestamp: ::mavwire::field::read::<f32>(p, 20),
+            timestamp_accuracy: MavOdidTimeAcc::from_raw(
+                ::mavwire::field::read::<u8>(p, 58),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdLocationView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id_or_mac: view.id_or_mac().to_array(),
-            status: view.status(),
-            direction: view.direction(),
-            speed_horizontal: view.speed_horizontal(),
-            speed_vertical: view.speed_vertical(),
-            latitude: view.latitude(),
-            longitude: view.longitude(),
-            altitude_barometric: view.altitude_barometric(),
-            altitude_geodetic: view.altitude_geodetic(),
-            height_reference: view.height_reference(),
-            height: view.height(),
-            horizontal_accuracy: view.horizontal_accuracy(),
-            vertical_accuracy: view.vertical_accuracy(),
-            barometer_accuracy: view.barometer_accuracy(),
-            speed_accuracy: view.speed_accuracy(),
-            timestamp: view.timestamp(),
-            timestamp_accuracy: view.timestamp_accuracy(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdLocationMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id_or_mac(&self.id_or_mac);
-        out.set_status(self.status);
-        out.set_direction(self.direction);
-        out.set_speed_horizontal(self.speed_horizontal);
-        out.set_speed_vertical(self.speed_vertical);
-        out.set_latitude(self.latitude);
-        out.set_longitude(self.longitude);
-        out.set_altitude_barometric(self.altitude_barometric);
-        out.set_altitude_geodetic(self.altitude_geodetic);
-        out.set_height_reference(self.height_reference);
-        out.set_height(self.height);
-        out.set_horizontal_accuracy(self.horizontal_accuracy);
-        out.set_vertical_accuracy(self.vertical_accuracy);
-        out.set_barometer_accuracy(self.barometer_accuracy);
-        out.set_speed_accuracy(self.speed_accuracy);
-        out.set_timestamp(self.timestamp);
-        out.set_timestamp_accuracy(self.timestamp_accuracy);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 30);
+        ::mavwire::field::Scalar::write(self.target_component, out, 31);
+        ::mavwire::field::write_array(out, 32, &self.id_or_mac);
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 52);
+        ::mavwire::field::Scalar::write(self.direction, out, 24);
+        ::mavwire::field::Scalar::write(self.speed_horizontal, out, 26);
+        ::mavwire::field::Scalar::write(self.speed_vertical, out, 28);
+        ::mavwire::field::Scalar::write(self.latitude, out, 0);
+        ::mavwire::field::Scalar::write(self.longitude, out, 4);
+        ::mavwire::field::Scalar::write(self.altitude_barometric, out, 8);
+        ::mavwire::field::Scalar::write(self.altitude_geodetic, out, 12);
+        ::mavwire::field::Scalar::write(self.height_reference.to_raw(), out, 53);
+        ::mavwire::field::Scalar::write(self.height, out, 16);
+        ::mavwire::field::Scalar::write(self.horizontal_accuracy.to_raw(), out, 54);
+        ::mavwire::field::Scalar::write(self.vertical_accuracy.to_raw(), out, 55);
+        ::mavwire::field::Scalar::write(self.barometer_accuracy.to_raw(), out, 56);
+        ::mavwire::field::Scalar::write(self.speed_accuracy.to_raw(), out, 57);
+        ::mavwire::field::Scalar::write(self.timestamp, out, 20);
+        ::mavwire::field::Scalar::write(self.timestamp_accuracy.to_raw(), out, 58);
         Ok(Self::MAX_LEN)
     }
 }
@@ -78062,14 +79618,17 @@ impl OpenDroneIdLocation {
 impl ::mavwire::Message for OpenDroneIdLocation {
     const META: ::mavwire::MessageMeta = OpenDroneIdLocation::META;
     type View<'a> = OpenDroneIdLocationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdLocation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdLocation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdLocationView<'_> {
         OpenDroneIdLocationView::new(payload)
     }
@@ -78098,6 +79657,7 @@ impl<'a> OpenDroneIdLocationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdLocation {
         OpenDroneIdLocation::from_view(self)
     }
@@ -78500,37 +80060,42 @@ impl OpenDroneIdAuthentication {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdAuthenticationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            id_or_mac: ::mavwire::field::ArrayView::new(p, 6).to_array(),
+            authentication_type: MavOdidAuthType::from_raw(
+                ::mavwire::field::read::<u8>(p, 26),
+            ),
+            data_page: ::mavwire::field::read::<u8>(p, 27),
+            last_page_index: ::mavwire::field::read::<u8>(p, 28),
+            length: ::mavwire::field::read::<u8>(p, 29),
+            timestamp: ::mavwire::field::read::<u32>(p, 0),
+            authentication_data: ::mavwire::field::ArrayView::new(p, 30).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdAuthenticationView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id_or_mac: view.id_or_mac().to_array(),
-            authentication_type: view.authentication_type(),
-            data_page: view.data_page(),
-            last_page_index: view.last_page_index(),
-            length: view.length(),
-            timestamp: view.timestamp(),
-            authentication_data: view.authentication_data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdAuthenticationMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id_or_mac(&self.id_or_mac);
-        out.set_authentication_type(self.authentication_type);
-        out.set_data_page(self.data_page);
-        out.set_last_page_index(self.last_page_index);
-        out.set_length(self.length);
-        out.set_timestamp(self.timestamp);
-        out.set_authentication_data(&self.authentication_data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::write_array(out, 6, &self.id_or_mac);
+        ::mavwire::field::Scalar::write(self.authentication_type.to_raw(), out, 26);
+        ::mavwire::field::Scalar::write(self.data_page, out, 27);
+        ::mavwire::field::Scalar::write(self.last_page_index, out, 28);
+        ::mavwire::field::Scalar::write(self.length, out, 29);
+        ::mavwire::field::Scalar::write(self.timestamp, out, 0);
+        ::mavwire::field::write_array(out, 30, &self.authentication_data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -78538,14 +80103,17 @@ impl OpenDroneIdAuthentication {
 impl ::mavwire::Message for OpenDroneIdAuthentication {
     const META: ::mavwire::MessageMeta = OpenDroneIdAuthentication::META;
     type View<'a> = OpenDroneIdAuthenticationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdAuthentication::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdAuthentication::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdAuthenticationView<'_> {
         OpenDroneIdAuthenticationView::new(payload)
     }
@@ -78574,6 +80142,7 @@ impl<'a> OpenDroneIdAuthenticationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdAuthentication {
         OpenDroneIdAuthentication::from_view(self)
     }
@@ -78807,29 +80376,34 @@ impl OpenDroneIdSelfId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdSelfIdView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            id_or_mac: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            description_type: MavOdidDescType::from_raw(
+                ::mavwire::field::read::<u8>(p, 22),
+            ),
+            description: ::mavwire::field::CharArray::new(p, 23).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdSelfIdView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id_or_mac: view.id_or_mac().to_array(),
-            description_type: view.description_type(),
-            description: view.description().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdSelfIdMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id_or_mac(&self.id_or_mac);
-        out.set_description_type(self.description_type);
-        out.set_description(&self.description);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.id_or_mac);
+        ::mavwire::field::Scalar::write(self.description_type.to_raw(), out, 22);
+        ::mavwire::field::write_array(out, 23, &self.description);
         Ok(Self::MAX_LEN)
     }
 }
@@ -78837,14 +80411,17 @@ impl OpenDroneIdSelfId {
 impl ::mavwire::Message for OpenDroneIdSelfId {
     const META: ::mavwire::MessageMeta = OpenDroneIdSelfId::META;
     type View<'a> = OpenDroneIdSelfIdView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdSelfId::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdSelfId::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdSelfIdView<'_> {
         OpenDroneIdSelfIdView::new(payload)
     }
@@ -78873,6 +80450,7 @@ impl<'a> OpenDroneIdSelfIdView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdSelfId {
         OpenDroneIdSelfId::from_view(self)
     }
@@ -79172,49 +80750,58 @@ impl OpenDroneIdSystem {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdSystemView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 28),
+            target_component: ::mavwire::field::read::<u8>(p, 29),
+            id_or_mac: ::mavwire::field::ArrayView::new(p, 30).to_array(),
+            operator_location_type: MavOdidOperatorLocationType::from_raw(
+                ::mavwire::field::read::<u8>(p, 50),
+            ),
+            classification_type: MavOdidClassificationType::from_raw(
+                ::mavwire::field::read::<u8>(p, 51),
+            ),
+            operator_latitude: ::mavwire::field::read::<i32>(p, 0),
+            operator_longitude: ::mavwire::field::read::<i32>(p, 4),
+            area_count: ::mavwire::field::read::<u16>(p, 24),
+            area_radius: ::mavwire::field::read::<u16>(p, 26),
+            area_ceiling: ::mavwire::field::read::<f32>(p, 8),
+            area_floor: ::mavwire::field::read::<f32>(p, 12),
+            category_eu: MavOdidCategoryEu::from_raw(
+                ::mavwire::field::read::<u8>(p, 52),
+            ),
+            class_eu: MavOdidClassEu::from_raw(::mavwire::field::read::<u8>(p, 53)),
+            operator_altitude_geo: ::mavwire::field::read::<f32>(p, 16),
+            timestamp: ::mavwire::field::read::<u32>(p, 20),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdSystemView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id_or_mac: view.id_or_mac().to_array(),
-            operator_location_type: view.operator_location_type(),
-            classification_type: view.classification_type(),
-            operator_latitude: view.operator_latitude(),
-            operator_longitude: view.operator_longitude(),
-            area_count: view.area_count(),
-            area_radius: view.area_radius(),
-            area_ceiling: view.area_ceiling(),
-            area_floor: view.area_floor(),
-            category_eu: view.category_eu(),
-            class_eu: view.class_eu(),
-            operator_altitude_geo: view.operator_altitude_geo(),
-            timestamp: view.timestamp(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdSystemMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id_or_mac(&self.id_or_mac);
-        out.set_operator_location_type(self.operator_location_type);
-        out.set_classification_type(self.classification_type);
-        out.set_operator_latitude(self.operator_latitude);
-        out.set_operator_longitude(self.operator_longitude);
-        out.set_area_count(self.area_count);
-        out.set_area_radius(self.area_radius);
-        out.set_area_ceiling(self.area_ceiling);
-        out.set_area_floor(self.area_floor);
-        out.set_category_eu(self.category_eu);
-        out.set_class_eu(self.class_eu);
-        out.set_operator_altitude_geo(self.operator_altitude_geo);
-        out.set_timestamp(self.timestamp);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 28);
+        ::mavwire::field::Scalar::write(self.target_component, out, 29);
+        ::mavwire::field::write_array(out, 30, &self.id_or_mac);
+        ::mavwire::field::Scalar::write(self.operator_location_type.to_raw(), out, 50);
+        ::mavwire::field::Scalar::write(self.classification_type.to_raw(), out, 51);
+        ::mavwire::field::Scalar::write(self.operator_latitude, out, 0);
+        ::mavwire::field::Scalar::write(self.operator_longitude, out, 4);
+        ::mavwire::field::Scalar::write(self.area_count, out, 24);
+        ::mavwire::field::Scalar::write(self.area_radius, out, 26);
+        ::mavwire::field::Scalar::write(self.area_ceiling, out, 8);
+        ::mavwire::field::Scalar::write(self.area_floor, out, 12);
+        ::mavwire::field::Scalar::write(self.category_eu.to_raw(), out, 52);
+        ::mavwire::field::Scalar::write(self.class_eu.to_raw(), out, 53);
+        ::mavwire::field::Scalar::write(self.operator_altitude_geo, out, 16);
+        ::mavwire::field::Scalar::write(self.timestamp, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
@@ -79222,14 +80809,17 @@ impl OpenDroneIdSystem {
 impl ::mavwire::Message for OpenDroneIdSystem {
     const META: ::mavwire::MessageMeta = OpenDroneIdSystem::META;
     type View<'a> = OpenDroneIdSystemView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdSystem::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdSystem::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdSystemView<'_> {
         OpenDroneIdSystemView::new(payload)
     }
@@ -79258,6 +80848,7 @@ impl<'a> OpenDroneIdSystemView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdSystem {
         OpenDroneIdSystem::from_view(self)
     }
@@ -79563,29 +81154,34 @@ impl OpenDroneIdOperatorId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdOperatorIdView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            id_or_mac: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            operator_id_type: MavOdidOperatorIdType::from_raw(
+                ::mavwire::field::read::<u8>(p, 22),
+            ),
+            operator_id: ::mavwire::field::CharArray::new(p, 23).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdOperatorIdView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id_or_mac: view.id_or_mac().to_array(),
-            operator_id_type: view.operator_id_type(),
-            operator_id: view.operator_id().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdOperatorIdMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id_or_mac(&self.id_or_mac);
-        out.set_operator_id_type(self.operator_id_type);
-        out.set_operator_id(&self.operator_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.id_or_mac);
+        ::mavwire::field::Scalar::write(self.operator_id_type.to_raw(), out, 22);
+        ::mavwire::field::write_array(out, 23, &self.operator_id);
         Ok(Self::MAX_LEN)
     }
 }
@@ -79593,14 +81189,17 @@ impl OpenDroneIdOperatorId {
 impl ::mavwire::Message for OpenDroneIdOperatorId {
     const META: ::mavwire::MessageMeta = OpenDroneIdOperatorId::META;
     type View<'a> = OpenDroneIdOperatorIdView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdOperatorId::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdOperatorId::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdOperatorIdView<'_> {
         OpenDroneIdOperatorIdView::new(payload)
     }
@@ -79629,6 +81228,7 @@ impl<'a> OpenDroneIdOperatorIdView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdOperatorId {
         OpenDroneIdOperatorId::from_view(self)
     }
@@ -79823,31 +81423,34 @@ impl OpenDroneIdMessagePack {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdMessagePackView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            id_or_mac: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            single_message_size: ::mavwire::field::read::<u8>(p, 22),
+            msg_pack_size: ::mavwire::field::read::<u8>(p, 23),
+            messages: ::mavwire::field::ArrayView::new(p, 24).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdMessagePackView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            id_or_mac: view.id_or_mac().to_array(),
-            single_message_size: view.single_message_size(),
-            msg_pack_size: view.msg_pack_size(),
-            messages: view.messages().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdMessagePackMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_id_or_mac(&self.id_or_mac);
-        out.set_single_message_size(self.single_message_size);
-        out.set_msg_pack_size(self.msg_pack_size);
-        out.set_messages(&self.messages);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.id_or_mac);
+        ::mavwire::field::Scalar::write(self.single_message_size, out, 22);
+        ::mavwire::field::Scalar::write(self.msg_pack_size, out, 23);
+        ::mavwire::field::write_array(out, 24, &self.messages);
         Ok(Self::MAX_LEN)
     }
 }
@@ -79868,14 +81471,17 @@ impl Default for OpenDroneIdMessagePack {
 impl ::mavwire::Message for OpenDroneIdMessagePack {
     const META: ::mavwire::MessageMeta = OpenDroneIdMessagePack::META;
     type View<'a> = OpenDroneIdMessagePackView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdMessagePack::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdMessagePack::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdMessagePackView<'_> {
         OpenDroneIdMessagePackView::new(payload)
     }
@@ -79904,6 +81510,7 @@ impl<'a> OpenDroneIdMessagePackView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdMessagePack {
         OpenDroneIdMessagePack::from_view(self)
     }
@@ -80064,23 +81671,26 @@ impl OpenDroneIdArmStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdArmStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            status: MavOdidArmStatus::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            error: ::mavwire::field::CharArray::new(p, 1).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdArmStatusView<'_>) -> Self {
-        Self {
-            status: view.status(),
-            error: view.error().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdArmStatusMut::new(payload)?;
-        out.set_status(self.status);
-        out.set_error(&self.error);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 0);
+        ::mavwire::field::write_array(out, 1, &self.error);
         Ok(Self::MAX_LEN)
     }
 }
@@ -80097,14 +81707,17 @@ impl Default for OpenDroneIdArmStatus {
 impl ::mavwire::Message for OpenDroneIdArmStatus {
     const META: ::mavwire::MessageMeta = OpenDroneIdArmStatus::META;
     type View<'a> = OpenDroneIdArmStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdArmStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdArmStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdArmStatusView<'_> {
         OpenDroneIdArmStatusView::new(payload)
     }
@@ -80133,6 +81746,7 @@ impl<'a> OpenDroneIdArmStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdArmStatus {
         OpenDroneIdArmStatus::from_view(self)
     }
@@ -80289,31 +81903,34 @@ impl OpenDroneIdSystemUpdate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&OpenDroneIdSystemUpdateView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 16),
+            target_component: ::mavwire::field::read::<u8>(p, 17),
+            operator_latitude: ::mavwire::field::read::<i32>(p, 0),
+            operator_longitude: ::mavwire::field::read::<i32>(p, 4),
+            operator_altitude_geo: ::mavwire::field::read::<f32>(p, 8),
+            timestamp: ::mavwire::field::read::<u32>(p, 12),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &OpenDroneIdSystemUpdateView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            operator_latitude: view.operator_latitude(),
-            operator_longitude: view.operator_longitude(),
-            operator_altitude_geo: view.operator_altitude_geo(),
-            timestamp: view.timestamp(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = OpenDroneIdSystemUpdateMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_operator_latitude(self.operator_latitude);
-        out.set_operator_longitude(self.operator_longitude);
-        out.set_operator_altitude_geo(self.operator_altitude_geo);
-        out.set_timestamp(self.timestamp);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 16);
+        ::mavwire::field::Scalar::write(self.target_component, out, 17);
+        ::mavwire::field::Scalar::write(self.operator_latitude, out, 0);
+        ::mavwire::field::Scalar::write(self.operator_longitude, out, 4);
+        ::mavwire::field::Scalar::write(self.operator_altitude_geo, out, 8);
+        ::mavwire::field::Scalar::write(self.timestamp, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
@@ -80321,14 +81938,17 @@ impl OpenDroneIdSystemUpdate {
 impl ::mavwire::Message for OpenDroneIdSystemUpdate {
     const META: ::mavwire::MessageMeta = OpenDroneIdSystemUpdate::META;
     type View<'a> = OpenDroneIdSystemUpdateView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         OpenDroneIdSystemUpdate::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         OpenDroneIdSystemUpdate::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> OpenDroneIdSystemUpdateView<'_> {
         OpenDroneIdSystemUpdateView::new(payload)
     }
@@ -80357,6 +81977,7 @@ impl<'a> OpenDroneIdSystemUpdateView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> OpenDroneIdSystemUpdate {
         OpenDroneIdSystemUpdate::from_view(self)
     }
@@ -80525,25 +82146,28 @@ impl HygrometerSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HygrometerSensorView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            id: ::mavwire::field::read::<u8>(p, 4),
+            temperature: ::mavwire::field::read::<i16>(p, 0),
+            humidity: ::mavwire::field::read::<u16>(p, 2),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HygrometerSensorView<'_>) -> Self {
-        Self {
-            id: view.id(),
-            temperature: view.temperature(),
-            humidity: view.humidity(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HygrometerSensorMut::new(payload)?;
-        out.set_id(self.id);
-        out.set_temperature(self.temperature);
-        out.set_humidity(self.humidity);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.id, out, 4);
+        ::mavwire::field::Scalar::write(self.temperature, out, 0);
+        ::mavwire::field::Scalar::write(self.humidity, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -80551,14 +82175,17 @@ impl HygrometerSensor {
 impl ::mavwire::Message for HygrometerSensor {
     const META: ::mavwire::MessageMeta = HygrometerSensor::META;
     type View<'a> = HygrometerSensorView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HygrometerSensor::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HygrometerSensor::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HygrometerSensorView<'_> {
         HygrometerSensorView::new(payload)
     }
@@ -80587,6 +82214,7 @@ impl<'a> HygrometerSensorView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HygrometerSensor {
         HygrometerSensor::from_view(self)
     }

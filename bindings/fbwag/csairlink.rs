@@ -111,23 +111,26 @@ impl AirlinkAuth {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AirlinkAuthView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            login: ::mavwire::field::CharArray::new(p, 0).to_array(),
+            password: ::mavwire::field::CharArray::new(p, 50).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AirlinkAuthView<'_>) -> Self {
-        Self {
-            login: view.login().to_array(),
-            password: view.password().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AirlinkAuthMut::new(payload)?;
-        out.set_login(&self.login);
-        out.set_password(&self.password);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 0, &self.login);
+        ::mavwire::field::write_array(out, 50, &self.password);
         Ok(Self::MAX_LEN)
     }
 }
@@ -144,14 +147,17 @@ impl Default for AirlinkAuth {
 impl ::mavwire::Message for AirlinkAuth {
     const META: ::mavwire::MessageMeta = AirlinkAuth::META;
     type View<'a> = AirlinkAuthView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AirlinkAuth::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AirlinkAuth::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AirlinkAuthView<'_> {
         AirlinkAuthView::new(payload)
     }
@@ -180,6 +186,7 @@ impl<'a> AirlinkAuthView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AirlinkAuth {
         AirlinkAuth::from_view(self)
     }
@@ -278,21 +285,26 @@ impl AirlinkAuthResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AirlinkAuthResponseView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            resp_type: AirlinkAuthResponseType::from_raw(
+                ::mavwire::field::read::<u8>(p, 0),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AirlinkAuthResponseView<'_>) -> Self {
-        Self {
-            resp_type: view.resp_type(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AirlinkAuthResponseMut::new(payload)?;
-        out.set_resp_type(self.resp_type);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.resp_type.to_raw(), out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -300,14 +312,17 @@ impl AirlinkAuthResponse {
 impl ::mavwire::Message for AirlinkAuthResponse {
     const META: ::mavwire::MessageMeta = AirlinkAuthResponse::META;
     type View<'a> = AirlinkAuthResponseView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AirlinkAuthResponse::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AirlinkAuthResponse::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AirlinkAuthResponseView<'_> {
         AirlinkAuthResponseView::new(payload)
     }
@@ -336,6 +351,7 @@ impl<'a> AirlinkAuthResponseView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AirlinkAuthResponse {
         AirlinkAuthResponse::from_view(self)
     }

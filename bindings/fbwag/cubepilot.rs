@@ -44,21 +44,24 @@ impl CubepilotRawRc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CubepilotRawRcView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            rc_raw: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CubepilotRawRcView<'_>) -> Self {
-        Self {
-            rc_raw: view.rc_raw().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CubepilotRawRcMut::new(payload)?;
-        out.set_rc_raw(&self.rc_raw);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 0, &self.rc_raw);
         Ok(Self::MAX_LEN)
     }
 }
@@ -66,14 +69,17 @@ impl CubepilotRawRc {
 impl ::mavwire::Message for CubepilotRawRc {
     const META: ::mavwire::MessageMeta = CubepilotRawRc::META;
     type View<'a> = CubepilotRawRcView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CubepilotRawRc::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CubepilotRawRc::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CubepilotRawRcView<'_> {
         CubepilotRawRcView::new(payload)
     }
@@ -102,6 +108,7 @@ impl<'a> CubepilotRawRcView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CubepilotRawRc {
         CubepilotRawRc::from_view(self)
     }
@@ -265,35 +272,38 @@ impl HerelinkVideoStreamInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HerelinkVideoStreamInformationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            camera_id: ::mavwire::field::read::<u8>(p, 14),
+            status: ::mavwire::field::read::<u8>(p, 15),
+            framerate: ::mavwire::field::read::<f32>(p, 0),
+            resolution_h: ::mavwire::field::read::<u16>(p, 8),
+            resolution_v: ::mavwire::field::read::<u16>(p, 10),
+            bitrate: ::mavwire::field::read::<u32>(p, 4),
+            rotation: ::mavwire::field::read::<u16>(p, 12),
+            uri: ::mavwire::field::CharArray::new(p, 16).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HerelinkVideoStreamInformationView<'_>) -> Self {
-        Self {
-            camera_id: view.camera_id(),
-            status: view.status(),
-            framerate: view.framerate(),
-            resolution_h: view.resolution_h(),
-            resolution_v: view.resolution_v(),
-            bitrate: view.bitrate(),
-            rotation: view.rotation(),
-            uri: view.uri().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HerelinkVideoStreamInformationMut::new(payload)?;
-        out.set_camera_id(self.camera_id);
-        out.set_status(self.status);
-        out.set_framerate(self.framerate);
-        out.set_resolution_h(self.resolution_h);
-        out.set_resolution_v(self.resolution_v);
-        out.set_bitrate(self.bitrate);
-        out.set_rotation(self.rotation);
-        out.set_uri(&self.uri);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.camera_id, out, 14);
+        ::mavwire::field::Scalar::write(self.status, out, 15);
+        ::mavwire::field::Scalar::write(self.framerate, out, 0);
+        ::mavwire::field::Scalar::write(self.resolution_h, out, 8);
+        ::mavwire::field::Scalar::write(self.resolution_v, out, 10);
+        ::mavwire::field::Scalar::write(self.bitrate, out, 4);
+        ::mavwire::field::Scalar::write(self.rotation, out, 12);
+        ::mavwire::field::write_array(out, 16, &self.uri);
         Ok(Self::MAX_LEN)
     }
 }
@@ -316,14 +326,17 @@ impl Default for HerelinkVideoStreamInformation {
 impl ::mavwire::Message for HerelinkVideoStreamInformation {
     const META: ::mavwire::MessageMeta = HerelinkVideoStreamInformation::META;
     type View<'a> = HerelinkVideoStreamInformationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HerelinkVideoStreamInformation::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HerelinkVideoStreamInformation::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HerelinkVideoStreamInformationView<'_> {
         HerelinkVideoStreamInformationView::new(payload)
     }
@@ -352,6 +365,7 @@ impl<'a> HerelinkVideoStreamInformationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HerelinkVideoStreamInformation {
         HerelinkVideoStreamInformation::from_view(self)
     }
@@ -587,33 +601,36 @@ impl HerelinkTelem {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&HerelinkTelemView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            rssi: ::mavwire::field::read::<u8>(p, 18),
+            snr: ::mavwire::field::read::<i16>(p, 12),
+            rf_freq: ::mavwire::field::read::<u32>(p, 0),
+            link_bw: ::mavwire::field::read::<u32>(p, 4),
+            link_rate: ::mavwire::field::read::<u32>(p, 8),
+            cpu_temp: ::mavwire::field::read::<i16>(p, 14),
+            board_temp: ::mavwire::field::read::<i16>(p, 16),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &HerelinkTelemView<'_>) -> Self {
-        Self {
-            rssi: view.rssi(),
-            snr: view.snr(),
-            rf_freq: view.rf_freq(),
-            link_bw: view.link_bw(),
-            link_rate: view.link_rate(),
-            cpu_temp: view.cpu_temp(),
-            board_temp: view.board_temp(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = HerelinkTelemMut::new(payload)?;
-        out.set_rssi(self.rssi);
-        out.set_snr(self.snr);
-        out.set_rf_freq(self.rf_freq);
-        out.set_link_bw(self.link_bw);
-        out.set_link_rate(self.link_rate);
-        out.set_cpu_temp(self.cpu_temp);
-        out.set_board_temp(self.board_temp);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.rssi, out, 18);
+        ::mavwire::field::Scalar::write(self.snr, out, 12);
+        ::mavwire::field::Scalar::write(self.rf_freq, out, 0);
+        ::mavwire::field::Scalar::write(self.link_bw, out, 4);
+        ::mavwire::field::Scalar::write(self.link_rate, out, 8);
+        ::mavwire::field::Scalar::write(self.cpu_temp, out, 14);
+        ::mavwire::field::Scalar::write(self.board_temp, out, 16);
         Ok(Self::MAX_LEN)
     }
 }
@@ -621,14 +638,17 @@ impl HerelinkTelem {
 impl ::mavwire::Message for HerelinkTelem {
     const META: ::mavwire::MessageMeta = HerelinkTelem::META;
     type View<'a> = HerelinkTelemView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         HerelinkTelem::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         HerelinkTelem::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> HerelinkTelemView<'_> {
         HerelinkTelemView::new(payload)
     }
@@ -657,6 +677,7 @@ impl<'a> HerelinkTelemView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> HerelinkTelem {
         HerelinkTelem::from_view(self)
     }
@@ -847,27 +868,30 @@ impl CubepilotFirmwareUpdateStart {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CubepilotFirmwareUpdateStartView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 8),
+            target_component: ::mavwire::field::read::<u8>(p, 9),
+            size: ::mavwire::field::read::<u32>(p, 0),
+            crc: ::mavwire::field::read::<u32>(p, 4),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CubepilotFirmwareUpdateStartView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            size: view.size(),
-            crc: view.crc(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CubepilotFirmwareUpdateStartMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_size(self.size);
-        out.set_crc(self.crc);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 8);
+        ::mavwire::field::Scalar::write(self.target_component, out, 9);
+        ::mavwire::field::Scalar::write(self.size, out, 0);
+        ::mavwire::field::Scalar::write(self.crc, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
@@ -875,14 +899,17 @@ impl CubepilotFirmwareUpdateStart {
 impl ::mavwire::Message for CubepilotFirmwareUpdateStart {
     const META: ::mavwire::MessageMeta = CubepilotFirmwareUpdateStart::META;
     type View<'a> = CubepilotFirmwareUpdateStartView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CubepilotFirmwareUpdateStart::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CubepilotFirmwareUpdateStart::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CubepilotFirmwareUpdateStartView<'_> {
         CubepilotFirmwareUpdateStartView::new(payload)
     }
@@ -911,6 +938,7 @@ impl<'a> CubepilotFirmwareUpdateStartView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CubepilotFirmwareUpdateStart {
         CubepilotFirmwareUpdateStart::from_view(self)
     }
@@ -1054,25 +1082,28 @@ impl CubepilotFirmwareUpdateResp {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&CubepilotFirmwareUpdateRespView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 4),
+            target_component: ::mavwire::field::read::<u8>(p, 5),
+            offset: ::mavwire::field::read::<u32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &CubepilotFirmwareUpdateRespView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            offset: view.offset(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = CubepilotFirmwareUpdateRespMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_offset(self.offset);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 4);
+        ::mavwire::field::Scalar::write(self.target_component, out, 5);
+        ::mavwire::field::Scalar::write(self.offset, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -1080,14 +1111,17 @@ impl CubepilotFirmwareUpdateResp {
 impl ::mavwire::Message for CubepilotFirmwareUpdateResp {
     const META: ::mavwire::MessageMeta = CubepilotFirmwareUpdateResp::META;
     type View<'a> = CubepilotFirmwareUpdateRespView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         CubepilotFirmwareUpdateResp::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         CubepilotFirmwareUpdateResp::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> CubepilotFirmwareUpdateRespView<'_> {
         CubepilotFirmwareUpdateRespView::new(payload)
     }
@@ -1116,6 +1150,7 @@ impl<'a> CubepilotFirmwareUpdateRespView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> CubepilotFirmwareUpdateResp {
         CubepilotFirmwareUpdateResp::from_view(self)
     }

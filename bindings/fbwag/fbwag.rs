@@ -154,29 +154,34 @@ impl FbwagNotice {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&FbwagNoticeView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            system_id: ::mavwire::field::read::<u8>(p, 4),
+            component_id: ::mavwire::field::read::<u8>(p, 5),
+            failsafe_status: FbwagFailsafeStatus::from_raw(
+                ::mavwire::field::read::<u8>(p, 6),
+            ),
+            text: ::mavwire::field::CharArray::new(p, 7).to_array(),
+            timestamp: ::mavwire::field::read::<u32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &FbwagNoticeView<'_>) -> Self {
-        Self {
-            system_id: view.system_id(),
-            component_id: view.component_id(),
-            failsafe_status: view.failsafe_status(),
-            text: view.text().to_array(),
-            timestamp: view.timestamp(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = FbwagNoticeMut::new(payload)?;
-        out.set_system_id(self.system_id);
-        out.set_component_id(self.component_id);
-        out.set_failsafe_status(self.failsafe_status);
-        out.set_text(&self.text);
-        out.set_timestamp(self.timestamp);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.system_id, out, 4);
+        ::mavwire::field::Scalar::write(self.component_id, out, 5);
+        ::mavwire::field::Scalar::write(self.failsafe_status.to_raw(), out, 6);
+        ::mavwire::field::write_array(out, 7, &self.text);
+        ::mavwire::field::Scalar::write(self.timestamp, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -184,14 +189,17 @@ impl FbwagNotice {
 impl ::mavwire::Message for FbwagNotice {
     const META: ::mavwire::MessageMeta = FbwagNotice::META;
     type View<'a> = FbwagNoticeView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         FbwagNotice::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         FbwagNotice::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> FbwagNoticeView<'_> {
         FbwagNoticeView::new(payload)
     }
@@ -220,6 +228,7 @@ impl<'a> FbwagNoticeView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> FbwagNotice {
         FbwagNotice::from_view(self)
     }

@@ -172,19 +172,24 @@ impl IcarousHeartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&IcarousHeartbeatView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            status: IcarousFmsState::from_raw(::mavwire::field::read::<u8>(p, 0)),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &IcarousHeartbeatView<'_>) -> Self {
-        Self { status: view.status() }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = IcarousHeartbeatMut::new(payload)?;
-        out.set_status(self.status);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -192,14 +197,17 @@ impl IcarousHeartbeat {
 impl ::mavwire::Message for IcarousHeartbeat {
     const META: ::mavwire::MessageMeta = IcarousHeartbeat::META;
     type View<'a> = IcarousHeartbeatView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         IcarousHeartbeat::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         IcarousHeartbeat::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> IcarousHeartbeatView<'_> {
         IcarousHeartbeatView::new(payload)
     }
@@ -228,6 +236,7 @@ impl<'a> IcarousHeartbeatView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> IcarousHeartbeat {
         IcarousHeartbeat::from_view(self)
     }
@@ -483,51 +492,54 @@ impl IcarousKinematicBands {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&IcarousKinematicBandsView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            num_bands: ::mavwire::field::read::<i8>(p, 40),
+            type1: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 41)),
+            min1: ::mavwire::field::read::<f32>(p, 0),
+            max1: ::mavwire::field::read::<f32>(p, 4),
+            type2: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 42)),
+            min2: ::mavwire::field::read::<f32>(p, 8),
+            max2: ::mavwire::field::read::<f32>(p, 12),
+            type3: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 43)),
+            min3: ::mavwire::field::read::<f32>(p, 16),
+            max3: ::mavwire::field::read::<f32>(p, 20),
+            type4: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 44)),
+            min4: ::mavwire::field::read::<f32>(p, 24),
+            max4: ::mavwire::field::read::<f32>(p, 28),
+            type5: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 45)),
+            min5: ::mavwire::field::read::<f32>(p, 32),
+            max5: ::mavwire::field::read::<f32>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &IcarousKinematicBandsView<'_>) -> Self {
-        Self {
-            num_bands: view.num_bands(),
-            type1: view.type1(),
-            min1: view.min1(),
-            max1: view.max1(),
-            type2: view.type2(),
-            min2: view.min2(),
-            max2: view.max2(),
-            type3: view.type3(),
-            min3: view.min3(),
-            max3: view.max3(),
-            type4: view.type4(),
-            min4: view.min4(),
-            max4: view.max4(),
-            type5: view.type5(),
-            min5: view.min5(),
-            max5: view.max5(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = IcarousKinematicBandsMut::new(payload)?;
-        out.set_num_bands(self.num_bands);
-        out.set_type1(self.type1);
-        out.set_min1(self.min1);
-        out.set_max1(self.max1);
-        out.set_type2(self.type2);
-        out.set_min2(self.min2);
-        out.set_max2(self.max2);
-        out.set_type3(self.type3);
-        out.set_min3(self.min3);
-        out.set_max3(self.max3);
-        out.set_type4(self.type4);
-        out.set_min4(self.min4);
-        out.set_max4(self.max4);
-        out.set_type5(self.type5);
-        out.set_min5(self.min5);
-        out.set_max5(self.max5);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.num_bands, out, 40);
+        ::mavwire::field::Scalar::write(self.type1.to_raw(), out, 41);
+        ::mavwire::field::Scalar::write(self.min1, out, 0);
+        ::mavwire::field::Scalar::write(self.max1, out, 4);
+        ::mavwire::field::Scalar::write(self.type2.to_raw(), out, 42);
+        ::mavwire::field::Scalar::write(self.min2, out, 8);
+        ::mavwire::field::Scalar::write(self.max2, out, 12);
+        ::mavwire::field::Scalar::write(self.type3.to_raw(), out, 43);
+        ::mavwire::field::Scalar::write(self.min3, out, 16);
+        ::mavwire::field::Scalar::write(self.max3, out, 20);
+        ::mavwire::field::Scalar::write(self.type4.to_raw(), out, 44);
+        ::mavwire::field::Scalar::write(self.min4, out, 24);
+        ::mavwire::field::Scalar::write(self.max4, out, 28);
+        ::mavwire::field::Scalar::write(self.type5.to_raw(), out, 45);
+        ::mavwire::field::Scalar::write(self.min5, out, 32);
+        ::mavwire::field::Scalar::write(self.max5, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -535,14 +547,17 @@ impl IcarousKinematicBands {
 impl ::mavwire::Message for IcarousKinematicBands {
     const META: ::mavwire::MessageMeta = IcarousKinematicBands::META;
     type View<'a> = IcarousKinematicBandsView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         IcarousKinematicBands::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         IcarousKinematicBands::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> IcarousKinematicBandsView<'_> {
         IcarousKinematicBandsView::new(payload)
     }
@@ -571,6 +586,7 @@ impl<'a> IcarousKinematicBandsView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> IcarousKinematicBands {
         IcarousKinematicBands::from_view(self)
     }

@@ -290,65 +290,68 @@ impl LoweheiserGovEfi {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&LoweheiserGovEfiView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            volt_batt: ::mavwire::field::read::<f32>(p, 0),
+            curr_batt: ::mavwire::field::read::<f32>(p, 4),
+            curr_gen: ::mavwire::field::read::<f32>(p, 8),
+            curr_rot: ::mavwire::field::read::<f32>(p, 12),
+            fuel_level: ::mavwire::field::read::<f32>(p, 16),
+            throttle: ::mavwire::field::read::<f32>(p, 20),
+            runtime: ::mavwire::field::read::<u32>(p, 24),
+            until_maintenance: ::mavwire::field::read::<i32>(p, 28),
+            rectifier_temp: ::mavwire::field::read::<f32>(p, 32),
+            generator_temp: ::mavwire::field::read::<f32>(p, 36),
+            efi_batt: ::mavwire::field::read::<f32>(p, 40),
+            efi_rpm: ::mavwire::field::read::<f32>(p, 44),
+            efi_pw: ::mavwire::field::read::<f32>(p, 48),
+            efi_fuel_flow: ::mavwire::field::read::<f32>(p, 52),
+            efi_fuel_consumed: ::mavwire::field::read::<f32>(p, 56),
+            efi_baro: ::mavwire::field::read::<f32>(p, 60),
+            efi_mat: ::mavwire::field::read::<f32>(p, 64),
+            efi_clt: ::mavwire::field::read::<f32>(p, 68),
+            efi_tps: ::mavwire::field::read::<f32>(p, 72),
+            efi_exhaust_gas_temperature: ::mavwire::field::read::<f32>(p, 76),
+            efi_index: ::mavwire::field::read::<u8>(p, 84),
+            generator_status: ::mavwire::field::read::<u16>(p, 80),
+            efi_status: ::mavwire::field::read::<u16>(p, 82),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &LoweheiserGovEfiView<'_>) -> Self {
-        Self {
-            volt_batt: view.volt_batt(),
-            curr_batt: view.curr_batt(),
-            curr_gen: view.curr_gen(),
-            curr_rot: view.curr_rot(),
-            fuel_level: view.fuel_level(),
-            throttle: view.throttle(),
-            runtime: view.runtime(),
-            until_maintenance: view.until_maintenance(),
-            rectifier_temp: view.rectifier_temp(),
-            generator_temp: view.generator_temp(),
-            efi_batt: view.efi_batt(),
-            efi_rpm: view.efi_rpm(),
-            efi_pw: view.efi_pw(),
-            efi_fuel_flow: view.efi_fuel_flow(),
-            efi_fuel_consumed: view.efi_fuel_consumed(),
-            efi_baro: view.efi_baro(),
-            efi_mat: view.efi_mat(),
-            efi_clt: view.efi_clt(),
-            efi_tps: view.efi_tps(),
-            efi_exhaust_gas_temperature: view.efi_exhaust_gas_temperature(),
-            efi_index: view.efi_index(),
-            generator_status: view.generator_status(),
-            efi_status: view.efi_status(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = LoweheiserGovEfiMut::new(payload)?;
-        out.set_volt_batt(self.volt_batt);
-        out.set_curr_batt(self.curr_batt);
-        out.set_curr_gen(self.curr_gen);
-        out.set_curr_rot(self.curr_rot);
-        out.set_fuel_level(self.fuel_level);
-        out.set_throttle(self.throttle);
-        out.set_runtime(self.runtime);
-        out.set_until_maintenance(self.until_maintenance);
-        out.set_rectifier_temp(self.rectifier_temp);
-        out.set_generator_temp(self.generator_temp);
-        out.set_efi_batt(self.efi_batt);
-        out.set_efi_rpm(self.efi_rpm);
-        out.set_efi_pw(self.efi_pw);
-        out.set_efi_fuel_flow(self.efi_fuel_flow);
-        out.set_efi_fuel_consumed(self.efi_fuel_consumed);
-        out.set_efi_baro(self.efi_baro);
-        out.set_efi_mat(self.efi_mat);
-        out.set_efi_clt(self.efi_clt);
-        out.set_efi_tps(self.efi_tps);
-        out.set_efi_exhaust_gas_temperature(self.efi_exhaust_gas_temperature);
-        out.set_efi_index(self.efi_index);
-        out.set_generator_status(self.generator_status);
-        out.set_efi_status(self.efi_status);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.volt_batt, out, 0);
+        ::mavwire::field::Scalar::write(self.curr_batt, out, 4);
+        ::mavwire::field::Scalar::write(self.curr_gen, out, 8);
+        ::mavwire::field::Scalar::write(self.curr_rot, out, 12);
+        ::mavwire::field::Scalar::write(self.fuel_level, out, 16);
+        ::mavwire::field::Scalar::write(self.throttle, out, 20);
+        ::mavwire::field::Scalar::write(self.runtime, out, 24);
+        ::mavwire::field::Scalar::write(self.until_maintenance, out, 28);
+        ::mavwire::field::Scalar::write(self.rectifier_temp, out, 32);
+        ::mavwire::field::Scalar::write(self.generator_temp, out, 36);
+        ::mavwire::field::Scalar::write(self.efi_batt, out, 40);
+        ::mavwire::field::Scalar::write(self.efi_rpm, out, 44);
+        ::mavwire::field::Scalar::write(self.efi_pw, out, 48);
+        ::mavwire::field::Scalar::write(self.efi_fuel_flow, out, 52);
+        ::mavwire::field::Scalar::write(self.efi_fuel_consumed, out, 56);
+        ::mavwire::field::Scalar::write(self.efi_baro, out, 60);
+        ::mavwire::field::Scalar::write(self.efi_mat, out, 64);
+        ::mavwire::field::Scalar::write(self.efi_clt, out, 68);
+        ::mavwire::field::Scalar::write(self.efi_tps, out, 72);
+        ::mavwire::field::Scalar::write(self.efi_exhaust_gas_temperature, out, 76);
+        ::mavwire::field::Scalar::write(self.efi_index, out, 84);
+        ::mavwire::field::Scalar::write(self.generator_status, out, 80);
+        ::mavwire::field::Scalar::write(self.efi_status, out, 82);
         Ok(Self::MAX_LEN)
     }
 }
@@ -356,14 +359,17 @@ impl LoweheiserGovEfi {
 impl ::mavwire::Message for LoweheiserGovEfi {
     const META: ::mavwire::MessageMeta = LoweheiserGovEfi::META;
     type View<'a> = LoweheiserGovEfiView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         LoweheiserGovEfi::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         LoweheiserGovEfi::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> LoweheiserGovEfiView<'_> {
         LoweheiserGovEfiView::new(payload)
     }
@@ -392,6 +398,7 @@ impl<'a> LoweheiserGovEfiView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> LoweheiserGovEfi {
         LoweheiserGovEfi::from_view(self)
     }

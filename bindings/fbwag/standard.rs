@@ -298,37 +298,40 @@ impl GlobalPositionInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&GlobalPositionIntView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            lat: ::mavwire::field::read::<i32>(p, 4),
+            lon: ::mavwire::field::read::<i32>(p, 8),
+            alt: ::mavwire::field::read::<i32>(p, 12),
+            relative_alt: ::mavwire::field::read::<i32>(p, 16),
+            vx: ::mavwire::field::read::<i16>(p, 20),
+            vy: ::mavwire::field::read::<i16>(p, 22),
+            vz: ::mavwire::field::read::<i16>(p, 24),
+            hdg: ::mavwire::field::read::<u16>(p, 26),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &GlobalPositionIntView<'_>) -> Self {
-        Self {
-            time_boot_ms: view.time_boot_ms(),
-            lat: view.lat(),
-            lon: view.lon(),
-            alt: view.alt(),
-            relative_alt: view.relative_alt(),
-            vx: view.vx(),
-            vy: view.vy(),
-            vz: view.vz(),
-            hdg: view.hdg(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = GlobalPositionIntMut::new(payload)?;
-        out.set_time_boot_ms(self.time_boot_ms);
-        out.set_lat(self.lat);
-        out.set_lon(self.lon);
-        out.set_alt(self.alt);
-        out.set_relative_alt(self.relative_alt);
-        out.set_vx(self.vx);
-        out.set_vy(self.vy);
-        out.set_vz(self.vz);
-        out.set_hdg(self.hdg);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavwire::field::Scalar::write(self.lat, out, 4);
+        ::mavwire::field::Scalar::write(self.lon, out, 8);
+        ::mavwire::field::Scalar::write(self.alt, out, 12);
+        ::mavwire::field::Scalar::write(self.relative_alt, out, 16);
+        ::mavwire::field::Scalar::write(self.vx, out, 20);
+        ::mavwire::field::Scalar::write(self.vy, out, 22);
+        ::mavwire::field::Scalar::write(self.vz, out, 24);
+        ::mavwire::field::Scalar::write(self.hdg, out, 26);
         Ok(Self::MAX_LEN)
     }
 }
@@ -336,14 +339,17 @@ impl GlobalPositionInt {
 impl ::mavwire::Message for GlobalPositionInt {
     const META: ::mavwire::MessageMeta = GlobalPositionInt::META;
     type View<'a> = GlobalPositionIntView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         GlobalPositionInt::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         GlobalPositionInt::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> GlobalPositionIntView<'_> {
         GlobalPositionIntView::new(payload)
     }
@@ -372,6 +378,7 @@ impl<'a> GlobalPositionIntView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> GlobalPositionInt {
         GlobalPositionInt::from_view(self)
     }
@@ -690,43 +697,49 @@ impl AutopilotVersion {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&AutopilotVersionView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            capabilities: MavProtocolCapability::from_bits_retain(
+                ::mavwire::field::read::<u64>(p, 0),
+            ),
+            flight_sw_version: ::mavwire::field::read::<u32>(p, 16),
+            middleware_sw_version: ::mavwire::field::read::<u32>(p, 20),
+            os_sw_version: ::mavwire::field::read::<u32>(p, 24),
+            board_version: ::mavwire::field::read::<u32>(p, 28),
+            flight_custom_version: ::mavwire::field::ArrayView::new(p, 36).to_array(),
+            middleware_custom_version: ::mavwire::field::ArrayView::new(p, 44)
+                .to_array(),
+            os_custom_version: ::mavwire::field::ArrayView::new(p, 52).to_array(),
+            vendor_id: ::mavwire::field::read::<u16>(p, 32),
+            product_id: ::mavwire::field::read::<u16>(p, 34),
+            uid: ::mavwire::field::read::<u64>(p, 8),
+            uid2: ::mavwire::field::ArrayView::new(p, 60).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &AutopilotVersionView<'_>) -> Self {
-        Self {
-            capabilities: view.capabilities(),
-            flight_sw_version: view.flight_sw_version(),
-            middleware_sw_version: view.middleware_sw_version(),
-            os_sw_version: view.os_sw_version(),
-            board_version: view.board_version(),
-            flight_custom_version: view.flight_custom_version().to_array(),
-            middleware_custom_version: view.middleware_custom_version().to_array(),
-            os_custom_version: view.os_custom_version().to_array(),
-            vendor_id: view.vendor_id(),
-            product_id: view.product_id(),
-            uid: view.uid(),
-            uid2: view.uid2().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = AutopilotVersionMut::new(payload)?;
-        out.set_capabilities(self.capabilities);
-        out.set_flight_sw_version(self.flight_sw_version);
-        out.set_middleware_sw_version(self.middleware_sw_version);
-        out.set_os_sw_version(self.os_sw_version);
-        out.set_board_version(self.board_version);
-        out.set_flight_custom_version(&self.flight_custom_version);
-        out.set_middleware_custom_version(&self.middleware_custom_version);
-        out.set_os_custom_version(&self.os_custom_version);
-        out.set_vendor_id(self.vendor_id);
-        out.set_product_id(self.product_id);
-        out.set_uid(self.uid);
-        out.set_uid2(&self.uid2);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.capabilities.bits(), out, 0);
+        ::mavwire::field::Scalar::write(self.flight_sw_version, out, 16);
+        ::mavwire::field::Scalar::write(self.middleware_sw_version, out, 20);
+        ::mavwire::field::Scalar::write(self.os_sw_version, out, 24);
+        ::mavwire::field::Scalar::write(self.board_version, out, 28);
+        ::mavwire::field::write_array(out, 36, &self.flight_custom_version);
+        ::mavwire::field::write_array(out, 44, &self.middleware_custom_version);
+        ::mavwire::field::write_array(out, 52, &self.os_custom_version);
+        ::mavwire::field::Scalar::write(self.vendor_id, out, 32);
+        ::mavwire::field::Scalar::write(self.product_id, out, 34);
+        ::mavwire::field::Scalar::write(self.uid, out, 8);
+        ::mavwire::field::write_array(out, 60, &self.uid2);
         Ok(Self::MAX_LEN)
     }
 }
@@ -734,14 +747,17 @@ impl AutopilotVersion {
 impl ::mavwire::Message for AutopilotVersion {
     const META: ::mavwire::MessageMeta = AutopilotVersion::META;
     type View<'a> = AutopilotVersionView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         AutopilotVersion::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         AutopilotVersion::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> AutopilotVersionView<'_> {
         AutopilotVersionView::new(payload)
     }
@@ -770,6 +786,7 @@ impl<'a> AutopilotVersionView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> AutopilotVersion {
         AutopilotVersion::from_view(self)
     }

@@ -786,35 +786,48 @@ impl UavionixAdsbOutCfg {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbOutCfgView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            icao: ::mavwire::field::read::<u32>(p, 0),
+            callsign: ::mavwire::field::CharArray::new(p, 6).to_array(),
+            emitter_type: super::common::AdsbEmitterType::from_raw(
+                ::mavwire::field::read::<u8>(p, 15),
+            ),
+            aircraft_size: UavionixAdsbOutCfgAircraftSize::from_raw(
+                ::mavwire::field::read::<u8>(p, 16),
+            ),
+            gps_offset_lat: UavionixAdsbOutCfgGpsOffsetLat::from_raw(
+                ::mavwire::field::read::<u8>(p, 17),
+            ),
+            gps_offset_lon: UavionixAdsbOutCfgGpsOffsetLon::from_raw(
+                ::mavwire::field::read::<u8>(p, 18),
+            ),
+            stall_speed: ::mavwire::field::read::<u16>(p, 4),
+            rf_select: UavionixAdsbOutRfSelect::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 19),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbOutCfgView<'_>) -> Self {
-        Self {
-            icao: view.icao(),
-            callsign: view.callsign().to_array(),
-            emitter_type: view.emitter_type(),
-            aircraft_size: view.aircraft_size(),
-            gps_offset_lat: view.gps_offset_lat(),
-            gps_offset_lon: view.gps_offset_lon(),
-            stall_speed: view.stall_speed(),
-            rf_select: view.rf_select(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbOutCfgMut::new(payload)?;
-        out.set_icao(self.icao);
-        out.set_callsign(&self.callsign);
-        out.set_emitter_type(self.emitter_type);
-        out.set_aircraft_size(self.aircraft_size);
-        out.set_gps_offset_lat(self.gps_offset_lat);
-        out.set_gps_offset_lon(self.gps_offset_lon);
-        out.set_stall_speed(self.stall_speed);
-        out.set_rf_select(self.rf_select);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.icao, out, 0);
+        ::mavwire::field::write_array(out, 6, &self.callsign);
+        ::mavwire::field::Scalar::write(self.emitter_type.to_raw(), out, 15);
+        ::mavwire::field::Scalar::write(self.aircraft_size.to_raw(), out, 16);
+        ::mavwire::field::Scalar::write(self.gps_offset_lat.to_raw(), out, 17);
+        ::mavwire::field::Scalar::write(self.gps_offset_lon.to_raw(), out, 18);
+        ::mavwire::field::Scalar::write(self.stall_speed, out, 4);
+        ::mavwire::field::Scalar::write(self.rf_select.bits(), out, 19);
         Ok(Self::MAX_LEN)
     }
 }
@@ -822,14 +835,17 @@ impl UavionixAdsbOutCfg {
 impl ::mavwire::Message for UavionixAdsbOutCfg {
     const META: ::mavwire::MessageMeta = UavionixAdsbOutCfg::META;
     type View<'a> = UavionixAdsbOutCfgView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutCfg::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbOutCfg::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutCfgView<'_> {
         UavionixAdsbOutCfgView::new(payload)
     }
@@ -858,6 +874,7 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutCfg {
         UavionixAdsbOutCfg::from_view(self)
     }
@@ -1208,51 +1225,60 @@ impl UavionixAdsbOutDynamic {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbOutDynamicView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            utc_time: ::mavwire::field::read::<u32>(p, 0),
+            gps_lat: ::mavwire::field::read::<i32>(p, 4),
+            gps_lon: ::mavwire::field::read::<i32>(p, 8),
+            gps_alt: ::mavwire::field::read::<i32>(p, 12),
+            gps_fix: UavionixAdsbOutDynamicGpsFix::from_raw(
+                ::mavwire::field::read::<u8>(p, 38),
+            ),
+            num_sats: ::mavwire::field::read::<u8>(p, 39),
+            baro_alt_msl: ::mavwire::field::read::<i32>(p, 16),
+            accuracy_hor: ::mavwire::field::read::<u32>(p, 20),
+            accuracy_vert: ::mavwire::field::read::<u16>(p, 24),
+            accuracy_vel: ::mavwire::field::read::<u16>(p, 26),
+            vel_vert: ::mavwire::field::read::<i16>(p, 28),
+            vel_ns: ::mavwire::field::read::<i16>(p, 30),
+            vel_ew: ::mavwire::field::read::<i16>(p, 32),
+            emergency_status: UavionixAdsbEmergencyStatus::from_raw(
+                ::mavwire::field::read::<u8>(p, 40),
+            ),
+            state: UavionixAdsbOutDynamicState::from_bits_retain(
+                ::mavwire::field::read::<u16>(p, 34),
+            ),
+            squawk: ::mavwire::field::read::<u16>(p, 36),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbOutDynamicView<'_>) -> Self {
-        Self {
-            utc_time: view.utc_time(),
-            gps_lat: view.gps_lat(),
-            gps_lon: view.gps_lon(),
-            gps_alt: view.gps_alt(),
-            gps_fix: view.gps_fix(),
-            num_sats: view.num_sats(),
-            baro_alt_msl: view.baro_alt_msl(),
-            accuracy_hor: view.accuracy_hor(),
-            accuracy_vert: view.accuracy_vert(),
-            accuracy_vel: view.accuracy_vel(),
-            vel_vert: view.vel_vert(),
-            vel_ns: view.vel_ns(),
-            vel_ew: view.vel_ew(),
-            emergency_status: view.emergency_status(),
-            state: view.state(),
-            squawk: view.squawk(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbOutDynamicMut::new(payload)?;
-        out.set_utc_time(self.utc_time);
-        out.set_gps_lat(self.gps_lat);
-        out.set_gps_lon(self.gps_lon);
-        out.set_gps_alt(self.gps_alt);
-        out.set_gps_fix(self.gps_fix);
-        out.set_num_sats(self.num_sats);
-        out.set_baro_alt_msl(self.baro_alt_msl);
-        out.set_accuracy_hor(self.accuracy_hor);
-        out.set_accuracy_vert(self.accuracy_vert);
-        out.set_accuracy_vel(self.accuracy_vel);
-        out.set_vel_vert(self.vel_vert);
-        out.set_vel_ns(self.vel_ns);
-        out.set_vel_ew(self.vel_ew);
-        out.set_emergency_status(self.emergency_status);
-        out.set_state(self.state);
-        out.set_squawk(self.squawk);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.utc_time, out, 0);
+        ::mavwire::field::Scalar::write(self.gps_lat, out, 4);
+        ::mavwire::field::Scalar::write(self.gps_lon, out, 8);
+        ::mavwire::field::Scalar::write(self.gps_alt, out, 12);
+        ::mavwire::field::Scalar::write(self.gps_fix.to_raw(), out, 38);
+        ::mavwire::field::Scalar::write(self.num_sats, out, 39);
+        ::mavwire::field::Scalar::write(self.baro_alt_msl, out, 16);
+        ::mavwire::field::Scalar::write(self.accuracy_hor, out, 20);
+        ::mavwire::field::Scalar::write(self.accuracy_vert, out, 24);
+        ::mavwire::field::Scalar::write(self.accuracy_vel, out, 26);
+        ::mavwire::field::Scalar::write(self.vel_vert, out, 28);
+        ::mavwire::field::Scalar::write(self.vel_ns, out, 30);
+        ::mavwire::field::Scalar::write(self.vel_ew, out, 32);
+        ::mavwire::field::Scalar::write(self.emergency_status.to_raw(), out, 40);
+        ::mavwire::field::Scalar::write(self.state.bits(), out, 34);
+        ::mavwire::field::Scalar::write(self.squawk, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
@@ -1260,14 +1286,17 @@ impl UavionixAdsbOutDynamic {
 impl ::mavwire::Message for UavionixAdsbOutDynamic {
     const META: ::mavwire::MessageMeta = UavionixAdsbOutDynamic::META;
     type View<'a> = UavionixAdsbOutDynamicView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutDynamic::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbOutDynamic::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutDynamicView<'_> {
         UavionixAdsbOutDynamicView::new(payload)
     }
@@ -1296,6 +1325,7 @@ impl<'a> UavionixAdsbOutDynamicView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutDynamic {
         UavionixAdsbOutDynamic::from_view(self)
     }
@@ -1568,21 +1598,26 @@ impl UavionixAdsbTransceiverHealthReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbTransceiverHealthReportView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            rf_health: UavionixAdsbRfHealth::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 0),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbTransceiverHealthReportView<'_>) -> Self {
-        Self {
-            rf_health: view.rf_health(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbTransceiverHealthReportMut::new(payload)?;
-        out.set_rf_health(self.rf_health);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.rf_health.bits(), out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -1590,14 +1625,17 @@ impl UavionixAdsbTransceiverHealthReport {
 impl ::mavwire::Message for UavionixAdsbTransceiverHealthReport {
     const META: ::mavwire::MessageMeta = UavionixAdsbTransceiverHealthReport::META;
     type View<'a> = UavionixAdsbTransceiverHealthReportView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbTransceiverHealthReport::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbTransceiverHealthReport::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbTransceiverHealthReportView<'_> {
         UavionixAdsbTransceiverHealthReportView::new(payload)
     }
@@ -1626,6 +1664,7 @@ impl<'a> UavionixAdsbTransceiverHealthReportView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbTransceiverHealthReport {
         UavionixAdsbTransceiverHealthReport::from_view(self)
     }
@@ -1714,21 +1753,24 @@ impl UavionixAdsbOutCfgRegistration {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbOutCfgRegistrationView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            registration: ::mavwire::field::CharArray::new(p, 0).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbOutCfgRegistrationView<'_>) -> Self {
-        Self {
-            registration: view.registration().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbOutCfgRegistrationMut::new(payload)?;
-        out.set_registration(&self.registration);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 0, &self.registration);
         Ok(Self::MAX_LEN)
     }
 }
@@ -1736,14 +1778,17 @@ impl UavionixAdsbOutCfgRegistration {
 impl ::mavwire::Message for UavionixAdsbOutCfgRegistration {
     const META: ::mavwire::MessageMeta = UavionixAdsbOutCfgRegistration::META;
     type View<'a> = UavionixAdsbOutCfgRegistrationView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutCfgRegistration::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbOutCfgRegistration::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutCfgRegistrationView<'_> {
         UavionixAdsbOutCfgRegistrationView::new(payload)
     }
@@ -1772,6 +1817,7 @@ impl<'a> UavionixAdsbOutCfgRegistrationView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutCfgRegistration {
         UavionixAdsbOutCfgRegistration::from_view(self)
     }
@@ -1859,21 +1905,24 @@ impl UavionixAdsbOutCfgFlightid {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbOutCfgFlightidView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            flight_id: ::mavwire::field::CharArray::new(p, 0).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbOutCfgFlightidView<'_>) -> Self {
-        Self {
-            flight_id: view.flight_id().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbOutCfgFlightidMut::new(payload)?;
-        out.set_flight_id(&self.flight_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::write_array(out, 0, &self.flight_id);
         Ok(Self::MAX_LEN)
     }
 }
@@ -1881,14 +1930,17 @@ impl UavionixAdsbOutCfgFlightid {
 impl ::mavwire::Message for UavionixAdsbOutCfgFlightid {
     const META: ::mavwire::MessageMeta = UavionixAdsbOutCfgFlightid::META;
     type View<'a> = UavionixAdsbOutCfgFlightidView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutCfgFlightid::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbOutCfgFlightid::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutCfgFlightidView<'_> {
         UavionixAdsbOutCfgFlightidView::new(payload)
     }
@@ -1917,6 +1969,7 @@ impl<'a> UavionixAdsbOutCfgFlightidView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutCfgFlightid {
         UavionixAdsbOutCfgFlightid::from_view(self)
     }
@@ -2002,21 +2055,24 @@ impl UavionixAdsbGet {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbGetView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            req_message_id: ::mavwire::field::read::<u32>(p, 0),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbGetView<'_>) -> Self {
-        Self {
-            req_message_id: view.req_message_id(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbGetMut::new(payload)?;
-        out.set_req_message_id(self.req_message_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.req_message_id, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
@@ -2024,14 +2080,17 @@ impl UavionixAdsbGet {
 impl ::mavwire::Message for UavionixAdsbGet {
     const META: ::mavwire::MessageMeta = UavionixAdsbGet::META;
     type View<'a> = UavionixAdsbGetView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbGet::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbGet::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbGetView<'_> {
         UavionixAdsbGetView::new(payload)
     }
@@ -2060,6 +2119,7 @@ impl<'a> UavionixAdsbGetView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbGet {
         UavionixAdsbGet::from_view(self)
     }
@@ -2206,31 +2266,40 @@ impl UavionixAdsbOutControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbOutControlView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            state: UavionixAdsbOutControlState::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 6),
+            ),
+            baro_alt_msl: ::mavwire::field::read::<i32>(p, 0),
+            squawk: ::mavwire::field::read::<u16>(p, 4),
+            emergency_status: UavionixAdsbEmergencyStatus::from_raw(
+                ::mavwire::field::read::<u8>(p, 7),
+            ),
+            flight_id: ::mavwire::field::CharArray::new(p, 8).to_array(),
+            x_bit: UavionixAdsbXbit::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 16),
+            ),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbOutControlView<'_>) -> Self {
-        Self {
-            state: view.state(),
-            baro_alt_msl: view.baro_alt_msl(),
-            squawk: view.squawk(),
-            emergency_status: view.emergency_status(),
-            flight_id: view.flight_id().to_array(),
-            x_bit: view.x_bit(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbOutControlMut::new(payload)?;
-        out.set_state(self.state);
-        out.set_baro_alt_msl(self.baro_alt_msl);
-        out.set_squawk(self.squawk);
-        out.set_emergency_status(self.emergency_status);
-        out.set_flight_id(&self.flight_id);
-        out.set_x_bit(self.x_bit);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.state.bits(), out, 6);
+        ::mavwire::field::Scalar::write(self.baro_alt_msl, out, 0);
+        ::mavwire::field::Scalar::write(self.squawk, out, 4);
+        ::mavwire::field::Scalar::write(self.emergency_status.to_raw(), out, 7);
+        ::mavwire::field::write_array(out, 8, &self.flight_id);
+        ::mavwire::field::Scalar::write(self.x_bit.bits(), out, 16);
         Ok(Self::MAX_LEN)
     }
 }
@@ -2238,14 +2307,17 @@ impl UavionixAdsbOutControl {
 impl ::mavwire::Message for UavionixAdsbOutControl {
     const META: ::mavwire::MessageMeta = UavionixAdsbOutControl::META;
     type View<'a> = UavionixAdsbOutControlView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutControl::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbOutControl::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutControlView<'_> {
         UavionixAdsbOutControlView::new(payload)
     }
@@ -2274,6 +2346,7 @@ impl<'a> UavionixAdsbOutControlView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutControl {
         UavionixAdsbOutControl::from_view(self)
     }
@@ -2487,31 +2560,40 @@ impl UavionixAdsbOutStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&UavionixAdsbOutStatusView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            state: UavionixAdsbOutStatusState::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 2),
+            ),
+            squawk: ::mavwire::field::read::<u16>(p, 0),
+            nic_nacp: UavionixAdsbOutStatusNicNacp::from_raw(
+                ::mavwire::field::read::<u8>(p, 3),
+            ),
+            board_temp: ::mavwire::field::read::<u8>(p, 4),
+            fault: UavionixAdsbOutStatusFault::from_bits_retain(
+                ::mavwire::field::read::<u8>(p, 5),
+            ),
+            flight_id: ::mavwire::field::CharArray::new(p, 6).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &UavionixAdsbOutStatusView<'_>) -> Self {
-        Self {
-            state: view.state(),
-            squawk: view.squawk(),
-            nic_nacp: view.nic_nacp(),
-            board_temp: view.board_temp(),
-            fault: view.fault(),
-            flight_id: view.flight_id().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = UavionixAdsbOutStatusMut::new(payload)?;
-        out.set_state(self.state);
-        out.set_squawk(self.squawk);
-        out.set_nic_nacp(self.nic_nacp);
-        out.set_board_temp(self.board_temp);
-        out.set_fault(self.fault);
-        out.set_flight_id(&self.flight_id);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.state.bits(), out, 2);
+        ::mavwire::field::Scalar::write(self.squawk, out, 0);
+        ::mavwire::field::Scalar::write(self.nic_nacp.to_raw(), out, 3);
+        ::mavwire::field::Scalar::write(self.board_temp, out, 4);
+        ::mavwire::field::Scalar::write(self.fault.bits(), out, 5);
+        ::mavwire::field::write_array(out, 6, &self.flight_id);
         Ok(Self::MAX_LEN)
     }
 }
@@ -2519,14 +2601,17 @@ impl UavionixAdsbOutStatus {
 impl ::mavwire::Message for UavionixAdsbOutStatus {
     const META: ::mavwire::MessageMeta = UavionixAdsbOutStatus::META;
     type View<'a> = UavionixAdsbOutStatusView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutStatus::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         UavionixAdsbOutStatus::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutStatusView<'_> {
         UavionixAdsbOutStatusView::new(payload)
     }
@@ -2555,6 +2640,7 @@ impl<'a> UavionixAdsbOutStatusView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutStatus {
         UavionixAdsbOutStatus::from_view(self)
     }

@@ -304,6 +304,24 @@ fn parallel_map<J: Sync, R: Send>(jobs: &[J], f: impl Fn(&J) -> R + Sync) -> Vec
     results.into_iter().map(|(_, r)| r).collect()
 }
 
+/// `tokens` with every identifier `name` replaced by `with`.
+fn substitute(tokens: &TokenStream, name: &str, with: &TokenStream) -> TokenStream {
+    use proc_macro2::{Group, TokenTree};
+    tokens
+        .clone()
+        .into_iter()
+        .flat_map(|tt| match tt {
+            TokenTree::Ident(ref i) if i == name => with.clone(),
+            TokenTree::Group(g) => {
+                let mut inner = Group::new(g.delimiter(), substitute(&g.stream(), name, with));
+                inner.set_span(g.span());
+                TokenTree::Group(inner).into()
+            }
+            other => other.into(),
+        })
+        .collect()
+}
+
 /// Puts a blank line after every item that ends at the top level or at the
 /// first indentation level (methods), which prettyplease leaves packed.
 fn space_items(code: &str) -> String {
@@ -845,7 +863,10 @@ impl Gen<'_> {
             let fdoc = docs(&self.field_docs(module, f, layout.offsets[fi]));
             let off = lit(layout.offsets[fi] as u64);
             let kind = self.kind(module, f);
-            let (owned_ty, get_ty, get_body, set_ty, set_body, default, to_owned, by_ref) =
+            // Templates over `__src` (the bytes read), `__dst` (the bytes
+            // written) and `__value`: the accessors use them on the view's
+            // slice, `parse` and `emit` on a fixed-size array.
+            let (owned_ty, get_ty, get_tpl, set_ty, set_tpl, default, to_owned, by_ref) =
                 match &kind {
                     Kind::Scalar(p) => {
                         let t = format_ident!("{}", p.rust_name());
@@ -858,9 +879,9 @@ impl Gen<'_> {
                         (
                             quote!(#t),
                             quote!(#t),
-                            quote!(#rt::field::read::<#t>(self.payload, #off)),
+                            quote!(#rt::field::read::<#t>(__src, #off)),
                             quote!(#t),
-                            quote!(#rt::field::Scalar::write(value, self.payload, #off)),
+                            quote!(#rt::field::Scalar::write(__value, __dst, #off)),
                             default,
                             quote!(),
                             false,
@@ -874,7 +895,7 @@ impl Gen<'_> {
                     } => {
                         let t = format_ident!("{}", prim.rust_name());
                         let r = format_ident!("{}", repr.rust_name());
-                        let raw = quote!(#rt::field::read::<#t>(self.payload, #off));
+                        let raw = quote!(#rt::field::read::<#t>(__src, #off));
                         let widened = if prim == repr {
                             raw
                         } else {
@@ -883,10 +904,10 @@ impl Gen<'_> {
                         let (get_body, to_raw) = if *bitmask {
                             (
                                 quote!(#path::from_bits_retain(#widened)),
-                                quote!(value.bits()),
+                                quote!(__value.bits()),
                             )
                         } else {
-                            (quote!(#path::from_raw(#widened)), quote!(value.to_raw()))
+                            (quote!(#path::from_raw(#widened)), quote!(__value.to_raw()))
                         };
                         // The representation is at least as wide as the field; the
                         // narrowing keeps the low bits, which is all the field holds.
@@ -900,7 +921,7 @@ impl Gen<'_> {
                             path.clone(),
                             get_body,
                             path.clone(),
-                            quote!(#rt::field::Scalar::write(#narrowed, self.payload, #off)),
+                            quote!(#rt::field::Scalar::write(#narrowed, __dst, #off)),
                             quote!(#path::default()),
                             quote!(),
                             false,
@@ -913,9 +934,9 @@ impl Gen<'_> {
                         (
                             quote!([#t; #n]),
                             quote!(#rt::field::ArrayView<'a, #t, #n>),
-                            quote!(#rt::field::ArrayView::new(self.payload, #off)),
+                            quote!(#rt::field::ArrayView::new(__src, #off)),
                             quote!(&[#t; #n]),
-                            quote!(#rt::field::write_array(self.payload, #off, value)),
+                            quote!(#rt::field::write_array(__dst, #off, __value)),
                             quote!([#z; #n]),
                             quote!(.to_array()),
                             true,
@@ -926,9 +947,9 @@ impl Gen<'_> {
                         (
                             quote!([u8; #n]),
                             quote!(#rt::field::CharArray<'a, #n>),
-                            quote!(#rt::field::CharArray::new(self.payload, #off)),
+                            quote!(#rt::field::CharArray::new(__src, #off)),
                             quote!(&[u8; #n]),
-                            quote!(#rt::field::write_array(self.payload, #off, value)),
+                            quote!(#rt::field::write_array(__dst, #off, __value)),
                             quote!([0; #n]),
                             quote!(.to_array()),
                             true,
@@ -946,6 +967,7 @@ impl Gen<'_> {
                 " Reads [`{base}::{rust_name}`]({target}) (`{}` at offset {}).",
                 f.name, layout.offsets[fi]
             );
+            let get_body = substitute(&get_tpl, "__src", &quote!(self.payload));
             getters.push(quote! {
                 #[doc = #get_doc]
                 #[inline]
@@ -954,6 +976,8 @@ impl Gen<'_> {
                 }
             });
             let set_doc = format!(" Sets the `{}` field.", f.name);
+            let set_body = substitute(&set_tpl, "__dst", &quote!(self.payload));
+            let set_body = substitute(&set_body, "__value", &quote!(value));
             setters.push(quote! {
                 #[doc = #set_doc]
                 #[inline]
@@ -961,12 +985,16 @@ impl Gen<'_> {
                     #set_body
                 }
             });
-            from_view.push(quote!(#fid: view.#fid() #to_owned,));
-            emit.push(if by_ref {
-                quote!(out.#setter(&self.#fid);)
+            let read = substitute(&get_tpl, "__src", &quote!(p));
+            from_view.push(quote!(#fid: #read #to_owned,));
+            let value = if by_ref {
+                quote!(&self.#fid)
             } else {
-                quote!(out.#setter(self.#fid);)
-            });
+                quote!(self.#fid)
+            };
+            let write = substitute(&set_tpl, "__dst", &quote!(out));
+            let write = substitute(&write, "__value", &value);
+            emit.push(quote!(#write;));
             defaults.push(quote!(#fid: #default,));
         }
 
@@ -1025,18 +1053,24 @@ impl Gen<'_> {
 
                 /// Reads a payload of any length (missing bytes read as zero).
                 pub fn parse(payload: &[u8]) -> Self {
-                    Self::from_view(&#view::new(payload))
+                    // Fields are read from one fixed-size array (the payload,
+                    // or its zero-filled copy if truncated): constant offsets,
+                    // no per-field bounds checks.
+                    let mut scratch = [0u8; Self::MAX_LEN];
+                    let p = #rt::field::padded(payload, &mut scratch);
+                    Self { #(#from_view)* }
                 }
 
                 /// Copies every field out of a view.
+                #[inline]
                 pub fn from_view(view: &#view<'_>) -> Self {
-                    Self { #(#from_view)* }
+                    Self::parse(view.as_bytes())
                 }
 
                 /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
                 /// `payload`; returns that length.
                 pub fn emit(&self, payload: &mut [u8]) -> Result<usize, #rt::BufferTooSmall> {
-                    let mut out = #writer::new(payload)?;
+                    let out = #rt::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
                     #(#emit)*
                     Ok(Self::MAX_LEN)
                 }
@@ -1048,14 +1082,17 @@ impl Gen<'_> {
                 const META: #rt::MessageMeta = #owned::META;
                 type View<'a> = #view<'a>;
 
+                #[inline]
                 fn parse(payload: &[u8]) -> Self {
                     #owned::parse(payload)
                 }
 
+                #[inline]
                 fn emit(&self, payload: &mut [u8]) -> Result<usize, #rt::BufferTooSmall> {
                     #owned::emit(self, payload)
                 }
 
+                #[inline]
                 fn view(payload: &[u8]) -> #view<'_> {
                     #view::new(payload)
                 }
@@ -1084,6 +1121,7 @@ impl Gen<'_> {
                 }
 
                 /// Copies every field out.
+                #[inline]
                 pub fn to_message(&self) -> #owned {
                     #owned::from_view(self)
                 }

@@ -29,18 +29,7 @@ macro_rules! scalar {
                 let mut bytes = [0u8; N];
                 match buf.get(offset..offset + N) {
                     Some(src) => bytes.copy_from_slice(src),
-                    None => {
-                        // Truncated payload: the present prefix, zeros after.
-                        // Byte by byte (N ≤ 8, unrolled): a variable-length
-                        // copy here compiles to a `memcpy` call for every
-                        // field past the end of a truncated payload.
-                        let tail = buf.get(offset..).unwrap_or(&[]);
-                        for (i, dst) in bytes.iter_mut().enumerate() {
-                            if let Some(&b) = tail.get(i) {
-                                *dst = b;
-                            }
-                        }
-                    }
+                    None => bytes = read_partial::<N>(buf, offset),
                 }
                 <$t>::from_le_bytes(bytes)
             }
@@ -56,7 +45,60 @@ macro_rules! scalar {
     )*};
 }
 
+/// The bytes of a field that does not lie whole in `buf` (a truncated
+/// payload): the present prefix, zeros after. Out of line and cold, so the
+/// inlined read of every generated accessor stays a bounds check and a load
+/// (one copy of this per field size, not one per field: it was a third of
+/// the dialect's compiled code).
+#[cold]
+#[inline(never)]
+fn read_partial<const N: usize>(buf: &[u8], offset: usize) -> [u8; N] {
+    let mut bytes = [0u8; N];
+    let tail = buf.get(offset..).unwrap_or(&[]);
+    // Byte by byte (N ≤ 8): a variable-length copy would call `memcpy`.
+    for (i, dst) in bytes.iter_mut().enumerate() {
+        if let Some(&b) = tail.get(i) {
+            *dst = b;
+        }
+    }
+    bytes
+}
+
 scalar!(u8, i8, u16, i16, u32, i32, u64, i64, f32, f64);
+
+/// The first `N` bytes of `payload` as an array: the payload itself when it
+/// is that long, else its bytes copied into `scratch` (which must be zeroed)
+/// — a truncated MAVLink 2 payload, zero-filled as the C library does. Reads
+/// at constant offsets from the result need no bounds checks.
+#[inline(always)]
+pub fn padded<'a, const N: usize>(payload: &'a [u8], scratch: &'a mut [u8; N]) -> &'a [u8; N] {
+    match payload.first_chunk::<N>() {
+        Some(whole) => whole,
+        None => {
+            copy_prefix(payload, scratch);
+            scratch
+        }
+    }
+}
+
+/// `dst[..n] = src[..n]` for the shorter length; shared by every message.
+#[inline(never)]
+fn copy_prefix(src: &[u8], dst: &mut [u8]) {
+    let n = src.len().min(dst.len());
+    dst[..n].copy_from_slice(&src[..n]);
+}
+
+/// The first `N` bytes of `payload` as an array to write a whole payload
+/// into, or the error saying how many bytes were needed.
+#[inline(always)]
+pub fn prefix_mut<const N: usize>(
+    payload: &mut [u8],
+) -> Result<&mut [u8; N], crate::message::BufferTooSmall> {
+    let got = payload.len();
+    payload
+        .first_chunk_mut::<N>()
+        .ok_or(crate::message::BufferTooSmall { needed: N, got })
+}
 
 /// Reads a scalar at `offset` (zero-filled past the end of `buf`).
 #[inline(always)]

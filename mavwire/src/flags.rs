@@ -21,13 +21,13 @@ pub fn fmt(
     f: &mut fmt::Formatter<'_>,
     type_name: &str,
     bits: u64,
-    flags: &mut dyn Iterator<Item = (&'static str, u64)>,
+    flags: &[(&str, u64)],
 ) -> fmt::Result {
     f.write_str(type_name)?;
     f.write_str("(")?;
     let mut rest = bits;
     let mut first = true;
-    for (name, value) in flags {
+    for &(name, value) in flags {
         // A flag is shown when all its bits are set and some are still
         // unnamed (multi-bit flags overlap single-bit ones).
         if value != 0 && bits & value == value && rest & value != 0 {
@@ -213,14 +213,11 @@ macro_rules! flag_set {
 
         impl ::core::fmt::Debug for $name {
             fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
-                $crate::flags::fmt(
-                    f,
-                    stringify!($name),
-                    self.0 as u64,
-                    &mut <Self as $crate::bitflags::Flags>::FLAGS
-                        .iter()
-                        .map(|flag| (flag.name(), flag.value().0 as u64)),
-                )
+                // A plain table, not an iterator over `Flags::FLAGS`: a
+                // `dyn Iterator` would instantiate every iterator method
+                // for every flag type.
+                const NAMES: &[(&str, u64)] = &[$((stringify!($flag), $name::$flag.0 as u64),)*];
+                $crate::flags::fmt(f, stringify!($name), self.0 as u64, NAMES)
             }
         }
 

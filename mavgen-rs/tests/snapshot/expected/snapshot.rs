@@ -338,49 +338,52 @@ impl SnapAllTypes {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SnapAllTypesView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            u8v: ::mavwire::field::read::<u8>(p, 46),
+            i8v: ::mavwire::field::read::<i8>(p, 47),
+            mode: SnapMode::from_raw(::mavwire::field::read::<u16>(p, 36)),
+            i16v: ::mavwire::field::read::<i16>(p, 38),
+            flags: SnapFlags::from_bits_retain(::mavwire::field::read::<u32>(p, 24)),
+            lat: ::mavwire::field::read::<i32>(p, 28),
+            time_usec: ::mavwire::field::read::<u64>(p, 0),
+            i64v: ::mavwire::field::read::<i64>(p, 8),
+            r#type: ::mavwire::field::read::<f32>(p, 32),
+            f64v: ::mavwire::field::read::<f64>(p, 16),
+            tag: ::mavwire::field::CharArray::new(p, 48).to_array(),
+            vals: ::mavwire::field::ArrayView::new(p, 40).to_array(),
+            version: ::mavwire::field::read::<u8>(p, 52),
+            ext_pair: ::mavwire::field::ArrayView::new(p, 53).to_array(),
+            omega_ix: ::mavwire::field::read::<u8>(p, 61),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SnapAllTypesView<'_>) -> Self {
-        Self {
-            u8v: view.u8v(),
-            i8v: view.i8v(),
-            mode: view.mode(),
-            i16v: view.i16v(),
-            flags: view.flags(),
-            lat: view.lat(),
-            time_usec: view.time_usec(),
-            i64v: view.i64v(),
-            r#type: view.r#type(),
-            f64v: view.f64v(),
-            tag: view.tag().to_array(),
-            vals: view.vals().to_array(),
-            version: view.version(),
-            ext_pair: view.ext_pair().to_array(),
-            omega_ix: view.omega_ix(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SnapAllTypesMut::new(payload)?;
-        out.set_u8v(self.u8v);
-        out.set_i8v(self.i8v);
-        out.set_mode(self.mode);
-        out.set_i16v(self.i16v);
-        out.set_flags(self.flags);
-        out.set_lat(self.lat);
-        out.set_time_usec(self.time_usec);
-        out.set_i64v(self.i64v);
-        out.set_type(self.r#type);
-        out.set_f64v(self.f64v);
-        out.set_tag(&self.tag);
-        out.set_vals(&self.vals);
-        out.set_version(self.version);
-        out.set_ext_pair(&self.ext_pair);
-        out.set_omega_ix(self.omega_ix);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.u8v, out, 46);
+        ::mavwire::field::Scalar::write(self.i8v, out, 47);
+        ::mavwire::field::Scalar::write(self.mode.to_raw(), out, 36);
+        ::mavwire::field::Scalar::write(self.i16v, out, 38);
+        ::mavwire::field::Scalar::write(self.flags.bits(), out, 24);
+        ::mavwire::field::Scalar::write(self.lat, out, 28);
+        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
+        ::mavwire::field::Scalar::write(self.i64v, out, 8);
+        ::mavwire::field::Scalar::write(self.r#type, out, 32);
+        ::mavwire::field::Scalar::write(self.f64v, out, 16);
+        ::mavwire::field::write_array(out, 48, &self.tag);
+        ::mavwire::field::write_array(out, 40, &self.vals);
+        ::mavwire::field::Scalar::write(self.version, out, 52);
+        ::mavwire::field::write_array(out, 53, &self.ext_pair);
+        ::mavwire::field::Scalar::write(self.omega_ix, out, 61);
         Ok(Self::MAX_LEN)
     }
 }
@@ -410,14 +413,17 @@ impl Default for SnapAllTypes {
 impl ::mavwire::Message for SnapAllTypes {
     const META: ::mavwire::MessageMeta = SnapAllTypes::META;
     type View<'a> = SnapAllTypesView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SnapAllTypes::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SnapAllTypes::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SnapAllTypesView<'_> {
         SnapAllTypesView::new(payload)
     }
@@ -446,6 +452,7 @@ impl<'a> SnapAllTypesView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SnapAllTypes {
         SnapAllTypes::from_view(self)
     }
@@ -722,25 +729,28 @@ impl SnapMaxId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        Self::from_view(&SnapMaxIdView::new(payload))
+        let mut scratch = [0u8; Self::MAX_LEN];
+        let p = ::mavwire::field::padded(payload, &mut scratch);
+        Self {
+            target_system: ::mavwire::field::read::<u8>(p, 0),
+            target_component: ::mavwire::field::read::<u8>(p, 1),
+            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+        }
     }
 
     /// Copies every field out of a view.
+    #[inline]
     pub fn from_view(view: &SnapMaxIdView<'_>) -> Self {
-        Self {
-            target_system: view.target_system(),
-            target_component: view.target_component(),
-            data: view.data().to_array(),
-        }
+        Self::parse(view.as_bytes())
     }
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let mut out = SnapMaxIdMut::new(payload)?;
-        out.set_target_system(self.target_system);
-        out.set_target_component(self.target_component);
-        out.set_data(&self.data);
+        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavwire::field::Scalar::write(self.target_system, out, 0);
+        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+        ::mavwire::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -758,14 +768,17 @@ impl Default for SnapMaxId {
 impl ::mavwire::Message for SnapMaxId {
     const META: ::mavwire::MessageMeta = SnapMaxId::META;
     type View<'a> = SnapMaxIdView<'a>;
+    #[inline]
     fn parse(payload: &[u8]) -> Self {
         SnapMaxId::parse(payload)
     }
 
+    #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
         SnapMaxId::emit(self, payload)
     }
 
+    #[inline]
     fn view(payload: &[u8]) -> SnapMaxIdView<'_> {
         SnapMaxIdView::new(payload)
     }
@@ -794,6 +807,7 @@ impl<'a> SnapMaxIdView<'a> {
     }
 
     /// Copies every field out.
+    #[inline]
     pub fn to_message(&self) -> SnapMaxId {
         SnapMaxId::from_view(self)
     }

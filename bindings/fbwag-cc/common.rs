@@ -3076,8 +3076,7 @@ impl SysStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             onboard_control_sensors_present: MavSysStatusSensor::from_bits_retain(
                 ::mavwire::field::read::<u32>(p, 0),
@@ -3564,8 +3563,7 @@ impl Attitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             roll: ::mavwire::field::read::<f32>(p, 4),
@@ -4023,8 +4021,7 @@ impl RcChannels {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             chancount: ::mavwire::field::read::<u8>(p, 40),
@@ -4694,8 +4691,7 @@ impl RcChannelsOverride {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 16),
             target_component: ::mavwire::field::read::<u8>(p, 17),
@@ -5167,8 +5163,7 @@ impl VfrHud {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             airspeed: ::mavwire::field::read::<f32>(p, 0),
             groundspeed: ::mavwire::field::read::<f32>(p, 4),
@@ -5502,8 +5497,7 @@ impl CommandLong {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 30),
             target_component: ::mavwire::field::read::<u8>(p, 31),
@@ -5855,8 +5849,7 @@ impl CommandAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 0)),
             result: MavResult::from_raw(::mavwire::field::read::<u8>(p, 2)),
@@ -6165,8 +6158,7 @@ impl SetAttitudeTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             target_system: ::mavwire::field::read::<u8>(p, 36),
@@ -6472,8 +6464,7 @@ impl Statustext {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             severity: MavSeverity::from_raw(::mavwire::field::read::<u8>(p, 0)),
             text: ::mavwire::field::CharArray::new(p, 1).to_array(),

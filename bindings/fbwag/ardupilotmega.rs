@@ -3268,8 +3268,7 @@ impl SensorOffsets {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             mag_ofs_x: ::mavwire::field::read::<i16>(p, 36),
             mag_ofs_y: ::mavwire::field::read::<i16>(p, 38),
@@ -3617,8 +3616,7 @@ impl SetMagOffsets {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 6),
             target_component: ::mavwire::field::read::<u8>(p, 7),
@@ -3846,8 +3844,7 @@ impl Meminfo {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             brkval: ::mavwire::field::read::<u16>(p, 0),
             freemem: ::mavwire::field::read::<u16>(p, 2),
@@ -4079,8 +4076,7 @@ impl ApAdc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             adc1: ::mavwire::field::read::<u16>(p, 0),
             adc2: ::mavwire::field::read::<u16>(p, 2),
@@ -4410,8 +4406,7 @@ impl DigicamConfigure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 6),
             target_component: ::mavwire::field::read::<u8>(p, 7),
@@ -4800,8 +4795,7 @@ impl DigicamControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -5132,8 +5126,7 @@ impl MountConfigure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -5412,8 +5405,7 @@ impl MountControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 12),
             target_component: ::mavwire::field::read::<u8>(p, 13),
@@ -5688,8 +5680,7 @@ impl MountStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 12),
             target_component: ::mavwire::field::read::<u8>(p, 13),
@@ -5968,8 +5959,7 @@ impl FencePoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 8),
             target_component: ::mavwire::field::read::<u8>(p, 9),
@@ -6210,8 +6200,7 @@ impl FenceFetchPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -6454,8 +6443,7 @@ impl Ahrs {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             omega_ix: ::mavwire::field::read::<f32>(p, 0),
             omega_iy: ::mavwire::field::read::<f32>(p, 4),
@@ -6798,8 +6786,7 @@ impl Simstate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             roll: ::mavwire::field::read::<f32>(p, 0),
             pitch: ::mavwire::field::read::<f32>(p, 4),
@@ -7101,8 +7088,7 @@ impl Hwstatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             vcc: ::mavwire::field::read::<u16>(p, 0),
             i2_cerr: ::mavwire::field::read::<u8>(p, 2),
@@ -7331,8 +7317,7 @@ impl Radio {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             rssi: ::mavwire::field::read::<u8>(p, 4),
             remrssi: ::mavwire::field::read::<u8>(p, 5),
@@ -7653,8 +7638,7 @@ impl LimitsStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             limits_state: LimitsState::from_raw(::mavwire::field::read::<u8>(p, 18)),
             last_trigger: ::mavwire::field::read::<u32>(p, 0),
@@ -7943,8 +7927,7 @@ impl Wind {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             direction: ::mavwire::field::read::<f32>(p, 0),
             speed: ::mavwire::field::read::<f32>(p, 4),
@@ -8143,8 +8126,7 @@ impl Data16 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             r#type: ::mavwire::field::read::<u8>(p, 0),
             len: ::mavwire::field::read::<u8>(p, 1),
@@ -8343,8 +8325,7 @@ impl Data32 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             r#type: ::mavwire::field::read::<u8>(p, 0),
             len: ::mavwire::field::read::<u8>(p, 1),
@@ -8543,8 +8524,7 @@ impl Data64 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             r#type: ::mavwire::field::read::<u8>(p, 0),
             len: ::mavwire::field::read::<u8>(p, 1),
@@ -8753,8 +8733,7 @@ impl Data96 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             r#type: ::mavwire::field::read::<u8>(p, 0),
             len: ::mavwire::field::read::<u8>(p, 1),
@@ -8952,8 +8931,7 @@ impl Rangefinder {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             distance: ::mavwire::field::read::<f32>(p, 0),
             voltage: ::mavwire::field::read::<f32>(p, 4),
@@ -9237,8 +9215,7 @@ impl AirspeedAutocal {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             vx: ::mavwire::field::read::<f32>(p, 0),
             vy: ::mavwire::field::read::<f32>(p, 4),
@@ -9641,8 +9618,7 @@ impl RallyPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 14),
             target_component: ::mavwire::field::read::<u8>(p, 15),
@@ -9940,8 +9916,7 @@ impl RallyFetchPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -10173,8 +10148,7 @@ impl CompassmotStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             throttle: ::mavwire::field::read::<u16>(p, 16),
             current: ::mavwire::field::read::<f32>(p, 0),
@@ -10448,8 +10422,7 @@ impl Ahrs2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             roll: ::mavwire::field::read::<f32>(p, 0),
             pitch: ::mavwire::field::read::<f32>(p, 4),
@@ -10757,8 +10730,7 @@ impl CameraStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             target_system: ::mavwire::field::read::<u8>(p, 26),
@@ -11165,8 +11137,7 @@ impl CameraFeedback {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             target_system: ::mavwire::field::read::<u8>(p, 42),
@@ -11509,8 +11480,7 @@ impl Battery2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             voltage: ::mavwire::field::read::<u16>(p, 0),
             current_battery: ::mavwire::field::read::<i16>(p, 2),
@@ -11772,8 +11742,7 @@ impl Ahrs3 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             roll: ::mavwire::field::read::<f32>(p, 0),
             pitch: ::mavwire::field::read::<f32>(p, 4),
@@ -12059,8 +12028,7 @@ impl AutopilotVersionRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -12257,8 +12225,7 @@ impl RemoteLogDataBlock {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -12498,8 +12465,7 @@ impl RemoteLogBlockStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -12749,8 +12715,7 @@ impl LedControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -13059,8 +13024,7 @@ impl MagCalProgress {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             compass_id: ::mavwire::field::read::<u8>(p, 12),
             cal_mask: ::mavwire::field::read::<u8>(p, 13),
@@ -13393,8 +13357,7 @@ impl EkfStatusReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             flags: EkfStatusFlags::from_bits_retain(
                 ::mavwire::field::read::<u16>(p, 20),
@@ -13720,8 +13683,7 @@ impl PidTuning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             axis: PidTuningAxis::from_raw(::mavwire::field::read::<u8>(p, 24)),
             desired: ::mavwire::field::read::<f32>(p, 0),
@@ -14081,8 +14043,7 @@ impl Deepstall {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             landing_lat: ::mavwire::field::read::<i32>(p, 0),
             landing_lon: ::mavwire::field::read::<i32>(p, 4),
@@ -14478,8 +14439,7 @@ impl GimbalReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 40),
             target_component: ::mavwire::field::read::<u8>(p, 41),
@@ -14826,8 +14786,7 @@ impl GimbalControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 12),
             target_component: ::mavwire::field::read::<u8>(p, 13),
@@ -15076,8 +15035,7 @@ impl GimbalTorqueCmdReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 6),
             target_component: ::mavwire::field::read::<u8>(p, 7),
@@ -15307,8 +15265,7 @@ impl GoproHeartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             status: GoproHeartbeatStatus::from_raw(::mavwire::field::read::<u8>(p, 0)),
             capture_mode: GoproCaptureMode::from_raw(::mavwire::field::read::<u8>(p, 1)),
@@ -15511,8 +15468,7 @@ impl GoproGetRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -15712,8 +15668,7 @@ impl GoproGetResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 0)),
             status: GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(p, 1)),
@@ -15923,8 +15878,7 @@ impl GoproSetRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -16127,8 +16081,7 @@ impl GoproSetResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 0)),
             status: GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(p, 1)),
@@ -16302,8 +16255,7 @@ impl Rpm {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             rpm1: ::mavwire::field::read::<f32>(p, 0),
             rpm2: ::mavwire::field::read::<f32>(p, 4),
@@ -16567,8 +16519,7 @@ impl DeviceOpRead {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -16916,8 +16867,7 @@ impl DeviceOpReadReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             request_id: ::mavwire::field::read::<u32>(p, 0),
             result: ::mavwire::field::read::<u8>(p, 4),
@@ -17261,8 +17211,7 @@ impl DeviceOpWrite {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -17580,8 +17529,7 @@ impl DeviceOpWriteReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             request_id: ::mavwire::field::read::<u32>(p, 0),
             result: ::mavwire::field::read::<u8>(p, 4),
@@ -17816,8 +17764,7 @@ impl SecureCommand {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 8),
             target_component: ::mavwire::field::read::<u8>(p, 9),
@@ -18110,8 +18057,7 @@ impl SecureCommandReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             sequence: ::mavwire::field::read::<u32>(p, 0),
             operation: SecureCommandOp::from_raw(::mavwire::field::read::<u32>(p, 4)),
@@ -18463,8 +18409,7 @@ impl AdapTuning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             axis: PidTuningAxis::from_raw(::mavwire::field::read::<u8>(p, 48)),
             desired: ::mavwire::field::read::<f32>(p, 0),
@@ -18827,8 +18772,7 @@ impl VisionPositionDelta {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             time_delta_usec: ::mavwire::field::read::<u64>(p, 8),
@@ -19055,8 +18999,7 @@ impl AoaSsa {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             aoa: ::mavwire::field::read::<f32>(p, 8),
@@ -19288,8 +19231,7 @@ impl EscTelemetry1To4 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -19563,8 +19505,7 @@ impl EscTelemetry5To8 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -19838,8 +19779,7 @@ impl EscTelemetry9To12 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -20160,8 +20100,7 @@ impl OsdParamConfig {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 16),
             target_component: ::mavwire::field::read::<u8>(p, 17),
@@ -20450,8 +20389,7 @@ impl OsdParamConfigReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             request_id: ::mavwire::field::read::<u32>(p, 0),
             result: OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(p, 4)),
@@ -20658,8 +20596,7 @@ impl OsdParamShowConfig {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -20934,8 +20871,7 @@ impl OsdParamShowConfigReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             request_id: ::mavwire::field::read::<u32>(p, 0),
             result: OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(p, 16)),
@@ -21262,8 +21198,7 @@ impl ObstacleDistance3d {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             sensor_type: super::common::MavDistanceSensor::from_raw(
@@ -21641,8 +21576,7 @@ impl WaterDepth {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             id: ::mavwire::field::read::<u8>(p, 36),
@@ -21977,8 +21911,7 @@ impl McuStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             id: ::mavwire::field::read::<u8>(p, 8),
             mcu_temperature: ::mavwire::field::read::<i16>(p, 0),
@@ -22238,8 +22171,7 @@ impl EscTelemetry13To16 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -22513,8 +22445,7 @@ impl EscTelemetry17To20 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -22788,8 +22719,7 @@ impl EscTelemetry21To24 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -23063,8 +22993,7 @@ impl EscTelemetry25To28 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -23338,8 +23267,7 @@ impl EscTelemetry29To32 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
             voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
@@ -23583,8 +23511,7 @@ impl NamedValueString {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             name: ::mavwire::field::CharArray::new(p, 4).to_array(),

@@ -11541,8 +11541,7 @@ impl SysStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             onboard_control_sensors_present: MavSysStatusSensor::from_bits_retain(
                 ::mavwire::field::read::<u32>(p, 0),
@@ -11978,8 +11977,7 @@ impl SystemTime {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_unix_usec: ::mavwire::field::read::<u64>(p, 0),
             time_boot_ms: ::mavwire::field::read::<u32>(p, 8),
@@ -12181,8 +12179,7 @@ impl Ping {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             seq: ::mavwire::field::read::<u32>(p, 8),
@@ -12409,8 +12406,7 @@ impl ChangeOperatorControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             control_request: ::mavwire::field::read::<u8>(p, 1),
@@ -12624,8 +12620,7 @@ impl ChangeOperatorControlAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             gcs_system_id: ::mavwire::field::read::<u8>(p, 0),
             control_request: ::mavwire::field::read::<u8>(p, 1),
@@ -12803,8 +12798,7 @@ impl AuthKey {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             key: ::mavwire::field::CharArray::new(p, 0).to_array(),
         }
@@ -12976,8 +12970,7 @@ impl SetMode {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             base_mode: MavMode::from_raw(::mavwire::field::read::<u8>(p, 5)),
@@ -13195,8 +13188,7 @@ impl ParamRequestRead {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -13400,8 +13392,7 @@ impl ParamRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -13613,8 +13604,7 @@ impl ParamValue {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             param_id: ::mavwire::field::CharArray::new(p, 8).to_array(),
             param_value: ::mavwire::field::read::<f32>(p, 0),
@@ -13870,8 +13860,7 @@ impl ParamSet {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -14257,8 +14246,7 @@ impl GpsRawInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             fix_type: GpsFixType::from_raw(::mavwire::field::read::<u8>(p, 28)),
@@ -14675,8 +14663,7 @@ impl GpsStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             satellites_visible: ::mavwire::field::read::<u8>(p, 0),
             satellite_prn: ::mavwire::field::ArrayView::new(p, 1).to_array(),
@@ -15008,8 +14995,7 @@ impl ScaledImu {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             xacc: ::mavwire::field::read::<i16>(p, 4),
@@ -15429,8 +15415,7 @@ impl RawImu {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             xacc: ::mavwire::field::read::<i16>(p, 8),
@@ -15780,8 +15765,7 @@ impl RawPressure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             press_abs: ::mavwire::field::read::<i16>(p, 8),
@@ -16033,8 +16017,7 @@ impl ScaledPressure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             press_abs: ::mavwire::field::read::<f32>(p, 4),
@@ -16306,8 +16289,7 @@ impl Attitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             roll: ::mavwire::field::read::<f32>(p, 4),
@@ -16637,8 +16619,7 @@ impl AttitudeQuaternion {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             q1: ::mavwire::field::read::<f32>(p, 4),
@@ -16966,8 +16947,7 @@ impl LocalPositionNed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             x: ::mavwire::field::read::<f32>(p, 4),
@@ -17313,8 +17293,7 @@ impl RcChannelsScaled {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             port: ::mavwire::field::read::<u8>(p, 20),
@@ -17717,8 +17696,7 @@ impl RcChannelsRaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             port: ::mavwire::field::read::<u8>(p, 20),
@@ -18208,8 +18186,7 @@ impl ServoOutputRaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u32>(p, 0),
             port: ::mavwire::field::read::<u8>(p, 20),
@@ -18643,8 +18620,7 @@ impl MissionRequestPartialList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -18896,8 +18872,7 @@ impl MissionWritePartialList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -19264,8 +19239,7 @@ impl MissionItem {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 32),
             target_component: ::mavwire::field::read::<u8>(p, 33),
@@ -19648,8 +19622,7 @@ impl MissionRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -19870,8 +19843,7 @@ impl MissionSetCurrent {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -20090,8 +20062,7 @@ impl MissionCurrent {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             seq: ::mavwire::field::read::<u16>(p, 0),
             total: ::mavwire::field::read::<u16>(p, 2),
@@ -20305,8 +20276,7 @@ impl MissionRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -20519,8 +20489,7 @@ impl MissionCount {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -20734,8 +20703,7 @@ impl MissionClearAll {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -20914,8 +20882,7 @@ impl MissionItemReached {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             seq: ::mavwire::field::read::<u16>(p, 0),
         }
@@ -21100,8 +21067,7 @@ impl MissionAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -21343,8 +21309,7 @@ impl SetGpsGlobalOrigin {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 12),
             latitude: ::mavwire::field::read::<i32>(p, 0),
@@ -21587,8 +21552,7 @@ impl GpsGlobalOrigin {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             latitude: ::mavwire::field::read::<i32>(p, 0),
             longitude: ::mavwire::field::read::<i32>(p, 4),
@@ -21874,8 +21838,7 @@ impl ParamMapRc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 18),
             target_component: ::mavwire::field::read::<u8>(p, 19),
@@ -22172,8 +22135,7 @@ impl MissionRequestInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -22455,8 +22417,7 @@ impl SafetySetAllowedArea {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 24),
             target_component: ::mavwire::field::read::<u8>(p, 25),
@@ -22784,8 +22745,7 @@ impl SafetyAllowedArea {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 24)),
             p1x: ::mavwire::field::read::<f32>(p, 0),
@@ -23079,8 +23039,7 @@ impl AttitudeQuaternionCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             q: ::mavwire::field::ArrayView::new(p, 8).to_array(),
@@ -23376,8 +23335,7 @@ impl NavControllerOutput {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             nav_roll: ::mavwire::field::read::<f32>(p, 0),
             nav_pitch: ::mavwire::field::read::<f32>(p, 4),
@@ -23732,8 +23690,7 @@ impl GlobalPositionIntCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             estimator_type: MavEstimatorType::from_raw(
@@ -24155,8 +24112,7 @@ impl LocalPositionNedCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             estimator_type: MavEstimatorType::from_raw(
@@ -24705,8 +24661,7 @@ impl RcChannels {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             chancount: ::mavwire::field::read::<u8>(p, 40),
@@ -25179,8 +25134,7 @@ impl RequestDataStream {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -25407,8 +25361,7 @@ impl DataStream {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             stream_id: MavDataStream::from_raw(::mavwire::field::read::<u8>(p, 2)),
             message_rate: ::mavwire::field::read::<u16>(p, 0),
@@ -25785,8 +25738,7 @@ impl ManualControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target: ::mavwire::field::read::<u8>(p, 10),
             x: ::mavwire::field::read::<i16>(p, 0),
@@ -26386,8 +26338,7 @@ impl RcChannelsOverride {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 16),
             target_component: ::mavwire::field::read::<u8>(p, 17),
@@ -26965,8 +26916,7 @@ impl MissionItemInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 32),
             target_component: ::mavwire::field::read::<u8>(p, 33),
@@ -27368,8 +27318,7 @@ impl VfrHud {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             airspeed: ::mavwire::field::read::<f32>(p, 0),
             groundspeed: ::mavwire::field::read::<f32>(p, 4),
@@ -27723,8 +27672,7 @@ impl CommandInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 30),
             target_component: ::mavwire::field::read::<u8>(p, 31),
@@ -28156,8 +28104,7 @@ impl CommandLong {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 30),
             target_component: ::mavwire::field::read::<u8>(p, 31),
@@ -28509,8 +28456,7 @@ impl CommandAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 0)),
             result: MavResult::from_raw(::mavwire::field::read::<u8>(p, 2)),
@@ -28795,8 +28741,7 @@ impl ManualSetpoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             roll: ::mavwire::field::read::<f32>(p, 4),
@@ -29119,8 +29064,7 @@ impl SetAttitudeTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             target_system: ::mavwire::field::read::<u8>(p, 36),
@@ -29454,8 +29398,7 @@ impl AttitudeTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             type_mask: AttitudeTargetTypemask::from_bits_retain(
@@ -29860,8 +29803,7 @@ impl SetPositionTargetLocalNed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             target_system: ::mavwire::field::read::<u8>(p, 50),
@@ -30371,8 +30313,7 @@ impl PositionTargetLocalNed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             coordinate_frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 50)),
@@ -30880,8 +30821,7 @@ impl SetPositionTargetGlobalInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             target_system: ::mavwire::field::read::<u8>(p, 50),
@@ -31395,8 +31335,7 @@ impl PositionTargetGlobalInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             coordinate_frame: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 50)),
@@ -31799,8 +31738,7 @@ impl LocalPositionNedSystemGlobalOffset {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             x: ::mavwire::field::read::<f32>(p, 4),
@@ -32201,8 +32139,7 @@ impl HilState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             roll: ::mavwire::field::read::<f32>(p, 8),
@@ -32674,8 +32611,7 @@ impl HilControls {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             roll_ailerons: ::mavwire::field::read::<f32>(p, 8),
@@ -33112,8 +33048,7 @@ impl HilRcInputsRaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             chan1_raw: ::mavwire::field::read::<u16>(p, 8),
@@ -33482,8 +33417,7 @@ impl HilActuatorControls {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             controls: ::mavwire::field::ArrayView::new(p, 16).to_array(),
@@ -33785,8 +33719,7 @@ impl OpticalFlow {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             sensor_id: ::mavwire::field::read::<u8>(p, 24),
@@ -34156,8 +34089,7 @@ impl GlobalVisionPositionEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             usec: ::mavwire::field::read::<u64>(p, 0),
             x: ::mavwire::field::read::<f32>(p, 8),
@@ -34512,8 +34444,7 @@ impl VisionPositionEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             usec: ::mavwire::field::read::<u64>(p, 0),
             x: ::mavwire::field::read::<f32>(p, 8),
@@ -34835,8 +34766,7 @@ impl VisionSpeedEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             usec: ::mavwire::field::read::<u64>(p, 0),
             x: ::mavwire::field::read::<f32>(p, 8),
@@ -35135,8 +35065,7 @@ impl ViconPositionEstimate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             usec: ::mavwire::field::read::<u64>(p, 0),
             x: ::mavwire::field::read::<f32>(p, 8),
@@ -35553,8 +35482,7 @@ impl HighresImu {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             xacc: ::mavwire::field::read::<f32>(p, 8),
@@ -36045,8 +35973,7 @@ impl OpticalFlowRad {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             sensor_id: ::mavwire::field::read::<u8>(p, 42),
@@ -36518,8 +36445,7 @@ impl HilSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             xacc: ::mavwire::field::read::<f32>(p, 8),
@@ -37129,8 +37055,7 @@ impl SimState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             q1: ::mavwire::field::read::<f32>(p, 0),
             q2: ::mavwire::field::read::<f32>(p, 4),
@@ -37657,8 +37582,7 @@ impl RadioStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             rssi: ::mavwire::field::read::<u8>(p, 4),
             remrssi: ::mavwire::field::read::<u8>(p, 5),
@@ -37926,8 +37850,7 @@ impl FileTransferProtocol {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_network: ::mavwire::field::read::<u8>(p, 0),
             target_system: ::mavwire::field::read::<u8>(p, 1),
@@ -38152,8 +38075,7 @@ impl Timesync {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             tc1: ::mavwire::field::read::<i64>(p, 0),
             ts1: ::mavwire::field::read::<i64>(p, 8),
@@ -38329,8 +38251,7 @@ impl CameraTrigger {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             seq: ::mavwire::field::read::<u32>(p, 8),
@@ -38657,8 +38578,7 @@ impl HilGps {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             fix_type: ::mavwire::field::read::<u8>(p, 34),
@@ -39130,8 +39050,7 @@ impl HilOpticalFlow {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             sensor_id: ::mavwire::field::read::<u8>(p, 42),
@@ -39604,8 +39523,7 @@ impl HilStateQuaternion {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             attitude_quaternion: ::mavwire::field::ArrayView::new(p, 8).to_array(),
@@ -40077,8 +39995,7 @@ impl ScaledImu2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             xacc: ::mavwire::field::read::<i16>(p, 4),
@@ -40403,8 +40320,7 @@ impl LogRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -40639,8 +40555,7 @@ impl LogEntry {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             id: ::mavwire::field::read::<u16>(p, 8),
             num_logs: ::mavwire::field::read::<u16>(p, 10),
@@ -40889,8 +40804,7 @@ impl LogRequestData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 10),
             target_component: ::mavwire::field::read::<u8>(p, 11),
@@ -41128,8 +41042,7 @@ impl LogData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             id: ::mavwire::field::read::<u16>(p, 4),
             ofs: ::mavwire::field::read::<u32>(p, 0),
@@ -41342,8 +41255,7 @@ impl LogErase {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -41517,8 +41429,7 @@ impl LogRequestEnd {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -41714,8 +41625,7 @@ impl GpsInjectData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -42115,8 +42025,7 @@ impl Gps2Raw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             fix_type: GpsFixType::from_raw(::mavwire::field::read::<u8>(p, 32)),
@@ -42525,8 +42434,7 @@ impl PowerStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             vcc: ::mavwire::field::read::<u16>(p, 0),
             vservo: ::mavwire::field::read::<u16>(p, 2),
@@ -42763,8 +42671,7 @@ impl SerialControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             device: SerialControlDev::from_raw(::mavwire::field::read::<u8>(p, 6)),
             flags: SerialControlFlag::from_bits_retain(
@@ -43133,8 +43040,7 @@ impl GpsRtk {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_last_baseline_ms: ::mavwire::field::read::<u32>(p, 0),
             rtk_receiver_id: ::mavwire::field::read::<u8>(p, 30),
@@ -43588,8 +43494,7 @@ impl Gps2Rtk {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_last_baseline_ms: ::mavwire::field::read::<u32>(p, 0),
             rtk_receiver_id: ::mavwire::field::read::<u8>(p, 30),
@@ -44023,8 +43928,7 @@ impl ScaledImu3 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             xacc: ::mavwire::field::read::<i16>(p, 4),
@@ -44382,8 +44286,7 @@ impl DataTransmissionHandshake {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             r#type: MavlinkDataStreamType::from_raw(::mavwire::field::read::<u8>(p, 10)),
             size: ::mavwire::field::read::<u32>(p, 0),
@@ -44628,8 +44531,7 @@ impl EncapsulatedData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             seqnr: ::mavwire::field::read::<u16>(p, 0),
             data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
@@ -44936,8 +44838,7 @@ impl DistanceSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             min_distance: ::mavwire::field::read::<u16>(p, 4),
@@ -45276,8 +45177,7 @@ impl TerrainRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             lat: ::mavwire::field::read::<i32>(p, 8),
             lon: ::mavwire::field::read::<i32>(p, 12),
@@ -45514,8 +45414,7 @@ impl TerrainData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             lat: ::mavwire::field::read::<i32>(p, 0),
             lon: ::mavwire::field::read::<i32>(p, 4),
@@ -45733,8 +45632,7 @@ impl TerrainCheck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             lat: ::mavwire::field::read::<i32>(p, 0),
             lon: ::mavwire::field::read::<i32>(p, 4),
@@ -45965,8 +45863,7 @@ impl TerrainReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             lat: ::mavwire::field::read::<i32>(p, 0),
             lon: ::mavwire::field::read::<i32>(p, 4),
@@ -46245,8 +46142,7 @@ impl ScaledPressure2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             press_abs: ::mavwire::field::read::<f32>(p, 4),
@@ -46511,8 +46407,7 @@ impl AttPosMocap {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             q: ::mavwire::field::ArrayView::new(p, 8).to_array(),
@@ -46781,8 +46676,7 @@ impl SetActuatorControlTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             group_mlx: ::mavwire::field::read::<u8>(p, 40),
@@ -47015,8 +46909,7 @@ impl ActuatorControlTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             group_mlx: ::mavwire::field::read::<u8>(p, 40),
@@ -47275,8 +47168,7 @@ impl Altitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             altitude_monotonic: ::mavwire::field::read::<f32>(p, 8),
@@ -47555,8 +47447,7 @@ impl ResourceRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             request_id: ::mavwire::field::read::<u8>(p, 0),
             uri_type: ::mavwire::field::read::<u8>(p, 1),
@@ -47819,8 +47710,7 @@ impl ScaledPressure3 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             press_abs: ::mavwire::field::read::<f32>(p, 4),
@@ -48136,8 +48026,7 @@ impl FollowTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             timestamp: ::mavwire::field::read::<u64>(p, 0),
             est_capabilities: ::mavwire::field::read::<u8>(p, 92),
@@ -48604,8 +48493,7 @@ impl ControlSystemState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             x_acc: ::mavwire::field::read::<f32>(p, 8),
@@ -49143,8 +49031,7 @@ impl BatteryStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             id: ::mavwire::field::read::<u8>(p, 32),
             battery_function: MavBatteryFunction::from_raw(
@@ -49636,8 +49523,7 @@ impl LandingTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             target_num: ::mavwire::field::read::<u8>(p, 28),
@@ -50017,8 +49903,7 @@ impl FenceStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             breach_status: ::mavwire::field::read::<u8>(p, 6),
             breach_count: ::mavwire::field::read::<u16>(p, 4),
@@ -50417,8 +50302,7 @@ impl MagCalReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             compass_id: ::mavwire::field::read::<u8>(p, 40),
             cal_mask: ::mavwire::field::read::<u8>(p, 41),
@@ -51011,8 +50895,7 @@ impl EfiStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             health: ::mavwire::field::read::<u8>(p, 64),
             ecu_index: ::mavwire::field::read::<f32>(p, 0),
@@ -51524,8 +51407,7 @@ impl EstimatorStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             flags: EstimatorStatusFlags::from_bits_retain(
@@ -51898,8 +51780,7 @@ impl WindCov {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             wind_x: ::mavwire::field::read::<f32>(p, 8),
@@ -52365,8 +52246,7 @@ impl GpsInput {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             gps_id: ::mavwire::field::read::<u8>(p, 60),
@@ -52800,8 +52680,7 @@ impl GpsRtcmData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             flags: ::mavwire::field::read::<u8>(p, 0),
             len: ::mavwire::field::read::<u8>(p, 1),
@@ -53243,8 +53122,7 @@ impl HighLatency {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             base_mode: super::minimal::MavModeFlag::from_bits_retain(
                 ::mavwire::field::read::<u8>(p, 26),
@@ -54008,8 +53886,7 @@ impl HighLatency2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             timestamp: ::mavwire::field::read::<u32>(p, 0),
             r#type: super::minimal::MavType::from_raw(
@@ -54598,8 +54475,7 @@ impl Vibration {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             vibration_x: ::mavwire::field::read::<f32>(p, 8),
@@ -54965,8 +54841,7 @@ impl HomePosition {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             latitude: ::mavwire::field::read::<i32>(p, 0),
             longitude: ::mavwire::field::read::<i32>(p, 4),
@@ -55400,8 +55275,7 @@ impl SetHomePosition {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 52),
             latitude: ::mavwire::field::read::<i32>(p, 0),
@@ -55719,8 +55593,7 @@ impl MessageInterval {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             message_id: ::mavwire::field::read::<u16>(p, 4),
             interval_us: ::mavwire::field::read::<i32>(p, 0),
@@ -55895,8 +55768,7 @@ impl ExtendedSysState {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             vtol_state: MavVtolState::from_raw(::mavwire::field::read::<u8>(p, 0)),
             landed_state: MavLandedState::from_raw(::mavwire::field::read::<u8>(p, 1)),
@@ -56194,8 +56066,7 @@ impl AdsbVehicle {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             icao_address: ::mavwire::field::read::<u32>(p, 0),
             lat: ::mavwire::field::read::<i32>(p, 4),
@@ -56583,8 +56454,7 @@ impl Collision {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             src: MavCollisionSrc::from_raw(::mavwire::field::read::<u8>(p, 16)),
             id: ::mavwire::field::read::<u32>(p, 0),
@@ -56875,8 +56745,7 @@ impl V2Extension {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_network: ::mavwire::field::read::<u8>(p, 2),
             target_system: ::mavwire::field::read::<u8>(p, 3),
@@ -57128,8 +56997,7 @@ impl MemoryVect {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             address: ::mavwire::field::read::<u16>(p, 0),
             ver: ::mavwire::field::read::<u8>(p, 2),
@@ -57367,8 +57235,7 @@ impl DebugVect {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             name: ::mavwire::field::CharArray::new(p, 20).to_array(),
             time_usec: ::mavwire::field::read::<u64>(p, 0),
@@ -57597,8 +57464,7 @@ impl NamedValueFloat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             name: ::mavwire::field::CharArray::new(p, 8).to_array(),
@@ -57800,8 +57666,7 @@ impl NamedValueInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             name: ::mavwire::field::CharArray::new(p, 8).to_array(),
@@ -58019,8 +57884,7 @@ impl Statustext {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             severity: MavSeverity::from_raw(::mavwire::field::read::<u8>(p, 0)),
             text: ::mavwire::field::CharArray::new(p, 1).to_array(),
@@ -58245,8 +58109,7 @@ impl Debug {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             ind: ::mavwire::field::read::<u8>(p, 8),
@@ -58457,8 +58320,7 @@ impl SetupSigning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 8),
             target_component: ::mavwire::field::read::<u8>(p, 9),
@@ -58671,8 +58533,7 @@ impl ButtonChange {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             last_change_ms: ::mavwire::field::read::<u32>(p, 4),
@@ -58883,8 +58744,7 @@ impl PlayTune {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -59251,8 +59111,7 @@ impl CameraInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             vendor_name: ::mavwire::field::ArrayView::new(p, 30).to_array(),
@@ -59669,8 +59528,7 @@ impl CameraSettings {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             mode_id: CameraMode::from_raw(::mavwire::field::read::<u8>(p, 4)),
@@ -60010,8 +59868,7 @@ impl StorageInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             storage_id: ::mavwire::field::read::<u8>(p, 24),
@@ -60401,8 +60258,7 @@ impl CameraCaptureStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             image_status: ::mavwire::field::read::<u8>(p, 16),
@@ -60770,8 +60626,7 @@ impl CameraImageCaptured {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 8),
             time_utc: ::mavwire::field::read::<u64>(p, 0),
@@ -61128,8 +60983,7 @@ impl FlightInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 24),
             arming_time_utc: ::mavwire::field::read::<u64>(p, 0),
@@ -61379,8 +61233,7 @@ impl MountOrientation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             roll: ::mavwire::field::read::<f32>(p, 4),
@@ -61641,8 +61494,7 @@ impl LoggingData {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -61930,8 +61782,7 @@ impl LoggingDataAcked {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -62185,8 +62036,7 @@ impl LoggingAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -62514,8 +62364,7 @@ impl VideoStreamInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             stream_id: ::mavwire::field::read::<u8>(p, 18),
             count: ::mavwire::field::read::<u8>(p, 19),
@@ -62966,8 +62815,7 @@ impl VideoStreamStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             stream_id: ::mavwire::field::read::<u8>(p, 18),
             flags: VideoStreamStatusFlags::from_bits_retain(
@@ -63348,8 +63196,7 @@ impl CameraFovStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             lat_camera: ::mavwire::field::read::<i32>(p, 4),
@@ -63761,8 +63608,7 @@ impl CameraTrackingImageStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             tracking_status: CameraTrackingStatusFlags::from_bits_retain(
                 ::mavwire::field::read::<u8>(p, 28),
@@ -64208,8 +64054,7 @@ impl CameraTrackingGeoStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             tracking_status: CameraTrackingStatusFlags::from_bits_retain(
                 ::mavwire::field::read::<u8>(p, 48),
@@ -64639,8 +64484,7 @@ impl CameraThermalRange {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             stream_id: ::mavwire::field::read::<u8>(p, 28),
@@ -64995,8 +64839,7 @@ impl GimbalManagerInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             cap_flags: GimbalManagerCapFlags::from_bits_retain(
@@ -65331,8 +65174,7 @@ impl GimbalManagerStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             flags: GimbalManagerFlags::from_bits_retain(
@@ -65653,8 +65495,7 @@ impl GimbalManagerSetAttitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 32),
             target_component: ::mavwire::field::read::<u8>(p, 33),
@@ -66098,8 +65939,7 @@ impl GimbalDeviceInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 8),
             vendor_name: ::mavwire::field::CharArray::new(p, 48).to_array(),
@@ -66563,8 +66403,7 @@ impl GimbalDeviceSetAttitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 30),
             target_component: ::mavwire::field::read::<u8>(p, 31),
@@ -66951,8 +66790,7 @@ impl GimbalDeviceAttitudeStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 38),
             target_component: ::mavwire::field::read::<u8>(p, 39),
@@ -67405,8 +67243,7 @@ impl AutopilotStateForGimbalDevice {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 50),
             target_component: ::mavwire::field::read::<u8>(p, 51),
@@ -67811,8 +67648,7 @@ impl GimbalManagerSetPitchyaw {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 20),
             target_component: ::mavwire::field::read::<u8>(p, 21),
@@ -68149,8 +67985,7 @@ impl GimbalManagerSetManualControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 20),
             target_component: ::mavwire::field::read::<u8>(p, 21),
@@ -68447,8 +68282,7 @@ impl Airspeed {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             id: ::mavwire::field::read::<u8>(p, 10),
             airspeed: ::mavwire::field::read::<f32>(p, 0),
@@ -68798,8 +68632,7 @@ impl GlobalPositionSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 36),
             target_component: ::mavwire::field::read::<u8>(p, 37),
@@ -69134,8 +68967,7 @@ impl WifiConfigAp {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             ssid: ::mavwire::field::CharArray::new(p, 0).to_array(),
             password: ::mavwire::field::CharArray::new(p, 32).to_array(),
@@ -69483,8 +69315,7 @@ impl AisVessel {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             mmsi: ::mavwire::field::read::<u32>(p, 0),
             lat: ::mavwire::field::read::<i32>(p, 4),
@@ -69919,8 +69750,7 @@ impl UavcanNodeStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             uptime_sec: ::mavwire::field::read::<u32>(p, 8),
@@ -70236,8 +70066,7 @@ impl UavcanNodeInfo {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             uptime_sec: ::mavwire::field::read::<u32>(p, 8),
@@ -70551,8 +70380,7 @@ impl ParamExtRequestRead {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -70755,8 +70583,7 @@ impl ParamExtRequestList {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -70968,8 +70795,7 @@ impl ParamExtValue {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             param_id: ::mavwire::field::CharArray::new(p, 4).to_array(),
             param_value: ::mavwire::field::CharArray::new(p, 20).to_array(),
@@ -71237,8 +71063,7 @@ impl ParamExtSet {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -71491,8 +71316,7 @@ impl ParamExtAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             param_id: ::mavwire::field::CharArray::new(p, 0).to_array(),
             param_value: ::mavwire::field::CharArray::new(p, 16).to_array(),
@@ -71800,8 +71624,7 @@ impl ObstacleDistance {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             sensor_type: MavDistanceSensor::from_raw(
@@ -72281,8 +72104,7 @@ impl Odometry {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             frame_id: MavFrame::from_raw(::mavwire::field::read::<u8>(p, 228)),
@@ -72820,8 +72642,7 @@ impl TrajectoryRepresentationWaypoints {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             valid_points: ::mavwire::field::read::<u8>(p, 238),
@@ -73223,8 +73044,7 @@ impl TrajectoryRepresentationBezier {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             valid_points: ::mavwire::field::read::<u8>(p, 108),
@@ -73538,8 +73358,7 @@ impl IsbdLinkStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             timestamp: ::mavwire::field::read::<u64>(p, 0),
             last_heartbeat: ::mavwire::field::read::<u64>(p, 8),
@@ -73797,8 +73616,7 @@ impl RawRpm {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             index: ::mavwire::field::read::<u8>(p, 4),
             frequency: ::mavwire::field::read::<f32>(p, 0),
@@ -74149,8 +73967,7 @@ impl UtmGlobalPosition {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time: ::mavwire::field::read::<u64>(p, 0),
             uas_id: ::mavwire::field::ArrayView::new(p, 50).to_array(),
@@ -74590,8 +74407,7 @@ impl ParamError {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -74835,8 +74651,7 @@ impl DebugFloatArray {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             name: ::mavwire::field::CharArray::new(p, 10).to_array(),
@@ -75099,8 +74914,7 @@ impl OrbitExecutionStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             radius: ::mavwire::field::read::<f32>(p, 8),
@@ -75506,8 +75320,7 @@ impl SmartBatteryInfo {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             id: ::mavwire::field::read::<u8>(p, 18),
             battery_function: MavBatteryFunction::from_raw(
@@ -76021,8 +75834,7 @@ impl GeneratorStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             status: MavGeneratorStatusFlag::from_bits_retain(
                 ::mavwire::field::read::<u64>(p, 0),
@@ -76338,8 +76150,7 @@ impl ActuatorOutputStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             active: ::mavwire::field::read::<u32>(p, 8),
@@ -76542,8 +76353,7 @@ impl RelayStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             on: ::mavwire::field::read::<u16>(p, 4),
@@ -76774,8 +76584,7 @@ impl Tunnel {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 2),
             target_component: ::mavwire::field::read::<u8>(p, 3),
@@ -77049,8 +76858,7 @@ impl CanFrame {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -77325,8 +77133,7 @@ impl CanfdFrame {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -77617,8 +77424,7 @@ impl CanFilterModify {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 32),
             target_component: ::mavwire::field::read::<u8>(p, 33),
@@ -78086,8 +77892,7 @@ impl OnboardComputerStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             uptime: ::mavwire::field::read::<u32>(p, 8),
@@ -78544,8 +78349,7 @@ impl WheelDistance {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             count: ::mavwire::field::read::<u8>(p, 136),
@@ -78801,8 +78605,7 @@ impl WinchStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_usec: ::mavwire::field::read::<u64>(p, 0),
             line_length: ::mavwire::field::read::<f32>(p, 8),
@@ -79115,8 +78918,7 @@ impl OpenDroneIdBasicId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -79545,8 +79347,7 @@ impl OpenDroneIdLocation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 30),
             target_component: ::mavwire::field::read::<u8>(p, 31),
@@ -80060,8 +79861,7 @@ impl OpenDroneIdAuthentication {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),
@@ -80376,8 +80176,7 @@ impl OpenDroneIdSelfId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -80750,8 +80549,7 @@ impl OpenDroneIdSystem {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 28),
             target_component: ::mavwire::field::read::<u8>(p, 29),
@@ -81154,8 +80952,7 @@ impl OpenDroneIdOperatorId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -81423,8 +81220,7 @@ impl OpenDroneIdMessagePack {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),
@@ -81671,8 +81467,7 @@ impl OpenDroneIdArmStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             status: MavOdidArmStatus::from_raw(::mavwire::field::read::<u8>(p, 0)),
             error: ::mavwire::field::CharArray::new(p, 1).to_array(),
@@ -81903,8 +81698,7 @@ impl OpenDroneIdSystemUpdate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 16),
             target_component: ::mavwire::field::read::<u8>(p, 17),
@@ -82146,8 +81940,7 @@ impl HygrometerSensor {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             id: ::mavwire::field::read::<u8>(p, 4),
             temperature: ::mavwire::field::read::<i16>(p, 0),

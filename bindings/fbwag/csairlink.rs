@@ -111,8 +111,7 @@ impl AirlinkAuth {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             login: ::mavwire::field::CharArray::new(p, 0).to_array(),
             password: ::mavwire::field::CharArray::new(p, 50).to_array(),
@@ -285,8 +284,7 @@ impl AirlinkAuthResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             resp_type: AirlinkAuthResponseType::from_raw(
                 ::mavwire::field::read::<u8>(p, 0),

@@ -44,8 +44,7 @@ impl CubepilotRawRc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             rc_raw: ::mavwire::field::ArrayView::new(p, 0).to_array(),
         }
@@ -272,8 +271,7 @@ impl HerelinkVideoStreamInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             camera_id: ::mavwire::field::read::<u8>(p, 14),
             status: ::mavwire::field::read::<u8>(p, 15),
@@ -601,8 +599,7 @@ impl HerelinkTelem {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             rssi: ::mavwire::field::read::<u8>(p, 18),
             snr: ::mavwire::field::read::<i16>(p, 12),
@@ -868,8 +865,7 @@ impl CubepilotFirmwareUpdateStart {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 8),
             target_component: ::mavwire::field::read::<u8>(p, 9),
@@ -1082,8 +1078,7 @@ impl CubepilotFirmwareUpdateResp {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 4),
             target_component: ::mavwire::field::read::<u8>(p, 5),

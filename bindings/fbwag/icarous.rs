@@ -172,8 +172,7 @@ impl IcarousHeartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             status: IcarousFmsState::from_raw(::mavwire::field::read::<u8>(p, 0)),
         }
@@ -492,8 +491,7 @@ impl IcarousKinematicBands {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             num_bands: ::mavwire::field::read::<i8>(p, 40),
             type1: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 41)),

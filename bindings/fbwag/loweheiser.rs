@@ -290,8 +290,7 @@ impl LoweheiserGovEfi {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             volt_batt: ::mavwire::field::read::<f32>(p, 0),
             curr_batt: ::mavwire::field::read::<f32>(p, 4),

@@ -1137,8 +1137,7 @@ impl Heartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             r#type: MavType::from_raw(::mavwire::field::read::<u8>(p, 4)),
             autopilot: MavAutopilot::from_raw(::mavwire::field::read::<u8>(p, 5)),

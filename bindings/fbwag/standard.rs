@@ -298,8 +298,7 @@ impl GlobalPositionInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
             lat: ::mavwire::field::read::<i32>(p, 4),
@@ -697,8 +696,7 @@ impl AutopilotVersion {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             capabilities: MavProtocolCapability::from_bits_retain(
                 ::mavwire::field::read::<u64>(p, 0),

@@ -786,8 +786,7 @@ impl UavionixAdsbOutCfg {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             icao: ::mavwire::field::read::<u32>(p, 0),
             callsign: ::mavwire::field::CharArray::new(p, 6).to_array(),
@@ -1225,8 +1224,7 @@ impl UavionixAdsbOutDynamic {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             utc_time: ::mavwire::field::read::<u32>(p, 0),
             gps_lat: ::mavwire::field::read::<i32>(p, 4),
@@ -1598,8 +1596,7 @@ impl UavionixAdsbTransceiverHealthReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             rf_health: UavionixAdsbRfHealth::from_bits_retain(
                 ::mavwire::field::read::<u8>(p, 0),
@@ -1753,8 +1750,7 @@ impl UavionixAdsbOutCfgRegistration {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             registration: ::mavwire::field::CharArray::new(p, 0).to_array(),
         }
@@ -1905,8 +1901,7 @@ impl UavionixAdsbOutCfgFlightid {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             flight_id: ::mavwire::field::CharArray::new(p, 0).to_array(),
         }
@@ -2055,8 +2050,7 @@ impl UavionixAdsbGet {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             req_message_id: ::mavwire::field::read::<u32>(p, 0),
         }
@@ -2266,8 +2260,7 @@ impl UavionixAdsbOutControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             state: UavionixAdsbOutControlState::from_bits_retain(
                 ::mavwire::field::read::<u8>(p, 6),
@@ -2560,8 +2553,7 @@ impl UavionixAdsbOutStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             state: UavionixAdsbOutStatusState::from_bits_retain(
                 ::mavwire::field::read::<u8>(p, 2),

@@ -1053,11 +1053,10 @@ impl Gen<'_> {
 
                 /// Reads a payload of any length (missing bytes read as zero).
                 pub fn parse(payload: &[u8]) -> Self {
-                    // Fields are read from one fixed-size array (the payload,
-                    // or its zero-filled copy if truncated): constant offsets,
-                    // no per-field bounds checks.
-                    let mut scratch = [0u8; Self::MAX_LEN];
-                    let p = #rt::field::padded(payload, &mut scratch);
+                    // Fields are read from one fixed-size copy (zero-filled if
+                    // the payload was truncated): constant offsets, no
+                    // per-field bounds checks or truncation paths to compile.
+                    let p: &[u8; Self::MAX_LEN] = &#rt::field::padded(payload);
                     Self { #(#from_view)* }
                 }
 

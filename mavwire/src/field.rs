@@ -66,26 +66,25 @@ fn read_partial<const N: usize>(buf: &[u8], offset: usize) -> [u8; N] {
 
 scalar!(u8, i8, u16, i16, u32, i32, u64, i64, f32, f64);
 
-/// The first `N` bytes of `payload` as an array: the payload itself when it
-/// is that long, else its bytes copied into `scratch` (which must be zeroed)
-/// — a truncated MAVLink 2 payload, zero-filled as the C library does. Reads
-/// at constant offsets from the result need no bounds checks.
+/// The first `N` bytes of `payload` as an array, zero-filled past the end
+/// of a truncated MAVLink 2 payload (as the C library's buffer is). A copy
+/// of at most 255 bytes, by value: reads at constant offsets from it need no
+/// bounds checks, and a full-length payload costs only the copy.
 #[inline(always)]
-pub fn padded<'a, const N: usize>(payload: &'a [u8], scratch: &'a mut [u8; N]) -> &'a [u8; N] {
+pub fn padded<const N: usize>(payload: &[u8]) -> [u8; N] {
     match payload.first_chunk::<N>() {
-        Some(whole) => whole,
-        None => {
-            copy_prefix(payload, scratch);
-            scratch
-        }
+        Some(whole) => *whole,
+        None => zero_filled(payload),
     }
 }
 
-/// `dst[..n] = src[..n]` for the shorter length; shared by every message.
+/// `payload` (shorter than `N`) followed by zeros.
 #[inline(never)]
-fn copy_prefix(src: &[u8], dst: &mut [u8]) {
-    let n = src.len().min(dst.len());
-    dst[..n].copy_from_slice(&src[..n]);
+fn zero_filled<const N: usize>(payload: &[u8]) -> [u8; N] {
+    let mut out = [0u8; N];
+    let n = payload.len().min(N);
+    out[..n].copy_from_slice(&payload[..n]);
+    out
 }
 
 /// The first `N` bytes of `payload` as an array to write a whole payload

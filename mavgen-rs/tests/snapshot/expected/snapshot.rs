@@ -338,8 +338,7 @@ impl SnapAllTypes {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             u8v: ::mavwire::field::read::<u8>(p, 46),
             i8v: ::mavwire::field::read::<i8>(p, 47),
@@ -729,8 +728,7 @@ impl SnapMaxId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let mut scratch = [0u8; Self::MAX_LEN];
-        let p = ::mavwire::field::padded(payload, &mut scratch);
+        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
         Self {
             target_system: ::mavwire::field::read::<u8>(p, 0),
             target_component: ::mavwire::field::read::<u8>(p, 1),

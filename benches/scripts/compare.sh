@@ -8,11 +8,11 @@
 #      gcc -O2, benches/c/parse_stream.c) and pymavlink 2.4.50's parse_buffer;
 #   2. generation of all.xml: mavgen-rs and pymavlink's mavgen, whole
 #      processes (benches/scripts/time_mavgen.sh);
-#   3. clean release builds and rlib sizes: fbwag-dialect (full, and the
-#      cc-subset feature), against the mavlink crate 0.21 with
-#      dialect-ardupilotmega (and with its mav2-message-extensions), each
-#      from an empty target directory; plus what-if rows: the same generated
-#      code compiled without the generator in the build.
+#   3. clean release builds and rlib sizes: fbwag-dialect (full, the
+#      cc-subset feature, and generated at build time with the codegen
+#      feature), against the mavlink crate 0.21 with dialect-ardupilotmega
+#      (and with its mav2-message-extensions), each from an empty target
+#      directory. The builds alternate between the crates in every round.
 #
 # Prints markdown (also saved under target/bench-results/). Needs cargo,
 # gcc, python3 (pymavlink 2.4.50 goes into target/pyenv), hyperfine for 2
@@ -144,18 +144,6 @@ if [ "${SKIP_BUILD:-0}" != 1 ]; then
     scratch "$TMP/mavlink-ext" mavlink-user \
         'mavlink = { version = "=0.21.0", default-features = false, features = ["std", "dialect-ardupilotmega", "mav2-message-extensions"] }' \
         'pub use mavlink;'
-    # What-if rows: the same generated code compiled without the generator
-    # in the build: the checked-in bindings/fbwag, and the cc-subset made
-    # once by the CLI from fbwag-dialect/build.rs's list; on mavwire (std).
-    cargo build --release --locked -p mavgen-rs >&2
-    cc_list=$(sed -n '/^const CC_SUBSET/,/^];/p' fbwag-dialect/build.rs | grep -o '"[A-Z0-9_]*"' | tr -d '"' | paste -sd, -)
-    target/release/mavgen-rs generate message_definitions/fbwag.xml -o "$TMP/cc-bindings" \
-        --messages "$cc_list" >/dev/null 2>&1
-    pregen_lib='#![no_std]
-pub mod dialects { include!(concat!(env!("BINDINGS"), "/mod.rs")); }'
-    scratch "$TMP/pregen-full" fbwag-pregenerated "mavwire = { path = \"$REPO/mavwire\", features = [\"std\"] }" "$pregen_lib"
-    scratch "$TMP/pregen-cc" fbwag-pregenerated "mavwire = { path = \"$REPO/mavwire\", features = [\"std\"] }" "$pregen_lib"
-
     # unit durations from cargo's --timings report
     unit_secs() {  # html package target ("" for the library)
         "$PY" - "$1" "$2" "$3" <<'EOF'
@@ -167,23 +155,22 @@ units = json.loads(h[i:h.index("];", i) + 1])
 print("%.1f" % sum(u["duration"] for u in units if u["name"] == name and u["target"].strip() == target))
 EOF
     }
-    # name | cargo arguments | dir | dialect crate | runtime crate | BINDINGS
+    # name | cargo arguments | dir | dialect crate | runtime crate
     builds=(
-        "fbwag-dialect (full, default features)|build --release --locked -p fbwag-dialect|$REPO|fbwag_dialect|mavwire|"
-        "fbwag-dialect (cc-subset)|build --release --locked -p fbwag-dialect --features cc-subset|$REPO|fbwag_dialect|mavwire|"
-        "mavlink 0.21 (std, dialect-ardupilotmega)|build --release --offline|$TMP/mavlink|mavlink|mavlink_core|"
-        "mavlink 0.21 (+ mav2-message-extensions)|build --release --offline|$TMP/mavlink-ext|mavlink|mavlink_core|"
-        "what-if: full, pre-generated (bindings/fbwag)|build --release --offline|$TMP/pregen-full|fbwag_pregenerated|mavwire|$REPO/bindings/fbwag"
-        "what-if: cc-subset, pre-generated|build --release --offline|$TMP/pregen-cc|fbwag_pregenerated|mavwire|$TMP/cc-bindings"
+        "fbwag-dialect (full, default features)|build --release --locked -p fbwag-dialect|$REPO|fbwag_dialect|mavwire"
+        "mavlink 0.21 (std, dialect-ardupilotmega)|build --release --offline|$TMP/mavlink|mavlink|mavlink_core"
+        "fbwag-dialect (cc-subset)|build --release --locked -p fbwag-dialect --features cc-subset|$REPO|fbwag_dialect|mavwire"
+        "fbwag-dialect (full, codegen: generated at build time)|build --release --locked -p fbwag-dialect --features codegen|$REPO|fbwag_dialect|mavwire"
+        "mavlink 0.21 (+ mav2-message-extensions)|build --release --offline|$TMP/mavlink-ext|mavlink|mavlink_core"
     )
     declare -A wall gen lib rlib rtlib
     for run in $(seq "$BUILD_RUNS"); do
         for b in "${builds[@]}"; do
-            IFS='|' read -r name args dir crate rt bindings <<<"$b"
+            IFS="|" read -r name args dir crate rt <<<"$b"
             log "clean build $run/$BUILD_RUNS: $name"
             target="$TMP/target-$crate-$run-$RANDOM"
             t0=$(date +%s.%N)
-            (cd "$dir" && env -u FBWAG_DIALECT_MESSAGES BINDINGS="$bindings" CARGO_TARGET_DIR="$target" \
+            (cd "$dir" && env -u FBWAG_DIALECT_MESSAGES CARGO_TARGET_DIR="$target" \
                 cargo $args --timings >"$TMP/build.log" 2>&1) \
                 || { tail -20 "$TMP/build.log" >&2; exit 1; }
             t1=$(date +%s.%N)
@@ -202,12 +189,12 @@ EOF
     tw=$(median <<<"${wall[$theirs]}")
     say "## Clean release builds ($BUILD_RUNS run(s) each, median; $(nproc) jobs)"
     say ""
-    say "Wall time from an empty target directory (every dependency, build-dependencies included) and its ratio to the lightest mavlink build; then the dialect crate's own units from \`cargo --timings\`: its build script's run (code generation: mavgen-rs for ours, mavlink-bindgen for mavlink) and its rustc. The what-if rows compile the same generated code without the generator in the build (no mavgen-rs, syn, prettyplease, quick-xml build-dependencies)."
+    say "Wall time from an empty target directory (every dependency, build-dependencies included) and its ratio to the lightest mavlink build; then the dialect crate's own units from \`cargo --timings\`: its build script's run (code generation: mavgen-rs for ours with the codegen feature, mavlink-bindgen for mavlink) and its rustc. Without the codegen feature, fbwag-dialect compiles the checked-in bindings (bindings/fbwag, bindings/fbwag-cc): no generator, syn, prettyplease or quick-xml in the build."
     say ""
     say "| crate | clean build (s) | / mavlink | generation (s) | dialect rustc (s) | dialect rlib (KiB) | runtime rlib (KiB) |"
     say "|---|---:|---:|---:|---:|---:|---:|"
     for b in "${builds[@]}"; do
-        IFS='|' read -r name _ _ crate rt _ <<<"$b"
+        IFS='|' read -r name _ _ crate rt <<<"$b"
         w=$(median <<<"${wall[$name]}")
         say "| $name | $w | $(ratio "$w" "$tw") | $(median <<<"${gen[$name]}") | $(median <<<"${lib[$name]}") | $(( ${rlib[$name]} / 1024 )) | $(( ${rtlib[$name]} / 1024 )) ($rt) |"
     done

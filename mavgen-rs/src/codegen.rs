@@ -65,6 +65,16 @@ enum Kind {
     Chars(usize),
 }
 
+/// The tokens of one enum's type and entries (see `Gen::enum_tokens`).
+struct EnumTokens {
+    name: proc_macro2::Ident,
+    repr: proc_macro2::Ident,
+    doc: TokenStream,
+    consts: Vec<proc_macro2::Ident>,
+    entry_docs: Vec<TokenStream>,
+    values: Vec<Literal>,
+}
+
 /// Rust-side facts about one merged enum.
 struct EnumInfo {
     module: usize,
@@ -640,23 +650,38 @@ impl Gen<'_> {
             .collect()
     }
 
+    /// What value enums and flag sets have in common: the type, its
+    /// representation and docs, and per entry its constant, docs and value.
+    fn enum_tokens(&self, def: &MergedEnum, info: &EnumInfo) -> EnumTokens {
+        let names = Self::entry_names(def, |s| s.to_ascii_uppercase(), "_");
+        EnumTokens {
+            name: format_ident!("{}", info.rust_name),
+            repr: format_ident!("{}", info.repr.rust_name()),
+            doc: docs(&self.enum_docs(def)),
+            consts: names.iter().map(|n| format_ident!("{}", n)).collect(),
+            entry_docs: def
+                .def
+                .entries
+                .iter()
+                .map(|e| docs(&self.entry_docs(e)))
+                .collect(),
+            values: def.def.entries.iter().map(|e| lit(e.value)).collect(),
+        }
+    }
+
     /// A value enum as a newtype over its wire value with one associated
     /// constant per entry: any value is representable (an unlisted one is
     /// kept, never rejected), conversions are free, and constants match in
     /// patterns like enum variants.
     fn value_enum(&self, def: &MergedEnum, info: &EnumInfo) -> TokenStream {
-        let name = format_ident!("{}", info.rust_name);
-        let repr = format_ident!("{}", info.repr.rust_name());
-        let doc = docs(&self.enum_docs(def));
-        let names = Self::entry_names(def, |s| s.to_ascii_uppercase(), "_");
-        let consts: Vec<_> = names.iter().map(|n| format_ident!("{}", n)).collect();
-        let entry_docs: Vec<_> = def
-            .def
-            .entries
-            .iter()
-            .map(|e| docs(&self.entry_docs(e)))
-            .collect();
-        let values: Vec<_> = def.def.entries.iter().map(|e| lit(e.value)).collect();
+        let EnumTokens {
+            name,
+            repr,
+            doc,
+            consts,
+            entry_docs,
+            values,
+        } = self.enum_tokens(def, info);
         let xml_names: Vec<_> = def.def.entries.iter().map(|e| e.name.as_str()).collect();
         quote! {
             #doc
@@ -716,18 +741,14 @@ impl Gen<'_> {
     /// runtime's `flag_set!` (see `mavwire::flags` for why not `bitflags!`).
     fn flag_set(&self, def: &MergedEnum, info: &EnumInfo) -> TokenStream {
         let rt = self.rt();
-        let name = format_ident!("{}", info.rust_name);
-        let repr = format_ident!("{}", info.repr.rust_name());
-        let doc = docs(&self.enum_docs(def));
-        let names = Self::entry_names(def, |s| s.to_ascii_uppercase(), "_");
-        let consts: Vec<_> = names.iter().map(|n| format_ident!("{}", n)).collect();
-        let entry_docs: Vec<_> = def
-            .def
-            .entries
-            .iter()
-            .map(|e| docs(&self.entry_docs(e)))
-            .collect();
-        let values: Vec<_> = def.def.entries.iter().map(|e| lit(e.value)).collect();
+        let EnumTokens {
+            name,
+            repr,
+            doc,
+            consts,
+            entry_docs,
+            values,
+        } = self.enum_tokens(def, info);
         quote! {
             #doc
             ///

@@ -57,7 +57,9 @@ pub fn fmt(
 /// `intersection`, `difference`, `insert`, `remove`, `set`, the operators
 /// `| & - !` (and `|=`, `&=`), `Debug`, `From` to and from `Repr`, and
 /// [`bitflags::Flags`]. Bits no flag names are kept everywhere except by
-/// `from_bits_truncate` and `from_bits`.
+/// `from_bits_truncate` and `from_bits`. The rest of bitflags' API
+/// (`iter_names`, `from_name`, `toggle`, `complement`, text parsing…) comes
+/// with the trait: `use mavwire::bitflags::Flags;`.
 #[macro_export]
 macro_rules! flag_set {
     ($name:ident, $repr:ty, [$($flag:ident),* $(,)?]) => {

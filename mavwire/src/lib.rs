@@ -7,7 +7,7 @@
 //! [`parser`]. All of that is `no_std` and allocates nothing.
 //!
 //! Features: `std` adds the blocking transports and connection strings
-//! (`conn`: UDP, TCP, on std alone) and `std::error::Error` impls; `serial` adds
+//! (`conn`: UDP, TCP, via mio) and `std::error::Error` impls; `serial` adds
 //! serial ports (serialport crate); `tokio` adds async UDP and TCP.
 #![no_std]
 #![forbid(unsafe_code)]

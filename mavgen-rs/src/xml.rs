@@ -76,10 +76,19 @@ impl Parser<'_, '_> {
 
     fn run(&mut self) {
         let text = &self.sources[self.file].text;
-        let mut reader = Reader::from_str(text);
+        // quick-xml skips a byte-order mark without counting it in its
+        // positions, which would put every offset 3 bytes early (wrong
+        // columns, and slicing inside a character). Parse after it instead
+        // and add it back.
+        let bom = if text.starts_with('\u{feff}') {
+            '\u{feff}'.len_utf8()
+        } else {
+            0
+        };
+        let mut reader = Reader::from_str(&text[bom..]);
         reader.config_mut().trim_text(false);
         loop {
-            let start = reader.buffer_position() as usize;
+            let start = bom + reader.buffer_position() as usize;
             match reader.read_event() {
                 Ok(Event::Start(e)) => {
                     let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
@@ -101,7 +110,7 @@ impl Parser<'_, '_> {
                 Ok(Event::Eof) => break,
                 Ok(_) => {}
                 Err(e) => {
-                    let at = reader.error_position() as usize;
+                    let at = bom + reader.error_position() as usize;
                     self.error(at, format!("malformed XML: {e}"));
                     return;
                 }

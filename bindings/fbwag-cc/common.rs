@@ -2848,7 +2848,7 @@ impl MavSysStatusSensorExtended {
 /// sensor/subsystem status and a few other basic statistics.
 ///
 /// MAVLink message `SYS_STATUS`: id 1, CRC_EXTRA 124, payload 43 bytes (31 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SysStatus {
     /// Bitmap showing which onboard controllers and sensors are present. Value of 0: not present.
     /// Value of 1: present.
@@ -3456,7 +3456,7 @@ impl<'a> SysStatusMut<'a> {
 /// intrinsic).
 ///
 /// MAVLink message `ATTITUDE`: id 30, CRC_EXTRA 39, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Attitude {
     /// Timestamp (time since system boot).
     ///
@@ -3757,7 +3757,7 @@ impl<'a> AttitudeMut<'a> {
 /// is unused. Individual receivers/transmitters might violate this specification.
 ///
 /// MAVLink message `RC_CHANNELS`: id 65, CRC_EXTRA 118, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RcChannels {
     /// Timestamp (time since system boot).
     ///
@@ -4413,7 +4413,7 @@ impl<'a> RcChannelsMut<'a> {
 /// channels
 ///
 /// MAVLink message `RC_CHANNELS_OVERRIDE`: id 70, CRC_EXTRA 124, payload 38 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RcChannelsOverride {
     /// System ID
     ///
@@ -5065,7 +5065,7 @@ impl<'a> RcChannelsOverrideMut<'a> {
 /// Metrics typically displayed on a HUD for fixed wing aircraft.
 ///
 /// MAVLink message `VFR_HUD`: id 74, CRC_EXTRA 20, payload 20 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VfrHud {
     /// Vehicle speed in form appropriate for vehicle type. For standard aircraft this is
     /// typically calibrated airspeed (CAS) or indicated airspeed (IAS) - either of which can be
@@ -5345,7 +5345,7 @@ impl<'a> VfrHudMut<'a> {
 /// <https://mavlink.io/en/services/command.html>
 ///
 /// MAVLink message `COMMAND_LONG`: id 76, CRC_EXTRA 152, payload 33 bytes (33 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CommandLong {
     /// System which should execute the command
     ///
@@ -5746,7 +5746,7 @@ impl<'a> CommandLongMut<'a> {
 /// command microservice is documented at <https://mavlink.io/en/services/command.html>
 ///
 /// MAVLink message `COMMAND_ACK`: id 77, CRC_EXTRA 143, payload 10 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CommandAck {
     /// Command ID (of acknowledged command).
     ///
@@ -6028,7 +6028,7 @@ impl<'a> CommandAckMut<'a> {
 /// (manual controller or other system).
 ///
 /// MAVLink message `SET_ATTITUDE_TARGET`: id 82, CRC_EXTRA 49, payload 39 bytes (39 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetAttitudeTarget {
     /// Timestamp (time since system boot).
     ///
@@ -6385,7 +6385,7 @@ impl<'a> SetAttitudeTargetMut<'a> {
 /// and sent only at a limited rate (e.g. 10 Hz).
 ///
 /// MAVLink message `STATUSTEXT`: id 253, CRC_EXTRA 83, payload 54 bytes (51 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Statustext {
     /// Severity of status. Relies on the definitions within RFC-5424.
     ///

@@ -5,7 +5,7 @@
 /// resolution of float is not sufficient.
 ///
 /// MAVLink message `GLOBAL_POSITION_INT`: id 33, CRC_EXTRA 104, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GlobalPositionInt {
     /// Timestamp (time since system boot).
     ///

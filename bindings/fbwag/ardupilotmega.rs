@@ -3106,7 +3106,7 @@ impl From<TrackerMode> for u8 {
 /// MAVLink message `SENSOR_OFFSETS`: id 150, CRC_EXTRA 134, payload 42 bytes (42 without extensions).
 /// **Deprecated** since 2022-02, replaced by `MAG_CAL_REPORT, Accel Parameters, and Gyro
 /// Parameters`.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SensorOffsets {
     /// Magnetometer X offset.
     ///
@@ -3531,7 +3531,7 @@ impl<'a> SensorOffsetsMut<'a> {
 ///
 /// MAVLink message `SET_MAG_OFFSETS`: id 151, CRC_EXTRA 219, payload 8 bytes (8 without extensions).
 /// **Deprecated** since 2014-07, replaced by `MAV_CMD_PREFLIGHT_SET_SENSOR_OFFSETS`.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetMagOffsets {
     /// System ID.
     ///
@@ -3780,7 +3780,7 @@ impl<'a> SetMagOffsetsMut<'a> {
 /// State of autopilot RAM.
 ///
 /// MAVLink message `MEMINFO`: id 152, CRC_EXTRA 208, payload 8 bytes (4 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Meminfo {
     /// Heap top.
     ///
@@ -3980,7 +3980,7 @@ impl<'a> MeminfoMut<'a> {
 /// Raw ADC output.
 ///
 /// MAVLink message `AP_ADC`: id 153, CRC_EXTRA 188, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ApAdc {
     /// ADC output 1.
     ///
@@ -4254,7 +4254,7 @@ impl<'a> ApAdcMut<'a> {
 /// Configure on-board Camera Control System.
 ///
 /// MAVLink message `DIGICAM_CONFIGURE`: id 154, CRC_EXTRA 84, payload 15 bytes (15 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DigicamConfigure {
     /// System ID.
     ///
@@ -4654,7 +4654,7 @@ impl<'a> DigicamConfigureMut<'a> {
 /// Control on-board Camera Control System to take shots.
 ///
 /// MAVLink message `DIGICAM_CONTROL`: id 155, CRC_EXTRA 22, payload 13 bytes (13 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DigicamControl {
     /// System ID.
     ///
@@ -5029,7 +5029,7 @@ impl<'a> DigicamControlMut<'a> {
 /// Message to configure a camera mount, directional antenna, etc.
 ///
 /// MAVLink message `MOUNT_CONFIGURE`: id 156, CRC_EXTRA 19, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MountConfigure {
     /// System ID.
     ///
@@ -5308,7 +5308,7 @@ impl<'a> MountConfigureMut<'a> {
 /// Message to control a camera mount, directional antenna, etc.
 ///
 /// MAVLink message `MOUNT_CONTROL`: id 157, CRC_EXTRA 21, payload 15 bytes (15 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MountControl {
     /// System ID.
     ///
@@ -5583,7 +5583,7 @@ impl<'a> MountControlMut<'a> {
 /// Message with some status from autopilot to GCS about camera or antenna mount.
 ///
 /// MAVLink message `MOUNT_STATUS`: id 158, CRC_EXTRA 134, payload 15 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MountStatus {
     /// System ID.
     ///
@@ -5863,7 +5863,7 @@ impl<'a> MountStatusMut<'a> {
 /// from MAV -&gt; GCS.
 ///
 /// MAVLink message `FENCE_POINT`: id 160, CRC_EXTRA 78, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FencePoint {
     /// System ID.
     ///
@@ -6137,7 +6137,7 @@ impl<'a> FencePointMut<'a> {
 /// Request a current fence point from MAV.
 ///
 /// MAVLink message `FENCE_FETCH_POINT`: id 161, CRC_EXTRA 68, payload 3 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FenceFetchPoint {
     /// System ID.
     ///
@@ -6336,7 +6336,7 @@ impl<'a> FenceFetchPointMut<'a> {
 /// Status of DCM attitude estimator.
 ///
 /// MAVLink message `AHRS`: id 163, CRC_EXTRA 127, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Ahrs {
     /// X gyro drift estimate.
     ///
@@ -6635,7 +6635,7 @@ impl<'a> AhrsMut<'a> {
 /// Status of simulation environment, if used.
 ///
 /// MAVLink message `SIMSTATE`: id 164, CRC_EXTRA 154, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Simstate {
     /// Roll angle.
     ///
@@ -7036,7 +7036,7 @@ impl<'a> SimstateMut<'a> {
 /// MAVLink message `HWSTATUS`: id 165, CRC_EXTRA 21, payload 3 bytes (3 without extensions).
 /// **Deprecated** since 2022-09, replaced by `POWER_STATUS`. POWER_STATUS+SYS_STATUS form a
 /// superset of the fields in this message.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Hwstatus {
     /// Board voltage.
     ///
@@ -7210,7 +7210,7 @@ impl<'a> HwstatusMut<'a> {
 /// Status generated by radio.
 ///
 /// MAVLink message `RADIO`: id 166, CRC_EXTRA 21, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Radio {
     /// Local signal strength.
     ///
@@ -7509,7 +7509,7 @@ impl<'a> RadioMut<'a> {
 /// Status of AP_Limits. Sent in extended status stream when AP_Limits is enabled.
 ///
 /// MAVLink message `LIMITS_STATUS`: id 167, CRC_EXTRA 144, payload 22 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LimitsStatus {
     /// State of AP_Limits.
     ///
@@ -7864,7 +7864,7 @@ impl<'a> LimitsStatusMut<'a> {
 /// Wind estimation.
 ///
 /// MAVLink message `WIND`: id 168, CRC_EXTRA 1, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Wind {
     /// Wind direction (that wind is coming from).
     ///
@@ -8063,7 +8063,7 @@ impl<'a> WindMut<'a> {
 /// Data packet, size 16.
 ///
 /// MAVLink message `DATA16`: id 169, CRC_EXTRA 234, payload 18 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Data16 {
     /// Data type.
     ///
@@ -8262,7 +8262,7 @@ impl<'a> Data16Mut<'a> {
 /// Data packet, size 32.
 ///
 /// MAVLink message `DATA32`: id 170, CRC_EXTRA 73, payload 34 bytes (34 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Data32 {
     /// Data type.
     ///
@@ -8461,7 +8461,7 @@ impl<'a> Data32Mut<'a> {
 /// Data packet, size 64.
 ///
 /// MAVLink message `DATA64`: id 171, CRC_EXTRA 181, payload 66 bytes (66 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Data64 {
     /// Data type.
     ///
@@ -8670,7 +8670,7 @@ impl<'a> Data64Mut<'a> {
 /// Data packet, size 96.
 ///
 /// MAVLink message `DATA96`: id 172, CRC_EXTRA 22, payload 98 bytes (98 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Data96 {
     /// Data type.
     ///
@@ -8879,7 +8879,7 @@ impl<'a> Data96Mut<'a> {
 /// Rangefinder reporting.
 ///
 /// MAVLink message `RANGEFINDER`: id 173, CRC_EXTRA 83, payload 8 bytes (8 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Rangefinder {
     /// Distance.
     ///
@@ -9053,7 +9053,7 @@ impl<'a> RangefinderMut<'a> {
 /// Airspeed auto-calibration.
 ///
 /// MAVLink message `AIRSPEED_AUTOCAL`: id 174, CRC_EXTRA 167, payload 48 bytes (48 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AirspeedAutocal {
     /// GPS velocity north.
     ///
@@ -9478,7 +9478,7 @@ impl<'a> AirspeedAutocalMut<'a> {
 /// from MAV -&gt; GCS.
 ///
 /// MAVLink message `RALLY_POINT`: id 175, CRC_EXTRA 138, payload 19 bytes (19 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RallyPoint {
     /// System ID.
     ///
@@ -9853,7 +9853,7 @@ impl<'a> RallyPointMut<'a> {
 /// should not respond if the request is invalid.
 ///
 /// MAVLink message `RALLY_FETCH_POINT`: id 176, CRC_EXTRA 234, payload 3 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RallyFetchPoint {
     /// System ID.
     ///
@@ -10052,7 +10052,7 @@ impl<'a> RallyFetchPointMut<'a> {
 /// Status of compassmot calibration.
 ///
 /// MAVLink message `COMPASSMOT_STATUS`: id 177, CRC_EXTRA 240, payload 20 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CompassmotStatus {
     /// Throttle.
     ///
@@ -10326,7 +10326,7 @@ impl<'a> CompassmotStatusMut<'a> {
 /// Status of secondary AHRS filter if available.
 ///
 /// MAVLink message `AHRS2`: id 178, CRC_EXTRA 47, payload 24 bytes (24 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Ahrs2 {
     /// Roll angle.
     ///
@@ -10600,7 +10600,7 @@ impl<'a> Ahrs2Mut<'a> {
 /// Camera Event.
 ///
 /// MAVLink message `CAMERA_STATUS`: id 179, CRC_EXTRA 189, payload 29 bytes (29 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraStatus {
     /// Image timestamp (since UNIX epoch, according to camera clock).
     ///
@@ -10950,7 +10950,7 @@ impl<'a> CameraStatusMut<'a> {
 /// Camera Capture Feedback.
 ///
 /// MAVLink message `CAMERA_FEEDBACK`: id 180, CRC_EXTRA 52, payload 47 bytes (45 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraFeedback {
     /// Image timestamp (since UNIX epoch), as passed in by CAMERA_STATUS message (or autopilot if
     /// no CCB).
@@ -11428,7 +11428,7 @@ impl<'a> CameraFeedbackMut<'a> {
 ///
 /// MAVLink message `BATTERY2`: id 181, CRC_EXTRA 174, payload 4 bytes (4 without extensions).
 /// **Deprecated** since 2017-04, replaced by `BATTERY_STATUS`.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Battery2 {
     /// Voltage.
     ///
@@ -11602,7 +11602,7 @@ impl<'a> Battery2Mut<'a> {
 /// Status of third AHRS filter if available. This is for ANU research group (Ali and Sean).
 ///
 /// MAVLink message `AHRS3`: id 182, CRC_EXTRA 229, payload 40 bytes (40 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Ahrs3 {
     /// Roll angle.
     ///
@@ -11976,7 +11976,7 @@ impl<'a> Ahrs3Mut<'a> {
 /// Request the autopilot version from the system/component.
 ///
 /// MAVLink message `AUTOPILOT_VERSION_REQUEST`: id 183, CRC_EXTRA 85, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AutopilotVersionRequest {
     /// System ID.
     ///
@@ -12150,7 +12150,7 @@ impl<'a> AutopilotVersionRequestMut<'a> {
 /// Send a block of log data to remote location.
 ///
 /// MAVLink message `REMOTE_LOG_DATA_BLOCK`: id 184, CRC_EXTRA 159, payload 206 bytes (206 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RemoteLogDataBlock {
     /// System ID.
     ///
@@ -12390,7 +12390,7 @@ impl<'a> RemoteLogDataBlockMut<'a> {
 /// Send Status of each log block that autopilot board might have sent.
 ///
 /// MAVLink message `REMOTE_LOG_BLOCK_STATUS`: id 185, CRC_EXTRA 186, payload 7 bytes (7 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RemoteLogBlockStatus {
     /// System ID.
     ///
@@ -12619,7 +12619,7 @@ impl<'a> RemoteLogBlockStatusMut<'a> {
 /// Control vehicle LEDs.
 ///
 /// MAVLink message `LED_CONTROL`: id 186, CRC_EXTRA 72, payload 29 bytes (29 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LedControl {
     /// System ID.
     ///
@@ -12893,7 +12893,7 @@ impl<'a> LedControlMut<'a> {
 /// Reports progress of compass calibration.
 ///
 /// MAVLink message `MAG_CAL_PROGRESS`: id 191, CRC_EXTRA 92, payload 27 bytes (27 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MagCalProgress {
     /// Compass being calibrated.
     ///
@@ -13248,7 +13248,7 @@ impl<'a> MagCalProgressMut<'a> {
 /// EKF Status message including flags and variances.
 ///
 /// MAVLink message `EKF_STATUS_REPORT`: id 193, CRC_EXTRA 71, payload 26 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EkfStatusReport {
     /// Flags.
     ///
@@ -13551,7 +13551,7 @@ impl<'a> EkfStatusReportMut<'a> {
 /// PID tuning information.
 ///
 /// MAVLink message `PID_TUNING`: id 194, CRC_EXTRA 98, payload 33 bytes (25 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PidTuning {
     /// Axis.
     ///
@@ -13903,7 +13903,7 @@ impl<'a> PidTuningMut<'a> {
 /// Deepstall path planning.
 ///
 /// MAVLink message `DEEPSTALL`: id 195, CRC_EXTRA 120, payload 37 bytes (37 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Deepstall {
     /// Landing latitude.
     ///
@@ -14277,7 +14277,7 @@ impl<'a> DeepstallMut<'a> {
 /// 3 axis gimbal measurements.
 ///
 /// MAVLink message `GIMBAL_REPORT`: id 200, CRC_EXTRA 134, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalReport {
     /// System ID.
     ///
@@ -14701,7 +14701,7 @@ impl<'a> GimbalReportMut<'a> {
 /// Control message for rate gimbal.
 ///
 /// MAVLink message `GIMBAL_CONTROL`: id 201, CRC_EXTRA 205, payload 14 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalControl {
     /// System ID.
     ///
@@ -14950,7 +14950,7 @@ impl<'a> GimbalControlMut<'a> {
 /// 100 Hz gimbal torque command telemetry.
 ///
 /// MAVLink message `GIMBAL_TORQUE_CMD_REPORT`: id 214, CRC_EXTRA 69, payload 8 bytes (8 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalTorqueCmdReport {
     /// System ID.
     ///
@@ -15199,7 +15199,7 @@ impl<'a> GimbalTorqueCmdReportMut<'a> {
 /// Heartbeat from a HeroBus attached GoPro.
 ///
 /// MAVLink message `GOPRO_HEARTBEAT`: id 215, CRC_EXTRA 101, payload 3 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GoproHeartbeat {
     /// Status.
     ///
@@ -15405,7 +15405,7 @@ impl<'a> GoproHeartbeatMut<'a> {
 /// Request a GOPRO_COMMAND response from the GoPro.
 ///
 /// MAVLink message `GOPRO_GET_REQUEST`: id 216, CRC_EXTRA 50, payload 3 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GoproGetRequest {
     /// System ID.
     ///
@@ -15604,7 +15604,7 @@ impl<'a> GoproGetRequestMut<'a> {
 /// Response from a GOPRO_COMMAND get request.
 ///
 /// MAVLink message `GOPRO_GET_RESPONSE`: id 217, CRC_EXTRA 202, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GoproGetResponse {
     /// Command ID.
     ///
@@ -15804,7 +15804,7 @@ impl<'a> GoproGetResponseMut<'a> {
 /// Request to set a GOPRO_COMMAND with a desired.
 ///
 /// MAVLink message `GOPRO_SET_REQUEST`: id 218, CRC_EXTRA 17, payload 7 bytes (7 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GoproSetRequest {
     /// System ID.
     ///
@@ -16028,7 +16028,7 @@ impl<'a> GoproSetRequestMut<'a> {
 /// Response from a GOPRO_COMMAND set request.
 ///
 /// MAVLink message `GOPRO_SET_RESPONSE`: id 219, CRC_EXTRA 162, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GoproSetResponse {
     /// Command ID.
     ///
@@ -16203,7 +16203,7 @@ impl<'a> GoproSetResponseMut<'a> {
 /// RPM sensor output.
 ///
 /// MAVLink message `RPM`: id 226, CRC_EXTRA 207, payload 8 bytes (8 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Rpm {
     /// RPM Sensor1.
     ///
@@ -16377,7 +16377,7 @@ impl<'a> RpmMut<'a> {
 /// Read registers for a device.
 ///
 /// MAVLink message `DEVICE_OP_READ`: id 11000, CRC_EXTRA 134, payload 52 bytes (51 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeviceOpRead {
     /// System ID.
     ///
@@ -16770,7 +16770,7 @@ impl<'a> DeviceOpReadMut<'a> {
 /// Read registers reply.
 ///
 /// MAVLink message `DEVICE_OP_READ_REPLY`: id 11001, CRC_EXTRA 15, payload 136 bytes (135 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeviceOpReadReply {
     /// Request ID - copied from request.
     ///
@@ -17058,7 +17058,7 @@ impl<'a> DeviceOpReadReplyMut<'a> {
 /// Write registers for a device.
 ///
 /// MAVLink message `DEVICE_OP_WRITE`: id 11002, CRC_EXTRA 234, payload 180 bytes (179 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeviceOpWrite {
     /// System ID.
     ///
@@ -17477,7 +17477,7 @@ impl<'a> DeviceOpWriteMut<'a> {
 /// Write registers reply.
 ///
 /// MAVLink message `DEVICE_OP_WRITE_REPLY`: id 11003, CRC_EXTRA 64, payload 5 bytes (5 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DeviceOpWriteReply {
     /// Request ID - copied from request.
     ///
@@ -17656,7 +17656,7 @@ impl<'a> DeviceOpWriteReplyMut<'a> {
 /// and the sig_length cannot be more than 220. The format of the data is command specific.
 ///
 /// MAVLink message `SECURE_COMMAND`: id 11004, CRC_EXTRA 11, payload 232 bytes (232 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SecureCommand {
     /// System ID.
     ///
@@ -17970,7 +17970,7 @@ impl<'a> SecureCommandMut<'a> {
 /// Reply from secure command.
 ///
 /// MAVLink message `SECURE_COMMAND_REPLY`: id 11005, CRC_EXTRA 93, payload 230 bytes (230 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SecureCommandReply {
     /// Sequence ID from request.
     ///
@@ -18235,7 +18235,7 @@ impl<'a> SecureCommandReplyMut<'a> {
 /// Adaptive Controller tuning information.
 ///
 /// MAVLink message `ADAP_TUNING`: id 11010, CRC_EXTRA 46, payload 49 bytes (49 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AdapTuning {
     /// Axis.
     ///
@@ -18685,7 +18685,7 @@ impl<'a> AdapTuningMut<'a> {
 /// Camera vision based attitude and position deltas.
 ///
 /// MAVLink message `VISION_POSITION_DELTA`: id 11011, CRC_EXTRA 106, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VisionPositionDelta {
     /// Timestamp (synced to UNIX time or since system boot).
     ///
@@ -18936,7 +18936,7 @@ impl<'a> VisionPositionDeltaMut<'a> {
 /// Angle of Attack and Side Slip Angle.
 ///
 /// MAVLink message `AOA_SSA`: id 11020, CRC_EXTRA 205, payload 16 bytes (16 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AoaSsa {
     /// Timestamp (since boot or Unix epoch).
     ///
@@ -19135,7 +19135,7 @@ impl<'a> AoaSsaMut<'a> {
 /// ESC Telemetry Data for ESCs 1 to 4, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_1_TO_4`: id 11030, CRC_EXTRA 144, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry1To4 {
     /// Temperature.
     ///
@@ -19409,7 +19409,7 @@ impl<'a> EscTelemetry1To4Mut<'a> {
 /// ESC Telemetry Data for ESCs 5 to 8, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_5_TO_8`: id 11031, CRC_EXTRA 133, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry5To8 {
     /// Temperature.
     ///
@@ -19683,7 +19683,7 @@ impl<'a> EscTelemetry5To8Mut<'a> {
 /// ESC Telemetry Data for ESCs 9 to 12, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_9_TO_12`: id 11032, CRC_EXTRA 85, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry9To12 {
     /// Temperature.
     ///
@@ -19957,7 +19957,7 @@ impl<'a> EscTelemetry9To12Mut<'a> {
 /// Configure an OSD parameter slot.
 ///
 /// MAVLink message `OSD_PARAM_CONFIG`: id 11033, CRC_EXTRA 195, payload 37 bytes (37 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OsdParamConfig {
     /// System ID.
     ///
@@ -20336,7 +20336,7 @@ impl<'a> OsdParamConfigMut<'a> {
 /// Configure OSD parameter reply.
 ///
 /// MAVLink message `OSD_PARAM_CONFIG_REPLY`: id 11034, CRC_EXTRA 79, payload 5 bytes (5 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OsdParamConfigReply {
     /// Request ID - copied from request.
     ///
@@ -20511,7 +20511,7 @@ impl<'a> OsdParamConfigReplyMut<'a> {
 /// Read a configured an OSD parameter slot.
 ///
 /// MAVLink message `OSD_PARAM_SHOW_CONFIG`: id 11035, CRC_EXTRA 128, payload 8 bytes (8 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OsdParamShowConfig {
     /// System ID.
     ///
@@ -20760,7 +20760,7 @@ impl<'a> OsdParamShowConfigMut<'a> {
 /// Read configured OSD parameter reply.
 ///
 /// MAVLink message `OSD_PARAM_SHOW_CONFIG_REPLY`: id 11036, CRC_EXTRA 177, payload 34 bytes (34 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OsdParamShowConfigReply {
     /// Request ID - copied from request.
     ///
@@ -21065,7 +21065,7 @@ impl<'a> OsdParamShowConfigReplyMut<'a> {
 /// Obstacle located as a 3D vector.
 ///
 /// MAVLink message `OBSTACLE_DISTANCE_3D`: id 11037, CRC_EXTRA 130, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ObstacleDistance3d {
     /// Timestamp (time since system boot).
     ///
@@ -21424,7 +21424,7 @@ impl<'a> ObstacleDistance3dMut<'a> {
 /// Water depth
 ///
 /// MAVLink message `WATER_DEPTH`: id 11038, CRC_EXTRA 47, payload 38 bytes (38 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct WaterDepth {
     /// Timestamp (time since system boot)
     ///
@@ -21825,7 +21825,7 @@ impl<'a> WaterDepthMut<'a> {
 /// for detecting power supply instability.
 ///
 /// MAVLink message `MCU_STATUS`: id 11039, CRC_EXTRA 142, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct McuStatus {
     /// MCU instance
     ///
@@ -22075,7 +22075,7 @@ impl<'a> McuStatusMut<'a> {
 /// ESC Telemetry Data for ESCs 13 to 16, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_13_TO_16`: id 11040, CRC_EXTRA 132, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry13To16 {
     /// Temperature.
     ///
@@ -22349,7 +22349,7 @@ impl<'a> EscTelemetry13To16Mut<'a> {
 /// ESC Telemetry Data for ESCs 17 to 20, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_17_TO_20`: id 11041, CRC_EXTRA 208, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry17To20 {
     /// Temperature.
     ///
@@ -22623,7 +22623,7 @@ impl<'a> EscTelemetry17To20Mut<'a> {
 /// ESC Telemetry Data for ESCs 21 to 24, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_21_TO_24`: id 11042, CRC_EXTRA 201, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry21To24 {
     /// Temperature.
     ///
@@ -22897,7 +22897,7 @@ impl<'a> EscTelemetry21To24Mut<'a> {
 /// ESC Telemetry Data for ESCs 25 to 28, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_25_TO_28`: id 11043, CRC_EXTRA 193, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry25To28 {
     /// Temperature.
     ///
@@ -23171,7 +23171,7 @@ impl<'a> EscTelemetry25To28Mut<'a> {
 /// ESC Telemetry Data for ESCs 29 to 32, matching data sent by BLHeli ESCs.
 ///
 /// MAVLink message `ESC_TELEMETRY_29_TO_32`: id 11044, CRC_EXTRA 189, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EscTelemetry29To32 {
     /// Temperature.
     ///
@@ -23447,7 +23447,7 @@ impl<'a> EscTelemetry29To32Mut<'a> {
 /// output.
 ///
 /// MAVLink message `NAMED_VALUE_STRING`: id 11060, CRC_EXTRA 162, payload 78 bytes (78 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NamedValueString {
     /// Timestamp (time since system boot).
     ///

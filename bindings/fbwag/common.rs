@@ -11313,7 +11313,7 @@ impl From<WinchActions> for u8 {
 /// sensor/subsystem status and a few other basic statistics.
 ///
 /// MAVLink message `SYS_STATUS`: id 1, CRC_EXTRA 124, payload 43 bytes (31 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SysStatus {
     /// Bitmap showing which onboard controllers and sensors are present. Value of 0: not present.
     /// Value of 1: present.
@@ -11925,7 +11925,7 @@ impl<'a> SysStatusMut<'a> {
 /// synchronization is needed then use TIMESYNC instead.
 ///
 /// MAVLink message `SYSTEM_TIME`: id 2, CRC_EXTRA 137, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SystemTime {
     /// Timestamp (UNIX epoch time).
     ///
@@ -12101,7 +12101,7 @@ impl<'a> SystemTimeMut<'a> {
 /// microservice is documented at <https://mavlink.io/en/services/ping.html>
 ///
 /// MAVLink message `PING`: id 4, CRC_EXTRA 237, payload 14 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Ping {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -12329,7 +12329,7 @@ impl<'a> PingMut<'a> {
 /// Request to control this MAV
 ///
 /// MAVLink message `CHANGE_OPERATOR_CONTROL`: id 5, CRC_EXTRA 217, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ChangeOperatorControl {
     /// System the GCS requests control for
     ///
@@ -12556,7 +12556,7 @@ impl<'a> ChangeOperatorControlMut<'a> {
 /// Accept / deny control of this MAV
 ///
 /// MAVLink message `CHANGE_OPERATOR_CONTROL_ACK`: id 6, CRC_EXTRA 104, payload 3 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ChangeOperatorControlAck {
     /// ID of the GCS this message
     ///
@@ -12757,7 +12757,7 @@ impl<'a> ChangeOperatorControlAckMut<'a> {
 /// been kept simple, so transmitting the key requires an encrypted channel for true safety.
 ///
 /// MAVLink message `AUTH_KEY`: id 7, CRC_EXTRA 119, payload 32 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AuthKey {
     /// key
     ///
@@ -12907,7 +12907,7 @@ impl<'a> AuthKeyMut<'a> {
 /// mode is by definition for the overall aircraft, not only for one component.
 ///
 /// MAVLink message `SET_MODE`: id 11, CRC_EXTRA 89, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetMode {
     /// The system setting the mode
     ///
@@ -13111,7 +13111,7 @@ impl<'a> SetModeMut<'a> {
 /// documentation of QGroundControl and IMU code.
 ///
 /// MAVLink message `PARAM_REQUEST_READ`: id 20, CRC_EXTRA 214, payload 20 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamRequestRead {
     /// System ID
     ///
@@ -13340,7 +13340,7 @@ impl<'a> ParamRequestReadMut<'a> {
 /// <https://mavlink.io/en/services/parameter.html>
 ///
 /// MAVLink message `PARAM_REQUEST_LIST`: id 21, CRC_EXTRA 159, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamRequestList {
     /// System ID
     ///
@@ -13517,7 +13517,7 @@ impl<'a> ParamRequestListMut<'a> {
 /// documented at <https://mavlink.io/en/services/parameter.html>
 ///
 /// MAVLink message `PARAM_VALUE`: id 22, CRC_EXTRA 220, payload 25 bytes (25 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamValue {
     /// Onboard parameter id, terminated by NULL if the length is less than 16 human-readable
     /// chars and WITHOUT null termination (NULL) byte if the length is exactly 16 chars -
@@ -13773,7 +13773,7 @@ impl<'a> ParamValueMut<'a> {
 /// <https://mavlink.io/en/services/parameter.html>.
 ///
 /// MAVLink message `PARAM_SET`: id 23, CRC_EXTRA 168, payload 23 bytes (23 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamSet {
     /// System ID
     ///
@@ -14026,7 +14026,7 @@ impl<'a> ParamSetMut<'a> {
 /// GLOBAL_POSITION_INT for the global position estimate.
 ///
 /// MAVLink message `GPS_RAW_INT`: id 24, CRC_EXTRA 24, payload 52 bytes (30 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GpsRawInt {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -14567,7 +14567,7 @@ impl<'a> GpsRawIntMut<'a> {
 /// satellites.
 ///
 /// MAVLink message `GPS_STATUS`: id 25, CRC_EXTRA 23, payload 101 bytes (101 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GpsStatus {
     /// Number of satellites visible
     ///
@@ -14842,7 +14842,7 @@ impl<'a> GpsStatusMut<'a> {
 /// scaled values to the described units
 ///
 /// MAVLink message `SCALED_IMU`: id 26, CRC_EXTRA 170, payload 24 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ScaledImu {
     /// Timestamp (time since system boot).
     ///
@@ -15247,7 +15247,7 @@ impl<'a> ScaledImuMut<'a> {
 /// SCALED_IMU can be requested.
 ///
 /// MAVLink message `RAW_IMU`: id 27, CRC_EXTRA 144, payload 29 bytes (26 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RawImu {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -15678,7 +15678,7 @@ impl<'a> RawImuMut<'a> {
 /// differential pressure sensor. The sensor values should be the raw, UNSCALED ADC values.
 ///
 /// MAVLink message `RAW_PRESSURE`: id 28, CRC_EXTRA 67, payload 16 bytes (16 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RawPressure {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -15930,7 +15930,7 @@ impl<'a> RawPressureMut<'a> {
 /// sensor. The units are as specified in each field.
 ///
 /// MAVLink message `SCALED_PRESSURE`: id 29, CRC_EXTRA 115, payload 16 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ScaledPressure {
     /// Timestamp (time since system boot).
     ///
@@ -16182,7 +16182,7 @@ impl<'a> ScaledPressureMut<'a> {
 /// intrinsic).
 ///
 /// MAVLink message `ATTITUDE`: id 30, CRC_EXTRA 39, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Attitude {
     /// Timestamp (time since system boot).
     ///
@@ -16483,7 +16483,7 @@ impl<'a> AttitudeMut<'a> {
 /// 0 0 0).
 ///
 /// MAVLink message `ATTITUDE_QUATERNION`: id 31, CRC_EXTRA 246, payload 48 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AttitudeQuaternion {
     /// Timestamp (time since system boot).
     ///
@@ -16840,7 +16840,7 @@ impl<'a> AttitudeQuaternionMut<'a> {
 /// frame is right-handed, Z-axis down (aeronautical frame, NED / north-east-down convention)
 ///
 /// MAVLink message `LOCAL_POSITION_NED`: id 32, CRC_EXTRA 185, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LocalPositionNed {
     /// Timestamp (time since system boot).
     ///
@@ -17140,7 +17140,7 @@ impl<'a> LocalPositionNedMut<'a> {
 /// Channels that are inactive should be set to INT16_MAX.
 ///
 /// MAVLink message `RC_CHANNELS_SCALED`: id 34, CRC_EXTRA 237, payload 22 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RcChannelsScaled {
     /// Timestamp (time since system boot).
     ///
@@ -17543,7 +17543,7 @@ impl<'a> RcChannelsScaledMut<'a> {
 /// is unused. Individual receivers/transmitters might violate this specification.
 ///
 /// MAVLink message `RC_CHANNELS_RAW`: id 35, CRC_EXTRA 244, payload 22 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RcChannelsRaw {
     /// Timestamp (time since system boot).
     ///
@@ -17946,7 +17946,7 @@ impl<'a> RcChannelsRawMut<'a> {
 /// 1000 microseconds: 0%, 2000 microseconds: 100%.
 ///
 /// MAVLink message `SERVO_OUTPUT_RAW`: id 36, CRC_EXTRA 222, payload 37 bytes (21 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ServoOutputRaw {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -18534,7 +18534,7 @@ impl<'a> ServoOutputRawMut<'a> {
 /// send one waypoint.
 ///
 /// MAVLink message `MISSION_REQUEST_PARTIAL_LIST`: id 37, CRC_EXTRA 212, payload 7 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionRequestPartialList {
     /// System ID
     ///
@@ -18786,7 +18786,7 @@ impl<'a> MissionRequestPartialListMut<'a> {
 /// list size, this request should be REJECTED!
 ///
 /// MAVLink message `MISSION_WRITE_PARTIAL_LIST`: id 38, CRC_EXTRA 9, payload 7 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionWritePartialList {
     /// System ID
     ///
@@ -19042,7 +19042,7 @@ impl<'a> MissionWritePartialListMut<'a> {
 ///
 /// MAVLink message `MISSION_ITEM`: id 39, CRC_EXTRA 254, payload 38 bytes (37 without extensions).
 /// **Deprecated** since 2020-06, replaced by `MISSION_ITEM_INT`.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionItem {
     /// System ID
     ///
@@ -19547,7 +19547,7 @@ impl<'a> MissionItemMut<'a> {
 /// MAVLink message `MISSION_REQUEST`: id 40, CRC_EXTRA 230, payload 5 bytes (4 without extensions).
 /// **Deprecated** since 2020-06, replaced by `MISSION_REQUEST_INT`. A system that gets this
 /// request should respond with MISSION_ITEM_INT (as though MISSION_REQUEST_INT was received).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionRequest {
     /// System ID
     ///
@@ -19780,7 +19780,7 @@ impl<'a> MissionRequestMut<'a> {
 /// this message must not trigger a switch to mission mode.
 ///
 /// MAVLink message `MISSION_SET_CURRENT`: id 41, CRC_EXTRA 28, payload 4 bytes (4 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionSetCurrent {
     /// System ID
     ///
@@ -19982,7 +19982,7 @@ impl<'a> MissionSetCurrentMut<'a> {
 /// to MAV_CMD_DO_SET_MISSION_CURRENT or MISSION_SET_CURRENT.
 ///
 /// MAVLink message `MISSION_CURRENT`: id 42, CRC_EXTRA 28, payload 6 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionCurrent {
     /// Sequence
     ///
@@ -20212,7 +20212,7 @@ impl<'a> MissionCurrentMut<'a> {
 /// Request the overall list of mission items from the system/component.
 ///
 /// MAVLink message `MISSION_REQUEST_LIST`: id 43, CRC_EXTRA 132, payload 3 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionRequestList {
     /// System ID
     ///
@@ -20414,7 +20414,7 @@ impl<'a> MissionRequestListMut<'a> {
 /// knowledge of the total number of waypoints.
 ///
 /// MAVLink message `MISSION_COUNT`: id 44, CRC_EXTRA 221, payload 5 bytes (4 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionCount {
     /// System ID
     ///
@@ -20639,7 +20639,7 @@ impl<'a> MissionCountMut<'a> {
 /// Delete all mission items at once.
 ///
 /// MAVLink message `MISSION_CLEAR_ALL`: id 45, CRC_EXTRA 232, payload 3 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionClearAll {
     /// System ID
     ///
@@ -20841,7 +20841,7 @@ impl<'a> MissionClearAllMut<'a> {
 /// waypoint.
 ///
 /// MAVLink message `MISSION_ITEM_REACHED`: id 46, CRC_EXTRA 11, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionItemReached {
     /// Sequence
     ///
@@ -20991,7 +20991,7 @@ impl<'a> MissionItemReachedMut<'a> {
 /// a positive ack (type=0) or if an error happened (type=non-zero).
 ///
 /// MAVLink message `MISSION_ACK`: id 47, CRC_EXTRA 153, payload 4 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionAck {
     /// System ID
     ///
@@ -21221,7 +21221,7 @@ impl<'a> MissionAckMut<'a> {
 /// move from in- to outdoor.
 ///
 /// MAVLink message `SET_GPS_GLOBAL_ORIGIN`: id 48, CRC_EXTRA 41, payload 21 bytes (13 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetGpsGlobalOrigin {
     /// System ID
     ///
@@ -21475,7 +21475,7 @@ impl<'a> SetGpsGlobalOriginMut<'a> {
 /// SET_GPS_GLOBAL_ORIGIN message.
 ///
 /// MAVLink message `GPS_GLOBAL_ORIGIN`: id 49, CRC_EXTRA 39, payload 20 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GpsGlobalOrigin {
     /// Latitude (WGS84)
     ///
@@ -21703,7 +21703,7 @@ impl<'a> GpsGlobalOriginMut<'a> {
 /// value.
 ///
 /// MAVLink message `PARAM_MAP_RC`: id 50, CRC_EXTRA 78, payload 37 bytes (37 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamMapRc {
     /// System ID
     ///
@@ -22060,7 +22060,7 @@ impl<'a> ParamMapRcMut<'a> {
 /// <https://mavlink.io/en/services/mission.html>
 ///
 /// MAVLink message `MISSION_REQUEST_INT`: id 51, CRC_EXTRA 196, payload 5 bytes (4 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionRequestInt {
     /// System ID
     ///
@@ -22287,7 +22287,7 @@ impl<'a> MissionRequestIntMut<'a> {
 /// are often enforced by national or competition regulations.
 ///
 /// MAVLink message `SAFETY_SET_ALLOWED_AREA`: id 54, CRC_EXTRA 15, payload 27 bytes (27 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SafetySetAllowedArea {
     /// System ID
     ///
@@ -22637,7 +22637,7 @@ impl<'a> SafetySetAllowedAreaMut<'a> {
 /// Read out the safety zone the MAV currently assumes.
 ///
 /// MAVLink message `SAFETY_ALLOWED_AREA`: id 55, CRC_EXTRA 3, payload 25 bytes (25 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SafetyAllowedArea {
     /// Coordinate frame. Can be either global, GPS, right-handed with Z axis up or local, right
     /// handed, Z axis down.
@@ -22939,7 +22939,7 @@ impl<'a> SafetyAllowedAreaMut<'a> {
 /// 0 0 0).
 ///
 /// MAVLink message `ATTITUDE_QUATERNION_COV`: id 61, CRC_EXTRA 167, payload 72 bytes (72 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AttitudeQuaternionCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -23217,7 +23217,7 @@ impl<'a> AttitudeQuaternionCovMut<'a> {
 /// The state of the navigation and position controller.
 ///
 /// MAVLink message `NAV_CONTROLLER_OUTPUT`: id 62, CRC_EXTRA 183, payload 26 bytes (26 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NavControllerOutput {
     /// Current desired roll
     ///
@@ -23545,7 +23545,7 @@ impl<'a> NavControllerOutputMut<'a> {
 /// completeness. Please use the GLOBAL_POSITION_INT message for a minimal subset.
 ///
 /// MAVLink message `GLOBAL_POSITION_INT_COV`: id 63, CRC_EXTRA 119, payload 181 bytes (181 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GlobalPositionIntCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -23944,7 +23944,7 @@ impl<'a> GlobalPositionIntCovMut<'a> {
 /// frame is right-handed, Z-axis down (aeronautical frame, NED / north-east-down convention)
 ///
 /// MAVLink message `LOCAL_POSITION_NED_COV`: id 64, CRC_EXTRA 191, payload 225 bytes (225 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LocalPositionNedCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -24397,7 +24397,7 @@ impl<'a> LocalPositionNedCovMut<'a> {
 /// is unused. Individual receivers/transmitters might violate this specification.
 ///
 /// MAVLink message `RC_CHANNELS`: id 65, CRC_EXTRA 118, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RcChannels {
     /// Timestamp (time since system boot).
     ///
@@ -25049,7 +25049,7 @@ impl<'a> RcChannelsMut<'a> {
 /// Request a data stream.
 ///
 /// MAVLink message `REQUEST_DATA_STREAM`: id 66, CRC_EXTRA 148, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RequestDataStream {
     /// The target requested to send the message stream.
     ///
@@ -25298,7 +25298,7 @@ impl<'a> RequestDataStreamMut<'a> {
 /// Data stream status information.
 ///
 /// MAVLink message `DATA_STREAM`: id 67, CRC_EXTRA 21, payload 4 bytes (4 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DataStream {
     /// The ID of the requested data stream.
     ///
@@ -25499,7 +25499,7 @@ impl<'a> DataStreamMut<'a> {
 /// and buttons states are transmitted as individual on/off bits of a bitmask
 ///
 /// MAVLink message `MANUAL_CONTROL`: id 69, CRC_EXTRA 243, payload 30 bytes (11 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ManualControl {
     /// The system to be controlled.
     ///
@@ -26060,7 +26060,7 @@ impl<'a> ManualControlMut<'a> {
 /// channels
 ///
 /// MAVLink message `RC_CHANNELS_OVERRIDE`: id 70, CRC_EXTRA 124, payload 38 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RcChannelsOverride {
     /// System ID
     ///
@@ -26718,7 +26718,7 @@ impl<'a> RcChannelsOverrideMut<'a> {
 /// <https://mavlink.io/en/services/mission.html>.
 ///
 /// MAVLink message `MISSION_ITEM_INT`: id 73, CRC_EXTRA 38, payload 38 bytes (37 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MissionItemInt {
     /// System ID
     ///
@@ -27220,7 +27220,7 @@ impl<'a> MissionItemIntMut<'a> {
 /// Metrics typically displayed on a HUD for fixed wing aircraft.
 ///
 /// MAVLink message `VFR_HUD`: id 74, CRC_EXTRA 20, payload 20 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VfrHud {
     /// Vehicle speed in form appropriate for vehicle type. For standard aircraft this is
     /// typically calibrated airspeed (CAS) or indicated airspeed (IAS) - either of which can be
@@ -27498,7 +27498,7 @@ impl<'a> VfrHudMut<'a> {
 /// <https://mavlink.io/en/services/command.html>
 ///
 /// MAVLink message `COMMAND_INT`: id 75, CRC_EXTRA 158, payload 35 bytes (35 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CommandInt {
     /// System ID
     ///
@@ -27952,7 +27952,7 @@ impl<'a> CommandIntMut<'a> {
 /// <https://mavlink.io/en/services/command.html>
 ///
 /// MAVLink message `COMMAND_LONG`: id 76, CRC_EXTRA 152, payload 33 bytes (33 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CommandLong {
     /// System which should execute the command
     ///
@@ -28353,7 +28353,7 @@ impl<'a> CommandLongMut<'a> {
 /// command microservice is documented at <https://mavlink.io/en/services/command.html>
 ///
 /// MAVLink message `COMMAND_ACK`: id 77, CRC_EXTRA 143, payload 10 bytes (3 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CommandAck {
     /// Command ID (of acknowledged command).
     ///
@@ -28634,7 +28634,7 @@ impl<'a> CommandAckMut<'a> {
 /// Setpoint in roll, pitch, yaw and thrust from the operator
 ///
 /// MAVLink message `MANUAL_SETPOINT`: id 81, CRC_EXTRA 106, payload 22 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ManualSetpoint {
     /// Timestamp (time since system boot).
     ///
@@ -28934,7 +28934,7 @@ impl<'a> ManualSetpointMut<'a> {
 /// (manual controller or other system).
 ///
 /// MAVLink message `SET_ATTITUDE_TARGET`: id 82, CRC_EXTRA 49, payload 39 bytes (39 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetAttitudeTarget {
     /// Timestamp (time since system boot).
     ///
@@ -29290,7 +29290,7 @@ impl<'a> SetAttitudeTargetMut<'a> {
 /// controlled this way.
 ///
 /// MAVLink message `ATTITUDE_TARGET`: id 83, CRC_EXTRA 22, payload 37 bytes (37 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AttitudeTarget {
     /// Timestamp (time since system boot).
     ///
@@ -29595,7 +29595,7 @@ impl<'a> AttitudeTargetMut<'a> {
 /// external controller to command the vehicle (manual controller or other system).
 ///
 /// MAVLink message `SET_POSITION_TARGET_LOCAL_NED`: id 84, CRC_EXTRA 143, payload 53 bytes (53 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetPositionTargetLocalNed {
     /// Timestamp (time since system boot).
     ///
@@ -30127,7 +30127,7 @@ impl<'a> SetPositionTargetLocalNedMut<'a> {
 /// vehicle is being controlled this way.
 ///
 /// MAVLink message `POSITION_TARGET_LOCAL_NED`: id 85, CRC_EXTRA 140, payload 51 bytes (51 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PositionTargetLocalNed {
     /// Timestamp (time since system boot).
     ///
@@ -30609,7 +30609,7 @@ impl<'a> PositionTargetLocalNedMut<'a> {
 /// or other system).
 ///
 /// MAVLink message `SET_POSITION_TARGET_GLOBAL_INT`: id 86, CRC_EXTRA 5, payload 53 bytes (53 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetPositionTargetGlobalInt {
     /// Timestamp (time since system boot). The rationale for the timestamp in the setpoint is to
     /// allow the system to compensate for the transport delay of the setpoint. This allows the
@@ -31145,7 +31145,7 @@ impl<'a> SetPositionTargetGlobalIntMut<'a> {
 /// the vehicle is being controlled this way.
 ///
 /// MAVLink message `POSITION_TARGET_GLOBAL_INT`: id 87, CRC_EXTRA 150, payload 51 bytes (51 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PositionTargetGlobalInt {
     /// Timestamp (time since system boot). The rationale for the timestamp in the setpoint is to
     /// allow the system to compensate for the transport delay of the setpoint. This allows the
@@ -31631,7 +31631,7 @@ impl<'a> PositionTargetGlobalIntMut<'a> {
 /// (aeronautical frame, NED / north-east-down convention)
 ///
 /// MAVLink message `LOCAL_POSITION_NED_SYSTEM_GLOBAL_OFFSET`: id 89, CRC_EXTRA 231, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LocalPositionNedSystemGlobalOffset {
     /// Timestamp (time since system boot).
     ///
@@ -31931,7 +31931,7 @@ impl<'a> LocalPositionNedSystemGlobalOffsetMut<'a> {
 /// such as hardware in the loop simulations.
 ///
 /// MAVLink message `HIL_STATE`: id 90, CRC_EXTRA 183, payload 56 bytes (56 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilState {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -32458,7 +32458,7 @@ impl<'a> HilStateMut<'a> {
 /// HIL_ACTUATOR_CONTROLS.
 ///
 /// MAVLink message `HIL_CONTROLS`: id 91, CRC_EXTRA 63, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilControls {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -32861,7 +32861,7 @@ impl<'a> HilControlsMut<'a> {
 /// Individual receivers/transmitters might violate this specification.
 ///
 /// MAVLink message `HIL_RC_INPUTS_RAW`: id 92, CRC_EXTRA 54, payload 33 bytes (33 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilRcInputsRaw {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -33339,7 +33339,7 @@ impl<'a> HilRcInputsRawMut<'a> {
 /// HIL_CONTROLS.
 ///
 /// MAVLink message `HIL_ACTUATOR_CONTROLS`: id 93, CRC_EXTRA 47, payload 81 bytes (81 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilActuatorControls {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -33575,7 +33575,7 @@ impl<'a> HilActuatorControlsMut<'a> {
 /// Optical flow from a flow sensor (e.g. optical mouse sensor)
 ///
 /// MAVLink message `OPTICAL_FLOW`: id 100, CRC_EXTRA 175, payload 34 bytes (26 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpticalFlow {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -33953,7 +33953,7 @@ impl<'a> OpticalFlowMut<'a> {
 /// Global position/attitude estimate from a vision source.
 ///
 /// MAVLink message `GLOBAL_VISION_POSITION_ESTIMATE`: id 101, CRC_EXTRA 102, payload 117 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GlobalVisionPositionEstimate {
     /// Timestamp (UNIX time or since system boot)
     ///
@@ -34309,7 +34309,7 @@ impl<'a> GlobalVisionPositionEstimateMut<'a> {
 /// Local position/attitude estimate from a vision source.
 ///
 /// MAVLink message `VISION_POSITION_ESTIMATE`: id 102, CRC_EXTRA 158, payload 117 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VisionPositionEstimate {
     /// Timestamp (UNIX time or time since system boot)
     ///
@@ -34664,7 +34664,7 @@ impl<'a> VisionPositionEstimateMut<'a> {
 /// Speed estimate from a vision source.
 ///
 /// MAVLink message `VISION_SPEED_ESTIMATE`: id 103, CRC_EXTRA 208, payload 57 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VisionSpeedEstimate {
     /// Timestamp (UNIX time or time since system boot)
     ///
@@ -34944,7 +34944,7 @@ impl<'a> VisionSpeedEstimateMut<'a> {
 /// Global position estimate from a Vicon motion system source.
 ///
 /// MAVLink message `VICON_POSITION_ESTIMATE`: id 104, CRC_EXTRA 56, payload 116 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ViconPositionEstimate {
     /// Timestamp (UNIX time or time since system boot)
     ///
@@ -35271,7 +35271,7 @@ impl<'a> ViconPositionEstimateMut<'a> {
 /// The IMU readings in SI units in NED body frame
 ///
 /// MAVLink message `HIGHRES_IMU`: id 105, CRC_EXTRA 93, payload 63 bytes (62 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HighresImu {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -35804,7 +35804,7 @@ impl<'a> HighresImuMut<'a> {
 /// Optical flow from an angular rate flow sensor (e.g. PX4FLOW or mouse sensor)
 ///
 /// MAVLink message `OPTICAL_FLOW_RAD`: id 106, CRC_EXTRA 138, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpticalFlowRad {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -36235,7 +36235,7 @@ impl<'a> OpticalFlowRadMut<'a> {
 /// The IMU readings in SI units in NED body frame
 ///
 /// MAVLink message `HIL_SENSOR`: id 107, CRC_EXTRA 108, payload 65 bytes (64 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilSensor {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -36767,7 +36767,7 @@ impl<'a> HilSensorMut<'a> {
 /// Status of simulation environment, if used
 ///
 /// MAVLink message `SIM_STATE`: id 108, CRC_EXTRA 32, payload 92 bytes (84 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SimState {
     /// True attitude quaternion component 1, w (1 in null-rotation)
     ///
@@ -37471,7 +37471,7 @@ impl<'a> SimStateMut<'a> {
 /// Status generated by radio and injected into MAVLink stream.
 ///
 /// MAVLink message `RADIO_STATUS`: id 109, CRC_EXTRA 185, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RadioStatus {
     /// Local (message sender) received signal strength indication in device-dependent
     /// units/scale. Values: \[0-254\], UINT8_MAX: invalid/unknown.
@@ -37774,7 +37774,7 @@ impl<'a> RadioStatusMut<'a> {
 /// File transfer protocol message: <https://mavlink.io/en/services/ftp.html>.
 ///
 /// MAVLink message `FILE_TRANSFER_PROTOCOL`: id 110, CRC_EXTRA 84, payload 254 bytes (254 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FileTransferProtocol {
     /// Network ID (0 for broadcast)
     ///
@@ -38023,7 +38023,7 @@ impl<'a> FileTransferProtocolMut<'a> {
 /// also: <https://mavlink.io/en/services/timesync.html>.
 ///
 /// MAVLink message `TIMESYNC`: id 111, CRC_EXTRA 34, payload 16 bytes (16 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Timesync {
     /// Time sync timestamp 1. Syncing: 0. Responding: Timestamp of responding component.
     ///
@@ -38197,7 +38197,7 @@ impl<'a> TimesyncMut<'a> {
 /// Camera-IMU triggering and synchronisation message.
 ///
 /// MAVLink message `CAMERA_TRIGGER`: id 112, CRC_EXTRA 174, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraTrigger {
     /// Timestamp for image frame (UNIX Epoch time or time since system boot). The receiving end
     /// can infer timestamp format (since 1.1.1970 or since system boot) by checking for the
@@ -38375,7 +38375,7 @@ impl<'a> CameraTriggerMut<'a> {
 /// GLOBAL_POSITION_INT for the global position estimate.
 ///
 /// MAVLink message `HIL_GPS`: id 113, CRC_EXTRA 124, payload 39 bytes (36 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilGps {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -38882,7 +38882,7 @@ impl<'a> HilGpsMut<'a> {
 /// Simulated optical flow from a flow sensor (e.g. PX4FLOW or optical mouse sensor)
 ///
 /// MAVLink message `HIL_OPTICAL_FLOW`: id 114, CRC_EXTRA 237, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilOpticalFlow {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -39314,7 +39314,7 @@ impl<'a> HilOpticalFlowMut<'a> {
 /// simulations.
 ///
 /// MAVLink message `HIL_STATE_QUATERNION`: id 115, CRC_EXTRA 4, payload 64 bytes (64 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HilStateQuaternion {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -39842,7 +39842,7 @@ impl<'a> HilStateQuaternionMut<'a> {
 /// scaled values to the described units
 ///
 /// MAVLink message `SCALED_IMU2`: id 116, CRC_EXTRA 76, payload 24 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ScaledImu2 {
     /// Timestamp (time since system boot).
     ///
@@ -40246,7 +40246,7 @@ impl<'a> ScaledImu2Mut<'a> {
 /// start with id 1 or 0. The ground station needs to be able to process either.
 ///
 /// MAVLink message `LOG_REQUEST_LIST`: id 117, CRC_EXTRA 128, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LogRequestList {
     /// System ID
     ///
@@ -40470,7 +40470,7 @@ impl<'a> LogRequestListMut<'a> {
 /// Reply to LOG_REQUEST_LIST
 ///
 /// MAVLink message `LOG_ENTRY`: id 118, CRC_EXTRA 56, payload 14 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LogEntry {
     /// Log id
     ///
@@ -40719,7 +40719,7 @@ impl<'a> LogEntryMut<'a> {
 /// Request a chunk of a log
 ///
 /// MAVLink message `LOG_REQUEST_DATA`: id 119, CRC_EXTRA 116, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LogRequestData {
     /// System ID
     ///
@@ -40968,7 +40968,7 @@ impl<'a> LogRequestDataMut<'a> {
 /// Reply to LOG_REQUEST_DATA
 ///
 /// MAVLink message `LOG_DATA`: id 120, CRC_EXTRA 134, payload 97 bytes (97 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LogData {
     /// Log id (from LOG_ENTRY reply)
     ///
@@ -41203,7 +41203,7 @@ impl<'a> LogDataMut<'a> {
 /// Erase all logs
 ///
 /// MAVLink message `LOG_ERASE`: id 121, CRC_EXTRA 237, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LogErase {
     /// System ID
     ///
@@ -41377,7 +41377,7 @@ impl<'a> LogEraseMut<'a> {
 /// Stop log transfer and resume normal logging
 ///
 /// MAVLink message `LOG_REQUEST_END`: id 122, CRC_EXTRA 203, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LogRequestEnd {
     /// System ID
     ///
@@ -41551,7 +41551,7 @@ impl<'a> LogRequestEndMut<'a> {
 /// Data for injecting into the onboard GPS (used for DGPS)
 ///
 /// MAVLink message `GPS_INJECT_DATA`: id 123, CRC_EXTRA 250, payload 113 bytes (113 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GpsInjectData {
     /// System ID
     ///
@@ -41786,7 +41786,7 @@ impl<'a> GpsInjectDataMut<'a> {
 /// Second GPS data.
 ///
 /// MAVLink message `GPS2_RAW`: id 124, CRC_EXTRA 87, payload 57 bytes (35 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Gps2Raw {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -42371,7 +42371,7 @@ impl<'a> Gps2RawMut<'a> {
 /// Power supply status
 ///
 /// MAVLink message `POWER_STATUS`: id 125, CRC_EXTRA 203, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PowerStatus {
     /// 5V rail voltage.
     ///
@@ -42573,7 +42573,7 @@ impl<'a> PowerStatusMut<'a> {
 /// can be used to change just the baudrate.
 ///
 /// MAVLink message `SERIAL_CONTROL`: id 126, CRC_EXTRA 220, payload 79 bytes (79 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SerialControl {
     /// Serial control device type.
     ///
@@ -42866,7 +42866,7 @@ impl<'a> SerialControlMut<'a> {
 /// RTK GPS data. Gives information on the relative baseline calculation the GPS is reporting
 ///
 /// MAVLink message `GPS_RTK`: id 127, CRC_EXTRA 25, payload 35 bytes (35 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GpsRtk {
     /// Time since boot of last baseline message received.
     ///
@@ -43320,7 +43320,7 @@ impl<'a> GpsRtkMut<'a> {
 /// RTK GPS data. Gives information on the relative baseline calculation the GPS is reporting
 ///
 /// MAVLink message `GPS2_RTK`: id 128, CRC_EXTRA 226, payload 35 bytes (35 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Gps2Rtk {
     /// Time since boot of last baseline message received.
     ///
@@ -43775,7 +43775,7 @@ impl<'a> Gps2RtkMut<'a> {
 /// values to the described units
 ///
 /// MAVLink message `SCALED_IMU3`: id 129, CRC_EXTRA 46, payload 24 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ScaledImu3 {
     /// Timestamp (time since system boot).
     ///
@@ -44177,7 +44177,7 @@ impl<'a> ScaledImu3Mut<'a> {
 /// Transmission Protocol: <https://mavlink.io/en/services/image_transmission.html>.
 ///
 /// MAVLink message `DATA_TRANSMISSION_HANDSHAKE`: id 130, CRC_EXTRA 29, payload 13 bytes (13 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DataTransmissionHandshake {
     /// Type of requested/acknowledged data.
     ///
@@ -44479,7 +44479,7 @@ impl<'a> DataTransmissionHandshakeMut<'a> {
 /// <https://mavlink.io/en/services/image_transmission.html>.
 ///
 /// MAVLink message `ENCAPSULATED_DATA`: id 131, CRC_EXTRA 223, payload 255 bytes (255 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EncapsulatedData {
     /// sequence number (starting with 0 on every transmission)
     ///
@@ -44659,7 +44659,7 @@ impl<'a> EncapsulatedDataMut<'a> {
 /// Distance sensor information for an onboard rangefinder.
 ///
 /// MAVLink message `DISTANCE_SENSOR`: id 132, CRC_EXTRA 85, payload 39 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DistanceSensor {
     /// Timestamp (time since system boot).
     ///
@@ -45103,7 +45103,7 @@ impl<'a> DistanceSensorMut<'a> {
 /// <https://mavlink.io/en/services/terrain.html>
 ///
 /// MAVLink message `TERRAIN_REQUEST`: id 133, CRC_EXTRA 6, payload 18 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TerrainRequest {
     /// Latitude of SW corner of first grid
     ///
@@ -45329,7 +45329,7 @@ impl<'a> TerrainRequestMut<'a> {
 /// <https://mavlink.io/en/services/terrain.html>
 ///
 /// MAVLink message `TERRAIN_DATA`: id 134, CRC_EXTRA 229, payload 43 bytes (43 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TerrainData {
     /// Latitude of SW corner of first grid
     ///
@@ -45580,7 +45580,7 @@ impl<'a> TerrainDataMut<'a> {
 /// mission.
 ///
 /// MAVLink message `TERRAIN_CHECK`: id 135, CRC_EXTRA 203, payload 8 bytes (8 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TerrainCheck {
     /// Latitude
     ///
@@ -45756,7 +45756,7 @@ impl<'a> TerrainCheckMut<'a> {
 /// docs: <https://mavlink.io/en/services/terrain.html>
 ///
 /// MAVLink message `TERRAIN_REPORT`: id 136, CRC_EXTRA 1, payload 22 bytes (22 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TerrainReport {
     /// Latitude
     ///
@@ -46055,7 +46055,7 @@ impl<'a> TerrainReportMut<'a> {
 /// Barometer readings for 2nd barometer
 ///
 /// MAVLink message `SCALED_PRESSURE2`: id 137, CRC_EXTRA 195, payload 16 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ScaledPressure2 {
     /// Timestamp (time since system boot).
     ///
@@ -46306,7 +46306,7 @@ impl<'a> ScaledPressure2Mut<'a> {
 /// Motion capture attitude and position
 ///
 /// MAVLink message `ATT_POS_MOCAP`: id 138, CRC_EXTRA 109, payload 120 bytes (36 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AttPosMocap {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -46585,7 +46585,7 @@ impl<'a> AttPosMocapMut<'a> {
 /// Set the vehicle attitude and body angular rates.
 ///
 /// MAVLink message `SET_ACTUATOR_CONTROL_TARGET`: id 139, CRC_EXTRA 168, payload 43 bytes (43 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetActuatorControlTarget {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -46840,7 +46840,7 @@ impl<'a> SetActuatorControlTargetMut<'a> {
 /// Set the vehicle attitude and body angular rates.
 ///
 /// MAVLink message `ACTUATOR_CONTROL_TARGET`: id 140, CRC_EXTRA 181, payload 41 bytes (41 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ActuatorControlTarget {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -47045,7 +47045,7 @@ impl<'a> ActuatorControlTargetMut<'a> {
 /// The current system altitude.
 ///
 /// MAVLink message `ALTITUDE`: id 141, CRC_EXTRA 47, payload 32 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Altitude {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -47360,7 +47360,7 @@ impl<'a> AltitudeMut<'a> {
 /// The autopilot is requesting a resource (file, binary, other type of data)
 ///
 /// MAVLink message `RESOURCE_REQUEST`: id 142, CRC_EXTRA 72, payload 243 bytes (243 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ResourceRequest {
     /// Request ID. This ID should be reused when sending back URI contents
     ///
@@ -47623,7 +47623,7 @@ impl<'a> ResourceRequestMut<'a> {
 /// Barometer readings for 3rd barometer
 ///
 /// MAVLink message `SCALED_PRESSURE3`: id 143, CRC_EXTRA 131, payload 16 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ScaledPressure3 {
     /// Timestamp (time since system boot).
     ///
@@ -47874,7 +47874,7 @@ impl<'a> ScaledPressure3Mut<'a> {
 /// Current motion information from a designated system
 ///
 /// MAVLink message `FOLLOW_TARGET`: id 144, CRC_EXTRA 127, payload 93 bytes (93 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FollowTarget {
     /// Timestamp (time since system boot).
     ///
@@ -48274,7 +48274,7 @@ impl<'a> FollowTargetMut<'a> {
 /// The smoothed, monotonic system state used to feed the control loops of the system.
 ///
 /// MAVLink message `CONTROL_SYSTEM_STATE`: id 146, CRC_EXTRA 103, payload 100 bytes (100 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ControlSystemState {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -48825,7 +48825,7 @@ impl<'a> ControlSystemStateMut<'a> {
 /// Battery information
 ///
 /// MAVLink message `BATTERY_STATUS`: id 147, CRC_EXTRA 154, payload 54 bytes (36 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct BatteryStatus {
     /// Battery ID
     ///
@@ -49330,7 +49330,7 @@ impl<'a> BatteryStatusMut<'a> {
 /// <https://mavlink.io/en/services/landing_target.html>
 ///
 /// MAVLink message `LANDING_TARGET`: id 149, CRC_EXTRA 200, payload 60 bytes (30 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LandingTarget {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -49817,7 +49817,7 @@ impl<'a> LandingTargetMut<'a> {
 /// Status of geo-fencing. Sent in extended status stream when fencing enabled.
 ///
 /// MAVLink message `FENCE_STATUS`: id 162, CRC_EXTRA 189, payload 9 bytes (8 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FenceStatus {
     /// Breach status (0 if currently inside fence, 1 if outside).
     ///
@@ -50069,7 +50069,7 @@ impl<'a> FenceStatusMut<'a> {
 /// Reports results of completed compass calibration. Sent until MAG_CAL_ACK received.
 ///
 /// MAVLink message `MAG_CAL_REPORT`: id 192, CRC_EXTRA 36, payload 54 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MagCalReport {
     /// Compass being calibrated.
     ///
@@ -50652,7 +50652,7 @@ impl<'a> MagCalReportMut<'a> {
 /// EFI status output
 ///
 /// MAVLink message `EFI_STATUS`: id 225, CRC_EXTRA 208, payload 73 bytes (65 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EfiStatus {
     /// EFI health status
     ///
@@ -51264,7 +51264,7 @@ impl<'a> EfiStatusMut<'a> {
 /// user.
 ///
 /// MAVLink message `ESTIMATOR_STATUS`: id 230, CRC_EXTRA 163, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EstimatorStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -51647,7 +51647,7 @@ impl<'a> EstimatorStatusMut<'a> {
 /// deviation (1-STD).
 ///
 /// MAVLink message `WIND_COV`: id 231, CRC_EXTRA 105, payload 40 bytes (40 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct WindCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -52001,7 +52001,7 @@ impl<'a> WindCovMut<'a> {
 /// global position estimate of the system.
 ///
 /// MAVLink message `GPS_INPUT`: id 232, CRC_EXTRA 151, payload 65 bytes (63 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GpsInput {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -52610,7 +52610,7 @@ impl<'a> GpsInputMut<'a> {
 /// RTCM message for injecting into the onboard GPS (used for DGPS)
 ///
 /// MAVLink message `GPS_RTCM_DATA`: id 233, CRC_EXTRA 35, payload 182 bytes (182 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GpsRtcmData {
     /// LSB: 1 means message is fragmented, next 2 bits are the fragment ID, the remaining 5 bits
     /// are used for the sequence ID. Messages are only to be flushed to the GPS when the entire
@@ -52826,7 +52826,7 @@ impl<'a> GpsRtcmDataMut<'a> {
 /// Message appropriate for high latency connections like Iridium
 ///
 /// MAVLink message `HIGH_LATENCY`: id 234, CRC_EXTRA 150, payload 40 bytes (40 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HighLatency {
     /// Bitmap of enabled system modes.
     ///
@@ -53556,7 +53556,7 @@ impl<'a> HighLatencyMut<'a> {
 /// Message appropriate for high latency connections like Iridium (version 2)
 ///
 /// MAVLink message `HIGH_LATENCY2`: id 235, CRC_EXTRA 179, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HighLatency2 {
     /// Timestamp (milliseconds since boot or Unix epoch)
     ///
@@ -54366,7 +54366,7 @@ impl<'a> HighLatency2Mut<'a> {
 /// Vibration levels and accelerometer clipping
 ///
 /// MAVLink message `VIBRATION`: id 241, CRC_EXTRA 90, payload 32 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Vibration {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -54674,7 +54674,7 @@ impl<'a> VibrationMut<'a> {
 /// should fly in normal flight mode and then perform a landing sequence along the vector.
 ///
 /// MAVLink message `HOME_POSITION`: id 242, CRC_EXTRA 104, payload 60 bytes (52 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HomePosition {
     /// Latitude (WGS84)
     ///
@@ -55097,7 +55097,7 @@ impl<'a> HomePositionMut<'a> {
 /// HOME_POSITION message on request (using MAV_CMD_REQUEST_MESSAGE with param1=242).
 ///
 /// MAVLink message `SET_HOME_POSITION`: id 243, CRC_EXTRA 85, payload 61 bytes (53 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetHomePosition {
     /// System ID.
     ///
@@ -55540,7 +55540,7 @@ impl<'a> SetHomePositionMut<'a> {
 /// be sent in response to MAV_CMD_GET_MESSAGE_INTERVAL. This interface replaces DATA_STREAM.
 ///
 /// MAVLink message `MESSAGE_INTERVAL`: id 244, CRC_EXTRA 95, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MessageInterval {
     /// The ID of the requested MAVLink message. v1.0 is limited to 254 messages.
     ///
@@ -55715,7 +55715,7 @@ impl<'a> MessageIntervalMut<'a> {
 /// Provides state for additional features
 ///
 /// MAVLink message `EXTENDED_SYS_STATE`: id 245, CRC_EXTRA 130, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ExtendedSysState {
     /// The VTOL state if applicable. Is set to MAV_VTOL_STATE_UNDEFINED if UAV is not in VTOL
     /// configuration.
@@ -55890,7 +55890,7 @@ impl<'a> ExtendedSysStateMut<'a> {
 /// The location and information of an ADSB vehicle
 ///
 /// MAVLink message `ADSB_VEHICLE`: id 246, CRC_EXTRA 184, payload 38 bytes (38 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AdsbVehicle {
     /// ICAO address
     ///
@@ -56344,7 +56344,7 @@ impl<'a> AdsbVehicleMut<'a> {
 /// Information about a potential collision
 ///
 /// MAVLink message `COLLISION`: id 247, CRC_EXTRA 81, payload 19 bytes (19 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Collision {
     /// Collision data source
     ///
@@ -56648,7 +56648,7 @@ impl<'a> CollisionMut<'a> {
 /// Message implementing parts of the V2 payload specs in V1 frames for transitional support.
 ///
 /// MAVLink message `V2_EXTENSION`: id 248, CRC_EXTRA 8, payload 254 bytes (254 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct V2Extension {
     /// Network ID (0 for broadcast)
     ///
@@ -56922,7 +56922,7 @@ impl<'a> V2ExtensionMut<'a> {
 /// a quite efficient way for testing new messages and getting experimental debug output.
 ///
 /// MAVLink message `MEMORY_VECT`: id 249, CRC_EXTRA 204, payload 36 bytes (36 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MemoryVect {
     /// Starting address of the debug variables
     ///
@@ -57147,7 +57147,7 @@ impl<'a> MemoryVectMut<'a> {
 /// To debug something using a named 3D vector.
 ///
 /// MAVLink message `DEBUG_VECT`: id 250, CRC_EXTRA 49, payload 30 bytes (30 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DebugVect {
     /// Name
     ///
@@ -57400,7 +57400,7 @@ impl<'a> DebugVectMut<'a> {
 /// but a quite efficient way for testing new messages and getting experimental debug output.
 ///
 /// MAVLink message `NAMED_VALUE_FLOAT`: id 251, CRC_EXTRA 170, payload 18 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NamedValueFloat {
     /// Timestamp (time since system boot).
     ///
@@ -57602,7 +57602,7 @@ impl<'a> NamedValueFloatMut<'a> {
 /// output.
 ///
 /// MAVLink message `NAMED_VALUE_INT`: id 252, CRC_EXTRA 44, payload 18 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NamedValueInt {
     /// Timestamp (time since system boot).
     ///
@@ -57805,7 +57805,7 @@ impl<'a> NamedValueIntMut<'a> {
 /// and sent only at a limited rate (e.g. 10 Hz).
 ///
 /// MAVLink message `STATUSTEXT`: id 253, CRC_EXTRA 83, payload 54 bytes (51 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Statustext {
     /// Severity of status. Relies on the definitions within RFC-5424.
     ///
@@ -58046,7 +58046,7 @@ impl<'a> StatustextMut<'a> {
 /// in the plot of QGroundControl as DEBUG N.
 ///
 /// MAVLink message `DEBUG`: id 254, CRC_EXTRA 46, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Debug {
     /// Timestamp (time since system boot).
     ///
@@ -58246,7 +58246,7 @@ impl<'a> DebugMut<'a> {
 /// initial_timestamp will disable signing
 ///
 /// MAVLink message `SETUP_SIGNING`: id 256, CRC_EXTRA 71, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SetupSigning {
     /// system id of the target
     ///
@@ -58470,7 +58470,7 @@ impl<'a> SetupSigningMut<'a> {
 /// Report button state change.
 ///
 /// MAVLink message `BUTTON_CHANGE`: id 257, CRC_EXTRA 131, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ButtonChange {
     /// Timestamp (time since system boot).
     ///
@@ -58669,7 +58669,7 @@ impl<'a> ButtonChangeMut<'a> {
 /// Control vehicle tone generation (buzzer).
 ///
 /// MAVLink message `PLAY_TUNE`: id 258, CRC_EXTRA 187, payload 232 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlayTune {
     /// System ID
     ///
@@ -58905,7 +58905,7 @@ impl<'a> PlayTuneMut<'a> {
 /// Information about a camera. Can be requested with a MAV_CMD_REQUEST_MESSAGE command.
 ///
 /// MAVLink message `CAMERA_INFORMATION`: id 259, CRC_EXTRA 92, payload 237 bytes (235 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraInformation {
     /// Timestamp (time since system boot).
     ///
@@ -59439,7 +59439,7 @@ impl<'a> CameraInformationMut<'a> {
 /// Settings of a camera. Can be requested with a MAV_CMD_REQUEST_MESSAGE command.
 ///
 /// MAVLink message `CAMERA_SETTINGS`: id 260, CRC_EXTRA 146, payload 14 bytes (5 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraSettings {
     /// Timestamp (time since system boot).
     ///
@@ -59695,7 +59695,7 @@ impl<'a> CameraSettingsMut<'a> {
 /// all, 1 for first, 2 for second, etc.
 ///
 /// MAVLink message `STORAGE_INFORMATION`: id 261, CRC_EXTRA 179, payload 61 bytes (27 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct StorageInformation {
     /// Timestamp (time since system boot).
     ///
@@ -60135,7 +60135,7 @@ impl<'a> StorageInformationMut<'a> {
 /// command.
 ///
 /// MAVLink message `CAMERA_CAPTURE_STATUS`: id 262, CRC_EXTRA 12, payload 23 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraCaptureStatus {
     /// Timestamp (time since system boot).
     ///
@@ -60471,7 +60471,7 @@ impl<'a> CameraCaptureStatusMut<'a> {
 /// numbers, set to the sequence number of the final message in the range.
 ///
 /// MAVLink message `CAMERA_IMAGE_CAPTURED`: id 263, CRC_EXTRA 133, payload 255 bytes (255 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraImageCaptured {
     /// Timestamp (time since system boot).
     ///
@@ -60895,7 +60895,7 @@ impl<'a> CameraImageCapturedMut<'a> {
 /// UTC) and the flight_uuid is a sequence number.
 ///
 /// MAVLink message `FLIGHT_INFORMATION`: id 264, CRC_EXTRA 49, payload 32 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FlightInformation {
     /// Timestamp (time since system boot).
     ///
@@ -61147,7 +61147,7 @@ impl<'a> FlightInformationMut<'a> {
 /// Orientation of a mount
 ///
 /// MAVLink message `MOUNT_ORIENTATION`: id 265, CRC_EXTRA 26, payload 20 bytes (16 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MountOrientation {
     /// Timestamp (time since system boot).
     ///
@@ -61397,7 +61397,7 @@ impl<'a> MountOrientationMut<'a> {
 /// A message containing logged data (see also MAV_CMD_LOGGING_START)
 ///
 /// MAVLink message `LOGGING_DATA`: id 266, CRC_EXTRA 193, payload 255 bytes (255 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoggingData {
     /// system ID of the target
     ///
@@ -61685,7 +61685,7 @@ impl<'a> LoggingDataMut<'a> {
 /// A message containing logged data which requires a LOGGING_ACK to be sent back
 ///
 /// MAVLink message `LOGGING_DATA_ACKED`: id 267, CRC_EXTRA 35, payload 255 bytes (255 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoggingDataAcked {
     /// system ID of the target
     ///
@@ -61973,7 +61973,7 @@ impl<'a> LoggingDataAckedMut<'a> {
 /// An ack for a LOGGING_DATA_ACKED message
 ///
 /// MAVLink message `LOGGING_ACK`: id 268, CRC_EXTRA 14, payload 4 bytes (4 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LoggingAck {
     /// system ID of the target
     ///
@@ -62173,7 +62173,7 @@ impl<'a> LoggingAckMut<'a> {
 /// param2 indicates the video stream id: 0 for all streams, 1 for first, 2 for second, etc.
 ///
 /// MAVLink message `VIDEO_STREAM_INFORMATION`: id 269, CRC_EXTRA 109, payload 215 bytes (213 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VideoStreamInformation {
     /// Video Stream ID (1 for first, 2 for second, etc.)
     ///
@@ -62682,7 +62682,7 @@ impl<'a> VideoStreamInformationMut<'a> {
 /// MAV_CMD_REQUEST_MESSAGE.
 ///
 /// MAVLink message `VIDEO_STREAM_STATUS`: id 270, CRC_EXTRA 59, payload 20 bytes (19 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VideoStreamStatus {
     /// Video Stream ID (1 for first, 2 for second, etc.)
     ///
@@ -63040,7 +63040,7 @@ impl<'a> VideoStreamStatusMut<'a> {
 /// MAV_CMD_REQUEST_MESSAGE command.
 ///
 /// MAVLink message `CAMERA_FOV_STATUS`: id 271, CRC_EXTRA 22, payload 53 bytes (52 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraFovStatus {
     /// Timestamp (time since system boot).
     ///
@@ -63445,7 +63445,7 @@ impl<'a> CameraFovStatusMut<'a> {
 /// define message interval.
 ///
 /// MAVLink message `CAMERA_TRACKING_IMAGE_STATUS`: id 275, CRC_EXTRA 126, payload 32 bytes (31 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraTrackingImageStatus {
     /// Current tracking status
     ///
@@ -63867,7 +63867,7 @@ impl<'a> CameraTrackingImageStatusMut<'a> {
 /// define message interval.
 ///
 /// MAVLink message `CAMERA_TRACKING_GEO_STATUS`: id 276, CRC_EXTRA 18, payload 50 bytes (49 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraTrackingGeoStatus {
     /// Current tracking status
     ///
@@ -64353,7 +64353,7 @@ impl<'a> CameraTrackingGeoStatusMut<'a> {
 /// autopilot-attached cameras or 0 for MAVLink cameras).
 ///
 /// MAVLink message `CAMERA_THERMAL_RANGE`: id 277, CRC_EXTRA 62, payload 30 bytes (30 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CameraThermalRange {
     /// Timestamp (time since system boot).
     ///
@@ -64705,7 +64705,7 @@ impl<'a> CameraThermalRangeMut<'a> {
 /// ground station using MAV_CMD_REQUEST_MESSAGE.
 ///
 /// MAVLink message `GIMBAL_MANAGER_INFORMATION`: id 280, CRC_EXTRA 70, payload 33 bytes (33 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalManagerInformation {
     /// Timestamp (time since system boot).
     ///
@@ -65064,7 +65064,7 @@ impl<'a> GimbalManagerInformationMut<'a> {
 /// low regular rate (e.g. 5Hz).
 ///
 /// MAVLink message `GIMBAL_MANAGER_STATUS`: id 281, CRC_EXTRA 48, payload 13 bytes (13 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalManagerStatus {
     /// Timestamp (time since system boot).
     ///
@@ -65372,7 +65372,7 @@ impl<'a> GimbalManagerStatusMut<'a> {
 /// to use case.
 ///
 /// MAVLink message `GIMBAL_MANAGER_SET_ATTITUDE`: id 282, CRC_EXTRA 123, payload 35 bytes (35 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalManagerSetAttitude {
     /// System ID
     ///
@@ -65708,7 +65708,7 @@ impl<'a> GimbalManagerSetAttitudeMut<'a> {
 /// different/smaller and dependent on mode/settings/etc..
 ///
 /// MAVLink message `GIMBAL_DEVICE_INFORMATION`: id 283, CRC_EXTRA 74, payload 149 bytes (144 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalDeviceInformation {
     /// Timestamp (time since system boot).
     ///
@@ -66291,7 +66291,7 @@ impl<'a> GimbalDeviceInformationMut<'a> {
 /// GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME or GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME.
 ///
 /// MAVLink message `GIMBAL_DEVICE_SET_ATTITUDE`: id 284, CRC_EXTRA 99, payload 32 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalDeviceSetAttitude {
     /// System ID
     ///
@@ -66615,7 +66615,7 @@ impl<'a> GimbalDeviceSetAttitudeMut<'a> {
 /// delta_yaw_velocity either to the proper value or NaN.
 ///
 /// MAVLink message `GIMBAL_DEVICE_ATTITUDE_STATUS`: id 285, CRC_EXTRA 137, payload 49 bytes (40 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalDeviceAttitudeStatus {
     /// System ID
     ///
@@ -67064,7 +67064,7 @@ impl<'a> GimbalDeviceAttitudeStatusMut<'a> {
 /// z-axis.
 ///
 /// MAVLink message `AUTOPILOT_STATE_FOR_GIMBAL_DEVICE`: id 286, CRC_EXTRA 210, payload 57 bytes (53 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AutopilotStateForGimbalDevice {
     /// System ID
     ///
@@ -67526,7 +67526,7 @@ impl<'a> AutopilotStateForGimbalDeviceMut<'a> {
 /// MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW for low-rate adjustments that require confirmation.
 ///
 /// MAVLink message `GIMBAL_MANAGER_SET_PITCHYAW`: id 287, CRC_EXTRA 1, payload 23 bytes (23 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalManagerSetPitchyaw {
     /// System ID
     ///
@@ -67861,7 +67861,7 @@ impl<'a> GimbalManagerSetPitchyawMut<'a> {
 /// station). Angles and rates can be set to NaN according to use case.
 ///
 /// MAVLink message `GIMBAL_MANAGER_SET_MANUAL_CONTROL`: id 288, CRC_EXTRA 20, payload 23 bytes (23 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GimbalManagerSetManualControl {
     /// System ID
     ///
@@ -68195,7 +68195,7 @@ impl<'a> GimbalManagerSetManualControlMut<'a> {
 /// Airspeed information from a sensor.
 ///
 /// MAVLink message `AIRSPEED`: id 295, CRC_EXTRA 234, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Airspeed {
     /// Sensor ID.
     ///
@@ -68451,7 +68451,7 @@ impl<'a> AirspeedMut<'a> {
 /// source and optionally displayed in the UI.
 ///
 /// MAVLink message `GLOBAL_POSITION_SENSOR`: id 296, CRC_EXTRA 158, payload 41 bytes (41 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GlobalPositionSensor {
     /// System ID (ID of target system, normally autopilot and ground station).
     ///
@@ -68914,7 +68914,7 @@ impl<'a> GlobalPositionSensorMut<'a> {
 /// MAV_CMD_REQUEST_MESSAGE
 ///
 /// MAVLink message `WIFI_CONFIG_AP`: id 299, CRC_EXTRA 19, payload 96 bytes (96 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WifiConfigAp {
     /// Name of Wi-Fi network (SSID). Blank to leave it unchanged when setting. Current SSID when
     /// sent back as a response.
@@ -69098,7 +69098,7 @@ impl<'a> WifiConfigApMut<'a> {
 /// The location and information of an AIS vessel
 ///
 /// MAVLink message `AIS_VESSEL`: id 301, CRC_EXTRA 243, payload 58 bytes (58 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AisVessel {
     /// Mobile Marine Service Identifier, 9 decimal digits
     ///
@@ -69651,7 +69651,7 @@ impl<'a> AisVesselMut<'a> {
 /// specification is available at <http://uavcan.org>.
 ///
 /// MAVLink message `UAVCAN_NODE_STATUS`: id 310, CRC_EXTRA 28, payload 17 bytes (17 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavcanNodeStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -69934,7 +69934,7 @@ impl<'a> UavcanNodeStatusMut<'a> {
 /// <http://uavcan.org>.
 ///
 /// MAVLink message `UAVCAN_NODE_INFO`: id 311, CRC_EXTRA 95, payload 116 bytes (116 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UavcanNodeInfo {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -70303,7 +70303,7 @@ impl<'a> UavcanNodeInfoMut<'a> {
 /// param_index. PARAM_EXT_VALUE should be emitted in response.
 ///
 /// MAVLink message `PARAM_EXT_REQUEST_READ`: id 320, CRC_EXTRA 243, payload 20 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamExtRequestRead {
     /// System ID
     ///
@@ -70531,7 +70531,7 @@ impl<'a> ParamExtRequestReadMut<'a> {
 /// PARAM_EXT_VALUE.
 ///
 /// MAVLink message `PARAM_EXT_REQUEST_LIST`: id 321, CRC_EXTRA 88, payload 2 bytes (2 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamExtRequestList {
     /// System ID
     ///
@@ -70707,7 +70707,7 @@ impl<'a> ParamExtRequestListMut<'a> {
 /// missing parameters after a loss or timeout.
 ///
 /// MAVLink message `PARAM_EXT_VALUE`: id 322, CRC_EXTRA 243, payload 149 bytes (149 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamExtValue {
     /// Parameter id, terminated by NULL if the length is less than 16 human-readable chars and
     /// WITHOUT null termination (NULL) byte if the length is exactly 16 chars - applications have
@@ -70975,7 +70975,7 @@ impl<'a> ParamExtValueMut<'a> {
 /// response.
 ///
 /// MAVLink message `PARAM_EXT_SET`: id 323, CRC_EXTRA 78, payload 147 bytes (147 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamExtSet {
     /// System ID
     ///
@@ -71239,7 +71239,7 @@ impl<'a> ParamExtSetMut<'a> {
 /// Response from a PARAM_EXT_SET message.
 ///
 /// MAVLink message `PARAM_EXT_ACK`: id 324, CRC_EXTRA 132, payload 146 bytes (146 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamExtAck {
     /// Parameter id, terminated by NULL if the length is less than 16 human-readable chars and
     /// WITHOUT null termination (NULL) byte if the length is exactly 16 chars - applications have
@@ -71478,7 +71478,7 @@ impl<'a> ParamExtAckMut<'a> {
 /// the right
 ///
 /// MAVLink message `OBSTACLE_DISTANCE`: id 330, CRC_EXTRA 23, payload 167 bytes (158 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObstacleDistance {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -71863,7 +71863,7 @@ impl<'a> ObstacleDistanceMut<'a> {
 /// REP 147 standard for aerial vehicles (<http://www.ros.org/reps/rep-0147.html>).
 ///
 /// MAVLink message `ODOMETRY`: id 331, CRC_EXTRA 91, payload 233 bytes (230 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Odometry {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -72455,7 +72455,7 @@ impl<'a> OdometryMut<'a> {
 /// MAVLink message `TRAJECTORY_REPRESENTATION_WAYPOINTS`: id 332, CRC_EXTRA 236, payload 239 bytes (239 without extensions).
 /// **Deprecated** since 2025-03, replaced by `Nothing`. Implemented PX4 v1.11 to v1.14. Not
 /// used in current flight stacks.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TrajectoryRepresentationWaypoints {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -72935,7 +72935,7 @@ impl<'a> TrajectoryRepresentationWaypointsMut<'a> {
 /// MAVLink message `TRAJECTORY_REPRESENTATION_BEZIER`: id 333, CRC_EXTRA 231, payload 109 bytes (109 without extensions).
 /// **Deprecated** since 2025-03, replaced by `Nothing`. Implemented PX4 v1.11 to v1.14. Not
 /// used in current flight stacks.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TrajectoryRepresentationBezier {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -73236,7 +73236,7 @@ impl<'a> TrajectoryRepresentationBezierMut<'a> {
 /// Status of the Iridium SBD link.
 ///
 /// MAVLink message `ISBD_LINK_STATUS`: id 335, CRC_EXTRA 225, payload 24 bytes (24 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct IsbdLinkStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -73564,7 +73564,7 @@ impl<'a> IsbdLinkStatusMut<'a> {
 /// RPM sensor data message.
 ///
 /// MAVLink message `RAW_RPM`: id 339, CRC_EXTRA 199, payload 5 bytes (5 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RawRpm {
     /// Index of this RPM sensor (0-indexed)
     ///
@@ -73738,7 +73738,7 @@ impl<'a> RawRpmMut<'a> {
 /// The global position resulting from GPS and sensor fusion.
 ///
 /// MAVLink message `UTM_GLOBAL_POSITION`: id 340, CRC_EXTRA 99, payload 70 bytes (70 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UtmGlobalPosition {
     /// Time of applicability of position (microseconds since UNIX epoch).
     ///
@@ -74319,7 +74319,7 @@ impl<'a> UtmGlobalPositionMut<'a> {
 ///
 /// MAVLink message `PARAM_ERROR`: id 345, CRC_EXTRA 209, payload 21 bytes (21 without extensions).
 /// **Work in progress**: may change.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParamError {
     /// System ID
     ///
@@ -74573,7 +74573,7 @@ impl<'a> ParamErrorMut<'a> {
 /// interfaces (respectively). Do not use in production code.
 ///
 /// MAVLink message `DEBUG_FLOAT_ARRAY`: id 350, CRC_EXTRA 232, payload 252 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DebugFloatArray {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -74813,7 +74813,7 @@ impl<'a> DebugFloatArrayMut<'a> {
 /// MAV_CMD_DO_ORBIT).
 ///
 /// MAVLink message `ORBIT_EXECUTION_STATUS`: id 360, CRC_EXTRA 11, payload 25 bytes (25 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OrbitExecutionStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -75094,7 +75094,7 @@ impl<'a> OrbitExecutionStatusMut<'a> {
 /// updates.
 ///
 /// MAVLink message `SMART_BATTERY_INFO`: id 370, CRC_EXTRA 75, payload 109 bytes (87 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SmartBatteryInfo {
     /// Battery ID
     ///
@@ -75678,7 +75678,7 @@ impl<'a> SmartBatteryInfoMut<'a> {
 /// Telemetry of power generation system. Alternator or mechanical generator.
 ///
 /// MAVLink message `GENERATOR_STATUS`: id 373, CRC_EXTRA 117, payload 42 bytes (42 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GeneratorStatus {
     /// Status flags.
     ///
@@ -76087,7 +76087,7 @@ impl<'a> GeneratorStatusMut<'a> {
 /// message supersedes SERVO_OUTPUT_RAW.
 ///
 /// MAVLink message `ACTUATOR_OUTPUT_STATUS`: id 375, CRC_EXTRA 251, payload 140 bytes (140 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ActuatorOutputStatus {
     /// Timestamp (since system boot).
     ///
@@ -76288,7 +76288,7 @@ impl<'a> ActuatorOutputStatusMut<'a> {
 /// be sent on every relay state change to avoid flooding the link.
 ///
 /// MAVLink message `RELAY_STATUS`: id 376, CRC_EXTRA 199, payload 8 bytes (8 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RelayStatus {
     /// Timestamp (time since system boot).
     ///
@@ -76492,7 +76492,7 @@ impl<'a> RelayStatusMut<'a> {
 /// of the MAVLink specification.
 ///
 /// MAVLink message `TUNNEL`: id 385, CRC_EXTRA 147, payload 133 bytes (133 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tunnel {
     /// System ID (can be 0 for broadcast, but this is discouraged)
     ///
@@ -76762,7 +76762,7 @@ impl<'a> TunnelMut<'a> {
 /// A forwarded CAN frame as requested by MAV_CMD_CAN_FORWARD.
 ///
 /// MAVLink message `CAN_FRAME`: id 386, CRC_EXTRA 132, payload 16 bytes (16 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CanFrame {
     /// System ID.
     ///
@@ -77037,7 +77037,7 @@ impl<'a> CanFrameMut<'a> {
 /// CAN_FRAME as they need different handling (eg. TAO handling)
 ///
 /// MAVLink message `CANFD_FRAME`: id 387, CRC_EXTRA 4, payload 72 bytes (72 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CanfdFrame {
     /// System ID.
     ///
@@ -77328,7 +77328,7 @@ impl<'a> CanfdFrameMut<'a> {
 /// CAN_FILTER_MODIFY messages.
 ///
 /// MAVLink message `CAN_FILTER_MODIFY`: id 388, CRC_EXTRA 8, payload 37 bytes (37 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CanFilterModify {
     /// System ID.
     ///
@@ -77602,7 +77602,7 @@ impl<'a> CanFilterModifyMut<'a> {
 /// Hardware status sent by an onboard computer.
 ///
 /// MAVLink message `ONBOARD_COMPUTER_STATUS`: id 390, CRC_EXTRA 156, payload 240 bytes (238 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OnboardComputerStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -78284,7 +78284,7 @@ impl<'a> OnboardComputerStatusMut<'a> {
 /// Cumulative distance traveled for each reported wheel.
 ///
 /// MAVLink message `WHEEL_DISTANCE`: id 9000, CRC_EXTRA 113, payload 137 bytes (137 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct WheelDistance {
     /// Timestamp (synced to UNIX time or since system boot).
     ///
@@ -78485,7 +78485,7 @@ impl<'a> WheelDistanceMut<'a> {
 /// Winch status.
 ///
 /// MAVLink message `WINCH_STATUS`: id 9005, CRC_EXTRA 117, payload 34 bytes (34 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct WinchStatus {
     /// Timestamp (synced to UNIX time or since system boot).
     ///
@@ -78820,7 +78820,7 @@ impl<'a> WinchStatusMut<'a> {
 /// <https://mavlink.io/en/services/opendroneid.html>.
 ///
 /// MAVLink message `OPEN_DRONE_ID_BASIC_ID`: id 12900, CRC_EXTRA 114, payload 44 bytes (44 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpenDroneIdBasicId {
     /// System ID (0 for broadcast).
     ///
@@ -79098,7 +79098,7 @@ impl<'a> OpenDroneIdBasicIdMut<'a> {
 /// aircraft.
 ///
 /// MAVLink message `OPEN_DRONE_ID_LOCATION`: id 12901, CRC_EXTRA 254, payload 59 bytes (59 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpenDroneIdLocation {
     /// System ID (0 for broadcast).
     ///
@@ -79724,7 +79724,7 @@ impl<'a> OpenDroneIdLocationMut<'a> {
 /// the size of AuthData is 23 bytes.
 ///
 /// MAVLink message `OPEN_DRONE_ID_AUTHENTICATION`: id 12902, CRC_EXTRA 140, payload 53 bytes (53 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpenDroneIdAuthentication {
     /// System ID (0 for broadcast).
     ///
@@ -80088,7 +80088,7 @@ impl<'a> OpenDroneIdAuthenticationMut<'a> {
 /// situation.
 ///
 /// MAVLink message `OPEN_DRONE_ID_SELF_ID`: id 12903, CRC_EXTRA 249, payload 46 bytes (46 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpenDroneIdSelfId {
     /// System ID (0 for broadcast).
     ///
@@ -80344,7 +80344,7 @@ impl<'a> OpenDroneIdSelfIdMut<'a> {
 /// and/or category/class information.
 ///
 /// MAVLink message `OPEN_DRONE_ID_SYSTEM`: id 12904, CRC_EXTRA 77, payload 54 bytes (54 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpenDroneIdSystem {
     /// System ID (0 for broadcast).
     ///
@@ -80864,7 +80864,7 @@ impl<'a> OpenDroneIdSystemMut<'a> {
 /// Aviation Authority) issued operator ID.
 ///
 /// MAVLink message `OPEN_DRONE_ID_OPERATOR_ID`: id 12905, CRC_EXTRA 49, payload 43 bytes (43 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpenDroneIdOperatorId {
     /// System ID (0 for broadcast).
     ///
@@ -81121,7 +81121,7 @@ impl<'a> OpenDroneIdOperatorIdMut<'a> {
 /// Range/Extended Advertising or on WiFi Neighbor Aware Networking or on WiFi Beacon.
 ///
 /// MAVLink message `OPEN_DRONE_ID_MESSAGE_PACK`: id 12915, CRC_EXTRA 94, payload 249 bytes (249 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OpenDroneIdMessagePack {
     /// System ID (0 for broadcast).
     ///
@@ -81413,7 +81413,7 @@ impl<'a> OpenDroneIdMessagePackMut<'a> {
 /// condition to arm.
 ///
 /// MAVLink message `OPEN_DRONE_ID_ARM_STATUS`: id 12918, CRC_EXTRA 139, payload 51 bytes (51 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OpenDroneIdArmStatus {
     /// Status level indicating if arming is allowed.
     ///
@@ -81602,7 +81602,7 @@ impl<'a> OpenDroneIdArmStatusMut<'a> {
 /// of the operator location.
 ///
 /// MAVLink message `OPEN_DRONE_ID_SYSTEM_UPDATE`: id 12919, CRC_EXTRA 7, payload 18 bytes (18 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OpenDroneIdSystemUpdate {
     /// System ID (0 for broadcast).
     ///
@@ -81876,7 +81876,7 @@ impl<'a> OpenDroneIdSystemUpdateMut<'a> {
 /// Temperature and humidity from hygrometer.
 ///
 /// MAVLink message `HYGROMETER_SENSOR`: id 12920, CRC_EXTRA 20, payload 5 bytes (5 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HygrometerSensor {
     /// Hygrometer ID
     ///

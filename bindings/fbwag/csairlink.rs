@@ -59,7 +59,7 @@ impl From<AirlinkAuthResponseType> for u8 {
 /// Authorization package
 ///
 /// MAVLink message `AIRLINK_AUTH`: id 52000, CRC_EXTRA 13, payload 100 bytes (100 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AirlinkAuth {
     /// Login
     ///
@@ -242,7 +242,7 @@ impl<'a> AirlinkAuthMut<'a> {
 /// Response to the authorization request
 ///
 /// MAVLink message `AIRLINK_AUTH_RESPONSE`: id 52001, CRC_EXTRA 239, payload 1 bytes (1 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AirlinkAuthResponse {
     /// Response type
     ///

@@ -3,7 +3,7 @@
 /// Raw RC Data
 ///
 /// MAVLink message `CUBEPILOT_RAW_RC`: id 50001, CRC_EXTRA 246, payload 32 bytes (32 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CubepilotRawRc {
     /// `rc_raw`
     ///
@@ -152,7 +152,7 @@ impl<'a> CubepilotRawRcMut<'a> {
 /// Information about video stream
 ///
 /// MAVLink message `HERELINK_VIDEO_STREAM_INFORMATION`: id 50002, CRC_EXTRA 181, payload 246 bytes (246 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HerelinkVideoStreamInformation {
     /// Video Stream ID (1 for first, 2 for second, etc.)
     ///
@@ -492,7 +492,7 @@ impl<'a> HerelinkVideoStreamInformationMut<'a> {
 /// Herelink Telemetry
 ///
 /// MAVLink message `HERELINK_TELEM`: id 50003, CRC_EXTRA 62, payload 19 bytes (19 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HerelinkTelem {
     /// `rssi`
     ///
@@ -791,7 +791,7 @@ impl<'a> HerelinkTelemMut<'a> {
 /// Start firmware update with encapsulated data.
 ///
 /// MAVLink message `CUBEPILOT_FIRMWARE_UPDATE_START`: id 50004, CRC_EXTRA 240, payload 10 bytes (10 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CubepilotFirmwareUpdateStart {
     /// System ID.
     ///
@@ -1015,7 +1015,7 @@ impl<'a> CubepilotFirmwareUpdateStartMut<'a> {
 /// offset response to encapsulated data.
 ///
 /// MAVLink message `CUBEPILOT_FIRMWARE_UPDATE_RESP`: id 50005, CRC_EXTRA 152, payload 6 bytes (6 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CubepilotFirmwareUpdateResp {
     /// System ID.
     ///

@@ -68,7 +68,7 @@ impl From<FbwagFailsafeStatus> for u8 {
 /// of the notice it answers.
 ///
 /// MAVLink message `FBWAG_NOTICE`: id 15001, CRC_EXTRA 30, payload 12 bytes (12 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FbwagNotice {
     /// System ID of the vehicle sending the notice.
     ///
@@ -318,7 +318,7 @@ impl<'a> FbwagNoticeMut<'a> {
 }
 
 /// Every message of the `fbwag.xml` dialect (302 messages, its includes' too).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Message {
     /// `HEARTBEAT` (id 0).
     Heartbeat(super::minimal::Heartbeat),

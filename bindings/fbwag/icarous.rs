@@ -130,7 +130,7 @@ impl From<IcarousTrackBandTypes> for u8 {
 /// ICAROUS heartbeat
 ///
 /// MAVLink message `ICAROUS_HEARTBEAT`: id 42000, CRC_EXTRA 227, payload 1 bytes (1 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct IcarousHeartbeat {
     /// See the FMS_STATE enum.
     ///
@@ -280,7 +280,7 @@ impl<'a> IcarousHeartbeatMut<'a> {
 /// Kinematic multi bands (track) output from Daidalus
 ///
 /// MAVLink message `ICAROUS_KINEMATIC_BANDS`: id 42001, CRC_EXTRA 239, payload 46 bytes (46 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct IcarousKinematicBands {
     /// Number of track bands
     ///

@@ -5,7 +5,7 @@
 /// unit.
 ///
 /// MAVLink message `LOWEHEISER_GOV_EFI`: id 10151, CRC_EXTRA 195, payload 85 bytes (85 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LoweheiserGovEfi {
     /// Generator Battery voltage.
     ///

@@ -1037,7 +1037,7 @@ impl From<MavType> for u8 {
 /// <https://mavlink.io/en/services/heartbeat.html>
 ///
 /// MAVLink message `HEARTBEAT`: id 0, CRC_EXTRA 50, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Heartbeat {
     /// Vehicle or component type. For a flight controller component the vehicle type (quadrotor,
     /// helicopter, etc.). For other components the component type (e.g. camera, gimbal, etc.).

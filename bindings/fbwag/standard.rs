@@ -169,7 +169,7 @@ impl MavProtocolCapability {
 /// resolution of float is not sufficient.
 ///
 /// MAVLink message `GLOBAL_POSITION_INT`: id 33, CRC_EXTRA 104, payload 28 bytes (28 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GlobalPositionInt {
     /// Timestamp (time since system boot).
     ///
@@ -519,7 +519,7 @@ impl<'a> GlobalPositionIntMut<'a> {
 /// request with MAV_CMD_REQUEST_MESSAGE.
 ///
 /// MAVLink message `AUTOPILOT_VERSION`: id 148, CRC_EXTRA 178, payload 78 bytes (60 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AutopilotVersion {
     /// Bitmap of capabilities
     ///

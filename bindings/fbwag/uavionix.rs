@@ -656,7 +656,7 @@ impl UavionixAdsbXbit {
 /// sec thereafter)
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CFG`: id 10001, CRC_EXTRA 209, payload 20 bytes (20 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbOutCfg {
     /// Vehicle address (24 bit)
     ///
@@ -1012,7 +1012,7 @@ impl<'a> UavionixAdsbOutCfgMut<'a> {
 /// Dynamic data used to generate ADS-B out transponder data (send at 5Hz)
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_DYNAMIC`: id 10002, CRC_EXTRA 186, payload 41 bytes (41 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbOutDynamic {
     /// UTC time in seconds since GPS epoch (Jan 6, 1980). If unknown set to UINT32_MAX
     ///
@@ -1554,7 +1554,7 @@ impl<'a> UavionixAdsbOutDynamicMut<'a> {
 /// Transceiver heartbeat with health report (updated every 10s)
 ///
 /// MAVLink message `UAVIONIX_ADSB_TRANSCEIVER_HEALTH_REPORT`: id 10003, CRC_EXTRA 4, payload 1 bytes (1 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbTransceiverHealthReport {
     /// ADS-B transponder messages
     ///
@@ -1708,7 +1708,7 @@ impl<'a> UavionixAdsbTransceiverHealthReportMut<'a> {
 /// Aircraft Registration.
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CFG_REGISTRATION`: id 10004, CRC_EXTRA 133, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbOutCfgRegistration {
     /// Aircraft Registration (ASCII string A-Z, 0-9 only), e.g. "N8644B ". Trailing spaces (0x20)
     /// only. This is null-terminated.
@@ -1858,7 +1858,7 @@ impl<'a> UavionixAdsbOutCfgRegistrationMut<'a> {
 /// Flight Identification for ADSB-Out vehicles.
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CFG_FLIGHTID`: id 10005, CRC_EXTRA 103, payload 9 bytes (9 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbOutCfgFlightid {
     /// Flight Identification: 8 ASCII characters, '0' through '9', 'A' through 'Z' or space.
     /// Spaces (0x20) used as a trailing pad character, or when call sign is unavailable. Reflects
@@ -2009,7 +2009,7 @@ impl<'a> UavionixAdsbOutCfgFlightidMut<'a> {
 /// Request messages.
 ///
 /// MAVLink message `UAVIONIX_ADSB_GET`: id 10006, CRC_EXTRA 193, payload 4 bytes (4 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbGet {
     /// Message ID to request. Supports any message in this 10000-10099 range
     ///
@@ -2158,7 +2158,7 @@ impl<'a> UavionixAdsbGetMut<'a> {
 /// Control message with all data sent in UCP control message.
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CONTROL`: id 10007, CRC_EXTRA 71, payload 17 bytes (17 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbOutControl {
     /// ADS-B transponder control state flags
     ///
@@ -2450,7 +2450,7 @@ impl<'a> UavionixAdsbOutControlMut<'a> {
 /// Status message with information from UCP Heartbeat and Status messages.
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_STATUS`: id 10008, CRC_EXTRA 240, payload 14 bytes (14 without extensions).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UavionixAdsbOutStatus {
     /// ADS-B transponder status state flags
     ///

@@ -431,6 +431,6 @@ fn fbwag_notice_round_trips_through_the_parser() {
     let mut p = Parser::<Dialect>::new();
     let mut input: &[u8] = &f;
     let r = p.next(&mut input).unwrap();
-    assert_eq!(r.message(), Some(n.clone().into()));
+    assert_eq!(r.message(), Some(n.into()));
     assert_eq!(FbwagNotice::parse(r.frame.payload()), n);
 }

@@ -140,7 +140,7 @@ impl From<SnapMode> for u16 {
 /// Every scalar type, arrays, a keyword field name, and extensions.
 ///
 /// MAVLink message `SNAP_ALL_TYPES`: id 42, CRC_EXTRA 142, payload 62 bytes (53 without extensions).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SnapAllTypes {
     /// A byte.
     ///
@@ -665,7 +665,7 @@ impl<'a> SnapAllTypesMut<'a> {
 ///
 /// MAVLink message `SNAP_MAX_ID`: id 16777215, CRC_EXTRA 88, payload 42 bytes (42 without extensions).
 /// **Work in progress**: may change.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SnapMaxId {
     /// System.
     ///
@@ -872,7 +872,7 @@ impl<'a> SnapMaxIdMut<'a> {
 }
 
 /// Every message of the `snapshot.xml` dialect (2 messages, its includes' too).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Message {
     /// `SNAP_ALL_TYPES` (id 42).
     SnapAllTypes(SnapAllTypes),

@@ -38,12 +38,7 @@ fn codegen() {
         None if std::env::var_os("CARGO_FEATURE_CC_SUBSET").is_some() => {
             let text = std::fs::read_to_string(&cc_list)
                 .unwrap_or_else(|e| panic!("cannot read {cc_list}: {e}"));
-            Some(
-                text.lines()
-                    .map(|l| l.split('#').next().unwrap_or("").trim().to_string())
-                    .filter(|l| !l.is_empty())
-                    .collect(),
-            )
+            Some(mavgen::Config::message_list(&text))
         }
         None => None,
     };

@@ -51,11 +51,7 @@ fn full_bindings_are_current() {
 fn cc_subset_bindings_are_current() {
     let list = std::fs::read_to_string(support::repo().join("fbwag-dialect/cc-subset.txt"))
         .expect("fbwag-dialect/cc-subset.txt");
-    let names: Vec<String> = list
-        .lines()
-        .map(|l| l.split('#').next().unwrap_or("").trim().to_string())
-        .filter(|l| !l.is_empty())
-        .collect();
+    let names = mavgen::Config::message_list(&list);
     // The crate re-exports these two, so every build must have them.
     for needed in ["HEARTBEAT", "FBWAG_NOTICE"] {
         assert!(

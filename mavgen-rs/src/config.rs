@@ -98,6 +98,22 @@ impl Config {
         self
     }
 
+    /// [`Self::messages`] from a message-list file's text: XML names
+    /// separated by commas or whitespace; `#` starts a comment (the format
+    /// of `mavgen-rs generate --messages @FILE`).
+    pub fn message_list(text: &str) -> Vec<String> {
+        text.lines()
+            .flat_map(|line| {
+                line.split('#')
+                    .next()
+                    .unwrap_or("")
+                    .split(|c: char| c == ',' || c.is_whitespace())
+            })
+            .filter(|name| !name.is_empty())
+            .map(str::to_string)
+            .collect()
+    }
+
     /// The path generated code uses for the runtime crate (default
     /// `::mavwire`), e.g. `::fbwag_dialect::mavwire` for a crate that only
     /// depends on a dialect crate re-exporting it.

@@ -81,18 +81,11 @@ fn expand_message_files(args: Vec<String>) -> Result<Vec<String>, String> {
             continue;
         };
         let text = std::fs::read_to_string(path).map_err(|e| format!("--messages @{path}: {e}"))?;
-        let before = names.len();
-        for line in text.lines() {
-            let line = line.split('#').next().unwrap_or("");
-            names.extend(
-                line.split(|c: char| c == ',' || c.is_whitespace())
-                    .filter(|n| !n.is_empty())
-                    .map(str::to_string),
-            );
-        }
-        if names.len() == before {
+        let listed = Config::message_list(&text);
+        if listed.is_empty() {
             return Err(format!("--messages @{path}: the file names no message"));
         }
+        names.extend(listed);
     }
     names.retain(|n| !n.is_empty());
     Ok(names)

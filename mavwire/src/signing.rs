@@ -174,8 +174,9 @@ impl Signer {
         signed[at] = self.link_id;
         signed[at + 1..].copy_from_slice(&ts[..6]);
         // Hashed: the key, then the frame's bytes up to the timestamp.
-        let sig = sha256_prefix(&self.key, signed, &[0x80])
-            .unwrap_or_else(|| signature(&self.key, &signed[..at], self.link_id, self.timestamp));
+        let sig = sha256_prefix(&self.key, signed, &[0x80]).unwrap_or_else(|| {
+            signature_streamed(&self.key, &signed[..at], self.link_id, self.timestamp)
+        });
         block.copy_from_slice(&sig);
         self.timestamp += 1;
     }
@@ -270,7 +271,7 @@ impl<const N: usize> Verifier<N> {
         let bytes = frame.as_bytes();
         let signed = &bytes[..bytes.len() - 6];
         let expected = sha256_prefix(&self.key, signed, &[0x80]).unwrap_or_else(|| {
-            signature(
+            signature_streamed(
                 &self.key,
                 frame.signed_part(),
                 block.link_id(),

@@ -22,7 +22,7 @@ fn main() {
         ),
     ];
     for (dir, xml, filter) in jobs {
-        let mut config = mavgen::Config::new();
+        let mut config = mavgen_rs::Config::new();
         config.out_dir(out.join(dir));
         if let Some(names) = filter {
             config.messages(names.iter().copied());

@@ -29,7 +29,7 @@ fn codegen() {
     let xml = format!("{dir}/../message_definitions/fbwag.xml");
     let cc_list = format!("{dir}/cc-subset.txt");
     println!("cargo:rerun-if-changed={cc_list}");
-    let mut config = mavgen::Config::new();
+    let mut config = mavgen_rs::Config::new();
     let env_list = std::env::var("FBWAG_DIALECT_MESSAGES")
         .ok()
         .filter(|s| !s.trim().is_empty());
@@ -38,7 +38,7 @@ fn codegen() {
         None if std::env::var_os("CARGO_FEATURE_CC_SUBSET").is_some() => {
             let text = std::fs::read_to_string(&cc_list)
                 .unwrap_or_else(|e| panic!("cannot read {cc_list}: {e}"));
-            Some(mavgen::Config::message_list(&text))
+            Some(mavgen_rs::Config::message_list(&text))
         }
         None => None,
     };

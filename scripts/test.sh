@@ -27,8 +27,8 @@ RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
 step "cargo test"
 cargo test --workspace --locked
 
-step "mavwire with every feature (serial over a pseudo-terminal, tokio)"
-cargo test -p mavwire --all-features --locked
+step "mavframe with every feature (serial over a pseudo-terminal, tokio)"
+cargo test -p mavframe --all-features --locked
 
 # --- conformance (issue 6) ---
 # The conformance tests ran in `cargo test` above (conformance/tests/wire.rs

@@ -1,11 +1,11 @@
-//! The frame checksum alone: mavwire's slice-by-16 CRC-16/MCRF4XX, the
-//! specification's byte loop (`mavwire::crc::update_bytewise`, what mavwire
+//! The frame checksum alone: mavframe's slice-by-16 CRC-16/MCRF4XX, the
+//! specification's byte loop (`mavframe::crc::update_bytewise`, what mavframe
 //! used before) and crc-any's table (what the `mavlink` crate uses), over the
 //! checksummed bytes of every frame of the telemetry capture.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use fbwag_dialect::mavwire::crc::{update_bytewise, Crc};
-use fbwag_dialect::mavwire::parser::Parser;
+use fbwag_dialect::mavframe::crc::{update_bytewise, Crc};
+use fbwag_dialect::mavframe::parser::Parser;
 use fbwag_dialect::Dialect;
 use std::hint::black_box;
 
@@ -45,7 +45,7 @@ fn crc(c: &mut Criterion) {
     let mut g = c.benchmark_group("crc");
     g.throughput(Throughput::Bytes(covered as u64))
         .sample_size(20);
-    g.bench_function("mavwire_slice16", |b| b.iter(|| all(&ours)));
+    g.bench_function("mavframe_slice16", |b| b.iter(|| all(&ours)));
     g.bench_function("spec_bytewise", |b| b.iter(|| all(&bytewise)));
     g.bench_function("crc_any", |b| b.iter(|| all(&crc_any)));
     g.finish();

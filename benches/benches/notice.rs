@@ -23,7 +23,7 @@ fn notice(c: &mut Criterion) {
         system_id: 1,
         component_id: 1,
         failsafe_status: FbwagFailsafeStatus::RC_LOST,
-        text: fbwag_dialect::mavwire::field::chars("FBWAG"),
+        text: fbwag_dialect::mavframe::field::chars("FBWAG"),
         timestamp: 123_456,
     });
     let header = Header {

@@ -157,10 +157,10 @@ EOF
     }
     # name | cargo arguments | dir | dialect crate | runtime crate
     builds=(
-        "fbwag-dialect (full, default features)|build --release --locked -p fbwag-dialect|$REPO|fbwag_dialect|mavwire"
+        "fbwag-dialect (full, default features)|build --release --locked -p fbwag-dialect|$REPO|fbwag_dialect|mavframe"
         "mavlink 0.21 (std, dialect-ardupilotmega)|build --release --offline|$TMP/mavlink|mavlink|mavlink_core"
-        "fbwag-dialect (cc-subset)|build --release --locked -p fbwag-dialect --features cc-subset|$REPO|fbwag_dialect|mavwire"
-        "fbwag-dialect (full, codegen: generated at build time)|build --release --locked -p fbwag-dialect --features codegen|$REPO|fbwag_dialect|mavwire"
+        "fbwag-dialect (cc-subset)|build --release --locked -p fbwag-dialect --features cc-subset|$REPO|fbwag_dialect|mavframe"
+        "fbwag-dialect (full, codegen: generated at build time)|build --release --locked -p fbwag-dialect --features codegen|$REPO|fbwag_dialect|mavframe"
         "mavlink 0.21 (+ mav2-message-extensions)|build --release --offline|$TMP/mavlink-ext|mavlink|mavlink_core"
     )
     declare -A wall gen lib rlib rtlib

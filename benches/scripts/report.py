@@ -136,7 +136,7 @@ def crc():
     print("| implementation | MiB/s | / crc-any |")
     print("|---|---:|---:|")
     base = rows.get("crc_any")
-    for name in ["mavwire_slice16", "spec_bytewise", "crc_any"]:
+    for name in ["mavframe_slice16", "spec_bytewise", "crc_any"]:
         if name in rows:
             print("| %s | %.0f | %s |" % (name, mibs(rows[name]), "%.2f" % (base["ns"] / rows[name]["ns"]) if base else ""))
     print()

@@ -4,7 +4,7 @@
 
 use benches::mavlink_fbwag::fbwag::MavMessage as TheirFbwag;
 use benches::{mavlink_header, OurEncoder, TheirEncoder, Theirs, KEY};
-use fbwag_dialect::mavwire::{Dialect as _, Verifier};
+use fbwag_dialect::mavframe::{Dialect as _, Verifier};
 use fbwag_dialect::{Dialect, FbwagNotice, Header, Message, MessageView, Parser, MESSAGES};
 use mavlink::Message as _;
 

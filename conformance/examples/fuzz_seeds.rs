@@ -8,8 +8,8 @@
 //! between them; frame: single frames; view: message index + payload; xml:
 //! the small upstream dialects and mavgen-rs's test fixtures without includes.
 
-use fbwag_dialect::mavwire::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2};
-use fbwag_dialect::mavwire::Signer;
+use fbwag_dialect::mavframe::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2};
+use fbwag_dialect::mavframe::Signer;
 use fbwag_dialect::MESSAGES;
 use std::path::PathBuf;
 

@@ -1,5 +1,5 @@
 //! The checked-in bindings fbwag-dialect compiles are exactly what mavgen-rs
-//! generates now: `bindings/fbwag/` (every message) and `bindings/fbwag-cc/`
+//! generates now: `fbwag-dialect/bindings/fbwag/` (every message) and `fbwag-dialect/bindings/fbwag-cc/`
 //! (the messages of `fbwag-dialect/cc-subset.txt`), both written by the
 //! README's main command (`scripts/regenerate.sh`). A stale check-in, or
 //! output that depends on the machine or the run, fails here.
@@ -8,16 +8,19 @@ mod support;
 
 /// Compares `bindings/<dir>` with a fresh generation of fbwag.xml.
 fn assert_current(dir: &str, messages: Option<Vec<String>>) {
-    let mut config = mavgen::Config::new();
+    let mut config = mavgen_rs::Config::new();
     if let Some(m) = messages {
         config.messages(m);
     }
     let generated = config
         .generate(&[support::repo().join("message_definitions/fbwag.xml")])
         .unwrap_or_else(|e| panic!("{e}"));
-    let path = support::repo().join("bindings").join(dir);
+    let path = support::repo()
+        .join("fbwag-dialect")
+        .join("bindings")
+        .join(dir);
     let mut on_disk: Vec<String> = std::fs::read_dir(&path)
-        .unwrap_or_else(|e| panic!("bindings/{dir}: {e}"))
+        .unwrap_or_else(|e| panic!("fbwag-dialect/bindings/{dir}: {e}"))
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".rs"))
         .collect();
@@ -31,13 +34,13 @@ fn assert_current(dir: &str, messages: Option<Vec<String>>) {
     expected.sort();
     assert_eq!(
         on_disk, expected,
-        "bindings/{dir}: file set differs; regenerate with scripts/regenerate.sh"
+        "fbwag-dialect/bindings/{dir}: file set differs; regenerate with scripts/regenerate.sh"
     );
     for (name, text) in &generated.output.files {
         let disk = std::fs::read_to_string(path.join(name)).unwrap();
         assert!(
             disk == *text,
-            "bindings/{dir}/{name} is stale: regenerate with scripts/regenerate.sh"
+            "fbwag-dialect/bindings/{dir}/{name} is stale: regenerate with scripts/regenerate.sh"
         );
     }
 }
@@ -51,7 +54,7 @@ fn full_bindings_are_current() {
 fn cc_subset_bindings_are_current() {
     let list = std::fs::read_to_string(support::repo().join("fbwag-dialect/cc-subset.txt"))
         .expect("fbwag-dialect/cc-subset.txt");
-    let names = mavgen::Config::message_list(&list);
+    let names = mavgen_rs::Config::message_list(&list);
     // The crate re-exports these two, so every build must have them.
     for needed in ["HEARTBEAT", "FBWAG_NOTICE"] {
         assert!(

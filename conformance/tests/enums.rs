@@ -36,7 +36,7 @@ fn pymavlink_enums(files: &[PathBuf]) -> BTreeMap<String, BTreeSet<String>> {
 }
 
 fn our_enums(xml: &Path) -> BTreeSet<String> {
-    let schema = mavgen::Schema::load(&[xml])
+    let schema = mavgen_rs::Schema::load(&[xml])
         .unwrap_or_else(|d| panic!("{} rejected: {d:?}", xml.display()));
     schema
         .enums

@@ -4,13 +4,13 @@
 
 mod support;
 
-use mavwire::frame::Header;
-use mavwire::{Parser, Verifier};
+use mavframe::frame::Header;
+use mavframe::{Parser, Verifier};
 use support::frames::{build_frame, Mode, KEY};
 use support::three_way::three_way;
 use support::values::hex;
 
-fn fbwag(name: &str) -> &'static mavwire::MessageMeta {
+fn fbwag(name: &str) -> &'static mavframe::MessageMeta {
     fbwag_dialect::MESSAGES
         .iter()
         .find(|m| m.name == name)
@@ -19,22 +19,22 @@ fn fbwag(name: &str) -> &'static mavwire::MessageMeta {
 
 /// B1. A `char[N]` field holding bytes after its first NUL (pymavlink packs
 /// them from `_<name>_raw`, the C library memcpy's them) does not survive
-/// mavwire's owned messages: `from_view` copies `CharArray::to_array()`,
+/// mavframe's owned messages: `from_view` copies `CharArray::to_array()`,
 /// which stops at the first NUL and zero-pads, so `parse` then `emit` changes
 /// the payload and re-encoding a received frame changes its bytes (and its
-/// CRC). The field-table path (`mavwire::field`, fbwag-cli) keeps them. Fix
+/// CRC). The field-table path (`mavframe::field`, fbwag-cli) keeps them. Fix
 /// in mavgen-rs's codegen (`from_view`: copy the field's N raw bytes) or in
-/// mavwire (`CharArray::to_array` keeping the raw array).
+/// mavframe (`CharArray::to_array` keeping the raw array).
 #[test]
 fn owned_messages_keep_char_bytes_after_the_first_nul() {
     let meta = fbwag("STATUSTEXT");
     let mut payload = vec![0u8; meta.max_len as usize];
     payload[1..6].copy_from_slice(b"ab\0cd"); // text at offset 1
-                                              // The peers keep the bytes: pymavlink and C send exactly mavwire's frame.
+                                              // The peers keep the bytes: pymavlink and C send exactly mavframe's frame.
     let t = three_way("fbwag", meta, Mode::V2, &payload);
     assert_eq!(t.py, t.rust);
     assert_eq!(t.c, t.rust);
-    // mavwire's owned message does not.
+    // mavframe's owned message does not.
     let msg = fbwag_dialect::Message::parse(meta.id, &payload).unwrap();
     let mut out = vec![0u8; meta.max_len as usize];
     msg.emit(&mut out).unwrap();

@@ -1,12 +1,12 @@
 //! Every documented difference between pymavlink 2.4.50, the MAVLink C
-//! library and mavwire, each pinned by a test (docs/conformance.md lists
+//! library and mavframe, each pinned by a test (docs/conformance.md lists
 //! them). The bulk comparison (tests/wire.rs) applies the first three to its
 //! expectations; none is a silent skip.
 
 mod support;
 
-use mavwire::frame::{Header, Version, HEADER_LEN_V2};
-use mavwire::{MessageMeta, Signer};
+use mavframe::frame::{Header, Version, HEADER_LEN_V2};
+use mavframe::{MessageMeta, Signer};
 use std::process::Command;
 use support::frames::{build_frame, rust_decode, v1_with_extensions, Mode, KEY};
 use support::streams::{rust_parse, Policy};
@@ -32,7 +32,7 @@ fn token(mode: Mode, seq: u8, values: &str) -> String {
 }
 
 /// pymavlink's `force_mavlink1=True` keeps the extension fields in the
-/// payload; the C library and mavwire send the base fields only. Every
+/// payload; the C library and mavframe send the base fields only. Every
 /// decoder reads extensions from the longer frame and zero from the shorter.
 #[test]
 fn pymavlink_mavlink1_frames_carry_extension_fields() {
@@ -41,7 +41,7 @@ fn pymavlink_mavlink1_frames_carry_extension_fields() {
     let payload: Vec<u8> = (0..meta.max_len).map(|i| 0x11 + i).collect();
     let t = three_way("fbwag", meta, Mode::V1, &payload);
     assert_eq!(t.rust.len(), 6 + meta.min_len as usize + 2);
-    assert_eq!(t.c, t.rust, "C sends base fields only, like mavwire");
+    assert_eq!(t.c, t.rust, "C sends base fields only, like mavframe");
     let header = Header {
         seq: 7,
         sysid: 1,
@@ -63,7 +63,7 @@ fn pymavlink_mavlink1_frames_carry_extension_fields() {
         "C reads the extension bytes of pymavlink's frame"
     );
     let r = rust_decode::<fbwag_dialect::Dialect>(&t.py, false);
-    assert_eq!(r.token, full, "mavwire reads them too");
+    assert_eq!(r.token, full, "mavframe reads them too");
     assert_eq!(
         r.reencoded.unwrap(),
         t.rust,
@@ -73,7 +73,7 @@ fn pymavlink_mavlink1_frames_carry_extension_fields() {
 
 /// CPython's float32 unpacking converts to double, which quiets a
 /// signalling NaN (bit 22 set): pymavlink decodes and re-sends 0x7fc00001
-/// for 0x7f800001. The C library and mavwire keep the bits. doubles are
+/// for 0x7f800001. The C library and mavframe keep the bits. doubles are
 /// unaffected (Python floats are doubles).
 #[test]
 fn pymavlink_quiets_float32_signalling_nans() {
@@ -105,7 +105,7 @@ fn pymavlink_quiets_float32_signalling_nans() {
 
 /// The C library's typed pack functions write HEARTBEAT.mavlink_version
 /// (XML type `uint8_t_mavlink_version`) themselves: always 3. pymavlink and
-/// mavwire send the value given. Decoding keeps what is on the wire.
+/// mavframe send the value given. Decoding keeps what is on the wire.
 #[test]
 fn c_heartbeat_pack_forces_mavlink_version_3() {
     let meta = fbwag("HEARTBEAT");
@@ -145,7 +145,7 @@ fn c_heartbeat_pack_forces_mavlink_version_3() {
 }
 
 /// pymavlink's char fields are `str`: cut at the first NUL, ASCII with
-/// U+FFFD for each byte >= 0x80; the bytes stay in `_<name>_raw`. mavwire's
+/// U+FFFD for each byte >= 0x80; the bytes stay in `_<name>_raw`. mavframe's
 /// `CharArray` gives the bytes up to the first NUL (`to_str` fails when they
 /// are not UTF-8); the C library gives the raw array.
 #[test]
@@ -171,7 +171,7 @@ fn pymavlink_char_fields_are_ascii_strings() {
 
 /// A frame of an id the dialect lacks: pymavlink returns MAVLink_unknown
 /// (it cannot check the CRC); the C library rejects it (its parser treats
-/// a missing CRC_EXTRA as a bad CRC); mavwire returns it raw (for routing)
+/// a missing CRC_EXTRA as a bad CRC); mavframe returns it raw (for routing)
 /// once confirmed by the start byte that follows.
 #[test]
 fn unknown_message_ids() {
@@ -200,7 +200,7 @@ fn unknown_message_ids() {
 /// Unknown incompatibility flags: pymavlink reads the frame's claimed
 /// length before it looks at the flags and drops all of it (with the good
 /// frame inside); the C library rejects at the flags byte and rescans, as
-/// mavwire does.
+/// mavframe does.
 #[test]
 fn unknown_incompat_flags() {
     let hb = fbwag("HEARTBEAT");
@@ -213,7 +213,7 @@ fn unknown_incompat_flags() {
     let mut bad = vec![0xFD, 40, 0x02, 0, 9, 1, 1, 0, 0, 0];
     bad.extend_from_slice(&inner);
     bad.resize(10 + 40, 0x55);
-    let crc = mavwire::crc::frame_crc(&bad[1..], hb.crc_extra);
+    let crc = mavframe::crc::frame_crc(&bad[1..], hb.crc_extra);
     bad.extend_from_slice(&crc.to_le_bytes());
     let tail = build_frame(
         hb,
@@ -246,7 +246,7 @@ fn unknown_incompat_flags() {
 /// pymavlink records a signed frame's timestamp for its stream before it
 /// checks the signature: a frame with a forged signature and a later
 /// timestamp makes it refuse the stream's next genuine frames as replays.
-/// The C library and mavwire check the signature first.
+/// The C library and mavframe check the signature first.
 #[test]
 fn pymavlink_forged_signature_advances_stream_timestamp() {
     let hb = fbwag("HEARTBEAT");
@@ -333,7 +333,7 @@ fn truncated_signature_block_without_key() {
 
 /// pymavlink decodes a NUL scalar `char` (TEST_TYPES.c) as b'' and then
 /// cannot pack the message it decoded (struct.error: the 'c' format needs one
-/// byte). mavwire and the C library round-trip it.
+/// byte). mavframe and the C library round-trip it.
 #[test]
 fn pymavlink_cannot_repack_a_decoded_nul_scalar_char() {
     let meta = conformance::all_xml::all::MESSAGES
@@ -365,7 +365,7 @@ fn pymavlink_cannot_repack_a_decoded_nul_scalar_char() {
 /// of the C generator's pack functions (docs/c-generator-name-clash.md): the
 /// generated header does not compile; after c-lib.sh's rename of the
 /// sender-id parameters it does, and `_pack_chan` gives pymavlink's and
-/// mavwire's bytes.
+/// mavframe's bytes.
 #[test]
 fn fbwag_notice_c_name_clash_and_work_around() {
     let _ = peers::c_harness("fbwag"); // generated and patched
@@ -432,7 +432,7 @@ int main(void) {
         c_hex.trim(),
         "fd0c0000000101993a0040e2010007090146425741477aba"
     );
-    // mavwire, same fields and sender.
+    // mavframe, same fields and sender.
     let notice = fbwag_dialect::FbwagNotice {
         system_id: 7,
         component_id: 9,
@@ -441,7 +441,7 @@ int main(void) {
         timestamp: 123_456,
     };
     let mut out = [0u8; 300];
-    let n = mavwire::encode(
+    let n = mavframe::encode(
         Version::V2,
         Header {
             seq: 0,

@@ -16,8 +16,8 @@
 
 mod support;
 
-use mavwire::frame::Header;
-use mavwire::{Dialect, FieldType, MessageMeta, Parser, Verifier};
+use mavframe::frame::Header;
+use mavframe::{Dialect, FieldType, MessageMeta, Parser, Verifier};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};

@@ -37,7 +37,7 @@ fn pymavlink_tables() -> BTreeMap<String, String> {
 }
 
 fn our_table(xml: &std::path::Path) -> String {
-    let schema = mavgen::Schema::load(&[xml])
+    let schema = mavgen_rs::Schema::load(&[xml])
         .unwrap_or_else(|d| panic!("{} rejected: {d:?}", xml.display()));
     let mut rows: Vec<_> = schema
         .messages()

@@ -13,7 +13,7 @@
 
 mod support;
 
-use mavwire::{Dialect, MessageMeta};
+use mavframe::{Dialect, MessageMeta};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -93,7 +93,7 @@ struct Case {
     idx: usize,
     mode: Mode,
     meta: &'static MessageMeta,
-    header: mavwire::Header,
+    header: mavframe::Header,
     link: u8,
     ts: u64,
     payload: Vec<u8>,
@@ -101,7 +101,7 @@ struct Case {
     rust: Vec<u8>,
 }
 
-fn expect_token(mode: Mode, h: mavwire::Header, values: &str) -> String {
+fn expect_token(mode: Mode, h: mavframe::Header, values: &str) -> String {
     format!(
         "ok:{}:{}:{}:{}:{values}",
         u8::from(mode == Mode::V2s),
@@ -113,7 +113,7 @@ fn expect_token(mode: Mode, h: mavwire::Header, values: &str) -> String {
 
 /// The C library's typed pack functions write HEARTBEAT.mavlink_version
 /// themselves (the XML type `uint8_t_mavlink_version`): always 3. pymavlink
-/// and mavwire send the value given. Documented difference, tested in
+/// and mavframe send the value given. Documented difference, tested in
 /// tests/known_differences.rs.
 fn c_pack_overrides(meta: &MessageMeta, payload: &mut [u8]) -> bool {
     if meta.name != "HEARTBEAT" {
@@ -152,7 +152,7 @@ where
             }
             for k in 0..per_mode {
                 let payload = random_payload(meta, &mut rng, fill_of(k), Opts::default());
-                let header = mavwire::Header {
+                let header = mavframe::Header {
                     seq: rng.byte(),
                     sysid: rng.header_byte(),
                     compid: rng.header_byte(),
@@ -446,10 +446,10 @@ struct StreamReport {
     /// Expected frames Rust did not recover: must be 0.
     unrecovered: Vec<String>,
     damage: BTreeMap<&'static str, usize>,
-    stats: mavwire::parser::Stats,
+    stats: mavframe::parser::Stats,
 }
 
-fn add_stats(a: &mut mavwire::parser::Stats, b: &mavwire::parser::Stats) {
+fn add_stats(a: &mut mavframe::parser::Stats, b: &mavframe::parser::Stats) {
     a.frames += b.frames;
     a.unknown_frames += b.unknown_frames;
     a.bad_crc += b.bad_crc;
@@ -623,7 +623,7 @@ fn run_streams<D: Dialect>(dialect: &str, seed: u64, policy: Policy, count: usiz
         if policy.key() {
             let mut last: HashMap<(u8, u8, u8), u64> = HashMap::new();
             for g in &known {
-                let f = mavwire::Frame::new_checked(&g.bytes).unwrap();
+                let f = mavframe::Frame::new_checked(&g.bytes).unwrap();
                 match f.signature() {
                     Some(sig) => {
                         let h = f.header();

@@ -9,12 +9,12 @@
 //! zeros canonically; `"tlog_us"` for tlog records. Frames of unknown ids are
 //! `"name":null` with the whole frame as `"raw"` hex.
 
-use fbwag_dialect::mavwire::crc::frame_crc;
-use fbwag_dialect::mavwire::field::{read, Scalar};
-use fbwag_dialect::mavwire::frame::{
+use fbwag_dialect::mavframe::crc::frame_crc;
+use fbwag_dialect::mavframe::field::{read, Scalar};
+use fbwag_dialect::mavframe::frame::{
     self, truncated_len, Frame, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_SIGNED,
 };
-use fbwag_dialect::mavwire::{Dialect as _, FieldMeta, FieldType, MessageMeta, Signer};
+use fbwag_dialect::mavframe::{Dialect as _, FieldMeta, FieldType, MessageMeta, Signer};
 use fbwag_dialect::Dialect;
 use serde_json::{Map, Value};
 use std::fmt::Write as _;

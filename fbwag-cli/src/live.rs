@@ -3,14 +3,14 @@
 //! fc-sim`), and both over a lossy loopback relay (`fbwag demo`).
 //!
 //! The state machines are the simulator's; here a wall clock drives them and
-//! frames come from `mavwire::conn` transports.
+//! frames come from `mavframe::conn` transports.
 
 use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, Companion};
 use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
 use fbwag_delegation::{wire, Origin, Peer, Status};
 use fbwag_dialect::dialects::common::{Attitude, RcChannels, RcChannelsOverride, SysStatus};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType};
-use fbwag_dialect::mavwire::conn::Endpoint;
+use fbwag_dialect::mavframe::conn::Endpoint;
 use fbwag_dialect::{Connection, Message, ReceivedFrame, Signer, Verifier};
 use std::io::Write;
 use std::time::{Duration, Instant as WallInstant};
@@ -60,7 +60,7 @@ fn open_link(endpoint: &Endpoint, key: Option<[u8; 32]>) -> std::io::Result<Conn
     let Some(k) = key else {
         return Connection::open(endpoint);
     };
-    let transport = fbwag_dialect::mavwire::conn::open(endpoint)?;
+    let transport = fbwag_dialect::mavframe::conn::open(endpoint)?;
     let mut link = Connection::with_parser(
         transport,
         fbwag_dialect::Parser::with_signing(Verifier::new(k), true),
@@ -68,7 +68,7 @@ fn open_link(endpoint: &Endpoint, key: Option<[u8; 32]>) -> std::io::Result<Conn
     link.set_signer(Some(Signer::new(
         k,
         0,
-        fbwag_dialect::mavwire::signing::timestamp_now(),
+        fbwag_dialect::mavframe::signing::timestamp_now(),
     )));
     Ok(link)
 }

@@ -5,9 +5,9 @@ mod live;
 mod sim;
 
 use clap::{Parser as ClapParser, Subcommand};
-use fbwag_dialect::mavwire::frame::{frame_len, Frame, MAX_FRAME_LEN};
-use fbwag_dialect::mavwire::parser::Parser;
-use fbwag_dialect::mavwire::Signer;
+use fbwag_dialect::mavframe::frame::{frame_len, Frame, MAX_FRAME_LEN};
+use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::Signer;
 use fbwag_dialect::Dialect;
 use std::io::{BufRead, BufWriter, Read, Write};
 use std::path::PathBuf;
@@ -346,7 +346,7 @@ fn encode(
                     k.len()
                 )
             })?;
-            let ts = ts.unwrap_or_else(fbwag_dialect::mavwire::signing::timestamp_now);
+            let ts = ts.unwrap_or_else(fbwag_dialect::mavframe::signing::timestamp_now);
             Some(Signer::new(key, link_id, ts))
         }
         None => None,

@@ -4,7 +4,7 @@
 use crate::fc::Authority;
 use crate::{mode, Peer, Status};
 use fbwag_dialect::dialects::common::{MavSeverity, Statustext};
-use fbwag_dialect::mavwire::field::chars;
+use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::FbwagNotice;
 
 /// A FBWAG_NOTICE of either side. Both put the FC's ids in `system_id` and

@@ -14,8 +14,8 @@
 //! `fbwag cc` is the full daemon. `--exit-after N` stops after N takeovers.
 
 use fbwag_dialect::dialects::minimal::Heartbeat;
-use fbwag_dialect::mavwire::conn::{Connection, Endpoint};
-use fbwag_dialect::mavwire::field::chars;
+use fbwag_dialect::mavframe::conn::{Connection, Endpoint};
+use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice, Message};
 use std::time::Duration;
 

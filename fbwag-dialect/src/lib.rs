@@ -14,16 +14,16 @@
 #[cfg(feature = "std")]
 extern crate std;
 
-pub use mavwire;
+pub use mavframe;
 
 /// Every generated module, one per XML file.
 pub mod dialects {
     #[cfg(feature = "codegen")]
     include!(concat!(env!("OUT_DIR"), "/mod.rs"));
     #[cfg(all(not(feature = "codegen"), not(feature = "cc-subset")))]
-    include!("../../bindings/fbwag/mod.rs");
+    include!("../bindings/fbwag/mod.rs");
     #[cfg(all(not(feature = "codegen"), feature = "cc-subset"))]
-    include!("../../bindings/fbwag-cc/mod.rs");
+    include!("../bindings/fbwag-cc/mod.rs");
 }
 
 pub use dialects::fbwag::{
@@ -31,17 +31,17 @@ pub use dialects::fbwag::{
     MessageView, MESSAGES,
 };
 
-pub use mavwire::frame::{encode, Frame, FrameError, Header, Version};
-pub use mavwire::parser::{Received, Stats};
-pub use mavwire::signing::{SignatureError, Signer, Verifier};
+pub use mavframe::frame::{encode, Frame, FrameError, Header, Version};
+pub use mavframe::parser::{Received, Stats};
+pub use mavframe::signing::{SignatureError, Signer, Verifier};
 
-/// The streaming parser for this dialect (see [`mavwire::parser`]).
-pub type Parser = mavwire::parser::Parser<Dialect>;
+/// The streaming parser for this dialect (see [`mavframe::parser`]).
+pub type Parser = mavframe::parser::Parser<Dialect>;
 
 /// A link speaking this dialect, e.g.
-/// `Connection::open(&"udpin:0.0.0.0:14550".parse()?)` (see [`mavwire::conn`]).
+/// `Connection::open(&"udpin:0.0.0.0:14550".parse()?)` (see [`mavframe::conn`]).
 #[cfg(feature = "std")]
-pub type Connection = mavwire::conn::Connection<Dialect>;
+pub type Connection = mavframe::conn::Connection<Dialect>;
 
 #[cfg(feature = "std")]
-pub use mavwire::conn::{Endpoint, ReceivedFrame};
+pub use mavframe::conn::{Endpoint, ReceivedFrame};

@@ -1,19 +1,19 @@
-//! mavwire's connections on the FBWAG dialect: connection strings, and
+//! mavframe's connections on the FBWAG dialect: connection strings, and
 //! frames over UDP (in and out), TCP (client and server) on 127.0.0.1.
 //! Ports are chosen by the system (bind to port 0, read the port back);
 //! every wait is bounded (2 s at most).
-// The transports exist with std only (mavwire's `std`, enabled by ours).
+// The transports exist with std only (mavframe's `std`, enabled by ours).
 #![cfg(feature = "std")]
 
 use fbwag_dialect::dialects::minimal::Heartbeat;
-use fbwag_dialect::mavwire::conn::{
+use fbwag_dialect::mavframe::conn::{
     AnyTransport, Connection, Endpoint, ParseEndpointError, Transport, DEFAULT_BAUD,
     MAX_PENDING_OUTPUT,
 };
-use fbwag_dialect::mavwire::field::chars;
-use fbwag_dialect::mavwire::frame::{encode, Header, Version};
-use fbwag_dialect::mavwire::parser::Parser;
-use fbwag_dialect::mavwire::{Signer, Verifier};
+use fbwag_dialect::mavframe::field::chars;
+use fbwag_dialect::mavframe::frame::{encode, Header, Version};
+use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::{Signer, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice, Message};
 use std::collections::BTreeSet;
 use std::io::{self, Read, Write};
@@ -53,7 +53,7 @@ fn port_of(link: &Link) -> u16 {
 /// Waits for the next frame, failing the test after [`LIMIT`].
 fn expect_frame<T: Transport>(
     link: &mut Connection<Dialect, T>,
-) -> fbwag_dialect::mavwire::ReceivedFrame<Dialect> {
+) -> fbwag_dialect::mavframe::ReceivedFrame<Dialect> {
     link.recv(LIMIT)
         .unwrap()
         .expect("no frame within the time limit")
@@ -294,14 +294,14 @@ fn bad_endpoint_strings_never_panic() {
 
 #[test]
 fn serial_endpoint_without_a_device_fails_to_open() {
-    let e: Endpoint = "serial:/dev/mavwire-no-such-device:57600".parse().unwrap();
+    let e: Endpoint = "serial:/dev/mavframe-no-such-device:57600".parse().unwrap();
     let err = Link::open(&e).unwrap_err();
-    // Without mavwire's `serial` feature the endpoint is refused outright;
+    // Without mavframe's `serial` feature the endpoint is refused outright;
     // with it, the device is missing.
     if err.kind() == io::ErrorKind::Unsupported {
         assert_eq!(
             err.to_string(),
-            "serial endpoints need mavwire's `serial` feature"
+            "serial endpoints need mavframe's `serial` feature"
         );
     }
 }
@@ -579,7 +579,7 @@ fn signed_frames_are_verified_and_unsigned_ones_refused() {
     let key = [7u8; 32];
     let server_parser = Parser::<Dialect>::with_signing(Verifier::new(key), false);
     let AnyTransport::UdpIn(udp) =
-        fbwag_dialect::mavwire::conn::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap()
+        fbwag_dialect::mavframe::conn::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap()
     else {
         unreachable!()
     };

@@ -3,7 +3,7 @@
 #![cfg(not(feature = "cc-subset"))]
 
 use fbwag_dialect::dialects::{common, minimal};
-use fbwag_dialect::mavwire::{field::chars, Dialect as _};
+use fbwag_dialect::mavframe::{field::chars, Dialect as _};
 use fbwag_dialect::{
     Dialect, FbwagFailsafeStatus, FbwagNotice, FbwagNoticeMut, FbwagNoticeView, Message,
     MessageView, MESSAGES,

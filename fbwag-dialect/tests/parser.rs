@@ -4,10 +4,10 @@
 #![cfg(not(feature = "cc-subset"))]
 
 use fbwag_dialect::dialects::{common, minimal};
-use fbwag_dialect::mavwire::field::chars;
-use fbwag_dialect::mavwire::frame::{encode, Header, Version};
-use fbwag_dialect::mavwire::parser::Parser;
-use fbwag_dialect::mavwire::{Dialect as _, Signer, Verifier};
+use fbwag_dialect::mavframe::field::chars;
+use fbwag_dialect::mavframe::frame::{encode, Header, Version};
+use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::{Dialect as _, Signer, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice};
 
 /// A small deterministic generator (xorshift), so failures reproduce.
@@ -27,7 +27,7 @@ impl Rng {
     }
 }
 
-fn frame_of<M: fbwag_dialect::mavwire::Message>(
+fn frame_of<M: fbwag_dialect::mavframe::Message>(
     seq: u8,
     m: &M,
     v: Version,
@@ -299,7 +299,7 @@ fn authenticated_flag_reports_verified_frames() {
 
 /// A frame of an id the dialect does not define (checksum seeded with 0).
 fn raw_frame(id: u32, seq: u8, payload: &[u8]) -> Vec<u8> {
-    let meta = fbwag_dialect::mavwire::MessageMeta {
+    let meta = fbwag_dialect::mavframe::MessageMeta {
         id,
         name: "X",
         crc_extra: 0,
@@ -316,9 +316,15 @@ fn raw_frame(id: u32, seq: u8, payload: &[u8]) -> Vec<u8> {
         sysid: 1,
         compid: 1,
     };
-    let n =
-        fbwag_dialect::mavwire::frame::finish(Version::V2, h, &meta, payload.len(), None, &mut buf)
-            .unwrap();
+    let n = fbwag_dialect::mavframe::frame::finish(
+        Version::V2,
+        h,
+        &meta,
+        payload.len(),
+        None,
+        &mut buf,
+    )
+    .unwrap();
     buf[..n].to_vec()
 }
 
@@ -407,7 +413,7 @@ fn no_panic_and_consistent_counts_on_random_input() {
             "every byte is a frame or dropped"
         );
         for f in &got {
-            let frame = fbwag_dialect::mavwire::Frame::new_checked(f).unwrap();
+            let frame = fbwag_dialect::mavframe::Frame::new_checked(f).unwrap();
             if let Some(m) = Dialect::meta(frame.msg_id()) {
                 assert!(frame.check_crc(m.crc_extra));
                 let _ = Dialect::parse(frame.msg_id(), frame.payload())

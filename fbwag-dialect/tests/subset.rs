@@ -2,8 +2,8 @@
 //! generated, and frames of the others are still parsed, as raw frames.
 #![cfg(feature = "cc-subset")]
 
-use fbwag_dialect::mavwire::frame::{encode, Header, Version};
-use fbwag_dialect::mavwire::parser::Parser;
+use fbwag_dialect::mavframe::frame::{encode, Header, Version};
+use fbwag_dialect::mavframe::parser::Parser;
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice, MESSAGES};
 
 #[test]

@@ -4,9 +4,9 @@
 #![cfg(not(feature = "cc-subset"))]
 
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType};
-use fbwag_dialect::mavwire::field::chars;
-use fbwag_dialect::mavwire::frame::{encode, Frame, Header, Version};
-use fbwag_dialect::mavwire::{Dialect as _, Signer, Verifier};
+use fbwag_dialect::mavframe::field::chars;
+use fbwag_dialect::mavframe::frame::{encode, Frame, Header, Version};
+use fbwag_dialect::mavframe::{Dialect as _, Signer, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice};
 
 fn hex(s: &str) -> Vec<u8> {
@@ -52,7 +52,7 @@ fn heartbeat() -> Heartbeat {
     }
 }
 
-fn encoded<M: fbwag_dialect::mavwire::Message>(
+fn encoded<M: fbwag_dialect::mavframe::Message>(
     v: Version,
     m: &M,
     signer: Option<&mut Signer>,
@@ -103,12 +103,12 @@ fn fbwag_notice_signed() {
     assert_eq!(v.verify(&frame), Ok(()));
     assert_eq!(
         v.verify(&frame),
-        Err(fbwag_dialect::mavwire::signing::SignatureError::Replay)
+        Err(fbwag_dialect::mavframe::signing::SignatureError::Replay)
     );
     let mut wrong: Verifier = Verifier::new([7; 32]);
     assert_eq!(
         wrong.verify(&frame),
-        Err(fbwag_dialect::mavwire::signing::SignatureError::Mismatch)
+        Err(fbwag_dialect::mavframe::signing::SignatureError::Mismatch)
     );
 }
 
@@ -147,7 +147,7 @@ fn v1_rejects_large_ids_and_drops_extensions() {
     let err = encode(Version::V1, H, &notice(1, 1, 1, "FBWAG", 1), None, &mut buf);
     assert_eq!(
         err,
-        Err(fbwag_dialect::mavwire::FrameError::IdTooLargeForV1(15001))
+        Err(fbwag_dialect::mavframe::FrameError::IdTooLargeForV1(15001))
     );
     // RC_CHANNELS_OVERRIDE has extensions (chan9..18): MAVLink 1 sends 18 bytes.
     let m = fbwag_dialect::dialects::common::RcChannelsOverride {

@@ -15,14 +15,14 @@
 //! - [`xml`]: mavgen-rs's XML reader and whole front end (includes aside)
 //!   over any text: diagnostics instead of panics; accepted layouts sane.
 
-use fbwag_dialect::mavwire::field::read;
-use fbwag_dialect::mavwire::frame::{
+use fbwag_dialect::mavframe::field::read;
+use fbwag_dialect::mavframe::frame::{
     finish, frame_len, truncated_len, Frame, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN,
     SIGNATURE_LEN,
 };
-use fbwag_dialect::mavwire::parser::{Parser, Stats};
-use fbwag_dialect::mavwire::signing::Verifier;
-use fbwag_dialect::mavwire::Dialect as _;
+use fbwag_dialect::mavframe::parser::{Parser, Stats};
+use fbwag_dialect::mavframe::signing::Verifier;
+use fbwag_dialect::mavframe::Dialect as _;
 use fbwag_dialect::{Dialect, Message, MessageView};
 
 /// The key of the signing policies (frames in the corpus are signed with it).
@@ -233,13 +233,13 @@ pub fn view(data: &[u8]) {
 /// Any bytes as an XML dialect file: the reader alone, then (when it names
 /// no include, so nothing else is read) the whole front end.
 pub fn xml(data: &[u8]) {
-    use mavgen::diag::{Diagnostics, Source};
+    use mavgen_rs::diag::{Diagnostics, Source};
     use std::path::{Path, PathBuf};
     let text = String::from_utf8_lossy(data).into_owned();
     let path = Path::new("fuzz.xml");
     let sources = vec![Source::new(path, text.clone())];
     let mut diags = Diagnostics::default();
-    let _model = mavgen::xml::parse(&sources, 0, PathBuf::from(path), &mut diags);
+    let _model = mavgen_rs::xml::parse(&sources, 0, PathBuf::from(path), &mut diags);
     for d in diags.into_vec() {
         let _ = d.to_string();
     }
@@ -255,7 +255,7 @@ pub fn xml(data: &[u8]) {
     }
     FILE.with(|file| {
         std::fs::write(file, &text).expect("write temp file");
-        match mavgen::Schema::load(&[file]) {
+        match mavgen_rs::Schema::load(&[file]) {
             Ok(schema) => {
                 for r in schema.messages() {
                     let l = schema.layout(r);

@@ -3,10 +3,10 @@ use std::time::Instant;
 fn main() {
     let xml = std::env::args().nth(1).expect("usage: phases XML");
     let t = Instant::now();
-    let schema = mavgen::Schema::load(&[&xml]).expect("valid");
+    let schema = mavgen_rs::Schema::load(&[&xml]).expect("valid");
     let load = t.elapsed();
     let t = Instant::now();
-    let out = mavgen::codegen::generate(&schema, &Default::default()).expect("generates");
+    let out = mavgen_rs::codegen::generate(&schema, &Default::default()).expect("generates");
     let render = t.elapsed();
     let bytes: usize = out.files.iter().map(|(_, t)| t.len()).sum();
     println!("load+check {load:?}, render {render:?}, {bytes} bytes");

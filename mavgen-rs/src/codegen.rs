@@ -23,7 +23,7 @@ const VIEW_METHODS: &[&str] = &["new", "as_bytes", "to_message"];
 /// Code generation settings (see [`crate::Config`] for the builder).
 #[derive(Debug, Clone)]
 pub struct Options {
-    /// Path of the runtime crate in the generated code, e.g. `::mavwire`.
+    /// Path of the runtime crate in the generated code, e.g. `::mavframe`.
     pub runtime: String,
     /// Generate only these messages (and the enums they use).
     pub messages: Option<BTreeSet<String>>,
@@ -34,7 +34,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            runtime: "::mavwire".into(),
+            runtime: "::mavframe".into(),
             messages: None,
             regenerate_hint: None,
         }
@@ -738,7 +738,7 @@ impl Gen<'_> {
 
     /// A bitmask enum: a newtype over its wire value with one associated
     /// constant per flag, as a value enum, and the set operations from the
-    /// runtime's `flag_set!` (see `mavwire::flags` for why not `bitflags!`).
+    /// runtime's `flag_set!` (see `mavframe::flags` for why not `bitflags!`).
     fn flag_set(&self, def: &MergedEnum, info: &EnumInfo) -> TokenStream {
         let rt = self.rt();
         let EnumTokens {

@@ -2,7 +2,7 @@
 //!
 //! ```no_run
 //! // In build.rs's main:
-//! mavgen::Config::new()
+//! mavgen_rs::Config::new()
 //!     .messages(["HEARTBEAT", "FBWAG_NOTICE"]) // optional filter
 //!     .compile(&["message_definitions/fbwag.xml"])
 //!     .unwrap_or_else(|e| panic!("{e}"));
@@ -74,7 +74,7 @@ impl fmt::Display for Error {
 impl std::error::Error for Error {}
 
 impl Config {
-    /// Default settings: every message, runtime crate `::mavwire`, output in
+    /// Default settings: every message, runtime crate `::mavframe`, output in
     /// `OUT_DIR`.
     pub fn new() -> Self {
         Self::default()
@@ -115,7 +115,7 @@ impl Config {
     }
 
     /// The path generated code uses for the runtime crate (default
-    /// `::mavwire`), e.g. `::fbwag_dialect::mavwire` for a crate that only
+    /// `::mavframe`), e.g. `::fbwag_dialect::mavframe` for a crate that only
     /// depends on a dialect crate re-exporting it.
     pub fn runtime_crate(&mut self, path: impl Into<String>) -> &mut Self {
         self.options.runtime = path.into();

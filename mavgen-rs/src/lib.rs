@@ -6,7 +6,7 @@
 //! formatted Rust. Use [`Config`] from a build script, or the `mavgen-rs`
 //! command line to write bindings to a directory.
 //!
-//! The generated code depends only on the `mavwire` runtime crate.
+//! The generated code depends only on the `mavframe` runtime crate.
 #![warn(missing_docs)]
 
 pub mod codegen;

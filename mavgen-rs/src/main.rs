@@ -1,7 +1,7 @@
 //! `mavgen-rs`: generate, check and tabulate MAVLink XML dialects.
 
 use clap::{Parser, Subcommand};
-use mavgen::{Config, Diagnostic, Error, Schema};
+use mavgen_rs::{Config, Diagnostic, Error, Schema};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -26,12 +26,12 @@ Examples:
   mavgen-rs check message_definitions/fbwag.xml
   mavgen-rs table message_definitions/fbwag.xml | grep FBWAG
       15001 FBWAG_NOTICE 30 12 12
-  mavgen-rs generate message_definitions/fbwag.xml -o bindings/fbwag
+  mavgen-rs generate message_definitions/fbwag.xml -o fbwag-dialect/bindings/fbwag
   mavgen-rs generate message_definitions/fbwag.xml -o cc/ --messages HEARTBEAT,FBWAG_NOTICE,RC_CHANNELS_OVERRIDE
-  mavgen-rs generate message_definitions/fbwag.xml -o bindings/fbwag-cc --messages @fbwag-dialect/cc-subset.txt
+  mavgen-rs generate message_definitions/fbwag.xml -o fbwag-dialect/bindings/fbwag-cc --messages @fbwag-dialect/cc-subset.txt
 
 Use the output with `include!(\"bindings/fbwag/mod.rs\");` in a crate that
-depends on `mavwire`, or generate at build time with mavgen::Config in build.rs.";
+depends on `mavframe`, or generate at build time with mavgen_rs::Config in build.rs.";
 
 #[derive(Subcommand)]
 enum Command {
@@ -53,7 +53,7 @@ enum Command {
         #[arg(long, value_name = "A,B,…|@FILE", value_delimiter = ',')]
         messages: Option<Vec<String>>,
         /// Path of the runtime crate in the generated code.
-        #[arg(long, value_name = "PATH", default_value = "::mavwire")]
+        #[arg(long, value_name = "PATH", default_value = "::mavframe")]
         runtime: String,
     },
     /// Validate only: report errors and warnings, write nothing.

@@ -80,7 +80,7 @@ impl Primitive {
         }
     }
 
-    /// The variant name of `mavwire::FieldType`.
+    /// The variant name of `mavframe::FieldType`.
     pub fn field_type(self) -> &'static str {
         match self {
             Primitive::Char => "Char",

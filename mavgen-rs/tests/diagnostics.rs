@@ -2,7 +2,7 @@
 //! (1-based, columns in characters), the severity and the gist of the
 //! message, against small hand-written fixtures in `tests/fixtures/`.
 
-use mavgen::{Config, Diagnostic, Error, Schema, Severity};
+use mavgen_rs::{Config, Diagnostic, Error, Schema, Severity};
 use std::path::{Path, PathBuf};
 
 /// A diagnostic flattened for comparison: (file name, line, column,

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 #[test]
 fn generated_code_matches_snapshot() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/snapshot");
-    let generated = mavgen::Config::new()
+    let generated = mavgen_rs::Config::new()
         .generate(&[dir.join("snapshot.xml")])
         .unwrap_or_else(|e| panic!("{e}"));
     let expected_dir = dir.join("expected");
@@ -32,7 +32,7 @@ fn generated_code_matches_snapshot() {
 #[test]
 fn generation_is_deterministic() {
     let xml = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../message_definitions/fbwag.xml");
-    let a = mavgen::Config::new().generate(&[&xml]).unwrap();
-    let b = mavgen::Config::new().generate(&[&xml]).unwrap();
+    let a = mavgen_rs::Config::new().generate(&[&xml]).unwrap();
+    let b = mavgen_rs::Config::new().generate(&[&xml]).unwrap();
     assert!(a.output == b.output);
 }

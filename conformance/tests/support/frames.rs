@@ -1,10 +1,10 @@
-//! Frames built and parsed by the Rust side (mavwire), generic over the
+//! Frames built and parsed by the Rust side (mavframe), generic over the
 //! dialect under test.
 
 use super::values::values_text;
-use mavwire::crc::frame_crc;
-use mavwire::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2};
-use mavwire::{BufferTooSmall, Dialect, MessageMeta, Parser, Signer, Verifier};
+use mavframe::crc::frame_crc;
+use mavframe::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2};
+use mavframe::{BufferTooSmall, Dialect, MessageMeta, Parser, Signer, Verifier};
 
 /// The signing key of every signed frame of the tests (32 bytes 0x00..0x1f
 /// reversed, so it is neither zero nor a simple pattern of the seed).
@@ -81,7 +81,7 @@ macro_rules! owned {
 owned!(fbwag_dialect::Message);
 owned!(conformance::all_xml::all::Message);
 
-/// Frames `payload` (any length up to `max_len`) with mavwire's `finish`.
+/// Frames `payload` (any length up to `max_len`) with mavframe's `finish`.
 pub fn build_frame(
     meta: &MessageMeta,
     mode: Mode,
@@ -111,7 +111,7 @@ pub fn build_frame(
 }
 
 /// A MAVLink 1 frame carrying the whole payload, extensions included: what
-/// pymavlink's `force_mavlink1=True` sends (the C library and mavwire send
+/// pymavlink's `force_mavlink1=True` sends (the C library and mavframe send
 /// the base fields only).
 pub fn v1_with_extensions(meta: &MessageMeta, header: Header, payload: &[u8]) -> Vec<u8> {
     let len = meta.max_len as usize;
@@ -174,7 +174,7 @@ where
     }
 }
 
-fn one<D: Dialect>(rx: &mavwire::Received<'_, D>) -> RustDecode
+fn one<D: Dialect>(rx: &mavframe::Received<'_, D>) -> RustDecode
 where
     D::Message: Owned,
 {

@@ -6,11 +6,11 @@
 
 use super::frames::{build_frame, Mode, KEY, OTHER_KEY};
 use super::values::{fill_of, random_payload, Fill, Opts, Rng};
-use mavwire::crc::frame_crc;
-use mavwire::frame::{Frame, Header, Version, MAX_FRAME_LEN, SIGNATURE_LEN};
-use mavwire::parser::Stats;
-use mavwire::signing::signature;
-use mavwire::{Dialect, MessageMeta, Parser, Verifier};
+use mavframe::crc::frame_crc;
+use mavframe::frame::{Frame, Header, Version, MAX_FRAME_LEN, SIGNATURE_LEN};
+use mavframe::parser::Stats;
+use mavframe::signing::signature;
+use mavframe::{Dialect, MessageMeta, Parser, Verifier};
 use std::collections::BTreeMap;
 
 /// What the receivers know and accept.
@@ -97,7 +97,7 @@ pub struct Stream {
     /// head): no parser can tell; not counted as recoverable.
     pub ambiguous: usize,
     /// Good frames inside such a candidate whose signature fails with the
-    /// key: recoverable in principle, lost by all three parsers (mavwire's
+    /// key: recoverable in principle, lost by all three parsers (mavframe's
     /// parser skips a bad-signature frame whole: see docs/conformance.md);
     /// not counted as recoverable.
     pub behind_bad_signature: usize,

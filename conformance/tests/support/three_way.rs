@@ -5,13 +5,13 @@
 use super::frames::{build_frame, Mode, KEY};
 use super::peers;
 use super::values::{hex, hex_decode, values_text};
-use mavwire::{Header, MessageMeta};
+use mavframe::{Header, MessageMeta};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// What pymavlink and the C library make of one case.
 #[derive(Debug)]
 pub struct ThreeWay {
-    /// Rust's frame (mavwire).
+    /// Rust's frame (mavframe).
     pub rust: Vec<u8>,
     /// pymavlink's frame, packed from the same values.
     pub py: Vec<u8>,

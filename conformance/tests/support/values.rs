@@ -7,8 +7,8 @@
 //! other arrays as comma-separated elements. The Python (`wire.py`) and C
 //! (`harness.c`) sides read and write exactly this.
 
-use mavwire::field::{read, Scalar};
-use mavwire::{FieldMeta, FieldType, MessageMeta};
+use mavframe::field::{read, Scalar};
+use mavframe::{FieldMeta, FieldType, MessageMeta};
 use std::fmt::Write as _;
 
 /// SplitMix64: tiny, seedable, the same sequence everywhere.
@@ -341,7 +341,7 @@ fn elem_text(out: &mut String, payload: &[u8], ty: FieldType, at: usize) {
 }
 
 /// The value text of a payload of any length (zero-filled past its end),
-/// read through the field table and `mavwire::field`.
+/// read through the field table and `mavframe::field`.
 pub fn values_text(meta: &MessageMeta, payload: &[u8]) -> String {
     let mut out = String::with_capacity(16 * meta.fields.len());
     for (i, f) in meta.fields.iter().enumerate() {

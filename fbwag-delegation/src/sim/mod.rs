@@ -232,7 +232,7 @@ impl Endpoint {
         }
     }
 
-    fn frame<M: fbwag_dialect::mavwire::Message>(&mut self, msg: &M) -> Vec<u8> {
+    fn frame<M: fbwag_dialect::mavframe::Message>(&mut self, msg: &M) -> Vec<u8> {
         let mut buf = [0u8; 280];
         let h = Header {
             seq: self.seq,

@@ -71,7 +71,7 @@ impl SnapFlags {
     pub const C: Self = Self(4);
 }
 
-::mavwire::flag_set!(SnapFlags, u32, [A, C]);
+::mavframe::flag_set!(SnapFlags, u32, [A, C]);
 
 /// A value enum with \[brackets\], html and a URL: <https://mavlink.io/en/>.
 ///
@@ -219,7 +219,7 @@ impl SnapAllTypes {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 62;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -228,107 +228,107 @@ impl SnapAllTypes {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_usec",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "i64v",
-                ty: ::mavwire::FieldType::I64,
+                ty: ::mavframe::FieldType::I64,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "f64v",
-                ty: ::mavwire::FieldType::F64,
+                ty: ::mavframe::FieldType::F64,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flags",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mode",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "i16v",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 38,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vals",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 3,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "u8v",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 46,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "i8v",
-                ty: ::mavwire::FieldType::I8,
+                ty: ::mavframe::FieldType::I8,
                 array_len: 0,
                 offset: 47,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "tag",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 4,
                 offset: 48,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "version",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 52,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "ext_pair",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 2,
                 offset: 53,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "omegaIx",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 61,
                 extension: true,
@@ -338,23 +338,23 @@ impl SnapAllTypes {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            u8v: ::mavwire::field::read::<u8>(p, 46),
-            i8v: ::mavwire::field::read::<i8>(p, 47),
-            mode: SnapMode::from_raw(::mavwire::field::read::<u16>(p, 36)),
-            i16v: ::mavwire::field::read::<i16>(p, 38),
-            flags: SnapFlags::from_bits_retain(::mavwire::field::read::<u32>(p, 24)),
-            lat: ::mavwire::field::read::<i32>(p, 28),
-            time_usec: ::mavwire::field::read::<u64>(p, 0),
-            i64v: ::mavwire::field::read::<i64>(p, 8),
-            r#type: ::mavwire::field::read::<f32>(p, 32),
-            f64v: ::mavwire::field::read::<f64>(p, 16),
-            tag: ::mavwire::field::CharArray::new(p, 48).to_array(),
-            vals: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            version: ::mavwire::field::read::<u8>(p, 52),
-            ext_pair: ::mavwire::field::ArrayView::new(p, 53).to_array(),
-            omega_ix: ::mavwire::field::read::<u8>(p, 61),
+            u8v: ::mavframe::field::read::<u8>(p, 46),
+            i8v: ::mavframe::field::read::<i8>(p, 47),
+            mode: SnapMode::from_raw(::mavframe::field::read::<u16>(p, 36)),
+            i16v: ::mavframe::field::read::<i16>(p, 38),
+            flags: SnapFlags::from_bits_retain(::mavframe::field::read::<u32>(p, 24)),
+            lat: ::mavframe::field::read::<i32>(p, 28),
+            time_usec: ::mavframe::field::read::<u64>(p, 0),
+            i64v: ::mavframe::field::read::<i64>(p, 8),
+            r#type: ::mavframe::field::read::<f32>(p, 32),
+            f64v: ::mavframe::field::read::<f64>(p, 16),
+            tag: ::mavframe::field::CharArray::new(p, 48).to_array(),
+            vals: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            version: ::mavframe::field::read::<u8>(p, 52),
+            ext_pair: ::mavframe::field::ArrayView::new(p, 53).to_array(),
+            omega_ix: ::mavframe::field::read::<u8>(p, 61),
         }
     }
 
@@ -366,23 +366,23 @@ impl SnapAllTypes {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.u8v, out, 46);
-        ::mavwire::field::Scalar::write(self.i8v, out, 47);
-        ::mavwire::field::Scalar::write(self.mode.to_raw(), out, 36);
-        ::mavwire::field::Scalar::write(self.i16v, out, 38);
-        ::mavwire::field::Scalar::write(self.flags.bits(), out, 24);
-        ::mavwire::field::Scalar::write(self.lat, out, 28);
-        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
-        ::mavwire::field::Scalar::write(self.i64v, out, 8);
-        ::mavwire::field::Scalar::write(self.r#type, out, 32);
-        ::mavwire::field::Scalar::write(self.f64v, out, 16);
-        ::mavwire::field::write_array(out, 48, &self.tag);
-        ::mavwire::field::write_array(out, 40, &self.vals);
-        ::mavwire::field::Scalar::write(self.version, out, 52);
-        ::mavwire::field::write_array(out, 53, &self.ext_pair);
-        ::mavwire::field::Scalar::write(self.omega_ix, out, 61);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.u8v, out, 46);
+        ::mavframe::field::Scalar::write(self.i8v, out, 47);
+        ::mavframe::field::Scalar::write(self.mode.to_raw(), out, 36);
+        ::mavframe::field::Scalar::write(self.i16v, out, 38);
+        ::mavframe::field::Scalar::write(self.flags.bits(), out, 24);
+        ::mavframe::field::Scalar::write(self.lat, out, 28);
+        ::mavframe::field::Scalar::write(self.time_usec, out, 0);
+        ::mavframe::field::Scalar::write(self.i64v, out, 8);
+        ::mavframe::field::Scalar::write(self.r#type, out, 32);
+        ::mavframe::field::Scalar::write(self.f64v, out, 16);
+        ::mavframe::field::write_array(out, 48, &self.tag);
+        ::mavframe::field::write_array(out, 40, &self.vals);
+        ::mavframe::field::Scalar::write(self.version, out, 52);
+        ::mavframe::field::write_array(out, 53, &self.ext_pair);
+        ::mavframe::field::Scalar::write(self.omega_ix, out, 61);
         Ok(Self::MAX_LEN)
     }
 }
@@ -409,8 +409,8 @@ impl Default for SnapAllTypes {
     }
 }
 
-impl ::mavwire::Message for SnapAllTypes {
-    const META: ::mavwire::MessageMeta = SnapAllTypes::META;
+impl ::mavframe::Message for SnapAllTypes {
+    const META: ::mavframe::MessageMeta = SnapAllTypes::META;
     type View<'a> = SnapAllTypesView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -418,7 +418,7 @@ impl ::mavwire::Message for SnapAllTypes {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SnapAllTypes::emit(self, payload)
     }
 
@@ -459,91 +459,91 @@ impl<'a> SnapAllTypesView<'a> {
     /// Reads [`SnapAllTypes::u8v`](SnapAllTypes::u8v) (`u8v` at offset 46).
     #[inline]
     pub fn u8v(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 46)
+        ::mavframe::field::read::<u8>(self.payload, 46)
     }
 
     /// Reads [`SnapAllTypes::i8v`](SnapAllTypes::i8v) (`i8v` at offset 47).
     #[inline]
     pub fn i8v(&self) -> i8 {
-        ::mavwire::field::read::<i8>(self.payload, 47)
+        ::mavframe::field::read::<i8>(self.payload, 47)
     }
 
     /// Reads [`SnapAllTypes::mode`](SnapAllTypes::mode) (`mode` at offset 36).
     #[inline]
     pub fn mode(&self) -> SnapMode {
-        SnapMode::from_raw(::mavwire::field::read::<u16>(self.payload, 36))
+        SnapMode::from_raw(::mavframe::field::read::<u16>(self.payload, 36))
     }
 
     /// Reads [`SnapAllTypes::i16v`](SnapAllTypes::i16v) (`i16v` at offset 38).
     #[inline]
     pub fn i16v(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 38)
+        ::mavframe::field::read::<i16>(self.payload, 38)
     }
 
     /// Reads [`SnapAllTypes::flags`](SnapAllTypes::flags) (`flags` at offset 24).
     #[inline]
     pub fn flags(&self) -> SnapFlags {
-        SnapFlags::from_bits_retain(::mavwire::field::read::<u32>(self.payload, 24))
+        SnapFlags::from_bits_retain(::mavframe::field::read::<u32>(self.payload, 24))
     }
 
     /// Reads [`SnapAllTypes::lat`](SnapAllTypes::lat) (`lat` at offset 28).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 28)
+        ::mavframe::field::read::<i32>(self.payload, 28)
     }
 
     /// Reads [`SnapAllTypes::time_usec`](SnapAllTypes::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
-        ::mavwire::field::read::<u64>(self.payload, 0)
+        ::mavframe::field::read::<u64>(self.payload, 0)
     }
 
     /// Reads [`SnapAllTypes::i64v`](SnapAllTypes::i64v) (`i64v` at offset 8).
     #[inline]
     pub fn i64v(&self) -> i64 {
-        ::mavwire::field::read::<i64>(self.payload, 8)
+        ::mavframe::field::read::<i64>(self.payload, 8)
     }
 
     /// Reads [`SnapAllTypes::type`](struct@SnapAllTypes) (`type` at offset 32).
     #[inline]
     pub fn r#type(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`SnapAllTypes::f64v`](SnapAllTypes::f64v) (`f64v` at offset 16).
     #[inline]
     pub fn f64v(&self) -> f64 {
-        ::mavwire::field::read::<f64>(self.payload, 16)
+        ::mavframe::field::read::<f64>(self.payload, 16)
     }
 
     /// Reads [`SnapAllTypes::tag`](SnapAllTypes::tag) (`tag` at offset 48).
     #[inline]
-    pub fn tag(&self) -> ::mavwire::field::CharArray<'a, 4> {
-        ::mavwire::field::CharArray::new(self.payload, 48)
+    pub fn tag(&self) -> ::mavframe::field::CharArray<'a, 4> {
+        ::mavframe::field::CharArray::new(self.payload, 48)
     }
 
     /// Reads [`SnapAllTypes::vals`](SnapAllTypes::vals) (`vals` at offset 40).
     #[inline]
-    pub fn vals(&self) -> ::mavwire::field::ArrayView<'a, u16, 3> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn vals(&self) -> ::mavframe::field::ArrayView<'a, u16, 3> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`SnapAllTypes::version`](SnapAllTypes::version) (`version` at offset 52).
     #[inline]
     pub fn version(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 52)
+        ::mavframe::field::read::<u8>(self.payload, 52)
     }
 
     /// Reads [`SnapAllTypes::ext_pair`](SnapAllTypes::ext_pair) (`ext_pair` at offset 53).
     #[inline]
-    pub fn ext_pair(&self) -> ::mavwire::field::ArrayView<'a, f32, 2> {
-        ::mavwire::field::ArrayView::new(self.payload, 53)
+    pub fn ext_pair(&self) -> ::mavframe::field::ArrayView<'a, f32, 2> {
+        ::mavframe::field::ArrayView::new(self.payload, 53)
     }
 
     /// Reads [`SnapAllTypes::omega_ix`](SnapAllTypes::omega_ix) (`omegaIx` at offset 61).
     #[inline]
     pub fn omega_ix(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 61)
+        ::mavframe::field::read::<u8>(self.payload, 61)
     }
 }
 
@@ -555,9 +555,9 @@ pub struct SnapAllTypesMut<'a> {
 
 impl<'a> SnapAllTypesMut<'a> {
     /// A writer over `payload`, which must hold at least [`SnapAllTypes::MAX_LEN`](struct@SnapAllTypes) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SnapAllTypes::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SnapAllTypes::MAX_LEN,
                 got: payload.len(),
             });
@@ -573,91 +573,91 @@ impl<'a> SnapAllTypesMut<'a> {
     /// Sets the `u8v` field.
     #[inline]
     pub fn set_u8v(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 46)
+        ::mavframe::field::Scalar::write(value, self.payload, 46)
     }
 
     /// Sets the `i8v` field.
     #[inline]
     pub fn set_i8v(&mut self, value: i8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 47)
+        ::mavframe::field::Scalar::write(value, self.payload, 47)
     }
 
     /// Sets the `mode` field.
     #[inline]
     pub fn set_mode(&mut self, value: SnapMode) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 36)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 36)
     }
 
     /// Sets the `i16v` field.
     #[inline]
     pub fn set_i16v(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 38)
+        ::mavframe::field::Scalar::write(value, self.payload, 38)
     }
 
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: SnapFlags) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 24)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 24)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `i64v` field.
     #[inline]
     pub fn set_i64v(&mut self, value: i64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `f64v` field.
     #[inline]
     pub fn set_f64v(&mut self, value: f64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `tag` field.
     #[inline]
     pub fn set_tag(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 48, value)
+        ::mavframe::field::write_array(self.payload, 48, value)
     }
 
     /// Sets the `vals` field.
     #[inline]
     pub fn set_vals(&mut self, value: &[u16; 3]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `version` field.
     #[inline]
     pub fn set_version(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 52)
+        ::mavframe::field::Scalar::write(value, self.payload, 52)
     }
 
     /// Sets the `ext_pair` field.
     #[inline]
     pub fn set_ext_pair(&mut self, value: &[f32; 2]) {
-        ::mavwire::field::write_array(self.payload, 53, value)
+        ::mavframe::field::write_array(self.payload, 53, value)
     }
 
     /// Sets the `omegaIx` field.
     #[inline]
     pub fn set_omega_ix(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 61)
+        ::mavframe::field::Scalar::write(value, self.payload, 61)
     }
 }
 
@@ -693,7 +693,7 @@ impl SnapMaxId {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -702,23 +702,23 @@ impl SnapMaxId {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 40,
                 offset: 2,
                 extension: false,
@@ -728,11 +728,11 @@ impl SnapMaxId {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
-            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
+            data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
 
@@ -744,11 +744,11 @@ impl SnapMaxId {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
-        ::mavwire::field::write_array(out, 2, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
+        ::mavframe::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -763,8 +763,8 @@ impl Default for SnapMaxId {
     }
 }
 
-impl ::mavwire::Message for SnapMaxId {
-    const META: ::mavwire::MessageMeta = SnapMaxId::META;
+impl ::mavframe::Message for SnapMaxId {
+    const META: ::mavframe::MessageMeta = SnapMaxId::META;
     type View<'a> = SnapMaxIdView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -772,7 +772,7 @@ impl ::mavwire::Message for SnapMaxId {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SnapMaxId::emit(self, payload)
     }
 
@@ -813,19 +813,19 @@ impl<'a> SnapMaxIdView<'a> {
     /// Reads [`SnapMaxId::target_system`](SnapMaxId::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`SnapMaxId::target_component`](SnapMaxId::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`SnapMaxId::data`](SnapMaxId::data) (`data` at offset 2).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 40> {
-        ::mavwire::field::ArrayView::new(self.payload, 2)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 40> {
+        ::mavframe::field::ArrayView::new(self.payload, 2)
     }
 }
 
@@ -837,9 +837,9 @@ pub struct SnapMaxIdMut<'a> {
 
 impl<'a> SnapMaxIdMut<'a> {
     /// A writer over `payload`, which must hold at least [`SnapMaxId::MAX_LEN`](struct@SnapMaxId) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SnapMaxId::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SnapMaxId::MAX_LEN,
                 got: payload.len(),
             });
@@ -855,19 +855,19 @@ impl<'a> SnapMaxIdMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 40]) {
-        ::mavwire::field::write_array(self.payload, 2, value)
+        ::mavframe::field::write_array(self.payload, 2, value)
     }
 }
 
@@ -891,19 +891,19 @@ pub enum MessageView<'a> {
 
 /// The dialect's table: id, name, CRC_EXTRA and lengths of every
 /// message, sorted by id.
-pub const MESSAGES: &[::mavwire::MessageMeta] = &[SnapAllTypes::META, SnapMaxId::META];
+pub const MESSAGES: &[::mavframe::MessageMeta] = &[SnapAllTypes::META, SnapMaxId::META];
 /// This dialect, for code generic over dialects.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Dialect;
-impl ::mavwire::Dialect for Dialect {
+impl ::mavframe::Dialect for Dialect {
     type Message = Message;
     type View<'a> = MessageView<'a>;
-    const MESSAGES: &'static [::mavwire::MessageMeta] = MESSAGES;
+    const MESSAGES: &'static [::mavframe::MessageMeta] = MESSAGES;
     /// The table row of `id`, by a `match` (jump tables over the
     /// dense id ranges): the parser looks up every frame, and this
     /// is several times faster than the default binary search.
     #[inline]
-    fn meta(id: u32) -> Option<&'static ::mavwire::MessageMeta> {
+    fn meta(id: u32) -> Option<&'static ::mavframe::MessageMeta> {
         Some(
             match id {
                 42 => &MESSAGES[0],
@@ -936,7 +936,7 @@ impl Message {
     }
 
     /// The message's table row.
-    pub fn meta(&self) -> &'static ::mavwire::MessageMeta {
+    pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
             Self::SnapAllTypes(_) => &SnapAllTypes::META,
             Self::SnapMaxId(_) => &SnapMaxId::META,
@@ -954,7 +954,7 @@ impl Message {
     }
 
     /// Writes the full payload; returns its length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         match self {
             Self::SnapAllTypes(m) => m.emit(payload),
             Self::SnapMaxId(m) => m.emit(payload),
@@ -976,7 +976,7 @@ impl<'a> MessageView<'a> {
     }
 
     /// The message's table row.
-    pub fn meta(&self) -> &'static ::mavwire::MessageMeta {
+    pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
             Self::SnapAllTypes(_) => &SnapAllTypes::META,
             Self::SnapMaxId(_) => &SnapMaxId::META,

@@ -50,7 +50,7 @@ pub fn fmt(
 
 /// Implements the flag-set API for a generated bitmask newtype
 /// `struct Name(pub Repr)` whose flags are associated constants:
-/// `mavwire::flag_set!(Name, u8, [FLAG_A, FLAG_B]);`.
+/// `mavframe::flag_set!(Name, u8, [FLAG_A, FLAG_B]);`.
 ///
 /// Adds `empty`, `all`, `bits`, `from_bits_retain`, `from_bits_truncate`,
 /// `from_bits`, `is_empty`, `contains`, `intersects`, `union`,
@@ -59,7 +59,7 @@ pub fn fmt(
 /// [`bitflags::Flags`]. Bits no flag names are kept everywhere except by
 /// `from_bits_truncate` and `from_bits`. The rest of bitflags' API
 /// (`iter_names`, `from_name`, `toggle`, `complement`, text parsing…) comes
-/// with the trait: `use mavwire::bitflags::Flags;`.
+/// with the trait: `use mavframe::bitflags::Flags;`.
 #[macro_export]
 macro_rules! flag_set {
     ($name:ident, $repr:ty, [$($flag:ident),* $(,)?]) => {

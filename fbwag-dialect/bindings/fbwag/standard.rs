@@ -82,7 +82,7 @@ impl MavBool {
     pub const TRUE: Self = Self(1);
 }
 
-::mavwire::flag_set!(MavBool, u8, [FALSE, TRUE]);
+::mavframe::flag_set!(MavBool, u8, [FALSE, TRUE]);
 
 /// Bitmask of (optional) autopilot capabilities (64 bit). If a bit is set, the autopilot
 /// supports this capability.
@@ -155,7 +155,7 @@ impl MavProtocolCapability {
     pub const GRIPPER: Self = Self(1048576);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     MavProtocolCapability, u64, [MISSION_FLOAT, PARAM_FLOAT, MISSION_INT, COMMAND_INT,
     PARAM_ENCODE_BYTEWISE, FTP, SET_ATTITUDE_TARGET, SET_POSITION_TARGET_LOCAL_NED,
     SET_POSITION_TARGET_GLOBAL_INT, TERRAIN, RESERVED3, FLIGHT_TERMINATION,
@@ -221,7 +221,7 @@ impl GlobalPositionInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -230,65 +230,65 @@ impl GlobalPositionInt {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lon",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "alt",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "relative_alt",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vx",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vy",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 22,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vz",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "hdg",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 26,
                 extension: false,
@@ -298,17 +298,17 @@ impl GlobalPositionInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
-            lat: ::mavwire::field::read::<i32>(p, 4),
-            lon: ::mavwire::field::read::<i32>(p, 8),
-            alt: ::mavwire::field::read::<i32>(p, 12),
-            relative_alt: ::mavwire::field::read::<i32>(p, 16),
-            vx: ::mavwire::field::read::<i16>(p, 20),
-            vy: ::mavwire::field::read::<i16>(p, 22),
-            vz: ::mavwire::field::read::<i16>(p, 24),
-            hdg: ::mavwire::field::read::<u16>(p, 26),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
+            lat: ::mavframe::field::read::<i32>(p, 4),
+            lon: ::mavframe::field::read::<i32>(p, 8),
+            alt: ::mavframe::field::read::<i32>(p, 12),
+            relative_alt: ::mavframe::field::read::<i32>(p, 16),
+            vx: ::mavframe::field::read::<i16>(p, 20),
+            vy: ::mavframe::field::read::<i16>(p, 22),
+            vz: ::mavframe::field::read::<i16>(p, 24),
+            hdg: ::mavframe::field::read::<u16>(p, 26),
         }
     }
 
@@ -320,23 +320,23 @@ impl GlobalPositionInt {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::Scalar::write(self.lat, out, 4);
-        ::mavwire::field::Scalar::write(self.lon, out, 8);
-        ::mavwire::field::Scalar::write(self.alt, out, 12);
-        ::mavwire::field::Scalar::write(self.relative_alt, out, 16);
-        ::mavwire::field::Scalar::write(self.vx, out, 20);
-        ::mavwire::field::Scalar::write(self.vy, out, 22);
-        ::mavwire::field::Scalar::write(self.vz, out, 24);
-        ::mavwire::field::Scalar::write(self.hdg, out, 26);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::Scalar::write(self.lat, out, 4);
+        ::mavframe::field::Scalar::write(self.lon, out, 8);
+        ::mavframe::field::Scalar::write(self.alt, out, 12);
+        ::mavframe::field::Scalar::write(self.relative_alt, out, 16);
+        ::mavframe::field::Scalar::write(self.vx, out, 20);
+        ::mavframe::field::Scalar::write(self.vy, out, 22);
+        ::mavframe::field::Scalar::write(self.vz, out, 24);
+        ::mavframe::field::Scalar::write(self.hdg, out, 26);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GlobalPositionInt {
-    const META: ::mavwire::MessageMeta = GlobalPositionInt::META;
+impl ::mavframe::Message for GlobalPositionInt {
+    const META: ::mavframe::MessageMeta = GlobalPositionInt::META;
     type View<'a> = GlobalPositionIntView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -344,7 +344,7 @@ impl ::mavwire::Message for GlobalPositionInt {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GlobalPositionInt::emit(self, payload)
     }
 
@@ -385,55 +385,55 @@ impl<'a> GlobalPositionIntView<'a> {
     /// Reads [`GlobalPositionInt::time_boot_ms`](GlobalPositionInt::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`GlobalPositionInt::lat`](GlobalPositionInt::lat) (`lat` at offset 4).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`GlobalPositionInt::lon`](GlobalPositionInt::lon) (`lon` at offset 8).
     #[inline]
     pub fn lon(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`GlobalPositionInt::alt`](GlobalPositionInt::alt) (`alt` at offset 12).
     #[inline]
     pub fn alt(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 12)
+        ::mavframe::field::read::<i32>(self.payload, 12)
     }
 
     /// Reads [`GlobalPositionInt::relative_alt`](GlobalPositionInt::relative_alt) (`relative_alt` at offset 16).
     #[inline]
     pub fn relative_alt(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 16)
+        ::mavframe::field::read::<i32>(self.payload, 16)
     }
 
     /// Reads [`GlobalPositionInt::vx`](GlobalPositionInt::vx) (`vx` at offset 20).
     #[inline]
     pub fn vx(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 20)
+        ::mavframe::field::read::<i16>(self.payload, 20)
     }
 
     /// Reads [`GlobalPositionInt::vy`](GlobalPositionInt::vy) (`vy` at offset 22).
     #[inline]
     pub fn vy(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 22)
+        ::mavframe::field::read::<i16>(self.payload, 22)
     }
 
     /// Reads [`GlobalPositionInt::vz`](GlobalPositionInt::vz) (`vz` at offset 24).
     #[inline]
     pub fn vz(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 24)
+        ::mavframe::field::read::<i16>(self.payload, 24)
     }
 
     /// Reads [`GlobalPositionInt::hdg`](GlobalPositionInt::hdg) (`hdg` at offset 26).
     #[inline]
     pub fn hdg(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 26)
+        ::mavframe::field::read::<u16>(self.payload, 26)
     }
 }
 
@@ -445,9 +445,9 @@ pub struct GlobalPositionIntMut<'a> {
 
 impl<'a> GlobalPositionIntMut<'a> {
     /// A writer over `payload`, which must hold at least [`GlobalPositionInt::MAX_LEN`](struct@GlobalPositionInt) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GlobalPositionInt::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GlobalPositionInt::MAX_LEN,
                 got: payload.len(),
             });
@@ -463,55 +463,55 @@ impl<'a> GlobalPositionIntMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `lon` field.
     #[inline]
     pub fn set_lon(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `relative_alt` field.
     #[inline]
     pub fn set_relative_alt(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `vx` field.
     #[inline]
     pub fn set_vx(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `vy` field.
     #[inline]
     pub fn set_vy(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 22)
+        ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
 
     /// Sets the `vz` field.
     #[inline]
     pub fn set_vz(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `hdg` field.
     #[inline]
     pub fn set_hdg(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 26)
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
 }
 
@@ -598,7 +598,7 @@ impl AutopilotVersion {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 78;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -607,86 +607,86 @@ impl AutopilotVersion {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "capabilities",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "uid",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flight_sw_version",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "middleware_sw_version",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "os_sw_version",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "board_version",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vendor_id",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "product_id",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 34,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flight_custom_version",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 8,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "middleware_custom_version",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 8,
                 offset: 44,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "os_custom_version",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 8,
                 offset: 52,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "uid2",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 18,
                 offset: 60,
                 extension: true,
@@ -696,23 +696,23 @@ impl AutopilotVersion {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
             capabilities: MavProtocolCapability::from_bits_retain(
-                ::mavwire::field::read::<u64>(p, 0),
+                ::mavframe::field::read::<u64>(p, 0),
             ),
-            flight_sw_version: ::mavwire::field::read::<u32>(p, 16),
-            middleware_sw_version: ::mavwire::field::read::<u32>(p, 20),
-            os_sw_version: ::mavwire::field::read::<u32>(p, 24),
-            board_version: ::mavwire::field::read::<u32>(p, 28),
-            flight_custom_version: ::mavwire::field::ArrayView::new(p, 36).to_array(),
-            middleware_custom_version: ::mavwire::field::ArrayView::new(p, 44)
+            flight_sw_version: ::mavframe::field::read::<u32>(p, 16),
+            middleware_sw_version: ::mavframe::field::read::<u32>(p, 20),
+            os_sw_version: ::mavframe::field::read::<u32>(p, 24),
+            board_version: ::mavframe::field::read::<u32>(p, 28),
+            flight_custom_version: ::mavframe::field::ArrayView::new(p, 36).to_array(),
+            middleware_custom_version: ::mavframe::field::ArrayView::new(p, 44)
                 .to_array(),
-            os_custom_version: ::mavwire::field::ArrayView::new(p, 52).to_array(),
-            vendor_id: ::mavwire::field::read::<u16>(p, 32),
-            product_id: ::mavwire::field::read::<u16>(p, 34),
-            uid: ::mavwire::field::read::<u64>(p, 8),
-            uid2: ::mavwire::field::ArrayView::new(p, 60).to_array(),
+            os_custom_version: ::mavframe::field::ArrayView::new(p, 52).to_array(),
+            vendor_id: ::mavframe::field::read::<u16>(p, 32),
+            product_id: ::mavframe::field::read::<u16>(p, 34),
+            uid: ::mavframe::field::read::<u64>(p, 8),
+            uid2: ::mavframe::field::ArrayView::new(p, 60).to_array(),
         }
     }
 
@@ -724,26 +724,26 @@ impl AutopilotVersion {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.capabilities.bits(), out, 0);
-        ::mavwire::field::Scalar::write(self.flight_sw_version, out, 16);
-        ::mavwire::field::Scalar::write(self.middleware_sw_version, out, 20);
-        ::mavwire::field::Scalar::write(self.os_sw_version, out, 24);
-        ::mavwire::field::Scalar::write(self.board_version, out, 28);
-        ::mavwire::field::write_array(out, 36, &self.flight_custom_version);
-        ::mavwire::field::write_array(out, 44, &self.middleware_custom_version);
-        ::mavwire::field::write_array(out, 52, &self.os_custom_version);
-        ::mavwire::field::Scalar::write(self.vendor_id, out, 32);
-        ::mavwire::field::Scalar::write(self.product_id, out, 34);
-        ::mavwire::field::Scalar::write(self.uid, out, 8);
-        ::mavwire::field::write_array(out, 60, &self.uid2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.capabilities.bits(), out, 0);
+        ::mavframe::field::Scalar::write(self.flight_sw_version, out, 16);
+        ::mavframe::field::Scalar::write(self.middleware_sw_version, out, 20);
+        ::mavframe::field::Scalar::write(self.os_sw_version, out, 24);
+        ::mavframe::field::Scalar::write(self.board_version, out, 28);
+        ::mavframe::field::write_array(out, 36, &self.flight_custom_version);
+        ::mavframe::field::write_array(out, 44, &self.middleware_custom_version);
+        ::mavframe::field::write_array(out, 52, &self.os_custom_version);
+        ::mavframe::field::Scalar::write(self.vendor_id, out, 32);
+        ::mavframe::field::Scalar::write(self.product_id, out, 34);
+        ::mavframe::field::Scalar::write(self.uid, out, 8);
+        ::mavframe::field::write_array(out, 60, &self.uid2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for AutopilotVersion {
-    const META: ::mavwire::MessageMeta = AutopilotVersion::META;
+impl ::mavframe::Message for AutopilotVersion {
+    const META: ::mavframe::MessageMeta = AutopilotVersion::META;
     type View<'a> = AutopilotVersionView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -751,7 +751,7 @@ impl ::mavwire::Message for AutopilotVersion {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AutopilotVersion::emit(self, payload)
     }
 
@@ -793,74 +793,74 @@ impl<'a> AutopilotVersionView<'a> {
     #[inline]
     pub fn capabilities(&self) -> MavProtocolCapability {
         MavProtocolCapability::from_bits_retain(
-            ::mavwire::field::read::<u64>(self.payload, 0),
+            ::mavframe::field::read::<u64>(self.payload, 0),
         )
     }
 
     /// Reads [`AutopilotVersion::flight_sw_version`](AutopilotVersion::flight_sw_version) (`flight_sw_version` at offset 16).
     #[inline]
     pub fn flight_sw_version(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 16)
+        ::mavframe::field::read::<u32>(self.payload, 16)
     }
 
     /// Reads [`AutopilotVersion::middleware_sw_version`](AutopilotVersion::middleware_sw_version) (`middleware_sw_version` at offset 20).
     #[inline]
     pub fn middleware_sw_version(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 20)
+        ::mavframe::field::read::<u32>(self.payload, 20)
     }
 
     /// Reads [`AutopilotVersion::os_sw_version`](AutopilotVersion::os_sw_version) (`os_sw_version` at offset 24).
     #[inline]
     pub fn os_sw_version(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 24)
+        ::mavframe::field::read::<u32>(self.payload, 24)
     }
 
     /// Reads [`AutopilotVersion::board_version`](AutopilotVersion::board_version) (`board_version` at offset 28).
     #[inline]
     pub fn board_version(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 28)
+        ::mavframe::field::read::<u32>(self.payload, 28)
     }
 
     /// Reads [`AutopilotVersion::flight_custom_version`](AutopilotVersion::flight_custom_version) (`flight_custom_version` at offset 36).
     #[inline]
-    pub fn flight_custom_version(&self) -> ::mavwire::field::ArrayView<'a, u8, 8> {
-        ::mavwire::field::ArrayView::new(self.payload, 36)
+    pub fn flight_custom_version(&self) -> ::mavframe::field::ArrayView<'a, u8, 8> {
+        ::mavframe::field::ArrayView::new(self.payload, 36)
     }
 
     /// Reads [`AutopilotVersion::middleware_custom_version`](AutopilotVersion::middleware_custom_version) (`middleware_custom_version` at offset 44).
     #[inline]
-    pub fn middleware_custom_version(&self) -> ::mavwire::field::ArrayView<'a, u8, 8> {
-        ::mavwire::field::ArrayView::new(self.payload, 44)
+    pub fn middleware_custom_version(&self) -> ::mavframe::field::ArrayView<'a, u8, 8> {
+        ::mavframe::field::ArrayView::new(self.payload, 44)
     }
 
     /// Reads [`AutopilotVersion::os_custom_version`](AutopilotVersion::os_custom_version) (`os_custom_version` at offset 52).
     #[inline]
-    pub fn os_custom_version(&self) -> ::mavwire::field::ArrayView<'a, u8, 8> {
-        ::mavwire::field::ArrayView::new(self.payload, 52)
+    pub fn os_custom_version(&self) -> ::mavframe::field::ArrayView<'a, u8, 8> {
+        ::mavframe::field::ArrayView::new(self.payload, 52)
     }
 
     /// Reads [`AutopilotVersion::vendor_id`](AutopilotVersion::vendor_id) (`vendor_id` at offset 32).
     #[inline]
     pub fn vendor_id(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 32)
+        ::mavframe::field::read::<u16>(self.payload, 32)
     }
 
     /// Reads [`AutopilotVersion::product_id`](AutopilotVersion::product_id) (`product_id` at offset 34).
     #[inline]
     pub fn product_id(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 34)
+        ::mavframe::field::read::<u16>(self.payload, 34)
     }
 
     /// Reads [`AutopilotVersion::uid`](AutopilotVersion::uid) (`uid` at offset 8).
     #[inline]
     pub fn uid(&self) -> u64 {
-        ::mavwire::field::read::<u64>(self.payload, 8)
+        ::mavframe::field::read::<u64>(self.payload, 8)
     }
 
     /// Reads [`AutopilotVersion::uid2`](AutopilotVersion::uid2) (`uid2` at offset 60).
     #[inline]
-    pub fn uid2(&self) -> ::mavwire::field::ArrayView<'a, u8, 18> {
-        ::mavwire::field::ArrayView::new(self.payload, 60)
+    pub fn uid2(&self) -> ::mavframe::field::ArrayView<'a, u8, 18> {
+        ::mavframe::field::ArrayView::new(self.payload, 60)
     }
 }
 
@@ -872,9 +872,9 @@ pub struct AutopilotVersionMut<'a> {
 
 impl<'a> AutopilotVersionMut<'a> {
     /// A writer over `payload`, which must hold at least [`AutopilotVersion::MAX_LEN`](struct@AutopilotVersion) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < AutopilotVersion::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: AutopilotVersion::MAX_LEN,
                 got: payload.len(),
             });
@@ -890,72 +890,72 @@ impl<'a> AutopilotVersionMut<'a> {
     /// Sets the `capabilities` field.
     #[inline]
     pub fn set_capabilities(&mut self, value: MavProtocolCapability) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 0)
     }
 
     /// Sets the `flight_sw_version` field.
     #[inline]
     pub fn set_flight_sw_version(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `middleware_sw_version` field.
     #[inline]
     pub fn set_middleware_sw_version(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `os_sw_version` field.
     #[inline]
     pub fn set_os_sw_version(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `board_version` field.
     #[inline]
     pub fn set_board_version(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `flight_custom_version` field.
     #[inline]
     pub fn set_flight_custom_version(&mut self, value: &[u8; 8]) {
-        ::mavwire::field::write_array(self.payload, 36, value)
+        ::mavframe::field::write_array(self.payload, 36, value)
     }
 
     /// Sets the `middleware_custom_version` field.
     #[inline]
     pub fn set_middleware_custom_version(&mut self, value: &[u8; 8]) {
-        ::mavwire::field::write_array(self.payload, 44, value)
+        ::mavframe::field::write_array(self.payload, 44, value)
     }
 
     /// Sets the `os_custom_version` field.
     #[inline]
     pub fn set_os_custom_version(&mut self, value: &[u8; 8]) {
-        ::mavwire::field::write_array(self.payload, 52, value)
+        ::mavframe::field::write_array(self.payload, 52, value)
     }
 
     /// Sets the `vendor_id` field.
     #[inline]
     pub fn set_vendor_id(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `product_id` field.
     #[inline]
     pub fn set_product_id(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 34)
+        ::mavframe::field::Scalar::write(value, self.payload, 34)
     }
 
     /// Sets the `uid` field.
     #[inline]
     pub fn set_uid(&mut self, value: u64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `uid2` field.
     #[inline]
     pub fn set_uid2(&mut self, value: &[u8; 18]) {
-        ::mavwire::field::write_array(self.payload, 60, value)
+        ::mavframe::field::write_array(self.payload, 60, value)
     }
 }

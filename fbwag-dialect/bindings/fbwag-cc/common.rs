@@ -21,7 +21,7 @@ impl AttitudeTargetTypemask {
     pub const ATTITUDE_IGNORE: Self = Self(128);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     AttitudeTargetTypemask, u8, [BODY_ROLL_RATE_IGNORE, BODY_PITCH_RATE_IGNORE,
     BODY_YAW_RATE_IGNORE, THROTTLE_IGNORE, ATTITUDE_IGNORE]
 );
@@ -2813,7 +2813,7 @@ impl MavSysStatusSensor {
     pub const MAV_SYS_STATUS_EXTENSION_USED: Self = Self(2147483648);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     MavSysStatusSensor, u32, [SENSOR_3D_GYRO, SENSOR_3D_ACCEL, SENSOR_3D_MAG,
     ABSOLUTE_PRESSURE, DIFFERENTIAL_PRESSURE, GPS, OPTICAL_FLOW, VISION_POSITION,
     LASER_POSITION, EXTERNAL_GROUND_TRUTH, ANGULAR_RATE_CONTROL, ATTITUDE_STABILIZATION,
@@ -2839,7 +2839,7 @@ impl MavSysStatusSensorExtended {
     pub const MAV_SYS_STATUS_SENSOR_LEAK: Self = Self(2);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     MavSysStatusSensorExtended, u32, [MAV_SYS_STATUS_RECOVERY_SYSTEM,
     MAV_SYS_STATUS_SENSOR_LEAK]
 );
@@ -2950,7 +2950,7 @@ impl SysStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 43;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -2959,114 +2959,114 @@ impl SysStatus {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "onboard_control_sensors_present",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "onboard_control_sensors_enabled",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "onboard_control_sensors_health",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "load",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage_battery",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 14,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current_battery",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "drop_rate_comm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 18,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "errors_comm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "errors_count1",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 22,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "errors_count2",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "errors_count3",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 26,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "errors_count4",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "battery_remaining",
-                ty: ::mavwire::FieldType::I8,
+                ty: ::mavframe::FieldType::I8,
                 array_len: 0,
                 offset: 30,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "onboard_control_sensors_present_extended",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 31,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "onboard_control_sensors_enabled_extended",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 35,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "onboard_control_sensors_health_extended",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 39,
                 extension: true,
@@ -3076,35 +3076,35 @@ impl SysStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
             onboard_control_sensors_present: MavSysStatusSensor::from_bits_retain(
-                ::mavwire::field::read::<u32>(p, 0),
+                ::mavframe::field::read::<u32>(p, 0),
             ),
             onboard_control_sensors_enabled: MavSysStatusSensor::from_bits_retain(
-                ::mavwire::field::read::<u32>(p, 4),
+                ::mavframe::field::read::<u32>(p, 4),
             ),
             onboard_control_sensors_health: MavSysStatusSensor::from_bits_retain(
-                ::mavwire::field::read::<u32>(p, 8),
+                ::mavframe::field::read::<u32>(p, 8),
             ),
-            load: ::mavwire::field::read::<u16>(p, 12),
-            voltage_battery: ::mavwire::field::read::<u16>(p, 14),
-            current_battery: ::mavwire::field::read::<i16>(p, 16),
-            battery_remaining: ::mavwire::field::read::<i8>(p, 30),
-            drop_rate_comm: ::mavwire::field::read::<u16>(p, 18),
-            errors_comm: ::mavwire::field::read::<u16>(p, 20),
-            errors_count1: ::mavwire::field::read::<u16>(p, 22),
-            errors_count2: ::mavwire::field::read::<u16>(p, 24),
-            errors_count3: ::mavwire::field::read::<u16>(p, 26),
-            errors_count4: ::mavwire::field::read::<u16>(p, 28),
+            load: ::mavframe::field::read::<u16>(p, 12),
+            voltage_battery: ::mavframe::field::read::<u16>(p, 14),
+            current_battery: ::mavframe::field::read::<i16>(p, 16),
+            battery_remaining: ::mavframe::field::read::<i8>(p, 30),
+            drop_rate_comm: ::mavframe::field::read::<u16>(p, 18),
+            errors_comm: ::mavframe::field::read::<u16>(p, 20),
+            errors_count1: ::mavframe::field::read::<u16>(p, 22),
+            errors_count2: ::mavframe::field::read::<u16>(p, 24),
+            errors_count3: ::mavframe::field::read::<u16>(p, 26),
+            errors_count4: ::mavframe::field::read::<u16>(p, 28),
             onboard_control_sensors_present_extended: MavSysStatusSensorExtended::from_bits_retain(
-                ::mavwire::field::read::<u32>(p, 31),
+                ::mavframe::field::read::<u32>(p, 31),
             ),
             onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::from_bits_retain(
-                ::mavwire::field::read::<u32>(p, 35),
+                ::mavframe::field::read::<u32>(p, 35),
             ),
             onboard_control_sensors_health_extended: MavSysStatusSensorExtended::from_bits_retain(
-                ::mavwire::field::read::<u32>(p, 39),
+                ::mavframe::field::read::<u32>(p, 39),
             ),
         }
     }
@@ -3117,44 +3117,44 @@ impl SysStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(
             self.onboard_control_sensors_present.bits(),
             out,
             0,
         );
-        ::mavwire::field::Scalar::write(
+        ::mavframe::field::Scalar::write(
             self.onboard_control_sensors_enabled.bits(),
             out,
             4,
         );
-        ::mavwire::field::Scalar::write(
+        ::mavframe::field::Scalar::write(
             self.onboard_control_sensors_health.bits(),
             out,
             8,
         );
-        ::mavwire::field::Scalar::write(self.load, out, 12);
-        ::mavwire::field::Scalar::write(self.voltage_battery, out, 14);
-        ::mavwire::field::Scalar::write(self.current_battery, out, 16);
-        ::mavwire::field::Scalar::write(self.battery_remaining, out, 30);
-        ::mavwire::field::Scalar::write(self.drop_rate_comm, out, 18);
-        ::mavwire::field::Scalar::write(self.errors_comm, out, 20);
-        ::mavwire::field::Scalar::write(self.errors_count1, out, 22);
-        ::mavwire::field::Scalar::write(self.errors_count2, out, 24);
-        ::mavwire::field::Scalar::write(self.errors_count3, out, 26);
-        ::mavwire::field::Scalar::write(self.errors_count4, out, 28);
-        ::mavwire::field::Scalar::write(
+        ::mavframe::field::Scalar::write(self.load, out, 12);
+        ::mavframe::field::Scalar::write(self.voltage_battery, out, 14);
+        ::mavframe::field::Scalar::write(self.current_battery, out, 16);
+        ::mavframe::field::Scalar::write(self.battery_remaining, out, 30);
+        ::mavframe::field::Scalar::write(self.drop_rate_comm, out, 18);
+        ::mavframe::field::Scalar::write(self.errors_comm, out, 20);
+        ::mavframe::field::Scalar::write(self.errors_count1, out, 22);
+        ::mavframe::field::Scalar::write(self.errors_count2, out, 24);
+        ::mavframe::field::Scalar::write(self.errors_count3, out, 26);
+        ::mavframe::field::Scalar::write(self.errors_count4, out, 28);
+        ::mavframe::field::Scalar::write(
             self.onboard_control_sensors_present_extended.bits(),
             out,
             31,
         );
-        ::mavwire::field::Scalar::write(
+        ::mavframe::field::Scalar::write(
             self.onboard_control_sensors_enabled_extended.bits(),
             out,
             35,
         );
-        ::mavwire::field::Scalar::write(
+        ::mavframe::field::Scalar::write(
             self.onboard_control_sensors_health_extended.bits(),
             out,
             39,
@@ -3163,8 +3163,8 @@ impl SysStatus {
     }
 }
 
-impl ::mavwire::Message for SysStatus {
-    const META: ::mavwire::MessageMeta = SysStatus::META;
+impl ::mavframe::Message for SysStatus {
+    const META: ::mavframe::MessageMeta = SysStatus::META;
     type View<'a> = SysStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -3172,7 +3172,7 @@ impl ::mavwire::Message for SysStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SysStatus::emit(self, payload)
     }
 
@@ -3214,7 +3214,7 @@ impl<'a> SysStatusView<'a> {
     #[inline]
     pub fn onboard_control_sensors_present(&self) -> MavSysStatusSensor {
         MavSysStatusSensor::from_bits_retain(
-            ::mavwire::field::read::<u32>(self.payload, 0),
+            ::mavframe::field::read::<u32>(self.payload, 0),
         )
     }
 
@@ -3222,7 +3222,7 @@ impl<'a> SysStatusView<'a> {
     #[inline]
     pub fn onboard_control_sensors_enabled(&self) -> MavSysStatusSensor {
         MavSysStatusSensor::from_bits_retain(
-            ::mavwire::field::read::<u32>(self.payload, 4),
+            ::mavframe::field::read::<u32>(self.payload, 4),
         )
     }
 
@@ -3230,68 +3230,68 @@ impl<'a> SysStatusView<'a> {
     #[inline]
     pub fn onboard_control_sensors_health(&self) -> MavSysStatusSensor {
         MavSysStatusSensor::from_bits_retain(
-            ::mavwire::field::read::<u32>(self.payload, 8),
+            ::mavframe::field::read::<u32>(self.payload, 8),
         )
     }
 
     /// Reads [`SysStatus::load`](SysStatus::load) (`load` at offset 12).
     #[inline]
     pub fn load(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 12)
+        ::mavframe::field::read::<u16>(self.payload, 12)
     }
 
     /// Reads [`SysStatus::voltage_battery`](SysStatus::voltage_battery) (`voltage_battery` at offset 14).
     #[inline]
     pub fn voltage_battery(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 14)
+        ::mavframe::field::read::<u16>(self.payload, 14)
     }
 
     /// Reads [`SysStatus::current_battery`](SysStatus::current_battery) (`current_battery` at offset 16).
     #[inline]
     pub fn current_battery(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 16)
+        ::mavframe::field::read::<i16>(self.payload, 16)
     }
 
     /// Reads [`SysStatus::battery_remaining`](SysStatus::battery_remaining) (`battery_remaining` at offset 30).
     #[inline]
     pub fn battery_remaining(&self) -> i8 {
-        ::mavwire::field::read::<i8>(self.payload, 30)
+        ::mavframe::field::read::<i8>(self.payload, 30)
     }
 
     /// Reads [`SysStatus::drop_rate_comm`](SysStatus::drop_rate_comm) (`drop_rate_comm` at offset 18).
     #[inline]
     pub fn drop_rate_comm(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 18)
+        ::mavframe::field::read::<u16>(self.payload, 18)
     }
 
     /// Reads [`SysStatus::errors_comm`](SysStatus::errors_comm) (`errors_comm` at offset 20).
     #[inline]
     pub fn errors_comm(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 20)
+        ::mavframe::field::read::<u16>(self.payload, 20)
     }
 
     /// Reads [`SysStatus::errors_count1`](SysStatus::errors_count1) (`errors_count1` at offset 22).
     #[inline]
     pub fn errors_count1(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 22)
+        ::mavframe::field::read::<u16>(self.payload, 22)
     }
 
     /// Reads [`SysStatus::errors_count2`](SysStatus::errors_count2) (`errors_count2` at offset 24).
     #[inline]
     pub fn errors_count2(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 24)
+        ::mavframe::field::read::<u16>(self.payload, 24)
     }
 
     /// Reads [`SysStatus::errors_count3`](SysStatus::errors_count3) (`errors_count3` at offset 26).
     #[inline]
     pub fn errors_count3(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 26)
+        ::mavframe::field::read::<u16>(self.payload, 26)
     }
 
     /// Reads [`SysStatus::errors_count4`](SysStatus::errors_count4) (`errors_count4` at offset 28).
     #[inline]
     pub fn errors_count4(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 28)
+        ::mavframe::field::read::<u16>(self.payload, 28)
     }
 
     /// Reads [`SysStatus::onboard_control_sensors_present_extended`](SysStatus::onboard_control_sensors_present_extended) (`onboard_control_sensors_present_extended` at offset 31).
@@ -3300,7 +3300,7 @@ impl<'a> SysStatusView<'a> {
         &self,
     ) -> MavSysStatusSensorExtended {
         MavSysStatusSensorExtended::from_bits_retain(
-            ::mavwire::field::read::<u32>(self.payload, 31),
+            ::mavframe::field::read::<u32>(self.payload, 31),
         )
     }
 
@@ -3310,7 +3310,7 @@ impl<'a> SysStatusView<'a> {
         &self,
     ) -> MavSysStatusSensorExtended {
         MavSysStatusSensorExtended::from_bits_retain(
-            ::mavwire::field::read::<u32>(self.payload, 35),
+            ::mavframe::field::read::<u32>(self.payload, 35),
         )
     }
 
@@ -3318,7 +3318,7 @@ impl<'a> SysStatusView<'a> {
     #[inline]
     pub fn onboard_control_sensors_health_extended(&self) -> MavSysStatusSensorExtended {
         MavSysStatusSensorExtended::from_bits_retain(
-            ::mavwire::field::read::<u32>(self.payload, 39),
+            ::mavframe::field::read::<u32>(self.payload, 39),
         )
     }
 }
@@ -3331,9 +3331,9 @@ pub struct SysStatusMut<'a> {
 
 impl<'a> SysStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`SysStatus::MAX_LEN`](struct@SysStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SysStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SysStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -3349,79 +3349,79 @@ impl<'a> SysStatusMut<'a> {
     /// Sets the `onboard_control_sensors_present` field.
     #[inline]
     pub fn set_onboard_control_sensors_present(&mut self, value: MavSysStatusSensor) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 0)
     }
 
     /// Sets the `onboard_control_sensors_enabled` field.
     #[inline]
     pub fn set_onboard_control_sensors_enabled(&mut self, value: MavSysStatusSensor) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 4)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 4)
     }
 
     /// Sets the `onboard_control_sensors_health` field.
     #[inline]
     pub fn set_onboard_control_sensors_health(&mut self, value: MavSysStatusSensor) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 8)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 8)
     }
 
     /// Sets the `load` field.
     #[inline]
     pub fn set_load(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `voltage_battery` field.
     #[inline]
     pub fn set_voltage_battery(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 
     /// Sets the `current_battery` field.
     #[inline]
     pub fn set_current_battery(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `battery_remaining` field.
     #[inline]
     pub fn set_battery_remaining(&mut self, value: i8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 30)
+        ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
 
     /// Sets the `drop_rate_comm` field.
     #[inline]
     pub fn set_drop_rate_comm(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 18)
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
 
     /// Sets the `errors_comm` field.
     #[inline]
     pub fn set_errors_comm(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `errors_count1` field.
     #[inline]
     pub fn set_errors_count1(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 22)
+        ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
 
     /// Sets the `errors_count2` field.
     #[inline]
     pub fn set_errors_count2(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `errors_count3` field.
     #[inline]
     pub fn set_errors_count3(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 26)
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
 
     /// Sets the `errors_count4` field.
     #[inline]
     pub fn set_errors_count4(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `onboard_control_sensors_present_extended` field.
@@ -3430,7 +3430,7 @@ impl<'a> SysStatusMut<'a> {
         &mut self,
         value: MavSysStatusSensorExtended,
     ) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 31)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 31)
     }
 
     /// Sets the `onboard_control_sensors_enabled_extended` field.
@@ -3439,7 +3439,7 @@ impl<'a> SysStatusMut<'a> {
         &mut self,
         value: MavSysStatusSensorExtended,
     ) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 35)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 35)
     }
 
     /// Sets the `onboard_control_sensors_health_extended` field.
@@ -3448,7 +3448,7 @@ impl<'a> SysStatusMut<'a> {
         &mut self,
         value: MavSysStatusSensorExtended,
     ) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 39)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 39)
     }
 }
 
@@ -3500,7 +3500,7 @@ impl Attitude {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -3509,51 +3509,51 @@ impl Attitude {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "roll",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pitch",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yaw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rollspeed",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pitchspeed",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yawspeed",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
@@ -3563,15 +3563,15 @@ impl Attitude {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
-            roll: ::mavwire::field::read::<f32>(p, 4),
-            pitch: ::mavwire::field::read::<f32>(p, 8),
-            yaw: ::mavwire::field::read::<f32>(p, 12),
-            rollspeed: ::mavwire::field::read::<f32>(p, 16),
-            pitchspeed: ::mavwire::field::read::<f32>(p, 20),
-            yawspeed: ::mavwire::field::read::<f32>(p, 24),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
+            roll: ::mavframe::field::read::<f32>(p, 4),
+            pitch: ::mavframe::field::read::<f32>(p, 8),
+            yaw: ::mavframe::field::read::<f32>(p, 12),
+            rollspeed: ::mavframe::field::read::<f32>(p, 16),
+            pitchspeed: ::mavframe::field::read::<f32>(p, 20),
+            yawspeed: ::mavframe::field::read::<f32>(p, 24),
         }
     }
 
@@ -3583,21 +3583,21 @@ impl Attitude {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::Scalar::write(self.roll, out, 4);
-        ::mavwire::field::Scalar::write(self.pitch, out, 8);
-        ::mavwire::field::Scalar::write(self.yaw, out, 12);
-        ::mavwire::field::Scalar::write(self.rollspeed, out, 16);
-        ::mavwire::field::Scalar::write(self.pitchspeed, out, 20);
-        ::mavwire::field::Scalar::write(self.yawspeed, out, 24);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::Scalar::write(self.roll, out, 4);
+        ::mavframe::field::Scalar::write(self.pitch, out, 8);
+        ::mavframe::field::Scalar::write(self.yaw, out, 12);
+        ::mavframe::field::Scalar::write(self.rollspeed, out, 16);
+        ::mavframe::field::Scalar::write(self.pitchspeed, out, 20);
+        ::mavframe::field::Scalar::write(self.yawspeed, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Attitude {
-    const META: ::mavwire::MessageMeta = Attitude::META;
+impl ::mavframe::Message for Attitude {
+    const META: ::mavframe::MessageMeta = Attitude::META;
     type View<'a> = AttitudeView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -3605,7 +3605,7 @@ impl ::mavwire::Message for Attitude {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Attitude::emit(self, payload)
     }
 
@@ -3646,43 +3646,43 @@ impl<'a> AttitudeView<'a> {
     /// Reads [`Attitude::time_boot_ms`](Attitude::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`Attitude::roll`](Attitude::roll) (`roll` at offset 4).
     #[inline]
     pub fn roll(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`Attitude::pitch`](Attitude::pitch) (`pitch` at offset 8).
     #[inline]
     pub fn pitch(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`Attitude::yaw`](Attitude::yaw) (`yaw` at offset 12).
     #[inline]
     pub fn yaw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`Attitude::rollspeed`](Attitude::rollspeed) (`rollspeed` at offset 16).
     #[inline]
     pub fn rollspeed(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`Attitude::pitchspeed`](Attitude::pitchspeed) (`pitchspeed` at offset 20).
     #[inline]
     pub fn pitchspeed(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`Attitude::yawspeed`](Attitude::yawspeed) (`yawspeed` at offset 24).
     #[inline]
     pub fn yawspeed(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 }
 
@@ -3694,9 +3694,9 @@ pub struct AttitudeMut<'a> {
 
 impl<'a> AttitudeMut<'a> {
     /// A writer over `payload`, which must hold at least [`Attitude::MAX_LEN`](struct@Attitude) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Attitude::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Attitude::MAX_LEN,
                 got: payload.len(),
             });
@@ -3712,43 +3712,43 @@ impl<'a> AttitudeMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `rollspeed` field.
     #[inline]
     pub fn set_rollspeed(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `pitchspeed` field.
     #[inline]
     pub fn set_pitchspeed(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `yawspeed` field.
     #[inline]
     pub fn set_yawspeed(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 }
 
@@ -3860,7 +3860,7 @@ impl RcChannels {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -3869,149 +3869,149 @@ impl RcChannels {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan1_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan2_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan3_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan4_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan5_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan6_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 14,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan7_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan8_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 18,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan9_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan10_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 22,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan11_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan12_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 26,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan13_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan14_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 30,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan15_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan16_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 34,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan17_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan18_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 38,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chancount",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rssi",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 41,
                 extension: false,
@@ -4021,29 +4021,29 @@ impl RcChannels {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
-            chancount: ::mavwire::field::read::<u8>(p, 40),
-            chan1_raw: ::mavwire::field::read::<u16>(p, 4),
-            chan2_raw: ::mavwire::field::read::<u16>(p, 6),
-            chan3_raw: ::mavwire::field::read::<u16>(p, 8),
-            chan4_raw: ::mavwire::field::read::<u16>(p, 10),
-            chan5_raw: ::mavwire::field::read::<u16>(p, 12),
-            chan6_raw: ::mavwire::field::read::<u16>(p, 14),
-            chan7_raw: ::mavwire::field::read::<u16>(p, 16),
-            chan8_raw: ::mavwire::field::read::<u16>(p, 18),
-            chan9_raw: ::mavwire::field::read::<u16>(p, 20),
-            chan10_raw: ::mavwire::field::read::<u16>(p, 22),
-            chan11_raw: ::mavwire::field::read::<u16>(p, 24),
-            chan12_raw: ::mavwire::field::read::<u16>(p, 26),
-            chan13_raw: ::mavwire::field::read::<u16>(p, 28),
-            chan14_raw: ::mavwire::field::read::<u16>(p, 30),
-            chan15_raw: ::mavwire::field::read::<u16>(p, 32),
-            chan16_raw: ::mavwire::field::read::<u16>(p, 34),
-            chan17_raw: ::mavwire::field::read::<u16>(p, 36),
-            chan18_raw: ::mavwire::field::read::<u16>(p, 38),
-            rssi: ::mavwire::field::read::<u8>(p, 41),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
+            chancount: ::mavframe::field::read::<u8>(p, 40),
+            chan1_raw: ::mavframe::field::read::<u16>(p, 4),
+            chan2_raw: ::mavframe::field::read::<u16>(p, 6),
+            chan3_raw: ::mavframe::field::read::<u16>(p, 8),
+            chan4_raw: ::mavframe::field::read::<u16>(p, 10),
+            chan5_raw: ::mavframe::field::read::<u16>(p, 12),
+            chan6_raw: ::mavframe::field::read::<u16>(p, 14),
+            chan7_raw: ::mavframe::field::read::<u16>(p, 16),
+            chan8_raw: ::mavframe::field::read::<u16>(p, 18),
+            chan9_raw: ::mavframe::field::read::<u16>(p, 20),
+            chan10_raw: ::mavframe::field::read::<u16>(p, 22),
+            chan11_raw: ::mavframe::field::read::<u16>(p, 24),
+            chan12_raw: ::mavframe::field::read::<u16>(p, 26),
+            chan13_raw: ::mavframe::field::read::<u16>(p, 28),
+            chan14_raw: ::mavframe::field::read::<u16>(p, 30),
+            chan15_raw: ::mavframe::field::read::<u16>(p, 32),
+            chan16_raw: ::mavframe::field::read::<u16>(p, 34),
+            chan17_raw: ::mavframe::field::read::<u16>(p, 36),
+            chan18_raw: ::mavframe::field::read::<u16>(p, 38),
+            rssi: ::mavframe::field::read::<u8>(p, 41),
         }
     }
 
@@ -4055,35 +4055,35 @@ impl RcChannels {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::Scalar::write(self.chancount, out, 40);
-        ::mavwire::field::Scalar::write(self.chan1_raw, out, 4);
-        ::mavwire::field::Scalar::write(self.chan2_raw, out, 6);
-        ::mavwire::field::Scalar::write(self.chan3_raw, out, 8);
-        ::mavwire::field::Scalar::write(self.chan4_raw, out, 10);
-        ::mavwire::field::Scalar::write(self.chan5_raw, out, 12);
-        ::mavwire::field::Scalar::write(self.chan6_raw, out, 14);
-        ::mavwire::field::Scalar::write(self.chan7_raw, out, 16);
-        ::mavwire::field::Scalar::write(self.chan8_raw, out, 18);
-        ::mavwire::field::Scalar::write(self.chan9_raw, out, 20);
-        ::mavwire::field::Scalar::write(self.chan10_raw, out, 22);
-        ::mavwire::field::Scalar::write(self.chan11_raw, out, 24);
-        ::mavwire::field::Scalar::write(self.chan12_raw, out, 26);
-        ::mavwire::field::Scalar::write(self.chan13_raw, out, 28);
-        ::mavwire::field::Scalar::write(self.chan14_raw, out, 30);
-        ::mavwire::field::Scalar::write(self.chan15_raw, out, 32);
-        ::mavwire::field::Scalar::write(self.chan16_raw, out, 34);
-        ::mavwire::field::Scalar::write(self.chan17_raw, out, 36);
-        ::mavwire::field::Scalar::write(self.chan18_raw, out, 38);
-        ::mavwire::field::Scalar::write(self.rssi, out, 41);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::Scalar::write(self.chancount, out, 40);
+        ::mavframe::field::Scalar::write(self.chan1_raw, out, 4);
+        ::mavframe::field::Scalar::write(self.chan2_raw, out, 6);
+        ::mavframe::field::Scalar::write(self.chan3_raw, out, 8);
+        ::mavframe::field::Scalar::write(self.chan4_raw, out, 10);
+        ::mavframe::field::Scalar::write(self.chan5_raw, out, 12);
+        ::mavframe::field::Scalar::write(self.chan6_raw, out, 14);
+        ::mavframe::field::Scalar::write(self.chan7_raw, out, 16);
+        ::mavframe::field::Scalar::write(self.chan8_raw, out, 18);
+        ::mavframe::field::Scalar::write(self.chan9_raw, out, 20);
+        ::mavframe::field::Scalar::write(self.chan10_raw, out, 22);
+        ::mavframe::field::Scalar::write(self.chan11_raw, out, 24);
+        ::mavframe::field::Scalar::write(self.chan12_raw, out, 26);
+        ::mavframe::field::Scalar::write(self.chan13_raw, out, 28);
+        ::mavframe::field::Scalar::write(self.chan14_raw, out, 30);
+        ::mavframe::field::Scalar::write(self.chan15_raw, out, 32);
+        ::mavframe::field::Scalar::write(self.chan16_raw, out, 34);
+        ::mavframe::field::Scalar::write(self.chan17_raw, out, 36);
+        ::mavframe::field::Scalar::write(self.chan18_raw, out, 38);
+        ::mavframe::field::Scalar::write(self.rssi, out, 41);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for RcChannels {
-    const META: ::mavwire::MessageMeta = RcChannels::META;
+impl ::mavframe::Message for RcChannels {
+    const META: ::mavframe::MessageMeta = RcChannels::META;
     type View<'a> = RcChannelsView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -4091,7 +4091,7 @@ impl ::mavwire::Message for RcChannels {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RcChannels::emit(self, payload)
     }
 
@@ -4132,127 +4132,127 @@ impl<'a> RcChannelsView<'a> {
     /// Reads [`RcChannels::time_boot_ms`](RcChannels::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`RcChannels::chancount`](RcChannels::chancount) (`chancount` at offset 40).
     #[inline]
     pub fn chancount(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 40)
+        ::mavframe::field::read::<u8>(self.payload, 40)
     }
 
     /// Reads [`RcChannels::chan1_raw`](RcChannels::chan1_raw) (`chan1_raw` at offset 4).
     #[inline]
     pub fn chan1_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 4)
+        ::mavframe::field::read::<u16>(self.payload, 4)
     }
 
     /// Reads [`RcChannels::chan2_raw`](RcChannels::chan2_raw) (`chan2_raw` at offset 6).
     #[inline]
     pub fn chan2_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 6)
+        ::mavframe::field::read::<u16>(self.payload, 6)
     }
 
     /// Reads [`RcChannels::chan3_raw`](RcChannels::chan3_raw) (`chan3_raw` at offset 8).
     #[inline]
     pub fn chan3_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 8)
+        ::mavframe::field::read::<u16>(self.payload, 8)
     }
 
     /// Reads [`RcChannels::chan4_raw`](RcChannels::chan4_raw) (`chan4_raw` at offset 10).
     #[inline]
     pub fn chan4_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 10)
+        ::mavframe::field::read::<u16>(self.payload, 10)
     }
 
     /// Reads [`RcChannels::chan5_raw`](RcChannels::chan5_raw) (`chan5_raw` at offset 12).
     #[inline]
     pub fn chan5_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 12)
+        ::mavframe::field::read::<u16>(self.payload, 12)
     }
 
     /// Reads [`RcChannels::chan6_raw`](RcChannels::chan6_raw) (`chan6_raw` at offset 14).
     #[inline]
     pub fn chan6_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 14)
+        ::mavframe::field::read::<u16>(self.payload, 14)
     }
 
     /// Reads [`RcChannels::chan7_raw`](RcChannels::chan7_raw) (`chan7_raw` at offset 16).
     #[inline]
     pub fn chan7_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 16)
+        ::mavframe::field::read::<u16>(self.payload, 16)
     }
 
     /// Reads [`RcChannels::chan8_raw`](RcChannels::chan8_raw) (`chan8_raw` at offset 18).
     #[inline]
     pub fn chan8_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 18)
+        ::mavframe::field::read::<u16>(self.payload, 18)
     }
 
     /// Reads [`RcChannels::chan9_raw`](RcChannels::chan9_raw) (`chan9_raw` at offset 20).
     #[inline]
     pub fn chan9_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 20)
+        ::mavframe::field::read::<u16>(self.payload, 20)
     }
 
     /// Reads [`RcChannels::chan10_raw`](RcChannels::chan10_raw) (`chan10_raw` at offset 22).
     #[inline]
     pub fn chan10_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 22)
+        ::mavframe::field::read::<u16>(self.payload, 22)
     }
 
     /// Reads [`RcChannels::chan11_raw`](RcChannels::chan11_raw) (`chan11_raw` at offset 24).
     #[inline]
     pub fn chan11_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 24)
+        ::mavframe::field::read::<u16>(self.payload, 24)
     }
 
     /// Reads [`RcChannels::chan12_raw`](RcChannels::chan12_raw) (`chan12_raw` at offset 26).
     #[inline]
     pub fn chan12_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 26)
+        ::mavframe::field::read::<u16>(self.payload, 26)
     }
 
     /// Reads [`RcChannels::chan13_raw`](RcChannels::chan13_raw) (`chan13_raw` at offset 28).
     #[inline]
     pub fn chan13_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 28)
+        ::mavframe::field::read::<u16>(self.payload, 28)
     }
 
     /// Reads [`RcChannels::chan14_raw`](RcChannels::chan14_raw) (`chan14_raw` at offset 30).
     #[inline]
     pub fn chan14_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 30)
+        ::mavframe::field::read::<u16>(self.payload, 30)
     }
 
     /// Reads [`RcChannels::chan15_raw`](RcChannels::chan15_raw) (`chan15_raw` at offset 32).
     #[inline]
     pub fn chan15_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 32)
+        ::mavframe::field::read::<u16>(self.payload, 32)
     }
 
     /// Reads [`RcChannels::chan16_raw`](RcChannels::chan16_raw) (`chan16_raw` at offset 34).
     #[inline]
     pub fn chan16_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 34)
+        ::mavframe::field::read::<u16>(self.payload, 34)
     }
 
     /// Reads [`RcChannels::chan17_raw`](RcChannels::chan17_raw) (`chan17_raw` at offset 36).
     #[inline]
     pub fn chan17_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 36)
+        ::mavframe::field::read::<u16>(self.payload, 36)
     }
 
     /// Reads [`RcChannels::chan18_raw`](RcChannels::chan18_raw) (`chan18_raw` at offset 38).
     #[inline]
     pub fn chan18_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 38)
+        ::mavframe::field::read::<u16>(self.payload, 38)
     }
 
     /// Reads [`RcChannels::rssi`](RcChannels::rssi) (`rssi` at offset 41).
     #[inline]
     pub fn rssi(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 41)
+        ::mavframe::field::read::<u8>(self.payload, 41)
     }
 }
 
@@ -4264,9 +4264,9 @@ pub struct RcChannelsMut<'a> {
 
 impl<'a> RcChannelsMut<'a> {
     /// A writer over `payload`, which must hold at least [`RcChannels::MAX_LEN`](struct@RcChannels) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < RcChannels::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: RcChannels::MAX_LEN,
                 got: payload.len(),
             });
@@ -4282,127 +4282,127 @@ impl<'a> RcChannelsMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `chancount` field.
     #[inline]
     pub fn set_chancount(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `chan1_raw` field.
     #[inline]
     pub fn set_chan1_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `chan2_raw` field.
     #[inline]
     pub fn set_chan2_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `chan3_raw` field.
     #[inline]
     pub fn set_chan3_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `chan4_raw` field.
     #[inline]
     pub fn set_chan4_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `chan5_raw` field.
     #[inline]
     pub fn set_chan5_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `chan6_raw` field.
     #[inline]
     pub fn set_chan6_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 
     /// Sets the `chan7_raw` field.
     #[inline]
     pub fn set_chan7_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `chan8_raw` field.
     #[inline]
     pub fn set_chan8_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 18)
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
 
     /// Sets the `chan9_raw` field.
     #[inline]
     pub fn set_chan9_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `chan10_raw` field.
     #[inline]
     pub fn set_chan10_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 22)
+        ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
 
     /// Sets the `chan11_raw` field.
     #[inline]
     pub fn set_chan11_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `chan12_raw` field.
     #[inline]
     pub fn set_chan12_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 26)
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
 
     /// Sets the `chan13_raw` field.
     #[inline]
     pub fn set_chan13_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `chan14_raw` field.
     #[inline]
     pub fn set_chan14_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 30)
+        ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
 
     /// Sets the `chan15_raw` field.
     #[inline]
     pub fn set_chan15_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `chan16_raw` field.
     #[inline]
     pub fn set_chan16_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 34)
+        ::mavframe::field::Scalar::write(value, self.payload, 34)
     }
 
     /// Sets the `chan17_raw` field.
     #[inline]
     pub fn set_chan17_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `chan18_raw` field.
     #[inline]
     pub fn set_chan18_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 38)
+        ::mavframe::field::Scalar::write(value, self.payload, 38)
     }
 
     /// Sets the `rssi` field.
     #[inline]
     pub fn set_rssi(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 41)
+        ::mavframe::field::Scalar::write(value, self.payload, 41)
     }
 }
 
@@ -4537,7 +4537,7 @@ impl RcChannelsOverride {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 38;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -4546,142 +4546,142 @@ impl RcChannelsOverride {
         target_system_offset: Some(16),
         target_component_offset: Some(17),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan1_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan2_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan3_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan4_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan5_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan6_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan7_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan8_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 14,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 17,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan9_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 18,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan10_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 20,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan11_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 22,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan12_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 24,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan13_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 26,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan14_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 28,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan15_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 30,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan16_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 32,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan17_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 34,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chan18_raw",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 36,
                 extension: true,
@@ -4691,28 +4691,28 @@ impl RcChannelsOverride {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 16),
-            target_component: ::mavwire::field::read::<u8>(p, 17),
-            chan1_raw: ::mavwire::field::read::<u16>(p, 0),
-            chan2_raw: ::mavwire::field::read::<u16>(p, 2),
-            chan3_raw: ::mavwire::field::read::<u16>(p, 4),
-            chan4_raw: ::mavwire::field::read::<u16>(p, 6),
-            chan5_raw: ::mavwire::field::read::<u16>(p, 8),
-            chan6_raw: ::mavwire::field::read::<u16>(p, 10),
-            chan7_raw: ::mavwire::field::read::<u16>(p, 12),
-            chan8_raw: ::mavwire::field::read::<u16>(p, 14),
-            chan9_raw: ::mavwire::field::read::<u16>(p, 18),
-            chan10_raw: ::mavwire::field::read::<u16>(p, 20),
-            chan11_raw: ::mavwire::field::read::<u16>(p, 22),
-            chan12_raw: ::mavwire::field::read::<u16>(p, 24),
-            chan13_raw: ::mavwire::field::read::<u16>(p, 26),
-            chan14_raw: ::mavwire::field::read::<u16>(p, 28),
-            chan15_raw: ::mavwire::field::read::<u16>(p, 30),
-            chan16_raw: ::mavwire::field::read::<u16>(p, 32),
-            chan17_raw: ::mavwire::field::read::<u16>(p, 34),
-            chan18_raw: ::mavwire::field::read::<u16>(p, 36),
+            target_system: ::mavframe::field::read::<u8>(p, 16),
+            target_component: ::mavframe::field::read::<u8>(p, 17),
+            chan1_raw: ::mavframe::field::read::<u16>(p, 0),
+            chan2_raw: ::mavframe::field::read::<u16>(p, 2),
+            chan3_raw: ::mavframe::field::read::<u16>(p, 4),
+            chan4_raw: ::mavframe::field::read::<u16>(p, 6),
+            chan5_raw: ::mavframe::field::read::<u16>(p, 8),
+            chan6_raw: ::mavframe::field::read::<u16>(p, 10),
+            chan7_raw: ::mavframe::field::read::<u16>(p, 12),
+            chan8_raw: ::mavframe::field::read::<u16>(p, 14),
+            chan9_raw: ::mavframe::field::read::<u16>(p, 18),
+            chan10_raw: ::mavframe::field::read::<u16>(p, 20),
+            chan11_raw: ::mavframe::field::read::<u16>(p, 22),
+            chan12_raw: ::mavframe::field::read::<u16>(p, 24),
+            chan13_raw: ::mavframe::field::read::<u16>(p, 26),
+            chan14_raw: ::mavframe::field::read::<u16>(p, 28),
+            chan15_raw: ::mavframe::field::read::<u16>(p, 30),
+            chan16_raw: ::mavframe::field::read::<u16>(p, 32),
+            chan17_raw: ::mavframe::field::read::<u16>(p, 34),
+            chan18_raw: ::mavframe::field::read::<u16>(p, 36),
         }
     }
 
@@ -4724,34 +4724,34 @@ impl RcChannelsOverride {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 16);
-        ::mavwire::field::Scalar::write(self.target_component, out, 17);
-        ::mavwire::field::Scalar::write(self.chan1_raw, out, 0);
-        ::mavwire::field::Scalar::write(self.chan2_raw, out, 2);
-        ::mavwire::field::Scalar::write(self.chan3_raw, out, 4);
-        ::mavwire::field::Scalar::write(self.chan4_raw, out, 6);
-        ::mavwire::field::Scalar::write(self.chan5_raw, out, 8);
-        ::mavwire::field::Scalar::write(self.chan6_raw, out, 10);
-        ::mavwire::field::Scalar::write(self.chan7_raw, out, 12);
-        ::mavwire::field::Scalar::write(self.chan8_raw, out, 14);
-        ::mavwire::field::Scalar::write(self.chan9_raw, out, 18);
-        ::mavwire::field::Scalar::write(self.chan10_raw, out, 20);
-        ::mavwire::field::Scalar::write(self.chan11_raw, out, 22);
-        ::mavwire::field::Scalar::write(self.chan12_raw, out, 24);
-        ::mavwire::field::Scalar::write(self.chan13_raw, out, 26);
-        ::mavwire::field::Scalar::write(self.chan14_raw, out, 28);
-        ::mavwire::field::Scalar::write(self.chan15_raw, out, 30);
-        ::mavwire::field::Scalar::write(self.chan16_raw, out, 32);
-        ::mavwire::field::Scalar::write(self.chan17_raw, out, 34);
-        ::mavwire::field::Scalar::write(self.chan18_raw, out, 36);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 16);
+        ::mavframe::field::Scalar::write(self.target_component, out, 17);
+        ::mavframe::field::Scalar::write(self.chan1_raw, out, 0);
+        ::mavframe::field::Scalar::write(self.chan2_raw, out, 2);
+        ::mavframe::field::Scalar::write(self.chan3_raw, out, 4);
+        ::mavframe::field::Scalar::write(self.chan4_raw, out, 6);
+        ::mavframe::field::Scalar::write(self.chan5_raw, out, 8);
+        ::mavframe::field::Scalar::write(self.chan6_raw, out, 10);
+        ::mavframe::field::Scalar::write(self.chan7_raw, out, 12);
+        ::mavframe::field::Scalar::write(self.chan8_raw, out, 14);
+        ::mavframe::field::Scalar::write(self.chan9_raw, out, 18);
+        ::mavframe::field::Scalar::write(self.chan10_raw, out, 20);
+        ::mavframe::field::Scalar::write(self.chan11_raw, out, 22);
+        ::mavframe::field::Scalar::write(self.chan12_raw, out, 24);
+        ::mavframe::field::Scalar::write(self.chan13_raw, out, 26);
+        ::mavframe::field::Scalar::write(self.chan14_raw, out, 28);
+        ::mavframe::field::Scalar::write(self.chan15_raw, out, 30);
+        ::mavframe::field::Scalar::write(self.chan16_raw, out, 32);
+        ::mavframe::field::Scalar::write(self.chan17_raw, out, 34);
+        ::mavframe::field::Scalar::write(self.chan18_raw, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for RcChannelsOverride {
-    const META: ::mavwire::MessageMeta = RcChannelsOverride::META;
+impl ::mavframe::Message for RcChannelsOverride {
+    const META: ::mavframe::MessageMeta = RcChannelsOverride::META;
     type View<'a> = RcChannelsOverrideView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -4759,7 +4759,7 @@ impl ::mavwire::Message for RcChannelsOverride {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RcChannelsOverride::emit(self, payload)
     }
 
@@ -4800,121 +4800,121 @@ impl<'a> RcChannelsOverrideView<'a> {
     /// Reads [`RcChannelsOverride::target_system`](RcChannelsOverride::target_system) (`target_system` at offset 16).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 16)
+        ::mavframe::field::read::<u8>(self.payload, 16)
     }
 
     /// Reads [`RcChannelsOverride::target_component`](RcChannelsOverride::target_component) (`target_component` at offset 17).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 17)
+        ::mavframe::field::read::<u8>(self.payload, 17)
     }
 
     /// Reads [`RcChannelsOverride::chan1_raw`](RcChannelsOverride::chan1_raw) (`chan1_raw` at offset 0).
     #[inline]
     pub fn chan1_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 0)
+        ::mavframe::field::read::<u16>(self.payload, 0)
     }
 
     /// Reads [`RcChannelsOverride::chan2_raw`](RcChannelsOverride::chan2_raw) (`chan2_raw` at offset 2).
     #[inline]
     pub fn chan2_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 2)
+        ::mavframe::field::read::<u16>(self.payload, 2)
     }
 
     /// Reads [`RcChannelsOverride::chan3_raw`](RcChannelsOverride::chan3_raw) (`chan3_raw` at offset 4).
     #[inline]
     pub fn chan3_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 4)
+        ::mavframe::field::read::<u16>(self.payload, 4)
     }
 
     /// Reads [`RcChannelsOverride::chan4_raw`](RcChannelsOverride::chan4_raw) (`chan4_raw` at offset 6).
     #[inline]
     pub fn chan4_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 6)
+        ::mavframe::field::read::<u16>(self.payload, 6)
     }
 
     /// Reads [`RcChannelsOverride::chan5_raw`](RcChannelsOverride::chan5_raw) (`chan5_raw` at offset 8).
     #[inline]
     pub fn chan5_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 8)
+        ::mavframe::field::read::<u16>(self.payload, 8)
     }
 
     /// Reads [`RcChannelsOverride::chan6_raw`](RcChannelsOverride::chan6_raw) (`chan6_raw` at offset 10).
     #[inline]
     pub fn chan6_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 10)
+        ::mavframe::field::read::<u16>(self.payload, 10)
     }
 
     /// Reads [`RcChannelsOverride::chan7_raw`](RcChannelsOverride::chan7_raw) (`chan7_raw` at offset 12).
     #[inline]
     pub fn chan7_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 12)
+        ::mavframe::field::read::<u16>(self.payload, 12)
     }
 
     /// Reads [`RcChannelsOverride::chan8_raw`](RcChannelsOverride::chan8_raw) (`chan8_raw` at offset 14).
     #[inline]
     pub fn chan8_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 14)
+        ::mavframe::field::read::<u16>(self.payload, 14)
     }
 
     /// Reads [`RcChannelsOverride::chan9_raw`](RcChannelsOverride::chan9_raw) (`chan9_raw` at offset 18).
     #[inline]
     pub fn chan9_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 18)
+        ::mavframe::field::read::<u16>(self.payload, 18)
     }
 
     /// Reads [`RcChannelsOverride::chan10_raw`](RcChannelsOverride::chan10_raw) (`chan10_raw` at offset 20).
     #[inline]
     pub fn chan10_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 20)
+        ::mavframe::field::read::<u16>(self.payload, 20)
     }
 
     /// Reads [`RcChannelsOverride::chan11_raw`](RcChannelsOverride::chan11_raw) (`chan11_raw` at offset 22).
     #[inline]
     pub fn chan11_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 22)
+        ::mavframe::field::read::<u16>(self.payload, 22)
     }
 
     /// Reads [`RcChannelsOverride::chan12_raw`](RcChannelsOverride::chan12_raw) (`chan12_raw` at offset 24).
     #[inline]
     pub fn chan12_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 24)
+        ::mavframe::field::read::<u16>(self.payload, 24)
     }
 
     /// Reads [`RcChannelsOverride::chan13_raw`](RcChannelsOverride::chan13_raw) (`chan13_raw` at offset 26).
     #[inline]
     pub fn chan13_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 26)
+        ::mavframe::field::read::<u16>(self.payload, 26)
     }
 
     /// Reads [`RcChannelsOverride::chan14_raw`](RcChannelsOverride::chan14_raw) (`chan14_raw` at offset 28).
     #[inline]
     pub fn chan14_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 28)
+        ::mavframe::field::read::<u16>(self.payload, 28)
     }
 
     /// Reads [`RcChannelsOverride::chan15_raw`](RcChannelsOverride::chan15_raw) (`chan15_raw` at offset 30).
     #[inline]
     pub fn chan15_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 30)
+        ::mavframe::field::read::<u16>(self.payload, 30)
     }
 
     /// Reads [`RcChannelsOverride::chan16_raw`](RcChannelsOverride::chan16_raw) (`chan16_raw` at offset 32).
     #[inline]
     pub fn chan16_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 32)
+        ::mavframe::field::read::<u16>(self.payload, 32)
     }
 
     /// Reads [`RcChannelsOverride::chan17_raw`](RcChannelsOverride::chan17_raw) (`chan17_raw` at offset 34).
     #[inline]
     pub fn chan17_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 34)
+        ::mavframe::field::read::<u16>(self.payload, 34)
     }
 
     /// Reads [`RcChannelsOverride::chan18_raw`](RcChannelsOverride::chan18_raw) (`chan18_raw` at offset 36).
     #[inline]
     pub fn chan18_raw(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 36)
+        ::mavframe::field::read::<u16>(self.payload, 36)
     }
 }
 
@@ -4926,9 +4926,9 @@ pub struct RcChannelsOverrideMut<'a> {
 
 impl<'a> RcChannelsOverrideMut<'a> {
     /// A writer over `payload`, which must hold at least [`RcChannelsOverride::MAX_LEN`](struct@RcChannelsOverride) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < RcChannelsOverride::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: RcChannelsOverride::MAX_LEN,
                 got: payload.len(),
             });
@@ -4944,121 +4944,121 @@ impl<'a> RcChannelsOverrideMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 17)
+        ::mavframe::field::Scalar::write(value, self.payload, 17)
     }
 
     /// Sets the `chan1_raw` field.
     #[inline]
     pub fn set_chan1_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `chan2_raw` field.
     #[inline]
     pub fn set_chan2_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 
     /// Sets the `chan3_raw` field.
     #[inline]
     pub fn set_chan3_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `chan4_raw` field.
     #[inline]
     pub fn set_chan4_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `chan5_raw` field.
     #[inline]
     pub fn set_chan5_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `chan6_raw` field.
     #[inline]
     pub fn set_chan6_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `chan7_raw` field.
     #[inline]
     pub fn set_chan7_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `chan8_raw` field.
     #[inline]
     pub fn set_chan8_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 
     /// Sets the `chan9_raw` field.
     #[inline]
     pub fn set_chan9_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 18)
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
 
     /// Sets the `chan10_raw` field.
     #[inline]
     pub fn set_chan10_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `chan11_raw` field.
     #[inline]
     pub fn set_chan11_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 22)
+        ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
 
     /// Sets the `chan12_raw` field.
     #[inline]
     pub fn set_chan12_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `chan13_raw` field.
     #[inline]
     pub fn set_chan13_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 26)
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
 
     /// Sets the `chan14_raw` field.
     #[inline]
     pub fn set_chan14_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `chan15_raw` field.
     #[inline]
     pub fn set_chan15_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 30)
+        ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
 
     /// Sets the `chan16_raw` field.
     #[inline]
     pub fn set_chan16_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `chan17_raw` field.
     #[inline]
     pub fn set_chan17_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 34)
+        ::mavframe::field::Scalar::write(value, self.payload, 34)
     }
 
     /// Sets the `chan18_raw` field.
     #[inline]
     pub fn set_chan18_raw(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 }
 
@@ -5107,7 +5107,7 @@ impl VfrHud {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -5116,44 +5116,44 @@ impl VfrHud {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "airspeed",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "groundspeed",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "alt",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "climb",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "heading",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "throttle",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 18,
                 extension: false,
@@ -5163,14 +5163,14 @@ impl VfrHud {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            airspeed: ::mavwire::field::read::<f32>(p, 0),
-            groundspeed: ::mavwire::field::read::<f32>(p, 4),
-            heading: ::mavwire::field::read::<i16>(p, 16),
-            throttle: ::mavwire::field::read::<u16>(p, 18),
-            alt: ::mavwire::field::read::<f32>(p, 8),
-            climb: ::mavwire::field::read::<f32>(p, 12),
+            airspeed: ::mavframe::field::read::<f32>(p, 0),
+            groundspeed: ::mavframe::field::read::<f32>(p, 4),
+            heading: ::mavframe::field::read::<i16>(p, 16),
+            throttle: ::mavframe::field::read::<u16>(p, 18),
+            alt: ::mavframe::field::read::<f32>(p, 8),
+            climb: ::mavframe::field::read::<f32>(p, 12),
         }
     }
 
@@ -5182,20 +5182,20 @@ impl VfrHud {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.airspeed, out, 0);
-        ::mavwire::field::Scalar::write(self.groundspeed, out, 4);
-        ::mavwire::field::Scalar::write(self.heading, out, 16);
-        ::mavwire::field::Scalar::write(self.throttle, out, 18);
-        ::mavwire::field::Scalar::write(self.alt, out, 8);
-        ::mavwire::field::Scalar::write(self.climb, out, 12);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.airspeed, out, 0);
+        ::mavframe::field::Scalar::write(self.groundspeed, out, 4);
+        ::mavframe::field::Scalar::write(self.heading, out, 16);
+        ::mavframe::field::Scalar::write(self.throttle, out, 18);
+        ::mavframe::field::Scalar::write(self.alt, out, 8);
+        ::mavframe::field::Scalar::write(self.climb, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for VfrHud {
-    const META: ::mavwire::MessageMeta = VfrHud::META;
+impl ::mavframe::Message for VfrHud {
+    const META: ::mavframe::MessageMeta = VfrHud::META;
     type View<'a> = VfrHudView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -5203,7 +5203,7 @@ impl ::mavwire::Message for VfrHud {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         VfrHud::emit(self, payload)
     }
 
@@ -5244,37 +5244,37 @@ impl<'a> VfrHudView<'a> {
     /// Reads [`VfrHud::airspeed`](VfrHud::airspeed) (`airspeed` at offset 0).
     #[inline]
     pub fn airspeed(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`VfrHud::groundspeed`](VfrHud::groundspeed) (`groundspeed` at offset 4).
     #[inline]
     pub fn groundspeed(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`VfrHud::heading`](VfrHud::heading) (`heading` at offset 16).
     #[inline]
     pub fn heading(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 16)
+        ::mavframe::field::read::<i16>(self.payload, 16)
     }
 
     /// Reads [`VfrHud::throttle`](VfrHud::throttle) (`throttle` at offset 18).
     #[inline]
     pub fn throttle(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 18)
+        ::mavframe::field::read::<u16>(self.payload, 18)
     }
 
     /// Reads [`VfrHud::alt`](VfrHud::alt) (`alt` at offset 8).
     #[inline]
     pub fn alt(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`VfrHud::climb`](VfrHud::climb) (`climb` at offset 12).
     #[inline]
     pub fn climb(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 }
 
@@ -5286,9 +5286,9 @@ pub struct VfrHudMut<'a> {
 
 impl<'a> VfrHudMut<'a> {
     /// A writer over `payload`, which must hold at least [`VfrHud::MAX_LEN`](struct@VfrHud) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < VfrHud::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: VfrHud::MAX_LEN,
                 got: payload.len(),
             });
@@ -5304,37 +5304,37 @@ impl<'a> VfrHudMut<'a> {
     /// Sets the `airspeed` field.
     #[inline]
     pub fn set_airspeed(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `groundspeed` field.
     #[inline]
     pub fn set_groundspeed(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `heading` field.
     #[inline]
     pub fn set_heading(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `throttle` field.
     #[inline]
     pub fn set_throttle(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 18)
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
 
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `climb` field.
     #[inline]
     pub fn set_climb(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 }
 
@@ -5406,7 +5406,7 @@ impl CommandLong {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 33;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -5415,79 +5415,79 @@ impl CommandLong {
         target_system_offset: Some(30),
         target_component_offset: Some(31),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param1",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param2",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param3",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param4",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param5",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param6",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param7",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "command",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 30,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 31,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "confirmation",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 32,
                 extension: false,
@@ -5497,19 +5497,19 @@ impl CommandLong {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 30),
-            target_component: ::mavwire::field::read::<u8>(p, 31),
-            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 28)),
-            confirmation: ::mavwire::field::read::<u8>(p, 32),
-            param1: ::mavwire::field::read::<f32>(p, 0),
-            param2: ::mavwire::field::read::<f32>(p, 4),
-            param3: ::mavwire::field::read::<f32>(p, 8),
-            param4: ::mavwire::field::read::<f32>(p, 12),
-            param5: ::mavwire::field::read::<f32>(p, 16),
-            param6: ::mavwire::field::read::<f32>(p, 20),
-            param7: ::mavwire::field::read::<f32>(p, 24),
+            target_system: ::mavframe::field::read::<u8>(p, 30),
+            target_component: ::mavframe::field::read::<u8>(p, 31),
+            command: MavCmd::from_raw(::mavframe::field::read::<u16>(p, 28)),
+            confirmation: ::mavframe::field::read::<u8>(p, 32),
+            param1: ::mavframe::field::read::<f32>(p, 0),
+            param2: ::mavframe::field::read::<f32>(p, 4),
+            param3: ::mavframe::field::read::<f32>(p, 8),
+            param4: ::mavframe::field::read::<f32>(p, 12),
+            param5: ::mavframe::field::read::<f32>(p, 16),
+            param6: ::mavframe::field::read::<f32>(p, 20),
+            param7: ::mavframe::field::read::<f32>(p, 24),
         }
     }
 
@@ -5521,25 +5521,25 @@ impl CommandLong {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 30);
-        ::mavwire::field::Scalar::write(self.target_component, out, 31);
-        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 28);
-        ::mavwire::field::Scalar::write(self.confirmation, out, 32);
-        ::mavwire::field::Scalar::write(self.param1, out, 0);
-        ::mavwire::field::Scalar::write(self.param2, out, 4);
-        ::mavwire::field::Scalar::write(self.param3, out, 8);
-        ::mavwire::field::Scalar::write(self.param4, out, 12);
-        ::mavwire::field::Scalar::write(self.param5, out, 16);
-        ::mavwire::field::Scalar::write(self.param6, out, 20);
-        ::mavwire::field::Scalar::write(self.param7, out, 24);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 30);
+        ::mavframe::field::Scalar::write(self.target_component, out, 31);
+        ::mavframe::field::Scalar::write(self.command.to_raw(), out, 28);
+        ::mavframe::field::Scalar::write(self.confirmation, out, 32);
+        ::mavframe::field::Scalar::write(self.param1, out, 0);
+        ::mavframe::field::Scalar::write(self.param2, out, 4);
+        ::mavframe::field::Scalar::write(self.param3, out, 8);
+        ::mavframe::field::Scalar::write(self.param4, out, 12);
+        ::mavframe::field::Scalar::write(self.param5, out, 16);
+        ::mavframe::field::Scalar::write(self.param6, out, 20);
+        ::mavframe::field::Scalar::write(self.param7, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CommandLong {
-    const META: ::mavwire::MessageMeta = CommandLong::META;
+impl ::mavframe::Message for CommandLong {
+    const META: ::mavframe::MessageMeta = CommandLong::META;
     type View<'a> = CommandLongView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -5547,7 +5547,7 @@ impl ::mavwire::Message for CommandLong {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CommandLong::emit(self, payload)
     }
 
@@ -5588,67 +5588,67 @@ impl<'a> CommandLongView<'a> {
     /// Reads [`CommandLong::target_system`](CommandLong::target_system) (`target_system` at offset 30).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 30)
+        ::mavframe::field::read::<u8>(self.payload, 30)
     }
 
     /// Reads [`CommandLong::target_component`](CommandLong::target_component) (`target_component` at offset 31).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 31)
+        ::mavframe::field::read::<u8>(self.payload, 31)
     }
 
     /// Reads [`CommandLong::command`](CommandLong::command) (`command` at offset 28).
     #[inline]
     pub fn command(&self) -> MavCmd {
-        MavCmd::from_raw(::mavwire::field::read::<u16>(self.payload, 28))
+        MavCmd::from_raw(::mavframe::field::read::<u16>(self.payload, 28))
     }
 
     /// Reads [`CommandLong::confirmation`](CommandLong::confirmation) (`confirmation` at offset 32).
     #[inline]
     pub fn confirmation(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 32)
+        ::mavframe::field::read::<u8>(self.payload, 32)
     }
 
     /// Reads [`CommandLong::param1`](CommandLong::param1) (`param1` at offset 0).
     #[inline]
     pub fn param1(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`CommandLong::param2`](CommandLong::param2) (`param2` at offset 4).
     #[inline]
     pub fn param2(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`CommandLong::param3`](CommandLong::param3) (`param3` at offset 8).
     #[inline]
     pub fn param3(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`CommandLong::param4`](CommandLong::param4) (`param4` at offset 12).
     #[inline]
     pub fn param4(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`CommandLong::param5`](CommandLong::param5) (`param5` at offset 16).
     #[inline]
     pub fn param5(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`CommandLong::param6`](CommandLong::param6) (`param6` at offset 20).
     #[inline]
     pub fn param6(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`CommandLong::param7`](CommandLong::param7) (`param7` at offset 24).
     #[inline]
     pub fn param7(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 }
 
@@ -5660,9 +5660,9 @@ pub struct CommandLongMut<'a> {
 
 impl<'a> CommandLongMut<'a> {
     /// A writer over `payload`, which must hold at least [`CommandLong::MAX_LEN`](struct@CommandLong) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CommandLong::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CommandLong::MAX_LEN,
                 got: payload.len(),
             });
@@ -5678,67 +5678,67 @@ impl<'a> CommandLongMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 30)
+        ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 31)
+        ::mavframe::field::Scalar::write(value, self.payload, 31)
     }
 
     /// Sets the `command` field.
     #[inline]
     pub fn set_command(&mut self, value: MavCmd) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 28)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 28)
     }
 
     /// Sets the `confirmation` field.
     #[inline]
     pub fn set_confirmation(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `param1` field.
     #[inline]
     pub fn set_param1(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `param2` field.
     #[inline]
     pub fn set_param2(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `param3` field.
     #[inline]
     pub fn set_param3(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `param4` field.
     #[inline]
     pub fn set_param4(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `param5` field.
     #[inline]
     pub fn set_param5(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `param6` field.
     #[inline]
     pub fn set_param6(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `param7` field.
     #[inline]
     pub fn set_param7(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 }
 
@@ -5793,7 +5793,7 @@ impl CommandAck {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 10;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -5802,44 +5802,44 @@ impl CommandAck {
         target_system_offset: Some(8),
         target_component_offset: Some(9),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "command",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "result",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "progress",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 3,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "result_param2",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 9,
                 extension: true,
@@ -5849,14 +5849,14 @@ impl CommandAck {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            command: MavCmd::from_raw(::mavwire::field::read::<u16>(p, 0)),
-            result: MavResult::from_raw(::mavwire::field::read::<u8>(p, 2)),
-            progress: ::mavwire::field::read::<u8>(p, 3),
-            result_param2: ::mavwire::field::read::<i32>(p, 4),
-            target_system: ::mavwire::field::read::<u8>(p, 8),
-            target_component: ::mavwire::field::read::<u8>(p, 9),
+            command: MavCmd::from_raw(::mavframe::field::read::<u16>(p, 0)),
+            result: MavResult::from_raw(::mavframe::field::read::<u8>(p, 2)),
+            progress: ::mavframe::field::read::<u8>(p, 3),
+            result_param2: ::mavframe::field::read::<i32>(p, 4),
+            target_system: ::mavframe::field::read::<u8>(p, 8),
+            target_component: ::mavframe::field::read::<u8>(p, 9),
         }
     }
 
@@ -5868,20 +5868,20 @@ impl CommandAck {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.command.to_raw(), out, 0);
-        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 2);
-        ::mavwire::field::Scalar::write(self.progress, out, 3);
-        ::mavwire::field::Scalar::write(self.result_param2, out, 4);
-        ::mavwire::field::Scalar::write(self.target_system, out, 8);
-        ::mavwire::field::Scalar::write(self.target_component, out, 9);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.command.to_raw(), out, 0);
+        ::mavframe::field::Scalar::write(self.result.to_raw(), out, 2);
+        ::mavframe::field::Scalar::write(self.progress, out, 3);
+        ::mavframe::field::Scalar::write(self.result_param2, out, 4);
+        ::mavframe::field::Scalar::write(self.target_system, out, 8);
+        ::mavframe::field::Scalar::write(self.target_component, out, 9);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CommandAck {
-    const META: ::mavwire::MessageMeta = CommandAck::META;
+impl ::mavframe::Message for CommandAck {
+    const META: ::mavframe::MessageMeta = CommandAck::META;
     type View<'a> = CommandAckView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -5889,7 +5889,7 @@ impl ::mavwire::Message for CommandAck {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CommandAck::emit(self, payload)
     }
 
@@ -5930,37 +5930,37 @@ impl<'a> CommandAckView<'a> {
     /// Reads [`CommandAck::command`](CommandAck::command) (`command` at offset 0).
     #[inline]
     pub fn command(&self) -> MavCmd {
-        MavCmd::from_raw(::mavwire::field::read::<u16>(self.payload, 0))
+        MavCmd::from_raw(::mavframe::field::read::<u16>(self.payload, 0))
     }
 
     /// Reads [`CommandAck::result`](CommandAck::result) (`result` at offset 2).
     #[inline]
     pub fn result(&self) -> MavResult {
-        MavResult::from_raw(::mavwire::field::read::<u8>(self.payload, 2))
+        MavResult::from_raw(::mavframe::field::read::<u8>(self.payload, 2))
     }
 
     /// Reads [`CommandAck::progress`](CommandAck::progress) (`progress` at offset 3).
     #[inline]
     pub fn progress(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 3)
+        ::mavframe::field::read::<u8>(self.payload, 3)
     }
 
     /// Reads [`CommandAck::result_param2`](CommandAck::result_param2) (`result_param2` at offset 4).
     #[inline]
     pub fn result_param2(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`CommandAck::target_system`](CommandAck::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`CommandAck::target_component`](CommandAck::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 9)
+        ::mavframe::field::read::<u8>(self.payload, 9)
     }
 }
 
@@ -5972,9 +5972,9 @@ pub struct CommandAckMut<'a> {
 
 impl<'a> CommandAckMut<'a> {
     /// A writer over `payload`, which must hold at least [`CommandAck::MAX_LEN`](struct@CommandAck) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CommandAck::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CommandAck::MAX_LEN,
                 got: payload.len(),
             });
@@ -5990,37 +5990,37 @@ impl<'a> CommandAckMut<'a> {
     /// Sets the `command` field.
     #[inline]
     pub fn set_command(&mut self, value: MavCmd) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: MavResult) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 2)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 2)
     }
 
     /// Sets the `progress` field.
     #[inline]
     pub fn set_progress(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 3)
+        ::mavframe::field::Scalar::write(value, self.payload, 3)
     }
 
     /// Sets the `result_param2` field.
     #[inline]
     pub fn set_result_param2(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 9)
+        ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
 }
 
@@ -6081,7 +6081,7 @@ impl SetAttitudeTarget {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 39;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -6090,65 +6090,65 @@ impl SetAttitudeTarget {
         target_system_offset: Some(36),
         target_component_offset: Some(37),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "q",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 4,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "body_roll_rate",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "body_pitch_rate",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "body_yaw_rate",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "thrust",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 37,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type_mask",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 38,
                 extension: false,
@@ -6158,19 +6158,19 @@ impl SetAttitudeTarget {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
-            target_system: ::mavwire::field::read::<u8>(p, 36),
-            target_component: ::mavwire::field::read::<u8>(p, 37),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
+            target_system: ::mavframe::field::read::<u8>(p, 36),
+            target_component: ::mavframe::field::read::<u8>(p, 37),
             type_mask: AttitudeTargetTypemask::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 38),
+                ::mavframe::field::read::<u8>(p, 38),
             ),
-            q: ::mavwire::field::ArrayView::new(p, 4).to_array(),
-            body_roll_rate: ::mavwire::field::read::<f32>(p, 20),
-            body_pitch_rate: ::mavwire::field::read::<f32>(p, 24),
-            body_yaw_rate: ::mavwire::field::read::<f32>(p, 28),
-            thrust: ::mavwire::field::read::<f32>(p, 32),
+            q: ::mavframe::field::ArrayView::new(p, 4).to_array(),
+            body_roll_rate: ::mavframe::field::read::<f32>(p, 20),
+            body_pitch_rate: ::mavframe::field::read::<f32>(p, 24),
+            body_yaw_rate: ::mavframe::field::read::<f32>(p, 28),
+            thrust: ::mavframe::field::read::<f32>(p, 32),
         }
     }
 
@@ -6182,23 +6182,23 @@ impl SetAttitudeTarget {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::Scalar::write(self.target_system, out, 36);
-        ::mavwire::field::Scalar::write(self.target_component, out, 37);
-        ::mavwire::field::Scalar::write(self.type_mask.bits(), out, 38);
-        ::mavwire::field::write_array(out, 4, &self.q);
-        ::mavwire::field::Scalar::write(self.body_roll_rate, out, 20);
-        ::mavwire::field::Scalar::write(self.body_pitch_rate, out, 24);
-        ::mavwire::field::Scalar::write(self.body_yaw_rate, out, 28);
-        ::mavwire::field::Scalar::write(self.thrust, out, 32);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::Scalar::write(self.target_system, out, 36);
+        ::mavframe::field::Scalar::write(self.target_component, out, 37);
+        ::mavframe::field::Scalar::write(self.type_mask.bits(), out, 38);
+        ::mavframe::field::write_array(out, 4, &self.q);
+        ::mavframe::field::Scalar::write(self.body_roll_rate, out, 20);
+        ::mavframe::field::Scalar::write(self.body_pitch_rate, out, 24);
+        ::mavframe::field::Scalar::write(self.body_yaw_rate, out, 28);
+        ::mavframe::field::Scalar::write(self.thrust, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for SetAttitudeTarget {
-    const META: ::mavwire::MessageMeta = SetAttitudeTarget::META;
+impl ::mavframe::Message for SetAttitudeTarget {
+    const META: ::mavframe::MessageMeta = SetAttitudeTarget::META;
     type View<'a> = SetAttitudeTargetView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -6206,7 +6206,7 @@ impl ::mavwire::Message for SetAttitudeTarget {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SetAttitudeTarget::emit(self, payload)
     }
 
@@ -6247,57 +6247,57 @@ impl<'a> SetAttitudeTargetView<'a> {
     /// Reads [`SetAttitudeTarget::time_boot_ms`](SetAttitudeTarget::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`SetAttitudeTarget::target_system`](SetAttitudeTarget::target_system) (`target_system` at offset 36).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 36)
+        ::mavframe::field::read::<u8>(self.payload, 36)
     }
 
     /// Reads [`SetAttitudeTarget::target_component`](SetAttitudeTarget::target_component) (`target_component` at offset 37).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 37)
+        ::mavframe::field::read::<u8>(self.payload, 37)
     }
 
     /// Reads [`SetAttitudeTarget::type_mask`](SetAttitudeTarget::type_mask) (`type_mask` at offset 38).
     #[inline]
     pub fn type_mask(&self) -> AttitudeTargetTypemask {
         AttitudeTargetTypemask::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 38),
+            ::mavframe::field::read::<u8>(self.payload, 38),
         )
     }
 
     /// Reads [`SetAttitudeTarget::q`](SetAttitudeTarget::q) (`q` at offset 4).
     #[inline]
-    pub fn q(&self) -> ::mavwire::field::ArrayView<'a, f32, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 4)
+    pub fn q(&self) -> ::mavframe::field::ArrayView<'a, f32, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 4)
     }
 
     /// Reads [`SetAttitudeTarget::body_roll_rate`](SetAttitudeTarget::body_roll_rate) (`body_roll_rate` at offset 20).
     #[inline]
     pub fn body_roll_rate(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`SetAttitudeTarget::body_pitch_rate`](SetAttitudeTarget::body_pitch_rate) (`body_pitch_rate` at offset 24).
     #[inline]
     pub fn body_pitch_rate(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`SetAttitudeTarget::body_yaw_rate`](SetAttitudeTarget::body_yaw_rate) (`body_yaw_rate` at offset 28).
     #[inline]
     pub fn body_yaw_rate(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`SetAttitudeTarget::thrust`](SetAttitudeTarget::thrust) (`thrust` at offset 32).
     #[inline]
     pub fn thrust(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 }
 
@@ -6309,9 +6309,9 @@ pub struct SetAttitudeTargetMut<'a> {
 
 impl<'a> SetAttitudeTargetMut<'a> {
     /// A writer over `payload`, which must hold at least [`SetAttitudeTarget::MAX_LEN`](struct@SetAttitudeTarget) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SetAttitudeTarget::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SetAttitudeTarget::MAX_LEN,
                 got: payload.len(),
             });
@@ -6327,55 +6327,55 @@ impl<'a> SetAttitudeTargetMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 37)
+        ::mavframe::field::Scalar::write(value, self.payload, 37)
     }
 
     /// Sets the `type_mask` field.
     #[inline]
     pub fn set_type_mask(&mut self, value: AttitudeTargetTypemask) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 38)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 38)
     }
 
     /// Sets the `q` field.
     #[inline]
     pub fn set_q(&mut self, value: &[f32; 4]) {
-        ::mavwire::field::write_array(self.payload, 4, value)
+        ::mavframe::field::write_array(self.payload, 4, value)
     }
 
     /// Sets the `body_roll_rate` field.
     #[inline]
     pub fn set_body_roll_rate(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `body_pitch_rate` field.
     #[inline]
     pub fn set_body_pitch_rate(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `body_yaw_rate` field.
     #[inline]
     pub fn set_body_yaw_rate(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `thrust` field.
     #[inline]
     pub fn set_thrust(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 }
 
@@ -6422,7 +6422,7 @@ impl Statustext {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 54;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -6431,30 +6431,30 @@ impl Statustext {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "severity",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "text",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 50,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "id",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 51,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "chunk_seq",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 53,
                 extension: true,
@@ -6464,12 +6464,12 @@ impl Statustext {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            severity: MavSeverity::from_raw(::mavwire::field::read::<u8>(p, 0)),
-            text: ::mavwire::field::CharArray::new(p, 1).to_array(),
-            id: ::mavwire::field::read::<u16>(p, 51),
-            chunk_seq: ::mavwire::field::read::<u8>(p, 53),
+            severity: MavSeverity::from_raw(::mavframe::field::read::<u8>(p, 0)),
+            text: ::mavframe::field::CharArray::new(p, 1).to_array(),
+            id: ::mavframe::field::read::<u16>(p, 51),
+            chunk_seq: ::mavframe::field::read::<u8>(p, 53),
         }
     }
 
@@ -6481,12 +6481,12 @@ impl Statustext {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.severity.to_raw(), out, 0);
-        ::mavwire::field::write_array(out, 1, &self.text);
-        ::mavwire::field::Scalar::write(self.id, out, 51);
-        ::mavwire::field::Scalar::write(self.chunk_seq, out, 53);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.severity.to_raw(), out, 0);
+        ::mavframe::field::write_array(out, 1, &self.text);
+        ::mavframe::field::Scalar::write(self.id, out, 51);
+        ::mavframe::field::Scalar::write(self.chunk_seq, out, 53);
         Ok(Self::MAX_LEN)
     }
 }
@@ -6502,8 +6502,8 @@ impl Default for Statustext {
     }
 }
 
-impl ::mavwire::Message for Statustext {
-    const META: ::mavwire::MessageMeta = Statustext::META;
+impl ::mavframe::Message for Statustext {
+    const META: ::mavframe::MessageMeta = Statustext::META;
     type View<'a> = StatustextView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -6511,7 +6511,7 @@ impl ::mavwire::Message for Statustext {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Statustext::emit(self, payload)
     }
 
@@ -6552,25 +6552,25 @@ impl<'a> StatustextView<'a> {
     /// Reads [`Statustext::severity`](Statustext::severity) (`severity` at offset 0).
     #[inline]
     pub fn severity(&self) -> MavSeverity {
-        MavSeverity::from_raw(::mavwire::field::read::<u8>(self.payload, 0))
+        MavSeverity::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
 
     /// Reads [`Statustext::text`](Statustext::text) (`text` at offset 1).
     #[inline]
-    pub fn text(&self) -> ::mavwire::field::CharArray<'a, 50> {
-        ::mavwire::field::CharArray::new(self.payload, 1)
+    pub fn text(&self) -> ::mavframe::field::CharArray<'a, 50> {
+        ::mavframe::field::CharArray::new(self.payload, 1)
     }
 
     /// Reads [`Statustext::id`](Statustext::id) (`id` at offset 51).
     #[inline]
     pub fn id(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 51)
+        ::mavframe::field::read::<u16>(self.payload, 51)
     }
 
     /// Reads [`Statustext::chunk_seq`](Statustext::chunk_seq) (`chunk_seq` at offset 53).
     #[inline]
     pub fn chunk_seq(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 53)
+        ::mavframe::field::read::<u8>(self.payload, 53)
     }
 }
 
@@ -6582,9 +6582,9 @@ pub struct StatustextMut<'a> {
 
 impl<'a> StatustextMut<'a> {
     /// A writer over `payload`, which must hold at least [`Statustext::MAX_LEN`](struct@Statustext) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Statustext::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Statustext::MAX_LEN,
                 got: payload.len(),
             });
@@ -6600,24 +6600,24 @@ impl<'a> StatustextMut<'a> {
     /// Sets the `severity` field.
     #[inline]
     pub fn set_severity(&mut self, value: MavSeverity) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 
     /// Sets the `text` field.
     #[inline]
     pub fn set_text(&mut self, value: &[u8; 50]) {
-        ::mavwire::field::write_array(self.payload, 1, value)
+        ::mavframe::field::write_array(self.payload, 1, value)
     }
 
     /// Sets the `id` field.
     #[inline]
     pub fn set_id(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 51)
+        ::mavframe::field::Scalar::write(value, self.payload, 51)
     }
 
     /// Sets the `chunk_seq` field.
     #[inline]
     pub fn set_chunk_seq(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 53)
+        ::mavframe::field::Scalar::write(value, self.payload, 53)
     }
 }

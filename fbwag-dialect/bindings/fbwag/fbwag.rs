@@ -105,7 +105,7 @@ impl FbwagNotice {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -114,37 +114,37 @@ impl FbwagNotice {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "timestamp",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "system_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "component_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "failsafe_status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "text",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 5,
                 offset: 7,
                 extension: false,
@@ -154,15 +154,15 @@ impl FbwagNotice {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            system_id: ::mavwire::field::read::<u8>(p, 4),
-            component_id: ::mavwire::field::read::<u8>(p, 5),
+            system_id: ::mavframe::field::read::<u8>(p, 4),
+            component_id: ::mavframe::field::read::<u8>(p, 5),
             failsafe_status: FbwagFailsafeStatus::from_raw(
-                ::mavwire::field::read::<u8>(p, 6),
+                ::mavframe::field::read::<u8>(p, 6),
             ),
-            text: ::mavwire::field::CharArray::new(p, 7).to_array(),
-            timestamp: ::mavwire::field::read::<u32>(p, 0),
+            text: ::mavframe::field::CharArray::new(p, 7).to_array(),
+            timestamp: ::mavframe::field::read::<u32>(p, 0),
         }
     }
 
@@ -174,19 +174,19 @@ impl FbwagNotice {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.system_id, out, 4);
-        ::mavwire::field::Scalar::write(self.component_id, out, 5);
-        ::mavwire::field::Scalar::write(self.failsafe_status.to_raw(), out, 6);
-        ::mavwire::field::write_array(out, 7, &self.text);
-        ::mavwire::field::Scalar::write(self.timestamp, out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.system_id, out, 4);
+        ::mavframe::field::Scalar::write(self.component_id, out, 5);
+        ::mavframe::field::Scalar::write(self.failsafe_status.to_raw(), out, 6);
+        ::mavframe::field::write_array(out, 7, &self.text);
+        ::mavframe::field::Scalar::write(self.timestamp, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for FbwagNotice {
-    const META: ::mavwire::MessageMeta = FbwagNotice::META;
+impl ::mavframe::Message for FbwagNotice {
+    const META: ::mavframe::MessageMeta = FbwagNotice::META;
     type View<'a> = FbwagNoticeView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -194,7 +194,7 @@ impl ::mavwire::Message for FbwagNotice {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         FbwagNotice::emit(self, payload)
     }
 
@@ -235,31 +235,31 @@ impl<'a> FbwagNoticeView<'a> {
     /// Reads [`FbwagNotice::system_id`](FbwagNotice::system_id) (`system_id` at offset 4).
     #[inline]
     pub fn system_id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`FbwagNotice::component_id`](FbwagNotice::component_id) (`component_id` at offset 5).
     #[inline]
     pub fn component_id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`FbwagNotice::failsafe_status`](FbwagNotice::failsafe_status) (`failsafe_status` at offset 6).
     #[inline]
     pub fn failsafe_status(&self) -> FbwagFailsafeStatus {
-        FbwagFailsafeStatus::from_raw(::mavwire::field::read::<u8>(self.payload, 6))
+        FbwagFailsafeStatus::from_raw(::mavframe::field::read::<u8>(self.payload, 6))
     }
 
     /// Reads [`FbwagNotice::text`](FbwagNotice::text) (`text` at offset 7).
     #[inline]
-    pub fn text(&self) -> ::mavwire::field::CharArray<'a, 5> {
-        ::mavwire::field::CharArray::new(self.payload, 7)
+    pub fn text(&self) -> ::mavframe::field::CharArray<'a, 5> {
+        ::mavframe::field::CharArray::new(self.payload, 7)
     }
 
     /// Reads [`FbwagNotice::timestamp`](FbwagNotice::timestamp) (`timestamp` at offset 0).
     #[inline]
     pub fn timestamp(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 }
 
@@ -271,9 +271,9 @@ pub struct FbwagNoticeMut<'a> {
 
 impl<'a> FbwagNoticeMut<'a> {
     /// A writer over `payload`, which must hold at least [`FbwagNotice::MAX_LEN`](struct@FbwagNotice) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < FbwagNotice::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: FbwagNotice::MAX_LEN,
                 got: payload.len(),
             });
@@ -289,31 +289,31 @@ impl<'a> FbwagNoticeMut<'a> {
     /// Sets the `system_id` field.
     #[inline]
     pub fn set_system_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `component_id` field.
     #[inline]
     pub fn set_component_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `failsafe_status` field.
     #[inline]
     pub fn set_failsafe_status(&mut self, value: FbwagFailsafeStatus) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 6)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 6)
     }
 
     /// Sets the `text` field.
     #[inline]
     pub fn set_text(&mut self, value: &[u8; 5]) {
-        ::mavwire::field::write_array(self.payload, 7, value)
+        ::mavframe::field::write_array(self.payload, 7, value)
     }
 
     /// Sets the `timestamp` field.
     #[inline]
     pub fn set_timestamp(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 }
 
@@ -1553,7 +1553,7 @@ pub enum MessageView<'a> {
 
 /// The dialect's table: id, name, CRC_EXTRA and lengths of every
 /// message, sorted by id.
-pub const MESSAGES: &[::mavwire::MessageMeta] = &[
+pub const MESSAGES: &[::mavframe::MessageMeta] = &[
     super::minimal::Heartbeat::META,
     super::common::SysStatus::META,
     super::common::SystemTime::META,
@@ -1860,15 +1860,15 @@ pub const MESSAGES: &[::mavwire::MessageMeta] = &[
 /// This dialect, for code generic over dialects.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Dialect;
-impl ::mavwire::Dialect for Dialect {
+impl ::mavframe::Dialect for Dialect {
     type Message = Message;
     type View<'a> = MessageView<'a>;
-    const MESSAGES: &'static [::mavwire::MessageMeta] = MESSAGES;
+    const MESSAGES: &'static [::mavframe::MessageMeta] = MESSAGES;
     /// The table row of `id`, by a `match` (jump tables over the
     /// dense id ranges): the parser looks up every frame, and this
     /// is several times faster than the default binary search.
     #[inline]
-    fn meta(id: u32) -> Option<&'static ::mavwire::MessageMeta> {
+    fn meta(id: u32) -> Option<&'static ::mavframe::MessageMeta> {
         Some(
             match id {
                 0 => &MESSAGES[0],
@@ -3153,7 +3153,7 @@ impl Message {
     }
 
     /// The message's table row.
-    pub fn meta(&self) -> &'static ::mavwire::MessageMeta {
+    pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
             Self::Heartbeat(_) => &super::minimal::Heartbeat::META,
             Self::SysStatus(_) => &super::common::SysStatus::META,
@@ -3579,7 +3579,7 @@ impl Message {
     }
 
     /// Writes the full payload; returns its length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         match self {
             Self::Heartbeat(m) => m.emit(payload),
             Self::SysStatus(m) => m.emit(payload),
@@ -4937,7 +4937,7 @@ impl<'a> MessageView<'a> {
     }
 
     /// The message's table row.
-    pub fn meta(&self) -> &'static ::mavwire::MessageMeta {
+    pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
             Self::Heartbeat(_) => &super::minimal::Heartbeat::META,
             Self::SysStatus(_) => &super::common::SysStatus::META,

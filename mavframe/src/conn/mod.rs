@@ -5,11 +5,11 @@
 //! adds `conn::tokio::AsyncConnection` (UDP and TCP client).
 //!
 //! ```no_run
-//! # use mavwire::{Dialect, MessageMeta};
+//! # use mavframe::{Dialect, MessageMeta};
 //! # struct MyDialect; impl Dialect for MyDialect { type Message = (); type View<'a> = ();
 //! #   const MESSAGES: &'static [MessageMeta] = &[];
 //! #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
-//! use mavwire::conn::{Connection, Endpoint};
+//! use mavframe::conn::{Connection, Endpoint};
 //! use std::time::Duration;
 //!
 //! let endpoint: Endpoint = "udpin:0.0.0.0:14550".parse()?;

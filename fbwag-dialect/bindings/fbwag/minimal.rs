@@ -709,7 +709,7 @@ impl MavModeFlag {
     pub const SAFETY_ARMED: Self = Self(128);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     MavModeFlag, u8, [CUSTOM_MODE_ENABLED, TEST_ENABLED, AUTO_ENABLED, GUIDED_ENABLED,
     STABILIZE_ENABLED, HIL_ENABLED, MANUAL_INPUT_ENABLED, SAFETY_ARMED]
 );
@@ -742,7 +742,7 @@ impl MavModeFlagDecodePosition {
     pub const SAFETY: Self = Self(128);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     MavModeFlagDecodePosition, u8, [CUSTOM_MODE, TEST, AUTO, GUIDED, STABILIZE, HIL,
     MANUAL, SAFETY]
 );
@@ -1081,7 +1081,7 @@ impl Heartbeat {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -1090,44 +1090,44 @@ impl Heartbeat {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "custom_mode",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "autopilot",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "base_mode",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "system_status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mavlink_version",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
@@ -1137,14 +1137,16 @@ impl Heartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            r#type: MavType::from_raw(::mavwire::field::read::<u8>(p, 4)),
-            autopilot: MavAutopilot::from_raw(::mavwire::field::read::<u8>(p, 5)),
-            base_mode: MavModeFlag::from_bits_retain(::mavwire::field::read::<u8>(p, 6)),
-            custom_mode: ::mavwire::field::read::<u32>(p, 0),
-            system_status: MavState::from_raw(::mavwire::field::read::<u8>(p, 7)),
-            mavlink_version: ::mavwire::field::read::<u8>(p, 8),
+            r#type: MavType::from_raw(::mavframe::field::read::<u8>(p, 4)),
+            autopilot: MavAutopilot::from_raw(::mavframe::field::read::<u8>(p, 5)),
+            base_mode: MavModeFlag::from_bits_retain(
+                ::mavframe::field::read::<u8>(p, 6),
+            ),
+            custom_mode: ::mavframe::field::read::<u32>(p, 0),
+            system_status: MavState::from_raw(::mavframe::field::read::<u8>(p, 7)),
+            mavlink_version: ::mavframe::field::read::<u8>(p, 8),
         }
     }
 
@@ -1156,14 +1158,14 @@ impl Heartbeat {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.r#type.to_raw(), out, 4);
-        ::mavwire::field::Scalar::write(self.autopilot.to_raw(), out, 5);
-        ::mavwire::field::Scalar::write(self.base_mode.bits(), out, 6);
-        ::mavwire::field::Scalar::write(self.custom_mode, out, 0);
-        ::mavwire::field::Scalar::write(self.system_status.to_raw(), out, 7);
-        ::mavwire::field::Scalar::write(self.mavlink_version, out, 8);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.r#type.to_raw(), out, 4);
+        ::mavframe::field::Scalar::write(self.autopilot.to_raw(), out, 5);
+        ::mavframe::field::Scalar::write(self.base_mode.bits(), out, 6);
+        ::mavframe::field::Scalar::write(self.custom_mode, out, 0);
+        ::mavframe::field::Scalar::write(self.system_status.to_raw(), out, 7);
+        ::mavframe::field::Scalar::write(self.mavlink_version, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
@@ -1181,8 +1183,8 @@ impl Default for Heartbeat {
     }
 }
 
-impl ::mavwire::Message for Heartbeat {
-    const META: ::mavwire::MessageMeta = Heartbeat::META;
+impl ::mavframe::Message for Heartbeat {
+    const META: ::mavframe::MessageMeta = Heartbeat::META;
     type View<'a> = HeartbeatView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -1190,7 +1192,7 @@ impl ::mavwire::Message for Heartbeat {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Heartbeat::emit(self, payload)
     }
 
@@ -1231,37 +1233,37 @@ impl<'a> HeartbeatView<'a> {
     /// Reads [`Heartbeat::type`](struct@Heartbeat) (`type` at offset 4).
     #[inline]
     pub fn r#type(&self) -> MavType {
-        MavType::from_raw(::mavwire::field::read::<u8>(self.payload, 4))
+        MavType::from_raw(::mavframe::field::read::<u8>(self.payload, 4))
     }
 
     /// Reads [`Heartbeat::autopilot`](Heartbeat::autopilot) (`autopilot` at offset 5).
     #[inline]
     pub fn autopilot(&self) -> MavAutopilot {
-        MavAutopilot::from_raw(::mavwire::field::read::<u8>(self.payload, 5))
+        MavAutopilot::from_raw(::mavframe::field::read::<u8>(self.payload, 5))
     }
 
     /// Reads [`Heartbeat::base_mode`](Heartbeat::base_mode) (`base_mode` at offset 6).
     #[inline]
     pub fn base_mode(&self) -> MavModeFlag {
-        MavModeFlag::from_bits_retain(::mavwire::field::read::<u8>(self.payload, 6))
+        MavModeFlag::from_bits_retain(::mavframe::field::read::<u8>(self.payload, 6))
     }
 
     /// Reads [`Heartbeat::custom_mode`](Heartbeat::custom_mode) (`custom_mode` at offset 0).
     #[inline]
     pub fn custom_mode(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`Heartbeat::system_status`](Heartbeat::system_status) (`system_status` at offset 7).
     #[inline]
     pub fn system_status(&self) -> MavState {
-        MavState::from_raw(::mavwire::field::read::<u8>(self.payload, 7))
+        MavState::from_raw(::mavframe::field::read::<u8>(self.payload, 7))
     }
 
     /// Reads [`Heartbeat::mavlink_version`](Heartbeat::mavlink_version) (`mavlink_version` at offset 8).
     #[inline]
     pub fn mavlink_version(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 }
 
@@ -1273,9 +1275,9 @@ pub struct HeartbeatMut<'a> {
 
 impl<'a> HeartbeatMut<'a> {
     /// A writer over `payload`, which must hold at least [`Heartbeat::MAX_LEN`](struct@Heartbeat) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Heartbeat::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Heartbeat::MAX_LEN,
                 got: payload.len(),
             });
@@ -1291,36 +1293,36 @@ impl<'a> HeartbeatMut<'a> {
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: MavType) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 4)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 4)
     }
 
     /// Sets the `autopilot` field.
     #[inline]
     pub fn set_autopilot(&mut self, value: MavAutopilot) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 5)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 5)
     }
 
     /// Sets the `base_mode` field.
     #[inline]
     pub fn set_base_mode(&mut self, value: MavModeFlag) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 6)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 6)
     }
 
     /// Sets the `custom_mode` field.
     #[inline]
     pub fn set_custom_mode(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `system_status` field.
     #[inline]
     pub fn set_system_status(&mut self, value: MavState) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 7)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 7)
     }
 
     /// Sets the `mavlink_version` field.
     #[inline]
     pub fn set_mavlink_version(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 }

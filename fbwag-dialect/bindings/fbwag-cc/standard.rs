@@ -57,7 +57,7 @@ impl GlobalPositionInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -66,65 +66,65 @@ impl GlobalPositionInt {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lon",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "alt",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "relative_alt",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vx",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vy",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 22,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vz",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "hdg",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 26,
                 extension: false,
@@ -134,17 +134,17 @@ impl GlobalPositionInt {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
-            lat: ::mavwire::field::read::<i32>(p, 4),
-            lon: ::mavwire::field::read::<i32>(p, 8),
-            alt: ::mavwire::field::read::<i32>(p, 12),
-            relative_alt: ::mavwire::field::read::<i32>(p, 16),
-            vx: ::mavwire::field::read::<i16>(p, 20),
-            vy: ::mavwire::field::read::<i16>(p, 22),
-            vz: ::mavwire::field::read::<i16>(p, 24),
-            hdg: ::mavwire::field::read::<u16>(p, 26),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
+            lat: ::mavframe::field::read::<i32>(p, 4),
+            lon: ::mavframe::field::read::<i32>(p, 8),
+            alt: ::mavframe::field::read::<i32>(p, 12),
+            relative_alt: ::mavframe::field::read::<i32>(p, 16),
+            vx: ::mavframe::field::read::<i16>(p, 20),
+            vy: ::mavframe::field::read::<i16>(p, 22),
+            vz: ::mavframe::field::read::<i16>(p, 24),
+            hdg: ::mavframe::field::read::<u16>(p, 26),
         }
     }
 
@@ -156,23 +156,23 @@ impl GlobalPositionInt {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::Scalar::write(self.lat, out, 4);
-        ::mavwire::field::Scalar::write(self.lon, out, 8);
-        ::mavwire::field::Scalar::write(self.alt, out, 12);
-        ::mavwire::field::Scalar::write(self.relative_alt, out, 16);
-        ::mavwire::field::Scalar::write(self.vx, out, 20);
-        ::mavwire::field::Scalar::write(self.vy, out, 22);
-        ::mavwire::field::Scalar::write(self.vz, out, 24);
-        ::mavwire::field::Scalar::write(self.hdg, out, 26);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::Scalar::write(self.lat, out, 4);
+        ::mavframe::field::Scalar::write(self.lon, out, 8);
+        ::mavframe::field::Scalar::write(self.alt, out, 12);
+        ::mavframe::field::Scalar::write(self.relative_alt, out, 16);
+        ::mavframe::field::Scalar::write(self.vx, out, 20);
+        ::mavframe::field::Scalar::write(self.vy, out, 22);
+        ::mavframe::field::Scalar::write(self.vz, out, 24);
+        ::mavframe::field::Scalar::write(self.hdg, out, 26);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GlobalPositionInt {
-    const META: ::mavwire::MessageMeta = GlobalPositionInt::META;
+impl ::mavframe::Message for GlobalPositionInt {
+    const META: ::mavframe::MessageMeta = GlobalPositionInt::META;
     type View<'a> = GlobalPositionIntView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -180,7 +180,7 @@ impl ::mavwire::Message for GlobalPositionInt {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GlobalPositionInt::emit(self, payload)
     }
 
@@ -221,55 +221,55 @@ impl<'a> GlobalPositionIntView<'a> {
     /// Reads [`GlobalPositionInt::time_boot_ms`](GlobalPositionInt::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`GlobalPositionInt::lat`](GlobalPositionInt::lat) (`lat` at offset 4).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`GlobalPositionInt::lon`](GlobalPositionInt::lon) (`lon` at offset 8).
     #[inline]
     pub fn lon(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`GlobalPositionInt::alt`](GlobalPositionInt::alt) (`alt` at offset 12).
     #[inline]
     pub fn alt(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 12)
+        ::mavframe::field::read::<i32>(self.payload, 12)
     }
 
     /// Reads [`GlobalPositionInt::relative_alt`](GlobalPositionInt::relative_alt) (`relative_alt` at offset 16).
     #[inline]
     pub fn relative_alt(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 16)
+        ::mavframe::field::read::<i32>(self.payload, 16)
     }
 
     /// Reads [`GlobalPositionInt::vx`](GlobalPositionInt::vx) (`vx` at offset 20).
     #[inline]
     pub fn vx(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 20)
+        ::mavframe::field::read::<i16>(self.payload, 20)
     }
 
     /// Reads [`GlobalPositionInt::vy`](GlobalPositionInt::vy) (`vy` at offset 22).
     #[inline]
     pub fn vy(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 22)
+        ::mavframe::field::read::<i16>(self.payload, 22)
     }
 
     /// Reads [`GlobalPositionInt::vz`](GlobalPositionInt::vz) (`vz` at offset 24).
     #[inline]
     pub fn vz(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 24)
+        ::mavframe::field::read::<i16>(self.payload, 24)
     }
 
     /// Reads [`GlobalPositionInt::hdg`](GlobalPositionInt::hdg) (`hdg` at offset 26).
     #[inline]
     pub fn hdg(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 26)
+        ::mavframe::field::read::<u16>(self.payload, 26)
     }
 }
 
@@ -281,9 +281,9 @@ pub struct GlobalPositionIntMut<'a> {
 
 impl<'a> GlobalPositionIntMut<'a> {
     /// A writer over `payload`, which must hold at least [`GlobalPositionInt::MAX_LEN`](struct@GlobalPositionInt) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GlobalPositionInt::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GlobalPositionInt::MAX_LEN,
                 got: payload.len(),
             });
@@ -299,54 +299,54 @@ impl<'a> GlobalPositionIntMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `lon` field.
     #[inline]
     pub fn set_lon(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `relative_alt` field.
     #[inline]
     pub fn set_relative_alt(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `vx` field.
     #[inline]
     pub fn set_vx(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `vy` field.
     #[inline]
     pub fn set_vy(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 22)
+        ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
 
     /// Sets the `vz` field.
     #[inline]
     pub fn set_vz(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `hdg` field.
     #[inline]
     pub fn set_hdg(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 26)
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
 }

@@ -257,7 +257,7 @@ impl<const N: usize> fmt::Debug for CharArray<'_, N> {
 /// Builds a zero-padded `char[N]` value from a string, cutting it at `N` bytes.
 ///
 /// ```
-/// let text: [u8; 5] = mavwire::field::chars("FBWAG");
+/// let text: [u8; 5] = mavframe::field::chars("FBWAG");
 /// assert_eq!(&text, b"FBWAG");
 /// ```
 pub fn chars<const N: usize>(s: &str) -> [u8; N] {

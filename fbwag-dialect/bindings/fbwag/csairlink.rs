@@ -83,7 +83,7 @@ impl AirlinkAuth {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 100;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -92,16 +92,16 @@ impl AirlinkAuth {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "login",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 50,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "password",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 50,
                 offset: 50,
                 extension: false,
@@ -111,10 +111,10 @@ impl AirlinkAuth {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            login: ::mavwire::field::CharArray::new(p, 0).to_array(),
-            password: ::mavwire::field::CharArray::new(p, 50).to_array(),
+            login: ::mavframe::field::CharArray::new(p, 0).to_array(),
+            password: ::mavframe::field::CharArray::new(p, 50).to_array(),
         }
     }
 
@@ -126,10 +126,10 @@ impl AirlinkAuth {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 0, &self.login);
-        ::mavwire::field::write_array(out, 50, &self.password);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 0, &self.login);
+        ::mavframe::field::write_array(out, 50, &self.password);
         Ok(Self::MAX_LEN)
     }
 }
@@ -143,8 +143,8 @@ impl Default for AirlinkAuth {
     }
 }
 
-impl ::mavwire::Message for AirlinkAuth {
-    const META: ::mavwire::MessageMeta = AirlinkAuth::META;
+impl ::mavframe::Message for AirlinkAuth {
+    const META: ::mavframe::MessageMeta = AirlinkAuth::META;
     type View<'a> = AirlinkAuthView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -152,7 +152,7 @@ impl ::mavwire::Message for AirlinkAuth {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AirlinkAuth::emit(self, payload)
     }
 
@@ -192,14 +192,14 @@ impl<'a> AirlinkAuthView<'a> {
 
     /// Reads [`AirlinkAuth::login`](AirlinkAuth::login) (`login` at offset 0).
     #[inline]
-    pub fn login(&self) -> ::mavwire::field::CharArray<'a, 50> {
-        ::mavwire::field::CharArray::new(self.payload, 0)
+    pub fn login(&self) -> ::mavframe::field::CharArray<'a, 50> {
+        ::mavframe::field::CharArray::new(self.payload, 0)
     }
 
     /// Reads [`AirlinkAuth::password`](AirlinkAuth::password) (`password` at offset 50).
     #[inline]
-    pub fn password(&self) -> ::mavwire::field::CharArray<'a, 50> {
-        ::mavwire::field::CharArray::new(self.payload, 50)
+    pub fn password(&self) -> ::mavframe::field::CharArray<'a, 50> {
+        ::mavframe::field::CharArray::new(self.payload, 50)
     }
 }
 
@@ -211,9 +211,9 @@ pub struct AirlinkAuthMut<'a> {
 
 impl<'a> AirlinkAuthMut<'a> {
     /// A writer over `payload`, which must hold at least [`AirlinkAuth::MAX_LEN`](struct@AirlinkAuth) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < AirlinkAuth::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: AirlinkAuth::MAX_LEN,
                 got: payload.len(),
             });
@@ -229,13 +229,13 @@ impl<'a> AirlinkAuthMut<'a> {
     /// Sets the `login` field.
     #[inline]
     pub fn set_login(&mut self, value: &[u8; 50]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `password` field.
     #[inline]
     pub fn set_password(&mut self, value: &[u8; 50]) {
-        ::mavwire::field::write_array(self.payload, 50, value)
+        ::mavframe::field::write_array(self.payload, 50, value)
     }
 }
 
@@ -263,7 +263,7 @@ impl AirlinkAuthResponse {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 1;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -272,9 +272,9 @@ impl AirlinkAuthResponse {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "resp_type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
@@ -284,10 +284,10 @@ impl AirlinkAuthResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
             resp_type: AirlinkAuthResponseType::from_raw(
-                ::mavwire::field::read::<u8>(p, 0),
+                ::mavframe::field::read::<u8>(p, 0),
             ),
         }
     }
@@ -300,15 +300,15 @@ impl AirlinkAuthResponse {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.resp_type.to_raw(), out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.resp_type.to_raw(), out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for AirlinkAuthResponse {
-    const META: ::mavwire::MessageMeta = AirlinkAuthResponse::META;
+impl ::mavframe::Message for AirlinkAuthResponse {
+    const META: ::mavframe::MessageMeta = AirlinkAuthResponse::META;
     type View<'a> = AirlinkAuthResponseView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -316,7 +316,7 @@ impl ::mavwire::Message for AirlinkAuthResponse {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AirlinkAuthResponse::emit(self, payload)
     }
 
@@ -357,7 +357,7 @@ impl<'a> AirlinkAuthResponseView<'a> {
     /// Reads [`AirlinkAuthResponse::resp_type`](AirlinkAuthResponse::resp_type) (`resp_type` at offset 0).
     #[inline]
     pub fn resp_type(&self) -> AirlinkAuthResponseType {
-        AirlinkAuthResponseType::from_raw(::mavwire::field::read::<u8>(self.payload, 0))
+        AirlinkAuthResponseType::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
 }
 
@@ -369,9 +369,9 @@ pub struct AirlinkAuthResponseMut<'a> {
 
 impl<'a> AirlinkAuthResponseMut<'a> {
     /// A writer over `payload`, which must hold at least [`AirlinkAuthResponse::MAX_LEN`](struct@AirlinkAuthResponse) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < AirlinkAuthResponse::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: AirlinkAuthResponse::MAX_LEN,
                 got: payload.len(),
             });
@@ -387,6 +387,6 @@ impl<'a> AirlinkAuthResponseMut<'a> {
     /// Sets the `resp_type` field.
     #[inline]
     pub fn set_resp_type(&mut self, value: AirlinkAuthResponseType) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 }

@@ -115,7 +115,7 @@ impl LoweheiserGovEfi {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 85;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -124,163 +124,163 @@ impl LoweheiserGovEfi {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "volt_batt",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "curr_batt",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "curr_gen",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "curr_rot",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "fuel_level",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "throttle",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "runtime",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "until_maintenance",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rectifier_temp",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "generator_temp",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_batt",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_rpm",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 44,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_pw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 48,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_fuel_flow",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 52,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_fuel_consumed",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 56,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_baro",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 60,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_mat",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 64,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_clt",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 68,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_tps",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 72,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_exhaust_gas_temperature",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 76,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "generator_status",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 80,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_status",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 82,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "efi_index",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 84,
                 extension: false,
@@ -290,31 +290,31 @@ impl LoweheiserGovEfi {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            volt_batt: ::mavwire::field::read::<f32>(p, 0),
-            curr_batt: ::mavwire::field::read::<f32>(p, 4),
-            curr_gen: ::mavwire::field::read::<f32>(p, 8),
-            curr_rot: ::mavwire::field::read::<f32>(p, 12),
-            fuel_level: ::mavwire::field::read::<f32>(p, 16),
-            throttle: ::mavwire::field::read::<f32>(p, 20),
-            runtime: ::mavwire::field::read::<u32>(p, 24),
-            until_maintenance: ::mavwire::field::read::<i32>(p, 28),
-            rectifier_temp: ::mavwire::field::read::<f32>(p, 32),
-            generator_temp: ::mavwire::field::read::<f32>(p, 36),
-            efi_batt: ::mavwire::field::read::<f32>(p, 40),
-            efi_rpm: ::mavwire::field::read::<f32>(p, 44),
-            efi_pw: ::mavwire::field::read::<f32>(p, 48),
-            efi_fuel_flow: ::mavwire::field::read::<f32>(p, 52),
-            efi_fuel_consumed: ::mavwire::field::read::<f32>(p, 56),
-            efi_baro: ::mavwire::field::read::<f32>(p, 60),
-            efi_mat: ::mavwire::field::read::<f32>(p, 64),
-            efi_clt: ::mavwire::field::read::<f32>(p, 68),
-            efi_tps: ::mavwire::field::read::<f32>(p, 72),
-            efi_exhaust_gas_temperature: ::mavwire::field::read::<f32>(p, 76),
-            efi_index: ::mavwire::field::read::<u8>(p, 84),
-            generator_status: ::mavwire::field::read::<u16>(p, 80),
-            efi_status: ::mavwire::field::read::<u16>(p, 82),
+            volt_batt: ::mavframe::field::read::<f32>(p, 0),
+            curr_batt: ::mavframe::field::read::<f32>(p, 4),
+            curr_gen: ::mavframe::field::read::<f32>(p, 8),
+            curr_rot: ::mavframe::field::read::<f32>(p, 12),
+            fuel_level: ::mavframe::field::read::<f32>(p, 16),
+            throttle: ::mavframe::field::read::<f32>(p, 20),
+            runtime: ::mavframe::field::read::<u32>(p, 24),
+            until_maintenance: ::mavframe::field::read::<i32>(p, 28),
+            rectifier_temp: ::mavframe::field::read::<f32>(p, 32),
+            generator_temp: ::mavframe::field::read::<f32>(p, 36),
+            efi_batt: ::mavframe::field::read::<f32>(p, 40),
+            efi_rpm: ::mavframe::field::read::<f32>(p, 44),
+            efi_pw: ::mavframe::field::read::<f32>(p, 48),
+            efi_fuel_flow: ::mavframe::field::read::<f32>(p, 52),
+            efi_fuel_consumed: ::mavframe::field::read::<f32>(p, 56),
+            efi_baro: ::mavframe::field::read::<f32>(p, 60),
+            efi_mat: ::mavframe::field::read::<f32>(p, 64),
+            efi_clt: ::mavframe::field::read::<f32>(p, 68),
+            efi_tps: ::mavframe::field::read::<f32>(p, 72),
+            efi_exhaust_gas_temperature: ::mavframe::field::read::<f32>(p, 76),
+            efi_index: ::mavframe::field::read::<u8>(p, 84),
+            generator_status: ::mavframe::field::read::<u16>(p, 80),
+            efi_status: ::mavframe::field::read::<u16>(p, 82),
         }
     }
 
@@ -326,37 +326,37 @@ impl LoweheiserGovEfi {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.volt_batt, out, 0);
-        ::mavwire::field::Scalar::write(self.curr_batt, out, 4);
-        ::mavwire::field::Scalar::write(self.curr_gen, out, 8);
-        ::mavwire::field::Scalar::write(self.curr_rot, out, 12);
-        ::mavwire::field::Scalar::write(self.fuel_level, out, 16);
-        ::mavwire::field::Scalar::write(self.throttle, out, 20);
-        ::mavwire::field::Scalar::write(self.runtime, out, 24);
-        ::mavwire::field::Scalar::write(self.until_maintenance, out, 28);
-        ::mavwire::field::Scalar::write(self.rectifier_temp, out, 32);
-        ::mavwire::field::Scalar::write(self.generator_temp, out, 36);
-        ::mavwire::field::Scalar::write(self.efi_batt, out, 40);
-        ::mavwire::field::Scalar::write(self.efi_rpm, out, 44);
-        ::mavwire::field::Scalar::write(self.efi_pw, out, 48);
-        ::mavwire::field::Scalar::write(self.efi_fuel_flow, out, 52);
-        ::mavwire::field::Scalar::write(self.efi_fuel_consumed, out, 56);
-        ::mavwire::field::Scalar::write(self.efi_baro, out, 60);
-        ::mavwire::field::Scalar::write(self.efi_mat, out, 64);
-        ::mavwire::field::Scalar::write(self.efi_clt, out, 68);
-        ::mavwire::field::Scalar::write(self.efi_tps, out, 72);
-        ::mavwire::field::Scalar::write(self.efi_exhaust_gas_temperature, out, 76);
-        ::mavwire::field::Scalar::write(self.efi_index, out, 84);
-        ::mavwire::field::Scalar::write(self.generator_status, out, 80);
-        ::mavwire::field::Scalar::write(self.efi_status, out, 82);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.volt_batt, out, 0);
+        ::mavframe::field::Scalar::write(self.curr_batt, out, 4);
+        ::mavframe::field::Scalar::write(self.curr_gen, out, 8);
+        ::mavframe::field::Scalar::write(self.curr_rot, out, 12);
+        ::mavframe::field::Scalar::write(self.fuel_level, out, 16);
+        ::mavframe::field::Scalar::write(self.throttle, out, 20);
+        ::mavframe::field::Scalar::write(self.runtime, out, 24);
+        ::mavframe::field::Scalar::write(self.until_maintenance, out, 28);
+        ::mavframe::field::Scalar::write(self.rectifier_temp, out, 32);
+        ::mavframe::field::Scalar::write(self.generator_temp, out, 36);
+        ::mavframe::field::Scalar::write(self.efi_batt, out, 40);
+        ::mavframe::field::Scalar::write(self.efi_rpm, out, 44);
+        ::mavframe::field::Scalar::write(self.efi_pw, out, 48);
+        ::mavframe::field::Scalar::write(self.efi_fuel_flow, out, 52);
+        ::mavframe::field::Scalar::write(self.efi_fuel_consumed, out, 56);
+        ::mavframe::field::Scalar::write(self.efi_baro, out, 60);
+        ::mavframe::field::Scalar::write(self.efi_mat, out, 64);
+        ::mavframe::field::Scalar::write(self.efi_clt, out, 68);
+        ::mavframe::field::Scalar::write(self.efi_tps, out, 72);
+        ::mavframe::field::Scalar::write(self.efi_exhaust_gas_temperature, out, 76);
+        ::mavframe::field::Scalar::write(self.efi_index, out, 84);
+        ::mavframe::field::Scalar::write(self.generator_status, out, 80);
+        ::mavframe::field::Scalar::write(self.efi_status, out, 82);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for LoweheiserGovEfi {
-    const META: ::mavwire::MessageMeta = LoweheiserGovEfi::META;
+impl ::mavframe::Message for LoweheiserGovEfi {
+    const META: ::mavframe::MessageMeta = LoweheiserGovEfi::META;
     type View<'a> = LoweheiserGovEfiView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -364,7 +364,7 @@ impl ::mavwire::Message for LoweheiserGovEfi {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         LoweheiserGovEfi::emit(self, payload)
     }
 
@@ -405,139 +405,139 @@ impl<'a> LoweheiserGovEfiView<'a> {
     /// Reads [`LoweheiserGovEfi::volt_batt`](LoweheiserGovEfi::volt_batt) (`volt_batt` at offset 0).
     #[inline]
     pub fn volt_batt(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`LoweheiserGovEfi::curr_batt`](LoweheiserGovEfi::curr_batt) (`curr_batt` at offset 4).
     #[inline]
     pub fn curr_batt(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`LoweheiserGovEfi::curr_gen`](LoweheiserGovEfi::curr_gen) (`curr_gen` at offset 8).
     #[inline]
     pub fn curr_gen(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`LoweheiserGovEfi::curr_rot`](LoweheiserGovEfi::curr_rot) (`curr_rot` at offset 12).
     #[inline]
     pub fn curr_rot(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`LoweheiserGovEfi::fuel_level`](LoweheiserGovEfi::fuel_level) (`fuel_level` at offset 16).
     #[inline]
     pub fn fuel_level(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`LoweheiserGovEfi::throttle`](LoweheiserGovEfi::throttle) (`throttle` at offset 20).
     #[inline]
     pub fn throttle(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`LoweheiserGovEfi::runtime`](LoweheiserGovEfi::runtime) (`runtime` at offset 24).
     #[inline]
     pub fn runtime(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 24)
+        ::mavframe::field::read::<u32>(self.payload, 24)
     }
 
     /// Reads [`LoweheiserGovEfi::until_maintenance`](LoweheiserGovEfi::until_maintenance) (`until_maintenance` at offset 28).
     #[inline]
     pub fn until_maintenance(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 28)
+        ::mavframe::field::read::<i32>(self.payload, 28)
     }
 
     /// Reads [`LoweheiserGovEfi::rectifier_temp`](LoweheiserGovEfi::rectifier_temp) (`rectifier_temp` at offset 32).
     #[inline]
     pub fn rectifier_temp(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`LoweheiserGovEfi::generator_temp`](LoweheiserGovEfi::generator_temp) (`generator_temp` at offset 36).
     #[inline]
     pub fn generator_temp(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 36)
+        ::mavframe::field::read::<f32>(self.payload, 36)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_batt`](LoweheiserGovEfi::efi_batt) (`efi_batt` at offset 40).
     #[inline]
     pub fn efi_batt(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 40)
+        ::mavframe::field::read::<f32>(self.payload, 40)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_rpm`](LoweheiserGovEfi::efi_rpm) (`efi_rpm` at offset 44).
     #[inline]
     pub fn efi_rpm(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 44)
+        ::mavframe::field::read::<f32>(self.payload, 44)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_pw`](LoweheiserGovEfi::efi_pw) (`efi_pw` at offset 48).
     #[inline]
     pub fn efi_pw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 48)
+        ::mavframe::field::read::<f32>(self.payload, 48)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_fuel_flow`](LoweheiserGovEfi::efi_fuel_flow) (`efi_fuel_flow` at offset 52).
     #[inline]
     pub fn efi_fuel_flow(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 52)
+        ::mavframe::field::read::<f32>(self.payload, 52)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_fuel_consumed`](LoweheiserGovEfi::efi_fuel_consumed) (`efi_fuel_consumed` at offset 56).
     #[inline]
     pub fn efi_fuel_consumed(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 56)
+        ::mavframe::field::read::<f32>(self.payload, 56)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_baro`](LoweheiserGovEfi::efi_baro) (`efi_baro` at offset 60).
     #[inline]
     pub fn efi_baro(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 60)
+        ::mavframe::field::read::<f32>(self.payload, 60)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_mat`](LoweheiserGovEfi::efi_mat) (`efi_mat` at offset 64).
     #[inline]
     pub fn efi_mat(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 64)
+        ::mavframe::field::read::<f32>(self.payload, 64)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_clt`](LoweheiserGovEfi::efi_clt) (`efi_clt` at offset 68).
     #[inline]
     pub fn efi_clt(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 68)
+        ::mavframe::field::read::<f32>(self.payload, 68)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_tps`](LoweheiserGovEfi::efi_tps) (`efi_tps` at offset 72).
     #[inline]
     pub fn efi_tps(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 72)
+        ::mavframe::field::read::<f32>(self.payload, 72)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_exhaust_gas_temperature`](LoweheiserGovEfi::efi_exhaust_gas_temperature) (`efi_exhaust_gas_temperature` at offset 76).
     #[inline]
     pub fn efi_exhaust_gas_temperature(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 76)
+        ::mavframe::field::read::<f32>(self.payload, 76)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_index`](LoweheiserGovEfi::efi_index) (`efi_index` at offset 84).
     #[inline]
     pub fn efi_index(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 84)
+        ::mavframe::field::read::<u8>(self.payload, 84)
     }
 
     /// Reads [`LoweheiserGovEfi::generator_status`](LoweheiserGovEfi::generator_status) (`generator_status` at offset 80).
     #[inline]
     pub fn generator_status(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 80)
+        ::mavframe::field::read::<u16>(self.payload, 80)
     }
 
     /// Reads [`LoweheiserGovEfi::efi_status`](LoweheiserGovEfi::efi_status) (`efi_status` at offset 82).
     #[inline]
     pub fn efi_status(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 82)
+        ::mavframe::field::read::<u16>(self.payload, 82)
     }
 }
 
@@ -549,9 +549,9 @@ pub struct LoweheiserGovEfiMut<'a> {
 
 impl<'a> LoweheiserGovEfiMut<'a> {
     /// A writer over `payload`, which must hold at least [`LoweheiserGovEfi::MAX_LEN`](struct@LoweheiserGovEfi) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < LoweheiserGovEfi::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: LoweheiserGovEfi::MAX_LEN,
                 got: payload.len(),
             });
@@ -567,138 +567,138 @@ impl<'a> LoweheiserGovEfiMut<'a> {
     /// Sets the `volt_batt` field.
     #[inline]
     pub fn set_volt_batt(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `curr_batt` field.
     #[inline]
     pub fn set_curr_batt(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `curr_gen` field.
     #[inline]
     pub fn set_curr_gen(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `curr_rot` field.
     #[inline]
     pub fn set_curr_rot(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `fuel_level` field.
     #[inline]
     pub fn set_fuel_level(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `throttle` field.
     #[inline]
     pub fn set_throttle(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `runtime` field.
     #[inline]
     pub fn set_runtime(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `until_maintenance` field.
     #[inline]
     pub fn set_until_maintenance(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `rectifier_temp` field.
     #[inline]
     pub fn set_rectifier_temp(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `generator_temp` field.
     #[inline]
     pub fn set_generator_temp(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `efi_batt` field.
     #[inline]
     pub fn set_efi_batt(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `efi_rpm` field.
     #[inline]
     pub fn set_efi_rpm(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 44)
+        ::mavframe::field::Scalar::write(value, self.payload, 44)
     }
 
     /// Sets the `efi_pw` field.
     #[inline]
     pub fn set_efi_pw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 48)
+        ::mavframe::field::Scalar::write(value, self.payload, 48)
     }
 
     /// Sets the `efi_fuel_flow` field.
     #[inline]
     pub fn set_efi_fuel_flow(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 52)
+        ::mavframe::field::Scalar::write(value, self.payload, 52)
     }
 
     /// Sets the `efi_fuel_consumed` field.
     #[inline]
     pub fn set_efi_fuel_consumed(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 56)
+        ::mavframe::field::Scalar::write(value, self.payload, 56)
     }
 
     /// Sets the `efi_baro` field.
     #[inline]
     pub fn set_efi_baro(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 60)
+        ::mavframe::field::Scalar::write(value, self.payload, 60)
     }
 
     /// Sets the `efi_mat` field.
     #[inline]
     pub fn set_efi_mat(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 64)
+        ::mavframe::field::Scalar::write(value, self.payload, 64)
     }
 
     /// Sets the `efi_clt` field.
     #[inline]
     pub fn set_efi_clt(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 68)
+        ::mavframe::field::Scalar::write(value, self.payload, 68)
     }
 
     /// Sets the `efi_tps` field.
     #[inline]
     pub fn set_efi_tps(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 72)
+        ::mavframe::field::Scalar::write(value, self.payload, 72)
     }
 
     /// Sets the `efi_exhaust_gas_temperature` field.
     #[inline]
     pub fn set_efi_exhaust_gas_temperature(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 76)
+        ::mavframe::field::Scalar::write(value, self.payload, 76)
     }
 
     /// Sets the `efi_index` field.
     #[inline]
     pub fn set_efi_index(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 84)
+        ::mavframe::field::Scalar::write(value, self.payload, 84)
     }
 
     /// Sets the `generator_status` field.
     #[inline]
     pub fn set_generator_status(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 80)
+        ::mavframe::field::Scalar::write(value, self.payload, 80)
     }
 
     /// Sets the `efi_status` field.
     #[inline]
     pub fn set_efi_status(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 82)
+        ::mavframe::field::Scalar::write(value, self.payload, 82)
     }
 }

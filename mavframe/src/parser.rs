@@ -1,7 +1,7 @@
 //! A streaming frame parser: push bytes in any chunking, take frames out.
 //!
 //! ```
-//! # use mavwire::{parser::Parser, Dialect, MessageMeta};
+//! # use mavframe::{parser::Parser, Dialect, MessageMeta};
 //! # struct D; impl Dialect for D { type Message = (); type View<'a> = ();
 //! #   const MESSAGES: &'static [MessageMeta] = &[];
 //! #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }

@@ -23,7 +23,7 @@ impl CubepilotRawRc {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -32,9 +32,9 @@ impl CubepilotRawRc {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rc_raw",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 32,
                 offset: 0,
                 extension: false,
@@ -44,9 +44,9 @@ impl CubepilotRawRc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            rc_raw: ::mavwire::field::ArrayView::new(p, 0).to_array(),
+            rc_raw: ::mavframe::field::ArrayView::new(p, 0).to_array(),
         }
     }
 
@@ -58,15 +58,15 @@ impl CubepilotRawRc {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 0, &self.rc_raw);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 0, &self.rc_raw);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CubepilotRawRc {
-    const META: ::mavwire::MessageMeta = CubepilotRawRc::META;
+impl ::mavframe::Message for CubepilotRawRc {
+    const META: ::mavframe::MessageMeta = CubepilotRawRc::META;
     type View<'a> = CubepilotRawRcView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -74,7 +74,7 @@ impl ::mavwire::Message for CubepilotRawRc {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CubepilotRawRc::emit(self, payload)
     }
 
@@ -114,8 +114,8 @@ impl<'a> CubepilotRawRcView<'a> {
 
     /// Reads [`CubepilotRawRc::rc_raw`](CubepilotRawRc::rc_raw) (`rc_raw` at offset 0).
     #[inline]
-    pub fn rc_raw(&self) -> ::mavwire::field::ArrayView<'a, u8, 32> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn rc_raw(&self) -> ::mavframe::field::ArrayView<'a, u8, 32> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 }
 
@@ -127,9 +127,9 @@ pub struct CubepilotRawRcMut<'a> {
 
 impl<'a> CubepilotRawRcMut<'a> {
     /// A writer over `payload`, which must hold at least [`CubepilotRawRc::MAX_LEN`](struct@CubepilotRawRc) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CubepilotRawRc::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CubepilotRawRc::MAX_LEN,
                 got: payload.len(),
             });
@@ -145,7 +145,7 @@ impl<'a> CubepilotRawRcMut<'a> {
     /// Sets the `rc_raw` field.
     #[inline]
     pub fn set_rc_raw(&mut self, value: &[u8; 32]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 }
 
@@ -201,7 +201,7 @@ impl HerelinkVideoStreamInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 246;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -210,58 +210,58 @@ impl HerelinkVideoStreamInformation {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "framerate",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bitrate",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "resolution_h",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "resolution_v",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rotation",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "camera_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 14,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 15,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "uri",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 230,
                 offset: 16,
                 extension: false,
@@ -271,16 +271,16 @@ impl HerelinkVideoStreamInformation {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            camera_id: ::mavwire::field::read::<u8>(p, 14),
-            status: ::mavwire::field::read::<u8>(p, 15),
-            framerate: ::mavwire::field::read::<f32>(p, 0),
-            resolution_h: ::mavwire::field::read::<u16>(p, 8),
-            resolution_v: ::mavwire::field::read::<u16>(p, 10),
-            bitrate: ::mavwire::field::read::<u32>(p, 4),
-            rotation: ::mavwire::field::read::<u16>(p, 12),
-            uri: ::mavwire::field::CharArray::new(p, 16).to_array(),
+            camera_id: ::mavframe::field::read::<u8>(p, 14),
+            status: ::mavframe::field::read::<u8>(p, 15),
+            framerate: ::mavframe::field::read::<f32>(p, 0),
+            resolution_h: ::mavframe::field::read::<u16>(p, 8),
+            resolution_v: ::mavframe::field::read::<u16>(p, 10),
+            bitrate: ::mavframe::field::read::<u32>(p, 4),
+            rotation: ::mavframe::field::read::<u16>(p, 12),
+            uri: ::mavframe::field::CharArray::new(p, 16).to_array(),
         }
     }
 
@@ -292,16 +292,16 @@ impl HerelinkVideoStreamInformation {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.camera_id, out, 14);
-        ::mavwire::field::Scalar::write(self.status, out, 15);
-        ::mavwire::field::Scalar::write(self.framerate, out, 0);
-        ::mavwire::field::Scalar::write(self.resolution_h, out, 8);
-        ::mavwire::field::Scalar::write(self.resolution_v, out, 10);
-        ::mavwire::field::Scalar::write(self.bitrate, out, 4);
-        ::mavwire::field::Scalar::write(self.rotation, out, 12);
-        ::mavwire::field::write_array(out, 16, &self.uri);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.camera_id, out, 14);
+        ::mavframe::field::Scalar::write(self.status, out, 15);
+        ::mavframe::field::Scalar::write(self.framerate, out, 0);
+        ::mavframe::field::Scalar::write(self.resolution_h, out, 8);
+        ::mavframe::field::Scalar::write(self.resolution_v, out, 10);
+        ::mavframe::field::Scalar::write(self.bitrate, out, 4);
+        ::mavframe::field::Scalar::write(self.rotation, out, 12);
+        ::mavframe::field::write_array(out, 16, &self.uri);
         Ok(Self::MAX_LEN)
     }
 }
@@ -321,8 +321,8 @@ impl Default for HerelinkVideoStreamInformation {
     }
 }
 
-impl ::mavwire::Message for HerelinkVideoStreamInformation {
-    const META: ::mavwire::MessageMeta = HerelinkVideoStreamInformation::META;
+impl ::mavframe::Message for HerelinkVideoStreamInformation {
+    const META: ::mavframe::MessageMeta = HerelinkVideoStreamInformation::META;
     type View<'a> = HerelinkVideoStreamInformationView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -330,7 +330,7 @@ impl ::mavwire::Message for HerelinkVideoStreamInformation {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         HerelinkVideoStreamInformation::emit(self, payload)
     }
 
@@ -371,49 +371,49 @@ impl<'a> HerelinkVideoStreamInformationView<'a> {
     /// Reads [`HerelinkVideoStreamInformation::camera_id`](HerelinkVideoStreamInformation::camera_id) (`camera_id` at offset 14).
     #[inline]
     pub fn camera_id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 14)
+        ::mavframe::field::read::<u8>(self.payload, 14)
     }
 
     /// Reads [`HerelinkVideoStreamInformation::status`](HerelinkVideoStreamInformation::status) (`status` at offset 15).
     #[inline]
     pub fn status(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 15)
+        ::mavframe::field::read::<u8>(self.payload, 15)
     }
 
     /// Reads [`HerelinkVideoStreamInformation::framerate`](HerelinkVideoStreamInformation::framerate) (`framerate` at offset 0).
     #[inline]
     pub fn framerate(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`HerelinkVideoStreamInformation::resolution_h`](HerelinkVideoStreamInformation::resolution_h) (`resolution_h` at offset 8).
     #[inline]
     pub fn resolution_h(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 8)
+        ::mavframe::field::read::<u16>(self.payload, 8)
     }
 
     /// Reads [`HerelinkVideoStreamInformation::resolution_v`](HerelinkVideoStreamInformation::resolution_v) (`resolution_v` at offset 10).
     #[inline]
     pub fn resolution_v(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 10)
+        ::mavframe::field::read::<u16>(self.payload, 10)
     }
 
     /// Reads [`HerelinkVideoStreamInformation::bitrate`](HerelinkVideoStreamInformation::bitrate) (`bitrate` at offset 4).
     #[inline]
     pub fn bitrate(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 4)
+        ::mavframe::field::read::<u32>(self.payload, 4)
     }
 
     /// Reads [`HerelinkVideoStreamInformation::rotation`](HerelinkVideoStreamInformation::rotation) (`rotation` at offset 12).
     #[inline]
     pub fn rotation(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 12)
+        ::mavframe::field::read::<u16>(self.payload, 12)
     }
 
     /// Reads [`HerelinkVideoStreamInformation::uri`](HerelinkVideoStreamInformation::uri) (`uri` at offset 16).
     #[inline]
-    pub fn uri(&self) -> ::mavwire::field::CharArray<'a, 230> {
-        ::mavwire::field::CharArray::new(self.payload, 16)
+    pub fn uri(&self) -> ::mavframe::field::CharArray<'a, 230> {
+        ::mavframe::field::CharArray::new(self.payload, 16)
     }
 }
 
@@ -425,9 +425,9 @@ pub struct HerelinkVideoStreamInformationMut<'a> {
 
 impl<'a> HerelinkVideoStreamInformationMut<'a> {
     /// A writer over `payload`, which must hold at least [`HerelinkVideoStreamInformation::MAX_LEN`](struct@HerelinkVideoStreamInformation) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < HerelinkVideoStreamInformation::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: HerelinkVideoStreamInformation::MAX_LEN,
                 got: payload.len(),
             });
@@ -443,49 +443,49 @@ impl<'a> HerelinkVideoStreamInformationMut<'a> {
     /// Sets the `camera_id` field.
     #[inline]
     pub fn set_camera_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 15)
+        ::mavframe::field::Scalar::write(value, self.payload, 15)
     }
 
     /// Sets the `framerate` field.
     #[inline]
     pub fn set_framerate(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `resolution_h` field.
     #[inline]
     pub fn set_resolution_h(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `resolution_v` field.
     #[inline]
     pub fn set_resolution_v(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `bitrate` field.
     #[inline]
     pub fn set_bitrate(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `rotation` field.
     #[inline]
     pub fn set_rotation(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `uri` field.
     #[inline]
     pub fn set_uri(&mut self, value: &[u8; 230]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 }
 
@@ -536,7 +536,7 @@ impl HerelinkTelem {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 19;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -545,51 +545,51 @@ impl HerelinkTelem {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rf_freq",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "link_bw",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "link_rate",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "snr",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cpu_temp",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 14,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "board_temp",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rssi",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 18,
                 extension: false,
@@ -599,15 +599,15 @@ impl HerelinkTelem {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            rssi: ::mavwire::field::read::<u8>(p, 18),
-            snr: ::mavwire::field::read::<i16>(p, 12),
-            rf_freq: ::mavwire::field::read::<u32>(p, 0),
-            link_bw: ::mavwire::field::read::<u32>(p, 4),
-            link_rate: ::mavwire::field::read::<u32>(p, 8),
-            cpu_temp: ::mavwire::field::read::<i16>(p, 14),
-            board_temp: ::mavwire::field::read::<i16>(p, 16),
+            rssi: ::mavframe::field::read::<u8>(p, 18),
+            snr: ::mavframe::field::read::<i16>(p, 12),
+            rf_freq: ::mavframe::field::read::<u32>(p, 0),
+            link_bw: ::mavframe::field::read::<u32>(p, 4),
+            link_rate: ::mavframe::field::read::<u32>(p, 8),
+            cpu_temp: ::mavframe::field::read::<i16>(p, 14),
+            board_temp: ::mavframe::field::read::<i16>(p, 16),
         }
     }
 
@@ -619,21 +619,21 @@ impl HerelinkTelem {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.rssi, out, 18);
-        ::mavwire::field::Scalar::write(self.snr, out, 12);
-        ::mavwire::field::Scalar::write(self.rf_freq, out, 0);
-        ::mavwire::field::Scalar::write(self.link_bw, out, 4);
-        ::mavwire::field::Scalar::write(self.link_rate, out, 8);
-        ::mavwire::field::Scalar::write(self.cpu_temp, out, 14);
-        ::mavwire::field::Scalar::write(self.board_temp, out, 16);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.rssi, out, 18);
+        ::mavframe::field::Scalar::write(self.snr, out, 12);
+        ::mavframe::field::Scalar::write(self.rf_freq, out, 0);
+        ::mavframe::field::Scalar::write(self.link_bw, out, 4);
+        ::mavframe::field::Scalar::write(self.link_rate, out, 8);
+        ::mavframe::field::Scalar::write(self.cpu_temp, out, 14);
+        ::mavframe::field::Scalar::write(self.board_temp, out, 16);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for HerelinkTelem {
-    const META: ::mavwire::MessageMeta = HerelinkTelem::META;
+impl ::mavframe::Message for HerelinkTelem {
+    const META: ::mavframe::MessageMeta = HerelinkTelem::META;
     type View<'a> = HerelinkTelemView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -641,7 +641,7 @@ impl ::mavwire::Message for HerelinkTelem {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         HerelinkTelem::emit(self, payload)
     }
 
@@ -682,43 +682,43 @@ impl<'a> HerelinkTelemView<'a> {
     /// Reads [`HerelinkTelem::rssi`](HerelinkTelem::rssi) (`rssi` at offset 18).
     #[inline]
     pub fn rssi(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 18)
+        ::mavframe::field::read::<u8>(self.payload, 18)
     }
 
     /// Reads [`HerelinkTelem::snr`](HerelinkTelem::snr) (`snr` at offset 12).
     #[inline]
     pub fn snr(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 12)
+        ::mavframe::field::read::<i16>(self.payload, 12)
     }
 
     /// Reads [`HerelinkTelem::rf_freq`](HerelinkTelem::rf_freq) (`rf_freq` at offset 0).
     #[inline]
     pub fn rf_freq(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`HerelinkTelem::link_bw`](HerelinkTelem::link_bw) (`link_bw` at offset 4).
     #[inline]
     pub fn link_bw(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 4)
+        ::mavframe::field::read::<u32>(self.payload, 4)
     }
 
     /// Reads [`HerelinkTelem::link_rate`](HerelinkTelem::link_rate) (`link_rate` at offset 8).
     #[inline]
     pub fn link_rate(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 8)
+        ::mavframe::field::read::<u32>(self.payload, 8)
     }
 
     /// Reads [`HerelinkTelem::cpu_temp`](HerelinkTelem::cpu_temp) (`cpu_temp` at offset 14).
     #[inline]
     pub fn cpu_temp(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 14)
+        ::mavframe::field::read::<i16>(self.payload, 14)
     }
 
     /// Reads [`HerelinkTelem::board_temp`](HerelinkTelem::board_temp) (`board_temp` at offset 16).
     #[inline]
     pub fn board_temp(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 16)
+        ::mavframe::field::read::<i16>(self.payload, 16)
     }
 }
 
@@ -730,9 +730,9 @@ pub struct HerelinkTelemMut<'a> {
 
 impl<'a> HerelinkTelemMut<'a> {
     /// A writer over `payload`, which must hold at least [`HerelinkTelem::MAX_LEN`](struct@HerelinkTelem) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < HerelinkTelem::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: HerelinkTelem::MAX_LEN,
                 got: payload.len(),
             });
@@ -748,43 +748,43 @@ impl<'a> HerelinkTelemMut<'a> {
     /// Sets the `rssi` field.
     #[inline]
     pub fn set_rssi(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 18)
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
 
     /// Sets the `snr` field.
     #[inline]
     pub fn set_snr(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `rf_freq` field.
     #[inline]
     pub fn set_rf_freq(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `link_bw` field.
     #[inline]
     pub fn set_link_bw(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `link_rate` field.
     #[inline]
     pub fn set_link_rate(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `cpu_temp` field.
     #[inline]
     pub fn set_cpu_temp(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 
     /// Sets the `board_temp` field.
     #[inline]
     pub fn set_board_temp(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 }
 
@@ -823,7 +823,7 @@ impl CubepilotFirmwareUpdateStart {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 10;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -832,30 +832,30 @@ impl CubepilotFirmwareUpdateStart {
         target_system_offset: Some(8),
         target_component_offset: Some(9),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "size",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "crc",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 9,
                 extension: false,
@@ -865,12 +865,12 @@ impl CubepilotFirmwareUpdateStart {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 8),
-            target_component: ::mavwire::field::read::<u8>(p, 9),
-            size: ::mavwire::field::read::<u32>(p, 0),
-            crc: ::mavwire::field::read::<u32>(p, 4),
+            target_system: ::mavframe::field::read::<u8>(p, 8),
+            target_component: ::mavframe::field::read::<u8>(p, 9),
+            size: ::mavframe::field::read::<u32>(p, 0),
+            crc: ::mavframe::field::read::<u32>(p, 4),
         }
     }
 
@@ -882,18 +882,18 @@ impl CubepilotFirmwareUpdateStart {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 8);
-        ::mavwire::field::Scalar::write(self.target_component, out, 9);
-        ::mavwire::field::Scalar::write(self.size, out, 0);
-        ::mavwire::field::Scalar::write(self.crc, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 8);
+        ::mavframe::field::Scalar::write(self.target_component, out, 9);
+        ::mavframe::field::Scalar::write(self.size, out, 0);
+        ::mavframe::field::Scalar::write(self.crc, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CubepilotFirmwareUpdateStart {
-    const META: ::mavwire::MessageMeta = CubepilotFirmwareUpdateStart::META;
+impl ::mavframe::Message for CubepilotFirmwareUpdateStart {
+    const META: ::mavframe::MessageMeta = CubepilotFirmwareUpdateStart::META;
     type View<'a> = CubepilotFirmwareUpdateStartView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -901,7 +901,7 @@ impl ::mavwire::Message for CubepilotFirmwareUpdateStart {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CubepilotFirmwareUpdateStart::emit(self, payload)
     }
 
@@ -942,25 +942,25 @@ impl<'a> CubepilotFirmwareUpdateStartView<'a> {
     /// Reads [`CubepilotFirmwareUpdateStart::target_system`](CubepilotFirmwareUpdateStart::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`CubepilotFirmwareUpdateStart::target_component`](CubepilotFirmwareUpdateStart::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 9)
+        ::mavframe::field::read::<u8>(self.payload, 9)
     }
 
     /// Reads [`CubepilotFirmwareUpdateStart::size`](CubepilotFirmwareUpdateStart::size) (`size` at offset 0).
     #[inline]
     pub fn size(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`CubepilotFirmwareUpdateStart::crc`](CubepilotFirmwareUpdateStart::crc) (`crc` at offset 4).
     #[inline]
     pub fn crc(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 4)
+        ::mavframe::field::read::<u32>(self.payload, 4)
     }
 }
 
@@ -972,9 +972,9 @@ pub struct CubepilotFirmwareUpdateStartMut<'a> {
 
 impl<'a> CubepilotFirmwareUpdateStartMut<'a> {
     /// A writer over `payload`, which must hold at least [`CubepilotFirmwareUpdateStart::MAX_LEN`](struct@CubepilotFirmwareUpdateStart) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CubepilotFirmwareUpdateStart::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CubepilotFirmwareUpdateStart::MAX_LEN,
                 got: payload.len(),
             });
@@ -990,25 +990,25 @@ impl<'a> CubepilotFirmwareUpdateStartMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 9)
+        ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
 
     /// Sets the `size` field.
     #[inline]
     pub fn set_size(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `crc` field.
     #[inline]
     pub fn set_crc(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -1043,7 +1043,7 @@ impl CubepilotFirmwareUpdateResp {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -1052,23 +1052,23 @@ impl CubepilotFirmwareUpdateResp {
         target_system_offset: Some(4),
         target_component_offset: Some(5),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "offset",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
@@ -1078,11 +1078,11 @@ impl CubepilotFirmwareUpdateResp {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 4),
-            target_component: ::mavwire::field::read::<u8>(p, 5),
-            offset: ::mavwire::field::read::<u32>(p, 0),
+            target_system: ::mavframe::field::read::<u8>(p, 4),
+            target_component: ::mavframe::field::read::<u8>(p, 5),
+            offset: ::mavframe::field::read::<u32>(p, 0),
         }
     }
 
@@ -1094,17 +1094,17 @@ impl CubepilotFirmwareUpdateResp {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 4);
-        ::mavwire::field::Scalar::write(self.target_component, out, 5);
-        ::mavwire::field::Scalar::write(self.offset, out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 4);
+        ::mavframe::field::Scalar::write(self.target_component, out, 5);
+        ::mavframe::field::Scalar::write(self.offset, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CubepilotFirmwareUpdateResp {
-    const META: ::mavwire::MessageMeta = CubepilotFirmwareUpdateResp::META;
+impl ::mavframe::Message for CubepilotFirmwareUpdateResp {
+    const META: ::mavframe::MessageMeta = CubepilotFirmwareUpdateResp::META;
     type View<'a> = CubepilotFirmwareUpdateRespView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -1112,7 +1112,7 @@ impl ::mavwire::Message for CubepilotFirmwareUpdateResp {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CubepilotFirmwareUpdateResp::emit(self, payload)
     }
 
@@ -1153,19 +1153,19 @@ impl<'a> CubepilotFirmwareUpdateRespView<'a> {
     /// Reads [`CubepilotFirmwareUpdateResp::target_system`](CubepilotFirmwareUpdateResp::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`CubepilotFirmwareUpdateResp::target_component`](CubepilotFirmwareUpdateResp::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`CubepilotFirmwareUpdateResp::offset`](CubepilotFirmwareUpdateResp::offset) (`offset` at offset 0).
     #[inline]
     pub fn offset(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 }
 
@@ -1177,9 +1177,9 @@ pub struct CubepilotFirmwareUpdateRespMut<'a> {
 
 impl<'a> CubepilotFirmwareUpdateRespMut<'a> {
     /// A writer over `payload`, which must hold at least [`CubepilotFirmwareUpdateResp::MAX_LEN`](struct@CubepilotFirmwareUpdateResp) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CubepilotFirmwareUpdateResp::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CubepilotFirmwareUpdateResp::MAX_LEN,
                 got: payload.len(),
             });
@@ -1195,18 +1195,18 @@ impl<'a> CubepilotFirmwareUpdateRespMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `offset` field.
     #[inline]
     pub fn set_offset(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 }

@@ -151,7 +151,7 @@ impl IcarousHeartbeat {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 1;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -160,9 +160,9 @@ impl IcarousHeartbeat {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
@@ -172,9 +172,9 @@ impl IcarousHeartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            status: IcarousFmsState::from_raw(::mavwire::field::read::<u8>(p, 0)),
+            status: IcarousFmsState::from_raw(::mavframe::field::read::<u8>(p, 0)),
         }
     }
 
@@ -186,15 +186,15 @@ impl IcarousHeartbeat {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.status.to_raw(), out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for IcarousHeartbeat {
-    const META: ::mavwire::MessageMeta = IcarousHeartbeat::META;
+impl ::mavframe::Message for IcarousHeartbeat {
+    const META: ::mavframe::MessageMeta = IcarousHeartbeat::META;
     type View<'a> = IcarousHeartbeatView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -202,7 +202,7 @@ impl ::mavwire::Message for IcarousHeartbeat {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         IcarousHeartbeat::emit(self, payload)
     }
 
@@ -243,7 +243,7 @@ impl<'a> IcarousHeartbeatView<'a> {
     /// Reads [`IcarousHeartbeat::status`](IcarousHeartbeat::status) (`status` at offset 0).
     #[inline]
     pub fn status(&self) -> IcarousFmsState {
-        IcarousFmsState::from_raw(::mavwire::field::read::<u8>(self.payload, 0))
+        IcarousFmsState::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
 }
 
@@ -255,9 +255,9 @@ pub struct IcarousHeartbeatMut<'a> {
 
 impl<'a> IcarousHeartbeatMut<'a> {
     /// A writer over `payload`, which must hold at least [`IcarousHeartbeat::MAX_LEN`](struct@IcarousHeartbeat) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < IcarousHeartbeat::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: IcarousHeartbeat::MAX_LEN,
                 got: payload.len(),
             });
@@ -273,7 +273,7 @@ impl<'a> IcarousHeartbeatMut<'a> {
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: IcarousFmsState) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 }
 
@@ -365,7 +365,7 @@ impl IcarousKinematicBands {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 46;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -374,114 +374,114 @@ impl IcarousKinematicBands {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min1",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max1",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min2",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max2",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min3",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max3",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min4",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max4",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min5",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max5",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "numBands",
-                ty: ::mavwire::FieldType::I8,
+                ty: ::mavframe::FieldType::I8,
                 array_len: 0,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type1",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 41,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type2",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 42,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type3",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 43,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type4",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 44,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type5",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 45,
                 extension: false,
@@ -491,24 +491,24 @@ impl IcarousKinematicBands {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            num_bands: ::mavwire::field::read::<i8>(p, 40),
-            type1: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 41)),
-            min1: ::mavwire::field::read::<f32>(p, 0),
-            max1: ::mavwire::field::read::<f32>(p, 4),
-            type2: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 42)),
-            min2: ::mavwire::field::read::<f32>(p, 8),
-            max2: ::mavwire::field::read::<f32>(p, 12),
-            type3: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 43)),
-            min3: ::mavwire::field::read::<f32>(p, 16),
-            max3: ::mavwire::field::read::<f32>(p, 20),
-            type4: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 44)),
-            min4: ::mavwire::field::read::<f32>(p, 24),
-            max4: ::mavwire::field::read::<f32>(p, 28),
-            type5: IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(p, 45)),
-            min5: ::mavwire::field::read::<f32>(p, 32),
-            max5: ::mavwire::field::read::<f32>(p, 36),
+            num_bands: ::mavframe::field::read::<i8>(p, 40),
+            type1: IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(p, 41)),
+            min1: ::mavframe::field::read::<f32>(p, 0),
+            max1: ::mavframe::field::read::<f32>(p, 4),
+            type2: IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(p, 42)),
+            min2: ::mavframe::field::read::<f32>(p, 8),
+            max2: ::mavframe::field::read::<f32>(p, 12),
+            type3: IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(p, 43)),
+            min3: ::mavframe::field::read::<f32>(p, 16),
+            max3: ::mavframe::field::read::<f32>(p, 20),
+            type4: IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(p, 44)),
+            min4: ::mavframe::field::read::<f32>(p, 24),
+            max4: ::mavframe::field::read::<f32>(p, 28),
+            type5: IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(p, 45)),
+            min5: ::mavframe::field::read::<f32>(p, 32),
+            max5: ::mavframe::field::read::<f32>(p, 36),
         }
     }
 
@@ -520,30 +520,30 @@ impl IcarousKinematicBands {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.num_bands, out, 40);
-        ::mavwire::field::Scalar::write(self.type1.to_raw(), out, 41);
-        ::mavwire::field::Scalar::write(self.min1, out, 0);
-        ::mavwire::field::Scalar::write(self.max1, out, 4);
-        ::mavwire::field::Scalar::write(self.type2.to_raw(), out, 42);
-        ::mavwire::field::Scalar::write(self.min2, out, 8);
-        ::mavwire::field::Scalar::write(self.max2, out, 12);
-        ::mavwire::field::Scalar::write(self.type3.to_raw(), out, 43);
-        ::mavwire::field::Scalar::write(self.min3, out, 16);
-        ::mavwire::field::Scalar::write(self.max3, out, 20);
-        ::mavwire::field::Scalar::write(self.type4.to_raw(), out, 44);
-        ::mavwire::field::Scalar::write(self.min4, out, 24);
-        ::mavwire::field::Scalar::write(self.max4, out, 28);
-        ::mavwire::field::Scalar::write(self.type5.to_raw(), out, 45);
-        ::mavwire::field::Scalar::write(self.min5, out, 32);
-        ::mavwire::field::Scalar::write(self.max5, out, 36);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.num_bands, out, 40);
+        ::mavframe::field::Scalar::write(self.type1.to_raw(), out, 41);
+        ::mavframe::field::Scalar::write(self.min1, out, 0);
+        ::mavframe::field::Scalar::write(self.max1, out, 4);
+        ::mavframe::field::Scalar::write(self.type2.to_raw(), out, 42);
+        ::mavframe::field::Scalar::write(self.min2, out, 8);
+        ::mavframe::field::Scalar::write(self.max2, out, 12);
+        ::mavframe::field::Scalar::write(self.type3.to_raw(), out, 43);
+        ::mavframe::field::Scalar::write(self.min3, out, 16);
+        ::mavframe::field::Scalar::write(self.max3, out, 20);
+        ::mavframe::field::Scalar::write(self.type4.to_raw(), out, 44);
+        ::mavframe::field::Scalar::write(self.min4, out, 24);
+        ::mavframe::field::Scalar::write(self.max4, out, 28);
+        ::mavframe::field::Scalar::write(self.type5.to_raw(), out, 45);
+        ::mavframe::field::Scalar::write(self.min5, out, 32);
+        ::mavframe::field::Scalar::write(self.max5, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for IcarousKinematicBands {
-    const META: ::mavwire::MessageMeta = IcarousKinematicBands::META;
+impl ::mavframe::Message for IcarousKinematicBands {
+    const META: ::mavframe::MessageMeta = IcarousKinematicBands::META;
     type View<'a> = IcarousKinematicBandsView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -551,7 +551,7 @@ impl ::mavwire::Message for IcarousKinematicBands {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         IcarousKinematicBands::emit(self, payload)
     }
 
@@ -592,97 +592,97 @@ impl<'a> IcarousKinematicBandsView<'a> {
     /// Reads [`IcarousKinematicBands::num_bands`](IcarousKinematicBands::num_bands) (`numBands` at offset 40).
     #[inline]
     pub fn num_bands(&self) -> i8 {
-        ::mavwire::field::read::<i8>(self.payload, 40)
+        ::mavframe::field::read::<i8>(self.payload, 40)
     }
 
     /// Reads [`IcarousKinematicBands::type1`](IcarousKinematicBands::type1) (`type1` at offset 41).
     #[inline]
     pub fn type1(&self) -> IcarousTrackBandTypes {
-        IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(self.payload, 41))
+        IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 41))
     }
 
     /// Reads [`IcarousKinematicBands::min1`](IcarousKinematicBands::min1) (`min1` at offset 0).
     #[inline]
     pub fn min1(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`IcarousKinematicBands::max1`](IcarousKinematicBands::max1) (`max1` at offset 4).
     #[inline]
     pub fn max1(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`IcarousKinematicBands::type2`](IcarousKinematicBands::type2) (`type2` at offset 42).
     #[inline]
     pub fn type2(&self) -> IcarousTrackBandTypes {
-        IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(self.payload, 42))
+        IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 42))
     }
 
     /// Reads [`IcarousKinematicBands::min2`](IcarousKinematicBands::min2) (`min2` at offset 8).
     #[inline]
     pub fn min2(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`IcarousKinematicBands::max2`](IcarousKinematicBands::max2) (`max2` at offset 12).
     #[inline]
     pub fn max2(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`IcarousKinematicBands::type3`](IcarousKinematicBands::type3) (`type3` at offset 43).
     #[inline]
     pub fn type3(&self) -> IcarousTrackBandTypes {
-        IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(self.payload, 43))
+        IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 43))
     }
 
     /// Reads [`IcarousKinematicBands::min3`](IcarousKinematicBands::min3) (`min3` at offset 16).
     #[inline]
     pub fn min3(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`IcarousKinematicBands::max3`](IcarousKinematicBands::max3) (`max3` at offset 20).
     #[inline]
     pub fn max3(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`IcarousKinematicBands::type4`](IcarousKinematicBands::type4) (`type4` at offset 44).
     #[inline]
     pub fn type4(&self) -> IcarousTrackBandTypes {
-        IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(self.payload, 44))
+        IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 44))
     }
 
     /// Reads [`IcarousKinematicBands::min4`](IcarousKinematicBands::min4) (`min4` at offset 24).
     #[inline]
     pub fn min4(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`IcarousKinematicBands::max4`](IcarousKinematicBands::max4) (`max4` at offset 28).
     #[inline]
     pub fn max4(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`IcarousKinematicBands::type5`](IcarousKinematicBands::type5) (`type5` at offset 45).
     #[inline]
     pub fn type5(&self) -> IcarousTrackBandTypes {
-        IcarousTrackBandTypes::from_raw(::mavwire::field::read::<u8>(self.payload, 45))
+        IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 45))
     }
 
     /// Reads [`IcarousKinematicBands::min5`](IcarousKinematicBands::min5) (`min5` at offset 32).
     #[inline]
     pub fn min5(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`IcarousKinematicBands::max5`](IcarousKinematicBands::max5) (`max5` at offset 36).
     #[inline]
     pub fn max5(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 36)
+        ::mavframe::field::read::<f32>(self.payload, 36)
     }
 }
 
@@ -694,9 +694,9 @@ pub struct IcarousKinematicBandsMut<'a> {
 
 impl<'a> IcarousKinematicBandsMut<'a> {
     /// A writer over `payload`, which must hold at least [`IcarousKinematicBands::MAX_LEN`](struct@IcarousKinematicBands) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < IcarousKinematicBands::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: IcarousKinematicBands::MAX_LEN,
                 got: payload.len(),
             });
@@ -712,96 +712,96 @@ impl<'a> IcarousKinematicBandsMut<'a> {
     /// Sets the `numBands` field.
     #[inline]
     pub fn set_num_bands(&mut self, value: i8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `type1` field.
     #[inline]
     pub fn set_type1(&mut self, value: IcarousTrackBandTypes) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 41)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 41)
     }
 
     /// Sets the `min1` field.
     #[inline]
     pub fn set_min1(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `max1` field.
     #[inline]
     pub fn set_max1(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `type2` field.
     #[inline]
     pub fn set_type2(&mut self, value: IcarousTrackBandTypes) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 42)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 42)
     }
 
     /// Sets the `min2` field.
     #[inline]
     pub fn set_min2(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `max2` field.
     #[inline]
     pub fn set_max2(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `type3` field.
     #[inline]
     pub fn set_type3(&mut self, value: IcarousTrackBandTypes) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 43)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 43)
     }
 
     /// Sets the `min3` field.
     #[inline]
     pub fn set_min3(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `max3` field.
     #[inline]
     pub fn set_max3(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `type4` field.
     #[inline]
     pub fn set_type4(&mut self, value: IcarousTrackBandTypes) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 44)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 44)
     }
 
     /// Sets the `min4` field.
     #[inline]
     pub fn set_min4(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `max4` field.
     #[inline]
     pub fn set_max4(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `type5` field.
     #[inline]
     pub fn set_type5(&mut self, value: IcarousTrackBandTypes) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 45)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 45)
     }
 
     /// Sets the `min5` field.
     #[inline]
     pub fn set_min5(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `max5` field.
     #[inline]
     pub fn set_max5(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 }

@@ -500,7 +500,7 @@ impl EkfStatusFlags {
     pub const EKF_GPS_GLITCHING: Self = Self(32768);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     EkfStatusFlags, u16, [EKF_ATTITUDE, EKF_VELOCITY_HORIZ, EKF_VELOCITY_VERT,
     EKF_POS_HORIZ_REL, EKF_POS_HORIZ_ABS, EKF_POS_VERT_ABS, EKF_POS_VERT_AGL,
     EKF_CONST_POS_MODE, EKF_PRED_POS_HORIZ_REL, EKF_PRED_POS_HORIZ_ABS,
@@ -1157,7 +1157,7 @@ impl GoproHeartbeatFlags {
     pub const GOPRO_FLAG_RECORDING: Self = Self(1);
 }
 
-::mavwire::flag_set!(GoproHeartbeatFlags, u8, [GOPRO_FLAG_RECORDING]);
+::mavframe::flag_set!(GoproHeartbeatFlags, u8, [GOPRO_FLAG_RECORDING]);
 
 /// `GOPRO_HEARTBEAT_STATUS`
 ///
@@ -1870,7 +1870,7 @@ impl GoproVideoSettingsFlags {
     pub const GOPRO_VIDEO_SETTINGS_TV_MODE: Self = Self(1);
 }
 
-::mavwire::flag_set!(GoproVideoSettingsFlags, u8, [GOPRO_VIDEO_SETTINGS_TV_MODE]);
+::mavframe::flag_set!(GoproVideoSettingsFlags, u8, [GOPRO_VIDEO_SETTINGS_TV_MODE]);
 
 /// `LED_CONTROL_PATTERN`
 ///
@@ -2015,7 +2015,7 @@ impl LimitModule {
     pub const LIMIT_ALTITUDE: Self = Self(4);
 }
 
-::mavwire::flag_set!(LimitModule, u8, [LIMIT_GPSLOCK, LIMIT_GEOFENCE, LIMIT_ALTITUDE]);
+::mavframe::flag_set!(LimitModule, u8, [LIMIT_GPSLOCK, LIMIT_GEOFENCE, LIMIT_ALTITUDE]);
 
 /// `MAV_CMD_DO_AUX_FUNCTION_SWITCH_LEVEL`
 ///
@@ -3170,7 +3170,7 @@ impl SensorOffsets {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -3179,86 +3179,86 @@ impl SensorOffsets {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mag_declination",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "raw_press",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "raw_temp",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gyro_cal_x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gyro_cal_y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gyro_cal_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "accel_cal_x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "accel_cal_y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "accel_cal_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mag_ofs_x",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mag_ofs_y",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 38,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mag_ofs_z",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 40,
                 extension: false,
@@ -3268,20 +3268,20 @@ impl SensorOffsets {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            mag_ofs_x: ::mavwire::field::read::<i16>(p, 36),
-            mag_ofs_y: ::mavwire::field::read::<i16>(p, 38),
-            mag_ofs_z: ::mavwire::field::read::<i16>(p, 40),
-            mag_declination: ::mavwire::field::read::<f32>(p, 0),
-            raw_press: ::mavwire::field::read::<i32>(p, 4),
-            raw_temp: ::mavwire::field::read::<i32>(p, 8),
-            gyro_cal_x: ::mavwire::field::read::<f32>(p, 12),
-            gyro_cal_y: ::mavwire::field::read::<f32>(p, 16),
-            gyro_cal_z: ::mavwire::field::read::<f32>(p, 20),
-            accel_cal_x: ::mavwire::field::read::<f32>(p, 24),
-            accel_cal_y: ::mavwire::field::read::<f32>(p, 28),
-            accel_cal_z: ::mavwire::field::read::<f32>(p, 32),
+            mag_ofs_x: ::mavframe::field::read::<i16>(p, 36),
+            mag_ofs_y: ::mavframe::field::read::<i16>(p, 38),
+            mag_ofs_z: ::mavframe::field::read::<i16>(p, 40),
+            mag_declination: ::mavframe::field::read::<f32>(p, 0),
+            raw_press: ::mavframe::field::read::<i32>(p, 4),
+            raw_temp: ::mavframe::field::read::<i32>(p, 8),
+            gyro_cal_x: ::mavframe::field::read::<f32>(p, 12),
+            gyro_cal_y: ::mavframe::field::read::<f32>(p, 16),
+            gyro_cal_z: ::mavframe::field::read::<f32>(p, 20),
+            accel_cal_x: ::mavframe::field::read::<f32>(p, 24),
+            accel_cal_y: ::mavframe::field::read::<f32>(p, 28),
+            accel_cal_z: ::mavframe::field::read::<f32>(p, 32),
         }
     }
 
@@ -3293,26 +3293,26 @@ impl SensorOffsets {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.mag_ofs_x, out, 36);
-        ::mavwire::field::Scalar::write(self.mag_ofs_y, out, 38);
-        ::mavwire::field::Scalar::write(self.mag_ofs_z, out, 40);
-        ::mavwire::field::Scalar::write(self.mag_declination, out, 0);
-        ::mavwire::field::Scalar::write(self.raw_press, out, 4);
-        ::mavwire::field::Scalar::write(self.raw_temp, out, 8);
-        ::mavwire::field::Scalar::write(self.gyro_cal_x, out, 12);
-        ::mavwire::field::Scalar::write(self.gyro_cal_y, out, 16);
-        ::mavwire::field::Scalar::write(self.gyro_cal_z, out, 20);
-        ::mavwire::field::Scalar::write(self.accel_cal_x, out, 24);
-        ::mavwire::field::Scalar::write(self.accel_cal_y, out, 28);
-        ::mavwire::field::Scalar::write(self.accel_cal_z, out, 32);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.mag_ofs_x, out, 36);
+        ::mavframe::field::Scalar::write(self.mag_ofs_y, out, 38);
+        ::mavframe::field::Scalar::write(self.mag_ofs_z, out, 40);
+        ::mavframe::field::Scalar::write(self.mag_declination, out, 0);
+        ::mavframe::field::Scalar::write(self.raw_press, out, 4);
+        ::mavframe::field::Scalar::write(self.raw_temp, out, 8);
+        ::mavframe::field::Scalar::write(self.gyro_cal_x, out, 12);
+        ::mavframe::field::Scalar::write(self.gyro_cal_y, out, 16);
+        ::mavframe::field::Scalar::write(self.gyro_cal_z, out, 20);
+        ::mavframe::field::Scalar::write(self.accel_cal_x, out, 24);
+        ::mavframe::field::Scalar::write(self.accel_cal_y, out, 28);
+        ::mavframe::field::Scalar::write(self.accel_cal_z, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for SensorOffsets {
-    const META: ::mavwire::MessageMeta = SensorOffsets::META;
+impl ::mavframe::Message for SensorOffsets {
+    const META: ::mavframe::MessageMeta = SensorOffsets::META;
     type View<'a> = SensorOffsetsView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -3320,7 +3320,7 @@ impl ::mavwire::Message for SensorOffsets {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SensorOffsets::emit(self, payload)
     }
 
@@ -3361,73 +3361,73 @@ impl<'a> SensorOffsetsView<'a> {
     /// Reads [`SensorOffsets::mag_ofs_x`](SensorOffsets::mag_ofs_x) (`mag_ofs_x` at offset 36).
     #[inline]
     pub fn mag_ofs_x(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 36)
+        ::mavframe::field::read::<i16>(self.payload, 36)
     }
 
     /// Reads [`SensorOffsets::mag_ofs_y`](SensorOffsets::mag_ofs_y) (`mag_ofs_y` at offset 38).
     #[inline]
     pub fn mag_ofs_y(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 38)
+        ::mavframe::field::read::<i16>(self.payload, 38)
     }
 
     /// Reads [`SensorOffsets::mag_ofs_z`](SensorOffsets::mag_ofs_z) (`mag_ofs_z` at offset 40).
     #[inline]
     pub fn mag_ofs_z(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 40)
+        ::mavframe::field::read::<i16>(self.payload, 40)
     }
 
     /// Reads [`SensorOffsets::mag_declination`](SensorOffsets::mag_declination) (`mag_declination` at offset 0).
     #[inline]
     pub fn mag_declination(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`SensorOffsets::raw_press`](SensorOffsets::raw_press) (`raw_press` at offset 4).
     #[inline]
     pub fn raw_press(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`SensorOffsets::raw_temp`](SensorOffsets::raw_temp) (`raw_temp` at offset 8).
     #[inline]
     pub fn raw_temp(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`SensorOffsets::gyro_cal_x`](SensorOffsets::gyro_cal_x) (`gyro_cal_x` at offset 12).
     #[inline]
     pub fn gyro_cal_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`SensorOffsets::gyro_cal_y`](SensorOffsets::gyro_cal_y) (`gyro_cal_y` at offset 16).
     #[inline]
     pub fn gyro_cal_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`SensorOffsets::gyro_cal_z`](SensorOffsets::gyro_cal_z) (`gyro_cal_z` at offset 20).
     #[inline]
     pub fn gyro_cal_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`SensorOffsets::accel_cal_x`](SensorOffsets::accel_cal_x) (`accel_cal_x` at offset 24).
     #[inline]
     pub fn accel_cal_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`SensorOffsets::accel_cal_y`](SensorOffsets::accel_cal_y) (`accel_cal_y` at offset 28).
     #[inline]
     pub fn accel_cal_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`SensorOffsets::accel_cal_z`](SensorOffsets::accel_cal_z) (`accel_cal_z` at offset 32).
     #[inline]
     pub fn accel_cal_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 }
 
@@ -3439,9 +3439,9 @@ pub struct SensorOffsetsMut<'a> {
 
 impl<'a> SensorOffsetsMut<'a> {
     /// A writer over `payload`, which must hold at least [`SensorOffsets::MAX_LEN`](struct@SensorOffsets) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SensorOffsets::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SensorOffsets::MAX_LEN,
                 got: payload.len(),
             });
@@ -3457,73 +3457,73 @@ impl<'a> SensorOffsetsMut<'a> {
     /// Sets the `mag_ofs_x` field.
     #[inline]
     pub fn set_mag_ofs_x(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `mag_ofs_y` field.
     #[inline]
     pub fn set_mag_ofs_y(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 38)
+        ::mavframe::field::Scalar::write(value, self.payload, 38)
     }
 
     /// Sets the `mag_ofs_z` field.
     #[inline]
     pub fn set_mag_ofs_z(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `mag_declination` field.
     #[inline]
     pub fn set_mag_declination(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `raw_press` field.
     #[inline]
     pub fn set_raw_press(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `raw_temp` field.
     #[inline]
     pub fn set_raw_temp(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `gyro_cal_x` field.
     #[inline]
     pub fn set_gyro_cal_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `gyro_cal_y` field.
     #[inline]
     pub fn set_gyro_cal_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `gyro_cal_z` field.
     #[inline]
     pub fn set_gyro_cal_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `accel_cal_x` field.
     #[inline]
     pub fn set_accel_cal_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `accel_cal_y` field.
     #[inline]
     pub fn set_accel_cal_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `accel_cal_z` field.
     #[inline]
     pub fn set_accel_cal_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 }
 
@@ -3567,7 +3567,7 @@ impl SetMagOffsets {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -3576,37 +3576,37 @@ impl SetMagOffsets {
         target_system_offset: Some(6),
         target_component_offset: Some(7),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mag_ofs_x",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mag_ofs_y",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mag_ofs_z",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
@@ -3616,13 +3616,13 @@ impl SetMagOffsets {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 6),
-            target_component: ::mavwire::field::read::<u8>(p, 7),
-            mag_ofs_x: ::mavwire::field::read::<i16>(p, 0),
-            mag_ofs_y: ::mavwire::field::read::<i16>(p, 2),
-            mag_ofs_z: ::mavwire::field::read::<i16>(p, 4),
+            target_system: ::mavframe::field::read::<u8>(p, 6),
+            target_component: ::mavframe::field::read::<u8>(p, 7),
+            mag_ofs_x: ::mavframe::field::read::<i16>(p, 0),
+            mag_ofs_y: ::mavframe::field::read::<i16>(p, 2),
+            mag_ofs_z: ::mavframe::field::read::<i16>(p, 4),
         }
     }
 
@@ -3634,19 +3634,19 @@ impl SetMagOffsets {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 6);
-        ::mavwire::field::Scalar::write(self.target_component, out, 7);
-        ::mavwire::field::Scalar::write(self.mag_ofs_x, out, 0);
-        ::mavwire::field::Scalar::write(self.mag_ofs_y, out, 2);
-        ::mavwire::field::Scalar::write(self.mag_ofs_z, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 6);
+        ::mavframe::field::Scalar::write(self.target_component, out, 7);
+        ::mavframe::field::Scalar::write(self.mag_ofs_x, out, 0);
+        ::mavframe::field::Scalar::write(self.mag_ofs_y, out, 2);
+        ::mavframe::field::Scalar::write(self.mag_ofs_z, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for SetMagOffsets {
-    const META: ::mavwire::MessageMeta = SetMagOffsets::META;
+impl ::mavframe::Message for SetMagOffsets {
+    const META: ::mavframe::MessageMeta = SetMagOffsets::META;
     type View<'a> = SetMagOffsetsView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -3654,7 +3654,7 @@ impl ::mavwire::Message for SetMagOffsets {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SetMagOffsets::emit(self, payload)
     }
 
@@ -3695,31 +3695,31 @@ impl<'a> SetMagOffsetsView<'a> {
     /// Reads [`SetMagOffsets::target_system`](SetMagOffsets::target_system) (`target_system` at offset 6).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 6)
+        ::mavframe::field::read::<u8>(self.payload, 6)
     }
 
     /// Reads [`SetMagOffsets::target_component`](SetMagOffsets::target_component) (`target_component` at offset 7).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 
     /// Reads [`SetMagOffsets::mag_ofs_x`](SetMagOffsets::mag_ofs_x) (`mag_ofs_x` at offset 0).
     #[inline]
     pub fn mag_ofs_x(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 0)
+        ::mavframe::field::read::<i16>(self.payload, 0)
     }
 
     /// Reads [`SetMagOffsets::mag_ofs_y`](SetMagOffsets::mag_ofs_y) (`mag_ofs_y` at offset 2).
     #[inline]
     pub fn mag_ofs_y(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 2)
+        ::mavframe::field::read::<i16>(self.payload, 2)
     }
 
     /// Reads [`SetMagOffsets::mag_ofs_z`](SetMagOffsets::mag_ofs_z) (`mag_ofs_z` at offset 4).
     #[inline]
     pub fn mag_ofs_z(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 4)
+        ::mavframe::field::read::<i16>(self.payload, 4)
     }
 }
 
@@ -3731,9 +3731,9 @@ pub struct SetMagOffsetsMut<'a> {
 
 impl<'a> SetMagOffsetsMut<'a> {
     /// A writer over `payload`, which must hold at least [`SetMagOffsets::MAX_LEN`](struct@SetMagOffsets) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SetMagOffsets::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SetMagOffsets::MAX_LEN,
                 got: payload.len(),
             });
@@ -3749,31 +3749,31 @@ impl<'a> SetMagOffsetsMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 
     /// Sets the `mag_ofs_x` field.
     #[inline]
     pub fn set_mag_ofs_x(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `mag_ofs_y` field.
     #[inline]
     pub fn set_mag_ofs_y(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 
     /// Sets the `mag_ofs_z` field.
     #[inline]
     pub fn set_mag_ofs_z(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -3809,7 +3809,7 @@ impl Meminfo {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -3818,23 +3818,23 @@ impl Meminfo {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "brkval",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "freemem",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "freemem32",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: true,
@@ -3844,11 +3844,11 @@ impl Meminfo {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            brkval: ::mavwire::field::read::<u16>(p, 0),
-            freemem: ::mavwire::field::read::<u16>(p, 2),
-            freemem32: ::mavwire::field::read::<u32>(p, 4),
+            brkval: ::mavframe::field::read::<u16>(p, 0),
+            freemem: ::mavframe::field::read::<u16>(p, 2),
+            freemem32: ::mavframe::field::read::<u32>(p, 4),
         }
     }
 
@@ -3860,17 +3860,17 @@ impl Meminfo {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.brkval, out, 0);
-        ::mavwire::field::Scalar::write(self.freemem, out, 2);
-        ::mavwire::field::Scalar::write(self.freemem32, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.brkval, out, 0);
+        ::mavframe::field::Scalar::write(self.freemem, out, 2);
+        ::mavframe::field::Scalar::write(self.freemem32, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Meminfo {
-    const META: ::mavwire::MessageMeta = Meminfo::META;
+impl ::mavframe::Message for Meminfo {
+    const META: ::mavframe::MessageMeta = Meminfo::META;
     type View<'a> = MeminfoView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -3878,7 +3878,7 @@ impl ::mavwire::Message for Meminfo {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Meminfo::emit(self, payload)
     }
 
@@ -3919,19 +3919,19 @@ impl<'a> MeminfoView<'a> {
     /// Reads [`Meminfo::brkval`](Meminfo::brkval) (`brkval` at offset 0).
     #[inline]
     pub fn brkval(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 0)
+        ::mavframe::field::read::<u16>(self.payload, 0)
     }
 
     /// Reads [`Meminfo::freemem`](Meminfo::freemem) (`freemem` at offset 2).
     #[inline]
     pub fn freemem(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 2)
+        ::mavframe::field::read::<u16>(self.payload, 2)
     }
 
     /// Reads [`Meminfo::freemem32`](Meminfo::freemem32) (`freemem32` at offset 4).
     #[inline]
     pub fn freemem32(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 4)
+        ::mavframe::field::read::<u32>(self.payload, 4)
     }
 }
 
@@ -3943,9 +3943,9 @@ pub struct MeminfoMut<'a> {
 
 impl<'a> MeminfoMut<'a> {
     /// A writer over `payload`, which must hold at least [`Meminfo::MAX_LEN`](struct@Meminfo) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Meminfo::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Meminfo::MAX_LEN,
                 got: payload.len(),
             });
@@ -3961,19 +3961,19 @@ impl<'a> MeminfoMut<'a> {
     /// Sets the `brkval` field.
     #[inline]
     pub fn set_brkval(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `freemem` field.
     #[inline]
     pub fn set_freemem(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 
     /// Sets the `freemem32` field.
     #[inline]
     pub fn set_freemem32(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -4020,7 +4020,7 @@ impl ApAdc {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -4029,44 +4029,44 @@ impl ApAdc {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "adc1",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "adc2",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "adc3",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "adc4",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "adc5",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "adc6",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 10,
                 extension: false,
@@ -4076,14 +4076,14 @@ impl ApAdc {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            adc1: ::mavwire::field::read::<u16>(p, 0),
-            adc2: ::mavwire::field::read::<u16>(p, 2),
-            adc3: ::mavwire::field::read::<u16>(p, 4),
-            adc4: ::mavwire::field::read::<u16>(p, 6),
-            adc5: ::mavwire::field::read::<u16>(p, 8),
-            adc6: ::mavwire::field::read::<u16>(p, 10),
+            adc1: ::mavframe::field::read::<u16>(p, 0),
+            adc2: ::mavframe::field::read::<u16>(p, 2),
+            adc3: ::mavframe::field::read::<u16>(p, 4),
+            adc4: ::mavframe::field::read::<u16>(p, 6),
+            adc5: ::mavframe::field::read::<u16>(p, 8),
+            adc6: ::mavframe::field::read::<u16>(p, 10),
         }
     }
 
@@ -4095,20 +4095,20 @@ impl ApAdc {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.adc1, out, 0);
-        ::mavwire::field::Scalar::write(self.adc2, out, 2);
-        ::mavwire::field::Scalar::write(self.adc3, out, 4);
-        ::mavwire::field::Scalar::write(self.adc4, out, 6);
-        ::mavwire::field::Scalar::write(self.adc5, out, 8);
-        ::mavwire::field::Scalar::write(self.adc6, out, 10);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.adc1, out, 0);
+        ::mavframe::field::Scalar::write(self.adc2, out, 2);
+        ::mavframe::field::Scalar::write(self.adc3, out, 4);
+        ::mavframe::field::Scalar::write(self.adc4, out, 6);
+        ::mavframe::field::Scalar::write(self.adc5, out, 8);
+        ::mavframe::field::Scalar::write(self.adc6, out, 10);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for ApAdc {
-    const META: ::mavwire::MessageMeta = ApAdc::META;
+impl ::mavframe::Message for ApAdc {
+    const META: ::mavframe::MessageMeta = ApAdc::META;
     type View<'a> = ApAdcView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -4116,7 +4116,7 @@ impl ::mavwire::Message for ApAdc {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         ApAdc::emit(self, payload)
     }
 
@@ -4157,37 +4157,37 @@ impl<'a> ApAdcView<'a> {
     /// Reads [`ApAdc::adc1`](ApAdc::adc1) (`adc1` at offset 0).
     #[inline]
     pub fn adc1(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 0)
+        ::mavframe::field::read::<u16>(self.payload, 0)
     }
 
     /// Reads [`ApAdc::adc2`](ApAdc::adc2) (`adc2` at offset 2).
     #[inline]
     pub fn adc2(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 2)
+        ::mavframe::field::read::<u16>(self.payload, 2)
     }
 
     /// Reads [`ApAdc::adc3`](ApAdc::adc3) (`adc3` at offset 4).
     #[inline]
     pub fn adc3(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 4)
+        ::mavframe::field::read::<u16>(self.payload, 4)
     }
 
     /// Reads [`ApAdc::adc4`](ApAdc::adc4) (`adc4` at offset 6).
     #[inline]
     pub fn adc4(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 6)
+        ::mavframe::field::read::<u16>(self.payload, 6)
     }
 
     /// Reads [`ApAdc::adc5`](ApAdc::adc5) (`adc5` at offset 8).
     #[inline]
     pub fn adc5(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 8)
+        ::mavframe::field::read::<u16>(self.payload, 8)
     }
 
     /// Reads [`ApAdc::adc6`](ApAdc::adc6) (`adc6` at offset 10).
     #[inline]
     pub fn adc6(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 10)
+        ::mavframe::field::read::<u16>(self.payload, 10)
     }
 }
 
@@ -4199,9 +4199,9 @@ pub struct ApAdcMut<'a> {
 
 impl<'a> ApAdcMut<'a> {
     /// A writer over `payload`, which must hold at least [`ApAdc::MAX_LEN`](struct@ApAdc) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < ApAdc::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: ApAdc::MAX_LEN,
                 got: payload.len(),
             });
@@ -4217,37 +4217,37 @@ impl<'a> ApAdcMut<'a> {
     /// Sets the `adc1` field.
     #[inline]
     pub fn set_adc1(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `adc2` field.
     #[inline]
     pub fn set_adc2(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 
     /// Sets the `adc3` field.
     #[inline]
     pub fn set_adc3(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `adc4` field.
     #[inline]
     pub fn set_adc4(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `adc5` field.
     #[inline]
     pub fn set_adc5(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `adc6` field.
     #[inline]
     pub fn set_adc6(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 }
 
@@ -4315,7 +4315,7 @@ impl DigicamConfigure {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 15;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -4324,79 +4324,79 @@ impl DigicamConfigure {
         target_system_offset: Some(6),
         target_component_offset: Some(7),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "extra_value",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "shutter_speed",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mode",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "aperture",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 9,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "iso",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "exposure_type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 11,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "command_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "engine_cut_off",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 13,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "extra_param",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 14,
                 extension: false,
@@ -4406,19 +4406,19 @@ impl DigicamConfigure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 6),
-            target_component: ::mavwire::field::read::<u8>(p, 7),
-            mode: ::mavwire::field::read::<u8>(p, 8),
-            shutter_speed: ::mavwire::field::read::<u16>(p, 4),
-            aperture: ::mavwire::field::read::<u8>(p, 9),
-            iso: ::mavwire::field::read::<u8>(p, 10),
-            exposure_type: ::mavwire::field::read::<u8>(p, 11),
-            command_id: ::mavwire::field::read::<u8>(p, 12),
-            engine_cut_off: ::mavwire::field::read::<u8>(p, 13),
-            extra_param: ::mavwire::field::read::<u8>(p, 14),
-            extra_value: ::mavwire::field::read::<f32>(p, 0),
+            target_system: ::mavframe::field::read::<u8>(p, 6),
+            target_component: ::mavframe::field::read::<u8>(p, 7),
+            mode: ::mavframe::field::read::<u8>(p, 8),
+            shutter_speed: ::mavframe::field::read::<u16>(p, 4),
+            aperture: ::mavframe::field::read::<u8>(p, 9),
+            iso: ::mavframe::field::read::<u8>(p, 10),
+            exposure_type: ::mavframe::field::read::<u8>(p, 11),
+            command_id: ::mavframe::field::read::<u8>(p, 12),
+            engine_cut_off: ::mavframe::field::read::<u8>(p, 13),
+            extra_param: ::mavframe::field::read::<u8>(p, 14),
+            extra_value: ::mavframe::field::read::<f32>(p, 0),
         }
     }
 
@@ -4430,25 +4430,25 @@ impl DigicamConfigure {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 6);
-        ::mavwire::field::Scalar::write(self.target_component, out, 7);
-        ::mavwire::field::Scalar::write(self.mode, out, 8);
-        ::mavwire::field::Scalar::write(self.shutter_speed, out, 4);
-        ::mavwire::field::Scalar::write(self.aperture, out, 9);
-        ::mavwire::field::Scalar::write(self.iso, out, 10);
-        ::mavwire::field::Scalar::write(self.exposure_type, out, 11);
-        ::mavwire::field::Scalar::write(self.command_id, out, 12);
-        ::mavwire::field::Scalar::write(self.engine_cut_off, out, 13);
-        ::mavwire::field::Scalar::write(self.extra_param, out, 14);
-        ::mavwire::field::Scalar::write(self.extra_value, out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 6);
+        ::mavframe::field::Scalar::write(self.target_component, out, 7);
+        ::mavframe::field::Scalar::write(self.mode, out, 8);
+        ::mavframe::field::Scalar::write(self.shutter_speed, out, 4);
+        ::mavframe::field::Scalar::write(self.aperture, out, 9);
+        ::mavframe::field::Scalar::write(self.iso, out, 10);
+        ::mavframe::field::Scalar::write(self.exposure_type, out, 11);
+        ::mavframe::field::Scalar::write(self.command_id, out, 12);
+        ::mavframe::field::Scalar::write(self.engine_cut_off, out, 13);
+        ::mavframe::field::Scalar::write(self.extra_param, out, 14);
+        ::mavframe::field::Scalar::write(self.extra_value, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for DigicamConfigure {
-    const META: ::mavwire::MessageMeta = DigicamConfigure::META;
+impl ::mavframe::Message for DigicamConfigure {
+    const META: ::mavframe::MessageMeta = DigicamConfigure::META;
     type View<'a> = DigicamConfigureView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -4456,7 +4456,7 @@ impl ::mavwire::Message for DigicamConfigure {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DigicamConfigure::emit(self, payload)
     }
 
@@ -4497,67 +4497,67 @@ impl<'a> DigicamConfigureView<'a> {
     /// Reads [`DigicamConfigure::target_system`](DigicamConfigure::target_system) (`target_system` at offset 6).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 6)
+        ::mavframe::field::read::<u8>(self.payload, 6)
     }
 
     /// Reads [`DigicamConfigure::target_component`](DigicamConfigure::target_component) (`target_component` at offset 7).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 
     /// Reads [`DigicamConfigure::mode`](DigicamConfigure::mode) (`mode` at offset 8).
     #[inline]
     pub fn mode(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`DigicamConfigure::shutter_speed`](DigicamConfigure::shutter_speed) (`shutter_speed` at offset 4).
     #[inline]
     pub fn shutter_speed(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 4)
+        ::mavframe::field::read::<u16>(self.payload, 4)
     }
 
     /// Reads [`DigicamConfigure::aperture`](DigicamConfigure::aperture) (`aperture` at offset 9).
     #[inline]
     pub fn aperture(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 9)
+        ::mavframe::field::read::<u8>(self.payload, 9)
     }
 
     /// Reads [`DigicamConfigure::iso`](DigicamConfigure::iso) (`iso` at offset 10).
     #[inline]
     pub fn iso(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 10)
+        ::mavframe::field::read::<u8>(self.payload, 10)
     }
 
     /// Reads [`DigicamConfigure::exposure_type`](DigicamConfigure::exposure_type) (`exposure_type` at offset 11).
     #[inline]
     pub fn exposure_type(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 11)
+        ::mavframe::field::read::<u8>(self.payload, 11)
     }
 
     /// Reads [`DigicamConfigure::command_id`](DigicamConfigure::command_id) (`command_id` at offset 12).
     #[inline]
     pub fn command_id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 12)
+        ::mavframe::field::read::<u8>(self.payload, 12)
     }
 
     /// Reads [`DigicamConfigure::engine_cut_off`](DigicamConfigure::engine_cut_off) (`engine_cut_off` at offset 13).
     #[inline]
     pub fn engine_cut_off(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 13)
+        ::mavframe::field::read::<u8>(self.payload, 13)
     }
 
     /// Reads [`DigicamConfigure::extra_param`](DigicamConfigure::extra_param) (`extra_param` at offset 14).
     #[inline]
     pub fn extra_param(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 14)
+        ::mavframe::field::read::<u8>(self.payload, 14)
     }
 
     /// Reads [`DigicamConfigure::extra_value`](DigicamConfigure::extra_value) (`extra_value` at offset 0).
     #[inline]
     pub fn extra_value(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 }
 
@@ -4569,9 +4569,9 @@ pub struct DigicamConfigureMut<'a> {
 
 impl<'a> DigicamConfigureMut<'a> {
     /// A writer over `payload`, which must hold at least [`DigicamConfigure::MAX_LEN`](struct@DigicamConfigure) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < DigicamConfigure::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: DigicamConfigure::MAX_LEN,
                 got: payload.len(),
             });
@@ -4587,67 +4587,67 @@ impl<'a> DigicamConfigureMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 
     /// Sets the `mode` field.
     #[inline]
     pub fn set_mode(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `shutter_speed` field.
     #[inline]
     pub fn set_shutter_speed(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `aperture` field.
     #[inline]
     pub fn set_aperture(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 9)
+        ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
 
     /// Sets the `iso` field.
     #[inline]
     pub fn set_iso(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `exposure_type` field.
     #[inline]
     pub fn set_exposure_type(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 11)
+        ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
 
     /// Sets the `command_id` field.
     #[inline]
     pub fn set_command_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `engine_cut_off` field.
     #[inline]
     pub fn set_engine_cut_off(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 13)
+        ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
 
     /// Sets the `extra_param` field.
     #[inline]
     pub fn set_extra_param(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 
     /// Sets the `extra_value` field.
     #[inline]
     pub fn set_extra_value(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 }
 
@@ -4711,7 +4711,7 @@ impl DigicamControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 13;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -4720,72 +4720,72 @@ impl DigicamControl {
         target_system_offset: Some(4),
         target_component_offset: Some(5),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "extra_value",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "session",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "zoom_pos",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "zoom_step",
-                ty: ::mavwire::FieldType::I8,
+                ty: ::mavframe::FieldType::I8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "focus_lock",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 9,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "shot",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "command_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 11,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "extra_param",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 12,
                 extension: false,
@@ -4795,18 +4795,18 @@ impl DigicamControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 4),
-            target_component: ::mavwire::field::read::<u8>(p, 5),
-            session: ::mavwire::field::read::<u8>(p, 6),
-            zoom_pos: ::mavwire::field::read::<u8>(p, 7),
-            zoom_step: ::mavwire::field::read::<i8>(p, 8),
-            focus_lock: ::mavwire::field::read::<u8>(p, 9),
-            shot: ::mavwire::field::read::<u8>(p, 10),
-            command_id: ::mavwire::field::read::<u8>(p, 11),
-            extra_param: ::mavwire::field::read::<u8>(p, 12),
-            extra_value: ::mavwire::field::read::<f32>(p, 0),
+            target_system: ::mavframe::field::read::<u8>(p, 4),
+            target_component: ::mavframe::field::read::<u8>(p, 5),
+            session: ::mavframe::field::read::<u8>(p, 6),
+            zoom_pos: ::mavframe::field::read::<u8>(p, 7),
+            zoom_step: ::mavframe::field::read::<i8>(p, 8),
+            focus_lock: ::mavframe::field::read::<u8>(p, 9),
+            shot: ::mavframe::field::read::<u8>(p, 10),
+            command_id: ::mavframe::field::read::<u8>(p, 11),
+            extra_param: ::mavframe::field::read::<u8>(p, 12),
+            extra_value: ::mavframe::field::read::<f32>(p, 0),
         }
     }
 
@@ -4818,24 +4818,24 @@ impl DigicamControl {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 4);
-        ::mavwire::field::Scalar::write(self.target_component, out, 5);
-        ::mavwire::field::Scalar::write(self.session, out, 6);
-        ::mavwire::field::Scalar::write(self.zoom_pos, out, 7);
-        ::mavwire::field::Scalar::write(self.zoom_step, out, 8);
-        ::mavwire::field::Scalar::write(self.focus_lock, out, 9);
-        ::mavwire::field::Scalar::write(self.shot, out, 10);
-        ::mavwire::field::Scalar::write(self.command_id, out, 11);
-        ::mavwire::field::Scalar::write(self.extra_param, out, 12);
-        ::mavwire::field::Scalar::write(self.extra_value, out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 4);
+        ::mavframe::field::Scalar::write(self.target_component, out, 5);
+        ::mavframe::field::Scalar::write(self.session, out, 6);
+        ::mavframe::field::Scalar::write(self.zoom_pos, out, 7);
+        ::mavframe::field::Scalar::write(self.zoom_step, out, 8);
+        ::mavframe::field::Scalar::write(self.focus_lock, out, 9);
+        ::mavframe::field::Scalar::write(self.shot, out, 10);
+        ::mavframe::field::Scalar::write(self.command_id, out, 11);
+        ::mavframe::field::Scalar::write(self.extra_param, out, 12);
+        ::mavframe::field::Scalar::write(self.extra_value, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for DigicamControl {
-    const META: ::mavwire::MessageMeta = DigicamControl::META;
+impl ::mavframe::Message for DigicamControl {
+    const META: ::mavframe::MessageMeta = DigicamControl::META;
     type View<'a> = DigicamControlView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -4843,7 +4843,7 @@ impl ::mavwire::Message for DigicamControl {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DigicamControl::emit(self, payload)
     }
 
@@ -4884,61 +4884,61 @@ impl<'a> DigicamControlView<'a> {
     /// Reads [`DigicamControl::target_system`](DigicamControl::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`DigicamControl::target_component`](DigicamControl::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`DigicamControl::session`](DigicamControl::session) (`session` at offset 6).
     #[inline]
     pub fn session(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 6)
+        ::mavframe::field::read::<u8>(self.payload, 6)
     }
 
     /// Reads [`DigicamControl::zoom_pos`](DigicamControl::zoom_pos) (`zoom_pos` at offset 7).
     #[inline]
     pub fn zoom_pos(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 
     /// Reads [`DigicamControl::zoom_step`](DigicamControl::zoom_step) (`zoom_step` at offset 8).
     #[inline]
     pub fn zoom_step(&self) -> i8 {
-        ::mavwire::field::read::<i8>(self.payload, 8)
+        ::mavframe::field::read::<i8>(self.payload, 8)
     }
 
     /// Reads [`DigicamControl::focus_lock`](DigicamControl::focus_lock) (`focus_lock` at offset 9).
     #[inline]
     pub fn focus_lock(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 9)
+        ::mavframe::field::read::<u8>(self.payload, 9)
     }
 
     /// Reads [`DigicamControl::shot`](DigicamControl::shot) (`shot` at offset 10).
     #[inline]
     pub fn shot(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 10)
+        ::mavframe::field::read::<u8>(self.payload, 10)
     }
 
     /// Reads [`DigicamControl::command_id`](DigicamControl::command_id) (`command_id` at offset 11).
     #[inline]
     pub fn command_id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 11)
+        ::mavframe::field::read::<u8>(self.payload, 11)
     }
 
     /// Reads [`DigicamControl::extra_param`](DigicamControl::extra_param) (`extra_param` at offset 12).
     #[inline]
     pub fn extra_param(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 12)
+        ::mavframe::field::read::<u8>(self.payload, 12)
     }
 
     /// Reads [`DigicamControl::extra_value`](DigicamControl::extra_value) (`extra_value` at offset 0).
     #[inline]
     pub fn extra_value(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 }
 
@@ -4950,9 +4950,9 @@ pub struct DigicamControlMut<'a> {
 
 impl<'a> DigicamControlMut<'a> {
     /// A writer over `payload`, which must hold at least [`DigicamControl::MAX_LEN`](struct@DigicamControl) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < DigicamControl::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: DigicamControl::MAX_LEN,
                 got: payload.len(),
             });
@@ -4968,61 +4968,61 @@ impl<'a> DigicamControlMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `session` field.
     #[inline]
     pub fn set_session(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `zoom_pos` field.
     #[inline]
     pub fn set_zoom_pos(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 
     /// Sets the `zoom_step` field.
     #[inline]
     pub fn set_zoom_step(&mut self, value: i8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `focus_lock` field.
     #[inline]
     pub fn set_focus_lock(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 9)
+        ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
 
     /// Sets the `shot` field.
     #[inline]
     pub fn set_shot(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `command_id` field.
     #[inline]
     pub fn set_command_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 11)
+        ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
 
     /// Sets the `extra_param` field.
     #[inline]
     pub fn set_extra_param(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `extra_value` field.
     #[inline]
     pub fn set_extra_value(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 }
 
@@ -5070,7 +5070,7 @@ impl MountConfigure {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -5079,44 +5079,44 @@ impl MountConfigure {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mount_mode",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "stab_roll",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 3,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "stab_pitch",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "stab_yaw",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
@@ -5126,16 +5126,16 @@ impl MountConfigure {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
             mount_mode: super::common::MavMountMode::from_raw(
-                ::mavwire::field::read::<u8>(p, 2),
+                ::mavframe::field::read::<u8>(p, 2),
             ),
-            stab_roll: ::mavwire::field::read::<u8>(p, 3),
-            stab_pitch: ::mavwire::field::read::<u8>(p, 4),
-            stab_yaw: ::mavwire::field::read::<u8>(p, 5),
+            stab_roll: ::mavframe::field::read::<u8>(p, 3),
+            stab_pitch: ::mavframe::field::read::<u8>(p, 4),
+            stab_yaw: ::mavframe::field::read::<u8>(p, 5),
         }
     }
 
@@ -5147,20 +5147,20 @@ impl MountConfigure {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
-        ::mavwire::field::Scalar::write(self.mount_mode.to_raw(), out, 2);
-        ::mavwire::field::Scalar::write(self.stab_roll, out, 3);
-        ::mavwire::field::Scalar::write(self.stab_pitch, out, 4);
-        ::mavwire::field::Scalar::write(self.stab_yaw, out, 5);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
+        ::mavframe::field::Scalar::write(self.mount_mode.to_raw(), out, 2);
+        ::mavframe::field::Scalar::write(self.stab_roll, out, 3);
+        ::mavframe::field::Scalar::write(self.stab_pitch, out, 4);
+        ::mavframe::field::Scalar::write(self.stab_yaw, out, 5);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for MountConfigure {
-    const META: ::mavwire::MessageMeta = MountConfigure::META;
+impl ::mavframe::Message for MountConfigure {
+    const META: ::mavframe::MessageMeta = MountConfigure::META;
     type View<'a> = MountConfigureView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -5168,7 +5168,7 @@ impl ::mavwire::Message for MountConfigure {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MountConfigure::emit(self, payload)
     }
 
@@ -5209,39 +5209,39 @@ impl<'a> MountConfigureView<'a> {
     /// Reads [`MountConfigure::target_system`](MountConfigure::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`MountConfigure::target_component`](MountConfigure::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`MountConfigure::mount_mode`](MountConfigure::mount_mode) (`mount_mode` at offset 2).
     #[inline]
     pub fn mount_mode(&self) -> super::common::MavMountMode {
         super::common::MavMountMode::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 2),
+            ::mavframe::field::read::<u8>(self.payload, 2),
         )
     }
 
     /// Reads [`MountConfigure::stab_roll`](MountConfigure::stab_roll) (`stab_roll` at offset 3).
     #[inline]
     pub fn stab_roll(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 3)
+        ::mavframe::field::read::<u8>(self.payload, 3)
     }
 
     /// Reads [`MountConfigure::stab_pitch`](MountConfigure::stab_pitch) (`stab_pitch` at offset 4).
     #[inline]
     pub fn stab_pitch(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`MountConfigure::stab_yaw`](MountConfigure::stab_yaw) (`stab_yaw` at offset 5).
     #[inline]
     pub fn stab_yaw(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 }
 
@@ -5253,9 +5253,9 @@ pub struct MountConfigureMut<'a> {
 
 impl<'a> MountConfigureMut<'a> {
     /// A writer over `payload`, which must hold at least [`MountConfigure::MAX_LEN`](struct@MountConfigure) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < MountConfigure::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: MountConfigure::MAX_LEN,
                 got: payload.len(),
             });
@@ -5271,37 +5271,37 @@ impl<'a> MountConfigureMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `mount_mode` field.
     #[inline]
     pub fn set_mount_mode(&mut self, value: super::common::MavMountMode) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 2)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 2)
     }
 
     /// Sets the `stab_roll` field.
     #[inline]
     pub fn set_stab_roll(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 3)
+        ::mavframe::field::Scalar::write(value, self.payload, 3)
     }
 
     /// Sets the `stab_pitch` field.
     #[inline]
     pub fn set_stab_pitch(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `stab_yaw` field.
     #[inline]
     pub fn set_stab_yaw(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 }
 
@@ -5349,7 +5349,7 @@ impl MountControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 15;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -5358,44 +5358,44 @@ impl MountControl {
         target_system_offset: Some(12),
         target_component_offset: Some(13),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "input_a",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "input_b",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "input_c",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 13,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "save_position",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 14,
                 extension: false,
@@ -5405,14 +5405,14 @@ impl MountControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 12),
-            target_component: ::mavwire::field::read::<u8>(p, 13),
-            input_a: ::mavwire::field::read::<i32>(p, 0),
-            input_b: ::mavwire::field::read::<i32>(p, 4),
-            input_c: ::mavwire::field::read::<i32>(p, 8),
-            save_position: ::mavwire::field::read::<u8>(p, 14),
+            target_system: ::mavframe::field::read::<u8>(p, 12),
+            target_component: ::mavframe::field::read::<u8>(p, 13),
+            input_a: ::mavframe::field::read::<i32>(p, 0),
+            input_b: ::mavframe::field::read::<i32>(p, 4),
+            input_c: ::mavframe::field::read::<i32>(p, 8),
+            save_position: ::mavframe::field::read::<u8>(p, 14),
         }
     }
 
@@ -5424,20 +5424,20 @@ impl MountControl {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 12);
-        ::mavwire::field::Scalar::write(self.target_component, out, 13);
-        ::mavwire::field::Scalar::write(self.input_a, out, 0);
-        ::mavwire::field::Scalar::write(self.input_b, out, 4);
-        ::mavwire::field::Scalar::write(self.input_c, out, 8);
-        ::mavwire::field::Scalar::write(self.save_position, out, 14);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 12);
+        ::mavframe::field::Scalar::write(self.target_component, out, 13);
+        ::mavframe::field::Scalar::write(self.input_a, out, 0);
+        ::mavframe::field::Scalar::write(self.input_b, out, 4);
+        ::mavframe::field::Scalar::write(self.input_c, out, 8);
+        ::mavframe::field::Scalar::write(self.save_position, out, 14);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for MountControl {
-    const META: ::mavwire::MessageMeta = MountControl::META;
+impl ::mavframe::Message for MountControl {
+    const META: ::mavframe::MessageMeta = MountControl::META;
     type View<'a> = MountControlView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -5445,7 +5445,7 @@ impl ::mavwire::Message for MountControl {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MountControl::emit(self, payload)
     }
 
@@ -5486,37 +5486,37 @@ impl<'a> MountControlView<'a> {
     /// Reads [`MountControl::target_system`](MountControl::target_system) (`target_system` at offset 12).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 12)
+        ::mavframe::field::read::<u8>(self.payload, 12)
     }
 
     /// Reads [`MountControl::target_component`](MountControl::target_component) (`target_component` at offset 13).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 13)
+        ::mavframe::field::read::<u8>(self.payload, 13)
     }
 
     /// Reads [`MountControl::input_a`](MountControl::input_a) (`input_a` at offset 0).
     #[inline]
     pub fn input_a(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 0)
+        ::mavframe::field::read::<i32>(self.payload, 0)
     }
 
     /// Reads [`MountControl::input_b`](MountControl::input_b) (`input_b` at offset 4).
     #[inline]
     pub fn input_b(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`MountControl::input_c`](MountControl::input_c) (`input_c` at offset 8).
     #[inline]
     pub fn input_c(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`MountControl::save_position`](MountControl::save_position) (`save_position` at offset 14).
     #[inline]
     pub fn save_position(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 14)
+        ::mavframe::field::read::<u8>(self.payload, 14)
     }
 }
 
@@ -5528,9 +5528,9 @@ pub struct MountControlMut<'a> {
 
 impl<'a> MountControlMut<'a> {
     /// A writer over `payload`, which must hold at least [`MountControl::MAX_LEN`](struct@MountControl) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < MountControl::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: MountControl::MAX_LEN,
                 got: payload.len(),
             });
@@ -5546,37 +5546,37 @@ impl<'a> MountControlMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 13)
+        ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
 
     /// Sets the `input_a` field.
     #[inline]
     pub fn set_input_a(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `input_b` field.
     #[inline]
     pub fn set_input_b(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `input_c` field.
     #[inline]
     pub fn set_input_c(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `save_position` field.
     #[inline]
     pub fn set_save_position(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 }
 
@@ -5624,7 +5624,7 @@ impl MountStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 15;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -5633,44 +5633,44 @@ impl MountStatus {
         target_system_offset: Some(12),
         target_component_offset: Some(13),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pointing_a",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pointing_b",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pointing_c",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 13,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mount_mode",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 14,
                 extension: true,
@@ -5680,15 +5680,15 @@ impl MountStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 12),
-            target_component: ::mavwire::field::read::<u8>(p, 13),
-            pointing_a: ::mavwire::field::read::<i32>(p, 0),
-            pointing_b: ::mavwire::field::read::<i32>(p, 4),
-            pointing_c: ::mavwire::field::read::<i32>(p, 8),
+            target_system: ::mavframe::field::read::<u8>(p, 12),
+            target_component: ::mavframe::field::read::<u8>(p, 13),
+            pointing_a: ::mavframe::field::read::<i32>(p, 0),
+            pointing_b: ::mavframe::field::read::<i32>(p, 4),
+            pointing_c: ::mavframe::field::read::<i32>(p, 8),
             mount_mode: super::common::MavMountMode::from_raw(
-                ::mavwire::field::read::<u8>(p, 14),
+                ::mavframe::field::read::<u8>(p, 14),
             ),
         }
     }
@@ -5701,20 +5701,20 @@ impl MountStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 12);
-        ::mavwire::field::Scalar::write(self.target_component, out, 13);
-        ::mavwire::field::Scalar::write(self.pointing_a, out, 0);
-        ::mavwire::field::Scalar::write(self.pointing_b, out, 4);
-        ::mavwire::field::Scalar::write(self.pointing_c, out, 8);
-        ::mavwire::field::Scalar::write(self.mount_mode.to_raw(), out, 14);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 12);
+        ::mavframe::field::Scalar::write(self.target_component, out, 13);
+        ::mavframe::field::Scalar::write(self.pointing_a, out, 0);
+        ::mavframe::field::Scalar::write(self.pointing_b, out, 4);
+        ::mavframe::field::Scalar::write(self.pointing_c, out, 8);
+        ::mavframe::field::Scalar::write(self.mount_mode.to_raw(), out, 14);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for MountStatus {
-    const META: ::mavwire::MessageMeta = MountStatus::META;
+impl ::mavframe::Message for MountStatus {
+    const META: ::mavframe::MessageMeta = MountStatus::META;
     type View<'a> = MountStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -5722,7 +5722,7 @@ impl ::mavwire::Message for MountStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MountStatus::emit(self, payload)
     }
 
@@ -5763,38 +5763,38 @@ impl<'a> MountStatusView<'a> {
     /// Reads [`MountStatus::target_system`](MountStatus::target_system) (`target_system` at offset 12).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 12)
+        ::mavframe::field::read::<u8>(self.payload, 12)
     }
 
     /// Reads [`MountStatus::target_component`](MountStatus::target_component) (`target_component` at offset 13).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 13)
+        ::mavframe::field::read::<u8>(self.payload, 13)
     }
 
     /// Reads [`MountStatus::pointing_a`](MountStatus::pointing_a) (`pointing_a` at offset 0).
     #[inline]
     pub fn pointing_a(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 0)
+        ::mavframe::field::read::<i32>(self.payload, 0)
     }
 
     /// Reads [`MountStatus::pointing_b`](MountStatus::pointing_b) (`pointing_b` at offset 4).
     #[inline]
     pub fn pointing_b(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`MountStatus::pointing_c`](MountStatus::pointing_c) (`pointing_c` at offset 8).
     #[inline]
     pub fn pointing_c(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`MountStatus::mount_mode`](MountStatus::mount_mode) (`mount_mode` at offset 14).
     #[inline]
     pub fn mount_mode(&self) -> super::common::MavMountMode {
         super::common::MavMountMode::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 14),
+            ::mavframe::field::read::<u8>(self.payload, 14),
         )
     }
 }
@@ -5807,9 +5807,9 @@ pub struct MountStatusMut<'a> {
 
 impl<'a> MountStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`MountStatus::MAX_LEN`](struct@MountStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < MountStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: MountStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -5825,37 +5825,37 @@ impl<'a> MountStatusMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 13)
+        ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
 
     /// Sets the `pointing_a` field.
     #[inline]
     pub fn set_pointing_a(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `pointing_b` field.
     #[inline]
     pub fn set_pointing_b(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `pointing_c` field.
     #[inline]
     pub fn set_pointing_c(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `mount_mode` field.
     #[inline]
     pub fn set_mount_mode(&mut self, value: super::common::MavMountMode) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 14)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 14)
     }
 }
 
@@ -5903,7 +5903,7 @@ impl FencePoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -5912,44 +5912,44 @@ impl FencePoint {
         target_system_offset: Some(8),
         target_component_offset: Some(9),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lng",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 9,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "idx",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 11,
                 extension: false,
@@ -5959,14 +5959,14 @@ impl FencePoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 8),
-            target_component: ::mavwire::field::read::<u8>(p, 9),
-            idx: ::mavwire::field::read::<u8>(p, 10),
-            count: ::mavwire::field::read::<u8>(p, 11),
-            lat: ::mavwire::field::read::<f32>(p, 0),
-            lng: ::mavwire::field::read::<f32>(p, 4),
+            target_system: ::mavframe::field::read::<u8>(p, 8),
+            target_component: ::mavframe::field::read::<u8>(p, 9),
+            idx: ::mavframe::field::read::<u8>(p, 10),
+            count: ::mavframe::field::read::<u8>(p, 11),
+            lat: ::mavframe::field::read::<f32>(p, 0),
+            lng: ::mavframe::field::read::<f32>(p, 4),
         }
     }
 
@@ -5978,20 +5978,20 @@ impl FencePoint {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 8);
-        ::mavwire::field::Scalar::write(self.target_component, out, 9);
-        ::mavwire::field::Scalar::write(self.idx, out, 10);
-        ::mavwire::field::Scalar::write(self.count, out, 11);
-        ::mavwire::field::Scalar::write(self.lat, out, 0);
-        ::mavwire::field::Scalar::write(self.lng, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 8);
+        ::mavframe::field::Scalar::write(self.target_component, out, 9);
+        ::mavframe::field::Scalar::write(self.idx, out, 10);
+        ::mavframe::field::Scalar::write(self.count, out, 11);
+        ::mavframe::field::Scalar::write(self.lat, out, 0);
+        ::mavframe::field::Scalar::write(self.lng, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for FencePoint {
-    const META: ::mavwire::MessageMeta = FencePoint::META;
+impl ::mavframe::Message for FencePoint {
+    const META: ::mavframe::MessageMeta = FencePoint::META;
     type View<'a> = FencePointView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -5999,7 +5999,7 @@ impl ::mavwire::Message for FencePoint {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         FencePoint::emit(self, payload)
     }
 
@@ -6040,37 +6040,37 @@ impl<'a> FencePointView<'a> {
     /// Reads [`FencePoint::target_system`](FencePoint::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`FencePoint::target_component`](FencePoint::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 9)
+        ::mavframe::field::read::<u8>(self.payload, 9)
     }
 
     /// Reads [`FencePoint::idx`](FencePoint::idx) (`idx` at offset 10).
     #[inline]
     pub fn idx(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 10)
+        ::mavframe::field::read::<u8>(self.payload, 10)
     }
 
     /// Reads [`FencePoint::count`](FencePoint::count) (`count` at offset 11).
     #[inline]
     pub fn count(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 11)
+        ::mavframe::field::read::<u8>(self.payload, 11)
     }
 
     /// Reads [`FencePoint::lat`](FencePoint::lat) (`lat` at offset 0).
     #[inline]
     pub fn lat(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`FencePoint::lng`](FencePoint::lng) (`lng` at offset 4).
     #[inline]
     pub fn lng(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 }
 
@@ -6082,9 +6082,9 @@ pub struct FencePointMut<'a> {
 
 impl<'a> FencePointMut<'a> {
     /// A writer over `payload`, which must hold at least [`FencePoint::MAX_LEN`](struct@FencePoint) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < FencePoint::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: FencePoint::MAX_LEN,
                 got: payload.len(),
             });
@@ -6100,37 +6100,37 @@ impl<'a> FencePointMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 9)
+        ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
 
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 11)
+        ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -6165,7 +6165,7 @@ impl FenceFetchPoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -6174,23 +6174,23 @@ impl FenceFetchPoint {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "idx",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
@@ -6200,11 +6200,11 @@ impl FenceFetchPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
-            idx: ::mavwire::field::read::<u8>(p, 2),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
+            idx: ::mavframe::field::read::<u8>(p, 2),
         }
     }
 
@@ -6216,17 +6216,17 @@ impl FenceFetchPoint {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
-        ::mavwire::field::Scalar::write(self.idx, out, 2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
+        ::mavframe::field::Scalar::write(self.idx, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for FenceFetchPoint {
-    const META: ::mavwire::MessageMeta = FenceFetchPoint::META;
+impl ::mavframe::Message for FenceFetchPoint {
+    const META: ::mavframe::MessageMeta = FenceFetchPoint::META;
     type View<'a> = FenceFetchPointView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -6234,7 +6234,7 @@ impl ::mavwire::Message for FenceFetchPoint {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         FenceFetchPoint::emit(self, payload)
     }
 
@@ -6275,19 +6275,19 @@ impl<'a> FenceFetchPointView<'a> {
     /// Reads [`FenceFetchPoint::target_system`](FenceFetchPoint::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`FenceFetchPoint::target_component`](FenceFetchPoint::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`FenceFetchPoint::idx`](FenceFetchPoint::idx) (`idx` at offset 2).
     #[inline]
     pub fn idx(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 2)
+        ::mavframe::field::read::<u8>(self.payload, 2)
     }
 }
 
@@ -6299,9 +6299,9 @@ pub struct FenceFetchPointMut<'a> {
 
 impl<'a> FenceFetchPointMut<'a> {
     /// A writer over `payload`, which must hold at least [`FenceFetchPoint::MAX_LEN`](struct@FenceFetchPoint) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < FenceFetchPoint::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: FenceFetchPoint::MAX_LEN,
                 got: payload.len(),
             });
@@ -6317,19 +6317,19 @@ impl<'a> FenceFetchPointMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 }
 
@@ -6380,7 +6380,7 @@ impl Ahrs {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -6389,51 +6389,51 @@ impl Ahrs {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "omegaIx",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "omegaIy",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "omegaIz",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "accel_weight",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "renorm_val",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "error_rp",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "error_yaw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
@@ -6443,15 +6443,15 @@ impl Ahrs {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            omega_ix: ::mavwire::field::read::<f32>(p, 0),
-            omega_iy: ::mavwire::field::read::<f32>(p, 4),
-            omega_iz: ::mavwire::field::read::<f32>(p, 8),
-            accel_weight: ::mavwire::field::read::<f32>(p, 12),
-            renorm_val: ::mavwire::field::read::<f32>(p, 16),
-            error_rp: ::mavwire::field::read::<f32>(p, 20),
-            error_yaw: ::mavwire::field::read::<f32>(p, 24),
+            omega_ix: ::mavframe::field::read::<f32>(p, 0),
+            omega_iy: ::mavframe::field::read::<f32>(p, 4),
+            omega_iz: ::mavframe::field::read::<f32>(p, 8),
+            accel_weight: ::mavframe::field::read::<f32>(p, 12),
+            renorm_val: ::mavframe::field::read::<f32>(p, 16),
+            error_rp: ::mavframe::field::read::<f32>(p, 20),
+            error_yaw: ::mavframe::field::read::<f32>(p, 24),
         }
     }
 
@@ -6463,21 +6463,21 @@ impl Ahrs {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.omega_ix, out, 0);
-        ::mavwire::field::Scalar::write(self.omega_iy, out, 4);
-        ::mavwire::field::Scalar::write(self.omega_iz, out, 8);
-        ::mavwire::field::Scalar::write(self.accel_weight, out, 12);
-        ::mavwire::field::Scalar::write(self.renorm_val, out, 16);
-        ::mavwire::field::Scalar::write(self.error_rp, out, 20);
-        ::mavwire::field::Scalar::write(self.error_yaw, out, 24);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.omega_ix, out, 0);
+        ::mavframe::field::Scalar::write(self.omega_iy, out, 4);
+        ::mavframe::field::Scalar::write(self.omega_iz, out, 8);
+        ::mavframe::field::Scalar::write(self.accel_weight, out, 12);
+        ::mavframe::field::Scalar::write(self.renorm_val, out, 16);
+        ::mavframe::field::Scalar::write(self.error_rp, out, 20);
+        ::mavframe::field::Scalar::write(self.error_yaw, out, 24);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Ahrs {
-    const META: ::mavwire::MessageMeta = Ahrs::META;
+impl ::mavframe::Message for Ahrs {
+    const META: ::mavframe::MessageMeta = Ahrs::META;
     type View<'a> = AhrsView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -6485,7 +6485,7 @@ impl ::mavwire::Message for Ahrs {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Ahrs::emit(self, payload)
     }
 
@@ -6526,43 +6526,43 @@ impl<'a> AhrsView<'a> {
     /// Reads [`Ahrs::omega_ix`](Ahrs::omega_ix) (`omegaIx` at offset 0).
     #[inline]
     pub fn omega_ix(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`Ahrs::omega_iy`](Ahrs::omega_iy) (`omegaIy` at offset 4).
     #[inline]
     pub fn omega_iy(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`Ahrs::omega_iz`](Ahrs::omega_iz) (`omegaIz` at offset 8).
     #[inline]
     pub fn omega_iz(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`Ahrs::accel_weight`](Ahrs::accel_weight) (`accel_weight` at offset 12).
     #[inline]
     pub fn accel_weight(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`Ahrs::renorm_val`](Ahrs::renorm_val) (`renorm_val` at offset 16).
     #[inline]
     pub fn renorm_val(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`Ahrs::error_rp`](Ahrs::error_rp) (`error_rp` at offset 20).
     #[inline]
     pub fn error_rp(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`Ahrs::error_yaw`](Ahrs::error_yaw) (`error_yaw` at offset 24).
     #[inline]
     pub fn error_yaw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 }
 
@@ -6574,9 +6574,9 @@ pub struct AhrsMut<'a> {
 
 impl<'a> AhrsMut<'a> {
     /// A writer over `payload`, which must hold at least [`Ahrs::MAX_LEN`](struct@Ahrs) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Ahrs::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Ahrs::MAX_LEN,
                 got: payload.len(),
             });
@@ -6592,43 +6592,43 @@ impl<'a> AhrsMut<'a> {
     /// Sets the `omegaIx` field.
     #[inline]
     pub fn set_omega_ix(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `omegaIy` field.
     #[inline]
     pub fn set_omega_iy(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `omegaIz` field.
     #[inline]
     pub fn set_omega_iz(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `accel_weight` field.
     #[inline]
     pub fn set_accel_weight(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `renorm_val` field.
     #[inline]
     pub fn set_renorm_val(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `error_rp` field.
     #[inline]
     pub fn set_error_rp(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `error_yaw` field.
     #[inline]
     pub fn set_error_yaw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 }
 
@@ -6695,7 +6695,7 @@ impl Simstate {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -6704,79 +6704,79 @@ impl Simstate {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "roll",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pitch",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yaw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "xacc",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yacc",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "zacc",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "xgyro",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "ygyro",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "zgyro",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lng",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 40,
                 extension: false,
@@ -6786,19 +6786,19 @@ impl Simstate {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            roll: ::mavwire::field::read::<f32>(p, 0),
-            pitch: ::mavwire::field::read::<f32>(p, 4),
-            yaw: ::mavwire::field::read::<f32>(p, 8),
-            xacc: ::mavwire::field::read::<f32>(p, 12),
-            yacc: ::mavwire::field::read::<f32>(p, 16),
-            zacc: ::mavwire::field::read::<f32>(p, 20),
-            xgyro: ::mavwire::field::read::<f32>(p, 24),
-            ygyro: ::mavwire::field::read::<f32>(p, 28),
-            zgyro: ::mavwire::field::read::<f32>(p, 32),
-            lat: ::mavwire::field::read::<i32>(p, 36),
-            lng: ::mavwire::field::read::<i32>(p, 40),
+            roll: ::mavframe::field::read::<f32>(p, 0),
+            pitch: ::mavframe::field::read::<f32>(p, 4),
+            yaw: ::mavframe::field::read::<f32>(p, 8),
+            xacc: ::mavframe::field::read::<f32>(p, 12),
+            yacc: ::mavframe::field::read::<f32>(p, 16),
+            zacc: ::mavframe::field::read::<f32>(p, 20),
+            xgyro: ::mavframe::field::read::<f32>(p, 24),
+            ygyro: ::mavframe::field::read::<f32>(p, 28),
+            zgyro: ::mavframe::field::read::<f32>(p, 32),
+            lat: ::mavframe::field::read::<i32>(p, 36),
+            lng: ::mavframe::field::read::<i32>(p, 40),
         }
     }
 
@@ -6810,25 +6810,25 @@ impl Simstate {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.roll, out, 0);
-        ::mavwire::field::Scalar::write(self.pitch, out, 4);
-        ::mavwire::field::Scalar::write(self.yaw, out, 8);
-        ::mavwire::field::Scalar::write(self.xacc, out, 12);
-        ::mavwire::field::Scalar::write(self.yacc, out, 16);
-        ::mavwire::field::Scalar::write(self.zacc, out, 20);
-        ::mavwire::field::Scalar::write(self.xgyro, out, 24);
-        ::mavwire::field::Scalar::write(self.ygyro, out, 28);
-        ::mavwire::field::Scalar::write(self.zgyro, out, 32);
-        ::mavwire::field::Scalar::write(self.lat, out, 36);
-        ::mavwire::field::Scalar::write(self.lng, out, 40);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.roll, out, 0);
+        ::mavframe::field::Scalar::write(self.pitch, out, 4);
+        ::mavframe::field::Scalar::write(self.yaw, out, 8);
+        ::mavframe::field::Scalar::write(self.xacc, out, 12);
+        ::mavframe::field::Scalar::write(self.yacc, out, 16);
+        ::mavframe::field::Scalar::write(self.zacc, out, 20);
+        ::mavframe::field::Scalar::write(self.xgyro, out, 24);
+        ::mavframe::field::Scalar::write(self.ygyro, out, 28);
+        ::mavframe::field::Scalar::write(self.zgyro, out, 32);
+        ::mavframe::field::Scalar::write(self.lat, out, 36);
+        ::mavframe::field::Scalar::write(self.lng, out, 40);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Simstate {
-    const META: ::mavwire::MessageMeta = Simstate::META;
+impl ::mavframe::Message for Simstate {
+    const META: ::mavframe::MessageMeta = Simstate::META;
     type View<'a> = SimstateView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -6836,7 +6836,7 @@ impl ::mavwire::Message for Simstate {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Simstate::emit(self, payload)
     }
 
@@ -6877,67 +6877,67 @@ impl<'a> SimstateView<'a> {
     /// Reads [`Simstate::roll`](Simstate::roll) (`roll` at offset 0).
     #[inline]
     pub fn roll(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`Simstate::pitch`](Simstate::pitch) (`pitch` at offset 4).
     #[inline]
     pub fn pitch(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`Simstate::yaw`](Simstate::yaw) (`yaw` at offset 8).
     #[inline]
     pub fn yaw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`Simstate::xacc`](Simstate::xacc) (`xacc` at offset 12).
     #[inline]
     pub fn xacc(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`Simstate::yacc`](Simstate::yacc) (`yacc` at offset 16).
     #[inline]
     pub fn yacc(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`Simstate::zacc`](Simstate::zacc) (`zacc` at offset 20).
     #[inline]
     pub fn zacc(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`Simstate::xgyro`](Simstate::xgyro) (`xgyro` at offset 24).
     #[inline]
     pub fn xgyro(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`Simstate::ygyro`](Simstate::ygyro) (`ygyro` at offset 28).
     #[inline]
     pub fn ygyro(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`Simstate::zgyro`](Simstate::zgyro) (`zgyro` at offset 32).
     #[inline]
     pub fn zgyro(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`Simstate::lat`](Simstate::lat) (`lat` at offset 36).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 36)
+        ::mavframe::field::read::<i32>(self.payload, 36)
     }
 
     /// Reads [`Simstate::lng`](Simstate::lng) (`lng` at offset 40).
     #[inline]
     pub fn lng(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 40)
+        ::mavframe::field::read::<i32>(self.payload, 40)
     }
 }
 
@@ -6949,9 +6949,9 @@ pub struct SimstateMut<'a> {
 
 impl<'a> SimstateMut<'a> {
     /// A writer over `payload`, which must hold at least [`Simstate::MAX_LEN`](struct@Simstate) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Simstate::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Simstate::MAX_LEN,
                 got: payload.len(),
             });
@@ -6967,67 +6967,67 @@ impl<'a> SimstateMut<'a> {
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `xacc` field.
     #[inline]
     pub fn set_xacc(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `yacc` field.
     #[inline]
     pub fn set_yacc(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `zacc` field.
     #[inline]
     pub fn set_zacc(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `xgyro` field.
     #[inline]
     pub fn set_xgyro(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `ygyro` field.
     #[inline]
     pub fn set_ygyro(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `zgyro` field.
     #[inline]
     pub fn set_zgyro(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 }
 
@@ -7060,7 +7060,7 @@ impl Hwstatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -7069,16 +7069,16 @@ impl Hwstatus {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "Vcc",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "I2Cerr",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
@@ -7088,10 +7088,10 @@ impl Hwstatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            vcc: ::mavwire::field::read::<u16>(p, 0),
-            i2_cerr: ::mavwire::field::read::<u8>(p, 2),
+            vcc: ::mavframe::field::read::<u16>(p, 0),
+            i2_cerr: ::mavframe::field::read::<u8>(p, 2),
         }
     }
 
@@ -7103,16 +7103,16 @@ impl Hwstatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.vcc, out, 0);
-        ::mavwire::field::Scalar::write(self.i2_cerr, out, 2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.vcc, out, 0);
+        ::mavframe::field::Scalar::write(self.i2_cerr, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Hwstatus {
-    const META: ::mavwire::MessageMeta = Hwstatus::META;
+impl ::mavframe::Message for Hwstatus {
+    const META: ::mavframe::MessageMeta = Hwstatus::META;
     type View<'a> = HwstatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -7120,7 +7120,7 @@ impl ::mavwire::Message for Hwstatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Hwstatus::emit(self, payload)
     }
 
@@ -7161,13 +7161,13 @@ impl<'a> HwstatusView<'a> {
     /// Reads [`Hwstatus::vcc`](Hwstatus::vcc) (`Vcc` at offset 0).
     #[inline]
     pub fn vcc(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 0)
+        ::mavframe::field::read::<u16>(self.payload, 0)
     }
 
     /// Reads [`Hwstatus::i2_cerr`](Hwstatus::i2_cerr) (`I2Cerr` at offset 2).
     #[inline]
     pub fn i2_cerr(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 2)
+        ::mavframe::field::read::<u8>(self.payload, 2)
     }
 }
 
@@ -7179,9 +7179,9 @@ pub struct HwstatusMut<'a> {
 
 impl<'a> HwstatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`Hwstatus::MAX_LEN`](struct@Hwstatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Hwstatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Hwstatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -7197,13 +7197,13 @@ impl<'a> HwstatusMut<'a> {
     /// Sets the `Vcc` field.
     #[inline]
     pub fn set_vcc(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `I2Cerr` field.
     #[inline]
     pub fn set_i2_cerr(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 }
 
@@ -7254,7 +7254,7 @@ impl Radio {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -7263,51 +7263,51 @@ impl Radio {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rxerrors",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "fixed",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rssi",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "remrssi",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "txbuf",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "noise",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "remnoise",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
@@ -7317,15 +7317,15 @@ impl Radio {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            rssi: ::mavwire::field::read::<u8>(p, 4),
-            remrssi: ::mavwire::field::read::<u8>(p, 5),
-            txbuf: ::mavwire::field::read::<u8>(p, 6),
-            noise: ::mavwire::field::read::<u8>(p, 7),
-            remnoise: ::mavwire::field::read::<u8>(p, 8),
-            rxerrors: ::mavwire::field::read::<u16>(p, 0),
-            fixed: ::mavwire::field::read::<u16>(p, 2),
+            rssi: ::mavframe::field::read::<u8>(p, 4),
+            remrssi: ::mavframe::field::read::<u8>(p, 5),
+            txbuf: ::mavframe::field::read::<u8>(p, 6),
+            noise: ::mavframe::field::read::<u8>(p, 7),
+            remnoise: ::mavframe::field::read::<u8>(p, 8),
+            rxerrors: ::mavframe::field::read::<u16>(p, 0),
+            fixed: ::mavframe::field::read::<u16>(p, 2),
         }
     }
 
@@ -7337,21 +7337,21 @@ impl Radio {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.rssi, out, 4);
-        ::mavwire::field::Scalar::write(self.remrssi, out, 5);
-        ::mavwire::field::Scalar::write(self.txbuf, out, 6);
-        ::mavwire::field::Scalar::write(self.noise, out, 7);
-        ::mavwire::field::Scalar::write(self.remnoise, out, 8);
-        ::mavwire::field::Scalar::write(self.rxerrors, out, 0);
-        ::mavwire::field::Scalar::write(self.fixed, out, 2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.rssi, out, 4);
+        ::mavframe::field::Scalar::write(self.remrssi, out, 5);
+        ::mavframe::field::Scalar::write(self.txbuf, out, 6);
+        ::mavframe::field::Scalar::write(self.noise, out, 7);
+        ::mavframe::field::Scalar::write(self.remnoise, out, 8);
+        ::mavframe::field::Scalar::write(self.rxerrors, out, 0);
+        ::mavframe::field::Scalar::write(self.fixed, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Radio {
-    const META: ::mavwire::MessageMeta = Radio::META;
+impl ::mavframe::Message for Radio {
+    const META: ::mavframe::MessageMeta = Radio::META;
     type View<'a> = RadioView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -7359,7 +7359,7 @@ impl ::mavwire::Message for Radio {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Radio::emit(self, payload)
     }
 
@@ -7400,43 +7400,43 @@ impl<'a> RadioView<'a> {
     /// Reads [`Radio::rssi`](Radio::rssi) (`rssi` at offset 4).
     #[inline]
     pub fn rssi(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`Radio::remrssi`](Radio::remrssi) (`remrssi` at offset 5).
     #[inline]
     pub fn remrssi(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`Radio::txbuf`](Radio::txbuf) (`txbuf` at offset 6).
     #[inline]
     pub fn txbuf(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 6)
+        ::mavframe::field::read::<u8>(self.payload, 6)
     }
 
     /// Reads [`Radio::noise`](Radio::noise) (`noise` at offset 7).
     #[inline]
     pub fn noise(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 
     /// Reads [`Radio::remnoise`](Radio::remnoise) (`remnoise` at offset 8).
     #[inline]
     pub fn remnoise(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`Radio::rxerrors`](Radio::rxerrors) (`rxerrors` at offset 0).
     #[inline]
     pub fn rxerrors(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 0)
+        ::mavframe::field::read::<u16>(self.payload, 0)
     }
 
     /// Reads [`Radio::fixed`](Radio::fixed) (`fixed` at offset 2).
     #[inline]
     pub fn fixed(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 2)
+        ::mavframe::field::read::<u16>(self.payload, 2)
     }
 }
 
@@ -7448,9 +7448,9 @@ pub struct RadioMut<'a> {
 
 impl<'a> RadioMut<'a> {
     /// A writer over `payload`, which must hold at least [`Radio::MAX_LEN`](struct@Radio) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Radio::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Radio::MAX_LEN,
                 got: payload.len(),
             });
@@ -7466,43 +7466,43 @@ impl<'a> RadioMut<'a> {
     /// Sets the `rssi` field.
     #[inline]
     pub fn set_rssi(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `remrssi` field.
     #[inline]
     pub fn set_remrssi(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `txbuf` field.
     #[inline]
     pub fn set_txbuf(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `noise` field.
     #[inline]
     pub fn set_noise(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 
     /// Sets the `remnoise` field.
     #[inline]
     pub fn set_remnoise(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `rxerrors` field.
     #[inline]
     pub fn set_rxerrors(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `fixed` field.
     #[inline]
     pub fn set_fixed(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 }
 
@@ -7561,7 +7561,7 @@ impl LimitsStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 22;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -7570,65 +7570,65 @@ impl LimitsStatus {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "last_trigger",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "last_action",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "last_recovery",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "last_clear",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "breach_count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "limits_state",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 18,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mods_enabled",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 19,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mods_required",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "mods_triggered",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 21,
                 extension: false,
@@ -7638,22 +7638,22 @@ impl LimitsStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            limits_state: LimitsState::from_raw(::mavwire::field::read::<u8>(p, 18)),
-            last_trigger: ::mavwire::field::read::<u32>(p, 0),
-            last_action: ::mavwire::field::read::<u32>(p, 4),
-            last_recovery: ::mavwire::field::read::<u32>(p, 8),
-            last_clear: ::mavwire::field::read::<u32>(p, 12),
-            breach_count: ::mavwire::field::read::<u16>(p, 16),
+            limits_state: LimitsState::from_raw(::mavframe::field::read::<u8>(p, 18)),
+            last_trigger: ::mavframe::field::read::<u32>(p, 0),
+            last_action: ::mavframe::field::read::<u32>(p, 4),
+            last_recovery: ::mavframe::field::read::<u32>(p, 8),
+            last_clear: ::mavframe::field::read::<u32>(p, 12),
+            breach_count: ::mavframe::field::read::<u16>(p, 16),
             mods_enabled: LimitModule::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 19),
+                ::mavframe::field::read::<u8>(p, 19),
             ),
             mods_required: LimitModule::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 20),
+                ::mavframe::field::read::<u8>(p, 20),
             ),
             mods_triggered: LimitModule::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 21),
+                ::mavframe::field::read::<u8>(p, 21),
             ),
         }
     }
@@ -7666,23 +7666,23 @@ impl LimitsStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.limits_state.to_raw(), out, 18);
-        ::mavwire::field::Scalar::write(self.last_trigger, out, 0);
-        ::mavwire::field::Scalar::write(self.last_action, out, 4);
-        ::mavwire::field::Scalar::write(self.last_recovery, out, 8);
-        ::mavwire::field::Scalar::write(self.last_clear, out, 12);
-        ::mavwire::field::Scalar::write(self.breach_count, out, 16);
-        ::mavwire::field::Scalar::write(self.mods_enabled.bits(), out, 19);
-        ::mavwire::field::Scalar::write(self.mods_required.bits(), out, 20);
-        ::mavwire::field::Scalar::write(self.mods_triggered.bits(), out, 21);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.limits_state.to_raw(), out, 18);
+        ::mavframe::field::Scalar::write(self.last_trigger, out, 0);
+        ::mavframe::field::Scalar::write(self.last_action, out, 4);
+        ::mavframe::field::Scalar::write(self.last_recovery, out, 8);
+        ::mavframe::field::Scalar::write(self.last_clear, out, 12);
+        ::mavframe::field::Scalar::write(self.breach_count, out, 16);
+        ::mavframe::field::Scalar::write(self.mods_enabled.bits(), out, 19);
+        ::mavframe::field::Scalar::write(self.mods_required.bits(), out, 20);
+        ::mavframe::field::Scalar::write(self.mods_triggered.bits(), out, 21);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for LimitsStatus {
-    const META: ::mavwire::MessageMeta = LimitsStatus::META;
+impl ::mavframe::Message for LimitsStatus {
+    const META: ::mavframe::MessageMeta = LimitsStatus::META;
     type View<'a> = LimitsStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -7690,7 +7690,7 @@ impl ::mavwire::Message for LimitsStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         LimitsStatus::emit(self, payload)
     }
 
@@ -7731,55 +7731,55 @@ impl<'a> LimitsStatusView<'a> {
     /// Reads [`LimitsStatus::limits_state`](LimitsStatus::limits_state) (`limits_state` at offset 18).
     #[inline]
     pub fn limits_state(&self) -> LimitsState {
-        LimitsState::from_raw(::mavwire::field::read::<u8>(self.payload, 18))
+        LimitsState::from_raw(::mavframe::field::read::<u8>(self.payload, 18))
     }
 
     /// Reads [`LimitsStatus::last_trigger`](LimitsStatus::last_trigger) (`last_trigger` at offset 0).
     #[inline]
     pub fn last_trigger(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`LimitsStatus::last_action`](LimitsStatus::last_action) (`last_action` at offset 4).
     #[inline]
     pub fn last_action(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 4)
+        ::mavframe::field::read::<u32>(self.payload, 4)
     }
 
     /// Reads [`LimitsStatus::last_recovery`](LimitsStatus::last_recovery) (`last_recovery` at offset 8).
     #[inline]
     pub fn last_recovery(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 8)
+        ::mavframe::field::read::<u32>(self.payload, 8)
     }
 
     /// Reads [`LimitsStatus::last_clear`](LimitsStatus::last_clear) (`last_clear` at offset 12).
     #[inline]
     pub fn last_clear(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 12)
+        ::mavframe::field::read::<u32>(self.payload, 12)
     }
 
     /// Reads [`LimitsStatus::breach_count`](LimitsStatus::breach_count) (`breach_count` at offset 16).
     #[inline]
     pub fn breach_count(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 16)
+        ::mavframe::field::read::<u16>(self.payload, 16)
     }
 
     /// Reads [`LimitsStatus::mods_enabled`](LimitsStatus::mods_enabled) (`mods_enabled` at offset 19).
     #[inline]
     pub fn mods_enabled(&self) -> LimitModule {
-        LimitModule::from_bits_retain(::mavwire::field::read::<u8>(self.payload, 19))
+        LimitModule::from_bits_retain(::mavframe::field::read::<u8>(self.payload, 19))
     }
 
     /// Reads [`LimitsStatus::mods_required`](LimitsStatus::mods_required) (`mods_required` at offset 20).
     #[inline]
     pub fn mods_required(&self) -> LimitModule {
-        LimitModule::from_bits_retain(::mavwire::field::read::<u8>(self.payload, 20))
+        LimitModule::from_bits_retain(::mavframe::field::read::<u8>(self.payload, 20))
     }
 
     /// Reads [`LimitsStatus::mods_triggered`](LimitsStatus::mods_triggered) (`mods_triggered` at offset 21).
     #[inline]
     pub fn mods_triggered(&self) -> LimitModule {
-        LimitModule::from_bits_retain(::mavwire::field::read::<u8>(self.payload, 21))
+        LimitModule::from_bits_retain(::mavframe::field::read::<u8>(self.payload, 21))
     }
 }
 
@@ -7791,9 +7791,9 @@ pub struct LimitsStatusMut<'a> {
 
 impl<'a> LimitsStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`LimitsStatus::MAX_LEN`](struct@LimitsStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < LimitsStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: LimitsStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -7809,55 +7809,55 @@ impl<'a> LimitsStatusMut<'a> {
     /// Sets the `limits_state` field.
     #[inline]
     pub fn set_limits_state(&mut self, value: LimitsState) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 18)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 18)
     }
 
     /// Sets the `last_trigger` field.
     #[inline]
     pub fn set_last_trigger(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `last_action` field.
     #[inline]
     pub fn set_last_action(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `last_recovery` field.
     #[inline]
     pub fn set_last_recovery(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `last_clear` field.
     #[inline]
     pub fn set_last_clear(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `breach_count` field.
     #[inline]
     pub fn set_breach_count(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `mods_enabled` field.
     #[inline]
     pub fn set_mods_enabled(&mut self, value: LimitModule) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 19)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 19)
     }
 
     /// Sets the `mods_required` field.
     #[inline]
     pub fn set_mods_required(&mut self, value: LimitModule) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 20)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 20)
     }
 
     /// Sets the `mods_triggered` field.
     #[inline]
     pub fn set_mods_triggered(&mut self, value: LimitModule) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 21)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 21)
     }
 }
 
@@ -7892,7 +7892,7 @@ impl Wind {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -7901,23 +7901,23 @@ impl Wind {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "direction",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "speed",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "speed_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
@@ -7927,11 +7927,11 @@ impl Wind {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            direction: ::mavwire::field::read::<f32>(p, 0),
-            speed: ::mavwire::field::read::<f32>(p, 4),
-            speed_z: ::mavwire::field::read::<f32>(p, 8),
+            direction: ::mavframe::field::read::<f32>(p, 0),
+            speed: ::mavframe::field::read::<f32>(p, 4),
+            speed_z: ::mavframe::field::read::<f32>(p, 8),
         }
     }
 
@@ -7943,17 +7943,17 @@ impl Wind {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.direction, out, 0);
-        ::mavwire::field::Scalar::write(self.speed, out, 4);
-        ::mavwire::field::Scalar::write(self.speed_z, out, 8);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.direction, out, 0);
+        ::mavframe::field::Scalar::write(self.speed, out, 4);
+        ::mavframe::field::Scalar::write(self.speed_z, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Wind {
-    const META: ::mavwire::MessageMeta = Wind::META;
+impl ::mavframe::Message for Wind {
+    const META: ::mavframe::MessageMeta = Wind::META;
     type View<'a> = WindView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -7961,7 +7961,7 @@ impl ::mavwire::Message for Wind {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Wind::emit(self, payload)
     }
 
@@ -8002,19 +8002,19 @@ impl<'a> WindView<'a> {
     /// Reads [`Wind::direction`](Wind::direction) (`direction` at offset 0).
     #[inline]
     pub fn direction(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`Wind::speed`](Wind::speed) (`speed` at offset 4).
     #[inline]
     pub fn speed(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`Wind::speed_z`](Wind::speed_z) (`speed_z` at offset 8).
     #[inline]
     pub fn speed_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 }
 
@@ -8026,9 +8026,9 @@ pub struct WindMut<'a> {
 
 impl<'a> WindMut<'a> {
     /// A writer over `payload`, which must hold at least [`Wind::MAX_LEN`](struct@Wind) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Wind::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Wind::MAX_LEN,
                 got: payload.len(),
             });
@@ -8044,19 +8044,19 @@ impl<'a> WindMut<'a> {
     /// Sets the `direction` field.
     #[inline]
     pub fn set_direction(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `speed` field.
     #[inline]
     pub fn set_speed(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `speed_z` field.
     #[inline]
     pub fn set_speed_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 }
 
@@ -8091,7 +8091,7 @@ impl Data16 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 18;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -8100,23 +8100,23 @@ impl Data16 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "len",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 16,
                 offset: 2,
                 extension: false,
@@ -8126,11 +8126,11 @@ impl Data16 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            r#type: ::mavwire::field::read::<u8>(p, 0),
-            len: ::mavwire::field::read::<u8>(p, 1),
-            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            r#type: ::mavframe::field::read::<u8>(p, 0),
+            len: ::mavframe::field::read::<u8>(p, 1),
+            data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
 
@@ -8142,17 +8142,17 @@ impl Data16 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.r#type, out, 0);
-        ::mavwire::field::Scalar::write(self.len, out, 1);
-        ::mavwire::field::write_array(out, 2, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.r#type, out, 0);
+        ::mavframe::field::Scalar::write(self.len, out, 1);
+        ::mavframe::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Data16 {
-    const META: ::mavwire::MessageMeta = Data16::META;
+impl ::mavframe::Message for Data16 {
+    const META: ::mavframe::MessageMeta = Data16::META;
     type View<'a> = Data16View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -8160,7 +8160,7 @@ impl ::mavwire::Message for Data16 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data16::emit(self, payload)
     }
 
@@ -8201,19 +8201,19 @@ impl<'a> Data16View<'a> {
     /// Reads [`Data16::type`](struct@Data16) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`Data16::len`](Data16::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`Data16::data`](Data16::data) (`data` at offset 2).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 16> {
-        ::mavwire::field::ArrayView::new(self.payload, 2)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 16> {
+        ::mavframe::field::ArrayView::new(self.payload, 2)
     }
 }
 
@@ -8225,9 +8225,9 @@ pub struct Data16Mut<'a> {
 
 impl<'a> Data16Mut<'a> {
     /// A writer over `payload`, which must hold at least [`Data16::MAX_LEN`](struct@Data16) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Data16::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Data16::MAX_LEN,
                 got: payload.len(),
             });
@@ -8243,19 +8243,19 @@ impl<'a> Data16Mut<'a> {
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 16]) {
-        ::mavwire::field::write_array(self.payload, 2, value)
+        ::mavframe::field::write_array(self.payload, 2, value)
     }
 }
 
@@ -8290,7 +8290,7 @@ impl Data32 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 34;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -8299,23 +8299,23 @@ impl Data32 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "len",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 32,
                 offset: 2,
                 extension: false,
@@ -8325,11 +8325,11 @@ impl Data32 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            r#type: ::mavwire::field::read::<u8>(p, 0),
-            len: ::mavwire::field::read::<u8>(p, 1),
-            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            r#type: ::mavframe::field::read::<u8>(p, 0),
+            len: ::mavframe::field::read::<u8>(p, 1),
+            data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
 
@@ -8341,17 +8341,17 @@ impl Data32 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.r#type, out, 0);
-        ::mavwire::field::Scalar::write(self.len, out, 1);
-        ::mavwire::field::write_array(out, 2, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.r#type, out, 0);
+        ::mavframe::field::Scalar::write(self.len, out, 1);
+        ::mavframe::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Data32 {
-    const META: ::mavwire::MessageMeta = Data32::META;
+impl ::mavframe::Message for Data32 {
+    const META: ::mavframe::MessageMeta = Data32::META;
     type View<'a> = Data32View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -8359,7 +8359,7 @@ impl ::mavwire::Message for Data32 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data32::emit(self, payload)
     }
 
@@ -8400,19 +8400,19 @@ impl<'a> Data32View<'a> {
     /// Reads [`Data32::type`](struct@Data32) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`Data32::len`](Data32::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`Data32::data`](Data32::data) (`data` at offset 2).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 32> {
-        ::mavwire::field::ArrayView::new(self.payload, 2)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 32> {
+        ::mavframe::field::ArrayView::new(self.payload, 2)
     }
 }
 
@@ -8424,9 +8424,9 @@ pub struct Data32Mut<'a> {
 
 impl<'a> Data32Mut<'a> {
     /// A writer over `payload`, which must hold at least [`Data32::MAX_LEN`](struct@Data32) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Data32::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Data32::MAX_LEN,
                 got: payload.len(),
             });
@@ -8442,19 +8442,19 @@ impl<'a> Data32Mut<'a> {
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 32]) {
-        ::mavwire::field::write_array(self.payload, 2, value)
+        ::mavframe::field::write_array(self.payload, 2, value)
     }
 }
 
@@ -8489,7 +8489,7 @@ impl Data64 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 66;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -8498,23 +8498,23 @@ impl Data64 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "len",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 64,
                 offset: 2,
                 extension: false,
@@ -8524,11 +8524,11 @@ impl Data64 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            r#type: ::mavwire::field::read::<u8>(p, 0),
-            len: ::mavwire::field::read::<u8>(p, 1),
-            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            r#type: ::mavframe::field::read::<u8>(p, 0),
+            len: ::mavframe::field::read::<u8>(p, 1),
+            data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
 
@@ -8540,11 +8540,11 @@ impl Data64 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.r#type, out, 0);
-        ::mavwire::field::Scalar::write(self.len, out, 1);
-        ::mavwire::field::write_array(out, 2, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.r#type, out, 0);
+        ::mavframe::field::Scalar::write(self.len, out, 1);
+        ::mavframe::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -8559,8 +8559,8 @@ impl Default for Data64 {
     }
 }
 
-impl ::mavwire::Message for Data64 {
-    const META: ::mavwire::MessageMeta = Data64::META;
+impl ::mavframe::Message for Data64 {
+    const META: ::mavframe::MessageMeta = Data64::META;
     type View<'a> = Data64View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -8568,7 +8568,7 @@ impl ::mavwire::Message for Data64 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data64::emit(self, payload)
     }
 
@@ -8609,19 +8609,19 @@ impl<'a> Data64View<'a> {
     /// Reads [`Data64::type`](struct@Data64) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`Data64::len`](Data64::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`Data64::data`](Data64::data) (`data` at offset 2).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 64> {
-        ::mavwire::field::ArrayView::new(self.payload, 2)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 64> {
+        ::mavframe::field::ArrayView::new(self.payload, 2)
     }
 }
 
@@ -8633,9 +8633,9 @@ pub struct Data64Mut<'a> {
 
 impl<'a> Data64Mut<'a> {
     /// A writer over `payload`, which must hold at least [`Data64::MAX_LEN`](struct@Data64) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Data64::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Data64::MAX_LEN,
                 got: payload.len(),
             });
@@ -8651,19 +8651,19 @@ impl<'a> Data64Mut<'a> {
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 64]) {
-        ::mavwire::field::write_array(self.payload, 2, value)
+        ::mavframe::field::write_array(self.payload, 2, value)
     }
 }
 
@@ -8698,7 +8698,7 @@ impl Data96 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 98;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -8707,23 +8707,23 @@ impl Data96 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "len",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 96,
                 offset: 2,
                 extension: false,
@@ -8733,11 +8733,11 @@ impl Data96 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            r#type: ::mavwire::field::read::<u8>(p, 0),
-            len: ::mavwire::field::read::<u8>(p, 1),
-            data: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            r#type: ::mavframe::field::read::<u8>(p, 0),
+            len: ::mavframe::field::read::<u8>(p, 1),
+            data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
 
@@ -8749,11 +8749,11 @@ impl Data96 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.r#type, out, 0);
-        ::mavwire::field::Scalar::write(self.len, out, 1);
-        ::mavwire::field::write_array(out, 2, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.r#type, out, 0);
+        ::mavframe::field::Scalar::write(self.len, out, 1);
+        ::mavframe::field::write_array(out, 2, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -8768,8 +8768,8 @@ impl Default for Data96 {
     }
 }
 
-impl ::mavwire::Message for Data96 {
-    const META: ::mavwire::MessageMeta = Data96::META;
+impl ::mavframe::Message for Data96 {
+    const META: ::mavframe::MessageMeta = Data96::META;
     type View<'a> = Data96View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -8777,7 +8777,7 @@ impl ::mavwire::Message for Data96 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data96::emit(self, payload)
     }
 
@@ -8818,19 +8818,19 @@ impl<'a> Data96View<'a> {
     /// Reads [`Data96::type`](struct@Data96) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`Data96::len`](Data96::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`Data96::data`](Data96::data) (`data` at offset 2).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 96> {
-        ::mavwire::field::ArrayView::new(self.payload, 2)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 96> {
+        ::mavframe::field::ArrayView::new(self.payload, 2)
     }
 }
 
@@ -8842,9 +8842,9 @@ pub struct Data96Mut<'a> {
 
 impl<'a> Data96Mut<'a> {
     /// A writer over `payload`, which must hold at least [`Data96::MAX_LEN`](struct@Data96) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Data96::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Data96::MAX_LEN,
                 got: payload.len(),
             });
@@ -8860,19 +8860,19 @@ impl<'a> Data96Mut<'a> {
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 96]) {
-        ::mavwire::field::write_array(self.payload, 2, value)
+        ::mavframe::field::write_array(self.payload, 2, value)
     }
 }
 
@@ -8903,7 +8903,7 @@ impl Rangefinder {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -8912,16 +8912,16 @@ impl Rangefinder {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "distance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
@@ -8931,10 +8931,10 @@ impl Rangefinder {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            distance: ::mavwire::field::read::<f32>(p, 0),
-            voltage: ::mavwire::field::read::<f32>(p, 4),
+            distance: ::mavframe::field::read::<f32>(p, 0),
+            voltage: ::mavframe::field::read::<f32>(p, 4),
         }
     }
 
@@ -8946,16 +8946,16 @@ impl Rangefinder {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.distance, out, 0);
-        ::mavwire::field::Scalar::write(self.voltage, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.distance, out, 0);
+        ::mavframe::field::Scalar::write(self.voltage, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Rangefinder {
-    const META: ::mavwire::MessageMeta = Rangefinder::META;
+impl ::mavframe::Message for Rangefinder {
+    const META: ::mavframe::MessageMeta = Rangefinder::META;
     type View<'a> = RangefinderView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -8963,7 +8963,7 @@ impl ::mavwire::Message for Rangefinder {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Rangefinder::emit(self, payload)
     }
 
@@ -9004,13 +9004,13 @@ impl<'a> RangefinderView<'a> {
     /// Reads [`Rangefinder::distance`](Rangefinder::distance) (`distance` at offset 0).
     #[inline]
     pub fn distance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`Rangefinder::voltage`](Rangefinder::voltage) (`voltage` at offset 4).
     #[inline]
     pub fn voltage(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 }
 
@@ -9022,9 +9022,9 @@ pub struct RangefinderMut<'a> {
 
 impl<'a> RangefinderMut<'a> {
     /// A writer over `payload`, which must hold at least [`Rangefinder::MAX_LEN`](struct@Rangefinder) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Rangefinder::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Rangefinder::MAX_LEN,
                 got: payload.len(),
             });
@@ -9040,13 +9040,13 @@ impl<'a> RangefinderMut<'a> {
     /// Sets the `distance` field.
     #[inline]
     pub fn set_distance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -9117,7 +9117,7 @@ impl AirspeedAutocal {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 48;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -9126,86 +9126,86 @@ impl AirspeedAutocal {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vx",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vy",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "vz",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "diff_pressure",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "EAS2TAS",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "ratio",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "state_x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "state_y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "state_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "Pax",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "Pby",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "Pcz",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 44,
                 extension: false,
@@ -9215,20 +9215,20 @@ impl AirspeedAutocal {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            vx: ::mavwire::field::read::<f32>(p, 0),
-            vy: ::mavwire::field::read::<f32>(p, 4),
-            vz: ::mavwire::field::read::<f32>(p, 8),
-            diff_pressure: ::mavwire::field::read::<f32>(p, 12),
-            eas2_tas: ::mavwire::field::read::<f32>(p, 16),
-            ratio: ::mavwire::field::read::<f32>(p, 20),
-            state_x: ::mavwire::field::read::<f32>(p, 24),
-            state_y: ::mavwire::field::read::<f32>(p, 28),
-            state_z: ::mavwire::field::read::<f32>(p, 32),
-            pax: ::mavwire::field::read::<f32>(p, 36),
-            pby: ::mavwire::field::read::<f32>(p, 40),
-            pcz: ::mavwire::field::read::<f32>(p, 44),
+            vx: ::mavframe::field::read::<f32>(p, 0),
+            vy: ::mavframe::field::read::<f32>(p, 4),
+            vz: ::mavframe::field::read::<f32>(p, 8),
+            diff_pressure: ::mavframe::field::read::<f32>(p, 12),
+            eas2_tas: ::mavframe::field::read::<f32>(p, 16),
+            ratio: ::mavframe::field::read::<f32>(p, 20),
+            state_x: ::mavframe::field::read::<f32>(p, 24),
+            state_y: ::mavframe::field::read::<f32>(p, 28),
+            state_z: ::mavframe::field::read::<f32>(p, 32),
+            pax: ::mavframe::field::read::<f32>(p, 36),
+            pby: ::mavframe::field::read::<f32>(p, 40),
+            pcz: ::mavframe::field::read::<f32>(p, 44),
         }
     }
 
@@ -9240,26 +9240,26 @@ impl AirspeedAutocal {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.vx, out, 0);
-        ::mavwire::field::Scalar::write(self.vy, out, 4);
-        ::mavwire::field::Scalar::write(self.vz, out, 8);
-        ::mavwire::field::Scalar::write(self.diff_pressure, out, 12);
-        ::mavwire::field::Scalar::write(self.eas2_tas, out, 16);
-        ::mavwire::field::Scalar::write(self.ratio, out, 20);
-        ::mavwire::field::Scalar::write(self.state_x, out, 24);
-        ::mavwire::field::Scalar::write(self.state_y, out, 28);
-        ::mavwire::field::Scalar::write(self.state_z, out, 32);
-        ::mavwire::field::Scalar::write(self.pax, out, 36);
-        ::mavwire::field::Scalar::write(self.pby, out, 40);
-        ::mavwire::field::Scalar::write(self.pcz, out, 44);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.vx, out, 0);
+        ::mavframe::field::Scalar::write(self.vy, out, 4);
+        ::mavframe::field::Scalar::write(self.vz, out, 8);
+        ::mavframe::field::Scalar::write(self.diff_pressure, out, 12);
+        ::mavframe::field::Scalar::write(self.eas2_tas, out, 16);
+        ::mavframe::field::Scalar::write(self.ratio, out, 20);
+        ::mavframe::field::Scalar::write(self.state_x, out, 24);
+        ::mavframe::field::Scalar::write(self.state_y, out, 28);
+        ::mavframe::field::Scalar::write(self.state_z, out, 32);
+        ::mavframe::field::Scalar::write(self.pax, out, 36);
+        ::mavframe::field::Scalar::write(self.pby, out, 40);
+        ::mavframe::field::Scalar::write(self.pcz, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for AirspeedAutocal {
-    const META: ::mavwire::MessageMeta = AirspeedAutocal::META;
+impl ::mavframe::Message for AirspeedAutocal {
+    const META: ::mavframe::MessageMeta = AirspeedAutocal::META;
     type View<'a> = AirspeedAutocalView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -9267,7 +9267,7 @@ impl ::mavwire::Message for AirspeedAutocal {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AirspeedAutocal::emit(self, payload)
     }
 
@@ -9308,73 +9308,73 @@ impl<'a> AirspeedAutocalView<'a> {
     /// Reads [`AirspeedAutocal::vx`](AirspeedAutocal::vx) (`vx` at offset 0).
     #[inline]
     pub fn vx(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`AirspeedAutocal::vy`](AirspeedAutocal::vy) (`vy` at offset 4).
     #[inline]
     pub fn vy(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`AirspeedAutocal::vz`](AirspeedAutocal::vz) (`vz` at offset 8).
     #[inline]
     pub fn vz(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`AirspeedAutocal::diff_pressure`](AirspeedAutocal::diff_pressure) (`diff_pressure` at offset 12).
     #[inline]
     pub fn diff_pressure(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`AirspeedAutocal::eas2_tas`](AirspeedAutocal::eas2_tas) (`EAS2TAS` at offset 16).
     #[inline]
     pub fn eas2_tas(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`AirspeedAutocal::ratio`](AirspeedAutocal::ratio) (`ratio` at offset 20).
     #[inline]
     pub fn ratio(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`AirspeedAutocal::state_x`](AirspeedAutocal::state_x) (`state_x` at offset 24).
     #[inline]
     pub fn state_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`AirspeedAutocal::state_y`](AirspeedAutocal::state_y) (`state_y` at offset 28).
     #[inline]
     pub fn state_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`AirspeedAutocal::state_z`](AirspeedAutocal::state_z) (`state_z` at offset 32).
     #[inline]
     pub fn state_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`AirspeedAutocal::pax`](AirspeedAutocal::pax) (`Pax` at offset 36).
     #[inline]
     pub fn pax(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 36)
+        ::mavframe::field::read::<f32>(self.payload, 36)
     }
 
     /// Reads [`AirspeedAutocal::pby`](AirspeedAutocal::pby) (`Pby` at offset 40).
     #[inline]
     pub fn pby(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 40)
+        ::mavframe::field::read::<f32>(self.payload, 40)
     }
 
     /// Reads [`AirspeedAutocal::pcz`](AirspeedAutocal::pcz) (`Pcz` at offset 44).
     #[inline]
     pub fn pcz(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 44)
+        ::mavframe::field::read::<f32>(self.payload, 44)
     }
 }
 
@@ -9386,9 +9386,9 @@ pub struct AirspeedAutocalMut<'a> {
 
 impl<'a> AirspeedAutocalMut<'a> {
     /// A writer over `payload`, which must hold at least [`AirspeedAutocal::MAX_LEN`](struct@AirspeedAutocal) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < AirspeedAutocal::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: AirspeedAutocal::MAX_LEN,
                 got: payload.len(),
             });
@@ -9404,73 +9404,73 @@ impl<'a> AirspeedAutocalMut<'a> {
     /// Sets the `vx` field.
     #[inline]
     pub fn set_vx(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `vy` field.
     #[inline]
     pub fn set_vy(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `vz` field.
     #[inline]
     pub fn set_vz(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `diff_pressure` field.
     #[inline]
     pub fn set_diff_pressure(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `EAS2TAS` field.
     #[inline]
     pub fn set_eas2_tas(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `ratio` field.
     #[inline]
     pub fn set_ratio(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `state_x` field.
     #[inline]
     pub fn set_state_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `state_y` field.
     #[inline]
     pub fn set_state_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `state_z` field.
     #[inline]
     pub fn set_state_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `Pax` field.
     #[inline]
     pub fn set_pax(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `Pby` field.
     #[inline]
     pub fn set_pby(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `Pcz` field.
     #[inline]
     pub fn set_pcz(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 44)
+        ::mavframe::field::Scalar::write(value, self.payload, 44)
     }
 }
 
@@ -9534,7 +9534,7 @@ impl RallyPoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 19;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -9543,72 +9543,72 @@ impl RallyPoint {
         target_system_offset: Some(14),
         target_component_offset: Some(15),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lng",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "alt",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "break_alt",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "land_dir",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 14,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 15,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "idx",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 17,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flags",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 18,
                 extension: false,
@@ -9618,18 +9618,18 @@ impl RallyPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 14),
-            target_component: ::mavwire::field::read::<u8>(p, 15),
-            idx: ::mavwire::field::read::<u8>(p, 16),
-            count: ::mavwire::field::read::<u8>(p, 17),
-            lat: ::mavwire::field::read::<i32>(p, 0),
-            lng: ::mavwire::field::read::<i32>(p, 4),
-            alt: ::mavwire::field::read::<i16>(p, 8),
-            break_alt: ::mavwire::field::read::<i16>(p, 10),
-            land_dir: ::mavwire::field::read::<u16>(p, 12),
-            flags: RallyFlags::from_raw(::mavwire::field::read::<u8>(p, 18)),
+            target_system: ::mavframe::field::read::<u8>(p, 14),
+            target_component: ::mavframe::field::read::<u8>(p, 15),
+            idx: ::mavframe::field::read::<u8>(p, 16),
+            count: ::mavframe::field::read::<u8>(p, 17),
+            lat: ::mavframe::field::read::<i32>(p, 0),
+            lng: ::mavframe::field::read::<i32>(p, 4),
+            alt: ::mavframe::field::read::<i16>(p, 8),
+            break_alt: ::mavframe::field::read::<i16>(p, 10),
+            land_dir: ::mavframe::field::read::<u16>(p, 12),
+            flags: RallyFlags::from_raw(::mavframe::field::read::<u8>(p, 18)),
         }
     }
 
@@ -9641,24 +9641,24 @@ impl RallyPoint {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 14);
-        ::mavwire::field::Scalar::write(self.target_component, out, 15);
-        ::mavwire::field::Scalar::write(self.idx, out, 16);
-        ::mavwire::field::Scalar::write(self.count, out, 17);
-        ::mavwire::field::Scalar::write(self.lat, out, 0);
-        ::mavwire::field::Scalar::write(self.lng, out, 4);
-        ::mavwire::field::Scalar::write(self.alt, out, 8);
-        ::mavwire::field::Scalar::write(self.break_alt, out, 10);
-        ::mavwire::field::Scalar::write(self.land_dir, out, 12);
-        ::mavwire::field::Scalar::write(self.flags.to_raw(), out, 18);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 14);
+        ::mavframe::field::Scalar::write(self.target_component, out, 15);
+        ::mavframe::field::Scalar::write(self.idx, out, 16);
+        ::mavframe::field::Scalar::write(self.count, out, 17);
+        ::mavframe::field::Scalar::write(self.lat, out, 0);
+        ::mavframe::field::Scalar::write(self.lng, out, 4);
+        ::mavframe::field::Scalar::write(self.alt, out, 8);
+        ::mavframe::field::Scalar::write(self.break_alt, out, 10);
+        ::mavframe::field::Scalar::write(self.land_dir, out, 12);
+        ::mavframe::field::Scalar::write(self.flags.to_raw(), out, 18);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for RallyPoint {
-    const META: ::mavwire::MessageMeta = RallyPoint::META;
+impl ::mavframe::Message for RallyPoint {
+    const META: ::mavframe::MessageMeta = RallyPoint::META;
     type View<'a> = RallyPointView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -9666,7 +9666,7 @@ impl ::mavwire::Message for RallyPoint {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RallyPoint::emit(self, payload)
     }
 
@@ -9707,61 +9707,61 @@ impl<'a> RallyPointView<'a> {
     /// Reads [`RallyPoint::target_system`](RallyPoint::target_system) (`target_system` at offset 14).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 14)
+        ::mavframe::field::read::<u8>(self.payload, 14)
     }
 
     /// Reads [`RallyPoint::target_component`](RallyPoint::target_component) (`target_component` at offset 15).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 15)
+        ::mavframe::field::read::<u8>(self.payload, 15)
     }
 
     /// Reads [`RallyPoint::idx`](RallyPoint::idx) (`idx` at offset 16).
     #[inline]
     pub fn idx(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 16)
+        ::mavframe::field::read::<u8>(self.payload, 16)
     }
 
     /// Reads [`RallyPoint::count`](RallyPoint::count) (`count` at offset 17).
     #[inline]
     pub fn count(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 17)
+        ::mavframe::field::read::<u8>(self.payload, 17)
     }
 
     /// Reads [`RallyPoint::lat`](RallyPoint::lat) (`lat` at offset 0).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 0)
+        ::mavframe::field::read::<i32>(self.payload, 0)
     }
 
     /// Reads [`RallyPoint::lng`](RallyPoint::lng) (`lng` at offset 4).
     #[inline]
     pub fn lng(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`RallyPoint::alt`](RallyPoint::alt) (`alt` at offset 8).
     #[inline]
     pub fn alt(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 8)
+        ::mavframe::field::read::<i16>(self.payload, 8)
     }
 
     /// Reads [`RallyPoint::break_alt`](RallyPoint::break_alt) (`break_alt` at offset 10).
     #[inline]
     pub fn break_alt(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 10)
+        ::mavframe::field::read::<i16>(self.payload, 10)
     }
 
     /// Reads [`RallyPoint::land_dir`](RallyPoint::land_dir) (`land_dir` at offset 12).
     #[inline]
     pub fn land_dir(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 12)
+        ::mavframe::field::read::<u16>(self.payload, 12)
     }
 
     /// Reads [`RallyPoint::flags`](RallyPoint::flags) (`flags` at offset 18).
     #[inline]
     pub fn flags(&self) -> RallyFlags {
-        RallyFlags::from_raw(::mavwire::field::read::<u8>(self.payload, 18))
+        RallyFlags::from_raw(::mavframe::field::read::<u8>(self.payload, 18))
     }
 }
 
@@ -9773,9 +9773,9 @@ pub struct RallyPointMut<'a> {
 
 impl<'a> RallyPointMut<'a> {
     /// A writer over `payload`, which must hold at least [`RallyPoint::MAX_LEN`](struct@RallyPoint) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < RallyPoint::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: RallyPoint::MAX_LEN,
                 got: payload.len(),
             });
@@ -9791,61 +9791,61 @@ impl<'a> RallyPointMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 14)
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 15)
+        ::mavframe::field::Scalar::write(value, self.payload, 15)
     }
 
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 17)
+        ::mavframe::field::Scalar::write(value, self.payload, 17)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `break_alt` field.
     #[inline]
     pub fn set_break_alt(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `land_dir` field.
     #[inline]
     pub fn set_land_dir(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: RallyFlags) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 18)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 18)
     }
 }
 
@@ -9881,7 +9881,7 @@ impl RallyFetchPoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -9890,23 +9890,23 @@ impl RallyFetchPoint {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "idx",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
@@ -9916,11 +9916,11 @@ impl RallyFetchPoint {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
-            idx: ::mavwire::field::read::<u8>(p, 2),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
+            idx: ::mavframe::field::read::<u8>(p, 2),
         }
     }
 
@@ -9932,17 +9932,17 @@ impl RallyFetchPoint {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
-        ::mavwire::field::Scalar::write(self.idx, out, 2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
+        ::mavframe::field::Scalar::write(self.idx, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for RallyFetchPoint {
-    const META: ::mavwire::MessageMeta = RallyFetchPoint::META;
+impl ::mavframe::Message for RallyFetchPoint {
+    const META: ::mavframe::MessageMeta = RallyFetchPoint::META;
     type View<'a> = RallyFetchPointView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -9950,7 +9950,7 @@ impl ::mavwire::Message for RallyFetchPoint {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RallyFetchPoint::emit(self, payload)
     }
 
@@ -9991,19 +9991,19 @@ impl<'a> RallyFetchPointView<'a> {
     /// Reads [`RallyFetchPoint::target_system`](RallyFetchPoint::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`RallyFetchPoint::target_component`](RallyFetchPoint::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`RallyFetchPoint::idx`](RallyFetchPoint::idx) (`idx` at offset 2).
     #[inline]
     pub fn idx(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 2)
+        ::mavframe::field::read::<u8>(self.payload, 2)
     }
 }
 
@@ -10015,9 +10015,9 @@ pub struct RallyFetchPointMut<'a> {
 
 impl<'a> RallyFetchPointMut<'a> {
     /// A writer over `payload`, which must hold at least [`RallyFetchPoint::MAX_LEN`](struct@RallyFetchPoint) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < RallyFetchPoint::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: RallyFetchPoint::MAX_LEN,
                 got: payload.len(),
             });
@@ -10033,19 +10033,19 @@ impl<'a> RallyFetchPointMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 }
 
@@ -10092,7 +10092,7 @@ impl CompassmotStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -10101,44 +10101,44 @@ impl CompassmotStatus {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "CompensationX",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "CompensationY",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "CompensationZ",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "throttle",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "interference",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 18,
                 extension: false,
@@ -10148,14 +10148,14 @@ impl CompassmotStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            throttle: ::mavwire::field::read::<u16>(p, 16),
-            current: ::mavwire::field::read::<f32>(p, 0),
-            interference: ::mavwire::field::read::<u16>(p, 18),
-            compensation_x: ::mavwire::field::read::<f32>(p, 4),
-            compensation_y: ::mavwire::field::read::<f32>(p, 8),
-            compensation_z: ::mavwire::field::read::<f32>(p, 12),
+            throttle: ::mavframe::field::read::<u16>(p, 16),
+            current: ::mavframe::field::read::<f32>(p, 0),
+            interference: ::mavframe::field::read::<u16>(p, 18),
+            compensation_x: ::mavframe::field::read::<f32>(p, 4),
+            compensation_y: ::mavframe::field::read::<f32>(p, 8),
+            compensation_z: ::mavframe::field::read::<f32>(p, 12),
         }
     }
 
@@ -10167,20 +10167,20 @@ impl CompassmotStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.throttle, out, 16);
-        ::mavwire::field::Scalar::write(self.current, out, 0);
-        ::mavwire::field::Scalar::write(self.interference, out, 18);
-        ::mavwire::field::Scalar::write(self.compensation_x, out, 4);
-        ::mavwire::field::Scalar::write(self.compensation_y, out, 8);
-        ::mavwire::field::Scalar::write(self.compensation_z, out, 12);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.throttle, out, 16);
+        ::mavframe::field::Scalar::write(self.current, out, 0);
+        ::mavframe::field::Scalar::write(self.interference, out, 18);
+        ::mavframe::field::Scalar::write(self.compensation_x, out, 4);
+        ::mavframe::field::Scalar::write(self.compensation_y, out, 8);
+        ::mavframe::field::Scalar::write(self.compensation_z, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CompassmotStatus {
-    const META: ::mavwire::MessageMeta = CompassmotStatus::META;
+impl ::mavframe::Message for CompassmotStatus {
+    const META: ::mavframe::MessageMeta = CompassmotStatus::META;
     type View<'a> = CompassmotStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -10188,7 +10188,7 @@ impl ::mavwire::Message for CompassmotStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CompassmotStatus::emit(self, payload)
     }
 
@@ -10229,37 +10229,37 @@ impl<'a> CompassmotStatusView<'a> {
     /// Reads [`CompassmotStatus::throttle`](CompassmotStatus::throttle) (`throttle` at offset 16).
     #[inline]
     pub fn throttle(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 16)
+        ::mavframe::field::read::<u16>(self.payload, 16)
     }
 
     /// Reads [`CompassmotStatus::current`](CompassmotStatus::current) (`current` at offset 0).
     #[inline]
     pub fn current(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`CompassmotStatus::interference`](CompassmotStatus::interference) (`interference` at offset 18).
     #[inline]
     pub fn interference(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 18)
+        ::mavframe::field::read::<u16>(self.payload, 18)
     }
 
     /// Reads [`CompassmotStatus::compensation_x`](CompassmotStatus::compensation_x) (`CompensationX` at offset 4).
     #[inline]
     pub fn compensation_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`CompassmotStatus::compensation_y`](CompassmotStatus::compensation_y) (`CompensationY` at offset 8).
     #[inline]
     pub fn compensation_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`CompassmotStatus::compensation_z`](CompassmotStatus::compensation_z) (`CompensationZ` at offset 12).
     #[inline]
     pub fn compensation_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 }
 
@@ -10271,9 +10271,9 @@ pub struct CompassmotStatusMut<'a> {
 
 impl<'a> CompassmotStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`CompassmotStatus::MAX_LEN`](struct@CompassmotStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CompassmotStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CompassmotStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -10289,37 +10289,37 @@ impl<'a> CompassmotStatusMut<'a> {
     /// Sets the `throttle` field.
     #[inline]
     pub fn set_throttle(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `interference` field.
     #[inline]
     pub fn set_interference(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 18)
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
 
     /// Sets the `CompensationX` field.
     #[inline]
     pub fn set_compensation_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `CompensationY` field.
     #[inline]
     pub fn set_compensation_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `CompensationZ` field.
     #[inline]
     pub fn set_compensation_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 }
 
@@ -10366,7 +10366,7 @@ impl Ahrs2 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 24;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -10375,44 +10375,44 @@ impl Ahrs2 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "roll",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pitch",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yaw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "altitude",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lng",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
@@ -10422,14 +10422,14 @@ impl Ahrs2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            roll: ::mavwire::field::read::<f32>(p, 0),
-            pitch: ::mavwire::field::read::<f32>(p, 4),
-            yaw: ::mavwire::field::read::<f32>(p, 8),
-            altitude: ::mavwire::field::read::<f32>(p, 12),
-            lat: ::mavwire::field::read::<i32>(p, 16),
-            lng: ::mavwire::field::read::<i32>(p, 20),
+            roll: ::mavframe::field::read::<f32>(p, 0),
+            pitch: ::mavframe::field::read::<f32>(p, 4),
+            yaw: ::mavframe::field::read::<f32>(p, 8),
+            altitude: ::mavframe::field::read::<f32>(p, 12),
+            lat: ::mavframe::field::read::<i32>(p, 16),
+            lng: ::mavframe::field::read::<i32>(p, 20),
         }
     }
 
@@ -10441,20 +10441,20 @@ impl Ahrs2 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.roll, out, 0);
-        ::mavwire::field::Scalar::write(self.pitch, out, 4);
-        ::mavwire::field::Scalar::write(self.yaw, out, 8);
-        ::mavwire::field::Scalar::write(self.altitude, out, 12);
-        ::mavwire::field::Scalar::write(self.lat, out, 16);
-        ::mavwire::field::Scalar::write(self.lng, out, 20);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.roll, out, 0);
+        ::mavframe::field::Scalar::write(self.pitch, out, 4);
+        ::mavframe::field::Scalar::write(self.yaw, out, 8);
+        ::mavframe::field::Scalar::write(self.altitude, out, 12);
+        ::mavframe::field::Scalar::write(self.lat, out, 16);
+        ::mavframe::field::Scalar::write(self.lng, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Ahrs2 {
-    const META: ::mavwire::MessageMeta = Ahrs2::META;
+impl ::mavframe::Message for Ahrs2 {
+    const META: ::mavframe::MessageMeta = Ahrs2::META;
     type View<'a> = Ahrs2View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -10462,7 +10462,7 @@ impl ::mavwire::Message for Ahrs2 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Ahrs2::emit(self, payload)
     }
 
@@ -10503,37 +10503,37 @@ impl<'a> Ahrs2View<'a> {
     /// Reads [`Ahrs2::roll`](Ahrs2::roll) (`roll` at offset 0).
     #[inline]
     pub fn roll(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`Ahrs2::pitch`](Ahrs2::pitch) (`pitch` at offset 4).
     #[inline]
     pub fn pitch(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`Ahrs2::yaw`](Ahrs2::yaw) (`yaw` at offset 8).
     #[inline]
     pub fn yaw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`Ahrs2::altitude`](Ahrs2::altitude) (`altitude` at offset 12).
     #[inline]
     pub fn altitude(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`Ahrs2::lat`](Ahrs2::lat) (`lat` at offset 16).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 16)
+        ::mavframe::field::read::<i32>(self.payload, 16)
     }
 
     /// Reads [`Ahrs2::lng`](Ahrs2::lng) (`lng` at offset 20).
     #[inline]
     pub fn lng(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 20)
+        ::mavframe::field::read::<i32>(self.payload, 20)
     }
 }
 
@@ -10545,9 +10545,9 @@ pub struct Ahrs2Mut<'a> {
 
 impl<'a> Ahrs2Mut<'a> {
     /// A writer over `payload`, which must hold at least [`Ahrs2::MAX_LEN`](struct@Ahrs2) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Ahrs2::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Ahrs2::MAX_LEN,
                 got: payload.len(),
             });
@@ -10563,37 +10563,37 @@ impl<'a> Ahrs2Mut<'a> {
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `altitude` field.
     #[inline]
     pub fn set_altitude(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 }
 
@@ -10653,7 +10653,7 @@ impl CameraStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 29;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -10662,65 +10662,65 @@ impl CameraStatus {
         target_system_offset: Some(26),
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_usec",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "p1",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "p2",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "p3",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "p4",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "img_idx",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 26,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cam_idx",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 27,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "event_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 28,
                 extension: false,
@@ -10730,17 +10730,17 @@ impl CameraStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_usec: ::mavwire::field::read::<u64>(p, 0),
-            target_system: ::mavwire::field::read::<u8>(p, 26),
-            cam_idx: ::mavwire::field::read::<u8>(p, 27),
-            img_idx: ::mavwire::field::read::<u16>(p, 24),
-            event_id: CameraStatusTypes::from_raw(::mavwire::field::read::<u8>(p, 28)),
-            p1: ::mavwire::field::read::<f32>(p, 8),
-            p2: ::mavwire::field::read::<f32>(p, 12),
-            p3: ::mavwire::field::read::<f32>(p, 16),
-            p4: ::mavwire::field::read::<f32>(p, 20),
+            time_usec: ::mavframe::field::read::<u64>(p, 0),
+            target_system: ::mavframe::field::read::<u8>(p, 26),
+            cam_idx: ::mavframe::field::read::<u8>(p, 27),
+            img_idx: ::mavframe::field::read::<u16>(p, 24),
+            event_id: CameraStatusTypes::from_raw(::mavframe::field::read::<u8>(p, 28)),
+            p1: ::mavframe::field::read::<f32>(p, 8),
+            p2: ::mavframe::field::read::<f32>(p, 12),
+            p3: ::mavframe::field::read::<f32>(p, 16),
+            p4: ::mavframe::field::read::<f32>(p, 20),
         }
     }
 
@@ -10752,23 +10752,23 @@ impl CameraStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
-        ::mavwire::field::Scalar::write(self.target_system, out, 26);
-        ::mavwire::field::Scalar::write(self.cam_idx, out, 27);
-        ::mavwire::field::Scalar::write(self.img_idx, out, 24);
-        ::mavwire::field::Scalar::write(self.event_id.to_raw(), out, 28);
-        ::mavwire::field::Scalar::write(self.p1, out, 8);
-        ::mavwire::field::Scalar::write(self.p2, out, 12);
-        ::mavwire::field::Scalar::write(self.p3, out, 16);
-        ::mavwire::field::Scalar::write(self.p4, out, 20);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_usec, out, 0);
+        ::mavframe::field::Scalar::write(self.target_system, out, 26);
+        ::mavframe::field::Scalar::write(self.cam_idx, out, 27);
+        ::mavframe::field::Scalar::write(self.img_idx, out, 24);
+        ::mavframe::field::Scalar::write(self.event_id.to_raw(), out, 28);
+        ::mavframe::field::Scalar::write(self.p1, out, 8);
+        ::mavframe::field::Scalar::write(self.p2, out, 12);
+        ::mavframe::field::Scalar::write(self.p3, out, 16);
+        ::mavframe::field::Scalar::write(self.p4, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CameraStatus {
-    const META: ::mavwire::MessageMeta = CameraStatus::META;
+impl ::mavframe::Message for CameraStatus {
+    const META: ::mavframe::MessageMeta = CameraStatus::META;
     type View<'a> = CameraStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -10776,7 +10776,7 @@ impl ::mavwire::Message for CameraStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CameraStatus::emit(self, payload)
     }
 
@@ -10817,55 +10817,55 @@ impl<'a> CameraStatusView<'a> {
     /// Reads [`CameraStatus::time_usec`](CameraStatus::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
-        ::mavwire::field::read::<u64>(self.payload, 0)
+        ::mavframe::field::read::<u64>(self.payload, 0)
     }
 
     /// Reads [`CameraStatus::target_system`](CameraStatus::target_system) (`target_system` at offset 26).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 26)
+        ::mavframe::field::read::<u8>(self.payload, 26)
     }
 
     /// Reads [`CameraStatus::cam_idx`](CameraStatus::cam_idx) (`cam_idx` at offset 27).
     #[inline]
     pub fn cam_idx(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 27)
+        ::mavframe::field::read::<u8>(self.payload, 27)
     }
 
     /// Reads [`CameraStatus::img_idx`](CameraStatus::img_idx) (`img_idx` at offset 24).
     #[inline]
     pub fn img_idx(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 24)
+        ::mavframe::field::read::<u16>(self.payload, 24)
     }
 
     /// Reads [`CameraStatus::event_id`](CameraStatus::event_id) (`event_id` at offset 28).
     #[inline]
     pub fn event_id(&self) -> CameraStatusTypes {
-        CameraStatusTypes::from_raw(::mavwire::field::read::<u8>(self.payload, 28))
+        CameraStatusTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 28))
     }
 
     /// Reads [`CameraStatus::p1`](CameraStatus::p1) (`p1` at offset 8).
     #[inline]
     pub fn p1(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`CameraStatus::p2`](CameraStatus::p2) (`p2` at offset 12).
     #[inline]
     pub fn p2(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`CameraStatus::p3`](CameraStatus::p3) (`p3` at offset 16).
     #[inline]
     pub fn p3(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`CameraStatus::p4`](CameraStatus::p4) (`p4` at offset 20).
     #[inline]
     pub fn p4(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 }
 
@@ -10877,9 +10877,9 @@ pub struct CameraStatusMut<'a> {
 
 impl<'a> CameraStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`CameraStatus::MAX_LEN`](struct@CameraStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CameraStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CameraStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -10895,55 +10895,55 @@ impl<'a> CameraStatusMut<'a> {
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 26)
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
 
     /// Sets the `cam_idx` field.
     #[inline]
     pub fn set_cam_idx(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 27)
+        ::mavframe::field::Scalar::write(value, self.payload, 27)
     }
 
     /// Sets the `img_idx` field.
     #[inline]
     pub fn set_img_idx(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `event_id` field.
     #[inline]
     pub fn set_event_id(&mut self, value: CameraStatusTypes) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 28)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 28)
     }
 
     /// Sets the `p1` field.
     #[inline]
     pub fn set_p1(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `p2` field.
     #[inline]
     pub fn set_p2(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `p3` field.
     #[inline]
     pub fn set_p3(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `p4` field.
     #[inline]
     pub fn set_p4(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 }
 
@@ -11025,7 +11025,7 @@ impl CameraFeedback {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 47;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -11034,100 +11034,100 @@ impl CameraFeedback {
         target_system_offset: Some(42),
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_usec",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lng",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "alt_msl",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "alt_rel",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "roll",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pitch",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yaw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "foc_len",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "img_idx",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 42,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cam_idx",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 43,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flags",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 44,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "completed_captures",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 45,
                 extension: true,
@@ -11137,22 +11137,22 @@ impl CameraFeedback {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_usec: ::mavwire::field::read::<u64>(p, 0),
-            target_system: ::mavwire::field::read::<u8>(p, 42),
-            cam_idx: ::mavwire::field::read::<u8>(p, 43),
-            img_idx: ::mavwire::field::read::<u16>(p, 40),
-            lat: ::mavwire::field::read::<i32>(p, 8),
-            lng: ::mavwire::field::read::<i32>(p, 12),
-            alt_msl: ::mavwire::field::read::<f32>(p, 16),
-            alt_rel: ::mavwire::field::read::<f32>(p, 20),
-            roll: ::mavwire::field::read::<f32>(p, 24),
-            pitch: ::mavwire::field::read::<f32>(p, 28),
-            yaw: ::mavwire::field::read::<f32>(p, 32),
-            foc_len: ::mavwire::field::read::<f32>(p, 36),
-            flags: CameraFeedbackFlags::from_raw(::mavwire::field::read::<u8>(p, 44)),
-            completed_captures: ::mavwire::field::read::<u16>(p, 45),
+            time_usec: ::mavframe::field::read::<u64>(p, 0),
+            target_system: ::mavframe::field::read::<u8>(p, 42),
+            cam_idx: ::mavframe::field::read::<u8>(p, 43),
+            img_idx: ::mavframe::field::read::<u16>(p, 40),
+            lat: ::mavframe::field::read::<i32>(p, 8),
+            lng: ::mavframe::field::read::<i32>(p, 12),
+            alt_msl: ::mavframe::field::read::<f32>(p, 16),
+            alt_rel: ::mavframe::field::read::<f32>(p, 20),
+            roll: ::mavframe::field::read::<f32>(p, 24),
+            pitch: ::mavframe::field::read::<f32>(p, 28),
+            yaw: ::mavframe::field::read::<f32>(p, 32),
+            foc_len: ::mavframe::field::read::<f32>(p, 36),
+            flags: CameraFeedbackFlags::from_raw(::mavframe::field::read::<u8>(p, 44)),
+            completed_captures: ::mavframe::field::read::<u16>(p, 45),
         }
     }
 
@@ -11164,28 +11164,28 @@ impl CameraFeedback {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
-        ::mavwire::field::Scalar::write(self.target_system, out, 42);
-        ::mavwire::field::Scalar::write(self.cam_idx, out, 43);
-        ::mavwire::field::Scalar::write(self.img_idx, out, 40);
-        ::mavwire::field::Scalar::write(self.lat, out, 8);
-        ::mavwire::field::Scalar::write(self.lng, out, 12);
-        ::mavwire::field::Scalar::write(self.alt_msl, out, 16);
-        ::mavwire::field::Scalar::write(self.alt_rel, out, 20);
-        ::mavwire::field::Scalar::write(self.roll, out, 24);
-        ::mavwire::field::Scalar::write(self.pitch, out, 28);
-        ::mavwire::field::Scalar::write(self.yaw, out, 32);
-        ::mavwire::field::Scalar::write(self.foc_len, out, 36);
-        ::mavwire::field::Scalar::write(self.flags.to_raw(), out, 44);
-        ::mavwire::field::Scalar::write(self.completed_captures, out, 45);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_usec, out, 0);
+        ::mavframe::field::Scalar::write(self.target_system, out, 42);
+        ::mavframe::field::Scalar::write(self.cam_idx, out, 43);
+        ::mavframe::field::Scalar::write(self.img_idx, out, 40);
+        ::mavframe::field::Scalar::write(self.lat, out, 8);
+        ::mavframe::field::Scalar::write(self.lng, out, 12);
+        ::mavframe::field::Scalar::write(self.alt_msl, out, 16);
+        ::mavframe::field::Scalar::write(self.alt_rel, out, 20);
+        ::mavframe::field::Scalar::write(self.roll, out, 24);
+        ::mavframe::field::Scalar::write(self.pitch, out, 28);
+        ::mavframe::field::Scalar::write(self.yaw, out, 32);
+        ::mavframe::field::Scalar::write(self.foc_len, out, 36);
+        ::mavframe::field::Scalar::write(self.flags.to_raw(), out, 44);
+        ::mavframe::field::Scalar::write(self.completed_captures, out, 45);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for CameraFeedback {
-    const META: ::mavwire::MessageMeta = CameraFeedback::META;
+impl ::mavframe::Message for CameraFeedback {
+    const META: ::mavframe::MessageMeta = CameraFeedback::META;
     type View<'a> = CameraFeedbackView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -11193,7 +11193,7 @@ impl ::mavwire::Message for CameraFeedback {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CameraFeedback::emit(self, payload)
     }
 
@@ -11234,85 +11234,85 @@ impl<'a> CameraFeedbackView<'a> {
     /// Reads [`CameraFeedback::time_usec`](CameraFeedback::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
-        ::mavwire::field::read::<u64>(self.payload, 0)
+        ::mavframe::field::read::<u64>(self.payload, 0)
     }
 
     /// Reads [`CameraFeedback::target_system`](CameraFeedback::target_system) (`target_system` at offset 42).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 42)
+        ::mavframe::field::read::<u8>(self.payload, 42)
     }
 
     /// Reads [`CameraFeedback::cam_idx`](CameraFeedback::cam_idx) (`cam_idx` at offset 43).
     #[inline]
     pub fn cam_idx(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 43)
+        ::mavframe::field::read::<u8>(self.payload, 43)
     }
 
     /// Reads [`CameraFeedback::img_idx`](CameraFeedback::img_idx) (`img_idx` at offset 40).
     #[inline]
     pub fn img_idx(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 40)
+        ::mavframe::field::read::<u16>(self.payload, 40)
     }
 
     /// Reads [`CameraFeedback::lat`](CameraFeedback::lat) (`lat` at offset 8).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`CameraFeedback::lng`](CameraFeedback::lng) (`lng` at offset 12).
     #[inline]
     pub fn lng(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 12)
+        ::mavframe::field::read::<i32>(self.payload, 12)
     }
 
     /// Reads [`CameraFeedback::alt_msl`](CameraFeedback::alt_msl) (`alt_msl` at offset 16).
     #[inline]
     pub fn alt_msl(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`CameraFeedback::alt_rel`](CameraFeedback::alt_rel) (`alt_rel` at offset 20).
     #[inline]
     pub fn alt_rel(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`CameraFeedback::roll`](CameraFeedback::roll) (`roll` at offset 24).
     #[inline]
     pub fn roll(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`CameraFeedback::pitch`](CameraFeedback::pitch) (`pitch` at offset 28).
     #[inline]
     pub fn pitch(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`CameraFeedback::yaw`](CameraFeedback::yaw) (`yaw` at offset 32).
     #[inline]
     pub fn yaw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`CameraFeedback::foc_len`](CameraFeedback::foc_len) (`foc_len` at offset 36).
     #[inline]
     pub fn foc_len(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 36)
+        ::mavframe::field::read::<f32>(self.payload, 36)
     }
 
     /// Reads [`CameraFeedback::flags`](CameraFeedback::flags) (`flags` at offset 44).
     #[inline]
     pub fn flags(&self) -> CameraFeedbackFlags {
-        CameraFeedbackFlags::from_raw(::mavwire::field::read::<u8>(self.payload, 44))
+        CameraFeedbackFlags::from_raw(::mavframe::field::read::<u8>(self.payload, 44))
     }
 
     /// Reads [`CameraFeedback::completed_captures`](CameraFeedback::completed_captures) (`completed_captures` at offset 45).
     #[inline]
     pub fn completed_captures(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 45)
+        ::mavframe::field::read::<u16>(self.payload, 45)
     }
 }
 
@@ -11324,9 +11324,9 @@ pub struct CameraFeedbackMut<'a> {
 
 impl<'a> CameraFeedbackMut<'a> {
     /// A writer over `payload`, which must hold at least [`CameraFeedback::MAX_LEN`](struct@CameraFeedback) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < CameraFeedback::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: CameraFeedback::MAX_LEN,
                 got: payload.len(),
             });
@@ -11342,85 +11342,85 @@ impl<'a> CameraFeedbackMut<'a> {
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 42)
+        ::mavframe::field::Scalar::write(value, self.payload, 42)
     }
 
     /// Sets the `cam_idx` field.
     #[inline]
     pub fn set_cam_idx(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 43)
+        ::mavframe::field::Scalar::write(value, self.payload, 43)
     }
 
     /// Sets the `img_idx` field.
     #[inline]
     pub fn set_img_idx(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `alt_msl` field.
     #[inline]
     pub fn set_alt_msl(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `alt_rel` field.
     #[inline]
     pub fn set_alt_rel(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `foc_len` field.
     #[inline]
     pub fn set_foc_len(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: CameraFeedbackFlags) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 44)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 44)
     }
 
     /// Sets the `completed_captures` field.
     #[inline]
     pub fn set_completed_captures(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 45)
+        ::mavframe::field::Scalar::write(value, self.payload, 45)
     }
 }
 
@@ -11452,7 +11452,7 @@ impl Battery2 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -11461,16 +11461,16 @@ impl Battery2 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current_battery",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
@@ -11480,10 +11480,10 @@ impl Battery2 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            voltage: ::mavwire::field::read::<u16>(p, 0),
-            current_battery: ::mavwire::field::read::<i16>(p, 2),
+            voltage: ::mavframe::field::read::<u16>(p, 0),
+            current_battery: ::mavframe::field::read::<i16>(p, 2),
         }
     }
 
@@ -11495,16 +11495,16 @@ impl Battery2 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.voltage, out, 0);
-        ::mavwire::field::Scalar::write(self.current_battery, out, 2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.voltage, out, 0);
+        ::mavframe::field::Scalar::write(self.current_battery, out, 2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Battery2 {
-    const META: ::mavwire::MessageMeta = Battery2::META;
+impl ::mavframe::Message for Battery2 {
+    const META: ::mavframe::MessageMeta = Battery2::META;
     type View<'a> = Battery2View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -11512,7 +11512,7 @@ impl ::mavwire::Message for Battery2 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Battery2::emit(self, payload)
     }
 
@@ -11553,13 +11553,13 @@ impl<'a> Battery2View<'a> {
     /// Reads [`Battery2::voltage`](Battery2::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 0)
+        ::mavframe::field::read::<u16>(self.payload, 0)
     }
 
     /// Reads [`Battery2::current_battery`](Battery2::current_battery) (`current_battery` at offset 2).
     #[inline]
     pub fn current_battery(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 2)
+        ::mavframe::field::read::<i16>(self.payload, 2)
     }
 }
 
@@ -11571,9 +11571,9 @@ pub struct Battery2Mut<'a> {
 
 impl<'a> Battery2Mut<'a> {
     /// A writer over `payload`, which must hold at least [`Battery2::MAX_LEN`](struct@Battery2) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Battery2::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Battery2::MAX_LEN,
                 got: payload.len(),
             });
@@ -11589,13 +11589,13 @@ impl<'a> Battery2Mut<'a> {
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `current_battery` field.
     #[inline]
     pub fn set_current_battery(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 }
 
@@ -11658,7 +11658,7 @@ impl Ahrs3 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 40;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -11667,72 +11667,72 @@ impl Ahrs3 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "roll",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pitch",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yaw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "altitude",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lng",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "v1",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "v2",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "v3",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "v4",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
@@ -11742,18 +11742,18 @@ impl Ahrs3 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            roll: ::mavwire::field::read::<f32>(p, 0),
-            pitch: ::mavwire::field::read::<f32>(p, 4),
-            yaw: ::mavwire::field::read::<f32>(p, 8),
-            altitude: ::mavwire::field::read::<f32>(p, 12),
-            lat: ::mavwire::field::read::<i32>(p, 16),
-            lng: ::mavwire::field::read::<i32>(p, 20),
-            v1: ::mavwire::field::read::<f32>(p, 24),
-            v2: ::mavwire::field::read::<f32>(p, 28),
-            v3: ::mavwire::field::read::<f32>(p, 32),
-            v4: ::mavwire::field::read::<f32>(p, 36),
+            roll: ::mavframe::field::read::<f32>(p, 0),
+            pitch: ::mavframe::field::read::<f32>(p, 4),
+            yaw: ::mavframe::field::read::<f32>(p, 8),
+            altitude: ::mavframe::field::read::<f32>(p, 12),
+            lat: ::mavframe::field::read::<i32>(p, 16),
+            lng: ::mavframe::field::read::<i32>(p, 20),
+            v1: ::mavframe::field::read::<f32>(p, 24),
+            v2: ::mavframe::field::read::<f32>(p, 28),
+            v3: ::mavframe::field::read::<f32>(p, 32),
+            v4: ::mavframe::field::read::<f32>(p, 36),
         }
     }
 
@@ -11765,24 +11765,24 @@ impl Ahrs3 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.roll, out, 0);
-        ::mavwire::field::Scalar::write(self.pitch, out, 4);
-        ::mavwire::field::Scalar::write(self.yaw, out, 8);
-        ::mavwire::field::Scalar::write(self.altitude, out, 12);
-        ::mavwire::field::Scalar::write(self.lat, out, 16);
-        ::mavwire::field::Scalar::write(self.lng, out, 20);
-        ::mavwire::field::Scalar::write(self.v1, out, 24);
-        ::mavwire::field::Scalar::write(self.v2, out, 28);
-        ::mavwire::field::Scalar::write(self.v3, out, 32);
-        ::mavwire::field::Scalar::write(self.v4, out, 36);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.roll, out, 0);
+        ::mavframe::field::Scalar::write(self.pitch, out, 4);
+        ::mavframe::field::Scalar::write(self.yaw, out, 8);
+        ::mavframe::field::Scalar::write(self.altitude, out, 12);
+        ::mavframe::field::Scalar::write(self.lat, out, 16);
+        ::mavframe::field::Scalar::write(self.lng, out, 20);
+        ::mavframe::field::Scalar::write(self.v1, out, 24);
+        ::mavframe::field::Scalar::write(self.v2, out, 28);
+        ::mavframe::field::Scalar::write(self.v3, out, 32);
+        ::mavframe::field::Scalar::write(self.v4, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Ahrs3 {
-    const META: ::mavwire::MessageMeta = Ahrs3::META;
+impl ::mavframe::Message for Ahrs3 {
+    const META: ::mavframe::MessageMeta = Ahrs3::META;
     type View<'a> = Ahrs3View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -11790,7 +11790,7 @@ impl ::mavwire::Message for Ahrs3 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Ahrs3::emit(self, payload)
     }
 
@@ -11831,61 +11831,61 @@ impl<'a> Ahrs3View<'a> {
     /// Reads [`Ahrs3::roll`](Ahrs3::roll) (`roll` at offset 0).
     #[inline]
     pub fn roll(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`Ahrs3::pitch`](Ahrs3::pitch) (`pitch` at offset 4).
     #[inline]
     pub fn pitch(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`Ahrs3::yaw`](Ahrs3::yaw) (`yaw` at offset 8).
     #[inline]
     pub fn yaw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`Ahrs3::altitude`](Ahrs3::altitude) (`altitude` at offset 12).
     #[inline]
     pub fn altitude(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`Ahrs3::lat`](Ahrs3::lat) (`lat` at offset 16).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 16)
+        ::mavframe::field::read::<i32>(self.payload, 16)
     }
 
     /// Reads [`Ahrs3::lng`](Ahrs3::lng) (`lng` at offset 20).
     #[inline]
     pub fn lng(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 20)
+        ::mavframe::field::read::<i32>(self.payload, 20)
     }
 
     /// Reads [`Ahrs3::v1`](Ahrs3::v1) (`v1` at offset 24).
     #[inline]
     pub fn v1(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`Ahrs3::v2`](Ahrs3::v2) (`v2` at offset 28).
     #[inline]
     pub fn v2(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`Ahrs3::v3`](Ahrs3::v3) (`v3` at offset 32).
     #[inline]
     pub fn v3(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`Ahrs3::v4`](Ahrs3::v4) (`v4` at offset 36).
     #[inline]
     pub fn v4(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 36)
+        ::mavframe::field::read::<f32>(self.payload, 36)
     }
 }
 
@@ -11897,9 +11897,9 @@ pub struct Ahrs3Mut<'a> {
 
 impl<'a> Ahrs3Mut<'a> {
     /// A writer over `payload`, which must hold at least [`Ahrs3::MAX_LEN`](struct@Ahrs3) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Ahrs3::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Ahrs3::MAX_LEN,
                 got: payload.len(),
             });
@@ -11915,61 +11915,61 @@ impl<'a> Ahrs3Mut<'a> {
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `altitude` field.
     #[inline]
     pub fn set_altitude(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `v1` field.
     #[inline]
     pub fn set_v1(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `v2` field.
     #[inline]
     pub fn set_v2(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `v3` field.
     #[inline]
     pub fn set_v3(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `v4` field.
     #[inline]
     pub fn set_v4(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 }
 
@@ -12000,7 +12000,7 @@ impl AutopilotVersionRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -12009,16 +12009,16 @@ impl AutopilotVersionRequest {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
@@ -12028,10 +12028,10 @@ impl AutopilotVersionRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
         }
     }
 
@@ -12043,16 +12043,16 @@ impl AutopilotVersionRequest {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for AutopilotVersionRequest {
-    const META: ::mavwire::MessageMeta = AutopilotVersionRequest::META;
+impl ::mavframe::Message for AutopilotVersionRequest {
+    const META: ::mavframe::MessageMeta = AutopilotVersionRequest::META;
     type View<'a> = AutopilotVersionRequestView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -12060,7 +12060,7 @@ impl ::mavwire::Message for AutopilotVersionRequest {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AutopilotVersionRequest::emit(self, payload)
     }
 
@@ -12101,13 +12101,13 @@ impl<'a> AutopilotVersionRequestView<'a> {
     /// Reads [`AutopilotVersionRequest::target_system`](AutopilotVersionRequest::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`AutopilotVersionRequest::target_component`](AutopilotVersionRequest::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 }
 
@@ -12119,9 +12119,9 @@ pub struct AutopilotVersionRequestMut<'a> {
 
 impl<'a> AutopilotVersionRequestMut<'a> {
     /// A writer over `payload`, which must hold at least [`AutopilotVersionRequest::MAX_LEN`](struct@AutopilotVersionRequest) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < AutopilotVersionRequest::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: AutopilotVersionRequest::MAX_LEN,
                 got: payload.len(),
             });
@@ -12137,13 +12137,13 @@ impl<'a> AutopilotVersionRequestMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 }
 
@@ -12183,7 +12183,7 @@ impl RemoteLogDataBlock {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 206;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -12192,30 +12192,30 @@ impl RemoteLogDataBlock {
         target_system_offset: Some(4),
         target_component_offset: Some(5),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "seqno",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 200,
                 offset: 6,
                 extension: false,
@@ -12225,14 +12225,14 @@ impl RemoteLogDataBlock {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 4),
-            target_component: ::mavwire::field::read::<u8>(p, 5),
+            target_system: ::mavframe::field::read::<u8>(p, 4),
+            target_component: ::mavframe::field::read::<u8>(p, 5),
             seqno: MavRemoteLogDataBlockCommands::from_raw(
-                ::mavwire::field::read::<u32>(p, 0),
+                ::mavframe::field::read::<u32>(p, 0),
             ),
-            data: ::mavwire::field::ArrayView::new(p, 6).to_array(),
+            data: ::mavframe::field::ArrayView::new(p, 6).to_array(),
         }
     }
 
@@ -12244,12 +12244,12 @@ impl RemoteLogDataBlock {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 4);
-        ::mavwire::field::Scalar::write(self.target_component, out, 5);
-        ::mavwire::field::Scalar::write(self.seqno.to_raw(), out, 0);
-        ::mavwire::field::write_array(out, 6, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 4);
+        ::mavframe::field::Scalar::write(self.target_component, out, 5);
+        ::mavframe::field::Scalar::write(self.seqno.to_raw(), out, 0);
+        ::mavframe::field::write_array(out, 6, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -12265,8 +12265,8 @@ impl Default for RemoteLogDataBlock {
     }
 }
 
-impl ::mavwire::Message for RemoteLogDataBlock {
-    const META: ::mavwire::MessageMeta = RemoteLogDataBlock::META;
+impl ::mavframe::Message for RemoteLogDataBlock {
+    const META: ::mavframe::MessageMeta = RemoteLogDataBlock::META;
     type View<'a> = RemoteLogDataBlockView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -12274,7 +12274,7 @@ impl ::mavwire::Message for RemoteLogDataBlock {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RemoteLogDataBlock::emit(self, payload)
     }
 
@@ -12315,27 +12315,27 @@ impl<'a> RemoteLogDataBlockView<'a> {
     /// Reads [`RemoteLogDataBlock::target_system`](RemoteLogDataBlock::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`RemoteLogDataBlock::target_component`](RemoteLogDataBlock::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`RemoteLogDataBlock::seqno`](RemoteLogDataBlock::seqno) (`seqno` at offset 0).
     #[inline]
     pub fn seqno(&self) -> MavRemoteLogDataBlockCommands {
         MavRemoteLogDataBlockCommands::from_raw(
-            ::mavwire::field::read::<u32>(self.payload, 0),
+            ::mavframe::field::read::<u32>(self.payload, 0),
         )
     }
 
     /// Reads [`RemoteLogDataBlock::data`](RemoteLogDataBlock::data) (`data` at offset 6).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 200> {
-        ::mavwire::field::ArrayView::new(self.payload, 6)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 200> {
+        ::mavframe::field::ArrayView::new(self.payload, 6)
     }
 }
 
@@ -12347,9 +12347,9 @@ pub struct RemoteLogDataBlockMut<'a> {
 
 impl<'a> RemoteLogDataBlockMut<'a> {
     /// A writer over `payload`, which must hold at least [`RemoteLogDataBlock::MAX_LEN`](struct@RemoteLogDataBlock) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < RemoteLogDataBlock::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: RemoteLogDataBlock::MAX_LEN,
                 got: payload.len(),
             });
@@ -12365,25 +12365,25 @@ impl<'a> RemoteLogDataBlockMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `seqno` field.
     #[inline]
     pub fn set_seqno(&mut self, value: MavRemoteLogDataBlockCommands) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 200]) {
-        ::mavwire::field::write_array(self.payload, 6, value)
+        ::mavframe::field::write_array(self.payload, 6, value)
     }
 }
 
@@ -12423,7 +12423,7 @@ impl RemoteLogBlockStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 7;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -12432,30 +12432,30 @@ impl RemoteLogBlockStatus {
         target_system_offset: Some(4),
         target_component_offset: Some(5),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "seqno",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
@@ -12465,13 +12465,13 @@ impl RemoteLogBlockStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 4),
-            target_component: ::mavwire::field::read::<u8>(p, 5),
-            seqno: ::mavwire::field::read::<u32>(p, 0),
+            target_system: ::mavframe::field::read::<u8>(p, 4),
+            target_component: ::mavframe::field::read::<u8>(p, 5),
+            seqno: ::mavframe::field::read::<u32>(p, 0),
             status: MavRemoteLogDataBlockStatuses::from_raw(
-                ::mavwire::field::read::<u8>(p, 6),
+                ::mavframe::field::read::<u8>(p, 6),
             ),
         }
     }
@@ -12484,18 +12484,18 @@ impl RemoteLogBlockStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 4);
-        ::mavwire::field::Scalar::write(self.target_component, out, 5);
-        ::mavwire::field::Scalar::write(self.seqno, out, 0);
-        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 6);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 4);
+        ::mavframe::field::Scalar::write(self.target_component, out, 5);
+        ::mavframe::field::Scalar::write(self.seqno, out, 0);
+        ::mavframe::field::Scalar::write(self.status.to_raw(), out, 6);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for RemoteLogBlockStatus {
-    const META: ::mavwire::MessageMeta = RemoteLogBlockStatus::META;
+impl ::mavframe::Message for RemoteLogBlockStatus {
+    const META: ::mavframe::MessageMeta = RemoteLogBlockStatus::META;
     type View<'a> = RemoteLogBlockStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -12503,7 +12503,7 @@ impl ::mavwire::Message for RemoteLogBlockStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RemoteLogBlockStatus::emit(self, payload)
     }
 
@@ -12544,26 +12544,26 @@ impl<'a> RemoteLogBlockStatusView<'a> {
     /// Reads [`RemoteLogBlockStatus::target_system`](RemoteLogBlockStatus::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`RemoteLogBlockStatus::target_component`](RemoteLogBlockStatus::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`RemoteLogBlockStatus::seqno`](RemoteLogBlockStatus::seqno) (`seqno` at offset 0).
     #[inline]
     pub fn seqno(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`RemoteLogBlockStatus::status`](RemoteLogBlockStatus::status) (`status` at offset 6).
     #[inline]
     pub fn status(&self) -> MavRemoteLogDataBlockStatuses {
         MavRemoteLogDataBlockStatuses::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 6),
+            ::mavframe::field::read::<u8>(self.payload, 6),
         )
     }
 }
@@ -12576,9 +12576,9 @@ pub struct RemoteLogBlockStatusMut<'a> {
 
 impl<'a> RemoteLogBlockStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`RemoteLogBlockStatus::MAX_LEN`](struct@RemoteLogBlockStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < RemoteLogBlockStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: RemoteLogBlockStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -12594,25 +12594,25 @@ impl<'a> RemoteLogBlockStatusMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `seqno` field.
     #[inline]
     pub fn set_seqno(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: MavRemoteLogDataBlockStatuses) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 6)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 6)
     }
 }
 
@@ -12659,7 +12659,7 @@ impl LedControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 29;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -12668,44 +12668,44 @@ impl LedControl {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "instance",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pattern",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 3,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "custom_len",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "custom_bytes",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 24,
                 offset: 5,
                 extension: false,
@@ -12715,14 +12715,14 @@ impl LedControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
-            instance: ::mavwire::field::read::<u8>(p, 2),
-            pattern: ::mavwire::field::read::<u8>(p, 3),
-            custom_len: ::mavwire::field::read::<u8>(p, 4),
-            custom_bytes: ::mavwire::field::ArrayView::new(p, 5).to_array(),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
+            instance: ::mavframe::field::read::<u8>(p, 2),
+            pattern: ::mavframe::field::read::<u8>(p, 3),
+            custom_len: ::mavframe::field::read::<u8>(p, 4),
+            custom_bytes: ::mavframe::field::ArrayView::new(p, 5).to_array(),
         }
     }
 
@@ -12734,20 +12734,20 @@ impl LedControl {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
-        ::mavwire::field::Scalar::write(self.instance, out, 2);
-        ::mavwire::field::Scalar::write(self.pattern, out, 3);
-        ::mavwire::field::Scalar::write(self.custom_len, out, 4);
-        ::mavwire::field::write_array(out, 5, &self.custom_bytes);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
+        ::mavframe::field::Scalar::write(self.instance, out, 2);
+        ::mavframe::field::Scalar::write(self.pattern, out, 3);
+        ::mavframe::field::Scalar::write(self.custom_len, out, 4);
+        ::mavframe::field::write_array(out, 5, &self.custom_bytes);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for LedControl {
-    const META: ::mavwire::MessageMeta = LedControl::META;
+impl ::mavframe::Message for LedControl {
+    const META: ::mavframe::MessageMeta = LedControl::META;
     type View<'a> = LedControlView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -12755,7 +12755,7 @@ impl ::mavwire::Message for LedControl {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         LedControl::emit(self, payload)
     }
 
@@ -12796,37 +12796,37 @@ impl<'a> LedControlView<'a> {
     /// Reads [`LedControl::target_system`](LedControl::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`LedControl::target_component`](LedControl::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`LedControl::instance`](LedControl::instance) (`instance` at offset 2).
     #[inline]
     pub fn instance(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 2)
+        ::mavframe::field::read::<u8>(self.payload, 2)
     }
 
     /// Reads [`LedControl::pattern`](LedControl::pattern) (`pattern` at offset 3).
     #[inline]
     pub fn pattern(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 3)
+        ::mavframe::field::read::<u8>(self.payload, 3)
     }
 
     /// Reads [`LedControl::custom_len`](LedControl::custom_len) (`custom_len` at offset 4).
     #[inline]
     pub fn custom_len(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`LedControl::custom_bytes`](LedControl::custom_bytes) (`custom_bytes` at offset 5).
     #[inline]
-    pub fn custom_bytes(&self) -> ::mavwire::field::ArrayView<'a, u8, 24> {
-        ::mavwire::field::ArrayView::new(self.payload, 5)
+    pub fn custom_bytes(&self) -> ::mavframe::field::ArrayView<'a, u8, 24> {
+        ::mavframe::field::ArrayView::new(self.payload, 5)
     }
 }
 
@@ -12838,9 +12838,9 @@ pub struct LedControlMut<'a> {
 
 impl<'a> LedControlMut<'a> {
     /// A writer over `payload`, which must hold at least [`LedControl::MAX_LEN`](struct@LedControl) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < LedControl::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: LedControl::MAX_LEN,
                 got: payload.len(),
             });
@@ -12856,37 +12856,37 @@ impl<'a> LedControlMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `instance` field.
     #[inline]
     pub fn set_instance(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 
     /// Sets the `pattern` field.
     #[inline]
     pub fn set_pattern(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 3)
+        ::mavframe::field::Scalar::write(value, self.payload, 3)
     }
 
     /// Sets the `custom_len` field.
     #[inline]
     pub fn set_custom_len(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `custom_bytes` field.
     #[inline]
     pub fn set_custom_bytes(&mut self, value: &[u8; 24]) {
-        ::mavwire::field::write_array(self.payload, 5, value)
+        ::mavframe::field::write_array(self.payload, 5, value)
     }
 }
 
@@ -12947,7 +12947,7 @@ impl MagCalProgress {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 27;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -12956,65 +12956,65 @@ impl MagCalProgress {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "direction_x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "direction_y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "direction_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "compass_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cal_mask",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 13,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cal_status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 14,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "attempt",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 15,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "completion_pct",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "completion_mask",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 10,
                 offset: 17,
                 extension: false,
@@ -13024,19 +13024,19 @@ impl MagCalProgress {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            compass_id: ::mavwire::field::read::<u8>(p, 12),
-            cal_mask: ::mavwire::field::read::<u8>(p, 13),
+            compass_id: ::mavframe::field::read::<u8>(p, 12),
+            cal_mask: ::mavframe::field::read::<u8>(p, 13),
             cal_status: super::common::MagCalStatus::from_raw(
-                ::mavwire::field::read::<u8>(p, 14),
+                ::mavframe::field::read::<u8>(p, 14),
             ),
-            attempt: ::mavwire::field::read::<u8>(p, 15),
-            completion_pct: ::mavwire::field::read::<u8>(p, 16),
-            completion_mask: ::mavwire::field::ArrayView::new(p, 17).to_array(),
-            direction_x: ::mavwire::field::read::<f32>(p, 0),
-            direction_y: ::mavwire::field::read::<f32>(p, 4),
-            direction_z: ::mavwire::field::read::<f32>(p, 8),
+            attempt: ::mavframe::field::read::<u8>(p, 15),
+            completion_pct: ::mavframe::field::read::<u8>(p, 16),
+            completion_mask: ::mavframe::field::ArrayView::new(p, 17).to_array(),
+            direction_x: ::mavframe::field::read::<f32>(p, 0),
+            direction_y: ::mavframe::field::read::<f32>(p, 4),
+            direction_z: ::mavframe::field::read::<f32>(p, 8),
         }
     }
 
@@ -13048,23 +13048,23 @@ impl MagCalProgress {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.compass_id, out, 12);
-        ::mavwire::field::Scalar::write(self.cal_mask, out, 13);
-        ::mavwire::field::Scalar::write(self.cal_status.to_raw(), out, 14);
-        ::mavwire::field::Scalar::write(self.attempt, out, 15);
-        ::mavwire::field::Scalar::write(self.completion_pct, out, 16);
-        ::mavwire::field::write_array(out, 17, &self.completion_mask);
-        ::mavwire::field::Scalar::write(self.direction_x, out, 0);
-        ::mavwire::field::Scalar::write(self.direction_y, out, 4);
-        ::mavwire::field::Scalar::write(self.direction_z, out, 8);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.compass_id, out, 12);
+        ::mavframe::field::Scalar::write(self.cal_mask, out, 13);
+        ::mavframe::field::Scalar::write(self.cal_status.to_raw(), out, 14);
+        ::mavframe::field::Scalar::write(self.attempt, out, 15);
+        ::mavframe::field::Scalar::write(self.completion_pct, out, 16);
+        ::mavframe::field::write_array(out, 17, &self.completion_mask);
+        ::mavframe::field::Scalar::write(self.direction_x, out, 0);
+        ::mavframe::field::Scalar::write(self.direction_y, out, 4);
+        ::mavframe::field::Scalar::write(self.direction_z, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for MagCalProgress {
-    const META: ::mavwire::MessageMeta = MagCalProgress::META;
+impl ::mavframe::Message for MagCalProgress {
+    const META: ::mavframe::MessageMeta = MagCalProgress::META;
     type View<'a> = MagCalProgressView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -13072,7 +13072,7 @@ impl ::mavwire::Message for MagCalProgress {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MagCalProgress::emit(self, payload)
     }
 
@@ -13113,57 +13113,57 @@ impl<'a> MagCalProgressView<'a> {
     /// Reads [`MagCalProgress::compass_id`](MagCalProgress::compass_id) (`compass_id` at offset 12).
     #[inline]
     pub fn compass_id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 12)
+        ::mavframe::field::read::<u8>(self.payload, 12)
     }
 
     /// Reads [`MagCalProgress::cal_mask`](MagCalProgress::cal_mask) (`cal_mask` at offset 13).
     #[inline]
     pub fn cal_mask(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 13)
+        ::mavframe::field::read::<u8>(self.payload, 13)
     }
 
     /// Reads [`MagCalProgress::cal_status`](MagCalProgress::cal_status) (`cal_status` at offset 14).
     #[inline]
     pub fn cal_status(&self) -> super::common::MagCalStatus {
         super::common::MagCalStatus::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 14),
+            ::mavframe::field::read::<u8>(self.payload, 14),
         )
     }
 
     /// Reads [`MagCalProgress::attempt`](MagCalProgress::attempt) (`attempt` at offset 15).
     #[inline]
     pub fn attempt(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 15)
+        ::mavframe::field::read::<u8>(self.payload, 15)
     }
 
     /// Reads [`MagCalProgress::completion_pct`](MagCalProgress::completion_pct) (`completion_pct` at offset 16).
     #[inline]
     pub fn completion_pct(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 16)
+        ::mavframe::field::read::<u8>(self.payload, 16)
     }
 
     /// Reads [`MagCalProgress::completion_mask`](MagCalProgress::completion_mask) (`completion_mask` at offset 17).
     #[inline]
-    pub fn completion_mask(&self) -> ::mavwire::field::ArrayView<'a, u8, 10> {
-        ::mavwire::field::ArrayView::new(self.payload, 17)
+    pub fn completion_mask(&self) -> ::mavframe::field::ArrayView<'a, u8, 10> {
+        ::mavframe::field::ArrayView::new(self.payload, 17)
     }
 
     /// Reads [`MagCalProgress::direction_x`](MagCalProgress::direction_x) (`direction_x` at offset 0).
     #[inline]
     pub fn direction_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`MagCalProgress::direction_y`](MagCalProgress::direction_y) (`direction_y` at offset 4).
     #[inline]
     pub fn direction_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`MagCalProgress::direction_z`](MagCalProgress::direction_z) (`direction_z` at offset 8).
     #[inline]
     pub fn direction_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 }
 
@@ -13175,9 +13175,9 @@ pub struct MagCalProgressMut<'a> {
 
 impl<'a> MagCalProgressMut<'a> {
     /// A writer over `payload`, which must hold at least [`MagCalProgress::MAX_LEN`](struct@MagCalProgress) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < MagCalProgress::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: MagCalProgress::MAX_LEN,
                 got: payload.len(),
             });
@@ -13193,55 +13193,55 @@ impl<'a> MagCalProgressMut<'a> {
     /// Sets the `compass_id` field.
     #[inline]
     pub fn set_compass_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `cal_mask` field.
     #[inline]
     pub fn set_cal_mask(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 13)
+        ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
 
     /// Sets the `cal_status` field.
     #[inline]
     pub fn set_cal_status(&mut self, value: super::common::MagCalStatus) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 14)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 14)
     }
 
     /// Sets the `attempt` field.
     #[inline]
     pub fn set_attempt(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 15)
+        ::mavframe::field::Scalar::write(value, self.payload, 15)
     }
 
     /// Sets the `completion_pct` field.
     #[inline]
     pub fn set_completion_pct(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `completion_mask` field.
     #[inline]
     pub fn set_completion_mask(&mut self, value: &[u8; 10]) {
-        ::mavwire::field::write_array(self.payload, 17, value)
+        ::mavframe::field::write_array(self.payload, 17, value)
     }
 
     /// Sets the `direction_x` field.
     #[inline]
     pub fn set_direction_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `direction_y` field.
     #[inline]
     pub fn set_direction_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `direction_z` field.
     #[inline]
     pub fn set_direction_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 }
 
@@ -13294,7 +13294,7 @@ impl EkfStatusReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 26;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -13303,51 +13303,51 @@ impl EkfStatusReport {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "velocity_variance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pos_horiz_variance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pos_vert_variance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "compass_variance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "terrain_alt_variance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flags",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "airspeed_variance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 22,
                 extension: true,
@@ -13357,17 +13357,17 @@ impl EkfStatusReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
             flags: EkfStatusFlags::from_bits_retain(
-                ::mavwire::field::read::<u16>(p, 20),
+                ::mavframe::field::read::<u16>(p, 20),
             ),
-            velocity_variance: ::mavwire::field::read::<f32>(p, 0),
-            pos_horiz_variance: ::mavwire::field::read::<f32>(p, 4),
-            pos_vert_variance: ::mavwire::field::read::<f32>(p, 8),
-            compass_variance: ::mavwire::field::read::<f32>(p, 12),
-            terrain_alt_variance: ::mavwire::field::read::<f32>(p, 16),
-            airspeed_variance: ::mavwire::field::read::<f32>(p, 22),
+            velocity_variance: ::mavframe::field::read::<f32>(p, 0),
+            pos_horiz_variance: ::mavframe::field::read::<f32>(p, 4),
+            pos_vert_variance: ::mavframe::field::read::<f32>(p, 8),
+            compass_variance: ::mavframe::field::read::<f32>(p, 12),
+            terrain_alt_variance: ::mavframe::field::read::<f32>(p, 16),
+            airspeed_variance: ::mavframe::field::read::<f32>(p, 22),
         }
     }
 
@@ -13379,21 +13379,21 @@ impl EkfStatusReport {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.flags.bits(), out, 20);
-        ::mavwire::field::Scalar::write(self.velocity_variance, out, 0);
-        ::mavwire::field::Scalar::write(self.pos_horiz_variance, out, 4);
-        ::mavwire::field::Scalar::write(self.pos_vert_variance, out, 8);
-        ::mavwire::field::Scalar::write(self.compass_variance, out, 12);
-        ::mavwire::field::Scalar::write(self.terrain_alt_variance, out, 16);
-        ::mavwire::field::Scalar::write(self.airspeed_variance, out, 22);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.flags.bits(), out, 20);
+        ::mavframe::field::Scalar::write(self.velocity_variance, out, 0);
+        ::mavframe::field::Scalar::write(self.pos_horiz_variance, out, 4);
+        ::mavframe::field::Scalar::write(self.pos_vert_variance, out, 8);
+        ::mavframe::field::Scalar::write(self.compass_variance, out, 12);
+        ::mavframe::field::Scalar::write(self.terrain_alt_variance, out, 16);
+        ::mavframe::field::Scalar::write(self.airspeed_variance, out, 22);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EkfStatusReport {
-    const META: ::mavwire::MessageMeta = EkfStatusReport::META;
+impl ::mavframe::Message for EkfStatusReport {
+    const META: ::mavframe::MessageMeta = EkfStatusReport::META;
     type View<'a> = EkfStatusReportView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -13401,7 +13401,7 @@ impl ::mavwire::Message for EkfStatusReport {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EkfStatusReport::emit(self, payload)
     }
 
@@ -13442,43 +13442,45 @@ impl<'a> EkfStatusReportView<'a> {
     /// Reads [`EkfStatusReport::flags`](EkfStatusReport::flags) (`flags` at offset 20).
     #[inline]
     pub fn flags(&self) -> EkfStatusFlags {
-        EkfStatusFlags::from_bits_retain(::mavwire::field::read::<u16>(self.payload, 20))
+        EkfStatusFlags::from_bits_retain(
+            ::mavframe::field::read::<u16>(self.payload, 20),
+        )
     }
 
     /// Reads [`EkfStatusReport::velocity_variance`](EkfStatusReport::velocity_variance) (`velocity_variance` at offset 0).
     #[inline]
     pub fn velocity_variance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`EkfStatusReport::pos_horiz_variance`](EkfStatusReport::pos_horiz_variance) (`pos_horiz_variance` at offset 4).
     #[inline]
     pub fn pos_horiz_variance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`EkfStatusReport::pos_vert_variance`](EkfStatusReport::pos_vert_variance) (`pos_vert_variance` at offset 8).
     #[inline]
     pub fn pos_vert_variance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`EkfStatusReport::compass_variance`](EkfStatusReport::compass_variance) (`compass_variance` at offset 12).
     #[inline]
     pub fn compass_variance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`EkfStatusReport::terrain_alt_variance`](EkfStatusReport::terrain_alt_variance) (`terrain_alt_variance` at offset 16).
     #[inline]
     pub fn terrain_alt_variance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`EkfStatusReport::airspeed_variance`](EkfStatusReport::airspeed_variance) (`airspeed_variance` at offset 22).
     #[inline]
     pub fn airspeed_variance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 22)
+        ::mavframe::field::read::<f32>(self.payload, 22)
     }
 }
 
@@ -13490,9 +13492,9 @@ pub struct EkfStatusReportMut<'a> {
 
 impl<'a> EkfStatusReportMut<'a> {
     /// A writer over `payload`, which must hold at least [`EkfStatusReport::MAX_LEN`](struct@EkfStatusReport) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EkfStatusReport::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EkfStatusReport::MAX_LEN,
                 got: payload.len(),
             });
@@ -13508,43 +13510,43 @@ impl<'a> EkfStatusReportMut<'a> {
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: EkfStatusFlags) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 20)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 20)
     }
 
     /// Sets the `velocity_variance` field.
     #[inline]
     pub fn set_velocity_variance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `pos_horiz_variance` field.
     #[inline]
     pub fn set_pos_horiz_variance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `pos_vert_variance` field.
     #[inline]
     pub fn set_pos_vert_variance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `compass_variance` field.
     #[inline]
     pub fn set_compass_variance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `terrain_alt_variance` field.
     #[inline]
     pub fn set_terrain_alt_variance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `airspeed_variance` field.
     #[inline]
     pub fn set_airspeed_variance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 22)
+        ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
 }
 
@@ -13606,7 +13608,7 @@ impl PidTuning {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 33;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -13615,65 +13617,65 @@ impl PidTuning {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "desired",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "achieved",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "FF",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "P",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "I",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "D",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "axis",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "SRate",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 25,
                 extension: true,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "PDmod",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 29,
                 extension: true,
@@ -13683,17 +13685,17 @@ impl PidTuning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            axis: PidTuningAxis::from_raw(::mavwire::field::read::<u8>(p, 24)),
-            desired: ::mavwire::field::read::<f32>(p, 0),
-            achieved: ::mavwire::field::read::<f32>(p, 4),
-            ff: ::mavwire::field::read::<f32>(p, 8),
-            p: ::mavwire::field::read::<f32>(p, 12),
-            i: ::mavwire::field::read::<f32>(p, 16),
-            d: ::mavwire::field::read::<f32>(p, 20),
-            srate: ::mavwire::field::read::<f32>(p, 25),
-            pdmod: ::mavwire::field::read::<f32>(p, 29),
+            axis: PidTuningAxis::from_raw(::mavframe::field::read::<u8>(p, 24)),
+            desired: ::mavframe::field::read::<f32>(p, 0),
+            achieved: ::mavframe::field::read::<f32>(p, 4),
+            ff: ::mavframe::field::read::<f32>(p, 8),
+            p: ::mavframe::field::read::<f32>(p, 12),
+            i: ::mavframe::field::read::<f32>(p, 16),
+            d: ::mavframe::field::read::<f32>(p, 20),
+            srate: ::mavframe::field::read::<f32>(p, 25),
+            pdmod: ::mavframe::field::read::<f32>(p, 29),
         }
     }
 
@@ -13705,23 +13707,23 @@ impl PidTuning {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.axis.to_raw(), out, 24);
-        ::mavwire::field::Scalar::write(self.desired, out, 0);
-        ::mavwire::field::Scalar::write(self.achieved, out, 4);
-        ::mavwire::field::Scalar::write(self.ff, out, 8);
-        ::mavwire::field::Scalar::write(self.p, out, 12);
-        ::mavwire::field::Scalar::write(self.i, out, 16);
-        ::mavwire::field::Scalar::write(self.d, out, 20);
-        ::mavwire::field::Scalar::write(self.srate, out, 25);
-        ::mavwire::field::Scalar::write(self.pdmod, out, 29);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.axis.to_raw(), out, 24);
+        ::mavframe::field::Scalar::write(self.desired, out, 0);
+        ::mavframe::field::Scalar::write(self.achieved, out, 4);
+        ::mavframe::field::Scalar::write(self.ff, out, 8);
+        ::mavframe::field::Scalar::write(self.p, out, 12);
+        ::mavframe::field::Scalar::write(self.i, out, 16);
+        ::mavframe::field::Scalar::write(self.d, out, 20);
+        ::mavframe::field::Scalar::write(self.srate, out, 25);
+        ::mavframe::field::Scalar::write(self.pdmod, out, 29);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for PidTuning {
-    const META: ::mavwire::MessageMeta = PidTuning::META;
+impl ::mavframe::Message for PidTuning {
+    const META: ::mavframe::MessageMeta = PidTuning::META;
     type View<'a> = PidTuningView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -13729,7 +13731,7 @@ impl ::mavwire::Message for PidTuning {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         PidTuning::emit(self, payload)
     }
 
@@ -13770,55 +13772,55 @@ impl<'a> PidTuningView<'a> {
     /// Reads [`PidTuning::axis`](PidTuning::axis) (`axis` at offset 24).
     #[inline]
     pub fn axis(&self) -> PidTuningAxis {
-        PidTuningAxis::from_raw(::mavwire::field::read::<u8>(self.payload, 24))
+        PidTuningAxis::from_raw(::mavframe::field::read::<u8>(self.payload, 24))
     }
 
     /// Reads [`PidTuning::desired`](PidTuning::desired) (`desired` at offset 0).
     #[inline]
     pub fn desired(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`PidTuning::achieved`](PidTuning::achieved) (`achieved` at offset 4).
     #[inline]
     pub fn achieved(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`PidTuning::ff`](PidTuning::ff) (`FF` at offset 8).
     #[inline]
     pub fn ff(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`PidTuning::p`](PidTuning::p) (`P` at offset 12).
     #[inline]
     pub fn p(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`PidTuning::i`](PidTuning::i) (`I` at offset 16).
     #[inline]
     pub fn i(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`PidTuning::d`](PidTuning::d) (`D` at offset 20).
     #[inline]
     pub fn d(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`PidTuning::srate`](PidTuning::srate) (`SRate` at offset 25).
     #[inline]
     pub fn srate(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 25)
+        ::mavframe::field::read::<f32>(self.payload, 25)
     }
 
     /// Reads [`PidTuning::pdmod`](PidTuning::pdmod) (`PDmod` at offset 29).
     #[inline]
     pub fn pdmod(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 29)
+        ::mavframe::field::read::<f32>(self.payload, 29)
     }
 }
 
@@ -13830,9 +13832,9 @@ pub struct PidTuningMut<'a> {
 
 impl<'a> PidTuningMut<'a> {
     /// A writer over `payload`, which must hold at least [`PidTuning::MAX_LEN`](struct@PidTuning) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < PidTuning::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: PidTuning::MAX_LEN,
                 got: payload.len(),
             });
@@ -13848,55 +13850,55 @@ impl<'a> PidTuningMut<'a> {
     /// Sets the `axis` field.
     #[inline]
     pub fn set_axis(&mut self, value: PidTuningAxis) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 24)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 24)
     }
 
     /// Sets the `desired` field.
     #[inline]
     pub fn set_desired(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `achieved` field.
     #[inline]
     pub fn set_achieved(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `FF` field.
     #[inline]
     pub fn set_ff(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `P` field.
     #[inline]
     pub fn set_p(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `I` field.
     #[inline]
     pub fn set_i(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `D` field.
     #[inline]
     pub fn set_d(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `SRate` field.
     #[inline]
     pub fn set_srate(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 25)
+        ::mavframe::field::Scalar::write(value, self.payload, 25)
     }
 
     /// Sets the `PDmod` field.
     #[inline]
     pub fn set_pdmod(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 29)
+        ::mavframe::field::Scalar::write(value, self.payload, 29)
     }
 }
 
@@ -13959,7 +13961,7 @@ impl Deepstall {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -13968,72 +13970,72 @@ impl Deepstall {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "landing_lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "landing_lon",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "path_lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "path_lon",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "arc_entry_lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "arc_entry_lon",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "altitude",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "expected_travel_distance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cross_track_error",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "stage",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 36,
                 extension: false,
@@ -14043,18 +14045,18 @@ impl Deepstall {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            landing_lat: ::mavwire::field::read::<i32>(p, 0),
-            landing_lon: ::mavwire::field::read::<i32>(p, 4),
-            path_lat: ::mavwire::field::read::<i32>(p, 8),
-            path_lon: ::mavwire::field::read::<i32>(p, 12),
-            arc_entry_lat: ::mavwire::field::read::<i32>(p, 16),
-            arc_entry_lon: ::mavwire::field::read::<i32>(p, 20),
-            altitude: ::mavwire::field::read::<f32>(p, 24),
-            expected_travel_distance: ::mavwire::field::read::<f32>(p, 28),
-            cross_track_error: ::mavwire::field::read::<f32>(p, 32),
-            stage: DeepstallStage::from_raw(::mavwire::field::read::<u8>(p, 36)),
+            landing_lat: ::mavframe::field::read::<i32>(p, 0),
+            landing_lon: ::mavframe::field::read::<i32>(p, 4),
+            path_lat: ::mavframe::field::read::<i32>(p, 8),
+            path_lon: ::mavframe::field::read::<i32>(p, 12),
+            arc_entry_lat: ::mavframe::field::read::<i32>(p, 16),
+            arc_entry_lon: ::mavframe::field::read::<i32>(p, 20),
+            altitude: ::mavframe::field::read::<f32>(p, 24),
+            expected_travel_distance: ::mavframe::field::read::<f32>(p, 28),
+            cross_track_error: ::mavframe::field::read::<f32>(p, 32),
+            stage: DeepstallStage::from_raw(::mavframe::field::read::<u8>(p, 36)),
         }
     }
 
@@ -14066,24 +14068,24 @@ impl Deepstall {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.landing_lat, out, 0);
-        ::mavwire::field::Scalar::write(self.landing_lon, out, 4);
-        ::mavwire::field::Scalar::write(self.path_lat, out, 8);
-        ::mavwire::field::Scalar::write(self.path_lon, out, 12);
-        ::mavwire::field::Scalar::write(self.arc_entry_lat, out, 16);
-        ::mavwire::field::Scalar::write(self.arc_entry_lon, out, 20);
-        ::mavwire::field::Scalar::write(self.altitude, out, 24);
-        ::mavwire::field::Scalar::write(self.expected_travel_distance, out, 28);
-        ::mavwire::field::Scalar::write(self.cross_track_error, out, 32);
-        ::mavwire::field::Scalar::write(self.stage.to_raw(), out, 36);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.landing_lat, out, 0);
+        ::mavframe::field::Scalar::write(self.landing_lon, out, 4);
+        ::mavframe::field::Scalar::write(self.path_lat, out, 8);
+        ::mavframe::field::Scalar::write(self.path_lon, out, 12);
+        ::mavframe::field::Scalar::write(self.arc_entry_lat, out, 16);
+        ::mavframe::field::Scalar::write(self.arc_entry_lon, out, 20);
+        ::mavframe::field::Scalar::write(self.altitude, out, 24);
+        ::mavframe::field::Scalar::write(self.expected_travel_distance, out, 28);
+        ::mavframe::field::Scalar::write(self.cross_track_error, out, 32);
+        ::mavframe::field::Scalar::write(self.stage.to_raw(), out, 36);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Deepstall {
-    const META: ::mavwire::MessageMeta = Deepstall::META;
+impl ::mavframe::Message for Deepstall {
+    const META: ::mavframe::MessageMeta = Deepstall::META;
     type View<'a> = DeepstallView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -14091,7 +14093,7 @@ impl ::mavwire::Message for Deepstall {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Deepstall::emit(self, payload)
     }
 
@@ -14132,61 +14134,61 @@ impl<'a> DeepstallView<'a> {
     /// Reads [`Deepstall::landing_lat`](Deepstall::landing_lat) (`landing_lat` at offset 0).
     #[inline]
     pub fn landing_lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 0)
+        ::mavframe::field::read::<i32>(self.payload, 0)
     }
 
     /// Reads [`Deepstall::landing_lon`](Deepstall::landing_lon) (`landing_lon` at offset 4).
     #[inline]
     pub fn landing_lon(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`Deepstall::path_lat`](Deepstall::path_lat) (`path_lat` at offset 8).
     #[inline]
     pub fn path_lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`Deepstall::path_lon`](Deepstall::path_lon) (`path_lon` at offset 12).
     #[inline]
     pub fn path_lon(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 12)
+        ::mavframe::field::read::<i32>(self.payload, 12)
     }
 
     /// Reads [`Deepstall::arc_entry_lat`](Deepstall::arc_entry_lat) (`arc_entry_lat` at offset 16).
     #[inline]
     pub fn arc_entry_lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 16)
+        ::mavframe::field::read::<i32>(self.payload, 16)
     }
 
     /// Reads [`Deepstall::arc_entry_lon`](Deepstall::arc_entry_lon) (`arc_entry_lon` at offset 20).
     #[inline]
     pub fn arc_entry_lon(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 20)
+        ::mavframe::field::read::<i32>(self.payload, 20)
     }
 
     /// Reads [`Deepstall::altitude`](Deepstall::altitude) (`altitude` at offset 24).
     #[inline]
     pub fn altitude(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`Deepstall::expected_travel_distance`](Deepstall::expected_travel_distance) (`expected_travel_distance` at offset 28).
     #[inline]
     pub fn expected_travel_distance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`Deepstall::cross_track_error`](Deepstall::cross_track_error) (`cross_track_error` at offset 32).
     #[inline]
     pub fn cross_track_error(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`Deepstall::stage`](Deepstall::stage) (`stage` at offset 36).
     #[inline]
     pub fn stage(&self) -> DeepstallStage {
-        DeepstallStage::from_raw(::mavwire::field::read::<u8>(self.payload, 36))
+        DeepstallStage::from_raw(::mavframe::field::read::<u8>(self.payload, 36))
     }
 }
 
@@ -14198,9 +14200,9 @@ pub struct DeepstallMut<'a> {
 
 impl<'a> DeepstallMut<'a> {
     /// A writer over `payload`, which must hold at least [`Deepstall::MAX_LEN`](struct@Deepstall) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Deepstall::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Deepstall::MAX_LEN,
                 got: payload.len(),
             });
@@ -14216,61 +14218,61 @@ impl<'a> DeepstallMut<'a> {
     /// Sets the `landing_lat` field.
     #[inline]
     pub fn set_landing_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `landing_lon` field.
     #[inline]
     pub fn set_landing_lon(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `path_lat` field.
     #[inline]
     pub fn set_path_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `path_lon` field.
     #[inline]
     pub fn set_path_lon(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `arc_entry_lat` field.
     #[inline]
     pub fn set_arc_entry_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `arc_entry_lon` field.
     #[inline]
     pub fn set_arc_entry_lon(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `altitude` field.
     #[inline]
     pub fn set_altitude(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `expected_travel_distance` field.
     #[inline]
     pub fn set_expected_travel_distance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `cross_track_error` field.
     #[inline]
     pub fn set_cross_track_error(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `stage` field.
     #[inline]
     pub fn set_stage(&mut self, value: DeepstallStage) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 36)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 36)
     }
 }
 
@@ -14341,7 +14343,7 @@ impl GimbalReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -14350,86 +14352,86 @@ impl GimbalReport {
         target_system_offset: Some(40),
         target_component_offset: Some(41),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "delta_time",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "delta_angle_x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "delta_angle_y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "delta_angle_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "delta_velocity_x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "delta_velocity_y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "delta_velocity_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "joint_roll",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "joint_el",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "joint_az",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 41,
                 extension: false,
@@ -14439,20 +14441,20 @@ impl GimbalReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 40),
-            target_component: ::mavwire::field::read::<u8>(p, 41),
-            delta_time: ::mavwire::field::read::<f32>(p, 0),
-            delta_angle_x: ::mavwire::field::read::<f32>(p, 4),
-            delta_angle_y: ::mavwire::field::read::<f32>(p, 8),
-            delta_angle_z: ::mavwire::field::read::<f32>(p, 12),
-            delta_velocity_x: ::mavwire::field::read::<f32>(p, 16),
-            delta_velocity_y: ::mavwire::field::read::<f32>(p, 20),
-            delta_velocity_z: ::mavwire::field::read::<f32>(p, 24),
-            joint_roll: ::mavwire::field::read::<f32>(p, 28),
-            joint_el: ::mavwire::field::read::<f32>(p, 32),
-            joint_az: ::mavwire::field::read::<f32>(p, 36),
+            target_system: ::mavframe::field::read::<u8>(p, 40),
+            target_component: ::mavframe::field::read::<u8>(p, 41),
+            delta_time: ::mavframe::field::read::<f32>(p, 0),
+            delta_angle_x: ::mavframe::field::read::<f32>(p, 4),
+            delta_angle_y: ::mavframe::field::read::<f32>(p, 8),
+            delta_angle_z: ::mavframe::field::read::<f32>(p, 12),
+            delta_velocity_x: ::mavframe::field::read::<f32>(p, 16),
+            delta_velocity_y: ::mavframe::field::read::<f32>(p, 20),
+            delta_velocity_z: ::mavframe::field::read::<f32>(p, 24),
+            joint_roll: ::mavframe::field::read::<f32>(p, 28),
+            joint_el: ::mavframe::field::read::<f32>(p, 32),
+            joint_az: ::mavframe::field::read::<f32>(p, 36),
         }
     }
 
@@ -14464,26 +14466,26 @@ impl GimbalReport {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 40);
-        ::mavwire::field::Scalar::write(self.target_component, out, 41);
-        ::mavwire::field::Scalar::write(self.delta_time, out, 0);
-        ::mavwire::field::Scalar::write(self.delta_angle_x, out, 4);
-        ::mavwire::field::Scalar::write(self.delta_angle_y, out, 8);
-        ::mavwire::field::Scalar::write(self.delta_angle_z, out, 12);
-        ::mavwire::field::Scalar::write(self.delta_velocity_x, out, 16);
-        ::mavwire::field::Scalar::write(self.delta_velocity_y, out, 20);
-        ::mavwire::field::Scalar::write(self.delta_velocity_z, out, 24);
-        ::mavwire::field::Scalar::write(self.joint_roll, out, 28);
-        ::mavwire::field::Scalar::write(self.joint_el, out, 32);
-        ::mavwire::field::Scalar::write(self.joint_az, out, 36);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 40);
+        ::mavframe::field::Scalar::write(self.target_component, out, 41);
+        ::mavframe::field::Scalar::write(self.delta_time, out, 0);
+        ::mavframe::field::Scalar::write(self.delta_angle_x, out, 4);
+        ::mavframe::field::Scalar::write(self.delta_angle_y, out, 8);
+        ::mavframe::field::Scalar::write(self.delta_angle_z, out, 12);
+        ::mavframe::field::Scalar::write(self.delta_velocity_x, out, 16);
+        ::mavframe::field::Scalar::write(self.delta_velocity_y, out, 20);
+        ::mavframe::field::Scalar::write(self.delta_velocity_z, out, 24);
+        ::mavframe::field::Scalar::write(self.joint_roll, out, 28);
+        ::mavframe::field::Scalar::write(self.joint_el, out, 32);
+        ::mavframe::field::Scalar::write(self.joint_az, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GimbalReport {
-    const META: ::mavwire::MessageMeta = GimbalReport::META;
+impl ::mavframe::Message for GimbalReport {
+    const META: ::mavframe::MessageMeta = GimbalReport::META;
     type View<'a> = GimbalReportView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -14491,7 +14493,7 @@ impl ::mavwire::Message for GimbalReport {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GimbalReport::emit(self, payload)
     }
 
@@ -14532,73 +14534,73 @@ impl<'a> GimbalReportView<'a> {
     /// Reads [`GimbalReport::target_system`](GimbalReport::target_system) (`target_system` at offset 40).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 40)
+        ::mavframe::field::read::<u8>(self.payload, 40)
     }
 
     /// Reads [`GimbalReport::target_component`](GimbalReport::target_component) (`target_component` at offset 41).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 41)
+        ::mavframe::field::read::<u8>(self.payload, 41)
     }
 
     /// Reads [`GimbalReport::delta_time`](GimbalReport::delta_time) (`delta_time` at offset 0).
     #[inline]
     pub fn delta_time(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`GimbalReport::delta_angle_x`](GimbalReport::delta_angle_x) (`delta_angle_x` at offset 4).
     #[inline]
     pub fn delta_angle_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`GimbalReport::delta_angle_y`](GimbalReport::delta_angle_y) (`delta_angle_y` at offset 8).
     #[inline]
     pub fn delta_angle_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`GimbalReport::delta_angle_z`](GimbalReport::delta_angle_z) (`delta_angle_z` at offset 12).
     #[inline]
     pub fn delta_angle_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`GimbalReport::delta_velocity_x`](GimbalReport::delta_velocity_x) (`delta_velocity_x` at offset 16).
     #[inline]
     pub fn delta_velocity_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`GimbalReport::delta_velocity_y`](GimbalReport::delta_velocity_y) (`delta_velocity_y` at offset 20).
     #[inline]
     pub fn delta_velocity_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`GimbalReport::delta_velocity_z`](GimbalReport::delta_velocity_z) (`delta_velocity_z` at offset 24).
     #[inline]
     pub fn delta_velocity_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`GimbalReport::joint_roll`](GimbalReport::joint_roll) (`joint_roll` at offset 28).
     #[inline]
     pub fn joint_roll(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`GimbalReport::joint_el`](GimbalReport::joint_el) (`joint_el` at offset 32).
     #[inline]
     pub fn joint_el(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`GimbalReport::joint_az`](GimbalReport::joint_az) (`joint_az` at offset 36).
     #[inline]
     pub fn joint_az(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 36)
+        ::mavframe::field::read::<f32>(self.payload, 36)
     }
 }
 
@@ -14610,9 +14612,9 @@ pub struct GimbalReportMut<'a> {
 
 impl<'a> GimbalReportMut<'a> {
     /// A writer over `payload`, which must hold at least [`GimbalReport::MAX_LEN`](struct@GimbalReport) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GimbalReport::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GimbalReport::MAX_LEN,
                 got: payload.len(),
             });
@@ -14628,73 +14630,73 @@ impl<'a> GimbalReportMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 41)
+        ::mavframe::field::Scalar::write(value, self.payload, 41)
     }
 
     /// Sets the `delta_time` field.
     #[inline]
     pub fn set_delta_time(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `delta_angle_x` field.
     #[inline]
     pub fn set_delta_angle_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `delta_angle_y` field.
     #[inline]
     pub fn set_delta_angle_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `delta_angle_z` field.
     #[inline]
     pub fn set_delta_angle_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `delta_velocity_x` field.
     #[inline]
     pub fn set_delta_velocity_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `delta_velocity_y` field.
     #[inline]
     pub fn set_delta_velocity_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `delta_velocity_z` field.
     #[inline]
     pub fn set_delta_velocity_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `joint_roll` field.
     #[inline]
     pub fn set_joint_roll(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `joint_el` field.
     #[inline]
     pub fn set_joint_el(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `joint_az` field.
     #[inline]
     pub fn set_joint_az(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 }
 
@@ -14737,7 +14739,7 @@ impl GimbalControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 14;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -14746,37 +14748,37 @@ impl GimbalControl {
         target_system_offset: Some(12),
         target_component_offset: Some(13),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "demanded_rate_x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "demanded_rate_y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "demanded_rate_z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 13,
                 extension: false,
@@ -14786,13 +14788,13 @@ impl GimbalControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 12),
-            target_component: ::mavwire::field::read::<u8>(p, 13),
-            demanded_rate_x: ::mavwire::field::read::<f32>(p, 0),
-            demanded_rate_y: ::mavwire::field::read::<f32>(p, 4),
-            demanded_rate_z: ::mavwire::field::read::<f32>(p, 8),
+            target_system: ::mavframe::field::read::<u8>(p, 12),
+            target_component: ::mavframe::field::read::<u8>(p, 13),
+            demanded_rate_x: ::mavframe::field::read::<f32>(p, 0),
+            demanded_rate_y: ::mavframe::field::read::<f32>(p, 4),
+            demanded_rate_z: ::mavframe::field::read::<f32>(p, 8),
         }
     }
 
@@ -14804,19 +14806,19 @@ impl GimbalControl {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 12);
-        ::mavwire::field::Scalar::write(self.target_component, out, 13);
-        ::mavwire::field::Scalar::write(self.demanded_rate_x, out, 0);
-        ::mavwire::field::Scalar::write(self.demanded_rate_y, out, 4);
-        ::mavwire::field::Scalar::write(self.demanded_rate_z, out, 8);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 12);
+        ::mavframe::field::Scalar::write(self.target_component, out, 13);
+        ::mavframe::field::Scalar::write(self.demanded_rate_x, out, 0);
+        ::mavframe::field::Scalar::write(self.demanded_rate_y, out, 4);
+        ::mavframe::field::Scalar::write(self.demanded_rate_z, out, 8);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GimbalControl {
-    const META: ::mavwire::MessageMeta = GimbalControl::META;
+impl ::mavframe::Message for GimbalControl {
+    const META: ::mavframe::MessageMeta = GimbalControl::META;
     type View<'a> = GimbalControlView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -14824,7 +14826,7 @@ impl ::mavwire::Message for GimbalControl {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GimbalControl::emit(self, payload)
     }
 
@@ -14865,31 +14867,31 @@ impl<'a> GimbalControlView<'a> {
     /// Reads [`GimbalControl::target_system`](GimbalControl::target_system) (`target_system` at offset 12).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 12)
+        ::mavframe::field::read::<u8>(self.payload, 12)
     }
 
     /// Reads [`GimbalControl::target_component`](GimbalControl::target_component) (`target_component` at offset 13).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 13)
+        ::mavframe::field::read::<u8>(self.payload, 13)
     }
 
     /// Reads [`GimbalControl::demanded_rate_x`](GimbalControl::demanded_rate_x) (`demanded_rate_x` at offset 0).
     #[inline]
     pub fn demanded_rate_x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`GimbalControl::demanded_rate_y`](GimbalControl::demanded_rate_y) (`demanded_rate_y` at offset 4).
     #[inline]
     pub fn demanded_rate_y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`GimbalControl::demanded_rate_z`](GimbalControl::demanded_rate_z) (`demanded_rate_z` at offset 8).
     #[inline]
     pub fn demanded_rate_z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 }
 
@@ -14901,9 +14903,9 @@ pub struct GimbalControlMut<'a> {
 
 impl<'a> GimbalControlMut<'a> {
     /// A writer over `payload`, which must hold at least [`GimbalControl::MAX_LEN`](struct@GimbalControl) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GimbalControl::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GimbalControl::MAX_LEN,
                 got: payload.len(),
             });
@@ -14919,31 +14921,31 @@ impl<'a> GimbalControlMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 13)
+        ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
 
     /// Sets the `demanded_rate_x` field.
     #[inline]
     pub fn set_demanded_rate_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `demanded_rate_y` field.
     #[inline]
     pub fn set_demanded_rate_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `demanded_rate_z` field.
     #[inline]
     pub fn set_demanded_rate_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 }
 
@@ -14986,7 +14988,7 @@ impl GimbalTorqueCmdReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -14995,37 +14997,37 @@ impl GimbalTorqueCmdReport {
         target_system_offset: Some(6),
         target_component_offset: Some(7),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rl_torque_cmd",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "el_torque_cmd",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "az_torque_cmd",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
@@ -15035,13 +15037,13 @@ impl GimbalTorqueCmdReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 6),
-            target_component: ::mavwire::field::read::<u8>(p, 7),
-            rl_torque_cmd: ::mavwire::field::read::<i16>(p, 0),
-            el_torque_cmd: ::mavwire::field::read::<i16>(p, 2),
-            az_torque_cmd: ::mavwire::field::read::<i16>(p, 4),
+            target_system: ::mavframe::field::read::<u8>(p, 6),
+            target_component: ::mavframe::field::read::<u8>(p, 7),
+            rl_torque_cmd: ::mavframe::field::read::<i16>(p, 0),
+            el_torque_cmd: ::mavframe::field::read::<i16>(p, 2),
+            az_torque_cmd: ::mavframe::field::read::<i16>(p, 4),
         }
     }
 
@@ -15053,19 +15055,19 @@ impl GimbalTorqueCmdReport {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 6);
-        ::mavwire::field::Scalar::write(self.target_component, out, 7);
-        ::mavwire::field::Scalar::write(self.rl_torque_cmd, out, 0);
-        ::mavwire::field::Scalar::write(self.el_torque_cmd, out, 2);
-        ::mavwire::field::Scalar::write(self.az_torque_cmd, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 6);
+        ::mavframe::field::Scalar::write(self.target_component, out, 7);
+        ::mavframe::field::Scalar::write(self.rl_torque_cmd, out, 0);
+        ::mavframe::field::Scalar::write(self.el_torque_cmd, out, 2);
+        ::mavframe::field::Scalar::write(self.az_torque_cmd, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GimbalTorqueCmdReport {
-    const META: ::mavwire::MessageMeta = GimbalTorqueCmdReport::META;
+impl ::mavframe::Message for GimbalTorqueCmdReport {
+    const META: ::mavframe::MessageMeta = GimbalTorqueCmdReport::META;
     type View<'a> = GimbalTorqueCmdReportView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -15073,7 +15075,7 @@ impl ::mavwire::Message for GimbalTorqueCmdReport {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GimbalTorqueCmdReport::emit(self, payload)
     }
 
@@ -15114,31 +15116,31 @@ impl<'a> GimbalTorqueCmdReportView<'a> {
     /// Reads [`GimbalTorqueCmdReport::target_system`](GimbalTorqueCmdReport::target_system) (`target_system` at offset 6).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 6)
+        ::mavframe::field::read::<u8>(self.payload, 6)
     }
 
     /// Reads [`GimbalTorqueCmdReport::target_component`](GimbalTorqueCmdReport::target_component) (`target_component` at offset 7).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 
     /// Reads [`GimbalTorqueCmdReport::rl_torque_cmd`](GimbalTorqueCmdReport::rl_torque_cmd) (`rl_torque_cmd` at offset 0).
     #[inline]
     pub fn rl_torque_cmd(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 0)
+        ::mavframe::field::read::<i16>(self.payload, 0)
     }
 
     /// Reads [`GimbalTorqueCmdReport::el_torque_cmd`](GimbalTorqueCmdReport::el_torque_cmd) (`el_torque_cmd` at offset 2).
     #[inline]
     pub fn el_torque_cmd(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 2)
+        ::mavframe::field::read::<i16>(self.payload, 2)
     }
 
     /// Reads [`GimbalTorqueCmdReport::az_torque_cmd`](GimbalTorqueCmdReport::az_torque_cmd) (`az_torque_cmd` at offset 4).
     #[inline]
     pub fn az_torque_cmd(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 4)
+        ::mavframe::field::read::<i16>(self.payload, 4)
     }
 }
 
@@ -15150,9 +15152,9 @@ pub struct GimbalTorqueCmdReportMut<'a> {
 
 impl<'a> GimbalTorqueCmdReportMut<'a> {
     /// A writer over `payload`, which must hold at least [`GimbalTorqueCmdReport::MAX_LEN`](struct@GimbalTorqueCmdReport) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GimbalTorqueCmdReport::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GimbalTorqueCmdReport::MAX_LEN,
                 got: payload.len(),
             });
@@ -15168,31 +15170,31 @@ impl<'a> GimbalTorqueCmdReportMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 
     /// Sets the `rl_torque_cmd` field.
     #[inline]
     pub fn set_rl_torque_cmd(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `el_torque_cmd` field.
     #[inline]
     pub fn set_el_torque_cmd(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 
     /// Sets the `az_torque_cmd` field.
     #[inline]
     pub fn set_az_torque_cmd(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -15230,7 +15232,7 @@ impl GoproHeartbeat {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -15239,23 +15241,23 @@ impl GoproHeartbeat {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "capture_mode",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flags",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
@@ -15265,12 +15267,14 @@ impl GoproHeartbeat {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            status: GoproHeartbeatStatus::from_raw(::mavwire::field::read::<u8>(p, 0)),
-            capture_mode: GoproCaptureMode::from_raw(::mavwire::field::read::<u8>(p, 1)),
+            status: GoproHeartbeatStatus::from_raw(::mavframe::field::read::<u8>(p, 0)),
+            capture_mode: GoproCaptureMode::from_raw(
+                ::mavframe::field::read::<u8>(p, 1),
+            ),
             flags: GoproHeartbeatFlags::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 2),
+                ::mavframe::field::read::<u8>(p, 2),
             ),
         }
     }
@@ -15283,17 +15287,17 @@ impl GoproHeartbeat {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 0);
-        ::mavwire::field::Scalar::write(self.capture_mode.to_raw(), out, 1);
-        ::mavwire::field::Scalar::write(self.flags.bits(), out, 2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.status.to_raw(), out, 0);
+        ::mavframe::field::Scalar::write(self.capture_mode.to_raw(), out, 1);
+        ::mavframe::field::Scalar::write(self.flags.bits(), out, 2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GoproHeartbeat {
-    const META: ::mavwire::MessageMeta = GoproHeartbeat::META;
+impl ::mavframe::Message for GoproHeartbeat {
+    const META: ::mavframe::MessageMeta = GoproHeartbeat::META;
     type View<'a> = GoproHeartbeatView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -15301,7 +15305,7 @@ impl ::mavwire::Message for GoproHeartbeat {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproHeartbeat::emit(self, payload)
     }
 
@@ -15342,20 +15346,20 @@ impl<'a> GoproHeartbeatView<'a> {
     /// Reads [`GoproHeartbeat::status`](GoproHeartbeat::status) (`status` at offset 0).
     #[inline]
     pub fn status(&self) -> GoproHeartbeatStatus {
-        GoproHeartbeatStatus::from_raw(::mavwire::field::read::<u8>(self.payload, 0))
+        GoproHeartbeatStatus::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
 
     /// Reads [`GoproHeartbeat::capture_mode`](GoproHeartbeat::capture_mode) (`capture_mode` at offset 1).
     #[inline]
     pub fn capture_mode(&self) -> GoproCaptureMode {
-        GoproCaptureMode::from_raw(::mavwire::field::read::<u8>(self.payload, 1))
+        GoproCaptureMode::from_raw(::mavframe::field::read::<u8>(self.payload, 1))
     }
 
     /// Reads [`GoproHeartbeat::flags`](GoproHeartbeat::flags) (`flags` at offset 2).
     #[inline]
     pub fn flags(&self) -> GoproHeartbeatFlags {
         GoproHeartbeatFlags::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 2),
+            ::mavframe::field::read::<u8>(self.payload, 2),
         )
     }
 }
@@ -15368,9 +15372,9 @@ pub struct GoproHeartbeatMut<'a> {
 
 impl<'a> GoproHeartbeatMut<'a> {
     /// A writer over `payload`, which must hold at least [`GoproHeartbeat::MAX_LEN`](struct@GoproHeartbeat) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GoproHeartbeat::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GoproHeartbeat::MAX_LEN,
                 got: payload.len(),
             });
@@ -15386,19 +15390,19 @@ impl<'a> GoproHeartbeatMut<'a> {
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: GoproHeartbeatStatus) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 
     /// Sets the `capture_mode` field.
     #[inline]
     pub fn set_capture_mode(&mut self, value: GoproCaptureMode) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 1)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 1)
     }
 
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: GoproHeartbeatFlags) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 2)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 2)
     }
 }
 
@@ -15433,7 +15437,7 @@ impl GoproGetRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -15442,23 +15446,23 @@ impl GoproGetRequest {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cmd_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
@@ -15468,11 +15472,11 @@ impl GoproGetRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
-            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 2)),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
+            cmd_id: GoproCommand::from_raw(::mavframe::field::read::<u8>(p, 2)),
         }
     }
 
@@ -15484,17 +15488,17 @@ impl GoproGetRequest {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
-        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 2);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
+        ::mavframe::field::Scalar::write(self.cmd_id.to_raw(), out, 2);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GoproGetRequest {
-    const META: ::mavwire::MessageMeta = GoproGetRequest::META;
+impl ::mavframe::Message for GoproGetRequest {
+    const META: ::mavframe::MessageMeta = GoproGetRequest::META;
     type View<'a> = GoproGetRequestView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -15502,7 +15506,7 @@ impl ::mavwire::Message for GoproGetRequest {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproGetRequest::emit(self, payload)
     }
 
@@ -15543,19 +15547,19 @@ impl<'a> GoproGetRequestView<'a> {
     /// Reads [`GoproGetRequest::target_system`](GoproGetRequest::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`GoproGetRequest::target_component`](GoproGetRequest::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`GoproGetRequest::cmd_id`](GoproGetRequest::cmd_id) (`cmd_id` at offset 2).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
-        GoproCommand::from_raw(::mavwire::field::read::<u8>(self.payload, 2))
+        GoproCommand::from_raw(::mavframe::field::read::<u8>(self.payload, 2))
     }
 }
 
@@ -15567,9 +15571,9 @@ pub struct GoproGetRequestMut<'a> {
 
 impl<'a> GoproGetRequestMut<'a> {
     /// A writer over `payload`, which must hold at least [`GoproGetRequest::MAX_LEN`](struct@GoproGetRequest) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GoproGetRequest::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GoproGetRequest::MAX_LEN,
                 got: payload.len(),
             });
@@ -15585,19 +15589,19 @@ impl<'a> GoproGetRequestMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 2)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 2)
     }
 }
 
@@ -15633,7 +15637,7 @@ impl GoproGetResponse {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -15642,23 +15646,23 @@ impl GoproGetResponse {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cmd_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "value",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 2,
                 extension: false,
@@ -15668,11 +15672,11 @@ impl GoproGetResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 0)),
-            status: GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(p, 1)),
-            value: ::mavwire::field::ArrayView::new(p, 2).to_array(),
+            cmd_id: GoproCommand::from_raw(::mavframe::field::read::<u8>(p, 0)),
+            status: GoproRequestStatus::from_raw(::mavframe::field::read::<u8>(p, 1)),
+            value: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
 
@@ -15684,17 +15688,17 @@ impl GoproGetResponse {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 0);
-        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 1);
-        ::mavwire::field::write_array(out, 2, &self.value);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.cmd_id.to_raw(), out, 0);
+        ::mavframe::field::Scalar::write(self.status.to_raw(), out, 1);
+        ::mavframe::field::write_array(out, 2, &self.value);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GoproGetResponse {
-    const META: ::mavwire::MessageMeta = GoproGetResponse::META;
+impl ::mavframe::Message for GoproGetResponse {
+    const META: ::mavframe::MessageMeta = GoproGetResponse::META;
     type View<'a> = GoproGetResponseView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -15702,7 +15706,7 @@ impl ::mavwire::Message for GoproGetResponse {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproGetResponse::emit(self, payload)
     }
 
@@ -15743,19 +15747,19 @@ impl<'a> GoproGetResponseView<'a> {
     /// Reads [`GoproGetResponse::cmd_id`](GoproGetResponse::cmd_id) (`cmd_id` at offset 0).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
-        GoproCommand::from_raw(::mavwire::field::read::<u8>(self.payload, 0))
+        GoproCommand::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
 
     /// Reads [`GoproGetResponse::status`](GoproGetResponse::status) (`status` at offset 1).
     #[inline]
     pub fn status(&self) -> GoproRequestStatus {
-        GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(self.payload, 1))
+        GoproRequestStatus::from_raw(::mavframe::field::read::<u8>(self.payload, 1))
     }
 
     /// Reads [`GoproGetResponse::value`](GoproGetResponse::value) (`value` at offset 2).
     #[inline]
-    pub fn value(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 2)
+    pub fn value(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 2)
     }
 }
 
@@ -15767,9 +15771,9 @@ pub struct GoproGetResponseMut<'a> {
 
 impl<'a> GoproGetResponseMut<'a> {
     /// A writer over `payload`, which must hold at least [`GoproGetResponse::MAX_LEN`](struct@GoproGetResponse) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GoproGetResponse::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GoproGetResponse::MAX_LEN,
                 got: payload.len(),
             });
@@ -15785,19 +15789,19 @@ impl<'a> GoproGetResponseMut<'a> {
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: GoproRequestStatus) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 1)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 1)
     }
 
     /// Sets the `value` field.
     #[inline]
     pub fn set_value(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 2, value)
+        ::mavframe::field::write_array(self.payload, 2, value)
     }
 }
 
@@ -15836,7 +15840,7 @@ impl GoproSetRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 7;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -15845,30 +15849,30 @@ impl GoproSetRequest {
         target_system_offset: Some(0),
         target_component_offset: Some(1),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cmd_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "value",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 3,
                 extension: false,
@@ -15878,12 +15882,12 @@ impl GoproSetRequest {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 0),
-            target_component: ::mavwire::field::read::<u8>(p, 1),
-            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 2)),
-            value: ::mavwire::field::ArrayView::new(p, 3).to_array(),
+            target_system: ::mavframe::field::read::<u8>(p, 0),
+            target_component: ::mavframe::field::read::<u8>(p, 1),
+            cmd_id: GoproCommand::from_raw(::mavframe::field::read::<u8>(p, 2)),
+            value: ::mavframe::field::ArrayView::new(p, 3).to_array(),
         }
     }
 
@@ -15895,18 +15899,18 @@ impl GoproSetRequest {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 0);
-        ::mavwire::field::Scalar::write(self.target_component, out, 1);
-        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 2);
-        ::mavwire::field::write_array(out, 3, &self.value);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 0);
+        ::mavframe::field::Scalar::write(self.target_component, out, 1);
+        ::mavframe::field::Scalar::write(self.cmd_id.to_raw(), out, 2);
+        ::mavframe::field::write_array(out, 3, &self.value);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GoproSetRequest {
-    const META: ::mavwire::MessageMeta = GoproSetRequest::META;
+impl ::mavframe::Message for GoproSetRequest {
+    const META: ::mavframe::MessageMeta = GoproSetRequest::META;
     type View<'a> = GoproSetRequestView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -15914,7 +15918,7 @@ impl ::mavwire::Message for GoproSetRequest {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproSetRequest::emit(self, payload)
     }
 
@@ -15955,25 +15959,25 @@ impl<'a> GoproSetRequestView<'a> {
     /// Reads [`GoproSetRequest::target_system`](GoproSetRequest::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 0)
+        ::mavframe::field::read::<u8>(self.payload, 0)
     }
 
     /// Reads [`GoproSetRequest::target_component`](GoproSetRequest::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 1)
+        ::mavframe::field::read::<u8>(self.payload, 1)
     }
 
     /// Reads [`GoproSetRequest::cmd_id`](GoproSetRequest::cmd_id) (`cmd_id` at offset 2).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
-        GoproCommand::from_raw(::mavwire::field::read::<u8>(self.payload, 2))
+        GoproCommand::from_raw(::mavframe::field::read::<u8>(self.payload, 2))
     }
 
     /// Reads [`GoproSetRequest::value`](GoproSetRequest::value) (`value` at offset 3).
     #[inline]
-    pub fn value(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 3)
+    pub fn value(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 3)
     }
 }
 
@@ -15985,9 +15989,9 @@ pub struct GoproSetRequestMut<'a> {
 
 impl<'a> GoproSetRequestMut<'a> {
     /// A writer over `payload`, which must hold at least [`GoproSetRequest::MAX_LEN`](struct@GoproSetRequest) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GoproSetRequest::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GoproSetRequest::MAX_LEN,
                 got: payload.len(),
             });
@@ -16003,25 +16007,25 @@ impl<'a> GoproSetRequestMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 1)
+        ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
 
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 2)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 2)
     }
 
     /// Sets the `value` field.
     #[inline]
     pub fn set_value(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 3, value)
+        ::mavframe::field::write_array(self.payload, 3, value)
     }
 }
 
@@ -16053,7 +16057,7 @@ impl GoproSetResponse {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -16062,16 +16066,16 @@ impl GoproSetResponse {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "cmd_id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "status",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 1,
                 extension: false,
@@ -16081,10 +16085,10 @@ impl GoproSetResponse {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            cmd_id: GoproCommand::from_raw(::mavwire::field::read::<u8>(p, 0)),
-            status: GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(p, 1)),
+            cmd_id: GoproCommand::from_raw(::mavframe::field::read::<u8>(p, 0)),
+            status: GoproRequestStatus::from_raw(::mavframe::field::read::<u8>(p, 1)),
         }
     }
 
@@ -16096,16 +16100,16 @@ impl GoproSetResponse {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.cmd_id.to_raw(), out, 0);
-        ::mavwire::field::Scalar::write(self.status.to_raw(), out, 1);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.cmd_id.to_raw(), out, 0);
+        ::mavframe::field::Scalar::write(self.status.to_raw(), out, 1);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for GoproSetResponse {
-    const META: ::mavwire::MessageMeta = GoproSetResponse::META;
+impl ::mavframe::Message for GoproSetResponse {
+    const META: ::mavframe::MessageMeta = GoproSetResponse::META;
     type View<'a> = GoproSetResponseView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -16113,7 +16117,7 @@ impl ::mavwire::Message for GoproSetResponse {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproSetResponse::emit(self, payload)
     }
 
@@ -16154,13 +16158,13 @@ impl<'a> GoproSetResponseView<'a> {
     /// Reads [`GoproSetResponse::cmd_id`](GoproSetResponse::cmd_id) (`cmd_id` at offset 0).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
-        GoproCommand::from_raw(::mavwire::field::read::<u8>(self.payload, 0))
+        GoproCommand::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
 
     /// Reads [`GoproSetResponse::status`](GoproSetResponse::status) (`status` at offset 1).
     #[inline]
     pub fn status(&self) -> GoproRequestStatus {
-        GoproRequestStatus::from_raw(::mavwire::field::read::<u8>(self.payload, 1))
+        GoproRequestStatus::from_raw(::mavframe::field::read::<u8>(self.payload, 1))
     }
 }
 
@@ -16172,9 +16176,9 @@ pub struct GoproSetResponseMut<'a> {
 
 impl<'a> GoproSetResponseMut<'a> {
     /// A writer over `payload`, which must hold at least [`GoproSetResponse::MAX_LEN`](struct@GoproSetResponse) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < GoproSetResponse::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: GoproSetResponse::MAX_LEN,
                 got: payload.len(),
             });
@@ -16190,13 +16194,13 @@ impl<'a> GoproSetResponseMut<'a> {
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
 
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: GoproRequestStatus) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 1)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 1)
     }
 }
 
@@ -16227,7 +16231,7 @@ impl Rpm {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -16236,16 +16240,16 @@ impl Rpm {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm1",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm2",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
@@ -16255,10 +16259,10 @@ impl Rpm {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            rpm1: ::mavwire::field::read::<f32>(p, 0),
-            rpm2: ::mavwire::field::read::<f32>(p, 4),
+            rpm1: ::mavframe::field::read::<f32>(p, 0),
+            rpm2: ::mavframe::field::read::<f32>(p, 4),
         }
     }
 
@@ -16270,16 +16274,16 @@ impl Rpm {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.rpm1, out, 0);
-        ::mavwire::field::Scalar::write(self.rpm2, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.rpm1, out, 0);
+        ::mavframe::field::Scalar::write(self.rpm2, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for Rpm {
-    const META: ::mavwire::MessageMeta = Rpm::META;
+impl ::mavframe::Message for Rpm {
+    const META: ::mavframe::MessageMeta = Rpm::META;
     type View<'a> = RpmView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -16287,7 +16291,7 @@ impl ::mavwire::Message for Rpm {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Rpm::emit(self, payload)
     }
 
@@ -16328,13 +16332,13 @@ impl<'a> RpmView<'a> {
     /// Reads [`Rpm::rpm1`](Rpm::rpm1) (`rpm1` at offset 0).
     #[inline]
     pub fn rpm1(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`Rpm::rpm2`](Rpm::rpm2) (`rpm2` at offset 4).
     #[inline]
     pub fn rpm2(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 }
 
@@ -16346,9 +16350,9 @@ pub struct RpmMut<'a> {
 
 impl<'a> RpmMut<'a> {
     /// A writer over `payload`, which must hold at least [`Rpm::MAX_LEN`](struct@Rpm) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < Rpm::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: Rpm::MAX_LEN,
                 got: payload.len(),
             });
@@ -16364,13 +16368,13 @@ impl<'a> RpmMut<'a> {
     /// Sets the `rpm1` field.
     #[inline]
     pub fn set_rpm1(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `rpm2` field.
     #[inline]
     pub fn set_rpm2(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -16435,7 +16439,7 @@ impl DeviceOpRead {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 52;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -16444,72 +16448,72 @@ impl DeviceOpRead {
         target_system_offset: Some(4),
         target_component_offset: Some(5),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bustype",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bus",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "address",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "busname",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 40,
                 offset: 9,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "regstart",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 49,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 50,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bank",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 51,
                 extension: true,
@@ -16519,18 +16523,18 @@ impl DeviceOpRead {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 4),
-            target_component: ::mavwire::field::read::<u8>(p, 5),
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            bustype: DeviceOpBustype::from_raw(::mavwire::field::read::<u8>(p, 6)),
-            bus: ::mavwire::field::read::<u8>(p, 7),
-            address: ::mavwire::field::read::<u8>(p, 8),
-            busname: ::mavwire::field::CharArray::new(p, 9).to_array(),
-            regstart: ::mavwire::field::read::<u8>(p, 49),
-            count: ::mavwire::field::read::<u8>(p, 50),
-            bank: ::mavwire::field::read::<u8>(p, 51),
+            target_system: ::mavframe::field::read::<u8>(p, 4),
+            target_component: ::mavframe::field::read::<u8>(p, 5),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            bustype: DeviceOpBustype::from_raw(::mavframe::field::read::<u8>(p, 6)),
+            bus: ::mavframe::field::read::<u8>(p, 7),
+            address: ::mavframe::field::read::<u8>(p, 8),
+            busname: ::mavframe::field::CharArray::new(p, 9).to_array(),
+            regstart: ::mavframe::field::read::<u8>(p, 49),
+            count: ::mavframe::field::read::<u8>(p, 50),
+            bank: ::mavframe::field::read::<u8>(p, 51),
         }
     }
 
@@ -16542,18 +16546,18 @@ impl DeviceOpRead {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 4);
-        ::mavwire::field::Scalar::write(self.target_component, out, 5);
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.bustype.to_raw(), out, 6);
-        ::mavwire::field::Scalar::write(self.bus, out, 7);
-        ::mavwire::field::Scalar::write(self.address, out, 8);
-        ::mavwire::field::write_array(out, 9, &self.busname);
-        ::mavwire::field::Scalar::write(self.regstart, out, 49);
-        ::mavwire::field::Scalar::write(self.count, out, 50);
-        ::mavwire::field::Scalar::write(self.bank, out, 51);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 4);
+        ::mavframe::field::Scalar::write(self.target_component, out, 5);
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.bustype.to_raw(), out, 6);
+        ::mavframe::field::Scalar::write(self.bus, out, 7);
+        ::mavframe::field::Scalar::write(self.address, out, 8);
+        ::mavframe::field::write_array(out, 9, &self.busname);
+        ::mavframe::field::Scalar::write(self.regstart, out, 49);
+        ::mavframe::field::Scalar::write(self.count, out, 50);
+        ::mavframe::field::Scalar::write(self.bank, out, 51);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16575,8 +16579,8 @@ impl Default for DeviceOpRead {
     }
 }
 
-impl ::mavwire::Message for DeviceOpRead {
-    const META: ::mavwire::MessageMeta = DeviceOpRead::META;
+impl ::mavframe::Message for DeviceOpRead {
+    const META: ::mavframe::MessageMeta = DeviceOpRead::META;
     type View<'a> = DeviceOpReadView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -16584,7 +16588,7 @@ impl ::mavwire::Message for DeviceOpRead {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpRead::emit(self, payload)
     }
 
@@ -16625,61 +16629,61 @@ impl<'a> DeviceOpReadView<'a> {
     /// Reads [`DeviceOpRead::target_system`](DeviceOpRead::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`DeviceOpRead::target_component`](DeviceOpRead::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`DeviceOpRead::request_id`](DeviceOpRead::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`DeviceOpRead::bustype`](DeviceOpRead::bustype) (`bustype` at offset 6).
     #[inline]
     pub fn bustype(&self) -> DeviceOpBustype {
-        DeviceOpBustype::from_raw(::mavwire::field::read::<u8>(self.payload, 6))
+        DeviceOpBustype::from_raw(::mavframe::field::read::<u8>(self.payload, 6))
     }
 
     /// Reads [`DeviceOpRead::bus`](DeviceOpRead::bus) (`bus` at offset 7).
     #[inline]
     pub fn bus(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 
     /// Reads [`DeviceOpRead::address`](DeviceOpRead::address) (`address` at offset 8).
     #[inline]
     pub fn address(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`DeviceOpRead::busname`](DeviceOpRead::busname) (`busname` at offset 9).
     #[inline]
-    pub fn busname(&self) -> ::mavwire::field::CharArray<'a, 40> {
-        ::mavwire::field::CharArray::new(self.payload, 9)
+    pub fn busname(&self) -> ::mavframe::field::CharArray<'a, 40> {
+        ::mavframe::field::CharArray::new(self.payload, 9)
     }
 
     /// Reads [`DeviceOpRead::regstart`](DeviceOpRead::regstart) (`regstart` at offset 49).
     #[inline]
     pub fn regstart(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 49)
+        ::mavframe::field::read::<u8>(self.payload, 49)
     }
 
     /// Reads [`DeviceOpRead::count`](DeviceOpRead::count) (`count` at offset 50).
     #[inline]
     pub fn count(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 50)
+        ::mavframe::field::read::<u8>(self.payload, 50)
     }
 
     /// Reads [`DeviceOpRead::bank`](DeviceOpRead::bank) (`bank` at offset 51).
     #[inline]
     pub fn bank(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 51)
+        ::mavframe::field::read::<u8>(self.payload, 51)
     }
 }
 
@@ -16691,9 +16695,9 @@ pub struct DeviceOpReadMut<'a> {
 
 impl<'a> DeviceOpReadMut<'a> {
     /// A writer over `payload`, which must hold at least [`DeviceOpRead::MAX_LEN`](struct@DeviceOpRead) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < DeviceOpRead::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: DeviceOpRead::MAX_LEN,
                 got: payload.len(),
             });
@@ -16709,61 +16713,61 @@ impl<'a> DeviceOpReadMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `bustype` field.
     #[inline]
     pub fn set_bustype(&mut self, value: DeviceOpBustype) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 6)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 6)
     }
 
     /// Sets the `bus` field.
     #[inline]
     pub fn set_bus(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 
     /// Sets the `address` field.
     #[inline]
     pub fn set_address(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `busname` field.
     #[inline]
     pub fn set_busname(&mut self, value: &[u8; 40]) {
-        ::mavwire::field::write_array(self.payload, 9, value)
+        ::mavframe::field::write_array(self.payload, 9, value)
     }
 
     /// Sets the `regstart` field.
     #[inline]
     pub fn set_regstart(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 49)
+        ::mavframe::field::Scalar::write(value, self.payload, 49)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 50)
+        ::mavframe::field::Scalar::write(value, self.payload, 50)
     }
 
     /// Sets the `bank` field.
     #[inline]
     pub fn set_bank(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 51)
+        ::mavframe::field::Scalar::write(value, self.payload, 51)
     }
 }
 
@@ -16811,7 +16815,7 @@ impl DeviceOpReadReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 136;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -16820,44 +16824,44 @@ impl DeviceOpReadReply {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "result",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "regstart",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 128,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bank",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 135,
                 extension: true,
@@ -16867,14 +16871,14 @@ impl DeviceOpReadReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            result: ::mavwire::field::read::<u8>(p, 4),
-            regstart: ::mavwire::field::read::<u8>(p, 5),
-            count: ::mavwire::field::read::<u8>(p, 6),
-            data: ::mavwire::field::ArrayView::new(p, 7).to_array(),
-            bank: ::mavwire::field::read::<u8>(p, 135),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            result: ::mavframe::field::read::<u8>(p, 4),
+            regstart: ::mavframe::field::read::<u8>(p, 5),
+            count: ::mavframe::field::read::<u8>(p, 6),
+            data: ::mavframe::field::ArrayView::new(p, 7).to_array(),
+            bank: ::mavframe::field::read::<u8>(p, 135),
         }
     }
 
@@ -16886,14 +16890,14 @@ impl DeviceOpReadReply {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.result, out, 4);
-        ::mavwire::field::Scalar::write(self.regstart, out, 5);
-        ::mavwire::field::Scalar::write(self.count, out, 6);
-        ::mavwire::field::write_array(out, 7, &self.data);
-        ::mavwire::field::Scalar::write(self.bank, out, 135);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.result, out, 4);
+        ::mavframe::field::Scalar::write(self.regstart, out, 5);
+        ::mavframe::field::Scalar::write(self.count, out, 6);
+        ::mavframe::field::write_array(out, 7, &self.data);
+        ::mavframe::field::Scalar::write(self.bank, out, 135);
         Ok(Self::MAX_LEN)
     }
 }
@@ -16911,8 +16915,8 @@ impl Default for DeviceOpReadReply {
     }
 }
 
-impl ::mavwire::Message for DeviceOpReadReply {
-    const META: ::mavwire::MessageMeta = DeviceOpReadReply::META;
+impl ::mavframe::Message for DeviceOpReadReply {
+    const META: ::mavframe::MessageMeta = DeviceOpReadReply::META;
     type View<'a> = DeviceOpReadReplyView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -16920,7 +16924,7 @@ impl ::mavwire::Message for DeviceOpReadReply {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpReadReply::emit(self, payload)
     }
 
@@ -16961,37 +16965,37 @@ impl<'a> DeviceOpReadReplyView<'a> {
     /// Reads [`DeviceOpReadReply::request_id`](DeviceOpReadReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`DeviceOpReadReply::result`](DeviceOpReadReply::result) (`result` at offset 4).
     #[inline]
     pub fn result(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`DeviceOpReadReply::regstart`](DeviceOpReadReply::regstart) (`regstart` at offset 5).
     #[inline]
     pub fn regstart(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`DeviceOpReadReply::count`](DeviceOpReadReply::count) (`count` at offset 6).
     #[inline]
     pub fn count(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 6)
+        ::mavframe::field::read::<u8>(self.payload, 6)
     }
 
     /// Reads [`DeviceOpReadReply::data`](DeviceOpReadReply::data) (`data` at offset 7).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 128> {
-        ::mavwire::field::ArrayView::new(self.payload, 7)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 128> {
+        ::mavframe::field::ArrayView::new(self.payload, 7)
     }
 
     /// Reads [`DeviceOpReadReply::bank`](DeviceOpReadReply::bank) (`bank` at offset 135).
     #[inline]
     pub fn bank(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 135)
+        ::mavframe::field::read::<u8>(self.payload, 135)
     }
 }
 
@@ -17003,9 +17007,9 @@ pub struct DeviceOpReadReplyMut<'a> {
 
 impl<'a> DeviceOpReadReplyMut<'a> {
     /// A writer over `payload`, which must hold at least [`DeviceOpReadReply::MAX_LEN`](struct@DeviceOpReadReply) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < DeviceOpReadReply::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: DeviceOpReadReply::MAX_LEN,
                 got: payload.len(),
             });
@@ -17021,37 +17025,37 @@ impl<'a> DeviceOpReadReplyMut<'a> {
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `regstart` field.
     #[inline]
     pub fn set_regstart(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 128]) {
-        ::mavwire::field::write_array(self.payload, 7, value)
+        ::mavframe::field::write_array(self.payload, 7, value)
     }
 
     /// Sets the `bank` field.
     #[inline]
     pub fn set_bank(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 135)
+        ::mavframe::field::Scalar::write(value, self.payload, 135)
     }
 }
 
@@ -17120,7 +17124,7 @@ impl DeviceOpWrite {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 180;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -17129,79 +17133,79 @@ impl DeviceOpWrite {
         target_system_offset: Some(4),
         target_component_offset: Some(5),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bustype",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bus",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "address",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "busname",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 40,
                 offset: 9,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "regstart",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 49,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 50,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 128,
                 offset: 51,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "bank",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 179,
                 extension: true,
@@ -17211,19 +17215,19 @@ impl DeviceOpWrite {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 4),
-            target_component: ::mavwire::field::read::<u8>(p, 5),
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            bustype: DeviceOpBustype::from_raw(::mavwire::field::read::<u8>(p, 6)),
-            bus: ::mavwire::field::read::<u8>(p, 7),
-            address: ::mavwire::field::read::<u8>(p, 8),
-            busname: ::mavwire::field::CharArray::new(p, 9).to_array(),
-            regstart: ::mavwire::field::read::<u8>(p, 49),
-            count: ::mavwire::field::read::<u8>(p, 50),
-            data: ::mavwire::field::ArrayView::new(p, 51).to_array(),
-            bank: ::mavwire::field::read::<u8>(p, 179),
+            target_system: ::mavframe::field::read::<u8>(p, 4),
+            target_component: ::mavframe::field::read::<u8>(p, 5),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            bustype: DeviceOpBustype::from_raw(::mavframe::field::read::<u8>(p, 6)),
+            bus: ::mavframe::field::read::<u8>(p, 7),
+            address: ::mavframe::field::read::<u8>(p, 8),
+            busname: ::mavframe::field::CharArray::new(p, 9).to_array(),
+            regstart: ::mavframe::field::read::<u8>(p, 49),
+            count: ::mavframe::field::read::<u8>(p, 50),
+            data: ::mavframe::field::ArrayView::new(p, 51).to_array(),
+            bank: ::mavframe::field::read::<u8>(p, 179),
         }
     }
 
@@ -17235,19 +17239,19 @@ impl DeviceOpWrite {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 4);
-        ::mavwire::field::Scalar::write(self.target_component, out, 5);
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.bustype.to_raw(), out, 6);
-        ::mavwire::field::Scalar::write(self.bus, out, 7);
-        ::mavwire::field::Scalar::write(self.address, out, 8);
-        ::mavwire::field::write_array(out, 9, &self.busname);
-        ::mavwire::field::Scalar::write(self.regstart, out, 49);
-        ::mavwire::field::Scalar::write(self.count, out, 50);
-        ::mavwire::field::write_array(out, 51, &self.data);
-        ::mavwire::field::Scalar::write(self.bank, out, 179);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 4);
+        ::mavframe::field::Scalar::write(self.target_component, out, 5);
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.bustype.to_raw(), out, 6);
+        ::mavframe::field::Scalar::write(self.bus, out, 7);
+        ::mavframe::field::Scalar::write(self.address, out, 8);
+        ::mavframe::field::write_array(out, 9, &self.busname);
+        ::mavframe::field::Scalar::write(self.regstart, out, 49);
+        ::mavframe::field::Scalar::write(self.count, out, 50);
+        ::mavframe::field::write_array(out, 51, &self.data);
+        ::mavframe::field::Scalar::write(self.bank, out, 179);
         Ok(Self::MAX_LEN)
     }
 }
@@ -17270,8 +17274,8 @@ impl Default for DeviceOpWrite {
     }
 }
 
-impl ::mavwire::Message for DeviceOpWrite {
-    const META: ::mavwire::MessageMeta = DeviceOpWrite::META;
+impl ::mavframe::Message for DeviceOpWrite {
+    const META: ::mavframe::MessageMeta = DeviceOpWrite::META;
     type View<'a> = DeviceOpWriteView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -17279,7 +17283,7 @@ impl ::mavwire::Message for DeviceOpWrite {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpWrite::emit(self, payload)
     }
 
@@ -17320,67 +17324,67 @@ impl<'a> DeviceOpWriteView<'a> {
     /// Reads [`DeviceOpWrite::target_system`](DeviceOpWrite::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`DeviceOpWrite::target_component`](DeviceOpWrite::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`DeviceOpWrite::request_id`](DeviceOpWrite::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`DeviceOpWrite::bustype`](DeviceOpWrite::bustype) (`bustype` at offset 6).
     #[inline]
     pub fn bustype(&self) -> DeviceOpBustype {
-        DeviceOpBustype::from_raw(::mavwire::field::read::<u8>(self.payload, 6))
+        DeviceOpBustype::from_raw(::mavframe::field::read::<u8>(self.payload, 6))
     }
 
     /// Reads [`DeviceOpWrite::bus`](DeviceOpWrite::bus) (`bus` at offset 7).
     #[inline]
     pub fn bus(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 
     /// Reads [`DeviceOpWrite::address`](DeviceOpWrite::address) (`address` at offset 8).
     #[inline]
     pub fn address(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`DeviceOpWrite::busname`](DeviceOpWrite::busname) (`busname` at offset 9).
     #[inline]
-    pub fn busname(&self) -> ::mavwire::field::CharArray<'a, 40> {
-        ::mavwire::field::CharArray::new(self.payload, 9)
+    pub fn busname(&self) -> ::mavframe::field::CharArray<'a, 40> {
+        ::mavframe::field::CharArray::new(self.payload, 9)
     }
 
     /// Reads [`DeviceOpWrite::regstart`](DeviceOpWrite::regstart) (`regstart` at offset 49).
     #[inline]
     pub fn regstart(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 49)
+        ::mavframe::field::read::<u8>(self.payload, 49)
     }
 
     /// Reads [`DeviceOpWrite::count`](DeviceOpWrite::count) (`count` at offset 50).
     #[inline]
     pub fn count(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 50)
+        ::mavframe::field::read::<u8>(self.payload, 50)
     }
 
     /// Reads [`DeviceOpWrite::data`](DeviceOpWrite::data) (`data` at offset 51).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 128> {
-        ::mavwire::field::ArrayView::new(self.payload, 51)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 128> {
+        ::mavframe::field::ArrayView::new(self.payload, 51)
     }
 
     /// Reads [`DeviceOpWrite::bank`](DeviceOpWrite::bank) (`bank` at offset 179).
     #[inline]
     pub fn bank(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 179)
+        ::mavframe::field::read::<u8>(self.payload, 179)
     }
 }
 
@@ -17392,9 +17396,9 @@ pub struct DeviceOpWriteMut<'a> {
 
 impl<'a> DeviceOpWriteMut<'a> {
     /// A writer over `payload`, which must hold at least [`DeviceOpWrite::MAX_LEN`](struct@DeviceOpWrite) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < DeviceOpWrite::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: DeviceOpWrite::MAX_LEN,
                 got: payload.len(),
             });
@@ -17410,67 +17414,67 @@ impl<'a> DeviceOpWriteMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `bustype` field.
     #[inline]
     pub fn set_bustype(&mut self, value: DeviceOpBustype) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 6)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 6)
     }
 
     /// Sets the `bus` field.
     #[inline]
     pub fn set_bus(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 
     /// Sets the `address` field.
     #[inline]
     pub fn set_address(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `busname` field.
     #[inline]
     pub fn set_busname(&mut self, value: &[u8; 40]) {
-        ::mavwire::field::write_array(self.payload, 9, value)
+        ::mavframe::field::write_array(self.payload, 9, value)
     }
 
     /// Sets the `regstart` field.
     #[inline]
     pub fn set_regstart(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 49)
+        ::mavframe::field::Scalar::write(value, self.payload, 49)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 50)
+        ::mavframe::field::Scalar::write(value, self.payload, 50)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 128]) {
-        ::mavwire::field::write_array(self.payload, 51, value)
+        ::mavframe::field::write_array(self.payload, 51, value)
     }
 
     /// Sets the `bank` field.
     #[inline]
     pub fn set_bank(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 179)
+        ::mavframe::field::Scalar::write(value, self.payload, 179)
     }
 }
 
@@ -17501,7 +17505,7 @@ impl DeviceOpWriteReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -17510,16 +17514,16 @@ impl DeviceOpWriteReply {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "result",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
@@ -17529,10 +17533,10 @@ impl DeviceOpWriteReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            result: ::mavwire::field::read::<u8>(p, 4),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            result: ::mavframe::field::read::<u8>(p, 4),
         }
     }
 
@@ -17544,16 +17548,16 @@ impl DeviceOpWriteReply {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.result, out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.result, out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for DeviceOpWriteReply {
-    const META: ::mavwire::MessageMeta = DeviceOpWriteReply::META;
+impl ::mavframe::Message for DeviceOpWriteReply {
+    const META: ::mavframe::MessageMeta = DeviceOpWriteReply::META;
     type View<'a> = DeviceOpWriteReplyView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -17561,7 +17565,7 @@ impl ::mavwire::Message for DeviceOpWriteReply {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpWriteReply::emit(self, payload)
     }
 
@@ -17602,13 +17606,13 @@ impl<'a> DeviceOpWriteReplyView<'a> {
     /// Reads [`DeviceOpWriteReply::request_id`](DeviceOpWriteReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`DeviceOpWriteReply::result`](DeviceOpWriteReply::result) (`result` at offset 4).
     #[inline]
     pub fn result(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 }
 
@@ -17620,9 +17624,9 @@ pub struct DeviceOpWriteReplyMut<'a> {
 
 impl<'a> DeviceOpWriteReplyMut<'a> {
     /// A writer over `payload`, which must hold at least [`DeviceOpWriteReply::MAX_LEN`](struct@DeviceOpWriteReply) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < DeviceOpWriteReply::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: DeviceOpWriteReply::MAX_LEN,
                 got: payload.len(),
             });
@@ -17638,13 +17642,13 @@ impl<'a> DeviceOpWriteReplyMut<'a> {
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 }
 
@@ -17701,7 +17705,7 @@ impl SecureCommand {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 232;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -17710,51 +17714,51 @@ impl SecureCommand {
         target_system_offset: Some(8),
         target_component_offset: Some(9),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "sequence",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "operation",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 9,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data_length",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 10,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "sig_length",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 11,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 220,
                 offset: 12,
                 extension: false,
@@ -17764,15 +17768,15 @@ impl SecureCommand {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 8),
-            target_component: ::mavwire::field::read::<u8>(p, 9),
-            sequence: ::mavwire::field::read::<u32>(p, 0),
-            operation: SecureCommandOp::from_raw(::mavwire::field::read::<u32>(p, 4)),
-            data_length: ::mavwire::field::read::<u8>(p, 10),
-            sig_length: ::mavwire::field::read::<u8>(p, 11),
-            data: ::mavwire::field::ArrayView::new(p, 12).to_array(),
+            target_system: ::mavframe::field::read::<u8>(p, 8),
+            target_component: ::mavframe::field::read::<u8>(p, 9),
+            sequence: ::mavframe::field::read::<u32>(p, 0),
+            operation: SecureCommandOp::from_raw(::mavframe::field::read::<u32>(p, 4)),
+            data_length: ::mavframe::field::read::<u8>(p, 10),
+            sig_length: ::mavframe::field::read::<u8>(p, 11),
+            data: ::mavframe::field::ArrayView::new(p, 12).to_array(),
         }
     }
 
@@ -17784,15 +17788,15 @@ impl SecureCommand {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 8);
-        ::mavwire::field::Scalar::write(self.target_component, out, 9);
-        ::mavwire::field::Scalar::write(self.sequence, out, 0);
-        ::mavwire::field::Scalar::write(self.operation.to_raw(), out, 4);
-        ::mavwire::field::Scalar::write(self.data_length, out, 10);
-        ::mavwire::field::Scalar::write(self.sig_length, out, 11);
-        ::mavwire::field::write_array(out, 12, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 8);
+        ::mavframe::field::Scalar::write(self.target_component, out, 9);
+        ::mavframe::field::Scalar::write(self.sequence, out, 0);
+        ::mavframe::field::Scalar::write(self.operation.to_raw(), out, 4);
+        ::mavframe::field::Scalar::write(self.data_length, out, 10);
+        ::mavframe::field::Scalar::write(self.sig_length, out, 11);
+        ::mavframe::field::write_array(out, 12, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -17811,8 +17815,8 @@ impl Default for SecureCommand {
     }
 }
 
-impl ::mavwire::Message for SecureCommand {
-    const META: ::mavwire::MessageMeta = SecureCommand::META;
+impl ::mavframe::Message for SecureCommand {
+    const META: ::mavframe::MessageMeta = SecureCommand::META;
     type View<'a> = SecureCommandView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -17820,7 +17824,7 @@ impl ::mavwire::Message for SecureCommand {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SecureCommand::emit(self, payload)
     }
 
@@ -17861,43 +17865,43 @@ impl<'a> SecureCommandView<'a> {
     /// Reads [`SecureCommand::target_system`](SecureCommand::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`SecureCommand::target_component`](SecureCommand::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 9)
+        ::mavframe::field::read::<u8>(self.payload, 9)
     }
 
     /// Reads [`SecureCommand::sequence`](SecureCommand::sequence) (`sequence` at offset 0).
     #[inline]
     pub fn sequence(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`SecureCommand::operation`](SecureCommand::operation) (`operation` at offset 4).
     #[inline]
     pub fn operation(&self) -> SecureCommandOp {
-        SecureCommandOp::from_raw(::mavwire::field::read::<u32>(self.payload, 4))
+        SecureCommandOp::from_raw(::mavframe::field::read::<u32>(self.payload, 4))
     }
 
     /// Reads [`SecureCommand::data_length`](SecureCommand::data_length) (`data_length` at offset 10).
     #[inline]
     pub fn data_length(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 10)
+        ::mavframe::field::read::<u8>(self.payload, 10)
     }
 
     /// Reads [`SecureCommand::sig_length`](SecureCommand::sig_length) (`sig_length` at offset 11).
     #[inline]
     pub fn sig_length(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 11)
+        ::mavframe::field::read::<u8>(self.payload, 11)
     }
 
     /// Reads [`SecureCommand::data`](SecureCommand::data) (`data` at offset 12).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 220> {
-        ::mavwire::field::ArrayView::new(self.payload, 12)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 220> {
+        ::mavframe::field::ArrayView::new(self.payload, 12)
     }
 }
 
@@ -17909,9 +17913,9 @@ pub struct SecureCommandMut<'a> {
 
 impl<'a> SecureCommandMut<'a> {
     /// A writer over `payload`, which must hold at least [`SecureCommand::MAX_LEN`](struct@SecureCommand) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SecureCommand::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SecureCommand::MAX_LEN,
                 got: payload.len(),
             });
@@ -17927,43 +17931,43 @@ impl<'a> SecureCommandMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 9)
+        ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
 
     /// Sets the `sequence` field.
     #[inline]
     pub fn set_sequence(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `operation` field.
     #[inline]
     pub fn set_operation(&mut self, value: SecureCommandOp) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 4)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 4)
     }
 
     /// Sets the `data_length` field.
     #[inline]
     pub fn set_data_length(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 10)
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
 
     /// Sets the `sig_length` field.
     #[inline]
     pub fn set_sig_length(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 11)
+        ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 220]) {
-        ::mavwire::field::write_array(self.payload, 12, value)
+        ::mavframe::field::write_array(self.payload, 12, value)
     }
 }
 
@@ -18008,7 +18012,7 @@ impl SecureCommandReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 230;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -18017,37 +18021,37 @@ impl SecureCommandReply {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "sequence",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "operation",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "result",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data_length",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 9,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "data",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 220,
                 offset: 10,
                 extension: false,
@@ -18057,15 +18061,15 @@ impl SecureCommandReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            sequence: ::mavwire::field::read::<u32>(p, 0),
-            operation: SecureCommandOp::from_raw(::mavwire::field::read::<u32>(p, 4)),
+            sequence: ::mavframe::field::read::<u32>(p, 0),
+            operation: SecureCommandOp::from_raw(::mavframe::field::read::<u32>(p, 4)),
             result: super::common::MavResult::from_raw(
-                ::mavwire::field::read::<u8>(p, 8),
+                ::mavframe::field::read::<u8>(p, 8),
             ),
-            data_length: ::mavwire::field::read::<u8>(p, 9),
-            data: ::mavwire::field::ArrayView::new(p, 10).to_array(),
+            data_length: ::mavframe::field::read::<u8>(p, 9),
+            data: ::mavframe::field::ArrayView::new(p, 10).to_array(),
         }
     }
 
@@ -18077,13 +18081,13 @@ impl SecureCommandReply {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.sequence, out, 0);
-        ::mavwire::field::Scalar::write(self.operation.to_raw(), out, 4);
-        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 8);
-        ::mavwire::field::Scalar::write(self.data_length, out, 9);
-        ::mavwire::field::write_array(out, 10, &self.data);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.sequence, out, 0);
+        ::mavframe::field::Scalar::write(self.operation.to_raw(), out, 4);
+        ::mavframe::field::Scalar::write(self.result.to_raw(), out, 8);
+        ::mavframe::field::Scalar::write(self.data_length, out, 9);
+        ::mavframe::field::write_array(out, 10, &self.data);
         Ok(Self::MAX_LEN)
     }
 }
@@ -18100,8 +18104,8 @@ impl Default for SecureCommandReply {
     }
 }
 
-impl ::mavwire::Message for SecureCommandReply {
-    const META: ::mavwire::MessageMeta = SecureCommandReply::META;
+impl ::mavframe::Message for SecureCommandReply {
+    const META: ::mavframe::MessageMeta = SecureCommandReply::META;
     type View<'a> = SecureCommandReplyView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -18109,7 +18113,7 @@ impl ::mavwire::Message for SecureCommandReply {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SecureCommandReply::emit(self, payload)
     }
 
@@ -18150,31 +18154,33 @@ impl<'a> SecureCommandReplyView<'a> {
     /// Reads [`SecureCommandReply::sequence`](SecureCommandReply::sequence) (`sequence` at offset 0).
     #[inline]
     pub fn sequence(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`SecureCommandReply::operation`](SecureCommandReply::operation) (`operation` at offset 4).
     #[inline]
     pub fn operation(&self) -> SecureCommandOp {
-        SecureCommandOp::from_raw(::mavwire::field::read::<u32>(self.payload, 4))
+        SecureCommandOp::from_raw(::mavframe::field::read::<u32>(self.payload, 4))
     }
 
     /// Reads [`SecureCommandReply::result`](SecureCommandReply::result) (`result` at offset 8).
     #[inline]
     pub fn result(&self) -> super::common::MavResult {
-        super::common::MavResult::from_raw(::mavwire::field::read::<u8>(self.payload, 8))
+        super::common::MavResult::from_raw(
+            ::mavframe::field::read::<u8>(self.payload, 8),
+        )
     }
 
     /// Reads [`SecureCommandReply::data_length`](SecureCommandReply::data_length) (`data_length` at offset 9).
     #[inline]
     pub fn data_length(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 9)
+        ::mavframe::field::read::<u8>(self.payload, 9)
     }
 
     /// Reads [`SecureCommandReply::data`](SecureCommandReply::data) (`data` at offset 10).
     #[inline]
-    pub fn data(&self) -> ::mavwire::field::ArrayView<'a, u8, 220> {
-        ::mavwire::field::ArrayView::new(self.payload, 10)
+    pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 220> {
+        ::mavframe::field::ArrayView::new(self.payload, 10)
     }
 }
 
@@ -18186,9 +18192,9 @@ pub struct SecureCommandReplyMut<'a> {
 
 impl<'a> SecureCommandReplyMut<'a> {
     /// A writer over `payload`, which must hold at least [`SecureCommandReply::MAX_LEN`](struct@SecureCommandReply) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < SecureCommandReply::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: SecureCommandReply::MAX_LEN,
                 got: payload.len(),
             });
@@ -18204,31 +18210,31 @@ impl<'a> SecureCommandReplyMut<'a> {
     /// Sets the `sequence` field.
     #[inline]
     pub fn set_sequence(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `operation` field.
     #[inline]
     pub fn set_operation(&mut self, value: SecureCommandOp) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 4)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 4)
     }
 
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: super::common::MavResult) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 8)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 8)
     }
 
     /// Sets the `data_length` field.
     #[inline]
     pub fn set_data_length(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 9)
+        ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
 
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 220]) {
-        ::mavwire::field::write_array(self.payload, 10, value)
+        ::mavframe::field::write_array(self.payload, 10, value)
     }
 }
 
@@ -18304,7 +18310,7 @@ impl AdapTuning {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 49;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -18313,93 +18319,93 @@ impl AdapTuning {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "desired",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "achieved",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "error",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "theta",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "omega",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "sigma",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "theta_dot",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "omega_dot",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "sigma_dot",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "f",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "f_dot",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 40,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "u",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 44,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "axis",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 48,
                 extension: false,
@@ -18409,21 +18415,21 @@ impl AdapTuning {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            axis: PidTuningAxis::from_raw(::mavwire::field::read::<u8>(p, 48)),
-            desired: ::mavwire::field::read::<f32>(p, 0),
-            achieved: ::mavwire::field::read::<f32>(p, 4),
-            error: ::mavwire::field::read::<f32>(p, 8),
-            theta: ::mavwire::field::read::<f32>(p, 12),
-            omega: ::mavwire::field::read::<f32>(p, 16),
-            sigma: ::mavwire::field::read::<f32>(p, 20),
-            theta_dot: ::mavwire::field::read::<f32>(p, 24),
-            omega_dot: ::mavwire::field::read::<f32>(p, 28),
-            sigma_dot: ::mavwire::field::read::<f32>(p, 32),
-            f: ::mavwire::field::read::<f32>(p, 36),
-            f_dot: ::mavwire::field::read::<f32>(p, 40),
-            u: ::mavwire::field::read::<f32>(p, 44),
+            axis: PidTuningAxis::from_raw(::mavframe::field::read::<u8>(p, 48)),
+            desired: ::mavframe::field::read::<f32>(p, 0),
+            achieved: ::mavframe::field::read::<f32>(p, 4),
+            error: ::mavframe::field::read::<f32>(p, 8),
+            theta: ::mavframe::field::read::<f32>(p, 12),
+            omega: ::mavframe::field::read::<f32>(p, 16),
+            sigma: ::mavframe::field::read::<f32>(p, 20),
+            theta_dot: ::mavframe::field::read::<f32>(p, 24),
+            omega_dot: ::mavframe::field::read::<f32>(p, 28),
+            sigma_dot: ::mavframe::field::read::<f32>(p, 32),
+            f: ::mavframe::field::read::<f32>(p, 36),
+            f_dot: ::mavframe::field::read::<f32>(p, 40),
+            u: ::mavframe::field::read::<f32>(p, 44),
         }
     }
 
@@ -18435,27 +18441,27 @@ impl AdapTuning {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.axis.to_raw(), out, 48);
-        ::mavwire::field::Scalar::write(self.desired, out, 0);
-        ::mavwire::field::Scalar::write(self.achieved, out, 4);
-        ::mavwire::field::Scalar::write(self.error, out, 8);
-        ::mavwire::field::Scalar::write(self.theta, out, 12);
-        ::mavwire::field::Scalar::write(self.omega, out, 16);
-        ::mavwire::field::Scalar::write(self.sigma, out, 20);
-        ::mavwire::field::Scalar::write(self.theta_dot, out, 24);
-        ::mavwire::field::Scalar::write(self.omega_dot, out, 28);
-        ::mavwire::field::Scalar::write(self.sigma_dot, out, 32);
-        ::mavwire::field::Scalar::write(self.f, out, 36);
-        ::mavwire::field::Scalar::write(self.f_dot, out, 40);
-        ::mavwire::field::Scalar::write(self.u, out, 44);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.axis.to_raw(), out, 48);
+        ::mavframe::field::Scalar::write(self.desired, out, 0);
+        ::mavframe::field::Scalar::write(self.achieved, out, 4);
+        ::mavframe::field::Scalar::write(self.error, out, 8);
+        ::mavframe::field::Scalar::write(self.theta, out, 12);
+        ::mavframe::field::Scalar::write(self.omega, out, 16);
+        ::mavframe::field::Scalar::write(self.sigma, out, 20);
+        ::mavframe::field::Scalar::write(self.theta_dot, out, 24);
+        ::mavframe::field::Scalar::write(self.omega_dot, out, 28);
+        ::mavframe::field::Scalar::write(self.sigma_dot, out, 32);
+        ::mavframe::field::Scalar::write(self.f, out, 36);
+        ::mavframe::field::Scalar::write(self.f_dot, out, 40);
+        ::mavframe::field::Scalar::write(self.u, out, 44);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for AdapTuning {
-    const META: ::mavwire::MessageMeta = AdapTuning::META;
+impl ::mavframe::Message for AdapTuning {
+    const META: ::mavframe::MessageMeta = AdapTuning::META;
     type View<'a> = AdapTuningView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -18463,7 +18469,7 @@ impl ::mavwire::Message for AdapTuning {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AdapTuning::emit(self, payload)
     }
 
@@ -18504,79 +18510,79 @@ impl<'a> AdapTuningView<'a> {
     /// Reads [`AdapTuning::axis`](AdapTuning::axis) (`axis` at offset 48).
     #[inline]
     pub fn axis(&self) -> PidTuningAxis {
-        PidTuningAxis::from_raw(::mavwire::field::read::<u8>(self.payload, 48))
+        PidTuningAxis::from_raw(::mavframe::field::read::<u8>(self.payload, 48))
     }
 
     /// Reads [`AdapTuning::desired`](AdapTuning::desired) (`desired` at offset 0).
     #[inline]
     pub fn desired(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 0)
+        ::mavframe::field::read::<f32>(self.payload, 0)
     }
 
     /// Reads [`AdapTuning::achieved`](AdapTuning::achieved) (`achieved` at offset 4).
     #[inline]
     pub fn achieved(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`AdapTuning::error`](AdapTuning::error) (`error` at offset 8).
     #[inline]
     pub fn error(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`AdapTuning::theta`](AdapTuning::theta) (`theta` at offset 12).
     #[inline]
     pub fn theta(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`AdapTuning::omega`](AdapTuning::omega) (`omega` at offset 16).
     #[inline]
     pub fn omega(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`AdapTuning::sigma`](AdapTuning::sigma) (`sigma` at offset 20).
     #[inline]
     pub fn sigma(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`AdapTuning::theta_dot`](AdapTuning::theta_dot) (`theta_dot` at offset 24).
     #[inline]
     pub fn theta_dot(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`AdapTuning::omega_dot`](AdapTuning::omega_dot) (`omega_dot` at offset 28).
     #[inline]
     pub fn omega_dot(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`AdapTuning::sigma_dot`](AdapTuning::sigma_dot) (`sigma_dot` at offset 32).
     #[inline]
     pub fn sigma_dot(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 
     /// Reads [`AdapTuning::f`](AdapTuning::f) (`f` at offset 36).
     #[inline]
     pub fn f(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 36)
+        ::mavframe::field::read::<f32>(self.payload, 36)
     }
 
     /// Reads [`AdapTuning::f_dot`](AdapTuning::f_dot) (`f_dot` at offset 40).
     #[inline]
     pub fn f_dot(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 40)
+        ::mavframe::field::read::<f32>(self.payload, 40)
     }
 
     /// Reads [`AdapTuning::u`](AdapTuning::u) (`u` at offset 44).
     #[inline]
     pub fn u(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 44)
+        ::mavframe::field::read::<f32>(self.payload, 44)
     }
 }
 
@@ -18588,9 +18594,9 @@ pub struct AdapTuningMut<'a> {
 
 impl<'a> AdapTuningMut<'a> {
     /// A writer over `payload`, which must hold at least [`AdapTuning::MAX_LEN`](struct@AdapTuning) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < AdapTuning::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: AdapTuning::MAX_LEN,
                 got: payload.len(),
             });
@@ -18606,79 +18612,79 @@ impl<'a> AdapTuningMut<'a> {
     /// Sets the `axis` field.
     #[inline]
     pub fn set_axis(&mut self, value: PidTuningAxis) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 48)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 48)
     }
 
     /// Sets the `desired` field.
     #[inline]
     pub fn set_desired(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `achieved` field.
     #[inline]
     pub fn set_achieved(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `error` field.
     #[inline]
     pub fn set_error(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `theta` field.
     #[inline]
     pub fn set_theta(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `omega` field.
     #[inline]
     pub fn set_omega(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `sigma` field.
     #[inline]
     pub fn set_sigma(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `theta_dot` field.
     #[inline]
     pub fn set_theta_dot(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `omega_dot` field.
     #[inline]
     pub fn set_omega_dot(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `sigma_dot` field.
     #[inline]
     pub fn set_sigma_dot(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `f` field.
     #[inline]
     pub fn set_f(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `f_dot` field.
     #[inline]
     pub fn set_f_dot(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 
     /// Sets the `u` field.
     #[inline]
     pub fn set_u(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 44)
+        ::mavframe::field::Scalar::write(value, self.payload, 44)
     }
 }
 
@@ -18723,7 +18729,7 @@ impl VisionPositionDelta {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -18732,37 +18738,37 @@ impl VisionPositionDelta {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_usec",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_delta_usec",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "angle_delta",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 3,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "position_delta",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 3,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "confidence",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 40,
                 extension: false,
@@ -18772,13 +18778,13 @@ impl VisionPositionDelta {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_usec: ::mavwire::field::read::<u64>(p, 0),
-            time_delta_usec: ::mavwire::field::read::<u64>(p, 8),
-            angle_delta: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            position_delta: ::mavwire::field::ArrayView::new(p, 28).to_array(),
-            confidence: ::mavwire::field::read::<f32>(p, 40),
+            time_usec: ::mavframe::field::read::<u64>(p, 0),
+            time_delta_usec: ::mavframe::field::read::<u64>(p, 8),
+            angle_delta: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            position_delta: ::mavframe::field::ArrayView::new(p, 28).to_array(),
+            confidence: ::mavframe::field::read::<f32>(p, 40),
         }
     }
 
@@ -18790,19 +18796,19 @@ impl VisionPositionDelta {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
-        ::mavwire::field::Scalar::write(self.time_delta_usec, out, 8);
-        ::mavwire::field::write_array(out, 16, &self.angle_delta);
-        ::mavwire::field::write_array(out, 28, &self.position_delta);
-        ::mavwire::field::Scalar::write(self.confidence, out, 40);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_usec, out, 0);
+        ::mavframe::field::Scalar::write(self.time_delta_usec, out, 8);
+        ::mavframe::field::write_array(out, 16, &self.angle_delta);
+        ::mavframe::field::write_array(out, 28, &self.position_delta);
+        ::mavframe::field::Scalar::write(self.confidence, out, 40);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for VisionPositionDelta {
-    const META: ::mavwire::MessageMeta = VisionPositionDelta::META;
+impl ::mavframe::Message for VisionPositionDelta {
+    const META: ::mavframe::MessageMeta = VisionPositionDelta::META;
     type View<'a> = VisionPositionDeltaView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -18810,7 +18816,7 @@ impl ::mavwire::Message for VisionPositionDelta {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         VisionPositionDelta::emit(self, payload)
     }
 
@@ -18851,31 +18857,31 @@ impl<'a> VisionPositionDeltaView<'a> {
     /// Reads [`VisionPositionDelta::time_usec`](VisionPositionDelta::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
-        ::mavwire::field::read::<u64>(self.payload, 0)
+        ::mavframe::field::read::<u64>(self.payload, 0)
     }
 
     /// Reads [`VisionPositionDelta::time_delta_usec`](VisionPositionDelta::time_delta_usec) (`time_delta_usec` at offset 8).
     #[inline]
     pub fn time_delta_usec(&self) -> u64 {
-        ::mavwire::field::read::<u64>(self.payload, 8)
+        ::mavframe::field::read::<u64>(self.payload, 8)
     }
 
     /// Reads [`VisionPositionDelta::angle_delta`](VisionPositionDelta::angle_delta) (`angle_delta` at offset 16).
     #[inline]
-    pub fn angle_delta(&self) -> ::mavwire::field::ArrayView<'a, f32, 3> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn angle_delta(&self) -> ::mavframe::field::ArrayView<'a, f32, 3> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`VisionPositionDelta::position_delta`](VisionPositionDelta::position_delta) (`position_delta` at offset 28).
     #[inline]
-    pub fn position_delta(&self) -> ::mavwire::field::ArrayView<'a, f32, 3> {
-        ::mavwire::field::ArrayView::new(self.payload, 28)
+    pub fn position_delta(&self) -> ::mavframe::field::ArrayView<'a, f32, 3> {
+        ::mavframe::field::ArrayView::new(self.payload, 28)
     }
 
     /// Reads [`VisionPositionDelta::confidence`](VisionPositionDelta::confidence) (`confidence` at offset 40).
     #[inline]
     pub fn confidence(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 40)
+        ::mavframe::field::read::<f32>(self.payload, 40)
     }
 }
 
@@ -18887,9 +18893,9 @@ pub struct VisionPositionDeltaMut<'a> {
 
 impl<'a> VisionPositionDeltaMut<'a> {
     /// A writer over `payload`, which must hold at least [`VisionPositionDelta::MAX_LEN`](struct@VisionPositionDelta) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < VisionPositionDelta::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: VisionPositionDelta::MAX_LEN,
                 got: payload.len(),
             });
@@ -18905,31 +18911,31 @@ impl<'a> VisionPositionDeltaMut<'a> {
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `time_delta_usec` field.
     #[inline]
     pub fn set_time_delta_usec(&mut self, value: u64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `angle_delta` field.
     #[inline]
     pub fn set_angle_delta(&mut self, value: &[f32; 3]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `position_delta` field.
     #[inline]
     pub fn set_position_delta(&mut self, value: &[f32; 3]) {
-        ::mavwire::field::write_array(self.payload, 28, value)
+        ::mavframe::field::write_array(self.payload, 28, value)
     }
 
     /// Sets the `confidence` field.
     #[inline]
     pub fn set_confidence(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 40)
+        ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
 }
 
@@ -18964,7 +18970,7 @@ impl AoaSsa {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -18973,23 +18979,23 @@ impl AoaSsa {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_usec",
-                ty: ::mavwire::FieldType::U64,
+                ty: ::mavframe::FieldType::U64,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "AOA",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "SSA",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
@@ -18999,11 +19005,11 @@ impl AoaSsa {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_usec: ::mavwire::field::read::<u64>(p, 0),
-            aoa: ::mavwire::field::read::<f32>(p, 8),
-            ssa: ::mavwire::field::read::<f32>(p, 12),
+            time_usec: ::mavframe::field::read::<u64>(p, 0),
+            aoa: ::mavframe::field::read::<f32>(p, 8),
+            ssa: ::mavframe::field::read::<f32>(p, 12),
         }
     }
 
@@ -19015,17 +19021,17 @@ impl AoaSsa {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_usec, out, 0);
-        ::mavwire::field::Scalar::write(self.aoa, out, 8);
-        ::mavwire::field::Scalar::write(self.ssa, out, 12);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_usec, out, 0);
+        ::mavframe::field::Scalar::write(self.aoa, out, 8);
+        ::mavframe::field::Scalar::write(self.ssa, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for AoaSsa {
-    const META: ::mavwire::MessageMeta = AoaSsa::META;
+impl ::mavframe::Message for AoaSsa {
+    const META: ::mavframe::MessageMeta = AoaSsa::META;
     type View<'a> = AoaSsaView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -19033,7 +19039,7 @@ impl ::mavwire::Message for AoaSsa {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AoaSsa::emit(self, payload)
     }
 
@@ -19074,19 +19080,19 @@ impl<'a> AoaSsaView<'a> {
     /// Reads [`AoaSsa::time_usec`](AoaSsa::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
-        ::mavwire::field::read::<u64>(self.payload, 0)
+        ::mavframe::field::read::<u64>(self.payload, 0)
     }
 
     /// Reads [`AoaSsa::aoa`](AoaSsa::aoa) (`AOA` at offset 8).
     #[inline]
     pub fn aoa(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`AoaSsa::ssa`](AoaSsa::ssa) (`SSA` at offset 12).
     #[inline]
     pub fn ssa(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 }
 
@@ -19098,9 +19104,9 @@ pub struct AoaSsaMut<'a> {
 
 impl<'a> AoaSsaMut<'a> {
     /// A writer over `payload`, which must hold at least [`AoaSsa::MAX_LEN`](struct@AoaSsa) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < AoaSsa::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: AoaSsa::MAX_LEN,
                 got: payload.len(),
             });
@@ -19116,19 +19122,19 @@ impl<'a> AoaSsaMut<'a> {
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `AOA` field.
     #[inline]
     pub fn set_aoa(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `SSA` field.
     #[inline]
     pub fn set_ssa(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 }
 
@@ -19175,7 +19181,7 @@ impl EscTelemetry1To4 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -19184,44 +19190,44 @@ impl EscTelemetry1To4 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -19231,14 +19237,14 @@ impl EscTelemetry1To4 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -19250,20 +19256,20 @@ impl EscTelemetry1To4 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry1To4 {
-    const META: ::mavwire::MessageMeta = EscTelemetry1To4::META;
+impl ::mavframe::Message for EscTelemetry1To4 {
+    const META: ::mavframe::MessageMeta = EscTelemetry1To4::META;
     type View<'a> = EscTelemetry1To4View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -19271,7 +19277,7 @@ impl ::mavwire::Message for EscTelemetry1To4 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry1To4::emit(self, payload)
     }
 
@@ -19311,38 +19317,38 @@ impl<'a> EscTelemetry1To4View<'a> {
 
     /// Reads [`EscTelemetry1To4::temperature`](EscTelemetry1To4::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry1To4::voltage`](EscTelemetry1To4::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry1To4::current`](EscTelemetry1To4::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry1To4::totalcurrent`](EscTelemetry1To4::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry1To4::rpm`](EscTelemetry1To4::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry1To4::count`](EscTelemetry1To4::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -19354,9 +19360,9 @@ pub struct EscTelemetry1To4Mut<'a> {
 
 impl<'a> EscTelemetry1To4Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry1To4::MAX_LEN`](struct@EscTelemetry1To4) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry1To4::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry1To4::MAX_LEN,
                 got: payload.len(),
             });
@@ -19372,37 +19378,37 @@ impl<'a> EscTelemetry1To4Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -19449,7 +19455,7 @@ impl EscTelemetry5To8 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -19458,44 +19464,44 @@ impl EscTelemetry5To8 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -19505,14 +19511,14 @@ impl EscTelemetry5To8 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -19524,20 +19530,20 @@ impl EscTelemetry5To8 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry5To8 {
-    const META: ::mavwire::MessageMeta = EscTelemetry5To8::META;
+impl ::mavframe::Message for EscTelemetry5To8 {
+    const META: ::mavframe::MessageMeta = EscTelemetry5To8::META;
     type View<'a> = EscTelemetry5To8View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -19545,7 +19551,7 @@ impl ::mavwire::Message for EscTelemetry5To8 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry5To8::emit(self, payload)
     }
 
@@ -19585,38 +19591,38 @@ impl<'a> EscTelemetry5To8View<'a> {
 
     /// Reads [`EscTelemetry5To8::temperature`](EscTelemetry5To8::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry5To8::voltage`](EscTelemetry5To8::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry5To8::current`](EscTelemetry5To8::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry5To8::totalcurrent`](EscTelemetry5To8::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry5To8::rpm`](EscTelemetry5To8::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry5To8::count`](EscTelemetry5To8::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -19628,9 +19634,9 @@ pub struct EscTelemetry5To8Mut<'a> {
 
 impl<'a> EscTelemetry5To8Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry5To8::MAX_LEN`](struct@EscTelemetry5To8) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry5To8::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry5To8::MAX_LEN,
                 got: payload.len(),
             });
@@ -19646,37 +19652,37 @@ impl<'a> EscTelemetry5To8Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -19723,7 +19729,7 @@ impl EscTelemetry9To12 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -19732,44 +19738,44 @@ impl EscTelemetry9To12 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -19779,14 +19785,14 @@ impl EscTelemetry9To12 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -19798,20 +19804,20 @@ impl EscTelemetry9To12 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry9To12 {
-    const META: ::mavwire::MessageMeta = EscTelemetry9To12::META;
+impl ::mavframe::Message for EscTelemetry9To12 {
+    const META: ::mavframe::MessageMeta = EscTelemetry9To12::META;
     type View<'a> = EscTelemetry9To12View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -19819,7 +19825,7 @@ impl ::mavwire::Message for EscTelemetry9To12 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry9To12::emit(self, payload)
     }
 
@@ -19859,38 +19865,38 @@ impl<'a> EscTelemetry9To12View<'a> {
 
     /// Reads [`EscTelemetry9To12::temperature`](EscTelemetry9To12::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry9To12::voltage`](EscTelemetry9To12::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry9To12::current`](EscTelemetry9To12::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry9To12::totalcurrent`](EscTelemetry9To12::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry9To12::rpm`](EscTelemetry9To12::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry9To12::count`](EscTelemetry9To12::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -19902,9 +19908,9 @@ pub struct EscTelemetry9To12Mut<'a> {
 
 impl<'a> EscTelemetry9To12Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry9To12::MAX_LEN`](struct@EscTelemetry9To12) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry9To12::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry9To12::MAX_LEN,
                 got: payload.len(),
             });
@@ -19920,37 +19926,37 @@ impl<'a> EscTelemetry9To12Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -20016,7 +20022,7 @@ impl OsdParamConfig {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -20025,72 +20031,72 @@ impl OsdParamConfig {
         target_system_offset: Some(16),
         target_component_offset: Some(17),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min_value",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max_value",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "increment",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 17,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "osd_screen",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 18,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "osd_index",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 19,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param_id",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 16,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "config_type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 36,
                 extension: false,
@@ -20100,20 +20106,20 @@ impl OsdParamConfig {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 16),
-            target_component: ::mavwire::field::read::<u8>(p, 17),
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            osd_screen: ::mavwire::field::read::<u8>(p, 18),
-            osd_index: ::mavwire::field::read::<u8>(p, 19),
-            param_id: ::mavwire::field::CharArray::new(p, 20).to_array(),
+            target_system: ::mavframe::field::read::<u8>(p, 16),
+            target_component: ::mavframe::field::read::<u8>(p, 17),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            osd_screen: ::mavframe::field::read::<u8>(p, 18),
+            osd_index: ::mavframe::field::read::<u8>(p, 19),
+            param_id: ::mavframe::field::CharArray::new(p, 20).to_array(),
             config_type: OsdParamConfigType::from_raw(
-                ::mavwire::field::read::<u8>(p, 36),
+                ::mavframe::field::read::<u8>(p, 36),
             ),
-            min_value: ::mavwire::field::read::<f32>(p, 4),
-            max_value: ::mavwire::field::read::<f32>(p, 8),
-            increment: ::mavwire::field::read::<f32>(p, 12),
+            min_value: ::mavframe::field::read::<f32>(p, 4),
+            max_value: ::mavframe::field::read::<f32>(p, 8),
+            increment: ::mavframe::field::read::<f32>(p, 12),
         }
     }
 
@@ -20125,24 +20131,24 @@ impl OsdParamConfig {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 16);
-        ::mavwire::field::Scalar::write(self.target_component, out, 17);
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.osd_screen, out, 18);
-        ::mavwire::field::Scalar::write(self.osd_index, out, 19);
-        ::mavwire::field::write_array(out, 20, &self.param_id);
-        ::mavwire::field::Scalar::write(self.config_type.to_raw(), out, 36);
-        ::mavwire::field::Scalar::write(self.min_value, out, 4);
-        ::mavwire::field::Scalar::write(self.max_value, out, 8);
-        ::mavwire::field::Scalar::write(self.increment, out, 12);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 16);
+        ::mavframe::field::Scalar::write(self.target_component, out, 17);
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.osd_screen, out, 18);
+        ::mavframe::field::Scalar::write(self.osd_index, out, 19);
+        ::mavframe::field::write_array(out, 20, &self.param_id);
+        ::mavframe::field::Scalar::write(self.config_type.to_raw(), out, 36);
+        ::mavframe::field::Scalar::write(self.min_value, out, 4);
+        ::mavframe::field::Scalar::write(self.max_value, out, 8);
+        ::mavframe::field::Scalar::write(self.increment, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for OsdParamConfig {
-    const META: ::mavwire::MessageMeta = OsdParamConfig::META;
+impl ::mavframe::Message for OsdParamConfig {
+    const META: ::mavframe::MessageMeta = OsdParamConfig::META;
     type View<'a> = OsdParamConfigView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -20150,7 +20156,7 @@ impl ::mavwire::Message for OsdParamConfig {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamConfig::emit(self, payload)
     }
 
@@ -20191,61 +20197,61 @@ impl<'a> OsdParamConfigView<'a> {
     /// Reads [`OsdParamConfig::target_system`](OsdParamConfig::target_system) (`target_system` at offset 16).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 16)
+        ::mavframe::field::read::<u8>(self.payload, 16)
     }
 
     /// Reads [`OsdParamConfig::target_component`](OsdParamConfig::target_component) (`target_component` at offset 17).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 17)
+        ::mavframe::field::read::<u8>(self.payload, 17)
     }
 
     /// Reads [`OsdParamConfig::request_id`](OsdParamConfig::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`OsdParamConfig::osd_screen`](OsdParamConfig::osd_screen) (`osd_screen` at offset 18).
     #[inline]
     pub fn osd_screen(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 18)
+        ::mavframe::field::read::<u8>(self.payload, 18)
     }
 
     /// Reads [`OsdParamConfig::osd_index`](OsdParamConfig::osd_index) (`osd_index` at offset 19).
     #[inline]
     pub fn osd_index(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 19)
+        ::mavframe::field::read::<u8>(self.payload, 19)
     }
 
     /// Reads [`OsdParamConfig::param_id`](OsdParamConfig::param_id) (`param_id` at offset 20).
     #[inline]
-    pub fn param_id(&self) -> ::mavwire::field::CharArray<'a, 16> {
-        ::mavwire::field::CharArray::new(self.payload, 20)
+    pub fn param_id(&self) -> ::mavframe::field::CharArray<'a, 16> {
+        ::mavframe::field::CharArray::new(self.payload, 20)
     }
 
     /// Reads [`OsdParamConfig::config_type`](OsdParamConfig::config_type) (`config_type` at offset 36).
     #[inline]
     pub fn config_type(&self) -> OsdParamConfigType {
-        OsdParamConfigType::from_raw(::mavwire::field::read::<u8>(self.payload, 36))
+        OsdParamConfigType::from_raw(::mavframe::field::read::<u8>(self.payload, 36))
     }
 
     /// Reads [`OsdParamConfig::min_value`](OsdParamConfig::min_value) (`min_value` at offset 4).
     #[inline]
     pub fn min_value(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`OsdParamConfig::max_value`](OsdParamConfig::max_value) (`max_value` at offset 8).
     #[inline]
     pub fn max_value(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`OsdParamConfig::increment`](OsdParamConfig::increment) (`increment` at offset 12).
     #[inline]
     pub fn increment(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 }
 
@@ -20257,9 +20263,9 @@ pub struct OsdParamConfigMut<'a> {
 
 impl<'a> OsdParamConfigMut<'a> {
     /// A writer over `payload`, which must hold at least [`OsdParamConfig::MAX_LEN`](struct@OsdParamConfig) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < OsdParamConfig::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: OsdParamConfig::MAX_LEN,
                 got: payload.len(),
             });
@@ -20275,61 +20281,61 @@ impl<'a> OsdParamConfigMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 17)
+        ::mavframe::field::Scalar::write(value, self.payload, 17)
     }
 
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `osd_screen` field.
     #[inline]
     pub fn set_osd_screen(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 18)
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
 
     /// Sets the `osd_index` field.
     #[inline]
     pub fn set_osd_index(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 19)
+        ::mavframe::field::Scalar::write(value, self.payload, 19)
     }
 
     /// Sets the `param_id` field.
     #[inline]
     pub fn set_param_id(&mut self, value: &[u8; 16]) {
-        ::mavwire::field::write_array(self.payload, 20, value)
+        ::mavframe::field::write_array(self.payload, 20, value)
     }
 
     /// Sets the `config_type` field.
     #[inline]
     pub fn set_config_type(&mut self, value: OsdParamConfigType) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 36)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 36)
     }
 
     /// Sets the `min_value` field.
     #[inline]
     pub fn set_min_value(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `max_value` field.
     #[inline]
     pub fn set_max_value(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `increment` field.
     #[inline]
     pub fn set_increment(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 }
 
@@ -20361,7 +20367,7 @@ impl OsdParamConfigReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -20370,16 +20376,16 @@ impl OsdParamConfigReply {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "result",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
@@ -20389,10 +20395,10 @@ impl OsdParamConfigReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            result: OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(p, 4)),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            result: OsdParamConfigError::from_raw(::mavframe::field::read::<u8>(p, 4)),
         }
     }
 
@@ -20404,16 +20410,16 @@ impl OsdParamConfigReply {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 4);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.result.to_raw(), out, 4);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for OsdParamConfigReply {
-    const META: ::mavwire::MessageMeta = OsdParamConfigReply::META;
+impl ::mavframe::Message for OsdParamConfigReply {
+    const META: ::mavframe::MessageMeta = OsdParamConfigReply::META;
     type View<'a> = OsdParamConfigReplyView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -20421,7 +20427,7 @@ impl ::mavwire::Message for OsdParamConfigReply {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamConfigReply::emit(self, payload)
     }
 
@@ -20462,13 +20468,13 @@ impl<'a> OsdParamConfigReplyView<'a> {
     /// Reads [`OsdParamConfigReply::request_id`](OsdParamConfigReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`OsdParamConfigReply::result`](OsdParamConfigReply::result) (`result` at offset 4).
     #[inline]
     pub fn result(&self) -> OsdParamConfigError {
-        OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(self.payload, 4))
+        OsdParamConfigError::from_raw(::mavframe::field::read::<u8>(self.payload, 4))
     }
 }
 
@@ -20480,9 +20486,9 @@ pub struct OsdParamConfigReplyMut<'a> {
 
 impl<'a> OsdParamConfigReplyMut<'a> {
     /// A writer over `payload`, which must hold at least [`OsdParamConfigReply::MAX_LEN`](struct@OsdParamConfigReply) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < OsdParamConfigReply::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: OsdParamConfigReply::MAX_LEN,
                 got: payload.len(),
             });
@@ -20498,13 +20504,13 @@ impl<'a> OsdParamConfigReplyMut<'a> {
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: OsdParamConfigError) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 4)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 4)
     }
 }
 
@@ -20547,7 +20553,7 @@ impl OsdParamShowConfig {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -20556,37 +20562,37 @@ impl OsdParamShowConfig {
         target_system_offset: Some(4),
         target_component_offset: Some(5),
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_system",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "target_component",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "osd_screen",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "osd_index",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
@@ -20596,13 +20602,13 @@ impl OsdParamShowConfig {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            target_system: ::mavwire::field::read::<u8>(p, 4),
-            target_component: ::mavwire::field::read::<u8>(p, 5),
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            osd_screen: ::mavwire::field::read::<u8>(p, 6),
-            osd_index: ::mavwire::field::read::<u8>(p, 7),
+            target_system: ::mavframe::field::read::<u8>(p, 4),
+            target_component: ::mavframe::field::read::<u8>(p, 5),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            osd_screen: ::mavframe::field::read::<u8>(p, 6),
+            osd_index: ::mavframe::field::read::<u8>(p, 7),
         }
     }
 
@@ -20614,19 +20620,19 @@ impl OsdParamShowConfig {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.target_system, out, 4);
-        ::mavwire::field::Scalar::write(self.target_component, out, 5);
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.osd_screen, out, 6);
-        ::mavwire::field::Scalar::write(self.osd_index, out, 7);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target_system, out, 4);
+        ::mavframe::field::Scalar::write(self.target_component, out, 5);
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.osd_screen, out, 6);
+        ::mavframe::field::Scalar::write(self.osd_index, out, 7);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for OsdParamShowConfig {
-    const META: ::mavwire::MessageMeta = OsdParamShowConfig::META;
+impl ::mavframe::Message for OsdParamShowConfig {
+    const META: ::mavframe::MessageMeta = OsdParamShowConfig::META;
     type View<'a> = OsdParamShowConfigView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -20634,7 +20640,7 @@ impl ::mavwire::Message for OsdParamShowConfig {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamShowConfig::emit(self, payload)
     }
 
@@ -20675,31 +20681,31 @@ impl<'a> OsdParamShowConfigView<'a> {
     /// Reads [`OsdParamShowConfig::target_system`](OsdParamShowConfig::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`OsdParamShowConfig::target_component`](OsdParamShowConfig::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 5)
+        ::mavframe::field::read::<u8>(self.payload, 5)
     }
 
     /// Reads [`OsdParamShowConfig::request_id`](OsdParamShowConfig::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`OsdParamShowConfig::osd_screen`](OsdParamShowConfig::osd_screen) (`osd_screen` at offset 6).
     #[inline]
     pub fn osd_screen(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 6)
+        ::mavframe::field::read::<u8>(self.payload, 6)
     }
 
     /// Reads [`OsdParamShowConfig::osd_index`](OsdParamShowConfig::osd_index) (`osd_index` at offset 7).
     #[inline]
     pub fn osd_index(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 7)
+        ::mavframe::field::read::<u8>(self.payload, 7)
     }
 }
 
@@ -20711,9 +20717,9 @@ pub struct OsdParamShowConfigMut<'a> {
 
 impl<'a> OsdParamShowConfigMut<'a> {
     /// A writer over `payload`, which must hold at least [`OsdParamShowConfig::MAX_LEN`](struct@OsdParamShowConfig) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < OsdParamShowConfig::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: OsdParamShowConfig::MAX_LEN,
                 got: payload.len(),
             });
@@ -20729,31 +20735,31 @@ impl<'a> OsdParamShowConfigMut<'a> {
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 5)
+        ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
 
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `osd_screen` field.
     #[inline]
     pub fn set_osd_screen(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 
     /// Sets the `osd_index` field.
     #[inline]
     pub fn set_osd_index(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 7)
+        ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
 }
 
@@ -20808,7 +20814,7 @@ impl OsdParamShowConfigReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 34;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -20817,51 +20823,51 @@ impl OsdParamShowConfigReply {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "request_id",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min_value",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max_value",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "increment",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "result",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "param_id",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 16,
                 offset: 17,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "config_type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 33,
                 extension: false,
@@ -20871,17 +20877,17 @@ impl OsdParamShowConfigReply {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            request_id: ::mavwire::field::read::<u32>(p, 0),
-            result: OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(p, 16)),
-            param_id: ::mavwire::field::CharArray::new(p, 17).to_array(),
+            request_id: ::mavframe::field::read::<u32>(p, 0),
+            result: OsdParamConfigError::from_raw(::mavframe::field::read::<u8>(p, 16)),
+            param_id: ::mavframe::field::CharArray::new(p, 17).to_array(),
             config_type: OsdParamConfigType::from_raw(
-                ::mavwire::field::read::<u8>(p, 33),
+                ::mavframe::field::read::<u8>(p, 33),
             ),
-            min_value: ::mavwire::field::read::<f32>(p, 4),
-            max_value: ::mavwire::field::read::<f32>(p, 8),
-            increment: ::mavwire::field::read::<f32>(p, 12),
+            min_value: ::mavframe::field::read::<f32>(p, 4),
+            max_value: ::mavframe::field::read::<f32>(p, 8),
+            increment: ::mavframe::field::read::<f32>(p, 12),
         }
     }
 
@@ -20893,21 +20899,21 @@ impl OsdParamShowConfigReply {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.request_id, out, 0);
-        ::mavwire::field::Scalar::write(self.result.to_raw(), out, 16);
-        ::mavwire::field::write_array(out, 17, &self.param_id);
-        ::mavwire::field::Scalar::write(self.config_type.to_raw(), out, 33);
-        ::mavwire::field::Scalar::write(self.min_value, out, 4);
-        ::mavwire::field::Scalar::write(self.max_value, out, 8);
-        ::mavwire::field::Scalar::write(self.increment, out, 12);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.request_id, out, 0);
+        ::mavframe::field::Scalar::write(self.result.to_raw(), out, 16);
+        ::mavframe::field::write_array(out, 17, &self.param_id);
+        ::mavframe::field::Scalar::write(self.config_type.to_raw(), out, 33);
+        ::mavframe::field::Scalar::write(self.min_value, out, 4);
+        ::mavframe::field::Scalar::write(self.max_value, out, 8);
+        ::mavframe::field::Scalar::write(self.increment, out, 12);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for OsdParamShowConfigReply {
-    const META: ::mavwire::MessageMeta = OsdParamShowConfigReply::META;
+impl ::mavframe::Message for OsdParamShowConfigReply {
+    const META: ::mavframe::MessageMeta = OsdParamShowConfigReply::META;
     type View<'a> = OsdParamShowConfigReplyView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -20915,7 +20921,7 @@ impl ::mavwire::Message for OsdParamShowConfigReply {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamShowConfigReply::emit(self, payload)
     }
 
@@ -20956,43 +20962,43 @@ impl<'a> OsdParamShowConfigReplyView<'a> {
     /// Reads [`OsdParamShowConfigReply::request_id`](OsdParamShowConfigReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`OsdParamShowConfigReply::result`](OsdParamShowConfigReply::result) (`result` at offset 16).
     #[inline]
     pub fn result(&self) -> OsdParamConfigError {
-        OsdParamConfigError::from_raw(::mavwire::field::read::<u8>(self.payload, 16))
+        OsdParamConfigError::from_raw(::mavframe::field::read::<u8>(self.payload, 16))
     }
 
     /// Reads [`OsdParamShowConfigReply::param_id`](OsdParamShowConfigReply::param_id) (`param_id` at offset 17).
     #[inline]
-    pub fn param_id(&self) -> ::mavwire::field::CharArray<'a, 16> {
-        ::mavwire::field::CharArray::new(self.payload, 17)
+    pub fn param_id(&self) -> ::mavframe::field::CharArray<'a, 16> {
+        ::mavframe::field::CharArray::new(self.payload, 17)
     }
 
     /// Reads [`OsdParamShowConfigReply::config_type`](OsdParamShowConfigReply::config_type) (`config_type` at offset 33).
     #[inline]
     pub fn config_type(&self) -> OsdParamConfigType {
-        OsdParamConfigType::from_raw(::mavwire::field::read::<u8>(self.payload, 33))
+        OsdParamConfigType::from_raw(::mavframe::field::read::<u8>(self.payload, 33))
     }
 
     /// Reads [`OsdParamShowConfigReply::min_value`](OsdParamShowConfigReply::min_value) (`min_value` at offset 4).
     #[inline]
     pub fn min_value(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`OsdParamShowConfigReply::max_value`](OsdParamShowConfigReply::max_value) (`max_value` at offset 8).
     #[inline]
     pub fn max_value(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`OsdParamShowConfigReply::increment`](OsdParamShowConfigReply::increment) (`increment` at offset 12).
     #[inline]
     pub fn increment(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 }
 
@@ -21004,9 +21010,9 @@ pub struct OsdParamShowConfigReplyMut<'a> {
 
 impl<'a> OsdParamShowConfigReplyMut<'a> {
     /// A writer over `payload`, which must hold at least [`OsdParamShowConfigReply::MAX_LEN`](struct@OsdParamShowConfigReply) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < OsdParamShowConfigReply::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: OsdParamShowConfigReply::MAX_LEN,
                 got: payload.len(),
             });
@@ -21022,43 +21028,43 @@ impl<'a> OsdParamShowConfigReplyMut<'a> {
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: OsdParamConfigError) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 16)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 16)
     }
 
     /// Sets the `param_id` field.
     #[inline]
     pub fn set_param_id(&mut self, value: &[u8; 16]) {
-        ::mavwire::field::write_array(self.payload, 17, value)
+        ::mavframe::field::write_array(self.payload, 17, value)
     }
 
     /// Sets the `config_type` field.
     #[inline]
     pub fn set_config_type(&mut self, value: OsdParamConfigType) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 33)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 33)
     }
 
     /// Sets the `min_value` field.
     #[inline]
     pub fn set_min_value(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `max_value` field.
     #[inline]
     pub fn set_max_value(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `increment` field.
     #[inline]
     pub fn set_increment(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 }
 
@@ -21121,7 +21127,7 @@ impl ObstacleDistance3d {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -21130,65 +21136,65 @@ impl ObstacleDistance3d {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "x",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "y",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "z",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "min_distance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "max_distance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "obstacle_id",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "sensor_type",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 26,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "frame",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 27,
                 extension: false,
@@ -21198,21 +21204,21 @@ impl ObstacleDistance3d {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
             sensor_type: super::common::MavDistanceSensor::from_raw(
-                ::mavwire::field::read::<u8>(p, 26),
+                ::mavframe::field::read::<u8>(p, 26),
             ),
             frame: super::common::MavFrame::from_raw(
-                ::mavwire::field::read::<u8>(p, 27),
+                ::mavframe::field::read::<u8>(p, 27),
             ),
-            obstacle_id: ::mavwire::field::read::<u16>(p, 24),
-            x: ::mavwire::field::read::<f32>(p, 4),
-            y: ::mavwire::field::read::<f32>(p, 8),
-            z: ::mavwire::field::read::<f32>(p, 12),
-            min_distance: ::mavwire::field::read::<f32>(p, 16),
-            max_distance: ::mavwire::field::read::<f32>(p, 20),
+            obstacle_id: ::mavframe::field::read::<u16>(p, 24),
+            x: ::mavframe::field::read::<f32>(p, 4),
+            y: ::mavframe::field::read::<f32>(p, 8),
+            z: ::mavframe::field::read::<f32>(p, 12),
+            min_distance: ::mavframe::field::read::<f32>(p, 16),
+            max_distance: ::mavframe::field::read::<f32>(p, 20),
         }
     }
 
@@ -21224,23 +21230,23 @@ impl ObstacleDistance3d {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::Scalar::write(self.sensor_type.to_raw(), out, 26);
-        ::mavwire::field::Scalar::write(self.frame.to_raw(), out, 27);
-        ::mavwire::field::Scalar::write(self.obstacle_id, out, 24);
-        ::mavwire::field::Scalar::write(self.x, out, 4);
-        ::mavwire::field::Scalar::write(self.y, out, 8);
-        ::mavwire::field::Scalar::write(self.z, out, 12);
-        ::mavwire::field::Scalar::write(self.min_distance, out, 16);
-        ::mavwire::field::Scalar::write(self.max_distance, out, 20);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::Scalar::write(self.sensor_type.to_raw(), out, 26);
+        ::mavframe::field::Scalar::write(self.frame.to_raw(), out, 27);
+        ::mavframe::field::Scalar::write(self.obstacle_id, out, 24);
+        ::mavframe::field::Scalar::write(self.x, out, 4);
+        ::mavframe::field::Scalar::write(self.y, out, 8);
+        ::mavframe::field::Scalar::write(self.z, out, 12);
+        ::mavframe::field::Scalar::write(self.min_distance, out, 16);
+        ::mavframe::field::Scalar::write(self.max_distance, out, 20);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for ObstacleDistance3d {
-    const META: ::mavwire::MessageMeta = ObstacleDistance3d::META;
+impl ::mavframe::Message for ObstacleDistance3d {
+    const META: ::mavframe::MessageMeta = ObstacleDistance3d::META;
     type View<'a> = ObstacleDistance3dView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -21248,7 +21254,7 @@ impl ::mavwire::Message for ObstacleDistance3d {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         ObstacleDistance3d::emit(self, payload)
     }
 
@@ -21289,57 +21295,59 @@ impl<'a> ObstacleDistance3dView<'a> {
     /// Reads [`ObstacleDistance3d::time_boot_ms`](ObstacleDistance3d::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`ObstacleDistance3d::sensor_type`](ObstacleDistance3d::sensor_type) (`sensor_type` at offset 26).
     #[inline]
     pub fn sensor_type(&self) -> super::common::MavDistanceSensor {
         super::common::MavDistanceSensor::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 26),
+            ::mavframe::field::read::<u8>(self.payload, 26),
         )
     }
 
     /// Reads [`ObstacleDistance3d::frame`](ObstacleDistance3d::frame) (`frame` at offset 27).
     #[inline]
     pub fn frame(&self) -> super::common::MavFrame {
-        super::common::MavFrame::from_raw(::mavwire::field::read::<u8>(self.payload, 27))
+        super::common::MavFrame::from_raw(
+            ::mavframe::field::read::<u8>(self.payload, 27),
+        )
     }
 
     /// Reads [`ObstacleDistance3d::obstacle_id`](ObstacleDistance3d::obstacle_id) (`obstacle_id` at offset 24).
     #[inline]
     pub fn obstacle_id(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 24)
+        ::mavframe::field::read::<u16>(self.payload, 24)
     }
 
     /// Reads [`ObstacleDistance3d::x`](ObstacleDistance3d::x) (`x` at offset 4).
     #[inline]
     pub fn x(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 4)
+        ::mavframe::field::read::<f32>(self.payload, 4)
     }
 
     /// Reads [`ObstacleDistance3d::y`](ObstacleDistance3d::y) (`y` at offset 8).
     #[inline]
     pub fn y(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 8)
+        ::mavframe::field::read::<f32>(self.payload, 8)
     }
 
     /// Reads [`ObstacleDistance3d::z`](ObstacleDistance3d::z) (`z` at offset 12).
     #[inline]
     pub fn z(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`ObstacleDistance3d::min_distance`](ObstacleDistance3d::min_distance) (`min_distance` at offset 16).
     #[inline]
     pub fn min_distance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`ObstacleDistance3d::max_distance`](ObstacleDistance3d::max_distance) (`max_distance` at offset 20).
     #[inline]
     pub fn max_distance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 }
 
@@ -21351,9 +21359,9 @@ pub struct ObstacleDistance3dMut<'a> {
 
 impl<'a> ObstacleDistance3dMut<'a> {
     /// A writer over `payload`, which must hold at least [`ObstacleDistance3d::MAX_LEN`](struct@ObstacleDistance3d) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < ObstacleDistance3d::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: ObstacleDistance3d::MAX_LEN,
                 got: payload.len(),
             });
@@ -21369,55 +21377,55 @@ impl<'a> ObstacleDistance3dMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `sensor_type` field.
     #[inline]
     pub fn set_sensor_type(&mut self, value: super::common::MavDistanceSensor) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 26)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 26)
     }
 
     /// Sets the `frame` field.
     #[inline]
     pub fn set_frame(&mut self, value: super::common::MavFrame) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 27)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 27)
     }
 
     /// Sets the `obstacle_id` field.
     #[inline]
     pub fn set_obstacle_id(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `x` field.
     #[inline]
     pub fn set_x(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `y` field.
     #[inline]
     pub fn set_y(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `z` field.
     #[inline]
     pub fn set_z(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `min_distance` field.
     #[inline]
     pub fn set_min_distance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `max_distance` field.
     #[inline]
     pub fn set_max_distance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 }
 
@@ -21485,7 +21493,7 @@ impl WaterDepth {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 38;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -21494,79 +21502,79 @@ impl WaterDepth {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "lng",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "alt",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "roll",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "pitch",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "yaw",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "distance",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::F32,
+                ty: ::mavframe::FieldType::F32,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "healthy",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 37,
                 extension: false,
@@ -21576,19 +21584,19 @@ impl WaterDepth {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
-            id: ::mavwire::field::read::<u8>(p, 36),
-            healthy: ::mavwire::field::read::<u8>(p, 37),
-            lat: ::mavwire::field::read::<i32>(p, 4),
-            lng: ::mavwire::field::read::<i32>(p, 8),
-            alt: ::mavwire::field::read::<f32>(p, 12),
-            roll: ::mavwire::field::read::<f32>(p, 16),
-            pitch: ::mavwire::field::read::<f32>(p, 20),
-            yaw: ::mavwire::field::read::<f32>(p, 24),
-            distance: ::mavwire::field::read::<f32>(p, 28),
-            temperature: ::mavwire::field::read::<f32>(p, 32),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
+            id: ::mavframe::field::read::<u8>(p, 36),
+            healthy: ::mavframe::field::read::<u8>(p, 37),
+            lat: ::mavframe::field::read::<i32>(p, 4),
+            lng: ::mavframe::field::read::<i32>(p, 8),
+            alt: ::mavframe::field::read::<f32>(p, 12),
+            roll: ::mavframe::field::read::<f32>(p, 16),
+            pitch: ::mavframe::field::read::<f32>(p, 20),
+            yaw: ::mavframe::field::read::<f32>(p, 24),
+            distance: ::mavframe::field::read::<f32>(p, 28),
+            temperature: ::mavframe::field::read::<f32>(p, 32),
         }
     }
 
@@ -21600,25 +21608,25 @@ impl WaterDepth {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::Scalar::write(self.id, out, 36);
-        ::mavwire::field::Scalar::write(self.healthy, out, 37);
-        ::mavwire::field::Scalar::write(self.lat, out, 4);
-        ::mavwire::field::Scalar::write(self.lng, out, 8);
-        ::mavwire::field::Scalar::write(self.alt, out, 12);
-        ::mavwire::field::Scalar::write(self.roll, out, 16);
-        ::mavwire::field::Scalar::write(self.pitch, out, 20);
-        ::mavwire::field::Scalar::write(self.yaw, out, 24);
-        ::mavwire::field::Scalar::write(self.distance, out, 28);
-        ::mavwire::field::Scalar::write(self.temperature, out, 32);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::Scalar::write(self.id, out, 36);
+        ::mavframe::field::Scalar::write(self.healthy, out, 37);
+        ::mavframe::field::Scalar::write(self.lat, out, 4);
+        ::mavframe::field::Scalar::write(self.lng, out, 8);
+        ::mavframe::field::Scalar::write(self.alt, out, 12);
+        ::mavframe::field::Scalar::write(self.roll, out, 16);
+        ::mavframe::field::Scalar::write(self.pitch, out, 20);
+        ::mavframe::field::Scalar::write(self.yaw, out, 24);
+        ::mavframe::field::Scalar::write(self.distance, out, 28);
+        ::mavframe::field::Scalar::write(self.temperature, out, 32);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for WaterDepth {
-    const META: ::mavwire::MessageMeta = WaterDepth::META;
+impl ::mavframe::Message for WaterDepth {
+    const META: ::mavframe::MessageMeta = WaterDepth::META;
     type View<'a> = WaterDepthView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -21626,7 +21634,7 @@ impl ::mavwire::Message for WaterDepth {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         WaterDepth::emit(self, payload)
     }
 
@@ -21667,67 +21675,67 @@ impl<'a> WaterDepthView<'a> {
     /// Reads [`WaterDepth::time_boot_ms`](WaterDepth::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`WaterDepth::id`](WaterDepth::id) (`id` at offset 36).
     #[inline]
     pub fn id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 36)
+        ::mavframe::field::read::<u8>(self.payload, 36)
     }
 
     /// Reads [`WaterDepth::healthy`](WaterDepth::healthy) (`healthy` at offset 37).
     #[inline]
     pub fn healthy(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 37)
+        ::mavframe::field::read::<u8>(self.payload, 37)
     }
 
     /// Reads [`WaterDepth::lat`](WaterDepth::lat) (`lat` at offset 4).
     #[inline]
     pub fn lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`WaterDepth::lng`](WaterDepth::lng) (`lng` at offset 8).
     #[inline]
     pub fn lng(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`WaterDepth::alt`](WaterDepth::alt) (`alt` at offset 12).
     #[inline]
     pub fn alt(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 12)
+        ::mavframe::field::read::<f32>(self.payload, 12)
     }
 
     /// Reads [`WaterDepth::roll`](WaterDepth::roll) (`roll` at offset 16).
     #[inline]
     pub fn roll(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 16)
+        ::mavframe::field::read::<f32>(self.payload, 16)
     }
 
     /// Reads [`WaterDepth::pitch`](WaterDepth::pitch) (`pitch` at offset 20).
     #[inline]
     pub fn pitch(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 20)
+        ::mavframe::field::read::<f32>(self.payload, 20)
     }
 
     /// Reads [`WaterDepth::yaw`](WaterDepth::yaw) (`yaw` at offset 24).
     #[inline]
     pub fn yaw(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 24)
+        ::mavframe::field::read::<f32>(self.payload, 24)
     }
 
     /// Reads [`WaterDepth::distance`](WaterDepth::distance) (`distance` at offset 28).
     #[inline]
     pub fn distance(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 28)
+        ::mavframe::field::read::<f32>(self.payload, 28)
     }
 
     /// Reads [`WaterDepth::temperature`](WaterDepth::temperature) (`temperature` at offset 32).
     #[inline]
     pub fn temperature(&self) -> f32 {
-        ::mavwire::field::read::<f32>(self.payload, 32)
+        ::mavframe::field::read::<f32>(self.payload, 32)
     }
 }
 
@@ -21739,9 +21747,9 @@ pub struct WaterDepthMut<'a> {
 
 impl<'a> WaterDepthMut<'a> {
     /// A writer over `payload`, which must hold at least [`WaterDepth::MAX_LEN`](struct@WaterDepth) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < WaterDepth::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: WaterDepth::MAX_LEN,
                 got: payload.len(),
             });
@@ -21757,67 +21765,67 @@ impl<'a> WaterDepthMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `id` field.
     #[inline]
     pub fn set_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 
     /// Sets the `healthy` field.
     #[inline]
     pub fn set_healthy(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 37)
+        ::mavframe::field::Scalar::write(value, self.payload, 37)
     }
 
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `distance` field.
     #[inline]
     pub fn set_distance(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: f32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 }
 
@@ -21862,7 +21870,7 @@ impl McuStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -21871,37 +21879,37 @@ impl McuStatus {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "MCU_temperature",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "MCU_voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "MCU_voltage_min",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "MCU_voltage_max",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "id",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 8,
                 extension: false,
@@ -21911,13 +21919,13 @@ impl McuStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            id: ::mavwire::field::read::<u8>(p, 8),
-            mcu_temperature: ::mavwire::field::read::<i16>(p, 0),
-            mcu_voltage: ::mavwire::field::read::<u16>(p, 2),
-            mcu_voltage_min: ::mavwire::field::read::<u16>(p, 4),
-            mcu_voltage_max: ::mavwire::field::read::<u16>(p, 6),
+            id: ::mavframe::field::read::<u8>(p, 8),
+            mcu_temperature: ::mavframe::field::read::<i16>(p, 0),
+            mcu_voltage: ::mavframe::field::read::<u16>(p, 2),
+            mcu_voltage_min: ::mavframe::field::read::<u16>(p, 4),
+            mcu_voltage_max: ::mavframe::field::read::<u16>(p, 6),
         }
     }
 
@@ -21929,19 +21937,19 @@ impl McuStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.id, out, 8);
-        ::mavwire::field::Scalar::write(self.mcu_temperature, out, 0);
-        ::mavwire::field::Scalar::write(self.mcu_voltage, out, 2);
-        ::mavwire::field::Scalar::write(self.mcu_voltage_min, out, 4);
-        ::mavwire::field::Scalar::write(self.mcu_voltage_max, out, 6);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.id, out, 8);
+        ::mavframe::field::Scalar::write(self.mcu_temperature, out, 0);
+        ::mavframe::field::Scalar::write(self.mcu_voltage, out, 2);
+        ::mavframe::field::Scalar::write(self.mcu_voltage_min, out, 4);
+        ::mavframe::field::Scalar::write(self.mcu_voltage_max, out, 6);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for McuStatus {
-    const META: ::mavwire::MessageMeta = McuStatus::META;
+impl ::mavframe::Message for McuStatus {
+    const META: ::mavframe::MessageMeta = McuStatus::META;
     type View<'a> = McuStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -21949,7 +21957,7 @@ impl ::mavwire::Message for McuStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         McuStatus::emit(self, payload)
     }
 
@@ -21990,31 +21998,31 @@ impl<'a> McuStatusView<'a> {
     /// Reads [`McuStatus::id`](McuStatus::id) (`id` at offset 8).
     #[inline]
     pub fn id(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 8)
+        ::mavframe::field::read::<u8>(self.payload, 8)
     }
 
     /// Reads [`McuStatus::mcu_temperature`](McuStatus::mcu_temperature) (`MCU_temperature` at offset 0).
     #[inline]
     pub fn mcu_temperature(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 0)
+        ::mavframe::field::read::<i16>(self.payload, 0)
     }
 
     /// Reads [`McuStatus::mcu_voltage`](McuStatus::mcu_voltage) (`MCU_voltage` at offset 2).
     #[inline]
     pub fn mcu_voltage(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 2)
+        ::mavframe::field::read::<u16>(self.payload, 2)
     }
 
     /// Reads [`McuStatus::mcu_voltage_min`](McuStatus::mcu_voltage_min) (`MCU_voltage_min` at offset 4).
     #[inline]
     pub fn mcu_voltage_min(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 4)
+        ::mavframe::field::read::<u16>(self.payload, 4)
     }
 
     /// Reads [`McuStatus::mcu_voltage_max`](McuStatus::mcu_voltage_max) (`MCU_voltage_max` at offset 6).
     #[inline]
     pub fn mcu_voltage_max(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 6)
+        ::mavframe::field::read::<u16>(self.payload, 6)
     }
 }
 
@@ -22026,9 +22034,9 @@ pub struct McuStatusMut<'a> {
 
 impl<'a> McuStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`McuStatus::MAX_LEN`](struct@McuStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < McuStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: McuStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -22044,31 +22052,31 @@ impl<'a> McuStatusMut<'a> {
     /// Sets the `id` field.
     #[inline]
     pub fn set_id(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `MCU_temperature` field.
     #[inline]
     pub fn set_mcu_temperature(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `MCU_voltage` field.
     #[inline]
     pub fn set_mcu_voltage(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 2)
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
 
     /// Sets the `MCU_voltage_min` field.
     #[inline]
     pub fn set_mcu_voltage_min(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `MCU_voltage_max` field.
     #[inline]
     pub fn set_mcu_voltage_max(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 6)
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
 }
 
@@ -22115,7 +22123,7 @@ impl EscTelemetry13To16 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -22124,44 +22132,44 @@ impl EscTelemetry13To16 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -22171,14 +22179,14 @@ impl EscTelemetry13To16 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -22190,20 +22198,20 @@ impl EscTelemetry13To16 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry13To16 {
-    const META: ::mavwire::MessageMeta = EscTelemetry13To16::META;
+impl ::mavframe::Message for EscTelemetry13To16 {
+    const META: ::mavframe::MessageMeta = EscTelemetry13To16::META;
     type View<'a> = EscTelemetry13To16View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -22211,7 +22219,7 @@ impl ::mavwire::Message for EscTelemetry13To16 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry13To16::emit(self, payload)
     }
 
@@ -22251,38 +22259,38 @@ impl<'a> EscTelemetry13To16View<'a> {
 
     /// Reads [`EscTelemetry13To16::temperature`](EscTelemetry13To16::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry13To16::voltage`](EscTelemetry13To16::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry13To16::current`](EscTelemetry13To16::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry13To16::totalcurrent`](EscTelemetry13To16::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry13To16::rpm`](EscTelemetry13To16::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry13To16::count`](EscTelemetry13To16::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -22294,9 +22302,9 @@ pub struct EscTelemetry13To16Mut<'a> {
 
 impl<'a> EscTelemetry13To16Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry13To16::MAX_LEN`](struct@EscTelemetry13To16) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry13To16::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry13To16::MAX_LEN,
                 got: payload.len(),
             });
@@ -22312,37 +22320,37 @@ impl<'a> EscTelemetry13To16Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -22389,7 +22397,7 @@ impl EscTelemetry17To20 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -22398,44 +22406,44 @@ impl EscTelemetry17To20 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -22445,14 +22453,14 @@ impl EscTelemetry17To20 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -22464,20 +22472,20 @@ impl EscTelemetry17To20 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry17To20 {
-    const META: ::mavwire::MessageMeta = EscTelemetry17To20::META;
+impl ::mavframe::Message for EscTelemetry17To20 {
+    const META: ::mavframe::MessageMeta = EscTelemetry17To20::META;
     type View<'a> = EscTelemetry17To20View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -22485,7 +22493,7 @@ impl ::mavwire::Message for EscTelemetry17To20 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry17To20::emit(self, payload)
     }
 
@@ -22525,38 +22533,38 @@ impl<'a> EscTelemetry17To20View<'a> {
 
     /// Reads [`EscTelemetry17To20::temperature`](EscTelemetry17To20::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry17To20::voltage`](EscTelemetry17To20::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry17To20::current`](EscTelemetry17To20::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry17To20::totalcurrent`](EscTelemetry17To20::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry17To20::rpm`](EscTelemetry17To20::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry17To20::count`](EscTelemetry17To20::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -22568,9 +22576,9 @@ pub struct EscTelemetry17To20Mut<'a> {
 
 impl<'a> EscTelemetry17To20Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry17To20::MAX_LEN`](struct@EscTelemetry17To20) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry17To20::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry17To20::MAX_LEN,
                 got: payload.len(),
             });
@@ -22586,37 +22594,37 @@ impl<'a> EscTelemetry17To20Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -22663,7 +22671,7 @@ impl EscTelemetry21To24 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -22672,44 +22680,44 @@ impl EscTelemetry21To24 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -22719,14 +22727,14 @@ impl EscTelemetry21To24 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -22738,20 +22746,20 @@ impl EscTelemetry21To24 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry21To24 {
-    const META: ::mavwire::MessageMeta = EscTelemetry21To24::META;
+impl ::mavframe::Message for EscTelemetry21To24 {
+    const META: ::mavframe::MessageMeta = EscTelemetry21To24::META;
     type View<'a> = EscTelemetry21To24View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -22759,7 +22767,7 @@ impl ::mavwire::Message for EscTelemetry21To24 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry21To24::emit(self, payload)
     }
 
@@ -22799,38 +22807,38 @@ impl<'a> EscTelemetry21To24View<'a> {
 
     /// Reads [`EscTelemetry21To24::temperature`](EscTelemetry21To24::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry21To24::voltage`](EscTelemetry21To24::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry21To24::current`](EscTelemetry21To24::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry21To24::totalcurrent`](EscTelemetry21To24::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry21To24::rpm`](EscTelemetry21To24::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry21To24::count`](EscTelemetry21To24::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -22842,9 +22850,9 @@ pub struct EscTelemetry21To24Mut<'a> {
 
 impl<'a> EscTelemetry21To24Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry21To24::MAX_LEN`](struct@EscTelemetry21To24) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry21To24::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry21To24::MAX_LEN,
                 got: payload.len(),
             });
@@ -22860,37 +22868,37 @@ impl<'a> EscTelemetry21To24Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -22937,7 +22945,7 @@ impl EscTelemetry25To28 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -22946,44 +22954,44 @@ impl EscTelemetry25To28 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -22993,14 +23001,14 @@ impl EscTelemetry25To28 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -23012,20 +23020,20 @@ impl EscTelemetry25To28 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry25To28 {
-    const META: ::mavwire::MessageMeta = EscTelemetry25To28::META;
+impl ::mavframe::Message for EscTelemetry25To28 {
+    const META: ::mavframe::MessageMeta = EscTelemetry25To28::META;
     type View<'a> = EscTelemetry25To28View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -23033,7 +23041,7 @@ impl ::mavwire::Message for EscTelemetry25To28 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry25To28::emit(self, payload)
     }
 
@@ -23073,38 +23081,38 @@ impl<'a> EscTelemetry25To28View<'a> {
 
     /// Reads [`EscTelemetry25To28::temperature`](EscTelemetry25To28::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry25To28::voltage`](EscTelemetry25To28::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry25To28::current`](EscTelemetry25To28::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry25To28::totalcurrent`](EscTelemetry25To28::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry25To28::rpm`](EscTelemetry25To28::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry25To28::count`](EscTelemetry25To28::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -23116,9 +23124,9 @@ pub struct EscTelemetry25To28Mut<'a> {
 
 impl<'a> EscTelemetry25To28Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry25To28::MAX_LEN`](struct@EscTelemetry25To28) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry25To28::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry25To28::MAX_LEN,
                 got: payload.len(),
             });
@@ -23134,37 +23142,37 @@ impl<'a> EscTelemetry25To28Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -23211,7 +23219,7 @@ impl EscTelemetry29To32 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -23220,44 +23228,44 @@ impl EscTelemetry29To32 {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "voltage",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "current",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "totalcurrent",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rpm",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "count",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 4,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "temperature",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 4,
                 offset: 40,
                 extension: false,
@@ -23267,14 +23275,14 @@ impl EscTelemetry29To32 {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            temperature: ::mavwire::field::ArrayView::new(p, 40).to_array(),
-            voltage: ::mavwire::field::ArrayView::new(p, 0).to_array(),
-            current: ::mavwire::field::ArrayView::new(p, 8).to_array(),
-            totalcurrent: ::mavwire::field::ArrayView::new(p, 16).to_array(),
-            rpm: ::mavwire::field::ArrayView::new(p, 24).to_array(),
-            count: ::mavwire::field::ArrayView::new(p, 32).to_array(),
+            temperature: ::mavframe::field::ArrayView::new(p, 40).to_array(),
+            voltage: ::mavframe::field::ArrayView::new(p, 0).to_array(),
+            current: ::mavframe::field::ArrayView::new(p, 8).to_array(),
+            totalcurrent: ::mavframe::field::ArrayView::new(p, 16).to_array(),
+            rpm: ::mavframe::field::ArrayView::new(p, 24).to_array(),
+            count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
 
@@ -23286,20 +23294,20 @@ impl EscTelemetry29To32 {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 40, &self.temperature);
-        ::mavwire::field::write_array(out, 0, &self.voltage);
-        ::mavwire::field::write_array(out, 8, &self.current);
-        ::mavwire::field::write_array(out, 16, &self.totalcurrent);
-        ::mavwire::field::write_array(out, 24, &self.rpm);
-        ::mavwire::field::write_array(out, 32, &self.count);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 40, &self.temperature);
+        ::mavframe::field::write_array(out, 0, &self.voltage);
+        ::mavframe::field::write_array(out, 8, &self.current);
+        ::mavframe::field::write_array(out, 16, &self.totalcurrent);
+        ::mavframe::field::write_array(out, 24, &self.rpm);
+        ::mavframe::field::write_array(out, 32, &self.count);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for EscTelemetry29To32 {
-    const META: ::mavwire::MessageMeta = EscTelemetry29To32::META;
+impl ::mavframe::Message for EscTelemetry29To32 {
+    const META: ::mavframe::MessageMeta = EscTelemetry29To32::META;
     type View<'a> = EscTelemetry29To32View<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -23307,7 +23315,7 @@ impl ::mavwire::Message for EscTelemetry29To32 {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry29To32::emit(self, payload)
     }
 
@@ -23347,38 +23355,38 @@ impl<'a> EscTelemetry29To32View<'a> {
 
     /// Reads [`EscTelemetry29To32::temperature`](EscTelemetry29To32::temperature) (`temperature` at offset 40).
     #[inline]
-    pub fn temperature(&self) -> ::mavwire::field::ArrayView<'a, u8, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 40)
+    pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 40)
     }
 
     /// Reads [`EscTelemetry29To32::voltage`](EscTelemetry29To32::voltage) (`voltage` at offset 0).
     #[inline]
-    pub fn voltage(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 0)
+    pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 0)
     }
 
     /// Reads [`EscTelemetry29To32::current`](EscTelemetry29To32::current) (`current` at offset 8).
     #[inline]
-    pub fn current(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 8)
+    pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 8)
     }
 
     /// Reads [`EscTelemetry29To32::totalcurrent`](EscTelemetry29To32::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
-    pub fn totalcurrent(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 16)
+    pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 16)
     }
 
     /// Reads [`EscTelemetry29To32::rpm`](EscTelemetry29To32::rpm) (`rpm` at offset 24).
     #[inline]
-    pub fn rpm(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 24)
+    pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 24)
     }
 
     /// Reads [`EscTelemetry29To32::count`](EscTelemetry29To32::count) (`count` at offset 32).
     #[inline]
-    pub fn count(&self) -> ::mavwire::field::ArrayView<'a, u16, 4> {
-        ::mavwire::field::ArrayView::new(self.payload, 32)
+    pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
+        ::mavframe::field::ArrayView::new(self.payload, 32)
     }
 }
 
@@ -23390,9 +23398,9 @@ pub struct EscTelemetry29To32Mut<'a> {
 
 impl<'a> EscTelemetry29To32Mut<'a> {
     /// A writer over `payload`, which must hold at least [`EscTelemetry29To32::MAX_LEN`](struct@EscTelemetry29To32) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < EscTelemetry29To32::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: EscTelemetry29To32::MAX_LEN,
                 got: payload.len(),
             });
@@ -23408,37 +23416,37 @@ impl<'a> EscTelemetry29To32Mut<'a> {
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
-        ::mavwire::field::write_array(self.payload, 40, value)
+        ::mavframe::field::write_array(self.payload, 40, value)
     }
 
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 16, value)
+        ::mavframe::field::write_array(self.payload, 16, value)
     }
 
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 24, value)
+        ::mavframe::field::write_array(self.payload, 24, value)
     }
 
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
-        ::mavwire::field::write_array(self.payload, 32, value)
+        ::mavframe::field::write_array(self.payload, 32, value)
     }
 }
 
@@ -23476,7 +23484,7 @@ impl NamedValueString {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 78;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -23485,23 +23493,23 @@ impl NamedValueString {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "time_boot_ms",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "name",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 10,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "value",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 64,
                 offset: 14,
                 extension: false,
@@ -23511,11 +23519,11 @@ impl NamedValueString {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            time_boot_ms: ::mavwire::field::read::<u32>(p, 0),
-            name: ::mavwire::field::CharArray::new(p, 4).to_array(),
-            value: ::mavwire::field::CharArray::new(p, 14).to_array(),
+            time_boot_ms: ::mavframe::field::read::<u32>(p, 0),
+            name: ::mavframe::field::CharArray::new(p, 4).to_array(),
+            value: ::mavframe::field::CharArray::new(p, 14).to_array(),
         }
     }
 
@@ -23527,11 +23535,11 @@ impl NamedValueString {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.time_boot_ms, out, 0);
-        ::mavwire::field::write_array(out, 4, &self.name);
-        ::mavwire::field::write_array(out, 14, &self.value);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.time_boot_ms, out, 0);
+        ::mavframe::field::write_array(out, 4, &self.name);
+        ::mavframe::field::write_array(out, 14, &self.value);
         Ok(Self::MAX_LEN)
     }
 }
@@ -23546,8 +23554,8 @@ impl Default for NamedValueString {
     }
 }
 
-impl ::mavwire::Message for NamedValueString {
-    const META: ::mavwire::MessageMeta = NamedValueString::META;
+impl ::mavframe::Message for NamedValueString {
+    const META: ::mavframe::MessageMeta = NamedValueString::META;
     type View<'a> = NamedValueStringView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -23555,7 +23563,7 @@ impl ::mavwire::Message for NamedValueString {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         NamedValueString::emit(self, payload)
     }
 
@@ -23596,19 +23604,19 @@ impl<'a> NamedValueStringView<'a> {
     /// Reads [`NamedValueString::time_boot_ms`](NamedValueString::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`NamedValueString::name`](NamedValueString::name) (`name` at offset 4).
     #[inline]
-    pub fn name(&self) -> ::mavwire::field::CharArray<'a, 10> {
-        ::mavwire::field::CharArray::new(self.payload, 4)
+    pub fn name(&self) -> ::mavframe::field::CharArray<'a, 10> {
+        ::mavframe::field::CharArray::new(self.payload, 4)
     }
 
     /// Reads [`NamedValueString::value`](NamedValueString::value) (`value` at offset 14).
     #[inline]
-    pub fn value(&self) -> ::mavwire::field::CharArray<'a, 64> {
-        ::mavwire::field::CharArray::new(self.payload, 14)
+    pub fn value(&self) -> ::mavframe::field::CharArray<'a, 64> {
+        ::mavframe::field::CharArray::new(self.payload, 14)
     }
 }
 
@@ -23620,9 +23628,9 @@ pub struct NamedValueStringMut<'a> {
 
 impl<'a> NamedValueStringMut<'a> {
     /// A writer over `payload`, which must hold at least [`NamedValueString::MAX_LEN`](struct@NamedValueString) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < NamedValueString::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: NamedValueString::MAX_LEN,
                 got: payload.len(),
             });
@@ -23638,18 +23646,18 @@ impl<'a> NamedValueStringMut<'a> {
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `name` field.
     #[inline]
     pub fn set_name(&mut self, value: &[u8; 10]) {
-        ::mavwire::field::write_array(self.payload, 4, value)
+        ::mavframe::field::write_array(self.payload, 4, value)
     }
 
     /// Sets the `value` field.
     #[inline]
     pub fn set_value(&mut self, value: &[u8; 64]) {
-        ::mavwire::field::write_array(self.payload, 14, value)
+        ::mavframe::field::write_array(self.payload, 14, value)
     }
 }

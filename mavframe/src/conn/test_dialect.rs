@@ -1,5 +1,5 @@
 //! A two-message dialect written by hand, for tests that cannot use a
-//! generated one (mavwire sits below the generator's output).
+//! generated one (mavframe sits below the generator's output).
 
 use crate::field::Scalar;
 use crate::message::{BufferTooSmall, Dialect, FieldMeta, FieldType, Message, MessageMeta};

@@ -332,7 +332,7 @@ impl UavionixAdsbOutControlState {
     pub const STATE_1090ES_TX_ENABLED: Self = Self(128);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     UavionixAdsbOutControlState, u8, [EXTERNAL_BARO_CROSSCHECKED, ON_GROUND,
     IDENT_BUTTON_ACTIVE, MODE_A_ENABLED, MODE_C_ENABLED, MODE_S_ENABLED,
     STATE_1090ES_TX_ENABLED]
@@ -426,7 +426,7 @@ impl UavionixAdsbOutDynamicState {
     pub const IDENT: Self = Self(16);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     UavionixAdsbOutDynamicState, u16, [INTENT_CHANGE, AUTOPILOT_ENABLED,
     NICBARO_CROSSCHECKED, ON_GROUND, IDENT]
 );
@@ -445,7 +445,7 @@ impl UavionixAdsbOutRfSelect {
     pub const TX_ENABLED: Self = Self(2);
 }
 
-::mavwire::flag_set!(UavionixAdsbOutRfSelect, u8, [RX_ENABLED, TX_ENABLED]);
+::mavframe::flag_set!(UavionixAdsbOutRfSelect, u8, [RX_ENABLED, TX_ENABLED]);
 
 /// State flags for ADS-B transponder fault report
 ///
@@ -467,7 +467,7 @@ impl UavionixAdsbOutStatusFault {
     pub const MAINT_REQ: Self = Self(128);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     UavionixAdsbOutStatusFault, u8, [STATUS_MESSAGE_UNAVAIL, GPS_NO_POS, GPS_UNAVAIL,
     TX_SYSTEM_FAIL, MAINT_REQ]
 );
@@ -614,7 +614,7 @@ impl UavionixAdsbOutStatusState {
     pub const STATE_1090ES_TX_ENABLED: Self = Self(128);
 }
 
-::mavwire::flag_set!(
+::mavframe::flag_set!(
     UavionixAdsbOutStatusState, u8, [ON_GROUND, INTERROGATED_SINCE_LAST, XBIT_ENABLED,
     IDENT_ACTIVE, MODE_A_ENABLED, MODE_C_ENABLED, MODE_S_ENABLED,
     STATE_1090ES_TX_ENABLED]
@@ -636,7 +636,7 @@ impl UavionixAdsbRfHealth {
     pub const FAIL_RX: Self = Self(16);
 }
 
-::mavwire::flag_set!(UavionixAdsbRfHealth, u8, [OK, FAIL_TX, FAIL_RX]);
+::mavframe::flag_set!(UavionixAdsbRfHealth, u8, [OK, FAIL_TX, FAIL_RX]);
 
 /// State flags for X-Bit and reserved fields.
 ///
@@ -650,7 +650,7 @@ impl UavionixAdsbXbit {
     pub const ENABLED: Self = Self(128);
 }
 
-::mavwire::flag_set!(UavionixAdsbXbit, u8, [ENABLED]);
+::mavframe::flag_set!(UavionixAdsbXbit, u8, [ENABLED]);
 
 /// Static data to configure the ADS-B transponder (send within 10 sec of a POR and every 10
 /// sec thereafter)
@@ -716,7 +716,7 @@ impl UavionixAdsbOutCfg {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -725,58 +725,58 @@ impl UavionixAdsbOutCfg {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "ICAO",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "stallSpeed",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "callsign",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 9,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "emitterType",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 15,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "aircraftSize",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gpsOffsetLat",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 17,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gpsOffsetLon",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 18,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rfSelect",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 19,
                 extension: false,
@@ -786,25 +786,25 @@ impl UavionixAdsbOutCfg {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            icao: ::mavwire::field::read::<u32>(p, 0),
-            callsign: ::mavwire::field::CharArray::new(p, 6).to_array(),
+            icao: ::mavframe::field::read::<u32>(p, 0),
+            callsign: ::mavframe::field::CharArray::new(p, 6).to_array(),
             emitter_type: super::common::AdsbEmitterType::from_raw(
-                ::mavwire::field::read::<u8>(p, 15),
+                ::mavframe::field::read::<u8>(p, 15),
             ),
             aircraft_size: UavionixAdsbOutCfgAircraftSize::from_raw(
-                ::mavwire::field::read::<u8>(p, 16),
+                ::mavframe::field::read::<u8>(p, 16),
             ),
             gps_offset_lat: UavionixAdsbOutCfgGpsOffsetLat::from_raw(
-                ::mavwire::field::read::<u8>(p, 17),
+                ::mavframe::field::read::<u8>(p, 17),
             ),
             gps_offset_lon: UavionixAdsbOutCfgGpsOffsetLon::from_raw(
-                ::mavwire::field::read::<u8>(p, 18),
+                ::mavframe::field::read::<u8>(p, 18),
             ),
-            stall_speed: ::mavwire::field::read::<u16>(p, 4),
+            stall_speed: ::mavframe::field::read::<u16>(p, 4),
             rf_select: UavionixAdsbOutRfSelect::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 19),
+                ::mavframe::field::read::<u8>(p, 19),
             ),
         }
     }
@@ -817,22 +817,22 @@ impl UavionixAdsbOutCfg {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.icao, out, 0);
-        ::mavwire::field::write_array(out, 6, &self.callsign);
-        ::mavwire::field::Scalar::write(self.emitter_type.to_raw(), out, 15);
-        ::mavwire::field::Scalar::write(self.aircraft_size.to_raw(), out, 16);
-        ::mavwire::field::Scalar::write(self.gps_offset_lat.to_raw(), out, 17);
-        ::mavwire::field::Scalar::write(self.gps_offset_lon.to_raw(), out, 18);
-        ::mavwire::field::Scalar::write(self.stall_speed, out, 4);
-        ::mavwire::field::Scalar::write(self.rf_select.bits(), out, 19);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.icao, out, 0);
+        ::mavframe::field::write_array(out, 6, &self.callsign);
+        ::mavframe::field::Scalar::write(self.emitter_type.to_raw(), out, 15);
+        ::mavframe::field::Scalar::write(self.aircraft_size.to_raw(), out, 16);
+        ::mavframe::field::Scalar::write(self.gps_offset_lat.to_raw(), out, 17);
+        ::mavframe::field::Scalar::write(self.gps_offset_lon.to_raw(), out, 18);
+        ::mavframe::field::Scalar::write(self.stall_speed, out, 4);
+        ::mavframe::field::Scalar::write(self.rf_select.bits(), out, 19);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbOutCfg {
-    const META: ::mavwire::MessageMeta = UavionixAdsbOutCfg::META;
+impl ::mavframe::Message for UavionixAdsbOutCfg {
+    const META: ::mavframe::MessageMeta = UavionixAdsbOutCfg::META;
     type View<'a> = UavionixAdsbOutCfgView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -840,7 +840,7 @@ impl ::mavwire::Message for UavionixAdsbOutCfg {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutCfg::emit(self, payload)
     }
 
@@ -881,20 +881,20 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
     /// Reads [`UavionixAdsbOutCfg::icao`](UavionixAdsbOutCfg::icao) (`ICAO` at offset 0).
     #[inline]
     pub fn icao(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`UavionixAdsbOutCfg::callsign`](UavionixAdsbOutCfg::callsign) (`callsign` at offset 6).
     #[inline]
-    pub fn callsign(&self) -> ::mavwire::field::CharArray<'a, 9> {
-        ::mavwire::field::CharArray::new(self.payload, 6)
+    pub fn callsign(&self) -> ::mavframe::field::CharArray<'a, 9> {
+        ::mavframe::field::CharArray::new(self.payload, 6)
     }
 
     /// Reads [`UavionixAdsbOutCfg::emitter_type`](UavionixAdsbOutCfg::emitter_type) (`emitterType` at offset 15).
     #[inline]
     pub fn emitter_type(&self) -> super::common::AdsbEmitterType {
         super::common::AdsbEmitterType::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 15),
+            ::mavframe::field::read::<u8>(self.payload, 15),
         )
     }
 
@@ -902,7 +902,7 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
     #[inline]
     pub fn aircraft_size(&self) -> UavionixAdsbOutCfgAircraftSize {
         UavionixAdsbOutCfgAircraftSize::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 16),
+            ::mavframe::field::read::<u8>(self.payload, 16),
         )
     }
 
@@ -910,7 +910,7 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
     #[inline]
     pub fn gps_offset_lat(&self) -> UavionixAdsbOutCfgGpsOffsetLat {
         UavionixAdsbOutCfgGpsOffsetLat::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 17),
+            ::mavframe::field::read::<u8>(self.payload, 17),
         )
     }
 
@@ -918,21 +918,21 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
     #[inline]
     pub fn gps_offset_lon(&self) -> UavionixAdsbOutCfgGpsOffsetLon {
         UavionixAdsbOutCfgGpsOffsetLon::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 18),
+            ::mavframe::field::read::<u8>(self.payload, 18),
         )
     }
 
     /// Reads [`UavionixAdsbOutCfg::stall_speed`](UavionixAdsbOutCfg::stall_speed) (`stallSpeed` at offset 4).
     #[inline]
     pub fn stall_speed(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 4)
+        ::mavframe::field::read::<u16>(self.payload, 4)
     }
 
     /// Reads [`UavionixAdsbOutCfg::rf_select`](UavionixAdsbOutCfg::rf_select) (`rfSelect` at offset 19).
     #[inline]
     pub fn rf_select(&self) -> UavionixAdsbOutRfSelect {
         UavionixAdsbOutRfSelect::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 19),
+            ::mavframe::field::read::<u8>(self.payload, 19),
         )
     }
 }
@@ -945,9 +945,9 @@ pub struct UavionixAdsbOutCfgMut<'a> {
 
 impl<'a> UavionixAdsbOutCfgMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbOutCfg::MAX_LEN`](struct@UavionixAdsbOutCfg) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbOutCfg::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbOutCfg::MAX_LEN,
                 got: payload.len(),
             });
@@ -963,49 +963,49 @@ impl<'a> UavionixAdsbOutCfgMut<'a> {
     /// Sets the `ICAO` field.
     #[inline]
     pub fn set_icao(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `callsign` field.
     #[inline]
     pub fn set_callsign(&mut self, value: &[u8; 9]) {
-        ::mavwire::field::write_array(self.payload, 6, value)
+        ::mavframe::field::write_array(self.payload, 6, value)
     }
 
     /// Sets the `emitterType` field.
     #[inline]
     pub fn set_emitter_type(&mut self, value: super::common::AdsbEmitterType) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 15)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 15)
     }
 
     /// Sets the `aircraftSize` field.
     #[inline]
     pub fn set_aircraft_size(&mut self, value: UavionixAdsbOutCfgAircraftSize) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 16)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 16)
     }
 
     /// Sets the `gpsOffsetLat` field.
     #[inline]
     pub fn set_gps_offset_lat(&mut self, value: UavionixAdsbOutCfgGpsOffsetLat) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 17)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 17)
     }
 
     /// Sets the `gpsOffsetLon` field.
     #[inline]
     pub fn set_gps_offset_lon(&mut self, value: UavionixAdsbOutCfgGpsOffsetLon) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 18)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 18)
     }
 
     /// Sets the `stallSpeed` field.
     #[inline]
     pub fn set_stall_speed(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `rfSelect` field.
     #[inline]
     pub fn set_rf_select(&mut self, value: UavionixAdsbOutRfSelect) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 19)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 19)
     }
 }
 
@@ -1098,7 +1098,7 @@ impl UavionixAdsbOutDynamic {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 41;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -1107,114 +1107,114 @@ impl UavionixAdsbOutDynamic {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "utcTime",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gpsLat",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gpsLon",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gpsAlt",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 12,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "baroAltMSL",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 16,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "accuracyHor",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 20,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "accuracyVert",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 24,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "accuracyVel",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 26,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "velVert",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 28,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "velNS",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 30,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "VelEW",
-                ty: ::mavwire::FieldType::I16,
+                ty: ::mavframe::FieldType::I16,
                 array_len: 0,
                 offset: 32,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "state",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 34,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "squawk",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 36,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "gpsFix",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 38,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "numSats",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 39,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "emergencyStatus",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 40,
                 extension: false,
@@ -1224,30 +1224,30 @@ impl UavionixAdsbOutDynamic {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            utc_time: ::mavwire::field::read::<u32>(p, 0),
-            gps_lat: ::mavwire::field::read::<i32>(p, 4),
-            gps_lon: ::mavwire::field::read::<i32>(p, 8),
-            gps_alt: ::mavwire::field::read::<i32>(p, 12),
+            utc_time: ::mavframe::field::read::<u32>(p, 0),
+            gps_lat: ::mavframe::field::read::<i32>(p, 4),
+            gps_lon: ::mavframe::field::read::<i32>(p, 8),
+            gps_alt: ::mavframe::field::read::<i32>(p, 12),
             gps_fix: UavionixAdsbOutDynamicGpsFix::from_raw(
-                ::mavwire::field::read::<u8>(p, 38),
+                ::mavframe::field::read::<u8>(p, 38),
             ),
-            num_sats: ::mavwire::field::read::<u8>(p, 39),
-            baro_alt_msl: ::mavwire::field::read::<i32>(p, 16),
-            accuracy_hor: ::mavwire::field::read::<u32>(p, 20),
-            accuracy_vert: ::mavwire::field::read::<u16>(p, 24),
-            accuracy_vel: ::mavwire::field::read::<u16>(p, 26),
-            vel_vert: ::mavwire::field::read::<i16>(p, 28),
-            vel_ns: ::mavwire::field::read::<i16>(p, 30),
-            vel_ew: ::mavwire::field::read::<i16>(p, 32),
+            num_sats: ::mavframe::field::read::<u8>(p, 39),
+            baro_alt_msl: ::mavframe::field::read::<i32>(p, 16),
+            accuracy_hor: ::mavframe::field::read::<u32>(p, 20),
+            accuracy_vert: ::mavframe::field::read::<u16>(p, 24),
+            accuracy_vel: ::mavframe::field::read::<u16>(p, 26),
+            vel_vert: ::mavframe::field::read::<i16>(p, 28),
+            vel_ns: ::mavframe::field::read::<i16>(p, 30),
+            vel_ew: ::mavframe::field::read::<i16>(p, 32),
             emergency_status: UavionixAdsbEmergencyStatus::from_raw(
-                ::mavwire::field::read::<u8>(p, 40),
+                ::mavframe::field::read::<u8>(p, 40),
             ),
             state: UavionixAdsbOutDynamicState::from_bits_retain(
-                ::mavwire::field::read::<u16>(p, 34),
+                ::mavframe::field::read::<u16>(p, 34),
             ),
-            squawk: ::mavwire::field::read::<u16>(p, 36),
+            squawk: ::mavframe::field::read::<u16>(p, 36),
         }
     }
 
@@ -1259,30 +1259,30 @@ impl UavionixAdsbOutDynamic {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.utc_time, out, 0);
-        ::mavwire::field::Scalar::write(self.gps_lat, out, 4);
-        ::mavwire::field::Scalar::write(self.gps_lon, out, 8);
-        ::mavwire::field::Scalar::write(self.gps_alt, out, 12);
-        ::mavwire::field::Scalar::write(self.gps_fix.to_raw(), out, 38);
-        ::mavwire::field::Scalar::write(self.num_sats, out, 39);
-        ::mavwire::field::Scalar::write(self.baro_alt_msl, out, 16);
-        ::mavwire::field::Scalar::write(self.accuracy_hor, out, 20);
-        ::mavwire::field::Scalar::write(self.accuracy_vert, out, 24);
-        ::mavwire::field::Scalar::write(self.accuracy_vel, out, 26);
-        ::mavwire::field::Scalar::write(self.vel_vert, out, 28);
-        ::mavwire::field::Scalar::write(self.vel_ns, out, 30);
-        ::mavwire::field::Scalar::write(self.vel_ew, out, 32);
-        ::mavwire::field::Scalar::write(self.emergency_status.to_raw(), out, 40);
-        ::mavwire::field::Scalar::write(self.state.bits(), out, 34);
-        ::mavwire::field::Scalar::write(self.squawk, out, 36);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.utc_time, out, 0);
+        ::mavframe::field::Scalar::write(self.gps_lat, out, 4);
+        ::mavframe::field::Scalar::write(self.gps_lon, out, 8);
+        ::mavframe::field::Scalar::write(self.gps_alt, out, 12);
+        ::mavframe::field::Scalar::write(self.gps_fix.to_raw(), out, 38);
+        ::mavframe::field::Scalar::write(self.num_sats, out, 39);
+        ::mavframe::field::Scalar::write(self.baro_alt_msl, out, 16);
+        ::mavframe::field::Scalar::write(self.accuracy_hor, out, 20);
+        ::mavframe::field::Scalar::write(self.accuracy_vert, out, 24);
+        ::mavframe::field::Scalar::write(self.accuracy_vel, out, 26);
+        ::mavframe::field::Scalar::write(self.vel_vert, out, 28);
+        ::mavframe::field::Scalar::write(self.vel_ns, out, 30);
+        ::mavframe::field::Scalar::write(self.vel_ew, out, 32);
+        ::mavframe::field::Scalar::write(self.emergency_status.to_raw(), out, 40);
+        ::mavframe::field::Scalar::write(self.state.bits(), out, 34);
+        ::mavframe::field::Scalar::write(self.squawk, out, 36);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbOutDynamic {
-    const META: ::mavwire::MessageMeta = UavionixAdsbOutDynamic::META;
+impl ::mavframe::Message for UavionixAdsbOutDynamic {
+    const META: ::mavframe::MessageMeta = UavionixAdsbOutDynamic::META;
     type View<'a> = UavionixAdsbOutDynamicView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -1290,7 +1290,7 @@ impl ::mavwire::Message for UavionixAdsbOutDynamic {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutDynamic::emit(self, payload)
     }
 
@@ -1331,88 +1331,88 @@ impl<'a> UavionixAdsbOutDynamicView<'a> {
     /// Reads [`UavionixAdsbOutDynamic::utc_time`](UavionixAdsbOutDynamic::utc_time) (`utcTime` at offset 0).
     #[inline]
     pub fn utc_time(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::gps_lat`](UavionixAdsbOutDynamic::gps_lat) (`gpsLat` at offset 4).
     #[inline]
     pub fn gps_lat(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 4)
+        ::mavframe::field::read::<i32>(self.payload, 4)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::gps_lon`](UavionixAdsbOutDynamic::gps_lon) (`gpsLon` at offset 8).
     #[inline]
     pub fn gps_lon(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 8)
+        ::mavframe::field::read::<i32>(self.payload, 8)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::gps_alt`](UavionixAdsbOutDynamic::gps_alt) (`gpsAlt` at offset 12).
     #[inline]
     pub fn gps_alt(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 12)
+        ::mavframe::field::read::<i32>(self.payload, 12)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::gps_fix`](UavionixAdsbOutDynamic::gps_fix) (`gpsFix` at offset 38).
     #[inline]
     pub fn gps_fix(&self) -> UavionixAdsbOutDynamicGpsFix {
         UavionixAdsbOutDynamicGpsFix::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 38),
+            ::mavframe::field::read::<u8>(self.payload, 38),
         )
     }
 
     /// Reads [`UavionixAdsbOutDynamic::num_sats`](UavionixAdsbOutDynamic::num_sats) (`numSats` at offset 39).
     #[inline]
     pub fn num_sats(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 39)
+        ::mavframe::field::read::<u8>(self.payload, 39)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::baro_alt_msl`](UavionixAdsbOutDynamic::baro_alt_msl) (`baroAltMSL` at offset 16).
     #[inline]
     pub fn baro_alt_msl(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 16)
+        ::mavframe::field::read::<i32>(self.payload, 16)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::accuracy_hor`](UavionixAdsbOutDynamic::accuracy_hor) (`accuracyHor` at offset 20).
     #[inline]
     pub fn accuracy_hor(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 20)
+        ::mavframe::field::read::<u32>(self.payload, 20)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::accuracy_vert`](UavionixAdsbOutDynamic::accuracy_vert) (`accuracyVert` at offset 24).
     #[inline]
     pub fn accuracy_vert(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 24)
+        ::mavframe::field::read::<u16>(self.payload, 24)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::accuracy_vel`](UavionixAdsbOutDynamic::accuracy_vel) (`accuracyVel` at offset 26).
     #[inline]
     pub fn accuracy_vel(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 26)
+        ::mavframe::field::read::<u16>(self.payload, 26)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::vel_vert`](UavionixAdsbOutDynamic::vel_vert) (`velVert` at offset 28).
     #[inline]
     pub fn vel_vert(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 28)
+        ::mavframe::field::read::<i16>(self.payload, 28)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::vel_ns`](UavionixAdsbOutDynamic::vel_ns) (`velNS` at offset 30).
     #[inline]
     pub fn vel_ns(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 30)
+        ::mavframe::field::read::<i16>(self.payload, 30)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::vel_ew`](UavionixAdsbOutDynamic::vel_ew) (`VelEW` at offset 32).
     #[inline]
     pub fn vel_ew(&self) -> i16 {
-        ::mavwire::field::read::<i16>(self.payload, 32)
+        ::mavframe::field::read::<i16>(self.payload, 32)
     }
 
     /// Reads [`UavionixAdsbOutDynamic::emergency_status`](UavionixAdsbOutDynamic::emergency_status) (`emergencyStatus` at offset 40).
     #[inline]
     pub fn emergency_status(&self) -> UavionixAdsbEmergencyStatus {
         UavionixAdsbEmergencyStatus::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 40),
+            ::mavframe::field::read::<u8>(self.payload, 40),
         )
     }
 
@@ -1420,14 +1420,14 @@ impl<'a> UavionixAdsbOutDynamicView<'a> {
     #[inline]
     pub fn state(&self) -> UavionixAdsbOutDynamicState {
         UavionixAdsbOutDynamicState::from_bits_retain(
-            ::mavwire::field::read::<u16>(self.payload, 34),
+            ::mavframe::field::read::<u16>(self.payload, 34),
         )
     }
 
     /// Reads [`UavionixAdsbOutDynamic::squawk`](UavionixAdsbOutDynamic::squawk) (`squawk` at offset 36).
     #[inline]
     pub fn squawk(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 36)
+        ::mavframe::field::read::<u16>(self.payload, 36)
     }
 }
 
@@ -1439,9 +1439,9 @@ pub struct UavionixAdsbOutDynamicMut<'a> {
 
 impl<'a> UavionixAdsbOutDynamicMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbOutDynamic::MAX_LEN`](struct@UavionixAdsbOutDynamic) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbOutDynamic::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbOutDynamic::MAX_LEN,
                 got: payload.len(),
             });
@@ -1457,97 +1457,97 @@ impl<'a> UavionixAdsbOutDynamicMut<'a> {
     /// Sets the `utcTime` field.
     #[inline]
     pub fn set_utc_time(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `gpsLat` field.
     #[inline]
     pub fn set_gps_lat(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `gpsLon` field.
     #[inline]
     pub fn set_gps_lon(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 8)
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
 
     /// Sets the `gpsAlt` field.
     #[inline]
     pub fn set_gps_alt(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 12)
+        ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
 
     /// Sets the `gpsFix` field.
     #[inline]
     pub fn set_gps_fix(&mut self, value: UavionixAdsbOutDynamicGpsFix) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 38)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 38)
     }
 
     /// Sets the `numSats` field.
     #[inline]
     pub fn set_num_sats(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 39)
+        ::mavframe::field::Scalar::write(value, self.payload, 39)
     }
 
     /// Sets the `baroAltMSL` field.
     #[inline]
     pub fn set_baro_alt_msl(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 16)
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
 
     /// Sets the `accuracyHor` field.
     #[inline]
     pub fn set_accuracy_hor(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 20)
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
 
     /// Sets the `accuracyVert` field.
     #[inline]
     pub fn set_accuracy_vert(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 24)
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
 
     /// Sets the `accuracyVel` field.
     #[inline]
     pub fn set_accuracy_vel(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 26)
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
 
     /// Sets the `velVert` field.
     #[inline]
     pub fn set_vel_vert(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 28)
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
 
     /// Sets the `velNS` field.
     #[inline]
     pub fn set_vel_ns(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 30)
+        ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
 
     /// Sets the `VelEW` field.
     #[inline]
     pub fn set_vel_ew(&mut self, value: i16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 32)
+        ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
 
     /// Sets the `emergencyStatus` field.
     #[inline]
     pub fn set_emergency_status(&mut self, value: UavionixAdsbEmergencyStatus) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 40)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 40)
     }
 
     /// Sets the `state` field.
     #[inline]
     pub fn set_state(&mut self, value: UavionixAdsbOutDynamicState) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 34)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 34)
     }
 
     /// Sets the `squawk` field.
     #[inline]
     pub fn set_squawk(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 36)
+        ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
 }
 
@@ -1575,7 +1575,7 @@ impl UavionixAdsbTransceiverHealthReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 1;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -1584,9 +1584,9 @@ impl UavionixAdsbTransceiverHealthReport {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "rfHealth",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 0,
                 extension: false,
@@ -1596,10 +1596,10 @@ impl UavionixAdsbTransceiverHealthReport {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
             rf_health: UavionixAdsbRfHealth::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 0),
+                ::mavframe::field::read::<u8>(p, 0),
             ),
         }
     }
@@ -1612,15 +1612,15 @@ impl UavionixAdsbTransceiverHealthReport {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.rf_health.bits(), out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.rf_health.bits(), out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbTransceiverHealthReport {
-    const META: ::mavwire::MessageMeta = UavionixAdsbTransceiverHealthReport::META;
+impl ::mavframe::Message for UavionixAdsbTransceiverHealthReport {
+    const META: ::mavframe::MessageMeta = UavionixAdsbTransceiverHealthReport::META;
     type View<'a> = UavionixAdsbTransceiverHealthReportView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -1628,7 +1628,7 @@ impl ::mavwire::Message for UavionixAdsbTransceiverHealthReport {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbTransceiverHealthReport::emit(self, payload)
     }
 
@@ -1670,7 +1670,7 @@ impl<'a> UavionixAdsbTransceiverHealthReportView<'a> {
     #[inline]
     pub fn rf_health(&self) -> UavionixAdsbRfHealth {
         UavionixAdsbRfHealth::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 0),
+            ::mavframe::field::read::<u8>(self.payload, 0),
         )
     }
 }
@@ -1683,9 +1683,9 @@ pub struct UavionixAdsbTransceiverHealthReportMut<'a> {
 
 impl<'a> UavionixAdsbTransceiverHealthReportMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbTransceiverHealthReport::MAX_LEN`](struct@UavionixAdsbTransceiverHealthReport) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbTransceiverHealthReport::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbTransceiverHealthReport::MAX_LEN,
                 got: payload.len(),
             });
@@ -1701,7 +1701,7 @@ impl<'a> UavionixAdsbTransceiverHealthReportMut<'a> {
     /// Sets the `rfHealth` field.
     #[inline]
     pub fn set_rf_health(&mut self, value: UavionixAdsbRfHealth) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 0)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 0)
     }
 }
 
@@ -1729,7 +1729,7 @@ impl UavionixAdsbOutCfgRegistration {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -1738,9 +1738,9 @@ impl UavionixAdsbOutCfgRegistration {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "registration",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 9,
                 offset: 0,
                 extension: false,
@@ -1750,9 +1750,9 @@ impl UavionixAdsbOutCfgRegistration {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            registration: ::mavwire::field::CharArray::new(p, 0).to_array(),
+            registration: ::mavframe::field::CharArray::new(p, 0).to_array(),
         }
     }
 
@@ -1764,15 +1764,15 @@ impl UavionixAdsbOutCfgRegistration {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 0, &self.registration);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 0, &self.registration);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbOutCfgRegistration {
-    const META: ::mavwire::MessageMeta = UavionixAdsbOutCfgRegistration::META;
+impl ::mavframe::Message for UavionixAdsbOutCfgRegistration {
+    const META: ::mavframe::MessageMeta = UavionixAdsbOutCfgRegistration::META;
     type View<'a> = UavionixAdsbOutCfgRegistrationView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -1780,7 +1780,7 @@ impl ::mavwire::Message for UavionixAdsbOutCfgRegistration {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutCfgRegistration::emit(self, payload)
     }
 
@@ -1820,8 +1820,8 @@ impl<'a> UavionixAdsbOutCfgRegistrationView<'a> {
 
     /// Reads [`UavionixAdsbOutCfgRegistration::registration`](UavionixAdsbOutCfgRegistration::registration) (`registration` at offset 0).
     #[inline]
-    pub fn registration(&self) -> ::mavwire::field::CharArray<'a, 9> {
-        ::mavwire::field::CharArray::new(self.payload, 0)
+    pub fn registration(&self) -> ::mavframe::field::CharArray<'a, 9> {
+        ::mavframe::field::CharArray::new(self.payload, 0)
     }
 }
 
@@ -1833,9 +1833,9 @@ pub struct UavionixAdsbOutCfgRegistrationMut<'a> {
 
 impl<'a> UavionixAdsbOutCfgRegistrationMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbOutCfgRegistration::MAX_LEN`](struct@UavionixAdsbOutCfgRegistration) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbOutCfgRegistration::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbOutCfgRegistration::MAX_LEN,
                 got: payload.len(),
             });
@@ -1851,7 +1851,7 @@ impl<'a> UavionixAdsbOutCfgRegistrationMut<'a> {
     /// Sets the `registration` field.
     #[inline]
     pub fn set_registration(&mut self, value: &[u8; 9]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 }
 
@@ -1880,7 +1880,7 @@ impl UavionixAdsbOutCfgFlightid {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -1889,9 +1889,9 @@ impl UavionixAdsbOutCfgFlightid {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flight_id",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 9,
                 offset: 0,
                 extension: false,
@@ -1901,9 +1901,9 @@ impl UavionixAdsbOutCfgFlightid {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            flight_id: ::mavwire::field::CharArray::new(p, 0).to_array(),
+            flight_id: ::mavframe::field::CharArray::new(p, 0).to_array(),
         }
     }
 
@@ -1915,15 +1915,15 @@ impl UavionixAdsbOutCfgFlightid {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::write_array(out, 0, &self.flight_id);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::write_array(out, 0, &self.flight_id);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbOutCfgFlightid {
-    const META: ::mavwire::MessageMeta = UavionixAdsbOutCfgFlightid::META;
+impl ::mavframe::Message for UavionixAdsbOutCfgFlightid {
+    const META: ::mavframe::MessageMeta = UavionixAdsbOutCfgFlightid::META;
     type View<'a> = UavionixAdsbOutCfgFlightidView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -1931,7 +1931,7 @@ impl ::mavwire::Message for UavionixAdsbOutCfgFlightid {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutCfgFlightid::emit(self, payload)
     }
 
@@ -1971,8 +1971,8 @@ impl<'a> UavionixAdsbOutCfgFlightidView<'a> {
 
     /// Reads [`UavionixAdsbOutCfgFlightid::flight_id`](UavionixAdsbOutCfgFlightid::flight_id) (`flight_id` at offset 0).
     #[inline]
-    pub fn flight_id(&self) -> ::mavwire::field::CharArray<'a, 9> {
-        ::mavwire::field::CharArray::new(self.payload, 0)
+    pub fn flight_id(&self) -> ::mavframe::field::CharArray<'a, 9> {
+        ::mavframe::field::CharArray::new(self.payload, 0)
     }
 }
 
@@ -1984,9 +1984,9 @@ pub struct UavionixAdsbOutCfgFlightidMut<'a> {
 
 impl<'a> UavionixAdsbOutCfgFlightidMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbOutCfgFlightid::MAX_LEN`](struct@UavionixAdsbOutCfgFlightid) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbOutCfgFlightid::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbOutCfgFlightid::MAX_LEN,
                 got: payload.len(),
             });
@@ -2002,7 +2002,7 @@ impl<'a> UavionixAdsbOutCfgFlightidMut<'a> {
     /// Sets the `flight_id` field.
     #[inline]
     pub fn set_flight_id(&mut self, value: &[u8; 9]) {
-        ::mavwire::field::write_array(self.payload, 0, value)
+        ::mavframe::field::write_array(self.payload, 0, value)
     }
 }
 
@@ -2029,7 +2029,7 @@ impl UavionixAdsbGet {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -2038,9 +2038,9 @@ impl UavionixAdsbGet {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "ReqMessageId",
-                ty: ::mavwire::FieldType::U32,
+                ty: ::mavframe::FieldType::U32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
@@ -2050,9 +2050,9 @@ impl UavionixAdsbGet {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
-            req_message_id: ::mavwire::field::read::<u32>(p, 0),
+            req_message_id: ::mavframe::field::read::<u32>(p, 0),
         }
     }
 
@@ -2064,15 +2064,15 @@ impl UavionixAdsbGet {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.req_message_id, out, 0);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.req_message_id, out, 0);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbGet {
-    const META: ::mavwire::MessageMeta = UavionixAdsbGet::META;
+impl ::mavframe::Message for UavionixAdsbGet {
+    const META: ::mavframe::MessageMeta = UavionixAdsbGet::META;
     type View<'a> = UavionixAdsbGetView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -2080,7 +2080,7 @@ impl ::mavwire::Message for UavionixAdsbGet {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbGet::emit(self, payload)
     }
 
@@ -2121,7 +2121,7 @@ impl<'a> UavionixAdsbGetView<'a> {
     /// Reads [`UavionixAdsbGet::req_message_id`](UavionixAdsbGet::req_message_id) (`ReqMessageId` at offset 0).
     #[inline]
     pub fn req_message_id(&self) -> u32 {
-        ::mavwire::field::read::<u32>(self.payload, 0)
+        ::mavframe::field::read::<u32>(self.payload, 0)
     }
 }
 
@@ -2133,9 +2133,9 @@ pub struct UavionixAdsbGetMut<'a> {
 
 impl<'a> UavionixAdsbGetMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbGet::MAX_LEN`](struct@UavionixAdsbGet) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbGet::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbGet::MAX_LEN,
                 got: payload.len(),
             });
@@ -2151,7 +2151,7 @@ impl<'a> UavionixAdsbGetMut<'a> {
     /// Sets the `ReqMessageId` field.
     #[inline]
     pub fn set_req_message_id(&mut self, value: u32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 }
 
@@ -2204,7 +2204,7 @@ impl UavionixAdsbOutControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 17;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -2213,44 +2213,44 @@ impl UavionixAdsbOutControl {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "baroAltMSL",
-                ty: ::mavwire::FieldType::I32,
+                ty: ::mavframe::FieldType::I32,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "squawk",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "state",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 6,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "emergencyStatus",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 7,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flight_id",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 8,
                 offset: 8,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "x_bit",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 16,
                 extension: false,
@@ -2260,19 +2260,19 @@ impl UavionixAdsbOutControl {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
             state: UavionixAdsbOutControlState::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 6),
+                ::mavframe::field::read::<u8>(p, 6),
             ),
-            baro_alt_msl: ::mavwire::field::read::<i32>(p, 0),
-            squawk: ::mavwire::field::read::<u16>(p, 4),
+            baro_alt_msl: ::mavframe::field::read::<i32>(p, 0),
+            squawk: ::mavframe::field::read::<u16>(p, 4),
             emergency_status: UavionixAdsbEmergencyStatus::from_raw(
-                ::mavwire::field::read::<u8>(p, 7),
+                ::mavframe::field::read::<u8>(p, 7),
             ),
-            flight_id: ::mavwire::field::CharArray::new(p, 8).to_array(),
+            flight_id: ::mavframe::field::CharArray::new(p, 8).to_array(),
             x_bit: UavionixAdsbXbit::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 16),
+                ::mavframe::field::read::<u8>(p, 16),
             ),
         }
     }
@@ -2285,20 +2285,20 @@ impl UavionixAdsbOutControl {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.state.bits(), out, 6);
-        ::mavwire::field::Scalar::write(self.baro_alt_msl, out, 0);
-        ::mavwire::field::Scalar::write(self.squawk, out, 4);
-        ::mavwire::field::Scalar::write(self.emergency_status.to_raw(), out, 7);
-        ::mavwire::field::write_array(out, 8, &self.flight_id);
-        ::mavwire::field::Scalar::write(self.x_bit.bits(), out, 16);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.state.bits(), out, 6);
+        ::mavframe::field::Scalar::write(self.baro_alt_msl, out, 0);
+        ::mavframe::field::Scalar::write(self.squawk, out, 4);
+        ::mavframe::field::Scalar::write(self.emergency_status.to_raw(), out, 7);
+        ::mavframe::field::write_array(out, 8, &self.flight_id);
+        ::mavframe::field::Scalar::write(self.x_bit.bits(), out, 16);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbOutControl {
-    const META: ::mavwire::MessageMeta = UavionixAdsbOutControl::META;
+impl ::mavframe::Message for UavionixAdsbOutControl {
+    const META: ::mavframe::MessageMeta = UavionixAdsbOutControl::META;
     type View<'a> = UavionixAdsbOutControlView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -2306,7 +2306,7 @@ impl ::mavwire::Message for UavionixAdsbOutControl {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutControl::emit(self, payload)
     }
 
@@ -2348,41 +2348,41 @@ impl<'a> UavionixAdsbOutControlView<'a> {
     #[inline]
     pub fn state(&self) -> UavionixAdsbOutControlState {
         UavionixAdsbOutControlState::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 6),
+            ::mavframe::field::read::<u8>(self.payload, 6),
         )
     }
 
     /// Reads [`UavionixAdsbOutControl::baro_alt_msl`](UavionixAdsbOutControl::baro_alt_msl) (`baroAltMSL` at offset 0).
     #[inline]
     pub fn baro_alt_msl(&self) -> i32 {
-        ::mavwire::field::read::<i32>(self.payload, 0)
+        ::mavframe::field::read::<i32>(self.payload, 0)
     }
 
     /// Reads [`UavionixAdsbOutControl::squawk`](UavionixAdsbOutControl::squawk) (`squawk` at offset 4).
     #[inline]
     pub fn squawk(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 4)
+        ::mavframe::field::read::<u16>(self.payload, 4)
     }
 
     /// Reads [`UavionixAdsbOutControl::emergency_status`](UavionixAdsbOutControl::emergency_status) (`emergencyStatus` at offset 7).
     #[inline]
     pub fn emergency_status(&self) -> UavionixAdsbEmergencyStatus {
         UavionixAdsbEmergencyStatus::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 7),
+            ::mavframe::field::read::<u8>(self.payload, 7),
         )
     }
 
     /// Reads [`UavionixAdsbOutControl::flight_id`](UavionixAdsbOutControl::flight_id) (`flight_id` at offset 8).
     #[inline]
-    pub fn flight_id(&self) -> ::mavwire::field::CharArray<'a, 8> {
-        ::mavwire::field::CharArray::new(self.payload, 8)
+    pub fn flight_id(&self) -> ::mavframe::field::CharArray<'a, 8> {
+        ::mavframe::field::CharArray::new(self.payload, 8)
     }
 
     /// Reads [`UavionixAdsbOutControl::x_bit`](UavionixAdsbOutControl::x_bit) (`x_bit` at offset 16).
     #[inline]
     pub fn x_bit(&self) -> UavionixAdsbXbit {
         UavionixAdsbXbit::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 16),
+            ::mavframe::field::read::<u8>(self.payload, 16),
         )
     }
 }
@@ -2395,9 +2395,9 @@ pub struct UavionixAdsbOutControlMut<'a> {
 
 impl<'a> UavionixAdsbOutControlMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbOutControl::MAX_LEN`](struct@UavionixAdsbOutControl) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbOutControl::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbOutControl::MAX_LEN,
                 got: payload.len(),
             });
@@ -2413,37 +2413,37 @@ impl<'a> UavionixAdsbOutControlMut<'a> {
     /// Sets the `state` field.
     #[inline]
     pub fn set_state(&mut self, value: UavionixAdsbOutControlState) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 6)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 6)
     }
 
     /// Sets the `baroAltMSL` field.
     #[inline]
     pub fn set_baro_alt_msl(&mut self, value: i32) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `squawk` field.
     #[inline]
     pub fn set_squawk(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `emergencyStatus` field.
     #[inline]
     pub fn set_emergency_status(&mut self, value: UavionixAdsbEmergencyStatus) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 7)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 7)
     }
 
     /// Sets the `flight_id` field.
     #[inline]
     pub fn set_flight_id(&mut self, value: &[u8; 8]) {
-        ::mavwire::field::write_array(self.payload, 8, value)
+        ::mavframe::field::write_array(self.payload, 8, value)
     }
 
     /// Sets the `x_bit` field.
     #[inline]
     pub fn set_x_bit(&mut self, value: UavionixAdsbXbit) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 16)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 16)
     }
 }
 
@@ -2497,7 +2497,7 @@ impl UavionixAdsbOutStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 14;
     /// This message's row of the dialect table.
-    pub const META: ::mavwire::MessageMeta = ::mavwire::MessageMeta {
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
         id: Self::ID,
         name: Self::NAME,
         crc_extra: Self::CRC_EXTRA,
@@ -2506,44 +2506,44 @@ impl UavionixAdsbOutStatus {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "squawk",
-                ty: ::mavwire::FieldType::U16,
+                ty: ::mavframe::FieldType::U16,
                 array_len: 0,
                 offset: 0,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "state",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 2,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "NIC_NACp",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 3,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "boardTemp",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 4,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "fault",
-                ty: ::mavwire::FieldType::U8,
+                ty: ::mavframe::FieldType::U8,
                 array_len: 0,
                 offset: 5,
                 extension: false,
             },
-            ::mavwire::FieldMeta {
+            ::mavframe::FieldMeta {
                 name: "flight_id",
-                ty: ::mavwire::FieldType::Char,
+                ty: ::mavframe::FieldType::Char,
                 array_len: 8,
                 offset: 6,
                 extension: false,
@@ -2553,20 +2553,20 @@ impl UavionixAdsbOutStatus {
 
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
-        let p: &[u8; Self::MAX_LEN] = &::mavwire::field::padded(payload);
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
         Self {
             state: UavionixAdsbOutStatusState::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 2),
+                ::mavframe::field::read::<u8>(p, 2),
             ),
-            squawk: ::mavwire::field::read::<u16>(p, 0),
+            squawk: ::mavframe::field::read::<u16>(p, 0),
             nic_nacp: UavionixAdsbOutStatusNicNacp::from_raw(
-                ::mavwire::field::read::<u8>(p, 3),
+                ::mavframe::field::read::<u8>(p, 3),
             ),
-            board_temp: ::mavwire::field::read::<u8>(p, 4),
+            board_temp: ::mavframe::field::read::<u8>(p, 4),
             fault: UavionixAdsbOutStatusFault::from_bits_retain(
-                ::mavwire::field::read::<u8>(p, 5),
+                ::mavframe::field::read::<u8>(p, 5),
             ),
-            flight_id: ::mavwire::field::CharArray::new(p, 6).to_array(),
+            flight_id: ::mavframe::field::CharArray::new(p, 6).to_array(),
         }
     }
 
@@ -2578,20 +2578,20 @@ impl UavionixAdsbOutStatus {
 
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
-    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
-        let out = ::mavwire::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
-        ::mavwire::field::Scalar::write(self.state.bits(), out, 2);
-        ::mavwire::field::Scalar::write(self.squawk, out, 0);
-        ::mavwire::field::Scalar::write(self.nic_nacp.to_raw(), out, 3);
-        ::mavwire::field::Scalar::write(self.board_temp, out, 4);
-        ::mavwire::field::Scalar::write(self.fault.bits(), out, 5);
-        ::mavwire::field::write_array(out, 6, &self.flight_id);
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.state.bits(), out, 2);
+        ::mavframe::field::Scalar::write(self.squawk, out, 0);
+        ::mavframe::field::Scalar::write(self.nic_nacp.to_raw(), out, 3);
+        ::mavframe::field::Scalar::write(self.board_temp, out, 4);
+        ::mavframe::field::Scalar::write(self.fault.bits(), out, 5);
+        ::mavframe::field::write_array(out, 6, &self.flight_id);
         Ok(Self::MAX_LEN)
     }
 }
 
-impl ::mavwire::Message for UavionixAdsbOutStatus {
-    const META: ::mavwire::MessageMeta = UavionixAdsbOutStatus::META;
+impl ::mavframe::Message for UavionixAdsbOutStatus {
+    const META: ::mavframe::MessageMeta = UavionixAdsbOutStatus::META;
     type View<'a> = UavionixAdsbOutStatusView<'a>;
     #[inline]
     fn parse(payload: &[u8]) -> Self {
@@ -2599,7 +2599,7 @@ impl ::mavwire::Message for UavionixAdsbOutStatus {
     }
 
     #[inline]
-    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavwire::BufferTooSmall> {
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutStatus::emit(self, payload)
     }
 
@@ -2641,42 +2641,42 @@ impl<'a> UavionixAdsbOutStatusView<'a> {
     #[inline]
     pub fn state(&self) -> UavionixAdsbOutStatusState {
         UavionixAdsbOutStatusState::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 2),
+            ::mavframe::field::read::<u8>(self.payload, 2),
         )
     }
 
     /// Reads [`UavionixAdsbOutStatus::squawk`](UavionixAdsbOutStatus::squawk) (`squawk` at offset 0).
     #[inline]
     pub fn squawk(&self) -> u16 {
-        ::mavwire::field::read::<u16>(self.payload, 0)
+        ::mavframe::field::read::<u16>(self.payload, 0)
     }
 
     /// Reads [`UavionixAdsbOutStatus::nic_nacp`](UavionixAdsbOutStatus::nic_nacp) (`NIC_NACp` at offset 3).
     #[inline]
     pub fn nic_nacp(&self) -> UavionixAdsbOutStatusNicNacp {
         UavionixAdsbOutStatusNicNacp::from_raw(
-            ::mavwire::field::read::<u8>(self.payload, 3),
+            ::mavframe::field::read::<u8>(self.payload, 3),
         )
     }
 
     /// Reads [`UavionixAdsbOutStatus::board_temp`](UavionixAdsbOutStatus::board_temp) (`boardTemp` at offset 4).
     #[inline]
     pub fn board_temp(&self) -> u8 {
-        ::mavwire::field::read::<u8>(self.payload, 4)
+        ::mavframe::field::read::<u8>(self.payload, 4)
     }
 
     /// Reads [`UavionixAdsbOutStatus::fault`](UavionixAdsbOutStatus::fault) (`fault` at offset 5).
     #[inline]
     pub fn fault(&self) -> UavionixAdsbOutStatusFault {
         UavionixAdsbOutStatusFault::from_bits_retain(
-            ::mavwire::field::read::<u8>(self.payload, 5),
+            ::mavframe::field::read::<u8>(self.payload, 5),
         )
     }
 
     /// Reads [`UavionixAdsbOutStatus::flight_id`](UavionixAdsbOutStatus::flight_id) (`flight_id` at offset 6).
     #[inline]
-    pub fn flight_id(&self) -> ::mavwire::field::CharArray<'a, 8> {
-        ::mavwire::field::CharArray::new(self.payload, 6)
+    pub fn flight_id(&self) -> ::mavframe::field::CharArray<'a, 8> {
+        ::mavframe::field::CharArray::new(self.payload, 6)
     }
 }
 
@@ -2688,9 +2688,9 @@ pub struct UavionixAdsbOutStatusMut<'a> {
 
 impl<'a> UavionixAdsbOutStatusMut<'a> {
     /// A writer over `payload`, which must hold at least [`UavionixAdsbOutStatus::MAX_LEN`](struct@UavionixAdsbOutStatus) bytes.
-    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavwire::BufferTooSmall> {
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
         if payload.len() < UavionixAdsbOutStatus::MAX_LEN {
-            return Err(::mavwire::BufferTooSmall {
+            return Err(::mavframe::BufferTooSmall {
                 needed: UavionixAdsbOutStatus::MAX_LEN,
                 got: payload.len(),
             });
@@ -2706,36 +2706,36 @@ impl<'a> UavionixAdsbOutStatusMut<'a> {
     /// Sets the `state` field.
     #[inline]
     pub fn set_state(&mut self, value: UavionixAdsbOutStatusState) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 2)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 2)
     }
 
     /// Sets the `squawk` field.
     #[inline]
     pub fn set_squawk(&mut self, value: u16) {
-        ::mavwire::field::Scalar::write(value, self.payload, 0)
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
 
     /// Sets the `NIC_NACp` field.
     #[inline]
     pub fn set_nic_nacp(&mut self, value: UavionixAdsbOutStatusNicNacp) {
-        ::mavwire::field::Scalar::write(value.to_raw(), self.payload, 3)
+        ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 3)
     }
 
     /// Sets the `boardTemp` field.
     #[inline]
     pub fn set_board_temp(&mut self, value: u8) {
-        ::mavwire::field::Scalar::write(value, self.payload, 4)
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
 
     /// Sets the `fault` field.
     #[inline]
     pub fn set_fault(&mut self, value: UavionixAdsbOutStatusFault) {
-        ::mavwire::field::Scalar::write(value.bits(), self.payload, 5)
+        ::mavframe::field::Scalar::write(value.bits(), self.payload, 5)
     }
 
     /// Sets the `flight_id` field.
     #[inline]
     pub fn set_flight_id(&mut self, value: &[u8; 8]) {
-        ::mavwire::field::write_array(self.payload, 6, value)
+        ::mavframe::field::write_array(self.payload, 6, value)
     }
 }

@@ -89,7 +89,7 @@ pub fn open(endpoint: &Endpoint) -> io::Result<AnyTransport> {
         Endpoint::Serial { .. } => {
             return Err(io::Error::new(
                 io::ErrorKind::Unsupported,
-                "serial endpoints need mavwire's `serial` feature",
+                "serial endpoints need mavframe's `serial` feature",
             ))
         }
     })

@@ -196,3 +196,33 @@ fn arrays_are_views_with_zero_fill() {
     assert_eq!(view.payload().get(2), Some(0));
     assert_eq!(t.payload[..3], [9, 8, 0]);
 }
+
+/// The dialect's `Message` enum frames through the same `encode` as the
+/// single type it holds, byte for byte (a received message can be re-sent).
+#[test]
+fn message_enum_encodes_like_the_message_it_holds() {
+    use fbwag_dialect::mavframe::Encode;
+    use fbwag_dialect::{encode, FbwagFailsafeStatus, FbwagNotice, Header, Message, Version};
+    let notice = FbwagNotice {
+        system_id: 1,
+        component_id: 1,
+        failsafe_status: FbwagFailsafeStatus::RC_LOST,
+        text: fbwag_dialect::mavframe::field::chars("FBWAG"),
+        timestamp: 4242,
+    };
+    let as_enum = Message::from(notice);
+    assert_eq!(Encode::meta(&as_enum).name, "FBWAG_NOTICE");
+    let h = Header {
+        seq: 7,
+        sysid: 1,
+        compid: 191,
+    };
+    let (mut a, mut b) = ([0u8; 280], [0u8; 280]);
+    let na = encode(Version::V2, h, &notice, None, &mut a).unwrap();
+    let nb = encode(Version::V2, h, &as_enum, None, &mut b).unwrap();
+    assert_eq!(a[..na], b[..nb]);
+    // As a trait object too: a router holds messages of any type.
+    let dynamic: &dyn Encode = &as_enum;
+    let nc = encode(Version::V1, h, dynamic, None, &mut b);
+    assert!(nc.is_err(), "id 15001 does not fit MAVLink 1");
+}

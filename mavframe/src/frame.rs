@@ -12,7 +12,7 @@
 //! [`crate::signing`]), because verifying them needs the dialect and a key.
 
 use crate::crc::{frame_crc, Crc};
-use crate::message::{Message, MessageMeta};
+use crate::message::{Encode, MessageMeta};
 use crate::signing::Signer;
 use core::fmt;
 
@@ -355,14 +355,14 @@ pub fn truncated_len(payload: &[u8]) -> usize {
 /// MAVLink 1 carries the base fields only (extensions are not sent) and
 /// rejects ids above 255. `signer` signs a MAVLink 2 frame and advances its
 /// timestamp; it is ignored for MAVLink 1, which has no signing.
-pub fn encode<M: Message>(
+pub fn encode<M: Encode + ?Sized>(
     version: Version,
     header: Header,
     message: &M,
     signer: Option<&mut Signer>,
     out: &mut [u8],
 ) -> Result<usize, FrameError> {
-    let meta = &M::META;
+    let meta = message.meta();
     let start = match version {
         Version::V2 => HEADER_LEN_V2,
         Version::V1 => HEADER_LEN_V1,
@@ -373,7 +373,7 @@ pub fn encode<M: Message>(
                 needed: start + meta.max_len as usize + CHECKSUM_LEN,
             })?;
     message
-        .emit(payload)
+        .emit_payload(payload)
         .map_err(|e| FrameError::BufferTooSmall {
             needed: start + e.needed,
         })?;

@@ -29,7 +29,7 @@ pub mod signing;
 #[cfg(feature = "std")]
 pub use conn::{Connection, Endpoint, ReceivedFrame, Transport};
 pub use frame::{encode, Frame, FrameError, Header, Version};
-pub use message::{BufferTooSmall, Dialect, FieldMeta, FieldType, Message, MessageMeta};
+pub use message::{BufferTooSmall, Dialect, Encode, FieldMeta, FieldType, Message, MessageMeta};
 pub use parser::{Parser, Received};
 pub use signing::{Signer, Verifier};
 

@@ -151,6 +151,48 @@ pub trait Message: Sized + Clone + fmt::Debug + PartialEq + Default {
     fn view(payload: &[u8]) -> Self::View<'_>;
 }
 
+/// Anything that can be framed: every generated message, and each dialect's
+/// `Message` enum (whose table row is known only at run time), so a message
+/// received as the enum can be sent again through the same
+/// [`encode`](crate::frame::encode) and `Connection::send` as a single type.
+///
+/// ```
+/// # use mavframe::{Encode, Message, MessageMeta, BufferTooSmall};
+/// fn describe<M: Encode + ?Sized>(m: &M) -> (&'static str, u8) {
+///     (m.meta().name, m.meta().max_len)
+/// }
+/// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
+/// # impl Message for Ping {
+/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 0,
+/// #     max_len: 0, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   type View<'a> = ();
+/// #   fn parse(_: &[u8]) -> Self { Ping }
+/// #   fn emit(&self, _: &mut [u8]) -> Result<usize, BufferTooSmall> { Ok(0) }
+/// #   fn view(_: &[u8]) {}
+/// # }
+/// assert_eq!(describe(&Ping), ("PING", 0));
+/// ```
+pub trait Encode {
+    /// The message's table row.
+    fn meta(&self) -> &'static MessageMeta;
+
+    /// Writes all `max_len` payload bytes (extensions included, no
+    /// truncation) at the start of `payload`; returns `max_len`.
+    fn emit_payload(&self, payload: &mut [u8]) -> Result<usize, BufferTooSmall>;
+}
+
+impl<M: Message> Encode for M {
+    #[inline]
+    fn meta(&self) -> &'static MessageMeta {
+        const { &M::META }
+    }
+
+    #[inline]
+    fn emit_payload(&self, payload: &mut [u8]) -> Result<usize, BufferTooSmall> {
+        self.emit(payload)
+    }
+}
+
 /// A generated dialect: the set of messages a link understands.
 pub trait Dialect {
     /// The owned message enum.

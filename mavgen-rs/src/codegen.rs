@@ -1311,6 +1311,20 @@ impl Gen<'_> {
                 }
             }
 
+            /// The enum frames like any single message: `encode` and
+            /// `Connection::send` take either.
+            impl #rt::Encode for Message {
+                #[inline]
+                fn meta(&self) -> &'static #rt::MessageMeta {
+                    Message::meta(self)
+                }
+
+                #[inline]
+                fn emit_payload(&self, payload: &mut [u8]) -> Result<usize, #rt::BufferTooSmall> {
+                    self.emit(payload)
+                }
+            }
+
             impl<'a> MessageView<'a> {
                 /// Views the payload of message `id`; `None` when the dialect
                 /// does not know `id`.

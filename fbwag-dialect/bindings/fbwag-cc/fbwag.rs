@@ -513,6 +513,23 @@ impl Message {
     }
 }
 
+/// The enum frames like any single message: `encode` and
+/// `Connection::send` take either.
+impl ::mavframe::Encode for Message {
+    #[inline]
+    fn meta(&self) -> &'static ::mavframe::MessageMeta {
+        Message::meta(self)
+    }
+
+    #[inline]
+    fn emit_payload(
+        &self,
+        payload: &mut [u8],
+    ) -> Result<usize, ::mavframe::BufferTooSmall> {
+        self.emit(payload)
+    }
+}
+
 impl<'a> MessageView<'a> {
     /// Views the payload of message `id`; `None` when the dialect
     /// does not know `id`.

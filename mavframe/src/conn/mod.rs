@@ -39,7 +39,7 @@ pub use transport::{open, AnyTransport, Transport};
 pub use udp::{UdpIn, UdpOut};
 
 use crate::frame::{encode, Frame, Header, Version, MAX_FRAME_LEN};
-use crate::message::{Dialect, Message, MessageMeta};
+use crate::message::{Dialect, Encode, MessageMeta};
 use crate::parser::{LinkStats, Parser, Received, Stats};
 use crate::signing::{timestamp_now, Signer};
 use core::fmt;
@@ -236,7 +236,7 @@ impl Outbox {
     }
 
     /// Encodes a frame and returns its bytes.
-    pub(crate) fn encode<M: Message>(
+    pub(crate) fn encode<M: Encode + ?Sized>(
         &mut self,
         version: Version,
         header: Header,
@@ -332,14 +332,14 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// Sends `msg` with `header` in the connection's protocol version
     /// ([`set_version`](Self::set_version); MAVLink 2 unless changed),
     /// signed when a signer is set.
-    pub fn send<M: Message>(&mut self, header: Header, msg: &M) -> io::Result<()> {
+    pub fn send<M: Encode + ?Sized>(&mut self, header: Header, msg: &M) -> io::Result<()> {
         self.send_version(self.outbox.version, header, msg)
     }
 
     /// Sends `msg` with `header` in `version`. MAVLink 1 frames are never
     /// signed; a message id above 255 cannot be sent as MAVLink 1
     /// (`InvalidInput`).
-    pub fn send_version<M: Message>(
+    pub fn send_version<M: Encode + ?Sized>(
         &mut self,
         version: Version,
         header: Header,
@@ -352,7 +352,12 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// Sends `msg` as `sysid`/`compid` with the connection's next sequence
     /// number, which then advances (wrapping at 255), whether or not the
     /// transport succeeds: a receiver counts a failed send as lost.
-    pub fn send_auto<M: Message>(&mut self, sysid: u8, compid: u8, msg: &M) -> io::Result<()> {
+    pub fn send_auto<M: Encode + ?Sized>(
+        &mut self,
+        sysid: u8,
+        compid: u8,
+        msg: &M,
+    ) -> io::Result<()> {
         let header = self.outbox.auto_header(sysid, compid);
         self.send(header, msg)
     }

@@ -10,7 +10,7 @@
 use super::endpoint::Endpoint;
 use super::{Inbox, Outbox, ReceivedFrame};
 use crate::frame::{Header, Version};
-use crate::message::{Dialect, Message};
+use crate::message::{Dialect, Encode};
 use crate::parser::{LinkStats, Parser, Stats};
 use crate::signing::Signer;
 use ::tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -217,12 +217,12 @@ impl<D: Dialect> AsyncConnection<D> {
     /// (MAVLink 2 unless [`set_version`](Self::set_version) says otherwise),
     /// signed when a signer is set. Not cancel-safe over TCP (see
     /// [`AsyncTransport::send`]).
-    pub async fn send<M: Message>(&mut self, header: Header, msg: &M) -> io::Result<()> {
+    pub async fn send<M: Encode + ?Sized>(&mut self, header: Header, msg: &M) -> io::Result<()> {
         self.send_version(self.outbox.version, header, msg).await
     }
 
     /// Sends `msg` with `header` in `version`.
-    pub async fn send_version<M: Message>(
+    pub async fn send_version<M: Encode + ?Sized>(
         &mut self,
         version: Version,
         header: Header,
@@ -234,7 +234,7 @@ impl<D: Dialect> AsyncConnection<D> {
 
     /// Sends `msg` as `sysid`/`compid` with the next sequence number, which
     /// then advances (wrapping).
-    pub async fn send_auto<M: Message>(
+    pub async fn send_auto<M: Encode + ?Sized>(
         &mut self,
         sysid: u8,
         compid: u8,

@@ -35,6 +35,52 @@ Examples:
   fbwag cc --link serial:/dev/serial0:460800                # the companion daemon
   fbwag fc-sim --link udpout:127.0.0.1:14550 --rc-loss-at 3 --rc-back-at 12";
 
+/// What both daemons' `--help` says about links and peers.
+macro_rules! link_rules {
+    () => {
+        "
+Links and peers:
+  Every send and receive error is logged (at most 5 lines per 10 s) and never
+  ends the program. With udpin, frames go to --peer if given; otherwise nothing
+  is sent until a trusted frame arrives (the configured peer's ids, and a
+  verified signature with --require-signed), then to that frame's source. A
+  trusted frame from another address moves the peer only when its signature
+  verified, or when the current peer has been silent for 3 s. With a signing
+  key, frames older than one minute (by their signing timestamp) are refused."
+    };
+}
+
+const CC_EVENTS: &str = concat!(
+    "\
+Events (--events), one JSON object per line, all with \"t_ms\" (ms since start)
+and \"event\":
+  {\"event\":\"fc\",\"state\":\"found\"|\"lost\"|\"rebooted\"}
+  {\"event\":\"fc_mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"|...}
+  {\"event\":\"control\",\"state\":\"start\",\"fc_event\":N}   the companion took over
+  {\"event\":\"control\",\"state\":\"stop\"}
+  {\"event\":\"summary\",\"takeovers\":N,\"handbacks\":N,\"trusted_frames\":N,
+   \"untrusted_frames\":N,\"untrusted_notices\":N,\"controls_forwarded\":N,
+   \"controls_dropped\":N}                               at exit
+",
+    link_rules!()
+);
+
+const FC_EVENTS: &str = concat!(
+    "\
+Events (--events), one JSON object per line, all with \"t_ms\" (ms since start)
+and \"event\":
+  {\"event\":\"mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"}   at start and every change
+  {\"event\":\"receiver\",\"state\":\"ok\"|\"lost\"}
+  {\"event\":\"handover\",\"ms\":N}          receiver failure -> companion control
+  {\"event\":\"control_applied\",\"sysid\":N,\"compid\":N,\"authenticated\":B,
+   \"message\":\"RC_CHANNELS_OVERRIDE\"|..., \"channels\":[8 values]}   each control applied
+  {\"event\":\"summary\",\"trusted_frames\":N,\"untrusted_frames\":N,
+   \"untrusted_notices\":N,\"controls_applied\":N,\"controls_untrusted\":N,
+   \"controls_misaddressed\":N,\"controls_outside_companion\":N}   at exit
+",
+    link_rules!()
+);
+
 #[derive(Subcommand)]
 enum Command {
     /// Print one JSON object per frame of a MAVLink stream.
@@ -88,12 +134,28 @@ enum Command {
     /// Waits for the flight controller, acknowledges RC-loss notices with
     /// status 2 (echoing the event timestamp), streams RC_CHANNELS_OVERRIDE
     /// from the controller while delegated, stops and acknowledges on status
-    /// 0. Logs every transition with a timestamp.
+    /// 0; recognises a rebooted FC. Sends a 1 Hz HEARTBEAT. Logs every
+    /// transition with a timestamp.
+    ///
+    /// Only the configured FC's frames count (--fc-sysid/--fc-compid), and
+    /// with --require-signed only those whose signature verified; everything
+    /// else is ignored and counted (logged at most 5 lines per 10 s). No
+    /// send or receive error ends the daemon; a TCP or serial link that
+    /// fails is opened again every second.
+    #[command(after_long_help = CC_EVENTS)]
     Cc {
         /// Connection string: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
-        /// tcpin:IP:PORT, serial:PATH:BAUD.
+        /// tcpin:IP:PORT, serial:PATH:BAUD. With udpin, frames go to --peer,
+        /// or else to the source of the FC's trusted frames (see below).
         #[arg(long, value_name = "CONN")]
         link: String,
+        /// udpin only: send to this address (IP:PORT) and no other.
+        #[arg(long, value_name = "IP:PORT")]
+        peer: Option<std::net::SocketAddr>,
+        /// Write machine-readable events to this file (`-`: stdout), one
+        /// JSON object per line (keys below).
+        #[arg(long, value_name = "PATH")]
+        events: Option<PathBuf>,
         /// Our system id.
         #[arg(long, default_value_t = 1)]
         sysid: u8,
@@ -134,10 +196,23 @@ enum Command {
     /// loses and regains its receiver on schedule, runs the FC state machine
     /// and reports every mode change (companion control, RTL, the pilot)
     /// with a timestamp.
+    ///
+    /// Control (RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL)
+    /// is applied only from the configured companion (--cc-sysid/--cc-compid),
+    /// addressed to this FC, in companion control, and with
+    /// --require-signed only when its signature verified.
+    #[command(after_long_help = FC_EVENTS)]
     FcSim {
         /// Connection string (see `fbwag cc --help`).
         #[arg(long, value_name = "CONN")]
         link: String,
+        /// udpin only: send to this address (IP:PORT) and no other.
+        #[arg(long, value_name = "IP:PORT")]
+        peer: Option<std::net::SocketAddr>,
+        /// Write machine-readable events to this file (`-`: stdout), one
+        /// JSON object per line (keys below).
+        #[arg(long, value_name = "PATH")]
+        events: Option<PathBuf>,
         /// Lose the receiver at this time (seconds after start).
         #[arg(long, value_name = "SECONDS")]
         rc_loss_at: Option<f64>,
@@ -447,6 +522,8 @@ fn main() -> ExitCode {
         }),
         Command::Cc {
             link,
+            peer,
+            events,
             sysid,
             compid,
             fc_sysid,
@@ -459,34 +536,39 @@ fn main() -> ExitCode {
             duration,
             exit_after_handback,
         } => (|| {
-            let controller: Box<dyn live::Controller + Send> = match controller.as_str() {
-                "wings-level" => Box::new(live::WingsLevel { throttle }),
-                "circle" => Box::new(live::Circle { throttle }),
+            use fbwag_delegation::control::{Circle, Controller, WingsLevel};
+            let controller: Box<dyn Controller + Send> = match controller.as_str() {
+                "wings-level" => Box::new(WingsLevel { throttle }),
+                "circle" => Box::new(Circle { throttle }),
                 other => {
                     return Err(format!(
                         "unknown controller `{other}` (wings-level or circle)"
                     ))
                 }
             };
-            let opts = live::CcOptions {
-                link: link.parse().map_err(|e| format!("--link: {e}"))?,
-                sysid,
-                compid,
-                fc_sysid,
-                fc_compid,
+            let opts = live::cc::CcOptions {
+                link: live::link::LinkOptions {
+                    endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
+                    key: sign_key.as_deref().map(key).transpose()?,
+                    peer,
+                },
+                own: fbwag_delegation::Peer::new(sysid, compid),
+                fc: fbwag_delegation::Peer::new(fc_sysid, fc_compid),
                 rate_hz: rate,
                 controller,
-                sign_key: sign_key.as_deref().map(key).transpose()?,
                 require_signed,
                 duration: duration.map(std::time::Duration::from_secs_f64),
                 exit_after_handback,
+                events,
             };
-            live::run_cc(opts, &mut std::io::stdout())
+            live::cc::run_cc(opts, Box::new(std::io::stdout()))
                 .map(|_| true)
-                .map_err(|e| format!("link: {e}"))
+                .map_err(|e| format!("cc: {e}"))
         })(),
         Command::FcSim {
             link,
+            peer,
+            events,
             rc_loss_at,
             rc_back_at,
             cc_sysid,
@@ -497,21 +579,23 @@ fn main() -> ExitCode {
             sign_key,
             require_signed,
         } => (|| {
-            let opts = live::FcOptions {
-                link: link.parse().map_err(|e| format!("--link: {e}"))?,
-                sysid,
-                compid,
-                cc_sysid,
-                cc_compid,
+            let opts = live::fc::FcOptions {
+                link: live::link::LinkOptions {
+                    endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
+                    key: sign_key.as_deref().map(key).transpose()?,
+                    peer,
+                },
+                own: fbwag_delegation::Peer::new(sysid, compid),
+                companion: fbwag_delegation::Peer::new(cc_sysid, cc_compid),
                 rc_loss_at,
                 rc_back_at,
                 duration,
-                sign_key: sign_key.as_deref().map(key).transpose()?,
                 require_signed,
+                events,
             };
-            live::run_fc(opts, &mut std::io::stdout())
+            live::fc::run_fc(opts, Box::new(std::io::stdout()))
                 .map(|_| true)
-                .map_err(|e| format!("link: {e}"))
+                .map_err(|e| format!("fc-sim: {e}"))
         })(),
         Command::Demo {
             loss,
@@ -519,7 +603,9 @@ fn main() -> ExitCode {
             rc_back_at,
             duration,
             seed,
-        } => live::demo(loss, rc_loss_at, rc_back_at, duration, seed).map(|r| r.handover.is_some()),
+        } => live::demo::demo(loss, rc_loss_at, rc_back_at, duration, seed)
+            .map(|r| r.handover.is_some())
+            .map_err(|e| format!("demo: {e}")),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

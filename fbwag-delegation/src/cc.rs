@@ -3,13 +3,18 @@
 //!
 //! The companion *controls* (streams overrides) from its acknowledgement
 //! until the FC ends the episode, but it *believes it is in control* only
-//! while the FC confirms it: the takeover STATUSTEXT, then HEARTBEATs in
-//! mode FBWAG, each valid for a lease of one retry period. So the belief
-//! never outlives the FC's decision by more than that, whatever the link
-//! loses; the FC, for its part, ignores overrides outside companion control.
+//! while the FC confirms it: the takeover confirmation, then HEARTBEATs in
+//! companion control, each valid for a lease of one retry period. So the
+//! belief never outlives the FC's decision by more than that, whatever the
+//! link loses; the FC, for its part, ignores overrides outside companion
+//! control.
+//!
+//! The machine's inputs are protocol events from the configured FC, already
+//! judged trustworthy: [`crate::engine::CcEngine`] decides that (ids and
+//! signature) and turns frames into inputs and actions into frames.
 
 use crate::outbox::Outbox;
-use crate::{mode, Instant, Origin, Peer, Status};
+use crate::{ConfigError, Instant, Peer, Status};
 use core::time::Duration;
 
 /// Settings; [`CcConfig::default`] holds the paper's values.
@@ -43,6 +48,40 @@ pub struct CcConfig {
     /// the FC decides and gates overrides, so a downlink outage must not end
     /// companion control (the uplink may still carry the control stream).
     pub control_fc_timeout: Duration,
+    /// The longest an FC event can stay live: the FC repeats a notice for
+    /// at most its handshake timeout, plus the link's delay. A notice older
+    /// than this by the FC's own clock, as far as the companion can tell,
+    /// comes from a new boot of the FC (its event ids restarted), not from
+    /// the current one. See [`CcAction::FcRebooted`].
+    pub fc_event_lifetime: Duration,
+    /// HEARTBEAT period of the companion (MAVLink's 1 Hz).
+    pub heartbeat_period: Duration,
+}
+
+impl CcConfig {
+    /// Checks the settings: every period and timeout positive, the lease
+    /// and the control stream consistent.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let positive = [
+            ("ack_retry_interval", self.ack_retry_interval),
+            ("control_lease", self.control_lease),
+            ("confirm_timeout", self.confirm_timeout),
+            ("control_period", self.control_period),
+            ("fc_timeout", self.fc_timeout),
+            ("control_fc_timeout", self.control_fc_timeout),
+            ("fc_event_lifetime", self.fc_event_lifetime),
+            ("heartbeat_period", self.heartbeat_period),
+        ];
+        for (name, d) in positive {
+            if d.is_zero() {
+                return Err(ConfigError::Zero(name));
+            }
+        }
+        if self.control_period >= self.control_lease {
+            return Err(ConfigError::Order("control_period", "control_lease"));
+        }
+        Ok(())
+    }
 }
 
 impl Default for CcConfig {
@@ -58,38 +97,41 @@ impl Default for CcConfig {
             control_period: Duration::from_millis(50),
             fc_timeout: Duration::from_secs(3),
             control_fc_timeout: Duration::from_secs(10),
+            fc_event_lifetime: Duration::from_secs(6),
+            heartbeat_period: Duration::from_secs(1),
         }
     }
 }
 
-/// What the companion is told.
+/// What the companion is told. Everything but `Reboot` comes from the
+/// configured FC (the engine has checked the sender).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CcInput<'a> {
-    /// A HEARTBEAT arrived.
+pub enum CcInput {
+    /// The FC's HEARTBEAT.
     Heartbeat {
-        /// Sender and signature.
-        from: Origin,
-        /// Its `custom_mode` (the flight mode).
-        custom_mode: u32,
+        /// The frame's sequence number: a late frame says nothing new.
+        seq: u8,
+        /// Its flight mode is companion control (FBWAG).
+        companion_control: bool,
     },
-    /// A FBWAG_NOTICE arrived.
+    /// The FC's FBWAG_NOTICE.
     Notice {
-        /// Sender and signature.
-        from: Origin,
         /// `failsafe_status`.
         status: Status,
         /// `timestamp`: the event.
         timestamp: u32,
     },
-    /// A STATUSTEXT arrived.
-    StatusText {
-        /// Sender and signature.
-        from: Origin,
-        /// The text up to its first NUL.
-        text: &'a str,
-        /// Its `id` field (the FC puts the event's low 16 bits there).
-        id: u16,
+    /// The FC confirmed the takeover of an event (the paper's STATUSTEXT
+    /// "FBWAG-ACK: CC has taken over!", whose `id` carries the event's low
+    /// 16 bits).
+    TakeoverConfirmed {
+        /// The frame's sequence number.
+        seq: u8,
+        /// The event's low 16 bits.
+        event: u16,
     },
+    /// Any other frame of the FC: it is alive.
+    FcAlive,
     /// The companion restarted: everything is forgotten.
     Reboot,
 }
@@ -111,6 +153,10 @@ pub enum CcAction {
     StartControl,
     /// Control ends: stop overriding.
     StopControl,
+    /// The FC has rebooted: a notice came whose event id is older than any
+    /// live event of the boot the companion knew. Its events are forgotten
+    /// and the notice is handled as new.
+    FcRebooted,
 }
 
 /// The companion's view of the link.
@@ -133,8 +179,8 @@ pub struct CcStats {
     pub acks_sent: u32,
     /// Control messages sent.
     pub controls_sent: u32,
-    /// Messages from the wrong sender, or unsigned where required: ignored.
-    pub rejected_senders: u32,
+    /// FC reboots recognised.
+    pub fc_reboots: u32,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -144,7 +190,9 @@ enum State {
     Controlling {
         event: u32,
         since: Instant,
-        acks: u8,
+        /// Acknowledgements sent for the event: wider than
+        /// `max_ack_retries`, so a limit of 255 cannot overflow it.
+        acks: u16,
         next_ack: Instant,
         /// When the FC last confirmed companion control, and the sequence
         /// number of the frame that did.
@@ -160,10 +208,11 @@ pub struct Companion {
     state: State,
     last_fc: Option<Instant>,
     /// The last hand-back event acknowledged, and how often.
-    normal_acks: (u32, u8),
-    /// The newest takeover event handled: a late or duplicated notice of
-    /// it (or of an older one) must not start control again.
-    newest_event: Option<u32>,
+    normal_acks: (u32, u16),
+    /// The newest FC event seen and when it arrived: a late or duplicated
+    /// notice of it (or of an older one) must not start control again,
+    /// unless it is too old to be live (the FC rebooted).
+    newest_event: Option<(u32, Instant)>,
     stats: CcStats,
     out: Outbox<CcAction, 8>,
 }
@@ -196,6 +245,14 @@ impl Companion {
         }
     }
 
+    /// The FC event the companion controls for, while it does.
+    pub fn event(&self) -> Option<u32> {
+        match self.state {
+            State::Controlling { event, .. } => Some(event),
+            _ => None,
+        }
+    }
+
     /// True while the FC's confirmation of companion control is fresh.
     pub fn believes_in_control(&self, now: Instant) -> bool {
         matches!(self.state, State::Controlling { confirmed: Some((at, _)), .. } if now.since(at) <= self.cfg.control_lease)
@@ -207,11 +264,13 @@ impl Companion {
     }
 
     /// The next action to carry out, if any.
+    #[must_use]
     pub fn poll_action(&mut self) -> Option<CcAction> {
         self.out.pop()
     }
 
     /// When [`handle_timeout`](Self::handle_timeout) must next be called.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         let fc_gone = self.last_fc.map(|t| t + self.fc_timeout());
         match self.state {
@@ -228,7 +287,7 @@ impl Companion {
                 let mut t = next_control;
                 if confirmed.is_none() {
                     t = t.min(since + self.cfg.confirm_timeout);
-                    if acks <= self.cfg.max_ack_retries {
+                    if acks <= u16::from(self.cfg.max_ack_retries) {
                         t = t.min(next_ack);
                     }
                 }
@@ -266,8 +325,11 @@ impl Companion {
             ..
         } = &mut self.state
         {
-            if confirmed.is_none() && now >= *next_ack && *acks <= self.cfg.max_ack_retries {
-                *acks += 1;
+            if confirmed.is_none()
+                && now >= *next_ack
+                && *acks <= u16::from(self.cfg.max_ack_retries)
+            {
+                *acks = acks.saturating_add(1);
                 *next_ack = *next_ack + self.cfg.ack_retry_interval;
                 ack_due = true;
             }
@@ -281,25 +343,21 @@ impl Companion {
             self.ack(Status::CC_TAKEOVER_CONFIRMED, event);
         }
         if control_due {
-            self.stats.controls_sent += 1;
-            self.out.push(CcAction::SendControl);
+            self.control_due();
         }
     }
 
-    /// An input at time `now`.
-    pub fn handle_input(&mut self, now: Instant, input: CcInput<'_>) {
-        let from = match input {
-            CcInput::Reboot => {
-                // A restart forgets everything; the FC's events stay ordered.
-                *self = Companion::new(self.cfg);
-                return;
-            }
-            CcInput::Heartbeat { from, .. }
-            | CcInput::Notice { from, .. }
-            | CcInput::StatusText { from, .. } => from,
-        };
-        if from.peer != self.cfg.fc || (self.cfg.require_signed && !from.authenticated) {
-            self.stats.rejected_senders += 1;
+    fn control_due(&mut self) {
+        self.stats.controls_sent = self.stats.controls_sent.saturating_add(1);
+        self.out.push(CcAction::SendControl);
+    }
+
+    /// An input at time `now`. Drain [`poll_action`](Self::poll_action)
+    /// after every call.
+    pub fn handle_input(&mut self, now: Instant, input: CcInput) {
+        if input == CcInput::Reboot {
+            // A restart forgets everything.
+            *self = Companion::new(self.cfg);
             return;
         }
         self.last_fc = Some(now);
@@ -307,24 +365,25 @@ impl Companion {
             self.state = State::Standby;
         }
         match input {
-            CcInput::Heartbeat { custom_mode, .. } => self.heartbeat(now, custom_mode, from.seq),
-            CcInput::StatusText { text, id, .. } => {
+            CcInput::Heartbeat {
+                seq,
+                companion_control,
+            } => self.heartbeat(now, companion_control, seq),
+            CcInput::TakeoverConfirmed { seq, event: id } => {
                 // Bound to the event, so a late confirmation of an earlier
                 // episode confirms nothing.
                 let current =
                     matches!(self.state, State::Controlling { event, .. } if event as u16 == id);
-                if text == crate::TEXT_CC_TOOK_OVER && current {
-                    self.confirm(now, from.seq);
+                if current {
+                    self.confirm(now, seq);
                 }
             }
-            CcInput::Notice {
-                status, timestamp, ..
-            } => self.notice(now, status, timestamp),
-            CcInput::Reboot => {}
+            CcInput::Notice { status, timestamp } => self.notice(now, status, timestamp),
+            CcInput::FcAlive | CcInput::Reboot => {}
         }
     }
 
-    fn heartbeat(&mut self, now: Instant, custom_mode: u32, seq: u8) {
+    fn heartbeat(&mut self, now: Instant, companion_control: bool, seq: u8) {
         let State::Controlling { confirmed, .. } = self.state else {
             return;
         };
@@ -334,7 +393,7 @@ impl Companion {
         if !newer {
             return;
         }
-        if custom_mode == mode::FBWAG {
+        if companion_control {
             self.confirm(now, seq);
         } else if confirmed.is_some() {
             // The FC has left companion control (RTL, or the pilot): stop.
@@ -351,25 +410,33 @@ impl Companion {
     }
 
     fn notice(&mut self, now: Instant, status: Status, timestamp: u32) {
+        if self.is_of_a_new_boot(now, timestamp) {
+            // The episode of the old boot is over, whatever it was.
+            self.stop(State::Standby);
+            self.stats.fc_reboots = self.stats.fc_reboots.saturating_add(1);
+            self.out.push(CcAction::FcRebooted);
+            self.newest_event = None;
+            self.normal_acks = (0, 0);
+        }
         match status {
             Status::RC_LOST => match self.state {
                 State::Controlling { event, acks, .. } if event == timestamp => {
                     // The FC did not get our acknowledgement: repeat it,
                     // within the per-event bound.
-                    if acks <= self.cfg.max_ack_retries {
+                    if acks <= u16::from(self.cfg.max_ack_retries) {
                         self.ack(Status::CC_TAKEOVER_CONFIRMED, timestamp);
                         if let State::Controlling { acks, .. } = &mut self.state {
-                            *acks += 1;
+                            *acks = acks.saturating_add(1);
                         }
                     }
                 }
                 // An event already handled, or older: late or duplicated.
                 _ if self
                     .newest_event
-                    .is_some_and(|n| !event_after(timestamp, n)) => {}
+                    .is_some_and(|(n, _)| !event_after(timestamp, n)) => {}
                 _ => {
-                    self.newest_event = Some(timestamp);
-                    self.stats.takeovers += 1;
+                    self.newest_event = Some((timestamp, now));
+                    self.stats.takeovers = self.stats.takeovers.saturating_add(1);
                     // The first control message goes out with the
                     // acknowledgement; the stream follows every period.
                     self.state = State::Controlling {
@@ -382,12 +449,11 @@ impl Companion {
                     };
                     self.ack(Status::CC_TAKEOVER_CONFIRMED, timestamp);
                     self.out.push(CcAction::StartControl);
-                    self.stats.controls_sent += 1;
-                    self.out.push(CcAction::SendControl);
+                    self.control_due();
                 }
             },
             Status::NORMAL => {
-                self.saw_event(timestamp);
+                self.saw_event(now, timestamp);
                 // The FC no longer delegates: stop, and acknowledge every
                 // time asked (the FC retries until it hears us).
                 if matches!(self.state, State::Controlling { .. }) {
@@ -398,8 +464,8 @@ impl Companion {
                 } else {
                     0
                 };
-                if count <= self.cfg.max_ack_retries {
-                    self.normal_acks = (timestamp, count + 1);
+                if count <= u16::from(self.cfg.max_ack_retries) {
+                    self.normal_acks = (timestamp, count.saturating_add(1));
                     self.ack(Status::NORMAL, timestamp);
                 }
             }
@@ -408,10 +474,33 @@ impl Companion {
     }
 
     /// Hand-back events count too: a status 1 older than a hand-back is stale.
-    fn saw_event(&mut self, timestamp: u32) {
-        if self.newest_event.is_none_or(|n| event_after(timestamp, n)) {
-            self.newest_event = Some(timestamp);
+    fn saw_event(&mut self, now: Instant, timestamp: u32) {
+        if self
+            .newest_event
+            .is_none_or(|(n, _)| event_after(timestamp, n))
+        {
+            self.newest_event = Some((timestamp, now));
         }
+    }
+
+    /// True when event `timestamp` cannot belong to the FC boot that sent
+    /// the newest event. Event ids are the FC's milliseconds since boot: at
+    /// `now` that boot's clock reads at least `newest + (now − arrival)`,
+    /// and its live events are at most `fc_event_lifetime` older than its
+    /// clock. An id further behind restarted counting: the FC rebooted. (A
+    /// replay of an old frame also looks like this; with signing the
+    /// verifier has refused it already, and without signing anyone can
+    /// forge a notice anyway.)
+    fn is_of_a_new_boot(&self, now: Instant, timestamp: u32) -> bool {
+        let Some((newest, arrived)) = self.newest_event else {
+            return false;
+        };
+        if event_after(timestamp, newest) {
+            return false;
+        }
+        let behind = u64::from(newest.wrapping_sub(timestamp));
+        let since = now.since(arrived).as_millis() as u64;
+        behind + since > self.cfg.fc_event_lifetime.as_millis() as u64
     }
 
     fn fc_timeout(&self) -> Duration {
@@ -429,7 +518,7 @@ impl Companion {
     }
 
     fn ack(&mut self, status: Status, timestamp: u32) {
-        self.stats.acks_sent += 1;
+        self.stats.acks_sent = self.stats.acks_sent.saturating_add(1);
         self.out.push(CcAction::SendNotice { status, timestamp });
     }
 }

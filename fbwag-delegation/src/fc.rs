@@ -8,9 +8,14 @@
 //! ([`FcAction::AcceptOverrides`]), so a companion that still believes it
 //! controls the aircraft cannot move a surface once the FC has given control
 //! elsewhere.
+//!
+//! The machine's inputs are protocol events from the configured companion,
+//! already judged trustworthy: [`crate::engine::FcEngine`] decides that (ids
+//! and signature), turns frames into inputs and actions into frames. Embed
+//! the engine, not the bare machine, unless you apply the same trust rules.
 
 use crate::outbox::Outbox;
-use crate::{Instant, Origin, Peer, Status};
+use crate::{ConfigError, Instant, Peer, Status};
 use core::time::Duration;
 
 /// Who flies the aircraft, as the FC decides.
@@ -53,6 +58,51 @@ pub struct FcConfig {
     /// Companion control ends (RTL) when the companion has been silent (no
     /// HEARTBEAT, override or notice) for this long.
     pub heartbeat_timeout: Duration,
+    /// How often the real receiver is sampled (ArduPlane's RC check: 10 Hz).
+    pub rc_sample_period: Duration,
+    /// HEARTBEAT period outside companion control.
+    pub heartbeat_period: Duration,
+    /// HEARTBEAT period in companion control: the confirmation stream that
+    /// renews the companion's lease ([`crate::cc::CcConfig::control_lease`]).
+    pub companion_heartbeat_period: Duration,
+}
+
+impl FcConfig {
+    /// Checks the settings: every period and timeout positive, sample
+    /// counts at least 1, the confirmation stream faster than the retry
+    /// period (so the companion's belief can follow the FC's decision).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let positive = [
+            ("retry_interval", self.retry_interval),
+            ("handshake_timeout", self.handshake_timeout),
+            ("override_timeout", self.override_timeout),
+            ("heartbeat_timeout", self.heartbeat_timeout),
+            ("rc_sample_period", self.rc_sample_period),
+            ("heartbeat_period", self.heartbeat_period),
+            (
+                "companion_heartbeat_period",
+                self.companion_heartbeat_period,
+            ),
+        ];
+        for (name, d) in positive {
+            if d.is_zero() {
+                return Err(ConfigError::Zero(name));
+            }
+        }
+        if self.rc_loss_samples == 0 {
+            return Err(ConfigError::Zero("rc_loss_samples"));
+        }
+        if self.rc_regain_samples == 0 {
+            return Err(ConfigError::Zero("rc_regain_samples"));
+        }
+        if self.companion_heartbeat_period > self.retry_interval {
+            return Err(ConfigError::Order(
+                "companion_heartbeat_period",
+                "retry_interval",
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for FcConfig {
@@ -68,11 +118,15 @@ impl Default for FcConfig {
             handshake_timeout: Duration::from_secs(5),
             override_timeout: Duration::from_secs(1),
             heartbeat_timeout: Duration::from_secs(3),
+            rc_sample_period: Duration::from_millis(100),
+            heartbeat_period: Duration::from_secs(1),
+            companion_heartbeat_period: Duration::from_millis(200),
         }
     }
 }
 
-/// What the FC is told.
+/// What the FC is told. Everything but the receiver sample comes from the
+/// configured companion (the engine has checked the sender).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FcInput {
     /// One sample of the real receiver (not of overrides), at the RC check
@@ -81,25 +135,18 @@ pub enum FcInput {
         /// The receiver delivers valid frames (no failsafe flag, not stale).
         receiver_ok: bool,
     },
-    /// A FBWAG_NOTICE arrived.
+    /// The companion's FBWAG_NOTICE.
     Notice {
-        /// Sender and signature.
-        from: Origin,
         /// `failsafe_status`.
         status: Status,
         /// `timestamp`: the event it answers.
         timestamp: u32,
     },
-    /// An RC_CHANNELS_OVERRIDE (or SET_ATTITUDE_TARGET) arrived.
-    Control {
-        /// Sender and signature.
-        from: Origin,
-    },
-    /// A HEARTBEAT arrived.
-    Heartbeat {
-        /// Sender and signature.
-        from: Origin,
-    },
+    /// A control message of the companion (RC_CHANNELS_OVERRIDE,
+    /// SET_ATTITUDE_TARGET or MANUAL_CONTROL addressed to this FC).
+    Control,
+    /// The companion's HEARTBEAT.
+    Heartbeat,
 }
 
 /// What the FC must do.
@@ -112,12 +159,17 @@ pub enum FcAction {
         /// `timestamp`: the event id.
         timestamp: u32,
     },
-    /// Send this STATUSTEXT; its `id` field carries the event's low 16 bits
-    /// so the companion can tell which event it confirms.
-    SendStatusText {
-        /// The text.
-        text: &'static str,
-        /// The event it is about.
+    /// Tell the companion that it has control for `event` (on the wire: the
+    /// paper's STATUSTEXT "FBWAG-ACK: CC has taken over!", its `id` the
+    /// event's low 16 bits).
+    ConfirmTakeover {
+        /// The event confirmed.
+        event: u32,
+    },
+    /// Tell the companion that its acknowledgement of the hand-back `event`
+    /// arrived (STATUSTEXT "FBWAG-ACK: RC has taken over!").
+    ConfirmHandBack {
+        /// The event confirmed.
         event: u32,
     },
     /// Switch who flies (map to a flight mode: see [`crate::mode`]).
@@ -137,9 +189,6 @@ pub struct FcStats {
     pub takeovers: u32,
     /// RTL fallbacks.
     pub fallbacks: u32,
-    /// Acknowledgements from the wrong sender, or unsigned where signing is
-    /// required: ignored.
-    pub rejected_senders: u32,
     /// Acknowledgements of another (older) event: ignored.
     pub stale_acks: u32,
 }
@@ -150,7 +199,9 @@ enum State {
     Handshake {
         event: u32,
         started: Instant,
-        sent: u8,
+        /// Notices sent for the event: wider than `max_retries` so a limit
+        /// of 255 cannot overflow it.
+        sent: u16,
         next: Instant,
     },
     Companion {
@@ -165,7 +216,7 @@ enum State {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct HandBack {
     event: u32,
-    sent: u8,
+    sent: u16,
     next: Instant,
 }
 
@@ -227,11 +278,13 @@ impl FlightController {
     }
 
     /// The next action to carry out, if any.
+    #[must_use]
     pub fn poll_action(&mut self) -> Option<FcAction> {
         self.out.pop()
     }
 
     /// When [`handle_timeout`](Self::handle_timeout) must next be called.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         let state = match self.state {
             State::Handshake {
@@ -241,7 +294,7 @@ impl FlightController {
                 ..
             } => {
                 let deadline = started + self.cfg.handshake_timeout;
-                Some(if sent <= self.cfg.max_retries {
+                Some(if sent <= u16::from(self.cfg.max_retries) {
                     next.min(deadline)
                 } else {
                     deadline
@@ -259,7 +312,7 @@ impl FlightController {
         };
         let handback = self
             .handback
-            .filter(|h| h.sent <= self.cfg.max_retries)
+            .filter(|h| h.sent <= u16::from(self.cfg.max_retries))
             .map(|h| h.next);
         match (state, handback) {
             (Some(a), Some(b)) => Some(a.min(b)),
@@ -278,12 +331,12 @@ impl FlightController {
             } => {
                 if now >= started + self.cfg.handshake_timeout {
                     self.fall_back(now);
-                } else if now >= next && sent <= self.cfg.max_retries {
+                } else if now >= next && sent <= u16::from(self.cfg.max_retries) {
                     self.send_notice(Status::RC_LOST, event);
                     self.state = State::Handshake {
                         event,
                         started,
-                        sent: sent + 1,
+                        sent: sent.saturating_add(1),
                         next: next + self.cfg.retry_interval,
                     };
                 }
@@ -302,62 +355,46 @@ impl FlightController {
             State::Pilot | State::Rtl => {}
         }
         if let Some(h) = self.handback {
-            if now >= h.next && h.sent <= self.cfg.max_retries {
+            if now >= h.next && h.sent <= u16::from(self.cfg.max_retries) {
                 self.send_notice(Status::NORMAL, h.event);
                 self.handback = Some(HandBack {
                     event: h.event,
-                    sent: h.sent + 1,
+                    sent: h.sent.saturating_add(1),
                     next: h.next + self.cfg.retry_interval,
                 });
             }
         }
     }
 
-    /// An input at time `now`.
+    /// An input at time `now`. Drain [`poll_action`](Self::poll_action)
+    /// after every call.
     pub fn handle_input(&mut self, now: Instant, input: FcInput) {
         match input {
             FcInput::RcSample { receiver_ok } => self.rc_sample(now, receiver_ok),
-            FcInput::Notice {
-                from,
-                status,
-                timestamp,
-            } => {
-                if !self.trusted(from) {
-                    self.stats.rejected_senders += 1;
-                    return;
-                }
+            FcInput::Notice { status, timestamp } => {
                 if let State::Companion { last_heartbeat, .. } = &mut self.state {
                     *last_heartbeat = now;
                 }
                 self.notice(now, status, timestamp);
             }
-            FcInput::Control { from } => {
+            FcInput::Control => {
                 // The control stream is also proof of life.
-                if let (
-                    true,
-                    State::Companion {
-                        last_control,
-                        last_heartbeat,
-                        ..
-                    },
-                ) = (self.trusted(from), &mut self.state)
+                if let State::Companion {
+                    last_control,
+                    last_heartbeat,
+                    ..
+                } = &mut self.state
                 {
                     *last_control = now;
                     *last_heartbeat = now;
                 }
             }
-            FcInput::Heartbeat { from } => {
-                if let (true, State::Companion { last_heartbeat, .. }) =
-                    (self.trusted(from), &mut self.state)
-                {
+            FcInput::Heartbeat => {
+                if let State::Companion { last_heartbeat, .. } = &mut self.state {
                     *last_heartbeat = now;
                 }
             }
         }
-    }
-
-    fn trusted(&self, from: Origin) -> bool {
-        from.peer == self.cfg.companion && (from.authenticated || !self.cfg.require_signed)
     }
 
     fn rc_sample(&mut self, now: Instant, ok: bool) {
@@ -365,7 +402,7 @@ impl FlightController {
             self.run = 0;
             return;
         }
-        self.run += 1;
+        self.run = self.run.saturating_add(1);
         let needed = if ok {
             self.cfg.rc_regain_samples
         } else {
@@ -387,7 +424,7 @@ impl FlightController {
         if self.state != State::Pilot {
             return;
         }
-        self.stats.rc_losses += 1;
+        self.stats.rc_losses = self.stats.rc_losses.saturating_add(1);
         let event = self.new_event(now);
         // A hand-back still being announced is superseded by this event.
         self.handback = None;
@@ -414,7 +451,7 @@ impl FlightController {
 
     /// RTL, and tell the companion it no longer controls anything.
     fn fall_back(&mut self, now: Instant) {
-        self.stats.fallbacks += 1;
+        self.stats.fallbacks = self.stats.fallbacks.saturating_add(1);
         self.state = State::Rtl;
         self.out.push(FcAction::AcceptOverrides(false));
         self.out.push(FcAction::SetAuthority(Authority::Rtl));
@@ -441,7 +478,7 @@ impl FlightController {
             (Status::CC_TAKEOVER_CONFIRMED, State::Handshake { event, .. })
                 if event == timestamp =>
             {
-                self.stats.takeovers += 1;
+                self.stats.takeovers = self.stats.takeovers.saturating_add(1);
                 self.announced = Status::CC_TAKEOVER_CONFIRMED;
                 self.state = State::Companion {
                     event,
@@ -450,10 +487,7 @@ impl FlightController {
                 };
                 self.out.push(FcAction::SetAuthority(Authority::Companion));
                 self.out.push(FcAction::AcceptOverrides(true));
-                self.out.push(FcAction::SendStatusText {
-                    text: crate::TEXT_CC_TOOK_OVER,
-                    event,
-                });
+                self.out.push(FcAction::ConfirmTakeover { event });
             }
             (Status::CC_TAKEOVER_CONFIRMED, State::Companion { event, .. })
                 if event == timestamp =>
@@ -461,25 +495,22 @@ impl FlightController {
                 // A repeated acknowledgement: the companion missed the
                 // confirmation; repeat it (bounded by the companion's
                 // per-event acknowledgement limit).
-                self.out.push(FcAction::SendStatusText {
-                    text: crate::TEXT_CC_TOOK_OVER,
-                    event,
-                });
+                self.out.push(FcAction::ConfirmTakeover { event });
             }
             (Status::NORMAL, _) if self.handback.is_some_and(|h| h.event == timestamp) => {
                 self.handback = None;
-                self.out.push(FcAction::SendStatusText {
-                    text: crate::TEXT_RC_TOOK_OVER,
-                    event: timestamp,
-                });
+                self.out
+                    .push(FcAction::ConfirmHandBack { event: timestamp });
             }
-            (Status::CC_TAKEOVER_CONFIRMED | Status::NORMAL, _) => self.stats.stale_acks += 1,
+            (Status::CC_TAKEOVER_CONFIRMED | Status::NORMAL, _) => {
+                self.stats.stale_acks = self.stats.stale_acks.saturating_add(1)
+            }
             _ => {}
         }
     }
 
     fn send_notice(&mut self, status: Status, event: u32) {
-        self.stats.notices_sent += 1;
+        self.stats.notices_sent = self.stats.notices_sent.saturating_add(1);
         if status != Status::CC_TAKEOVER_CONFIRMED {
             self.announced = status;
         }

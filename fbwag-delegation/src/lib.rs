@@ -1,23 +1,46 @@
-//! The RC-loss delegation protocol of the FBWAG paper, as two sans-IO state
-//! machines either side can embed: [`fc::FlightController`] and
-//! [`cc::Companion`]. Neither reads a clock nor touches a socket: the caller
-//! feeds inputs and the current time, and drains actions and the next
-//! deadline (`poll_action`, `poll_timeout`), so every timing path is testable
-//! and simulated without sleeping. `docs/delegation.md` is the specification.
+//! The RC-loss delegation protocol of the FBWAG paper, sans-IO: nothing here
+//! reads a clock or touches a socket. The caller feeds received frames and
+//! the current time, and drains what to send and do, and the next deadline,
+//! so every timing path is testable and simulated without sleeping.
+//! `docs/delegation.md` is the specification.
 //!
-//! The [`sim`] module (feature `std`) runs both machines over modelled links
-//! with a virtual clock: Table I of the paper, scenarios and loss sweeps.
+//! - [`engine`]: what to embed. [`engine::FcEngine`] (the flight
+//!   controller's side) and [`engine::CcEngine`] (the companion's) take
+//!   parsed MAVLink frames and decide everything between the frames and the
+//!   protocol: which messages are inputs, who is trusted (configured ids,
+//!   and a verified signature when signing is required), which control
+//!   messages are accepted and applied, and what goes on the wire. The
+//!   simulator and the `fbwag` daemons both drive these engines, so what the
+//!   simulator proves is what the live programs run.
+//! - [`fc::FlightController`] and [`cc::Companion`]: the two state machines
+//!   inside the engines, with typed inputs already judged trustworthy.
+//! - [`control`]: the control the companion sends and the FC applies.
+//! - [`sim`] (feature `std`): both engines over modelled links on a virtual
+//!   clock: Table I of the paper, scenarios and loss sweeps.
+//!
+//! # Call order
+//!
+//! Every machine and engine follows the same contract, as quinn-proto does:
+//! after **every** `handle_*` call, drain the outputs (`poll_output` /
+//! `poll_action`) until `None`, then ask `poll_timeout` for the next
+//! deadline and call `handle_timeout` at (or after) it. Outputs queue in a
+//! small fixed buffer; a caller that does not drain loses the newest ones
+//! (a debug assertion flags it).
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
 pub mod cc;
+pub mod control;
+pub mod engine;
 pub mod fc;
 mod outbox;
 #[cfg(feature = "std")]
 pub mod sim;
 mod time;
 pub mod wire;
+
+use core::fmt;
 
 pub use fbwag_dialect::FbwagFailsafeStatus as Status;
 pub use time::Instant;
@@ -37,6 +60,44 @@ impl Peer {
         Peer { sysid, compid }
     }
 }
+
+/// Who a side listens to: the configured peer's ids, and a verified
+/// signature when signing is required. The one trust rule of the protocol.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Trust {
+    /// The only sender whose protocol messages count.
+    pub peer: Peer,
+    /// Its frames count only when their MAVLink 2 signature verified.
+    pub require_signed: bool,
+}
+
+impl Trust {
+    /// True when a frame from `from` counts.
+    pub fn admits(&self, from: Origin) -> bool {
+        from.peer == self.peer && (from.authenticated || !self.require_signed)
+    }
+}
+
+/// A setting that cannot work.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// This period or count is zero.
+    Zero(&'static str),
+    /// The first setting must be below the second.
+    Order(&'static str, &'static str),
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::Zero(name) => write!(f, "{name} must be above zero"),
+            ConfigError::Order(a, b) => write!(f, "{a} must be below {b}"),
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {}
 
 /// Where a received message came from, and whether its signature verified.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,7 +136,8 @@ pub mod mode {
     pub const FBWAG: u32 = 30;
 }
 
-/// The STATUSTEXT the FC sends when the companion's takeover is confirmed.
+/// The STATUSTEXT the FC sends when the companion's takeover is confirmed
+/// (the paper's Fig. 6).
 pub const TEXT_CC_TOOK_OVER: &str = "FBWAG-ACK: CC has taken over!";
 /// The STATUSTEXT the FC sends when the companion acknowledges the hand-back.
 pub const TEXT_RC_TOOK_OVER: &str = "FBWAG-ACK: RC has taken over!";

@@ -4,6 +4,7 @@
 use crate::fc::Authority;
 use crate::{mode, Peer, Status};
 use fbwag_dialect::dialects::common::{MavSeverity, Statustext};
+use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType};
 use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::FbwagNotice;
 
@@ -38,5 +39,30 @@ pub fn custom_mode(a: Authority) -> u32 {
         Authority::Handshake => mode::CIRCLE,
         Authority::Companion => mode::FBWAG,
         Authority::Rtl => mode::RTL,
+    }
+}
+
+/// The FC's HEARTBEAT: an armed ArduPlane flying the mode of `authority`.
+pub fn fc_heartbeat(authority: Authority) -> Heartbeat {
+    Heartbeat {
+        r#type: MavType::FIXED_WING,
+        autopilot: MavAutopilot::ARDUPILOTMEGA,
+        base_mode: MavModeFlag::CUSTOM_MODE_ENABLED
+            | MavModeFlag::STABILIZE_ENABLED
+            | MavModeFlag::SAFETY_ARMED,
+        custom_mode: custom_mode(authority),
+        system_status: MavState::ACTIVE,
+        mavlink_version: 3,
+    }
+}
+
+/// The companion's HEARTBEAT: an onboard controller, not an autopilot.
+pub fn cc_heartbeat() -> Heartbeat {
+    Heartbeat {
+        r#type: MavType::ONBOARD_CONTROLLER,
+        autopilot: MavAutopilot::INVALID,
+        system_status: MavState::ACTIVE,
+        mavlink_version: 3,
+        ..Heartbeat::default()
     }
 }

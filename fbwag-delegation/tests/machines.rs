@@ -2,26 +2,10 @@
 
 use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
 use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
-use fbwag_delegation::{mode, Instant, Origin, Peer, Status, TEXT_CC_TOOK_OVER, TEXT_RC_TOOK_OVER};
+use fbwag_delegation::{Instant, Status};
 
 fn ms(t: u64) -> Instant {
     Instant::from_millis(t)
-}
-
-fn cc_origin(seq: u8) -> Origin {
-    Origin {
-        peer: Peer::new(1, 191),
-        authenticated: false,
-        seq,
-    }
-}
-
-fn fc_origin(seq: u8) -> Origin {
-    Origin {
-        peer: Peer::new(1, 1),
-        authenticated: false,
-        seq,
-    }
 }
 
 fn drain_fc(fc: &mut FlightController) -> Vec<FcAction> {
@@ -80,68 +64,27 @@ fn two_bad_samples_start_the_handshake() {
 }
 
 #[test]
-fn takeover_needs_the_right_event_and_sender() {
+fn takeover_needs_the_right_event() {
     let mut fc = FlightController::new(FcConfig::default());
     samples(&mut fc, 0, 200, false);
     drain_fc(&mut fc);
-    let ack = |from, timestamp| FcInput::Notice {
-        from,
+    let ack = |timestamp| FcInput::Notice {
         status: Status::CC_TAKEOVER_CONFIRMED,
         timestamp,
     };
-    fc.handle_input(ms(210), ack(cc_origin(0), 99)); // another event
-    fc.handle_input(
-        ms(211),
-        ack(
-            Origin {
-                peer: Peer::new(255, 190),
-                authenticated: false,
-                seq: 0,
-            },
-            100,
-        ),
-    ); // a ground station
+    fc.handle_input(ms(210), ack(99)); // another event
     assert_eq!(fc.authority(), Authority::Handshake);
-    assert_eq!((fc.stats().stale_acks, fc.stats().rejected_senders), (1, 1));
-    fc.handle_input(ms(212), ack(cc_origin(1), 100));
+    assert_eq!(fc.stats().stale_acks, 1);
+    fc.handle_input(ms(212), ack(100));
     assert_eq!(fc.authority(), Authority::Companion);
     assert_eq!(
         drain_fc(&mut fc),
         vec![
             FcAction::SetAuthority(Authority::Companion),
             FcAction::AcceptOverrides(true),
-            FcAction::SendStatusText {
-                text: TEXT_CC_TOOK_OVER,
-                event: 100
-            }
+            FcAction::ConfirmTakeover { event: 100 }
         ]
     );
-}
-
-#[test]
-fn signed_only_takeover_when_required() {
-    let mut fc = FlightController::new(FcConfig {
-        require_signed: true,
-        ..FcConfig::default()
-    });
-    samples(&mut fc, 0, 200, false);
-    let ack = |authenticated| FcInput::Notice {
-        from: Origin {
-            peer: Peer::new(1, 191),
-            authenticated,
-            seq: 0,
-        },
-        status: Status::CC_TAKEOVER_CONFIRMED,
-        timestamp: 100,
-    };
-    fc.handle_input(ms(210), ack(false));
-    assert_eq!(
-        fc.authority(),
-        Authority::Handshake,
-        "a spoofed (unsigned) status 2 never takes control"
-    );
-    fc.handle_input(ms(220), ack(true));
-    assert_eq!(fc.authority(), Authority::Companion);
 }
 
 #[test]
@@ -185,7 +128,6 @@ fn rc_return_hands_back_and_overrides_stop_counting() {
     fc.handle_input(
         ms(205),
         FcInput::Notice {
-            from: cc_origin(0),
             status: Status::CC_TAKEOVER_CONFIRMED,
             timestamp: 100,
         },
@@ -206,17 +148,13 @@ fn rc_return_hands_back_and_overrides_stop_counting() {
     fc.handle_input(
         ms(450),
         FcInput::Notice {
-            from: cc_origin(1),
             status: Status::NORMAL,
             timestamp: 400,
         },
     );
     assert_eq!(
         drain_fc(&mut fc),
-        vec![FcAction::SendStatusText {
-            text: TEXT_RC_TOOK_OVER,
-            event: 400
-        }]
+        vec![FcAction::ConfirmHandBack { event: 400 }]
     );
     assert_eq!(
         fc.poll_timeout(),
@@ -232,14 +170,13 @@ fn silent_companion_means_rtl() {
     fc.handle_input(
         ms(205),
         FcInput::Notice {
-            from: cc_origin(0),
             status: Status::CC_TAKEOVER_CONFIRMED,
             timestamp: 100,
         },
     );
     drain_fc(&mut fc);
     for t in (250..1000).step_by(50) {
-        fc.handle_input(ms(t), FcInput::Control { from: cc_origin(0) });
+        fc.handle_input(ms(t), FcInput::Control);
     }
     timers(&mut fc, 1900);
     assert_eq!(
@@ -257,15 +194,14 @@ fn companion_acks_streams_and_stops_on_hand_back() {
     cc.handle_input(
         ms(0),
         CcInput::Heartbeat {
-            from: fc_origin(0),
-            custom_mode: mode::FBWA,
+            seq: 0,
+            companion_control: false,
         },
     );
     assert_eq!(cc.state(), CcState::Standby);
     cc.handle_input(
         ms(100),
         CcInput::Notice {
-            from: fc_origin(1),
             status: Status::RC_LOST,
             timestamp: 100,
         },
@@ -285,14 +221,7 @@ fn companion_acks_streams_and_stops_on_hand_back() {
         !cc.believes_in_control(ms(100)),
         "not before the FC confirms"
     );
-    cc.handle_input(
-        ms(110),
-        CcInput::StatusText {
-            from: fc_origin(2),
-            text: TEXT_CC_TOOK_OVER,
-            id: 100,
-        },
-    );
+    cc.handle_input(ms(110), CcInput::TakeoverConfirmed { seq: 2, event: 100 });
     assert!(cc.believes_in_control(ms(110)));
     assert!(
         !cc.believes_in_control(ms(900)),
@@ -314,7 +243,6 @@ fn companion_acks_streams_and_stops_on_hand_back() {
     cc.handle_input(
         ms(700),
         CcInput::Notice {
-            from: fc_origin(3),
             status: Status::NORMAL,
             timestamp: 700,
         },
@@ -333,19 +261,18 @@ fn companion_acks_streams_and_stops_on_hand_back() {
 }
 
 #[test]
-fn companion_ignores_late_frames_and_strangers() {
+fn companion_ignores_late_frames() {
     let mut cc = Companion::new(CcConfig::default());
-    let notice = |seq, timestamp| CcInput::Notice {
-        from: fc_origin(seq),
+    let notice = |timestamp| CcInput::Notice {
         status: Status::RC_LOST,
         timestamp,
     };
-    cc.handle_input(ms(100), notice(10, 100));
+    cc.handle_input(ms(100), notice(100));
     cc.handle_input(
         ms(110),
         CcInput::Heartbeat {
-            from: fc_origin(12),
-            custom_mode: mode::FBWAG,
+            seq: 12,
+            companion_control: true,
         },
     );
     assert!(cc.believes_in_control(ms(110)));
@@ -353,8 +280,8 @@ fn companion_ignores_late_frames_and_strangers() {
     cc.handle_input(
         ms(120),
         CcInput::Heartbeat {
-            from: fc_origin(11),
-            custom_mode: mode::CIRCLE,
+            seq: 11,
+            companion_control: false,
         },
     );
     assert_eq!(
@@ -366,37 +293,21 @@ fn companion_ignores_late_frames_and_strangers() {
     cc.handle_input(
         ms(130),
         CcInput::Heartbeat {
-            from: fc_origin(13),
-            custom_mode: mode::RTL,
+            seq: 13,
+            companion_control: false,
         },
     );
     assert_eq!(cc.state(), CcState::Standby);
     // A confirmation of another event confirms nothing.
-    cc.handle_input(ms(200), notice(14, 200));
+    cc.handle_input(ms(200), notice(200));
     cc.handle_input(
         ms(210),
-        CcInput::StatusText {
-            from: fc_origin(15),
-            text: TEXT_CC_TOOK_OVER,
-            id: 100,
+        CcInput::TakeoverConfirmed {
+            seq: 15,
+            event: 100,
         },
     );
     assert!(!cc.believes_in_control(ms(210)));
-    // Someone else's notice is ignored.
-    let before = *cc.stats();
-    cc.handle_input(
-        ms(300),
-        CcInput::Notice {
-            from: Origin {
-                peer: Peer::new(9, 9),
-                authenticated: false,
-                seq: 0,
-            },
-            status: Status::NORMAL,
-            timestamp: 300,
-        },
-    );
-    assert_eq!(cc.stats().rejected_senders, before.rejected_senders + 1);
     assert_eq!(cc.state(), CcState::Controlling);
 }
 
@@ -408,7 +319,6 @@ fn companion_acks_are_bounded_per_event() {
         cc.handle_input(
             ms(100 + k as u64),
             CcInput::Notice {
-                from: fc_origin(k),
                 status: Status::RC_LOST,
                 timestamp: 100,
             },
@@ -438,4 +348,133 @@ fn companion_acks_are_bounded_per_event() {
         .count();
     assert_eq!(acks, 4, "1 + 3 per event, however often asked");
     assert_eq!(cc.state(), CcState::Idle, "then forgets a silent FC");
+}
+
+/// A retry limit of 255 (the field's maximum) must neither overflow a
+/// counter nor retry forever: the handshake still ends at its timeout, and
+/// the hand-back stops after 1 + 255 notices.
+#[test]
+fn the_largest_retry_limit_is_bounded() {
+    let cfg = FcConfig {
+        max_retries: 255,
+        ..FcConfig::default()
+    };
+    cfg.validate().unwrap();
+    let mut fc = FlightController::new(cfg);
+    samples(&mut fc, 0, 200, false);
+    let mut acts = drain_fc(&mut fc);
+    acts.extend(timers(&mut fc, 600_000));
+    assert_eq!(
+        fc.authority(),
+        Authority::Rtl,
+        "the handshake timeout still ends it"
+    );
+    let normal = acts
+        .iter()
+        .filter(|a| {
+            matches!(
+                a,
+                FcAction::SendNotice {
+                    status: Status::NORMAL,
+                    ..
+                }
+            )
+        })
+        .count();
+    assert_eq!(normal, 256, "1 + 255 hand-back notices, then none");
+    assert_eq!(fc.poll_timeout(), None);
+
+    let mut cc = Companion::new(CcConfig {
+        max_ack_retries: 255,
+        ..CcConfig::default()
+    });
+    let mut acks = 0;
+    for k in 0..400u64 {
+        cc.handle_input(
+            ms(100 + k),
+            CcInput::Notice {
+                status: Status::RC_LOST,
+                timestamp: 100,
+            },
+        );
+        acks += drain_cc(&mut cc)
+            .iter()
+            .filter(|a| matches!(a, CcAction::SendNotice { .. }))
+            .count();
+    }
+    assert_eq!(acks, 256, "1 + 255 acknowledgements of one event");
+}
+
+/// The FC reboots while the companion controls: its new boot counts events
+/// from zero again. The companion recognises the new boot and hands over
+/// normally instead of ignoring every notice as older than the last one.
+#[test]
+fn companion_recognises_an_fc_reboot() {
+    let mut cc = Companion::new(CcConfig::default());
+    let rc_lost = |timestamp| CcInput::Notice {
+        status: Status::RC_LOST,
+        timestamp,
+    };
+    // The first boot's event 600_000 (10 min after boot) is taken over.
+    cc.handle_input(ms(1_000), rc_lost(600_000));
+    assert_eq!(cc.state(), CcState::Controlling);
+    drain_cc(&mut cc);
+    // Its retries (same id, within its lifetime) are still the same event.
+    cc.handle_input(ms(4_000), rc_lost(600_000));
+    assert!(!drain_cc(&mut cc).contains(&CcAction::FcRebooted));
+    // A delayed notice of an older event of the same boot is stale.
+    cc.handle_input(ms(4_100), rc_lost(598_000));
+    assert!(drain_cc(&mut cc).is_empty(), "stale, not a reboot");
+    // The FC reboots; 2.2 s into its new boot the receiver is still lost.
+    cc.handle_input(ms(9_000), rc_lost(2_200));
+    let acts = drain_cc(&mut cc);
+    assert_eq!(
+        acts,
+        vec![
+            CcAction::StopControl,
+            CcAction::FcRebooted,
+            CcAction::SendNotice {
+                status: Status::CC_TAKEOVER_CONFIRMED,
+                timestamp: 2_200
+            },
+            CcAction::StartControl,
+            CcAction::SendControl,
+        ]
+    );
+    assert_eq!(cc.event(), Some(2_200));
+    assert_eq!(cc.stats().fc_reboots, 1);
+    // The new boot's retries are its own event, not another reboot.
+    cc.handle_input(ms(10_000), rc_lost(2_200));
+    assert!(!drain_cc(&mut cc).contains(&CcAction::FcRebooted));
+}
+
+#[test]
+fn settings_that_cannot_work_are_refused() {
+    use fbwag_delegation::ConfigError;
+    let zero = std::time::Duration::ZERO;
+    assert_eq!(
+        FcConfig {
+            retry_interval: zero,
+            ..FcConfig::default()
+        }
+        .validate(),
+        Err(ConfigError::Zero("retry_interval"))
+    );
+    assert_eq!(
+        FcConfig {
+            rc_loss_samples: 0,
+            ..FcConfig::default()
+        }
+        .validate(),
+        Err(ConfigError::Zero("rc_loss_samples"))
+    );
+    assert_eq!(
+        CcConfig {
+            control_period: std::time::Duration::from_secs(1),
+            ..CcConfig::default()
+        }
+        .validate(),
+        Err(ConfigError::Order("control_period", "control_lease"))
+    );
+    assert!(FcConfig::default().validate().is_ok() && CcConfig::default().validate().is_ok());
 }

@@ -43,5 +43,9 @@ pub type Parser = mavframe::parser::Parser<Dialect>;
 #[cfg(feature = "std")]
 pub type Connection = mavframe::conn::Connection<Dialect>;
 
+/// A frame a [`Connection`] accepted, copied out of the parser.
 #[cfg(feature = "std")]
-pub use mavframe::conn::{Endpoint, ReceivedFrame};
+pub type ReceivedFrame = mavframe::conn::ReceivedFrame<Dialect>;
+
+#[cfg(feature = "std")]
+pub use mavframe::conn::Endpoint;

@@ -1,5 +1,6 @@
 //! Link models: what a radio or serial link does to the frames crossing it.
 
+use crate::Instant;
 use rand::Rng;
 use rand_pcg::Pcg64;
 use std::time::Duration;
@@ -39,8 +40,8 @@ impl GilbertElliott {
 pub struct LinkModel {
     /// Fixed delay.
     pub latency: Duration,
-    /// Extra delay, uniform in `[0, jitter]`, per frame (frames may overtake
-    /// each other when it exceeds their spacing).
+    /// Extra delay, uniform in `[0, jitter]`, per frame (frames stay in
+    /// order: a frame arrives no earlier than the one sent before it).
     pub jitter: Duration,
     /// Independent loss probability per frame.
     pub loss: f64,
@@ -82,6 +83,8 @@ impl LinkModel {
 pub struct Link {
     model: LinkModel,
     bad: bool,
+    /// When the last in-order frame arrives: no later frame arrives before.
+    tail: Instant,
     /// Frames sent, for drop patterns.
     pub sent: u64,
 }
@@ -92,13 +95,44 @@ impl Link {
         Link {
             model,
             bad: false,
+            tail: Instant::ZERO,
             sent: 0,
         }
     }
 
-    /// The delivery delays of one frame: empty when lost, two when duplicated.
-    pub fn transmit(&mut self, rng: &mut Pcg64) -> Vec<Duration> {
+    /// When one frame sent at `now` arrives: never when lost, twice when
+    /// duplicated. The link is a FIFO, as a serial line or a radio modem
+    /// is: jitter varies the delay but never lets a frame overtake an
+    /// earlier one; only the model's `reorder` share does (and a reordered
+    /// frame's lateness does not hold the frames behind it back).
+    pub fn transmit(&mut self, now: Instant, rng: &mut Pcg64) -> Vec<Instant> {
         self.sent += 1;
+        if self.lost(rng) {
+            return Vec::new();
+        }
+        let m = self.model;
+        let copies = if m.duplicate > 0.0 && rng.gen::<f64>() < m.duplicate {
+            2
+        } else {
+            1
+        };
+        (0..copies)
+            .map(|_| {
+                let mut d = m.latency;
+                if !m.jitter.is_zero() {
+                    d += Duration::from_micros(rng.gen_range(0..=m.jitter.as_micros() as u64));
+                }
+                if m.reorder > 0.0 && rng.gen::<f64>() < m.reorder {
+                    return now + d + m.reorder_delay;
+                }
+                let at = (now + d).max(self.tail);
+                self.tail = at;
+                at
+            })
+            .collect()
+    }
+
+    fn lost(&mut self, rng: &mut Pcg64) -> bool {
         let m = self.model;
         let mut lost = m.loss > 0.0 && rng.gen::<f64>() < m.loss;
         if let Some(ge) = m.burst {
@@ -113,26 +147,7 @@ impl Link {
             let p = if self.bad { ge.loss_bad } else { ge.loss_good };
             lost |= rng.gen::<f64>() < p;
         }
-        if lost {
-            return Vec::new();
-        }
-        let copies = if m.duplicate > 0.0 && rng.gen::<f64>() < m.duplicate {
-            2
-        } else {
-            1
-        };
-        (0..copies)
-            .map(|_| {
-                let mut d = m.latency;
-                if !m.jitter.is_zero() {
-                    d += Duration::from_micros(rng.gen_range(0..=m.jitter.as_micros() as u64));
-                }
-                if m.reorder > 0.0 && rng.gen::<f64>() < m.reorder {
-                    d += m.reorder_delay;
-                }
-                d
-            })
-            .collect()
+        lost
     }
 }
 
@@ -146,7 +161,7 @@ mod tests {
         let mut link = Link::new(model);
         let n = 200_000;
         let lost = (0..n)
-            .filter(|_| link.transmit(&mut rng).is_empty())
+            .filter(|_| link.transmit(Instant::ZERO, &mut rng).is_empty())
             .count();
         lost as f64 / n as f64
     }
@@ -169,10 +184,27 @@ mod tests {
             jitter: Duration::from_millis(5),
             ..LinkModel::serial()
         });
-        let d = link.transmit(&mut rng);
+        let d = link.transmit(Instant::ZERO, &mut rng);
         assert_eq!(d.len(), 2);
         assert!(d
             .iter()
-            .all(|d| *d >= Duration::from_millis(1) && *d <= Duration::from_millis(6)));
+            .all(|d| *d >= Instant::from_millis(1) && *d <= Instant::from_millis(6)));
+    }
+
+    /// Jitter never reorders: with signing, a frame overtaken by a later one
+    /// is refused as a replay, which a serial line never causes.
+    #[test]
+    fn jitter_keeps_the_order() {
+        let mut rng = Pcg64::seed_from_u64(3);
+        let mut link = Link::new(LinkModel {
+            jitter: Duration::from_millis(50),
+            ..LinkModel::serial()
+        });
+        let mut last = Instant::ZERO;
+        for k in 0..10_000u64 {
+            let at = link.transmit(Instant(k * 100), &mut rng)[0];
+            assert!(at >= last);
+            last = at;
+        }
     }
 }

@@ -1,7 +1,10 @@
-//! A deterministic simulator: both state machines, their firmware glue
-//! (RC sampling, heartbeats, the control stream), and modelled links carrying
-//! real MAVLink frames (encoded, signed, parsed by the runtime), on a virtual
-//! clock. A trial is identified by its scenario, link and seed.
+//! A deterministic simulator: the two protocol engines of
+//! [`crate::engine`] (the very code `fbwag fc-sim` and `fbwag cc` run), and
+//! modelled links carrying real MAVLink frames (encoded, signed, parsed by
+//! the runtime), on a virtual clock. The simulator only moves bytes and
+//! time: which frames count, who is trusted and which control is applied
+//! is decided by the engines. A trial is identified by its scenario, link
+//! and seed.
 //!
 //! Invariants are checked on every event of every trial (see
 //! [`Violation`]); [`report`] aggregates trials into Table I and sweeps.
@@ -9,11 +12,12 @@
 pub mod link;
 pub mod report;
 
-use crate::cc::{CcAction, CcConfig, CcInput, Companion};
-use crate::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
-use crate::{Instant, Origin, Peer, Status};
-use fbwag_dialect::dialects::common::RcChannelsOverride;
-use fbwag_dialect::dialects::minimal::Heartbeat;
+use crate::cc::CcConfig;
+use crate::control::{Control, Controller, WingsLevel};
+use crate::engine::{CcEngine, CcOutput, FcEngine, FcOutput};
+use crate::fc::{Authority, FcConfig};
+use crate::{Instant, Peer, Status};
+use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{encode, Header, Message, Parser, Signer, Verifier, Version};
 use link::{GilbertElliott, Link, LinkModel};
 use rand::{Rng, SeedableRng};
@@ -47,14 +51,20 @@ pub enum Scenario {
     /// another system and as the companion itself (unsigned; the FC
     /// requires signatures). Success: RTL, never a takeover.
     SpoofedTakeover,
-    /// Signed link, but the companion has the wrong key. Success: RTL, never
-    /// a takeover.
+    /// Signed link, but the companion has the wrong key. Success: RTL, never a
+    /// takeover.
     WrongKey,
+    /// Signed link; the companion takes over, and an attacker streams
+    /// unsigned control (RC overrides, attitude targets, manual control) as
+    /// the companion and as a ground station at 50 Hz throughout. Success:
+    /// the companion controls, and not one of the attacker's messages is
+    /// applied.
+    SpoofedControl,
 }
 
 impl Scenario {
     /// Every scenario.
-    pub const ALL: [Scenario; 9] = [
+    pub const ALL: [Scenario; 10] = [
         Scenario::NormalRc,
         Scenario::RcLoss,
         Scenario::MessageLoss,
@@ -64,6 +74,7 @@ impl Scenario {
         Scenario::CcReboot,
         Scenario::SpoofedTakeover,
         Scenario::WrongKey,
+        Scenario::SpoofedControl,
     ];
 
     /// Its command-line name.
@@ -78,6 +89,7 @@ impl Scenario {
             Scenario::CcReboot => "cc-reboot",
             Scenario::SpoofedTakeover => "spoofed-takeover",
             Scenario::WrongKey => "wrong-key",
+            Scenario::SpoofedControl => "spoofed-control",
         }
     }
 
@@ -90,7 +102,11 @@ impl Scenario {
     fn expects_takeover(self) -> bool {
         matches!(
             self,
-            Scenario::RcLoss | Scenario::MessageLoss | Scenario::RcFlapping | Scenario::CcReboot
+            Scenario::RcLoss
+                | Scenario::MessageLoss
+                | Scenario::RcFlapping
+                | Scenario::CcReboot
+                | Scenario::SpoofedControl
         )
     }
 }
@@ -172,6 +188,8 @@ pub struct Outcome {
     pub final_authority: Authority,
     /// Frames sent, both directions.
     pub frames: u64,
+    /// Control messages the FC applied (from whomever: see `violations`).
+    pub controls_applied: u64,
     /// The timeline, when [`Trial::trace`] is set.
     pub trace: Vec<String>,
 }
@@ -180,12 +198,12 @@ const FC: Peer = Peer::new(1, 1);
 const CC: Peer = Peer::new(1, 191);
 const KEY: [u8; 32] = [0x42; 32];
 const WRONG_KEY: [u8; 32] = [0x24; 32];
-/// RC check rate of ArduPlane's failsafe code.
-const RC_SAMPLE: Duration = Duration::from_millis(100);
-/// FC heartbeat period, and in companion control (the confirmation stream).
+/// FC and companion heartbeat periods: the engines start at a random
+/// phase within them.
 const FC_HEARTBEAT: Duration = Duration::from_secs(1);
-const FC_HEARTBEAT_COMPANION: Duration = Duration::from_millis(200);
 const CC_HEARTBEAT: Duration = Duration::from_secs(1);
+/// The attacker's control stream in `SpoofedControl`.
+const SPOOF_CONTROL: Duration = Duration::from_millis(20);
 /// How often invariants are checked between other events.
 const PROBE: Duration = Duration::from_millis(50);
 
@@ -198,14 +216,12 @@ enum Node {
 #[derive(Debug)]
 enum Event {
     Deliver(Node, Vec<u8>),
-    RcSample,
     Rc(bool),
-    FcHeartbeat,
-    CcHeartbeat,
     FcTimer,
     CcTimer,
     CcPower(bool),
     Spoof,
+    SpoofControl,
     Probe,
 }
 
@@ -232,7 +248,7 @@ impl Endpoint {
         }
     }
 
-    fn frame<M: fbwag_dialect::mavframe::Message>(&mut self, msg: &M) -> Vec<u8> {
+    fn frame<M: Encode + ?Sized>(&mut self, msg: &M) -> Vec<u8> {
         let mut buf = [0u8; 280];
         let h = Header {
             seq: self.seq,
@@ -253,8 +269,10 @@ struct World {
     queue: BinaryHeap<Reverse<(Instant, u64, usize)>>,
     events: HashMap<usize, Event>,
     next_id: usize,
-    fc: FlightController,
-    cc: Companion,
+    fc: FcEngine,
+    cc: CcEngine,
+    cc_cfg: CcConfig,
+    controller: WingsLevel,
     fc_end: Endpoint,
     cc_end: Endpoint,
     spoof_end: [Endpoint; 2],
@@ -275,6 +293,7 @@ struct World {
     first_rtl: Option<Instant>,
     fallback: bool,
     takeovers: u32,
+    controls_applied: u64,
     notices: HashMap<(u8, u32), u8>,
     acks: HashMap<(u8, u32), u8>,
     violations: Vec<Violation>,
@@ -308,17 +327,37 @@ impl World {
                     ..trial.cc
                 },
             ),
+            Scenario::SpoofedControl => (
+                Some(KEY),
+                Some(KEY),
+                Some(KEY),
+                FcConfig {
+                    require_signed: true,
+                    ..trial.fc
+                },
+                CcConfig {
+                    require_signed: true,
+                    ..trial.cc
+                },
+            ),
             _ => (None, None, None, trial.fc, trial.cc),
         };
+        let mut rng = Pcg64::seed_from_u64(trial.seed);
+        // The engines' timers (receiver sampling, heartbeats) start at a
+        // random phase.
+        let fc_start = Instant::ZERO + random_below(&mut rng, FC_HEARTBEAT);
+        let cc_start = Instant::ZERO + random_below(&mut rng, CC_HEARTBEAT);
         World {
             trial,
-            rng: Pcg64::seed_from_u64(trial.seed),
+            rng,
             now: Instant::ZERO,
             queue: BinaryHeap::new(),
             events: HashMap::new(),
             next_id: 0,
-            fc: FlightController::new(fc_cfg),
-            cc: Companion::new(cc_cfg),
+            fc: FcEngine::new(fc_cfg, fc_start).expect("the trial's FC settings are valid"),
+            cc: CcEngine::new(cc_cfg, cc_start).expect("the trial's companion settings are valid"),
+            cc_cfg,
+            controller: WingsLevel { throttle: 1600 },
             fc_end: Endpoint::new(FC, fc_key, fc_key),
             cc_end: Endpoint::new(CC, cc_sign, cc_verify),
             spoof_end: [
@@ -340,6 +379,7 @@ impl World {
             first_rtl: None,
             fallback: false,
             takeovers: 0,
+            controls_applied: 0,
             notices: HashMap::new(),
             acks: HashMap::new(),
             violations: Vec::new(),
@@ -379,16 +419,16 @@ impl World {
             }
             _ => false,
         };
-        let delays = match from {
-            Node::Fc => self.down.transmit(&mut self.rng),
-            Node::Cc => self.up.transmit(&mut self.rng),
+        let arrivals = match from {
+            Node::Fc => self.down.transmit(self.now, &mut self.rng),
+            Node::Cc => self.up.transmit(self.now, &mut self.rng),
         };
         if drop {
             return;
         }
         let to = if from == Node::Fc { Node::Cc } else { Node::Fc };
-        for d in delays {
-            self.at(self.now + d, Event::Deliver(to, bytes.clone()));
+        for at in arrivals {
+            self.at(at, Event::Deliver(to, bytes.clone()));
         }
     }
 
@@ -409,16 +449,9 @@ impl World {
     }
 
     fn schedule_scenario(&mut self) {
-        let r = |rng: &mut Pcg64, max: Duration| {
-            Duration::from_micros(rng.gen_range(0..max.as_micros() as u64))
-        };
-        let first_sample = r(&mut self.rng, RC_SAMPLE);
-        let fc_hb = r(&mut self.rng, FC_HEARTBEAT);
-        let cc_hb = r(&mut self.rng, CC_HEARTBEAT);
-        self.at(Instant::ZERO + first_sample, Event::RcSample);
-        self.at(Instant::ZERO + fc_hb, Event::FcHeartbeat);
-        self.at(Instant::ZERO + cc_hb, Event::CcHeartbeat);
+        let r = random_below;
         self.at(Instant::ZERO + PROBE, Event::Probe);
+        self.pump();
         let loss = Instant::from_millis(5000) + r(&mut self.rng, Duration::from_secs(1));
         let s = self.trial.scenario;
         if matches!(s, Scenario::CcFailure | Scenario::SpoofedTakeover) {
@@ -454,46 +487,23 @@ impl World {
                 self.at(loss, Event::Rc(false));
                 self.at(loss + Duration::from_millis(400), Event::Spoof);
             }
+            Scenario::SpoofedControl => {
+                self.at(loss, Event::Rc(false));
+                self.at(Instant::from_millis(1000), Event::SpoofControl);
+            }
             _ => self.at(loss, Event::Rc(false)),
         }
     }
 
     fn handle(&mut self, event: Event) {
         match event {
-            Event::RcSample => {
-                let ok = self.receiver_ok;
-                self.fc
-                    .handle_input(self.now, FcInput::RcSample { receiver_ok: ok });
-                self.at(self.now + RC_SAMPLE, Event::RcSample);
-            }
             Event::Rc(ok) => {
                 self.log(|| format!("receiver {}", if ok { "back" } else { "lost" }));
                 self.receiver_ok = ok;
+                self.fc.set_receiver_ok(ok);
                 if !ok && self.rc_lost_at.is_none() {
                     self.rc_lost_at = Some(self.now);
                 }
-            }
-            Event::FcHeartbeat => {
-                let custom_mode = crate::wire::custom_mode(self.fc.authority());
-                let hb = Heartbeat {
-                    custom_mode,
-                    ..Heartbeat::default()
-                };
-                let bytes = self.fc_end.frame(&hb);
-                self.send(Node::Fc, bytes);
-                let period = if self.fc.authority() == Authority::Companion {
-                    FC_HEARTBEAT_COMPANION
-                } else {
-                    FC_HEARTBEAT
-                };
-                self.at(self.now + period, Event::FcHeartbeat);
-            }
-            Event::CcHeartbeat => {
-                if self.cc_powered {
-                    let bytes = self.cc_end.frame(&Heartbeat::default());
-                    self.send(Node::Cc, bytes);
-                }
-                self.at(self.now + CC_HEARTBEAT, Event::CcHeartbeat);
             }
             Event::FcTimer => {
                 if self.fc_timer.is_some_and(|t| t <= self.now) {
@@ -518,7 +528,10 @@ impl World {
                 });
                 self.cc_powered = on;
                 if on {
-                    self.cc.handle_input(self.now, CcInput::Reboot);
+                    // A restart forgets everything.
+                    self.cc = CcEngine::new(self.cc_cfg, self.now)
+                        .expect("the trial's companion settings are valid");
+                    self.cc_timer = None;
                 }
             }
             Event::Spoof => {
@@ -533,6 +546,19 @@ impl World {
                 }
                 self.at(self.now + Duration::from_millis(250), Event::Spoof);
             }
+            Event::SpoofControl => {
+                // Hard over and full throttle, in every control message, as
+                // the companion and as a ground station, unsigned.
+                let k = (self.now.0 / 1000) as usize;
+                let forged = match k % 3 {
+                    0 => Control::rc(FC, [1000, 2000, 2000, 1000, 0, 0, 0, 0]),
+                    1 => Control::Attitude(Default::default()).addressed_to(FC),
+                    _ => Control::Manual(Default::default()).addressed_to(FC),
+                };
+                let bytes = self.spoof_end[k % 2].frame(&forged.to_message());
+                self.send(Node::Cc, bytes);
+                self.at(self.now + SPOOF_CONTROL, Event::SpoofControl);
+            }
             Event::Probe => self.at(self.now + PROBE, Event::Probe),
             Event::Deliver(Node::Fc, bytes) => self.deliver_fc(&bytes),
             Event::Deliver(Node::Cc, bytes) => {
@@ -543,149 +569,73 @@ impl World {
         }
     }
 
+    // A delivery is one packet, as on UDP or a packetising radio: nothing
+    // after it completes a frame started in it, so the parser is told the
+    // packet ended (`flush`). Otherwise a false start byte (say, in the
+    // signature block of a frame refused as a replay) would hold the next
+    // packet's frames until enough bytes arrived to refute it: seconds, at
+    // the protocol's rates.
     fn deliver_fc(&mut self, bytes: &[u8]) {
         let mut input = bytes;
-        let mut inputs = Vec::new();
         while let Some(r) = self.fc_end.parser.next(&mut input) {
-            let h = r.frame.header();
-            let from = Origin {
-                peer: Peer::new(h.sysid, h.compid),
-                authenticated: r.authenticated,
-                seq: h.seq,
-            };
-            match r.message() {
-                Some(Message::FbwagNotice(n)) => inputs.push(FcInput::Notice {
-                    from,
-                    status: n.failsafe_status,
-                    timestamp: n.timestamp,
-                }),
-                Some(Message::RcChannelsOverride(_)) => inputs.push(FcInput::Control { from }),
-                Some(Message::Heartbeat(_)) => inputs.push(FcInput::Heartbeat { from }),
-                _ => {}
-            }
+            let _ = self.fc.handle_frame(self.now, &r.frame, r.authenticated);
         }
-        for i in inputs {
-            self.fc.handle_input(self.now, i);
+        while let Some(r) = self.fc_end.parser.flush() {
+            let _ = self.fc.handle_frame(self.now, &r.frame, r.authenticated);
         }
     }
 
     fn deliver_cc(&mut self, bytes: &[u8]) {
         let mut input = bytes;
-        let mut msgs = Vec::new();
         while let Some(r) = self.cc_end.parser.next(&mut input) {
-            let h = r.frame.header();
-            let from = Origin {
-                peer: Peer::new(h.sysid, h.compid),
-                authenticated: r.authenticated,
-                seq: h.seq,
-            };
-            if let Some(m) = r.message() {
-                msgs.push((from, m));
-            }
+            let _ = self.cc.handle_frame(self.now, &r.frame, r.authenticated);
         }
-        for (from, m) in msgs {
-            match m {
-                Message::Heartbeat(h) => self.cc.handle_input(
-                    self.now,
-                    CcInput::Heartbeat {
-                        from,
-                        custom_mode: h.custom_mode,
-                    },
-                ),
-                Message::FbwagNotice(n) => self.cc.handle_input(
-                    self.now,
-                    CcInput::Notice {
-                        from,
-                        status: n.failsafe_status,
-                        timestamp: n.timestamp,
-                    },
-                ),
-                Message::Statustext(t) => {
-                    let end = t.text.iter().position(|&b| b == 0).unwrap_or(t.text.len());
-                    let text = std::str::from_utf8(&t.text[..end]).unwrap_or("");
-                    self.cc.handle_input(
-                        self.now,
-                        CcInput::StatusText {
-                            from,
-                            text,
-                            id: t.id,
-                        },
-                    );
-                }
-                _ => {}
-            }
+        while let Some(r) = self.cc_end.parser.flush() {
+            let _ = self.cc.handle_frame(self.now, &r.frame, r.authenticated);
         }
     }
 
-    /// Carries out the machines' actions and re-arms their timers.
+    /// Carries out the engines' outputs and re-arms their timers.
     fn pump(&mut self) {
-        while let Some(a) = self.fc.poll_action() {
-            match a {
-                FcAction::SendNotice { status, timestamp } => {
-                    self.log(|| format!("FC -> notice status {} event {timestamp}", status.0));
-                    let count = self.notices.entry((status.0, timestamp)).or_insert(0);
-                    *count += 1;
-                    if *count > 1 + self.fc.config().max_retries {
-                        let c = *count;
+        while let Some(out) = self.fc.poll_output() {
+            match out {
+                FcOutput::Transmit(msg) => self.fc_transmit(msg),
+                FcOutput::SetMode(a) => self.authority_changed(a),
+                FcOutput::ApplyControl { from, control } => {
+                    self.controls_applied += 1;
+                    let trusted = from.peer == CC
+                        && (from.authenticated || !self.fc.machine().config().require_signed);
+                    if !trusted || self.fc.authority() != Authority::Companion {
                         self.violation(format!(
-                            "FC sent notice status {} event {timestamp} {c} times",
-                            status.0
+                            "FC applied {} from {}/{} (authenticated {}) in {:?}",
+                            control.name(),
+                            from.peer.sysid,
+                            from.peer.compid,
+                            from.authenticated,
+                            self.fc.authority()
                         ));
                     }
-                    if status == Status::RC_LOST {
-                        self.last_event = Some(timestamp);
-                    }
-                    let bytes = self
-                        .fc_end
-                        .frame(&crate::wire::notice(FC, status, timestamp));
-                    self.send(Node::Fc, bytes);
                 }
-                FcAction::SendStatusText { text, event } => {
-                    self.log(|| format!("FC -> STATUSTEXT {text:?} (event {event})"));
-                    let bytes = self.fc_end.frame(&crate::wire::status_text(text, event));
-                    self.send(Node::Fc, bytes);
-                }
-                FcAction::SetAuthority(a) => self.authority_changed(a),
-                FcAction::AcceptOverrides(_) => {}
+                FcOutput::ReleaseControl => {}
             }
         }
-        while let Some(a) = self.cc.poll_action() {
-            if !self.cc_powered {
-                continue;
-            }
-            match a {
-                CcAction::SendNotice { status, timestamp } => {
-                    self.log(|| format!("CC -> notice status {} event {timestamp}", status.0));
-                    let count = self.acks.entry((status.0, timestamp)).or_insert(0);
-                    *count += 1;
-                    if *count > 1 + self.cc.config().max_ack_retries {
-                        let c = *count;
-                        self.violation(format!(
-                            "companion acknowledged status {} event {timestamp} {c} times",
-                            status.0
-                        ));
-                    }
-                    let bytes = self
-                        .cc_end
-                        .frame(&crate::wire::notice(FC, status, timestamp));
-                    self.send(Node::Cc, bytes);
+        while self.cc_powered {
+            let Some(out) = self.cc.poll_output() else {
+                break;
+            };
+            match out {
+                CcOutput::Transmit(msg) => self.cc_transmit(msg),
+                CcOutput::ControlDue => {
+                    let control = self.controller.control(self.now, FC);
+                    let _ = self.cc.submit_control(self.now, control);
                 }
-                CcAction::SendControl => {
-                    // The default controller: wings level, cruise throttle.
-                    let o = RcChannelsOverride {
-                        target_system: FC.sysid,
-                        target_component: FC.compid,
-                        chan1_raw: 1500,
-                        chan2_raw: 1500,
-                        chan3_raw: 1600,
-                        chan4_raw: 1500,
-                        ..Default::default()
-                    };
-                    let bytes = self.cc_end.frame(&o);
-                    self.send(Node::Cc, bytes);
+                CcOutput::ControlStarted { event } => {
+                    self.log(|| format!("CC starts controlling (event {event})"))
                 }
-                CcAction::StartControl => self.log(|| "CC starts controlling".into()),
-                CcAction::StopControl => self.log(|| "CC stops controlling".into()),
+                CcOutput::ControlStopped => self.log(|| "CC stops controlling".into()),
+                CcOutput::FcFound => self.log(|| "CC hears the FC".into()),
+                CcOutput::FcLost => self.log(|| "CC lost the FC".into()),
+                CcOutput::FcRebooted => self.log(|| "CC: the FC rebooted".into()),
             }
         }
         if let Some(t) = self.fc.poll_timeout() {
@@ -701,6 +651,58 @@ impl World {
                 self.at(t.max(self.now), Event::CcTimer);
             }
         }
+    }
+
+    fn fc_transmit(&mut self, msg: Message) {
+        match &msg {
+            Message::FbwagNotice(n) => {
+                let (status, timestamp) = (n.failsafe_status, n.timestamp);
+                self.log(|| format!("FC -> notice status {} event {timestamp}", status.0));
+                let count = self.notices.entry((status.0, timestamp)).or_insert(0);
+                *count += 1;
+                if *count > 1 + self.fc.machine().config().max_retries {
+                    let c = *count;
+                    self.violation(format!(
+                        "FC sent notice status {} event {timestamp} {c} times",
+                        status.0
+                    ));
+                }
+                if status == Status::RC_LOST {
+                    self.last_event = Some(timestamp);
+                }
+            }
+            Message::Statustext(t) => {
+                let (text, id) = (t.text, t.id);
+                self.log(|| {
+                    let end = text.iter().position(|&b| b == 0).unwrap_or(text.len());
+                    format!(
+                        "FC -> STATUSTEXT {:?} (event {id})",
+                        String::from_utf8_lossy(&text[..end])
+                    )
+                });
+            }
+            _ => {}
+        }
+        let bytes = self.fc_end.frame(&msg);
+        self.send(Node::Fc, bytes);
+    }
+
+    fn cc_transmit(&mut self, msg: Message) {
+        if let Message::FbwagNotice(n) = &msg {
+            let (status, timestamp) = (n.failsafe_status, n.timestamp);
+            self.log(|| format!("CC -> notice status {} event {timestamp}", status.0));
+            let count = self.acks.entry((status.0, timestamp)).or_insert(0);
+            *count += 1;
+            if *count > 1 + self.cc.machine().config().max_ack_retries {
+                let c = *count;
+                self.violation(format!(
+                    "companion acknowledged status {} event {timestamp} {c} times",
+                    status.0
+                ));
+            }
+        }
+        let bytes = self.cc_end.frame(&msg);
+        self.send(Node::Cc, bytes);
     }
 
     fn authority_changed(&mut self, a: Authority) {
@@ -726,10 +728,10 @@ impl World {
     /// Invariants that must hold at every event.
     fn check(&mut self) {
         if self.cc_powered
-            && self.cc.believes_in_control(self.now)
+            && self.cc.machine().believes_in_control(self.now)
             && self.fc.authority() != Authority::Companion
         {
-            let retry = self.fc.config().retry_interval;
+            let retry = self.fc.machine().config().retry_interval;
             match self.left_companion_at {
                 Some(left) if self.now.since(left) <= retry => {}
                 Some(left) => {
@@ -781,6 +783,10 @@ impl World {
                 self.takeovers == 1 && auth == Authority::Rtl,
                 self.first_rtl.zip(loss).map(|(t, l)| t.since(l)),
             ),
+            Scenario::SpoofedControl => (
+                within(self.first_companion, handshake) && auth == Authority::Companion,
+                self.first_companion.zip(loss).map(|(t, l)| t.since(l)),
+            ),
         };
         Outcome {
             success: success && self.violations.is_empty(),
@@ -790,6 +796,7 @@ impl World {
             violations: self.violations,
             final_authority: auth,
             frames: self.frames,
+            controls_applied: self.controls_applied,
             trace: self.trace,
         }
     }
@@ -803,4 +810,9 @@ pub fn run(trial: &Trial) -> Outcome {
         _ => Instant::from_millis(20_000),
     };
     World::new(*trial).run(end)
+}
+
+/// A uniformly random duration below `max`.
+fn random_below(rng: &mut Pcg64, max: Duration) -> Duration {
+    Duration::from_micros(rng.gen_range(0..max.as_micros() as u64))
 }

@@ -4406,6 +4406,565 @@ impl<'a> RcChannelsMut<'a> {
     }
 }
 
+/// This message provides an API for manually controlling the vehicle using standard joystick
+/// axes nomenclature, along with a joystick-like input device. Unused axes can be disabled
+/// and buttons states are transmitted as individual on/off bits of a bitmask
+///
+/// MAVLink message `MANUAL_CONTROL`: id 69, CRC_EXTRA 243, payload 30 bytes (11 without extensions).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ManualControl {
+    /// The system to be controlled.
+    ///
+    /// Wire: `uint8_t` at payload offset 10.
+    pub target: u8,
+    /// X-axis, normalized to the range \[-1000,1000\]. A value of INT16_MAX indicates that this
+    /// axis is invalid. Generally corresponds to forward(1000)-backward(-1000) movement on a
+    /// joystick and the pitch of a vehicle.
+    ///
+    /// Wire: `int16_t` at payload offset 0.
+    pub x: i16,
+    /// Y-axis, normalized to the range \[-1000,1000\]. A value of INT16_MAX indicates that this
+    /// axis is invalid. Generally corresponds to left(-1000)-right(1000) movement on a joystick
+    /// and the roll of a vehicle.
+    ///
+    /// Wire: `int16_t` at payload offset 2.
+    pub y: i16,
+    /// Z-axis, normalized to the range \[-1000,1000\]. A value of INT16_MAX indicates that this
+    /// axis is invalid. Generally corresponds to a separate slider movement with maximum being
+    /// 1000 and minimum being -1000 on a joystick and the thrust of a vehicle. Positive values
+    /// are positive thrust, negative values are negative thrust.
+    ///
+    /// Wire: `int16_t` at payload offset 4.
+    pub z: i16,
+    /// R-axis, normalized to the range \[-1000,1000\]. A value of INT16_MAX indicates that this
+    /// axis is invalid. Generally corresponds to a twisting of the joystick, with
+    /// counter-clockwise being 1000 and clockwise being -1000, and the yaw of a vehicle.
+    ///
+    /// Wire: `int16_t` at payload offset 6.
+    pub r: i16,
+    /// A bitfield corresponding to the joystick buttons' current state, 1 for pressed, 0 for
+    /// released. The lowest bit corresponds to Button 1.
+    ///
+    /// Wire: `uint16_t` at payload offset 8.
+    pub buttons: u16,
+    /// A bitfield corresponding to the joystick buttons' 16-31 current state, 1 for pressed, 0
+    /// for released. The lowest bit corresponds to Button 16.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `uint16_t` at
+    /// payload offset 11.
+    pub buttons2: u16,
+    /// Set bits to 1 to indicate which of the following extension fields contain valid data: bit
+    /// 0: pitch, bit 1: roll, bit 2: aux1, bit 3: aux2, bit 4: aux3, bit 5: aux4, bit 6: aux5,
+    /// bit 7: aux6
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `uint8_t` at
+    /// payload offset 13.
+    pub enabled_extensions: u8,
+    /// Pitch-only-axis, normalized to the range \[-1000,1000\]. Generally corresponds to pitch on
+    /// vehicles with additional degrees of freedom. Valid if bit 0 of enabled_extensions field is
+    /// set. Set to 0 if invalid.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 14.
+    pub s: i16,
+    /// Roll-only-axis, normalized to the range \[-1000,1000\]. Generally corresponds to roll on
+    /// vehicles with additional degrees of freedom. Valid if bit 1 of enabled_extensions field is
+    /// set. Set to 0 if invalid.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 16.
+    pub t: i16,
+    /// Aux continuous input field 1. Normalized in the range \[-1000,1000\]. Purpose defined by
+    /// recipient. Valid data if bit 2 of enabled_extensions field is set. 0 if bit 2 is unset.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 18.
+    pub aux1: i16,
+    /// Aux continuous input field 2. Normalized in the range \[-1000,1000\]. Purpose defined by
+    /// recipient. Valid data if bit 3 of enabled_extensions field is set. 0 if bit 3 is unset.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 20.
+    pub aux2: i16,
+    /// Aux continuous input field 3. Normalized in the range \[-1000,1000\]. Purpose defined by
+    /// recipient. Valid data if bit 4 of enabled_extensions field is set. 0 if bit 4 is unset.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 22.
+    pub aux3: i16,
+    /// Aux continuous input field 4. Normalized in the range \[-1000,1000\]. Purpose defined by
+    /// recipient. Valid data if bit 5 of enabled_extensions field is set. 0 if bit 5 is unset.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 24.
+    pub aux4: i16,
+    /// Aux continuous input field 5. Normalized in the range \[-1000,1000\]. Purpose defined by
+    /// recipient. Valid data if bit 6 of enabled_extensions field is set. 0 if bit 6 is unset.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 26.
+    pub aux5: i16,
+    /// Aux continuous input field 6. Normalized in the range \[-1000,1000\]. Purpose defined by
+    /// recipient. Valid data if bit 7 of enabled_extensions field is set. 0 if bit 7 is unset.
+    ///
+    /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `int16_t` at
+    /// payload offset 28.
+    pub aux6: i16,
+}
+
+impl ManualControl {
+    /// Message id.
+    pub const ID: u32 = 69;
+    /// Message name in the XML.
+    pub const NAME: &'static str = "MANUAL_CONTROL";
+    /// CRC_EXTRA seed of the frame checksum.
+    pub const CRC_EXTRA: u8 = 243;
+    /// Payload length without extension fields.
+    pub const MIN_LEN: usize = 11;
+    /// Payload length with all extension fields.
+    pub const MAX_LEN: usize = 30;
+    /// This message's row of the dialect table.
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
+        id: Self::ID,
+        name: Self::NAME,
+        crc_extra: Self::CRC_EXTRA,
+        min_len: Self::MIN_LEN as u8,
+        max_len: Self::MAX_LEN as u8,
+        target_system_offset: Some(10),
+        target_component_offset: None,
+        fields: &[
+            ::mavframe::FieldMeta {
+                name: "x",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 0,
+                extension: false,
+            },
+            ::mavframe::FieldMeta {
+                name: "y",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 2,
+                extension: false,
+            },
+            ::mavframe::FieldMeta {
+                name: "z",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 4,
+                extension: false,
+            },
+            ::mavframe::FieldMeta {
+                name: "r",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 6,
+                extension: false,
+            },
+            ::mavframe::FieldMeta {
+                name: "buttons",
+                ty: ::mavframe::FieldType::U16,
+                array_len: 0,
+                offset: 8,
+                extension: false,
+            },
+            ::mavframe::FieldMeta {
+                name: "target",
+                ty: ::mavframe::FieldType::U8,
+                array_len: 0,
+                offset: 10,
+                extension: false,
+            },
+            ::mavframe::FieldMeta {
+                name: "buttons2",
+                ty: ::mavframe::FieldType::U16,
+                array_len: 0,
+                offset: 11,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "enabled_extensions",
+                ty: ::mavframe::FieldType::U8,
+                array_len: 0,
+                offset: 13,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "s",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 14,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "t",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 16,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "aux1",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 18,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "aux2",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 20,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "aux3",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 22,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "aux4",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 24,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "aux5",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 26,
+                extension: true,
+            },
+            ::mavframe::FieldMeta {
+                name: "aux6",
+                ty: ::mavframe::FieldType::I16,
+                array_len: 0,
+                offset: 28,
+                extension: true,
+            },
+        ],
+    };
+
+    /// Reads a payload of any length (missing bytes read as zero).
+    pub fn parse(payload: &[u8]) -> Self {
+        let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
+        Self {
+            target: ::mavframe::field::read::<u8>(p, 10),
+            x: ::mavframe::field::read::<i16>(p, 0),
+            y: ::mavframe::field::read::<i16>(p, 2),
+            z: ::mavframe::field::read::<i16>(p, 4),
+            r: ::mavframe::field::read::<i16>(p, 6),
+            buttons: ::mavframe::field::read::<u16>(p, 8),
+            buttons2: ::mavframe::field::read::<u16>(p, 11),
+            enabled_extensions: ::mavframe::field::read::<u8>(p, 13),
+            s: ::mavframe::field::read::<i16>(p, 14),
+            t: ::mavframe::field::read::<i16>(p, 16),
+            aux1: ::mavframe::field::read::<i16>(p, 18),
+            aux2: ::mavframe::field::read::<i16>(p, 20),
+            aux3: ::mavframe::field::read::<i16>(p, 22),
+            aux4: ::mavframe::field::read::<i16>(p, 24),
+            aux5: ::mavframe::field::read::<i16>(p, 26),
+            aux6: ::mavframe::field::read::<i16>(p, 28),
+        }
+    }
+
+    /// Copies every field out of a view.
+    #[inline]
+    pub fn from_view(view: &ManualControlView<'_>) -> Self {
+        Self::parse(view.as_bytes())
+    }
+
+    /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
+    /// `payload`; returns that length.
+    pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        let out = ::mavframe::field::prefix_mut::<{ Self::MAX_LEN }>(payload)?;
+        ::mavframe::field::Scalar::write(self.target, out, 10);
+        ::mavframe::field::Scalar::write(self.x, out, 0);
+        ::mavframe::field::Scalar::write(self.y, out, 2);
+        ::mavframe::field::Scalar::write(self.z, out, 4);
+        ::mavframe::field::Scalar::write(self.r, out, 6);
+        ::mavframe::field::Scalar::write(self.buttons, out, 8);
+        ::mavframe::field::Scalar::write(self.buttons2, out, 11);
+        ::mavframe::field::Scalar::write(self.enabled_extensions, out, 13);
+        ::mavframe::field::Scalar::write(self.s, out, 14);
+        ::mavframe::field::Scalar::write(self.t, out, 16);
+        ::mavframe::field::Scalar::write(self.aux1, out, 18);
+        ::mavframe::field::Scalar::write(self.aux2, out, 20);
+        ::mavframe::field::Scalar::write(self.aux3, out, 22);
+        ::mavframe::field::Scalar::write(self.aux4, out, 24);
+        ::mavframe::field::Scalar::write(self.aux5, out, 26);
+        ::mavframe::field::Scalar::write(self.aux6, out, 28);
+        Ok(Self::MAX_LEN)
+    }
+}
+
+impl ::mavframe::Message for ManualControl {
+    const META: ::mavframe::MessageMeta = ManualControl::META;
+    type View<'a> = ManualControlView<'a>;
+    #[inline]
+    fn parse(payload: &[u8]) -> Self {
+        ManualControl::parse(payload)
+    }
+
+    #[inline]
+    fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
+        ManualControl::emit(self, payload)
+    }
+
+    #[inline]
+    fn view(payload: &[u8]) -> ManualControlView<'_> {
+        ManualControlView::new(payload)
+    }
+}
+
+/// A zero-copy view over a [`ManualControl`](struct@ManualControl) payload: fields are read in place at their wire offsets.
+///
+/// Any slice length is accepted and no accessor panics: bytes past
+/// the end of a truncated payload read as zero.
+#[derive(Debug, Clone, Copy)]
+pub struct ManualControlView<'a> {
+    payload: &'a [u8],
+}
+
+impl<'a> ManualControlView<'a> {
+    /// Views `payload` (any length).
+    #[inline]
+    pub const fn new(payload: &'a [u8]) -> Self {
+        Self { payload }
+    }
+
+    /// The payload bytes this view reads.
+    #[inline]
+    pub const fn as_bytes(&self) -> &'a [u8] {
+        self.payload
+    }
+
+    /// Copies every field out.
+    #[inline]
+    pub fn to_message(&self) -> ManualControl {
+        ManualControl::from_view(self)
+    }
+
+    /// Reads [`ManualControl::target`](ManualControl::target) (`target` at offset 10).
+    #[inline]
+    pub fn target(&self) -> u8 {
+        ::mavframe::field::read::<u8>(self.payload, 10)
+    }
+
+    /// Reads [`ManualControl::x`](ManualControl::x) (`x` at offset 0).
+    #[inline]
+    pub fn x(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 0)
+    }
+
+    /// Reads [`ManualControl::y`](ManualControl::y) (`y` at offset 2).
+    #[inline]
+    pub fn y(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 2)
+    }
+
+    /// Reads [`ManualControl::z`](ManualControl::z) (`z` at offset 4).
+    #[inline]
+    pub fn z(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 4)
+    }
+
+    /// Reads [`ManualControl::r`](ManualControl::r) (`r` at offset 6).
+    #[inline]
+    pub fn r(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 6)
+    }
+
+    /// Reads [`ManualControl::buttons`](ManualControl::buttons) (`buttons` at offset 8).
+    #[inline]
+    pub fn buttons(&self) -> u16 {
+        ::mavframe::field::read::<u16>(self.payload, 8)
+    }
+
+    /// Reads [`ManualControl::buttons2`](ManualControl::buttons2) (`buttons2` at offset 11).
+    #[inline]
+    pub fn buttons2(&self) -> u16 {
+        ::mavframe::field::read::<u16>(self.payload, 11)
+    }
+
+    /// Reads [`ManualControl::enabled_extensions`](ManualControl::enabled_extensions) (`enabled_extensions` at offset 13).
+    #[inline]
+    pub fn enabled_extensions(&self) -> u8 {
+        ::mavframe::field::read::<u8>(self.payload, 13)
+    }
+
+    /// Reads [`ManualControl::s`](ManualControl::s) (`s` at offset 14).
+    #[inline]
+    pub fn s(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 14)
+    }
+
+    /// Reads [`ManualControl::t`](ManualControl::t) (`t` at offset 16).
+    #[inline]
+    pub fn t(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 16)
+    }
+
+    /// Reads [`ManualControl::aux1`](ManualControl::aux1) (`aux1` at offset 18).
+    #[inline]
+    pub fn aux1(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 18)
+    }
+
+    /// Reads [`ManualControl::aux2`](ManualControl::aux2) (`aux2` at offset 20).
+    #[inline]
+    pub fn aux2(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 20)
+    }
+
+    /// Reads [`ManualControl::aux3`](ManualControl::aux3) (`aux3` at offset 22).
+    #[inline]
+    pub fn aux3(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 22)
+    }
+
+    /// Reads [`ManualControl::aux4`](ManualControl::aux4) (`aux4` at offset 24).
+    #[inline]
+    pub fn aux4(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 24)
+    }
+
+    /// Reads [`ManualControl::aux5`](ManualControl::aux5) (`aux5` at offset 26).
+    #[inline]
+    pub fn aux5(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 26)
+    }
+
+    /// Reads [`ManualControl::aux6`](ManualControl::aux6) (`aux6` at offset 28).
+    #[inline]
+    pub fn aux6(&self) -> i16 {
+        ::mavframe::field::read::<i16>(self.payload, 28)
+    }
+}
+
+/// Writes the fields of a [`ManualControl`](struct@ManualControl) payload in place.
+#[derive(Debug)]
+pub struct ManualControlMut<'a> {
+    payload: &'a mut [u8],
+}
+
+impl<'a> ManualControlMut<'a> {
+    /// A writer over `payload`, which must hold at least [`ManualControl::MAX_LEN`](struct@ManualControl) bytes.
+    pub fn new(payload: &'a mut [u8]) -> Result<Self, ::mavframe::BufferTooSmall> {
+        if payload.len() < ManualControl::MAX_LEN {
+            return Err(::mavframe::BufferTooSmall {
+                needed: ManualControl::MAX_LEN,
+                got: payload.len(),
+            });
+        }
+        Ok(Self { payload })
+    }
+
+    /// A view of the fields written so far.
+    pub fn view(&self) -> ManualControlView<'_> {
+        ManualControlView::new(self.payload)
+    }
+
+    /// Sets the `target` field.
+    #[inline]
+    pub fn set_target(&mut self, value: u8) {
+        ::mavframe::field::Scalar::write(value, self.payload, 10)
+    }
+
+    /// Sets the `x` field.
+    #[inline]
+    pub fn set_x(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 0)
+    }
+
+    /// Sets the `y` field.
+    #[inline]
+    pub fn set_y(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 2)
+    }
+
+    /// Sets the `z` field.
+    #[inline]
+    pub fn set_z(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 4)
+    }
+
+    /// Sets the `r` field.
+    #[inline]
+    pub fn set_r(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 6)
+    }
+
+    /// Sets the `buttons` field.
+    #[inline]
+    pub fn set_buttons(&mut self, value: u16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 8)
+    }
+
+    /// Sets the `buttons2` field.
+    #[inline]
+    pub fn set_buttons2(&mut self, value: u16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 11)
+    }
+
+    /// Sets the `enabled_extensions` field.
+    #[inline]
+    pub fn set_enabled_extensions(&mut self, value: u8) {
+        ::mavframe::field::Scalar::write(value, self.payload, 13)
+    }
+
+    /// Sets the `s` field.
+    #[inline]
+    pub fn set_s(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 14)
+    }
+
+    /// Sets the `t` field.
+    #[inline]
+    pub fn set_t(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 16)
+    }
+
+    /// Sets the `aux1` field.
+    #[inline]
+    pub fn set_aux1(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 18)
+    }
+
+    /// Sets the `aux2` field.
+    #[inline]
+    pub fn set_aux2(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 20)
+    }
+
+    /// Sets the `aux3` field.
+    #[inline]
+    pub fn set_aux3(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 22)
+    }
+
+    /// Sets the `aux4` field.
+    #[inline]
+    pub fn set_aux4(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 24)
+    }
+
+    /// Sets the `aux5` field.
+    #[inline]
+    pub fn set_aux5(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 26)
+    }
+
+    /// Sets the `aux6` field.
+    #[inline]
+    pub fn set_aux6(&mut self, value: i16) {
+        ::mavframe::field::Scalar::write(value, self.payload, 28)
+    }
+}
+
 /// The RAW values of the RC channels sent to the MAV to override info received from the RC
 /// radio. The standard PPM modulation is as follows: 1000 microseconds: 0%, 2000
 /// microseconds: 100%. Individual receivers/transmitters might violate this specification.

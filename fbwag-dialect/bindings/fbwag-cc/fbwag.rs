@@ -317,7 +317,7 @@ impl<'a> FbwagNoticeMut<'a> {
     }
 }
 
-/// Every message of the `fbwag.xml` dialect (12 messages, its includes' too).
+/// Every message of the `fbwag.xml` dialect (13 messages, its includes' too).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Message {
     /// `HEARTBEAT` (id 0).
@@ -330,6 +330,8 @@ pub enum Message {
     GlobalPositionInt(super::standard::GlobalPositionInt),
     /// `RC_CHANNELS` (id 65).
     RcChannels(super::common::RcChannels),
+    /// `MANUAL_CONTROL` (id 69).
+    ManualControl(super::common::ManualControl),
     /// `RC_CHANNELS_OVERRIDE` (id 70).
     RcChannelsOverride(super::common::RcChannelsOverride),
     /// `VFR_HUD` (id 74).
@@ -359,6 +361,8 @@ pub enum MessageView<'a> {
     GlobalPositionInt(super::standard::GlobalPositionIntView<'a>),
     /// `RC_CHANNELS` (id 65).
     RcChannels(super::common::RcChannelsView<'a>),
+    /// `MANUAL_CONTROL` (id 69).
+    ManualControl(super::common::ManualControlView<'a>),
     /// `RC_CHANNELS_OVERRIDE` (id 70).
     RcChannelsOverride(super::common::RcChannelsOverrideView<'a>),
     /// `VFR_HUD` (id 74).
@@ -383,6 +387,7 @@ pub const MESSAGES: &[::mavframe::MessageMeta] = &[
     super::common::Attitude::META,
     super::standard::GlobalPositionInt::META,
     super::common::RcChannels::META,
+    super::common::ManualControl::META,
     super::common::RcChannelsOverride::META,
     super::common::VfrHud::META,
     super::common::CommandLong::META,
@@ -410,13 +415,14 @@ impl ::mavframe::Dialect for Dialect {
                 30 => &MESSAGES[2],
                 33 => &MESSAGES[3],
                 65 => &MESSAGES[4],
-                70 => &MESSAGES[5],
-                74 => &MESSAGES[6],
-                76 => &MESSAGES[7],
-                77 => &MESSAGES[8],
-                82 => &MESSAGES[9],
-                253 => &MESSAGES[10],
-                15001 => &MESSAGES[11],
+                69 => &MESSAGES[5],
+                70 => &MESSAGES[6],
+                74 => &MESSAGES[7],
+                76 => &MESSAGES[8],
+                77 => &MESSAGES[9],
+                82 => &MESSAGES[10],
+                253 => &MESSAGES[11],
+                15001 => &MESSAGES[12],
                 _ => return None,
             },
         )
@@ -446,6 +452,7 @@ impl Message {
                     )
                 }
                 65 => Self::RcChannels(super::common::RcChannels::parse(payload)),
+                69 => Self::ManualControl(super::common::ManualControl::parse(payload)),
                 70 => {
                     Self::RcChannelsOverride(
                         super::common::RcChannelsOverride::parse(payload),
@@ -474,6 +481,7 @@ impl Message {
             Self::Attitude(_) => &super::common::Attitude::META,
             Self::GlobalPositionInt(_) => &super::standard::GlobalPositionInt::META,
             Self::RcChannels(_) => &super::common::RcChannels::META,
+            Self::ManualControl(_) => &super::common::ManualControl::META,
             Self::RcChannelsOverride(_) => &super::common::RcChannelsOverride::META,
             Self::VfrHud(_) => &super::common::VfrHud::META,
             Self::CommandLong(_) => &super::common::CommandLong::META,
@@ -502,6 +510,7 @@ impl Message {
             Self::Attitude(m) => m.emit(payload),
             Self::GlobalPositionInt(m) => m.emit(payload),
             Self::RcChannels(m) => m.emit(payload),
+            Self::ManualControl(m) => m.emit(payload),
             Self::RcChannelsOverride(m) => m.emit(payload),
             Self::VfrHud(m) => m.emit(payload),
             Self::CommandLong(m) => m.emit(payload),
@@ -545,6 +554,7 @@ impl<'a> MessageView<'a> {
                     )
                 }
                 65 => Self::RcChannels(super::common::RcChannelsView::new(payload)),
+                69 => Self::ManualControl(super::common::ManualControlView::new(payload)),
                 70 => {
                     Self::RcChannelsOverride(
                         super::common::RcChannelsOverrideView::new(payload),
@@ -573,6 +583,7 @@ impl<'a> MessageView<'a> {
             Self::Attitude(_) => &super::common::Attitude::META,
             Self::GlobalPositionInt(_) => &super::standard::GlobalPositionInt::META,
             Self::RcChannels(_) => &super::common::RcChannels::META,
+            Self::ManualControl(_) => &super::common::ManualControl::META,
             Self::RcChannelsOverride(_) => &super::common::RcChannelsOverride::META,
             Self::VfrHud(_) => &super::common::VfrHud::META,
             Self::CommandLong(_) => &super::common::CommandLong::META,
@@ -591,6 +602,7 @@ impl<'a> MessageView<'a> {
             Self::Attitude(v) => Message::Attitude(v.to_message()),
             Self::GlobalPositionInt(v) => Message::GlobalPositionInt(v.to_message()),
             Self::RcChannels(v) => Message::RcChannels(v.to_message()),
+            Self::ManualControl(v) => Message::ManualControl(v.to_message()),
             Self::RcChannelsOverride(v) => Message::RcChannelsOverride(v.to_message()),
             Self::VfrHud(v) => Message::VfrHud(v.to_message()),
             Self::CommandLong(v) => Message::CommandLong(v.to_message()),
@@ -629,6 +641,12 @@ impl From<super::standard::GlobalPositionInt> for Message {
 impl From<super::common::RcChannels> for Message {
     fn from(m: super::common::RcChannels) -> Self {
         Self::RcChannels(m)
+    }
+}
+
+impl From<super::common::ManualControl> for Message {
+    fn from(m: super::common::ManualControl) -> Self {
+        Self::ManualControl(m)
     }
 }
 

@@ -36,7 +36,7 @@ pub use endpoint::{Endpoint, ParseEndpointError, DEFAULT_BAUD};
 pub use serial::{Serial, WRITE_TIMEOUT as SERIAL_WRITE_TIMEOUT};
 pub use tcp::{TcpClient, TcpServer, MAX_PENDING_OUTPUT};
 pub use transport::{open, AnyTransport, Transport};
-pub use udp::{UdpIn, UdpOut};
+pub use udp::{ReplyTo, UdpIn, UdpOut};
 
 use crate::frame::{encode, Frame, Header, Version, MAX_FRAME_LEN};
 use crate::message::{Dialect, Encode, MessageMeta};

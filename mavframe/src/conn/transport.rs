@@ -96,6 +96,17 @@ pub fn open(endpoint: &Endpoint) -> io::Result<AnyTransport> {
 }
 
 impl AnyTransport {
+    /// The sender of the last datagram a UDP transport received: every
+    /// frame a [`Connection`](super::Connection) returns came from it.
+    /// `None` for other transports, or before any datagram.
+    pub fn last_source(&self) -> Option<SocketAddr> {
+        match self {
+            AnyTransport::UdpIn(t) => t.last_source(),
+            AnyTransport::UdpOut(t) => t.last_source(),
+            _ => None,
+        }
+    }
+
     /// The local address of a network transport (the port the system chose
     /// when the endpoint said 0); `Unsupported` for a serial port.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {

@@ -1,5 +1,5 @@
-//! UDP transports: `udpin` (listen, reply to the last peer) and `udpout`
-//! (send to one address, receive replies).
+//! UDP transports: `udpin` (listen; reply to the peer its [`ReplyTo`] rule
+//! names) and `udpout` (send to one address, receive replies).
 
 use super::transport::{is_timeout, Deadline, ReadMode, SetReadMode, Transport};
 use std::io;
@@ -40,13 +40,29 @@ fn recv_datagram(
     }
 }
 
-/// `udpin:`: a bound socket that answers whoever spoke last.
+/// Whom a [`UdpIn`] sends to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReplyTo {
+    /// The sender of the last datagram received, as MAVProxy and pymavlink
+    /// do (the default). Anyone who can send a datagram to the port
+    /// redirects what follows: fine for a ground station's port, wrong for
+    /// a link that carries control.
+    LastSender,
+    /// This address only, whoever else sends.
+    Fixed(SocketAddr),
+    /// Only the address set with [`UdpIn::set_peer`] (nobody until then):
+    /// the application pins the peer it has authenticated.
+    Pinned,
+}
+
+/// `udpin:`: a bound socket that answers one peer, chosen by its
+/// [`ReplyTo`] rule (by default the sender of the last datagram).
 ///
-/// Until a first datagram arrives there is nobody to send to, and
-/// [`send`](Transport::send) drops frames silently, as MAVProxy and
-/// pymavlink do (a ground station's heartbeat loop must not fail before a
-/// vehicle shows up). With several peers, replies follow the most recent
-/// sender: this is a point-to-point link, not a router.
+/// While there is nobody to send to, [`send`](Transport::send) drops frames
+/// silently, as MAVProxy and pymavlink do (a ground station's heartbeat loop
+/// must not fail before a vehicle shows up). A sender whose source port is
+/// 0 can be received from but never replied to (no datagram can go to port
+/// 0), so it never becomes the peer.
 ///
 /// One [`send`](Transport::send) is one datagram, so each frame travels in
 /// its own datagram, as MAVLink over UDP expects. A receive buffer should
@@ -55,17 +71,22 @@ fn recv_datagram(
 #[derive(Debug)]
 pub struct UdpIn {
     socket: UdpSocket,
-    peer: Option<SocketAddr>,
+    reply_to: ReplyTo,
+    /// The last sender (a possible peer), and the pinned peer.
+    last_source: Option<SocketAddr>,
+    pinned: Option<SocketAddr>,
     mode: ReadMode,
 }
 
 impl UdpIn {
     /// Binds to `addr` (port 0: the system picks one, see
-    /// [`local_addr`](Self::local_addr)).
+    /// [`local_addr`](Self::local_addr)), replying to the last sender.
     pub fn bind(addr: SocketAddr) -> io::Result<Self> {
         Ok(UdpIn {
             socket: UdpSocket::bind(addr)?,
-            peer: None,
+            reply_to: ReplyTo::LastSender,
+            last_source: None,
+            pinned: None,
             mode: ReadMode::default(),
         })
     }
@@ -75,9 +96,36 @@ impl UdpIn {
         self.socket.local_addr()
     }
 
-    /// The peer replies go to: the sender of the last datagram received.
+    /// Chooses whom to send to from now on.
+    pub fn set_reply_to(&mut self, reply_to: ReplyTo) {
+        self.reply_to = reply_to;
+    }
+
+    /// The rule choosing whom to send to.
+    pub fn reply_to(&self) -> ReplyTo {
+        self.reply_to
+    }
+
+    /// Pins the peer of [`ReplyTo::Pinned`] (ignored for port 0).
+    pub fn set_peer(&mut self, peer: SocketAddr) {
+        if peer.port() != 0 {
+            self.pinned = Some(peer);
+        }
+    }
+
+    /// The peer frames go to now, if any.
     pub fn peer(&self) -> Option<SocketAddr> {
-        self.peer
+        match self.reply_to {
+            ReplyTo::LastSender => self.last_source.filter(|a| a.port() != 0),
+            ReplyTo::Fixed(addr) => Some(addr),
+            ReplyTo::Pinned => self.pinned,
+        }
+    }
+
+    /// The sender of the last datagram received (every frame a
+    /// [`Connection`](super::Connection) returns came from it).
+    pub fn last_source(&self) -> Option<SocketAddr> {
+        self.last_source
     }
 
     /// The socket, for options this type does not cover.
@@ -88,7 +136,7 @@ impl UdpIn {
 
 impl Transport for UdpIn {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        match self.peer {
+        match self.peer() {
             Some(peer) => self.socket.send_to(frame, peer).map(drop),
             None => Ok(()),
         }
@@ -98,7 +146,7 @@ impl Transport for UdpIn {
         Ok(
             match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
                 Some((n, from)) => {
-                    self.peer = Some(from);
+                    self.last_source = Some(from);
                     n
                 }
                 None => 0,
@@ -124,6 +172,7 @@ impl Transport for UdpIn {
 pub struct UdpOut {
     socket: UdpSocket,
     target: SocketAddr,
+    last_source: Option<SocketAddr>,
     mode: ReadMode,
 }
 
@@ -137,6 +186,7 @@ impl UdpOut {
         Ok(UdpOut {
             socket: UdpSocket::bind(local)?,
             target,
+            last_source: None,
             mode: ReadMode::default(),
         })
     }
@@ -151,6 +201,12 @@ impl UdpOut {
         self.target
     }
 
+    /// The sender of the last datagram received (replies are accepted from
+    /// any address; see the type's docs).
+    pub fn last_source(&self) -> Option<SocketAddr> {
+        self.last_source
+    }
+
     /// The socket, for options this type does not cover.
     pub fn get_ref(&self) -> &UdpSocket {
         &self.socket
@@ -163,6 +219,14 @@ impl Transport for UdpOut {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        Ok(recv_datagram(&self.socket, &mut self.mode, buf, timeout)?.map_or(0, |(n, _)| n))
+        Ok(
+            match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
+                Some((n, from)) => {
+                    self.last_source = Some(from);
+                    n
+                }
+                None => 0,
+            },
+        )
     }
 }

@@ -1,0 +1,175 @@
+//! The delegation protocol on real links: the companion daemon (`fbwag
+//! cc`), a flight-controller simulator speaking like ArduPlane (`fbwag
+//! fc-sim`), and both over a lossy loopback relay (`fbwag demo`).
+//!
+//! Both daemons drive the protocol engines of `fbwag_delegation::engine`,
+//! the very code the simulator runs: which frames count, who is trusted and
+//! which control is applied is decided there. This module only moves bytes
+//! and time ([`link::Link`]) and reports ([`Events`], [`Log`]).
+
+pub mod cc;
+pub mod demo;
+pub mod fc;
+pub mod link;
+
+use serde_json::{Map, Value};
+use std::fs::File;
+use std::io::{self, Write};
+use std::path::Path;
+use std::time::{Duration, Instant as WallInstant};
+
+/// The engines' time from a wall clock started with the program.
+#[derive(Clone, Copy)]
+pub struct Clock(WallInstant);
+
+impl Clock {
+    pub fn start() -> Self {
+        Clock(WallInstant::now())
+    }
+
+    pub fn now(&self) -> fbwag_delegation::Instant {
+        fbwag_delegation::Instant(self.0.elapsed().as_micros() as u64)
+    }
+
+    pub fn secs(&self) -> f64 {
+        self.0.elapsed().as_secs_f64()
+    }
+
+    pub fn millis(&self) -> u64 {
+        self.0.elapsed().as_millis() as u64
+    }
+
+    /// Wall time until engine time `t` (zero if past).
+    pub fn until(&self, t: fbwag_delegation::Instant) -> Duration {
+        Duration::from_micros(t.0.saturating_sub(self.now().0))
+    }
+}
+
+/// Human-readable log lines with the time since start, on stdout (or
+/// anywhere), one flush per line so nothing is lost when the process is
+/// killed.
+pub struct Log {
+    out: Box<dyn Write + Send>,
+    clock: Clock,
+    who: &'static str,
+}
+
+impl Log {
+    pub fn new(out: Box<dyn Write + Send>, clock: Clock, who: &'static str) -> Self {
+        Log { out, clock, who }
+    }
+
+    pub fn line(&mut self, what: &str) {
+        let _ = writeln!(
+            self.out,
+            "[{:>8.3} s] {}: {what}",
+            self.clock.secs(),
+            self.who
+        );
+        let _ = self.out.flush();
+    }
+}
+
+/// Machine-readable events: one JSON object per line, `{"t_ms": <ms since
+/// start>, "event": <name>, ...}`, flushed per line. `None` writes nothing.
+pub struct Events {
+    out: Option<Box<dyn Write + Send>>,
+    clock: Clock,
+}
+
+impl Events {
+    /// Events to `path` (`-`: stdout), or none.
+    pub fn open(path: Option<&Path>, clock: Clock) -> io::Result<Self> {
+        let out: Option<Box<dyn Write + Send>> = match path {
+            None => None,
+            Some(p) if p.as_os_str() == "-" => Some(Box::new(io::stdout())),
+            Some(p) => Some(Box::new(File::create(p)?)),
+        };
+        Ok(Events { out, clock })
+    }
+
+    /// Writes one event with `fields` (a JSON object's entries).
+    pub fn emit(&mut self, event: &str, fields: Value) {
+        let Some(out) = &mut self.out else {
+            return;
+        };
+        let mut line = Map::new();
+        line.insert("t_ms".into(), self.clock.millis().into());
+        line.insert("event".into(), event.into());
+        if let Value::Object(extra) = fields {
+            line.extend(extra);
+        }
+        let _ = writeln!(out, "{}", Value::Object(line));
+        let _ = out.flush();
+    }
+}
+
+/// At most `per_window` lines of one kind per window; the rest are counted
+/// and reported when the next window opens: a flood of bad frames cannot
+/// flood the log.
+pub struct Limiter {
+    window: Duration,
+    per_window: u32,
+    opened: WallInstant,
+    shown: u32,
+    suppressed: u64,
+}
+
+impl Limiter {
+    pub fn new(per_window: u32, window: Duration) -> Self {
+        Limiter {
+            window,
+            per_window,
+            opened: WallInstant::now(),
+            shown: 0,
+            suppressed: 0,
+        }
+    }
+
+    /// Whether to show one more line now; `Some(n)` first says how many
+    /// lines the last window suppressed.
+    pub fn admit(&mut self) -> (bool, Option<u64>) {
+        let mut report = None;
+        if self.opened.elapsed() >= self.window {
+            if self.suppressed > 0 {
+                report = Some(self.suppressed);
+            }
+            self.opened = WallInstant::now();
+            self.shown = 0;
+            self.suppressed = 0;
+        }
+        if self.shown < self.per_window {
+            self.shown += 1;
+            (true, report)
+        } else {
+            self.suppressed += 1;
+            (false, report)
+        }
+    }
+
+    /// Logs `line()` through `log` if admitted, and the suppressed count.
+    pub fn log(&mut self, log: &mut Log, what: &str, line: impl FnOnce() -> String) {
+        let (show, report) = self.admit();
+        if let Some(n) = report {
+            log.line(&format!("({n} more {what} suppressed)"));
+        }
+        if show {
+            log.line(&line());
+        }
+    }
+}
+
+/// The ArduPlane name of a HEARTBEAT `custom_mode` (FBWAG: this protocol's
+/// companion-control mode).
+pub fn mode_name(custom_mode: u32) -> String {
+    use fbwag_delegation::mode;
+    match custom_mode {
+        mode::MANUAL => "MANUAL".into(),
+        mode::CIRCLE => "CIRCLE".into(),
+        mode::FBWA => "FBWA".into(),
+        mode::RTL => "RTL".into(),
+        mode::GUIDED => "GUIDED".into(),
+        mode::FBWAG => "FBWAG".into(),
+        other => format!("MODE({other})"),
+    }
+}

@@ -230,3 +230,87 @@ impl Transport for UdpOut {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::UdpSocket;
+    use std::vec::Vec;
+
+    fn local() -> SocketAddr {
+        SocketAddr::from(([127, 0, 0, 1], 0))
+    }
+
+    /// A peer socket with a short read timeout.
+    fn peer() -> UdpSocket {
+        let s = UdpSocket::bind(local()).unwrap();
+        s.set_read_timeout(Some(Duration::from_millis(300)))
+            .unwrap();
+        s
+    }
+
+    fn got(s: &UdpSocket) -> Option<Vec<u8>> {
+        let mut buf = [0u8; 64];
+        s.recv_from(&mut buf).ok().map(|(n, _)| buf[..n].to_vec())
+    }
+
+    fn receive(udp: &mut UdpIn) {
+        let mut buf = [0u8; 64];
+        assert!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap() > 0);
+    }
+
+    #[test]
+    fn last_sender_is_answered_by_default() {
+        let mut udp = UdpIn::bind(local()).unwrap();
+        let at = udp.local_addr().unwrap();
+        let (a, b) = (peer(), peer());
+        udp.send(b"nobody yet").unwrap();
+        a.send_to(b"x", at).unwrap();
+        receive(&mut udp);
+        udp.send(b"to a").unwrap();
+        assert_eq!(got(&a).as_deref(), Some(&b"to a"[..]));
+        b.send_to(b"y", at).unwrap();
+        receive(&mut udp);
+        udp.send(b"to b").unwrap();
+        assert_eq!(got(&b).as_deref(), Some(&b"to b"[..]));
+        assert_eq!(got(&a), None, "the last sender took over");
+    }
+
+    /// A pinned peer stays the peer whoever else sends: a stranger's
+    /// datagrams cannot redirect the link.
+    #[test]
+    fn a_pinned_peer_is_not_redirected_by_strangers() {
+        let mut udp = UdpIn::bind(local()).unwrap();
+        udp.set_reply_to(ReplyTo::Pinned);
+        let at = udp.local_addr().unwrap();
+        let (real, stranger) = (peer(), peer());
+        real.send_to(b"x", at).unwrap();
+        receive(&mut udp);
+        udp.send(b"before pinning").unwrap();
+        assert_eq!(got(&real), None, "nothing is sent until a peer is pinned");
+        udp.set_peer(real.local_addr().unwrap());
+        stranger.send_to(b"hijack", at).unwrap();
+        receive(&mut udp);
+        assert_eq!(udp.last_source(), Some(stranger.local_addr().unwrap()));
+        udp.send(b"still real").unwrap();
+        assert_eq!(got(&real).as_deref(), Some(&b"still real"[..]));
+        assert_eq!(got(&stranger), None);
+        // Port 0 can never be a peer (no datagram can go there).
+        udp.set_peer(SocketAddr::from(([127, 0, 0, 1], 0)));
+        assert_eq!(udp.peer(), Some(real.local_addr().unwrap()));
+    }
+
+    #[test]
+    fn a_fixed_peer_is_the_only_one() {
+        let mut udp = UdpIn::bind(local()).unwrap();
+        let (fixed, other) = (peer(), peer());
+        udp.set_reply_to(ReplyTo::Fixed(fixed.local_addr().unwrap()));
+        udp.send(b"first").unwrap();
+        assert_eq!(got(&fixed).as_deref(), Some(&b"first"[..]));
+        other.send_to(b"x", udp.local_addr().unwrap()).unwrap();
+        receive(&mut udp);
+        udp.send(b"second").unwrap();
+        assert_eq!(got(&fixed).as_deref(), Some(&b"second"[..]));
+        assert_eq!(got(&other), None);
+    }
+}

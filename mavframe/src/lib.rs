@@ -24,6 +24,7 @@ pub mod flags;
 pub mod frame;
 pub mod message;
 pub mod parser;
+pub mod route;
 pub mod signing;
 
 #[cfg(feature = "std")]

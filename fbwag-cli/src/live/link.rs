@@ -69,7 +69,8 @@ impl Link {
     /// Opens the link now: errors here (address in use, no such device)
     /// end the program before it starts; later errors never do.
     pub fn open(opts: LinkOptions) -> io::Result<Link> {
-        let conn = connect(&opts)?;
+        let conn = connect(&opts)
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot open {}: {e}", opts.endpoint)))?;
         Ok(Link {
             opts,
             conn: Some(conn),

@@ -31,6 +31,7 @@
 #![forbid(unsafe_code)]
 
 pub mod cc;
+pub mod command;
 pub mod control;
 pub mod engine;
 pub mod fc;

@@ -98,8 +98,8 @@ impl Request {
         }
     }
 
-    fn to_message(&self, tries: u8) -> Message {
-        match *self {
+    fn to_message(self, tries: u8) -> Message {
+        match self {
             Request::Long(mut c) => {
                 c.confirmation = tries;
                 Message::CommandLong(c)

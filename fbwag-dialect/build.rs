@@ -1,13 +1,13 @@
 //! With the `codegen` feature: generates the FBWAG dialect from
 //! `message_definitions/fbwag.xml` into `OUT_DIR` (included by `src/lib.rs`).
 //! Without it there is nothing to do: the crate compiles the checked-in
-//! `bindings/fbwag` (or `bindings/fbwag-cc`), the very same code.
+//! `bindings/fbwag`, the very same code.
 //!
 //! A filtered build generates only some messages (and the enums they use):
-//! the `cc-subset` feature selects `cc-subset.txt`, and the environment
-//! variable `FBWAG_DIALECT_MESSAGES=A,B,…` any list. FBWAG_NOTICE and
-//! HEARTBEAT are always kept (the crate's API re-exports them). Frames of
-//! other messages still parse, as raw frames.
+//! the environment variable `FBWAG_DIALECT_MESSAGES=A,B,…` lists them (the
+//! companion computer's fixed subset is the crate `fbwag-dialect-cc`).
+//! FBWAG_NOTICE and HEARTBEAT are always kept (the crate's API re-exports
+//! them). Frames of other messages still parse, as raw frames.
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
@@ -27,21 +27,11 @@ fn main() {
 fn codegen() {
     let dir = env!("CARGO_MANIFEST_DIR");
     let xml = format!("{dir}/../message_definitions/fbwag.xml");
-    let cc_list = format!("{dir}/cc-subset.txt");
-    println!("cargo:rerun-if-changed={cc_list}");
     let mut config = mavgen_rs::Config::new();
-    let env_list = std::env::var("FBWAG_DIALECT_MESSAGES")
+    let filter: Option<Vec<String>> = std::env::var("FBWAG_DIALECT_MESSAGES")
         .ok()
-        .filter(|s| !s.trim().is_empty());
-    let filter: Option<Vec<String>> = match env_list {
-        Some(list) => Some(list.split(',').map(|s| s.trim().to_string()).collect()),
-        None if std::env::var_os("CARGO_FEATURE_CC_SUBSET").is_some() => {
-            let text = std::fs::read_to_string(&cc_list)
-                .unwrap_or_else(|e| panic!("cannot read {cc_list}: {e}"));
-            Some(mavgen_rs::Config::message_list(&text))
-        }
-        None => None,
-    };
+        .filter(|s| !s.trim().is_empty())
+        .map(|list| list.split(',').map(|s| s.trim().to_string()).collect());
     if let Some(mut names) = filter {
         for keep in ["FBWAG_NOTICE", "HEARTBEAT"] {
             if !names.iter().any(|n| n == keep) {

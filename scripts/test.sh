@@ -43,13 +43,12 @@ step "conformance: summary"
 bash conformance/scripts/summary.sh
 # --- end conformance (issue 6) ---
 
-step "no_std builds: fbwag-dialect (full and filtered), fbwag-delegation"
+step "no_std builds: fbwag-dialect, fbwag-dialect-cc, fbwag-delegation"
 cargo build -p fbwag-dialect --no-default-features --locked
-cargo test -p fbwag-dialect --no-default-features --features cc-subset --locked
+cargo build -p fbwag-dialect-cc --no-default-features --locked
 
-step "fbwag-dialect generated at build time (feature codegen): full, cc-subset, a custom list"
+step "fbwag-dialect generated at build time (feature codegen): full, a custom list"
 cargo test -p fbwag-dialect --features codegen --locked
-cargo test -p fbwag-dialect --no-default-features --features codegen,cc-subset --locked
 FBWAG_DIALECT_MESSAGES=ATTITUDE,COMMAND_LONG \
     cargo build -p fbwag-dialect --no-default-features --features codegen --locked
 cargo build -p fbwag-delegation --no-default-features --locked

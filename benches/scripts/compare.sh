@@ -8,9 +8,9 @@
 #      gcc -O2, benches/c/parse_stream.c) and pymavlink 2.4.50's parse_buffer;
 #   2. generation of all.xml: mavgen-rs and pymavlink's mavgen, whole
 #      processes (benches/scripts/time_mavgen.sh);
-#   3. clean release builds and rlib sizes: fbwag-dialect (full, the
-#      cc-subset feature, and generated at build time with the codegen
-#      feature), against the mavlink crate 0.21 with dialect-ardupilotmega
+#   3. clean release builds and rlib sizes: fbwag-dialect (full, and
+#      generated at build time with the codegen feature), fbwag-dialect-cc
+#      (the companion subset), against the mavlink crate 0.21 with dialect-ardupilotmega
 #      (and with its mav2-message-extensions), each from an empty target
 #      directory. The builds alternate between the crates in every round.
 #
@@ -159,7 +159,7 @@ EOF
     builds=(
         "fbwag-dialect (full, default features)|build --release --locked -p fbwag-dialect|$REPO|fbwag_dialect|mavframe"
         "mavlink 0.21 (std, dialect-ardupilotmega)|build --release --offline|$TMP/mavlink|mavlink|mavlink_core"
-        "fbwag-dialect (cc-subset)|build --release --locked -p fbwag-dialect --features cc-subset|$REPO|fbwag_dialect|mavframe"
+        "fbwag-dialect-cc|build --release --locked -p fbwag-dialect-cc|$REPO|fbwag_dialect_cc|mavframe"
         "fbwag-dialect (full, codegen: generated at build time)|build --release --locked -p fbwag-dialect --features codegen|$REPO|fbwag_dialect|mavframe"
         "mavlink 0.21 (+ mav2-message-extensions)|build --release --offline|$TMP/mavlink-ext|mavlink|mavlink_core"
     )

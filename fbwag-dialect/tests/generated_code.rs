@@ -1,6 +1,5 @@
 //! Behaviour of the code mavgen-rs generates, on the real FBWAG dialect.
 // Uses messages outside the companion-computer subset.
-#![cfg(not(feature = "cc-subset"))]
 
 use fbwag_dialect::dialects::{common, minimal};
 use fbwag_dialect::mavframe::{field::chars, Dialect as _};

@@ -1,7 +1,6 @@
 //! The streaming parser on the FBWAG dialect: chunking, recovery, signing
 //! policy, raw frames of unknown ids, counters, and no panics on any input.
 // Uses messages outside the companion-computer subset.
-#![cfg(not(feature = "cc-subset"))]
 
 use fbwag_dialect::dialects::{common, minimal};
 use fbwag_dialect::mavframe::field::chars;

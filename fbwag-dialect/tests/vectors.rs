@@ -1,7 +1,6 @@
 //! The reference frames pymavlink 2.4.50 and the C library agree on, encoded
 //! and decoded by the runtime.
 // Uses messages outside the companion-computer subset.
-#![cfg(not(feature = "cc-subset"))]
 
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType};
 use fbwag_dialect::mavframe::field::chars;

@@ -28,7 +28,7 @@ Examples:
       15001 FBWAG_NOTICE 30 12 12
   mavgen-rs generate message_definitions/fbwag.xml -o fbwag-dialect/bindings/fbwag
   mavgen-rs generate message_definitions/fbwag.xml -o cc/ --messages HEARTBEAT,FBWAG_NOTICE,RC_CHANNELS_OVERRIDE
-  mavgen-rs generate message_definitions/fbwag.xml -o fbwag-dialect/bindings/fbwag-cc --messages @fbwag-dialect/cc-subset.txt
+  mavgen-rs generate message_definitions/fbwag.xml -o fbwag-dialect-cc/bindings --messages @fbwag-dialect-cc/messages.txt
 
 Use the output with `include!(\"bindings/fbwag/mod.rs\");` in a crate that
 depends on `mavframe`, or generate at build time with mavgen_rs::Config in build.rs.";

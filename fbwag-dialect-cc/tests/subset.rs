@@ -1,20 +1,25 @@
-//! The `cc-subset` build: only the companion computer's messages are
-//! generated, and frames of the others are still parsed, as raw frames.
-#![cfg(feature = "cc-subset")]
+//! The companion-computer subset: only its messages are generated, and
+//! frames of the others are still parsed, as raw frames.
 
-use fbwag_dialect::mavframe::frame::{encode, Header, Version};
-use fbwag_dialect::mavframe::parser::Parser;
-use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice, MESSAGES};
+use fbwag_dialect_cc::mavframe::frame::{encode, Header, Version};
+use fbwag_dialect_cc::mavframe::parser::Parser;
+use fbwag_dialect_cc::{Dialect, FbwagFailsafeStatus, FbwagNotice, MESSAGES};
 
 #[test]
 fn only_the_cc_messages_are_generated() {
     let names: Vec<&str> = MESSAGES.iter().map(|m| m.name).collect();
-    assert_eq!(names.len(), 12, "{names:?}");
+    let listed = include_str!("../messages.txt")
+        .lines()
+        .map(|l| l.split('#').next().unwrap_or("").trim())
+        .filter(|l| !l.is_empty())
+        .count();
+    assert_eq!(names.len(), listed, "{names:?}");
     for n in [
         "HEARTBEAT",
         "FBWAG_NOTICE",
         "RC_CHANNELS_OVERRIDE",
         "SET_ATTITUDE_TARGET",
+        "MANUAL_CONTROL",
         "STATUSTEXT",
     ] {
         assert!(names.contains(&n), "{n} missing");

@@ -86,6 +86,7 @@ def main():
     front.bind(args.listen)
     back = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     back.bind((args.to[0], 0))
+    print("tap: relaying %s:%d -> %s:%d" % (args.listen + args.to), file=sys.stderr, flush=True)
     peer_a = None
     start = time.monotonic()
     end = start + args.seconds

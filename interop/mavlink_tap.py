@@ -56,8 +56,27 @@ class Side:
                 continue
             sysid, compid, msgid, seq, signed = header(m.get_msgbuf())
             self.counts[(self.label, m.get_type(), msgid)] += 1
-            self.log.write("%.3f %s %d/%d %d %s seq=%d signed=%d\n" % (
-                t, self.label, sysid, compid, msgid, m.get_type(), seq, int(signed)))
+            self.log.write("%.3f %s %d/%d %d %s seq=%d signed=%d%s\n" % (
+                t, self.label, sysid, compid, msgid, m.get_type(), seq, int(signed), detail(m)))
+
+
+def detail(m):
+    """What a request asks for: the command and its first two parameters
+    (for MAV_CMD_SET_MESSAGE_INTERVAL and MAV_CMD_REQUEST_MESSAGE: the
+    message id, and the interval), the parameter or the stream."""
+    t = m.get_type()
+    if t in ("COMMAND_LONG", "COMMAND_INT"):
+        return " command=%d param1=%g param2=%g target=%d/%d" % (
+            m.command, m.param1, m.param2, m.target_system, m.target_component)
+    if t == "PARAM_REQUEST_READ":
+        return " param_id=%s index=%d" % (m.param_id, m.param_index)
+    if t == "REQUEST_DATA_STREAM":
+        return " stream=%d rate=%d start=%d" % (m.req_stream_id, m.req_message_rate, m.start_stop)
+    if t in ("MISSION_REQUEST_LIST", "MISSION_REQUEST_INT"):
+        return " mission_type=%d" % m.mission_type
+    if t == "HEARTBEAT":
+        return " type=%d autopilot=%d custom_mode=%d" % (m.type, m.autopilot, m.custom_mode)
+    return ""
 
 
 def header(raw):

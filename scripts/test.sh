@@ -4,7 +4,9 @@
 #   over the workspace: unit tests, generator diagnostics and CLI, snapshot,
 #   generated-code behaviour, and conformance against pymavlink 2.4.50.
 # Installs what it needs itself: the pinned pymavlink in a venv under
-# target/pyenv (cached; see scripts/python-env.sh). Needs cargo, python3, gcc.
+# target/pyenv (cached; see scripts/python-env.sh) and the pinned MAVProxy,
+# mavsdk and pymavlink in target/peerenv (cached; see scripts/peer-env.sh).
+# Needs cargo, python3, gcc.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -13,6 +15,15 @@ step() { printf '\n==> %s\n' "$*"; }
 step "Python reference environment (pymavlink 2.4.50)"
 python="$(bash scripts/python-env.sh)"
 "$python" -c 'import pymavlink; print("pymavlink", pymavlink.__version__)'
+
+# The real peers of fbwag-cli/tests/mavproxy.rs, pinned, in target/peerenv
+# (cached), with the FBWAG dialect and the MAVProxy module installed into them.
+step "Peer environment (MAVProxy 1.8.75, mavsdk 3.17.4, pymavlink 2.4.50 + FBWAG dialect)"
+peer="$(bash scripts/peer-env.sh)"
+"$peer" -c 'from importlib.metadata import version as v
+from pymavlink.dialects.v20 import fbwag
+print("MAVProxy", v("MAVProxy"), "mavsdk", v("mavsdk"), "pymavlink", v("pymavlink"),
+      "FBWAG_NOTICE crc_extra", fbwag.MAVLink_fbwag_notice_message.crc_extra)'
 
 step "cargo fmt --check"
 cargo fmt --all -- --check

@@ -5,18 +5,18 @@
 //! spec (mavlink.io, "Message Signing") and the C library's
 //! `mavlink_signature_check` do.
 //!
-//! Timestamps count 10 µs since 2015-01-01 00:00 UTC ([`timestamp_now`]).
-//! Replay protection rests on them, so where they start matters:
+//! Timestamps count 10 µs since 2015-01-01 00:00 UTC (`timestamp_now`, with
+//! `std`). Replay protection rests on them, so where they start matters:
 //!
 //! - a [`Verifier`] on a live link starts from the clock
-//!   ([`Verifier::starting_now`], or [`Verifier::with_clock`] /
+//!   (`Verifier::starting_now` (std), or [`Verifier::with_clock`] /
 //!   [`Verifier::with_timestamp`] without `std`); [`Verifier::new`] starts
 //!   at 0 and accepts any capture as a new stream, so it is for decoding
 //!   recordings and for tests only;
 //! - a [`Signer`] starts at the clock, and never below what it sent before a
 //!   restart: the MAVLink spec asks signers to keep their timestamps
-//!   increasing across restarts, which [`state`] (with `std`) does with a
-//!   small state file that also keeps the verifier's table.
+//!   increasing across restarts, which `signing::state` (with `std`) does
+//!   with a small state file that also keeps the verifier's table.
 
 use crate::frame::SIGNATURE_LEN;
 use core::fmt;

@@ -62,8 +62,8 @@ struct Slot {
 ///   stream's bucket (else [`SignatureError::BelowFloor`], see eviction).
 ///
 /// The notion of now is the greatest of: the start value (0 for
-/// [`new`](Self::new), the clock for [`starting_now`](Self::starting_now)
-/// and [`with_clock`](Self::with_clock), the given value for
+/// [`new`](Self::new), the clock for `starting_now` (std) and
+/// [`with_clock`](Self::with_clock), the given value for
 /// [`with_timestamp`](Self::with_timestamp)), every timestamp accepted, and,
 /// with a clock, the clock read when a new stream appears (one read per new
 /// stream, none on the per-frame path). So a verifier with a clock rejects
@@ -73,13 +73,16 @@ struct Slot {
 /// timestamp"); the C library and pymavlink use their local signing
 /// timestamp, which the application sets from the clock or storage.
 ///
-/// Which constructor: a live link on a machine with a trustworthy clock,
-/// [`starting_now`](Self::starting_now) (std) or
-/// [`with_clock`](Self::with_clock); without one, [`with_timestamp`]
-/// (Self::with_timestamp) from the last saved timestamp (see
-/// [`state`](super::state), which also restores the stream table); replaying
-/// recordings and tests, [`new`](Self::new), which accepts any first
-/// timestamp of a stream and so any capture, once.
+/// Which constructor:
+///
+/// - a live link on a machine with a trustworthy clock: `starting_now`
+///   (std) or [`with_clock`](Self::with_clock);
+/// - a live link without a clock: [`with_timestamp`](Self::with_timestamp)
+///   from the last saved timestamp;
+/// - either, after a restart: the same, then [`restore`](Self::restore) the
+///   saved table (`signing::state`, with `std`, does both from a file);
+/// - replaying recordings, and tests: [`new`](Self::new), which accepts any
+///   first timestamp of a stream, so any capture, once.
 ///
 /// # Eviction
 ///
@@ -118,9 +121,15 @@ struct Slot {
 /// future timestamps. Signing authenticates holders of the key, not their
 /// intent.
 ///
+/// Any timestamp scheme lets an attacker delay frames: a captured frame
+/// held back is accepted later as long as nothing newer of its stream got
+/// through (and, for a new stream, within the minute).
+///
 /// Without a clock (`new`, `with_timestamp`), the notion of now moves only
 /// with accepted timestamps and [`advance_to`](Self::advance_to): on an idle
-/// link, captures made since the last accepted frame pass as new streams.
+/// link it stands still, and a capture of a stream not in the table passes
+/// if it is less than a minute older than the last accepted frame, however
+/// long ago that was.
 #[derive(Clone)]
 pub struct Verifier<const N: usize = 16> {
     key: [u8; 32],
@@ -148,7 +157,7 @@ impl<const N: usize> Verifier<N> {
     /// A verifier for `key` that has seen no timestamp yet and has no clock:
     /// the first frame of any stream is accepted, however old. For decoding
     /// recordings and for tests; a live link wants
-    /// [`starting_now`](Self::starting_now).
+    /// `starting_now` (std).
     pub fn new(key: [u8; 32]) -> Self {
         Verifier {
             key,
@@ -179,7 +188,7 @@ impl<const N: usize> Verifier<N> {
     }
 
     /// [`with_clock`](Self::with_clock) with the system clock
-    /// ([`timestamp_now`](super::timestamp_now)): the constructor for a live
+    /// (`timestamp_now`): the constructor for a live
     /// link.
     #[cfg(feature = "std")]
     pub fn starting_now(key: [u8; 32]) -> Self {

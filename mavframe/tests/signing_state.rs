@@ -330,6 +330,38 @@ fn every_bit_flip_is_a_typed_error() {
     }
 }
 
+/// Random edits of a valid file (bytes replaced, inserted, removed, lines
+/// swapped) and random bytes: never a panic; whatever parses is a state
+/// whose file text is exactly the input.
+#[test]
+fn random_damage_never_panics() {
+    let text = busy_state().to_text().into_bytes();
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut next = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    };
+    for _ in 0..20_000 {
+        let mut bad = text.clone();
+        for _ in 0..1 + next() % 4 {
+            let at = (next() as usize) % bad.len().max(1);
+            match next() % 4 {
+                0 if !bad.is_empty() => bad[at] = next() as u8,
+                1 => bad.insert(at.min(bad.len()), next() as u8),
+                2 if !bad.is_empty() => {
+                    bad.remove(at);
+                }
+                _ => bad = (0..next() % 300).map(|_| next() as u8).collect(),
+            }
+        }
+        if let Ok(state) = SigningState::from_text(&bad) {
+            assert_eq!(state.to_text().as_bytes(), &bad[..]);
+        }
+    }
+}
+
 #[test]
 fn corrupt_files_give_typed_errors() {
     let load = |bytes: &[u8]| SigningState::from_text(bytes);

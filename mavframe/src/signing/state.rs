@@ -47,6 +47,10 @@
 //!   and before a crash (at most [`SAVE_INTERVAL`] of them, with the
 //!   recommended loop) can be replayed once after the restart; a clean exit
 //!   that saves leaves no such window.
+//! - A saved notion of now is kept even when the clock is behind it (a
+//!   receiver without a clock has nothing else). If it was saved from a
+//!   clock that ran far ahead, new streams are `TooOld` until real time
+//!   catches up: remove the file to start from the clock again.
 //! - The state holds timestamps only, never the key, and restoring only
 //!   raises values (see [`Verifier::restore`]). Whoever can write the file
 //!   can lower them, so it belongs where the program's key is: writable by

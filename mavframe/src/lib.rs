@@ -7,7 +7,9 @@
 //! [`parser`]. All of that is `no_std` and allocates nothing.
 //!
 //! Features: `std` adds the blocking transports and connection strings
-//! (`conn`: UDP, TCP, via mio) and `std::error::Error` impls; `serial` adds
+//! (`conn`: UDP, TCP, via mio), the signing state file that carries
+//! timestamps over restarts (`signing::state`), the system clock for
+//! signing (`Verifier::starting_now`) and `std::error::Error` impls; `serial` adds
 //! serial ports (serialport crate); `tokio` adds async UDP and TCP.
 #![no_std]
 #![forbid(unsafe_code)]

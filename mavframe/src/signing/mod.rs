@@ -1,9 +1,24 @@
 //! MAVLink 2 message signing: SHA-256 over a shared secret key, the frame
-//! and a 48-bit timestamp, truncated to 6 bytes; replay protection per
-//! (link id, system id, component id) stream, as the MAVLink spec and the C
-//! library's `mavlink_signature_check` do.
+//! and a 48-bit timestamp, truncated to 6 bytes ([`signature`]); frames are
+//! signed by a [`Signer`] and checked by a [`Verifier`], with replay
+//! protection per (link id, system id, component id) stream as the MAVLink
+//! spec (mavlink.io, "Message Signing") and the C library's
+//! `mavlink_signature_check` do.
+//!
+//! Timestamps count 10 µs since 2015-01-01 00:00 UTC (`timestamp_now`, with
+//! `std`). Replay protection rests on them, so where they start matters:
+//!
+//! - a [`Verifier`] on a live link starts from the clock
+//!   (`Verifier::starting_now` (std), or [`Verifier::with_clock`] /
+//!   [`Verifier::with_timestamp`] without `std`); [`Verifier::new`] starts
+//!   at 0 and accepts any capture as a new stream, so it is for decoding
+//!   recordings and for tests only;
+//! - a [`Signer`] starts at the clock, and never below what it sent before a
+//!   restart: the MAVLink spec asks signers to keep their timestamps
+//!   increasing across restarts, which `signing::state` (with `std`) does
+//!   with a small state file that also keeps the verifier's table.
 
-use crate::frame::{Frame, SIGNATURE_LEN};
+use crate::frame::SIGNATURE_LEN;
 use core::fmt;
 use sha2::digest::generic_array::{typenum::U64, GenericArray};
 use sha2::{Digest, Sha256};
@@ -11,9 +26,15 @@ use sha2::{Digest, Sha256};
 /// Seconds from 1970-01-01 to 2015-01-01 00:00 UTC, the signing epoch.
 pub const EPOCH_UNIX_SECS: u64 = 1_420_070_400;
 
-/// How much older than the newest timestamp seen a new stream may start
-/// (one minute, in 10 µs units, as the C library).
+/// How far behind the verifier's notion of now a new stream may start (one
+/// minute, in 10 µs units, as the spec and the C library).
 pub const NEW_STREAM_WINDOW: u64 = 6_000_000;
+
+#[cfg(feature = "std")]
+pub mod state;
+mod verifier;
+
+pub use verifier::{StreamState, Verifier, FLOOR_BUCKETS};
 
 /// SHA-256's initial state (FIPS 180-4, 5.3.3).
 const SHA256_H0: [u32; 8] = [
@@ -55,7 +76,7 @@ pub fn signature(key: &[u8; 32], signed_part: &[u8], link_id: u8, timestamp: u64
 /// bookkeeping: 5–10 % of a signed frame's encode, measured. The tests check
 /// it against `sha2::Sha256` for every length up to past the longest frame.
 #[inline]
-fn sha256_prefix(key: &[u8; 32], body: &[u8], tail: &[u8]) -> Option<[u8; 6]> {
+pub(crate) fn sha256_prefix(key: &[u8; 32], body: &[u8], tail: &[u8]) -> Option<[u8; 6]> {
     let tail_at = 32 + body.len();
     let end = tail_at + tail.len();
     // The padded message: the bytes, 0x80, zeros, the length in bits (8).
@@ -90,7 +111,12 @@ fn sha256_prefix(key: &[u8; 32], body: &[u8], tail: &[u8]) -> Option<[u8; 6]> {
 
 /// [`signature`] for a signed part longer than any frame's, with the hasher.
 #[cold]
-fn signature_streamed(key: &[u8; 32], signed_part: &[u8], link_id: u8, timestamp: u64) -> [u8; 6] {
+pub(crate) fn signature_streamed(
+    key: &[u8; 32],
+    signed_part: &[u8],
+    link_id: u8,
+    timestamp: u64,
+) -> [u8; 6] {
     let ts = timestamp.to_le_bytes();
     let mut h = Sha256::new();
     h.update(key);
@@ -182,8 +208,10 @@ impl Signer {
     }
 }
 
-/// Why a frame's signature was not accepted.
+/// Why a frame's signature was not accepted (see [`Verifier`] for the
+/// rules).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum SignatureError {
     /// The frame is not signed.
     Unsigned,
@@ -191,9 +219,15 @@ pub enum SignatureError {
     Mismatch,
     /// The timestamp is not newer than the last one of its stream.
     Replay,
-    /// A new stream starts more than a minute before the newest timestamp.
+    /// A new stream starts more than a minute ([`NEW_STREAM_WINDOW`]) before
+    /// the verifier's notion of now.
     TooOld,
-    /// Every stream slot is taken.
+    /// A new stream's timestamp is not newer than the floor that evicted
+    /// streams left in its bucket: an old frame of an evicted stream, or a
+    /// signer whose clock is behind one that was evicted.
+    BelowFloor,
+    /// The verifier has no stream slot at all (`Verifier<0>`); with one or
+    /// more, the least recently used stream is evicted instead.
     TooManyStreams,
 }
 
@@ -204,119 +238,16 @@ impl fmt::Display for SignatureError {
             SignatureError::Mismatch => "signature does not match the key",
             SignatureError::Replay => "timestamp not newer than the stream's last (replay)",
             SignatureError::TooOld => "new stream's timestamp is more than a minute old",
-            SignatureError::TooManyStreams => "no free signing stream slot",
+            SignatureError::BelowFloor => {
+                "new stream's timestamp not newer than evicted streams' (replay or clock behind)"
+            }
+            SignatureError::TooManyStreams => "verifier has no stream slots",
         })
     }
 }
 
 #[cfg(feature = "std")]
 impl std::error::Error for SignatureError {}
-
-#[derive(Debug, Clone, Copy, Default)]
-struct Stream {
-    link_id: u8,
-    sysid: u8,
-    compid: u8,
-    timestamp: u64,
-}
-
-/// Checks signatures of incoming frames, with replay protection for up to
-/// `N` streams (the C library's default is 16).
-#[derive(Clone)]
-pub struct Verifier<const N: usize = 16> {
-    key: [u8; 32],
-    newest: u64,
-    streams: [Stream; N],
-    used: usize,
-}
-
-impl<const N: usize> fmt::Debug for Verifier<N> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Verifier")
-            .field("newest", &self.newest)
-            .field("streams", &self.used)
-            .finish_non_exhaustive()
-    }
-}
-
-impl<const N: usize> Verifier<N> {
-    /// A verifier for `key` that has seen no timestamp yet.
-    pub fn new(key: [u8; 32]) -> Self {
-        Verifier {
-            key,
-            newest: 0,
-            streams: [Stream::default(); N],
-            used: 0,
-        }
-    }
-
-    /// A verifier whose notion of "now" starts at `timestamp`, so streams
-    /// starting more than a minute before it are rejected.
-    pub fn with_timestamp(key: [u8; 32], timestamp: u64) -> Self {
-        let mut v = Self::new(key);
-        v.newest = timestamp;
-        v
-    }
-
-    /// The newest timestamp accepted so far.
-    pub fn newest_timestamp(&self) -> u64 {
-        self.newest
-    }
-
-    /// Checks `frame`'s signature and, when it is good, records its
-    /// timestamp for its stream.
-    pub fn verify(&mut self, frame: &Frame<'_>) -> Result<(), SignatureError> {
-        let block = frame.signature().ok_or(SignatureError::Unsigned)?;
-        // The key, then the frame's bytes up to the timestamp.
-        let bytes = frame.as_bytes();
-        let signed = &bytes[..bytes.len() - 6];
-        let expected = sha256_prefix(&self.key, signed, &[0x80]).unwrap_or_else(|| {
-            signature_streamed(
-                &self.key,
-                frame.signed_part(),
-                block.link_id(),
-                block.timestamp(),
-            )
-        });
-        // Not constant-time: the signature is public once sent, and a
-        // mismatch only drops the frame.
-        if expected != block.signature() {
-            return Err(SignatureError::Mismatch);
-        }
-        let h = frame.header();
-        let ts = block.timestamp();
-        let key = (block.link_id(), h.sysid, h.compid);
-        let found = self.streams[..self.used]
-            .iter_mut()
-            .find(|s| (s.link_id, s.sysid, s.compid) == key);
-        match found {
-            Some(stream) => {
-                if ts <= stream.timestamp {
-                    return Err(SignatureError::Replay);
-                }
-                stream.timestamp = ts;
-            }
-            None => {
-                if ts + NEW_STREAM_WINDOW < self.newest {
-                    return Err(SignatureError::TooOld);
-                }
-                let slot = self
-                    .streams
-                    .get_mut(self.used)
-                    .ok_or(SignatureError::TooManyStreams)?;
-                *slot = Stream {
-                    link_id: key.0,
-                    sysid: key.1,
-                    compid: key.2,
-                    timestamp: ts,
-                };
-                self.used += 1;
-            }
-        }
-        self.newest = self.newest.max(ts);
-        Ok(())
-    }
-}
 
 #[cfg(test)]
 mod tests {

@@ -1,0 +1,605 @@
+//! Signing state that survives restarts (std): the signer's next timestamp
+//! and the verifier's notion of now, floors and stream table, in a small
+//! text file written atomically.
+//!
+//! Why: a verifier that forgets its table accepts, after a restart, replays
+//! of frames it had accepted (those less than a minute old with a clock,
+//! all of them without one); a signer that forgets its timestamp and whose
+//! clock went back (a reboot without a real-time clock) is rejected as a
+//! replay by every receiver that saw its earlier frames, until its clock
+//! catches up. The MAVLink spec asks signers to store their timestamp (at
+//! least once a minute) and to start from the greater of the clock and the
+//! stored value.
+//!
+//! # Use in a long-running program
+//!
+//! ```no_run
+//! use mavframe::signing::state::{StateError, StateFile};
+//! use mavframe::signing::{Signer, Verifier};
+//! # fn main() -> Result<(), StateError> {
+//! # let key = [0u8; 32];
+//! // At start: load, or begin from the clock when there is no file yet.
+//! let (mut file, loaded) = StateFile::open("cc.signing-state")?;
+//! let mut verifier: Verifier = file.state().verifier(key);
+//! let mut signer: Signer = file.state().signer(key, 0);
+//! // In the loop, after handling input (cheap when nothing is due):
+//! if file.due(Some(&signer)) {
+//!     file.save(Some(&signer), Some(&verifier))?;
+//! }
+//! // At exit, always:
+//! file.save(Some(&signer), Some(&verifier))?;
+//! # let _ = loaded; Ok(()) }
+//! ```
+//!
+//! # Guarantees and limits
+//!
+//! - A signer built from the state starts at the greater of the clock and
+//!   the saved timestamp plus [`SIGNER_MARGIN`] (10 s of timestamps). That
+//!   is strictly after anything it sent, provided each save came before its
+//!   timestamp ran [`SIGNER_MARGIN`] past the previous one:
+//!   [`StateFile::due`] asks for a save once it has run half of that, and
+//!   every [`SAVE_INTERVAL`]. A save that fails (full disk) loses that
+//!   guarantee until the next one succeeds: after a crash in that time, the
+//!   signer may restart below what receivers saw and be rejected as a replay
+//!   until its timestamp catches up (unavailability, not a replay).
+//! - A verifier built from the state rejects replays of every frame it had
+//!   accepted up to the last save. Frames it accepted after the last save
+//!   and before a crash (at most [`SAVE_INTERVAL`] of them, with the
+//!   recommended loop) can be replayed once after the restart; a clean exit
+//!   that saves leaves no such window.
+//! - A saved notion of now is kept even when the clock is behind it (a
+//!   receiver without a clock has nothing else). If it was saved from a
+//!   clock that ran far ahead, new streams are `TooOld` until real time
+//!   catches up: remove the file to start from the clock again.
+//! - The state holds timestamps only, never the key, and restoring only
+//!   raises values (see [`Verifier::restore`]). Whoever can write the file
+//!   can lower them, so it belongs where the program's key is: writable by
+//!   its user only. One file per process: two processes sharing one would
+//!   overwrite each other's state.
+//!
+//! # Format (version 1)
+//!
+//! ASCII lines, each ending in `\n`, numbers in decimal, in this order:
+//!
+//! ```text
+//! mavframe-signing-state 1
+//! signer <next timestamp of the signer, or "none">
+//! newest <the verifier's notion of now>
+//! floors <16 numbers separated by one space: the eviction floors by bucket>
+//! stream <link id> <system id> <component id> <last timestamp>
+//! check <16 lowercase hex digits>
+//! ```
+//!
+//! There are zero to [`MAX_STREAMS`] `stream` lines, least recently accepted
+//! first. Timestamps are below 2^48 (the signature block's width). `check`
+//! is the first 8 bytes of the SHA-256 of every byte before its line, so a
+//! truncated or damaged file is an error rather than lowered timestamps.
+//! Files are at most [`MAX_FILE_LEN`] bytes.
+
+use super::{timestamp_now, Signer, StreamState, Verifier, FLOOR_BUCKETS};
+use sha2::{Digest, Sha256};
+use std::borrow::ToOwned;
+use std::fmt::{self, Write as _};
+use std::format;
+use std::fs;
+use std::io::{self, Read as _, Write as _};
+use std::path::{Path, PathBuf};
+use std::string::String;
+use std::time::{Duration, Instant};
+use std::vec::Vec;
+
+/// Format version this code writes and reads.
+pub const VERSION: u32 = 1;
+
+/// How far past its saved timestamp a restored signer starts (10 s of
+/// timestamps): more than it can have sent between two saves.
+pub const SIGNER_MARGIN: u64 = 1_000_000;
+
+/// How often [`StateFile::due`] asks for a save when the state changed.
+pub const SAVE_INTERVAL: Duration = Duration::from_secs(1);
+
+/// Most `stream` lines a file may have.
+pub const MAX_STREAMS: usize = 1024;
+
+/// Largest file accepted (a full table of [`MAX_STREAMS`] fits well below).
+pub const MAX_FILE_LEN: u64 = 64 * 1024;
+
+/// Timestamps are 48-bit on the wire.
+const MAX_TIMESTAMP: u64 = (1 << 48) - 1;
+
+const MAGIC: &str = "mavframe-signing-state";
+
+/// Why a state file could not be read or written.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum StateError {
+    /// There is no file at the path (a first start).
+    Missing,
+    /// The path is not a regular file (a directory, FIFO or device).
+    NotAFile,
+    /// The file is larger than [`MAX_FILE_LEN`].
+    TooLarge {
+        /// Its length in bytes.
+        len: u64,
+    },
+    /// Reading or writing failed.
+    Io(io::Error),
+    /// The file ends before its `check` line (empty, or cut short).
+    Truncated,
+    /// The `check` line does not match the contents (damaged).
+    Checksum,
+    /// The file is of a format version this code does not read.
+    UnsupportedVersion(u32),
+    /// A line is not what the format says.
+    Corrupt {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
+}
+
+impl fmt::Display for StateError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StateError::Missing => f.write_str("no signing state file"),
+            StateError::NotAFile => f.write_str("signing state path is not a regular file"),
+            StateError::TooLarge { len } => write!(
+                f,
+                "signing state file is {len} bytes, more than {MAX_FILE_LEN}"
+            ),
+            StateError::Io(e) => write!(f, "signing state file: {e}"),
+            StateError::Truncated => f.write_str("signing state file is truncated"),
+            StateError::Checksum => f.write_str("signing state file is damaged (checksum)"),
+            StateError::UnsupportedVersion(v) => {
+                write!(f, "signing state file has unsupported version {v}")
+            }
+            StateError::Corrupt { line, reason } => {
+                write!(f, "signing state file, line {line}: {reason}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for StateError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            StateError::Io(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<io::Error> for StateError {
+    fn from(e: io::Error) -> Self {
+        match e.kind() {
+            io::ErrorKind::NotFound => StateError::Missing,
+            _ => StateError::Io(e),
+        }
+    }
+}
+
+/// The saved signing state of one program (see the module docs).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SigningState {
+    /// The signer's next timestamp, if the program signs.
+    pub signer: Option<u64>,
+    /// The verifier's notion of now.
+    pub newest: u64,
+    /// The verifier's eviction floors.
+    pub floors: [u64; FLOOR_BUCKETS],
+    /// The verifier's streams, least recently accepted first.
+    pub streams: Vec<StreamState>,
+}
+
+impl SigningState {
+    /// The state of `signer` and `verifier` (either may be absent).
+    pub fn capture<const N: usize>(
+        signer: Option<&Signer>,
+        verifier: Option<&Verifier<N>>,
+    ) -> Self {
+        let mut s = SigningState {
+            signer: signer.map(Signer::timestamp),
+            ..SigningState::default()
+        };
+        if let Some(v) = verifier {
+            s.newest = v.newest_timestamp();
+            s.floors = v.floors();
+            s.streams = v.streams().collect();
+        }
+        s
+    }
+
+    /// Where a restored signer starts when the clock reads `now`: the
+    /// greater of `now` and the saved timestamp plus [`SIGNER_MARGIN`].
+    pub fn signer_start(&self, now: u64) -> u64 {
+        match self.signer {
+            Some(saved) => now.max(saved.saturating_add(SIGNER_MARGIN)),
+            None => now,
+        }
+    }
+
+    /// A signer for `key` and `link_id` starting at
+    /// [`signer_start`](Self::signer_start) of the system clock.
+    pub fn signer(&self, key: [u8; 32], link_id: u8) -> Signer {
+        Signer::new(key, link_id, self.signer_start(timestamp_now()))
+    }
+
+    /// A verifier for `key` on the system clock
+    /// ([`Verifier::starting_now`]) with this state restored.
+    pub fn verifier<const N: usize>(&self, key: [u8; 32]) -> Verifier<N> {
+        self.verifier_with_clock(key, timestamp_now)
+    }
+
+    /// A verifier for `key` reading `clock` ([`Verifier::with_clock`]) with
+    /// this state restored.
+    pub fn verifier_with_clock<const N: usize>(
+        &self,
+        key: [u8; 32],
+        clock: fn() -> u64,
+    ) -> Verifier<N> {
+        let mut v = Verifier::with_clock(key, clock);
+        self.restore_into(&mut v);
+        v
+    }
+
+    /// Raises `verifier` to this state ([`Verifier::restore`]).
+    pub fn restore_into<const N: usize>(&self, verifier: &mut Verifier<N>) {
+        verifier.restore(self.newest, &self.floors, self.streams.iter().copied());
+    }
+
+    /// The file's text (see the module docs).
+    pub fn to_text(&self) -> String {
+        let mut t = String::new();
+        // Writing to a String cannot fail.
+        let _ = writeln!(t, "{MAGIC} {VERSION}");
+        let _ = match self.signer {
+            Some(ts) => writeln!(t, "signer {ts}"),
+            None => writeln!(t, "signer none"),
+        };
+        let _ = writeln!(t, "newest {}", self.newest);
+        t.push_str("floors");
+        for f in &self.floors {
+            let _ = write!(t, " {f}");
+        }
+        t.push('\n');
+        for s in &self.streams {
+            let _ = writeln!(
+                t,
+                "stream {} {} {} {}",
+                s.link_id, s.sysid, s.compid, s.timestamp
+            );
+        }
+        let _ = writeln!(t, "check {}", check(t.as_bytes()));
+        t
+    }
+
+    /// Parses a file's bytes (see the module docs).
+    pub fn from_text(bytes: &[u8]) -> Result<Self, StateError> {
+        let text = parse::split(bytes)?;
+        parse::body(text)
+    }
+
+    /// Reads the file at `path`.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, StateError> {
+        let path = path.as_ref();
+        // Refuse FIFOs and devices before opening: opening a FIFO blocks.
+        let meta = fs::metadata(path)?;
+        if !meta.is_file() {
+            return Err(StateError::NotAFile);
+        }
+        let mut bytes = Vec::new();
+        fs::File::open(path)?
+            .take(MAX_FILE_LEN + 1)
+            .read_to_end(&mut bytes)?;
+        if bytes.len() as u64 > MAX_FILE_LEN {
+            return Err(StateError::TooLarge {
+                len: meta.len().max(bytes.len() as u64),
+            });
+        }
+        Self::from_text(&bytes)
+    }
+
+    /// Writes the file at `path` atomically: a temporary file next to it,
+    /// flushed to disk, then renamed over it, so a crash leaves either the
+    /// old file or the new one, never a mix.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), StateError> {
+        let path = path.as_ref();
+        let tmp = temp_path(path);
+        let result =
+            write_synced(&tmp, self.to_text().as_bytes()).and_then(|()| fs::rename(&tmp, path));
+        if let Err(e) = result {
+            // Best effort: do not leave the temporary file behind.
+            let _ = fs::remove_file(&tmp);
+            return Err(StateError::Io(e));
+        }
+        sync_dir(path);
+        Ok(())
+    }
+}
+
+/// `PATH.<pid>.tmp`, in the same directory (a rename within one file
+/// system is atomic).
+fn temp_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(format!(".{}.tmp", std::process::id()));
+    PathBuf::from(name)
+}
+
+fn write_synced(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let mut f = fs::File::create(path)?;
+    f.write_all(bytes)?;
+    f.sync_all()
+}
+
+/// Makes the rename durable: on Unix, sync the directory. Best effort: some
+/// platforms cannot open a directory, and the file's own data is synced.
+fn sync_dir(path: &Path) {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if let Ok(d) = fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+/// The `check` value of `body`: 8 bytes of its SHA-256, in hex.
+fn check(body: &[u8]) -> String {
+    let digest = Sha256::digest(body);
+    let mut hex = String::with_capacity(16);
+    for b in &digest[..8] {
+        let _ = write!(hex, "{b:02x}");
+    }
+    hex
+}
+
+/// The parser, line by line.
+mod parse {
+    use super::*;
+
+    /// Checks the header, the ending and the checksum; returns the text
+    /// before the `check` line.
+    pub(super) fn split(bytes: &[u8]) -> Result<&str, StateError> {
+        version(bytes)?;
+        let Some(content) = bytes.strip_suffix(b"\n") else {
+            return Err(StateError::Truncated);
+        };
+        let at = content
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
+        let (body, last) = bytes.split_at(at);
+        let Some(sum) = last.strip_prefix(b"check ") else {
+            return Err(StateError::Truncated);
+        };
+        if sum != format!("{}\n", check(body)).as_bytes() {
+            return Err(StateError::Checksum);
+        }
+        // The checksum matched, so this is what was written; still, a file
+        // written by hand with a fresh checksum must be ASCII.
+        std::str::from_utf8(body).map_err(|_| StateError::Corrupt {
+            line: 1,
+            reason: "not text",
+        })
+    }
+
+    /// The first line: the magic and a version this code reads.
+    fn version(bytes: &[u8]) -> Result<(), StateError> {
+        let bad = StateError::Corrupt {
+            line: 1,
+            reason: "not a mavframe signing state file",
+        };
+        let first = bytes.split(|&b| b == b'\n').next().unwrap_or_default();
+        let Some(rest) = first.strip_prefix(MAGIC.as_bytes()) else {
+            // An empty file or a cut magic: truncated, not foreign.
+            return Err(if MAGIC.as_bytes().starts_with(first) {
+                StateError::Truncated
+            } else {
+                bad
+            });
+        };
+        let Some(digits) = rest.strip_prefix(b" ") else {
+            return Err(if rest.is_empty() {
+                StateError::Truncated
+            } else {
+                bad
+            });
+        };
+        match std::str::from_utf8(digits).ok().and_then(decimal) {
+            Some(v) if v == u64::from(VERSION) => Ok(()),
+            Some(v) => Err(StateError::UnsupportedVersion(
+                u32::try_from(v).unwrap_or(u32::MAX),
+            )),
+            // The line may be cut: the checksum step tells.
+            None if bytes.len() == first.len() => Err(StateError::Truncated),
+            None => Err(bad),
+        }
+    }
+
+    /// The lines between the header and `check`.
+    pub(super) fn body(text: &str) -> Result<SigningState, StateError> {
+        let end = text.lines().count() + 1;
+        let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l)).skip(1);
+        let mut next = |key: &'static str, what: &'static str| {
+            let (n, l) = lines.next().ok_or(StateError::Corrupt {
+                line: end,
+                reason: what,
+            })?;
+            let rest = l
+                .strip_prefix(key)
+                .and_then(|r| r.strip_prefix(' '))
+                .ok_or(StateError::Corrupt {
+                    line: n,
+                    reason: what,
+                })?;
+            Ok::<_, StateError>((n, rest))
+        };
+        let (n, signer) = next("signer", "expected `signer <timestamp>|none`")?;
+        let signer = match signer {
+            "none" => None,
+            s => Some(timestamp(s, n)?),
+        };
+        let (n, newest) = next("newest", "expected `newest <timestamp>`")?;
+        let newest = timestamp(newest, n)?;
+        let (n, floors) = next("floors", "expected `floors` and 16 timestamps")?;
+        let floors = floor_list(floors, n)?;
+        let mut streams = Vec::new();
+        for (n, line) in lines {
+            if streams.len() == MAX_STREAMS {
+                return Err(corrupt(n, "more stream lines than allowed"));
+            }
+            streams.push(stream(line, n)?);
+        }
+        Ok(SigningState {
+            signer,
+            newest,
+            floors,
+            streams,
+        })
+    }
+
+    fn floor_list(s: &str, n: usize) -> Result<[u64; FLOOR_BUCKETS], StateError> {
+        let mut floors = [0; FLOOR_BUCKETS];
+        let mut words = s.split(' ');
+        for f in &mut floors {
+            *f = timestamp(words.next().unwrap_or_default(), n)?;
+        }
+        match words.next() {
+            None => Ok(floors),
+            Some(_) => Err(corrupt(n, "more than 16 floors")),
+        }
+    }
+
+    fn stream(line: &str, n: usize) -> Result<StreamState, StateError> {
+        let bad = || corrupt(n, "expected `stream <link> <sysid> <compid> <timestamp>`");
+        let mut w = line.strip_prefix("stream ").ok_or_else(bad)?.split(' ');
+        let mut id = || {
+            w.next()
+                .and_then(decimal)
+                .and_then(|v| u8::try_from(v).ok())
+                .ok_or_else(bad)
+        };
+        let (link_id, sysid, compid) = (id()?, id()?, id()?);
+        let timestamp = timestamp(w.next().ok_or_else(bad)?, n)?;
+        if w.next().is_some() {
+            return Err(bad());
+        }
+        Ok(StreamState {
+            link_id,
+            sysid,
+            compid,
+            timestamp,
+        })
+    }
+
+    fn timestamp(s: &str, n: usize) -> Result<u64, StateError> {
+        match decimal(s) {
+            Some(t) if t <= MAX_TIMESTAMP => Ok(t),
+            Some(_) => Err(corrupt(n, "timestamp wider than 48 bits")),
+            None => Err(corrupt(n, "expected a decimal number")),
+        }
+    }
+
+    /// Plain decimal digits only (no sign, no spaces), as written.
+    fn decimal(s: &str) -> Option<u64> {
+        if s.is_empty() || !s.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        s.parse().ok()
+    }
+
+    fn corrupt(line: usize, reason: &'static str) -> StateError {
+        StateError::Corrupt { line, reason }
+    }
+}
+
+/// Whether a state file existed when [`StateFile::open`] ran.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Loaded {
+    /// The file was read: its state is restored.
+    Existing,
+    /// There was no file: the state is empty (start from the clock).
+    Fresh,
+}
+
+/// A state file and the save policy of the module docs: the state last
+/// read or written, and when.
+#[derive(Debug)]
+pub struct StateFile {
+    path: PathBuf,
+    state: SigningState,
+    saved_at: Instant,
+    interval: Duration,
+}
+
+impl StateFile {
+    /// Reads `path`, or starts empty when there is no file there yet
+    /// ([`Loaded::Fresh`]). Any other failure (unreadable, truncated,
+    /// damaged, foreign) is an error for the caller to report.
+    pub fn open(path: impl Into<PathBuf>) -> Result<(Self, Loaded), StateError> {
+        let path = path.into();
+        let (state, loaded) = match SigningState::load(&path) {
+            Ok(s) => (s, Loaded::Existing),
+            Err(StateError::Missing) => (SigningState::default(), Loaded::Fresh),
+            Err(e) => return Err(e),
+        };
+        let file = StateFile {
+            path,
+            state,
+            saved_at: Instant::now(),
+            interval: SAVE_INTERVAL,
+        };
+        Ok((file, loaded))
+    }
+
+    /// The same file with saves due every `interval` instead of
+    /// [`SAVE_INTERVAL`] (the replay window after a crash, see the module
+    /// docs).
+    pub fn with_interval(mut self, interval: Duration) -> Self {
+        self.interval = interval;
+        self
+    }
+
+    /// The path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The state last read or saved.
+    pub fn state(&self) -> &SigningState {
+        &self.state
+    }
+
+    /// Whether a save is due: the signer ran half of [`SIGNER_MARGIN`] past
+    /// the saved timestamp (checked first, so keep calling this even when
+    /// saves fail), or the interval has passed since the last save. Cheap:
+    /// call it every loop iteration.
+    pub fn due(&self, signer: Option<&Signer>) -> bool {
+        let ran_ahead = signer.is_some_and(|s| match self.state.signer {
+            Some(saved) => s.timestamp() >= saved.saturating_add(SIGNER_MARGIN / 2),
+            None => true,
+        });
+        ran_ahead || self.saved_at.elapsed() >= self.interval
+    }
+
+    /// Captures `signer` and `verifier` and writes them when they differ
+    /// from the last saved state (an idle link writes nothing). Returns
+    /// whether it wrote. On error, the last saved state stays the reference,
+    /// so [`due`](Self::due) keeps asking.
+    pub fn save<const N: usize>(
+        &mut self,
+        signer: Option<&Signer>,
+        verifier: Option<&Verifier<N>>,
+    ) -> Result<bool, StateError> {
+        let now = SigningState::capture(signer, verifier);
+        if now == self.state {
+            self.saved_at = Instant::now();
+            return Ok(false);
+        }
+        now.save(&self.path)?;
+        self.state = now;
+        self.saved_at = Instant::now();
+        Ok(true)
+    }
+}

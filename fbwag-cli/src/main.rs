@@ -152,6 +152,13 @@ enum Command {
         /// udpin only: send to this address (IP:PORT) and no other.
         #[arg(long, value_name = "IP:PORT")]
         peer: Option<std::net::SocketAddr>,
+        /// Keep the signing timestamps (this signer's, and each peer
+        /// stream's) in this file across restarts, so a restart neither
+        /// replays old timestamps nor accepts replays of frames accepted
+        /// before (saved every second and at exit; a damaged file stops the
+        /// program: remove it to start from the clock).
+        #[arg(long, value_name = "PATH", requires = "sign_key")]
+        signing_state: Option<PathBuf>,
         /// Write machine-readable events to this file (`-`: stdout), one
         /// JSON object per line (keys below).
         #[arg(long, value_name = "PATH")]
@@ -209,6 +216,13 @@ enum Command {
         /// udpin only: send to this address (IP:PORT) and no other.
         #[arg(long, value_name = "IP:PORT")]
         peer: Option<std::net::SocketAddr>,
+        /// Keep the signing timestamps (this signer's, and each peer
+        /// stream's) in this file across restarts, so a restart neither
+        /// replays old timestamps nor accepts replays of frames accepted
+        /// before (saved every second and at exit; a damaged file stops the
+        /// program: remove it to start from the clock).
+        #[arg(long, value_name = "PATH", requires = "sign_key")]
+        signing_state: Option<PathBuf>,
         /// Write machine-readable events to this file (`-`: stdout), one
         /// JSON object per line (keys below).
         #[arg(long, value_name = "PATH")]
@@ -523,6 +537,7 @@ fn main() -> ExitCode {
         Command::Cc {
             link,
             peer,
+            signing_state,
             events,
             sysid,
             compid,
@@ -551,6 +566,7 @@ fn main() -> ExitCode {
                     endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
                     key: sign_key.as_deref().map(key).transpose()?,
                     peer,
+                    signing_state,
                 },
                 own: fbwag_delegation::Peer::new(sysid, compid),
                 fc: fbwag_delegation::Peer::new(fc_sysid, fc_compid),
@@ -568,6 +584,7 @@ fn main() -> ExitCode {
         Command::FcSim {
             link,
             peer,
+            signing_state,
             events,
             rc_loss_at,
             rc_back_at,
@@ -584,6 +601,7 @@ fn main() -> ExitCode {
                     endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
                     key: sign_key.as_deref().map(key).transpose()?,
                     peer,
+                    signing_state,
                 },
                 own: fbwag_delegation::Peer::new(sysid, compid),
                 companion: fbwag_delegation::Peer::new(cc_sysid, cc_compid),

@@ -199,6 +199,12 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         &self.stats
     }
 
+    /// The signature verifier, when signing is configured (to save its
+    /// state: see [`crate::signing::state`]).
+    pub fn verifier(&self) -> Option<&Verifier<STREAMS>> {
+        self.verifier.as_ref()
+    }
+
     /// Sequence statistics per sender (the first [`MAX_TRACKED_LINKS`]).
     pub fn links(&self) -> &[LinkStats] {
         &self.links[..self.tracked]

@@ -62,7 +62,7 @@ pub fn run_cc(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepo
     let engine = CcEngine::new(cfg, clock.now())
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
     let endpoint = o.link.endpoint.clone();
-    let mut link = Link::open(o.link)?;
+    let mut link = Link::open(o.link, &mut log)?;
     let events = Events::open(o.events.as_deref(), clock)?;
     log.line(&format!(
         "listening on {endpoint} as {}/{}, serving FC {}/{}, controller {}{}",

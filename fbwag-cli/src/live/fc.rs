@@ -74,7 +74,7 @@ pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepo
     let engine = FcEngine::new(cfg, clock.now())
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
     let endpoint = o.link.endpoint.clone();
-    let mut link = Link::open(o.link)?;
+    let mut link = Link::open(o.link, &mut log)?;
     let events = Events::open(o.events.as_deref(), clock)?;
     log.line(&format!(
         "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}",

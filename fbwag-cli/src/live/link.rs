@@ -17,11 +17,12 @@ use super::{Clock, Limiter, Log};
 use fbwag_delegation::engine::Verdict;
 use fbwag_dialect::mavframe::conn::{AnyTransport, Endpoint, ReplyTo};
 use fbwag_dialect::mavframe::parser::Stats;
-use fbwag_dialect::mavframe::signing::timestamp_now;
+use fbwag_dialect::mavframe::signing::state::{Loaded, SigningState, StateFile};
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{Connection, Parser, ReceivedFrame, Signer, Verifier};
+use fbwag_dialect::{Connection, Parser, ReceivedFrame, Verifier};
 use std::io;
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::time::{Duration, Instant as WallInstant};
 
 /// An unsigned `udpin` peer silent this long may be replaced by another
@@ -50,12 +51,19 @@ pub struct LinkOptions {
     pub key: Option<[u8; 32]>,
     /// `udpin` only: answer this address and no other.
     pub peer: Option<SocketAddr>,
+    /// Keep the signer's and verifier's timestamps across restarts in this
+    /// file (with `key`).
+    pub signing_state: Option<PathBuf>,
 }
 
 /// A daemon's link.
 pub struct Link {
     opts: LinkOptions,
     conn: Option<Connection>,
+    /// The state file, and the signing state of a connection that failed
+    /// (its replacement starts from it, not from nothing).
+    state_file: Option<StateFile>,
+    carried: SigningState,
     reopen_at: WallInstant,
     pinned: Option<(SocketAddr, WallInstant)>,
     send_errors: Limiter,
@@ -68,12 +76,46 @@ pub struct Link {
 impl Link {
     /// Opens the link now: errors here (address in use, no such device)
     /// end the program before it starts; later errors never do.
-    pub fn open(opts: LinkOptions) -> io::Result<Link> {
-        let conn = connect(&opts)
+    pub fn open(opts: LinkOptions, log: &mut Log) -> io::Result<Link> {
+        let state_file = match (&opts.signing_state, opts.key) {
+            (Some(path), Some(_)) => {
+                let (file, loaded) = StateFile::open(path).map_err(|e| {
+                    io::Error::other(format!(
+                        "signing state {}: {e}; remove the file to start from the clock",
+                        path.display()
+                    ))
+                })?;
+                log.line(&match loaded {
+                    Loaded::Existing => format!(
+                        "signing state: loaded {} ({} streams)",
+                        path.display(),
+                        file.state().streams.len()
+                    ),
+                    Loaded::Fresh => format!(
+                        "signing state: no file at {} yet, starting from the clock",
+                        path.display()
+                    ),
+                });
+                Some(file)
+            }
+            (Some(_), None) => {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    "a signing state file needs a signing key",
+                ))
+            }
+            (None, _) => None,
+        };
+        let carried = state_file
+            .as_ref()
+            .map_or_else(SigningState::default, |f| f.state().clone());
+        let conn = connect(&opts, &carried)
             .map_err(|e| io::Error::new(e.kind(), format!("cannot open {}: {e}", opts.endpoint)))?;
         Ok(Link {
             opts,
             conn: Some(conn),
+            state_file,
+            carried,
             reopen_at: WallInstant::now(),
             pinned: None,
             send_errors: Limiter::new(5, Duration::from_secs(10)),
@@ -95,8 +137,39 @@ impl Link {
                 format!("send of {} failed: {e}", msg.meta().name)
             });
             if breaks_link(&self.opts.endpoint, &e) {
-                self.conn = None;
+                self.drop_connection();
             }
+        }
+    }
+
+    /// Drops a failed connection, keeping its signing state for the next.
+    fn drop_connection(&mut self) {
+        if let Some(conn) = self.conn.take() {
+            self.carried = SigningState::capture(conn.signer(), conn.parser().verifier());
+        }
+        self.reopen_at = WallInstant::now() + REOPEN_INTERVAL;
+    }
+
+    /// Saves the signing state when due (cheap: call every iteration), or
+    /// now with `force` (at exit). Failures are logged, never fatal.
+    pub fn save_signing_state(&mut self, force: bool, log: &mut Log) {
+        let (Some(file), Some(conn)) = (&mut self.state_file, &self.conn) else {
+            return;
+        };
+        if !force && !file.due(conn.signer()) {
+            return;
+        }
+        match file.save(conn.signer(), conn.parser().verifier()) {
+            Ok(_) if force => {
+                log.line(&format!("signing state saved to {}", file.path().display()))
+            }
+            Ok(_) => {}
+            Err(e) => self.send_errors.log(log, "state file errors", || {
+                format!(
+                    "cannot save the signing state to {}: {e}",
+                    file.path().display()
+                )
+            }),
         }
     }
 
@@ -116,8 +189,7 @@ impl Link {
                 self.recv_errors
                     .log(log, "receive errors", || format!("receive failed: {e}"));
                 if breaks_link(&self.opts.endpoint, &e) {
-                    self.conn = None;
-                    self.reopen_at = WallInstant::now() + REOPEN_INTERVAL;
+                    self.drop_connection();
                 } else {
                     // A transient error: do not spin on it.
                     std::thread::sleep(Duration::from_millis(10).min(wait));
@@ -184,7 +256,7 @@ impl Link {
             return;
         }
         self.reopen_at = WallInstant::now() + REOPEN_INTERVAL;
-        match connect(&self.opts) {
+        match connect(&self.opts, &self.carried) {
             Ok(conn) => {
                 log.line(&format!("link {} open again", self.opts.endpoint));
                 self.conn = Some(conn);
@@ -235,8 +307,11 @@ impl Link {
 /// what comes (unsigned frames still arrive, marked unauthenticated: whether
 /// they count is the engine's trust rule). The verifier starts from the
 /// clock, so a capture older than the signing window (one minute) replayed
-/// into a freshly started daemon is refused.
-fn connect(opts: &LinkOptions) -> io::Result<Connection> {
+/// into a freshly started daemon is refused, and from `state` (the state
+/// file's, or a failed connection's), so a replay of anything it accepted
+/// before is refused too; the signer resumes after anything it may have
+/// sent.
+fn connect(opts: &LinkOptions, state: &SigningState) -> io::Result<Connection> {
     let mut transport = fbwag_dialect::mavframe::conn::open(&opts.endpoint)?;
     if let AnyTransport::UdpIn(udp) = &mut transport {
         udp.set_reply_to(opts.peer.map_or(ReplyTo::Pinned, ReplyTo::Fixed));
@@ -244,12 +319,9 @@ fn connect(opts: &LinkOptions) -> io::Result<Connection> {
     let Some(key) = opts.key else {
         return Ok(Connection::new(transport));
     };
-    let now = timestamp_now();
-    let mut conn = Connection::with_parser(
-        transport,
-        Parser::with_signing(Verifier::with_timestamp(key, now), true),
-    );
-    conn.set_signer(Some(Signer::new(key, 0, now)));
+    let verifier: Verifier = state.verifier(key);
+    let mut conn = Connection::with_parser(transport, Parser::with_signing(verifier, true));
+    conn.set_signer(Some(state.signer(key, 0)));
     Ok(conn)
 }
 
@@ -296,6 +368,7 @@ pub fn run(node: &mut impl Node, link: &mut Link, clock: &Clock, log: &mut Log) 
     // least this often.
     const MAX_WAIT: Duration = Duration::from_millis(100);
     while !node.done(clock) {
+        link.save_signing_state(false, log);
         let now = clock.now();
         if node.poll_timeout().is_some_and(|t| t <= now) {
             node.handle_timeout(now, link, log);
@@ -318,4 +391,5 @@ pub fn run(node: &mut impl Node, link: &mut Link, clock: &Clock, log: &mut Log) 
             }
         }
     }
+    link.save_signing_state(true, log);
 }

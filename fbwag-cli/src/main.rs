@@ -1,6 +1,7 @@
 //! `fbwag`: the FBWAG MAVLink toolbox.
 
 mod args;
+mod hexstream;
 mod json;
 mod lines;
 mod live;
@@ -274,36 +275,40 @@ fn decode(file: Option<PathBuf>, hex: bool, tlog: bool) -> Result<bool, String> 
     let mut emit = |line: String| -> Result<(), String> {
         writeln!(out, "{line}").map_err(|e| format!("cannot write: {e}"))
     };
+    // Every form is read in chunks, so memory stays bounded whatever the
+    // input's size (a device or an endless pipe included).
+    let mut chunk = vec![0u8; 64 * 1024];
+    let mut hex_text = hexstream::HexDecoder::default();
+    let mut bytes = Vec::new();
     let mut tlog_records = (0u64, 0u64);
-    if hex || tlog {
-        // Hex text and tlog records are read whole: both are bounded captures.
-        let mut raw = Vec::new();
-        input
-            .read_to_end(&mut raw)
-            .map_err(|e| format!("cannot read input: {e}"))?;
+    loop {
+        let n = match input.read(&mut chunk) {
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(format!("cannot read input: {e}")),
+        };
+        let end = n == 0;
         if hex {
-            let text = String::from_utf8(raw).map_err(|_| "hex input is not text".to_string())?;
-            let bytes = json::unhex(&text)?;
+            hex_text.push(&chunk[..n], &mut bytes)?;
+            if end {
+                hex_text.finish()?;
+            }
+        } else {
+            bytes.extend_from_slice(&chunk[..n]);
+        }
+        if tlog {
+            let (used, good, bad) = decode_tlog(&bytes, end, &mut parser, &mut emit)?;
+            bytes.drain(..used);
+            tlog_records = (tlog_records.0 + good, tlog_records.1 + bad);
+        } else {
             let mut rest: &[u8] = &bytes;
             while let Some(r) = parser.next(&mut rest) {
                 emit(json::frame_to_json(&r.frame, r.meta, None))?;
             }
-        } else {
-            tlog_records = decode_tlog(&raw, &mut parser, &mut emit)?;
+            bytes.clear();
         }
-    } else {
-        let mut chunk = vec![0u8; 64 * 1024];
-        loop {
-            let n = match input.read(&mut chunk) {
-                Ok(0) => break,
-                Ok(n) => n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(format!("cannot read input: {e}")),
-            };
-            let mut rest: &[u8] = &chunk[..n];
-            while let Some(r) = parser.next(&mut rest) {
-                emit(json::frame_to_json(&r.frame, r.meta, None))?;
-            }
+        if end {
+            break;
         }
     }
     while let Some(r) = parser.flush() {
@@ -332,14 +337,19 @@ fn decode(file: Option<PathBuf>, hex: bool, tlog: bool) -> Result<bool, String> 
 }
 
 /// Reads tlog records (8-byte big-endian µs timestamp, then one frame); an
-/// unreadable record is skipped by resynchronising one byte further.
+/// unreadable record is skipped by resynchronising one byte further. Until
+/// the `end` of the input, a record is read only when a whole frame of the
+/// largest size could follow it, so the outcome does not depend on how the
+/// input was chunked. Returns the bytes used and the good and bad records.
 fn decode_tlog(
     raw: &[u8],
+    end: bool,
     parser: &mut Parser<Dialect>,
     emit: &mut dyn FnMut(String) -> Result<(), String>,
-) -> Result<(u64, u64), String> {
+) -> Result<(usize, u64, u64), String> {
     let (mut at, mut good, mut bad) = (0usize, 0u64, 0u64);
-    while at + 8 < raw.len() {
+    let lookahead = if end { 1 } else { MAX_FRAME_LEN };
+    while at + 8 + lookahead <= raw.len() {
         let ts = u64::from_be_bytes(raw[at..at + 8].try_into().expect("8 bytes"));
         let rest = &raw[at + 8..];
         let len = frame_len(rest)
@@ -359,7 +369,7 @@ fn decode_tlog(
             }
         }
     }
-    Ok((good, bad))
+    Ok((at, good, bad))
 }
 
 fn encode(

@@ -2,7 +2,9 @@
 //! as clap `value_parser`s: a bad value is refused while the command line is
 //! parsed, with a message saying what is allowed (exit status 2), instead of
 //! panicking or running forever later. NaN, infinities and negative numbers
-//! are refused everywhere; each kind of value has a range.
+//! are refused everywhere; each kind of value has a range. main.rs marks
+//! these arguments `allow_hyphen_values`, so `-1` or `-inf` reaches the
+//! validator (clap would otherwise take it for an unknown flag).
 
 /// Longest time any time argument may name: 1,000,000 s (11.6 days). Keeps
 /// every time well inside what `Duration`, `Instant` arithmetic and the

@@ -366,7 +366,7 @@ impl<'a> Object<'a> {
             Some(n) if n <= max => Ok(Some(n)),
             _ => Err(format!(
                 "`{key}` must be an integer from 0 to {max}, not {}",
-                raw.get()
+                shown(raw)
             )),
         }
     }
@@ -377,7 +377,7 @@ impl<'a> Object<'a> {
         };
         match value(raw) {
             Value::Bool(b) => Ok(Some(b)),
-            _ => Err(format!("`{key}` must be true or false, not {}", raw.get())),
+            _ => Err(format!("`{key}` must be true or false, not {}", shown(raw))),
         }
     }
 
@@ -387,8 +387,18 @@ impl<'a> Object<'a> {
         };
         match value(raw) {
             Value::String(s) => Ok(Some(s)),
-            _ => Err(format!("`{key}` must be a string, not {}", raw.get())),
+            _ => Err(format!("`{key}` must be a string, not {}", shown(raw))),
         }
+    }
+}
+
+/// A raw value for an error message: at most 40 characters of it, so a
+/// huge value does not flood the log.
+fn shown(raw: &RawValue) -> String {
+    let text = raw.get().trim();
+    match text.char_indices().nth(40) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text.to_string(),
     }
 }
 
@@ -616,7 +626,7 @@ fn write_chars(dst: &mut [u8], raw: &RawValue) -> Result<(), String> {
         }
         _ => Err(format!(
             "expected a string of at most {room} bytes or an array of {room} byte values, not {}",
-            raw.get()
+            shown(raw)
         )),
     }
 }
@@ -652,7 +662,13 @@ fn write_scalar(
 /// A JSON integer from `lo` to `hi`.
 fn integer(raw: &RawValue, lo: i128, hi: i128, ty: FieldType) -> Result<i128, String> {
     let text = raw.get().trim();
-    let range = || format!("{text} is out of range for {} ({lo} to {hi})", ty.c_name());
+    let range = || {
+        format!(
+            "{} is out of range for {} ({lo} to {hi})",
+            shown(raw),
+            ty.c_name()
+        )
+    };
     let v = value(raw);
     let n = match v
         .as_i64()
@@ -664,7 +680,13 @@ fn integer(raw: &RawValue, lo: i128, hi: i128, ty: FieldType) -> Result<i128, St
         None if v.is_number() && text.bytes().all(|b| b.is_ascii_digit() || b == b'-') => {
             return Err(range())
         }
-        None => return Err(format!("{text} is not an integer ({})", ty.c_name())),
+        None => {
+            return Err(format!(
+                "{} is not an integer ({})",
+                shown(raw),
+                ty.c_name()
+            ))
+        }
     };
     if (lo..=hi).contains(&n) {
         Ok(n)
@@ -683,14 +705,16 @@ fn float<F: Float>(raw: &RawValue) -> Result<F, String> {
         Value::Number(_) => match text.parse::<F>() {
             Ok(v) if !v.is_infinite() => Ok(v),
             _ => Err(format!(
-                "{text} is out of range for {} (use \"inf\" or \"-inf\" for infinities)",
+                "{} is out of range for {} (use \"inf\" or \"-inf\" for infinities)",
+                shown(raw),
                 F::C_NAME
             )),
         },
         Value::String(s) => special_float(&s),
         _ => Err(format!(
-            "expected a number, \"NaN\", \"NaN:0x…\", \"inf\" or \"-inf\" for a {}, not {text}",
-            F::C_NAME
+            "expected a number, \"NaN\", \"NaN:0x…\", \"inf\" or \"-inf\" for a {}, not {}",
+            F::C_NAME,
+            shown(raw)
         )),
     }
 }

@@ -83,6 +83,9 @@ enum Command {
     /// bytes or exceeds the message without "extra" holding the bytes beyond,
     /// and "signed": true with neither a "signature" to copy nor --sign-key.
     /// Numbers are rounded once, to the nearest value of the field's type.
+    /// A frame of an unknown message ("raw" hex) is copied as it is, and its
+    /// other keys must agree with its bytes. Blank lines are skipped; lines
+    /// longer than 1 MiB are refused.
     ///
     /// Each refused line is reported on stderr as `line N: reason`, no frame is
     /// written for it, and encoding goes on with the next line. Exit status: 0

@@ -71,8 +71,8 @@ impl Schema {
     /// diagnostics (errors first found, warnings too) are returned.
     ///
     /// Every file must be a regular file of at most
-    /// [`MAX_FILE_BYTES`](crate::input::MAX_FILE_BYTES), all of them together
-    /// at most [`MAX_TOTAL_BYTES`](crate::input::MAX_TOTAL_BYTES); anything
+    /// [`MAX_FILE_BYTES`], all of them together
+    /// at most [`MAX_TOTAL_BYTES`]; anything
     /// else (a FIFO, a device, a directory) is an error at the `<include>`
     /// naming it. Include chains of any depth are handled without recursion.
     pub fn load<P: AsRef<Path>>(roots: &[P]) -> Result<Schema, Vec<Diagnostic>> {

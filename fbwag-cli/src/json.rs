@@ -6,18 +6,33 @@
 //! Keys added only when needed to reproduce the bytes exactly: `"link_id"`,
 //! `"sign_timestamp"`, `"signature"` for signed frames; `"compat_flags"` when
 //! not zero; `"payload_len"` when a MAVLink 2 sender did not drop trailing
-//! zeros canonically; `"tlog_us"` for tlog records. Frames of unknown ids are
-//! `"name":null` with the whole frame as `"raw"` hex.
+//! zeros canonically (or a MAVLink 1 frame is not the base length);
+//! `"extra"` (hex) for payload bytes beyond the message's fields (a sender
+//! with a newer definition); `"tlog_us"` for tlog records. Frames of unknown
+//! ids are `"name":null` with the whole frame as `"raw"` hex.
+//!
+//! Floats: finite values are JSON numbers in shortest round-trip form;
+//! `"inf"`, `"-inf"`; `"NaN"` for the canonical quiet NaN (`0x7fc00000`,
+//! `0x7ff8000000000000`) and `"NaN:0x…"` with the bit pattern (8 or 16 hex
+//! digits) for every other NaN, so sign and payload bits survive.
+//!
+//! Encoding is exact or refused: every value must fit its field without
+//! rounding beyond the nearest representable float, and every byte the
+//! line describes must land in the frame (see [`json_to_frame`]).
 
 use fbwag_dialect::mavframe::crc::frame_crc;
 use fbwag_dialect::mavframe::field::{read, Scalar};
 use fbwag_dialect::mavframe::frame::{
-    self, truncated_len, Frame, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_SIGNED,
+    truncated_len, Frame, Header, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2,
+    IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
 use fbwag_dialect::mavframe::{Dialect as _, FieldMeta, FieldType, MessageMeta, Signer};
 use fbwag_dialect::Dialect;
-use serde_json::{Map, Value};
-use std::fmt::Write as _;
+use serde::de::{Deserialize, Deserializer, Error as _, MapAccess, Visitor};
+use serde_json::value::RawValue;
+use serde_json::Value;
+use std::collections::HashSet;
+use std::fmt::{self, Write as _};
 
 /// Lower-case hex of `bytes`.
 pub fn hex(bytes: &[u8]) -> String {
@@ -45,15 +60,87 @@ pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
         .collect()
 }
 
-/// A float as JSON: shortest round-trip form, non-finite values as strings.
-fn float(out: &mut String, v: f64, shortest: &dyn Fn(&mut String)) {
-    if v.is_nan() {
-        out.push_str("\"NaN\"");
-    } else if v.is_infinite() {
-        out.push_str(if v > 0.0 { "\"inf\"" } else { "\"-inf\"" });
-    } else {
-        shortest(out);
+/// The float types of a payload, for the JSON conventions above.
+trait Float: Scalar + std::str::FromStr + fmt::Debug {
+    /// Bits of the NaN written as plain `"NaN"`.
+    const CANONICAL_NAN: u64;
+    /// Hex digits of a bit pattern.
+    const HEX_DIGITS: usize;
+    const INFINITY: Self;
+    const NEG_INFINITY: Self;
+    /// `float` or `double`.
+    const C_NAME: &'static str;
+    fn bits(self) -> u64;
+    fn from_bits(bits: u64) -> Self;
+    fn is_nan(self) -> bool;
+    fn is_infinite(self) -> bool;
+    fn is_sign_negative(self) -> bool;
+}
+
+impl Float for f32 {
+    const CANONICAL_NAN: u64 = 0x7fc0_0000;
+    const HEX_DIGITS: usize = 8;
+    const INFINITY: Self = f32::INFINITY;
+    const NEG_INFINITY: Self = f32::NEG_INFINITY;
+    const C_NAME: &'static str = "float";
+    fn bits(self) -> u64 {
+        u64::from(self.to_bits())
     }
+    fn from_bits(bits: u64) -> Self {
+        // Callers pass at most HEX_DIGITS (8) hex digits.
+        f32::from_bits(bits as u32)
+    }
+    fn is_nan(self) -> bool {
+        f32::is_nan(self)
+    }
+    fn is_infinite(self) -> bool {
+        f32::is_infinite(self)
+    }
+    fn is_sign_negative(self) -> bool {
+        f32::is_sign_negative(self)
+    }
+}
+
+impl Float for f64 {
+    const CANONICAL_NAN: u64 = 0x7ff8_0000_0000_0000;
+    const HEX_DIGITS: usize = 16;
+    const INFINITY: Self = f64::INFINITY;
+    const NEG_INFINITY: Self = f64::NEG_INFINITY;
+    const C_NAME: &'static str = "double";
+    fn bits(self) -> u64 {
+        self.to_bits()
+    }
+    fn from_bits(bits: u64) -> Self {
+        f64::from_bits(bits)
+    }
+    fn is_nan(self) -> bool {
+        f64::is_nan(self)
+    }
+    fn is_infinite(self) -> bool {
+        f64::is_infinite(self)
+    }
+    fn is_sign_negative(self) -> bool {
+        f64::is_sign_negative(self)
+    }
+}
+
+/// A float as JSON (see the module docs).
+fn float_json<F: Float>(out: &mut String, v: F) {
+    let _ = if v.is_nan() && v.bits() == F::CANONICAL_NAN {
+        write!(out, "\"NaN\"")
+    } else if v.is_nan() {
+        write!(out, "\"NaN:0x{:0w$x}\"", v.bits(), w = F::HEX_DIGITS)
+    } else if v.is_infinite() {
+        write!(
+            out,
+            "\"{}inf\"",
+            if v.is_sign_negative() { "-" } else { "" }
+        )
+    } else {
+        // Debug is the shortest form that parses back to the same value
+        // (signed zero and subnormals included).
+        write!(out, "{v:?}")
+    };
 }
 
 fn scalar(out: &mut String, payload: &[u8], ty: FieldType, at: usize) {
@@ -67,18 +154,11 @@ fn scalar(out: &mut String, payload: &[u8], ty: FieldType, at: usize) {
         FieldType::U64 => write!(out, "{}", read::<u64>(payload, at)),
         FieldType::I64 => write!(out, "{}", read::<i64>(payload, at)),
         FieldType::F32 => {
-            let v = read::<f32>(payload, at);
-            // Debug is the shortest form that reads back as the same f32.
-            float(out, v as f64, &|o: &mut String| {
-                let _ = write!(o, "{v:?}");
-            });
+            float_json(out, read::<f32>(payload, at));
             Ok(())
         }
         FieldType::F64 => {
-            let v = read::<f64>(payload, at);
-            float(out, v, &|o: &mut String| {
-                let _ = write!(o, "{v:?}");
-            });
+            float_json(out, read::<f64>(payload, at));
             Ok(())
         }
     };
@@ -128,49 +208,24 @@ pub fn frame_to_json(
         h.compid,
         frame.msg_id()
     );
-    match meta {
-        Some(m) => {
-            let _ = write!(
-                out,
-                "\"name\":\"{}\",\"signed\":{}",
-                m.name,
-                frame.is_signed()
-            );
-        }
-        None => {
-            let _ = write!(
-                out,
-                "\"name\":null,\"signed\":{},\"raw\":\"{}\"}}",
-                frame.is_signed(),
-                hex(frame.as_bytes())
-            );
-            return out;
-        }
-    }
-    let meta = meta.expect("handled above");
-    if let Some(sig) = frame.signature() {
+    let Some(meta) = meta else {
         let _ = write!(
             out,
-            ",\"link_id\":{},\"sign_timestamp\":{},\"signature\":\"{}\"",
-            sig.link_id(),
-            sig.timestamp(),
-            hex(sig.signature())
+            "\"name\":null,\"signed\":{},\"raw\":\"{}\"}}",
+            frame.is_signed(),
+            hex(frame.as_bytes())
         );
-    }
-    if frame.compat_flags() != 0 {
-        let _ = write!(out, ",\"compat_flags\":{}", frame.compat_flags());
-    }
-    let payload = frame.payload();
-    if frame.version() == Version::V2 {
-        // What an encoder produces from these values; otherwise say the length.
-        let canonical = truncated_len(&payload[..payload.len().min(meta.max_len as usize)]);
-        if payload.len() != canonical {
-            let _ = write!(out, ",\"payload_len\":{}", payload.len());
-        }
-    } else if payload.len() != meta.min_len as usize {
-        let _ = write!(out, ",\"payload_len\":{}", payload.len());
-    }
+        return out;
+    };
+    let _ = write!(
+        out,
+        "\"name\":\"{}\",\"signed\":{}",
+        meta.name,
+        frame.is_signed()
+    );
+    envelope_extras(&mut out, frame, meta);
     out.push_str(",\"fields\":{");
+    let payload = frame.payload();
     for (i, f) in meta.fields.iter().enumerate() {
         if i > 0 {
             out.push(',');
@@ -195,23 +250,384 @@ pub fn frame_to_json(
     out
 }
 
-/// Signing for [`json_to_frame`]: sign with a key, or not.
+/// The keys a known message's line carries only when the frame needs them:
+/// signature, compat flags, a non-canonical length, bytes beyond the fields.
+fn envelope_extras(out: &mut String, frame: &Frame<'_>, meta: &MessageMeta) {
+    if let Some(sig) = frame.signature() {
+        let _ = write!(
+            out,
+            ",\"link_id\":{},\"sign_timestamp\":{},\"signature\":\"{}\"",
+            sig.link_id(),
+            sig.timestamp(),
+            hex(sig.signature())
+        );
+    }
+    if frame.compat_flags() != 0 {
+        let _ = write!(out, ",\"compat_flags\":{}", frame.compat_flags());
+    }
+    let payload = frame.payload();
+    let max = meta.max_len as usize;
+    let expected = if frame.version() == Version::V2 {
+        // What an encoder produces from these values.
+        truncated_len(&payload[..payload.len().min(max)])
+    } else {
+        meta.min_len as usize
+    };
+    if payload.len() != expected {
+        let _ = write!(out, ",\"payload_len\":{}", payload.len());
+    }
+    if payload.len() > max {
+        let _ = write!(out, ",\"extra\":\"{}\"", hex(&payload[max..]));
+    }
+}
+
+/// Options of [`json_to_frame`].
 pub struct EncodeOptions<'a> {
-    /// Force MAVLink 1 (`--v1`).
+    /// Force MAVLink 1 (`--v1`): base fields only.
     pub force_v1: bool,
-    /// Sign every MAVLink 2 frame with this signer (`--sign-key`).
+    /// Sign every frame with this signer (`--sign-key`).
     pub signer: Option<&'a mut Signer>,
 }
 
-fn get_u64(obj: &Map<String, Value>, key: &str, max: u64) -> Result<Option<u64>, String> {
-    match obj.get(key) {
-        None | Some(Value::Null) => Ok(None),
-        Some(v) => match v.as_u64() {
+/// What one line encoded to.
+pub struct Encoded {
+    /// Frame length in the output buffer.
+    pub len: usize,
+    /// The line's `tlog_us`, if it has one.
+    pub tlog_us: Option<u64>,
+}
+
+/// A JSON object as its keys and their raw values, in order; a repeated key
+/// is an error (which of the two values was meant is unknowable). Raw values
+/// keep numbers as written, so floats are parsed exactly for their type.
+struct Object<'a>(Vec<(String, &'a RawValue)>);
+
+impl<'de> Deserialize<'de> for Object<'de> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Entries;
+        impl<'de> Visitor<'de> for Entries {
+            type Value = Object<'de>;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a JSON object")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Object<'de>, A::Error> {
+                let mut seen = HashSet::new();
+                let mut entries = Vec::new();
+                while let Some((k, v)) = map.next_entry::<String, &'de RawValue>()? {
+                    if !seen.insert(k.clone()) {
+                        return Err(A::Error::custom(format!("duplicate key `{k}`")));
+                    }
+                    entries.push((k, v));
+                }
+                Ok(Object(entries))
+            }
+        }
+        d.deserialize_map(Entries)
+    }
+}
+
+impl<'a> Object<'a> {
+    fn parse(text: &'a str) -> Result<Self, String> {
+        serde_json::from_str(text).map_err(|e| match e.classify() {
+            serde_json::error::Category::Data => e.to_string(),
+            _ => format!("not JSON: {e}"),
+        })
+    }
+
+    /// The raw value of `key`; `null` counts as absent.
+    fn get(&self, key: &str) -> Option<&'a RawValue> {
+        self.0
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|&(_, v)| v)
+            .filter(|v| v.get() != "null")
+    }
+
+    fn has(&self, key: &str) -> bool {
+        self.get(key).is_some()
+    }
+
+    /// Refuses any key not in `allowed`: a misspelt key must not be ignored.
+    fn only(&self, allowed: &[&str]) -> Result<(), String> {
+        match self.0.iter().find(|(k, _)| !allowed.contains(&k.as_str())) {
+            Some((k, _)) => Err(format!(
+                "unknown key `{k}` (expected: {})",
+                allowed.join(", ")
+            )),
+            None => Ok(()),
+        }
+    }
+
+    fn uint(&self, key: &str, max: u64) -> Result<Option<u64>, String> {
+        let Some(raw) = self.get(key) else {
+            return Ok(None);
+        };
+        match value(raw).as_u64() {
             Some(n) if n <= max => Ok(Some(n)),
             _ => Err(format!(
-                "`{key}` must be an integer from 0 to {max}, not {v}"
+                "`{key}` must be an integer from 0 to {max}, not {}",
+                shown(raw)
             )),
-        },
+        }
+    }
+
+    fn bool(&self, key: &str) -> Result<Option<bool>, String> {
+        let Some(raw) = self.get(key) else {
+            return Ok(None);
+        };
+        match value(raw) {
+            Value::Bool(b) => Ok(Some(b)),
+            _ => Err(format!("`{key}` must be true or false, not {}", shown(raw))),
+        }
+    }
+
+    fn string(&self, key: &str) -> Result<Option<String>, String> {
+        let Some(raw) = self.get(key) else {
+            return Ok(None);
+        };
+        match value(raw) {
+            Value::String(s) => Ok(Some(s)),
+            _ => Err(format!("`{key}` must be a string, not {}", shown(raw))),
+        }
+    }
+}
+
+/// A raw value for an error message: at most 40 characters of it, so a
+/// huge value does not flood the log.
+fn shown(raw: &RawValue) -> String {
+    let text = raw.get().trim();
+    match text.char_indices().nth(40) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text.to_string(),
+    }
+}
+
+/// A raw value as a [`Value`]. Raw values come from a parsed document, so
+/// they are valid JSON; `Null` is only a fallback that every caller refuses.
+fn value(raw: &RawValue) -> Value {
+    serde_json::from_str(raw.get()).unwrap_or(Value::Null)
+}
+
+/// Keys of a known message's line.
+const MESSAGE_KEYS: &[&str] = &[
+    "tlog_us",
+    "version",
+    "seq",
+    "sysid",
+    "compid",
+    "msgid",
+    "name",
+    "signed",
+    "link_id",
+    "sign_timestamp",
+    "signature",
+    "compat_flags",
+    "payload_len",
+    "extra",
+    "fields",
+];
+
+/// Keys of a raw frame's line.
+const RAW_KEYS: &[&str] = &[
+    "tlog_us", "version", "seq", "sysid", "compid", "msgid", "name", "signed", "raw",
+];
+
+/// Encodes one JSON line into `out`.
+///
+/// Refused (the error says why): anything not a JSON object of the keys
+/// above (unknown or repeated keys included); a known message without
+/// `fields` (`"fields":{}` asks for all zeros; fields left out are zero);
+/// unknown field names; values of the wrong JSON type, out of their
+/// field's range, or strings and arrays longer than the field (arrays must
+/// have exactly the declared length); `payload_len` that would cut off
+/// non-zero field bytes, or exceed the message without `extra` holding the
+/// bytes beyond it; `"signed": true` without a `signature` to copy or a
+/// signer; signing a MAVLink 1 frame or an unsigned raw frame.
+pub fn json_to_frame(
+    line: &str,
+    opts: &mut EncodeOptions<'_>,
+    out: &mut [u8; MAX_FRAME_LEN],
+) -> Result<Encoded, String> {
+    let obj = Object::parse(line)?;
+    let tlog_us = obj.uint("tlog_us", u64::MAX)?;
+    let len = if obj.has("raw") {
+        raw_frame(&obj, opts, out)?
+    } else {
+        message_frame(&obj, opts, out)?
+    };
+    Ok(Encoded { len, tlog_us })
+}
+
+/// A frame of an unknown message, copied from `raw`; the other keys describe
+/// it and must agree with its bytes.
+fn raw_frame(
+    obj: &Object<'_>,
+    opts: &mut EncodeOptions<'_>,
+    out: &mut [u8; MAX_FRAME_LEN],
+) -> Result<usize, String> {
+    obj.only(RAW_KEYS)?;
+    let bytes = unhex(&obj.string("raw")?.unwrap_or_default())?;
+    let frame = Frame::new_checked(&bytes).map_err(|e| format!("`raw` is not a frame: {e}"))?;
+    let n = frame.as_bytes().len();
+    if n != bytes.len() {
+        return Err(format!(
+            "`raw` holds {} bytes after its frame",
+            bytes.len() - n
+        ));
+    }
+    if obj.has("name") {
+        return Err("`name` must be null for a `raw` frame".into());
+    }
+    let h = frame.header();
+    let v2 = frame.version() == Version::V2;
+    for (key, actual) in [
+        ("version", if v2 { 2 } else { 1 }),
+        ("seq", u64::from(h.seq)),
+        ("sysid", u64::from(h.sysid)),
+        ("compid", u64::from(h.compid)),
+        ("msgid", u64::from(frame.msg_id())),
+    ] {
+        if let Some(said) = obj.uint(key, u64::MAX)? {
+            if said != actual {
+                return Err(format!(
+                    "`{key}` is {said}, but the `raw` frame's is {actual}"
+                ));
+            }
+        }
+    }
+    if obj.bool("signed")?.is_some_and(|s| s != frame.is_signed()) {
+        return Err("`signed` disagrees with the `raw` frame".into());
+    }
+    if v2 && opts.force_v1 {
+        return Err("--v1: a raw MAVLink 2 frame of an unknown message cannot be converted".into());
+    }
+    out[..n].copy_from_slice(&bytes);
+    match opts.signer.as_deref_mut() {
+        None => {}
+        // Re-signing keeps the checksum; adding a signature would change the
+        // flags it covers, and an unknown message's checksum cannot be redone.
+        Some(signer) if frame.is_signed() => sign(signer, &mut out[..n])?,
+        Some(_) if v2 => return Err("--sign-key: this unsigned frame of an unknown message cannot be signed (its checksum cannot be recomputed)".into()),
+        Some(_) => return Err("--sign-key: this MAVLink 1 frame cannot be signed".into()),
+    }
+    Ok(n)
+}
+
+/// Signs a whole MAVLink 2 frame (its last 13 bytes are the block).
+fn sign(signer: &mut Signer, frame: &mut [u8]) -> Result<(), String> {
+    if signer.timestamp() > crate::args::MAX_SIGN_TIMESTAMP {
+        return Err("the signing timestamp passed 2^48 - 1 (48 bits)".into());
+    }
+    signer.sign_frame(frame);
+    Ok(())
+}
+
+/// The frame of a known message.
+fn message_frame(
+    obj: &Object<'_>,
+    opts: &mut EncodeOptions<'_>,
+    out: &mut [u8; MAX_FRAME_LEN],
+) -> Result<usize, String> {
+    obj.only(MESSAGE_KEYS)?;
+    let meta = message_meta(obj)?;
+    let fields = obj.get("fields").ok_or(
+        "no `fields`: a message line lists its field values (`\"fields\":{}` for all zeros)",
+    )?;
+    // A fresh buffer per line: nothing of an earlier line can leak in.
+    let mut payload = [0u8; 255];
+    fill_fields(meta, fields, &mut payload)?;
+    let header = Header {
+        seq: obj.uint("seq", 255)?.unwrap_or(0) as u8,
+        sysid: obj.uint("sysid", 255)?.unwrap_or(0) as u8,
+        compid: obj.uint("compid", 255)?.unwrap_or(0) as u8,
+    };
+    if opts.force_v1 {
+        return v1_frame(meta, header, &payload[..meta.min_len as usize], out);
+    }
+    match obj.uint("version", 255)? {
+        Some(1) => v1_line(obj, meta, header, &mut payload, opts, out),
+        None | Some(2) => v2_line(obj, meta, header, &mut payload, opts, out),
+        Some(v) => Err(format!("`version` must be 1 or 2, not {v}")),
+    }
+}
+
+/// The message a line names by `name`, `msgid` or both (which must agree).
+fn message_meta(obj: &Object<'_>) -> Result<&'static MessageMeta, String> {
+    let id = obj.uint("msgid", 0xFF_FFFF)?;
+    let Some(name) = obj.string("name")? else {
+        let id = id.ok_or("needs `name` or `msgid`")?;
+        return Dialect::meta(id as u32).ok_or_else(|| format!("unknown message id {id}"));
+    };
+    let m = Dialect::MESSAGES
+        .iter()
+        .find(|m| m.name == name)
+        .ok_or_else(|| format!("unknown message name `{name}`"))?;
+    match id {
+        Some(id) if id != u64::from(m.id) => Err(format!(
+            "`msgid` {id} does not match `name` {name} (id {})",
+            m.id
+        )),
+        _ => Ok(m),
+    }
+}
+
+fn fill_fields(meta: &MessageMeta, fields: &RawValue, payload: &mut [u8]) -> Result<(), String> {
+    let fields = Object::parse(fields.get()).map_err(|e| format!("`fields`: {e}"))?;
+    for (name, raw) in &fields.0 {
+        let f = meta
+            .fields
+            .iter()
+            .find(|f| f.name == name)
+            .ok_or_else(|| format!("{} has no field `{name}`", meta.name))?;
+        write_field(payload, f, raw).map_err(|e| format!("field `{name}`: {e}"))?;
+    }
+    Ok(())
+}
+
+fn write_field(payload: &mut [u8], f: &FieldMeta, raw: &RawValue) -> Result<(), String> {
+    let at = f.offset as usize;
+    let n = f.array_len as usize;
+    if f.ty == FieldType::Char {
+        return write_chars(&mut payload[at..at + n.max(1)], raw);
+    }
+    if n == 0 {
+        return write_scalar(payload, f.ty, at, raw);
+    }
+    let expected = || format!("expected an array of {n} {}", f.ty.c_name());
+    let items: Vec<&RawValue> = serde_json::from_str(raw.get()).map_err(|_| expected())?;
+    if items.len() != n {
+        return Err(format!("{}: it has {}", expected(), items.len()));
+    }
+    for (k, item) in items.iter().enumerate() {
+        write_scalar(payload, f.ty, at + k * f.ty.size(), item)
+            .map_err(|e| format!("element {k}: {e}"))?;
+    }
+    Ok(())
+}
+
+/// A `char[N]`: a string of at most N bytes (NUL-padded), or exactly N byte
+/// values (what the decoder writes when bytes follow a NUL).
+fn write_chars(dst: &mut [u8], raw: &RawValue) -> Result<(), String> {
+    let room = dst.len();
+    match value(raw) {
+        Value::String(s) if s.len() <= room => {
+            dst[..s.len()].copy_from_slice(s.as_bytes());
+            Ok(())
+        }
+        Value::String(s) => Err(format!("{} bytes do not fit char[{room}]", s.len())),
+        Value::Array(items) if items.len() == room => {
+            for (d, item) in dst.iter_mut().zip(&items) {
+                *d = item
+                    .as_u64()
+                    .and_then(|b| u8::try_from(b).ok())
+                    .ok_or_else(|| format!("{item} is not a byte value (0 to 255)"))?;
+            }
+            Ok(())
+        }
+        _ => Err(format!(
+            "expected a string of at most {room} bytes or an array of {room} byte values, not {}",
+            shown(raw)
+        )),
     }
 }
 
@@ -219,216 +635,141 @@ fn write_scalar(
     payload: &mut [u8],
     ty: FieldType,
     at: usize,
-    v: &Value,
-    name: &str,
+    raw: &RawValue,
 ) -> Result<(), String> {
-    let bad = || format!("field `{name}`: {v} is not a valid {}", ty.c_name());
-    fn int<T: TryFrom<i128> + Scalar>(v: &Value) -> Option<T> {
-        let n: i128 = v
-            .as_i64()
-            .map(i128::from)
-            .or_else(|| v.as_u64().map(i128::from))?;
-        T::try_from(n).ok()
+    macro_rules! int {
+        ($t:ty) => {{
+            let n = integer(raw, i128::from(<$t>::MIN), i128::from(<$t>::MAX), ty)?;
+            // In range: checked just above.
+            (n as $t).write(payload, at)
+        }};
     }
-    let float = |v: &Value| -> Option<f64> {
-        match v {
-            Value::Number(n) => n.as_f64(),
-            Value::String(s) if s == "NaN" => Some(f64::NAN),
-            Value::String(s) if s == "inf" => Some(f64::INFINITY),
-            Value::String(s) if s == "-inf" => Some(f64::NEG_INFINITY),
-            _ => None,
-        }
-    };
     match ty {
-        FieldType::Char | FieldType::U8 => int::<u8>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::I8 => int::<i8>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::U16 => int::<u16>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::I16 => int::<i16>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::U32 => int::<u32>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::I32 => int::<i32>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::U64 => int::<u64>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::I64 => int::<i64>(v).ok_or_else(bad)?.write(payload, at),
-        FieldType::F32 => (float(v).ok_or_else(bad)? as f32).write(payload, at),
-        FieldType::F64 => float(v).ok_or_else(bad)?.write(payload, at),
+        FieldType::Char | FieldType::U8 => int!(u8),
+        FieldType::I8 => int!(i8),
+        FieldType::U16 => int!(u16),
+        FieldType::I16 => int!(i16),
+        FieldType::U32 => int!(u32),
+        FieldType::I32 => int!(i32),
+        FieldType::U64 => int!(u64),
+        FieldType::I64 => int!(i64),
+        FieldType::F32 => float::<f32>(raw)?.write(payload, at),
+        FieldType::F64 => float::<f64>(raw)?.write(payload, at),
     }
     Ok(())
 }
 
-fn write_field(payload: &mut [u8], f: &FieldMeta, v: &Value) -> Result<(), String> {
-    let n = f.array_len as usize;
-    let at = f.offset as usize;
-    match (f.ty, v) {
-        (FieldType::Char, Value::String(s)) => {
-            let room = n.max(1);
-            if s.len() > room {
-                return Err(format!(
-                    "field `{}`: {} bytes do not fit char[{room}]",
-                    f.name,
-                    s.len()
-                ));
-            }
-            payload[at..at + s.len()].copy_from_slice(s.as_bytes());
-            Ok(())
+/// A JSON integer from `lo` to `hi`.
+fn integer(raw: &RawValue, lo: i128, hi: i128, ty: FieldType) -> Result<i128, String> {
+    let text = raw.get().trim();
+    let range = || {
+        format!(
+            "{} is out of range for {} ({lo} to {hi})",
+            shown(raw),
+            ty.c_name()
+        )
+    };
+    let v = value(raw);
+    let n = match v
+        .as_i64()
+        .map(i128::from)
+        .or_else(|| v.as_u64().map(i128::from))
+    {
+        Some(n) => n,
+        // Digits only, yet too large for 64 bits.
+        None if v.is_number() && text.bytes().all(|b| b.is_ascii_digit() || b == b'-') => {
+            return Err(range())
         }
-        (_, Value::Array(items)) if n > 0 || f.ty == FieldType::Char => {
-            if items.len() > n.max(1) {
-                return Err(format!(
-                    "field `{}`: {} elements, at most {} allowed",
-                    f.name,
-                    items.len(),
-                    n.max(1)
-                ));
-            }
-            for (k, item) in items.iter().enumerate() {
-                write_scalar(payload, f.ty, at + k * f.ty.size(), item, f.name)?;
-            }
-            Ok(())
+        None => {
+            return Err(format!(
+                "{} is not an integer ({})",
+                shown(raw),
+                ty.c_name()
+            ))
         }
-        (_, _) if n > 0 => Err(format!("field `{}`: expected an array of {n}", f.name)),
-        _ => write_scalar(payload, f.ty, at, v, f.name),
+    };
+    if (lo..=hi).contains(&n) {
+        Ok(n)
+    } else {
+        Err(range())
     }
 }
 
-/// Encodes one JSON line into `out`; returns the frame length.
-pub fn json_to_frame(
-    line: &str,
-    opts: &mut EncodeOptions<'_>,
-    out: &mut [u8],
-) -> Result<usize, String> {
-    let value: Value = serde_json::from_str(line).map_err(|e| format!("not JSON: {e}"))?;
-    let obj = value.as_object().ok_or("expected a JSON object")?;
-    if let Some(raw) = obj.get("raw") {
-        let bytes = unhex(raw.as_str().ok_or("`raw` must be a hex string")?)?;
-        let n = bytes.len();
-        out.get_mut(..n)
-            .ok_or("raw frame too long")?
-            .copy_from_slice(&bytes);
-        return Ok(n);
+/// A float field's value: a JSON number, parsed straight from its text to
+/// the field's type (so rounding happens once, to the nearest value), or
+/// one of the strings of the module docs. Finite numbers beyond the type's
+/// range are refused rather than turned into infinities.
+fn float<F: Float>(raw: &RawValue) -> Result<F, String> {
+    let text = raw.get().trim();
+    match value(raw) {
+        Value::Number(_) => match text.parse::<F>() {
+            Ok(v) if !v.is_infinite() => Ok(v),
+            _ => Err(format!(
+                "{} is out of range for {} (use \"inf\" or \"-inf\" for infinities)",
+                shown(raw),
+                F::C_NAME
+            )),
+        },
+        Value::String(s) => special_float(&s),
+        _ => Err(format!(
+            "expected a number, \"NaN\", \"NaN:0x…\", \"inf\" or \"-inf\" for a {}, not {}",
+            F::C_NAME,
+            shown(raw)
+        )),
     }
-    let meta = match (
-        obj.get("name").and_then(Value::as_str),
-        get_u64(obj, "msgid", 0xFF_FFFF)?,
-    ) {
-        (Some(name), id) => {
-            let m = Dialect::MESSAGES
-                .iter()
-                .find(|m| m.name == name)
-                .ok_or_else(|| format!("unknown message name `{name}`"))?;
-            if id.is_some_and(|id| id != m.id as u64) {
-                return Err(format!(
-                    "`msgid` {} does not match `name` {name} (id {})",
-                    id.unwrap_or(0),
-                    m.id
-                ));
-            }
-            m
-        }
-        (None, Some(id)) => {
-            Dialect::meta(id as u32).ok_or_else(|| format!("unknown message id {id}"))?
-        }
-        (None, None) => return Err("needs `name` or `msgid`".into()),
-    };
-    let version = match (opts.force_v1, get_u64(obj, "version", 2)?) {
-        (true, _) | (false, Some(1)) => Version::V1,
-        (false, None | Some(2)) => Version::V2,
-        (false, Some(v)) => return Err(format!("`version` must be 1 or 2, not {v}")),
-    };
-    let header = Header {
-        seq: get_u64(obj, "seq", 255)?.unwrap_or(0) as u8,
-        sysid: get_u64(obj, "sysid", 255)?.unwrap_or(0) as u8,
-        compid: get_u64(obj, "compid", 255)?.unwrap_or(0) as u8,
-    };
-    let start = if version == Version::V2 {
-        HEADER_LEN_V2
+}
+
+fn special_float<F: Float>(s: &str) -> Result<F, String> {
+    match s {
+        "NaN" => return Ok(F::from_bits(F::CANONICAL_NAN)),
+        "inf" => return Ok(F::INFINITY),
+        "-inf" => return Ok(F::NEG_INFINITY),
+        _ => {}
+    }
+    let v = s
+        .strip_prefix("NaN:0x")
+        .filter(|h| h.len() == F::HEX_DIGITS && h.bytes().all(|b| b.is_ascii_hexdigit()))
+        .and_then(|h| u64::from_str_radix(h, 16).ok())
+        .map(F::from_bits)
+        .ok_or_else(|| {
+            format!(
+                "\"{s}\" is not a {} (\"NaN\", \"NaN:0x\" and {} hex digits, \"inf\" or \"-inf\")",
+                F::C_NAME,
+                F::HEX_DIGITS
+            )
+        })?;
+    if v.is_nan() {
+        Ok(v)
     } else {
-        HEADER_LEN_V1
+        Err(format!("\"{s}\": these bits are not a NaN"))
+    }
+}
+
+/// A MAVLink 2 frame as the line says: its length, flags and signature.
+fn v2_line(
+    obj: &Object<'_>,
+    meta: &MessageMeta,
+    header: Header,
+    payload: &mut [u8; 255],
+    opts: &mut EncodeOptions<'_>,
+    out: &mut [u8; MAX_FRAME_LEN],
+) -> Result<usize, String> {
+    let canonical = truncated_len(&payload[..meta.max_len as usize]);
+    let len = payload_length(obj, meta, payload, canonical)?;
+    let compat = obj.uint("compat_flags", 255)?;
+    let block = if opts.signer.is_some() {
+        None
+    } else {
+        signature_block(obj)?
     };
-    let max = meta.max_len as usize;
-    let payload = out
-        .get_mut(start..start + max)
-        .ok_or("output buffer too small")?;
-    payload.fill(0);
-    let empty = Map::new();
-    let fields = match obj.get("fields") {
-        None => &empty,
-        Some(Value::Object(f)) => f,
-        Some(_) => return Err("`fields` must be an object".into()),
-    };
-    for name in fields.keys() {
-        if !meta.fields.iter().any(|f| f.name == name) {
-            return Err(format!("{} has no field `{name}`", meta.name));
-        }
-    }
-    for f in meta.fields {
-        if let Some(v) = fields.get(f.name) {
-            write_field(payload, f, v)?;
-        }
-    }
-    let payload_len = get_u64(obj, "payload_len", 255)?.map(|n| n as usize);
-    let compat = get_u64(obj, "compat_flags", 255)?.unwrap_or(0) as u8;
-    let verbatim_sig = match (obj.get("signature"), &opts.signer) {
-        (Some(sig), None) => {
-            let sig = unhex(sig.as_str().ok_or("`signature` must be hex")?)?;
-            if sig.len() != 6 {
-                return Err("`signature` must be 6 bytes".into());
-            }
-            let mut block = [0u8; 13];
-            block[0] = get_u64(obj, "link_id", 255)?.unwrap_or(0) as u8;
-            let ts = get_u64(obj, "sign_timestamp", (1 << 48) - 1)?.unwrap_or(0);
-            block[1..7].copy_from_slice(&ts.to_le_bytes()[..6]);
-            block[7..].copy_from_slice(&sig);
-            Some(block)
-        }
-        _ => None,
-    };
-    let canonical = payload_len.is_none() && compat == 0 && verbatim_sig.is_none();
-    if version == Version::V1 {
-        if meta.id > 255 {
-            return Err(format!(
-                "{} (id {}) cannot be sent as MAVLink 1",
-                meta.name, meta.id
-            ));
-        }
-        // pymavlink's MAVLink 1 frames carry extension fields (C's do not):
-        // `payload_len` says how many bytes this one had.
-        let len = payload_len.unwrap_or(meta.min_len as usize);
-        if len > max {
-            return Err(format!(
-                "payload_len {len} exceeds {}'s {max} bytes",
-                meta.name
-            ));
-        }
-        let total = HEADER_LEN_V1 + len + 2;
-        out[..HEADER_LEN_V1].copy_from_slice(&[
-            0xFE,
-            len as u8,
-            header.seq,
-            header.sysid,
-            header.compid,
-            meta.id as u8,
-        ]);
-        let crc = frame_crc(&out[1..HEADER_LEN_V1 + len], meta.crc_extra);
-        out[HEADER_LEN_V1 + len..total].copy_from_slice(&crc.to_le_bytes());
-        return Ok(total);
-    }
-    if canonical {
-        return frame::finish(version, header, meta, max, opts.signer.as_deref_mut(), out)
-            .map_err(|e| e.to_string());
-    }
-    // Reproduce exactly what the JSON says: length, flags, signature block.
-    let len = payload_len.unwrap_or_else(|| truncated_len(&out[start..start + max]));
-    let signed = verbatim_sig.is_some() || opts.signer.is_some();
-    let total = HEADER_LEN_V2 + len + 2 + if signed { 13 } else { 0 };
-    if len > 255 || out.len() < total {
-        return Err(format!("payload_len {len} does not fit"));
-    }
+    let signed = block.is_some() || opts.signer.is_some();
+    let total = HEADER_LEN_V2 + len + CHECKSUM_LEN + if signed { SIGNATURE_LEN } else { 0 };
     let id = meta.id.to_le_bytes();
-    let flags = if signed { IFLAG_SIGNED } else { 0 };
     out[..HEADER_LEN_V2].copy_from_slice(&[
-        0xFD,
+        STX_V2,
         len as u8,
-        flags,
-        compat,
+        if signed { IFLAG_SIGNED } else { 0 },
+        compat.unwrap_or(0) as u8,
         header.seq,
         header.sysid,
         header.compid,
@@ -436,12 +777,153 @@ pub fn json_to_frame(
         id[1],
         id[2],
     ]);
-    let crc = frame_crc(&out[1..HEADER_LEN_V2 + len], meta.crc_extra);
-    out[HEADER_LEN_V2 + len..HEADER_LEN_V2 + len + 2].copy_from_slice(&crc.to_le_bytes());
-    match (verbatim_sig, opts.signer.as_deref_mut()) {
-        (_, Some(signer)) => signer.sign_frame(&mut out[..total]),
-        (Some(block), None) => out[total - 13..total].copy_from_slice(&block),
+    let crc_at = HEADER_LEN_V2 + len;
+    out[HEADER_LEN_V2..crc_at].copy_from_slice(&payload[..len]);
+    let crc = frame_crc(&out[1..crc_at], meta.crc_extra);
+    out[crc_at..crc_at + CHECKSUM_LEN].copy_from_slice(&crc.to_le_bytes());
+    match (opts.signer.as_deref_mut(), block) {
+        (Some(signer), _) => sign(signer, &mut out[..total])?,
+        (None, Some(block)) => out[total - SIGNATURE_LEN..total].copy_from_slice(&block),
         (None, None) => {}
     }
     Ok(total)
+}
+
+/// The signature block a line carries, checked against its `signed`.
+fn signature_block(obj: &Object<'_>) -> Result<Option<[u8; SIGNATURE_LEN]>, String> {
+    let keys = ["signature", "link_id", "sign_timestamp"];
+    let given = keys.iter().filter(|k| obj.has(k)).count();
+    match (obj.bool("signed")?, given) {
+        (Some(false) | None, 0) => return Ok(None),
+        (Some(false), _) => {
+            return Err("`signed` is false, but the line has a signature".into());
+        }
+        (Some(true), 0) => {
+            return Err(
+                "`signed` is true, but there is no `signature` to copy and no --sign-key to sign with"
+                    .into(),
+            );
+        }
+        (_, n) if n < keys.len() => {
+            return Err(
+                "a signature needs all of `signature`, `link_id` and `sign_timestamp`".into(),
+            );
+        }
+        _ => {}
+    }
+    let sig = unhex(&obj.string("signature")?.unwrap_or_default())?;
+    if sig.len() != 6 {
+        return Err(format!("`signature` must be 6 bytes, not {}", sig.len()));
+    }
+    let mut block = [0u8; SIGNATURE_LEN];
+    block[0] = obj.uint("link_id", 255)?.unwrap_or(0) as u8;
+    let ts = obj
+        .uint("sign_timestamp", crate::args::MAX_SIGN_TIMESTAMP)?
+        .unwrap_or(0);
+    block[1..7].copy_from_slice(&ts.to_le_bytes()[..6]);
+    block[7..].copy_from_slice(&sig);
+    Ok(Some(block))
+}
+
+/// The payload length a line asks for (`default` when it does not say):
+/// `extra` bytes are placed after the fields, and no non-zero byte may fall
+/// outside the length.
+fn payload_length(
+    obj: &Object<'_>,
+    meta: &MessageMeta,
+    payload: &mut [u8; 255],
+    default: usize,
+) -> Result<usize, String> {
+    let max = meta.max_len as usize;
+    let extra = match obj.string("extra")? {
+        Some(h) => unhex(&h).map_err(|e| format!("`extra`: {e}"))?,
+        None => Vec::new(),
+    };
+    let full = max + extra.len();
+    let slot = payload.get_mut(max..full).ok_or_else(|| {
+        format!(
+            "`extra`: {} bytes after {}'s {max} exceed a 255-byte payload",
+            extra.len(),
+            meta.name
+        )
+    })?;
+    slot.copy_from_slice(&extra);
+    let len = match obj.uint("payload_len", 255)? {
+        Some(n) => n as usize,
+        None if !extra.is_empty() => full,
+        None => default,
+    };
+    if len > max && len != full {
+        return Err(format!(
+            "payload_len {len} is above {}'s {max} bytes: `extra` must hold the {} bytes beyond them (it holds {})",
+            meta.name,
+            len - max,
+            extra.len()
+        ));
+    }
+    if !extra.is_empty() && len != full {
+        return Err(format!("`extra` needs payload_len {full}, not {len}"));
+    }
+    let used = payload[..full]
+        .iter()
+        .rposition(|&b| b != 0)
+        .map_or(0, |i| i + 1);
+    if len < used {
+        let field = meta
+            .fields
+            .iter()
+            .find(|f| (f.offset as usize..f.offset as usize + f.wire_len()).contains(&(used - 1)))
+            .map_or("`extra`", |f| f.name);
+        return Err(format!(
+            "payload_len {len} would cut off {field}, whose bytes end at {used}"
+        ));
+    }
+    Ok(len)
+}
+
+/// A MAVLink 1 frame as the line says (`"version": 1`).
+fn v1_line(
+    obj: &Object<'_>,
+    meta: &MessageMeta,
+    header: Header,
+    payload: &mut [u8; 255],
+    opts: &EncodeOptions<'_>,
+    out: &mut [u8; MAX_FRAME_LEN],
+) -> Result<usize, String> {
+    let sig_keys = ["signature", "link_id", "sign_timestamp"];
+    if obj.bool("signed")? == Some(true) || sig_keys.iter().any(|k| obj.has(k)) {
+        return Err("a MAVLink 1 frame cannot be signed".into());
+    }
+    if opts.signer.is_some() {
+        return Err("--sign-key: this MAVLink 1 frame cannot be signed".into());
+    }
+    if obj.uint("compat_flags", 255)?.is_some_and(|c| c != 0) {
+        return Err("a MAVLink 1 frame has no compat_flags".into());
+    }
+    let len = payload_length(obj, meta, payload, meta.min_len as usize)?;
+    v1_frame(meta, header, &payload[..len], out)
+}
+
+fn v1_frame(
+    meta: &MessageMeta,
+    header: Header,
+    payload: &[u8],
+    out: &mut [u8; MAX_FRAME_LEN],
+) -> Result<usize, String> {
+    let id = u8::try_from(meta.id)
+        .map_err(|_| format!("{} (id {}) cannot be sent as MAVLink 1", meta.name, meta.id))?;
+    let len = payload.len();
+    let crc_at = HEADER_LEN_V1 + len;
+    out[..HEADER_LEN_V1].copy_from_slice(&[
+        STX_V1,
+        len as u8,
+        header.seq,
+        header.sysid,
+        header.compid,
+        id,
+    ]);
+    out[HEADER_LEN_V1..crc_at].copy_from_slice(payload);
+    let crc = frame_crc(&out[1..crc_at], meta.crc_extra);
+    out[crc_at..crc_at + CHECKSUM_LEN].copy_from_slice(&crc.to_le_bytes());
+    Ok(crc_at + CHECKSUM_LEN)
 }

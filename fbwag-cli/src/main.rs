@@ -1,6 +1,9 @@
 //! `fbwag`: the FBWAG MAVLink toolbox.
 
+mod args;
+mod hexstream;
 mod json;
+mod lines;
 mod live;
 mod sim;
 
@@ -9,7 +12,7 @@ use fbwag_dialect::mavframe::frame::{frame_len, Frame, MAX_FRAME_LEN};
 use fbwag_dialect::mavframe::parser::Parser;
 use fbwag_dialect::mavframe::Signer;
 use fbwag_dialect::Dialect;
-use std::io::{BufRead, BufWriter, Read, Write};
+use std::io::{BufWriter, Read, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -85,11 +88,18 @@ and \"event\":
 enum Command {
     /// Print one JSON object per frame of a MAVLink stream.
     ///
-    /// Fields are listed in wire order; integers and finite floats are JSON
-    /// numbers (floats in shortest round-trip form), NaN and infinities the
-    /// strings "NaN", "inf", "-inf", arrays JSON arrays, char arrays strings up
-    /// to the first NUL. Bad frames are skipped and counted in a summary on
-    /// stderr; the parser resynchronises after garbage and corrupted frames.
+    /// Fields are listed in wire order; integers are JSON numbers, arrays JSON
+    /// arrays, char arrays strings up to the first NUL (or arrays of byte
+    /// values when bytes follow the NUL or the text is not UTF-8). Floats:
+    /// finite values are numbers in shortest round-trip form (-0.0 and
+    /// subnormals included); "inf" and "-inf"; "NaN" for the canonical quiet
+    /// NaN (bits 0x7fc00000 for float, 0x7ff8000000000000 for double) and
+    /// "NaN:0x" plus the bit pattern (8 or 16 hex digits) for any other NaN,
+    /// so sign and payload bits survive. Payload bytes beyond the message's
+    /// fields (a sender with a newer definition) are kept as "extra" (hex),
+    /// with "payload_len". `fbwag decode | fbwag encode` gives back the same
+    /// bytes. Bad frames are skipped and counted in a summary on stderr; the
+    /// parser resynchronises after garbage and corrupted frames.
     Decode {
         /// Input file; `-` or nothing for stdin.
         file: Option<PathBuf>,
@@ -104,26 +114,51 @@ enum Command {
     /// Read `fbwag decode` JSON lines and write the frames.
     ///
     /// Messages are named by `name` or `msgid`; `seq`, `sysid`, `compid` and
-    /// `version` come from the JSON. `fbwag decode | fbwag encode` reproduces
-    /// its input byte for byte, truncation and signatures included.
+    /// `version` come from the JSON (0, 0, 0 and 2 when absent). `fbwag decode
+    /// | fbwag encode` reproduces its input byte for byte, truncation,
+    /// signatures, extra payload bytes and NaN bits included.
+    ///
+    /// A line is encoded exactly as it says, or not at all: refused are lines
+    /// that are not UTF-8 or not one JSON object, unknown or repeated keys, a
+    /// message without "fields" ("fields":{} asks for all zeros; fields left
+    /// out of it are zero), unknown field names, values of the wrong JSON type
+    /// or outside their field's range (integers out of range, negative for
+    /// unsigned, finite floats beyond float/double, which would become
+    /// infinities), strings longer than their char array, arrays not of the
+    /// declared length, a "payload_len" that would cut off non-zero field
+    /// bytes or exceeds the message without "extra" holding the bytes beyond,
+    /// and "signed": true with neither a "signature" to copy nor --sign-key.
+    /// Numbers are rounded once, to the nearest value of the field's type.
+    /// A frame of an unknown message ("raw" hex) is copied as it is, and its
+    /// other keys must agree with its bytes. Blank lines are skipped; lines
+    /// longer than 1 MiB are refused.
+    ///
+    /// Each refused line is reported on stderr as `line N: reason`, no frame is
+    /// written for it, and encoding goes on with the next line. Exit status: 0
+    /// when every line was encoded, 1 when any was refused, 2 when the input
+    /// could not be read or the output not written.
     Encode {
         /// Input file of JSON lines; `-` or nothing for stdin.
         file: Option<PathBuf>,
         /// Write hex text, one frame per line, instead of binary.
         #[arg(long)]
         hex: bool,
-        /// Write MAVLink 1 frames (ids up to 255; extension fields dropped).
-        #[arg(long)]
+        /// Write MAVLink 1 frames of the base fields, whatever each line's
+        /// version (ids up to 255; extension fields, "payload_len", "extra",
+        /// "compat_flags" and signatures of the lines are dropped).
+        #[arg(long, conflicts_with = "sign_key")]
         v1: bool,
-        /// Sign every MAVLink 2 frame with this 32-byte key (64 hex digits).
-        #[arg(long, value_name = "HEX64")]
+        /// Sign every frame with this 32-byte key (64 hex digits), replacing
+        /// any signature of the line. A MAVLink 1 frame cannot be signed: such
+        /// lines are refused.
+        #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
         sign_key: Option<String>,
         /// Link id of the signature.
         #[arg(long, default_value_t = 0, requires = "sign_key")]
         link_id: u8,
         /// Signing timestamp of the first frame (10 µs units since
-        /// 2015-01-01), incremented per frame; default: now.
-        #[arg(long, requires = "sign_key")]
+        /// 2015-01-01, at most 2^48 - 1), incremented per frame; default: now.
+        #[arg(long, requires = "sign_key", allow_hyphen_values = true, value_parser = args::sign_timestamp)]
         sign_timestamp: Option<u64>,
         /// Write a .tlog (timestamps from "tlog_us", else 0).
         #[arg(long, conflicts_with = "hex")]
@@ -163,35 +198,35 @@ enum Command {
         /// JSON object per line (keys below).
         #[arg(long, value_name = "PATH")]
         events: Option<PathBuf>,
-        /// Our system id.
-        #[arg(long, default_value_t = 1)]
+        /// Our system id (1–255).
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         sysid: u8,
-        /// Our component id (191: onboard computer).
-        #[arg(long, default_value_t = 191)]
+        /// Our component id (1–255; 191: onboard computer).
+        #[arg(long, default_value_t = 191, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         compid: u8,
-        /// The flight controller's system id.
-        #[arg(long, default_value_t = 1)]
+        /// The flight controller's system id (1–255).
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         fc_sysid: u8,
-        /// The flight controller's component id.
-        #[arg(long, default_value_t = 1)]
+        /// The flight controller's component id (1–255).
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         fc_compid: u8,
-        /// Control stream rate (Hz).
-        #[arg(long, default_value_t = 20.0)]
+        /// Control stream rate (Hz, 1–100).
+        #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = args::rate_hz)]
         rate: f64,
         /// Controller: wings-level (cruise throttle) or circle.
-        #[arg(long, default_value = "wings-level")]
+        #[arg(long, default_value = "wings-level", value_parser = ["wings-level", "circle"])]
         controller: String,
-        /// Cruise throttle (PWM µs).
-        #[arg(long, default_value_t = 1600)]
+        /// Cruise throttle (PWM µs, 800–2200).
+        #[arg(long, default_value_t = 1600, allow_hyphen_values = true, value_parser = args::pwm_us)]
         throttle: u16,
         /// Sign outgoing frames and verify incoming ones with this key (64 hex digits).
-        #[arg(long, value_name = "HEX64")]
+        #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
         sign_key: Option<String>,
         /// Act only on the FC's frames whose signature verified.
         #[arg(long, requires = "sign_key")]
         require_signed: bool,
-        /// Stop after this many seconds.
-        #[arg(long, value_name = "SECONDS")]
+        /// Stop after this many seconds (0–1,000,000).
+        #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
         duration: Option<f64>,
         /// Exit once control has been handed back to the pilot.
         #[arg(long)]
@@ -227,29 +262,29 @@ enum Command {
         /// JSON object per line (keys below).
         #[arg(long, value_name = "PATH")]
         events: Option<PathBuf>,
-        /// Lose the receiver at this time (seconds after start).
-        #[arg(long, value_name = "SECONDS")]
+        /// Lose the receiver at this time (seconds after start, 0–1,000,000).
+        #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
         rc_loss_at: Option<f64>,
-        /// Get the receiver back at this time.
-        #[arg(long, value_name = "SECONDS")]
+        /// Get the receiver back at this time (seconds, 0–1,000,000).
+        #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
         rc_back_at: Option<f64>,
-        /// The companion allowed to take over: system id.
-        #[arg(long, default_value_t = 1)]
+        /// The companion allowed to take over: system id (1–255).
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         cc_sysid: u8,
-        /// The companion allowed to take over: component id.
-        #[arg(long, default_value_t = 191)]
+        /// The companion allowed to take over: component id (1–255).
+        #[arg(long, default_value_t = 191, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         cc_compid: u8,
-        /// Our system id.
-        #[arg(long, default_value_t = 1)]
+        /// Our system id (1–255).
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         sysid: u8,
-        /// Our component id.
-        #[arg(long, default_value_t = 1)]
+        /// Our component id (1–255).
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         compid: u8,
-        /// Run this long (seconds).
-        #[arg(long, default_value_t = 20.0)]
+        /// Run this long (seconds, 0–1,000,000).
+        #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = args::seconds)]
         duration: f64,
         /// Sign and verify with this key (64 hex digits).
-        #[arg(long, value_name = "HEX64")]
+        #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
         sign_key: Option<String>,
         /// Accept the companion's takeover only from signed frames.
         #[arg(long, requires = "sign_key")]
@@ -258,17 +293,17 @@ enum Command {
     /// Both programs over loopback UDP through a lossy relay: a timeline and
     /// the measured handover time.
     Demo {
-        /// Share of datagrams the relay drops in each direction.
-        #[arg(long, default_value_t = 0.2)]
+        /// Share of datagrams the relay drops in each direction (0–1).
+        #[arg(long, default_value_t = 0.2, allow_hyphen_values = true, value_parser = args::share)]
         loss: f64,
-        /// Receiver lost at (s).
-        #[arg(long, default_value_t = 2.0)]
+        /// Receiver lost at (s, 0–1,000,000).
+        #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = args::seconds)]
         rc_loss_at: f64,
-        /// Receiver back at (s).
-        #[arg(long, default_value_t = 7.0)]
+        /// Receiver back at (s, 0–1,000,000).
+        #[arg(long, default_value_t = 7.0, allow_hyphen_values = true, value_parser = args::seconds)]
         rc_back_at: f64,
-        /// Total run time (s).
-        #[arg(long, default_value_t = 9.0)]
+        /// Total run time (s, 0–1,000,000).
+        #[arg(long, default_value_t = 9.0, allow_hyphen_values = true, value_parser = args::seconds)]
         duration: f64,
         /// Seed of the relay's losses.
         #[arg(long, default_value_t = 1)]
@@ -294,17 +329,18 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         scenario: Option<String>,
         /// Share of frames lost in each direction, 0–1.
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = args::share)]
         loss: f64,
         /// Bursty (Gilbert–Elliott) loss with bursts of this many frames on
-        /// average, instead of independent loss.
-        #[arg(long, value_name = "FRAMES")]
+        /// average (1–1,000,000), instead of independent loss.
+        #[arg(long, value_name = "FRAMES", allow_hyphen_values = true, value_parser = args::burst)]
         burst: Option<f64>,
-        /// Trials per row (default 10,000; 1,000 per sweep point).
-        #[arg(long)]
+        /// Trials per row, 1–1,000,000 (default 10,000; 1,000 per sweep point).
+        #[arg(long, allow_hyphen_values = true, value_parser = args::trials)]
         trials: Option<u32>,
-        /// Seed of the first trial (trial k uses seed + k).
-        #[arg(long, default_value_t = 1)]
+        /// Seed of the first trial (trial k uses seed + k; at most
+        /// 2^64 - 1,000,001).
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::sim_seed)]
         seed: u64,
         /// One JSON object per row.
         #[arg(long)]
@@ -331,36 +367,40 @@ fn decode(file: Option<PathBuf>, hex: bool, tlog: bool) -> Result<bool, String> 
     let mut emit = |line: String| -> Result<(), String> {
         writeln!(out, "{line}").map_err(|e| format!("cannot write: {e}"))
     };
+    // Every form is read in chunks, so memory stays bounded whatever the
+    // input's size (a device or an endless pipe included).
+    let mut chunk = vec![0u8; 64 * 1024];
+    let mut hex_text = hexstream::HexDecoder::default();
+    let mut bytes = Vec::new();
     let mut tlog_records = (0u64, 0u64);
-    if hex || tlog {
-        // Hex text and tlog records are read whole: both are bounded captures.
-        let mut raw = Vec::new();
-        input
-            .read_to_end(&mut raw)
-            .map_err(|e| format!("cannot read input: {e}"))?;
+    loop {
+        let n = match input.read(&mut chunk) {
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(format!("cannot read input: {e}")),
+        };
+        let end = n == 0;
         if hex {
-            let text = String::from_utf8(raw).map_err(|_| "hex input is not text".to_string())?;
-            let bytes = json::unhex(&text)?;
+            hex_text.push(&chunk[..n], &mut bytes)?;
+            if end {
+                hex_text.finish()?;
+            }
+        } else {
+            bytes.extend_from_slice(&chunk[..n]);
+        }
+        if tlog {
+            let (used, good, bad) = decode_tlog(&bytes, end, &mut parser, &mut emit)?;
+            bytes.drain(..used);
+            tlog_records = (tlog_records.0 + good, tlog_records.1 + bad);
+        } else {
             let mut rest: &[u8] = &bytes;
             while let Some(r) = parser.next(&mut rest) {
                 emit(json::frame_to_json(&r.frame, r.meta, None))?;
             }
-        } else {
-            tlog_records = decode_tlog(&raw, &mut parser, &mut emit)?;
+            bytes.clear();
         }
-    } else {
-        let mut chunk = vec![0u8; 64 * 1024];
-        loop {
-            let n = match input.read(&mut chunk) {
-                Ok(0) => break,
-                Ok(n) => n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(format!("cannot read input: {e}")),
-            };
-            let mut rest: &[u8] = &chunk[..n];
-            while let Some(r) = parser.next(&mut rest) {
-                emit(json::frame_to_json(&r.frame, r.meta, None))?;
-            }
+        if end {
+            break;
         }
     }
     while let Some(r) = parser.flush() {
@@ -389,14 +429,19 @@ fn decode(file: Option<PathBuf>, hex: bool, tlog: bool) -> Result<bool, String> 
 }
 
 /// Reads tlog records (8-byte big-endian µs timestamp, then one frame); an
-/// unreadable record is skipped by resynchronising one byte further.
+/// unreadable record is skipped by resynchronising one byte further. Until
+/// the `end` of the input, a record is read only when a whole frame of the
+/// largest size could follow it, so the outcome does not depend on how the
+/// input was chunked. Returns the bytes used and the good and bad records.
 fn decode_tlog(
     raw: &[u8],
+    end: bool,
     parser: &mut Parser<Dialect>,
     emit: &mut dyn FnMut(String) -> Result<(), String>,
-) -> Result<(u64, u64), String> {
+) -> Result<(usize, u64, u64), String> {
     let (mut at, mut good, mut bad) = (0usize, 0u64, 0u64);
-    while at + 8 < raw.len() {
+    let lookahead = if end { 1 } else { MAX_FRAME_LEN };
+    while at + 8 + lookahead <= raw.len() {
         let ts = u64::from_be_bytes(raw[at..at + 8].try_into().expect("8 bytes"));
         let rest = &raw[at + 8..];
         let len = frame_len(rest)
@@ -416,7 +461,7 @@ fn decode_tlog(
             }
         }
     }
-    Ok((good, bad))
+    Ok((at, good, bad))
 }
 
 fn encode(
@@ -428,15 +473,8 @@ fn encode(
 ) -> Result<bool, String> {
     let mut signer = match sign {
         Some((key_hex, link_id, ts)) => {
-            let key = json::unhex(&key_hex)?;
-            let key: [u8; 32] = key.try_into().map_err(|k: Vec<u8>| {
-                format!(
-                    "--sign-key must be 32 bytes (64 hex digits), got {}",
-                    k.len()
-                )
-            })?;
             let ts = ts.unwrap_or_else(fbwag_dialect::mavframe::signing::timestamp_now);
-            Some(Signer::new(key, link_id, ts))
+            Some(Signer::new(key(&key_hex)?, link_id, ts))
         }
         None => None,
     };
@@ -445,36 +483,49 @@ fn encode(
     let mut out = BufWriter::new(stdout.lock());
     let mut frame = [0u8; MAX_FRAME_LEN];
     let (mut written, mut errors) = (0u64, 0u64);
-    for (i, line) in std::io::BufReader::new(input).lines().enumerate() {
-        let line = line.map_err(|e| format!("cannot read input: {e}"))?;
-        if line.trim().is_empty() {
+    let mut lines = lines::Lines::new(std::io::BufReader::new(input));
+    while let Some((number, line)) = lines
+        .next_line()
+        .map_err(|e| format!("cannot read input: {e}"))?
+    {
+        let text = match line {
+            lines::Line::Text(t) => t,
+            lines::Line::NotUtf8 { valid_up_to } => {
+                eprintln!("line {number}: not UTF-8 (byte {})", valid_up_to + 1);
+                errors += 1;
+                continue;
+            }
+            lines::Line::TooLong => {
+                eprintln!("line {number}: longer than {} bytes", lines::MAX_LINE);
+                errors += 1;
+                continue;
+            }
+        };
+        if text.trim().is_empty() {
             continue;
         }
         let mut opts = json::EncodeOptions {
             force_v1: v1,
             signer: signer.as_mut(),
         };
-        match json::json_to_frame(&line, &mut opts, &mut frame) {
-            Ok(n) => {
-                let bytes = &frame[..n];
+        match json::json_to_frame(&text, &mut opts, &mut frame) {
+            Ok(encoded) => {
+                let bytes = &frame[..encoded.len];
+                debug_assert!(Frame::new_checked(bytes).is_ok());
                 let res = if hex {
                     writeln!(out, "{}", json::hex(bytes))
                 } else if tlog {
-                    let ts = serde_json::from_str::<serde_json::Value>(&line)
-                        .ok()
-                        .and_then(|v| v.get("tlog_us").and_then(|t| t.as_u64()))
-                        .unwrap_or(0);
+                    let ts = encoded.tlog_us.unwrap_or(0);
                     out.write_all(&ts.to_be_bytes())
                         .and_then(|()| out.write_all(bytes))
                 } else {
                     out.write_all(bytes)
                 };
                 res.map_err(|e| format!("cannot write: {e}"))?;
-                debug_assert!(Frame::new_checked(bytes).is_ok());
                 written += 1;
             }
             Err(e) => {
-                eprintln!("line {}: {e}", i + 1);
+                eprintln!("line {number}: {e}");
                 errors += 1;
             }
         }

@@ -12,6 +12,7 @@
 pub mod codegen;
 mod config;
 pub mod diag;
+pub mod input;
 pub mod layout;
 pub mod model;
 pub mod names;

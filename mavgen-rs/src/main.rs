@@ -1,8 +1,9 @@
 //! `mavgen-rs`: generate, check and tabulate MAVLink XML dialects.
 
 use clap::{Parser, Subcommand};
+use mavgen_rs::input::{read_regular_text, MAX_FILE_BYTES};
 use mavgen_rs::{Config, Diagnostic, Error, Schema};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[global_allocator]
@@ -14,6 +15,12 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 /// (relative to the including file), merges enums across files the way
 /// pymavlink does, and checks the result. Problems are reported as
 /// FILE:LINE:COL: error: … on stderr, and the exit status is 1.
+///
+/// Inputs must be regular files (or symbolic links to them): a directory,
+/// FIFO, socket or device, given on the command line or named by an
+/// `<include>`, is an error at that include. One file may hold at most
+/// 8 MiB, all files of a run 64 MiB (upstream's common.xml is 0.6 MB).
+/// Include chains of any depth are followed.
 #[derive(Parser)]
 #[command(name = "mavgen-rs", version, after_help = EXAMPLES)]
 struct Cli {
@@ -80,7 +87,8 @@ fn expand_message_files(args: Vec<String>) -> Result<Vec<String>, String> {
             names.push(arg.trim().to_string());
             continue;
         };
-        let text = std::fs::read_to_string(path).map_err(|e| format!("--messages @{path}: {e}"))?;
+        let text = read_regular_text(Path::new(path), MAX_FILE_BYTES)
+            .map_err(|e| format!("--messages @{path}: {e}"))?;
         let listed = Config::message_list(&text);
         if listed.is_empty() {
             return Err(format!("--messages @{path}: the file names no message"));

@@ -3,6 +3,7 @@
 //! reporting every problem with its position instead of stopping at one.
 
 use crate::diag::{Diagnostic, Diagnostics, Loc, Source};
+use crate::input::{self, ReadError, MAX_FILE_BYTES, MAX_TOTAL_BYTES};
 use crate::layout::Layout;
 use crate::model::{Enum, XmlFile};
 use crate::xml;
@@ -68,6 +69,12 @@ pub struct MessageRef {
 impl Schema {
     /// Loads `roots` and all they include, and checks them. On failure, the
     /// diagnostics (errors first found, warnings too) are returned.
+    ///
+    /// Every file must be a regular file of at most
+    /// [`MAX_FILE_BYTES`], all of them together
+    /// at most [`MAX_TOTAL_BYTES`]; anything
+    /// else (a FIFO, a device, a directory) is an error at the `<include>`
+    /// naming it. Include chains of any depth are handled without recursion.
     pub fn load<P: AsRef<Path>>(roots: &[P]) -> Result<Schema, Vec<Diagnostic>> {
         let mut diags = Diagnostics::default();
         let mut loader = Loader::default();
@@ -159,49 +166,83 @@ impl Schema {
         (0..self.files.len()).filter(|&f| seen[f]).collect()
     }
 
+    /// [`Schema::reachable`] as a bit set over file indices.
+    fn reachable_bits(&self, root: usize) -> Vec<u64> {
+        let mut bits = vec![0u64; self.files.len().div_ceil(64)];
+        for f in self.reachable(root) {
+            bits[f / 64] |= 1 << (f % 64);
+        }
+        bits
+    }
+
     /// Every file read, for `cargo:rerun-if-changed`.
     pub fn paths(&self) -> impl Iterator<Item = &Path> {
         self.files.iter().map(|f| f.path.as_path())
     }
 
+    /// Reports every include that closes a cycle. Depth-first search with
+    /// an explicit stack (an include chain may be as long as there are
+    /// files): an edge back to a file on the stack closes a cycle.
     fn check_cycles(&self, diags: &mut Diagnostics) {
-        // Depth-first search; an edge back to a file on the stack closes a cycle.
-        fn visit(
-            s: &Schema,
-            f: usize,
-            state: &mut [u8],
-            stack: &mut Vec<usize>,
-            diags: &mut Diagnostics,
-        ) {
-            state[f] = 1;
-            stack.push(f);
-            for (inc, target) in s.includes[f].iter().enumerate() {
-                let Some(t) = *target else { continue };
-                if state[t] == 1 {
-                    let start = stack.iter().position(|&x| x == t).unwrap_or(0);
-                    let names: Vec<String> = stack[start..]
-                        .iter()
-                        .chain(std::iter::once(&t))
-                        .map(|&x| file_name(&s.files[x].path))
-                        .collect();
-                    diags.error(
-                        &s.sources,
-                        s.files[f].includes[inc].loc,
-                        format!("include cycle: {}", names.join(" -> ")),
-                    );
-                } else if state[t] == 0 {
-                    visit(s, t, state, stack, diags);
+        const NEW: usize = usize::MAX;
+        const DONE: usize = usize::MAX - 1;
+        // For each file: NEW, DONE, or its index in `stack` while on it.
+        let mut state = vec![NEW; self.files.len()];
+        // (file, index of the next include to follow)
+        let mut stack: Vec<(usize, usize)> = Vec::new();
+        for root in 0..self.files.len() {
+            if state[root] != NEW {
+                continue;
+            }
+            state[root] = 0;
+            stack.push((root, 0));
+            while let Some(top) = stack.last_mut() {
+                let (f, inc) = *top;
+                top.1 += 1;
+                let Some(&target) = self.includes[f].get(inc) else {
+                    state[f] = DONE;
+                    stack.pop();
+                    continue;
+                };
+                let Some(t) = target else { continue };
+                match state[t] {
+                    NEW => {
+                        state[t] = stack.len();
+                        stack.push((t, 0));
+                    }
+                    DONE => {}
+                    on_stack => {
+                        let cycle: Vec<usize> = stack[on_stack..].iter().map(|&(x, _)| x).collect();
+                        diags.error(
+                            &self.sources,
+                            self.files[f].includes[inc].loc,
+                            format!("include cycle: {}", self.cycle_names(&cycle)),
+                        );
+                    }
                 }
             }
-            stack.pop();
-            state[f] = 2;
         }
-        let mut state = vec![0u8; self.files.len()];
-        for f in 0..self.files.len() {
-            if state[f] == 0 {
-                visit(self, f, &mut state, &mut Vec::new(), diags);
-            }
-        }
+    }
+
+    /// `a.xml -> b.xml -> a.xml` for the cycle through `files`; a long cycle
+    /// is shortened to its first and last files, so a cycle through
+    /// thousands of files stays one readable line.
+    fn cycle_names(&self, files: &[usize]) -> String {
+        const SHOWN: usize = 8;
+        let name = |&x: &usize| file_name(&self.files[x].path);
+        let closing = std::iter::once(name(&files[0]));
+        let names: Vec<String> = if files.len() <= SHOWN {
+            files.iter().map(name).chain(closing).collect()
+        } else {
+            let head = files[..SHOWN / 2].iter().map(name);
+            let skipped = format!("({} more)", files.len() - SHOWN);
+            let tail = files[files.len() - SHOWN / 2..].iter().map(name);
+            head.chain(std::iter::once(skipped))
+                .chain(tail)
+                .chain(closing)
+                .collect()
+        };
+        names.join(" -> ")
     }
 
     /// pymavlink's `merge_enums`, step for step: a later declaration of an
@@ -248,20 +289,26 @@ impl Schema {
                 }
             }
         }
-        let reach: Vec<Vec<usize>> = (0..self.files.len()).map(|f| self.reachable(f)).collect();
+        // Reachability of the files declaring a merged enum only, computed
+        // when first needed: one bit per file each, so a long include chain
+        // costs no more than it must.
+        let mut reach: HashMap<usize, Vec<u64>> = HashMap::new();
         for m in merged.values_mut() {
             // Home: included by the most other declaring files; ties go to
             // the file loaded first (common.xml before a vendor file that
             // extends MAV_CMD without including common.xml).
+            if m.declared_in.len() > 1 {
+                for &e in &m.declared_in {
+                    reach.entry(e).or_insert_with(|| self.reachable_bits(e));
+                }
+            }
+            let reaches = |e: usize, d: usize| reach.get(&e).map_or(e == d, |b| bit(b, d));
             m.home = *m
                 .declared_in
                 .iter()
                 .max_by_key(|&&d| {
                     (
-                        m.declared_in
-                            .iter()
-                            .filter(|&&e| reach[e].contains(&d))
-                            .count(),
+                        m.declared_in.iter().filter(|&&e| reaches(e, d)).count(),
                         std::cmp::Reverse(d),
                     )
                 })
@@ -437,6 +484,8 @@ struct Loader {
     sources: Vec<Source>,
     files: Vec<XmlFile>,
     by_path: HashMap<PathBuf, usize>,
+    /// Bytes read so far, against [`MAX_TOTAL_BYTES`].
+    total: u64,
 }
 
 impl Loader {
@@ -451,31 +500,17 @@ impl Loader {
         let canonical = match path.canonicalize() {
             Ok(p) => p,
             Err(e) => {
-                self.missing(path, &from, &e, diags);
+                self.refuse(path, &from, &ReadError::Io(e), diags);
                 return None;
             }
         };
         if let Some(&id) = self.by_path.get(&canonical) {
             return Some(id);
         }
-        let text = match std::fs::read(&canonical) {
-            Ok(bytes) => match String::from_utf8(bytes) {
-                Ok(t) => t,
-                Err(e) => {
-                    let msg = format!(
-                        "{} is not UTF-8 (byte {})",
-                        path.display(),
-                        e.utf8_error().valid_up_to()
-                    );
-                    match &from {
-                        Some((loc, _)) => diags.error(&self.sources, *loc, msg),
-                        None => diags.push(crate::diag::Severity::Error, None, msg),
-                    }
-                    return None;
-                }
-            },
+        let text = match self.read_text(&canonical) {
+            Ok(t) => t,
             Err(e) => {
-                self.missing(path, &from, &e, diags);
+                self.refuse(path, &from, &e, diags);
                 return None;
             }
         };
@@ -488,26 +523,52 @@ impl Loader {
         Some(id)
     }
 
-    fn missing(
+    /// One file's text, within both the per-file and the total limit.
+    fn read_text(&mut self, path: &Path) -> Result<String, ReadError> {
+        let text = input::read_regular_text(path, MAX_FILE_BYTES)?;
+        self.total += text.len() as u64;
+        if self.total > MAX_TOTAL_BYTES {
+            return Err(ReadError::TooLarge {
+                limit: MAX_TOTAL_BYTES,
+            });
+        }
+        Ok(text)
+    }
+
+    /// Reports why `path` was not read: at the `<include>` naming it, or
+    /// without a position for a file given by the caller.
+    fn refuse(
         &self,
         path: &Path,
         from: &Option<(Loc, PathBuf)>,
-        e: &std::io::Error,
+        e: &ReadError,
         diags: &mut Diagnostics,
     ) {
+        let why = match e {
+            ReadError::TooLarge { limit } if *limit == MAX_TOTAL_BYTES => format!(
+                "the files read would exceed {limit} bytes ({} MiB) in all, the most mavgen-rs reads in one run",
+                limit >> 20
+            ),
+            e => e.to_string(),
+        };
         match from {
             Some((loc, shown)) => diags.error(
                 &self.sources,
                 *loc,
-                format!("cannot read included file {}: {e}", shown.display()),
+                format!("cannot read included file {}: {why}", shown.display()),
             ),
             None => diags.push(
                 crate::diag::Severity::Error,
                 None,
-                format!("cannot read {}: {e}", path.display()),
+                format!("cannot read {}: {why}", path.display()),
             ),
         }
     }
+}
+
+/// Bit `i` of a bit set made by [`Schema::reachable_bits`].
+fn bit(bits: &[u64], i: usize) -> bool {
+    bits[i / 64] & (1 << (i % 64)) != 0
 }
 
 fn file_name(p: &Path) -> String {

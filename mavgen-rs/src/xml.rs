@@ -26,12 +26,16 @@ pub fn parse(sources: &[Source], file: usize, path: PathBuf, diags: &mut Diagnos
             messages: Vec::new(),
         },
         stack: Vec::new(),
+        depth: 0,
         in_extensions: false,
         text_target: None,
     };
     p.run();
     p.out
 }
+
+/// The deepest element with a meaning: `mavlink.enums.enum.entry.param`.
+const MEANINGFUL_DEPTH: usize = 5;
 
 /// Where character data goes, by element path.
 #[derive(Clone, Copy, PartialEq)]
@@ -54,7 +58,12 @@ struct Parser<'s, 'd> {
     file: usize,
     diags: &'d mut Diagnostics,
     out: XmlFile,
+    /// Names of the open elements, the outermost [`MEANINGFUL_DEPTH`] only:
+    /// deeper elements carry no meaning, and keeping (and joining) all names
+    /// would make deeply nested input cost memory and quadratic time.
     stack: Vec<String>,
+    /// How many elements are open.
+    depth: usize,
     in_extensions: bool,
     /// Where character data goes: the target, the text so far, where the
     /// element starts, and its nesting depth (its end closes the target).
@@ -91,13 +100,11 @@ impl Parser<'_, '_> {
             let start = bom + reader.buffer_position() as usize;
             match reader.read_event() {
                 Ok(Event::Start(e)) => {
-                    let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
-                    self.stack.push(name);
+                    self.open(&e);
                     self.start(&e, start);
                 }
                 Ok(Event::Empty(e)) => {
-                    let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
-                    self.stack.push(name);
+                    self.open(&e);
                     self.start(&e, start);
                     self.end();
                 }
@@ -116,7 +123,7 @@ impl Parser<'_, '_> {
                 }
             }
         }
-        if self.out.messages.is_empty() && self.out.enums.is_empty() && self.stack.is_empty() {
+        if self.out.messages.is_empty() && self.out.enums.is_empty() && self.depth == 0 {
             let root_seen = text.contains("<mavlink");
             if !root_seen {
                 self.error(0, "not a MAVLink definition: no <mavlink> root element");
@@ -124,7 +131,20 @@ impl Parser<'_, '_> {
         }
     }
 
+    fn open(&mut self, e: &BytesStart) {
+        self.depth += 1;
+        if self.depth <= MEANINGFUL_DEPTH {
+            let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+            self.stack.push(name);
+        }
+    }
+
+    /// The dotted path of the open elements (`mavlink.messages.message`);
+    /// empty below [`MEANINGFUL_DEPTH`], where no path has a meaning.
     fn path(&self) -> String {
+        if self.depth > MEANINGFUL_DEPTH {
+            return String::new();
+        }
         self.stack.join(".")
     }
 
@@ -387,12 +407,15 @@ impl Parser<'_, '_> {
 
     /// Starts collecting the text of the element just opened.
     fn collect(&mut self, target: Text, loc: Loc) {
-        self.text_target = Some((target, String::new(), loc, self.stack.len()));
+        self.text_target = Some((target, String::new(), loc, self.depth));
     }
 
     fn end(&mut self) {
-        let depth = self.stack.len();
-        self.stack.pop();
+        let depth = self.depth;
+        if depth <= MEANINGFUL_DEPTH {
+            self.stack.pop();
+        }
+        self.depth = depth.saturating_sub(1);
         // Only the element that opened the target closes it; text of nested
         // elements (`<b>` in a description) is kept in its parent's text.
         if !matches!(self.text_target, Some((_, _, _, d)) if d == depth) {

@@ -1,0 +1,175 @@
+//! Validators for the numeric (and key) arguments of every subcommand, used
+//! as clap `value_parser`s: a bad value is refused while the command line is
+//! parsed, with a message saying what is allowed (exit status 2), instead of
+//! panicking or running forever later. NaN, infinities and negative numbers
+//! are refused everywhere; each kind of value has a range. main.rs marks
+//! these arguments `allow_hyphen_values`, so `-1` or `-inf` reaches the
+//! validator (clap would otherwise take it for an unknown flag).
+
+/// Longest time any time argument may name: 1,000,000 s (11.6 days). Keeps
+/// every time well inside what `Duration`, `Instant` arithmetic and the
+/// FC's 32-bit `time_boot_ms` (49.7 days) can hold.
+pub const MAX_SECONDS: f64 = 1_000_000.0;
+
+/// Most trials per row of `fbwag sim`: each trial's outcome is kept in
+/// memory until the row is summarised.
+pub const MAX_TRIALS: u32 = 1_000_000;
+
+/// Largest seed of `fbwag sim`: trial k uses seed + k, which must not
+/// overflow.
+pub const MAX_SEED: u64 = u64::MAX - MAX_TRIALS as u64;
+
+/// Lowest and highest control stream rate of `fbwag cc` (Hz).
+pub const RATE_HZ: (f64, f64) = (1.0, 100.0);
+
+/// PWM range of a throttle override (µs), as ArduPilot's RCn_MIN/MAX allow.
+/// 0 and 65535 are not pulse widths in RC_CHANNELS_OVERRIDE: they release
+/// or ignore the channel.
+pub const PWM_US: (u16, u16) = (800, 2200);
+
+/// Largest mean burst length of `fbwag sim --burst` (frames).
+pub const MAX_BURST: f64 = 1_000_000.0;
+
+/// Largest signing timestamp: the signature block holds 48 bits.
+pub const MAX_SIGN_TIMESTAMP: u64 = (1 << 48) - 1;
+
+/// A finite number from `lo` to `hi` (inclusive), else a message naming
+/// `what` was expected.
+fn number_in(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
+    let refuse = || format!("expected {what} from {lo} to {hi}");
+    let v: f64 = s.trim().parse().map_err(|_| refuse())?;
+    // `contains` is false for NaN; the range bounds are finite.
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(refuse())
+    }
+}
+
+/// An integer from `lo` to `hi` (inclusive).
+fn integer_in<T>(s: &str, lo: T, hi: T, what: &str) -> Result<T, String>
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy,
+{
+    let refuse = || format!("expected {what} from {lo} to {hi}");
+    let v: T = s.trim().parse().map_err(|_| refuse())?;
+    if lo <= v && v <= hi {
+        Ok(v)
+    } else {
+        Err(refuse())
+    }
+}
+
+/// A time in seconds: finite, from 0 to [`MAX_SECONDS`].
+pub fn seconds(s: &str) -> Result<f64, String> {
+    number_in(s, 0.0, MAX_SECONDS, "a number of seconds")
+}
+
+/// A share (loss probability): from 0 to 1.
+pub fn share(s: &str) -> Result<f64, String> {
+    number_in(s, 0.0, 1.0, "a share")
+}
+
+/// A stream rate in Hz, within [`RATE_HZ`].
+pub fn rate_hz(s: &str) -> Result<f64, String> {
+    number_in(s, RATE_HZ.0, RATE_HZ.1, "a rate in Hz")
+}
+
+/// A mean burst length in frames: from 1 to [`MAX_BURST`].
+pub fn burst(s: &str) -> Result<f64, String> {
+    number_in(s, 1.0, MAX_BURST, "a mean burst length in frames")
+}
+
+/// A trial count: from 1 to [`MAX_TRIALS`].
+pub fn trials(s: &str) -> Result<u32, String> {
+    integer_in(s, 1, MAX_TRIALS, "a number of trials")
+}
+
+/// A simulator seed: from 0 to [`MAX_SEED`].
+pub fn sim_seed(s: &str) -> Result<u64, String> {
+    integer_in(s, 0, MAX_SEED, "a seed")
+}
+
+/// A throttle pulse width in µs, within [`PWM_US`].
+pub fn pwm_us(s: &str) -> Result<u16, String> {
+    integer_in(s, PWM_US.0, PWM_US.1, "a pulse width in µs")
+}
+
+/// A MAVLink system or component id of a sender: 1 to 255 (0 addresses
+/// every system or component and is no sender's id).
+pub fn mavlink_id(s: &str) -> Result<u8, String> {
+    integer_in(s, 1, 255, "an id")
+}
+
+/// A signing timestamp (10 µs units since 2015-01-01): up to
+/// [`MAX_SIGN_TIMESTAMP`].
+pub fn sign_timestamp(s: &str) -> Result<u64, String> {
+    integer_in(s, 0, MAX_SIGN_TIMESTAMP, "a 48-bit signing timestamp")
+}
+
+/// A 32-byte signing key as exactly 64 hex digits; returned as given.
+pub fn sign_key(s: &str) -> Result<String, String> {
+    if s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
+        Ok(s.to_string())
+    } else {
+        Err(format!(
+            "expected 64 hex digits (a 32-byte key), got {} characters{}",
+            s.chars().count(),
+            if s.bytes().all(|b| b.is_ascii_hexdigit()) {
+                ""
+            } else {
+                " with non-hex ones"
+            }
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn non_finite_and_negative_numbers_are_refused_everywhere() {
+        for bad in [
+            "NaN", "nan", "inf", "-inf", "infinity", "-1", "-0.5", "1e400", "", "x",
+        ] {
+            assert!(seconds(bad).is_err(), "seconds {bad}");
+            assert!(share(bad).is_err(), "share {bad}");
+            assert!(rate_hz(bad).is_err(), "rate {bad}");
+            assert!(burst(bad).is_err(), "burst {bad}");
+            assert!(trials(bad).is_err(), "trials {bad}");
+            assert!(sim_seed(bad).is_err(), "seed {bad}");
+            assert!(pwm_us(bad).is_err(), "pwm {bad}");
+            assert!(mavlink_id(bad).is_err(), "id {bad}");
+            assert!(sign_timestamp(bad).is_err(), "timestamp {bad}");
+        }
+    }
+
+    #[test]
+    fn the_bounds_are_inclusive() {
+        assert_eq!(seconds("0"), Ok(0.0));
+        assert_eq!(seconds("1000000"), Ok(MAX_SECONDS));
+        assert!(seconds("1000000.001").is_err());
+        assert_eq!(share("1"), Ok(1.0));
+        assert!(share("1.0000001").is_err());
+        assert_eq!(rate_hz("100"), Ok(100.0));
+        assert!(rate_hz("0.5").is_err());
+        assert_eq!(trials("1000000"), Ok(MAX_TRIALS));
+        assert!(trials("0").is_err());
+        assert_eq!(sim_seed(&MAX_SEED.to_string()), Ok(MAX_SEED));
+        assert!(sim_seed(&u64::MAX.to_string()).is_err());
+        assert_eq!(pwm_us("800"), Ok(800));
+        assert!(pwm_us("0").is_err() && pwm_us("65535").is_err());
+        assert!(mavlink_id("0").is_err() && mavlink_id("256").is_err());
+        assert_eq!(sign_timestamp("281474976710655"), Ok(MAX_SIGN_TIMESTAMP));
+        assert!(sign_timestamp("281474976710656").is_err());
+    }
+
+    #[test]
+    fn keys_are_64_hex_digits() {
+        let k = "0f".repeat(32);
+        assert_eq!(sign_key(&k), Ok(k.clone()));
+        assert!(sign_key(&k[..62]).is_err());
+        assert!(sign_key(&format!("{}zz", &k[..62])).is_err());
+    }
+}

@@ -1,0 +1,201 @@
+//! Every numeric argument of every subcommand refuses NaN, infinities,
+//! negative and out-of-range values while the command line is parsed: exit
+//! status 2 and a message naming the argument, never a panic (exit 101), a
+//! silent run with a meaningless value, or a run that never ends.
+//!
+//! Each run has a deadline and is killed past it: a value that slipped
+//! through would start a daemon or a simulation. The deadline is a guard,
+//! not a measurement: a refused value exits at once.
+
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const DEADLINE: Duration = Duration::from_secs(20);
+const KEY: &str = "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f";
+
+/// (the command before the argument, the argument, values to refuse)
+type Case = (
+    &'static [&'static str],
+    &'static str,
+    &'static [&'static str],
+);
+
+const SECONDS_BAD: &[&str] = &[
+    "NaN", "inf", "-inf", "-1", "-0.001", "1e300", "1000001", "x",
+];
+const SHARE_BAD: &[&str] = &["NaN", "inf", "-0.1", "1.01", "-1"];
+const ID_BAD: &[&str] = &["0", "-1", "256"];
+
+const CC: &[&str] = &["cc", "--link", "udpin:127.0.0.1:0"];
+const FC: &[&str] = &["fc-sim", "--link", "udpout:127.0.0.1:9"];
+const DEMO: &[&str] = &["demo"];
+const SIM: &[&str] = &["sim", "--scenario", "normal-rc"];
+const ENCODE: &[&str] = &["encode", "--sign-key", KEY];
+
+const CASES: &[Case] = &[
+    (
+        CC,
+        "--rate",
+        &["NaN", "inf", "-inf", "-1", "0", "0.5", "101", "1e300"],
+    ),
+    (CC, "--duration", SECONDS_BAD),
+    (CC, "--throttle", &["0", "-1", "799", "2201", "65535"]),
+    (CC, "--sysid", ID_BAD),
+    (CC, "--compid", ID_BAD),
+    (CC, "--fc-sysid", ID_BAD),
+    (CC, "--fc-compid", ID_BAD),
+    (
+        CC,
+        "--sign-key",
+        &[
+            "abc",
+            "0g0102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f",
+        ],
+    ),
+    (FC, "--rc-loss-at", SECONDS_BAD),
+    (FC, "--rc-back-at", SECONDS_BAD),
+    (FC, "--duration", SECONDS_BAD),
+    (FC, "--cc-sysid", ID_BAD),
+    (FC, "--cc-compid", ID_BAD),
+    (FC, "--sysid", ID_BAD),
+    (FC, "--compid", ID_BAD),
+    (DEMO, "--loss", SHARE_BAD),
+    (DEMO, "--rc-loss-at", SECONDS_BAD),
+    (DEMO, "--rc-back-at", SECONDS_BAD),
+    (DEMO, "--duration", SECONDS_BAD),
+    (SIM, "--loss", SHARE_BAD),
+    (SIM, "--burst", &["NaN", "inf", "-1", "0", "0.5", "1e7"]),
+    (SIM, "--trials", &["0", "-1", "1000001", "4294967295"]),
+    // Trial k runs seed + k: this seed overflowed (a panic) with 2 trials.
+    (SIM, "--seed", &["18446744073709551615", "-1"]),
+    // A timestamp past 48 bits was cut silently; u64::MAX overflowed (a
+    // panic) at the first frame signed.
+    (
+        ENCODE,
+        "--sign-timestamp",
+        &["281474976710656", "18446744073709551615", "-1"],
+    ),
+];
+
+/// Waits for `child` until the deadline; `None` if it had to be killed.
+fn wait_bounded(mut child: Child, started: Instant) -> Option<std::process::Output> {
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return Some(child.wait_with_output().expect("output"));
+        }
+        if started.elapsed() > DEADLINE {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn every_bad_numeric_argument_is_refused_at_parse_time() {
+    let runs: Vec<(String, String, Child)> = CASES
+        .iter()
+        .flat_map(|(before, arg, values)| values.iter().map(move |v| (*before, *arg, *v)))
+        .flat_map(|(before, arg, value)| {
+            // `--arg value` and `--arg=value` must both reach the validator
+            // (clap takes a bare `-1` for a flag unless told otherwise).
+            [
+                vec![arg.to_string(), value.to_string()],
+                vec![format!("{arg}={value}")],
+            ]
+            .map(|form| (before, arg, form))
+        })
+        .map(|(before, arg, form)| {
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_fbwag"));
+            cmd.args(before).args(&form);
+            if before == SIM {
+                cmd.args(["--trials", "2"]);
+            }
+            let child = cmd
+                .stdin(Stdio::null())
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .expect("run fbwag");
+            (
+                format!("{} {}", before.join(" "), form.join(" ")),
+                format!("'{arg} <"),
+                child,
+            )
+        })
+        .collect();
+    // All at once, so a regression costs one deadline, not one per value.
+    let started = Instant::now();
+    let mut failures = Vec::new();
+    for (what, arg, child) in runs {
+        let Some(out) = wait_bounded(child, started) else {
+            failures.push(format!("{what}: still running after {DEADLINE:?}"));
+            continue;
+        };
+        let err = String::from_utf8_lossy(&out.stderr);
+        let refused = out.status.code() == Some(2)
+            && err.contains("error: invalid value")
+            && err.contains(&arg);
+        if !refused {
+            failures.push(format!(
+                "{what}: exit {:?}: {}",
+                out.status.code(),
+                err.trim()
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "not refused at parse time:\n{}",
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn values_at_the_bounds_are_accepted() {
+    for args in [
+        &[
+            "sim",
+            "--scenario",
+            "normal-rc",
+            "--trials",
+            "1",
+            "--loss",
+            "1",
+            "--burst",
+            "1",
+        ][..],
+        &[
+            "sim",
+            "--scenario",
+            "normal-rc",
+            "--trials",
+            "1",
+            "--seed",
+            "18446744073708551615",
+        ],
+        &[
+            "demo",
+            "--duration",
+            "0",
+            "--rc-loss-at",
+            "0",
+            "--rc-back-at",
+            "0",
+            "--loss",
+            "0",
+        ],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(args)
+            .stdin(Stdio::null())
+            .output()
+            .expect("run fbwag");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !err.contains("invalid value") && out.status.code() != Some(101),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -187,6 +187,19 @@ enum Command {
         /// udpin only: send to this address (IP:PORT) and no other.
         #[arg(long, value_name = "IP:PORT")]
         peer: Option<std::net::SocketAddr>,
+        /// Also route to and from this link (repeatable): a ground station,
+        /// MAVProxy, other onboard programs. MAVLink routing rules; frames
+        /// are forwarded untouched (signed ones stay verifiable).
+        #[arg(long = "out", value_name = "CONN")]
+        outs: Vec<String>,
+        /// The link of your own autonomy program (e.g. udpin:127.0.0.1:14560).
+        /// It receives everything the FC sends and the companion's notices;
+        /// its RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET and MANUAL_CONTROL
+        /// go to the FC (re-addressed, signed with --sign-key) only while
+        /// the companion holds control, and are dropped otherwise; its other
+        /// messages go to the --out links only. Replaces --controller.
+        #[arg(long, value_name = "CONN")]
+        autonomy: Option<String>,
         /// Keep the signing timestamps (this signer's, and each peer
         /// stream's) in this file across restarts, so a restart neither
         /// replays old timestamps nor accepts replays of frames accepted
@@ -308,6 +321,27 @@ enum Command {
         /// Seed of the relay's losses.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+    },
+    /// Route MAVLink between links (a companion's FC port, ground stations,
+    /// MAVProxy, onboard programs).
+    ///
+    /// Addressed frames go to the link where their addressee (system and
+    /// component) was seen; broadcasts, and frames of ids the dialect does
+    /// not know, go to every other link; nothing is sent back where it came
+    /// from, and frames are forwarded byte for byte (signed frames stay
+    /// verifiable end to end). A link that fails is opened again every
+    /// second; no link's error stops the others.
+    Router {
+        /// Links: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
+        /// tcpin:IP:PORT, serial:PATH:BAUD (two or more).
+        #[arg(value_name = "CONN", num_args = 2.., required = true)]
+        links: Vec<String>,
+        /// Stop after this many seconds (0–1,000,000).
+        #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
+        duration: Option<f64>,
+        /// Print a traffic summary every this many seconds.
+        #[arg(long, value_name = "SECONDS", default_value_t = 10.0, allow_hyphen_values = true, value_parser = args::seconds)]
+        report: f64,
     },
     /// Run the delegation protocol in the deterministic simulator.
     ///
@@ -562,6 +596,24 @@ fn main() -> ExitCode {
             sign_key.map(|k| (k, link_id, sign_timestamp)),
             tlog,
         ),
+        Command::Router {
+            links,
+            duration,
+            report,
+        } => (|| {
+            let endpoints = links
+                .iter()
+                .map(|e| e.parse().map_err(|err| format!("{e}: {err}")))
+                .collect::<Result<Vec<_>, _>>()?;
+            live::router::run_router(
+                endpoints,
+                duration.map(std::time::Duration::from_secs_f64),
+                std::time::Duration::from_secs_f64(report.max(0.1)),
+                Box::new(std::io::stdout()),
+            )
+            .map(|()| true)
+            .map_err(|e| format!("router: {e}"))
+        })(),
         Command::Sim {
             table1,
             sweep,
@@ -588,6 +640,8 @@ fn main() -> ExitCode {
         Command::Cc {
             link,
             peer,
+            outs,
+            autonomy,
             signing_state,
             events,
             sysid,
@@ -612,7 +666,19 @@ fn main() -> ExitCode {
                     ))
                 }
             };
+            let parse = |flag: &str, e: &str| {
+                e.parse::<fbwag_dialect::Endpoint>()
+                    .map_err(|err| format!("{flag} {e}: {err}"))
+            };
             let opts = live::cc::CcOptions {
+                outs: outs
+                    .iter()
+                    .map(|e| parse("--out", e))
+                    .collect::<Result<_, _>>()?,
+                autonomy: autonomy
+                    .as_deref()
+                    .map(|e| parse("--autonomy", e))
+                    .transpose()?,
                 link: live::link::LinkOptions {
                     endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
                     key: sign_key.as_deref().map(key).transpose()?,

@@ -27,6 +27,8 @@ pub mod frame;
 pub mod message;
 pub mod parser;
 pub mod route;
+#[cfg(feature = "tokio")]
+pub mod router;
 pub mod signing;
 
 #[cfg(feature = "std")]

@@ -148,7 +148,9 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     accept_unsigned: bool,
     /// Set by [`Parser::flush`]: no more bytes will come.
     at_eof: bool,
-    _dialect: PhantomData<D>,
+    // fn() -> D: the dialect is a type-level tag; the parser is Send and Sync
+    // whatever the tag type is.
+    _dialect: PhantomData<fn() -> D>,
 }
 
 impl<D: Dialect, const STREAMS: usize> Default for Parser<D, STREAMS> {

@@ -71,6 +71,8 @@ pub fn demo(
     let cc = std::thread::spawn(move || {
         run_cc(
             CcOptions {
+                outs: Vec::new(),
+                autonomy: None,
                 link: LinkOptions {
                     endpoint: Endpoint::UdpIn(cc_addr),
                     key: None,

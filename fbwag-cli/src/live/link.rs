@@ -13,7 +13,7 @@
 //! that restarted on a new port). Frames from anyone else never redirect
 //! anything.
 
-use super::{Clock, Limiter, Log};
+use super::{Clock, Limiter, Log, PeerPin};
 use fbwag_delegation::engine::Verdict;
 use fbwag_dialect::mavframe::conn::{AnyTransport, Endpoint, ReplyTo};
 use fbwag_dialect::mavframe::parser::Stats;
@@ -65,7 +65,7 @@ pub struct Link {
     state_file: Option<StateFile>,
     carried: SigningState,
     reopen_at: WallInstant,
-    pinned: Option<(SocketAddr, WallInstant)>,
+    pin: PeerPin,
     send_errors: Limiter,
     recv_errors: Limiter,
     untrusted: Limiter,
@@ -117,7 +117,7 @@ impl Link {
             state_file,
             carried,
             reopen_at: WallInstant::now(),
-            pinned: None,
+            pin: PeerPin::default(),
             send_errors: Limiter::new(5, Duration::from_secs(10)),
             recv_errors: Limiter::new(5, Duration::from_secs(10)),
             untrusted: Limiter::new(5, Duration::from_secs(10)),
@@ -235,18 +235,9 @@ impl Link {
         if udp.reply_to() != ReplyTo::Pinned {
             return;
         }
-        let now = WallInstant::now();
-        let moves = match self.pinned {
-            Some((addr, _)) if addr == source => false,
-            Some((_, heard)) => authenticated || now.duration_since(heard) > PEER_SILENCE,
-            None => true,
-        };
-        if moves {
-            udp.set_peer(source);
-            log.line(&format!("answering {source} (trusted peer)"));
-        }
-        if moves || self.pinned.is_some_and(|(addr, _)| addr == source) {
-            self.pinned = Some((source, now));
+        if let Some(peer) = self.pin.trusted(source, authenticated) {
+            udp.set_peer(peer);
+            log.line(&format!("answering {peer} (trusted peer)"));
         }
     }
 
@@ -260,7 +251,7 @@ impl Link {
             Ok(conn) => {
                 log.line(&format!("link {} open again", self.opts.endpoint));
                 self.conn = Some(conn);
-                self.pinned = None;
+                self.pin.reset();
             }
             Err(e) => self.recv_errors.log(log, "receive errors", || {
                 format!("cannot open {} again: {e}", self.opts.endpoint)

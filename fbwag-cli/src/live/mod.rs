@@ -11,6 +11,7 @@ pub mod cc;
 pub mod demo;
 pub mod fc;
 pub mod link;
+pub mod router;
 
 use serde_json::{Map, Value};
 use std::fs::File;
@@ -156,6 +157,41 @@ impl Limiter {
         if show {
             log.line(&line());
         }
+    }
+}
+
+/// The peer rule of a `udpin` link without `--peer` (see
+/// docs/delegation.md, "Links, peers and restarts"): the first source of
+/// trusted frames becomes the peer; another source of trusted frames
+/// replaces it only with a verified signature, or after the current peer
+/// has been silent for [`link::PEER_SILENCE`].
+#[derive(Debug, Default)]
+pub struct PeerPin {
+    current: Option<(std::net::SocketAddr, std::time::Instant)>,
+}
+
+impl PeerPin {
+    /// A trusted frame from `source`: returns the new peer when it moves.
+    pub fn trusted(
+        &mut self,
+        source: std::net::SocketAddr,
+        authenticated: bool,
+    ) -> Option<std::net::SocketAddr> {
+        let now = std::time::Instant::now();
+        let moves = match self.current {
+            Some((addr, _)) if addr == source => false,
+            Some((_, heard)) => authenticated || now.duration_since(heard) > link::PEER_SILENCE,
+            None => true,
+        };
+        if moves || self.current.is_some_and(|(addr, _)| addr == source) {
+            self.current = Some((source, now));
+        }
+        moves.then_some(source)
+    }
+
+    /// Forgets the peer (a link opened again).
+    pub fn reset(&mut self) {
+        self.current = None;
     }
 }
 

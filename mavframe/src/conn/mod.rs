@@ -20,6 +20,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+#[cfg(feature = "tokio")]
+pub mod codec;
 mod endpoint;
 #[cfg(feature = "serial")]
 mod serial;

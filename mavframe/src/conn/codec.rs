@@ -1,0 +1,258 @@
+//! MAVLink for `tokio_util::codec` (feature `tokio`): [`FrameCodec`]
+//! decodes bytes into checked frames with the streaming parser, and encodes
+//! frames (bytes) onto a stream; [`Framer`] frames messages (sequence
+//! numbers, signing) into those bytes.
+//!
+//! Wrap any async byte stream (TCP, a serial port from tokio-serial, a
+//! pipe) with `tokio_util::codec::Framed::new(stream, FrameCodec::new())`,
+//! or a UDP socket with `tokio_util::udp::UdpFramed`: `UdpFramed` ends every
+//! datagram with `decode_eof`, where the codec tells the parser that nothing
+//! follows, so no frame is ever assembled across datagrams.
+//!
+//! ```
+//! # use mavframe::{Dialect, MessageMeta};
+//! # struct D; impl Dialect for D { type Message = (); type View<'a> = ();
+//! #   const MESSAGES: &'static [MessageMeta] = &[];
+//! #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
+//! use mavframe::conn::codec::FrameCodec;
+//! use tokio_util::bytes::BytesMut;
+//! use tokio_util::codec::Decoder;
+//!
+//! let mut codec = FrameCodec::<D>::new();
+//! // A MAVLink 2 frame of an id this dialect does not know, then the next
+//! // frame's start byte (which confirms it) and garbage.
+//! let mut bytes = BytesMut::from(&b"\xfd\x01\x00\x00\x07\x01\x01\x2a\x00\x00\x09\x12\x34\xfd"[..]);
+//! let frame = codec.decode(&mut bytes).unwrap().expect("a frame");
+//! assert_eq!(frame.msg_id(), 42);
+//! ```
+
+use super::ReceivedFrame;
+use crate::frame::{encode, Header, Version, MAX_FRAME_LEN};
+use crate::message::{Dialect, Encode};
+use crate::parser::Parser;
+use crate::signing::{timestamp_now, Signer};
+use std::io;
+use tokio_util::bytes::{Buf, BytesMut};
+use tokio_util::codec::{Decoder, Encoder};
+
+/// Bytes ⇄ MAVLink frames for `tokio_util::codec`.
+///
+/// Decoding runs the crate's streaming parser (resynchronising after
+/// garbage, verifying signatures when it has a key, bounded work per byte);
+/// every byte handed to [`decode`](Decoder::decode) is consumed, and a
+/// partial frame waits inside the parser. Encoding writes frame bytes as
+/// they are (use [`Framer`] to make them).
+pub struct FrameCodec<D: Dialect> {
+    parser: Parser<D>,
+}
+
+impl<D: Dialect> Default for FrameCodec<D> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<D: Dialect> FrameCodec<D> {
+    /// A codec whose parser verifies nothing (signed frames pass
+    /// unverified, as in pymavlink without a key).
+    pub fn new() -> Self {
+        Self::with_parser(Parser::new())
+    }
+
+    /// A codec with this parser (one made with `Parser::with_signing`
+    /// verifies signatures).
+    pub fn with_parser(parser: Parser<D>) -> Self {
+        FrameCodec { parser }
+    }
+
+    /// The parser (its counters, its verifier).
+    pub fn parser(&self) -> &Parser<D> {
+        &self.parser
+    }
+}
+
+impl<D: Dialect> Decoder for FrameCodec<D> {
+    type Item = ReceivedFrame<D>;
+    type Error = io::Error;
+
+    fn decode(&mut self, src: &mut BytesMut) -> io::Result<Option<ReceivedFrame<D>>> {
+        let mut input: &[u8] = src;
+        let frame = self
+            .parser
+            .next(&mut input)
+            .map(|r| ReceivedFrame::from(&r));
+        let consumed = src.len() - input.len();
+        src.advance(consumed);
+        Ok(frame)
+    }
+
+    /// The end of the stream, or of a datagram: frames still undecided are
+    /// decided as if nothing follows (see `Parser::flush`).
+    fn decode_eof(&mut self, src: &mut BytesMut) -> io::Result<Option<ReceivedFrame<D>>> {
+        if let Some(frame) = self.decode(src)? {
+            return Ok(Some(frame));
+        }
+        Ok(self.parser.flush().map(|r| ReceivedFrame::from(&r)))
+    }
+}
+
+impl<D: Dialect> Encoder<&[u8]> for FrameCodec<D> {
+    type Error = io::Error;
+
+    fn encode(&mut self, frame: &[u8], dst: &mut BytesMut) -> io::Result<()> {
+        dst.extend_from_slice(frame);
+        Ok(())
+    }
+}
+
+/// Frames messages for one sender: its sequence numbers (one per frame,
+/// wrapping), protocol version and signer. The blocking and async
+/// connections frame through it; use it directly to frame once and send
+/// the bytes on several links.
+#[derive(Debug, Clone)]
+pub struct Framer {
+    signer: Option<Signer>,
+    version: Version,
+    seq: u8,
+    buf: [u8; MAX_FRAME_LEN],
+}
+
+impl Default for Framer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Framer {
+    /// MAVLink 2, unsigned, starting at sequence 0.
+    pub fn new() -> Self {
+        Framer {
+            signer: None,
+            version: Version::V2,
+            seq: 0,
+            buf: [0; MAX_FRAME_LEN],
+        }
+    }
+
+    /// Signs every MAVLink 2 frame from now on (`None`: stop).
+    pub fn set_signer(&mut self, signer: Option<Signer>) {
+        self.signer = signer;
+    }
+
+    /// The signer, if frames are signed.
+    pub fn signer(&self) -> Option<&Signer> {
+        self.signer.as_ref()
+    }
+
+    /// The protocol version of the frames.
+    pub fn set_version(&mut self, version: Version) {
+        self.version = version;
+    }
+
+    /// Frames `msg` from `sysid`/`compid` with the next sequence number
+    /// (which advances whatever happens next: a receiver counts a frame
+    /// that failed to go out as lost). The signer's timestamp keeps up
+    /// with the clock (receivers refuse a new stream more than a minute
+    /// behind the newest timestamp they saw).
+    pub fn frame(
+        &mut self,
+        sysid: u8,
+        compid: u8,
+        msg: &(impl Encode + ?Sized),
+    ) -> io::Result<&[u8]> {
+        let header = Header {
+            seq: self.seq,
+            sysid,
+            compid,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        if let Some(signer) = &mut self.signer {
+            signer.advance_to(timestamp_now());
+        }
+        let n = encode(
+            self.version,
+            header,
+            msg,
+            self.signer.as_mut(),
+            &mut self.buf,
+        )
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        Ok(&self.buf[..n])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conn::test_dialect::{Ping, TestDialect};
+    use crate::message::Message;
+
+    fn frames(codec: &mut FrameCodec<TestDialect>, bytes: &[u8], eof: bool) -> std::vec::Vec<u32> {
+        let mut src = BytesMut::from(bytes);
+        let mut ids = std::vec::Vec::new();
+        while let Some(f) = codec.decode(&mut src).unwrap() {
+            ids.push(f.msg_id());
+        }
+        assert!(src.is_empty(), "decode consumes everything");
+        if eof {
+            while let Some(f) = codec.decode_eof(&mut src).unwrap() {
+                ids.push(f.msg_id());
+            }
+        }
+        ids
+    }
+
+    #[test]
+    fn frames_come_out_in_any_chunking_and_garbage_is_skipped() {
+        let mut framer = Framer::new();
+        let mut stream = std::vec::Vec::from(&b"junk\xfd\x05"[..]);
+        for _ in 0..3 {
+            stream.extend_from_slice(framer.frame(1, 1, &Ping::default()).unwrap());
+        }
+        let mut codec = FrameCodec::<TestDialect>::new();
+        let whole = frames(&mut codec, &stream, true);
+        let mut codec = FrameCodec::<TestDialect>::new();
+        let mut split = std::vec::Vec::new();
+        for chunk in stream.chunks(3) {
+            split.extend(frames(&mut codec, chunk, false));
+        }
+        split.extend(frames(&mut codec, &[], true));
+        assert_eq!(whole, [Ping::META.id; 3]);
+        assert_eq!(split, whole);
+    }
+
+    /// The end of a datagram ends a frame started in it: the next
+    /// datagram's frame is not held back by a false start.
+    #[test]
+    fn a_false_start_at_a_datagram_end_does_not_hold_the_next_one() {
+        let mut framer = Framer::new();
+        let mut codec = FrameCodec::<TestDialect>::new();
+        // A header claiming 200 payload bytes, alone in its datagram.
+        assert!(frames(
+            &mut codec,
+            b"\xfd\xc8\x00\x00\x00\x01\x01\x00\x00\x00",
+            true
+        )
+        .is_empty());
+        let good = framer.frame(1, 1, &Ping::default()).unwrap().to_vec();
+        assert_eq!(frames(&mut codec, &good, true), [Ping::META.id]);
+    }
+
+    #[test]
+    fn the_framer_numbers_and_signs() {
+        let mut framer = Framer::new();
+        framer.set_signer(Some(Signer::new([1; 32], 0, 5)));
+        let before = timestamp_now();
+        let a = framer.frame(1, 2, &Ping::default()).unwrap().to_vec();
+        let b = framer.frame(1, 2, &Ping::default()).unwrap().to_vec();
+        assert_eq!((a[4], b[4]), (0, 1));
+        assert_eq!(
+            a[2] & crate::frame::IFLAG_SIGNED,
+            crate::frame::IFLAG_SIGNED
+        );
+        assert!(
+            framer.signer().unwrap().timestamp() > before,
+            "kept up with the clock"
+        );
+    }
+}

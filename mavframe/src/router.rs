@@ -1,0 +1,755 @@
+//! A MAVLink router on tokio (feature `tokio`): links of every kind an
+//! [`Endpoint`] names, one task each, and the routing rules of
+//! [`crate::route`] between them.
+//!
+//! Each link task owns its transport, its parser (with the link's key, if
+//! any: signatures are verified per link) and its [`Framer`] (sequence
+//! numbers and signing for messages this node sends on it). It reads frames
+//! and hands them to the [`Router`] as [`RouterEvent::Frame`]; it sends what
+//! the router queues for it. A link that fails (a TCP peer gone, a serial
+//! port unplugged) reports [`RouterEvent::LinkDown`] and is opened again
+//! every second; no error of one link stops another.
+//!
+//! The router does not forward on its own: the owner reads each frame with
+//! [`Router::recv`] and calls [`Router::forward`] for the frames it wants
+//! routed (all of them, for a plain router), so a node that also speaks on
+//! its links (a companion computer) sees every frame first. Frames are
+//! forwarded as received, byte for byte: signed frames stay verifiable.
+//!
+//! ```no_run
+//! # use mavframe::{Dialect, MessageMeta, Encode, BufferTooSmall};
+//! # #[derive(Debug, Clone, PartialEq)] struct M;
+//! # impl Encode for M { fn meta(&self) -> &'static MessageMeta { unimplemented!() }
+//! #   fn emit_payload(&self, _: &mut [u8]) -> Result<usize, BufferTooSmall> { Ok(0) } }
+//! # struct D; impl Dialect for D { type Message = M; type View<'a> = ();
+//! #   const MESSAGES: &'static [MessageMeta] = &[];
+//! #   fn parse(_: u32, _: &[u8]) -> Option<M> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
+//! # async fn run() -> std::io::Result<()> {
+//! use mavframe::router::{LinkConfig, Router, RouterEvent};
+//!
+//! let mut router = Router::<D>::new();
+//! router.add(LinkConfig::new("serial:/dev/serial0:460800".parse().unwrap())).await?;
+//! router.add(LinkConfig::new("udpout:192.168.1.10:14550".parse().unwrap())).await?;
+//! router.add(LinkConfig::new("tcpin:0.0.0.0:5760".parse().unwrap())).await?;
+//! while let Some(event) = router.recv().await {
+//!     if let RouterEvent::Frame(frame) = event {
+//!         router.forward(&frame);
+//!     }
+//! }
+//! # Ok(()) }
+//! ```
+
+use crate::conn::codec::{FrameCodec, Framer};
+use crate::conn::{Endpoint, ReceivedFrame, ReplyTo};
+use crate::message::{Dialect, Encode};
+use crate::parser::{Parser, Stats};
+use crate::route::{LinkId, Links, RoutingTable};
+use crate::signing::state::{SigningState, StateError, StateFile};
+use crate::signing::Verifier;
+use std::boxed::Box;
+use std::format;
+use std::io;
+use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr};
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use std::vec::Vec;
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream, UdpSocket};
+use tokio::sync::mpsc;
+use tokio_util::bytes::BytesMut;
+use tokio_util::codec::Decoder;
+
+/// How often a failed link is opened again.
+pub const REOPEN_INTERVAL: Duration = Duration::from_secs(1);
+
+/// Frames queued for one link before further ones are dropped (and
+/// counted): a slow or stalled link never blocks the router.
+pub const LINK_QUEUE: usize = 512;
+
+/// Frames read but not yet taken by [`Router::recv`]: when the owner falls
+/// behind, link tasks wait (and UDP datagrams are dropped by the system)
+/// instead of memory growing.
+pub const INBOUND_QUEUE: usize = 1024;
+
+/// Output a `tcpin` client may have queued before it is dropped.
+const CLIENT_QUEUE: usize = 256;
+
+/// How one link is opened and secured.
+#[derive(Debug, Clone)]
+pub struct LinkConfig {
+    /// Where to listen or connect.
+    pub endpoint: Endpoint,
+    /// Verify incoming signatures and sign outgoing messages with this key.
+    pub key: Option<[u8; 32]>,
+    /// Accept unsigned frames (marked unauthenticated) when `key` is set.
+    pub accept_unsigned: bool,
+    /// `udpin`: whom to send to (see [`ReplyTo`]).
+    pub reply_to: ReplyTo,
+    /// Keep the link's signing state (signer, verifier) in this file.
+    pub signing_state: Option<PathBuf>,
+}
+
+impl LinkConfig {
+    /// An unsigned link to `endpoint`; `udpin` answers the last sender.
+    pub fn new(endpoint: Endpoint) -> Self {
+        LinkConfig {
+            endpoint,
+            key: None,
+            accept_unsigned: true,
+            reply_to: ReplyTo::LastSender,
+            signing_state: None,
+        }
+    }
+}
+
+/// A frame a link received.
+#[derive(Debug, Clone)]
+pub struct Inbound<D: Dialect> {
+    /// The link it came in on.
+    pub link: LinkId,
+    /// The frame, as the link's parser accepted it.
+    pub frame: ReceivedFrame<D>,
+    /// The sender's address (UDP, TCP clients of a `tcpin` link).
+    pub source: Option<SocketAddr>,
+}
+
+/// What [`Router::recv`] reports.
+// Frames are nearly every event: boxing them would allocate per frame.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub enum RouterEvent<D: Dialect> {
+    /// A frame.
+    Frame(Inbound<D>),
+    /// A link failed; it is opened again every [`REOPEN_INTERVAL`].
+    LinkDown {
+        /// The link.
+        link: LinkId,
+        /// Why.
+        error: io::Error,
+    },
+    /// A failed link is open again.
+    LinkUp {
+        /// The link.
+        link: LinkId,
+    },
+}
+
+/// What the router tells a link task.
+enum Command<D: Dialect> {
+    /// Send these frame bytes as they are.
+    Raw(Box<[u8]>),
+    /// Frame this message (the link's sequence numbers and signer) and send.
+    Message {
+        sysid: u8,
+        compid: u8,
+        message: D::Message,
+    },
+    /// `udpin` with [`ReplyTo::Pinned`]: answer this address.
+    Pin(SocketAddr),
+}
+
+struct LinkHandle<D: Dialect> {
+    endpoint: Endpoint,
+    commands: mpsc::Sender<Command<D>>,
+    counters: Arc<Mutex<LinkCounters>>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+/// Counters of one link.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LinkCounters {
+    /// Frames queued for the link and dropped because its queue was full.
+    pub dropped_full: u64,
+    /// Sends that failed (the frame is lost; the link goes on).
+    pub send_errors: u64,
+    /// The link's parser's counters.
+    pub parser: Stats,
+}
+
+/// The router: its links and the routing table.
+pub struct Router<D: Dialect> {
+    links: Vec<LinkHandle<D>>,
+    events: mpsc::Receiver<RouterEvent<D>>,
+    events_tx: mpsc::Sender<RouterEvent<D>>,
+    table: RoutingTable<64>,
+}
+
+impl<D> Default for Router<D>
+where
+    D: Dialect + 'static,
+    D::Message: Encode + Send + 'static,
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<D> Router<D>
+where
+    D: Dialect + 'static,
+    D::Message: Encode + Send + 'static,
+{
+    /// A router without links.
+    pub fn new() -> Self {
+        let (events_tx, events) = mpsc::channel(INBOUND_QUEUE);
+        Router {
+            links: Vec::new(),
+            events,
+            events_tx,
+            table: RoutingTable::new(),
+        }
+    }
+
+    /// Opens a link now (errors surface here: address in use, no such
+    /// device, connection refused, a damaged signing state file) and runs
+    /// it in a task of the current tokio runtime. At most 64 links.
+    pub async fn add(&mut self, config: LinkConfig) -> io::Result<LinkId> {
+        if self.links.len() >= 64 {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "a router has at most 64 links",
+            ));
+        }
+        let id = self.links.len() as LinkId;
+        let endpoint = config.endpoint.clone();
+        let transport = Transport::open(&config).await?;
+        let state = LinkState::open(&config)?;
+        let (commands, rx) = mpsc::channel(LINK_QUEUE);
+        let counters = Arc::new(Mutex::new(LinkCounters::default()));
+        let task = LinkTask {
+            id,
+            config,
+            events: self.events_tx.clone(),
+            commands: rx,
+            counters: counters.clone(),
+            state,
+        };
+        let task = tokio::spawn(task.run(transport));
+        self.links.push(LinkHandle {
+            endpoint,
+            commands,
+            counters,
+            task,
+        });
+        Ok(id)
+    }
+
+    /// Stops every link after what is queued for it, saving each link's
+    /// signing state; waits up to `grace` for them.
+    pub async fn shutdown(self, grace: Duration) {
+        let Router { links, events, .. } = self;
+        drop(events);
+        let tasks: Vec<_> = links
+            .into_iter()
+            .map(|l| {
+                drop(l.commands);
+                l.task
+            })
+            .collect();
+        let _ = tokio::time::timeout(grace, async {
+            for t in tasks {
+                let _ = t.await;
+            }
+        })
+        .await;
+    }
+
+    /// Every link.
+    pub fn links(&self) -> Links {
+        Links::all(self.links.len())
+    }
+
+    /// The endpoint of `link`.
+    pub fn endpoint(&self, link: LinkId) -> Option<&Endpoint> {
+        self.links.get(link as usize).map(|l| &l.endpoint)
+    }
+
+    /// The counters of `link`.
+    pub fn counters(&self, link: LinkId) -> LinkCounters {
+        self.links
+            .get(link as usize)
+            .map(|l| *l.counters.lock().unwrap_or_else(|e| e.into_inner()))
+            .unwrap_or_default()
+    }
+
+    /// The next event; `None` only if every link task ended (never while
+    /// the router lives: links are reopened).
+    pub async fn recv(&mut self) -> Option<RouterEvent<D>> {
+        self.events.recv().await
+    }
+
+    /// The routing table (read only).
+    pub fn table(&self) -> &RoutingTable<64> {
+        &self.table
+    }
+
+    /// Learns `inbound`'s sender and sends its bytes, untouched, to every
+    /// link the routing rules name (see [`crate::route`]); returns them.
+    pub fn forward(&mut self, inbound: &Inbound<D>) -> Links {
+        let frame = inbound.frame.frame();
+        let to = self
+            .table
+            .route(inbound.link, &frame, inbound.frame.meta(), self.links());
+        self.send_raw(to, inbound.frame.as_bytes());
+        to
+    }
+
+    /// Learns that `sysid`/`compid` is reachable through `link` without
+    /// forwarding anything (for frames the owner keeps to itself).
+    pub fn learn(&mut self, inbound: &Inbound<D>) {
+        let h = inbound.frame.header();
+        self.table.learn(inbound.link, h.sysid, h.compid);
+    }
+
+    /// Sends frame bytes, untouched, on `links`.
+    pub fn send_raw(&self, links: Links, bytes: &[u8]) {
+        for link in links.iter() {
+            self.command(link, Command::Raw(bytes.into()));
+        }
+    }
+
+    /// Frames `message` as `sysid`/`compid` on each of `links` (with each
+    /// link's sequence numbers and signer) and sends it.
+    pub fn send_message(&self, links: Links, sysid: u8, compid: u8, message: &D::Message)
+    where
+        D::Message: Clone,
+    {
+        for link in links.iter() {
+            self.command(
+                link,
+                Command::Message {
+                    sysid,
+                    compid,
+                    message: message.clone(),
+                },
+            );
+        }
+    }
+
+    /// A `udpin` link with [`ReplyTo::Pinned`] sends to `peer` from now on.
+    pub fn pin_peer(&self, link: LinkId, peer: SocketAddr) {
+        self.command(link, Command::Pin(peer));
+    }
+
+    fn command(&self, link: LinkId, command: Command<D>) {
+        let Some(l) = self.links.get(link as usize) else {
+            return;
+        };
+        if l.commands.try_send(command).is_err() {
+            let mut c = l.counters.lock().unwrap_or_else(|e| e.into_inner());
+            c.dropped_full = c.dropped_full.saturating_add(1);
+        }
+    }
+}
+
+/// A link's transport, open.
+enum Transport {
+    Udp {
+        socket: UdpSocket,
+        /// `udpout`'s target.
+        target: Option<SocketAddr>,
+    },
+    Stream(Box<dyn AsyncStream>),
+    Server(TcpListener),
+}
+
+/// An async byte stream (TCP client, serial port).
+trait AsyncStream: AsyncRead + AsyncWrite + Send + Unpin {}
+impl<T: AsyncRead + AsyncWrite + Send + Unpin> AsyncStream for T {}
+
+impl Transport {
+    async fn open(config: &LinkConfig) -> io::Result<Transport> {
+        Ok(match &config.endpoint {
+            Endpoint::UdpIn(addr) => Transport::Udp {
+                socket: UdpSocket::bind(addr).await?,
+                target: None,
+            },
+            Endpoint::UdpOut(target) => {
+                let local = match target {
+                    SocketAddr::V4(_) => SocketAddr::from((Ipv4Addr::UNSPECIFIED, 0)),
+                    SocketAddr::V6(_) => SocketAddr::from((Ipv6Addr::UNSPECIFIED, 0)),
+                };
+                Transport::Udp {
+                    socket: UdpSocket::bind(local).await?,
+                    target: Some(*target),
+                }
+            }
+            Endpoint::Tcp(addr) => {
+                let stream = TcpStream::connect(addr).await?;
+                stream.set_nodelay(true)?;
+                Transport::Stream(Box::new(stream))
+            }
+            Endpoint::TcpIn(addr) => Transport::Server(TcpListener::bind(addr).await?),
+            Endpoint::Serial { path, baud } => {
+                use tokio_serial::SerialPortBuilderExt;
+                let port = tokio_serial::new(path, *baud).open_native_async()?;
+                Transport::Stream(Box::new(port))
+            }
+        })
+    }
+}
+
+/// A link's signing: what its parser and framer start from, and its state
+/// file.
+struct LinkState {
+    file: Option<StateFile>,
+    start: SigningState,
+}
+
+impl LinkState {
+    fn open(config: &LinkConfig) -> io::Result<LinkState> {
+        let file = match (&config.signing_state, config.key) {
+            (Some(path), Some(_)) => {
+                Some(StateFile::open(path).map_err(|e| state_error(path, e))?.0)
+            }
+            (Some(_), None) => {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    "a signing state file needs a signing key",
+                ))
+            }
+            (None, _) => None,
+        };
+        let start = file.as_ref().map(|f| f.state().clone()).unwrap_or_default();
+        Ok(LinkState { file, start })
+    }
+}
+
+fn state_error(path: &std::path::Path, e: StateError) -> io::Error {
+    io::Error::other(format!(
+        "signing state {}: {e}; remove the file to start from the clock",
+        path.display()
+    ))
+}
+
+/// One link's task.
+struct LinkTask<D: Dialect> {
+    id: LinkId,
+    config: LinkConfig,
+    events: mpsc::Sender<RouterEvent<D>>,
+    commands: mpsc::Receiver<Command<D>>,
+    counters: Arc<Mutex<LinkCounters>>,
+    state: LinkState,
+}
+
+impl<D> LinkTask<D>
+where
+    D: Dialect + 'static,
+    D::Message: Encode + Send + 'static,
+{
+    fn codec(&self) -> FrameCodec<D> {
+        FrameCodec::with_parser(match self.config.key {
+            Some(key) => {
+                let verifier: Verifier = self.state.start.verifier(key);
+                Parser::with_signing(verifier, self.config.accept_unsigned)
+            }
+            None => Parser::new(),
+        })
+    }
+
+    fn framer(&self) -> Framer {
+        let mut framer = Framer::new();
+        if let Some(key) = self.config.key {
+            framer.set_signer(Some(self.state.start.signer(key, 0)));
+        }
+        framer
+    }
+
+    /// Runs the link until the router is dropped, reopening it when it
+    /// fails.
+    async fn run(mut self, first: Transport) {
+        let mut transport = Some(first);
+        let mut codec = self.codec();
+        let mut framer = self.framer();
+        loop {
+            let t = match transport.take() {
+                Some(t) => t,
+                None => match Transport::open(&self.config).await {
+                    Ok(t) => {
+                        let _ = self
+                            .events
+                            .send(RouterEvent::LinkUp { link: self.id })
+                            .await;
+                        t
+                    }
+                    Err(_) => {
+                        if self.wait_reopen().await.is_err() {
+                            return;
+                        }
+                        continue;
+                    }
+                },
+            };
+            let ended = match t {
+                Transport::Udp { socket, target } => {
+                    self.udp(socket, target, &mut codec, &mut framer).await
+                }
+                Transport::Stream(stream) => self.stream(stream, &mut codec, &mut framer).await,
+                Transport::Server(listener) => self.server(listener, &mut framer).await,
+            };
+            self.save_state(&codec, &framer);
+            match ended {
+                Ended::RouterGone => return,
+                Ended::Failed(error) => {
+                    let down = RouterEvent::LinkDown {
+                        link: self.id,
+                        error,
+                    };
+                    if self.events.send(down).await.is_err() {
+                        return;
+                    }
+                    // Signing goes on from where the failed transport was.
+                    self.state.start =
+                        SigningState::capture(framer.signer(), codec.parser().verifier());
+                    codec = self.codec();
+                    if self.wait_reopen().await.is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Waits [`REOPEN_INTERVAL`], dropping what is queued meanwhile; `Err`
+    /// when the router is gone.
+    async fn wait_reopen(&mut self) -> Result<(), ()> {
+        let until = tokio::time::Instant::now() + REOPEN_INTERVAL;
+        loop {
+            tokio::select! {
+                _ = tokio::time::sleep_until(until) => return Ok(()),
+                c = self.commands.recv() => if c.is_none() { return Err(()) },
+            }
+        }
+    }
+
+    /// Saves the signing state now.
+    fn save_state(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
+        if let Some(file) = &mut self.state.file {
+            // Failures leave the last saved state in place and are retried
+            // at the next save; the link goes on.
+            let _ = file.save(framer.signer(), codec.parser().verifier());
+        }
+    }
+
+    fn maybe_save(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
+        if self
+            .state
+            .file
+            .as_ref()
+            .is_some_and(|f| f.due(framer.signer()))
+        {
+            self.save_state(codec, framer);
+        }
+    }
+
+    fn count(&self, f: impl FnOnce(&mut LinkCounters)) {
+        f(&mut self.counters.lock().unwrap_or_else(|e| e.into_inner()));
+    }
+
+    /// Hands every frame in `bytes` to the router; `end` ends a datagram
+    /// (nothing after it completes a frame started in it).
+    async fn deliver(
+        &mut self,
+        codec: &mut FrameCodec<D>,
+        bytes: &mut BytesMut,
+        end: bool,
+        source: Option<SocketAddr>,
+    ) -> Result<(), ()> {
+        loop {
+            let frame = if end {
+                codec.decode_eof(bytes)
+            } else {
+                codec.decode(bytes)
+            };
+            let Ok(Some(frame)) = frame else {
+                break;
+            };
+            let event = RouterEvent::Frame(Inbound {
+                link: self.id,
+                frame,
+                source,
+            });
+            if self.events.send(event).await.is_err() {
+                return Err(());
+            }
+        }
+        let stats = *codec.parser().stats();
+        self.count(|c| c.parser = stats);
+        Ok(())
+    }
+
+    async fn udp(
+        &mut self,
+        socket: UdpSocket,
+        target: Option<SocketAddr>,
+        codec: &mut FrameCodec<D>,
+        framer: &mut Framer,
+    ) -> Ended {
+        let mut buf = BytesMut::with_capacity(65_536);
+        let (mut last_sender, mut pinned) = (None::<SocketAddr>, None::<SocketAddr>);
+        let reply_to = self.config.reply_to;
+        loop {
+            buf.clear();
+            let peer = target.or(match reply_to {
+                ReplyTo::LastSender => last_sender,
+                ReplyTo::Fixed(a) => Some(a),
+                ReplyTo::Pinned => pinned,
+            });
+            tokio::select! {
+                // A failed receive (an ICMP error on some systems) says
+                // nothing about the next one: it is skipped.
+                r = socket.recv_buf_from(&mut buf) => if let Ok((_, from)) = r {
+                    if from.port() != 0 {
+                        last_sender = Some(from);
+                    }
+                    if self.deliver(codec, &mut buf, true, Some(from)).await.is_err() {
+                        return Ended::RouterGone;
+                    }
+                    self.maybe_save(codec, framer);
+                },
+                c = self.commands.recv() => {
+                    let Some(c) = c else { return Ended::RouterGone };
+                    let bytes = match &c {
+                        Command::Pin(addr) => {
+                            if addr.port() != 0 {
+                                pinned = Some(*addr);
+                            }
+                            continue;
+                        }
+                        Command::Raw(b) => &b[..],
+                        Command::Message { sysid, compid, message } => {
+                            match framer.frame(*sysid, *compid, message) {
+                                Ok(b) => b,
+                                Err(_) => continue,
+                            }
+                        }
+                    };
+                    if let Some(p) = peer {
+                        if socket.send_to(bytes, p).await.is_err() {
+                            self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
+                        }
+                    }
+                    self.maybe_save(codec, framer);
+                }
+            }
+        }
+    }
+
+    async fn stream(
+        &mut self,
+        mut stream: Box<dyn AsyncStream>,
+        codec: &mut FrameCodec<D>,
+        framer: &mut Framer,
+    ) -> Ended {
+        let mut buf = BytesMut::with_capacity(4096);
+        loop {
+            tokio::select! {
+                r = stream.read_buf(&mut buf) => match r {
+                    Ok(0) => {
+                        let _ = self.deliver(codec, &mut buf, true, None).await;
+                        return Ended::Failed(io::Error::new(io::ErrorKind::UnexpectedEof, "closed by the peer"));
+                    }
+                    Ok(_) => {
+                        if self.deliver(codec, &mut buf, false, None).await.is_err() {
+                            return Ended::RouterGone;
+                        }
+                        self.maybe_save(codec, framer);
+                    }
+                    Err(e) => return Ended::Failed(e),
+                },
+                c = self.commands.recv() => {
+                    let Some(c) = c else { return Ended::RouterGone };
+                    let bytes = match &c {
+                        Command::Pin(_) => continue,
+                        Command::Raw(b) => &b[..],
+                        Command::Message { sysid, compid, message } => {
+                            match framer.frame(*sysid, *compid, message) {
+                                Ok(b) => b,
+                                Err(_) => continue,
+                            }
+                        }
+                    };
+                    if let Err(e) = stream.write_all(bytes).await {
+                        self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
+                        return Ended::Failed(e);
+                    }
+                    self.maybe_save(codec, framer);
+                }
+            }
+        }
+    }
+
+    /// `tcpin`: every client in a task of its own (with its own parser),
+    /// fed the link's output through a bounded queue: a client that falls
+    /// [`CLIENT_QUEUE`] frames behind is dropped, the others go on.
+    async fn server(&mut self, listener: TcpListener, framer: &mut Framer) -> Ended {
+        let mut clients: Vec<mpsc::Sender<Box<[u8]>>> = Vec::new();
+        loop {
+            tokio::select! {
+                r = listener.accept() => {
+                    let Ok((stream, addr)) = r else { continue };
+                    let _ = stream.set_nodelay(true);
+                    let (tx, rx) = mpsc::channel(CLIENT_QUEUE);
+                    clients.push(tx);
+                    tokio::spawn(serve_client(stream, addr, self.id, self.codec(), rx, self.events.clone()));
+                }
+                c = self.commands.recv() => {
+                    let Some(c) = c else { return Ended::RouterGone };
+                    let bytes: Box<[u8]> = match &c {
+                        Command::Pin(_) => continue,
+                        Command::Raw(b) => b.clone(),
+                        Command::Message { sysid, compid, message } => {
+                            match framer.frame(*sysid, *compid, message) {
+                                Ok(b) => b.into(),
+                                Err(_) => continue,
+                            }
+                        }
+                    };
+                    // Full or closed: the client is dropped.
+                    clients.retain(|tx| tx.try_send(bytes.clone()).is_ok());
+                }
+            }
+        }
+    }
+}
+
+/// How a link's transport ended.
+enum Ended {
+    /// The router was dropped: the task ends.
+    RouterGone,
+    /// The transport failed: reopen it.
+    Failed(io::Error),
+}
+
+async fn serve_client<D: Dialect>(
+    mut stream: TcpStream,
+    addr: SocketAddr,
+    link: LinkId,
+    mut codec: FrameCodec<D>,
+    mut output: mpsc::Receiver<Box<[u8]>>,
+    events: mpsc::Sender<RouterEvent<D>>,
+) {
+    let mut buf = BytesMut::with_capacity(4096);
+    loop {
+        tokio::select! {
+            r = stream.read_buf(&mut buf) => match r {
+                Ok(n) if n > 0 => {
+                    while let Ok(Some(frame)) = codec.decode(&mut buf) {
+                        let event = RouterEvent::Frame(Inbound { link, frame, source: Some(addr) });
+                        if events.send(event).await.is_err() {
+                            return;
+                        }
+                    }
+                }
+                _ => return,
+            },
+            out = output.recv() => {
+                let Some(bytes) = out else { return };
+                if stream.write_all(&bytes).await.is_err() {
+                    return;
+                }
+            }
+        }
+    }
+}

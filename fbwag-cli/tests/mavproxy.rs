@@ -627,3 +627,77 @@ fn mavproxy_module_fbwag_shows_the_delegation_and_sends_notices() {
         logs.tap
     );
 }
+
+/// The other deployment: `fbwag cc` owns the FC link (signed) and routes to
+/// MAVProxy (`--out`), which a ground station would use; MAVProxy needs no
+/// key (it reads signed frames forwarded untouched) and its fbwag module
+/// shows the delegation.
+#[test]
+fn fbwag_cc_routes_the_fc_to_mavproxy() {
+    let Some(py) = peer_python() else { return };
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let (p_fc, p_mavproxy) = (free_port(), free_port());
+    let cc = Proc::spawn(
+        "fbwag cc",
+        fbwag()
+            .args(["cc", "--link", &format!("udpin:127.0.0.1:{p_fc}")])
+            .args(["--out", &format!("udpout:127.0.0.1:{p_mavproxy}")])
+            .args([
+                "--sign-key",
+                KEY_HEX,
+                "--require-signed",
+                "--duration",
+                "60",
+            ]),
+    );
+    let mut mavproxy = Proc::spawn(
+        "mavproxy.py",
+        Command::new(py.with_file_name("mavproxy.py"))
+            .arg(format!("--master=udpin:127.0.0.1:{p_mavproxy}"))
+            .args(["--no-state", "--dialect=fbwag", "--load-module=fbwag"])
+            .arg("--non-interactive")
+            .stdin(Stdio::null())
+            .env("HOME", mavproxy_home("cc-router"))
+            .env("PYTHONUNBUFFERED", "1")
+            .env_remove("DISPLAY"),
+    );
+    assert!(
+        mavproxy.wait_for("Waiting for heartbeat", Duration::from_secs(40)),
+        "MAVProxy did not start:\n{}",
+        mavproxy.log
+    );
+    let s = CYCLE;
+    let mut fc = Proc::spawn(
+        "fbwag fc-sim",
+        fbwag()
+            .args(["fc-sim", "--link", &format!("udpout:127.0.0.1:{p_fc}")])
+            .args(["--sign-key", KEY_HEX, "--require-signed"])
+            .args(["--rc-loss-at", &s.loss.to_string()])
+            .args(["--rc-back-at", &s.back.to_string()])
+            .args(["--duration", &s.duration.to_string()]),
+    );
+    let fc_exited = fc.wait_exit(Duration::from_secs_f64(s.duration + 20.0));
+    // MAVProxy prints the rest of the cycle as it arrives.
+    let saw_handback = mavproxy.wait_for("hand-back confirmed by the FC", Duration::from_secs(5));
+    mavproxy.stop();
+    let mut cc = cc;
+    cc.stop();
+    let logs = Logs {
+        fc: fc.log.clone(),
+        mavproxy: mavproxy.log.clone(),
+        cc: cc.log.clone(),
+        tap: String::new(),
+        mavproxy_alive: true,
+    };
+    assert!(fc_exited, "{}", logs.all());
+    logs.assert_full_cycle();
+    assert!(saw_handback, "{}", logs.all());
+    for line in [
+        "fbwag: <- FBWAG_NOTICE from 1/1: status 1",
+        "fbwag: takeover confirmed by the FC",
+        "-> FBWAG (companion control)",
+        "fbwag: <- FBWAG_NOTICE from 1/1: status 0",
+    ] {
+        assert!(logs.mavproxy.contains(line), "{line:?}\n{}", logs.all());
+    }
+}

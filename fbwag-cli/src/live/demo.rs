@@ -7,13 +7,67 @@ use super::link::LinkOptions;
 use fbwag_delegation::control::WingsLevel;
 use fbwag_delegation::Peer;
 use fbwag_dialect::Endpoint;
-use rand::{Rng, SeedableRng};
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant as WallInstant};
 
-/// A UDP relay between two peers that drops a share of datagrams each way
-/// (the demo's "lossy radio"). Runs until `until`; returns (passed, dropped).
+/// The lossy radio of the demo: which datagrams it drops.
+///
+/// A datagram's fate depends only on the seed, its direction, its message
+/// id and how many datagrams of that id went that way before it, not on
+/// when it came: the protocol's frames (the FC's first notice, the
+/// companion's first acknowledgement, ...) meet the same fate in every run
+/// with the same seed, so the demo's figures repeat, up to scheduling
+/// jitter of milliseconds.
+#[derive(Debug)]
+pub struct Dropper {
+    seed: u64,
+    loss: f64,
+    counts: std::collections::HashMap<(bool, u32), u64>,
+}
+
+impl Dropper {
+    pub fn new(seed: u64, loss: f64) -> Self {
+        Dropper {
+            seed,
+            loss,
+            counts: std::collections::HashMap::new(),
+        }
+    }
+
+    /// Whether to drop this datagram (`uplink`: companion to FC).
+    pub fn drops(&mut self, uplink: bool, datagram: &[u8]) -> bool {
+        let id = msg_id(datagram);
+        let k = self.counts.entry((uplink, id)).or_insert(0);
+        *k += 1;
+        let x = splitmix64(self.seed ^ (u64::from(uplink) << 63) ^ (u64::from(id) << 32) ^ *k);
+        let uniform = (x >> 11) as f64 / (1u64 << 53) as f64;
+        uniform < self.loss
+    }
+}
+
+/// The message id of the frame a datagram starts with (0 when it starts
+/// with none).
+fn msg_id(d: &[u8]) -> u32 {
+    match d {
+        [0xFD, _, _, _, _, _, _, a, b, c, ..] => u32::from_le_bytes([*a, *b, *c, 0]),
+        [0xFE, _, _, _, _, id, ..] => u32::from(*id),
+        _ => 0,
+    }
+}
+
+/// SplitMix64's finaliser: a well-mixed 64-bit hash of `x`.
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A UDP relay between the FC (whose datagrams arrive at `fc_side`) and
+/// the companion at `cc_addr`, dropping datagrams as [`Dropper`] decides;
+/// one thread per direction, so neither waits on the other. Runs until
+/// `until`; returns (passed, dropped).
 pub fn run_relay(
     fc_side: UdpSocket,
     cc_addr: SocketAddr,
@@ -21,34 +75,48 @@ pub fn run_relay(
     until: WallInstant,
     seed: u64,
 ) -> io::Result<(u64, u64)> {
-    let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
     let cc_side = UdpSocket::bind("127.0.0.1:0")?;
-    fc_side.set_read_timeout(Some(Duration::from_millis(5)))?;
-    cc_side.set_read_timeout(Some(Duration::from_millis(5)))?;
-    let mut fc_addr = None;
-    let (mut passed, mut dropped) = (0u64, 0u64);
-    let mut buf = [0u8; 2048];
-    while WallInstant::now() < until {
-        if let Ok((n, from)) = fc_side.recv_from(&mut buf) {
-            fc_addr = Some(from);
-            if rng.gen::<f64>() < loss {
-                dropped += 1;
-            } else {
-                passed += 1;
-                // A send that fails (the companion not up yet) is a loss.
-                let _ = cc_side.send_to(&buf[..n], cc_addr);
-            }
-        }
-        if let (Ok((n, _)), Some(fc)) = (cc_side.recv_from(&mut buf), fc_addr) {
-            if rng.gen::<f64>() < loss {
-                dropped += 1;
-            } else {
-                passed += 1;
-                let _ = fc_side.send_to(&buf[..n], fc);
-            }
-        }
+    for s in [&fc_side, &cc_side] {
+        s.set_read_timeout(Some(Duration::from_millis(20)))?;
     }
-    Ok((passed, dropped))
+    let dropper = std::sync::Mutex::new(Dropper::new(seed, loss));
+    let fc_addr = std::sync::Mutex::new(None::<SocketAddr>);
+    let (fc_side, cc_side) = (&fc_side, &cc_side);
+    let relay = |from: &UdpSocket, uplink: bool| {
+        let (mut passed, mut dropped) = (0u64, 0u64);
+        let mut buf = [0u8; 2048];
+        while WallInstant::now() < until {
+            let Ok((n, source)) = from.recv_from(&mut buf) else {
+                continue;
+            };
+            let to = if uplink {
+                *fc_addr.lock().unwrap_or_else(|e| e.into_inner())
+            } else {
+                *fc_addr.lock().unwrap_or_else(|e| e.into_inner()) = Some(source);
+                Some(cc_addr)
+            };
+            let lost = dropper
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .drops(uplink, &buf[..n]);
+            match to {
+                Some(to) if !lost => {
+                    passed += 1;
+                    // A send that fails (the peer not up yet) is a loss.
+                    let out = if uplink { fc_side } else { cc_side };
+                    let _ = out.send_to(&buf[..n], to);
+                }
+                _ => dropped += 1,
+            }
+        }
+        (passed, dropped)
+    };
+    let ((p1, d1), (p2, d2)) = std::thread::scope(|s| {
+        let down = s.spawn(|| relay(fc_side, false));
+        let up = relay(cc_side, true);
+        (down.join().unwrap_or_default(), up)
+    });
+    Ok((p1 + p2, d1 + d2))
 }
 
 /// Runs the demo: prints the timeline and the handover time.

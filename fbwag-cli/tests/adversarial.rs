@@ -288,6 +288,43 @@ fn flood_of_valid_frames_from_strangers() {
     assert!(cc.refused("bad signatures") > 0, "{both}");
 }
 
+/// Datagrams of 64 KB of the worst parser pattern into the FC's port, 5 a
+/// second: far more than the test build parses (the flood is over
+/// capacity, so the companion's frames may be lost with it). Whatever the
+/// link delivers, the FC's own timers must run: it notices the receiver
+/// loss, and ends its run either in companion control or fallen back to
+/// RTL (5 s after its first notice, well before the end of its 8 s), never
+/// still in the handshake or with the pilot's failed receiver.
+#[test]
+fn large_worst_pattern_datagrams_do_not_stall_the_fc_timers() {
+    let _one = heavy();
+    let dir = scratch("large-worst");
+    let s = Setup {
+        duration: 8.0,
+        ..Setup::signed()
+    };
+    let pair = Pair::start(&dir, &s);
+    let big = Garbage::Worst.datagram(&mut rand::SeedableRng::seed_from_u64(0), 65_000);
+    let attacker = Attacker::start(&[local(pair.fc_port)], 5.0, 0, move |_, _| big.clone());
+    let (fc, cc) = pair.finish();
+    let sent = attacker.stop();
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    fc.assert_ran_to_the_end(s.duration);
+    cc.assert_ran_to_the_end(s.cc_duration());
+    assert_eq!(sent.received, 0, "{both}");
+    let modes = fc.events.modes();
+    assert!(
+        modes.contains(&"CIRCLE".into()),
+        "receiver loss not acted on\n{both}"
+    );
+    let last = modes.last().map(String::as_str);
+    assert!(
+        matches!(last, Some("FBWAG" | "RTL")),
+        "ended in {last:?}\n{both}"
+    );
+    assert_controls_from_companion(&fc, true, &both);
+}
+
 // ---------------------------------------------------------------------------
 // Spoofed frames without the key.
 

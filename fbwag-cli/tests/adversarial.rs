@@ -846,14 +846,34 @@ fn without_signing_peer_flag_pins_the_answers_but_not_what_is_believed() {
 /// fc-sim killed while the CC is in control and started again (an FC
 /// reboot), its new RC loss earlier in its boot than the old one: the CC
 /// recognises the new boot (its event ids went back), answers it, and
-/// the new FC hands over to it.
+/// the new FC hands over to it. Signed, the new FC's frames move the CC's
+/// answers to its new port at once.
 #[test]
 fn fc_reboot_while_the_cc_controls() {
+    fc_reboot(Setup::signed());
+}
+
+/// The same unsigned: the CC moves its answers to the rebooted FC's new
+/// port only once the old port has been silent for 3 s (PEER_SILENCE),
+/// which is inside the new FC's 5 s handshake, so the handover should
+/// still happen. It does not: until the move, the CC acknowledges the new
+/// boot's notices to the dead port, and it spends its per-event budget of
+/// 1 + 3 acknowledgements twice a second (its own 1 s retry timer and the
+/// FC's repeated notice fire together), so it is spent 2 s after the first
+/// notice; after the move (3 s) the FC's last notice goes unanswered and it
+/// falls back to RTL.
+#[test]
+#[ignore = "bug: unsigned FC reboot ends in RTL: the CC's acks go to the dead port for 3 s (PEER_SILENCE) and its 1+3 ack budget, spent twice per second, is gone before its answers move to the new port"]
+fn fc_reboot_while_the_cc_controls_unsigned() {
+    fc_reboot(Setup::unsigned());
+}
+
+fn fc_reboot(signing: Setup) {
     let dir = scratch("fc-reboot");
     let s = Setup {
         rc_loss_at: 6.5,
         duration: 30.0,
-        ..Setup::signed()
+        ..signing
     };
     let cc_port = free_port();
     let cc_time = 13.0;
@@ -896,7 +916,7 @@ fn fc_reboot_while_the_cc_controls() {
     assert_eq!(before.len(), 1, "{both}");
     assert_eq!(after, fc2.notice_events(), "{both}");
     assert!(fc2.events.last("handover").is_some(), "{both}");
-    assert_controls_from_companion(&fc2, true, &both);
+    assert_controls_from_companion(&fc2, s.signed, &both);
     let modes = fc2.events.modes();
     assert!(
         modes

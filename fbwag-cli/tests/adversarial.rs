@@ -641,7 +641,8 @@ fn frames_signed_minutes_ago_are_refused_by_fresh_daemons() {
 /// daemons, from before the FC starts to the end: garbage, and valid frames
 /// with the peer's ids (signing off, so the engine trusts them). Both
 /// daemons stay up to their end, the CC answers the real FC (the link
-/// never takes port 0 for its peer), and the handover happens.
+/// never takes port 0 for its peer: before, port 0 speaking first as the
+/// FC left the real FC unanswered), and the handover happens.
 #[test]
 fn datagrams_from_source_port_zero() {
     let dir = scratch("port-zero");
@@ -653,22 +654,22 @@ fn datagrams_from_source_port_zero() {
     let s = Setup::unsigned();
     let cc_port = free_port();
     let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, s.cc_duration()));
+    // Garbage, a byte, and a frame the receiver trusts (the peer's ids,
+    // signing off) but that changes nothing in the protocol: the FC's
+    // ATTITUDE (mere liveness for the CC), the companion's HEARTBEAT.
     let burst = |to: u16, peer: fbwag_delegation::Peer, n: u64| {
-        let hb = if peer == FC {
-            frame(
-                FC,
-                n as u8,
-                &wire::fc_heartbeat(fbwag_delegation::fc::Authority::Pilot),
-                None,
-            )
+        let trusted = if peer == FC {
+            let att = fbwag_dialect::dialects::common::Attitude::default();
+            frame(FC, n as u8, &att, None)
         } else {
             frame(CC, n as u8, &wire::cc_heartbeat(), None)
         };
-        for payload in [&b"\xfd\x09\x00\x00"[..], &[0u8; 1][..], &hb[..]] {
+        for payload in [&b"\xfd\x09\x00\x00"[..], &[0u8; 1][..], &trusted[..]] {
             send_from_port_zero(local(to), payload).expect("raw send");
         }
     };
-    // Port 0 speaks first, as the FC.
+    // Port 0 speaks first, as the FC (once the CC is listening).
+    assert_eq!(udp_port_of(cc.pid()), cc_port);
     for n in 0..5 {
         burst(cc_port, FC, n);
     }

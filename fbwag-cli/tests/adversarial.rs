@@ -16,8 +16,12 @@
 //! The set-up: the CC listens (`udpin`, answering only the peer it
 //! authenticated), the FC sends to it (`udpout`) from an ephemeral port
 //! found in /proc. Floods share the machine's two cores with the daemons:
-//! one flood at a time (the `HEAVY` lock), at a quarter of what the binary
-//! under test can parse.
+//! one flood at a time (the `HEAVY` lock). Garbage floods run at a quarter
+//! of what the binary under test parses of them (measured first, so they
+//! load an unoptimised build and, later, a faster parser alike), except one
+//! that is over capacity on purpose; small-datagram floods at fixed rates.
+//!
+//! Two tests are ignored, each with the bug it shows (see their docs).
 
 #[path = "common/attack.rs"]
 mod attack;
@@ -235,6 +239,7 @@ fn flood(kind: Garbage, per_sec: f64, len: usize) {
     );
 }
 
+/// 1 KB datagrams of random bytes.
 #[test]
 fn flood_of_random_bytes() {
     let _one = heavy();
@@ -242,6 +247,8 @@ fn flood_of_random_bytes() {
     flood(Garbage::Random, rate, FLOOD_DATAGRAM);
 }
 
+/// 1 KB datagrams of random bytes, half of them 0xFD/0xFE: candidate
+/// frames everywhere.
 #[test]
 fn flood_of_start_byte_dense_garbage() {
     let _one = heavy();
@@ -249,6 +256,8 @@ fn flood_of_start_byte_dense_garbage() {
     flood(Garbage::StartDense, rate, FLOOD_DATAGRAM);
 }
 
+/// 1 KB datagrams of the worst parser pattern (issue 10's
+/// `fefefefdfd0000fe00fe`).
 #[test]
 fn flood_of_the_worst_parser_pattern() {
     let _one = heavy();
@@ -885,7 +894,6 @@ fn fc_reboot(signing: Setup) {
         e["event"] == "handover"
     });
     std::thread::sleep(Duration::from_millis(500));
-    let first = fc1.events_now();
     fc1.kill();
     let s2 = Setup {
         rc_loss_at: 0.3,
@@ -900,10 +908,6 @@ fn fc_reboot(signing: Setup) {
     let fc2 = fc2.finish(Duration::from_secs(15));
     let cc = cc.finish(Duration::from_secs_f64(cc_time + 10.0));
     let both = format!("{}\n{}", fc2.dump(), cc.dump());
-    assert!(
-        first.control_starts().is_empty(),
-        "FC events are not CC events"
-    );
     cc.assert_ran_to_the_end(cc_time);
     fc2.assert_ran_to_the_end(s2.duration);
     // The CC's story: control for the first boot, the reboot, control for

@@ -12,14 +12,26 @@
 //! the current peer has been silent for [`PEER_SILENCE`] (an unsigned peer
 //! that restarted on a new port). Frames from anyone else never redirect
 //! anything.
+//!
+//! Each UDP datagram is parsed on its own: whatever partial frame it ends
+//! with is flushed, never completed by the next datagram. MAVLink over UDP
+//! sends whole frames per datagram, and carrying a partial frame over (what
+//! a `Connection` does) let anyone who sends a datagram steer the link: a
+//! false header (10 bytes) or a few start bytes held the peer's next frame
+//! back until the attacker's next datagram was read, and that frame was
+//! then taken as coming from the attacker's address (with signing on, the
+//! peer's signed frame moved the answers to the attacker at once). Stream
+//! links (TCP, serial) keep partial frames across reads, as they must.
 
 use super::{Clock, Limiter, Log, PeerPin};
 use fbwag_delegation::engine::Verdict;
-use fbwag_dialect::mavframe::conn::{AnyTransport, Endpoint, ReplyTo};
+use fbwag_dialect::mavframe::conn::{AnyTransport, Endpoint, ReplyTo, Transport};
+use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
 use fbwag_dialect::mavframe::parser::Stats;
 use fbwag_dialect::mavframe::signing::state::{Loaded, SigningState, StateFile};
+use fbwag_dialect::mavframe::signing::timestamp_now;
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{Connection, Parser, ReceivedFrame, Verifier};
+use fbwag_dialect::{encode, Header, Parser, ReceivedFrame, Signer, Verifier, Version};
 use std::io;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -56,16 +68,17 @@ pub struct LinkOptions {
     pub signing_state: Option<PathBuf>,
 }
 
-/// A daemon's link.
+/// A daemon's link: the transport, its parser and the sending state. Not a
+/// `Connection`, which keeps a partial frame across datagrams (see the
+/// module docs).
 pub struct Link {
     opts: LinkOptions,
-    conn: Option<Connection>,
-    /// The state file, and the signing state of a connection that failed
-    /// (its replacement starts from it, not from nothing).
-    state_file: Option<StateFile>,
-    carried: SigningState,
+    transport: Option<AnyTransport>,
+    rx: Rx,
+    tx: Tx,
     reopen_at: WallInstant,
     pin: PeerPin,
+    state_file: Option<StateFile>,
     send_errors: Limiter,
     recv_errors: Limiter,
     untrusted: Limiter,
@@ -73,51 +86,86 @@ pub struct Link {
     stats_at: WallInstant,
 }
 
+/// The receive side: the parser, and the bytes of the last read not parsed
+/// yet.
+struct Rx {
+    parser: Parser,
+    buf: Box<[u8]>,
+    start: usize,
+    end: usize,
+    /// The last read was a datagram whose end the parser has not been told
+    /// about yet.
+    datagram_open: bool,
+    /// The sender of the bytes being parsed (UDP), hence of every frame
+    /// found in them.
+    source: Option<SocketAddr>,
+}
+
+/// The send side: sequence number, signer, one frame's buffer.
+struct Tx {
+    seq: u8,
+    signer: Option<Signer>,
+    buf: [u8; MAX_FRAME_LEN],
+}
+
+/// A whole UDP datagram fits (65,507 bytes at most).
+const RECV_BUFFER_LEN: usize = 64 * 1024;
+
+/// Bytes parsed per [`Link::recv`] call before the daemon services its
+/// timers again: however long the parser takes per byte (its worst input
+/// cost ~4 µs a byte before issue 10 item 2, 100 µs unoptimised), one
+/// large datagram cannot hold the receiver sampling and the protocol's
+/// timers back for more than this many bytes' work. Four of the longest
+/// frames.
+const PARSE_CHUNK: usize = 1024;
+
 impl Link {
     /// Opens the link now: errors here (address in use, no such device)
     /// end the program before it starts; later errors never do.
     pub fn open(opts: LinkOptions, log: &mut Log) -> io::Result<Link> {
-        let state_file = match (&opts.signing_state, opts.key) {
-            (Some(path), Some(_)) => {
-                let (file, loaded) = StateFile::open(path).map_err(|e| {
-                    io::Error::other(format!(
-                        "signing state {}: {e}; remove the file to start from the clock",
-                        path.display()
-                    ))
-                })?;
-                log.line(&match loaded {
-                    Loaded::Existing => format!(
-                        "signing state: loaded {} ({} streams)",
-                        path.display(),
-                        file.state().streams.len()
-                    ),
-                    Loaded::Fresh => format!(
-                        "signing state: no file at {} yet, starting from the clock",
-                        path.display()
-                    ),
-                });
-                Some(file)
-            }
-            (Some(_), None) => {
-                return Err(io::Error::new(
-                    io::ErrorKind::InvalidInput,
-                    "a signing state file needs a signing key",
-                ))
-            }
-            (None, _) => None,
-        };
-        let carried = state_file
+        let state_file = open_state_file(&opts, log)?;
+        let transport = connect(&opts).map_err(|e| {
+            io::Error::new(e.kind(), format!("cannot open {}: {e}", opts.endpoint))
+        })?;
+        // The verifier starts from the clock, so a capture older than the
+        // signing window (one minute) replayed into a freshly started
+        // daemon is refused, and from the state file, so a replay of
+        // anything accepted before a restart is refused too; the signer
+        // resumes after anything it may have sent. Unsigned frames still
+        // arrive, marked unauthenticated: whether they count is the
+        // engine's trust rule.
+        let state = state_file
             .as_ref()
             .map_or_else(SigningState::default, |f| f.state().clone());
-        let conn = connect(&opts, &carried)
-            .map_err(|e| io::Error::new(e.kind(), format!("cannot open {}: {e}", opts.endpoint)))?;
+        let (parser, signer) = match opts.key {
+            Some(key) => {
+                let verifier: Verifier = state.verifier(key);
+                (
+                    Parser::with_signing(verifier, true),
+                    Some(state.signer(key, 0)),
+                )
+            }
+            None => (Parser::new(), None),
+        };
         Ok(Link {
             opts,
-            conn: Some(conn),
-            state_file,
-            carried,
+            transport: Some(transport),
+            rx: Rx {
+                parser,
+                buf: vec![0u8; RECV_BUFFER_LEN].into_boxed_slice(),
+                start: 0,
+                end: 0,
+                datagram_open: false,
+                source: None,
+            },
+            tx: Tx {
+                seq: 0,
+                signer,
+                buf: [0; MAX_FRAME_LEN],
+            },
             reopen_at: WallInstant::now(),
             pin: PeerPin::default(),
+            state_file,
             send_errors: Limiter::new(5, Duration::from_secs(10)),
             recv_errors: Limiter::new(5, Duration::from_secs(10)),
             untrusted: Limiter::new(5, Duration::from_secs(10)),
@@ -129,67 +177,58 @@ impl Link {
     /// Sends `msg` as `sysid`/`compid`; a failure is logged (rate-limited)
     /// and dropped: one unreachable peer never stops the daemon.
     pub fn send(&mut self, sysid: u8, compid: u8, msg: &dyn Encode, log: &mut Log) {
-        let Some(conn) = &mut self.conn else {
+        let Some(transport) = &mut self.transport else {
             return;
         };
-        if let Err(e) = conn.send_auto(sysid, compid, msg) {
+        let result = self
+            .tx
+            .frame(sysid, compid, msg)
+            .and_then(|f| transport.send(f));
+        if let Err(e) = result {
             self.send_errors.log(log, "send errors", || {
                 format!("send of {} failed: {e}", msg.meta().name)
             });
             if breaks_link(&self.opts.endpoint, &e) {
-                self.drop_connection();
+                self.transport = None;
             }
-        }
-    }
-
-    /// Drops a failed connection, keeping its signing state for the next.
-    fn drop_connection(&mut self) {
-        if let Some(conn) = self.conn.take() {
-            self.carried = SigningState::capture(conn.signer(), conn.parser().verifier());
-        }
-        self.reopen_at = WallInstant::now() + REOPEN_INTERVAL;
-    }
-
-    /// Saves the signing state when due (cheap: call every iteration), or
-    /// now with `force` (at exit). Failures are logged, never fatal.
-    pub fn save_signing_state(&mut self, force: bool, log: &mut Log) {
-        let (Some(file), Some(conn)) = (&mut self.state_file, &self.conn) else {
-            return;
-        };
-        if !force && !file.due(conn.signer()) {
-            return;
-        }
-        match file.save(conn.signer(), conn.parser().verifier()) {
-            Ok(_) if force => {
-                log.line(&format!("signing state saved to {}", file.path().display()))
-            }
-            Ok(_) => {}
-            Err(e) => self.send_errors.log(log, "state file errors", || {
-                format!(
-                    "cannot save the signing state to {}: {e}",
-                    file.path().display()
-                )
-            }),
         }
     }
 
     /// The next frame, waiting up to `wait`; `None` when none came (or the
-    /// link failed: logged, and reopened later).
+    /// link failed: logged, and reopened later). At most one datagram (or
+    /// one read of a stream) is taken from the transport per call, so a
+    /// flood of datagrams without frames returns to the caller's timers
+    /// after each.
     pub fn recv(&mut self, wait: Duration, log: &mut Log) -> Option<ReceivedFrame> {
         self.report_stats(log);
-        let Some(conn) = &mut self.conn else {
+        if let Some(frame) = self.rx.next() {
+            return Some(frame);
+        }
+        if self.rx.pending() {
+            // The rest of the last read waits for the next call: timers
+            // first.
+            return None;
+        }
+        let Some(transport) = &mut self.transport else {
             self.reopen(log);
             // Nothing to read from: wait as asked, without spinning.
             std::thread::sleep(wait.min(Duration::from_millis(50)));
             return None;
         };
-        match conn.recv(Some(wait)) {
-            Ok(frame) => frame,
+        match transport.recv(&mut self.rx.buf, Some(wait)) {
+            Ok(0) => None,
+            Ok(n) => {
+                let datagram =
+                    matches!(transport, AnyTransport::UdpIn(_) | AnyTransport::UdpOut(_));
+                self.rx.filled(n, datagram, transport.last_source());
+                self.rx.next()
+            }
             Err(e) => {
                 self.recv_errors
                     .log(log, "receive errors", || format!("receive failed: {e}"));
                 if breaks_link(&self.opts.endpoint, &e) {
-                    self.drop_connection();
+                    self.transport = None;
+                    self.reopen_at = WallInstant::now() + REOPEN_INTERVAL;
                 } else {
                     // A transient error: do not spin on it.
                     std::thread::sleep(Duration::from_millis(10).min(wait));
@@ -199,11 +238,11 @@ impl Link {
         }
     }
 
-    /// What the engine made of `frame`: a trusted frame may pin a `udpin`
-    /// link's peer (see the module docs); untrusted ones are logged,
-    /// rate-limited.
+    /// What the engine made of `frame` (the one [`Link::recv`] returned
+    /// last): a trusted frame may pin a `udpin` link's peer (see the module
+    /// docs); untrusted ones are logged, rate-limited.
     pub fn judged(&mut self, frame: &ReceivedFrame, verdict: Verdict, log: &mut Log) {
-        let source = self.conn.as_ref().and_then(|c| c.transport().last_source());
+        let source = self.rx.source;
         match verdict {
             Verdict::Trusted => {
                 if let Some(source) = source {
@@ -229,7 +268,12 @@ impl Link {
     }
 
     fn trusted_source(&mut self, source: SocketAddr, authenticated: bool, log: &mut Log) {
-        let Some(AnyTransport::UdpIn(udp)) = self.conn.as_mut().map(|c| c.transport_mut()) else {
+        // Port 0 cannot be answered (the socket refuses to pin it): it must
+        // not become the peer this link believes in either.
+        if source.port() == 0 {
+            return;
+        }
+        let Some(AnyTransport::UdpIn(udp)) = self.transport.as_mut() else {
             return;
         };
         if udp.reply_to() != ReplyTo::Pinned {
@@ -241,16 +285,44 @@ impl Link {
         }
     }
 
-    /// Opens a failed link again, at most every [`REOPEN_INTERVAL`].
+    /// Saves the signing state when due (cheap: call every iteration), or
+    /// now with `force` (at exit). Failures are logged, never fatal.
+    pub fn save_signing_state(&mut self, force: bool, log: &mut Log) {
+        let Some(file) = &mut self.state_file else {
+            return;
+        };
+        let signer = self.tx.signer.as_ref();
+        if !force && !file.due(signer) {
+            return;
+        }
+        match file.save(signer, self.rx.parser.verifier()) {
+            Ok(_) if force => log.line(&format!(
+                "signing state saved to {}",
+                file.path().display()
+            )),
+            Ok(_) => {}
+            Err(e) => self.send_errors.log(log, "state file errors", || {
+                format!(
+                    "cannot save the signing state to {}: {e}",
+                    file.path().display()
+                )
+            }),
+        }
+    }
+
+    /// Opens a failed link again, at most every [`REOPEN_INTERVAL`]. The
+    /// parser (and its signing streams) is kept; a partial frame of the
+    /// old stream is dropped.
     fn reopen(&mut self, log: &mut Log) {
         if WallInstant::now() < self.reopen_at {
             return;
         }
         self.reopen_at = WallInstant::now() + REOPEN_INTERVAL;
-        match connect(&self.opts, &self.carried) {
-            Ok(conn) => {
+        match connect(&self.opts) {
+            Ok(transport) => {
                 log.line(&format!("link {} open again", self.opts.endpoint));
-                self.conn = Some(conn);
+                self.transport = Some(transport);
+                self.rx.restart();
                 self.pin.reset();
             }
             Err(e) => self.recv_errors.log(log, "receive errors", || {
@@ -265,10 +337,7 @@ impl Link {
             return;
         }
         self.stats_at = WallInstant::now();
-        let Some(conn) = &self.conn else {
-            return;
-        };
-        let (now, was) = (*conn.stats(), self.stats_seen);
+        let (now, was) = (*self.rx.parser.stats(), self.stats_seen);
         self.stats_seen = now;
         let delta = [
             ("bad checksums", now.bad_crc - was.bad_crc),
@@ -294,26 +363,132 @@ impl Link {
     }
 }
 
-/// Opens the connection: with a key, it signs what it sends and verifies
-/// what comes (unsigned frames still arrive, marked unauthenticated: whether
-/// they count is the engine's trust rule). The verifier starts from the
-/// clock, so a capture older than the signing window (one minute) replayed
-/// into a freshly started daemon is refused, and from `state` (the state
-/// file's, or a failed connection's), so a replay of anything it accepted
-/// before is refused too; the signer resumes after anything it may have
-/// sent.
-fn connect(opts: &LinkOptions, state: &SigningState) -> io::Result<Connection> {
+impl Rx {
+    /// `n` bytes were read into `buf` from `source`; `datagram`: they are
+    /// one whole datagram.
+    fn filled(&mut self, n: usize, datagram: bool, source: Option<SocketAddr>) {
+        self.start = 0;
+        self.end = n.min(self.buf.len());
+        self.datagram_open = datagram;
+        self.source = source;
+    }
+
+    /// The next frame in the next [`PARSE_CHUNK`] bytes read; at the end
+    /// of a datagram, the frames the parser can still complete from what it
+    /// holds, then nothing is held over. `None` with [`Rx::pending`] true:
+    /// no frame in this chunk, more bytes to parse.
+    fn next(&mut self) -> Option<ReceivedFrame> {
+        if self.start < self.end {
+            let stop = self.end.min(self.start + PARSE_CHUNK);
+            let mut input = &self.buf[self.start..stop];
+            let got = self
+                .parser
+                .next(&mut input)
+                .map(|r| ReceivedFrame::from(&r));
+            self.start = stop - input.len();
+            if got.is_some() {
+                return got;
+            }
+            // The parser consumes its whole input before it says None.
+            self.start = stop;
+            if self.start < self.end {
+                return None;
+            }
+        }
+        if self.datagram_open {
+            if let Some(r) = self.parser.flush() {
+                return Some(ReceivedFrame::from(&r));
+            }
+            self.datagram_open = false;
+        }
+        None
+    }
+
+    /// Bytes read and not parsed yet, or a datagram not flushed yet: the
+    /// transport must not be read (it would overwrite them).
+    fn pending(&self) -> bool {
+        self.start < self.end || self.datagram_open
+    }
+
+    /// A new stream: nothing read before belongs to it.
+    fn restart(&mut self) {
+        self.start = 0;
+        self.end = 0;
+        self.datagram_open = false;
+        self.source = None;
+        while self.parser.flush().is_some() {}
+    }
+}
+
+impl Tx {
+    /// `msg` framed with the next sequence number (which advances whether
+    /// or not the send succeeds: a receiver counts a failed send as lost),
+    /// signed when a key is set.
+    fn frame(&mut self, sysid: u8, compid: u8, msg: &dyn Encode) -> io::Result<&[u8]> {
+        let header = Header {
+            seq: self.seq,
+            sysid,
+            compid,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        if let Some(signer) = &mut self.signer {
+            // Keep up with the clock (receivers drop a stream that falls
+            // more than a minute behind the newest timestamp they saw).
+            signer.advance_to(timestamp_now());
+        }
+        let n = encode(
+            Version::V2,
+            header,
+            msg,
+            self.signer.as_mut(),
+            &mut self.buf,
+        )
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        Ok(&self.buf[..n])
+    }
+}
+
+/// The link's signing state file, loaded (or a fresh one); a damaged file
+/// stops the program (it could mean tampering: dropping it silently would
+/// reopen replays).
+fn open_state_file(opts: &LinkOptions, log: &mut Log) -> io::Result<Option<StateFile>> {
+    let (Some(path), Some(_)) = (&opts.signing_state, opts.key) else {
+        return match opts.signing_state {
+            Some(_) => Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "a signing state file needs a signing key",
+            )),
+            None => Ok(None),
+        };
+    };
+    let (file, loaded) = StateFile::open(path).map_err(|e| {
+        io::Error::other(format!(
+            "signing state {}: {e}; remove the file to start from the clock",
+            path.display()
+        ))
+    })?;
+    log.line(&match loaded {
+        Loaded::Existing => format!(
+            "signing state: loaded {} ({} streams)",
+            path.display(),
+            file.state().streams.len()
+        ),
+        Loaded::Fresh => format!(
+            "signing state: no file at {} yet, starting from the clock",
+            path.display()
+        ),
+    });
+    Ok(Some(file))
+}
+
+/// Opens the transport; a `udpin` one answers `--peer`, or else only the
+/// peer this link pins.
+fn connect(opts: &LinkOptions) -> io::Result<AnyTransport> {
     let mut transport = fbwag_dialect::mavframe::conn::open(&opts.endpoint)?;
     if let AnyTransport::UdpIn(udp) = &mut transport {
         udp.set_reply_to(opts.peer.map_or(ReplyTo::Pinned, ReplyTo::Fixed));
     }
-    let Some(key) = opts.key else {
-        return Ok(Connection::new(transport));
-    };
-    let verifier: Verifier = state.verifier(key);
-    let mut conn = Connection::with_parser(transport, Parser::with_signing(verifier, true));
-    conn.set_signer(Some(state.signer(key, 0)));
-    Ok(conn)
+    Ok(transport)
 }
 
 /// Whether an error means the link is gone (a TCP peer closed, a serial

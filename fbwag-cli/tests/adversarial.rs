@@ -1,0 +1,980 @@
+//! The live programs under attack (issue 10, item 7): real `fbwag cc` and
+//! `fbwag fc-sim` processes over 127.0.0.1, attacked while the receiver
+//! fails and control is handed to the companion. Each test asserts safety
+//! outcomes from the daemons' `--events` (and log), never timings:
+//!
+//! - no control is applied unless it came, signed when signing is on, from
+//!   the companion, and never the attacker's;
+//! - the companion takes over only for the real FC's events;
+//! - the handover happens and companion control holds (no RTL) under every
+//!   flood the daemons can keep up with;
+//! - no daemon exits before its `--duration`, and each writes its summary.
+//!
+//! Timed figures (handover under each flood, parser MB/s) are in
+//! benches/scripts/handover_under_flood.sh and BENCHMARKS.md.
+//!
+//! The set-up: the CC listens (`udpin`, answering only the peer it
+//! authenticated), the FC sends to it (`udpout`) from an ephemeral port
+//! found in /proc. Floods share the machine's two cores with the daemons:
+//! one flood at a time (the `HEAVY` lock). Garbage floods run at a quarter
+//! of what the binary under test parses of them (measured first, so they
+//! load an unoptimised build and, later, a faster parser alike), except one
+//! that is over capacity on purpose; small-datagram floods at fixed rates.
+//!
+//! Two tests are ignored, each with the bug it shows (see their docs).
+
+#[path = "common/attack.rs"]
+mod attack;
+#[path = "common/live.rs"]
+mod live;
+
+use attack::*;
+use fbwag_delegation::{wire, Status};
+use live::*;
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// One flood at a time.
+static HEAVY: Mutex<()> = Mutex::new(());
+
+fn heavy() -> std::sync::MutexGuard<'static, ()> {
+    HEAVY.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// How a pair is run.
+#[derive(Clone)]
+struct Setup {
+    signed: bool,
+    rc_loss_at: f64,
+    rc_back_at: Option<f64>,
+    /// The FC's run; the CC runs half a second longer (it starts first).
+    duration: f64,
+    cc_args: Vec<String>,
+}
+
+impl Setup {
+    /// Signed both ways, RC lost at 1 s; long enough that the daemons log
+    /// their parser counters once (at 5 s), which proves an attack arrived.
+    fn signed() -> Setup {
+        Setup {
+            signed: true,
+            rc_loss_at: 1.0,
+            rc_back_at: None,
+            duration: 5.5,
+            cc_args: Vec::new(),
+        }
+    }
+
+    fn unsigned() -> Setup {
+        Setup {
+            signed: false,
+            ..Setup::signed()
+        }
+    }
+
+    fn signing_args(&self) -> Vec<String> {
+        if self.signed {
+            args(&["--sign-key", KEY, "--require-signed"])
+        } else {
+            Vec::new()
+        }
+    }
+
+    fn cc_duration(&self) -> f64 {
+        self.duration + 0.5
+    }
+}
+
+fn cc_args(cc_port: u16, s: &Setup, duration: f64) -> Vec<String> {
+    let mut a = args(&["cc", "--link", &format!("udpin:127.0.0.1:{cc_port}")]);
+    a.extend(args(&["--duration", &duration.to_string()]));
+    a.extend(s.signing_args());
+    a.extend(s.cc_args.iter().cloned());
+    a
+}
+
+fn fc_args(to: u16, s: &Setup, rc_loss_at: f64, duration: f64) -> Vec<String> {
+    let mut a = args(&["fc-sim", "--link", &format!("udpout:127.0.0.1:{to}")]);
+    a.extend(args(&["--rc-loss-at", &rc_loss_at.to_string()]));
+    a.extend(args(&["--duration", &duration.to_string()]));
+    if let Some(b) = s.rc_back_at {
+        a.extend(args(&["--rc-back-at", &b.to_string()]));
+    }
+    a.extend(s.signing_args());
+    a
+}
+
+/// A CC and an FC talking over loopback.
+struct Pair {
+    cc: Daemon,
+    fc: Daemon,
+    cc_port: u16,
+    /// The FC's ephemeral port (its `udpout` socket).
+    fc_port: u16,
+    setup: Setup,
+}
+
+impl Pair {
+    fn start(dir: &std::path::Path, s: &Setup) -> Pair {
+        let cc_port = free_port();
+        let cc = Daemon::spawn(dir, "cc", &cc_args(cc_port, s, s.cc_duration()));
+        let fc = Daemon::spawn(dir, "fc", &fc_args(cc_port, s, s.rc_loss_at, s.duration));
+        let fc_port = udp_port_of(fc.pid());
+        Pair {
+            cc,
+            fc,
+            cc_port,
+            fc_port,
+            setup: s.clone(),
+        }
+    }
+
+    fn targets(&self) -> [std::net::SocketAddr; 2] {
+        [local(self.cc_port), local(self.fc_port)]
+    }
+
+    /// Waits for both to end on their own.
+    fn finish(self) -> (Finished, Finished) {
+        let limit = Duration::from_secs_f64(self.setup.cc_duration() + 10.0);
+        let fc = self.fc.finish(limit);
+        let cc = self.cc.finish(limit);
+        (fc, cc)
+    }
+}
+
+/// The outcome every attacked run must have: both ran their whole time;
+/// the FC handed over, and companion control held (no RTL after it); every
+/// control applied came from the companion (signed when signing is on) and
+/// none is the attacker's; the companion took over only for the FC's real
+/// events.
+fn assert_safe_handover(fc: &Finished, cc: &Finished, s: &Setup) {
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    fc.assert_ran_to_the_end(s.duration);
+    cc.assert_ran_to_the_end(s.cc_duration());
+    assert!(fc.events.last("handover").is_some(), "no handover\n{both}");
+    let modes = fc.events.modes();
+    let after = modes.iter().skip_while(|m| *m != "FBWAG");
+    assert!(
+        after.clone().all(|m| m == "FBWAG"),
+        "companion control did not hold: {modes:?}\n{both}"
+    );
+    assert_controls_from_companion(fc, s.signed, &both);
+    let real = fc.notice_events();
+    let starts = cc.events.control_starts();
+    assert!(!starts.is_empty(), "the companion never took over\n{both}");
+    for e in &starts {
+        assert!(
+            real.contains(e),
+            "takeover for event {e}, not one of the FC's {real:?}\n{both}"
+        );
+    }
+}
+
+/// No `control_applied` is unauthenticated (when signing is on), from
+/// anyone but the companion, or the attacker's.
+fn assert_controls_from_companion(fc: &Finished, signed: bool, both: &str) {
+    for e in fc.events.of("control_applied") {
+        assert!(
+            e["sysid"] == CC.sysid && e["compid"] == CC.compid,
+            "control applied from a stranger: {e}\n{both}"
+        );
+        if signed {
+            assert_eq!(
+                e["authenticated"], true,
+                "unsigned control applied: {e}\n{both}"
+            );
+        }
+        let ch: Vec<u64> = e["channels"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|v| v.as_u64()).collect())
+            .unwrap_or_default();
+        assert!(
+            !is_attackers(&ch),
+            "the attacker's control applied: {e}\n{both}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Floods into both daemons' ports.
+
+/// Datagrams of a flood's garbage.
+const FLOOD_DATAGRAM: usize = 1024;
+/// Bytes/s per port at most (what the test's sender thread keeps up
+/// comfortably; well inside what the daemons parse of random bytes).
+const FLOOD_MAX_RATE: f64 = 2.0e6;
+
+/// A quarter of what the binary parses of `kind`, per port, in datagrams/s.
+fn flood_rate(dir: &std::path::Path, kind: Garbage) -> f64 {
+    let mut rng = rand::SeedableRng::seed_from_u64(1);
+    let sample: Vec<u8> = (0..64)
+        .flat_map(|_| kind.datagram(&mut rng, FLOOD_DATAGRAM))
+        .collect();
+    let bytes = (parse_rate(dir, &sample) / 4.0).min(FLOOD_MAX_RATE);
+    let per_sec = (bytes / FLOOD_DATAGRAM as f64).max(5.0);
+    println!("{kind:?}: {per_sec:.0} datagrams/s of {FLOOD_DATAGRAM} bytes per port");
+    per_sec
+}
+
+fn flood(kind: Garbage, per_sec: f64, len: usize) {
+    let dir = scratch(&format!("{kind:?}"));
+    let s = Setup::signed();
+    let pair = Pair::start(&dir, &s);
+    let attacker = Attacker::start(&pair.targets(), per_sec, 7, move |rng, _| {
+        kind.datagram(rng, len)
+    });
+    let (fc, cc) = pair.finish();
+    let sent = attacker.stop();
+    assert_safe_handover(&fc, &cc, &s);
+    // The flood reached both parsers.
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert!(sent.datagrams > 0, "nothing sent");
+    assert!(
+        fc.refused("bytes dropped") > 0,
+        "flood not seen by the FC\n{both}"
+    );
+    assert!(
+        cc.refused("bytes dropped") > 0,
+        "flood not seen by the CC\n{both}"
+    );
+}
+
+/// 1 KB datagrams of random bytes.
+#[test]
+fn flood_of_random_bytes() {
+    let _one = heavy();
+    let rate = flood_rate(&scratch("rate"), Garbage::Random);
+    flood(Garbage::Random, rate, FLOOD_DATAGRAM);
+}
+
+/// 1 KB datagrams of random bytes, half of them 0xFD/0xFE: candidate
+/// frames everywhere.
+#[test]
+fn flood_of_start_byte_dense_garbage() {
+    let _one = heavy();
+    let rate = flood_rate(&scratch("rate"), Garbage::StartDense);
+    flood(Garbage::StartDense, rate, FLOOD_DATAGRAM);
+}
+
+/// 1 KB datagrams of the worst parser pattern (issue 10's
+/// `fefefefdfd0000fe00fe`).
+#[test]
+fn flood_of_the_worst_parser_pattern() {
+    let _one = heavy();
+    let rate = flood_rate(&scratch("rate"), Garbage::Worst);
+    flood(Garbage::Worst, rate, FLOOD_DATAGRAM);
+}
+
+/// 10-byte headers announcing 200–255 payload bytes, one per datagram, at
+/// 2,000 datagrams/s per port: a parser that keeps a partial frame across
+/// datagrams lets each hold the next real frame back, and mixes up which
+/// sender a frame came from.
+#[test]
+fn flood_of_false_headers() {
+    let _one = heavy();
+    flood(Garbage::FalseHeader, 2000.0, 10);
+}
+
+/// Valid frames from strangers at 2,000/s per port: notices, takeover
+/// acknowledgements, control and FBWAG heartbeats from other ids, and the
+/// right ids signed with a wrong key (a SHA-256 each for the receiver).
+#[test]
+fn flood_of_valid_frames_from_strangers() {
+    let _one = heavy();
+    let dir = scratch("strangers");
+    let s = Setup::signed();
+    let pair = Pair::start(&dir, &s);
+    let attacker = Attacker::start(&pair.targets(), 2000.0, 11, stranger_frame);
+    let (fc, cc) = pair.finish();
+    let sent = attacker.stop();
+    assert_safe_handover(&fc, &cc, &s);
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert_eq!(sent.received, 0, "a daemon answered the attacker\n{both}");
+    assert!(fc.events.summary("untrusted_frames") > 0, "{both}");
+    assert!(fc.events.summary("controls_untrusted") > 0, "{both}");
+    assert!(cc.events.summary("untrusted_notices") > 0, "{both}");
+    assert!(fc.refused("bad signatures") > 0, "{both}");
+    assert!(cc.refused("bad signatures") > 0, "{both}");
+}
+
+/// Datagrams of 64 KB of the worst parser pattern into the FC's port, 5 a
+/// second: far more than the test build parses (the flood is over
+/// capacity, so the companion's frames may be lost with it). Whatever the
+/// link delivers, the FC's own timers must run: it notices the receiver
+/// loss, and ends its run either in companion control or fallen back to
+/// RTL (5 s after its first notice, well before the end of its 8 s), never
+/// still in the handshake or with the pilot's failed receiver.
+#[test]
+fn large_worst_pattern_datagrams_do_not_stall_the_fc_timers() {
+    let _one = heavy();
+    let dir = scratch("large-worst");
+    let s = Setup {
+        duration: 8.0,
+        ..Setup::signed()
+    };
+    let pair = Pair::start(&dir, &s);
+    let big = Garbage::Worst.datagram(&mut rand::SeedableRng::seed_from_u64(0), 65_000);
+    let attacker = Attacker::start(&[local(pair.fc_port)], 5.0, 0, move |_, _| big.clone());
+    let (fc, cc) = pair.finish();
+    let sent = attacker.stop();
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    fc.assert_ran_to_the_end(s.duration);
+    cc.assert_ran_to_the_end(s.cc_duration());
+    assert_eq!(sent.received, 0, "{both}");
+    let modes = fc.events.modes();
+    assert!(
+        modes.contains(&"CIRCLE".into()),
+        "receiver loss not acted on\n{both}"
+    );
+    let last = modes.last().map(String::as_str);
+    assert!(
+        matches!(last, Some("FBWAG" | "RTL")),
+        "ended in {last:?}\n{both}"
+    );
+    assert_controls_from_companion(&fc, true, &both);
+}
+
+// ---------------------------------------------------------------------------
+// Spoofed frames without the key.
+
+/// Unsigned forgeries: to the FC, takeover acknowledgements for every event
+/// id around the RC loss and control of all three kinds, as the companion
+/// and as a ground station; to the CC, RC-loss notices, FBWAG heartbeats and
+/// takeover confirmations as the FC.
+fn forgeries(rc_loss_ms: u32) -> impl FnMut(&mut rand_pcg::Pcg64, u64) -> Vec<u8> + Send {
+    use rand::Rng;
+    move |rng, n| {
+        let seq = n as u8;
+        let who = if n % 2 == 0 { CC } else { GCS };
+        // Sweeps every event id the FC can use (its ms at the second bad
+        // receiver sample, 100–200 ms after the loss; 50–350 ms covers a
+        // slow machine), one id per 8 datagrams, acknowledged as the
+        // companion and as a ground station alike.
+        let guess = rc_loss_ms + 50 + (n / 8 % 300) as u32;
+        match n % 8 {
+            0 | 1 => frame(
+                [CC, GCS][(n % 8) as usize],
+                seq,
+                &wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, guess),
+                None,
+            ),
+            2..=4 => frame(who, seq, controls()[(n % 3) as usize].as_ref(), None),
+            5 => frame(FC, seq, &wire::notice(FC, Status::RC_LOST, rng.gen()), None),
+            6 => frame(
+                FC,
+                seq,
+                &wire::fc_heartbeat(fbwag_delegation::fc::Authority::Companion),
+                None,
+            ),
+            _ => frame(
+                FC,
+                seq,
+                &wire::status_text(fbwag_delegation::TEXT_CC_TOOK_OVER, guess),
+                None,
+            ),
+        }
+    }
+}
+
+/// With signing required, unsigned forgeries change nothing: the real
+/// companion takes over for the real event, and only its signed control is
+/// applied.
+#[test]
+fn spoofed_unsigned_frames_with_signing_required() {
+    let dir = scratch("spoof-signed");
+    let s = Setup::signed();
+    let pair = Pair::start(&dir, &s);
+    let attacker = Attacker::start(&pair.targets(), 1000.0, 3, forgeries(1000));
+    let (fc, cc) = pair.finish();
+    let sent = attacker.stop();
+    assert_safe_handover(&fc, &cc, &s);
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert_eq!(sent.received, 0, "a daemon answered the attacker\n{both}");
+    assert!(fc.events.summary("untrusted_notices") > 0, "{both}");
+    assert!(fc.events.summary("controls_untrusted") > 0, "{both}");
+    assert!(cc.events.summary("untrusted_notices") > 0, "{both}");
+}
+
+/// No companion at all, signing required: forged acknowledgements of every
+/// event id and forged control never give the attacker companion control;
+/// the FC falls back to RTL when the handshake times out.
+#[test]
+fn spoofed_takeover_without_the_key_ends_in_rtl() {
+    let dir = scratch("spoof-alone");
+    let s = Setup {
+        rc_loss_at: 0.5,
+        duration: 6.5,
+        ..Setup::signed()
+    };
+    // The FC sends to a port nobody listens on.
+    let fc = Daemon::spawn(
+        &dir,
+        "fc",
+        &fc_args(free_port(), &s, s.rc_loss_at, s.duration),
+    );
+    let fc_port = udp_port_of(fc.pid());
+    let attacker = Attacker::start(&[local(fc_port)], 3000.0, 5, forgeries(500));
+    let fc = fc.finish(Duration::from_secs(20));
+    attacker.stop();
+    fc.assert_ran_to_the_end(s.duration);
+    let modes = fc.events.modes();
+    assert!(!modes.contains(&"FBWAG".into()), "{}", fc.dump());
+    assert_eq!(
+        modes.last().map(String::as_str),
+        Some("RTL"),
+        "{}",
+        fc.dump()
+    );
+    assert_eq!(fc.events.of("control_applied").count(), 0, "{}", fc.dump());
+    assert!(fc.events.summary("untrusted_notices") > 0, "{}", fc.dump());
+}
+
+/// The threat model without signing, as it stands (docs/delegation.md):
+/// anyone who can send to the FC and spoofs the companion's ids can take
+/// control (here: with no companion present, forged acknowledgements and
+/// overrides put the FC in companion control flying the attacker's
+/// channels). Spoofing a ground station's ids achieves nothing: only the
+/// configured companion's control is applied. This test pins the
+/// behaviour so that a change in it is noticed and documented.
+#[test]
+fn without_signing_spoofing_the_companion_ids_takes_control() {
+    let dir = scratch("spoof-unsigned");
+    let s = Setup {
+        rc_loss_at: 0.5,
+        duration: 3.5,
+        ..Setup::unsigned()
+    };
+    let fc = Daemon::spawn(
+        &dir,
+        "fc",
+        &fc_args(free_port(), &s, s.rc_loss_at, s.duration),
+    );
+    let fc_port = udp_port_of(fc.pid());
+    let attacker = Attacker::start(&[local(fc_port)], 3000.0, 5, forgeries(500));
+    let fc = fc.finish(Duration::from_secs(20));
+    attacker.stop();
+    fc.assert_ran_to_the_end(s.duration);
+    assert!(fc.events.modes().contains(&"FBWAG".into()), "{}", fc.dump());
+    let applied: Vec<_> = fc.events.of("control_applied").collect();
+    assert!(
+        applied.iter().any(|e| {
+            let ch: Vec<u64> = e["channels"]
+                .as_array()
+                .map(|a| a.iter().filter_map(|v| v.as_u64()).collect())
+                .unwrap_or_default();
+            is_attackers(&ch) && e["authenticated"] == false
+        }),
+        "{}",
+        fc.dump()
+    );
+    assert!(
+        applied
+            .iter()
+            .all(|e| e["sysid"] == CC.sysid && e["compid"] == CC.compid),
+        "a ground station's control was applied\n{}",
+        fc.dump()
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Replayed frames.
+
+/// The throttle of the captured session's companion: a control applied with
+/// it was replayed.
+const CAPTURED_THROTTLE: u64 = 1234;
+
+/// A signed session through a tap, its companion flying at
+/// [`CAPTURED_THROTTLE`], the RC lost at 2 s (so its event id is later
+/// than the next session's: a replay accepted would make the real RC loss
+/// look stale). Returns every datagram both ways.
+fn capture_session(dir: &std::path::Path) -> Capture {
+    let s = Setup {
+        rc_loss_at: 2.0,
+        duration: 3.2,
+        cc_args: args(&["--throttle", &CAPTURED_THROTTLE.to_string()]),
+        ..Setup::signed()
+    };
+    let cc_port = free_port();
+    let tap = Tap::start(local(cc_port));
+    let cc = Daemon::spawn(dir, "cc1", &cc_args(cc_port, &s, s.cc_duration()));
+    let fc = Daemon::spawn(
+        dir,
+        "fc1",
+        &fc_args(tap.fc_side.port(), &s, s.rc_loss_at, s.duration),
+    );
+    let fc = fc.finish(Duration::from_secs(15));
+    let cc = cc.finish(Duration::from_secs(15));
+    let capture = tap.stop();
+    assert!(
+        fc.events.last("handover").is_some(),
+        "the captured session has no takeover\n{}\n{}",
+        fc.dump(),
+        cc.dump()
+    );
+    capture
+}
+
+/// Replays the datagrams of `capture` going `dir`, over and over, to
+/// `target` (500 a second).
+fn replay(capture: &Capture, dir: Dir, target: std::net::SocketAddr) -> Attacker {
+    let frames: Vec<Vec<u8>> = capture
+        .iter()
+        .filter(|(d, _)| *d == dir)
+        .map(|(_, b)| b.clone())
+        .collect();
+    assert!(!frames.is_empty(), "nothing captured going {dir:?}");
+    Attacker::start(&[target], 500.0, 0, move |_, n| {
+        frames[n as usize % frames.len()].clone()
+    })
+}
+
+fn assert_no_replayed_control(fc: &Finished) {
+    for e in fc.events.of("control_applied") {
+        assert_ne!(
+            e["channels"][2],
+            CAPTURED_THROTTLE,
+            "replayed control applied: {e}\n{}",
+            fc.dump()
+        );
+    }
+}
+
+/// A signed session's capture replayed into a new signed pair, once the
+/// FC has been heard: the captured frames are older than what the real
+/// peers sent, so both verifiers refuse them; the real handover happens for
+/// the real event, and no captured control is applied.
+#[test]
+fn replayed_capture_is_refused_once_the_peers_have_spoken() {
+    let dir = scratch("replay");
+    let capture = capture_session(&dir);
+    let s = Setup::signed();
+    let pair = Pair::start(&dir, &s);
+    pair.cc.wait_for("FC found", Duration::from_secs(5), |e| {
+        e["event"] == "fc" && e["state"] == "found"
+    });
+    let to_cc = replay(&capture, Dir::FcToCc, local(pair.cc_port));
+    let to_fc = replay(&capture, Dir::CcToFc, local(pair.fc_port));
+    let (fc, cc) = pair.finish();
+    let (a, b) = (to_cc.stop(), to_fc.stop());
+    assert_safe_handover(&fc, &cc, &s);
+    assert_no_replayed_control(&fc);
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert_eq!(
+        a.received + b.received,
+        0,
+        "a daemon answered the replayer\n{both}"
+    );
+    assert!(cc.refused("bad signatures") > 0, "{both}");
+    assert!(fc.refused("bad signatures") > 0, "{both}");
+}
+
+/// The same capture replayed into a CC started afresh (a companion reboot)
+/// before the FC speaks again. Signing lets a new stream start up to one
+/// minute behind the newest timestamp the receiver knows, and a fresh
+/// verifier knows only the clock: the capture is seconds old, so it is
+/// accepted, the CC takes over for the captured event and answers the
+/// replayer, and the captured event id (later than the real one) makes the
+/// real RC loss look stale.
+#[test]
+#[ignore = "bug: a fresh signed CC accepts a capture under a minute old (MAVLink's new-stream window; no signing state survives a restart, the CLI has no state file): bogus takeover for the captured event, answers to the replayer, the real (lower) event ignored as stale, FC never gets control"]
+fn replayed_capture_into_a_freshly_started_cc() {
+    let dir = scratch("replay-fresh");
+    let capture = capture_session(&dir);
+    let s = Setup::signed();
+    let cc_port = free_port();
+    let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, s.cc_duration()));
+    let to_cc = replay(&capture, Dir::FcToCc, local(cc_port));
+    // The replayer is heard first, as after a companion reboot.
+    std::thread::sleep(Duration::from_millis(300));
+    let fc = Daemon::spawn(&dir, "fc", &fc_args(cc_port, &s, s.rc_loss_at, s.duration));
+    let to_fc = replay(&capture, Dir::CcToFc, local(udp_port_of(fc.pid())));
+    let fc = fc.finish(Duration::from_secs(20));
+    let cc = cc.finish(Duration::from_secs(20));
+    let (a, b) = (to_cc.stop(), to_fc.stop());
+    assert_safe_handover(&fc, &cc, &s);
+    assert_no_replayed_control(&fc);
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert_eq!(
+        a.received + b.received,
+        0,
+        "a daemon answered the replayer\n{both}"
+    );
+}
+
+/// Frames signed with the right key two minutes ago (what a capture of an
+/// earlier flight holds), sent from the start into a new signed pair: RC-loss
+/// notices as the FC to the CC, takeover acknowledgements and control as
+/// the companion to the FC. A fresh verifier starts from the clock, so they
+/// are older than any new stream may start: all refused.
+#[test]
+fn frames_signed_minutes_ago_are_refused_by_fresh_daemons() {
+    let dir = scratch("old-signed");
+    let s = Setup::signed();
+    let key = key_bytes(KEY);
+    // 10 µs units: 120 s ago, advancing as a real signer would.
+    let then = fbwag_dialect::mavframe::signing::timestamp_now() - 120 * 100_000;
+    let old_fc = move |_: &mut rand_pcg::Pcg64, n: u64| {
+        let mut signer = fbwag_dialect::Signer::new(key, 0, then + n);
+        let status = [Status::RC_LOST, Status::NORMAL][(n % 2) as usize];
+        let msg = wire::notice(FC, status, 700 + (n as u32 % 2000));
+        frame(FC, n as u8, &msg, Some(&mut signer))
+    };
+    let old_cc = move |_: &mut rand_pcg::Pcg64, n: u64| {
+        let mut signer = fbwag_dialect::Signer::new(key, 0, then + n);
+        if n % 2 == 0 {
+            let ack = wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, 900 + (n as u32 % 600));
+            frame(CC, n as u8, &ack, Some(&mut signer))
+        } else {
+            frame(CC, n as u8, controls()[0].as_ref(), Some(&mut signer))
+        }
+    };
+    let pair = Pair::start(&dir, &s);
+    let to_cc = Attacker::start(&[local(pair.cc_port)], 500.0, 0, old_fc);
+    let to_fc = Attacker::start(&[local(pair.fc_port)], 500.0, 0, old_cc);
+    let (fc, cc) = pair.finish();
+    let (a, b) = (to_cc.stop(), to_fc.stop());
+    assert_safe_handover(&fc, &cc, &s);
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert_eq!(
+        a.received + b.received,
+        0,
+        "a daemon answered the replayer\n{both}"
+    );
+    assert!(cc.refused("bad signatures") > 0, "{both}");
+    assert!(fc.refused("bad signatures") > 0, "{both}");
+}
+
+// ---------------------------------------------------------------------------
+// A datagram from source port 0.
+
+/// Datagrams from source port 0 (which no socket can answer) to both
+/// daemons, from before the FC starts to the end: garbage, and valid frames
+/// with the peer's ids (signing off, so the engine trusts them). Both
+/// daemons stay up to their end, the CC answers the real FC (the link
+/// never takes port 0 for its peer: before, port 0 speaking first as the
+/// FC left the real FC unanswered), and the handover happens.
+#[test]
+fn datagrams_from_source_port_zero() {
+    let dir = scratch("port-zero");
+    let probe = send_from_port_zero(local(free_port()), b"probe");
+    if let Err(e) = probe {
+        println!("skipped: no raw socket to send from port 0 ({e}); run as root to include it");
+        return;
+    }
+    let s = Setup::unsigned();
+    let cc_port = free_port();
+    let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, s.cc_duration()));
+    // Garbage, a byte, and a frame the receiver trusts (the peer's ids,
+    // signing off) but that changes nothing in the protocol: the FC's
+    // ATTITUDE (mere liveness for the CC), the companion's HEARTBEAT.
+    let burst = |to: u16, peer: fbwag_delegation::Peer, n: u64| {
+        let trusted = if peer == FC {
+            let att = fbwag_dialect::dialects::common::Attitude::default();
+            frame(FC, n as u8, &att, None)
+        } else {
+            frame(CC, n as u8, &wire::cc_heartbeat(), None)
+        };
+        for payload in [&b"\xfd\x09\x00\x00"[..], &[0u8; 1][..], &trusted[..]] {
+            send_from_port_zero(local(to), payload).expect("raw send");
+        }
+    };
+    // Port 0 speaks first, as the FC (once the CC is listening).
+    assert_eq!(udp_port_of(cc.pid()), cc_port);
+    for n in 0..5 {
+        burst(cc_port, FC, n);
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    let fc = Daemon::spawn(&dir, "fc", &fc_args(cc_port, &s, s.rc_loss_at, s.duration));
+    let fc_port = udp_port_of(fc.pid());
+    let until = std::time::Instant::now() + Duration::from_secs_f64(s.duration);
+    let mut n = 5;
+    while std::time::Instant::now() < until {
+        burst(cc_port, FC, n);
+        burst(fc_port, CC, n);
+        n += 1;
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let pair = Pair {
+        cc,
+        fc,
+        cc_port,
+        fc_port,
+        setup: s.clone(),
+    };
+    let (fc, cc) = pair.finish();
+    assert_safe_handover(&fc, &cc, &s);
+    assert!(
+        !cc.log.contains(":0 (trusted peer)"),
+        "the CC took port 0 for its peer\n{}",
+        cc.dump()
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Hijacking the CC's `udpin` peer.
+
+/// A third process sends to the CC's port from before the FC starts:
+/// garbage, one-byte datagrams, and valid unsigned frames with the FC's ids
+/// (heartbeats, RC-loss notices). With signing required, none of it is
+/// trusted: the CC never answers the attacker, its frames keep going to the
+/// real FC, which hands over and keeps companion control.
+#[test]
+fn peer_hijack_with_signing_required() {
+    let dir = scratch("hijack-signed");
+    let s = Setup::signed();
+    let cc_port = free_port();
+    let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, s.cc_duration()));
+    let attacker = Attacker::start(&[local(cc_port)], 500.0, 9, hijacker);
+    std::thread::sleep(Duration::from_millis(300));
+    let fc = Daemon::spawn(&dir, "fc", &fc_args(cc_port, &s, s.rc_loss_at, s.duration));
+    let fc_port = udp_port_of(fc.pid());
+    let pair = Pair {
+        cc,
+        fc,
+        cc_port,
+        fc_port,
+        setup: s.clone(),
+    };
+    let (fc, cc) = pair.finish();
+    let addr = attacker.addr;
+    let sent = attacker.stop();
+    assert_safe_handover(&fc, &cc, &s);
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert_eq!(sent.received, 0, "the CC answered the attacker\n{both}");
+    assert!(!cc.log.contains(&format!("answering {addr}")), "{both}");
+    assert!(cc.events.summary("untrusted_notices") > 0, "{both}");
+}
+
+/// The attacker of the hijack tests: garbage, one-byte datagrams, and the
+/// FC's heartbeats and notices, unsigned.
+fn hijacker(rng: &mut rand_pcg::Pcg64, n: u64) -> Vec<u8> {
+    use rand::Rng;
+    match n % 5 {
+        0 => Garbage::Random.datagram(rng, 64),
+        1 => vec![rng.gen()],
+        2 | 3 => frame(
+            FC,
+            n as u8,
+            &wire::fc_heartbeat(fbwag_delegation::fc::Authority::Handshake),
+            None,
+        ),
+        _ => frame(
+            FC,
+            n as u8,
+            &wire::notice(FC, Status::RC_LOST, rng.gen()),
+            None,
+        ),
+    }
+}
+
+/// Without signing, ids are all there is: a third process that spoofs the
+/// FC's ids and speaks first becomes the CC's peer, receives the CC's
+/// frames, and keeps the real FC unanswered for as long as it keeps
+/// talking (a peer moves only after 3 s of silence), so the FC gets no
+/// companion and falls back to RTL. This pins the documented limit of
+/// unsigned operation (use --require-signed, or --peer, below).
+#[test]
+fn without_signing_a_spoofed_fc_captures_the_cc_answers() {
+    let dir = scratch("hijack-unsigned");
+    let s = Setup {
+        duration: 7.5,
+        ..Setup::unsigned()
+    };
+    let cc_port = free_port();
+    let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, s.cc_duration()));
+    let spoof = |_: &mut rand_pcg::Pcg64, n: u64| {
+        let hb = wire::fc_heartbeat(fbwag_delegation::fc::Authority::Pilot);
+        frame(FC, n as u8, &hb, None)
+    };
+    let attacker = Attacker::start(&[local(cc_port)], 20.0, 0, spoof);
+    std::thread::sleep(Duration::from_millis(300));
+    let fc = Daemon::spawn(&dir, "fc", &fc_args(cc_port, &s, s.rc_loss_at, s.duration));
+    let fc = fc.finish(Duration::from_secs(20));
+    let cc = cc.finish(Duration::from_secs(20));
+    let sent = attacker.stop();
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    fc.assert_ran_to_the_end(s.duration);
+    cc.assert_ran_to_the_end(s.cc_duration());
+    assert!(
+        sent.received > 0,
+        "the CC never answered the spoofer\n{both}"
+    );
+    assert!(fc.events.last("handover").is_none(), "{both}");
+    assert_eq!(
+        fc.events.modes().last().map(String::as_str),
+        Some("RTL"),
+        "{both}"
+    );
+}
+
+/// The same spoofer against a CC given `--peer` (the FC listening on a
+/// known port): what `--peer` does and does not do without signing. The CC
+/// sends only to the configured FC, never to the spoofer, and the real FC
+/// hands over to it. But the spoofed heartbeats (flying FBWA, i.e. "not in
+/// companion control") are still believed: the CC stops its control, and
+/// the FC falls back to RTL. An attacker without the key cannot take
+/// control this way, but can end the delegation; only signing stops that.
+#[test]
+fn without_signing_peer_flag_pins_the_answers_but_not_what_is_believed() {
+    let dir = scratch("hijack-peer");
+    let s = Setup::unsigned();
+    let (cc_port, fc_port) = (free_port(), free_port());
+    let mut ca = cc_args(cc_port, &s, s.cc_duration());
+    ca.extend(args(&["--peer", &local(fc_port).to_string()]));
+    let cc = Daemon::spawn(&dir, "cc", &ca);
+    // Sequence numbers spread over the whole range: half of them are
+    // "newer" than the FC's last confirmation whatever its sequence.
+    let spoof = |_: &mut rand_pcg::Pcg64, n: u64| {
+        let hb = wire::fc_heartbeat(fbwag_delegation::fc::Authority::Pilot);
+        frame(FC, (n * 97) as u8, &hb, None)
+    };
+    let attacker = Attacker::start(&[local(cc_port)], 20.0, 0, spoof);
+    std::thread::sleep(Duration::from_millis(300));
+    let mut fa = fc_args(cc_port, &s, s.rc_loss_at, s.duration);
+    fa[2] = format!("udpin:127.0.0.1:{fc_port}");
+    let fc = Daemon::spawn(&dir, "fc", &fa);
+    let fc = fc.finish(Duration::from_secs(20));
+    let cc = cc.finish(Duration::from_secs(20));
+    let sent = attacker.stop();
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    fc.assert_ran_to_the_end(s.duration);
+    cc.assert_ran_to_the_end(s.cc_duration());
+    assert_eq!(sent.received, 0, "the CC answered the spoofer\n{both}");
+    assert!(fc.events.last("handover").is_some(), "{both}");
+    assert_controls_from_companion(&fc, false, &both);
+    let stops = cc.events.of("control").filter(|e| e["state"] == "stop");
+    assert!(stops.count() > 0, "{both}");
+    assert_eq!(
+        fc.events.modes().last().map(String::as_str),
+        Some("RTL"),
+        "{both}"
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Restarts.
+
+/// fc-sim killed while the CC is in control and started again (an FC
+/// reboot), its new RC loss earlier in its boot than the old one: the CC
+/// recognises the new boot (its event ids went back), answers it, and
+/// the new FC hands over to it. Signed, the new FC's frames move the CC's
+/// answers to its new port at once.
+#[test]
+fn fc_reboot_while_the_cc_controls() {
+    fc_reboot(Setup::signed());
+}
+
+/// The same unsigned: the CC moves its answers to the rebooted FC's new
+/// port only once the old port has been silent for 3 s (PEER_SILENCE),
+/// which is inside the new FC's 5 s handshake, so the handover should
+/// still happen. It does not: until the move, the CC acknowledges the new
+/// boot's notices to the dead port, and it spends its per-event budget of
+/// 1 + 3 acknowledgements twice a second (its own 1 s retry timer and the
+/// FC's repeated notice fire together), so it is spent 2 s after the first
+/// notice; after the move (3 s) the FC's last notice goes unanswered and it
+/// falls back to RTL.
+#[test]
+#[ignore = "bug: unsigned FC reboot ends in RTL: the CC's acks go to the dead port for 3 s (PEER_SILENCE) and its 1+3 ack budget, spent twice per second, is gone before its answers move to the new port"]
+fn fc_reboot_while_the_cc_controls_unsigned() {
+    fc_reboot(Setup::unsigned());
+}
+
+fn fc_reboot(signing: Setup) {
+    let dir = scratch("fc-reboot");
+    let s = Setup {
+        rc_loss_at: 6.5,
+        duration: 30.0,
+        ..signing
+    };
+    let cc_port = free_port();
+    let cc_time = 13.0;
+    let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, cc_time));
+    let mut fc1 = Daemon::spawn(&dir, "fc1", &fc_args(cc_port, &s, s.rc_loss_at, s.duration));
+    fc1.wait_for("handover", Duration::from_secs(10), |e| {
+        e["event"] == "handover"
+    });
+    std::thread::sleep(Duration::from_millis(500));
+    fc1.kill();
+    let s2 = Setup {
+        rc_loss_at: 0.3,
+        duration: 4.0,
+        ..s.clone()
+    };
+    let fc2 = Daemon::spawn(
+        &dir,
+        "fc2",
+        &fc_args(cc_port, &s2, s2.rc_loss_at, s2.duration),
+    );
+    let fc2 = fc2.finish(Duration::from_secs(15));
+    let cc = cc.finish(Duration::from_secs_f64(cc_time + 10.0));
+    let both = format!("{}\n{}", fc2.dump(), cc.dump());
+    cc.assert_ran_to_the_end(cc_time);
+    fc2.assert_ran_to_the_end(s2.duration);
+    // The CC's story: control for the first boot, the reboot, control for
+    // the second boot's event.
+    let ev = &cc.events;
+    let rebooted =
+        ev.0.iter()
+            .position(|e| e["event"] == "fc" && e["state"] == "rebooted");
+    let rebooted = rebooted.unwrap_or_else(|| panic!("no reboot recognised\n{both}"));
+    let before = Events(ev.0[..rebooted].to_vec()).control_starts();
+    let after = Events(ev.0[rebooted..].to_vec()).control_starts();
+    assert_eq!(before.len(), 1, "{both}");
+    assert_eq!(after, fc2.notice_events(), "{both}");
+    assert!(fc2.events.last("handover").is_some(), "{both}");
+    assert_controls_from_companion(&fc2, s.signed, &both);
+    let modes = fc2.events.modes();
+    assert!(
+        modes
+            .iter()
+            .skip_while(|m| *m != "FBWAG")
+            .all(|m| m == "FBWAG"),
+        "{both}"
+    );
+}
+
+/// `fbwag cc` killed while in control and started again on the same port:
+/// the FC falls back to RTL (no control for 1 s) and stays there, as the
+/// spec says (only a new RC loss starts a new delegation); the new CC
+/// acknowledges the FC's notices, takes over nothing, and no control is
+/// applied after the fallback. The pilot gets the aircraft back when the
+/// receiver returns.
+#[test]
+fn cc_restart_while_in_control() {
+    let dir = scratch("cc-restart");
+    let s = Setup {
+        rc_back_at: Some(5.0),
+        duration: 6.5,
+        ..Setup::signed()
+    };
+    let cc_port = free_port();
+    let mut cc1 = Daemon::spawn(&dir, "cc1", &cc_args(cc_port, &s, 30.0));
+    let fc = Daemon::spawn(&dir, "fc", &fc_args(cc_port, &s, s.rc_loss_at, s.duration));
+    fc.wait_for("handover", Duration::from_secs(5), |e| {
+        e["event"] == "handover"
+    });
+    std::thread::sleep(Duration::from_millis(500));
+    cc1.kill();
+    let cc2_time = 5.5;
+    let cc2 = Daemon::spawn(&dir, "cc2", &cc_args(cc_port, &s, cc2_time));
+    let fc = fc.finish(Duration::from_secs(20));
+    let cc2 = cc2.finish(Duration::from_secs(20));
+    let both = format!("{}\n{}", fc.dump(), cc2.dump());
+    fc.assert_ran_to_the_end(s.duration);
+    cc2.assert_ran_to_the_end(cc2_time);
+    assert_eq!(
+        fc.events.modes(),
+        ["FBWA", "CIRCLE", "FBWAG", "RTL", "FBWA"],
+        "{both}"
+    );
+    let after_rtl = fc
+        .events
+        .after(|e| e["event"] == "mode" && e["mode"] == "RTL");
+    assert_eq!(after_rtl.of("control_applied").count(), 0, "{both}");
+    assert_controls_from_companion(&fc, true, &both);
+    assert!(cc2.events.control_starts().is_empty(), "{both}");
+    assert!(
+        cc2.events.summary("handbacks") > 0,
+        "the new CC answered nothing\n{both}"
+    );
+}

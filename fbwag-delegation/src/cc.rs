@@ -194,6 +194,8 @@ enum State {
         /// `max_ack_retries`, so a limit of 255 cannot overflow it.
         acks: u16,
         next_ack: Instant,
+        /// When the last acknowledgement went out.
+        last_ack: Instant,
         /// When the FC last confirmed companion control, and the sequence
         /// number of the frame that did.
         confirmed: Option<(Instant, u8)>,
@@ -321,6 +323,7 @@ impl Companion {
         if let State::Controlling {
             acks,
             next_ack,
+            last_ack,
             next_control,
             ..
         } = &mut self.state
@@ -331,6 +334,7 @@ impl Companion {
             {
                 *acks = acks.saturating_add(1);
                 *next_ack = *next_ack + self.cfg.ack_retry_interval;
+                *last_ack = now;
                 ack_due = true;
             }
             if now >= *next_control {
@@ -420,13 +424,33 @@ impl Companion {
         }
         match status {
             Status::RC_LOST => match self.state {
-                State::Controlling { event, acks, .. } if event == timestamp => {
+                State::Controlling {
+                    event,
+                    acks,
+                    last_ack,
+                    ..
+                } if event == timestamp => {
                     // The FC did not get our acknowledgement: repeat it,
-                    // within the per-event bound.
-                    if acks <= u16::from(self.cfg.max_ack_retries) {
+                    // within the per-event bound, and restart our own
+                    // retry timer. The FC's repeated notice and our timer
+                    // come about together (both every retry interval): one
+                    // answer serves both, or they would spend the bound
+                    // twice as fast and leave the FC's last notice
+                    // unanswered.
+                    let interval = self.cfg.ack_retry_interval;
+                    let just_answered = now.since(last_ack) < interval / 2;
+                    if !just_answered && acks <= u16::from(self.cfg.max_ack_retries) {
                         self.ack(Status::CC_TAKEOVER_CONFIRMED, timestamp);
-                        if let State::Controlling { acks, .. } = &mut self.state {
+                        if let State::Controlling {
+                            acks,
+                            next_ack,
+                            last_ack,
+                            ..
+                        } = &mut self.state
+                        {
                             *acks = acks.saturating_add(1);
+                            *next_ack = now + interval;
+                            *last_ack = now;
                         }
                     }
                 }
@@ -444,6 +468,7 @@ impl Companion {
                         since: now,
                         acks: 1,
                         next_ack: now + self.cfg.ack_retry_interval,
+                        last_ack: now,
                         confirmed: None,
                         next_control: now + self.cfg.control_period,
                     };

@@ -384,8 +384,11 @@ fn the_largest_retry_limit_is_bounded() {
     assert_eq!(normal, 256, "1 + 255 hand-back notices, then none");
     assert_eq!(fc.poll_timeout(), None);
 
+    // Notices 1 ms apart, retry interval 1 ms: every notice is due an
+    // answer (one within half a retry interval of the last is not).
     let mut cc = Companion::new(CcConfig {
         max_ack_retries: 255,
+        ack_retry_interval: std::time::Duration::from_millis(1),
         ..CcConfig::default()
     });
     let mut acks = 0;
@@ -477,4 +480,38 @@ fn settings_that_cannot_work_are_refused() {
         Err(ConfigError::Order("control_period", "control_lease"))
     );
     assert!(FcConfig::default().validate().is_ok() && CcConfig::default().validate().is_ok());
+}
+
+/// The FC's repeated notice and the companion's own retry timer come about
+/// together: one acknowledgement answers both, so the per-event bound is
+/// not spent twice as fast (found live: after an FC reboot the bound ran
+/// out before the FC's last notice).
+#[test]
+fn a_notice_just_after_an_acknowledgement_is_already_answered() {
+    let mut cc = Companion::new(CcConfig::default());
+    let notice = CcInput::Notice {
+        status: Status::RC_LOST,
+        timestamp: 100,
+    };
+    let mut acks = Vec::new();
+    cc.handle_input(ms(100), notice);
+    let mut t = 100;
+    // The FC repeats at 1 s; our timer fires at 1.1 s, 2.1 s, ...: each
+    // repeat lands 3 ms after our timer's acknowledgement.
+    while t < 4_200 {
+        if let Some(next) = cc.poll_timeout().filter(|n| *n <= ms(t)) {
+            cc.handle_timeout(next);
+        }
+        if t % 1000 == 103 && t > 1000 {
+            cc.handle_input(ms(t), notice);
+        }
+        acks.extend(
+            drain_cc(&mut cc)
+                .into_iter()
+                .filter(|a| matches!(a, CcAction::SendNotice { .. }))
+                .map(|_| t),
+        );
+        t += 1;
+    }
+    assert_eq!(acks, [100, 1100, 2100, 3100], "one answer per retry period");
 }

@@ -55,6 +55,9 @@ pub struct CcOptions {
     pub events: Option<PathBuf>,
 }
 
+/// How often the links' refusals are summarised in the log.
+const REFUSED_INTERVAL: Duration = Duration::from_secs(5);
+
 /// What the daemon did, for the demo and tests.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct CcReport {
@@ -95,6 +98,9 @@ struct Daemon {
     gate: Limiter,
     link_errors: Limiter,
     spoofed: u64,
+    /// The parser counters last summarised, per link, and when.
+    refused_seen: Vec<fbwag_dialect::Stats>,
+    refused_at: tokio::time::Instant,
 }
 
 async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcReport> {
@@ -147,6 +153,8 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         gate: Limiter::new(5, Duration::from_secs(10)),
         link_errors: Limiter::new(5, Duration::from_secs(10)),
         spoofed: 0,
+        refused_seen: Vec::new(),
+        refused_at: tokio::time::Instant::now(),
     };
     daemon
         .run(&mut links, &clock, o.duration, o.exit_after_handback)
@@ -218,6 +226,7 @@ impl Daemon {
                 self.engine.handle_timeout(now);
                 self.drain(now, links);
             }
+            self.report_refused(links);
             // Never sleep past the engine's deadline; wake at least every
             // 100 ms to check the duration.
             let wait = self
@@ -280,12 +289,19 @@ impl Daemon {
             self.spoof(inbound, "the companion's own ids on the FC link");
             return;
         }
+        let reboots = self.engine.machine().stats().fc_reboots;
         let verdict = self
             .engine
             .handle_frame(now, &frame.frame(), frame.is_authenticated());
         match verdict {
             Verdict::Trusted => {
                 self.describe(frame);
+                if self.engine.machine().stats().fc_reboots != reboots {
+                    // The new boot speaks from wherever it bound: answer it
+                    // there at once (its notices need answers within its
+                    // handshake, not after the old port's silence).
+                    self.pin.reset();
+                }
                 if let (true, Some(source)) = (self.pinned_link, inbound.source) {
                     if let Some(peer) = self.pin.trusted(source, frame.is_authenticated()) {
                         links.router.pin_peer(links.fc, peer);
@@ -358,6 +374,46 @@ impl Daemon {
         }
         links.router.learn(inbound);
         links.router.send_raw(links.outs, inbound.frame.as_bytes());
+    }
+
+    /// Every [`REFUSED_INTERVAL`], what each link's parser refused since
+    /// (bad checksums, bad signatures, unsigned frames, bytes dropped), when
+    /// it refused anything: one line per link, whatever the flood.
+    fn report_refused(&mut self, links: &NodeLinks) {
+        if self.refused_at.elapsed() < REFUSED_INTERVAL {
+            return;
+        }
+        self.refused_at = tokio::time::Instant::now();
+        for link in links.router.links().iter() {
+            let now = links.router.counters(link).parser;
+            let i = usize::from(link);
+            if self.refused_seen.len() <= i {
+                self.refused_seen.resize(i + 1, Default::default());
+            }
+            let was = std::mem::replace(&mut self.refused_seen[i], now);
+            let parts: Vec<String> = [
+                ("bad checksums", now.bad_crc - was.bad_crc),
+                ("bad signatures", now.bad_signature - was.bad_signature),
+                (
+                    "unsigned refused",
+                    now.unsigned_rejected - was.unsigned_rejected,
+                ),
+                ("bytes dropped", now.bytes_dropped - was.bytes_dropped),
+            ]
+            .iter()
+            .filter(|(_, n)| *n > 0)
+            .map(|(what, n)| format!("{n} {what}"))
+            .collect();
+            if !parts.is_empty() {
+                let name = links.router.endpoint(link).map(|e| e.to_string());
+                self.log.line(&format!(
+                    "{}: link refused in the last {} s: {}",
+                    name.unwrap_or_default(),
+                    REFUSED_INTERVAL.as_secs(),
+                    parts.join(", ")
+                ));
+            }
+        }
     }
 
     fn spoof(&mut self, inbound: &Inbound<Dialect>, what: &str) {

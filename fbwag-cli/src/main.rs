@@ -192,10 +192,15 @@ enum Command {
     },
     /// A flight-controller simulator speaking like ArduPlane.
     ///
-    /// Sends HEARTBEAT (plane modes), SYS_STATUS, ATTITUDE and RC_CHANNELS,
-    /// loses and regains its receiver on schedule, runs the FC state machine
+    /// Loses and regains its receiver on schedule, runs the FC state machine
     /// and reports every mode change (companion control, RTL, the pilot)
-    /// with a timestamp.
+    /// with a timestamp. A kinematic fixed-wing model flies in the mode the
+    /// state machine chose (the pilot's sticks, CIRCLE, the companion's
+    /// applied control, RTL back to --home) and is reported as ArduPlane
+    /// does: HEARTBEAT (fixed wing, ArduPilot, ArduPlane's mode numbers;
+    /// companion control is FBWAG, 30), ATTITUDE, GLOBAL_POSITION_INT,
+    /// GPS_RAW_INT, VFR_HUD, SYS_STATUS (true health bits: the RC receiver
+    /// unhealthy while lost), RC_CHANNELS, EXTENDED_SYS_STATE, HOME_POSITION.
     ///
     /// Control (RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL)
     /// is applied only from the configured companion (--cc-sysid/--cc-compid),
@@ -237,9 +242,24 @@ enum Command {
         /// Sign and verify with this key (64 hex digits).
         #[arg(long, value_name = "HEX64")]
         sign_key: Option<String>,
-        /// Accept the companion's takeover only from signed frames.
+        /// Accept the companion's takeover only from signed frames; serve
+        /// ground-station requests only from signed frames too.
         #[arg(long, requires = "sign_key")]
         require_signed: bool,
+        /// Home (the model starts over it at 100 m, heading north, and RTL
+        /// returns to it): latitude and longitude in degrees, ground
+        /// altitude in metres above sea level. Default: ArduPilot SITL's.
+        #[arg(
+            long,
+            value_name = "LAT,LON,ALT",
+            default_value = "-35.363261,149.165230,584",
+            allow_hyphen_values = true
+        )]
+        home: live::plane::Home,
+        /// The mode the pilot flies while the receiver works, as reported
+        /// (the model flies the pilot's centred sticks in any of them).
+        #[arg(long, value_enum, default_value = "fbwa")]
+        pilot_mode: live::fc::PilotMode,
     },
     /// Both programs over loopback UDP through a lossy relay: a timeline and
     /// the measured handover time.
@@ -578,6 +598,8 @@ fn main() -> ExitCode {
             duration,
             sign_key,
             require_signed,
+            home,
+            pilot_mode,
         } => (|| {
             let opts = live::fc::FcOptions {
                 link: live::link::LinkOptions {
@@ -592,6 +614,8 @@ fn main() -> ExitCode {
                 duration,
                 require_signed,
                 events,
+                home,
+                pilot_mode,
             };
             live::fc::run_fc(opts, Box::new(std::io::stdout()))
                 .map(|_| true)

@@ -10,7 +10,11 @@
 pub mod cc;
 pub mod demo;
 pub mod fc;
+pub mod gcs;
 pub mod link;
+pub mod params;
+pub mod plane;
+pub mod telemetry;
 
 use serde_json::{Map, Value};
 use std::fs::File;

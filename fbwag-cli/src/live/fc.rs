@@ -141,7 +141,6 @@ struct Daemon {
     pilot_mode: PilotMode,
     plane: Plane,
     streams: Streams,
-    home_announced: bool,
     param_list: Option<ParamCursor>,
     unhandled: Unhandled,
     refused_unsigned: u64,
@@ -196,7 +195,6 @@ pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepo
         pilot_mode: o.pilot_mode,
         plane: Plane::new(o.home),
         streams: Streams::new(clock.now().0),
-        home_announced: false,
         param_list: None,
         unhandled: Unhandled::default(),
         refused_unsigned: 0,
@@ -407,10 +405,6 @@ impl Daemon {
     }
 
     fn telemetry(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
-        if !self.home_announced {
-            self.home_announced = true;
-            self.send_stream(Stream::HomePosition, now, link, log);
-        }
         for s in self.streams.due(now.0) {
             self.send_stream(s, now, link, log);
         }
@@ -524,6 +518,14 @@ impl Daemon {
             }
             Request::MissionList(t) => self.mission_list(t, from, link, log),
             Request::MissionUpload(t) => self.mission_refused(t, from, link, log),
+            Request::MissionItem(t) => {
+                let invalid = MavMissionResult::MAV_MISSION_INVALID_SEQUENCE;
+                self.mission_ack(t, invalid, from, link, log)
+            }
+            Request::MissionClear(t) => {
+                let done = MavMissionResult::MAV_MISSION_ACCEPTED;
+                self.mission_ack(t, done, from, link, log)
+            }
             Request::Timesync { ts1 } => {
                 let tc1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
                 self.send(&Timesync { tc1, ts1 }, link, log);
@@ -633,10 +635,22 @@ impl Daemon {
             link,
             log,
         );
+        let unsupported = MavMissionResult::MAV_MISSION_UNSUPPORTED;
+        self.mission_ack(t, unsupported, to, link, log);
+    }
+
+    fn mission_ack(
+        &self,
+        t: MavMissionType,
+        result: MavMissionResult,
+        to: Peer,
+        link: &mut Link,
+        log: &mut Log,
+    ) {
         let msg = MissionAck {
             target_system: to.sysid,
             target_component: to.compid,
-            r#type: MavMissionResult::MAV_MISSION_UNSUPPORTED,
+            r#type: result,
             mission_type: t,
         };
         self.send(&msg, link, log);

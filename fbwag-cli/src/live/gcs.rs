@@ -45,6 +45,10 @@ pub enum Request {
     MissionList(MavMissionType),
     /// MISSION_COUNT (an upload): refused, fc-sim flies no missions.
     MissionUpload(MavMissionType),
+    /// MISSION_REQUEST_INT / MISSION_REQUEST: an item of the (empty) list.
+    MissionItem(MavMissionType),
+    /// MISSION_CLEAR_ALL: the list is empty already.
+    MissionClear(MavMissionType),
     /// TIMESYNC asking for our time (`tc1` 0); `ts1` is echoed.
     Timesync {
         ts1: i64,
@@ -131,6 +135,15 @@ pub fn classify(frame: &ReceivedFrame, own: Peer) -> Kind {
         MessageView::MissionCount(m) if to_us(m.target_system(), m.target_component()) => {
             Request::MissionUpload(m.mission_type())
         }
+        MessageView::MissionRequestInt(m) if to_us(m.target_system(), m.target_component()) => {
+            Request::MissionItem(m.mission_type())
+        }
+        MessageView::MissionRequest(m) if to_us(m.target_system(), m.target_component()) => {
+            Request::MissionItem(m.mission_type())
+        }
+        MessageView::MissionClearAll(m) if to_us(m.target_system(), m.target_component()) => {
+            Request::MissionClear(m.mission_type())
+        }
         MessageView::Timesync(t) if t.tc1() == 0 => Request::Timesync { ts1: t.ts1() },
         MessageView::CommandLong(_)
         | MessageView::CommandInt(_)
@@ -141,6 +154,9 @@ pub fn classify(frame: &ReceivedFrame, own: Peer) -> Kind {
         | MessageView::RequestDataStream(_)
         | MessageView::MissionRequestList(_)
         | MessageView::MissionCount(_)
+        | MessageView::MissionRequestInt(_)
+        | MessageView::MissionRequest(_)
+        | MessageView::MissionClearAll(_)
         | MessageView::Timesync(_)
         | MessageView::MissionAck(_)
         | MessageView::Heartbeat(_)
@@ -196,15 +212,17 @@ impl Stream {
         Stream::ALL.into_iter().find(|s| s.msg_id() as f32 == id)
     }
 
-    /// The rate before any request. HOME_POSITION, like ArduPilot's, is
-    /// sent on request (and once at start, and at the rate a request sets).
+    /// The rate before any request. HOME_POSITION goes every 5 s (and on
+    /// request): ArduPilot sends it only on request and when home changes,
+    /// but a ground station that subscribes late (MAVSDK's `home()`
+    /// reports only new messages) would then never see it.
     pub fn default_interval(self) -> Option<Duration> {
         let ms = match self {
             Stream::Attitude => 100,
             Stream::GlobalPosition | Stream::VfrHud => 250,
             Stream::GpsRaw | Stream::SysStatus | Stream::RcChannels => 500,
             Stream::ExtendedSysState => 1000,
-            Stream::HomePosition => return None,
+            Stream::HomePosition => 5000,
         };
         Some(Duration::from_millis(ms))
     }
@@ -529,15 +547,16 @@ mod tests {
     #[test]
     fn streams_follow_rates_and_never_burst() {
         let mut s = Streams::new(0);
-        assert_eq!(s.due(0).len(), 7, "all but HOME_POSITION at start");
+        assert_eq!(s.due(0).len(), 8);
         assert_eq!(s.poll_timeout(), Some(100_000));
         // 1 Hz for everything, then position off.
         assert!(s.set_group(MavDataStream::ALL, Some(1), 0));
         s.set(Stream::GlobalPosition, None, 0);
         let sent = s.due(0);
         assert!(!sent.contains(&Stream::GlobalPosition) && sent.len() == 6);
-        // A long stall: each stream once, not once per missed interval.
-        assert_eq!(s.due(60_000_000).len(), 6);
+        // A long stall: each stream once (HOME_POSITION too, at its own
+        // 5 s), not once per missed interval.
+        assert_eq!(s.due(60_000_000).len(), 7);
         assert_eq!(s.poll_timeout(), Some(61_000_000));
         // Requests cannot go faster than 50 Hz.
         s.set(Stream::Attitude, Some(Duration::from_micros(1)), 0);

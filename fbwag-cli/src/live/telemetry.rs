@@ -198,15 +198,19 @@ fn home_position(plane: &Plane, st: &Status) -> HomePosition {
 
 /// What fc-sim can do, as AUTOPILOT_VERSION says: MAVLink 2, parameters
 /// C-cast into floats (both the current and the deprecated bit, as
-/// ArduPilot sets them), COMMAND_INT, and SET_ATTITUDE_TARGET (a control
-/// the engine applies in companion control). No missions (an upload is
-/// refused, a download is empty), no FTP, no position targets.
+/// ArduPilot sets them), COMMAND_INT, SET_ATTITUDE_TARGET (a control the
+/// engine applies in companion control), and the mission protocol with
+/// MISSION_ITEM_INT, as far as fc-sim answers it: a download is an empty
+/// list, an upload is refused (MAV_MISSION_UNSUPPORTED). MAVSDK downloads
+/// nothing from an autopilot without MISSION_INT ("Int messages are not
+/// supported"). No fence or rally protocol, no FTP, no position targets.
 pub const CAPABILITIES: MavProtocolCapability = MavProtocolCapability(
     MavProtocolCapability::MAVLINK2.0
         | MavProtocolCapability::PARAM_FLOAT.0
         | MavProtocolCapability::PARAM_ENCODE_C_CAST.0
         | MavProtocolCapability::COMMAND_INT.0
-        | MavProtocolCapability::SET_ATTITUDE_TARGET.0,
+        | MavProtocolCapability::SET_ATTITUDE_TARGET.0
+        | MavProtocolCapability::MISSION_INT.0,
 );
 
 /// The version fc-sim claims: the ArduPlane interface it imitates (4.6, a

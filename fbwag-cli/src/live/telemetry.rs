@@ -28,7 +28,7 @@ pub struct Status {
 
 /// The sensors fc-sim has, all working: gyro, accelerometer, compass,
 /// barometer, GPS, the RC receiver, the attitude estimate, and the pre-arm
-/// checks. No fence: a fence bit would make ground stations report breaches.
+/// checks. No fence (not present, not enabled).
 const SENSORS: MavSysStatusSensor = MavSysStatusSensor(
     MavSysStatusSensor::SENSOR_3D_GYRO.0
         | MavSysStatusSensor::SENSOR_3D_ACCEL.0
@@ -137,10 +137,14 @@ fn vfr_hud(s: &Snapshot) -> VfrHud {
 fn sys_status(st: &Status) -> SysStatus {
     let lost =
         MavSysStatusSensor::RC_RECEIVER.0 | MavSysStatusSensor::MAV_SYS_STATUS_PREARM_CHECK.0;
+    // The fence's health bit as ArduPilot sets it: healthy unless a fence
+    // failed, present or not. (MAVProxy 1.8.75 prints "fence breach" when
+    // the bit is clear, whether or not a fence is present.)
+    let fence = MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE.0;
     let health = if st.receiver_ok {
-        SENSORS.0
+        SENSORS.0 | fence
     } else {
-        SENSORS.0 & !lost
+        (SENSORS.0 | fence) & !lost
     };
     SysStatus {
         onboard_control_sensors_present: SENSORS,
@@ -242,15 +246,19 @@ mod tests {
 
     #[test]
     fn health_bits_follow_the_receiver() {
+        let fence = MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE.0;
         let ok = sys_status(&status(true));
-        assert_eq!(ok.onboard_control_sensors_health, SENSORS);
+        assert_eq!(ok.onboard_control_sensors_health.0, SENSORS.0 | fence);
         let lost = sys_status(&status(false));
         let h = lost.onboard_control_sensors_health.0;
         assert_eq!(h & MavSysStatusSensor::RC_RECEIVER.0, 0);
         assert_ne!(h & MavSysStatusSensor::GPS.0, 0);
-        // Present and enabled do not change; no fence is claimed.
+        // Present and enabled do not change; no fence is claimed, and none
+        // has failed.
         assert_eq!(lost.onboard_control_sensors_present, SENSORS);
-        assert_eq!(SENSORS.0 & MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE.0, 0);
+        assert_eq!(lost.onboard_control_sensors_enabled, SENSORS);
+        assert_eq!(SENSORS.0 & fence, 0);
+        assert_ne!(h & fence, 0);
         assert_eq!(rc_channels(&status(false)).rssi, 0);
         assert_eq!(rc_channels(&status(true)).rssi, 254);
     }

@@ -469,7 +469,7 @@ fn signed_chain_with_the_fbwag_dialect_keeps_routing_after_the_first_notice() {
     for line in [
         "fbwag: <- FBWAG_NOTICE from 1/1: status 1",
         "fbwag: takeover confirmed by the FC",
-        "fbwag: FC mode FBWA -> FBWAG (companion control)",
+        "fbwag: FC mode CIRCLE -> FBWAG (companion control)",
         "fbwag: <- FBWAG_NOTICE from 1/1: status 0",
         "fbwag: hand-back confirmed by the FC",
     ] {
@@ -588,7 +588,7 @@ fn mavproxy_module_fbwag_shows_the_delegation_and_sends_notices() {
     };
     let mut chain = start_chain(&py, &spec);
     let mut console = chain.mavproxy.stdin();
-    let took_over = "fbwag: FC mode FBWA -> FBWAG (companion control)";
+    let took_over = "fbwag: FC mode CIRCLE -> FBWAG (companion control)";
     assert!(
         chain.mavproxy.wait_for(took_over, Duration::from_secs(20)),
         "{}",

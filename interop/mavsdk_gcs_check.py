@@ -115,11 +115,50 @@ async def requests(drone):
     await call("return_to_launch", drone.action.return_to_launch(), lambda v: None)
 
 
+async def sweep(drone):
+    """--sweep: more of MAVSDK's plugins, to see which requests an FC is
+    asked and which fc-sim leaves unanswered (fc-sim logs them as "not
+    served"). Commands that would change who flies are denied by fc-sim."""
+    from mavsdk.mission_raw import MissionItem
+    item = MissionItem(0, 6, 16, 1, 1, 0, 10, 0, float("nan"), 504501000, 305234000, 100, 0)
+    a, m, t, i = drone.action, drone.mission_raw, drone.telemetry, drone.info
+    calls = [
+        ("param.get_all_params", drone.param.get_all_params(), lambda v: len(v.int_params) + len(v.float_params)),
+        ("info.get_identification", i.get_identification(), str),
+        ("info.get_product", i.get_product(), str),
+        ("info.get_flight_information", i.get_flight_information(), str),
+        ("telemetry.get_gps_global_origin", t.get_gps_global_origin(), str),
+        ("telemetry.set_rate_attitude_euler 5", t.set_rate_attitude_euler(5.0), str),
+        ("telemetry.set_rate_gps_info 1", t.set_rate_gps_info(1.0), str),
+        ("telemetry.set_rate_home 1", t.set_rate_home(1.0), str),
+        ("telemetry.set_rate_in_air 1", t.set_rate_in_air(1.0), str),
+        ("telemetry.set_rate_battery 1", t.set_rate_battery(1.0), str),
+        ("telemetry.set_rate_rc_status 1", t.set_rate_rc_status(1.0), str),
+        ("telemetry.set_rate_fixedwing_metrics 2", t.set_rate_fixedwing_metrics(2.0), str),
+        ("telemetry.set_rate_velocity_ned 2", t.set_rate_velocity_ned(2.0), str),
+        ("action.get_return_to_launch_altitude", a.get_return_to_launch_altitude(), str),
+        ("action.set_current_speed 20", a.set_current_speed(20.0), str),
+        ("action.arm", a.arm(), str),
+        ("action.hold", a.hold(), str),
+        ("action.land", a.land(), str),
+        ("action.reboot", a.reboot(), str),
+        ("mission_raw.upload_mission", m.upload_mission([item]), str),
+        ("mission_raw.download_geofence", m.download_geofence(), len),
+        ("mission_raw.download_rallypoints", m.download_rallypoints(), len),
+        ("mission_raw.clear_mission", m.clear_mission(), str),
+        ("mission_raw.start_mission", m.start_mission(), str),
+    ]
+    for name, coro, value in calls:
+        await call(name, coro, value)
+
+
 async def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--server", default="localhost", help="mavsdk_server host")
     ap.add_argument("--grpc-port", type=int, default=50051)
     ap.add_argument("--seconds", type=float, default=30.0, help="watch this long after connecting")
+    ap.add_argument("--sweep", action="store_true",
+                    help="also call more plugins (see sweep()) after the usual requests")
     args = ap.parse_args()
     drone = System(mavsdk_server_address=args.server, port=args.grpc_port)
     await drone.connect()
@@ -147,6 +186,8 @@ async def main():
 
     tasks.append(asyncio.ensure_future(first_home()))
     await requests(drone)
+    if args.sweep:
+        await sweep(drone)
     await asyncio.sleep(max(0.0, args.seconds - (time.monotonic() - START)))
     out("done")
     for x in tasks:

@@ -517,7 +517,16 @@ impl Daemon {
                 }
             }
             Request::MissionList(t) => self.mission_list(t, from, link, log),
-            Request::MissionUpload(t) => self.mission_refused(t, from, link, log),
+            Request::MissionUpload {
+                mission_type,
+                count: 0,
+            } => {
+                let done = MavMissionResult::MAV_MISSION_ACCEPTED;
+                self.mission_ack(mission_type, done, from, link, log)
+            }
+            Request::MissionUpload { mission_type, .. } => {
+                self.mission_refused(mission_type, from, link, log)
+            }
             Request::MissionItem(t) => {
                 let invalid = MavMissionResult::MAV_MISSION_INVALID_SEQUENCE;
                 self.mission_ack(t, invalid, from, link, log)
@@ -563,8 +572,7 @@ impl Daemon {
             }
             Plan::Invalid => MavResult::DENIED,
             Plan::Unsupported => {
-                let kind = if c.int { "COMMAND_INT" } else { "COMMAND_LONG" };
-                self.not_served(format!("{kind}({})", c.command.0), from, log);
+                self.not_served(unsupported_command(&c), from, log);
                 MavResult::UNSUPPORTED
             }
         };
@@ -787,6 +795,18 @@ impl Daemon {
             "param",
             json!({"name": p.name(), "value": value, "sysid": from.sysid, "compid": from.compid}),
         );
+    }
+}
+
+/// How an unsupported command is counted: by command, and for the
+/// message-interval and request-message commands by the message asked for.
+fn unsupported_command(c: &Command) -> String {
+    let kind = if c.int { "COMMAND_INT" } else { "COMMAND_LONG" };
+    match c.command {
+        MavCmd::GET_MESSAGE_INTERVAL | MavCmd::SET_MESSAGE_INTERVAL | MavCmd::REQUEST_MESSAGE => {
+            format!("{kind}({} message {})", c.command.0, c.param1)
+        }
+        other => format!("{kind}({})", other.0),
     }
 }
 

@@ -43,8 +43,12 @@ pub enum Request {
     },
     /// MISSION_REQUEST_LIST: answered with an empty list.
     MissionList(MavMissionType),
-    /// MISSION_COUNT (an upload): refused, fc-sim flies no missions.
-    MissionUpload(MavMissionType),
+    /// MISSION_COUNT (an upload): refused, fc-sim flies no missions; but a
+    /// count of 0 (MAVSDK's way to clear a mission) is accepted.
+    MissionUpload {
+        mission_type: MavMissionType,
+        count: u16,
+    },
     /// MISSION_REQUEST_INT / MISSION_REQUEST: an item of the (empty) list.
     MissionItem(MavMissionType),
     /// MISSION_CLEAR_ALL: the list is empty already.
@@ -133,7 +137,10 @@ pub fn classify(frame: &ReceivedFrame, own: Peer) -> Kind {
             Request::MissionList(m.mission_type())
         }
         MessageView::MissionCount(m) if to_us(m.target_system(), m.target_component()) => {
-            Request::MissionUpload(m.mission_type())
+            Request::MissionUpload {
+                mission_type: m.mission_type(),
+                count: m.count(),
+            }
         }
         MessageView::MissionRequestInt(m) if to_us(m.target_system(), m.target_component()) => {
             Request::MissionItem(m.mission_type())
@@ -180,10 +187,11 @@ pub enum Stream {
     RcChannels,
     ExtendedSysState,
     HomePosition,
+    GpsGlobalOrigin,
 }
 
 impl Stream {
-    pub const ALL: [Stream; 8] = [
+    pub const ALL: [Stream; 9] = [
         Stream::Attitude,
         Stream::GlobalPosition,
         Stream::GpsRaw,
@@ -192,6 +200,7 @@ impl Stream {
         Stream::RcChannels,
         Stream::ExtendedSysState,
         Stream::HomePosition,
+        Stream::GpsGlobalOrigin,
     ];
 
     /// The MAVLink message id it sends.
@@ -205,6 +214,7 @@ impl Stream {
             Stream::RcChannels => 65,
             Stream::ExtendedSysState => 245,
             Stream::HomePosition => 242,
+            Stream::GpsGlobalOrigin => 49,
         }
     }
 
@@ -223,13 +233,16 @@ impl Stream {
             Stream::GpsRaw | Stream::SysStatus | Stream::RcChannels => 500,
             Stream::ExtendedSysState => 1000,
             Stream::HomePosition => 5000,
+            // On request only, as ArduPilot's (the EKF origin: home here).
+            Stream::GpsGlobalOrigin => return None,
         };
         Some(Duration::from_millis(ms))
     }
 
     /// Its REQUEST_DATA_STREAM group: ArduPlane's, except that
     /// EXTENDED_SYS_STATE (which ArduPlane sends only as a quadplane) is
-    /// put with the status messages, and HOME_POSITION is in no group.
+    /// put with the status messages; HOME_POSITION and GPS_GLOBAL_ORIGIN
+    /// are in no group.
     pub fn group(self) -> Option<MavDataStream> {
         Some(match self {
             Stream::SysStatus | Stream::GpsRaw | Stream::ExtendedSysState => {
@@ -239,7 +252,7 @@ impl Stream {
             Stream::RcChannels => MavDataStream::RC_CHANNELS,
             Stream::Attitude => MavDataStream::EXTRA1,
             Stream::VfrHud => MavDataStream::EXTRA2,
-            Stream::HomePosition => return None,
+            Stream::HomePosition | Stream::GpsGlobalOrigin => return None,
         })
     }
 }

@@ -6,8 +6,8 @@ use super::gcs::Stream;
 use super::plane::{Plane, Snapshot};
 use fbwag_delegation::Peer;
 use fbwag_dialect::dialects::common::{
-    Attitude, ExtendedSysState, GpsFixType, GpsRawInt, HomePosition, MavLandedState,
-    MavSysStatusSensor, MavVtolState, RcChannels, SysStatus, VfrHud,
+    Attitude, ExtendedSysState, GpsFixType, GpsGlobalOrigin, GpsRawInt, HomePosition,
+    MavLandedState, MavSysStatusSensor, MavVtolState, RcChannels, SysStatus, VfrHud,
 };
 use fbwag_dialect::dialects::standard::{
     AutopilotVersion, FirmwareVersionType, GlobalPositionInt, MavProtocolCapability,
@@ -52,6 +52,7 @@ pub fn build(stream: Stream, plane: &Plane, status: &Status) -> Message {
         Stream::RcChannels => rc_channels(status).into(),
         Stream::ExtendedSysState => extended_sys_state().into(),
         Stream::HomePosition => home_position(plane, status).into(),
+        Stream::GpsGlobalOrigin => gps_global_origin(plane, status).into(),
     }
 }
 
@@ -197,6 +198,17 @@ fn home_position(plane: &Plane, st: &Status) -> HomePosition {
         q: [1.0, 0.0, 0.0, 0.0],
         time_usec: u64::from(st.time_boot_ms) * 1000,
         ..Default::default()
+    }
+}
+
+/// The origin of the local frame (ArduPilot's EKF origin): home.
+fn gps_global_origin(plane: &Plane, st: &Status) -> GpsGlobalOrigin {
+    let home = plane.home();
+    GpsGlobalOrigin {
+        latitude: e7(home.lat_deg),
+        longitude: e7(home.lon_deg),
+        altitude: mm(home.alt_m),
+        time_usec: u64::from(st.time_boot_ms) * 1000,
     }
 }
 

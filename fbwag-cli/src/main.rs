@@ -69,14 +69,39 @@ const FC_EVENTS: &str = concat!(
     "\
 Events (--events), one JSON object per line, all with \"t_ms\" (ms since start)
 and \"event\":
-  {\"event\":\"mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"}   at start and every change
+  {\"event\":\"mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"|...}   at start and every
+                                          change (the pilot's: --pilot-mode)
   {\"event\":\"receiver\",\"state\":\"ok\"|\"lost\"}
   {\"event\":\"handover\",\"ms\":N}          receiver failure -> companion control
   {\"event\":\"control_applied\",\"sysid\":N,\"compid\":N,\"authenticated\":B,
    \"message\":\"RC_CHANNELS_OVERRIDE\"|..., \"channels\":[8 values]}   each control applied
+  {\"event\":\"param\",\"name\":S,\"value\":X,\"sysid\":N,\"compid\":N}   a parameter set
   {\"event\":\"summary\",\"trusted_frames\":N,\"untrusted_frames\":N,
    \"untrusted_notices\":N,\"controls_applied\":N,\"controls_untrusted\":N,
-   \"controls_misaddressed\":N,\"controls_outside_companion\":N}   at exit
+   \"controls_misaddressed\":N,\"controls_outside_companion\":N,
+   \"gcs_unsigned_refused\":N, \"not_served\":{\"NAME\":N,...}}   at exit
+
+Ground stations:
+  Served for any sender (with --require-signed: only frames whose signature
+  verified, as ArduPilot on a signed link): every COMMAND_LONG/COMMAND_INT to
+  this FC gets a COMMAND_ACK (ACCEPTED when done; UNSUPPORTED otherwise;
+  DENIED, with a STATUSTEXT saying why, for mode changes, arming, RTL,
+  landing, reboot and the like: the delegation engine decides who flies);
+  AUTOPILOT_VERSION (MAV_CMD_REQUEST_MESSAGE, ..._AUTOPILOT_CAPABILITIES);
+  MAV_CMD_REQUEST_MESSAGE/SET_MESSAGE_INTERVAL/GET_MESSAGE_INTERVAL and
+  REQUEST_DATA_STREAM for the telemetry above (ATTITUDE at most 50 Hz, the
+  rest at most 10 Hz: the protocol shares the link); HOME_POSITION (every 5 s
+  and on request), GPS_GLOBAL_ORIGIN on request; the parameter protocol:
+  FS_SHORT_ACTN (always 5, FBWAG), FS_SHORT_TIMEOUT, FS_LONG_ACTN (always 1,
+  RTL), FS_LONG_TIMEOUT (the handshake timeout), SYSID_THISMAV,
+  FBWAG_CC_SYSID, FBWAG_CC_COMPID, FBWAG_RETRY_TIME, FBWAG_RETRY_MAX,
+  FBWAG_OVRD_TIME, FBWAG_CC_TIMEOUT, FBWAG_SIGNED (writes take effect only
+  while the pilot flies, else are refused with a STATUSTEXT); missions: a
+  download is empty, an upload refused (but for an empty one); TIMESYNC.
+  What is received and not served is logged (\"not served: ...\") and counted
+  in the summary. On udpin, answers go where every frame goes (--peer, or the
+  companion's address): put a router (e.g. MAVProxy) between fc-sim and
+  several ground stations.
 ",
     link_rules!()
 );

@@ -760,3 +760,357 @@ fn mavproxy_names_the_modes_and_reads_the_failsafe_parameters() {
         println!("{line}");
     }
 }
+
+// --- hostile ground stations (no peer venv needed) -------------------------
+
+use fbwag_dialect::dialects::common::{
+    CommandLong, MavCmd, MavDataStream, ParamRequestList, ParamRequestRead, ParamSet,
+    RequestDataStream, SetMode,
+};
+use fbwag_dialect::mavframe::field::chars;
+use fbwag_dialect::mavframe::signing::timestamp_now;
+use fbwag_dialect::mavframe::Encode;
+use fbwag_dialect::{encode, Header, Message, Parser, Signer, Verifier, Version};
+
+/// A MAVLink sender with its own sequence and, optionally, a signing key.
+struct Sender {
+    sysid: u8,
+    compid: u8,
+    seq: u8,
+    signer: Option<Signer>,
+}
+
+impl Sender {
+    fn new(sysid: u8, compid: u8, key: Option<[u8; 32]>) -> Self {
+        Sender {
+            sysid,
+            compid,
+            seq: 0,
+            signer: key.map(|k| Signer::new(k, 0, timestamp_now())),
+        }
+    }
+
+    fn frame(&mut self, msg: &dyn Encode) -> Vec<u8> {
+        let mut buf = [0u8; 280];
+        let h = Header {
+            seq: self.seq,
+            sysid: self.sysid,
+            compid: self.compid,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        if let Some(s) = &mut self.signer {
+            s.advance_to(timestamp_now());
+        }
+        let n = encode(Version::V2, h, msg, self.signer.as_mut(), &mut buf).unwrap();
+        buf[..n].to_vec()
+    }
+}
+
+fn command(command: MavCmd, param1: f32, param2: f32) -> CommandLong {
+    CommandLong {
+        target_system: 1,
+        target_component: 1,
+        command,
+        param1,
+        param2,
+        ..Default::default()
+    }
+}
+
+/// The requests of the flood, in turn: the fastest telemetry, the
+/// parameter list, a mode change (RTL), an unknown command, SET_MODE,
+/// parameters that do not exist (more names than fc-sim counts by name),
+/// and bytes that are no frame.
+fn flood_frame(gcs: &mut Sender, k: u32) -> Vec<u8> {
+    match k % 8 {
+        0 => gcs.frame(&RequestDataStream {
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: MavDataStream::ALL,
+            req_message_rate: u16::MAX,
+            start_stop: 1,
+        }),
+        1 => gcs.frame(&command(MavCmd::SET_MESSAGE_INTERVAL, 30.0, 1.0)),
+        2 => gcs.frame(&ParamRequestList {
+            target_system: 1,
+            target_component: 1,
+        }),
+        3 => gcs.frame(&command(MavCmd::DO_SET_MODE, 1.0, 11.0)),
+        4 => gcs.frame(&command(MavCmd(31_000 + (k % 97) as u16), 0.0, 0.0)),
+        5 => gcs.frame(&SetMode {
+            target_system: 1,
+            custom_mode: 11,
+            ..Default::default()
+        }),
+        6 => gcs.frame(&ParamRequestRead {
+            target_system: 1,
+            target_component: 1,
+            param_id: chars(&format!("NOPE_{k}")),
+            param_index: -1,
+        }),
+        _ => vec![
+            0xFD, 0x09, 0x00, 0x00, 0x00, 0xFF, 0xBE, 0x4C, 0x00, 0x00, 0x55,
+        ],
+    }
+}
+
+/// Per message name, how many fc-sim sent.
+fn count_frames(bytes: &[Vec<u8>], parser: &mut Parser) -> BTreeMapCount {
+    let mut counts = BTreeMapCount::new();
+    for chunk in bytes {
+        let mut input = &chunk[..];
+        while let Some(r) = parser.next(&mut input) {
+            let name = r.meta.map_or("?", |m| m.name);
+            *counts.entry(name).or_insert(0) += 1;
+        }
+    }
+    counts
+}
+
+type BTreeMapCount = std::collections::BTreeMap<&'static str, u32>;
+
+/// A ground station (anyone, unsigned) floods fc-sim with requests while the
+/// receiver fails and `fbwag cc` takes over: the handover happens as
+/// without it, no mode is changed by the flood, and fc-sim's output stays
+/// within its caps (ATTITUDE 50 Hz, other telemetry 10 Hz, one parameter
+/// list at a time, one answer per command).
+#[test]
+fn a_request_flood_neither_stops_the_handover_nor_multiplies_the_telemetry() {
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let cc_port = free_udp_port();
+    let mut cc = Proc::spawn(
+        "fbwag cc",
+        fbwag().args([
+            "cc",
+            "--link",
+            &format!("udpin:127.0.0.1:{cc_port}"),
+            "--duration",
+            "30",
+        ]),
+    );
+    let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let hub = Hub::start(&[
+        SocketAddr::from(([127, 0, 0, 1], cc_port)),
+        gcs.local_addr().unwrap(),
+    ]);
+    let events = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ground-station-flood-events.jsonl");
+    let mut fc = Proc::spawn(
+        "fbwag fc-sim",
+        fbwag()
+            .args([
+                "fc-sim",
+                "--link",
+                &format!("udpout:127.0.0.1:{}", hub.fc_port),
+            ])
+            .args(["--rc-loss-at", "2", "--rc-back-at", "6", "--duration", "7"])
+            .arg("--events")
+            .arg(&events),
+    );
+    // The flood: 8 datagrams every 2 ms (4000 a second) for 6 s, sent into
+    // the hub as a party, and everything fc-sim sends meanwhile.
+    // A party reaches fc-sim by answering the hub socket fc-sim's frames
+    // come from.
+    gcs.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let mut buf = [0u8; 2048];
+    let (_, to_fc) = gcs.recv_from(&mut buf).expect("fc-sim's first frame");
+    gcs.set_nonblocking(true).unwrap();
+    let mut sender = Sender::new(255, 190, None);
+    let (mut received, mut sent) = (Vec::new(), 0u32);
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(6) {
+        for _ in 0..8 {
+            let _ = gcs.send_to(&flood_frame(&mut sender, sent), to_fc);
+            sent += 1;
+        }
+        while let Ok((n, _)) = gcs.recv_from(&mut buf) {
+            received.push(buf[..n].to_vec());
+        }
+        thread::sleep(Duration::from_millis(2));
+    }
+    let fc_exited = fc.wait_exit(Duration::from_secs(20));
+    cc.stop();
+    drop(hub);
+    let all = format!("--- fc-sim\n{}--- fbwag cc\n{}", fc.log, cc.log);
+    assert!(fc_exited, "{all}");
+    let events: Vec<Value> = std::fs::read_to_string(&events)
+        .unwrap()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let modes: Vec<&str> = events
+        .iter()
+        .filter(|e| e["event"] == "mode")
+        .filter_map(|e| e["mode"].as_str())
+        .collect();
+    assert_eq!(modes, ["FBWA", "CIRCLE", "FBWAG", "FBWA"], "{all}");
+    let handover = events.iter().find(|e| e["event"] == "handover").unwrap();
+    let summary = events.iter().find(|e| e["event"] == "summary").unwrap();
+    // Named kinds of what was not served are bounded (64, then "(other)").
+    let not_served = summary["not_served"].as_object().unwrap();
+    assert!(
+        not_served.len() <= 65 && not_served.contains_key("(other)"),
+        "{summary}"
+    );
+    let counts = count_frames(&received, &mut Parser::new());
+    let secs = start.elapsed().as_secs_f64();
+    let per_s = |name: &str| f64::from(*counts.get(name).unwrap_or(&0)) / secs;
+    println!(
+        "flood: {sent} datagrams in {secs:.1} s; handover {} ms; fc-sim sent meanwhile: {counts:?}",
+        handover["ms"]
+    );
+    assert!(per_s("ATTITUDE") <= 55.0, "{counts:?}");
+    for telemetry in [
+        "GLOBAL_POSITION_INT",
+        "VFR_HUD",
+        "SYS_STATUS",
+        "RC_CHANNELS",
+        "GPS_RAW_INT",
+    ] {
+        assert!(per_s(telemetry) <= 11.0, "{telemetry}: {counts:?}");
+    }
+    assert!(per_s("PARAM_VALUE") <= 101.0, "{counts:?}");
+    // One COMMAND_ACK per command at most (4 of every 8 datagrams are
+    // COMMAND_LONG or SET_MODE), and denials said at most 5 times per 10 s.
+    assert!(
+        *counts.get("COMMAND_ACK").unwrap_or(&0) <= sent / 2,
+        "{counts:?}"
+    );
+    assert!(
+        *counts.get("STATUSTEXT").unwrap_or(&0) <= 5 + 4,
+        "{counts:?}"
+    );
+}
+
+const KEY: [u8; 32] = [0x3c; 32];
+const KEY_HEX: &str = "3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c";
+
+/// Sends `frames` to fc-sim and collects what it sends back for `wait`.
+fn exchange(
+    socket: &UdpSocket,
+    to: SocketAddr,
+    frames: &[Vec<u8>],
+    wait: Duration,
+) -> Vec<Message> {
+    for f in frames {
+        socket.send_to(f, to).unwrap();
+    }
+    let mut parser = Parser::with_signing(Verifier::with_timestamp(KEY, timestamp_now()), true);
+    let mut out = Vec::new();
+    let end = Instant::now() + wait;
+    let mut buf = [0u8; 2048];
+    while Instant::now() < end {
+        if let Ok((n, _)) = socket.recv_from(&mut buf) {
+            let mut input = &buf[..n];
+            while let Some(r) = parser.next(&mut input) {
+                out.extend(r.message());
+            }
+        }
+    }
+    out
+}
+
+/// With --require-signed, fc-sim serves ground-station requests only from
+/// frames whose signature verified, as ArduPilot on a signed link: an
+/// unsigned parameter write (here: trusting another companion) and unsigned
+/// requests get no answer and change nothing; the same requests signed are
+/// served, and the signed write takes effect.
+#[test]
+fn with_require_signed_only_signed_requests_are_served() {
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    socket
+        .set_read_timeout(Some(Duration::from_millis(50)))
+        .unwrap();
+    let events = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ground-station-signed-events.jsonl");
+    let mut fc = Proc::spawn(
+        "fbwag fc-sim",
+        fbwag()
+            .args([
+                "fc-sim",
+                "--link",
+                &format!("udpout:{}", socket.local_addr().unwrap()),
+            ])
+            .args(["--sign-key", KEY_HEX, "--require-signed", "--duration", "5"])
+            .arg("--events")
+            .arg(&events),
+    );
+    let mut buf = [0u8; 2048];
+    let (_, fc_addr) = socket.recv_from(&mut buf).expect("fc-sim's first frame");
+    let write = |id: &str, value: f32| ParamSet {
+        target_system: 1,
+        target_component: 1,
+        param_id: chars(id),
+        param_value: value,
+        ..Default::default()
+    };
+    let read = ParamRequestRead {
+        target_system: 1,
+        target_component: 1,
+        param_id: chars("FBWAG_CC_SYSID"),
+        param_index: -1,
+    };
+    let version = command(MavCmd::REQUEST_MESSAGE, 148.0, 0.0);
+    let requests = |gcs: &mut Sender| {
+        vec![
+            gcs.frame(&write("FBWAG_CC_SYSID", 42.0)),
+            gcs.frame(&read),
+            gcs.frame(&version),
+        ]
+    };
+    let answers = |msgs: &[Message]| -> Vec<String> {
+        msgs.iter()
+            .filter(|m| {
+                matches!(
+                    m,
+                    Message::ParamValue(_) | Message::AutopilotVersion(_) | Message::CommandAck(_)
+                )
+            })
+            .map(|m| format!("{m:?}"))
+            .collect()
+    };
+    let unsigned = exchange(
+        &socket,
+        fc_addr,
+        &requests(&mut Sender::new(255, 190, None)),
+        Duration::from_millis(1000),
+    );
+    let signed = exchange(
+        &socket,
+        fc_addr,
+        &requests(&mut Sender::new(255, 190, Some(KEY))),
+        Duration::from_millis(1000),
+    );
+    let fc_exited = fc.wait_exit(Duration::from_secs(15));
+    let all = format!("--- fc-sim\n{}", fc.log);
+    assert!(fc_exited, "{all}");
+    assert_eq!(answers(&unsigned), Vec::<String>::new(), "{all}");
+    let values: Vec<f32> = signed
+        .iter()
+        .filter_map(|m| match m {
+            Message::ParamValue(p) if p.param_id == chars::<16>("FBWAG_CC_SYSID") => {
+                Some(p.param_value)
+            }
+            _ => None,
+        })
+        .collect();
+    // The write's echo and the read: the signed write took effect.
+    assert_eq!(values, [42.0, 42.0], "{all}");
+    assert!(
+        signed
+            .iter()
+            .any(|m| matches!(m, Message::AutopilotVersion(_))),
+        "{all}"
+    );
+    let summary: Value = std::fs::read_to_string(&events)
+        .unwrap()
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .find(|e| e["event"] == "summary")
+        .unwrap();
+    assert_eq!(summary["gcs_unsigned_refused"], 3, "{summary}");
+    assert!(
+        fc.log
+            .contains("parameter FBWAG_CC_SYSID = 42 (set by 255/190)"),
+        "{all}"
+    );
+}

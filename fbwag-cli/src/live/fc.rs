@@ -497,9 +497,12 @@ impl Daemon {
                 self.ack(MavCmd(11), MavResult::DENIED, from, link, log);
             }
             Request::ParamList => {
+                // A request while a list is going out restarts it, at the
+                // same pace: repeating the request cannot speed it up.
+                let due = self.param_list.map_or(now, |c| c.due.max(now));
                 self.param_list = Some(ParamCursor {
                     index: 0,
-                    due: now,
+                    due,
                     to: from,
                 });
             }

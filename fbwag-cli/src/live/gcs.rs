@@ -257,8 +257,19 @@ impl Stream {
     }
 }
 
-/// The fastest any stream is sent: 50 Hz, whatever a request asks.
-pub const MIN_INTERVAL: Duration = Duration::from_millis(20);
+impl Stream {
+    /// The fastest it is sent, whatever a request asks: ATTITUDE at 50 Hz,
+    /// the rest at 10 Hz. The delegation protocol's notices and heartbeats
+    /// share the link: a ground station (anyone, without signing) must not
+    /// be able to fill a 57600-baud radio with telemetry. At the caps all
+    /// streams together are about 4 kB/s.
+    pub fn min_interval(self) -> Duration {
+        match self {
+            Stream::Attitude => Duration::from_millis(20),
+            _ => Duration::from_millis(100),
+        }
+    }
+}
 
 /// Each stream's interval (`None`: not sent) and next due time (µs of the
 /// daemon's clock).
@@ -284,12 +295,23 @@ impl Streams {
         self.interval.get(&s).copied().flatten()
     }
 
-    /// Sets one stream's interval (clamped to [`MIN_INTERVAL`]); the next
-    /// one goes at once, so a GCS sees the new rate start.
+    /// Sets one stream's interval (clamped to [`Stream::min_interval`]).
+    /// The next message goes within the new interval (at once if the
+    /// stream was off), never sooner than already due: repeating a request
+    /// cannot make fc-sim send more.
     pub fn set(&mut self, s: Stream, interval: Option<Duration>, now_us: u64) {
-        self.interval
-            .insert(s, interval.map(|i| i.max(MIN_INTERVAL)));
-        self.next.insert(s, now_us);
+        let was_on = self.interval(s).is_some();
+        let interval = interval.map(|i| i.max(s.min_interval()));
+        self.interval.insert(s, interval);
+        let Some(interval) = interval else {
+            return;
+        };
+        let within = now_us.saturating_add(interval.as_micros() as u64);
+        let next = match self.next.get(&s) {
+            Some(&due) if was_on => due.min(within),
+            _ => now_us,
+        };
+        self.next.insert(s, next);
     }
 
     /// REQUEST_DATA_STREAM: every stream of `group` (all for ALL) at
@@ -565,16 +587,41 @@ mod tests {
         // 1 Hz for everything, then position off.
         assert!(s.set_group(MavDataStream::ALL, Some(1), 0));
         s.set(Stream::GlobalPosition, None, 0);
-        let sent = s.due(0);
+        // All were just sent: the new rate does not send them again now.
+        assert!(s.due(0).is_empty());
+        let sent = s.due(1_000_000);
         assert!(!sent.contains(&Stream::GlobalPosition) && sent.len() == 6);
         // A long stall: each stream once (HOME_POSITION too, at its own
         // 5 s), not once per missed interval.
         assert_eq!(s.due(60_000_000).len(), 7);
         assert_eq!(s.poll_timeout(), Some(61_000_000));
-        // Requests cannot go faster than 50 Hz.
+        // Requests cannot go faster than the caps.
         s.set(Stream::Attitude, Some(Duration::from_micros(1)), 0);
-        assert_eq!(s.interval(Stream::Attitude), Some(MIN_INTERVAL));
+        assert_eq!(
+            s.interval(Stream::Attitude),
+            Some(Duration::from_millis(20))
+        );
+        s.set_group(MavDataStream::ALL, Some(u16::MAX), 0);
+        assert_eq!(s.interval(Stream::VfrHud), Some(Duration::from_millis(100)));
         assert!(!s.set_group(MavDataStream::RAW_SENSORS, Some(5), 0));
+    }
+
+    #[test]
+    fn repeated_requests_do_not_multiply_messages() {
+        let mut s = Streams::new(0);
+        s.due(0);
+        // A flood of the same request between two due times: nothing more
+        // is sent than the rate says.
+        let mut sent = 0;
+        for t in (0..1_000_000).step_by(1000) {
+            s.set_group(MavDataStream::EXTRA2, Some(10), t);
+            sent += s.due(t).iter().filter(|&&x| x == Stream::VfrHud).count();
+        }
+        assert!(sent <= 11, "{sent} VFR_HUD in 1 s at 10 Hz");
+        // Turning a stream on starts it at once.
+        s.set(Stream::GlobalPosition, None, 0);
+        s.set(Stream::GlobalPosition, Some(Duration::from_secs(1)), 5);
+        assert!(s.due(5).contains(&Stream::GlobalPosition));
     }
 
     #[test]

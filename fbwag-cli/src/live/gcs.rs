@@ -89,91 +89,125 @@ pub fn classify(frame: &ReceivedFrame, own: Peer) -> Kind {
     let Some(view) = MessageView::new(f.msg_id(), f.payload()) else {
         return Kind::Unhandled;
     };
-    let to_us = |system: u8, component: u8| {
-        (system == 0 || system == own.sysid) && (component == 0 || component == own.compid)
+    match request_of(&view) {
+        Some((request, system, component))
+            if (system == 0 || system == own.sysid)
+                && (component == 0 || component == own.compid) =>
+        {
+            Kind::Request(request)
+        }
+        // A request for someone else (a router delivers everything).
+        Some(_) => Kind::Other,
+        None if handled_elsewhere(&view) => Kind::Other,
+        None => Kind::Unhandled,
+    }
+}
+
+/// The request in `view`, with the system and component it is addressed
+/// to; `None` for anything that is not a request fc-sim serves.
+fn request_of(view: &MessageView<'_>) -> Option<(Request, u8, u8)> {
+    let command = |command, param1, param2, int| {
+        Request::Command(Command {
+            command,
+            param1,
+            param2,
+            int,
+        })
     };
-    let request = match view {
-        MessageView::CommandLong(c) if to_us(c.target_system(), c.target_component()) => {
-            Request::Command(Command {
-                command: c.command(),
-                param1: c.param1(),
-                param2: c.param2(),
-                int: false,
-            })
-        }
-        MessageView::CommandInt(c) if to_us(c.target_system(), c.target_component()) => {
-            Request::Command(Command {
-                command: c.command(),
-                param1: c.param1(),
-                param2: c.param2(),
-                int: true,
-            })
-        }
+    Some(match view {
+        MessageView::CommandLong(c) => (
+            command(c.command(), c.param1(), c.param2(), false),
+            c.target_system(),
+            c.target_component(),
+        ),
+        MessageView::CommandInt(c) => (
+            command(c.command(), c.param1(), c.param2(), true),
+            c.target_system(),
+            c.target_component(),
+        ),
         // SET_MODE has no component: every component of the system.
-        MessageView::SetMode(m) if to_us(m.target_system(), 0) => Request::SetMode,
-        MessageView::ParamRequestList(p) if to_us(p.target_system(), p.target_component()) => {
-            Request::ParamList
+        MessageView::SetMode(m) => (Request::SetMode, m.target_system(), 0),
+        MessageView::ParamRequestList(p) => {
+            (Request::ParamList, p.target_system(), p.target_component())
         }
-        MessageView::ParamRequestRead(p) if to_us(p.target_system(), p.target_component()) => {
+        MessageView::ParamRequestRead(p) => (
             Request::ParamRead {
                 index: p.param_index(),
                 id: p.param_id().to_array(),
-            }
-        }
-        MessageView::ParamSet(p) if to_us(p.target_system(), p.target_component()) => {
+            },
+            p.target_system(),
+            p.target_component(),
+        ),
+        MessageView::ParamSet(p) => (
             Request::ParamSet {
                 id: p.param_id().to_array(),
                 value: p.param_value(),
-            }
-        }
-        MessageView::RequestDataStream(r) if to_us(r.target_system(), r.target_component()) => {
+            },
+            p.target_system(),
+            p.target_component(),
+        ),
+        MessageView::RequestDataStream(r) => (
             Request::DataStream {
                 stream: r.req_stream_id(),
                 rate_hz: r.req_message_rate(),
                 start: r.start_stop() != 0,
-            }
-        }
-        MessageView::MissionRequestList(m) if to_us(m.target_system(), m.target_component()) => {
-            Request::MissionList(m.mission_type())
-        }
-        MessageView::MissionCount(m) if to_us(m.target_system(), m.target_component()) => {
+            },
+            r.target_system(),
+            r.target_component(),
+        ),
+        _ => return mission_request_of(view),
+    })
+}
+
+/// The mission protocol's requests, and TIMESYNC's (no target: to all).
+fn mission_request_of(view: &MessageView<'_>) -> Option<(Request, u8, u8)> {
+    Some(match view {
+        MessageView::MissionRequestList(m) => (
+            Request::MissionList(m.mission_type()),
+            m.target_system(),
+            m.target_component(),
+        ),
+        MessageView::MissionCount(m) => (
             Request::MissionUpload {
                 mission_type: m.mission_type(),
                 count: m.count(),
-            }
-        }
-        MessageView::MissionRequestInt(m) if to_us(m.target_system(), m.target_component()) => {
-            Request::MissionItem(m.mission_type())
-        }
-        MessageView::MissionRequest(m) if to_us(m.target_system(), m.target_component()) => {
-            Request::MissionItem(m.mission_type())
-        }
-        MessageView::MissionClearAll(m) if to_us(m.target_system(), m.target_component()) => {
-            Request::MissionClear(m.mission_type())
-        }
-        MessageView::Timesync(t) if t.tc1() == 0 => Request::Timesync { ts1: t.ts1() },
-        MessageView::CommandLong(_)
-        | MessageView::CommandInt(_)
-        | MessageView::SetMode(_)
-        | MessageView::ParamRequestList(_)
-        | MessageView::ParamRequestRead(_)
-        | MessageView::ParamSet(_)
-        | MessageView::RequestDataStream(_)
-        | MessageView::MissionRequestList(_)
-        | MessageView::MissionCount(_)
-        | MessageView::MissionRequestInt(_)
-        | MessageView::MissionRequest(_)
-        | MessageView::MissionClearAll(_)
-        | MessageView::Timesync(_)
-        | MessageView::MissionAck(_)
-        | MessageView::Heartbeat(_)
-        | MessageView::FbwagNotice(_)
-        | MessageView::RcChannelsOverride(_)
-        | MessageView::SetAttitudeTarget(_)
-        | MessageView::ManualControl(_) => return Kind::Other,
-        _ => return Kind::Unhandled,
-    };
-    Kind::Request(request)
+            },
+            m.target_system(),
+            m.target_component(),
+        ),
+        MessageView::MissionRequestInt(m) => (
+            Request::MissionItem(m.mission_type()),
+            m.target_system(),
+            m.target_component(),
+        ),
+        MessageView::MissionRequest(m) => (
+            Request::MissionItem(m.mission_type()),
+            m.target_system(),
+            m.target_component(),
+        ),
+        MessageView::MissionClearAll(m) => (
+            Request::MissionClear(m.mission_type()),
+            m.target_system(),
+            m.target_component(),
+        ),
+        MessageView::Timesync(t) if t.tc1() == 0 => (Request::Timesync { ts1: t.ts1() }, 0, 0),
+        _ => return None,
+    })
+}
+
+/// Messages that ask nothing of the GCS services: the protocol's (the
+/// engine's), and answers to fc-sim (MISSION_ACK, a TIMESYNC reply).
+fn handled_elsewhere(view: &MessageView<'_>) -> bool {
+    matches!(
+        view,
+        MessageView::Heartbeat(_)
+            | MessageView::FbwagNotice(_)
+            | MessageView::RcChannelsOverride(_)
+            | MessageView::SetAttitudeTarget(_)
+            | MessageView::ManualControl(_)
+            | MessageView::MissionAck(_)
+            | MessageView::Timesync(_)
+    )
 }
 
 /// The telemetry fc-sim sends, each at its own interval.

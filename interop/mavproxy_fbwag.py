@@ -7,6 +7,12 @@ it into MAVProxy/modules/, or from a path: with interop/ on PYTHONPATH,
 `module load mavproxy_fbwag` (MAVProxy tries MAVProxy.modules.mavproxy_NAME,
 then NAME).
 
+Loading it also teaches MAVProxy (through pymavlink's ArduPlane mode table,
+mavutil.mode_mapping_apm) the name of mode 30, FBWAG: MAVProxy's own prompt
+and "Mode ..." announcements then say FBWAG instead of Mode(30). (The mode
+cannot be chosen from MAVProxy: `mode FBWAG` is sent, and the FC denies it,
+as it denies every mode change a ground station asks for.)
+
 It prints, as they happen:
   - every FBWAG_NOTICE the FC sends (status 1: RC lost, asks the companion to
     take over; status 0: RC back), with its event timestamp;
@@ -54,6 +60,12 @@ def fbwag_bindings():
     return fbwag
 
 
+def name_fbwag_mode():
+    """Add FBWAG (30) to pymavlink's ArduPlane mode names, unless the
+    installed pymavlink already names 30 (then its name stays)."""
+    mavutil.mode_mapping_apm.setdefault(MODE_FBWAG, "FBWAG")
+
+
 class FbwagModule(mp_module.MPModule):
     def __init__(self, mpstate):
         # multi_vehicle: MAVProxy hands other modules only its target
@@ -62,6 +74,7 @@ class FbwagModule(mp_module.MPModule):
         # This module checks the sender itself, after decoding.
         super(FbwagModule, self).__init__(mpstate, "fbwag", "FBWAG RC-failsafe delegation",
                                           public=True, multi_vehicle=True)
+        name_fbwag_mode()
         self.add_command("fbwag", self.cmd_fbwag, "FBWAG delegation: status, notice send",
                          ["status", "notice send"])
         self.dialect = fbwag_bindings()

@@ -72,14 +72,39 @@ const FC_EVENTS: &str = concat!(
     "\
 Events (--events), one JSON object per line, all with \"t_ms\" (ms since start)
 and \"event\":
-  {\"event\":\"mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"}   at start and every change
+  {\"event\":\"mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"|...}   at start and every
+                                          change (the pilot's: --pilot-mode)
   {\"event\":\"receiver\",\"state\":\"ok\"|\"lost\"}
   {\"event\":\"handover\",\"ms\":N}          receiver failure -> companion control
   {\"event\":\"control_applied\",\"sysid\":N,\"compid\":N,\"authenticated\":B,
    \"message\":\"RC_CHANNELS_OVERRIDE\"|..., \"channels\":[8 values]}   each control applied
+  {\"event\":\"param\",\"name\":S,\"value\":X,\"sysid\":N,\"compid\":N}   a parameter set
   {\"event\":\"summary\",\"trusted_frames\":N,\"untrusted_frames\":N,
    \"untrusted_notices\":N,\"controls_applied\":N,\"controls_untrusted\":N,
-   \"controls_misaddressed\":N,\"controls_outside_companion\":N}   at exit
+   \"controls_misaddressed\":N,\"controls_outside_companion\":N,
+   \"gcs_unsigned_refused\":N, \"not_served\":{\"NAME\":N,...}}   at exit
+
+Ground stations:
+  Served for any sender (with --require-signed: only frames whose signature
+  verified, as ArduPilot on a signed link): every COMMAND_LONG/COMMAND_INT to
+  this FC gets a COMMAND_ACK (ACCEPTED when done; UNSUPPORTED otherwise;
+  DENIED, with a STATUSTEXT saying why, for mode changes, arming, RTL,
+  landing, reboot and the like: the delegation engine decides who flies);
+  AUTOPILOT_VERSION (MAV_CMD_REQUEST_MESSAGE, ..._AUTOPILOT_CAPABILITIES);
+  MAV_CMD_REQUEST_MESSAGE/SET_MESSAGE_INTERVAL/GET_MESSAGE_INTERVAL and
+  REQUEST_DATA_STREAM for the telemetry above (ATTITUDE at most 50 Hz, the
+  rest at most 10 Hz: the protocol shares the link); HOME_POSITION (every 5 s
+  and on request), GPS_GLOBAL_ORIGIN on request; the parameter protocol:
+  FS_SHORT_ACTN (always 5, FBWAG), FS_SHORT_TIMEOUT, FS_LONG_ACTN (always 1,
+  RTL), FS_LONG_TIMEOUT (the handshake timeout), SYSID_THISMAV,
+  FBWAG_CC_SYSID, FBWAG_CC_COMPID, FBWAG_RETRY_TIME, FBWAG_RETRY_MAX,
+  FBWAG_OVRD_TIME, FBWAG_CC_TIMEOUT, FBWAG_SIGNED (writes take effect only
+  while the pilot flies, else are refused with a STATUSTEXT); missions: a
+  download is empty, an upload refused (but for an empty one); TIMESYNC.
+  What is received and not served is logged (\"not served: ...\") and counted
+  in the summary. On udpin, answers go where every frame goes (--peer, or the
+  companion's address): put a router (e.g. MAVProxy) between fc-sim and
+  several ground stations.
 ",
     link_rules!()
 );
@@ -247,10 +272,15 @@ enum Command {
     },
     /// A flight-controller simulator speaking like ArduPlane.
     ///
-    /// Sends HEARTBEAT (plane modes), SYS_STATUS, ATTITUDE and RC_CHANNELS,
-    /// loses and regains its receiver on schedule, runs the FC state machine
+    /// Loses and regains its receiver on schedule, runs the FC state machine
     /// and reports every mode change (companion control, RTL, the pilot)
-    /// with a timestamp.
+    /// with a timestamp. A kinematic fixed-wing model flies in the mode the
+    /// state machine chose (the pilot's sticks, CIRCLE, the companion's
+    /// applied control, RTL back to --home) and is reported as ArduPlane
+    /// does: HEARTBEAT (fixed wing, ArduPilot, ArduPlane's mode numbers;
+    /// companion control is FBWAG, 30), ATTITUDE, GLOBAL_POSITION_INT,
+    /// GPS_RAW_INT, VFR_HUD, SYS_STATUS (true health bits: the RC receiver
+    /// unhealthy while lost), RC_CHANNELS, EXTENDED_SYS_STATE, HOME_POSITION.
     ///
     /// Control (RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL)
     /// is applied only from the configured companion (--cc-sysid/--cc-compid),
@@ -299,9 +329,24 @@ enum Command {
         /// Sign and verify with this key (64 hex digits).
         #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
         sign_key: Option<String>,
-        /// Accept the companion's takeover only from signed frames.
+        /// Accept the companion's takeover only from signed frames; serve
+        /// ground-station requests only from signed frames too.
         #[arg(long, requires = "sign_key")]
         require_signed: bool,
+        /// Home (the model starts over it at 100 m, heading north, and RTL
+        /// returns to it): latitude and longitude in degrees, ground
+        /// altitude in metres above sea level. Default: ArduPilot SITL's.
+        #[arg(
+            long,
+            value_name = "LAT,LON,ALT",
+            default_value = "-35.363261,149.165230,584",
+            allow_hyphen_values = true
+        )]
+        home: live::plane::Home,
+        /// The mode the pilot flies while the receiver works, as reported
+        /// (the model flies the pilot's centred sticks in any of them).
+        #[arg(long, value_enum, default_value = "fbwa")]
+        pilot_mode: live::fc::PilotMode,
     },
     /// Both programs over loopback UDP through a lossy relay: a timeline and
     /// the measured handover time.
@@ -712,6 +757,8 @@ fn main() -> ExitCode {
             duration,
             sign_key,
             require_signed,
+            home,
+            pilot_mode,
         } => (|| {
             let opts = live::fc::FcOptions {
                 link: live::link::LinkOptions {
@@ -727,6 +774,8 @@ fn main() -> ExitCode {
                 duration,
                 require_signed,
                 events,
+                home,
+                pilot_mode,
             };
             live::fc::run_fc(opts, Box::new(std::io::stdout()))
                 .map(|_| true)

@@ -174,6 +174,8 @@ pub fn demo(
             duration,
             require_signed: false,
             events: None,
+            home: super::plane::Home::DEFAULT,
+            pilot_mode: super::fc::PilotMode::Fbwa,
         },
         Box::new(io::stdout()),
     )?;

@@ -1,21 +1,81 @@
 //! `fbwag fc-sim`: a flight-controller simulator speaking like ArduPlane.
 //! It runs the FC engine (receiver sampling, the FC state machine, its
 //! heartbeats and notices, the control it applies) with a receiver that
-//! fails and returns on schedule, and sends ArduPlane-like telemetry in
-//! which the applied control shows.
+//! fails and returns on schedule, flies a kinematic fixed-wing model
+//! ([`super::plane`]) in the mode the engine chose (the applied control
+//! steers it in companion control), reports it as ArduPlane does
+//! ([`super::telemetry`]), and serves ground stations ([`super::gcs`]):
+//! commands, parameters ([`super::params`]), telemetry rates, an empty
+//! mission.
+//!
+//! Ground-station services answer any sender, except that with
+//! `--require-signed` only frames whose signature verified are served (as
+//! ArduPilot serves only signed frames on a link that requires signing).
+//! They never decide who flies: commands that would (mode changes, arming,
+//! RTL, reboot) are denied, and parameters change only while the pilot
+//! flies.
 
+use super::gcs::{Stream, Streams, Unhandled};
 use super::link::{self, Link, LinkOptions, Node};
-use super::{mode_name, Clock, Events, Log};
+use super::plane::{Guidance, Home, Plane, Sticks};
+use super::telemetry::{self, Status};
+use super::{mode_name, Clock, Events, Limiter, Log};
 use fbwag_delegation::control::Control;
-use fbwag_delegation::engine::{FcEngine, FcOutput, Verdict};
+use fbwag_delegation::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
 use fbwag_delegation::fc::{Authority, FcConfig};
-use fbwag_delegation::{wire, Instant, Peer};
-use fbwag_dialect::dialects::common::{Attitude, RcChannels, SysStatus};
+use fbwag_delegation::{mode, wire, Instant, Peer};
+use fbwag_dialect::dialects::minimal::{Heartbeat, MavState};
+use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{Message, ReceivedFrame};
 use serde_json::json;
 use std::io;
 use std::path::PathBuf;
 use std::time::Duration;
+
+mod serve;
+
+/// The mode the pilot flies while the receiver works: an ArduPlane mode
+/// flown with the sticks. The engine reports the pilot's authority as FBWA;
+/// fc-sim reports this mode instead (in the HEARTBEAT, the log and the
+/// events), so a ground station that cannot name FBWA (MAVSDK) can name the
+/// pilot's mode. The other modes (CIRCLE, FBWAG, RTL) are the engine's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PilotMode {
+    Manual,
+    Stabilize,
+    Training,
+    Acro,
+    Fbwa,
+    Fbwb,
+    Cruise,
+}
+
+impl PilotMode {
+    /// ArduPlane's HEARTBEAT `custom_mode`.
+    pub fn custom_mode(self) -> u32 {
+        match self {
+            PilotMode::Manual => mode::MANUAL,
+            PilotMode::Stabilize => 2,
+            PilotMode::Training => 3,
+            PilotMode::Acro => 4,
+            PilotMode::Fbwa => mode::FBWA,
+            PilotMode::Fbwb => 6,
+            PilotMode::Cruise => 7,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            PilotMode::Manual => "MANUAL",
+            PilotMode::Stabilize => "STABILIZE",
+            PilotMode::Training => "TRAINING",
+            PilotMode::Acro => "ACRO",
+            PilotMode::Fbwa => "FBWA",
+            PilotMode::Fbwb => "FBWB",
+            PilotMode::Cruise => "CRUISE",
+        }
+    }
+}
 
 /// Settings of the flight-controller simulator.
 pub struct FcOptions {
@@ -27,6 +87,10 @@ pub struct FcOptions {
     pub duration: f64,
     pub require_signed: bool,
     pub events: Option<PathBuf>,
+    /// Where the model starts (and RTL returns to).
+    pub home: Home,
+    /// The pilot's flight mode.
+    pub pilot_mode: PilotMode,
 }
 
 /// What the FC simulator saw, for the demo and tests.
@@ -40,11 +104,28 @@ pub struct FcReport {
     pub rc_lost_at: Option<f64>,
 }
 
-const ATTITUDE_PERIOD: Duration = Duration::from_millis(100);
-const SLOW_PERIOD: Duration = Duration::from_millis(500);
+/// The pilot's sticks (the receiver's channels 1–8 while it works):
+/// centred, trim throttle.
+const PILOT_CHANNELS: [u16; 8] = [1500, 1500, 1450, 1500, 1500, 1500, 1500, 1500];
+
+/// PARAM_VALUEs of a list request go out one per this interval: a flood of
+/// list requests restarts the list instead of multiplying it.
+const PARAM_LIST_INTERVAL: Duration = Duration::from_millis(10);
+
+/// The parameter list being sent: next index and when.
+#[derive(Debug, Clone, Copy)]
+struct ParamCursor {
+    index: usize,
+    due: Instant,
+    to: Peer,
+}
 
 struct Daemon {
     engine: FcEngine,
+    /// The engine's configuration (parameters read and write it).
+    cfg: FcConfig,
+    /// Counters of engines replaced by a parameter change.
+    stats_before: FcEngineStats,
     own: Peer,
     rc_loss_at: Option<f64>,
     rc_back_at: Option<f64>,
@@ -53,9 +134,15 @@ struct Daemon {
     /// Channels 1–8 of the control applied now (none outside companion
     /// control).
     applied: Option<[u16; 8]>,
-    roll: f32,
-    next_attitude: Instant,
-    next_slow: Instant,
+    pilot_mode: PilotMode,
+    plane: Plane,
+    streams: Streams,
+    param_list: Option<ParamCursor>,
+    unhandled: Unhandled,
+    refused_unsigned: u64,
+    /// STATUSTEXT replies (reasons of refusals): at most 5 per 10 s.
+    texts: Limiter,
+    gcs_log: Limiter,
     events: Events,
     report: FcReport,
     clock: Clock,
@@ -77,7 +164,7 @@ pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepo
     let mut link = Link::open(o.link, &mut log)?;
     let events = Events::open(o.events.as_deref(), clock)?;
     log.line(&format!(
-        "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}",
+        "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}; home {},{},{}",
         o.own.sysid,
         o.own.compid,
         o.companion.sysid,
@@ -86,45 +173,69 @@ pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepo
             ", signed frames only"
         } else {
             ""
-        }
+        },
+        o.home.lat_deg,
+        o.home.lon_deg,
+        o.home.alt_m,
     ));
     let mut daemon = Daemon {
         engine,
+        cfg,
+        stats_before: FcEngineStats::default(),
         own: o.own,
         rc_loss_at: o.rc_loss_at,
         rc_back_at: o.rc_back_at,
         duration: o.duration,
         receiver_ok: true,
         applied: None,
-        roll: 0.0,
-        next_attitude: clock.now(),
-        next_slow: clock.now(),
+        pilot_mode: o.pilot_mode,
+        plane: Plane::new(o.home),
+        streams: Streams::new(clock.now().0),
+        param_list: None,
+        unhandled: Unhandled::default(),
+        refused_unsigned: 0,
+        texts: Limiter::new(5, Duration::from_secs(10)),
+        gcs_log: Limiter::new(10, Duration::from_secs(10)),
         events,
         report: FcReport::default(),
         clock,
     };
-    daemon.events.emit(
-        "mode",
-        json!({"mode": mode_name(wire::custom_mode(Authority::Pilot))}),
-    );
+    daemon
+        .events
+        .emit("mode", json!({"mode": o.pilot_mode.name()}));
     link::run(&mut daemon, &mut link, &clock, &mut log);
-    let s = *daemon.engine.stats();
-    daemon.events.emit(
-        "summary",
-        json!({
-            "trusted_frames": s.trusted_frames,
-            "untrusted_frames": s.untrusted_frames,
-            "untrusted_notices": s.untrusted_notices,
-            "controls_applied": s.controls_applied,
-            "controls_untrusted": s.controls_untrusted,
-            "controls_misaddressed": s.controls_misaddressed,
-            "controls_outside_companion": s.controls_outside_companion,
-        }),
-    );
+    daemon.finish(&mut log);
     Ok(daemon.report)
 }
 
 impl Daemon {
+    /// The exit summary: the engine's counters (over every engine a
+    /// parameter change replaced) and what was left unanswered.
+    fn finish(&mut self, log: &mut Log) {
+        let s = sum(self.stats_before, *self.engine.stats());
+        let unhandled = self.unhandled.summary();
+        if !unhandled.is_empty() {
+            let list: Vec<String> = unhandled.iter().map(|(k, n)| format!("{k} x{n}")).collect();
+            log.line(&format!("not served: {}", list.join(", ")));
+        }
+        let unhandled: serde_json::Map<String, serde_json::Value> =
+            unhandled.into_iter().map(|(k, n)| (k, n.into())).collect();
+        self.events.emit(
+            "summary",
+            json!({
+                "trusted_frames": s.trusted_frames,
+                "untrusted_frames": s.untrusted_frames,
+                "untrusted_notices": s.untrusted_notices,
+                "controls_applied": s.controls_applied,
+                "controls_untrusted": s.controls_untrusted,
+                "controls_misaddressed": s.controls_misaddressed,
+                "controls_outside_companion": s.controls_outside_companion,
+                "gcs_unsigned_refused": self.refused_unsigned,
+                "not_served": unhandled,
+            }),
+        );
+    }
+
     /// The scheduled receiver state at `t` seconds.
     fn receiver_at(&self, t: f64) -> bool {
         !(self.rc_loss_at.is_some_and(|l| t >= l) && self.rc_back_at.is_none_or(|b| t < b))
@@ -162,21 +273,12 @@ impl Daemon {
     fn drain(&mut self, link: &mut Link, log: &mut Log) {
         while let Some(out) = self.engine.poll_output() {
             match out {
+                FcOutput::Transmit(Message::Heartbeat(h)) => {
+                    let h = self.heartbeat(h);
+                    link.send(self.own.sysid, self.own.compid, &h, log);
+                }
                 FcOutput::Transmit(msg) => {
-                    match &msg {
-                        Message::FbwagNotice(n) => log.line(&format!(
-                            "-> FBWAG_NOTICE status {} event {}",
-                            n.failsafe_status.0, n.timestamp
-                        )),
-                        Message::Statustext(t) => {
-                            let end = t.text.iter().position(|&b| b == 0).unwrap_or(t.text.len());
-                            log.line(&format!(
-                                "-> STATUSTEXT {:?}",
-                                String::from_utf8_lossy(&t.text[..end])
-                            ))
-                        }
-                        _ => {}
-                    }
+                    log_sent(&msg, log);
                     link.send(self.own.sysid, self.own.compid, &msg, log);
                 }
                 FcOutput::SetMode(a) => self.mode_changed(a, log),
@@ -186,10 +288,33 @@ impl Daemon {
         }
     }
 
+    /// The HEARTBEAT the engine built, as ArduPlane would send it: the
+    /// pilot's own mode while the pilot flies (the engine's number for
+    /// that is FBWA), and CRITICAL while a failsafe (the lost receiver) is
+    /// on. The companion reads only whether the mode is FBWAG, which this
+    /// never changes.
+    fn heartbeat(&self, mut h: Heartbeat) -> Heartbeat {
+        if h.custom_mode == wire::custom_mode(Authority::Pilot) {
+            h.custom_mode = self.pilot_mode.custom_mode();
+        }
+        if !self.receiver_ok {
+            h.system_status = MavState::CRITICAL;
+        }
+        h
+    }
+
+    /// The name of the mode reported for authority `a`.
+    fn reported_mode(&self, a: Authority) -> String {
+        match a {
+            Authority::Pilot => self.pilot_mode.name().into(),
+            other => mode_name(wire::custom_mode(other)),
+        }
+    }
+
     fn mode_changed(&mut self, a: Authority, log: &mut Log) {
         let t = self.clock.secs();
         self.report.timeline.push((t, a));
-        let mode = mode_name(wire::custom_mode(a));
+        let mode = self.reported_mode(a);
         let why = match a {
             Authority::Pilot => "pilot in control",
             Authority::Handshake => "asking the companion to take over",
@@ -209,8 +334,8 @@ impl Daemon {
         }
     }
 
-    /// Applies trusted control: the channels the telemetry and the roll
-    /// model follow.
+    /// Applies trusted control: the channels the model flies by and the
+    /// telemetry reports.
     fn apply(&mut self, from: fbwag_delegation::Origin, control: &Control) {
         let channels = channels_of(control);
         self.applied = Some(channels);
@@ -226,59 +351,95 @@ impl Daemon {
         );
     }
 
-    fn telemetry(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
-        let t = self.clock.secs();
-        if now >= self.next_attitude {
-            self.next_attitude = now + ATTITUDE_PERIOD;
-            // Roll follows the aileron channel in companion control.
-            let target = match self.applied {
-                Some(c) if c[0] != 0 && c[0] != u16::MAX => (c[0] as f32 - 1500.0) / 500.0 * 0.78,
-                _ => 0.0,
-            };
-            self.roll += (target - self.roll) * 0.2;
-            let att = Attitude {
-                time_boot_ms: (t * 1000.0) as u32,
-                roll: self.roll,
-                pitch: 0.02,
-                yaw: (t as f32 * 0.05) % std::f32::consts::TAU,
-                ..Default::default()
-            };
-            link.send(self.own.sysid, self.own.compid, &att, log);
-        }
-        if now >= self.next_slow {
-            self.next_slow = now + SLOW_PERIOD;
-            let pilot = [1500, 1500, 1400, 1500, 1500, 1500, 1500, 1500];
-            let ch = self.applied.unwrap_or(pilot);
-            let pick = |i: usize| {
-                if ch[i] == 0 || ch[i] == u16::MAX {
-                    pilot[i]
-                } else {
-                    ch[i]
+    /// Channels 1–8 in effect: the applied control's where it sets a
+    /// channel (0 and 65535 leave it), the pilot's otherwise.
+    fn channels(&self) -> [u16; 8] {
+        let mut ch = PILOT_CHANNELS;
+        if let Some(applied) = self.applied {
+            for (c, a) in ch.iter_mut().zip(applied) {
+                if a != 0 && a != u16::MAX {
+                    *c = a;
                 }
-            };
-            let rc = RcChannels {
-                time_boot_ms: (t * 1000.0) as u32,
-                chancount: 8,
-                chan1_raw: pick(0),
-                chan2_raw: pick(1),
-                chan3_raw: pick(2),
-                chan4_raw: pick(3),
-                chan5_raw: pick(4),
-                chan6_raw: pick(5),
-                chan7_raw: pick(6),
-                chan8_raw: pick(7),
-                // 0–254 (254: 100 %); 255 would mean "unknown".
-                rssi: if self.receiver_ok { 254 } else { 0 },
-                ..Default::default()
-            };
-            link.send(self.own.sysid, self.own.compid, &rc, log);
-            let sys = SysStatus {
-                voltage_battery: 12_400,
-                battery_remaining: 80,
-                ..Default::default()
-            };
-            link.send(self.own.sysid, self.own.compid, &sys, log);
+            }
         }
+        ch
+    }
+
+    /// What flies the model in the engine's current mode.
+    fn guidance(&self) -> Guidance {
+        match self.engine.authority() {
+            Authority::Pilot | Authority::Companion => {
+                Guidance::Sticks(Sticks::from_channels(&self.channels()))
+            }
+            Authority::Handshake => Guidance::Circle,
+            Authority::Rtl => Guidance::ReturnHome,
+        }
+    }
+
+    /// Flies the model up to `now` under the guidance in force until now:
+    /// called before anything that may change it.
+    fn fly_to(&mut self, now: Instant) {
+        let guidance = self.guidance();
+        self.plane.advance_to(now.0 as f64 / 1e6, guidance);
+    }
+
+    fn status(&self, now: Instant) -> Status {
+        Status {
+            time_boot_ms: (now.0 / 1000) as u32,
+            receiver_ok: self.receiver_ok,
+            channels: self.channels(),
+        }
+    }
+
+    fn send(&self, msg: &dyn Encode, link: &mut Link, log: &mut Log) {
+        link.send(self.own.sysid, self.own.compid, msg, log);
+    }
+
+    fn send_stream(&self, s: Stream, now: Instant, link: &mut Link, log: &mut Log) {
+        let msg = telemetry::build(s, &self.plane, &self.status(now));
+        self.send(&msg, link, log);
+    }
+
+    fn telemetry(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
+        for s in self.streams.due(now.0) {
+            self.send_stream(s, now, link, log);
+        }
+        self.send_param_list(now, link, log);
+    }
+}
+
+/// Logs the protocol's own messages as they go.
+fn log_sent(msg: &Message, log: &mut Log) {
+    match msg {
+        Message::FbwagNotice(n) => log.line(&format!(
+            "-> FBWAG_NOTICE status {} event {}",
+            n.failsafe_status.0, n.timestamp
+        )),
+        Message::Statustext(t) => {
+            let end = t.text.iter().position(|&b| b == 0).unwrap_or(t.text.len());
+            log.line(&format!(
+                "-> STATUSTEXT {:?}",
+                String::from_utf8_lossy(&t.text[..end])
+            ))
+        }
+        _ => {}
+    }
+}
+
+/// Engine counters added up (saturating, like the engine's).
+fn sum(a: FcEngineStats, b: FcEngineStats) -> FcEngineStats {
+    FcEngineStats {
+        trusted_frames: a.trusted_frames.saturating_add(b.trusted_frames),
+        untrusted_frames: a.untrusted_frames.saturating_add(b.untrusted_frames),
+        untrusted_notices: a.untrusted_notices.saturating_add(b.untrusted_notices),
+        controls_applied: a.controls_applied.saturating_add(b.controls_applied),
+        controls_untrusted: a.controls_untrusted.saturating_add(b.controls_untrusted),
+        controls_misaddressed: a
+            .controls_misaddressed
+            .saturating_add(b.controls_misaddressed),
+        controls_outside_companion: a
+            .controls_outside_companion
+            .saturating_add(b.controls_outside_companion),
     }
 }
 
@@ -322,8 +483,8 @@ impl Node for Daemon {
     fn poll_timeout(&self) -> Option<Instant> {
         [
             self.engine.poll_timeout(),
-            Some(self.next_attitude),
-            Some(self.next_slow),
+            self.streams.poll_timeout().map(Instant),
+            self.param_list.map(|c| c.due),
             self.next_receiver_change(),
         ]
         .into_iter()
@@ -332,6 +493,7 @@ impl Node for Daemon {
     }
 
     fn handle_timeout(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
+        self.fly_to(now);
         self.update_receiver(log);
         self.engine.handle_timeout(now);
         self.drain(link, log);
@@ -345,6 +507,7 @@ impl Node for Daemon {
         link: &mut Link,
         log: &mut Log,
     ) -> Verdict {
+        self.fly_to(now);
         let f = frame.frame();
         let verdict = self.engine.handle_frame(now, &f, frame.is_authenticated());
         if verdict == Verdict::Trusted && f.msg_id() == fbwag_dialect::FbwagNotice::ID {
@@ -356,6 +519,7 @@ impl Node for Daemon {
             }
         }
         self.drain(link, log);
+        self.serve_frame(now, frame, link, log);
         verdict
     }
 

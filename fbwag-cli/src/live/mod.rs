@@ -10,8 +10,12 @@
 pub mod cc;
 pub mod demo;
 pub mod fc;
+pub mod gcs;
 pub mod link;
+pub mod params;
+pub mod plane;
 pub mod router;
+pub mod telemetry;
 
 use serde_json::{Map, Value};
 use std::fs::File;

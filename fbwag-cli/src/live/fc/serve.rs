@@ -1,0 +1,403 @@
+//! fc-sim's ground-station services, carried out: what [`crate::live::gcs`]
+//! read out of a frame is answered here, with the daemon's model, streams,
+//! parameters and engine at hand.
+
+use super::{sum, Daemon, ParamCursor, PARAM_LIST_INTERVAL};
+use crate::live::gcs::{self, Command, Interval, Kind, Plan, Request, Stream};
+use crate::live::link::Link;
+use crate::live::params::{Param, ParamError};
+use crate::live::telemetry;
+use crate::live::Log;
+use fbwag_delegation::engine::FcEngine;
+use fbwag_delegation::fc::{Authority, FcConfig};
+use fbwag_delegation::{Instant, Peer};
+use fbwag_dialect::dialects::common::{
+    CommandAck, MavCmd, MavMissionResult, MavMissionType, MavResult, MavSeverity, MessageInterval,
+    MissionAck, MissionCount, ParamValue, Statustext, Timesync,
+};
+use fbwag_dialect::mavframe::field::chars;
+use fbwag_dialect::ReceivedFrame;
+use serde_json::json;
+
+impl Daemon {
+    /// Serves `frame` if it asks something of a ground-station service.
+    pub(super) fn serve_frame(
+        &mut self,
+        now: Instant,
+        frame: &ReceivedFrame,
+        link: &mut Link,
+        log: &mut Log,
+    ) {
+        let h = frame.header();
+        let from = Peer::new(h.sysid, h.compid);
+        match gcs::classify(frame, self.own) {
+            Kind::Request(_) if self.cfg.require_signed && !frame.is_authenticated() => {
+                self.refused_unsigned = self.refused_unsigned.saturating_add(1);
+                self.gcs_log.log(log, "GCS log lines", || {
+                    format!(
+                        "not served: unsigned {} from {}/{}",
+                        frame.meta().map_or("request", |m| m.name),
+                        from.sysid,
+                        from.compid
+                    )
+                });
+            }
+            Kind::Request(r) => self.serve(now, r, from, link, log),
+            Kind::Other => {}
+            Kind::Unhandled => {
+                let name = frame.meta().map_or_else(
+                    || format!("MSG_ID_{}", frame.frame().msg_id()),
+                    |m| m.name.to_string(),
+                );
+                self.not_served(name, from, log);
+            }
+        }
+    }
+
+    /// Counts something asked and not served; logs its first occurrence.
+    fn not_served(&mut self, what: String, from: Peer, log: &mut Log) {
+        if self.unhandled.note(what.clone()) {
+            log.line(&format!(
+                "not served: {what} from {}/{} (first; counted)",
+                from.sysid, from.compid
+            ));
+        }
+    }
+
+    fn serve(&mut self, now: Instant, r: Request, from: Peer, link: &mut Link, log: &mut Log) {
+        match r {
+            Request::Command(c) => self.command(now, c, from, link, log),
+            Request::SetMode => {
+                self.refusal(gcs::DENY_AUTHORITY, "SET_MODE", from, link, log);
+                // ArduPilot acknowledges SET_MODE with SET_MODE's message id.
+                self.ack(MavCmd(11), MavResult::DENIED, from, link, log);
+            }
+            Request::ParamList => {
+                // A request while a list is going out restarts it, at the
+                // same pace: repeating the request cannot speed it up.
+                let due = self.param_list.map_or(now, |c| c.due.max(now));
+                self.param_list = Some(ParamCursor {
+                    index: 0,
+                    due,
+                    to: from,
+                });
+            }
+            Request::ParamRead { index, id } => self.param_read(index, &id, from, link, log),
+            Request::ParamSet { id, value } => self.param_set(now, &id, value, from, link, log),
+            Request::DataStream {
+                stream,
+                rate_hz,
+                start,
+            } => {
+                let rate = (start && rate_hz > 0).then_some(rate_hz);
+                if !self.streams.set_group(stream, rate, now.0) {
+                    let what = format!("REQUEST_DATA_STREAM({})", stream.0);
+                    self.not_served(what, from, log);
+                }
+            }
+            Request::MissionList(t) => self.mission_list(t, from, link, log),
+            Request::MissionUpload {
+                mission_type,
+                count: 0,
+            } => {
+                let done = MavMissionResult::MAV_MISSION_ACCEPTED;
+                self.mission_ack(mission_type, done, from, link, log)
+            }
+            Request::MissionUpload { mission_type, .. } => {
+                self.mission_refused(mission_type, from, link, log)
+            }
+            Request::MissionItem(t) => {
+                let invalid = MavMissionResult::MAV_MISSION_INVALID_SEQUENCE;
+                self.mission_ack(t, invalid, from, link, log)
+            }
+            Request::MissionClear(t) => {
+                let done = MavMissionResult::MAV_MISSION_ACCEPTED;
+                self.mission_ack(t, done, from, link, log)
+            }
+            Request::Timesync { ts1 } => {
+                let tc1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
+                self.send(&Timesync { tc1, ts1 }, link, log);
+            }
+        }
+    }
+
+    fn command(&mut self, now: Instant, c: Command, from: Peer, link: &mut Link, log: &mut Log) {
+        let result = match gcs::plan(&c) {
+            Plan::SendVersion => {
+                self.send(&telemetry::autopilot_version(self.own), link, log);
+                MavResult::ACCEPTED
+            }
+            Plan::SendOnce(s) => {
+                self.send_stream(s, now, link, log);
+                MavResult::ACCEPTED
+            }
+            Plan::SetInterval(s, i) => {
+                let interval = match i {
+                    Interval::Off => None,
+                    Interval::Default => s.default_interval(),
+                    Interval::Every(d) => Some(d),
+                };
+                self.streams.set(s, interval, now.0);
+                MavResult::ACCEPTED
+            }
+            Plan::GetInterval(id) => {
+                self.message_interval(id, link, log);
+                MavResult::ACCEPTED
+            }
+            Plan::Nothing => MavResult::ACCEPTED,
+            Plan::Deny(why) => {
+                self.refusal(why, &format!("command {}", c.command.0), from, link, log);
+                MavResult::DENIED
+            }
+            Plan::Invalid => MavResult::DENIED,
+            Plan::Unsupported => {
+                self.not_served(unsupported_command(&c), from, log);
+                MavResult::UNSUPPORTED
+            }
+        };
+        self.ack(c.command, result, from, link, log);
+    }
+
+    /// MESSAGE_INTERVAL for `id`: its interval, −1 if stopped, 0 if fc-sim
+    /// never sends it.
+    fn message_interval(&self, id: u16, link: &mut Link, log: &mut Log) {
+        let interval_us = match Stream::by_msg_id(f32::from(id)) {
+            Some(s) => self
+                .streams
+                .interval(s)
+                .map_or(-1, |d| i32::try_from(d.as_micros()).unwrap_or(i32::MAX)),
+            None => 0,
+        };
+        let msg = MessageInterval {
+            message_id: id,
+            interval_us,
+        };
+        self.send(&msg, link, log);
+    }
+
+    fn ack(&self, command: MavCmd, result: MavResult, to: Peer, link: &mut Link, log: &mut Log) {
+        let ack = CommandAck {
+            command,
+            result,
+            progress: 0,
+            result_param2: 0,
+            target_system: to.sysid,
+            target_component: to.compid,
+        };
+        self.send(&ack, link, log);
+    }
+
+    /// Says why something was refused: in the log and, rate-limited, as a
+    /// STATUSTEXT for the ground station's operator.
+    fn refusal(&mut self, why: &str, what: &str, from: Peer, link: &mut Link, log: &mut Log) {
+        self.gcs_log.log(log, "GCS log lines", || {
+            format!("refused {what} from {}/{}: {why}", from.sysid, from.compid)
+        });
+        if self.texts.admit().0 {
+            let text = Statustext {
+                severity: MavSeverity::WARNING,
+                text: chars(why),
+                id: 0,
+                chunk_seq: 0,
+            };
+            self.send(&text, link, log);
+        }
+    }
+
+    fn mission_list(&mut self, t: MavMissionType, to: Peer, link: &mut Link, log: &mut Log) {
+        let msg = MissionCount {
+            target_system: to.sysid,
+            target_component: to.compid,
+            count: 0,
+            mission_type: t,
+        };
+        self.send(&msg, link, log);
+    }
+
+    fn mission_refused(&mut self, t: MavMissionType, to: Peer, link: &mut Link, log: &mut Log) {
+        self.refusal(
+            "missions not supported by fc-sim",
+            "a mission upload",
+            to,
+            link,
+            log,
+        );
+        let unsupported = MavMissionResult::MAV_MISSION_UNSUPPORTED;
+        self.mission_ack(t, unsupported, to, link, log);
+    }
+
+    fn mission_ack(
+        &self,
+        t: MavMissionType,
+        result: MavMissionResult,
+        to: Peer,
+        link: &mut Link,
+        log: &mut Log,
+    ) {
+        let msg = MissionAck {
+            target_system: to.sysid,
+            target_component: to.compid,
+            r#type: result,
+            mission_type: t,
+        };
+        self.send(&msg, link, log);
+    }
+}
+
+// --- parameters ----------------------------------------------------------
+
+impl Daemon {
+    fn param_value(&self, p: Param) -> ParamValue {
+        ParamValue {
+            param_id: chars(p.name()),
+            param_value: p.value(&self.cfg),
+            param_type: p.param_type(),
+            param_count: Param::ALL.len() as u16,
+            param_index: p.index(),
+        }
+    }
+
+    pub(super) fn send_param_list(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
+        let Some(cursor) = self.param_list else {
+            return;
+        };
+        if now < cursor.due {
+            return;
+        }
+        let Some(&p) = Param::ALL.get(cursor.index) else {
+            self.param_list = None;
+            log.line(&format!(
+                "sent {} parameters to {}/{}",
+                Param::ALL.len(),
+                cursor.to.sysid,
+                cursor.to.compid
+            ));
+            return;
+        };
+        self.send(&self.param_value(p), link, log);
+        self.param_list = Some(ParamCursor {
+            index: cursor.index + 1,
+            due: now + PARAM_LIST_INTERVAL,
+            to: cursor.to,
+        });
+    }
+
+    fn param_read(
+        &mut self,
+        index: i16,
+        id: &[u8; 16],
+        from: Peer,
+        link: &mut Link,
+        log: &mut Log,
+    ) {
+        let p = if index >= 0 {
+            Param::by_index(i64::from(index))
+        } else {
+            Param::by_id(id)
+        };
+        match p {
+            Some(p) => self.send(&self.param_value(p), link, log),
+            // As ArduPilot: no answer for a parameter it does not have.
+            None => self.not_served(unknown_param("PARAM_REQUEST_READ", index, id), from, log),
+        }
+    }
+
+    fn param_set(
+        &mut self,
+        now: Instant,
+        id: &[u8; 16],
+        value: f32,
+        from: Peer,
+        link: &mut Link,
+        log: &mut Log,
+    ) {
+        let Some(p) = Param::by_id(id) else {
+            return self.not_served(unknown_param("PARAM_SET", -1, id), from, log);
+        };
+        let result = self
+            .busy()
+            .map_or(Ok(()), |mode| Err(ParamError::Busy(p, mode)))
+            .and_then(|()| p.apply(value, &self.cfg));
+        match result {
+            Ok(cfg) => self.reconfigure(now, p, cfg, from, log),
+            Err(e) => {
+                let why = e.to_string();
+                self.refusal(&why, &format!("PARAM_SET {value}"), from, link, log)
+            }
+        }
+        // The answer either way: the value now in force.
+        self.send(&self.param_value(p), link, log);
+    }
+
+    /// The mode while a parameter change could disturb a handover: any
+    /// time but the pilot flying with a working receiver and no notice
+    /// still being retried.
+    fn busy(&self) -> Option<&'static str> {
+        let a = self.engine.authority();
+        let idle = a == Authority::Pilot
+            && self.receiver_ok
+            && self.engine.machine().receiver_ok()
+            && self.engine.machine().poll_timeout().is_none();
+        if idle {
+            return None;
+        }
+        Some(match a {
+            Authority::Pilot => "RC loss or hand-back",
+            Authority::Handshake => "CIRCLE",
+            Authority::Companion => "FBWAG",
+            Authority::Rtl => "RTL",
+        })
+    }
+
+    /// A new engine with `cfg`, started now: the old one was idle (see
+    /// [`Daemon::busy`]), so nothing of a handover is lost.
+    fn reconfigure(&mut self, now: Instant, p: Param, cfg: FcConfig, from: Peer, log: &mut Log) {
+        if cfg == self.cfg {
+            return;
+        }
+        let Ok(mut engine) = FcEngine::new(cfg, now) else {
+            // Param::apply validated it; keep the engine that runs.
+            return;
+        };
+        engine.set_receiver_ok(self.receiver_ok);
+        self.stats_before = sum(self.stats_before, *self.engine.stats());
+        self.engine = engine;
+        self.cfg = cfg;
+        let value = p.value(&cfg);
+        log.line(&format!(
+            "parameter {} = {value} (set by {}/{})",
+            p.name(),
+            from.sysid,
+            from.compid
+        ));
+        self.events.emit(
+            "param",
+            json!({"name": p.name(), "value": value, "sysid": from.sysid, "compid": from.compid}),
+        );
+    }
+}
+
+/// How an unsupported command is counted: by command, and for the
+/// message-interval and request-message commands by the message asked for.
+fn unsupported_command(c: &Command) -> String {
+    let kind = if c.int { "COMMAND_INT" } else { "COMMAND_LONG" };
+    match c.command {
+        MavCmd::GET_MESSAGE_INTERVAL | MavCmd::SET_MESSAGE_INTERVAL | MavCmd::REQUEST_MESSAGE => {
+            format!("{kind}({} message {})", c.command.0, c.param1)
+        }
+        other => format!("{kind}({})", other.0),
+    }
+}
+
+/// How an unknown parameter is counted: by name or index.
+fn unknown_param(what: &str, index: i16, id: &[u8; 16]) -> String {
+    if index >= 0 {
+        return format!("{what}(index {index})");
+    }
+    let end = id.iter().position(|&b| b == 0).unwrap_or(id.len());
+    let name: String = String::from_utf8_lossy(&id[..end])
+        .chars()
+        .map(|c| if c.is_ascii_graphic() { c } else { '?' })
+        .collect();
+    format!("{what}({name})")
+}

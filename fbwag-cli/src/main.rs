@@ -724,7 +724,7 @@ fn main() -> ExitCode {
                     .as_deref()
                     .map(|e| parse("--autonomy", e))
                     .transpose()?,
-                link: live::link::LinkOptions {
+                link: live::net::LinkOptions {
                     endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
                     key: sign_key.as_deref().map(key).transpose()?,
                     peer,
@@ -761,7 +761,7 @@ fn main() -> ExitCode {
             pilot_mode,
         } => (|| {
             let opts = live::fc::FcOptions {
-                link: live::link::LinkOptions {
+                link: live::net::LinkOptions {
                     endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
                     key: sign_key.as_deref().map(key).transpose()?,
                     peer,

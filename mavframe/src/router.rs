@@ -41,7 +41,7 @@
 
 use crate::conn::codec::{FrameCodec, Framer};
 use crate::conn::{Endpoint, ReceivedFrame, ReplyTo};
-use crate::message::{Dialect, Encode};
+use crate::message::{Dialect, Encode, MessageMeta};
 use crate::parser::{Parser, Stats};
 use crate::route::{LinkId, Links, RoutingTable};
 use crate::signing::state::{SigningState, StateError, StateFile};
@@ -71,6 +71,9 @@ pub const LINK_QUEUE: usize = 512;
 /// behind, link tasks wait (and UDP datagrams are dropped by the system)
 /// instead of memory growing.
 pub const INBOUND_QUEUE: usize = 1024;
+
+/// Bytes parsed between yields to the runtime.
+const PARSE_CHUNK: usize = 1024;
 
 /// Output a `tcpin` client may have queued before it is dropped.
 const CLIENT_QUEUE: usize = 256;
@@ -136,22 +139,23 @@ pub enum RouterEvent<D: Dialect> {
 }
 
 /// What the router tells a link task.
-enum Command<D: Dialect> {
+enum Command {
     /// Send these frame bytes as they are.
     Raw(Box<[u8]>),
     /// Frame this message (the link's sequence numbers and signer) and send.
     Message {
         sysid: u8,
         compid: u8,
-        message: D::Message,
+        meta: &'static MessageMeta,
+        payload: Box<[u8]>,
     },
     /// `udpin` with [`ReplyTo::Pinned`]: answer this address.
     Pin(SocketAddr),
 }
 
-struct LinkHandle<D: Dialect> {
+struct LinkHandle {
     endpoint: Endpoint,
-    commands: mpsc::Sender<Command<D>>,
+    commands: mpsc::Sender<Command>,
     counters: Arc<Mutex<LinkCounters>>,
     task: tokio::task::JoinHandle<()>,
 }
@@ -169,27 +173,19 @@ pub struct LinkCounters {
 
 /// The router: its links and the routing table.
 pub struct Router<D: Dialect> {
-    links: Vec<LinkHandle<D>>,
+    links: Vec<LinkHandle>,
     events: mpsc::Receiver<RouterEvent<D>>,
     events_tx: mpsc::Sender<RouterEvent<D>>,
     table: RoutingTable<64>,
 }
 
-impl<D> Default for Router<D>
-where
-    D: Dialect + 'static,
-    D::Message: Encode + Send + 'static,
-{
+impl<D: Dialect + 'static> Default for Router<D> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<D> Router<D>
-where
-    D: Dialect + 'static,
-    D::Message: Encode + Send + 'static,
-{
+impl<D: Dialect + 'static> Router<D> {
     /// A router without links.
     pub fn new() -> Self {
         let (events_tx, events) = mpsc::channel(INBOUND_QUEUE);
@@ -310,18 +306,28 @@ where
     }
 
     /// Frames `message` as `sysid`/`compid` on each of `links` (with each
-    /// link's sequence numbers and signer) and sends it.
-    pub fn send_message(&self, links: Links, sysid: u8, compid: u8, message: &D::Message)
-    where
-        D::Message: Clone,
-    {
+    /// link's sequence numbers and signer) and sends it. Any message: a
+    /// generated one, a dialect's `Message` enum, a `&dyn Encode`.
+    pub fn send_message(
+        &self,
+        links: Links,
+        sysid: u8,
+        compid: u8,
+        message: &(impl Encode + ?Sized),
+    ) {
+        let meta = message.meta();
+        let mut payload = [0u8; 255];
+        let Ok(len) = message.emit_payload(&mut payload) else {
+            return;
+        };
         for link in links.iter() {
             self.command(
                 link,
                 Command::Message {
                     sysid,
                     compid,
-                    message: message.clone(),
+                    meta,
+                    payload: payload[..len].into(),
                 },
             );
         }
@@ -332,7 +338,7 @@ where
         self.command(link, Command::Pin(peer));
     }
 
-    fn command(&self, link: LinkId, command: Command<D>) {
+    fn command(&self, link: LinkId, command: Command) {
         let Some(l) = self.links.get(link as usize) else {
             return;
         };
@@ -428,16 +434,12 @@ struct LinkTask<D: Dialect> {
     id: LinkId,
     config: LinkConfig,
     events: mpsc::Sender<RouterEvent<D>>,
-    commands: mpsc::Receiver<Command<D>>,
+    commands: mpsc::Receiver<Command>,
     counters: Arc<Mutex<LinkCounters>>,
     state: LinkState,
 }
 
-impl<D> LinkTask<D>
-where
-    D: Dialect + 'static,
-    D::Message: Encode + Send + 'static,
-{
+impl<D: Dialect + 'static> LinkTask<D> {
     fn codec(&self) -> FrameCodec<D> {
         FrameCodec::with_parser(match self.config.key {
             Some(key) => {
@@ -548,7 +550,9 @@ where
     }
 
     /// Hands every frame in `bytes` to the router; `end` ends a datagram
-    /// (nothing after it completes a frame started in it).
+    /// (nothing after it completes a frame started in it). Parsed
+    /// [`PARSE_CHUNK`] bytes at a time, yielding in between, so one large
+    /// datagram never holds the runtime (and the owner's timers) for long.
     async fn deliver(
         &mut self,
         codec: &mut FrameCodec<D>,
@@ -557,22 +561,30 @@ where
         source: Option<SocketAddr>,
     ) -> Result<(), ()> {
         loop {
-            let frame = if end {
-                codec.decode_eof(bytes)
-            } else {
-                codec.decode(bytes)
-            };
-            let Ok(Some(frame)) = frame else {
-                break;
-            };
-            let event = RouterEvent::Frame(Inbound {
-                link: self.id,
-                frame,
-                source,
-            });
-            if self.events.send(event).await.is_err() {
-                return Err(());
+            let mut chunk = bytes.split_to(bytes.len().min(PARSE_CHUNK));
+            let last = bytes.is_empty();
+            loop {
+                let frame = if end && last {
+                    codec.decode_eof(&mut chunk)
+                } else {
+                    codec.decode(&mut chunk)
+                };
+                let Ok(Some(frame)) = frame else {
+                    break;
+                };
+                let event = RouterEvent::Frame(Inbound {
+                    link: self.id,
+                    frame,
+                    source,
+                });
+                if self.events.send(event).await.is_err() {
+                    return Err(());
+                }
             }
+            if last {
+                break;
+            }
+            tokio::task::yield_now().await;
         }
         let stats = *codec.parser().stats();
         self.count(|c| c.parser = stats);
@@ -618,8 +630,8 @@ where
                             continue;
                         }
                         Command::Raw(b) => &b[..],
-                        Command::Message { sysid, compid, message } => {
-                            match framer.frame(*sysid, *compid, message) {
+                        Command::Message { sysid, compid, meta, payload } => {
+                            match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b,
                                 Err(_) => continue,
                             }
@@ -663,8 +675,8 @@ where
                     let bytes = match &c {
                         Command::Pin(_) => continue,
                         Command::Raw(b) => &b[..],
-                        Command::Message { sysid, compid, message } => {
-                            match framer.frame(*sysid, *compid, message) {
+                        Command::Message { sysid, compid, meta, payload } => {
+                            match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b,
                                 Err(_) => continue,
                             }
@@ -699,8 +711,8 @@ where
                     let bytes: Box<[u8]> = match &c {
                         Command::Pin(_) => continue,
                         Command::Raw(b) => b.clone(),
-                        Command::Message { sysid, compid, message } => {
-                            match framer.frame(*sysid, *compid, message) {
+                        Command::Message { sysid, compid, meta, payload } => {
+                            match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b.into(),
                                 Err(_) => continue,
                             }

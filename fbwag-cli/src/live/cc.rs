@@ -22,14 +22,14 @@
 //!   link, and the broadcast ones to every other link too (so the autonomy
 //!   and the ground station see the takeover).
 
-use super::{mode_name, Clock, Events, Limiter, Log, PeerPin};
+use super::net::{self, LinkOptions, Net, Node};
+use super::{mode_name, Clock, Events, Limiter, Log};
 use fbwag_delegation::cc::{CcConfig, CcState};
 use fbwag_delegation::control::{Control, Controller};
 use fbwag_delegation::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
 use fbwag_delegation::{Instant, Peer, Status};
-use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::route::{LinkId, Links};
-use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
+use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::{Dialect, Endpoint, Message, MessageView};
 use serde_json::json;
 use std::io;
@@ -39,7 +39,7 @@ use std::time::Duration;
 /// Settings of the companion daemon.
 pub struct CcOptions {
     /// The FC link.
-    pub link: super::link::LinkOptions,
+    pub link: LinkOptions,
     /// Other links the companion routes to and from.
     pub outs: Vec<Endpoint>,
     /// The user's autonomy program's link.
@@ -55,9 +55,6 @@ pub struct CcOptions {
     pub events: Option<PathBuf>,
 }
 
-/// How often the links' refusals are summarised in the log.
-const REFUSED_INTERVAL: Duration = Duration::from_secs(5);
-
 /// What the daemon did, for the demo and tests.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct CcReport {
@@ -68,18 +65,7 @@ pub struct CcReport {
 /// Runs the companion daemon until its duration ends (or the hand-back,
 /// with `exit_after_handback`).
 pub fn run_cc(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcReport> {
-    tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()?
-        .block_on(run(o, out))
-}
-
-/// The links of the companion's node.
-struct NodeLinks {
-    router: Router<Dialect>,
-    fc: LinkId,
-    outs: Links,
-    autonomy: Option<LinkId>,
+    net::block_on(run(o, out))
 }
 
 struct Daemon {
@@ -87,20 +73,17 @@ struct Daemon {
     own: Peer,
     fc: Peer,
     controller: Option<Box<dyn Controller + Send>>,
+    /// The `--out` links, and the autonomy's.
+    outs: Links,
+    autonomy: Option<LinkId>,
     events: Events,
-    log: Log,
-    pin: PeerPin,
-    pinned_link: bool,
     fc_mode: Option<u32>,
     report: CcReport,
-    untrusted: Limiter,
     spoofs: Limiter,
     gate: Limiter,
-    link_errors: Limiter,
     spoofed: u64,
-    /// The parser counters last summarised, per link, and when.
-    refused_seen: Vec<fbwag_dialect::Stats>,
-    refused_at: tokio::time::Instant,
+    duration: Option<Duration>,
+    exit_after_handback: bool,
 }
 
 async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcReport> {
@@ -116,7 +99,15 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     let engine = CcEngine::new(cfg, clock.now())
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
     let events = Events::open(o.events.as_deref(), clock)?;
-    let mut links = open_links(&o).await?;
+    let mut net = Net::open(&o.link, &mut log).await?;
+    let mut outs = Links::NONE;
+    for e in &o.outs {
+        outs = outs.union(Links::only(net.add(e).await?));
+    }
+    let autonomy = match &o.autonomy {
+        Some(e) => Some(net.add(e).await?),
+        None => None,
+    };
     log.line(&format!(
         "FC link {} as {}/{}, serving FC {}/{}, {}{}",
         o.link.endpoint,
@@ -142,201 +133,102 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         own: o.own,
         fc: o.fc,
         controller: o.autonomy.is_none().then_some(o.controller),
+        outs,
+        autonomy,
         events,
-        log,
-        pin: PeerPin::default(),
-        pinned_link: matches!(o.link.endpoint, Endpoint::UdpIn(_)) && o.link.peer.is_none(),
         fc_mode: None,
         report: CcReport::default(),
-        untrusted: Limiter::new(5, Duration::from_secs(10)),
         spoofs: Limiter::new(5, Duration::from_secs(10)),
         gate: Limiter::new(5, Duration::from_secs(10)),
-        link_errors: Limiter::new(5, Duration::from_secs(10)),
         spoofed: 0,
-        refused_seen: Vec::new(),
-        refused_at: tokio::time::Instant::now(),
+        duration: o.duration,
+        exit_after_handback: o.exit_after_handback,
     };
-    daemon
-        .run(&mut links, &clock, o.duration, o.exit_after_handback)
-        .await;
+    net::run(&mut daemon, net, &clock, &mut log).await;
     daemon.summary();
-    links.router.shutdown(Duration::from_secs(1)).await;
     Ok(daemon.report)
 }
 
-async fn open_links(o: &CcOptions) -> io::Result<NodeLinks> {
-    let opened = |e: &Endpoint, err: io::Error| {
-        io::Error::new(err.kind(), format!("cannot open {e}: {err}"))
-    };
-    let mut router = Router::new();
-    let l = &o.link;
-    let fc = router
-        .add(LinkConfig {
-            endpoint: l.endpoint.clone(),
-            key: l.key,
-            accept_unsigned: true,
-            reply_to: l.peer.map_or(ReplyTo::Pinned, ReplyTo::Fixed),
-            signing_state: l.signing_state.clone(),
-        })
-        .await
-        .map_err(|e| opened(&l.endpoint, e))?;
-    let mut outs = Links::NONE;
-    for e in &o.outs {
-        let id = router
-            .add(LinkConfig::new(e.clone()))
-            .await
-            .map_err(|err| opened(e, err))?;
-        outs = outs.union(Links::only(id));
+impl Node for Daemon {
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.engine.poll_timeout()
     }
-    let autonomy = match &o.autonomy {
-        Some(e) => Some(
-            router
-                .add(LinkConfig::new(e.clone()))
-                .await
-                .map_err(|err| opened(e, err))?,
-        ),
-        None => None,
-    };
-    Ok(NodeLinks {
-        router,
-        fc,
-        outs,
-        autonomy,
-    })
+
+    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+        self.engine.handle_timeout(now);
+        self.drain(now, net, log);
+    }
+
+    fn handle_frame(
+        &mut self,
+        now: Instant,
+        inbound: &Inbound<Dialect>,
+        net: &mut Net,
+        log: &mut Log,
+    ) {
+        if inbound.link == net.main {
+            self.on_fc_frame(now, inbound, net, log);
+        } else if Some(inbound.link) == self.autonomy {
+            self.on_autonomy_frame(now, inbound, net, log);
+        } else {
+            self.on_out_frame(inbound, net, log);
+        }
+    }
+
+    fn done(&self, clock: &Clock) -> bool {
+        self.duration
+            .is_some_and(|d| clock.secs() >= d.as_secs_f64())
+            || (self.exit_after_handback
+                && self.report.handbacks > 0
+                && self.engine.state() != CcState::Controlling)
+    }
 }
 
 impl Daemon {
-    async fn run(
-        &mut self,
-        links: &mut NodeLinks,
-        clock: &Clock,
-        duration: Option<Duration>,
-        exit_after_handback: bool,
-    ) {
-        let end = duration.map(|d| tokio::time::Instant::now() + d);
-        loop {
-            if exit_after_handback
-                && self.report.handbacks > 0
-                && self.engine.state() != CcState::Controlling
-            {
-                return;
-            }
-            let now = clock.now();
-            if self.engine.poll_timeout().is_some_and(|t| t <= now) {
-                self.engine.handle_timeout(now);
-                self.drain(now, links);
-            }
-            self.report_refused(links);
-            // Never sleep past the engine's deadline; wake at least every
-            // 100 ms to check the duration.
-            let wait = self
-                .engine
-                .poll_timeout()
-                .map_or(Duration::from_millis(100), |t| {
-                    clock.until(t).min(Duration::from_millis(100))
-                });
-            let deadline = tokio::time::Instant::now() + wait;
-            if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
-                return;
-            }
-            tokio::select! {
-                event = links.router.recv() => match event {
-                    Some(e) => self.event(e, links, clock),
-                    None => return,
-                },
-                _ = tokio::time::sleep_until(deadline) => {}
-            }
-        }
-    }
-
-    fn event(&mut self, event: RouterEvent<Dialect>, links: &mut NodeLinks, clock: &Clock) {
-        match event {
-            RouterEvent::Frame(inbound) => {
-                let now = clock.now();
-                if inbound.link == links.fc {
-                    self.on_fc_frame(now, &inbound, links);
-                } else if Some(inbound.link) == links.autonomy {
-                    self.on_autonomy_frame(now, &inbound, links);
-                } else {
-                    self.on_out_frame(&inbound, links);
-                }
-            }
-            RouterEvent::LinkDown { link, error } => {
-                let name = links.router.endpoint(link).map(|e| e.to_string());
-                if link == links.fc {
-                    self.pin.reset();
-                }
-                self.link_errors.log(&mut self.log, "link errors", || {
-                    format!(
-                        "link {} failed ({error}); opening it again every second",
-                        name.unwrap_or_default()
-                    )
-                });
-            }
-            RouterEvent::LinkUp { link } => {
-                let name = links.router.endpoint(link).map(|e| e.to_string());
-                self.log
-                    .line(&format!("link {} open again", name.unwrap_or_default()));
-            }
-        }
-    }
-
     /// A frame from the FC link: the engine judges it; then it is routed.
-    fn on_fc_frame(&mut self, now: Instant, inbound: &Inbound<Dialect>, links: &mut NodeLinks) {
+    fn on_fc_frame(
+        &mut self,
+        now: Instant,
+        inbound: &Inbound<Dialect>,
+        net: &mut Net,
+        log: &mut Log,
+    ) {
         let frame = &inbound.frame;
         let h = frame.header();
         if (h.sysid, h.compid) == (self.own.sysid, self.own.compid) {
-            self.spoof(inbound, "the companion's own ids on the FC link");
+            self.spoof(inbound, "the companion's own ids on the FC link", log);
             return;
         }
         let reboots = self.engine.machine().stats().fc_reboots;
         let verdict = self
             .engine
             .handle_frame(now, &frame.frame(), frame.is_authenticated());
-        match verdict {
-            Verdict::Trusted => {
-                self.describe(frame);
-                if self.engine.machine().stats().fc_reboots != reboots {
-                    // The new boot speaks from wherever it bound: answer it
-                    // there at once (its notices need answers within its
-                    // handshake, not after the old port's silence).
-                    self.pin.reset();
-                }
-                if let (true, Some(source)) = (self.pinned_link, inbound.source) {
-                    if let Some(peer) = self.pin.trusted(source, frame.is_authenticated()) {
-                        links.router.pin_peer(links.fc, peer);
-                        self.log.line(&format!("answering {peer} (trusted FC)"));
-                    }
-                }
+        if verdict == Verdict::Trusted {
+            self.describe(frame, log);
+            if self.engine.machine().stats().fc_reboots != reboots {
+                // The new boot speaks from wherever it bound: answer it
+                // there at once (its notices need answers within its
+                // handshake, not after the old port's silence).
+                net.reset_pin();
             }
-            Verdict::Untrusted => self.untrusted.log(&mut self.log, "untrusted frames", || {
-                format!(
-                    "not the FC: {} from {}/{}{}",
-                    frame.meta().map_or("an unknown message", |m| m.name),
-                    h.sysid,
-                    h.compid,
-                    if frame.is_authenticated() {
-                        " (signed)"
-                    } else {
-                        " (not authenticated)"
-                    }
-                )
-            }),
         }
-        self.drain(now, links);
-        links.router.forward(inbound);
+        net.judged(inbound, verdict, log);
+        self.drain(now, net, log);
+        net.router.forward(inbound);
     }
 
     /// A frame from an `--out` link: routed, unless it claims the FC's or
     /// the companion's ids (those live on the FC link, and here).
-    fn on_out_frame(&mut self, inbound: &Inbound<Dialect>, links: &mut NodeLinks) {
-        let h = inbound.frame.header();
-        let ids = (h.sysid, h.compid);
-        if ids == (self.own.sysid, self.own.compid) || ids == (self.fc.sysid, self.fc.compid) {
-            self.spoof(inbound, "the FC's or the companion's ids on another link");
+    fn on_out_frame(&mut self, inbound: &Inbound<Dialect>, net: &mut Net, log: &mut Log) {
+        if self.claims_ours(inbound) {
+            self.spoof(
+                inbound,
+                "the FC's or the companion's ids on another link",
+                log,
+            );
             return;
         }
-        links.router.forward(inbound);
+        net.router.forward(inbound);
     }
 
     /// A frame from the autonomy: control through the gate; the rest to the
@@ -345,84 +237,50 @@ impl Daemon {
         &mut self,
         now: Instant,
         inbound: &Inbound<Dialect>,
-        links: &mut NodeLinks,
+        net: &mut Net,
+        log: &mut Log,
     ) {
-        let frame = inbound.frame.frame();
-        let h = frame.header();
-        let ids = (h.sysid, h.compid);
-        if ids == (self.own.sysid, self.own.compid) || ids == (self.fc.sysid, self.fc.compid) {
+        if self.claims_ours(inbound) {
             self.spoof(
                 inbound,
                 "the FC's or the companion's ids on the autonomy link",
+                log,
             );
             return;
         }
+        let frame = inbound.frame.frame();
         let view = MessageView::new(frame.msg_id(), frame.payload());
         if let Some(control) = view.as_ref().and_then(Control::from_view) {
             match self.engine.submit_control(now, control) {
-                ControlVerdict::Forwarded => self.drain(now, links),
-                ControlVerdict::NotInControl => {
-                    self.gate.log(&mut self.log, "gated controls", || {
-                        format!(
-                            "autonomy {} dropped: the companion does not hold control",
-                            control.name()
-                        )
-                    })
-                }
+                ControlVerdict::Forwarded => self.drain(now, net, log),
+                ControlVerdict::NotInControl => self.gate.log(log, "gated controls", || {
+                    format!(
+                        "autonomy {} dropped: the companion does not hold control",
+                        control.name()
+                    )
+                }),
             }
             return;
         }
-        links.router.learn(inbound);
-        links.router.send_raw(links.outs, inbound.frame.as_bytes());
+        net.router.learn(inbound);
+        net.router.send_raw(self.outs, inbound.frame.as_bytes());
     }
 
-    /// Every [`REFUSED_INTERVAL`], what each link's parser refused since
-    /// (bad checksums, bad signatures, unsigned frames, bytes dropped), when
-    /// it refused anything: one line per link, whatever the flood.
-    fn report_refused(&mut self, links: &NodeLinks) {
-        if self.refused_at.elapsed() < REFUSED_INTERVAL {
-            return;
-        }
-        self.refused_at = tokio::time::Instant::now();
-        for link in links.router.links().iter() {
-            let now = links.router.counters(link).parser;
-            let i = usize::from(link);
-            if self.refused_seen.len() <= i {
-                self.refused_seen.resize(i + 1, Default::default());
-            }
-            let was = std::mem::replace(&mut self.refused_seen[i], now);
-            let parts: Vec<String> = [
-                ("bad checksums", now.bad_crc - was.bad_crc),
-                ("bad signatures", now.bad_signature - was.bad_signature),
-                (
-                    "unsigned refused",
-                    now.unsigned_rejected - was.unsigned_rejected,
-                ),
-                ("bytes dropped", now.bytes_dropped - was.bytes_dropped),
-            ]
-            .iter()
-            .filter(|(_, n)| *n > 0)
-            .map(|(what, n)| format!("{n} {what}"))
-            .collect();
-            if !parts.is_empty() {
-                let name = links.router.endpoint(link).map(|e| e.to_string());
-                self.log.line(&format!(
-                    "{}: link refused in the last {} s: {}",
-                    name.unwrap_or_default(),
-                    REFUSED_INTERVAL.as_secs(),
-                    parts.join(", ")
-                ));
-            }
-        }
+    /// The frame claims the FC's or the companion's ids (which live on the
+    /// FC link, and here).
+    fn claims_ours(&self, inbound: &Inbound<Dialect>) -> bool {
+        let h = inbound.frame.header();
+        let ids = (h.sysid, h.compid);
+        ids == (self.own.sysid, self.own.compid) || ids == (self.fc.sysid, self.fc.compid)
     }
 
-    fn spoof(&mut self, inbound: &Inbound<Dialect>, what: &str) {
+    fn spoof(&mut self, inbound: &Inbound<Dialect>, what: &str, log: &mut Log) {
         self.spoofed = self.spoofed.saturating_add(1);
         let h = inbound.frame.header();
         let source = inbound
             .source
             .map_or(String::new(), |s| format!(" from {s}"));
-        self.spoofs.log(&mut self.log, "spoofed frames", || {
+        self.spoofs.log(log, "spoofed frames", || {
             format!(
                 "dropped a frame as {}/{}{source}: {what}",
                 h.sysid, h.compid
@@ -431,10 +289,10 @@ impl Daemon {
     }
 
     /// Carries out the engine's outputs.
-    fn drain(&mut self, now: Instant, links: &mut NodeLinks) {
+    fn drain(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
         while let Some(out) = self.engine.poll_output() {
             match out {
-                CcOutput::Transmit(msg) => self.transmit(&msg, links),
+                CcOutput::Transmit(msg) => self.transmit(&msg, net, log),
                 CcOutput::ControlDue => {
                     if let Some(c) = &mut self.controller {
                         let control = c.control(now, self.fc);
@@ -447,25 +305,24 @@ impl Daemon {
                         .controller
                         .as_ref()
                         .map_or("the autonomy", |c| c.name());
-                    self.log
-                        .line(&format!("takeover (event {event}): {who} streams control"));
+                    log.line(&format!("takeover (event {event}): {who} streams control"));
                     self.events
                         .emit("control", json!({"state": "start", "fc_event": event}));
                 }
                 CcOutput::ControlStopped => {
-                    self.log.line("control ends: overrides stopped");
+                    log.line("control ends: overrides stopped");
                     self.events.emit("control", json!({"state": "stop"}));
                 }
                 CcOutput::FcFound => {
-                    self.log.line("FC found");
+                    log.line("FC found");
                     self.events.emit("fc", json!({"state": "found"}));
                 }
                 CcOutput::FcLost => {
-                    self.log.line("FC lost (silent)");
+                    log.line("FC lost (silent)");
                     self.events.emit("fc", json!({"state": "lost"}));
                 }
                 CcOutput::FcRebooted => {
-                    self.log.line("FC rebooted: answering its new boot");
+                    log.line("FC rebooted: answering its new boot");
                     self.events.emit("fc", json!({"state": "rebooted"}));
                 }
             }
@@ -474,9 +331,9 @@ impl Daemon {
 
     /// The companion's own message: to the FC link; a broadcast also to
     /// every other link.
-    fn transmit(&mut self, msg: &Message, links: &mut NodeLinks) {
+    fn transmit(&mut self, msg: &Message, net: &mut Net, log: &mut Log) {
         if let Message::FbwagNotice(n) = msg {
-            self.log.line(&format!(
+            log.line(&format!(
                 "-> FBWAG_NOTICE status {} event {}",
                 n.failsafe_status.0, n.timestamp
             ));
@@ -488,33 +345,32 @@ impl Daemon {
             .target_system_offset
             .is_some();
         let to = if targeted {
-            Links::only(links.fc)
+            Links::only(net.main)
         } else {
-            links.router.links()
+            net.router.links()
         };
-        links
-            .router
+        net.router
             .send_message(to, self.own.sysid, self.own.compid, msg);
     }
 
     /// Logs what the FC says that a person follows: notices, its mode,
     /// its confirmations.
-    fn describe(&mut self, frame: &fbwag_dialect::ReceivedFrame) {
+    fn describe(&mut self, frame: &fbwag_dialect::ReceivedFrame, log: &mut Log) {
         let f = frame.frame();
         match MessageView::new(f.msg_id(), f.payload()) {
-            Some(MessageView::FbwagNotice(n)) => self.log.line(&format!(
+            Some(MessageView::FbwagNotice(n)) => log.line(&format!(
                 "<- FBWAG_NOTICE status {} event {}",
                 n.failsafe_status().0,
                 n.timestamp()
             )),
-            Some(MessageView::Statustext(t)) => self.log.line(&format!(
+            Some(MessageView::Statustext(t)) => log.line(&format!(
                 "<- STATUSTEXT {:?}",
                 String::from_utf8_lossy(t.text().as_bytes())
             )),
             Some(MessageView::Heartbeat(h)) if self.fc_mode != Some(h.custom_mode()) => {
                 self.fc_mode = Some(h.custom_mode());
                 let mode = mode_name(h.custom_mode());
-                self.log.line(&format!("FC mode {mode}"));
+                log.line(&format!("FC mode {mode}"));
                 self.events.emit("fc_mode", json!({"mode": mode}));
             }
             _ => {}

@@ -3,7 +3,7 @@
 
 use super::cc::{run_cc, CcOptions};
 use super::fc::{run_fc, FcOptions, FcReport};
-use super::link::LinkOptions;
+use super::net::LinkOptions;
 use fbwag_delegation::control::WingsLevel;
 use fbwag_delegation::Peer;
 use fbwag_dialect::Endpoint;

@@ -16,7 +16,7 @@
 //! flies.
 
 use super::gcs::{Stream, Streams, Unhandled};
-use super::link::{self, Link, LinkOptions, Node};
+use super::net::{self, LinkOptions, Net, Node};
 use super::plane::{Guidance, Home, Plane, Sticks};
 use super::telemetry::{self, Status};
 use super::{mode_name, Clock, Events, Limiter, Log};
@@ -25,8 +25,9 @@ use fbwag_delegation::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::{mode, wire, Instant, Peer};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavState};
+use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{Message, ReceivedFrame};
+use fbwag_dialect::{Dialect, Message};
 use serde_json::json;
 use std::io;
 use std::path::PathBuf;
@@ -150,6 +151,10 @@ struct Daemon {
 
 /// Runs the FC simulator for its duration.
 pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcReport> {
+    net::block_on(run(o, out))
+}
+
+async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcReport> {
     let clock = Clock::start();
     let mut log = Log::new(out, clock, "fc");
     let cfg = FcConfig {
@@ -161,7 +166,7 @@ pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepo
     let engine = FcEngine::new(cfg, clock.now())
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
     let endpoint = o.link.endpoint.clone();
-    let mut link = Link::open(o.link, &mut log)?;
+    let net = Net::open(&o.link, &mut log).await?;
     let events = Events::open(o.events.as_deref(), clock)?;
     log.line(&format!(
         "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}; home {},{},{}",
@@ -203,7 +208,7 @@ pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepo
     daemon
         .events
         .emit("mode", json!({"mode": o.pilot_mode.name()}));
-    link::run(&mut daemon, &mut link, &clock, &mut log);
+    net::run(&mut daemon, net, &clock, &mut log).await;
     daemon.finish(&mut log);
     Ok(daemon.report)
 }
@@ -270,16 +275,16 @@ impl Daemon {
             .min()
     }
 
-    fn drain(&mut self, link: &mut Link, log: &mut Log) {
+    fn drain(&mut self, net: &mut Net, log: &mut Log) {
         while let Some(out) = self.engine.poll_output() {
             match out {
                 FcOutput::Transmit(Message::Heartbeat(h)) => {
                     let h = self.heartbeat(h);
-                    link.send(self.own.sysid, self.own.compid, &h, log);
+                    net.send(self.own.sysid, self.own.compid, &h);
                 }
                 FcOutput::Transmit(msg) => {
                     log_sent(&msg, log);
-                    link.send(self.own.sysid, self.own.compid, &msg, log);
+                    net.send(self.own.sysid, self.own.compid, &msg);
                 }
                 FcOutput::SetMode(a) => self.mode_changed(a, log),
                 FcOutput::ApplyControl { from, control } => self.apply(from, &control),
@@ -391,20 +396,20 @@ impl Daemon {
         }
     }
 
-    fn send(&self, msg: &dyn Encode, link: &mut Link, log: &mut Log) {
-        link.send(self.own.sysid, self.own.compid, msg, log);
+    fn send(&self, msg: &dyn Encode, net: &mut Net) {
+        net.send(self.own.sysid, self.own.compid, msg);
     }
 
-    fn send_stream(&self, s: Stream, now: Instant, link: &mut Link, log: &mut Log) {
+    fn send_stream(&self, s: Stream, now: Instant, net: &mut Net) {
         let msg = telemetry::build(s, &self.plane, &self.status(now));
-        self.send(&msg, link, log);
+        self.send(&msg, net);
     }
 
-    fn telemetry(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
+    fn telemetry(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
         for s in self.streams.due(now.0) {
-            self.send_stream(s, now, link, log);
+            self.send_stream(s, now, net);
         }
-        self.send_param_list(now, link, log);
+        self.send_param_list(now, net, log);
     }
 }
 
@@ -492,22 +497,23 @@ impl Node for Daemon {
         .min()
     }
 
-    fn handle_timeout(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
+    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
         self.fly_to(now);
         self.update_receiver(log);
         self.engine.handle_timeout(now);
-        self.drain(link, log);
-        self.telemetry(now, link, log);
+        self.drain(net, log);
+        self.telemetry(now, net, log);
     }
 
     fn handle_frame(
         &mut self,
         now: Instant,
-        frame: &ReceivedFrame,
-        link: &mut Link,
+        inbound: &Inbound<Dialect>,
+        net: &mut Net,
         log: &mut Log,
-    ) -> Verdict {
+    ) {
         self.fly_to(now);
+        let frame = &inbound.frame;
         let f = frame.frame();
         let verdict = self.engine.handle_frame(now, &f, frame.is_authenticated());
         if verdict == Verdict::Trusted && f.msg_id() == fbwag_dialect::FbwagNotice::ID {
@@ -518,9 +524,9 @@ impl Node for Daemon {
                 ));
             }
         }
-        self.drain(link, log);
-        self.serve_frame(now, frame, link, log);
-        verdict
+        self.drain(net, log);
+        self.serve_frame(now, frame, net, log);
+        net.judged(inbound, verdict, log);
     }
 
     fn done(&self, clock: &Clock) -> bool {

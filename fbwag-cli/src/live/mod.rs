@@ -11,7 +11,7 @@ pub mod cc;
 pub mod demo;
 pub mod fc;
 pub mod gcs;
-pub mod link;
+pub mod net;
 pub mod params;
 pub mod plane;
 pub mod router;
@@ -168,7 +168,7 @@ impl Limiter {
 /// docs/delegation.md, "Links, peers and restarts"): the first source of
 /// trusted frames becomes the peer; another source of trusted frames
 /// replaces it only with a verified signature, or after the current peer
-/// has been silent for [`link::PEER_SILENCE`].
+/// has been silent for [`net::PEER_SILENCE`].
 #[derive(Debug, Default)]
 pub struct PeerPin {
     current: Option<(std::net::SocketAddr, std::time::Instant)>,
@@ -188,7 +188,7 @@ impl PeerPin {
         let now = std::time::Instant::now();
         let moves = match self.current {
             Some((addr, _)) if addr == source => false,
-            Some((_, heard)) => authenticated || now.duration_since(heard) > link::PEER_SILENCE,
+            Some((_, heard)) => authenticated || now.duration_since(heard) > net::PEER_SILENCE,
             None => true,
         };
         if moves || self.current.is_some_and(|(addr, _)| addr == source) {

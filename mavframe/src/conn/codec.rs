@@ -27,8 +27,8 @@
 //! ```
 
 use super::ReceivedFrame;
-use crate::frame::{encode, Header, Version, MAX_FRAME_LEN};
-use crate::message::{Dialect, Encode};
+use crate::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN};
+use crate::message::{Dialect, Encode, MessageMeta};
 use crate::parser::Parser;
 use crate::signing::{timestamp_now, Signer};
 use std::io;
@@ -160,6 +160,47 @@ impl Framer {
         compid: u8,
         msg: &(impl Encode + ?Sized),
     ) -> io::Result<&[u8]> {
+        let meta = msg.meta();
+        let at = self.payload_at();
+        let len = msg
+            .emit_payload(&mut self.buf[at..])
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        self.finish(sysid, compid, meta, len)
+    }
+
+    /// Frames a message known by its table row and payload bytes (all of
+    /// them, `meta.max_len` at most; shorter means zeros follow), as
+    /// [`frame`](Self::frame) does: what a router uses to frame a message
+    /// handed over as bytes.
+    pub fn frame_payload(
+        &mut self,
+        sysid: u8,
+        compid: u8,
+        meta: &MessageMeta,
+        payload: &[u8],
+    ) -> io::Result<&[u8]> {
+        let at = self.payload_at();
+        let max = meta.max_len as usize;
+        let len = payload.len().min(max);
+        self.buf[at..at + max].fill(0);
+        self.buf[at..at + len].copy_from_slice(&payload[..len]);
+        self.finish(sysid, compid, meta, max)
+    }
+
+    fn payload_at(&self) -> usize {
+        match self.version {
+            Version::V2 => HEADER_LEN_V2,
+            Version::V1 => HEADER_LEN_V1,
+        }
+    }
+
+    fn finish(
+        &mut self,
+        sysid: u8,
+        compid: u8,
+        meta: &MessageMeta,
+        len: usize,
+    ) -> io::Result<&[u8]> {
         let header = Header {
             seq: self.seq,
             sysid,
@@ -169,10 +210,11 @@ impl Framer {
         if let Some(signer) = &mut self.signer {
             signer.advance_to(timestamp_now());
         }
-        let n = encode(
+        let n = finish(
             self.version,
             header,
-            msg,
+            meta,
+            len,
             self.signer.as_mut(),
             &mut self.buf,
         )
@@ -236,6 +278,25 @@ mod tests {
         .is_empty());
         let good = framer.frame(1, 1, &Ping::default()).unwrap().to_vec();
         assert_eq!(frames(&mut codec, &good, true), [Ping::META.id]);
+    }
+
+    /// Framing from the table row and payload bytes gives the frame
+    /// framing the message gives (what a router hands its links).
+    #[test]
+    fn framing_a_payload_equals_framing_the_message() {
+        let ping = Ping { value: 0x0102_0304 };
+        let (mut a, mut b) = (Framer::new(), Framer::new());
+        let direct = a.frame(1, 2, &ping).unwrap().to_vec();
+        let mut payload = [0u8; 4];
+        let n = ping.emit(&mut payload).unwrap();
+        let via = b
+            .frame_payload(1, 2, &Ping::META, &payload[..n])
+            .unwrap()
+            .to_vec();
+        assert_eq!(direct, via);
+        // Shorter payloads are zero-filled, then truncated as usual.
+        let short = b.frame_payload(1, 2, &Ping::META, &[]).unwrap().to_vec();
+        assert_eq!(short.len(), 10 + 1 + 2);
     }
 
     #[test]

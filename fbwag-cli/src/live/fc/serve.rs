@@ -4,7 +4,7 @@
 
 use super::{sum, Daemon, ParamCursor, PARAM_LIST_INTERVAL};
 use crate::live::gcs::{self, Command, Interval, Kind, Plan, Request, Stream};
-use crate::live::link::Link;
+use crate::live::net::Net;
 use crate::live::params::{Param, ParamError};
 use crate::live::telemetry;
 use crate::live::Log;
@@ -25,7 +25,7 @@ impl Daemon {
         &mut self,
         now: Instant,
         frame: &ReceivedFrame,
-        link: &mut Link,
+        net: &mut Net,
         log: &mut Log,
     ) {
         let h = frame.header();
@@ -42,7 +42,7 @@ impl Daemon {
                     )
                 });
             }
-            Kind::Request(r) => self.serve(now, r, from, link, log),
+            Kind::Request(r) => self.serve(now, r, from, net, log),
             Kind::Other => {}
             Kind::Unhandled => {
                 let name = frame.meta().map_or_else(
@@ -64,13 +64,13 @@ impl Daemon {
         }
     }
 
-    fn serve(&mut self, now: Instant, r: Request, from: Peer, link: &mut Link, log: &mut Log) {
+    fn serve(&mut self, now: Instant, r: Request, from: Peer, net: &mut Net, log: &mut Log) {
         match r {
-            Request::Command(c) => self.command(now, c, from, link, log),
+            Request::Command(c) => self.command(now, c, from, net, log),
             Request::SetMode => {
-                self.refusal(gcs::DENY_AUTHORITY, "SET_MODE", from, link, log);
+                self.refusal(gcs::DENY_AUTHORITY, "SET_MODE", from, net, log);
                 // ArduPilot acknowledges SET_MODE with SET_MODE's message id.
-                self.ack(MavCmd(11), MavResult::DENIED, from, link, log);
+                self.ack(MavCmd(11), MavResult::DENIED, from, net);
             }
             Request::ParamList => {
                 // A request while a list is going out restarts it, at the
@@ -82,8 +82,8 @@ impl Daemon {
                     to: from,
                 });
             }
-            Request::ParamRead { index, id } => self.param_read(index, &id, from, link, log),
-            Request::ParamSet { id, value } => self.param_set(now, &id, value, from, link, log),
+            Request::ParamRead { index, id } => self.param_read(index, &id, from, net, log),
+            Request::ParamSet { id, value } => self.param_set(now, &id, value, from, net, log),
             Request::DataStream {
                 stream,
                 rate_hz,
@@ -95,40 +95,40 @@ impl Daemon {
                     self.not_served(what, from, log);
                 }
             }
-            Request::MissionList(t) => self.mission_list(t, from, link, log),
+            Request::MissionList(t) => self.mission_list(t, from, net),
             Request::MissionUpload {
                 mission_type,
                 count: 0,
             } => {
                 let done = MavMissionResult::MAV_MISSION_ACCEPTED;
-                self.mission_ack(mission_type, done, from, link, log)
+                self.mission_ack(mission_type, done, from, net)
             }
             Request::MissionUpload { mission_type, .. } => {
-                self.mission_refused(mission_type, from, link, log)
+                self.mission_refused(mission_type, from, net, log)
             }
             Request::MissionItem(t) => {
                 let invalid = MavMissionResult::MAV_MISSION_INVALID_SEQUENCE;
-                self.mission_ack(t, invalid, from, link, log)
+                self.mission_ack(t, invalid, from, net)
             }
             Request::MissionClear(t) => {
                 let done = MavMissionResult::MAV_MISSION_ACCEPTED;
-                self.mission_ack(t, done, from, link, log)
+                self.mission_ack(t, done, from, net)
             }
             Request::Timesync { ts1 } => {
                 let tc1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
-                self.send(&Timesync { tc1, ts1 }, link, log);
+                self.send(&Timesync { tc1, ts1 }, net);
             }
         }
     }
 
-    fn command(&mut self, now: Instant, c: Command, from: Peer, link: &mut Link, log: &mut Log) {
+    fn command(&mut self, now: Instant, c: Command, from: Peer, net: &mut Net, log: &mut Log) {
         let result = match gcs::plan(&c) {
             Plan::SendVersion => {
-                self.send(&telemetry::autopilot_version(self.own), link, log);
+                self.send(&telemetry::autopilot_version(self.own), net);
                 MavResult::ACCEPTED
             }
             Plan::SendOnce(s) => {
-                self.send_stream(s, now, link, log);
+                self.send_stream(s, now, net);
                 MavResult::ACCEPTED
             }
             Plan::SetInterval(s, i) => {
@@ -141,12 +141,12 @@ impl Daemon {
                 MavResult::ACCEPTED
             }
             Plan::GetInterval(id) => {
-                self.message_interval(id, link, log);
+                self.message_interval(id, net);
                 MavResult::ACCEPTED
             }
             Plan::Nothing => MavResult::ACCEPTED,
             Plan::Deny(why) => {
-                self.refusal(why, &format!("command {}", c.command.0), from, link, log);
+                self.refusal(why, &format!("command {}", c.command.0), from, net, log);
                 MavResult::DENIED
             }
             Plan::Invalid => MavResult::DENIED,
@@ -155,12 +155,12 @@ impl Daemon {
                 MavResult::UNSUPPORTED
             }
         };
-        self.ack(c.command, result, from, link, log);
+        self.ack(c.command, result, from, net);
     }
 
     /// MESSAGE_INTERVAL for `id`: its interval, −1 if stopped, 0 if fc-sim
     /// never sends it.
-    fn message_interval(&self, id: u16, link: &mut Link, log: &mut Log) {
+    fn message_interval(&self, id: u16, net: &mut Net) {
         let interval_us = match Stream::by_msg_id(f32::from(id)) {
             Some(s) => self
                 .streams
@@ -172,10 +172,10 @@ impl Daemon {
             message_id: id,
             interval_us,
         };
-        self.send(&msg, link, log);
+        self.send(&msg, net);
     }
 
-    fn ack(&self, command: MavCmd, result: MavResult, to: Peer, link: &mut Link, log: &mut Log) {
+    fn ack(&self, command: MavCmd, result: MavResult, to: Peer, net: &mut Net) {
         let ack = CommandAck {
             command,
             result,
@@ -184,12 +184,12 @@ impl Daemon {
             target_system: to.sysid,
             target_component: to.compid,
         };
-        self.send(&ack, link, log);
+        self.send(&ack, net);
     }
 
     /// Says why something was refused: in the log and, rate-limited, as a
     /// STATUSTEXT for the ground station's operator.
-    fn refusal(&mut self, why: &str, what: &str, from: Peer, link: &mut Link, log: &mut Log) {
+    fn refusal(&mut self, why: &str, what: &str, from: Peer, net: &mut Net, log: &mut Log) {
         self.gcs_log.log(log, "GCS log lines", || {
             format!("refused {what} from {}/{}: {why}", from.sysid, from.compid)
         });
@@ -200,47 +200,40 @@ impl Daemon {
                 id: 0,
                 chunk_seq: 0,
             };
-            self.send(&text, link, log);
+            self.send(&text, net);
         }
     }
 
-    fn mission_list(&mut self, t: MavMissionType, to: Peer, link: &mut Link, log: &mut Log) {
+    fn mission_list(&mut self, t: MavMissionType, to: Peer, net: &mut Net) {
         let msg = MissionCount {
             target_system: to.sysid,
             target_component: to.compid,
             count: 0,
             mission_type: t,
         };
-        self.send(&msg, link, log);
+        self.send(&msg, net);
     }
 
-    fn mission_refused(&mut self, t: MavMissionType, to: Peer, link: &mut Link, log: &mut Log) {
+    fn mission_refused(&mut self, t: MavMissionType, to: Peer, net: &mut Net, log: &mut Log) {
         self.refusal(
             "missions not supported by fc-sim",
             "a mission upload",
             to,
-            link,
+            net,
             log,
         );
         let unsupported = MavMissionResult::MAV_MISSION_UNSUPPORTED;
-        self.mission_ack(t, unsupported, to, link, log);
+        self.mission_ack(t, unsupported, to, net);
     }
 
-    fn mission_ack(
-        &self,
-        t: MavMissionType,
-        result: MavMissionResult,
-        to: Peer,
-        link: &mut Link,
-        log: &mut Log,
-    ) {
+    fn mission_ack(&self, t: MavMissionType, result: MavMissionResult, to: Peer, net: &mut Net) {
         let msg = MissionAck {
             target_system: to.sysid,
             target_component: to.compid,
             r#type: result,
             mission_type: t,
         };
-        self.send(&msg, link, log);
+        self.send(&msg, net);
     }
 }
 
@@ -257,7 +250,7 @@ impl Daemon {
         }
     }
 
-    pub(super) fn send_param_list(&mut self, now: Instant, link: &mut Link, log: &mut Log) {
+    pub(super) fn send_param_list(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
         let Some(cursor) = self.param_list else {
             return;
         };
@@ -274,7 +267,7 @@ impl Daemon {
             ));
             return;
         };
-        self.send(&self.param_value(p), link, log);
+        self.send(&self.param_value(p), net);
         self.param_list = Some(ParamCursor {
             index: cursor.index + 1,
             due: now + PARAM_LIST_INTERVAL,
@@ -282,21 +275,14 @@ impl Daemon {
         });
     }
 
-    fn param_read(
-        &mut self,
-        index: i16,
-        id: &[u8; 16],
-        from: Peer,
-        link: &mut Link,
-        log: &mut Log,
-    ) {
+    fn param_read(&mut self, index: i16, id: &[u8; 16], from: Peer, net: &mut Net, log: &mut Log) {
         let p = if index >= 0 {
             Param::by_index(i64::from(index))
         } else {
             Param::by_id(id)
         };
         match p {
-            Some(p) => self.send(&self.param_value(p), link, log),
+            Some(p) => self.send(&self.param_value(p), net),
             // As ArduPilot: no answer for a parameter it does not have.
             None => self.not_served(unknown_param("PARAM_REQUEST_READ", index, id), from, log),
         }
@@ -308,7 +294,7 @@ impl Daemon {
         id: &[u8; 16],
         value: f32,
         from: Peer,
-        link: &mut Link,
+        net: &mut Net,
         log: &mut Log,
     ) {
         let Some(p) = Param::by_id(id) else {
@@ -322,11 +308,11 @@ impl Daemon {
             Ok(cfg) => self.reconfigure(now, p, cfg, from, log),
             Err(e) => {
                 let why = e.to_string();
-                self.refusal(&why, &format!("PARAM_SET {value}"), from, link, log)
+                self.refusal(&why, &format!("PARAM_SET {value}"), from, net, log)
             }
         }
         // The answer either way: the value now in force.
-        self.send(&self.param_value(p), link, log);
+        self.send(&self.param_value(p), net);
     }
 
     /// The mode while a parameter change could disturb a handover: any

@@ -1,0 +1,303 @@
+//! A daemon's MAVLink node: its links on `mavframe::router` (one tokio task
+//! each, parsing each datagram on its own, verifying signatures, reopening
+//! what fails), and the loop both daemons run.
+//!
+//! The rules every daemon follows here:
+//! - no send or receive error ends the program: a failed link is logged
+//!   (at most 5 lines per 10 s) and opened again every second;
+//! - receive work is bounded: link tasks parse at most 1 KB between yields,
+//!   and the loop services the protocol's timers before every frame, so a
+//!   flood delays the receiver sampling and the timers by one frame's work;
+//! - the peer rule of `udpin` (docs/delegation.md, "Links, peers and
+//!   restarts"): with `--peer ADDR`, frames go to ADDR only; without it,
+//!   nothing is sent until a frame the engine trusts arrives, then to that
+//!   frame's source; another source of trusted frames takes over only with
+//!   a verified signature, or after [`PEER_SILENCE`] of the current peer;
+//!   frames from anyone else never redirect anything;
+//! - untrusted frames and each link's parser refusals are logged
+//!   rate-limited, with counts.
+
+use super::{Clock, Limiter, Log, PeerPin};
+use fbwag_delegation::engine::Verdict;
+use fbwag_delegation::Instant;
+use fbwag_dialect::mavframe::conn::ReplyTo;
+use fbwag_dialect::mavframe::route::{LinkId, Links};
+use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
+use fbwag_dialect::mavframe::signing::state::{Loaded, StateFile};
+use fbwag_dialect::mavframe::Encode;
+use fbwag_dialect::{Dialect, Endpoint, Stats};
+use std::io;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// An unsigned `udpin` peer silent this long may be replaced by another
+/// source of trusted frames.
+pub const PEER_SILENCE: Duration = Duration::from_secs(3);
+
+/// How often the links' parser refusals are summarised in the log.
+const REFUSED_INTERVAL: Duration = Duration::from_secs(5);
+
+/// The longest the loop waits without looking at the clock.
+const MAX_WAIT: Duration = Duration::from_millis(100);
+
+/// The settings of a daemon's main link (to its protocol peer).
+#[derive(Debug, Clone)]
+pub struct LinkOptions {
+    /// Where to connect or listen.
+    pub endpoint: Endpoint,
+    /// Sign what is sent and verify what comes with this key.
+    pub key: Option<[u8; 32]>,
+    /// `udpin` only: answer this address and no other.
+    pub peer: Option<SocketAddr>,
+    /// Keep the signer's and verifier's timestamps across restarts in this
+    /// file (with `key`).
+    pub signing_state: Option<PathBuf>,
+}
+
+/// A daemon's links: the main one (to the protocol peer) and any others.
+pub struct Net {
+    /// The router carrying every link.
+    pub router: Router<Dialect>,
+    /// The link to the protocol peer.
+    pub main: LinkId,
+    /// The main link is a `udpin` whose peer this node pins.
+    pinned: bool,
+    pin: PeerPin,
+    untrusted: Limiter,
+    link_errors: Limiter,
+    refused_seen: Vec<Stats>,
+    refused_at: tokio::time::Instant,
+}
+
+impl Net {
+    /// Opens the main link now: errors here (address in use, no such
+    /// device, a damaged signing state file) end the program before it
+    /// starts; later errors never do.
+    pub async fn open(opts: &LinkOptions, log: &mut Log) -> io::Result<Net> {
+        if let (Some(path), Some(_)) = (&opts.signing_state, opts.key) {
+            log_state_file(path, log)?;
+        }
+        let mut router = Router::new();
+        let main = router
+            .add(LinkConfig {
+                endpoint: opts.endpoint.clone(),
+                key: opts.key,
+                accept_unsigned: true,
+                reply_to: opts.peer.map_or(ReplyTo::Pinned, ReplyTo::Fixed),
+                signing_state: opts.signing_state.clone(),
+            })
+            .await
+            .map_err(|e| opened(&opts.endpoint, e))?;
+        Ok(Net {
+            router,
+            main,
+            pinned: matches!(opts.endpoint, Endpoint::UdpIn(_)) && opts.peer.is_none(),
+            pin: PeerPin::default(),
+            untrusted: Limiter::new(5, Duration::from_secs(10)),
+            link_errors: Limiter::new(5, Duration::from_secs(10)),
+            refused_seen: Vec::new(),
+            refused_at: tokio::time::Instant::now(),
+        })
+    }
+
+    /// Opens another (unsigned) link.
+    pub async fn add(&mut self, endpoint: &Endpoint) -> io::Result<LinkId> {
+        self.router
+            .add(LinkConfig::new(endpoint.clone()))
+            .await
+            .map_err(|e| opened(endpoint, e))
+    }
+
+    /// Sends `msg` as `sysid`/`compid` on the main link (framed and signed
+    /// by the link). Never fails: a full queue or a failed send is counted
+    /// by the link.
+    pub fn send(&self, sysid: u8, compid: u8, msg: &(impl Encode + ?Sized)) {
+        self.router
+            .send_message(Links::only(self.main), sysid, compid, msg);
+    }
+
+    /// What the engine made of a frame of the main link: a trusted one may
+    /// pin the peer; untrusted ones are logged, rate-limited.
+    pub fn judged(&mut self, inbound: &Inbound<Dialect>, verdict: Verdict, log: &mut Log) {
+        let frame = &inbound.frame;
+        match verdict {
+            Verdict::Trusted => {
+                if let (true, Some(source)) = (self.pinned, inbound.source) {
+                    if let Some(peer) = self.pin.trusted(source, frame.is_authenticated()) {
+                        self.router.pin_peer(self.main, peer);
+                        log.line(&format!("answering {peer} (trusted peer)"));
+                    }
+                }
+            }
+            Verdict::Untrusted => self.untrusted.log(log, "untrusted frames", || {
+                let h = frame.header();
+                format!(
+                    "untrusted: {} from {}/{}{}{}",
+                    frame.meta().map_or("an unknown message", |m| m.name),
+                    h.sysid,
+                    h.compid,
+                    if frame.is_authenticated() {
+                        ", signed"
+                    } else {
+                        ", not authenticated"
+                    },
+                    inbound.source.map_or(String::new(), |s| format!(" ({s})")),
+                )
+            }),
+        }
+    }
+
+    /// Forgets the pinned peer: the next trusted frame pins its source (the
+    /// peer restarted on a new port, and said so in a way the engine
+    /// recognised).
+    pub fn reset_pin(&mut self) {
+        self.pin.reset();
+    }
+
+    fn link_event(&mut self, event: RouterEvent<Dialect>, log: &mut Log) {
+        let name = |net: &Net, link| {
+            net.router
+                .endpoint(link)
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        match event {
+            RouterEvent::LinkDown { link, error } => {
+                if link == self.main {
+                    self.pin.reset();
+                }
+                let name = name(self, link);
+                self.link_errors.log(log, "link errors", || {
+                    format!("link {name} failed ({error}); opening it again every second")
+                });
+            }
+            RouterEvent::LinkUp { link } => {
+                log.line(&format!("link {} open again", name(self, link)))
+            }
+            RouterEvent::Frame(_) => {}
+        }
+    }
+
+    /// Every [`REFUSED_INTERVAL`], what each link's parser refused since
+    /// (bad checksums, bad signatures, unsigned frames, bytes dropped), when
+    /// it refused anything: one line per link, whatever the flood.
+    fn report_refused(&mut self, log: &mut Log) {
+        if self.refused_at.elapsed() < REFUSED_INTERVAL {
+            return;
+        }
+        self.refused_at = tokio::time::Instant::now();
+        for link in self.router.links().iter() {
+            let now = self.router.counters(link).parser;
+            let i = usize::from(link);
+            if self.refused_seen.len() <= i {
+                self.refused_seen.resize(i + 1, Stats::default());
+            }
+            let was = std::mem::replace(&mut self.refused_seen[i], now);
+            let parts: Vec<String> = [
+                ("bad checksums", now.bad_crc - was.bad_crc),
+                ("bad signatures", now.bad_signature - was.bad_signature),
+                (
+                    "unsigned refused",
+                    now.unsigned_rejected - was.unsigned_rejected,
+                ),
+                ("bytes dropped", now.bytes_dropped - was.bytes_dropped),
+            ]
+            .iter()
+            .filter(|(_, n)| *n > 0)
+            .map(|(what, n)| format!("{n} {what}"))
+            .collect();
+            if !parts.is_empty() {
+                let name = self.router.endpoint(link).map(|e| e.to_string());
+                log.line(&format!(
+                    "{}: link refused in the last {} s: {}",
+                    name.unwrap_or_default(),
+                    REFUSED_INTERVAL.as_secs(),
+                    parts.join(", ")
+                ));
+            }
+        }
+    }
+}
+
+fn opened(endpoint: &Endpoint, e: io::Error) -> io::Error {
+    io::Error::new(e.kind(), format!("cannot open {endpoint}: {e}"))
+}
+
+/// Says what the signing state file holds (the router opens it again);
+/// a damaged file stops the program: it could mean tampering, and dropping
+/// it silently would reopen replays.
+fn log_state_file(path: &std::path::Path, log: &mut Log) -> io::Result<()> {
+    let (file, loaded) = StateFile::open(path).map_err(|e| {
+        io::Error::other(format!(
+            "signing state {}: {e}; remove the file to start from the clock",
+            path.display()
+        ))
+    })?;
+    log.line(&match loaded {
+        Loaded::Existing => format!(
+            "signing state: loaded {} ({} streams)",
+            path.display(),
+            file.state().streams.len()
+        ),
+        Loaded::Fresh => format!(
+            "signing state: no file at {} yet, starting from the clock",
+            path.display()
+        ),
+    });
+    Ok(())
+}
+
+/// What a daemon does with time and frames.
+pub trait Node {
+    /// When [`Node::handle_timeout`] must next run.
+    fn poll_timeout(&self) -> Option<Instant>;
+    /// Timers due at `now`.
+    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log);
+    /// A frame from any link (see `inbound.link`). A frame of the main link
+    /// goes through the engine, then to [`Net::judged`].
+    fn handle_frame(
+        &mut self,
+        now: Instant,
+        inbound: &Inbound<Dialect>,
+        net: &mut Net,
+        log: &mut Log,
+    );
+    /// True when the daemon should stop.
+    fn done(&self, clock: &Clock) -> bool;
+}
+
+/// Runs `node` until it is done: timers when due, then one event (a frame
+/// or a link's change) or the next deadline, whichever comes first; then
+/// the links are stopped, each saving its signing state.
+pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log) {
+    while !node.done(clock) {
+        let now = clock.now();
+        if node.poll_timeout().is_some_and(|t| t <= now) {
+            node.handle_timeout(now, &mut net, log);
+        }
+        net.report_refused(log);
+        let wait = node
+            .poll_timeout()
+            .map_or(MAX_WAIT, |t| clock.until(t).min(MAX_WAIT));
+        tokio::select! {
+            event = net.router.recv() => match event {
+                Some(RouterEvent::Frame(inbound)) => {
+                    node.handle_frame(clock.now(), &inbound, &mut net, log)
+                }
+                Some(event) => net.link_event(event, log),
+                None => break,
+            },
+            _ = tokio::time::sleep(wait) => {}
+        }
+    }
+    net.router.shutdown(Duration::from_secs(1)).await;
+}
+
+/// Runs `daemon` on a current-thread tokio runtime.
+pub fn block_on<T>(daemon: impl std::future::Future<Output = io::Result<T>>) -> io::Result<T> {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?
+        .block_on(daemon)
+}

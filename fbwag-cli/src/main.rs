@@ -306,11 +306,13 @@ enum Command {
         #[arg(long, value_name = "PATH")]
         events: Option<PathBuf>,
         /// Lose the receiver at this time (seconds after start, 0–1,000,000).
+        /// Repeatable, with --rc-back-at, for several failures: the k-th
+        /// --rc-back-at ends the k-th failure (the last may be left open).
         #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
-        rc_loss_at: Option<f64>,
+        rc_loss_at: Vec<f64>,
         /// Get the receiver back at this time (seconds, 0–1,000,000).
         #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
-        rc_back_at: Option<f64>,
+        rc_back_at: Vec<f64>,
         /// The companion allowed to take over: system id (1–255).
         #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
         cc_sysid: u8,
@@ -348,21 +350,27 @@ enum Command {
         #[arg(long, value_enum, default_value = "fbwa")]
         pilot_mode: live::fc::PilotMode,
     },
-    /// Both programs over loopback UDP through a lossy relay: a timeline and
-    /// the measured handover time.
+    /// Both programs over loopback UDP through a lossy relay: the receiver
+    /// fails and returns several times; a timeline, and the handover times
+    /// (p50 and max).
+    ///
+    /// The relay's losses depend only on the seed (each message's fate is
+    /// drawn from the seed, its direction, its id and its count): a seed
+    /// gives the same handovers on every run, up to scheduling jitter.
     Demo {
         /// Share of datagrams the relay drops in each direction (0–1).
         #[arg(long, default_value_t = 0.2, allow_hyphen_values = true, value_parser = args::share)]
         loss: f64,
-        /// Receiver lost at (s, 0–1,000,000).
-        #[arg(long, default_value_t = 2.0, allow_hyphen_values = true, value_parser = args::seconds)]
-        rc_loss_at: f64,
-        /// Receiver back at (s, 0–1,000,000).
-        #[arg(long, default_value_t = 7.0, allow_hyphen_values = true, value_parser = args::seconds)]
-        rc_back_at: f64,
-        /// Total run time (s, 0–1,000,000).
-        #[arg(long, default_value_t = 9.0, allow_hyphen_values = true, value_parser = args::seconds)]
-        duration: f64,
+        /// Receiver failures (each followed by the receiver's return).
+        #[arg(long, default_value_t = 5, allow_hyphen_values = true, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        cycles: u32,
+        /// How long each failure lasts (s): past the FC's 5 s handshake
+        /// timeout, so every failure ends in companion control or RTL.
+        #[arg(long, default_value_t = 5.5, allow_hyphen_values = true, value_parser = args::seconds)]
+        lost_for: f64,
+        /// How long the receiver works between failures (s).
+        #[arg(long, default_value_t = 1.5, allow_hyphen_values = true, value_parser = args::seconds)]
+        back_for: f64,
         /// Seed of the relay's losses.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -769,8 +777,7 @@ fn main() -> ExitCode {
                 },
                 own: fbwag_delegation::Peer::new(sysid, compid),
                 companion: fbwag_delegation::Peer::new(cc_sysid, cc_compid),
-                rc_loss_at,
-                rc_back_at,
+                outages: args::outages(&rc_loss_at, &rc_back_at)?,
                 duration,
                 require_signed,
                 events,
@@ -783,13 +790,19 @@ fn main() -> ExitCode {
         })(),
         Command::Demo {
             loss,
-            rc_loss_at,
-            rc_back_at,
-            duration,
+            cycles,
+            lost_for,
+            back_for,
             seed,
-        } => live::demo::demo(loss, rc_loss_at, rc_back_at, duration, seed)
-            .map(|r| r.handover.is_some())
-            .map_err(|e| format!("demo: {e}")),
+        } => live::demo::demo(live::demo::DemoOptions {
+            loss,
+            cycles,
+            lost_for,
+            back_for,
+            seed,
+        })
+        .map(|r| !r.handovers.is_empty())
+        .map_err(|e| format!("demo: {e}")),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

@@ -119,14 +119,33 @@ pub fn run_relay(
     Ok((p1 + p2, d1 + d2))
 }
 
-/// Runs the demo: prints the timeline and the handover time.
-pub fn demo(
-    loss: f64,
-    rc_loss_at: f64,
-    rc_back_at: f64,
-    duration: f64,
-    seed: u64,
-) -> io::Result<FcReport> {
+/// Settings of the demo.
+pub struct DemoOptions {
+    /// Share of datagrams the relay drops each way.
+    pub loss: f64,
+    /// Receiver failures.
+    pub cycles: u32,
+    /// Seconds each failure lasts, and the receiver works between them.
+    pub lost_for: f64,
+    pub back_for: f64,
+    /// Seed of the relay's drops.
+    pub seed: u64,
+}
+
+/// When the demo's first failure comes (s): the daemons have met by then.
+const FIRST_FAILURE: f64 = 2.0;
+
+/// Runs the demo: prints the timeline and a summary of the handovers.
+pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
+    let period = o.lost_for + o.back_for;
+    let outages: Vec<(f64, Option<f64>)> = (0..o.cycles)
+        .map(|k| {
+            let lost = FIRST_FAILURE + f64::from(k) * period;
+            (lost, Some(lost + o.lost_for))
+        })
+        .collect();
+    let duration = FIRST_FAILURE + f64::from(o.cycles) * period + 0.5;
+    let (loss, seed) = (o.loss, o.seed);
     // The CC listens; the relay forwards the FC's datagrams to it and the
     // CC's answers back to the FC.
     let cc_port = UdpSocket::bind("127.0.0.1:0")?.local_addr()?.port();
@@ -169,8 +188,7 @@ pub fn demo(
             },
             own: fc_id,
             companion: cc_id,
-            rc_loss_at: Some(rc_loss_at),
-            rc_back_at: Some(rc_back_at),
+            outages,
             duration,
             require_signed: false,
             events: None,
@@ -183,28 +201,34 @@ pub fn demo(
     let cc_report = cc.join().map_err(|_| joined("companion"))??;
     let (passed, dropped) = relay.join().map_err(|_| joined("relay"))??;
     println!(
-        "\nsummary: relay passed {passed} and dropped {dropped} datagrams ({:.0} % loss asked)",
+        "\nsummary: relay passed {passed} and dropped {dropped} datagrams ({:.0} % loss asked, seed {seed})",
         loss * 100.0
     );
     println!(
         "companion: {} takeover(s), {} hand-back acknowledgement(s)",
         cc_report.takeovers, cc_report.handbacks
     );
-    println!(
-        "FC modes: {}",
-        report
-            .timeline
-            .iter()
-            .map(|(t, a)| format!("{t:.2} s {a:?}"))
-            .collect::<Vec<_>>()
-            .join(" → ")
-    );
-    match report.handover {
-        Some(h) => println!(
-            "handover time (receiver failure → companion control): {:.0} ms",
-            h * 1000.0
-        ),
-        None => println!("no handover happened (see the timeline)"),
-    }
+    println!("{}", handover_summary(&report));
     Ok(report)
+}
+
+/// "handovers (receiver failure → companion control): 5 of 5 failures;
+/// 101, 1106, ... ms; p50 ..., max ..."
+fn handover_summary(report: &FcReport) -> String {
+    let mut ms: Vec<u64> = report
+        .handovers
+        .iter()
+        .map(|h| (h * 1000.0).round() as u64)
+        .collect();
+    let list = ms.iter().map(u64::to_string).collect::<Vec<_>>().join(", ");
+    ms.sort_unstable();
+    let head = format!(
+        "handovers (receiver failure → companion control): {} of {} failures",
+        ms.len(),
+        report.outages
+    );
+    match (ms.get((ms.len().max(1) - 1) / 2), ms.last()) {
+        (Some(p50), Some(max)) => format!("{head}: {list} ms; p50 {p50} ms, max {max} ms"),
+        _ => format!("{head} (see the timeline)"),
+    }
 }

@@ -83,8 +83,9 @@ pub struct FcOptions {
     pub link: LinkOptions,
     pub own: Peer,
     pub companion: Peer,
-    pub rc_loss_at: Option<f64>,
-    pub rc_back_at: Option<f64>,
+    /// When the receiver fails and comes back (seconds after start; no
+    /// return: lost to the end), in order, not overlapping.
+    pub outages: Vec<(f64, Option<f64>)>,
     pub duration: f64,
     pub require_signed: bool,
     pub events: Option<PathBuf>,
@@ -99,9 +100,13 @@ pub struct FcOptions {
 pub struct FcReport {
     /// (seconds, authority) at every change.
     pub timeline: Vec<(f64, Authority)>,
-    /// Seconds from RC loss (receiver) to companion control.
-    pub handover: Option<f64>,
-    /// Seconds at which the receiver was lost.
+    /// Seconds from each receiver failure to companion control, for the
+    /// failures that were handed over.
+    pub handovers: Vec<f64>,
+    /// Receiver failures.
+    pub outages: usize,
+    /// Seconds at which the receiver was last lost, while no handover has
+    /// followed.
     pub rc_lost_at: Option<f64>,
 }
 
@@ -128,8 +133,7 @@ struct Daemon {
     /// Counters of engines replaced by a parameter change.
     stats_before: FcEngineStats,
     own: Peer,
-    rc_loss_at: Option<f64>,
-    rc_back_at: Option<f64>,
+    outages: Vec<(f64, Option<f64>)>,
     duration: f64,
     receiver_ok: bool,
     /// Channels 1–8 of the control applied now (none outside companion
@@ -188,8 +192,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         cfg,
         stats_before: FcEngineStats::default(),
         own: o.own,
-        rc_loss_at: o.rc_loss_at,
-        rc_back_at: o.rc_back_at,
+        outages: o.outages,
         duration: o.duration,
         receiver_ok: true,
         applied: None,
@@ -243,7 +246,10 @@ impl Daemon {
 
     /// The scheduled receiver state at `t` seconds.
     fn receiver_at(&self, t: f64) -> bool {
-        !(self.rc_loss_at.is_some_and(|l| t >= l) && self.rc_back_at.is_none_or(|b| t < b))
+        !self
+            .outages
+            .iter()
+            .any(|&(lost, back)| t >= lost && back.is_none_or(|b| t < b))
     }
 
     fn update_receiver(&mut self, log: &mut Log) {
@@ -258,6 +264,7 @@ impl Daemon {
             log.line("receiver: signal back");
         } else {
             self.report.rc_lost_at = Some(t);
+            self.report.outages += 1;
             log.line("receiver: signal lost (failsafe)");
         }
         self.events
@@ -267,8 +274,9 @@ impl Daemon {
     /// When the scheduled receiver state next changes.
     fn next_receiver_change(&self) -> Option<Instant> {
         let t = self.clock.secs();
-        [self.rc_loss_at, self.rc_back_at]
-            .into_iter()
+        self.outages
+            .iter()
+            .flat_map(|&(lost, back)| [Some(lost), back])
             .flatten()
             .filter(|&at| at > t)
             .map(|at| Instant((at * 1e6) as u64))
@@ -328,10 +336,10 @@ impl Daemon {
         };
         log.line(&format!("MODE CHANGE -> {mode} ({why})"));
         self.events.emit("mode", json!({"mode": mode}));
-        if a == Authority::Companion && self.report.handover.is_none() {
-            if let Some(lost) = self.report.rc_lost_at {
+        if a == Authority::Companion {
+            if let Some(lost) = self.report.rc_lost_at.take() {
                 let ms = (t - lost) * 1000.0;
-                self.report.handover = Some(t - lost);
+                self.report.handovers.push(t - lost);
                 log.line(&format!("handover {ms:.0} ms after the receiver failed"));
                 self.events
                     .emit("handover", json!({"ms": ms.round() as u64}));

@@ -124,6 +124,40 @@ pub fn sign_key(s: &str) -> Result<String, String> {
     }
 }
 
+/// The receiver failures of `fbwag fc-sim`: the k-th `--rc-back-at` ends
+/// the k-th `--rc-loss-at` (the last failure may stay open); in order, each
+/// return after its failure and before the next failure.
+pub fn outages(lost: &[f64], back: &[f64]) -> Result<Vec<(f64, Option<f64>)>, String> {
+    if back.len() > lost.len() || back.len() + 1 < lost.len() {
+        return Err(format!(
+            "{} --rc-loss-at and {} --rc-back-at: give one return per failure (the last may be left out)",
+            lost.len(),
+            back.len()
+        ));
+    }
+    let outages: Vec<(f64, Option<f64>)> = lost
+        .iter()
+        .enumerate()
+        .map(|(k, &l)| (l, back.get(k).copied()))
+        .collect();
+    let mut end = f64::NEG_INFINITY;
+    for &(l, b) in &outages {
+        if l < end {
+            return Err(format!(
+                "the failure at {l} s starts before the previous one ended"
+            ));
+        }
+        match b {
+            Some(b) if b <= l => {
+                return Err(format!("--rc-back-at {b} is not after --rc-loss-at {l}"))
+            }
+            Some(b) => end = b,
+            None => end = f64::INFINITY,
+        }
+    }
+    Ok(outages)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,36 +208,28 @@ mod tests {
     }
 }
 
-/// The receiver failures of `fbwag fc-sim`: the k-th `--rc-back-at` ends
-/// the k-th `--rc-loss-at` (the last failure may stay open); in order, each
-/// return after its failure and before the next failure.
-pub fn outages(lost: &[f64], back: &[f64]) -> Result<Vec<(f64, Option<f64>)>, String> {
-    if back.len() > lost.len() || back.len() + 1 < lost.len() {
-        return Err(format!(
-            "{} --rc-loss-at and {} --rc-back-at: give one return per failure (the last may be left out)",
-            lost.len(),
-            back.len()
-        ));
+#[cfg(test)]
+mod outage_tests {
+    use super::outages;
+
+    #[test]
+    fn failures_pair_with_returns_in_order() {
+        assert_eq!(
+            outages(&[1.0, 5.0], &[3.0]),
+            Ok(vec![(1.0, Some(3.0)), (5.0, None)])
+        );
+        assert!(
+            outages(&[1.0], &[1.0]).is_err(),
+            "a return after its failure"
+        );
+        assert!(outages(&[1.0, 2.0], &[3.0, 4.0]).is_err(), "no overlap");
+        assert!(
+            outages(&[1.0], &[2.0, 3.0]).is_err(),
+            "one return per failure"
+        );
+        assert!(
+            outages(&[1.0, 2.0, 3.0], &[1.5]).is_err(),
+            "only the last open"
+        );
     }
-    let outages: Vec<(f64, Option<f64>)> = lost
-        .iter()
-        .enumerate()
-        .map(|(k, &l)| (l, back.get(k).copied()))
-        .collect();
-    let mut end = f64::NEG_INFINITY;
-    for &(l, b) in &outages {
-        if l < end {
-            return Err(format!(
-                "the failure at {l} s starts before the previous one ended"
-            ));
-        }
-        match b {
-            Some(b) if b <= l => {
-                return Err(format!("--rc-back-at {b} is not after --rc-loss-at {l}"))
-            }
-            Some(b) => end = b,
-            None => end = f64::INFINITY,
-        }
-    }
-    Ok(outages)
 }

@@ -4,6 +4,9 @@ reports it: "handover N ms after the receiver failed"), measured in one
 session over several runs of each set-up, all on 127.0.0.1 UDP:
 
   direct            fc-sim --udpout--> fbwag cc
+  router            fc-sim --> fbwag router --> fbwag cc
+  cc-routing        fc-sim --> fbwag cc --out--> a ground-station port (the
+                    companion routing while it delegates)
   mavproxy          fc-sim --> MAVProxy (default dialect, no key) --> fbwag cc
   mavproxy-signed   fc-sim (signed, --require-signed) --> MAVProxy
                     (--dialect=fbwag, signing key) --> fbwag cc (signed)
@@ -67,13 +70,27 @@ def one_run(fbwag, setup, home):
         if setup == "mavproxy-signed":
             fc_sign = ["--sign-key", KEY_HEX, "--require-signed"]
             cc_sign = ["--sign-key", KEY_HEX]
+        cc_out = []
+        if setup == "cc-routing":
+            # A ground station's port: nobody listens, the companion routes
+            # everything the FC says to it.
+            cc_out = ["--out", "udpout:127.0.0.1:%d" % free_port()]
         cc = subprocess.Popen([fbwag, "cc", "--link", "udpin:127.0.0.1:%d" % p_cc,
-                               "--duration", "30"] + cc_sign,
+                               "--duration", "30"] + cc_sign + cc_out,
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         procs.append(cc)
-        if setup == "direct":
+        if setup in ("direct", "cc-routing"):
             time.sleep(0.3)
             fc_port = p_cc
+        elif setup == "router":
+            # The router's FC side listens on p_fc; its companion side
+            # sends to the companion's udpin.
+            router = subprocess.Popen([fbwag, "router", "udpin:127.0.0.1:%d" % p_fc,
+                                       "udpout:127.0.0.1:%d" % p_cc, "--duration", "30"],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            procs.append(router)
+            time.sleep(0.3)
+            fc_port = p_fc
         else:
             extra = [] if setup == "mavproxy" else [
                 "--dialect=fbwag", "--cmd=signing key %s" % PASSPHRASE]
@@ -98,7 +115,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fbwag", required=True, help="path of the fbwag binary")
     ap.add_argument("--runs", type=int, default=7)
-    ap.add_argument("--setups", default="direct,mavproxy,mavproxy-signed")
+    ap.add_argument("--setups", default="direct,router,cc-routing,mavproxy,mavproxy-signed")
     args = ap.parse_args()
     setups = args.setups.split(",")
     results = {s: [] for s in setups}

@@ -204,6 +204,31 @@ enum State {
 }
 
 /// The companion computer's state machine.
+///
+/// Inputs are typed protocol events (the engine, [`crate::engine::CcEngine`],
+/// makes them from the trusted FC's frames).
+///
+/// ```
+/// use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
+/// use fbwag_delegation::{Instant, Status};
+///
+/// let mut cc = Companion::new(CcConfig::default());
+/// let lost = CcInput::Notice { status: Status::RC_LOST, timestamp: 1100 };
+/// cc.handle_input(Instant::from_millis(1105), lost);
+/// let actions: Vec<_> = std::iter::from_fn(|| cc.poll_action()).collect();
+/// // It acknowledges the event, starts controlling, and its first control
+/// // message is due at once.
+/// assert_eq!(actions[0], CcAction::SendNotice {
+///     status: Status::CC_TAKEOVER_CONFIRMED,
+///     timestamp: 1100,
+/// });
+/// assert!(actions.contains(&CcAction::SendControl));
+/// assert_eq!(cc.state(), CcState::Controlling);
+/// // It believes it is in control only once the FC confirms.
+/// assert!(!cc.believes_in_control(Instant::from_millis(1105)));
+/// cc.handle_input(Instant::from_millis(1110), CcInput::TakeoverConfirmed { seq: 7, event: 1100 });
+/// assert!(cc.believes_in_control(Instant::from_millis(1110)));
+/// ```
 #[derive(Debug, Clone)]
 pub struct Companion {
     cfg: CcConfig,

@@ -8,6 +8,18 @@ use fbwag_dialect::dialects::common::{ManualControl, RcChannelsOverride, SetAtti
 use fbwag_dialect::{Message, MessageView};
 
 /// One control message of the companion.
+///
+/// ```
+/// use fbwag_delegation::control::Control;
+/// use fbwag_delegation::Peer;
+///
+/// let fc = Peer::new(1, 1);
+/// // An autonomy wrote its own ids; the companion re-addresses to its FC.
+/// let c = Control::rc(Peer::new(9, 9), [1600, 1500, 1700, 1500, 0, 0, 0, 0]).addressed_to(fc);
+/// assert!(c.addresses(fc));
+/// assert_eq!(c.rc_channels().unwrap()[0], 1600);
+/// assert_eq!(c.name(), "RC_CHANNELS_OVERRIDE");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Control {
     /// RC_CHANNELS_OVERRIDE: channel values in µs; per MAVLink, 0 releases a

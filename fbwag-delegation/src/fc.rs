@@ -221,6 +221,26 @@ struct HandBack {
 }
 
 /// The flight controller's state machine.
+///
+/// Inputs are typed protocol events (the engine, [`crate::engine::FcEngine`],
+/// makes them from trusted frames); actions say what to send and who flies.
+///
+/// ```
+/// use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
+/// use fbwag_delegation::{Instant, Status};
+///
+/// let mut fc = FlightController::new(FcConfig::default());
+/// // Two bad receiver samples at 10 Hz: RC is lost; the FC asks the
+/// // companion, stamping the event with its milliseconds since boot.
+/// fc.handle_input(Instant::from_millis(1000), FcInput::RcSample { receiver_ok: false });
+/// fc.handle_input(Instant::from_millis(1100), FcInput::RcSample { receiver_ok: false });
+/// let actions: Vec<_> = std::iter::from_fn(|| fc.poll_action()).collect();
+/// assert_eq!(actions[1], FcAction::SendNotice { status: Status::RC_LOST, timestamp: 1100 });
+/// // The companion acknowledges event 1100: companion control.
+/// let ack = FcInput::Notice { status: Status::CC_TAKEOVER_CONFIRMED, timestamp: 1100 };
+/// fc.handle_input(Instant::from_millis(1150), ack);
+/// assert_eq!(fc.authority(), Authority::Companion);
+/// ```
 #[derive(Debug, Clone)]
 pub struct FlightController {
     cfg: FcConfig,

@@ -33,6 +33,31 @@ pub enum CcOutput {
     /// The FC was heard (first time, or again after [`CcOutput::FcLost`]).
     FcFound,
     /// The FC has been silent for its timeout.
+    ///
+    /// ```
+    /// use fbwag_delegation::cc::CcConfig;
+    /// use fbwag_delegation::engine::{CcEngine, CcOutput};
+    /// use fbwag_delegation::{wire, Instant, Peer};
+    /// use fbwag_delegation::fc::Authority;
+    /// use fbwag_dialect::{encode, Frame, Header, Message, Version};
+    ///
+    /// let mut cc = CcEngine::new(CcConfig::default(), Instant::ZERO)?;
+    /// // One FC heartbeat at 1 s, then silence.
+    /// let hb = Message::Heartbeat(wire::fc_heartbeat(Authority::Pilot));
+    /// let mut buf = [0u8; 280];
+    /// let h = Header { seq: 0, sysid: 1, compid: 1 };
+    /// let n = encode(Version::V2, h, &hb, None, &mut buf).unwrap();
+    /// let frame = Frame::new_checked(&buf[..n]).unwrap();
+    /// let _ = cc.handle_frame(Instant::from_millis(1000), &frame, false);
+    /// let mut events = Vec::new();
+    /// while let Some(t) = cc.poll_timeout().filter(|t| *t <= Instant::from_millis(5000)) {
+    ///     cc.handle_timeout(t);
+    ///     while let Some(out) = cc.poll_output() { events.push(out) }
+    /// }
+    /// while let Some(out) = cc.poll_output() { events.push(out) }
+    /// assert!(events.contains(&CcOutput::FcLost), "3 s after its last frame");
+    /// # Ok::<(), fbwag_delegation::ConfigError>(())
+    /// ```
     FcLost,
     /// The FC rebooted (its event ids restarted); its old events are
     /// forgotten, and the companion answers the new boot's notices.

@@ -803,6 +803,20 @@ impl World {
 }
 
 /// Runs one trial.
+///
+/// ```
+/// use fbwag_delegation::fc::Authority;
+/// use fbwag_delegation::sim::{run, Scenario, Trial};
+///
+/// // The paper's Test 2 over a link losing 10 % of the frames each way.
+/// let outcome = run(&Trial::new(Scenario::RcLoss, 0.1, 42));
+/// assert!(outcome.violations.is_empty());
+/// assert!(!outcome.false_takeover);
+/// if outcome.success {
+///     assert_eq!(outcome.final_authority, Authority::Companion);
+///     println!("handover in {:?}", outcome.response.unwrap());
+/// }
+/// ```
 pub fn run(trial: &Trial) -> Outcome {
     let end = match trial.scenario {
         Scenario::NormalRc => Instant::from_millis(30_000),

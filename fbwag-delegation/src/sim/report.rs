@@ -79,6 +79,16 @@ impl Row {
 
 /// Runs `trials` trials built by `make(seed)`, seeds `seed..seed+trials`,
 /// on all cores; the result does not depend on the number of threads.
+///
+/// ```
+/// use fbwag_delegation::sim::report::run_many;
+/// use fbwag_delegation::sim::{Scenario, Trial};
+///
+/// let s = Scenario::MessageLoss;
+/// let row = run_many(s, 0.5, 200, 1, |seed| Trial::new(s, 0.5, seed));
+/// assert_eq!(row.false_takeovers, 0);
+/// println!("{:.1} % handed over, p50 {:?} ms", row.success_rate() * 100.0, row.quantile_ms(0.5));
+/// ```
 pub fn run_many(
     scenario: Scenario,
     loss: f64,

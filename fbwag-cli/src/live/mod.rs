@@ -5,7 +5,7 @@
 //! Both daemons drive the protocol engines of `fbwag_delegation::engine`,
 //! the very code the simulator runs: which frames count, who is trusted and
 //! which control is applied is decided there. This module only moves bytes
-//! and time ([`link::Link`]) and reports ([`Events`], [`Log`]).
+//! and time ([`net`]) and reports ([`Events`], [`Log`]).
 
 pub mod cc;
 pub mod demo;

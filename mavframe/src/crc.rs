@@ -204,6 +204,64 @@ pub fn frame_crc(bytes: &[u8], crc_extra: u8) -> u16 {
     byte(crc, crc_extra)
 }
 
+/// Most bytes a frame checksum covers: a MAVLink 2 header after its start
+/// byte (9 bytes) and a 255-byte payload. CRC_EXTRA is folded separately.
+pub(crate) const MAX_COVERED: usize = 9 + 255;
+
+/// `ADVANCE[k][i]`: the register holding `1 << i` after `k` zero bytes.
+///
+/// The register update is linear over GF(2) in (register, byte), so a
+/// register `x` after `k` zero bytes is the xor of the columns of its set
+/// bits; [`between`] builds on it. 265 × 16 entries (8.3 KiB), built at
+/// compile time; only the parser's recovery path reads them.
+static ADVANCE: [[u16; 16]; MAX_COVERED + 1] = advance_tables();
+
+const fn advance_tables() -> [[u16; 16]; MAX_COVERED + 1] {
+    let mut t = [[0u16; 16]; MAX_COVERED + 1];
+    let mut i = 0;
+    while i < 16 {
+        t[0][i] = 1 << i;
+        i += 1;
+    }
+    let mut k = 1;
+    while k <= MAX_COVERED {
+        let mut i = 0;
+        while i < 16 {
+            let r = t[k - 1][i];
+            t[k][i] = (r >> 8) ^ TABLES[0][(r & 0xFF) as usize];
+            i += 1;
+        }
+        k += 1;
+    }
+    t
+}
+
+/// Folds one byte into a register: the step [`between`]'s prefix states are
+/// made of.
+#[inline(always)]
+pub(crate) fn step(crc: u16, b: u8) -> u16 {
+    byte(crc, b)
+}
+
+/// The checksum, from MAVLink's initial value, of the `k` bytes between two
+/// prefix states (`k` ≤ [`MAX_COVERED`]): `before` is a register after some
+/// bytes, `after` the same register after `k` more, both from any common
+/// start. Linearity makes it `A^k · (0xFFFF ⊕ before) ⊕ after`, where `A^k`
+/// is `k` zero bytes: the checksum of any stretch of a window costs 16
+/// table columns once the window's prefix states are known, however many
+/// candidate frames overlap in it. `None` when `k` is out of range.
+#[inline]
+pub(crate) fn between(before: u16, after: u16, k: usize) -> Option<u16> {
+    let cols = ADVANCE.get(k)?;
+    let x = 0xFFFF ^ before;
+    let mut acc = after;
+    for (i, col) in cols.iter().enumerate() {
+        // Branch-free: the column if bit i of x is set.
+        acc ^= col & 0u16.wrapping_sub((x >> i) & 1);
+    }
+    Some(acc)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -294,5 +352,31 @@ mod tests {
             extra.digest(&[0x32]);
             assert_eq!(frame_crc(&data[..len], 0x32), extra.get_crc());
         }
+    }
+
+    #[test]
+    fn between_two_prefix_states_is_the_checksum_of_the_bytes_between() {
+        // Prefix states from an arbitrary start (0 and 0x1234: the start
+        // cancels out), every window of every length up to the longest.
+        let mut data = [0u8; 600];
+        pseudo_random(&mut data);
+        data[100..140].fill(0xFD);
+        for start in [0u16, 0x1234] {
+            let mut prefix = [0u16; 601];
+            prefix[0] = start;
+            for (i, &b) in data.iter().enumerate() {
+                prefix[i + 1] = step(prefix[i], b);
+            }
+            for s in (0..300).step_by(7) {
+                for k in 0..=MAX_COVERED {
+                    assert_eq!(
+                        between(prefix[s], prefix[s + k], k),
+                        Some(oracle(&data[s..s + k])),
+                        "start {start:#x} at {s} length {k}"
+                    );
+                }
+            }
+        }
+        assert_eq!(between(0, 0, MAX_COVERED + 1), None);
     }
 }

@@ -1,0 +1,408 @@
+//! What the parser remembers about the bytes after its current candidate
+//! frame, so that each input byte costs a bounded amount of work, whatever
+//! the input.
+//!
+//! The parser decides about one candidate (a start byte) at a time and,
+//! when it rejects one, resumes at the next start byte. Two of its
+//! decisions read far past the candidate, and on input dense in start bytes
+//! every candidate would read the same bytes again:
+//!
+//! - the checksum of a candidate of a known message covers up to 264 bytes;
+//! - a candidate of an unknown id is taken only if no good frame of a known
+//!   id starts inside it: up to 279 positions, each a checksum.
+//!
+//! [`Memo`] answers both in amortised constant time per byte:
+//!
+//! - **Checksums.** The first checksum over fresh bytes is computed directly
+//!   (the fast slice-by-16 path, as before: a good frame costs what it did).
+//!   A checksum over bytes an earlier one already covered (a candidate
+//!   inside a rejected one) comes from *prefix states* instead: the CRC
+//!   register after every position of the window, each computed once, one
+//!   byte step per position. The CRC is affine over GF(2), so the checksum
+//!   of any stretch is a 16-column product of its two end states
+//!   ([`crc::between`]). Direct checksums never overlap (each starts at or
+//!   after the end of the previous one) and prefix states are computed once
+//!   per position, so checksumming costs at most two byte steps per byte.
+//! - **Good known frames inside a candidate.** Whether a good frame of a
+//!   known id starts at a position depends on the bytes only, so each
+//!   position is classified when the scan first reaches it (a *frontier*
+//!   that only moves forward), and the answer is kept in a bit ring: good,
+//!   or *undecided* (its frame is not whole yet). A position that can still
+//!   change waits in a list keyed by the stream position at which it can
+//!   (its header's or its frame's end), and is classified again when the
+//!   bytes reach it: at most three times in all. "Is there a good frame in
+//!   (candidate, end)" and "the first undecided one" are then searches of
+//!   at most five words of the rings.
+//!
+//! Stream positions are absolute (`u64`, bytes pushed before them); the
+//! rings index them modulo their size, which exceeds the span of positions
+//! alive at once (see the constants).
+
+use super::msg_id;
+use crate::crc;
+use crate::frame::{
+    frame_len, Frame, FrameError, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN, STX_V1,
+    STX_V2,
+};
+use crate::message::Dialect;
+
+/// Prefix states kept. A checksum asked for while the candidate is at `c`
+/// starts after a position inside the candidate (before `c + 280`) and
+/// covers at most 264 bytes: live states span less than 545 positions.
+const PREFIX_RING: usize = 1024;
+const PREFIX_MASK: u64 = PREFIX_RING as u64 - 1;
+
+/// Positions of the inside scan (inside the candidate: fewer than
+/// [`MAX_FRAME_LEN`]) and their wake-up positions (at most a frame after
+/// the bytes available, which are after those positions).
+const SCAN_RING: usize = 512;
+const SCAN_MASK: u64 = SCAN_RING as u64 - 1;
+const SCAN_WORDS: usize = SCAN_RING / 64;
+
+const _: () = assert!(PREFIX_RING > 2 * MAX_FRAME_LEN && SCAN_RING > MAX_FRAME_LEN + 10);
+
+/// Whether a good frame of a known id starts inside a candidate (after its
+/// first byte, before the end asked about).
+#[derive(Debug, PartialEq, Eq)]
+pub(super) enum Inside {
+    Yes,
+    No,
+    /// A position inside may still start one: the first such needs this
+    /// many bytes (counted from the candidate's start byte) to decide.
+    Undecided(usize),
+}
+
+/// What the bytes available say about one position.
+enum Class {
+    /// No good frame of a known id starts here, whatever follows.
+    NotGood,
+    /// A whole frame of a known id with a good checksum starts here.
+    Good,
+    /// Not decided yet; `undecided` when it counts as such for the parser's
+    /// rules (see [`Memo::classify`]); decided again once the stream
+    /// reaches `wake`.
+    Pending { undecided: bool, wake: u64 },
+}
+
+/// See the module documentation. About 4.2 KiB.
+pub(super) struct Memo {
+    /// `prefix[x % PREFIX_RING]`: the CRC register after the bytes from the
+    /// start of the current run of prefix states up to stream position `x`
+    /// (exclusive), for `x` up to `prefix_end`.
+    prefix: [u16; PREFIX_RING],
+    /// End of the prefix states; the run is dead when it is not after the
+    /// current candidate.
+    prefix_end: u64,
+    /// End of the last checksum computed directly: the next direct one
+    /// starts at or after it.
+    direct_end: u64,
+    /// Positions before it (and after the candidate) are classified.
+    frontier: u64,
+    /// A good known frame starts at the position (bit ring).
+    good: [u64; SCAN_WORDS],
+    /// The position is undecided (bit ring).
+    undecided: [u64; SCAN_WORDS],
+    /// Lists of pending positions by wake-up position: `wake_head[w % ring]`
+    /// is the first one's ring slot + 1 (0: none), `wake_next[slot]` the
+    /// next one's.
+    wake_head: [u16; SCAN_RING],
+    wake_next: [u16; SCAN_RING],
+    /// Wake-up positions up to this one have been handled.
+    woken: u64,
+    /// The largest wake-up position listed.
+    last_wake: u64,
+    /// Candidate position + 1 of the last unknown-id frame whose signature
+    /// failed: the verifier has not changed since (a change needs an
+    /// accepted frame, which moves the candidate), so it would fail again.
+    raw_signature_failed: u64,
+    /// Elementary steps taken: see [`super::Work::steps`].
+    pub(super) steps: u64,
+    /// Signatures checked (SHA-256): see [`super::Work::signatures`].
+    pub(super) signatures: u64,
+}
+
+impl Memo {
+    pub(super) const fn new() -> Self {
+        Memo {
+            prefix: [0; PREFIX_RING],
+            prefix_end: 0,
+            direct_end: 0,
+            frontier: 0,
+            good: [0; SCAN_WORDS],
+            undecided: [0; SCAN_WORDS],
+            wake_head: [0; SCAN_RING],
+            wake_next: [0; SCAN_RING],
+            woken: 0,
+            last_wake: 0,
+            raw_signature_failed: 0,
+            steps: 0,
+            signatures: 0,
+        }
+    }
+
+    /// Whether `frame`, at `bytes[rel..]` where `bytes[0]` is stream
+    /// position `at` (the current candidate), carries the checksum of its
+    /// message (`crc_extra`). The whole frame is in `bytes`.
+    #[inline(always)]
+    pub(super) fn crc_ok(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        rel: usize,
+        frame: &Frame<'_>,
+        crc_extra: u8,
+    ) -> bool {
+        let header = match frame.version() {
+            Version::V2 => HEADER_LEN_V2,
+            Version::V1 => HEADER_LEN_V1,
+        };
+        let covered = header - 1 + frame.payload_len();
+        let start = at + rel as u64 + 1;
+        let end = start + covered as u64;
+        if (self.prefix_end > at && start <= self.prefix_end) || start < self.direct_end {
+            return self.crc_by_prefix(bytes, at, start, end, crc_extra) == Some(frame.checksum());
+        }
+        self.direct_end = end;
+        self.steps += covered as u64;
+        frame.check_crc(crc_extra)
+    }
+
+    /// The checksum of stream positions `start..end` then `crc_extra`, from
+    /// prefix states, extending them to `end` first.
+    #[inline(never)]
+    fn crc_by_prefix(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        start: u64,
+        end: u64,
+        crc_extra: u8,
+    ) -> Option<u16> {
+        if self.prefix_end <= at {
+            // A new run, from just after the candidate: no checksum asked
+            // from now on starts before it.
+            self.prefix_end = at + 1;
+            self.prefix[slot_of(at + 1, PREFIX_MASK)] = 0;
+        }
+        if end > self.prefix_end {
+            let from = usize::try_from(self.prefix_end - at).ok()?;
+            let to = usize::try_from(end - at).ok()?;
+            let mut r = self.prefix[slot_of(self.prefix_end, PREFIX_MASK)];
+            let mut x = self.prefix_end;
+            for &b in bytes.get(from..to)? {
+                r = crc::step(r, b);
+                x += 1;
+                self.prefix[slot_of(x, PREFIX_MASK)] = r;
+            }
+            self.steps += end - self.prefix_end;
+            self.prefix_end = end;
+        }
+        let before = self.prefix[slot_of(start, PREFIX_MASK)];
+        let after = self.prefix[slot_of(end, PREFIX_MASK)];
+        let crc = crc::between(before, after, usize::try_from(end - start).ok()?)?;
+        Some(crc::step(crc, crc_extra))
+    }
+
+    /// Whether a good frame of a known id starts at a position after
+    /// `bytes[0]` (stream position `at`, the candidate) and before
+    /// `bytes[len]`, as far as `bytes` tells.
+    pub(super) fn inside<D: Dialect>(&mut self, bytes: &[u8], at: u64, len: usize) -> Inside {
+        let end = len.min(bytes.len());
+        self.wake::<D>(bytes, at);
+        self.scan::<D>(bytes, at, end);
+        let (from, to) = (at + 1, at + end as u64);
+        self.steps += 1;
+        if first_set(&self.good, from, to).is_some() {
+            return Inside::Yes;
+        }
+        match first_set(&self.undecided, from, to) {
+            Some(q) => Inside::Undecided(needed_at(bytes, (q - at) as usize)),
+            None => Inside::No,
+        }
+    }
+
+    /// Classifies again the pending positions whose wake-up position the
+    /// bytes have reached, each as of its wake-up position (so that what it
+    /// waits for next is at most a frame ahead of the positions handled).
+    fn wake<D: Dialect>(&mut self, bytes: &[u8], at: u64) {
+        let avail = at + bytes.len() as u64;
+        while self.woken < avail.min(self.last_wake) {
+            self.woken += 1;
+            let w = self.woken;
+            self.steps += 1;
+            let mut link = core::mem::take(&mut self.wake_head[slot_of(w, SCAN_MASK)]);
+            while link != 0 {
+                let slot = u64::from(link - 1);
+                link = self.wake_next[slot_of(slot, SCAN_MASK)];
+                // The position waiting: the one of this slot less than a
+                // ring before its wake-up position.
+                let q = w - (w.wrapping_sub(slot) & SCAN_MASK);
+                clear_bit(&mut self.undecided, q);
+                self.steps += 1;
+                // Positions before the candidate are of no more use.
+                if q > at {
+                    let upto = &bytes[..bytes.len().min((w - at) as usize)];
+                    let class = self.classify::<D>(upto, at, (q - at) as usize);
+                    self.record(q, class);
+                }
+            }
+        }
+        self.woken = self.woken.max(avail);
+    }
+
+    /// Classifies the positions from the frontier (or just after the
+    /// candidate) to `bytes[end]`, exclusive.
+    fn scan<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: usize) {
+        let from = self.frontier.max(at + 1);
+        let to = at + end as u64;
+        if from >= to {
+            return;
+        }
+        clear_range(&mut self.good, from, to);
+        clear_range(&mut self.undecided, from, to);
+        let lo = (from - at) as usize;
+        for (i, &b) in bytes[lo..end].iter().enumerate() {
+            if b == STX_V1 || b == STX_V2 {
+                let class = self.classify::<D>(bytes, at, lo + i);
+                self.record(at + (lo + i) as u64, class);
+            }
+        }
+        self.steps += to - from;
+        self.frontier = to;
+    }
+
+    /// What `bytes` (from the candidate at `at`) say about position
+    /// `at + rel`, a start byte: the rules of the parser's "known good frame
+    /// inside" check. Undecided are the positions whose header is not
+    /// whole, and those of a known id whose frame is not whole; a MAVLink 1
+    /// header shorter than its id byte counts as id 0.
+    fn classify<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Class {
+        let Some(inner) = bytes.get(rel..) else {
+            return Class::NotGood;
+        };
+        let q = at + rel as u64;
+        let v1 = inner.first() == Some(&STX_V1);
+        self.steps += 1;
+        match frame_len(inner) {
+            Ok(n) if inner.len() >= n => {
+                let f = Frame::from_delimited(&inner[..n]);
+                match D::meta(f.msg_id()) {
+                    Some(m) if self.crc_ok(bytes, at, rel, &f, m.crc_extra) => Class::Good,
+                    _ => Class::NotGood,
+                }
+            }
+            Ok(n) => {
+                let known = D::meta(msg_id(inner)).is_some();
+                if v1 && inner.len() < HEADER_LEN_V1 {
+                    // The id read as 0 changes when its byte comes.
+                    Class::Pending {
+                        undecided: known,
+                        wake: q + HEADER_LEN_V1 as u64,
+                    }
+                } else if known {
+                    Class::Pending {
+                        undecided: true,
+                        wake: q + n as u64,
+                    }
+                } else {
+                    Class::NotGood
+                }
+            }
+            Err(FrameError::Incomplete { .. }) => Class::Pending {
+                undecided: true,
+                // The length byte of MAVLink 1, the whole header of 2.
+                wake: q + if v1 { 2 } else { HEADER_LEN_V2 as u64 },
+            },
+            Err(_) => Class::NotGood,
+        }
+    }
+
+    fn record(&mut self, q: u64, class: Class) {
+        match class {
+            Class::NotGood => {}
+            Class::Good => set_bit(&mut self.good, q),
+            Class::Pending { undecided, wake } => {
+                if undecided {
+                    set_bit(&mut self.undecided, q);
+                }
+                let slot = slot_of(q, SCAN_MASK);
+                let head = &mut self.wake_head[slot_of(wake, SCAN_MASK)];
+                self.wake_next[slot] = *head;
+                // slot < SCAN_RING ≤ u16::MAX.
+                *head = slot as u16 + 1;
+                self.last_wake = self.last_wake.max(wake);
+            }
+        }
+    }
+
+    /// Whether the candidate at `at`, an unknown id whose signature was
+    /// checked, failed that check.
+    pub(super) fn raw_signature_failed(&self, at: u64) -> bool {
+        self.raw_signature_failed == at + 1
+    }
+
+    pub(super) fn set_raw_signature_failed(&mut self, at: u64) {
+        self.raw_signature_failed = at + 1;
+    }
+}
+
+/// Bytes needed (from `bytes[0]`) to decide about the undecided position
+/// `bytes[rel]`: its frame's length, or its header's while that is cut.
+fn needed_at(bytes: &[u8], rel: usize) -> usize {
+    match bytes.get(rel..).map(frame_len) {
+        Some(Ok(n)) | Some(Err(FrameError::Incomplete { needed: n })) => rel + n,
+        // Not undecided: cannot happen. More than is held keeps it waiting.
+        _ => bytes.len() + 1,
+    }
+}
+
+#[inline(always)]
+fn slot_of(x: u64, mask: u64) -> usize {
+    (x & mask) as usize
+}
+
+fn set_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {
+    let s = slot_of(x, SCAN_MASK);
+    bits[s / 64] |= 1 << (s % 64);
+}
+
+fn clear_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {
+    let s = slot_of(x, SCAN_MASK);
+    bits[s / 64] &= !(1 << (s % 64));
+}
+
+/// Calls `f(word index, mask)` for the ring words covering positions
+/// `from..to` (fewer than a ring), until it returns `Some`.
+fn for_words<T>(from: u64, to: u64, mut f: impl FnMut(usize, u64) -> Option<T>) -> Option<T> {
+    let mut x = from;
+    while x < to {
+        let s = slot_of(x, SCAN_MASK);
+        let bit = (s % 64) as u64;
+        let span = (64 - bit).min(to - x);
+        let mask = if span == 64 { !0 } else { (1u64 << span) - 1 } << bit;
+        if let Some(t) = f(s / 64, mask) {
+            return Some(t);
+        }
+        x += span;
+    }
+    None
+}
+
+/// The first position in `from..to` whose bit is set.
+fn first_set(bits: &[u64; SCAN_WORDS], from: u64, to: u64) -> Option<u64> {
+    let mut base = from;
+    for_words(from, to, |w, mask| {
+        let hit = bits[w] & mask;
+        let first = mask.trailing_zeros();
+        let found = (hit != 0).then(|| base + u64::from(hit.trailing_zeros() - first));
+        base += u64::from(mask.count_ones());
+        found
+    })
+}
+
+fn clear_range(bits: &mut [u64; SCAN_WORDS], from: u64, to: u64) {
+    for_words(from, to, |w, mask| {
+        bits[w] &= !mask;
+        None::<()>
+    });
+}

@@ -88,12 +88,11 @@ impl Dialect for AllKnown {
     }
 }
 
-/// A few ids known, made of start bytes and small numbers, id 0 not among
-/// them: most candidates are raw, and MAVLink 1 headers cut before their id
-/// byte read as an unknown id.
+/// A few ids known, made of start bytes and small numbers: most candidates
+/// are raw.
 struct Few;
-static FEW_IDS: [u32; 6] = [1, 2, 0xFD, 0xFE, 0xFD_FD, 0x01_FE_FD];
-static FEW_ROWS: [MessageMeta; 6] = {
+static FEW_IDS: [u32; 7] = [0, 1, 2, 0xFD, 0xFE, 0xFD_FD, 0x01_FE_FD];
+static FEW_ROWS: [MessageMeta; 7] = {
     let mut t = [MessageMeta {
         id: 0,
         name: "X",
@@ -103,9 +102,9 @@ static FEW_ROWS: [MessageMeta; 6] = {
         target_system_offset: None,
         target_component_offset: None,
         fields: &[],
-    }; 6];
+    }; 7];
     let mut i = 0;
-    while i < 6 {
+    while i < 7 {
         t[i].id = FEW_IDS[i];
         t[i].crc_extra = 7 * i as u8 + 1;
         i += 1;
@@ -116,6 +115,23 @@ impl Dialect for Few {
     type Message = ();
     type View<'a> = ();
     const MESSAGES: &'static [MessageMeta] = &FEW_ROWS;
+    fn parse(_: u32, _: &[u8]) -> Option<()> {
+        None
+    }
+    fn view(_: u32, _: &[u8]) -> Option<()> {
+        None
+    }
+}
+
+/// [`Few`] without id 0 (every real dialect has HEARTBEAT = 0).
+struct NoZero;
+impl Dialect for NoZero {
+    type Message = ();
+    type View<'a> = ();
+    const MESSAGES: &'static [MessageMeta] = &FEW_ROWS;
+    fn meta(id: u32) -> Option<&'static MessageMeta> {
+        FEW_ROWS[1..].iter().find(|m| m.id == id)
+    }
     fn parse(_: u32, _: &[u8]) -> Option<()> {
         None
     }
@@ -272,8 +288,16 @@ fn got(r: Option<fbwag_dialect::mavframe::parser::Received<'_, impl Dialect>>) -
 }
 
 /// Runs both parsers over `stream` in chunks of `chunk()` bytes, ending a
-/// datagram after a chunk when `boundary()` says so, and compares them
-/// after every call. Returns the frames.
+/// datagram after a chunk when `boundary()` says so. Returns the frames.
+///
+/// The frames, the counters and the bytes held must be the same after each
+/// end of datagram and at the end. In between, the new parser may be
+/// ahead, never behind: with a candidate cut by the end of a chunk the old
+/// one copied the bytes the candidate needed and returned, checking again
+/// only on the next call, while the new one decides with every byte it has
+/// (so a frame that was held back until the next chunk comes out now). So
+/// after each chunk, the old parser's frames so far must begin the new
+/// one's. Without chunks, every call must return the same.
 fn compare<D: Dialect>(
     stream: &[u8],
     policy: Policy,
@@ -282,46 +306,88 @@ fn compare<D: Dialect>(
     what: &str,
 ) -> Vec<Got> {
     let (mut new, mut old) = policy_parsers::<D>(policy);
-    let mut frames = Vec::new();
+    let (mut a_frames, mut b_frames) = (Vec::new(), Vec::new());
     let mut rest = stream;
-    let mut calls = 0;
-    let mut check = |a: Option<Got>, b: Option<Got>, new: &Parser<D>, old: &Reference<D>| {
-        calls += 1;
-        assert_eq!(a, b, "{what}: call {calls}: frames differ");
-        assert_eq!(new.stats(), old.stats(), "{what}: call {calls}: counters");
-        assert_eq!(new.pending(), old.pending(), "{what}: call {calls}: held");
-        a
+    let same = |new: &Parser<D>, old: &Reference<D>, a: &[Got], b: &[Got], at: &str| {
+        assert_eq!(a, b, "{what}: {at}: frames differ");
+        assert_eq!(new.stats(), old.stats(), "{what}: {at}: counters");
+        assert_eq!(new.pending(), old.pending(), "{what}: {at}: held");
     };
+    let mut chunks = 0;
     while !rest.is_empty() {
         let n = chunk().clamp(1, rest.len());
+        let whole = n == stream.len();
         let (mut a, tail) = rest.split_at(n);
         let mut b = a;
         rest = tail;
+        chunks += 1;
         loop {
             let x = got(new.next(&mut a));
             let y = old.next(&mut b);
-            assert_eq!(a.len(), b.len(), "{what}: input consumed differs");
-            match check(x, y, &new, &old) {
-                Some(f) => frames.push(f),
-                None => break,
+            if whole {
+                assert_eq!(x, y, "{what}: call by call");
+                assert_eq!(new.stats(), old.stats(), "{what}: call by call");
             }
+            if x.is_none() {
+                assert!(a.is_empty(), "{what}: input left");
+            }
+            let done = x.is_none() && y.is_none();
+            a_frames.extend(x);
+            b_frames.extend(y);
+            if done {
+                break;
+            }
+        }
+        if !a_frames.starts_with(&b_frames) {
+            let i = a_frames
+                .iter()
+                .zip(&b_frames)
+                .take_while(|(x, y)| x == y)
+                .count();
+            panic!(
+                "{what}: chunk {chunks}: the new parser's frames ({}) do not extend the old one's ({}): from {i}: {:02x?}\n vs {:02x?}",
+                a_frames.len(),
+                b_frames.len(),
+                a_frames.get(i..).map(|v| v.iter().map(|f| (f.0.len(), f.1, f.2)).collect::<Vec<_>>()),
+                b_frames.get(i..).map(|v| v.iter().map(|f| (f.0.len(), f.1, f.2)).collect::<Vec<_>>()),
+            );
         }
         if boundary() {
-            while let Some(f) = check(got(new.end_of_datagram()), old.flush(), &new, &old) {
-                frames.push(f);
+            while let Some(f) = got(new.end_of_datagram()) {
+                a_frames.push(f);
             }
+            while let Some(f) = old.flush() {
+                b_frames.push(f);
+            }
+            same(
+                &new,
+                &old,
+                &a_frames,
+                &b_frames,
+                &format!("datagram {chunks}"),
+            );
         }
     }
-    while let Some(f) = check(got(new.flush()), old.flush(), &new, &old) {
-        frames.push(f);
+    loop {
+        let x = got(new.flush());
+        let y = old.flush();
+        if rest.len() == stream.len() || chunks == 1 {
+            assert_eq!(x, y, "{what}: flush call by call");
+        }
+        a_frames.extend(x.clone());
+        b_frames.extend(y.clone());
+        if x.is_none() && y.is_none() {
+            break;
+        }
     }
+    same(&new, &old, &a_frames, &b_frames, "end");
     let links: Vec<_> = new
         .links()
         .iter()
         .map(|l| (l.sysid, l.compid, l.received, l.lost, l.gaps))
         .collect();
     assert_eq!(links, old.links(), "{what}: per-sender counters");
-    frames
+    a_frames
 }
 
 fn run<D: Dialect>(known: &[MessageMeta], seed: u64, trials: usize, size: usize) {
@@ -390,5 +456,114 @@ fn same_decisions_on_adversarial_patterns() {
                 compare::<Few>(&stream, policy, || chunk, || false, &what);
             }
         }
+    }
+}
+
+/// The one decision that changed. A MAVLink 1 header cut before its id
+/// byte, inside a raw candidate, used to be read as id 0: with a dialect
+/// without id 0 the candidate was then taken as soon as its next byte was a
+/// start byte, even when the MAVLink 1 frame it hides turns out whole and
+/// good once its bytes come, so that frame was lost, or not, depending on
+/// where a chunk ended. The new parser waits for the id byte: the same
+/// frames for every chunking.
+#[test]
+fn a_cut_mavlink1_header_inside_a_raw_frame_no_longer_depends_on_chunking() {
+    // A good MAVLink 1 frame of id 1 (known), sequence 0xFD.
+    let mut v1 = [0u8; 16];
+    let meta = FEW_ROWS[1];
+    let mut m = meta;
+    m.min_len = 1;
+    m.max_len = 1;
+    v1[6] = 0x33;
+    let h = Header {
+        seq: 0xFD,
+        sysid: 1,
+        compid: 1,
+    };
+    let n = finish(Version::V1, h, &m, 1, None, &mut v1).unwrap();
+    let v1 = &v1[..n];
+    // A raw frame of an unknown id whose "checksum" is the MAVLink 1
+    // frame's first two bytes (a raw frame's checksum cannot be checked).
+    let mut raw = vec![0xFD, 3, 0, 0, 0, 1, 1, 0x55, 0x55, 0x55, 9, 9, 9];
+    raw.extend_from_slice(&v1[..2]);
+    let stream: Vec<u8> = [&raw[..], &v1[2..], &[0xFE, 0x00][..]].concat();
+    let cut = raw.len() + 1; // the raw frame and its confirmation byte
+    let split = |n: usize| {
+        let mut first = true;
+        move || {
+            let c = if first { n } else { usize::MAX };
+            first = false;
+            c
+        }
+    };
+    let run_new = |chunk: &mut dyn FnMut() -> usize| {
+        let mut p = Parser::<NoZero>::new();
+        let mut out = Vec::new();
+        let mut rest = &stream[..];
+        while !rest.is_empty() {
+            let (mut c, tail) = rest.split_at(chunk().min(rest.len()));
+            rest = tail;
+            while let Some(r) = p.next(&mut c) {
+                out.push(r.frame.as_bytes().to_vec());
+            }
+        }
+        while let Some(r) = p.flush() {
+            out.push(r.frame.as_bytes().to_vec());
+        }
+        out
+    };
+    let whole = run_new(&mut split(usize::MAX));
+    assert!(whole.contains(&v1.to_vec()), "the good frame is found");
+    assert!(!whole.contains(&raw), "and the raw frame hiding it loses");
+    assert_eq!(run_new(&mut split(cut)), whole);
+    assert_eq!(run_new(&mut || 1), whole);
+    // The old parser lost it when a chunk ended right after the raw frame.
+    let run_old = |first: usize| {
+        let mut p = Reference::<NoZero>::new();
+        let (mut a, mut b) = stream.split_at(first.min(stream.len()));
+        let mut out = Vec::new();
+        while let Some(f) = p.next(&mut a) {
+            out.push(f.0);
+        }
+        while let Some(f) = p.next(&mut b) {
+            out.push(f.0);
+        }
+        while let Some(f) = p.flush() {
+            out.push(f.0);
+        }
+        out
+    };
+    assert_eq!(run_old(usize::MAX), whole);
+    let old_cut = run_old(cut);
+    assert!(old_cut.contains(&raw) && !old_cut.contains(&v1.to_vec()));
+}
+
+/// With that change, the new parser gives the same frames for every
+/// chunking in a dialect without id 0 too.
+#[test]
+fn same_frames_for_every_chunking_without_id_0() {
+    let mut rng = Rng(4);
+    for trial in 0..60 {
+        let stream = make_stream::<NoZero>(&mut rng, &FEW_ROWS[1..], 3000);
+        let parse = |chunk: &mut dyn FnMut() -> usize| {
+            let mut p = Parser::<NoZero>::new();
+            let mut out = Vec::new();
+            let mut rest = &stream[..];
+            while !rest.is_empty() {
+                let (mut c, tail) = rest.split_at(chunk().clamp(1, rest.len()));
+                rest = tail;
+                while let Some(r) = p.next(&mut c) {
+                    out.push(r.frame.as_bytes().to_vec());
+                }
+            }
+            while let Some(r) = p.flush() {
+                out.push(r.frame.as_bytes().to_vec());
+            }
+            (out, *p.stats())
+        };
+        let whole = parse(&mut || usize::MAX);
+        let mut c = Rng(trial + 11);
+        assert_eq!(parse(&mut || 1), whole, "trial {trial}: byte by byte");
+        assert_eq!(parse(&mut || 1 + c.below(40)), whole, "trial {trial}");
     }
 }

@@ -190,6 +190,10 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     /// Stream position (bytes pushed before it) of the first byte not
     /// consumed yet: the first byte held, or of the input when none is.
     pos: u64,
+    /// Bytes held that were pushed before the current call's input; once
+    /// they are all dropped, the rest held is a copy of the input just
+    /// taken, and the parser goes back to the input in place.
+    held_before: usize,
     /// What is known about the bytes after the candidate.
     memo: Memo,
     stats: Stats,
@@ -228,6 +232,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             len: 0,
             returned_from_buf: 0,
             pos: 0,
+            held_before: 0,
             memo: Memo::new(),
             stats: Stats::default(),
             links: [LinkStats::default(); MAX_TRACKED_LINKS],
@@ -281,6 +286,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         if !input.is_empty() {
             self.at_eof = false;
         }
+        let whole: &'i [u8] = input;
+        self.held_before = self.len;
         // Decide in the loop, borrow after it: the frame borrows either the
         // input or the buffer.
         enum Found {
@@ -313,6 +320,13 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                     Verdict::Skip(len) => self.drop_input(input, len),
                     Verdict::Reject => self.drop_input(input, 1),
                 }
+            } else if self.held_before == 0 {
+                // What is held was copied from `whole` (its older bytes are
+                // dropped): back to checking candidates in place, where a
+                // rejection does not go through the buffer.
+                let taken = whole.len() - input.len();
+                *input = whole.get(taken.saturating_sub(self.len)..).unwrap_or(input);
+                (self.head, self.len) = (0, 0);
             } else {
                 match self.check_at_buf() {
                     // Cannot happen (a need is always for more than is held);
@@ -398,6 +412,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     /// Forgets the first `n` bytes held.
     fn consume_held(&mut self, n: usize) {
+        self.held_before = self.held_before.saturating_sub(n);
         self.head += n;
         self.len -= n;
         self.pos += n as u64;
@@ -558,7 +573,7 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
     let frame = Frame::from_delimited(&bytes[..len]);
     let meta = D::meta(frame.msg_id());
     if let Some(m) = meta {
-        if !cx.memo.crc_ok(bytes, cx.at, 0, &frame, m.crc_extra) {
+        if !cx.memo.candidate_crc_ok(bytes, cx.at, &frame, m.crc_extra) {
             cx.stats.bad_crc += 1;
             return Verdict::Reject;
         }

@@ -78,6 +78,8 @@ enum Class {
     NotGood,
     /// A whole frame of a known id with a good checksum starts here.
     Good,
+    /// A whole frame of a known id with a bad checksum starts here.
+    BadCrc,
     /// Not decided yet; `undecided` when it counts as such for the parser's
     /// rules (see [`Memo::classify`]); decided again once the stream
     /// reaches `wake`.
@@ -98,8 +100,15 @@ pub(super) struct Memo {
     direct_end: u64,
     /// Positions before it (and after the candidate) are classified.
     frontier: u64,
+    /// Positions from it to the frontier are classified (the scan jumps
+    /// when the candidate passes the frontier).
+    scanned_from: u64,
     /// A good known frame starts at the position (bit ring).
     good: [u64; SCAN_WORDS],
+    /// A whole frame of a known id with a bad checksum starts at the
+    /// position (bit ring): with `good`, the verdict on the checksum when
+    /// the position becomes the candidate.
+    bad: [u64; SCAN_WORDS],
     /// The position is undecided (bit ring).
     undecided: [u64; SCAN_WORDS],
     /// Lists of pending positions by wake-up position: `wake_head[w % ring]`
@@ -128,7 +137,9 @@ impl Memo {
             prefix_end: 0,
             direct_end: 0,
             frontier: 0,
+            scanned_from: 0,
             good: [0; SCAN_WORDS],
+            bad: [0; SCAN_WORDS],
             undecided: [0; SCAN_WORDS],
             wake_head: [0; SCAN_RING],
             wake_next: [0; SCAN_RING],
@@ -165,6 +176,27 @@ impl Memo {
         self.direct_end = end;
         self.steps += covered as u64;
         frame.check_crc(crc_extra)
+    }
+
+    /// [`crc_ok`](Self::crc_ok) for the candidate itself (`bytes[0]`), from
+    /// the scan's verdict when an earlier candidate's scan classified it.
+    #[inline(always)]
+    pub(super) fn candidate_crc_ok(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        frame: &Frame<'_>,
+        crc_extra: u8,
+    ) -> bool {
+        if at >= self.scanned_from && at < self.frontier {
+            if test_bit(&self.good, at) {
+                return true;
+            }
+            if test_bit(&self.bad, at) {
+                return false;
+            }
+        }
+        self.crc_ok(bytes, at, 0, frame, crc_extra)
     }
 
     /// The checksum of stream positions `start..end` then `crc_extra`, from
@@ -253,12 +285,17 @@ impl Memo {
     /// Classifies the positions from the frontier (or just after the
     /// candidate) to `bytes[end]`, exclusive.
     fn scan<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: usize) {
-        let from = self.frontier.max(at + 1);
         let to = at + end as u64;
+        if self.frontier <= at {
+            self.frontier = at + 1;
+            self.scanned_from = at + 1;
+        }
+        let from = self.frontier;
         if from >= to {
             return;
         }
         clear_range(&mut self.good, from, to);
+        clear_range(&mut self.bad, from, to);
         clear_range(&mut self.undecided, from, to);
         let lo = (from - at) as usize;
         for (i, &b) in bytes[lo..end].iter().enumerate() {
@@ -273,9 +310,11 @@ impl Memo {
 
     /// What `bytes` (from the candidate at `at`) say about position
     /// `at + rel`, a start byte: the rules of the parser's "known good frame
-    /// inside" check. Undecided are the positions whose header is not
-    /// whole, and those of a known id whose frame is not whole; a MAVLink 1
-    /// header shorter than its id byte counts as id 0.
+    /// inside" check. Undecided are the positions whose header is not whole
+    /// (for MAVLink 1: up to its id byte), and those of a known id whose
+    /// frame is not whole. (Before, a MAVLink 1 header cut before its id
+    /// byte was read as id 0: with a dialect without id 0 the answer then
+    /// depended on where a chunk ended.)
     fn classify<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Class {
         let Some(inner) = bytes.get(rel..) else {
             return Class::NotGood;
@@ -288,18 +327,17 @@ impl Memo {
                 let f = Frame::from_delimited(&inner[..n]);
                 match D::meta(f.msg_id()) {
                     Some(m) if self.crc_ok(bytes, at, rel, &f, m.crc_extra) => Class::Good,
-                    _ => Class::NotGood,
+                    Some(_) => Class::BadCrc,
+                    None => Class::NotGood,
                 }
             }
+            Ok(_) if v1 && inner.len() < HEADER_LEN_V1 => Class::Pending {
+                // The id byte is not there yet: any id, known maybe.
+                undecided: true,
+                wake: q + HEADER_LEN_V1 as u64,
+            },
             Ok(n) => {
-                let known = D::meta(msg_id(inner)).is_some();
-                if v1 && inner.len() < HEADER_LEN_V1 {
-                    // The id read as 0 changes when its byte comes.
-                    Class::Pending {
-                        undecided: known,
-                        wake: q + HEADER_LEN_V1 as u64,
-                    }
-                } else if known {
+                if D::meta(msg_id(inner)).is_some() {
                     Class::Pending {
                         undecided: true,
                         wake: q + n as u64,
@@ -321,6 +359,7 @@ impl Memo {
         match class {
             Class::NotGood => {}
             Class::Good => set_bit(&mut self.good, q),
+            Class::BadCrc => set_bit(&mut self.bad, q),
             Class::Pending { undecided, wake } => {
                 if undecided {
                     set_bit(&mut self.undecided, q);
@@ -371,38 +410,37 @@ fn clear_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {
     bits[s / 64] &= !(1 << (s % 64));
 }
 
-/// Calls `f(word index, mask)` for the ring words covering positions
-/// `from..to` (fewer than a ring), until it returns `Some`.
-fn for_words<T>(from: u64, to: u64, mut f: impl FnMut(usize, u64) -> Option<T>) -> Option<T> {
+/// The first position in `from..to` (fewer than a ring) whose bit is set.
+#[inline]
+fn first_set(bits: &[u64; SCAN_WORDS], from: u64, to: u64) -> Option<u64> {
+    let mut x = from;
+    while x < to {
+        let s = slot_of(x, SCAN_MASK);
+        // The bits of positions x.. to the end of their word.
+        let rest = bits[s / 64] >> (s % 64);
+        if rest != 0 {
+            let q = x + u64::from(rest.trailing_zeros());
+            return (q < to).then_some(q);
+        }
+        x += 64 - (s % 64) as u64;
+    }
+    None
+}
+
+/// Clears the bits of positions `from..to` (fewer than a ring).
+fn clear_range(bits: &mut [u64; SCAN_WORDS], from: u64, to: u64) {
     let mut x = from;
     while x < to {
         let s = slot_of(x, SCAN_MASK);
         let bit = (s % 64) as u64;
         let span = (64 - bit).min(to - x);
         let mask = if span == 64 { !0 } else { (1u64 << span) - 1 } << bit;
-        if let Some(t) = f(s / 64, mask) {
-            return Some(t);
-        }
+        bits[s / 64] &= !mask;
         x += span;
     }
-    None
 }
 
-/// The first position in `from..to` whose bit is set.
-fn first_set(bits: &[u64; SCAN_WORDS], from: u64, to: u64) -> Option<u64> {
-    let mut base = from;
-    for_words(from, to, |w, mask| {
-        let hit = bits[w] & mask;
-        let first = mask.trailing_zeros();
-        let found = (hit != 0).then(|| base + u64::from(hit.trailing_zeros() - first));
-        base += u64::from(mask.count_ones());
-        found
-    })
-}
-
-fn clear_range(bits: &mut [u64; SCAN_WORDS], from: u64, to: u64) {
-    for_words(from, to, |w, mask| {
-        bits[w] &= !mask;
-        None::<()>
-    });
+fn test_bit(bits: &[u64; SCAN_WORDS], x: u64) -> bool {
+    let s = slot_of(x, SCAN_MASK);
+    bits[s / 64] & (1 << (s % 64)) != 0
 }

@@ -297,7 +297,9 @@ fn got(r: Option<fbwag_dialect::mavframe::parser::Received<'_, impl Dialect>>) -
 /// only on the next call, while the new one decides with every byte it has
 /// (so a frame that was held back until the next chunk comes out now). So
 /// after each chunk, the old parser's frames so far must begin the new
-/// one's. Without chunks, every call must return the same.
+/// one's. (The same holds of a raw candidate whose next byte rules it out
+/// while a position inside it is undecided: the old parser waited for that
+/// position first.)
 fn compare<D: Dialect>(
     stream: &[u8],
     policy: Policy,
@@ -316,7 +318,6 @@ fn compare<D: Dialect>(
     let mut chunks = 0;
     while !rest.is_empty() {
         let n = chunk().clamp(1, rest.len());
-        let whole = n == stream.len();
         let (mut a, tail) = rest.split_at(n);
         let mut b = a;
         rest = tail;
@@ -324,10 +325,6 @@ fn compare<D: Dialect>(
         loop {
             let x = got(new.next(&mut a));
             let y = old.next(&mut b);
-            if whole {
-                assert_eq!(x, y, "{what}: call by call");
-                assert_eq!(new.stats(), old.stats(), "{what}: call by call");
-            }
             if x.is_none() {
                 assert!(a.is_empty(), "{what}: input left");
             }
@@ -368,17 +365,11 @@ fn compare<D: Dialect>(
             );
         }
     }
-    loop {
-        let x = got(new.flush());
-        let y = old.flush();
-        if rest.len() == stream.len() || chunks == 1 {
-            assert_eq!(x, y, "{what}: flush call by call");
-        }
-        a_frames.extend(x.clone());
-        b_frames.extend(y.clone());
-        if x.is_none() && y.is_none() {
-            break;
-        }
+    while let Some(f) = got(new.flush()) {
+        a_frames.push(f);
+    }
+    while let Some(f) = old.flush() {
+        b_frames.push(f);
     }
     same(&new, &old, &a_frames, &b_frames, "end");
     let links: Vec<_> = new

@@ -208,32 +208,50 @@ pub fn frame_crc(bytes: &[u8], crc_extra: u8) -> u16 {
 /// byte (9 bytes) and a 255-byte payload. CRC_EXTRA is folded separately.
 pub(crate) const MAX_COVERED: usize = 9 + 255;
 
-/// `ADVANCE[k][i]`: the register holding `1 << i` after `k` zero bytes.
-///
-/// The register update is linear over GF(2) in (register, byte), so a
-/// register `x` after `k` zero bytes is the xor of the columns of its set
-/// bits; [`between`] builds on it. 265 × 16 entries (8.3 KiB), built at
-/// compile time; only the parser's recovery path reads them.
-static ADVANCE: [[u16; 16]; MAX_COVERED + 1] = advance_tables();
+/// A linear map of the 16-bit register, as four tables of 16 entries, one
+/// per nibble of its argument: `apply` xors the four entries.
+type NibbleMap = [[u16; 16]; 4];
 
-const fn advance_tables() -> [[u16; 16]; MAX_COVERED + 1] {
-    let mut t = [[0u16; 16]; MAX_COVERED + 1];
+/// `ADVANCE_LO[b]`: the register after `b` zero bytes (`b` < 16);
+/// `ADVANCE_HI[a]`: after `16 a` zero bytes (`16 a` ≤ [`MAX_COVERED`]).
+///
+/// The register update is linear over GF(2) in (register, byte), so `k`
+/// zero bytes are a linear map of the register, and `k = 16 a + b` is the
+/// map of `16 a` after the map of `b`: eight table loads for any `k` up to a
+/// frame's, from 4.2 KiB of tables built at compile time (only the parser's
+/// recovery path reads them). [`between`] builds on it.
+static ADVANCE_LO: [NibbleMap; 16] = nibble_maps(1);
+static ADVANCE_HI: [NibbleMap; MAX_COVERED / 16 + 1] = nibble_maps(16);
+
+/// `maps[i]`: the register after `i × unit` zero bytes, by nibbles.
+const fn nibble_maps<const N: usize>(unit: usize) -> [NibbleMap; N] {
+    let mut maps = [[[0u16; 16]; 4]; N];
     let mut i = 0;
-    while i < 16 {
-        t[0][i] = 1 << i;
+    while i < N {
+        let mut nib = 0;
+        while nib < 4 {
+            let mut v = 0;
+            while v < 16 {
+                let mut r = (v << (4 * nib)) as u16;
+                let mut step = 0;
+                while step < i * unit {
+                    r = (r >> 8) ^ TABLES[0][(r & 0xFF) as usize];
+                    step += 1;
+                }
+                maps[i][nib][v] = r;
+                v += 1;
+            }
+            nib += 1;
+        }
         i += 1;
     }
-    let mut k = 1;
-    while k <= MAX_COVERED {
-        let mut i = 0;
-        while i < 16 {
-            let r = t[k - 1][i];
-            t[k][i] = (r >> 8) ^ TABLES[0][(r & 0xFF) as usize];
-            i += 1;
-        }
-        k += 1;
-    }
-    t
+    maps
+}
+
+#[inline(always)]
+fn apply(map: &NibbleMap, x: u16) -> u16 {
+    let n = |i: usize| usize::from((x >> (4 * i)) & 0xF);
+    (map[0][n(0)] ^ map[1][n(1)]) ^ (map[2][n(2)] ^ map[3][n(3)])
 }
 
 /// Folds one byte into a register: the step [`between`]'s prefix states are
@@ -247,19 +265,14 @@ pub(crate) fn step(crc: u16, b: u8) -> u16 {
 /// prefix states (`k` ≤ [`MAX_COVERED`]): `before` is a register after some
 /// bytes, `after` the same register after `k` more, both from any common
 /// start. Linearity makes it `A^k · (0xFFFF ⊕ before) ⊕ after`, where `A^k`
-/// is `k` zero bytes: the checksum of any stretch of a window costs 16
-/// table columns once the window's prefix states are known, however many
+/// is `k` zero bytes: the checksum of any stretch of a window costs eight
+/// table loads once the window's prefix states are known, however many
 /// candidate frames overlap in it. `None` when `k` is out of range.
 #[inline]
 pub(crate) fn between(before: u16, after: u16, k: usize) -> Option<u16> {
-    let cols = ADVANCE.get(k)?;
-    let x = 0xFFFF ^ before;
-    let mut acc = after;
-    for (i, col) in cols.iter().enumerate() {
-        // Branch-free: the column if bit i of x is set.
-        acc ^= col & 0u16.wrapping_sub((x >> i) & 1);
-    }
-    Some(acc)
+    let hi = ADVANCE_HI.get(k / 16)?;
+    let lo = &ADVANCE_LO[k % 16];
+    Some(apply(hi, apply(lo, 0xFFFF ^ before)) ^ after)
 }
 
 #[cfg(test)]
@@ -377,6 +390,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(between(0, 0, MAX_COVERED + 1), None);
+        assert_eq!(between(0, 0, 16 * (MAX_COVERED / 16 + 1)), None);
     }
 }

@@ -288,6 +288,9 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         }
         let whole: &'i [u8] = input;
         self.held_before = self.len;
+        // The last verdict was a rejection: garbage, maybe dense in start
+        // bytes, where `reject_run` is the fast way through.
+        let mut rejected = false;
         // Decide in the loop, borrow after it: the frame borrows either the
         // input or the buffer.
         enum Found {
@@ -301,6 +304,14 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                     return None;
                 };
                 self.drop_input(input, start);
+                if core::mem::take(&mut rejected) {
+                    let n = reject_run::<D>(input, self.pos, &mut self.memo, &mut self.stats);
+                    if n > 0 {
+                        self.pos += n as u64;
+                        *input = &input[n..];
+                        continue;
+                    }
+                }
                 self.memo.steps += 1;
                 match self.check_at_input(input) {
                     Verdict::Need(_) => {
@@ -318,7 +329,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                         authenticated,
                     } => break Found::InInput(len, meta, authenticated),
                     Verdict::Skip(len) => self.drop_input(input, len),
-                    Verdict::Reject => self.drop_input(input, 1),
+                    Verdict::Reject => {
+                        self.drop_input(input, 1);
+                        rejected = true;
+                    }
                 }
             } else if self.held_before == 0 {
                 // What is held was copied from `whole` (its older bytes are
@@ -528,6 +542,44 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     }
 }
 
+/// Rejects, in one loop, the candidates at the start of `bytes` (a start
+/// byte) while each is a whole frame of a known id with a bad checksum, or
+/// has unknown incompatibility flags: what `check` would decide, with the
+/// same counters, minus its per-candidate plumbing. This is the bulk of
+/// garbage dense in start bytes, and the loop runs only after a rejection
+/// (good frames go straight to `check`). Returns the bytes dropped, up to
+/// the first candidate it leaves to `check` (or all of them).
+fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut Stats) -> usize {
+    let is_start = |b: &u8| *b == STX_V1 || *b == STX_V2;
+    let mut i = 0;
+    let (mut bad_crc, mut bad_flags) = (0u64, 0u64);
+    while let Some(rest) = bytes.get(i..).filter(|r| r.first().is_some_and(is_start)) {
+        match frame_len(rest) {
+            Ok(len) if len <= rest.len() => {
+                let frame = Frame::from_delimited(&rest[..len]);
+                let Some(m) = D::meta(frame.msg_id()) else {
+                    break;
+                };
+                if memo.candidate_crc_ok(rest, at + i as u64, &frame, m.crc_extra) {
+                    break;
+                }
+                bad_crc += 1;
+            }
+            Err(FrameError::UnknownIncompatFlags(_)) => bad_flags += 1,
+            _ => break,
+        }
+        i += 1 + rest[1..]
+            .iter()
+            .position(is_start)
+            .unwrap_or(rest.len() - 1);
+    }
+    stats.bad_crc += bad_crc;
+    stats.bad_incompat_flags += bad_flags;
+    stats.bytes_dropped += i as u64;
+    memo.steps += (i as u64) + bad_crc + bad_flags;
+    i
+}
+
 /// What a candidate check needs besides its bytes.
 struct Ctx<'a, const N: usize> {
     /// Stream position of the candidate (`bytes[0]`).
@@ -619,12 +671,18 @@ fn check_raw<D: Dialect, const N: usize>(
     cx: &mut Ctx<'_, N>,
 ) -> Option<Verdict> {
     let len = frame.as_bytes().len();
+    let checked = frame.is_signed() && cx.verifier.is_some();
+    if !checked && bytes.get(len).is_some_and(|&b| b != STX_V1 && b != STX_V2) {
+        // Not confirmed, and nothing can confirm it (no signature to
+        // check): rejected whatever is inside (before, a position inside
+        // still undecided made it wait first). Most garbage ends here.
+        return Some(Verdict::Reject);
+    }
     match cx.memo.inside::<D>(bytes, cx.at, len) {
         Inside::Yes => return Some(Verdict::Reject),
         Inside::Undecided(needed) if !cx.at_eof => return Some(Verdict::Need(needed)),
         Inside::Undecided(_) | Inside::No => {}
     }
-    let checked = frame.is_signed() && cx.verifier.is_some();
     // Checked once per candidate: while it waits for its next byte the
     // verifier cannot change (that needs an accepted frame).
     let authenticated = checked

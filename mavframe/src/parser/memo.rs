@@ -51,6 +51,11 @@ use crate::message::Dialect;
 /// covers at most 264 bytes: live states span less than 545 positions.
 const PREFIX_RING: usize = 1024;
 const PREFIX_MASK: u64 = PREFIX_RING as u64 - 1;
+/// Prefix states are computed this far past what a checksum needs...
+const PREFIX_AHEAD: u64 = 64;
+/// ...but never further than this past the candidate, so that the live
+/// states fit the ring.
+const PREFIX_REACH: u64 = 2 * MAX_FRAME_LEN as u64 + PREFIX_AHEAD;
 
 /// Positions of the inside scan (inside the candidate: fewer than
 /// [`MAX_FRAME_LEN`]) and their wake-up positions (at most a frame after
@@ -59,7 +64,7 @@ const SCAN_RING: usize = 512;
 const SCAN_MASK: u64 = SCAN_RING as u64 - 1;
 const SCAN_WORDS: usize = SCAN_RING / 64;
 
-const _: () = assert!(PREFIX_RING > 2 * MAX_FRAME_LEN && SCAN_RING > MAX_FRAME_LEN + 10);
+const _: () = assert!(PREFIX_RING as u64 > PREFIX_REACH && SCAN_RING > MAX_FRAME_LEN + 10);
 
 /// Whether a good frame of a known id starts inside a candidate (after its
 /// first byte, before the end asked about).
@@ -120,6 +125,10 @@ pub(super) struct Memo {
     woken: u64,
     /// The largest wake-up position listed.
     last_wake: u64,
+    /// Position + 1 of the last whole known frame found good by
+    /// [`Memo::candidate_crc_ok`]: asked again when the fast rejection loop
+    /// hands the candidate over.
+    good_candidate: u64,
     /// Candidate position + 1 of the last unknown-id frame whose signature
     /// failed: the verifier has not changed since (a change needs an
     /// accepted frame, which moves the candidate), so it would fail again.
@@ -145,6 +154,7 @@ impl Memo {
             wake_next: [0; SCAN_RING],
             woken: 0,
             last_wake: 0,
+            good_candidate: 0,
             raw_signature_failed: 0,
             steps: 0,
             signatures: 0,
@@ -188,6 +198,9 @@ impl Memo {
         frame: &Frame<'_>,
         crc_extra: u8,
     ) -> bool {
+        if self.good_candidate == at + 1 {
+            return true;
+        }
         if at >= self.scanned_from && at < self.frontier {
             if test_bit(&self.good, at) {
                 return true;
@@ -196,7 +209,11 @@ impl Memo {
                 return false;
             }
         }
-        self.crc_ok(bytes, at, 0, frame, crc_extra)
+        let ok = self.crc_ok(bytes, at, 0, frame, crc_extra);
+        if ok {
+            self.good_candidate = at + 1;
+        }
+        ok
     }
 
     /// The checksum of stream positions `start..end` then `crc_extra`, from
@@ -217,8 +234,14 @@ impl Memo {
             self.prefix[slot_of(at + 1, PREFIX_MASK)] = 0;
         }
         if end > self.prefix_end {
+            // Ahead of what is asked (a batch of bytes the next candidates'
+            // checksums will likely need): one tight loop, not one byte
+            // per candidate through memory.
+            let avail = at + bytes.len() as u64;
+            let upto = avail.min((end + PREFIX_AHEAD).max(self.prefix_end + PREFIX_AHEAD));
+            let upto = upto.min(at + PREFIX_REACH).max(end);
             let from = usize::try_from(self.prefix_end - at).ok()?;
-            let to = usize::try_from(end - at).ok()?;
+            let to = usize::try_from(upto - at).ok()?;
             let mut r = self.prefix[slot_of(self.prefix_end, PREFIX_MASK)];
             let mut x = self.prefix_end;
             for &b in bytes.get(from..to)? {
@@ -226,8 +249,8 @@ impl Memo {
                 x += 1;
                 self.prefix[slot_of(x, PREFIX_MASK)] = r;
             }
-            self.steps += end - self.prefix_end;
-            self.prefix_end = end;
+            self.steps += upto - self.prefix_end;
+            self.prefix_end = upto;
         }
         let before = self.prefix[slot_of(start, PREFIX_MASK)];
         let after = self.prefix[slot_of(end, PREFIX_MASK)];

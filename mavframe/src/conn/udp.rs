@@ -105,6 +105,10 @@ impl Transport for UdpIn {
             },
         )
     }
+
+    fn is_datagram(&self) -> bool {
+        true
+    }
 }
 
 /// `udpout:`: sends to one address from an ephemeral port and receives
@@ -164,5 +168,9 @@ impl Transport for UdpOut {
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
         Ok(recv_datagram(&self.socket, &mut self.mode, buf, timeout)?.map_or(0, |(n, _)| n))
+    }
+
+    fn is_datagram(&self) -> bool {
+        true
     }
 }

@@ -21,7 +21,22 @@ pub const ISSUE_PATTERN: &[u8] = &[0xfe, 0xfe, 0xfe, 0xfd, 0xfd, 0x00, 0x00, 0xf
 /// The worst repeating patterns `examples/parser_worst.rs` found (see
 /// BENCHMARKS.md, "Parser worst case"), with the policy they were found
 /// for (`true`: a key, unsigned frames refused).
-pub const FOUND: &[(&str, &[u8], bool)] = &[];
+pub const FOUND: &[(&str, &[u8], bool)] = &[
+    (
+        "found_a",
+        &[
+            0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0x0f, 0xfe, 0xfe, 0xfe,
+        ],
+        false,
+    ),
+    (
+        "found_b",
+        &[
+            0xfd, 0xfd, 0x00, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe,
+        ],
+        false,
+    ),
+];
 
 /// Deterministic pseudo-random bytes (xorshift).
 pub fn random(len: usize, seed: u64) -> Vec<u8> {

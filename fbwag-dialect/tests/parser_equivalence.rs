@@ -8,9 +8,12 @@
 // The FBWAG dialect's full message table is used.
 #![cfg(not(feature = "cc-subset"))]
 
+#[path = "support/dialects.rs"]
+mod dialects;
 #[path = "support/reference_parser.rs"]
 mod reference;
 
+use dialects::{row, AllKnown, Few, NoZero, ALL_ROWS, FEW_ROWS};
 use fbwag_dialect::mavframe::frame::{finish, Header, Version};
 use fbwag_dialect::mavframe::parser::Parser;
 use fbwag_dialect::mavframe::{Dialect, MessageMeta, Signer, Verifier};
@@ -35,108 +38,6 @@ impl Rng {
     }
     fn chance(&mut self, percent: usize) -> bool {
         self.below(100) < percent
-    }
-}
-
-fn row(id: u32, crc_extra: u8) -> MessageMeta {
-    MessageMeta {
-        id,
-        name: "X",
-        crc_extra,
-        min_len: 1,
-        max_len: 255,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    }
-}
-
-/// Every id known (CRC_EXTRA from the id's low byte): every candidate costs
-/// a checksum.
-struct AllKnown;
-static ALL_ROWS: [MessageMeta; 256] = {
-    let mut t = [MessageMeta {
-        id: 0,
-        name: "X",
-        crc_extra: 0,
-        min_len: 1,
-        max_len: 255,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    }; 256];
-    let mut i = 0;
-    while i < 256 {
-        t[i].id = i as u32;
-        t[i].crc_extra = (i as u8) ^ 0x5A;
-        i += 1;
-    }
-    t
-};
-impl Dialect for AllKnown {
-    type Message = ();
-    type View<'a> = ();
-    const MESSAGES: &'static [MessageMeta] = &[];
-    fn meta(id: u32) -> Option<&'static MessageMeta> {
-        Some(&ALL_ROWS[(id & 0xFF) as usize])
-    }
-    fn parse(_: u32, _: &[u8]) -> Option<()> {
-        None
-    }
-    fn view(_: u32, _: &[u8]) -> Option<()> {
-        None
-    }
-}
-
-/// A few ids known, made of start bytes and small numbers: most candidates
-/// are raw.
-struct Few;
-static FEW_IDS: [u32; 7] = [0, 1, 2, 0xFD, 0xFE, 0xFD_FD, 0x01_FE_FD];
-static FEW_ROWS: [MessageMeta; 7] = {
-    let mut t = [MessageMeta {
-        id: 0,
-        name: "X",
-        crc_extra: 0,
-        min_len: 1,
-        max_len: 255,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    }; 7];
-    let mut i = 0;
-    while i < 7 {
-        t[i].id = FEW_IDS[i];
-        t[i].crc_extra = 7 * i as u8 + 1;
-        i += 1;
-    }
-    t
-};
-impl Dialect for Few {
-    type Message = ();
-    type View<'a> = ();
-    const MESSAGES: &'static [MessageMeta] = &FEW_ROWS;
-    fn parse(_: u32, _: &[u8]) -> Option<()> {
-        None
-    }
-    fn view(_: u32, _: &[u8]) -> Option<()> {
-        None
-    }
-}
-
-/// [`Few`] without id 0 (every real dialect has HEARTBEAT = 0).
-struct NoZero;
-impl Dialect for NoZero {
-    type Message = ();
-    type View<'a> = ();
-    const MESSAGES: &'static [MessageMeta] = &FEW_ROWS;
-    fn meta(id: u32) -> Option<&'static MessageMeta> {
-        FEW_ROWS[1..].iter().find(|m| m.id == id)
-    }
-    fn parse(_: u32, _: &[u8]) -> Option<()> {
-        None
-    }
-    fn view(_: u32, _: &[u8]) -> Option<()> {
-        None
     }
 }
 
@@ -557,4 +458,53 @@ fn same_frames_for_every_chunking_without_id_0() {
         assert_eq!(parse(&mut || 1), whole, "trial {trial}: byte by byte");
         assert_eq!(parse(&mut || 1 + c.below(40)), whole, "trial {trial}");
     }
+}
+
+/// A caller that drops the rest of its input after a frame (it should pass
+/// it again) and goes on with other bytes, or ends the stream there: the
+/// parser remembers what it saw past the frame, and must not trust it for
+/// the other bytes. Every known frame it returns has its checksum, every
+/// call ends, in every dialect.
+#[test]
+fn dropping_input_after_a_frame_never_yields_a_bad_frame() {
+    fn go<D: Dialect>(known: &[MessageMeta], seed: u64) {
+        let mut rng = Rng(seed);
+        for trial in 0..40 {
+            let a = make_stream::<D>(&mut rng, known, 4000);
+            let b = make_stream::<D>(&mut rng, known, 4000);
+            let mut p = Parser::<D>::new();
+            let mut rest = &a[..];
+            let mut calls = 0;
+            while !rest.is_empty() {
+                let n = (1 + rng.below(600)).min(rest.len());
+                let mut chunk = &rest[..n];
+                rest = &rest[n..];
+                while let Some(r) = p.next(&mut chunk) {
+                    calls += 1;
+                    assert!(calls < 100_000, "trial {trial}: calls do not end");
+                    if let Some(m) = D::meta(r.frame.msg_id()) {
+                        assert!(r.frame.check_crc(m.crc_extra), "trial {trial}");
+                    }
+                    if rng.chance(30) {
+                        // Drop the rest of this chunk; go on with `b`'s
+                        // bytes (and sometimes end the stream first).
+                        chunk = &[];
+                        if rng.chance(50) {
+                            while p.flush().is_some() {}
+                        }
+                        let k = rng.below(b.len());
+                        rest = &b[k..(k + 600).min(b.len())];
+                    }
+                }
+            }
+            while let Some(r) = p.flush() {
+                if let Some(m) = D::meta(r.frame.msg_id()) {
+                    assert!(r.frame.check_crc(m.crc_extra), "trial {trial}");
+                }
+            }
+        }
+    }
+    go::<fbwag_dialect::Dialect>(fbwag_dialect::MESSAGES, 21);
+    go::<AllKnown>(&ALL_ROWS, 22);
+    go::<Few>(&FEW_ROWS, 23);
 }

@@ -301,6 +301,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             if self.len == 0 {
                 let Some(start) = input.iter().position(|&b| b == STX_V2 || b == STX_V1) else {
                     self.drop_input(input, input.len());
+                    if self.at_eof {
+                        // A flush has consumed everything: what follows is
+                        // another stream.
+                        self.memo.forget_from(self.pos);
+                    }
                     return None;
                 };
                 self.drop_input(input, start);
@@ -342,6 +347,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 *input = whole.get(taken.saturating_sub(self.len)..).unwrap_or(input);
                 (self.head, self.len) = (0, 0);
             } else {
+                if self.len < MAX_NEEDED && !input.is_empty() {
+                    // Whatever the candidate needs, with bytes enough after
+                    // it that what lies inside it is decided now.
+                    self.take_input(input, self.len);
+                }
                 match self.check_at_buf() {
                     // Cannot happen (a need is always for more than is held);
                     // rejecting keeps the loop making progress regardless.
@@ -406,16 +416,27 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         *input = &input[n..];
     }
 
-    /// Moves bytes of `input` to the buffer until `needed` are held; true
-    /// when `input` ran out first.
+    /// Moves bytes of `input` to the buffer until `needed` are held, and
+    /// more, up to the longest any candidate can need, when there is room
+    /// without moving the bytes held: the candidates after this one are
+    /// then decided without a check per byte copied. True when `input` ran
+    /// out before `needed`.
     fn take_input(&mut self, input: &mut &[u8], needed: usize) -> bool {
         // `needed` is at most MAX_NEEDED (< BUF_LEN); min() keeps this total.
-        let take = (needed.min(BUF_LEN) - self.len).min(input.len());
-        if self.head + self.len + take > BUF_LEN {
+        let needed = needed.min(MAX_NEEDED);
+        let must = (needed - self.len).min(input.len());
+        if self.head + self.len + must > BUF_LEN {
+            // More than BUF_LEN - MAX_NEEDED bytes were dropped since the
+            // bytes held last moved: at most MAX_NEEDED move.
             self.buf.copy_within(self.head..self.head + self.len, 0);
             self.memo.steps += self.len as u64;
             self.head = 0;
         }
+        let room = BUF_LEN - self.head - self.len;
+        let take = (MAX_NEEDED.saturating_sub(self.len))
+            .max(must)
+            .min(room)
+            .min(input.len());
         let end = self.head + self.len;
         self.buf[end..end + take].copy_from_slice(&input[..take]);
         self.len += take;

@@ -43,6 +43,8 @@ pub struct Reference<D: Dialect> {
     verifier: Option<Verifier<16>>,
     accept_unsigned: bool,
     at_eof: bool,
+    /// Bytes checksummed plus positions examined: the old algorithm's work.
+    pub work: u64,
     _dialect: PhantomData<D>,
 }
 
@@ -58,6 +60,7 @@ impl<D: Dialect> Reference<D> {
             verifier: None,
             accept_unsigned: true,
             at_eof: false,
+            work: 0,
             _dialect: PhantomData,
         }
     }
@@ -239,7 +242,7 @@ impl<D: Dialect> Reference<D> {
             Ok(len) if bytes.len() >= len => len,
             Ok(len) => {
                 if D::meta(msg_id(bytes)).is_none()
-                    && known_frame_inside::<D>(bytes, bytes.len()) == Inside::Yes
+                    && known_frame_inside::<D>(bytes, bytes.len(), &mut self.work) == Inside::Yes
                 {
                     return Verdict::Reject;
                 }
@@ -254,13 +257,15 @@ impl<D: Dialect> Reference<D> {
         };
         let frame = Frame::new_checked(&bytes[..len]).unwrap();
         let meta = D::meta(frame.msg_id());
+        self.work += 1;
         if let Some(m) = meta {
+            self.work += len as u64;
             if !frame.check_crc(m.crc_extra) {
                 self.stats.bad_crc += 1;
                 return Verdict::Reject;
             }
         } else {
-            match known_frame_inside::<D>(bytes, len) {
+            match known_frame_inside::<D>(bytes, len, &mut self.work) {
                 Inside::Yes => return Verdict::Reject,
                 Inside::Undecided(needed) if !at_eof => return Verdict::Need(needed),
                 Inside::Undecided(_) | Inside::No => {}
@@ -318,9 +323,10 @@ enum Inside {
     Undecided(usize),
 }
 
-fn known_frame_inside<D: Dialect>(bytes: &[u8], len: usize) -> Inside {
+fn known_frame_inside<D: Dialect>(bytes: &[u8], len: usize, work: &mut u64) -> Inside {
     let mut undecided = None;
     for at in 1..len.min(bytes.len()) {
+        *work += 1;
         let b = bytes[at];
         if b != STX_V1 && b != STX_V2 {
             continue;
@@ -328,6 +334,7 @@ fn known_frame_inside<D: Dialect>(bytes: &[u8], len: usize) -> Inside {
         let inner = &bytes[at..];
         match frame_len(inner) {
             Ok(n) if inner.len() >= n => {
+                *work += n as u64;
                 if let Ok(f) = Frame::new_checked(inner) {
                     if D::meta(f.msg_id()).is_some_and(|m| f.check_crc(m.crc_extra)) {
                         return Inside::Yes;

@@ -117,10 +117,13 @@ pub(super) struct Memo {
     /// The position is undecided (bit ring).
     undecided: [u64; SCAN_WORDS],
     /// Lists of pending positions by wake-up position: `wake_head[w % ring]`
-    /// is the first one's ring slot + 1 (0: none), `wake_next[slot]` the
-    /// next one's.
-    wake_head: [u16; SCAN_RING],
+    /// is the first one's ring slot + 1 (0: none) in its low 16 bits, the
+    /// epoch it was written in above them; `wake_next[slot]` the next
+    /// one's. A head of another epoch is an empty list.
+    wake_head: [u32; SCAN_RING],
     wake_next: [u16; SCAN_RING],
+    /// Bumped by [`Memo::forget_from`]: every list becomes empty at once.
+    epoch: u32,
     /// Wake-up positions up to this one have been handled.
     woken: u64,
     /// The largest wake-up position listed.
@@ -152,6 +155,7 @@ impl Memo {
             undecided: [0; SCAN_WORDS],
             wake_head: [0; SCAN_RING],
             wake_next: [0; SCAN_RING],
+            epoch: 1,
             woken: 0,
             last_wake: 0,
             good_candidate: 0,
@@ -201,15 +205,17 @@ impl Memo {
         if self.good_candidate == at + 1 {
             return true;
         }
-        if at >= self.scanned_from && at < self.frontier {
-            if test_bit(&self.good, at) {
-                return true;
-            }
-            if test_bit(&self.bad, at) {
-                return false;
-            }
+        let remembered = at >= self.scanned_from && at < self.frontier;
+        if remembered && test_bit(&self.bad, at) {
+            return false;
         }
-        let ok = self.crc_ok(bytes, at, 0, frame, crc_extra);
+        let ok =
+            (remembered && test_bit(&self.good, at)) || self.crc_ok(bytes, at, 0, frame, crc_extra);
+        // A frame is taken only on its own bytes' checksum: what is
+        // remembered was computed from bytes a caller may not have passed
+        // again (one that drops the rest of its input after a frame). The
+        // direct path of `crc_ok` has just computed it: not again.
+        let ok = ok && (self.direct_end == frame_end(at, frame) || frame.check_crc(crc_extra));
         if ok {
             self.good_candidate = at + 1;
         }
@@ -281,11 +287,19 @@ impl Memo {
     /// waits for next is at most a frame ahead of the positions handled).
     fn wake<D: Dialect>(&mut self, bytes: &[u8], at: u64) {
         let avail = at + bytes.len() as u64;
+        if avail < self.woken {
+            self.forget_from(at);
+        }
         while self.woken < avail.min(self.last_wake) {
             self.woken += 1;
             let w = self.woken;
             self.steps += 1;
-            let mut link = core::mem::take(&mut self.wake_head[slot_of(w, SCAN_MASK)]);
+            let head = core::mem::take(&mut self.wake_head[slot_of(w, SCAN_MASK)]);
+            let mut link = if head >> 16 == self.epoch {
+                head as u16
+            } else {
+                0
+            };
             while link != 0 {
                 let slot = u64::from(link - 1);
                 link = self.wake_next[slot_of(slot, SCAN_MASK)];
@@ -389,12 +403,36 @@ impl Memo {
                 }
                 let slot = slot_of(q, SCAN_MASK);
                 let head = &mut self.wake_head[slot_of(wake, SCAN_MASK)];
-                self.wake_next[slot] = *head;
+                self.wake_next[slot] = if *head >> 16 == self.epoch {
+                    *head as u16
+                } else {
+                    0
+                };
                 // slot < SCAN_RING ≤ u16::MAX.
-                *head = slot as u16 + 1;
+                *head = self.epoch << 16 | (slot as u32 + 1);
                 self.last_wake = self.last_wake.max(wake);
             }
         }
+    }
+
+    /// Forgets what is known about stream positions from `pos` on, and
+    /// what was computed from bytes there (in constant time): called when
+    /// the bytes from `pos` on may not be those seen. At the end of a
+    /// stream what follows is another; fewer bytes at hand than before means
+    /// a caller dropped input the parser had looked at (it must pass the
+    /// rest of its input again after a frame) and passed other bytes.
+    pub(super) fn forget_from(&mut self, pos: u64) {
+        self.epoch += 1;
+        if self.epoch > u32::from(u16::MAX) {
+            // Heads of an epoch this old may still sit in the ring.
+            self.wake_head = [0; SCAN_RING];
+            self.steps += SCAN_RING as u64;
+            self.epoch = 1;
+        }
+        (self.woken, self.last_wake) = (pos, pos);
+        (self.frontier, self.scanned_from) = (pos, pos);
+        (self.prefix_end, self.direct_end) = (0, self.direct_end.max(pos));
+        (self.good_candidate, self.raw_signature_failed) = (0, 0);
     }
 
     /// Whether the candidate at `at`, an unknown id whose signature was
@@ -406,6 +444,15 @@ impl Memo {
     pub(super) fn set_raw_signature_failed(&mut self, at: u64) {
         self.raw_signature_failed = at + 1;
     }
+}
+
+/// The end of the bytes a frame's checksum covers, at stream position `at`.
+fn frame_end(at: u64, frame: &Frame<'_>) -> u64 {
+    let header = match frame.version() {
+        Version::V2 => HEADER_LEN_V2,
+        Version::V1 => HEADER_LEN_V1,
+    };
+    at + (header + frame.payload_len()) as u64
 }
 
 /// Bytes needed (from `bytes[0]`) to decide about the undecided position

@@ -182,6 +182,10 @@ fn hex(p: &[u8]) -> String {
 
 fn measure(chunk: usize) {
     println!(
+        "Parser<fbwag_dialect::Dialect>: {} bytes",
+        std::mem::size_of::<fbwag_dialect::mavframe::parser::Parser<fbwag_dialect::Dialect>>()
+    );
+    println!(
         "{:<28} {:>9} {:>8} {:>8}",
         "input", "MB/s", "steps/B", "sigs/B"
     );

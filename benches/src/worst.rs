@@ -90,6 +90,19 @@ pub fn inputs() -> Vec<(String, Vec<u8>, bool)> {
         ),
         ("all_fe".to_string(), repeat(&[0xfe], INPUT_LEN), false),
         ("all_fd".to_string(), repeat(&[0xfd], INPUT_LEN), false),
+        // Signed MAVLink 2 candidates of unknown ids (one signature check
+        // each, with a key): 278 and 26 bytes long, and 278 confirmed by
+        // the byte after them.
+        (
+            "signed_raw".to_string(),
+            repeat(&[0xfd, 0xfd, 0x01, 0x01], INPUT_LEN),
+            true,
+        ),
+        (
+            "signed_raw_confirmed".to_string(),
+            repeat(&[0xfd, 0xfd, 0x01, 0xfd, 0xfd], INPUT_LEN),
+            true,
+        ),
     ];
     for (name, p, keyed) in FOUND {
         v.push((name.to_string(), repeat(p, INPUT_LEN), *keyed));

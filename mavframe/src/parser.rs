@@ -45,11 +45,13 @@
 
 mod memo;
 
-use crate::frame::{frame_len, Frame, FrameError, Header, MAX_FRAME_LEN, STX_V1, STX_V2};
+use crate::frame::{
+    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, MAX_FRAME_LEN, STX_V1, STX_V2,
+};
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
-use memo::{Inside, Memo};
+use memo::{Inside, Memo, Whole};
 
 /// Counters of what the parser saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -575,19 +577,25 @@ fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut St
     let mut i = 0;
     let (mut bad_crc, mut bad_flags) = (0u64, 0u64);
     while let Some(rest) = bytes.get(i..).filter(|r| r.first().is_some_and(is_start)) {
-        match frame_len(rest) {
-            Ok(len) if len <= rest.len() => {
-                let frame = Frame::from_delimited(&rest[..len]);
-                let Some(m) = D::meta(frame.msg_id()) else {
+        match Whole::at(rest) {
+            Some(w) => {
+                let Some(m) = D::meta(w.id) else {
                     break;
                 };
-                if memo.candidate_crc_ok(rest, at + i as u64, &frame, m.crc_extra) {
+                if memo.candidate_crc_ok(rest, at + i as u64, &w, m.crc_extra) {
                     break;
                 }
                 bad_crc += 1;
             }
-            Err(FrameError::UnknownIncompatFlags(_)) => bad_flags += 1,
-            _ => break,
+            // What `frame_len` says (UnknownIncompatFlags) of a whole
+            // MAVLink 2 header with unknown flags.
+            None if rest[0] == STX_V2
+                && rest.len() >= HEADER_LEN_V2
+                && rest[2] & !IFLAG_KNOWN != 0 =>
+            {
+                bad_flags += 1
+            }
+            None => break,
         }
         i += 1 + rest[1..]
             .iter()
@@ -646,7 +654,10 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
     let frame = Frame::from_delimited(&bytes[..len]);
     let meta = D::meta(frame.msg_id());
     if let Some(m) = meta {
-        if !cx.memo.candidate_crc_ok(bytes, cx.at, &frame, m.crc_extra) {
+        if !cx
+            .memo
+            .candidate_crc_ok(bytes, cx.at, &Whole::of(&frame), m.crc_extra)
+        {
             cx.stats.bad_crc += 1;
             return Verdict::Reject;
         }

@@ -4,6 +4,8 @@
 //! (a checksum per candidate, a scan of every start byte inside a raw
 //! frame). Only the public API of mavframe is used, so `Frame::new_checked`
 //! stands in for the crate-private `Frame::from_delimited`.
+// Each test file uses part of it.
+#![allow(dead_code)]
 
 use fbwag_dialect::mavframe::frame::{
     frame_len, Frame, FrameError, Header, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,

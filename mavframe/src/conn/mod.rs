@@ -584,7 +584,7 @@ mod tests {
     #[test]
     fn a_false_header_on_a_stream_waits_for_the_length_it_claims() {
         let mut inbox = Inbox::<TestDialect>::new(Parser::new(), false);
-        let mut push = |inbox: &mut Inbox<TestDialect>, bytes: &[u8]| {
+        let push = |inbox: &mut Inbox<TestDialect>, bytes: &[u8]| {
             inbox.space()[..bytes.len()].copy_from_slice(bytes);
             inbox.filled(bytes.len());
             let mut got = std::vec::Vec::new();

@@ -41,8 +41,8 @@
 use super::msg_id;
 use crate::crc;
 use crate::frame::{
-    frame_len, Frame, FrameError, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN, STX_V1,
-    STX_V2,
+    frame_len, Frame, FrameError, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_KNOWN,
+    IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
 use crate::message::Dialect;
 
@@ -142,6 +142,76 @@ pub(super) struct Memo {
     pub(super) signatures: u64,
 }
 
+/// What the checksum check needs of a whole frame, read from its header
+/// once.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Whole {
+    /// Message id.
+    pub(super) id: u32,
+    /// Bytes the checksum covers (after the start byte, up to the checksum).
+    covered: usize,
+    /// The checksum the frame carries.
+    carried: u16,
+}
+
+impl Whole {
+    /// The frame at the start of `bytes` when its header is whole, its
+    /// incompatibility flags known and all its bytes there: what `frame_len`
+    /// and `Frame` would say, read once.
+    #[inline(always)]
+    pub(super) fn at(bytes: &[u8]) -> Option<Whole> {
+        let (covered, len, id) = match *bytes.first()? {
+            STX_V2 => {
+                let h = bytes.get(..HEADER_LEN_V2)?;
+                if h[2] & !IFLAG_KNOWN != 0 {
+                    return None;
+                }
+                let sig = if h[2] & IFLAG_SIGNED != 0 {
+                    SIGNATURE_LEN
+                } else {
+                    0
+                };
+                let covered = HEADER_LEN_V2 - 1 + usize::from(h[1]);
+                let id = u32::from_le_bytes([h[7], h[8], h[9], 0]);
+                (covered, covered + 1 + CHECKSUM_LEN + sig, id)
+            }
+            STX_V1 => {
+                let covered = HEADER_LEN_V1 - 1 + usize::from(*bytes.get(1)?);
+                // A whole MAVLink 1 frame (8 bytes at least) has its id byte.
+                (
+                    covered,
+                    covered + 1 + CHECKSUM_LEN,
+                    u32::from(*bytes.get(5)?),
+                )
+            }
+            _ => return None,
+        };
+        if bytes.len() < len {
+            return None;
+        }
+        let carried = u16::from_le_bytes([bytes[covered + 1], bytes[covered + 2]]);
+        Some(Whole {
+            id,
+            covered,
+            carried,
+        })
+    }
+
+    /// The same, for a frame already delimited.
+    #[inline(always)]
+    pub(super) fn of(frame: &Frame<'_>) -> Whole {
+        let header = match frame.version() {
+            Version::V2 => HEADER_LEN_V2,
+            Version::V1 => HEADER_LEN_V1,
+        };
+        Whole {
+            id: frame.msg_id(),
+            covered: header - 1 + frame.payload_len(),
+            carried: frame.checksum(),
+        }
+    }
+}
+
 impl Memo {
     pub(super) const fn new() -> Self {
         Memo {
@@ -165,41 +235,41 @@ impl Memo {
         }
     }
 
-    /// Whether `frame`, at `bytes[rel..]` where `bytes[0]` is stream
-    /// position `at` (the current candidate), carries the checksum of its
-    /// message (`crc_extra`). The whole frame is in `bytes`.
+    /// Whether the whole frame `w`, at `bytes[rel..]` where `bytes[0]` is
+    /// stream position `at` (the current candidate), carries the checksum of
+    /// its message (`crc_extra`). The first checksum over fresh bytes is
+    /// computed directly; one over bytes an earlier one covered, from
+    /// prefix states.
     #[inline(always)]
-    pub(super) fn crc_ok(
-        &mut self,
-        bytes: &[u8],
-        at: u64,
-        rel: usize,
-        frame: &Frame<'_>,
-        crc_extra: u8,
-    ) -> bool {
-        let header = match frame.version() {
-            Version::V2 => HEADER_LEN_V2,
-            Version::V1 => HEADER_LEN_V1,
-        };
-        let covered = header - 1 + frame.payload_len();
+    fn crc_matches(&mut self, bytes: &[u8], at: u64, rel: usize, w: &Whole, crc_extra: u8) -> bool {
         let start = at + rel as u64 + 1;
-        let end = start + covered as u64;
+        let end = start + w.covered as u64;
         if (self.prefix_end > at && start <= self.prefix_end) || start < self.direct_end {
-            return self.crc_by_prefix(bytes, at, start, end, crc_extra) == Some(frame.checksum());
+            if self.prefix_end <= at || end > self.prefix_end {
+                self.extend_prefix(bytes, at, end);
+            }
+            let before = self.prefix[slot_of(start, PREFIX_MASK)];
+            let after = self.prefix[slot_of(end, PREFIX_MASK)];
+            return crc::between(before, after, w.covered).map(|c| crc::step(c, crc_extra))
+                == Some(w.carried);
         }
         self.direct_end = end;
-        self.steps += covered as u64;
-        frame.check_crc(crc_extra)
+        self.steps += w.covered as u64;
+        match bytes.get(rel + 1..rel + 1 + w.covered) {
+            Some(covered) => crc::frame_crc(covered, crc_extra) == w.carried,
+            None => false,
+        }
     }
 
-    /// [`crc_ok`](Self::crc_ok) for the candidate itself (`bytes[0]`), from
-    /// the scan's verdict when an earlier candidate's scan classified it.
+    /// [`crc_matches`](Self::crc_matches) for the candidate itself
+    /// (`bytes[0]`), from the scan's verdict when an earlier candidate's
+    /// scan classified it. A frame is taken only on its own bytes' checksum.
     #[inline(always)]
     pub(super) fn candidate_crc_ok(
         &mut self,
         bytes: &[u8],
         at: u64,
-        frame: &Frame<'_>,
+        w: &Whole,
         crc_extra: u8,
     ) -> bool {
         if self.good_candidate == at + 1 {
@@ -209,59 +279,59 @@ impl Memo {
         if remembered && test_bit(&self.bad, at) {
             return false;
         }
-        let ok =
-            (remembered && test_bit(&self.good, at)) || self.crc_ok(bytes, at, 0, frame, crc_extra);
-        // A frame is taken only on its own bytes' checksum: what is
-        // remembered was computed from bytes a caller may not have passed
-        // again (one that drops the rest of its input after a frame). The
-        // direct path of `crc_ok` has just computed it: not again.
-        let ok = ok && (self.direct_end == frame_end(at, frame) || frame.check_crc(crc_extra));
+        let direct_end = self.direct_end;
+        let ok = (remembered && test_bit(&self.good, at))
+            || self.crc_matches(bytes, at, 0, w, crc_extra);
+        // What is remembered (verdicts, prefix states) was computed from
+        // bytes a caller may not have passed again (one that drops the rest
+        // of its input after a frame): confirmed on the frame's own bytes,
+        // unless `crc_matches` has just done exactly that.
+        let end = at + 1 + w.covered as u64;
+        let ok = ok
+            && ((self.direct_end == end && direct_end != end)
+                || bytes
+                    .get(1..1 + w.covered)
+                    .is_some_and(|c| crc::frame_crc(c, crc_extra) == w.carried));
         if ok {
             self.good_candidate = at + 1;
         }
         ok
     }
 
-    /// The checksum of stream positions `start..end` then `crc_extra`, from
-    /// prefix states, extending them to `end` first.
+    /// Extends the prefix states to `end` at least (restarting them just
+    /// after the candidate when they are all behind it), and ahead of it by
+    /// a batch the next checksums will likely need: one tight loop, not a
+    /// byte per candidate through memory.
     #[inline(never)]
-    fn crc_by_prefix(
-        &mut self,
-        bytes: &[u8],
-        at: u64,
-        start: u64,
-        end: u64,
-        crc_extra: u8,
-    ) -> Option<u16> {
+    fn extend_prefix(&mut self, bytes: &[u8], at: u64, end: u64) {
         if self.prefix_end <= at {
-            // A new run, from just after the candidate: no checksum asked
-            // from now on starts before it.
+            // No checksum asked from now on starts before the candidate.
             self.prefix_end = at + 1;
             self.prefix[slot_of(at + 1, PREFIX_MASK)] = 0;
         }
-        if end > self.prefix_end {
-            // Ahead of what is asked (a batch of bytes the next candidates'
-            // checksums will likely need): one tight loop, not one byte
-            // per candidate through memory.
-            let avail = at + bytes.len() as u64;
-            let upto = avail.min((end + PREFIX_AHEAD).max(self.prefix_end + PREFIX_AHEAD));
-            let upto = upto.min(at + PREFIX_REACH).max(end);
-            let from = usize::try_from(self.prefix_end - at).ok()?;
-            let to = usize::try_from(upto - at).ok()?;
-            let mut r = self.prefix[slot_of(self.prefix_end, PREFIX_MASK)];
-            let mut x = self.prefix_end;
-            for &b in bytes.get(from..to)? {
-                r = crc::step(r, b);
-                x += 1;
-                self.prefix[slot_of(x, PREFIX_MASK)] = r;
-            }
-            self.steps += upto - self.prefix_end;
-            self.prefix_end = upto;
+        let avail = at + bytes.len() as u64;
+        let upto = avail
+            .min((end + PREFIX_AHEAD).max(self.prefix_end + PREFIX_AHEAD))
+            .min(at + PREFIX_REACH)
+            .max(end);
+        let (Ok(from), Ok(to)) = (
+            usize::try_from(self.prefix_end - at),
+            usize::try_from(upto - at),
+        ) else {
+            return;
+        };
+        let Some(new) = bytes.get(from..to) else {
+            return;
+        };
+        let mut r = self.prefix[slot_of(self.prefix_end, PREFIX_MASK)];
+        let mut x = self.prefix_end;
+        for &b in new {
+            r = crc::step(r, b);
+            x += 1;
+            self.prefix[slot_of(x, PREFIX_MASK)] = r;
         }
-        let before = self.prefix[slot_of(start, PREFIX_MASK)];
-        let after = self.prefix[slot_of(end, PREFIX_MASK)];
-        let crc = crc::between(before, after, usize::try_from(end - start).ok()?)?;
-        Some(crc::step(crc, crc_extra))
+        self.steps += upto - self.prefix_end;
+        self.prefix_end = upto;
     }
 
     /// Whether a good frame of a known id starts at a position after
@@ -337,8 +407,22 @@ impl Memo {
         let lo = (from - at) as usize;
         for (i, &b) in bytes[lo..end].iter().enumerate() {
             if b == STX_V1 || b == STX_V2 {
-                let class = self.classify::<D>(bytes, at, lo + i);
-                self.record(at + (lo + i) as u64, class);
+                let rel = lo + i;
+                let q = at + rel as u64;
+                // Most positions start a whole frame: decided here.
+                match Whole::at(&bytes[rel..]) {
+                    Some(w) => {
+                        self.steps += 1;
+                        if let Some(m) = D::meta(w.id) {
+                            let good = self.crc_matches(bytes, at, rel, &w, m.crc_extra);
+                            set_bit(if good { &mut self.good } else { &mut self.bad }, q);
+                        }
+                    }
+                    None => {
+                        let class = self.classify::<D>(bytes, at, rel);
+                        self.record(q, class);
+                    }
+                }
             }
         }
         self.steps += to - from;
@@ -361,9 +445,9 @@ impl Memo {
         self.steps += 1;
         match frame_len(inner) {
             Ok(n) if inner.len() >= n => {
-                let f = Frame::from_delimited(&inner[..n]);
-                match D::meta(f.msg_id()) {
-                    Some(m) if self.crc_ok(bytes, at, rel, &f, m.crc_extra) => Class::Good,
+                let w = Whole::of(&Frame::from_delimited(&inner[..n]));
+                match D::meta(w.id) {
+                    Some(m) if self.crc_matches(bytes, at, rel, &w, m.crc_extra) => Class::Good,
                     Some(_) => Class::BadCrc,
                     None => Class::NotGood,
                 }
@@ -444,15 +528,6 @@ impl Memo {
     pub(super) fn set_raw_signature_failed(&mut self, at: u64) {
         self.raw_signature_failed = at + 1;
     }
-}
-
-/// The end of the bytes a frame's checksum covers, at stream position `at`.
-fn frame_end(at: u64, frame: &Frame<'_>) -> u64 {
-    let header = match frame.version() {
-        Version::V2 => HEADER_LEN_V2,
-        Version::V1 => HEADER_LEN_V1,
-    };
-    at + (header + frame.payload_len()) as u64
 }
 
 /// Bytes needed (from `bytes[0]`) to decide about the undecided position

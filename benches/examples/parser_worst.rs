@@ -4,6 +4,7 @@
 //! ```sh
 //! cargo run --release -p benches --example parser_worst -- measure [CHUNK]
 //! cargo run --release -p benches --example parser_worst -- search steps|time [keyed] [SECONDS] [SEED]
+//! cargo run --release -p benches --example parser_worst -- mix [keyed] [SECONDS] [SEED]
 //! ```
 //!
 //! `measure` prints, per input: MB/s (best of 5, in CPU time: the time the
@@ -14,7 +15,9 @@
 //! duplicated per step, keeping changes that do not lower the score:
 //! `steps` per byte (deterministic; signature checks weigh 64 steps each),
 //! or `time` per byte (best of 3 runs). It prints the ten best patterns
-//! with their MB/s.
+//! with their MB/s. `mix` climbs the same way over random inputs instead:
+//! bytes drawn independently from up to 8 values with weights (what a
+//! repeating pattern cannot be: unpredictable for the branch predictor).
 //!
 //! [`Parser::work`]: fbwag_dialect::mavframe::parser::Parser::work
 
@@ -145,7 +148,7 @@ fn search(by_time: bool, keyed: bool, seconds: f64, seed: u64) {
         restart += 1;
         let mut cur_score = score(&cur, keyed, by_time);
         let mut stale = 0;
-        while stale < 150 && start.elapsed().as_secs_f64() < seconds {
+        while stale < 40 && start.elapsed().as_secs_f64() < seconds {
             let cand = mutate(&cur, &mut rng);
             let s = score(&cand, keyed, by_time);
             if s >= cur_score {
@@ -172,6 +175,81 @@ fn search(by_time: bool, keyed: bool, seconds: f64, seed: u64) {
             "  score {s:9.2}  {:8.1} MB/s  steps/B {steps:6.2}  sigs/B {sigs:.4}  {}",
             1e3 / ns,
             hex(p)
+        );
+    }
+}
+
+/// `len` bytes drawn from `(value, weight)`s.
+fn draw(mix: &[(u8, u32)], len: usize, seed: u64) -> Vec<u8> {
+    let total: u32 = mix.iter().map(|m| m.1).sum::<u32>().max(1);
+    let mut rng = Rng(seed | 1);
+    (0..len)
+        .map(|_| {
+            let mut r = (rng.next() % u64::from(total)) as u32;
+            for &(v, w) in mix {
+                if r < w {
+                    return v;
+                }
+                r -= w;
+            }
+            mix[0].0
+        })
+        .collect()
+}
+
+fn search_mix(keyed: bool, seconds: f64, seed: u64) {
+    let mut rng = Rng(seed | 1);
+    let start = Instant::now();
+    let score = |mix: &[(u8, u32)]| cost(&draw(mix, EVAL_LEN, 5), keyed, worst::CHUNK, 3).2;
+    let mut best: Vec<(f64, Vec<(u8, u32)>)> = Vec::new();
+    let mut climbs = 0;
+    while start.elapsed().as_secs_f64() < seconds {
+        climbs += 1;
+        let mut cur: Vec<(u8, u32)> = match climbs {
+            1 => vec![(0xFD, 1), (0xFE, 1)],
+            2 => vec![(0xFD, 1), (0xFE, 1), (0x00, 1), (0x01, 1)],
+            _ => (0..2 + rng.below(6))
+                .map(|_| (rng.byte(), 1 + rng.below(8) as u32))
+                .collect(),
+        };
+        let mut cur_score = score(&cur);
+        let mut stale = 0;
+        while stale < 40 && start.elapsed().as_secs_f64() < seconds {
+            let mut cand = cur.clone();
+            let i = rng.below(cand.len());
+            match rng.below(4) {
+                0 => cand[i].0 = rng.byte(),
+                1 => cand[i].1 = 1 + rng.below(16) as u32,
+                2 if cand.len() < 8 => cand.push((rng.byte(), 1 + rng.below(8) as u32)),
+                _ if cand.len() > 2 => {
+                    cand.remove(i);
+                }
+                _ => cand[i].1 = 1 + rng.below(16) as u32,
+            }
+            let s = score(&cand);
+            if s >= cur_score {
+                stale = if s > cur_score * 1.01 { 0 } else { stale + 1 };
+                (cur, cur_score) = (cand, s);
+            } else {
+                stale += 1;
+            }
+        }
+        best.push((cur_score, cur));
+        best.sort_by(|a, b| b.0.total_cmp(&a.0));
+        best.truncate(10);
+    }
+    println!(
+        "mix search ({}), {climbs} climbs in {seconds} s; worst mixes:",
+        if keyed { "keyed, strict" } else { "no key" }
+    );
+    for (s, mix) in &best {
+        let bytes = draw(mix, worst::INPUT_LEN, 9);
+        let (steps, sigs, ns) = cost(&bytes, keyed, worst::CHUNK, 5);
+        let desc: Vec<String> = mix.iter().map(|(v, w)| format!("{v:02x}x{w}")).collect();
+        println!(
+            "  score {s:7.2}  {:8.1} MB/s  steps/B {steps:6.2}  sigs/B {sigs:.4}  {}",
+            1e3 / ns,
+            desc.join(" ")
         );
     }
 }
@@ -213,6 +291,15 @@ fn main() {
             let seconds = nums.first().copied().unwrap_or(60.0);
             let seed = nums.get(1).copied().unwrap_or(1.0) as u64;
             search(by_time, keyed, seconds, seed);
+        }
+        Some("mix") => {
+            let keyed = args.iter().any(|a| a == "keyed");
+            let nums: Vec<f64> = args.iter().filter_map(|a| a.parse().ok()).collect();
+            search_mix(
+                keyed,
+                nums.first().copied().unwrap_or(60.0),
+                nums.get(1).copied().unwrap_or(1.0) as u64,
+            );
         }
         Some("one") => {
             // One input, many times: for a profiler.

@@ -72,6 +72,28 @@ pub fn mixed(len: usize, seed: u64) -> Vec<u8> {
         .collect()
 }
 
+/// Random bytes drawn from `(value, weight)`s: the worst mix
+/// `examples/parser_worst.rs mix` found.
+pub fn mix(weights: &[(u8, u32)], len: usize, seed: u64) -> Vec<u8> {
+    let total: u32 = weights.iter().map(|w| w.1).sum();
+    random(len, seed)
+        .into_iter()
+        .map(|r| {
+            let mut x = u32::from(r) * total / 256;
+            for &(v, w) in weights {
+                if x < w {
+                    return v;
+                }
+                x -= w;
+            }
+            weights[0].0
+        })
+        .collect()
+}
+
+/// The worst mix found: half 0xFE, a third 0xFD, some 0x09 and 0x00.
+pub const FOUND_MIX: &[(u8, u32)] = &[(0xFE, 19), (0xFD, 13), (0x09, 4), (0x00, 1)];
+
 /// `pattern` repeated to `len` bytes.
 pub fn repeat(pattern: &[u8], len: usize) -> Vec<u8> {
     pattern.iter().copied().cycle().take(len).collect()
@@ -83,6 +105,7 @@ pub fn inputs() -> Vec<(String, Vec<u8>, bool)> {
         ("random".to_string(), random(INPUT_LEN, 1), false),
         ("dense_fd_fe".to_string(), dense(INPUT_LEN, 2), false),
         ("mixed_half_start".to_string(), mixed(INPUT_LEN, 3), false),
+        ("found_mix".to_string(), mix(FOUND_MIX, INPUT_LEN, 4), false),
         (
             "issue_pattern".to_string(),
             repeat(ISSUE_PATTERN, INPUT_LEN),

@@ -579,10 +579,10 @@ fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut St
     while let Some(rest) = bytes.get(i..).filter(|r| r.first().is_some_and(is_start)) {
         match Whole::at(rest) {
             Some(w) => {
-                let Some(m) = D::meta(w.id) else {
+                let Some(extra) = memo.crc_extra::<D>(w.id) else {
                     break;
                 };
-                if memo.candidate_crc_ok(rest, at + i as u64, &w, m.crc_extra) {
+                if memo.candidate_crc_ok(rest, at + i as u64, &w, extra) {
                     break;
                 }
                 bad_crc += 1;

@@ -136,6 +136,11 @@ pub(super) struct Memo {
     /// failed: the verifier has not changed since (a change needs an
     /// accepted frame, which moves the candidate), so it would fail again.
     raw_signature_failed: u64,
+    /// CRC_EXTRA of MAVLink 1 ids (0–255) as the dialect says, looked up
+    /// once each: `0x200 | 0x100 (known) | crc_extra`, 0 before the first
+    /// look-up. A table load instead of the dialect's jump table, whose
+    /// indirect branch garbage's random ids keep mispredicting.
+    v1_extra: [u16; 256],
     /// Elementary steps taken: see [`super::Work::steps`].
     pub(super) steps: u64,
     /// Signatures checked (SHA-256): see [`super::Work::signatures`].
@@ -230,6 +235,7 @@ impl Memo {
             last_wake: 0,
             good_candidate: 0,
             raw_signature_failed: 0,
+            v1_extra: [0; 256],
             steps: 0,
             signatures: 0,
         }
@@ -405,16 +411,17 @@ impl Memo {
         clear_range(&mut self.bad, from, to);
         clear_range(&mut self.undecided, from, to);
         let lo = (from - at) as usize;
-        for (i, &b) in bytes[lo..end].iter().enumerate() {
-            if b == STX_V1 || b == STX_V2 {
-                let rel = lo + i;
+        for (base, mut starts) in start_masks(&bytes[lo..end]) {
+            while starts != 0 {
+                let rel = lo + base + starts.trailing_zeros() as usize;
+                starts &= starts - 1;
                 let q = at + rel as u64;
                 // Most positions start a whole frame: decided here.
                 match Whole::at(&bytes[rel..]) {
                     Some(w) => {
                         self.steps += 1;
-                        if let Some(m) = D::meta(w.id) {
-                            let good = self.crc_matches(bytes, at, rel, &w, m.crc_extra);
+                        if let Some(extra) = self.crc_extra::<D>(w.id) {
+                            let good = self.crc_matches(bytes, at, rel, &w, extra);
                             set_bit(if good { &mut self.good } else { &mut self.bad }, q);
                         }
                     }
@@ -519,6 +526,19 @@ impl Memo {
         (self.good_candidate, self.raw_signature_failed) = (0, 0);
     }
 
+    /// The CRC_EXTRA of message `id`, `None` when the dialect does not know
+    /// it.
+    #[inline(always)]
+    pub(super) fn crc_extra<D: Dialect>(&mut self, id: u32) -> Option<u8> {
+        let Some(cached) = self.v1_extra.get_mut(id as usize) else {
+            return D::meta(id).map(|m| m.crc_extra);
+        };
+        if *cached == 0 {
+            *cached = 0x200 | D::meta(id).map_or(0, |m| 0x100 | u16::from(m.crc_extra));
+        }
+        (*cached & 0x100 != 0).then_some(*cached as u8)
+    }
+
     /// Whether the candidate at `at`, an unknown id whose signature was
     /// checked, failed that check.
     pub(super) fn raw_signature_failed(&self, at: u64) -> bool {
@@ -528,6 +548,19 @@ impl Memo {
     pub(super) fn set_raw_signature_failed(&mut self, at: u64) {
         self.raw_signature_failed = at + 1;
     }
+}
+
+/// The start bytes of `bytes`, 64 positions at a time: (offset, bit mask).
+/// A compare the compiler vectorises, then set bits: no branch per byte on
+/// which bytes are start bytes (in garbage, unpredictable).
+pub(super) fn start_masks(bytes: &[u8]) -> impl Iterator<Item = (usize, u64)> + '_ {
+    bytes.chunks(64).enumerate().map(|(i, chunk)| {
+        let mut mask = 0u64;
+        for (j, &b) in chunk.iter().enumerate() {
+            mask |= u64::from(b == STX_V1 || b == STX_V2) << j;
+        }
+        (64 * i, mask)
+    })
 }
 
 /// Bytes needed (from `bytes[0]`) to decide about the undecided position

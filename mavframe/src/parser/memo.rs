@@ -331,7 +331,16 @@ impl Memo {
         };
         let mut r = self.prefix[slot_of(self.prefix_end, PREFIX_MASK)];
         let mut x = self.prefix_end;
-        for &b in new {
+        let mut fours = new.chunks_exact(4);
+        for b in &mut fours {
+            let states = crc::step4(r, [b[0], b[1], b[2], b[3]]);
+            for s in states {
+                x += 1;
+                self.prefix[slot_of(x, PREFIX_MASK)] = s;
+            }
+            r = states[3];
+        }
+        for &b in fours.remainder() {
             r = crc::step(r, b);
             x += 1;
             self.prefix[slot_of(x, PREFIX_MASK)] = r;
@@ -424,6 +433,14 @@ impl Memo {
                             let good = self.crc_matches(bytes, at, rel, &w, extra);
                             set_bit(if good { &mut self.good } else { &mut self.bad }, q);
                         }
+                    }
+                    // A whole MAVLink 2 header with unknown flags: no frame
+                    // (`frame_len` says so); most of garbage's 0xFD.
+                    None if bytes[rel] == STX_V2
+                        && bytes.len() - rel >= HEADER_LEN_V2
+                        && bytes[rel + 2] & !IFLAG_KNOWN != 0 =>
+                    {
+                        self.steps += 1;
                     }
                     None => {
                         let class = self.classify::<D>(bytes, at, rel);

@@ -420,37 +420,39 @@ impl Memo {
         clear_range(&mut self.bad, from, to);
         clear_range(&mut self.undecided, from, to);
         let lo = (from - at) as usize;
-        for (base, mut starts) in start_masks(&bytes[lo..end]) {
-            while starts != 0 {
-                let rel = lo + base + starts.trailing_zeros() as usize;
-                starts &= starts - 1;
-                let q = at + rel as u64;
-                // Most positions start a whole frame: decided here.
-                match Whole::at(&bytes[rel..]) {
-                    Some(w) => {
-                        self.steps += 1;
-                        if let Some(extra) = self.crc_extra::<D>(w.id) {
-                            let good = self.crc_matches(bytes, at, rel, &w, extra);
-                            set_bit(if good { &mut self.good } else { &mut self.bad }, q);
-                        }
-                    }
-                    // A whole MAVLink 2 header with unknown flags: no frame
-                    // (`frame_len` says so); most of garbage's 0xFD.
-                    None if bytes[rel] == STX_V2
-                        && bytes.len() - rel >= HEADER_LEN_V2
-                        && bytes[rel + 2] & !IFLAG_KNOWN != 0 =>
-                    {
-                        self.steps += 1;
-                    }
-                    None => {
-                        let class = self.classify::<D>(bytes, at, rel);
-                        self.record(q, class);
-                    }
+        // By kind, so that no branch per position asks which kind it is
+        // (in garbage, unpredictable): each position is decided alone.
+        for (base, kinds) in start_masks(&bytes[lo..], end - lo) {
+            for mut starts in kinds {
+                while starts != 0 {
+                    let rel = lo + base + starts.trailing_zeros() as usize;
+                    starts &= starts - 1;
+                    self.classify_start::<D>(bytes, at, rel);
                 }
             }
         }
         self.steps += to - from;
         self.frontier = to;
+    }
+
+    /// Classifies the start byte at `bytes[rel]`: a whole frame here, the
+    /// rest by [`classify`](Self::classify).
+    #[inline(always)]
+    fn classify_start<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) {
+        let q = at + rel as u64;
+        self.steps += 1;
+        match Whole::at(&bytes[rel..]) {
+            Some(w) => {
+                if let Some(extra) = self.crc_extra::<D>(w.id) {
+                    let good = self.crc_matches(bytes, at, rel, &w, extra);
+                    set_bit(if good { &mut self.good } else { &mut self.bad }, q);
+                }
+            }
+            None => {
+                let class = self.classify::<D>(bytes, at, rel);
+                self.record(q, class);
+            }
+        }
     }
 
     /// What `bytes` (from the candidate at `at`) say about position
@@ -567,16 +569,27 @@ impl Memo {
     }
 }
 
-/// The start bytes of `bytes`, 64 positions at a time: (offset, bit mask).
-/// A compare the compiler vectorises, then set bits: no branch per byte on
-/// which bytes are start bytes (in garbage, unpredictable).
-pub(super) fn start_masks(bytes: &[u8]) -> impl Iterator<Item = (usize, u64)> + '_ {
-    bytes.chunks(64).enumerate().map(|(i, chunk)| {
-        let mut mask = 0u64;
-        for (j, &b) in chunk.iter().enumerate() {
-            mask |= u64::from(b == STX_V1 || b == STX_V2) << j;
+/// The start bytes among the first `count` of `bytes`, 64 positions at a
+/// time: (offset, [0xFE positions, 0xFD positions]), less the 0xFD whose
+/// whole header has unknown incompatibility flags (no frame there, as
+/// `frame_len` says; most of garbage's 0xFD). Compares the compiler
+/// vectorises, then set bits: no branch per byte.
+fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = (usize, [u64; 2])> + '_ {
+    (0..count).step_by(64).map(move |base| {
+        let n = (count - base).min(64);
+        let (mut v1, mut v2, mut bad_flags) = (0u64, 0u64, 0u64);
+        for (j, &b) in bytes[base..base + n].iter().enumerate() {
+            v1 |= u64::from(b == STX_V1) << j;
+            v2 |= u64::from(b == STX_V2) << j;
         }
-        (64 * i, mask)
+        let flags = bytes.get(base + 2..).unwrap_or(&[]);
+        for (j, &f) in flags[..flags.len().min(n)].iter().enumerate() {
+            bad_flags |= u64::from(f & !IFLAG_KNOWN != 0) << j;
+        }
+        // Positions whose header is whole: base + j + 10 <= len.
+        let whole = bytes.len().saturating_sub(base + HEADER_LEN_V2 - 1);
+        let whole = if whole >= 64 { !0 } else { (1u64 << whole) - 1 };
+        (base, [v1, v2 & !(bad_flags & whole)])
     })
 }
 

@@ -427,9 +427,14 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         // `needed` is at most MAX_NEEDED (< BUF_LEN); min() keeps this total.
         let needed = needed.min(MAX_NEEDED);
         let must = (needed - self.len).min(input.len());
-        if self.head + self.len + must > BUF_LEN {
-            // More than BUF_LEN - MAX_NEEDED bytes were dropped since the
-            // bytes held last moved: at most MAX_NEEDED move.
+        if self.head + self.len + must > BUF_LEN
+            || (self.head + MAX_NEEDED > BUF_LEN && self.len < MAX_NEEDED)
+        {
+            // Room for what is needed, and for a whole window ahead of the
+            // candidate. Either way more than BUF_LEN - MAX_NEEDED bytes
+            // were dropped since the bytes held last moved (they start at
+            // 0 then): at most MAX_NEEDED move, less often than that many
+            // are dropped.
             self.buf.copy_within(self.head..self.head + self.len, 0);
             self.memo.steps += self.len as u64;
             self.head = 0;

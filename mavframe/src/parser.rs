@@ -176,6 +176,39 @@ enum Verdict {
     Reject,
 }
 
+/// Where the frame a call returns lies.
+enum Found {
+    InInput(usize, Option<&'static MessageMeta>, bool),
+    InBuf(usize, Option<&'static MessageMeta>, bool),
+}
+
+/// The counters a returned frame updates.
+type Counters<'a> = (
+    &'a mut Stats,
+    &'a mut [LinkStats; MAX_TRACKED_LINKS],
+    &'a mut usize,
+);
+
+/// What the hot path found at the start of the input.
+enum InPlace {
+    /// A good frame of a known id, this long, in place.
+    Good(usize, &'static MessageMeta),
+    /// A whole frame of a known id with a bad checksum: rejected.
+    BadCrc,
+    /// Anything else: for the general loop.
+    Other,
+}
+
+/// What a step with bytes held decided.
+enum Held {
+    /// Go on.
+    Next,
+    /// The input is used up: more bytes are needed.
+    Wait,
+    /// A frame at the start of the bytes held.
+    Found(Found),
+}
+
 /// The streaming parser for dialect `D`, verifying signatures for up to
 /// `STREAMS` signing streams when a key is configured.
 pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
@@ -275,7 +308,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// bytes (the parser tests pin the constant).
     pub fn work(&self) -> Work {
         Work {
-            steps: self.memo.steps,
+            // Each byte consumed (dropped or returned) was looked at, each
+            // frame returned checksummed once, and each candidate checked:
+            // counted here rather than on the hot path.
+            steps: self.memo.steps + 2 * self.pos + self.stats.frames + self.stats.unknown_frames,
             signatures: self.memo.signatures,
         }
     }
@@ -289,88 +325,65 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             self.at_eof = false;
         }
         let whole: &'i [u8] = input;
-        self.held_before = self.len;
         // The last verdict was a rejection: garbage, maybe dense in start
         // bytes, where `reject_run` is the fast way through.
         let mut rejected = false;
+        if self.len == 0 && self.verifier.is_none() {
+            // The hot path: a good frame of a known id whole in the input.
+            match self.good_frame_in_place(input) {
+                InPlace::Good(len, meta) => {
+                    let (frame, rest) = input.split_at(len);
+                    *input = rest;
+                    self.pos += len as u64;
+                    return Some(Self::received(
+                        frame,
+                        Some(meta),
+                        false,
+                        (&mut self.stats, &mut self.links, &mut self.tracked),
+                    ));
+                }
+                InPlace::BadCrc => rejected = true,
+                InPlace::Other => {}
+            }
+        }
+        self.held_before = self.len;
         // Decide in the loop, borrow after it: the frame borrows either the
         // input or the buffer.
-        enum Found {
-            InInput(usize, Option<&'static MessageMeta>, bool),
-            InBuf(usize, Option<&'static MessageMeta>, bool),
-        }
         let found = loop {
-            if self.len == 0 {
-                let Some(start) = input.iter().position(|&b| b == STX_V2 || b == STX_V1) else {
-                    self.drop_input(input, input.len());
-                    if self.at_eof {
-                        // A flush has consumed everything: what follows is
-                        // another stream.
-                        self.memo.forget_from(self.pos);
-                    }
+            if self.len != 0 {
+                match self.step_held(input, whole) {
+                    Held::Next => continue,
+                    Held::Wait => return None,
+                    Held::Found(f) => break f,
+                }
+            }
+            let Some(start) = input.iter().position(|&b| b == STX_V2 || b == STX_V1) else {
+                self.input_used_up(input);
+                return None;
+            };
+            self.drop_input(input, start);
+            if core::mem::take(&mut rejected) {
+                let n = reject_run::<D>(input, self.pos, &mut self.memo, &mut self.stats);
+                if n > 0 {
+                    self.pos += n as u64;
+                    *input = &input[n..];
+                    continue;
+                }
+            }
+            match self.check_at_input(input) {
+                Verdict::Need(_) => {
+                    self.hold_input(input);
                     return None;
-                };
-                self.drop_input(input, start);
-                if core::mem::take(&mut rejected) {
-                    let n = reject_run::<D>(input, self.pos, &mut self.memo, &mut self.stats);
-                    if n > 0 {
-                        self.pos += n as u64;
-                        *input = &input[n..];
-                        continue;
-                    }
                 }
-                self.memo.steps += 1;
-                match self.check_at_input(input) {
-                    Verdict::Need(_) => {
-                        // Shorter than what it needs (< MAX_NEEDED): fits.
-                        let n = input.len().min(BUF_LEN);
-                        self.buf[..n].copy_from_slice(&input[..n]);
-                        (self.head, self.len) = (0, n);
-                        self.memo.steps += n as u64;
-                        *input = &[];
-                        return None;
-                    }
-                    Verdict::Accept {
-                        len,
-                        meta,
-                        authenticated,
-                    } => break Found::InInput(len, meta, authenticated),
-                    Verdict::Skip(len) => self.drop_input(input, len),
-                    Verdict::Reject => {
-                        self.drop_input(input, 1);
-                        rejected = true;
-                    }
-                }
-            } else if self.held_before == 0 {
-                // What is held was copied from `whole` (its older bytes are
-                // dropped): back to checking candidates in place, where a
-                // rejection does not go through the buffer.
-                let taken = whole.len() - input.len();
-                *input = whole.get(taken.saturating_sub(self.len)..).unwrap_or(input);
-                (self.head, self.len) = (0, 0);
-            } else {
-                if self.len < MAX_NEEDED && !input.is_empty() {
-                    // Whatever the candidate needs, with bytes enough after
-                    // it that what lies inside it is decided now.
-                    self.take_input(input, self.len);
-                }
-                match self.check_at_buf() {
-                    // Cannot happen (a need is always for more than is held);
-                    // rejecting keeps the loop making progress regardless.
-                    Verdict::Need(needed) if needed <= self.len => self.drop_front(1),
-                    Verdict::Need(needed) => {
-                        if self.take_input(input, needed) {
-                            self.at_eof = false;
-                            return None;
-                        }
-                    }
-                    Verdict::Accept {
-                        len,
-                        meta,
-                        authenticated,
-                    } => break Found::InBuf(len, meta, authenticated),
-                    Verdict::Skip(len) => self.drop_front(len),
-                    Verdict::Reject => self.drop_front(1),
+                Verdict::Accept {
+                    len,
+                    meta,
+                    authenticated,
+                } => break Found::InInput(len, meta, authenticated),
+                Verdict::Skip(len) => self.drop_input(input, len),
+                Verdict::Reject => {
+                    self.drop_input(input, 1);
+                    rejected = true;
                 }
             }
         };
@@ -386,21 +399,124 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 (&self.buf[self.head..self.head + len], meta, auth)
             }
         };
-        // `check` delimited these bytes with `frame_len`.
+        Some(Self::received(
+            bytes,
+            meta,
+            authenticated,
+            (&mut self.stats, &mut self.links, &mut self.tracked),
+        ))
+    }
+
+    /// The first candidate of `input` (garbage before it dropped) when it is
+    /// a whole frame of a known id the memo knows nothing about: its
+    /// checksum checked as without a memo. With a bad one it is rejected
+    /// here, as `check` would (counted, its start byte dropped).
+    #[inline(always)]
+    fn good_frame_in_place(&mut self, input: &mut &[u8]) -> InPlace {
+        let Some(start) = input.iter().position(|&b| b == STX_V2 || b == STX_V1) else {
+            return InPlace::Other;
+        };
+        let cand = &input[start..];
+        let at = self.pos + start as u64;
+        let Ok(len) = frame_len(cand) else {
+            return InPlace::Other;
+        };
+        let (Some(bytes), false) = (cand.get(..len), self.memo.busy_at(at)) else {
+            return InPlace::Other;
+        };
         let frame = Frame::from_delimited(bytes);
-        Self::record(
-            &mut self.stats,
-            &mut self.links,
-            &mut self.tracked,
-            frame.header(),
-            meta.is_some(),
-        );
-        Some(Received {
+        let Some(meta) = D::meta(frame.msg_id()) else {
+            return InPlace::Other;
+        };
+        self.drop_input(input, start);
+        if self.memo.frame_crc_ok(cand, at, &frame, meta.crc_extra) {
+            InPlace::Good(len, meta)
+        } else {
+            self.stats.bad_crc += 1;
+            self.drop_input(input, 1);
+            InPlace::BadCrc
+        }
+    }
+
+    /// The frame `bytes` (delimited by `frame_len`), counted.
+    #[inline(always)]
+    fn received<'r>(
+        bytes: &'r [u8],
+        meta: Option<&'static MessageMeta>,
+        authenticated: bool,
+        (stats, links, tracked): Counters<'_>,
+    ) -> Received<'r, D> {
+        let frame = Frame::from_delimited(bytes);
+        Self::record(stats, links, tracked, frame.header(), meta.is_some());
+        Received {
             frame,
             meta,
             authenticated,
             _dialect: PhantomData,
-        })
+        }
+    }
+
+    /// One step with bytes held (out of line: the hot path, frames whole in
+    /// the input, does not pay for it): back to the input in place once the
+    /// bytes held from earlier calls are dropped, else a check of the
+    /// candidate held.
+    #[inline(never)]
+    fn step_held<'i>(&mut self, input: &mut &'i [u8], whole: &'i [u8]) -> Held {
+        if self.held_before == 0 {
+            // What is held was copied from `whole` (its older bytes are
+            // dropped): back to checking candidates in place, where a
+            // rejection does not go through the buffer.
+            let taken = whole.len() - input.len();
+            *input = whole.get(taken.saturating_sub(self.len)..).unwrap_or(input);
+            (self.head, self.len) = (0, 0);
+            return Held::Next;
+        }
+        if self.len < MAX_NEEDED && !input.is_empty() {
+            // Whatever the candidate needs, with bytes enough after it that
+            // what lies inside it is decided now.
+            self.take_input(input, self.len);
+        }
+        match self.check_at_buf() {
+            // Cannot happen (a need is always for more than is held);
+            // rejecting keeps the loop making progress regardless.
+            Verdict::Need(needed) if needed <= self.len => self.drop_front(1),
+            Verdict::Need(needed) => {
+                if self.take_input(input, needed) {
+                    self.at_eof = false;
+                    return Held::Wait;
+                }
+            }
+            Verdict::Accept {
+                len,
+                meta,
+                authenticated,
+            } => return Held::Found(Found::InBuf(len, meta, authenticated)),
+            Verdict::Skip(len) => self.drop_front(len),
+            Verdict::Reject => self.drop_front(1),
+        }
+        Held::Next
+    }
+
+    /// The input holds no start byte: all dropped.
+    #[cold]
+    fn input_used_up(&mut self, input: &mut &[u8]) {
+        self.drop_input(input, input.len());
+        if self.at_eof {
+            // A flush has consumed everything: what follows is another
+            // stream.
+            self.memo.forget_from(self.pos);
+        }
+    }
+
+    /// The candidate at the start of `input` needs more than the input has:
+    /// all of it is held (shorter than what it needs, < MAX_NEEDED: fits).
+    #[inline(never)]
+    fn hold_input(&mut self, input: &mut &[u8]) {
+        let n = input.len().min(BUF_LEN);
+        self.buf[..n].copy_from_slice(&input[..n]);
+        (self.head, self.len) = (0, n);
+        self.memo.steps += n as u64;
+        *input = &[];
     }
 
     fn release_returned(&mut self) {
@@ -414,7 +530,6 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     fn drop_input(&mut self, input: &mut &[u8], n: usize) {
         self.stats.bytes_dropped += n as u64;
         self.pos += n as u64;
-        self.memo.steps += n as u64;
         *input = &input[n..];
     }
 
@@ -423,6 +538,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// without moving the bytes held: the candidates after this one are
     /// then decided without a check per byte copied. True when `input` ran
     /// out before `needed`.
+    #[inline(never)]
     fn take_input(&mut self, input: &mut &[u8], needed: usize) -> bool {
         // `needed` is at most MAX_NEEDED (< BUF_LEN); min() keeps this total.
         let needed = needed.min(MAX_NEEDED);
@@ -577,6 +693,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 /// garbage dense in start bytes, and the loop runs only after a rejection
 /// (good frames go straight to `check`). Returns the bytes dropped, up to
 /// the first candidate it leaves to `check` (or all of them).
+#[inline(never)]
 fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut Stats) -> usize {
     let is_start = |b: &u8| *b == STX_V1 || *b == STX_V2;
     let mut i = 0;
@@ -625,6 +742,21 @@ struct Ctx<'a, const N: usize> {
     stats: &'a mut Stats,
 }
 
+impl<const N: usize> Ctx<'_, N> {
+    /// The same context, for a call out of line (a reference to the context
+    /// itself would keep it in memory on the hot path).
+    fn reborrow(&mut self) -> Ctx<'_, N> {
+        Ctx {
+            at: self.at,
+            memo: self.memo,
+            verifier: self.verifier,
+            accept_unsigned: self.accept_unsigned,
+            at_eof: self.at_eof,
+            stats: self.stats,
+        }
+    }
+}
+
 /// The decision about the candidate at the start of `bytes` (the bytes
 /// available from its start byte on).
 #[inline(always)]
@@ -659,14 +791,11 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
     let frame = Frame::from_delimited(&bytes[..len]);
     let meta = D::meta(frame.msg_id());
     if let Some(m) = meta {
-        if !cx
-            .memo
-            .candidate_crc_ok(bytes, cx.at, &Whole::of(&frame), m.crc_extra)
-        {
+        if !cx.memo.frame_crc_ok(bytes, cx.at, &frame, m.crc_extra) {
             cx.stats.bad_crc += 1;
             return Verdict::Reject;
         }
-    } else if let Some(v) = check_raw::<D, N>(bytes, &frame, &mut cx) {
+    } else if let Some(v) = check_raw::<D, N>(bytes, &frame, cx.reborrow()) {
         return v;
     }
     let mut authenticated = false;
@@ -705,7 +834,7 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
 fn check_raw<D: Dialect, const N: usize>(
     bytes: &[u8],
     frame: &Frame<'_>,
-    cx: &mut Ctx<'_, N>,
+    cx: Ctx<'_, N>,
 ) -> Option<Verdict> {
     let len = frame.as_bytes().len();
     let checked = frame.is_signed() && cx.verifier.is_some();

@@ -141,6 +141,10 @@ pub(super) struct Memo {
     /// look-up. A table load instead of the dialect's jump table, whose
     /// indirect branch garbage's random ids keep mispredicting.
     v1_extra: [u16; 256],
+    /// No state about positions from here on (the frontier, the prefix
+    /// states and the last direct checksum all end before): a candidate
+    /// there is checked exactly as without a memo.
+    busy_until: u64,
     /// Elementary steps taken: see [`super::Work::steps`].
     pub(super) steps: u64,
     /// Signatures checked (SHA-256): see [`super::Work::signatures`].
@@ -236,6 +240,7 @@ impl Memo {
             good_candidate: 0,
             raw_signature_failed: 0,
             v1_extra: [0; 256],
+            busy_until: 0,
             steps: 0,
             signatures: 0,
         }
@@ -260,11 +265,46 @@ impl Memo {
                 == Some(w.carried);
         }
         self.direct_end = end;
+        self.busy_until = self.busy_until.max(end);
         self.steps += w.covered as u64;
         match bytes.get(rel + 1..rel + 1 + w.covered) {
             Some(covered) => crc::frame_crc(covered, crc_extra) == w.carried,
             None => false,
         }
+    }
+
+    /// Whether something is known about position `at` or after it.
+    #[inline(always)]
+    pub(super) fn busy_at(&self, at: u64) -> bool {
+        at < self.busy_until
+    }
+
+    /// Whether `frame`, the candidate at `at`, carries its checksum: when
+    /// nothing is known about it or after it, exactly the check without a
+    /// memo (the hot path: a good frame whole in the input), else
+    /// [`candidate_crc_ok`](Self::candidate_crc_ok).
+    #[inline(always)]
+    pub(super) fn frame_crc_ok(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        frame: &Frame<'_>,
+        crc_extra: u8,
+    ) -> bool {
+        if at < self.busy_until {
+            return self.candidate_crc_ok(bytes, at, &Whole::of(frame), crc_extra);
+        }
+        // (Counted by `Parser::work`: these bytes are consumed now, as a
+        // frame or a rejected candidate.)
+        let ok = frame.check_crc(crc_extra);
+        if !ok {
+            self.steps += frame.as_bytes().len() as u64;
+            // Candidates inside it come next: their checksums over these
+            // bytes from prefix states, not directly again.
+            self.direct_end = at + 1 + Whole::of(frame).covered as u64;
+            self.busy_until = self.direct_end;
+        }
+        ok
     }
 
     /// [`crc_matches`](Self::crc_matches) for the candidate itself
@@ -347,6 +387,7 @@ impl Memo {
         }
         self.steps += upto - self.prefix_end;
         self.prefix_end = upto;
+        self.busy_until = self.busy_until.max(upto);
     }
 
     /// Whether a good frame of a known id starts at a position after
@@ -433,6 +474,7 @@ impl Memo {
         }
         self.steps += to - from;
         self.frontier = to;
+        self.busy_until = self.busy_until.max(to);
     }
 
     /// Classifies the start byte at `bytes[rel]`: a whole frame here, the
@@ -543,6 +585,7 @@ impl Memo {
         (self.frontier, self.scanned_from) = (pos, pos);
         (self.prefix_end, self.direct_end) = (0, self.direct_end.max(pos));
         (self.good_candidate, self.raw_signature_failed) = (0, 0);
+        self.busy_until = self.direct_end;
     }
 
     /// The CRC_EXTRA of message `id`, `None` when the dialect does not know

@@ -41,7 +41,15 @@
 //! good known frame starts at a position is decided once per position and
 //! remembered (the private `memo` module; [`Parser::work`] counts the
 //! steps). Verifying a signature (with a key) is one SHA-256 per signed
-//! candidate with a good checksum or of an unknown id.
+//! candidate with a good checksum or of an unknown id. A candidate is
+//! decided as soon as the bytes at hand decide it (with bytes held, the
+//! parser copies ahead of the candidate rather than byte by byte).
+//!
+//! After a frame, pass the rest of the input (what [`Parser::next`] left in
+//! it) on the next call, as a streaming parser expects. The parser may have
+//! looked at bytes past the frame; a caller that drops them and pushes other
+//! bytes can make it miss frames, never accept a bad one: a frame is taken
+//! only on its own bytes' checksum.
 
 mod memo;
 

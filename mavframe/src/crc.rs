@@ -204,6 +204,93 @@ pub fn frame_crc(bytes: &[u8], crc_extra: u8) -> u16 {
     byte(crc, crc_extra)
 }
 
+/// Most bytes a frame checksum covers: a MAVLink 2 header after its start
+/// byte (9 bytes) and a 255-byte payload. CRC_EXTRA is folded separately.
+pub(crate) const MAX_COVERED: usize = 9 + 255;
+
+/// A linear map of the 16-bit register, as four tables of 16 entries, one
+/// per nibble of its argument: `apply` xors the four entries.
+type NibbleMap = [[u16; 16]; 4];
+
+/// `ADVANCE_LO[b]`: the register after `b` zero bytes (`b` < 16);
+/// `ADVANCE_HI[a]`: after `16 a` zero bytes (`16 a` ≤ [`MAX_COVERED`]).
+///
+/// The register update is linear over GF(2) in (register, byte), so `k`
+/// zero bytes are a linear map of the register, and `k = 16 a + b` is the
+/// map of `16 a` after the map of `b`: eight table loads for any `k` up to a
+/// frame's, from 4.2 KiB of tables built at compile time (only the parser's
+/// recovery path reads them). [`between`] builds on it.
+static ADVANCE_LO: [NibbleMap; 16] = nibble_maps(1);
+static ADVANCE_HI: [NibbleMap; MAX_COVERED / 16 + 1] = nibble_maps(16);
+
+/// `maps[i]`: the register after `i × unit` zero bytes, by nibbles.
+const fn nibble_maps<const N: usize>(unit: usize) -> [NibbleMap; N] {
+    let mut maps = [[[0u16; 16]; 4]; N];
+    let mut i = 0;
+    while i < N {
+        let mut nib = 0;
+        while nib < 4 {
+            let mut v = 0;
+            while v < 16 {
+                let mut r = (v << (4 * nib)) as u16;
+                let mut step = 0;
+                while step < i * unit {
+                    r = (r >> 8) ^ TABLES[0][(r & 0xFF) as usize];
+                    step += 1;
+                }
+                maps[i][nib][v] = r;
+                v += 1;
+            }
+            nib += 1;
+        }
+        i += 1;
+    }
+    maps
+}
+
+#[inline(always)]
+fn apply(map: &NibbleMap, x: u16) -> u16 {
+    let n = |i: usize| usize::from((x >> (4 * i)) & 0xF);
+    (map[0][n(0)] ^ map[1][n(1)]) ^ (map[2][n(2)] ^ map[3][n(3)])
+}
+
+/// The registers after each of the 4 bytes `b` folded into `r`, all four
+/// from `r` (the table of the byte's distance to the end of its block): the
+/// next four depend on the last only, one step of table loads for four
+/// bytes instead of four dependent steps.
+#[inline(always)]
+pub(crate) fn step4(r: u16, b: [u8; 4]) -> [u16; 4] {
+    let lo = usize::from(r as u8 ^ b[0]);
+    let hi = usize::from((r >> 8) as u8 ^ b[1]);
+    [
+        (r >> 8) ^ TABLES[0][lo],
+        TABLES[1][lo] ^ TABLES[0][hi],
+        TABLES[2][lo] ^ TABLES[1][hi] ^ TABLES[0][usize::from(b[2])],
+        TABLES[3][lo] ^ TABLES[2][hi] ^ TABLES[1][usize::from(b[2])] ^ TABLES[0][usize::from(b[3])],
+    ]
+}
+
+/// Folds one byte into a register: the step [`between`]'s prefix states are
+/// made of.
+#[inline(always)]
+pub(crate) fn step(crc: u16, b: u8) -> u16 {
+    byte(crc, b)
+}
+
+/// The checksum, from MAVLink's initial value, of the `k` bytes between two
+/// prefix states (`k` ≤ [`MAX_COVERED`]): `before` is a register after some
+/// bytes, `after` the same register after `k` more, both from any common
+/// start. Linearity makes it `A^k · (0xFFFF ⊕ before) ⊕ after`, where `A^k`
+/// is `k` zero bytes: the checksum of any stretch of a window costs eight
+/// table loads once the window's prefix states are known, however many
+/// candidate frames overlap in it. `None` when `k` is out of range.
+#[inline]
+pub(crate) fn between(before: u16, after: u16, k: usize) -> Option<u16> {
+    let hi = ADVANCE_HI.get(k / 16)?;
+    let lo = &ADVANCE_LO[k % 16];
+    Some(apply(hi, apply(lo, 0xFFFF ^ before)) ^ after)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -293,6 +380,48 @@ mod tests {
             extra.digest(&data[..len]);
             extra.digest(&[0x32]);
             assert_eq!(frame_crc(&data[..len], 0x32), extra.get_crc());
+        }
+    }
+
+    #[test]
+    fn between_two_prefix_states_is_the_checksum_of_the_bytes_between() {
+        // Prefix states from an arbitrary start (0 and 0x1234: the start
+        // cancels out), every window of every length up to the longest.
+        let mut data = [0u8; 600];
+        pseudo_random(&mut data);
+        data[100..140].fill(0xFD);
+        for start in [0u16, 0x1234] {
+            let mut prefix = [0u16; 601];
+            prefix[0] = start;
+            for (i, &b) in data.iter().enumerate() {
+                prefix[i + 1] = step(prefix[i], b);
+            }
+            for s in (0..300).step_by(7) {
+                for k in 0..=MAX_COVERED {
+                    assert_eq!(
+                        between(prefix[s], prefix[s + k], k),
+                        Some(oracle(&data[s..s + k])),
+                        "start {start:#x} at {s} length {k}"
+                    );
+                }
+            }
+        }
+        assert_eq!(between(0, 0, 16 * (MAX_COVERED / 16 + 1)), None);
+    }
+
+    #[test]
+    fn four_steps_at_once_equal_four_steps() {
+        let mut data = [0u8; 256];
+        pseudo_random(&mut data);
+        for r in [0u16, 0xFFFF, 0x1234, 0x8001] {
+            for b in data.chunks_exact(4) {
+                let mut one = r;
+                let each: [u16; 4] = core::array::from_fn(|i| {
+                    one = step(one, b[i]);
+                    one
+                });
+                assert_eq!(step4(r, [b[0], b[1], b[2], b[3]]), each);
+            }
         }
     }
 }

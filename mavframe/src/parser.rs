@@ -14,12 +14,17 @@
 //! ```
 //!
 //! A frame that lies whole inside the chunk is returned in place (no copy);
-//! one that spans chunks is assembled in a 280-byte buffer inside the parser.
-//! When a candidate frame is rejected (bad checksum, unknown incompatibility
-//! flags) the parser resumes at the byte after its start byte, so a corrupted
-//! or truncated frame never swallows the good frames inside the length it
-//! claimed, which pymavlink and the C parser do. Frames with a valid checksum
-//! but a bad signature are skipped whole.
+//! one that spans chunks is assembled in a buffer inside the parser (room
+//! for two frames: confirming a raw frame, below, may need the head of the
+//! next one; 1 KiB, so that dropping bytes from its front never moves more
+//! than it drops, on average). When a candidate frame is rejected (bad
+//! checksum, unknown incompatibility flags) the parser resumes at the byte
+//! after its start byte, so a corrupted or truncated frame never swallows
+//! the good frames inside the length it claimed, which pymavlink and the C
+//! parser do. A frame with a valid checksum but a bad signature is skipped
+//! up to its checksum (its 13 signature bytes may be the head of the next
+//! frame, and are searched again); one refused for being unsigned is
+//! skipped whole.
 //!
 //! Frames of message ids the dialect does not know cannot be checked (their
 //! CRC_EXTRA is unknown), yet routers must forward them. Garbage holding a
@@ -27,12 +32,34 @@
 //! only when confirmed: the byte after it is a start byte (or it is
 //! authenticated by its signature), and no known frame with a valid checksum
 //! starts inside it: a known good frame always wins. The last frame of a
-//! stream is confirmed by [`Parser::flush`].
+//! stream is confirmed by [`Parser::flush`], the last of a datagram by
+//! [`Parser::end_of_datagram`].
+//!
+//! The work per byte is bounded whatever the input, adversarial included:
+//! a good frame's checksum is computed once, directly; a checksum over bytes
+//! an earlier candidate covered comes from CRC prefix states, and whether a
+//! good known frame starts at a position is decided once per position and
+//! remembered (the private `memo` module; [`Parser::work`] counts the
+//! steps). Verifying a signature (with a key) is one SHA-256 per signed
+//! candidate with a good checksum or of an unknown id. A candidate is
+//! decided as soon as the bytes at hand decide it (with bytes held, the
+//! parser copies ahead of the candidate rather than byte by byte).
+//!
+//! After a frame, pass the rest of the input (what [`Parser::next`] left in
+//! it) on the next call, as a streaming parser expects. The parser may have
+//! looked at bytes past the frame; a caller that drops them and pushes other
+//! bytes can make it miss frames, never accept a bad one: a frame is taken
+//! only on its own bytes' checksum.
 
-use crate::frame::{frame_len, Frame, FrameError, Header, MAX_FRAME_LEN, STX_V1, STX_V2};
+mod memo;
+
+use crate::frame::{
+    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, MAX_FRAME_LEN, STX_V1, STX_V2,
+};
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
+use memo::{Inside, Memo, Whole};
 
 /// Counters of what the parser saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -74,7 +101,33 @@ pub struct LinkStats {
     last_seq: u8,
 }
 
-const BUF_LEN: usize = 2 * MAX_FRAME_LEN;
+/// The longest candidate the parser waits for: a frame of an unknown id
+/// (up to a frame long) whose last byte starts a candidate of a known id
+/// (another frame), less one.
+const MAX_NEEDED: usize = 2 * MAX_FRAME_LEN - 1;
+
+/// The buffer: more than twice [`MAX_NEEDED`]'s bytes would be too many
+/// for no gain, fewer makes the front drops move bytes too often. Bytes are
+/// dropped from its front by moving a start index; the bytes held move to
+/// the front only when the end needs room, after more than
+/// `BUF_LEN - MAX_NEEDED` bytes were dropped since they last moved.
+const BUF_LEN: usize = 1024;
+
+const _: () = assert!(BUF_LEN > MAX_NEEDED && BUF_LEN - MAX_NEEDED >= MAX_NEEDED * 4 / 5);
+
+/// How much work a parser did: see [`Parser::work`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Work {
+    /// Elementary steps: bytes checksummed (directly or as CRC prefix
+    /// states), bytes scanned for a start byte, copied into or moved inside
+    /// the buffer; candidate checks, positions classified, wake-up
+    /// positions handled. Bounded by a constant times the bytes pushed
+    /// plus the calls made, whatever the bytes.
+    pub steps: u64,
+    /// Signatures checked (one SHA-256 of the frame each).
+    pub signatures: u64,
+}
 
 /// Senders tracked for sequence gaps; more are folded into the last slot.
 pub const MAX_TRACKED_LINKS: usize = 32;
@@ -131,16 +184,61 @@ enum Verdict {
     Reject,
 }
 
+/// Where the frame a call returns lies.
+enum Found {
+    InInput(usize, Option<&'static MessageMeta>, bool),
+    InBuf(usize, Option<&'static MessageMeta>, bool),
+}
+
+/// The counters a returned frame updates.
+type Counters<'a> = (
+    &'a mut Stats,
+    &'a mut [LinkStats; MAX_TRACKED_LINKS],
+    &'a mut usize,
+);
+
+/// What the hot path found at the start of the input.
+enum InPlace {
+    /// A good frame of a known id, this long, in place.
+    Good(usize, &'static MessageMeta),
+    /// A whole frame of a known id with a bad checksum: rejected.
+    BadCrc,
+    /// Anything else: for the general loop.
+    Other,
+}
+
+/// What a step with bytes held decided.
+enum Held {
+    /// Go on.
+    Next,
+    /// The input is used up: more bytes are needed.
+    Wait,
+    /// A frame at the start of the bytes held.
+    Found(Found),
+}
+
 /// The streaming parser for dialect `D`, verifying signatures for up to
 /// `STREAMS` signing streams when a key is configured.
 pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
-    /// Twice a frame: confirming a raw frame may need the frame after it.
+    /// Bytes held for a candidate that spans chunks.
     buf: [u8; BUF_LEN],
+    /// Where the bytes held start in `buf`.
+    head: usize,
     /// Bytes of a candidate frame held in `buf` (starting with a start byte).
     len: usize,
-    /// Length of the frame at the start of `buf` returned by the last call;
-    /// it is dropped (bytes after it are kept) when the parser next runs.
+    /// Length of the frame at the start of the bytes held returned by the
+    /// last call; it is dropped (bytes after it are kept) when the parser
+    /// next runs.
     returned_from_buf: usize,
+    /// Stream position (bytes pushed before it) of the first byte not
+    /// consumed yet: the first byte held, or of the input when none is.
+    pos: u64,
+    /// Bytes held that were pushed before the current call's input; once
+    /// they are all dropped, the rest held is a copy of the input just
+    /// taken, and the parser goes back to the input in place.
+    held_before: usize,
+    /// What is known about the bytes after the candidate.
+    memo: Memo,
     stats: Stats,
     links: [LinkStats; MAX_TRACKED_LINKS],
     tracked: usize,
@@ -175,8 +273,12 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     pub fn new() -> Self {
         Parser {
             buf: [0; BUF_LEN],
+            head: 0,
             len: 0,
             returned_from_buf: 0,
+            pos: 0,
+            held_before: 0,
+            memo: Memo::new(),
             stats: Stats::default(),
             links: [LinkStats::default(); MAX_TRACKED_LINKS],
             tracked: 0,
@@ -217,6 +319,19 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         self.len
     }
 
+    /// The work done so far, for tests and monitoring: the steps are
+    /// bounded by a constant times (bytes pushed + calls), whatever the
+    /// bytes (the parser tests pin the constant).
+    pub fn work(&self) -> Work {
+        Work {
+            // Each byte consumed (dropped or returned) was looked at, each
+            // frame returned checksummed once, and each candidate checked:
+            // counted here rather than on the hot path.
+            steps: self.memo.steps + 2 * self.pos + self.stats.frames + self.stats.unknown_frames,
+            signatures: self.memo.signatures,
+        }
+    }
+
     /// Consumes bytes from `input` until a frame is complete and returns it;
     /// `None` once `input` is used up (a partial frame stays buffered for
     /// the next chunk). `input` is advanced past what was consumed.
@@ -225,74 +340,66 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         if !input.is_empty() {
             self.at_eof = false;
         }
+        let whole: &'i [u8] = input;
+        // The last verdict was a rejection: garbage, maybe dense in start
+        // bytes, where `reject_run` is the fast way through.
+        let mut rejected = false;
+        if self.len == 0 && self.verifier.is_none() {
+            // The hot path: a good frame of a known id whole in the input.
+            match self.good_frame_in_place(input) {
+                InPlace::Good(len, meta) => {
+                    let (frame, rest) = input.split_at(len);
+                    *input = rest;
+                    self.pos += len as u64;
+                    return Some(Self::received(
+                        frame,
+                        Some(meta),
+                        false,
+                        (&mut self.stats, &mut self.links, &mut self.tracked),
+                    ));
+                }
+                InPlace::BadCrc => rejected = true,
+                InPlace::Other => {}
+            }
+        }
+        self.held_before = self.len;
         // Decide in the loop, borrow after it: the frame borrows either the
         // input or the buffer.
-        enum Found {
-            InInput(usize, Option<&'static MessageMeta>, bool),
-            InBuf(usize, Option<&'static MessageMeta>, bool),
-        }
         let found = loop {
-            if self.len == 0 {
-                let Some(start) = input.iter().position(|&b| b == STX_V2 || b == STX_V1) else {
-                    self.stats.bytes_dropped += input.len() as u64;
-                    *input = &[];
-                    return None;
-                };
-                self.stats.bytes_dropped += start as u64;
-                *input = &input[start..];
-                match self.check_at_input(input) {
-                    Verdict::Need(_) => {
-                        // Shorter than the frame it starts, so it fits the buffer.
-                        self.buf[..input.len()].copy_from_slice(input);
-                        self.len = input.len();
-                        *input = &[];
-                        return None;
-                    }
-                    Verdict::Accept {
-                        len,
-                        meta,
-                        authenticated,
-                    } => break Found::InInput(len, meta, authenticated),
-                    Verdict::Skip(len) => {
-                        self.stats.bytes_dropped += len as u64;
-                        *input = &input[len..];
-                    }
-                    Verdict::Reject => {
-                        self.stats.bytes_dropped += 1;
-                        *input = &input[1..];
-                    }
+            if self.len != 0 {
+                match self.step_held(input, whole) {
+                    Held::Next => continue,
+                    Held::Wait => return None,
+                    Held::Found(f) => break f,
                 }
-            } else {
-                match self.check_at_buf() {
-                    // Cannot happen (a need is always for more than is held);
-                    // rejecting keeps the loop making progress regardless.
-                    Verdict::Need(needed) if needed <= self.len => {
-                        self.stats.bytes_dropped += 1;
-                        self.drop_front(1);
-                    }
-                    Verdict::Need(needed) => {
-                        let take = (needed - self.len).min(input.len());
-                        self.buf[self.len..self.len + take].copy_from_slice(&input[..take]);
-                        self.len += take;
-                        *input = &input[take..];
-                        if self.len < needed {
-                            self.at_eof = false;
-                            return None;
-                        }
-                    }
-                    Verdict::Accept {
-                        len,
-                        meta,
-                        authenticated,
-                    } => break Found::InBuf(len, meta, authenticated),
-                    Verdict::Skip(len) => {
-                        self.stats.bytes_dropped += len as u64;
-                        self.drop_front(len);
-                    }
-                    Verdict::Reject => {
-                        self.stats.bytes_dropped += 1;
-                        self.drop_front(1);
-                    }
+            }
+            let Some(start) = input.iter().position(|&b| b == STX_V2 || b == STX_V1) else {
+                self.input_used_up(input);
+                return None;
+            };
+            self.drop_input(input, start);
+            if core::mem::take(&mut rejected) {
+                let n = reject_run::<D>(input, self.pos, &mut self.memo, &mut self.stats);
+                if n > 0 {
+                    self.pos += n as u64;
+                    *input = &input[n..];
+                    continue;
+                }
+            }
+            match self.check_at_input(input) {
+                Verdict::Need(_) => {
+                    self.hold_input(input);
+                    return None;
+                }
+                Verdict::Accept {
+                    len,
+                    meta,
+                    authenticated,
+                } => break Found::InInput(len, meta, authenticated),
+                Verdict::Skip(len) => self.drop_input(input, len),
+                Verdict::Reject => {
+                    self.drop_input(input, 1);
+                    rejected = true;
                 }
             }
         };
@@ -300,35 +407,191 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             Found::InInput(len, meta, auth) => {
                 let (frame, rest) = input.split_at(len);
                 *input = rest;
+                self.pos += len as u64;
                 (frame, meta, auth)
             }
             Found::InBuf(len, meta, auth) => {
                 self.returned_from_buf = len;
-                (&self.buf[..len], meta, auth)
+                (&self.buf[self.head..self.head + len], meta, auth)
             }
         };
-        // `check` delimited these bytes with `frame_len`.
+        Some(Self::received(
+            bytes,
+            meta,
+            authenticated,
+            (&mut self.stats, &mut self.links, &mut self.tracked),
+        ))
+    }
+
+    /// The first candidate of `input` (garbage before it dropped) when it is
+    /// a whole frame of a known id the memo knows nothing about: its
+    /// checksum checked as without a memo. With a bad one it is rejected
+    /// here, as `check` would (counted, its start byte dropped).
+    #[inline(always)]
+    fn good_frame_in_place(&mut self, input: &mut &[u8]) -> InPlace {
+        let Some(start) = input.iter().position(|&b| b == STX_V2 || b == STX_V1) else {
+            return InPlace::Other;
+        };
+        let cand = &input[start..];
+        let at = self.pos + start as u64;
+        let Ok(len) = frame_len(cand) else {
+            return InPlace::Other;
+        };
+        let (Some(bytes), false) = (cand.get(..len), self.memo.busy_at(at)) else {
+            return InPlace::Other;
+        };
         let frame = Frame::from_delimited(bytes);
-        Self::record(
-            &mut self.stats,
-            &mut self.links,
-            &mut self.tracked,
-            frame.header(),
-            meta.is_some(),
-        );
-        Some(Received {
+        let Some(meta) = D::meta(frame.msg_id()) else {
+            return InPlace::Other;
+        };
+        self.drop_input(input, start);
+        if self.memo.frame_crc_ok(cand, at, &frame, meta.crc_extra) {
+            InPlace::Good(len, meta)
+        } else {
+            self.stats.bad_crc += 1;
+            self.drop_input(input, 1);
+            InPlace::BadCrc
+        }
+    }
+
+    /// The frame `bytes` (delimited by `frame_len`), counted.
+    #[inline(always)]
+    fn received<'r>(
+        bytes: &'r [u8],
+        meta: Option<&'static MessageMeta>,
+        authenticated: bool,
+        (stats, links, tracked): Counters<'_>,
+    ) -> Received<'r, D> {
+        let frame = Frame::from_delimited(bytes);
+        Self::record(stats, links, tracked, frame.header(), meta.is_some());
+        Received {
             frame,
             meta,
             authenticated,
             _dialect: PhantomData,
-        })
+        }
+    }
+
+    /// One step with bytes held (out of line: the hot path, frames whole in
+    /// the input, does not pay for it): back to the input in place once the
+    /// bytes held from earlier calls are dropped, else a check of the
+    /// candidate held.
+    #[inline(never)]
+    fn step_held<'i>(&mut self, input: &mut &'i [u8], whole: &'i [u8]) -> Held {
+        if self.held_before == 0 {
+            // What is held was copied from `whole` (its older bytes are
+            // dropped): back to checking candidates in place, where a
+            // rejection does not go through the buffer.
+            let taken = whole.len() - input.len();
+            *input = whole.get(taken.saturating_sub(self.len)..).unwrap_or(input);
+            (self.head, self.len) = (0, 0);
+            return Held::Next;
+        }
+        if self.len < MAX_NEEDED && !input.is_empty() {
+            // Whatever the candidate needs, with bytes enough after it that
+            // what lies inside it is decided now.
+            self.take_input(input, self.len);
+        }
+        match self.check_at_buf() {
+            // Cannot happen (a need is always for more than is held);
+            // rejecting keeps the loop making progress regardless.
+            Verdict::Need(needed) if needed <= self.len => self.drop_front(1),
+            Verdict::Need(needed) => {
+                if self.take_input(input, needed) {
+                    self.at_eof = false;
+                    return Held::Wait;
+                }
+            }
+            Verdict::Accept {
+                len,
+                meta,
+                authenticated,
+            } => return Held::Found(Found::InBuf(len, meta, authenticated)),
+            Verdict::Skip(len) => self.drop_front(len),
+            Verdict::Reject => self.drop_front(1),
+        }
+        Held::Next
+    }
+
+    /// The input holds no start byte: all dropped.
+    #[cold]
+    fn input_used_up(&mut self, input: &mut &[u8]) {
+        self.drop_input(input, input.len());
+        if self.at_eof {
+            // A flush has consumed everything: what follows is another
+            // stream.
+            self.memo.forget_from(self.pos);
+        }
+    }
+
+    /// The candidate at the start of `input` needs more than the input has:
+    /// all of it is held (shorter than what it needs, < MAX_NEEDED: fits).
+    #[inline(never)]
+    fn hold_input(&mut self, input: &mut &[u8]) {
+        let n = input.len().min(BUF_LEN);
+        self.buf[..n].copy_from_slice(&input[..n]);
+        (self.head, self.len) = (0, n);
+        self.memo.steps += n as u64;
+        *input = &[];
     }
 
     fn release_returned(&mut self) {
         let n = core::mem::take(&mut self.returned_from_buf);
         if n > 0 {
-            self.buf.copy_within(n..self.len, 0);
-            self.len -= n;
+            self.consume_held(n);
+        }
+    }
+
+    /// Drops the first `n` bytes of `input` (counted as dropped).
+    fn drop_input(&mut self, input: &mut &[u8], n: usize) {
+        self.stats.bytes_dropped += n as u64;
+        self.pos += n as u64;
+        *input = &input[n..];
+    }
+
+    /// Moves bytes of `input` to the buffer until `needed` are held, and
+    /// more, up to the longest any candidate can need, when there is room
+    /// without moving the bytes held: the candidates after this one are
+    /// then decided without a check per byte copied. True when `input` ran
+    /// out before `needed`.
+    #[inline(never)]
+    fn take_input(&mut self, input: &mut &[u8], needed: usize) -> bool {
+        // `needed` is at most MAX_NEEDED (< BUF_LEN); min() keeps this total.
+        let needed = needed.min(MAX_NEEDED);
+        let must = (needed - self.len).min(input.len());
+        if self.head + self.len + must > BUF_LEN
+            || (self.head + MAX_NEEDED > BUF_LEN && self.len < MAX_NEEDED)
+        {
+            // Room for what is needed, and for a whole window ahead of the
+            // candidate. Either way more than BUF_LEN - MAX_NEEDED bytes
+            // were dropped since the bytes held last moved (they start at
+            // 0 then): at most MAX_NEEDED move, less often than that many
+            // are dropped.
+            self.buf.copy_within(self.head..self.head + self.len, 0);
+            self.memo.steps += self.len as u64;
+            self.head = 0;
+        }
+        let room = BUF_LEN - self.head - self.len;
+        let take = (MAX_NEEDED.saturating_sub(self.len))
+            .max(must)
+            .min(room)
+            .min(input.len());
+        let end = self.head + self.len;
+        self.buf[end..end + take].copy_from_slice(&input[..take]);
+        self.len += take;
+        self.memo.steps += take as u64;
+        *input = &input[take..];
+        self.len < needed
+    }
+
+    /// Forgets the first `n` bytes held.
+    fn consume_held(&mut self, n: usize) {
+        self.held_before = self.held_before.saturating_sub(n);
+        self.head += n;
+        self.len -= n;
+        self.pos += n as u64;
+        if self.len == 0 {
+            self.head = 0;
         }
     }
 
@@ -336,43 +599,63 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// nothing follows them: an incomplete candidate is rejected and the
     /// bytes after its start byte are searched again (so a false start byte
     /// near the end loses no frame), and a raw frame of an unknown id that
-    /// was waiting for the byte after it is returned.
+    /// was waiting for the byte after it is returned. The parser stays
+    /// usable: bytes pushed afterwards are parsed as a new stream.
     pub fn flush(&mut self) -> Option<Received<'_, D>> {
         self.at_eof = true;
         self.next(&mut &[][..])
     }
 
+    /// Ends a datagram: call until `None` once a datagram's bytes are all
+    /// pushed, on links where a frame never spans datagrams (MAVLink over
+    /// UDP). The same as [`flush`](Self::flush): a candidate cut by the
+    /// datagram's end can never be completed, so it is rejected now and the
+    /// good frames after its start byte are returned now, instead of waiting
+    /// for the next datagram's bytes to make up the length it claims.
+    pub fn end_of_datagram(&mut self) -> Option<Received<'_, D>> {
+        self.flush()
+    }
+
     /// Drops `n` bytes of the buffered candidate, then everything up to the
-    /// next start byte in what remains (counted as dropped).
+    /// next start byte in what remains (all counted as dropped).
     fn drop_front(&mut self, n: usize) {
-        let rest = &self.buf[n..self.len];
+        let rest = &self.buf[self.head + n..self.head + self.len];
         let next = rest
             .iter()
             .position(|&b| b == STX_V2 || b == STX_V1)
             .unwrap_or(rest.len());
-        self.stats.bytes_dropped += next as u64;
-        self.buf.copy_within(n + next..self.len, 0);
-        self.len -= n + next;
+        self.stats.bytes_dropped += (n + next) as u64;
+        self.memo.steps += next as u64;
+        self.consume_held(n + next);
     }
 
     #[inline(always)]
     fn check_at_input(&mut self, bytes: &[u8]) -> Verdict {
         check::<D, STREAMS>(
             bytes,
-            &mut self.verifier,
-            self.accept_unsigned,
-            self.at_eof,
-            &mut self.stats,
+            Ctx {
+                at: self.pos,
+                memo: &mut self.memo,
+                verifier: &mut self.verifier,
+                accept_unsigned: self.accept_unsigned,
+                at_eof: self.at_eof,
+                stats: &mut self.stats,
+            },
         )
     }
 
     fn check_at_buf(&mut self) -> Verdict {
+        self.memo.steps += 1;
         check::<D, STREAMS>(
-            &self.buf[..self.len],
-            &mut self.verifier,
-            self.accept_unsigned,
-            self.at_eof,
-            &mut self.stats,
+            &self.buf[self.head..self.head + self.len],
+            Ctx {
+                at: self.pos,
+                memo: &mut self.memo,
+                verifier: &mut self.verifier,
+                accept_unsigned: self.accept_unsigned,
+                at_eof: self.at_eof,
+                stats: &mut self.stats,
+            },
         )
     }
 
@@ -419,15 +702,83 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     }
 }
 
-#[inline(always)]
-fn check<D: Dialect, const N: usize>(
-    bytes: &[u8],
-    verifier: &mut Option<Verifier<N>>,
+/// Rejects, in one loop, the candidates at the start of `bytes` (a start
+/// byte) while each is a whole frame of a known id with a bad checksum, or
+/// has unknown incompatibility flags: what `check` would decide, with the
+/// same counters, minus its per-candidate plumbing. This is the bulk of
+/// garbage dense in start bytes, and the loop runs only after a rejection
+/// (good frames go straight to `check`). Returns the bytes dropped, up to
+/// the first candidate it leaves to `check` (or all of them).
+#[inline(never)]
+fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut Stats) -> usize {
+    let is_start = |b: &u8| *b == STX_V1 || *b == STX_V2;
+    let mut i = 0;
+    let (mut bad_crc, mut bad_flags) = (0u64, 0u64);
+    while let Some(rest) = bytes.get(i..).filter(|r| r.first().is_some_and(is_start)) {
+        match Whole::at(rest) {
+            Some(w) => {
+                let Some(extra) = memo.crc_extra::<D>(w.id) else {
+                    break;
+                };
+                if memo.candidate_crc_ok(rest, at + i as u64, &w, extra) {
+                    break;
+                }
+                bad_crc += 1;
+            }
+            // What `frame_len` says (UnknownIncompatFlags) of a whole
+            // MAVLink 2 header with unknown flags.
+            None if rest[0] == STX_V2
+                && rest.len() >= HEADER_LEN_V2
+                && rest[2] & !IFLAG_KNOWN != 0 =>
+            {
+                bad_flags += 1
+            }
+            None => break,
+        }
+        i += 1 + rest[1..]
+            .iter()
+            .position(is_start)
+            .unwrap_or(rest.len() - 1);
+    }
+    stats.bad_crc += bad_crc;
+    stats.bad_incompat_flags += bad_flags;
+    stats.bytes_dropped += i as u64;
+    memo.steps += (i as u64) + bad_crc + bad_flags;
+    i
+}
+
+/// What a candidate check needs besides its bytes.
+struct Ctx<'a, const N: usize> {
+    /// Stream position of the candidate (`bytes[0]`).
+    at: u64,
+    memo: &'a mut Memo,
+    verifier: &'a mut Option<Verifier<N>>,
     accept_unsigned: bool,
     at_eof: bool,
-    stats: &mut Stats,
-) -> Verdict {
+    stats: &'a mut Stats,
+}
+
+impl<const N: usize> Ctx<'_, N> {
+    /// The same context, for a call out of line (a reference to the context
+    /// itself would keep it in memory on the hot path).
+    fn reborrow(&mut self) -> Ctx<'_, N> {
+        Ctx {
+            at: self.at,
+            memo: self.memo,
+            verifier: self.verifier,
+            accept_unsigned: self.accept_unsigned,
+            at_eof: self.at_eof,
+            stats: self.stats,
+        }
+    }
+}
+
+/// The decision about the candidate at the start of `bytes` (the bytes
+/// available from its start byte on).
+#[inline(always)]
+fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdict {
     // At the end of the stream an incomplete candidate is not a frame.
+    let at_eof = cx.at_eof;
     let need = |n: usize| {
         if at_eof {
             Verdict::Reject
@@ -440,7 +791,7 @@ fn check<D: Dialect, const N: usize>(
         Ok(len) => {
             // An unverifiable candidate loses at once to a good frame inside.
             if D::meta(msg_id(bytes)).is_none()
-                && known_frame_inside::<D>(bytes, bytes.len()) == Inside::Yes
+                && cx.memo.inside::<D>(bytes, cx.at, bytes.len()) == Inside::Yes
             {
                 return Verdict::Reject;
             }
@@ -448,7 +799,7 @@ fn check<D: Dialect, const N: usize>(
         }
         Err(FrameError::Incomplete { needed }) => return need(needed),
         Err(FrameError::UnknownIncompatFlags(_)) => {
-            stats.bad_incompat_flags += 1;
+            cx.stats.bad_incompat_flags += 1;
             return Verdict::Reject;
         }
         Err(_) => return Verdict::Reject,
@@ -456,54 +807,32 @@ fn check<D: Dialect, const N: usize>(
     let frame = Frame::from_delimited(&bytes[..len]);
     let meta = D::meta(frame.msg_id());
     if let Some(m) = meta {
-        if !frame.check_crc(m.crc_extra) {
-            stats.bad_crc += 1;
+        if !cx.memo.frame_crc_ok(bytes, cx.at, &frame, m.crc_extra) {
+            cx.stats.bad_crc += 1;
             return Verdict::Reject;
         }
-    } else {
-        // A raw frame: accept only once confirmed (see the module docs).
-        match known_frame_inside::<D>(bytes, len) {
-            Inside::Yes => return Verdict::Reject,
-            Inside::Undecided(needed) if !at_eof => return Verdict::Need(needed),
-            Inside::Undecided(_) | Inside::No => {}
-        }
-        let authenticated_raw =
-            frame.is_signed() && verifier.as_mut().is_some_and(|v| v.verify(&frame).is_ok());
-        match bytes.get(len) {
-            _ if authenticated_raw => {
-                return Verdict::Accept {
-                    len,
-                    meta: None,
-                    authenticated: true,
-                }
-            }
-            None if at_eof => {}
-            None => return Verdict::Need(len + 1),
-            Some(&b) if b != STX_V1 && b != STX_V2 => return Verdict::Reject,
-            Some(_) => {}
-        }
+    } else if let Some(v) = check_raw::<D, N>(bytes, &frame, cx.reborrow()) {
+        return v;
     }
     let mut authenticated = false;
-    if let Some(v) = verifier {
+    if let Some(v) = cx.verifier {
+        if frame.is_signed() {
+            cx.memo.signatures += 1;
+        }
         match v.verify(&frame) {
             Ok(()) => authenticated = true,
-            Err(SignatureError::Unsigned) if accept_unsigned => {}
+            Err(SignatureError::Unsigned) if cx.accept_unsigned => {}
             Err(SignatureError::Unsigned) => {
-                stats.unsigned_rejected += 1;
+                cx.stats.unsigned_rejected += 1;
                 return Verdict::Skip(len);
             }
             Err(_) => {
-                stats.bad_signature += 1;
+                cx.stats.bad_signature += 1;
                 // A good checksum vouches for the header and payload only: the
                 // 13 bytes after it may be the head of the next frame (a frame
                 // cut inside its signature block), so those are searched
-                // again. With an unverifiable checksum the "frame" may be
-                // garbage: resume inside it.
-                return if meta.is_some() {
-                    Verdict::Skip(len - crate::frame::SIGNATURE_LEN)
-                } else {
-                    Verdict::Reject
-                };
+                // again. (Raw frames do not get here: see `check_raw`.)
+                return Verdict::Skip(len - crate::frame::SIGNATURE_LEN);
             }
         }
     }
@@ -514,45 +843,63 @@ fn check<D: Dialect, const N: usize>(
     }
 }
 
-/// Whether a known frame with a valid checksum starts inside the first `len`
-/// bytes of `bytes` (after its first byte).
-#[derive(Debug, PartialEq, Eq)]
-enum Inside {
-    Yes,
-    No,
-    /// A candidate inside needs this many bytes (from `bytes[0]`) to decide.
-    Undecided(usize),
-}
-
-fn known_frame_inside<D: Dialect>(bytes: &[u8], len: usize) -> Inside {
-    // A good frame anywhere decides; an undecided position only matters
-    // when no good frame is found.
-    let mut undecided = None;
-    for at in 1..len.min(bytes.len()) {
-        let b = bytes[at];
-        if b != STX_V1 && b != STX_V2 {
-            continue;
-        }
-        let inner = &bytes[at..];
-        match frame_len(inner) {
-            Ok(n) if inner.len() >= n => {
-                if let Ok(f) = Frame::new_checked(inner) {
-                    if D::meta(f.msg_id()).is_some_and(|m| f.check_crc(m.crc_extra)) {
-                        return Inside::Yes;
-                    }
-                }
-            }
-            // Only a known id can make a good frame: wait for it whole.
-            Ok(n) if D::meta(msg_id(inner)).is_some() => {
-                undecided.get_or_insert(at + n);
-            }
-            Err(FrameError::Incomplete { needed }) => {
-                undecided.get_or_insert(at + needed);
-            }
-            _ => {}
-        }
+/// The decision about a whole candidate `frame` of an unknown id (see the
+/// module docs), or `None` when only the signing policy is left to apply
+/// (an unsigned frame, or any frame without a key).
+#[inline(never)]
+fn check_raw<D: Dialect, const N: usize>(
+    bytes: &[u8],
+    frame: &Frame<'_>,
+    cx: Ctx<'_, N>,
+) -> Option<Verdict> {
+    let len = frame.as_bytes().len();
+    let checked = frame.is_signed() && cx.verifier.is_some();
+    if !checked && bytes.get(len).is_some_and(|&b| b != STX_V1 && b != STX_V2) {
+        // Not confirmed, and nothing can confirm it (no signature to
+        // check): rejected whatever is inside (before, a position inside
+        // still undecided made it wait first). Most garbage ends here.
+        return Some(Verdict::Reject);
     }
-    undecided.map_or(Inside::No, Inside::Undecided)
+    match cx.memo.inside::<D>(bytes, cx.at, len) {
+        Inside::Yes => return Some(Verdict::Reject),
+        Inside::Undecided(needed) if !cx.at_eof => return Some(Verdict::Need(needed)),
+        Inside::Undecided(_) | Inside::No => {}
+    }
+    // Checked once per candidate: while it waits for its next byte the
+    // verifier cannot change (that needs an accepted frame).
+    let authenticated = checked
+        && !cx.memo.raw_signature_failed(cx.at)
+        && match cx.verifier.as_mut() {
+            Some(v) => {
+                cx.memo.signatures += 1;
+                let ok = v.verify(frame).is_ok();
+                if !ok {
+                    cx.memo.set_raw_signature_failed(cx.at);
+                }
+                ok
+            }
+            None => false,
+        };
+    match bytes.get(len) {
+        _ if authenticated => {
+            return Some(Verdict::Accept {
+                len,
+                meta: None,
+                authenticated: true,
+            })
+        }
+        None if cx.at_eof => {}
+        None => return Some(Verdict::Need(len + 1)),
+        Some(&b) if b != STX_V1 && b != STX_V2 => return Some(Verdict::Reject),
+        Some(_) => {}
+    }
+    if checked {
+        // Its signature failed (above): with an unverifiable checksum the
+        // "frame" may be garbage, so resume inside it.
+        cx.stats.bad_signature += 1;
+        return Some(Verdict::Reject);
+    }
+    None
 }
 
 /// The message id in a (possibly incomplete) header at `bytes[0]`.

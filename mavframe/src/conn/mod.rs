@@ -164,20 +164,40 @@ pub(crate) struct Inbox<D: Dialect> {
     buf: Box<[u8]>,
     start: usize,
     end: usize,
+    /// Each read is one datagram (see [`Transport::is_datagram`]).
+    datagrams: bool,
+    /// The parser has not been told yet that the datagram read ended.
+    datagram_open: bool,
 }
 
 impl<D: Dialect> Inbox<D> {
-    pub(crate) fn new(parser: Parser<D>) -> Self {
+    pub(crate) fn new(parser: Parser<D>, datagrams: bool) -> Self {
         Inbox {
             parser,
             buf: vec![0u8; RECV_BUFFER_LEN].into_boxed_slice(),
             start: 0,
             end: 0,
+            datagrams,
+            datagram_open: false,
         }
     }
 
-    /// The next frame in the bytes already read.
+    /// The next frame in the bytes already read; at the end of a datagram,
+    /// those its end decides.
     pub(crate) fn next(&mut self) -> Option<ReceivedFrame<D>> {
+        if let Some(frame) = self.next_in_buffer() {
+            return Some(frame);
+        }
+        if self.datagram_open {
+            match self.parser.end_of_datagram() {
+                Some(r) => return Some(ReceivedFrame::from(&r)),
+                None => self.datagram_open = false,
+            }
+        }
+        None
+    }
+
+    fn next_in_buffer(&mut self) -> Option<ReceivedFrame<D>> {
         while self.start < self.end {
             let mut input = &self.buf[self.start..self.end];
             let got = self
@@ -209,6 +229,7 @@ impl<D: Dialect> Inbox<D> {
     pub(crate) fn filled(&mut self, n: usize) {
         self.start = 0;
         self.end = n.min(self.buf.len());
+        self.datagram_open = self.datagrams;
     }
 }
 
@@ -304,9 +325,10 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// A connection whose frames go through `parser`: one made with
     /// [`Parser::with_signing`] verifies signatures.
     pub fn with_parser(transport: T, parser: Parser<D>) -> Self {
+        let datagrams = transport.is_datagram();
         Connection {
             transport,
-            inbox: Inbox::new(parser),
+            inbox: Inbox::new(parser, datagrams),
             outbox: Outbox::new(),
         }
     }
@@ -520,6 +542,70 @@ mod tests {
         assert_eq!(
             err.to_string(),
             "message id 300 does not fit MAVLink 1 (at most 255)"
+        );
+    }
+
+    /// A MAVLink 2 header of Ping (known id) claiming a 200-byte payload:
+    /// 10 bytes that start a 212-byte candidate.
+    const FALSE_HEADER: [u8; 10] = [0xFD, 200, 0, 0, 0, 1, 1, 1, 0, 0];
+
+    fn ping_frame(value: u32) -> std::vec::Vec<u8> {
+        let mut out = Outbox::new();
+        let h = out.auto_header(1, 1);
+        out.encode(Version::V2, h, &Ping { value })
+            .unwrap()
+            .to_vec()
+    }
+
+    /// A datagram ends every frame in it: a false header at the end of one
+    /// is given up there, so the good frame of the next datagram comes out
+    /// on that datagram's receive (it used to wait for 212 bytes).
+    #[test]
+    fn a_false_header_ending_a_datagram_does_not_hold_back_the_next_one() {
+        let (mut server, mut client) = udp_pair();
+        assert!(server.transport().is_datagram());
+        client.send_raw(&FALSE_HEADER).unwrap();
+        let good = ping_frame(5);
+        client.send_raw(&good).unwrap();
+        let f = server.recv(Some(Duration::from_secs(2))).unwrap().unwrap();
+        assert_eq!(f.message(), Some(Ping { value: 5 }));
+        assert_eq!(f.as_bytes(), &good[..]);
+        assert_eq!(server.stats().bytes_dropped, FALSE_HEADER.len() as u64);
+        assert_eq!(server.parser().pending(), 0);
+        // Frames whole inside one datagram are unaffected, several at once.
+        let two = [ping_frame(6), ping_frame(7)].concat();
+        client
+            .send_raw(&[&two[..], &FALSE_HEADER[..]].concat())
+            .unwrap();
+        for v in [6, 7] {
+            let f = server.recv(Some(Duration::from_secs(2))).unwrap().unwrap();
+            assert_eq!(f.message(), Some(Ping { value: v }));
+        }
+        assert!(server.recv(Some(Duration::ZERO)).unwrap().is_none());
+        assert_eq!(server.parser().pending(), 0, "the false header is given up");
+    }
+
+    /// On a byte stream (TCP, serial) the rest of a frame may still come:
+    /// the same bytes keep the parser waiting for the length claimed, and
+    /// the good frame inside comes out once that many bytes arrived.
+    #[test]
+    fn a_false_header_on_a_stream_waits_for_the_length_it_claims() {
+        let mut inbox = Inbox::<TestDialect>::new(Parser::new(), false);
+        let push = |inbox: &mut Inbox<TestDialect>, bytes: &[u8]| {
+            inbox.space()[..bytes.len()].copy_from_slice(bytes);
+            inbox.filled(bytes.len());
+            let mut got = std::vec::Vec::new();
+            while let Some(f) = inbox.next() {
+                got.push(f.message());
+            }
+            got
+        };
+        assert!(push(&mut inbox, &FALSE_HEADER).is_empty());
+        let good = ping_frame(5);
+        assert!(push(&mut inbox, &good).is_empty(), "still waiting");
+        assert_eq!(
+            push(&mut inbox, &[0u8; 200]),
+            std::vec![Some(Ping { value: 5 })]
         );
     }
 

@@ -111,6 +111,12 @@ impl AsyncTransport {
         }
     }
 
+    /// True for UDP: each [`recv`](Self::recv) is one datagram (see
+    /// [`Transport::is_datagram`](super::Transport::is_datagram)).
+    pub fn is_datagram(&self) -> bool {
+        matches!(self.kind, Kind::UdpIn { .. } | Kind::UdpOut { .. })
+    }
+
     /// Waits for bytes and reads them into `buf`; never returns 0 for a
     /// non-empty `buf` (a closed TCP stream is `UnexpectedEof`).
     /// Cancel-safe: dropped before it completes, it has read nothing.
@@ -191,9 +197,10 @@ impl<D: Dialect> AsyncConnection<D> {
     /// A connection whose frames go through `parser` (e.g. one verifying
     /// signatures).
     pub fn with_parser(transport: AsyncTransport, parser: Parser<D>) -> Self {
+        let datagrams = transport.is_datagram();
         AsyncConnection {
             transport,
-            inbox: Inbox::new(parser),
+            inbox: Inbox::new(parser, datagrams),
             outbox: Outbox::new(),
         }
     }
@@ -406,6 +413,29 @@ mod tests {
             }
         );
         assert_eq!(f.message(), Some(Ping { value: 5 }));
+    }
+
+    /// As the blocking connection: a datagram's end ends the frames in it,
+    /// so a false header there does not hold the next datagram's frame.
+    #[test]
+    fn udp_false_header_at_a_datagrams_end_is_given_up() {
+        block_on(async {
+            let mut server =
+                AsyncConnection::<TestDialect>::open(&"udpin:127.0.0.1:0".parse().unwrap())
+                    .await
+                    .unwrap();
+            assert!(server.transport().is_datagram());
+            let port = server.transport().local_addr().unwrap().port();
+            let target = Endpoint::UdpOut(SocketAddr::from((Ipv4Addr::LOCALHOST, port)));
+            let mut client = AsyncConnection::<TestDialect>::open(&target).await.unwrap();
+            // Ping (known id) claiming a 200-byte payload.
+            let false_header = [0xFD, 200, 0, 0, 0, 1, 1, 1, 0, 0];
+            client.send_raw(&false_header).await.unwrap();
+            client.send_auto(2, 1, &Ping { value: 11 }).await.unwrap();
+            let f = timeout(LIMIT, server.recv()).await.unwrap().unwrap();
+            assert_eq!(f.message(), Some(Ping { value: 11 }));
+            assert_eq!(server.stats().bytes_dropped, 10);
+        });
     }
 
     #[test]

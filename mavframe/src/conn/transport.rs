@@ -23,6 +23,17 @@ pub trait Transport {
     /// count, never 0 except when the time ran out with no data. A stream
     /// closed by its peer is an error (`UnexpectedEof`), not 0.
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize>;
+
+    /// True when each [`recv`](Self::recv) returns one whole datagram, in
+    /// which frames never continue into the next (MAVLink over UDP): the
+    /// connection then tells its parser where each ends, so a candidate cut
+    /// by a datagram's end is given up at once instead of waiting for bytes
+    /// that can never complete it (and holding back the frames after its
+    /// start byte). False (the default) for byte streams (TCP, serial),
+    /// where the rest of a frame may still come.
+    fn is_datagram(&self) -> bool {
+        false
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -33,6 +44,10 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
         (**self).recv(buf, timeout)
     }
+
+    fn is_datagram(&self) -> bool {
+        (**self).is_datagram()
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for &mut T {
@@ -42,6 +57,10 @@ impl<T: Transport + ?Sized> Transport for &mut T {
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
         (**self).recv(buf, timeout)
+    }
+
+    fn is_datagram(&self) -> bool {
+        (**self).is_datagram()
     }
 }
 
@@ -144,6 +163,17 @@ impl Transport for AnyTransport {
             AnyTransport::TcpIn(t) => t.recv(buf, timeout),
             #[cfg(feature = "serial")]
             AnyTransport::Serial(t) => t.recv(buf, timeout),
+        }
+    }
+
+    fn is_datagram(&self) -> bool {
+        match self {
+            AnyTransport::UdpIn(t) => t.is_datagram(),
+            AnyTransport::UdpOut(t) => t.is_datagram(),
+            AnyTransport::Tcp(t) => t.is_datagram(),
+            AnyTransport::TcpIn(t) => t.is_datagram(),
+            #[cfg(feature = "serial")]
+            AnyTransport::Serial(t) => t.is_datagram(),
         }
     }
 }

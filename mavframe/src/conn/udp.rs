@@ -153,6 +153,10 @@ impl Transport for UdpIn {
             },
         )
     }
+
+    fn is_datagram(&self) -> bool {
+        true
+    }
 }
 
 /// `udpout:`: sends to one address from an ephemeral port and receives
@@ -228,6 +232,10 @@ impl Transport for UdpOut {
                 None => 0,
             },
         )
+    }
+
+    fn is_datagram(&self) -> bool {
+        true
     }
 }
 

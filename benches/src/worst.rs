@@ -1,0 +1,160 @@
+//! Inputs of the parser's worst-case benchmark (`benches/parser_worst.rs`)
+//! and of the search for worst patterns (`examples/parser_worst.rs`): random
+//! bytes, garbage dense in start bytes, the repeating pattern of issue 10,
+//! and the worst short patterns the search found.
+
+use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::signing::Verifier;
+use fbwag_dialect::Dialect;
+use std::hint::black_box;
+
+/// Bytes per input: large enough for steady state, small enough that the
+/// old quadratic parser finishes a criterion sample.
+pub const INPUT_LEN: usize = 256 * 1024;
+
+/// Chunks the inputs are pushed in: what `fbwag decode` reads at once.
+pub const CHUNK: usize = 64 * 1024;
+
+/// The 10-byte pattern of issue 10: 1 MB of it took `fbwag decode` 3.6 s.
+pub const ISSUE_PATTERN: &[u8] = &[0xfe, 0xfe, 0xfe, 0xfd, 0xfd, 0x00, 0x00, 0xfe, 0x00, 0xfe];
+
+/// The worst repeating patterns `examples/parser_worst.rs` found (see
+/// BENCHMARKS.md, "Parser worst case"), with the policy they were found
+/// for (`true`: a key, unsigned frames refused).
+pub const FOUND: &[(&str, &[u8], bool)] = &[
+    (
+        "found_a",
+        &[
+            0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0x0f, 0xfe, 0xfe, 0xfe,
+        ],
+        false,
+    ),
+    (
+        "found_b",
+        &[
+            0xfd, 0xfd, 0x00, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe,
+        ],
+        false,
+    ),
+];
+
+/// Deterministic pseudo-random bytes (xorshift).
+pub fn random(len: usize, seed: u64) -> Vec<u8> {
+    let mut x = seed | 1;
+    (0..len)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x as u8
+        })
+        .collect()
+}
+
+/// Every byte 0xFD or 0xFE, at random.
+pub fn dense(len: usize, seed: u64) -> Vec<u8> {
+    random(len, seed)
+        .into_iter()
+        .map(|b| if b & 1 == 0 { 0xFD } else { 0xFE })
+        .collect()
+}
+
+/// Half the bytes 0xFD or 0xFE, the rest random.
+pub fn mixed(len: usize, seed: u64) -> Vec<u8> {
+    random(len, seed)
+        .into_iter()
+        .zip(random(len, seed ^ 0x9E37_79B9))
+        .map(|(b, r)| match r % 4 {
+            0 => 0xFD,
+            1 => 0xFE,
+            _ => b,
+        })
+        .collect()
+}
+
+/// Random bytes drawn from `(value, weight)`s: the worst mix
+/// `examples/parser_worst.rs mix` found.
+pub fn mix(weights: &[(u8, u32)], len: usize, seed: u64) -> Vec<u8> {
+    let total: u32 = weights.iter().map(|w| w.1).sum();
+    random(len, seed)
+        .into_iter()
+        .map(|r| {
+            let mut x = u32::from(r) * total / 256;
+            for &(v, w) in weights {
+                if x < w {
+                    return v;
+                }
+                x -= w;
+            }
+            weights[0].0
+        })
+        .collect()
+}
+
+/// The worst mix found: half 0xFE, a third 0xFD, some 0x09 and 0x00.
+pub const FOUND_MIX: &[(u8, u32)] = &[(0xFE, 19), (0xFD, 13), (0x09, 4), (0x00, 1)];
+
+/// `pattern` repeated to `len` bytes.
+pub fn repeat(pattern: &[u8], len: usize) -> Vec<u8> {
+    pattern.iter().copied().cycle().take(len).collect()
+}
+
+/// The named inputs of the benchmark: (name, bytes, keyed policy).
+pub fn inputs() -> Vec<(String, Vec<u8>, bool)> {
+    let mut v = vec![
+        ("random".to_string(), random(INPUT_LEN, 1), false),
+        ("dense_fd_fe".to_string(), dense(INPUT_LEN, 2), false),
+        ("mixed_half_start".to_string(), mixed(INPUT_LEN, 3), false),
+        ("found_mix".to_string(), mix(FOUND_MIX, INPUT_LEN, 4), false),
+        (
+            "issue_pattern".to_string(),
+            repeat(ISSUE_PATTERN, INPUT_LEN),
+            false,
+        ),
+        ("all_fe".to_string(), repeat(&[0xfe], INPUT_LEN), false),
+        ("all_fd".to_string(), repeat(&[0xfd], INPUT_LEN), false),
+        // Signed MAVLink 2 candidates of unknown ids (one signature check
+        // each, with a key): 278 and 26 bytes long, and 278 confirmed by
+        // the byte after them.
+        (
+            "signed_raw".to_string(),
+            repeat(&[0xfd, 0xfd, 0x01, 0x01], INPUT_LEN),
+            true,
+        ),
+        (
+            "signed_raw_confirmed".to_string(),
+            repeat(&[0xfd, 0xfd, 0x01, 0xfd, 0xfd], INPUT_LEN),
+            true,
+        ),
+    ];
+    for (name, p, keyed) in FOUND {
+        v.push((name.to_string(), repeat(p, INPUT_LEN), *keyed));
+    }
+    v
+}
+
+/// A parser of the FBWAG dialect: without a key, or with one refusing
+/// unsigned frames.
+pub fn parser(keyed: bool) -> Parser<Dialect> {
+    if keyed {
+        Parser::with_signing(Verifier::new(crate::KEY), false)
+    } else {
+        Parser::new()
+    }
+}
+
+/// Pushes `bytes` through `parser` in `chunk`-byte chunks, then flushes;
+/// returns the frames.
+pub fn parse(parser: &mut Parser<Dialect>, bytes: &[u8], chunk: usize) -> usize {
+    let mut n = 0;
+    for mut c in bytes.chunks(chunk) {
+        while let Some(r) = parser.next(&mut c) {
+            black_box(&r.frame);
+            n += 1;
+        }
+    }
+    while parser.flush().is_some() {
+        n += 1;
+    }
+    n
+}

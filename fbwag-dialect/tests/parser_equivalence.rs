@@ -1,0 +1,509 @@
+//! The linear-time parser makes exactly the decisions of the simple one it
+//! replaced (kept in `support/reference_parser.rs`): call by call, the same
+//! frame returned (bytes, known, authenticated), the same bytes held and the
+//! same counters, for every chunking and every end of stream or datagram,
+//! under the three signing policies, on the FBWAG dialect and on two made-up
+//! dialects (every id known; a handful known, id 0 not among them), over
+//! mixed traffic, damaged frames and start-byte-dense adversarial patterns.
+// The FBWAG dialect's full message table is used.
+
+#[path = "support/dialects.rs"]
+mod dialects;
+#[path = "support/reference_parser.rs"]
+mod reference;
+
+use dialects::{row, AllKnown, Few, NoZero, ALL_ROWS, FEW_ROWS};
+use fbwag_dialect::mavframe::frame::{finish, Header, Version};
+use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::{Dialect, MessageMeta, Signer, Verifier};
+use reference::{Got, Reference};
+
+const KEY: [u8; 32] = [0x42; 32];
+
+/// A small deterministic generator (xorshift), so failures reproduce.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn byte(&mut self) -> u8 {
+        self.next() as u8
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+    fn chance(&mut self, percent: usize) -> bool {
+        self.below(100) < percent
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Policy {
+    NoKey,
+    Lenient,
+    Strict,
+}
+
+/// A frame of `meta` (any id: the parser only reads CRC_EXTRA), random
+/// payload, maybe signed with the key or a wrong one.
+fn make_frame(rng: &mut Rng, meta: &MessageMeta, unknown: bool) -> Vec<u8> {
+    let v1 = meta.id <= 255 && rng.chance(25);
+    let mut meta = *meta;
+    if unknown {
+        // Checksum seeded with something the dialect would not say.
+        meta.crc_extra = rng.byte();
+    }
+    let len = match rng.below(4) {
+        0 => 1 + rng.below(8),
+        1 => 1 + rng.below(40),
+        2 => 1 + rng.below(255),
+        _ => 255,
+    };
+    meta.min_len = len as u8;
+    meta.max_len = len as u8;
+    let mut buf = [0u8; 300];
+    for b in &mut buf[10..10 + len] {
+        *b = match rng.below(5) {
+            0 => 0xFD,
+            1 => 0xFE,
+            _ => rng.byte(),
+        };
+    }
+    if v1 {
+        let p: Vec<u8> = buf[10..10 + len].to_vec();
+        buf[6..6 + len].copy_from_slice(&p);
+    }
+    let header = Header {
+        seq: rng.byte(),
+        sysid: 1 + rng.below(3) as u8,
+        compid: 1,
+    };
+    let mut signer = match rng.below(6) {
+        0 | 1 => Some(Signer::new(
+            KEY,
+            rng.byte() % 2,
+            1_000 + rng.next() % 1_000_000,
+        )),
+        2 => Some(Signer::new([7; 32], 0, 5_000)),
+        _ => None,
+    };
+    let version = if v1 { Version::V1 } else { Version::V2 };
+    let n = finish(version, header, &meta, len, signer.as_mut(), &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// A stream: frames (known and unknown ids), garbage dense in start bytes,
+/// damaged frames (cut, bit flips, inflated length), repeated short
+/// patterns.
+fn make_stream<D: Dialect>(rng: &mut Rng, known: &[MessageMeta], size: usize) -> Vec<u8> {
+    let mut s = Vec::new();
+    let mut frames: Vec<Vec<u8>> = Vec::new();
+    while s.len() < size {
+        match rng.below(10) {
+            0..=3 => {
+                let unknown = rng.chance(30);
+                let meta = if unknown {
+                    let mut m = row(rng.next() as u32 & 0xFF_FFFF, 0);
+                    if rng.chance(50) {
+                        m.id &= 0xFF;
+                    }
+                    if D::meta(m.id).is_some() {
+                        m.id = 0x77_7777;
+                    }
+                    m
+                } else {
+                    known[rng.below(known.len())]
+                };
+                let f = make_frame(rng, &meta, unknown);
+                frames.push(f.clone());
+                s.extend_from_slice(&f);
+            }
+            4 => {
+                for _ in 0..rng.below(60) {
+                    s.push(match rng.below(4) {
+                        0 => 0xFD,
+                        1 => 0xFE,
+                        _ => rng.byte(),
+                    });
+                }
+            }
+            5 if !frames.is_empty() => {
+                let mut f = frames[rng.below(frames.len())].clone();
+                match rng.below(3) {
+                    0 => f.truncate(rng.below(f.len())),
+                    1 => {
+                        let i = rng.below(f.len());
+                        f[i] ^= 1 << rng.below(8);
+                    }
+                    _ => f[1] = f[1].wrapping_add(1 + rng.byte() % 200),
+                }
+                s.extend_from_slice(&f);
+            }
+            6 => {
+                let alphabet = [0xFD, 0xFE, 0x00, 0x01, 0x02, 0x09, 0xFF, rng.byte()];
+                let pattern: Vec<u8> = (0..1 + rng.below(12))
+                    .map(|_| alphabet[rng.below(alphabet.len())])
+                    .collect();
+                for i in 0..rng.below(700) {
+                    s.push(pattern[i % pattern.len()]);
+                }
+            }
+            7 if !frames.is_empty() => {
+                // A frame's head glued to the start of another frame.
+                let f = &frames[rng.below(frames.len())];
+                let cut = rng.below(f.len().min(14) + 1);
+                s.extend_from_slice(&f[..cut]);
+            }
+            _ => s.push(if rng.chance(50) { 0xFD } else { 0xFE }),
+        }
+    }
+    s
+}
+
+fn policy_parsers<D: Dialect>(policy: Policy) -> (Parser<D>, Reference<D>) {
+    match policy {
+        Policy::NoKey => (Parser::new(), Reference::new()),
+        Policy::Lenient => (
+            Parser::with_signing(Verifier::new(KEY), true),
+            Reference::with_signing(Verifier::new(KEY), true),
+        ),
+        Policy::Strict => (
+            Parser::with_signing(Verifier::new(KEY), false),
+            Reference::with_signing(Verifier::new(KEY), false),
+        ),
+    }
+}
+
+fn got(r: Option<fbwag_dialect::mavframe::parser::Received<'_, impl Dialect>>) -> Option<Got> {
+    r.map(|r| {
+        (
+            r.frame.as_bytes().to_vec(),
+            r.meta.is_some(),
+            r.authenticated,
+        )
+    })
+}
+
+/// Runs both parsers over `stream` in chunks of `chunk()` bytes, ending a
+/// datagram after a chunk when `boundary()` says so. Returns the frames.
+///
+/// The frames, the counters and the bytes held must be the same after each
+/// end of datagram and at the end. In between, the new parser may be
+/// ahead, never behind: with a candidate cut by the end of a chunk the old
+/// one copied the bytes the candidate needed and returned, checking again
+/// only on the next call, while the new one decides with every byte it has
+/// (so a frame that was held back until the next chunk comes out now). So
+/// after each chunk, the old parser's frames so far must begin the new
+/// one's. (The same holds of a raw candidate whose next byte rules it out
+/// while a position inside it is undecided: the old parser waited for that
+/// position first.)
+fn compare<D: Dialect>(
+    stream: &[u8],
+    policy: Policy,
+    mut chunk: impl FnMut() -> usize,
+    mut boundary: impl FnMut() -> bool,
+    what: &str,
+) -> Vec<Got> {
+    let (mut new, mut old) = policy_parsers::<D>(policy);
+    let (mut a_frames, mut b_frames) = (Vec::new(), Vec::new());
+    let mut rest = stream;
+    let same = |new: &Parser<D>, old: &Reference<D>, a: &[Got], b: &[Got], at: &str| {
+        assert_eq!(a, b, "{what}: {at}: frames differ");
+        assert_eq!(new.stats(), old.stats(), "{what}: {at}: counters");
+        assert_eq!(new.pending(), old.pending(), "{what}: {at}: held");
+    };
+    let mut chunks = 0;
+    while !rest.is_empty() {
+        let n = chunk().clamp(1, rest.len());
+        let (mut a, tail) = rest.split_at(n);
+        let mut b = a;
+        rest = tail;
+        chunks += 1;
+        loop {
+            let x = got(new.next(&mut a));
+            let y = old.next(&mut b);
+            if x.is_none() {
+                assert!(a.is_empty(), "{what}: input left");
+            }
+            let done = x.is_none() && y.is_none();
+            a_frames.extend(x);
+            b_frames.extend(y);
+            if done {
+                break;
+            }
+        }
+        if !a_frames.starts_with(&b_frames) {
+            let i = a_frames
+                .iter()
+                .zip(&b_frames)
+                .take_while(|(x, y)| x == y)
+                .count();
+            panic!(
+                "{what}: chunk {chunks}: the new parser's frames ({}) do not extend the old one's ({}): from {i}: {:02x?}\n vs {:02x?}",
+                a_frames.len(),
+                b_frames.len(),
+                a_frames.get(i..).map(|v| v.iter().map(|f| (f.0.len(), f.1, f.2)).collect::<Vec<_>>()),
+                b_frames.get(i..).map(|v| v.iter().map(|f| (f.0.len(), f.1, f.2)).collect::<Vec<_>>()),
+            );
+        }
+        if boundary() {
+            while let Some(f) = got(new.end_of_datagram()) {
+                a_frames.push(f);
+            }
+            while let Some(f) = old.flush() {
+                b_frames.push(f);
+            }
+            same(
+                &new,
+                &old,
+                &a_frames,
+                &b_frames,
+                &format!("datagram {chunks}"),
+            );
+        }
+    }
+    while let Some(f) = got(new.flush()) {
+        a_frames.push(f);
+    }
+    while let Some(f) = old.flush() {
+        b_frames.push(f);
+    }
+    same(&new, &old, &a_frames, &b_frames, "end");
+    let links: Vec<_> = new
+        .links()
+        .iter()
+        .map(|l| (l.sysid, l.compid, l.received, l.lost, l.gaps))
+        .collect();
+    assert_eq!(links, old.links(), "{what}: per-sender counters");
+    a_frames
+}
+
+fn run<D: Dialect>(known: &[MessageMeta], seed: u64, trials: usize, size: usize) {
+    let mut rng = Rng(seed);
+    let mut frames = 0;
+    for trial in 0..trials {
+        let stream = make_stream::<D>(&mut rng, known, size);
+        let policy = [Policy::NoKey, Policy::Lenient, Policy::Strict][trial % 3];
+        let style = rng.below(5);
+        let seed = rng.next();
+        let mut c = Rng(seed | 1);
+        let mut d = Rng(seed.rotate_left(17) | 1);
+        let what = format!("trial {trial} {policy:?} chunking {style}");
+        let got = compare::<D>(
+            &stream,
+            policy,
+            || match style {
+                0 => 1,
+                1 => 1 + c.below(8),
+                2 => 1 + c.below(300),
+                3 => usize::MAX,
+                _ => 1 + c.below(2000),
+            },
+            || style == 4 && d.chance(50),
+            &what,
+        );
+        frames += got.len();
+    }
+    assert!(frames > trials, "the streams hold frames ({frames})");
+}
+
+#[test]
+fn same_decisions_as_the_reference_on_the_fbwag_dialect() {
+    run::<fbwag_dialect::Dialect>(fbwag_dialect::MESSAGES, 1, 150, 3000);
+}
+
+#[test]
+fn same_decisions_as_the_reference_when_every_id_is_known() {
+    run::<AllKnown>(&ALL_ROWS, 2, 150, 3000);
+}
+
+#[test]
+fn same_decisions_as_the_reference_when_few_ids_are_known() {
+    run::<Few>(&FEW_ROWS, 3, 150, 3000);
+}
+
+/// The patterns the issue and the worst-case search name, byte by byte and
+/// whole, in every dialect.
+#[test]
+fn same_decisions_on_adversarial_patterns() {
+    let patterns: [&[u8]; 6] = [
+        &[0xfe, 0xfe, 0xfe, 0xfd, 0xfd, 0x00, 0x00, 0xfe, 0x00, 0xfe],
+        &[0xfd],
+        &[0xfe],
+        &[0xfd, 0xfd, 0x01, 0x01],
+        &[0xfd, 0x01, 0x00],
+        &[0xfe, 0x00],
+    ];
+    for (i, p) in patterns.iter().enumerate() {
+        let stream: Vec<u8> = p.iter().copied().cycle().take(2500).collect();
+        for policy in [Policy::NoKey, Policy::Strict] {
+            for chunk in [1, 7, usize::MAX] {
+                let what = format!("pattern {i} {policy:?} chunk {chunk}");
+                compare::<fbwag_dialect::Dialect>(&stream, policy, || chunk, || false, &what);
+                compare::<AllKnown>(&stream, policy, || chunk, || false, &what);
+                compare::<Few>(&stream, policy, || chunk, || false, &what);
+            }
+        }
+    }
+}
+
+/// The one decision that changed. A MAVLink 1 header cut before its id
+/// byte, inside a raw candidate, used to be read as id 0: with a dialect
+/// without id 0 the candidate was then taken as soon as its next byte was a
+/// start byte, even when the MAVLink 1 frame it hides turns out whole and
+/// good once its bytes come, so that frame was lost, or not, depending on
+/// where a chunk ended. The new parser waits for the id byte: the same
+/// frames for every chunking.
+#[test]
+fn a_cut_mavlink1_header_inside_a_raw_frame_no_longer_depends_on_chunking() {
+    // A good MAVLink 1 frame of id 1 (known), sequence 0xFD.
+    let mut v1 = [0u8; 16];
+    let meta = FEW_ROWS[1];
+    let mut m = meta;
+    m.min_len = 1;
+    m.max_len = 1;
+    v1[6] = 0x33;
+    let h = Header {
+        seq: 0xFD,
+        sysid: 1,
+        compid: 1,
+    };
+    let n = finish(Version::V1, h, &m, 1, None, &mut v1).unwrap();
+    let v1 = &v1[..n];
+    // A raw frame of an unknown id whose "checksum" is the MAVLink 1
+    // frame's first two bytes (a raw frame's checksum cannot be checked).
+    let mut raw = vec![0xFD, 3, 0, 0, 0, 1, 1, 0x55, 0x55, 0x55, 9, 9, 9];
+    raw.extend_from_slice(&v1[..2]);
+    let stream: Vec<u8> = [&raw[..], &v1[2..], &[0xFE, 0x00][..]].concat();
+    let cut = raw.len() + 1; // the raw frame and its confirmation byte
+    let split = |n: usize| {
+        let mut first = true;
+        move || {
+            let c = if first { n } else { usize::MAX };
+            first = false;
+            c
+        }
+    };
+    let run_new = |chunk: &mut dyn FnMut() -> usize| {
+        let mut p = Parser::<NoZero>::new();
+        let mut out = Vec::new();
+        let mut rest = &stream[..];
+        while !rest.is_empty() {
+            let (mut c, tail) = rest.split_at(chunk().min(rest.len()));
+            rest = tail;
+            while let Some(r) = p.next(&mut c) {
+                out.push(r.frame.as_bytes().to_vec());
+            }
+        }
+        while let Some(r) = p.flush() {
+            out.push(r.frame.as_bytes().to_vec());
+        }
+        out
+    };
+    let whole = run_new(&mut split(usize::MAX));
+    assert!(whole.contains(&v1.to_vec()), "the good frame is found");
+    assert!(!whole.contains(&raw), "and the raw frame hiding it loses");
+    assert_eq!(run_new(&mut split(cut)), whole);
+    assert_eq!(run_new(&mut || 1), whole);
+    // The old parser lost it when a chunk ended right after the raw frame.
+    let run_old = |first: usize| {
+        let mut p = Reference::<NoZero>::new();
+        let (mut a, mut b) = stream.split_at(first.min(stream.len()));
+        let mut out = Vec::new();
+        while let Some(f) = p.next(&mut a) {
+            out.push(f.0);
+        }
+        while let Some(f) = p.next(&mut b) {
+            out.push(f.0);
+        }
+        while let Some(f) = p.flush() {
+            out.push(f.0);
+        }
+        out
+    };
+    assert_eq!(run_old(usize::MAX), whole);
+    let old_cut = run_old(cut);
+    assert!(old_cut.contains(&raw) && !old_cut.contains(&v1.to_vec()));
+}
+
+/// With that change, the new parser gives the same frames for every
+/// chunking in a dialect without id 0 too.
+#[test]
+fn same_frames_for_every_chunking_without_id_0() {
+    let mut rng = Rng(4);
+    for trial in 0..60 {
+        let stream = make_stream::<NoZero>(&mut rng, &FEW_ROWS[1..], 3000);
+        let parse = |chunk: &mut dyn FnMut() -> usize| {
+            let mut p = Parser::<NoZero>::new();
+            let mut out = Vec::new();
+            let mut rest = &stream[..];
+            while !rest.is_empty() {
+                let (mut c, tail) = rest.split_at(chunk().clamp(1, rest.len()));
+                rest = tail;
+                while let Some(r) = p.next(&mut c) {
+                    out.push(r.frame.as_bytes().to_vec());
+                }
+            }
+            while let Some(r) = p.flush() {
+                out.push(r.frame.as_bytes().to_vec());
+            }
+            (out, *p.stats())
+        };
+        let whole = parse(&mut || usize::MAX);
+        let mut c = Rng(trial + 11);
+        assert_eq!(parse(&mut || 1), whole, "trial {trial}: byte by byte");
+        assert_eq!(parse(&mut || 1 + c.below(40)), whole, "trial {trial}");
+    }
+}
+
+/// A caller that drops the rest of its input after a frame (it should pass
+/// it again) and goes on with other bytes, or ends the stream there: the
+/// parser remembers what it saw past the frame, and must not trust it for
+/// the other bytes. Every known frame it returns has its checksum, every
+/// call ends, in every dialect.
+#[test]
+fn dropping_input_after_a_frame_never_yields_a_bad_frame() {
+    fn go<D: Dialect>(known: &[MessageMeta], seed: u64) {
+        let mut rng = Rng(seed);
+        for trial in 0..40 {
+            let a = make_stream::<D>(&mut rng, known, 4000);
+            let b = make_stream::<D>(&mut rng, known, 4000);
+            let mut p = Parser::<D>::new();
+            let mut rest = &a[..];
+            let mut calls = 0;
+            while !rest.is_empty() {
+                let n = (1 + rng.below(600)).min(rest.len());
+                let mut chunk = &rest[..n];
+                rest = &rest[n..];
+                while let Some(r) = p.next(&mut chunk) {
+                    calls += 1;
+                    assert!(calls < 100_000, "trial {trial}: calls do not end");
+                    if let Some(m) = D::meta(r.frame.msg_id()) {
+                        assert!(r.frame.check_crc(m.crc_extra), "trial {trial}");
+                    }
+                    if rng.chance(30) {
+                        // Drop the rest of this chunk; go on with `b`'s
+                        // bytes (and sometimes end the stream first).
+                        chunk = &[];
+                        if rng.chance(50) {
+                            while p.flush().is_some() {}
+                        }
+                        let k = rng.below(b.len());
+                        rest = &b[k..(k + 600).min(b.len())];
+                    }
+                }
+            }
+            while let Some(r) = p.flush() {
+                if let Some(m) = D::meta(r.frame.msg_id()) {
+                    assert!(r.frame.check_crc(m.crc_extra), "trial {trial}");
+                }
+            }
+        }
+    }
+    go::<fbwag_dialect::Dialect>(fbwag_dialect::MESSAGES, 21);
+    go::<AllKnown>(&ALL_ROWS, 22);
+    go::<Few>(&FEW_ROWS, 23);
+}

@@ -1,0 +1,697 @@
+//! What the parser remembers about the bytes after its current candidate
+//! frame, so that each input byte costs a bounded amount of work, whatever
+//! the input.
+//!
+//! The parser decides about one candidate (a start byte) at a time and,
+//! when it rejects one, resumes at the next start byte. Two of its
+//! decisions read far past the candidate, and on input dense in start bytes
+//! every candidate would read the same bytes again:
+//!
+//! - the checksum of a candidate of a known message covers up to 264 bytes;
+//! - a candidate of an unknown id is taken only if no good frame of a known
+//!   id starts inside it: up to 279 positions, each a checksum.
+//!
+//! [`Memo`] answers both in amortised constant time per byte:
+//!
+//! - **Checksums.** The first checksum over fresh bytes is computed directly
+//!   (the fast slice-by-16 path, as before: a good frame costs what it did).
+//!   A checksum over bytes an earlier one already covered (a candidate
+//!   inside a rejected one) comes from *prefix states* instead: the CRC
+//!   register after every position of the window, each computed once, one
+//!   byte step per position. The CRC is affine over GF(2), so the checksum
+//!   of any stretch is a 16-column product of its two end states
+//!   ([`crc::between`]). Direct checksums never overlap (each starts at or
+//!   after the end of the previous one) and prefix states are computed once
+//!   per position, so checksumming costs at most two byte steps per byte.
+//! - **Good known frames inside a candidate.** Whether a good frame of a
+//!   known id starts at a position depends on the bytes only, so each
+//!   position is classified when the scan first reaches it (a *frontier*
+//!   that only moves forward), and the answer is kept in a bit ring: good,
+//!   or *undecided* (its frame is not whole yet). A position that can still
+//!   change waits in a list keyed by the stream position at which it can
+//!   (its header's or its frame's end), and is classified again when the
+//!   bytes reach it: at most three times in all. "Is there a good frame in
+//!   (candidate, end)" and "the first undecided one" are then searches of
+//!   at most five words of the rings.
+//!
+//! Stream positions are absolute (`u64`, bytes pushed before them); the
+//! rings index them modulo their size, which exceeds the span of positions
+//! alive at once (see the constants).
+
+use super::msg_id;
+use crate::crc;
+use crate::frame::{
+    frame_len, Frame, FrameError, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_KNOWN,
+    IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
+};
+use crate::message::Dialect;
+
+/// Prefix states kept. A checksum asked for while the candidate is at `c`
+/// starts after a position inside the candidate (before `c + 280`) and
+/// covers at most 264 bytes: live states span less than 545 positions.
+const PREFIX_RING: usize = 1024;
+const PREFIX_MASK: u64 = PREFIX_RING as u64 - 1;
+/// Prefix states are computed this far past what a checksum needs...
+const PREFIX_AHEAD: u64 = 64;
+/// ...but never further than this past the candidate, so that the live
+/// states fit the ring.
+const PREFIX_REACH: u64 = 2 * MAX_FRAME_LEN as u64 + PREFIX_AHEAD;
+
+/// Positions of the inside scan (inside the candidate: fewer than
+/// [`MAX_FRAME_LEN`]) and their wake-up positions (at most a frame after
+/// the bytes available, which are after those positions).
+const SCAN_RING: usize = 512;
+const SCAN_MASK: u64 = SCAN_RING as u64 - 1;
+const SCAN_WORDS: usize = SCAN_RING / 64;
+
+const _: () = assert!(PREFIX_RING as u64 > PREFIX_REACH && SCAN_RING > MAX_FRAME_LEN + 10);
+
+/// Whether a good frame of a known id starts inside a candidate (after its
+/// first byte, before the end asked about).
+#[derive(Debug, PartialEq, Eq)]
+pub(super) enum Inside {
+    Yes,
+    No,
+    /// A position inside may still start one: the first such needs this
+    /// many bytes (counted from the candidate's start byte) to decide.
+    Undecided(usize),
+}
+
+/// What the bytes available say about one position.
+enum Class {
+    /// No good frame of a known id starts here, whatever follows.
+    NotGood,
+    /// A whole frame of a known id with a good checksum starts here.
+    Good,
+    /// A whole frame of a known id with a bad checksum starts here.
+    BadCrc,
+    /// Not decided yet; `undecided` when it counts as such for the parser's
+    /// rules (see [`Memo::classify`]); decided again once the stream
+    /// reaches `wake`.
+    Pending { undecided: bool, wake: u64 },
+}
+
+/// See the module documentation. About 4.2 KiB.
+pub(super) struct Memo {
+    /// `prefix[x % PREFIX_RING]`: the CRC register after the bytes from the
+    /// start of the current run of prefix states up to stream position `x`
+    /// (exclusive), for `x` up to `prefix_end`.
+    prefix: [u16; PREFIX_RING],
+    /// End of the prefix states; the run is dead when it is not after the
+    /// current candidate.
+    prefix_end: u64,
+    /// End of the last checksum computed directly: the next direct one
+    /// starts at or after it.
+    direct_end: u64,
+    /// Positions before it (and after the candidate) are classified.
+    frontier: u64,
+    /// Positions from it to the frontier are classified (the scan jumps
+    /// when the candidate passes the frontier).
+    scanned_from: u64,
+    /// A good known frame starts at the position (bit ring).
+    good: [u64; SCAN_WORDS],
+    /// A whole frame of a known id with a bad checksum starts at the
+    /// position (bit ring): with `good`, the verdict on the checksum when
+    /// the position becomes the candidate.
+    bad: [u64; SCAN_WORDS],
+    /// The position is undecided (bit ring).
+    undecided: [u64; SCAN_WORDS],
+    /// Lists of pending positions by wake-up position: `wake_head[w % ring]`
+    /// is the first one's ring slot + 1 (0: none) in its low 16 bits, the
+    /// epoch it was written in above them; `wake_next[slot]` the next
+    /// one's. A head of another epoch is an empty list.
+    wake_head: [u32; SCAN_RING],
+    wake_next: [u16; SCAN_RING],
+    /// Bumped by [`Memo::forget_from`]: every list becomes empty at once.
+    epoch: u32,
+    /// Wake-up positions up to this one have been handled.
+    woken: u64,
+    /// The largest wake-up position listed.
+    last_wake: u64,
+    /// Position + 1 of the last whole known frame found good by
+    /// [`Memo::candidate_crc_ok`]: asked again when the fast rejection loop
+    /// hands the candidate over.
+    good_candidate: u64,
+    /// Candidate position + 1 of the last unknown-id frame whose signature
+    /// failed: the verifier has not changed since (a change needs an
+    /// accepted frame, which moves the candidate), so it would fail again.
+    raw_signature_failed: u64,
+    /// CRC_EXTRA of MAVLink 1 ids (0–255) as the dialect says, looked up
+    /// once each: `0x200 | 0x100 (known) | crc_extra`, 0 before the first
+    /// look-up. A table load instead of the dialect's jump table, whose
+    /// indirect branch garbage's random ids keep mispredicting.
+    v1_extra: [u16; 256],
+    /// No state about positions from here on (the frontier, the prefix
+    /// states and the last direct checksum all end before): a candidate
+    /// there is checked exactly as without a memo.
+    busy_until: u64,
+    /// Elementary steps taken: see [`super::Work::steps`].
+    pub(super) steps: u64,
+    /// Signatures checked (SHA-256): see [`super::Work::signatures`].
+    pub(super) signatures: u64,
+}
+
+/// What the checksum check needs of a whole frame, read from its header
+/// once.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Whole {
+    /// Message id.
+    pub(super) id: u32,
+    /// Bytes the checksum covers (after the start byte, up to the checksum).
+    covered: usize,
+    /// The checksum the frame carries.
+    carried: u16,
+}
+
+impl Whole {
+    /// The frame at the start of `bytes` when its header is whole, its
+    /// incompatibility flags known and all its bytes there: what `frame_len`
+    /// and `Frame` would say, read once.
+    #[inline(always)]
+    pub(super) fn at(bytes: &[u8]) -> Option<Whole> {
+        let (covered, len, id) = match *bytes.first()? {
+            STX_V2 => {
+                let h = bytes.get(..HEADER_LEN_V2)?;
+                if h[2] & !IFLAG_KNOWN != 0 {
+                    return None;
+                }
+                let sig = if h[2] & IFLAG_SIGNED != 0 {
+                    SIGNATURE_LEN
+                } else {
+                    0
+                };
+                let covered = HEADER_LEN_V2 - 1 + usize::from(h[1]);
+                let id = u32::from_le_bytes([h[7], h[8], h[9], 0]);
+                (covered, covered + 1 + CHECKSUM_LEN + sig, id)
+            }
+            STX_V1 => {
+                let covered = HEADER_LEN_V1 - 1 + usize::from(*bytes.get(1)?);
+                // A whole MAVLink 1 frame (8 bytes at least) has its id byte.
+                (
+                    covered,
+                    covered + 1 + CHECKSUM_LEN,
+                    u32::from(*bytes.get(5)?),
+                )
+            }
+            _ => return None,
+        };
+        if bytes.len() < len {
+            return None;
+        }
+        let carried = u16::from_le_bytes([bytes[covered + 1], bytes[covered + 2]]);
+        Some(Whole {
+            id,
+            covered,
+            carried,
+        })
+    }
+
+    /// The same, for a frame already delimited.
+    #[inline(always)]
+    pub(super) fn of(frame: &Frame<'_>) -> Whole {
+        let header = match frame.version() {
+            Version::V2 => HEADER_LEN_V2,
+            Version::V1 => HEADER_LEN_V1,
+        };
+        Whole {
+            id: frame.msg_id(),
+            covered: header - 1 + frame.payload_len(),
+            carried: frame.checksum(),
+        }
+    }
+}
+
+impl Memo {
+    pub(super) const fn new() -> Self {
+        Memo {
+            prefix: [0; PREFIX_RING],
+            prefix_end: 0,
+            direct_end: 0,
+            frontier: 0,
+            scanned_from: 0,
+            good: [0; SCAN_WORDS],
+            bad: [0; SCAN_WORDS],
+            undecided: [0; SCAN_WORDS],
+            wake_head: [0; SCAN_RING],
+            wake_next: [0; SCAN_RING],
+            epoch: 1,
+            woken: 0,
+            last_wake: 0,
+            good_candidate: 0,
+            raw_signature_failed: 0,
+            v1_extra: [0; 256],
+            busy_until: 0,
+            steps: 0,
+            signatures: 0,
+        }
+    }
+
+    /// Whether the whole frame `w`, at `bytes[rel..]` where `bytes[0]` is
+    /// stream position `at` (the current candidate), carries the checksum of
+    /// its message (`crc_extra`). The first checksum over fresh bytes is
+    /// computed directly; one over bytes an earlier one covered, from
+    /// prefix states.
+    #[inline(always)]
+    fn crc_matches(&mut self, bytes: &[u8], at: u64, rel: usize, w: &Whole, crc_extra: u8) -> bool {
+        let start = at + rel as u64 + 1;
+        let end = start + w.covered as u64;
+        if (self.prefix_end > at && start <= self.prefix_end) || start < self.direct_end {
+            if self.prefix_end <= at || end > self.prefix_end {
+                self.extend_prefix(bytes, at, end);
+            }
+            let before = self.prefix[slot_of(start, PREFIX_MASK)];
+            let after = self.prefix[slot_of(end, PREFIX_MASK)];
+            return crc::between(before, after, w.covered).map(|c| crc::step(c, crc_extra))
+                == Some(w.carried);
+        }
+        self.direct_end = end;
+        self.busy_until = self.busy_until.max(end);
+        self.steps += w.covered as u64;
+        match bytes.get(rel + 1..rel + 1 + w.covered) {
+            Some(covered) => crc::frame_crc(covered, crc_extra) == w.carried,
+            None => false,
+        }
+    }
+
+    /// Whether something is known about position `at` or after it.
+    #[inline(always)]
+    pub(super) fn busy_at(&self, at: u64) -> bool {
+        at < self.busy_until
+    }
+
+    /// Whether `frame`, the candidate at `at`, carries its checksum: when
+    /// nothing is known about it or after it, exactly the check without a
+    /// memo (the hot path: a good frame whole in the input), else
+    /// [`candidate_crc_ok`](Self::candidate_crc_ok).
+    #[inline(always)]
+    pub(super) fn frame_crc_ok(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        frame: &Frame<'_>,
+        crc_extra: u8,
+    ) -> bool {
+        if at < self.busy_until {
+            return self.candidate_crc_ok(bytes, at, &Whole::of(frame), crc_extra);
+        }
+        // (Counted by `Parser::work`: these bytes are consumed now, as a
+        // frame or a rejected candidate.)
+        let ok = frame.check_crc(crc_extra);
+        if !ok {
+            self.steps += frame.as_bytes().len() as u64;
+            // Candidates inside it come next: their checksums over these
+            // bytes from prefix states, not directly again.
+            self.direct_end = at + 1 + Whole::of(frame).covered as u64;
+            self.busy_until = self.direct_end;
+        }
+        ok
+    }
+
+    /// [`crc_matches`](Self::crc_matches) for the candidate itself
+    /// (`bytes[0]`), from the scan's verdict when an earlier candidate's
+    /// scan classified it. A frame is taken only on its own bytes' checksum.
+    #[inline(always)]
+    pub(super) fn candidate_crc_ok(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        w: &Whole,
+        crc_extra: u8,
+    ) -> bool {
+        if self.good_candidate == at + 1 {
+            return true;
+        }
+        let remembered = at >= self.scanned_from && at < self.frontier;
+        if remembered && test_bit(&self.bad, at) {
+            return false;
+        }
+        let direct_end = self.direct_end;
+        let ok = (remembered && test_bit(&self.good, at))
+            || self.crc_matches(bytes, at, 0, w, crc_extra);
+        // What is remembered (verdicts, prefix states) was computed from
+        // bytes a caller may not have passed again (one that drops the rest
+        // of its input after a frame): confirmed on the frame's own bytes,
+        // unless `crc_matches` has just done exactly that.
+        let end = at + 1 + w.covered as u64;
+        let ok = ok
+            && ((self.direct_end == end && direct_end != end)
+                || bytes
+                    .get(1..1 + w.covered)
+                    .is_some_and(|c| crc::frame_crc(c, crc_extra) == w.carried));
+        if ok {
+            self.good_candidate = at + 1;
+        }
+        ok
+    }
+
+    /// Extends the prefix states to `end` at least (restarting them just
+    /// after the candidate when they are all behind it), and ahead of it by
+    /// a batch the next checksums will likely need: one tight loop, not a
+    /// byte per candidate through memory.
+    #[inline(never)]
+    fn extend_prefix(&mut self, bytes: &[u8], at: u64, end: u64) {
+        if self.prefix_end <= at {
+            // No checksum asked from now on starts before the candidate.
+            self.prefix_end = at + 1;
+            self.prefix[slot_of(at + 1, PREFIX_MASK)] = 0;
+        }
+        let avail = at + bytes.len() as u64;
+        let upto = avail
+            .min((end + PREFIX_AHEAD).max(self.prefix_end + PREFIX_AHEAD))
+            .min(at + PREFIX_REACH)
+            .max(end);
+        let (Ok(from), Ok(to)) = (
+            usize::try_from(self.prefix_end - at),
+            usize::try_from(upto - at),
+        ) else {
+            return;
+        };
+        let Some(new) = bytes.get(from..to) else {
+            return;
+        };
+        let mut r = self.prefix[slot_of(self.prefix_end, PREFIX_MASK)];
+        let mut x = self.prefix_end;
+        let mut fours = new.chunks_exact(4);
+        for b in &mut fours {
+            let states = crc::step4(r, [b[0], b[1], b[2], b[3]]);
+            for s in states {
+                x += 1;
+                self.prefix[slot_of(x, PREFIX_MASK)] = s;
+            }
+            r = states[3];
+        }
+        for &b in fours.remainder() {
+            r = crc::step(r, b);
+            x += 1;
+            self.prefix[slot_of(x, PREFIX_MASK)] = r;
+        }
+        self.steps += upto - self.prefix_end;
+        self.prefix_end = upto;
+        self.busy_until = self.busy_until.max(upto);
+    }
+
+    /// Whether a good frame of a known id starts at a position after
+    /// `bytes[0]` (stream position `at`, the candidate) and before
+    /// `bytes[len]`, as far as `bytes` tells.
+    pub(super) fn inside<D: Dialect>(&mut self, bytes: &[u8], at: u64, len: usize) -> Inside {
+        let end = len.min(bytes.len());
+        self.wake::<D>(bytes, at);
+        self.scan::<D>(bytes, at, end);
+        let (from, to) = (at + 1, at + end as u64);
+        self.steps += 1;
+        if first_set(&self.good, from, to).is_some() {
+            return Inside::Yes;
+        }
+        match first_set(&self.undecided, from, to) {
+            Some(q) => Inside::Undecided(needed_at(bytes, (q - at) as usize)),
+            None => Inside::No,
+        }
+    }
+
+    /// Classifies again the pending positions whose wake-up position the
+    /// bytes have reached, each as of its wake-up position (so that what it
+    /// waits for next is at most a frame ahead of the positions handled).
+    fn wake<D: Dialect>(&mut self, bytes: &[u8], at: u64) {
+        let avail = at + bytes.len() as u64;
+        if avail < self.woken {
+            self.forget_from(at);
+        }
+        while self.woken < avail.min(self.last_wake) {
+            self.woken += 1;
+            let w = self.woken;
+            self.steps += 1;
+            let head = core::mem::take(&mut self.wake_head[slot_of(w, SCAN_MASK)]);
+            let mut link = if head >> 16 == self.epoch {
+                head as u16
+            } else {
+                0
+            };
+            while link != 0 {
+                let slot = u64::from(link - 1);
+                link = self.wake_next[slot_of(slot, SCAN_MASK)];
+                // The position waiting: the one of this slot less than a
+                // ring before its wake-up position.
+                let q = w - (w.wrapping_sub(slot) & SCAN_MASK);
+                clear_bit(&mut self.undecided, q);
+                self.steps += 1;
+                // Positions before the candidate are of no more use.
+                if q > at {
+                    let upto = &bytes[..bytes.len().min((w - at) as usize)];
+                    let class = self.classify::<D>(upto, at, (q - at) as usize);
+                    self.record(q, class);
+                }
+            }
+        }
+        self.woken = self.woken.max(avail);
+    }
+
+    /// Classifies the positions from the frontier (or just after the
+    /// candidate) to `bytes[end]`, exclusive.
+    fn scan<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: usize) {
+        let to = at + end as u64;
+        if self.frontier <= at {
+            self.frontier = at + 1;
+            self.scanned_from = at + 1;
+        }
+        let from = self.frontier;
+        if from >= to {
+            return;
+        }
+        clear_range(&mut self.good, from, to);
+        clear_range(&mut self.bad, from, to);
+        clear_range(&mut self.undecided, from, to);
+        let lo = (from - at) as usize;
+        // By kind, so that no branch per position asks which kind it is
+        // (in garbage, unpredictable): each position is decided alone.
+        for (base, kinds) in start_masks(&bytes[lo..], end - lo) {
+            for mut starts in kinds {
+                while starts != 0 {
+                    let rel = lo + base + starts.trailing_zeros() as usize;
+                    starts &= starts - 1;
+                    self.classify_start::<D>(bytes, at, rel);
+                }
+            }
+        }
+        self.steps += to - from;
+        self.frontier = to;
+        self.busy_until = self.busy_until.max(to);
+    }
+
+    /// Classifies the start byte at `bytes[rel]`: a whole frame here, the
+    /// rest by [`classify`](Self::classify).
+    #[inline(always)]
+    fn classify_start<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) {
+        let q = at + rel as u64;
+        self.steps += 1;
+        match Whole::at(&bytes[rel..]) {
+            Some(w) => {
+                if let Some(extra) = self.crc_extra::<D>(w.id) {
+                    let good = self.crc_matches(bytes, at, rel, &w, extra);
+                    set_bit(if good { &mut self.good } else { &mut self.bad }, q);
+                }
+            }
+            None => {
+                let class = self.classify::<D>(bytes, at, rel);
+                self.record(q, class);
+            }
+        }
+    }
+
+    /// What `bytes` (from the candidate at `at`) say about position
+    /// `at + rel`, a start byte: the rules of the parser's "known good frame
+    /// inside" check. Undecided are the positions whose header is not whole
+    /// (for MAVLink 1: up to its id byte), and those of a known id whose
+    /// frame is not whole. (Before, a MAVLink 1 header cut before its id
+    /// byte was read as id 0: with a dialect without id 0 the answer then
+    /// depended on where a chunk ended.)
+    fn classify<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Class {
+        let Some(inner) = bytes.get(rel..) else {
+            return Class::NotGood;
+        };
+        let q = at + rel as u64;
+        let v1 = inner.first() == Some(&STX_V1);
+        self.steps += 1;
+        match frame_len(inner) {
+            Ok(n) if inner.len() >= n => {
+                let w = Whole::of(&Frame::from_delimited(&inner[..n]));
+                match D::meta(w.id) {
+                    Some(m) if self.crc_matches(bytes, at, rel, &w, m.crc_extra) => Class::Good,
+                    Some(_) => Class::BadCrc,
+                    None => Class::NotGood,
+                }
+            }
+            Ok(_) if v1 && inner.len() < HEADER_LEN_V1 => Class::Pending {
+                // The id byte is not there yet: any id, known maybe.
+                undecided: true,
+                wake: q + HEADER_LEN_V1 as u64,
+            },
+            Ok(n) => {
+                if D::meta(msg_id(inner)).is_some() {
+                    Class::Pending {
+                        undecided: true,
+                        wake: q + n as u64,
+                    }
+                } else {
+                    Class::NotGood
+                }
+            }
+            Err(FrameError::Incomplete { .. }) => Class::Pending {
+                undecided: true,
+                // The length byte of MAVLink 1, the whole header of 2.
+                wake: q + if v1 { 2 } else { HEADER_LEN_V2 as u64 },
+            },
+            Err(_) => Class::NotGood,
+        }
+    }
+
+    fn record(&mut self, q: u64, class: Class) {
+        match class {
+            Class::NotGood => {}
+            Class::Good => set_bit(&mut self.good, q),
+            Class::BadCrc => set_bit(&mut self.bad, q),
+            Class::Pending { undecided, wake } => {
+                if undecided {
+                    set_bit(&mut self.undecided, q);
+                }
+                let slot = slot_of(q, SCAN_MASK);
+                let head = &mut self.wake_head[slot_of(wake, SCAN_MASK)];
+                self.wake_next[slot] = if *head >> 16 == self.epoch {
+                    *head as u16
+                } else {
+                    0
+                };
+                // slot < SCAN_RING ≤ u16::MAX.
+                *head = self.epoch << 16 | (slot as u32 + 1);
+                self.last_wake = self.last_wake.max(wake);
+            }
+        }
+    }
+
+    /// Forgets what is known about stream positions from `pos` on, and
+    /// what was computed from bytes there (in constant time): called when
+    /// the bytes from `pos` on may not be those seen. At the end of a
+    /// stream what follows is another; fewer bytes at hand than before means
+    /// a caller dropped input the parser had looked at (it must pass the
+    /// rest of its input again after a frame) and passed other bytes.
+    pub(super) fn forget_from(&mut self, pos: u64) {
+        self.epoch += 1;
+        if self.epoch > u32::from(u16::MAX) {
+            // Heads of an epoch this old may still sit in the ring.
+            self.wake_head = [0; SCAN_RING];
+            self.steps += SCAN_RING as u64;
+            self.epoch = 1;
+        }
+        (self.woken, self.last_wake) = (pos, pos);
+        (self.frontier, self.scanned_from) = (pos, pos);
+        (self.prefix_end, self.direct_end) = (0, self.direct_end.max(pos));
+        (self.good_candidate, self.raw_signature_failed) = (0, 0);
+        self.busy_until = self.direct_end;
+    }
+
+    /// The CRC_EXTRA of message `id`, `None` when the dialect does not know
+    /// it.
+    #[inline(always)]
+    pub(super) fn crc_extra<D: Dialect>(&mut self, id: u32) -> Option<u8> {
+        let Some(cached) = self.v1_extra.get_mut(id as usize) else {
+            return D::meta(id).map(|m| m.crc_extra);
+        };
+        if *cached == 0 {
+            *cached = 0x200 | D::meta(id).map_or(0, |m| 0x100 | u16::from(m.crc_extra));
+        }
+        (*cached & 0x100 != 0).then_some(*cached as u8)
+    }
+
+    /// Whether the candidate at `at`, an unknown id whose signature was
+    /// checked, failed that check.
+    pub(super) fn raw_signature_failed(&self, at: u64) -> bool {
+        self.raw_signature_failed == at + 1
+    }
+
+    pub(super) fn set_raw_signature_failed(&mut self, at: u64) {
+        self.raw_signature_failed = at + 1;
+    }
+}
+
+/// The start bytes among the first `count` of `bytes`, 64 positions at a
+/// time: (offset, [0xFE positions, 0xFD positions]), less the 0xFD whose
+/// whole header has unknown incompatibility flags (no frame there, as
+/// `frame_len` says; most of garbage's 0xFD). Compares the compiler
+/// vectorises, then set bits: no branch per byte.
+fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = (usize, [u64; 2])> + '_ {
+    (0..count).step_by(64).map(move |base| {
+        let n = (count - base).min(64);
+        let (mut v1, mut v2, mut bad_flags) = (0u64, 0u64, 0u64);
+        for (j, &b) in bytes[base..base + n].iter().enumerate() {
+            v1 |= u64::from(b == STX_V1) << j;
+            v2 |= u64::from(b == STX_V2) << j;
+        }
+        let flags = bytes.get(base + 2..).unwrap_or(&[]);
+        for (j, &f) in flags[..flags.len().min(n)].iter().enumerate() {
+            bad_flags |= u64::from(f & !IFLAG_KNOWN != 0) << j;
+        }
+        // Positions whose header is whole: base + j + 10 <= len.
+        let whole = bytes.len().saturating_sub(base + HEADER_LEN_V2 - 1);
+        let whole = if whole >= 64 { !0 } else { (1u64 << whole) - 1 };
+        (base, [v1, v2 & !(bad_flags & whole)])
+    })
+}
+
+/// Bytes needed (from `bytes[0]`) to decide about the undecided position
+/// `bytes[rel]`: its frame's length, or its header's while that is cut.
+fn needed_at(bytes: &[u8], rel: usize) -> usize {
+    match bytes.get(rel..).map(frame_len) {
+        Some(Ok(n)) | Some(Err(FrameError::Incomplete { needed: n })) => rel + n,
+        // Not undecided: cannot happen. More than is held keeps it waiting.
+        _ => bytes.len() + 1,
+    }
+}
+
+#[inline(always)]
+fn slot_of(x: u64, mask: u64) -> usize {
+    (x & mask) as usize
+}
+
+fn set_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {
+    let s = slot_of(x, SCAN_MASK);
+    bits[s / 64] |= 1 << (s % 64);
+}
+
+fn clear_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {
+    let s = slot_of(x, SCAN_MASK);
+    bits[s / 64] &= !(1 << (s % 64));
+}
+
+/// The first position in `from..to` (fewer than a ring) whose bit is set.
+#[inline]
+fn first_set(bits: &[u64; SCAN_WORDS], from: u64, to: u64) -> Option<u64> {
+    let mut x = from;
+    while x < to {
+        let s = slot_of(x, SCAN_MASK);
+        // The bits of positions x.. to the end of their word.
+        let rest = bits[s / 64] >> (s % 64);
+        if rest != 0 {
+            let q = x + u64::from(rest.trailing_zeros());
+            return (q < to).then_some(q);
+        }
+        x += 64 - (s % 64) as u64;
+    }
+    None
+}
+
+/// Clears the bits of positions `from..to` (fewer than a ring).
+fn clear_range(bits: &mut [u64; SCAN_WORDS], from: u64, to: u64) {
+    let mut x = from;
+    while x < to {
+        let s = slot_of(x, SCAN_MASK);
+        let bit = (s % 64) as u64;
+        let span = (64 - bit).min(to - x);
+        let mask = if span == 64 { !0 } else { (1u64 << span) - 1 } << bit;
+        bits[s / 64] &= !mask;
+        x += span;
+    }
+}
+
+fn test_bit(bits: &[u64; SCAN_WORDS], x: u64) -> bool {
+    let s = slot_of(x, SCAN_MASK);
+    bits[s / 64] & (1 << (s % 64)) != 0
+}

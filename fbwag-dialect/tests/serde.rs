@@ -272,10 +272,12 @@ fn arrays_longer_than_32_and_float_specials_round_trip() {
     assert_eq!(value["data"].as_array().unwrap().len(), 90);
     assert_eq!(serde_json::from_value::<LogData>(value).unwrap(), log);
 
-    let mut info = GimbalManagerInformation::default();
-    info.roll_min = f32::NAN;
-    info.roll_max = f32::NEG_INFINITY;
-    info.pitch_min = f32::from_bits(0xffc0_0001);
+    let info = GimbalManagerInformation {
+        roll_min: f32::NAN,
+        roll_max: f32::NEG_INFINITY,
+        pitch_min: f32::from_bits(0xffc0_0001),
+        ..GimbalManagerInformation::default()
+    };
     let value = serde_json::to_value(info).unwrap();
     assert_eq!(value["roll_min"], json!("NaN"));
     assert_eq!(value["roll_max"], json!("-inf"));
@@ -315,8 +317,10 @@ fn enum_values_wider_than_their_field_are_refused() {
         assert!(e.contains("0 to 65535"), "{e}");
     }
     // postcard too: the check is the field's, not the format's.
-    let mut info = GimbalDeviceInformation::default();
-    info.cap_flags2 = wide;
+    let mut info = GimbalDeviceInformation {
+        cap_flags2: wide,
+        ..GimbalDeviceInformation::default()
+    };
     let mut buf = [0u8; 512];
     let used = postcard::to_slice(&info, &mut buf).unwrap().to_vec();
     info.cap_flags = wide;

@@ -12,7 +12,7 @@
 //!
 //! The `serde` feature implements `Serialize` and `Deserialize` for every
 //! message, enum and [`Message`], in the forms of `fbwag-dialect` (see
-//! [`mavframe::serde`]); `no_std` too.
+//! `mavframe::serde`); `no_std` too.
 #![no_std]
 #![warn(missing_docs)]
 

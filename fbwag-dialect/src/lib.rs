@@ -18,7 +18,7 @@
 //! XML does not list), bitmasks bitflags-style text, char arrays strings,
 //! NaN and infinities strings, so every value reads back bit for bit;
 //! compact formats (postcard, bincode) get plain numbers and bytes. The
-//! forms: [`mavframe::serde`].
+//! forms: `mavframe::serde`.
 //!
 //! ```
 //! # #[cfg(feature = "serde")] {

@@ -17,7 +17,7 @@
 //! | [bitmasks](flags) | `"MAV_MODE_FLAG_SAFETY_ARMED \| 0x40"` (bitflags' text, XML names) | the number |
 //! | [`char[N]`](chars) | a string without trailing NULs, `{"hex": "…"}` when not UTF-8 | the bytes without trailing NULs |
 //! | [`float`, `double`](float) | a number; `"NaN"`, `"NaN:0x…"`, `"inf"`, `"-inf"` | the value |
-//! | [arrays](array) (any length) | a sequence of exactly `N` | a tuple of `N` |
+//! | [arrays](mod@array) (any length) | a sequence of exactly `N` | a tuple of `N` |
 //! | integers | the number | the number |
 //!
 //! Every form reads back bit for bit. Generated messages are structs with

@@ -21,13 +21,12 @@
 use super::{shown, value, Object};
 use fbwag_dialect::mavframe::serde::float::{self, Float, SpecialError};
 use fbwag_dialect::mavframe::{FieldMeta, FieldType, MessageMeta};
-use fbwag_dialect::Message;
+use fbwag_dialect::{Message, MESSAGES};
 use serde::de::{self, DeserializeSeed, EnumAccess, IntoDeserializer, SeqAccess, VariantAccess};
 use serde::ser::{self, Impossible, Serialize, SerializeStruct, SerializeTuple};
 use serde_json::value::RawValue;
 use serde_json::Value;
 use std::cell::RefCell;
-use std::collections::HashMap;
 use std::fmt::{self, Write as _};
 
 /// What went wrong between a message and its JSON values.
@@ -180,77 +179,103 @@ macro_rules! not_a_value {
 
 /// Appends the `fields` object of `message` (whose table row is `meta`).
 pub fn write(out: &mut String, meta: &MessageMeta, message: &Message) -> Result<(), FieldsError> {
-    let mut fields = FieldsWriter {
-        meta,
-        values: String::with_capacity(16 * meta.fields.len()),
-        spans: vec![(0, 0); meta.fields.len()],
-        order: Order::of(meta),
-        next: 0,
-    };
-    message.serialize(MessageWriter(&mut fields))?;
-    out.push('{');
-    for (i, (f, &(start, end))) in meta.fields.iter().zip(&fields.spans).enumerate() {
-        if i > 0 {
-            out.push(',');
-        }
-        out.push('"');
-        out.push_str(f.name);
-        out.push_str("\":");
-        out.push_str(&fields.values[start..end]);
-    }
-    out.push('}');
-    fields.order.save(meta);
-    Ok(())
+    SCRATCH.with(|scratch| match scratch.try_borrow_mut() {
+        Ok(mut scratch) => scratch.write(out, meta, message),
+        // Not reentrant; were it ever, fresh buffers do the same.
+        Err(_) => Scratch::default().write(out, meta, message),
+    })
 }
-
-/// Where the k-th field serde writes (declaration, i.e. XML, order) goes
-/// in the wire order of the table, learnt from the names on a message's
-/// first line and kept per message id.
-struct Order(Vec<usize>);
 
 thread_local! {
-    static ORDERS: RefCell<HashMap<u32, Vec<usize>>> = RefCell::new(HashMap::new());
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-impl Order {
-    fn of(meta: &MessageMeta) -> Order {
-        Order(
-            ORDERS
-                .with(|o| o.borrow_mut().remove(&meta.id))
-                .unwrap_or_default(),
-        )
-    }
-
-    fn save(self, meta: &MessageMeta) {
-        ORDERS.with(|o| o.borrow_mut().insert(meta.id, self.0));
-    }
-
-    /// The wire index of the `k`-th field written, named `key`.
-    fn index(&mut self, meta: &MessageMeta, k: usize, key: &str) -> Option<usize> {
-        if let Some(&i) = self.0.get(k) {
-            if meta.fields[i].name == key {
-                return Some(i);
-            }
-        }
-        let i = meta.fields.iter().position(|f| f.name == key)?;
-        self.0.truncate(k);
-        self.0.push(i);
-        Some(i)
-    }
-}
-
-struct FieldsWriter<'m> {
-    meta: &'m MessageMeta,
+/// Buffers kept from line to line, so a line allocates nothing here.
+#[derive(Default)]
+struct Scratch {
     /// Every value's JSON text, in the order serde gives them.
     values: String,
     /// Each field's text in `values`, by wire index.
     spans: Vec<(usize, usize)>,
-    order: Order,
+    /// Per message of the dialect (by index in its table): the wire index
+    /// of the k-th field serde writes (in declaration, i.e. XML, order),
+    /// learnt from the names on the message's first line.
+    orders: Vec<Vec<usize>>,
+    /// The order of a message the dialect's table does not have (none).
+    other: Vec<usize>,
+}
+
+impl Scratch {
+    fn write(
+        &mut self,
+        out: &mut String,
+        meta: &MessageMeta,
+        message: &Message,
+    ) -> Result<(), FieldsError> {
+        self.values.clear();
+        self.spans.clear();
+        self.spans.resize(meta.fields.len(), (0, 0));
+        let order = match MESSAGES.binary_search_by_key(&meta.id, |m| m.id) {
+            Ok(i) => {
+                self.orders.resize_with(MESSAGES.len(), Vec::new);
+                &mut self.orders[i]
+            }
+            Err(_) => &mut self.other,
+        };
+        let mut fields = FieldsWriter {
+            meta,
+            values: &mut self.values,
+            spans: &mut self.spans,
+            order,
+            next: 0,
+        };
+        message.serialize(MessageWriter(&mut fields))?;
+        out.push('{');
+        for (i, (f, &(start, end))) in meta.fields.iter().zip(&self.spans).enumerate() {
+            if i > 0 {
+                out.push(',');
+            }
+            out.push('"');
+            out.push_str(f.name);
+            out.push_str("\":");
+            out.push_str(&self.values[start..end]);
+        }
+        out.push('}');
+        Ok(())
+    }
+}
+
+struct FieldsWriter<'a> {
+    meta: &'a MessageMeta,
+    values: &'a mut String,
+    spans: &'a mut [(usize, usize)],
+    order: &'a mut Vec<usize>,
+    /// Fields written so far.
     next: usize,
 }
 
+impl FieldsWriter<'_> {
+    /// The wire index of the next field, named `key`: as last time for
+    /// this message, or found by name (and remembered).
+    fn index(&mut self, key: &str) -> Option<usize> {
+        let k = self.next;
+        self.next += 1;
+        if let Some(&i) = self.order.get(k) {
+            let name = self.meta.fields[i].name;
+            // The derive's literal and the table's are usually one.
+            if std::ptr::eq(name, key) || name == key {
+                return Some(i);
+            }
+        }
+        let i = self.meta.fields.iter().position(|f| f.name == key)?;
+        self.order.truncate(k);
+        self.order.push(i);
+        Some(i)
+    }
+}
+
 /// Takes the `Message` enum and the message struct inside it.
-struct MessageWriter<'a, 'm>(&'a mut FieldsWriter<'m>);
+struct MessageWriter<'a, 'b>(&'a mut FieldsWriter<'b>);
 
 impl ser::Serializer for MessageWriter<'_, '_> {
     type Ok = ();
@@ -295,13 +320,11 @@ impl SerializeStruct for MessageWriter<'_, '_> {
     ) -> Result<(), FieldsError> {
         let w = &mut *self.0;
         let i = w
-            .order
-            .index(w.meta, w.next, key)
+            .index(key)
             .ok_or_else(|| FieldsError(format!("{} has no field `{key}`", w.meta.name)))?;
-        w.next += 1;
         let start = w.values.len();
         value.serialize(ValueWriter {
-            out: &mut w.values,
+            out: w.values,
             field: &w.meta.fields[i],
         })?;
         w.spans[i] = (start, w.values.len());
@@ -320,8 +343,8 @@ struct ValueWriter<'a> {
 }
 
 impl ValueWriter<'_> {
-    fn number(self, v: impl fmt::Display) -> Result<(), FieldsError> {
-        let _ = write!(self.out, "{v}");
+    fn number(self, v: impl itoa::Integer) -> Result<(), FieldsError> {
+        self.out.push_str(itoa::Buffer::new().format(v));
         Ok(())
     }
 
@@ -495,22 +518,29 @@ impl SerializeTuple for TupleWriter<'_> {
 
 // ---------------------------------------------------------------- reading
 
-/// The message a line's `fields` describe (whose table row is `meta`;
-/// every key of `fields` is a field of it).
+/// The message a line's `fields` describe (whose table row is `meta`);
+/// a key that is not a field of it is refused.
 pub fn read(meta: &'static MessageMeta, fields: &Object<'_>) -> Result<Message, FieldsError> {
     // The line's fields in its order, then the others as zeros.
-    let mut values: Vec<(&'static FieldMeta, Option<&RawValue>)> = fields
-        .0
-        .iter()
-        .filter_map(|(name, raw)| {
-            let f = meta.fields.iter().find(|f| f.name == name)?;
-            Some((f, Some(*raw)))
-        })
-        .collect();
-    for f in meta.fields {
-        if !values.iter().any(|(g, _)| g.name == f.name) {
-            values.push((f, None));
-        }
+    let mut given = vec![false; meta.fields.len()];
+    let mut values = Vec::with_capacity(meta.fields.len());
+    let mut guess = 0;
+    for (name, raw) in &fields.0 {
+        // Lines usually list the fields in wire order, as decode writes them.
+        let i = match meta.fields.get(guess) {
+            Some(f) if f.name == name => guess,
+            _ => meta
+                .fields
+                .iter()
+                .position(|f| f.name == name)
+                .ok_or_else(|| FieldsError(format!("{} has no field `{name}`", meta.name)))?,
+        };
+        given[i] = true;
+        guess = i + 1;
+        values.push((&meta.fields[i], Some(*raw)));
+    }
+    for (f, _) in meta.fields.iter().zip(&given).filter(|(_, &g)| !g) {
+        values.push((f, None));
     }
     Message::deserialize(MessageReader { meta, values })
 }

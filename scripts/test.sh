@@ -57,6 +57,7 @@ bash conformance/scripts/summary.sh
 step "no_std builds: fbwag-dialect, fbwag-dialect-cc, fbwag-delegation"
 cargo build -p fbwag-dialect --no-default-features --locked
 cargo build -p fbwag-dialect-cc --no-default-features --locked
+cargo build -p fbwag-dialect --no-default-features --features serde --locked
 
 step "fbwag-dialect generated at build time (feature codegen): full, a custom list"
 cargo test -p fbwag-dialect --features codegen --locked

@@ -1,5 +1,7 @@
-//! Frames ↔ JSON lines, driven by the dialect's field tables: every message
-//! is read from and written to its payload bytes generically, in wire order.
+//! Frames ↔ JSON lines. The envelope comes from the frame and the dialect's
+//! table; the `fields` object from the generated messages' serde impls, in
+//! their compact form (enums as numbers, as pymavlink prints them), written
+//! and read by the small serde format of [`fields`], keys in wire order.
 //!
 //! One object per frame:
 //! `{"version":2,"seq":0,"sysid":1,"compid":1,"msgid":15001,"name":"FBWAG_NOTICE","signed":false,"fields":{…}}`.
@@ -20,13 +22,14 @@
 //! rounding beyond the nearest representable float, and every byte the
 //! line describes must land in the frame (see [`json_to_frame`]).
 
+mod fields;
+
 use fbwag_dialect::mavframe::crc::frame_crc;
-use fbwag_dialect::mavframe::field::{read, Scalar};
 use fbwag_dialect::mavframe::frame::{
     truncated_len, Frame, Header, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2,
     IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
-use fbwag_dialect::mavframe::{Dialect as _, FieldMeta, FieldType, MessageMeta, Signer};
+use fbwag_dialect::mavframe::{Dialect as _, MessageMeta, Signer};
 use fbwag_dialect::Dialect;
 use serde::de::{Deserialize, Deserializer, Error as _, MapAccess, Visitor};
 use serde_json::value::RawValue;
@@ -60,133 +63,6 @@ pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
         .collect()
 }
 
-/// The float types of a payload, for the JSON conventions above.
-trait Float: Scalar + std::str::FromStr + fmt::Debug {
-    /// Bits of the NaN written as plain `"NaN"`.
-    const CANONICAL_NAN: u64;
-    /// Hex digits of a bit pattern.
-    const HEX_DIGITS: usize;
-    const INFINITY: Self;
-    const NEG_INFINITY: Self;
-    /// `float` or `double`.
-    const C_NAME: &'static str;
-    fn bits(self) -> u64;
-    fn from_bits(bits: u64) -> Self;
-    fn is_nan(self) -> bool;
-    fn is_infinite(self) -> bool;
-    fn is_sign_negative(self) -> bool;
-}
-
-impl Float for f32 {
-    const CANONICAL_NAN: u64 = 0x7fc0_0000;
-    const HEX_DIGITS: usize = 8;
-    const INFINITY: Self = f32::INFINITY;
-    const NEG_INFINITY: Self = f32::NEG_INFINITY;
-    const C_NAME: &'static str = "float";
-    fn bits(self) -> u64 {
-        u64::from(self.to_bits())
-    }
-    fn from_bits(bits: u64) -> Self {
-        // Callers pass at most HEX_DIGITS (8) hex digits.
-        f32::from_bits(bits as u32)
-    }
-    fn is_nan(self) -> bool {
-        f32::is_nan(self)
-    }
-    fn is_infinite(self) -> bool {
-        f32::is_infinite(self)
-    }
-    fn is_sign_negative(self) -> bool {
-        f32::is_sign_negative(self)
-    }
-}
-
-impl Float for f64 {
-    const CANONICAL_NAN: u64 = 0x7ff8_0000_0000_0000;
-    const HEX_DIGITS: usize = 16;
-    const INFINITY: Self = f64::INFINITY;
-    const NEG_INFINITY: Self = f64::NEG_INFINITY;
-    const C_NAME: &'static str = "double";
-    fn bits(self) -> u64 {
-        self.to_bits()
-    }
-    fn from_bits(bits: u64) -> Self {
-        f64::from_bits(bits)
-    }
-    fn is_nan(self) -> bool {
-        f64::is_nan(self)
-    }
-    fn is_infinite(self) -> bool {
-        f64::is_infinite(self)
-    }
-    fn is_sign_negative(self) -> bool {
-        f64::is_sign_negative(self)
-    }
-}
-
-/// A float as JSON (see the module docs).
-fn float_json<F: Float>(out: &mut String, v: F) {
-    let _ = if v.is_nan() && v.bits() == F::CANONICAL_NAN {
-        write!(out, "\"NaN\"")
-    } else if v.is_nan() {
-        write!(out, "\"NaN:0x{:0w$x}\"", v.bits(), w = F::HEX_DIGITS)
-    } else if v.is_infinite() {
-        write!(
-            out,
-            "\"{}inf\"",
-            if v.is_sign_negative() { "-" } else { "" }
-        )
-    } else {
-        // Debug is the shortest form that parses back to the same value
-        // (signed zero and subnormals included).
-        write!(out, "{v:?}")
-    };
-}
-
-fn scalar(out: &mut String, payload: &[u8], ty: FieldType, at: usize) {
-    let _ = match ty {
-        FieldType::Char | FieldType::U8 => write!(out, "{}", read::<u8>(payload, at)),
-        FieldType::I8 => write!(out, "{}", read::<i8>(payload, at)),
-        FieldType::U16 => write!(out, "{}", read::<u16>(payload, at)),
-        FieldType::I16 => write!(out, "{}", read::<i16>(payload, at)),
-        FieldType::U32 => write!(out, "{}", read::<u32>(payload, at)),
-        FieldType::I32 => write!(out, "{}", read::<i32>(payload, at)),
-        FieldType::U64 => write!(out, "{}", read::<u64>(payload, at)),
-        FieldType::I64 => write!(out, "{}", read::<i64>(payload, at)),
-        FieldType::F32 => {
-            float_json(out, read::<f32>(payload, at));
-            Ok(())
-        }
-        FieldType::F64 => {
-            float_json(out, read::<f64>(payload, at));
-            Ok(())
-        }
-    };
-}
-
-/// A `char[N]` (or `char`) value: a string up to the first NUL when that
-/// loses nothing, otherwise the bytes as numbers (so encoding restores them).
-fn chars(out: &mut String, payload: &[u8], f: &FieldMeta) {
-    let n = (f.array_len as usize).max(1);
-    let bytes: Vec<u8> = (0..n)
-        .map(|i| read::<u8>(payload, f.offset as usize + i))
-        .collect();
-    let end = bytes.iter().position(|&b| b == 0).unwrap_or(n);
-    match std::str::from_utf8(&bytes[..end]) {
-        Ok(s) if bytes[end..].iter().all(|&b| b == 0) => out.push_str(&Value::from(s).to_string()),
-        _ => {
-            out.push('[');
-            for (i, b) in bytes.iter().enumerate() {
-                if i > 0 {
-                    out.push(',');
-                }
-                let _ = write!(out, "{b}");
-            }
-            out.push(']');
-        }
-    }
-}
-
 /// The JSON line for a frame; `meta` is `None` for an unknown id.
 pub fn frame_to_json(
     frame: &Frame<'_>,
@@ -209,14 +85,17 @@ pub fn frame_to_json(
         frame.msg_id()
     );
     let Some(meta) = meta else {
-        let _ = write!(
-            out,
-            "\"name\":null,\"signed\":{},\"raw\":\"{}\"}}",
-            frame.is_signed(),
-            hex(frame.as_bytes())
-        );
-        return out;
+        return raw_json(out, frame);
     };
+    let Some(message) = Dialect::parse(frame.msg_id(), frame.payload()) else {
+        return raw_json(out, frame);
+    };
+    let mut fields = String::with_capacity(256);
+    if let Err(e) = fields::write(&mut fields, meta, &message) {
+        // Cannot happen for generated messages; the raw frame loses nothing.
+        debug_assert!(false, "{}: {e}", meta.name);
+        return raw_json(out, frame);
+    }
     let _ = write!(
         out,
         "\"name\":\"{}\",\"signed\":{}",
@@ -224,29 +103,20 @@ pub fn frame_to_json(
         frame.is_signed()
     );
     envelope_extras(&mut out, frame, meta);
-    out.push_str(",\"fields\":{");
-    let payload = frame.payload();
-    for (i, f) in meta.fields.iter().enumerate() {
-        if i > 0 {
-            out.push(',');
-        }
-        let _ = write!(out, "\"{}\":", f.name);
-        if f.ty == FieldType::Char {
-            chars(&mut out, payload, f);
-        } else if f.array_len == 0 {
-            scalar(&mut out, payload, f.ty, f.offset as usize);
-        } else {
-            out.push('[');
-            for k in 0..f.array_len as usize {
-                if k > 0 {
-                    out.push(',');
-                }
-                scalar(&mut out, payload, f.ty, f.offset as usize + k * f.ty.size());
-            }
-            out.push(']');
-        }
-    }
-    out.push_str("}}");
+    out.push_str(",\"fields\":");
+    out.push_str(&fields);
+    out.push('}');
+    out
+}
+
+/// Ends the line of a frame as `"name":null` with the whole frame in hex.
+fn raw_json(mut out: String, frame: &Frame<'_>) -> String {
+    let _ = write!(
+        out,
+        "\"name\":null,\"signed\":{},\"raw\":\"{}\"}}",
+        frame.is_signed(),
+        hex(frame.as_bytes())
+    );
     out
 }
 
@@ -311,10 +181,21 @@ impl<'de> Deserialize<'de> for Object<'de> {
                 f.write_str("a JSON object")
             }
             fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Object<'de>, A::Error> {
+                // A line's few keys are compared directly; a set takes over
+                // for long objects, so a flood of keys stays linear.
+                const DIRECT: usize = 32;
                 let mut seen = HashSet::new();
-                let mut entries = Vec::new();
+                let mut entries: Vec<(String, &'de RawValue)> = Vec::new();
                 while let Some((k, v)) = map.next_entry::<String, &'de RawValue>()? {
-                    if !seen.insert(k.clone()) {
+                    let repeated = if entries.len() < DIRECT {
+                        entries.iter().any(|(e, _)| *e == k)
+                    } else {
+                        if seen.is_empty() {
+                            seen.extend(entries.iter().map(|(e, _)| e.clone()));
+                        }
+                        !seen.insert(k.clone())
+                    };
+                    if repeated {
                         return Err(A::Error::custom(format!("duplicate key `{k}`")));
                     }
                     entries.push((k, v));
@@ -571,178 +452,18 @@ fn message_meta(obj: &Object<'_>) -> Result<&'static MessageMeta, String> {
     }
 }
 
-fn fill_fields(meta: &MessageMeta, fields: &RawValue, payload: &mut [u8]) -> Result<(), String> {
-    let fields = Object::parse(fields.get()).map_err(|e| format!("`fields`: {e}"))?;
-    for (name, raw) in &fields.0 {
-        let f = meta
-            .fields
-            .iter()
-            .find(|f| f.name == name)
-            .ok_or_else(|| format!("{} has no field `{name}`", meta.name))?;
-        write_field(payload, f, raw).map_err(|e| format!("field `{name}`: {e}"))?;
-    }
-    Ok(())
-}
-
-fn write_field(payload: &mut [u8], f: &FieldMeta, raw: &RawValue) -> Result<(), String> {
-    let at = f.offset as usize;
-    let n = f.array_len as usize;
-    if f.ty == FieldType::Char {
-        return write_chars(&mut payload[at..at + n.max(1)], raw);
-    }
-    if n == 0 {
-        return write_scalar(payload, f.ty, at, raw);
-    }
-    let expected = || format!("expected an array of {n} {}", f.ty.c_name());
-    let items: Vec<&RawValue> = serde_json::from_str(raw.get()).map_err(|_| expected())?;
-    if items.len() != n {
-        return Err(format!("{}: it has {}", expected(), items.len()));
-    }
-    for (k, item) in items.iter().enumerate() {
-        write_scalar(payload, f.ty, at + k * f.ty.size(), item)
-            .map_err(|e| format!("element {k}: {e}"))?;
-    }
-    Ok(())
-}
-
-/// A `char[N]`: a string of at most N bytes (NUL-padded), or exactly N byte
-/// values (what the decoder writes when bytes follow a NUL).
-fn write_chars(dst: &mut [u8], raw: &RawValue) -> Result<(), String> {
-    let room = dst.len();
-    match value(raw) {
-        Value::String(s) if s.len() <= room => {
-            dst[..s.len()].copy_from_slice(s.as_bytes());
-            Ok(())
-        }
-        Value::String(s) => Err(format!("{} bytes do not fit char[{room}]", s.len())),
-        Value::Array(items) if items.len() == room => {
-            for (d, item) in dst.iter_mut().zip(&items) {
-                *d = item
-                    .as_u64()
-                    .and_then(|b| u8::try_from(b).ok())
-                    .ok_or_else(|| format!("{item} is not a byte value (0 to 255)"))?;
-            }
-            Ok(())
-        }
-        _ => Err(format!(
-            "expected a string of at most {room} bytes or an array of {room} byte values, not {}",
-            shown(raw)
-        )),
-    }
-}
-
-fn write_scalar(
+/// Fills `payload` with the message of `fields` (fields left out are zero).
+fn fill_fields(
+    meta: &'static MessageMeta,
+    fields: &RawValue,
     payload: &mut [u8],
-    ty: FieldType,
-    at: usize,
-    raw: &RawValue,
 ) -> Result<(), String> {
-    macro_rules! int {
-        ($t:ty) => {{
-            let n = integer(raw, i128::from(<$t>::MIN), i128::from(<$t>::MAX), ty)?;
-            // In range: checked just above.
-            (n as $t).write(payload, at)
-        }};
-    }
-    match ty {
-        FieldType::Char | FieldType::U8 => int!(u8),
-        FieldType::I8 => int!(i8),
-        FieldType::U16 => int!(u16),
-        FieldType::I16 => int!(i16),
-        FieldType::U32 => int!(u32),
-        FieldType::I32 => int!(i32),
-        FieldType::U64 => int!(u64),
-        FieldType::I64 => int!(i64),
-        FieldType::F32 => float::<f32>(raw)?.write(payload, at),
-        FieldType::F64 => float::<f64>(raw)?.write(payload, at),
-    }
-    Ok(())
-}
-
-/// A JSON integer from `lo` to `hi`.
-fn integer(raw: &RawValue, lo: i128, hi: i128, ty: FieldType) -> Result<i128, String> {
-    let text = raw.get().trim();
-    let range = || {
-        format!(
-            "{} is out of range for {} ({lo} to {hi})",
-            shown(raw),
-            ty.c_name()
-        )
-    };
-    let v = value(raw);
-    let n = match v
-        .as_i64()
-        .map(i128::from)
-        .or_else(|| v.as_u64().map(i128::from))
-    {
-        Some(n) => n,
-        // Digits only, yet too large for 64 bits.
-        None if v.is_number() && text.bytes().all(|b| b.is_ascii_digit() || b == b'-') => {
-            return Err(range())
-        }
-        None => {
-            return Err(format!(
-                "{} is not an integer ({})",
-                shown(raw),
-                ty.c_name()
-            ))
-        }
-    };
-    if (lo..=hi).contains(&n) {
-        Ok(n)
-    } else {
-        Err(range())
-    }
-}
-
-/// A float field's value: a JSON number, parsed straight from its text to
-/// the field's type (so rounding happens once, to the nearest value), or
-/// one of the strings of the module docs. Finite numbers beyond the type's
-/// range are refused rather than turned into infinities.
-fn float<F: Float>(raw: &RawValue) -> Result<F, String> {
-    let text = raw.get().trim();
-    match value(raw) {
-        Value::Number(_) => match text.parse::<F>() {
-            Ok(v) if !v.is_infinite() => Ok(v),
-            _ => Err(format!(
-                "{} is out of range for {} (use \"inf\" or \"-inf\" for infinities)",
-                shown(raw),
-                F::C_NAME
-            )),
-        },
-        Value::String(s) => special_float(&s),
-        _ => Err(format!(
-            "expected a number, \"NaN\", \"NaN:0x…\", \"inf\" or \"-inf\" for a {}, not {}",
-            F::C_NAME,
-            shown(raw)
-        )),
-    }
-}
-
-fn special_float<F: Float>(s: &str) -> Result<F, String> {
-    match s {
-        "NaN" => return Ok(F::from_bits(F::CANONICAL_NAN)),
-        "inf" => return Ok(F::INFINITY),
-        "-inf" => return Ok(F::NEG_INFINITY),
-        _ => {}
-    }
-    let v = s
-        .strip_prefix("NaN:0x")
-        .filter(|h| h.len() == F::HEX_DIGITS && h.bytes().all(|b| b.is_ascii_hexdigit()))
-        .and_then(|h| u64::from_str_radix(h, 16).ok())
-        .map(F::from_bits)
-        .ok_or_else(|| {
-            format!(
-                "\"{s}\" is not a {} (\"NaN\", \"NaN:0x\" and {} hex digits, \"inf\" or \"-inf\")",
-                F::C_NAME,
-                F::HEX_DIGITS
-            )
-        })?;
-    if v.is_nan() {
-        Ok(v)
-    } else {
-        Err(format!("\"{s}\": these bits are not a NaN"))
-    }
+    let fields = Object::parse(fields.get()).map_err(|e| format!("`fields`: {e}"))?;
+    let message = fields::read(meta, &fields).map_err(|e| e.to_string())?;
+    message
+        .emit(payload)
+        .map(|_| ())
+        .map_err(|e| format!("{}: {e}", meta.name))
 }
 
 /// A MAVLink 2 frame as the line says: its length, flags and signature.

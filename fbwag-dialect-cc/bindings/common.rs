@@ -26,6 +26,42 @@ impl AttitudeTargetTypemask {
     BODY_YAW_RATE_IGNORE, THROTTLE_IGNORE, ATTITUDE_IGNORE]
 );
 
+#[cfg(feature = "serde")]
+impl AttitudeTargetTypemask {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE", 1),
+        ("ATTITUDE_TARGET_TYPEMASK_BODY_PITCH_RATE_IGNORE", 2),
+        ("ATTITUDE_TARGET_TYPEMASK_BODY_YAW_RATE_IGNORE", 4),
+        ("ATTITUDE_TARGET_TYPEMASK_THROTTLE_IGNORE", 64),
+        ("ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AttitudeTargetTypemask {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AttitudeTargetTypemask {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "ATTITUDE_TARGET_TYPEMASK",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Commands to be executed by the MAV. They can be executed on user request, or as part of a
 /// mission script. If the action is used in a mission, the parameter mapping to the
 /// waypoint/mission message is as follows: Param 1, Param 2, Param 3, Param 4, X: Param 5,
@@ -2572,6 +2608,237 @@ impl From<MavCmd> for u16 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavCmd {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("MAV_CMD_NAV_WAYPOINT", 16),
+        ("MAV_CMD_NAV_LOITER_UNLIM", 17),
+        ("MAV_CMD_NAV_LOITER_TURNS", 18),
+        ("MAV_CMD_NAV_LOITER_TIME", 19),
+        ("MAV_CMD_NAV_RETURN_TO_LAUNCH", 20),
+        ("MAV_CMD_NAV_LAND", 21),
+        ("MAV_CMD_NAV_TAKEOFF", 22),
+        ("MAV_CMD_NAV_LAND_LOCAL", 23),
+        ("MAV_CMD_NAV_TAKEOFF_LOCAL", 24),
+        ("MAV_CMD_NAV_FOLLOW", 25),
+        ("MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT", 30),
+        ("MAV_CMD_NAV_LOITER_TO_ALT", 31),
+        ("MAV_CMD_DO_FOLLOW", 32),
+        ("MAV_CMD_DO_FOLLOW_REPOSITION", 33),
+        ("MAV_CMD_DO_ORBIT", 34),
+        ("MAV_CMD_DO_FIGURE_EIGHT", 35),
+        ("MAV_CMD_NAV_ARC_WAYPOINT", 36),
+        ("MAV_CMD_NAV_ROI", 80),
+        ("MAV_CMD_NAV_PATHPLANNING", 81),
+        ("MAV_CMD_NAV_SPLINE_WAYPOINT", 82),
+        ("MAV_CMD_NAV_ALTITUDE_WAIT", 83),
+        ("MAV_CMD_NAV_VTOL_TAKEOFF", 84),
+        ("MAV_CMD_NAV_VTOL_LAND", 85),
+        ("MAV_CMD_NAV_GUIDED_ENABLE", 92),
+        ("MAV_CMD_NAV_DELAY", 93),
+        ("MAV_CMD_NAV_PAYLOAD_PLACE", 94),
+        ("MAV_CMD_NAV_LAST", 95),
+        ("MAV_CMD_CONDITION_DELAY", 112),
+        ("MAV_CMD_CONDITION_CHANGE_ALT", 113),
+        ("MAV_CMD_CONDITION_DISTANCE", 114),
+        ("MAV_CMD_CONDITION_YAW", 115),
+        ("MAV_CMD_CONDITION_LAST", 159),
+        ("MAV_CMD_DO_SET_MODE", 176),
+        ("MAV_CMD_DO_JUMP", 177),
+        ("MAV_CMD_DO_CHANGE_SPEED", 178),
+        ("MAV_CMD_DO_SET_HOME", 179),
+        ("MAV_CMD_DO_SET_PARAMETER", 180),
+        ("MAV_CMD_DO_SET_RELAY", 181),
+        ("MAV_CMD_DO_REPEAT_RELAY", 182),
+        ("MAV_CMD_DO_SET_SERVO", 183),
+        ("MAV_CMD_DO_REPEAT_SERVO", 184),
+        ("MAV_CMD_DO_FLIGHTTERMINATION", 185),
+        ("MAV_CMD_DO_CHANGE_ALTITUDE", 186),
+        ("MAV_CMD_DO_SET_ACTUATOR", 187),
+        ("MAV_CMD_DO_RETURN_PATH_START", 188),
+        ("MAV_CMD_DO_LAND_START", 189),
+        ("MAV_CMD_DO_RALLY_LAND", 190),
+        ("MAV_CMD_DO_GO_AROUND", 191),
+        ("MAV_CMD_DO_REPOSITION", 192),
+        ("MAV_CMD_DO_PAUSE_CONTINUE", 193),
+        ("MAV_CMD_DO_SET_REVERSE", 194),
+        ("MAV_CMD_DO_SET_ROI_LOCATION", 195),
+        ("MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET", 196),
+        ("MAV_CMD_DO_SET_ROI_NONE", 197),
+        ("MAV_CMD_DO_SET_ROI_SYSID", 198),
+        ("MAV_CMD_DO_CONTROL_VIDEO", 200),
+        ("MAV_CMD_DO_SET_ROI", 201),
+        ("MAV_CMD_DO_DIGICAM_CONFIGURE", 202),
+        ("MAV_CMD_DO_DIGICAM_CONTROL", 203),
+        ("MAV_CMD_DO_MOUNT_CONFIGURE", 204),
+        ("MAV_CMD_DO_MOUNT_CONTROL", 205),
+        ("MAV_CMD_DO_SET_CAM_TRIGG_DIST", 206),
+        ("MAV_CMD_DO_FENCE_ENABLE", 207),
+        ("MAV_CMD_DO_PARACHUTE", 208),
+        ("MAV_CMD_DO_MOTOR_TEST", 209),
+        ("MAV_CMD_DO_INVERTED_FLIGHT", 210),
+        ("MAV_CMD_DO_GRIPPER", 211),
+        ("MAV_CMD_DO_AUTOTUNE_ENABLE", 212),
+        ("MAV_CMD_NAV_SET_YAW_SPEED", 213),
+        ("MAV_CMD_DO_SET_CAM_TRIGG_INTERVAL", 214),
+        ("MAV_CMD_DO_SET_RESUME_REPEAT_DIST", 215),
+        ("MAV_CMD_DO_SPRAYER", 216),
+        ("MAV_CMD_DO_SEND_SCRIPT_MESSAGE", 217),
+        ("MAV_CMD_DO_AUX_FUNCTION", 218),
+        ("MAV_CMD_DO_MOUNT_CONTROL_QUAT", 220),
+        ("MAV_CMD_DO_GUIDED_MASTER", 221),
+        ("MAV_CMD_DO_GUIDED_LIMITS", 222),
+        ("MAV_CMD_DO_ENGINE_CONTROL", 223),
+        ("MAV_CMD_DO_SET_MISSION_CURRENT", 224),
+        ("MAV_CMD_DO_LAST", 240),
+        ("MAV_CMD_PREFLIGHT_CALIBRATION", 241),
+        ("MAV_CMD_PREFLIGHT_SET_SENSOR_OFFSETS", 242),
+        ("MAV_CMD_PREFLIGHT_UAVCAN", 243),
+        ("MAV_CMD_PREFLIGHT_STORAGE", 245),
+        ("MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN", 246),
+        ("MAV_CMD_OVERRIDE_GOTO", 252),
+        ("MAV_CMD_OBLIQUE_SURVEY", 260),
+        ("MAV_CMD_DO_SET_STANDARD_MODE", 262),
+        ("MAV_CMD_MISSION_START", 300),
+        ("MAV_CMD_ACTUATOR_TEST", 310),
+        ("MAV_CMD_CONFIGURE_ACTUATOR", 311),
+        ("MAV_CMD_COMPONENT_ARM_DISARM", 400),
+        ("MAV_CMD_RUN_PREARM_CHECKS", 401),
+        ("MAV_CMD_ILLUMINATOR_ON_OFF", 405),
+        ("MAV_CMD_DO_ILLUMINATOR_CONFIGURE", 406),
+        ("MAV_CMD_GET_HOME_POSITION", 410),
+        ("MAV_CMD_INJECT_FAILURE", 420),
+        ("MAV_CMD_START_RX_PAIR", 500),
+        ("MAV_CMD_GET_MESSAGE_INTERVAL", 510),
+        ("MAV_CMD_SET_MESSAGE_INTERVAL", 511),
+        ("MAV_CMD_REQUEST_MESSAGE", 512),
+        ("MAV_CMD_REQUEST_PROTOCOL_VERSION", 519),
+        ("MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES", 520),
+        ("MAV_CMD_REQUEST_CAMERA_INFORMATION", 521),
+        ("MAV_CMD_REQUEST_CAMERA_SETTINGS", 522),
+        ("MAV_CMD_REQUEST_STORAGE_INFORMATION", 525),
+        ("MAV_CMD_STORAGE_FORMAT", 526),
+        ("MAV_CMD_REQUEST_CAMERA_CAPTURE_STATUS", 527),
+        ("MAV_CMD_REQUEST_FLIGHT_INFORMATION", 528),
+        ("MAV_CMD_RESET_CAMERA_SETTINGS", 529),
+        ("MAV_CMD_SET_CAMERA_MODE", 530),
+        ("MAV_CMD_SET_CAMERA_ZOOM", 531),
+        ("MAV_CMD_SET_CAMERA_FOCUS", 532),
+        ("MAV_CMD_SET_STORAGE_USAGE", 533),
+        ("MAV_CMD_SET_CAMERA_SOURCE", 534),
+        ("MAV_CMD_JUMP_TAG", 600),
+        ("MAV_CMD_DO_JUMP_TAG", 601),
+        ("MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW", 1000),
+        ("MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE", 1001),
+        ("MAV_CMD_IMAGE_START_CAPTURE", 2000),
+        ("MAV_CMD_IMAGE_STOP_CAPTURE", 2001),
+        ("MAV_CMD_REQUEST_CAMERA_IMAGE_CAPTURE", 2002),
+        ("MAV_CMD_DO_TRIGGER_CONTROL", 2003),
+        ("MAV_CMD_CAMERA_TRACK_POINT", 2004),
+        ("MAV_CMD_CAMERA_TRACK_RECTANGLE", 2005),
+        ("MAV_CMD_CAMERA_STOP_TRACKING", 2010),
+        ("MAV_CMD_VIDEO_START_CAPTURE", 2500),
+        ("MAV_CMD_VIDEO_STOP_CAPTURE", 2501),
+        ("MAV_CMD_VIDEO_START_STREAMING", 2502),
+        ("MAV_CMD_VIDEO_STOP_STREAMING", 2503),
+        ("MAV_CMD_REQUEST_VIDEO_STREAM_INFORMATION", 2504),
+        ("MAV_CMD_REQUEST_VIDEO_STREAM_STATUS", 2505),
+        ("MAV_CMD_LOGGING_START", 2510),
+        ("MAV_CMD_LOGGING_STOP", 2511),
+        ("MAV_CMD_AIRFRAME_CONFIGURATION", 2520),
+        ("MAV_CMD_CONTROL_HIGH_LATENCY", 2600),
+        ("MAV_CMD_PANORAMA_CREATE", 2800),
+        ("MAV_CMD_DO_VTOL_TRANSITION", 3000),
+        ("MAV_CMD_ARM_AUTHORIZATION_REQUEST", 3001),
+        ("MAV_CMD_SET_GUIDED_SUBMODE_STANDARD", 4000),
+        ("MAV_CMD_SET_GUIDED_SUBMODE_CIRCLE", 4001),
+        ("MAV_CMD_CONDITION_GATE", 4501),
+        ("MAV_CMD_NAV_FENCE_RETURN_POINT", 5000),
+        ("MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION", 5001),
+        ("MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION", 5002),
+        ("MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION", 5003),
+        ("MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION", 5004),
+        ("MAV_CMD_NAV_RALLY_POINT", 5100),
+        ("MAV_CMD_UAVCAN_GET_NODE_INFO", 5200),
+        ("MAV_CMD_DO_SET_SAFETY_SWITCH_STATE", 5300),
+        ("MAV_CMD_DO_ADSB_OUT_IDENT", 10001),
+        ("MAV_CMD_LOWEHEISER_SET_STATE", 10151),
+        ("MAV_CMD_PAYLOAD_PREPARE_DEPLOY", 30001),
+        ("MAV_CMD_PAYLOAD_CONTROL_DEPLOY", 30002),
+        ("MAV_CMD_WAYPOINT_USER_1", 31000),
+        ("MAV_CMD_WAYPOINT_USER_2", 31001),
+        ("MAV_CMD_WAYPOINT_USER_3", 31002),
+        ("MAV_CMD_WAYPOINT_USER_4", 31003),
+        ("MAV_CMD_WAYPOINT_USER_5", 31004),
+        ("MAV_CMD_SPATIAL_USER_1", 31005),
+        ("MAV_CMD_SPATIAL_USER_2", 31006),
+        ("MAV_CMD_SPATIAL_USER_3", 31007),
+        ("MAV_CMD_SPATIAL_USER_4", 31008),
+        ("MAV_CMD_SPATIAL_USER_5", 31009),
+        ("MAV_CMD_USER_1", 31010),
+        ("MAV_CMD_USER_2", 31011),
+        ("MAV_CMD_USER_3", 31012),
+        ("MAV_CMD_USER_4", 31013),
+        ("MAV_CMD_USER_5", 31014),
+        ("MAV_CMD_CAN_FORWARD", 32000),
+        ("MAV_CMD_POWER_OFF_INITIATED", 42000),
+        ("MAV_CMD_SOLO_BTN_FLY_CLICK", 42001),
+        ("MAV_CMD_SOLO_BTN_FLY_HOLD", 42002),
+        ("MAV_CMD_SOLO_BTN_PAUSE_CLICK", 42003),
+        ("MAV_CMD_FIXED_MAG_CAL", 42004),
+        ("MAV_CMD_FIXED_MAG_CAL_FIELD", 42005),
+        ("MAV_CMD_FIXED_MAG_CAL_YAW", 42006),
+        ("MAV_CMD_SET_EKF_SOURCE_SET", 42007),
+        ("MAV_CMD_DO_START_MAG_CAL", 42424),
+        ("MAV_CMD_DO_ACCEPT_MAG_CAL", 42425),
+        ("MAV_CMD_DO_CANCEL_MAG_CAL", 42426),
+        ("MAV_CMD_SET_FACTORY_TEST_MODE", 42427),
+        ("MAV_CMD_DO_SEND_BANNER", 42428),
+        ("MAV_CMD_ACCELCAL_VEHICLE_POS", 42429),
+        ("MAV_CMD_GIMBAL_RESET", 42501),
+        ("MAV_CMD_GIMBAL_AXIS_CALIBRATION_STATUS", 42502),
+        ("MAV_CMD_GIMBAL_REQUEST_AXIS_CALIBRATION", 42503),
+        ("MAV_CMD_GIMBAL_FULL_RESET", 42505),
+        ("MAV_CMD_DO_WINCH", 42600),
+        ("MAV_CMD_FLASH_BOOTLOADER", 42650),
+        ("MAV_CMD_BATTERY_RESET", 42651),
+        ("MAV_CMD_DEBUG_TRAP", 42700),
+        ("MAV_CMD_SCRIPTING", 42701),
+        ("MAV_CMD_NAV_SCRIPT_TIME", 42702),
+        ("MAV_CMD_NAV_ATTITUDE_TIME", 42703),
+        ("MAV_CMD_GUIDED_CHANGE_SPEED", 43000),
+        ("MAV_CMD_GUIDED_CHANGE_ALTITUDE", 43001),
+        ("MAV_CMD_GUIDED_CHANGE_HEADING", 43002),
+        ("MAV_CMD_EXTERNAL_POSITION_ESTIMATE", 43003),
+        ("MAV_CMD_SET_HAGL", 43005),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavCmd {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavCmd {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_CMD",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Result from a MAVLink command (MAV_CMD)
 ///
 /// MAVLink enum `MAV_RESULT`.
@@ -2659,6 +2926,45 @@ impl From<MavResult> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavResult {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_RESULT_ACCEPTED", 0),
+        ("MAV_RESULT_TEMPORARILY_REJECTED", 1),
+        ("MAV_RESULT_DENIED", 2),
+        ("MAV_RESULT_UNSUPPORTED", 3),
+        ("MAV_RESULT_FAILED", 4),
+        ("MAV_RESULT_IN_PROGRESS", 5),
+        ("MAV_RESULT_COMMAND_LONG_ONLY", 7),
+        ("MAV_RESULT_COMMAND_INT_ONLY", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavResult {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavResult {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_RESULT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Indicates the severity level, generally used for status messages to indicate their
 /// relative urgency. Based on RFC-5424 using expanded definitions at:
 /// <http://www.kiwisyslog.com/kb/info:-syslog-message-levels/>.
@@ -2735,6 +3041,45 @@ impl From<u8> for MavSeverity {
 impl From<MavSeverity> for u8 {
     fn from(value: MavSeverity) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavSeverity {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_SEVERITY_EMERGENCY", 0),
+        ("MAV_SEVERITY_ALERT", 1),
+        ("MAV_SEVERITY_CRITICAL", 2),
+        ("MAV_SEVERITY_ERROR", 3),
+        ("MAV_SEVERITY_WARNING", 4),
+        ("MAV_SEVERITY_NOTICE", 5),
+        ("MAV_SEVERITY_INFO", 6),
+        ("MAV_SEVERITY_DEBUG", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavSeverity {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavSeverity {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_SEVERITY",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2824,6 +3169,69 @@ impl MavSysStatusSensor {
     MAV_SYS_STATUS_OBSTACLE_AVOIDANCE, PROPULSION, MAV_SYS_STATUS_EXTENSION_USED]
 );
 
+#[cfg(feature = "serde")]
+impl MavSysStatusSensor {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("MAV_SYS_STATUS_SENSOR_3D_GYRO", 1),
+        ("MAV_SYS_STATUS_SENSOR_3D_ACCEL", 2),
+        ("MAV_SYS_STATUS_SENSOR_3D_MAG", 4),
+        ("MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE", 8),
+        ("MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE", 16),
+        ("MAV_SYS_STATUS_SENSOR_GPS", 32),
+        ("MAV_SYS_STATUS_SENSOR_OPTICAL_FLOW", 64),
+        ("MAV_SYS_STATUS_SENSOR_VISION_POSITION", 128),
+        ("MAV_SYS_STATUS_SENSOR_LASER_POSITION", 256),
+        ("MAV_SYS_STATUS_SENSOR_EXTERNAL_GROUND_TRUTH", 512),
+        ("MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL", 1024),
+        ("MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION", 2048),
+        ("MAV_SYS_STATUS_SENSOR_YAW_POSITION", 4096),
+        ("MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL", 8192),
+        ("MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL", 16384),
+        ("MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS", 32768),
+        ("MAV_SYS_STATUS_SENSOR_RC_RECEIVER", 65536),
+        ("MAV_SYS_STATUS_SENSOR_3D_GYRO2", 131072),
+        ("MAV_SYS_STATUS_SENSOR_3D_ACCEL2", 262144),
+        ("MAV_SYS_STATUS_SENSOR_3D_MAG2", 524288),
+        ("MAV_SYS_STATUS_GEOFENCE", 1048576),
+        ("MAV_SYS_STATUS_AHRS", 2097152),
+        ("MAV_SYS_STATUS_TERRAIN", 4194304),
+        ("MAV_SYS_STATUS_REVERSE_MOTOR", 8388608),
+        ("MAV_SYS_STATUS_LOGGING", 16777216),
+        ("MAV_SYS_STATUS_SENSOR_BATTERY", 33554432),
+        ("MAV_SYS_STATUS_SENSOR_PROXIMITY", 67108864),
+        ("MAV_SYS_STATUS_SENSOR_SATCOM", 134217728),
+        ("MAV_SYS_STATUS_PREARM_CHECK", 268435456),
+        ("MAV_SYS_STATUS_OBSTACLE_AVOIDANCE", 536870912),
+        ("MAV_SYS_STATUS_SENSOR_PROPULSION", 1073741824),
+        ("MAV_SYS_STATUS_EXTENSION_USED", 2147483648),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavSysStatusSensor {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavSysStatusSensor {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_SYS_STATUS_SENSOR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// These encode the sensors whose status is sent as part of the SYS_STATUS message in the
 /// extended fields.
 ///
@@ -2844,11 +3252,49 @@ impl MavSysStatusSensorExtended {
     MAV_SYS_STATUS_SENSOR_LEAK]
 );
 
+#[cfg(feature = "serde")]
+impl MavSysStatusSensorExtended {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("MAV_SYS_STATUS_RECOVERY_SYSTEM", 1),
+        ("MAV_SYS_STATUS_SENSOR_LEAK", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavSysStatusSensorExtended {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavSysStatusSensorExtended {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_SYS_STATUS_SENSOR_EXTENDED",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Sensor and subsystem status information. Provides a compact representation of
 /// sensor/subsystem status and a few other basic statistics.
 ///
 /// MAVLink message `SYS_STATUS`: id 1, CRC_EXTRA 124, payload 43 bytes (31 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SysStatus {
     /// Bitmap showing which onboard controllers and sensors are present. Value of 0: not present.
     /// Value of 1: present.
@@ -3457,6 +3903,11 @@ impl<'a> SysStatusMut<'a> {
 ///
 /// MAVLink message `ATTITUDE`: id 30, CRC_EXTRA 39, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Attitude {
     /// Timestamp (time since system boot).
     ///
@@ -3465,26 +3916,32 @@ pub struct Attitude {
     /// Roll angle (-pi..+pi)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle (-pi..+pi)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle (-pi..+pi)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Roll angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rollspeed: f32,
     /// Pitch angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitchspeed: f32,
     /// Yaw angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yawspeed: f32,
 }
 
@@ -3758,6 +4215,11 @@ impl<'a> AttitudeMut<'a> {
 ///
 /// MAVLink message `RC_CHANNELS`: id 65, CRC_EXTRA 118, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RcChannels {
     /// Timestamp (time since system boot).
     ///
@@ -4412,6 +4874,11 @@ impl<'a> RcChannelsMut<'a> {
 ///
 /// MAVLink message `MANUAL_CONTROL`: id 69, CRC_EXTRA 243, payload 30 bytes (11 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ManualControl {
     /// The system to be controlled.
     ///
@@ -4973,6 +5440,11 @@ impl<'a> ManualControlMut<'a> {
 ///
 /// MAVLink message `RC_CHANNELS_OVERRIDE`: id 70, CRC_EXTRA 124, payload 38 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RcChannelsOverride {
     /// System ID
     ///
@@ -5625,16 +6097,23 @@ impl<'a> RcChannelsOverrideMut<'a> {
 ///
 /// MAVLink message `VFR_HUD`: id 74, CRC_EXTRA 20, payload 20 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct VfrHud {
     /// Vehicle speed in form appropriate for vehicle type. For standard aircraft this is
     /// typically calibrated airspeed (CAS) or indicated airspeed (IAS) - either of which can be
     /// used by a pilot to estimate stall speed.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub airspeed: f32,
     /// Current ground speed.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub groundspeed: f32,
     /// Current heading in compass units (0-360, 0=north).
     ///
@@ -5647,10 +6126,12 @@ pub struct VfrHud {
     /// Current altitude (MSL).
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// Current climb rate.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub climb: f32,
 }
 
@@ -5905,6 +6386,11 @@ impl<'a> VfrHudMut<'a> {
 ///
 /// MAVLink message `COMMAND_LONG`: id 76, CRC_EXTRA 152, payload 33 bytes (33 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CommandLong {
     /// System which should execute the command
     ///
@@ -5926,30 +6412,37 @@ pub struct CommandLong {
     /// Parameter 1 (for the specific command).
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param1: f32,
     /// Parameter 2 (for the specific command).
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param2: f32,
     /// Parameter 3 (for the specific command).
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param3: f32,
     /// Parameter 4 (for the specific command).
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param4: f32,
     /// Parameter 5 (for the specific command).
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param5: f32,
     /// Parameter 6 (for the specific command).
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param6: f32,
     /// Parameter 7 (for the specific command).
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param7: f32,
 }
 
@@ -6306,6 +6799,11 @@ impl<'a> CommandLongMut<'a> {
 ///
 /// MAVLink message `COMMAND_ACK`: id 77, CRC_EXTRA 143, payload 10 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CommandAck {
     /// Command ID (of acknowledged command).
     ///
@@ -6588,6 +7086,11 @@ impl<'a> CommandAckMut<'a> {
 ///
 /// MAVLink message `SET_ATTITUDE_TARGET`: id 82, CRC_EXTRA 49, payload 39 bytes (39 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetAttitudeTarget {
     /// Timestamp (time since system boot).
     ///
@@ -6609,22 +7112,27 @@ pub struct SetAttitudeTarget {
     /// Attitude quaternion (w, x, y, z order, zero-rotation is 1, 0, 0, 0)
     ///
     /// Wire: `float[4]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Body roll rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_roll_rate: f32,
     /// Body pitch rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_pitch_rate: f32,
     /// Body yaw rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_yaw_rate: f32,
     /// Collective thrust, normalized to 0 .. 1 (-1 .. 1 for vehicles capable of reverse thrust)
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub thrust: f32,
 }
 
@@ -6945,6 +7453,11 @@ impl<'a> SetAttitudeTargetMut<'a> {
 ///
 /// MAVLink message `STATUSTEXT`: id 253, CRC_EXTRA 83, payload 54 bytes (51 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Statustext {
     /// Severity of status. Relies on the definitions within RFC-5424.
     ///
@@ -6953,6 +7466,7 @@ pub struct Statustext {
     /// Status text message, without null termination character. UTF-8 encoded.
     ///
     /// Wire: `char[50]` at payload offset 1.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub text: [u8; 50],
     /// Unique (opaque) identifier for this statustext message. May be used to reassemble a
     /// logical long-statustext message from a sequence of chunks. A value of zero indicates this

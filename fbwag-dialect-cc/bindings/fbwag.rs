@@ -61,6 +61,40 @@ impl From<FbwagFailsafeStatus> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl FbwagFailsafeStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FBWAG_FAILSAFE_STATUS_NORMAL", 0),
+        ("FBWAG_FAILSAFE_STATUS_RC_LOST", 1),
+        ("FBWAG_FAILSAFE_STATUS_CC_TAKEOVER_CONFIRMED", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FbwagFailsafeStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FbwagFailsafeStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "FBWAG_FAILSAFE_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// RC-failsafe delegation notice. Sent by the flight controller as an event (never in a
 /// periodic stream) on every active channel when RC is lost (status 1) or regained (status
 /// 0); answered by the companion computer with status 2 (takeover confirmed) or 0 (hand-back
@@ -69,6 +103,11 @@ impl From<FbwagFailsafeStatus> for u8 {
 ///
 /// MAVLink message `FBWAG_NOTICE`: id 15001, CRC_EXTRA 30, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FbwagNotice {
     /// System ID of the vehicle sending the notice.
     ///
@@ -86,6 +125,7 @@ pub struct FbwagNotice {
     /// Short free text, "FBWAG" in the reference implementation.
     ///
     /// Wire: `char[5]` at payload offset 7.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub text: [u8; 5],
     /// Time of the event in milliseconds since flight-controller boot; identifies the event.
     ///
@@ -319,32 +359,50 @@ impl<'a> FbwagNoticeMut<'a> {
 
 /// Every message of the `fbwag.xml` dialect (13 messages, its includes' too).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde")
+)]
 pub enum Message {
     /// `HEARTBEAT` (id 0).
+    #[cfg_attr(feature = "serde", serde(rename = "HEARTBEAT"))]
     Heartbeat(super::minimal::Heartbeat),
     /// `SYS_STATUS` (id 1).
+    #[cfg_attr(feature = "serde", serde(rename = "SYS_STATUS"))]
     SysStatus(super::common::SysStatus),
     /// `ATTITUDE` (id 30).
+    #[cfg_attr(feature = "serde", serde(rename = "ATTITUDE"))]
     Attitude(super::common::Attitude),
     /// `GLOBAL_POSITION_INT` (id 33).
+    #[cfg_attr(feature = "serde", serde(rename = "GLOBAL_POSITION_INT"))]
     GlobalPositionInt(super::standard::GlobalPositionInt),
     /// `RC_CHANNELS` (id 65).
+    #[cfg_attr(feature = "serde", serde(rename = "RC_CHANNELS"))]
     RcChannels(super::common::RcChannels),
     /// `MANUAL_CONTROL` (id 69).
+    #[cfg_attr(feature = "serde", serde(rename = "MANUAL_CONTROL"))]
     ManualControl(super::common::ManualControl),
     /// `RC_CHANNELS_OVERRIDE` (id 70).
+    #[cfg_attr(feature = "serde", serde(rename = "RC_CHANNELS_OVERRIDE"))]
     RcChannelsOverride(super::common::RcChannelsOverride),
     /// `VFR_HUD` (id 74).
+    #[cfg_attr(feature = "serde", serde(rename = "VFR_HUD"))]
     VfrHud(super::common::VfrHud),
     /// `COMMAND_LONG` (id 76).
+    #[cfg_attr(feature = "serde", serde(rename = "COMMAND_LONG"))]
     CommandLong(super::common::CommandLong),
     /// `COMMAND_ACK` (id 77).
+    #[cfg_attr(feature = "serde", serde(rename = "COMMAND_ACK"))]
     CommandAck(super::common::CommandAck),
     /// `SET_ATTITUDE_TARGET` (id 82).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_ATTITUDE_TARGET"))]
     SetAttitudeTarget(super::common::SetAttitudeTarget),
     /// `STATUSTEXT` (id 253).
+    #[cfg_attr(feature = "serde", serde(rename = "STATUSTEXT"))]
     Statustext(super::common::Statustext),
     /// `FBWAG_NOTICE` (id 15001).
+    #[cfg_attr(feature = "serde", serde(rename = "FBWAG_NOTICE"))]
     FbwagNotice(FbwagNotice),
 }
 

@@ -113,6 +113,58 @@ impl From<MavAutopilot> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavAutopilot {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_AUTOPILOT_GENERIC", 0),
+        ("MAV_AUTOPILOT_RESERVED", 1),
+        ("MAV_AUTOPILOT_SLUGS", 2),
+        ("MAV_AUTOPILOT_ARDUPILOTMEGA", 3),
+        ("MAV_AUTOPILOT_OPENPILOT", 4),
+        ("MAV_AUTOPILOT_GENERIC_WAYPOINTS_ONLY", 5),
+        ("MAV_AUTOPILOT_GENERIC_WAYPOINTS_AND_SIMPLE_NAVIGATION_ONLY", 6),
+        ("MAV_AUTOPILOT_GENERIC_MISSION_FULL", 7),
+        ("MAV_AUTOPILOT_INVALID", 8),
+        ("MAV_AUTOPILOT_PPZ", 9),
+        ("MAV_AUTOPILOT_UDB", 10),
+        ("MAV_AUTOPILOT_FP", 11),
+        ("MAV_AUTOPILOT_PX4", 12),
+        ("MAV_AUTOPILOT_SMACCMPILOT", 13),
+        ("MAV_AUTOPILOT_AUTOQUAD", 14),
+        ("MAV_AUTOPILOT_ARMAZILA", 15),
+        ("MAV_AUTOPILOT_AEROB", 16),
+        ("MAV_AUTOPILOT_ASLUAV", 17),
+        ("MAV_AUTOPILOT_SMARTAP", 18),
+        ("MAV_AUTOPILOT_AIRRAILS", 19),
+        ("MAV_AUTOPILOT_REFLEX", 20),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavAutopilot {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavAutopilot {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_AUTOPILOT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// These flags encode the MAV mode, see MAV_MODE enum for useful combinations.
 ///
 /// MAVLink enum `MAV_MODE_FLAG`.
@@ -150,6 +202,45 @@ impl MavModeFlag {
     MavModeFlag, u8, [CUSTOM_MODE_ENABLED, TEST_ENABLED, AUTO_ENABLED, GUIDED_ENABLED,
     STABILIZE_ENABLED, HIL_ENABLED, MANUAL_INPUT_ENABLED, SAFETY_ARMED]
 );
+
+#[cfg(feature = "serde")]
+impl MavModeFlag {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_MODE_FLAG_CUSTOM_MODE_ENABLED", 1),
+        ("MAV_MODE_FLAG_TEST_ENABLED", 2),
+        ("MAV_MODE_FLAG_AUTO_ENABLED", 4),
+        ("MAV_MODE_FLAG_GUIDED_ENABLED", 8),
+        ("MAV_MODE_FLAG_STABILIZE_ENABLED", 16),
+        ("MAV_MODE_FLAG_HIL_ENABLED", 32),
+        ("MAV_MODE_FLAG_MANUAL_INPUT_ENABLED", 64),
+        ("MAV_MODE_FLAG_SAFETY_ARMED", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavModeFlag {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavModeFlag {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_MODE_FLAG",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// `MAV_STATE`
 ///
@@ -226,6 +317,46 @@ impl From<u8> for MavState {
 impl From<MavState> for u8 {
     fn from(value: MavState) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_STATE_UNINIT", 0),
+        ("MAV_STATE_BOOT", 1),
+        ("MAV_STATE_CALIBRATING", 2),
+        ("MAV_STATE_STANDBY", 3),
+        ("MAV_STATE_ACTIVE", 4),
+        ("MAV_STATE_CRITICAL", 5),
+        ("MAV_STATE_EMERGENCY", 6),
+        ("MAV_STATE_POWEROFF", 7),
+        ("MAV_STATE_FLIGHT_TERMINATION", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -434,6 +565,86 @@ impl From<MavType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_TYPE_GENERIC", 0),
+        ("MAV_TYPE_FIXED_WING", 1),
+        ("MAV_TYPE_QUADROTOR", 2),
+        ("MAV_TYPE_COAXIAL", 3),
+        ("MAV_TYPE_HELICOPTER", 4),
+        ("MAV_TYPE_ANTENNA_TRACKER", 5),
+        ("MAV_TYPE_GCS", 6),
+        ("MAV_TYPE_AIRSHIP", 7),
+        ("MAV_TYPE_FREE_BALLOON", 8),
+        ("MAV_TYPE_ROCKET", 9),
+        ("MAV_TYPE_GROUND_ROVER", 10),
+        ("MAV_TYPE_SURFACE_BOAT", 11),
+        ("MAV_TYPE_SUBMARINE", 12),
+        ("MAV_TYPE_HEXAROTOR", 13),
+        ("MAV_TYPE_OCTOROTOR", 14),
+        ("MAV_TYPE_TRICOPTER", 15),
+        ("MAV_TYPE_FLAPPING_WING", 16),
+        ("MAV_TYPE_KITE", 17),
+        ("MAV_TYPE_ONBOARD_CONTROLLER", 18),
+        ("MAV_TYPE_VTOL_DUOROTOR", 19),
+        ("MAV_TYPE_VTOL_QUADROTOR", 20),
+        ("MAV_TYPE_VTOL_TILTROTOR", 21),
+        ("MAV_TYPE_VTOL_RESERVED2", 22),
+        ("MAV_TYPE_VTOL_RESERVED3", 23),
+        ("MAV_TYPE_VTOL_RESERVED4", 24),
+        ("MAV_TYPE_VTOL_RESERVED5", 25),
+        ("MAV_TYPE_GIMBAL", 26),
+        ("MAV_TYPE_ADSB", 27),
+        ("MAV_TYPE_PARAFOIL", 28),
+        ("MAV_TYPE_DODECAROTOR", 29),
+        ("MAV_TYPE_CAMERA", 30),
+        ("MAV_TYPE_CHARGING_STATION", 31),
+        ("MAV_TYPE_FLARM", 32),
+        ("MAV_TYPE_SERVO", 33),
+        ("MAV_TYPE_ODID", 34),
+        ("MAV_TYPE_DECAROTOR", 35),
+        ("MAV_TYPE_BATTERY", 36),
+        ("MAV_TYPE_PARACHUTE", 37),
+        ("MAV_TYPE_LOG", 38),
+        ("MAV_TYPE_OSD", 39),
+        ("MAV_TYPE_IMU", 40),
+        ("MAV_TYPE_GPS", 41),
+        ("MAV_TYPE_WINCH", 42),
+        ("MAV_TYPE_GENERIC_MULTIROTOR", 43),
+        ("MAV_TYPE_ILLUMINATOR", 44),
+        ("MAV_TYPE_SPACECRAFT_ORBITER", 45),
+        ("MAV_TYPE_GROUND_QUADRUPED", 46),
+        ("MAV_TYPE_VTOL_GYRODYNE", 47),
+        ("MAV_TYPE_GRIPPER", 48),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// The heartbeat message shows that a system or component is present and responding. The type
 /// and autopilot fields (along with the message component id), allow the receiving system to
 /// treat further messages from this system appropriately (e.g. by laying out the user
@@ -442,6 +653,11 @@ impl From<MavType> for u8 {
 ///
 /// MAVLink message `HEARTBEAT`: id 0, CRC_EXTRA 50, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Heartbeat {
     /// Vehicle or component type. For a flight controller component the vehicle type (quadrotor,
     /// helicopter, etc.). For other components the component type (e.g. camera, gimbal, etc.).

@@ -6,6 +6,11 @@
 ///
 /// MAVLink message `GLOBAL_POSITION_INT`: id 33, CRC_EXTRA 104, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GlobalPositionInt {
     /// Timestamp (time since system boot).
     ///

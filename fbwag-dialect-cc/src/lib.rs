@@ -9,6 +9,10 @@
 //! Frames of the other messages still parse, as raw frames (for routing).
 //! The checked-in `bindings/` are kept equal to mavgen-rs's output by a
 //! conformance test; `scripts/regenerate.sh` writes them.
+//!
+//! The `serde` feature implements `Serialize` and `Deserialize` for every
+//! message, enum and [`Message`], in the forms of `fbwag-dialect` (see
+//! `mavframe::serde`); `no_std` too.
 #![no_std]
 #![warn(missing_docs)]
 

@@ -8,6 +8,44 @@
 //! `codegen` feature generates them at build time instead (and takes a custom
 //! message list from `FBWAG_DIALECT_MESSAGES=A,B,…`). The companion
 //! computer's subset is its own crate, `fbwag-dialect-cc`.
+//!
+//! # serde
+//!
+//! With the `serde` feature (`no_std` too), every message, enum and
+//! [`Message`] implements `Serialize` and `Deserialize`; the crate needs no
+//! serde dependency of its own (`mavframe::serde` is serde). Fields keep
+//! their XML names, enums are their entries' names (numbers for values the
+//! XML does not list), bitmasks bitflags-style text, char arrays strings,
+//! NaN and infinities strings, so every value reads back bit for bit;
+//! compact formats (postcard, bincode) get plain numbers and bytes. The
+//! forms: `mavframe::serde`.
+//!
+//! ```
+//! # #[cfg(feature = "serde")] {
+//! use fbwag_dialect::mavframe::field::chars;
+//! use fbwag_dialect::{FbwagFailsafeStatus, FbwagNotice, Message};
+//!
+//! let notice = FbwagNotice {
+//!     timestamp: 123_456,
+//!     system_id: 1,
+//!     component_id: 1,
+//!     failsafe_status: FbwagFailsafeStatus::RC_LOST,
+//!     text: chars("FBWAG"),
+//! };
+//! // The dialect's enum is keyed by message name; fields in XML order.
+//! let json = serde_json::to_string(&Message::from(notice)).unwrap();
+//! assert_eq!(
+//!     json,
+//!     r#"{"FBWAG_NOTICE":{"system_id":1,"component_id":1,"failsafe_status":"FBWAG_FAILSAFE_STATUS_RC_LOST","text":"FBWAG","timestamp":123456}}"#
+//! );
+//! assert_eq!(serde_json::from_str::<Message>(&json).unwrap(), Message::from(notice));
+//!
+//! // Names or numbers; fields left out take the message's `Default`.
+//! let heartbeat: fbwag_dialect::dialects::minimal::Heartbeat =
+//!     serde_json::from_str(r#"{"type": "MAV_TYPE_FIXED_WING", "base_mode": "MAV_MODE_FLAG_SAFETY_ARMED | 0x1", "custom_mode": 10}"#).unwrap();
+//! assert_eq!(heartbeat.base_mode.bits(), 0x81);
+//! # }
+//! ```
 #![no_std]
 #![warn(missing_docs)]
 

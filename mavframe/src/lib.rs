@@ -10,7 +10,9 @@
 //! (`conn`: UDP, TCP, via mio), the signing state file that carries
 //! timestamps over restarts (`signing::state`), the system clock for
 //! signing (`Verifier::starting_now`) and `std::error::Error` impls; `serial` adds
-//! serial ports (serialport crate); `tokio` adds async UDP and TCP.
+//! serial ports (serialport crate); `tokio` adds async UDP and TCP; `serde`
+//! adds [`serde`] (the serde crate, re-exported, and the forms of MAVLink
+//! values that generated messages serialize with), still `no_std`.
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -29,6 +31,8 @@ pub mod parser;
 pub mod route;
 #[cfg(feature = "tokio")]
 pub mod router;
+#[cfg(feature = "serde")]
+pub mod serde;
 pub mod signing;
 
 #[cfg(feature = "std")]

@@ -29,6 +29,14 @@ pub struct Options {
     pub messages: Option<BTreeSet<String>>,
     /// Shown in each file's header as the command that regenerates it.
     pub regenerate_hint: Option<String>,
+    /// `(pattern, attributes)` added to messages and enums: pattern `.` for
+    /// every one, or an XML message or enum name (see
+    /// [`crate::Config::type_attribute`]).
+    pub type_attributes: Vec<(String, String)>,
+    /// `(pattern, attributes)` added to message fields: `.`, an XML message
+    /// name (its every field) or `MESSAGE.field` (see
+    /// [`crate::Config::field_attribute`]).
+    pub field_attributes: Vec<(String, String)>,
 }
 
 impl Default for Options {
@@ -37,9 +45,14 @@ impl Default for Options {
             runtime: "::mavframe".into(),
             messages: None,
             regenerate_hint: None,
+            type_attributes: Vec::new(),
+            field_attributes: Vec::new(),
         }
     }
 }
+
+/// The feature of the including crate that turns the serde impls on.
+const SERDE_FEATURE: &str = "serde";
 
 /// Generated files: `(file name, contents)`, `mod.rs` first.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -91,6 +104,9 @@ struct Gen<'s> {
     modules: Vec<String>,
     selected: BTreeSet<MessageRef>,
     enums: BTreeMap<String, EnumInfo>,
+    /// The user's attributes, as in [`Options`] (checked to parse).
+    type_attributes: &'s [(String, String)],
+    field_attributes: &'s [(String, String)],
 }
 
 /// Generates the Rust modules for `schema`.
@@ -182,12 +198,23 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
         enums.insert(name.clone(), enum_info(schema, name, m));
     }
 
+    for (pattern, attrs) in opts.type_attributes.iter().chain(&opts.field_attributes) {
+        if let Err(e) = parse_attributes(attrs) {
+            err(
+                &mut errors,
+                None,
+                format!("attribute `{attrs}` for `{pattern}` does not parse: {e}"),
+            );
+        }
+    }
     let gen = Gen {
         schema,
         rt,
         modules,
         selected,
         enums,
+        type_attributes: &opts.type_attributes,
+        field_attributes: &opts.field_attributes,
     };
     errors.extend(gen.check_names());
     if !errors.is_empty() {
@@ -242,6 +269,15 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
 
     let mut files = Vec::new();
     let mut mod_rs = header("the files below");
+    // A crate including these files declares the feature the serde impls
+    // are under; rustc's check-cfg warns at every use otherwise (item-level
+    // `allow(unexpected_cfgs)` does not reach `cfg_attr`).
+    let _ = writeln!(
+        mod_rs,
+        "// Serialize and Deserialize are implemented under `#[cfg(feature = \"{SERDE_FEATURE}\")]`:\n\
+         // the crate including these files declares a `{SERDE_FEATURE}` feature that enables the\n\
+         // runtime's (`{SERDE_FEATURE} = [\"mavframe/serde\"]`), even if it never turns it on.\n"
+    );
     for (i, f) in schema.files.iter().enumerate() {
         let fname = f
             .path
@@ -396,6 +432,37 @@ fn enum_info(schema: &Schema, name: &str, m: &MergedEnum) -> EnumInfo {
     }
 }
 
+/// Parses attribute text such as `#[derive(Hash)] #[serde(rename_all = "lowercase")]`:
+/// one or more outer attributes.
+pub(crate) fn parse_attributes(text: &str) -> Result<Vec<syn::Attribute>, String> {
+    use syn::parse::Parser as _;
+    let attrs = syn::Attribute::parse_outer
+        .parse_str(text)
+        .map_err(|e| e.to_string())?;
+    if attrs.is_empty() {
+        return Err("expected one or more attributes such as `#[derive(Hash)]`".into());
+    }
+    Ok(attrs)
+}
+
+/// The attributes of `list` whose pattern `matches`, as tokens.
+fn user_attributes(list: &[(String, String)], matches: impl Fn(&str) -> bool) -> TokenStream {
+    list.iter()
+        .filter(|(pattern, _)| matches(pattern))
+        .filter_map(|(_, attrs)| parse_attributes(attrs).ok())
+        .flatten()
+        .map(|a| quote!(#a))
+        .collect()
+}
+
+/// `#[cfg_attr(feature = "serde", serde(…))]` for `args`, nothing for none.
+fn serde_attr(args: &[TokenStream]) -> TokenStream {
+    if args.is_empty() {
+        return quote!();
+    }
+    quote!(#[cfg_attr(feature = #SERDE_FEATURE, serde(#(#args),*))])
+}
+
 /// An integer literal without a type suffix (the context gives the type).
 fn lit(value: impl Into<u64>) -> Literal {
     Literal::u64_unsuffixed(value.into())
@@ -541,6 +608,73 @@ impl Gen<'_> {
         self.rt.parse().expect("runtime path checked in generate()")
     }
 
+    /// The path of a runtime item as a string, for serde's attributes.
+    fn rt_path(&self, item: &str) -> String {
+        format!("{}::{item}", self.rt)
+    }
+
+    /// Derives serde's traits for a message or the dialect enum; `extra`
+    /// are further `serde(…)` container arguments.
+    fn serde_derive(&self, extra: TokenStream) -> TokenStream {
+        let rt = self.rt();
+        let krate = self.rt_path("serde");
+        quote! {
+            #[cfg_attr(
+                feature = #SERDE_FEATURE,
+                derive(#rt::serde::Serialize, #rt::serde::Deserialize),
+                serde(crate = #krate #extra)
+            )]
+        }
+    }
+
+    /// The user's attributes for the message or enum `xml_name`.
+    fn type_attrs(&self, xml_name: &str) -> TokenStream {
+        user_attributes(self.type_attributes, |p| p == "." || p == xml_name)
+    }
+
+    /// The user's attributes for field `field` of message `message`.
+    fn field_attrs(&self, message: &str, field: &str) -> TokenStream {
+        user_attributes(self.field_attributes, |p| {
+            p == "."
+                || p == message
+                || p.split_once('.')
+                    .is_some_and(|(m, f)| m == message && f == field)
+        })
+    }
+
+    /// The serde arguments of a message field: its XML name, and the form
+    /// of its values (see `mavframe::serde`).
+    fn serde_field(&self, f: &Field, fid: &proc_macro2::Ident, kind: &Kind) -> TokenStream {
+        let mut args = Vec::new();
+        let rust = fid.to_string();
+        // serde names a raw identifier without its `r#` itself.
+        if rust.strip_prefix("r#").unwrap_or(&rust) != f.name {
+            let name = &f.name;
+            args.push(quote!(rename = #name));
+        }
+        let with = |module: &str| {
+            let path = self.rt_path(&format!("serde::{module}"));
+            quote!(with = #path)
+        };
+        match kind {
+            Kind::Scalar(Primitive::F32 | Primitive::F64) => args.push(with("float")),
+            Kind::Scalar(_) => {}
+            Kind::Array(..) => args.push(with("array")),
+            Kind::Chars(_) => args.push(with("chars")),
+            Kind::Enum { prim, repr, .. } if prim != repr => {
+                let path = format!(
+                    "{}::<_, _, {}, {}>",
+                    self.rt_path("serde::narrow"),
+                    repr.rust_name(),
+                    prim.rust_name()
+                );
+                args.push(quote!(deserialize_with = #path));
+            }
+            Kind::Enum { .. } => {}
+        }
+        serde_attr(&args)
+    }
+
     /// The module's items, in output order.
     fn module_items(&self, i: usize) -> Vec<Item> {
         let mut items = Vec::new();
@@ -683,12 +817,15 @@ impl Gen<'_> {
             values,
         } = self.enum_tokens(def, info);
         let xml_names: Vec<_> = def.def.entries.iter().map(|e| e.name.as_str()).collect();
+        let serde = self.enum_serde(def, &name, &repr, false);
+        let user = self.type_attrs(&def.def.name);
         quote! {
             #doc
             ///
             /// The wire value itself: values the XML does not list are kept, so
             /// a message is never rejected for carrying one.
             #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+            #user
             pub struct #name(pub #repr);
 
             impl #name {
@@ -733,6 +870,56 @@ impl Gen<'_> {
                     value.0
                 }
             }
+
+            #serde
+        }
+    }
+
+    /// Serialize and Deserialize for a value enum or flag set: names in
+    /// human-readable formats, numbers in compact ones (see
+    /// `mavframe::serde::value_enum` and `mavframe::serde::flags`).
+    fn enum_serde(
+        &self,
+        def: &MergedEnum,
+        name: &proc_macro2::Ident,
+        repr: &proc_macro2::Ident,
+        bitmask: bool,
+    ) -> TokenStream {
+        let rt = self.rt();
+        let xml = def.def.name.as_str();
+        let names = def.def.entries.iter().map(|e| e.name.as_str());
+        let values = def.def.entries.iter().map(|e| lit(e.value));
+        // Not `FLAGS`, which would hide bitflags' `Flags::FLAGS`.
+        let table = quote!(SERDE_TABLE);
+        let (module, name_arg) = if bitmask {
+            (quote!(flags), quote!(, Self::#table))
+        } else {
+            (quote!(value_enum), quote!(, self.name()))
+        };
+        let table_doc = format!(
+            " The XML name and value of every {}.",
+            if bitmask { "flag" } else { "entry" }
+        );
+        quote! {
+            #[cfg(feature = #SERDE_FEATURE)]
+            impl #name {
+                #[doc = #table_doc]
+                const #table: &'static [(&'static str, #repr)] = &[ #( (#names, #values), )* ];
+            }
+
+            #[cfg(feature = #SERDE_FEATURE)]
+            impl #rt::serde::Serialize for #name {
+                fn serialize<S: #rt::serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+                    #rt::serde::#module::serialize(serializer, self.0 #name_arg)
+                }
+            }
+
+            #[cfg(feature = #SERDE_FEATURE)]
+            impl<'de> #rt::serde::Deserialize<'de> for #name {
+                fn deserialize<D: #rt::serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                    #rt::serde::#module::deserialize(deserializer, #xml, Self::#table).map(Self)
+                }
+            }
         }
     }
 
@@ -749,11 +936,14 @@ impl Gen<'_> {
             entry_docs,
             values,
         } = self.enum_tokens(def, info);
+        let serde = self.enum_serde(def, &name, &repr, true);
+        let user = self.type_attrs(&def.def.name);
         quote! {
             #doc
             ///
             /// A flag set: bits the XML does not list are kept, not dropped.
             #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+            #user
             pub struct #name(pub #repr);
 
             impl #name {
@@ -761,6 +951,8 @@ impl Gen<'_> {
             }
 
             #rt::flag_set!(#name, #repr, [#(#consts),*]);
+
+            #serde
         }
     }
 
@@ -977,7 +1169,9 @@ impl Gen<'_> {
                         )
                     }
                 };
-            struct_fields.push(quote!(#fdoc pub #fid: #owned_ty,));
+            let serde = self.serde_field(f, &fid, &kind);
+            let user = self.field_attrs(&m.name, &f.name);
+            struct_fields.push(quote!(#fdoc #serde #user pub #fid: #owned_ty,));
             // rustdoc cannot resolve raw identifiers: link the struct instead.
             let target = if fid.to_string().starts_with("r#") {
                 format!("struct@{base}")
@@ -1045,9 +1239,16 @@ impl Gen<'_> {
                 },
             )
         };
+        // Fields left out read as the Default (as extension fields do on
+        // the wire); unknown ones are refused, so a misspelt key cannot
+        // silently send a zero.
+        let serde = self.serde_derive(quote!(, default, deny_unknown_fields));
+        let user = self.type_attrs(&m.name);
         quote! {
             #mdoc
             #derives
+            #serde
+            #user
             pub struct #owned {
                 #(#struct_fields)*
             }
@@ -1230,11 +1431,21 @@ impl Gen<'_> {
             msgs.len()
         );
         let view_doc = format!(" A zero-copy view of any message of the `{fname}` dialect.");
+        // Externally tagged by XML name: `{"HEARTBEAT": {…}}`.
+        let serde = self.serde_derive(quote!());
+        let renames: Vec<_> = msgs
+            .iter()
+            .map(|&r| {
+                let name = &self.schema.message(r).name;
+                serde_attr(&[quote!(rename = #name)])
+            })
+            .collect();
         quote! {
             #[doc = #enum_doc]
             #[derive(Debug, Clone, Copy, PartialEq)]
+            #serde
             pub enum Message {
-                #( #[doc = #vdocs] #variants(#paths), )*
+                #( #[doc = #vdocs] #renames #variants(#paths), )*
             }
 
             #[doc = #view_doc]

@@ -47,7 +47,52 @@ pub enum Error {
     Io(PathBuf, std::io::Error),
     /// No output directory was given and `OUT_DIR` is not set.
     NoOutDir,
+    /// An attribute given to [`Config::type_attribute`] or
+    /// [`Config::field_attribute`] cannot be applied.
+    Attribute(AttributeError),
 }
+
+/// An attribute of [`Config::type_attribute`] or [`Config::field_attribute`]
+/// that cannot be applied; nothing was generated.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AttributeError {
+    /// The pattern it was given for.
+    pub pattern: String,
+    /// The attribute text as given.
+    pub attribute: String,
+    /// What is wrong.
+    pub problem: AttributeProblem,
+}
+
+/// What is wrong with an [`AttributeError`]'s attribute.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum AttributeProblem {
+    /// The text is not one or more outer attributes (`#[…]`); syn's message.
+    Syntax(String),
+    /// The pattern names no message or enum (type attributes), or no
+    /// message or field of a message (field attributes) of the dialect.
+    NoMatch,
+}
+
+impl fmt::Display for AttributeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (pattern, attribute) = (&self.pattern, &self.attribute);
+        match &self.problem {
+            AttributeProblem::Syntax(e) => write!(
+                f,
+                "attribute `{attribute}` (for `{pattern}`) is not an attribute: {e}"
+            ),
+            AttributeProblem::NoMatch => write!(
+                f,
+                "pattern `{pattern}` of attribute `{attribute}` names nothing in the dialect \
+                 (`.`, a message or enum name, or MESSAGE.field for fields)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for AttributeError {}
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -67,11 +112,20 @@ impl fmt::Display for Error {
                 f,
                 "no output directory: call Config::out_dir or run from a build script (OUT_DIR)"
             ),
+            Error::Attribute(e) => write!(f, "{e}"),
         }
     }
 }
 
-impl std::error::Error for Error {}
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::Io(_, e) => Some(e),
+            Error::Attribute(e) => Some(e),
+            Error::Invalid(_) | Error::NoOutDir => None,
+        }
+    }
+}
 
 impl Config {
     /// Default settings: every message, runtime crate `::mavframe`, output in
@@ -122,6 +176,59 @@ impl Config {
         self
     }
 
+    /// Adds attributes to generated types, as prost-build's method of the
+    /// same name: `path` is `.` for every message and enum, or the XML name
+    /// of one (`"HEARTBEAT"`, `"MAV_TYPE"`); `attribute` is the text of one
+    /// or more outer attributes, placed after the generated derives.
+    /// Attributes naming serde go inside the generated
+    /// `#[cfg_attr(feature = "serde", …)]` only if written so.
+    ///
+    /// A text that does not parse, or a path naming nothing in the dialect,
+    /// is an [`Error::Attribute`] from [`generate`](Self::generate).
+    ///
+    /// ```
+    /// let xml = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+    ///     .join("../message_definitions/minimal.xml");
+    /// let generated = mavgen_rs::Config::new()
+    ///     .type_attribute("MAV_TYPE", "#[derive(PartialOrd)] #[repr(transparent)]")
+    ///     .field_attribute("HEARTBEAT.custom_mode", "#[doc(alias = \"mode\")]")
+    ///     .generate(&[xml])
+    ///     .unwrap();
+    /// let code = &generated.output.files[1].1;
+    /// assert!(code.contains("#[repr(transparent)]\npub struct MavType(pub u8);"));
+    /// assert!(code.contains("#[doc(alias = \"mode\")]\n    pub custom_mode: u32,"));
+    ///
+    /// let bad = mavgen_rs::Config::new()
+    ///     .type_attribute("HEARTBEAT", "#[derive(Hash)")
+    ///     .generate(&[std::path::Path::new("unused.xml")]);
+    /// assert!(matches!(bad, Err(mavgen_rs::Error::Attribute(_))));
+    /// ```
+    pub fn type_attribute(
+        &mut self,
+        path: impl Into<String>,
+        attribute: impl Into<String>,
+    ) -> &mut Self {
+        self.options
+            .type_attributes
+            .push((path.into(), attribute.into()));
+        self
+    }
+
+    /// Adds attributes to generated message fields, as prost-build's method
+    /// of the same name: `path` is `.` for every field of every message, a
+    /// message's XML name for all its fields, or `MESSAGE.field` (XML names:
+    /// `"HEARTBEAT.type"`). Errors as [`type_attribute`](Self::type_attribute).
+    pub fn field_attribute(
+        &mut self,
+        path: impl Into<String>,
+        attribute: impl Into<String>,
+    ) -> &mut Self {
+        self.options
+            .field_attributes
+            .push((path.into(), attribute.into()));
+        self
+    }
+
     /// A command shown in each generated file's header.
     pub fn regenerate_hint(&mut self, hint: impl Into<String>) -> &mut Self {
         self.options.regenerate_hint = Some(hint.into());
@@ -138,7 +245,9 @@ impl Config {
 
     /// Loads, checks and renders `xml` (the dialect files) without writing.
     pub fn generate<P: AsRef<Path>>(&self, xml: &[P]) -> Result<Generated, Error> {
+        self.check_attribute_syntax()?;
         let schema = Schema::load(xml).map_err(Error::Invalid)?;
+        self.check_attribute_paths(&schema)?;
         let output = codegen::generate(&schema, &self.options).map_err(|mut e| {
             e.extend(schema.warnings.iter().cloned());
             Error::Invalid(e)
@@ -183,6 +292,56 @@ impl Config {
         }
         write_output(&out_dir, &generated.output)?;
         Ok(generated)
+    }
+}
+
+impl Config {
+    /// Every attribute text parses (before any file is read).
+    fn check_attribute_syntax(&self) -> Result<(), Error> {
+        let all = self.options.type_attributes.iter();
+        for (pattern, attribute) in all.chain(&self.options.field_attributes) {
+            if let Err(e) = codegen::parse_attributes(attribute) {
+                return Err(Error::Attribute(AttributeError {
+                    pattern: pattern.clone(),
+                    attribute: attribute.clone(),
+                    problem: AttributeProblem::Syntax(e),
+                }));
+            }
+        }
+        Ok(())
+    }
+
+    /// Every pattern names something of the dialect (a typo must not
+    /// silently drop an attribute). Items the message filter leaves out
+    /// still count: the same configuration serves filtered builds.
+    fn check_attribute_paths(&self, schema: &Schema) -> Result<(), Error> {
+        let message = |name: &str| schema.messages().find(|&r| schema.message(r).name == name);
+        let is_type = |p: &str| p == "." || message(p).is_some() || schema.enums.contains_key(p);
+        let is_field = |p: &str| match p.split_once('.') {
+            _ if p == "." => true,
+            None => message(p).is_some(),
+            Some((m, f)) => {
+                message(m).is_some_and(|r| schema.message(r).fields.iter().any(|x| x.name == f))
+            }
+        };
+        let types = self
+            .options
+            .type_attributes
+            .iter()
+            .map(|a| (a, is_type(&a.0)));
+        let fields = self
+            .options
+            .field_attributes
+            .iter()
+            .map(|a| (a, is_field(&a.0)));
+        match types.chain(fields).find(|(_, ok)| !ok) {
+            Some(((pattern, attribute), _)) => Err(Error::Attribute(AttributeError {
+                pattern: pattern.clone(),
+                attribute: attribute.clone(),
+                problem: AttributeProblem::NoMatch,
+            })),
+            None => Ok(()),
+        }
     }
 }
 

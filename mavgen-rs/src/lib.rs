@@ -19,6 +19,6 @@ pub mod names;
 pub mod schema;
 pub mod xml;
 
-pub use config::{Config, Error, Generated};
+pub use config::{AttributeError, AttributeProblem, Config, Error, Generated};
 pub use diag::{Diagnostic, Severity};
 pub use schema::Schema;

@@ -62,6 +62,16 @@ enum Command {
         /// Path of the runtime crate in the generated code.
         #[arg(long, value_name = "PATH", default_value = "::mavframe")]
         runtime: String,
+        /// Attributes for generated messages and enums (repeatable):
+        /// PATTERN is `.` for all or an XML message or enum name, ATTRS one
+        /// or more attributes, e.g. `MAV_TYPE=#[derive(PartialOrd)]`.
+        #[arg(long, value_name = "PATTERN=ATTRS", value_parser = pattern_and_attributes)]
+        type_attribute: Vec<(String, String)>,
+        /// Attributes for message fields (repeatable): PATTERN is `.`, an
+        /// XML message name (all its fields) or MESSAGE.field, e.g.
+        /// `HEARTBEAT.custom_mode=#[doc(alias = "mode")]`.
+        #[arg(long, value_name = "PATTERN=ATTRS", value_parser = pattern_and_attributes)]
+        field_attribute: Vec<(String, String)>,
     },
     /// Validate only: report errors and warnings, write nothing.
     Check {
@@ -77,6 +87,14 @@ enum Command {
         /// Dialect file.
         xml: PathBuf,
     },
+}
+
+/// `PATTERN=ATTRS`, split at the first `=` (patterns have none).
+fn pattern_and_attributes(arg: &str) -> Result<(String, String), String> {
+    match arg.split_once('=') {
+        Some((pattern, attrs)) if !pattern.is_empty() => Ok((pattern.into(), attrs.into())),
+        _ => Err("expected PATTERN=ATTRS, e.g. `HEARTBEAT=#[derive(Hash)]`".into()),
+    }
 }
 
 /// Replaces every `@FILE` argument of `--messages` by the names in FILE.
@@ -113,12 +131,20 @@ fn main() -> ExitCode {
             out,
             messages,
             runtime,
+            type_attribute,
+            field_attribute,
         } => {
             let mut config = Config::new();
             config
                 .out_dir(&out)
                 .runtime_crate(runtime)
                 .cargo_output(false);
+            for (pattern, attrs) in type_attribute {
+                config.type_attribute(pattern, attrs);
+            }
+            for (pattern, attrs) in field_attribute {
+                config.field_attribute(pattern, attrs);
+            }
             if let Some(m) = messages {
                 match expand_message_files(m) {
                     Ok(names) => {

@@ -74,6 +74,45 @@ impl From<AccelcalVehiclePos> for u32 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl AccelcalVehiclePos {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("ACCELCAL_VEHICLE_POS_LEVEL", 1),
+        ("ACCELCAL_VEHICLE_POS_LEFT", 2),
+        ("ACCELCAL_VEHICLE_POS_RIGHT", 3),
+        ("ACCELCAL_VEHICLE_POS_NOSEDOWN", 4),
+        ("ACCELCAL_VEHICLE_POS_NOSEUP", 5),
+        ("ACCELCAL_VEHICLE_POS_BACK", 6),
+        ("ACCELCAL_VEHICLE_POS_SUCCESS", 16777215),
+        ("ACCELCAL_VEHICLE_POS_FAILED", 16777216),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AccelcalVehiclePos {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AccelcalVehiclePos {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ACCELCAL_VEHICLE_POS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `CAMERA_FEEDBACK_FLAGS`
 ///
 /// MAVLink enum `CAMERA_FEEDBACK_FLAGS`.
@@ -137,6 +176,42 @@ impl From<u8> for CameraFeedbackFlags {
 impl From<CameraFeedbackFlags> for u8 {
     fn from(value: CameraFeedbackFlags) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl CameraFeedbackFlags {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAMERA_FEEDBACK_PHOTO", 0),
+        ("CAMERA_FEEDBACK_VIDEO", 1),
+        ("CAMERA_FEEDBACK_BADEXPOSURE", 2),
+        ("CAMERA_FEEDBACK_CLOSEDLOOP", 3),
+        ("CAMERA_FEEDBACK_OPENLOOP", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraFeedbackFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraFeedbackFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "CAMERA_FEEDBACK_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -208,6 +283,44 @@ impl From<u8> for CameraStatusTypes {
 impl From<CameraStatusTypes> for u8 {
     fn from(value: CameraStatusTypes) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl CameraStatusTypes {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAMERA_STATUS_TYPE_HEARTBEAT", 0),
+        ("CAMERA_STATUS_TYPE_TRIGGER", 1),
+        ("CAMERA_STATUS_TYPE_DISCONNECT", 2),
+        ("CAMERA_STATUS_TYPE_ERROR", 3),
+        ("CAMERA_STATUS_TYPE_LOWBATT", 4),
+        ("CAMERA_STATUS_TYPE_LOWSTORE", 5),
+        ("CAMERA_STATUS_TYPE_LOWSTOREV", 6),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraStatusTypes {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraStatusTypes {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "CAMERA_STATUS_TYPES",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -339,6 +452,63 @@ impl From<CopterMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl CopterMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("COPTER_MODE_STABILIZE", 0),
+        ("COPTER_MODE_ACRO", 1),
+        ("COPTER_MODE_ALT_HOLD", 2),
+        ("COPTER_MODE_AUTO", 3),
+        ("COPTER_MODE_GUIDED", 4),
+        ("COPTER_MODE_LOITER", 5),
+        ("COPTER_MODE_RTL", 6),
+        ("COPTER_MODE_CIRCLE", 7),
+        ("COPTER_MODE_LAND", 9),
+        ("COPTER_MODE_DRIFT", 11),
+        ("COPTER_MODE_SPORT", 13),
+        ("COPTER_MODE_FLIP", 14),
+        ("COPTER_MODE_AUTOTUNE", 15),
+        ("COPTER_MODE_POSHOLD", 16),
+        ("COPTER_MODE_BRAKE", 17),
+        ("COPTER_MODE_THROW", 18),
+        ("COPTER_MODE_AVOID_ADSB", 19),
+        ("COPTER_MODE_GUIDED_NOGPS", 20),
+        ("COPTER_MODE_SMART_RTL", 21),
+        ("COPTER_MODE_FLOWHOLD", 22),
+        ("COPTER_MODE_FOLLOW", 23),
+        ("COPTER_MODE_ZIGZAG", 24),
+        ("COPTER_MODE_SYSTEMID", 25),
+        ("COPTER_MODE_AUTOROTATE", 26),
+        ("COPTER_MODE_AUTO_RTL", 27),
+        ("COPTER_MODE_TURTLE", 28),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CopterMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CopterMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "COPTER_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Deepstall flight stage.
 ///
 /// MAVLink enum `DEEPSTALL_STAGE`.
@@ -410,6 +580,44 @@ impl From<DeepstallStage> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl DeepstallStage {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("DEEPSTALL_STAGE_FLY_TO_LANDING", 0),
+        ("DEEPSTALL_STAGE_ESTIMATE_WIND", 1),
+        ("DEEPSTALL_STAGE_WAIT_FOR_BREAKOUT", 2),
+        ("DEEPSTALL_STAGE_FLY_TO_ARC", 3),
+        ("DEEPSTALL_STAGE_ARC", 4),
+        ("DEEPSTALL_STAGE_APPROACH", 5),
+        ("DEEPSTALL_STAGE_LAND", 6),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for DeepstallStage {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for DeepstallStage {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "DEEPSTALL_STAGE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Bus types for device operations.
 ///
 /// MAVLink enum `DEVICE_OP_BUSTYPE`.
@@ -466,6 +674,39 @@ impl From<DeviceOpBustype> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl DeviceOpBustype {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("DEVICE_OP_BUSTYPE_I2C", 0),
+        ("DEVICE_OP_BUSTYPE_SPI", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for DeviceOpBustype {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for DeviceOpBustype {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "DEVICE_OP_BUSTYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags in EKF_STATUS message.
 ///
 /// MAVLink enum `EKF_STATUS_FLAGS`.
@@ -506,6 +747,49 @@ impl EkfStatusFlags {
     EKF_CONST_POS_MODE, EKF_PRED_POS_HORIZ_REL, EKF_PRED_POS_HORIZ_ABS,
     EKF_UNINITIALIZED, EKF_GPS_GLITCHING]
 );
+
+#[cfg(feature = "serde")]
+impl EkfStatusFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("EKF_ATTITUDE", 1),
+        ("EKF_VELOCITY_HORIZ", 2),
+        ("EKF_VELOCITY_VERT", 4),
+        ("EKF_POS_HORIZ_REL", 8),
+        ("EKF_POS_HORIZ_ABS", 16),
+        ("EKF_POS_VERT_ABS", 32),
+        ("EKF_POS_VERT_AGL", 64),
+        ("EKF_CONST_POS_MODE", 128),
+        ("EKF_PRED_POS_HORIZ_REL", 256),
+        ("EKF_PRED_POS_HORIZ_ABS", 512),
+        ("EKF_UNINITIALIZED", 1024),
+        ("EKF_GPS_GLITCHING", 32768),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for EkfStatusFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for EkfStatusFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "EKF_STATUS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// `GIMBAL_AXIS`
 ///
@@ -563,6 +847,40 @@ impl From<u8> for GimbalAxis {
 impl From<GimbalAxis> for u8 {
     fn from(value: GimbalAxis) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GimbalAxis {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GIMBAL_AXIS_YAW", 0),
+        ("GIMBAL_AXIS_PITCH", 1),
+        ("GIMBAL_AXIS_ROLL", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalAxis {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalAxis {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GIMBAL_AXIS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -627,6 +945,40 @@ impl From<GimbalAxisCalibrationRequired> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GimbalAxisCalibrationRequired {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GIMBAL_AXIS_CALIBRATION_REQUIRED_UNKNOWN", 0),
+        ("GIMBAL_AXIS_CALIBRATION_REQUIRED_TRUE", 1),
+        ("GIMBAL_AXIS_CALIBRATION_REQUIRED_FALSE", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalAxisCalibrationRequired {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalAxisCalibrationRequired {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GIMBAL_AXIS_CALIBRATION_REQUIRED",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GIMBAL_AXIS_CALIBRATION_STATUS`
 ///
 /// MAVLink enum `GIMBAL_AXIS_CALIBRATION_STATUS`.
@@ -683,6 +1035,40 @@ impl From<u8> for GimbalAxisCalibrationStatus {
 impl From<GimbalAxisCalibrationStatus> for u8 {
     fn from(value: GimbalAxisCalibrationStatus) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GimbalAxisCalibrationStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GIMBAL_AXIS_CALIBRATION_STATUS_IN_PROGRESS", 0),
+        ("GIMBAL_AXIS_CALIBRATION_STATUS_SUCCEEDED", 1),
+        ("GIMBAL_AXIS_CALIBRATION_STATUS_FAILED", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalAxisCalibrationStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalAxisCalibrationStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GIMBAL_AXIS_CALIBRATION_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -763,6 +1149,46 @@ impl From<GoproBurstRate> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproBurstRate {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_BURST_RATE_3_IN_1_SECOND", 0),
+        ("GOPRO_BURST_RATE_5_IN_1_SECOND", 1),
+        ("GOPRO_BURST_RATE_10_IN_1_SECOND", 2),
+        ("GOPRO_BURST_RATE_10_IN_2_SECOND", 3),
+        ("GOPRO_BURST_RATE_10_IN_3_SECOND", 4),
+        ("GOPRO_BURST_RATE_30_IN_1_SECOND", 5),
+        ("GOPRO_BURST_RATE_30_IN_2_SECOND", 6),
+        ("GOPRO_BURST_RATE_30_IN_3_SECOND", 7),
+        ("GOPRO_BURST_RATE_30_IN_6_SECOND", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproBurstRate {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproBurstRate {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_BURST_RATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_CAPTURE_MODE`
 ///
 /// MAVLink enum `GOPRO_CAPTURE_MODE`.
@@ -837,6 +1263,45 @@ impl From<GoproCaptureMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproCaptureMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_CAPTURE_MODE_VIDEO", 0),
+        ("GOPRO_CAPTURE_MODE_PHOTO", 1),
+        ("GOPRO_CAPTURE_MODE_BURST", 2),
+        ("GOPRO_CAPTURE_MODE_TIME_LAPSE", 3),
+        ("GOPRO_CAPTURE_MODE_MULTI_SHOT", 4),
+        ("GOPRO_CAPTURE_MODE_PLAYBACK", 5),
+        ("GOPRO_CAPTURE_MODE_SETUP", 6),
+        ("GOPRO_CAPTURE_MODE_UNKNOWN", 255),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproCaptureMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproCaptureMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_CAPTURE_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_CHARGING`
 ///
 /// MAVLink enum `GOPRO_CHARGING`.
@@ -890,6 +1355,39 @@ impl From<u8> for GoproCharging {
 impl From<GoproCharging> for u8 {
     fn from(value: GoproCharging) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GoproCharging {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_CHARGING_DISABLED", 0),
+        ("GOPRO_CHARGING_ENABLED", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproCharging {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproCharging {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_CHARGING",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -994,6 +1492,54 @@ impl From<GoproCommand> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproCommand {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_COMMAND_POWER", 0),
+        ("GOPRO_COMMAND_CAPTURE_MODE", 1),
+        ("GOPRO_COMMAND_SHUTTER", 2),
+        ("GOPRO_COMMAND_BATTERY", 3),
+        ("GOPRO_COMMAND_MODEL", 4),
+        ("GOPRO_COMMAND_VIDEO_SETTINGS", 5),
+        ("GOPRO_COMMAND_LOW_LIGHT", 6),
+        ("GOPRO_COMMAND_PHOTO_RESOLUTION", 7),
+        ("GOPRO_COMMAND_PHOTO_BURST_RATE", 8),
+        ("GOPRO_COMMAND_PROTUNE", 9),
+        ("GOPRO_COMMAND_PROTUNE_WHITE_BALANCE", 10),
+        ("GOPRO_COMMAND_PROTUNE_COLOUR", 11),
+        ("GOPRO_COMMAND_PROTUNE_GAIN", 12),
+        ("GOPRO_COMMAND_PROTUNE_SHARPNESS", 13),
+        ("GOPRO_COMMAND_PROTUNE_EXPOSURE", 14),
+        ("GOPRO_COMMAND_TIME", 15),
+        ("GOPRO_COMMAND_CHARGING", 16),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproCommand {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproCommand {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_COMMAND",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_FIELD_OF_VIEW`
 ///
 /// MAVLink enum `GOPRO_FIELD_OF_VIEW`.
@@ -1050,6 +1596,40 @@ impl From<u8> for GoproFieldOfView {
 impl From<GoproFieldOfView> for u8 {
     fn from(value: GoproFieldOfView) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GoproFieldOfView {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_FIELD_OF_VIEW_WIDE", 0),
+        ("GOPRO_FIELD_OF_VIEW_MEDIUM", 1),
+        ("GOPRO_FIELD_OF_VIEW_NARROW", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproFieldOfView {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproFieldOfView {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_FIELD_OF_VIEW",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1145,6 +1725,51 @@ impl From<GoproFrameRate> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproFrameRate {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_FRAME_RATE_12", 0),
+        ("GOPRO_FRAME_RATE_15", 1),
+        ("GOPRO_FRAME_RATE_24", 2),
+        ("GOPRO_FRAME_RATE_25", 3),
+        ("GOPRO_FRAME_RATE_30", 4),
+        ("GOPRO_FRAME_RATE_48", 5),
+        ("GOPRO_FRAME_RATE_50", 6),
+        ("GOPRO_FRAME_RATE_60", 7),
+        ("GOPRO_FRAME_RATE_80", 8),
+        ("GOPRO_FRAME_RATE_90", 9),
+        ("GOPRO_FRAME_RATE_100", 10),
+        ("GOPRO_FRAME_RATE_120", 11),
+        ("GOPRO_FRAME_RATE_240", 12),
+        ("GOPRO_FRAME_RATE_12_5", 13),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproFrameRate {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproFrameRate {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_FRAME_RATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_HEARTBEAT_FLAGS`
 ///
 /// MAVLink enum `GOPRO_HEARTBEAT_FLAGS`.
@@ -1158,6 +1783,36 @@ impl GoproHeartbeatFlags {
 }
 
 ::mavframe::flag_set!(GoproHeartbeatFlags, u8, [GOPRO_FLAG_RECORDING]);
+
+#[cfg(feature = "serde")]
+impl GoproHeartbeatFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[("GOPRO_FLAG_RECORDING", 1)];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproHeartbeatFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproHeartbeatFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GOPRO_HEARTBEAT_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// `GOPRO_HEARTBEAT_STATUS`
 ///
@@ -1219,6 +1874,41 @@ impl From<u8> for GoproHeartbeatStatus {
 impl From<GoproHeartbeatStatus> for u8 {
     fn from(value: GoproHeartbeatStatus) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GoproHeartbeatStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_HEARTBEAT_STATUS_DISCONNECTED", 0),
+        ("GOPRO_HEARTBEAT_STATUS_INCOMPATIBLE", 1),
+        ("GOPRO_HEARTBEAT_STATUS_CONNECTED", 2),
+        ("GOPRO_HEARTBEAT_STATUS_ERROR", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproHeartbeatStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproHeartbeatStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_HEARTBEAT_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1287,6 +1977,42 @@ impl From<GoproModel> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproModel {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_MODEL_UNKNOWN", 0),
+        ("GOPRO_MODEL_HERO_3_PLUS_SILVER", 1),
+        ("GOPRO_MODEL_HERO_3_PLUS_BLACK", 2),
+        ("GOPRO_MODEL_HERO_4_SILVER", 3),
+        ("GOPRO_MODEL_HERO_4_BLACK", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproModel {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproModel {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_MODEL",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_PHOTO_RESOLUTION`
 ///
 /// MAVLink enum `GOPRO_PHOTO_RESOLUTION`.
@@ -1352,6 +2078,42 @@ impl From<GoproPhotoResolution> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproPhotoResolution {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_PHOTO_RESOLUTION_5MP_MEDIUM", 0),
+        ("GOPRO_PHOTO_RESOLUTION_7MP_MEDIUM", 1),
+        ("GOPRO_PHOTO_RESOLUTION_7MP_WIDE", 2),
+        ("GOPRO_PHOTO_RESOLUTION_10MP_WIDE", 3),
+        ("GOPRO_PHOTO_RESOLUTION_12MP_WIDE", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproPhotoResolution {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproPhotoResolution {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_PHOTO_RESOLUTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_PROTUNE_COLOUR`
 ///
 /// MAVLink enum `GOPRO_PROTUNE_COLOUR`.
@@ -1405,6 +2167,39 @@ impl From<u8> for GoproProtuneColour {
 impl From<GoproProtuneColour> for u8 {
     fn from(value: GoproProtuneColour) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GoproProtuneColour {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_PROTUNE_COLOUR_STANDARD", 0),
+        ("GOPRO_PROTUNE_COLOUR_NEUTRAL", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproProtuneColour {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneColour {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_PROTUNE_COLOUR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1521,6 +2316,58 @@ impl From<GoproProtuneExposure> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproProtuneExposure {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_5_0", 0),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_4_5", 1),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_4_0", 2),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_3_5", 3),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_3_0", 4),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_2_5", 5),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_2_0", 6),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_1_5", 7),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_1_0", 8),
+        ("GOPRO_PROTUNE_EXPOSURE_NEG_0_5", 9),
+        ("GOPRO_PROTUNE_EXPOSURE_ZERO", 10),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_0_5", 11),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_1_0", 12),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_1_5", 13),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_2_0", 14),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_2_5", 15),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_3_0", 16),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_3_5", 17),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_4_0", 18),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_4_5", 19),
+        ("GOPRO_PROTUNE_EXPOSURE_POS_5_0", 20),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproProtuneExposure {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneExposure {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_PROTUNE_EXPOSURE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_PROTUNE_GAIN`
 ///
 /// MAVLink enum `GOPRO_PROTUNE_GAIN`.
@@ -1586,6 +2433,42 @@ impl From<GoproProtuneGain> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproProtuneGain {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_PROTUNE_GAIN_400", 0),
+        ("GOPRO_PROTUNE_GAIN_800", 1),
+        ("GOPRO_PROTUNE_GAIN_1600", 2),
+        ("GOPRO_PROTUNE_GAIN_3200", 3),
+        ("GOPRO_PROTUNE_GAIN_6400", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproProtuneGain {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneGain {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_PROTUNE_GAIN",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_PROTUNE_SHARPNESS`
 ///
 /// MAVLink enum `GOPRO_PROTUNE_SHARPNESS`.
@@ -1642,6 +2525,40 @@ impl From<u8> for GoproProtuneSharpness {
 impl From<GoproProtuneSharpness> for u8 {
     fn from(value: GoproProtuneSharpness) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GoproProtuneSharpness {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_PROTUNE_SHARPNESS_LOW", 0),
+        ("GOPRO_PROTUNE_SHARPNESS_MEDIUM", 1),
+        ("GOPRO_PROTUNE_SHARPNESS_HIGH", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproProtuneSharpness {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneSharpness {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_PROTUNE_SHARPNESS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1710,6 +2627,42 @@ impl From<GoproProtuneWhiteBalance> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproProtuneWhiteBalance {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_PROTUNE_WHITE_BALANCE_AUTO", 0),
+        ("GOPRO_PROTUNE_WHITE_BALANCE_3000K", 1),
+        ("GOPRO_PROTUNE_WHITE_BALANCE_5500K", 2),
+        ("GOPRO_PROTUNE_WHITE_BALANCE_6500K", 3),
+        ("GOPRO_PROTUNE_WHITE_BALANCE_RAW", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproProtuneWhiteBalance {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneWhiteBalance {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_PROTUNE_WHITE_BALANCE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_REQUEST_STATUS`
 ///
 /// MAVLink enum `GOPRO_REQUEST_STATUS`.
@@ -1763,6 +2716,39 @@ impl From<u8> for GoproRequestStatus {
 impl From<GoproRequestStatus> for u8 {
     fn from(value: GoproRequestStatus) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GoproRequestStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_REQUEST_SUCCESS", 0),
+        ("GOPRO_REQUEST_FAILED", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproRequestStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproRequestStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_REQUEST_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1858,6 +2844,51 @@ impl From<GoproResolution> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GoproResolution {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_RESOLUTION_480p", 0),
+        ("GOPRO_RESOLUTION_720p", 1),
+        ("GOPRO_RESOLUTION_960p", 2),
+        ("GOPRO_RESOLUTION_1080p", 3),
+        ("GOPRO_RESOLUTION_1440p", 4),
+        ("GOPRO_RESOLUTION_2_7k_17_9", 5),
+        ("GOPRO_RESOLUTION_2_7k_16_9", 6),
+        ("GOPRO_RESOLUTION_2_7k_4_3", 7),
+        ("GOPRO_RESOLUTION_4k_16_9", 8),
+        ("GOPRO_RESOLUTION_4k_17_9", 9),
+        ("GOPRO_RESOLUTION_720p_SUPERVIEW", 10),
+        ("GOPRO_RESOLUTION_1080p_SUPERVIEW", 11),
+        ("GOPRO_RESOLUTION_2_7k_SUPERVIEW", 12),
+        ("GOPRO_RESOLUTION_4k_SUPERVIEW", 13),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproResolution {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproResolution {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GOPRO_RESOLUTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GOPRO_VIDEO_SETTINGS_FLAGS`
 ///
 /// MAVLink enum `GOPRO_VIDEO_SETTINGS_FLAGS`.
@@ -1871,6 +2902,38 @@ impl GoproVideoSettingsFlags {
 }
 
 ::mavframe::flag_set!(GoproVideoSettingsFlags, u8, [GOPRO_VIDEO_SETTINGS_TV_MODE]);
+
+#[cfg(feature = "serde")]
+impl GoproVideoSettingsFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GOPRO_VIDEO_SETTINGS_TV_MODE", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GoproVideoSettingsFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GoproVideoSettingsFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GOPRO_VIDEO_SETTINGS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// `LED_CONTROL_PATTERN`
 ///
@@ -1928,6 +2991,40 @@ impl From<u8> for LedControlPattern {
 impl From<LedControlPattern> for u8 {
     fn from(value: LedControlPattern) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl LedControlPattern {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("LED_CONTROL_PATTERN_OFF", 0),
+        ("LED_CONTROL_PATTERN_FIRMWAREUPDATE", 1),
+        ("LED_CONTROL_PATTERN_CUSTOM", 255),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for LedControlPattern {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for LedControlPattern {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "LED_CONTROL_PATTERN",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1999,6 +3096,43 @@ impl From<LimitsState> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl LimitsState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("LIMITS_INIT", 0),
+        ("LIMITS_DISABLED", 1),
+        ("LIMITS_ENABLED", 2),
+        ("LIMITS_TRIGGERED", 3),
+        ("LIMITS_RECOVERING", 4),
+        ("LIMITS_RECOVERED", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for LimitsState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for LimitsState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "LIMITS_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `LIMIT_MODULE`
 ///
 /// MAVLink enum `LIMIT_MODULE`.
@@ -2016,6 +3150,40 @@ impl LimitModule {
 }
 
 ::mavframe::flag_set!(LimitModule, u8, [LIMIT_GPSLOCK, LIMIT_GEOFENCE, LIMIT_ALTITUDE]);
+
+#[cfg(feature = "serde")]
+impl LimitModule {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("LIMIT_GPSLOCK", 1),
+        ("LIMIT_GEOFENCE", 2),
+        ("LIMIT_ALTITUDE", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for LimitModule {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for LimitModule {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "LIMIT_MODULE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// `MAV_CMD_DO_AUX_FUNCTION_SWITCH_LEVEL`
 ///
@@ -2075,6 +3243,40 @@ impl From<u8> for MavCmdDoAuxFunctionSwitchLevel {
 impl From<MavCmdDoAuxFunctionSwitchLevel> for u8 {
     fn from(value: MavCmdDoAuxFunctionSwitchLevel) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavCmdDoAuxFunctionSwitchLevel {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_CMD_DO_AUX_FUNCTION_SWITCH_LEVEL_LOW", 0),
+        ("MAV_CMD_DO_AUX_FUNCTION_SWITCH_LEVEL_MIDDLE", 1),
+        ("MAV_CMD_DO_AUX_FUNCTION_SWITCH_LEVEL_HIGH", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavCmdDoAuxFunctionSwitchLevel {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavCmdDoAuxFunctionSwitchLevel {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_CMD_DO_AUX_FUNCTION_SWITCH_LEVEL",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2151,6 +3353,44 @@ impl From<MavModeGimbal> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavModeGimbal {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_MODE_GIMBAL_UNINITIALIZED", 0),
+        ("MAV_MODE_GIMBAL_CALIBRATING_PITCH", 1),
+        ("MAV_MODE_GIMBAL_CALIBRATING_ROLL", 2),
+        ("MAV_MODE_GIMBAL_CALIBRATING_YAW", 3),
+        ("MAV_MODE_GIMBAL_INITIALIZED", 4),
+        ("MAV_MODE_GIMBAL_ACTIVE", 5),
+        ("MAV_MODE_GIMBAL_RATE_CMD_TIMEOUT", 6),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavModeGimbal {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavModeGimbal {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_MODE_GIMBAL",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Special ACK block numbers control activation of dataflash log streaming.
 ///
 /// MAVLink enum `MAV_REMOTE_LOG_DATA_BLOCK_COMMANDS`.
@@ -2209,6 +3449,39 @@ impl From<MavRemoteLogDataBlockCommands> for u32 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavRemoteLogDataBlockCommands {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("MAV_REMOTE_LOG_DATA_BLOCK_STOP", 2147483645),
+        ("MAV_REMOTE_LOG_DATA_BLOCK_START", 2147483646),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavRemoteLogDataBlockCommands {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavRemoteLogDataBlockCommands {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_REMOTE_LOG_DATA_BLOCK_COMMANDS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Possible remote log data block statuses.
 ///
 /// MAVLink enum `MAV_REMOTE_LOG_DATA_BLOCK_STATUSES`.
@@ -2264,6 +3537,39 @@ impl From<u8> for MavRemoteLogDataBlockStatuses {
 impl From<MavRemoteLogDataBlockStatuses> for u8 {
     fn from(value: MavRemoteLogDataBlockStatuses) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavRemoteLogDataBlockStatuses {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_REMOTE_LOG_DATA_BLOCK_NACK", 0),
+        ("MAV_REMOTE_LOG_DATA_BLOCK_ACK", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavRemoteLogDataBlockStatuses {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavRemoteLogDataBlockStatuses {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_REMOTE_LOG_DATA_BLOCK_STATUSES",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2326,6 +3632,41 @@ impl From<u8> for OsdParamConfigError {
 impl From<OsdParamConfigError> for u8 {
     fn from(value: OsdParamConfigError) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl OsdParamConfigError {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("OSD_PARAM_SUCCESS", 0),
+        ("OSD_PARAM_INVALID_SCREEN", 1),
+        ("OSD_PARAM_INVALID_PARAMETER_INDEX", 2),
+        ("OSD_PARAM_INVALID_PARAMETER", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for OsdParamConfigError {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for OsdParamConfigError {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "OSD_PARAM_CONFIG_ERROR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2403,6 +3744,46 @@ impl From<u8> for OsdParamConfigType {
 impl From<OsdParamConfigType> for u8 {
     fn from(value: OsdParamConfigType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl OsdParamConfigType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("OSD_PARAM_NONE", 0),
+        ("OSD_PARAM_SERIAL_PROTOCOL", 1),
+        ("OSD_PARAM_SERVO_FUNCTION", 2),
+        ("OSD_PARAM_AUX_FUNCTION", 3),
+        ("OSD_PARAM_FLIGHT_MODE", 4),
+        ("OSD_PARAM_FAILSAFE_ACTION", 5),
+        ("OSD_PARAM_FAILSAFE_ACTION_1", 6),
+        ("OSD_PARAM_FAILSAFE_ACTION_2", 7),
+        ("OSD_PARAM_NUM_TYPES", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for OsdParamConfigType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for OsdParamConfigType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "OSD_PARAM_CONFIG_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2501,6 +3882,53 @@ impl From<u8> for PidTuningAxis {
 impl From<PidTuningAxis> for u8 {
     fn from(value: PidTuningAxis) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl PidTuningAxis {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PID_TUNING_ROLL", 1),
+        ("PID_TUNING_PITCH", 2),
+        ("PID_TUNING_YAW", 3),
+        ("PID_TUNING_ACCZ", 4),
+        ("PID_TUNING_STEER", 5),
+        ("PID_TUNING_LANDING", 6),
+        ("PID_TUNING_WHEEL_LEFT", 7),
+        ("PID_TUNING_WHEEL_RIGHT", 8),
+        ("PID_TUNING_SAIL_HEEL", 9),
+        ("PID_TUNING_VEL_NORTH", 10),
+        ("PID_TUNING_VEL_EAST", 11),
+        ("PID_TUNING_VEL_DOWN", 12),
+        ("PID_TUNING_POS_NORTH", 13),
+        ("PID_TUNING_POS_EAST", 14),
+        ("PID_TUNING_POS_DOWN", 15),
+        ("PID_TUNING_YAW_ANGLE", 16),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PidTuningAxis {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PidTuningAxis {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PID_TUNING_AXIS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2632,6 +4060,63 @@ impl From<PlaneMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl PlaneMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PLANE_MODE_MANUAL", 0),
+        ("PLANE_MODE_CIRCLE", 1),
+        ("PLANE_MODE_STABILIZE", 2),
+        ("PLANE_MODE_TRAINING", 3),
+        ("PLANE_MODE_ACRO", 4),
+        ("PLANE_MODE_FLY_BY_WIRE_A", 5),
+        ("PLANE_MODE_FLY_BY_WIRE_B", 6),
+        ("PLANE_MODE_CRUISE", 7),
+        ("PLANE_MODE_AUTOTUNE", 8),
+        ("PLANE_MODE_AUTO", 10),
+        ("PLANE_MODE_RTL", 11),
+        ("PLANE_MODE_LOITER", 12),
+        ("PLANE_MODE_TAKEOFF", 13),
+        ("PLANE_MODE_AVOID_ADSB", 14),
+        ("PLANE_MODE_GUIDED", 15),
+        ("PLANE_MODE_INITIALIZING", 16),
+        ("PLANE_MODE_QSTABILIZE", 17),
+        ("PLANE_MODE_QHOVER", 18),
+        ("PLANE_MODE_QLOITER", 19),
+        ("PLANE_MODE_QLAND", 20),
+        ("PLANE_MODE_QRTL", 21),
+        ("PLANE_MODE_QAUTOTUNE", 22),
+        ("PLANE_MODE_QACRO", 23),
+        ("PLANE_MODE_THERMAL", 24),
+        ("PLANE_MODE_LOITER_ALT_QLAND", 25),
+        ("PLANE_MODE_AUTOLAND", 26),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PlaneMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PlaneMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PLANE_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags in RALLY_POINT message.
 ///
 /// MAVLink enum `RALLY_FLAGS`.
@@ -2693,6 +4178,41 @@ impl From<u8> for RallyFlags {
 impl From<RallyFlags> for u8 {
     fn from(value: RallyFlags) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl RallyFlags {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FAVORABLE_WIND", 1),
+        ("LAND_IMMEDIATELY", 2),
+        ("ALT_FRAME_VALID", 4),
+        ("ALT_FRAME", 24),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for RallyFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for RallyFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "RALLY_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2788,6 +4308,51 @@ impl From<RoverMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl RoverMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ROVER_MODE_MANUAL", 0),
+        ("ROVER_MODE_ACRO", 1),
+        ("ROVER_MODE_STEERING", 3),
+        ("ROVER_MODE_HOLD", 4),
+        ("ROVER_MODE_LOITER", 5),
+        ("ROVER_MODE_FOLLOW", 6),
+        ("ROVER_MODE_SIMPLE", 7),
+        ("ROVER_MODE_DOCK", 8),
+        ("ROVER_MODE_CIRCLE", 9),
+        ("ROVER_MODE_AUTO", 10),
+        ("ROVER_MODE_RTL", 11),
+        ("ROVER_MODE_SMART_RTL", 12),
+        ("ROVER_MODE_GUIDED", 15),
+        ("ROVER_MODE_INITIALIZING", 16),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for RoverMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for RoverMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ROVER_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `SCRIPTING_CMD`
 ///
 /// MAVLink enum `SCRIPTING_CMD`.
@@ -2847,6 +4412,41 @@ impl From<u8> for ScriptingCmd {
 impl From<ScriptingCmd> for u8 {
     fn from(value: ScriptingCmd) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl ScriptingCmd {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("SCRIPTING_CMD_REPL_START", 0),
+        ("SCRIPTING_CMD_REPL_STOP", 1),
+        ("SCRIPTING_CMD_STOP", 2),
+        ("SCRIPTING_CMD_STOP_AND_RESTART", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for ScriptingCmd {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for ScriptingCmd {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SCRIPTING_CMD",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2946,6 +4546,45 @@ impl From<SecureCommandOp> for u32 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl SecureCommandOp {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("SECURE_COMMAND_GET_SESSION_KEY", 0),
+        ("SECURE_COMMAND_GET_REMOTEID_SESSION_KEY", 1),
+        ("SECURE_COMMAND_REMOVE_PUBLIC_KEYS", 2),
+        ("SECURE_COMMAND_GET_PUBLIC_KEYS", 3),
+        ("SECURE_COMMAND_SET_PUBLIC_KEYS", 4),
+        ("SECURE_COMMAND_GET_REMOTEID_CONFIG", 5),
+        ("SECURE_COMMAND_SET_REMOTEID_CONFIG", 6),
+        ("SECURE_COMMAND_FLASH_BOOTLOADER", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SecureCommandOp {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SecureCommandOp {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SECURE_COMMAND_OP",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// A mapping of sub flight modes for custom_mode field of heartbeat.
 ///
 /// MAVLink enum `SUB_MODE`.
@@ -3029,6 +4668,48 @@ impl From<SubMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl SubMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("SUB_MODE_STABILIZE", 0),
+        ("SUB_MODE_ACRO", 1),
+        ("SUB_MODE_ALT_HOLD", 2),
+        ("SUB_MODE_AUTO", 3),
+        ("SUB_MODE_GUIDED", 4),
+        ("SUB_MODE_CIRCLE", 7),
+        ("SUB_MODE_SURFACE", 9),
+        ("SUB_MODE_POSHOLD", 16),
+        ("SUB_MODE_MANUAL", 19),
+        ("SUB_MODE_MOTORDETECT", 20),
+        ("SUB_MODE_SURFTRAK", 21),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SubMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SubMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SUB_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// A mapping of antenna tracker flight modes for custom_mode field of heartbeat.
 ///
 /// MAVLink enum `TRACKER_MODE`.
@@ -3100,6 +4781,44 @@ impl From<TrackerMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl TrackerMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("TRACKER_MODE_MANUAL", 0),
+        ("TRACKER_MODE_STOP", 1),
+        ("TRACKER_MODE_SCAN", 2),
+        ("TRACKER_MODE_SERVO_TEST", 3),
+        ("TRACKER_MODE_GUIDED", 4),
+        ("TRACKER_MODE_AUTO", 10),
+        ("TRACKER_MODE_INITIALIZING", 16),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for TrackerMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for TrackerMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "TRACKER_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Offsets and calibrations values for hardware sensors. This makes it easier to debug the
 /// calibration process.
 ///
@@ -3107,6 +4826,11 @@ impl From<TrackerMode> for u8 {
 /// **Deprecated** since 2022-02, replaced by `MAG_CAL_REPORT, Accel Parameters, and Gyro
 /// Parameters`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SensorOffsets {
     /// Magnetometer X offset.
     ///
@@ -3123,6 +4847,7 @@ pub struct SensorOffsets {
     /// Magnetic declination.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub mag_declination: f32,
     /// Raw pressure from barometer.
     ///
@@ -3135,26 +4860,32 @@ pub struct SensorOffsets {
     /// Gyro X calibration.
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub gyro_cal_x: f32,
     /// Gyro Y calibration.
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub gyro_cal_y: f32,
     /// Gyro Z calibration.
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub gyro_cal_z: f32,
     /// Accel X calibration.
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub accel_cal_x: f32,
     /// Accel Y calibration.
     ///
     /// Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub accel_cal_y: f32,
     /// Accel Z calibration.
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub accel_cal_z: f32,
 }
 
@@ -3532,6 +5263,11 @@ impl<'a> SensorOffsetsMut<'a> {
 /// MAVLink message `SET_MAG_OFFSETS`: id 151, CRC_EXTRA 219, payload 8 bytes (8 without extensions).
 /// **Deprecated** since 2014-07, replaced by `MAV_CMD_PREFLIGHT_SET_SENSOR_OFFSETS`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetMagOffsets {
     /// System ID.
     ///
@@ -3781,6 +5517,11 @@ impl<'a> SetMagOffsetsMut<'a> {
 ///
 /// MAVLink message `MEMINFO`: id 152, CRC_EXTRA 208, payload 8 bytes (4 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Meminfo {
     /// Heap top.
     ///
@@ -3981,6 +5722,11 @@ impl<'a> MeminfoMut<'a> {
 ///
 /// MAVLink message `AP_ADC`: id 153, CRC_EXTRA 188, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ApAdc {
     /// ADC output 1.
     ///
@@ -4255,6 +6001,11 @@ impl<'a> ApAdcMut<'a> {
 ///
 /// MAVLink message `DIGICAM_CONFIGURE`: id 154, CRC_EXTRA 84, payload 15 bytes (15 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DigicamConfigure {
     /// System ID.
     ///
@@ -4300,6 +6051,7 @@ pub struct DigicamConfigure {
     /// Correspondent value to given extra_param.
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub extra_value: f32,
 }
 
@@ -4655,6 +6407,11 @@ impl<'a> DigicamConfigureMut<'a> {
 ///
 /// MAVLink message `DIGICAM_CONTROL`: id 155, CRC_EXTRA 22, payload 13 bytes (13 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DigicamControl {
     /// System ID.
     ///
@@ -4696,6 +6453,7 @@ pub struct DigicamControl {
     /// Correspondent value to given extra_param.
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub extra_value: f32,
 }
 
@@ -5030,6 +6788,11 @@ impl<'a> DigicamControlMut<'a> {
 ///
 /// MAVLink message `MOUNT_CONFIGURE`: id 156, CRC_EXTRA 19, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MountConfigure {
     /// System ID.
     ///
@@ -5309,6 +7072,11 @@ impl<'a> MountConfigureMut<'a> {
 ///
 /// MAVLink message `MOUNT_CONTROL`: id 157, CRC_EXTRA 21, payload 15 bytes (15 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MountControl {
     /// System ID.
     ///
@@ -5584,6 +7352,11 @@ impl<'a> MountControlMut<'a> {
 ///
 /// MAVLink message `MOUNT_STATUS`: id 158, CRC_EXTRA 134, payload 15 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MountStatus {
     /// System ID.
     ///
@@ -5864,6 +7637,11 @@ impl<'a> MountStatusMut<'a> {
 ///
 /// MAVLink message `FENCE_POINT`: id 160, CRC_EXTRA 78, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FencePoint {
     /// System ID.
     ///
@@ -5884,10 +7662,12 @@ pub struct FencePoint {
     /// Latitude of point.
     ///
     /// Units: `deg`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub lat: f32,
     /// Longitude of point.
     ///
     /// Units: `deg`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub lng: f32,
 }
 
@@ -6138,6 +7918,11 @@ impl<'a> FencePointMut<'a> {
 ///
 /// MAVLink message `FENCE_FETCH_POINT`: id 161, CRC_EXTRA 68, payload 3 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FenceFetchPoint {
     /// System ID.
     ///
@@ -6337,34 +8122,55 @@ impl<'a> FenceFetchPointMut<'a> {
 ///
 /// MAVLink message `AHRS`: id 163, CRC_EXTRA 127, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Ahrs {
     /// X gyro drift estimate.
     ///
     /// XML name: `omegaIx`. Units: `rad/s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "omegaIx", with = "::mavframe::serde::float")
+    )]
     pub omega_ix: f32,
     /// Y gyro drift estimate.
     ///
     /// XML name: `omegaIy`. Units: `rad/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "omegaIy", with = "::mavframe::serde::float")
+    )]
     pub omega_iy: f32,
     /// Z gyro drift estimate.
     ///
     /// XML name: `omegaIz`. Units: `rad/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "omegaIz", with = "::mavframe::serde::float")
+    )]
     pub omega_iz: f32,
     /// Average accel_weight.
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub accel_weight: f32,
     /// Average renormalisation value.
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub renorm_val: f32,
     /// Average error_roll_pitch value.
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub error_rp: f32,
     /// Average error_yaw value.
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub error_yaw: f32,
 }
 
@@ -6636,42 +8442,56 @@ impl<'a> AhrsMut<'a> {
 ///
 /// MAVLink message `SIMSTATE`: id 164, CRC_EXTRA 154, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Simstate {
     /// Roll angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// X acceleration.
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xacc: f32,
     /// Y acceleration.
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yacc: f32,
     /// Z acceleration.
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zacc: f32,
     /// Angular speed around X axis.
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xgyro: f32,
     /// Angular speed around Y axis.
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ygyro: f32,
     /// Angular speed around Z axis.
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zgyro: f32,
     /// Latitude.
     ///
@@ -7037,14 +8857,21 @@ impl<'a> SimstateMut<'a> {
 /// **Deprecated** since 2022-09, replaced by `POWER_STATUS`. POWER_STATUS+SYS_STATUS form a
 /// superset of the fields in this message.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Hwstatus {
     /// Board voltage.
     ///
     /// XML name: `Vcc`. Units: `mV`. Wire: `uint16_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "Vcc"))]
     pub vcc: u16,
     /// I2C error count.
     ///
     /// XML name: `I2Cerr`. Wire: `uint8_t` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(rename = "I2Cerr"))]
     pub i2_cerr: u8,
 }
 
@@ -7211,6 +9038,11 @@ impl<'a> HwstatusMut<'a> {
 ///
 /// MAVLink message `RADIO`: id 166, CRC_EXTRA 21, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Radio {
     /// Local signal strength.
     ///
@@ -7510,6 +9342,11 @@ impl<'a> RadioMut<'a> {
 ///
 /// MAVLink message `LIMITS_STATUS`: id 167, CRC_EXTRA 144, payload 22 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LimitsStatus {
     /// State of AP_Limits.
     ///
@@ -7865,18 +9702,26 @@ impl<'a> LimitsStatusMut<'a> {
 ///
 /// MAVLink message `WIND`: id 168, CRC_EXTRA 1, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Wind {
     /// Wind direction (that wind is coming from).
     ///
     /// Units: `deg`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub direction: f32,
     /// Wind speed in ground plane.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub speed: f32,
     /// Vertical wind speed.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub speed_z: f32,
 }
 
@@ -8064,6 +9909,11 @@ impl<'a> WindMut<'a> {
 ///
 /// MAVLink message `DATA16`: id 169, CRC_EXTRA 234, payload 18 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Data16 {
     /// Data type.
     ///
@@ -8076,6 +9926,7 @@ pub struct Data16 {
     /// Raw data.
     ///
     /// Wire: `uint8_t[16]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 16],
 }
 
@@ -8263,6 +10114,11 @@ impl<'a> Data16Mut<'a> {
 ///
 /// MAVLink message `DATA32`: id 170, CRC_EXTRA 73, payload 34 bytes (34 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Data32 {
     /// Data type.
     ///
@@ -8275,6 +10131,7 @@ pub struct Data32 {
     /// Raw data.
     ///
     /// Wire: `uint8_t[32]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 32],
 }
 
@@ -8462,6 +10319,11 @@ impl<'a> Data32Mut<'a> {
 ///
 /// MAVLink message `DATA64`: id 171, CRC_EXTRA 181, payload 66 bytes (66 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Data64 {
     /// Data type.
     ///
@@ -8474,6 +10336,7 @@ pub struct Data64 {
     /// Raw data.
     ///
     /// Wire: `uint8_t[64]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 64],
 }
 
@@ -8671,6 +10534,11 @@ impl<'a> Data64Mut<'a> {
 ///
 /// MAVLink message `DATA96`: id 172, CRC_EXTRA 22, payload 98 bytes (98 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Data96 {
     /// Data type.
     ///
@@ -8683,6 +10551,7 @@ pub struct Data96 {
     /// Raw data.
     ///
     /// Wire: `uint8_t[96]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 96],
 }
 
@@ -8880,14 +10749,21 @@ impl<'a> Data96Mut<'a> {
 ///
 /// MAVLink message `RANGEFINDER`: id 173, CRC_EXTRA 83, payload 8 bytes (8 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Rangefinder {
     /// Distance.
     ///
     /// Units: `m`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub distance: f32,
     /// Raw voltage if available, zero otherwise.
     ///
     /// Units: `V`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub voltage: f32,
 }
 
@@ -9054,54 +10930,83 @@ impl<'a> RangefinderMut<'a> {
 ///
 /// MAVLink message `AIRSPEED_AUTOCAL`: id 174, CRC_EXTRA 167, payload 48 bytes (48 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AirspeedAutocal {
     /// GPS velocity north.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// GPS velocity east.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// GPS velocity down.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// Differential pressure.
     ///
     /// Units: `Pa`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub diff_pressure: f32,
     /// Estimated to true airspeed ratio.
     ///
     /// XML name: `EAS2TAS`. Wire: `float` at payload offset 16.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "EAS2TAS", with = "::mavframe::serde::float")
+    )]
     pub eas2_tas: f32,
     /// Airspeed ratio.
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ratio: f32,
     /// EKF state x.
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub state_x: f32,
     /// EKF state y.
     ///
     /// Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub state_y: f32,
     /// EKF state z.
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub state_z: f32,
     /// EKF Pax.
     ///
     /// XML name: `Pax`. Wire: `float` at payload offset 36.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "Pax", with = "::mavframe::serde::float")
+    )]
     pub pax: f32,
     /// EKF Pby.
     ///
     /// XML name: `Pby`. Wire: `float` at payload offset 40.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "Pby", with = "::mavframe::serde::float")
+    )]
     pub pby: f32,
     /// EKF Pcz.
     ///
     /// XML name: `Pcz`. Wire: `float` at payload offset 44.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "Pcz", with = "::mavframe::serde::float")
+    )]
     pub pcz: f32,
 }
 
@@ -9479,6 +11384,11 @@ impl<'a> AirspeedAutocalMut<'a> {
 ///
 /// MAVLink message `RALLY_POINT`: id 175, CRC_EXTRA 138, payload 19 bytes (19 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RallyPoint {
     /// System ID.
     ///
@@ -9854,6 +11764,11 @@ impl<'a> RallyPointMut<'a> {
 ///
 /// MAVLink message `RALLY_FETCH_POINT`: id 176, CRC_EXTRA 234, payload 3 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RallyFetchPoint {
     /// System ID.
     ///
@@ -10053,6 +11968,11 @@ impl<'a> RallyFetchPointMut<'a> {
 ///
 /// MAVLink message `COMPASSMOT_STATUS`: id 177, CRC_EXTRA 240, payload 20 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CompassmotStatus {
     /// Throttle.
     ///
@@ -10061,6 +11981,7 @@ pub struct CompassmotStatus {
     /// Current.
     ///
     /// Units: `A`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub current: f32,
     /// Interference.
     ///
@@ -10069,14 +11990,26 @@ pub struct CompassmotStatus {
     /// Motor Compensation X.
     ///
     /// XML name: `CompensationX`. Wire: `float` at payload offset 4.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "CompensationX", with = "::mavframe::serde::float")
+    )]
     pub compensation_x: f32,
     /// Motor Compensation Y.
     ///
     /// XML name: `CompensationY`. Wire: `float` at payload offset 8.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "CompensationY", with = "::mavframe::serde::float")
+    )]
     pub compensation_y: f32,
     /// Motor Compensation Z.
     ///
     /// XML name: `CompensationZ`. Wire: `float` at payload offset 12.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "CompensationZ", with = "::mavframe::serde::float")
+    )]
     pub compensation_z: f32,
 }
 
@@ -10327,22 +12260,31 @@ impl<'a> CompassmotStatusMut<'a> {
 ///
 /// MAVLink message `AHRS2`: id 178, CRC_EXTRA 47, payload 24 bytes (24 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Ahrs2 {
     /// Roll angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Altitude (MSL).
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude: f32,
     /// Latitude.
     ///
@@ -10601,6 +12543,11 @@ impl<'a> Ahrs2Mut<'a> {
 ///
 /// MAVLink message `CAMERA_STATUS`: id 179, CRC_EXTRA 189, payload 29 bytes (29 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraStatus {
     /// Image timestamp (since UNIX epoch, according to camera clock).
     ///
@@ -10626,18 +12573,22 @@ pub struct CameraStatus {
     /// Parameter 1 (meaning depends on event_id, see CAMERA_STATUS_TYPES enum).
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p1: f32,
     /// Parameter 2 (meaning depends on event_id, see CAMERA_STATUS_TYPES enum).
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p2: f32,
     /// Parameter 3 (meaning depends on event_id, see CAMERA_STATUS_TYPES enum).
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p3: f32,
     /// Parameter 4 (meaning depends on event_id, see CAMERA_STATUS_TYPES enum).
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p4: f32,
 }
 
@@ -10951,6 +12902,11 @@ impl<'a> CameraStatusMut<'a> {
 ///
 /// MAVLink message `CAMERA_FEEDBACK`: id 180, CRC_EXTRA 52, payload 47 bytes (45 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraFeedback {
     /// Image timestamp (since UNIX epoch), as passed in by CAMERA_STATUS message (or autopilot if
     /// no CCB).
@@ -10980,26 +12936,32 @@ pub struct CameraFeedback {
     /// Altitude (MSL).
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt_msl: f32,
     /// Altitude (Relative to HOME location).
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt_rel: f32,
     /// Camera Roll angle (earth frame, +-180).
     ///
     /// Units: `deg`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Camera Pitch angle (earth frame, +-180).
     ///
     /// Units: `deg`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Camera Yaw (earth frame, 0-360, true).
     ///
     /// Units: `deg`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Focal Length.
     ///
     /// Units: `mm`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub foc_len: f32,
     /// Feedback flags.
     ///
@@ -11429,6 +13391,11 @@ impl<'a> CameraFeedbackMut<'a> {
 /// MAVLink message `BATTERY2`: id 181, CRC_EXTRA 174, payload 4 bytes (4 without extensions).
 /// **Deprecated** since 2017-04, replaced by `BATTERY_STATUS`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Battery2 {
     /// Voltage.
     ///
@@ -11603,22 +13570,31 @@ impl<'a> Battery2Mut<'a> {
 ///
 /// MAVLink message `AHRS3`: id 182, CRC_EXTRA 229, payload 40 bytes (40 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Ahrs3 {
     /// Roll angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Altitude (MSL).
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude: f32,
     /// Latitude.
     ///
@@ -11631,18 +13607,22 @@ pub struct Ahrs3 {
     /// Test variable1.
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub v1: f32,
     /// Test variable2.
     ///
     /// Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub v2: f32,
     /// Test variable3.
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub v3: f32,
     /// Test variable4.
     ///
     /// Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub v4: f32,
 }
 
@@ -11977,6 +13957,11 @@ impl<'a> Ahrs3Mut<'a> {
 ///
 /// MAVLink message `AUTOPILOT_VERSION_REQUEST`: id 183, CRC_EXTRA 85, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AutopilotVersionRequest {
     /// System ID.
     ///
@@ -12151,6 +14136,11 @@ impl<'a> AutopilotVersionRequestMut<'a> {
 ///
 /// MAVLink message `REMOTE_LOG_DATA_BLOCK`: id 184, CRC_EXTRA 159, payload 206 bytes (206 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RemoteLogDataBlock {
     /// System ID.
     ///
@@ -12168,6 +14158,7 @@ pub struct RemoteLogDataBlock {
     /// Log data block.
     ///
     /// Wire: `uint8_t[200]` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 200],
 }
 
@@ -12391,6 +14382,11 @@ impl<'a> RemoteLogDataBlockMut<'a> {
 ///
 /// MAVLink message `REMOTE_LOG_BLOCK_STATUS`: id 185, CRC_EXTRA 186, payload 7 bytes (7 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RemoteLogBlockStatus {
     /// System ID.
     ///
@@ -12620,6 +14616,11 @@ impl<'a> RemoteLogBlockStatusMut<'a> {
 ///
 /// MAVLink message `LED_CONTROL`: id 186, CRC_EXTRA 72, payload 29 bytes (29 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LedControl {
     /// System ID.
     ///
@@ -12644,6 +14645,7 @@ pub struct LedControl {
     /// Custom Bytes.
     ///
     /// Wire: `uint8_t[24]` at payload offset 5.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub custom_bytes: [u8; 24],
 }
 
@@ -12894,6 +14896,11 @@ impl<'a> LedControlMut<'a> {
 ///
 /// MAVLink message `MAG_CAL_PROGRESS`: id 191, CRC_EXTRA 92, payload 27 bytes (27 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MagCalProgress {
     /// Compass being calibrated.
     ///
@@ -12920,18 +14927,22 @@ pub struct MagCalProgress {
     /// Bitmask of sphere sections (see <http://en.wikipedia.org/wiki/Geodesic_grid>).
     ///
     /// Wire: `uint8_t[10]` at payload offset 17.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub completion_mask: [u8; 10],
     /// Body frame direction vector for display.
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub direction_x: f32,
     /// Body frame direction vector for display.
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub direction_y: f32,
     /// Body frame direction vector for display.
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub direction_z: f32,
 }
 
@@ -13249,6 +15260,11 @@ impl<'a> MagCalProgressMut<'a> {
 ///
 /// MAVLink message `EKF_STATUS_REPORT`: id 193, CRC_EXTRA 71, payload 26 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EkfStatusReport {
     /// Flags.
     ///
@@ -13258,27 +15274,33 @@ pub struct EkfStatusReport {
     /// Velocity variance.
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub velocity_variance: f32,
     /// Horizontal Position variance.
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pos_horiz_variance: f32,
     /// Vertical Position variance.
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pos_vert_variance: f32,
     /// Compass variance.
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub compass_variance: f32,
     /// Terrain Altitude variance.
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub terrain_alt_variance: f32,
     /// Airspeed variance.
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `float` at
     /// payload offset 22.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub airspeed_variance: f32,
 }
 
@@ -13554,6 +15576,11 @@ impl<'a> EkfStatusReportMut<'a> {
 ///
 /// MAVLink message `PID_TUNING`: id 194, CRC_EXTRA 98, payload 33 bytes (25 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct PidTuning {
     /// Axis.
     ///
@@ -13563,36 +15590,62 @@ pub struct PidTuning {
     /// Desired rate.
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub desired: f32,
     /// Achieved rate.
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub achieved: f32,
     /// FF component.
     ///
     /// XML name: `FF`. Wire: `float` at payload offset 8.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "FF", with = "::mavframe::serde::float")
+    )]
     pub ff: f32,
     /// P component.
     ///
     /// XML name: `P`. Wire: `float` at payload offset 12.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "P", with = "::mavframe::serde::float")
+    )]
     pub p: f32,
     /// I component.
     ///
     /// XML name: `I`. Wire: `float` at payload offset 16.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "I", with = "::mavframe::serde::float")
+    )]
     pub i: f32,
     /// D component.
     ///
     /// XML name: `D`. Wire: `float` at payload offset 20.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "D", with = "::mavframe::serde::float")
+    )]
     pub d: f32,
     /// Slew rate.
     ///
     /// XML name: `SRate`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent.
     /// Wire: `float` at payload offset 25.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "SRate", with = "::mavframe::serde::float")
+    )]
     pub srate: f32,
     /// P/D oscillation modifier.
     ///
     /// XML name: `PDmod`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent.
     /// Wire: `float` at payload offset 29.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "PDmod", with = "::mavframe::serde::float")
+    )]
     pub pdmod: f32,
 }
 
@@ -13906,6 +15959,11 @@ impl<'a> PidTuningMut<'a> {
 ///
 /// MAVLink message `DEEPSTALL`: id 195, CRC_EXTRA 120, payload 37 bytes (37 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Deepstall {
     /// Landing latitude.
     ///
@@ -13934,14 +15992,17 @@ pub struct Deepstall {
     /// Altitude.
     ///
     /// Units: `m`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude: f32,
     /// Distance the aircraft expects to travel during the deepstall.
     ///
     /// Units: `m`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub expected_travel_distance: f32,
     /// Deepstall cross track error (only valid when in DEEPSTALL_STAGE_LAND).
     ///
     /// Units: `m`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub cross_track_error: f32,
     /// Deepstall stage.
     ///
@@ -14280,6 +16341,11 @@ impl<'a> DeepstallMut<'a> {
 ///
 /// MAVLink message `GIMBAL_REPORT`: id 200, CRC_EXTRA 134, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalReport {
     /// System ID.
     ///
@@ -14292,42 +16358,52 @@ pub struct GimbalReport {
     /// Time since last update.
     ///
     /// Units: `s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_time: f32,
     /// Delta angle X.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_angle_x: f32,
     /// Delta angle Y.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_angle_y: f32,
     /// Delta angle X.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_angle_z: f32,
     /// Delta velocity X.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_velocity_x: f32,
     /// Delta velocity Y.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_velocity_y: f32,
     /// Delta velocity Z.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_velocity_z: f32,
     /// Joint ROLL.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub joint_roll: f32,
     /// Joint EL.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub joint_el: f32,
     /// Joint AZ.
     ///
     /// Units: `rad`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub joint_az: f32,
 }
 
@@ -14704,6 +16780,11 @@ impl<'a> GimbalReportMut<'a> {
 ///
 /// MAVLink message `GIMBAL_CONTROL`: id 201, CRC_EXTRA 205, payload 14 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalControl {
     /// System ID.
     ///
@@ -14716,14 +16797,17 @@ pub struct GimbalControl {
     /// Demanded angular rate X.
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub demanded_rate_x: f32,
     /// Demanded angular rate Y.
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub demanded_rate_y: f32,
     /// Demanded angular rate Z.
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub demanded_rate_z: f32,
 }
 
@@ -14953,6 +17037,11 @@ impl<'a> GimbalControlMut<'a> {
 ///
 /// MAVLink message `GIMBAL_TORQUE_CMD_REPORT`: id 214, CRC_EXTRA 69, payload 8 bytes (8 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalTorqueCmdReport {
     /// System ID.
     ///
@@ -15202,6 +17291,11 @@ impl<'a> GimbalTorqueCmdReportMut<'a> {
 ///
 /// MAVLink message `GOPRO_HEARTBEAT`: id 215, CRC_EXTRA 101, payload 3 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GoproHeartbeat {
     /// Status.
     ///
@@ -15410,6 +17504,11 @@ impl<'a> GoproHeartbeatMut<'a> {
 ///
 /// MAVLink message `GOPRO_GET_REQUEST`: id 216, CRC_EXTRA 50, payload 3 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GoproGetRequest {
     /// System ID.
     ///
@@ -15609,6 +17708,11 @@ impl<'a> GoproGetRequestMut<'a> {
 ///
 /// MAVLink message `GOPRO_GET_RESPONSE`: id 217, CRC_EXTRA 202, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GoproGetResponse {
     /// Command ID.
     ///
@@ -15622,6 +17726,7 @@ pub struct GoproGetResponse {
     /// Value.
     ///
     /// Wire: `uint8_t[4]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub value: [u8; 4],
 }
 
@@ -15809,6 +17914,11 @@ impl<'a> GoproGetResponseMut<'a> {
 ///
 /// MAVLink message `GOPRO_SET_REQUEST`: id 218, CRC_EXTRA 17, payload 7 bytes (7 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GoproSetRequest {
     /// System ID.
     ///
@@ -15825,6 +17935,7 @@ pub struct GoproSetRequest {
     /// Value.
     ///
     /// Wire: `uint8_t[4]` at payload offset 3.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub value: [u8; 4],
 }
 
@@ -16033,6 +18144,11 @@ impl<'a> GoproSetRequestMut<'a> {
 ///
 /// MAVLink message `GOPRO_SET_RESPONSE`: id 219, CRC_EXTRA 162, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GoproSetResponse {
     /// Command ID.
     ///
@@ -16208,14 +18324,21 @@ impl<'a> GoproSetResponseMut<'a> {
 ///
 /// MAVLink message `RPM`: id 226, CRC_EXTRA 207, payload 8 bytes (8 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Rpm {
     /// RPM Sensor1.
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rpm1: f32,
     /// RPM Sensor2.
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rpm2: f32,
 }
 
@@ -16382,6 +18505,11 @@ impl<'a> RpmMut<'a> {
 ///
 /// MAVLink message `DEVICE_OP_READ`: id 11000, CRC_EXTRA 134, payload 52 bytes (51 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DeviceOpRead {
     /// System ID.
     ///
@@ -16411,6 +18539,7 @@ pub struct DeviceOpRead {
     /// Name of device on bus (for SPI).
     ///
     /// Wire: `char[40]` at payload offset 9.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub busname: [u8; 40],
     /// First register to read.
     ///
@@ -16775,6 +18904,11 @@ impl<'a> DeviceOpReadMut<'a> {
 ///
 /// MAVLink message `DEVICE_OP_READ_REPLY`: id 11001, CRC_EXTRA 15, payload 136 bytes (135 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DeviceOpReadReply {
     /// Request ID - copied from request.
     ///
@@ -16795,6 +18929,7 @@ pub struct DeviceOpReadReply {
     /// Reply data.
     ///
     /// Wire: `uint8_t[128]` at payload offset 7.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 128],
     /// Bank number.
     ///
@@ -17063,6 +19198,11 @@ impl<'a> DeviceOpReadReplyMut<'a> {
 ///
 /// MAVLink message `DEVICE_OP_WRITE`: id 11002, CRC_EXTRA 234, payload 180 bytes (179 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DeviceOpWrite {
     /// System ID.
     ///
@@ -17092,6 +19232,7 @@ pub struct DeviceOpWrite {
     /// Name of device on bus (for SPI).
     ///
     /// Wire: `char[40]` at payload offset 9.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub busname: [u8; 40],
     /// First register to write.
     ///
@@ -17104,6 +19245,7 @@ pub struct DeviceOpWrite {
     /// Write data.
     ///
     /// Wire: `uint8_t[128]` at payload offset 51.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 128],
     /// Bank number.
     ///
@@ -17482,6 +19624,11 @@ impl<'a> DeviceOpWriteMut<'a> {
 ///
 /// MAVLink message `DEVICE_OP_WRITE_REPLY`: id 11003, CRC_EXTRA 64, payload 5 bytes (5 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DeviceOpWriteReply {
     /// Request ID - copied from request.
     ///
@@ -17661,6 +19808,11 @@ impl<'a> DeviceOpWriteReplyMut<'a> {
 ///
 /// MAVLink message `SECURE_COMMAND`: id 11004, CRC_EXTRA 11, payload 232 bytes (232 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SecureCommand {
     /// System ID.
     ///
@@ -17690,6 +19842,7 @@ pub struct SecureCommand {
     /// Signed data.
     ///
     /// Wire: `uint8_t[220]` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 220],
 }
 
@@ -17975,6 +20128,11 @@ impl<'a> SecureCommandMut<'a> {
 ///
 /// MAVLink message `SECURE_COMMAND_REPLY`: id 11005, CRC_EXTRA 93, payload 230 bytes (230 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SecureCommandReply {
     /// Sequence ID from request.
     ///
@@ -17997,6 +20155,7 @@ pub struct SecureCommandReply {
     /// Reply data.
     ///
     /// Wire: `uint8_t[220]` at payload offset 10.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 220],
 }
 
@@ -18242,6 +20401,11 @@ impl<'a> SecureCommandReplyMut<'a> {
 ///
 /// MAVLink message `ADAP_TUNING`: id 11010, CRC_EXTRA 46, payload 49 bytes (49 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AdapTuning {
     /// Axis.
     ///
@@ -18251,50 +20415,62 @@ pub struct AdapTuning {
     /// Desired rate.
     ///
     /// Units: `deg/s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub desired: f32,
     /// Achieved rate.
     ///
     /// Units: `deg/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub achieved: f32,
     /// Error between model and vehicle.
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub error: f32,
     /// Theta estimated state predictor.
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub theta: f32,
     /// Omega estimated state predictor.
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub omega: f32,
     /// Sigma estimated state predictor.
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub sigma: f32,
     /// Theta derivative.
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub theta_dot: f32,
     /// Omega derivative.
     ///
     /// Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub omega_dot: f32,
     /// Sigma derivative.
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub sigma_dot: f32,
     /// Projection operator value.
     ///
     /// Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub f: f32,
     /// Projection operator derivative.
     ///
     /// Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub f_dot: f32,
     /// u adaptive controlled output command.
     ///
     /// Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub u: f32,
 }
 
@@ -18692,6 +20868,11 @@ impl<'a> AdapTuningMut<'a> {
 ///
 /// MAVLink message `VISION_POSITION_DELTA`: id 11011, CRC_EXTRA 106, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct VisionPositionDelta {
     /// Timestamp (synced to UNIX time or since system boot).
     ///
@@ -18705,15 +20886,18 @@ pub struct VisionPositionDelta {
     /// previous MAV_FRAME_BODY_FRD.
     ///
     /// Units: `rad`. Wire: `float[3]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub angle_delta: [f32; 3],
     /// Change in position to the current MAV_FRAME_BODY_FRD from the previous FRAME_BODY_FRD
     /// rotated to the current MAV_FRAME_BODY_FRD.
     ///
     /// Units: `m`. Wire: `float[3]` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub position_delta: [f32; 3],
     /// Normalised confidence value from 0 to 100.
     ///
     /// Units: `%`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub confidence: f32,
 }
 
@@ -18943,6 +21127,11 @@ impl<'a> VisionPositionDeltaMut<'a> {
 ///
 /// MAVLink message `AOA_SSA`: id 11020, CRC_EXTRA 205, payload 16 bytes (16 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AoaSsa {
     /// Timestamp (since boot or Unix epoch).
     ///
@@ -18951,10 +21140,18 @@ pub struct AoaSsa {
     /// Angle of Attack.
     ///
     /// XML name: `AOA`. Units: `deg`. Wire: `float` at payload offset 8.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "AOA", with = "::mavframe::serde::float")
+    )]
     pub aoa: f32,
     /// Side Slip Angle.
     ///
     /// XML name: `SSA`. Units: `deg`. Wire: `float` at payload offset 12.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "SSA", with = "::mavframe::serde::float")
+    )]
     pub ssa: f32,
 }
 
@@ -19142,30 +21339,41 @@ impl<'a> AoaSsaMut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_1_TO_4`: id 11030, CRC_EXTRA 144, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry1To4 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -19416,30 +21624,41 @@ impl<'a> EscTelemetry1To4Mut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_5_TO_8`: id 11031, CRC_EXTRA 133, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry5To8 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -19690,30 +21909,41 @@ impl<'a> EscTelemetry5To8Mut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_9_TO_12`: id 11032, CRC_EXTRA 85, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry9To12 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -19964,6 +22194,11 @@ impl<'a> EscTelemetry9To12Mut<'a> {
 ///
 /// MAVLink message `OSD_PARAM_CONFIG`: id 11033, CRC_EXTRA 195, payload 37 bytes (37 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OsdParamConfig {
     /// System ID.
     ///
@@ -19990,6 +22225,7 @@ pub struct OsdParamConfig {
     /// applications have to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Config type.
     ///
@@ -19999,14 +22235,17 @@ pub struct OsdParamConfig {
     /// OSD parameter minimum value.
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min_value: f32,
     /// OSD parameter maximum value.
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max_value: f32,
     /// OSD parameter increment.
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub increment: f32,
 }
 
@@ -20343,6 +22582,11 @@ impl<'a> OsdParamConfigMut<'a> {
 ///
 /// MAVLink message `OSD_PARAM_CONFIG_REPLY`: id 11034, CRC_EXTRA 79, payload 5 bytes (5 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OsdParamConfigReply {
     /// Request ID - copied from request.
     ///
@@ -20518,6 +22762,11 @@ impl<'a> OsdParamConfigReplyMut<'a> {
 ///
 /// MAVLink message `OSD_PARAM_SHOW_CONFIG`: id 11035, CRC_EXTRA 128, payload 8 bytes (8 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OsdParamShowConfig {
     /// System ID.
     ///
@@ -20767,6 +23016,11 @@ impl<'a> OsdParamShowConfigMut<'a> {
 ///
 /// MAVLink message `OSD_PARAM_SHOW_CONFIG_REPLY`: id 11036, CRC_EXTRA 177, payload 34 bytes (34 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OsdParamShowConfigReply {
     /// Request ID - copied from request.
     ///
@@ -20782,6 +23036,7 @@ pub struct OsdParamShowConfigReply {
     /// applications have to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 17.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Config type.
     ///
@@ -20791,14 +23046,17 @@ pub struct OsdParamShowConfigReply {
     /// OSD parameter minimum value.
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min_value: f32,
     /// OSD parameter maximum value.
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max_value: f32,
     /// OSD parameter increment.
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub increment: f32,
 }
 
@@ -21072,6 +23330,11 @@ impl<'a> OsdParamShowConfigReplyMut<'a> {
 ///
 /// MAVLink message `OBSTACLE_DISTANCE_3D`: id 11037, CRC_EXTRA 130, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ObstacleDistance3d {
     /// Timestamp (time since system boot).
     ///
@@ -21096,22 +23359,27 @@ pub struct ObstacleDistance3d {
     /// X position of the obstacle.
     ///
     /// Units: `m`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y position of the obstacle.
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z position of the obstacle.
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Minimum distance the sensor can measure.
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min_distance: f32,
     /// Maximum distance the sensor can measure.
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max_distance: f32,
 }
 
@@ -21433,6 +23701,11 @@ impl<'a> ObstacleDistance3dMut<'a> {
 ///
 /// MAVLink message `WATER_DEPTH`: id 11038, CRC_EXTRA 47, payload 38 bytes (38 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct WaterDepth {
     /// Timestamp (time since system boot)
     ///
@@ -21458,26 +23731,32 @@ pub struct WaterDepth {
     /// Altitude (MSL) of vehicle
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// Roll angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Distance (uncorrected)
     ///
     /// Units: `m`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub distance: f32,
     /// Water temperature
     ///
     /// Units: `degC`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub temperature: f32,
 }
 
@@ -21834,6 +24113,11 @@ impl<'a> WaterDepthMut<'a> {
 ///
 /// MAVLink message `MCU_STATUS`: id 11039, CRC_EXTRA 142, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct McuStatus {
     /// MCU instance
     ///
@@ -21843,18 +24127,22 @@ pub struct McuStatus {
     /// MCU Internal temperature
     ///
     /// XML name: `MCU_temperature`. Units: `cdegC`. Wire: `int16_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "MCU_temperature"))]
     pub mcu_temperature: i16,
     /// MCU voltage
     ///
     /// XML name: `MCU_voltage`. Units: `mV`. Wire: `uint16_t` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(rename = "MCU_voltage"))]
     pub mcu_voltage: u16,
     /// MCU voltage minimum
     ///
     /// XML name: `MCU_voltage_min`. Units: `mV`. Wire: `uint16_t` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(rename = "MCU_voltage_min"))]
     pub mcu_voltage_min: u16,
     /// MCU voltage maximum
     ///
     /// XML name: `MCU_voltage_max`. Units: `mV`. Wire: `uint16_t` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(rename = "MCU_voltage_max"))]
     pub mcu_voltage_max: u16,
 }
 
@@ -22084,30 +24372,41 @@ impl<'a> McuStatusMut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_13_TO_16`: id 11040, CRC_EXTRA 132, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry13To16 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -22358,30 +24657,41 @@ impl<'a> EscTelemetry13To16Mut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_17_TO_20`: id 11041, CRC_EXTRA 208, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry17To20 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -22632,30 +24942,41 @@ impl<'a> EscTelemetry17To20Mut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_21_TO_24`: id 11042, CRC_EXTRA 201, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry21To24 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -22906,30 +25227,41 @@ impl<'a> EscTelemetry21To24Mut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_25_TO_28`: id 11043, CRC_EXTRA 193, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry25To28 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -23180,30 +25512,41 @@ impl<'a> EscTelemetry25To28Mut<'a> {
 ///
 /// MAVLink message `ESC_TELEMETRY_29_TO_32`: id 11044, CRC_EXTRA 189, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EscTelemetry29To32 {
     /// Temperature.
     ///
     /// Units: `degC`. Wire: `uint8_t[4]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature: [u8; 4],
     /// Voltage.
     ///
     /// Units: `cV`. Wire: `uint16_t[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltage: [u16; 4],
     /// Current.
     ///
     /// Units: `cA`. Wire: `uint16_t[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub current: [u16; 4],
     /// Total current.
     ///
     /// Units: `mAh`. Wire: `uint16_t[4]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub totalcurrent: [u16; 4],
     /// RPM (eRPM).
     ///
     /// Units: `rpm`. Wire: `uint16_t[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rpm: [u16; 4],
     /// count of telemetry packets received (wraps at 65535).
     ///
     /// Wire: `uint16_t[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub count: [u16; 4],
 }
 
@@ -23456,6 +25799,11 @@ impl<'a> EscTelemetry29To32Mut<'a> {
 ///
 /// MAVLink message `NAMED_VALUE_STRING`: id 11060, CRC_EXTRA 162, payload 78 bytes (78 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct NamedValueString {
     /// Timestamp (time since system boot).
     ///
@@ -23465,10 +25813,12 @@ pub struct NamedValueString {
     ///
     /// Instance field: tells apart several sources of this message. Wire: `char[10]` at payload
     /// offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 10],
     /// Value of the debug variable
     ///
     /// Wire: `char[64]` at payload offset 14.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub value: [u8; 64],
 }
 

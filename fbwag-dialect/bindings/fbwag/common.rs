@@ -70,6 +70,43 @@ impl From<ActuatorConfiguration> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl ActuatorConfiguration {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ACTUATOR_CONFIGURATION_NONE", 0),
+        ("ACTUATOR_CONFIGURATION_BEEP", 1),
+        ("ACTUATOR_CONFIGURATION_3D_MODE_ON", 2),
+        ("ACTUATOR_CONFIGURATION_3D_MODE_OFF", 3),
+        ("ACTUATOR_CONFIGURATION_SPIN_DIRECTION1", 4),
+        ("ACTUATOR_CONFIGURATION_SPIN_DIRECTION2", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for ActuatorConfiguration {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for ActuatorConfiguration {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ACTUATOR_CONFIGURATION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Actuator output function. Values greater or equal to 1000 are autopilot-specific.
 ///
 /// MAVLink enum `ACTUATOR_OUTPUT_FUNCTION`.
@@ -219,6 +256,70 @@ impl From<ActuatorOutputFunction> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl ActuatorOutputFunction {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ACTUATOR_OUTPUT_FUNCTION_NONE", 0),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR1", 1),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR2", 2),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR3", 3),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR4", 4),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR5", 5),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR6", 6),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR7", 7),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR8", 8),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR9", 9),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR10", 10),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR11", 11),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR12", 12),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR13", 13),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR14", 14),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR15", 15),
+        ("ACTUATOR_OUTPUT_FUNCTION_MOTOR16", 16),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO1", 33),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO2", 34),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO3", 35),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO4", 36),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO5", 37),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO6", 38),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO7", 39),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO8", 40),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO9", 41),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO10", 42),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO11", 43),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO12", 44),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO13", 45),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO14", 46),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO15", 47),
+        ("ACTUATOR_OUTPUT_FUNCTION_SERVO16", 48),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for ActuatorOutputFunction {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for ActuatorOutputFunction {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ACTUATOR_OUTPUT_FUNCTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Enumeration of the ADSB altimeter types
 ///
 /// MAVLink enum `ADSB_ALTITUDE_TYPE`.
@@ -272,6 +373,39 @@ impl From<u8> for AdsbAltitudeType {
 impl From<AdsbAltitudeType> for u8 {
     fn from(value: AdsbAltitudeType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl AdsbAltitudeType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ADSB_ALTITUDE_TYPE_PRESSURE_QNH", 0),
+        ("ADSB_ALTITUDE_TYPE_GEOMETRIC", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AdsbAltitudeType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AdsbAltitudeType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ADSB_ALTITUDE_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -385,6 +519,57 @@ impl From<AdsbEmitterType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl AdsbEmitterType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ADSB_EMITTER_TYPE_NO_INFO", 0),
+        ("ADSB_EMITTER_TYPE_LIGHT", 1),
+        ("ADSB_EMITTER_TYPE_SMALL", 2),
+        ("ADSB_EMITTER_TYPE_LARGE", 3),
+        ("ADSB_EMITTER_TYPE_HIGH_VORTEX_LARGE", 4),
+        ("ADSB_EMITTER_TYPE_HEAVY", 5),
+        ("ADSB_EMITTER_TYPE_HIGHLY_MANUV", 6),
+        ("ADSB_EMITTER_TYPE_ROTOCRAFT", 7),
+        ("ADSB_EMITTER_TYPE_UNASSIGNED", 8),
+        ("ADSB_EMITTER_TYPE_GLIDER", 9),
+        ("ADSB_EMITTER_TYPE_LIGHTER_AIR", 10),
+        ("ADSB_EMITTER_TYPE_PARACHUTE", 11),
+        ("ADSB_EMITTER_TYPE_ULTRA_LIGHT", 12),
+        ("ADSB_EMITTER_TYPE_UNASSIGNED2", 13),
+        ("ADSB_EMITTER_TYPE_UAV", 14),
+        ("ADSB_EMITTER_TYPE_SPACE", 15),
+        ("ADSB_EMITTER_TYPE_UNASSGINED3", 16),
+        ("ADSB_EMITTER_TYPE_EMERGENCY_SURFACE", 17),
+        ("ADSB_EMITTER_TYPE_SERVICE_SURFACE", 18),
+        ("ADSB_EMITTER_TYPE_POINT_OBSTACLE", 19),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AdsbEmitterType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AdsbEmitterType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ADSB_EMITTER_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// These flags indicate status such as data validity of each data source. Set = data valid
 ///
 /// MAVLink enum `ADSB_FLAGS`.
@@ -421,6 +606,47 @@ impl AdsbFlags {
     SOURCE_UAT]
 );
 
+#[cfg(feature = "serde")]
+impl AdsbFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("ADSB_FLAGS_VALID_COORDS", 1),
+        ("ADSB_FLAGS_VALID_ALTITUDE", 2),
+        ("ADSB_FLAGS_VALID_HEADING", 4),
+        ("ADSB_FLAGS_VALID_VELOCITY", 8),
+        ("ADSB_FLAGS_VALID_CALLSIGN", 16),
+        ("ADSB_FLAGS_VALID_SQUAWK", 32),
+        ("ADSB_FLAGS_SIMULATED", 64),
+        ("ADSB_FLAGS_VERTICAL_VELOCITY_VALID", 128),
+        ("ADSB_FLAGS_BARO_VALID", 256),
+        ("ADSB_FLAGS_SOURCE_UAT", 32768),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AdsbFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AdsbFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "ADSB_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Airspeed sensor flags
 ///
 /// MAVLink enum `AIRSPEED_SENSOR_FLAGS`.
@@ -439,6 +665,39 @@ impl AirspeedSensorFlags {
 ::mavframe::flag_set!(
     AirspeedSensorFlags, u8, [AIRSPEED_SENSOR_UNHEALTHY, AIRSPEED_SENSOR_USING]
 );
+
+#[cfg(feature = "serde")]
+impl AirspeedSensorFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("AIRSPEED_SENSOR_UNHEALTHY", 1),
+        ("AIRSPEED_SENSOR_USING", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AirspeedSensorFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AirspeedSensorFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "AIRSPEED_SENSOR_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// These flags are used in the AIS_VESSEL.fields bitmask to indicate validity of data in the
 /// other message fields. When set, the data is valid.
@@ -484,6 +743,50 @@ impl AisFlags {
     LARGE_STERN_DIMENSION, LARGE_PORT_DIMENSION, LARGE_STARBOARD_DIMENSION,
     VALID_CALLSIGN, VALID_NAME]
 );
+
+#[cfg(feature = "serde")]
+impl AisFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("AIS_FLAGS_POSITION_ACCURACY", 1),
+        ("AIS_FLAGS_VALID_COG", 2),
+        ("AIS_FLAGS_VALID_VELOCITY", 4),
+        ("AIS_FLAGS_HIGH_VELOCITY", 8),
+        ("AIS_FLAGS_VALID_TURN_RATE", 16),
+        ("AIS_FLAGS_TURN_RATE_SIGN_ONLY", 32),
+        ("AIS_FLAGS_VALID_DIMENSIONS", 64),
+        ("AIS_FLAGS_LARGE_BOW_DIMENSION", 128),
+        ("AIS_FLAGS_LARGE_STERN_DIMENSION", 256),
+        ("AIS_FLAGS_LARGE_PORT_DIMENSION", 512),
+        ("AIS_FLAGS_LARGE_STARBOARD_DIMENSION", 1024),
+        ("AIS_FLAGS_VALID_CALLSIGN", 2048),
+        ("AIS_FLAGS_VALID_NAME", 4096),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AisFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AisFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "AIS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Navigational status of AIS vessel, enum duplicated from AIS standard,
 /// <https://gpsd.gitlab.io/gpsd/AIVDM.html>
@@ -581,6 +884,53 @@ impl From<u8> for AisNavStatus {
 impl From<AisNavStatus> for u8 {
     fn from(value: AisNavStatus) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl AisNavStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("AIS_NAV_STATUS_UNDER_WAY", 0),
+        ("AIS_NAV_STATUS_ANCHORED", 1),
+        ("AIS_NAV_STATUS_UN_COMMANDED", 2),
+        ("AIS_NAV_STATUS_RESTRICTED_MANOEUVERABILITY", 3),
+        ("AIS_NAV_STATUS_DRAUGHT_CONSTRAINED", 4),
+        ("AIS_NAV_STATUS_MOORED", 5),
+        ("AIS_NAV_STATUS_AGROUND", 6),
+        ("AIS_NAV_STATUS_FISHING", 7),
+        ("AIS_NAV_STATUS_SAILING", 8),
+        ("AIS_NAV_STATUS_RESERVED_HSC", 9),
+        ("AIS_NAV_STATUS_RESERVED_WIG", 10),
+        ("AIS_NAV_STATUS_RESERVED_1", 11),
+        ("AIS_NAV_STATUS_RESERVED_2", 12),
+        ("AIS_NAV_STATUS_RESERVED_3", 13),
+        ("AIS_NAV_STATUS_AIS_SART", 14),
+        ("AIS_NAV_STATUS_UNKNOWN", 15),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AisNavStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AisNavStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "AIS_NAV_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -935,6 +1285,137 @@ impl From<AisType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl AisType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("AIS_TYPE_UNKNOWN", 0),
+        ("AIS_TYPE_RESERVED_1", 1),
+        ("AIS_TYPE_RESERVED_2", 2),
+        ("AIS_TYPE_RESERVED_3", 3),
+        ("AIS_TYPE_RESERVED_4", 4),
+        ("AIS_TYPE_RESERVED_5", 5),
+        ("AIS_TYPE_RESERVED_6", 6),
+        ("AIS_TYPE_RESERVED_7", 7),
+        ("AIS_TYPE_RESERVED_8", 8),
+        ("AIS_TYPE_RESERVED_9", 9),
+        ("AIS_TYPE_RESERVED_10", 10),
+        ("AIS_TYPE_RESERVED_11", 11),
+        ("AIS_TYPE_RESERVED_12", 12),
+        ("AIS_TYPE_RESERVED_13", 13),
+        ("AIS_TYPE_RESERVED_14", 14),
+        ("AIS_TYPE_RESERVED_15", 15),
+        ("AIS_TYPE_RESERVED_16", 16),
+        ("AIS_TYPE_RESERVED_17", 17),
+        ("AIS_TYPE_RESERVED_18", 18),
+        ("AIS_TYPE_RESERVED_19", 19),
+        ("AIS_TYPE_WIG", 20),
+        ("AIS_TYPE_WIG_HAZARDOUS_A", 21),
+        ("AIS_TYPE_WIG_HAZARDOUS_B", 22),
+        ("AIS_TYPE_WIG_HAZARDOUS_C", 23),
+        ("AIS_TYPE_WIG_HAZARDOUS_D", 24),
+        ("AIS_TYPE_WIG_RESERVED_1", 25),
+        ("AIS_TYPE_WIG_RESERVED_2", 26),
+        ("AIS_TYPE_WIG_RESERVED_3", 27),
+        ("AIS_TYPE_WIG_RESERVED_4", 28),
+        ("AIS_TYPE_WIG_RESERVED_5", 29),
+        ("AIS_TYPE_FISHING", 30),
+        ("AIS_TYPE_TOWING", 31),
+        ("AIS_TYPE_TOWING_LARGE", 32),
+        ("AIS_TYPE_DREDGING", 33),
+        ("AIS_TYPE_DIVING", 34),
+        ("AIS_TYPE_MILITARY", 35),
+        ("AIS_TYPE_SAILING", 36),
+        ("AIS_TYPE_PLEASURE", 37),
+        ("AIS_TYPE_RESERVED_20", 38),
+        ("AIS_TYPE_RESERVED_21", 39),
+        ("AIS_TYPE_HSC", 40),
+        ("AIS_TYPE_HSC_HAZARDOUS_A", 41),
+        ("AIS_TYPE_HSC_HAZARDOUS_B", 42),
+        ("AIS_TYPE_HSC_HAZARDOUS_C", 43),
+        ("AIS_TYPE_HSC_HAZARDOUS_D", 44),
+        ("AIS_TYPE_HSC_RESERVED_1", 45),
+        ("AIS_TYPE_HSC_RESERVED_2", 46),
+        ("AIS_TYPE_HSC_RESERVED_3", 47),
+        ("AIS_TYPE_HSC_RESERVED_4", 48),
+        ("AIS_TYPE_HSC_UNKNOWN", 49),
+        ("AIS_TYPE_PILOT", 50),
+        ("AIS_TYPE_SAR", 51),
+        ("AIS_TYPE_TUG", 52),
+        ("AIS_TYPE_PORT_TENDER", 53),
+        ("AIS_TYPE_ANTI_POLLUTION", 54),
+        ("AIS_TYPE_LAW_ENFORCEMENT", 55),
+        ("AIS_TYPE_SPARE_LOCAL_1", 56),
+        ("AIS_TYPE_SPARE_LOCAL_2", 57),
+        ("AIS_TYPE_MEDICAL_TRANSPORT", 58),
+        ("AIS_TYPE_NONECOMBATANT", 59),
+        ("AIS_TYPE_PASSENGER", 60),
+        ("AIS_TYPE_PASSENGER_HAZARDOUS_A", 61),
+        ("AIS_TYPE_PASSENGER_HAZARDOUS_B", 62),
+        ("AIS_TYPE_PASSENGER_HAZARDOUS_C", 63),
+        ("AIS_TYPE_PASSENGER_HAZARDOUS_D", 64),
+        ("AIS_TYPE_PASSENGER_RESERVED_1", 65),
+        ("AIS_TYPE_PASSENGER_RESERVED_2", 66),
+        ("AIS_TYPE_PASSENGER_RESERVED_3", 67),
+        ("AIS_TYPE_PASSENGER_RESERVED_4", 68),
+        ("AIS_TYPE_PASSENGER_UNKNOWN", 69),
+        ("AIS_TYPE_CARGO", 70),
+        ("AIS_TYPE_CARGO_HAZARDOUS_A", 71),
+        ("AIS_TYPE_CARGO_HAZARDOUS_B", 72),
+        ("AIS_TYPE_CARGO_HAZARDOUS_C", 73),
+        ("AIS_TYPE_CARGO_HAZARDOUS_D", 74),
+        ("AIS_TYPE_CARGO_RESERVED_1", 75),
+        ("AIS_TYPE_CARGO_RESERVED_2", 76),
+        ("AIS_TYPE_CARGO_RESERVED_3", 77),
+        ("AIS_TYPE_CARGO_RESERVED_4", 78),
+        ("AIS_TYPE_CARGO_UNKNOWN", 79),
+        ("AIS_TYPE_TANKER", 80),
+        ("AIS_TYPE_TANKER_HAZARDOUS_A", 81),
+        ("AIS_TYPE_TANKER_HAZARDOUS_B", 82),
+        ("AIS_TYPE_TANKER_HAZARDOUS_C", 83),
+        ("AIS_TYPE_TANKER_HAZARDOUS_D", 84),
+        ("AIS_TYPE_TANKER_RESERVED_1", 85),
+        ("AIS_TYPE_TANKER_RESERVED_2", 86),
+        ("AIS_TYPE_TANKER_RESERVED_3", 87),
+        ("AIS_TYPE_TANKER_RESERVED_4", 88),
+        ("AIS_TYPE_TANKER_UNKNOWN", 89),
+        ("AIS_TYPE_OTHER", 90),
+        ("AIS_TYPE_OTHER_HAZARDOUS_A", 91),
+        ("AIS_TYPE_OTHER_HAZARDOUS_B", 92),
+        ("AIS_TYPE_OTHER_HAZARDOUS_C", 93),
+        ("AIS_TYPE_OTHER_HAZARDOUS_D", 94),
+        ("AIS_TYPE_OTHER_RESERVED_1", 95),
+        ("AIS_TYPE_OTHER_RESERVED_2", 96),
+        ("AIS_TYPE_OTHER_RESERVED_3", 97),
+        ("AIS_TYPE_OTHER_RESERVED_4", 98),
+        ("AIS_TYPE_OTHER_UNKNOWN", 99),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AisType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AisType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "AIS_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Bitmap to indicate which dimensions should be ignored by the vehicle: a value of
 /// 0b00000000 indicates that none of the setpoint dimensions should be ignored.
 ///
@@ -961,6 +1442,42 @@ impl AttitudeTargetTypemask {
     BODY_YAW_RATE_IGNORE, THROTTLE_IGNORE, ATTITUDE_IGNORE]
 );
 
+#[cfg(feature = "serde")]
+impl AttitudeTargetTypemask {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE", 1),
+        ("ATTITUDE_TARGET_TYPEMASK_BODY_PITCH_RATE_IGNORE", 2),
+        ("ATTITUDE_TARGET_TYPEMASK_BODY_YAW_RATE_IGNORE", 4),
+        ("ATTITUDE_TARGET_TYPEMASK_THROTTLE_IGNORE", 64),
+        ("ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AttitudeTargetTypemask {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AttitudeTargetTypemask {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "ATTITUDE_TARGET_TYPEMASK",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Axes that will be autotuned by MAV_CMD_DO_AUTOTUNE_ENABLE. Note that at least one flag
 /// must be set in MAV_CMD_DO_AUTOTUNE_ENABLE.param2: if none are set, the flight stack will
 /// tune its default set of axes.
@@ -980,6 +1497,40 @@ impl AutotuneAxis {
 }
 
 ::mavframe::flag_set!(AutotuneAxis, u8, [ROLL, PITCH, YAW]);
+
+#[cfg(feature = "serde")]
+impl AutotuneAxis {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("AUTOTUNE_AXIS_ROLL", 1),
+        ("AUTOTUNE_AXIS_PITCH", 2),
+        ("AUTOTUNE_AXIS_YAW", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AutotuneAxis {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AutotuneAxis {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "AUTOTUNE_AXIS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Camera capability flags (Bitmap)
 ///
@@ -1031,6 +1582,51 @@ impl CameraCapFlags {
     HAS_TRACKING_POINT, HAS_TRACKING_RECTANGLE, HAS_TRACKING_GEO_STATUS,
     HAS_THERMAL_RANGE, HAS_MTI]
 );
+
+#[cfg(feature = "serde")]
+impl CameraCapFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("CAMERA_CAP_FLAGS_CAPTURE_VIDEO", 1),
+        ("CAMERA_CAP_FLAGS_CAPTURE_IMAGE", 2),
+        ("CAMERA_CAP_FLAGS_HAS_MODES", 4),
+        ("CAMERA_CAP_FLAGS_CAN_CAPTURE_IMAGE_IN_VIDEO_MODE", 8),
+        ("CAMERA_CAP_FLAGS_CAN_CAPTURE_VIDEO_IN_IMAGE_MODE", 16),
+        ("CAMERA_CAP_FLAGS_HAS_IMAGE_SURVEY_MODE", 32),
+        ("CAMERA_CAP_FLAGS_HAS_BASIC_ZOOM", 64),
+        ("CAMERA_CAP_FLAGS_HAS_BASIC_FOCUS", 128),
+        ("CAMERA_CAP_FLAGS_HAS_VIDEO_STREAM", 256),
+        ("CAMERA_CAP_FLAGS_HAS_TRACKING_POINT", 512),
+        ("CAMERA_CAP_FLAGS_HAS_TRACKING_RECTANGLE", 1024),
+        ("CAMERA_CAP_FLAGS_HAS_TRACKING_GEO_STATUS", 2048),
+        ("CAMERA_CAP_FLAGS_HAS_THERMAL_RANGE", 4096),
+        ("CAMERA_CAP_FLAGS_HAS_MTI", 8192),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraCapFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraCapFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "CAMERA_CAP_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Camera Modes.
 ///
@@ -1089,6 +1685,40 @@ impl From<u8> for CameraMode {
 impl From<CameraMode> for u8 {
     fn from(value: CameraMode) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl CameraMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAMERA_MODE_IMAGE", 0),
+        ("CAMERA_MODE_VIDEO", 1),
+        ("CAMERA_MODE_IMAGE_SURVEY", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "CAMERA_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1154,6 +1784,41 @@ impl From<CameraSource> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl CameraSource {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAMERA_SOURCE_DEFAULT", 0),
+        ("CAMERA_SOURCE_RGB", 1),
+        ("CAMERA_SOURCE_IR", 2),
+        ("CAMERA_SOURCE_NDVI", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraSource {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraSource {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "CAMERA_SOURCE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Camera tracking modes
 ///
 /// MAVLink enum `CAMERA_TRACKING_MODE`.
@@ -1213,6 +1878,40 @@ impl From<CameraTrackingMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl CameraTrackingMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAMERA_TRACKING_MODE_NONE", 0),
+        ("CAMERA_TRACKING_MODE_POINT", 1),
+        ("CAMERA_TRACKING_MODE_RECTANGLE", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraTrackingMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraTrackingMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "CAMERA_TRACKING_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Camera tracking status flags
 ///
 /// MAVLink enum `CAMERA_TRACKING_STATUS_FLAGS`.
@@ -1241,6 +1940,42 @@ impl CameraTrackingStatusFlags {
     CameraTrackingStatusFlags, u8, [IDLE, ACTIVE, ERROR, MTI, COASTING]
 );
 
+#[cfg(feature = "serde")]
+impl CameraTrackingStatusFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAMERA_TRACKING_STATUS_FLAGS_IDLE", 0),
+        ("CAMERA_TRACKING_STATUS_FLAGS_ACTIVE", 1),
+        ("CAMERA_TRACKING_STATUS_FLAGS_ERROR", 2),
+        ("CAMERA_TRACKING_STATUS_FLAGS_MTI", 4),
+        ("CAMERA_TRACKING_STATUS_FLAGS_COASTING", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraTrackingStatusFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraTrackingStatusFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "CAMERA_TRACKING_STATUS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Camera tracking target data (shows where tracked target is within image)
 ///
 /// MAVLink enum `CAMERA_TRACKING_TARGET_DATA`.
@@ -1258,6 +1993,40 @@ impl CameraTrackingTargetData {
 }
 
 ::mavframe::flag_set!(CameraTrackingTargetData, u8, [EMBEDDED, RENDERED, IN_STATUS]);
+
+#[cfg(feature = "serde")]
+impl CameraTrackingTargetData {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAMERA_TRACKING_TARGET_DATA_EMBEDDED", 1),
+        ("CAMERA_TRACKING_TARGET_DATA_RENDERED", 2),
+        ("CAMERA_TRACKING_TARGET_DATA_IN_STATUS", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraTrackingTargetData {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraTrackingTargetData {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "CAMERA_TRACKING_TARGET_DATA",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Zoom types for MAV_CMD_SET_CAMERA_ZOOM
 ///
@@ -1328,6 +2097,42 @@ impl From<CameraZoomType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl CameraZoomType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ZOOM_TYPE_STEP", 0),
+        ("ZOOM_TYPE_CONTINUOUS", 1),
+        ("ZOOM_TYPE_RANGE", 2),
+        ("ZOOM_TYPE_FOCAL_LENGTH", 3),
+        ("ZOOM_TYPE_HORIZONTAL_FOV", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CameraZoomType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CameraZoomType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "CAMERA_ZOOM_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `CAN_FILTER_OP`
 ///
 /// MAVLink enum `CAN_FILTER_OP`.
@@ -1387,6 +2192,40 @@ impl From<CanFilterOp> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl CanFilterOp {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("CAN_FILTER_REPLACE", 0),
+        ("CAN_FILTER_ADD", 1),
+        ("CAN_FILTER_REMOVE", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for CanFilterOp {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for CanFilterOp {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "CAN_FILTER_OP",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags used to report computer status.
 ///
 /// MAVLink enum `COMPUTER_STATUS_FLAGS`.
@@ -1409,6 +2248,41 @@ impl ComputerStatusFlags {
     ComputerStatusFlags, u16, [UNDER_VOLTAGE, CPU_THROTTLE, THERMAL_THROTTLE, DISK_FULL]
 );
 
+#[cfg(feature = "serde")]
+impl ComputerStatusFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("COMPUTER_STATUS_FLAGS_UNDER_VOLTAGE", 1),
+        ("COMPUTER_STATUS_FLAGS_CPU_THROTTLE", 2),
+        ("COMPUTER_STATUS_FLAGS_THERMAL_THROTTLE", 4),
+        ("COMPUTER_STATUS_FLAGS_DISK_FULL", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for ComputerStatusFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for ComputerStatusFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "COMPUTER_STATUS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Engine control options
 ///
 /// MAVLink enum `ENGINE_CONTROL_OPTIONS`.
@@ -1424,6 +2298,38 @@ impl EngineControlOptions {
 }
 
 ::mavframe::flag_set!(EngineControlOptions, u8, [ALLOW_START_WHILE_DISARMED]);
+
+#[cfg(feature = "serde")]
+impl EngineControlOptions {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ENGINE_CONTROL_OPTIONS_ALLOW_START_WHILE_DISARMED", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for EngineControlOptions {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for EngineControlOptions {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "ENGINE_CONTROL_OPTIONS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Flags in ESTIMATOR_STATUS message
 ///
@@ -1469,6 +2375,49 @@ impl EstimatorStatusFlags {
     ESTIMATOR_PRED_POS_HORIZ_REL, ESTIMATOR_PRED_POS_HORIZ_ABS, ESTIMATOR_GPS_GLITCH,
     ESTIMATOR_ACCEL_ERROR]
 );
+
+#[cfg(feature = "serde")]
+impl EstimatorStatusFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("ESTIMATOR_ATTITUDE", 1),
+        ("ESTIMATOR_VELOCITY_HORIZ", 2),
+        ("ESTIMATOR_VELOCITY_VERT", 4),
+        ("ESTIMATOR_POS_HORIZ_REL", 8),
+        ("ESTIMATOR_POS_HORIZ_ABS", 16),
+        ("ESTIMATOR_POS_VERT_ABS", 32),
+        ("ESTIMATOR_POS_VERT_AGL", 64),
+        ("ESTIMATOR_CONST_POS_MODE", 128),
+        ("ESTIMATOR_PRED_POS_HORIZ_REL", 256),
+        ("ESTIMATOR_PRED_POS_HORIZ_ABS", 512),
+        ("ESTIMATOR_GPS_GLITCH", 1024),
+        ("ESTIMATOR_ACCEL_ERROR", 2048),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for EstimatorStatusFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for EstimatorStatusFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "ESTIMATOR_STATUS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// List of possible failure type to inject.
 ///
@@ -1541,6 +2490,45 @@ impl From<u8> for FailureType {
 impl From<FailureType> for u8 {
     fn from(value: FailureType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl FailureType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FAILURE_TYPE_OK", 0),
+        ("FAILURE_TYPE_OFF", 1),
+        ("FAILURE_TYPE_STUCK", 2),
+        ("FAILURE_TYPE_GARBAGE", 3),
+        ("FAILURE_TYPE_WRONG", 4),
+        ("FAILURE_TYPE_SLOW", 5),
+        ("FAILURE_TYPE_DELAYED", 6),
+        ("FAILURE_TYPE_INTERMITTENT", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FailureType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FailureType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "FAILURE_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -1639,6 +2627,52 @@ impl From<FailureUnit> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl FailureUnit {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FAILURE_UNIT_SENSOR_GYRO", 0),
+        ("FAILURE_UNIT_SENSOR_ACCEL", 1),
+        ("FAILURE_UNIT_SENSOR_MAG", 2),
+        ("FAILURE_UNIT_SENSOR_BARO", 3),
+        ("FAILURE_UNIT_SENSOR_GPS", 4),
+        ("FAILURE_UNIT_SENSOR_OPTICAL_FLOW", 5),
+        ("FAILURE_UNIT_SENSOR_VIO", 6),
+        ("FAILURE_UNIT_SENSOR_DISTANCE_SENSOR", 7),
+        ("FAILURE_UNIT_SENSOR_AIRSPEED", 8),
+        ("FAILURE_UNIT_SYSTEM_BATTERY", 100),
+        ("FAILURE_UNIT_SYSTEM_MOTOR", 101),
+        ("FAILURE_UNIT_SYSTEM_SERVO", 102),
+        ("FAILURE_UNIT_SYSTEM_AVOIDANCE", 103),
+        ("FAILURE_UNIT_SYSTEM_RC_SIGNAL", 104),
+        ("FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL", 105),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FailureUnit {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FailureUnit {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "FAILURE_UNIT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `FENCE_BREACH`
 ///
 /// MAVLink enum `FENCE_BREACH`.
@@ -1701,6 +2735,41 @@ impl From<FenceBreach> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl FenceBreach {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FENCE_BREACH_NONE", 0),
+        ("FENCE_BREACH_MINALT", 1),
+        ("FENCE_BREACH_MAXALT", 2),
+        ("FENCE_BREACH_BOUNDARY", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FenceBreach {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FenceBreach {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "FENCE_BREACH",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Actions being taken to mitigate/prevent fence breach
 ///
 /// MAVLink enum `FENCE_MITIGATE`.
@@ -1760,6 +2829,40 @@ impl From<FenceMitigate> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl FenceMitigate {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FENCE_MITIGATE_UNKNOWN", 0),
+        ("FENCE_MITIGATE_NONE", 1),
+        ("FENCE_MITIGATE_VEL_LIMIT", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FenceMitigate {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FenceMitigate {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "FENCE_MITIGATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Fence types to enable or disable when using MAV_CMD_DO_FENCE_ENABLE. Note that at least
 /// one of these flags must be set in MAV_CMD_DO_FENCE_ENABLE.param2. If none are set, the
 /// flight stack will ignore the field and enable/disable its default set of fences (usually
@@ -1782,6 +2885,41 @@ impl FenceType {
 }
 
 ::mavframe::flag_set!(FenceType, u8, [ALT_MAX, CIRCLE, POLYGON, ALT_MIN]);
+
+#[cfg(feature = "serde")]
+impl FenceType {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FENCE_TYPE_ALT_MAX", 1),
+        ("FENCE_TYPE_CIRCLE", 2),
+        ("FENCE_TYPE_POLYGON", 4),
+        ("FENCE_TYPE_ALT_MIN", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FenceType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FenceType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "FENCE_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Gimbal device (low level) capability flags (bitmap).
 ///
@@ -1840,6 +2978,53 @@ impl GimbalDeviceCapFlags {
     HAS_RC_INPUTS, CAN_POINT_LOCATION_LOCAL, CAN_POINT_LOCATION_GLOBAL]
 );
 
+#[cfg(feature = "serde")]
+impl GimbalDeviceCapFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_RETRACT", 1),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_NEUTRAL", 2),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_AXIS", 4),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_FOLLOW", 8),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_LOCK", 16),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_AXIS", 32),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_FOLLOW", 64),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_LOCK", 128),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_AXIS", 256),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_FOLLOW", 512),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_LOCK", 1024),
+        ("GIMBAL_DEVICE_CAP_FLAGS_SUPPORTS_INFINITE_YAW", 2048),
+        ("GIMBAL_DEVICE_CAP_FLAGS_SUPPORTS_YAW_IN_EARTH_FRAME", 4096),
+        ("GIMBAL_DEVICE_CAP_FLAGS_HAS_RC_INPUTS", 8192),
+        ("GIMBAL_DEVICE_CAP_FLAGS_CAN_POINT_LOCATION_LOCAL", 65536),
+        ("GIMBAL_DEVICE_CAP_FLAGS_CAN_POINT_LOCATION_GLOBAL", 131072),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalDeviceCapFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalDeviceCapFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GIMBAL_DEVICE_CAP_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Gimbal device (low level) error flags (bitmap, 0 means no error)
 ///
 /// MAVLink enum `GIMBAL_DEVICE_ERROR_FLAGS`.
@@ -1875,6 +3060,47 @@ impl GimbalDeviceErrorFlags {
     ENCODER_ERROR, POWER_ERROR, MOTOR_ERROR, SOFTWARE_ERROR, COMMS_ERROR,
     CALIBRATION_RUNNING, NO_MANAGER]
 );
+
+#[cfg(feature = "serde")]
+impl GimbalDeviceErrorFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("GIMBAL_DEVICE_ERROR_FLAGS_AT_ROLL_LIMIT", 1),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_AT_PITCH_LIMIT", 2),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_AT_YAW_LIMIT", 4),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_ENCODER_ERROR", 8),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_POWER_ERROR", 16),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_MOTOR_ERROR", 32),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_SOFTWARE_ERROR", 64),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_COMMS_ERROR", 128),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_CALIBRATION_RUNNING", 256),
+        ("GIMBAL_DEVICE_ERROR_FLAGS_NO_MANAGER", 512),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalDeviceErrorFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalDeviceErrorFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GIMBAL_DEVICE_ERROR_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Flags for gimbal device (lower level) operation.
 ///
@@ -1926,6 +3152,47 @@ impl GimbalDeviceFlags {
     YAW_IN_VEHICLE_FRAME, YAW_IN_EARTH_FRAME, ACCEPTS_YAW_IN_EARTH_FRAME, RC_EXCLUSIVE,
     RC_MIXED]
 );
+
+#[cfg(feature = "serde")]
+impl GimbalDeviceFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("GIMBAL_DEVICE_FLAGS_RETRACT", 1),
+        ("GIMBAL_DEVICE_FLAGS_NEUTRAL", 2),
+        ("GIMBAL_DEVICE_FLAGS_ROLL_LOCK", 4),
+        ("GIMBAL_DEVICE_FLAGS_PITCH_LOCK", 8),
+        ("GIMBAL_DEVICE_FLAGS_YAW_LOCK", 16),
+        ("GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME", 32),
+        ("GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME", 64),
+        ("GIMBAL_DEVICE_FLAGS_ACCEPTS_YAW_IN_EARTH_FRAME", 128),
+        ("GIMBAL_DEVICE_FLAGS_RC_EXCLUSIVE", 256),
+        ("GIMBAL_DEVICE_FLAGS_RC_MIXED", 512),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalDeviceFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalDeviceFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GIMBAL_DEVICE_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Gimbal manager high level capability flags (bitmap). The flags are identical to the
 /// GIMBAL_DEVICE_CAP_FLAGS. However, the gimbal manager does not need to copy the flags from
@@ -1979,6 +3246,53 @@ impl GimbalManagerCapFlags {
     CAN_POINT_LOCATION_GLOBAL]
 );
 
+#[cfg(feature = "serde")]
+impl GimbalManagerCapFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_RETRACT", 1),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_NEUTRAL", 2),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_ROLL_AXIS", 4),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_ROLL_FOLLOW", 8),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_ROLL_LOCK", 16),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_PITCH_AXIS", 32),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_PITCH_FOLLOW", 64),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_PITCH_LOCK", 128),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_YAW_AXIS", 256),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_YAW_FOLLOW", 512),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_YAW_LOCK", 1024),
+        ("GIMBAL_MANAGER_CAP_FLAGS_SUPPORTS_INFINITE_YAW", 2048),
+        ("GIMBAL_MANAGER_CAP_FLAGS_SUPPORTS_YAW_IN_EARTH_FRAME", 4096),
+        ("GIMBAL_MANAGER_CAP_FLAGS_HAS_RC_INPUTS", 8192),
+        ("GIMBAL_MANAGER_CAP_FLAGS_CAN_POINT_LOCATION_LOCAL", 65536),
+        ("GIMBAL_MANAGER_CAP_FLAGS_CAN_POINT_LOCATION_GLOBAL", 131072),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalManagerCapFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalManagerCapFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GIMBAL_MANAGER_CAP_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags for high level gimbal manager operation The first 16 bits are identical to the
 /// GIMBAL_DEVICE_FLAGS.
 ///
@@ -2016,6 +3330,47 @@ impl GimbalManagerFlags {
     RC_MIXED]
 );
 
+#[cfg(feature = "serde")]
+impl GimbalManagerFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("GIMBAL_MANAGER_FLAGS_RETRACT", 1),
+        ("GIMBAL_MANAGER_FLAGS_NEUTRAL", 2),
+        ("GIMBAL_MANAGER_FLAGS_ROLL_LOCK", 4),
+        ("GIMBAL_MANAGER_FLAGS_PITCH_LOCK", 8),
+        ("GIMBAL_MANAGER_FLAGS_YAW_LOCK", 16),
+        ("GIMBAL_MANAGER_FLAGS_YAW_IN_VEHICLE_FRAME", 32),
+        ("GIMBAL_MANAGER_FLAGS_YAW_IN_EARTH_FRAME", 64),
+        ("GIMBAL_MANAGER_FLAGS_ACCEPTS_YAW_IN_EARTH_FRAME", 128),
+        ("GIMBAL_MANAGER_FLAGS_RC_EXCLUSIVE", 256),
+        ("GIMBAL_MANAGER_FLAGS_RC_MIXED", 512),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GimbalManagerFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalManagerFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GIMBAL_MANAGER_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Status flags for GLOBAL_POSITION
 ///
 /// MAVLink enum `GLOBAL_POSITION_FLAGS`.
@@ -2033,6 +3388,39 @@ impl GlobalPositionFlags {
 ::mavframe::flag_set!(
     GlobalPositionFlags, u8, [GLOBAL_POSITION_UNHEALTHY, GLOBAL_POSITION_PRIMARY]
 );
+
+#[cfg(feature = "serde")]
+impl GlobalPositionFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GLOBAL_POSITION_UNHEALTHY", 1),
+        ("GLOBAL_POSITION_PRIMARY", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GlobalPositionFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GlobalPositionFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GLOBAL_POSITION_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Source for GLOBAL_POSITION measurement or estimate.
 ///
@@ -2102,6 +3490,44 @@ impl From<u8> for GlobalPositionSrc {
 impl From<GlobalPositionSrc> for u8 {
     fn from(value: GlobalPositionSrc) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GlobalPositionSrc {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GLOBAL_POSITION_SRC_UNKNOWN", 0),
+        ("GLOBAL_POSITION_SRC_GNSS", 1),
+        ("GLOBAL_POSITION_SRC_VISION", 2),
+        ("GLOBAL_POSITION_SRC_PSEUDOLITES", 3),
+        ("GLOBAL_POSITION_SRC_TERRAIN", 4),
+        ("GLOBAL_POSITION_SRC_MAGNETIC", 5),
+        ("GLOBAL_POSITION_SRC_ESTIMATOR", 6),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GlobalPositionSrc {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GlobalPositionSrc {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GLOBAL_POSITION_SRC",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2182,6 +3608,46 @@ impl From<GpsFixType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl GpsFixType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GPS_FIX_TYPE_NO_GPS", 0),
+        ("GPS_FIX_TYPE_NO_FIX", 1),
+        ("GPS_FIX_TYPE_2D_FIX", 2),
+        ("GPS_FIX_TYPE_3D_FIX", 3),
+        ("GPS_FIX_TYPE_DGPS", 4),
+        ("GPS_FIX_TYPE_RTK_FLOAT", 5),
+        ("GPS_FIX_TYPE_RTK_FIXED", 6),
+        ("GPS_FIX_TYPE_STATIC", 7),
+        ("GPS_FIX_TYPE_PPP", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GpsFixType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GpsFixType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GPS_FIX_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `GPS_INPUT_IGNORE_FLAGS`
 ///
 /// MAVLink enum `GPS_INPUT_IGNORE_FLAGS`.
@@ -2214,6 +3680,45 @@ impl GpsInputIgnoreFlags {
     GPS_INPUT_IGNORE_FLAG_VEL_VERT, GPS_INPUT_IGNORE_FLAG_SPEED_ACCURACY,
     GPS_INPUT_IGNORE_FLAG_HORIZONTAL_ACCURACY, GPS_INPUT_IGNORE_FLAG_VERTICAL_ACCURACY]
 );
+
+#[cfg(feature = "serde")]
+impl GpsInputIgnoreFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("GPS_INPUT_IGNORE_FLAG_ALT", 1),
+        ("GPS_INPUT_IGNORE_FLAG_HDOP", 2),
+        ("GPS_INPUT_IGNORE_FLAG_VDOP", 4),
+        ("GPS_INPUT_IGNORE_FLAG_VEL_HORIZ", 8),
+        ("GPS_INPUT_IGNORE_FLAG_VEL_VERT", 16),
+        ("GPS_INPUT_IGNORE_FLAG_SPEED_ACCURACY", 32),
+        ("GPS_INPUT_IGNORE_FLAG_HORIZONTAL_ACCURACY", 64),
+        ("GPS_INPUT_IGNORE_FLAG_VERTICAL_ACCURACY", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GpsInputIgnoreFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GpsInputIgnoreFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "GPS_INPUT_IGNORE_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Gripper actions.
 ///
@@ -2271,6 +3776,40 @@ impl From<u8> for GripperActions {
 impl From<GripperActions> for u8 {
     fn from(value: GripperActions) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl GripperActions {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("GRIPPER_ACTION_RELEASE", 0),
+        ("GRIPPER_ACTION_GRAB", 1),
+        ("GRIPPER_ACTION_HOLD", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for GripperActions {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for GripperActions {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "GRIPPER_ACTIONS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2333,6 +3872,40 @@ impl From<HeadingType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl HeadingType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("HEADING_TYPE_COURSE_OVER_GROUND", 0),
+        ("HEADING_TYPE_HEADING", 1),
+        ("HEADING_TYPE_DEFAULT", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for HeadingType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for HeadingType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "HEADING_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags in the HIGHRES_IMU message indicate which fields have updated since the last message
 ///
 /// MAVLink enum `HIGHRES_IMU_UPDATED_FLAGS`.
@@ -2378,6 +3951,50 @@ impl HighresImuUpdatedFlags {
     HIGHRES_IMU_UPDATED_TEMPERATURE]
 );
 
+#[cfg(feature = "serde")]
+impl HighresImuUpdatedFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("HIGHRES_IMU_UPDATED_XACC", 1),
+        ("HIGHRES_IMU_UPDATED_YACC", 2),
+        ("HIGHRES_IMU_UPDATED_ZACC", 4),
+        ("HIGHRES_IMU_UPDATED_XGYRO", 8),
+        ("HIGHRES_IMU_UPDATED_YGYRO", 16),
+        ("HIGHRES_IMU_UPDATED_ZGYRO", 32),
+        ("HIGHRES_IMU_UPDATED_XMAG", 64),
+        ("HIGHRES_IMU_UPDATED_YMAG", 128),
+        ("HIGHRES_IMU_UPDATED_ZMAG", 256),
+        ("HIGHRES_IMU_UPDATED_ABS_PRESSURE", 512),
+        ("HIGHRES_IMU_UPDATED_DIFF_PRESSURE", 1024),
+        ("HIGHRES_IMU_UPDATED_PRESSURE_ALT", 2048),
+        ("HIGHRES_IMU_UPDATED_TEMPERATURE", 4096),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for HighresImuUpdatedFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for HighresImuUpdatedFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "HIGHRES_IMU_UPDATED_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags used in HIL_ACTUATOR_CONTROLS message.
 ///
 /// MAVLink enum `HIL_ACTUATOR_CONTROLS_FLAGS`.
@@ -2391,6 +4008,38 @@ impl HilActuatorControlsFlags {
 }
 
 ::mavframe::flag_set!(HilActuatorControlsFlags, u64, [LOCKSTEP]);
+
+#[cfg(feature = "serde")]
+impl HilActuatorControlsFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u64)] = &[
+        ("HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for HilActuatorControlsFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for HilActuatorControlsFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "HIL_ACTUATOR_CONTROLS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Flags in the HIL_SENSOR message indicate which fields have updated since the last message
 ///
@@ -2439,6 +4088,51 @@ impl HilSensorUpdatedFlags {
     HIL_SENSOR_UPDATED_TEMPERATURE, HIL_SENSOR_UPDATED_RESET]
 );
 
+#[cfg(feature = "serde")]
+impl HilSensorUpdatedFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("HIL_SENSOR_UPDATED_XACC", 1),
+        ("HIL_SENSOR_UPDATED_YACC", 2),
+        ("HIL_SENSOR_UPDATED_ZACC", 4),
+        ("HIL_SENSOR_UPDATED_XGYRO", 8),
+        ("HIL_SENSOR_UPDATED_YGYRO", 16),
+        ("HIL_SENSOR_UPDATED_ZGYRO", 32),
+        ("HIL_SENSOR_UPDATED_XMAG", 64),
+        ("HIL_SENSOR_UPDATED_YMAG", 128),
+        ("HIL_SENSOR_UPDATED_ZMAG", 256),
+        ("HIL_SENSOR_UPDATED_ABS_PRESSURE", 512),
+        ("HIL_SENSOR_UPDATED_DIFF_PRESSURE", 1024),
+        ("HIL_SENSOR_UPDATED_PRESSURE_ALT", 2048),
+        ("HIL_SENSOR_UPDATED_TEMPERATURE", 4096),
+        ("HIL_SENSOR_UPDATED_RESET", 2147483648),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for HilSensorUpdatedFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for HilSensorUpdatedFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "HIL_SENSOR_UPDATED_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags to report failure cases over the high latency telemetry.
 ///
 /// MAVLink enum `HL_FAILURE_FLAG`.
@@ -2483,6 +4177,51 @@ impl HlFailureFlag {
     GEOFENCE, ESTIMATOR, MISSION]
 );
 
+#[cfg(feature = "serde")]
+impl HlFailureFlag {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("HL_FAILURE_FLAG_GPS", 1),
+        ("HL_FAILURE_FLAG_DIFFERENTIAL_PRESSURE", 2),
+        ("HL_FAILURE_FLAG_ABSOLUTE_PRESSURE", 4),
+        ("HL_FAILURE_FLAG_3D_ACCEL", 8),
+        ("HL_FAILURE_FLAG_3D_GYRO", 16),
+        ("HL_FAILURE_FLAG_3D_MAG", 32),
+        ("HL_FAILURE_FLAG_TERRAIN", 64),
+        ("HL_FAILURE_FLAG_BATTERY", 128),
+        ("HL_FAILURE_FLAG_RC_RECEIVER", 256),
+        ("HL_FAILURE_FLAG_OFFBOARD_LINK", 512),
+        ("HL_FAILURE_FLAG_ENGINE", 1024),
+        ("HL_FAILURE_FLAG_GEOFENCE", 2048),
+        ("HL_FAILURE_FLAG_ESTIMATOR", 4096),
+        ("HL_FAILURE_FLAG_MISSION", 8192),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for HlFailureFlag {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for HlFailureFlag {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "HL_FAILURE_FLAG",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Illuminator module error flags (bitmap, 0 means no error)
 ///
 /// MAVLink enum `ILLUMINATOR_ERROR_FLAGS`.
@@ -2503,6 +4242,40 @@ impl IlluminatorErrorFlags {
     IlluminatorErrorFlags, u8, [THERMAL_THROTTLING, OVER_TEMPERATURE_SHUTDOWN,
     THERMISTOR_FAILURE]
 );
+
+#[cfg(feature = "serde")]
+impl IlluminatorErrorFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ILLUMINATOR_ERROR_FLAGS_THERMAL_THROTTLING", 1),
+        ("ILLUMINATOR_ERROR_FLAGS_OVER_TEMPERATURE_SHUTDOWN", 2),
+        ("ILLUMINATOR_ERROR_FLAGS_THERMISTOR_FAILURE", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for IlluminatorErrorFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for IlluminatorErrorFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "ILLUMINATOR_ERROR_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Modes of illuminator
 ///
@@ -2560,6 +4333,40 @@ impl From<u8> for IlluminatorMode {
 impl From<IlluminatorMode> for u8 {
     fn from(value: IlluminatorMode) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl IlluminatorMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ILLUMINATOR_MODE_UNKNOWN", 0),
+        ("ILLUMINATOR_MODE_INTERNAL_CONTROL", 1),
+        ("ILLUMINATOR_MODE_EXTERNAL_SYNC", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for IlluminatorMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for IlluminatorMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ILLUMINATOR_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2623,6 +4430,41 @@ impl From<u8> for LandingTargetType {
 impl From<LandingTargetType> for u8 {
     fn from(value: LandingTargetType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl LandingTargetType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("LANDING_TARGET_TYPE_LIGHT_BEACON", 0),
+        ("LANDING_TARGET_TYPE_RADIO_BEACON", 1),
+        ("LANDING_TARGET_TYPE_VISION_FIDUCIAL", 2),
+        ("LANDING_TARGET_TYPE_VISION_OTHER", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for LandingTargetType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for LandingTargetType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "LANDING_TARGET_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2710,6 +4552,48 @@ impl From<MagCalStatus> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MagCalStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAG_CAL_NOT_STARTED", 0),
+        ("MAG_CAL_WAITING_TO_START", 1),
+        ("MAG_CAL_RUNNING_STEP_ONE", 2),
+        ("MAG_CAL_RUNNING_STEP_TWO", 3),
+        ("MAG_CAL_SUCCESS", 4),
+        ("MAG_CAL_FAILED", 5),
+        ("MAG_CAL_FAILED_ORIENTATION", 6),
+        ("MAG_CAL_FAILED_RADIUS", 7),
+        ("MAG_CAL_FAILED_OFFSETS", 8),
+        ("MAG_CAL_FAILED_DIAG_SCALING", 9),
+        ("MAG_CAL_FAILED_RESIDUALS_HIGH", 10),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MagCalStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MagCalStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAG_CAL_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAVLINK_DATA_STREAM_TYPE`
 ///
 /// MAVLink enum `MAVLINK_DATA_STREAM_TYPE`.
@@ -2775,6 +4659,43 @@ impl From<u8> for MavlinkDataStreamType {
 impl From<MavlinkDataStreamType> for u8 {
     fn from(value: MavlinkDataStreamType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavlinkDataStreamType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAVLINK_DATA_STREAM_IMG_JPEG", 0),
+        ("MAVLINK_DATA_STREAM_IMG_BMP", 1),
+        ("MAVLINK_DATA_STREAM_IMG_RAW8U", 2),
+        ("MAVLINK_DATA_STREAM_IMG_RAW32U", 3),
+        ("MAVLINK_DATA_STREAM_IMG_PGM", 4),
+        ("MAVLINK_DATA_STREAM_IMG_PNG", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavlinkDataStreamType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavlinkDataStreamType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAVLINK_DATA_STREAM_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2846,6 +4767,43 @@ impl From<u8> for MavArmAuthDeniedReason {
 impl From<MavArmAuthDeniedReason> for u8 {
     fn from(value: MavArmAuthDeniedReason) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavArmAuthDeniedReason {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ARM_AUTH_DENIED_REASON_GENERIC", 0),
+        ("MAV_ARM_AUTH_DENIED_REASON_NONE", 1),
+        ("MAV_ARM_AUTH_DENIED_REASON_INVALID_WAYPOINT", 2),
+        ("MAV_ARM_AUTH_DENIED_REASON_TIMEOUT", 3),
+        ("MAV_ARM_AUTH_DENIED_REASON_AIRSPACE_IN_USE", 4),
+        ("MAV_ARM_AUTH_DENIED_REASON_BAD_WEATHER", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavArmAuthDeniedReason {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavArmAuthDeniedReason {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ARM_AUTH_DENIED_REASON",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -2926,6 +4884,45 @@ impl From<MavBatteryChargeState> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavBatteryChargeState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_BATTERY_CHARGE_STATE_UNDEFINED", 0),
+        ("MAV_BATTERY_CHARGE_STATE_OK", 1),
+        ("MAV_BATTERY_CHARGE_STATE_LOW", 2),
+        ("MAV_BATTERY_CHARGE_STATE_CRITICAL", 3),
+        ("MAV_BATTERY_CHARGE_STATE_EMERGENCY", 4),
+        ("MAV_BATTERY_CHARGE_STATE_FAILED", 5),
+        ("MAV_BATTERY_CHARGE_STATE_UNHEALTHY", 6),
+        ("MAV_BATTERY_CHARGE_STATE_CHARGING", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavBatteryChargeState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavBatteryChargeState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_BATTERY_CHARGE_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Smart battery supply status/fault flags (bitmask) for health indication. The battery must
 /// also report either MAV_BATTERY_CHARGE_STATE_FAILED or MAV_BATTERY_CHARGE_STATE_UNHEALTHY
 /// if any of these are set.
@@ -2963,6 +4960,46 @@ impl MavBatteryFault {
     OVER_TEMPERATURE, UNDER_TEMPERATURE, INCOMPATIBLE_VOLTAGE, INCOMPATIBLE_FIRMWARE,
     BATTERY_FAULT_INCOMPATIBLE_CELLS_CONFIGURATION]
 );
+
+#[cfg(feature = "serde")]
+impl MavBatteryFault {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("MAV_BATTERY_FAULT_DEEP_DISCHARGE", 1),
+        ("MAV_BATTERY_FAULT_SPIKES", 2),
+        ("MAV_BATTERY_FAULT_CELL_FAIL", 4),
+        ("MAV_BATTERY_FAULT_OVER_CURRENT", 8),
+        ("MAV_BATTERY_FAULT_OVER_TEMPERATURE", 16),
+        ("MAV_BATTERY_FAULT_UNDER_TEMPERATURE", 32),
+        ("MAV_BATTERY_FAULT_INCOMPATIBLE_VOLTAGE", 64),
+        ("MAV_BATTERY_FAULT_INCOMPATIBLE_FIRMWARE", 128),
+        ("BATTERY_FAULT_INCOMPATIBLE_CELLS_CONFIGURATION", 256),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavBatteryFault {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavBatteryFault {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_BATTERY_FAULT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Enumeration of battery functions
 ///
@@ -3029,6 +5066,42 @@ impl From<MavBatteryFunction> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavBatteryFunction {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_BATTERY_FUNCTION_UNKNOWN", 0),
+        ("MAV_BATTERY_FUNCTION_ALL", 1),
+        ("MAV_BATTERY_FUNCTION_PROPULSION", 2),
+        ("MAV_BATTERY_FUNCTION_AVIONICS", 3),
+        ("MAV_BATTERY_FUNCTION_PAYLOAD", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavBatteryFunction {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavBatteryFunction {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_BATTERY_FUNCTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Battery mode. Note, the normal operation mode (i.e. when flying) should be reported as
 /// MAV_BATTERY_MODE_UNKNOWN to allow message trimming in normal flight.
 ///
@@ -3087,6 +5160,40 @@ impl From<u8> for MavBatteryMode {
 impl From<MavBatteryMode> for u8 {
     fn from(value: MavBatteryMode) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavBatteryMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_BATTERY_MODE_UNKNOWN", 0),
+        ("MAV_BATTERY_MODE_AUTO_DISCHARGING", 1),
+        ("MAV_BATTERY_MODE_HOT_SWAP", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavBatteryMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavBatteryMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_BATTERY_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -3152,6 +5259,42 @@ impl From<u8> for MavBatteryType {
 impl From<MavBatteryType> for u8 {
     fn from(value: MavBatteryType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavBatteryType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_BATTERY_TYPE_UNKNOWN", 0),
+        ("MAV_BATTERY_TYPE_LIPO", 1),
+        ("MAV_BATTERY_TYPE_LIFE", 2),
+        ("MAV_BATTERY_TYPE_LION", 3),
+        ("MAV_BATTERY_TYPE_NIMH", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavBatteryType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavBatteryType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_BATTERY_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -5701,6 +7844,237 @@ impl From<MavCmd> for u16 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavCmd {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("MAV_CMD_NAV_WAYPOINT", 16),
+        ("MAV_CMD_NAV_LOITER_UNLIM", 17),
+        ("MAV_CMD_NAV_LOITER_TURNS", 18),
+        ("MAV_CMD_NAV_LOITER_TIME", 19),
+        ("MAV_CMD_NAV_RETURN_TO_LAUNCH", 20),
+        ("MAV_CMD_NAV_LAND", 21),
+        ("MAV_CMD_NAV_TAKEOFF", 22),
+        ("MAV_CMD_NAV_LAND_LOCAL", 23),
+        ("MAV_CMD_NAV_TAKEOFF_LOCAL", 24),
+        ("MAV_CMD_NAV_FOLLOW", 25),
+        ("MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT", 30),
+        ("MAV_CMD_NAV_LOITER_TO_ALT", 31),
+        ("MAV_CMD_DO_FOLLOW", 32),
+        ("MAV_CMD_DO_FOLLOW_REPOSITION", 33),
+        ("MAV_CMD_DO_ORBIT", 34),
+        ("MAV_CMD_DO_FIGURE_EIGHT", 35),
+        ("MAV_CMD_NAV_ARC_WAYPOINT", 36),
+        ("MAV_CMD_NAV_ROI", 80),
+        ("MAV_CMD_NAV_PATHPLANNING", 81),
+        ("MAV_CMD_NAV_SPLINE_WAYPOINT", 82),
+        ("MAV_CMD_NAV_ALTITUDE_WAIT", 83),
+        ("MAV_CMD_NAV_VTOL_TAKEOFF", 84),
+        ("MAV_CMD_NAV_VTOL_LAND", 85),
+        ("MAV_CMD_NAV_GUIDED_ENABLE", 92),
+        ("MAV_CMD_NAV_DELAY", 93),
+        ("MAV_CMD_NAV_PAYLOAD_PLACE", 94),
+        ("MAV_CMD_NAV_LAST", 95),
+        ("MAV_CMD_CONDITION_DELAY", 112),
+        ("MAV_CMD_CONDITION_CHANGE_ALT", 113),
+        ("MAV_CMD_CONDITION_DISTANCE", 114),
+        ("MAV_CMD_CONDITION_YAW", 115),
+        ("MAV_CMD_CONDITION_LAST", 159),
+        ("MAV_CMD_DO_SET_MODE", 176),
+        ("MAV_CMD_DO_JUMP", 177),
+        ("MAV_CMD_DO_CHANGE_SPEED", 178),
+        ("MAV_CMD_DO_SET_HOME", 179),
+        ("MAV_CMD_DO_SET_PARAMETER", 180),
+        ("MAV_CMD_DO_SET_RELAY", 181),
+        ("MAV_CMD_DO_REPEAT_RELAY", 182),
+        ("MAV_CMD_DO_SET_SERVO", 183),
+        ("MAV_CMD_DO_REPEAT_SERVO", 184),
+        ("MAV_CMD_DO_FLIGHTTERMINATION", 185),
+        ("MAV_CMD_DO_CHANGE_ALTITUDE", 186),
+        ("MAV_CMD_DO_SET_ACTUATOR", 187),
+        ("MAV_CMD_DO_RETURN_PATH_START", 188),
+        ("MAV_CMD_DO_LAND_START", 189),
+        ("MAV_CMD_DO_RALLY_LAND", 190),
+        ("MAV_CMD_DO_GO_AROUND", 191),
+        ("MAV_CMD_DO_REPOSITION", 192),
+        ("MAV_CMD_DO_PAUSE_CONTINUE", 193),
+        ("MAV_CMD_DO_SET_REVERSE", 194),
+        ("MAV_CMD_DO_SET_ROI_LOCATION", 195),
+        ("MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET", 196),
+        ("MAV_CMD_DO_SET_ROI_NONE", 197),
+        ("MAV_CMD_DO_SET_ROI_SYSID", 198),
+        ("MAV_CMD_DO_CONTROL_VIDEO", 200),
+        ("MAV_CMD_DO_SET_ROI", 201),
+        ("MAV_CMD_DO_DIGICAM_CONFIGURE", 202),
+        ("MAV_CMD_DO_DIGICAM_CONTROL", 203),
+        ("MAV_CMD_DO_MOUNT_CONFIGURE", 204),
+        ("MAV_CMD_DO_MOUNT_CONTROL", 205),
+        ("MAV_CMD_DO_SET_CAM_TRIGG_DIST", 206),
+        ("MAV_CMD_DO_FENCE_ENABLE", 207),
+        ("MAV_CMD_DO_PARACHUTE", 208),
+        ("MAV_CMD_DO_MOTOR_TEST", 209),
+        ("MAV_CMD_DO_INVERTED_FLIGHT", 210),
+        ("MAV_CMD_DO_GRIPPER", 211),
+        ("MAV_CMD_DO_AUTOTUNE_ENABLE", 212),
+        ("MAV_CMD_NAV_SET_YAW_SPEED", 213),
+        ("MAV_CMD_DO_SET_CAM_TRIGG_INTERVAL", 214),
+        ("MAV_CMD_DO_SET_RESUME_REPEAT_DIST", 215),
+        ("MAV_CMD_DO_SPRAYER", 216),
+        ("MAV_CMD_DO_SEND_SCRIPT_MESSAGE", 217),
+        ("MAV_CMD_DO_AUX_FUNCTION", 218),
+        ("MAV_CMD_DO_MOUNT_CONTROL_QUAT", 220),
+        ("MAV_CMD_DO_GUIDED_MASTER", 221),
+        ("MAV_CMD_DO_GUIDED_LIMITS", 222),
+        ("MAV_CMD_DO_ENGINE_CONTROL", 223),
+        ("MAV_CMD_DO_SET_MISSION_CURRENT", 224),
+        ("MAV_CMD_DO_LAST", 240),
+        ("MAV_CMD_PREFLIGHT_CALIBRATION", 241),
+        ("MAV_CMD_PREFLIGHT_SET_SENSOR_OFFSETS", 242),
+        ("MAV_CMD_PREFLIGHT_UAVCAN", 243),
+        ("MAV_CMD_PREFLIGHT_STORAGE", 245),
+        ("MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN", 246),
+        ("MAV_CMD_OVERRIDE_GOTO", 252),
+        ("MAV_CMD_OBLIQUE_SURVEY", 260),
+        ("MAV_CMD_DO_SET_STANDARD_MODE", 262),
+        ("MAV_CMD_MISSION_START", 300),
+        ("MAV_CMD_ACTUATOR_TEST", 310),
+        ("MAV_CMD_CONFIGURE_ACTUATOR", 311),
+        ("MAV_CMD_COMPONENT_ARM_DISARM", 400),
+        ("MAV_CMD_RUN_PREARM_CHECKS", 401),
+        ("MAV_CMD_ILLUMINATOR_ON_OFF", 405),
+        ("MAV_CMD_DO_ILLUMINATOR_CONFIGURE", 406),
+        ("MAV_CMD_GET_HOME_POSITION", 410),
+        ("MAV_CMD_INJECT_FAILURE", 420),
+        ("MAV_CMD_START_RX_PAIR", 500),
+        ("MAV_CMD_GET_MESSAGE_INTERVAL", 510),
+        ("MAV_CMD_SET_MESSAGE_INTERVAL", 511),
+        ("MAV_CMD_REQUEST_MESSAGE", 512),
+        ("MAV_CMD_REQUEST_PROTOCOL_VERSION", 519),
+        ("MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES", 520),
+        ("MAV_CMD_REQUEST_CAMERA_INFORMATION", 521),
+        ("MAV_CMD_REQUEST_CAMERA_SETTINGS", 522),
+        ("MAV_CMD_REQUEST_STORAGE_INFORMATION", 525),
+        ("MAV_CMD_STORAGE_FORMAT", 526),
+        ("MAV_CMD_REQUEST_CAMERA_CAPTURE_STATUS", 527),
+        ("MAV_CMD_REQUEST_FLIGHT_INFORMATION", 528),
+        ("MAV_CMD_RESET_CAMERA_SETTINGS", 529),
+        ("MAV_CMD_SET_CAMERA_MODE", 530),
+        ("MAV_CMD_SET_CAMERA_ZOOM", 531),
+        ("MAV_CMD_SET_CAMERA_FOCUS", 532),
+        ("MAV_CMD_SET_STORAGE_USAGE", 533),
+        ("MAV_CMD_SET_CAMERA_SOURCE", 534),
+        ("MAV_CMD_JUMP_TAG", 600),
+        ("MAV_CMD_DO_JUMP_TAG", 601),
+        ("MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW", 1000),
+        ("MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE", 1001),
+        ("MAV_CMD_IMAGE_START_CAPTURE", 2000),
+        ("MAV_CMD_IMAGE_STOP_CAPTURE", 2001),
+        ("MAV_CMD_REQUEST_CAMERA_IMAGE_CAPTURE", 2002),
+        ("MAV_CMD_DO_TRIGGER_CONTROL", 2003),
+        ("MAV_CMD_CAMERA_TRACK_POINT", 2004),
+        ("MAV_CMD_CAMERA_TRACK_RECTANGLE", 2005),
+        ("MAV_CMD_CAMERA_STOP_TRACKING", 2010),
+        ("MAV_CMD_VIDEO_START_CAPTURE", 2500),
+        ("MAV_CMD_VIDEO_STOP_CAPTURE", 2501),
+        ("MAV_CMD_VIDEO_START_STREAMING", 2502),
+        ("MAV_CMD_VIDEO_STOP_STREAMING", 2503),
+        ("MAV_CMD_REQUEST_VIDEO_STREAM_INFORMATION", 2504),
+        ("MAV_CMD_REQUEST_VIDEO_STREAM_STATUS", 2505),
+        ("MAV_CMD_LOGGING_START", 2510),
+        ("MAV_CMD_LOGGING_STOP", 2511),
+        ("MAV_CMD_AIRFRAME_CONFIGURATION", 2520),
+        ("MAV_CMD_CONTROL_HIGH_LATENCY", 2600),
+        ("MAV_CMD_PANORAMA_CREATE", 2800),
+        ("MAV_CMD_DO_VTOL_TRANSITION", 3000),
+        ("MAV_CMD_ARM_AUTHORIZATION_REQUEST", 3001),
+        ("MAV_CMD_SET_GUIDED_SUBMODE_STANDARD", 4000),
+        ("MAV_CMD_SET_GUIDED_SUBMODE_CIRCLE", 4001),
+        ("MAV_CMD_CONDITION_GATE", 4501),
+        ("MAV_CMD_NAV_FENCE_RETURN_POINT", 5000),
+        ("MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION", 5001),
+        ("MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION", 5002),
+        ("MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION", 5003),
+        ("MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION", 5004),
+        ("MAV_CMD_NAV_RALLY_POINT", 5100),
+        ("MAV_CMD_UAVCAN_GET_NODE_INFO", 5200),
+        ("MAV_CMD_DO_SET_SAFETY_SWITCH_STATE", 5300),
+        ("MAV_CMD_DO_ADSB_OUT_IDENT", 10001),
+        ("MAV_CMD_LOWEHEISER_SET_STATE", 10151),
+        ("MAV_CMD_PAYLOAD_PREPARE_DEPLOY", 30001),
+        ("MAV_CMD_PAYLOAD_CONTROL_DEPLOY", 30002),
+        ("MAV_CMD_WAYPOINT_USER_1", 31000),
+        ("MAV_CMD_WAYPOINT_USER_2", 31001),
+        ("MAV_CMD_WAYPOINT_USER_3", 31002),
+        ("MAV_CMD_WAYPOINT_USER_4", 31003),
+        ("MAV_CMD_WAYPOINT_USER_5", 31004),
+        ("MAV_CMD_SPATIAL_USER_1", 31005),
+        ("MAV_CMD_SPATIAL_USER_2", 31006),
+        ("MAV_CMD_SPATIAL_USER_3", 31007),
+        ("MAV_CMD_SPATIAL_USER_4", 31008),
+        ("MAV_CMD_SPATIAL_USER_5", 31009),
+        ("MAV_CMD_USER_1", 31010),
+        ("MAV_CMD_USER_2", 31011),
+        ("MAV_CMD_USER_3", 31012),
+        ("MAV_CMD_USER_4", 31013),
+        ("MAV_CMD_USER_5", 31014),
+        ("MAV_CMD_CAN_FORWARD", 32000),
+        ("MAV_CMD_POWER_OFF_INITIATED", 42000),
+        ("MAV_CMD_SOLO_BTN_FLY_CLICK", 42001),
+        ("MAV_CMD_SOLO_BTN_FLY_HOLD", 42002),
+        ("MAV_CMD_SOLO_BTN_PAUSE_CLICK", 42003),
+        ("MAV_CMD_FIXED_MAG_CAL", 42004),
+        ("MAV_CMD_FIXED_MAG_CAL_FIELD", 42005),
+        ("MAV_CMD_FIXED_MAG_CAL_YAW", 42006),
+        ("MAV_CMD_SET_EKF_SOURCE_SET", 42007),
+        ("MAV_CMD_DO_START_MAG_CAL", 42424),
+        ("MAV_CMD_DO_ACCEPT_MAG_CAL", 42425),
+        ("MAV_CMD_DO_CANCEL_MAG_CAL", 42426),
+        ("MAV_CMD_SET_FACTORY_TEST_MODE", 42427),
+        ("MAV_CMD_DO_SEND_BANNER", 42428),
+        ("MAV_CMD_ACCELCAL_VEHICLE_POS", 42429),
+        ("MAV_CMD_GIMBAL_RESET", 42501),
+        ("MAV_CMD_GIMBAL_AXIS_CALIBRATION_STATUS", 42502),
+        ("MAV_CMD_GIMBAL_REQUEST_AXIS_CALIBRATION", 42503),
+        ("MAV_CMD_GIMBAL_FULL_RESET", 42505),
+        ("MAV_CMD_DO_WINCH", 42600),
+        ("MAV_CMD_FLASH_BOOTLOADER", 42650),
+        ("MAV_CMD_BATTERY_RESET", 42651),
+        ("MAV_CMD_DEBUG_TRAP", 42700),
+        ("MAV_CMD_SCRIPTING", 42701),
+        ("MAV_CMD_NAV_SCRIPT_TIME", 42702),
+        ("MAV_CMD_NAV_ATTITUDE_TIME", 42703),
+        ("MAV_CMD_GUIDED_CHANGE_SPEED", 43000),
+        ("MAV_CMD_GUIDED_CHANGE_ALTITUDE", 43001),
+        ("MAV_CMD_GUIDED_CHANGE_HEADING", 43002),
+        ("MAV_CMD_EXTERNAL_POSITION_ESTIMATE", 43003),
+        ("MAV_CMD_SET_HAGL", 43005),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavCmd {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavCmd {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_CMD",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Possible actions an aircraft can take to avoid a collision.
 ///
 /// MAVLink enum `MAV_COLLISION_ACTION`.
@@ -5772,6 +8146,44 @@ impl From<MavCollisionAction> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavCollisionAction {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_COLLISION_ACTION_NONE", 0),
+        ("MAV_COLLISION_ACTION_REPORT", 1),
+        ("MAV_COLLISION_ACTION_ASCEND_OR_DESCEND", 2),
+        ("MAV_COLLISION_ACTION_MOVE_HORIZONTALLY", 3),
+        ("MAV_COLLISION_ACTION_MOVE_PERPENDICULAR", 4),
+        ("MAV_COLLISION_ACTION_RTL", 5),
+        ("MAV_COLLISION_ACTION_HOVER", 6),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavCollisionAction {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavCollisionAction {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_COLLISION_ACTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Source of information about this collision.
 ///
 /// MAVLink enum `MAV_COLLISION_SRC`.
@@ -5825,6 +8237,39 @@ impl From<u8> for MavCollisionSrc {
 impl From<MavCollisionSrc> for u8 {
     fn from(value: MavCollisionSrc) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavCollisionSrc {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_COLLISION_SRC_ADSB", 0),
+        ("MAV_COLLISION_SRC_MAVLINK_GPS_GLOBAL_INT", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavCollisionSrc {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavCollisionSrc {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_COLLISION_SRC",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -5884,6 +8329,40 @@ impl From<u8> for MavCollisionThreatLevel {
 impl From<MavCollisionThreatLevel> for u8 {
     fn from(value: MavCollisionThreatLevel) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavCollisionThreatLevel {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_COLLISION_THREAT_LEVEL_NONE", 0),
+        ("MAV_COLLISION_THREAT_LEVEL_LOW", 1),
+        ("MAV_COLLISION_THREAT_LEVEL_HIGH", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavCollisionThreatLevel {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavCollisionThreatLevel {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_COLLISION_THREAT_LEVEL",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -5965,6 +8444,46 @@ impl From<MavDataStream> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavDataStream {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_DATA_STREAM_ALL", 0),
+        ("MAV_DATA_STREAM_RAW_SENSORS", 1),
+        ("MAV_DATA_STREAM_EXTENDED_STATUS", 2),
+        ("MAV_DATA_STREAM_RC_CHANNELS", 3),
+        ("MAV_DATA_STREAM_RAW_CONTROLLER", 4),
+        ("MAV_DATA_STREAM_POSITION", 6),
+        ("MAV_DATA_STREAM_EXTRA1", 10),
+        ("MAV_DATA_STREAM_EXTRA2", 11),
+        ("MAV_DATA_STREAM_EXTRA3", 12),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavDataStream {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavDataStream {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_DATA_STREAM",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Enumeration of distance sensor types
 ///
 /// MAVLink enum `MAV_DISTANCE_SENSOR`.
@@ -6030,6 +8549,42 @@ impl From<MavDistanceSensor> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavDistanceSensor {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_DISTANCE_SENSOR_LASER", 0),
+        ("MAV_DISTANCE_SENSOR_ULTRASOUND", 1),
+        ("MAV_DISTANCE_SENSOR_INFRARED", 2),
+        ("MAV_DISTANCE_SENSOR_RADAR", 3),
+        ("MAV_DISTANCE_SENSOR_UNKNOWN", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavDistanceSensor {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavDistanceSensor {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_DISTANCE_SENSOR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Bitmap of options for the MAV_CMD_DO_REPOSITION
 ///
 /// MAVLink enum `MAV_DO_REPOSITION_FLAGS`.
@@ -6046,6 +8601,39 @@ impl MavDoRepositionFlags {
 }
 
 ::mavframe::flag_set!(MavDoRepositionFlags, u8, [CHANGE_MODE, RELATIVE_YAW]);
+
+#[cfg(feature = "serde")]
+impl MavDoRepositionFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_DO_REPOSITION_FLAGS_CHANGE_MODE", 1),
+        ("MAV_DO_REPOSITION_FLAGS_RELATIVE_YAW", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavDoRepositionFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavDoRepositionFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_DO_REPOSITION_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Enumeration of estimator types
 ///
@@ -6121,6 +8709,46 @@ impl From<u8> for MavEstimatorType {
 impl From<MavEstimatorType> for u8 {
     fn from(value: MavEstimatorType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavEstimatorType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ESTIMATOR_TYPE_UNKNOWN", 0),
+        ("MAV_ESTIMATOR_TYPE_NAIVE", 1),
+        ("MAV_ESTIMATOR_TYPE_VISION", 2),
+        ("MAV_ESTIMATOR_TYPE_VIO", 3),
+        ("MAV_ESTIMATOR_TYPE_GPS", 4),
+        ("MAV_ESTIMATOR_TYPE_GPS_INS", 5),
+        ("MAV_ESTIMATOR_TYPE_MOCAP", 6),
+        ("MAV_ESTIMATOR_TYPE_LIDAR", 7),
+        ("MAV_ESTIMATOR_TYPE_AUTOPILOT", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavEstimatorType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavEstimatorType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ESTIMATOR_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -6277,6 +8905,59 @@ impl From<MavFrame> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavFrame {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_FRAME_GLOBAL", 0),
+        ("MAV_FRAME_LOCAL_NED", 1),
+        ("MAV_FRAME_MISSION", 2),
+        ("MAV_FRAME_GLOBAL_RELATIVE_ALT", 3),
+        ("MAV_FRAME_LOCAL_ENU", 4),
+        ("MAV_FRAME_GLOBAL_INT", 5),
+        ("MAV_FRAME_GLOBAL_RELATIVE_ALT_INT", 6),
+        ("MAV_FRAME_LOCAL_OFFSET_NED", 7),
+        ("MAV_FRAME_BODY_NED", 8),
+        ("MAV_FRAME_BODY_OFFSET_NED", 9),
+        ("MAV_FRAME_GLOBAL_TERRAIN_ALT", 10),
+        ("MAV_FRAME_GLOBAL_TERRAIN_ALT_INT", 11),
+        ("MAV_FRAME_BODY_FRD", 12),
+        ("MAV_FRAME_RESERVED_13", 13),
+        ("MAV_FRAME_RESERVED_14", 14),
+        ("MAV_FRAME_RESERVED_15", 15),
+        ("MAV_FRAME_RESERVED_16", 16),
+        ("MAV_FRAME_RESERVED_17", 17),
+        ("MAV_FRAME_RESERVED_18", 18),
+        ("MAV_FRAME_RESERVED_19", 19),
+        ("MAV_FRAME_LOCAL_FRD", 20),
+        ("MAV_FRAME_LOCAL_FLU", 21),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavFrame {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavFrame {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_FRAME",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// MAV FTP error codes (may be used in FILE_TRANSFER_PROTOCOL). See
 /// <https://mavlink.io/en/services/ftp.html>.
 ///
@@ -6359,6 +9040,48 @@ impl From<u8> for MavFtpErr {
 impl From<MavFtpErr> for u8 {
     fn from(value: MavFtpErr) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavFtpErr {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_FTP_ERR_NONE", 0),
+        ("MAV_FTP_ERR_FAIL", 1),
+        ("MAV_FTP_ERR_FAILERRNO", 2),
+        ("MAV_FTP_ERR_INVALIDDATASIZE", 3),
+        ("MAV_FTP_ERR_INVALIDSESSION", 4),
+        ("MAV_FTP_ERR_NOSESSIONSAVAILABLE", 5),
+        ("MAV_FTP_ERR_EOF", 6),
+        ("MAV_FTP_ERR_UNKNOWNCOMMAND", 7),
+        ("MAV_FTP_ERR_FILEEXISTS", 8),
+        ("MAV_FTP_ERR_FILEPROTECTED", 9),
+        ("MAV_FTP_ERR_FILENOTFOUND", 10),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavFtpErr {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavFtpErr {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_FTP_ERR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -6467,6 +9190,55 @@ impl From<MavFtpOpcode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavFtpOpcode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_FTP_OPCODE_NONE", 0),
+        ("MAV_FTP_OPCODE_TERMINATESESSION", 1),
+        ("MAV_FTP_OPCODE_RESETSESSION", 2),
+        ("MAV_FTP_OPCODE_LISTDIRECTORY", 3),
+        ("MAV_FTP_OPCODE_OPENFILERO", 4),
+        ("MAV_FTP_OPCODE_READFILE", 5),
+        ("MAV_FTP_OPCODE_CREATEFILE", 6),
+        ("MAV_FTP_OPCODE_WRITEFILE", 7),
+        ("MAV_FTP_OPCODE_REMOVEFILE", 8),
+        ("MAV_FTP_OPCODE_CREATEDIRECTORY", 9),
+        ("MAV_FTP_OPCODE_REMOVEDIRECTORY", 10),
+        ("MAV_FTP_OPCODE_OPENFILEWO", 11),
+        ("MAV_FTP_OPCODE_TRUNCATEFILE", 12),
+        ("MAV_FTP_OPCODE_RENAME", 13),
+        ("MAV_FTP_OPCODE_CALCFILECRC", 14),
+        ("MAV_FTP_OPCODE_BURSTREADFILE", 15),
+        ("MAV_FTP_OPCODE_ACK", 128),
+        ("MAV_FTP_OPCODE_NAK", 129),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavFtpOpcode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavFtpOpcode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_FTP_OPCODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags to report status/failure cases for a power generator (used in GENERATOR_STATUS).
 /// Note that FAULTS are conditions that cause the generator to fail. Warnings are conditions
 /// that require attention before the next use (they indicate the system is not operating
@@ -6540,6 +9312,60 @@ impl MavGeneratorStatusFlag {
     START_INHIBITED, MAINTENANCE_REQUIRED, WARMING_UP, IDLE]
 );
 
+#[cfg(feature = "serde")]
+impl MavGeneratorStatusFlag {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u64)] = &[
+        ("MAV_GENERATOR_STATUS_FLAG_OFF", 1),
+        ("MAV_GENERATOR_STATUS_FLAG_READY", 2),
+        ("MAV_GENERATOR_STATUS_FLAG_GENERATING", 4),
+        ("MAV_GENERATOR_STATUS_FLAG_CHARGING", 8),
+        ("MAV_GENERATOR_STATUS_FLAG_REDUCED_POWER", 16),
+        ("MAV_GENERATOR_STATUS_FLAG_MAXPOWER", 32),
+        ("MAV_GENERATOR_STATUS_FLAG_OVERTEMP_WARNING", 64),
+        ("MAV_GENERATOR_STATUS_FLAG_OVERTEMP_FAULT", 128),
+        ("MAV_GENERATOR_STATUS_FLAG_ELECTRONICS_OVERTEMP_WARNING", 256),
+        ("MAV_GENERATOR_STATUS_FLAG_ELECTRONICS_OVERTEMP_FAULT", 512),
+        ("MAV_GENERATOR_STATUS_FLAG_ELECTRONICS_FAULT", 1024),
+        ("MAV_GENERATOR_STATUS_FLAG_POWERSOURCE_FAULT", 2048),
+        ("MAV_GENERATOR_STATUS_FLAG_COMMUNICATION_WARNING", 4096),
+        ("MAV_GENERATOR_STATUS_FLAG_COOLING_WARNING", 8192),
+        ("MAV_GENERATOR_STATUS_FLAG_POWER_RAIL_FAULT", 16384),
+        ("MAV_GENERATOR_STATUS_FLAG_OVERCURRENT_FAULT", 32768),
+        ("MAV_GENERATOR_STATUS_FLAG_BATTERY_OVERCHARGE_CURRENT_FAULT", 65536),
+        ("MAV_GENERATOR_STATUS_FLAG_OVERVOLTAGE_FAULT", 131072),
+        ("MAV_GENERATOR_STATUS_FLAG_BATTERY_UNDERVOLT_FAULT", 262144),
+        ("MAV_GENERATOR_STATUS_FLAG_START_INHIBITED", 524288),
+        ("MAV_GENERATOR_STATUS_FLAG_MAINTENANCE_REQUIRED", 1048576),
+        ("MAV_GENERATOR_STATUS_FLAG_WARMING_UP", 2097152),
+        ("MAV_GENERATOR_STATUS_FLAG_IDLE", 4194304),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavGeneratorStatusFlag {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavGeneratorStatusFlag {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_GENERATOR_STATUS_FLAG",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Actions that may be specified in MAV_CMD_OVERRIDE_GOTO to override mission execution.
 ///
 /// MAVLink enum `MAV_GOTO`.
@@ -6599,6 +9425,41 @@ impl From<u8> for MavGoto {
 impl From<MavGoto> for u8 {
     fn from(value: MavGoto) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavGoto {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_GOTO_DO_HOLD", 0),
+        ("MAV_GOTO_DO_CONTINUE", 1),
+        ("MAV_GOTO_HOLD_AT_CURRENT_POSITION", 2),
+        ("MAV_GOTO_HOLD_AT_SPECIFIED_POSITION", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavGoto {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavGoto {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_GOTO",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -6664,6 +9525,42 @@ impl From<u8> for MavLandedState {
 impl From<MavLandedState> for u8 {
     fn from(value: MavLandedState) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavLandedState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_LANDED_STATE_UNDEFINED", 0),
+        ("MAV_LANDED_STATE_ON_GROUND", 1),
+        ("MAV_LANDED_STATE_IN_AIR", 2),
+        ("MAV_LANDED_STATE_TAKEOFF", 3),
+        ("MAV_LANDED_STATE_LANDING", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavLandedState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavLandedState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_LANDED_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -6765,6 +9662,53 @@ impl From<MavMissionResult> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavMissionResult {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_MISSION_ACCEPTED", 0),
+        ("MAV_MISSION_ERROR", 1),
+        ("MAV_MISSION_UNSUPPORTED_FRAME", 2),
+        ("MAV_MISSION_UNSUPPORTED", 3),
+        ("MAV_MISSION_NO_SPACE", 4),
+        ("MAV_MISSION_INVALID", 5),
+        ("MAV_MISSION_INVALID_PARAM1", 6),
+        ("MAV_MISSION_INVALID_PARAM2", 7),
+        ("MAV_MISSION_INVALID_PARAM3", 8),
+        ("MAV_MISSION_INVALID_PARAM4", 9),
+        ("MAV_MISSION_INVALID_PARAM5_X", 10),
+        ("MAV_MISSION_INVALID_PARAM6_Y", 11),
+        ("MAV_MISSION_INVALID_PARAM7", 12),
+        ("MAV_MISSION_INVALID_SEQUENCE", 13),
+        ("MAV_MISSION_DENIED", 14),
+        ("MAV_MISSION_OPERATION_CANCELLED", 15),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavMissionResult {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavMissionResult {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_MISSION_RESULT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Type of mission items being requested/sent in mission protocol.
 ///
 /// MAVLink enum `MAV_MISSION_TYPE`.
@@ -6825,6 +9769,41 @@ impl From<u8> for MavMissionType {
 impl From<MavMissionType> for u8 {
     fn from(value: MavMissionType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavMissionType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_MISSION_TYPE_MISSION", 0),
+        ("MAV_MISSION_TYPE_FENCE", 1),
+        ("MAV_MISSION_TYPE_RALLY", 2),
+        ("MAV_MISSION_TYPE_ALL", 255),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavMissionType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavMissionType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_MISSION_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -6932,6 +9911,48 @@ impl From<MavMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_MODE_PREFLIGHT", 0),
+        ("MAV_MODE_MANUAL_DISARMED", 64),
+        ("MAV_MODE_TEST_DISARMED", 66),
+        ("MAV_MODE_STABILIZE_DISARMED", 80),
+        ("MAV_MODE_GUIDED_DISARMED", 88),
+        ("MAV_MODE_AUTO_DISARMED", 92),
+        ("MAV_MODE_MANUAL_ARMED", 192),
+        ("MAV_MODE_TEST_ARMED", 194),
+        ("MAV_MODE_STABILIZE_ARMED", 208),
+        ("MAV_MODE_GUIDED_ARMED", 216),
+        ("MAV_MODE_AUTO_ARMED", 220),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Enumeration of possible mount operation modes. This message is used by obsolete/deprecated
 /// gimbal messages.
 ///
@@ -7008,6 +10029,45 @@ impl From<MavMountMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavMountMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_MOUNT_MODE_RETRACT", 0),
+        ("MAV_MOUNT_MODE_NEUTRAL", 1),
+        ("MAV_MOUNT_MODE_MAVLINK_TARGETING", 2),
+        ("MAV_MOUNT_MODE_RC_TARGETING", 3),
+        ("MAV_MOUNT_MODE_GPS_POINT", 4),
+        ("MAV_MOUNT_MODE_SYSID_TARGET", 5),
+        ("MAV_MOUNT_MODE_HOME_LOCATION", 6),
+        ("MAV_MOUNT_MODE_WPNEXT_OFFSET", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavMountMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavMountMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_MOUNT_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_ARM_STATUS`
 ///
 /// MAVLink enum `MAV_ODID_ARM_STATUS`.
@@ -7061,6 +10121,39 @@ impl From<u8> for MavOdidArmStatus {
 impl From<MavOdidArmStatus> for u8 {
     fn from(value: MavOdidArmStatus) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavOdidArmStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_ARM_STATUS_GOOD_TO_ARM", 0),
+        ("MAV_ODID_ARM_STATUS_PRE_ARM_FAIL_GENERIC", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidArmStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidArmStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_ARM_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -7133,6 +10226,43 @@ impl From<MavOdidAuthType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidAuthType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_AUTH_TYPE_NONE", 0),
+        ("MAV_ODID_AUTH_TYPE_UAS_ID_SIGNATURE", 1),
+        ("MAV_ODID_AUTH_TYPE_OPERATOR_ID_SIGNATURE", 2),
+        ("MAV_ODID_AUTH_TYPE_MESSAGE_SET_SIGNATURE", 3),
+        ("MAV_ODID_AUTH_TYPE_NETWORK_REMOTE_ID", 4),
+        ("MAV_ODID_AUTH_TYPE_SPECIFIC_AUTHENTICATION", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidAuthType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidAuthType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_AUTH_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_CATEGORY_EU`
 ///
 /// MAVLink enum `MAV_ODID_CATEGORY_EU`.
@@ -7195,6 +10325,41 @@ impl From<MavOdidCategoryEu> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidCategoryEu {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_CATEGORY_EU_UNDECLARED", 0),
+        ("MAV_ODID_CATEGORY_EU_OPEN", 1),
+        ("MAV_ODID_CATEGORY_EU_SPECIFIC", 2),
+        ("MAV_ODID_CATEGORY_EU_CERTIFIED", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidCategoryEu {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidCategoryEu {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_CATEGORY_EU",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_CLASSIFICATION_TYPE`
 ///
 /// MAVLink enum `MAV_ODID_CLASSIFICATION_TYPE`.
@@ -7248,6 +10413,39 @@ impl From<u8> for MavOdidClassificationType {
 impl From<MavOdidClassificationType> for u8 {
     fn from(value: MavOdidClassificationType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavOdidClassificationType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_CLASSIFICATION_TYPE_UNDECLARED", 0),
+        ("MAV_ODID_CLASSIFICATION_TYPE_EU", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidClassificationType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidClassificationType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_CLASSIFICATION_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -7325,6 +10523,45 @@ impl From<MavOdidClassEu> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidClassEu {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_CLASS_EU_UNDECLARED", 0),
+        ("MAV_ODID_CLASS_EU_CLASS_0", 1),
+        ("MAV_ODID_CLASS_EU_CLASS_1", 2),
+        ("MAV_ODID_CLASS_EU_CLASS_2", 3),
+        ("MAV_ODID_CLASS_EU_CLASS_3", 4),
+        ("MAV_ODID_CLASS_EU_CLASS_4", 5),
+        ("MAV_ODID_CLASS_EU_CLASS_5", 6),
+        ("MAV_ODID_CLASS_EU_CLASS_6", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidClassEu {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidClassEu {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_CLASS_EU",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_DESC_TYPE`
 ///
 /// MAVLink enum `MAV_ODID_DESC_TYPE`.
@@ -7384,6 +10621,40 @@ impl From<MavOdidDescType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidDescType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_DESC_TYPE_TEXT", 0),
+        ("MAV_ODID_DESC_TYPE_EMERGENCY", 1),
+        ("MAV_ODID_DESC_TYPE_EXTENDED_STATUS", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidDescType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidDescType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_DESC_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_HEIGHT_REF`
 ///
 /// MAVLink enum `MAV_ODID_HEIGHT_REF`.
@@ -7437,6 +10708,39 @@ impl From<u8> for MavOdidHeightRef {
 impl From<MavOdidHeightRef> for u8 {
     fn from(value: MavOdidHeightRef) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavOdidHeightRef {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_HEIGHT_REF_OVER_TAKEOFF", 0),
+        ("MAV_ODID_HEIGHT_REF_OVER_GROUND", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidHeightRef {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidHeightRef {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_HEIGHT_REF",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -7529,6 +10833,50 @@ impl From<MavOdidHorAcc> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidHorAcc {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_HOR_ACC_UNKNOWN", 0),
+        ("MAV_ODID_HOR_ACC_10NM", 1),
+        ("MAV_ODID_HOR_ACC_4NM", 2),
+        ("MAV_ODID_HOR_ACC_2NM", 3),
+        ("MAV_ODID_HOR_ACC_1NM", 4),
+        ("MAV_ODID_HOR_ACC_0_5NM", 5),
+        ("MAV_ODID_HOR_ACC_0_3NM", 6),
+        ("MAV_ODID_HOR_ACC_0_1NM", 7),
+        ("MAV_ODID_HOR_ACC_0_05NM", 8),
+        ("MAV_ODID_HOR_ACC_30_METER", 9),
+        ("MAV_ODID_HOR_ACC_10_METER", 10),
+        ("MAV_ODID_HOR_ACC_3_METER", 11),
+        ("MAV_ODID_HOR_ACC_1_METER", 12),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidHorAcc {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidHorAcc {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_HOR_ACC",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_ID_TYPE`
 ///
 /// MAVLink enum `MAV_ODID_ID_TYPE`.
@@ -7596,6 +10944,42 @@ impl From<MavOdidIdType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidIdType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_ID_TYPE_NONE", 0),
+        ("MAV_ODID_ID_TYPE_SERIAL_NUMBER", 1),
+        ("MAV_ODID_ID_TYPE_CAA_REGISTRATION_ID", 2),
+        ("MAV_ODID_ID_TYPE_UTM_ASSIGNED_UUID", 3),
+        ("MAV_ODID_ID_TYPE_SPECIFIC_SESSION_ID", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidIdType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidIdType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_ID_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_OPERATOR_ID_TYPE`
 ///
 /// MAVLink enum `MAV_ODID_OPERATOR_ID_TYPE`.
@@ -7646,6 +11030,38 @@ impl From<u8> for MavOdidOperatorIdType {
 impl From<MavOdidOperatorIdType> for u8 {
     fn from(value: MavOdidOperatorIdType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavOdidOperatorIdType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_OPERATOR_ID_TYPE_CAA", 0),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidOperatorIdType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidOperatorIdType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_OPERATOR_ID_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -7705,6 +11121,40 @@ impl From<u8> for MavOdidOperatorLocationType {
 impl From<MavOdidOperatorLocationType> for u8 {
     fn from(value: MavOdidOperatorLocationType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavOdidOperatorLocationType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_OPERATOR_LOCATION_TYPE_TAKEOFF", 0),
+        ("MAV_ODID_OPERATOR_LOCATION_TYPE_LIVE_GNSS", 1),
+        ("MAV_ODID_OPERATOR_LOCATION_TYPE_FIXED", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidOperatorLocationType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidOperatorLocationType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_OPERATOR_LOCATION_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -7773,6 +11223,42 @@ impl From<MavOdidSpeedAcc> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidSpeedAcc {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_SPEED_ACC_UNKNOWN", 0),
+        ("MAV_ODID_SPEED_ACC_10_METERS_PER_SECOND", 1),
+        ("MAV_ODID_SPEED_ACC_3_METERS_PER_SECOND", 2),
+        ("MAV_ODID_SPEED_ACC_1_METERS_PER_SECOND", 3),
+        ("MAV_ODID_SPEED_ACC_0_3_METERS_PER_SECOND", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidSpeedAcc {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidSpeedAcc {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_SPEED_ACC",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_STATUS`
 ///
 /// MAVLink enum `MAV_ODID_STATUS`.
@@ -7835,6 +11321,42 @@ impl From<u8> for MavOdidStatus {
 impl From<MavOdidStatus> for u8 {
     fn from(value: MavOdidStatus) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavOdidStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_STATUS_UNDECLARED", 0),
+        ("MAV_ODID_STATUS_GROUND", 1),
+        ("MAV_ODID_STATUS_AIRBORNE", 2),
+        ("MAV_ODID_STATUS_EMERGENCY", 3),
+        ("MAV_ODID_STATUS_REMOTE_ID_SYSTEM_FAILURE", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -7936,6 +11458,53 @@ impl From<MavOdidTimeAcc> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidTimeAcc {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_TIME_ACC_UNKNOWN", 0),
+        ("MAV_ODID_TIME_ACC_0_1_SECOND", 1),
+        ("MAV_ODID_TIME_ACC_0_2_SECOND", 2),
+        ("MAV_ODID_TIME_ACC_0_3_SECOND", 3),
+        ("MAV_ODID_TIME_ACC_0_4_SECOND", 4),
+        ("MAV_ODID_TIME_ACC_0_5_SECOND", 5),
+        ("MAV_ODID_TIME_ACC_0_6_SECOND", 6),
+        ("MAV_ODID_TIME_ACC_0_7_SECOND", 7),
+        ("MAV_ODID_TIME_ACC_0_8_SECOND", 8),
+        ("MAV_ODID_TIME_ACC_0_9_SECOND", 9),
+        ("MAV_ODID_TIME_ACC_1_0_SECOND", 10),
+        ("MAV_ODID_TIME_ACC_1_1_SECOND", 11),
+        ("MAV_ODID_TIME_ACC_1_2_SECOND", 12),
+        ("MAV_ODID_TIME_ACC_1_3_SECOND", 13),
+        ("MAV_ODID_TIME_ACC_1_4_SECOND", 14),
+        ("MAV_ODID_TIME_ACC_1_5_SECOND", 15),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidTimeAcc {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidTimeAcc {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_TIME_ACC",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_UA_TYPE`
 ///
 /// MAVLink enum `MAV_ODID_UA_TYPE`.
@@ -8034,6 +11603,53 @@ impl From<MavOdidUaType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidUaType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_UA_TYPE_NONE", 0),
+        ("MAV_ODID_UA_TYPE_AEROPLANE", 1),
+        ("MAV_ODID_UA_TYPE_HELICOPTER_OR_MULTIROTOR", 2),
+        ("MAV_ODID_UA_TYPE_GYROPLANE", 3),
+        ("MAV_ODID_UA_TYPE_HYBRID_LIFT", 4),
+        ("MAV_ODID_UA_TYPE_ORNITHOPTER", 5),
+        ("MAV_ODID_UA_TYPE_GLIDER", 6),
+        ("MAV_ODID_UA_TYPE_KITE", 7),
+        ("MAV_ODID_UA_TYPE_FREE_BALLOON", 8),
+        ("MAV_ODID_UA_TYPE_CAPTIVE_BALLOON", 9),
+        ("MAV_ODID_UA_TYPE_AIRSHIP", 10),
+        ("MAV_ODID_UA_TYPE_FREE_FALL_PARACHUTE", 11),
+        ("MAV_ODID_UA_TYPE_ROCKET", 12),
+        ("MAV_ODID_UA_TYPE_TETHERED_POWERED_AIRCRAFT", 13),
+        ("MAV_ODID_UA_TYPE_GROUND_OBSTACLE", 14),
+        ("MAV_ODID_UA_TYPE_OTHER", 15),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidUaType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidUaType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_UA_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `MAV_ODID_VER_ACC`
 ///
 /// MAVLink enum `MAV_ODID_VER_ACC`.
@@ -8105,6 +11721,44 @@ impl From<MavOdidVerAcc> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavOdidVerAcc {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ODID_VER_ACC_UNKNOWN", 0),
+        ("MAV_ODID_VER_ACC_150_METER", 1),
+        ("MAV_ODID_VER_ACC_45_METER", 2),
+        ("MAV_ODID_VER_ACC_25_METER", 3),
+        ("MAV_ODID_VER_ACC_10_METER", 4),
+        ("MAV_ODID_VER_ACC_3_METER", 5),
+        ("MAV_ODID_VER_ACC_1_METER", 6),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavOdidVerAcc {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavOdidVerAcc {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ODID_VER_ACC",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Parameter protocol error types (see PARAM_ERROR).
 ///
 /// MAVLink enum `MAV_PARAM_ERROR`.
@@ -8170,6 +11824,43 @@ impl From<u8> for MavParamError {
 impl From<MavParamError> for u8 {
     fn from(value: MavParamError) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavParamError {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_PARAM_ERROR_NO_ERROR", 0),
+        ("MAV_PARAM_ERROR_DOES_NOT_EXIST", 1),
+        ("MAV_PARAM_ERROR_VALUE_OUT_OF_RANGE", 2),
+        ("MAV_PARAM_ERROR_PERMISSION_DENIED", 3),
+        ("MAV_PARAM_ERROR_COMPONENT_NOT_FOUND", 4),
+        ("MAV_PARAM_ERROR_READ_ONLY", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavParamError {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavParamError {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_PARAM_ERROR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -8256,6 +11947,48 @@ impl From<MavParamExtType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavParamExtType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_PARAM_EXT_TYPE_UINT8", 1),
+        ("MAV_PARAM_EXT_TYPE_INT8", 2),
+        ("MAV_PARAM_EXT_TYPE_UINT16", 3),
+        ("MAV_PARAM_EXT_TYPE_INT16", 4),
+        ("MAV_PARAM_EXT_TYPE_UINT32", 5),
+        ("MAV_PARAM_EXT_TYPE_INT32", 6),
+        ("MAV_PARAM_EXT_TYPE_UINT64", 7),
+        ("MAV_PARAM_EXT_TYPE_INT64", 8),
+        ("MAV_PARAM_EXT_TYPE_REAL32", 9),
+        ("MAV_PARAM_EXT_TYPE_REAL64", 10),
+        ("MAV_PARAM_EXT_TYPE_CUSTOM", 11),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavParamExtType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavParamExtType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_PARAM_EXT_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Specifies the datatype of a MAVLink parameter.
 ///
 /// MAVLink enum `MAV_PARAM_TYPE`.
@@ -8336,6 +12069,47 @@ impl From<MavParamType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavParamType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_PARAM_TYPE_UINT8", 1),
+        ("MAV_PARAM_TYPE_INT8", 2),
+        ("MAV_PARAM_TYPE_UINT16", 3),
+        ("MAV_PARAM_TYPE_INT16", 4),
+        ("MAV_PARAM_TYPE_UINT32", 5),
+        ("MAV_PARAM_TYPE_INT32", 6),
+        ("MAV_PARAM_TYPE_UINT64", 7),
+        ("MAV_PARAM_TYPE_INT64", 8),
+        ("MAV_PARAM_TYPE_REAL32", 9),
+        ("MAV_PARAM_TYPE_REAL64", 10),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavParamType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavParamType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_PARAM_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Power supply status flags (bitmask)
 ///
 /// MAVLink enum `MAV_POWER_STATUS`.
@@ -8362,6 +12136,43 @@ impl MavPowerStatus {
     MavPowerStatus, u16, [BRICK_VALID, SERVO_VALID, USB_CONNECTED, PERIPH_OVERCURRENT,
     PERIPH_HIPOWER_OVERCURRENT, CHANGED]
 );
+
+#[cfg(feature = "serde")]
+impl MavPowerStatus {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("MAV_POWER_STATUS_BRICK_VALID", 1),
+        ("MAV_POWER_STATUS_SERVO_VALID", 2),
+        ("MAV_POWER_STATUS_USB_CONNECTED", 4),
+        ("MAV_POWER_STATUS_PERIPH_OVERCURRENT", 8),
+        ("MAV_POWER_STATUS_PERIPH_HIPOWER_OVERCURRENT", 16),
+        ("MAV_POWER_STATUS_CHANGED", 32),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavPowerStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavPowerStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_POWER_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Result from a MAVLink command (MAV_CMD)
 ///
@@ -8450,6 +12261,45 @@ impl From<MavResult> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavResult {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_RESULT_ACCEPTED", 0),
+        ("MAV_RESULT_TEMPORARILY_REJECTED", 1),
+        ("MAV_RESULT_DENIED", 2),
+        ("MAV_RESULT_UNSUPPORTED", 3),
+        ("MAV_RESULT_FAILED", 4),
+        ("MAV_RESULT_IN_PROGRESS", 5),
+        ("MAV_RESULT_COMMAND_LONG_ONLY", 7),
+        ("MAV_RESULT_COMMAND_INT_ONLY", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavResult {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavResult {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_RESULT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// The ROI (region of interest) for the vehicle. This can be be used by the vehicle for
 /// camera/vehicle attitude alignment (see MAV_CMD_NAV_ROI).
 ///
@@ -8513,6 +12363,42 @@ impl From<u8> for MavRoi {
 impl From<MavRoi> for u8 {
     fn from(value: MavRoi) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavRoi {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_ROI_NONE", 0),
+        ("MAV_ROI_WPNEXT", 1),
+        ("MAV_ROI_WPINDEX", 2),
+        ("MAV_ROI_LOCATION", 3),
+        ("MAV_ROI_TARGET", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavRoi {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavRoi {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_ROI",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -8692,6 +12578,79 @@ impl From<MavSensorOrientation> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavSensorOrientation {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_SENSOR_ROTATION_NONE", 0),
+        ("MAV_SENSOR_ROTATION_YAW_45", 1),
+        ("MAV_SENSOR_ROTATION_YAW_90", 2),
+        ("MAV_SENSOR_ROTATION_YAW_135", 3),
+        ("MAV_SENSOR_ROTATION_YAW_180", 4),
+        ("MAV_SENSOR_ROTATION_YAW_225", 5),
+        ("MAV_SENSOR_ROTATION_YAW_270", 6),
+        ("MAV_SENSOR_ROTATION_YAW_315", 7),
+        ("MAV_SENSOR_ROTATION_ROLL_180", 8),
+        ("MAV_SENSOR_ROTATION_ROLL_180_YAW_45", 9),
+        ("MAV_SENSOR_ROTATION_ROLL_180_YAW_90", 10),
+        ("MAV_SENSOR_ROTATION_ROLL_180_YAW_135", 11),
+        ("MAV_SENSOR_ROTATION_PITCH_180", 12),
+        ("MAV_SENSOR_ROTATION_ROLL_180_YAW_225", 13),
+        ("MAV_SENSOR_ROTATION_ROLL_180_YAW_270", 14),
+        ("MAV_SENSOR_ROTATION_ROLL_180_YAW_315", 15),
+        ("MAV_SENSOR_ROTATION_ROLL_90", 16),
+        ("MAV_SENSOR_ROTATION_ROLL_90_YAW_45", 17),
+        ("MAV_SENSOR_ROTATION_ROLL_90_YAW_90", 18),
+        ("MAV_SENSOR_ROTATION_ROLL_90_YAW_135", 19),
+        ("MAV_SENSOR_ROTATION_ROLL_270", 20),
+        ("MAV_SENSOR_ROTATION_ROLL_270_YAW_45", 21),
+        ("MAV_SENSOR_ROTATION_ROLL_270_YAW_90", 22),
+        ("MAV_SENSOR_ROTATION_ROLL_270_YAW_135", 23),
+        ("MAV_SENSOR_ROTATION_PITCH_90", 24),
+        ("MAV_SENSOR_ROTATION_PITCH_270", 25),
+        ("MAV_SENSOR_ROTATION_PITCH_180_YAW_90", 26),
+        ("MAV_SENSOR_ROTATION_PITCH_180_YAW_270", 27),
+        ("MAV_SENSOR_ROTATION_ROLL_90_PITCH_90", 28),
+        ("MAV_SENSOR_ROTATION_ROLL_180_PITCH_90", 29),
+        ("MAV_SENSOR_ROTATION_ROLL_270_PITCH_90", 30),
+        ("MAV_SENSOR_ROTATION_ROLL_90_PITCH_180", 31),
+        ("MAV_SENSOR_ROTATION_ROLL_270_PITCH_180", 32),
+        ("MAV_SENSOR_ROTATION_ROLL_90_PITCH_270", 33),
+        ("MAV_SENSOR_ROTATION_ROLL_180_PITCH_270", 34),
+        ("MAV_SENSOR_ROTATION_ROLL_270_PITCH_270", 35),
+        ("MAV_SENSOR_ROTATION_ROLL_90_PITCH_180_YAW_90", 36),
+        ("MAV_SENSOR_ROTATION_ROLL_90_YAW_270", 37),
+        ("MAV_SENSOR_ROTATION_ROLL_90_PITCH_68_YAW_293", 38),
+        ("MAV_SENSOR_ROTATION_PITCH_315", 39),
+        ("MAV_SENSOR_ROTATION_ROLL_90_PITCH_315", 40),
+        ("MAV_SENSOR_ROTATION_CUSTOM", 100),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavSensorOrientation {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavSensorOrientation {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_SENSOR_ORIENTATION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Indicates the severity level, generally used for status messages to indicate their
 /// relative urgency. Based on RFC-5424 using expanded definitions at:
 /// <http://www.kiwisyslog.com/kb/info:-syslog-message-levels/>.
@@ -8768,6 +12727,45 @@ impl From<u8> for MavSeverity {
 impl From<MavSeverity> for u8 {
     fn from(value: MavSeverity) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MavSeverity {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_SEVERITY_EMERGENCY", 0),
+        ("MAV_SEVERITY_ALERT", 1),
+        ("MAV_SEVERITY_CRITICAL", 2),
+        ("MAV_SEVERITY_ERROR", 3),
+        ("MAV_SEVERITY_WARNING", 4),
+        ("MAV_SEVERITY_NOTICE", 5),
+        ("MAV_SEVERITY_INFO", 6),
+        ("MAV_SEVERITY_DEBUG", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavSeverity {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavSeverity {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_SEVERITY",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -8892,6 +12890,46 @@ impl From<MavStandardMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavStandardMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_STANDARD_MODE_NON_STANDARD", 0),
+        ("MAV_STANDARD_MODE_POSITION_HOLD", 1),
+        ("MAV_STANDARD_MODE_ORBIT", 2),
+        ("MAV_STANDARD_MODE_CRUISE", 3),
+        ("MAV_STANDARD_MODE_ALTITUDE_HOLD", 4),
+        ("MAV_STANDARD_MODE_SAFE_RECOVERY", 5),
+        ("MAV_STANDARD_MODE_MISSION", 6),
+        ("MAV_STANDARD_MODE_LAND", 7),
+        ("MAV_STANDARD_MODE_TAKEOFF", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavStandardMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavStandardMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_STANDARD_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// These encode the sensors whose status is sent as part of the SYS_STATUS message.
 ///
 /// MAVLink enum `MAV_SYS_STATUS_SENSOR`.
@@ -8978,6 +13016,69 @@ impl MavSysStatusSensor {
     MAV_SYS_STATUS_OBSTACLE_AVOIDANCE, PROPULSION, MAV_SYS_STATUS_EXTENSION_USED]
 );
 
+#[cfg(feature = "serde")]
+impl MavSysStatusSensor {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("MAV_SYS_STATUS_SENSOR_3D_GYRO", 1),
+        ("MAV_SYS_STATUS_SENSOR_3D_ACCEL", 2),
+        ("MAV_SYS_STATUS_SENSOR_3D_MAG", 4),
+        ("MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE", 8),
+        ("MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE", 16),
+        ("MAV_SYS_STATUS_SENSOR_GPS", 32),
+        ("MAV_SYS_STATUS_SENSOR_OPTICAL_FLOW", 64),
+        ("MAV_SYS_STATUS_SENSOR_VISION_POSITION", 128),
+        ("MAV_SYS_STATUS_SENSOR_LASER_POSITION", 256),
+        ("MAV_SYS_STATUS_SENSOR_EXTERNAL_GROUND_TRUTH", 512),
+        ("MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL", 1024),
+        ("MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION", 2048),
+        ("MAV_SYS_STATUS_SENSOR_YAW_POSITION", 4096),
+        ("MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL", 8192),
+        ("MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL", 16384),
+        ("MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS", 32768),
+        ("MAV_SYS_STATUS_SENSOR_RC_RECEIVER", 65536),
+        ("MAV_SYS_STATUS_SENSOR_3D_GYRO2", 131072),
+        ("MAV_SYS_STATUS_SENSOR_3D_ACCEL2", 262144),
+        ("MAV_SYS_STATUS_SENSOR_3D_MAG2", 524288),
+        ("MAV_SYS_STATUS_GEOFENCE", 1048576),
+        ("MAV_SYS_STATUS_AHRS", 2097152),
+        ("MAV_SYS_STATUS_TERRAIN", 4194304),
+        ("MAV_SYS_STATUS_REVERSE_MOTOR", 8388608),
+        ("MAV_SYS_STATUS_LOGGING", 16777216),
+        ("MAV_SYS_STATUS_SENSOR_BATTERY", 33554432),
+        ("MAV_SYS_STATUS_SENSOR_PROXIMITY", 67108864),
+        ("MAV_SYS_STATUS_SENSOR_SATCOM", 134217728),
+        ("MAV_SYS_STATUS_PREARM_CHECK", 268435456),
+        ("MAV_SYS_STATUS_OBSTACLE_AVOIDANCE", 536870912),
+        ("MAV_SYS_STATUS_SENSOR_PROPULSION", 1073741824),
+        ("MAV_SYS_STATUS_EXTENSION_USED", 2147483648),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavSysStatusSensor {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavSysStatusSensor {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_SYS_STATUS_SENSOR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// These encode the sensors whose status is sent as part of the SYS_STATUS message in the
 /// extended fields.
 ///
@@ -8997,6 +13098,39 @@ impl MavSysStatusSensorExtended {
     MavSysStatusSensorExtended, u32, [MAV_SYS_STATUS_RECOVERY_SYSTEM,
     MAV_SYS_STATUS_SENSOR_LEAK]
 );
+
+#[cfg(feature = "serde")]
+impl MavSysStatusSensorExtended {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("MAV_SYS_STATUS_RECOVERY_SYSTEM", 1),
+        ("MAV_SYS_STATUS_SENSOR_LEAK", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavSysStatusSensorExtended {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavSysStatusSensorExtended {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_SYS_STATUS_SENSOR_EXTENDED",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// `MAV_TUNNEL_PAYLOAD_TYPE`
 ///
@@ -9090,6 +13224,51 @@ impl From<MavTunnelPayloadType> for u16 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavTunnelPayloadType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("MAV_TUNNEL_PAYLOAD_TYPE_UNKNOWN", 0),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED0", 200),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED1", 201),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED2", 202),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED3", 203),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED4", 204),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED5", 205),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED6", 206),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED7", 207),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED8", 208),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_STORM32_RESERVED9", 209),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_MODALAI_REMOTE_OSD", 210),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_MODALAI_ESC_UART_PASSTHRU", 211),
+        ("MAV_TUNNEL_PAYLOAD_TYPE_MODALAI_IO_UART_PASSTHRU", 212),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavTunnelPayloadType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavTunnelPayloadType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_TUNNEL_PAYLOAD_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Enumeration of VTOL states
 ///
 /// MAVLink enum `MAV_VTOL_STATE`.
@@ -9155,6 +13334,42 @@ impl From<MavVtolState> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MavVtolState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_VTOL_STATE_UNDEFINED", 0),
+        ("MAV_VTOL_STATE_TRANSITION_TO_FW", 1),
+        ("MAV_VTOL_STATE_TRANSITION_TO_MC", 2),
+        ("MAV_VTOL_STATE_MC", 3),
+        ("MAV_VTOL_STATE_FW", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavVtolState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavVtolState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MAV_VTOL_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Winch status flags used in WINCH_STATUS
 ///
 /// MAVLink enum `MAV_WINCH_STATUS_FLAG`.
@@ -9177,6 +13392,41 @@ impl MavWinchStatusFlag {
     MavWinchStatusFlag, u32, [MAV_WINCH_STATUS_HEALTHY, MAV_WINCH_STATUS_FULLY_RETRACTED,
     MAV_WINCH_STATUS_MOVING, MAV_WINCH_STATUS_CLUTCH_ENGAGED]
 );
+
+#[cfg(feature = "serde")]
+impl MavWinchStatusFlag {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("MAV_WINCH_STATUS_HEALTHY", 1),
+        ("MAV_WINCH_STATUS_FULLY_RETRACTED", 2),
+        ("MAV_WINCH_STATUS_MOVING", 4),
+        ("MAV_WINCH_STATUS_CLUTCH_ENGAGED", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavWinchStatusFlag {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavWinchStatusFlag {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_WINCH_STATUS_FLAG",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// States of the mission state machine. Note that these states are independent of whether the
 /// mission is in a mode that can execute mission items or not (is suspended). They may not
@@ -9249,6 +13499,43 @@ impl From<MissionState> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MissionState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MISSION_STATE_UNKNOWN", 0),
+        ("MISSION_STATE_NO_MISSION", 1),
+        ("MISSION_STATE_NOT_STARTED", 2),
+        ("MISSION_STATE_ACTIVE", 3),
+        ("MISSION_STATE_PAUSED", 4),
+        ("MISSION_STATE_COMPLETE", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MissionState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MissionState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MISSION_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Sequence that motors are tested when using MAV_CMD_DO_MOTOR_TEST.
 ///
 /// MAVLink enum `MOTOR_TEST_ORDER`.
@@ -9305,6 +13592,40 @@ impl From<u8> for MotorTestOrder {
 impl From<MotorTestOrder> for u8 {
     fn from(value: MotorTestOrder) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl MotorTestOrder {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MOTOR_TEST_ORDER_DEFAULT", 0),
+        ("MOTOR_TEST_ORDER_SEQUENCE", 1),
+        ("MOTOR_TEST_ORDER_BOARD", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MotorTestOrder {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MotorTestOrder {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MOTOR_TEST_ORDER",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -9370,6 +13691,41 @@ impl From<MotorTestThrottleType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl MotorTestThrottleType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MOTOR_TEST_THROTTLE_PERCENT", 0),
+        ("MOTOR_TEST_THROTTLE_PWM", 1),
+        ("MOTOR_TEST_THROTTLE_PILOT", 2),
+        ("MOTOR_TEST_COMPASS_CAL", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MotorTestThrottleType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MotorTestThrottleType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "MOTOR_TEST_THROTTLE_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `NAV_TAKEOFF_FLAGS`
 ///
 /// MAVLink enum `NAV_TAKEOFF_FLAGS`.
@@ -9384,6 +13740,38 @@ impl NavTakeoffFlags {
 }
 
 ::mavframe::flag_set!(NavTakeoffFlags, u8, [HORIZONTAL_POSITION_NOT_REQUIRED]);
+
+#[cfg(feature = "serde")]
+impl NavTakeoffFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("NAV_TAKEOFF_FLAGS_HORIZONTAL_POSITION_NOT_REQUIRED", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for NavTakeoffFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for NavTakeoffFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "NAV_TAKEOFF_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// `NAV_VTOL_LAND_OPTIONS`
 ///
@@ -9441,6 +13829,40 @@ impl From<u8> for NavVtolLandOptions {
 impl From<NavVtolLandOptions> for u8 {
     fn from(value: NavVtolLandOptions) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl NavVtolLandOptions {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("NAV_VTOL_LAND_OPTIONS_DEFAULT", 0),
+        ("NAV_VTOL_LAND_OPTIONS_FW_SPIRAL_APPROACH", 1),
+        ("NAV_VTOL_LAND_OPTIONS_FW_APPROACH", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for NavVtolLandOptions {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for NavVtolLandOptions {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "NAV_VTOL_LAND_OPTIONS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -9513,6 +13935,43 @@ impl From<OrbitYawBehaviour> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl OrbitYawBehaviour {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TO_CIRCLE_CENTER", 0),
+        ("ORBIT_YAW_BEHAVIOUR_HOLD_INITIAL_HEADING", 1),
+        ("ORBIT_YAW_BEHAVIOUR_UNCONTROLLED", 2),
+        ("ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TANGENT_TO_CIRCLE", 3),
+        ("ORBIT_YAW_BEHAVIOUR_RC_CONTROLLED", 4),
+        ("ORBIT_YAW_BEHAVIOUR_UNCHANGED", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for OrbitYawBehaviour {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for OrbitYawBehaviour {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ORBIT_YAW_BEHAVIOUR",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Parachute actions. Trigger release and enable/disable auto-release.
 ///
 /// MAVLink enum `PARACHUTE_ACTION`.
@@ -9569,6 +14028,40 @@ impl From<u8> for ParachuteAction {
 impl From<ParachuteAction> for u8 {
     fn from(value: ParachuteAction) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl ParachuteAction {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PARACHUTE_DISABLE", 0),
+        ("PARACHUTE_ENABLE", 1),
+        ("PARACHUTE_RELEASE", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for ParachuteAction {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for ParachuteAction {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PARACHUTE_ACTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -9637,6 +14130,41 @@ impl From<ParamAck> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl ParamAck {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PARAM_ACK_ACCEPTED", 0),
+        ("PARAM_ACK_VALUE_UNSUPPORTED", 1),
+        ("PARAM_ACK_FAILED", 2),
+        ("PARAM_ACK_IN_PROGRESS", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for ParamAck {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for ParamAck {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PARAM_ACK",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Bitmap to indicate which dimensions should be ignored by the vehicle: a value of
 /// 0b0000000000000000 or 0b0000001000000000 indicates that none of the setpoint dimensions
 /// should be ignored. If bit 9 is set the floats afx afy afz should be interpreted as force
@@ -9678,6 +14206,49 @@ impl PositionTargetTypemask {
     PositionTargetTypemask, u16, [X_IGNORE, Y_IGNORE, Z_IGNORE, VX_IGNORE, VY_IGNORE,
     VZ_IGNORE, AX_IGNORE, AY_IGNORE, AZ_IGNORE, FORCE_SET, YAW_IGNORE, YAW_RATE_IGNORE]
 );
+
+#[cfg(feature = "serde")]
+impl PositionTargetTypemask {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("POSITION_TARGET_TYPEMASK_X_IGNORE", 1),
+        ("POSITION_TARGET_TYPEMASK_Y_IGNORE", 2),
+        ("POSITION_TARGET_TYPEMASK_Z_IGNORE", 4),
+        ("POSITION_TARGET_TYPEMASK_VX_IGNORE", 8),
+        ("POSITION_TARGET_TYPEMASK_VY_IGNORE", 16),
+        ("POSITION_TARGET_TYPEMASK_VZ_IGNORE", 32),
+        ("POSITION_TARGET_TYPEMASK_AX_IGNORE", 64),
+        ("POSITION_TARGET_TYPEMASK_AY_IGNORE", 128),
+        ("POSITION_TARGET_TYPEMASK_AZ_IGNORE", 256),
+        ("POSITION_TARGET_TYPEMASK_FORCE_SET", 512),
+        ("POSITION_TARGET_TYPEMASK_YAW_IGNORE", 1024),
+        ("POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE", 2048),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PositionTargetTypemask {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PositionTargetTypemask {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "POSITION_TARGET_TYPEMASK",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Precision land modes (used in MAV_CMD_NAV_LAND).
 ///
@@ -9737,6 +14308,40 @@ impl From<u8> for PrecisionLandMode {
 impl From<PrecisionLandMode> for u8 {
     fn from(value: PrecisionLandMode) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl PrecisionLandMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PRECISION_LAND_MODE_DISABLED", 0),
+        ("PRECISION_LAND_MODE_OPPORTUNISTIC", 1),
+        ("PRECISION_LAND_MODE_REQUIRED", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PrecisionLandMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PrecisionLandMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PRECISION_LAND_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -9813,6 +14418,43 @@ impl From<PreflightCalibrationAccelerometer> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl PreflightCalibrationAccelerometer {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PREFLIGHT_CALIBRATION_ACCELEROMETER_NONE", 0),
+        ("PREFLIGHT_CALIBRATION_ACCELEROMETER_FULL", 1),
+        ("PREFLIGHT_CALIBRATION_ACCELEROMETER_TRIM", 2),
+        ("PREFLIGHT_CALIBRATION_ACCELEROMETER_TEMPERATURE", 3),
+        ("PREFLIGHT_CALIBRATION_ACCELEROMETER_SIMPLE", 4),
+        ("PREFLIGHT_CALIBRATION_ACCELEROMETER_FORCE_SAVE", 76),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PreflightCalibrationAccelerometer {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PreflightCalibrationAccelerometer {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PREFLIGHT_CALIBRATION_ACCELEROMETER",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Action for the magnetometer (param2) of MAV_CMD_PREFLIGHT_CALIBRATION.
 ///
 /// MAVLink enum `PREFLIGHT_CALIBRATION_MAGNETOMETER`.
@@ -9872,6 +14514,40 @@ impl From<u8> for PreflightCalibrationMagnetometer {
 impl From<PreflightCalibrationMagnetometer> for u8 {
     fn from(value: PreflightCalibrationMagnetometer) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl PreflightCalibrationMagnetometer {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PREFLIGHT_CALIBRATION_MAGNETOMETER_NONE", 0),
+        ("PREFLIGHT_CALIBRATION_MAGNETOMETER_START", 1),
+        ("PREFLIGHT_CALIBRATION_MAGNETOMETER_FORCE_SAVE", 76),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PreflightCalibrationMagnetometer {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PreflightCalibrationMagnetometer {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PREFLIGHT_CALIBRATION_MAGNETOMETER",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -9936,6 +14612,40 @@ impl From<u8> for PreflightStorageMissionAction {
 impl From<PreflightStorageMissionAction> for u8 {
     fn from(value: PreflightStorageMissionAction) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl PreflightStorageMissionAction {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MISSION_READ_PERSISTENT", 0),
+        ("MISSION_WRITE_PERSISTENT", 1),
+        ("MISSION_RESET_DEFAULT", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PreflightStorageMissionAction {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PreflightStorageMissionAction {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PREFLIGHT_STORAGE_MISSION_ACTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -10013,6 +14723,42 @@ impl From<PreflightStorageParameterAction> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl PreflightStorageParameterAction {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("PARAM_READ_PERSISTENT", 0),
+        ("PARAM_WRITE_PERSISTENT", 1),
+        ("PARAM_RESET_FACTORY_DEFAULT", 2),
+        ("PARAM_RESET_SENSOR_DEFAULT", 3),
+        ("PARAM_RESET_ALL_DEFAULT", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for PreflightStorageParameterAction {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for PreflightStorageParameterAction {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "PREFLIGHT_STORAGE_PARAMETER_ACTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// RC sub-type of types defined in RC_TYPE. Used in MAV_CMD_START_RX_PAIR. Ignored if value
 /// does not correspond to the set RC_TYPE.
 ///
@@ -10073,6 +14819,40 @@ impl From<RcSubType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl RcSubType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("RC_SUB_TYPE_SPEKTRUM_DSM2", 0),
+        ("RC_SUB_TYPE_SPEKTRUM_DSMX", 1),
+        ("RC_SUB_TYPE_SPEKTRUM_DSMX8", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for RcSubType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for RcSubType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "RC_SUB_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// RC type. Used in MAV_CMD_START_RX_PAIR.
 ///
 /// MAVLink enum `RC_TYPE`.
@@ -10126,6 +14906,39 @@ impl From<u8> for RcType {
 impl From<RcType> for u8 {
     fn from(value: RcType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl RcType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("RC_TYPE_SPEKTRUM", 0),
+        ("RC_TYPE_CRSF", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for RcType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for RcType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "RC_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -10198,6 +15011,43 @@ impl From<RebootShutdownAction> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl RebootShutdownAction {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("REBOOT_SHUTDOWN_ACTION_NONE", 0),
+        ("REBOOT_SHUTDOWN_ACTION_REBOOT", 1),
+        ("REBOOT_SHUTDOWN_ACTION_SHUTDOWN", 2),
+        ("REBOOT_SHUTDOWN_ACTION_REBOOT_TO_BOOTLOADER", 3),
+        ("REBOOT_SHUTDOWN_ACTION_POWER_ON", 4),
+        ("REBOOT_SHUTDOWN_ACTION_REBOOT_TO_MASS_STORAGE", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for RebootShutdownAction {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for RebootShutdownAction {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "REBOOT_SHUTDOWN_ACTION",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Specifies the conditions under which the MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN command should
 /// be accepted.
 ///
@@ -10252,6 +15102,39 @@ impl From<u32> for RebootShutdownConditions {
 impl From<RebootShutdownConditions> for u32 {
     fn from(value: RebootShutdownConditions) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl RebootShutdownConditions {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("REBOOT_SHUTDOWN_CONDITIONS_SAFETY_INTERLOCKED", 0),
+        ("REBOOT_SHUTDOWN_CONDITIONS_FORCE", 20190226),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for RebootShutdownConditions {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for RebootShutdownConditions {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "REBOOT_SHUTDOWN_CONDITIONS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -10311,6 +15194,39 @@ impl From<RtkBaselineCoordinateSystem> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl RtkBaselineCoordinateSystem {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("RTK_BASELINE_COORDINATE_SYSTEM_ECEF", 0),
+        ("RTK_BASELINE_COORDINATE_SYSTEM_NED", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for RtkBaselineCoordinateSystem {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for RtkBaselineCoordinateSystem {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "RTK_BASELINE_COORDINATE_SYSTEM",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Possible safety switch states.
 ///
 /// MAVLink enum `SAFETY_SWITCH_STATE`.
@@ -10365,6 +15281,39 @@ impl From<u8> for SafetySwitchState {
 impl From<SafetySwitchState> for u8 {
     fn from(value: SafetySwitchState) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl SafetySwitchState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("SAFETY_SWITCH_STATE_SAFE", 0),
+        ("SAFETY_SWITCH_STATE_DANGEROUS", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SafetySwitchState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SafetySwitchState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SAFETY_SWITCH_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -10463,6 +15412,52 @@ impl From<SerialControlDev> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl SerialControlDev {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("SERIAL_CONTROL_DEV_TELEM1", 0),
+        ("SERIAL_CONTROL_DEV_TELEM2", 1),
+        ("SERIAL_CONTROL_DEV_GPS1", 2),
+        ("SERIAL_CONTROL_DEV_GPS2", 3),
+        ("SERIAL_CONTROL_DEV_SHELL", 10),
+        ("SERIAL_CONTROL_SERIAL0", 100),
+        ("SERIAL_CONTROL_SERIAL1", 101),
+        ("SERIAL_CONTROL_SERIAL2", 102),
+        ("SERIAL_CONTROL_SERIAL3", 103),
+        ("SERIAL_CONTROL_SERIAL4", 104),
+        ("SERIAL_CONTROL_SERIAL5", 105),
+        ("SERIAL_CONTROL_SERIAL6", 106),
+        ("SERIAL_CONTROL_SERIAL7", 107),
+        ("SERIAL_CONTROL_SERIAL8", 108),
+        ("SERIAL_CONTROL_SERIAL9", 109),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SerialControlDev {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SerialControlDev {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SERIAL_CONTROL_DEV",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// SERIAL_CONTROL flags (bitmask)
 ///
 /// MAVLink enum `SERIAL_CONTROL_FLAG`.
@@ -10488,6 +15483,42 @@ impl SerialControlFlag {
 ::mavframe::flag_set!(
     SerialControlFlag, u8, [REPLY, RESPOND, EXCLUSIVE, BLOCKING, MULTI]
 );
+
+#[cfg(feature = "serde")]
+impl SerialControlFlag {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("SERIAL_CONTROL_FLAG_REPLY", 1),
+        ("SERIAL_CONTROL_FLAG_RESPOND", 2),
+        ("SERIAL_CONTROL_FLAG_EXCLUSIVE", 4),
+        ("SERIAL_CONTROL_FLAG_BLOCKING", 8),
+        ("SERIAL_CONTROL_FLAG_MULTI", 16),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SerialControlFlag {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SerialControlFlag {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "SERIAL_CONTROL_FLAG",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Focus types for MAV_CMD_SET_CAMERA_FOCUS
 ///
@@ -10564,6 +15595,44 @@ impl From<SetFocusType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl SetFocusType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FOCUS_TYPE_STEP", 0),
+        ("FOCUS_TYPE_CONTINUOUS", 1),
+        ("FOCUS_TYPE_RANGE", 2),
+        ("FOCUS_TYPE_METERS", 3),
+        ("FOCUS_TYPE_AUTO", 4),
+        ("FOCUS_TYPE_AUTO_SINGLE", 5),
+        ("FOCUS_TYPE_AUTO_CONTINUOUS", 6),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SetFocusType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SetFocusType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SET_FOCUS_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Speed setpoint types used in MAV_CMD_DO_CHANGE_SPEED
 ///
 /// MAVLink enum `SPEED_TYPE`.
@@ -10623,6 +15692,41 @@ impl From<u8> for SpeedType {
 impl From<SpeedType> for u8 {
     fn from(value: SpeedType) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl SpeedType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("SPEED_TYPE_AIRSPEED", 0),
+        ("SPEED_TYPE_GROUNDSPEED", 1),
+        ("SPEED_TYPE_CLIMB_SPEED", 2),
+        ("SPEED_TYPE_DESCENT_SPEED", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SpeedType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SpeedType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SPEED_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -10686,6 +15790,41 @@ impl From<u8> for StorageStatus {
 impl From<StorageStatus> for u8 {
     fn from(value: StorageStatus) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl StorageStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("STORAGE_STATUS_EMPTY", 0),
+        ("STORAGE_STATUS_UNFORMATTED", 1),
+        ("STORAGE_STATUS_READY", 2),
+        ("STORAGE_STATUS_NOT_SUPPORTED", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for StorageStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for StorageStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "STORAGE_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -10766,6 +15905,46 @@ impl From<StorageType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl StorageType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("STORAGE_TYPE_UNKNOWN", 0),
+        ("STORAGE_TYPE_USB_STICK", 1),
+        ("STORAGE_TYPE_SD", 2),
+        ("STORAGE_TYPE_MICROSD", 3),
+        ("STORAGE_TYPE_CF", 4),
+        ("STORAGE_TYPE_CFE", 5),
+        ("STORAGE_TYPE_XQD", 6),
+        ("STORAGE_TYPE_HD", 7),
+        ("STORAGE_TYPE_OTHER", 254),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for StorageType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for StorageType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "STORAGE_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags to indicate usage for a particular storage (see STORAGE_INFORMATION.storage_usage
 /// and MAV_CMD_SET_STORAGE_USAGE).
 ///
@@ -10786,6 +15965,41 @@ impl StorageUsageFlag {
 }
 
 ::mavframe::flag_set!(StorageUsageFlag, u8, [SET, PHOTO, VIDEO, LOGS]);
+
+#[cfg(feature = "serde")]
+impl StorageUsageFlag {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("STORAGE_USAGE_FLAG_SET", 1),
+        ("STORAGE_USAGE_FLAG_PHOTO", 2),
+        ("STORAGE_USAGE_FLAG_VIDEO", 4),
+        ("STORAGE_USAGE_FLAG_LOGS", 8),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for StorageUsageFlag {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for StorageUsageFlag {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "STORAGE_USAGE_FLAG",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Generalized UAVCAN node health
 ///
@@ -10846,6 +16060,41 @@ impl From<u8> for UavcanNodeHealth {
 impl From<UavcanNodeHealth> for u8 {
     fn from(value: UavcanNodeHealth) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl UavcanNodeHealth {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVCAN_NODE_HEALTH_OK", 0),
+        ("UAVCAN_NODE_HEALTH_WARNING", 1),
+        ("UAVCAN_NODE_HEALTH_ERROR", 2),
+        ("UAVCAN_NODE_HEALTH_CRITICAL", 3),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavcanNodeHealth {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavcanNodeHealth {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVCAN_NODE_HEALTH",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -10914,6 +16163,42 @@ impl From<UavcanNodeMode> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UavcanNodeMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVCAN_NODE_MODE_OPERATIONAL", 0),
+        ("UAVCAN_NODE_MODE_INITIALIZATION", 1),
+        ("UAVCAN_NODE_MODE_MAINTENANCE", 2),
+        ("UAVCAN_NODE_MODE_SOFTWARE_UPDATE", 3),
+        ("UAVCAN_NODE_MODE_OFFLINE", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavcanNodeMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavcanNodeMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVCAN_NODE_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Flags for the global position report.
 ///
 /// MAVLink enum `UTM_DATA_AVAIL_FLAGS`.
@@ -10945,6 +16230,45 @@ impl UtmDataAvailFlags {
     ALTITUDE_AVAILABLE, RELATIVE_ALTITUDE_AVAILABLE, HORIZONTAL_VELO_AVAILABLE,
     VERTICAL_VELO_AVAILABLE, NEXT_WAYPOINT_AVAILABLE]
 );
+
+#[cfg(feature = "serde")]
+impl UtmDataAvailFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UTM_DATA_AVAIL_FLAGS_TIME_VALID", 1),
+        ("UTM_DATA_AVAIL_FLAGS_UAS_ID_AVAILABLE", 2),
+        ("UTM_DATA_AVAIL_FLAGS_POSITION_AVAILABLE", 4),
+        ("UTM_DATA_AVAIL_FLAGS_ALTITUDE_AVAILABLE", 8),
+        ("UTM_DATA_AVAIL_FLAGS_RELATIVE_ALTITUDE_AVAILABLE", 16),
+        ("UTM_DATA_AVAIL_FLAGS_HORIZONTAL_VELO_AVAILABLE", 32),
+        ("UTM_DATA_AVAIL_FLAGS_VERTICAL_VELO_AVAILABLE", 64),
+        ("UTM_DATA_AVAIL_FLAGS_NEXT_WAYPOINT_AVAILABLE", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UtmDataAvailFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UtmDataAvailFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UTM_DATA_AVAIL_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Airborne status of UAS.
 ///
@@ -11011,6 +16335,42 @@ impl From<UtmFlightState> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UtmFlightState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UTM_FLIGHT_STATE_UNKNOWN", 1),
+        ("UTM_FLIGHT_STATE_GROUND", 2),
+        ("UTM_FLIGHT_STATE_AIRBORNE", 3),
+        ("UTM_FLIGHT_STATE_EMERGENCY", 16),
+        ("UTM_FLIGHT_STATE_NOCTRL", 32),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UtmFlightState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UtmFlightState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UTM_FLIGHT_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Video stream encodings
 ///
 /// MAVLink enum `VIDEO_STREAM_ENCODING`.
@@ -11070,6 +16430,40 @@ impl From<VideoStreamEncoding> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl VideoStreamEncoding {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("VIDEO_STREAM_ENCODING_UNKNOWN", 0),
+        ("VIDEO_STREAM_ENCODING_H264", 1),
+        ("VIDEO_STREAM_ENCODING_H265", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for VideoStreamEncoding {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for VideoStreamEncoding {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "VIDEO_STREAM_ENCODING",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Stream status flags (Bitmap)
 ///
 /// MAVLink enum `VIDEO_STREAM_STATUS_FLAGS`.
@@ -11089,6 +16483,40 @@ impl VideoStreamStatusFlags {
 ::mavframe::flag_set!(
     VideoStreamStatusFlags, u16, [RUNNING, THERMAL, THERMAL_RANGE_ENABLED]
 );
+
+#[cfg(feature = "serde")]
+impl VideoStreamStatusFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("VIDEO_STREAM_STATUS_FLAGS_RUNNING", 1),
+        ("VIDEO_STREAM_STATUS_FLAGS_THERMAL", 2),
+        ("VIDEO_STREAM_STATUS_FLAGS_THERMAL_RANGE_ENABLED", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for VideoStreamStatusFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for VideoStreamStatusFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "VIDEO_STREAM_STATUS_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Video stream types
 ///
@@ -11155,6 +16583,42 @@ impl From<VideoStreamType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl VideoStreamType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("VIDEO_STREAM_TYPE_RTSP", 0),
+        ("VIDEO_STREAM_TYPE_RTPUDP", 1),
+        ("VIDEO_STREAM_TYPE_TCP_MPEG", 2),
+        ("VIDEO_STREAM_TYPE_MPEG_TS", 3),
+        ("VIDEO_STREAM_TYPE_WHEP", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for VideoStreamType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for VideoStreamType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "VIDEO_STREAM_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Direction of VTOL transition
 ///
 /// MAVLink enum `VTOL_TRANSITION_HEADING`.
@@ -11218,6 +16682,42 @@ impl From<u8> for VtolTransitionHeading {
 impl From<VtolTransitionHeading> for u8 {
     fn from(value: VtolTransitionHeading) -> Self {
         value.0
+    }
+}
+
+#[cfg(feature = "serde")]
+impl VtolTransitionHeading {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("VTOL_TRANSITION_HEADING_VEHICLE_DEFAULT", 0),
+        ("VTOL_TRANSITION_HEADING_NEXT_WAYPOINT", 1),
+        ("VTOL_TRANSITION_HEADING_TAKEOFF", 2),
+        ("VTOL_TRANSITION_HEADING_SPECIFIED", 3),
+        ("VTOL_TRANSITION_HEADING_ANY", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for VtolTransitionHeading {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for VtolTransitionHeading {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "VTOL_TRANSITION_HEADING",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
     }
 }
 
@@ -11309,11 +16809,57 @@ impl From<WinchActions> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl WinchActions {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("WINCH_RELAXED", 0),
+        ("WINCH_RELATIVE_LENGTH_CONTROL", 1),
+        ("WINCH_RATE_CONTROL", 2),
+        ("WINCH_LOCK", 3),
+        ("WINCH_DELIVER", 4),
+        ("WINCH_HOLD", 5),
+        ("WINCH_RETRACT", 6),
+        ("WINCH_LOAD_LINE", 7),
+        ("WINCH_ABANDON_LINE", 8),
+        ("WINCH_LOAD_PAYLOAD", 9),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for WinchActions {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for WinchActions {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "WINCH_ACTIONS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Sensor and subsystem status information. Provides a compact representation of
 /// sensor/subsystem status and a few other basic statistics.
 ///
 /// MAVLink message `SYS_STATUS`: id 1, CRC_EXTRA 124, payload 43 bytes (31 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SysStatus {
     /// Bitmap showing which onboard controllers and sensors are present. Value of 0: not present.
     /// Value of 1: present.
@@ -11926,6 +17472,11 @@ impl<'a> SysStatusMut<'a> {
 ///
 /// MAVLink message `SYSTEM_TIME`: id 2, CRC_EXTRA 137, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SystemTime {
     /// Timestamp (UNIX epoch time).
     ///
@@ -12102,6 +17653,11 @@ impl<'a> SystemTimeMut<'a> {
 ///
 /// MAVLink message `PING`: id 4, CRC_EXTRA 237, payload 14 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Ping {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -12330,6 +17886,11 @@ impl<'a> PingMut<'a> {
 ///
 /// MAVLink message `CHANGE_OPERATOR_CONTROL`: id 5, CRC_EXTRA 217, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ChangeOperatorControl {
     /// System the GCS requests control for
     ///
@@ -12349,6 +17910,7 @@ pub struct ChangeOperatorControl {
     /// terminated. The characters may involve A-Z, a-z, 0-9, and "!?,.-"
     ///
     /// Wire: `char[25]` at payload offset 3.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub passkey: [u8; 25],
 }
 
@@ -12557,6 +18119,11 @@ impl<'a> ChangeOperatorControlMut<'a> {
 ///
 /// MAVLink message `CHANGE_OPERATOR_CONTROL_ACK`: id 6, CRC_EXTRA 104, payload 3 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ChangeOperatorControlAck {
     /// ID of the GCS this message
     ///
@@ -12758,10 +18325,16 @@ impl<'a> ChangeOperatorControlAckMut<'a> {
 ///
 /// MAVLink message `AUTH_KEY`: id 7, CRC_EXTRA 119, payload 32 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AuthKey {
     /// key
     ///
     /// Wire: `char[32]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub key: [u8; 32],
 }
 
@@ -12908,6 +18481,11 @@ impl<'a> AuthKeyMut<'a> {
 ///
 /// MAVLink message `SET_MODE`: id 11, CRC_EXTRA 89, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetMode {
     /// The system setting the mode
     ///
@@ -13112,6 +18690,11 @@ impl<'a> SetModeMut<'a> {
 ///
 /// MAVLink message `PARAM_REQUEST_READ`: id 20, CRC_EXTRA 214, payload 20 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamRequestRead {
     /// System ID
     ///
@@ -13126,6 +18709,7 @@ pub struct ParamRequestRead {
     /// applications have to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Parameter index. Send -1 to use the param ID field as identifier (else the param id will
     /// be ignored)
@@ -13341,6 +18925,11 @@ impl<'a> ParamRequestReadMut<'a> {
 ///
 /// MAVLink message `PARAM_REQUEST_LIST`: id 21, CRC_EXTRA 159, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamRequestList {
     /// System ID
     ///
@@ -13518,16 +19107,23 @@ impl<'a> ParamRequestListMut<'a> {
 ///
 /// MAVLink message `PARAM_VALUE`: id 22, CRC_EXTRA 220, payload 25 bytes (25 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamValue {
     /// Onboard parameter id, terminated by NULL if the length is less than 16 human-readable
     /// chars and WITHOUT null termination (NULL) byte if the length is exactly 16 chars -
     /// applications have to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Onboard parameter value
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param_value: f32,
     /// Onboard parameter type.
     ///
@@ -13774,6 +19370,11 @@ impl<'a> ParamValueMut<'a> {
 ///
 /// MAVLink message `PARAM_SET`: id 23, CRC_EXTRA 168, payload 23 bytes (23 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamSet {
     /// System ID
     ///
@@ -13788,10 +19389,12 @@ pub struct ParamSet {
     /// applications have to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Onboard parameter value
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param_value: f32,
     /// Onboard parameter type.
     ///
@@ -14027,6 +19630,11 @@ impl<'a> ParamSetMut<'a> {
 ///
 /// MAVLink message `GPS_RAW_INT`: id 24, CRC_EXTRA 24, payload 52 bytes (30 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GpsRawInt {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -14568,6 +20176,11 @@ impl<'a> GpsRawIntMut<'a> {
 ///
 /// MAVLink message `GPS_STATUS`: id 25, CRC_EXTRA 23, payload 101 bytes (101 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GpsStatus {
     /// Number of satellites visible
     ///
@@ -14576,22 +20189,27 @@ pub struct GpsStatus {
     /// Global satellite ID
     ///
     /// Wire: `uint8_t[20]` at payload offset 1.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub satellite_prn: [u8; 20],
     /// 0: Satellite not used, 1: used for localization
     ///
     /// Wire: `uint8_t[20]` at payload offset 21.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub satellite_used: [u8; 20],
     /// Elevation (0: right on top of receiver, 90: on the horizon) of satellite
     ///
     /// Units: `deg`. Wire: `uint8_t[20]` at payload offset 41.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub satellite_elevation: [u8; 20],
     /// Direction of satellite, 0: 0 deg, 255: 360 deg.
     ///
     /// Units: `deg`. Multiplier: `360/255`. Wire: `uint8_t[20]` at payload offset 61.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub satellite_azimuth: [u8; 20],
     /// Signal to noise ratio of satellite
     ///
     /// Units: `dB`. Wire: `uint8_t[20]` at payload offset 81.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub satellite_snr: [u8; 20],
 }
 
@@ -14843,6 +20461,11 @@ impl<'a> GpsStatusMut<'a> {
 ///
 /// MAVLink message `SCALED_IMU`: id 26, CRC_EXTRA 170, payload 24 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ScaledImu {
     /// Timestamp (time since system boot).
     ///
@@ -15248,6 +20871,11 @@ impl<'a> ScaledImuMut<'a> {
 ///
 /// MAVLink message `RAW_IMU`: id 27, CRC_EXTRA 144, payload 29 bytes (26 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RawImu {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -15679,6 +21307,11 @@ impl<'a> RawImuMut<'a> {
 ///
 /// MAVLink message `RAW_PRESSURE`: id 28, CRC_EXTRA 67, payload 16 bytes (16 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RawPressure {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -15931,6 +21564,11 @@ impl<'a> RawPressureMut<'a> {
 ///
 /// MAVLink message `SCALED_PRESSURE`: id 29, CRC_EXTRA 115, payload 16 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ScaledPressure {
     /// Timestamp (time since system boot).
     ///
@@ -15939,10 +21577,12 @@ pub struct ScaledPressure {
     /// Absolute pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub press_abs: f32,
     /// Differential pressure 1
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub press_diff: f32,
     /// Absolute pressure temperature
     ///
@@ -16183,6 +21823,11 @@ impl<'a> ScaledPressureMut<'a> {
 ///
 /// MAVLink message `ATTITUDE`: id 30, CRC_EXTRA 39, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Attitude {
     /// Timestamp (time since system boot).
     ///
@@ -16191,26 +21836,32 @@ pub struct Attitude {
     /// Roll angle (-pi..+pi)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle (-pi..+pi)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle (-pi..+pi)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Roll angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rollspeed: f32,
     /// Pitch angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitchspeed: f32,
     /// Yaw angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yawspeed: f32,
 }
 
@@ -16484,6 +22135,11 @@ impl<'a> AttitudeMut<'a> {
 ///
 /// MAVLink message `ATTITUDE_QUATERNION`: id 31, CRC_EXTRA 246, payload 48 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AttitudeQuaternion {
     /// Timestamp (time since system boot).
     ///
@@ -16492,30 +22148,37 @@ pub struct AttitudeQuaternion {
     /// Quaternion component 1, w (1 in null-rotation)
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q1: f32,
     /// Quaternion component 2, x (0 in null-rotation)
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q2: f32,
     /// Quaternion component 3, y (0 in null-rotation)
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q3: f32,
     /// Quaternion component 4, z (0 in null-rotation)
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q4: f32,
     /// Roll angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rollspeed: f32,
     /// Pitch angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitchspeed: f32,
     /// Yaw angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yawspeed: f32,
     /// Rotation offset by which the attitude quaternion and angular speed vector should be
     /// rotated for user display (quaternion with \[w, x, y, z\] order, zero-rotation is \[1, 0,
@@ -16527,6 +22190,7 @@ pub struct AttitudeQuaternion {
     ///
     /// Invalid / unknown: `[0]`. Extension field: absent from MAVLink 1 frames, reads 0 when
     /// not sent. Wire: `float[4]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub repr_offset_q: [f32; 4],
 }
 
@@ -16841,6 +22505,11 @@ impl<'a> AttitudeQuaternionMut<'a> {
 ///
 /// MAVLink message `LOCAL_POSITION_NED`: id 32, CRC_EXTRA 185, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LocalPositionNed {
     /// Timestamp (time since system boot).
     ///
@@ -16849,26 +22518,32 @@ pub struct LocalPositionNed {
     /// X Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// X Speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y Speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z Speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
 }
 
@@ -17141,6 +22816,11 @@ impl<'a> LocalPositionNedMut<'a> {
 ///
 /// MAVLink message `RC_CHANNELS_SCALED`: id 34, CRC_EXTRA 237, payload 22 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RcChannelsScaled {
     /// Timestamp (time since system boot).
     ///
@@ -17544,6 +23224,11 @@ impl<'a> RcChannelsScaledMut<'a> {
 ///
 /// MAVLink message `RC_CHANNELS_RAW`: id 35, CRC_EXTRA 244, payload 22 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RcChannelsRaw {
     /// Timestamp (time since system boot).
     ///
@@ -17947,6 +23632,11 @@ impl<'a> RcChannelsRawMut<'a> {
 ///
 /// MAVLink message `SERVO_OUTPUT_RAW`: id 36, CRC_EXTRA 222, payload 37 bytes (21 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ServoOutputRaw {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -18535,6 +24225,11 @@ impl<'a> ServoOutputRawMut<'a> {
 ///
 /// MAVLink message `MISSION_REQUEST_PARTIAL_LIST`: id 37, CRC_EXTRA 212, payload 7 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionRequestPartialList {
     /// System ID
     ///
@@ -18787,6 +24482,11 @@ impl<'a> MissionRequestPartialListMut<'a> {
 ///
 /// MAVLink message `MISSION_WRITE_PARTIAL_LIST`: id 38, CRC_EXTRA 9, payload 7 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionWritePartialList {
     /// System ID
     ///
@@ -19043,6 +24743,11 @@ impl<'a> MissionWritePartialListMut<'a> {
 /// MAVLink message `MISSION_ITEM`: id 39, CRC_EXTRA 254, payload 38 bytes (37 without extensions).
 /// **Deprecated** since 2020-06, replaced by `MISSION_ITEM_INT`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionItem {
     /// System ID
     ///
@@ -19076,30 +24781,37 @@ pub struct MissionItem {
     /// PARAM1, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param1: f32,
     /// PARAM2, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param2: f32,
     /// PARAM3, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param3: f32,
     /// PARAM4, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param4: f32,
     /// PARAM5 / local: X coordinate, global: latitude
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// PARAM6 / local: Y coordinate, global: longitude
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// PARAM7 / local: Z coordinate, global: altitude (relative or absolute, depending on frame).
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Mission type.
     ///
@@ -19548,6 +25260,11 @@ impl<'a> MissionItemMut<'a> {
 /// **Deprecated** since 2020-06, replaced by `MISSION_REQUEST_INT`. A system that gets this
 /// request should respond with MISSION_ITEM_INT (as though MISSION_REQUEST_INT was received).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionRequest {
     /// System ID
     ///
@@ -19781,6 +25498,11 @@ impl<'a> MissionRequestMut<'a> {
 ///
 /// MAVLink message `MISSION_SET_CURRENT`: id 41, CRC_EXTRA 28, payload 4 bytes (4 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionSetCurrent {
     /// System ID
     ///
@@ -19983,6 +25705,11 @@ impl<'a> MissionSetCurrentMut<'a> {
 ///
 /// MAVLink message `MISSION_CURRENT`: id 42, CRC_EXTRA 28, payload 6 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionCurrent {
     /// Sequence
     ///
@@ -20213,6 +25940,11 @@ impl<'a> MissionCurrentMut<'a> {
 ///
 /// MAVLink message `MISSION_REQUEST_LIST`: id 43, CRC_EXTRA 132, payload 3 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionRequestList {
     /// System ID
     ///
@@ -20415,6 +26147,11 @@ impl<'a> MissionRequestListMut<'a> {
 ///
 /// MAVLink message `MISSION_COUNT`: id 44, CRC_EXTRA 221, payload 5 bytes (4 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionCount {
     /// System ID
     ///
@@ -20640,6 +26377,11 @@ impl<'a> MissionCountMut<'a> {
 ///
 /// MAVLink message `MISSION_CLEAR_ALL`: id 45, CRC_EXTRA 232, payload 3 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionClearAll {
     /// System ID
     ///
@@ -20842,6 +26584,11 @@ impl<'a> MissionClearAllMut<'a> {
 ///
 /// MAVLink message `MISSION_ITEM_REACHED`: id 46, CRC_EXTRA 11, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionItemReached {
     /// Sequence
     ///
@@ -20992,6 +26739,11 @@ impl<'a> MissionItemReachedMut<'a> {
 ///
 /// MAVLink message `MISSION_ACK`: id 47, CRC_EXTRA 153, payload 4 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionAck {
     /// System ID
     ///
@@ -21222,6 +26974,11 @@ impl<'a> MissionAckMut<'a> {
 ///
 /// MAVLink message `SET_GPS_GLOBAL_ORIGIN`: id 48, CRC_EXTRA 41, payload 21 bytes (13 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetGpsGlobalOrigin {
     /// System ID
     ///
@@ -21476,6 +27233,11 @@ impl<'a> SetGpsGlobalOriginMut<'a> {
 ///
 /// MAVLink message `GPS_GLOBAL_ORIGIN`: id 49, CRC_EXTRA 39, payload 20 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GpsGlobalOrigin {
     /// Latitude (WGS84)
     ///
@@ -21704,6 +27466,11 @@ impl<'a> GpsGlobalOriginMut<'a> {
 ///
 /// MAVLink message `PARAM_MAP_RC`: id 50, CRC_EXTRA 78, payload 37 bytes (37 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamMapRc {
     /// System ID
     ///
@@ -21718,6 +27485,7 @@ pub struct ParamMapRc {
     /// applications have to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Parameter index. Send -1 to use the param ID field as identifier (else the param id will
     /// be ignored), send -2 to disable any existing map for this rc_channel_index.
@@ -21732,20 +27500,24 @@ pub struct ParamMapRc {
     /// Initial parameter value
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param_value0: f32,
     /// Scale, maps the RC range \[-1, 1\] to a parameter value
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub scale: f32,
     /// Minimum param value. The protocol does not define if this overwrites an onboard minimum
     /// value. (Depends on implementation)
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param_value_min: f32,
     /// Maximum param value. The protocol does not define if this overwrites an onboard maximum
     /// value. (Depends on implementation)
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param_value_max: f32,
 }
 
@@ -22061,6 +27833,11 @@ impl<'a> ParamMapRcMut<'a> {
 ///
 /// MAVLink message `MISSION_REQUEST_INT`: id 51, CRC_EXTRA 196, payload 5 bytes (4 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionRequestInt {
     /// System ID
     ///
@@ -22288,6 +28065,11 @@ impl<'a> MissionRequestIntMut<'a> {
 ///
 /// MAVLink message `SAFETY_SET_ALLOWED_AREA`: id 54, CRC_EXTRA 15, payload 27 bytes (27 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SafetySetAllowedArea {
     /// System ID
     ///
@@ -22305,26 +28087,32 @@ pub struct SafetySetAllowedArea {
     /// x position 1 / Latitude 1
     ///
     /// Units: `m`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p1x: f32,
     /// y position 1 / Longitude 1
     ///
     /// Units: `m`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p1y: f32,
     /// z position 1 / Altitude 1
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p1z: f32,
     /// x position 2 / Latitude 2
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p2x: f32,
     /// y position 2 / Longitude 2
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p2y: f32,
     /// z position 2 / Altitude 2
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p2z: f32,
 }
 
@@ -22638,6 +28426,11 @@ impl<'a> SafetySetAllowedAreaMut<'a> {
 ///
 /// MAVLink message `SAFETY_ALLOWED_AREA`: id 55, CRC_EXTRA 3, payload 25 bytes (25 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SafetyAllowedArea {
     /// Coordinate frame. Can be either global, GPS, right-handed with Z axis up or local, right
     /// handed, Z axis down.
@@ -22647,26 +28440,32 @@ pub struct SafetyAllowedArea {
     /// x position 1 / Latitude 1
     ///
     /// Units: `m`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p1x: f32,
     /// y position 1 / Longitude 1
     ///
     /// Units: `m`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p1y: f32,
     /// z position 1 / Altitude 1
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p1z: f32,
     /// x position 2 / Latitude 2
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p2x: f32,
     /// y position 2 / Longitude 2
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p2y: f32,
     /// z position 2 / Altitude 2
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub p2z: f32,
 }
 
@@ -22940,6 +28739,11 @@ impl<'a> SafetyAllowedAreaMut<'a> {
 ///
 /// MAVLink message `ATTITUDE_QUATERNION_COV`: id 61, CRC_EXTRA 167, payload 72 bytes (72 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AttitudeQuaternionCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -22950,24 +28754,29 @@ pub struct AttitudeQuaternionCov {
     /// Quaternion components, w, x, y, z (1 0 0 0 is the null-rotation)
     ///
     /// Wire: `float[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Roll angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rollspeed: f32,
     /// Pitch angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitchspeed: f32,
     /// Yaw angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yawspeed: f32,
     /// Row-major representation of a 3x3 attitude covariance matrix (states: roll, pitch, yaw;
     /// first three entries are the first ROW, next three entries are the second row, etc.). If
     /// unknown, assign NaN value to first element in the array.
     ///
     /// Invalid / unknown: `[NaN:]`. Wire: `float[9]` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 9],
 }
 
@@ -23218,14 +29027,21 @@ impl<'a> AttitudeQuaternionCovMut<'a> {
 ///
 /// MAVLink message `NAV_CONTROLLER_OUTPUT`: id 62, CRC_EXTRA 183, payload 26 bytes (26 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct NavControllerOutput {
     /// Current desired roll
     ///
     /// Units: `deg`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub nav_roll: f32,
     /// Current desired pitch
     ///
     /// Units: `deg`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub nav_pitch: f32,
     /// Current desired heading
     ///
@@ -23242,14 +29058,17 @@ pub struct NavControllerOutput {
     /// Current altitude error
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt_error: f32,
     /// Current airspeed error
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub aspd_error: f32,
     /// Current crosstrack error on x-y plane
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xtrack_error: f32,
 }
 
@@ -23546,6 +29365,11 @@ impl<'a> NavControllerOutputMut<'a> {
 ///
 /// MAVLink message `GLOBAL_POSITION_INT_COV`: id 63, CRC_EXTRA 119, payload 181 bytes (181 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GlobalPositionIntCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -23577,20 +29401,24 @@ pub struct GlobalPositionIntCov {
     /// Ground X Speed (Latitude)
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Ground Y Speed (Longitude)
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Ground Z Speed (Altitude)
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// Row-major representation of a 6x6 position and velocity 6x6 cross-covariance matrix
     /// (states: lat, lon, alt, vx, vy, vz; first six entries are the first ROW, next six entries
     /// are the second row, etc.). If unknown, assign NaN value to first element in the array.
     ///
     /// Invalid / unknown: `[NaN:]`. Wire: `float[36]` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 36],
 }
 
@@ -23945,6 +29773,11 @@ impl<'a> GlobalPositionIntCovMut<'a> {
 ///
 /// MAVLink message `LOCAL_POSITION_NED_COV`: id 64, CRC_EXTRA 191, payload 225 bytes (225 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LocalPositionNedCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -23960,38 +29793,47 @@ pub struct LocalPositionNedCov {
     /// X Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// X Speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y Speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z Speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// X Acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ax: f32,
     /// Y Acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ay: f32,
     /// Z Acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub az: f32,
     /// Row-major representation of position, velocity and acceleration 9x9 cross-covariance
     /// matrix upper right triangle (states: x, y, z, vx, vy, vz, ax, ay, az; first nine entries
@@ -23999,6 +29841,7 @@ pub struct LocalPositionNedCov {
     /// value to first element in the array.
     ///
     /// Invalid / unknown: `[NaN:]`. Wire: `float[45]` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 45],
 }
 
@@ -24398,6 +30241,11 @@ impl<'a> LocalPositionNedCovMut<'a> {
 ///
 /// MAVLink message `RC_CHANNELS`: id 65, CRC_EXTRA 118, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RcChannels {
     /// Timestamp (time since system boot).
     ///
@@ -25050,6 +30898,11 @@ impl<'a> RcChannelsMut<'a> {
 ///
 /// MAVLink message `REQUEST_DATA_STREAM`: id 66, CRC_EXTRA 148, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RequestDataStream {
     /// The target requested to send the message stream.
     ///
@@ -25299,6 +31152,11 @@ impl<'a> RequestDataStreamMut<'a> {
 ///
 /// MAVLink message `DATA_STREAM`: id 67, CRC_EXTRA 21, payload 4 bytes (4 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DataStream {
     /// The ID of the requested data stream.
     ///
@@ -25500,6 +31358,11 @@ impl<'a> DataStreamMut<'a> {
 ///
 /// MAVLink message `MANUAL_CONTROL`: id 69, CRC_EXTRA 243, payload 30 bytes (11 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ManualControl {
     /// The system to be controlled.
     ///
@@ -26061,6 +31924,11 @@ impl<'a> ManualControlMut<'a> {
 ///
 /// MAVLink message `RC_CHANNELS_OVERRIDE`: id 70, CRC_EXTRA 124, payload 38 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RcChannelsOverride {
     /// System ID
     ///
@@ -26719,6 +32587,11 @@ impl<'a> RcChannelsOverrideMut<'a> {
 ///
 /// MAVLink message `MISSION_ITEM_INT`: id 73, CRC_EXTRA 38, payload 38 bytes (37 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MissionItemInt {
     /// System ID
     ///
@@ -26753,18 +32626,22 @@ pub struct MissionItemInt {
     /// PARAM1, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param1: f32,
     /// PARAM2, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param2: f32,
     /// PARAM3, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param3: f32,
     /// PARAM4, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param4: f32,
     /// PARAM5 / local: x position in meters * 1e4, global: latitude in degrees * 10^7
     ///
@@ -26777,6 +32654,7 @@ pub struct MissionItemInt {
     /// PARAM7 / z position: global: altitude in meters (relative or absolute, depending on frame.
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Mission type.
     ///
@@ -27221,16 +33099,23 @@ impl<'a> MissionItemIntMut<'a> {
 ///
 /// MAVLink message `VFR_HUD`: id 74, CRC_EXTRA 20, payload 20 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct VfrHud {
     /// Vehicle speed in form appropriate for vehicle type. For standard aircraft this is
     /// typically calibrated airspeed (CAS) or indicated airspeed (IAS) - either of which can be
     /// used by a pilot to estimate stall speed.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub airspeed: f32,
     /// Current ground speed.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub groundspeed: f32,
     /// Current heading in compass units (0-360, 0=north).
     ///
@@ -27243,10 +33128,12 @@ pub struct VfrHud {
     /// Current altitude (MSL).
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// Current climb rate.
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub climb: f32,
 }
 
@@ -27499,6 +33386,11 @@ impl<'a> VfrHudMut<'a> {
 ///
 /// MAVLink message `COMMAND_INT`: id 75, CRC_EXTRA 158, payload 35 bytes (35 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CommandInt {
     /// System ID
     ///
@@ -27527,18 +33419,22 @@ pub struct CommandInt {
     /// PARAM1, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param1: f32,
     /// PARAM2, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param2: f32,
     /// PARAM3, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param3: f32,
     /// PARAM4, see MAV_CMD enum
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param4: f32,
     /// PARAM5 / local: x position in meters * 1e4, global: latitude in degrees * 10^7
     ///
@@ -27552,6 +33448,7 @@ pub struct CommandInt {
     /// frame).
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
 }
 
@@ -27953,6 +33850,11 @@ impl<'a> CommandIntMut<'a> {
 ///
 /// MAVLink message `COMMAND_LONG`: id 76, CRC_EXTRA 152, payload 33 bytes (33 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CommandLong {
     /// System which should execute the command
     ///
@@ -27974,30 +33876,37 @@ pub struct CommandLong {
     /// Parameter 1 (for the specific command).
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param1: f32,
     /// Parameter 2 (for the specific command).
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param2: f32,
     /// Parameter 3 (for the specific command).
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param3: f32,
     /// Parameter 4 (for the specific command).
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param4: f32,
     /// Parameter 5 (for the specific command).
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param5: f32,
     /// Parameter 6 (for the specific command).
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param6: f32,
     /// Parameter 7 (for the specific command).
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub param7: f32,
 }
 
@@ -28354,6 +34263,11 @@ impl<'a> CommandLongMut<'a> {
 ///
 /// MAVLink message `COMMAND_ACK`: id 77, CRC_EXTRA 143, payload 10 bytes (3 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CommandAck {
     /// Command ID (of acknowledged command).
     ///
@@ -28635,6 +34549,11 @@ impl<'a> CommandAckMut<'a> {
 ///
 /// MAVLink message `MANUAL_SETPOINT`: id 81, CRC_EXTRA 106, payload 22 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ManualSetpoint {
     /// Timestamp (time since system boot).
     ///
@@ -28643,18 +34562,22 @@ pub struct ManualSetpoint {
     /// Desired roll rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Desired pitch rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Desired yaw rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Collective thrust, normalized to 0 .. 1
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub thrust: f32,
     /// Flight mode switch position, 0.. 255
     ///
@@ -28935,6 +34858,11 @@ impl<'a> ManualSetpointMut<'a> {
 ///
 /// MAVLink message `SET_ATTITUDE_TARGET`: id 82, CRC_EXTRA 49, payload 39 bytes (39 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetAttitudeTarget {
     /// Timestamp (time since system boot).
     ///
@@ -28956,22 +34884,27 @@ pub struct SetAttitudeTarget {
     /// Attitude quaternion (w, x, y, z order, zero-rotation is 1, 0, 0, 0)
     ///
     /// Wire: `float[4]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Body roll rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_roll_rate: f32,
     /// Body pitch rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_pitch_rate: f32,
     /// Body yaw rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_yaw_rate: f32,
     /// Collective thrust, normalized to 0 .. 1 (-1 .. 1 for vehicles capable of reverse thrust)
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub thrust: f32,
 }
 
@@ -29291,6 +35224,11 @@ impl<'a> SetAttitudeTargetMut<'a> {
 ///
 /// MAVLink message `ATTITUDE_TARGET`: id 83, CRC_EXTRA 22, payload 37 bytes (37 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AttitudeTarget {
     /// Timestamp (time since system boot).
     ///
@@ -29304,22 +35242,27 @@ pub struct AttitudeTarget {
     /// Attitude quaternion (w, x, y, z order, zero-rotation is 1, 0, 0, 0)
     ///
     /// Wire: `float[4]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Body roll rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_roll_rate: f32,
     /// Body pitch rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_pitch_rate: f32,
     /// Body yaw rate
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub body_yaw_rate: f32,
     /// Collective thrust, normalized to 0 .. 1 (-1 .. 1 for vehicles capable of reverse thrust)
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub thrust: f32,
 }
 
@@ -29596,6 +35539,11 @@ impl<'a> AttitudeTargetMut<'a> {
 ///
 /// MAVLink message `SET_POSITION_TARGET_LOCAL_NED`: id 84, CRC_EXTRA 143, payload 53 bytes (53 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetPositionTargetLocalNed {
     /// Timestamp (time since system boot).
     ///
@@ -29622,46 +35570,57 @@ pub struct SetPositionTargetLocalNed {
     /// X Position in NED frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y Position in NED frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z Position in NED frame (note, altitude is negative in NED)
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// X velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// X acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afx: f32,
     /// Y acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afy: f32,
     /// Z acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afz: f32,
     /// yaw setpoint
     ///
     /// Units: `rad`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// yaw rate setpoint
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rate: f32,
 }
 
@@ -30128,6 +36087,11 @@ impl<'a> SetPositionTargetLocalNedMut<'a> {
 ///
 /// MAVLink message `POSITION_TARGET_LOCAL_NED`: id 85, CRC_EXTRA 140, payload 51 bytes (51 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct PositionTargetLocalNed {
     /// Timestamp (time since system boot).
     ///
@@ -30146,46 +36110,57 @@ pub struct PositionTargetLocalNed {
     /// X Position in NED frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y Position in NED frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z Position in NED frame (note, altitude is negative in NED)
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// X velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// X acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afx: f32,
     /// Y acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afy: f32,
     /// Z acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afz: f32,
     /// yaw setpoint
     ///
     /// Units: `rad`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// yaw rate setpoint
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rate: f32,
 }
 
@@ -30610,6 +36585,11 @@ impl<'a> PositionTargetLocalNedMut<'a> {
 ///
 /// MAVLink message `SET_POSITION_TARGET_GLOBAL_INT`: id 86, CRC_EXTRA 5, payload 53 bytes (53 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetPositionTargetGlobalInt {
     /// Timestamp (time since system boot). The rationale for the timestamp in the setpoint is to
     /// allow the system to compensate for the transport delay of the setpoint. This allows the
@@ -30648,38 +36628,47 @@ pub struct SetPositionTargetGlobalInt {
     /// Altitude (MSL, Relative to home, or AGL - depending on frame)
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// X velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// X acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afx: f32,
     /// Y acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afy: f32,
     /// Z acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afz: f32,
     /// yaw setpoint
     ///
     /// Units: `rad`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// yaw rate setpoint
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rate: f32,
 }
 
@@ -31146,6 +37135,11 @@ impl<'a> SetPositionTargetGlobalIntMut<'a> {
 ///
 /// MAVLink message `POSITION_TARGET_GLOBAL_INT`: id 87, CRC_EXTRA 150, payload 51 bytes (51 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct PositionTargetGlobalInt {
     /// Timestamp (time since system boot). The rationale for the timestamp in the setpoint is to
     /// allow the system to compensate for the transport delay of the setpoint. This allows the
@@ -31176,38 +37170,47 @@ pub struct PositionTargetGlobalInt {
     /// Altitude (MSL, AGL or relative to home altitude, depending on frame)
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// X velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z velocity in NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// X acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afx: f32,
     /// Y acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afy: f32,
     /// Z acceleration or force (if bit 10 of type_mask is set) in NED frame in meter / s^2 or N
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub afz: f32,
     /// yaw setpoint
     ///
     /// Units: `rad`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// yaw rate setpoint
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rate: f32,
 }
 
@@ -31632,6 +37635,11 @@ impl<'a> PositionTargetGlobalIntMut<'a> {
 ///
 /// MAVLink message `LOCAL_POSITION_NED_SYSTEM_GLOBAL_OFFSET`: id 89, CRC_EXTRA 231, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LocalPositionNedSystemGlobalOffset {
     /// Timestamp (time since system boot).
     ///
@@ -31640,26 +37648,32 @@ pub struct LocalPositionNedSystemGlobalOffset {
     /// X Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Roll
     ///
     /// Units: `rad`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
 }
 
@@ -31932,6 +37946,11 @@ impl<'a> LocalPositionNedSystemGlobalOffsetMut<'a> {
 ///
 /// MAVLink message `HIL_STATE`: id 90, CRC_EXTRA 183, payload 56 bytes (56 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilState {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -31942,26 +37961,32 @@ pub struct HilState {
     /// Roll angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Body frame roll / phi angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rollspeed: f32,
     /// Body frame pitch / theta angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitchspeed: f32,
     /// Body frame yaw / psi angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yawspeed: f32,
     /// Latitude
     ///
@@ -32459,6 +38484,11 @@ impl<'a> HilStateMut<'a> {
 ///
 /// MAVLink message `HIL_CONTROLS`: id 91, CRC_EXTRA 63, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilControls {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -32469,34 +38499,42 @@ pub struct HilControls {
     /// Control output -1 .. 1
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll_ailerons: f32,
     /// Control output -1 .. 1
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_elevator: f32,
     /// Control output -1 .. 1
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rudder: f32,
     /// Throttle 0 .. 1
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub throttle: f32,
     /// Aux 1, -1 .. 1
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub aux1: f32,
     /// Aux 2, -1 .. 1
     ///
     /// Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub aux2: f32,
     /// Aux 3, -1 .. 1
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub aux3: f32,
     /// Aux 4, -1 .. 1
     ///
     /// Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub aux4: f32,
     /// System mode.
     ///
@@ -32862,6 +38900,11 @@ impl<'a> HilControlsMut<'a> {
 ///
 /// MAVLink message `HIL_RC_INPUTS_RAW`: id 92, CRC_EXTRA 54, payload 33 bytes (33 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilRcInputsRaw {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -33340,6 +39383,11 @@ impl<'a> HilRcInputsRawMut<'a> {
 ///
 /// MAVLink message `HIL_ACTUATOR_CONTROLS`: id 93, CRC_EXTRA 47, payload 81 bytes (81 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilActuatorControls {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -33350,6 +39398,7 @@ pub struct HilActuatorControls {
     /// Control outputs -1 .. 1. Channel assignment depends on the simulated hardware.
     ///
     /// Wire: `float[16]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub controls: [f32; 16],
     /// System mode. Includes arming state.
     ///
@@ -33576,6 +39625,11 @@ impl<'a> HilActuatorControlsMut<'a> {
 ///
 /// MAVLink message `OPTICAL_FLOW`: id 100, CRC_EXTRA 175, payload 34 bytes (26 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpticalFlow {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -33598,10 +39652,12 @@ pub struct OpticalFlow {
     /// Flow in x-sensor direction, angular-speed compensated
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub flow_comp_m_x: f32,
     /// Flow in y-sensor direction, angular-speed compensated
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub flow_comp_m_y: f32,
     /// Optical flow quality / confidence. 0: bad, 255: maximum quality
     ///
@@ -33610,16 +39666,19 @@ pub struct OpticalFlow {
     /// Ground distance. Positive value: distance known. Negative value: Unknown distance
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ground_distance: f32,
     /// Flow rate about X axis
     ///
     /// Units: `rad/s`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent.
     /// Wire: `float` at payload offset 26.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub flow_rate_x: f32,
     /// Flow rate about Y axis
     ///
     /// Units: `rad/s`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent.
     /// Wire: `float` at payload offset 30.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub flow_rate_y: f32,
 }
 
@@ -33954,6 +40013,11 @@ impl<'a> OpticalFlowMut<'a> {
 ///
 /// MAVLink message `GLOBAL_VISION_POSITION_ESTIMATE`: id 101, CRC_EXTRA 102, payload 117 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GlobalVisionPositionEstimate {
     /// Timestamp (UNIX time or since system boot)
     ///
@@ -33962,26 +40026,32 @@ pub struct GlobalVisionPositionEstimate {
     /// Global X position
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Global Y position
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Global Z position
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Roll angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Row-major representation of pose 6x6 cross-covariance matrix upper right triangle (states:
     /// x_global, y_global, z_global, roll, pitch, yaw; first six entries are the first ROW, next
@@ -33990,6 +40060,7 @@ pub struct GlobalVisionPositionEstimate {
     ///
     /// Invalid / unknown: `[NaN:]`. Extension field: absent from MAVLink 1 frames, reads 0 when
     /// not sent. Wire: `float[21]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 21],
     /// Estimate reset counter. This should be incremented when the estimate resets in any of the
     /// dimensions (position, velocity, attitude, angular speed). This is designed to be used when
@@ -34310,6 +40381,11 @@ impl<'a> GlobalVisionPositionEstimateMut<'a> {
 ///
 /// MAVLink message `VISION_POSITION_ESTIMATE`: id 102, CRC_EXTRA 158, payload 117 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct VisionPositionEstimate {
     /// Timestamp (UNIX time or time since system boot)
     ///
@@ -34318,26 +40394,32 @@ pub struct VisionPositionEstimate {
     /// Local X position
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Local Y position
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Local Z position
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Roll angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Row-major representation of pose 6x6 cross-covariance matrix upper right triangle (states:
     /// x, y, z, roll, pitch, yaw; first six entries are the first ROW, next five entries are the
@@ -34345,6 +40427,7 @@ pub struct VisionPositionEstimate {
     ///
     /// Invalid / unknown: `[NaN:]`. Extension field: absent from MAVLink 1 frames, reads 0 when
     /// not sent. Wire: `float[21]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 21],
     /// Estimate reset counter. This should be incremented when the estimate resets in any of the
     /// dimensions (position, velocity, attitude, angular speed). This is designed to be used when
@@ -34665,6 +40748,11 @@ impl<'a> VisionPositionEstimateMut<'a> {
 ///
 /// MAVLink message `VISION_SPEED_ESTIMATE`: id 103, CRC_EXTRA 208, payload 57 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct VisionSpeedEstimate {
     /// Timestamp (UNIX time or time since system boot)
     ///
@@ -34673,14 +40761,17 @@ pub struct VisionSpeedEstimate {
     /// Global X speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Global Y speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Global Z speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Row-major representation of 3x3 linear velocity covariance matrix (states: vx, vy, vz; 1st
     /// three entries - 1st row, etc.). If unknown, assign NaN value to first element in the
@@ -34688,6 +40779,7 @@ pub struct VisionSpeedEstimate {
     ///
     /// Invalid / unknown: `[NaN:]`. Extension field: absent from MAVLink 1 frames, reads 0 when
     /// not sent. Wire: `float[9]` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 9],
     /// Estimate reset counter. This should be incremented when the estimate resets in any of the
     /// dimensions (position, velocity, attitude, angular speed). This is designed to be used when
@@ -34945,6 +41037,11 @@ impl<'a> VisionSpeedEstimateMut<'a> {
 ///
 /// MAVLink message `VICON_POSITION_ESTIMATE`: id 104, CRC_EXTRA 56, payload 116 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ViconPositionEstimate {
     /// Timestamp (UNIX time or time since system boot)
     ///
@@ -34953,26 +41050,32 @@ pub struct ViconPositionEstimate {
     /// Global X position
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Global Y position
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Global Z position
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Roll angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle
     ///
     /// Units: `rad`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Row-major representation of 6x6 pose cross-covariance matrix upper right triangle (states:
     /// x, y, z, roll, pitch, yaw; first six entries are the first ROW, next five entries are the
@@ -34980,6 +41083,7 @@ pub struct ViconPositionEstimate {
     ///
     /// Invalid / unknown: `[NaN:]`. Extension field: absent from MAVLink 1 frames, reads 0 when
     /// not sent. Wire: `float[21]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 21],
 }
 
@@ -35272,6 +41376,11 @@ impl<'a> ViconPositionEstimateMut<'a> {
 ///
 /// MAVLink message `HIGHRES_IMU`: id 105, CRC_EXTRA 93, payload 63 bytes (62 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HighresImu {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -35282,54 +41391,67 @@ pub struct HighresImu {
     /// X acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xacc: f32,
     /// Y acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yacc: f32,
     /// Z acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zacc: f32,
     /// Angular speed around X axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xgyro: f32,
     /// Angular speed around Y axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ygyro: f32,
     /// Angular speed around Z axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zgyro: f32,
     /// X Magnetic field
     ///
     /// Units: `gauss`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xmag: f32,
     /// Y Magnetic field
     ///
     /// Units: `gauss`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ymag: f32,
     /// Z Magnetic field
     ///
     /// Units: `gauss`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zmag: f32,
     /// Absolute pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub abs_pressure: f32,
     /// Differential pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub diff_pressure: f32,
     /// Altitude calculated from pressure
     ///
     /// Wire: `float` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pressure_alt: f32,
     /// Temperature
     ///
     /// Units: `degC`. Wire: `float` at payload offset 56.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub temperature: f32,
     /// Bitmap for fields that have updated since last message
     ///
@@ -35805,6 +41927,11 @@ impl<'a> HighresImuMut<'a> {
 ///
 /// MAVLink message `OPTICAL_FLOW_RAD`: id 106, CRC_EXTRA 138, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpticalFlowRad {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -35826,23 +41953,28 @@ pub struct OpticalFlowRad {
     /// linear motion along the positive Y axis induces a negative flow.)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_x: f32,
     /// Flow around Y axis (Sensor RH rotation about the Y axis induces a positive flow. Sensor
     /// linear motion along the positive X axis induces a positive flow.)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_y: f32,
     /// RH rotation around X axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_xgyro: f32,
     /// RH rotation around Y axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_ygyro: f32,
     /// RH rotation around Z axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_zgyro: f32,
     /// Temperature
     ///
@@ -35860,6 +41992,7 @@ pub struct OpticalFlowRad {
     /// Negative value: Unknown distance.
     ///
     /// Units: `m`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub distance: f32,
 }
 
@@ -36236,6 +42369,11 @@ impl<'a> OpticalFlowRadMut<'a> {
 ///
 /// MAVLink message `HIL_SENSOR`: id 107, CRC_EXTRA 108, payload 65 bytes (64 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilSensor {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -36246,54 +42384,67 @@ pub struct HilSensor {
     /// X acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xacc: f32,
     /// Y acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yacc: f32,
     /// Z acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zacc: f32,
     /// Angular speed around X axis in body frame
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xgyro: f32,
     /// Angular speed around Y axis in body frame
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ygyro: f32,
     /// Angular speed around Z axis in body frame
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zgyro: f32,
     /// X Magnetic field
     ///
     /// Units: `gauss`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xmag: f32,
     /// Y Magnetic field
     ///
     /// Units: `gauss`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ymag: f32,
     /// Z Magnetic field
     ///
     /// Units: `gauss`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zmag: f32,
     /// Absolute pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub abs_pressure: f32,
     /// Differential pressure (airspeed)
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub diff_pressure: f32,
     /// Altitude calculated from pressure
     ///
     /// Wire: `float` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pressure_alt: f32,
     /// Temperature
     ///
     /// Units: `degC`. Wire: `float` at payload offset 56.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub temperature: f32,
     /// Bitmap for fields that have updated since last message
     ///
@@ -36768,91 +42919,117 @@ impl<'a> HilSensorMut<'a> {
 ///
 /// MAVLink message `SIM_STATE`: id 108, CRC_EXTRA 32, payload 92 bytes (84 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SimState {
     /// True attitude quaternion component 1, w (1 in null-rotation)
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q1: f32,
     /// True attitude quaternion component 2, x (0 in null-rotation)
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q2: f32,
     /// True attitude quaternion component 3, y (0 in null-rotation)
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q3: f32,
     /// True attitude quaternion component 4, z (0 in null-rotation)
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub q4: f32,
     /// Attitude roll expressed as Euler angles, not recommended except for human-readable outputs
     ///
     /// Units: `rad`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Attitude pitch expressed as Euler angles, not recommended except for human-readable
     /// outputs
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Attitude yaw expressed as Euler angles, not recommended except for human-readable outputs
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// X acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xacc: f32,
     /// Y acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yacc: f32,
     /// Z acceleration
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zacc: f32,
     /// Angular speed around X axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub xgyro: f32,
     /// Angular speed around Y axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ygyro: f32,
     /// Angular speed around Z axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub zgyro: f32,
     /// Latitude (lower precision). Both this and the lat_int field should be set.
     ///
     /// Units: `deg`. Wire: `float` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub lat: f32,
     /// Longitude (lower precision). Both this and the lon_int field should be set.
     ///
     /// Units: `deg`. Wire: `float` at payload offset 56.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub lon: f32,
     /// Altitude
     ///
     /// Units: `m`. Wire: `float` at payload offset 60.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// Horizontal position standard deviation
     ///
     /// Wire: `float` at payload offset 64.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub std_dev_horz: f32,
     /// Vertical position standard deviation
     ///
     /// Wire: `float` at payload offset 68.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub std_dev_vert: f32,
     /// True velocity in north direction in earth-fixed NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 72.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vn: f32,
     /// True velocity in east direction in earth-fixed NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 76.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ve: f32,
     /// True velocity in down direction in earth-fixed NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 80.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vd: f32,
     /// Latitude (higher precision). If 0, recipients should use the lat field value (otherwise
     /// this field is preferred).
@@ -37472,6 +43649,11 @@ impl<'a> SimStateMut<'a> {
 ///
 /// MAVLink message `RADIO_STATUS`: id 109, CRC_EXTRA 185, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RadioStatus {
     /// Local (message sender) received signal strength indication in device-dependent
     /// units/scale. Values: \[0-254\], UINT8_MAX: invalid/unknown.
@@ -37775,6 +43957,11 @@ impl<'a> RadioStatusMut<'a> {
 ///
 /// MAVLink message `FILE_TRANSFER_PROTOCOL`: id 110, CRC_EXTRA 84, payload 254 bytes (254 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FileTransferProtocol {
     /// Network ID (0 for broadcast)
     ///
@@ -37793,6 +43980,7 @@ pub struct FileTransferProtocol {
     /// <https://mavlink.io/en/services/ftp.html>.
     ///
     /// Wire: `uint8_t[251]` at payload offset 3.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub payload: [u8; 251],
 }
 
@@ -38024,6 +44212,11 @@ impl<'a> FileTransferProtocolMut<'a> {
 ///
 /// MAVLink message `TIMESYNC`: id 111, CRC_EXTRA 34, payload 16 bytes (16 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Timesync {
     /// Time sync timestamp 1. Syncing: 0. Responding: Timestamp of responding component.
     ///
@@ -38198,6 +44391,11 @@ impl<'a> TimesyncMut<'a> {
 ///
 /// MAVLink message `CAMERA_TRIGGER`: id 112, CRC_EXTRA 174, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraTrigger {
     /// Timestamp for image frame (UNIX Epoch time or time since system boot). The receiving end
     /// can infer timestamp format (since 1.1.1970 or since system boot) by checking for the
@@ -38376,6 +44574,11 @@ impl<'a> CameraTriggerMut<'a> {
 ///
 /// MAVLink message `HIL_GPS`: id 113, CRC_EXTRA 124, payload 39 bytes (36 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilGps {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -38883,6 +45086,11 @@ impl<'a> HilGpsMut<'a> {
 ///
 /// MAVLink message `HIL_OPTICAL_FLOW`: id 114, CRC_EXTRA 237, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilOpticalFlow {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -38903,23 +45111,28 @@ pub struct HilOpticalFlow {
     /// flow. Sensor linear motion along the positive Y axis induces a negative flow.)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_x: f32,
     /// Flow in radians around Y axis (Sensor RH rotation about the Y axis induces a positive
     /// flow. Sensor linear motion along the positive X axis induces a positive flow.)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_y: f32,
     /// RH rotation around X axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_xgyro: f32,
     /// RH rotation around Y axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_ygyro: f32,
     /// RH rotation around Z axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub integrated_zgyro: f32,
     /// Temperature
     ///
@@ -38937,6 +45150,7 @@ pub struct HilOpticalFlow {
     /// Negative value: Unknown distance.
     ///
     /// Units: `m`. Invalid / unknown: `-1.0`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub distance: f32,
 }
 
@@ -39315,6 +45529,11 @@ impl<'a> HilOpticalFlowMut<'a> {
 ///
 /// MAVLink message `HIL_STATE_QUATERNION`: id 115, CRC_EXTRA 4, payload 64 bytes (64 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HilStateQuaternion {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -39326,18 +45545,22 @@ pub struct HilStateQuaternion {
     /// being the null-rotation)
     ///
     /// Wire: `float[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub attitude_quaternion: [f32; 4],
     /// Body frame roll / phi angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rollspeed: f32,
     /// Body frame pitch / theta angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitchspeed: f32,
     /// Body frame yaw / psi angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yawspeed: f32,
     /// Latitude
     ///
@@ -39843,6 +46066,11 @@ impl<'a> HilStateQuaternionMut<'a> {
 ///
 /// MAVLink message `SCALED_IMU2`: id 116, CRC_EXTRA 76, payload 24 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ScaledImu2 {
     /// Timestamp (time since system boot).
     ///
@@ -40247,6 +46475,11 @@ impl<'a> ScaledImu2Mut<'a> {
 ///
 /// MAVLink message `LOG_REQUEST_LIST`: id 117, CRC_EXTRA 128, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LogRequestList {
     /// System ID
     ///
@@ -40471,6 +46704,11 @@ impl<'a> LogRequestListMut<'a> {
 ///
 /// MAVLink message `LOG_ENTRY`: id 118, CRC_EXTRA 56, payload 14 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LogEntry {
     /// Log id
     ///
@@ -40720,6 +46958,11 @@ impl<'a> LogEntryMut<'a> {
 ///
 /// MAVLink message `LOG_REQUEST_DATA`: id 119, CRC_EXTRA 116, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LogRequestData {
     /// System ID
     ///
@@ -40969,6 +47212,11 @@ impl<'a> LogRequestDataMut<'a> {
 ///
 /// MAVLink message `LOG_DATA`: id 120, CRC_EXTRA 134, payload 97 bytes (97 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LogData {
     /// Log id (from LOG_ENTRY reply)
     ///
@@ -40985,6 +47233,7 @@ pub struct LogData {
     /// log data
     ///
     /// Wire: `uint8_t[90]` at payload offset 7.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 90],
 }
 
@@ -41204,6 +47453,11 @@ impl<'a> LogDataMut<'a> {
 ///
 /// MAVLink message `LOG_ERASE`: id 121, CRC_EXTRA 237, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LogErase {
     /// System ID
     ///
@@ -41378,6 +47632,11 @@ impl<'a> LogEraseMut<'a> {
 ///
 /// MAVLink message `LOG_REQUEST_END`: id 122, CRC_EXTRA 203, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LogRequestEnd {
     /// System ID
     ///
@@ -41552,6 +47811,11 @@ impl<'a> LogRequestEndMut<'a> {
 ///
 /// MAVLink message `GPS_INJECT_DATA`: id 123, CRC_EXTRA 250, payload 113 bytes (113 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GpsInjectData {
     /// System ID
     ///
@@ -41568,6 +47832,7 @@ pub struct GpsInjectData {
     /// Raw data (110 is enough for 12 satellites of RTCMv2)
     ///
     /// Wire: `uint8_t[110]` at payload offset 3.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 110],
 }
 
@@ -41787,6 +48052,11 @@ impl<'a> GpsInjectDataMut<'a> {
 ///
 /// MAVLink message `GPS2_RAW`: id 124, CRC_EXTRA 87, payload 57 bytes (35 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Gps2Raw {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -42372,14 +48642,21 @@ impl<'a> Gps2RawMut<'a> {
 ///
 /// MAVLink message `POWER_STATUS`: id 125, CRC_EXTRA 203, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct PowerStatus {
     /// 5V rail voltage.
     ///
     /// XML name: `Vcc`. Units: `mV`. Wire: `uint16_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "Vcc"))]
     pub vcc: u16,
     /// Servo rail voltage.
     ///
     /// XML name: `Vservo`. Units: `mV`. Wire: `uint16_t` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(rename = "Vservo"))]
     pub vservo: u16,
     /// Bitmap of power supply status flags.
     ///
@@ -42574,6 +48851,11 @@ impl<'a> PowerStatusMut<'a> {
 ///
 /// MAVLink message `SERIAL_CONTROL`: id 126, CRC_EXTRA 220, payload 79 bytes (79 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SerialControl {
     /// Serial control device type.
     ///
@@ -42600,6 +48882,7 @@ pub struct SerialControl {
     /// serial data
     ///
     /// Wire: `uint8_t[70]` at payload offset 9.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 70],
 }
 
@@ -42867,6 +49150,11 @@ impl<'a> SerialControlMut<'a> {
 ///
 /// MAVLink message `GPS_RTK`: id 127, CRC_EXTRA 25, payload 35 bytes (35 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GpsRtk {
     /// Time since boot of last baseline message received.
     ///
@@ -43321,6 +49609,11 @@ impl<'a> GpsRtkMut<'a> {
 ///
 /// MAVLink message `GPS2_RTK`: id 128, CRC_EXTRA 226, payload 35 bytes (35 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Gps2Rtk {
     /// Time since boot of last baseline message received.
     ///
@@ -43776,6 +50069,11 @@ impl<'a> Gps2RtkMut<'a> {
 ///
 /// MAVLink message `SCALED_IMU3`: id 129, CRC_EXTRA 46, payload 24 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ScaledImu3 {
     /// Timestamp (time since system boot).
     ///
@@ -44178,6 +50476,11 @@ impl<'a> ScaledImu3Mut<'a> {
 ///
 /// MAVLink message `DATA_TRANSMISSION_HANDSHAKE`: id 130, CRC_EXTRA 29, payload 13 bytes (13 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DataTransmissionHandshake {
     /// Type of requested/acknowledged data.
     ///
@@ -44482,6 +50785,11 @@ impl<'a> DataTransmissionHandshakeMut<'a> {
 ///
 /// MAVLink message `ENCAPSULATED_DATA`: id 131, CRC_EXTRA 223, payload 255 bytes (255 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EncapsulatedData {
     /// sequence number (starting with 0 on every transmission)
     ///
@@ -44490,6 +50798,7 @@ pub struct EncapsulatedData {
     /// image data bytes
     ///
     /// Wire: `uint8_t[253]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 253],
 }
 
@@ -44662,6 +50971,11 @@ impl<'a> EncapsulatedDataMut<'a> {
 ///
 /// MAVLink message `DISTANCE_SENSOR`: id 132, CRC_EXTRA 85, payload 39 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DistanceSensor {
     /// Timestamp (time since system boot).
     ///
@@ -44705,12 +51019,14 @@ pub struct DistanceSensor {
     ///
     /// Units: `rad`. Invalid / unknown: `0`. Extension field: absent from MAVLink 1 frames, reads
     /// 0 when not sent. Wire: `float` at payload offset 14.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub horizontal_fov: f32,
     /// Vertical Field of View (angle) where the distance measurement is valid and the field of
     /// view is known. Otherwise this is set to 0.
     ///
     /// Units: `rad`. Invalid / unknown: `0`. Extension field: absent from MAVLink 1 frames, reads
     /// 0 when not sent. Wire: `float` at payload offset 18.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vertical_fov: f32,
     /// Quaternion of the sensor orientation in vehicle body frame (w, x, y, z order,
     /// zero-rotation is 1, 0, 0, 0). Zero-rotation is along the vehicle body x-axis. This field
@@ -44719,6 +51035,7 @@ pub struct DistanceSensor {
     ///
     /// Invalid / unknown: `[0]`. Extension field: absent from MAVLink 1 frames, reads 0 when
     /// not sent. Wire: `float[4]` at payload offset 22.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub quaternion: [f32; 4],
     /// Signal quality of the sensor. Specific to each sensor type, representing the relation of
     /// the signal strength with the target reflectivity, distance, size or aspect, but normalised
@@ -45106,6 +51423,11 @@ impl<'a> DistanceSensorMut<'a> {
 ///
 /// MAVLink message `TERRAIN_REQUEST`: id 133, CRC_EXTRA 6, payload 18 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct TerrainRequest {
     /// Latitude of SW corner of first grid
     ///
@@ -45332,6 +51654,11 @@ impl<'a> TerrainRequestMut<'a> {
 ///
 /// MAVLink message `TERRAIN_DATA`: id 134, CRC_EXTRA 229, payload 43 bytes (43 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct TerrainData {
     /// Latitude of SW corner of first grid
     ///
@@ -45352,6 +51679,7 @@ pub struct TerrainData {
     /// Terrain data MSL
     ///
     /// Units: `m`. Wire: `int16_t[16]` at payload offset 10.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [i16; 16],
 }
 
@@ -45583,6 +51911,11 @@ impl<'a> TerrainDataMut<'a> {
 ///
 /// MAVLink message `TERRAIN_CHECK`: id 135, CRC_EXTRA 203, payload 8 bytes (8 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct TerrainCheck {
     /// Latitude
     ///
@@ -45759,6 +52092,11 @@ impl<'a> TerrainCheckMut<'a> {
 ///
 /// MAVLink message `TERRAIN_REPORT`: id 136, CRC_EXTRA 1, payload 22 bytes (22 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct TerrainReport {
     /// Latitude
     ///
@@ -45775,10 +52113,12 @@ pub struct TerrainReport {
     /// Terrain height MSL
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub terrain_height: f32,
     /// Current vehicle height above lat/lon terrain height
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub current_height: f32,
     /// Number of 4x4 terrain blocks waiting to be received or read from disk
     ///
@@ -46058,6 +52398,11 @@ impl<'a> TerrainReportMut<'a> {
 ///
 /// MAVLink message `SCALED_PRESSURE2`: id 137, CRC_EXTRA 195, payload 16 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ScaledPressure2 {
     /// Timestamp (time since system boot).
     ///
@@ -46066,10 +52411,12 @@ pub struct ScaledPressure2 {
     /// Absolute pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub press_abs: f32,
     /// Differential pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub press_diff: f32,
     /// Absolute pressure temperature
     ///
@@ -46309,6 +52656,11 @@ impl<'a> ScaledPressure2Mut<'a> {
 ///
 /// MAVLink message `ATT_POS_MOCAP`: id 138, CRC_EXTRA 109, payload 120 bytes (36 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AttPosMocap {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -46319,18 +52671,22 @@ pub struct AttPosMocap {
     /// Attitude quaternion (w, x, y, z order, zero-rotation is 1, 0, 0, 0)
     ///
     /// Wire: `float[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// X position (NED)
     ///
     /// Units: `m`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y position (NED)
     ///
     /// Units: `m`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z position (NED)
     ///
     /// Units: `m`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Row-major representation of a pose 6x6 cross-covariance matrix upper right triangle
     /// (states: x, y, z, roll, pitch, yaw; first six entries are the first ROW, next five entries
@@ -46338,6 +52694,7 @@ pub struct AttPosMocap {
     ///
     /// Invalid / unknown: `[NaN:]`. Extension field: absent from MAVLink 1 frames, reads 0 when
     /// not sent. Wire: `float[21]` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub covariance: [f32; 21],
 }
 
@@ -46588,6 +52945,11 @@ impl<'a> AttPosMocapMut<'a> {
 ///
 /// MAVLink message `SET_ACTUATOR_CONTROL_TARGET`: id 139, CRC_EXTRA 168, payload 43 bytes (43 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetActuatorControlTarget {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -46614,6 +52976,7 @@ pub struct SetActuatorControlTarget {
     /// airbrakes, landing gear. Load a pass-through mixer to repurpose them as generic outputs.
     ///
     /// Wire: `float[8]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub controls: [f32; 8],
 }
 
@@ -46843,6 +53206,11 @@ impl<'a> SetActuatorControlTargetMut<'a> {
 ///
 /// MAVLink message `ACTUATOR_CONTROL_TARGET`: id 140, CRC_EXTRA 181, payload 41 bytes (41 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ActuatorControlTarget {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -46861,6 +53229,7 @@ pub struct ActuatorControlTarget {
     /// airbrakes, landing gear. Load a pass-through mixer to repurpose them as generic outputs.
     ///
     /// Wire: `float[8]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub controls: [f32; 8],
 }
 
@@ -47048,6 +53417,11 @@ impl<'a> ActuatorControlTargetMut<'a> {
 ///
 /// MAVLink message `ALTITUDE`: id 141, CRC_EXTRA 47, payload 32 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Altitude {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -47062,6 +53436,7 @@ pub struct Altitude {
     /// between flights.
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_monotonic: f32,
     /// This altitude measure is strictly above mean sea level and might be non-monotonic (it
     /// might reset on events like GPS lock or when a new QNH value is set). It should be the
@@ -47070,21 +53445,25 @@ pub struct Altitude {
     /// altitude.
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_amsl: f32,
     /// This is the local altitude in the local coordinate frame. It is not the altitude above
     /// home, but in reference to the coordinate origin (0, 0, 0). It is up-positive.
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_local: f32,
     /// This is the altitude above the home position. It resets on each change of the current home
     /// position.
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_relative: f32,
     /// This is the altitude above terrain. It might be fed by a terrain database or an altimeter.
     /// Values smaller than -1000 should be interpreted as unknown.
     ///
     /// Units: `m`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_terrain: f32,
     /// This is not the altitude, but the clear space below the system according to the fused
     /// clearance estimate. It generally should max out at the maximum range of e.g. the laser
@@ -47092,6 +53471,7 @@ pub struct Altitude {
     /// available.
     ///
     /// Units: `m`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub bottom_clearance: f32,
 }
 
@@ -47363,6 +53743,11 @@ impl<'a> AltitudeMut<'a> {
 ///
 /// MAVLink message `RESOURCE_REQUEST`: id 142, CRC_EXTRA 72, payload 243 bytes (243 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ResourceRequest {
     /// Request ID. This ID should be reused when sending back URI contents
     ///
@@ -47376,6 +53761,7 @@ pub struct ResourceRequest {
     /// name (depends on the URI type enum)
     ///
     /// Wire: `uint8_t[120]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub uri: [u8; 120],
     /// The way the autopilot wants to receive the URI. 0 = MAVLink FTP. 1 = binary stream.
     ///
@@ -47385,6 +53771,7 @@ pub struct ResourceRequest {
     /// transfer_type has a storage associated (e.g. MAVLink FTP).
     ///
     /// Wire: `uint8_t[120]` at payload offset 123.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub storage: [u8; 120],
 }
 
@@ -47626,6 +54013,11 @@ impl<'a> ResourceRequestMut<'a> {
 ///
 /// MAVLink message `SCALED_PRESSURE3`: id 143, CRC_EXTRA 131, payload 16 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ScaledPressure3 {
     /// Timestamp (time since system boot).
     ///
@@ -47634,10 +54026,12 @@ pub struct ScaledPressure3 {
     /// Absolute pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub press_abs: f32,
     /// Differential pressure
     ///
     /// Units: `hPa`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub press_diff: f32,
     /// Absolute pressure temperature
     ///
@@ -47877,6 +54271,11 @@ impl<'a> ScaledPressure3Mut<'a> {
 ///
 /// MAVLink message `FOLLOW_TARGET`: id 144, CRC_EXTRA 127, payload 93 bytes (93 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FollowTarget {
     /// Timestamp (time since system boot).
     ///
@@ -47898,26 +54297,32 @@ pub struct FollowTarget {
     /// Altitude (MSL)
     ///
     /// Units: `m`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// target velocity (0,0,0) for unknown
     ///
     /// Units: `m/s`. Wire: `float[3]` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vel: [f32; 3],
     /// linear target acceleration (0,0,0) for unknown
     ///
     /// Units: `m/s/s`. Wire: `float[3]` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub acc: [f32; 3],
     /// (1 0 0 0 for unknown)
     ///
     /// Wire: `float[4]` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub attitude_q: [f32; 4],
     /// (0 0 0 for unknown)
     ///
     /// Wire: `float[3]` at payload offset 68.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rates: [f32; 3],
     /// eph epv
     ///
     /// Wire: `float[3]` at payload offset 80.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub position_cov: [f32; 3],
     /// button states or switches of a tracker device
     ///
@@ -48277,6 +54682,11 @@ impl<'a> FollowTargetMut<'a> {
 ///
 /// MAVLink message `CONTROL_SYSTEM_STATE`: id 146, CRC_EXTRA 103, payload 100 bytes (100 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ControlSystemState {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -48287,66 +54697,82 @@ pub struct ControlSystemState {
     /// X acceleration in body frame
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x_acc: f32,
     /// Y acceleration in body frame
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y_acc: f32,
     /// Z acceleration in body frame
     ///
     /// Units: `m/s/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z_acc: f32,
     /// X velocity in body frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x_vel: f32,
     /// Y velocity in body frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y_vel: f32,
     /// Z velocity in body frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z_vel: f32,
     /// X position in local frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x_pos: f32,
     /// Y position in local frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y_pos: f32,
     /// Z position in local frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z_pos: f32,
     /// Airspeed, set to -1 if unknown
     ///
     /// Units: `m/s`. Invalid / unknown: `-1`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub airspeed: f32,
     /// Variance of body velocity estimate
     ///
     /// Wire: `float[3]` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vel_variance: [f32; 3],
     /// Variance in local position
     ///
     /// Wire: `float[3]` at payload offset 60.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_variance: [f32; 3],
     /// The attitude, represented as Quaternion
     ///
     /// Wire: `float[4]` at payload offset 72.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Angular rate in roll axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 88.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll_rate: f32,
     /// Angular rate in pitch axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 92.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_rate: f32,
     /// Angular rate in yaw axis
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 96.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rate: f32,
 }
 
@@ -48828,6 +55254,11 @@ impl<'a> ControlSystemStateMut<'a> {
 ///
 /// MAVLink message `BATTERY_STATUS`: id 147, CRC_EXTRA 154, payload 54 bytes (36 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct BatteryStatus {
     /// Battery ID
     ///
@@ -48857,6 +55288,7 @@ pub struct BatteryStatus {
     ///
     /// Units: `mV`. Invalid / unknown: `[UINT16_MAX]`. Wire: `uint16_t[10]` at payload offset
     /// \10.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltages: [u16; 10],
     /// Battery current, -1: autopilot does not measure the current. Value may overflow/rollover
     /// for very high currents (&gt; 327.67A)
@@ -48893,6 +55325,7 @@ pub struct BatteryStatus {
     ///
     /// Units: `mV`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `uint16_t[4]` at payload offset 41.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub voltages_ext: [u16; 4],
     /// Battery mode. Default (0) is that battery mode reporting is not supported or battery is in
     /// normal-use mode.
@@ -49333,6 +55766,11 @@ impl<'a> BatteryStatusMut<'a> {
 ///
 /// MAVLink message `LANDING_TARGET`: id 149, CRC_EXTRA 200, payload 60 bytes (30 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LandingTarget {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -49351,42 +55789,51 @@ pub struct LandingTarget {
     /// X-axis angular offset of the target from the center of the image
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angle_x: f32,
     /// Y-axis angular offset of the target from the center of the image
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angle_y: f32,
     /// Distance to the target from the vehicle
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub distance: f32,
     /// Size of target along x-axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub size_x: f32,
     /// Size of target along y-axis
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub size_y: f32,
     /// X Position of the landing target in MAV_FRAME
     ///
     /// Units: `m`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `float` at payload offset 30.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y Position of the landing target in MAV_FRAME
     ///
     /// Units: `m`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `float` at payload offset 34.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z Position of the landing target in MAV_FRAME
     ///
     /// Units: `m`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `float` at payload offset 38.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Quaternion of landing target orientation (w, x, y, z order, zero-rotation is 1, 0, 0, 0)
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `float[4]`
     /// at payload offset 42.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Type of landing target
     ///
@@ -49820,6 +56267,11 @@ impl<'a> LandingTargetMut<'a> {
 ///
 /// MAVLink message `FENCE_STATUS`: id 162, CRC_EXTRA 189, payload 9 bytes (8 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FenceStatus {
     /// Breach status (0 if currently inside fence, 1 if outside).
     ///
@@ -50072,6 +56524,11 @@ impl<'a> FenceStatusMut<'a> {
 ///
 /// MAVLink message `MAG_CAL_REPORT`: id 192, CRC_EXTRA 36, payload 54 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MagCalReport {
     /// Compass being calibrated.
     ///
@@ -50093,47 +56550,58 @@ pub struct MagCalReport {
     /// RMS milligauss residuals.
     ///
     /// Units: `mgauss`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub fitness: f32,
     /// X offset.
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ofs_x: f32,
     /// Y offset.
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ofs_y: f32,
     /// Z offset.
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ofs_z: f32,
     /// X diagonal (matrix 11).
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub diag_x: f32,
     /// Y diagonal (matrix 22).
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub diag_y: f32,
     /// Z diagonal (matrix 33).
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub diag_z: f32,
     /// X off-diagonal (matrix 12 and 21).
     ///
     /// Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub offdiag_x: f32,
     /// Y off-diagonal (matrix 13 and 31).
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub offdiag_y: f32,
     /// Z off-diagonal (matrix 32 and 23).
     ///
     /// Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub offdiag_z: f32,
     /// Confidence in orientation (higher is better).
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `float` at
     /// payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub orientation_confidence: f32,
     /// orientation before calibration.
     ///
@@ -50149,6 +56617,7 @@ pub struct MagCalReport {
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `float` at
     /// payload offset 50.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub scale_factor: f32,
 }
 
@@ -50655,6 +57124,11 @@ impl<'a> MagCalReportMut<'a> {
 ///
 /// MAVLink message `EFI_STATUS`: id 225, CRC_EXTRA 208, payload 73 bytes (65 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EfiStatus {
     /// EFI health status
     ///
@@ -50663,78 +57137,96 @@ pub struct EfiStatus {
     /// ECU index
     ///
     /// Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ecu_index: f32,
     /// RPM
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rpm: f32,
     /// Fuel consumed
     ///
     /// Units: `cm^3`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub fuel_consumed: f32,
     /// Fuel flow rate
     ///
     /// Units: `cm^3/min`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub fuel_flow: f32,
     /// Engine load
     ///
     /// Units: `%`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub engine_load: f32,
     /// Throttle position
     ///
     /// Units: `%`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub throttle_position: f32,
     /// Spark dwell time
     ///
     /// Units: `ms`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub spark_dwell_time: f32,
     /// Barometric pressure
     ///
     /// Units: `kPa`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub barometric_pressure: f32,
     /// Intake manifold pressure(
     ///
     /// Units: `kPa`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub intake_manifold_pressure: f32,
     /// Intake manifold temperature
     ///
     /// Units: `degC`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub intake_manifold_temperature: f32,
     /// Cylinder head temperature
     ///
     /// Units: `degC`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub cylinder_head_temperature: f32,
     /// Ignition timing (Crank angle degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ignition_timing: f32,
     /// Injection time
     ///
     /// Units: `ms`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub injection_time: f32,
     /// Exhaust gas temperature
     ///
     /// Units: `degC`. Wire: `float` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub exhaust_gas_temperature: f32,
     /// Output throttle
     ///
     /// Units: `%`. Wire: `float` at payload offset 56.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub throttle_out: f32,
     /// Pressure/temperature compensation
     ///
     /// Wire: `float` at payload offset 60.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pt_compensation: f32,
     /// Supply voltage to EFI sparking system. Zero in this value means "unknown", so if the
     /// supply voltage really is zero volts use 0.0001 instead.
     ///
     /// Units: `V`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `float` at payload offset 65.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ignition_voltage: f32,
     /// Fuel pressure. Zero in this value means "unknown", so if the fuel pressure really is zero
     /// kPa use 0.0001 instead.
     ///
     /// Units: `kPa`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `float` at payload offset 69.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub fuel_pressure: f32,
 }
 
@@ -51267,6 +57759,11 @@ impl<'a> EfiStatusMut<'a> {
 ///
 /// MAVLink message `ESTIMATOR_STATUS`: id 230, CRC_EXTRA 163, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct EstimatorStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -51282,34 +57779,42 @@ pub struct EstimatorStatus {
     /// Velocity innovation test ratio
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vel_ratio: f32,
     /// Horizontal position innovation test ratio
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pos_horiz_ratio: f32,
     /// Vertical position innovation test ratio
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pos_vert_ratio: f32,
     /// Magnetometer innovation test ratio
     ///
     /// Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub mag_ratio: f32,
     /// Height above terrain innovation test ratio
     ///
     /// Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub hagl_ratio: f32,
     /// True airspeed innovation test ratio
     ///
     /// Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub tas_ratio: f32,
     /// Horizontal position 1-STD accuracy relative to the EKF local origin
     ///
     /// Units: `m`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pos_horiz_accuracy: f32,
     /// Vertical position 1-STD accuracy relative to the EKF local origin
     ///
     /// Units: `m`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pos_vert_accuracy: f32,
 }
 
@@ -51650,6 +58155,11 @@ impl<'a> EstimatorStatusMut<'a> {
 ///
 /// MAVLink message `WIND_COV`: id 231, CRC_EXTRA 105, payload 40 bytes (40 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct WindCov {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -51660,36 +58170,44 @@ pub struct WindCov {
     /// Wind in North (NED) direction (NAN if unknown)
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub wind_x: f32,
     /// Wind in East (NED) direction (NAN if unknown)
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub wind_y: f32,
     /// Wind in down (NED) direction (NAN if unknown)
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub wind_z: f32,
     /// Variability of wind in XY, 1-STD estimated from a 1 Hz lowpassed wind estimate (NAN if
     /// unknown)
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub var_horiz: f32,
     /// Variability of wind in Z, 1-STD estimated from a 1 Hz lowpassed wind estimate (NAN if
     /// unknown)
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub var_vert: f32,
     /// Altitude (MSL) that this measurement was taken at (NAN if unknown)
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub wind_alt: f32,
     /// Horizontal speed 1-STD accuracy (0 if unknown)
     ///
     /// Units: `m/s`. Invalid / unknown: `0`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub horiz_accuracy: f32,
     /// Vertical speed 1-STD accuracy (0 if unknown)
     ///
     /// Units: `m/s`. Invalid / unknown: `0`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vert_accuracy: f32,
 }
 
@@ -52004,6 +58522,11 @@ impl<'a> WindCovMut<'a> {
 ///
 /// MAVLink message `GPS_INPUT`: id 232, CRC_EXTRA 151, payload 65 bytes (63 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GpsInput {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -52045,38 +58568,47 @@ pub struct GpsInput {
     /// Altitude (MSL). Positive for up.
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// GPS HDOP horizontal dilution of position (unitless). If unknown, set to: UINT16_MAX
     ///
     /// Invalid / unknown: `UINT16_MAX`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub hdop: f32,
     /// GPS VDOP vertical dilution of position (unitless). If unknown, set to: UINT16_MAX
     ///
     /// Invalid / unknown: `UINT16_MAX`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vdop: f32,
     /// GPS velocity in north direction in earth-fixed NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vn: f32,
     /// GPS velocity in east direction in earth-fixed NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub ve: f32,
     /// GPS velocity in down direction in earth-fixed NED frame
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vd: f32,
     /// GPS speed accuracy
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub speed_accuracy: f32,
     /// GPS horizontal accuracy
     ///
     /// Units: `m`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub horiz_accuracy: f32,
     /// GPS vertical accuracy
     ///
     /// Units: `m`. Wire: `float` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vert_accuracy: f32,
     /// Number of satellites visible.
     ///
@@ -52613,6 +59145,11 @@ impl<'a> GpsInputMut<'a> {
 ///
 /// MAVLink message `GPS_RTCM_DATA`: id 233, CRC_EXTRA 35, payload 182 bytes (182 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GpsRtcmData {
     /// LSB: 1 means message is fragmented, next 2 bits are the fragment ID, the remaining 5 bits
     /// are used for the sequence ID. Messages are only to be flushed to the GPS when the entire
@@ -52632,6 +59169,7 @@ pub struct GpsRtcmData {
     /// RTCM message (may be fragmented)
     ///
     /// Wire: `uint8_t[180]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 180],
 }
 
@@ -52829,6 +59367,11 @@ impl<'a> GpsRtcmDataMut<'a> {
 ///
 /// MAVLink message `HIGH_LATENCY`: id 234, CRC_EXTRA 150, payload 40 bytes (40 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HighLatency {
     /// Bitmap of enabled system modes.
     ///
@@ -53559,6 +60102,11 @@ impl<'a> HighLatencyMut<'a> {
 ///
 /// MAVLink message `HIGH_LATENCY2`: id 235, CRC_EXTRA 179, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HighLatency2 {
     /// Timestamp (milliseconds since boot or Unix epoch)
     ///
@@ -54371,6 +60919,11 @@ impl<'a> HighLatency2Mut<'a> {
 ///
 /// MAVLink message `VIBRATION`: id 241, CRC_EXTRA 90, payload 32 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Vibration {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -54381,14 +60934,17 @@ pub struct Vibration {
     /// Vibration levels on X-axis
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vibration_x: f32,
     /// Vibration levels on Y-axis
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vibration_y: f32,
     /// Vibration levels on Z-axis
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vibration_z: f32,
     /// first accelerometer clipping count
     ///
@@ -54679,6 +61235,11 @@ impl<'a> VibrationMut<'a> {
 ///
 /// MAVLink message `HOME_POSITION`: id 242, CRC_EXTRA 104, payload 60 bytes (52 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HomePosition {
     /// Latitude (WGS84)
     ///
@@ -54695,19 +61256,23 @@ pub struct HomePosition {
     /// Local X position of this position in the local coordinate frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Local Y position of this position in the local coordinate frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Local Z position of this position in the local coordinate frame
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// World to surface normal and heading transformation of the takeoff position. Used to
     /// indicate the heading and slope of the ground
     ///
     /// Wire: `float[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Local X position of the end of the approach vector. Multicopters should set this position
     /// based on their takeoff path. Grass-landing fixed wing aircraft should set it the same way
@@ -54716,6 +61281,7 @@ pub struct HomePosition {
     /// zone.
     ///
     /// Units: `m`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub approach_x: f32,
     /// Local Y position of the end of the approach vector. Multicopters should set this position
     /// based on their takeoff path. Grass-landing fixed wing aircraft should set it the same way
@@ -54724,6 +61290,7 @@ pub struct HomePosition {
     /// zone.
     ///
     /// Units: `m`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub approach_y: f32,
     /// Local Z position of the end of the approach vector. Multicopters should set this position
     /// based on their takeoff path. Grass-landing fixed wing aircraft should set it the same way
@@ -54732,6 +61299,7 @@ pub struct HomePosition {
     /// zone.
     ///
     /// Units: `m`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub approach_z: f32,
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -55102,6 +61670,11 @@ impl<'a> HomePositionMut<'a> {
 ///
 /// MAVLink message `SET_HOME_POSITION`: id 243, CRC_EXTRA 85, payload 61 bytes (53 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetHomePosition {
     /// System ID.
     ///
@@ -55122,19 +61695,23 @@ pub struct SetHomePosition {
     /// Local X position of this position in the local coordinate frame (NED)
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Local Y position of this position in the local coordinate frame (NED)
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Local Z position of this position in the local coordinate frame (NED: positive "down")
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// World to surface normal and heading transformation of the takeoff position. Used to
     /// indicate the heading and slope of the ground
     ///
     /// Wire: `float[4]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Local X position of the end of the approach vector. Multicopters should set this position
     /// based on their takeoff path. Grass-landing fixed wing aircraft should set it the same way
@@ -55143,6 +61720,7 @@ pub struct SetHomePosition {
     /// zone.
     ///
     /// Units: `m`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub approach_x: f32,
     /// Local Y position of the end of the approach vector. Multicopters should set this position
     /// based on their takeoff path. Grass-landing fixed wing aircraft should set it the same way
@@ -55151,6 +61729,7 @@ pub struct SetHomePosition {
     /// zone.
     ///
     /// Units: `m`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub approach_y: f32,
     /// Local Z position of the end of the approach vector. Multicopters should set this position
     /// based on their takeoff path. Grass-landing fixed wing aircraft should set it the same way
@@ -55159,6 +61738,7 @@ pub struct SetHomePosition {
     /// zone.
     ///
     /// Units: `m`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub approach_z: f32,
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -55545,6 +62125,11 @@ impl<'a> SetHomePositionMut<'a> {
 ///
 /// MAVLink message `MESSAGE_INTERVAL`: id 244, CRC_EXTRA 95, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MessageInterval {
     /// The ID of the requested MAVLink message. v1.0 is limited to 254 messages.
     ///
@@ -55720,6 +62305,11 @@ impl<'a> MessageIntervalMut<'a> {
 ///
 /// MAVLink message `EXTENDED_SYS_STATE`: id 245, CRC_EXTRA 130, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ExtendedSysState {
     /// The VTOL state if applicable. Is set to MAV_VTOL_STATE_UNDEFINED if UAV is not in VTOL
     /// configuration.
@@ -55895,10 +62485,16 @@ impl<'a> ExtendedSysStateMut<'a> {
 ///
 /// MAVLink message `ADSB_VEHICLE`: id 246, CRC_EXTRA 184, payload 38 bytes (38 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AdsbVehicle {
     /// ICAO address
     ///
     /// XML name: `ICAO_address`. Wire: `uint32_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "ICAO_address"))]
     pub icao_address: u32,
     /// Latitude
     ///
@@ -55932,6 +62528,7 @@ pub struct AdsbVehicle {
     /// The callsign, 8+null
     ///
     /// Wire: `char[9]` at payload offset 27.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub callsign: [u8; 9],
     /// ADSB emitter type.
     ///
@@ -56351,6 +62948,11 @@ impl<'a> AdsbVehicleMut<'a> {
 ///
 /// MAVLink message `COLLISION`: id 247, CRC_EXTRA 81, payload 19 bytes (19 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Collision {
     /// Collision data source
     ///
@@ -56374,14 +62976,17 @@ pub struct Collision {
     /// Estimated time until collision occurs
     ///
     /// Units: `s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub time_to_minimum_delta: f32,
     /// Closest vertical distance between vehicle and object
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_minimum_delta: f32,
     /// Closest horizontal distance between vehicle and object
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub horizontal_minimum_delta: f32,
 }
 
@@ -56657,6 +63262,11 @@ impl<'a> CollisionMut<'a> {
 ///
 /// MAVLink message `V2_EXTENSION`: id 248, CRC_EXTRA 8, payload 254 bytes (254 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct V2Extension {
     /// Network ID (0 for broadcast)
     ///
@@ -56689,6 +63299,7 @@ pub struct V2Extension {
     /// not always be documented as part of the MAVLink specification.
     ///
     /// Wire: `uint8_t[249]` at payload offset 5.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub payload: [u8; 249],
 }
 
@@ -56931,6 +63542,11 @@ impl<'a> V2ExtensionMut<'a> {
 ///
 /// MAVLink message `MEMORY_VECT`: id 249, CRC_EXTRA 204, payload 36 bytes (36 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MemoryVect {
     /// Starting address of the debug variables
     ///
@@ -56948,6 +63564,7 @@ pub struct MemoryVect {
     /// Memory contents at specified address
     ///
     /// Wire: `int8_t[32]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub value: [i8; 32],
 }
 
@@ -57156,11 +63773,17 @@ impl<'a> MemoryVectMut<'a> {
 ///
 /// MAVLink message `DEBUG_VECT`: id 250, CRC_EXTRA 49, payload 30 bytes (30 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DebugVect {
     /// Name
     ///
     /// Instance field: tells apart several sources of this message. Wire: `char[10]` at payload
     /// offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 10],
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -57171,14 +63794,17 @@ pub struct DebugVect {
     /// x
     ///
     /// Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// y
     ///
     /// Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// z
     ///
     /// Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
 }
 
@@ -57409,6 +64035,11 @@ impl<'a> DebugVectMut<'a> {
 ///
 /// MAVLink message `NAMED_VALUE_FLOAT`: id 251, CRC_EXTRA 170, payload 18 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct NamedValueFloat {
     /// Timestamp (time since system boot).
     ///
@@ -57418,10 +64049,12 @@ pub struct NamedValueFloat {
     ///
     /// Instance field: tells apart several sources of this message. Wire: `char[10]` at payload
     /// offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 10],
     /// Floating point value
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub value: f32,
 }
 
@@ -57611,6 +64244,11 @@ impl<'a> NamedValueFloatMut<'a> {
 ///
 /// MAVLink message `NAMED_VALUE_INT`: id 252, CRC_EXTRA 44, payload 18 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct NamedValueInt {
     /// Timestamp (time since system boot).
     ///
@@ -57620,6 +64258,7 @@ pub struct NamedValueInt {
     ///
     /// Instance field: tells apart several sources of this message. Wire: `char[10]` at payload
     /// offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 10],
     /// Signed integer value
     ///
@@ -57814,6 +64453,11 @@ impl<'a> NamedValueIntMut<'a> {
 ///
 /// MAVLink message `STATUSTEXT`: id 253, CRC_EXTRA 83, payload 54 bytes (51 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Statustext {
     /// Severity of status. Relies on the definitions within RFC-5424.
     ///
@@ -57822,6 +64466,7 @@ pub struct Statustext {
     /// Status text message, without null termination character. UTF-8 encoded.
     ///
     /// Wire: `char[50]` at payload offset 1.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub text: [u8; 50],
     /// Unique (opaque) identifier for this statustext message. May be used to reassemble a
     /// logical long-statustext message from a sequence of chunks. A value of zero indicates this
@@ -58055,6 +64700,11 @@ impl<'a> StatustextMut<'a> {
 ///
 /// MAVLink message `DEBUG`: id 254, CRC_EXTRA 46, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Debug {
     /// Timestamp (time since system boot).
     ///
@@ -58067,6 +64717,7 @@ pub struct Debug {
     /// DEBUG value
     ///
     /// Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub value: f32,
 }
 
@@ -58255,6 +64906,11 @@ impl<'a> DebugMut<'a> {
 ///
 /// MAVLink message `SETUP_SIGNING`: id 256, CRC_EXTRA 71, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SetupSigning {
     /// system id of the target
     ///
@@ -58267,6 +64923,7 @@ pub struct SetupSigning {
     /// signing key
     ///
     /// Wire: `uint8_t[32]` at payload offset 10.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub secret_key: [u8; 32],
     /// initial timestamp
     ///
@@ -58479,6 +65136,11 @@ impl<'a> SetupSigningMut<'a> {
 ///
 /// MAVLink message `BUTTON_CHANGE`: id 257, CRC_EXTRA 131, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ButtonChange {
     /// Timestamp (time since system boot).
     ///
@@ -58678,6 +65340,11 @@ impl<'a> ButtonChangeMut<'a> {
 ///
 /// MAVLink message `PLAY_TUNE`: id 258, CRC_EXTRA 187, payload 232 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct PlayTune {
     /// System ID
     ///
@@ -58690,11 +65357,13 @@ pub struct PlayTune {
     /// tune in board specific format
     ///
     /// Wire: `char[30]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub tune: [u8; 30],
     /// tune extension (appended to tune)
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `char[200]`
     /// at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub tune2: [u8; 200],
 }
 
@@ -58914,6 +65583,11 @@ impl<'a> PlayTuneMut<'a> {
 ///
 /// MAVLink message `CAMERA_INFORMATION`: id 259, CRC_EXTRA 92, payload 237 bytes (235 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraInformation {
     /// Timestamp (time since system boot).
     ///
@@ -58922,10 +65596,12 @@ pub struct CameraInformation {
     /// Name of the camera vendor
     ///
     /// Wire: `uint8_t[32]` at payload offset 30.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vendor_name: [u8; 32],
     /// Name of the camera model
     ///
     /// Wire: `uint8_t[32]` at payload offset 62.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub model_name: [u8; 32],
     /// Version of the camera firmware, encoded as: (Dev & 0xff) &lt;&lt; 24 | (Patch & 0xff)
     /// &lt;&lt; 16 | (Minor & 0xff) &lt;&lt; 8 | (Major & 0xff). Use 0 if not known.
@@ -58935,14 +65611,17 @@ pub struct CameraInformation {
     /// Focal length. Use NaN if not known.
     ///
     /// Units: `mm`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub focal_length: f32,
     /// Image sensor size horizontal. Use NaN if not known.
     ///
     /// Units: `mm`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub sensor_size_h: f32,
     /// Image sensor size vertical. Use NaN if not known.
     ///
     /// Units: `mm`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub sensor_size_v: f32,
     /// Horizontal image resolution. Use 0 if not known.
     ///
@@ -58973,6 +65652,7 @@ pub struct CameraInformation {
     /// Use a zero-length string if not known.
     ///
     /// Wire: `char[140]` at payload offset 95.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub cam_definition_uri: [u8; 140],
     /// Gimbal id of a gimbal associated with this camera. This is the component id of the gimbal
     /// device, or 1-6 for non mavlink gimbals. Use 0 if no gimbal is associated with the camera.
@@ -59450,6 +66130,11 @@ impl<'a> CameraInformationMut<'a> {
 ///
 /// MAVLink message `CAMERA_SETTINGS`: id 260, CRC_EXTRA 146, payload 14 bytes (5 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraSettings {
     /// Timestamp (time since system boot).
     ///
@@ -59463,11 +66148,19 @@ pub struct CameraSettings {
     ///
     /// XML name: `zoomLevel`. Invalid / unknown: `NaN`. Extension field: absent from MAVLink 1
     /// frames, reads 0 when not sent. Wire: `float` at payload offset 5.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "zoomLevel", with = "::mavframe::serde::float")
+    )]
     pub zoom_level: f32,
     /// Current focus level as a percentage of the full range (0.0 to 100.0, NaN if not known)
     ///
     /// XML name: `focusLevel`. Invalid / unknown: `NaN`. Extension field: absent from MAVLink 1
     /// frames, reads 0 when not sent. Wire: `float` at payload offset 9.
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "focusLevel", with = "::mavframe::serde::float")
+    )]
     pub focus_level: f32,
     /// Camera id of a non-MAVLink camera attached to an autopilot (1-6). 0 if the component is a
     /// MAVLink camera (with its own component id).
@@ -59706,6 +66399,11 @@ impl<'a> CameraSettingsMut<'a> {
 ///
 /// MAVLink message `STORAGE_INFORMATION`: id 261, CRC_EXTRA 179, payload 61 bytes (27 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct StorageInformation {
     /// Timestamp (time since system boot).
     ///
@@ -59727,23 +66425,28 @@ pub struct StorageInformation {
     /// Total capacity. If storage is not ready (STORAGE_STATUS_READY) value will be ignored.
     ///
     /// Units: `MiB`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub total_capacity: f32,
     /// Used capacity. If storage is not ready (STORAGE_STATUS_READY) value will be ignored.
     ///
     /// Units: `MiB`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub used_capacity: f32,
     /// Available storage capacity. If storage is not ready (STORAGE_STATUS_READY) value will be
     /// ignored.
     ///
     /// Units: `MiB`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub available_capacity: f32,
     /// Read speed.
     ///
     /// Units: `MiB/s`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub read_speed: f32,
     /// Write speed.
     ///
     /// Units: `MiB/s`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub write_speed: f32,
     /// Type of storage
     ///
@@ -59756,6 +66459,7 @@ pub struct StorageInformation {
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `char[32]`
     /// at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 32],
     /// Flags indicating whether this instance is preferred storage for photos, videos, etc. Note:
     /// Implementations should initially set the flags on the system-default storage id used for
@@ -60146,6 +66850,11 @@ impl<'a> StorageInformationMut<'a> {
 ///
 /// MAVLink message `CAMERA_CAPTURE_STATUS`: id 262, CRC_EXTRA 12, payload 23 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraCaptureStatus {
     /// Timestamp (time since system boot).
     ///
@@ -60163,6 +66872,7 @@ pub struct CameraCaptureStatus {
     /// Image capture interval
     ///
     /// Units: `s`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub image_interval: f32,
     /// Elapsed time since recording started (0: Not supported/available). A GCS should compute
     /// recording time and use non-zero values of this field to correct any discrepancy.
@@ -60172,6 +66882,7 @@ pub struct CameraCaptureStatus {
     /// Available storage capacity.
     ///
     /// Units: `MiB`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub available_capacity: f32,
     /// Total number of images captured ('forever', or until reset using MAV_CMD_STORAGE_FORMAT).
     ///
@@ -60482,6 +67193,11 @@ impl<'a> CameraCaptureStatusMut<'a> {
 ///
 /// MAVLink message `CAMERA_IMAGE_CAPTURED`: id 263, CRC_EXTRA 133, payload 255 bytes (255 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraImageCaptured {
     /// Timestamp (time since system boot).
     ///
@@ -60515,6 +67231,7 @@ pub struct CameraImageCaptured {
     /// Quaternion of camera orientation (w, x, y, z order, zero-rotation is 1, 0, 0, 0)
     ///
     /// Wire: `float[4]` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Zero based index of this image (i.e. a new image will have index
     /// CAMERA_CAPTURE_STATUS.image count -1)
@@ -60530,6 +67247,7 @@ pub struct CameraImageCaptured {
     /// interface.
     ///
     /// Wire: `char[205]` at payload offset 50.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub file_url: [u8; 205],
 }
 
@@ -60906,6 +67624,11 @@ impl<'a> CameraImageCapturedMut<'a> {
 ///
 /// MAVLink message `FLIGHT_INFORMATION`: id 264, CRC_EXTRA 49, payload 32 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FlightInformation {
     /// Timestamp (time since system boot).
     ///
@@ -61158,6 +67881,11 @@ impl<'a> FlightInformationMut<'a> {
 ///
 /// MAVLink message `MOUNT_ORIENTATION`: id 265, CRC_EXTRA 26, payload 20 bytes (16 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct MountOrientation {
     /// Timestamp (time since system boot).
     ///
@@ -61166,19 +67894,23 @@ pub struct MountOrientation {
     /// Roll in global frame (set to NaN for invalid).
     ///
     /// Units: `deg`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll: f32,
     /// Pitch in global frame (set to NaN for invalid).
     ///
     /// Units: `deg`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw relative to vehicle (set to NaN for invalid).
     ///
     /// Units: `deg`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Yaw in absolute frame relative to Earth's North, north is 0 (set to NaN for invalid).
     ///
     /// Units: `deg`. Invalid / unknown: `NaN`. Extension field: absent from MAVLink 1 frames,
     /// reads 0 when not sent. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_absolute: f32,
 }
 
@@ -61408,6 +68140,11 @@ impl<'a> MountOrientationMut<'a> {
 ///
 /// MAVLink message `LOGGING_DATA`: id 266, CRC_EXTRA 193, payload 255 bytes (255 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LoggingData {
     /// system ID of the target
     ///
@@ -61433,6 +68170,7 @@ pub struct LoggingData {
     /// logged data
     ///
     /// Wire: `uint8_t[249]` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 249],
 }
 
@@ -61696,6 +68434,11 @@ impl<'a> LoggingDataMut<'a> {
 ///
 /// MAVLink message `LOGGING_DATA_ACKED`: id 267, CRC_EXTRA 35, payload 255 bytes (255 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LoggingDataAcked {
     /// system ID of the target
     ///
@@ -61721,6 +68464,7 @@ pub struct LoggingDataAcked {
     /// logged data
     ///
     /// Wire: `uint8_t[249]` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 249],
 }
 
@@ -61984,6 +68728,11 @@ impl<'a> LoggingDataAckedMut<'a> {
 ///
 /// MAVLink message `LOGGING_ACK`: id 268, CRC_EXTRA 14, payload 4 bytes (4 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LoggingAck {
     /// system ID of the target
     ///
@@ -62184,6 +68933,11 @@ impl<'a> LoggingAckMut<'a> {
 ///
 /// MAVLink message `VIDEO_STREAM_INFORMATION`: id 269, CRC_EXTRA 109, payload 215 bytes (213 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct VideoStreamInformation {
     /// Video Stream ID (1 for first, 2 for second, etc.)
     ///
@@ -62207,6 +68961,7 @@ pub struct VideoStreamInformation {
     /// Frame rate.
     ///
     /// Units: `Hz`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub framerate: f32,
     /// Horizontal resolution.
     ///
@@ -62231,11 +68986,13 @@ pub struct VideoStreamInformation {
     /// Stream name.
     ///
     /// Wire: `char[32]` at payload offset 21.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 32],
     /// Video stream URI (TCP or RTSP URI ground station should connect to) or port number (UDP
     /// port ground station should listen to).
     ///
     /// Wire: `char[160]` at payload offset 53.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub uri: [u8; 160],
     /// Encoding of stream.
     ///
@@ -62693,6 +69450,11 @@ impl<'a> VideoStreamInformationMut<'a> {
 ///
 /// MAVLink message `VIDEO_STREAM_STATUS`: id 270, CRC_EXTRA 59, payload 20 bytes (19 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct VideoStreamStatus {
     /// Video Stream ID (1 for first, 2 for second, etc.)
     ///
@@ -62707,6 +69469,7 @@ pub struct VideoStreamStatus {
     /// Frame rate
     ///
     /// Units: `Hz`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub framerate: f32,
     /// Horizontal resolution
     ///
@@ -63051,6 +69814,11 @@ impl<'a> VideoStreamStatusMut<'a> {
 ///
 /// MAVLink message `CAMERA_FOV_STATUS`: id 271, CRC_EXTRA 22, payload 53 bytes (52 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraFovStatus {
     /// Timestamp (time since system boot).
     ///
@@ -63086,14 +69854,17 @@ pub struct CameraFovStatus {
     /// Quaternion of camera orientation (w, x, y, z order, zero-rotation is 1, 0, 0, 0)
     ///
     /// Wire: `float[4]` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Horizontal field of view (NaN if unknown).
     ///
     /// Units: `deg`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub hfov: f32,
     /// Vertical field of view (NaN if unknown).
     ///
     /// Units: `deg`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vfov: f32,
     /// Camera id of a non-MAVLink camera attached to an autopilot (1-6). 0 if the component is a
     /// MAVLink camera (with its own component id).
@@ -63456,6 +70227,11 @@ impl<'a> CameraFovStatusMut<'a> {
 ///
 /// MAVLink message `CAMERA_TRACKING_IMAGE_STATUS`: id 275, CRC_EXTRA 126, payload 32 bytes (31 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraTrackingImageStatus {
     /// Current tracking status
     ///
@@ -63476,36 +70252,43 @@ pub struct CameraTrackingImageStatus {
     /// is right), NAN if unknown
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub point_x: f32,
     /// Current tracked point y value if CAMERA_TRACKING_MODE_POINT (normalized 0..1, 0 is top, 1
     /// is bottom), NAN if unknown
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub point_y: f32,
     /// Current tracked radius if CAMERA_TRACKING_MODE_POINT (normalized 0..1, 0 is image left, 1
     /// is image right), NAN if unknown
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub radius: f32,
     /// Current tracked rectangle top x value if CAMERA_TRACKING_MODE_RECTANGLE (normalized 0..1,
     /// 0 is left, 1 is right), NAN if unknown
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rec_top_x: f32,
     /// Current tracked rectangle top y value if CAMERA_TRACKING_MODE_RECTANGLE (normalized 0..1,
     /// 0 is top, 1 is bottom), NAN if unknown
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rec_top_y: f32,
     /// Current tracked rectangle bottom x value if CAMERA_TRACKING_MODE_RECTANGLE (normalized
     /// 0..1, 0 is left, 1 is right), NAN if unknown
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rec_bottom_x: f32,
     /// Current tracked rectangle bottom y value if CAMERA_TRACKING_MODE_RECTANGLE (normalized
     /// 0..1, 0 is top, 1 is bottom), NAN if unknown
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rec_bottom_y: f32,
     /// Camera id of a non-MAVLink camera attached to an autopilot (1-6). 0 if the component is a
     /// MAVLink camera (with its own component id).
@@ -63878,6 +70661,11 @@ impl<'a> CameraTrackingImageStatusMut<'a> {
 ///
 /// MAVLink message `CAMERA_TRACKING_GEO_STATUS`: id 276, CRC_EXTRA 18, payload 50 bytes (49 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraTrackingGeoStatus {
     /// Current tracking status
     ///
@@ -63895,42 +70683,52 @@ pub struct CameraTrackingGeoStatus {
     /// Altitude of tracked object(AMSL, WGS84)
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// Horizontal accuracy. NAN if unknown
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub h_acc: f32,
     /// Vertical accuracy. NAN if unknown
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub v_acc: f32,
     /// North velocity of tracked object. NAN if unknown
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vel_n: f32,
     /// East velocity of tracked object. NAN if unknown
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vel_e: f32,
     /// Down velocity of tracked object. NAN if unknown
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vel_d: f32,
     /// Velocity accuracy. NAN if unknown
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vel_acc: f32,
     /// Distance between camera and tracked object. NAN if unknown
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub dist: f32,
     /// Heading in radians, in NED. NAN if unknown
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub hdg: f32,
     /// Accuracy of heading, in NED. NAN if unknown
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub hdg_acc: f32,
     /// Camera id of a non-MAVLink camera attached to an autopilot (1-6). 0 if the component is a
     /// MAVLink camera (with its own component id).
@@ -64364,6 +71162,11 @@ impl<'a> CameraTrackingGeoStatusMut<'a> {
 ///
 /// MAVLink message `CAMERA_THERMAL_RANGE`: id 277, CRC_EXTRA 62, payload 30 bytes (30 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CameraThermalRange {
     /// Timestamp (time since system boot).
     ///
@@ -64382,26 +71185,32 @@ pub struct CameraThermalRange {
     /// Temperature max.
     ///
     /// Units: `degC`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max: f32,
     /// Temperature max point x value (normalized 0..1, 0 is left, 1 is right), NAN if unknown.
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max_point_x: f32,
     /// Temperature max point y value (normalized 0..1, 0 is top, 1 is bottom), NAN if unknown.
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max_point_y: f32,
     /// Temperature min.
     ///
     /// Units: `degC`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min: f32,
     /// Temperature min point x value (normalized 0..1, 0 is left, 1 is right), NAN if unknown.
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min_point_x: f32,
     /// Temperature min point y value (normalized 0..1, 0 is top, 1 is bottom), NAN if unknown.
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min_point_y: f32,
 }
 
@@ -64716,6 +71525,11 @@ impl<'a> CameraThermalRangeMut<'a> {
 ///
 /// MAVLink message `GIMBAL_MANAGER_INFORMATION`: id 280, CRC_EXTRA 70, payload 33 bytes (33 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalManagerInformation {
     /// Timestamp (time since system boot).
     ///
@@ -64736,27 +71550,33 @@ pub struct GimbalManagerInformation {
     /// left)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll_min: f32,
     /// Maximum hardware roll angle (positive: rolling to the right, negative: rolling to the
     /// left)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll_max: f32,
     /// Minimum pitch angle (positive: up, negative: down)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_min: f32,
     /// Maximum pitch angle (positive: up, negative: down)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_max: f32,
     /// Minimum yaw angle (positive: to the right, negative: to the left)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_min: f32,
     /// Maximum yaw angle (positive: to the right, negative: to the left)
     ///
     /// Units: `rad`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_max: f32,
 }
 
@@ -65075,6 +71895,11 @@ impl<'a> GimbalManagerInformationMut<'a> {
 ///
 /// MAVLink message `GIMBAL_MANAGER_STATUS`: id 281, CRC_EXTRA 48, payload 13 bytes (13 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalManagerStatus {
     /// Timestamp (time since system boot).
     ///
@@ -65383,6 +72208,11 @@ impl<'a> GimbalManagerStatusMut<'a> {
 ///
 /// MAVLink message `GIMBAL_MANAGER_SET_ATTITUDE`: id 282, CRC_EXTRA 123, payload 35 bytes (35 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalManagerSetAttitude {
     /// System ID
     ///
@@ -65408,18 +72238,22 @@ pub struct GimbalManagerSetAttitude {
     /// whether the flag GIMBAL_MANAGER_FLAGS_YAW_LOCK is set)
     ///
     /// Wire: `float[4]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// X component of angular velocity, positive is rolling to the right, NaN to be ignored.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_x: f32,
     /// Y component of angular velocity, positive is pitching up, NaN to be ignored.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_y: f32,
     /// Z component of angular velocity, positive is yawing to the right, NaN to be ignored.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_z: f32,
 }
 
@@ -65719,6 +72553,11 @@ impl<'a> GimbalManagerSetAttitudeMut<'a> {
 ///
 /// MAVLink message `GIMBAL_DEVICE_INFORMATION`: id 283, CRC_EXTRA 74, payload 149 bytes (144 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalDeviceInformation {
     /// Timestamp (time since system boot).
     ///
@@ -65727,14 +72566,17 @@ pub struct GimbalDeviceInformation {
     /// Name of the gimbal vendor.
     ///
     /// Wire: `char[32]` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub vendor_name: [u8; 32],
     /// Name of the gimbal model.
     ///
     /// Wire: `char[32]` at payload offset 80.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub model_name: [u8; 32],
     /// Custom name of the gimbal given to it by the user.
     ///
     /// Wire: `char[32]` at payload offset 112.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub custom_name: [u8; 32],
     /// Version of the gimbal firmware, encoded as: (Dev & 0xff) &lt;&lt; 24 | (Patch & 0xff)
     /// &lt;&lt; 16 | (Minor & 0xff) &lt;&lt; 8 | (Major & 0xff).
@@ -65754,6 +72596,10 @@ pub struct GimbalDeviceInformation {
     ///
     /// Values: [`GimbalDeviceCapFlags`](struct@GimbalDeviceCapFlags). Wire: `uint16_t` at
     /// payload offset 44.
+    #[cfg_attr(
+        feature = "serde",
+        serde(deserialize_with = "::mavframe::serde::narrow::<_, _, u32, u16>")
+    )]
     pub cap_flags: GimbalDeviceCapFlags,
     /// Bitmap for use for gimbal-specific capability flags.
     ///
@@ -65763,29 +72609,35 @@ pub struct GimbalDeviceInformation {
     /// left). NAN if unknown.
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll_min: f32,
     /// Maximum hardware roll angle (positive: rolling to the right, negative: rolling to the
     /// left). NAN if unknown.
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub roll_max: f32,
     /// Minimum hardware pitch angle (positive: up, negative: down). NAN if unknown.
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_min: f32,
     /// Maximum hardware pitch angle (positive: up, negative: down). NAN if unknown.
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_max: f32,
     /// Minimum hardware yaw angle (positive: to the right, negative: to the left). NAN if
     /// unknown.
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_min: f32,
     /// Maximum hardware yaw angle (positive: to the right, negative: to the left). NAN if
     /// unknown.
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_max: f32,
     /// This field is to be used if the gimbal manager and the gimbal device are the same
     /// component and hence have the same component ID. This field is then set to a number between
@@ -66302,6 +73154,11 @@ impl<'a> GimbalDeviceInformationMut<'a> {
 ///
 /// MAVLink message `GIMBAL_DEVICE_SET_ATTITUDE`: id 284, CRC_EXTRA 99, payload 32 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalDeviceSetAttitude {
     /// System ID
     ///
@@ -66320,21 +73177,25 @@ pub struct GimbalDeviceSetAttitude {
     /// in the message description. Set fields to NaN to be ignored.
     ///
     /// Invalid / unknown: `[NaN]`. Wire: `float[4]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// X component of angular velocity (positive: rolling to the right). The frame is described
     /// in the message description. NaN to be ignored.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_x: f32,
     /// Y component of angular velocity (positive: pitching up). The frame is described in the
     /// message description. NaN to be ignored.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_y: f32,
     /// Z component of angular velocity (positive: yawing to the right). The frame is described in
     /// the message description. NaN to be ignored.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_z: f32,
 }
 
@@ -66626,6 +73487,11 @@ impl<'a> GimbalDeviceSetAttitudeMut<'a> {
 ///
 /// MAVLink message `GIMBAL_DEVICE_ATTITUDE_STATUS`: id 285, CRC_EXTRA 137, payload 49 bytes (40 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalDeviceAttitudeStatus {
     /// System ID
     ///
@@ -66648,21 +73514,25 @@ pub struct GimbalDeviceAttitudeStatus {
     /// in the message description.
     ///
     /// Wire: `float[4]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// X component of angular velocity (positive: rolling to the right). The frame is described
     /// in the message description. NaN if unknown.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_x: f32,
     /// Y component of angular velocity (positive: pitching up). The frame is described in the
     /// message description. NaN if unknown.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_y: f32,
     /// Z component of angular velocity (positive: yawing to the right). The frame is described in
     /// the message description. NaN if unknown.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_z: f32,
     /// Failure flags (0 for no failure)
     ///
@@ -66674,12 +73544,14 @@ pub struct GimbalDeviceAttitudeStatus {
     ///
     /// Units: `rad`. Invalid / unknown: `NAN`. Extension field: absent from MAVLink 1 frames,
     /// reads 0 when not sent. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_yaw: f32,
     /// Yaw angular velocity relating the angular velocities in earth and body frames (see message
     /// description). NaN if unknown.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NAN`. Extension field: absent from MAVLink 1 frames,
     /// reads 0 when not sent. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub delta_yaw_velocity: f32,
     /// This field is to be used if the gimbal manager and the gimbal device are the same
     /// component and hence have the same component ID. This field is then set a number between
@@ -67075,6 +73947,11 @@ impl<'a> GimbalDeviceAttitudeStatusMut<'a> {
 ///
 /// MAVLink message `AUTOPILOT_STATE_FOR_GIMBAL_DEVICE`: id 286, CRC_EXTRA 210, payload 57 bytes (53 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AutopilotStateForGimbalDevice {
     /// System ID
     ///
@@ -67092,6 +73969,7 @@ pub struct AutopilotStateForGimbalDevice {
     /// Hamilton convention).
     ///
     /// Wire: `float[4]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// Estimated delay of the attitude data. 0 if unknown.
     ///
@@ -67100,14 +73978,17 @@ pub struct AutopilotStateForGimbalDevice {
     /// X Speed in NED (North, East, Down). NAN if unknown.
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y Speed in NED (North, East, Down). NAN if unknown.
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z Speed in NED (North, East, Down). NAN if unknown.
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// Estimated delay of the speed data. 0 if unknown.
     ///
@@ -67117,6 +73998,7 @@ pub struct AutopilotStateForGimbalDevice {
     /// ignored. This is to indicate if the autopilot is actively yawing.
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub feed_forward_angular_velocity_z: f32,
     /// Bitmap indicating which estimator outputs are valid.
     ///
@@ -67133,6 +74015,7 @@ pub struct AutopilotStateForGimbalDevice {
     ///
     /// Units: `rad/s`. Invalid / unknown: `0`. Extension field: absent from MAVLink 1 frames,
     /// reads 0 when not sent. Wire: `float` at payload offset 53.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angular_velocity_z: f32,
 }
 
@@ -67537,6 +74420,11 @@ impl<'a> AutopilotStateForGimbalDeviceMut<'a> {
 ///
 /// MAVLink message `GIMBAL_MANAGER_SET_PITCHYAW`: id 287, CRC_EXTRA 1, payload 23 bytes (23 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalManagerSetPitchyaw {
     /// System ID
     ///
@@ -67561,18 +74449,22 @@ pub struct GimbalManagerSetPitchyaw {
     /// Pitch angle (positive: up, negative: down, NaN to be ignored).
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle (positive: to the right, negative: to the left, NaN to be ignored).
     ///
     /// Units: `rad`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Pitch angular rate (positive: up, negative: down, NaN to be ignored).
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_rate: f32,
     /// Yaw angular rate (positive: to the right, negative: to the left, NaN to be ignored).
     ///
     /// Units: `rad/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rate: f32,
 }
 
@@ -67872,6 +74764,11 @@ impl<'a> GimbalManagerSetPitchyawMut<'a> {
 ///
 /// MAVLink message `GIMBAL_MANAGER_SET_MANUAL_CONTROL`: id 288, CRC_EXTRA 20, payload 23 bytes (23 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GimbalManagerSetManualControl {
     /// System ID
     ///
@@ -67896,20 +74793,24 @@ pub struct GimbalManagerSetManualControl {
     /// Pitch angle unitless (-1..1, positive: up, negative: down, NaN to be ignored).
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch: f32,
     /// Yaw angle unitless (-1..1, positive: to the right, negative: to the left, NaN to be
     /// ignored).
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw: f32,
     /// Pitch angular rate unitless (-1..1, positive: up, negative: down, NaN to be ignored).
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitch_rate: f32,
     /// Yaw angular rate unitless (-1..1, positive: to the right, negative: to the left, NaN to be
     /// ignored).
     ///
     /// Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yaw_rate: f32,
 }
 
@@ -68206,6 +75107,11 @@ impl<'a> GimbalManagerSetManualControlMut<'a> {
 ///
 /// MAVLink message `AIRSPEED`: id 295, CRC_EXTRA 234, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Airspeed {
     /// Sensor ID.
     ///
@@ -68215,6 +75121,7 @@ pub struct Airspeed {
     /// Calibrated airspeed (CAS).
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub airspeed: f32,
     /// Temperature.
     ///
@@ -68223,6 +75130,7 @@ pub struct Airspeed {
     /// Raw differential pressure.
     ///
     /// Units: `hPa`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub raw_press: f32,
     /// Airspeed sensor flags.
     ///
@@ -68462,6 +75370,11 @@ impl<'a> AirspeedMut<'a> {
 ///
 /// MAVLink message `GLOBAL_POSITION_SENSOR`: id 296, CRC_EXTRA 158, payload 41 bytes (41 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GlobalPositionSensor {
     /// System ID (ID of target system, normally autopilot and ground station).
     ///
@@ -68510,18 +75423,22 @@ pub struct GlobalPositionSensor {
     /// Altitude (WGS84 elipsoid), preferred if available
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt_ellipsoid: f32,
     /// Altitude (MSL - position-system specific value) use if no alt_ellipsoid available
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub alt: f32,
     /// Standard deviation of horizontal position error
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub eph: f32,
     /// Standard deviation of vertical position error
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub epv: f32,
 }
 
@@ -68925,15 +75842,22 @@ impl<'a> GlobalPositionSensorMut<'a> {
 ///
 /// MAVLink message `WIFI_CONFIG_AP`: id 299, CRC_EXTRA 19, payload 96 bytes (96 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct WifiConfigAp {
     /// Name of Wi-Fi network (SSID). Blank to leave it unchanged when setting. Current SSID when
     /// sent back as a response.
     ///
     /// Wire: `char[32]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub ssid: [u8; 32],
     /// Password. Blank for an open AP. MD5 hash when message is sent back as a response.
     ///
     /// Wire: `char[64]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub password: [u8; 64],
 }
 
@@ -69109,10 +76033,16 @@ impl<'a> WifiConfigApMut<'a> {
 ///
 /// MAVLink message `AIS_VESSEL`: id 301, CRC_EXTRA 243, payload 58 bytes (58 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AisVessel {
     /// Mobile Marine Service Identifier, 9 decimal digits
     ///
     /// XML name: `MMSI`. Wire: `uint32_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "MMSI"))]
     pub mmsi: u32,
     /// Latitude
     ///
@@ -69125,6 +76055,7 @@ pub struct AisVessel {
     /// Course over ground
     ///
     /// XML name: `COG`. Units: `cdeg`. Wire: `uint16_t` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(rename = "COG"))]
     pub cog: u16,
     /// True heading
     ///
@@ -69165,10 +76096,12 @@ pub struct AisVessel {
     /// The vessel callsign
     ///
     /// Wire: `char[7]` at payload offset 31.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub callsign: [u8; 7],
     /// The vessel name
     ///
     /// Wire: `char[20]` at payload offset 38.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 20],
     /// Time since last communication in seconds
     ///
@@ -69662,6 +76595,11 @@ impl<'a> AisVesselMut<'a> {
 ///
 /// MAVLink message `UAVCAN_NODE_STATUS`: id 310, CRC_EXTRA 28, payload 17 bytes (17 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavcanNodeStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -69945,6 +76883,11 @@ impl<'a> UavcanNodeStatusMut<'a> {
 ///
 /// MAVLink message `UAVCAN_NODE_INFO`: id 311, CRC_EXTRA 95, payload 116 bytes (116 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavcanNodeInfo {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -69959,6 +76902,7 @@ pub struct UavcanNodeInfo {
     /// Node name string. For example, "sapog.px4.io".
     ///
     /// Wire: `char[80]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 80],
     /// Hardware major version number.
     ///
@@ -69971,6 +76915,7 @@ pub struct UavcanNodeInfo {
     /// Hardware unique 128-bit ID.
     ///
     /// Wire: `uint8_t[16]` at payload offset 98.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub hw_unique_id: [u8; 16],
     /// Software major version number.
     ///
@@ -70314,6 +77259,11 @@ impl<'a> UavcanNodeInfoMut<'a> {
 ///
 /// MAVLink message `PARAM_EXT_REQUEST_READ`: id 320, CRC_EXTRA 243, payload 20 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamExtRequestRead {
     /// System ID
     ///
@@ -70328,6 +77278,7 @@ pub struct ParamExtRequestRead {
     /// to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Parameter index. Set to -1 to use the Parameter ID field as identifier (else param_id will
     /// be ignored)
@@ -70542,6 +77493,11 @@ impl<'a> ParamExtRequestReadMut<'a> {
 ///
 /// MAVLink message `PARAM_EXT_REQUEST_LIST`: id 321, CRC_EXTRA 88, payload 2 bytes (2 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamExtRequestList {
     /// System ID
     ///
@@ -70718,16 +77674,23 @@ impl<'a> ParamExtRequestListMut<'a> {
 ///
 /// MAVLink message `PARAM_EXT_VALUE`: id 322, CRC_EXTRA 243, payload 149 bytes (149 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamExtValue {
     /// Parameter id, terminated by NULL if the length is less than 16 human-readable chars and
     /// WITHOUT null termination (NULL) byte if the length is exactly 16 chars - applications have
     /// to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Parameter value
     ///
     /// Wire: `char[128]` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_value: [u8; 128],
     /// Parameter type.
     ///
@@ -70986,6 +77949,11 @@ impl<'a> ParamExtValueMut<'a> {
 ///
 /// MAVLink message `PARAM_EXT_SET`: id 323, CRC_EXTRA 78, payload 147 bytes (147 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamExtSet {
     /// System ID
     ///
@@ -71000,10 +77968,12 @@ pub struct ParamExtSet {
     /// to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Parameter value
     ///
     /// Wire: `char[128]` at payload offset 18.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_value: [u8; 128],
     /// Parameter type.
     ///
@@ -71250,16 +78220,23 @@ impl<'a> ParamExtSetMut<'a> {
 ///
 /// MAVLink message `PARAM_EXT_ACK`: id 324, CRC_EXTRA 132, payload 146 bytes (146 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamExtAck {
     /// Parameter id, terminated by NULL if the length is less than 16 human-readable chars and
     /// WITHOUT null termination (NULL) byte if the length is exactly 16 chars - applications have
     /// to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Parameter value (new value if PARAM_ACK_ACCEPTED, current value otherwise)
     ///
     /// Wire: `char[128]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_value: [u8; 128],
     /// Parameter type.
     ///
@@ -71489,6 +78466,11 @@ impl<'a> ParamExtAckMut<'a> {
 ///
 /// MAVLink message `OBSTACLE_DISTANCE`: id 330, CRC_EXTRA 23, payload 167 bytes (158 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ObstacleDistance {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -71509,6 +78491,7 @@ pub struct ObstacleDistance {
     ///
     /// Units: `cm`. Invalid / unknown: `[UINT16_MAX]`. Wire: `uint16_t[72]` at payload offset
     /// \8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub distances: [u16; 72],
     /// Angular width in degrees of each array element. Increment direction is clockwise. This
     /// field is ignored if increment_f is non-zero.
@@ -71529,12 +78512,14 @@ pub struct ObstacleDistance {
     ///
     /// Units: `deg`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `float` at payload offset 158.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub increment_f: f32,
     /// Relative angle offset of the 0-index element in the distances array. Value of 0
     /// corresponds to forward. Positive is clockwise direction, negative is counter-clockwise.
     ///
     /// Units: `deg`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `float` at payload offset 162.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub angle_offset: f32,
     /// Coordinate frame of reference for the yaw rotation and offset of the sensor data. Defaults
     /// to MAV_FRAME_GLOBAL, which is north aligned. For body-mounted sensors use
@@ -71874,6 +78859,11 @@ impl<'a> ObstacleDistanceMut<'a> {
 ///
 /// MAVLink message `ODOMETRY`: id 331, CRC_EXTRA 91, payload 233 bytes (230 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Odometry {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -71892,48 +78882,59 @@ pub struct Odometry {
     /// X Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub x: f32,
     /// Y Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub y: f32,
     /// Z Position
     ///
     /// Units: `m`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
     /// Quaternion components, w, x, y, z (1 0 0 0 is the null-rotation)
     ///
     /// Wire: `float[4]` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub q: [f32; 4],
     /// X linear speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vx: f32,
     /// Y linear speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vy: f32,
     /// Z linear speed
     ///
     /// Units: `m/s`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub vz: f32,
     /// Roll angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rollspeed: f32,
     /// Pitch angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub pitchspeed: f32,
     /// Yaw angular speed
     ///
     /// Units: `rad/s`. Wire: `float` at payload offset 56.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub yawspeed: f32,
     /// Row-major representation of a 6x6 pose cross-covariance matrix upper right triangle
     /// (states: x, y, z, roll, pitch, yaw; first six entries are the first ROW, next five entries
     /// are the second ROW, etc.). If unknown, assign NaN value to first element in the array.
     ///
     /// Invalid / unknown: `[NaN:]`. Wire: `float[21]` at payload offset 60.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pose_covariance: [f32; 21],
     /// Row-major representation of a 6x6 velocity cross-covariance matrix upper right triangle
     /// (states: vx, vy, vz, rollspeed, pitchspeed, yawspeed; first six entries are the first ROW,
@@ -71941,6 +78942,7 @@ pub struct Odometry {
     /// in the array.
     ///
     /// Invalid / unknown: `[NaN:]`. Wire: `float[21]` at payload offset 144.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub velocity_covariance: [f32; 21],
     /// Estimate reset counter. This should be incremented when the estimate resets in any of the
     /// dimensions (position, velocity, attitude, angular speed). This is designed to be used when
@@ -72466,6 +79468,11 @@ impl<'a> OdometryMut<'a> {
 /// **Deprecated** since 2025-03, replaced by `Nothing`. Implemented PX4 v1.11 to v1.14. Not
 /// used in current flight stacks.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct TrajectoryRepresentationWaypoints {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -72480,51 +79487,63 @@ pub struct TrajectoryRepresentationWaypoints {
     /// X-coordinate of waypoint, set to NaN if not being used
     ///
     /// Units: `m`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_x: [f32; 5],
     /// Y-coordinate of waypoint, set to NaN if not being used
     ///
     /// Units: `m`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_y: [f32; 5],
     /// Z-coordinate of waypoint, set to NaN if not being used
     ///
     /// Units: `m`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_z: [f32; 5],
     /// X-velocity of waypoint, set to NaN if not being used
     ///
     /// Units: `m/s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 68.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vel_x: [f32; 5],
     /// Y-velocity of waypoint, set to NaN if not being used
     ///
     /// Units: `m/s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 88.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vel_y: [f32; 5],
     /// Z-velocity of waypoint, set to NaN if not being used
     ///
     /// Units: `m/s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 108.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vel_z: [f32; 5],
     /// X-acceleration of waypoint, set to NaN if not being used
     ///
     /// Units: `m/s/s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 128.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub acc_x: [f32; 5],
     /// Y-acceleration of waypoint, set to NaN if not being used
     ///
     /// Units: `m/s/s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 148.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub acc_y: [f32; 5],
     /// Z-acceleration of waypoint, set to NaN if not being used
     ///
     /// Units: `m/s/s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 168.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub acc_z: [f32; 5],
     /// Yaw angle, set to NaN if not being used
     ///
     /// Units: `rad`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 188.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_yaw: [f32; 5],
     /// Yaw rate, set to NaN if not being used
     ///
     /// Units: `rad/s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 208.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vel_yaw: [f32; 5],
     /// MAV_CMD command id of waypoint, set to UINT16_MAX if not being used.
     ///
     /// Values: [`MavCmd`](struct@MavCmd). Invalid / unknown: `[UINT16_MAX]`. Wire:
     /// `uint16_t[5]` at payload offset 228.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub command: [u16; 5],
 }
 
@@ -72946,6 +79965,11 @@ impl<'a> TrajectoryRepresentationWaypointsMut<'a> {
 /// **Deprecated** since 2025-03, replaced by `Nothing`. Implemented PX4 v1.11 to v1.14. Not
 /// used in current flight stacks.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct TrajectoryRepresentationBezier {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -72960,22 +79984,27 @@ pub struct TrajectoryRepresentationBezier {
     /// X-coordinate of bezier control points. Set to NaN if not being used
     ///
     /// Units: `m`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_x: [f32; 5],
     /// Y-coordinate of bezier control points. Set to NaN if not being used
     ///
     /// Units: `m`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_y: [f32; 5],
     /// Z-coordinate of bezier control points. Set to NaN if not being used
     ///
     /// Units: `m`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_z: [f32; 5],
     /// Bezier time horizon. Set to NaN if velocity/acceleration should not be incorporated
     ///
     /// Units: `s`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 68.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub delta: [f32; 5],
     /// Yaw. Set to NaN for unchanged
     ///
     /// Units: `rad`. Invalid / unknown: `[NaN]`. Wire: `float[5]` at payload offset 88.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub pos_yaw: [f32; 5],
 }
 
@@ -73247,6 +80276,11 @@ impl<'a> TrajectoryRepresentationBezierMut<'a> {
 ///
 /// MAVLink message `ISBD_LINK_STATUS`: id 335, CRC_EXTRA 225, payload 24 bytes (24 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct IsbdLinkStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -73575,6 +80609,11 @@ impl<'a> IsbdLinkStatusMut<'a> {
 ///
 /// MAVLink message `RAW_RPM`: id 339, CRC_EXTRA 199, payload 5 bytes (5 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RawRpm {
     /// Index of this RPM sensor (0-indexed)
     ///
@@ -73583,6 +80622,7 @@ pub struct RawRpm {
     /// Indicated rate
     ///
     /// Units: `rpm`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub frequency: f32,
 }
 
@@ -73749,6 +80789,11 @@ impl<'a> RawRpmMut<'a> {
 ///
 /// MAVLink message `UTM_GLOBAL_POSITION`: id 340, CRC_EXTRA 99, payload 70 bytes (70 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UtmGlobalPosition {
     /// Time of applicability of position (microseconds since UNIX epoch).
     ///
@@ -73757,6 +80802,7 @@ pub struct UtmGlobalPosition {
     /// Unique UAS ID.
     ///
     /// Wire: `uint8_t[18]` at payload offset 50.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub uas_id: [u8; 18],
     /// Latitude (WGS84)
     ///
@@ -74330,6 +81376,11 @@ impl<'a> UtmGlobalPositionMut<'a> {
 /// MAVLink message `PARAM_ERROR`: id 345, CRC_EXTRA 209, payload 21 bytes (21 without extensions).
 /// **Work in progress**: may change.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ParamError {
     /// System ID
     ///
@@ -74344,6 +81395,7 @@ pub struct ParamError {
     /// to provide 16+1 bytes storage if the ID is stored as string
     ///
     /// Wire: `char[16]` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub param_id: [u8; 16],
     /// Parameter index. Will be -1 if the param ID field should be used as an identifier (else
     /// the param id will be ignored)
@@ -74584,6 +81636,11 @@ impl<'a> ParamErrorMut<'a> {
 ///
 /// MAVLink message `DEBUG_FLOAT_ARRAY`: id 350, CRC_EXTRA 232, payload 252 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct DebugFloatArray {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -74594,6 +81651,7 @@ pub struct DebugFloatArray {
     /// Name, for human-friendly display in a Ground Control Station
     ///
     /// Wire: `char[10]` at payload offset 10.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub name: [u8; 10],
     /// Unique ID used to discriminate between arrays
     ///
@@ -74604,6 +81662,7 @@ pub struct DebugFloatArray {
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `float[58]`
     /// at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [f32; 58],
 }
 
@@ -74824,6 +81883,11 @@ impl<'a> DebugFloatArrayMut<'a> {
 ///
 /// MAVLink message `ORBIT_EXECUTION_STATUS`: id 360, CRC_EXTRA 11, payload 25 bytes (25 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OrbitExecutionStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -74835,6 +81899,7 @@ pub struct OrbitExecutionStatus {
     /// counter-clockwise.
     ///
     /// Units: `m`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub radius: f32,
     /// The coordinate system of the fields: x, y, z.
     ///
@@ -74853,6 +81918,7 @@ pub struct OrbitExecutionStatus {
     /// Altitude of center point. Coordinate system depends on frame field.
     ///
     /// Units: `m`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub z: f32,
 }
 
@@ -75105,6 +82171,11 @@ impl<'a> OrbitExecutionStatusMut<'a> {
 ///
 /// MAVLink message `SMART_BATTERY_INFO`: id 370, CRC_EXTRA 75, payload 109 bytes (87 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SmartBatteryInfo {
     /// Battery ID
     ///
@@ -75135,11 +82206,13 @@ pub struct SmartBatteryInfo {
     /// Serial number in ASCII characters, 0 terminated. All 0: field not provided.
     ///
     /// Wire: `char[16]` at payload offset 21.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub serial_number: [u8; 16],
     /// Static device name in ASCII characters, 0 terminated. All 0: field not provided. Encode as
     /// manufacturer name then product name separated using an underscore.
     ///
     /// Wire: `char[50]` at payload offset 37.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub device_name: [u8; 50],
     /// Battery weight. 0: field not provided.
     ///
@@ -75182,6 +82255,7 @@ pub struct SmartBatteryInfo {
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `char[11]`
     /// at payload offset 98.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub manufacture_date: [u8; 11],
 }
 
@@ -75689,6 +82763,11 @@ impl<'a> SmartBatteryInfoMut<'a> {
 ///
 /// MAVLink message `GENERATOR_STATUS`: id 373, CRC_EXTRA 117, payload 42 bytes (42 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GeneratorStatus {
     /// Status flags.
     ///
@@ -75702,20 +82781,24 @@ pub struct GeneratorStatus {
     /// Current into/out of battery. Positive for out. Negative for in. NaN: field not provided.
     ///
     /// Units: `A`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub battery_current: f32,
     /// Current going to the UAV. If battery current not available this is the DC current from the
     /// generator. Positive for out. Negative for in. NaN: field not provided
     ///
     /// Units: `A`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub load_current: f32,
     /// The power being generated. NaN: field not provided
     ///
     /// Units: `W`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub power_generated: f32,
     /// Voltage of the bus seen at the generator, or battery bus if battery bus is controlled by
     /// generator and at a different voltage to main bus.
     ///
     /// Units: `V`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub bus_voltage: f32,
     /// The temperature of the rectifier or power converter. INT16_MAX: field not provided.
     ///
@@ -75724,6 +82807,7 @@ pub struct GeneratorStatus {
     /// The target battery current. Positive for out. Negative for in. NaN: field not provided
     ///
     /// Units: `A`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub bat_current_setpoint: f32,
     /// The temperature of the mechanical motor, fuel cell core or generator. INT16_MAX: field not
     /// provided.
@@ -76098,6 +83182,11 @@ impl<'a> GeneratorStatusMut<'a> {
 ///
 /// MAVLink message `ACTUATOR_OUTPUT_STATUS`: id 375, CRC_EXTRA 251, payload 140 bytes (140 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct ActuatorOutputStatus {
     /// Timestamp (since system boot).
     ///
@@ -76110,6 +83199,7 @@ pub struct ActuatorOutputStatus {
     /// Servo / motor output array values. Zero values indicate unused channels.
     ///
     /// Wire: `float[32]` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub actuator: [f32; 32],
 }
 
@@ -76299,6 +83389,11 @@ impl<'a> ActuatorOutputStatusMut<'a> {
 ///
 /// MAVLink message `RELAY_STATUS`: id 376, CRC_EXTRA 199, payload 8 bytes (8 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct RelayStatus {
     /// Timestamp (time since system boot).
     ///
@@ -76503,6 +83598,11 @@ impl<'a> RelayStatusMut<'a> {
 ///
 /// MAVLink message `TUNNEL`: id 385, CRC_EXTRA 147, payload 133 bytes (133 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct Tunnel {
     /// System ID (can be 0 for broadcast, but this is discouraged)
     ///
@@ -76530,6 +83630,7 @@ pub struct Tunnel {
     /// payload_type.
     ///
     /// Wire: `uint8_t[128]` at payload offset 5.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub payload: [u8; 128],
 }
 
@@ -76773,6 +83874,11 @@ impl<'a> TunnelMut<'a> {
 ///
 /// MAVLink message `CAN_FRAME`: id 386, CRC_EXTRA 132, payload 16 bytes (16 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CanFrame {
     /// System ID.
     ///
@@ -76797,6 +83903,7 @@ pub struct CanFrame {
     /// Frame data
     ///
     /// Wire: `uint8_t[8]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 8],
 }
 
@@ -77048,6 +84155,11 @@ impl<'a> CanFrameMut<'a> {
 ///
 /// MAVLink message `CANFD_FRAME`: id 387, CRC_EXTRA 4, payload 72 bytes (72 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CanfdFrame {
     /// System ID.
     ///
@@ -77072,6 +84184,7 @@ pub struct CanfdFrame {
     /// Frame data
     ///
     /// Wire: `uint8_t[64]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 64],
 }
 
@@ -77339,6 +84452,11 @@ impl<'a> CanfdFrameMut<'a> {
 ///
 /// MAVLink message `CAN_FILTER_MODIFY`: id 388, CRC_EXTRA 8, payload 37 bytes (37 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CanFilterModify {
     /// System ID.
     ///
@@ -77363,6 +84481,7 @@ pub struct CanFilterModify {
     /// filter IDs, length num_ids
     ///
     /// Wire: `uint16_t[16]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub ids: [u16; 16],
 }
 
@@ -77613,6 +84732,11 @@ impl<'a> CanFilterModifyMut<'a> {
 ///
 /// MAVLink message `ONBOARD_COMPUTER_STATUS`: id 390, CRC_EXTRA 156, payload 240 bytes (238 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OnboardComputerStatus {
     /// Timestamp (UNIX Epoch time or time since system boot). The receiving end can infer
     /// timestamp format (since 1.1.1970 or since system boot) by checking for the magnitude of
@@ -77634,23 +84758,27 @@ pub struct OnboardComputerStatus {
     /// is unused.
     ///
     /// Invalid / unknown: `[UINT8_MAX]`. Wire: `uint8_t[8]` at payload offset 197.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub cpu_cores: [u8; 8],
     /// Combined CPU usage as the last 10 slices of 100 MS (a histogram). This allows to identify
     /// spikes in load that max out the system, but only for a short amount of time. A value of
     /// UINT8_MAX implies the field is unused.
     ///
     /// Invalid / unknown: `[UINT8_MAX]`. Wire: `uint8_t[10]` at payload offset 205.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub cpu_combined: [u8; 10],
     /// GPU usage on the component in percent (100 - idle). A value of UINT8_MAX implies the field
     /// is unused.
     ///
     /// Invalid / unknown: `[UINT8_MAX]`. Wire: `uint8_t[4]` at payload offset 215.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub gpu_cores: [u8; 4],
     /// Combined GPU usage as the last 10 slices of 100 MS (a histogram). This allows to identify
     /// spikes in load that max out the system, but only for a short amount of time. A value of
     /// UINT8_MAX implies the field is unused.
     ///
     /// Invalid / unknown: `[UINT8_MAX]`. Wire: `uint8_t[10]` at payload offset 219.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub gpu_combined: [u8; 10],
     /// Temperature of the board. A value of INT8_MAX implies the field is unused.
     ///
@@ -77660,11 +84788,13 @@ pub struct OnboardComputerStatus {
     ///
     /// Units: `degC`. Invalid / unknown: `[INT8_MAX]`. Wire: `int8_t[8]` at payload offset
     /// \230.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub temperature_core: [i8; 8],
     /// Fan speeds. A value of INT16_MAX implies the field is unused.
     ///
     /// Units: `rpm`. Invalid / unknown: `[INT16_MAX]`. Wire: `int16_t[4]` at payload offset
     /// \188.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub fan_speed: [i16; 4],
     /// Amount of used RAM on the component system. A value of UINT32_MAX implies the field is
     /// unused.
@@ -77680,47 +84810,55 @@ pub struct OnboardComputerStatus {
     /// A value of UINT32_MAX implies the field is unused.
     ///
     /// Invalid / unknown: `[UINT32_MAX]`. Wire: `uint32_t[4]` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub storage_type: [u32; 4],
     /// Amount of used storage space on the component system. A value of UINT32_MAX implies the
     /// field is unused.
     ///
     /// Units: `MiB`. Invalid / unknown: `[UINT32_MAX]`. Wire: `uint32_t[4]` at payload offset
     /// \36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub storage_usage: [u32; 4],
     /// Total amount of storage space on the component system. A value of UINT32_MAX implies the
     /// field is unused.
     ///
     /// Units: `MiB`. Invalid / unknown: `[UINT32_MAX]`. Wire: `uint32_t[4]` at payload offset
     /// \52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub storage_total: [u32; 4],
     /// Link type: 0-9: UART, 10-19: Wired network, 20-29: Wifi, 30-39: Point-to-point
     /// proprietary, 40-49: Mesh proprietary
     ///
     /// Wire: `uint32_t[6]` at payload offset 68.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub link_type: [u32; 6],
     /// Network traffic from the component system. A value of UINT32_MAX implies the field is
     /// unused.
     ///
     /// Units: `KiB/s`. Invalid / unknown: `[UINT32_MAX]`. Wire: `uint32_t[6]` at payload
     /// offset 92.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub link_tx_rate: [u32; 6],
     /// Network traffic to the component system. A value of UINT32_MAX implies the field is
     /// unused.
     ///
     /// Units: `KiB/s`. Invalid / unknown: `[UINT32_MAX]`. Wire: `uint32_t[6]` at payload
     /// offset 116.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub link_rx_rate: [u32; 6],
     /// Network capacity from the component system. A value of UINT32_MAX implies the field is
     /// unused.
     ///
     /// Units: `KiB/s`. Invalid / unknown: `[UINT32_MAX]`. Wire: `uint32_t[6]` at payload
     /// offset 140.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub link_tx_max: [u32; 6],
     /// Network capacity to the component system. A value of UINT32_MAX implies the field is
     /// unused.
     ///
     /// Units: `KiB/s`. Invalid / unknown: `[UINT32_MAX]`. Wire: `uint32_t[6]` at payload
     /// offset 164.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub link_rx_max: [u32; 6],
     /// Bitmap of status flags.
     ///
@@ -78295,6 +85433,11 @@ impl<'a> OnboardComputerStatusMut<'a> {
 ///
 /// MAVLink message `WHEEL_DISTANCE`: id 9000, CRC_EXTRA 113, payload 137 bytes (137 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct WheelDistance {
     /// Timestamp (synced to UNIX time or since system boot).
     ///
@@ -78309,6 +85452,7 @@ pub struct WheelDistance {
     /// of encoders to wheel positions must be agreed/understood by the endpoints.
     ///
     /// Units: `m`. Wire: `double[16]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub distance: [f64; 16],
 }
 
@@ -78496,6 +85640,11 @@ impl<'a> WheelDistanceMut<'a> {
 ///
 /// MAVLink message `WINCH_STATUS`: id 9005, CRC_EXTRA 117, payload 34 bytes (34 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct WinchStatus {
     /// Timestamp (synced to UNIX time or since system boot).
     ///
@@ -78504,23 +85653,28 @@ pub struct WinchStatus {
     /// Length of line released. NaN if unknown
     ///
     /// Units: `m`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub line_length: f32,
     /// Speed line is being released or retracted. Positive values if being released, negative
     /// values if being retracted, NaN if unknown
     ///
     /// Units: `m/s`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub speed: f32,
     /// Tension on the line. NaN if unknown
     ///
     /// Units: `kg`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub tension: f32,
     /// Voltage of the battery supplying the winch. NaN if unknown
     ///
     /// Units: `V`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub voltage: f32,
     /// Current draw from the winch. NaN if unknown
     ///
     /// Units: `A`. Invalid / unknown: `NaN`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub current: f32,
     /// Temperature of the motor. INT16_MAX if unknown
     ///
@@ -78831,6 +85985,11 @@ impl<'a> WinchStatusMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_BASIC_ID`: id 12900, CRC_EXTRA 114, payload 44 bytes (44 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdBasicId {
     /// System ID (0 for broadcast).
     ///
@@ -78844,6 +86003,7 @@ pub struct OpenDroneIdBasicId {
     /// <https://mavlink.io/en/services/opendroneid.html>.
     ///
     /// Wire: `uint8_t[20]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub id_or_mac: [u8; 20],
     /// Indicates the format for the uas_id field of this message.
     ///
@@ -78857,6 +86017,7 @@ pub struct OpenDroneIdBasicId {
     /// filled with nulls in the unused portion of the field.
     ///
     /// Wire: `uint8_t[20]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub uas_id: [u8; 20],
 }
 
@@ -79109,6 +86270,11 @@ impl<'a> OpenDroneIdBasicIdMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_LOCATION`: id 12901, CRC_EXTRA 254, payload 59 bytes (59 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdLocation {
     /// System ID (0 for broadcast).
     ///
@@ -79122,6 +86288,7 @@ pub struct OpenDroneIdLocation {
     /// <https://mavlink.io/en/services/opendroneid.html>.
     ///
     /// Wire: `uint8_t[20]` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub id_or_mac: [u8; 20],
     /// Indicates whether the unmanned aircraft is on the ground or in the air.
     ///
@@ -79154,10 +86321,12 @@ pub struct OpenDroneIdLocation {
     /// 1013.2mb. If unknown: -1000 m.
     ///
     /// Units: `m`. Invalid / unknown: `-1000`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_barometric: f32,
     /// The geodetic altitude as defined by WGS84. If unknown: -1000 m.
     ///
     /// Units: `m`. Invalid / unknown: `-1000`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub altitude_geodetic: f32,
     /// Indicates the reference point for the height field.
     ///
@@ -79168,6 +86337,7 @@ pub struct OpenDroneIdLocation {
     /// indicated by height_reference. If unknown: -1000 m.
     ///
     /// Units: `m`. Invalid / unknown: `-1000`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub height: f32,
     /// The accuracy of the horizontal position.
     ///
@@ -79191,6 +86361,7 @@ pub struct OpenDroneIdLocation {
     /// field using ((float) (time_week_ms % (60*60*1000))) / 1000. If unknown: 0xFFFF.
     ///
     /// Units: `s`. Invalid / unknown: `0xFFFF`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub timestamp: f32,
     /// The accuracy of the timestamps.
     ///
@@ -79735,6 +86906,11 @@ impl<'a> OpenDroneIdLocationMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_AUTHENTICATION`: id 12902, CRC_EXTRA 140, payload 53 bytes (53 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdAuthentication {
     /// System ID (0 for broadcast).
     ///
@@ -79748,6 +86924,7 @@ pub struct OpenDroneIdAuthentication {
     /// <https://mavlink.io/en/services/opendroneid.html>.
     ///
     /// Wire: `uint8_t[20]` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub id_or_mac: [u8; 20],
     /// Indicates the type of authentication.
     ///
@@ -79779,6 +86956,7 @@ pub struct OpenDroneIdAuthentication {
     /// size is 23 bytes. Shall be filled with nulls in the unused portion of the field.
     ///
     /// Wire: `uint8_t[23]` at payload offset 30.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub authentication_data: [u8; 23],
 }
 
@@ -80099,6 +87277,11 @@ impl<'a> OpenDroneIdAuthenticationMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_SELF_ID`: id 12903, CRC_EXTRA 249, payload 46 bytes (46 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdSelfId {
     /// System ID (0 for broadcast).
     ///
@@ -80112,6 +87295,7 @@ pub struct OpenDroneIdSelfId {
     /// <https://mavlink.io/en/services/opendroneid.html>.
     ///
     /// Wire: `uint8_t[20]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub id_or_mac: [u8; 20],
     /// Indicates the type of the description field.
     ///
@@ -80122,6 +87306,7 @@ pub struct OpenDroneIdSelfId {
     /// nulls in the unused portion of the field.
     ///
     /// Wire: `char[23]` at payload offset 23.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub description: [u8; 23],
 }
 
@@ -80355,6 +87540,11 @@ impl<'a> OpenDroneIdSelfIdMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_SYSTEM`: id 12904, CRC_EXTRA 77, payload 54 bytes (54 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdSystem {
     /// System ID (0 for broadcast).
     ///
@@ -80368,6 +87558,7 @@ pub struct OpenDroneIdSystem {
     /// <https://mavlink.io/en/services/opendroneid.html>.
     ///
     /// Wire: `uint8_t[20]` at payload offset 30.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub id_or_mac: [u8; 20],
     /// Specifies the operator location type.
     ///
@@ -80401,11 +87592,13 @@ pub struct OpenDroneIdSystem {
     /// swarms/multiple UA.
     ///
     /// Units: `m`. Invalid / unknown: `-1000`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub area_ceiling: f32,
     /// Area Operations Floor relative to WGS84. If unknown: -1000 m. Used only for
     /// swarms/multiple UA.
     ///
     /// Units: `m`. Invalid / unknown: `-1000`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub area_floor: f32,
     /// When classification_type is MAV_ODID_CLASSIFICATION_TYPE_EU, specifies the category of the
     /// UA.
@@ -80421,6 +87614,7 @@ pub struct OpenDroneIdSystem {
     /// Geodetic altitude of the operator relative to WGS84. If unknown: -1000 m.
     ///
     /// Units: `m`. Invalid / unknown: `-1000`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub operator_altitude_geo: f32,
     /// 32 bit Unix Timestamp in seconds since 00:00:00 01/01/2019.
     ///
@@ -80875,6 +88069,11 @@ impl<'a> OpenDroneIdSystemMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_OPERATOR_ID`: id 12905, CRC_EXTRA 49, payload 43 bytes (43 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdOperatorId {
     /// System ID (0 for broadcast).
     ///
@@ -80888,6 +88087,7 @@ pub struct OpenDroneIdOperatorId {
     /// <https://mavlink.io/en/services/opendroneid.html>.
     ///
     /// Wire: `uint8_t[20]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub id_or_mac: [u8; 20],
     /// Indicates the type of the operator_id field.
     ///
@@ -80898,6 +88098,7 @@ pub struct OpenDroneIdOperatorId {
     /// nulls in the unused portion of the field.
     ///
     /// Wire: `char[20]` at payload offset 23.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub operator_id: [u8; 20],
 }
 
@@ -81132,6 +88333,11 @@ impl<'a> OpenDroneIdOperatorIdMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_MESSAGE_PACK`: id 12915, CRC_EXTRA 94, payload 249 bytes (249 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdMessagePack {
     /// System ID (0 for broadcast).
     ///
@@ -81145,6 +88351,7 @@ pub struct OpenDroneIdMessagePack {
     /// <https://mavlink.io/en/services/opendroneid.html>.
     ///
     /// Wire: `uint8_t[20]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub id_or_mac: [u8; 20],
     /// This field must currently always be equal to 25 (bytes), since all encoded OpenDroneID
     /// messages are specified to have this length.
@@ -81159,6 +88366,7 @@ pub struct OpenDroneIdMessagePack {
     /// portion of the field.
     ///
     /// Wire: `uint8_t[225]` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub messages: [u8; 225],
 }
 
@@ -81424,6 +88632,11 @@ impl<'a> OpenDroneIdMessagePackMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_ARM_STATUS`: id 12918, CRC_EXTRA 139, payload 51 bytes (51 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdArmStatus {
     /// Status level indicating if arming is allowed.
     ///
@@ -81434,6 +88647,7 @@ pub struct OpenDroneIdArmStatus {
     /// portion.
     ///
     /// Wire: `char[50]` at payload offset 1.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub error: [u8; 50],
 }
 
@@ -81613,6 +88827,11 @@ impl<'a> OpenDroneIdArmStatusMut<'a> {
 ///
 /// MAVLink message `OPEN_DRONE_ID_SYSTEM_UPDATE`: id 12919, CRC_EXTRA 7, payload 18 bytes (18 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct OpenDroneIdSystemUpdate {
     /// System ID (0 for broadcast).
     ///
@@ -81633,6 +88852,7 @@ pub struct OpenDroneIdSystemUpdate {
     /// Geodetic altitude of the operator relative to WGS84. If unknown: -1000 m.
     ///
     /// Units: `m`. Invalid / unknown: `-1000`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub operator_altitude_geo: f32,
     /// 32 bit Unix Timestamp in seconds since 00:00:00 01/01/2019.
     ///
@@ -81887,6 +89107,11 @@ impl<'a> OpenDroneIdSystemUpdateMut<'a> {
 ///
 /// MAVLink message `HYGROMETER_SENSOR`: id 12920, CRC_EXTRA 20, payload 5 bytes (5 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HygrometerSensor {
     /// Hygrometer ID
     ///

@@ -56,18 +56,58 @@ impl From<AirlinkAuthResponseType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl AirlinkAuthResponseType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("AIRLINK_ERROR_LOGIN_OR_PASS", 0),
+        ("AIRLINK_AUTH_OK", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for AirlinkAuthResponseType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for AirlinkAuthResponseType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "AIRLINK_AUTH_RESPONSE_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Authorization package
 ///
 /// MAVLink message `AIRLINK_AUTH`: id 52000, CRC_EXTRA 13, payload 100 bytes (100 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AirlinkAuth {
     /// Login
     ///
     /// Wire: `char[50]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub login: [u8; 50],
     /// Password
     ///
     /// Wire: `char[50]` at payload offset 50.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub password: [u8; 50],
 }
 
@@ -243,6 +283,11 @@ impl<'a> AirlinkAuthMut<'a> {
 ///
 /// MAVLink message `AIRLINK_AUTH_RESPONSE`: id 52001, CRC_EXTRA 239, payload 1 bytes (1 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AirlinkAuthResponse {
     /// Response type
     ///

@@ -4,10 +4,16 @@
 ///
 /// MAVLink message `CUBEPILOT_RAW_RC`: id 50001, CRC_EXTRA 246, payload 32 bytes (32 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CubepilotRawRc {
     /// `rc_raw`
     ///
     /// Wire: `uint8_t[32]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub rc_raw: [u8; 32],
 }
 
@@ -153,6 +159,11 @@ impl<'a> CubepilotRawRcMut<'a> {
 ///
 /// MAVLink message `HERELINK_VIDEO_STREAM_INFORMATION`: id 50002, CRC_EXTRA 181, payload 246 bytes (246 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HerelinkVideoStreamInformation {
     /// Video Stream ID (1 for first, 2 for second, etc.)
     ///
@@ -165,6 +176,7 @@ pub struct HerelinkVideoStreamInformation {
     /// Frame rate.
     ///
     /// Units: `Hz`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub framerate: f32,
     /// Horizontal resolution.
     ///
@@ -186,6 +198,7 @@ pub struct HerelinkVideoStreamInformation {
     /// port ground station should listen to).
     ///
     /// Wire: `char[230]` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub uri: [u8; 230],
 }
 
@@ -493,6 +506,11 @@ impl<'a> HerelinkVideoStreamInformationMut<'a> {
 ///
 /// MAVLink message `HERELINK_TELEM`: id 50003, CRC_EXTRA 62, payload 19 bytes (19 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct HerelinkTelem {
     /// `rssi`
     ///
@@ -792,6 +810,11 @@ impl<'a> HerelinkTelemMut<'a> {
 ///
 /// MAVLink message `CUBEPILOT_FIRMWARE_UPDATE_START`: id 50004, CRC_EXTRA 240, payload 10 bytes (10 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CubepilotFirmwareUpdateStart {
     /// System ID.
     ///
@@ -1016,6 +1039,11 @@ impl<'a> CubepilotFirmwareUpdateStartMut<'a> {
 ///
 /// MAVLink message `CUBEPILOT_FIRMWARE_UPDATE_RESP`: id 50005, CRC_EXTRA 152, payload 6 bytes (6 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct CubepilotFirmwareUpdateResp {
     /// System ID.
     ///

@@ -61,6 +61,40 @@ impl From<FbwagFailsafeStatus> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl FbwagFailsafeStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FBWAG_FAILSAFE_STATUS_NORMAL", 0),
+        ("FBWAG_FAILSAFE_STATUS_RC_LOST", 1),
+        ("FBWAG_FAILSAFE_STATUS_CC_TAKEOVER_CONFIRMED", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FbwagFailsafeStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FbwagFailsafeStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "FBWAG_FAILSAFE_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// RC-failsafe delegation notice. Sent by the flight controller as an event (never in a
 /// periodic stream) on every active channel when RC is lost (status 1) or regained (status
 /// 0); answered by the companion computer with status 2 (takeover confirmed) or 0 (hand-back
@@ -69,6 +103,11 @@ impl From<FbwagFailsafeStatus> for u8 {
 ///
 /// MAVLink message `FBWAG_NOTICE`: id 15001, CRC_EXTRA 30, payload 12 bytes (12 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct FbwagNotice {
     /// System ID of the vehicle sending the notice.
     ///
@@ -86,6 +125,7 @@ pub struct FbwagNotice {
     /// Short free text, "FBWAG" in the reference implementation.
     ///
     /// Wire: `char[5]` at payload offset 7.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub text: [u8; 5],
     /// Time of the event in milliseconds since flight-controller boot; identifies the event.
     ///
@@ -319,614 +359,927 @@ impl<'a> FbwagNoticeMut<'a> {
 
 /// Every message of the `fbwag.xml` dialect (302 messages, its includes' too).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde")
+)]
 pub enum Message {
     /// `HEARTBEAT` (id 0).
+    #[cfg_attr(feature = "serde", serde(rename = "HEARTBEAT"))]
     Heartbeat(super::minimal::Heartbeat),
     /// `SYS_STATUS` (id 1).
+    #[cfg_attr(feature = "serde", serde(rename = "SYS_STATUS"))]
     SysStatus(super::common::SysStatus),
     /// `SYSTEM_TIME` (id 2).
+    #[cfg_attr(feature = "serde", serde(rename = "SYSTEM_TIME"))]
     SystemTime(super::common::SystemTime),
     /// `PING` (id 4).
+    #[cfg_attr(feature = "serde", serde(rename = "PING"))]
     Ping(super::common::Ping),
     /// `CHANGE_OPERATOR_CONTROL` (id 5).
+    #[cfg_attr(feature = "serde", serde(rename = "CHANGE_OPERATOR_CONTROL"))]
     ChangeOperatorControl(super::common::ChangeOperatorControl),
     /// `CHANGE_OPERATOR_CONTROL_ACK` (id 6).
+    #[cfg_attr(feature = "serde", serde(rename = "CHANGE_OPERATOR_CONTROL_ACK"))]
     ChangeOperatorControlAck(super::common::ChangeOperatorControlAck),
     /// `AUTH_KEY` (id 7).
+    #[cfg_attr(feature = "serde", serde(rename = "AUTH_KEY"))]
     AuthKey(super::common::AuthKey),
     /// `SET_MODE` (id 11).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_MODE"))]
     SetMode(super::common::SetMode),
     /// `PARAM_REQUEST_READ` (id 20).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_REQUEST_READ"))]
     ParamRequestRead(super::common::ParamRequestRead),
     /// `PARAM_REQUEST_LIST` (id 21).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_REQUEST_LIST"))]
     ParamRequestList(super::common::ParamRequestList),
     /// `PARAM_VALUE` (id 22).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_VALUE"))]
     ParamValue(super::common::ParamValue),
     /// `PARAM_SET` (id 23).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_SET"))]
     ParamSet(super::common::ParamSet),
     /// `GPS_RAW_INT` (id 24).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS_RAW_INT"))]
     GpsRawInt(super::common::GpsRawInt),
     /// `GPS_STATUS` (id 25).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS_STATUS"))]
     GpsStatus(super::common::GpsStatus),
     /// `SCALED_IMU` (id 26).
+    #[cfg_attr(feature = "serde", serde(rename = "SCALED_IMU"))]
     ScaledImu(super::common::ScaledImu),
     /// `RAW_IMU` (id 27).
+    #[cfg_attr(feature = "serde", serde(rename = "RAW_IMU"))]
     RawImu(super::common::RawImu),
     /// `RAW_PRESSURE` (id 28).
+    #[cfg_attr(feature = "serde", serde(rename = "RAW_PRESSURE"))]
     RawPressure(super::common::RawPressure),
     /// `SCALED_PRESSURE` (id 29).
+    #[cfg_attr(feature = "serde", serde(rename = "SCALED_PRESSURE"))]
     ScaledPressure(super::common::ScaledPressure),
     /// `ATTITUDE` (id 30).
+    #[cfg_attr(feature = "serde", serde(rename = "ATTITUDE"))]
     Attitude(super::common::Attitude),
     /// `ATTITUDE_QUATERNION` (id 31).
+    #[cfg_attr(feature = "serde", serde(rename = "ATTITUDE_QUATERNION"))]
     AttitudeQuaternion(super::common::AttitudeQuaternion),
     /// `LOCAL_POSITION_NED` (id 32).
+    #[cfg_attr(feature = "serde", serde(rename = "LOCAL_POSITION_NED"))]
     LocalPositionNed(super::common::LocalPositionNed),
     /// `GLOBAL_POSITION_INT` (id 33).
+    #[cfg_attr(feature = "serde", serde(rename = "GLOBAL_POSITION_INT"))]
     GlobalPositionInt(super::standard::GlobalPositionInt),
     /// `RC_CHANNELS_SCALED` (id 34).
+    #[cfg_attr(feature = "serde", serde(rename = "RC_CHANNELS_SCALED"))]
     RcChannelsScaled(super::common::RcChannelsScaled),
     /// `RC_CHANNELS_RAW` (id 35).
+    #[cfg_attr(feature = "serde", serde(rename = "RC_CHANNELS_RAW"))]
     RcChannelsRaw(super::common::RcChannelsRaw),
     /// `SERVO_OUTPUT_RAW` (id 36).
+    #[cfg_attr(feature = "serde", serde(rename = "SERVO_OUTPUT_RAW"))]
     ServoOutputRaw(super::common::ServoOutputRaw),
     /// `MISSION_REQUEST_PARTIAL_LIST` (id 37).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_REQUEST_PARTIAL_LIST"))]
     MissionRequestPartialList(super::common::MissionRequestPartialList),
     /// `MISSION_WRITE_PARTIAL_LIST` (id 38).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_WRITE_PARTIAL_LIST"))]
     MissionWritePartialList(super::common::MissionWritePartialList),
     /// `MISSION_ITEM` (id 39).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_ITEM"))]
     MissionItem(super::common::MissionItem),
     /// `MISSION_REQUEST` (id 40).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_REQUEST"))]
     MissionRequest(super::common::MissionRequest),
     /// `MISSION_SET_CURRENT` (id 41).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_SET_CURRENT"))]
     MissionSetCurrent(super::common::MissionSetCurrent),
     /// `MISSION_CURRENT` (id 42).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_CURRENT"))]
     MissionCurrent(super::common::MissionCurrent),
     /// `MISSION_REQUEST_LIST` (id 43).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_REQUEST_LIST"))]
     MissionRequestList(super::common::MissionRequestList),
     /// `MISSION_COUNT` (id 44).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_COUNT"))]
     MissionCount(super::common::MissionCount),
     /// `MISSION_CLEAR_ALL` (id 45).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_CLEAR_ALL"))]
     MissionClearAll(super::common::MissionClearAll),
     /// `MISSION_ITEM_REACHED` (id 46).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_ITEM_REACHED"))]
     MissionItemReached(super::common::MissionItemReached),
     /// `MISSION_ACK` (id 47).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_ACK"))]
     MissionAck(super::common::MissionAck),
     /// `SET_GPS_GLOBAL_ORIGIN` (id 48).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_GPS_GLOBAL_ORIGIN"))]
     SetGpsGlobalOrigin(super::common::SetGpsGlobalOrigin),
     /// `GPS_GLOBAL_ORIGIN` (id 49).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS_GLOBAL_ORIGIN"))]
     GpsGlobalOrigin(super::common::GpsGlobalOrigin),
     /// `PARAM_MAP_RC` (id 50).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_MAP_RC"))]
     ParamMapRc(super::common::ParamMapRc),
     /// `MISSION_REQUEST_INT` (id 51).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_REQUEST_INT"))]
     MissionRequestInt(super::common::MissionRequestInt),
     /// `SAFETY_SET_ALLOWED_AREA` (id 54).
+    #[cfg_attr(feature = "serde", serde(rename = "SAFETY_SET_ALLOWED_AREA"))]
     SafetySetAllowedArea(super::common::SafetySetAllowedArea),
     /// `SAFETY_ALLOWED_AREA` (id 55).
+    #[cfg_attr(feature = "serde", serde(rename = "SAFETY_ALLOWED_AREA"))]
     SafetyAllowedArea(super::common::SafetyAllowedArea),
     /// `ATTITUDE_QUATERNION_COV` (id 61).
+    #[cfg_attr(feature = "serde", serde(rename = "ATTITUDE_QUATERNION_COV"))]
     AttitudeQuaternionCov(super::common::AttitudeQuaternionCov),
     /// `NAV_CONTROLLER_OUTPUT` (id 62).
+    #[cfg_attr(feature = "serde", serde(rename = "NAV_CONTROLLER_OUTPUT"))]
     NavControllerOutput(super::common::NavControllerOutput),
     /// `GLOBAL_POSITION_INT_COV` (id 63).
+    #[cfg_attr(feature = "serde", serde(rename = "GLOBAL_POSITION_INT_COV"))]
     GlobalPositionIntCov(super::common::GlobalPositionIntCov),
     /// `LOCAL_POSITION_NED_COV` (id 64).
+    #[cfg_attr(feature = "serde", serde(rename = "LOCAL_POSITION_NED_COV"))]
     LocalPositionNedCov(super::common::LocalPositionNedCov),
     /// `RC_CHANNELS` (id 65).
+    #[cfg_attr(feature = "serde", serde(rename = "RC_CHANNELS"))]
     RcChannels(super::common::RcChannels),
     /// `REQUEST_DATA_STREAM` (id 66).
+    #[cfg_attr(feature = "serde", serde(rename = "REQUEST_DATA_STREAM"))]
     RequestDataStream(super::common::RequestDataStream),
     /// `DATA_STREAM` (id 67).
+    #[cfg_attr(feature = "serde", serde(rename = "DATA_STREAM"))]
     DataStream(super::common::DataStream),
     /// `MANUAL_CONTROL` (id 69).
+    #[cfg_attr(feature = "serde", serde(rename = "MANUAL_CONTROL"))]
     ManualControl(super::common::ManualControl),
     /// `RC_CHANNELS_OVERRIDE` (id 70).
+    #[cfg_attr(feature = "serde", serde(rename = "RC_CHANNELS_OVERRIDE"))]
     RcChannelsOverride(super::common::RcChannelsOverride),
     /// `MISSION_ITEM_INT` (id 73).
+    #[cfg_attr(feature = "serde", serde(rename = "MISSION_ITEM_INT"))]
     MissionItemInt(super::common::MissionItemInt),
     /// `VFR_HUD` (id 74).
+    #[cfg_attr(feature = "serde", serde(rename = "VFR_HUD"))]
     VfrHud(super::common::VfrHud),
     /// `COMMAND_INT` (id 75).
+    #[cfg_attr(feature = "serde", serde(rename = "COMMAND_INT"))]
     CommandInt(super::common::CommandInt),
     /// `COMMAND_LONG` (id 76).
+    #[cfg_attr(feature = "serde", serde(rename = "COMMAND_LONG"))]
     CommandLong(super::common::CommandLong),
     /// `COMMAND_ACK` (id 77).
+    #[cfg_attr(feature = "serde", serde(rename = "COMMAND_ACK"))]
     CommandAck(super::common::CommandAck),
     /// `MANUAL_SETPOINT` (id 81).
+    #[cfg_attr(feature = "serde", serde(rename = "MANUAL_SETPOINT"))]
     ManualSetpoint(super::common::ManualSetpoint),
     /// `SET_ATTITUDE_TARGET` (id 82).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_ATTITUDE_TARGET"))]
     SetAttitudeTarget(super::common::SetAttitudeTarget),
     /// `ATTITUDE_TARGET` (id 83).
+    #[cfg_attr(feature = "serde", serde(rename = "ATTITUDE_TARGET"))]
     AttitudeTarget(super::common::AttitudeTarget),
     /// `SET_POSITION_TARGET_LOCAL_NED` (id 84).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_POSITION_TARGET_LOCAL_NED"))]
     SetPositionTargetLocalNed(super::common::SetPositionTargetLocalNed),
     /// `POSITION_TARGET_LOCAL_NED` (id 85).
+    #[cfg_attr(feature = "serde", serde(rename = "POSITION_TARGET_LOCAL_NED"))]
     PositionTargetLocalNed(super::common::PositionTargetLocalNed),
     /// `SET_POSITION_TARGET_GLOBAL_INT` (id 86).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_POSITION_TARGET_GLOBAL_INT"))]
     SetPositionTargetGlobalInt(super::common::SetPositionTargetGlobalInt),
     /// `POSITION_TARGET_GLOBAL_INT` (id 87).
+    #[cfg_attr(feature = "serde", serde(rename = "POSITION_TARGET_GLOBAL_INT"))]
     PositionTargetGlobalInt(super::common::PositionTargetGlobalInt),
     /// `LOCAL_POSITION_NED_SYSTEM_GLOBAL_OFFSET` (id 89).
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "LOCAL_POSITION_NED_SYSTEM_GLOBAL_OFFSET")
+    )]
     LocalPositionNedSystemGlobalOffset(
         super::common::LocalPositionNedSystemGlobalOffset,
     ),
     /// `HIL_STATE` (id 90).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_STATE"))]
     HilState(super::common::HilState),
     /// `HIL_CONTROLS` (id 91).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_CONTROLS"))]
     HilControls(super::common::HilControls),
     /// `HIL_RC_INPUTS_RAW` (id 92).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_RC_INPUTS_RAW"))]
     HilRcInputsRaw(super::common::HilRcInputsRaw),
     /// `HIL_ACTUATOR_CONTROLS` (id 93).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_ACTUATOR_CONTROLS"))]
     HilActuatorControls(super::common::HilActuatorControls),
     /// `OPTICAL_FLOW` (id 100).
+    #[cfg_attr(feature = "serde", serde(rename = "OPTICAL_FLOW"))]
     OpticalFlow(super::common::OpticalFlow),
     /// `GLOBAL_VISION_POSITION_ESTIMATE` (id 101).
+    #[cfg_attr(feature = "serde", serde(rename = "GLOBAL_VISION_POSITION_ESTIMATE"))]
     GlobalVisionPositionEstimate(super::common::GlobalVisionPositionEstimate),
     /// `VISION_POSITION_ESTIMATE` (id 102).
+    #[cfg_attr(feature = "serde", serde(rename = "VISION_POSITION_ESTIMATE"))]
     VisionPositionEstimate(super::common::VisionPositionEstimate),
     /// `VISION_SPEED_ESTIMATE` (id 103).
+    #[cfg_attr(feature = "serde", serde(rename = "VISION_SPEED_ESTIMATE"))]
     VisionSpeedEstimate(super::common::VisionSpeedEstimate),
     /// `VICON_POSITION_ESTIMATE` (id 104).
+    #[cfg_attr(feature = "serde", serde(rename = "VICON_POSITION_ESTIMATE"))]
     ViconPositionEstimate(super::common::ViconPositionEstimate),
     /// `HIGHRES_IMU` (id 105).
+    #[cfg_attr(feature = "serde", serde(rename = "HIGHRES_IMU"))]
     HighresImu(super::common::HighresImu),
     /// `OPTICAL_FLOW_RAD` (id 106).
+    #[cfg_attr(feature = "serde", serde(rename = "OPTICAL_FLOW_RAD"))]
     OpticalFlowRad(super::common::OpticalFlowRad),
     /// `HIL_SENSOR` (id 107).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_SENSOR"))]
     HilSensor(super::common::HilSensor),
     /// `SIM_STATE` (id 108).
+    #[cfg_attr(feature = "serde", serde(rename = "SIM_STATE"))]
     SimState(super::common::SimState),
     /// `RADIO_STATUS` (id 109).
+    #[cfg_attr(feature = "serde", serde(rename = "RADIO_STATUS"))]
     RadioStatus(super::common::RadioStatus),
     /// `FILE_TRANSFER_PROTOCOL` (id 110).
+    #[cfg_attr(feature = "serde", serde(rename = "FILE_TRANSFER_PROTOCOL"))]
     FileTransferProtocol(super::common::FileTransferProtocol),
     /// `TIMESYNC` (id 111).
+    #[cfg_attr(feature = "serde", serde(rename = "TIMESYNC"))]
     Timesync(super::common::Timesync),
     /// `CAMERA_TRIGGER` (id 112).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_TRIGGER"))]
     CameraTrigger(super::common::CameraTrigger),
     /// `HIL_GPS` (id 113).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_GPS"))]
     HilGps(super::common::HilGps),
     /// `HIL_OPTICAL_FLOW` (id 114).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_OPTICAL_FLOW"))]
     HilOpticalFlow(super::common::HilOpticalFlow),
     /// `HIL_STATE_QUATERNION` (id 115).
+    #[cfg_attr(feature = "serde", serde(rename = "HIL_STATE_QUATERNION"))]
     HilStateQuaternion(super::common::HilStateQuaternion),
     /// `SCALED_IMU2` (id 116).
+    #[cfg_attr(feature = "serde", serde(rename = "SCALED_IMU2"))]
     ScaledImu2(super::common::ScaledImu2),
     /// `LOG_REQUEST_LIST` (id 117).
+    #[cfg_attr(feature = "serde", serde(rename = "LOG_REQUEST_LIST"))]
     LogRequestList(super::common::LogRequestList),
     /// `LOG_ENTRY` (id 118).
+    #[cfg_attr(feature = "serde", serde(rename = "LOG_ENTRY"))]
     LogEntry(super::common::LogEntry),
     /// `LOG_REQUEST_DATA` (id 119).
+    #[cfg_attr(feature = "serde", serde(rename = "LOG_REQUEST_DATA"))]
     LogRequestData(super::common::LogRequestData),
     /// `LOG_DATA` (id 120).
+    #[cfg_attr(feature = "serde", serde(rename = "LOG_DATA"))]
     LogData(super::common::LogData),
     /// `LOG_ERASE` (id 121).
+    #[cfg_attr(feature = "serde", serde(rename = "LOG_ERASE"))]
     LogErase(super::common::LogErase),
     /// `LOG_REQUEST_END` (id 122).
+    #[cfg_attr(feature = "serde", serde(rename = "LOG_REQUEST_END"))]
     LogRequestEnd(super::common::LogRequestEnd),
     /// `GPS_INJECT_DATA` (id 123).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS_INJECT_DATA"))]
     GpsInjectData(super::common::GpsInjectData),
     /// `GPS2_RAW` (id 124).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS2_RAW"))]
     Gps2Raw(super::common::Gps2Raw),
     /// `POWER_STATUS` (id 125).
+    #[cfg_attr(feature = "serde", serde(rename = "POWER_STATUS"))]
     PowerStatus(super::common::PowerStatus),
     /// `SERIAL_CONTROL` (id 126).
+    #[cfg_attr(feature = "serde", serde(rename = "SERIAL_CONTROL"))]
     SerialControl(super::common::SerialControl),
     /// `GPS_RTK` (id 127).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS_RTK"))]
     GpsRtk(super::common::GpsRtk),
     /// `GPS2_RTK` (id 128).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS2_RTK"))]
     Gps2Rtk(super::common::Gps2Rtk),
     /// `SCALED_IMU3` (id 129).
+    #[cfg_attr(feature = "serde", serde(rename = "SCALED_IMU3"))]
     ScaledImu3(super::common::ScaledImu3),
     /// `DATA_TRANSMISSION_HANDSHAKE` (id 130).
+    #[cfg_attr(feature = "serde", serde(rename = "DATA_TRANSMISSION_HANDSHAKE"))]
     DataTransmissionHandshake(super::common::DataTransmissionHandshake),
     /// `ENCAPSULATED_DATA` (id 131).
+    #[cfg_attr(feature = "serde", serde(rename = "ENCAPSULATED_DATA"))]
     EncapsulatedData(super::common::EncapsulatedData),
     /// `DISTANCE_SENSOR` (id 132).
+    #[cfg_attr(feature = "serde", serde(rename = "DISTANCE_SENSOR"))]
     DistanceSensor(super::common::DistanceSensor),
     /// `TERRAIN_REQUEST` (id 133).
+    #[cfg_attr(feature = "serde", serde(rename = "TERRAIN_REQUEST"))]
     TerrainRequest(super::common::TerrainRequest),
     /// `TERRAIN_DATA` (id 134).
+    #[cfg_attr(feature = "serde", serde(rename = "TERRAIN_DATA"))]
     TerrainData(super::common::TerrainData),
     /// `TERRAIN_CHECK` (id 135).
+    #[cfg_attr(feature = "serde", serde(rename = "TERRAIN_CHECK"))]
     TerrainCheck(super::common::TerrainCheck),
     /// `TERRAIN_REPORT` (id 136).
+    #[cfg_attr(feature = "serde", serde(rename = "TERRAIN_REPORT"))]
     TerrainReport(super::common::TerrainReport),
     /// `SCALED_PRESSURE2` (id 137).
+    #[cfg_attr(feature = "serde", serde(rename = "SCALED_PRESSURE2"))]
     ScaledPressure2(super::common::ScaledPressure2),
     /// `ATT_POS_MOCAP` (id 138).
+    #[cfg_attr(feature = "serde", serde(rename = "ATT_POS_MOCAP"))]
     AttPosMocap(super::common::AttPosMocap),
     /// `SET_ACTUATOR_CONTROL_TARGET` (id 139).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_ACTUATOR_CONTROL_TARGET"))]
     SetActuatorControlTarget(super::common::SetActuatorControlTarget),
     /// `ACTUATOR_CONTROL_TARGET` (id 140).
+    #[cfg_attr(feature = "serde", serde(rename = "ACTUATOR_CONTROL_TARGET"))]
     ActuatorControlTarget(super::common::ActuatorControlTarget),
     /// `ALTITUDE` (id 141).
+    #[cfg_attr(feature = "serde", serde(rename = "ALTITUDE"))]
     Altitude(super::common::Altitude),
     /// `RESOURCE_REQUEST` (id 142).
+    #[cfg_attr(feature = "serde", serde(rename = "RESOURCE_REQUEST"))]
     ResourceRequest(super::common::ResourceRequest),
     /// `SCALED_PRESSURE3` (id 143).
+    #[cfg_attr(feature = "serde", serde(rename = "SCALED_PRESSURE3"))]
     ScaledPressure3(super::common::ScaledPressure3),
     /// `FOLLOW_TARGET` (id 144).
+    #[cfg_attr(feature = "serde", serde(rename = "FOLLOW_TARGET"))]
     FollowTarget(super::common::FollowTarget),
     /// `CONTROL_SYSTEM_STATE` (id 146).
+    #[cfg_attr(feature = "serde", serde(rename = "CONTROL_SYSTEM_STATE"))]
     ControlSystemState(super::common::ControlSystemState),
     /// `BATTERY_STATUS` (id 147).
+    #[cfg_attr(feature = "serde", serde(rename = "BATTERY_STATUS"))]
     BatteryStatus(super::common::BatteryStatus),
     /// `AUTOPILOT_VERSION` (id 148).
+    #[cfg_attr(feature = "serde", serde(rename = "AUTOPILOT_VERSION"))]
     AutopilotVersion(super::standard::AutopilotVersion),
     /// `LANDING_TARGET` (id 149).
+    #[cfg_attr(feature = "serde", serde(rename = "LANDING_TARGET"))]
     LandingTarget(super::common::LandingTarget),
     /// `SENSOR_OFFSETS` (id 150).
+    #[cfg_attr(feature = "serde", serde(rename = "SENSOR_OFFSETS"))]
     SensorOffsets(super::ardupilotmega::SensorOffsets),
     /// `SET_MAG_OFFSETS` (id 151).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_MAG_OFFSETS"))]
     SetMagOffsets(super::ardupilotmega::SetMagOffsets),
     /// `MEMINFO` (id 152).
+    #[cfg_attr(feature = "serde", serde(rename = "MEMINFO"))]
     Meminfo(super::ardupilotmega::Meminfo),
     /// `AP_ADC` (id 153).
+    #[cfg_attr(feature = "serde", serde(rename = "AP_ADC"))]
     ApAdc(super::ardupilotmega::ApAdc),
     /// `DIGICAM_CONFIGURE` (id 154).
+    #[cfg_attr(feature = "serde", serde(rename = "DIGICAM_CONFIGURE"))]
     DigicamConfigure(super::ardupilotmega::DigicamConfigure),
     /// `DIGICAM_CONTROL` (id 155).
+    #[cfg_attr(feature = "serde", serde(rename = "DIGICAM_CONTROL"))]
     DigicamControl(super::ardupilotmega::DigicamControl),
     /// `MOUNT_CONFIGURE` (id 156).
+    #[cfg_attr(feature = "serde", serde(rename = "MOUNT_CONFIGURE"))]
     MountConfigure(super::ardupilotmega::MountConfigure),
     /// `MOUNT_CONTROL` (id 157).
+    #[cfg_attr(feature = "serde", serde(rename = "MOUNT_CONTROL"))]
     MountControl(super::ardupilotmega::MountControl),
     /// `MOUNT_STATUS` (id 158).
+    #[cfg_attr(feature = "serde", serde(rename = "MOUNT_STATUS"))]
     MountStatus(super::ardupilotmega::MountStatus),
     /// `FENCE_POINT` (id 160).
+    #[cfg_attr(feature = "serde", serde(rename = "FENCE_POINT"))]
     FencePoint(super::ardupilotmega::FencePoint),
     /// `FENCE_FETCH_POINT` (id 161).
+    #[cfg_attr(feature = "serde", serde(rename = "FENCE_FETCH_POINT"))]
     FenceFetchPoint(super::ardupilotmega::FenceFetchPoint),
     /// `FENCE_STATUS` (id 162).
+    #[cfg_attr(feature = "serde", serde(rename = "FENCE_STATUS"))]
     FenceStatus(super::common::FenceStatus),
     /// `AHRS` (id 163).
+    #[cfg_attr(feature = "serde", serde(rename = "AHRS"))]
     Ahrs(super::ardupilotmega::Ahrs),
     /// `SIMSTATE` (id 164).
+    #[cfg_attr(feature = "serde", serde(rename = "SIMSTATE"))]
     Simstate(super::ardupilotmega::Simstate),
     /// `HWSTATUS` (id 165).
+    #[cfg_attr(feature = "serde", serde(rename = "HWSTATUS"))]
     Hwstatus(super::ardupilotmega::Hwstatus),
     /// `RADIO` (id 166).
+    #[cfg_attr(feature = "serde", serde(rename = "RADIO"))]
     Radio(super::ardupilotmega::Radio),
     /// `LIMITS_STATUS` (id 167).
+    #[cfg_attr(feature = "serde", serde(rename = "LIMITS_STATUS"))]
     LimitsStatus(super::ardupilotmega::LimitsStatus),
     /// `WIND` (id 168).
+    #[cfg_attr(feature = "serde", serde(rename = "WIND"))]
     Wind(super::ardupilotmega::Wind),
     /// `DATA16` (id 169).
+    #[cfg_attr(feature = "serde", serde(rename = "DATA16"))]
     Data16(super::ardupilotmega::Data16),
     /// `DATA32` (id 170).
+    #[cfg_attr(feature = "serde", serde(rename = "DATA32"))]
     Data32(super::ardupilotmega::Data32),
     /// `DATA64` (id 171).
+    #[cfg_attr(feature = "serde", serde(rename = "DATA64"))]
     Data64(super::ardupilotmega::Data64),
     /// `DATA96` (id 172).
+    #[cfg_attr(feature = "serde", serde(rename = "DATA96"))]
     Data96(super::ardupilotmega::Data96),
     /// `RANGEFINDER` (id 173).
+    #[cfg_attr(feature = "serde", serde(rename = "RANGEFINDER"))]
     Rangefinder(super::ardupilotmega::Rangefinder),
     /// `AIRSPEED_AUTOCAL` (id 174).
+    #[cfg_attr(feature = "serde", serde(rename = "AIRSPEED_AUTOCAL"))]
     AirspeedAutocal(super::ardupilotmega::AirspeedAutocal),
     /// `RALLY_POINT` (id 175).
+    #[cfg_attr(feature = "serde", serde(rename = "RALLY_POINT"))]
     RallyPoint(super::ardupilotmega::RallyPoint),
     /// `RALLY_FETCH_POINT` (id 176).
+    #[cfg_attr(feature = "serde", serde(rename = "RALLY_FETCH_POINT"))]
     RallyFetchPoint(super::ardupilotmega::RallyFetchPoint),
     /// `COMPASSMOT_STATUS` (id 177).
+    #[cfg_attr(feature = "serde", serde(rename = "COMPASSMOT_STATUS"))]
     CompassmotStatus(super::ardupilotmega::CompassmotStatus),
     /// `AHRS2` (id 178).
+    #[cfg_attr(feature = "serde", serde(rename = "AHRS2"))]
     Ahrs2(super::ardupilotmega::Ahrs2),
     /// `CAMERA_STATUS` (id 179).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_STATUS"))]
     CameraStatus(super::ardupilotmega::CameraStatus),
     /// `CAMERA_FEEDBACK` (id 180).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_FEEDBACK"))]
     CameraFeedback(super::ardupilotmega::CameraFeedback),
     /// `BATTERY2` (id 181).
+    #[cfg_attr(feature = "serde", serde(rename = "BATTERY2"))]
     Battery2(super::ardupilotmega::Battery2),
     /// `AHRS3` (id 182).
+    #[cfg_attr(feature = "serde", serde(rename = "AHRS3"))]
     Ahrs3(super::ardupilotmega::Ahrs3),
     /// `AUTOPILOT_VERSION_REQUEST` (id 183).
+    #[cfg_attr(feature = "serde", serde(rename = "AUTOPILOT_VERSION_REQUEST"))]
     AutopilotVersionRequest(super::ardupilotmega::AutopilotVersionRequest),
     /// `REMOTE_LOG_DATA_BLOCK` (id 184).
+    #[cfg_attr(feature = "serde", serde(rename = "REMOTE_LOG_DATA_BLOCK"))]
     RemoteLogDataBlock(super::ardupilotmega::RemoteLogDataBlock),
     /// `REMOTE_LOG_BLOCK_STATUS` (id 185).
+    #[cfg_attr(feature = "serde", serde(rename = "REMOTE_LOG_BLOCK_STATUS"))]
     RemoteLogBlockStatus(super::ardupilotmega::RemoteLogBlockStatus),
     /// `LED_CONTROL` (id 186).
+    #[cfg_attr(feature = "serde", serde(rename = "LED_CONTROL"))]
     LedControl(super::ardupilotmega::LedControl),
     /// `MAG_CAL_PROGRESS` (id 191).
+    #[cfg_attr(feature = "serde", serde(rename = "MAG_CAL_PROGRESS"))]
     MagCalProgress(super::ardupilotmega::MagCalProgress),
     /// `MAG_CAL_REPORT` (id 192).
+    #[cfg_attr(feature = "serde", serde(rename = "MAG_CAL_REPORT"))]
     MagCalReport(super::common::MagCalReport),
     /// `EKF_STATUS_REPORT` (id 193).
+    #[cfg_attr(feature = "serde", serde(rename = "EKF_STATUS_REPORT"))]
     EkfStatusReport(super::ardupilotmega::EkfStatusReport),
     /// `PID_TUNING` (id 194).
+    #[cfg_attr(feature = "serde", serde(rename = "PID_TUNING"))]
     PidTuning(super::ardupilotmega::PidTuning),
     /// `DEEPSTALL` (id 195).
+    #[cfg_attr(feature = "serde", serde(rename = "DEEPSTALL"))]
     Deepstall(super::ardupilotmega::Deepstall),
     /// `GIMBAL_REPORT` (id 200).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_REPORT"))]
     GimbalReport(super::ardupilotmega::GimbalReport),
     /// `GIMBAL_CONTROL` (id 201).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_CONTROL"))]
     GimbalControl(super::ardupilotmega::GimbalControl),
     /// `GIMBAL_TORQUE_CMD_REPORT` (id 214).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_TORQUE_CMD_REPORT"))]
     GimbalTorqueCmdReport(super::ardupilotmega::GimbalTorqueCmdReport),
     /// `GOPRO_HEARTBEAT` (id 215).
+    #[cfg_attr(feature = "serde", serde(rename = "GOPRO_HEARTBEAT"))]
     GoproHeartbeat(super::ardupilotmega::GoproHeartbeat),
     /// `GOPRO_GET_REQUEST` (id 216).
+    #[cfg_attr(feature = "serde", serde(rename = "GOPRO_GET_REQUEST"))]
     GoproGetRequest(super::ardupilotmega::GoproGetRequest),
     /// `GOPRO_GET_RESPONSE` (id 217).
+    #[cfg_attr(feature = "serde", serde(rename = "GOPRO_GET_RESPONSE"))]
     GoproGetResponse(super::ardupilotmega::GoproGetResponse),
     /// `GOPRO_SET_REQUEST` (id 218).
+    #[cfg_attr(feature = "serde", serde(rename = "GOPRO_SET_REQUEST"))]
     GoproSetRequest(super::ardupilotmega::GoproSetRequest),
     /// `GOPRO_SET_RESPONSE` (id 219).
+    #[cfg_attr(feature = "serde", serde(rename = "GOPRO_SET_RESPONSE"))]
     GoproSetResponse(super::ardupilotmega::GoproSetResponse),
     /// `EFI_STATUS` (id 225).
+    #[cfg_attr(feature = "serde", serde(rename = "EFI_STATUS"))]
     EfiStatus(super::common::EfiStatus),
     /// `RPM` (id 226).
+    #[cfg_attr(feature = "serde", serde(rename = "RPM"))]
     Rpm(super::ardupilotmega::Rpm),
     /// `ESTIMATOR_STATUS` (id 230).
+    #[cfg_attr(feature = "serde", serde(rename = "ESTIMATOR_STATUS"))]
     EstimatorStatus(super::common::EstimatorStatus),
     /// `WIND_COV` (id 231).
+    #[cfg_attr(feature = "serde", serde(rename = "WIND_COV"))]
     WindCov(super::common::WindCov),
     /// `GPS_INPUT` (id 232).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS_INPUT"))]
     GpsInput(super::common::GpsInput),
     /// `GPS_RTCM_DATA` (id 233).
+    #[cfg_attr(feature = "serde", serde(rename = "GPS_RTCM_DATA"))]
     GpsRtcmData(super::common::GpsRtcmData),
     /// `HIGH_LATENCY` (id 234).
+    #[cfg_attr(feature = "serde", serde(rename = "HIGH_LATENCY"))]
     HighLatency(super::common::HighLatency),
     /// `HIGH_LATENCY2` (id 235).
+    #[cfg_attr(feature = "serde", serde(rename = "HIGH_LATENCY2"))]
     HighLatency2(super::common::HighLatency2),
     /// `VIBRATION` (id 241).
+    #[cfg_attr(feature = "serde", serde(rename = "VIBRATION"))]
     Vibration(super::common::Vibration),
     /// `HOME_POSITION` (id 242).
+    #[cfg_attr(feature = "serde", serde(rename = "HOME_POSITION"))]
     HomePosition(super::common::HomePosition),
     /// `SET_HOME_POSITION` (id 243).
+    #[cfg_attr(feature = "serde", serde(rename = "SET_HOME_POSITION"))]
     SetHomePosition(super::common::SetHomePosition),
     /// `MESSAGE_INTERVAL` (id 244).
+    #[cfg_attr(feature = "serde", serde(rename = "MESSAGE_INTERVAL"))]
     MessageInterval(super::common::MessageInterval),
     /// `EXTENDED_SYS_STATE` (id 245).
+    #[cfg_attr(feature = "serde", serde(rename = "EXTENDED_SYS_STATE"))]
     ExtendedSysState(super::common::ExtendedSysState),
     /// `ADSB_VEHICLE` (id 246).
+    #[cfg_attr(feature = "serde", serde(rename = "ADSB_VEHICLE"))]
     AdsbVehicle(super::common::AdsbVehicle),
     /// `COLLISION` (id 247).
+    #[cfg_attr(feature = "serde", serde(rename = "COLLISION"))]
     Collision(super::common::Collision),
     /// `V2_EXTENSION` (id 248).
+    #[cfg_attr(feature = "serde", serde(rename = "V2_EXTENSION"))]
     V2Extension(super::common::V2Extension),
     /// `MEMORY_VECT` (id 249).
+    #[cfg_attr(feature = "serde", serde(rename = "MEMORY_VECT"))]
     MemoryVect(super::common::MemoryVect),
     /// `DEBUG_VECT` (id 250).
+    #[cfg_attr(feature = "serde", serde(rename = "DEBUG_VECT"))]
     DebugVect(super::common::DebugVect),
     /// `NAMED_VALUE_FLOAT` (id 251).
+    #[cfg_attr(feature = "serde", serde(rename = "NAMED_VALUE_FLOAT"))]
     NamedValueFloat(super::common::NamedValueFloat),
     /// `NAMED_VALUE_INT` (id 252).
+    #[cfg_attr(feature = "serde", serde(rename = "NAMED_VALUE_INT"))]
     NamedValueInt(super::common::NamedValueInt),
     /// `STATUSTEXT` (id 253).
+    #[cfg_attr(feature = "serde", serde(rename = "STATUSTEXT"))]
     Statustext(super::common::Statustext),
     /// `DEBUG` (id 254).
+    #[cfg_attr(feature = "serde", serde(rename = "DEBUG"))]
     Debug(super::common::Debug),
     /// `SETUP_SIGNING` (id 256).
+    #[cfg_attr(feature = "serde", serde(rename = "SETUP_SIGNING"))]
     SetupSigning(super::common::SetupSigning),
     /// `BUTTON_CHANGE` (id 257).
+    #[cfg_attr(feature = "serde", serde(rename = "BUTTON_CHANGE"))]
     ButtonChange(super::common::ButtonChange),
     /// `PLAY_TUNE` (id 258).
+    #[cfg_attr(feature = "serde", serde(rename = "PLAY_TUNE"))]
     PlayTune(super::common::PlayTune),
     /// `CAMERA_INFORMATION` (id 259).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_INFORMATION"))]
     CameraInformation(super::common::CameraInformation),
     /// `CAMERA_SETTINGS` (id 260).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_SETTINGS"))]
     CameraSettings(super::common::CameraSettings),
     /// `STORAGE_INFORMATION` (id 261).
+    #[cfg_attr(feature = "serde", serde(rename = "STORAGE_INFORMATION"))]
     StorageInformation(super::common::StorageInformation),
     /// `CAMERA_CAPTURE_STATUS` (id 262).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_CAPTURE_STATUS"))]
     CameraCaptureStatus(super::common::CameraCaptureStatus),
     /// `CAMERA_IMAGE_CAPTURED` (id 263).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_IMAGE_CAPTURED"))]
     CameraImageCaptured(super::common::CameraImageCaptured),
     /// `FLIGHT_INFORMATION` (id 264).
+    #[cfg_attr(feature = "serde", serde(rename = "FLIGHT_INFORMATION"))]
     FlightInformation(super::common::FlightInformation),
     /// `MOUNT_ORIENTATION` (id 265).
+    #[cfg_attr(feature = "serde", serde(rename = "MOUNT_ORIENTATION"))]
     MountOrientation(super::common::MountOrientation),
     /// `LOGGING_DATA` (id 266).
+    #[cfg_attr(feature = "serde", serde(rename = "LOGGING_DATA"))]
     LoggingData(super::common::LoggingData),
     /// `LOGGING_DATA_ACKED` (id 267).
+    #[cfg_attr(feature = "serde", serde(rename = "LOGGING_DATA_ACKED"))]
     LoggingDataAcked(super::common::LoggingDataAcked),
     /// `LOGGING_ACK` (id 268).
+    #[cfg_attr(feature = "serde", serde(rename = "LOGGING_ACK"))]
     LoggingAck(super::common::LoggingAck),
     /// `VIDEO_STREAM_INFORMATION` (id 269).
+    #[cfg_attr(feature = "serde", serde(rename = "VIDEO_STREAM_INFORMATION"))]
     VideoStreamInformation(super::common::VideoStreamInformation),
     /// `VIDEO_STREAM_STATUS` (id 270).
+    #[cfg_attr(feature = "serde", serde(rename = "VIDEO_STREAM_STATUS"))]
     VideoStreamStatus(super::common::VideoStreamStatus),
     /// `CAMERA_FOV_STATUS` (id 271).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_FOV_STATUS"))]
     CameraFovStatus(super::common::CameraFovStatus),
     /// `CAMERA_TRACKING_IMAGE_STATUS` (id 275).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_TRACKING_IMAGE_STATUS"))]
     CameraTrackingImageStatus(super::common::CameraTrackingImageStatus),
     /// `CAMERA_TRACKING_GEO_STATUS` (id 276).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_TRACKING_GEO_STATUS"))]
     CameraTrackingGeoStatus(super::common::CameraTrackingGeoStatus),
     /// `CAMERA_THERMAL_RANGE` (id 277).
+    #[cfg_attr(feature = "serde", serde(rename = "CAMERA_THERMAL_RANGE"))]
     CameraThermalRange(super::common::CameraThermalRange),
     /// `GIMBAL_MANAGER_INFORMATION` (id 280).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_MANAGER_INFORMATION"))]
     GimbalManagerInformation(super::common::GimbalManagerInformation),
     /// `GIMBAL_MANAGER_STATUS` (id 281).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_MANAGER_STATUS"))]
     GimbalManagerStatus(super::common::GimbalManagerStatus),
     /// `GIMBAL_MANAGER_SET_ATTITUDE` (id 282).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_MANAGER_SET_ATTITUDE"))]
     GimbalManagerSetAttitude(super::common::GimbalManagerSetAttitude),
     /// `GIMBAL_DEVICE_INFORMATION` (id 283).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_DEVICE_INFORMATION"))]
     GimbalDeviceInformation(super::common::GimbalDeviceInformation),
     /// `GIMBAL_DEVICE_SET_ATTITUDE` (id 284).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_DEVICE_SET_ATTITUDE"))]
     GimbalDeviceSetAttitude(super::common::GimbalDeviceSetAttitude),
     /// `GIMBAL_DEVICE_ATTITUDE_STATUS` (id 285).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_DEVICE_ATTITUDE_STATUS"))]
     GimbalDeviceAttitudeStatus(super::common::GimbalDeviceAttitudeStatus),
     /// `AUTOPILOT_STATE_FOR_GIMBAL_DEVICE` (id 286).
+    #[cfg_attr(feature = "serde", serde(rename = "AUTOPILOT_STATE_FOR_GIMBAL_DEVICE"))]
     AutopilotStateForGimbalDevice(super::common::AutopilotStateForGimbalDevice),
     /// `GIMBAL_MANAGER_SET_PITCHYAW` (id 287).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_MANAGER_SET_PITCHYAW"))]
     GimbalManagerSetPitchyaw(super::common::GimbalManagerSetPitchyaw),
     /// `GIMBAL_MANAGER_SET_MANUAL_CONTROL` (id 288).
+    #[cfg_attr(feature = "serde", serde(rename = "GIMBAL_MANAGER_SET_MANUAL_CONTROL"))]
     GimbalManagerSetManualControl(super::common::GimbalManagerSetManualControl),
     /// `AIRSPEED` (id 295).
+    #[cfg_attr(feature = "serde", serde(rename = "AIRSPEED"))]
     Airspeed(super::common::Airspeed),
     /// `GLOBAL_POSITION_SENSOR` (id 296).
+    #[cfg_attr(feature = "serde", serde(rename = "GLOBAL_POSITION_SENSOR"))]
     GlobalPositionSensor(super::common::GlobalPositionSensor),
     /// `WIFI_CONFIG_AP` (id 299).
+    #[cfg_attr(feature = "serde", serde(rename = "WIFI_CONFIG_AP"))]
     WifiConfigAp(super::common::WifiConfigAp),
     /// `AIS_VESSEL` (id 301).
+    #[cfg_attr(feature = "serde", serde(rename = "AIS_VESSEL"))]
     AisVessel(super::common::AisVessel),
     /// `UAVCAN_NODE_STATUS` (id 310).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVCAN_NODE_STATUS"))]
     UavcanNodeStatus(super::common::UavcanNodeStatus),
     /// `UAVCAN_NODE_INFO` (id 311).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVCAN_NODE_INFO"))]
     UavcanNodeInfo(super::common::UavcanNodeInfo),
     /// `PARAM_EXT_REQUEST_READ` (id 320).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_EXT_REQUEST_READ"))]
     ParamExtRequestRead(super::common::ParamExtRequestRead),
     /// `PARAM_EXT_REQUEST_LIST` (id 321).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_EXT_REQUEST_LIST"))]
     ParamExtRequestList(super::common::ParamExtRequestList),
     /// `PARAM_EXT_VALUE` (id 322).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_EXT_VALUE"))]
     ParamExtValue(super::common::ParamExtValue),
     /// `PARAM_EXT_SET` (id 323).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_EXT_SET"))]
     ParamExtSet(super::common::ParamExtSet),
     /// `PARAM_EXT_ACK` (id 324).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_EXT_ACK"))]
     ParamExtAck(super::common::ParamExtAck),
     /// `OBSTACLE_DISTANCE` (id 330).
+    #[cfg_attr(feature = "serde", serde(rename = "OBSTACLE_DISTANCE"))]
     ObstacleDistance(super::common::ObstacleDistance),
     /// `ODOMETRY` (id 331).
+    #[cfg_attr(feature = "serde", serde(rename = "ODOMETRY"))]
     Odometry(super::common::Odometry),
     /// `TRAJECTORY_REPRESENTATION_WAYPOINTS` (id 332).
+    #[cfg_attr(feature = "serde", serde(rename = "TRAJECTORY_REPRESENTATION_WAYPOINTS"))]
     TrajectoryRepresentationWaypoints(super::common::TrajectoryRepresentationWaypoints),
     /// `TRAJECTORY_REPRESENTATION_BEZIER` (id 333).
+    #[cfg_attr(feature = "serde", serde(rename = "TRAJECTORY_REPRESENTATION_BEZIER"))]
     TrajectoryRepresentationBezier(super::common::TrajectoryRepresentationBezier),
     /// `ISBD_LINK_STATUS` (id 335).
+    #[cfg_attr(feature = "serde", serde(rename = "ISBD_LINK_STATUS"))]
     IsbdLinkStatus(super::common::IsbdLinkStatus),
     /// `RAW_RPM` (id 339).
+    #[cfg_attr(feature = "serde", serde(rename = "RAW_RPM"))]
     RawRpm(super::common::RawRpm),
     /// `UTM_GLOBAL_POSITION` (id 340).
+    #[cfg_attr(feature = "serde", serde(rename = "UTM_GLOBAL_POSITION"))]
     UtmGlobalPosition(super::common::UtmGlobalPosition),
     /// `PARAM_ERROR` (id 345).
+    #[cfg_attr(feature = "serde", serde(rename = "PARAM_ERROR"))]
     ParamError(super::common::ParamError),
     /// `DEBUG_FLOAT_ARRAY` (id 350).
+    #[cfg_attr(feature = "serde", serde(rename = "DEBUG_FLOAT_ARRAY"))]
     DebugFloatArray(super::common::DebugFloatArray),
     /// `ORBIT_EXECUTION_STATUS` (id 360).
+    #[cfg_attr(feature = "serde", serde(rename = "ORBIT_EXECUTION_STATUS"))]
     OrbitExecutionStatus(super::common::OrbitExecutionStatus),
     /// `SMART_BATTERY_INFO` (id 370).
+    #[cfg_attr(feature = "serde", serde(rename = "SMART_BATTERY_INFO"))]
     SmartBatteryInfo(super::common::SmartBatteryInfo),
     /// `GENERATOR_STATUS` (id 373).
+    #[cfg_attr(feature = "serde", serde(rename = "GENERATOR_STATUS"))]
     GeneratorStatus(super::common::GeneratorStatus),
     /// `ACTUATOR_OUTPUT_STATUS` (id 375).
+    #[cfg_attr(feature = "serde", serde(rename = "ACTUATOR_OUTPUT_STATUS"))]
     ActuatorOutputStatus(super::common::ActuatorOutputStatus),
     /// `RELAY_STATUS` (id 376).
+    #[cfg_attr(feature = "serde", serde(rename = "RELAY_STATUS"))]
     RelayStatus(super::common::RelayStatus),
     /// `TUNNEL` (id 385).
+    #[cfg_attr(feature = "serde", serde(rename = "TUNNEL"))]
     Tunnel(super::common::Tunnel),
     /// `CAN_FRAME` (id 386).
+    #[cfg_attr(feature = "serde", serde(rename = "CAN_FRAME"))]
     CanFrame(super::common::CanFrame),
     /// `CANFD_FRAME` (id 387).
+    #[cfg_attr(feature = "serde", serde(rename = "CANFD_FRAME"))]
     CanfdFrame(super::common::CanfdFrame),
     /// `CAN_FILTER_MODIFY` (id 388).
+    #[cfg_attr(feature = "serde", serde(rename = "CAN_FILTER_MODIFY"))]
     CanFilterModify(super::common::CanFilterModify),
     /// `ONBOARD_COMPUTER_STATUS` (id 390).
+    #[cfg_attr(feature = "serde", serde(rename = "ONBOARD_COMPUTER_STATUS"))]
     OnboardComputerStatus(super::common::OnboardComputerStatus),
     /// `WHEEL_DISTANCE` (id 9000).
+    #[cfg_attr(feature = "serde", serde(rename = "WHEEL_DISTANCE"))]
     WheelDistance(super::common::WheelDistance),
     /// `WINCH_STATUS` (id 9005).
+    #[cfg_attr(feature = "serde", serde(rename = "WINCH_STATUS"))]
     WinchStatus(super::common::WinchStatus),
     /// `UAVIONIX_ADSB_OUT_CFG` (id 10001).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVIONIX_ADSB_OUT_CFG"))]
     UavionixAdsbOutCfg(super::uavionix::UavionixAdsbOutCfg),
     /// `UAVIONIX_ADSB_OUT_DYNAMIC` (id 10002).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVIONIX_ADSB_OUT_DYNAMIC"))]
     UavionixAdsbOutDynamic(super::uavionix::UavionixAdsbOutDynamic),
     /// `UAVIONIX_ADSB_TRANSCEIVER_HEALTH_REPORT` (id 10003).
+    #[cfg_attr(
+        feature = "serde",
+        serde(rename = "UAVIONIX_ADSB_TRANSCEIVER_HEALTH_REPORT")
+    )]
     UavionixAdsbTransceiverHealthReport(
         super::uavionix::UavionixAdsbTransceiverHealthReport,
     ),
     /// `UAVIONIX_ADSB_OUT_CFG_REGISTRATION` (id 10004).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVIONIX_ADSB_OUT_CFG_REGISTRATION"))]
     UavionixAdsbOutCfgRegistration(super::uavionix::UavionixAdsbOutCfgRegistration),
     /// `UAVIONIX_ADSB_OUT_CFG_FLIGHTID` (id 10005).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVIONIX_ADSB_OUT_CFG_FLIGHTID"))]
     UavionixAdsbOutCfgFlightid(super::uavionix::UavionixAdsbOutCfgFlightid),
     /// `UAVIONIX_ADSB_GET` (id 10006).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVIONIX_ADSB_GET"))]
     UavionixAdsbGet(super::uavionix::UavionixAdsbGet),
     /// `UAVIONIX_ADSB_OUT_CONTROL` (id 10007).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVIONIX_ADSB_OUT_CONTROL"))]
     UavionixAdsbOutControl(super::uavionix::UavionixAdsbOutControl),
     /// `UAVIONIX_ADSB_OUT_STATUS` (id 10008).
+    #[cfg_attr(feature = "serde", serde(rename = "UAVIONIX_ADSB_OUT_STATUS"))]
     UavionixAdsbOutStatus(super::uavionix::UavionixAdsbOutStatus),
     /// `LOWEHEISER_GOV_EFI` (id 10151).
+    #[cfg_attr(feature = "serde", serde(rename = "LOWEHEISER_GOV_EFI"))]
     LoweheiserGovEfi(super::loweheiser::LoweheiserGovEfi),
     /// `DEVICE_OP_READ` (id 11000).
+    #[cfg_attr(feature = "serde", serde(rename = "DEVICE_OP_READ"))]
     DeviceOpRead(super::ardupilotmega::DeviceOpRead),
     /// `DEVICE_OP_READ_REPLY` (id 11001).
+    #[cfg_attr(feature = "serde", serde(rename = "DEVICE_OP_READ_REPLY"))]
     DeviceOpReadReply(super::ardupilotmega::DeviceOpReadReply),
     /// `DEVICE_OP_WRITE` (id 11002).
+    #[cfg_attr(feature = "serde", serde(rename = "DEVICE_OP_WRITE"))]
     DeviceOpWrite(super::ardupilotmega::DeviceOpWrite),
     /// `DEVICE_OP_WRITE_REPLY` (id 11003).
+    #[cfg_attr(feature = "serde", serde(rename = "DEVICE_OP_WRITE_REPLY"))]
     DeviceOpWriteReply(super::ardupilotmega::DeviceOpWriteReply),
     /// `SECURE_COMMAND` (id 11004).
+    #[cfg_attr(feature = "serde", serde(rename = "SECURE_COMMAND"))]
     SecureCommand(super::ardupilotmega::SecureCommand),
     /// `SECURE_COMMAND_REPLY` (id 11005).
+    #[cfg_attr(feature = "serde", serde(rename = "SECURE_COMMAND_REPLY"))]
     SecureCommandReply(super::ardupilotmega::SecureCommandReply),
     /// `ADAP_TUNING` (id 11010).
+    #[cfg_attr(feature = "serde", serde(rename = "ADAP_TUNING"))]
     AdapTuning(super::ardupilotmega::AdapTuning),
     /// `VISION_POSITION_DELTA` (id 11011).
+    #[cfg_attr(feature = "serde", serde(rename = "VISION_POSITION_DELTA"))]
     VisionPositionDelta(super::ardupilotmega::VisionPositionDelta),
     /// `AOA_SSA` (id 11020).
+    #[cfg_attr(feature = "serde", serde(rename = "AOA_SSA"))]
     AoaSsa(super::ardupilotmega::AoaSsa),
     /// `ESC_TELEMETRY_1_TO_4` (id 11030).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_1_TO_4"))]
     EscTelemetry1To4(super::ardupilotmega::EscTelemetry1To4),
     /// `ESC_TELEMETRY_5_TO_8` (id 11031).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_5_TO_8"))]
     EscTelemetry5To8(super::ardupilotmega::EscTelemetry5To8),
     /// `ESC_TELEMETRY_9_TO_12` (id 11032).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_9_TO_12"))]
     EscTelemetry9To12(super::ardupilotmega::EscTelemetry9To12),
     /// `OSD_PARAM_CONFIG` (id 11033).
+    #[cfg_attr(feature = "serde", serde(rename = "OSD_PARAM_CONFIG"))]
     OsdParamConfig(super::ardupilotmega::OsdParamConfig),
     /// `OSD_PARAM_CONFIG_REPLY` (id 11034).
+    #[cfg_attr(feature = "serde", serde(rename = "OSD_PARAM_CONFIG_REPLY"))]
     OsdParamConfigReply(super::ardupilotmega::OsdParamConfigReply),
     /// `OSD_PARAM_SHOW_CONFIG` (id 11035).
+    #[cfg_attr(feature = "serde", serde(rename = "OSD_PARAM_SHOW_CONFIG"))]
     OsdParamShowConfig(super::ardupilotmega::OsdParamShowConfig),
     /// `OSD_PARAM_SHOW_CONFIG_REPLY` (id 11036).
+    #[cfg_attr(feature = "serde", serde(rename = "OSD_PARAM_SHOW_CONFIG_REPLY"))]
     OsdParamShowConfigReply(super::ardupilotmega::OsdParamShowConfigReply),
     /// `OBSTACLE_DISTANCE_3D` (id 11037).
+    #[cfg_attr(feature = "serde", serde(rename = "OBSTACLE_DISTANCE_3D"))]
     ObstacleDistance3d(super::ardupilotmega::ObstacleDistance3d),
     /// `WATER_DEPTH` (id 11038).
+    #[cfg_attr(feature = "serde", serde(rename = "WATER_DEPTH"))]
     WaterDepth(super::ardupilotmega::WaterDepth),
     /// `MCU_STATUS` (id 11039).
+    #[cfg_attr(feature = "serde", serde(rename = "MCU_STATUS"))]
     McuStatus(super::ardupilotmega::McuStatus),
     /// `ESC_TELEMETRY_13_TO_16` (id 11040).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_13_TO_16"))]
     EscTelemetry13To16(super::ardupilotmega::EscTelemetry13To16),
     /// `ESC_TELEMETRY_17_TO_20` (id 11041).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_17_TO_20"))]
     EscTelemetry17To20(super::ardupilotmega::EscTelemetry17To20),
     /// `ESC_TELEMETRY_21_TO_24` (id 11042).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_21_TO_24"))]
     EscTelemetry21To24(super::ardupilotmega::EscTelemetry21To24),
     /// `ESC_TELEMETRY_25_TO_28` (id 11043).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_25_TO_28"))]
     EscTelemetry25To28(super::ardupilotmega::EscTelemetry25To28),
     /// `ESC_TELEMETRY_29_TO_32` (id 11044).
+    #[cfg_attr(feature = "serde", serde(rename = "ESC_TELEMETRY_29_TO_32"))]
     EscTelemetry29To32(super::ardupilotmega::EscTelemetry29To32),
     /// `NAMED_VALUE_STRING` (id 11060).
+    #[cfg_attr(feature = "serde", serde(rename = "NAMED_VALUE_STRING"))]
     NamedValueString(super::ardupilotmega::NamedValueString),
     /// `OPEN_DRONE_ID_BASIC_ID` (id 12900).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_BASIC_ID"))]
     OpenDroneIdBasicId(super::common::OpenDroneIdBasicId),
     /// `OPEN_DRONE_ID_LOCATION` (id 12901).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_LOCATION"))]
     OpenDroneIdLocation(super::common::OpenDroneIdLocation),
     /// `OPEN_DRONE_ID_AUTHENTICATION` (id 12902).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_AUTHENTICATION"))]
     OpenDroneIdAuthentication(super::common::OpenDroneIdAuthentication),
     /// `OPEN_DRONE_ID_SELF_ID` (id 12903).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_SELF_ID"))]
     OpenDroneIdSelfId(super::common::OpenDroneIdSelfId),
     /// `OPEN_DRONE_ID_SYSTEM` (id 12904).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_SYSTEM"))]
     OpenDroneIdSystem(super::common::OpenDroneIdSystem),
     /// `OPEN_DRONE_ID_OPERATOR_ID` (id 12905).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_OPERATOR_ID"))]
     OpenDroneIdOperatorId(super::common::OpenDroneIdOperatorId),
     /// `OPEN_DRONE_ID_MESSAGE_PACK` (id 12915).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_MESSAGE_PACK"))]
     OpenDroneIdMessagePack(super::common::OpenDroneIdMessagePack),
     /// `OPEN_DRONE_ID_ARM_STATUS` (id 12918).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_ARM_STATUS"))]
     OpenDroneIdArmStatus(super::common::OpenDroneIdArmStatus),
     /// `OPEN_DRONE_ID_SYSTEM_UPDATE` (id 12919).
+    #[cfg_attr(feature = "serde", serde(rename = "OPEN_DRONE_ID_SYSTEM_UPDATE"))]
     OpenDroneIdSystemUpdate(super::common::OpenDroneIdSystemUpdate),
     /// `HYGROMETER_SENSOR` (id 12920).
+    #[cfg_attr(feature = "serde", serde(rename = "HYGROMETER_SENSOR"))]
     HygrometerSensor(super::common::HygrometerSensor),
     /// `FBWAG_NOTICE` (id 15001).
+    #[cfg_attr(feature = "serde", serde(rename = "FBWAG_NOTICE"))]
     FbwagNotice(FbwagNotice),
     /// `ICAROUS_HEARTBEAT` (id 42000).
+    #[cfg_attr(feature = "serde", serde(rename = "ICAROUS_HEARTBEAT"))]
     IcarousHeartbeat(super::icarous::IcarousHeartbeat),
     /// `ICAROUS_KINEMATIC_BANDS` (id 42001).
+    #[cfg_attr(feature = "serde", serde(rename = "ICAROUS_KINEMATIC_BANDS"))]
     IcarousKinematicBands(super::icarous::IcarousKinematicBands),
     /// `CUBEPILOT_RAW_RC` (id 50001).
+    #[cfg_attr(feature = "serde", serde(rename = "CUBEPILOT_RAW_RC"))]
     CubepilotRawRc(super::cubepilot::CubepilotRawRc),
     /// `HERELINK_VIDEO_STREAM_INFORMATION` (id 50002).
+    #[cfg_attr(feature = "serde", serde(rename = "HERELINK_VIDEO_STREAM_INFORMATION"))]
     HerelinkVideoStreamInformation(super::cubepilot::HerelinkVideoStreamInformation),
     /// `HERELINK_TELEM` (id 50003).
+    #[cfg_attr(feature = "serde", serde(rename = "HERELINK_TELEM"))]
     HerelinkTelem(super::cubepilot::HerelinkTelem),
     /// `CUBEPILOT_FIRMWARE_UPDATE_START` (id 50004).
+    #[cfg_attr(feature = "serde", serde(rename = "CUBEPILOT_FIRMWARE_UPDATE_START"))]
     CubepilotFirmwareUpdateStart(super::cubepilot::CubepilotFirmwareUpdateStart),
     /// `CUBEPILOT_FIRMWARE_UPDATE_RESP` (id 50005).
+    #[cfg_attr(feature = "serde", serde(rename = "CUBEPILOT_FIRMWARE_UPDATE_RESP"))]
     CubepilotFirmwareUpdateResp(super::cubepilot::CubepilotFirmwareUpdateResp),
     /// `AIRLINK_AUTH` (id 52000).
+    #[cfg_attr(feature = "serde", serde(rename = "AIRLINK_AUTH"))]
     AirlinkAuth(super::csairlink::AirlinkAuth),
     /// `AIRLINK_AUTH_RESPONSE` (id 52001).
+    #[cfg_attr(feature = "serde", serde(rename = "AIRLINK_AUTH_RESPONSE"))]
     AirlinkAuthResponse(super::csairlink::AirlinkAuthResponse),
 }
 

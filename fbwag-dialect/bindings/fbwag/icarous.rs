@@ -68,6 +68,43 @@ impl From<IcarousFmsState> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl IcarousFmsState {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ICAROUS_FMS_STATE_IDLE", 0),
+        ("ICAROUS_FMS_STATE_TAKEOFF", 1),
+        ("ICAROUS_FMS_STATE_CLIMB", 2),
+        ("ICAROUS_FMS_STATE_CRUISE", 3),
+        ("ICAROUS_FMS_STATE_APPROACH", 4),
+        ("ICAROUS_FMS_STATE_LAND", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for IcarousFmsState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for IcarousFmsState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ICAROUS_FMS_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// `ICAROUS_TRACK_BAND_TYPES`
 ///
 /// MAVLink enum `ICAROUS_TRACK_BAND_TYPES`.
@@ -127,10 +164,49 @@ impl From<IcarousTrackBandTypes> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl IcarousTrackBandTypes {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("ICAROUS_TRACK_BAND_TYPE_NONE", 0),
+        ("ICAROUS_TRACK_BAND_TYPE_NEAR", 1),
+        ("ICAROUS_TRACK_BAND_TYPE_RECOVERY", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for IcarousTrackBandTypes {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for IcarousTrackBandTypes {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "ICAROUS_TRACK_BAND_TYPES",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// ICAROUS heartbeat
 ///
 /// MAVLink message `ICAROUS_HEARTBEAT`: id 42000, CRC_EXTRA 227, payload 1 bytes (1 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct IcarousHeartbeat {
     /// See the FMS_STATE enum.
     ///
@@ -281,10 +357,16 @@ impl<'a> IcarousHeartbeatMut<'a> {
 ///
 /// MAVLink message `ICAROUS_KINEMATIC_BANDS`: id 42001, CRC_EXTRA 239, payload 46 bytes (46 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct IcarousKinematicBands {
     /// Number of track bands
     ///
     /// XML name: `numBands`. Wire: `int8_t` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(rename = "numBands"))]
     pub num_bands: i8,
     /// See the TRACK_BAND_TYPES enum.
     ///
@@ -294,10 +376,12 @@ pub struct IcarousKinematicBands {
     /// min angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min1: f32,
     /// max angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max1: f32,
     /// See the TRACK_BAND_TYPES enum.
     ///
@@ -307,10 +391,12 @@ pub struct IcarousKinematicBands {
     /// min angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min2: f32,
     /// max angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max2: f32,
     /// See the TRACK_BAND_TYPES enum.
     ///
@@ -320,10 +406,12 @@ pub struct IcarousKinematicBands {
     /// min angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min3: f32,
     /// max angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max3: f32,
     /// See the TRACK_BAND_TYPES enum.
     ///
@@ -333,10 +421,12 @@ pub struct IcarousKinematicBands {
     /// min angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min4: f32,
     /// max angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max4: f32,
     /// See the TRACK_BAND_TYPES enum.
     ///
@@ -346,10 +436,12 @@ pub struct IcarousKinematicBands {
     /// min angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub min5: f32,
     /// max angle (degrees)
     ///
     /// Units: `deg`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub max5: f32,
 }
 

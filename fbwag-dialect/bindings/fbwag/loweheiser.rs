@@ -6,30 +6,41 @@
 ///
 /// MAVLink message `LOWEHEISER_GOV_EFI`: id 10151, CRC_EXTRA 195, payload 85 bytes (85 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct LoweheiserGovEfi {
     /// Generator Battery voltage.
     ///
     /// Units: `V`. Wire: `float` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub volt_batt: f32,
     /// Generator Battery current.
     ///
     /// Units: `A`. Wire: `float` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub curr_batt: f32,
     /// Current being produced by generator.
     ///
     /// Units: `A`. Wire: `float` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub curr_gen: f32,
     /// Load current being consumed by the UAV (sum of curr_gen and curr_batt)
     ///
     /// Units: `A`. Wire: `float` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub curr_rot: f32,
     /// Generator fuel remaining in litres.
     ///
     /// Units: `l`. Wire: `float` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub fuel_level: f32,
     /// Throttle Output.
     ///
     /// Units: `%`. Wire: `float` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub throttle: f32,
     /// Seconds this generator has run since it was rebooted.
     ///
@@ -43,50 +54,62 @@ pub struct LoweheiserGovEfi {
     /// The Temperature of the rectifier.
     ///
     /// Units: `degC`. Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub rectifier_temp: f32,
     /// The temperature of the mechanical motor, fuel cell core or generator.
     ///
     /// Units: `degC`. Wire: `float` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub generator_temp: f32,
     /// EFI Supply Voltage.
     ///
     /// Units: `V`. Wire: `float` at payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_batt: f32,
     /// Motor RPM.
     ///
     /// Units: `rpm`. Wire: `float` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_rpm: f32,
     /// Injector pulse-width in milliseconds.
     ///
     /// Units: `ms`. Wire: `float` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_pw: f32,
     /// Fuel flow rate in litres/hour.
     ///
     /// Wire: `float` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_fuel_flow: f32,
     /// Fuel consumed.
     ///
     /// Units: `l`. Wire: `float` at payload offset 56.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_fuel_consumed: f32,
     /// Atmospheric pressure.
     ///
     /// Units: `kPa`. Wire: `float` at payload offset 60.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_baro: f32,
     /// Manifold Air Temperature.
     ///
     /// Units: `degC`. Wire: `float` at payload offset 64.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_mat: f32,
     /// Cylinder Head Temperature.
     ///
     /// Units: `degC`. Wire: `float` at payload offset 68.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_clt: f32,
     /// Throttle Position.
     ///
     /// Units: `%`. Wire: `float` at payload offset 72.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_tps: f32,
     /// Exhaust gas temperature.
     ///
     /// Units: `degC`. Wire: `float` at payload offset 76.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub efi_exhaust_gas_temperature: f32,
     /// EFI index.
     ///

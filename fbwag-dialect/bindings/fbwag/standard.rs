@@ -67,6 +67,42 @@ impl From<FirmwareVersionType> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl FirmwareVersionType {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("FIRMWARE_VERSION_TYPE_DEV", 0),
+        ("FIRMWARE_VERSION_TYPE_ALPHA", 64),
+        ("FIRMWARE_VERSION_TYPE_BETA", 128),
+        ("FIRMWARE_VERSION_TYPE_RC", 192),
+        ("FIRMWARE_VERSION_TYPE_OFFICIAL", 255),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for FirmwareVersionType {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for FirmwareVersionType {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "FIRMWARE_VERSION_TYPE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Enum used to indicate true or false (also: success or failure, enabled or disabled, active
 /// or inactive).
 ///
@@ -83,6 +119,39 @@ impl MavBool {
 }
 
 ::mavframe::flag_set!(MavBool, u8, [FALSE, TRUE]);
+
+#[cfg(feature = "serde")]
+impl MavBool {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("MAV_BOOL_FALSE", 0),
+        ("MAV_BOOL_TRUE", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavBool {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavBool {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_BOOL",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Bitmask of (optional) autopilot capabilities (64 bit). If a bit is set, the autopilot
 /// supports this capability.
@@ -164,12 +233,69 @@ impl MavProtocolCapability {
     COMPONENT_ACCEPTS_GCS_CONTROL, GRIPPER]
 );
 
+#[cfg(feature = "serde")]
+impl MavProtocolCapability {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u64)] = &[
+        ("MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT", 1),
+        ("MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT", 2),
+        ("MAV_PROTOCOL_CAPABILITY_MISSION_INT", 4),
+        ("MAV_PROTOCOL_CAPABILITY_COMMAND_INT", 8),
+        ("MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE", 16),
+        ("MAV_PROTOCOL_CAPABILITY_FTP", 32),
+        ("MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET", 64),
+        ("MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED", 128),
+        ("MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT", 256),
+        ("MAV_PROTOCOL_CAPABILITY_TERRAIN", 512),
+        ("MAV_PROTOCOL_CAPABILITY_RESERVED3", 1024),
+        ("MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION", 2048),
+        ("MAV_PROTOCOL_CAPABILITY_COMPASS_CALIBRATION", 4096),
+        ("MAV_PROTOCOL_CAPABILITY_MAVLINK2", 8192),
+        ("MAV_PROTOCOL_CAPABILITY_MISSION_FENCE", 16384),
+        ("MAV_PROTOCOL_CAPABILITY_MISSION_RALLY", 32768),
+        ("MAV_PROTOCOL_CAPABILITY_RESERVED2", 65536),
+        ("MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST", 131072),
+        ("MAV_PROTOCOL_CAPABILITY_COMPONENT_IMPLEMENTS_GIMBAL_MANAGER", 262144),
+        ("MAV_PROTOCOL_CAPABILITY_COMPONENT_ACCEPTS_GCS_CONTROL", 524288),
+        ("MAV_PROTOCOL_CAPABILITY_GRIPPER", 1048576),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for MavProtocolCapability {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for MavProtocolCapability {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "MAV_PROTOCOL_CAPABILITY",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// The filtered global position (e.g. fused GPS and accelerometers). The position is in
 /// GPS-frame (right-handed, Z-up). It is designed as scaled integer message since the
 /// resolution of float is not sufficient.
 ///
 /// MAVLink message `GLOBAL_POSITION_INT`: id 33, CRC_EXTRA 104, payload 28 bytes (28 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct GlobalPositionInt {
     /// Timestamp (time since system boot).
     ///
@@ -520,6 +646,11 @@ impl<'a> GlobalPositionIntMut<'a> {
 ///
 /// MAVLink message `AUTOPILOT_VERSION`: id 148, CRC_EXTRA 178, payload 78 bytes (60 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct AutopilotVersion {
     /// Bitmap of capabilities
     ///
@@ -553,18 +684,21 @@ pub struct AutopilotVersion {
     /// very large code bases.
     ///
     /// Wire: `uint8_t[8]` at payload offset 36.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub flight_custom_version: [u8; 8],
     /// Custom version field, commonly the first 8 bytes of the git hash. This is not an unique
     /// identifier, but should allow to identify the commit using the main version number even for
     /// very large code bases.
     ///
     /// Wire: `uint8_t[8]` at payload offset 44.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub middleware_custom_version: [u8; 8],
     /// Custom version field, commonly the first 8 bytes of the git hash. This is not an unique
     /// identifier, but should allow to identify the commit using the main version number even for
     /// very large code bases.
     ///
     /// Wire: `uint8_t[8]` at payload offset 52.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub os_custom_version: [u8; 8],
     /// ID of the board vendor
     ///
@@ -583,6 +717,7 @@ pub struct AutopilotVersion {
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire:
     /// `uint8_t[18]` at payload offset 60.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub uid2: [u8; 18],
 }
 

@@ -74,6 +74,45 @@ impl From<UavionixAdsbEmergencyStatus> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbEmergencyStatus {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_NO_EMERGENCY", 0),
+        ("UAVIONIX_ADSB_OUT_GENERAL_EMERGENCY", 1),
+        ("UAVIONIX_ADSB_OUT_LIFEGUARD_EMERGENCY", 2),
+        ("UAVIONIX_ADSB_OUT_MINIMUM_FUEL_EMERGENCY", 3),
+        ("UAVIONIX_ADSB_OUT_NO_COMM_EMERGENCY", 4),
+        ("UAVIONIX_ADSB_OUT_UNLAWFUL_INTERFERANCE_EMERGENCY", 5),
+        ("UAVIONIX_ADSB_OUT_DOWNED_AIRCRAFT_EMERGENCY", 6),
+        ("UAVIONIX_ADSB_OUT_RESERVED", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbEmergencyStatus {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbEmergencyStatus {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_EMERGENCY_STATUS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Definitions for aircraft size
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE`.
@@ -174,6 +213,53 @@ impl From<UavionixAdsbOutCfgAircraftSize> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutCfgAircraftSize {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_NO_DATA", 0),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L15M_W23M", 1),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L25M_W28P5M", 2),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L25_34M", 3),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L35_33M", 4),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L35_38M", 5),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L45_39P5M", 6),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L45_45M", 7),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L55_45M", 8),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L55_52M", 9),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L65_59P5M", 10),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L65_67M", 11),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L75_W72P5M", 12),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L75_W80M", 13),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L85_W80M", 14),
+        ("UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_L85_W90M", 15),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutCfgAircraftSize {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutCfgAircraftSize {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// GPS lataral offset encoding
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT`.
@@ -250,6 +336,45 @@ impl From<UavionixAdsbOutCfgGpsOffsetLat> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutCfgGpsOffsetLat {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_NO_DATA", 0),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_LEFT_2M", 1),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_LEFT_4M", 2),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_LEFT_6M", 3),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_RIGHT_0M", 4),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_RIGHT_2M", 5),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_RIGHT_4M", 6),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_RIGHT_6M", 7),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutCfgGpsOffsetLat {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutCfgGpsOffsetLat {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// GPS longitudinal offset encoding
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LON`.
@@ -308,6 +433,39 @@ impl From<UavionixAdsbOutCfgGpsOffsetLon> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutCfgGpsOffsetLon {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LON_NO_DATA", 0),
+        ("UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LON_APPLIED_BY_SENSOR", 1),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutCfgGpsOffsetLon {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutCfgGpsOffsetLon {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LON",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// State flags for ADS-B transponder dynamic report
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_CONTROL_STATE`.
@@ -337,6 +495,44 @@ impl UavionixAdsbOutControlState {
     IDENT_BUTTON_ACTIVE, MODE_A_ENABLED, MODE_C_ENABLED, MODE_S_ENABLED,
     STATE_1090ES_TX_ENABLED]
 );
+
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutControlState {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_CONTROL_STATE_EXTERNAL_BARO_CROSSCHECKED", 1),
+        ("UAVIONIX_ADSB_OUT_CONTROL_STATE_ON_GROUND", 4),
+        ("UAVIONIX_ADSB_OUT_CONTROL_STATE_IDENT_BUTTON_ACTIVE", 8),
+        ("UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_A_ENABLED", 16),
+        ("UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_C_ENABLED", 32),
+        ("UAVIONIX_ADSB_OUT_CONTROL_STATE_MODE_S_ENABLED", 64),
+        ("UAVIONIX_ADSB_OUT_CONTROL_STATE_1090ES_TX_ENABLED", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutControlState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutControlState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_CONTROL_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// Status for ADS-B transponder dynamic input
 ///
@@ -406,6 +602,43 @@ impl From<UavionixAdsbOutDynamicGpsFix> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutDynamicGpsFix {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX_NONE_0", 0),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX_NONE_1", 1),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX_2D", 2),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX_3D", 3),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX_DGPS", 4),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX_RTK", 5),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutDynamicGpsFix {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutDynamicGpsFix {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// State flags for ADS-B transponder dynamic report
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_DYNAMIC_STATE`.
@@ -431,6 +664,42 @@ impl UavionixAdsbOutDynamicState {
     NICBARO_CROSSCHECKED, ON_GROUND, IDENT]
 );
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutDynamicState {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_STATE_INTENT_CHANGE", 1),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_STATE_AUTOPILOT_ENABLED", 2),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_STATE_NICBARO_CROSSCHECKED", 4),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_STATE_ON_GROUND", 8),
+        ("UAVIONIX_ADSB_OUT_DYNAMIC_STATE_IDENT", 16),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutDynamicState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutDynamicState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_DYNAMIC_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Transceiver RF control flags for ADS-B transponder dynamic reports
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_RF_SELECT`.
@@ -446,6 +715,39 @@ impl UavionixAdsbOutRfSelect {
 }
 
 ::mavframe::flag_set!(UavionixAdsbOutRfSelect, u8, [RX_ENABLED, TX_ENABLED]);
+
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutRfSelect {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_RF_SELECT_RX_ENABLED", 1),
+        ("UAVIONIX_ADSB_OUT_RF_SELECT_TX_ENABLED", 2),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutRfSelect {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutRfSelect {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_RF_SELECT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// State flags for ADS-B transponder fault report
 ///
@@ -471,6 +773,42 @@ impl UavionixAdsbOutStatusFault {
     UavionixAdsbOutStatusFault, u8, [STATUS_MESSAGE_UNAVAIL, GPS_NO_POS, GPS_UNAVAIL,
     TX_SYSTEM_FAIL, MAINT_REQ]
 );
+
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutStatusFault {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_STATUS_FAULT_STATUS_MESSAGE_UNAVAIL", 8),
+        ("UAVIONIX_ADSB_OUT_STATUS_FAULT_GPS_NO_POS", 16),
+        ("UAVIONIX_ADSB_OUT_STATUS_FAULT_GPS_UNAVAIL", 32),
+        ("UAVIONIX_ADSB_OUT_STATUS_FAULT_TX_SYSTEM_FAIL", 64),
+        ("UAVIONIX_ADSB_OUT_STATUS_FAULT_MAINT_REQ", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutStatusFault {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutStatusFault {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_STATUS_FAULT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// State flags for ADS-B transponder status report
 ///
@@ -588,6 +926,59 @@ impl From<UavionixAdsbOutStatusNicNacp> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutStatusNicNacp {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_NIC_CR_20_NM", 1),
+        ("UAVIONIX_ADSB_NIC_CR_8_NM", 2),
+        ("UAVIONIX_ADSB_NIC_CR_4_NM", 3),
+        ("UAVIONIX_ADSB_NIC_CR_2_NM", 4),
+        ("UAVIONIX_ADSB_NIC_CR_1_NM", 5),
+        ("UAVIONIX_ADSB_NIC_CR_0_3_NM", 6),
+        ("UAVIONIX_ADSB_NIC_CR_0_2_NM", 7),
+        ("UAVIONIX_ADSB_NIC_CR_0_1_NM", 8),
+        ("UAVIONIX_ADSB_NIC_CR_75_M", 9),
+        ("UAVIONIX_ADSB_NIC_CR_25_M", 10),
+        ("UAVIONIX_ADSB_NIC_CR_7_5_M", 11),
+        ("UAVIONIX_ADSB_NACP_EPU_10_NM", 16),
+        ("UAVIONIX_ADSB_NACP_EPU_4_NM", 32),
+        ("UAVIONIX_ADSB_NACP_EPU_2_NM", 48),
+        ("UAVIONIX_ADSB_NACP_EPU_1_NM", 64),
+        ("UAVIONIX_ADSB_NACP_EPU_0_5_NM", 80),
+        ("UAVIONIX_ADSB_NACP_EPU_0_3_NM", 96),
+        ("UAVIONIX_ADSB_NACP_EPU_0_1_NM", 112),
+        ("UAVIONIX_ADSB_NACP_EPU_0_05_NM", 128),
+        ("UAVIONIX_ADSB_NACP_EPU_30_M", 144),
+        ("UAVIONIX_ADSB_NACP_EPU_10_M", 160),
+        ("UAVIONIX_ADSB_NACP_EPU_3_M", 176),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutStatusNicNacp {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutStatusNicNacp {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_STATUS_NIC_NACP",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// State flags for ADS-B transponder status report
 ///
 /// MAVLink enum `UAVIONIX_ADSB_OUT_STATUS_STATE`.
@@ -620,6 +1011,45 @@ impl UavionixAdsbOutStatusState {
     STATE_1090ES_TX_ENABLED]
 );
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbOutStatusState {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_ON_GROUND", 1),
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_INTERROGATED_SINCE_LAST", 2),
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_XBIT_ENABLED", 4),
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_IDENT_ACTIVE", 8),
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_A_ENABLED", 16),
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_C_ENABLED", 32),
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_MODE_S_ENABLED", 64),
+        ("UAVIONIX_ADSB_OUT_STATUS_STATE_1090ES_TX_ENABLED", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbOutStatusState {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutStatusState {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_OUT_STATUS_STATE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Status flags for ADS-B transponder dynamic output
 ///
 /// MAVLink enum `UAVIONIX_ADSB_RF_HEALTH`.
@@ -638,6 +1068,40 @@ impl UavionixAdsbRfHealth {
 
 ::mavframe::flag_set!(UavionixAdsbRfHealth, u8, [OK, FAIL_TX, FAIL_RX]);
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbRfHealth {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_RF_HEALTH_OK", 1),
+        ("UAVIONIX_ADSB_RF_HEALTH_FAIL_TX", 2),
+        ("UAVIONIX_ADSB_RF_HEALTH_FAIL_RX", 16),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbRfHealth {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbRfHealth {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_RF_HEALTH",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// State flags for X-Bit and reserved fields.
 ///
 /// MAVLink enum `UAVIONIX_ADSB_XBIT`.
@@ -652,38 +1116,80 @@ impl UavionixAdsbXbit {
 
 ::mavframe::flag_set!(UavionixAdsbXbit, u8, [ENABLED]);
 
+#[cfg(feature = "serde")]
+impl UavionixAdsbXbit {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[
+        ("UAVIONIX_ADSB_XBIT_ENABLED", 128),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for UavionixAdsbXbit {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbXbit {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "UAVIONIX_ADSB_XBIT",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Static data to configure the ADS-B transponder (send within 10 sec of a POR and every 10
 /// sec thereafter)
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CFG`: id 10001, CRC_EXTRA 209, payload 20 bytes (20 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbOutCfg {
     /// Vehicle address (24 bit)
     ///
     /// XML name: `ICAO`. Wire: `uint32_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "ICAO"))]
     pub icao: u32,
     /// Vehicle identifier (8 characters, null terminated, valid characters are A-Z, 0-9, " "
     /// only)
     ///
     /// Wire: `char[9]` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub callsign: [u8; 9],
     /// Transmitting vehicle type. See ADSB_EMITTER_TYPE enum
     ///
     /// XML name: `emitterType`. Values:
     /// [`AdsbEmitterType`](struct@super::common::AdsbEmitterType). Wire: `uint8_t` at payload
     /// offset 15.
+    #[cfg_attr(feature = "serde", serde(rename = "emitterType"))]
     pub emitter_type: super::common::AdsbEmitterType,
     /// Aircraft length and width encoding (table 2-35 of DO-282B)
     ///
     /// XML name: `aircraftSize`. Values:
     /// [`UavionixAdsbOutCfgAircraftSize`](struct@UavionixAdsbOutCfgAircraftSize). Wire:
     /// `uint8_t` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(rename = "aircraftSize"))]
     pub aircraft_size: UavionixAdsbOutCfgAircraftSize,
     /// GPS antenna lateral offset (table 2-36 of DO-282B)
     ///
     /// XML name: `gpsOffsetLat`. Values:
     /// [`UavionixAdsbOutCfgGpsOffsetLat`](struct@UavionixAdsbOutCfgGpsOffsetLat). Wire:
     /// `uint8_t` at payload offset 17.
+    #[cfg_attr(feature = "serde", serde(rename = "gpsOffsetLat"))]
     pub gps_offset_lat: UavionixAdsbOutCfgGpsOffsetLat,
     /// GPS antenna longitudinal offset from nose \[if non-zero, take position (in meters) divide
     /// by 2 and add one\] (table 2-37 DO-282B)
@@ -691,16 +1197,19 @@ pub struct UavionixAdsbOutCfg {
     /// XML name: `gpsOffsetLon`. Values:
     /// [`UavionixAdsbOutCfgGpsOffsetLon`](struct@UavionixAdsbOutCfgGpsOffsetLon). Wire:
     /// `uint8_t` at payload offset 18.
+    #[cfg_attr(feature = "serde", serde(rename = "gpsOffsetLon"))]
     pub gps_offset_lon: UavionixAdsbOutCfgGpsOffsetLon,
     /// Aircraft stall speed in cm/s
     ///
     /// XML name: `stallSpeed`. Units: `cm/s`. Wire: `uint16_t` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(rename = "stallSpeed"))]
     pub stall_speed: u16,
     /// ADS-B transponder receiver and transmit enable flags
     ///
     /// XML name: `rfSelect`. Values:
     /// [`UavionixAdsbOutRfSelect`](struct@UavionixAdsbOutRfSelect). Wire: `uint8_t` at payload
     /// offset 19.
+    #[cfg_attr(feature = "serde", serde(rename = "rfSelect"))]
     pub rf_select: UavionixAdsbOutRfSelect,
 }
 
@@ -1013,67 +1522,86 @@ impl<'a> UavionixAdsbOutCfgMut<'a> {
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_DYNAMIC`: id 10002, CRC_EXTRA 186, payload 41 bytes (41 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbOutDynamic {
     /// UTC time in seconds since GPS epoch (Jan 6, 1980). If unknown set to UINT32_MAX
     ///
     /// XML name: `utcTime`. Units: `s`. Wire: `uint32_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "utcTime"))]
     pub utc_time: u32,
     /// Latitude WGS84 (deg * 1E7). If unknown set to INT32_MAX
     ///
     /// XML name: `gpsLat`. Units: `degE7`. Wire: `int32_t` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(rename = "gpsLat"))]
     pub gps_lat: i32,
     /// Longitude WGS84 (deg * 1E7). If unknown set to INT32_MAX
     ///
     /// XML name: `gpsLon`. Units: `degE7`. Wire: `int32_t` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(rename = "gpsLon"))]
     pub gps_lon: i32,
     /// Altitude (WGS84). UP +ve. If unknown set to INT32_MAX
     ///
     /// XML name: `gpsAlt`. Units: `mm`. Wire: `int32_t` at payload offset 12.
+    #[cfg_attr(feature = "serde", serde(rename = "gpsAlt"))]
     pub gps_alt: i32,
     /// 0-1: no fix, 2: 2D fix, 3: 3D fix, 4: DGPS, 5: RTK
     ///
     /// XML name: `gpsFix`. Values:
     /// [`UavionixAdsbOutDynamicGpsFix`](struct@UavionixAdsbOutDynamicGpsFix). Wire: `uint8_t`
     /// at payload offset 38.
+    #[cfg_attr(feature = "serde", serde(rename = "gpsFix"))]
     pub gps_fix: UavionixAdsbOutDynamicGpsFix,
     /// Number of satellites visible. If unknown set to UINT8_MAX
     ///
     /// XML name: `numSats`. Wire: `uint8_t` at payload offset 39.
+    #[cfg_attr(feature = "serde", serde(rename = "numSats"))]
     pub num_sats: u8,
     /// Barometric pressure altitude (MSL) relative to a standard atmosphere of 1013.2 mBar and
     /// NOT bar corrected altitude (m * 1E-3). (up +ve). If unknown set to INT32_MAX
     ///
     /// XML name: `baroAltMSL`. Units: `mbar`. Wire: `int32_t` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(rename = "baroAltMSL"))]
     pub baro_alt_msl: i32,
     /// Horizontal accuracy in mm (m * 1E-3). If unknown set to UINT32_MAX
     ///
     /// XML name: `accuracyHor`. Units: `mm`. Wire: `uint32_t` at payload offset 20.
+    #[cfg_attr(feature = "serde", serde(rename = "accuracyHor"))]
     pub accuracy_hor: u32,
     /// Vertical accuracy in cm. If unknown set to UINT16_MAX
     ///
     /// XML name: `accuracyVert`. Units: `cm`. Wire: `uint16_t` at payload offset 24.
+    #[cfg_attr(feature = "serde", serde(rename = "accuracyVert"))]
     pub accuracy_vert: u16,
     /// Velocity accuracy in mm/s (m * 1E-3). If unknown set to UINT16_MAX
     ///
     /// XML name: `accuracyVel`. Units: `mm/s`. Wire: `uint16_t` at payload offset 26.
+    #[cfg_attr(feature = "serde", serde(rename = "accuracyVel"))]
     pub accuracy_vel: u16,
     /// GPS vertical speed in cm/s. If unknown set to INT16_MAX
     ///
     /// XML name: `velVert`. Units: `cm/s`. Wire: `int16_t` at payload offset 28.
+    #[cfg_attr(feature = "serde", serde(rename = "velVert"))]
     pub vel_vert: i16,
     /// North-South velocity over ground in cm/s North +ve. If unknown set to INT16_MAX
     ///
     /// XML name: `velNS`. Units: `cm/s`. Wire: `int16_t` at payload offset 30.
+    #[cfg_attr(feature = "serde", serde(rename = "velNS"))]
     pub vel_ns: i16,
     /// East-West velocity over ground in cm/s East +ve. If unknown set to INT16_MAX
     ///
     /// XML name: `VelEW`. Units: `cm/s`. Wire: `int16_t` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(rename = "VelEW"))]
     pub vel_ew: i16,
     /// Emergency status
     ///
     /// XML name: `emergencyStatus`. Values:
     /// [`UavionixAdsbEmergencyStatus`](struct@UavionixAdsbEmergencyStatus). Wire: `uint8_t` at
     /// payload offset 40.
+    #[cfg_attr(feature = "serde", serde(rename = "emergencyStatus"))]
     pub emergency_status: UavionixAdsbEmergencyStatus,
     /// ADS-B transponder dynamic input state flags
     ///
@@ -1555,11 +2083,17 @@ impl<'a> UavionixAdsbOutDynamicMut<'a> {
 ///
 /// MAVLink message `UAVIONIX_ADSB_TRANSCEIVER_HEALTH_REPORT`: id 10003, CRC_EXTRA 4, payload 1 bytes (1 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbTransceiverHealthReport {
     /// ADS-B transponder messages
     ///
     /// XML name: `rfHealth`. Values: [`UavionixAdsbRfHealth`](struct@UavionixAdsbRfHealth).
     /// Wire: `uint8_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "rfHealth"))]
     pub rf_health: UavionixAdsbRfHealth,
 }
 
@@ -1709,11 +2243,17 @@ impl<'a> UavionixAdsbTransceiverHealthReportMut<'a> {
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CFG_REGISTRATION`: id 10004, CRC_EXTRA 133, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbOutCfgRegistration {
     /// Aircraft Registration (ASCII string A-Z, 0-9 only), e.g. "N8644B ". Trailing spaces (0x20)
     /// only. This is null-terminated.
     ///
     /// Wire: `char[9]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub registration: [u8; 9],
 }
 
@@ -1859,12 +2399,18 @@ impl<'a> UavionixAdsbOutCfgRegistrationMut<'a> {
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CFG_FLIGHTID`: id 10005, CRC_EXTRA 103, payload 9 bytes (9 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbOutCfgFlightid {
     /// Flight Identification: 8 ASCII characters, '0' through '9', 'A' through 'Z' or space.
     /// Spaces (0x20) used as a trailing pad character, or when call sign is unavailable. Reflects
     /// Control message setting. This is null-terminated.
     ///
     /// Wire: `char[9]` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub flight_id: [u8; 9],
 }
 
@@ -2010,10 +2556,16 @@ impl<'a> UavionixAdsbOutCfgFlightidMut<'a> {
 ///
 /// MAVLink message `UAVIONIX_ADSB_GET`: id 10006, CRC_EXTRA 193, payload 4 bytes (4 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbGet {
     /// Message ID to request. Supports any message in this 10000-10099 range
     ///
     /// XML name: `ReqMessageId`. Wire: `uint32_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "ReqMessageId"))]
     pub req_message_id: u32,
 }
 
@@ -2159,6 +2711,11 @@ impl<'a> UavionixAdsbGetMut<'a> {
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_CONTROL`: id 10007, CRC_EXTRA 71, payload 17 bytes (17 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbOutControl {
     /// ADS-B transponder control state flags
     ///
@@ -2169,6 +2726,7 @@ pub struct UavionixAdsbOutControl {
     /// NOT bar corrected altitude (m * 1E-3). (up +ve). If unknown set to INT32_MAX
     ///
     /// XML name: `baroAltMSL`. Units: `mbar`. Wire: `int32_t` at payload offset 0.
+    #[cfg_attr(feature = "serde", serde(rename = "baroAltMSL"))]
     pub baro_alt_msl: i32,
     /// Mode A code (typically 1200 \[0x04B0\] for VFR)
     ///
@@ -2179,11 +2737,13 @@ pub struct UavionixAdsbOutControl {
     /// XML name: `emergencyStatus`. Values:
     /// [`UavionixAdsbEmergencyStatus`](struct@UavionixAdsbEmergencyStatus). Wire: `uint8_t` at
     /// payload offset 7.
+    #[cfg_attr(feature = "serde", serde(rename = "emergencyStatus"))]
     pub emergency_status: UavionixAdsbEmergencyStatus,
     /// Flight Identification: 8 ASCII characters, '0' through '9', 'A' through 'Z' or space.
     /// Spaces (0x20) used as a trailing pad character, or when call sign is unavailable.
     ///
     /// Wire: `char[8]` at payload offset 8.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub flight_id: [u8; 8],
     /// X-Bit enable (military transponders only)
     ///
@@ -2451,6 +3011,11 @@ impl<'a> UavionixAdsbOutControlMut<'a> {
 ///
 /// MAVLink message `UAVIONIX_ADSB_OUT_STATUS`: id 10008, CRC_EXTRA 240, payload 14 bytes (14 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct UavionixAdsbOutStatus {
     /// ADS-B transponder status state flags
     ///
@@ -2468,10 +3033,12 @@ pub struct UavionixAdsbOutStatus {
     /// XML name: `NIC_NACp`. Values:
     /// [`UavionixAdsbOutStatusNicNacp`](struct@UavionixAdsbOutStatusNicNacp). Wire: `uint8_t`
     /// at payload offset 3.
+    #[cfg_attr(feature = "serde", serde(rename = "NIC_NACp"))]
     pub nic_nacp: UavionixAdsbOutStatusNicNacp,
     /// Board temperature in C
     ///
     /// XML name: `boardTemp`. Wire: `uint8_t` at payload offset 4.
+    #[cfg_attr(feature = "serde", serde(rename = "boardTemp"))]
     pub board_temp: u8,
     /// ADS-B transponder fault flags
     ///
@@ -2482,6 +3049,7 @@ pub struct UavionixAdsbOutStatus {
     /// Spaces (0x20) used as a trailing pad character, or when call sign is unavailable.
     ///
     /// Wire: `char[8]` at payload offset 6.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub flight_id: [u8; 8],
 }
 

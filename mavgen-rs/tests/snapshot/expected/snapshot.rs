@@ -57,6 +57,36 @@ impl From<SnapCmd> for u8 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl SnapCmd {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u8)] = &[("SNAP_CMD_GO", 7)];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SnapCmd {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SnapCmd {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SNAP_CMD",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// A bitmask enum.
 ///
 /// MAVLink enum `SNAP_FLAGS`.
@@ -72,6 +102,39 @@ impl SnapFlags {
 }
 
 ::mavframe::flag_set!(SnapFlags, u32, [A, C]);
+
+#[cfg(feature = "serde")]
+impl SnapFlags {
+    /// The XML name and value of every flag.
+    const SERDE_TABLE: &'static [(&'static str, u32)] = &[
+        ("SNAP_FLAGS_A", 1),
+        ("SNAP_FLAGS_C", 4),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SnapFlags {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::flags::serialize(serializer, self.0, Self::SERDE_TABLE)
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SnapFlags {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::flags::deserialize(
+                deserializer,
+                "SNAP_FLAGS",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
 
 /// A value enum with \[brackets\], html and a URL: <https://mavlink.io/en/>.
 ///
@@ -137,10 +200,50 @@ impl From<SnapMode> for u16 {
     }
 }
 
+#[cfg(feature = "serde")]
+impl SnapMode {
+    /// The XML name and value of every entry.
+    const SERDE_TABLE: &'static [(&'static str, u16)] = &[
+        ("SNAP_MODE_OFF", 0),
+        ("SNAP_MODE_2D", 16),
+        ("SNAP_MODE_AUTO", 17),
+        ("SNAP_MODE_WIDE", 256),
+    ];
+}
+
+#[cfg(feature = "serde")]
+impl ::mavframe::serde::Serialize for SnapMode {
+    fn serialize<S: ::mavframe::serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        ::mavframe::serde::value_enum::serialize(serializer, self.0, self.name())
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<'de> ::mavframe::serde::Deserialize<'de> for SnapMode {
+    fn deserialize<D: ::mavframe::serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Self, D::Error> {
+        ::mavframe::serde::value_enum::deserialize(
+                deserializer,
+                "SNAP_MODE",
+                Self::SERDE_TABLE,
+            )
+            .map(Self)
+    }
+}
+
 /// Every scalar type, arrays, a keyword field name, and extensions.
 ///
 /// MAVLink message `SNAP_ALL_TYPES`: id 42, CRC_EXTRA 142, payload 62 bytes (53 without extensions).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SnapAllTypes {
     /// A byte.
     ///
@@ -177,19 +280,23 @@ pub struct SnapAllTypes {
     /// A Rust keyword as a field name.
     ///
     /// Wire: `float` at payload offset 32.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub r#type: f32,
     /// Double.
     ///
     /// Wire: `double` at payload offset 16.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::float"))]
     pub f64v: f64,
     /// A string.
     ///
     /// Wire: `char[4]` at payload offset 48.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::chars"))]
     pub tag: [u8; 4],
     /// An array.
     ///
     /// Instance field: tells apart several sources of this message. Wire: `uint16_t[3]` at
     /// payload offset 40.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub vals: [u16; 3],
     /// Set to the dialect version.
     ///
@@ -199,11 +306,13 @@ pub struct SnapAllTypes {
     ///
     /// Extension field: absent from MAVLink 1 frames, reads 0 when not sent. Wire: `float[2]`
     /// at payload offset 53.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub ext_pair: [f32; 2],
     /// camelCase name.
     ///
     /// XML name: `omegaIx`. Extension field: absent from MAVLink 1 frames, reads 0 when not sent.
     /// Wire: `uint8_t` at payload offset 61.
+    #[cfg_attr(feature = "serde", serde(rename = "omegaIx"))]
     pub omega_ix: u8,
 }
 
@@ -666,6 +775,11 @@ impl<'a> SnapAllTypesMut<'a> {
 /// MAVLink message `SNAP_MAX_ID`: id 16777215, CRC_EXTRA 88, payload 42 bytes (42 without extensions).
 /// **Work in progress**: may change.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde", default, deny_unknown_fields)
+)]
 pub struct SnapMaxId {
     /// System.
     ///
@@ -678,6 +792,7 @@ pub struct SnapMaxId {
     /// Longer than Default derives for.
     ///
     /// Wire: `uint8_t[40]` at payload offset 2.
+    #[cfg_attr(feature = "serde", serde(with = "::mavframe::serde::array"))]
     pub data: [u8; 40],
 }
 
@@ -873,10 +988,17 @@ impl<'a> SnapMaxIdMut<'a> {
 
 /// Every message of the `snapshot.xml` dialect (2 messages, its includes' too).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(::mavframe::serde::Serialize, ::mavframe::serde::Deserialize),
+    serde(crate = "::mavframe::serde")
+)]
 pub enum Message {
     /// `SNAP_ALL_TYPES` (id 42).
+    #[cfg_attr(feature = "serde", serde(rename = "SNAP_ALL_TYPES"))]
     SnapAllTypes(SnapAllTypes),
     /// `SNAP_MAX_ID` (id 16777215).
+    #[cfg_attr(feature = "serde", serde(rename = "SNAP_MAX_ID"))]
     SnapMaxId(SnapMaxId),
 }
 

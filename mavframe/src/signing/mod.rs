@@ -337,13 +337,15 @@ mod tests {
             assert_eq!(&block[1..7], &ts.to_le_bytes()[..6]);
             assert_eq!(block[7..], oracle(&key, part, 7, ts), "payload {len}");
             assert_eq!(signer.timestamp(), ts + 1);
+            let mut bad = buf;
+            bad[n - 1] ^= 1;
+            let forged = Frame::new_checked(&bad[..n]).unwrap();
+            assert_eq!(verifier.verify(&forged), Err(SignatureError::Mismatch));
             let frame = Frame::new_checked(&buf[..n]).unwrap();
             assert_eq!(verifier.verify(&frame), Ok(()), "payload {len}");
             assert_eq!(verifier.verify(&frame), Err(SignatureError::Replay));
-            let mut bad = buf;
-            bad[n - 1] ^= 1;
-            let frame = Frame::new_checked(&bad[..n]).unwrap();
-            assert_eq!(verifier.verify(&frame), Err(SignatureError::Mismatch));
+            // A replayed timestamp is refused before the signature is checked.
+            assert_eq!(verifier.verify(&forged), Err(SignatureError::Replay));
         }
     }
 

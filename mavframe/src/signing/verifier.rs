@@ -267,6 +267,17 @@ impl<const N: usize> Verifier<N> {
     /// timestamp for its stream.
     pub fn verify(&mut self, frame: &Frame<'_>) -> Result<(), SignatureError> {
         let block = frame.signature().ok_or(SignatureError::Unsigned)?;
+        let h = frame.header();
+        let stream = StreamState {
+            link_id: block.link_id(),
+            sysid: h.sysid,
+            compid: h.compid,
+            timestamp: block.timestamp(),
+        };
+        // The timestamp rules need no key: a frame they refuse is refused
+        // before the SHA-256, so old captures and garbage with an
+        // out-of-window timestamp cost a table look-up, not a hash.
+        self.timestamp_check(&stream)?;
         // The key, then the frame's bytes up to the timestamp.
         let bytes = frame.as_bytes();
         let signed = &bytes[..bytes.len() - 6];
@@ -283,13 +294,20 @@ impl<const N: usize> Verifier<N> {
         if expected != block.signature() {
             return Err(SignatureError::Mismatch);
         }
-        let h = frame.header();
-        self.accept(StreamState {
-            link_id: block.link_id(),
-            sysid: h.sysid,
-            compid: h.compid,
-            timestamp: block.timestamp(),
-        })
+        self.accept(stream)
+    }
+
+    /// The replay rules of [`accept`](Self::accept) without changing
+    /// anything (no clock read: the notion of now only grows, so what this
+    /// refuses `accept` would refuse too).
+    fn timestamp_check(&self, s: &StreamState) -> Result<(), SignatureError> {
+        match self.find(s.link_id, s.sysid, s.compid) {
+            Some(i) if s.timestamp <= self.slots[i].stream.timestamp => Err(SignatureError::Replay),
+            Some(_) => Ok(()),
+            None if s.timestamp + NEW_STREAM_WINDOW < self.newest => Err(SignatureError::TooOld),
+            None if s.timestamp <= self.floors[s.bucket()] => Err(SignatureError::BelowFloor),
+            None => Ok(()),
+        }
     }
 
     /// The replay check of a correctly signed frame of stream `s` (its

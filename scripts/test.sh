@@ -9,6 +9,8 @@
 # Needs cargo, python3, gcc.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+# A clean clone builds once: incremental caches only cost time and disk here.
+export CARGO_INCREMENTAL="${CARGO_INCREMENTAL:-0}"
 
 step() { printf '\n==> %s\n' "$*"; }
 

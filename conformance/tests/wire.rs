@@ -710,12 +710,12 @@ fn main() {
         .unwrap_or(DEFAULT_SEED);
     let per_mode = env_usize("CONFORMANCE_FRAMES_PER_MODE", DEFAULT_PER_MODE);
     let nstreams = env_usize("CONFORMANCE_STREAMS", DEFAULT_STREAMS);
-    // A filtered fbwag-dialect build (cc-subset, FBWAG_DIALECT_MESSAGES)
+    // A filtered fbwag-dialect build (codegen with FBWAG_DIALECT_MESSAGES)
     // would silently shrink the test: refuse it.
     let fbwag_count = fbwag_dialect::MESSAGES.len();
     assert!(
         fbwag_count >= 300,
-        "fbwag-dialect has only {fbwag_count} messages: a filtered build (cc-subset feature or \
+        "fbwag-dialect has only {fbwag_count} messages: a filtered build (codegen with \
          FBWAG_DIALECT_MESSAGES) is active; the conformance run needs the full dialect"
     );
     // Build the environments first (serially: pip and the C generator).

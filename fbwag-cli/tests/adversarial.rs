@@ -393,6 +393,13 @@ fn spoofed_unsigned_frames_with_signing_required() {
     assert!(fc.events.summary("untrusted_notices") > 0, "{both}");
     assert!(fc.events.summary("controls_untrusted") > 0, "{both}");
     assert!(cc.events.summary("untrusted_notices") > 0, "{both}");
+    // Thousands of forgeries, a few log lines: the untrusted-frame log is
+    // rate-limited per window (the counts are in the events' summary).
+    assert!(sent.datagrams > 2000, "{sent:?}");
+    for (who, log) in [("fc", &fc.log), ("cc", &cc.log)] {
+        let lines = log.lines().filter(|l| l.contains("untrusted")).count();
+        assert!(lines <= 40, "{who}: {lines} lines about untrusted frames\n{both}");
+    }
 }
 
 /// No companion at all, signing required: forged acknowledgements of every

@@ -217,3 +217,21 @@ pub fn mode_name(custom_mode: u32) -> String {
         other => format!("MODE({other})"),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_limiter_shows_a_few_lines_per_window_then_counts_the_rest() {
+        let mut limiter = Limiter::new(2, Duration::from_millis(30));
+        let shown: Vec<_> = (0..1000).map(|_| limiter.admit()).collect();
+        assert_eq!(shown.iter().filter(|(show, _)| *show).count(), 2);
+        assert!(shown.iter().all(|(_, report)| report.is_none()));
+        std::thread::sleep(Duration::from_millis(40));
+        // The next window opens with the count of the last one.
+        assert_eq!(limiter.admit(), (true, Some(998)));
+        assert_eq!(limiter.admit(), (true, None));
+        assert_eq!(limiter.admit(), (false, None));
+    }
+}

@@ -107,8 +107,13 @@ pub fn sign_timestamp(s: &str) -> Result<u64, String> {
     integer_in(s, 0, MAX_SIGN_TIMESTAMP, "a 48-bit signing timestamp")
 }
 
-/// A 32-byte signing key as exactly 64 hex digits; returned as given.
+/// A 32-byte signing key as exactly 64 hex digits, or `@PATH`: a file
+/// holding them (surrounding whitespace ignored), so that the key need not
+/// appear in the process list. Returns the hex digits.
 pub fn sign_key(s: &str) -> Result<String, String> {
+    if let Some(path) = s.strip_prefix('@') {
+        return sign_key_file(path);
+    }
     if s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
         Ok(s.to_string())
     } else {
@@ -122,6 +127,21 @@ pub fn sign_key(s: &str) -> Result<String, String> {
             }
         ))
     }
+}
+
+/// The key of `--sign-key @PATH`: the file is read up to 4 KiB (a key file,
+/// not whatever the path names).
+fn sign_key_file(path: &str) -> Result<String, String> {
+    use std::io::Read;
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4096).read_to_string(&mut text))
+        .map_err(|e| format!("cannot read the key file {path}: {e}"))?;
+    let key = text.trim();
+    if key.starts_with('@') {
+        return Err(format!("the key file {path} must hold 64 hex digits"));
+    }
+    sign_key(key).map_err(|e| format!("key file {path}: {e}"))
 }
 
 /// The receiver failures of `fbwag fc-sim`: the k-th `--rc-back-at` ends
@@ -203,6 +223,15 @@ mod tests {
     fn keys_are_64_hex_digits() {
         let k = "0f".repeat(32);
         assert_eq!(sign_key(&k), Ok(k.clone()));
+        let dir = std::env::temp_dir().join(format!("fbwag-key-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("key.hex");
+        std::fs::write(&file, format!("{k}\n")).unwrap();
+        assert_eq!(sign_key(&format!("@{}", file.display())), Ok(k.clone()));
+        std::fs::write(&file, &k[..62]).unwrap();
+        assert!(sign_key(&format!("@{}", file.display())).is_err());
+        assert!(sign_key(&format!("@{}", dir.join("absent").display())).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
         assert!(sign_key(&k[..62]).is_err());
         assert!(sign_key(&format!("{}zz", &k[..62])).is_err());
     }

@@ -173,7 +173,7 @@ enum Command {
         /// "compat_flags" and signatures of the lines are dropped).
         #[arg(long, conflicts_with = "sign_key")]
         v1: bool,
-        /// Sign every frame with this 32-byte key (64 hex digits), replacing
+        /// Sign every frame with this 32-byte key (64 hex digits, or @FILE), replacing
         /// any signature of the line. A MAVLink 1 frame cannot be signed: such
         /// lines are refused.
         #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
@@ -257,7 +257,7 @@ enum Command {
         /// Cruise throttle (PWM µs, 800–2200).
         #[arg(long, default_value_t = 1600, allow_hyphen_values = true, value_parser = args::pwm_us)]
         throttle: u16,
-        /// Sign outgoing frames and verify incoming ones with this key (64 hex digits).
+        /// Sign outgoing frames and verify incoming ones with this key (64 hex digits, or @FILE holding them).
         #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
         sign_key: Option<String>,
         /// Act only on the FC's frames whose signature verified.
@@ -328,7 +328,7 @@ enum Command {
         /// Run this long (seconds, 0–1,000,000).
         #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = args::seconds)]
         duration: f64,
-        /// Sign and verify with this key (64 hex digits).
+        /// Sign and verify with this key (64 hex digits, or @FILE holding them).
         #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
         sign_key: Option<String>,
         /// Accept the companion's takeover only from signed frames; serve

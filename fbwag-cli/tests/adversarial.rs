@@ -398,7 +398,10 @@ fn spoofed_unsigned_frames_with_signing_required() {
     assert!(sent.datagrams > 2000, "{sent:?}");
     for (who, log) in [("fc", &fc.log), ("cc", &cc.log)] {
         let lines = log.lines().filter(|l| l.contains("untrusted")).count();
-        assert!(lines <= 40, "{who}: {lines} lines about untrusted frames\n{both}");
+        assert!(
+            lines <= 40,
+            "{who}: {lines} lines about untrusted frames\n{both}"
+        );
     }
 }
 

@@ -12,7 +12,9 @@
 //!
 //! CAPTURE `-` (the default) is the telemetry capture of the benchmarks.
 //! Decoders: `fbwag/views`, `mavlink/raw`, `fbwag/owned`, `mavlink/owned`
-//! (all by default, interleaved pass by pass). Prints, per decoder:
+//! (one field read), `fbwag/views_all`, `fbwag/owned_all`,
+//! `mavlink/owned_all` (every field read); all by default, interleaved pass
+//! by pass. `BENCH_MIX=legacy` selects the older capture. Prints, per decoder:
 //! `NAME frames N bytes B best_mibs X median_mibs Y`.
 
 use std::time::Instant;

@@ -224,6 +224,71 @@ macro_rules! owned_reader {
 }
 capture_types!(owned_reader);
 
+// Prototypes for owned decode without the dialect-wide `Message` enum
+// returned by value (264 bytes): the generated view match only dispatches,
+// then the type's own `parse` (what `to_message` calls) fills either a
+// value of that type alone (`typed`) or a `Message` slot the caller keeps
+// (`slot`). Benchmark-only: nothing here changes the generated API.
+macro_rules! owned_prototypes {
+    ($($name:ident, $var:ident => [$($f:ident),*];)*) => {
+        fn parse_typed(view: &MessageView<'_>) -> bool {
+            match view {
+                $(MessageView::$var(v) => { black_box(v.to_message()); true })*
+                MessageView::FbwagNotice(v) => { black_box(v.to_message()); true }
+                _ => false,
+            }
+        }
+        fn parse_into_slot(view: &MessageView<'_>, slot: &mut Message) -> bool {
+            match view {
+                $(MessageView::$var(v) => { *slot = Message::$var(v.to_message()); true })*
+                MessageView::FbwagNotice(v) => { *slot = Message::FbwagNotice(v.to_message()); true }
+                _ => false,
+            }
+        }
+    };
+}
+capture_types!(owned_prototypes);
+
+/// Prototype: owned decode into a value of the frame's own type (no
+/// `Message` enum), every field read (the value copied out).
+pub fn proto_owned_typed(stream: &[u8]) -> usize {
+    let mut parser = Parser::<Dialect>::new();
+    let mut input = stream;
+    let mut n = 0;
+    while let Some(r) = parser.next(&mut input) {
+        if let Some(v) = r.view() {
+            n += usize::from(parse_typed(&v));
+        }
+    }
+    n
+}
+
+/// Prototype: owned decode into the caller's `Message` slot, every field
+/// read (the variant copied out, as `fbwag/owned_all`).
+pub fn proto_owned_slot(stream: &[u8]) -> usize {
+    let mut parser = Parser::<Dialect>::new();
+    let mut input = stream;
+    let mut slot = Message::Heartbeat(Default::default());
+    let mut n = 0;
+    while let Some(r) = parser.next(&mut input) {
+        if let Some(v) = r.view() {
+            if parse_into_slot(&v, &mut slot) {
+                n += usize::from(copy_every_field(black_box(&slot)));
+            }
+        }
+    }
+    n
+}
+
+/// The owned-decode prototypes, by name (`examples/stream_decode.rs` runs
+/// them when named; not in the criterion benchmark).
+pub fn prototypes() -> [(&'static str, Decoder); 2] {
+    [
+        ("proto/owned_typed", proto_owned_typed),
+        ("proto/owned_slot", proto_owned_slot),
+    ]
+}
+
 /// Stream decode to views, every field of every frame read through its
 /// accessor; returns the count of frames of the capture's 33 types.
 pub fn fbwag_views_all(stream: &[u8]) -> usize {

@@ -35,8 +35,9 @@ puts it in:
   HOME_POSITION 0.1.
   At connection the GCS downloads all 1,180 parameters: PARAM_VALUE at 200/s
   (what a 115200-baud radio has left beside the streams), index 0..1179, names
-  of 5 to 16 characters (so the char[16] is truncated by anything from 0 to 11
-  bytes). Extension fields are set where ArduPlane sets them: RAW_IMU id and
+  of 6 to 16 characters (157 fill all 16 bytes, without a terminating NUL;
+  PARAM_VALUE's last wire field, param_type, is never 0, so its frames are
+  never truncated). Extension fields are set where ArduPlane sets them: RAW_IMU id and
   temperature, SCALED_IMU2 temperature, SCALED_PRESSURE(2) the differential
   sensor's temperature, SERVO_OUTPUT_RAW servo9/servo10 (flaps, spoilers),
   GPS_RAW_INT accuracies, MEMINFO freemem32, BATTERY_STATUS time_remaining and

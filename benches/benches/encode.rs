@@ -5,7 +5,8 @@
 //!   type of the telemetry capture (FBWAG_NOTICE included), the values of
 //!   its first frame there;
 //! - `encode_mix/<lib>/{unsigned,signed}`: the capture's sequence of message
-//!   types (116,531 frames, its mix and order, so the dispatch on the type is
+//!   types (all its frames: 115,675 in the default ArduPlane-like mix, see
+//!   `benches::mix`; its mix and order, so the dispatch on the type is
 //!   as unpredictable as on a real link), each type with its sample's values
 //!   (which stay in cache: re-encoding 116,531 owned messages of ~270 bytes
 //!   would time memory bandwidth instead).

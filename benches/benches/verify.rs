@@ -8,6 +8,12 @@
 //!   read, the window and floor checks, the eviction of the least recently
 //!   accepted stream).
 //!
+//! - `verify/mavlink_known_streams`: the same frames as `known_streams`
+//!   through the `mavlink` crate's `SigningData::verify_signature` (its
+//!   receive-side check: stream table, timestamps, SHA-256), each frame
+//!   already in its `MAVLinkV2MessageRaw`. Its check reads the clock on
+//!   every frame (its design; ours only for a stream it does not know).
+//!
 //! Criterion's throughput is in frames. Each batch verifies the same frames
 //! with a fresh copy of a primed verifier, so every frame is accepted.
 
@@ -15,6 +21,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use fbwag_dialect::mavframe::frame::{encode, Frame, MAX_FRAME_LEN};
 use fbwag_dialect::mavframe::signing::{timestamp_now, Signer, Verifier};
 use fbwag_dialect::{FbwagFailsafeStatus, FbwagNotice, Header, Version};
+use mavlink::{MAVLinkV2MessageRaw, SigningConfig, SigningData};
 use std::hint::black_box;
 
 const FRAMES: usize = 1024;
@@ -72,7 +79,47 @@ fn verify(c: &mut Criterion) {
     fresh.rotate_left(16);
     fresh.truncate(FRAMES);
     bench(&mut g, "new_streams_evicting", primed(16, now), &fresh);
+    bench_mavlink(&mut g, &frames(STREAMS, STREAMS, now - 100_000), &known);
     g.finish();
+}
+
+/// The frame's bytes in the `mavlink` crate's frame buffer.
+fn raw(frame: &[u8]) -> MAVLinkV2MessageRaw {
+    let mut raw = MAVLinkV2MessageRaw::new();
+    raw.as_mut_slice()[..frame.len()].copy_from_slice(frame);
+    raw
+}
+
+/// The `mavlink` crate verifying `bytes` (each accepted), its signing state
+/// primed with one frame of each stream per batch, as ours.
+fn bench_mavlink(
+    g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    primer: &[Vec<u8>],
+    bytes: &[Vec<u8>],
+) {
+    let primer: Vec<MAVLinkV2MessageRaw> = primer.iter().map(|f| raw(f)).collect();
+    let stream: Vec<MAVLinkV2MessageRaw> = bytes.iter().map(|f| raw(f)).collect();
+    let primed = || {
+        let s = SigningData::from_config(SigningConfig::new(benches::KEY, 0, false, false));
+        for f in &primer {
+            assert!(s.verify_signature(f), "mavlink accepts the primer");
+        }
+        s
+    };
+    g.bench_function("mavlink_known_streams", |b| {
+        b.iter_batched_ref(
+            primed,
+            |s| {
+                let mut ok = 0;
+                for f in &stream {
+                    ok += usize::from(s.verify_signature(black_box(f)));
+                }
+                assert_eq!(ok, FRAMES);
+                ok
+            },
+            BatchSize::SmallInput,
+        )
+    });
 }
 
 /// Verifies `bytes` (each accepted) with a fresh copy of `primed` per batch.

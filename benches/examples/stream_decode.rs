@@ -12,7 +12,10 @@
 //!
 //! CAPTURE `-` (the default) is the telemetry capture of the benchmarks.
 //! Decoders: `fbwag/views`, `mavlink/raw`, `fbwag/owned`, `mavlink/owned`
-//! (all by default, interleaved pass by pass). Prints, per decoder:
+//! (one field read), `fbwag/views_all`, `fbwag/owned_all`,
+//! `mavlink/owned_all` (every field read); all by default, interleaved pass
+//! by pass. `BENCH_MIX=legacy` selects the older capture. The owned-decode
+//! prototypes `proto/owned_typed` and `proto/owned_slot` run when named. Prints, per decoder:
 //! `NAME frames N bytes B best_mibs X median_mibs Y`.
 
 use std::time::Instant;
@@ -25,9 +28,15 @@ fn main() {
     };
     let iters: usize = args.next().map_or(20, |s| s.parse().expect("iterations"));
     let wanted: Vec<String> = args.collect();
+    // The prototypes run only when named.
     let decoders: Vec<_> = benches::decoders()
         .into_iter()
         .filter(|(name, _)| wanted.is_empty() || wanted.iter().any(|w| w == name))
+        .chain(
+            benches::prototypes()
+                .into_iter()
+                .filter(|(name, _)| wanted.iter().any(|w| w == name)),
+        )
         .collect();
     assert!(!decoders.is_empty(), "unknown decoder in {wanted:?}");
     let mut secs = vec![Vec::with_capacity(iters); decoders.len()];

@@ -18,7 +18,8 @@
 # gcc, python3 (pymavlink 2.4.50 goes into target/pyenv), hyperfine for 2
 # (optional). The capture is made on first use (target/bench-data/).
 #
-# Env: ROUNDS (decode rounds, default 3), ITER (passes per round, default 20),
+# Env: BENCH_MIX (the capture: arduplane, the default, or legacy; see
+# make_telemetry.py --mix), ROUNDS (decode rounds, default 3), ITER (passes per round, default 20),
 #      PY_RUNS (pymavlink passes per round, default 1), BUILD_RUNS (clean
 #      builds of each crate, default 1), SKIP_DECODE=1, SKIP_MAVGEN=1,
 #      SKIP_BUILD=1, CPU=N (pin the decoders to core N with taskset;
@@ -53,8 +54,8 @@ if [ "${SKIP_DECODE:-0}" != 1 ]; then
     log "building the Rust decoders (release) and making the capture"
     cargo build --release --locked -p benches --example stream_decode >&2
     DEC="$REPO/target/release/examples/stream_decode"
-    "$DEC" - 1 fbwag/views >/dev/null   # makes target/bench-data/telemetry.bin
-    CAPTURE="$REPO/target/bench-data/telemetry.bin"
+    "$DEC" - 1 fbwag/views >/dev/null   # makes target/bench-data/telemetry-<BENCH_MIX>.bin
+    CAPTURE="$REPO/target/bench-data/telemetry-${BENCH_MIX:-arduplane}.bin"
 
     log "generating the C library (pymavlink 2.4.50 mavgen --lang=C) and building the C decoder"
     "$PY" -m pymavlink.tools.mavgen --lang=C --wire-protocol=2.0 -o "$TMP/c" \
@@ -109,7 +110,7 @@ EOF
     say "| decoder | frames | MiB/s | M frames/s | fbwag views / it | fbwag owned / it |"
     say "|---|---:|---:|---:|---:|---:|"
     v=$(median <<<"${med[fbwag/views]}"); o=$(median <<<"${med[fbwag/owned]}")
-    for name in fbwag/views fbwag/owned mavlink/raw mavlink/owned C/mavlink_parse_char pymavlink/parse_buffer; do
+    for name in fbwag/views fbwag/owned mavlink/raw mavlink/owned fbwag/views_all fbwag/owned_all mavlink/owned_all C/mavlink_parse_char pymavlink/parse_buffer; do
         m=$(median <<<"${med[$name]}"); b=$(maxof <<<"${best[$name]}")
         fps=$(awk -v m="$m" -v s="$size" -v f="${frames[$name]}" 'BEGIN{printf "%.2f", m * 1048576 / s * f / 1e6}')
         say "| $name | ${frames[$name]} | $m ($b) | $fps | $(ratio "$v" "$m") | $(ratio "$o" "$m") |"

@@ -16,7 +16,37 @@ Every frame is built and framed by pymavlink 2.4.50 with its own bindings for
 message_definitions/fbwag.xml (conformance/pymavlink/fbwag_dialect.py), one
 pymavlink MAVLink object (so one sequence counter) per (sysid, compid).
 
-Streams (Hz), in the order sent within a tick:
+Two mixes (--mix). "arduplane" (the default) streams at the rates of the
+SRx_* stream groups a ground station typically requests from ArduPlane (its
+firmware defaults are 1 Hz for every group and 10 Hz for PARAMS, see
+libraries/GCS_MAVLink/GCS_MAVLink_Parameters.cpp; Mission Planner-style GCSs
+raise them with REQUEST_DATA_STREAM), each message in the group ArduPilot
+puts it in:
+  HEARTBEAT 1 (FC, CC, GCS);
+  EXT_STAT 2: SYS_STATUS, POWER_STATUS, MEMINFO, MISSION_CURRENT, GPS_RAW_INT,
+    NAV_CONTROLLER_OUTPUT;
+  RAW_SENS 2: RAW_IMU, SCALED_IMU2, SCALED_PRESSURE, SCALED_PRESSURE2;
+  RC_CHAN 2: SERVO_OUTPUT_RAW, RC_CHANNELS;
+  POSITION 4: GLOBAL_POSITION_INT;
+  EXTRA1 10: ATTITUDE, AHRS2, AOA_SSA, ESC_TELEMETRY_1_TO_4;
+  EXTRA2 4: VFR_HUD;
+  EXTRA3 2: AHRS, SYSTEM_TIME, WIND, TERRAIN_REPORT, EKF_STATUS_REPORT,
+    VIBRATION, BATTERY_STATUS;
+  HOME_POSITION 0.1.
+  At connection the GCS downloads all 1,180 parameters: PARAM_VALUE at 200/s
+  (what a 115200-baud radio has left beside the streams), index 0..1179, names
+  of 6 to 16 characters (157 fill all 16 bytes, without a terminating NUL;
+  PARAM_VALUE's last wire field, param_type, is never 0, so its frames are
+  never truncated). Extension fields are set where ArduPlane sets them: RAW_IMU id and
+  temperature, SCALED_IMU2 temperature, SCALED_PRESSURE(2) the differential
+  sensor's temperature, SERVO_OUTPUT_RAW servo9/servo10 (flaps, spoilers),
+  GPS_RAW_INT accuracies, MEMINFO freemem32, BATTERY_STATUS time_remaining and
+  charge_state, MISSION_CURRENT total and state, HOME_POSITION time_usec,
+  chunked STATUSTEXT id/seq, AUTOPILOT_VERSION uid2; trailing zeros are
+  truncated, so payload lengths vary by type and by frame.
+
+"legacy" (the capture of the benchmarks before the mix above; rates in Hz, in
+the order sent within a tick):
   HEARTBEAT 1; SYS_STATUS, POWER_STATUS, MEMINFO, MISSION_CURRENT 2;
   GPS_RAW_INT, NAV_CONTROLLER_OUTPUT 5; RAW_IMU, SCALED_IMU2, SCALED_PRESSURE,
   SCALED_PRESSURE2 5; RC_CHANNELS, SERVO_OUTPUT_RAW 5; GLOBAL_POSITION_INT 10;
@@ -24,7 +54,7 @@ Streams (Hz), in the order sent within a tick:
   TERRAIN_REPORT, EKF_STATUS_REPORT, VIBRATION, BATTERY_STATUS,
   ESC_TELEMETRY_1_TO_4 2; HOME_POSITION 0.1.
   At connection: AUTOPILOT_VERSION, GPS_GLOBAL_ORIGIN, the banner
-  STATUSTEXTs and a burst of PARAM_VALUE. Events: STATUSTEXT (one longer than
+  STATUSTEXTs and a burst of 87 PARAM_VALUE. Events (both mixes): STATUSTEXT (one longer than
   50 characters, so sent in chunks), FBWAG_NOTICE. CC: HEARTBEAT 1 Hz,
   RC_CHANNELS_OVERRIDE 20 Hz while in control. GCS: HEARTBEAT 1 Hz.
 
@@ -314,6 +344,158 @@ PARAMS = [  # (name, value, MAV_PARAM_TYPE)
     ("FLTMODE6", 0, 2), ("SCHED_LOOP_RATE", 300, 4), ("ALT_HOLD_RTL", 15000, 6),
 ]
 PARAM_COUNT = 1187
+ARDUPLANE_PARAM_COUNT = 1180
+
+# Parameter groups for the 1,180-entry download: (prefix, instances, suffixes).
+# Names as ArduPlane spells them; values come from a seeded generator.
+PARAM_GROUPS = [
+    ("SERVO%d_", range(1, 17), ["MIN", "MAX", "TRIM", "REVERSED", "FUNCTION"]),
+    ("RC%d_", range(1, 17), ["MIN", "MAX", "TRIM", "REVERSED", "DZ", "OPTION"]),
+    ("SR%d_", range(0, 7), ["RAW_SENS", "EXT_STAT", "RC_CHAN", "RAW_CTRL", "POSITION",
+                           "EXTRA1", "EXTRA2", "EXTRA3", "PARAMS", "ADSB"]),
+    ("SERIAL%d_", range(0, 8), ["PROTOCOL", "BAUD", "OPTIONS"]),
+    ("BATT%s_", ["", "2", "3", "4", "5", "6"], ["MONITOR", "CAPACITY", "VOLT_PIN", "CURR_PIN", "VOLT_MULT",
+                                 "AMP_PERVLT", "AMP_OFFSET", "LOW_VOLT", "CRT_VOLT", "LOW_MAH",
+                                 "CRT_MAH", "FS_LOW_ACT", "FS_CRT_ACT", "ARM_VOLT", "OPTIONS"]),
+    ("INS_", [""], ["GYROFFS_X", "GYROFFS_Y", "GYROFFS_Z", "GYR2OFFS_X", "GYR2OFFS_Y",
+                    "GYR2OFFS_Z", "ACCSCAL_X", "ACCSCAL_Y", "ACCSCAL_Z", "ACCOFFS_X", "ACCOFFS_Y",
+                    "ACCOFFS_Z", "ACC2SCAL_X", "ACC2SCAL_Y", "ACC2SCAL_Z", "ACC2OFFS_X",
+                    "ACC2OFFS_Y", "ACC2OFFS_Z", "GYRO_FILTER", "ACCEL_FILTER", "USE", "USE2",
+                    "STILL_THRESH", "GYRO_RATE", "FAST_SAMPLE", "HNTCH_ENABLE", "HNTCH_FREQ",
+                    "HNTCH_BW", "HNTCH_ATT", "HNTCH_REF", "HNTCH_MODE", "HNTCH_OPTS", "LOG_BAT_MASK",
+                    "TCAL1_ENABLE", "TCAL2_ENABLE", "ENABLE_MASK"]),
+    ("EK3_", [""], ["ENABLE", "GPS_CHECK", "IMU_MASK", "GYRO_P_NSE", "ACC_P_NSE", "GBIAS_P_NSE",
+                    "ABIAS_P_NSE", "WIND_P_NSE", "WIND_PSCALE", "VELNE_M_NSE", "VELD_M_NSE",
+                    "VEL_I_GATE", "POSNE_M_NSE", "POS_I_GATE", "GLITCH_RAD", "ALT_M_NSE",
+                    "HGT_I_GATE", "HGT_DELAY", "MAG_M_NSE", "MAG_CAL", "MAG_I_GATE", "EAS_M_NSE",
+                    "EAS_I_GATE", "RNG_M_NSE", "RNG_I_GATE", "MAX_FLOW", "FLOW_M_NSE",
+                    "FLOW_I_GATE", "FLOW_DELAY", "TAU_OUTPUT", "MAGE_P_NSE", "MAGB_P_NSE",
+                    "RNG_USE_HGT", "TERR_GRAD", "BCN_M_NSE", "BCN_I_GTE", "BCN_DELAY",
+                    "RNG_USE_SPD", "ACC_BIAS_LIM", "MAG_MASK", "OGN_HGT_MASK", "VIS_VERR_MIN",
+                    "VIS_VERR_MAX", "WENC_VERR", "FLOW_USE", "HRT_FILT", "MAG_EF_LIM",
+                    "GSF_RUN_MASK", "GSF_USE_MASK", "GSF_RST_MAX", "ERR_THRESH", "AFFINITY",
+                    "DRAG_BCOEF_X", "DRAG_BCOEF_Y", "DRAG_M_NSE", "DRAG_MCOEF", "OGNM_TEST_SF",
+                    "GND_EFF_DZ", "PRIMARY", "LOG_LEVEL", "GPS_VACC_MAX"]),
+    ("EK3_SRC%d_", range(1, 4), ["POSXY", "VELXY", "POSZ", "VELZ", "YAW"]),
+    ("COMPASS_", [""], ["OFS_X", "OFS_Y", "OFS_Z", "DEC", "LEARN", "USE", "AUTODEC", "MOTCT",
+                        "MOT_X", "MOT_Y", "MOT_Z", "ORIENT", "EXTERNAL", "OFS2_X", "OFS2_Y",
+                        "OFS2_Z", "MOT2_X", "MOT2_Y", "MOT2_Z", "USE2", "ORIENT2", "EXTERN2",
+                        "OFS3_X", "OFS3_Y", "OFS3_Z", "USE3", "ORIENT3", "EXTERN3", "DIA_X",
+                        "DIA_Y", "DIA_Z", "ODI_X", "ODI_Y", "ODI_Z", "DEV_ID", "DEV_ID2", "DEV_ID3",
+                        "CAL_FIT", "OFFS_MAX", "TYPEMASK", "FLTR_RNG", "AUTO_ROT", "PRIO1_ID",
+                        "PRIO2_ID", "PRIO3_ID", "ENABLE", "SCALE", "SCALE2", "SCALE3", "OPTIONS"]),
+    ("GPS%s_", ["", "1", "2"], ["TYPE", "NAVFILTER", "AUTO_SWITCH", "MIN_DGPS", "SBAS_MODE",
+                                "MIN_ELEV", "INJECT_TO", "SBP_LOGMASK", "RAW_DATA", "GNSS_MODE",
+                                "SAVE_CFG", "AUTO_CONFIG", "RATE_MS", "POS_X", "POS_Y", "POS_Z",
+                                "DELAY_MS", "BLEND_MASK", "DRV_OPTIONS", "COM_PORT", "PRIMARY",
+                                "CAN_NODEID", "MB_TYPE"]),
+    ("ARSPD%s_", ["", "2"], ["TYPE", "USE", "OFFSET", "RATIO", "PIN", "AUTOCAL", "TUBE_ORDER",
+                             "SKIP_CAL", "PSI_RANGE", "BUS", "PRIMARY", "OPTIONS", "WIND_MAX",
+                             "WIND_WARN", "DEVID", "TUBE_ORDR"]),
+    ("TECS_", [""], ["CLMB_MAX", "SINK_MIN", "TIME_CONST", "THR_DAMP", "INTEG_GAIN", "VERT_ACC",
+                     "HGT_OMEGA", "SPD_OMEGA", "RLL2THR", "SPDWEIGHT", "PTCH_DAMP", "SINK_MAX",
+                     "LAND_ARSPD", "LAND_THR", "LAND_SPDWGT", "PITCH_MAX", "PITCH_MIN",
+                     "LAND_SINK", "LAND_TCONST", "LAND_DAMP", "LAND_PMAX", "APPR_SMAX",
+                     "LAND_SRC", "LAND_TDAMP", "LAND_IGAIN", "LAND_PDAMP", "SYNAIRSPEED",
+                     "OPTIONS", "PTCH_FF_V0", "PTCH_FF_K", "FLARE_HGT", "HDEM_TCONST"]),
+    ("%s_RATE_", ["RLL", "PTCH", "YAW"], ["P", "I", "D", "FF", "IMAX", "FLTT", "FLTE", "FLTD",
+                                          "SMAX", "PDMX", "D_FF", "NTF", "NTE"]),
+    ("LOG_", [""], ["BACKEND_TYPE", "FILE_BUFSIZE", "DISARMED", "REPLAY", "FILE_DSRMROT",
+                    "MAV_BUFSIZE", "FILE_TIMEOUT", "FILE_MB_FREE", "FILE_RATEMAX", "MAV_RATEMAX",
+                    "BLK_RATEMAX", "DARM_RATEMAX", "MAX_FILES"]),
+    ("FENCE_", [""], ["ENABLE", "TYPE", "ACTION", "ALT_MAX", "RADIUS", "MARGIN", "TOTAL",
+                      "ALT_MIN", "RET_RALLY", "RET_ALTITUDE", "AUTOENABLE", "OPTIONS"]),
+    ("RALLY_", [""], ["TOTAL", "LIMIT_KM", "INCL_HOME"]),
+    ("TERRAIN_", [""], ["ENABLE", "SPACING", "OPTIONS", "MARGIN", "OFS_MAX", "CACHE_SZ"]),
+    ("SCHED_", [""], ["DEBUG", "LOOP_RATE", "OPTIONS"]),
+    ("BRD_", [""], ["SER1_RTSCTS", "SER2_RTSCTS", "SAFETY_DEFLT", "SBUS_OUT", "SERIAL_NUM",
+                    "SAFETY_MASK", "HEAT_TARG", "TYPE", "IO_ENABLE", "SAFETYOPTION", "VBUS_MIN",
+                    "VSERVO_MIN", "SD_SLOWDOWN", "PWM_VOLT_SEL", "OPTIONS", "BOOT_DELAY",
+                    "HEAT_P", "HEAT_I", "HEAT_IMAX", "ALT_CONFIG", "HEAT_LOWMGN", "SD_MISSION",
+                    "SD_FENCE", "IO_DSHOT"]),
+    ("NTF_", [""], ["LED_BRIGHT", "BUZZ_TYPES", "LED_OVERRIDE", "DISPLAY_TYPE", "OREO_THEME",
+                    "BUZZ_PIN", "LED_TYPES", "BUZZ_ON_LVL", "BUZZ_VOLUME", "LED_LEN"]),
+    ("Q_", [""], ["ENABLE", "ANGLE_MAX", "TRANSITION_MS", "TRANS_DECEL", "ASSIST_SPEED",
+                  "ASSIST_ALT", "ASSIST_ANGLE", "ASSIST_DELAY", "RTL_ALT", "RTL_MODE",
+                  "GUIDED_MODE", "ESC_CAL", "VFWD_GAIN", "WVANE_GAIN", "WVANE_MINROLL",
+                  "RTL_ALT_MIN", "LAND_SPEED", "LAND_FINAL_ALT", "TAILSIT_ENABLE", "FRAME_CLASS",
+                  "FRAME_TYPE", "OPTIONS", "TRAN_PIT_MAX", "BACKTRANS_MS", "TRIM_PITCH"]),
+    ("TKOFF_", [""], ["THR_MINSPD", "THR_MINACC", "THR_DELAY", "TDRAG_ELEV", "TDRAG_SPD1",
+                      "ROTATE_SPD", "THR_SLEW", "PLIM_SEC", "FLAP_PCNT", "ACCEL_CNT", "ALT",
+                      "DIST", "LVL_ALT", "LVL_PITCH", "GND_PITCH", "TIMEOUT", "THR_MAX",
+                      "OPTIONS"]),
+    ("LAND_", [""], ["SLOPE_RCALC", "ABORT_DEG", "PITCH_DEG", "FLARE_SEC", "PF_ALT",
+                     "PF_SEC", "PF_ARSPD", "THR_SLEW", "DISARMDELAY", "THEN_NEUTRL",
+                     "ABORT_THR", "FLAP_PERCNT", "FLARE_ALT", "TYPE", "OPTIONS", "WIND_COMP"]),
+    ("SOAR_", [""], ["ENABLE", "VSPEED", "Q1", "Q2", "R", "DIST_AHEAD", "MIN_THML_S",
+                     "MIN_CRSE_S", "POLAR_CD0", "POLAR_B", "POLAR_K", "ALT_MAX", "ALT_MIN",
+                     "ALT_CUTOFF", "MAX_DRIFT", "MAX_RADIUS", "THML_BANK", "THML_ARSPD",
+                     "CRSE_ARSPD", "THML_FLAP"]),
+    ("MIS_", [""], ["TOTAL", "RESTART", "OPTIONS"]),
+    ("STAT_", [""], ["BOOTCNT", "FLTTIME", "RUNTIME", "RESET"]),
+    ("SIM_", [""], ["WIND_SPD", "WIND_DIR", "WIND_TURB", "WIND_T", "WIND_T_ALT", "WIND_T_COEF",
+                    "WIND_DIR_Z", "GPS_DISABLE", "GPS_LAG_MS", "GPS_TYPE", "GPS_BYTELOSS",
+                    "GPS_NUMSATS", "GPS_GLITCH_X", "GPS_GLITCH_Y", "GPS_GLITCH_Z", "GPS_HZ",
+                    "GPS_DRIFTALT", "GPS_POS1_X", "GPS_POS1_Y", "GPS_POS1_Z", "GPS_NOISE",
+                    "GPS_LOCKTIME", "GPS_ALT_OFS", "GPS_HDG", "GPS_ACC", "GPS_VERR_X",
+                    "GPS_VERR_Y", "GPS_VERR_Z", "BARO_RND", "BARO_DRIFT", "BARO_GLITCH",
+                    "BARO_FREEZE", "BARO_DELAY", "MAG_RND", "MAG_ERROR", "MAG_DELAY",
+                    "ARSPD_RND", "ARSPD_OFS", "ARSPD_FAIL", "ARSPD_RATIO", "ACC_RND",
+                    "GYR_RND", "DRIFT_SPEED", "DRIFT_TIME", "ENGINE_MUL", "ENGINE_FAIL",
+                    "RC_FAIL", "RC_CHANCOUNT", "FLOAT_EXCEPT", "SPEEDUP", "IMU_COUNT",
+                    "IMU_ORIENT", "IMUT_START", "IMUT_END", "IMUT_FIXED", "TEMP_START",
+                    "TEMP_BRD_OFF", "TEMP_TCONST", "TERRAIN", "LOOP_DELAY", "SERVO_SPEED",
+                    "SAFETY_STATE", "SONAR_SCALE", "SONAR_GLITCH", "SONAR_RND", "SONAR_POS_X",
+                    "FLOW_ENABLE", "FLOW_RATE", "FLOW_DELAY", "ADSB_COUNT", "ADSB_RADIUS",
+                    "ADSB_ALT", "PIN_MASK", "OPOS_LAT", "OPOS_LNG", "OPOS_ALT", "OPOS_HDG",
+                    "MAG1_DEVID", "MAG2_DEVID", "MAG3_DEVID", "BATT_VOLTAGE", "BATT_CAP_AH"]),
+    ("CAN_", [""], ["LOGLEVEL", "P1_DRIVER", "P1_BITRATE", "P2_DRIVER", "P2_BITRATE",
+                    "D1_PROTOCOL", "D2_PROTOCOL", "D1_UC_NODE", "D1_UC_SRV_BM", "D1_UC_ESC_BM",
+                    "D1_UC_OPTION", "SLCAN_CPORT", "SLCAN_SERNUM", "SLCAN_TIMOUT"]),
+    ("FLTMODE%s", ["1", "2", "3", "4", "5", "6", "_CH"], [""]),
+    ("RCMAP_", [""], ["ROLL", "PITCH", "THROTTLE", "YAW"]),
+    ("RNGFND%d_", range(1, 5), ["TYPE", "PIN", "SCALING", "OFFSET", "FUNCTION", "MIN_CM",
+                                "MAX_CM", "STOP_PIN", "RMETRIC", "PWRRNG", "GNDCLEAR", "ADDR",
+                                "POS_X", "POS_Y", "POS_Z", "ORIENT"]),
+    ("MNT1_", [""], ["TYPE", "DEFLT_MODE", "RC_RATE", "ROLL_MIN", "ROLL_MAX", "PITCH_MIN",
+                     "PITCH_MAX", "YAW_MIN", "YAW_MAX", "RETRACT_X", "RETRACT_Y", "RETRACT_Z",
+                     "NEUTRAL_X", "NEUTRAL_Y", "NEUTRAL_Z", "LEAD_RLL", "LEAD_PTCH", "SYSID_DFLT",
+                     "DEVID", "OPTIONS"]),
+    ("AHRS_", [""], ["GPS_GAIN", "GPS_USE", "YAW_P", "RP_P", "WIND_MAX", "TRIM_X", "TRIM_Y",
+                     "TRIM_Z", "ORIENTATION", "COMP_BETA", "GPS_MINSATS", "EKF_TYPE",
+                     "CUSTOM_ROLL", "CUSTOM_PIT", "CUSTOM_YAW", "OPTIONS"]),
+    ("ARMING_", [""], ["REQUIRE", "ACCTHRESH", "RUDDER", "MIS_ITEMS", "CHECK", "OPTIONS",
+                       "MAGTHRESH", "CRSDP_IGN"]),
+    ("OSD%d_", range(1, 7), ["ENABLE", "TXT_RES", "FONT", "V_OFFSET", "H_OFFSET", "ALTITUDE_EN",
+                             "ALTITUDE_X", "ALTITUDE_Y", "BAT_VOLT_EN", "BAT_VOLT_X", "BAT_VOLT_Y",
+                             "RSSI_EN", "RSSI_X", "RSSI_Y", "CURRENT_EN", "CURRENT_X",
+                             "CURRENT_Y"]),
+]
+
+
+def arduplane_params(seed):
+    """1,180 (name, value, MAV_PARAM_TYPE): the 87 above first, then the
+    groups' names in order, without repeats; values from a generator of
+    their own (so the flight does not depend on them)."""
+    rnd = Rand(seed + 0x9A8A0000)
+    out, seen = list(PARAMS), set(p[0] for p in PARAMS)
+    for prefix, instances, suffixes in PARAM_GROUPS:
+        for inst in instances:
+            for suffix in suffixes:
+                name = (prefix % inst if "%" in prefix else prefix) + suffix
+                if len(name) > 16 or name in seen:
+                    continue
+                seen.add(name)
+                kind = int(rnd.uniform(0, 4))
+                if kind == 0:
+                    out.append((name, round(rnd.uniform(-50, 50), 3), 9))
+                else:
+                    ptype = (2, 4, 6)[kind - 1]
+                    hi = (100, 2000, 100000)[kind - 1]
+                    out.append((name, int(rnd.uniform(0, hi)), ptype))
+                if len(out) == ARDUPLANE_PARAM_COUNT:
+                    return out
+    raise AssertionError("PARAM_GROUPS give only %d names" % len(out))
 
 BANNER = [
     (6, "ArduPlane V4.5.7 (2a3dc4b7)"),
@@ -405,7 +587,9 @@ class Link(object):
 
 
 class Flight(object):
-    def __init__(self, mod, link, rnd):
+    def __init__(self, mod, link, rnd, mix="legacy", seed=1):
+        self.arduplane = mix == "arduplane"
+        self.seed = seed
         self.m = mod
         self.link = link
         self.rnd = rnd
@@ -571,20 +755,28 @@ class Flight(object):
         self.link.send(FC, m.MAVLink_gps_global_origin_message(
             int(HOME_LAT * 1e7), int(HOME_LON * 1e7), int(HOME_ALT * 1000),
             (UNIX_START_US - 600_000_000)), t)
+        if self.arduplane:
+            # the whole list, 2 per 10-ms tick (200/s), in index order
+            params = arduplane_params(self.seed)
+            for i, (name, value, ptype) in enumerate(params):
+                self.at(t + 40 + TICK_MS * (i // 2),
+                        self._param_sender(i, name, value, ptype, len(params), i))
+            return
         for i, (name, value, ptype) in enumerate(PARAMS):
-            self.at(t + 40 + 50 * i, self._param_sender(i, name, value, ptype))
+            self.at(t + 40 + 50 * i, self._param_sender(i, name, value, ptype, PARAM_COUNT,
+                                                        17 + i * 13 % PARAM_COUNT))
 
-    def _param_sender(self, i, name, value, ptype):
-        index = 17 + i * 13 % PARAM_COUNT
-
+    def _param_sender(self, i, name, value, ptype, count, index):
         def send(t):
             self.link.send(FC, self.m.MAVLink_param_value_message(
-                name.encode("ascii"), float(value), ptype, PARAM_COUNT, index), t)
+                name.encode("ascii"), float(value), ptype, count, index), t)
         return send
 
     # ---- periodic streams ----------------------------------------------
     def streams(self):
         """(name, sender, period ms, phase ms, function), sent in this order."""
+        if self.arduplane:
+            return self.arduplane_streams()
         return [
             ("HEARTBEAT", FC, 1000, 0, self.s_heartbeat),
             ("HEARTBEAT", CC, 1000, 370, self.s_cc_heartbeat),
@@ -614,6 +806,50 @@ class Flight(object):
             ("VIBRATION", FC, 500, 270, self.s_vibration),
             ("BATTERY_STATUS", FC, 500, 270, self.s_battery_status),
             ("ESC_TELEMETRY_1_TO_4", FC, 500, 270, self.s_esc_telemetry),
+            ("HOME_POSITION", FC, 10000, 4990, self.s_home_position),
+            ("RC_CHANNELS_OVERRIDE", CC, 50, 30, self.s_rc_override),
+        ]
+
+    def arduplane_streams(self):
+        """The SRx-like rates of the "arduplane" mix (see the module doc),
+        grouped as ArduPilot's GCS_MAVLink_Parameters.cpp groups them; each
+        group's phase within its period keeps the bursts apart."""
+        return [
+            ("HEARTBEAT", FC, 1000, 0, self.s_heartbeat),
+            ("HEARTBEAT", CC, 1000, 370, self.s_cc_heartbeat),
+            ("HEARTBEAT", GCS, 1000, 610, self.s_gcs_heartbeat),
+            # EXT_STAT 2 Hz
+            ("SYS_STATUS", FC, 500, 20, self.s_sys_status),
+            ("POWER_STATUS", FC, 500, 20, self.s_power_status),
+            ("MEMINFO", FC, 500, 20, self.s_meminfo),
+            ("MISSION_CURRENT", FC, 500, 20, self.s_mission_current),
+            ("GPS_RAW_INT", FC, 500, 20, self.s_gps_raw_int),
+            ("NAV_CONTROLLER_OUTPUT", FC, 500, 20, self.s_nav_controller_output),
+            # RAW_SENS 2 Hz
+            ("RAW_IMU", FC, 500, 60, self.s_raw_imu),
+            ("SCALED_IMU2", FC, 500, 60, self.s_scaled_imu2),
+            ("SCALED_PRESSURE", FC, 500, 60, self.s_scaled_pressure),
+            ("SCALED_PRESSURE2", FC, 500, 60, self.s_scaled_pressure2),
+            # RC_CHAN 2 Hz
+            ("SERVO_OUTPUT_RAW", FC, 500, 110, self.s_servo_output_raw),
+            ("RC_CHANNELS", FC, 500, 110, self.s_rc_channels),
+            # POSITION 4 Hz
+            ("GLOBAL_POSITION_INT", FC, 250, 0, self.s_global_position_int),
+            # EXTRA1 10 Hz
+            ("ATTITUDE", FC, 100, 10, self.s_attitude),
+            ("AHRS2", FC, 100, 10, self.s_ahrs2),
+            ("AOA_SSA", FC, 100, 10, self.s_aoa_ssa),
+            ("ESC_TELEMETRY_1_TO_4", FC, 100, 10, self.s_esc_telemetry),
+            # EXTRA2 4 Hz
+            ("VFR_HUD", FC, 250, 40, self.s_vfr_hud),
+            # EXTRA3 2 Hz
+            ("AHRS", FC, 500, 270, self.s_ahrs),
+            ("WIND", FC, 500, 270, self.s_wind),
+            ("SYSTEM_TIME", FC, 500, 270, self.s_system_time),
+            ("TERRAIN_REPORT", FC, 500, 270, self.s_terrain_report),
+            ("BATTERY_STATUS", FC, 500, 270, self.s_battery_status),
+            ("EKF_STATUS_REPORT", FC, 500, 270, self.s_ekf_status_report),
+            ("VIBRATION", FC, 500, 270, self.s_vibration),
             ("HOME_POSITION", FC, 10000, 4990, self.s_home_position),
             ("RC_CHANNELS_OVERRIDE", CC, 50, 30, self.s_rc_override),
         ]
@@ -723,8 +959,10 @@ class Flight(object):
         p = self.plane
         press = pressure_hpa(HOME_ALT + p.alt) + self.baro_noise.x
         diff = 0.5 * 1.19 * p.va * p.va / 100.0
+        # arduplane: the differential (airspeed) sensor's own temperature
+        tdiff = int(3120 - 0.65 * p.alt + 40 * math.sin(t / 90_000.0)) if self.arduplane else 0
         self.send(FC, self.m.MAVLink_scaled_pressure_message(
-            t - 4, press, diff, int(2870 - 0.65 * p.alt), 0), t)
+            t - 4, press, diff, int(2870 - 0.65 * p.alt), tdiff), t)
 
     def s_scaled_pressure2(self, t):
         p = self.plane
@@ -759,7 +997,17 @@ class Flight(object):
         thr = int(1000 + p.throttle * 10)
         rud = int(1500 + p.r * 60)
         self.send(FC, self.m.MAVLink_servo_output_raw_message(
-            (t * 1000 - 1200) & 0xFFFFFFFF, 0, ail, ele, thr, rud, 1500, 0, 0, 1100), t)
+            (t * 1000 - 1200) & 0xFFFFFFFF, 0, ail, ele, thr, rud, 1500, 0, 0, 1100,
+            *self.servo_ext()), t)
+
+    def servo_ext(self):
+        """SERVO_OUTPUT_RAW's extension fields (servo9_raw..servo16_raw):
+        arduplane: flaps on 9 (down while the companion flies), spoilers on
+        10; the rest unused (0, so truncated)."""
+        if not self.arduplane:
+            return []
+        flaps = 1650 if self.cc_in_control else 1100
+        return [flaps, 1000, 0, 0, 0, 0, 0, 0]
 
     def s_global_position_int(self, t):
         p = self.plane
@@ -838,7 +1086,9 @@ class Flight(object):
 
     def s_esc_telemetry(self, t):
         p = self.plane
-        self.esc_temp += (34.0 + 0.3 * p.throttle - self.esc_temp) * 0.01
+        # the same time constant at 2 Hz (legacy) and 10 Hz (arduplane)
+        k = 0.002 if self.arduplane else 0.01
+        self.esc_temp += (34.0 + 0.3 * p.throttle - self.esc_temp) * k
         rpm = int(p.throttle * 95)
         self.send(FC, self.m.MAVLink_esc_telemetry_1_to_4_message(
             [int(self.esc_temp), 0, 0, 0], [int(self.volts() * 100), 0, 0, 0],
@@ -884,6 +1134,10 @@ def main():
     ap.add_argument("--sign-key", metavar="HEX64", type=parse_key, default=None,
                     help="sign every MAVLink 2 frame with this 32-byte key (pymavlink signing, "
                          "link id 0, timestamps from the simulated clock, starting 2025-06-01T09:00Z)")
+    ap.add_argument("--mix", choices=("arduplane", "legacy"), default="arduplane",
+                    help="'arduplane' (default): SRx-like stream rates and a 1,180-entry "
+                         "parameter download (see the module doc); 'legacy': the benchmarks' "
+                         "capture before that (faster streams, 87 parameters)")
     ap.add_argument("--tlog", action="store_true",
                     help="write pymavlink .tlog records: an 8-byte big-endian Unix time in "
                          "microseconds before each frame")
@@ -896,7 +1150,7 @@ def main():
     mod = fbwag_dialect.load("2.0")
     link = Link(mod, args)
     rnd = Rand(args.seed)
-    flight = Flight(mod, link, rnd)
+    flight = Flight(mod, link, rnd, args.mix, args.seed)
     streams = flight.streams()
     plane = flight.plane
 

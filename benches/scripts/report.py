@@ -64,12 +64,16 @@ def stream_decode():
     print("### Stream decode (criterion)\n")
     print("| decoder | MiB/s | M frames/s | ns/frame |")
     print("|---|---:|---:|---:|")
-    for name in ["fbwag/views", "mavlink/raw", "fbwag/owned", "mavlink/owned"]:
+    for name in ["fbwag/views", "mavlink/raw", "fbwag/owned", "mavlink/owned",
+                 "fbwag/views_all", "fbwag/owned_all", "mavlink/owned_all"]:
         if name in rows:
             r = rows[name][0]
             print("| %s | %.0f | %.2f | %.1f |" % (name, mibs(r), frames / (r["ns"] * 1e-9) / 1e6, r["ns"] / frames))
     print()
-    for ours, theirs in [("fbwag/views", "mavlink/raw"), ("fbwag/owned", "mavlink/owned")]:
+    for ours, theirs in [("fbwag/views", "mavlink/raw"), ("fbwag/views", "mavlink/owned"),
+                         ("fbwag/owned", "mavlink/owned"),
+                         ("fbwag/views_all", "mavlink/owned_all"),
+                         ("fbwag/owned_all", "mavlink/owned_all")]:
         if ours in rows and theirs in rows:
             print("- %s vs %s: **%.2f×**" % (ours, theirs, rows[theirs][0]["ns"] / rows[ours][0]["ns"]))
     print()

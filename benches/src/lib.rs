@@ -24,9 +24,23 @@ pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// The capture's bytes, made on first use (seed 1, default size ~4 MB).
+/// The capture's mix: `BENCH_MIX` (`arduplane`, the default, or `legacy`,
+/// the capture of the benchmarks before the ArduPlane-like mix); see
+/// `make_telemetry.py --mix`.
+pub fn mix() -> String {
+    let mix = std::env::var("BENCH_MIX").unwrap_or_else(|_| "arduplane".into());
+    assert!(
+        mix == "arduplane" || mix == "legacy",
+        "BENCH_MIX must be arduplane or legacy, not {mix:?}"
+    );
+    mix
+}
+
+/// The capture's bytes, made on first use (seed 1, default size ~4 MB) into
+/// `target/bench-data/telemetry-<mix>.bin`.
 pub fn telemetry() -> Vec<u8> {
-    let path = repo().join("target/bench-data/telemetry.bin");
+    let mix = mix();
+    let path = repo().join(format!("target/bench-data/telemetry-{mix}.bin"));
     if !path.exists() {
         std::fs::create_dir_all(path.parent().expect("parent")).expect("create target/bench-data");
         let py = Command::new("bash")
@@ -44,6 +58,7 @@ pub fn telemetry() -> Vec<u8> {
             .to_string();
         let status = Command::new(python)
             .arg(repo().join("benches/scripts/make_telemetry.py"))
+            .args(["--mix", &mix])
             .arg("-o")
             .arg(&path)
             .status()
@@ -79,6 +94,236 @@ pub fn fbwag_owned(stream: &[u8]) -> usize {
         let msg = r.message();
         black_box(&msg);
         n += 1;
+    }
+    n
+}
+
+// The 33 message types of the capture: MAVLink name, our variant, and our
+// view's accessors (every field, extensions included), for the decoders
+// that read every field. FBWAG_NOTICE is apart: the `mavlink` crate's
+// ardupilotmega does not have it.
+macro_rules! capture_types {
+    ($m:ident) => {
+        $m! {
+            AHRS, Ahrs => [omega_ix, omega_iy, omega_iz, accel_weight, renorm_val, error_rp, error_yaw];
+            AHRS2, Ahrs2 => [roll, pitch, yaw, altitude, lat, lng];
+            AOA_SSA, AoaSsa => [time_usec, aoa, ssa];
+            ATTITUDE, Attitude => [time_boot_ms, roll, pitch, yaw, rollspeed, pitchspeed, yawspeed];
+            AUTOPILOT_VERSION, AutopilotVersion => [capabilities, flight_sw_version, middleware_sw_version, os_sw_version, board_version, flight_custom_version, middleware_custom_version, os_custom_version, vendor_id, product_id, uid, uid2];
+            BATTERY_STATUS, BatteryStatus => [id, battery_function, r#type, temperature, voltages, current_battery, current_consumed, energy_consumed, battery_remaining, time_remaining, charge_state, voltages_ext, mode, fault_bitmask];
+            EKF_STATUS_REPORT, EkfStatusReport => [flags, velocity_variance, pos_horiz_variance, pos_vert_variance, compass_variance, terrain_alt_variance, airspeed_variance];
+            ESC_TELEMETRY_1_TO_4, EscTelemetry1To4 => [temperature, voltage, current, totalcurrent, rpm, count];
+            GLOBAL_POSITION_INT, GlobalPositionInt => [time_boot_ms, lat, lon, alt, relative_alt, vx, vy, vz, hdg];
+            GPS_GLOBAL_ORIGIN, GpsGlobalOrigin => [latitude, longitude, altitude, time_usec];
+            GPS_RAW_INT, GpsRawInt => [time_usec, fix_type, lat, lon, alt, eph, epv, vel, cog, satellites_visible, alt_ellipsoid, h_acc, v_acc, vel_acc, hdg_acc, yaw];
+            HEARTBEAT, Heartbeat => [r#type, autopilot, base_mode, custom_mode, system_status, mavlink_version];
+            HOME_POSITION, HomePosition => [latitude, longitude, altitude, x, y, z, q, approach_x, approach_y, approach_z, time_usec];
+            MEMINFO, Meminfo => [brkval, freemem, freemem32];
+            MISSION_CURRENT, MissionCurrent => [seq, total, mission_state, mission_mode];
+            NAV_CONTROLLER_OUTPUT, NavControllerOutput => [nav_roll, nav_pitch, nav_bearing, target_bearing, wp_dist, alt_error, aspd_error, xtrack_error];
+            PARAM_VALUE, ParamValue => [param_id, param_value, param_type, param_count, param_index];
+            POWER_STATUS, PowerStatus => [vcc, vservo, flags];
+            RAW_IMU, RawImu => [time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag, id, temperature];
+            RC_CHANNELS, RcChannels => [time_boot_ms, chancount, chan1_raw, chan2_raw, chan3_raw, chan4_raw, chan5_raw, chan6_raw, chan7_raw, chan8_raw, chan9_raw, chan10_raw, chan11_raw, chan12_raw, chan13_raw, chan14_raw, chan15_raw, chan16_raw, chan17_raw, chan18_raw, rssi];
+            RC_CHANNELS_OVERRIDE, RcChannelsOverride => [target_system, target_component, chan1_raw, chan2_raw, chan3_raw, chan4_raw, chan5_raw, chan6_raw, chan7_raw, chan8_raw, chan9_raw, chan10_raw, chan11_raw, chan12_raw, chan13_raw, chan14_raw, chan15_raw, chan16_raw, chan17_raw, chan18_raw];
+            SCALED_IMU2, ScaledImu2 => [time_boot_ms, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag, temperature];
+            SCALED_PRESSURE, ScaledPressure => [time_boot_ms, press_abs, press_diff, temperature, temperature_press_diff];
+            SCALED_PRESSURE2, ScaledPressure2 => [time_boot_ms, press_abs, press_diff, temperature, temperature_press_diff];
+            SERVO_OUTPUT_RAW, ServoOutputRaw => [time_usec, port, servo1_raw, servo2_raw, servo3_raw, servo4_raw, servo5_raw, servo6_raw, servo7_raw, servo8_raw, servo9_raw, servo10_raw, servo11_raw, servo12_raw, servo13_raw, servo14_raw, servo15_raw, servo16_raw];
+            STATUSTEXT, Statustext => [severity, text, id, chunk_seq];
+            SYSTEM_TIME, SystemTime => [time_unix_usec, time_boot_ms];
+            SYS_STATUS, SysStatus => [onboard_control_sensors_present, onboard_control_sensors_enabled, onboard_control_sensors_health, load, voltage_battery, current_battery, battery_remaining, drop_rate_comm, errors_comm, errors_count1, errors_count2, errors_count3, errors_count4, onboard_control_sensors_present_extended, onboard_control_sensors_enabled_extended, onboard_control_sensors_health_extended];
+            TERRAIN_REPORT, TerrainReport => [lat, lon, spacing, terrain_height, current_height, pending, loaded];
+            VFR_HUD, VfrHud => [airspeed, groundspeed, heading, throttle, alt, climb];
+            VIBRATION, Vibration => [time_usec, vibration_x, vibration_y, vibration_z, clipping_0, clipping_1, clipping_2];
+            WIND, Wind => [direction, speed, speed_z];
+        }
+    };
+}
+
+// Reading a field value: scalars, enums and flag sets are values already;
+// arrays and char arrays come as views over the payload, so every element is
+// copied out (`to_array`) as a user reading the whole array does. The
+// autoref trick picks the array impls where they apply.
+struct Field<T>(T);
+
+trait ReadArray {
+    fn read(&self);
+}
+
+impl<T: fbwag_dialect::mavframe::field::Scalar, const N: usize> ReadArray
+    for Field<fbwag_dialect::mavframe::field::ArrayView<'_, T, N>>
+{
+    #[inline(always)]
+    fn read(&self) {
+        black_box(self.0.to_array());
+    }
+}
+
+impl<const N: usize> ReadArray for Field<fbwag_dialect::mavframe::field::CharArray<'_, N>> {
+    #[inline(always)]
+    fn read(&self) {
+        black_box(self.0.to_array());
+    }
+}
+
+trait ReadValue {
+    fn read(&self);
+}
+
+impl<T> ReadValue for &Field<T> {
+    #[inline(always)]
+    fn read(&self) {
+        black_box(&self.0);
+    }
+}
+
+// Every field of a view, each through its accessor (what a user who reads
+// the whole message does), each value through `black_box`. Returns whether
+// the type is one of the capture's (counted by the caller, so a missing arm
+// shows up as a count mismatch).
+macro_rules! view_reader {
+    ($($name:ident, $var:ident => [$($f:ident),*];)*) => {
+        fn read_every_field(view: &MessageView<'_>) -> bool {
+            match view {
+                $(MessageView::$var(v) => { $((&Field(v.$f())).read();)* true })*
+                MessageView::FbwagNotice(v) => {
+                    (&Field(v.system_id())).read();
+                    (&Field(v.component_id())).read();
+                    (&Field(v.failsafe_status())).read();
+                    (&Field(v.text())).read();
+                    (&Field(v.timestamp())).read();
+                    true
+                }
+                _ => false,
+            }
+        }
+    };
+}
+capture_types!(view_reader);
+
+// Every field of an owned message: the variant's struct copied out whole
+// through `black_box` (every field is loaded and stored, as by a user who
+// moves the message on), as for the `mavlink` crate below.
+macro_rules! owned_reader {
+    ($($name:ident, $var:ident => [$($f:ident),*];)*) => {
+        fn copy_every_field(msg: &Message) -> bool {
+            match msg {
+                $(Message::$var(m) => { black_box(*m); true })*
+                Message::FbwagNotice(m) => { black_box(*m); true }
+                _ => false,
+            }
+        }
+        fn mavlink_copy_every_field(msg: &MavMessage) -> bool {
+            match msg {
+                $(MavMessage::$name(m) => { black_box(m.clone()); true })*
+                _ => false,
+            }
+        }
+    };
+}
+capture_types!(owned_reader);
+
+// Prototypes for owned decode without the dialect-wide `Message` enum
+// returned by value (264 bytes): the generated view match only dispatches,
+// then the type's own `parse` (what `to_message` calls) fills either a
+// value of that type alone (`typed`) or a `Message` slot the caller keeps
+// (`slot`). Benchmark-only: nothing here changes the generated API.
+macro_rules! owned_prototypes {
+    ($($name:ident, $var:ident => [$($f:ident),*];)*) => {
+        fn parse_typed(view: &MessageView<'_>) -> bool {
+            match view {
+                $(MessageView::$var(v) => { black_box(v.to_message()); true })*
+                MessageView::FbwagNotice(v) => { black_box(v.to_message()); true }
+                _ => false,
+            }
+        }
+        fn parse_into_slot(view: &MessageView<'_>, slot: &mut Message) -> bool {
+            match view {
+                $(MessageView::$var(v) => { *slot = Message::$var(v.to_message()); true })*
+                MessageView::FbwagNotice(v) => { *slot = Message::FbwagNotice(v.to_message()); true }
+                _ => false,
+            }
+        }
+    };
+}
+capture_types!(owned_prototypes);
+
+/// Prototype: owned decode into a value of the frame's own type (no
+/// `Message` enum), every field read (the value copied out).
+pub fn proto_owned_typed(stream: &[u8]) -> usize {
+    let mut parser = Parser::<Dialect>::new();
+    let mut input = stream;
+    let mut n = 0;
+    while let Some(r) = parser.next(&mut input) {
+        if let Some(v) = r.view() {
+            n += usize::from(parse_typed(&v));
+        }
+    }
+    n
+}
+
+/// Prototype: owned decode into the caller's `Message` slot, every field
+/// read (the variant copied out, as `fbwag/owned_all`).
+pub fn proto_owned_slot(stream: &[u8]) -> usize {
+    let mut parser = Parser::<Dialect>::new();
+    let mut input = stream;
+    let mut slot = Message::Heartbeat(Default::default());
+    let mut n = 0;
+    while let Some(r) = parser.next(&mut input) {
+        if let Some(v) = r.view() {
+            if parse_into_slot(&v, &mut slot) {
+                n += usize::from(copy_every_field(black_box(&slot)));
+            }
+        }
+    }
+    n
+}
+
+/// The owned-decode prototypes, by name (`examples/stream_decode.rs` runs
+/// them when named; not in the criterion benchmark).
+pub fn prototypes() -> [(&'static str, Decoder); 2] {
+    [
+        ("proto/owned_typed", proto_owned_typed),
+        ("proto/owned_slot", proto_owned_slot),
+    ]
+}
+
+/// Stream decode to views, every field of every frame read through its
+/// accessor; returns the count of frames of the capture's 33 types.
+pub fn fbwag_views_all(stream: &[u8]) -> usize {
+    let mut parser = Parser::<Dialect>::new();
+    let mut input = stream;
+    let mut n = 0;
+    while let Some(r) = parser.next(&mut input) {
+        if let Some(v) = r.view() {
+            n += usize::from(read_every_field(&v));
+        }
+    }
+    n
+}
+
+/// Stream decode to owned messages, every field of every frame read (the
+/// variant's struct copied out); returns the count as above.
+pub fn fbwag_owned_all(stream: &[u8]) -> usize {
+    let mut parser = Parser::<Dialect>::new();
+    let mut input = stream;
+    let mut n = 0;
+    while let Some(r) = parser.next(&mut input) {
+        if let Some(m) = r.message() {
+            n += usize::from(copy_every_field(&m));
+        }
+    }
+    n
+}
+
+/// The `mavlink` crate's stream decode to owned messages, every field of
+/// every frame read (the variant's struct copied out).
+pub fn mavlink_owned_all(stream: &[u8]) -> usize {
+    let mut reader = mavlink::MavlinkReader::new(stream);
+    let mut n = 0;
+    while let Ok((_, msg)) = reader.read_any_message::<MavMessage>() {
+        n += usize::from(mavlink_copy_every_field(&msg));
     }
     n
 }
@@ -122,12 +367,15 @@ pub fn count_notices(stream: &[u8]) -> usize {
 pub type Decoder = fn(&[u8]) -> usize;
 
 /// The stream decoders, by benchmark name.
-pub fn decoders() -> [(&'static str, Decoder); 4] {
+pub fn decoders() -> [(&'static str, Decoder); 7] {
     [
         ("fbwag/views", fbwag_views),
         ("mavlink/raw", mavlink_raw),
         ("fbwag/owned", fbwag_owned),
         ("mavlink/owned", mavlink_owned),
+        ("fbwag/views_all", fbwag_views_all),
+        ("fbwag/owned_all", fbwag_owned_all),
+        ("mavlink/owned_all", mavlink_owned_all),
     ]
 }
 

@@ -92,4 +92,11 @@ CARGO_TARGET_DIR="$PWD/target" cargo run --manifest-path examples/own-dialect/Ca
 CARGO_TARGET_DIR="$PWD/target" cargo clippy --manifest-path examples/own-dialect/Cargo.toml \
     --locked --all-targets --features serde -- -D warnings
 cargo fmt --manifest-path examples/own-dialect/Cargo.toml -- --check
+# README.md shows the example's Cargo.toml and build.rs: the same text.
+python3 - examples/own-dialect/Cargo.toml examples/own-dialect/build.rs <<'PY'
+import sys
+readme = open("README.md").read()
+stale = [f for f in sys.argv[1:] if open(f).read() not in readme]
+sys.exit(f"README.md does not show the current {', '.join(stale)}" if stale else 0)
+PY
 # --- end publishing ---

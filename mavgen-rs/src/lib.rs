@@ -27,12 +27,10 @@
 //! ```
 //!
 //! ```no_run
-//! // build.rs
-//! fn main() {
-//!     mavgen_rs::Config::new()
-//!         .compile(&["my_dialect.xml"])
-//!         .unwrap_or_else(|e| panic!("{e}"));
-//! }
+//! // build.rs, in `fn main`:
+//! mavgen_rs::Config::new()
+//!     .compile(&["my_dialect.xml"])
+//!     .unwrap_or_else(|e| panic!("{e}"));
 //! ```
 //!
 //! ```text

@@ -1,5 +1,9 @@
 //! With the `codegen` feature: generates the FBWAG dialect from
 //! `message_definitions/fbwag.xml` into `OUT_DIR` (included by `src/lib.rs`).
+//! The crate's `message_definitions/` holds fbwag.xml and exactly the files
+//! it includes: symbolic links to the workspace's `message_definitions/` in
+//! the repository (one copy of the protocol data), which `cargo package`
+//! stores as files, so a published crate generates from its own copy.
 //! Without it there is nothing to do: the crate compiles the checked-in
 //! `bindings/fbwag`, the very same code.
 //!
@@ -26,7 +30,18 @@ fn main() {
 #[cfg(feature = "codegen")]
 fn codegen() {
     let dir = env!("CARGO_MANIFEST_DIR");
-    let xml = format!("{dir}/../message_definitions/fbwag.xml");
+    let xml = std::path::PathBuf::from(format!("{dir}/message_definitions/fbwag.xml"));
+    if !xml.is_file() {
+        // A dangling link (the crate directory copied out of the
+        // repository alone): name the file rather than a generator error.
+        eprintln!(
+            "fbwag-dialect (feature codegen): {} is missing; in the repository it is a \
+             symbolic link to ../message_definitions/fbwag.xml (a checkout needs \
+             symbolic links enabled, e.g. git's core.symlinks on Windows)",
+            xml.display()
+        );
+        std::process::exit(1);
+    }
     let mut config = mavgen_rs::Config::new();
     let filter: Option<Vec<String>> = std::env::var("FBWAG_DIALECT_MESSAGES")
         .ok()

@@ -10,6 +10,36 @@
 //! The checked-in `bindings/` are kept equal to mavgen-rs's output by a
 //! conformance test; `scripts/regenerate.sh` writes them.
 //!
+//! ```
+//! use fbwag_dialect_cc::dialects::common::{RcChannelsOverride, VfrHud};
+//! use fbwag_dialect_cc::mavframe::frame::MAX_FRAME_LEN;
+//! use fbwag_dialect_cc::{encode, Header, Message, Parser, Version, MESSAGES};
+//!
+//! // The companion's takeover: override channels 1-4, release the others.
+//! let over = RcChannelsOverride {
+//!     target_system: 1,
+//!     target_component: 1,
+//!     chan1_raw: 1500,
+//!     chan2_raw: 1400,
+//!     chan3_raw: 1700,
+//!     chan4_raw: 1500,
+//!     ..Default::default()
+//! };
+//! let mut buf = [0u8; MAX_FRAME_LEN];
+//! let len = encode(Version::V2, Header { seq: 0, sysid: 1, compid: 191 }, &over, None, &mut buf)?;
+//!
+//! let mut parser = Parser::new();
+//! let mut input = &buf[..len];
+//! let rx = parser.next(&mut input).expect("a frame");
+//! assert_eq!(rx.message(), Some(Message::RcChannelsOverride(over)));
+//!
+//! // Only the subset exists: 13 messages, and ids outside it are no message.
+//! assert_eq!(MESSAGES.len(), 13);
+//! assert!(MESSAGES.iter().any(|m| m.id == VfrHud::ID));
+//! assert!(Message::parse(22, &[0; 25]).is_none()); // PARAM_VALUE: not in the subset
+//! # Ok::<(), fbwag_dialect_cc::FrameError>(())
+//! ```
+//!
 //! The `serde` feature implements `Serialize` and `Deserialize` for every
 //! message, enum and [`Message`], in the forms of `fbwag-dialect` (see
 //! `mavframe::serde`); `no_std` too.

@@ -9,6 +9,55 @@
 //! message list from `FBWAG_DIALECT_MESSAGES=A,B,…`). The companion
 //! computer's subset is its own crate, `fbwag-dialect-cc`.
 //!
+//! # Encode, parse, read
+//!
+//! An owned message is encoded into a frame; the [`Parser`] finds frames in
+//! a stream cut anywhere and checks them; a received frame gives a
+//! zero-copy view ([`MessageView`], fields read in place) or the owned
+//! message again ([`Message`], copied out).
+//!
+//! ```
+//! use fbwag_dialect::mavframe::field::chars;
+//! use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
+//! use fbwag_dialect::{encode, Header, Parser, Version};
+//! use fbwag_dialect::{FbwagFailsafeStatus, FbwagNotice, Message, MessageView};
+//!
+//! let notice = FbwagNotice {
+//!     system_id: 1,
+//!     component_id: 1,
+//!     failsafe_status: FbwagFailsafeStatus::RC_LOST,
+//!     text: chars("FBWAG"),
+//!     timestamp: 123_456,
+//! };
+//! let mut buf = [0u8; MAX_FRAME_LEN];
+//! let header = Header { seq: 7, sysid: 1, compid: 1 };
+//! let len = encode(Version::V2, header, &notice, None, &mut buf)?;
+//!
+//! // The frame arrives in two pieces: nothing until the second.
+//! let mut parser = Parser::new();
+//! let (first, second) = buf[..len].split_at(5);
+//! assert!(parser.next(&mut &first[..]).is_none());
+//! let mut input = second;
+//! let rx = parser.next(&mut input).expect("a whole frame");
+//! assert_eq!(rx.frame.header(), header);
+//! assert_eq!(rx.meta.map(|m| m.name), Some("FBWAG_NOTICE"));
+//!
+//! // The view reads fields from the frame's bytes, without copying them.
+//! let Some(MessageView::FbwagNotice(view)) = rx.view() else {
+//!     panic!("not FBWAG_NOTICE");
+//! };
+//! assert_eq!(view.failsafe_status(), FbwagFailsafeStatus::RC_LOST);
+//! assert_eq!(view.text().as_bytes(), b"FBWAG");
+//! assert_eq!(view.timestamp(), 123_456);
+//!
+//! // The owned message is what was sent.
+//! assert_eq!(rx.message(), Some(Message::FbwagNotice(notice)));
+//! # Ok::<(), fbwag_dialect::FrameError>(())
+//! ```
+//!
+//! With `std`, a `Connection` does the same over UDP, TCP or a serial
+//! port (`mavframe::conn`).
+//!
 //! # serde
 //!
 //! With the `serde` feature (`no_std` too), every message, enum and

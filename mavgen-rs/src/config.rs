@@ -16,6 +16,51 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// Builds Rust bindings from MAVLink XML.
+///
+/// In a build script, `Config::new().compile(&["my_dialect.xml"])` writes
+/// `mod.rs` and one file per XML file into `OUT_DIR`, prints
+/// `cargo:rerun-if-changed` for every file read, and the crate includes
+/// the result with `include!(concat!(env!("OUT_DIR"), "/mod.rs"))`.
+/// Elsewhere, name the directory ([`out_dir`](Self::out_dir)), or only
+/// [`generate`](Self::generate) to get the text:
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let dir = std::env::temp_dir().join(format!("mavgen-rs-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir)?;
+/// let xml = dir.join("tiny.xml");
+/// std::fs::write(
+///     &xml,
+///     r#"<mavlink><messages>
+///          <message id="42" name="PING_ME">
+///            <description>A ping.</description>
+///            <field type="uint32_t" name="seq">Sequence number.</field>
+///          </message>
+///        </messages></mavlink>"#,
+/// )?;
+///
+/// let generated = mavgen_rs::Config::new()
+///     .out_dir(dir.join("out"))
+///     .cargo_output(false) // not a build script: no `cargo:` lines
+///     .compile(&[&xml])?;
+/// assert_eq!(generated.messages, 1);
+/// assert!(generated.warnings.is_empty());
+///
+/// // mod.rs declares one module per XML file, here `tiny`.
+/// let module = std::fs::read_to_string(dir.join("out/mod.rs"))?;
+/// assert!(module.contains("pub mod tiny"));
+/// let code = std::fs::read_to_string(dir.join("out/tiny.rs"))?;
+/// assert!(code.contains("pub struct PingMe"));
+///
+/// // Invalid input is an error listing every problem; nothing is written.
+/// std::fs::write(&xml, r#"<mavlink><messages><message id="42" name="PING_ME">
+///     <field type="uint33_t" name="seq">Bad type.</field></message></messages></mavlink>"#)?;
+/// let err = mavgen_rs::Config::new().generate(&[&xml]).unwrap_err();
+/// assert!(matches!(err, mavgen_rs::Error::Invalid(_)));
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone, Default)]
 pub struct Config {
     options: Options,

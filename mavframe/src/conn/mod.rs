@@ -23,6 +23,7 @@
 #[cfg(feature = "tokio")]
 pub mod codec;
 mod endpoint;
+mod file;
 #[cfg(feature = "serial")]
 mod serial;
 mod tcp;
@@ -33,12 +34,13 @@ pub mod tokio;
 mod transport;
 mod udp;
 
-pub use endpoint::{Endpoint, ParseEndpointError, DEFAULT_BAUD};
+pub use endpoint::{Address, Endpoint, ParseEndpointError, ResolveError, DEFAULT_BAUD};
+pub use file::FileLink;
 #[cfg(feature = "serial")]
 pub use serial::{Serial, WRITE_TIMEOUT as SERIAL_WRITE_TIMEOUT};
 pub use tcp::{TcpClient, TcpServer, MAX_PENDING_OUTPUT};
 pub use transport::{open, AnyTransport, Transport};
-pub use udp::{ReplyTo, UdpIn, UdpOut};
+pub use udp::{ReplyTo, UdpBcast, UdpIn, UdpOut};
 
 use crate::frame::{encode, Frame, Header, Version, MAX_FRAME_LEN};
 use crate::message::{Dialect, Encode, MessageMeta};
@@ -467,10 +469,9 @@ mod tests {
         let server =
             Connection::<TestDialect>::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap();
         let port = server.transport().local_addr().unwrap().port();
-        let client = Connection::<TestDialect>::open(&Endpoint::UdpOut(SocketAddr::from((
-            [127, 0, 0, 1],
-            port,
-        ))))
+        let client = Connection::<TestDialect>::open(&Endpoint::UdpOut(
+            SocketAddr::from(([127, 0, 0, 1], port)).into(),
+        ))
         .unwrap();
         (server, client)
     }
@@ -607,6 +608,44 @@ mod tests {
             push(&mut inbox, &[0u8; 200]),
             std::vec![Some(Ping { value: 5 })]
         );
+    }
+
+    /// `udpout:localhost:PORT` resolves at open and reaches a listener on
+    /// 127.0.0.1; `tcp:` to a name that does not resolve fails at open
+    /// with the typed error inside.
+    #[test]
+    fn host_names_resolve_at_open() {
+        let mut server =
+            Connection::<TestDialect>::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap();
+        let port = server.transport().local_addr().unwrap().port();
+        let endpoint: Endpoint = std::format!("udpout:localhost:{port}").parse().unwrap();
+        let mut client = Connection::<TestDialect>::open(&endpoint).unwrap();
+        client.send_auto(1, 1, &Ping { value: 9 }).unwrap();
+        let f = server.recv(Some(Duration::from_secs(2))).unwrap().unwrap();
+        assert_eq!(f.message(), Some(Ping { value: 9 }));
+        let bad: Endpoint = "tcp:no-such-host.invalid:5760".parse().unwrap();
+        let err = Connection::<TestDialect>::open(&bad).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::NotFound);
+        let inner = err.get_ref().unwrap().downcast_ref::<ResolveError>();
+        assert!(matches!(
+            inner,
+            Some(ResolveError::Lookup { port: 5760, .. })
+        ));
+    }
+
+    /// `tcpout:` and `tcp:` open the same client.
+    #[test]
+    fn tcpout_connects() {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let endpoint: Endpoint = std::format!("tcpout:127.0.0.1:{port}").parse().unwrap();
+        let mut client = Connection::<TestDialect>::open(&endpoint).unwrap();
+        let (mut peer, _) = listener.accept().unwrap();
+        client.send_auto(1, 1, &Ping { value: 3 }).unwrap();
+        let mut buf = [0u8; 64];
+        use std::io::Read;
+        let n = peer.read(&mut buf).unwrap();
+        assert_eq!(&buf[..n], &ping_frame(3)[..]);
     }
 
     #[test]

@@ -32,6 +32,12 @@ impl TcpClient {
         Self::from_stream(TcpStream::connect(addr)?)
     }
 
+    /// Connects to the first of `addrs` that accepts (a host name's
+    /// addresses); the last error when none does.
+    pub fn connect_any(addrs: &[SocketAddr]) -> io::Result<Self> {
+        Self::from_stream(TcpStream::connect(addrs)?)
+    }
+
     /// Connects to `addr`, giving up after `timeout`.
     pub fn connect_timeout(addr: SocketAddr, timeout: Duration) -> io::Result<Self> {
         Self::from_stream(TcpStream::connect_timeout(&addr, timeout)?)

@@ -239,6 +239,90 @@ impl Transport for UdpOut {
     }
 }
 
+/// `udpbcast:`: broadcasts to one address (e.g. `255.255.255.255:14550`
+/// or a subnet's broadcast address) from an ephemeral port with
+/// `SO_BROADCAST` set, until a datagram arrives; from then on frames go to
+/// the sender of the last datagram received, as MAVProxy's `udpbcast`
+/// link does once a peer answers. (pymavlink's `mavudp` locks onto the
+/// first sender for good; following the last one lets a restarted peer,
+/// which comes back from a new port, take over.)
+///
+/// Anyone who can send a datagram to the port redirects what follows, as
+/// with [`ReplyTo::LastSender`]: for discovery on a trusted network, not
+/// for a link that carries control. A sender with source port 0 never
+/// becomes the peer.
+#[derive(Debug)]
+pub struct UdpBcast {
+    socket: UdpSocket,
+    target: SocketAddr,
+    last_source: Option<SocketAddr>,
+    mode: ReadMode,
+}
+
+impl UdpBcast {
+    /// Binds an ephemeral port of `target`'s address family with
+    /// `SO_BROADCAST` set.
+    pub fn new(target: SocketAddr) -> io::Result<Self> {
+        let UdpOut { socket, .. } = UdpOut::new(target)?;
+        socket.set_broadcast(true)?;
+        Ok(UdpBcast {
+            socket,
+            target,
+            last_source: None,
+            mode: ReadMode::default(),
+        })
+    }
+
+    /// The ephemeral local address.
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.socket.local_addr()
+    }
+
+    /// The broadcast address frames go to until a peer answers.
+    pub fn target(&self) -> SocketAddr {
+        self.target
+    }
+
+    /// Where frames go now: the last sender, or the broadcast address.
+    pub fn peer(&self) -> SocketAddr {
+        self.last_source
+            .filter(|a| a.port() != 0)
+            .unwrap_or(self.target)
+    }
+
+    /// The sender of the last datagram received.
+    pub fn last_source(&self) -> Option<SocketAddr> {
+        self.last_source
+    }
+
+    /// The socket, for options this type does not cover.
+    pub fn get_ref(&self) -> &UdpSocket {
+        &self.socket
+    }
+}
+
+impl Transport for UdpBcast {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        self.socket.send_to(frame, self.peer()).map(drop)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
+        Ok(
+            match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
+                Some((n, from)) => {
+                    self.last_source = Some(from);
+                    n
+                }
+                None => 0,
+            },
+        )
+    }
+
+    fn is_datagram(&self) -> bool {
+        true
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -306,6 +390,29 @@ mod tests {
         // Port 0 can never be a peer (no datagram can go there).
         udp.set_peer(SocketAddr::from(([127, 0, 0, 1], 0)));
         assert_eq!(udp.peer(), Some(real.local_addr().unwrap()));
+    }
+
+    /// `udpbcast` sends to its target (with SO_BROADCAST on) until a
+    /// datagram arrives, then to the last sender.
+    #[test]
+    fn udpbcast_broadcasts_until_answered_then_follows_the_last_sender() {
+        let (target, a, b) = (peer(), peer(), peer());
+        let mut udp = UdpBcast::new(target.local_addr().unwrap()).unwrap();
+        assert!(udp.get_ref().broadcast().unwrap());
+        udp.send(b"anyone?").unwrap();
+        assert_eq!(got(&target).as_deref(), Some(&b"anyone?"[..]));
+        let at = SocketAddr::from(([127, 0, 0, 1], udp.local_addr().unwrap().port()));
+        a.send_to(b"me", at).unwrap();
+        let mut buf = [0u8; 64];
+        assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 2);
+        udp.send(b"to a").unwrap();
+        assert_eq!(got(&a).as_deref(), Some(&b"to a"[..]));
+        b.send_to(b"me too", at).unwrap();
+        assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 6);
+        udp.send(b"to b").unwrap();
+        assert_eq!(got(&b).as_deref(), Some(&b"to b"[..]));
+        assert_eq!(got(&a), None);
+        assert_eq!(got(&target), None, "no more broadcasts once answered");
     }
 
     #[test]

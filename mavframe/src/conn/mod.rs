@@ -1,8 +1,11 @@
 //! Links to other MAVLink systems (feature `std`): MAVProxy-style
-//! connection strings, blocking byte transports (UDP, TCP client and
-//! server, serial with feature `serial`), and [`Connection`], which frames
-//! messages over a transport and parses what comes back. Feature `tokio`
-//! adds `conn::tokio::AsyncConnection` (UDP and TCP client).
+//! connection strings ([`Endpoint`]), blocking byte transports (UDP in,
+//! out and broadcast, TCP client and server, capture files, serial with
+//! feature `serial`), and [`Connection`], which frames messages over a
+//! transport and parses what comes back. [`Connection::split`] gives a
+//! [`Sender`] and a [`Receiver`] for two threads. Feature `tokio` adds
+//! `conn::codec` (tokio_util codecs for any async transport) and
+//! `conn::tokio::AsyncConnection` (UDP and TCP client).
 //!
 //! ```no_run
 //! # use mavframe::{Dialect, MessageMeta};
@@ -26,6 +29,7 @@ mod endpoint;
 mod file;
 #[cfg(feature = "serial")]
 mod serial;
+mod split;
 mod tcp;
 #[cfg(test)]
 mod test_dialect;
@@ -38,6 +42,7 @@ pub use endpoint::{Address, Endpoint, ParseEndpointError, ResolveError, DEFAULT_
 pub use file::FileLink;
 #[cfg(feature = "serial")]
 pub use serial::{Serial, WRITE_TIMEOUT as SERIAL_WRITE_TIMEOUT};
+pub use split::{Receiver, Sender, SplitError, SPLIT_ZERO_WAIT};
 pub use tcp::{TcpClient, TcpServer, MAX_PENDING_OUTPUT};
 pub use transport::{open, AnyTransport, Transport};
 pub use udp::{ReplyTo, UdpBcast, UdpIn, UdpOut};
@@ -221,6 +226,26 @@ impl<D: Dialect> Inbox<D> {
         None
     }
 
+    /// The next frame, reading from `transport` as needed, waiting up to
+    /// `timeout` in all (see [`Connection::recv`]).
+    pub(crate) fn recv<T: Transport + ?Sized>(
+        &mut self,
+        transport: &mut T,
+        timeout: Option<Duration>,
+    ) -> io::Result<Option<ReceivedFrame<D>>> {
+        let deadline = Deadline::after(timeout);
+        loop {
+            if let Some(frame) = self.next() {
+                return Ok(Some(frame));
+            }
+            let n = transport.recv(self.space(), deadline.remaining())?;
+            if n == 0 {
+                return Ok(None);
+            }
+            self.filled(n);
+        }
+    }
+
     /// Where the transport reads to: the whole buffer, since it is read
     /// into only once parsed to the end (the parser keeps a partial frame).
     pub(crate) fn space(&mut self) -> &mut [u8] {
@@ -340,19 +365,7 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// when the time runs out first. Frames already read are returned
     /// without touching the transport.
     pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedFrame<D>>> {
-        let deadline = Deadline::after(timeout);
-        loop {
-            if let Some(frame) = self.inbox.next() {
-                return Ok(Some(frame));
-            }
-            let n = self
-                .transport
-                .recv(self.inbox.space(), deadline.remaining())?;
-            if n == 0 {
-                return Ok(None);
-            }
-            self.inbox.filled(n);
-        }
+        self.inbox.recv(&mut self.transport, timeout)
     }
 
     /// Sends `msg` with `header` in the connection's protocol version

@@ -69,6 +69,15 @@ impl TcpClient {
     }
 }
 
+impl TcpClient {
+    /// The send half's handle: a clone of the stream, left blocking.
+    pub(crate) fn split_sender(&mut self) -> io::Result<TcpStream> {
+        self.mode.share();
+        self.stream.ensure_nonblocking(&mut self.mode, false)?;
+        self.stream.try_clone()
+    }
+}
+
 impl Transport for TcpClient {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
         // A zero-timeout recv leaves the socket non-blocking, and a write

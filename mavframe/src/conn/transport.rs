@@ -229,6 +229,21 @@ pub(crate) struct ReadMode {
     /// `None` while unknown (new socket, or a call failed half-way).
     nonblocking: Option<bool>,
     read_timeout: Option<Option<Duration>>,
+    /// Another handle (a split-off sender) shares the socket, and with it
+    /// the non-blocking flag: reads never set it, so that sender's writes
+    /// never fail half-way with `WouldBlock`.
+    shared: bool,
+}
+
+/// A zero-timeout read on a shared socket: the shortest wait a read
+/// timeout can express without the non-blocking flag.
+pub(crate) const SHARED_POLL: Duration = Duration::from_millis(1);
+
+impl ReadMode {
+    /// Another handle shares the socket from now on (see `shared`).
+    pub(crate) fn share(&mut self) {
+        self.shared = true;
+    }
 }
 
 /// Mode setters shared by `UdpSocket` and `TcpStream`.
@@ -249,9 +264,11 @@ pub(crate) trait SetReadMode {
     /// Sets the socket up for a read waiting `timeout`. A zero timeout is
     /// a non-blocking read: std refuses a zero read timeout.
     fn prepare_read(&self, mode: &mut ReadMode, timeout: Option<Duration>) -> io::Result<()> {
-        if timeout == Some(Duration::ZERO) {
-            return self.ensure_nonblocking(mode, true);
-        }
+        let timeout = match timeout {
+            Some(Duration::ZERO) if mode.shared => Some(SHARED_POLL),
+            Some(Duration::ZERO) => return self.ensure_nonblocking(mode, true),
+            t => t,
+        };
         self.ensure_nonblocking(mode, false)?;
         if mode.read_timeout != Some(timeout) {
             mode.read_timeout = None;

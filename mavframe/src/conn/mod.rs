@@ -46,13 +46,14 @@ pub use split::{Receiver, Sender, SplitError, SPLIT_ZERO_WAIT};
 pub use tcp::{TcpClient, TcpServer, MAX_PENDING_OUTPUT};
 pub use transport::{open, AnyTransport, Transport};
 pub use udp::{ReplyTo, UdpBcast, UdpIn, UdpOut};
+// What connections return; no_std code uses it too (`crate::ReceivedFrame`).
+pub use crate::received::ReceivedFrame;
 
-use crate::frame::{encode, Frame, Header, Version, MAX_FRAME_LEN};
-use crate::message::{Dialect, Encode, MessageMeta};
-use crate::parser::{LinkStats, Parser, Received, Stats};
+use crate::frame::{encode, Header, Version, MAX_FRAME_LEN};
+use crate::message::{Dialect, Encode};
+use crate::parser::{LinkStats, Parser, Stats};
 use crate::signing::{timestamp_now, Signer};
 use core::fmt;
-use core::marker::PhantomData;
 use std::boxed::Box;
 use std::io;
 use std::time::Duration;
@@ -62,107 +63,6 @@ use transport::Deadline;
 /// Receive buffer of a connection: one whole UDP datagram (65,507 bytes at
 /// most), so none is cut short; stream transports fill it as they can.
 pub const RECV_BUFFER_LEN: usize = 64 * 1024;
-
-/// A frame a [`Connection`] accepted, copied out of the parser so it
-/// outlives the next receive. No heap: the bytes sit inline (at most
-/// [`MAX_FRAME_LEN`]).
-pub struct ReceivedFrame<D: Dialect> {
-    bytes: [u8; MAX_FRAME_LEN],
-    len: usize,
-    meta: Option<&'static MessageMeta>,
-    authenticated: bool,
-    // fn() -> D: the dialect is a type-level tag, it does not make the frame
-    // !Send or !Sync.
-    _dialect: PhantomData<fn() -> D>,
-}
-
-impl<D: Dialect> ReceivedFrame<D> {
-    /// The frame.
-    pub fn frame(&self) -> Frame<'_> {
-        // Only ever built from a frame the parser checked: cannot fail.
-        Frame::new_checked(self.as_bytes())
-            .unwrap_or_else(|_| unreachable!("ReceivedFrame holds a whole frame"))
-    }
-
-    /// The frame's bytes, as received.
-    pub fn as_bytes(&self) -> &[u8] {
-        &self.bytes[..self.len]
-    }
-
-    /// The sender's header fields.
-    pub fn header(&self) -> Header {
-        self.frame().header()
-    }
-
-    /// Message id.
-    pub fn msg_id(&self) -> u32 {
-        self.frame().msg_id()
-    }
-
-    /// The message's table row; `None` for an id the dialect does not know
-    /// (a raw frame, forwarded unverified).
-    pub fn meta(&self) -> Option<&'static MessageMeta> {
-        self.meta
-    }
-
-    /// True when the frame's signature was verified with the parser's key.
-    pub fn is_authenticated(&self) -> bool {
-        self.authenticated
-    }
-
-    /// The message, parsed; `None` for an unknown id.
-    pub fn message(&self) -> Option<D::Message> {
-        self.meta?;
-        let f = self.frame();
-        D::parse(f.msg_id(), f.payload())
-    }
-
-    /// A zero-copy view of the message; `None` for an unknown id.
-    pub fn view(&self) -> Option<D::View<'_>> {
-        self.meta?;
-        let f = self.frame();
-        D::view(f.msg_id(), f.payload())
-    }
-}
-
-impl<D: Dialect> From<&Received<'_, D>> for ReceivedFrame<D> {
-    fn from(r: &Received<'_, D>) -> Self {
-        let src = r.frame.as_bytes();
-        let mut bytes = [0u8; MAX_FRAME_LEN];
-        // A frame is never longer than MAX_FRAME_LEN; min() keeps this total.
-        let len = src.len().min(MAX_FRAME_LEN);
-        bytes[..len].copy_from_slice(&src[..len]);
-        ReceivedFrame {
-            bytes,
-            len,
-            meta: r.meta,
-            authenticated: r.authenticated,
-            _dialect: PhantomData,
-        }
-    }
-}
-
-impl<D: Dialect> Clone for ReceivedFrame<D> {
-    fn clone(&self) -> Self {
-        ReceivedFrame {
-            bytes: self.bytes,
-            len: self.len,
-            meta: self.meta,
-            authenticated: self.authenticated,
-            _dialect: PhantomData,
-        }
-    }
-}
-
-impl<D: Dialect> fmt::Debug for ReceivedFrame<D> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("ReceivedFrame")
-            .field("frame", &self.frame())
-            .field("name", &self.meta.map(|m| m.name))
-            .field("authenticated", &self.authenticated)
-            .finish()
-    }
-}
 
 /// The receive side shared by the blocking and async connections: the
 /// parser and the bytes read but not parsed yet.

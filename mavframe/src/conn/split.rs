@@ -3,7 +3,9 @@
 
 use super::transport::AnyTransport;
 use super::udp::UdpPeer;
-use super::{Connection, Inbox, Outbox, ReceivedFrame, Transport};
+#[cfg(feature = "serial")]
+use super::Transport;
+use super::{Connection, Inbox, Outbox, ReceivedFrame};
 use crate::frame::{Header, Version};
 use crate::message::{Dialect, Encode};
 use crate::parser::{LinkStats, Parser, Stats};

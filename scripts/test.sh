@@ -56,10 +56,25 @@ step "conformance: summary"
 bash conformance/scripts/summary.sh
 # --- end conformance (issue 6) ---
 
-step "no_std builds: fbwag-dialect, fbwag-dialect-cc, fbwag-delegation"
+step "no_std builds: fbwag-dialect, fbwag-dialect-cc, fbwag-delegation, mavframe's embedded adapters"
 cargo build -p fbwag-dialect --no-default-features --locked
 cargo build -p fbwag-dialect-cc --no-default-features --locked
 cargo build -p fbwag-dialect --no-default-features --features serde --locked
+cargo build -p mavframe --no-default-features --features embedded-io,embedded-io-async --locked
+# A host build links std anyway: no dependency of that build may turn std or
+# alloc on; a bare-metal target proves the rest where it is installed.
+embedded_tree="$(cargo tree -p mavframe --no-default-features --features embedded-io,embedded-io-async \
+    -e normal,features --prefix none --locked)"
+if grep -E 'feature "(std|alloc)"' <<<"$embedded_tree"; then
+    echo "a dependency of mavframe's no_std build turns on std or alloc" >&2
+    exit 1
+fi
+if rustup target list --installed 2>/dev/null | grep -qx thumbv7em-none-eabihf; then
+    cargo build -p mavframe --no-default-features --features embedded-io,embedded-io-async \
+        --target thumbv7em-none-eabihf --locked
+else
+    echo "thumbv7em-none-eabihf not installed: the bare-metal build of mavframe is skipped"
+fi
 
 step "fbwag-dialect generated at build time (feature codegen): full, a custom list"
 cargo test -p fbwag-dialect --features codegen --locked

@@ -85,19 +85,22 @@ fn endpoints_parse_every_scheme() {
     let cases: [(&str, Endpoint); 11] = [
         (
             "udpin:0.0.0.0:14550",
-            Endpoint::UdpIn("0.0.0.0:14550".parse().unwrap()),
+            Endpoint::UdpIn("0.0.0.0:14550".parse::<SocketAddr>().unwrap().into()),
         ),
-        ("udpout:127.0.0.1:14550", Endpoint::UdpOut(localhost(14550))),
-        ("tcp:127.0.0.1:5760", Endpoint::Tcp(localhost(5760))),
+        (
+            "udpout:127.0.0.1:14550",
+            Endpoint::UdpOut(localhost(14550).into()),
+        ),
+        ("tcp:127.0.0.1:5760", Endpoint::Tcp(localhost(5760).into())),
         (
             "tcpin:0.0.0.0:5760",
-            Endpoint::TcpIn("0.0.0.0:5760".parse().unwrap()),
+            Endpoint::TcpIn("0.0.0.0:5760".parse::<SocketAddr>().unwrap().into()),
         ),
         (
             "udpin:[::1]:14550",
-            Endpoint::UdpIn("[::1]:14550".parse().unwrap()),
+            Endpoint::UdpIn("[::1]:14550".parse::<SocketAddr>().unwrap().into()),
         ),
-        ("tcpin:127.0.0.1:0", Endpoint::TcpIn(localhost(0))),
+        ("tcpin:127.0.0.1:0", Endpoint::TcpIn(localhost(0).into())),
         (
             "serial:/dev/serial0:460800",
             Endpoint::Serial {
@@ -154,7 +157,10 @@ fn endpoints_parse_every_scheme() {
 #[test]
 fn udp_is_an_alias_of_udpin_and_displays_as_udpin() {
     let e: Endpoint = "udp:0.0.0.0:14550".parse().unwrap();
-    assert_eq!(e, Endpoint::UdpIn("0.0.0.0:14550".parse().unwrap()));
+    assert_eq!(
+        e,
+        Endpoint::UdpIn("0.0.0.0:14550".parse::<SocketAddr>().unwrap().into())
+    );
     assert_eq!(e.to_string(), "udpin:0.0.0.0:14550");
     assert_eq!(e.scheme(), "udpin");
 }
@@ -176,44 +182,44 @@ fn bad_endpoints_say_which_part_is_wrong() {
     let cases = [
         (
             "",
-            "`` has no scheme: expected SCHEME:ADDRESS with SCHEME one of udpin, udpout, udp, \
-             tcp, tcpin, serial (e.g. udpin:0.0.0.0:14550)",
+            "`` has no scheme: expected SCHEME:ADDRESS with SCHEME one of udpin, udp, udpout, \
+             udpbcast, tcp, tcpout, tcpin, serial, file (e.g. udpin:0.0.0.0:14550)",
         ),
         (
             "/dev/ttyUSB0",
             "`/dev/ttyUSB0` has no scheme: expected SCHEME:ADDRESS with SCHEME one of udpin, \
-             udpout, udp, tcp, tcpin, serial (e.g. udpin:0.0.0.0:14550)",
+             udp, udpout, udpbcast, tcp, tcpout, tcpin, serial, file (e.g. udpin:0.0.0.0:14550)",
         ),
         (
-            "udpbcast:0.0.0.0:14550",
-            "unknown scheme `udpbcast`: expected one of udpin, udpout, udp, tcp, tcpin, serial",
+            "udpmcast:0.0.0.0:14550",
+            "unknown scheme `udpmcast`: expected one of udpin, udp, udpout, udpbcast, tcp, tcpout, tcpin, serial, file",
         ),
         (
             "UDPIN:0.0.0.0:14550",
-            "unknown scheme `UDPIN`: expected one of udpin, udpout, udp, tcp, tcpin, serial",
+            "unknown scheme `UDPIN`: expected one of udpin, udp, udpout, udpbcast, tcp, tcpout, tcpin, serial, file",
         ),
         (
             "udpin:0.0.0.0",
-            "udpin: address `0.0.0.0` has no port: expected IP:PORT, e.g. 0.0.0.0:14550",
+            "udpin: address `0.0.0.0` has no port: expected HOST:PORT, e.g. 0.0.0.0:14550",
         ),
         (
             "tcp:",
-            "tcp: address `` has no port: expected IP:PORT, e.g. 127.0.0.1:5760",
+            "tcp: address `` has no port: expected HOST:PORT, e.g. 127.0.0.1:5760",
         ),
         (
-            "tcp:localhost:5760",
-            "tcp: host `localhost` is not an IP address: expected IPv4 such as 127.0.0.1 or \
-             IPv6 in brackets such as [::1] (host names are not resolved)",
+            "tcp:local_host:5760",
+            "tcp: host `local_host` is neither an IP address nor a host name: expected IPv4 \
+             such as 127.0.0.1, IPv6 in brackets such as [::1], or a name such as localhost",
         ),
         (
             "udpin:::1:14550",
-            "udpin: host `::1` is not an IP address: expected IPv4 such as 127.0.0.1 or \
-             IPv6 in brackets such as [::1] (host names are not resolved)",
+            "udpin: host `::1` is neither an IP address nor a host name: expected IPv4 \
+             such as 127.0.0.1, IPv6 in brackets such as [::1], or a name such as localhost",
         ),
         (
             "udpout:256.0.0.1:14550",
-            "udpout: host `256.0.0.1` is not an IP address: expected IPv4 such as 127.0.0.1 \
-             or IPv6 in brackets such as [::1] (host names are not resolved)",
+            "udpout: host `256.0.0.1` is neither an IP address nor a host name: expected IPv4 \
+             such as 127.0.0.1, IPv6 in brackets such as [::1], or a name such as localhost",
         ),
         (
             "tcpin:0.0.0.0:65536",
@@ -312,8 +318,8 @@ fn serial_endpoint_without_a_device_fails_to_open() {
 fn udpin_and_udpout_exchange_notices_and_replies_go_to_the_last_peer() {
     let mut server = open("udpin:127.0.0.1:0");
     let port = port_of(&server);
-    let mut a = Link::open(&Endpoint::UdpOut(localhost(port))).unwrap();
-    let mut b = Link::open(&Endpoint::UdpOut(localhost(port))).unwrap();
+    let mut a = Link::open(&Endpoint::UdpOut(localhost(port).into())).unwrap();
+    let mut b = Link::open(&Endpoint::UdpOut(localhost(port).into())).unwrap();
 
     // Before anyone spoke the server has nobody to answer: dropped, no error.
     server.send_auto(1, 1, &notice(0)).unwrap();
@@ -349,7 +355,7 @@ fn udpin_and_udpout_exchange_notices_and_replies_go_to_the_last_peer() {
 #[test]
 fn udp_carries_mavlink1_heartbeats_and_counts_garbage() {
     let mut server = open("udpin:127.0.0.1:0");
-    let mut client = Link::open(&Endpoint::UdpOut(localhost(port_of(&server)))).unwrap();
+    let mut client = Link::open(&Endpoint::UdpOut(localhost(port_of(&server)).into())).unwrap();
     client.set_version(Version::V1);
     client.send_auto(5, 6, &Heartbeat::default()).unwrap();
     let f = expect_frame(&mut server);
@@ -381,7 +387,7 @@ fn recv_waits_no_longer_than_asked() {
     assert!(waited < Duration::from_millis(1500), "{waited:?}");
 
     let mut server = open("tcpin:127.0.0.1:0");
-    let mut client = Link::open(&Endpoint::Tcp(localhost(port_of(&server)))).unwrap();
+    let mut client = Link::open(&Endpoint::Tcp(localhost(port_of(&server)).into())).unwrap();
     for link in [&mut server, &mut client] {
         let t = Instant::now();
         assert!(link.recv(Some(Duration::ZERO)).unwrap().is_none());
@@ -404,8 +410,8 @@ fn recv_waits_no_longer_than_asked() {
 fn tcpin_serves_two_clients_both_ways() {
     let mut server = open("tcpin:127.0.0.1:0");
     let port = port_of(&server);
-    let mut a = Link::open(&Endpoint::Tcp(localhost(port))).unwrap();
-    let mut b = Link::open(&Endpoint::Tcp(localhost(port))).unwrap();
+    let mut a = Link::open(&Endpoint::Tcp(localhost(port).into())).unwrap();
+    let mut b = Link::open(&Endpoint::Tcp(localhost(port).into())).unwrap();
 
     a.send_auto(10, 1, &notice(1)).unwrap();
     b.send_auto(20, 1, &notice(2)).unwrap();
@@ -479,7 +485,7 @@ fn tcp_frames_split_across_writes_still_parse() {
     // Into a tcp client, from a plain listener.
     let listener = TcpListener::bind(localhost(0)).unwrap();
     let port = listener.local_addr().unwrap().port();
-    let mut client = Link::open(&Endpoint::Tcp(localhost(port))).unwrap();
+    let mut client = Link::open(&Endpoint::Tcp(localhost(port).into())).unwrap();
     let (mut peer, _) = listener.accept().unwrap();
     thread::scope(|s| {
         s.spawn(|| write_split(&mut peer));
@@ -585,7 +591,7 @@ fn signed_frames_are_verified_and_unsigned_ones_refused() {
     };
     let port = udp.local_addr().unwrap().port();
     let mut server = Connection::<Dialect, _>::with_parser(udp, server_parser);
-    let mut client = Link::open(&Endpoint::UdpOut(localhost(port))).unwrap();
+    let mut client = Link::open(&Endpoint::UdpOut(localhost(port).into())).unwrap();
 
     client.send_auto(1, 1, &notice(1)).unwrap();
     client.set_signer(Some(Signer::new(key, 3, 0)));
@@ -605,7 +611,7 @@ fn signed_frames_are_verified_and_unsigned_ones_refused() {
 #[test]
 fn send_auto_numbers_frames_and_gaps_show_in_link_stats() {
     let mut server = open("udpin:127.0.0.1:0");
-    let mut client = Link::open(&Endpoint::UdpOut(localhost(port_of(&server)))).unwrap();
+    let mut client = Link::open(&Endpoint::UdpOut(localhost(port_of(&server)).into())).unwrap();
     client.set_next_seq(254);
     for t in 0..3 {
         client.send_auto(42, 1, &notice(t)).unwrap();

@@ -12,7 +12,9 @@
 //! signing (`Verifier::starting_now`) and `std::error::Error` impls; `serial` adds
 //! serial ports (serialport crate); `tokio` adds async UDP and TCP; `serde`
 //! adds [`serde`] (the serde crate, re-exported, and the forms of MAVLink
-//! values that generated messages serialize with), still `no_std`.
+//! values that generated messages serialize with), still `no_std`;
+//! `embedded-io` and `embedded-io-async` add `embedded`: `no_std` links
+//! over any embedded-io (async) byte stream, such as a UART.
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -23,11 +25,15 @@ extern crate std;
 #[cfg(feature = "std")]
 pub mod conn;
 pub mod crc;
+#[cfg(feature = "embedded-io")]
+pub mod embedded;
 pub mod field;
 pub mod flags;
 pub mod frame;
+mod framer;
 pub mod message;
 pub mod parser;
+mod received;
 pub mod route;
 #[cfg(feature = "tokio")]
 pub mod router;
@@ -36,10 +42,12 @@ pub mod serde;
 pub mod signing;
 
 #[cfg(feature = "std")]
-pub use conn::{Connection, Endpoint, ReceivedFrame, Transport};
+pub use conn::{Connection, Endpoint, Transport};
 pub use frame::{encode, Frame, FrameError, Header, Version};
+pub use framer::Framer;
 pub use message::{BufferTooSmall, Dialect, Encode, FieldMeta, FieldType, Message, MessageMeta};
 pub use parser::{Parser, Received};
+pub use received::ReceivedFrame;
 pub use signing::{Signer, Verifier};
 
 /// Re-exported for generated bitmask enums (they implement

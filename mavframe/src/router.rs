@@ -87,7 +87,8 @@ pub struct LinkConfig {
     pub key: Option<[u8; 32]>,
     /// Accept unsigned frames (marked unauthenticated) when `key` is set.
     pub accept_unsigned: bool,
-    /// `udpin`: whom to send to (see [`ReplyTo`]).
+    /// `udpin` and `udpbcast`: whom to send to (see [`ReplyTo`]; `udpbcast`
+    /// broadcasts while the rule names nobody).
     pub reply_to: ReplyTo,
     /// Keep the link's signing state (signer, verifier) in this file.
     pub signing_state: Option<PathBuf>,
@@ -355,6 +356,9 @@ enum Transport {
         socket: UdpSocket,
         /// `udpout`'s target.
         target: Option<SocketAddr>,
+        /// `udpbcast`'s broadcast address: where frames go while the
+        /// reply rule names nobody.
+        broadcast: Option<SocketAddr>,
     },
     Stream(Box<dyn AsyncStream>),
     Server(TcpListener),
@@ -364,29 +368,61 @@ enum Transport {
 trait AsyncStream: AsyncRead + AsyncWrite + Send + Unpin {}
 impl<T: AsyncRead + AsyncWrite + Send + Unpin> AsyncStream for T {}
 
+/// The first address `addr` resolves to (a UDP socket uses one).
+async fn first(addr: &crate::conn::Address) -> io::Result<SocketAddr> {
+    let all = addr.resolve_async().await?;
+    // resolve_async never returns an empty list.
+    all.first()
+        .copied()
+        .ok_or_else(|| io::Error::from(io::ErrorKind::NotFound))
+}
+
+/// A socket on an ephemeral port of `target`'s address family.
+async fn ephemeral_udp(target: SocketAddr) -> io::Result<UdpSocket> {
+    let local = match target {
+        SocketAddr::V4(_) => SocketAddr::from((Ipv4Addr::UNSPECIFIED, 0)),
+        SocketAddr::V6(_) => SocketAddr::from((Ipv6Addr::UNSPECIFIED, 0)),
+    };
+    UdpSocket::bind(local).await
+}
+
 impl Transport {
     async fn open(config: &LinkConfig) -> io::Result<Transport> {
         Ok(match &config.endpoint {
             Endpoint::UdpIn(addr) => Transport::Udp {
-                socket: UdpSocket::bind(addr).await?,
+                socket: UdpSocket::bind(addr.resolve_async().await?.as_slice()).await?,
                 target: None,
+                broadcast: None,
             },
-            Endpoint::UdpOut(target) => {
-                let local = match target {
-                    SocketAddr::V4(_) => SocketAddr::from((Ipv4Addr::UNSPECIFIED, 0)),
-                    SocketAddr::V6(_) => SocketAddr::from((Ipv6Addr::UNSPECIFIED, 0)),
-                };
+            Endpoint::UdpOut(target) => Transport::Udp {
+                socket: ephemeral_udp(first(target).await?).await?,
+                target: Some(first(target).await?),
+                broadcast: None,
+            },
+            Endpoint::UdpBcast(target) => {
+                let to = first(target).await?;
+                let socket = ephemeral_udp(to).await?;
+                socket.set_broadcast(true)?;
                 Transport::Udp {
-                    socket: UdpSocket::bind(local).await?,
-                    target: Some(*target),
+                    socket,
+                    target: None,
+                    broadcast: Some(to),
                 }
             }
             Endpoint::Tcp(addr) => {
-                let stream = TcpStream::connect(addr).await?;
+                let stream = TcpStream::connect(addr.resolve_async().await?.as_slice()).await?;
                 stream.set_nodelay(true)?;
                 Transport::Stream(Box::new(stream))
             }
-            Endpoint::TcpIn(addr) => Transport::Server(TcpListener::bind(addr).await?),
+            Endpoint::TcpIn(addr) => {
+                Transport::Server(TcpListener::bind(addr.resolve_async().await?.as_slice()).await?)
+            }
+            Endpoint::File(_) => {
+                return Err(io::Error::new(
+                    io::ErrorKind::Unsupported,
+                    "file: endpoints are not routed: a capture cannot take frames",
+                ))
+            }
             Endpoint::Serial { path, baud } => {
                 use tokio_serial::SerialPortBuilderExt;
                 let port = tokio_serial::new(path, *baud).open_native_async()?;
@@ -484,8 +520,19 @@ impl<D: Dialect + 'static> LinkTask<D> {
                 },
             };
             let ended = match t {
-                Transport::Udp { socket, target } => {
-                    self.udp(socket, target, &mut codec, &mut framer).await
+                Transport::Udp {
+                    socket,
+                    target,
+                    broadcast,
+                } => {
+                    self.udp(
+                        socket,
+                        target.or(broadcast),
+                        target.is_none(),
+                        &mut codec,
+                        &mut framer,
+                    )
+                    .await
                 }
                 Transport::Stream(stream) => self.stream(stream, &mut codec, &mut framer).await,
                 Transport::Server(listener) => self.server(listener, &mut framer).await,
@@ -595,6 +642,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
         &mut self,
         socket: UdpSocket,
         target: Option<SocketAddr>,
+        replies: bool,
         codec: &mut FrameCodec<D>,
         framer: &mut Framer,
     ) -> Ended {
@@ -603,11 +651,18 @@ impl<D: Dialect + 'static> LinkTask<D> {
         let reply_to = self.config.reply_to;
         loop {
             buf.clear();
-            let peer = target.or(match reply_to {
+            // `replies`: the reply rule decides (udpin; udpbcast, whose
+            // `target` is the broadcast address used until it names
+            // someone); otherwise `target` is the only peer (udpout).
+            let rule = match reply_to {
                 ReplyTo::LastSender => last_sender,
                 ReplyTo::Fixed(a) => Some(a),
                 ReplyTo::Pinned => pinned,
-            });
+            };
+            let peer = match replies {
+                true => rule.or(target),
+                false => target,
+            };
             tokio::select! {
                 // A failed receive (an ICMP error on some systems) says
                 // nothing about the next one: it is skipped.

@@ -161,7 +161,7 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
                 outs: Vec::new(),
                 autonomy: None,
                 link: LinkOptions {
-                    endpoint: Endpoint::UdpIn(cc_addr),
+                    endpoint: Endpoint::UdpIn(cc_addr.into()),
                     key: None,
                     peer: None,
                     signing_state: None,
@@ -181,7 +181,7 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
     let report = run_fc(
         FcOptions {
             link: LinkOptions {
-                endpoint: Endpoint::UdpOut(SocketAddr::from(([127, 0, 0, 1], relay_port))),
+                endpoint: Endpoint::UdpOut(SocketAddr::from(([127, 0, 0, 1], relay_port)).into()),
                 key: None,
                 peer: None,
                 signing_state: None,

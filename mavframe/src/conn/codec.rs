@@ -27,13 +27,15 @@
 //! ```
 
 use super::ReceivedFrame;
-use crate::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN};
-use crate::message::{Dialect, Encode, MessageMeta};
+use crate::message::Dialect;
 use crate::parser::Parser;
-use crate::signing::{timestamp_now, Signer};
 use std::io;
 use tokio_util::bytes::{Buf, BytesMut};
 use tokio_util::codec::{Decoder, Encoder};
+
+// The framer of the codec's users: the crate's no_std one (with `std` its
+// signer keeps up with the system clock).
+pub use crate::framer::Framer;
 
 /// Bytes ⇄ MAVLink frames for `tokio_util::codec`.
 ///
@@ -105,129 +107,12 @@ impl<D: Dialect> Encoder<&[u8]> for FrameCodec<D> {
     }
 }
 
-/// Frames messages for one sender: its sequence numbers (one per frame,
-/// wrapping), protocol version and signer. The blocking and async
-/// connections frame through it; use it directly to frame once and send
-/// the bytes on several links.
-#[derive(Debug, Clone)]
-pub struct Framer {
-    signer: Option<Signer>,
-    version: Version,
-    seq: u8,
-    buf: [u8; MAX_FRAME_LEN],
-}
-
-impl Default for Framer {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl Framer {
-    /// MAVLink 2, unsigned, starting at sequence 0.
-    pub fn new() -> Self {
-        Framer {
-            signer: None,
-            version: Version::V2,
-            seq: 0,
-            buf: [0; MAX_FRAME_LEN],
-        }
-    }
-
-    /// Signs every MAVLink 2 frame from now on (`None`: stop).
-    pub fn set_signer(&mut self, signer: Option<Signer>) {
-        self.signer = signer;
-    }
-
-    /// The signer, if frames are signed.
-    pub fn signer(&self) -> Option<&Signer> {
-        self.signer.as_ref()
-    }
-
-    /// The protocol version of the frames.
-    pub fn set_version(&mut self, version: Version) {
-        self.version = version;
-    }
-
-    /// Frames `msg` from `sysid`/`compid` with the next sequence number
-    /// (which advances whatever happens next: a receiver counts a frame
-    /// that failed to go out as lost). The signer's timestamp keeps up
-    /// with the clock (receivers refuse a new stream more than a minute
-    /// behind the newest timestamp they saw).
-    pub fn frame(
-        &mut self,
-        sysid: u8,
-        compid: u8,
-        msg: &(impl Encode + ?Sized),
-    ) -> io::Result<&[u8]> {
-        let meta = msg.meta();
-        let at = self.payload_at();
-        let len = msg
-            .emit_payload(&mut self.buf[at..])
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        self.finish(sysid, compid, meta, len)
-    }
-
-    /// Frames a message known by its table row and payload bytes (all of
-    /// them, `meta.max_len` at most; shorter means zeros follow), as
-    /// [`frame`](Self::frame) does: what a router uses to frame a message
-    /// handed over as bytes.
-    pub fn frame_payload(
-        &mut self,
-        sysid: u8,
-        compid: u8,
-        meta: &MessageMeta,
-        payload: &[u8],
-    ) -> io::Result<&[u8]> {
-        let at = self.payload_at();
-        let max = meta.max_len as usize;
-        let len = payload.len().min(max);
-        self.buf[at..at + max].fill(0);
-        self.buf[at..at + len].copy_from_slice(&payload[..len]);
-        self.finish(sysid, compid, meta, max)
-    }
-
-    fn payload_at(&self) -> usize {
-        match self.version {
-            Version::V2 => HEADER_LEN_V2,
-            Version::V1 => HEADER_LEN_V1,
-        }
-    }
-
-    fn finish(
-        &mut self,
-        sysid: u8,
-        compid: u8,
-        meta: &MessageMeta,
-        len: usize,
-    ) -> io::Result<&[u8]> {
-        let header = Header {
-            seq: self.seq,
-            sysid,
-            compid,
-        };
-        self.seq = self.seq.wrapping_add(1);
-        if let Some(signer) = &mut self.signer {
-            signer.advance_to(timestamp_now());
-        }
-        let n = finish(
-            self.version,
-            header,
-            meta,
-            len,
-            self.signer.as_mut(),
-            &mut self.buf,
-        )
-        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        Ok(&self.buf[..n])
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::conn::test_dialect::{Ping, TestDialect};
     use crate::message::Message;
+    use crate::signing::{timestamp_now, Signer};
 
     fn frames(codec: &mut FrameCodec<TestDialect>, bytes: &[u8], eof: bool) -> std::vec::Vec<u32> {
         let mut src = BytesMut::from(bytes);

@@ -1,8 +1,11 @@
 //! Links to other MAVLink systems (feature `std`): MAVProxy-style
-//! connection strings, blocking byte transports (UDP, TCP client and
-//! server, serial with feature `serial`), and [`Connection`], which frames
-//! messages over a transport and parses what comes back. Feature `tokio`
-//! adds `conn::tokio::AsyncConnection` (UDP and TCP client).
+//! connection strings ([`Endpoint`]), blocking byte transports (UDP in,
+//! out and broadcast, TCP client and server, capture files, serial with
+//! feature `serial`), and [`Connection`], which frames messages over a
+//! transport and parses what comes back. [`Connection::split`] gives a
+//! [`Sender`] and a [`Receiver`] for two threads. Feature `tokio` adds
+//! `conn::codec` (tokio_util codecs for any async transport) and
+//! `conn::tokio::AsyncConnection` (UDP and TCP client).
 //!
 //! ```no_run
 //! # use mavframe::{Dialect, MessageMeta};
@@ -23,8 +26,10 @@
 #[cfg(feature = "tokio")]
 pub mod codec;
 mod endpoint;
+mod file;
 #[cfg(feature = "serial")]
 mod serial;
+mod split;
 mod tcp;
 #[cfg(test)]
 mod test_dialect;
@@ -33,19 +38,22 @@ pub mod tokio;
 mod transport;
 mod udp;
 
-pub use endpoint::{Endpoint, ParseEndpointError, DEFAULT_BAUD};
+pub use endpoint::{Address, Endpoint, ParseEndpointError, ResolveError, DEFAULT_BAUD};
+pub use file::FileLink;
 #[cfg(feature = "serial")]
 pub use serial::{Serial, WRITE_TIMEOUT as SERIAL_WRITE_TIMEOUT};
+pub use split::{Receiver, Sender, SplitError, SPLIT_ZERO_WAIT};
 pub use tcp::{TcpClient, TcpServer, MAX_PENDING_OUTPUT};
 pub use transport::{open, AnyTransport, Transport};
-pub use udp::{ReplyTo, UdpIn, UdpOut};
+pub use udp::{ReplyTo, UdpBcast, UdpIn, UdpOut};
+// What connections return; no_std code uses it too (`crate::ReceivedFrame`).
+pub use crate::received::ReceivedFrame;
 
-use crate::frame::{encode, Frame, Header, Version, MAX_FRAME_LEN};
-use crate::message::{Dialect, Encode, MessageMeta};
-use crate::parser::{LinkStats, Parser, Received, Stats};
+use crate::frame::{encode, Header, Version, MAX_FRAME_LEN};
+use crate::message::{Dialect, Encode};
+use crate::parser::{LinkStats, Parser, Stats};
 use crate::signing::{timestamp_now, Signer};
 use core::fmt;
-use core::marker::PhantomData;
 use std::boxed::Box;
 use std::io;
 use std::time::Duration;
@@ -55,107 +63,6 @@ use transport::Deadline;
 /// Receive buffer of a connection: one whole UDP datagram (65,507 bytes at
 /// most), so none is cut short; stream transports fill it as they can.
 pub const RECV_BUFFER_LEN: usize = 64 * 1024;
-
-/// A frame a [`Connection`] accepted, copied out of the parser so it
-/// outlives the next receive. No heap: the bytes sit inline (at most
-/// [`MAX_FRAME_LEN`]).
-pub struct ReceivedFrame<D: Dialect> {
-    bytes: [u8; MAX_FRAME_LEN],
-    len: usize,
-    meta: Option<&'static MessageMeta>,
-    authenticated: bool,
-    // fn() -> D: the dialect is a type-level tag, it does not make the frame
-    // !Send or !Sync.
-    _dialect: PhantomData<fn() -> D>,
-}
-
-impl<D: Dialect> ReceivedFrame<D> {
-    /// The frame.
-    pub fn frame(&self) -> Frame<'_> {
-        // Only ever built from a frame the parser checked: cannot fail.
-        Frame::new_checked(self.as_bytes())
-            .unwrap_or_else(|_| unreachable!("ReceivedFrame holds a whole frame"))
-    }
-
-    /// The frame's bytes, as received.
-    pub fn as_bytes(&self) -> &[u8] {
-        &self.bytes[..self.len]
-    }
-
-    /// The sender's header fields.
-    pub fn header(&self) -> Header {
-        self.frame().header()
-    }
-
-    /// Message id.
-    pub fn msg_id(&self) -> u32 {
-        self.frame().msg_id()
-    }
-
-    /// The message's table row; `None` for an id the dialect does not know
-    /// (a raw frame, forwarded unverified).
-    pub fn meta(&self) -> Option<&'static MessageMeta> {
-        self.meta
-    }
-
-    /// True when the frame's signature was verified with the parser's key.
-    pub fn is_authenticated(&self) -> bool {
-        self.authenticated
-    }
-
-    /// The message, parsed; `None` for an unknown id.
-    pub fn message(&self) -> Option<D::Message> {
-        self.meta?;
-        let f = self.frame();
-        D::parse(f.msg_id(), f.payload())
-    }
-
-    /// A zero-copy view of the message; `None` for an unknown id.
-    pub fn view(&self) -> Option<D::View<'_>> {
-        self.meta?;
-        let f = self.frame();
-        D::view(f.msg_id(), f.payload())
-    }
-}
-
-impl<D: Dialect> From<&Received<'_, D>> for ReceivedFrame<D> {
-    fn from(r: &Received<'_, D>) -> Self {
-        let src = r.frame.as_bytes();
-        let mut bytes = [0u8; MAX_FRAME_LEN];
-        // A frame is never longer than MAX_FRAME_LEN; min() keeps this total.
-        let len = src.len().min(MAX_FRAME_LEN);
-        bytes[..len].copy_from_slice(&src[..len]);
-        ReceivedFrame {
-            bytes,
-            len,
-            meta: r.meta,
-            authenticated: r.authenticated,
-            _dialect: PhantomData,
-        }
-    }
-}
-
-impl<D: Dialect> Clone for ReceivedFrame<D> {
-    fn clone(&self) -> Self {
-        ReceivedFrame {
-            bytes: self.bytes,
-            len: self.len,
-            meta: self.meta,
-            authenticated: self.authenticated,
-            _dialect: PhantomData,
-        }
-    }
-}
-
-impl<D: Dialect> fmt::Debug for ReceivedFrame<D> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("ReceivedFrame")
-            .field("frame", &self.frame())
-            .field("name", &self.meta.map(|m| m.name))
-            .field("authenticated", &self.authenticated)
-            .finish()
-    }
-}
 
 /// The receive side shared by the blocking and async connections: the
 /// parser and the bytes read but not parsed yet.
@@ -217,6 +124,26 @@ impl<D: Dialect> Inbox<D> {
             }
         }
         None
+    }
+
+    /// The next frame, reading from `transport` as needed, waiting up to
+    /// `timeout` in all (see [`Connection::recv`]).
+    pub(crate) fn recv<T: Transport + ?Sized>(
+        &mut self,
+        transport: &mut T,
+        timeout: Option<Duration>,
+    ) -> io::Result<Option<ReceivedFrame<D>>> {
+        let deadline = Deadline::after(timeout);
+        loop {
+            if let Some(frame) = self.next() {
+                return Ok(Some(frame));
+            }
+            let n = transport.recv(self.space(), deadline.remaining())?;
+            if n == 0 {
+                return Ok(None);
+            }
+            self.filled(n);
+        }
     }
 
     /// Where the transport reads to: the whole buffer, since it is read
@@ -338,19 +265,7 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// when the time runs out first. Frames already read are returned
     /// without touching the transport.
     pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedFrame<D>>> {
-        let deadline = Deadline::after(timeout);
-        loop {
-            if let Some(frame) = self.inbox.next() {
-                return Ok(Some(frame));
-            }
-            let n = self
-                .transport
-                .recv(self.inbox.space(), deadline.remaining())?;
-            if n == 0 {
-                return Ok(None);
-            }
-            self.inbox.filled(n);
-        }
+        self.inbox.recv(&mut self.transport, timeout)
     }
 
     /// Sends `msg` with `header` in the connection's protocol version
@@ -467,10 +382,9 @@ mod tests {
         let server =
             Connection::<TestDialect>::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap();
         let port = server.transport().local_addr().unwrap().port();
-        let client = Connection::<TestDialect>::open(&Endpoint::UdpOut(SocketAddr::from((
-            [127, 0, 0, 1],
-            port,
-        ))))
+        let client = Connection::<TestDialect>::open(&Endpoint::UdpOut(
+            SocketAddr::from(([127, 0, 0, 1], port)).into(),
+        ))
         .unwrap();
         (server, client)
     }
@@ -607,6 +521,44 @@ mod tests {
             push(&mut inbox, &[0u8; 200]),
             std::vec![Some(Ping { value: 5 })]
         );
+    }
+
+    /// `udpout:localhost:PORT` resolves at open and reaches a listener on
+    /// 127.0.0.1; `tcp:` to a name that does not resolve fails at open
+    /// with the typed error inside.
+    #[test]
+    fn host_names_resolve_at_open() {
+        let mut server =
+            Connection::<TestDialect>::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap();
+        let port = server.transport().local_addr().unwrap().port();
+        let endpoint: Endpoint = std::format!("udpout:localhost:{port}").parse().unwrap();
+        let mut client = Connection::<TestDialect>::open(&endpoint).unwrap();
+        client.send_auto(1, 1, &Ping { value: 9 }).unwrap();
+        let f = server.recv(Some(Duration::from_secs(2))).unwrap().unwrap();
+        assert_eq!(f.message(), Some(Ping { value: 9 }));
+        let bad: Endpoint = "tcp:no-such-host.invalid:5760".parse().unwrap();
+        let err = Connection::<TestDialect>::open(&bad).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::NotFound);
+        let inner = err.get_ref().unwrap().downcast_ref::<ResolveError>();
+        assert!(matches!(
+            inner,
+            Some(ResolveError::Lookup { port: 5760, .. })
+        ));
+    }
+
+    /// `tcpout:` and `tcp:` open the same client.
+    #[test]
+    fn tcpout_connects() {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let endpoint: Endpoint = std::format!("tcpout:127.0.0.1:{port}").parse().unwrap();
+        let mut client = Connection::<TestDialect>::open(&endpoint).unwrap();
+        let (mut peer, _) = listener.accept().unwrap();
+        client.send_auto(1, 1, &Ping { value: 3 }).unwrap();
+        let mut buf = [0u8; 64];
+        use std::io::Read;
+        let n = peer.read(&mut buf).unwrap();
+        assert_eq!(&buf[..n], &ping_frame(3)[..]);
     }
 
     #[test]

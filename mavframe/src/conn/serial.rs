@@ -47,6 +47,16 @@ impl Serial {
     }
 }
 
+impl Serial {
+    /// The send half: another handle on the same device (serialport's
+    /// `try_clone`; each handle keeps its own timeout).
+    pub(crate) fn split_sender(&mut self) -> io::Result<Serial> {
+        Ok(Serial {
+            port: self.port.try_clone()?,
+        })
+    }
+}
+
 impl Transport for Serial {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
         // One timeout serves reads and writes in serialport: a zero read

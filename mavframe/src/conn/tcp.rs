@@ -32,6 +32,12 @@ impl TcpClient {
         Self::from_stream(TcpStream::connect(addr)?)
     }
 
+    /// Connects to the first of `addrs` that accepts (a host name's
+    /// addresses); the last error when none does.
+    pub fn connect_any(addrs: &[SocketAddr]) -> io::Result<Self> {
+        Self::from_stream(TcpStream::connect(addrs)?)
+    }
+
     /// Connects to `addr`, giving up after `timeout`.
     pub fn connect_timeout(addr: SocketAddr, timeout: Duration) -> io::Result<Self> {
         Self::from_stream(TcpStream::connect_timeout(&addr, timeout)?)
@@ -60,6 +66,15 @@ impl TcpClient {
     /// for one: writes block until the peer takes the bytes).
     pub fn get_ref(&self) -> &TcpStream {
         &self.stream
+    }
+}
+
+impl TcpClient {
+    /// The send half's handle: a clone of the stream, left blocking.
+    pub(crate) fn split_sender(&mut self) -> io::Result<TcpStream> {
+        self.mode.share();
+        self.stream.ensure_nonblocking(&mut self.mode, false)?;
+        self.stream.try_clone()
     }
 }
 

@@ -40,31 +40,43 @@ pub struct AsyncTransport {
     kind: Kind,
 }
 
+/// The first address `addr` resolves to.
+async fn addr_first(addr: &super::Address) -> io::Result<SocketAddr> {
+    let all = addr.resolve_async().await?;
+    // resolve_async never returns an empty list.
+    all.first()
+        .copied()
+        .ok_or_else(|| io::Error::from(io::ErrorKind::NotFound))
+}
+
 impl AsyncTransport {
-    /// Binds or connects as `endpoint` says; `tcpin:` and `serial:` fail
-    /// with [`io::ErrorKind::Unsupported`].
+    /// Binds or connects as `endpoint` says (host names resolved now);
+    /// `tcpin:`, `udpbcast:`, `serial:` and `file:` fail with
+    /// [`io::ErrorKind::Unsupported`] (the `router` module and
+    /// [`codec`](super::codec) cover tcpin and serial).
     pub async fn open(endpoint: &Endpoint) -> io::Result<Self> {
         let kind = match endpoint {
             Endpoint::UdpIn(addr) => Kind::UdpIn {
-                socket: UdpSocket::bind(addr).await?,
+                socket: UdpSocket::bind(addr.resolve_async().await?.as_slice()).await?,
                 peer: None,
             },
             Endpoint::UdpOut(target) => {
+                let target = addr_first(target).await?;
                 let local = match target {
                     SocketAddr::V4(_) => SocketAddr::from((Ipv4Addr::UNSPECIFIED, 0)),
                     SocketAddr::V6(_) => SocketAddr::from((Ipv6Addr::UNSPECIFIED, 0)),
                 };
                 Kind::UdpOut {
                     socket: UdpSocket::bind(local).await?,
-                    target: *target,
+                    target,
                 }
             }
             Endpoint::Tcp(addr) => {
-                let stream = TcpStream::connect(addr).await?;
+                let stream = TcpStream::connect(addr.resolve_async().await?.as_slice()).await?;
                 stream.set_nodelay(true)?;
                 Kind::Tcp(stream)
             }
-            Endpoint::TcpIn(_) | Endpoint::Serial { .. } => {
+            _ => {
                 return Err(io::Error::new(
                     io::ErrorKind::Unsupported,
                     std::format!(
@@ -332,7 +344,7 @@ mod tests {
                     .await
                     .unwrap();
             let port = server.transport().local_addr().unwrap().port();
-            let target = Endpoint::UdpOut(SocketAddr::from((Ipv4Addr::LOCALHOST, port)));
+            let target = Endpoint::UdpOut(SocketAddr::from((Ipv4Addr::LOCALHOST, port)).into());
             let mut client = AsyncConnection::<TestDialect>::open(&target).await.unwrap();
             // Nobody has spoken to the server yet: its send goes nowhere.
             server.send_auto(1, 1, &Ping { value: 0 }).await.unwrap();
@@ -389,7 +401,7 @@ mod tests {
             // `s` drops here: the client sees the end of the stream.
         });
         block_on(async {
-            let mut client = AsyncConnection::<TestDialect>::open(&Endpoint::Tcp(addr))
+            let mut client = AsyncConnection::<TestDialect>::open(&Endpoint::Tcp(addr.into()))
                 .await
                 .unwrap();
             for v in 0..3 {
@@ -426,7 +438,7 @@ mod tests {
                     .unwrap();
             assert!(server.transport().is_datagram());
             let port = server.transport().local_addr().unwrap().port();
-            let target = Endpoint::UdpOut(SocketAddr::from((Ipv4Addr::LOCALHOST, port)));
+            let target = Endpoint::UdpOut(SocketAddr::from((Ipv4Addr::LOCALHOST, port)).into());
             let mut client = AsyncConnection::<TestDialect>::open(&target).await.unwrap();
             // Ping (known id) claiming a 200-byte payload.
             let false_header = [0xFD, 200, 0, 0, 0, 1, 1, 1, 0, 0];

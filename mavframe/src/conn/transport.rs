@@ -2,8 +2,9 @@
 //! and [`open`] for an [`Endpoint`].
 
 use super::endpoint::Endpoint;
+use super::file::FileLink;
 use super::tcp::{TcpClient, TcpServer};
-use super::udp::{UdpIn, UdpOut};
+use super::udp::{UdpBcast, UdpIn, UdpOut};
 use std::boxed::Box;
 use std::io;
 use std::net::SocketAddr;
@@ -79,6 +80,10 @@ pub enum AnyTransport {
     UdpIn(UdpIn),
     /// `udpout:`
     UdpOut(UdpOut),
+    /// `udpbcast:`
+    UdpBcast(UdpBcast),
+    /// `file:`
+    File(FileLink),
     /// `tcp:`
     Tcp(TcpClient),
     /// `tcpin:`
@@ -88,18 +93,25 @@ pub enum AnyTransport {
     Serial(super::serial::Serial),
 }
 
-/// Opens the transport `endpoint` names: binds, connects or opens the
-/// device now, so errors (address in use, connection refused, no such
-/// device) surface here.
+/// Opens the transport `endpoint` names: resolves host names, binds,
+/// connects or opens the device now, so errors (a name that does not
+/// resolve, address in use, connection refused, no such device) surface
+/// here. A host name is resolved once, here: the link keeps the address
+/// it got (see [`Address::resolve`](super::Address::resolve); a TCP
+/// client tries each address in turn, UDP uses the first). A name that
+/// does not resolve is an error of kind [`io::ErrorKind::NotFound`]
+/// holding a [`ResolveError`](super::ResolveError).
 ///
 /// Without the `serial` feature a `serial:` endpoint fails with
 /// [`io::ErrorKind::Unsupported`].
 pub fn open(endpoint: &Endpoint) -> io::Result<AnyTransport> {
     Ok(match endpoint {
-        Endpoint::UdpIn(addr) => AnyTransport::UdpIn(UdpIn::bind(*addr)?),
-        Endpoint::UdpOut(addr) => AnyTransport::UdpOut(UdpOut::new(*addr)?),
-        Endpoint::Tcp(addr) => AnyTransport::Tcp(TcpClient::connect(*addr)?),
-        Endpoint::TcpIn(addr) => AnyTransport::TcpIn(TcpServer::bind(*addr)?),
+        Endpoint::UdpIn(addr) => AnyTransport::UdpIn(UdpIn::bind(addr.resolve_first()?)?),
+        Endpoint::UdpOut(addr) => AnyTransport::UdpOut(UdpOut::new(addr.resolve_first()?)?),
+        Endpoint::UdpBcast(addr) => AnyTransport::UdpBcast(UdpBcast::new(addr.resolve_first()?)?),
+        Endpoint::Tcp(addr) => AnyTransport::Tcp(TcpClient::connect_any(&addr.resolve()?)?),
+        Endpoint::TcpIn(addr) => AnyTransport::TcpIn(TcpServer::bind(addr.resolve_first()?)?),
+        Endpoint::File(path) => AnyTransport::File(FileLink::open(path)?),
         #[cfg(feature = "serial")]
         Endpoint::Serial { path, baud } => {
             AnyTransport::Serial(super::serial::Serial::open(path, *baud)?)
@@ -122,16 +134,22 @@ impl AnyTransport {
         match self {
             AnyTransport::UdpIn(t) => t.last_source(),
             AnyTransport::UdpOut(t) => t.last_source(),
+            AnyTransport::UdpBcast(t) => t.last_source(),
             _ => None,
         }
     }
 
     /// The local address of a network transport (the port the system chose
-    /// when the endpoint said 0); `Unsupported` for a serial port.
+    /// when the endpoint said 0); `Unsupported` for a serial port or file.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
         match self {
             AnyTransport::UdpIn(t) => t.local_addr(),
             AnyTransport::UdpOut(t) => t.local_addr(),
+            AnyTransport::UdpBcast(t) => t.local_addr(),
+            AnyTransport::File(_) => Err(io::Error::new(
+                io::ErrorKind::Unsupported,
+                "a file has no network address",
+            )),
             AnyTransport::Tcp(t) => t.local_addr(),
             AnyTransport::TcpIn(t) => t.local_addr(),
             #[cfg(feature = "serial")]
@@ -148,6 +166,8 @@ impl Transport for AnyTransport {
         match self {
             AnyTransport::UdpIn(t) => t.send(frame),
             AnyTransport::UdpOut(t) => t.send(frame),
+            AnyTransport::UdpBcast(t) => t.send(frame),
+            AnyTransport::File(t) => t.send(frame),
             AnyTransport::Tcp(t) => t.send(frame),
             AnyTransport::TcpIn(t) => t.send(frame),
             #[cfg(feature = "serial")]
@@ -159,6 +179,8 @@ impl Transport for AnyTransport {
         match self {
             AnyTransport::UdpIn(t) => t.recv(buf, timeout),
             AnyTransport::UdpOut(t) => t.recv(buf, timeout),
+            AnyTransport::UdpBcast(t) => t.recv(buf, timeout),
+            AnyTransport::File(t) => t.recv(buf, timeout),
             AnyTransport::Tcp(t) => t.recv(buf, timeout),
             AnyTransport::TcpIn(t) => t.recv(buf, timeout),
             #[cfg(feature = "serial")]
@@ -170,6 +192,8 @@ impl Transport for AnyTransport {
         match self {
             AnyTransport::UdpIn(t) => t.is_datagram(),
             AnyTransport::UdpOut(t) => t.is_datagram(),
+            AnyTransport::UdpBcast(t) => t.is_datagram(),
+            AnyTransport::File(t) => t.is_datagram(),
             AnyTransport::Tcp(t) => t.is_datagram(),
             AnyTransport::TcpIn(t) => t.is_datagram(),
             #[cfg(feature = "serial")]
@@ -205,6 +229,21 @@ pub(crate) struct ReadMode {
     /// `None` while unknown (new socket, or a call failed half-way).
     nonblocking: Option<bool>,
     read_timeout: Option<Option<Duration>>,
+    /// Another handle (a split-off sender) shares the socket, and with it
+    /// the non-blocking flag: reads never set it, so that sender's writes
+    /// never fail half-way with `WouldBlock`.
+    shared: bool,
+}
+
+/// A zero-timeout read on a shared socket: the shortest wait a read
+/// timeout can express without the non-blocking flag.
+pub(crate) const SHARED_POLL: Duration = Duration::from_millis(1);
+
+impl ReadMode {
+    /// Another handle shares the socket from now on (see `shared`).
+    pub(crate) fn share(&mut self) {
+        self.shared = true;
+    }
 }
 
 /// Mode setters shared by `UdpSocket` and `TcpStream`.
@@ -225,9 +264,11 @@ pub(crate) trait SetReadMode {
     /// Sets the socket up for a read waiting `timeout`. A zero timeout is
     /// a non-blocking read: std refuses a zero read timeout.
     fn prepare_read(&self, mode: &mut ReadMode, timeout: Option<Duration>) -> io::Result<()> {
-        if timeout == Some(Duration::ZERO) {
-            return self.ensure_nonblocking(mode, true);
-        }
+        let timeout = match timeout {
+            Some(Duration::ZERO) if mode.shared => Some(SHARED_POLL),
+            Some(Duration::ZERO) => return self.ensure_nonblocking(mode, true),
+            t => t,
+        };
         self.ensure_nonblocking(mode, false)?;
         if mode.read_timeout != Some(timeout) {
             mode.read_timeout = None;

@@ -4,6 +4,7 @@
 use super::transport::{is_timeout, Deadline, ReadMode, SetReadMode, Transport};
 use std::io;
 use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, UdpSocket};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 /// Waits for one non-empty datagram; `None` when the time ran out.
@@ -38,6 +39,25 @@ fn recv_datagram(
             return Ok(None);
         }
     }
+}
+
+/// The last sender, shared with a split-off [`Sender`](super::Sender)
+/// that replies to it.
+pub(crate) type SharedSource = Arc<Mutex<Option<SocketAddr>>>;
+
+/// Records `from` as the last sender, and in `shared` when split.
+fn note_source(last: &mut Option<SocketAddr>, shared: &Option<SharedSource>, from: SocketAddr) {
+    *last = Some(from);
+    if let Some(shared) = shared {
+        // A poisoned lock only means another thread panicked mid-store of
+        // a Copy value: the value is still whole.
+        *shared.lock().unwrap_or_else(PoisonError::into_inner) = Some(from);
+    }
+}
+
+/// Reads a shared last sender.
+pub(crate) fn shared_source(shared: &SharedSource) -> Option<SocketAddr> {
+    *shared.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 /// Whom a [`UdpIn`] sends to.
@@ -76,6 +96,8 @@ pub struct UdpIn {
     last_source: Option<SocketAddr>,
     pinned: Option<SocketAddr>,
     mode: ReadMode,
+    /// Set by `split`: where a split-off sender reads the last sender.
+    shared: Option<SharedSource>,
 }
 
 impl UdpIn {
@@ -88,6 +110,7 @@ impl UdpIn {
             last_source: None,
             pinned: None,
             mode: ReadMode::default(),
+            shared: None,
         })
     }
 
@@ -134,6 +157,46 @@ impl UdpIn {
     }
 }
 
+impl UdpIn {
+    /// The send half's handle: a clone of the socket and whom it sends to
+    /// (the reply rule as it is now; a `LastSender` rule follows the
+    /// receiving half from then on).
+    pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
+        self.mode.share();
+        let peer = match self.reply_to {
+            ReplyTo::LastSender => {
+                let shared = Arc::new(Mutex::new(self.last_source));
+                self.shared = Some(shared.clone());
+                UdpPeer::LastSender(shared, None)
+            }
+            ReplyTo::Fixed(a) => UdpPeer::Fixed(Some(a)),
+            ReplyTo::Pinned => UdpPeer::Fixed(self.pinned),
+        };
+        Ok((self.socket.try_clone()?, peer))
+    }
+}
+
+/// Whom a split-off UDP sender sends to.
+#[derive(Debug)]
+pub(crate) enum UdpPeer {
+    /// This address; nobody (frames dropped, as `udpin` does) for `None`.
+    Fixed(Option<SocketAddr>),
+    /// The receiving half's last sender, else the fallback (`udpbcast`'s
+    /// broadcast address), else nobody.
+    LastSender(SharedSource, Option<SocketAddr>),
+}
+
+impl UdpPeer {
+    pub(crate) fn get(&self) -> Option<SocketAddr> {
+        match self {
+            UdpPeer::Fixed(a) => *a,
+            UdpPeer::LastSender(shared, fallback) => shared_source(shared)
+                .filter(|a| a.port() != 0)
+                .or(*fallback),
+        }
+    }
+}
+
 impl Transport for UdpIn {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
         match self.peer() {
@@ -146,7 +209,7 @@ impl Transport for UdpIn {
         Ok(
             match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
                 Some((n, from)) => {
-                    self.last_source = Some(from);
+                    note_source(&mut self.last_source, &self.shared, from);
                     n
                 }
                 None => 0,
@@ -178,6 +241,8 @@ pub struct UdpOut {
     target: SocketAddr,
     last_source: Option<SocketAddr>,
     mode: ReadMode,
+    /// Always `None`: a `udpout` sender has a fixed target.
+    shared: Option<SharedSource>,
 }
 
 impl UdpOut {
@@ -192,6 +257,7 @@ impl UdpOut {
             target,
             last_source: None,
             mode: ReadMode::default(),
+            shared: None,
         })
     }
 
@@ -217,6 +283,14 @@ impl UdpOut {
     }
 }
 
+impl UdpOut {
+    /// The send half's handle: a clone of the socket and its target.
+    pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
+        self.mode.share();
+        Ok((self.socket.try_clone()?, UdpPeer::Fixed(Some(self.target))))
+    }
+}
+
 impl Transport for UdpOut {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
         self.socket.send_to(frame, self.target).map(drop)
@@ -226,7 +300,106 @@ impl Transport for UdpOut {
         Ok(
             match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
                 Some((n, from)) => {
-                    self.last_source = Some(from);
+                    note_source(&mut self.last_source, &self.shared, from);
+                    n
+                }
+                None => 0,
+            },
+        )
+    }
+
+    fn is_datagram(&self) -> bool {
+        true
+    }
+}
+
+/// `udpbcast:`: broadcasts to one address (e.g. `255.255.255.255:14550`
+/// or a subnet's broadcast address) from an ephemeral port with
+/// `SO_BROADCAST` set, until a datagram arrives; from then on frames go to
+/// the sender of the last datagram received, as MAVProxy's `udpbcast`
+/// link does once a peer answers. (pymavlink's `mavudp` locks onto the
+/// first sender for good; following the last one lets a restarted peer,
+/// which comes back from a new port, take over.)
+///
+/// Anyone who can send a datagram to the port redirects what follows, as
+/// with [`ReplyTo::LastSender`]: for discovery on a trusted network, not
+/// for a link that carries control. A sender with source port 0 never
+/// becomes the peer.
+#[derive(Debug)]
+pub struct UdpBcast {
+    socket: UdpSocket,
+    target: SocketAddr,
+    last_source: Option<SocketAddr>,
+    mode: ReadMode,
+    /// Set by `split`: where a split-off sender reads the last sender.
+    shared: Option<SharedSource>,
+}
+
+impl UdpBcast {
+    /// Binds an ephemeral port of `target`'s address family with
+    /// `SO_BROADCAST` set.
+    pub fn new(target: SocketAddr) -> io::Result<Self> {
+        let UdpOut { socket, .. } = UdpOut::new(target)?;
+        socket.set_broadcast(true)?;
+        Ok(UdpBcast {
+            socket,
+            target,
+            last_source: None,
+            mode: ReadMode::default(),
+            shared: None,
+        })
+    }
+
+    /// The ephemeral local address.
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.socket.local_addr()
+    }
+
+    /// The broadcast address frames go to until a peer answers.
+    pub fn target(&self) -> SocketAddr {
+        self.target
+    }
+
+    /// Where frames go now: the last sender, or the broadcast address.
+    pub fn peer(&self) -> SocketAddr {
+        self.last_source
+            .filter(|a| a.port() != 0)
+            .unwrap_or(self.target)
+    }
+
+    /// The sender of the last datagram received.
+    pub fn last_source(&self) -> Option<SocketAddr> {
+        self.last_source
+    }
+
+    /// The socket, for options this type does not cover.
+    pub fn get_ref(&self) -> &UdpSocket {
+        &self.socket
+    }
+}
+
+impl UdpBcast {
+    /// The send half's handle: a clone of the socket, sending to the
+    /// receiving half's last sender, else broadcasting.
+    pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
+        self.mode.share();
+        let shared = Arc::new(Mutex::new(self.last_source));
+        self.shared = Some(shared.clone());
+        let peer = UdpPeer::LastSender(shared, Some(self.target));
+        Ok((self.socket.try_clone()?, peer))
+    }
+}
+
+impl Transport for UdpBcast {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        self.socket.send_to(frame, self.peer()).map(drop)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
+        Ok(
+            match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
+                Some((n, from)) => {
+                    note_source(&mut self.last_source, &self.shared, from);
                     n
                 }
                 None => 0,
@@ -306,6 +479,29 @@ mod tests {
         // Port 0 can never be a peer (no datagram can go there).
         udp.set_peer(SocketAddr::from(([127, 0, 0, 1], 0)));
         assert_eq!(udp.peer(), Some(real.local_addr().unwrap()));
+    }
+
+    /// `udpbcast` sends to its target (with SO_BROADCAST on) until a
+    /// datagram arrives, then to the last sender.
+    #[test]
+    fn udpbcast_broadcasts_until_answered_then_follows_the_last_sender() {
+        let (target, a, b) = (peer(), peer(), peer());
+        let mut udp = UdpBcast::new(target.local_addr().unwrap()).unwrap();
+        assert!(udp.get_ref().broadcast().unwrap());
+        udp.send(b"anyone?").unwrap();
+        assert_eq!(got(&target).as_deref(), Some(&b"anyone?"[..]));
+        let at = SocketAddr::from(([127, 0, 0, 1], udp.local_addr().unwrap().port()));
+        a.send_to(b"me", at).unwrap();
+        let mut buf = [0u8; 64];
+        assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 2);
+        udp.send(b"to a").unwrap();
+        assert_eq!(got(&a).as_deref(), Some(&b"to a"[..]));
+        b.send_to(b"me too", at).unwrap();
+        assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 6);
+        udp.send(b"to b").unwrap();
+        assert_eq!(got(&b).as_deref(), Some(&b"to b"[..]));
+        assert_eq!(got(&a), None);
+        assert_eq!(got(&target), None, "no more broadcasts once answered");
     }
 
     #[test]

@@ -1,0 +1,289 @@
+//! [`Framer`]: one sender's framing state (sequence numbers, protocol
+//! version, signer) and a frame buffer, without std or a heap.
+
+use crate::frame::{
+    finish, FrameError, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN,
+};
+use crate::message::{Encode, MessageMeta};
+use crate::signing::Signer;
+use core::fmt;
+
+/// Frames messages for one sender: its sequence numbers (one per frame,
+/// wrapping), protocol version and signer, into a buffer of its own. The
+/// async connections, the router and the `embedded` adapters frame through
+/// it; use it directly to frame once and send the bytes on several links.
+///
+/// Signing timestamps must increase, and receivers refuse a new stream more
+/// than a minute behind the newest timestamp they saw. The signer's
+/// timestamp advances by one per frame; with a clock
+/// ([`set_clock`](Self::set_clock)) it also keeps up with the clock before
+/// each frame. With `std`, [`new`](Self::new) sets the system clock; without
+/// it there is none until you set one (an RTC, or time since boot plus a
+/// saved epoch).
+///
+/// ```
+/// # use mavframe::{Message, MessageMeta, BufferTooSmall};
+/// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
+/// # impl Message for Ping {
+/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
+/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   type View<'a> = ();
+/// #   fn parse(_: &[u8]) -> Self { Ping }
+/// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> { p[0] = 7; Ok(1) }
+/// #   fn view(_: &[u8]) {}
+/// # }
+/// use mavframe::frame::IFLAG_SIGNED;
+/// use mavframe::Framer;
+/// use mavframe::Signer;
+///
+/// let mut framer = Framer::new();
+/// framer.set_signer(Some(Signer::new([7; 32], 0, 1_000)));
+/// let first = framer.frame(1, 191, &Ping)?.to_vec();
+/// let second = framer.frame(1, 191, &Ping)?;
+/// assert_eq!((first[4], second[4]), (0, 1)); // sequence numbers
+/// assert_eq!(second[2] & IFLAG_SIGNED, IFLAG_SIGNED);
+/// # Ok::<(), mavframe::FrameError>(())
+/// ```
+#[derive(Clone)]
+pub struct Framer {
+    signer: Option<Signer>,
+    version: Version,
+    seq: u8,
+    clock: Option<fn() -> u64>,
+    buf: [u8; MAX_FRAME_LEN],
+}
+
+impl Default for Framer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl fmt::Debug for Framer {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // The buffer is scratch space: not part of the state worth printing.
+        f.debug_struct("Framer")
+            .field("signer", &self.signer)
+            .field("version", &self.version)
+            .field("seq", &self.seq)
+            .field("clock", &self.clock.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+/// The clock [`Framer::new`] starts with: the system's where there is one.
+#[cfg(feature = "std")]
+const DEFAULT_CLOCK: Option<fn() -> u64> = Some(crate::signing::timestamp_now);
+#[cfg(not(feature = "std"))]
+const DEFAULT_CLOCK: Option<fn() -> u64> = None;
+
+impl Framer {
+    /// MAVLink 2, unsigned, starting at sequence 0; with `std`, signing
+    /// timestamps keep up with the system clock (see [`Framer`]).
+    pub fn new() -> Self {
+        Framer {
+            signer: None,
+            version: Version::V2,
+            seq: 0,
+            clock: DEFAULT_CLOCK,
+            buf: [0; MAX_FRAME_LEN],
+        }
+    }
+
+    /// Signs every MAVLink 2 frame from now on (`None`: stop).
+    pub fn set_signer(&mut self, signer: Option<Signer>) {
+        self.signer = signer;
+    }
+
+    /// The signer, if frames are signed.
+    pub fn signer(&self) -> Option<&Signer> {
+        self.signer.as_ref()
+    }
+
+    /// The protocol version of the frames.
+    pub fn set_version(&mut self, version: Version) {
+        self.version = version;
+    }
+
+    /// The protocol version of the frames.
+    pub fn version(&self) -> Version {
+        self.version
+    }
+
+    /// The sequence number the next frame carries.
+    pub fn seq(&self) -> u8 {
+        self.seq
+    }
+
+    /// The clock signing timestamps keep up with: a function returning the
+    /// time in signing units (10 µs since 2015-01-01 00:00 UTC, as
+    /// `signing::timestamp_now` with `std`); `None` for none.
+    pub fn set_clock(&mut self, clock: Option<fn() -> u64>) {
+        self.clock = clock;
+    }
+
+    /// Frames `msg` from `sysid`/`compid` with the next sequence number
+    /// (which advances whatever happens next: a receiver counts a frame
+    /// that failed to go out as lost).
+    ///
+    /// Errors: [`FrameError::IdTooLargeForV1`] for a MAVLink 1 frame of an
+    /// id above 255; [`FrameError::BufferTooSmall`] only for an [`Encode`]
+    /// implementation that writes past its own `max_len`.
+    pub fn frame(
+        &mut self,
+        sysid: u8,
+        compid: u8,
+        msg: &(impl Encode + ?Sized),
+    ) -> Result<&[u8], FrameError> {
+        let meta = msg.meta();
+        let at = self.payload_at();
+        let len =
+            msg.emit_payload(&mut self.buf[at..])
+                .map_err(|e| FrameError::BufferTooSmall {
+                    needed: at + e.needed,
+                })?;
+        self.finish(sysid, compid, meta, len)
+    }
+
+    /// Frames a message known by its table row and payload bytes (all of
+    /// them, `meta.max_len` at most; shorter means zeros follow), as
+    /// [`frame`](Self::frame) does: what a router uses to frame a message
+    /// handed over as bytes.
+    pub fn frame_payload(
+        &mut self,
+        sysid: u8,
+        compid: u8,
+        meta: &MessageMeta,
+        payload: &[u8],
+    ) -> Result<&[u8], FrameError> {
+        let at = self.payload_at();
+        let max = meta.max_len as usize;
+        let len = payload.len().min(max);
+        // `at + max` is at most 10 + 255, inside the 280-byte buffer.
+        self.buf[at..at + max].fill(0);
+        self.buf[at..at + len].copy_from_slice(&payload[..len]);
+        self.finish(sysid, compid, meta, max)
+    }
+
+    fn payload_at(&self) -> usize {
+        match self.version {
+            Version::V2 => HEADER_LEN_V2,
+            Version::V1 => HEADER_LEN_V1,
+        }
+    }
+
+    fn finish(
+        &mut self,
+        sysid: u8,
+        compid: u8,
+        meta: &MessageMeta,
+        len: usize,
+    ) -> Result<&[u8], FrameError> {
+        let header = Header {
+            seq: self.seq,
+            sysid,
+            compid,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        if let (Some(signer), Some(clock)) = (&mut self.signer, self.clock) {
+            signer.advance_to(clock());
+        }
+        let n = finish(
+            self.version,
+            header,
+            meta,
+            len,
+            self.signer.as_mut(),
+            &mut self.buf,
+        )?;
+        Ok(&self.buf[..n])
+    }
+}
+
+/// Lets `?` turn a framing error into an I/O error in code that returns
+/// `io::Result` (the blocking and tokio connections).
+#[cfg(feature = "std")]
+impl From<FrameError> for std::io::Error {
+    fn from(e: FrameError) -> Self {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::{Frame, IFLAG_SIGNED};
+    use crate::message::{BufferTooSmall, Message};
+
+    /// Id 300 (too large for MAVLink 1), two bytes.
+    #[derive(Debug, Clone, Default, PartialEq)]
+    struct Big(u16);
+
+    impl Message for Big {
+        const META: MessageMeta = MessageMeta {
+            id: 300,
+            name: "BIG",
+            crc_extra: 9,
+            min_len: 2,
+            max_len: 2,
+            target_system_offset: None,
+            target_component_offset: None,
+            fields: &[],
+        };
+        type View<'a> = ();
+        fn parse(p: &[u8]) -> Self {
+            Big(u16::from_le_bytes([
+                p.first().copied().unwrap_or(0),
+                p.get(1).copied().unwrap_or(0),
+            ]))
+        }
+        fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {
+            let got = p.len();
+            p.get_mut(..2)
+                .ok_or(BufferTooSmall { needed: 2, got })?
+                .copy_from_slice(&self.0.to_le_bytes());
+            Ok(2)
+        }
+        fn view(_: &[u8]) {}
+    }
+
+    fn ticks() -> u64 {
+        5_000
+    }
+
+    #[test]
+    fn numbers_wrap_and_sign_with_the_clock() {
+        let mut framer = Framer::new();
+        framer.set_clock(Some(ticks));
+        framer.set_signer(Some(Signer::new([3; 32], 2, 10)));
+        for i in 0..=256u32 {
+            let bytes = framer.frame(1, 2, &Big(7)).unwrap();
+            let frame = Frame::new_checked(bytes).unwrap();
+            assert_eq!(frame.header().seq, i as u8);
+            assert_eq!(frame.incompat_flags(), IFLAG_SIGNED);
+            // Caught up with the clock on the first frame, then one per frame.
+            assert_eq!(frame.signature().unwrap().timestamp(), 5_000 + u64::from(i));
+        }
+        assert_eq!(framer.seq(), 1);
+    }
+
+    #[test]
+    fn without_a_clock_timestamps_count_frames() {
+        let mut framer = Framer::new();
+        framer.set_clock(None);
+        framer.set_signer(Some(Signer::new([3; 32], 2, 10)));
+        framer.frame(1, 2, &Big(7)).unwrap();
+        assert_eq!(framer.signer().unwrap().timestamp(), 11);
+    }
+
+    #[test]
+    fn mavlink1_refuses_large_ids_and_still_counts_the_frame() {
+        let mut framer = Framer::new();
+        framer.set_version(Version::V1);
+        assert_eq!(
+            framer.frame(1, 2, &Big(7)).map(<[u8]>::len),
+            Err(FrameError::IdTooLargeForV1(300))
+        );
+        assert_eq!(framer.seq(), 1);
+    }
+}

@@ -61,7 +61,7 @@ fn encoded<M: fbwag_dialect::mavframe::Message>(
     buf[..n].to_vec()
 }
 
-fn decode(bytes: &[u8]) -> (Frame<'_>, fbwag_dialect::Message) {
+fn decode(bytes: &[u8]) -> (Frame<&[u8]>, fbwag_dialect::Message) {
     let frame = Frame::new_checked(bytes).unwrap();
     assert_eq!(frame.as_bytes().len(), bytes.len());
     let meta = Dialect::meta(frame.msg_id()).unwrap();

@@ -37,9 +37,9 @@ pub mod signing;
 
 #[cfg(feature = "std")]
 pub use conn::{Connection, Endpoint, ReceivedFrame, Transport};
-pub use frame::{encode, Frame, FrameError, Header, Version};
+pub use frame::{encode, Frame, FrameBuf, FrameError, Header, Version};
 pub use message::{BufferTooSmall, Dialect, Encode, FieldMeta, FieldType, Message, MessageMeta};
-pub use parser::{Parser, Received};
+pub use parser::{Parser, Received, Unsigned};
 pub use signing::{Signer, Verifier};
 
 /// Re-exported for generated bitmask enums (they implement

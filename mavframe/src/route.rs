@@ -186,7 +186,7 @@ impl<const N: usize> RoutingTable<N> {
     pub fn route(
         &mut self,
         from: LinkId,
-        frame: &Frame<'_>,
+        frame: &Frame<&[u8]>,
         meta: Option<&MessageMeta>,
         links: Links,
     ) -> Links {
@@ -203,7 +203,7 @@ impl<const N: usize> RoutingTable<N> {
 /// A frame's addressee, when it has one: `Some((system, component))` for a
 /// message with a non-zero `target_system` (component 0: every component).
 /// Fields beyond a truncated payload read as zero, as MAVLink 2 requires.
-pub fn target(frame: &Frame<'_>, meta: Option<&MessageMeta>) -> Option<(u8, u8)> {
+pub fn target(frame: &Frame<&[u8]>, meta: Option<&MessageMeta>) -> Option<(u8, u8)> {
     let meta = meta?;
     let payload = frame.payload();
     let read = |at: Option<u8>| {

@@ -18,7 +18,7 @@ use crate::engine::{CcEngine, CcOutput, FcEngine, FcOutput};
 use crate::fc::{Authority, FcConfig};
 use crate::{Instant, Peer, Status};
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Message, Parser, Signer, Verifier, Version};
+use fbwag_dialect::{encode, Header, Message, Parser, Signer, Unsigned, Verifier, Version};
 use link::{GilbertElliott, Link, LinkModel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -242,7 +242,7 @@ impl Endpoint {
             parser: match verify_key {
                 // Unsigned frames reach the machine, marked unauthenticated:
                 // whether they count is the machine's policy.
-                Some(k) => Parser::with_signing(Verifier::new(k), true),
+                Some(k) => Parser::with_signing(Verifier::new(k), Unsigned::Accept),
                 None => Parser::new(),
             },
         }

@@ -47,7 +47,7 @@ use crate::frame::{
 use crate::message::Dialect;
 
 /// Prefix states kept. A checksum asked for while the candidate is at `c`
-/// starts after a position inside the candidate (before `c + 280`) and
+/// starts after a position inside the candidate (before `c + MAX_FRAME_LEN`) and
 /// covers at most 264 bytes: live states span less than 545 positions.
 const PREFIX_RING: usize = 1024;
 const PREFIX_MASK: u64 = PREFIX_RING as u64 - 1;

@@ -183,13 +183,14 @@ impl<const N: usize> RoutingTable<N> {
     /// `links` (the router's open links) it must be forwarded to. `meta` is
     /// the message's table row (`None` for an id the dialect does not know:
     /// such a frame is forwarded everywhere, raw).
-    pub fn route(
+    pub fn route<T: AsRef<[u8]>>(
         &mut self,
         from: LinkId,
-        frame: &Frame<&[u8]>,
+        frame: &Frame<T>,
         meta: Option<&MessageMeta>,
         links: Links,
     ) -> Links {
+        let frame = &frame.as_view();
         let h = frame.header();
         self.learn(from, h.sysid, h.compid);
         let others = links.without(from);

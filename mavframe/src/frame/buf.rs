@@ -29,8 +29,8 @@ use core::{fmt, ops::Deref};
 /// impl Encode for Ping {
 ///     fn meta(&self) -> &'static MessageMeta { &PING }
 ///     fn emit_payload(&self, out: &mut [u8]) -> Result<usize, mavframe::BufferTooSmall> {
-///         let slot = out.get_mut(..4)
-///             .ok_or(mavframe::BufferTooSmall { needed: 4, got: out.len() })?;
+///         let got = out.len();
+///         let slot = out.get_mut(..4).ok_or(mavframe::BufferTooSmall { needed: 4, got })?;
 ///         slot.copy_from_slice(&self.0.to_le_bytes());
 ///         Ok(4)
 ///     }

@@ -37,7 +37,7 @@ impl Sender {
     }
 
     fn frame(&mut self, msg: &dyn Encode) -> Vec<u8> {
-        let mut buf = [0u8; 280];
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let h = Header {
             seq: self.seq,
             sysid: self.id.sysid,

@@ -68,7 +68,7 @@ fn expect_notice(link: &mut Link) -> (Header, FbwagNotice) {
 }
 
 fn frame_bytes(seq: u8, sysid: u8, timestamp: u32) -> Vec<u8> {
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     let h = Header {
         seq,
         sysid,

@@ -32,7 +32,7 @@ fn frame_of<M: fbwag_dialect::mavframe::Message>(
     v: Version,
     signer: Option<&mut Signer>,
 ) -> Vec<u8> {
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     let h = Header {
         seq,
         sysid: 1,
@@ -308,7 +308,7 @@ fn raw_frame(id: u32, seq: u8, payload: &[u8]) -> Vec<u8> {
         target_component_offset: None,
         fields: &[],
     };
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     buf[10..10 + payload.len()].copy_from_slice(payload);
     let h = Header {
         seq,

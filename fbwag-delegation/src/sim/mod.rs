@@ -249,7 +249,7 @@ impl Endpoint {
     }
 
     fn frame<M: Encode + ?Sized>(&mut self, msg: &M) -> Vec<u8> {
-        let mut buf = [0u8; 280];
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let h = Header {
             seq: self.seq,
             sysid: self.id.sysid,

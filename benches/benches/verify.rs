@@ -129,9 +129,9 @@ fn bench(
     primed: Verifier<16>,
     bytes: &[Vec<u8>],
 ) {
-    let stream: Vec<Frame<'_>> = bytes
+    let stream: Vec<Frame<&[u8]>> = bytes
         .iter()
-        .map(|f| Frame::new_checked(f).expect("a whole frame"))
+        .map(|f| Frame::new_checked(&f[..]).expect("a whole frame"))
         .collect();
     g.bench_function(name, |b| {
         b.iter_batched_ref(

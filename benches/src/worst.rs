@@ -3,7 +3,7 @@
 //! bytes, garbage dense in start bytes, the repeating pattern of issue 10,
 //! and the worst short patterns the search found.
 
-use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
 use fbwag_dialect::mavframe::signing::Verifier;
 use fbwag_dialect::Dialect;
 use std::hint::black_box;
@@ -137,7 +137,7 @@ pub fn inputs() -> Vec<(String, Vec<u8>, bool)> {
 /// unsigned frames.
 pub fn parser(keyed: bool) -> Parser<Dialect> {
     if keyed {
-        Parser::with_signing(Verifier::new(crate::KEY), false)
+        Parser::with_signing(Verifier::new(crate::KEY), Unsigned::Refuse)
     } else {
         Parser::new()
     }

@@ -5,7 +5,9 @@
 use benches::mavlink_fbwag::fbwag::MavMessage as TheirFbwag;
 use benches::{mavlink_header, OurEncoder, TheirEncoder, Theirs, KEY};
 use fbwag_dialect::mavframe::{Dialect as _, Verifier};
-use fbwag_dialect::{Dialect, FbwagNotice, Header, Message, MessageView, Parser, MESSAGES};
+use fbwag_dialect::{
+    Dialect, FbwagNotice, Header, Message, MessageView, Parser, Unsigned, MESSAGES,
+};
 use mavlink::Message as _;
 
 #[test]
@@ -81,7 +83,7 @@ fn signed_frames_of_each_library_verify_with_ours() {
     );
     let mut stream = OurEncoder::new(true).encode(header, &notice).to_vec();
     stream.extend_from_slice(TheirEncoder::new(true).encode_any(mavlink_header(header), &theirs));
-    let mut parser = Parser::with_signing(Verifier::new(KEY), false);
+    let mut parser = Parser::with_signing(Verifier::new(KEY), Unsigned::Refuse);
     let mut input = &stream[..];
     let mut authenticated = 0;
     while let Some(r) = parser.next(&mut input) {

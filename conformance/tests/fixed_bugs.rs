@@ -5,7 +5,7 @@
 mod support;
 
 use mavframe::frame::Header;
-use mavframe::{Parser, Verifier};
+use mavframe::{Parser, Unsigned, Verifier};
 use support::frames::{build_frame, Mode, KEY};
 use support::three_way::three_way;
 use support::values::hex;
@@ -69,7 +69,8 @@ fn bad_signature_frame_does_not_hide_the_next_frame() {
         &KEY,
     );
     let stream = [cut, good.clone()].concat();
-    let mut p = Parser::<fbwag_dialect::Dialect>::with_signing(Verifier::new(KEY), true);
+    let mut p =
+        Parser::<fbwag_dialect::Dialect>::with_signing(Verifier::new(KEY), Unsigned::Accept);
     let mut input = &stream[..];
     let mut got = Vec::new();
     while let Some(rx) = p.next(&mut input) {

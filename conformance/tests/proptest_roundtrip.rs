@@ -17,7 +17,7 @@
 mod support;
 
 use mavframe::frame::Header;
-use mavframe::{Dialect, FieldType, MessageMeta, Parser, Verifier};
+use mavframe::{Dialect, FieldType, MessageMeta, Parser, Unsigned, Verifier};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -88,7 +88,7 @@ where
                 compid: h[2],
             };
             let frame = build_frame(meta, mode, header, &emit(&msg), link, ts, &KEY);
-            let mut parser = Parser::<D>::with_signing(Verifier::new(KEY), true);
+            let mut parser = Parser::<D>::with_signing(Verifier::new(KEY), Unsigned::Accept);
             let mut input = &frame[..];
             let mut got = Vec::new();
             while let Some(rx) = parser.next(&mut input) {

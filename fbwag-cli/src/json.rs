@@ -24,10 +24,8 @@
 
 mod fields;
 
-use fbwag_dialect::mavframe::crc::frame_crc;
 use fbwag_dialect::mavframe::frame::{
-    truncated_len, Frame, Header, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2,
-    IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
+    truncated_len, Frame, Header, Version, IFLAG_SIGNED, MAX_FRAME_LEN,
 };
 use fbwag_dialect::mavframe::{Dialect as _, MessageMeta, Signer};
 use fbwag_dialect::Dialect;
@@ -65,7 +63,7 @@ pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
 
 /// The JSON line for a frame; `meta` is `None` for an unknown id.
 pub fn frame_to_json(
-    frame: &Frame<'_>,
+    frame: &Frame<&[u8]>,
     meta: Option<&MessageMeta>,
     tlog_us: Option<u64>,
 ) -> String {
@@ -110,7 +108,7 @@ pub fn frame_to_json(
 }
 
 /// Ends the line of a frame as `"name":null` with the whole frame in hex.
-fn raw_json(mut out: String, frame: &Frame<'_>) -> String {
+fn raw_json(mut out: String, frame: &Frame<&[u8]>) -> String {
     let _ = write!(
         out,
         "\"name\":null,\"signed\":{},\"raw\":\"{}\"}}",
@@ -122,7 +120,7 @@ fn raw_json(mut out: String, frame: &Frame<'_>) -> String {
 
 /// The keys a known message's line carries only when the frame needs them:
 /// signature, compat flags, a non-canonical length, bytes beyond the fields.
-fn envelope_extras(out: &mut String, frame: &Frame<'_>, meta: &MessageMeta) {
+fn envelope_extras(out: &mut String, frame: &Frame<&[u8]>, meta: &MessageMeta) {
     if let Some(sig) = frame.signature() {
         let _ = write!(
             out,
@@ -484,34 +482,28 @@ fn v2_line(
         signature_block(obj)?
     };
     let signed = block.is_some() || opts.signer.is_some();
-    let total = HEADER_LEN_V2 + len + CHECKSUM_LEN + if signed { SIGNATURE_LEN } else { 0 };
-    let id = meta.id.to_le_bytes();
-    out[..HEADER_LEN_V2].copy_from_slice(&[
-        STX_V2,
-        len as u8,
-        if signed { IFLAG_SIGNED } else { 0 },
-        compat.unwrap_or(0) as u8,
-        header.seq,
-        header.sysid,
-        header.compid,
-        id[0],
-        id[1],
-        id[2],
-    ]);
-    let crc_at = HEADER_LEN_V2 + len;
-    out[HEADER_LEN_V2..crc_at].copy_from_slice(&payload[..len]);
-    let crc = frame_crc(&out[1..crc_at], meta.crc_extra);
-    out[crc_at..crc_at + CHECKSUM_LEN].copy_from_slice(&crc.to_le_bytes());
+    let flags = if signed { IFLAG_SIGNED } else { 0 };
+    let mut frame = Frame::new_v2(&mut out[..], len as u8, flags, compat.unwrap_or(0) as u8)
+        .map_err(|e| e.to_string())?;
+    frame.set_header(header);
+    frame.set_msg_id(meta.id).map_err(|e| e.to_string())?;
+    frame.payload_mut().copy_from_slice(&payload[..len]);
+    frame.fill_checksum(meta.crc_extra);
     match (opts.signer.as_deref_mut(), block) {
-        (Some(signer), _) => sign(signer, &mut out[..total])?,
-        (None, Some(block)) => out[total - SIGNATURE_LEN..total].copy_from_slice(&block),
+        (Some(signer), _) => sign(signer, frame.as_bytes_mut())?,
+        (None, Some((link_id, timestamp, signature))) => frame
+            .set_signature(link_id, timestamp, signature)
+            .map_err(|e| e.to_string())?,
         (None, None) => {}
     }
-    Ok(total)
+    Ok(frame.frame_len())
 }
 
+/// A signature block's link id, timestamp and signature.
+type SignatureFields = (u8, u64, [u8; 6]);
+
 /// The signature block a line carries, checked against its `signed`.
-fn signature_block(obj: &Object<'_>) -> Result<Option<[u8; SIGNATURE_LEN]>, String> {
+fn signature_block(obj: &Object<'_>) -> Result<Option<SignatureFields>, String> {
     let keys = ["signature", "link_id", "sign_timestamp"];
     let given = keys.iter().filter(|k| obj.has(k)).count();
     match (obj.bool("signed")?, given) {
@@ -533,17 +525,14 @@ fn signature_block(obj: &Object<'_>) -> Result<Option<[u8; SIGNATURE_LEN]>, Stri
         _ => {}
     }
     let sig = unhex(&obj.string("signature")?.unwrap_or_default())?;
-    if sig.len() != 6 {
-        return Err(format!("`signature` must be 6 bytes, not {}", sig.len()));
-    }
-    let mut block = [0u8; SIGNATURE_LEN];
-    block[0] = obj.uint("link_id", 255)?.unwrap_or(0) as u8;
+    let sig: [u8; 6] = sig
+        .try_into()
+        .map_err(|s: Vec<u8>| format!("`signature` must be 6 bytes, not {}", s.len()))?;
+    let link_id = obj.uint("link_id", 255)?.unwrap_or(0) as u8;
     let ts = obj
         .uint("sign_timestamp", crate::args::MAX_SIGN_TIMESTAMP)?
         .unwrap_or(0);
-    block[1..7].copy_from_slice(&ts.to_le_bytes()[..6]);
-    block[7..].copy_from_slice(&sig);
-    Ok(Some(block))
+    Ok(Some((link_id, ts, sig)))
 }
 
 /// The payload length a line asks for (`default` when it does not say):
@@ -633,18 +622,10 @@ fn v1_frame(
 ) -> Result<usize, String> {
     let id = u8::try_from(meta.id)
         .map_err(|_| format!("{} (id {}) cannot be sent as MAVLink 1", meta.name, meta.id))?;
-    let len = payload.len();
-    let crc_at = HEADER_LEN_V1 + len;
-    out[..HEADER_LEN_V1].copy_from_slice(&[
-        STX_V1,
-        len as u8,
-        header.seq,
-        header.sysid,
-        header.compid,
-        id,
-    ]);
-    out[HEADER_LEN_V1..crc_at].copy_from_slice(payload);
-    let crc = frame_crc(&out[1..crc_at], meta.crc_extra);
-    out[crc_at..crc_at + CHECKSUM_LEN].copy_from_slice(&crc.to_le_bytes());
-    Ok(crc_at + CHECKSUM_LEN)
+    let mut frame = Frame::new_v1(&mut out[..], payload.len() as u8).map_err(|e| e.to_string())?;
+    frame.set_header(header);
+    frame.set_msg_id(u32::from(id)).map_err(|e| e.to_string())?;
+    frame.payload_mut().copy_from_slice(payload);
+    frame.fill_checksum(meta.crc_extra);
+    Ok(frame.frame_len())
 }

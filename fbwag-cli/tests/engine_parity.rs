@@ -15,7 +15,7 @@ use fbwag_dialect::dialects::common::{ManualControl, SetAttitudeTarget};
 use fbwag_dialect::mavframe::signing::timestamp_now;
 use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{
-    encode, Frame, Header, Message, MessageView, Parser, Signer, Verifier, Version,
+    encode, Frame, Header, Message, MessageView, Parser, Signer, Unsigned, Verifier, Version,
 };
 use std::collections::BTreeSet;
 use std::net::UdpSocket;
@@ -48,7 +48,7 @@ struct Sender {
 
 impl Sender {
     fn frame(&mut self, msg: &dyn Encode) -> Vec<u8> {
-        let mut buf = [0u8; 280];
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let h = Header {
             seq: self.seq,
             sysid: self.id.sysid,
@@ -117,7 +117,7 @@ impl Script {
     }
 
     /// What the FC said: notices are answered, echoing their event.
-    fn on_fc(&mut self, frame: &Frame<'_>) -> Vec<(Who, Vec<u8>)> {
+    fn on_fc(&mut self, frame: &Frame<&[u8]>) -> Vec<(Who, Vec<u8>)> {
         let Some(MessageView::FbwagNotice(n)) = MessageView::new(frame.msg_id(), frame.payload())
         else {
             return Vec::new();
@@ -193,7 +193,10 @@ fn virtual_run() -> Behaviour {
         ..FcConfig::default()
     };
     let mut fc = FcEngine::new(cfg, Instant::ZERO).unwrap();
-    let mut parser = Parser::with_signing(Verifier::with_timestamp(KEY, timestamp_now()), true);
+    let mut parser = Parser::with_signing(
+        Verifier::with_timestamp(KEY, timestamp_now()),
+        Unsigned::Accept,
+    );
     let mut fc_out = Sender {
         id: FC,
         seq: 0,
@@ -215,7 +218,7 @@ fn virtual_run() -> Behaviour {
             match out {
                 FcOutput::Transmit(msg) => {
                     let bytes = fc_out.frame(&msg);
-                    let frame = Frame::new_checked(&bytes).unwrap();
+                    let frame = Frame::new_checked(&bytes[..]).unwrap();
                     incoming.extend(script.on_fc(&frame));
                 }
                 FcOutput::SetMode(a) => behaviour.modes.push(mode_name(a)),
@@ -276,7 +279,10 @@ fn live_run() -> Behaviour {
         .unwrap();
     let mut child = Kill(child);
     let fc_addr = format!("127.0.0.1:{port}");
-    let mut parser = Parser::with_signing(Verifier::with_timestamp(KEY, timestamp_now()), false);
+    let mut parser = Parser::with_signing(
+        Verifier::with_timestamp(KEY, timestamp_now()),
+        Unsigned::Refuse,
+    );
     let mut script = Script::new();
     // fc-sim's clock starts when it starts: close enough (a few ms) for a
     // schedule in hundreds of ms; the comparison is of orders and kinds.

@@ -771,7 +771,7 @@ use fbwag_dialect::dialects::common::{
 use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::mavframe::signing::timestamp_now;
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Message, Parser, Signer, Verifier, Version};
+use fbwag_dialect::{encode, Header, Message, Parser, Signer, Unsigned, Verifier, Version};
 
 /// A MAVLink sender with its own sequence and, optionally, a signing key.
 struct Sender {
@@ -792,7 +792,7 @@ impl Sender {
     }
 
     fn frame(&mut self, msg: &dyn Encode) -> Vec<u8> {
-        let mut buf = [0u8; 280];
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let h = Header {
             seq: self.seq,
             sysid: self.sysid,
@@ -995,7 +995,10 @@ fn exchange(
     for f in frames {
         socket.send_to(f, to).unwrap();
     }
-    let mut parser = Parser::with_signing(Verifier::with_timestamp(KEY, timestamp_now()), true);
+    let mut parser = Parser::with_signing(
+        Verifier::with_timestamp(KEY, timestamp_now()),
+        Unsigned::Accept,
+    );
     let mut out = Vec::new();
     let end = Instant::now() + wait;
     let mut buf = [0u8; 2048];

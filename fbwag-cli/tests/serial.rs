@@ -31,7 +31,7 @@ fn fbwag_cc_answers_over_a_serial_line() {
     let mut parser = Parser::new();
     let mut seq = 0u8;
     let mut send = |fc: &mut Serial, msg: Message| {
-        let mut buf = [0u8; 280];
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let h = Header {
             seq,
             sysid: 1,

@@ -288,7 +288,7 @@ impl<const N: usize> CommandClient<N> {
     /// A received frame: a COMMAND_ACK from a command's target, addressed
     /// to this client (or to every system), answers it. Anything else is
     /// ignored.
-    pub fn handle_frame(&mut self, now: Instant, frame: &Frame<'_>) {
+    pub fn handle_frame(&mut self, now: Instant, frame: &Frame<&[u8]>) {
         if let Some(MessageView::CommandAck(v)) = MessageView::new(frame.msg_id(), frame.payload())
         {
             let h = frame.header();

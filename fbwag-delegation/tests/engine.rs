@@ -9,7 +9,7 @@ use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::{wire, Instant, Peer, Status, TEXT_CC_TOOK_OVER};
 use fbwag_dialect::dialects::common::{ManualControl, SetAttitudeTarget};
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Message, Parser, Signer, Verifier, Version};
+use fbwag_dialect::{encode, Header, Message, Parser, Signer, Unsigned, Verifier, Version};
 
 const FC: Peer = Peer::new(1, 1);
 const CC: Peer = Peer::new(1, 191);
@@ -37,7 +37,7 @@ impl Sender {
     }
 
     fn frame(&mut self, msg: &dyn Encode) -> Vec<u8> {
-        let mut buf = [0u8; 280];
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let h = Header {
             seq: self.seq,
             sysid: self.id.sysid,
@@ -54,7 +54,7 @@ impl Sender {
 fn deliver(
     parser: &mut Parser,
     bytes: &[u8],
-    mut feed: impl FnMut(&fbwag_dialect::Frame<'_>, bool),
+    mut feed: impl FnMut(&fbwag_dialect::Frame<&[u8]>, bool),
 ) {
     let mut input = bytes;
     while let Some(r) = parser.next(&mut input) {
@@ -63,7 +63,7 @@ fn deliver(
 }
 
 fn signing_parser() -> Parser {
-    Parser::with_signing(Verifier::new(KEY), true)
+    Parser::with_signing(Verifier::new(KEY), Unsigned::Accept)
 }
 
 fn fc_outputs(fc: &mut FcEngine) -> Vec<FcOutput> {

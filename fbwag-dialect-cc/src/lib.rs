@@ -61,8 +61,8 @@ pub use dialects::fbwag::{
     MessageView, MESSAGES,
 };
 
-pub use mavframe::frame::{encode, Frame, FrameError, Header, Version};
-pub use mavframe::parser::{Received, Stats};
+pub use mavframe::frame::{encode, Frame, FrameBuf, FrameError, Header, Version};
+pub use mavframe::parser::{Received, Stats, Unsigned};
 pub use mavframe::signing::{SignatureError, Signer, Verifier};
 
 /// The streaming parser for this dialect (see [`mavframe::parser`]).

@@ -33,7 +33,7 @@ fn other_messages_still_parse_as_raw_frames() {
         failsafe_status: FbwagFailsafeStatus::RC_LOST,
         ..Default::default()
     };
-    let mut a = [0u8; 280];
+    let mut a = [0u8; fbwag_dialect_cc::mavframe::frame::MAX_FRAME_LEN];
     let n = encode(Version::V2, Header::default(), &notice, None, &mut a).unwrap();
     // SCALED_PRESSURE (id 29), not in the subset: 14 payload bytes, any CRC.
     let mut raw = vec![0xFD, 14, 0, 0, 0, 1, 1, 29, 0, 0];

@@ -23,7 +23,7 @@ use fbwag_dialect::mavframe::embedded::{
     embedded_io, embedded_io_async, AsyncLink, Link, RecvError, SendError,
 };
 use fbwag_dialect::mavframe::field::chars;
-use fbwag_dialect::mavframe::{Framer, Parser, Signer, Verifier};
+use fbwag_dialect::mavframe::{Framer, Parser, Signer, Unsigned, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice, MessageView};
 use std::cell::RefCell;
 use std::collections::VecDeque;
@@ -44,7 +44,10 @@ const CC: (u8, u8) = (1, 191);
 /// A signed link over `uart` for `ids`, signing with `link_id`, refusing
 /// unsigned frames.
 fn signed_link<T>(uart: T, ids: (u8, u8), link_id: u8) -> Link<T, Dialect> {
-    let parser = Parser::with_signing(Verifier::with_timestamp(KEY, SAVED_TIMESTAMP), false);
+    let parser = Parser::with_signing(
+        Verifier::with_timestamp(KEY, SAVED_TIMESTAMP),
+        Unsigned::Refuse,
+    );
     let mut framer = Framer::new();
     // No RTC on this board: timestamps count up from the signer's start.
     framer.set_clock(None);
@@ -175,7 +178,10 @@ fn blocking_handshake(fifo: usize) -> Result<Outcome, Box<dyn std::error::Error>
 async fn async_handshake(fifo: usize) -> Result<u32, LinkError<Fault>> {
     let (fc_uart, cc_uart) = SerialLine::pair(fifo);
     let signed = |uart, ids: (u8, u8), link_id| {
-        let parser = Parser::with_signing(Verifier::with_timestamp(KEY, SAVED_TIMESTAMP), false);
+        let parser = Parser::with_signing(
+            Verifier::with_timestamp(KEY, SAVED_TIMESTAMP),
+            Unsigned::Refuse,
+        );
         let mut framer = Framer::new();
         framer.set_clock(None);
         framer.set_signer(Some(Signer::new(KEY, link_id, SAVED_TIMESTAMP + 1)));

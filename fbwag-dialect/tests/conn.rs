@@ -12,7 +12,7 @@ use fbwag_dialect::mavframe::conn::{
 };
 use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::mavframe::frame::{encode, Header, Version};
-use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
 use fbwag_dialect::mavframe::{Signer, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice, Message};
 use std::collections::BTreeSet;
@@ -68,7 +68,7 @@ fn expect_notice(link: &mut Link) -> (Header, FbwagNotice) {
 }
 
 fn frame_bytes(seq: u8, sysid: u8, timestamp: u32) -> Vec<u8> {
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     let h = Header {
         seq,
         sysid,
@@ -583,7 +583,7 @@ fn tcpin_drops_a_client_that_stops_reading_without_blocking() {
 #[test]
 fn signed_frames_are_verified_and_unsigned_ones_refused() {
     let key = [7u8; 32];
-    let server_parser = Parser::<Dialect>::with_signing(Verifier::new(key), false);
+    let server_parser = Parser::<Dialect>::with_signing(Verifier::new(key), Unsigned::Refuse);
     let AnyTransport::UdpIn(udp) =
         fbwag_dialect::mavframe::conn::open(&"udpin:127.0.0.1:0".parse().unwrap()).unwrap()
     else {

@@ -216,7 +216,10 @@ fn message_enum_encodes_like_the_message_it_holds() {
         sysid: 1,
         compid: 191,
     };
-    let (mut a, mut b) = ([0u8; 280], [0u8; 280]);
+    let (mut a, mut b) = (
+        [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN],
+        [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN],
+    );
     let na = encode(Version::V2, h, &notice, None, &mut a).unwrap();
     let nb = encode(Version::V2, h, &as_enum, None, &mut b).unwrap();
     assert_eq!(a[..na], b[..nb]);

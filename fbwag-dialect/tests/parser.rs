@@ -5,7 +5,7 @@
 use fbwag_dialect::dialects::{common, minimal};
 use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::mavframe::frame::{encode, Header, Version};
-use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
 use fbwag_dialect::mavframe::{Dialect as _, Signer, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice};
 
@@ -32,7 +32,7 @@ fn frame_of<M: fbwag_dialect::mavframe::Message>(
     v: Version,
     signer: Option<&mut Signer>,
 ) -> Vec<u8> {
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     let h = Header {
         seq,
         sysid: 1,
@@ -257,7 +257,7 @@ fn signing_policy_replay_and_wrong_key() {
     ]
     .concat();
 
-    let mut strict = Parser::<Dialect>::with_signing(Verifier::new(key), false);
+    let mut strict = Parser::<Dialect>::with_signing(Verifier::new(key), Unsigned::Refuse);
     let got: Vec<_> = parse_all(&mut strict, &stream, 5);
     assert_eq!(got, vec![signed1.clone(), signed2.clone()]);
     let s = strict.stats();
@@ -267,7 +267,7 @@ fn signing_policy_replay_and_wrong_key() {
         "replay + forged; unsigned refused"
     );
 
-    let mut lenient = Parser::<Dialect>::with_signing(Verifier::new(key), true);
+    let mut lenient = Parser::<Dialect>::with_signing(Verifier::new(key), Unsigned::Accept);
     assert_eq!(
         parse_all(&mut lenient, &stream, 5),
         vec![signed1, unsigned, signed2]
@@ -291,7 +291,7 @@ fn authenticated_flag_reports_verified_frames() {
         Version::V2,
         Some(&mut signer),
     );
-    let mut p = Parser::<Dialect>::with_signing(Verifier::new(key), true);
+    let mut p = Parser::<Dialect>::with_signing(Verifier::new(key), Unsigned::Accept);
     let mut input: &[u8] = &f;
     assert!(p.next(&mut input).unwrap().authenticated);
 }
@@ -308,7 +308,7 @@ fn raw_frame(id: u32, seq: u8, payload: &[u8]) -> Vec<u8> {
         target_component_offset: None,
         fields: &[],
     };
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     buf[10..10 + payload.len()].copy_from_slice(payload);
     let h = Header {
         seq,

@@ -14,7 +14,7 @@ mod reference;
 
 use dialects::{row, AllKnown, Few, NoZero, ALL_ROWS, FEW_ROWS};
 use fbwag_dialect::mavframe::frame::{finish, Header, Version};
-use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
 use fbwag_dialect::mavframe::{Dialect, MessageMeta, Signer, Verifier};
 use reference::{Got, Reference};
 
@@ -167,12 +167,12 @@ fn policy_parsers<D: Dialect>(policy: Policy) -> (Parser<D>, Reference<D>) {
     match policy {
         Policy::NoKey => (Parser::new(), Reference::new()),
         Policy::Lenient => (
-            Parser::with_signing(Verifier::new(KEY), true),
-            Reference::with_signing(Verifier::new(KEY), true),
+            Parser::with_signing(Verifier::new(KEY), Unsigned::Accept),
+            Reference::with_signing(Verifier::new(KEY), Unsigned::Accept),
         ),
         Policy::Strict => (
-            Parser::with_signing(Verifier::new(KEY), false),
-            Reference::with_signing(Verifier::new(KEY), false),
+            Parser::with_signing(Verifier::new(KEY), Unsigned::Refuse),
+            Reference::with_signing(Verifier::new(KEY), Unsigned::Refuse),
         ),
     }
 }

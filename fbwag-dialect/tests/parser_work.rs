@@ -25,7 +25,7 @@ mod reference;
 
 use dialects::{AllKnown, Few};
 use fbwag_dialect::mavframe::frame::{finish, Header, Version};
-use fbwag_dialect::mavframe::parser::Parser;
+use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
 use fbwag_dialect::mavframe::{Dialect, Signer, Verifier};
 
 /// The bound on steps per (byte + call).
@@ -118,7 +118,7 @@ enum Chunking {
 /// Steps per (byte + call), signature checks, start bytes, and the frames.
 fn run<D: Dialect>(bytes: &[u8], keyed: bool, chunking: Chunking, seed: u64) -> (f64, u64, u64) {
     let mut p = if keyed {
-        Parser::<D>::with_signing(Verifier::new(KEY), false)
+        Parser::<D>::with_signing(Verifier::new(KEY), Unsigned::Refuse)
     } else {
         Parser::<D>::new()
     };

@@ -56,12 +56,12 @@ fn encoded<M: fbwag_dialect::mavframe::Message>(
     m: &M,
     signer: Option<&mut Signer>,
 ) -> Vec<u8> {
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     let n = encode(v, H, m, signer, &mut buf).unwrap();
     buf[..n].to_vec()
 }
 
-fn decode(bytes: &[u8]) -> (Frame<'_>, fbwag_dialect::Message) {
+fn decode(bytes: &[u8]) -> (Frame<&[u8]>, fbwag_dialect::Message) {
     let frame = Frame::new_checked(bytes).unwrap();
     assert_eq!(frame.as_bytes().len(), bytes.len());
     let meta = Dialect::meta(frame.msg_id()).unwrap();
@@ -142,7 +142,7 @@ fn heartbeat_v2_and_v1() {
 
 #[test]
 fn v1_rejects_large_ids_and_drops_extensions() {
-    let mut buf = [0u8; 280];
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     let err = encode(Version::V1, H, &notice(1, 1, 1, "FBWAG", 1), None, &mut buf);
     assert_eq!(
         err,

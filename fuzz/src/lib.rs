@@ -20,7 +20,7 @@ use fbwag_dialect::mavframe::frame::{
     finish, frame_len, truncated_len, Frame, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN,
     SIGNATURE_LEN,
 };
-use fbwag_dialect::mavframe::parser::{Parser, Stats};
+use fbwag_dialect::mavframe::parser::{Parser, Stats, Unsigned};
 use fbwag_dialect::mavframe::signing::Verifier;
 use fbwag_dialect::mavframe::Dialect as _;
 use fbwag_dialect::{Dialect, Message, MessageView};
@@ -37,8 +37,8 @@ fn run_parser(
 ) -> (Vec<Got>, Stats) {
     let mut p = match policy {
         0 => Parser::<Dialect>::new(),
-        1 => Parser::<Dialect>::with_signing(Verifier::new(KEY), true),
-        _ => Parser::<Dialect>::with_signing(Verifier::new(KEY), false),
+        1 => Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Accept),
+        _ => Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Refuse),
     };
     let mut out = Vec::new();
     let mut rest = stream;

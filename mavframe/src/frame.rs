@@ -16,6 +16,9 @@ use crate::message::{Encode, MessageMeta};
 use crate::signing::Signer;
 use core::fmt;
 
+mod buf;
+pub use buf::FrameBuf;
+
 /// Start byte of a MAVLink 1 frame.
 pub const STX_V1: u8 = 0xFE;
 /// Start byte of a MAVLink 2 frame.
@@ -58,6 +61,7 @@ pub struct Header {
 
 /// Why bytes are not a frame, or a frame cannot be built.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum FrameError {
     /// The first byte is not a start byte.
     NotStart,
@@ -71,6 +75,12 @@ pub enum FrameError {
     UnknownIncompatFlags(u8),
     /// MAVLink 1 carries 8-bit ids only.
     IdTooLargeForV1(u32),
+    /// MAVLink 2 carries 24-bit ids only.
+    IdTooLarge(u32),
+    /// MAVLink 1 has no compatibility flags.
+    NoCompatFlagsInV1(u8),
+    /// A signature was set on an unsigned frame.
+    NotSigned,
     /// The output buffer is too small.
     BufferTooSmall {
         /// Bytes the frame needs.
@@ -91,6 +101,16 @@ impl fmt::Display for FrameError {
             FrameError::IdTooLargeForV1(id) => {
                 write!(f, "message id {id} does not fit MAVLink 1 (at most 255)")
             }
+            FrameError::IdTooLarge(id) => {
+                write!(f, "message id {id} does not fit 24 bits")
+            }
+            FrameError::NoCompatFlagsInV1(b) => {
+                write!(
+                    f,
+                    "MAVLink 1 has no compatibility flags (asked for {b:#04x})"
+                )
+            }
+            FrameError::NotSigned => write!(f, "the frame is not signed"),
             FrameError::BufferTooSmall { needed } => {
                 write!(f, "output buffer too small: {needed} bytes needed")
             }
@@ -98,8 +118,7 @@ impl fmt::Display for FrameError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for FrameError {}
+impl core::error::Error for FrameError {}
 
 /// The length of the frame starting at `bytes[0]`, from its header.
 ///
@@ -140,35 +159,89 @@ pub fn frame_len(bytes: &[u8]) -> Result<usize, FrameError> {
     }
 }
 
-/// A whole frame (v1 or v2) over its bytes.
+/// A whole frame (v1 or v2) over a buffer, in the smoltcp style: `T` is
+/// anything that derefs to bytes (`&[u8]`, `&mut [u8]`, [`FrameBuf`],
+/// `Vec<u8>`...). Reading needs `T: AsRef<[u8]>`, the setters
+/// `T: AsMut<[u8]>` too.
+///
+/// [`Frame::new_checked`] checks the start byte and that the buffer holds the
+/// whole frame its header announces; after that no accessor can panic. The
+/// buffer may run on past the frame: the frame's own length
+/// ([`Frame::frame_len`]) comes from its header, and [`Frame::as_bytes`] ends
+/// there. The setters change neither the length nor the flags, so a checked
+/// frame stays whole.
+///
+/// ```
+/// use mavframe::frame::{Frame, Header, Version};
+///
+/// // A MAVLink 2 HEARTBEAT (id 0, crc_extra 50) with a 9-byte payload.
+/// let mut buf = [0u8; 64];
+/// let mut frame = Frame::new_v2(&mut buf[..], 9, 0, 0).unwrap();
+/// frame.set_header(Header { seq: 7, sysid: 1, compid: 1 });
+/// frame.set_msg_id(0).unwrap();
+/// frame.payload_mut()[4] = 1; // type: fixed wing
+/// frame.fill_checksum(50);
+/// let len = frame.frame_len();
+///
+/// // Read it back through a view of the bytes.
+/// let view = Frame::new_checked(&buf[..len]).unwrap();
+/// assert_eq!(view.version(), Version::V2);
+/// assert_eq!(view.header().seq, 7);
+/// assert_eq!(view.payload()[4], 1);
+/// assert!(view.check_crc(50));
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub struct Frame<'a> {
-    bytes: &'a [u8],
+pub struct Frame<T: AsRef<[u8]>> {
+    buffer: T,
 }
 
-impl<'a> Frame<'a> {
-    /// The frame at the start of `bytes`; bytes after it are not part of it.
-    pub fn new_checked(bytes: &'a [u8]) -> Result<Frame<'a>, FrameError> {
+impl<T: AsRef<[u8]>> Frame<T> {
+    /// The frame at the start of `buffer`; bytes after it are not part of
+    /// it. Fails unless the buffer holds a start byte, a header with known
+    /// incompatibility flags, and the whole frame that header announces.
+    #[inline]
+    pub fn new_checked(buffer: T) -> Result<Frame<T>, FrameError> {
+        let bytes = buffer.as_ref();
         let len = frame_len(bytes)?;
-        match bytes.get(..len) {
-            Some(bytes) => Ok(Frame { bytes }),
-            None => Err(FrameError::Incomplete { needed: len }),
+        if bytes.len() < len {
+            return Err(FrameError::Incomplete { needed: len });
+        }
+        Ok(Frame { buffer })
+    }
+
+    /// The frame over `buffer` without any check. For bytes the caller has
+    /// already delimited (with [`frame_len`], or a [`Frame::new_checked`]
+    /// before [`Frame::into_inner`]); on anything else the accessors may
+    /// panic.
+    #[inline]
+    pub fn new_unchecked(buffer: T) -> Frame<T> {
+        Frame { buffer }
+    }
+
+    /// The buffer, including any bytes after the frame.
+    #[inline]
+    pub fn into_inner(self) -> T {
+        self.buffer
+    }
+
+    /// A borrowed view of the same frame (for the accessors that hand out
+    /// slices, which live on `Frame<&[u8]>`).
+    #[inline]
+    pub fn as_view(&self) -> Frame<&[u8]> {
+        Frame {
+            buffer: self.buffer.as_ref(),
         }
     }
 
-    /// The frame over `bytes`, which the caller has delimited with
-    /// [`frame_len`] (`bytes.len() == frame_len(bytes)`): what
-    /// [`Frame::new_checked`] would return, without checking again.
     #[inline]
-    pub(crate) fn from_delimited(bytes: &'a [u8]) -> Frame<'a> {
-        debug_assert_eq!(frame_len(bytes), Ok(bytes.len()));
-        Frame { bytes }
+    fn bytes(&self) -> &[u8] {
+        self.buffer.as_ref()
     }
 
     /// Protocol version.
     #[inline]
     pub fn version(&self) -> Version {
-        if self.bytes[0] == STX_V2 {
+        if self.bytes()[0] == STX_V2 {
             Version::V2
         } else {
             Version::V1
@@ -183,23 +256,24 @@ impl<'a> Frame<'a> {
         }
     }
 
-    /// The frame's bytes.
-    #[inline]
-    pub fn as_bytes(&self) -> &'a [u8] {
-        self.bytes
-    }
-
     /// Payload length as sent (MAVLink 2 payloads may be truncated).
     #[inline]
     pub fn payload_len(&self) -> usize {
-        self.bytes[1] as usize
+        self.bytes()[1] as usize
+    }
+
+    /// The frame's length: header, payload, checksum and signature.
+    #[inline]
+    pub fn frame_len(&self) -> usize {
+        let sig = if self.is_signed() { SIGNATURE_LEN } else { 0 };
+        self.header_len() + self.payload_len() + CHECKSUM_LEN + sig
     }
 
     /// Incompatibility flags (0 for MAVLink 1).
     #[inline]
     pub fn incompat_flags(&self) -> u8 {
         match self.version() {
-            Version::V2 => self.bytes[2],
+            Version::V2 => self.bytes()[2],
             Version::V1 => 0,
         }
     }
@@ -208,53 +282,54 @@ impl<'a> Frame<'a> {
     #[inline]
     pub fn compat_flags(&self) -> u8 {
         match self.version() {
-            Version::V2 => self.bytes[3],
+            Version::V2 => self.bytes()[3],
             Version::V1 => 0,
+        }
+    }
+
+    /// Where seq, sysid, compid start: after the flags in MAVLink 2, after
+    /// the length in 1.
+    #[inline]
+    fn header_at(&self) -> usize {
+        match self.version() {
+            Version::V2 => 4,
+            Version::V1 => 2,
         }
     }
 
     /// The sender-chosen header fields.
     #[inline]
     pub fn header(&self) -> Header {
-        // seq, sysid, compid follow the flags in MAVLink 2, the length in 1.
-        let at = match self.version() {
-            Version::V2 => 4,
-            Version::V1 => 2,
-        };
+        let at = self.header_at();
+        let b = self.bytes();
         Header {
-            seq: self.bytes[at],
-            sysid: self.bytes[at + 1],
-            compid: self.bytes[at + 2],
+            seq: b[at],
+            sysid: b[at + 1],
+            compid: b[at + 2],
         }
     }
 
     /// Message id.
     #[inline]
     pub fn msg_id(&self) -> u32 {
+        let b = self.bytes();
         match self.version() {
-            Version::V2 => u32::from_le_bytes([self.bytes[7], self.bytes[8], self.bytes[9], 0]),
-            Version::V1 => self.bytes[5] as u32,
+            Version::V2 => u32::from_le_bytes([b[7], b[8], b[9], 0]),
+            Version::V1 => b[5] as u32,
         }
-    }
-
-    /// The payload bytes as sent.
-    #[inline]
-    pub fn payload(&self) -> &'a [u8] {
-        let start = self.header_len();
-        &self.bytes[start..start + self.payload_len()]
     }
 
     /// The checksum carried by the frame.
     #[inline]
     pub fn checksum(&self) -> u16 {
         let at = self.header_len() + self.payload_len();
-        u16::from_le_bytes([self.bytes[at], self.bytes[at + 1]])
+        u16::from_le_bytes([self.bytes()[at], self.bytes()[at + 1]])
     }
 
     /// The checksum the frame should carry for a message with `crc_extra`.
     pub fn computed_checksum(&self, crc_extra: u8) -> u16 {
         frame_crc(
-            &self.bytes[1..self.header_len() + self.payload_len()],
+            &self.bytes()[1..self.header_len() + self.payload_len()],
             crc_extra,
         )
     }
@@ -263,10 +338,8 @@ impl<'a> Frame<'a> {
     #[inline]
     pub fn check_crc(&self, crc_extra: u8) -> bool {
         let end = self.header_len() + self.payload_len();
-        match (
-            self.bytes.get(1..end),
-            self.bytes.get(end..end + CHECKSUM_LEN),
-        ) {
+        let b = self.bytes();
+        match (b.get(1..end), b.get(end..end + CHECKSUM_LEN)) {
             (Some(covered), Some(&[lo, hi])) => {
                 frame_crc(covered, crc_extra) == u16::from_le_bytes([lo, hi])
             }
@@ -279,26 +352,198 @@ impl<'a> Frame<'a> {
     pub fn is_signed(&self) -> bool {
         self.incompat_flags() & IFLAG_SIGNED != 0
     }
+}
+
+impl<'a, T: AsRef<[u8]> + ?Sized> Frame<&'a T> {
+    /// The frame's bytes (not the buffer's bytes after it).
+    #[inline]
+    pub fn as_bytes(&self) -> &'a [u8] {
+        let len = self.frame_len();
+        &self.buffer.as_ref()[..len]
+    }
+
+    /// The payload bytes as sent.
+    #[inline]
+    pub fn payload(&self) -> &'a [u8] {
+        let start = self.header_len();
+        &self.buffer.as_ref()[start..start + self.payload_len()]
+    }
 
     /// The signature block of a signed frame.
     pub fn signature(&self) -> Option<SignatureBlock<'a>> {
         if !self.is_signed() {
             return None;
         }
-        let at = self.bytes.len() - SIGNATURE_LEN;
+        let at = self.header_len() + self.payload_len() + CHECKSUM_LEN;
         Some(SignatureBlock {
-            bytes: &self.bytes[at..],
+            bytes: &self.buffer.as_ref()[at..at + SIGNATURE_LEN],
         })
     }
 
     /// The bytes a signature covers before the key-independent part: header,
     /// payload and checksum.
     pub(crate) fn signed_part(&self) -> &'a [u8] {
-        &self.bytes[..self.bytes.len() - SIGNATURE_LEN]
+        let end = self.header_len() + self.payload_len() + CHECKSUM_LEN;
+        &self.buffer.as_ref()[..end]
     }
 }
 
-impl fmt::Debug for Frame<'_> {
+impl<T: AsRef<[u8]> + AsMut<[u8]>> Frame<T> {
+    /// Lays out a MAVLink 2 frame at the start of `buffer`: start byte,
+    /// payload length and flags. The rest (header fields, id, payload,
+    /// checksum, signature) is what the buffer held, for the setters to
+    /// fill. Fails on unknown incompatibility flags or a buffer too short for
+    /// the frame.
+    pub fn new_v2(
+        mut buffer: T,
+        payload_len: u8,
+        incompat_flags: u8,
+        compat_flags: u8,
+    ) -> Result<Frame<T>, FrameError> {
+        if incompat_flags & !IFLAG_KNOWN != 0 {
+            return Err(FrameError::UnknownIncompatFlags(incompat_flags));
+        }
+        let b = buffer.as_mut();
+        let start = b.get_mut(..4).ok_or(FrameError::BufferTooSmall {
+            needed: HEADER_LEN_V2,
+        })?;
+        start.copy_from_slice(&[STX_V2, payload_len, incompat_flags, compat_flags]);
+        Self::new_checked(buffer).map_err(too_small)
+    }
+
+    /// Lays out a MAVLink 1 frame at the start of `buffer` (start byte and
+    /// payload length), as [`Frame::new_v2`] does.
+    pub fn new_v1(mut buffer: T, payload_len: u8) -> Result<Frame<T>, FrameError> {
+        let b = buffer.as_mut();
+        let start = b.get_mut(..2).ok_or(FrameError::BufferTooSmall {
+            needed: HEADER_LEN_V1,
+        })?;
+        start.copy_from_slice(&[STX_V1, payload_len]);
+        Self::new_checked(buffer).map_err(too_small)
+    }
+
+    #[inline]
+    fn bytes_mut(&mut self) -> &mut [u8] {
+        self.buffer.as_mut()
+    }
+
+    /// The frame's bytes, mutable (for signing in place).
+    #[inline]
+    pub fn as_bytes_mut(&mut self) -> &mut [u8] {
+        let len = self.frame_len();
+        &mut self.bytes_mut()[..len]
+    }
+
+    /// Sets the sequence number.
+    #[inline]
+    pub fn set_seq(&mut self, seq: u8) {
+        let at = self.header_at();
+        self.bytes_mut()[at] = seq;
+    }
+
+    /// Sets the sender system id.
+    #[inline]
+    pub fn set_sysid(&mut self, sysid: u8) {
+        let at = self.header_at() + 1;
+        self.bytes_mut()[at] = sysid;
+    }
+
+    /// Sets the sender component id.
+    #[inline]
+    pub fn set_compid(&mut self, compid: u8) {
+        let at = self.header_at() + 2;
+        self.bytes_mut()[at] = compid;
+    }
+
+    /// Sets sequence number, system id and component id.
+    #[inline]
+    pub fn set_header(&mut self, header: Header) {
+        let at = self.header_at();
+        self.bytes_mut()[at..at + 3].copy_from_slice(&[header.seq, header.sysid, header.compid]);
+    }
+
+    /// Sets the compatibility flags of a MAVLink 2 frame (MAVLink 1 has
+    /// none: refused unless 0).
+    pub fn set_compat_flags(&mut self, flags: u8) -> Result<(), FrameError> {
+        match self.version() {
+            Version::V2 => self.bytes_mut()[3] = flags,
+            Version::V1 if flags == 0 => {}
+            Version::V1 => return Err(FrameError::NoCompatFlagsInV1(flags)),
+        }
+        Ok(())
+    }
+
+    /// Sets the message id: 24 bits in MAVLink 2, 8 in MAVLink 1.
+    pub fn set_msg_id(&mut self, id: u32) -> Result<(), FrameError> {
+        match self.version() {
+            Version::V2 if id <= 0xFF_FFFF => {
+                self.bytes_mut()[7..10].copy_from_slice(&id.to_le_bytes()[..3]);
+            }
+            Version::V2 => return Err(FrameError::IdTooLarge(id)),
+            Version::V1 => {
+                self.bytes_mut()[5] =
+                    u8::try_from(id).map_err(|_| FrameError::IdTooLargeForV1(id))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The payload bytes, mutable (its length is fixed by the header).
+    #[inline]
+    pub fn payload_mut(&mut self) -> &mut [u8] {
+        let start = self.header_len();
+        let end = start + self.payload_len();
+        &mut self.bytes_mut()[start..end]
+    }
+
+    /// Computes and stores the checksum for a message with `crc_extra`
+    /// (after the header and payload are final, before signing).
+    #[inline]
+    pub fn fill_checksum(&mut self, crc_extra: u8) {
+        let crc = self.computed_checksum(crc_extra);
+        let at = self.header_len() + self.payload_len();
+        self.bytes_mut()[at..at + CHECKSUM_LEN].copy_from_slice(&crc.to_le_bytes());
+    }
+
+    /// Stores a signature block as given (copying a captured signature; to
+    /// sign, pass [`Frame::as_bytes_mut`] to [`Signer::sign_frame`]). Refused
+    /// on an unsigned frame, which has no room for it; `timestamp` keeps its
+    /// low 48 bits.
+    pub fn set_signature(
+        &mut self,
+        link_id: u8,
+        timestamp: u64,
+        signature: [u8; 6],
+    ) -> Result<(), FrameError> {
+        if !self.is_signed() {
+            return Err(FrameError::NotSigned);
+        }
+        let at = self.header_len() + self.payload_len() + CHECKSUM_LEN;
+        let block = &mut self.bytes_mut()[at..at + SIGNATURE_LEN];
+        block[0] = link_id;
+        block[1..7].copy_from_slice(&timestamp.to_le_bytes()[..6]);
+        block[7..].copy_from_slice(&signature);
+        Ok(())
+    }
+}
+
+/// A buffer too short for the frame being laid out is the caller's buffer
+/// being too small, not an incomplete input.
+fn too_small(e: FrameError) -> FrameError {
+    match e {
+        FrameError::Incomplete { needed } => FrameError::BufferTooSmall { needed },
+        e => e,
+    }
+}
+
+impl<T: AsRef<[u8]>> AsRef<[u8]> for Frame<T> {
+    /// The whole buffer, as [`Frame::into_inner`] would give it.
+    fn as_ref(&self) -> &[u8] {
+        self.buffer.as_ref()
+    }
+}
+
+impl<T: AsRef<[u8]>> fmt::Debug for Frame<T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let h = self.header();
         f.debug_struct("Frame")

@@ -43,10 +43,10 @@ pub mod signing;
 
 #[cfg(feature = "std")]
 pub use conn::{Connection, Endpoint, Transport};
-pub use frame::{encode, Frame, FrameError, Header, Version};
+pub use frame::{encode, Frame, FrameBuf, FrameError, Header, Version};
 pub use framer::Framer;
 pub use message::{BufferTooSmall, Dialect, Encode, FieldMeta, FieldType, Message, MessageMeta};
-pub use parser::{Parser, Received};
+pub use parser::{Parser, Received, Unsigned};
 pub use received::ReceivedFrame;
 pub use signing::{Signer, Verifier};
 

@@ -22,8 +22,7 @@ impl fmt::Display for BufferTooSmall {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for BufferTooSmall {}
+impl core::error::Error for BufferTooSmall {}
 
 /// The wire type of a field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -129,13 +129,24 @@ pub struct Work {
     pub signatures: u64,
 }
 
+/// What a signing parser does with unsigned frames ([`Parser::with_signing`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Unsigned {
+    /// Unsigned frames are returned (signed ones must still verify): a link
+    /// in transition, or one where signing is a sender's choice.
+    Accept,
+    /// Unsigned frames are dropped and counted in
+    /// [`Stats::unsigned_rejected`].
+    Refuse,
+}
+
 /// Senders tracked for sequence gaps; more are folded into the last slot.
 pub const MAX_TRACKED_LINKS: usize = 32;
 
 /// A frame the parser accepted.
 pub struct Received<'a, D: Dialect> {
     /// The frame, borrowed from the input chunk or the parser's buffer.
-    pub frame: Frame<'a>,
+    pub frame: Frame<&'a [u8]>,
     /// The message's table row; `None` for an id the dialect does not know
     /// (a raw frame: its checksum could not be verified).
     pub meta: Option<&'static MessageMeta>,
@@ -291,10 +302,38 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     /// A parser that verifies signatures with `verifier`; whether unsigned
     /// frames are accepted is the caller's policy.
-    pub fn with_signing(verifier: Verifier<STREAMS>, accept_unsigned: bool) -> Self {
+    ///
+    /// ```
+    /// use mavframe::parser::{Parser, Unsigned};
+    /// use mavframe::signing::{Signer, Verifier};
+    /// use mavframe::frame::{FrameBuf, Header, Version};
+    /// # use mavframe::{Dialect, MessageMeta, Encode, BufferTooSmall};
+    /// # const PING: MessageMeta = MessageMeta { id: 4242, name: "PING_EXAMPLE",
+    /// #   crc_extra: 7, min_len: 1, max_len: 1, target_system_offset: None,
+    /// #   target_component_offset: None, fields: &[] };
+    /// # struct D; impl Dialect for D { type Message = (); type View<'a> = ();
+    /// #   const MESSAGES: &'static [MessageMeta] = &[PING];
+    /// #   fn parse(_: u32, _: &[u8]) -> Option<()> { Some(()) }
+    /// #   fn view(_: u32, _: &[u8]) -> Option<()> { Some(()) } }
+    /// # struct Ping; impl Encode for Ping { fn meta(&self) -> &'static MessageMeta { &PING }
+    /// #   fn emit_payload(&self, out: &mut [u8]) -> Result<usize, BufferTooSmall> {
+    /// #     *out.first_mut().ok_or(BufferTooSmall { needed: 1, got: 0 })? = 1; Ok(1) } }
+    /// let key = [7u8; 32];
+    /// let mut signer = Signer::new(key, 1, 1_000);
+    /// let h = Header { seq: 0, sysid: 1, compid: 1 };
+    /// let signed = FrameBuf::encode(Version::V2, h, &Ping, Some(&mut signer)).unwrap();
+    /// let unsigned = FrameBuf::encode(Version::V2, h, &Ping, None).unwrap();
+    ///
+    /// let mut parser = Parser::<D>::with_signing(Verifier::new(key), Unsigned::Refuse);
+    /// let mut input: &[u8] = &[&unsigned[..], &signed[..]].concat();
+    /// let first = parser.next(&mut input).unwrap();
+    /// assert!(first.frame.is_signed()); // the unsigned frame was dropped
+    /// assert_eq!(parser.stats().unsigned_rejected, 1);
+    /// ```
+    pub fn with_signing(verifier: Verifier<STREAMS>, unsigned: Unsigned) -> Self {
         let mut p = Self::new();
         p.verifier = Some(verifier);
-        p.accept_unsigned = accept_unsigned;
+        p.accept_unsigned = unsigned == Unsigned::Accept;
         p
     }
 
@@ -440,7 +479,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         let (Some(bytes), false) = (cand.get(..len), self.memo.busy_at(at)) else {
             return InPlace::Other;
         };
-        let frame = Frame::from_delimited(bytes);
+        let frame = Frame::new_unchecked(bytes);
         let Some(meta) = D::meta(frame.msg_id()) else {
             return InPlace::Other;
         };
@@ -462,7 +501,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         authenticated: bool,
         (stats, links, tracked): Counters<'_>,
     ) -> Received<'r, D> {
-        let frame = Frame::from_delimited(bytes);
+        let frame = Frame::new_unchecked(bytes);
         Self::record(stats, links, tracked, frame.header(), meta.is_some());
         Received {
             frame,
@@ -804,7 +843,7 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
         }
         Err(_) => return Verdict::Reject,
     };
-    let frame = Frame::from_delimited(&bytes[..len]);
+    let frame = Frame::new_unchecked(&bytes[..len]);
     let meta = D::meta(frame.msg_id());
     if let Some(m) = meta {
         if !cx.memo.frame_crc_ok(bytes, cx.at, &frame, m.crc_extra) {
@@ -849,7 +888,7 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
 #[inline(never)]
 fn check_raw<D: Dialect, const N: usize>(
     bytes: &[u8],
-    frame: &Frame<'_>,
+    frame: &Frame<&[u8]>,
     cx: Ctx<'_, N>,
 ) -> Option<Verdict> {
     let len = frame.as_bytes().len();

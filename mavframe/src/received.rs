@@ -39,7 +39,7 @@ pub struct ReceivedFrame<D: Dialect> {
 
 impl<D: Dialect> ReceivedFrame<D> {
     /// The frame.
-    pub fn frame(&self) -> Frame<'_> {
+    pub fn frame(&self) -> Frame<&[u8]> {
         // Only ever built from a frame the parser checked: cannot fail.
         Frame::new_checked(self.as_bytes())
             .unwrap_or_else(|_| unreachable!("ReceivedFrame holds a whole frame"))

@@ -183,13 +183,14 @@ impl<const N: usize> RoutingTable<N> {
     /// `links` (the router's open links) it must be forwarded to. `meta` is
     /// the message's table row (`None` for an id the dialect does not know:
     /// such a frame is forwarded everywhere, raw).
-    pub fn route(
+    pub fn route<T: AsRef<[u8]>>(
         &mut self,
         from: LinkId,
-        frame: &Frame<'_>,
+        frame: &Frame<T>,
         meta: Option<&MessageMeta>,
         links: Links,
     ) -> Links {
+        let frame = &frame.as_view();
         let h = frame.header();
         self.learn(from, h.sysid, h.compid);
         let others = links.without(from);
@@ -203,7 +204,7 @@ impl<const N: usize> RoutingTable<N> {
 /// A frame's addressee, when it has one: `Some((system, component))` for a
 /// message with a non-zero `target_system` (component 0: every component).
 /// Fields beyond a truncated payload read as zero, as MAVLink 2 requires.
-pub fn target(frame: &Frame<'_>, meta: Option<&MessageMeta>) -> Option<(u8, u8)> {
+pub fn target(frame: &Frame<&[u8]>, meta: Option<&MessageMeta>) -> Option<(u8, u8)> {
     let meta = meta?;
     let payload = frame.payload();
     let read = |at: Option<u8>| {

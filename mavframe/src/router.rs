@@ -480,7 +480,14 @@ impl<D: Dialect + 'static> LinkTask<D> {
         FrameCodec::with_parser(match self.config.key {
             Some(key) => {
                 let verifier: Verifier = self.state.start.verifier(key);
-                Parser::with_signing(verifier, self.config.accept_unsigned)
+                Parser::with_signing(
+                    verifier,
+                    if self.config.accept_unsigned {
+                        crate::parser::Unsigned::Accept
+                    } else {
+                        crate::parser::Unsigned::Refuse
+                    },
+                )
             }
             None => Parser::new(),
         })

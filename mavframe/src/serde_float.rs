@@ -289,8 +289,7 @@ impl fmt::Display for SpecialError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for SpecialError {}
+impl core::error::Error for SpecialError {}
 
 /// The value of one of the float strings (see the module docs).
 pub fn parse_special<F: Float>(s: &str) -> Result<F, SpecialError> {

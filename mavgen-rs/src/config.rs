@@ -85,6 +85,7 @@ pub struct Generated {
 
 /// Why generation failed.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum Error {
     /// The input is invalid; nothing was written.
     Invalid(Vec<Diagnostic>),

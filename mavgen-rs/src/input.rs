@@ -20,6 +20,7 @@ pub const MAX_TOTAL_BYTES: u64 = 64 << 20;
 
 /// Why a file could not be read.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum ReadError {
     /// The operating system refused (missing file, no permission, …).
     Io(io::Error),

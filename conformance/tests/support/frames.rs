@@ -4,7 +4,7 @@
 use super::values::values_text;
 use mavframe::crc::frame_crc;
 use mavframe::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2};
-use mavframe::{BufferTooSmall, Dialect, MessageMeta, Parser, Signer, Verifier};
+use mavframe::{BufferTooSmall, Dialect, MessageMeta, Parser, Signer, Unsigned, Verifier};
 
 /// The signing key of every signed frame of the tests (32 bytes 0x00..0x1f
 /// reversed, so it is neither zero nor a simple pattern of the seed).
@@ -149,7 +149,7 @@ where
     D::Message: Owned,
 {
     let mut parser = if signed {
-        Parser::<D>::with_signing(Verifier::new(KEY), false)
+        Parser::<D>::with_signing(Verifier::new(KEY), Unsigned::Refuse)
     } else {
         Parser::<D>::new()
     };

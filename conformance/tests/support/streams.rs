@@ -10,7 +10,7 @@ use mavframe::crc::frame_crc;
 use mavframe::frame::{Frame, Header, Version, MAX_FRAME_LEN, SIGNATURE_LEN};
 use mavframe::parser::Stats;
 use mavframe::signing::signature;
-use mavframe::{Dialect, MessageMeta, Parser, Verifier};
+use mavframe::{Dialect, MessageMeta, Parser, Unsigned, Verifier};
 use std::collections::BTreeMap;
 
 /// What the receivers know and accept.
@@ -349,7 +349,8 @@ pub fn rust_parse<D: Dialect>(
 ) -> (Vec<Got>, Stats) {
     let mut parser = match policy {
         Policy::NoKey => Parser::<D>::new(),
-        p => Parser::<D>::with_signing(Verifier::new(KEY), p.accept_unsigned()),
+        p if p.accept_unsigned() => Parser::<D>::with_signing(Verifier::new(KEY), Unsigned::Accept),
+        _ => Parser::<D>::with_signing(Verifier::new(KEY), Unsigned::Refuse),
     };
     let mut got = Vec::new();
     let mut rest = bytes;

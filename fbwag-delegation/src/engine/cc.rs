@@ -44,7 +44,7 @@ pub enum CcOutput {
     /// let mut cc = CcEngine::new(CcConfig::default(), Instant::ZERO)?;
     /// // One FC heartbeat at 1 s, then silence.
     /// let hb = Message::Heartbeat(wire::fc_heartbeat(Authority::Pilot));
-    /// let mut buf = [0u8; 280];
+    /// let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     /// let h = Header { seq: 0, sysid: 1, compid: 1 };
     /// let n = encode(Version::V2, h, &hb, None, &mut buf).unwrap();
     /// let frame = Frame::new_checked(&buf[..n]).unwrap();
@@ -183,7 +183,7 @@ impl CcEngine {
     pub fn handle_frame(
         &mut self,
         now: Instant,
-        frame: &Frame<'_>,
+        frame: &Frame<&[u8]>,
         authenticated: bool,
     ) -> Verdict {
         let from = origin(frame, authenticated);

@@ -181,7 +181,7 @@ impl FcEngine {
     pub fn handle_frame(
         &mut self,
         now: Instant,
-        frame: &Frame<'_>,
+        frame: &Frame<&[u8]>,
         authenticated: bool,
     ) -> Verdict {
         let from = origin(frame, authenticated);

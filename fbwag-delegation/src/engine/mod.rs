@@ -53,7 +53,7 @@ pub enum Verdict {
 }
 
 /// The sender of `frame`, as a parser judged it.
-fn origin(frame: &Frame<'_>, authenticated: bool) -> Origin {
+fn origin(frame: &Frame<&[u8]>, authenticated: bool) -> Origin {
     let h = frame.header();
     Origin {
         peer: Peer::new(h.sysid, h.compid),

@@ -18,7 +18,7 @@ use crate::engine::{CcEngine, CcOutput, FcEngine, FcOutput};
 use crate::fc::{Authority, FcConfig};
 use crate::{Instant, Peer, Status};
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Message, Parser, Signer, Verifier, Version};
+use fbwag_dialect::{encode, Header, Message, Parser, Signer, Unsigned, Verifier, Version};
 use link::{GilbertElliott, Link, LinkModel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -242,14 +242,14 @@ impl Endpoint {
             parser: match verify_key {
                 // Unsigned frames reach the machine, marked unauthenticated:
                 // whether they count is the machine's policy.
-                Some(k) => Parser::with_signing(Verifier::new(k), true),
+                Some(k) => Parser::with_signing(Verifier::new(k), Unsigned::Accept),
                 None => Parser::new(),
             },
         }
     }
 
     fn frame<M: Encode + ?Sized>(&mut self, msg: &M) -> Vec<u8> {
-        let mut buf = [0u8; 280];
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let h = Header {
             seq: self.seq,
             sysid: self.id.sysid,

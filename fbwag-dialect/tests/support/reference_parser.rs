@@ -10,7 +10,7 @@
 use fbwag_dialect::mavframe::frame::{
     frame_len, Frame, FrameError, Header, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
-use fbwag_dialect::mavframe::parser::Stats;
+use fbwag_dialect::mavframe::parser::{Stats, Unsigned};
 use fbwag_dialect::mavframe::signing::{SignatureError, Verifier};
 use fbwag_dialect::mavframe::{Dialect, MessageMeta};
 use std::marker::PhantomData;
@@ -67,10 +67,10 @@ impl<D: Dialect> Reference<D> {
         }
     }
 
-    pub fn with_signing(verifier: Verifier<16>, accept_unsigned: bool) -> Self {
+    pub fn with_signing(verifier: Verifier<16>, unsigned: Unsigned) -> Self {
         let mut p = Self::new();
         p.verifier = Some(verifier);
-        p.accept_unsigned = accept_unsigned;
+        p.accept_unsigned = unsigned == Unsigned::Accept;
         p
     }
 

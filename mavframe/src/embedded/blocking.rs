@@ -107,7 +107,7 @@ fn send<W: Write>(
 /// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 /// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
 /// use mavframe::embedded::{embedded_io, Link};
-/// use mavframe::{Parser, Signer, Verifier};
+/// use mavframe::{Parser, Signer, Unsigned, Verifier};
 ///
 /// /// A UART wired to itself: what is written is read back, one byte per
 /// /// read.
@@ -134,7 +134,7 @@ fn send<W: Write>(
 /// let key = [42u8; 32];
 /// // A verifier that refuses unsigned frames; its notion of now starts at a
 /// // timestamp kept across restarts (no clock on this board).
-/// let parser = Parser::with_signing(Verifier::with_timestamp(key, 1_000), false);
+/// let parser = Parser::with_signing(Verifier::with_timestamp(key, 1_000), Unsigned::Refuse);
 /// let uart = Loopback { bytes: [0; 64], len: 0, at: 0 };
 /// let mut link: Link<_, MyDialect> = Link::with_parts(uart, parser, Default::default(), 1, 191);
 /// link.framer_mut().set_signer(Some(Signer::new(key, 0, 2_000)));

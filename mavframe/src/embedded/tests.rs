@@ -12,6 +12,7 @@ mod test_dialect;
 
 use super::*;
 use crate::frame::{Version, IFLAG_SIGNED};
+use crate::parser::Unsigned;
 use crate::signing::{Signer, Verifier};
 use core::cell::RefCell;
 use embedded_io::{ErrorKind, ErrorType, Read, ReadReady, Write};
@@ -406,7 +407,7 @@ fn a_message_mavlink1_cannot_carry_is_refused_before_writing() {
 /// authenticated; a replay, a wrong key and unsigned frames are refused.
 fn signed_link(wire: Wire, key: [u8; 32], link_id: u8, sysid: u8) -> Link<Wire, TestDialect> {
     // No clock on the board: the verifier starts from a saved timestamp.
-    let parser = Parser::with_signing(Verifier::with_timestamp(key, 50_000), false);
+    let parser = Parser::with_signing(Verifier::with_timestamp(key, 50_000), Unsigned::Refuse);
     let mut framer = Framer::new();
     framer.set_clock(None);
     framer.set_signer(Some(Signer::new(key, link_id, 60_000)));
@@ -549,7 +550,7 @@ fn async_link_round_trip_signed_in_one_byte_steps() {
     let key = [7; 32];
     let (a, b) = wire_pair(1);
     let signed = |wire, link_id| {
-        let parser = Parser::with_signing(Verifier::with_timestamp(key, 50_000), false);
+        let parser = Parser::with_signing(Verifier::with_timestamp(key, 50_000), Unsigned::Refuse);
         let mut framer = Framer::new();
         framer.set_signer(Some(Signer::new(key, link_id, 60_000)));
         AsyncLink::<_, TestDialect>::with_parts(wire, parser, framer, link_id, 1)

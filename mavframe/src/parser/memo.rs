@@ -47,7 +47,7 @@ use crate::frame::{
 use crate::message::Dialect;
 
 /// Prefix states kept. A checksum asked for while the candidate is at `c`
-/// starts after a position inside the candidate (before `c + 280`) and
+/// starts after a position inside the candidate (before `c + MAX_FRAME_LEN`) and
 /// covers at most 264 bytes: live states span less than 545 positions.
 const PREFIX_RING: usize = 1024;
 const PREFIX_MASK: u64 = PREFIX_RING as u64 - 1;
@@ -208,7 +208,7 @@ impl Whole {
 
     /// The same, for a frame already delimited.
     #[inline(always)]
-    pub(super) fn of(frame: &Frame<'_>) -> Whole {
+    pub(super) fn of(frame: &Frame<&[u8]>) -> Whole {
         let header = match frame.version() {
             Version::V2 => HEADER_LEN_V2,
             Version::V1 => HEADER_LEN_V1,
@@ -288,7 +288,7 @@ impl Memo {
         &mut self,
         bytes: &[u8],
         at: u64,
-        frame: &Frame<'_>,
+        frame: &Frame<&[u8]>,
         crc_extra: u8,
     ) -> bool {
         if at < self.busy_until {
@@ -513,7 +513,7 @@ impl Memo {
         self.steps += 1;
         match frame_len(inner) {
             Ok(n) if inner.len() >= n => {
-                let w = Whole::of(&Frame::from_delimited(&inner[..n]));
+                let w = Whole::of(&Frame::new_unchecked(&inner[..n]));
                 match D::meta(w.id) {
                     Some(m) if self.crc_matches(bytes, at, rel, &w, m.crc_extra) => Class::Good,
                     Some(_) => Class::BadCrc,

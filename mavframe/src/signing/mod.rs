@@ -246,8 +246,7 @@ impl fmt::Display for SignatureError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for SignatureError {}
+impl core::error::Error for SignatureError {}
 
 #[cfg(test)]
 mod tests {

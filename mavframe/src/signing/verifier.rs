@@ -265,7 +265,8 @@ impl<const N: usize> Verifier<N> {
     /// Checks `frame`'s signature and, when it is good and its timestamp
     /// passes its stream's check (see the type's docs), records the
     /// timestamp for its stream.
-    pub fn verify(&mut self, frame: &Frame<'_>) -> Result<(), SignatureError> {
+    pub fn verify<T: AsRef<[u8]>>(&mut self, frame: &Frame<T>) -> Result<(), SignatureError> {
+        let frame = frame.as_view();
         let block = frame.signature().ok_or(SignatureError::Unsigned)?;
         let h = frame.header();
         let stream = StreamState {

@@ -30,8 +30,18 @@ fn pymavlink_companion_drives_fc_sim_into_companion_control_and_back() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("cc_listener.py");
-    // Let the listener bind (pymavlink imports take a moment).
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // Start the FC once the listener has bound (it says so): pymavlink's
+    // imports take seconds on a loaded machine, and a notice sent before
+    // is lost.
+    let mut cc = cc;
+    let mut cc_out = std::io::BufReader::new(cc.stdout.take().unwrap());
+    let mut seen = String::new();
+    while !seen.contains("Waiting for heartbeat") {
+        use std::io::BufRead;
+        if cc_out.read_line(&mut seen).unwrap_or(0) == 0 {
+            panic!("cc_listener.py ended before binding:\n{seen}");
+        }
+    }
     let fc = Command::new(env!("CARGO_BIN_EXE_fbwag"))
         .args([
             "fc-sim",
@@ -46,9 +56,11 @@ fn pymavlink_companion_drives_fc_sim_into_companion_control_and_back() {
         ])
         .output()
         .expect("fbwag fc-sim");
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut cc_out, &mut rest).unwrap();
     let cc = cc.wait_with_output().unwrap();
     let fc_log = String::from_utf8_lossy(&fc.stdout);
-    let cc_log = String::from_utf8_lossy(&cc.stdout);
+    let cc_log = format!("{seen}{rest}");
     let both = format!(
         "--- fbwag fc-sim\n{fc_log}\n--- pymavlink companion\n{cc_log}{}",
         String::from_utf8_lossy(&cc.stderr)

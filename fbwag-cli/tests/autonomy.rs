@@ -10,15 +10,7 @@ use std::time::Duration;
 
 mod common;
 
-use common::{python, repo};
-
-fn free_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+use common::{free_port, python, repo};
 
 fn events(path: &std::path::Path) -> Vec<Value> {
     std::fs::read_to_string(path)

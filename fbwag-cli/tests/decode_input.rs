@@ -2,28 +2,10 @@
 //! chunks: the result does not depend on where chunks end, and an endless
 //! input is decoded in bounded memory instead of being read whole first.
 
-use std::io::Write;
-use std::process::{Command, Stdio};
+mod common;
+use common::fbwag;
 
-fn fbwag(args: &[&str], input: &[u8]) -> (Vec<u8>, String, Option<i32>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run fbwag");
-    let mut stdin = child.stdin.take().unwrap();
-    let data = input.to_vec();
-    let writer = std::thread::spawn(move || stdin.write_all(&data));
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap().unwrap();
-    (
-        out.stdout,
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-        out.status.code(),
-    )
-}
+use std::process::{Command, Stdio};
 
 /// 6,000 frames (about 100 KB: more than one 64 KiB read).
 fn frames() -> Vec<u8> {

@@ -2,29 +2,8 @@
 //! refusal names the line, no frame is written for it, the next lines are
 //! still encoded, and the exit status is 1. Tested through the binary only.
 
-use std::io::Write;
-use std::process::{Command, Stdio};
-
-/// Runs the binary with `input` on stdin: stdout, stderr, exit code.
-fn fbwag(args: &[&str], input: &[u8]) -> (Vec<u8>, String, Option<i32>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run fbwag");
-    let mut stdin = child.stdin.take().unwrap();
-    let data = input.to_vec();
-    let writer = std::thread::spawn(move || stdin.write_all(&data));
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap().unwrap();
-    (
-        out.stdout,
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-        out.status.code(),
-    )
-}
+mod common;
+use common::fbwag;
 
 /// Hex frames of `lines`, which must all encode (exit 0).
 fn frames(args: &[&str], lines: &[&str]) -> Vec<String> {

@@ -4,27 +4,12 @@
 //! Rust structs have), enums and bitmasks as numbers, and a line's missing
 //! fields encoded as zeros even where the message's `Default` is not zero.
 
-use std::io::Write;
-use std::process::{Command, Stdio};
+mod common;
 
+/// `common::fbwag` with stdout as text.
 fn fbwag(args: &[&str], input: &[u8]) -> (String, String, Option<i32>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run fbwag");
-    let mut stdin = child.stdin.take().unwrap();
-    let data = input.to_vec();
-    let writer = std::thread::spawn(move || stdin.write_all(&data));
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap().unwrap();
-    (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-        out.status.code(),
-    )
+    let (out, err, code) = common::fbwag(args, input);
+    (String::from_utf8(out).unwrap(), err, code)
 }
 
 #[test]

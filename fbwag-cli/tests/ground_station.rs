@@ -18,19 +18,19 @@
 //! venv (no network for pip) the tests print why and pass without running.
 
 use serde_json::Value;
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::Write;
 use std::net::{SocketAddr, TcpListener, UdpSocket};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 mod common;
 
-use common::repo;
+use common::lines::LineProc;
+use common::{peer_python, repo};
 
 /// Home of these runs (not fc-sim's default, to show --home is used).
 const HOME: (f64, f64, f64) = (50.4501, 30.5234, 180.0);
@@ -40,122 +40,6 @@ const HOME: (f64, f64, f64) = (50.4501, 30.5234, 180.0);
 static SERIAL: Mutex<()> = Mutex::new(());
 
 // --- processes -------------------------------------------------------------
-
-/// A started process whose stdout and stderr lines arrive on a channel,
-/// killed when dropped.
-struct Proc {
-    child: Child,
-    lines: Receiver<String>,
-    log: String,
-}
-
-impl Proc {
-    fn spawn(name: &str, cmd: &mut Command) -> Proc {
-        let mut child = cmd
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap_or_else(|e| panic!("starting {name}: {e}"));
-        let (tx, lines) = channel();
-        let out = child.stdout.take().unwrap();
-        let err = child.stderr.take().unwrap();
-        for stream in [Box::new(out) as Box<dyn Read + Send>, Box::new(err)] {
-            let tx = tx.clone();
-            thread::spawn(move || {
-                for line in BufReader::new(stream).lines().map_while(Result::ok) {
-                    if tx.send(line).is_err() {
-                        break;
-                    }
-                }
-            });
-        }
-        Proc {
-            child,
-            lines,
-            log: String::new(),
-        }
-    }
-
-    /// Collects lines until one contains `pat` (true), or the deadline
-    /// passes or the process ends (false).
-    fn wait_for(&mut self, pat: &str, within: Duration) -> bool {
-        if self.log.contains(pat) {
-            return true;
-        }
-        let end = Instant::now() + within;
-        loop {
-            let left = end.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(line) => {
-                    self.log.push_str(&line);
-                    self.log.push('\n');
-                    if line.contains(pat) {
-                        return true;
-                    }
-                }
-                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => return false,
-            }
-        }
-    }
-
-    /// Waits for the process to exit by itself (false if the deadline
-    /// passed: it is then killed), collecting all of its output.
-    fn wait_exit(&mut self, within: Duration) -> bool {
-        let end = Instant::now() + within;
-        let exited = loop {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                break true;
-            }
-            if Instant::now() >= end {
-                break false;
-            }
-            thread::sleep(Duration::from_millis(50));
-        };
-        self.stop();
-        exited
-    }
-
-    /// Kills (if running) and collects the rest of the output.
-    fn stop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        while let Ok(line) = self.lines.recv_timeout(Duration::from_secs(2)) {
-            self.log.push_str(&line);
-            self.log.push('\n');
-        }
-    }
-
-    fn stdin(&mut self) -> ChildStdin {
-        self.child.stdin.take().expect("stdin was not piped")
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// The peer venv's python, or None (with the reason printed) when it
-/// cannot be made. scripts/test.sh makes it in an earlier step and fails
-/// there, so under the test command this never skips.
-fn peer_python() -> Option<PathBuf> {
-    let out = Command::new("bash")
-        .arg(repo().join("scripts/peer-env.sh"))
-        .output()
-        .expect("bash scripts/peer-env.sh");
-    if !out.status.success() {
-        // Straight to stderr: libtest captures only the print macros.
-        let _ = writeln!(
-            std::io::stderr(),
-            "SKIPPED: the peer venv (mavsdk, MAVProxy) could not be created:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        return None;
-    }
-    Some(PathBuf::from(String::from_utf8(out.stdout).unwrap().trim()))
-}
 
 /// The mavsdk_server the pip package ships.
 fn mavsdk_server(py: &Path) -> PathBuf {
@@ -385,13 +269,13 @@ struct MavsdkRun {
 
 fn run_mavsdk(py: &Path) -> MavsdkRun {
     let (udp_mavsdk, udp_cc, grpc) = (free_udp_port(), free_udp_port(), free_tcp_port());
-    let mut cc = Proc::spawn(
+    let mut cc = LineProc::spawn(
         "fbwag cc",
         fbwag()
             .args(["cc", "--link", &format!("udpin:127.0.0.1:{udp_cc}")])
             .args(["--controller", "circle", "--duration", "120"]),
     );
-    let mut server = Proc::spawn(
+    let mut server = LineProc::spawn(
         "mavsdk_server",
         Command::new(mavsdk_server(py))
             .args(["-p", &grpc.to_string()])
@@ -402,7 +286,7 @@ fn run_mavsdk(py: &Path) -> MavsdkRun {
         SocketAddr::from(([127, 0, 0, 1], udp_mavsdk)),
     ]);
     let events = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ground-station-fc-events.jsonl");
-    let mut fc = Proc::spawn(
+    let mut fc = LineProc::spawn(
         "fbwag fc-sim",
         fbwag()
             .args([
@@ -417,7 +301,7 @@ fn run_mavsdk(py: &Path) -> MavsdkRun {
             .arg("--events")
             .arg(&events),
     );
-    let mut check = Proc::spawn(
+    let mut check = LineProc::spawn(
         "mavsdk_gcs_check.py",
         Command::new(py)
             .arg(repo().join("interop/mavsdk_gcs_check.py"))
@@ -667,7 +551,7 @@ fn mavproxy_names_the_modes_and_reads_the_failsafe_parameters() {
     };
     let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (p_master, p_cc) = (free_udp_port(), free_udp_port());
-    let mut cc = Proc::spawn(
+    let mut cc = LineProc::spawn(
         "fbwag cc",
         fbwag()
             .args(["cc", "--link", &format!("udpin:127.0.0.1:{p_cc}")])
@@ -675,7 +559,7 @@ fn mavproxy_names_the_modes_and_reads_the_failsafe_parameters() {
     );
     let home = Path::new(env!("CARGO_TARGET_TMPDIR")).join("mavproxy-home-ground-station");
     std::fs::create_dir_all(&home).unwrap();
-    let mut mavproxy = Proc::spawn(
+    let mut mavproxy = LineProc::spawn(
         "mavproxy.py",
         Command::new(py.with_file_name("mavproxy.py"))
             .arg(format!("--master=udpin:127.0.0.1:{p_master}"))
@@ -692,7 +576,7 @@ fn mavproxy_names_the_modes_and_reads_the_failsafe_parameters() {
         mavproxy.log
     );
     let mut console = mavproxy.stdin();
-    let mut fc = Proc::spawn(
+    let mut fc = LineProc::spawn(
         "fbwag fc-sim",
         fbwag()
             .args(["fc-sim", "--link", &format!("udpout:127.0.0.1:{p_master}")])
@@ -879,7 +763,7 @@ type BTreeMapCount = std::collections::BTreeMap<&'static str, u32>;
 fn a_request_flood_neither_stops_the_handover_nor_multiplies_the_telemetry() {
     let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let cc_port = free_udp_port();
-    let mut cc = Proc::spawn(
+    let mut cc = LineProc::spawn(
         "fbwag cc",
         fbwag().args([
             "cc",
@@ -895,7 +779,7 @@ fn a_request_flood_neither_stops_the_handover_nor_multiplies_the_telemetry() {
         gcs.local_addr().unwrap(),
     ]);
     let events = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ground-station-flood-events.jsonl");
-    let mut fc = Proc::spawn(
+    let mut fc = LineProc::spawn(
         "fbwag fc-sim",
         fbwag()
             .args([
@@ -1026,7 +910,7 @@ fn with_require_signed_only_signed_requests_are_served() {
         .set_read_timeout(Some(Duration::from_millis(50)))
         .unwrap();
     let events = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ground-station-signed-events.jsonl");
-    let mut fc = Proc::spawn(
+    let mut fc = LineProc::spawn(
         "fbwag fc-sim",
         fbwag()
             .args([

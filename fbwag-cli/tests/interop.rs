@@ -7,16 +7,7 @@ use std::process::{Command, Stdio};
 
 mod common;
 
-use common::{python, repo};
-
-/// A free UDP port on 127.0.0.1 (bound then released).
-fn free_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+use common::{free_port, python, repo};
 
 #[test]
 fn pymavlink_companion_drives_fc_sim_into_companion_control_and_back() {

@@ -20,17 +20,16 @@
 //! when an assertion fails); every wait has a deadline. The chains run one at
 //! a time (two cores; MAVProxy's start-up is CPU-heavy).
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
+use std::process::{Command, Stdio};
 use std::sync::Mutex;
-use std::thread;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 mod common;
 
-use common::repo;
+use common::lines::LineProc;
+use common::{free_port, peer_python, repo};
 
 /// MAVProxy's `signing key` takes a passphrase and uses its SHA-256 as the
 /// key; `fbwag --sign-key` takes the key itself.
@@ -40,139 +39,6 @@ const KEY_HEX: &str = "1eeb12caa5637aa80caed04c6ac2783bdae83ca2c99c9f8a4cb9fe386
 
 /// The chains run one at a time.
 static SERIAL: Mutex<()> = Mutex::new(());
-
-/// A started process whose stdout and stderr lines arrive on a channel. It
-/// is killed when dropped, unless it already exited.
-struct Proc {
-    child: Child,
-    lines: Receiver<String>,
-    log: String,
-}
-
-impl Proc {
-    fn spawn(name: &str, cmd: &mut Command) -> Proc {
-        let mut child = cmd
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap_or_else(|e| panic!("starting {name}: {e}"));
-        let (tx, lines) = channel();
-        let out = child.stdout.take().unwrap();
-        let err = child.stderr.take().unwrap();
-        for stream in [Box::new(out) as Box<dyn Read + Send>, Box::new(err)] {
-            let tx = tx.clone();
-            thread::spawn(move || {
-                for line in BufReader::new(stream).lines().map_while(Result::ok) {
-                    if tx.send(line).is_err() {
-                        break;
-                    }
-                }
-            });
-        }
-        Proc {
-            child,
-            lines,
-            log: String::new(),
-        }
-    }
-
-    /// Collect lines until one contains `pat` (true) or the deadline passes
-    /// or the process ends (false).
-    fn wait_for(&mut self, pat: &str, within: Duration) -> bool {
-        if self.log.contains(pat) {
-            return true;
-        }
-        let end = Instant::now() + within;
-        loop {
-            let left = end.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(line) => {
-                    self.log.push_str(&line);
-                    self.log.push('\n');
-                    if line.contains(pat) {
-                        return true;
-                    }
-                }
-                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => return false,
-            }
-        }
-    }
-
-    /// Wait for the process to exit by itself (false if the deadline passed:
-    /// it is then killed) and collect all of its output.
-    fn wait_exit(&mut self, within: Duration) -> bool {
-        let end = Instant::now() + within;
-        let exited = loop {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                break true;
-            }
-            if Instant::now() >= end {
-                break false;
-            }
-            thread::sleep(Duration::from_millis(50));
-        };
-        self.stop();
-        exited
-    }
-
-    /// Whether the process is still running.
-    fn alive(&mut self) -> bool {
-        matches!(self.child.try_wait(), Ok(None))
-    }
-
-    /// Kill (if running) and collect the rest of the output.
-    fn stop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        // The readers end at EOF, once the pipes close.
-        while let Ok(line) = self.lines.recv_timeout(Duration::from_secs(2)) {
-            self.log.push_str(&line);
-            self.log.push('\n');
-        }
-    }
-
-    fn stdin(&mut self) -> ChildStdin {
-        self.child.stdin.take().expect("stdin was not piped")
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// The peer venv's python (MAVProxy, pymavlink, dialect, module), or None,
-/// with the reason printed, when the venv cannot be created (no network for
-/// pip, no python3-venv). scripts/test.sh creates it in an earlier step and
-/// fails there, so under the test command this never skips.
-fn peer_python() -> Option<PathBuf> {
-    let out = Command::new("bash")
-        .arg(repo().join("scripts/peer-env.sh"))
-        .output()
-        .expect("bash scripts/peer-env.sh");
-    if !out.status.success() {
-        // Written straight to the process's stderr: libtest captures only
-        // the print macros, and a skip must be seen.
-        let _ = writeln!(
-            std::io::stderr(),
-            "SKIPPED: the peer venv (MAVProxy) could not be created:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        return None;
-    }
-    Some(PathBuf::from(String::from_utf8(out.stdout).unwrap().trim()))
-}
-
-/// A free UDP port on 127.0.0.1 (bound then released).
-fn free_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 /// A private HOME, so no ~/.mavinit.scr or ~/.mavproxy/signing.keys of the
 /// user's changes the run, and MAVProxy's state lands under target/.
@@ -220,10 +86,10 @@ const LONG_LOSS: Schedule = Schedule {
 /// The processes of one chain, started in order: the companion, MAVProxy,
 /// the tap (optional), the FC.
 struct Chain {
-    fc: Proc,
-    mavproxy: Proc,
-    cc: Proc,
-    tap: Option<(Proc, PathBuf)>,
+    fc: LineProc,
+    mavproxy: LineProc,
+    cc: LineProc,
+    tap: Option<(LineProc, PathBuf)>,
 }
 
 struct ChainSpec<'a> {
@@ -237,7 +103,7 @@ struct ChainSpec<'a> {
 
 fn start_chain(py: &Path, spec: &ChainSpec) -> Chain {
     let (p_master, p_cc) = (free_port(), free_port());
-    let cc = Proc::spawn(
+    let cc = LineProc::spawn(
         "fbwag cc",
         fbwag()
             .args(["cc", "--link", &format!("udpin:127.0.0.1:{p_cc}")])
@@ -254,7 +120,7 @@ fn start_chain(py: &Path, spec: &ChainSpec) -> Chain {
     let tap = spec.tap.then(|| {
         fc_port = free_port();
         let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("tap-{}.log", spec.test));
-        let mut tap = Proc::spawn(
+        let mut tap = LineProc::spawn(
             "mavlink_tap.py",
             Command::new(py)
                 .arg(repo().join("interop/mavlink_tap.py"))
@@ -271,7 +137,7 @@ fn start_chain(py: &Path, spec: &ChainSpec) -> Chain {
         (tap, log)
     });
     let s = &spec.schedule;
-    let fc = Proc::spawn(
+    let fc = LineProc::spawn(
         "fbwag fc-sim",
         fbwag()
             .args(["fc-sim", "--link", &format!("udpout:127.0.0.1:{fc_port}")])
@@ -288,7 +154,7 @@ fn start_chain(py: &Path, spec: &ChainSpec) -> Chain {
     }
 }
 
-fn start_mavproxy(py: &Path, spec: &ChainSpec, p_master: u16, p_cc: u16) -> Proc {
+fn start_mavproxy(py: &Path, spec: &ChainSpec, p_master: u16, p_cc: u16) -> LineProc {
     let setup = &spec.mavproxy;
     let mut cmd = Command::new(py.with_file_name("mavproxy.py"));
     cmd.arg(format!("--master=udpin:127.0.0.1:{p_master}"))
@@ -306,7 +172,7 @@ fn start_mavproxy(py: &Path, spec: &ChainSpec, p_master: u16, p_cc: u16) -> Proc
     } else {
         cmd.arg("--non-interactive").stdin(Stdio::null());
     }
-    Proc::spawn("mavproxy.py", &mut cmd)
+    LineProc::spawn("mavproxy.py", &mut cmd)
 }
 
 impl Chain {
@@ -637,7 +503,7 @@ fn fbwag_cc_routes_the_fc_to_mavproxy() {
     let Some(py) = peer_python() else { return };
     let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (p_fc, p_mavproxy) = (free_port(), free_port());
-    let cc = Proc::spawn(
+    let cc = LineProc::spawn(
         "fbwag cc",
         fbwag()
             .args(["cc", "--link", &format!("udpin:127.0.0.1:{p_fc}")])
@@ -650,7 +516,7 @@ fn fbwag_cc_routes_the_fc_to_mavproxy() {
                 "60",
             ]),
     );
-    let mut mavproxy = Proc::spawn(
+    let mut mavproxy = LineProc::spawn(
         "mavproxy.py",
         Command::new(py.with_file_name("mavproxy.py"))
             .arg(format!("--master=udpin:127.0.0.1:{p_mavproxy}"))
@@ -667,7 +533,7 @@ fn fbwag_cc_routes_the_fc_to_mavproxy() {
         mavproxy.log
     );
     let s = CYCLE;
-    let mut fc = Proc::spawn(
+    let mut fc = LineProc::spawn(
         "fbwag fc-sim",
         fbwag()
             .args(["fc-sim", "--link", &format!("udpout:127.0.0.1:{p_fc}")])

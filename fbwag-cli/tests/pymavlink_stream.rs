@@ -3,7 +3,6 @@
 //! bytes, and the same field values as pymavlink's own decoding.
 
 use serde_json::Value;
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
@@ -34,24 +33,10 @@ fn capture(name: &str, args: &[&str]) -> Vec<u8> {
     bytes
 }
 
+/// `common::fbwag` with success as a bool.
 fn fbwag(args: &[&str], input: &[u8]) -> (Vec<u8>, String, bool) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run fbwag");
-    let mut stdin = child.stdin.take().unwrap();
-    let data = input.to_vec();
-    let writer = std::thread::spawn(move || stdin.write_all(&data));
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap().unwrap();
-    (
-        out.stdout,
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-        out.status.success(),
-    )
+    let (out, err, code) = common::fbwag(args, input);
+    (out, err, code == Some(0))
 }
 
 fn round_trip(name: &str, bytes: &[u8], tlog: bool) -> Vec<u8> {

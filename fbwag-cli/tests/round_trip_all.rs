@@ -10,37 +10,17 @@
 //! whatever the JSON code looks like inside. Set `FBWAG_ROUND_TRIP_SEED` to
 //! try other values (the seed in use is printed).
 
+mod common;
+use common::fbwag;
+
 use fbwag_dialect::mavframe::crc::frame_crc;
 use fbwag_dialect::mavframe::{FieldMeta, FieldType, MessageMeta};
 use fbwag_dialect::MESSAGES;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use std::io::Write;
-use std::process::{Command, Stdio};
 
 /// Frames per message and framing.
 const PER_VARIANT: usize = 6;
-
-/// Runs the binary with `input` on stdin: stdout, stderr, exit code.
-fn fbwag(args: &[&str], input: &[u8]) -> (Vec<u8>, String, Option<i32>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run fbwag");
-    let mut stdin = child.stdin.take().unwrap();
-    let data = input.to_vec();
-    let writer = std::thread::spawn(move || stdin.write_all(&data));
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap().unwrap();
-    (
-        out.stdout,
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-        out.status.code(),
-    )
-}
 
 /// A float bit pattern: mostly the hard cases, sometimes anything.
 fn f32_bits(rng: &mut Pcg64) -> u32 {

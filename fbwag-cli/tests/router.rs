@@ -10,15 +10,7 @@ use std::time::Duration;
 
 mod common;
 
-use common::{python, repo, Proc};
-
-fn free_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+use common::{free_port, python, repo, Proc};
 
 #[test]
 fn a_ground_station_and_the_companion_share_the_fc_through_the_router() {

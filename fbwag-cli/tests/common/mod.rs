@@ -1,8 +1,12 @@
-//! Shared by the integration tests: the repository and the pinned Python.
+//! Shared by the integration tests: the repository, the pinned Pythons,
+//! running the binary, free ports, child processes.
 #![allow(dead_code)]
 
+pub mod lines;
+
+use std::io::Write;
 use std::path::PathBuf;
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 /// The repository root.
 pub fn repo() -> PathBuf {
@@ -61,4 +65,59 @@ impl Drop for Proc {
             let _ = c.wait();
         }
     }
+}
+
+/// The peer venv's python (MAVProxy, mavsdk with mavsdk_server, pymavlink
+/// with the FBWAG dialect and module), or None, with the reason printed,
+/// when the venv cannot be created (no network for pip, no python3-venv).
+/// scripts/test.sh creates it in an earlier step and fails there, so under
+/// the test command this never skips.
+pub fn peer_python() -> Option<PathBuf> {
+    let out = Command::new("bash")
+        .arg(repo().join("scripts/peer-env.sh"))
+        .output()
+        .expect("bash scripts/peer-env.sh");
+    if !out.status.success() {
+        // Written straight to the process's stderr: libtest captures only
+        // the print macros, and a skip must be seen.
+        let _ = writeln!(
+            std::io::stderr(),
+            "SKIPPED: the peer venv (MAVProxy, mavsdk) could not be created:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        return None;
+    }
+    Some(PathBuf::from(String::from_utf8(out.stdout).unwrap().trim()))
+}
+
+/// A free UDP port on 127.0.0.1 (bound then released).
+pub fn free_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Runs the binary with `input` on stdin (written from another thread, so
+/// a large input cannot deadlock against a full stdout pipe): stdout,
+/// stderr, exit code.
+pub fn fbwag(args: &[&str], input: &[u8]) -> (Vec<u8>, String, Option<i32>) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run fbwag");
+    let mut stdin = child.stdin.take().unwrap();
+    let data = input.to_vec();
+    let writer = std::thread::spawn(move || stdin.write_all(&data));
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap().unwrap();
+    (
+        out.stdout,
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+        out.status.code(),
+    )
 }

@@ -208,50 +208,53 @@ pub fn frame_crc(bytes: &[u8], crc_extra: u8) -> u16 {
 /// byte (9 bytes) and a 255-byte payload. CRC_EXTRA is folded separately.
 pub(crate) const MAX_COVERED: usize = 9 + 255;
 
-/// A linear map of the 16-bit register, as four tables of 16 entries, one
-/// per nibble of its argument: `apply` xors the four entries.
-type NibbleMap = [[u16; 16]; 4];
-
 /// `ADVANCE_LO[b]`: the register after `b` zero bytes (`b` < 16);
 /// `ADVANCE_HI[a]`: after `16 a` zero bytes (`16 a` ≤ [`MAX_COVERED`]).
 ///
 /// The register update is linear over GF(2) in (register, byte), so `k`
 /// zero bytes are a linear map of the register, and `k = 16 a + b` is the
-/// map of `16 a` after the map of `b`: eight table loads for any `k` up to a
-/// frame's, from 4.2 KiB of tables built at compile time (only the parser's
-/// recovery path reads them). [`between`] builds on it.
-static ADVANCE_LO: [NibbleMap; 16] = nibble_maps(1);
-static ADVANCE_HI: [NibbleMap; MAX_COVERED / 16 + 1] = nibble_maps(16);
+/// map of `16 a` after the map of `b`: four table loads for any `k` up to a
+/// frame's, from 33 KiB of tables built at compile time (only the parser's
+/// recovery path reads them). Tables by nibble would take 4.3 KiB and eight
+/// loads: the parser's worst case (garbage dense in start bytes, each a
+/// checksum) ran 10–20 % slower with them (`parser_worst` example).
+/// [`between_extra`] builds on it.
+static ADVANCE_LO: [ByteMap; 16] = byte_maps(1);
+static ADVANCE_HI: [ByteMap; (MAX_COVERED + 1) / 16 + 1] = byte_maps(16);
 
-/// `maps[i]`: the register after `i × unit` zero bytes, by nibbles.
-const fn nibble_maps<const N: usize>(unit: usize) -> [NibbleMap; N] {
-    let mut maps = [[[0u16; 16]; 4]; N];
+/// A linear map of the 16-bit register, as two tables of 256 entries, one
+/// per byte of its argument.
+type ByteMap = [[u16; 256]; 2];
+
+/// `maps[i]`: the register after `i × unit` zero bytes, by bytes.
+const fn byte_maps<const N: usize>(unit: usize) -> [ByteMap; N] {
+    let mut maps = [[[0u16; 256]; 2]; N];
     let mut i = 0;
     while i < N {
-        let mut nib = 0;
-        while nib < 4 {
+        let mut half = 0;
+        while half < 2 {
             let mut v = 0;
-            while v < 16 {
-                let mut r = (v << (4 * nib)) as u16;
+            while v < 256 {
+                let mut r = (v << (8 * half)) as u16;
                 let mut step = 0;
                 while step < i * unit {
                     r = (r >> 8) ^ TABLES[0][(r & 0xFF) as usize];
                     step += 1;
                 }
-                maps[i][nib][v] = r;
+                maps[i][half][v] = r;
                 v += 1;
             }
-            nib += 1;
+            half += 1;
         }
         i += 1;
     }
     maps
 }
 
+/// `map · x`.
 #[inline(always)]
-fn apply(map: &NibbleMap, x: u16) -> u16 {
-    let n = |i: usize| usize::from((x >> (4 * i)) & 0xF);
-    (map[0][n(0)] ^ map[1][n(1)]) ^ (map[2][n(2)] ^ map[3][n(3)])
+fn apply_bytes(map: &ByteMap, x: u16) -> u16 {
+    map[0][usize::from(x as u8)] ^ map[1][usize::from(x >> 8)]
 }
 
 /// The registers after each of the 4 bytes `b` folded into `r`, all four
@@ -281,14 +284,32 @@ pub(crate) fn step(crc: u16, b: u8) -> u16 {
 /// prefix states (`k` ≤ [`MAX_COVERED`]): `before` is a register after some
 /// bytes, `after` the same register after `k` more, both from any common
 /// start. Linearity makes it `A^k · (0xFFFF ⊕ before) ⊕ after`, where `A^k`
-/// is `k` zero bytes: the checksum of any stretch of a window costs eight
+/// is `k` zero bytes: the checksum of any stretch of a window costs four
 /// table loads once the window's prefix states are known, however many
 /// candidate frames overlap in it. `None` when `k` is out of range.
+#[cfg(test)]
+fn between(before: u16, after: u16, k: usize) -> Option<u16> {
+    advance(0xFFFF ^ before, k).map(|r| r ^ after)
+}
+
+/// [`between`] with CRC_EXTRA folded in: a frame's checksum from the
+/// prefix states around the bytes it covers. The extra byte's step is
+/// affine (`step(x, e) = A·x ⊕ step(0, e)`), so it is taken apart: `A^(k+1)`
+/// of the start, and `A` of the end state, are independent loads, not a
+/// last dependent look-up after the rest (this is the cost of each start
+/// byte in garbage dense in them).
 #[inline]
-pub(crate) fn between(before: u16, after: u16, k: usize) -> Option<u16> {
+pub(crate) fn between_extra(before: u16, after: u16, k: usize, crc_extra: u8) -> Option<u16> {
+    let end = step(after, 0) ^ TABLES[0][usize::from(crc_extra)];
+    advance(0xFFFF ^ before, k + 1).map(|r| r ^ end)
+}
+
+/// `A^k · r`: the register `r` after `k` zero bytes (`k` ≤
+/// [`MAX_COVERED`] + 1), `None` beyond.
+#[inline(always)]
+fn advance(r: u16, k: usize) -> Option<u16> {
     let hi = ADVANCE_HI.get(k / 16)?;
-    let lo = &ADVANCE_LO[k % 16];
-    Some(apply(hi, apply(lo, 0xFFFF ^ before)) ^ after)
+    Some(apply_bytes(hi, apply_bytes(&ADVANCE_LO[k % 16], r)))
 }
 
 #[cfg(test)]
@@ -403,10 +424,21 @@ mod tests {
                         Some(oracle(&data[s..s + k])),
                         "start {start:#x} at {s} length {k}"
                     );
+                    for extra in [0u8, 0x32, 0xFF] {
+                        let mut c = crc_any::CRCu16::crc16mcrf4cc();
+                        c.digest(&data[s..s + k]);
+                        c.digest(&[extra]);
+                        assert_eq!(
+                            between_extra(prefix[s], prefix[s + k], k, extra),
+                            Some(c.get_crc()),
+                            "with extra {extra:#x}, start {start:#x} at {s} length {k}"
+                        );
+                    }
                 }
             }
         }
-        assert_eq!(between(0, 0, 16 * (MAX_COVERED / 16 + 1)), None);
+        assert_eq!(between(0, 0, 16 * (MAX_COVERED / 16 + 2)), None);
+        assert_eq!(between_extra(0, 0, 16 * (MAX_COVERED / 16 + 2), 0), None);
     }
 
     #[test]

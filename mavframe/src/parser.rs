@@ -59,7 +59,7 @@ use crate::frame::{
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
-use memo::{Inside, Memo, Whole};
+use memo::{start_masks, Inside, Memo, Starts, Whole};
 
 /// Counters of what the parser saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -750,40 +750,105 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 /// the first candidate it leaves to `check` (or all of them).
 #[inline(never)]
 fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut Stats) -> usize {
-    let is_start = |b: &u8| *b == STX_V1 || *b == STX_V2;
+    let mut count = Rejected::default();
+    // One by one, the way through sparse start bytes (random bytes: a
+    // search for the next start byte, rarely more than one candidate); by
+    // masks of 64 positions once the start bytes prove dense.
     let mut i = 0;
-    let (mut bad_crc, mut bad_flags) = (0u64, 0u64);
-    while let Some(rest) = bytes.get(i..).filter(|r| r.first().is_some_and(is_start)) {
-        match Whole::at(rest) {
-            Some(w) => {
-                let Some(extra) = memo.crc_extra::<D>(w.id) else {
-                    break;
-                };
-                if memo.candidate_crc_ok(rest, at + i as u64, &w, extra) {
-                    break;
-                }
-                bad_crc += 1;
-            }
-            // What `frame_len` says (UnknownIncompatFlags) of a whole
-            // MAVLink 2 header with unknown flags.
-            None if rest[0] == STX_V2
-                && rest.len() >= HEADER_LEN_V2
-                && rest[2] & !IFLAG_KNOWN != 0 =>
-            {
-                bad_flags += 1
-            }
-            None => break,
+    for n in 1.. {
+        if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN {
+            let i = i + reject_masked::<D>(&bytes[i..], at + i as u64, memo, &mut count);
+            return count.record(i, memo, stats);
+        }
+        let rest = &bytes[i..];
+        match rest.first() {
+            Some(&STX_V2) if refused(rest) => count.bad_flags += 1,
+            Some(_) if rejects::<D>(rest, at + i as u64, memo) => count.bad_crc += 1,
+            _ => break,
         }
         i += 1 + rest[1..]
             .iter()
-            .position(is_start)
+            .position(|&b| b == STX_V1 || b == STX_V2)
             .unwrap_or(rest.len() - 1);
     }
-    stats.bad_crc += bad_crc;
-    stats.bad_incompat_flags += bad_flags;
-    stats.bytes_dropped += i as u64;
-    memo.steps += (i as u64) + bad_crc + bad_flags;
-    i
+    count.record(i, memo, stats)
+}
+
+/// [`reject_run`] looks at its start bytes' density every this many
+/// candidates...
+const SHORT_RUN: usize = 8;
+/// ...and goes on by masks when they are fewer than this many bytes apart.
+const DENSE: usize = 8;
+
+/// What [`reject_run`] rejected.
+#[derive(Default)]
+struct Rejected {
+    bad_crc: u64,
+    bad_flags: u64,
+}
+
+impl Rejected {
+    /// Counts the rejections and the `dropped` bytes; returns `dropped`.
+    fn record(self, dropped: usize, memo: &mut Memo, stats: &mut Stats) -> usize {
+        stats.bad_crc += self.bad_crc;
+        stats.bad_incompat_flags += self.bad_flags;
+        stats.bytes_dropped += dropped as u64;
+        memo.steps += (dropped as u64) + self.bad_crc + self.bad_flags;
+        dropped
+    }
+}
+
+/// A MAVLink 2 start byte whose whole header has unknown incompatibility
+/// flags: what `frame_len` refuses (UnknownIncompatFlags).
+#[inline(always)]
+fn refused(rest: &[u8]) -> bool {
+    rest.len() >= HEADER_LEN_V2 && rest[2] & !IFLAG_KNOWN != 0
+}
+
+/// [`reject_run`] past its first candidates (`bytes[0]` a start byte): the
+/// start bytes 64 at a time, by mask. In garbage the kind of each is
+/// unpredictable: a branch on it per byte would mostly be mispredicted.
+fn reject_masked<D: Dialect>(
+    bytes: &[u8],
+    at: u64,
+    memo: &mut Memo,
+    count: &mut Rejected,
+) -> usize {
+    for Starts {
+        base,
+        kinds,
+        refused,
+    } in start_masks(bytes, bytes.len())
+    {
+        let mut starts = kinds[0] | kinds[1];
+        while starts != 0 {
+            let j = starts.trailing_zeros();
+            starts &= starts - 1;
+            let i = base + j as usize;
+            if !rejects::<D>(&bytes[i..], at + i as u64, memo) {
+                // The refused before it are dropped with it.
+                count.bad_flags += u64::from((refused & ((1 << j) - 1)).count_ones());
+                return i;
+            }
+            count.bad_crc += 1;
+        }
+        count.bad_flags += u64::from(refused.count_ones());
+    }
+    bytes.len()
+}
+
+/// Whether the candidate at the start of `rest` (stream position `at`) is
+/// a whole frame of a known id with a bad checksum: the rejection
+/// [`reject_run`] makes alone.
+#[inline(always)]
+fn rejects<D: Dialect>(rest: &[u8], at: u64, memo: &mut Memo) -> bool {
+    let Some(w) = Whole::at(rest) else {
+        return false;
+    };
+    match memo.crc_extra::<D>(w.id) {
+        Some(extra) => !memo.candidate_crc_ok(rest, at, &w, extra),
+        None => false,
+    }
 }
 
 /// What a candidate check needs besides its bytes.

@@ -20,7 +20,7 @@
 //!   register after every position of the window, each computed once, one
 //!   byte step per position. The CRC is affine over GF(2), so the checksum
 //!   of any stretch is a 16-column product of its two end states
-//!   ([`crc::between`]). Direct checksums never overlap (each starts at or
+//!   ([`crc::between_extra`]). Direct checksums never overlap (each starts at or
 //!   after the end of the previous one) and prefix states are computed once
 //!   per position, so checksumming costs at most two byte steps per byte.
 //! - **Good known frames inside a candidate.** Whether a good frame of a
@@ -261,8 +261,7 @@ impl Memo {
             }
             let before = self.prefix[slot_of(start, PREFIX_MASK)];
             let after = self.prefix[slot_of(end, PREFIX_MASK)];
-            return crc::between(before, after, w.covered).map(|c| crc::step(c, crc_extra))
-                == Some(w.carried);
+            return crc::between_extra(before, after, w.covered, crc_extra) == Some(w.carried);
         }
         self.direct_end = end;
         self.busy_until = self.busy_until.max(end);
@@ -462,37 +461,46 @@ impl Memo {
         clear_range(&mut self.undecided, from, to);
         let lo = (from - at) as usize;
         // By kind, so that no branch per position asks which kind it is
-        // (in garbage, unpredictable): each position is decided alone.
-        for (base, kinds) in start_masks(&bytes[lo..], end - lo) {
+        // (in garbage, unpredictable): each position is decided alone, and
+        // the verdicts of a block are stored at once (a store per position
+        // would make each wait for the previous one's).
+        for Starts { base, kinds, .. } in start_masks(&bytes[lo..], end - lo) {
+            let (mut good, mut bad) = (0u64, 0u64);
             for mut starts in kinds {
+                self.steps += u64::from(starts.count_ones());
                 while starts != 0 {
-                    let rel = lo + base + starts.trailing_zeros() as usize;
+                    let j = starts.trailing_zeros();
                     starts &= starts - 1;
-                    self.classify_start::<D>(bytes, at, rel);
+                    match self.classify_start::<D>(bytes, at, lo + base + j as usize) {
+                        Some(true) => good |= 1 << j,
+                        Some(false) => bad |= 1 << j,
+                        None => {}
+                    }
                 }
             }
+            let first = at + (lo + base) as u64;
+            or_bits(&mut self.good, first, good);
+            or_bits(&mut self.bad, first, bad);
         }
         self.steps += to - from;
         self.frontier = to;
         self.busy_until = self.busy_until.max(to);
     }
 
-    /// Classifies the start byte at `bytes[rel]`: a whole frame here, the
-    /// rest by [`classify`](Self::classify).
+    /// Classifies the start byte at `bytes[rel]`: for a whole frame of a
+    /// known id, whether its checksum is good; the rest by
+    /// [`classify`](Self::classify), recorded here.
     #[inline(always)]
-    fn classify_start<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) {
-        let q = at + rel as u64;
-        self.steps += 1;
+    fn classify_start<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Option<bool> {
         match Whole::at(&bytes[rel..]) {
             Some(w) => {
-                if let Some(extra) = self.crc_extra::<D>(w.id) {
-                    let good = self.crc_matches(bytes, at, rel, &w, extra);
-                    set_bit(if good { &mut self.good } else { &mut self.bad }, q);
-                }
+                let extra = self.crc_extra::<D>(w.id)?;
+                Some(self.crc_matches(bytes, at, rel, &w, extra))
             }
             None => {
                 let class = self.classify::<D>(bytes, at, rel);
-                self.record(q, class);
+                self.record(at + rel as u64, class);
+                None
             }
         }
     }
@@ -613,11 +621,9 @@ impl Memo {
 }
 
 /// The start bytes among the first `count` of `bytes`, 64 positions at a
-/// time: (offset, [0xFE positions, 0xFD positions]), less the 0xFD whose
-/// whole header has unknown incompatibility flags (no frame there, as
-/// `frame_len` says; most of garbage's 0xFD). Compares the compiler
-/// vectorises, then set bits: no branch per byte.
-fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = (usize, [u64; 2])> + '_ {
+/// time, by kind: see [`Starts`]. Compares the compiler vectorises, then set
+/// bits: no branch per byte.
+pub(super) fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = Starts> + '_ {
     (0..count).step_by(64).map(move |base| {
         let n = (count - base).min(64);
         let (mut v1, mut v2, mut bad_flags) = (0u64, 0u64, 0u64);
@@ -632,8 +638,24 @@ fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = (usize, [u64;
         // Positions whose header is whole: base + j + 10 <= len.
         let whole = bytes.len().saturating_sub(base + HEADER_LEN_V2 - 1);
         let whole = if whole >= 64 { !0 } else { (1u64 << whole) - 1 };
-        (base, [v1, v2 & !(bad_flags & whole)])
+        let refused = v2 & bad_flags & whole;
+        Starts {
+            base,
+            kinds: [v1, v2 & !refused],
+            refused,
+        }
     })
+}
+
+/// The start bytes of 64 positions from `bytes[base]` (bit `j`: position
+/// `base + j`).
+pub(super) struct Starts {
+    pub(super) base: usize,
+    /// 0xFE, and 0xFD less `refused`.
+    pub(super) kinds: [u64; 2],
+    /// The 0xFD whose whole header has unknown incompatibility flags: no
+    /// frame there, as `frame_len` says (most of garbage's 0xFD).
+    pub(super) refused: u64,
 }
 
 /// Bytes needed (from `bytes[0]`) to decide about the undecided position
@@ -654,6 +676,16 @@ fn slot_of(x: u64, mask: u64) -> usize {
 fn set_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {
     let s = slot_of(x, SCAN_MASK);
     bits[s / 64] |= 1 << (s % 64);
+}
+
+/// Sets the bits of positions `from + j` for the bits `j` of `mask`.
+fn or_bits(bits: &mut [u64; SCAN_WORDS], from: u64, mask: u64) {
+    let s = slot_of(from, SCAN_MASK);
+    let (word, bit) = (s / 64, s % 64);
+    bits[word] |= mask << bit;
+    if bit != 0 {
+        bits[(word + 1) % SCAN_WORDS] |= mask >> (64 - bit);
+    }
 }
 
 fn clear_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {

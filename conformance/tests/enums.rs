@@ -39,13 +39,10 @@ fn our_enums(xml: &Path) -> BTreeSet<String> {
     let schema = mavgen_rs::Schema::load(&[xml])
         .unwrap_or_else(|d| panic!("{} rejected: {d:?}", xml.display()));
     schema
-        .enums
-        .values()
+        .enums()
         .flat_map(|e| {
-            e.def
-                .entries
-                .iter()
-                .map(move |entry| format!("{} {} {}", e.def.name, entry.name, entry.value))
+            e.entries()
+                .map(move |entry| format!("{} {} {}", e.name(), entry.name(), entry.value()))
         })
         .collect()
 }

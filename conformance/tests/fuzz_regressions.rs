@@ -54,8 +54,4 @@ fn view_corpus_and_regressions() {
 #[test]
 fn xml_corpus_and_regressions() {
     replay("xml", fuzz_targets::xml);
-    // The harness's temporary dialect file (one directory per process).
-    let _ = std::fs::remove_dir_all(
-        std::env::temp_dir().join(format!("fbwag-fuzz-xml-{}", std::process::id())),
-    );
 }

@@ -39,16 +39,17 @@ fn pymavlink_tables() -> BTreeMap<String, String> {
 fn our_table(xml: &std::path::Path) -> String {
     let schema = mavgen_rs::Schema::load(&[xml])
         .unwrap_or_else(|d| panic!("{} rejected: {d:?}", xml.display()));
-    let mut rows: Vec<_> = schema
-        .messages()
-        .map(|r| (schema.message(r), schema.layout(r)))
-        .collect();
-    rows.sort_by_key(|(m, _)| m.id);
+    let mut rows: Vec<_> = schema.messages().collect();
+    rows.sort_by_key(|m| m.id());
     rows.iter()
-        .map(|(m, l)| {
+        .map(|m| {
             format!(
                 "{} {} {} {} {}\n",
-                m.id, m.name, l.crc_extra, l.min_len, l.max_len
+                m.id(),
+                m.name(),
+                m.crc_extra(),
+                m.min_len(),
+                m.max_len()
             )
         })
         .collect()

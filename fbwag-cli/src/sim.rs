@@ -1,6 +1,6 @@
 //! `fbwag sim`: the delegation protocol in the simulator.
 
-use fbwag_delegation::sim::report::{self, Row};
+use fbwag_delegation::sim::report::{self, Losses, Row};
 use fbwag_delegation::sim::{Scenario, Trial};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -88,7 +88,11 @@ pub fn run(a: SimArgs) -> Result<bool, String> {
                 "independent"
             }
         );
-        let rows = report::sweep(s, trials, a.seed, a.burst.is_some());
+        let losses = match a.burst {
+            Some(mean_burst) => Losses::Bursty { mean_burst },
+            None => Losses::Independent,
+        };
+        let rows = report::sweep(s, trials, a.seed, losses);
         if a.json {
             for r in &rows {
                 println!("{}", r.json());

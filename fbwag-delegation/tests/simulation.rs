@@ -4,7 +4,7 @@
 
 use fbwag_delegation::fc::Authority;
 use fbwag_delegation::sim::link::{GilbertElliott, LinkModel};
-use fbwag_delegation::sim::report::run_many;
+use fbwag_delegation::sim::report::{run_many, sweep, Losses};
 use fbwag_delegation::sim::{run, Scenario, Trial};
 use std::time::Duration;
 
@@ -138,4 +138,25 @@ fn traces_tell_the_story() {
     ] {
         assert!(t.contains(step), "missing {step:?} in\n{t}");
     }
+}
+
+#[test]
+fn a_bursty_sweep_uses_the_burst_length_it_is_given() {
+    let s = Scenario::MessageLoss;
+    let (trials, seed, loss) = (40, 5, 0.5);
+    let rows = sweep(s, trials, seed, Losses::Bursty { mean_burst: 3.0 });
+    assert_eq!(rows[5].loss, loss);
+    let with = |burst: f64| {
+        run_many(s, loss, trials, seed, |seed| {
+            Trial::new(s, loss, seed).bursty(loss, burst)
+        })
+    };
+    let (three, eight) = (with(3.0), with(8.0));
+    let key = |r: &fbwag_delegation::sim::report::Row| (r.frames, r.responses.clone());
+    assert_eq!(key(&rows[5]), key(&three));
+    assert_ne!(
+        key(&three),
+        key(&eight),
+        "the burst length must matter here"
+    );
 }

@@ -42,7 +42,7 @@
 use crate::conn::codec::{FrameCodec, Framer};
 use crate::conn::{Endpoint, ReceivedFrame, ReplyTo};
 use crate::message::{Dialect, Encode, MessageMeta};
-use crate::parser::{Parser, Stats};
+use crate::parser::{Parser, Stats, Unsigned};
 use crate::route::{LinkId, Links, RoutingTable};
 use crate::signing::state::{SigningState, StateError, StateFile};
 use crate::signing::Verifier;
@@ -85,8 +85,9 @@ pub struct LinkConfig {
     pub endpoint: Endpoint,
     /// Verify incoming signatures and sign outgoing messages with this key.
     pub key: Option<[u8; 32]>,
-    /// Accept unsigned frames (marked unauthenticated) when `key` is set.
-    pub accept_unsigned: bool,
+    /// When `key` is set: whether unsigned frames are returned (marked
+    /// unauthenticated) or dropped. Without a key every frame is accepted.
+    pub unsigned: Unsigned,
     /// `udpin` and `udpbcast`: whom to send to (see [`ReplyTo`]; `udpbcast`
     /// broadcasts while the rule names nobody).
     pub reply_to: ReplyTo,
@@ -100,7 +101,7 @@ impl LinkConfig {
         LinkConfig {
             endpoint,
             key: None,
-            accept_unsigned: true,
+            unsigned: Unsigned::Accept,
             reply_to: ReplyTo::LastSender,
             signing_state: None,
         }
@@ -480,14 +481,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
         FrameCodec::with_parser(match self.config.key {
             Some(key) => {
                 let verifier: Verifier = self.state.start.verifier(key);
-                Parser::with_signing(
-                    verifier,
-                    if self.config.accept_unsigned {
-                        crate::parser::Unsigned::Accept
-                    } else {
-                        crate::parser::Unsigned::Refuse
-                    },
-                )
+                Parser::with_signing(verifier, self.config.unsigned)
             }
             None => Parser::new(),
         })

@@ -6,8 +6,10 @@ fn main() {
     let schema = mavgen_rs::Schema::load(&[&xml]).expect("valid");
     let load = t.elapsed();
     let t = Instant::now();
-    let out = mavgen_rs::codegen::generate(&schema, &Default::default()).expect("generates");
+    let generated = mavgen_rs::Config::new()
+        .generate_from(&schema)
+        .expect("generates");
     let render = t.elapsed();
-    let bytes: usize = out.files.iter().map(|(_, t)| t.len()).sum();
+    let bytes: usize = generated.output.files.iter().map(|(_, t)| t.len()).sum();
     println!("load+check {load:?}, render {render:?}, {bytes} bytes");
 }

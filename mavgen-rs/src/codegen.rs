@@ -159,7 +159,7 @@ pub fn generate(schema: &Schema, opts: &Options) -> Result<Output, Vec<Diagnosti
     }
 
     // The messages to generate.
-    let all: Vec<MessageRef> = schema.messages().collect();
+    let all: Vec<MessageRef> = schema.message_refs().collect();
     let selected: BTreeSet<MessageRef> = match &opts.messages {
         None => all.iter().copied().collect(),
         Some(names) => {
@@ -410,7 +410,7 @@ fn enum_info(schema: &Schema, name: &str, m: &MergedEnum) -> EnumInfo {
         Primitive::U64
     };
     let mut bitmask = m.def.bitmask;
-    for r in schema.messages() {
+    for r in schema.message_refs() {
         for f in &schema.message(r).fields {
             if f.enum_name.as_deref() == Some(name)
                 && f.array_len.is_none()

@@ -11,6 +11,7 @@
 
 use crate::codegen::{self, Options, Output};
 use crate::diag::{Diagnostic, Severity};
+use crate::input::{self, ReadError, MAX_FILE_BYTES};
 use crate::schema::Schema;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -214,6 +215,14 @@ impl Config {
             .collect()
     }
 
+    /// [`Self::message_list`] of the file at `path`, read with the bounds of
+    /// the XML input: a regular file (not a FIFO or device) of at most
+    /// [`MAX_FILE_BYTES`], in UTF-8.
+    pub fn message_list_file(path: impl AsRef<Path>) -> Result<Vec<String>, ReadError> {
+        let text = input::read_regular_text(path.as_ref(), MAX_FILE_BYTES)?;
+        Ok(Self::message_list(&text))
+    }
+
     /// The path generated code uses for the runtime crate (default
     /// `::mavframe`), e.g. `::fbwag_dialect::mavframe` for a crate that only
     /// depends on a dialect crate re-exporting it.
@@ -291,14 +300,23 @@ impl Config {
 
     /// Loads, checks and renders `xml` (the dialect files) without writing.
     pub fn generate<P: AsRef<Path>>(&self, xml: &[P]) -> Result<Generated, Error> {
+        // Before reading any file: a typo in an attribute is found at once.
         self.check_attribute_syntax()?;
         let schema = Schema::load(xml).map_err(Error::Invalid)?;
-        self.check_attribute_paths(&schema)?;
-        let output = codegen::generate(&schema, &self.options).map_err(|mut e| {
+        self.generate_from(&schema)
+    }
+
+    /// Renders a schema already loaded (by [`Schema::load`] or
+    /// [`Schema::from_text`]) without writing: for a tool that inspects the
+    /// dialect first, or a text that is not a file.
+    pub fn generate_from(&self, schema: &Schema) -> Result<Generated, Error> {
+        self.check_attribute_syntax()?;
+        self.check_attribute_paths(schema)?;
+        let output = codegen::generate(schema, &self.options).map_err(|mut e| {
             e.extend(schema.warnings.iter().cloned());
             Error::Invalid(e)
         })?;
-        let messages = output_messages(&schema, &self.options);
+        let messages = output_messages(schema, &self.options);
         let enums = output.enums;
         Ok(Generated {
             output,
@@ -361,7 +379,11 @@ impl Config {
     /// silently drop an attribute). Items the message filter leaves out
     /// still count: the same configuration serves filtered builds.
     fn check_attribute_paths(&self, schema: &Schema) -> Result<(), Error> {
-        let message = |name: &str| schema.messages().find(|&r| schema.message(r).name == name);
+        let message = |name: &str| {
+            schema
+                .message_refs()
+                .find(|&r| schema.message(r).name == name)
+        };
         let is_type = |p: &str| p == "." || message(p).is_some() || schema.enums.contains_key(p);
         let is_field = |p: &str| match p.split_once('.') {
             _ if p == "." => true,
@@ -393,7 +415,7 @@ impl Config {
 
 fn output_messages(schema: &Schema, opts: &Options) -> usize {
     match &opts.messages {
-        None => schema.messages().count(),
+        None => schema.message_refs().count(),
         Some(names) => names.len(),
     }
 }

@@ -1,10 +1,12 @@
 //! `mavgen-rs`: MAVLink XML dialects to Rust.
 //!
-//! The pipeline is XML → [`model`] (via [`xml`], one file at a time) →
-//! [`schema`] (includes resolved, enums merged, checked, [`layout`] and
-//! CRC_EXTRA computed exactly as pymavlink does) → tokens ([`codegen`]) →
-//! formatted Rust. Use [`Config`] from a build script, or the `mavgen-rs`
-//! command line to write bindings to a directory.
+//! The pipeline is XML → a parsed model (one file at a time) → a
+//! [`Schema`] (includes resolved, enums merged, checked, wire layout and
+//! CRC_EXTRA computed exactly as pymavlink does) → tokens → formatted Rust.
+//! Use [`Config`] from a build script, or the `mavgen-rs` command line to
+//! write bindings to a directory; [`Schema`] alone checks a dialect and
+//! shows its messages and enums without generating code. Problems come back
+//! as [`Diagnostic`]s with file, line and column.
 //!
 //! The generated code depends only on the `mavframe` runtime crate.
 //!
@@ -44,16 +46,20 @@
 //! attributes); the repository's `examples/own-dialect` is a whole crate.
 #![warn(missing_docs)]
 
-pub mod codegen;
+mod codegen;
 mod config;
-pub mod diag;
-pub mod input;
-pub mod layout;
-pub mod model;
-pub mod names;
-pub mod schema;
-pub mod xml;
+mod defs;
+mod diag;
+mod input;
+mod layout;
+mod model;
+mod names;
+mod schema;
+mod xml;
 
+pub use codegen::Output;
 pub use config::{AttributeError, AttributeProblem, Config, Error, Generated};
-pub use diag::{Diagnostic, Severity};
+pub use defs::{EntryDef, EnumDef, FieldDef, MessageDef};
+pub use diag::{Diagnostic, Position, Severity};
+pub use input::{ReadError, MAX_FILE_BYTES, MAX_TOTAL_BYTES};
 pub use schema::Schema;

@@ -1,7 +1,6 @@
 //! `mavgen-rs`: generate, check and tabulate MAVLink XML dialects.
 
 use clap::{Parser, Subcommand};
-use mavgen_rs::input::{read_regular_text, MAX_FILE_BYTES};
 use mavgen_rs::{Config, Diagnostic, Error, Schema};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -105,9 +104,8 @@ fn expand_message_files(args: Vec<String>) -> Result<Vec<String>, String> {
             names.push(arg.trim().to_string());
             continue;
         };
-        let text = read_regular_text(Path::new(path), MAX_FILE_BYTES)
+        let listed = Config::message_list_file(Path::new(path))
             .map_err(|e| format!("--messages @{path}: {e}"))?;
-        let listed = Config::message_list(&text);
         if listed.is_empty() {
             return Err(format!("--messages @{path}: the file names no message"));
         }
@@ -181,12 +179,12 @@ fn main() -> ExitCode {
         }
         Command::Check { xml } => match Schema::load(&xml) {
             Ok(schema) => {
-                report(&schema.warnings);
+                report(schema.warnings());
                 eprintln!(
                     "ok: {} messages, {} enums in {} files",
                     schema.messages().count(),
-                    schema.enums.len(),
-                    schema.files.len()
+                    schema.enums().count(),
+                    schema.paths().count()
                 );
                 ExitCode::SUCCESS
             }
@@ -197,16 +195,17 @@ fn main() -> ExitCode {
         },
         Command::Table { xml } => match Schema::load(&[xml]) {
             Ok(schema) => {
-                let mut rows: Vec<_> = schema
-                    .messages()
-                    .map(|r| (schema.message(r), schema.layout(r)))
-                    .collect();
-                rows.sort_by_key(|(m, _)| m.id);
+                let mut rows: Vec<_> = schema.messages().collect();
+                rows.sort_by_key(|m| m.id());
                 let mut out = String::new();
-                for (m, l) in rows {
+                for m in rows {
                     out.push_str(&format!(
                         "{} {} {} {} {}\n",
-                        m.id, m.name, l.crc_extra, l.min_len, l.max_len
+                        m.id(),
+                        m.name(),
+                        m.crc_extra(),
+                        m.min_len(),
+                        m.max_len()
                     ));
                 }
                 print!("{out}");

@@ -1,6 +1,6 @@
 //! The parsed form of MAVLink XML: files, messages, fields, enums.
 //!
-//! Values are kept as the XML states them; [`crate::schema`] resolves
+//! Values are kept as the XML states them; the schema resolves
 //! includes, merges enums and computes wire layouts on top of this.
 
 use crate::diag::Loc;
@@ -164,8 +164,6 @@ pub struct Field {
     pub extension: bool,
     /// Where the field is declared.
     pub loc: Loc,
-    /// Where its `type` attribute is.
-    pub type_loc: Loc,
     /// Where its `enum` attribute is.
     pub enum_loc: Loc,
 }
@@ -174,11 +172,6 @@ impl Field {
     /// Bytes on the wire.
     pub fn wire_len(&self) -> usize {
         self.primitive.size() * self.array_len.unwrap_or(1)
-    }
-
-    /// True for `char[n]` strings.
-    pub fn is_string(&self) -> bool {
-        self.primitive == Primitive::Char && self.array_len.is_some()
     }
 }
 

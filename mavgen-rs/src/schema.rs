@@ -11,70 +11,69 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 /// Highest message id MAVLink 2 can carry (24 bits).
-pub const MAX_MESSAGE_ID: u64 = 0xFF_FFFF;
+pub(crate) const MAX_MESSAGE_ID: u64 = 0xFF_FFFF;
 /// Longest payload a frame can carry.
-pub const MAX_PAYLOAD: usize = 255;
+pub(crate) const MAX_PAYLOAD: usize = 255;
 /// Most fields pymavlink (and the C library's field bitmaps) allow.
-pub const MAX_FIELDS: usize = 64;
+pub(crate) const MAX_FIELDS: usize = 64;
 
 /// Field names that make the official C generator's output wrong: its
 /// `mavlink_msg_*_pack`/`_pack_chan`/`_send` functions have parameters (and
 /// locals) with these names, so a field of the same name shadows them. See
 /// `docs/c-generator-name-clash.md`.
-pub const C_CLASHING_FIELD_NAMES: &[&str] =
+pub(crate) const C_CLASHING_FIELD_NAMES: &[&str] =
     &["system_id", "component_id", "msg", "chan", "packet", "buf"];
 
 /// An enum after merging every file's declaration of it.
 #[derive(Debug, Clone)]
-pub struct MergedEnum {
+pub(crate) struct MergedEnum {
     /// The merged definition: entries sorted by value, as pymavlink sorts them.
-    pub def: Enum,
+    pub(crate) def: Enum,
     /// The file whose module holds the enum: of the files declaring it, the
     /// one the others include (so `common.xml`'s `MAV_CMD` stays in `common`,
     /// with the entries ArduPilot and vendors merge into it).
-    pub home: usize,
+    pub(crate) home: usize,
     /// Every file declaring the enum, in load order.
-    pub declared_in: Vec<usize>,
+    pub(crate) declared_in: Vec<usize>,
 }
 
 /// A loaded, checked set of dialect files.
 #[derive(Debug)]
 pub struct Schema {
     /// File texts, for positions.
-    pub sources: Vec<Source>,
+    pub(crate) sources: Vec<Source>,
     /// Files in pymavlink's order: the roots, then includes breadth first.
-    pub files: Vec<XmlFile>,
+    pub(crate) files: Vec<XmlFile>,
     /// Indices of the files asked for (the dialects).
-    pub roots: Vec<usize>,
+    pub(crate) roots: Vec<usize>,
     /// For each file, the file each of its `<include>`s names (`None` where
     /// it could not be read), aligned with [`XmlFile::includes`].
-    pub includes: Vec<Vec<Option<usize>>>,
+    pub(crate) includes: Vec<Vec<Option<usize>>>,
     /// Layout of each message: `layouts[file][message]`.
-    pub layouts: Vec<Vec<Layout>>,
+    pub(crate) layouts: Vec<Vec<Layout>>,
     /// Merged enums by name.
-    pub enums: BTreeMap<String, MergedEnum>,
+    pub(crate) enums: BTreeMap<String, MergedEnum>,
     /// Warnings found while loading.
-    pub warnings: Vec<Diagnostic>,
+    pub(crate) warnings: Vec<Diagnostic>,
 }
 
 /// A message of the schema: file index and message index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct MessageRef {
+pub(crate) struct MessageRef {
     /// Index into [`Schema::files`].
-    pub file: usize,
+    pub(crate) file: usize,
     /// Index into that file's messages.
-    pub index: usize,
+    pub(crate) index: usize,
 }
 
 impl Schema {
     /// Loads `roots` and all they include, and checks them. On failure, the
     /// diagnostics (errors first found, warnings too) are returned.
     ///
-    /// Every file must be a regular file of at most
-    /// [`MAX_FILE_BYTES`], all of them together
-    /// at most [`MAX_TOTAL_BYTES`]; anything
-    /// else (a FIFO, a device, a directory) is an error at the `<include>`
-    /// naming it. Include chains of any depth are handled without recursion.
+    /// Every file must be a regular file of at most [`MAX_FILE_BYTES`], all
+    /// of them together at most [`MAX_TOTAL_BYTES`]; anything else (a FIFO,
+    /// a device, a directory) is an error at the `<include>` naming it.
+    /// Include chains of any depth are handled without recursion.
     pub fn load<P: AsRef<Path>>(roots: &[P]) -> Result<Schema, Vec<Diagnostic>> {
         let mut diags = Diagnostics::default();
         let mut loader = Loader::default();
@@ -86,6 +85,48 @@ impl Schema {
                 _ => {}
             }
         }
+        Self::resolve(loader, root_ids, diags)
+    }
+
+    /// Checks one dialect given as text, as if it were the file at `path`
+    /// (an editor's unsaved buffer, a test's literal): diagnostics name
+    /// `path`, and its `<include>`s are read from disk relative to `path`'s
+    /// directory with the bounds of [`Schema::load`]. The text itself may
+    /// hold at most [`MAX_FILE_BYTES`]; `path` need not exist.
+    ///
+    /// ```
+    /// let xml = r#"<mavlink><messages>
+    ///   <message id="42" name="PING_ME"><field type="uint32_t" name="seq">n</field></message>
+    /// </messages></mavlink>"#;
+    /// let schema = mavgen_rs::Schema::from_text("ping.xml", xml).unwrap();
+    /// let ping = schema.messages().next().unwrap();
+    /// assert_eq!((ping.id(), ping.name(), ping.max_len()), (42, "PING_ME", 4));
+    ///
+    /// let bad = xml.replace("uint32_t", "uint33_t");
+    /// let errors = mavgen_rs::Schema::from_text("ping.xml", &bad).unwrap_err();
+    /// assert!(errors[0].to_string().starts_with("ping.xml:2:"), "{}", errors[0]);
+    /// ```
+    pub fn from_text(path: impl AsRef<Path>, text: &str) -> Result<Schema, Vec<Diagnostic>> {
+        let path = path.as_ref();
+        let mut diags = Diagnostics::default();
+        let mut loader = Loader::default();
+        let root = match loader.count(text.len()) {
+            Ok(()) => vec![loader.add(path, lexical_canonical(path), text.into(), &mut diags)],
+            Err(e) => {
+                loader.refuse(path, &None, &e, &mut diags);
+                Vec::new()
+            }
+        };
+        Self::resolve(loader, root, diags)
+    }
+
+    /// Follows the includes of the roots `loader` has read, then checks
+    /// the whole.
+    fn resolve(
+        mut loader: Loader,
+        root_ids: Vec<usize>,
+        mut diags: Diagnostics,
+    ) -> Result<Schema, Vec<Diagnostic>> {
         if diags.has_errors() {
             return Err(diags.into_vec());
         }
@@ -138,24 +179,24 @@ impl Schema {
     }
 
     /// Every message, in load order.
-    pub fn messages(&self) -> impl Iterator<Item = MessageRef> + '_ {
+    pub(crate) fn message_refs(&self) -> impl Iterator<Item = MessageRef> + '_ {
         self.files.iter().enumerate().flat_map(|(file, f)| {
             (0..f.messages.len()).map(move |index| MessageRef { file, index })
         })
     }
 
     /// The message behind `r`.
-    pub fn message(&self, r: MessageRef) -> &crate::model::Message {
+    pub(crate) fn message(&self, r: MessageRef) -> &crate::model::Message {
         &self.files[r.file].messages[r.index]
     }
 
     /// The layout of `r`.
-    pub fn layout(&self, r: MessageRef) -> &Layout {
+    pub(crate) fn layout(&self, r: MessageRef) -> &Layout {
         &self.layouts[r.file][r.index]
     }
 
     /// Files reachable from `root` (itself included), in load order.
-    pub fn reachable(&self, root: usize) -> Vec<usize> {
+    pub(crate) fn reachable(&self, root: usize) -> Vec<usize> {
         let mut seen = vec![false; self.files.len()];
         let mut stack = vec![root];
         while let Some(f) = stack.pop() {
@@ -514,25 +555,49 @@ impl Loader {
                 return None;
             }
         };
-        let id = self.files.len();
         let shown = from.map_or_else(|| path.to_path_buf(), |(_, p)| p);
-        self.sources.push(Source::new(&shown, text));
+        Some(self.add(&shown, canonical, text, diags))
+    }
+
+    /// Parses `text`, the file at `canonical` shown as `shown`, as the next
+    /// file.
+    fn add(
+        &mut self,
+        shown: &Path,
+        canonical: PathBuf,
+        text: String,
+        diags: &mut Diagnostics,
+    ) -> usize {
+        let id = self.files.len();
+        self.sources.push(Source::new(shown, text));
         let file = xml::parse(&self.sources, id, canonical.clone(), diags);
         self.files.push(file);
         self.by_path.insert(canonical, id);
-        Some(id)
+        id
     }
 
     /// One file's text, within both the per-file and the total limit.
     fn read_text(&mut self, path: &Path) -> Result<String, ReadError> {
         let text = input::read_regular_text(path, MAX_FILE_BYTES)?;
-        self.total += text.len() as u64;
+        self.count(text.len())?;
+        Ok(text)
+    }
+
+    /// Counts a file of `len` bytes against both limits.
+    fn count(&mut self, len: usize) -> Result<(), ReadError> {
+        let len = len as u64;
+        if len > MAX_FILE_BYTES {
+            return Err(ReadError::TooLarge {
+                limit: MAX_FILE_BYTES,
+            });
+        }
+        self.total += len;
         if self.total > MAX_TOTAL_BYTES {
             return Err(ReadError::TooLarge {
                 limit: MAX_TOTAL_BYTES,
             });
         }
-        Ok(text)
+        Ok(())
     }
 
     /// Reports why `path` was not read: at the `<include>` naming it, or
@@ -571,6 +636,23 @@ fn bit(bits: &[u64], i: usize) -> bool {
     bits[i / 64] & (1 << (i % 64)) != 0
 }
 
+/// The canonical form of a path that may not exist (a text given with a
+/// name): its directory canonicalized when that exists, so an include of
+/// the same file from disk is recognised as this text; else as given.
+fn lexical_canonical(path: &Path) -> PathBuf {
+    if let Ok(p) = path.canonicalize() {
+        return p;
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    match (dir.canonicalize(), path.file_name()) {
+        (Ok(d), Some(name)) => d.join(name),
+        _ => path.to_path_buf(),
+    }
+}
+
 fn file_name(p: &Path) -> String {
     p.file_name().map_or_else(
         || p.display().to_string(),
@@ -579,7 +661,7 @@ fn file_name(p: &Path) -> String {
 }
 
 /// `[A-Za-z_][A-Za-z0-9_]*`
-pub fn is_identifier(s: &str) -> bool {
+pub(crate) fn is_identifier(s: &str) -> bool {
     let mut chars = s.chars();
     chars
         .next()

@@ -253,12 +253,12 @@ impl Parser<'_, '_> {
                 let ty = self
                     .required(&attrs, "type", "field", start)
                     .unwrap_or_else(|| "uint8_t".into());
-                let type_loc = self.loc(self.attr_offset(start, "type"));
+                let type_at = self.attr_offset(start, "type");
                 let enum_loc = self.loc(self.attr_offset(start, "enum"));
                 let (primitive, array_len, mavlink_version) = match parse_type(&ty) {
                     Ok(t) => t,
                     Err(msg) => {
-                        self.error(type_loc.offset, format!("field {name}: {msg}"));
+                        self.error(type_at, format!("field {name}: {msg}"));
                         (Primitive::U8, None, false)
                     }
                 };
@@ -277,7 +277,6 @@ impl Parser<'_, '_> {
                     description: String::new(),
                     extension: self.in_extensions,
                     loc,
-                    type_loc,
                     enum_loc,
                 };
                 if let Some(m) = self.out.messages.last_mut() {

@@ -44,7 +44,7 @@ fn errors(name: &str) -> Vec<Diag> {
 /// The warnings of loading `name`, which must succeed.
 fn warnings(name: &str) -> Vec<Diag> {
     match Schema::load(&[fixture(name)]) {
-        Ok(schema) => schema.warnings.iter().map(flatten).collect(),
+        Ok(schema) => schema.warnings().iter().map(flatten).collect(),
         Err(diags) => panic!(
             "{name} failed to load:\n{}",
             diags.iter().map(|d| format!("{d}\n")).collect::<String>()

@@ -209,9 +209,9 @@ fn an_include_above_8_mib_is_an_error_and_one_at_8_mib_is_read() {
     // A valid dialect padded with a comment to exactly the limit, then to
     // one byte more.
     let body = dialect(2, &[]);
-    let pad = mavgen_rs::input::MAX_FILE_BYTES as usize - body.len() - "<!---->\n".len();
+    let pad = mavgen_rs::MAX_FILE_BYTES as usize - body.len() - "<!---->\n".len();
     let at_limit = format!("{body}<!--{}-->\n", "x".repeat(pad));
-    assert_eq!(at_limit.len() as u64, mavgen_rs::input::MAX_FILE_BYTES);
+    assert_eq!(at_limit.len() as u64, mavgen_rs::MAX_FILE_BYTES);
     t.write("big.xml", &at_limit);
     t.write("root.xml", &dialect(1, &["big.xml"]));
     let o = check_bounded(&t.0, &["root.xml"]);

@@ -21,6 +21,7 @@ use super::{Clock, Limiter, Log, PeerPin};
 use fbwag_delegation::engine::Verdict;
 use fbwag_delegation::Instant;
 use fbwag_dialect::mavframe::conn::ReplyTo;
+use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::route::{LinkId, Links};
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
 use fbwag_dialect::mavframe::signing::state::{Loaded, StateFile};
@@ -83,7 +84,7 @@ impl Net {
             .add(LinkConfig {
                 endpoint: opts.endpoint.clone(),
                 key: opts.key,
-                accept_unsigned: true,
+                unsigned: Unsigned::Accept,
                 reply_to: opts.peer.map_or(ReplyTo::Pinned, ReplyTo::Fixed),
                 signing_state: opts.signing_state.clone(),
             })

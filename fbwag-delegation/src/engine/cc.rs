@@ -48,7 +48,8 @@ pub enum CcOutput {
     /// let h = Header { seq: 0, sysid: 1, compid: 1 };
     /// let n = encode(Version::V2, h, &hb, None, &mut buf).unwrap();
     /// let frame = Frame::new_checked(&buf[..n]).unwrap();
-    /// let _ = cc.handle_frame(Instant::from_millis(1000), &frame, false);
+    /// let authenticated = false; // an unsigned frame (no link key)
+    /// let _ = cc.handle_frame(Instant::from_millis(1000), &frame, authenticated);
     /// let mut events = Vec::new();
     /// while let Some(t) = cc.poll_timeout().filter(|t| *t <= Instant::from_millis(5000)) {
     ///     cc.handle_timeout(t);

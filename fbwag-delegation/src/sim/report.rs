@@ -232,17 +232,29 @@ pub fn table1_text(rows: &[Row]) -> String {
     out
 }
 
+/// How the frames of a [`sweep`]'s trials are lost.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Losses {
+    /// Each frame independently of the others.
+    Independent,
+    /// In bursts (Gilbert–Elliott, [`Trial::bursty`]) of `mean_burst`
+    /// frames on average.
+    Bursty {
+        /// Mean burst length in frames.
+        mean_burst: f64,
+    },
+}
+
 /// Rows for loss rates 0 %, 10 %, … 90 % of one scenario.
-pub fn sweep(scenario: Scenario, trials: u32, seed: u64, bursty: bool) -> Vec<Row> {
+pub fn sweep(scenario: Scenario, trials: u32, seed: u64, losses: Losses) -> Vec<Row> {
     (0..10)
         .map(|k| {
             let loss = k as f64 / 10.0;
             run_many(scenario, loss, trials, seed, |seed| {
                 let t = Trial::new(scenario, loss, seed);
-                if bursty {
-                    t.bursty(loss, 8.0)
-                } else {
-                    t
+                match losses {
+                    Losses::Bursty { mean_burst } => t.bursty(loss, mean_burst),
+                    Losses::Independent => t,
                 }
             })
         })

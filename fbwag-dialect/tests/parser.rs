@@ -298,6 +298,11 @@ fn authenticated_flag_reports_verified_frames() {
 
 /// A frame of an id the dialect does not define (checksum seeded with 0).
 fn raw_frame(id: u32, seq: u8, payload: &[u8]) -> Vec<u8> {
+    raw_frame_signed(id, seq, payload, None)
+}
+
+/// The same, signed by `signer` when there is one.
+fn raw_frame_signed(id: u32, seq: u8, payload: &[u8], signer: Option<&mut Signer>) -> Vec<u8> {
     let meta = fbwag_dialect::mavframe::MessageMeta {
         id,
         name: "X",
@@ -320,11 +325,74 @@ fn raw_frame(id: u32, seq: u8, payload: &[u8]) -> Vec<u8> {
         h,
         &meta,
         payload.len(),
-        None,
+        signer,
         &mut buf,
     )
     .unwrap();
     buf[..n].to_vec()
+}
+
+const KEY: [u8; 32] = [0x42; 32];
+
+/// Genuine signed frames of unknown ids, back to back, shortest and longest:
+/// the budget for their signatures never runs out (each earns three times
+/// its length, and costs its length + 26).
+#[test]
+fn genuine_signed_frames_of_unknown_ids_never_exhaust_the_signature_budget() {
+    let mut signer = Signer::new(KEY, 1, 1_000);
+    let frames: Vec<Vec<u8>> = (0..600u32)
+        .map(|i| {
+            let payload = vec![0x07; [0, 1, 255][i as usize % 3]];
+            raw_frame_signed(14_999, i as u8, &payload, Some(&mut signer))
+        })
+        .collect();
+    // (MAVLink 2 keeps one payload byte: 26 bytes, the shortest signed frame.)
+    assert_eq!(frames[0].len(), 26);
+    let stream = frames.concat();
+    for chunk in [1, 7, 4096] {
+        let mut p = Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Refuse);
+        assert_eq!(parse_all(&mut p, &stream, chunk), frames, "chunk {chunk}");
+        assert_eq!(p.stats().signatures_unchecked, 0);
+        assert_eq!(p.stats().unknown_frames, 600);
+    }
+}
+
+/// Forged signed candidates of unknown ids at every other byte (each would
+/// need a SHA-256 over up to 304 bytes): the hashing is bounded by the
+/// budget, nothing is accepted, and a genuine frame of an unknown id is
+/// accepted again once the flood has stopped for a few hundred bytes.
+/// Known ids are never subject to the budget.
+#[test]
+fn a_flood_of_forged_signed_unknown_ids_is_bounded_by_the_signature_budget() {
+    use fbwag_dialect::mavframe::parser::{RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
+    let flood: Vec<u8> = [0xFD, 0xFD, 0x01, 0x01].repeat(64 * 1024);
+    let mut signer = Signer::new(KEY, 1, 1_000);
+    let known = frame_of(
+        0,
+        &minimal::Heartbeat::default(),
+        Version::V2,
+        Some(&mut signer),
+    );
+    let genuine = raw_frame_signed(14_999, 1, &[0x07; 255], Some(&mut signer));
+    // The flood, then a known frame at once, then quiet bytes, then the
+    // genuine unknown one.
+    let quiet = vec![0x00; 200];
+    let stream = [flood.clone(), known.clone(), quiet, genuine.clone()].concat();
+    let mut p = Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Refuse);
+    let got = parse_all(&mut p, &stream, 4096);
+    assert_eq!(got, vec![known, genuine], "the flood yields nothing");
+    let s = *p.stats();
+    assert!(s.signatures_unchecked > 10_000, "{s:?}");
+    // Each check of the flood hashes at least 51 bytes (its 25-byte
+    // candidates); without the budget there was one per two bytes.
+    let checks = p.work().signatures;
+    let budget = RAW_SIGNATURE_RATE * stream.len() as u64 + RAW_SIGNATURE_BURST;
+    assert!(
+        checks * 51 <= budget,
+        "{checks} checks for {} bytes",
+        stream.len()
+    );
+    assert!(checks < flood.len() as u64 / 16, "{checks}");
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! The parser's work per byte is bounded, whatever the bytes: counted, not
 //! timed (`Parser::work`). Every input, chunking, signing policy and dialect
 //! here keeps `steps ≤ C × (bytes pushed + calls)`, and at most one
-//! signature check per start byte; the old algorithm (the reference
+//! signature check per start byte and per 7 bytes (the budget for unknown
+//! ids' signatures); the old algorithm (the reference
 //! parser, with the same kind of count) breaks the bound on the same inputs
 //! by two orders of magnitude.
 //!
@@ -30,6 +31,16 @@ use fbwag_dialect::mavframe::{Dialect, Signer, Verifier};
 
 /// The bound on steps per (byte + call).
 const C: f64 = 16.0;
+
+/// The bound on signature checks (SHA-256s) over `n` bytes: a known id's
+/// bad signature skips its frame up to the signature (12 bytes at least);
+/// an unknown id's check draws on the parser's budget, at least 51 hashed
+/// bytes each.
+fn signature_bound(n: usize) -> u64 {
+    use fbwag_dialect::mavframe::parser::{RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
+    let n = n as u64;
+    n / 12 + 1 + (RAW_SIGNATURE_RATE * n + RAW_SIGNATURE_BURST) / 51
+}
 
 const KEY: [u8; 32] = [0x42; 32];
 
@@ -185,6 +196,11 @@ fn check_all<D: Dialect>(dialect: &str, n: usize) -> f64 {
                 assert!(
                     sigs <= starts,
                     "{dialect} {name} {chunking:?}: {sigs} signature checks for {starts} start bytes"
+                );
+                assert!(
+                    sigs <= signature_bound(bytes.len()),
+                    "{dialect} {name} {chunking:?}: {sigs} signature checks for {} bytes",
+                    bytes.len()
                 );
                 if per > worst {
                     worst = per;

@@ -41,7 +41,17 @@
 //! good known frame starts at a position is decided once per position and
 //! remembered (the private `memo` module; [`Parser::work`] counts the
 //! steps). Verifying a signature (with a key) is one SHA-256 per signed
-//! candidate with a good checksum or of an unknown id. A candidate is
+//! candidate with a good checksum or of an unknown id. A known id's bad
+//! signature skips the frame up to its checksum (at least 12 bytes per
+//! SHA-256), but an unknown id has no checksum to vouch for it, and garbage
+//! can hold such a candidate at every other byte: their SHA-256s draw on a
+//! budget of [`RAW_SIGNATURE_RATE`] hashed bytes per byte consumed (up to
+//! [`RAW_SIGNATURE_BURST`] saved). No stream of genuine frames exhausts it
+//! (a signed frame of `n` bytes hashes `n + 26`, at most 3 `n`); a candidate
+//! found when it is exhausted is not authenticated, so it is rejected
+//! ([`Stats::signatures_unchecked`]): a flood of forged signed frames of
+//! unknown ids can cost genuine ones of unknown ids, never known ones, and
+//! never admits a forgery. A candidate is
 //! decided as soon as the bytes at hand decide it (with bytes held, the
 //! parser copies ahead of the candidate rather than byte by byte).
 //!
@@ -83,7 +93,19 @@ pub struct Stats {
     pub bytes_dropped: u64,
     /// Frames missing according to sequence numbers, over all senders.
     pub seq_lost: u64,
+    /// Signed candidates of unknown ids rejected without checking their
+    /// signature, the budget for those being spent (see the module docs):
+    /// a sign of forged frames.
+    pub signatures_unchecked: u64,
 }
+
+/// Bytes hashed to verify signatures of unknown ids, per byte consumed (see
+/// the module docs).
+pub const RAW_SIGNATURE_RATE: u64 = 3;
+
+/// Hashed bytes of [`RAW_SIGNATURE_RATE`] saved up at most (and at the
+/// start): eight of the longest signed frames.
+pub const RAW_SIGNATURE_BURST: u64 = 8 * (crate::frame::MAX_FRAME_LEN as u64 + 26);
 
 /// Per-sender sequence tracking.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -964,6 +986,16 @@ fn check_raw<D: Dialect, const N: usize>(
         // still undecided made it wait first). Most garbage ends here.
         return Some(Verdict::Reject);
     }
+    let cost = len as u64 + 26;
+    if checked
+        && !cx.memo.raw_signature_failed(cx.at)
+        && !cx.memo.raw_signature_affordable(cx.at, cost)
+    {
+        // It cannot be authenticated, so it is refused whatever is inside:
+        // no search (which would cost what the budget spares).
+        cx.stats.signatures_unchecked += 1;
+        return Some(Verdict::Reject);
+    }
     match cx.memo.inside::<D>(bytes, cx.at, len) {
         Inside::Yes => return Some(Verdict::Reject),
         Inside::Undecided(needed) if !cx.at_eof => return Some(Verdict::Need(needed)),
@@ -975,6 +1007,8 @@ fn check_raw<D: Dialect, const N: usize>(
         && !cx.memo.raw_signature_failed(cx.at)
         && match cx.verifier.as_mut() {
             Some(v) => {
+                // Affordable (above), and nothing was spent since.
+                cx.memo.spend_on_raw_signature(cost);
                 cx.memo.signatures += 1;
                 let ok = v.verify(frame).is_ok();
                 if !ok {

@@ -10,7 +10,7 @@
 use fbwag_dialect::mavframe::frame::{
     frame_len, Frame, FrameError, Header, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
-use fbwag_dialect::mavframe::parser::{Stats, Unsigned};
+use fbwag_dialect::mavframe::parser::{Stats, Unsigned, RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
 use fbwag_dialect::mavframe::signing::{SignatureError, Verifier};
 use fbwag_dialect::mavframe::{Dialect, MessageMeta};
 use std::marker::PhantomData;
@@ -47,6 +47,15 @@ pub struct Reference<D: Dialect> {
     at_eof: bool,
     /// Bytes checksummed plus positions examined: the old algorithm's work.
     pub work: u64,
+    /// Bytes of the frames returned (with `bytes_dropped`: the stream
+    /// position of the candidate).
+    returned: u64,
+    /// The parser's budget for unknown ids' signatures (a policy, not an
+    /// optimisation: modelled here as the parser has it), in hashed bytes as
+    /// of a stream position, and the candidate whose signature was paid.
+    sig_credit: u64,
+    sig_credit_at: u64,
+    sig_paid_at: Option<u64>,
     _dialect: PhantomData<D>,
 }
 
@@ -63,6 +72,10 @@ impl<D: Dialect> Reference<D> {
             accept_unsigned: true,
             at_eof: false,
             work: 0,
+            returned: 0,
+            sig_credit: RAW_SIGNATURE_BURST,
+            sig_credit_at: 0,
+            sig_paid_at: None,
             _dialect: PhantomData,
         }
     }
@@ -173,6 +186,7 @@ impl<D: Dialect> Reference<D> {
                 (self.buf[..len].to_vec(), meta, auth)
             }
         };
+        self.returned += bytes.len() as u64;
         let h = Frame::new_checked(&bytes).unwrap().header();
         self.record(h, meta.is_some());
         Some((bytes, meta.is_some(), authenticated))
@@ -267,10 +281,26 @@ impl<D: Dialect> Reference<D> {
                 return Verdict::Reject;
             }
         } else {
+            let at = self.stats.bytes_dropped + self.returned;
+            let checked = frame.is_signed() && self.verifier.is_some();
+            if checked && self.sig_paid_at != Some(at) {
+                let earned = (at - self.sig_credit_at) * RAW_SIGNATURE_RATE;
+                self.sig_credit = (self.sig_credit + earned).min(RAW_SIGNATURE_BURST);
+                self.sig_credit_at = at;
+                let cost = len as u64 + 26;
+                if self.sig_credit < cost {
+                    self.stats.signatures_unchecked += 1;
+                    return Verdict::Reject;
+                }
+            }
             match known_frame_inside::<D>(bytes, len, &mut self.work) {
                 Inside::Yes => return Verdict::Reject,
                 Inside::Undecided(needed) if !at_eof => return Verdict::Need(needed),
                 Inside::Undecided(_) | Inside::No => {}
+            }
+            if checked && self.sig_paid_at != Some(at) {
+                self.sig_credit -= len as u64 + 26;
+                self.sig_paid_at = Some(at);
             }
             let authenticated_raw = frame.is_signed()
                 && self

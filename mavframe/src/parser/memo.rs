@@ -38,7 +38,7 @@
 //! rings index them modulo their size, which exceeds the span of positions
 //! alive at once (see the constants).
 
-use super::msg_id;
+use super::{msg_id, RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
 use crate::crc;
 use crate::frame::{
     frame_len, Frame, FrameError, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_KNOWN,
@@ -64,7 +64,15 @@ const SCAN_RING: usize = 512;
 const SCAN_MASK: u64 = SCAN_RING as u64 - 1;
 const SCAN_WORDS: usize = SCAN_RING / 64;
 
-const _: () = assert!(PREFIX_RING as u64 > PREFIX_REACH && SCAN_RING > MAX_FRAME_LEN + 10);
+/// Positions classified past the end of the candidate asked about.
+const SCAN_AHEAD: usize = 64;
+
+const _: () = assert!(
+    PREFIX_RING as u64 > PREFIX_REACH
+        && SCAN_RING > MAX_FRAME_LEN + SCAN_AHEAD + 10
+        // A checksum of a position scanned ahead ends within reach.
+        && PREFIX_REACH >= (MAX_FRAME_LEN + SCAN_AHEAD + crc::MAX_COVERED + 1) as u64
+);
 
 /// Whether a good frame of a known id starts inside a candidate (after its
 /// first byte, before the end asked about).
@@ -116,6 +124,10 @@ pub(super) struct Memo {
     bad: [u64; SCAN_WORDS],
     /// The position is undecided (bit ring).
     undecided: [u64; SCAN_WORDS],
+    /// No bit of `good` is set at this position or after it...
+    good_before: u64,
+    /// ...nor of `undecided`.
+    undecided_before: u64,
     /// Lists of pending positions by wake-up position: `wake_head[w % ring]`
     /// is the first one's ring slot + 1 (0: none) in its low 16 bits, the
     /// epoch it was written in above them; `wake_next[slot]` the next
@@ -136,6 +148,10 @@ pub(super) struct Memo {
     /// failed: the verifier has not changed since (a change needs an
     /// accepted frame, which moves the candidate), so it would fail again.
     raw_signature_failed: u64,
+    /// Hashed bytes the budget for unknown ids' signatures holds (see the
+    /// parser's module docs), as of stream position `sig_credit_at`.
+    sig_credit: u64,
+    sig_credit_at: u64,
     /// CRC_EXTRA of MAVLink 1 ids (0–255) as the dialect says, looked up
     /// once each: `0x200 | 0x100 (known) | crc_extra`, 0 before the first
     /// look-up. A table load instead of the dialect's jump table, whose
@@ -232,6 +248,8 @@ impl Memo {
             good: [0; SCAN_WORDS],
             bad: [0; SCAN_WORDS],
             undecided: [0; SCAN_WORDS],
+            good_before: 0,
+            undecided_before: 0,
             wake_head: [0; SCAN_RING],
             wake_next: [0; SCAN_RING],
             epoch: 1,
@@ -239,6 +257,8 @@ impl Memo {
             last_wake: 0,
             good_candidate: 0,
             raw_signature_failed: 0,
+            sig_credit: RAW_SIGNATURE_BURST,
+            sig_credit_at: 0,
             v1_extra: [0; 256],
             busy_until: 0,
             steps: 0,
@@ -395,13 +415,19 @@ impl Memo {
     pub(super) fn inside<D: Dialect>(&mut self, bytes: &[u8], at: u64, len: usize) -> Inside {
         let end = len.min(bytes.len());
         self.wake::<D>(bytes, at);
-        self.scan::<D>(bytes, at, end);
+        if at + end as u64 > self.frontier {
+            // Ahead of what is asked, so that the next candidates (in
+            // garbage, a byte or two later) find their positions decided.
+            self.scan::<D>(bytes, at, (end + SCAN_AHEAD).min(bytes.len()));
+        }
         let (from, to) = (at + 1, at + end as u64);
         self.steps += 1;
-        if first_set(&self.good, from, to).is_some() {
+        // In garbage neither ring has a bit set after the candidate: the
+        // bounds say so without a search.
+        if self.good_before > from && first_set(&self.good, from, to).is_some() {
             return Inside::Yes;
         }
-        match first_set(&self.undecided, from, to) {
+        match first_set(&self.undecided, from, to.min(self.undecided_before)) {
             Some(q) => Inside::Undecided(needed_at(bytes, (q - at) as usize)),
             None => Inside::No,
         }
@@ -480,6 +506,11 @@ impl Memo {
             }
             let first = at + (lo + base) as u64;
             or_bits(&mut self.good, first, good);
+            if good != 0 {
+                self.good_before = self
+                    .good_before
+                    .max(first + 64 - u64::from(good.leading_zeros()));
+            }
             or_bits(&mut self.bad, first, bad);
         }
         self.steps += to - from;
@@ -555,11 +586,15 @@ impl Memo {
     fn record(&mut self, q: u64, class: Class) {
         match class {
             Class::NotGood => {}
-            Class::Good => set_bit(&mut self.good, q),
+            Class::Good => {
+                set_bit(&mut self.good, q);
+                self.good_before = self.good_before.max(q + 1);
+            }
             Class::BadCrc => set_bit(&mut self.bad, q),
             Class::Pending { undecided, wake } => {
                 if undecided {
                     set_bit(&mut self.undecided, q);
+                    self.undecided_before = self.undecided_before.max(q + 1);
                 }
                 let slot = slot_of(q, SCAN_MASK);
                 let head = &mut self.wake_head[slot_of(wake, SCAN_MASK)];
@@ -617,6 +652,26 @@ impl Memo {
 
     pub(super) fn set_raw_signature_failed(&mut self, at: u64) {
         self.raw_signature_failed = at + 1;
+    }
+
+    /// Whether the budget for unknown ids' signatures holds `cost` hashed
+    /// bytes, with what the bytes up to stream position `at` earned.
+    pub(super) fn raw_signature_affordable(&mut self, at: u64, cost: u64) -> bool {
+        let earned = at
+            .saturating_sub(self.sig_credit_at)
+            .saturating_mul(RAW_SIGNATURE_RATE);
+        self.sig_credit = self
+            .sig_credit
+            .saturating_add(earned)
+            .min(RAW_SIGNATURE_BURST);
+        self.sig_credit_at = self.sig_credit_at.max(at);
+        self.sig_credit >= cost
+    }
+
+    /// Takes `cost` hashed bytes from the budget (which holds them: see
+    /// [`raw_signature_affordable`](Self::raw_signature_affordable)).
+    pub(super) fn spend_on_raw_signature(&mut self, cost: u64) {
+        self.sig_credit = self.sig_credit.saturating_sub(cost);
     }
 }
 

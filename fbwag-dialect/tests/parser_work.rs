@@ -1,7 +1,7 @@
 //! The parser's work per byte is bounded, whatever the bytes: counted, not
 //! timed (`Parser::work`). Every input, chunking, signing policy and dialect
 //! here keeps `steps ≤ C × (bytes pushed + calls)`, and at most one
-//! signature check per start byte and per 7 bytes (the budget for unknown
+//! signature check per start byte and per 8 bytes (the budget for unknown
 //! ids' signatures); the old algorithm (the reference
 //! parser, with the same kind of count) breaks the bound on the same inputs
 //! by two orders of magnitude.
@@ -34,12 +34,12 @@ const C: f64 = 16.0;
 
 /// The bound on signature checks (SHA-256s) over `n` bytes: a known id's
 /// bad signature skips its frame up to the signature (12 bytes at least);
-/// an unknown id's check draws on the parser's budget, at least 51 hashed
+/// an unknown id's check draws on the parser's budget, at least 52 hashed
 /// bytes each.
 fn signature_bound(n: usize) -> u64 {
     use fbwag_dialect::mavframe::parser::{RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
     let n = n as u64;
-    n / 12 + 1 + (RAW_SIGNATURE_RATE * n + RAW_SIGNATURE_BURST) / 51
+    n / 12 + 1 + (RAW_SIGNATURE_RATE * n + RAW_SIGNATURE_BURST) / 52
 }
 
 const KEY: [u8; 32] = [0x42; 32];

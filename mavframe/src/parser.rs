@@ -47,7 +47,8 @@
 //! can hold such a candidate at every other byte: their SHA-256s draw on a
 //! budget of [`RAW_SIGNATURE_RATE`] hashed bytes per byte consumed (up to
 //! [`RAW_SIGNATURE_BURST`] saved). No stream of genuine frames exhausts it
-//! (a signed frame of `n` bytes hashes `n + 26`, at most 3 `n`); a candidate
+//! (a signed frame of `n` bytes hashes `n + 26`, at most 2 `n`: `n` is 26
+//! at least); a candidate
 //! found when it is exhausted is not authenticated, so it is rejected
 //! ([`Stats::signatures_unchecked`]): a flood of forged signed frames of
 //! unknown ids can cost genuine ones of unknown ids, never known ones, and
@@ -64,7 +65,8 @@
 mod memo;
 
 use crate::frame::{
-    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, MAX_FRAME_LEN, STX_V1, STX_V2,
+    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, IFLAG_SIGNED, MAX_FRAME_LEN,
+    STX_V1, STX_V2,
 };
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
@@ -101,7 +103,7 @@ pub struct Stats {
 
 /// Bytes hashed to verify signatures of unknown ids, per byte consumed (see
 /// the module docs).
-pub const RAW_SIGNATURE_RATE: u64 = 3;
+pub const RAW_SIGNATURE_RATE: u64 = 2;
 
 /// Hashed bytes of [`RAW_SIGNATURE_RATE`] saved up at most (and at the
 /// start): eight of the longest signed frames.
@@ -440,7 +442,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             };
             self.drop_input(input, start);
             if core::mem::take(&mut rejected) {
-                let n = reject_run::<D>(input, self.pos, &mut self.memo, &mut self.stats);
+                let keyed = self.verifier.is_some();
+                let n = reject_run::<D>(input, self.pos, keyed, &mut self.memo, &mut self.stats);
                 if n > 0 {
                     self.pos += n as u64;
                     *input = &input[n..];
@@ -771,7 +774,13 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 /// (good frames go straight to `check`). Returns the bytes dropped, up to
 /// the first candidate it leaves to `check` (or all of them).
 #[inline(never)]
-fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut Stats) -> usize {
+fn reject_run<D: Dialect>(
+    bytes: &[u8],
+    at: u64,
+    keyed: bool,
+    memo: &mut Memo,
+    stats: &mut Stats,
+) -> usize {
     let mut count = Rejected::default();
     // One by one, the way through sparse start bytes (random bytes: a
     // search for the next start byte, rarely more than one candidate); by
@@ -779,14 +788,17 @@ fn reject_run<D: Dialect>(bytes: &[u8], at: u64, memo: &mut Memo, stats: &mut St
     let mut i = 0;
     for n in 1.. {
         if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN {
-            let i = i + reject_masked::<D>(&bytes[i..], at + i as u64, memo, &mut count);
+            let i = i + reject_masked::<D>(&bytes[i..], at + i as u64, keyed, memo, &mut count);
             return count.record(i, memo, stats);
         }
         let rest = &bytes[i..];
         match rest.first() {
             Some(&STX_V2) if refused(rest) => count.bad_flags += 1,
-            Some(_) if rejects::<D>(rest, at + i as u64, memo) => count.bad_crc += 1,
-            _ => break,
+            Some(_) => match rejects::<D>(rest, at + i as u64, keyed, memo) {
+                Some(why) => count.add(why),
+                None => break,
+            },
+            None => break,
         }
         i += 1 + rest[1..]
             .iter()
@@ -807,15 +819,33 @@ const DENSE: usize = 8;
 struct Rejected {
     bad_crc: u64,
     bad_flags: u64,
+    unpaid: u64,
+}
+
+/// Why [`reject_run`] rejects a candidate alone.
+enum Why {
+    /// A whole frame of a known id with a bad checksum.
+    BadCrc,
+    /// A whole signed frame of an unknown id whose signature the budget
+    /// cannot pay for (see the module docs): it cannot be authenticated.
+    Unpaid,
 }
 
 impl Rejected {
+    fn add(&mut self, why: Why) {
+        match why {
+            Why::BadCrc => self.bad_crc += 1,
+            Why::Unpaid => self.unpaid += 1,
+        }
+    }
+
     /// Counts the rejections and the `dropped` bytes; returns `dropped`.
     fn record(self, dropped: usize, memo: &mut Memo, stats: &mut Stats) -> usize {
         stats.bad_crc += self.bad_crc;
         stats.bad_incompat_flags += self.bad_flags;
+        stats.signatures_unchecked += self.unpaid;
         stats.bytes_dropped += dropped as u64;
-        memo.steps += (dropped as u64) + self.bad_crc + self.bad_flags;
+        memo.steps += (dropped as u64) + self.bad_crc + self.bad_flags + self.unpaid;
         dropped
     }
 }
@@ -833,6 +863,7 @@ fn refused(rest: &[u8]) -> bool {
 fn reject_masked<D: Dialect>(
     bytes: &[u8],
     at: u64,
+    keyed: bool,
     memo: &mut Memo,
     count: &mut Rejected,
 ) -> usize {
@@ -847,29 +878,36 @@ fn reject_masked<D: Dialect>(
             let j = starts.trailing_zeros();
             starts &= starts - 1;
             let i = base + j as usize;
-            if !rejects::<D>(&bytes[i..], at + i as u64, memo) {
+            let Some(why) = rejects::<D>(&bytes[i..], at + i as u64, keyed, memo) else {
                 // The refused before it are dropped with it.
                 count.bad_flags += u64::from((refused & ((1 << j) - 1)).count_ones());
                 return i;
-            }
-            count.bad_crc += 1;
+            };
+            count.add(why);
         }
         count.bad_flags += u64::from(refused.count_ones());
     }
     bytes.len()
 }
 
-/// Whether the candidate at the start of `rest` (stream position `at`) is
-/// a whole frame of a known id with a bad checksum: the rejection
-/// [`reject_run`] makes alone.
+/// The rejection [`reject_run`] makes alone of the candidate at the start
+/// of `rest` (stream position `at`), if any: what [`check`] would decide
+/// of it, without the rest of the check.
 #[inline(always)]
-fn rejects<D: Dialect>(rest: &[u8], at: u64, memo: &mut Memo) -> bool {
-    let Some(w) = Whole::at(rest) else {
-        return false;
-    };
+fn rejects<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Option<Why> {
+    let w = Whole::at(rest)?;
     match memo.crc_extra::<D>(w.id) {
-        Some(extra) => !memo.candidate_crc_ok(rest, at, &w, extra),
-        None => false,
+        Some(extra) => (!memo.candidate_crc_ok(rest, at, &w, extra)).then_some(Why::BadCrc),
+        None => {
+            // As `check_raw` decides first.
+            let signed = rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
+            let cost = (w.covered + 3 + crate::frame::SIGNATURE_LEN) as u64 + 26;
+            (keyed
+                && signed
+                && !memo.raw_signature_failed(at)
+                && !memo.raw_signature_affordable(at, cost))
+            .then_some(Why::Unpaid)
+        }
     }
 }
 

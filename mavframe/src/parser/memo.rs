@@ -174,7 +174,7 @@ pub(super) struct Whole {
     /// Message id.
     pub(super) id: u32,
     /// Bytes the checksum covers (after the start byte, up to the checksum).
-    covered: usize,
+    pub(super) covered: usize,
     /// The checksum the frame carries.
     carried: u16,
 }

@@ -551,10 +551,7 @@ fn a_file_truncated_inside_element_text_names_the_innermost_element() {
     // Cut inside a field's description, on the third line. Was accepted.
     // pymavlink: "no element found: line 3, column 68", the same place.
     let text = "<mavlink>\n<messages>\n<message id=\"1\" name=\"X\"><field type=\"uint8_t\" name=\"a\">half a descr";
-    assert_text_error(
-        text,
-        "3:69: the file ends inside <field> (opened at 3:26)",
-    );
+    assert_text_error(text, "3:69: the file ends inside <field> (opened at 3:26)");
 }
 
 #[test]
@@ -674,7 +671,8 @@ fn cdata_doctype_or_a_declaration_out_of_place_is_an_error() {
     // column 0" for the first two, "syntax error: line 1, column 0" for the
     // third, "XML or text declaration not at start of entity: line 2,
     // column 0" for the last: the same places.
-    let after = "after the root element <mavlink>, which closed at 1:106 (only comments may follow it)";
+    let after =
+        "after the root element <mavlink>, which closed at 1:106 (only comments may follow it)";
     assert_text_error(
         &format!("{WHOLE}\n<![CDATA[x]]>"),
         &format!("2:1: a CDATA section {after}"),

@@ -689,6 +689,12 @@ fn cdata_doctype_or_a_declaration_out_of_place_is_an_error() {
         &format!("<!-- c -->\n<?xml version=\"1.0\"?>\n{WHOLE}"),
         "2:1: an XML declaration (<?xml …?>) may only open the file",
     );
+    // pymavlink: "not well-formed (invalid token): line 2, column 2", at the
+    // DOCTYPE's name where we point at its `<`.
+    assert_text_error(
+        "<mavlink>\n<!DOCTYPE x>\n</mavlink>",
+        "2:1: a DOCTYPE inside the root element",
+    );
 }
 
 #[test]

@@ -26,7 +26,8 @@ pub fn parse(sources: &[Source], file: usize, path: PathBuf, diags: &mut Diagnos
             messages: Vec::new(),
         },
         stack: Vec::new(),
-        depth: 0,
+        opened: Vec::new(),
+        root: Root::NotYet,
         in_extensions: false,
         text_target: None,
     };
@@ -36,6 +37,20 @@ pub fn parse(sources: &[Source], file: usize, path: PathBuf, diags: &mut Diagnos
 
 /// The deepest element with a meaning: `mavlink.enums.enum.entry.param`.
 const MEANINGFUL_DEPTH: usize = 5;
+
+/// Where the reader is with respect to the root element.
+#[derive(Clone, Copy, PartialEq)]
+enum Root {
+    /// No element yet: only the XML declaration, a DOCTYPE, comments,
+    /// processing instructions and whitespace may come.
+    NotYet,
+    /// Inside the root element.
+    Open,
+    /// The root element, opened at `opened`, closed at `closed` (its end
+    /// tag, or the element itself when empty): only comments, processing
+    /// instructions and whitespace may follow.
+    Closed { opened: usize, closed: usize },
+}
 
 /// Where character data goes, by element path.
 #[derive(Clone, Copy, PartialEq)]
@@ -62,8 +77,14 @@ struct Parser<'s, 'd> {
     /// deeper elements carry no meaning, and keeping (and joining) all names
     /// would make deeply nested input cost memory and quadratic time.
     stack: Vec<String>,
-    /// How many elements are open.
-    depth: usize,
+    /// Where each open element starts, outermost first: its length is the
+    /// nesting depth, and a file that ends early is reported at the element
+    /// it leaves open. One offset per level (the reader keeps every open
+    /// name for its own end-tag check anyway).
+    opened: Vec<usize>,
+    /// Whether the root element has been read, to refuse what XML allows
+    /// only once per file (one root) or only inside the root (text).
+    root: Root,
     in_extensions: bool,
     /// Where character data goes: the target, the text so far, where the
     /// element starts, and its nesting depth (its end closes the target).
@@ -98,51 +119,162 @@ impl Parser<'_, '_> {
         reader.config_mut().trim_text(false);
         loop {
             let start = bom + reader.buffer_position() as usize;
-            match reader.read_event() {
-                Ok(Event::Start(e)) => {
-                    self.open(&e);
-                    self.start(&e, start);
-                }
-                Ok(Event::Empty(e)) => {
-                    self.open(&e);
-                    self.start(&e, start);
-                    self.end();
-                }
-                Ok(Event::End(_)) => self.end(),
-                Ok(Event::Text(t)) => match t.unescape() {
-                    Ok(s) => self.text(&s),
-                    Err(e) => self.error(start, format!("malformed XML: {e}")),
-                },
-                Ok(Event::CData(t)) => self.text(&String::from_utf8_lossy(&t)),
+            let event = match reader.read_event() {
                 Ok(Event::Eof) => break,
-                Ok(_) => {}
+                Ok(event) => event,
                 Err(e) => {
                     let at = bom + reader.error_position() as usize;
                     self.error(at, format!("malformed XML: {e}"));
                     return;
                 }
+            };
+            if !self.placed(&event, start, bom) {
+                return;
             }
+            self.event(event, start);
         }
-        if self.out.messages.is_empty() && self.out.enums.is_empty() && self.depth == 0 {
-            let root_seen = text.contains("<mavlink");
-            if !root_seen {
-                self.error(0, "not a MAVLink definition: no <mavlink> root element");
+        self.at_eof(text.len());
+    }
+
+    /// Hands one event to the model.
+    fn event(&mut self, event: Event, start: usize) {
+        match event {
+            Event::Start(e) => {
+                self.open(&e, start);
+                self.start(&e, start);
             }
+            Event::Empty(e) => {
+                self.open(&e, start);
+                self.start(&e, start);
+                self.end(start);
+            }
+            Event::End(_) => self.end(start),
+            Event::Text(t) => match t.unescape() {
+                Ok(s) => self.text(&s),
+                Err(e) => self.error(start, format!("malformed XML: {e}")),
+            },
+            Event::CData(t) => self.text(&String::from_utf8_lossy(&t)),
+            _ => {}
         }
     }
 
-    fn open(&mut self, e: &BytesStart) {
-        self.depth += 1;
-        if self.depth <= MEANINGFUL_DEPTH {
+    /// Refuses what quick-xml reads without complaint but XML (and so
+    /// pymavlink's expat) forbids at this place: text or a second element
+    /// outside the root, a DOCTYPE after it, an XML declaration not opening
+    /// the file. Reports the first and returns false, as expat stops there.
+    fn placed(&mut self, event: &Event, start: usize, bom: usize) -> bool {
+        let what = match (event, self.root) {
+            (Event::Decl(_), _) if start != bom => {
+                self.error(
+                    start,
+                    "an XML declaration (<?xml …?>) may only open the file",
+                );
+                return false;
+            }
+            (Event::Text(t), Root::NotYet | Root::Closed { .. }) => match non_blank(t) {
+                None => return true,
+                Some(skip) => return self.outside_root(start + skip, "text"),
+            },
+            (Event::CData(_), Root::NotYet | Root::Closed { .. }) => "a CDATA section".to_string(),
+            (Event::DocType(_), Root::Open | Root::Closed { .. }) => "a DOCTYPE".to_string(),
+            (Event::Start(e) | Event::Empty(e), Root::Closed { .. }) => format!(
+                "an element <{}>",
+                String::from_utf8_lossy(e.name().as_ref())
+            ),
+            _ => return true,
+        };
+        self.outside_root(start, &what)
+    }
+
+    /// Reports `what`, found at `at` where it may not be; returns false.
+    fn outside_root(&mut self, at: usize, what: &str) -> bool {
+        let msg = match self.root {
+            Root::NotYet => format!(
+                "{what} before the root element (only the XML declaration, a DOCTYPE and comments may precede it)"
+            ),
+            Root::Open => format!("{what} inside the root element"),
+            Root::Closed { opened, closed } => {
+                let p = self.sources[self.file].position(closed);
+                format!(
+                    "{what} after the root element <{}>, which closed at {}:{} (only comments may follow it)",
+                    self.name_at(opened),
+                    p.line,
+                    p.column
+                )
+            }
+        };
+        self.error(at, msg);
+        false
+    }
+
+    /// Refuses a file that ends inside an element (a truncated copy: expat
+    /// says "no element found") or holds none, or whose root is not
+    /// `<mavlink>`.
+    fn at_eof(&mut self, len: usize) {
+        if let Some(&innermost) = self.opened.last() {
+            let name = self.name_at(innermost);
+            let p = self.sources[self.file].position(innermost);
+            let msg = format!(
+                "the file ends inside <{name}> (opened at {}:{})",
+                p.line, p.column
+            );
+            self.error(len, msg);
+        } else if self.root == Root::NotYet {
+            let blank = self.sources[self.file]
+                .text
+                .trim_start_matches('\u{feff}')
+                .trim()
+                .is_empty();
+            let what = if blank {
+                "the file is empty"
+            } else {
+                "the file holds no element"
+            };
+            self.error(
+                len,
+                format!("not a MAVLink definition: {what}, no <mavlink> root element"),
+            );
+        }
+    }
+
+    /// The name of the element whose tag starts at `offset`.
+    fn name_at(&self, offset: usize) -> &str {
+        let tag = self.sources[self.file].text.get(offset + 1..).unwrap_or("");
+        let end = tag
+            .find(|c: char| c.is_whitespace() || c == '/' || c == '>')
+            .unwrap_or(tag.len());
+        &tag[..end]
+    }
+
+    fn open(&mut self, e: &BytesStart, start: usize) {
+        if self.root == Root::NotYet {
+            self.root = Root::Open;
+            if e.name().as_ref() != b"mavlink" {
+                let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+                self.error(
+                    start,
+                    format!(
+                        "not a MAVLink definition: the root element is <{name}>, not <mavlink>"
+                    ),
+                );
+            }
+        }
+        self.opened.push(start);
+        if self.depth() <= MEANINGFUL_DEPTH {
             let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
             self.stack.push(name);
         }
     }
 
+    /// How many elements are open.
+    fn depth(&self) -> usize {
+        self.opened.len()
+    }
+
     /// The dotted path of the open elements (`mavlink.messages.message`);
     /// empty below [`MEANINGFUL_DEPTH`], where no path has a meaning.
     fn path(&self) -> String {
-        if self.depth > MEANINGFUL_DEPTH {
+        if self.depth() > MEANINGFUL_DEPTH {
             return String::new();
         }
         self.stack.join(".")
@@ -406,15 +538,21 @@ impl Parser<'_, '_> {
 
     /// Starts collecting the text of the element just opened.
     fn collect(&mut self, target: Text, loc: Loc) {
-        self.text_target = Some((target, String::new(), loc, self.depth));
+        self.text_target = Some((target, String::new(), loc, self.depth()));
     }
 
-    fn end(&mut self) {
-        let depth = self.depth;
+    /// Closes the innermost element; `at` is where its end tag (or the
+    /// element, when empty) starts.
+    fn end(&mut self, at: usize) {
+        let depth = self.depth();
         if depth <= MEANINGFUL_DEPTH {
             self.stack.pop();
         }
-        self.depth = depth.saturating_sub(1);
+        if let Some(opened) = self.opened.pop() {
+            if self.opened.is_empty() {
+                self.root = Root::Closed { opened, closed: at };
+            }
+        }
         // Only the element that opened the target closes it; text of nested
         // elements (`<b>` in a description) is kept in its parent's text.
         if !matches!(self.text_target, Some((_, _, _, d)) if d == depth) {
@@ -480,6 +618,15 @@ impl Parser<'_, '_> {
             _ => {}
         }
     }
+}
+
+/// The byte offset of the first character of `t` that is not XML
+/// whitespace, if any: text that is only whitespace may stand outside the
+/// root element, and other text is pointed at where it starts. The raw
+/// (escaped) bytes count, so the offset is one into the source.
+fn non_blank(t: &quick_xml::events::BytesText) -> Option<usize> {
+    t.iter()
+        .position(|b| !matches!(b, b' ' | b'\t' | b'\r' | b'\n'))
 }
 
 fn get(attrs: &[(String, String)], name: &str) -> Option<String> {

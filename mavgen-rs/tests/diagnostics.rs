@@ -478,3 +478,259 @@ fn valid_fixture_loads_without_diagnostics() {
     // The fixture the CLI tests generate from must stay clean.
     assert_eq!(warnings("valid_root.xml"), Vec::<Diag>::new());
 }
+
+// Files that are not whole XML documents: truncated, or with something
+// outside the root element. Each comment says what pymavlink 2.4.50 does
+// with the same file (`mavparse.MAVXML(path, '2.0')`, which parses with
+// expat); expat's columns are 0-based, ours 1-based, so "expat 1:94" is our
+// 1:95.
+
+/// A whole one-message dialect on one line: `</messages>` starts at byte
+/// 94, `</mavlink>` at 105, and it is 115 bytes long.
+const WHOLE: &str = r#"<mavlink><messages><message id="1" name="X"><field type="uint8_t" name="a">a</field></message></messages></mavlink>"#;
+
+/// The diagnostics of `Schema::from_text("x.xml", text)`, which must fail,
+/// as `line:col: message` (the file is always x.xml).
+fn text_errors(text: &str) -> Vec<String> {
+    match Schema::from_text("x.xml", text) {
+        Ok(_) => panic!("accepted without errors: {text:?}"),
+        Err(diags) => diags
+            .iter()
+            .map(|d| {
+                let p = d.position.as_ref().expect("a position");
+                assert_eq!(p.file, Path::new("x.xml"));
+                assert_eq!(d.severity, Severity::Error, "{d}");
+                format!("{}:{}: {}", p.line, p.column, d.message)
+            })
+            .collect(),
+    }
+}
+
+/// Asserts `text` fails with exactly one error, `line:col: message`.
+#[track_caller]
+fn assert_text_error(text: &str, expected: &str) {
+    assert_eq!(text_errors(text), [expected], "for {text:?}");
+}
+
+#[test]
+fn whole_file_and_what_may_surround_its_root_are_accepted() {
+    // The control for the tests below; pymavlink agrees on all four.
+    for text in [
+        WHOLE.to_string(),
+        format!("{WHOLE}\n"),
+        format!("<?xml version=\"1.0\"?>\n<!DOCTYPE mavlink>\n<!-- c -->\n{WHOLE}\n"),
+        format!("{WHOLE}\n<!-- trailing comment -->\n<?pi x?>\n"),
+    ] {
+        assert!(Schema::from_text("x.xml", &text).is_ok(), "{text:?}");
+    }
+}
+
+#[test]
+fn a_file_truncated_inside_an_element_names_the_element_and_where_it_opened() {
+    // The file as an interrupted copy leaves it, cut before `</messages>`.
+    // Was accepted as one message. pymavlink: "no element found: line 1,
+    // column 94", the same place.
+    assert_text_error(
+        &WHOLE[..94],
+        "1:95: the file ends inside <messages> (opened at 1:10)",
+    );
+}
+
+#[test]
+fn a_file_truncated_before_the_root_end_tag_points_at_the_end_of_the_file() {
+    // Cut after `</messages>` and a newline. Was accepted. pymavlink: "no
+    // element found: line 2, column 0", the same place.
+    assert_text_error(
+        &format!("{}\n", &WHOLE[..105]),
+        "2:1: the file ends inside <mavlink> (opened at 1:1)",
+    );
+}
+
+#[test]
+fn a_file_truncated_inside_element_text_names_the_innermost_element() {
+    // Cut inside a field's description, on the third line. Was accepted.
+    // pymavlink: "no element found: line 3, column 68", the same place.
+    let text = "<mavlink>\n<messages>\n<message id=\"1\" name=\"X\"><field type=\"uint8_t\" name=\"a\">half a descr";
+    assert_text_error(text, "3:69: the file ends inside <field> (opened at 3:26)");
+}
+
+#[test]
+fn a_file_holding_only_an_open_root_is_truncated_not_empty() {
+    // Was accepted as a dialect without messages. pymavlink: "no element
+    // found: line 1, column 9", the same place.
+    assert_text_error(
+        "<mavlink>",
+        "1:10: the file ends inside <mavlink> (opened at 1:1)",
+    );
+}
+
+#[test]
+fn a_file_truncated_inside_a_tag_or_an_end_tag_points_at_the_tag() {
+    // quick-xml reported these before the fix too; pinned here. pymavlink:
+    // "unclosed token: line 1, column 105" for both, the same place.
+    let tag = format!("{}<ver", &WHOLE[..105]);
+    let end_tag = &WHOLE[..WHOLE.len() - 1];
+    for text in [tag.as_str(), end_tag] {
+        assert_text_error(
+            text,
+            "1:106: malformed XML: syntax error: tag not closed: `>` not found before end of input",
+        );
+    }
+}
+
+#[test]
+fn a_file_truncated_inside_an_attribute_value_points_at_its_element() {
+    // Cut in `name="a`. quick-xml reported this before the fix too.
+    // pymavlink: "unclosed token: line 1, column 44", the same place.
+    assert_text_error(
+        &WHOLE[..72],
+        "1:45: malformed XML: syntax error: tag not closed: `>` not found before end of input",
+    );
+}
+
+#[test]
+fn a_file_truncated_inside_a_comment_points_at_the_comment() {
+    // quick-xml reported this before the fix too. pymavlink: "unclosed
+    // token: line 1, column 105", the same place.
+    assert_text_error(
+        &format!("{}<!-- half a comm", &WHOLE[..105]),
+        "1:106: malformed XML: syntax error: comment not closed: `-->` not found before end of input",
+    );
+}
+
+#[test]
+fn a_file_truncated_inside_cdata_or_a_declaration_points_at_its_start() {
+    // quick-xml reported these before the fix too. pymavlink: "unclosed
+    // CDATA section: line 1, column 116" (the end of the file, where we
+    // point at the section's start) and "unclosed token: line 1, column 0"
+    // (the same place).
+    assert_text_error(
+        &format!("{}<![CDATA[ x", &WHOLE[..105]),
+        "1:106: malformed XML: syntax error: CDATA not closed: `]]>` not found before end of input",
+    );
+    assert_text_error(
+        "<?xml version=\"1.0\"",
+        "1:1: malformed XML: syntax error: processing instruction or xml declaration not closed: `?>` not found before end of input",
+    );
+}
+
+#[test]
+fn a_mismatched_or_extra_end_tag_points_at_the_end_tag() {
+    // quick-xml reported these before the fix too. pymavlink: "mismatched
+    // tag: line 1, column 107" and "not well-formed (invalid token): line
+    // 1, column 116": the same end tags, at its name and at its `/` where
+    // we point at its `<`.
+    assert_text_error(
+        &format!("{}</wrong>", &WHOLE[..105]),
+        "1:106: malformed XML: ill-formed document: expected `</mavlink>`, but `</wrong>` was found",
+    );
+    assert_text_error(
+        &format!("{WHOLE}</extra>"),
+        "1:116: malformed XML: ill-formed document: close tag `</extra>` does not match any open tag",
+    );
+}
+
+#[test]
+fn text_outside_the_root_element_is_an_error_where_it_starts() {
+    // Both were accepted. pymavlink: "junk after document element: line 2,
+    // column 2" and "syntax error: line 1, column 0", the same places. An
+    // entity is text too (pymavlink: "not well-formed (invalid token): line
+    // 2, column 0").
+    assert_text_error(
+        &format!("{WHOLE}\n  trailing text\n"),
+        "2:3: text after the root element <mavlink>, which closed at 1:106 (only comments may follow it)",
+    );
+    assert_text_error(
+        &format!("{WHOLE}\n&amp;"),
+        "2:1: text after the root element <mavlink>, which closed at 1:106 (only comments may follow it)",
+    );
+    assert_text_error(
+        &format!("text before{WHOLE}"),
+        "1:1: text before the root element (only the XML declaration, a DOCTYPE and comments may precede it)",
+    );
+}
+
+#[test]
+fn a_second_element_after_the_root_is_an_error_at_that_element() {
+    // Was accepted (a second <mavlink> with messages would even have been
+    // merged in). pymavlink: "junk after document element" at line 2,
+    // column 0 and line 1, column 10: the same places.
+    assert_text_error(
+        &format!("{WHOLE}\n{WHOLE}\n"),
+        "2:1: an element <mavlink> after the root element <mavlink>, which closed at 1:106 (only comments may follow it)",
+    );
+    assert_text_error(
+        "<mavlink/><x/>",
+        "1:11: an element <x> after the root element <mavlink>, which closed at 1:1 (only comments may follow it)",
+    );
+}
+
+#[test]
+fn cdata_doctype_or_a_declaration_out_of_place_is_an_error() {
+    // All were accepted. pymavlink: "junk after document element: line 2,
+    // column 0" for the first two, "syntax error: line 1, column 0" for the
+    // third, "XML or text declaration not at start of entity: line 2,
+    // column 0" for the last: the same places.
+    let after =
+        "after the root element <mavlink>, which closed at 1:106 (only comments may follow it)";
+    assert_text_error(
+        &format!("{WHOLE}\n<![CDATA[x]]>"),
+        &format!("2:1: a CDATA section {after}"),
+    );
+    assert_text_error(
+        &format!("{WHOLE}\n<!DOCTYPE x>"),
+        &format!("2:1: a DOCTYPE {after}"),
+    );
+    assert_text_error(
+        &format!("<![CDATA[x]]>{WHOLE}"),
+        "1:1: a CDATA section before the root element (only the XML declaration, a DOCTYPE and comments may precede it)",
+    );
+    assert_text_error(
+        &format!("<!-- c -->\n<?xml version=\"1.0\"?>\n{WHOLE}"),
+        "2:1: an XML declaration (<?xml …?>) may only open the file",
+    );
+    // pymavlink: "not well-formed (invalid token): line 2, column 2", at the
+    // DOCTYPE's name where we point at its `<`.
+    assert_text_error(
+        "<mavlink>\n<!DOCTYPE x>\n</mavlink>",
+        "2:1: a DOCTYPE inside the root element",
+    );
+}
+
+#[test]
+fn a_file_without_an_element_is_an_error_at_its_end() {
+    // pymavlink: "no element found" at line 1 column 0, line 3 column 0 and
+    // line 2 column 0: the same places. The empty and blank files were
+    // refused before too (at 1:1); the one whose comment mentions <mavlink>
+    // was accepted, as the old check searched the text for "<mavlink".
+    assert_text_error(
+        "",
+        "1:1: not a MAVLink definition: the file is empty, no <mavlink> root element",
+    );
+    assert_text_error(
+        "  \n\n",
+        "3:1: not a MAVLink definition: the file is empty, no <mavlink> root element",
+    );
+    assert_text_error(
+        "<!-- <mavlink> -->\n",
+        "2:1: not a MAVLink definition: the file holds no element, no <mavlink> root element",
+    );
+}
+
+#[test]
+fn a_root_other_than_mavlink_is_an_error_at_the_root() {
+    // pymavlink accepts all three as a dialect without messages (it only
+    // looks at paths under `mavlink`); we refuse them, as `<foo/>` was
+    // already. `<mavlinkx/>` and `<foo><mavlink/></foo>` were accepted, as
+    // the old check searched the text for "<mavlink".
+    for (text, root) in [
+        ("<foo/>", "foo"),
+        ("<mavlinkx/>", "mavlinkx"),
+        ("<foo><mavlink/></foo>", "foo"),
+    ] {
+        assert_text_error(
+            text,
+            &format!("1:1: not a MAVLink definition: the root element is <{root}>, not <mavlink>"),
+        );
+    }
+}

@@ -1,7 +1,8 @@
 //! `mavgen-rs check` on paths and include graphs that must give a clear
 //! error (or a clear success), never a hang, an out-of-memory kill or a
 //! stack overflow: devices, FIFOs, directories, oversized files, include
-//! chains and cycles thousands of files deep, deeply nested XML.
+//! chains and cycles thousands of files deep, deeply nested XML, files cut
+//! short (an interrupted copy, a half-written download).
 //!
 //! The binary runs under a memory cap and a deadline, so a regression fails
 //! the test instead of taking the machine down or hanging the run. The
@@ -347,4 +348,71 @@ fn a_message_list_that_is_a_fifo_is_an_error() {
         &o,
         "error: --messages @list.txt: it is a FIFO, not a regular file",
     );
+}
+
+/// The first message of [`dialect`] as an interrupted copy leaves it: cut
+/// before `</messages>`, so `<messages>` and `<mavlink>` stay open.
+fn truncated(id: usize) -> String {
+    let whole = dialect(id, &[]);
+    whole[..whole.find("  </messages>").expect("a dialect")].to_string()
+}
+
+#[test]
+fn a_truncated_file_is_an_error_and_generates_nothing() {
+    // Was generated as if whole. pymavlink refuses it too ("no element
+    // found: line 7, column 0").
+    let t = TempDir::new("truncated");
+    t.write("cut.xml", &truncated(1));
+    let expected = "cut.xml:7:1: error: the file ends inside <messages> (opened at 3:3)";
+    assert_error(&check_bounded(&t.0, &["cut.xml"]), expected);
+    let o = mavgen_bounded(&t.0, &["generate", "cut.xml", "-o", "out"]);
+    assert_error(&o, expected);
+    assert!(
+        !t.0.join("out").exists(),
+        "output written for a truncated file"
+    );
+}
+
+#[test]
+fn a_truncated_include_is_an_error_in_that_file() {
+    // A half-written download of an included file (pymavlink: "no element
+    // found: line 7, column 0", while parsing cut.xml).
+    let t = TempDir::new("truncated-include");
+    t.write("root.xml", &dialect(1, &["cut.xml"]));
+    t.write("cut.xml", &truncated(2));
+    assert_error(
+        &check_bounded(&t.0, &["root.xml"]),
+        "cut.xml:7:1: error: the file ends inside <messages> (opened at 3:3)",
+    );
+}
+
+#[test]
+fn every_truncation_of_a_real_dialect_is_refused() {
+    // Cut minimal.xml (47 KB, the upstream file) at every 61st byte and at
+    // every `>` (where a cut leaves well-formed tags and only the missing
+    // end tags tell): each prefix short of `</mavlink>` must be refused with
+    // an error that has a position. Only a cut in the trailing newline is
+    // whole.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fbwag-dialect/message_definitions/minimal.xml");
+    let text = std::fs::read_to_string(&path).expect("minimal.xml");
+    let whole = text.rfind("</mavlink>").expect("a root end tag") + "</mavlink>".len();
+    let cuts = (0..whole).step_by(61).chain(
+        text.match_indices('>')
+            .map(|(i, _)| i + 1)
+            .filter(|&i| i < whole),
+    );
+    let mut count = 0;
+    for cut in cuts.filter(|&c| text.is_char_boundary(c)) {
+        match mavgen_rs::Schema::from_text("minimal.xml", &text[..cut]) {
+            Ok(_) => panic!("accepted minimal.xml cut at byte {cut}"),
+            Err(diags) => assert!(
+                diags.iter().any(|d| d.position.is_some()),
+                "cut at {cut}: no positioned error: {diags:?}"
+            ),
+        }
+        count += 1;
+    }
+    assert!(count > 1000, "only {count} cuts tried");
+    assert!(mavgen_rs::Schema::from_text("minimal.xml", &text[..whole]).is_ok());
 }

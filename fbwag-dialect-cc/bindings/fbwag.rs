@@ -499,36 +499,27 @@ impl Message {
     /// Reads the payload of message `id`; `None` when the dialect
     /// does not know `id`.
     pub fn parse(id: u32, payload: &[u8]) -> Option<Self> {
-        Some(
-            match id {
-                0 => Self::Heartbeat(super::minimal::Heartbeat::parse(payload)),
-                1 => Self::SysStatus(super::common::SysStatus::parse(payload)),
-                30 => Self::Attitude(super::common::Attitude::parse(payload)),
-                33 => {
-                    Self::GlobalPositionInt(
-                        super::standard::GlobalPositionInt::parse(payload),
-                    )
-                }
-                65 => Self::RcChannels(super::common::RcChannels::parse(payload)),
-                69 => Self::ManualControl(super::common::ManualControl::parse(payload)),
-                70 => {
-                    Self::RcChannelsOverride(
-                        super::common::RcChannelsOverride::parse(payload),
-                    )
-                }
-                74 => Self::VfrHud(super::common::VfrHud::parse(payload)),
-                76 => Self::CommandLong(super::common::CommandLong::parse(payload)),
-                77 => Self::CommandAck(super::common::CommandAck::parse(payload)),
-                82 => {
-                    Self::SetAttitudeTarget(
-                        super::common::SetAttitudeTarget::parse(payload),
-                    )
-                }
-                253 => Self::Statustext(super::common::Statustext::parse(payload)),
-                15001 => Self::FbwagNotice(FbwagNotice::parse(payload)),
-                _ => return None,
-            },
-        )
+        let parse: fn(&[u8]) -> Self = match id {
+            0 => |p| Self::Heartbeat(super::minimal::Heartbeat::parse(p)),
+            1 => |p| Self::SysStatus(super::common::SysStatus::parse(p)),
+            30 => |p| Self::Attitude(super::common::Attitude::parse(p)),
+            33 => {
+                |p| Self::GlobalPositionInt(super::standard::GlobalPositionInt::parse(p))
+            }
+            65 => |p| Self::RcChannels(super::common::RcChannels::parse(p)),
+            69 => |p| Self::ManualControl(super::common::ManualControl::parse(p)),
+            70 => {
+                |p| Self::RcChannelsOverride(super::common::RcChannelsOverride::parse(p))
+            }
+            74 => |p| Self::VfrHud(super::common::VfrHud::parse(p)),
+            76 => |p| Self::CommandLong(super::common::CommandLong::parse(p)),
+            77 => |p| Self::CommandAck(super::common::CommandAck::parse(p)),
+            82 => |p| Self::SetAttitudeTarget(super::common::SetAttitudeTarget::parse(p)),
+            253 => |p| Self::Statustext(super::common::Statustext::parse(p)),
+            15001 => |p| Self::FbwagNotice(FbwagNotice::parse(p)),
+            _ => return None,
+        };
+        Some(parse(payload))
     }
 
     /// The message's table row.

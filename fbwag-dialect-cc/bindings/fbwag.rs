@@ -645,21 +645,84 @@ impl<'a> MessageView<'a> {
 
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
-        match self {
-            Self::Heartbeat(v) => Message::Heartbeat(v.to_message()),
-            Self::SysStatus(v) => Message::SysStatus(v.to_message()),
-            Self::Attitude(v) => Message::Attitude(v.to_message()),
-            Self::GlobalPositionInt(v) => Message::GlobalPositionInt(v.to_message()),
-            Self::RcChannels(v) => Message::RcChannels(v.to_message()),
-            Self::ManualControl(v) => Message::ManualControl(v.to_message()),
-            Self::RcChannelsOverride(v) => Message::RcChannelsOverride(v.to_message()),
-            Self::VfrHud(v) => Message::VfrHud(v.to_message()),
-            Self::CommandLong(v) => Message::CommandLong(v.to_message()),
-            Self::CommandAck(v) => Message::CommandAck(v.to_message()),
-            Self::SetAttitudeTarget(v) => Message::SetAttitudeTarget(v.to_message()),
-            Self::Statustext(v) => Message::Statustext(v.to_message()),
-            Self::FbwagNotice(v) => Message::FbwagNotice(v.to_message()),
-        }
+        let (parse, payload): (fn(&[u8]) -> Message, &[u8]) = match self {
+            Self::Heartbeat(v) => {
+                (
+                    |p| Message::Heartbeat(super::minimal::Heartbeat::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SysStatus(v) => {
+                (
+                    |p| Message::SysStatus(super::common::SysStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Attitude(v) => {
+                (|p| Message::Attitude(super::common::Attitude::parse(p)), v.as_bytes())
+            }
+            Self::GlobalPositionInt(v) => {
+                (
+                    |p| Message::GlobalPositionInt(
+                        super::standard::GlobalPositionInt::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannels(v) => {
+                (
+                    |p| Message::RcChannels(super::common::RcChannels::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ManualControl(v) => {
+                (
+                    |p| Message::ManualControl(super::common::ManualControl::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannelsOverride(v) => {
+                (
+                    |p| Message::RcChannelsOverride(
+                        super::common::RcChannelsOverride::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::VfrHud(v) => {
+                (|p| Message::VfrHud(super::common::VfrHud::parse(p)), v.as_bytes())
+            }
+            Self::CommandLong(v) => {
+                (
+                    |p| Message::CommandLong(super::common::CommandLong::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::CommandAck(v) => {
+                (
+                    |p| Message::CommandAck(super::common::CommandAck::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SetAttitudeTarget(v) => {
+                (
+                    |p| Message::SetAttitudeTarget(
+                        super::common::SetAttitudeTarget::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::Statustext(v) => {
+                (
+                    |p| Message::Statustext(super::common::Statustext::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::FbwagNotice(v) => {
+                (|p| Message::FbwagNotice(FbwagNotice::parse(p)), v.as_bytes())
+            }
+        };
+        parse(payload)
     }
 }
 

@@ -1563,9 +1563,13 @@ impl Gen<'_> {
 
                 /// Copies the message out.
                 pub fn to_message(&self) -> Message {
-                    match self {
-                        #( Self::#variants(v) => Message::#variants(v.to_message()), )*
-                    }
+                    // A constructor called once, as in `Message::parse`: arms
+                    // building the enum each would share one tail copying
+                    // the largest variant.
+                    let (parse, payload): (fn(&[u8]) -> Message, &[u8]) = match self {
+                        #( Self::#variants(v) => (|p| Message::#variants(#paths::parse(p)), v.as_bytes()), )*
+                    };
+                    parse(payload)
                 }
             }
 

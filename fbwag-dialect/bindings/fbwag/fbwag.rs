@@ -5507,7 +5507,8 @@ impl<'a> MessageView<'a> {
 
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
-        let (parse, payload): (fn(&[u8]) -> Message, &[u8]) = match self {
+        type Parse = fn(&[u8]) -> Message;
+        let (parse, payload): (Parse, &[u8]) = match self {
             Self::Heartbeat(v) => {
                 (
                     |p| Message::Heartbeat(super::minimal::Heartbeat::parse(p)),

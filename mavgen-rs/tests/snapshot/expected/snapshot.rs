@@ -1123,7 +1123,8 @@ impl<'a> MessageView<'a> {
 
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
-        let (parse, payload): (fn(&[u8]) -> Message, &[u8]) = match self {
+        type Parse = fn(&[u8]) -> Message;
+        let (parse, payload): (Parse, &[u8]) = match self {
             Self::SnapAllTypes(v) => {
                 (|p| Message::SnapAllTypes(SnapAllTypes::parse(p)), v.as_bytes())
             }

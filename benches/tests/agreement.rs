@@ -1,6 +1,8 @@
 //! What the benchmarks rely on, checked without the telemetry capture: both
-//! libraries see the same FBWAG_NOTICE, and the generated `Dialect::meta`
-//! (a `match`) is the table lookup it replaces.
+//! libraries see the same FBWAG_NOTICE, the generated `Dialect::meta` (a
+//! `match`) is the table lookup it replaces, and the owned decoders'
+//! constructor tables (`Message::parse`, `MessageView::to_message`) build
+//! the variant of the frame's id from all of its bytes.
 
 use benches::mavlink_fbwag::fbwag::MavMessage as TheirFbwag;
 use benches::{mavlink_header, OurEncoder, TheirEncoder, Theirs, KEY};
@@ -27,6 +29,38 @@ fn generated_meta_equals_the_table_lookup() {
         .chain([(1 << 24) - 1, 1 << 24, u32::MAX]);
     for id in ids {
         assert_eq!(Dialect::meta(id), lookup(id), "id {id}");
+    }
+}
+
+#[test]
+fn owned_decoders_build_the_variant_of_the_id_from_every_byte() {
+    let mut out = [0u8; 255];
+    for meta in MESSAGES {
+        let max = usize::from(meta.max_len);
+        // A byte pattern with no zero (zeros would hide a byte not copied),
+        // different for each message; every truncation of it, empty included.
+        let full: Vec<u8> = (0..max)
+            .map(|i| (i as u32 * 7 + meta.id) as u8 | 1)
+            .collect();
+        for len in 0..=max {
+            let payload = &full[..len];
+            let owned = Message::parse(meta.id, payload).expect("a known id");
+            let via_view = MessageView::new(meta.id, payload)
+                .expect("a known id")
+                .to_message();
+            assert_eq!(owned.id(), meta.id, "{} len {len}", meta.name);
+            assert_eq!(via_view.id(), meta.id, "{} len {len}", meta.name);
+            // Compared as bytes: a float field may hold a NaN pattern.
+            for msg in [owned, via_view] {
+                assert_eq!(msg.emit(&mut out), Ok(max), "{}", meta.name);
+                assert_eq!(&out[..len], payload, "{} len {len}", meta.name);
+                assert!(
+                    out[len..max].iter().all(|&b| b == 0),
+                    "{} len {len}",
+                    meta.name
+                );
+            }
+        }
     }
 }
 

@@ -499,36 +499,27 @@ impl Message {
     /// Reads the payload of message `id`; `None` when the dialect
     /// does not know `id`.
     pub fn parse(id: u32, payload: &[u8]) -> Option<Self> {
-        Some(
-            match id {
-                0 => Self::Heartbeat(super::minimal::Heartbeat::parse(payload)),
-                1 => Self::SysStatus(super::common::SysStatus::parse(payload)),
-                30 => Self::Attitude(super::common::Attitude::parse(payload)),
-                33 => {
-                    Self::GlobalPositionInt(
-                        super::standard::GlobalPositionInt::parse(payload),
-                    )
-                }
-                65 => Self::RcChannels(super::common::RcChannels::parse(payload)),
-                69 => Self::ManualControl(super::common::ManualControl::parse(payload)),
-                70 => {
-                    Self::RcChannelsOverride(
-                        super::common::RcChannelsOverride::parse(payload),
-                    )
-                }
-                74 => Self::VfrHud(super::common::VfrHud::parse(payload)),
-                76 => Self::CommandLong(super::common::CommandLong::parse(payload)),
-                77 => Self::CommandAck(super::common::CommandAck::parse(payload)),
-                82 => {
-                    Self::SetAttitudeTarget(
-                        super::common::SetAttitudeTarget::parse(payload),
-                    )
-                }
-                253 => Self::Statustext(super::common::Statustext::parse(payload)),
-                15001 => Self::FbwagNotice(FbwagNotice::parse(payload)),
-                _ => return None,
-            },
-        )
+        let parse: fn(&[u8]) -> Self = match id {
+            0 => |p| Self::Heartbeat(super::minimal::Heartbeat::parse(p)),
+            1 => |p| Self::SysStatus(super::common::SysStatus::parse(p)),
+            30 => |p| Self::Attitude(super::common::Attitude::parse(p)),
+            33 => {
+                |p| Self::GlobalPositionInt(super::standard::GlobalPositionInt::parse(p))
+            }
+            65 => |p| Self::RcChannels(super::common::RcChannels::parse(p)),
+            69 => |p| Self::ManualControl(super::common::ManualControl::parse(p)),
+            70 => {
+                |p| Self::RcChannelsOverride(super::common::RcChannelsOverride::parse(p))
+            }
+            74 => |p| Self::VfrHud(super::common::VfrHud::parse(p)),
+            76 => |p| Self::CommandLong(super::common::CommandLong::parse(p)),
+            77 => |p| Self::CommandAck(super::common::CommandAck::parse(p)),
+            82 => |p| Self::SetAttitudeTarget(super::common::SetAttitudeTarget::parse(p)),
+            253 => |p| Self::Statustext(super::common::Statustext::parse(p)),
+            15001 => |p| Self::FbwagNotice(FbwagNotice::parse(p)),
+            _ => return None,
+        };
+        Some(parse(payload))
     }
 
     /// The message's table row.
@@ -654,21 +645,85 @@ impl<'a> MessageView<'a> {
 
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
-        match self {
-            Self::Heartbeat(v) => Message::Heartbeat(v.to_message()),
-            Self::SysStatus(v) => Message::SysStatus(v.to_message()),
-            Self::Attitude(v) => Message::Attitude(v.to_message()),
-            Self::GlobalPositionInt(v) => Message::GlobalPositionInt(v.to_message()),
-            Self::RcChannels(v) => Message::RcChannels(v.to_message()),
-            Self::ManualControl(v) => Message::ManualControl(v.to_message()),
-            Self::RcChannelsOverride(v) => Message::RcChannelsOverride(v.to_message()),
-            Self::VfrHud(v) => Message::VfrHud(v.to_message()),
-            Self::CommandLong(v) => Message::CommandLong(v.to_message()),
-            Self::CommandAck(v) => Message::CommandAck(v.to_message()),
-            Self::SetAttitudeTarget(v) => Message::SetAttitudeTarget(v.to_message()),
-            Self::Statustext(v) => Message::Statustext(v.to_message()),
-            Self::FbwagNotice(v) => Message::FbwagNotice(v.to_message()),
-        }
+        type Parse = fn(&[u8]) -> Message;
+        let (parse, payload): (Parse, &[u8]) = match self {
+            Self::Heartbeat(v) => {
+                (
+                    |p| Message::Heartbeat(super::minimal::Heartbeat::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SysStatus(v) => {
+                (
+                    |p| Message::SysStatus(super::common::SysStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Attitude(v) => {
+                (|p| Message::Attitude(super::common::Attitude::parse(p)), v.as_bytes())
+            }
+            Self::GlobalPositionInt(v) => {
+                (
+                    |p| Message::GlobalPositionInt(
+                        super::standard::GlobalPositionInt::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannels(v) => {
+                (
+                    |p| Message::RcChannels(super::common::RcChannels::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ManualControl(v) => {
+                (
+                    |p| Message::ManualControl(super::common::ManualControl::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannelsOverride(v) => {
+                (
+                    |p| Message::RcChannelsOverride(
+                        super::common::RcChannelsOverride::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::VfrHud(v) => {
+                (|p| Message::VfrHud(super::common::VfrHud::parse(p)), v.as_bytes())
+            }
+            Self::CommandLong(v) => {
+                (
+                    |p| Message::CommandLong(super::common::CommandLong::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::CommandAck(v) => {
+                (
+                    |p| Message::CommandAck(super::common::CommandAck::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SetAttitudeTarget(v) => {
+                (
+                    |p| Message::SetAttitudeTarget(
+                        super::common::SetAttitudeTarget::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::Statustext(v) => {
+                (
+                    |p| Message::Statustext(super::common::Statustext::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::FbwagNotice(v) => {
+                (|p| Message::FbwagNotice(FbwagNotice::parse(p)), v.as_bytes())
+            }
+        };
+        parse(payload)
     }
 }
 

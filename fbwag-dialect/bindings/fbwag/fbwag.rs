@@ -2544,965 +2544,748 @@ impl Message {
     /// Reads the payload of message `id`; `None` when the dialect
     /// does not know `id`.
     pub fn parse(id: u32, payload: &[u8]) -> Option<Self> {
-        Some(
-            match id {
-                0 => Self::Heartbeat(super::minimal::Heartbeat::parse(payload)),
-                1 => Self::SysStatus(super::common::SysStatus::parse(payload)),
-                2 => Self::SystemTime(super::common::SystemTime::parse(payload)),
-                4 => Self::Ping(super::common::Ping::parse(payload)),
-                5 => {
-                    Self::ChangeOperatorControl(
-                        super::common::ChangeOperatorControl::parse(payload),
-                    )
-                }
-                6 => {
-                    Self::ChangeOperatorControlAck(
-                        super::common::ChangeOperatorControlAck::parse(payload),
-                    )
-                }
-                7 => Self::AuthKey(super::common::AuthKey::parse(payload)),
-                11 => Self::SetMode(super::common::SetMode::parse(payload)),
-                20 => {
-                    Self::ParamRequestRead(
-                        super::common::ParamRequestRead::parse(payload),
-                    )
-                }
-                21 => {
-                    Self::ParamRequestList(
-                        super::common::ParamRequestList::parse(payload),
-                    )
-                }
-                22 => Self::ParamValue(super::common::ParamValue::parse(payload)),
-                23 => Self::ParamSet(super::common::ParamSet::parse(payload)),
-                24 => Self::GpsRawInt(super::common::GpsRawInt::parse(payload)),
-                25 => Self::GpsStatus(super::common::GpsStatus::parse(payload)),
-                26 => Self::ScaledImu(super::common::ScaledImu::parse(payload)),
-                27 => Self::RawImu(super::common::RawImu::parse(payload)),
-                28 => Self::RawPressure(super::common::RawPressure::parse(payload)),
-                29 => Self::ScaledPressure(super::common::ScaledPressure::parse(payload)),
-                30 => Self::Attitude(super::common::Attitude::parse(payload)),
-                31 => {
-                    Self::AttitudeQuaternion(
-                        super::common::AttitudeQuaternion::parse(payload),
-                    )
-                }
-                32 => {
-                    Self::LocalPositionNed(
-                        super::common::LocalPositionNed::parse(payload),
-                    )
-                }
-                33 => {
-                    Self::GlobalPositionInt(
-                        super::standard::GlobalPositionInt::parse(payload),
-                    )
-                }
-                34 => {
-                    Self::RcChannelsScaled(
-                        super::common::RcChannelsScaled::parse(payload),
-                    )
-                }
-                35 => Self::RcChannelsRaw(super::common::RcChannelsRaw::parse(payload)),
-                36 => Self::ServoOutputRaw(super::common::ServoOutputRaw::parse(payload)),
-                37 => {
-                    Self::MissionRequestPartialList(
-                        super::common::MissionRequestPartialList::parse(payload),
-                    )
-                }
-                38 => {
-                    Self::MissionWritePartialList(
-                        super::common::MissionWritePartialList::parse(payload),
-                    )
-                }
-                39 => Self::MissionItem(super::common::MissionItem::parse(payload)),
-                40 => Self::MissionRequest(super::common::MissionRequest::parse(payload)),
-                41 => {
-                    Self::MissionSetCurrent(
-                        super::common::MissionSetCurrent::parse(payload),
-                    )
-                }
-                42 => Self::MissionCurrent(super::common::MissionCurrent::parse(payload)),
-                43 => {
-                    Self::MissionRequestList(
-                        super::common::MissionRequestList::parse(payload),
-                    )
-                }
-                44 => Self::MissionCount(super::common::MissionCount::parse(payload)),
-                45 => {
-                    Self::MissionClearAll(super::common::MissionClearAll::parse(payload))
-                }
-                46 => {
-                    Self::MissionItemReached(
-                        super::common::MissionItemReached::parse(payload),
-                    )
-                }
-                47 => Self::MissionAck(super::common::MissionAck::parse(payload)),
-                48 => {
-                    Self::SetGpsGlobalOrigin(
-                        super::common::SetGpsGlobalOrigin::parse(payload),
-                    )
-                }
-                49 => {
-                    Self::GpsGlobalOrigin(super::common::GpsGlobalOrigin::parse(payload))
-                }
-                50 => Self::ParamMapRc(super::common::ParamMapRc::parse(payload)),
-                51 => {
-                    Self::MissionRequestInt(
-                        super::common::MissionRequestInt::parse(payload),
-                    )
-                }
-                54 => {
-                    Self::SafetySetAllowedArea(
-                        super::common::SafetySetAllowedArea::parse(payload),
-                    )
-                }
-                55 => {
-                    Self::SafetyAllowedArea(
-                        super::common::SafetyAllowedArea::parse(payload),
-                    )
-                }
-                61 => {
-                    Self::AttitudeQuaternionCov(
-                        super::common::AttitudeQuaternionCov::parse(payload),
-                    )
-                }
-                62 => {
-                    Self::NavControllerOutput(
-                        super::common::NavControllerOutput::parse(payload),
-                    )
-                }
-                63 => {
-                    Self::GlobalPositionIntCov(
-                        super::common::GlobalPositionIntCov::parse(payload),
-                    )
-                }
-                64 => {
-                    Self::LocalPositionNedCov(
-                        super::common::LocalPositionNedCov::parse(payload),
-                    )
-                }
-                65 => Self::RcChannels(super::common::RcChannels::parse(payload)),
-                66 => {
-                    Self::RequestDataStream(
-                        super::common::RequestDataStream::parse(payload),
-                    )
-                }
-                67 => Self::DataStream(super::common::DataStream::parse(payload)),
-                69 => Self::ManualControl(super::common::ManualControl::parse(payload)),
-                70 => {
-                    Self::RcChannelsOverride(
-                        super::common::RcChannelsOverride::parse(payload),
-                    )
-                }
-                73 => Self::MissionItemInt(super::common::MissionItemInt::parse(payload)),
-                74 => Self::VfrHud(super::common::VfrHud::parse(payload)),
-                75 => Self::CommandInt(super::common::CommandInt::parse(payload)),
-                76 => Self::CommandLong(super::common::CommandLong::parse(payload)),
-                77 => Self::CommandAck(super::common::CommandAck::parse(payload)),
-                81 => Self::ManualSetpoint(super::common::ManualSetpoint::parse(payload)),
-                82 => {
-                    Self::SetAttitudeTarget(
-                        super::common::SetAttitudeTarget::parse(payload),
-                    )
-                }
-                83 => Self::AttitudeTarget(super::common::AttitudeTarget::parse(payload)),
-                84 => {
-                    Self::SetPositionTargetLocalNed(
-                        super::common::SetPositionTargetLocalNed::parse(payload),
-                    )
-                }
-                85 => {
-                    Self::PositionTargetLocalNed(
-                        super::common::PositionTargetLocalNed::parse(payload),
-                    )
-                }
-                86 => {
-                    Self::SetPositionTargetGlobalInt(
-                        super::common::SetPositionTargetGlobalInt::parse(payload),
-                    )
-                }
-                87 => {
-                    Self::PositionTargetGlobalInt(
-                        super::common::PositionTargetGlobalInt::parse(payload),
-                    )
-                }
-                89 => {
-                    Self::LocalPositionNedSystemGlobalOffset(
-                        super::common::LocalPositionNedSystemGlobalOffset::parse(payload),
-                    )
-                }
-                90 => Self::HilState(super::common::HilState::parse(payload)),
-                91 => Self::HilControls(super::common::HilControls::parse(payload)),
-                92 => Self::HilRcInputsRaw(super::common::HilRcInputsRaw::parse(payload)),
-                93 => {
-                    Self::HilActuatorControls(
-                        super::common::HilActuatorControls::parse(payload),
-                    )
-                }
-                100 => Self::OpticalFlow(super::common::OpticalFlow::parse(payload)),
-                101 => {
-                    Self::GlobalVisionPositionEstimate(
-                        super::common::GlobalVisionPositionEstimate::parse(payload),
-                    )
-                }
-                102 => {
-                    Self::VisionPositionEstimate(
-                        super::common::VisionPositionEstimate::parse(payload),
-                    )
-                }
-                103 => {
-                    Self::VisionSpeedEstimate(
-                        super::common::VisionSpeedEstimate::parse(payload),
-                    )
-                }
-                104 => {
-                    Self::ViconPositionEstimate(
-                        super::common::ViconPositionEstimate::parse(payload),
-                    )
-                }
-                105 => Self::HighresImu(super::common::HighresImu::parse(payload)),
-                106 => {
-                    Self::OpticalFlowRad(super::common::OpticalFlowRad::parse(payload))
-                }
-                107 => Self::HilSensor(super::common::HilSensor::parse(payload)),
-                108 => Self::SimState(super::common::SimState::parse(payload)),
-                109 => Self::RadioStatus(super::common::RadioStatus::parse(payload)),
-                110 => {
-                    Self::FileTransferProtocol(
-                        super::common::FileTransferProtocol::parse(payload),
-                    )
-                }
-                111 => Self::Timesync(super::common::Timesync::parse(payload)),
-                112 => Self::CameraTrigger(super::common::CameraTrigger::parse(payload)),
-                113 => Self::HilGps(super::common::HilGps::parse(payload)),
-                114 => {
-                    Self::HilOpticalFlow(super::common::HilOpticalFlow::parse(payload))
-                }
-                115 => {
-                    Self::HilStateQuaternion(
-                        super::common::HilStateQuaternion::parse(payload),
-                    )
-                }
-                116 => Self::ScaledImu2(super::common::ScaledImu2::parse(payload)),
-                117 => {
-                    Self::LogRequestList(super::common::LogRequestList::parse(payload))
-                }
-                118 => Self::LogEntry(super::common::LogEntry::parse(payload)),
-                119 => {
-                    Self::LogRequestData(super::common::LogRequestData::parse(payload))
-                }
-                120 => Self::LogData(super::common::LogData::parse(payload)),
-                121 => Self::LogErase(super::common::LogErase::parse(payload)),
-                122 => Self::LogRequestEnd(super::common::LogRequestEnd::parse(payload)),
-                123 => Self::GpsInjectData(super::common::GpsInjectData::parse(payload)),
-                124 => Self::Gps2Raw(super::common::Gps2Raw::parse(payload)),
-                125 => Self::PowerStatus(super::common::PowerStatus::parse(payload)),
-                126 => Self::SerialControl(super::common::SerialControl::parse(payload)),
-                127 => Self::GpsRtk(super::common::GpsRtk::parse(payload)),
-                128 => Self::Gps2Rtk(super::common::Gps2Rtk::parse(payload)),
-                129 => Self::ScaledImu3(super::common::ScaledImu3::parse(payload)),
-                130 => {
-                    Self::DataTransmissionHandshake(
-                        super::common::DataTransmissionHandshake::parse(payload),
-                    )
-                }
-                131 => {
-                    Self::EncapsulatedData(
-                        super::common::EncapsulatedData::parse(payload),
-                    )
-                }
-                132 => {
-                    Self::DistanceSensor(super::common::DistanceSensor::parse(payload))
-                }
-                133 => {
-                    Self::TerrainRequest(super::common::TerrainRequest::parse(payload))
-                }
-                134 => Self::TerrainData(super::common::TerrainData::parse(payload)),
-                135 => Self::TerrainCheck(super::common::TerrainCheck::parse(payload)),
-                136 => Self::TerrainReport(super::common::TerrainReport::parse(payload)),
-                137 => {
-                    Self::ScaledPressure2(super::common::ScaledPressure2::parse(payload))
-                }
-                138 => Self::AttPosMocap(super::common::AttPosMocap::parse(payload)),
-                139 => {
-                    Self::SetActuatorControlTarget(
-                        super::common::SetActuatorControlTarget::parse(payload),
-                    )
-                }
-                140 => {
-                    Self::ActuatorControlTarget(
-                        super::common::ActuatorControlTarget::parse(payload),
-                    )
-                }
-                141 => Self::Altitude(super::common::Altitude::parse(payload)),
-                142 => {
-                    Self::ResourceRequest(super::common::ResourceRequest::parse(payload))
-                }
-                143 => {
-                    Self::ScaledPressure3(super::common::ScaledPressure3::parse(payload))
-                }
-                144 => Self::FollowTarget(super::common::FollowTarget::parse(payload)),
-                146 => {
-                    Self::ControlSystemState(
-                        super::common::ControlSystemState::parse(payload),
-                    )
-                }
-                147 => Self::BatteryStatus(super::common::BatteryStatus::parse(payload)),
-                148 => {
-                    Self::AutopilotVersion(
-                        super::standard::AutopilotVersion::parse(payload),
-                    )
-                }
-                149 => Self::LandingTarget(super::common::LandingTarget::parse(payload)),
-                150 => {
-                    Self::SensorOffsets(
-                        super::ardupilotmega::SensorOffsets::parse(payload),
-                    )
-                }
-                151 => {
-                    Self::SetMagOffsets(
-                        super::ardupilotmega::SetMagOffsets::parse(payload),
-                    )
-                }
-                152 => Self::Meminfo(super::ardupilotmega::Meminfo::parse(payload)),
-                153 => Self::ApAdc(super::ardupilotmega::ApAdc::parse(payload)),
-                154 => {
-                    Self::DigicamConfigure(
-                        super::ardupilotmega::DigicamConfigure::parse(payload),
-                    )
-                }
-                155 => {
-                    Self::DigicamControl(
-                        super::ardupilotmega::DigicamControl::parse(payload),
-                    )
-                }
-                156 => {
-                    Self::MountConfigure(
-                        super::ardupilotmega::MountConfigure::parse(payload),
-                    )
-                }
-                157 => {
-                    Self::MountControl(
-                        super::ardupilotmega::MountControl::parse(payload),
-                    )
-                }
-                158 => {
-                    Self::MountStatus(super::ardupilotmega::MountStatus::parse(payload))
-                }
-                160 => Self::FencePoint(super::ardupilotmega::FencePoint::parse(payload)),
-                161 => {
-                    Self::FenceFetchPoint(
-                        super::ardupilotmega::FenceFetchPoint::parse(payload),
-                    )
-                }
-                162 => Self::FenceStatus(super::common::FenceStatus::parse(payload)),
-                163 => Self::Ahrs(super::ardupilotmega::Ahrs::parse(payload)),
-                164 => Self::Simstate(super::ardupilotmega::Simstate::parse(payload)),
-                165 => Self::Hwstatus(super::ardupilotmega::Hwstatus::parse(payload)),
-                166 => Self::Radio(super::ardupilotmega::Radio::parse(payload)),
-                167 => {
-                    Self::LimitsStatus(
-                        super::ardupilotmega::LimitsStatus::parse(payload),
-                    )
-                }
-                168 => Self::Wind(super::ardupilotmega::Wind::parse(payload)),
-                169 => Self::Data16(super::ardupilotmega::Data16::parse(payload)),
-                170 => Self::Data32(super::ardupilotmega::Data32::parse(payload)),
-                171 => Self::Data64(super::ardupilotmega::Data64::parse(payload)),
-                172 => Self::Data96(super::ardupilotmega::Data96::parse(payload)),
-                173 => {
-                    Self::Rangefinder(super::ardupilotmega::Rangefinder::parse(payload))
-                }
-                174 => {
-                    Self::AirspeedAutocal(
-                        super::ardupilotmega::AirspeedAutocal::parse(payload),
-                    )
-                }
-                175 => Self::RallyPoint(super::ardupilotmega::RallyPoint::parse(payload)),
-                176 => {
-                    Self::RallyFetchPoint(
-                        super::ardupilotmega::RallyFetchPoint::parse(payload),
-                    )
-                }
-                177 => {
-                    Self::CompassmotStatus(
-                        super::ardupilotmega::CompassmotStatus::parse(payload),
-                    )
-                }
-                178 => Self::Ahrs2(super::ardupilotmega::Ahrs2::parse(payload)),
-                179 => {
-                    Self::CameraStatus(
-                        super::ardupilotmega::CameraStatus::parse(payload),
-                    )
-                }
-                180 => {
-                    Self::CameraFeedback(
-                        super::ardupilotmega::CameraFeedback::parse(payload),
-                    )
-                }
-                181 => Self::Battery2(super::ardupilotmega::Battery2::parse(payload)),
-                182 => Self::Ahrs3(super::ardupilotmega::Ahrs3::parse(payload)),
-                183 => {
-                    Self::AutopilotVersionRequest(
-                        super::ardupilotmega::AutopilotVersionRequest::parse(payload),
-                    )
-                }
-                184 => {
-                    Self::RemoteLogDataBlock(
-                        super::ardupilotmega::RemoteLogDataBlock::parse(payload),
-                    )
-                }
-                185 => {
-                    Self::RemoteLogBlockStatus(
-                        super::ardupilotmega::RemoteLogBlockStatus::parse(payload),
-                    )
-                }
-                186 => Self::LedControl(super::ardupilotmega::LedControl::parse(payload)),
-                191 => {
-                    Self::MagCalProgress(
-                        super::ardupilotmega::MagCalProgress::parse(payload),
-                    )
-                }
-                192 => Self::MagCalReport(super::common::MagCalReport::parse(payload)),
-                193 => {
-                    Self::EkfStatusReport(
-                        super::ardupilotmega::EkfStatusReport::parse(payload),
-                    )
-                }
-                194 => Self::PidTuning(super::ardupilotmega::PidTuning::parse(payload)),
-                195 => Self::Deepstall(super::ardupilotmega::Deepstall::parse(payload)),
-                200 => {
-                    Self::GimbalReport(
-                        super::ardupilotmega::GimbalReport::parse(payload),
-                    )
-                }
-                201 => {
-                    Self::GimbalControl(
-                        super::ardupilotmega::GimbalControl::parse(payload),
-                    )
-                }
-                214 => {
-                    Self::GimbalTorqueCmdReport(
-                        super::ardupilotmega::GimbalTorqueCmdReport::parse(payload),
-                    )
-                }
-                215 => {
-                    Self::GoproHeartbeat(
-                        super::ardupilotmega::GoproHeartbeat::parse(payload),
-                    )
-                }
-                216 => {
-                    Self::GoproGetRequest(
-                        super::ardupilotmega::GoproGetRequest::parse(payload),
-                    )
-                }
-                217 => {
-                    Self::GoproGetResponse(
-                        super::ardupilotmega::GoproGetResponse::parse(payload),
-                    )
-                }
-                218 => {
-                    Self::GoproSetRequest(
-                        super::ardupilotmega::GoproSetRequest::parse(payload),
-                    )
-                }
-                219 => {
-                    Self::GoproSetResponse(
-                        super::ardupilotmega::GoproSetResponse::parse(payload),
-                    )
-                }
-                225 => Self::EfiStatus(super::common::EfiStatus::parse(payload)),
-                226 => Self::Rpm(super::ardupilotmega::Rpm::parse(payload)),
-                230 => {
-                    Self::EstimatorStatus(super::common::EstimatorStatus::parse(payload))
-                }
-                231 => Self::WindCov(super::common::WindCov::parse(payload)),
-                232 => Self::GpsInput(super::common::GpsInput::parse(payload)),
-                233 => Self::GpsRtcmData(super::common::GpsRtcmData::parse(payload)),
-                234 => Self::HighLatency(super::common::HighLatency::parse(payload)),
-                235 => Self::HighLatency2(super::common::HighLatency2::parse(payload)),
-                241 => Self::Vibration(super::common::Vibration::parse(payload)),
-                242 => Self::HomePosition(super::common::HomePosition::parse(payload)),
-                243 => {
-                    Self::SetHomePosition(super::common::SetHomePosition::parse(payload))
-                }
-                244 => {
-                    Self::MessageInterval(super::common::MessageInterval::parse(payload))
-                }
-                245 => {
-                    Self::ExtendedSysState(
-                        super::common::ExtendedSysState::parse(payload),
-                    )
-                }
-                246 => Self::AdsbVehicle(super::common::AdsbVehicle::parse(payload)),
-                247 => Self::Collision(super::common::Collision::parse(payload)),
-                248 => Self::V2Extension(super::common::V2Extension::parse(payload)),
-                249 => Self::MemoryVect(super::common::MemoryVect::parse(payload)),
-                250 => Self::DebugVect(super::common::DebugVect::parse(payload)),
-                251 => {
-                    Self::NamedValueFloat(super::common::NamedValueFloat::parse(payload))
-                }
-                252 => Self::NamedValueInt(super::common::NamedValueInt::parse(payload)),
-                253 => Self::Statustext(super::common::Statustext::parse(payload)),
-                254 => Self::Debug(super::common::Debug::parse(payload)),
-                256 => Self::SetupSigning(super::common::SetupSigning::parse(payload)),
-                257 => Self::ButtonChange(super::common::ButtonChange::parse(payload)),
-                258 => Self::PlayTune(super::common::PlayTune::parse(payload)),
-                259 => {
-                    Self::CameraInformation(
-                        super::common::CameraInformation::parse(payload),
-                    )
-                }
-                260 => {
-                    Self::CameraSettings(super::common::CameraSettings::parse(payload))
-                }
-                261 => {
-                    Self::StorageInformation(
-                        super::common::StorageInformation::parse(payload),
-                    )
-                }
-                262 => {
-                    Self::CameraCaptureStatus(
-                        super::common::CameraCaptureStatus::parse(payload),
-                    )
-                }
-                263 => {
-                    Self::CameraImageCaptured(
-                        super::common::CameraImageCaptured::parse(payload),
-                    )
-                }
-                264 => {
-                    Self::FlightInformation(
-                        super::common::FlightInformation::parse(payload),
-                    )
-                }
-                265 => {
-                    Self::MountOrientation(
-                        super::common::MountOrientation::parse(payload),
-                    )
-                }
-                266 => Self::LoggingData(super::common::LoggingData::parse(payload)),
-                267 => {
-                    Self::LoggingDataAcked(
-                        super::common::LoggingDataAcked::parse(payload),
-                    )
-                }
-                268 => Self::LoggingAck(super::common::LoggingAck::parse(payload)),
-                269 => {
-                    Self::VideoStreamInformation(
-                        super::common::VideoStreamInformation::parse(payload),
-                    )
-                }
-                270 => {
-                    Self::VideoStreamStatus(
-                        super::common::VideoStreamStatus::parse(payload),
-                    )
-                }
-                271 => {
-                    Self::CameraFovStatus(super::common::CameraFovStatus::parse(payload))
-                }
-                275 => {
-                    Self::CameraTrackingImageStatus(
-                        super::common::CameraTrackingImageStatus::parse(payload),
-                    )
-                }
-                276 => {
-                    Self::CameraTrackingGeoStatus(
-                        super::common::CameraTrackingGeoStatus::parse(payload),
-                    )
-                }
-                277 => {
-                    Self::CameraThermalRange(
-                        super::common::CameraThermalRange::parse(payload),
-                    )
-                }
-                280 => {
-                    Self::GimbalManagerInformation(
-                        super::common::GimbalManagerInformation::parse(payload),
-                    )
-                }
-                281 => {
-                    Self::GimbalManagerStatus(
-                        super::common::GimbalManagerStatus::parse(payload),
-                    )
-                }
-                282 => {
-                    Self::GimbalManagerSetAttitude(
-                        super::common::GimbalManagerSetAttitude::parse(payload),
-                    )
-                }
-                283 => {
-                    Self::GimbalDeviceInformation(
-                        super::common::GimbalDeviceInformation::parse(payload),
-                    )
-                }
-                284 => {
-                    Self::GimbalDeviceSetAttitude(
-                        super::common::GimbalDeviceSetAttitude::parse(payload),
-                    )
-                }
-                285 => {
-                    Self::GimbalDeviceAttitudeStatus(
-                        super::common::GimbalDeviceAttitudeStatus::parse(payload),
-                    )
-                }
-                286 => {
-                    Self::AutopilotStateForGimbalDevice(
-                        super::common::AutopilotStateForGimbalDevice::parse(payload),
-                    )
-                }
-                287 => {
-                    Self::GimbalManagerSetPitchyaw(
-                        super::common::GimbalManagerSetPitchyaw::parse(payload),
-                    )
-                }
-                288 => {
-                    Self::GimbalManagerSetManualControl(
-                        super::common::GimbalManagerSetManualControl::parse(payload),
-                    )
-                }
-                295 => Self::Airspeed(super::common::Airspeed::parse(payload)),
-                296 => {
-                    Self::GlobalPositionSensor(
-                        super::common::GlobalPositionSensor::parse(payload),
-                    )
-                }
-                299 => Self::WifiConfigAp(super::common::WifiConfigAp::parse(payload)),
-                301 => Self::AisVessel(super::common::AisVessel::parse(payload)),
-                310 => {
-                    Self::UavcanNodeStatus(
-                        super::common::UavcanNodeStatus::parse(payload),
-                    )
-                }
-                311 => {
-                    Self::UavcanNodeInfo(super::common::UavcanNodeInfo::parse(payload))
-                }
-                320 => {
-                    Self::ParamExtRequestRead(
-                        super::common::ParamExtRequestRead::parse(payload),
-                    )
-                }
-                321 => {
-                    Self::ParamExtRequestList(
-                        super::common::ParamExtRequestList::parse(payload),
-                    )
-                }
-                322 => Self::ParamExtValue(super::common::ParamExtValue::parse(payload)),
-                323 => Self::ParamExtSet(super::common::ParamExtSet::parse(payload)),
-                324 => Self::ParamExtAck(super::common::ParamExtAck::parse(payload)),
-                330 => {
-                    Self::ObstacleDistance(
-                        super::common::ObstacleDistance::parse(payload),
-                    )
-                }
-                331 => Self::Odometry(super::common::Odometry::parse(payload)),
-                332 => {
-                    Self::TrajectoryRepresentationWaypoints(
-                        super::common::TrajectoryRepresentationWaypoints::parse(payload),
-                    )
-                }
-                333 => {
-                    Self::TrajectoryRepresentationBezier(
-                        super::common::TrajectoryRepresentationBezier::parse(payload),
-                    )
-                }
-                335 => {
-                    Self::IsbdLinkStatus(super::common::IsbdLinkStatus::parse(payload))
-                }
-                339 => Self::RawRpm(super::common::RawRpm::parse(payload)),
-                340 => {
-                    Self::UtmGlobalPosition(
-                        super::common::UtmGlobalPosition::parse(payload),
-                    )
-                }
-                345 => Self::ParamError(super::common::ParamError::parse(payload)),
-                350 => {
-                    Self::DebugFloatArray(super::common::DebugFloatArray::parse(payload))
-                }
-                360 => {
-                    Self::OrbitExecutionStatus(
-                        super::common::OrbitExecutionStatus::parse(payload),
-                    )
-                }
-                370 => {
-                    Self::SmartBatteryInfo(
-                        super::common::SmartBatteryInfo::parse(payload),
-                    )
-                }
-                373 => {
-                    Self::GeneratorStatus(super::common::GeneratorStatus::parse(payload))
-                }
-                375 => {
-                    Self::ActuatorOutputStatus(
-                        super::common::ActuatorOutputStatus::parse(payload),
-                    )
-                }
-                376 => Self::RelayStatus(super::common::RelayStatus::parse(payload)),
-                385 => Self::Tunnel(super::common::Tunnel::parse(payload)),
-                386 => Self::CanFrame(super::common::CanFrame::parse(payload)),
-                387 => Self::CanfdFrame(super::common::CanfdFrame::parse(payload)),
-                388 => {
-                    Self::CanFilterModify(super::common::CanFilterModify::parse(payload))
-                }
-                390 => {
-                    Self::OnboardComputerStatus(
-                        super::common::OnboardComputerStatus::parse(payload),
-                    )
-                }
-                9000 => Self::WheelDistance(super::common::WheelDistance::parse(payload)),
-                9005 => Self::WinchStatus(super::common::WinchStatus::parse(payload)),
-                10001 => {
-                    Self::UavionixAdsbOutCfg(
-                        super::uavionix::UavionixAdsbOutCfg::parse(payload),
-                    )
-                }
-                10002 => {
-                    Self::UavionixAdsbOutDynamic(
-                        super::uavionix::UavionixAdsbOutDynamic::parse(payload),
-                    )
-                }
-                10003 => {
-                    Self::UavionixAdsbTransceiverHealthReport(
-                        super::uavionix::UavionixAdsbTransceiverHealthReport::parse(
-                            payload,
-                        ),
-                    )
-                }
-                10004 => {
-                    Self::UavionixAdsbOutCfgRegistration(
-                        super::uavionix::UavionixAdsbOutCfgRegistration::parse(payload),
-                    )
-                }
-                10005 => {
-                    Self::UavionixAdsbOutCfgFlightid(
-                        super::uavionix::UavionixAdsbOutCfgFlightid::parse(payload),
-                    )
-                }
-                10006 => {
-                    Self::UavionixAdsbGet(
-                        super::uavionix::UavionixAdsbGet::parse(payload),
-                    )
-                }
-                10007 => {
-                    Self::UavionixAdsbOutControl(
-                        super::uavionix::UavionixAdsbOutControl::parse(payload),
-                    )
-                }
-                10008 => {
-                    Self::UavionixAdsbOutStatus(
-                        super::uavionix::UavionixAdsbOutStatus::parse(payload),
-                    )
-                }
-                10151 => {
-                    Self::LoweheiserGovEfi(
-                        super::loweheiser::LoweheiserGovEfi::parse(payload),
-                    )
-                }
-                11000 => {
-                    Self::DeviceOpRead(
-                        super::ardupilotmega::DeviceOpRead::parse(payload),
-                    )
-                }
-                11001 => {
-                    Self::DeviceOpReadReply(
-                        super::ardupilotmega::DeviceOpReadReply::parse(payload),
-                    )
-                }
-                11002 => {
-                    Self::DeviceOpWrite(
-                        super::ardupilotmega::DeviceOpWrite::parse(payload),
-                    )
-                }
-                11003 => {
-                    Self::DeviceOpWriteReply(
-                        super::ardupilotmega::DeviceOpWriteReply::parse(payload),
-                    )
-                }
-                11004 => {
-                    Self::SecureCommand(
-                        super::ardupilotmega::SecureCommand::parse(payload),
-                    )
-                }
-                11005 => {
-                    Self::SecureCommandReply(
-                        super::ardupilotmega::SecureCommandReply::parse(payload),
-                    )
-                }
-                11010 => {
-                    Self::AdapTuning(super::ardupilotmega::AdapTuning::parse(payload))
-                }
-                11011 => {
-                    Self::VisionPositionDelta(
-                        super::ardupilotmega::VisionPositionDelta::parse(payload),
-                    )
-                }
-                11020 => Self::AoaSsa(super::ardupilotmega::AoaSsa::parse(payload)),
-                11030 => {
-                    Self::EscTelemetry1To4(
-                        super::ardupilotmega::EscTelemetry1To4::parse(payload),
-                    )
-                }
-                11031 => {
-                    Self::EscTelemetry5To8(
-                        super::ardupilotmega::EscTelemetry5To8::parse(payload),
-                    )
-                }
-                11032 => {
-                    Self::EscTelemetry9To12(
-                        super::ardupilotmega::EscTelemetry9To12::parse(payload),
-                    )
-                }
-                11033 => {
-                    Self::OsdParamConfig(
-                        super::ardupilotmega::OsdParamConfig::parse(payload),
-                    )
-                }
-                11034 => {
-                    Self::OsdParamConfigReply(
-                        super::ardupilotmega::OsdParamConfigReply::parse(payload),
-                    )
-                }
-                11035 => {
-                    Self::OsdParamShowConfig(
-                        super::ardupilotmega::OsdParamShowConfig::parse(payload),
-                    )
-                }
-                11036 => {
-                    Self::OsdParamShowConfigReply(
-                        super::ardupilotmega::OsdParamShowConfigReply::parse(payload),
-                    )
-                }
-                11037 => {
-                    Self::ObstacleDistance3d(
-                        super::ardupilotmega::ObstacleDistance3d::parse(payload),
-                    )
-                }
-                11038 => {
-                    Self::WaterDepth(super::ardupilotmega::WaterDepth::parse(payload))
-                }
-                11039 => Self::McuStatus(super::ardupilotmega::McuStatus::parse(payload)),
-                11040 => {
-                    Self::EscTelemetry13To16(
-                        super::ardupilotmega::EscTelemetry13To16::parse(payload),
-                    )
-                }
-                11041 => {
-                    Self::EscTelemetry17To20(
-                        super::ardupilotmega::EscTelemetry17To20::parse(payload),
-                    )
-                }
-                11042 => {
-                    Self::EscTelemetry21To24(
-                        super::ardupilotmega::EscTelemetry21To24::parse(payload),
-                    )
-                }
-                11043 => {
-                    Self::EscTelemetry25To28(
-                        super::ardupilotmega::EscTelemetry25To28::parse(payload),
-                    )
-                }
-                11044 => {
-                    Self::EscTelemetry29To32(
-                        super::ardupilotmega::EscTelemetry29To32::parse(payload),
-                    )
-                }
-                11060 => {
-                    Self::NamedValueString(
-                        super::ardupilotmega::NamedValueString::parse(payload),
-                    )
-                }
-                12900 => {
-                    Self::OpenDroneIdBasicId(
-                        super::common::OpenDroneIdBasicId::parse(payload),
-                    )
-                }
-                12901 => {
-                    Self::OpenDroneIdLocation(
-                        super::common::OpenDroneIdLocation::parse(payload),
-                    )
-                }
-                12902 => {
-                    Self::OpenDroneIdAuthentication(
-                        super::common::OpenDroneIdAuthentication::parse(payload),
-                    )
-                }
-                12903 => {
-                    Self::OpenDroneIdSelfId(
-                        super::common::OpenDroneIdSelfId::parse(payload),
-                    )
-                }
-                12904 => {
-                    Self::OpenDroneIdSystem(
-                        super::common::OpenDroneIdSystem::parse(payload),
-                    )
-                }
-                12905 => {
-                    Self::OpenDroneIdOperatorId(
-                        super::common::OpenDroneIdOperatorId::parse(payload),
-                    )
-                }
-                12915 => {
-                    Self::OpenDroneIdMessagePack(
-                        super::common::OpenDroneIdMessagePack::parse(payload),
-                    )
-                }
-                12918 => {
-                    Self::OpenDroneIdArmStatus(
-                        super::common::OpenDroneIdArmStatus::parse(payload),
-                    )
-                }
-                12919 => {
-                    Self::OpenDroneIdSystemUpdate(
-                        super::common::OpenDroneIdSystemUpdate::parse(payload),
-                    )
-                }
-                12920 => {
-                    Self::HygrometerSensor(
-                        super::common::HygrometerSensor::parse(payload),
-                    )
-                }
-                15001 => Self::FbwagNotice(FbwagNotice::parse(payload)),
-                42000 => {
-                    Self::IcarousHeartbeat(
-                        super::icarous::IcarousHeartbeat::parse(payload),
-                    )
-                }
-                42001 => {
-                    Self::IcarousKinematicBands(
-                        super::icarous::IcarousKinematicBands::parse(payload),
-                    )
-                }
-                50001 => {
-                    Self::CubepilotRawRc(
-                        super::cubepilot::CubepilotRawRc::parse(payload),
-                    )
-                }
-                50002 => {
-                    Self::HerelinkVideoStreamInformation(
-                        super::cubepilot::HerelinkVideoStreamInformation::parse(payload),
-                    )
-                }
-                50003 => {
-                    Self::HerelinkTelem(super::cubepilot::HerelinkTelem::parse(payload))
-                }
-                50004 => {
-                    Self::CubepilotFirmwareUpdateStart(
-                        super::cubepilot::CubepilotFirmwareUpdateStart::parse(payload),
-                    )
-                }
-                50005 => {
-                    Self::CubepilotFirmwareUpdateResp(
-                        super::cubepilot::CubepilotFirmwareUpdateResp::parse(payload),
-                    )
-                }
-                52000 => Self::AirlinkAuth(super::csairlink::AirlinkAuth::parse(payload)),
-                52001 => {
-                    Self::AirlinkAuthResponse(
-                        super::csairlink::AirlinkAuthResponse::parse(payload),
-                    )
-                }
-                _ => return None,
-            },
-        )
+        let parse: fn(&[u8]) -> Self = match id {
+            0 => |p| Self::Heartbeat(super::minimal::Heartbeat::parse(p)),
+            1 => |p| Self::SysStatus(super::common::SysStatus::parse(p)),
+            2 => |p| Self::SystemTime(super::common::SystemTime::parse(p)),
+            4 => |p| Self::Ping(super::common::Ping::parse(p)),
+            5 => {
+                |p| Self::ChangeOperatorControl(
+                    super::common::ChangeOperatorControl::parse(p),
+                )
+            }
+            6 => {
+                |p| Self::ChangeOperatorControlAck(
+                    super::common::ChangeOperatorControlAck::parse(p),
+                )
+            }
+            7 => |p| Self::AuthKey(super::common::AuthKey::parse(p)),
+            11 => |p| Self::SetMode(super::common::SetMode::parse(p)),
+            20 => |p| Self::ParamRequestRead(super::common::ParamRequestRead::parse(p)),
+            21 => |p| Self::ParamRequestList(super::common::ParamRequestList::parse(p)),
+            22 => |p| Self::ParamValue(super::common::ParamValue::parse(p)),
+            23 => |p| Self::ParamSet(super::common::ParamSet::parse(p)),
+            24 => |p| Self::GpsRawInt(super::common::GpsRawInt::parse(p)),
+            25 => |p| Self::GpsStatus(super::common::GpsStatus::parse(p)),
+            26 => |p| Self::ScaledImu(super::common::ScaledImu::parse(p)),
+            27 => |p| Self::RawImu(super::common::RawImu::parse(p)),
+            28 => |p| Self::RawPressure(super::common::RawPressure::parse(p)),
+            29 => |p| Self::ScaledPressure(super::common::ScaledPressure::parse(p)),
+            30 => |p| Self::Attitude(super::common::Attitude::parse(p)),
+            31 => {
+                |p| Self::AttitudeQuaternion(super::common::AttitudeQuaternion::parse(p))
+            }
+            32 => |p| Self::LocalPositionNed(super::common::LocalPositionNed::parse(p)),
+            33 => {
+                |p| Self::GlobalPositionInt(super::standard::GlobalPositionInt::parse(p))
+            }
+            34 => |p| Self::RcChannelsScaled(super::common::RcChannelsScaled::parse(p)),
+            35 => |p| Self::RcChannelsRaw(super::common::RcChannelsRaw::parse(p)),
+            36 => |p| Self::ServoOutputRaw(super::common::ServoOutputRaw::parse(p)),
+            37 => {
+                |p| Self::MissionRequestPartialList(
+                    super::common::MissionRequestPartialList::parse(p),
+                )
+            }
+            38 => {
+                |p| Self::MissionWritePartialList(
+                    super::common::MissionWritePartialList::parse(p),
+                )
+            }
+            39 => |p| Self::MissionItem(super::common::MissionItem::parse(p)),
+            40 => |p| Self::MissionRequest(super::common::MissionRequest::parse(p)),
+            41 => |p| Self::MissionSetCurrent(super::common::MissionSetCurrent::parse(p)),
+            42 => |p| Self::MissionCurrent(super::common::MissionCurrent::parse(p)),
+            43 => {
+                |p| Self::MissionRequestList(super::common::MissionRequestList::parse(p))
+            }
+            44 => |p| Self::MissionCount(super::common::MissionCount::parse(p)),
+            45 => |p| Self::MissionClearAll(super::common::MissionClearAll::parse(p)),
+            46 => {
+                |p| Self::MissionItemReached(super::common::MissionItemReached::parse(p))
+            }
+            47 => |p| Self::MissionAck(super::common::MissionAck::parse(p)),
+            48 => {
+                |p| Self::SetGpsGlobalOrigin(super::common::SetGpsGlobalOrigin::parse(p))
+            }
+            49 => |p| Self::GpsGlobalOrigin(super::common::GpsGlobalOrigin::parse(p)),
+            50 => |p| Self::ParamMapRc(super::common::ParamMapRc::parse(p)),
+            51 => |p| Self::MissionRequestInt(super::common::MissionRequestInt::parse(p)),
+            54 => {
+                |p| Self::SafetySetAllowedArea(
+                    super::common::SafetySetAllowedArea::parse(p),
+                )
+            }
+            55 => |p| Self::SafetyAllowedArea(super::common::SafetyAllowedArea::parse(p)),
+            61 => {
+                |p| Self::AttitudeQuaternionCov(
+                    super::common::AttitudeQuaternionCov::parse(p),
+                )
+            }
+            62 => {
+                |p| Self::NavControllerOutput(
+                    super::common::NavControllerOutput::parse(p),
+                )
+            }
+            63 => {
+                |p| Self::GlobalPositionIntCov(
+                    super::common::GlobalPositionIntCov::parse(p),
+                )
+            }
+            64 => {
+                |p| Self::LocalPositionNedCov(
+                    super::common::LocalPositionNedCov::parse(p),
+                )
+            }
+            65 => |p| Self::RcChannels(super::common::RcChannels::parse(p)),
+            66 => |p| Self::RequestDataStream(super::common::RequestDataStream::parse(p)),
+            67 => |p| Self::DataStream(super::common::DataStream::parse(p)),
+            69 => |p| Self::ManualControl(super::common::ManualControl::parse(p)),
+            70 => {
+                |p| Self::RcChannelsOverride(super::common::RcChannelsOverride::parse(p))
+            }
+            73 => |p| Self::MissionItemInt(super::common::MissionItemInt::parse(p)),
+            74 => |p| Self::VfrHud(super::common::VfrHud::parse(p)),
+            75 => |p| Self::CommandInt(super::common::CommandInt::parse(p)),
+            76 => |p| Self::CommandLong(super::common::CommandLong::parse(p)),
+            77 => |p| Self::CommandAck(super::common::CommandAck::parse(p)),
+            81 => |p| Self::ManualSetpoint(super::common::ManualSetpoint::parse(p)),
+            82 => |p| Self::SetAttitudeTarget(super::common::SetAttitudeTarget::parse(p)),
+            83 => |p| Self::AttitudeTarget(super::common::AttitudeTarget::parse(p)),
+            84 => {
+                |p| Self::SetPositionTargetLocalNed(
+                    super::common::SetPositionTargetLocalNed::parse(p),
+                )
+            }
+            85 => {
+                |p| Self::PositionTargetLocalNed(
+                    super::common::PositionTargetLocalNed::parse(p),
+                )
+            }
+            86 => {
+                |p| Self::SetPositionTargetGlobalInt(
+                    super::common::SetPositionTargetGlobalInt::parse(p),
+                )
+            }
+            87 => {
+                |p| Self::PositionTargetGlobalInt(
+                    super::common::PositionTargetGlobalInt::parse(p),
+                )
+            }
+            89 => {
+                |p| Self::LocalPositionNedSystemGlobalOffset(
+                    super::common::LocalPositionNedSystemGlobalOffset::parse(p),
+                )
+            }
+            90 => |p| Self::HilState(super::common::HilState::parse(p)),
+            91 => |p| Self::HilControls(super::common::HilControls::parse(p)),
+            92 => |p| Self::HilRcInputsRaw(super::common::HilRcInputsRaw::parse(p)),
+            93 => {
+                |p| Self::HilActuatorControls(
+                    super::common::HilActuatorControls::parse(p),
+                )
+            }
+            100 => |p| Self::OpticalFlow(super::common::OpticalFlow::parse(p)),
+            101 => {
+                |p| Self::GlobalVisionPositionEstimate(
+                    super::common::GlobalVisionPositionEstimate::parse(p),
+                )
+            }
+            102 => {
+                |p| Self::VisionPositionEstimate(
+                    super::common::VisionPositionEstimate::parse(p),
+                )
+            }
+            103 => {
+                |p| Self::VisionSpeedEstimate(
+                    super::common::VisionSpeedEstimate::parse(p),
+                )
+            }
+            104 => {
+                |p| Self::ViconPositionEstimate(
+                    super::common::ViconPositionEstimate::parse(p),
+                )
+            }
+            105 => |p| Self::HighresImu(super::common::HighresImu::parse(p)),
+            106 => |p| Self::OpticalFlowRad(super::common::OpticalFlowRad::parse(p)),
+            107 => |p| Self::HilSensor(super::common::HilSensor::parse(p)),
+            108 => |p| Self::SimState(super::common::SimState::parse(p)),
+            109 => |p| Self::RadioStatus(super::common::RadioStatus::parse(p)),
+            110 => {
+                |p| Self::FileTransferProtocol(
+                    super::common::FileTransferProtocol::parse(p),
+                )
+            }
+            111 => |p| Self::Timesync(super::common::Timesync::parse(p)),
+            112 => |p| Self::CameraTrigger(super::common::CameraTrigger::parse(p)),
+            113 => |p| Self::HilGps(super::common::HilGps::parse(p)),
+            114 => |p| Self::HilOpticalFlow(super::common::HilOpticalFlow::parse(p)),
+            115 => {
+                |p| Self::HilStateQuaternion(super::common::HilStateQuaternion::parse(p))
+            }
+            116 => |p| Self::ScaledImu2(super::common::ScaledImu2::parse(p)),
+            117 => |p| Self::LogRequestList(super::common::LogRequestList::parse(p)),
+            118 => |p| Self::LogEntry(super::common::LogEntry::parse(p)),
+            119 => |p| Self::LogRequestData(super::common::LogRequestData::parse(p)),
+            120 => |p| Self::LogData(super::common::LogData::parse(p)),
+            121 => |p| Self::LogErase(super::common::LogErase::parse(p)),
+            122 => |p| Self::LogRequestEnd(super::common::LogRequestEnd::parse(p)),
+            123 => |p| Self::GpsInjectData(super::common::GpsInjectData::parse(p)),
+            124 => |p| Self::Gps2Raw(super::common::Gps2Raw::parse(p)),
+            125 => |p| Self::PowerStatus(super::common::PowerStatus::parse(p)),
+            126 => |p| Self::SerialControl(super::common::SerialControl::parse(p)),
+            127 => |p| Self::GpsRtk(super::common::GpsRtk::parse(p)),
+            128 => |p| Self::Gps2Rtk(super::common::Gps2Rtk::parse(p)),
+            129 => |p| Self::ScaledImu3(super::common::ScaledImu3::parse(p)),
+            130 => {
+                |p| Self::DataTransmissionHandshake(
+                    super::common::DataTransmissionHandshake::parse(p),
+                )
+            }
+            131 => |p| Self::EncapsulatedData(super::common::EncapsulatedData::parse(p)),
+            132 => |p| Self::DistanceSensor(super::common::DistanceSensor::parse(p)),
+            133 => |p| Self::TerrainRequest(super::common::TerrainRequest::parse(p)),
+            134 => |p| Self::TerrainData(super::common::TerrainData::parse(p)),
+            135 => |p| Self::TerrainCheck(super::common::TerrainCheck::parse(p)),
+            136 => |p| Self::TerrainReport(super::common::TerrainReport::parse(p)),
+            137 => |p| Self::ScaledPressure2(super::common::ScaledPressure2::parse(p)),
+            138 => |p| Self::AttPosMocap(super::common::AttPosMocap::parse(p)),
+            139 => {
+                |p| Self::SetActuatorControlTarget(
+                    super::common::SetActuatorControlTarget::parse(p),
+                )
+            }
+            140 => {
+                |p| Self::ActuatorControlTarget(
+                    super::common::ActuatorControlTarget::parse(p),
+                )
+            }
+            141 => |p| Self::Altitude(super::common::Altitude::parse(p)),
+            142 => |p| Self::ResourceRequest(super::common::ResourceRequest::parse(p)),
+            143 => |p| Self::ScaledPressure3(super::common::ScaledPressure3::parse(p)),
+            144 => |p| Self::FollowTarget(super::common::FollowTarget::parse(p)),
+            146 => {
+                |p| Self::ControlSystemState(super::common::ControlSystemState::parse(p))
+            }
+            147 => |p| Self::BatteryStatus(super::common::BatteryStatus::parse(p)),
+            148 => {
+                |p| Self::AutopilotVersion(super::standard::AutopilotVersion::parse(p))
+            }
+            149 => |p| Self::LandingTarget(super::common::LandingTarget::parse(p)),
+            150 => |p| Self::SensorOffsets(super::ardupilotmega::SensorOffsets::parse(p)),
+            151 => |p| Self::SetMagOffsets(super::ardupilotmega::SetMagOffsets::parse(p)),
+            152 => |p| Self::Meminfo(super::ardupilotmega::Meminfo::parse(p)),
+            153 => |p| Self::ApAdc(super::ardupilotmega::ApAdc::parse(p)),
+            154 => {
+                |p| Self::DigicamConfigure(
+                    super::ardupilotmega::DigicamConfigure::parse(p),
+                )
+            }
+            155 => {
+                |p| Self::DigicamControl(super::ardupilotmega::DigicamControl::parse(p))
+            }
+            156 => {
+                |p| Self::MountConfigure(super::ardupilotmega::MountConfigure::parse(p))
+            }
+            157 => |p| Self::MountControl(super::ardupilotmega::MountControl::parse(p)),
+            158 => |p| Self::MountStatus(super::ardupilotmega::MountStatus::parse(p)),
+            160 => |p| Self::FencePoint(super::ardupilotmega::FencePoint::parse(p)),
+            161 => {
+                |p| Self::FenceFetchPoint(
+                    super::ardupilotmega::FenceFetchPoint::parse(p),
+                )
+            }
+            162 => |p| Self::FenceStatus(super::common::FenceStatus::parse(p)),
+            163 => |p| Self::Ahrs(super::ardupilotmega::Ahrs::parse(p)),
+            164 => |p| Self::Simstate(super::ardupilotmega::Simstate::parse(p)),
+            165 => |p| Self::Hwstatus(super::ardupilotmega::Hwstatus::parse(p)),
+            166 => |p| Self::Radio(super::ardupilotmega::Radio::parse(p)),
+            167 => |p| Self::LimitsStatus(super::ardupilotmega::LimitsStatus::parse(p)),
+            168 => |p| Self::Wind(super::ardupilotmega::Wind::parse(p)),
+            169 => |p| Self::Data16(super::ardupilotmega::Data16::parse(p)),
+            170 => |p| Self::Data32(super::ardupilotmega::Data32::parse(p)),
+            171 => |p| Self::Data64(super::ardupilotmega::Data64::parse(p)),
+            172 => |p| Self::Data96(super::ardupilotmega::Data96::parse(p)),
+            173 => |p| Self::Rangefinder(super::ardupilotmega::Rangefinder::parse(p)),
+            174 => {
+                |p| Self::AirspeedAutocal(
+                    super::ardupilotmega::AirspeedAutocal::parse(p),
+                )
+            }
+            175 => |p| Self::RallyPoint(super::ardupilotmega::RallyPoint::parse(p)),
+            176 => {
+                |p| Self::RallyFetchPoint(
+                    super::ardupilotmega::RallyFetchPoint::parse(p),
+                )
+            }
+            177 => {
+                |p| Self::CompassmotStatus(
+                    super::ardupilotmega::CompassmotStatus::parse(p),
+                )
+            }
+            178 => |p| Self::Ahrs2(super::ardupilotmega::Ahrs2::parse(p)),
+            179 => |p| Self::CameraStatus(super::ardupilotmega::CameraStatus::parse(p)),
+            180 => {
+                |p| Self::CameraFeedback(super::ardupilotmega::CameraFeedback::parse(p))
+            }
+            181 => |p| Self::Battery2(super::ardupilotmega::Battery2::parse(p)),
+            182 => |p| Self::Ahrs3(super::ardupilotmega::Ahrs3::parse(p)),
+            183 => {
+                |p| Self::AutopilotVersionRequest(
+                    super::ardupilotmega::AutopilotVersionRequest::parse(p),
+                )
+            }
+            184 => {
+                |p| Self::RemoteLogDataBlock(
+                    super::ardupilotmega::RemoteLogDataBlock::parse(p),
+                )
+            }
+            185 => {
+                |p| Self::RemoteLogBlockStatus(
+                    super::ardupilotmega::RemoteLogBlockStatus::parse(p),
+                )
+            }
+            186 => |p| Self::LedControl(super::ardupilotmega::LedControl::parse(p)),
+            191 => {
+                |p| Self::MagCalProgress(super::ardupilotmega::MagCalProgress::parse(p))
+            }
+            192 => |p| Self::MagCalReport(super::common::MagCalReport::parse(p)),
+            193 => {
+                |p| Self::EkfStatusReport(
+                    super::ardupilotmega::EkfStatusReport::parse(p),
+                )
+            }
+            194 => |p| Self::PidTuning(super::ardupilotmega::PidTuning::parse(p)),
+            195 => |p| Self::Deepstall(super::ardupilotmega::Deepstall::parse(p)),
+            200 => |p| Self::GimbalReport(super::ardupilotmega::GimbalReport::parse(p)),
+            201 => |p| Self::GimbalControl(super::ardupilotmega::GimbalControl::parse(p)),
+            214 => {
+                |p| Self::GimbalTorqueCmdReport(
+                    super::ardupilotmega::GimbalTorqueCmdReport::parse(p),
+                )
+            }
+            215 => {
+                |p| Self::GoproHeartbeat(super::ardupilotmega::GoproHeartbeat::parse(p))
+            }
+            216 => {
+                |p| Self::GoproGetRequest(
+                    super::ardupilotmega::GoproGetRequest::parse(p),
+                )
+            }
+            217 => {
+                |p| Self::GoproGetResponse(
+                    super::ardupilotmega::GoproGetResponse::parse(p),
+                )
+            }
+            218 => {
+                |p| Self::GoproSetRequest(
+                    super::ardupilotmega::GoproSetRequest::parse(p),
+                )
+            }
+            219 => {
+                |p| Self::GoproSetResponse(
+                    super::ardupilotmega::GoproSetResponse::parse(p),
+                )
+            }
+            225 => |p| Self::EfiStatus(super::common::EfiStatus::parse(p)),
+            226 => |p| Self::Rpm(super::ardupilotmega::Rpm::parse(p)),
+            230 => |p| Self::EstimatorStatus(super::common::EstimatorStatus::parse(p)),
+            231 => |p| Self::WindCov(super::common::WindCov::parse(p)),
+            232 => |p| Self::GpsInput(super::common::GpsInput::parse(p)),
+            233 => |p| Self::GpsRtcmData(super::common::GpsRtcmData::parse(p)),
+            234 => |p| Self::HighLatency(super::common::HighLatency::parse(p)),
+            235 => |p| Self::HighLatency2(super::common::HighLatency2::parse(p)),
+            241 => |p| Self::Vibration(super::common::Vibration::parse(p)),
+            242 => |p| Self::HomePosition(super::common::HomePosition::parse(p)),
+            243 => |p| Self::SetHomePosition(super::common::SetHomePosition::parse(p)),
+            244 => |p| Self::MessageInterval(super::common::MessageInterval::parse(p)),
+            245 => |p| Self::ExtendedSysState(super::common::ExtendedSysState::parse(p)),
+            246 => |p| Self::AdsbVehicle(super::common::AdsbVehicle::parse(p)),
+            247 => |p| Self::Collision(super::common::Collision::parse(p)),
+            248 => |p| Self::V2Extension(super::common::V2Extension::parse(p)),
+            249 => |p| Self::MemoryVect(super::common::MemoryVect::parse(p)),
+            250 => |p| Self::DebugVect(super::common::DebugVect::parse(p)),
+            251 => |p| Self::NamedValueFloat(super::common::NamedValueFloat::parse(p)),
+            252 => |p| Self::NamedValueInt(super::common::NamedValueInt::parse(p)),
+            253 => |p| Self::Statustext(super::common::Statustext::parse(p)),
+            254 => |p| Self::Debug(super::common::Debug::parse(p)),
+            256 => |p| Self::SetupSigning(super::common::SetupSigning::parse(p)),
+            257 => |p| Self::ButtonChange(super::common::ButtonChange::parse(p)),
+            258 => |p| Self::PlayTune(super::common::PlayTune::parse(p)),
+            259 => {
+                |p| Self::CameraInformation(super::common::CameraInformation::parse(p))
+            }
+            260 => |p| Self::CameraSettings(super::common::CameraSettings::parse(p)),
+            261 => {
+                |p| Self::StorageInformation(super::common::StorageInformation::parse(p))
+            }
+            262 => {
+                |p| Self::CameraCaptureStatus(
+                    super::common::CameraCaptureStatus::parse(p),
+                )
+            }
+            263 => {
+                |p| Self::CameraImageCaptured(
+                    super::common::CameraImageCaptured::parse(p),
+                )
+            }
+            264 => {
+                |p| Self::FlightInformation(super::common::FlightInformation::parse(p))
+            }
+            265 => |p| Self::MountOrientation(super::common::MountOrientation::parse(p)),
+            266 => |p| Self::LoggingData(super::common::LoggingData::parse(p)),
+            267 => |p| Self::LoggingDataAcked(super::common::LoggingDataAcked::parse(p)),
+            268 => |p| Self::LoggingAck(super::common::LoggingAck::parse(p)),
+            269 => {
+                |p| Self::VideoStreamInformation(
+                    super::common::VideoStreamInformation::parse(p),
+                )
+            }
+            270 => {
+                |p| Self::VideoStreamStatus(super::common::VideoStreamStatus::parse(p))
+            }
+            271 => |p| Self::CameraFovStatus(super::common::CameraFovStatus::parse(p)),
+            275 => {
+                |p| Self::CameraTrackingImageStatus(
+                    super::common::CameraTrackingImageStatus::parse(p),
+                )
+            }
+            276 => {
+                |p| Self::CameraTrackingGeoStatus(
+                    super::common::CameraTrackingGeoStatus::parse(p),
+                )
+            }
+            277 => {
+                |p| Self::CameraThermalRange(super::common::CameraThermalRange::parse(p))
+            }
+            280 => {
+                |p| Self::GimbalManagerInformation(
+                    super::common::GimbalManagerInformation::parse(p),
+                )
+            }
+            281 => {
+                |p| Self::GimbalManagerStatus(
+                    super::common::GimbalManagerStatus::parse(p),
+                )
+            }
+            282 => {
+                |p| Self::GimbalManagerSetAttitude(
+                    super::common::GimbalManagerSetAttitude::parse(p),
+                )
+            }
+            283 => {
+                |p| Self::GimbalDeviceInformation(
+                    super::common::GimbalDeviceInformation::parse(p),
+                )
+            }
+            284 => {
+                |p| Self::GimbalDeviceSetAttitude(
+                    super::common::GimbalDeviceSetAttitude::parse(p),
+                )
+            }
+            285 => {
+                |p| Self::GimbalDeviceAttitudeStatus(
+                    super::common::GimbalDeviceAttitudeStatus::parse(p),
+                )
+            }
+            286 => {
+                |p| Self::AutopilotStateForGimbalDevice(
+                    super::common::AutopilotStateForGimbalDevice::parse(p),
+                )
+            }
+            287 => {
+                |p| Self::GimbalManagerSetPitchyaw(
+                    super::common::GimbalManagerSetPitchyaw::parse(p),
+                )
+            }
+            288 => {
+                |p| Self::GimbalManagerSetManualControl(
+                    super::common::GimbalManagerSetManualControl::parse(p),
+                )
+            }
+            295 => |p| Self::Airspeed(super::common::Airspeed::parse(p)),
+            296 => {
+                |p| Self::GlobalPositionSensor(
+                    super::common::GlobalPositionSensor::parse(p),
+                )
+            }
+            299 => |p| Self::WifiConfigAp(super::common::WifiConfigAp::parse(p)),
+            301 => |p| Self::AisVessel(super::common::AisVessel::parse(p)),
+            310 => |p| Self::UavcanNodeStatus(super::common::UavcanNodeStatus::parse(p)),
+            311 => |p| Self::UavcanNodeInfo(super::common::UavcanNodeInfo::parse(p)),
+            320 => {
+                |p| Self::ParamExtRequestRead(
+                    super::common::ParamExtRequestRead::parse(p),
+                )
+            }
+            321 => {
+                |p| Self::ParamExtRequestList(
+                    super::common::ParamExtRequestList::parse(p),
+                )
+            }
+            322 => |p| Self::ParamExtValue(super::common::ParamExtValue::parse(p)),
+            323 => |p| Self::ParamExtSet(super::common::ParamExtSet::parse(p)),
+            324 => |p| Self::ParamExtAck(super::common::ParamExtAck::parse(p)),
+            330 => |p| Self::ObstacleDistance(super::common::ObstacleDistance::parse(p)),
+            331 => |p| Self::Odometry(super::common::Odometry::parse(p)),
+            332 => {
+                |p| Self::TrajectoryRepresentationWaypoints(
+                    super::common::TrajectoryRepresentationWaypoints::parse(p),
+                )
+            }
+            333 => {
+                |p| Self::TrajectoryRepresentationBezier(
+                    super::common::TrajectoryRepresentationBezier::parse(p),
+                )
+            }
+            335 => |p| Self::IsbdLinkStatus(super::common::IsbdLinkStatus::parse(p)),
+            339 => |p| Self::RawRpm(super::common::RawRpm::parse(p)),
+            340 => {
+                |p| Self::UtmGlobalPosition(super::common::UtmGlobalPosition::parse(p))
+            }
+            345 => |p| Self::ParamError(super::common::ParamError::parse(p)),
+            350 => |p| Self::DebugFloatArray(super::common::DebugFloatArray::parse(p)),
+            360 => {
+                |p| Self::OrbitExecutionStatus(
+                    super::common::OrbitExecutionStatus::parse(p),
+                )
+            }
+            370 => |p| Self::SmartBatteryInfo(super::common::SmartBatteryInfo::parse(p)),
+            373 => |p| Self::GeneratorStatus(super::common::GeneratorStatus::parse(p)),
+            375 => {
+                |p| Self::ActuatorOutputStatus(
+                    super::common::ActuatorOutputStatus::parse(p),
+                )
+            }
+            376 => |p| Self::RelayStatus(super::common::RelayStatus::parse(p)),
+            385 => |p| Self::Tunnel(super::common::Tunnel::parse(p)),
+            386 => |p| Self::CanFrame(super::common::CanFrame::parse(p)),
+            387 => |p| Self::CanfdFrame(super::common::CanfdFrame::parse(p)),
+            388 => |p| Self::CanFilterModify(super::common::CanFilterModify::parse(p)),
+            390 => {
+                |p| Self::OnboardComputerStatus(
+                    super::common::OnboardComputerStatus::parse(p),
+                )
+            }
+            9000 => |p| Self::WheelDistance(super::common::WheelDistance::parse(p)),
+            9005 => |p| Self::WinchStatus(super::common::WinchStatus::parse(p)),
+            10001 => {
+                |p| Self::UavionixAdsbOutCfg(
+                    super::uavionix::UavionixAdsbOutCfg::parse(p),
+                )
+            }
+            10002 => {
+                |p| Self::UavionixAdsbOutDynamic(
+                    super::uavionix::UavionixAdsbOutDynamic::parse(p),
+                )
+            }
+            10003 => {
+                |p| Self::UavionixAdsbTransceiverHealthReport(
+                    super::uavionix::UavionixAdsbTransceiverHealthReport::parse(p),
+                )
+            }
+            10004 => {
+                |p| Self::UavionixAdsbOutCfgRegistration(
+                    super::uavionix::UavionixAdsbOutCfgRegistration::parse(p),
+                )
+            }
+            10005 => {
+                |p| Self::UavionixAdsbOutCfgFlightid(
+                    super::uavionix::UavionixAdsbOutCfgFlightid::parse(p),
+                )
+            }
+            10006 => {
+                |p| Self::UavionixAdsbGet(super::uavionix::UavionixAdsbGet::parse(p))
+            }
+            10007 => {
+                |p| Self::UavionixAdsbOutControl(
+                    super::uavionix::UavionixAdsbOutControl::parse(p),
+                )
+            }
+            10008 => {
+                |p| Self::UavionixAdsbOutStatus(
+                    super::uavionix::UavionixAdsbOutStatus::parse(p),
+                )
+            }
+            10151 => {
+                |p| Self::LoweheiserGovEfi(super::loweheiser::LoweheiserGovEfi::parse(p))
+            }
+            11000 => |p| Self::DeviceOpRead(super::ardupilotmega::DeviceOpRead::parse(p)),
+            11001 => {
+                |p| Self::DeviceOpReadReply(
+                    super::ardupilotmega::DeviceOpReadReply::parse(p),
+                )
+            }
+            11002 => {
+                |p| Self::DeviceOpWrite(super::ardupilotmega::DeviceOpWrite::parse(p))
+            }
+            11003 => {
+                |p| Self::DeviceOpWriteReply(
+                    super::ardupilotmega::DeviceOpWriteReply::parse(p),
+                )
+            }
+            11004 => {
+                |p| Self::SecureCommand(super::ardupilotmega::SecureCommand::parse(p))
+            }
+            11005 => {
+                |p| Self::SecureCommandReply(
+                    super::ardupilotmega::SecureCommandReply::parse(p),
+                )
+            }
+            11010 => |p| Self::AdapTuning(super::ardupilotmega::AdapTuning::parse(p)),
+            11011 => {
+                |p| Self::VisionPositionDelta(
+                    super::ardupilotmega::VisionPositionDelta::parse(p),
+                )
+            }
+            11020 => |p| Self::AoaSsa(super::ardupilotmega::AoaSsa::parse(p)),
+            11030 => {
+                |p| Self::EscTelemetry1To4(
+                    super::ardupilotmega::EscTelemetry1To4::parse(p),
+                )
+            }
+            11031 => {
+                |p| Self::EscTelemetry5To8(
+                    super::ardupilotmega::EscTelemetry5To8::parse(p),
+                )
+            }
+            11032 => {
+                |p| Self::EscTelemetry9To12(
+                    super::ardupilotmega::EscTelemetry9To12::parse(p),
+                )
+            }
+            11033 => {
+                |p| Self::OsdParamConfig(super::ardupilotmega::OsdParamConfig::parse(p))
+            }
+            11034 => {
+                |p| Self::OsdParamConfigReply(
+                    super::ardupilotmega::OsdParamConfigReply::parse(p),
+                )
+            }
+            11035 => {
+                |p| Self::OsdParamShowConfig(
+                    super::ardupilotmega::OsdParamShowConfig::parse(p),
+                )
+            }
+            11036 => {
+                |p| Self::OsdParamShowConfigReply(
+                    super::ardupilotmega::OsdParamShowConfigReply::parse(p),
+                )
+            }
+            11037 => {
+                |p| Self::ObstacleDistance3d(
+                    super::ardupilotmega::ObstacleDistance3d::parse(p),
+                )
+            }
+            11038 => |p| Self::WaterDepth(super::ardupilotmega::WaterDepth::parse(p)),
+            11039 => |p| Self::McuStatus(super::ardupilotmega::McuStatus::parse(p)),
+            11040 => {
+                |p| Self::EscTelemetry13To16(
+                    super::ardupilotmega::EscTelemetry13To16::parse(p),
+                )
+            }
+            11041 => {
+                |p| Self::EscTelemetry17To20(
+                    super::ardupilotmega::EscTelemetry17To20::parse(p),
+                )
+            }
+            11042 => {
+                |p| Self::EscTelemetry21To24(
+                    super::ardupilotmega::EscTelemetry21To24::parse(p),
+                )
+            }
+            11043 => {
+                |p| Self::EscTelemetry25To28(
+                    super::ardupilotmega::EscTelemetry25To28::parse(p),
+                )
+            }
+            11044 => {
+                |p| Self::EscTelemetry29To32(
+                    super::ardupilotmega::EscTelemetry29To32::parse(p),
+                )
+            }
+            11060 => {
+                |p| Self::NamedValueString(
+                    super::ardupilotmega::NamedValueString::parse(p),
+                )
+            }
+            12900 => {
+                |p| Self::OpenDroneIdBasicId(super::common::OpenDroneIdBasicId::parse(p))
+            }
+            12901 => {
+                |p| Self::OpenDroneIdLocation(
+                    super::common::OpenDroneIdLocation::parse(p),
+                )
+            }
+            12902 => {
+                |p| Self::OpenDroneIdAuthentication(
+                    super::common::OpenDroneIdAuthentication::parse(p),
+                )
+            }
+            12903 => {
+                |p| Self::OpenDroneIdSelfId(super::common::OpenDroneIdSelfId::parse(p))
+            }
+            12904 => {
+                |p| Self::OpenDroneIdSystem(super::common::OpenDroneIdSystem::parse(p))
+            }
+            12905 => {
+                |p| Self::OpenDroneIdOperatorId(
+                    super::common::OpenDroneIdOperatorId::parse(p),
+                )
+            }
+            12915 => {
+                |p| Self::OpenDroneIdMessagePack(
+                    super::common::OpenDroneIdMessagePack::parse(p),
+                )
+            }
+            12918 => {
+                |p| Self::OpenDroneIdArmStatus(
+                    super::common::OpenDroneIdArmStatus::parse(p),
+                )
+            }
+            12919 => {
+                |p| Self::OpenDroneIdSystemUpdate(
+                    super::common::OpenDroneIdSystemUpdate::parse(p),
+                )
+            }
+            12920 => {
+                |p| Self::HygrometerSensor(super::common::HygrometerSensor::parse(p))
+            }
+            15001 => |p| Self::FbwagNotice(FbwagNotice::parse(p)),
+            42000 => {
+                |p| Self::IcarousHeartbeat(super::icarous::IcarousHeartbeat::parse(p))
+            }
+            42001 => {
+                |p| Self::IcarousKinematicBands(
+                    super::icarous::IcarousKinematicBands::parse(p),
+                )
+            }
+            50001 => |p| Self::CubepilotRawRc(super::cubepilot::CubepilotRawRc::parse(p)),
+            50002 => {
+                |p| Self::HerelinkVideoStreamInformation(
+                    super::cubepilot::HerelinkVideoStreamInformation::parse(p),
+                )
+            }
+            50003 => |p| Self::HerelinkTelem(super::cubepilot::HerelinkTelem::parse(p)),
+            50004 => {
+                |p| Self::CubepilotFirmwareUpdateStart(
+                    super::cubepilot::CubepilotFirmwareUpdateStart::parse(p),
+                )
+            }
+            50005 => {
+                |p| Self::CubepilotFirmwareUpdateResp(
+                    super::cubepilot::CubepilotFirmwareUpdateResp::parse(p),
+                )
+            }
+            52000 => |p| Self::AirlinkAuth(super::csairlink::AirlinkAuth::parse(p)),
+            52001 => {
+                |p| Self::AirlinkAuthResponse(
+                    super::csairlink::AirlinkAuthResponse::parse(p),
+                )
+            }
+            _ => return None,
+        };
+        Some(parse(payload))
     }
 
     /// The message's table row.
@@ -5724,420 +5507,2047 @@ impl<'a> MessageView<'a> {
 
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
-        match self {
-            Self::Heartbeat(v) => Message::Heartbeat(v.to_message()),
-            Self::SysStatus(v) => Message::SysStatus(v.to_message()),
-            Self::SystemTime(v) => Message::SystemTime(v.to_message()),
-            Self::Ping(v) => Message::Ping(v.to_message()),
+        type Parse = fn(&[u8]) -> Message;
+        let (parse, payload): (Parse, &[u8]) = match self {
+            Self::Heartbeat(v) => {
+                (
+                    |p| Message::Heartbeat(super::minimal::Heartbeat::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SysStatus(v) => {
+                (
+                    |p| Message::SysStatus(super::common::SysStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SystemTime(v) => {
+                (
+                    |p| Message::SystemTime(super::common::SystemTime::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Ping(v) => {
+                (|p| Message::Ping(super::common::Ping::parse(p)), v.as_bytes())
+            }
             Self::ChangeOperatorControl(v) => {
-                Message::ChangeOperatorControl(v.to_message())
+                (
+                    |p| Message::ChangeOperatorControl(
+                        super::common::ChangeOperatorControl::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::ChangeOperatorControlAck(v) => {
-                Message::ChangeOperatorControlAck(v.to_message())
+                (
+                    |p| Message::ChangeOperatorControlAck(
+                        super::common::ChangeOperatorControlAck::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::AuthKey(v) => Message::AuthKey(v.to_message()),
-            Self::SetMode(v) => Message::SetMode(v.to_message()),
-            Self::ParamRequestRead(v) => Message::ParamRequestRead(v.to_message()),
-            Self::ParamRequestList(v) => Message::ParamRequestList(v.to_message()),
-            Self::ParamValue(v) => Message::ParamValue(v.to_message()),
-            Self::ParamSet(v) => Message::ParamSet(v.to_message()),
-            Self::GpsRawInt(v) => Message::GpsRawInt(v.to_message()),
-            Self::GpsStatus(v) => Message::GpsStatus(v.to_message()),
-            Self::ScaledImu(v) => Message::ScaledImu(v.to_message()),
-            Self::RawImu(v) => Message::RawImu(v.to_message()),
-            Self::RawPressure(v) => Message::RawPressure(v.to_message()),
-            Self::ScaledPressure(v) => Message::ScaledPressure(v.to_message()),
-            Self::Attitude(v) => Message::Attitude(v.to_message()),
-            Self::AttitudeQuaternion(v) => Message::AttitudeQuaternion(v.to_message()),
-            Self::LocalPositionNed(v) => Message::LocalPositionNed(v.to_message()),
-            Self::GlobalPositionInt(v) => Message::GlobalPositionInt(v.to_message()),
-            Self::RcChannelsScaled(v) => Message::RcChannelsScaled(v.to_message()),
-            Self::RcChannelsRaw(v) => Message::RcChannelsRaw(v.to_message()),
-            Self::ServoOutputRaw(v) => Message::ServoOutputRaw(v.to_message()),
+            Self::AuthKey(v) => {
+                (|p| Message::AuthKey(super::common::AuthKey::parse(p)), v.as_bytes())
+            }
+            Self::SetMode(v) => {
+                (|p| Message::SetMode(super::common::SetMode::parse(p)), v.as_bytes())
+            }
+            Self::ParamRequestRead(v) => {
+                (
+                    |p| Message::ParamRequestRead(
+                        super::common::ParamRequestRead::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamRequestList(v) => {
+                (
+                    |p| Message::ParamRequestList(
+                        super::common::ParamRequestList::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamValue(v) => {
+                (
+                    |p| Message::ParamValue(super::common::ParamValue::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamSet(v) => {
+                (|p| Message::ParamSet(super::common::ParamSet::parse(p)), v.as_bytes())
+            }
+            Self::GpsRawInt(v) => {
+                (
+                    |p| Message::GpsRawInt(super::common::GpsRawInt::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::GpsStatus(v) => {
+                (
+                    |p| Message::GpsStatus(super::common::GpsStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ScaledImu(v) => {
+                (
+                    |p| Message::ScaledImu(super::common::ScaledImu::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::RawImu(v) => {
+                (|p| Message::RawImu(super::common::RawImu::parse(p)), v.as_bytes())
+            }
+            Self::RawPressure(v) => {
+                (
+                    |p| Message::RawPressure(super::common::RawPressure::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ScaledPressure(v) => {
+                (
+                    |p| Message::ScaledPressure(super::common::ScaledPressure::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Attitude(v) => {
+                (|p| Message::Attitude(super::common::Attitude::parse(p)), v.as_bytes())
+            }
+            Self::AttitudeQuaternion(v) => {
+                (
+                    |p| Message::AttitudeQuaternion(
+                        super::common::AttitudeQuaternion::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::LocalPositionNed(v) => {
+                (
+                    |p| Message::LocalPositionNed(
+                        super::common::LocalPositionNed::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GlobalPositionInt(v) => {
+                (
+                    |p| Message::GlobalPositionInt(
+                        super::standard::GlobalPositionInt::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannelsScaled(v) => {
+                (
+                    |p| Message::RcChannelsScaled(
+                        super::common::RcChannelsScaled::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannelsRaw(v) => {
+                (
+                    |p| Message::RcChannelsRaw(super::common::RcChannelsRaw::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ServoOutputRaw(v) => {
+                (
+                    |p| Message::ServoOutputRaw(super::common::ServoOutputRaw::parse(p)),
+                    v.as_bytes(),
+                )
+            }
             Self::MissionRequestPartialList(v) => {
-                Message::MissionRequestPartialList(v.to_message())
+                (
+                    |p| Message::MissionRequestPartialList(
+                        super::common::MissionRequestPartialList::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::MissionWritePartialList(v) => {
-                Message::MissionWritePartialList(v.to_message())
+                (
+                    |p| Message::MissionWritePartialList(
+                        super::common::MissionWritePartialList::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::MissionItem(v) => Message::MissionItem(v.to_message()),
-            Self::MissionRequest(v) => Message::MissionRequest(v.to_message()),
-            Self::MissionSetCurrent(v) => Message::MissionSetCurrent(v.to_message()),
-            Self::MissionCurrent(v) => Message::MissionCurrent(v.to_message()),
-            Self::MissionRequestList(v) => Message::MissionRequestList(v.to_message()),
-            Self::MissionCount(v) => Message::MissionCount(v.to_message()),
-            Self::MissionClearAll(v) => Message::MissionClearAll(v.to_message()),
-            Self::MissionItemReached(v) => Message::MissionItemReached(v.to_message()),
-            Self::MissionAck(v) => Message::MissionAck(v.to_message()),
-            Self::SetGpsGlobalOrigin(v) => Message::SetGpsGlobalOrigin(v.to_message()),
-            Self::GpsGlobalOrigin(v) => Message::GpsGlobalOrigin(v.to_message()),
-            Self::ParamMapRc(v) => Message::ParamMapRc(v.to_message()),
-            Self::MissionRequestInt(v) => Message::MissionRequestInt(v.to_message()),
+            Self::MissionItem(v) => {
+                (
+                    |p| Message::MissionItem(super::common::MissionItem::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionRequest(v) => {
+                (
+                    |p| Message::MissionRequest(super::common::MissionRequest::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionSetCurrent(v) => {
+                (
+                    |p| Message::MissionSetCurrent(
+                        super::common::MissionSetCurrent::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionCurrent(v) => {
+                (
+                    |p| Message::MissionCurrent(super::common::MissionCurrent::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionRequestList(v) => {
+                (
+                    |p| Message::MissionRequestList(
+                        super::common::MissionRequestList::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionCount(v) => {
+                (
+                    |p| Message::MissionCount(super::common::MissionCount::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionClearAll(v) => {
+                (
+                    |p| Message::MissionClearAll(
+                        super::common::MissionClearAll::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionItemReached(v) => {
+                (
+                    |p| Message::MissionItemReached(
+                        super::common::MissionItemReached::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionAck(v) => {
+                (
+                    |p| Message::MissionAck(super::common::MissionAck::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SetGpsGlobalOrigin(v) => {
+                (
+                    |p| Message::SetGpsGlobalOrigin(
+                        super::common::SetGpsGlobalOrigin::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GpsGlobalOrigin(v) => {
+                (
+                    |p| Message::GpsGlobalOrigin(
+                        super::common::GpsGlobalOrigin::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamMapRc(v) => {
+                (
+                    |p| Message::ParamMapRc(super::common::ParamMapRc::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionRequestInt(v) => {
+                (
+                    |p| Message::MissionRequestInt(
+                        super::common::MissionRequestInt::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::SafetySetAllowedArea(v) => {
-                Message::SafetySetAllowedArea(v.to_message())
+                (
+                    |p| Message::SafetySetAllowedArea(
+                        super::common::SafetySetAllowedArea::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::SafetyAllowedArea(v) => Message::SafetyAllowedArea(v.to_message()),
+            Self::SafetyAllowedArea(v) => {
+                (
+                    |p| Message::SafetyAllowedArea(
+                        super::common::SafetyAllowedArea::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::AttitudeQuaternionCov(v) => {
-                Message::AttitudeQuaternionCov(v.to_message())
+                (
+                    |p| Message::AttitudeQuaternionCov(
+                        super::common::AttitudeQuaternionCov::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::NavControllerOutput(v) => Message::NavControllerOutput(v.to_message()),
+            Self::NavControllerOutput(v) => {
+                (
+                    |p| Message::NavControllerOutput(
+                        super::common::NavControllerOutput::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::GlobalPositionIntCov(v) => {
-                Message::GlobalPositionIntCov(v.to_message())
+                (
+                    |p| Message::GlobalPositionIntCov(
+                        super::common::GlobalPositionIntCov::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::LocalPositionNedCov(v) => Message::LocalPositionNedCov(v.to_message()),
-            Self::RcChannels(v) => Message::RcChannels(v.to_message()),
-            Self::RequestDataStream(v) => Message::RequestDataStream(v.to_message()),
-            Self::DataStream(v) => Message::DataStream(v.to_message()),
-            Self::ManualControl(v) => Message::ManualControl(v.to_message()),
-            Self::RcChannelsOverride(v) => Message::RcChannelsOverride(v.to_message()),
-            Self::MissionItemInt(v) => Message::MissionItemInt(v.to_message()),
-            Self::VfrHud(v) => Message::VfrHud(v.to_message()),
-            Self::CommandInt(v) => Message::CommandInt(v.to_message()),
-            Self::CommandLong(v) => Message::CommandLong(v.to_message()),
-            Self::CommandAck(v) => Message::CommandAck(v.to_message()),
-            Self::ManualSetpoint(v) => Message::ManualSetpoint(v.to_message()),
-            Self::SetAttitudeTarget(v) => Message::SetAttitudeTarget(v.to_message()),
-            Self::AttitudeTarget(v) => Message::AttitudeTarget(v.to_message()),
+            Self::LocalPositionNedCov(v) => {
+                (
+                    |p| Message::LocalPositionNedCov(
+                        super::common::LocalPositionNedCov::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannels(v) => {
+                (
+                    |p| Message::RcChannels(super::common::RcChannels::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::RequestDataStream(v) => {
+                (
+                    |p| Message::RequestDataStream(
+                        super::common::RequestDataStream::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::DataStream(v) => {
+                (
+                    |p| Message::DataStream(super::common::DataStream::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ManualControl(v) => {
+                (
+                    |p| Message::ManualControl(super::common::ManualControl::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::RcChannelsOverride(v) => {
+                (
+                    |p| Message::RcChannelsOverride(
+                        super::common::RcChannelsOverride::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MissionItemInt(v) => {
+                (
+                    |p| Message::MissionItemInt(super::common::MissionItemInt::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::VfrHud(v) => {
+                (|p| Message::VfrHud(super::common::VfrHud::parse(p)), v.as_bytes())
+            }
+            Self::CommandInt(v) => {
+                (
+                    |p| Message::CommandInt(super::common::CommandInt::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::CommandLong(v) => {
+                (
+                    |p| Message::CommandLong(super::common::CommandLong::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::CommandAck(v) => {
+                (
+                    |p| Message::CommandAck(super::common::CommandAck::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ManualSetpoint(v) => {
+                (
+                    |p| Message::ManualSetpoint(super::common::ManualSetpoint::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SetAttitudeTarget(v) => {
+                (
+                    |p| Message::SetAttitudeTarget(
+                        super::common::SetAttitudeTarget::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::AttitudeTarget(v) => {
+                (
+                    |p| Message::AttitudeTarget(super::common::AttitudeTarget::parse(p)),
+                    v.as_bytes(),
+                )
+            }
             Self::SetPositionTargetLocalNed(v) => {
-                Message::SetPositionTargetLocalNed(v.to_message())
+                (
+                    |p| Message::SetPositionTargetLocalNed(
+                        super::common::SetPositionTargetLocalNed::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::PositionTargetLocalNed(v) => {
-                Message::PositionTargetLocalNed(v.to_message())
+                (
+                    |p| Message::PositionTargetLocalNed(
+                        super::common::PositionTargetLocalNed::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::SetPositionTargetGlobalInt(v) => {
-                Message::SetPositionTargetGlobalInt(v.to_message())
+                (
+                    |p| Message::SetPositionTargetGlobalInt(
+                        super::common::SetPositionTargetGlobalInt::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::PositionTargetGlobalInt(v) => {
-                Message::PositionTargetGlobalInt(v.to_message())
+                (
+                    |p| Message::PositionTargetGlobalInt(
+                        super::common::PositionTargetGlobalInt::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::LocalPositionNedSystemGlobalOffset(v) => {
-                Message::LocalPositionNedSystemGlobalOffset(v.to_message())
+                (
+                    |p| Message::LocalPositionNedSystemGlobalOffset(
+                        super::common::LocalPositionNedSystemGlobalOffset::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::HilState(v) => Message::HilState(v.to_message()),
-            Self::HilControls(v) => Message::HilControls(v.to_message()),
-            Self::HilRcInputsRaw(v) => Message::HilRcInputsRaw(v.to_message()),
-            Self::HilActuatorControls(v) => Message::HilActuatorControls(v.to_message()),
-            Self::OpticalFlow(v) => Message::OpticalFlow(v.to_message()),
+            Self::HilState(v) => {
+                (|p| Message::HilState(super::common::HilState::parse(p)), v.as_bytes())
+            }
+            Self::HilControls(v) => {
+                (
+                    |p| Message::HilControls(super::common::HilControls::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HilRcInputsRaw(v) => {
+                (
+                    |p| Message::HilRcInputsRaw(super::common::HilRcInputsRaw::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HilActuatorControls(v) => {
+                (
+                    |p| Message::HilActuatorControls(
+                        super::common::HilActuatorControls::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::OpticalFlow(v) => {
+                (
+                    |p| Message::OpticalFlow(super::common::OpticalFlow::parse(p)),
+                    v.as_bytes(),
+                )
+            }
             Self::GlobalVisionPositionEstimate(v) => {
-                Message::GlobalVisionPositionEstimate(v.to_message())
+                (
+                    |p| Message::GlobalVisionPositionEstimate(
+                        super::common::GlobalVisionPositionEstimate::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::VisionPositionEstimate(v) => {
-                Message::VisionPositionEstimate(v.to_message())
+                (
+                    |p| Message::VisionPositionEstimate(
+                        super::common::VisionPositionEstimate::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::VisionSpeedEstimate(v) => Message::VisionSpeedEstimate(v.to_message()),
+            Self::VisionSpeedEstimate(v) => {
+                (
+                    |p| Message::VisionSpeedEstimate(
+                        super::common::VisionSpeedEstimate::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::ViconPositionEstimate(v) => {
-                Message::ViconPositionEstimate(v.to_message())
+                (
+                    |p| Message::ViconPositionEstimate(
+                        super::common::ViconPositionEstimate::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::HighresImu(v) => Message::HighresImu(v.to_message()),
-            Self::OpticalFlowRad(v) => Message::OpticalFlowRad(v.to_message()),
-            Self::HilSensor(v) => Message::HilSensor(v.to_message()),
-            Self::SimState(v) => Message::SimState(v.to_message()),
-            Self::RadioStatus(v) => Message::RadioStatus(v.to_message()),
+            Self::HighresImu(v) => {
+                (
+                    |p| Message::HighresImu(super::common::HighresImu::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::OpticalFlowRad(v) => {
+                (
+                    |p| Message::OpticalFlowRad(super::common::OpticalFlowRad::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HilSensor(v) => {
+                (
+                    |p| Message::HilSensor(super::common::HilSensor::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SimState(v) => {
+                (|p| Message::SimState(super::common::SimState::parse(p)), v.as_bytes())
+            }
+            Self::RadioStatus(v) => {
+                (
+                    |p| Message::RadioStatus(super::common::RadioStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
             Self::FileTransferProtocol(v) => {
-                Message::FileTransferProtocol(v.to_message())
+                (
+                    |p| Message::FileTransferProtocol(
+                        super::common::FileTransferProtocol::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::Timesync(v) => Message::Timesync(v.to_message()),
-            Self::CameraTrigger(v) => Message::CameraTrigger(v.to_message()),
-            Self::HilGps(v) => Message::HilGps(v.to_message()),
-            Self::HilOpticalFlow(v) => Message::HilOpticalFlow(v.to_message()),
-            Self::HilStateQuaternion(v) => Message::HilStateQuaternion(v.to_message()),
-            Self::ScaledImu2(v) => Message::ScaledImu2(v.to_message()),
-            Self::LogRequestList(v) => Message::LogRequestList(v.to_message()),
-            Self::LogEntry(v) => Message::LogEntry(v.to_message()),
-            Self::LogRequestData(v) => Message::LogRequestData(v.to_message()),
-            Self::LogData(v) => Message::LogData(v.to_message()),
-            Self::LogErase(v) => Message::LogErase(v.to_message()),
-            Self::LogRequestEnd(v) => Message::LogRequestEnd(v.to_message()),
-            Self::GpsInjectData(v) => Message::GpsInjectData(v.to_message()),
-            Self::Gps2Raw(v) => Message::Gps2Raw(v.to_message()),
-            Self::PowerStatus(v) => Message::PowerStatus(v.to_message()),
-            Self::SerialControl(v) => Message::SerialControl(v.to_message()),
-            Self::GpsRtk(v) => Message::GpsRtk(v.to_message()),
-            Self::Gps2Rtk(v) => Message::Gps2Rtk(v.to_message()),
-            Self::ScaledImu3(v) => Message::ScaledImu3(v.to_message()),
+            Self::Timesync(v) => {
+                (|p| Message::Timesync(super::common::Timesync::parse(p)), v.as_bytes())
+            }
+            Self::CameraTrigger(v) => {
+                (
+                    |p| Message::CameraTrigger(super::common::CameraTrigger::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HilGps(v) => {
+                (|p| Message::HilGps(super::common::HilGps::parse(p)), v.as_bytes())
+            }
+            Self::HilOpticalFlow(v) => {
+                (
+                    |p| Message::HilOpticalFlow(super::common::HilOpticalFlow::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HilStateQuaternion(v) => {
+                (
+                    |p| Message::HilStateQuaternion(
+                        super::common::HilStateQuaternion::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ScaledImu2(v) => {
+                (
+                    |p| Message::ScaledImu2(super::common::ScaledImu2::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::LogRequestList(v) => {
+                (
+                    |p| Message::LogRequestList(super::common::LogRequestList::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::LogEntry(v) => {
+                (|p| Message::LogEntry(super::common::LogEntry::parse(p)), v.as_bytes())
+            }
+            Self::LogRequestData(v) => {
+                (
+                    |p| Message::LogRequestData(super::common::LogRequestData::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::LogData(v) => {
+                (|p| Message::LogData(super::common::LogData::parse(p)), v.as_bytes())
+            }
+            Self::LogErase(v) => {
+                (|p| Message::LogErase(super::common::LogErase::parse(p)), v.as_bytes())
+            }
+            Self::LogRequestEnd(v) => {
+                (
+                    |p| Message::LogRequestEnd(super::common::LogRequestEnd::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::GpsInjectData(v) => {
+                (
+                    |p| Message::GpsInjectData(super::common::GpsInjectData::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Gps2Raw(v) => {
+                (|p| Message::Gps2Raw(super::common::Gps2Raw::parse(p)), v.as_bytes())
+            }
+            Self::PowerStatus(v) => {
+                (
+                    |p| Message::PowerStatus(super::common::PowerStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SerialControl(v) => {
+                (
+                    |p| Message::SerialControl(super::common::SerialControl::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::GpsRtk(v) => {
+                (|p| Message::GpsRtk(super::common::GpsRtk::parse(p)), v.as_bytes())
+            }
+            Self::Gps2Rtk(v) => {
+                (|p| Message::Gps2Rtk(super::common::Gps2Rtk::parse(p)), v.as_bytes())
+            }
+            Self::ScaledImu3(v) => {
+                (
+                    |p| Message::ScaledImu3(super::common::ScaledImu3::parse(p)),
+                    v.as_bytes(),
+                )
+            }
             Self::DataTransmissionHandshake(v) => {
-                Message::DataTransmissionHandshake(v.to_message())
+                (
+                    |p| Message::DataTransmissionHandshake(
+                        super::common::DataTransmissionHandshake::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::EncapsulatedData(v) => Message::EncapsulatedData(v.to_message()),
-            Self::DistanceSensor(v) => Message::DistanceSensor(v.to_message()),
-            Self::TerrainRequest(v) => Message::TerrainRequest(v.to_message()),
-            Self::TerrainData(v) => Message::TerrainData(v.to_message()),
-            Self::TerrainCheck(v) => Message::TerrainCheck(v.to_message()),
-            Self::TerrainReport(v) => Message::TerrainReport(v.to_message()),
-            Self::ScaledPressure2(v) => Message::ScaledPressure2(v.to_message()),
-            Self::AttPosMocap(v) => Message::AttPosMocap(v.to_message()),
+            Self::EncapsulatedData(v) => {
+                (
+                    |p| Message::EncapsulatedData(
+                        super::common::EncapsulatedData::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::DistanceSensor(v) => {
+                (
+                    |p| Message::DistanceSensor(super::common::DistanceSensor::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::TerrainRequest(v) => {
+                (
+                    |p| Message::TerrainRequest(super::common::TerrainRequest::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::TerrainData(v) => {
+                (
+                    |p| Message::TerrainData(super::common::TerrainData::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::TerrainCheck(v) => {
+                (
+                    |p| Message::TerrainCheck(super::common::TerrainCheck::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::TerrainReport(v) => {
+                (
+                    |p| Message::TerrainReport(super::common::TerrainReport::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ScaledPressure2(v) => {
+                (
+                    |p| Message::ScaledPressure2(
+                        super::common::ScaledPressure2::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::AttPosMocap(v) => {
+                (
+                    |p| Message::AttPosMocap(super::common::AttPosMocap::parse(p)),
+                    v.as_bytes(),
+                )
+            }
             Self::SetActuatorControlTarget(v) => {
-                Message::SetActuatorControlTarget(v.to_message())
+                (
+                    |p| Message::SetActuatorControlTarget(
+                        super::common::SetActuatorControlTarget::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::ActuatorControlTarget(v) => {
-                Message::ActuatorControlTarget(v.to_message())
+                (
+                    |p| Message::ActuatorControlTarget(
+                        super::common::ActuatorControlTarget::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::Altitude(v) => Message::Altitude(v.to_message()),
-            Self::ResourceRequest(v) => Message::ResourceRequest(v.to_message()),
-            Self::ScaledPressure3(v) => Message::ScaledPressure3(v.to_message()),
-            Self::FollowTarget(v) => Message::FollowTarget(v.to_message()),
-            Self::ControlSystemState(v) => Message::ControlSystemState(v.to_message()),
-            Self::BatteryStatus(v) => Message::BatteryStatus(v.to_message()),
-            Self::AutopilotVersion(v) => Message::AutopilotVersion(v.to_message()),
-            Self::LandingTarget(v) => Message::LandingTarget(v.to_message()),
-            Self::SensorOffsets(v) => Message::SensorOffsets(v.to_message()),
-            Self::SetMagOffsets(v) => Message::SetMagOffsets(v.to_message()),
-            Self::Meminfo(v) => Message::Meminfo(v.to_message()),
-            Self::ApAdc(v) => Message::ApAdc(v.to_message()),
-            Self::DigicamConfigure(v) => Message::DigicamConfigure(v.to_message()),
-            Self::DigicamControl(v) => Message::DigicamControl(v.to_message()),
-            Self::MountConfigure(v) => Message::MountConfigure(v.to_message()),
-            Self::MountControl(v) => Message::MountControl(v.to_message()),
-            Self::MountStatus(v) => Message::MountStatus(v.to_message()),
-            Self::FencePoint(v) => Message::FencePoint(v.to_message()),
-            Self::FenceFetchPoint(v) => Message::FenceFetchPoint(v.to_message()),
-            Self::FenceStatus(v) => Message::FenceStatus(v.to_message()),
-            Self::Ahrs(v) => Message::Ahrs(v.to_message()),
-            Self::Simstate(v) => Message::Simstate(v.to_message()),
-            Self::Hwstatus(v) => Message::Hwstatus(v.to_message()),
-            Self::Radio(v) => Message::Radio(v.to_message()),
-            Self::LimitsStatus(v) => Message::LimitsStatus(v.to_message()),
-            Self::Wind(v) => Message::Wind(v.to_message()),
-            Self::Data16(v) => Message::Data16(v.to_message()),
-            Self::Data32(v) => Message::Data32(v.to_message()),
-            Self::Data64(v) => Message::Data64(v.to_message()),
-            Self::Data96(v) => Message::Data96(v.to_message()),
-            Self::Rangefinder(v) => Message::Rangefinder(v.to_message()),
-            Self::AirspeedAutocal(v) => Message::AirspeedAutocal(v.to_message()),
-            Self::RallyPoint(v) => Message::RallyPoint(v.to_message()),
-            Self::RallyFetchPoint(v) => Message::RallyFetchPoint(v.to_message()),
-            Self::CompassmotStatus(v) => Message::CompassmotStatus(v.to_message()),
-            Self::Ahrs2(v) => Message::Ahrs2(v.to_message()),
-            Self::CameraStatus(v) => Message::CameraStatus(v.to_message()),
-            Self::CameraFeedback(v) => Message::CameraFeedback(v.to_message()),
-            Self::Battery2(v) => Message::Battery2(v.to_message()),
-            Self::Ahrs3(v) => Message::Ahrs3(v.to_message()),
+            Self::Altitude(v) => {
+                (|p| Message::Altitude(super::common::Altitude::parse(p)), v.as_bytes())
+            }
+            Self::ResourceRequest(v) => {
+                (
+                    |p| Message::ResourceRequest(
+                        super::common::ResourceRequest::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ScaledPressure3(v) => {
+                (
+                    |p| Message::ScaledPressure3(
+                        super::common::ScaledPressure3::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::FollowTarget(v) => {
+                (
+                    |p| Message::FollowTarget(super::common::FollowTarget::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ControlSystemState(v) => {
+                (
+                    |p| Message::ControlSystemState(
+                        super::common::ControlSystemState::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::BatteryStatus(v) => {
+                (
+                    |p| Message::BatteryStatus(super::common::BatteryStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::AutopilotVersion(v) => {
+                (
+                    |p| Message::AutopilotVersion(
+                        super::standard::AutopilotVersion::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::LandingTarget(v) => {
+                (
+                    |p| Message::LandingTarget(super::common::LandingTarget::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SensorOffsets(v) => {
+                (
+                    |p| Message::SensorOffsets(
+                        super::ardupilotmega::SensorOffsets::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::SetMagOffsets(v) => {
+                (
+                    |p| Message::SetMagOffsets(
+                        super::ardupilotmega::SetMagOffsets::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::Meminfo(v) => {
+                (
+                    |p| Message::Meminfo(super::ardupilotmega::Meminfo::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ApAdc(v) => {
+                (|p| Message::ApAdc(super::ardupilotmega::ApAdc::parse(p)), v.as_bytes())
+            }
+            Self::DigicamConfigure(v) => {
+                (
+                    |p| Message::DigicamConfigure(
+                        super::ardupilotmega::DigicamConfigure::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::DigicamControl(v) => {
+                (
+                    |p| Message::DigicamControl(
+                        super::ardupilotmega::DigicamControl::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MountConfigure(v) => {
+                (
+                    |p| Message::MountConfigure(
+                        super::ardupilotmega::MountConfigure::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MountControl(v) => {
+                (
+                    |p| Message::MountControl(
+                        super::ardupilotmega::MountControl::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MountStatus(v) => {
+                (
+                    |p| Message::MountStatus(
+                        super::ardupilotmega::MountStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::FencePoint(v) => {
+                (
+                    |p| Message::FencePoint(super::ardupilotmega::FencePoint::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::FenceFetchPoint(v) => {
+                (
+                    |p| Message::FenceFetchPoint(
+                        super::ardupilotmega::FenceFetchPoint::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::FenceStatus(v) => {
+                (
+                    |p| Message::FenceStatus(super::common::FenceStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Ahrs(v) => {
+                (|p| Message::Ahrs(super::ardupilotmega::Ahrs::parse(p)), v.as_bytes())
+            }
+            Self::Simstate(v) => {
+                (
+                    |p| Message::Simstate(super::ardupilotmega::Simstate::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Hwstatus(v) => {
+                (
+                    |p| Message::Hwstatus(super::ardupilotmega::Hwstatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Radio(v) => {
+                (|p| Message::Radio(super::ardupilotmega::Radio::parse(p)), v.as_bytes())
+            }
+            Self::LimitsStatus(v) => {
+                (
+                    |p| Message::LimitsStatus(
+                        super::ardupilotmega::LimitsStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::Wind(v) => {
+                (|p| Message::Wind(super::ardupilotmega::Wind::parse(p)), v.as_bytes())
+            }
+            Self::Data16(v) => {
+                (
+                    |p| Message::Data16(super::ardupilotmega::Data16::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Data32(v) => {
+                (
+                    |p| Message::Data32(super::ardupilotmega::Data32::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Data64(v) => {
+                (
+                    |p| Message::Data64(super::ardupilotmega::Data64::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Data96(v) => {
+                (
+                    |p| Message::Data96(super::ardupilotmega::Data96::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Rangefinder(v) => {
+                (
+                    |p| Message::Rangefinder(
+                        super::ardupilotmega::Rangefinder::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::AirspeedAutocal(v) => {
+                (
+                    |p| Message::AirspeedAutocal(
+                        super::ardupilotmega::AirspeedAutocal::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::RallyPoint(v) => {
+                (
+                    |p| Message::RallyPoint(super::ardupilotmega::RallyPoint::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::RallyFetchPoint(v) => {
+                (
+                    |p| Message::RallyFetchPoint(
+                        super::ardupilotmega::RallyFetchPoint::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::CompassmotStatus(v) => {
+                (
+                    |p| Message::CompassmotStatus(
+                        super::ardupilotmega::CompassmotStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::Ahrs2(v) => {
+                (|p| Message::Ahrs2(super::ardupilotmega::Ahrs2::parse(p)), v.as_bytes())
+            }
+            Self::CameraStatus(v) => {
+                (
+                    |p| Message::CameraStatus(
+                        super::ardupilotmega::CameraStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::CameraFeedback(v) => {
+                (
+                    |p| Message::CameraFeedback(
+                        super::ardupilotmega::CameraFeedback::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::Battery2(v) => {
+                (
+                    |p| Message::Battery2(super::ardupilotmega::Battery2::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Ahrs3(v) => {
+                (|p| Message::Ahrs3(super::ardupilotmega::Ahrs3::parse(p)), v.as_bytes())
+            }
             Self::AutopilotVersionRequest(v) => {
-                Message::AutopilotVersionRequest(v.to_message())
+                (
+                    |p| Message::AutopilotVersionRequest(
+                        super::ardupilotmega::AutopilotVersionRequest::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::RemoteLogDataBlock(v) => Message::RemoteLogDataBlock(v.to_message()),
+            Self::RemoteLogDataBlock(v) => {
+                (
+                    |p| Message::RemoteLogDataBlock(
+                        super::ardupilotmega::RemoteLogDataBlock::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::RemoteLogBlockStatus(v) => {
-                Message::RemoteLogBlockStatus(v.to_message())
+                (
+                    |p| Message::RemoteLogBlockStatus(
+                        super::ardupilotmega::RemoteLogBlockStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::LedControl(v) => Message::LedControl(v.to_message()),
-            Self::MagCalProgress(v) => Message::MagCalProgress(v.to_message()),
-            Self::MagCalReport(v) => Message::MagCalReport(v.to_message()),
-            Self::EkfStatusReport(v) => Message::EkfStatusReport(v.to_message()),
-            Self::PidTuning(v) => Message::PidTuning(v.to_message()),
-            Self::Deepstall(v) => Message::Deepstall(v.to_message()),
-            Self::GimbalReport(v) => Message::GimbalReport(v.to_message()),
-            Self::GimbalControl(v) => Message::GimbalControl(v.to_message()),
+            Self::LedControl(v) => {
+                (
+                    |p| Message::LedControl(super::ardupilotmega::LedControl::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::MagCalProgress(v) => {
+                (
+                    |p| Message::MagCalProgress(
+                        super::ardupilotmega::MagCalProgress::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MagCalReport(v) => {
+                (
+                    |p| Message::MagCalReport(super::common::MagCalReport::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::EkfStatusReport(v) => {
+                (
+                    |p| Message::EkfStatusReport(
+                        super::ardupilotmega::EkfStatusReport::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::PidTuning(v) => {
+                (
+                    |p| Message::PidTuning(super::ardupilotmega::PidTuning::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Deepstall(v) => {
+                (
+                    |p| Message::Deepstall(super::ardupilotmega::Deepstall::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::GimbalReport(v) => {
+                (
+                    |p| Message::GimbalReport(
+                        super::ardupilotmega::GimbalReport::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GimbalControl(v) => {
+                (
+                    |p| Message::GimbalControl(
+                        super::ardupilotmega::GimbalControl::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::GimbalTorqueCmdReport(v) => {
-                Message::GimbalTorqueCmdReport(v.to_message())
+                (
+                    |p| Message::GimbalTorqueCmdReport(
+                        super::ardupilotmega::GimbalTorqueCmdReport::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::GoproHeartbeat(v) => Message::GoproHeartbeat(v.to_message()),
-            Self::GoproGetRequest(v) => Message::GoproGetRequest(v.to_message()),
-            Self::GoproGetResponse(v) => Message::GoproGetResponse(v.to_message()),
-            Self::GoproSetRequest(v) => Message::GoproSetRequest(v.to_message()),
-            Self::GoproSetResponse(v) => Message::GoproSetResponse(v.to_message()),
-            Self::EfiStatus(v) => Message::EfiStatus(v.to_message()),
-            Self::Rpm(v) => Message::Rpm(v.to_message()),
-            Self::EstimatorStatus(v) => Message::EstimatorStatus(v.to_message()),
-            Self::WindCov(v) => Message::WindCov(v.to_message()),
-            Self::GpsInput(v) => Message::GpsInput(v.to_message()),
-            Self::GpsRtcmData(v) => Message::GpsRtcmData(v.to_message()),
-            Self::HighLatency(v) => Message::HighLatency(v.to_message()),
-            Self::HighLatency2(v) => Message::HighLatency2(v.to_message()),
-            Self::Vibration(v) => Message::Vibration(v.to_message()),
-            Self::HomePosition(v) => Message::HomePosition(v.to_message()),
-            Self::SetHomePosition(v) => Message::SetHomePosition(v.to_message()),
-            Self::MessageInterval(v) => Message::MessageInterval(v.to_message()),
-            Self::ExtendedSysState(v) => Message::ExtendedSysState(v.to_message()),
-            Self::AdsbVehicle(v) => Message::AdsbVehicle(v.to_message()),
-            Self::Collision(v) => Message::Collision(v.to_message()),
-            Self::V2Extension(v) => Message::V2Extension(v.to_message()),
-            Self::MemoryVect(v) => Message::MemoryVect(v.to_message()),
-            Self::DebugVect(v) => Message::DebugVect(v.to_message()),
-            Self::NamedValueFloat(v) => Message::NamedValueFloat(v.to_message()),
-            Self::NamedValueInt(v) => Message::NamedValueInt(v.to_message()),
-            Self::Statustext(v) => Message::Statustext(v.to_message()),
-            Self::Debug(v) => Message::Debug(v.to_message()),
-            Self::SetupSigning(v) => Message::SetupSigning(v.to_message()),
-            Self::ButtonChange(v) => Message::ButtonChange(v.to_message()),
-            Self::PlayTune(v) => Message::PlayTune(v.to_message()),
-            Self::CameraInformation(v) => Message::CameraInformation(v.to_message()),
-            Self::CameraSettings(v) => Message::CameraSettings(v.to_message()),
-            Self::StorageInformation(v) => Message::StorageInformation(v.to_message()),
-            Self::CameraCaptureStatus(v) => Message::CameraCaptureStatus(v.to_message()),
-            Self::CameraImageCaptured(v) => Message::CameraImageCaptured(v.to_message()),
-            Self::FlightInformation(v) => Message::FlightInformation(v.to_message()),
-            Self::MountOrientation(v) => Message::MountOrientation(v.to_message()),
-            Self::LoggingData(v) => Message::LoggingData(v.to_message()),
-            Self::LoggingDataAcked(v) => Message::LoggingDataAcked(v.to_message()),
-            Self::LoggingAck(v) => Message::LoggingAck(v.to_message()),
+            Self::GoproHeartbeat(v) => {
+                (
+                    |p| Message::GoproHeartbeat(
+                        super::ardupilotmega::GoproHeartbeat::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GoproGetRequest(v) => {
+                (
+                    |p| Message::GoproGetRequest(
+                        super::ardupilotmega::GoproGetRequest::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GoproGetResponse(v) => {
+                (
+                    |p| Message::GoproGetResponse(
+                        super::ardupilotmega::GoproGetResponse::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GoproSetRequest(v) => {
+                (
+                    |p| Message::GoproSetRequest(
+                        super::ardupilotmega::GoproSetRequest::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GoproSetResponse(v) => {
+                (
+                    |p| Message::GoproSetResponse(
+                        super::ardupilotmega::GoproSetResponse::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::EfiStatus(v) => {
+                (
+                    |p| Message::EfiStatus(super::common::EfiStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Rpm(v) => {
+                (|p| Message::Rpm(super::ardupilotmega::Rpm::parse(p)), v.as_bytes())
+            }
+            Self::EstimatorStatus(v) => {
+                (
+                    |p| Message::EstimatorStatus(
+                        super::common::EstimatorStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::WindCov(v) => {
+                (|p| Message::WindCov(super::common::WindCov::parse(p)), v.as_bytes())
+            }
+            Self::GpsInput(v) => {
+                (|p| Message::GpsInput(super::common::GpsInput::parse(p)), v.as_bytes())
+            }
+            Self::GpsRtcmData(v) => {
+                (
+                    |p| Message::GpsRtcmData(super::common::GpsRtcmData::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HighLatency(v) => {
+                (
+                    |p| Message::HighLatency(super::common::HighLatency::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HighLatency2(v) => {
+                (
+                    |p| Message::HighLatency2(super::common::HighLatency2::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Vibration(v) => {
+                (
+                    |p| Message::Vibration(super::common::Vibration::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::HomePosition(v) => {
+                (
+                    |p| Message::HomePosition(super::common::HomePosition::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::SetHomePosition(v) => {
+                (
+                    |p| Message::SetHomePosition(
+                        super::common::SetHomePosition::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MessageInterval(v) => {
+                (
+                    |p| Message::MessageInterval(
+                        super::common::MessageInterval::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ExtendedSysState(v) => {
+                (
+                    |p| Message::ExtendedSysState(
+                        super::common::ExtendedSysState::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::AdsbVehicle(v) => {
+                (
+                    |p| Message::AdsbVehicle(super::common::AdsbVehicle::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Collision(v) => {
+                (
+                    |p| Message::Collision(super::common::Collision::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::V2Extension(v) => {
+                (
+                    |p| Message::V2Extension(super::common::V2Extension::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::MemoryVect(v) => {
+                (
+                    |p| Message::MemoryVect(super::common::MemoryVect::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::DebugVect(v) => {
+                (
+                    |p| Message::DebugVect(super::common::DebugVect::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::NamedValueFloat(v) => {
+                (
+                    |p| Message::NamedValueFloat(
+                        super::common::NamedValueFloat::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::NamedValueInt(v) => {
+                (
+                    |p| Message::NamedValueInt(super::common::NamedValueInt::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Statustext(v) => {
+                (
+                    |p| Message::Statustext(super::common::Statustext::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Debug(v) => {
+                (|p| Message::Debug(super::common::Debug::parse(p)), v.as_bytes())
+            }
+            Self::SetupSigning(v) => {
+                (
+                    |p| Message::SetupSigning(super::common::SetupSigning::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ButtonChange(v) => {
+                (
+                    |p| Message::ButtonChange(super::common::ButtonChange::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::PlayTune(v) => {
+                (|p| Message::PlayTune(super::common::PlayTune::parse(p)), v.as_bytes())
+            }
+            Self::CameraInformation(v) => {
+                (
+                    |p| Message::CameraInformation(
+                        super::common::CameraInformation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::CameraSettings(v) => {
+                (
+                    |p| Message::CameraSettings(super::common::CameraSettings::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::StorageInformation(v) => {
+                (
+                    |p| Message::StorageInformation(
+                        super::common::StorageInformation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::CameraCaptureStatus(v) => {
+                (
+                    |p| Message::CameraCaptureStatus(
+                        super::common::CameraCaptureStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::CameraImageCaptured(v) => {
+                (
+                    |p| Message::CameraImageCaptured(
+                        super::common::CameraImageCaptured::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::FlightInformation(v) => {
+                (
+                    |p| Message::FlightInformation(
+                        super::common::FlightInformation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::MountOrientation(v) => {
+                (
+                    |p| Message::MountOrientation(
+                        super::common::MountOrientation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::LoggingData(v) => {
+                (
+                    |p| Message::LoggingData(super::common::LoggingData::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::LoggingDataAcked(v) => {
+                (
+                    |p| Message::LoggingDataAcked(
+                        super::common::LoggingDataAcked::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::LoggingAck(v) => {
+                (
+                    |p| Message::LoggingAck(super::common::LoggingAck::parse(p)),
+                    v.as_bytes(),
+                )
+            }
             Self::VideoStreamInformation(v) => {
-                Message::VideoStreamInformation(v.to_message())
+                (
+                    |p| Message::VideoStreamInformation(
+                        super::common::VideoStreamInformation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::VideoStreamStatus(v) => Message::VideoStreamStatus(v.to_message()),
-            Self::CameraFovStatus(v) => Message::CameraFovStatus(v.to_message()),
+            Self::VideoStreamStatus(v) => {
+                (
+                    |p| Message::VideoStreamStatus(
+                        super::common::VideoStreamStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::CameraFovStatus(v) => {
+                (
+                    |p| Message::CameraFovStatus(
+                        super::common::CameraFovStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::CameraTrackingImageStatus(v) => {
-                Message::CameraTrackingImageStatus(v.to_message())
+                (
+                    |p| Message::CameraTrackingImageStatus(
+                        super::common::CameraTrackingImageStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::CameraTrackingGeoStatus(v) => {
-                Message::CameraTrackingGeoStatus(v.to_message())
+                (
+                    |p| Message::CameraTrackingGeoStatus(
+                        super::common::CameraTrackingGeoStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::CameraThermalRange(v) => Message::CameraThermalRange(v.to_message()),
+            Self::CameraThermalRange(v) => {
+                (
+                    |p| Message::CameraThermalRange(
+                        super::common::CameraThermalRange::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::GimbalManagerInformation(v) => {
-                Message::GimbalManagerInformation(v.to_message())
+                (
+                    |p| Message::GimbalManagerInformation(
+                        super::common::GimbalManagerInformation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::GimbalManagerStatus(v) => Message::GimbalManagerStatus(v.to_message()),
+            Self::GimbalManagerStatus(v) => {
+                (
+                    |p| Message::GimbalManagerStatus(
+                        super::common::GimbalManagerStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::GimbalManagerSetAttitude(v) => {
-                Message::GimbalManagerSetAttitude(v.to_message())
+                (
+                    |p| Message::GimbalManagerSetAttitude(
+                        super::common::GimbalManagerSetAttitude::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::GimbalDeviceInformation(v) => {
-                Message::GimbalDeviceInformation(v.to_message())
+                (
+                    |p| Message::GimbalDeviceInformation(
+                        super::common::GimbalDeviceInformation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::GimbalDeviceSetAttitude(v) => {
-                Message::GimbalDeviceSetAttitude(v.to_message())
+                (
+                    |p| Message::GimbalDeviceSetAttitude(
+                        super::common::GimbalDeviceSetAttitude::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::GimbalDeviceAttitudeStatus(v) => {
-                Message::GimbalDeviceAttitudeStatus(v.to_message())
+                (
+                    |p| Message::GimbalDeviceAttitudeStatus(
+                        super::common::GimbalDeviceAttitudeStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::AutopilotStateForGimbalDevice(v) => {
-                Message::AutopilotStateForGimbalDevice(v.to_message())
+                (
+                    |p| Message::AutopilotStateForGimbalDevice(
+                        super::common::AutopilotStateForGimbalDevice::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::GimbalManagerSetPitchyaw(v) => {
-                Message::GimbalManagerSetPitchyaw(v.to_message())
+                (
+                    |p| Message::GimbalManagerSetPitchyaw(
+                        super::common::GimbalManagerSetPitchyaw::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::GimbalManagerSetManualControl(v) => {
-                Message::GimbalManagerSetManualControl(v.to_message())
+                (
+                    |p| Message::GimbalManagerSetManualControl(
+                        super::common::GimbalManagerSetManualControl::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::Airspeed(v) => Message::Airspeed(v.to_message()),
+            Self::Airspeed(v) => {
+                (|p| Message::Airspeed(super::common::Airspeed::parse(p)), v.as_bytes())
+            }
             Self::GlobalPositionSensor(v) => {
-                Message::GlobalPositionSensor(v.to_message())
+                (
+                    |p| Message::GlobalPositionSensor(
+                        super::common::GlobalPositionSensor::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::WifiConfigAp(v) => Message::WifiConfigAp(v.to_message()),
-            Self::AisVessel(v) => Message::AisVessel(v.to_message()),
-            Self::UavcanNodeStatus(v) => Message::UavcanNodeStatus(v.to_message()),
-            Self::UavcanNodeInfo(v) => Message::UavcanNodeInfo(v.to_message()),
-            Self::ParamExtRequestRead(v) => Message::ParamExtRequestRead(v.to_message()),
-            Self::ParamExtRequestList(v) => Message::ParamExtRequestList(v.to_message()),
-            Self::ParamExtValue(v) => Message::ParamExtValue(v.to_message()),
-            Self::ParamExtSet(v) => Message::ParamExtSet(v.to_message()),
-            Self::ParamExtAck(v) => Message::ParamExtAck(v.to_message()),
-            Self::ObstacleDistance(v) => Message::ObstacleDistance(v.to_message()),
-            Self::Odometry(v) => Message::Odometry(v.to_message()),
+            Self::WifiConfigAp(v) => {
+                (
+                    |p| Message::WifiConfigAp(super::common::WifiConfigAp::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::AisVessel(v) => {
+                (
+                    |p| Message::AisVessel(super::common::AisVessel::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::UavcanNodeStatus(v) => {
+                (
+                    |p| Message::UavcanNodeStatus(
+                        super::common::UavcanNodeStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::UavcanNodeInfo(v) => {
+                (
+                    |p| Message::UavcanNodeInfo(super::common::UavcanNodeInfo::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamExtRequestRead(v) => {
+                (
+                    |p| Message::ParamExtRequestRead(
+                        super::common::ParamExtRequestRead::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamExtRequestList(v) => {
+                (
+                    |p| Message::ParamExtRequestList(
+                        super::common::ParamExtRequestList::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamExtValue(v) => {
+                (
+                    |p| Message::ParamExtValue(super::common::ParamExtValue::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamExtSet(v) => {
+                (
+                    |p| Message::ParamExtSet(super::common::ParamExtSet::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamExtAck(v) => {
+                (
+                    |p| Message::ParamExtAck(super::common::ParamExtAck::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::ObstacleDistance(v) => {
+                (
+                    |p| Message::ObstacleDistance(
+                        super::common::ObstacleDistance::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::Odometry(v) => {
+                (|p| Message::Odometry(super::common::Odometry::parse(p)), v.as_bytes())
+            }
             Self::TrajectoryRepresentationWaypoints(v) => {
-                Message::TrajectoryRepresentationWaypoints(v.to_message())
+                (
+                    |p| Message::TrajectoryRepresentationWaypoints(
+                        super::common::TrajectoryRepresentationWaypoints::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::TrajectoryRepresentationBezier(v) => {
-                Message::TrajectoryRepresentationBezier(v.to_message())
+                (
+                    |p| Message::TrajectoryRepresentationBezier(
+                        super::common::TrajectoryRepresentationBezier::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::IsbdLinkStatus(v) => Message::IsbdLinkStatus(v.to_message()),
-            Self::RawRpm(v) => Message::RawRpm(v.to_message()),
-            Self::UtmGlobalPosition(v) => Message::UtmGlobalPosition(v.to_message()),
-            Self::ParamError(v) => Message::ParamError(v.to_message()),
-            Self::DebugFloatArray(v) => Message::DebugFloatArray(v.to_message()),
+            Self::IsbdLinkStatus(v) => {
+                (
+                    |p| Message::IsbdLinkStatus(super::common::IsbdLinkStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::RawRpm(v) => {
+                (|p| Message::RawRpm(super::common::RawRpm::parse(p)), v.as_bytes())
+            }
+            Self::UtmGlobalPosition(v) => {
+                (
+                    |p| Message::UtmGlobalPosition(
+                        super::common::UtmGlobalPosition::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::ParamError(v) => {
+                (
+                    |p| Message::ParamError(super::common::ParamError::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::DebugFloatArray(v) => {
+                (
+                    |p| Message::DebugFloatArray(
+                        super::common::DebugFloatArray::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::OrbitExecutionStatus(v) => {
-                Message::OrbitExecutionStatus(v.to_message())
+                (
+                    |p| Message::OrbitExecutionStatus(
+                        super::common::OrbitExecutionStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::SmartBatteryInfo(v) => Message::SmartBatteryInfo(v.to_message()),
-            Self::GeneratorStatus(v) => Message::GeneratorStatus(v.to_message()),
+            Self::SmartBatteryInfo(v) => {
+                (
+                    |p| Message::SmartBatteryInfo(
+                        super::common::SmartBatteryInfo::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::GeneratorStatus(v) => {
+                (
+                    |p| Message::GeneratorStatus(
+                        super::common::GeneratorStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::ActuatorOutputStatus(v) => {
-                Message::ActuatorOutputStatus(v.to_message())
+                (
+                    |p| Message::ActuatorOutputStatus(
+                        super::common::ActuatorOutputStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::RelayStatus(v) => Message::RelayStatus(v.to_message()),
-            Self::Tunnel(v) => Message::Tunnel(v.to_message()),
-            Self::CanFrame(v) => Message::CanFrame(v.to_message()),
-            Self::CanfdFrame(v) => Message::CanfdFrame(v.to_message()),
-            Self::CanFilterModify(v) => Message::CanFilterModify(v.to_message()),
+            Self::RelayStatus(v) => {
+                (
+                    |p| Message::RelayStatus(super::common::RelayStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::Tunnel(v) => {
+                (|p| Message::Tunnel(super::common::Tunnel::parse(p)), v.as_bytes())
+            }
+            Self::CanFrame(v) => {
+                (|p| Message::CanFrame(super::common::CanFrame::parse(p)), v.as_bytes())
+            }
+            Self::CanfdFrame(v) => {
+                (
+                    |p| Message::CanfdFrame(super::common::CanfdFrame::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::CanFilterModify(v) => {
+                (
+                    |p| Message::CanFilterModify(
+                        super::common::CanFilterModify::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::OnboardComputerStatus(v) => {
-                Message::OnboardComputerStatus(v.to_message())
+                (
+                    |p| Message::OnboardComputerStatus(
+                        super::common::OnboardComputerStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::WheelDistance(v) => Message::WheelDistance(v.to_message()),
-            Self::WinchStatus(v) => Message::WinchStatus(v.to_message()),
-            Self::UavionixAdsbOutCfg(v) => Message::UavionixAdsbOutCfg(v.to_message()),
+            Self::WheelDistance(v) => {
+                (
+                    |p| Message::WheelDistance(super::common::WheelDistance::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::WinchStatus(v) => {
+                (
+                    |p| Message::WinchStatus(super::common::WinchStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::UavionixAdsbOutCfg(v) => {
+                (
+                    |p| Message::UavionixAdsbOutCfg(
+                        super::uavionix::UavionixAdsbOutCfg::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::UavionixAdsbOutDynamic(v) => {
-                Message::UavionixAdsbOutDynamic(v.to_message())
+                (
+                    |p| Message::UavionixAdsbOutDynamic(
+                        super::uavionix::UavionixAdsbOutDynamic::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::UavionixAdsbTransceiverHealthReport(v) => {
-                Message::UavionixAdsbTransceiverHealthReport(v.to_message())
+                (
+                    |p| Message::UavionixAdsbTransceiverHealthReport(
+                        super::uavionix::UavionixAdsbTransceiverHealthReport::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::UavionixAdsbOutCfgRegistration(v) => {
-                Message::UavionixAdsbOutCfgRegistration(v.to_message())
+                (
+                    |p| Message::UavionixAdsbOutCfgRegistration(
+                        super::uavionix::UavionixAdsbOutCfgRegistration::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::UavionixAdsbOutCfgFlightid(v) => {
-                Message::UavionixAdsbOutCfgFlightid(v.to_message())
+                (
+                    |p| Message::UavionixAdsbOutCfgFlightid(
+                        super::uavionix::UavionixAdsbOutCfgFlightid::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::UavionixAdsbGet(v) => Message::UavionixAdsbGet(v.to_message()),
+            Self::UavionixAdsbGet(v) => {
+                (
+                    |p| Message::UavionixAdsbGet(
+                        super::uavionix::UavionixAdsbGet::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::UavionixAdsbOutControl(v) => {
-                Message::UavionixAdsbOutControl(v.to_message())
+                (
+                    |p| Message::UavionixAdsbOutControl(
+                        super::uavionix::UavionixAdsbOutControl::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::UavionixAdsbOutStatus(v) => {
-                Message::UavionixAdsbOutStatus(v.to_message())
+                (
+                    |p| Message::UavionixAdsbOutStatus(
+                        super::uavionix::UavionixAdsbOutStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::LoweheiserGovEfi(v) => Message::LoweheiserGovEfi(v.to_message()),
-            Self::DeviceOpRead(v) => Message::DeviceOpRead(v.to_message()),
-            Self::DeviceOpReadReply(v) => Message::DeviceOpReadReply(v.to_message()),
-            Self::DeviceOpWrite(v) => Message::DeviceOpWrite(v.to_message()),
-            Self::DeviceOpWriteReply(v) => Message::DeviceOpWriteReply(v.to_message()),
-            Self::SecureCommand(v) => Message::SecureCommand(v.to_message()),
-            Self::SecureCommandReply(v) => Message::SecureCommandReply(v.to_message()),
-            Self::AdapTuning(v) => Message::AdapTuning(v.to_message()),
-            Self::VisionPositionDelta(v) => Message::VisionPositionDelta(v.to_message()),
-            Self::AoaSsa(v) => Message::AoaSsa(v.to_message()),
-            Self::EscTelemetry1To4(v) => Message::EscTelemetry1To4(v.to_message()),
-            Self::EscTelemetry5To8(v) => Message::EscTelemetry5To8(v.to_message()),
-            Self::EscTelemetry9To12(v) => Message::EscTelemetry9To12(v.to_message()),
-            Self::OsdParamConfig(v) => Message::OsdParamConfig(v.to_message()),
-            Self::OsdParamConfigReply(v) => Message::OsdParamConfigReply(v.to_message()),
-            Self::OsdParamShowConfig(v) => Message::OsdParamShowConfig(v.to_message()),
+            Self::LoweheiserGovEfi(v) => {
+                (
+                    |p| Message::LoweheiserGovEfi(
+                        super::loweheiser::LoweheiserGovEfi::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::DeviceOpRead(v) => {
+                (
+                    |p| Message::DeviceOpRead(
+                        super::ardupilotmega::DeviceOpRead::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::DeviceOpReadReply(v) => {
+                (
+                    |p| Message::DeviceOpReadReply(
+                        super::ardupilotmega::DeviceOpReadReply::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::DeviceOpWrite(v) => {
+                (
+                    |p| Message::DeviceOpWrite(
+                        super::ardupilotmega::DeviceOpWrite::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::DeviceOpWriteReply(v) => {
+                (
+                    |p| Message::DeviceOpWriteReply(
+                        super::ardupilotmega::DeviceOpWriteReply::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::SecureCommand(v) => {
+                (
+                    |p| Message::SecureCommand(
+                        super::ardupilotmega::SecureCommand::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::SecureCommandReply(v) => {
+                (
+                    |p| Message::SecureCommandReply(
+                        super::ardupilotmega::SecureCommandReply::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::AdapTuning(v) => {
+                (
+                    |p| Message::AdapTuning(super::ardupilotmega::AdapTuning::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::VisionPositionDelta(v) => {
+                (
+                    |p| Message::VisionPositionDelta(
+                        super::ardupilotmega::VisionPositionDelta::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::AoaSsa(v) => {
+                (
+                    |p| Message::AoaSsa(super::ardupilotmega::AoaSsa::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry1To4(v) => {
+                (
+                    |p| Message::EscTelemetry1To4(
+                        super::ardupilotmega::EscTelemetry1To4::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry5To8(v) => {
+                (
+                    |p| Message::EscTelemetry5To8(
+                        super::ardupilotmega::EscTelemetry5To8::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry9To12(v) => {
+                (
+                    |p| Message::EscTelemetry9To12(
+                        super::ardupilotmega::EscTelemetry9To12::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::OsdParamConfig(v) => {
+                (
+                    |p| Message::OsdParamConfig(
+                        super::ardupilotmega::OsdParamConfig::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::OsdParamConfigReply(v) => {
+                (
+                    |p| Message::OsdParamConfigReply(
+                        super::ardupilotmega::OsdParamConfigReply::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::OsdParamShowConfig(v) => {
+                (
+                    |p| Message::OsdParamShowConfig(
+                        super::ardupilotmega::OsdParamShowConfig::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::OsdParamShowConfigReply(v) => {
-                Message::OsdParamShowConfigReply(v.to_message())
+                (
+                    |p| Message::OsdParamShowConfigReply(
+                        super::ardupilotmega::OsdParamShowConfigReply::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::ObstacleDistance3d(v) => Message::ObstacleDistance3d(v.to_message()),
-            Self::WaterDepth(v) => Message::WaterDepth(v.to_message()),
-            Self::McuStatus(v) => Message::McuStatus(v.to_message()),
-            Self::EscTelemetry13To16(v) => Message::EscTelemetry13To16(v.to_message()),
-            Self::EscTelemetry17To20(v) => Message::EscTelemetry17To20(v.to_message()),
-            Self::EscTelemetry21To24(v) => Message::EscTelemetry21To24(v.to_message()),
-            Self::EscTelemetry25To28(v) => Message::EscTelemetry25To28(v.to_message()),
-            Self::EscTelemetry29To32(v) => Message::EscTelemetry29To32(v.to_message()),
-            Self::NamedValueString(v) => Message::NamedValueString(v.to_message()),
-            Self::OpenDroneIdBasicId(v) => Message::OpenDroneIdBasicId(v.to_message()),
-            Self::OpenDroneIdLocation(v) => Message::OpenDroneIdLocation(v.to_message()),
+            Self::ObstacleDistance3d(v) => {
+                (
+                    |p| Message::ObstacleDistance3d(
+                        super::ardupilotmega::ObstacleDistance3d::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::WaterDepth(v) => {
+                (
+                    |p| Message::WaterDepth(super::ardupilotmega::WaterDepth::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::McuStatus(v) => {
+                (
+                    |p| Message::McuStatus(super::ardupilotmega::McuStatus::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry13To16(v) => {
+                (
+                    |p| Message::EscTelemetry13To16(
+                        super::ardupilotmega::EscTelemetry13To16::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry17To20(v) => {
+                (
+                    |p| Message::EscTelemetry17To20(
+                        super::ardupilotmega::EscTelemetry17To20::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry21To24(v) => {
+                (
+                    |p| Message::EscTelemetry21To24(
+                        super::ardupilotmega::EscTelemetry21To24::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry25To28(v) => {
+                (
+                    |p| Message::EscTelemetry25To28(
+                        super::ardupilotmega::EscTelemetry25To28::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::EscTelemetry29To32(v) => {
+                (
+                    |p| Message::EscTelemetry29To32(
+                        super::ardupilotmega::EscTelemetry29To32::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::NamedValueString(v) => {
+                (
+                    |p| Message::NamedValueString(
+                        super::ardupilotmega::NamedValueString::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::OpenDroneIdBasicId(v) => {
+                (
+                    |p| Message::OpenDroneIdBasicId(
+                        super::common::OpenDroneIdBasicId::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::OpenDroneIdLocation(v) => {
+                (
+                    |p| Message::OpenDroneIdLocation(
+                        super::common::OpenDroneIdLocation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::OpenDroneIdAuthentication(v) => {
-                Message::OpenDroneIdAuthentication(v.to_message())
+                (
+                    |p| Message::OpenDroneIdAuthentication(
+                        super::common::OpenDroneIdAuthentication::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::OpenDroneIdSelfId(v) => Message::OpenDroneIdSelfId(v.to_message()),
-            Self::OpenDroneIdSystem(v) => Message::OpenDroneIdSystem(v.to_message()),
+            Self::OpenDroneIdSelfId(v) => {
+                (
+                    |p| Message::OpenDroneIdSelfId(
+                        super::common::OpenDroneIdSelfId::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::OpenDroneIdSystem(v) => {
+                (
+                    |p| Message::OpenDroneIdSystem(
+                        super::common::OpenDroneIdSystem::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::OpenDroneIdOperatorId(v) => {
-                Message::OpenDroneIdOperatorId(v.to_message())
+                (
+                    |p| Message::OpenDroneIdOperatorId(
+                        super::common::OpenDroneIdOperatorId::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::OpenDroneIdMessagePack(v) => {
-                Message::OpenDroneIdMessagePack(v.to_message())
+                (
+                    |p| Message::OpenDroneIdMessagePack(
+                        super::common::OpenDroneIdMessagePack::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::OpenDroneIdArmStatus(v) => {
-                Message::OpenDroneIdArmStatus(v.to_message())
+                (
+                    |p| Message::OpenDroneIdArmStatus(
+                        super::common::OpenDroneIdArmStatus::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::OpenDroneIdSystemUpdate(v) => {
-                Message::OpenDroneIdSystemUpdate(v.to_message())
+                (
+                    |p| Message::OpenDroneIdSystemUpdate(
+                        super::common::OpenDroneIdSystemUpdate::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::HygrometerSensor(v) => Message::HygrometerSensor(v.to_message()),
-            Self::FbwagNotice(v) => Message::FbwagNotice(v.to_message()),
-            Self::IcarousHeartbeat(v) => Message::IcarousHeartbeat(v.to_message()),
+            Self::HygrometerSensor(v) => {
+                (
+                    |p| Message::HygrometerSensor(
+                        super::common::HygrometerSensor::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+            Self::FbwagNotice(v) => {
+                (|p| Message::FbwagNotice(FbwagNotice::parse(p)), v.as_bytes())
+            }
+            Self::IcarousHeartbeat(v) => {
+                (
+                    |p| Message::IcarousHeartbeat(
+                        super::icarous::IcarousHeartbeat::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::IcarousKinematicBands(v) => {
-                Message::IcarousKinematicBands(v.to_message())
+                (
+                    |p| Message::IcarousKinematicBands(
+                        super::icarous::IcarousKinematicBands::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::CubepilotRawRc(v) => Message::CubepilotRawRc(v.to_message()),
+            Self::CubepilotRawRc(v) => {
+                (
+                    |p| Message::CubepilotRawRc(
+                        super::cubepilot::CubepilotRawRc::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::HerelinkVideoStreamInformation(v) => {
-                Message::HerelinkVideoStreamInformation(v.to_message())
+                (
+                    |p| Message::HerelinkVideoStreamInformation(
+                        super::cubepilot::HerelinkVideoStreamInformation::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::HerelinkTelem(v) => Message::HerelinkTelem(v.to_message()),
+            Self::HerelinkTelem(v) => {
+                (
+                    |p| Message::HerelinkTelem(
+                        super::cubepilot::HerelinkTelem::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
             Self::CubepilotFirmwareUpdateStart(v) => {
-                Message::CubepilotFirmwareUpdateStart(v.to_message())
+                (
+                    |p| Message::CubepilotFirmwareUpdateStart(
+                        super::cubepilot::CubepilotFirmwareUpdateStart::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
             Self::CubepilotFirmwareUpdateResp(v) => {
-                Message::CubepilotFirmwareUpdateResp(v.to_message())
+                (
+                    |p| Message::CubepilotFirmwareUpdateResp(
+                        super::cubepilot::CubepilotFirmwareUpdateResp::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
             }
-            Self::AirlinkAuth(v) => Message::AirlinkAuth(v.to_message()),
-            Self::AirlinkAuthResponse(v) => Message::AirlinkAuthResponse(v.to_message()),
-        }
+            Self::AirlinkAuth(v) => {
+                (
+                    |p| Message::AirlinkAuth(super::csairlink::AirlinkAuth::parse(p)),
+                    v.as_bytes(),
+                )
+            }
+            Self::AirlinkAuthResponse(v) => {
+                (
+                    |p| Message::AirlinkAuthResponse(
+                        super::csairlink::AirlinkAuthResponse::parse(p),
+                    ),
+                    v.as_bytes(),
+                )
+            }
+        };
+        parse(payload)
     }
 }
 

@@ -1048,13 +1048,12 @@ impl Message {
     /// Reads the payload of message `id`; `None` when the dialect
     /// does not know `id`.
     pub fn parse(id: u32, payload: &[u8]) -> Option<Self> {
-        Some(
-            match id {
-                42 => Self::SnapAllTypes(SnapAllTypes::parse(payload)),
-                16777215 => Self::SnapMaxId(SnapMaxId::parse(payload)),
-                _ => return None,
-            },
-        )
+        let parse: fn(&[u8]) -> Self = match id {
+            42 => |p| Self::SnapAllTypes(SnapAllTypes::parse(p)),
+            16777215 => |p| Self::SnapMaxId(SnapMaxId::parse(p)),
+            _ => return None,
+        };
+        Some(parse(payload))
     }
 
     /// The message's table row.
@@ -1124,10 +1123,16 @@ impl<'a> MessageView<'a> {
 
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
-        match self {
-            Self::SnapAllTypes(v) => Message::SnapAllTypes(v.to_message()),
-            Self::SnapMaxId(v) => Message::SnapMaxId(v.to_message()),
-        }
+        type Parse = fn(&[u8]) -> Message;
+        let (parse, payload): (Parse, &[u8]) = match self {
+            Self::SnapAllTypes(v) => {
+                (|p| Message::SnapAllTypes(SnapAllTypes::parse(p)), v.as_bytes())
+            }
+            Self::SnapMaxId(v) => {
+                (|p| Message::SnapMaxId(SnapMaxId::parse(p)), v.as_bytes())
+            }
+        };
+        parse(payload)
     }
 }
 

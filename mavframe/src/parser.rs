@@ -820,6 +820,7 @@ struct Rejected {
     bad_crc: u64,
     bad_flags: u64,
     unpaid: u64,
+    unconfirmed: u64,
 }
 
 /// Why [`reject_run`] rejects a candidate alone.
@@ -829,6 +830,9 @@ enum Why {
     /// A whole signed frame of an unknown id whose signature the budget
     /// cannot pay for (see the module docs): it cannot be authenticated.
     Unpaid,
+    /// A whole frame of an unknown id that nothing can confirm: no
+    /// signature to check, and the byte after it is not a start byte.
+    Unconfirmed,
 }
 
 impl Rejected {
@@ -836,6 +840,8 @@ impl Rejected {
         match why {
             Why::BadCrc => self.bad_crc += 1,
             Why::Unpaid => self.unpaid += 1,
+            // Counted as dropped bytes only, as `check_raw` does.
+            Why::Unconfirmed => self.unconfirmed += 1,
         }
     }
 
@@ -845,7 +851,8 @@ impl Rejected {
         stats.bad_incompat_flags += self.bad_flags;
         stats.signatures_unchecked += self.unpaid;
         stats.bytes_dropped += dropped as u64;
-        memo.steps += (dropped as u64) + self.bad_crc + self.bad_flags + self.unpaid;
+        memo.steps +=
+            (dropped as u64) + self.bad_crc + self.bad_flags + self.unpaid + self.unconfirmed;
         dropped
     }
 }
@@ -873,10 +880,17 @@ fn reject_masked<D: Dialect>(
         refused,
     } in start_masks(bytes, bytes.len())
     {
+        // The MAVLink 1 frames with a bad checksum, all at once.
+        let (whole, good) = memo.v1_checks::<D>(&bytes[base..], at + base as u64, 0, kinds[0]);
+        let bad_v1 = whole & !good;
         let mut starts = kinds[0] | kinds[1];
         while starts != 0 {
             let j = starts.trailing_zeros();
             starts &= starts - 1;
+            if bad_v1 & (1 << j) != 0 {
+                count.bad_crc += 1;
+                continue;
+            }
             let i = base + j as usize;
             let Some(why) = rejects::<D>(&bytes[i..], at + i as u64, keyed, memo) else {
                 // The refused before it are dropped with it.
@@ -901,12 +915,20 @@ fn rejects<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Op
         None => {
             // As `check_raw` decides first.
             let signed = rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
-            let cost = (w.covered + 3 + crate::frame::SIGNATURE_LEN) as u64 + 26;
-            (keyed
-                && signed
-                && !memo.raw_signature_failed(at)
-                && !memo.raw_signature_affordable(at, cost))
-            .then_some(Why::Unpaid)
+            let len = w.covered
+                + 3
+                + if signed {
+                    crate::frame::SIGNATURE_LEN
+                } else {
+                    0
+                };
+            if !(keyed && signed) {
+                let next = rest.get(len)?;
+                return (*next != STX_V1 && *next != STX_V2).then_some(Why::Unconfirmed);
+            }
+            let cost = len as u64 + 26;
+            (!memo.raw_signature_failed(at) && !memo.raw_signature_affordable(at, cost))
+                .then_some(Why::Unpaid)
         }
     }
 }

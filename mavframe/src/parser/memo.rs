@@ -157,6 +157,8 @@ pub(super) struct Memo {
     /// look-up. A table load instead of the dialect's jump table, whose
     /// indirect branch garbage's random ids keep mispredicting.
     v1_extra: [u16; 256],
+    /// `v1_extra` holds every id.
+    v1_filled: bool,
     /// No state about positions from here on (the frontier, the prefix
     /// states and the last direct checksum all end before): a candidate
     /// there is checked exactly as without a memo.
@@ -260,6 +262,7 @@ impl Memo {
             sig_credit: RAW_SIGNATURE_BURST,
             sig_credit_at: 0,
             v1_extra: [0; 256],
+            v1_filled: false,
             busy_until: 0,
             steps: 0,
             signatures: 0,
@@ -491,8 +494,10 @@ impl Memo {
         // the verdicts of a block are stored at once (a store per position
         // would make each wait for the previous one's).
         for Starts { base, kinds, .. } in start_masks(&bytes[lo..], end - lo) {
-            let (mut good, mut bad) = (0u64, 0u64);
-            for mut starts in kinds {
+            let (whole, mut good) = self.v1_checks::<D>(bytes, at, lo + base, kinds[0]);
+            let mut bad = whole & !good;
+            self.steps += u64::from(whole.count_ones());
+            for mut starts in [kinds[0] & !whole, kinds[1]] {
                 self.steps += u64::from(starts.count_ones());
                 while starts != 0 {
                     let j = starts.trailing_zeros();
@@ -631,6 +636,66 @@ impl Memo {
         self.busy_until = self.direct_end;
     }
 
+    /// Of the MAVLink 1 start bytes `mask` among the 64 positions from
+    /// `bytes[block]` (`bytes[0]` is stream position `at`, no later than
+    /// the current candidate): those whose frame is whole and of a known id
+    /// (`.0`), and of those, the ones whose checksum is good (`.1`). One
+    /// tight loop over prefix states extended once: in garbage dense in
+    /// 0xFE this is the cost of every byte.
+    pub(super) fn v1_checks<D: Dialect>(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        block: usize,
+        mask: u64,
+    ) -> (u64, u64) {
+        if mask == 0 {
+            return (0, 0);
+        }
+        self.fill_v1_extra::<D>();
+        // The farthest a checksum of a frame starting in the block reaches.
+        let far = at + (block + 64 + HEADER_LEN_V1 + 255).min(bytes.len()) as u64;
+        if self.prefix_end <= at || far > self.prefix_end {
+            self.extend_prefix(bytes, at, far);
+        }
+        let (mut whole, mut good) = (0u64, 0u64);
+        let mut m = mask;
+        while m != 0 {
+            let j = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let rel = block + j;
+            let (Some(&len), Some(&id)) = (bytes.get(rel + 1), bytes.get(rel + 5)) else {
+                continue;
+            };
+            let covered = HEADER_LEN_V1 - 1 + usize::from(len);
+            let extra = self.v1_extra[usize::from(id)];
+            let Some(carried) = bytes.get(rel + 1 + covered..rel + 3 + covered) else {
+                continue;
+            };
+            if extra & 0x100 == 0 {
+                continue;
+            }
+            let start = at + (rel + 1) as u64;
+            let before = self.prefix[slot_of(start, PREFIX_MASK)];
+            let after = self.prefix[slot_of(start + covered as u64, PREFIX_MASK)];
+            let ok = crc::between_extra(before, after, covered, extra as u8)
+                == Some(u16::from_le_bytes([carried[0], carried[1]]));
+            whole |= 1 << j;
+            good |= u64::from(ok) << j;
+        }
+        (whole, good)
+    }
+
+    /// Looks up the CRC_EXTRA of every MAVLink 1 id, once.
+    fn fill_v1_extra<D: Dialect>(&mut self) {
+        if !self.v1_filled {
+            for id in 0..256 {
+                self.crc_extra::<D>(id);
+            }
+            self.v1_filled = true;
+        }
+    }
+
     /// The CRC_EXTRA of message `id`, `None` when the dialect does not know
     /// it.
     #[inline(always)]
@@ -681,15 +746,10 @@ impl Memo {
 pub(super) fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = Starts> + '_ {
     (0..count).step_by(64).map(move |base| {
         let n = (count - base).min(64);
-        let (mut v1, mut v2, mut bad_flags) = (0u64, 0u64, 0u64);
-        for (j, &b) in bytes[base..base + n].iter().enumerate() {
-            v1 |= u64::from(b == STX_V1) << j;
-            v2 |= u64::from(b == STX_V2) << j;
-        }
-        let flags = bytes.get(base + 2..).unwrap_or(&[]);
-        for (j, &f) in flags[..flags.len().min(n)].iter().enumerate() {
-            bad_flags |= u64::from(f & !IFLAG_KNOWN != 0) << j;
-        }
+        let (v1, v2, bad_flags) = match bytes.get(base..base + 64 + 2) {
+            Some(window) if n == 64 => masks_by_words(window),
+            _ => masks_by_bytes(bytes, base, n),
+        };
         // Positions whose header is whole: base + j + 10 <= len.
         let whole = bytes.len().saturating_sub(base + HEADER_LEN_V2 - 1);
         let whole = if whole >= 64 { !0 } else { (1u64 << whole) - 1 };
@@ -700,6 +760,55 @@ pub(super) fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = St
             refused,
         }
     })
+}
+
+/// [`start_masks`]' (0xFE, 0xFD, flags other than known) of the 64
+/// positions at the start of `window` (66 bytes: the flags of the last two
+/// are after them), eight bytes at a time in a `u64` (no branch, no vector
+/// unit needed: the same on every target).
+fn masks_by_words(window: &[u8]) -> (u64, u64, u64) {
+    let word = |i: usize| {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(&window[i..i + 8]);
+        u64::from_le_bytes(w)
+    };
+    let (mut v1, mut v2, mut bad_flags) = (0u64, 0u64, 0u64);
+    for k in 0..8 {
+        let (w, f) = (word(8 * k), word(8 * k + 2));
+        v1 |= u64::from(zero_bytes(w ^ (EACH_BYTE * u64::from(STX_V1)))) << (8 * k);
+        v2 |= u64::from(zero_bytes(w ^ (EACH_BYTE * u64::from(STX_V2)))) << (8 * k);
+        let unknown = f & (EACH_BYTE * u64::from(!IFLAG_KNOWN));
+        bad_flags |= u64::from(!zero_bytes(unknown)) << (8 * k);
+    }
+    (v1, v2, bad_flags)
+}
+
+/// The same, a byte at a time: for the last, shorter blocks.
+fn masks_by_bytes(bytes: &[u8], base: usize, n: usize) -> (u64, u64, u64) {
+    let (mut v1, mut v2, mut bad_flags) = (0u64, 0u64, 0u64);
+    for (j, &b) in bytes[base..base + n].iter().enumerate() {
+        v1 |= u64::from(b == STX_V1) << j;
+        v2 |= u64::from(b == STX_V2) << j;
+    }
+    let flags = bytes.get(base + 2..).unwrap_or(&[]);
+    for (j, &f) in flags[..flags.len().min(n)].iter().enumerate() {
+        bad_flags |= u64::from(f & !IFLAG_KNOWN != 0) << j;
+    }
+    (v1, v2, bad_flags)
+}
+
+const EACH_BYTE: u64 = 0x0101_0101_0101_0101;
+const HIGH_BITS: u64 = 0x8080_8080_8080_8080;
+
+/// Bit `i`: byte `i` of `w` is zero. Exact (no carry crosses bytes: each
+/// byte's low seven bits are added to 0x7F alone), then the eight high bits
+/// gathered by one multiplication (each lands on its own bit of the top
+/// byte, no two products overlap).
+#[inline(always)]
+fn zero_bytes(w: u64) -> u8 {
+    let nonzero = ((w & !HIGH_BITS) + !HIGH_BITS) | w;
+    let zero = !nonzero & HIGH_BITS;
+    ((zero >> 7).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u8
 }
 
 /// The start bytes of 64 positions from `bytes[base]` (bit `j`: position
@@ -720,6 +829,38 @@ fn needed_at(bytes: &[u8], rel: usize) -> usize {
         Some(Ok(n)) | Some(Err(FrameError::Incomplete { needed: n })) => rel + n,
         // Not undecided: cannot happen. More than is held keeps it waiting.
         _ => bytes.len() + 1,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn masks_by_words_equal_masks_by_bytes() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for round in 0..2000 {
+            let window: [u8; 66] = core::array::from_fn(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                // Mostly start bytes and flags 0/1, some anything.
+                match (x >> 40) % 6 {
+                    0 => STX_V1,
+                    1 => STX_V2,
+                    2 => 0,
+                    3 => 1,
+                    _ => (x >> 48) as u8 ^ round as u8,
+                }
+            });
+            assert_eq!(masks_by_words(&window), masks_by_bytes(&window, 0, 64));
+        }
+        for b in 0..=255u8 {
+            assert_eq!(
+                zero_bytes(u64::from(b) << 24),
+                if b == 0 { 0xFF } else { !(1 << 3) }
+            );
+        }
     }
 }
 

@@ -832,38 +832,6 @@ fn needed_at(bytes: &[u8], rel: usize) -> usize {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn masks_by_words_equal_masks_by_bytes() {
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        for round in 0..2000 {
-            let window: [u8; 66] = core::array::from_fn(|_| {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                // Mostly start bytes and flags 0/1, some anything.
-                match (x >> 40) % 6 {
-                    0 => STX_V1,
-                    1 => STX_V2,
-                    2 => 0,
-                    3 => 1,
-                    _ => (x >> 48) as u8 ^ round as u8,
-                }
-            });
-            assert_eq!(masks_by_words(&window), masks_by_bytes(&window, 0, 64));
-        }
-        for b in 0..=255u8 {
-            assert_eq!(
-                zero_bytes(u64::from(b) << 24),
-                if b == 0 { 0xFF } else { !(1 << 3) }
-            );
-        }
-    }
-}
-
 #[inline(always)]
 fn slot_of(x: u64, mask: u64) -> usize {
     (x & mask) as usize
@@ -922,4 +890,36 @@ fn clear_range(bits: &mut [u64; SCAN_WORDS], from: u64, to: u64) {
 fn test_bit(bits: &[u64; SCAN_WORDS], x: u64) -> bool {
     let s = slot_of(x, SCAN_MASK);
     bits[s / 64] & (1 << (s % 64)) != 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn masks_by_words_equal_masks_by_bytes() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for round in 0..2000 {
+            let window: [u8; 66] = core::array::from_fn(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                // Mostly start bytes and flags 0/1, some anything.
+                match (x >> 40) % 6 {
+                    0 => STX_V1,
+                    1 => STX_V2,
+                    2 => 0,
+                    3 => 1,
+                    _ => (x >> 48) as u8 ^ round as u8,
+                }
+            });
+            assert_eq!(masks_by_words(&window), masks_by_bytes(&window, 0, 64));
+        }
+        for b in 0..=255u8 {
+            assert_eq!(
+                zero_bytes(u64::from(b) << 24),
+                if b == 0 { 0xFF } else { !(1 << 3) }
+            );
+        }
+    }
 }

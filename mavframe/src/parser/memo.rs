@@ -64,6 +64,10 @@ const SCAN_RING: usize = 512;
 const SCAN_MASK: u64 = SCAN_RING as u64 - 1;
 const SCAN_WORDS: usize = SCAN_RING / 64;
 
+/// Bytes from a block's first position that hold every MAVLink 1 frame
+/// starting in the block (64 positions, then at most 6 + 255 + 2 bytes).
+const V1_WINDOW: usize = 64 + HEADER_LEN_V1 + 255 + CHECKSUM_LEN;
+
 /// Positions classified past the end of the candidate asked about.
 const SCAN_AHEAD: usize = 64;
 
@@ -658,6 +662,11 @@ impl Memo {
         if self.prefix_end <= at || far > self.prefix_end {
             self.extend_prefix(bytes, at, far);
         }
+        // Every frame of the block whole in `bytes`: no bound to check.
+        if let Some(window) = bytes.get(block..block + V1_WINDOW) {
+            let window: &[u8; V1_WINDOW] = window.try_into().unwrap_or(&[0; V1_WINDOW]);
+            return self.v1_checks_whole(window, at + block as u64, mask);
+        }
         let (mut whole, mut good) = (0u64, 0u64);
         let mut m = mask;
         while m != 0 {
@@ -682,6 +691,30 @@ impl Memo {
                 == Some(u16::from_le_bytes([carried[0], carried[1]]));
             whole |= 1 << j;
             good |= u64::from(ok) << j;
+        }
+        (whole, good)
+    }
+
+    /// [`v1_checks`](Self::v1_checks) of a block whose every MAVLink 1
+    /// frame is whole in `window` (stream position `first` on).
+    #[inline(always)]
+    fn v1_checks_whole(&mut self, window: &[u8; V1_WINDOW], first: u64, mask: u64) -> (u64, u64) {
+        let (mut whole, mut good) = (0u64, 0u64);
+        let mut m = mask;
+        while m != 0 {
+            let j = (m.trailing_zeros() & 63) as usize;
+            m &= m - 1;
+            let len = usize::from(window[j + 1]);
+            let extra = self.v1_extra[usize::from(window[j + 5])];
+            let covered = HEADER_LEN_V1 - 1 + len;
+            let carried = u16::from_le_bytes([window[j + 1 + covered], window[j + 2 + covered]]);
+            let start = first + j as u64 + 1;
+            let before = self.prefix[slot_of(start, PREFIX_MASK)];
+            let after = self.prefix[slot_of(start + covered as u64, PREFIX_MASK)];
+            let ok = crc::between_extra(before, after, covered, extra as u8) == Some(carried);
+            let known = u64::from(extra >> 8 & 1);
+            whole |= known << j;
+            good |= (u64::from(ok) & known) << j;
         }
         (whole, good)
     }
@@ -747,8 +780,13 @@ pub(super) fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = St
     (0..count).step_by(64).map(move |base| {
         let n = (count - base).min(64);
         let (v1, v2, bad_flags) = match bytes.get(base..base + 64 + 2) {
-            Some(window) if n == 64 => masks_by_words(window),
-            _ => masks_by_bytes(bytes, base, n),
+            Some(window) => {
+                // (A short block, the last of a scan, where bytes follow.)
+                let first_n = u64::MAX >> (64 - n);
+                let (v1, v2, bad_flags) = masks_by_words(window);
+                (v1 & first_n, v2 & first_n, bad_flags & first_n)
+            }
+            None => masks_by_bytes(bytes, base, n),
         };
         // Positions whose header is whole: base + j + 10 <= len.
         let whole = bytes.len().saturating_sub(base + HEADER_LEN_V2 - 1);

@@ -36,6 +36,14 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         ],
         false,
     ),
+    (
+        "found_c",
+        &[
+            0xfe, 0x03, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe,
+            0x00, 0xfe, 0xfe,
+        ],
+        false,
+    ),
 ];
 
 /// Deterministic pseudo-random bytes (xorshift).

@@ -880,9 +880,9 @@ fn reject_masked<D: Dialect>(
         refused,
     } in start_masks(bytes, bytes.len())
     {
-        // The MAVLink 1 frames with a bad checksum, all at once.
-        let (whole, good) = memo.v1_checks::<D>(&bytes[base..], at + base as u64, 0, kinds[0]);
-        let bad_v1 = whole & !good;
+        // The MAVLink 1 frames with a bad checksum, all at once (each
+        // position checked once, however many runs pass over it).
+        let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0]);
         let mut starts = kinds[0] | kinds[1];
         while starts != 0 {
             let j = starts.trailing_zeros();

@@ -163,6 +163,10 @@ pub(super) struct Memo {
     v1_extra: [u16; 256],
     /// `v1_extra` holds every id.
     v1_filled: bool,
+    /// MAVLink 1 frames with a bad checksum (bit ring), at the positions
+    /// before `v1_frontier` ([`Memo::v1_bad_crc`]).
+    v1_bad: [u64; SCAN_WORDS],
+    v1_frontier: u64,
     /// No state about positions from here on (the frontier, the prefix
     /// states and the last direct checksum all end before): a candidate
     /// there is checked exactly as without a memo.
@@ -267,6 +271,8 @@ impl Memo {
             sig_credit_at: 0,
             v1_extra: [0; 256],
             v1_filled: false,
+            v1_bad: [0; SCAN_WORDS],
+            v1_frontier: 0,
             busy_until: 0,
             steps: 0,
             signatures: 0,
@@ -635,6 +641,7 @@ impl Memo {
         }
         (self.woken, self.last_wake) = (pos, pos);
         (self.frontier, self.scanned_from) = (pos, pos);
+        self.v1_frontier = self.v1_frontier.min(pos);
         (self.prefix_end, self.direct_end) = (0, self.direct_end.max(pos));
         (self.good_candidate, self.raw_signature_failed) = (0, 0);
         self.busy_until = self.direct_end;
@@ -717,6 +724,30 @@ impl Memo {
             good |= (u64::from(ok) & known) << j;
         }
         (whole, good)
+    }
+
+    /// Of the MAVLink 1 start bytes `mask` among the 64 positions from
+    /// `bytes[0]` (stream position `at`, no later than the current
+    /// candidate): those whose frame is whole, of a known id, with a bad
+    /// checksum. Each position is checked once
+    /// ([`v1_checks`](Self::v1_checks), remembered in a bit ring up to a
+    /// frontier): the fast rejection loop passes over the same positions
+    /// again each time a candidate it cannot reject alone interrupts it.
+    pub(super) fn v1_bad_crc<D: Dialect>(&mut self, bytes: &[u8], at: u64, mask: u64) -> u64 {
+        let end = at + 64.min(bytes.len()) as u64;
+        if self.v1_frontier < at {
+            self.v1_frontier = at;
+        }
+        if self.v1_frontier < end {
+            let from = self.v1_frontier;
+            let fresh = mask & (u64::MAX << (from - at));
+            let (whole, good) = self.v1_checks::<D>(bytes, at, 0, fresh);
+            self.steps += u64::from(fresh.count_ones()) + (end - from);
+            clear_range(&mut self.v1_bad, from, end);
+            or_bits(&mut self.v1_bad, at, whole & !good);
+            self.v1_frontier = end;
+        }
+        mask & bits_from(&self.v1_bad, at)
     }
 
     /// Looks up the CRC_EXTRA of every MAVLink 1 id, once.
@@ -888,6 +919,16 @@ fn or_bits(bits: &mut [u64; SCAN_WORDS], from: u64, mask: u64) {
     if bit != 0 {
         bits[(word + 1) % SCAN_WORDS] |= mask >> (64 - bit);
     }
+}
+
+/// The bits of positions `from..from + 64` (bit `j`: position `from + j`).
+fn bits_from(bits: &[u64; SCAN_WORDS], from: u64) -> u64 {
+    let s = slot_of(from, SCAN_MASK);
+    let (word, bit) = (s / 64, s % 64);
+    if bit == 0 {
+        return bits[word];
+    }
+    bits[word] >> bit | bits[(word + 1) % SCAN_WORDS] << (64 - bit)
 }
 
 fn clear_bit(bits: &mut [u64; SCAN_WORDS], x: u64) {

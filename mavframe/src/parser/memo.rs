@@ -103,7 +103,7 @@ enum Class {
     Pending { undecided: bool, wake: u64 },
 }
 
-/// See the module documentation. About 4.4 KiB.
+/// See the module documentation. About 6 KiB.
 pub(super) struct Memo {
     /// `prefix[x % PREFIX_RING]`: the CRC register after the bytes from the
     /// start of the current run of prefix states up to stream position `x`

@@ -55,6 +55,24 @@ fn note_source(last: &mut Option<SocketAddr>, shared: &Option<SharedSource>, fro
     }
 }
 
+/// [`recv_datagram`] for a [`Transport`]: the sender noted, 0 when the time
+/// ran out.
+fn recv_noting_source(
+    socket: &UdpSocket,
+    mode: &mut ReadMode,
+    (last, shared): (&mut Option<SocketAddr>, &Option<SharedSource>),
+    buf: &mut [u8],
+    timeout: Option<Duration>,
+) -> io::Result<usize> {
+    Ok(match recv_datagram(socket, mode, buf, timeout)? {
+        Some((n, from)) => {
+            note_source(last, shared, from);
+            n
+        }
+        None => 0,
+    })
+}
+
 /// Reads a shared last sender.
 pub(crate) fn shared_source(shared: &SharedSource) -> Option<SocketAddr> {
     *shared.lock().unwrap_or_else(PoisonError::into_inner)
@@ -206,15 +224,8 @@ impl Transport for UdpIn {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        Ok(
-            match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
-                Some((n, from)) => {
-                    note_source(&mut self.last_source, &self.shared, from);
-                    n
-                }
-                None => 0,
-            },
-        )
+        let source = (&mut self.last_source, &self.shared);
+        recv_noting_source(&self.socket, &mut self.mode, source, buf, timeout)
     }
 
     fn is_datagram(&self) -> bool {
@@ -297,15 +308,8 @@ impl Transport for UdpOut {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        Ok(
-            match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
-                Some((n, from)) => {
-                    note_source(&mut self.last_source, &self.shared, from);
-                    n
-                }
-                None => 0,
-            },
-        )
+        let source = (&mut self.last_source, &self.shared);
+        recv_noting_source(&self.socket, &mut self.mode, source, buf, timeout)
     }
 
     fn is_datagram(&self) -> bool {
@@ -396,15 +400,8 @@ impl Transport for UdpBcast {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        Ok(
-            match recv_datagram(&self.socket, &mut self.mode, buf, timeout)? {
-                Some((n, from)) => {
-                    note_source(&mut self.last_source, &self.shared, from);
-                    n
-                }
-                None => 0,
-            },
-        )
+        let source = (&mut self.last_source, &self.shared);
+        recv_noting_source(&self.socket, &mut self.mode, source, buf, timeout)
     }
 
     fn is_datagram(&self) -> bool {

@@ -107,7 +107,7 @@ pub const RAW_SIGNATURE_RATE: u64 = 2;
 
 /// Hashed bytes of [`RAW_SIGNATURE_RATE`] saved up at most (and at the
 /// start): eight of the longest signed frames.
-pub const RAW_SIGNATURE_BURST: u64 = 8 * (crate::frame::MAX_FRAME_LEN as u64 + 26);
+pub const RAW_SIGNATURE_BURST: u64 = 8 * raw_signature_cost(crate::frame::MAX_FRAME_LEN);
 
 /// Per-sender sequence tracking.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -913,7 +913,6 @@ fn rejects<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Op
     match memo.crc_extra::<D>(w.id) {
         Some(extra) => (!memo.candidate_crc_ok(rest, at, &w, extra)).then_some(Why::BadCrc),
         None => {
-            // As `check_raw` decides first.
             let signed = rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
             let len = w.covered
                 + 3
@@ -922,15 +921,37 @@ fn rejects<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Op
                 } else {
                     0
                 };
-            if !(keyed && signed) {
-                let next = rest.get(len)?;
-                return (*next != STX_V1 && *next != STX_V2).then_some(Why::Unconfirmed);
-            }
-            let cost = len as u64 + 26;
-            (!memo.raw_signature_failed(at) && !memo.raw_signature_affordable(at, cost))
-                .then_some(Why::Unpaid)
+            raw_refused_alone(rest, len, keyed && signed, at, memo)
         }
     }
+}
+
+/// What `check_raw` decides of a whole candidate of an unknown id (`len`
+/// bytes at the start of `bytes`, at stream position `at`) before looking
+/// inside it, if anything: refused when nothing can confirm it (no
+/// signature to check, and the byte after it is not a start byte), or when
+/// its signature (`checked`: signed, and a key to check it) is one the
+/// budget cannot pay for. `None` also when the byte after it is not there.
+#[inline(always)]
+fn raw_refused_alone(
+    bytes: &[u8],
+    len: usize,
+    checked: bool,
+    at: u64,
+    memo: &mut Memo,
+) -> Option<Why> {
+    if !checked {
+        let next = bytes.get(len)?;
+        return (*next != STX_V1 && *next != STX_V2).then_some(Why::Unconfirmed);
+    }
+    (!memo.raw_signature_failed(at) && !memo.raw_signature_affordable(at, raw_signature_cost(len)))
+        .then_some(Why::Unpaid)
+}
+
+/// Bytes a signed frame of `len` bytes makes SHA-256 hash: the 32-byte key,
+/// and the frame less the 6 signature bytes.
+const fn raw_signature_cost(len: usize) -> u64 {
+    len as u64 + 32 - 6
 }
 
 /// What a candidate check needs besides its bytes.
@@ -1040,21 +1061,16 @@ fn check_raw<D: Dialect, const N: usize>(
 ) -> Option<Verdict> {
     let len = frame.as_bytes().len();
     let checked = frame.is_signed() && cx.verifier.is_some();
-    if !checked && bytes.get(len).is_some_and(|&b| b != STX_V1 && b != STX_V2) {
-        // Not confirmed, and nothing can confirm it (no signature to
-        // check): rejected whatever is inside (before, a position inside
-        // still undecided made it wait first). Most garbage ends here.
-        return Some(Verdict::Reject);
-    }
-    let cost = len as u64 + 26;
-    if checked
-        && !cx.memo.raw_signature_failed(cx.at)
-        && !cx.memo.raw_signature_affordable(cx.at, cost)
-    {
-        // It cannot be authenticated, so it is refused whatever is inside:
-        // no search (which would cost what the budget spares).
-        cx.stats.signatures_unchecked += 1;
-        return Some(Verdict::Reject);
+    // Refused whatever is inside: not confirmed and nothing can confirm it
+    // (most garbage ends here), or it cannot be authenticated (no search,
+    // which would cost what the budget spares).
+    match raw_refused_alone(bytes, len, checked, cx.at, cx.memo) {
+        Some(Why::Unpaid) => {
+            cx.stats.signatures_unchecked += 1;
+            return Some(Verdict::Reject);
+        }
+        Some(_) => return Some(Verdict::Reject),
+        None => {}
     }
     match cx.memo.inside::<D>(bytes, cx.at, len) {
         Inside::Yes => return Some(Verdict::Reject),
@@ -1068,7 +1084,7 @@ fn check_raw<D: Dialect, const N: usize>(
         && match cx.verifier.as_mut() {
             Some(v) => {
                 // Affordable (above), and nothing was spent since.
-                cx.memo.spend_on_raw_signature(cost);
+                cx.memo.spend_on_raw_signature(raw_signature_cost(len));
                 cx.memo.signatures += 1;
                 let ok = v.verify(frame).is_ok();
                 if !ok {

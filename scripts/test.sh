@@ -89,13 +89,26 @@ cargo build -p fbwag-delegation --no-default-features --locked
 # --allow-dirty: package the working tree as it is (a clean clone is clean).
 PUBLISHED=(-p mavframe -p mavgen-rs -p fbwag-dialect -p fbwag-dialect-cc -p fbwag-delegation -p fbwag-cli)
 step "cargo package: ${PUBLISHED[*]}"
-cargo package --locked --allow-dirty "${PUBLISHED[@]}"
+# The verification resolves the packaged crates as registry crates, which
+# cargo takes as immutable per version: it reuses their unpacked copies in
+# $CARGO_HOME/registry/src/<overlay>/ and what it compiled from them, so a
+# second run from the same checkout would verify against the first run's
+# code (same version, other code). So: those copies removed (the names are
+# not on crates.io: nothing else lives there), and a target directory of
+# its own, emptied first.
+PACKAGED=target/package-verify
+rm -rf "$PACKAGED"
+for crate in mavframe mavgen-rs fbwag-dialect fbwag-dialect-cc fbwag-delegation fbwag-cli; do
+    version="$(cargo pkgid -p "$crate" | sed 's/.*[#@]//')"
+    rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/"$crate-$version"
+done
+cargo package --locked --allow-dirty --target-dir "$PACKAGED" "${PUBLISHED[@]}"
 
 # The verification builds default features only; `codegen` reads the XML
 # the package carries (message_definitions/, symbolic links in the
 # repository): generate from the packaged copy, against the packaged crates.
 step "packaged fbwag-dialect with feature codegen (its own message_definitions)"
-packaged() { echo "target/package/$1-$(cargo pkgid -p "$1" | sed 's/.*[#@]//')"; }
+packaged() { echo "$PACKAGED/package/$1-$(cargo pkgid -p "$1" | sed 's/.*[#@]//')"; }
 cargo build --manifest-path "$(packaged fbwag-dialect)/Cargo.toml" --features codegen \
     --config "patch.crates-io.mavframe.path=\"$(packaged mavframe)\"" \
     --config "patch.crates-io.mavgen-rs.path=\"$(packaged mavgen-rs)\"" \

@@ -5,9 +5,10 @@
 //! cargo run --release -p benches --example parser_worst -- measure [CHUNK]
 //! cargo run --release -p benches --example parser_worst -- search steps|time [keyed] [SECONDS] [SEED]
 //! cargo run --release -p benches --example parser_worst -- mix [keyed] [SECONDS] [SEED]
+//! cargo run --release -p benches --example parser_worst -- pattern HEX [CHUNK]
 //! ```
 //!
-//! `measure` prints, per input: MB/s (best of 5, in CPU time: the time the
+//! `measure` prints, per input: MB/s (best of 3 runs of 0.3 s, in CPU time: the time the
 //! thread ran, so that waiting for a shared core does not count), the parser's work steps
 //! and signature checks per byte ([`Parser::work`]). `search` climbs from
 //! random and hand-made patterns (1–48 bytes, biased to start bytes and
@@ -27,8 +28,12 @@ use std::time::Instant;
 /// Bytes of pattern pushed per evaluation.
 const EVAL_LEN: usize = 32 * 1024;
 
-/// CPU seconds of one timed run.
+/// CPU seconds of one timed run: `search`'s many evaluations...
 const MIN_RUN: f64 = 0.04;
+
+/// ...and `measure`'s figures (the clock may tick every few ms: a run of
+/// 40 ms reads it to within 10 %).
+const MEASURE_RUN: f64 = 0.3;
 
 struct Rng(u64);
 impl Rng {
@@ -70,12 +75,17 @@ fn cpu_time() -> f64 {
 /// (steps per byte, signatures per byte, CPU ns per byte, best of `runs`)
 /// of `bytes`.
 fn cost(bytes: &[u8], keyed: bool, chunk: usize, runs: usize) -> (f64, f64, f64) {
+    cost_for(bytes, keyed, chunk, runs, MIN_RUN)
+}
+
+/// [`cost`] with timed runs of at least `min_run` CPU seconds.
+fn cost_for(bytes: &[u8], keyed: bool, chunk: usize, runs: usize, min_run: f64) -> (f64, f64, f64) {
     let mut best = f64::MAX;
     let mut work = Default::default();
     for _ in 0..runs {
         // Whole passes until the clock (ticks of a few ms) has moved well.
         let (t, mut passes) = (cpu_time(), 0u32);
-        while passes == 0 || cpu_time() - t < MIN_RUN {
+        while passes == 0 || cpu_time() - t < min_run {
             let mut p = worst::parser(keyed);
             std::hint::black_box(worst::parse(&mut p, bytes, chunk));
             work = p.work();
@@ -254,6 +264,14 @@ fn search_mix(keyed: bool, seconds: f64, seed: u64) {
     }
 }
 
+/// The bytes of a hex string (pairs of digits; anything else is an error).
+fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len() / 2)
+        .map(|i| u8::from_str_radix(&s[2 * i..2 * i + 2], 16))
+        .collect::<Result<_, _>>()
+        .unwrap_or_else(|e| panic!("pattern {s:?} is not hex: {e}"))
+}
+
 fn hex(p: &[u8]) -> String {
     p.iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -269,7 +287,7 @@ fn measure(chunk: usize) {
     );
     for (name, bytes, keyed) in worst::inputs() {
         for keyed in [keyed, true] {
-            let (steps, sigs, ns) = cost(&bytes, keyed, chunk, 5);
+            let (steps, sigs, ns) = cost_for(&bytes, keyed, chunk, 3, MEASURE_RUN);
             let policy = if keyed { "keyed" } else { "nokey" };
             println!(
                 "{:<28} {:9.1} {steps:8.2} {sigs:8.4}",
@@ -301,14 +319,36 @@ fn main() {
                 nums.get(1).copied().unwrap_or(1.0) as u64,
             );
         }
+        Some("pattern") => {
+            // One repeating pattern given in hex, with and without a key.
+            let p = unhex(arg(1).unwrap_or("fe"));
+            let bytes = worst::repeat(&p, worst::INPUT_LEN);
+            let chunk = arg(2).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK);
+            for keyed in [false, true] {
+                let (steps, sigs, ns) = cost_for(&bytes, keyed, chunk, 3, MEASURE_RUN);
+                let policy = if keyed { "keyed" } else { "nokey" };
+                println!(
+                    "{:<28} {:9.1} {steps:8.2} {sigs:8.4}",
+                    format!("{}/{policy}", hex(&p)),
+                    1e3 / ns
+                );
+            }
+        }
         Some("one") => {
             // One input, many times: for a profiler.
+            // (An input's name, or `hex:` and a pattern.)
             let name = arg(1).unwrap_or("issue_pattern");
             let keyed = args.iter().any(|a| a == "keyed");
-            let (_, bytes, _) = worst::inputs()
-                .into_iter()
-                .find(|(n, _, _)| n == name)
-                .unwrap_or_else(|| panic!("no input {name}"));
+            let bytes = match name.strip_prefix("hex:") {
+                Some(p) => worst::repeat(&unhex(p), worst::INPUT_LEN),
+                None => {
+                    worst::inputs()
+                        .into_iter()
+                        .find(|(n, _, _)| n == name)
+                        .unwrap_or_else(|| panic!("no input {name}"))
+                        .1
+                }
+            };
             let passes = args
                 .iter()
                 .find_map(|a| a.strip_prefix("passes=")?.parse().ok())

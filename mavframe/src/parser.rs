@@ -572,9 +572,27 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 authenticated,
             } => return Held::Found(Found::InBuf(len, meta, authenticated)),
             Verdict::Skip(len) => self.drop_front(len),
-            Verdict::Reject => self.drop_front(1),
+            Verdict::Reject => {
+                self.drop_front(1);
+                self.reject_run_held();
+            }
         }
         Held::Next
+    }
+
+    /// After a rejection with bytes held: [`reject_run`] over them, as on
+    /// the input (garbage dense in start bytes can keep a parser in its
+    /// buffer for as long as it returns a frame every few bytes).
+    fn reject_run_held(&mut self) {
+        if self.len == 0 {
+            return;
+        }
+        let held = &self.buf[self.head..self.head + self.len];
+        let keyed = self.verifier.is_some();
+        let n = reject_run::<D>(held, self.pos, keyed, &mut self.memo, &mut self.stats);
+        if n > 0 {
+            self.consume_held(n);
+        }
     }
 
     /// The input holds no start byte: all dropped.
@@ -782,18 +800,27 @@ fn reject_run<D: Dialect>(
     stats: &mut Stats,
 ) -> usize {
     let mut count = Rejected::default();
+    if memo.dense_starts {
+        // The last run proved the start bytes dense: masks at once, while
+        // they stay dense.
+        let i = reject_masked::<D>(bytes, at, keyed, memo, &mut count);
+        memo.dense_starts = count.rejected() * DENSE as u64 >= i as u64;
+        return count.record(i, memo, stats);
+    }
     // One by one, the way through sparse start bytes (random bytes: a
     // search for the next start byte, rarely more than one candidate); by
     // masks of 64 positions once the start bytes prove dense.
     let mut i = 0;
     for n in 1.. {
         if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN {
+            memo.dense_starts = true;
             let i = i + reject_masked::<D>(&bytes[i..], at + i as u64, keyed, memo, &mut count);
             return count.record(i, memo, stats);
         }
         let rest = &bytes[i..];
         match rest.first() {
             Some(&STX_V2) if refused(rest) => count.bad_flags += 1,
+            Some(&STX_V1) if memo.v1_known_bad(at + i as u64) => count.bad_crc += 1,
             Some(_) => match rejects::<D>(rest, at + i as u64, keyed, memo) {
                 Some(why) => count.add(why),
                 None => break,
@@ -836,6 +863,11 @@ enum Why {
 }
 
 impl Rejected {
+    /// The candidates rejected.
+    fn rejected(&self) -> u64 {
+        self.bad_crc + self.bad_flags + self.unpaid + self.unconfirmed
+    }
+
     fn add(&mut self, why: Why) {
         match why {
             Why::BadCrc => self.bad_crc += 1,
@@ -851,8 +883,7 @@ impl Rejected {
         stats.bad_incompat_flags += self.bad_flags;
         stats.signatures_unchecked += self.unpaid;
         stats.bytes_dropped += dropped as u64;
-        memo.steps +=
-            (dropped as u64) + self.bad_crc + self.bad_flags + self.unpaid + self.unconfirmed;
+        memo.steps += (dropped as u64) + self.rejected();
         dropped
     }
 }

@@ -163,10 +163,17 @@ pub(super) struct Memo {
     v1_extra: [u16; 256],
     /// `v1_extra` holds every id.
     v1_filled: bool,
-    /// MAVLink 1 frames with a bad checksum (bit ring), at the positions
-    /// before `v1_frontier` ([`Memo::v1_bad_crc`]).
-    v1_bad: [u64; SCAN_WORDS],
+    /// MAVLink 1 start bytes whose frame was whole and of a known id (bit
+    /// ring), and of those the ones with a good checksum, at the positions
+    /// from `v1_from` to `v1_frontier` ([`Memo::v1_verdicts`]): the scan and
+    /// the fast rejection loop ask about the same positions.
+    v1_whole: [u64; SCAN_WORDS],
+    v1_good: [u64; SCAN_WORDS],
+    v1_from: u64,
     v1_frontier: u64,
+    /// The fast rejection loop's last run found start bytes dense (fewer
+    /// than its `DENSE` bytes apart): the next one goes by masks at once.
+    pub(super) dense_starts: bool,
     /// No state about positions from here on (the frontier, the prefix
     /// states and the last direct checksum all end before): a candidate
     /// there is checked exactly as without a memo.
@@ -271,9 +278,12 @@ impl Memo {
             sig_credit_at: 0,
             v1_extra: [0; 256],
             v1_filled: false,
-            v1_bad: [0; SCAN_WORDS],
+            v1_whole: [0; SCAN_WORDS],
+            v1_good: [0; SCAN_WORDS],
+            v1_from: 0,
             v1_frontier: 0,
             busy_until: 0,
+            dense_starts: false,
             steps: 0,
             signatures: 0,
         }
@@ -504,7 +514,8 @@ impl Memo {
         // the verdicts of a block are stored at once (a store per position
         // would make each wait for the previous one's).
         for Starts { base, kinds, .. } in start_masks(&bytes[lo..], end - lo) {
-            let (whole, mut good) = self.v1_checks::<D>(bytes, at, lo + base, kinds[0]);
+            let n = end - lo - base;
+            let (whole, mut good) = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
             let mut bad = whole & !good;
             self.steps += u64::from(whole.count_ones());
             for mut starts in [kinds[0] & !whole, kinds[1]] {
@@ -726,28 +737,72 @@ impl Memo {
         (whole, good)
     }
 
+    /// [`v1_checks`](Self::v1_checks), each position checked once: the
+    /// verdicts are remembered in bit rings up to a frontier (the scan and
+    /// the fast rejection loop pass over the same positions, the loop again
+    /// each time a candidate it cannot reject alone interrupts it). A
+    /// position whose frame was not whole when checked stays "not whole":
+    /// callers check those on their own. `mask` holds every start byte of
+    /// the first `n` positions of the block (`n` ≤ 64).
+    pub(super) fn v1_verdicts<D: Dialect>(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        block: usize,
+        (mask, n): (u64, usize),
+    ) -> (u64, u64) {
+        let first = at + block as u64;
+        let end = first + n.min(64) as u64;
+        // The positions of the block already checked.
+        let (lo, hi) = (self.v1_from.max(first), self.v1_frontier.min(end));
+        let known = if lo < hi {
+            span_mask(lo - first, hi - first)
+        } else {
+            0
+        };
+        let fresh = mask & !known;
+        let (whole, good) = self.v1_checks::<D>(bytes, at, block, fresh);
+        self.steps += u64::from(fresh.count_ones());
+        if self.v1_frontier < first || self.v1_from > self.v1_frontier {
+            // Nothing remembered reaches the block: start again from it.
+            (self.v1_from, self.v1_frontier) = (first, first);
+        }
+        if first >= self.v1_from && first <= self.v1_frontier && end > self.v1_frontier {
+            let from = self.v1_frontier;
+            let above = !span_mask(0, from - first);
+            clear_range(&mut self.v1_whole, from, end);
+            clear_range(&mut self.v1_good, from, end);
+            or_bits(&mut self.v1_whole, first, whole & above);
+            or_bits(&mut self.v1_good, first, good & above);
+            self.steps += end - from;
+            self.v1_frontier = end;
+            self.v1_from = self.v1_from.max(end.saturating_sub(SCAN_RING as u64));
+        }
+        (
+            (whole | bits_from(&self.v1_whole, first) & known) & mask,
+            (good | bits_from(&self.v1_good, first) & known) & mask,
+        )
+    }
+
     /// Of the MAVLink 1 start bytes `mask` among the 64 positions from
     /// `bytes[0]` (stream position `at`, no later than the current
-    /// candidate): those whose frame is whole, of a known id, with a bad
-    /// checksum. Each position is checked once
-    /// ([`v1_checks`](Self::v1_checks), remembered in a bit ring up to a
-    /// frontier): the fast rejection loop passes over the same positions
-    /// again each time a candidate it cannot reject alone interrupts it.
+    /// candidate; all of them when `bytes` is shorter): those whose frame
+    /// is whole, of a known id, with a bad checksum.
     pub(super) fn v1_bad_crc<D: Dialect>(&mut self, bytes: &[u8], at: u64, mask: u64) -> u64 {
-        let end = at + 64.min(bytes.len()) as u64;
-        if self.v1_frontier < at {
-            self.v1_frontier = at;
-        }
-        if self.v1_frontier < end {
-            let from = self.v1_frontier;
-            let fresh = mask & (u64::MAX << (from - at));
-            let (whole, good) = self.v1_checks::<D>(bytes, at, 0, fresh);
-            self.steps += u64::from(fresh.count_ones()) + (end - from);
-            clear_range(&mut self.v1_bad, from, end);
-            or_bits(&mut self.v1_bad, at, whole & !good);
-            self.v1_frontier = end;
-        }
-        mask & bits_from(&self.v1_bad, at)
+        let (whole, good) = self.v1_verdicts::<D>(bytes, at, 0, (mask, bytes.len()));
+        whole & !good
+    }
+
+    /// Whether [`v1_verdicts`](Self::v1_verdicts) found the MAVLink 1
+    /// candidate at `at` whole, of a known id, with a bad checksum (false
+    /// also when it has not looked there): the fast rejection loop's
+    /// candidates before it goes by masks were often checked already.
+    #[inline(always)]
+    pub(super) fn v1_known_bad(&self, at: u64) -> bool {
+        at >= self.v1_from
+            && at < self.v1_frontier
+            && test_bit(&self.v1_whole, at)
+            && !test_bit(&self.v1_good, at)
     }
 
     /// Looks up the CRC_EXTRA of every MAVLink 1 id, once.
@@ -951,6 +1006,17 @@ fn first_set(bits: &[u64; SCAN_WORDS], from: u64, to: u64) -> Option<u64> {
         x += 64 - (s % 64) as u64;
     }
     None
+}
+
+/// The bits `from..to` of a `u64` (`from <= to <= 64`).
+#[inline(always)]
+fn span_mask(from: u64, to: u64) -> u64 {
+    let ones = if to - from >= 64 {
+        !0
+    } else {
+        (1u64 << (to - from)) - 1
+    };
+    ones.checked_shl(from as u32).unwrap_or(0)
 }
 
 /// Clears the bits of positions `from..to` (fewer than a ring).

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Instructions per input byte of the parser on the inputs of the parser's
+# worst-case benchmark, counted by valgrind (cachegrind): exact and the same
+# on every run, where MB/s on a shared machine moves by 20 % or more. The
+# time per byte follows the instructions closely on these inputs (a few
+# table look-ups per candidate, no cache misses to speak of), so the ratio
+# of two inputs' counts is what the parser's speed ratio would be at equal
+# instructions per cycle; random bytes run at a higher rate (a vectorised
+# search), so the count understates their lead.
+#
+#   bash benches/scripts/parser_instructions.sh [INPUT...]
+#
+# Each input is parsed once and three times (64 KiB chunks, as `fbwag
+# decode` reads); the difference over two passes and 256 KiB is the figure,
+# so that building the inputs does not count. Inputs: the names of
+# `benches::worst::inputs` (default: all of them), or hex:PATTERN; a
+# `keyed` after a name parses with a key (unsigned frames refused). Under
+# valgrind SHA-256 runs without the CPU's SHA instructions: counts of keyed
+# inputs include a software SHA-256.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+command -v valgrind >/dev/null || { echo "valgrind is needed (apt-get install valgrind)" >&2; exit 1; }
+cargo build --release -q -p benches --example parser_worst
+bin=target/release/examples/parser_worst
+count() {
+    valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file=/dev/null \
+        "$bin" one "$@" 2>&1 | awk '/I *refs/ { gsub(",", "", $NF); print $NF }'
+}
+inputs=("$@")
+if [ ${#inputs[@]} -eq 0 ]; then
+    inputs=(random dense_fd_fe mixed_half_start found_mix issue_pattern all_fe all_fd
+        "signed_raw keyed" "signed_raw_confirmed keyed" found_a found_b found_c)
+fi
+printf '%-28s %10s\n' input instr/B
+for input in "${inputs[@]}"; do
+    # shellcheck disable=SC2086 # "name keyed" is two arguments
+    one=$(count $input passes=1)
+    three=$(count $input passes=3)
+    awk -v a="$one" -v b="$three" -v n="$input" \
+        'BEGIN { printf "%-28s %10.1f\n", n, (b - a) / 2 / 262144 }'
+done

@@ -475,6 +475,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 (frame, meta, auth)
             }
             Found::InBuf(len, meta, auth) => {
+                self.give_back_after(len, input, whole);
                 self.returned_from_buf = len;
                 (&self.buf[self.head..self.head + len], meta, auth)
             }
@@ -592,6 +593,24 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         let n = reject_run::<D>(held, self.pos, keyed, &mut self.memo, &mut self.stats);
         if n > 0 {
             self.consume_held(n);
+        }
+    }
+
+    /// A frame of `len` bytes at the start of the bytes held is returned:
+    /// when it holds every byte pushed before this call, the bytes after it
+    /// are copies of `whole`'s, taken ahead; they go back to `input`, so
+    /// that the next call finds the buffer empty and parses in place (a
+    /// stream of frames read in chunks would otherwise go through the
+    /// buffer from its first chunk boundary on).
+    fn give_back_after<'i>(&mut self, len: usize, input: &mut &'i [u8], whole: &'i [u8]) {
+        if self.held_before > len {
+            return;
+        }
+        let taken = whole.len() - input.len();
+        let after = self.len - len;
+        if let Some(rest) = taken.checked_sub(after).and_then(|from| whole.get(from..)) {
+            *input = rest;
+            self.len = len;
         }
     }
 

@@ -71,7 +71,7 @@ use crate::frame::{
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
-use memo::{start_masks, Inside, Memo, Starts, Whole};
+use memo::{Inside, Memo, Starts, Whole};
 
 /// Counters of what the parser saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -924,12 +924,8 @@ fn reject_masked<D: Dialect>(
     memo: &mut Memo,
     count: &mut Rejected,
 ) -> usize {
-    for Starts {
-        base,
-        kinds,
-        refused,
-    } in start_masks(bytes, bytes.len())
-    {
+    for base in (0..bytes.len()).step_by(64) {
+        let Starts { kinds, refused } = memo.starts(bytes, at, base, bytes.len());
         // The MAVLink 1 frames with a bad checksum, all at once (each
         // position checked once, however many runs pass over it).
         let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0]);

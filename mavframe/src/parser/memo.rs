@@ -171,6 +171,15 @@ pub(super) struct Memo {
     v1_good: [u64; SCAN_WORDS],
     v1_from: u64,
     v1_frontier: u64,
+    /// Start bytes by kind, and MAVLink 2 flags other than known, of the
+    /// positions from `masks_from` to `masks_frontier` (bit rings): the
+    /// scan and every run of the fast rejection loop look at the same
+    /// positions again ([`Memo::starts`]).
+    mask_v1: [u64; SCAN_WORDS],
+    mask_v2: [u64; SCAN_WORDS],
+    mask_flags: [u64; SCAN_WORDS],
+    masks_from: u64,
+    masks_frontier: u64,
     /// The fast rejection loop's last run found start bytes dense (fewer
     /// than its `DENSE` bytes apart): the next one goes by masks at once.
     pub(super) dense_starts: bool,
@@ -284,6 +293,11 @@ impl Memo {
             v1_frontier: 0,
             busy_until: 0,
             dense_starts: false,
+            mask_v1: [0; SCAN_WORDS],
+            mask_v2: [0; SCAN_WORDS],
+            mask_flags: [0; SCAN_WORDS],
+            masks_from: 0,
+            masks_frontier: 0,
             steps: 0,
             signatures: 0,
         }
@@ -513,7 +527,8 @@ impl Memo {
         // (in garbage, unpredictable): each position is decided alone, and
         // the verdicts of a block are stored at once (a store per position
         // would make each wait for the previous one's).
-        for Starts { base, kinds, .. } in start_masks(&bytes[lo..], end - lo) {
+        for base in (0..end - lo).step_by(64) {
+            let Starts { kinds, .. } = self.starts(&bytes[lo..], at + lo as u64, base, end - lo);
             let n = end - lo - base;
             let (whole, mut good) = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
             let mut bad = whole & !good;
@@ -653,6 +668,7 @@ impl Memo {
         (self.woken, self.last_wake) = (pos, pos);
         (self.frontier, self.scanned_from) = (pos, pos);
         self.v1_frontier = self.v1_frontier.min(pos);
+        self.masks_frontier = self.masks_frontier.min(pos);
         (self.prefix_end, self.direct_end) = (0, self.direct_end.max(pos));
         (self.good_candidate, self.raw_signature_failed) = (0, 0);
         self.busy_until = self.direct_end;
@@ -859,34 +875,101 @@ impl Memo {
     }
 }
 
+impl Memo {
+    /// The start bytes of the 64 positions from `bytes[base]` (stream
+    /// position `at + base`) among the first `count` of `bytes`, by kind:
+    /// see [`Starts`]. Compares the compiler vectorises, then set bits: no
+    /// branch per byte; and remembered, two blocks ahead, so that the next
+    /// runs over these positions read them.
+    #[inline]
+    pub(super) fn starts(&mut self, bytes: &[u8], at: u64, base: usize, count: usize) -> Starts {
+        let n = (count - base).min(64);
+        let first = at + base as u64;
+        let end = first + n as u64;
+        if first < self.masks_from || end > self.masks_frontier {
+            self.remember_masks(bytes, at, first);
+        }
+        let masks = if first >= self.masks_from && end <= self.masks_frontier {
+            let first_n = u64::MAX >> (64 - n);
+            (
+                bits_from(&self.mask_v1, first) & first_n,
+                bits_from(&self.mask_v2, first) & first_n,
+                bits_from(&self.mask_flags, first) & first_n,
+            )
+        } else {
+            // The last positions of the bytes.
+            raw_masks(bytes, base, n)
+        };
+        starts_of(bytes, base, masks)
+    }
+
+    /// Computes the masks of the positions from the frontier (or from
+    /// `first` when the frontier is behind it) to two blocks after `first`,
+    /// as far as whole blocks of `bytes` (from stream position `at`) go.
+    #[inline(never)]
+    fn remember_masks(&mut self, bytes: &[u8], at: u64, first: u64) {
+        if self.masks_frontier < first || self.masks_from > first {
+            (self.masks_from, self.masks_frontier) = (first, first);
+        }
+        while self.masks_frontier < first + 128 {
+            let x = self.masks_frontier;
+            let Some(window) = usize::try_from(x - at)
+                .ok()
+                .and_then(|rel| bytes.get(rel..rel + 64 + 2))
+            else {
+                break;
+            };
+            let (v1, v2, flags) = masks_by_words(window);
+            put_bits(&mut self.mask_v1, x, v1);
+            put_bits(&mut self.mask_v2, x, v2);
+            put_bits(&mut self.mask_flags, x, flags);
+            self.masks_frontier = x + 64;
+        }
+        self.masks_from = self
+            .masks_from
+            .max(self.masks_frontier.saturating_sub(SCAN_RING as u64));
+    }
+}
+
+/// (0xFE, 0xFD, flags other than known) of the `n` positions from
+/// `bytes[base]`.
+fn raw_masks(bytes: &[u8], base: usize, n: usize) -> (u64, u64, u64) {
+    match bytes.get(base..base + 64 + 2) {
+        Some(window) => {
+            // (A short block, the last of a scan, where bytes follow.)
+            let first_n = u64::MAX >> (64 - n);
+            let (v1, v2, bad_flags) = masks_by_words(window);
+            (v1 & first_n, v2 & first_n, bad_flags & first_n)
+        }
+        None => masks_by_bytes(bytes, base, n),
+    }
+}
+
+/// The [`Starts`] of the block at `bytes[base]` from its masks.
+#[inline(always)]
+fn starts_of(bytes: &[u8], base: usize, (v1, v2, bad_flags): (u64, u64, u64)) -> Starts {
+    // Positions whose header is whole: base + j + 10 <= len.
+    let whole = bytes.len().saturating_sub(base + HEADER_LEN_V2 - 1);
+    let whole = if whole >= 64 { !0 } else { (1u64 << whole) - 1 };
+    let refused = v2 & bad_flags & whole;
+    Starts {
+        kinds: [v1, v2 & !refused],
+        refused,
+    }
+}
+
 /// The start bytes among the first `count` of `bytes`, 64 positions at a
-/// time, by kind: see [`Starts`]. Compares the compiler vectorises, then set
-/// bits: no branch per byte.
-pub(super) fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = Starts> + '_ {
+/// time, as [`Memo::starts`] finds them without remembering (the
+/// reference its tests compare with).
+#[cfg(test)]
+fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = Starts> + '_ {
     (0..count).step_by(64).map(move |base| {
         let n = (count - base).min(64);
-        let (v1, v2, bad_flags) = match bytes.get(base..base + 64 + 2) {
-            Some(window) => {
-                // (A short block, the last of a scan, where bytes follow.)
-                let first_n = u64::MAX >> (64 - n);
-                let (v1, v2, bad_flags) = masks_by_words(window);
-                (v1 & first_n, v2 & first_n, bad_flags & first_n)
-            }
-            None => masks_by_bytes(bytes, base, n),
-        };
-        // Positions whose header is whole: base + j + 10 <= len.
-        let whole = bytes.len().saturating_sub(base + HEADER_LEN_V2 - 1);
-        let whole = if whole >= 64 { !0 } else { (1u64 << whole) - 1 };
-        let refused = v2 & bad_flags & whole;
-        Starts {
-            base,
-            kinds: [v1, v2 & !refused],
-            refused,
-        }
+        starts_of(bytes, base, raw_masks(bytes, base, n))
     })
 }
 
-/// [`start_masks`]' (0xFE, 0xFD, flags other than known) of the 64
+/// [`Memo::starts`]' (0xFE, 0xFD, flags other than known) of the 64
 /// positions at the start of `window` (66 bytes: the flags of the last two
 /// are after them), eight bytes at a time in a `u64` (no branch, no vector
 /// unit needed: the same on every target).
@@ -938,7 +1021,6 @@ fn zero_bytes(w: u64) -> u8 {
 /// The start bytes of 64 positions from `bytes[base]` (bit `j`: position
 /// `base + j`).
 pub(super) struct Starts {
-    pub(super) base: usize,
     /// 0xFE, and 0xFD less `refused`.
     pub(super) kinds: [u64; 2],
     /// The 0xFD whose whole header has unknown incompatibility flags: no
@@ -974,6 +1056,21 @@ fn or_bits(bits: &mut [u64; SCAN_WORDS], from: u64, mask: u64) {
     if bit != 0 {
         bits[(word + 1) % SCAN_WORDS] |= mask >> (64 - bit);
     }
+}
+
+/// Sets the bits of positions `from..from + 64` to `mask`'s.
+#[inline(always)]
+fn put_bits(bits: &mut [u64; SCAN_WORDS], from: u64, mask: u64) {
+    let s = slot_of(from, SCAN_MASK);
+    let (word, bit) = (s / 64, s % 64);
+    if bit == 0 {
+        bits[word] = mask;
+        return;
+    }
+    let below = (1u64 << bit) - 1;
+    bits[word] = bits[word] & below | mask << bit;
+    let next = (word + 1) % SCAN_WORDS;
+    bits[next] = bits[next] & !below | mask >> (64 - bit);
 }
 
 /// The bits of positions `from..from + 64` (bit `j`: position `from + j`).
@@ -1065,6 +1162,46 @@ mod tests {
                 zero_bytes(u64::from(b) << 24),
                 if b == 0 { 0xFF } else { !(1 << 3) }
             );
+        }
+    }
+
+    /// The masks a memo remembers are those computed afresh, however the
+    /// runs over a stream overlap, start and end (a candidate moving on,
+    /// slices of every length, positions far apart).
+    #[test]
+    fn remembered_masks_equal_fresh_ones() {
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let mut stream = [0u8; 40_000];
+        for b in &mut stream {
+            *b = match next() % 5 {
+                0 => STX_V1,
+                1 => STX_V2,
+                2 => 0,
+                3 => 1,
+                _ => next() as u8,
+            };
+        }
+        let mut memo = Memo::new();
+        let mut at = 0usize;
+        while at < stream.len() - 1 {
+            let avail = (1 + next() as usize % 700).min(stream.len() - at);
+            let bytes = &stream[at..at + avail];
+            let count = 1 + next() as usize % avail;
+            for (k, want) in start_masks(bytes, count).enumerate() {
+                let got = memo.starts(bytes, at as u64, 64 * k, count);
+                assert_eq!(
+                    (got.kinds, got.refused),
+                    (want.kinds, want.refused),
+                    "at {at}, {avail} bytes, count {count}"
+                );
+            }
+            at += 1 + next() as usize % if next() % 8 == 0 { 600 } else { 20 };
         }
     }
 }

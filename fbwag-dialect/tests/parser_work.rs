@@ -16,7 +16,7 @@
 //! (at most three: header cut, frame cut, whole) and its wake-up list entry,
 //! and its checks as a candidate; each call adds a check (a candidate that
 //! needs more bytes is checked again once per call or per byte copied).
-//! What the tests measure stays below 9.1; 16 leaves room for inputs nobody
+//! What the tests measure stays below 11; 16 leaves room for inputs nobody
 //! thought of, while the old algorithm needs hundreds.
 
 #[path = "support/dialects.rs"]

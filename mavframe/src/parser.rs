@@ -139,6 +139,10 @@ const BUF_LEN: usize = 1024;
 
 const _: () = assert!(BUF_LEN > MAX_NEEDED && BUF_LEN - MAX_NEEDED >= MAX_NEEDED * 4 / 5);
 
+/// The bytes held are topped up to [`MAX_NEEDED`] once they fall this far
+/// below it (a candidate that needs more asks for it).
+const TOP_UP_SLACK: usize = 64;
+
 /// How much work a parser did: see [`Parser::work`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[non_exhaustive]
@@ -552,9 +556,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             (self.head, self.len) = (0, 0);
             return Held::Next;
         }
-        if self.len < MAX_NEEDED && !input.is_empty() {
+        if self.len + TOP_UP_SLACK < MAX_NEEDED && !input.is_empty() {
             // Whatever the candidate needs, with bytes enough after it that
-            // what lies inside it is decided now.
+            // what lies inside it is decided now (topped up once this many
+            // were used: a copy per step would cost more than the bytes).
             self.take_input(input, self.len);
         }
         match self.check_at_buf() {

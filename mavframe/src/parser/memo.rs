@@ -785,11 +785,9 @@ impl Memo {
         }
         if first >= self.v1_from && first <= self.v1_frontier && end > self.v1_frontier {
             let from = self.v1_frontier;
-            let above = !span_mask(0, from - first);
-            clear_range(&mut self.v1_whole, from, end);
-            clear_range(&mut self.v1_good, from, end);
-            or_bits(&mut self.v1_whole, first, whole & above);
-            or_bits(&mut self.v1_good, first, good & above);
+            let new = span_mask(from - first, end - first);
+            merge_bits(&mut self.v1_whole, first, whole, new);
+            merge_bits(&mut self.v1_good, first, good, new);
             self.steps += end - from;
             self.v1_frontier = end;
             self.v1_from = self.v1_from.max(end.saturating_sub(SCAN_RING as u64));
@@ -1055,6 +1053,20 @@ fn or_bits(bits: &mut [u64; SCAN_WORDS], from: u64, mask: u64) {
     bits[word] |= mask << bit;
     if bit != 0 {
         bits[(word + 1) % SCAN_WORDS] |= mask >> (64 - bit);
+    }
+}
+
+/// Sets the bits of positions `from + j` to `value`'s for the bits `j` of
+/// `which`; the others stay.
+#[inline(always)]
+fn merge_bits(bits: &mut [u64; SCAN_WORDS], from: u64, value: u64, which: u64) {
+    let s = slot_of(from, SCAN_MASK);
+    let (word, bit) = (s / 64, s % 64);
+    let value = value & which;
+    bits[word] = bits[word] & !(which << bit) | value << bit;
+    if bit != 0 {
+        let next = (word + 1) % SCAN_WORDS;
+        bits[next] = bits[next] & !(which >> (64 - bit)) | value >> (64 - bit);
     }
 }
 

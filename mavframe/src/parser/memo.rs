@@ -71,6 +71,9 @@ const V1_WINDOW: usize = 64 + HEADER_LEN_V1 + 255 + CHECKSUM_LEN;
 /// Positions classified past the end of the candidate asked about.
 const SCAN_AHEAD: usize = 64;
 
+/// Ids above 255 whose CRC_EXTRA [`Memo`] keeps at once.
+const V2_EXTRA_SLOTS: usize = 32;
+
 const _: () = assert!(
     PREFIX_RING as u64 > PREFIX_REACH
         && SCAN_RING > MAX_FRAME_LEN + SCAN_AHEAD + 10
@@ -163,6 +166,9 @@ pub(super) struct Memo {
     v1_extra: [u16; 256],
     /// `v1_extra` holds every id.
     v1_filled: bool,
+    /// The same for some ids above 255 (id, value): see
+    /// [`Memo::v2_crc_extra`].
+    v2_extra: [(u32, u16); V2_EXTRA_SLOTS],
     /// MAVLink 1 start bytes whose frame was whole and of a known id (bit
     /// ring), and of those the ones with a good checksum, at the positions
     /// from `v1_from` to `v1_frontier` ([`Memo::v1_verdicts`]): the scan and
@@ -286,6 +292,7 @@ impl Memo {
             sig_credit: RAW_SIGNATURE_BURST,
             sig_credit_at: 0,
             v1_extra: [0; 256],
+            v2_extra: [(0, 0); V2_EXTRA_SLOTS],
             v1_filled: false,
             v1_whole: [0; SCAN_WORDS],
             v1_good: [0; SCAN_WORDS],
@@ -834,12 +841,28 @@ impl Memo {
     #[inline(always)]
     pub(super) fn crc_extra<D: Dialect>(&mut self, id: u32) -> Option<u8> {
         let Some(cached) = self.v1_extra.get_mut(id as usize) else {
-            return D::meta(id).map(|m| m.crc_extra);
+            return self.v2_crc_extra::<D>(id);
         };
         if *cached == 0 {
             *cached = 0x200 | D::meta(id).map_or(0, |m| 0x100 | u16::from(m.crc_extra));
         }
         (*cached & 0x100 != 0).then_some(*cached as u8)
+    }
+
+    /// [`crc_extra`](Self::crc_extra) of an id above 255, through a small
+    /// cache: the scan and the fast rejection loop ask about the same
+    /// candidates, and garbage repeats its ids (the dialect's look-up is a
+    /// search among its ids).
+    #[inline(always)]
+    fn v2_crc_extra<D: Dialect>(&mut self, id: u32) -> Option<u8> {
+        let slot = &mut self.v2_extra[(id ^ id >> 7 ^ id >> 14) as usize % V2_EXTRA_SLOTS];
+        if slot.0 != id || slot.1 == 0 {
+            *slot = (
+                id,
+                0x200 | D::meta(id).map_or(0, |m| 0x100 | u16::from(m.crc_extra)),
+            );
+        }
+        (slot.1 & 0x100 != 0).then_some(slot.1 as u8)
     }
 
     /// Whether the candidate at `at`, an unknown id whose signature was

@@ -44,6 +44,8 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         ],
         false,
     ),
+    ("found_d", &[0xfe, 0xfd, 0xfd, 0x01, 0x00], false),
+    ("found_e", &[0xfd, 0x07, 0x01, 0xfe], true),
 ];
 
 /// Deterministic pseudo-random bytes (xorshift).

@@ -6,6 +6,7 @@
 //! cargo run --release -p benches --example parser_worst -- search steps|time [keyed] [SECONDS] [SEED]
 //! cargo run --release -p benches --example parser_worst -- mix [keyed] [SECONDS] [SEED]
 //! cargo run --release -p benches --example parser_worst -- pattern HEX [CHUNK]
+//! cargo run --release -p benches --example parser_worst -- one NAME|hex:HEX [keyed] [passes=N] [chunk=N]
 //! ```
 //!
 //! `measure` prints, per input: MB/s (best of 3 runs of 0.3 s, in CPU time: the time the
@@ -353,9 +354,13 @@ fn main() {
                 .iter()
                 .find_map(|a| a.strip_prefix("passes=")?.parse().ok())
                 .unwrap_or(20);
+            let chunk = args
+                .iter()
+                .find_map(|a| a.strip_prefix("chunk=")?.parse().ok())
+                .unwrap_or(worst::CHUNK);
             for _ in 0..passes {
                 let mut p = worst::parser(keyed);
-                std::hint::black_box(worst::parse(&mut p, &bytes, worst::CHUNK));
+                std::hint::black_box(worst::parse(&mut p, &bytes, chunk));
             }
         }
         _ => measure(arg(1).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK)),

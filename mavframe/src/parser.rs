@@ -934,23 +934,23 @@ fn reject_masked<D: Dialect>(
         // The MAVLink 1 frames with a bad checksum, all at once (each
         // position checked once, however many runs pass over it).
         let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0]);
-        let mut starts = kinds[0] | kinds[1];
-        while starts != 0 {
-            let j = starts.trailing_zeros();
-            starts &= starts - 1;
-            if bad_v1 & (1 << j) != 0 {
-                count.bad_crc += 1;
-                continue;
-            }
+        // Those are rejected by their count; the others one by one.
+        let mut others = (kinds[0] | kinds[1]) & !bad_v1;
+        while others != 0 {
+            let j = others.trailing_zeros();
+            others &= others - 1;
             let i = base + j as usize;
             let Some(why) = rejects::<D>(&bytes[i..], at + i as u64, keyed, memo) else {
-                // The refused before it are dropped with it.
-                count.bad_flags += u64::from((refused & ((1 << j) - 1)).count_ones());
+                // The refused and bad before it are dropped with it.
+                let before = (1u64 << j) - 1;
+                count.bad_flags += u64::from((refused & before).count_ones());
+                count.bad_crc += u64::from((bad_v1 & before).count_ones());
                 return i;
             };
             count.add(why);
         }
         count.bad_flags += u64::from(refused.count_ones());
+        count.bad_crc += u64::from(bad_v1.count_ones());
     }
     bytes.len()
 }

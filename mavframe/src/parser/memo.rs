@@ -941,9 +941,9 @@ impl Memo {
                 break;
             };
             let (v1, v2, flags) = masks_by_words(window);
-            put_bits(&mut self.mask_v1, x, v1);
-            put_bits(&mut self.mask_v2, x, v2);
-            put_bits(&mut self.mask_flags, x, flags);
+            merge_bits(&mut self.mask_v1, x, v1, !0);
+            merge_bits(&mut self.mask_v2, x, v2, !0);
+            merge_bits(&mut self.mask_flags, x, flags, !0);
             self.masks_frontier = x + 64;
         }
         self.masks_from = self
@@ -1093,21 +1093,6 @@ fn merge_bits(bits: &mut [u64; SCAN_WORDS], from: u64, value: u64, which: u64) {
     }
 }
 
-/// Sets the bits of positions `from..from + 64` to `mask`'s.
-#[inline(always)]
-fn put_bits(bits: &mut [u64; SCAN_WORDS], from: u64, mask: u64) {
-    let s = slot_of(from, SCAN_MASK);
-    let (word, bit) = (s / 64, s % 64);
-    if bit == 0 {
-        bits[word] = mask;
-        return;
-    }
-    let below = (1u64 << bit) - 1;
-    bits[word] = bits[word] & below | mask << bit;
-    let next = (word + 1) % SCAN_WORDS;
-    bits[next] = bits[next] & !below | mask >> (64 - bit);
-}
-
 /// The bits of positions `from..from + 64` (bit `j`: position `from + j`).
 fn bits_from(bits: &[u64; SCAN_WORDS], from: u64) -> u64 {
     let s = slot_of(from, SCAN_MASK);
@@ -1198,6 +1183,107 @@ mod tests {
                 if b == 0 { 0xFF } else { !(1 << 3) }
             );
         }
+    }
+
+    /// A dialect knowing three MAVLink 1 ids (one of them 0xFE, the id of
+    /// garbage dense in 0xFE).
+    struct Three;
+    const fn meta(id: u32, crc_extra: u8) -> crate::message::MessageMeta {
+        crate::message::MessageMeta {
+            id,
+            name: "",
+            crc_extra,
+            min_len: 0,
+            max_len: 255,
+            target_system_offset: None,
+            target_component_offset: None,
+            fields: &[],
+        }
+    }
+    impl Dialect for Three {
+        type Message = ();
+        type View<'a> = ();
+        const MESSAGES: &'static [crate::message::MessageMeta] =
+            &[meta(0, 50), meta(3, 7), meta(0xFE, 46)];
+        fn parse(_: u32, _: &[u8]) -> Option<()> {
+            None
+        }
+        fn view(_: u32, _: &[u8]) -> Option<()> {
+            None
+        }
+    }
+
+    /// The MAVLink 1 verdicts a memo remembers agree with those computed
+    /// afresh from the rest of the stream, however the runs over it overlap:
+    /// exactly when every run sees the rest of the stream; when runs see
+    /// less, a position checked with its frame cut stays "not whole", but
+    /// what is called whole, good or bad is still true.
+    #[test]
+    fn remembered_v1_verdicts_equal_fresh_ones() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        // Garbage dense in 0xFE, with good frames of the three ids in it.
+        let mut stream = [0u8; 30_000];
+        let mut i = 0;
+        while i < stream.len() {
+            if next() % 40 == 0 && i + 8 + 40 < stream.len() {
+                let (id, extra) = [(0u8, 50u8), (3, 7), (0xFE, 46)][next() as usize % 3];
+                let len = next() as usize % 40;
+                stream[i] = STX_V1;
+                stream[i + 1] = len as u8;
+                stream[i + 5] = id;
+                let c = crc::frame_crc(&stream[i + 1..i + 6 + len], extra);
+                stream[i + 6 + len..i + 8 + len].copy_from_slice(&c.to_le_bytes());
+                i += 8 + len;
+            } else {
+                stream[i] = match next() % 4 {
+                    0 | 1 => STX_V1,
+                    2 => next() as u8 % 8,
+                    _ => next() as u8,
+                };
+                i += 1;
+            }
+        }
+        let mut good_seen = 0;
+        for whole_rest in [true, false] {
+            let mut memo = Memo::new();
+            let mut at = 0usize;
+            while at < stream.len() - 1 {
+                let left = stream.len() - at;
+                let avail = if whole_rest {
+                    left
+                } else {
+                    (1 + next() as usize % 700).min(left)
+                };
+                let bytes = &stream[at..at + avail];
+                let count = avail.min(1 + next() as usize % 300);
+                for (k, starts) in start_masks(bytes, count).enumerate() {
+                    let (base, mask) = (64 * k, starts.kinds[0]);
+                    let n = count - base;
+                    let got = memo.v1_verdicts::<Three>(bytes, at as u64, base, (mask, n));
+                    // The truth: the same block with the rest of the stream.
+                    let rest = &stream[at..];
+                    let want = Memo::new().v1_checks::<Three>(rest, at as u64, base, mask);
+                    if whole_rest {
+                        assert_eq!(got, want, "at {at}, block {base}");
+                    } else {
+                        assert_eq!(got.0 & !want.0, 0, "whole: at {at}, block {base}");
+                        assert_eq!(got.1, want.1 & got.0, "good: at {at}, block {base}");
+                    }
+                    good_seen += got.1.count_ones();
+                }
+                at += 1 + next() as usize % if next() % 8 == 0 { 600 } else { 20 };
+            }
+        }
+        assert!(
+            good_seen > 100,
+            "{good_seen} good frames: the test must see some"
+        );
     }
 
     /// The masks a memo remembers are those computed afresh, however the

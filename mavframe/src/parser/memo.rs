@@ -160,10 +160,11 @@ pub(super) struct Memo {
     sig_credit: u64,
     sig_credit_at: u64,
     /// CRC_EXTRA of MAVLink 1 ids (0–255) as the dialect says, looked up
-    /// once each: `0x200 | 0x100 (known) | crc_extra`, 0 before the first
-    /// look-up. A table load instead of the dialect's jump table, whose
-    /// indirect branch garbage's random ids keep mispredicting.
-    v1_extra: [u16; 256],
+    /// once each: `fold << 16 | 0x200 | 0x100 (known) | crc_extra`, where
+    /// `fold` is its [`crc::extra_fold`]; 0 before the first look-up. A
+    /// table load instead of the dialect's jump table, whose indirect
+    /// branch garbage's random ids keep mispredicting.
+    v1_extra: [u32; 256],
     /// `v1_extra` holds every id.
     v1_filled: bool,
     /// The same for some ids above 255 (id, value): see
@@ -706,7 +707,13 @@ impl Memo {
         // Every frame of the block whole in `bytes`: no bound to check.
         if let Some(window) = bytes.get(block..block + V1_WINDOW) {
             let window: &[u8; V1_WINDOW] = window.try_into().unwrap_or(&[0; V1_WINDOW]);
-            return self.v1_checks_whole(window, at + block as u64, mask);
+            return v1_checks_whole(
+                &self.prefix,
+                &self.v1_extra,
+                window,
+                at + block as u64,
+                mask,
+            );
         }
         let (mut whole, mut good) = (0u64, 0u64);
         let mut m = mask;
@@ -732,30 +739,6 @@ impl Memo {
                 == Some(u16::from_le_bytes([carried[0], carried[1]]));
             whole |= 1 << j;
             good |= u64::from(ok) << j;
-        }
-        (whole, good)
-    }
-
-    /// [`v1_checks`](Self::v1_checks) of a block whose every MAVLink 1
-    /// frame is whole in `window` (stream position `first` on).
-    #[inline(always)]
-    fn v1_checks_whole(&mut self, window: &[u8; V1_WINDOW], first: u64, mask: u64) -> (u64, u64) {
-        let (mut whole, mut good) = (0u64, 0u64);
-        let mut m = mask;
-        while m != 0 {
-            let j = (m.trailing_zeros() & 63) as usize;
-            m &= m - 1;
-            let len = usize::from(window[j + 1]);
-            let extra = self.v1_extra[usize::from(window[j + 5])];
-            let covered = HEADER_LEN_V1 - 1 + len;
-            let carried = u16::from_le_bytes([window[j + 1 + covered], window[j + 2 + covered]]);
-            let start = first + j as u64 + 1;
-            let before = self.prefix[slot_of(start, PREFIX_MASK)];
-            let after = self.prefix[slot_of(start + covered as u64, PREFIX_MASK)];
-            let ok = crc::between_extra(before, after, covered, extra as u8) == Some(carried);
-            let known = u64::from(extra >> 8 & 1);
-            whole |= known << j;
-            good |= (u64::from(ok) & known) << j;
         }
         (whole, good)
     }
@@ -844,7 +827,10 @@ impl Memo {
             return self.v2_crc_extra::<D>(id);
         };
         if *cached == 0 {
-            *cached = 0x200 | D::meta(id).map_or(0, |m| 0x100 | u16::from(m.crc_extra));
+            *cached = 0x200
+                | D::meta(id).map_or(0, |m| {
+                    u32::from(crc::extra_fold(m.crc_extra)) << 16 | 0x100 | u32::from(m.crc_extra)
+                });
         }
         (*cached & 0x100 != 0).then_some(*cached as u8)
     }
@@ -950,6 +936,39 @@ impl Memo {
             .masks_from
             .max(self.masks_frontier.saturating_sub(SCAN_RING as u64));
     }
+}
+
+/// [`Memo::v1_checks`] of a block whose every MAVLink 1 frame is whole in
+/// `window` (stream position `first` on), from the prefix states and the
+/// table of CRC_EXTRA. Not generic, and apart from the memo's other
+/// fields: the loop keeps its tables and bases in registers.
+#[inline(never)]
+fn v1_checks_whole(
+    prefix: &[u16; PREFIX_RING],
+    v1_extra: &[u32; 256],
+    window: &[u8; V1_WINDOW],
+    first: u64,
+    mask: u64,
+) -> (u64, u64) {
+    // Ring slot of the first covered byte of the block's first position.
+    let base = first as usize + 1;
+    let (mut whole, mut good) = (0u64, 0u64);
+    let mut m = mask;
+    while m != 0 {
+        let j = (m.trailing_zeros() & 63) as usize;
+        m &= m - 1;
+        let len = window[j + 1];
+        let extra = v1_extra[usize::from(window[j + 5])];
+        let end = j + 6 + usize::from(len);
+        let carried = u16::from_le_bytes([window[end], window[end + 1]]);
+        let before = prefix[(base + j) % PREFIX_RING];
+        let after = prefix[(base + j + 5 + usize::from(len)) % PREFIX_RING];
+        let crc = crc::between_v1(before, after, len, (extra >> 16) as u16);
+        whole |= u64::from(extra >> 8 & 1) << j;
+        good |= u64::from(crc == carried) << j;
+    }
+    // A checksum counts only for a known id.
+    (whole, good & whole)
 }
 
 /// (0xFE, 0xFD, flags other than known) of the `n` positions from

@@ -266,11 +266,19 @@ fn search_mix(keyed: bool, seconds: f64, seed: u64) {
 }
 
 /// The bytes of a hex string (pairs of digits; anything else is an error).
+/// A pattern given in hex (an even number of hex digits, at least two), or
+/// a message and exit status 2.
 fn unhex(s: &str) -> Vec<u8> {
-    (0..s.len() / 2)
-        .map(|i| u8::from_str_radix(&s[2 * i..2 * i + 2], 16))
-        .collect::<Result<_, _>>()
-        .unwrap_or_else(|e| panic!("pattern {s:?} is not hex: {e}"))
+    let digits: Option<Vec<u8>> = s.chars().map(|c| c.to_digit(16).map(|d| d as u8)).collect();
+    match digits {
+        Some(d) if !d.is_empty() && d.len() % 2 == 0 => {
+            d.chunks_exact(2).map(|p| p[0] << 4 | p[1]).collect()
+        }
+        _ => {
+            eprintln!("pattern {s:?}: expected an even number of hex digits, at least two");
+            std::process::exit(2)
+        }
+    }
 }
 
 fn hex(p: &[u8]) -> String {
@@ -345,7 +353,10 @@ fn main() {
                     worst::inputs()
                         .into_iter()
                         .find(|(n, _, _)| n == name)
-                        .unwrap_or_else(|| panic!("no input {name}"))
+                        .unwrap_or_else(|| {
+                            eprintln!("no input named {name:?} (see benches/src/worst.rs)");
+                            std::process::exit(2)
+                        })
                         .1
                 }
             };
@@ -362,6 +373,34 @@ fn main() {
                 std::hint::black_box(worst::parse(&mut p, &bytes, chunk));
             }
         }
-        _ => measure(arg(1).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK)),
+        None | Some("measure") => {
+            measure(arg(1).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK))
+        }
+        Some("-h" | "--help" | "help") => print!("{USAGE}"),
+        Some(other) => {
+            eprint!("unknown command {other:?}\n\n{USAGE}");
+            std::process::exit(2);
+        }
     }
 }
+
+/// What `--help` prints: the commands of the module documentation.
+const USAGE: &str = "\
+The parser's worst inputs: measure them, or search for worse ones.
+
+usage: parser_worst [COMMAND] [ARGS]
+
+  measure [CHUNK]            MB/s (best of 3 runs of 0.3 s of CPU time), work steps and
+                             signature checks per byte of every input of benches/src/worst.rs,
+                             pushed in CHUNK-byte reads (default 65536); the default command
+  search steps|time [keyed] [SECONDS] [SEED]
+                             hill-climb repeating patterns for the most work steps or time
+                             per byte (default 60 s, seed 1); prints the ten worst
+  mix [keyed] [SECONDS] [SEED]
+                             the same over random bytes drawn from weighted values
+  pattern HEX [CHUNK]        one repeating pattern, with and without a key
+  one NAME|hex:HEX [keyed] [passes=N] [chunk=N]
+                             parse one input N times (default 20), for valgrind or perf
+
+`keyed`: the parser has a signing key and refuses unsigned frames.
+";

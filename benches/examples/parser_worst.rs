@@ -3,6 +3,7 @@
 //!
 //! ```sh
 //! cargo run --release -p benches --example parser_worst -- measure [CHUNK]
+//! cargo run --release -p benches --example parser_worst -- ratio [ROUNDS] [CHUNK]
 //! cargo run --release -p benches --example parser_worst -- search steps|time [keyed] [SECONDS] [SEED]
 //! cargo run --release -p benches --example parser_worst -- mix [keyed] [SECONDS] [SEED]
 //! cargo run --release -p benches --example parser_worst -- pattern HEX [CHUNK]
@@ -35,6 +36,9 @@ const MIN_RUN: f64 = 0.04;
 /// ...and `measure`'s figures (the clock may tick every few ms: a run of
 /// 40 ms reads it to within 10 %).
 const MEASURE_RUN: f64 = 0.3;
+
+/// CPU seconds of each of `ratio`'s runs: many short rounds, interleaved.
+const RATIO_RUN: f64 = 0.1;
 
 struct Rng(u64);
 impl Rng {
@@ -312,6 +316,48 @@ fn measure_row(name: &str, bytes: &[u8], keyed: bool, chunk: usize) {
     );
 }
 
+/// `ratio`: every input's speed against random bytes under the same
+/// policy, from `rounds` rounds that each time every input once (so a
+/// slow spell of a shared machine hits all of them alike); best time of
+/// each input over the rounds.
+fn ratio(rounds: usize, chunk: usize) {
+    let rows: Vec<(String, Vec<u8>, bool)> = worst::inputs()
+        .into_iter()
+        .flat_map(|(name, bytes, keyed)| {
+            let mut both = vec![(name.clone(), bytes.clone(), keyed)];
+            if !keyed {
+                both.push((name, bytes, true));
+            }
+            both
+        })
+        .collect();
+    let mut best = vec![f64::MAX; rows.len()];
+    for round in 0..rounds {
+        eprint!("\rround {}/{rounds}", round + 1);
+        for (row, (_, bytes, keyed)) in rows.iter().enumerate() {
+            let (_, _, ns) = cost_for(bytes, *keyed, chunk, 1, RATIO_RUN);
+            best[row] = best[row].min(ns);
+        }
+    }
+    eprintln!();
+    let random = |keyed: bool| {
+        rows.iter()
+            .position(|(n, _, k)| n == "random" && *k == keyed)
+            .map_or(f64::NAN, |i| best[i])
+    };
+    println!("{:<28} {:>9} {:>12}", "input", "MB/s", "x random");
+    let mut worst_row = (0.0, String::new());
+    for ((name, _, keyed), ns) in rows.iter().zip(&best) {
+        let times = ns / random(*keyed);
+        let label = format!("{name}/{}", if *keyed { "keyed" } else { "nokey" });
+        println!("{label:<28} {:9.1} {times:12.1}", 1e3 / ns);
+        if times > worst_row.0 {
+            worst_row = (times, label);
+        }
+    }
+    println!("worst: {} at {:.1}x random bytes", worst_row.1, worst_row.0);
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let arg = |i: usize| args.get(i).map(String::as_str);
@@ -376,6 +422,13 @@ fn main() {
         None | Some("measure") => {
             measure(arg(1).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK))
         }
+        Some("ratio") => {
+            let rounds = arg(1).and_then(|s| s.parse().ok()).unwrap_or(5);
+            ratio(
+                rounds,
+                arg(2).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK),
+            );
+        }
         Some("-h" | "--help" | "help") => print!("{USAGE}"),
         Some(other) => {
             eprint!("unknown command {other:?}\n\n{USAGE}");
@@ -393,6 +446,8 @@ usage: parser_worst [COMMAND] [ARGS]
   measure [CHUNK]            MB/s (best of 3 runs of 0.3 s of CPU time), work steps and
                              signature checks per byte of every input of benches/src/worst.rs,
                              pushed in CHUNK-byte reads (default 65536); the default command
+  ratio [ROUNDS] [CHUNK]     every input's time per byte against random bytes' (same policy),
+                             best of ROUNDS (default 5) interleaved rounds of 0.1 s each
   search steps|time [keyed] [SECONDS] [SEED]
                              hill-climb repeating patterns for the most work steps or time
                              per byte (default 60 s, seed 1); prints the ten worst

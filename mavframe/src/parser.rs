@@ -464,7 +464,13 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                     meta,
                     authenticated,
                 } => break Found::InInput(len, meta, authenticated),
-                Verdict::Skip(len) => self.drop_input(input, len),
+                // A frame refused by the signing policy (unsigned, or a bad
+                // signature) is garbage to this link: what follows it is
+                // more of the same as often as after a rejection.
+                Verdict::Skip(len) => {
+                    self.drop_input(input, len);
+                    rejected = true;
+                }
                 Verdict::Reject => {
                     self.drop_input(input, 1);
                     rejected = true;
@@ -577,7 +583,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 meta,
                 authenticated,
             } => return Held::Found(Found::InBuf(len, meta, authenticated)),
-            Verdict::Skip(len) => self.drop_front(len),
+            Verdict::Skip(len) => {
+                self.drop_front(len);
+                self.reject_run_held();
+            }
             Verdict::Reject => {
                 self.drop_front(1);
                 self.reject_run_held();

@@ -54,8 +54,17 @@ const PREFIX_MASK: u64 = PREFIX_RING as u64 - 1;
 /// Prefix states are computed this far past what a checksum needs...
 const PREFIX_AHEAD: u64 = 64;
 /// ...but never further than this past the candidate, so that the live
-/// states fit the ring.
-const PREFIX_REACH: u64 = 2 * MAX_FRAME_LEN as u64 + PREFIX_AHEAD;
+/// states fit the ring (and at least as far as the checksum of a position
+/// the scan classifies ahead reaches).
+const PREFIX_REACH: u64 = {
+    let ahead = 2 * MAX_FRAME_LEN as u64 + PREFIX_AHEAD;
+    let scanned = (MAX_FRAME_LEN + SCAN_AHEAD + crc::MAX_COVERED + 1) as u64;
+    if ahead > scanned {
+        ahead
+    } else {
+        scanned
+    }
+};
 
 /// Positions of the inside scan (inside the candidate: fewer than
 /// [`MAX_FRAME_LEN`]) and their wake-up positions (at most a frame after
@@ -68,8 +77,21 @@ const SCAN_WORDS: usize = SCAN_RING / 64;
 /// starting in the block (64 positions, then at most 6 + 255 + 2 bytes).
 const V1_WINDOW: usize = 64 + HEADER_LEN_V1 + 255 + CHECKSUM_LEN;
 
-/// Positions classified past the end of the candidate asked about.
-const SCAN_AHEAD: usize = 64;
+/// Positions classified past the end of the candidate asked about: at
+/// least the first, and up to the second as long as every frame starting
+/// there is whole in the bytes at hand (one whose end is not there would
+/// wait, to be classified again, and would likely never be asked about).
+const SCAN_AHEAD_MIN: usize = 64;
+const SCAN_AHEAD: usize = 192;
+
+/// Where the scan for a candidate needing positions before `end` stops, in
+/// `len` bytes: see [`SCAN_AHEAD`].
+fn scan_end(end: usize, len: usize) -> usize {
+    let whole = len.saturating_sub(MAX_FRAME_LEN);
+    (end + SCAN_AHEAD_MIN)
+        .max(whole.min(end + SCAN_AHEAD))
+        .min(len)
+}
 
 /// Ids above 255 whose CRC_EXTRA [`Memo`] keeps at once.
 const V2_EXTRA_SLOTS: usize = 32;
@@ -463,7 +485,7 @@ impl Memo {
         if at + end as u64 > self.frontier {
             // Ahead of what is asked, so that the next candidates (in
             // garbage, a byte or two later) find their positions decided.
-            self.scan::<D>(bytes, at, (end + SCAN_AHEAD).min(bytes.len()));
+            self.scan::<D>(bytes, at, scan_end(end, bytes.len()));
         }
         let (from, to) = (at + 1, at + end as u64);
         self.steps += 1;

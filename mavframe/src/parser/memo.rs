@@ -875,16 +875,19 @@ impl Memo {
 
     /// Whether the candidate at `at`, an unknown id whose signature was
     /// checked, failed that check.
+    #[inline(always)]
     pub(super) fn raw_signature_failed(&self, at: u64) -> bool {
         self.raw_signature_failed == at + 1
     }
 
+    #[inline(always)]
     pub(super) fn set_raw_signature_failed(&mut self, at: u64) {
         self.raw_signature_failed = at + 1;
     }
 
     /// Whether the budget for unknown ids' signatures holds `cost` hashed
     /// bytes, with what the bytes up to stream position `at` earned.
+    #[inline(always)]
     pub(super) fn raw_signature_affordable(&mut self, at: u64, cost: u64) -> bool {
         let earned = at
             .saturating_sub(self.sig_credit_at)
@@ -899,6 +902,7 @@ impl Memo {
 
     /// Takes `cost` hashed bytes from the budget (which holds them: see
     /// [`raw_signature_affordable`](Self::raw_signature_affordable)).
+    #[inline(always)]
     pub(super) fn spend_on_raw_signature(&mut self, cost: u64) {
         self.sig_credit = self.sig_credit.saturating_sub(cost);
     }

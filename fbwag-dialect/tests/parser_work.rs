@@ -386,3 +386,59 @@ fn chunked_good_frames_cost_what_whole_ones_do() {
         );
     }
 }
+
+/// Good frames after a burst of garbage cost what they cost alone: the
+/// parser goes back to checking candidates directly once a run of its fast
+/// rejection loop rejects nothing. (A frame returned among dense start
+/// bytes makes the next call start with that loop; if the loop's "start
+/// bytes are dense" outlived the garbage, every good frame after it would
+/// pay a wasted run.) With a key and signed frames, and in chunks, so that
+/// the frames go through the whole check.
+#[test]
+fn good_frames_after_garbage_cost_what_they_cost_alone() {
+    let mut rng = Rng(5);
+    let mut signer = Signer::new(KEY, 1, 1_000);
+    let mut good = Vec::new();
+    let mut buf = [0u8; 300];
+    while good.len() < 100_000 {
+        let meta = fbwag_dialect::MESSAGES[rng.below(fbwag_dialect::MESSAGES.len())];
+        let len = meta.max_len as usize;
+        for b in &mut buf[10..10 + len] {
+            *b = rng.next() as u8;
+        }
+        let h = Header {
+            seq: rng.next() as u8,
+            sysid: 1,
+            compid: 1,
+        };
+        let n = finish(Version::V2, h, &meta, len, Some(&mut signer), &mut buf).unwrap();
+        good.extend_from_slice(&buf[..n]);
+    }
+    // found_c: a raw frame of an unknown id every 17 bytes of garbage.
+    let garbage = repeat(FOUND[2].1, 20_000);
+    let run = |bytes: &[u8]| {
+        let mut p =
+            Parser::<fbwag_dialect::Dialect>::with_signing(Verifier::new(KEY), Unsigned::Accept);
+        let mut frames = 0u64;
+        for mut c in bytes.chunks(4096) {
+            while p.next(&mut c).is_some() {
+                frames += 1;
+            }
+        }
+        while p.flush().is_some() {
+            frames += 1;
+        }
+        (p.work().steps, frames)
+    };
+    let (garbage_steps, garbage_frames) = run(&garbage);
+    let (good_steps, good_frames) = run(&good);
+    let both: Vec<u8> = garbage.iter().chain(&good).copied().collect();
+    let (both_steps, both_frames) = run(&both);
+    assert_eq!(both_frames, garbage_frames + good_frames);
+    // The junction: at most a buffer's window of the good frames looked
+    // at by the garbage's last run, and the first good frame's run.
+    assert!(
+        both_steps <= garbage_steps + good_steps + 4 * 560,
+        "garbage {garbage_steps} + good {good_steps} steps, together {both_steps}"
+    );
+}

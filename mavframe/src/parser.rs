@@ -269,6 +269,11 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     /// last call; it is dropped (bytes after it are kept) when the parser
     /// next runs.
     returned_from_buf: usize,
+    /// The last call returned a frame found among start bytes the
+    /// rejection loop found dense: the next call starts with that loop (a
+    /// frame of an unknown id every few bytes of garbage would otherwise
+    /// cost a whole check of the candidate after each).
+    resume_in_garbage: bool,
     /// Stream position (bytes pushed before it) of the first byte not
     /// consumed yet: the first byte held, or of the input when none is.
     pos: u64,
@@ -315,6 +320,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             head: 0,
             len: 0,
             returned_from_buf: 0,
+            resume_in_garbage: false,
             pos: 0,
             held_before: 0,
             memo: Memo::new(),
@@ -410,7 +416,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         let whole: &'i [u8] = input;
         // The last verdict was a rejection: garbage, maybe dense in start
         // bytes, where `reject_run` is the fast way through.
-        let mut rejected = false;
+        // (With bytes held, `step_held` takes it.)
+        let mut rejected = self.len == 0 && core::mem::take(&mut self.resume_in_garbage);
         if self.len == 0 && self.verifier.is_none() {
             // The hot path: a good frame of a known id whole in the input.
             match self.good_frame_in_place(input) {
@@ -477,6 +484,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 }
             }
         };
+        self.resume_in_garbage = self.memo.dense_starts;
         let (bytes, meta, authenticated) = match found {
             Found::InInput(len, meta, auth) => {
                 let (frame, rest) = input.split_at(len);
@@ -567,6 +575,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             // what lies inside it is decided now (topped up once this many
             // were used: a copy per step would cost more than the bytes).
             self.take_input(input, self.len);
+        }
+        if core::mem::take(&mut self.resume_in_garbage) {
+            self.reject_run_held();
+            return Held::Next;
         }
         match self.check_at_buf() {
             // Cannot happen (a need is always for more than is held);
@@ -837,7 +849,9 @@ fn reject_run<D: Dialect>(
         // The last run proved the start bytes dense: masks at once, while
         // they stay dense.
         let i = reject_masked::<D>(bytes, at, keyed, memo, &mut count);
-        memo.dense_starts = count.rejected() * DENSE as u64 >= i as u64;
+        // A run that rejects nothing ends the garbage: good frames after it
+        // go straight to `check` again.
+        memo.dense_starts = count.rejected() > 0 && count.rejected() * DENSE as u64 >= i as u64;
         return count.record(i, memo, stats);
     }
     // One by one, the way through sparse start bytes (random bytes: a

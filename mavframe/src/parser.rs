@@ -1158,7 +1158,8 @@ fn check_raw<D: Dialect, const N: usize>(
         && match cx.verifier.as_mut() {
             Some(v) => {
                 // Affordable (above), and nothing was spent since.
-                cx.memo.spend_on_raw_signature(raw_signature_cost(len));
+                cx.memo
+                    .spend_on_raw_signature(cx.at, raw_signature_cost(len));
                 cx.memo.signatures += 1;
                 let ok = v.verify(frame).is_ok();
                 if !ok {

@@ -885,26 +885,32 @@ impl Memo {
         self.raw_signature_failed = at + 1;
     }
 
-    /// Whether the budget for unknown ids' signatures holds `cost` hashed
-    /// bytes, with what the bytes up to stream position `at` earned.
+    /// The budget for unknown ids' signatures, in hashed bytes, with what
+    /// the bytes up to stream position `at` earned. (Computed, not stored,
+    /// when a candidate asks: most ask and are refused.)
     #[inline(always)]
-    pub(super) fn raw_signature_affordable(&mut self, at: u64, cost: u64) -> bool {
+    fn sig_credit_at(&self, at: u64) -> u64 {
         let earned = at
             .saturating_sub(self.sig_credit_at)
             .saturating_mul(RAW_SIGNATURE_RATE);
-        self.sig_credit = self
-            .sig_credit
+        self.sig_credit
             .saturating_add(earned)
-            .min(RAW_SIGNATURE_BURST);
-        self.sig_credit_at = self.sig_credit_at.max(at);
-        self.sig_credit >= cost
+            .min(RAW_SIGNATURE_BURST)
     }
 
-    /// Takes `cost` hashed bytes from the budget (which holds them: see
+    /// Whether the budget holds `cost` hashed bytes at stream position `at`.
+    #[inline(always)]
+    pub(super) fn raw_signature_affordable(&self, at: u64, cost: u64) -> bool {
+        self.sig_credit_at(at) >= cost
+    }
+
+    /// Takes `cost` hashed bytes from the budget at stream position `at`
+    /// (which holds them: see
     /// [`raw_signature_affordable`](Self::raw_signature_affordable)).
     #[inline(always)]
-    pub(super) fn spend_on_raw_signature(&mut self, cost: u64) {
-        self.sig_credit = self.sig_credit.saturating_sub(cost);
+    pub(super) fn spend_on_raw_signature(&mut self, at: u64, cost: u64) {
+        self.sig_credit = self.sig_credit_at(at).saturating_sub(cost);
+        self.sig_credit_at = self.sig_credit_at.max(at);
     }
 }
 

@@ -65,8 +65,8 @@
 mod memo;
 
 use crate::frame::{
-    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, IFLAG_SIGNED, MAX_FRAME_LEN,
-    STX_V1, STX_V2,
+    frame_len, Frame, FrameError, Header, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_KNOWN,
+    IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
@@ -957,13 +957,21 @@ fn reject_masked<D: Dialect>(
         // The MAVLink 1 frames with a bad checksum, all at once (each
         // position checked once, however many runs pass over it).
         let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0]);
-        // Those are rejected by their count; the others one by one.
+        // Those are rejected by their count; the others one by one, those
+        // the scan found whole with an unknown id without their header's
+        // look-up again.
         let mut others = (kinds[0] | kinds[1]) & !bad_v1;
+        let raw = memo.raw_starts(at + base as u64) & others;
         while others != 0 {
             let j = others.trailing_zeros();
             others &= others - 1;
             let i = base + j as usize;
-            let Some(why) = rejects::<D>(&bytes[i..], at + i as u64, keyed, memo) else {
+            let why = if raw >> j & 1 != 0 {
+                raw_rejects(&bytes[i..], at + i as u64, keyed, memo)
+            } else {
+                rejects::<D>(&bytes[i..], at + i as u64, keyed, memo)
+            };
+            let Some(why) = why else {
                 // The refused and bad before it are dropped with it.
                 let before = (1u64 << j) - 1;
                 count.bad_flags += u64::from((refused & before).count_ones());
@@ -986,18 +994,26 @@ fn rejects<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Op
     let w = Whole::at(rest)?;
     match memo.crc_extra::<D>(w.id) {
         Some(extra) => (!memo.candidate_crc_ok(rest, at, &w, extra)).then_some(Why::BadCrc),
-        None => {
-            let signed = rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
-            let len = w.covered
-                + 3
-                + if signed {
-                    crate::frame::SIGNATURE_LEN
-                } else {
-                    0
-                };
-            raw_refused_alone(rest, len, keyed && signed, at, memo)
-        }
+        None => raw_rejects(rest, at, keyed, memo),
     }
+}
+
+/// [`rejects`] of a candidate whose frame is whole in `rest`, of an unknown
+/// id (known to the caller): refused or not by [`raw_refused_alone`].
+#[inline(always)]
+fn raw_rejects(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Option<Why> {
+    let (v2, payload) = (*rest.first()? == STX_V2, usize::from(*rest.get(1)?));
+    let flags = if v2 { *rest.get(2)? } else { 0 };
+    let signed = flags & IFLAG_SIGNED != 0;
+    let header = if v2 { HEADER_LEN_V2 } else { HEADER_LEN_V1 };
+    let signature = if signed { SIGNATURE_LEN } else { 0 };
+    let len = header + payload + CHECKSUM_LEN + signature;
+    // What the scan saw is in these bytes too, unless a caller passed
+    // other bytes since: then the candidate is for `check`.
+    if rest.len() < len || flags & !IFLAG_KNOWN != 0 {
+        return None;
+    }
+    raw_refused_alone(rest, len, keyed && signed, at, memo)
 }
 
 /// What `check_raw` decides of a whole candidate of an unknown id (`len`

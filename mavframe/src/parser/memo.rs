@@ -114,6 +114,18 @@ pub(super) enum Inside {
     Undecided(usize),
 }
 
+/// What [`Memo::classify_start`] found at a start byte.
+enum Start {
+    /// A whole frame of a known id with a good checksum.
+    Good,
+    /// A whole frame of a known id with a bad checksum.
+    BadCrc,
+    /// A whole frame of an unknown id.
+    Raw,
+    /// Anything else: classified and recorded.
+    Other,
+}
+
 /// What the bytes available say about one position.
 enum Class {
     /// No good frame of a known id starts here, whatever follows.
@@ -153,6 +165,10 @@ pub(super) struct Memo {
     bad: [u64; SCAN_WORDS],
     /// The position is undecided (bit ring).
     undecided: [u64; SCAN_WORDS],
+    /// A whole frame of an unknown id starts at the position (bit ring):
+    /// the fast rejection loop's candidates that only the signing policy
+    /// or the byte after them can refuse, looked up by the scan first.
+    raw: [u64; SCAN_WORDS],
     /// No bit of `good` is set at this position or after it...
     good_before: u64,
     /// ...nor of `undecided`.
@@ -303,6 +319,7 @@ impl Memo {
             good: [0; SCAN_WORDS],
             bad: [0; SCAN_WORDS],
             undecided: [0; SCAN_WORDS],
+            raw: [0; SCAN_WORDS],
             good_before: 0,
             undecided_before: 0,
             wake_head: [0; SCAN_RING],
@@ -561,7 +578,7 @@ impl Memo {
             let Starts { kinds, .. } = self.starts(&bytes[lo..], at + lo as u64, base, end - lo);
             let n = end - lo - base;
             let (whole, mut good) = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
-            let mut bad = whole & !good;
+            let (mut bad, mut raw) = (whole & !good, 0);
             self.steps += u64::from(whole.count_ones());
             for mut starts in [kinds[0] & !whole, kinds[1]] {
                 self.steps += u64::from(starts.count_ones());
@@ -569,13 +586,16 @@ impl Memo {
                     let j = starts.trailing_zeros();
                     starts &= starts - 1;
                     match self.classify_start::<D>(bytes, at, lo + base + j as usize) {
-                        Some(true) => good |= 1 << j,
-                        Some(false) => bad |= 1 << j,
-                        None => {}
+                        Start::Good => good |= 1 << j,
+                        Start::BadCrc => bad |= 1 << j,
+                        Start::Raw => raw |= 1 << j,
+                        Start::Other => {}
                     }
                 }
             }
             let first = at + (lo + base) as u64;
+            // (Written whole, block by block: no clearing first.)
+            merge_bits(&mut self.raw, first, raw, u64::MAX >> (64 - n.min(64)));
             or_bits(&mut self.good, first, good);
             if good != 0 {
                 self.good_before = self
@@ -593,18 +613,31 @@ impl Memo {
     /// known id, whether its checksum is good; the rest by
     /// [`classify`](Self::classify), recorded here.
     #[inline(always)]
-    fn classify_start<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Option<bool> {
+    fn classify_start<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Start {
         match Whole::at(&bytes[rel..]) {
-            Some(w) => {
-                let extra = self.crc_extra::<D>(w.id)?;
-                Some(self.crc_matches(bytes, at, rel, &w, extra))
-            }
+            Some(w) => match self.crc_extra::<D>(w.id) {
+                Some(extra) if self.crc_matches(bytes, at, rel, &w, extra) => Start::Good,
+                Some(_) => Start::BadCrc,
+                None => Start::Raw,
+            },
             None => {
                 let class = self.classify::<D>(bytes, at, rel);
                 self.record(at + rel as u64, class);
-                None
+                Start::Other
             }
         }
+    }
+
+    /// Of the 64 positions from stream position `first`, those the scan
+    /// found to start a whole frame of an unknown id (0 where it has not
+    /// looked).
+    #[inline(always)]
+    pub(super) fn raw_starts(&self, first: u64) -> u64 {
+        let (lo, hi) = (self.scanned_from.max(first), self.frontier.min(first + 64));
+        if lo >= hi {
+            return 0;
+        }
+        bits_from(&self.raw, first) & span_mask(lo - first, hi - first)
     }
 
     /// What `bytes` (from the candidate at `at`) say about position

@@ -12,7 +12,8 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 # A clean clone builds once: incremental caches only cost time and disk here.
 export CARGO_INCREMENTAL="${CARGO_INCREMENTAL:-0}"
 
-step() { printf '\n==> %s\n' "$*"; }
+# Each step with the time since the start: CI must stay well under 30 min.
+step() { printf '\n==> %s (at %dm%02ds)\n' "$*" $((SECONDS / 60)) $((SECONDS % 60)); }
 
 step "Python reference environment (pymavlink 2.4.50)"
 python="$(bash scripts/python-env.sh)"
@@ -130,3 +131,5 @@ stale = [f for f in sys.argv[1:] if open(f).read() not in readme]
 sys.exit(f"README.md does not show the current {', '.join(stale)}" if stale else 0)
 PY
 # --- end publishing ---
+
+printf '\nAll checks passed in %dm%02ds.\n' $((SECONDS / 60)) $((SECONDS % 60))

@@ -65,8 +65,8 @@
 mod memo;
 
 use crate::frame::{
-    frame_len, Frame, FrameError, Header, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_KNOWN,
-    IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
+    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, IFLAG_SIGNED, MAX_FRAME_LEN,
+    STX_V1, STX_V2,
 };
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
@@ -998,21 +998,15 @@ fn rejects<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Op
     }
 }
 
-/// [`rejects`] of a candidate whose frame is whole in `rest`, of an unknown
-/// id (known to the caller): refused or not by [`raw_refused_alone`].
+/// [`rejects`] of a candidate of an unknown id (known to the caller):
+/// refused or not by [`raw_refused_alone`] when its frame is whole in
+/// `rest`. (What the scan saw is in these bytes too, unless a caller passed
+/// other bytes since: then the candidate is for `check`.)
 #[inline(always)]
 fn raw_rejects(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Option<Why> {
-    let (v2, payload) = (*rest.first()? == STX_V2, usize::from(*rest.get(1)?));
-    let flags = if v2 { *rest.get(2)? } else { 0 };
-    let signed = flags & IFLAG_SIGNED != 0;
-    let header = if v2 { HEADER_LEN_V2 } else { HEADER_LEN_V1 };
-    let signature = if signed { SIGNATURE_LEN } else { 0 };
-    let len = header + payload + CHECKSUM_LEN + signature;
-    // What the scan saw is in these bytes too, unless a caller passed
-    // other bytes since: then the candidate is for `check`.
-    if rest.len() < len || flags & !IFLAG_KNOWN != 0 {
-        return None;
-    }
+    let len = frame_len(rest).ok().filter(|&n| rest.len() >= n)?;
+    // `frame_len` saw a whole MAVLink 2 header when the start byte says 2.
+    let signed = rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
     raw_refused_alone(rest, len, keyed && signed, at, memo)
 }
 

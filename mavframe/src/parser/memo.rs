@@ -1015,8 +1015,9 @@ fn v1_checks_whole(
     first: u64,
     mask: u64,
 ) -> (u64, u64) {
-    // Ring slot of the first covered byte of the block's first position.
-    let base = first as usize + 1;
+    // Ring slot of the first covered byte of the block's first position
+    // (a slot, not the position: no overflow on 32-bit targets).
+    let base = slot_of(first + 1, PREFIX_MASK);
     let (mut whole, mut good) = (0u64, 0u64);
     let mut m = mask;
     while m != 0 {

@@ -814,6 +814,14 @@ impl Memo {
     ) -> (u64, u64) {
         let first = at + block as u64;
         let end = first + n.min(64) as u64;
+        if first >= self.v1_from && end <= self.v1_frontier {
+            // All checked already (the scan runs ahead of the fast
+            // rejection loop): most calls from the loop.
+            return (
+                bits_from(&self.v1_whole, first) & mask,
+                bits_from(&self.v1_good, first) & mask,
+            );
+        }
         // The positions of the block already checked.
         let (lo, hi) = (self.v1_from.max(first), self.v1_frontier.min(end));
         let known = if lo < hi {

@@ -754,21 +754,27 @@ impl Memo {
             return (0, 0);
         }
         self.fill_v1_extra::<D>();
+        // Every frame of the block whole in `bytes`: no bound to check.
+        let window = bytes
+            .get(block..block + V1_WINDOW)
+            .and_then(|w| <&[u8; V1_WINDOW]>::try_from(w).ok());
+        // Only known ids have a checksum to check: without one in the
+        // block (a stream of frames of unknown ids), no prefix state.
+        let mask = match window {
+            Some(window) => v1_known(&self.v1_extra, window, mask),
+            None => mask,
+        };
+        if mask == 0 {
+            return (0, 0);
+        }
         // The farthest a checksum of a frame starting in the block reaches.
         let far = at + (block + 64 + HEADER_LEN_V1 + 255).min(bytes.len()) as u64;
         if self.prefix_end <= at || far > self.prefix_end {
             self.extend_prefix(bytes, at, far);
         }
-        // Every frame of the block whole in `bytes`: no bound to check.
-        if let Some(window) = bytes.get(block..block + V1_WINDOW) {
-            let window: &[u8; V1_WINDOW] = window.try_into().unwrap_or(&[0; V1_WINDOW]);
-            return v1_checks_whole(
-                &self.prefix,
-                &self.v1_extra,
-                window,
-                at + block as u64,
-                mask,
-            );
+        if let Some(window) = window {
+            let good = v1_good_whole(&self.prefix, &self.v1_extra, window, at + block as u64, mask);
+            return (mask, good);
         }
         let (mut whole, mut good) = (0u64, 0u64);
         let mut m = mask;
@@ -1011,38 +1017,50 @@ impl Memo {
     }
 }
 
-/// [`Memo::v1_checks`] of a block whose every MAVLink 1 frame is whole in
-/// `window` (stream position `first` on), from the prefix states and the
-/// table of CRC_EXTRA. Not generic, and apart from the memo's other
-/// fields: the loop keeps its tables and bases in registers.
-#[inline(never)]
-fn v1_checks_whole(
-    prefix: &[u16; PREFIX_RING],
-    v1_extra: &[u32; 256],
-    window: &[u8; V1_WINDOW],
-    first: u64,
-    mask: u64,
-) -> (u64, u64) {
-    // Ring slot of the first covered byte of the block's first position
-    // (a slot, not the position: no overflow on 32-bit targets).
-    let base = slot_of(first + 1, PREFIX_MASK);
-    let (mut whole, mut good) = (0u64, 0u64);
+/// Of the MAVLink 1 start bytes `mask` of a block whose every frame is
+/// whole in `window`, those of a known id. One load per start byte, no
+/// branch on the id: in garbage, known and unknown ids alternate at random.
+fn v1_known(v1_extra: &[u32; 256], window: &[u8; V1_WINDOW], mask: u64) -> u64 {
+    let mut known = 0u64;
     let mut m = mask;
     while m != 0 {
         let j = (m.trailing_zeros() & 63) as usize;
         m &= m - 1;
+        known |= u64::from(v1_extra[usize::from(window[j + 5])] >> 8 & 1) << j;
+    }
+    known
+}
+
+/// Of the MAVLink 1 start bytes `known` (whole, of known ids) of a block
+/// whose every frame is whole in `window` (stream position `first` on),
+/// those whose checksum is good, from the prefix states and the table of
+/// CRC_EXTRA. Not generic, and apart from the memo's other fields: the loop
+/// keeps its tables and bases in registers.
+#[inline(never)]
+fn v1_good_whole(
+    prefix: &[u16; PREFIX_RING],
+    v1_extra: &[u32; 256],
+    window: &[u8; V1_WINDOW],
+    first: u64,
+    known: u64,
+) -> u64 {
+    // Ring slot of the first covered byte of the block's first position
+    // (a slot, not the position: no overflow on 32-bit targets).
+    let base = slot_of(first + 1, PREFIX_MASK);
+    let mut good = 0u64;
+    let mut m = known;
+    while m != 0 {
+        let j = (m.trailing_zeros() & 63) as usize;
+        m &= m - 1;
         let len = window[j + 1];
-        let extra = v1_extra[usize::from(window[j + 5])];
+        let fold = (v1_extra[usize::from(window[j + 5])] >> 16) as u16;
         let end = j + 6 + usize::from(len);
         let carried = u16::from_le_bytes([window[end], window[end + 1]]);
         let before = prefix[(base + j) % PREFIX_RING];
         let after = prefix[(base + j + 5 + usize::from(len)) % PREFIX_RING];
-        let crc = crc::between_v1(before, after, len, (extra >> 16) as u16);
-        whole |= u64::from(extra >> 8 & 1) << j;
-        good |= u64::from(crc == carried) << j;
+        good |= u64::from(crc::between_v1(before, after, len, fold) == carried) << j;
     }
-    // A checksum counts only for a known id.
-    (whole, good & whole)
+    good
 }
 
 /// (0xFE, 0xFD, flags other than known) of the `n` positions from

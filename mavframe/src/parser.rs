@@ -454,10 +454,24 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             self.drop_input(input, start);
             if core::mem::take(&mut rejected) {
                 let keyed = self.verifier.is_some();
-                let n = reject_run::<D>(input, self.pos, keyed, &mut self.memo, &mut self.stats);
-                if n > 0 {
-                    self.pos += n as u64;
-                    *input = &input[n..];
+                let run = reject_run::<D>(input, self.pos, keyed, &mut self.memo, &mut self.stats);
+                self.pos += run.dropped as u64;
+                *input = &input[run.dropped..];
+                if let Some(len) = run.raw {
+                    // What `check` would decide, from its signing policy on.
+                    let frame = Frame::new_unchecked(&input[..len]);
+                    match signing(&frame, None, self.ctx()) {
+                        Verdict::Accept {
+                            len,
+                            meta,
+                            authenticated,
+                        } => break Found::InInput(len, meta, authenticated),
+                        verdict => self.drop_input(input, dropped_by(verdict)),
+                    }
+                    rejected = true;
+                    continue;
+                }
+                if run.dropped > 0 {
                     continue;
                 }
             }
@@ -577,8 +591,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             self.take_input(input, self.len);
         }
         if core::mem::take(&mut self.resume_in_garbage) {
-            self.reject_run_held();
-            return Held::Next;
+            return self.reject_run_held();
         }
         match self.check_at_buf() {
             // Cannot happen (a need is always for more than is held);
@@ -597,11 +610,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             } => return Held::Found(Found::InBuf(len, meta, authenticated)),
             Verdict::Skip(len) => {
                 self.drop_front(len);
-                self.reject_run_held();
+                return self.reject_run_held();
             }
             Verdict::Reject => {
                 self.drop_front(1);
-                self.reject_run_held();
+                return self.reject_run_held();
             }
         }
         Held::Next
@@ -610,16 +623,37 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// After a rejection with bytes held: [`reject_run`] over them, as on
     /// the input (garbage dense in start bytes can keep a parser in its
     /// buffer for as long as it returns a frame every few bytes).
-    fn reject_run_held(&mut self) {
-        if self.len == 0 {
-            return;
+    fn reject_run_held(&mut self) -> Held {
+        while self.len != 0 {
+            let held = &self.buf[self.head..self.head + self.len];
+            let keyed = self.verifier.is_some();
+            let run = reject_run::<D>(held, self.pos, keyed, &mut self.memo, &mut self.stats);
+            if run.dropped > 0 {
+                self.consume_held(run.dropped);
+            }
+            let Some(len) = run.raw else {
+                break;
+            };
+            // What `check` would decide, from its signing policy on.
+            let frame = Frame::new_unchecked(&self.buf[self.head..self.head + len]);
+            let cx = Ctx {
+                at: self.pos,
+                memo: &mut self.memo,
+                verifier: &mut self.verifier,
+                accept_unsigned: self.accept_unsigned,
+                at_eof: self.at_eof,
+                stats: &mut self.stats,
+            };
+            match signing(&frame, None, cx) {
+                Verdict::Accept {
+                    len,
+                    meta,
+                    authenticated,
+                } => return Held::Found(Found::InBuf(len, meta, authenticated)),
+                verdict => self.drop_front(dropped_by(verdict)),
+            }
         }
-        let held = &self.buf[self.head..self.head + self.len];
-        let keyed = self.verifier.is_some();
-        let n = reject_run::<D>(held, self.pos, keyed, &mut self.memo, &mut self.stats);
-        if n > 0 {
-            self.consume_held(n);
-        }
+        Held::Next
     }
 
     /// A frame of `len` bytes at the start of the bytes held is returned:
@@ -758,17 +792,20 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     #[inline(always)]
     fn check_at_input(&mut self, bytes: &[u8]) -> Verdict {
-        check::<D, STREAMS>(
-            bytes,
-            Ctx {
-                at: self.pos,
-                memo: &mut self.memo,
-                verifier: &mut self.verifier,
-                accept_unsigned: self.accept_unsigned,
-                at_eof: self.at_eof,
-                stats: &mut self.stats,
-            },
-        )
+        check::<D, STREAMS>(bytes, self.ctx())
+    }
+
+    /// What a check of the candidate at the stream position needs.
+    #[inline(always)]
+    fn ctx(&mut self) -> Ctx<'_, STREAMS> {
+        Ctx {
+            at: self.pos,
+            memo: &mut self.memo,
+            verifier: &mut self.verifier,
+            accept_unsigned: self.accept_unsigned,
+            at_eof: self.at_eof,
+            stats: &mut self.stats,
+        }
     }
 
     fn check_at_buf(&mut self) -> Verdict {
@@ -830,12 +867,14 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 }
 
 /// Rejects, in one loop, the candidates at the start of `bytes` (a start
-/// byte) while each is a whole frame of a known id with a bad checksum, or
-/// has unknown incompatibility flags: what `check` would decide, with the
-/// same counters, minus its per-candidate plumbing. This is the bulk of
-/// garbage dense in start bytes, and the loop runs only after a rejection
-/// (good frames go straight to `check`). Returns the bytes dropped, up to
-/// the first candidate it leaves to `check` (or all of them).
+/// byte) while each is a whole frame of a known id with a bad checksum, has
+/// unknown incompatibility flags, or is a frame of an unknown id that
+/// [`check_raw`] would refuse: what `check` would decide, with the same
+/// counters, minus its per-candidate plumbing. This is the bulk of garbage
+/// dense in start bytes, and the loop runs only after a rejection (good
+/// frames go straight to `check`). Ends at the first candidate it leaves to
+/// `check` (or the end of the bytes), or at a frame of an unknown id that
+/// only the signing policy decides about (see [`Run`]).
 #[inline(never)]
 fn reject_run<D: Dialect>(
     bytes: &[u8],
@@ -843,16 +882,16 @@ fn reject_run<D: Dialect>(
     keyed: bool,
     memo: &mut Memo,
     stats: &mut Stats,
-) -> usize {
+) -> Run {
     let mut count = Rejected::default();
     if memo.dense_starts {
         // The last run proved the start bytes dense: masks at once, while
         // they stay dense.
-        let i = reject_masked::<D>(bytes, at, keyed, memo, &mut count);
+        let (i, raw) = reject_masked::<D>(bytes, at, keyed, memo, &mut count);
         // A run that rejects nothing ends the garbage: good frames after it
         // go straight to `check` again.
         memo.dense_starts = count.rejected() > 0 && count.rejected() * DENSE as u64 >= i as u64;
-        return count.record(i, memo, stats);
+        return count.record(i, raw, memo, stats);
     }
     // One by one, the way through sparse start bytes (random bytes: a
     // search for the next start byte, rarely more than one candidate); by
@@ -861,16 +900,17 @@ fn reject_run<D: Dialect>(
     for n in 1.. {
         if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN {
             memo.dense_starts = true;
-            let i = i + reject_masked::<D>(&bytes[i..], at + i as u64, keyed, memo, &mut count);
-            return count.record(i, memo, stats);
+            let (j, raw) = reject_masked::<D>(&bytes[i..], at + i as u64, keyed, memo, &mut count);
+            return count.record(i + j, raw, memo, stats);
         }
         let rest = &bytes[i..];
         match rest.first() {
             Some(&STX_V2) if refused(rest) => count.bad_flags += 1,
             Some(&STX_V1) if memo.v1_known_bad(at + i as u64) => count.bad_crc += 1,
-            Some(_) => match rejects::<D>(rest, at + i as u64, keyed, memo) {
-                Some(why) => count.add(why),
-                None => break,
+            Some(_) => match alone::<D>(rest, at + i as u64, keyed, memo) {
+                Alone::Rejected(why) => count.add(why),
+                Alone::Raw(len) => return count.record(i, Some(len), memo, stats),
+                Alone::Check => break,
             },
             None => break,
         }
@@ -879,7 +919,7 @@ fn reject_run<D: Dialect>(
             .position(|&b| b == STX_V1 || b == STX_V2)
             .unwrap_or(rest.len() - 1);
     }
-    count.record(i, memo, stats)
+    count.record(i, None, memo, stats)
 }
 
 /// [`reject_run`] looks at its start bytes' density every this many
@@ -907,6 +947,27 @@ enum Why {
     /// A whole frame of an unknown id that nothing can confirm: no
     /// signature to check, and the byte after it is not a start byte.
     Unconfirmed,
+    /// A whole frame of an unknown id with a good frame of a known id
+    /// inside.
+    GoodInside,
+}
+
+/// What [`reject_run`] makes of a candidate alone.
+enum Alone {
+    Rejected(Why),
+    /// A whole frame of an unknown id, this long, that only the signing
+    /// policy decides about: nothing inside or after it refuses it.
+    Raw(usize),
+    /// For [`check`].
+    Check,
+}
+
+/// How a run of [`reject_run`] ended: after `dropped` bytes, at a candidate
+/// for [`check`] (or the end of the bytes), or at a frame of an unknown id
+/// of this length that only the signing policy decides about.
+struct Run {
+    dropped: usize,
+    raw: Option<usize>,
 }
 
 impl Rejected {
@@ -920,18 +981,27 @@ impl Rejected {
             Why::BadCrc => self.bad_crc += 1,
             Why::Unpaid => self.unpaid += 1,
             // Counted as dropped bytes only, as `check_raw` does.
-            Why::Unconfirmed => self.unconfirmed += 1,
+            Why::Unconfirmed | Why::GoodInside => self.unconfirmed += 1,
         }
     }
 
-    /// Counts the rejections and the `dropped` bytes; returns `dropped`.
-    fn record(self, dropped: usize, memo: &mut Memo, stats: &mut Stats) -> usize {
+    /// Counts the rejections and the `dropped` bytes: the run's end.
+    fn record(self, dropped: usize, raw: Option<usize>, memo: &mut Memo, stats: &mut Stats) -> Run {
         stats.bad_crc += self.bad_crc;
         stats.bad_incompat_flags += self.bad_flags;
         stats.signatures_unchecked += self.unpaid;
         stats.bytes_dropped += dropped as u64;
         memo.steps += (dropped as u64) + self.rejected();
-        dropped
+        Run { dropped, raw }
+    }
+}
+
+/// The bytes a verdict of [`signing`] other than an acceptance drops (it
+/// only skips frames; a rejection would drop the start byte).
+fn dropped_by(verdict: Verdict) -> usize {
+    match verdict {
+        Verdict::Skip(n) => n,
+        _ => 1,
     }
 }
 
@@ -945,13 +1015,15 @@ fn refused(rest: &[u8]) -> bool {
 /// [`reject_run`] past its first candidates (`bytes[0]` a start byte): the
 /// start bytes 64 at a time, by mask. In garbage the kind of each is
 /// unpredictable: a branch on it per byte would mostly be mispredicted.
+/// Returns where it ended, and the length of the frame there when it is
+/// one that only the signing policy decides about.
 fn reject_masked<D: Dialect>(
     bytes: &[u8],
     at: u64,
     keyed: bool,
     memo: &mut Memo,
     count: &mut Rejected,
-) -> usize {
+) -> (usize, Option<usize>) {
     for base in (0..bytes.len()).step_by(64) {
         let Starts { kinds, refused } = memo.starts(bytes, at, base, bytes.len());
         // The MAVLink 1 frames with a bad checksum, all at once (each
@@ -966,48 +1038,70 @@ fn reject_masked<D: Dialect>(
             let j = others.trailing_zeros();
             others &= others - 1;
             let i = base + j as usize;
-            let why = if raw >> j & 1 != 0 {
-                raw_rejects(&bytes[i..], at + i as u64, keyed, memo)
+            let alone = if raw >> j & 1 != 0 {
+                raw_alone::<D>(&bytes[i..], at + i as u64, keyed, memo)
             } else {
-                rejects::<D>(&bytes[i..], at + i as u64, keyed, memo)
+                alone::<D>(&bytes[i..], at + i as u64, keyed, memo)
             };
-            let Some(why) = why else {
-                // The refused and bad before it are dropped with it.
-                let before = (1u64 << j) - 1;
-                count.bad_flags += u64::from((refused & before).count_ones());
-                count.bad_crc += u64::from((bad_v1 & before).count_ones());
-                return i;
+            let raw = match alone {
+                Alone::Rejected(why) => {
+                    count.add(why);
+                    continue;
+                }
+                Alone::Raw(len) => Some(len),
+                Alone::Check => None,
             };
-            count.add(why);
+            // The refused and bad before it are dropped with it.
+            let before = (1u64 << j) - 1;
+            count.bad_flags += u64::from((refused & before).count_ones());
+            count.bad_crc += u64::from((bad_v1 & before).count_ones());
+            return (i, raw);
         }
         count.bad_flags += u64::from(refused.count_ones());
         count.bad_crc += u64::from(bad_v1.count_ones());
     }
-    bytes.len()
+    (bytes.len(), None)
 }
 
-/// The rejection [`reject_run`] makes alone of the candidate at the start
-/// of `rest` (stream position `at`), if any: what [`check`] would decide
-/// of it, without the rest of the check.
+/// What [`reject_run`] makes alone of the candidate at the start of `rest`
+/// (stream position `at`): what [`check`] would decide of it, as far as it
+/// can without the rest of the check.
 #[inline(always)]
-fn rejects<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Option<Why> {
-    let w = Whole::at(rest)?;
+fn alone<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Alone {
+    let Some(w) = Whole::at(rest) else {
+        return Alone::Check;
+    };
     match memo.crc_extra::<D>(w.id) {
-        Some(extra) => (!memo.candidate_crc_ok(rest, at, &w, extra)).then_some(Why::BadCrc),
-        None => raw_rejects(rest, at, keyed, memo),
+        Some(extra) if memo.candidate_crc_ok(rest, at, &w, extra) => Alone::Check,
+        Some(_) => Alone::Rejected(Why::BadCrc),
+        None => raw_alone::<D>(rest, at, keyed, memo),
     }
 }
 
-/// [`rejects`] of a candidate of an unknown id (known to the caller):
-/// refused or not by [`raw_refused_alone`] when its frame is whole in
-/// `rest`. (What the scan saw is in these bytes too, unless a caller passed
-/// other bytes since: then the candidate is for `check`.)
+/// [`alone`] of a candidate of an unknown id (known to the caller): what
+/// [`check_raw`] decides when its frame is whole in `rest`, but for a
+/// signature to check or a decision that needs more bytes (those are for
+/// `check`). (What the scan saw is in these bytes too, unless a caller
+/// passed other bytes since: then the candidate is for `check`.)
 #[inline(always)]
-fn raw_rejects(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Option<Why> {
-    let len = frame_len(rest).ok().filter(|&n| rest.len() >= n)?;
+fn raw_alone<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Alone {
+    let Some(len) = frame_len(rest).ok().filter(|&n| rest.len() >= n) else {
+        return Alone::Check;
+    };
     // `frame_len` saw a whole MAVLink 2 header when the start byte says 2.
-    let signed = rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
-    raw_refused_alone(rest, len, keyed && signed, at, memo)
+    let checked = keyed && rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
+    match raw_refused_alone(rest, len, checked, at, memo) {
+        Some(why) => Alone::Rejected(why),
+        // A signature to check, or no byte after it yet.
+        None if checked || rest.len() == len => Alone::Check,
+        // Not refused alone, and not checked: the byte after it is a start
+        // byte, and what is inside decides, as in `check_raw`.
+        None => match memo.inside::<D>(rest, at, len) {
+            Inside::Yes => Alone::Rejected(Why::GoodInside),
+            Inside::No => Alone::Raw(len),
+            Inside::Undecided(_) => Alone::Check,
+        },
+    }
 }
 
 /// What `check_raw` decides of a whole candidate of an unknown id (`len`
@@ -1105,12 +1199,25 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
     } else if let Some(v) = check_raw::<D, N>(bytes, &frame, cx.reborrow()) {
         return v;
     }
+    signing(&frame, meta, cx)
+}
+
+/// The decision of the signing policy about a whole candidate `frame` that
+/// nothing else refuses (a good checksum, or an unknown id that
+/// [`check_raw`] leaves to the policy).
+#[inline(always)]
+fn signing<const N: usize>(
+    frame: &Frame<&[u8]>,
+    meta: Option<&'static MessageMeta>,
+    cx: Ctx<'_, N>,
+) -> Verdict {
+    let len = frame.as_bytes().len();
     let mut authenticated = false;
     if let Some(v) = cx.verifier {
         if frame.is_signed() {
             cx.memo.signatures += 1;
         }
-        match v.verify(&frame) {
+        match v.verify(frame) {
             Ok(()) => authenticated = true,
             Err(SignatureError::Unsigned) if cx.accept_unsigned => {}
             Err(SignatureError::Unsigned) => {

@@ -773,7 +773,13 @@ impl Memo {
             self.extend_prefix(bytes, at, far);
         }
         if let Some(window) = window {
-            let good = v1_good_whole(&self.prefix, &self.v1_extra, window, at + block as u64, mask);
+            let good = v1_good_whole(
+                &self.prefix,
+                &self.v1_extra,
+                window,
+                at + block as u64,
+                mask,
+            );
             return (mask, good);
         }
         let (mut whole, mut good) = (0u64, 0u64);

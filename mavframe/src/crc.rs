@@ -208,53 +208,52 @@ pub fn frame_crc(bytes: &[u8], crc_extra: u8) -> u16 {
 /// byte (9 bytes) and a 255-byte payload. CRC_EXTRA is folded separately.
 pub(crate) const MAX_COVERED: usize = 9 + 255;
 
-/// `ADVANCE_LO[b]`: the register after `b` zero bytes (`b` < 16);
-/// `ADVANCE_HI[a]`: after `16 a` zero bytes (`16 a` ≤ [`MAX_COVERED`]).
+/// `ADVANCE[k]`: the register after `k` zero bytes (`k` ≤
+/// [`MAX_COVERED`] + 1, the extra byte's step included).
 ///
 /// The register update is linear over GF(2) in (register, byte), so `k`
-/// zero bytes are a linear map of the register, and `k = 16 a + b` is the
-/// map of `16 a` after the map of `b`: four table loads for any `k` up to a
-/// frame's, from 33 KiB of tables built at compile time (only the parser's
-/// recovery path reads them). Tables by nibble would take 4.3 KiB and eight
-/// loads: the parser's worst case (garbage dense in start bytes, each a
-/// checksum) ran 10–20 % slower with them (`parser_worst` example).
-/// [`between_extra`] builds on it.
-static ADVANCE_LO: [ByteMap; 16] = byte_maps(1);
-static ADVANCE_HI: [ByteMap; (MAX_COVERED + 1) / 16 + 1] = byte_maps(16);
+/// zero bytes are a linear map of the register: four table loads by nibble
+/// for any `k` up to a frame's, independent of each other, from 33 KiB of
+/// tables built at compile time (only the parser's recovery path reads
+/// them). Two levels of byte tables (`k = 16 a + b`: the map of `16 a`
+/// after the map of `b`) take as much room and make the second two loads
+/// wait for the first two: the parser's worst case (garbage dense in start
+/// bytes, each a checksum) ran about 6 % slower with them (`parser_worst`
+/// example); one level of byte tables would take 256 KiB. [`between_extra`]
+/// builds on it.
+static ADVANCE: [NibbleMap; MAX_COVERED + 2] = nibble_maps();
 
-/// A linear map of the 16-bit register, as two tables of 256 entries, one
-/// per byte of its argument.
-type ByteMap = [[u16; 256]; 2];
+/// A linear map of the 16-bit register, as four tables of 16 entries, one
+/// per nibble of its argument.
+type NibbleMap = [[u16; 16]; 4];
 
-/// `maps[i]`: the register after `i × unit` zero bytes, by bytes.
-const fn byte_maps<const N: usize>(unit: usize) -> [ByteMap; N] {
-    let mut maps = [[[0u16; 256]; 2]; N];
-    let mut i = 0;
-    while i < N {
-        let mut half = 0;
-        while half < 2 {
-            let mut v = 0;
-            while v < 256 {
-                let mut r = (v << (8 * half)) as u16;
-                let mut step = 0;
-                while step < i * unit {
-                    r = (r >> 8) ^ TABLES[0][(r & 0xFF) as usize];
-                    step += 1;
-                }
-                maps[i][half][v] = r;
-                v += 1;
+/// `maps[k]`: the register after `k` zero bytes, by nibbles; each map one
+/// zero byte after the one before it.
+const fn nibble_maps<const N: usize>() -> [NibbleMap; N] {
+    let mut maps = [[[0u16; 16]; 4]; N];
+    let mut nibble = 0;
+    while nibble < 4 {
+        let mut v = 0;
+        while v < 16 {
+            let mut r = (v << (4 * nibble)) as u16;
+            let mut k = 0;
+            while k < N {
+                maps[k][nibble][v] = r;
+                r = (r >> 8) ^ TABLES[0][(r & 0xFF) as usize];
+                k += 1;
             }
-            half += 1;
+            v += 1;
         }
-        i += 1;
+        nibble += 1;
     }
     maps
 }
 
 /// `map · x`.
 #[inline(always)]
-fn apply_bytes(map: &ByteMap, x: u16) -> u16 {
-    map[0][usize::from(x as u8)] ^ map[1][usize::from(x >> 8)]
+fn apply_nibbles(map: &NibbleMap, x: u16) -> u16 {
+    let x = usize::from(x);
+    map[0][x & 15] ^ map[1][x >> 4 & 15] ^ map[2][x >> 8 & 15] ^ map[3][x >> 12]
 }
 
 /// The registers after each of the 4 bytes `b` folded into `r`, all four
@@ -318,11 +317,7 @@ pub(crate) fn extra_fold(crc_extra: u8) -> u16 {
 #[inline(always)]
 pub(crate) fn between_v1(before: u16, after: u16, len: u8, fold: u16) -> u16 {
     // `len + 5` covered bytes and the extra byte.
-    let k = usize::from(len) + 6;
-    let advanced = apply_bytes(
-        &ADVANCE_HI[k / 16],
-        apply_bytes(&ADVANCE_LO[k % 16], !before),
-    );
+    let advanced = apply_nibbles(&ADVANCE[usize::from(len) + 6], !before);
     advanced ^ step(after, 0) ^ fold
 }
 
@@ -330,8 +325,7 @@ pub(crate) fn between_v1(before: u16, after: u16, len: u8, fold: u16) -> u16 {
 /// [`MAX_COVERED`] + 1), `None` beyond.
 #[inline(always)]
 fn advance(r: u16, k: usize) -> Option<u16> {
-    let hi = ADVANCE_HI.get(k / 16)?;
-    Some(apply_bytes(hi, apply_bytes(&ADVANCE_LO[k % 16], r)))
+    Some(apply_nibbles(ADVANCE.get(k)?, r))
 }
 
 #[cfg(test)]

@@ -65,8 +65,7 @@
 mod memo;
 
 use crate::frame::{
-    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, IFLAG_SIGNED, MAX_FRAME_LEN,
-    STX_V1, STX_V2,
+    frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, MAX_FRAME_LEN, STX_V1, STX_V2,
 };
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
@@ -453,26 +452,28 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             };
             self.drop_input(input, start);
             if core::mem::take(&mut rejected) {
-                let keyed = self.verifier.is_some();
-                let run = reject_run::<D>(input, self.pos, keyed, &mut self.memo, &mut self.stats);
+                let run = reject_run::<D, STREAMS>(input, self.ctx());
                 self.pos += run.dropped as u64;
                 *input = &input[run.dropped..];
-                if let Some(len) = run.raw {
-                    // What `check` would decide, from its signing policy on.
-                    let frame = Frame::new_unchecked(&input[..len]);
-                    match signing(&frame, None, self.ctx()) {
-                        Verdict::Accept {
-                            len,
-                            meta,
-                            authenticated,
-                        } => break Found::InInput(len, meta, authenticated),
-                        verdict => self.drop_input(input, dropped_by(verdict)),
+                match run.end {
+                    RunEnd::Authenticated(len) => break Found::InInput(len, None, true),
+                    RunEnd::Policy(len) => {
+                        // What `check` would decide, from its signing
+                        // policy on.
+                        let frame = Frame::new_unchecked(&input[..len]);
+                        match signing(&frame, None, self.ctx()) {
+                            Verdict::Accept {
+                                len,
+                                meta,
+                                authenticated,
+                            } => break Found::InInput(len, meta, authenticated),
+                            verdict => self.drop_input(input, dropped_by(verdict)),
+                        }
+                        rejected = true;
+                        continue;
                     }
-                    rejected = true;
-                    continue;
-                }
-                if run.dropped > 0 {
-                    continue;
+                    RunEnd::Check if run.dropped > 0 => continue,
+                    RunEnd::Check => {}
                 }
             }
             match self.check_at_input(input) {
@@ -625,14 +626,24 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// buffer for as long as it returns a frame every few bytes).
     fn reject_run_held(&mut self) -> Held {
         while self.len != 0 {
-            let held = &self.buf[self.head..self.head + self.len];
-            let keyed = self.verifier.is_some();
-            let run = reject_run::<D>(held, self.pos, keyed, &mut self.memo, &mut self.stats);
+            let run = reject_run::<D, STREAMS>(
+                &self.buf[self.head..self.head + self.len],
+                Ctx {
+                    at: self.pos,
+                    memo: &mut self.memo,
+                    verifier: &mut self.verifier,
+                    accept_unsigned: self.accept_unsigned,
+                    at_eof: self.at_eof,
+                    stats: &mut self.stats,
+                },
+            );
             if run.dropped > 0 {
                 self.consume_held(run.dropped);
             }
-            let Some(len) = run.raw else {
-                break;
+            let len = match run.end {
+                RunEnd::Check => break,
+                RunEnd::Authenticated(len) => return Held::Found(Found::InBuf(len, None, true)),
+                RunEnd::Policy(len) => len,
             };
             // What `check` would decide, from its signing policy on.
             let frame = Frame::new_unchecked(&self.buf[self.head..self.head + len]);
@@ -867,31 +878,41 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 }
 
 /// Rejects, in one loop, the candidates at the start of `bytes` (a start
-/// byte) while each is a whole frame of a known id with a bad checksum, has
-/// unknown incompatibility flags, or is a frame of an unknown id that
-/// [`check_raw`] would refuse: what `check` would decide, with the same
+/// byte, at `cx.at`) while each is a whole frame of a known id with a bad
+/// checksum, has unknown incompatibility flags, or is a frame of an unknown
+/// id that [`check_raw`] refuses: what `check` would decide, with the same
 /// counters, minus its per-candidate plumbing. This is the bulk of garbage
 /// dense in start bytes, and the loop runs only after a rejection (good
 /// frames go straight to `check`). Ends at the first candidate it leaves to
 /// `check` (or the end of the bytes), or at a frame of an unknown id that
-/// only the signing policy decides about (see [`Run`]).
+/// `check_raw` has taken or left to the signing policy (see [`RunEnd`]).
 #[inline(never)]
-fn reject_run<D: Dialect>(
-    bytes: &[u8],
-    at: u64,
-    keyed: bool,
-    memo: &mut Memo,
-    stats: &mut Stats,
-) -> Run {
+fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
+    let Ctx {
+        at,
+        memo,
+        verifier,
+        accept_unsigned,
+        at_eof,
+        stats,
+    } = cx;
+    // Apart from the memo, which the loop uses all the time (kept in a
+    // register, not read through the context).
+    let mut rest = Rest {
+        verifier,
+        accept_unsigned,
+        at_eof,
+        stats,
+    };
     let mut count = Rejected::default();
     if memo.dense_starts {
         // The last run proved the start bytes dense: masks at once, while
         // they stay dense.
-        let (i, raw) = reject_masked::<D>(bytes, at, keyed, memo, &mut count);
+        let (i, end) = reject_masked::<D, N>(bytes, at, memo, &mut rest, &mut count);
         // A run that rejects nothing ends the garbage: good frames after it
         // go straight to `check` again.
         memo.dense_starts = count.rejected() > 0 && count.rejected() * DENSE as u64 >= i as u64;
-        return count.record(i, raw, memo, stats);
+        return count.record(i, end, memo, rest.stats);
     }
     // One by one, the way through sparse start bytes (random bytes: a
     // search for the next start byte, rarely more than one candidate); by
@@ -900,26 +921,37 @@ fn reject_run<D: Dialect>(
     for n in 1.. {
         if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN {
             memo.dense_starts = true;
-            let (j, raw) = reject_masked::<D>(&bytes[i..], at + i as u64, keyed, memo, &mut count);
-            return count.record(i + j, raw, memo, stats);
+            let (j, end) =
+                reject_masked::<D, N>(&bytes[i..], at + i as u64, memo, &mut rest, &mut count);
+            return count.record(i + j, end, memo, rest.stats);
         }
-        let rest = &bytes[i..];
-        match rest.first() {
-            Some(&STX_V2) if refused(rest) => count.bad_flags += 1,
+        let bytes = &bytes[i..];
+        match bytes.first() {
+            Some(&STX_V2) if refused(bytes) => count.bad_flags += 1,
             Some(&STX_V1) if memo.v1_known_bad(at + i as u64) => count.bad_crc += 1,
-            Some(_) => match alone::<D>(rest, at + i as u64, keyed, memo) {
-                Alone::Rejected(why) => count.add(why),
-                Alone::Raw(len) => return count.record(i, Some(len), memo, stats),
-                Alone::Check => break,
+            Some(_) => match alone::<D, N>(bytes, at + i as u64, memo, &mut rest) {
+                Alone::BadCrc => count.bad_crc += 1,
+                Alone::Refused => count.by_check_raw += 1,
+                Alone::Ends(end) => return count.record(i, end, memo, rest.stats),
             },
             None => break,
         }
-        i += 1 + rest[1..]
+        i += 1 + bytes[1..]
             .iter()
             .position(|&b| b == STX_V1 || b == STX_V2)
-            .unwrap_or(rest.len() - 1);
+            .unwrap_or(bytes.len() - 1);
     }
-    count.record(i, None, memo, stats)
+    count.record(i, RunEnd::Check, memo, rest.stats)
+}
+
+/// What a check needs besides the bytes, the position and the memo: what
+/// [`reject_run`] passes to [`check_raw`] for the rare candidate that gets
+/// that far.
+struct Rest<'a, const N: usize> {
+    verifier: &'a mut Option<Verifier<N>>,
+    accept_unsigned: bool,
+    at_eof: bool,
+    stats: &'a mut Stats,
 }
 
 /// [`reject_run`] looks at its start bytes' density every this many
@@ -933,66 +965,63 @@ const DENSE: usize = 8;
 struct Rejected {
     bad_crc: u64,
     bad_flags: u64,
-    unpaid: u64,
-    unconfirmed: u64,
+    /// Those [`check_raw`] refused (and counted as it does).
+    by_check_raw: u64,
 }
 
-/// Why [`reject_run`] rejects a candidate alone.
+/// Why [`check_raw`] refuses a whole candidate of an unknown id before
+/// looking inside it ([`raw_refused_alone`]).
 enum Why {
-    /// A whole frame of a known id with a bad checksum.
-    BadCrc,
-    /// A whole signed frame of an unknown id whose signature the budget
-    /// cannot pay for (see the module docs): it cannot be authenticated.
+    /// A signed frame whose signature the budget cannot pay for (see the
+    /// module docs): it cannot be authenticated.
     Unpaid,
-    /// A whole frame of an unknown id that nothing can confirm: no
-    /// signature to check, and the byte after it is not a start byte.
+    /// A frame that nothing can confirm: no signature to check, and the
+    /// byte after it is not a start byte.
     Unconfirmed,
-    /// A whole frame of an unknown id with a good frame of a known id
-    /// inside.
-    GoodInside,
 }
 
 /// What [`reject_run`] makes of a candidate alone.
 enum Alone {
-    Rejected(Why),
-    /// A whole frame of an unknown id, this long, that only the signing
-    /// policy decides about: nothing inside or after it refuses it.
-    Raw(usize),
-    /// For [`check`].
-    Check,
+    /// A whole frame of a known id with a bad checksum.
+    BadCrc,
+    /// A whole frame of an unknown id that [`check_raw`] refused (and
+    /// counted as it does).
+    Refused,
+    /// The run ends at it.
+    Ends(RunEnd),
 }
 
-/// How a run of [`reject_run`] ended: after `dropped` bytes, at a candidate
-/// for [`check`] (or the end of the bytes), or at a frame of an unknown id
-/// of this length that only the signing policy decides about.
+/// How a run of [`reject_run`] ended: after `dropped` bytes, at `end`.
 struct Run {
     dropped: usize,
-    raw: Option<usize>,
+    end: RunEnd,
+}
+
+/// The candidate a run of [`reject_run`] ended at.
+enum RunEnd {
+    /// One for [`check`] (or none: the end of the bytes).
+    Check,
+    /// A frame of an unknown id, this long, that [`check_raw`] leaves to
+    /// the signing policy ([`signing`]).
+    Policy(usize),
+    /// A frame of an unknown id, this long, that [`check_raw`] took: its
+    /// signature is good.
+    Authenticated(usize),
 }
 
 impl Rejected {
     /// The candidates rejected.
     fn rejected(&self) -> u64 {
-        self.bad_crc + self.bad_flags + self.unpaid + self.unconfirmed
-    }
-
-    fn add(&mut self, why: Why) {
-        match why {
-            Why::BadCrc => self.bad_crc += 1,
-            Why::Unpaid => self.unpaid += 1,
-            // Counted as dropped bytes only, as `check_raw` does.
-            Why::Unconfirmed | Why::GoodInside => self.unconfirmed += 1,
-        }
+        self.bad_crc + self.bad_flags + self.by_check_raw
     }
 
     /// Counts the rejections and the `dropped` bytes: the run's end.
-    fn record(self, dropped: usize, raw: Option<usize>, memo: &mut Memo, stats: &mut Stats) -> Run {
+    fn record(self, dropped: usize, end: RunEnd, memo: &mut Memo, stats: &mut Stats) -> Run {
         stats.bad_crc += self.bad_crc;
         stats.bad_incompat_flags += self.bad_flags;
-        stats.signatures_unchecked += self.unpaid;
         stats.bytes_dropped += dropped as u64;
         memo.steps += (dropped as u64) + self.rejected();
-        Run { dropped, raw }
+        Run { dropped, end }
     }
 }
 
@@ -1012,18 +1041,17 @@ fn refused(rest: &[u8]) -> bool {
     rest.len() >= HEADER_LEN_V2 && rest[2] & !IFLAG_KNOWN != 0
 }
 
-/// [`reject_run`] past its first candidates (`bytes[0]` a start byte): the
-/// start bytes 64 at a time, by mask. In garbage the kind of each is
-/// unpredictable: a branch on it per byte would mostly be mispredicted.
-/// Returns where it ended, and the length of the frame there when it is
-/// one that only the signing policy decides about.
-fn reject_masked<D: Dialect>(
+/// [`reject_run`] past its first candidates (`bytes[0]` a start byte, at
+/// `cx.at`): the start bytes 64 at a time, by mask. In garbage the kind of
+/// each is unpredictable: a branch on it per byte would mostly be
+/// mispredicted. Returns where the run ended, and how.
+fn reject_masked<D: Dialect, const N: usize>(
     bytes: &[u8],
     at: u64,
-    keyed: bool,
     memo: &mut Memo,
+    rest: &mut Rest<'_, N>,
     count: &mut Rejected,
-) -> (usize, Option<usize>) {
+) -> (usize, RunEnd) {
     for base in (0..bytes.len()).step_by(64) {
         let Starts { kinds, refused } = memo.starts(bytes, at, base, bytes.len());
         // The MAVLink 1 frames with a bad checksum, all at once (each
@@ -1039,68 +1067,83 @@ fn reject_masked<D: Dialect>(
             others &= others - 1;
             let i = base + j as usize;
             let alone = if raw >> j & 1 != 0 {
-                raw_alone::<D>(&bytes[i..], at + i as u64, keyed, memo)
+                raw_alone::<D, N>(&bytes[i..], at + i as u64, memo, rest)
             } else {
-                alone::<D>(&bytes[i..], at + i as u64, keyed, memo)
+                alone::<D, N>(&bytes[i..], at + i as u64, memo, rest)
             };
-            let raw = match alone {
-                Alone::Rejected(why) => {
-                    count.add(why);
+            let end = match alone {
+                Alone::BadCrc => {
+                    count.bad_crc += 1;
                     continue;
                 }
-                Alone::Raw(len) => Some(len),
-                Alone::Check => None,
+                Alone::Refused => {
+                    count.by_check_raw += 1;
+                    continue;
+                }
+                Alone::Ends(end) => end,
             };
             // The refused and bad before it are dropped with it.
             let before = (1u64 << j) - 1;
             count.bad_flags += u64::from((refused & before).count_ones());
             count.bad_crc += u64::from((bad_v1 & before).count_ones());
-            return (i, raw);
+            return (i, end);
         }
         count.bad_flags += u64::from(refused.count_ones());
         count.bad_crc += u64::from(bad_v1.count_ones());
     }
-    (bytes.len(), None)
+    (bytes.len(), RunEnd::Check)
 }
 
 /// What [`reject_run`] makes alone of the candidate at the start of `rest`
 /// (stream position `at`): what [`check`] would decide of it, as far as it
 /// can without the rest of the check.
 #[inline(always)]
-fn alone<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Alone {
-    let Some(w) = Whole::at(rest) else {
-        return Alone::Check;
+fn alone<D: Dialect, const N: usize>(
+    bytes: &[u8],
+    at: u64,
+    memo: &mut Memo,
+    rest: &mut Rest<'_, N>,
+) -> Alone {
+    let Some(w) = Whole::at(bytes) else {
+        return Alone::Ends(RunEnd::Check);
     };
     match memo.crc_extra::<D>(w.id) {
-        Some(extra) if memo.candidate_crc_ok(rest, at, &w, extra) => Alone::Check,
-        Some(_) => Alone::Rejected(Why::BadCrc),
-        None => raw_alone::<D>(rest, at, keyed, memo),
+        Some(extra) if memo.candidate_crc_ok(bytes, at, &w, extra) => Alone::Ends(RunEnd::Check),
+        Some(_) => Alone::BadCrc,
+        None => raw_alone::<D, N>(bytes, at, memo, rest),
     }
 }
 
-/// [`alone`] of a candidate of an unknown id (known to the caller): what
-/// [`check_raw`] decides when its frame is whole in `rest`, but for a
-/// signature to check or a decision that needs more bytes (those are for
-/// `check`). (What the scan saw is in these bytes too, unless a caller
-/// passed other bytes since: then the candidate is for `check`.)
+/// [`alone`] of a candidate of an unknown id (known to the caller): when
+/// its frame is whole in `bytes`, what [`check_raw`] decides (its policy,
+/// in line), else one for `check`. (What the scan saw is in these bytes
+/// too, unless a caller passed other bytes since: then `check_raw` reads
+/// them again.)
 #[inline(always)]
-fn raw_alone<D: Dialect>(rest: &[u8], at: u64, keyed: bool, memo: &mut Memo) -> Alone {
-    let Some(len) = frame_len(rest).ok().filter(|&n| rest.len() >= n) else {
-        return Alone::Check;
+fn raw_alone<D: Dialect, const N: usize>(
+    bytes: &[u8],
+    at: u64,
+    memo: &mut Memo,
+    rest: &mut Rest<'_, N>,
+) -> Alone {
+    let Some(len) = frame_len(bytes).ok().filter(|&n| bytes.len() >= n) else {
+        return Alone::Ends(RunEnd::Check);
     };
-    // `frame_len` saw a whole MAVLink 2 header when the start byte says 2.
-    let checked = keyed && rest[0] == STX_V2 && rest[2] & IFLAG_SIGNED != 0;
-    match raw_refused_alone(rest, len, checked, at, memo) {
-        Some(why) => Alone::Rejected(why),
-        // A signature to check, or no byte after it yet.
-        None if checked || rest.len() == len => Alone::Check,
-        // Not refused alone, and not checked: the byte after it is a start
-        // byte, and what is inside decides, as in `check_raw`.
-        None => match memo.inside::<D>(rest, at, len) {
-            Inside::Yes => Alone::Rejected(Why::GoodInside),
-            Inside::No => Alone::Raw(len),
-            Inside::Undecided(_) => Alone::Check,
-        },
+    let frame = Frame::new_unchecked(&bytes[..len]);
+    let cx = Ctx {
+        at,
+        memo,
+        verifier: rest.verifier,
+        accept_unsigned: rest.accept_unsigned,
+        at_eof: rest.at_eof,
+        stats: rest.stats,
+    };
+    match raw_verdict::<D, N>(bytes, &frame, cx) {
+        Some(Verdict::Reject) => Alone::Refused,
+        // Only an authenticated frame is taken there.
+        Some(Verdict::Accept { len, .. }) => Alone::Ends(RunEnd::Authenticated(len)),
+        Some(_) => Alone::Ends(RunEnd::Check),
+        None => Alone::Ends(RunEnd::Policy(len)),
     }
 }
 
@@ -1243,9 +1286,21 @@ fn signing<const N: usize>(
 
 /// The decision about a whole candidate `frame` of an unknown id (see the
 /// module docs), or `None` when only the signing policy is left to apply
-/// (an unsigned frame, or any frame without a key).
+/// (an unsigned frame, or any frame without a key). Out of line: `check`'s
+/// hot path, good frames of known ids, does not pay for it.
 #[inline(never)]
 fn check_raw<D: Dialect, const N: usize>(
+    bytes: &[u8],
+    frame: &Frame<&[u8]>,
+    cx: Ctx<'_, N>,
+) -> Option<Verdict> {
+    raw_verdict::<D, N>(bytes, frame, cx)
+}
+
+/// [`check_raw`], in line: in [`reject_run`], where frames of unknown ids
+/// are the candidates it cannot reject by their checksum.
+#[inline(always)]
+fn raw_verdict<D: Dialect, const N: usize>(
     bytes: &[u8],
     frame: &Frame<&[u8]>,
     cx: Ctx<'_, N>,

@@ -8,10 +8,11 @@
 # instructions per cycle; random bytes run at a higher rate (a vectorised
 # search), so the count understates their lead.
 #
-#   bash benches/scripts/parser_instructions.sh [INPUT...]
+#   [CHUNK=N] bash benches/scripts/parser_instructions.sh [INPUT...]
 #
-# Each input is parsed once and three times (64 KiB chunks, as `fbwag
-# decode` reads); the difference over two passes and 256 KiB is the figure,
+# Each input is parsed once and three times (in CHUNK-byte reads: 64 KiB by
+# default, as `fbwag decode` reads; UDP datagrams and serial reads are a few
+# hundred bytes or fewer); the difference over two passes and 256 KiB is the figure,
 # so that building the inputs does not count. Inputs: the names of
 # `benches::worst::inputs` (default: all of them), or hex:PATTERN; a
 # `keyed` after a name parses with a key (unsigned frames refused). Under
@@ -24,13 +25,13 @@ cargo build --release -q -p benches --example parser_worst
 bin=target/release/examples/parser_worst
 count() {
     valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file=/dev/null \
-        "$bin" one "$@" 2>&1 | awk '/I *refs/ { gsub(",", "", $NF); print $NF }'
+        "$bin" one "$@" "chunk=${CHUNK:-65536}" 2>&1 | awk '/I *refs/ { gsub(",", "", $NF); print $NF }'
 }
 inputs=("$@")
 if [ ${#inputs[@]} -eq 0 ]; then
     inputs=(random dense_fd_fe mixed_half_start found_mix issue_pattern all_fe all_fd
         "signed_raw keyed" "signed_raw_confirmed keyed" found_a found_b found_c found_d
-        "found_e keyed")
+        "found_e keyed" found_f "found_g keyed" "found_h keyed")
 fi
 printf '%-28s %10s\n' input instr/B
 for input in "${inputs[@]}"; do

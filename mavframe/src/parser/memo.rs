@@ -81,7 +81,14 @@ const V1_WINDOW: usize = 64 + HEADER_LEN_V1 + 255 + CHECKSUM_LEN;
 /// least the first, and up to the second as long as every frame starting
 /// there is whole in the bytes at hand (one whose end is not there would
 /// wait, to be classified again, and would likely never be asked about).
-const SCAN_AHEAD_MIN: usize = 64;
+/// The first trades one against the other: each scan has a fixed cost, and
+/// each position scanned whose frame is cut is classified again later. At
+/// 64, garbage of long candidates read in small chunks (the usual UDP and
+/// serial reads) classified most positions twice; at 0 or 16, candidates
+/// whose frames end a few bytes apart paid a scan each (stop 17,
+/// `parser_instructions.sh` in 64-, 300- and 65536-byte reads: the worst
+/// inputs' ratio to random bytes is lowest at 32).
+const SCAN_AHEAD_MIN: usize = 32;
 const SCAN_AHEAD: usize = 192;
 
 /// Where the scan for a candidate needing positions before `end` stops, in

@@ -664,8 +664,8 @@ impl Memo {
         match frame_len(inner) {
             Ok(n) if inner.len() >= n => {
                 let w = Whole::of(&Frame::new_unchecked(&inner[..n]));
-                match D::meta(w.id) {
-                    Some(m) if self.crc_matches(bytes, at, rel, &w, m.crc_extra) => Class::Good,
+                match self.crc_extra::<D>(w.id) {
+                    Some(extra) if self.crc_matches(bytes, at, rel, &w, extra) => Class::Good,
                     Some(_) => Class::BadCrc,
                     None => Class::NotGood,
                 }
@@ -676,7 +676,7 @@ impl Memo {
                 wake: q + HEADER_LEN_V1 as u64,
             },
             Ok(n) => {
-                if D::meta(msg_id(inner)).is_some() {
+                if self.crc_extra::<D>(msg_id(inner)).is_some() {
                     Class::Pending {
                         undecided: true,
                         wake: q + n as u64,

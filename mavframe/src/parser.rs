@@ -592,7 +592,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             self.take_input(input, self.len);
         }
         if core::mem::take(&mut self.resume_in_garbage) {
-            return self.reject_run_held();
+            return self.reject_run_held(input);
         }
         match self.check_at_buf() {
             // Cannot happen (a need is always for more than is held);
@@ -611,11 +611,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             } => return Held::Found(Found::InBuf(len, meta, authenticated)),
             Verdict::Skip(len) => {
                 self.drop_front(len);
-                return self.reject_run_held();
+                return self.reject_run_held(input);
             }
             Verdict::Reject => {
                 self.drop_front(1);
-                return self.reject_run_held();
+                return self.reject_run_held(input);
             }
         }
         Held::Next
@@ -624,8 +624,13 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// After a rejection with bytes held: [`reject_run`] over them, as on
     /// the input (garbage dense in start bytes can keep a parser in its
     /// buffer for as long as it returns a frame every few bytes).
-    fn reject_run_held(&mut self) -> Held {
+    fn reject_run_held(&mut self, input: &mut &[u8]) -> Held {
         while self.len != 0 {
+            if self.len + TOP_UP_SLACK < MAX_NEEDED && !input.is_empty() {
+                // As before a check: what the run decides of a frame of
+                // an unknown id depends on the bytes after it.
+                self.take_input(input, self.len);
+            }
             let run = reject_run::<D, STREAMS>(
                 &self.buf[self.head..self.head + self.len],
                 Ctx {

@@ -1071,7 +1071,12 @@ fn reject_masked<D: Dialect, const N: usize>(
             let j = others.trailing_zeros();
             others &= others - 1;
             let i = base + j as usize;
-            let alone = if raw >> j & 1 != 0 {
+            // The scan's "unknown id" was read from bytes a caller may not
+            // have passed again (one that drops its input after a frame):
+            // read again from these before `check_raw`'s policy may take
+            // the frame, as `alone` does.
+            let unknown = raw >> j & 1 != 0 && memo.crc_extra::<D>(msg_id(&bytes[i..])).is_none();
+            let alone = if unknown {
                 raw_alone::<D, N>(&bytes[i..], at + i as u64, memo, rest)
             } else {
                 alone::<D, N>(&bytes[i..], at + i as u64, memo, rest)

@@ -1063,8 +1063,8 @@ fn reject_masked<D: Dialect, const N: usize>(
         // position checked once, however many runs pass over it).
         let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0]);
         // Those are rejected by their count; the others one by one, those
-        // the scan found whole with an unknown id without their header's
-        // look-up again.
+        // the scan found whole with an unknown id straight to `check_raw`'s
+        // policy once their id is read again.
         let mut others = (kinds[0] | kinds[1]) & !bad_v1;
         let raw = memo.raw_starts(at + base as u64) & others;
         while others != 0 {

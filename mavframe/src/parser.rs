@@ -631,17 +631,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 // an unknown id depends on the bytes after it.
                 self.take_input(input, self.len);
             }
-            let run = reject_run::<D, STREAMS>(
-                &self.buf[self.head..self.head + self.len],
-                Ctx {
-                    at: self.pos,
-                    memo: &mut self.memo,
-                    verifier: &mut self.verifier,
-                    accept_unsigned: self.accept_unsigned,
-                    at_eof: self.at_eof,
-                    stats: &mut self.stats,
-                },
-            );
+            let (held, cx) = self.held_and_ctx();
+            let run = reject_run::<D, STREAMS>(held, cx);
             if run.dropped > 0 {
                 self.consume_held(run.dropped);
             }
@@ -651,15 +642,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 RunEnd::Policy(len) => len,
             };
             // What `check` would decide, from its signing policy on.
-            let frame = Frame::new_unchecked(&self.buf[self.head..self.head + len]);
-            let cx = Ctx {
-                at: self.pos,
-                memo: &mut self.memo,
-                verifier: &mut self.verifier,
-                accept_unsigned: self.accept_unsigned,
-                at_eof: self.at_eof,
-                stats: &mut self.stats,
-            };
+            let (held, cx) = self.held_and_ctx();
+            let frame = Frame::new_unchecked(&held[..len]);
             match signing(&frame, None, cx) {
                 Verdict::Accept {
                     len,
@@ -826,7 +810,15 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     fn check_at_buf(&mut self) -> Verdict {
         self.memo.steps += 1;
-        check::<D, STREAMS>(
+        let (held, cx) = self.held_and_ctx();
+        check::<D, STREAMS>(held, cx)
+    }
+
+    /// The bytes held, and what a check of the candidate at their start
+    /// needs (disjoint fields: both at once).
+    #[inline(always)]
+    fn held_and_ctx(&mut self) -> (&[u8], Ctx<'_, STREAMS>) {
+        (
             &self.buf[self.head..self.head + self.len],
             Ctx {
                 at: self.pos,

@@ -417,7 +417,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         // bytes, where `reject_run` is the fast way through.
         // (With bytes held, `step_held` takes it.)
         let mut rejected = self.len == 0 && core::mem::take(&mut self.resume_in_garbage);
-        if self.len == 0 && self.verifier.is_none() {
+        if self.len == 0 && self.verifier.is_none() && !rejected {
             // The hot path: a good frame of a known id whole in the input.
             match self.good_frame_in_place(input) {
                 InPlace::Good(len, meta) => {
@@ -499,7 +499,6 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 }
             }
         };
-        self.resume_in_garbage = self.memo.dense_starts;
         let (bytes, meta, authenticated) = match found {
             Found::InInput(len, meta, auth) => {
                 let (frame, rest) = input.split_at(len);
@@ -513,6 +512,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 (&self.buf[self.head..self.head + len], meta, auth)
             }
         };
+        // A frame of an unknown id is as likely garbage's as a router's:
+        // the next call starts with the rejection loop, which decides a
+        // candidate of either kind without `check`'s plumbing.
+        self.resume_in_garbage = self.memo.dense_starts || meta.is_none();
         Some(Self::received(
             bytes,
             meta,
@@ -926,11 +929,13 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
         match bytes.first() {
             Some(&STX_V2) if refused(bytes) => count.bad_flags += 1,
             Some(&STX_V1) if memo.v1_known_bad(at + i as u64) => count.bad_crc += 1,
-            Some(_) => match alone::<D, N>(bytes, at + i as u64, memo, &mut rest) {
-                Alone::BadCrc => count.bad_crc += 1,
-                Alone::Refused => count.by_check_raw += 1,
-                Alone::Ends(end) => return count.record(i, end, memo, rest.stats),
-            },
+            Some(_) => {
+                match alone::<D, N>(bytes, at + i as u64, memo, &mut rest, MaybeGood::UNKNOWN) {
+                    Alone::BadCrc => count.bad_crc += 1,
+                    Alone::Refused => count.by_check_raw += 1,
+                    Alone::Ends(end) => return count.record(i, end, memo, rest.stats),
+                }
+            }
             None => break,
         }
         i += 1 + bytes[1..]
@@ -1058,6 +1063,8 @@ fn reject_masked<D: Dialect, const N: usize>(
         // the scan found whole with an unknown id straight to `check_raw`'s
         // policy once their id is read again.
         let mut others = (kinds[0] | kinds[1]) & !bad_v1;
+        let maybe_good = others;
+        let n = (bytes.len() - base).min(64);
         let raw = memo.raw_starts(at + base as u64) & others;
         while others != 0 {
             let j = others.trailing_zeros();
@@ -1068,10 +1075,14 @@ fn reject_masked<D: Dialect, const N: usize>(
             // read again from these before `check_raw`'s policy may take
             // the frame, as `alone` does.
             let unknown = raw >> j & 1 != 0 && memo.crc_extra::<D>(msg_id(&bytes[i..])).is_none();
+            let maybe = MaybeGood {
+                starts: maybe_good >> j,
+                positions: n - j as usize,
+            };
             let alone = if unknown {
-                raw_alone::<D, N>(&bytes[i..], at + i as u64, memo, rest)
+                raw_alone::<D, N>(&bytes[i..], at + i as u64, memo, rest, maybe)
             } else {
-                alone::<D, N>(&bytes[i..], at + i as u64, memo, rest)
+                alone::<D, N>(&bytes[i..], at + i as u64, memo, rest, maybe)
             };
             let end = match alone {
                 Alone::BadCrc => {
@@ -1105,6 +1116,7 @@ fn alone<D: Dialect, const N: usize>(
     at: u64,
     memo: &mut Memo,
     rest: &mut Rest<'_, N>,
+    maybe: MaybeGood,
 ) -> Alone {
     let Some(w) = Whole::at(bytes) else {
         return Alone::Ends(RunEnd::Check);
@@ -1112,7 +1124,32 @@ fn alone<D: Dialect, const N: usize>(
     match memo.crc_extra::<D>(w.id) {
         Some(extra) if memo.candidate_crc_ok(bytes, at, &w, extra) => Alone::Ends(RunEnd::Check),
         Some(_) => Alone::BadCrc,
-        None => raw_alone::<D, N>(bytes, at, memo, rest),
+        None => raw_alone::<D, N>(bytes, at, memo, rest, maybe),
+    }
+}
+
+/// What the masks of [`reject_masked`] tell of the positions from a
+/// candidate on: which of the first `positions` may start a good frame of
+/// a known id (`starts`, bit 0 the candidate); the rest are not known.
+/// A frame of an unknown id with none inside needs no [`Memo::inside`].
+#[derive(Clone, Copy)]
+struct MaybeGood {
+    starts: u64,
+    positions: usize,
+}
+
+impl MaybeGood {
+    /// Nothing known.
+    const UNKNOWN: MaybeGood = MaybeGood {
+        starts: !0,
+        positions: 0,
+    };
+
+    /// Whether no position after the candidate and before its `len`th byte
+    /// can start a good frame, as far as the masks tell.
+    #[inline(always)]
+    fn none_inside(self, len: usize) -> bool {
+        len <= self.positions && len >= 1 && (self.starts >> 1) & ((1u64 << (len - 1)) - 1) == 0
     }
 }
 
@@ -1127,6 +1164,7 @@ fn raw_alone<D: Dialect, const N: usize>(
     at: u64,
     memo: &mut Memo,
     rest: &mut Rest<'_, N>,
+    maybe: MaybeGood,
 ) -> Alone {
     let Some(len) = frame_len(bytes).ok().filter(|&n| bytes.len() >= n) else {
         return Alone::Ends(RunEnd::Check);
@@ -1140,7 +1178,7 @@ fn raw_alone<D: Dialect, const N: usize>(
         at_eof: rest.at_eof,
         stats: rest.stats,
     };
-    match raw_verdict::<D, N>(bytes, &frame, cx) {
+    match raw_verdict::<D, N>(bytes, &frame, cx, maybe) {
         Some(Verdict::Reject) => Alone::Refused,
         // Only an authenticated frame is taken there.
         Some(Verdict::Accept { len, .. }) => Alone::Ends(RunEnd::Authenticated(len)),
@@ -1296,7 +1334,7 @@ fn check_raw<D: Dialect, const N: usize>(
     frame: &Frame<&[u8]>,
     cx: Ctx<'_, N>,
 ) -> Option<Verdict> {
-    raw_verdict::<D, N>(bytes, frame, cx)
+    raw_verdict::<D, N>(bytes, frame, cx, MaybeGood::UNKNOWN)
 }
 
 /// [`check_raw`], in line: in [`reject_run`], where frames of unknown ids
@@ -1306,6 +1344,7 @@ fn raw_verdict<D: Dialect, const N: usize>(
     bytes: &[u8],
     frame: &Frame<&[u8]>,
     cx: Ctx<'_, N>,
+    maybe: MaybeGood,
 ) -> Option<Verdict> {
     let len = frame.as_bytes().len();
     let checked = frame.is_signed() && cx.verifier.is_some();
@@ -1320,7 +1359,12 @@ fn raw_verdict<D: Dialect, const N: usize>(
         Some(_) => return Some(Verdict::Reject),
         None => {}
     }
-    match cx.memo.inside::<D>(bytes, cx.at, len) {
+    let inside = if maybe.none_inside(len) {
+        Inside::No
+    } else {
+        cx.memo.inside::<D>(bytes, cx.at, len)
+    };
+    match inside {
         Inside::Yes => return Some(Verdict::Reject),
         Inside::Undecided(needed) if !cx.at_eof => return Some(Verdict::Need(needed)),
         Inside::Undecided(_) | Inside::No => {}

@@ -89,6 +89,10 @@ const V1_WINDOW: usize = 64 + HEADER_LEN_V1 + 255 + CHECKSUM_LEN;
 /// `parser_instructions.sh` in 64-, 300- and 65536-byte reads: the worst
 /// inputs' ratio to random bytes is lowest at 32).
 const SCAN_AHEAD_MIN: usize = 32;
+
+/// The start-byte masks are computed across a gap this short up to a
+/// position asked for, rather than from that position anew.
+const BRIDGE: u64 = (SCAN_RING / 2) as u64;
 const SCAN_AHEAD: usize = 192;
 
 /// Where the scan for a candidate needing positions before `end` stops, in
@@ -582,7 +586,7 @@ impl Memo {
         // the verdicts of a block are stored at once (a store per position
         // would make each wait for the previous one's).
         for base in (0..end - lo).step_by(64) {
-            let Starts { kinds, .. } = self.starts(&bytes[lo..], at + lo as u64, base, end - lo);
+            let Starts { kinds, .. } = self.starts(bytes, at, lo + base, end);
             let n = end - lo - base;
             let (whole, mut good) = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
             let (mut bad, mut raw) = (whole & !good, 0);
@@ -1002,12 +1006,20 @@ impl Memo {
         starts_of(bytes, base, masks)
     }
 
-    /// Computes the masks of the positions from the frontier (or from
-    /// `first` when the frontier is behind it) to two blocks after `first`,
-    /// as far as whole blocks of `bytes` (from stream position `at`) go.
+    /// Computes the masks of the positions from the frontier to two blocks
+    /// after `first`, as far as whole blocks of `bytes` (from stream
+    /// position `at`) go; from `first` when the frontier is behind it and
+    /// the bytes between are not at hand, or far.
     #[inline(never)]
     fn remember_masks(&mut self, bytes: &[u8], at: u64, first: u64) {
-        if self.masks_frontier < first || self.masks_from > first {
+        // The scan, ahead of the candidate, and the fast rejection loop, at
+        // it, ask in turn: a frontier moved to the scan's position would
+        // lose the masks the loop asks for next (small reads made them
+        // computed five times over).
+        let behind = self.masks_frontier < first;
+        let bridged =
+            self.masks_frontier >= at && first.saturating_sub(self.masks_frontier) < BRIDGE;
+        if self.masks_from > first || (behind && !bridged) {
             (self.masks_from, self.masks_frontier) = (first, first);
         }
         while self.masks_frontier < first + 128 {

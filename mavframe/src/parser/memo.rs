@@ -89,10 +89,6 @@ const V1_WINDOW: usize = 64 + HEADER_LEN_V1 + 255 + CHECKSUM_LEN;
 /// `parser_instructions.sh` in 64-, 300- and 65536-byte reads: the worst
 /// inputs' ratio to random bytes is lowest at 32).
 const SCAN_AHEAD_MIN: usize = 32;
-
-/// The start-byte masks are computed across a gap this short up to a
-/// position asked for, rather than from that position anew.
-const BRIDGE: u64 = (SCAN_RING / 2) as u64;
 const SCAN_AHEAD: usize = 192;
 
 /// Where the scan for a candidate needing positions before `end` stops, in
@@ -586,8 +582,8 @@ impl Memo {
         // the verdicts of a block are stored at once (a store per position
         // would make each wait for the previous one's).
         for base in (0..end - lo).step_by(64) {
-            let Starts { kinds, .. } = self.starts(bytes, at, lo + base, end);
             let n = end - lo - base;
+            let Starts { kinds, .. } = self.starts_seen(bytes, at, lo + base, n.min(64));
             let (whole, mut good) = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
             let (mut bad, mut raw) = (whole & !good, 0);
             self.steps += u64::from(whole.count_ones());
@@ -1006,20 +1002,34 @@ impl Memo {
         starts_of(bytes, base, masks)
     }
 
-    /// Computes the masks of the positions from the frontier to two blocks
-    /// after `first`, as far as whole blocks of `bytes` (from stream
-    /// position `at`) go; from `first` when the frontier is behind it and
-    /// the bytes between are not at hand, or far.
+    /// [`starts`](Self::starts) for the scan: read from the ring of masks
+    /// when it holds them, else computed and not remembered. The scan
+    /// passes over each position once, ahead of the rejection loop, which
+    /// passes again and again over positions behind it: a ring moved to the
+    /// scan's positions would lose the loop's (in small reads, masks were
+    /// computed five times over).
+    #[inline]
+    fn starts_seen(&mut self, bytes: &[u8], at: u64, base: usize, n: usize) -> Starts {
+        let first = at + base as u64;
+        let masks = if first >= self.masks_from && first + n as u64 <= self.masks_frontier {
+            let first_n = u64::MAX >> (64 - n);
+            (
+                bits_from(&self.mask_v1, first) & first_n,
+                bits_from(&self.mask_v2, first) & first_n,
+                bits_from(&self.mask_flags, first) & first_n,
+            )
+        } else {
+            raw_masks(bytes, base, n)
+        };
+        starts_of(bytes, base, masks)
+    }
+
+    /// Computes the masks of the positions from the frontier (or from
+    /// `first` when the frontier is behind it) to two blocks after `first`,
+    /// as far as whole blocks of `bytes` (from stream position `at`) go.
     #[inline(never)]
     fn remember_masks(&mut self, bytes: &[u8], at: u64, first: u64) {
-        // The scan, ahead of the candidate, and the fast rejection loop, at
-        // it, ask in turn: a frontier moved to the scan's position would
-        // lose the masks the loop asks for next (small reads made them
-        // computed five times over).
-        let behind = self.masks_frontier < first;
-        let bridged =
-            self.masks_frontier >= at && first.saturating_sub(self.masks_frontier) < BRIDGE;
-        if self.masks_from > first || (behind && !bridged) {
+        if self.masks_frontier < first || self.masks_from > first {
             (self.masks_from, self.masks_frontier) = (first, first);
         }
         while self.masks_frontier < first + 128 {

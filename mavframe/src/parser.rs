@@ -1421,3 +1421,30 @@ fn msg_id(bytes: &[u8]) -> u32 {
         _ => bytes.get(5).copied().unwrap_or(0) as u32,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::MaybeGood;
+
+    #[test]
+    fn maybe_good_answers_only_for_the_positions_its_masks_cover() {
+        // The candidate at 0, another start byte at 9, masks of 20
+        // positions.
+        let m = MaybeGood {
+            starts: 1 | 1 << 9,
+            positions: 20,
+        };
+        assert!(m.none_inside(9), "inside: 1..=8");
+        assert!(!m.none_inside(10), "inside: 1..=9");
+        assert!(m.none_inside(1), "nothing inside");
+        assert!(!m.none_inside(0), "no frame");
+        assert!(!m.none_inside(21), "past the masks");
+        assert!(!MaybeGood::UNKNOWN.none_inside(8));
+        let all = MaybeGood {
+            starts: 1,
+            positions: 64,
+        };
+        assert!(all.none_inside(64));
+        assert!(!all.none_inside(65));
+    }
+}

@@ -912,3 +912,48 @@ fn a_stale_unknown_id_mark_never_lets_a_bad_frame_out() {
         "no key and unsigned accepted return the first frame"
     );
 }
+
+/// A frame of an unknown id in garbage dense in 0xFE (where the fast
+/// rejection loop goes by masks and may decide "no good frame inside" from
+/// them), with a good HEARTBEAT starting at each position of its payload
+/// and checksum, the pair shifted across the loop's 64-byte blocks: the
+/// same decisions as the reference, whole and byte by byte.
+#[test]
+fn a_good_frame_inside_a_raw_frame_wins_wherever_the_masks_end() {
+    type D = fbwag_dialect::Dialect;
+    let heartbeat = *D::meta(0).expect("HEARTBEAT");
+    let unknown = (1..=255u32).find(|&id| D::meta(id).is_none()).unwrap();
+    let mut good = [0u8; 300];
+    good[6..6 + 9].fill(0xFE);
+    let fe = 0xFE;
+    let header = Header {
+        seq: fe,
+        sysid: fe,
+        compid: fe,
+    };
+    let n = finish(Version::V1, header, &heartbeat, 9, None, &mut good).unwrap();
+    let good = &good[..n];
+    let mut cases = 0;
+    for len in [12usize, 20, 40] {
+        for k in 6..len {
+            for pre in (0..70).step_by(3) {
+                let mut raw = vec![0xFE, (len - 8) as u8, 1, 2, 3, unknown as u8];
+                raw.resize(len, 0x11);
+                let mut stream = vec![0xFE; pre];
+                stream.extend_from_slice(&raw[..k]);
+                stream.extend_from_slice(good);
+                stream.extend(core::iter::repeat_n(0xFE, 300));
+                for chunk in [usize::MAX, 1] {
+                    let what = format!("len {len} good at {k} after {pre} bytes, chunk {chunk}");
+                    let frames = compare::<D>(&stream, Policy::NoKey, || chunk, || false, &what);
+                    assert!(
+                        frames.iter().any(|f| f.0 == good),
+                        "{what}: the good frame is returned"
+                    );
+                }
+                cases += 1;
+            }
+        }
+    }
+    assert!(cases > 1000);
+}

@@ -588,12 +588,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             (self.head, self.len) = (0, 0);
             return Held::Next;
         }
-        if self.len + TOP_UP_SLACK < MAX_NEEDED && !input.is_empty() {
-            // Whatever the candidate needs, with bytes enough after it that
-            // what lies inside it is decided now (topped up once this many
-            // were used: a copy per step would cost more than the bytes).
-            self.take_input(input, self.len);
-        }
+        self.top_up(input);
         if core::mem::take(&mut self.resume_in_garbage) {
             return self.reject_run_held(input);
         }
@@ -624,16 +619,25 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         Held::Next
     }
 
+    /// Tops the bytes held up from `input`: whatever the candidate needs,
+    /// with bytes enough after it that what lies inside it is decided now
+    /// (topped up once this many were used: a copy per step would cost
+    /// more than the bytes).
+    #[inline(always)]
+    fn top_up(&mut self, input: &mut &[u8]) {
+        if self.len + TOP_UP_SLACK < MAX_NEEDED && !input.is_empty() {
+            self.take_input(input, self.len);
+        }
+    }
+
     /// After a rejection with bytes held: [`reject_run`] over them, as on
     /// the input (garbage dense in start bytes can keep a parser in its
     /// buffer for as long as it returns a frame every few bytes).
     fn reject_run_held(&mut self, input: &mut &[u8]) -> Held {
         while self.len != 0 {
-            if self.len + TOP_UP_SLACK < MAX_NEEDED && !input.is_empty() {
-                // As before a check: what the run decides of a frame of
-                // an unknown id depends on the bytes after it.
-                self.take_input(input, self.len);
-            }
+            // As before a check: what the run decides of a frame of an
+            // unknown id depends on the bytes after it.
+            self.top_up(input);
             let (held, cx) = self.held_and_ctx();
             let run = reject_run::<D, STREAMS>(held, cx);
             if run.dropped > 0 {

@@ -988,18 +988,26 @@ impl Memo {
         if first < self.masks_from || end > self.masks_frontier {
             self.remember_masks(bytes, at, first);
         }
-        let masks = if first >= self.masks_from && end <= self.masks_frontier {
-            let first_n = u64::MAX >> (64 - n);
-            (
-                bits_from(&self.mask_v1, first) & first_n,
-                bits_from(&self.mask_v2, first) & first_n,
-                bits_from(&self.mask_flags, first) & first_n,
-            )
-        } else {
-            // The last positions of the bytes.
-            raw_masks(bytes, base, n)
-        };
+        // Else the last positions of the bytes.
+        let masks = self
+            .remembered_masks(first, n)
+            .unwrap_or_else(|| raw_masks(bytes, base, n));
         starts_of(bytes, base, masks)
+    }
+
+    /// The masks of the `n` positions from `first` (`n` ≤ 64), when the
+    /// ring holds them all.
+    #[inline(always)]
+    fn remembered_masks(&self, first: u64, n: usize) -> Option<(u64, u64, u64)> {
+        if first < self.masks_from || first + n as u64 > self.masks_frontier {
+            return None;
+        }
+        let first_n = u64::MAX >> (64 - n);
+        Some((
+            bits_from(&self.mask_v1, first) & first_n,
+            bits_from(&self.mask_v2, first) & first_n,
+            bits_from(&self.mask_flags, first) & first_n,
+        ))
     }
 
     /// [`starts`](Self::starts) for the scan: read from the ring of masks
@@ -1009,18 +1017,10 @@ impl Memo {
     /// scan's positions would lose the loop's (in small reads, masks were
     /// computed five times over).
     #[inline]
-    fn starts_seen(&mut self, bytes: &[u8], at: u64, base: usize, n: usize) -> Starts {
-        let first = at + base as u64;
-        let masks = if first >= self.masks_from && first + n as u64 <= self.masks_frontier {
-            let first_n = u64::MAX >> (64 - n);
-            (
-                bits_from(&self.mask_v1, first) & first_n,
-                bits_from(&self.mask_v2, first) & first_n,
-                bits_from(&self.mask_flags, first) & first_n,
-            )
-        } else {
-            raw_masks(bytes, base, n)
-        };
+    fn starts_seen(&self, bytes: &[u8], at: u64, base: usize, n: usize) -> Starts {
+        let masks = self
+            .remembered_masks(at + base as u64, n)
+            .unwrap_or_else(|| raw_masks(bytes, base, n));
         starts_of(bytes, base, masks)
     }
 

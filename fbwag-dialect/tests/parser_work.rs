@@ -34,12 +34,12 @@ const C: f64 = 16.0;
 
 /// The bound on signature checks (SHA-256s) over `n` bytes: a known id's
 /// bad signature skips its frame up to the signature (12 bytes at least);
-/// an unknown id's check draws on the parser's budget, at least 52 hashed
-/// bytes each.
+/// an unknown id's good one returns its frame (26 bytes at least), a failed
+/// one draws on the parser's budget, at least 52 hashed bytes each.
 fn signature_bound(n: usize) -> u64 {
-    use fbwag_dialect::mavframe::parser::{RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
+    use fbwag_dialect::mavframe::parser::{BYTES_PER_RAW_SIGNATURE_BYTE, RAW_SIGNATURE_BURST};
     let n = n as u64;
-    n / 12 + 1 + (RAW_SIGNATURE_RATE * n + RAW_SIGNATURE_BURST) / 52
+    n / 12 + n / 26 + 1 + (n / BYTES_PER_RAW_SIGNATURE_BYTE + RAW_SIGNATURE_BURST) / 52
 }
 
 const KEY: [u8; 32] = [0x42; 32];

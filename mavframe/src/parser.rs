@@ -45,13 +45,16 @@
 //! signature skips the frame up to its checksum (at least 12 bytes per
 //! SHA-256), but an unknown id has no checksum to vouch for it, and garbage
 //! can hold such a candidate at every other byte: their SHA-256s draw on a
-//! budget of [`RAW_SIGNATURE_RATE`] hashed bytes per byte consumed (up to
-//! [`RAW_SIGNATURE_BURST`] saved). No stream of genuine frames exhausts it
-//! (a signed frame of `n` bytes hashes `n + 26`, at most 2 `n`: `n` is 26
-//! at least); a candidate
-//! found when it is exhausted is not authenticated, so it is rejected
+//! budget that earns one hashed byte per [`BYTES_PER_RAW_SIGNATURE_BYTE`]
+//! bytes consumed (up to [`RAW_SIGNATURE_BURST`] saved). A signature is
+//! checked only when the budget holds its cost (the frame's length + 26
+//! hashed bytes), and only a failed check takes it: a good one costs
+//! nothing (the frame is returned, its bytes pay for its hash), so no
+//! stream of genuine frames exhausts it. A candidate found when the budget
+//! cannot pay is not authenticated, so it is rejected
 //! ([`Stats::signatures_unchecked`]): a flood of forged signed frames of
-//! unknown ids can cost genuine ones of unknown ids, never known ones, and
+//! unknown ids (or of frames signed with another key) can cost genuine ones
+//! of unknown ids, never known ones, and
 //! never admits a forgery. A candidate is
 //! decided as soon as the bytes at hand decide it (with bytes held, the
 //! parser copies ahead of the candidate rather than byte by byte).
@@ -100,12 +103,14 @@ pub struct Stats {
     pub signatures_unchecked: u64,
 }
 
-/// Bytes hashed to verify signatures of unknown ids, per byte consumed (see
-/// the module docs).
-pub const RAW_SIGNATURE_RATE: u64 = 2;
+/// Bytes consumed per hashed byte the budget for failed signatures of
+/// unknown ids earns (see the module docs): an attacker without the key
+/// makes the parser hash at most one byte per this many it sends, beyond
+/// [`RAW_SIGNATURE_BURST`].
+pub const BYTES_PER_RAW_SIGNATURE_BYTE: u64 = 2;
 
-/// Hashed bytes of [`RAW_SIGNATURE_RATE`] saved up at most (and at the
-/// start): eight of the longest signed frames.
+/// Hashed bytes of the budget saved up at most (and at the start): eight
+/// of the longest signed frames.
 pub const RAW_SIGNATURE_BURST: u64 = 8 * raw_signature_cost(crate::frame::MAX_FRAME_LEN);
 
 /// Per-sender sequence tracking.
@@ -1379,12 +1384,13 @@ fn raw_verdict<D: Dialect, const N: usize>(
         && !cx.memo.raw_signature_failed(cx.at)
         && match cx.verifier.as_mut() {
             Some(v) => {
-                // Affordable (above), and nothing was spent since.
-                cx.memo
-                    .spend_on_raw_signature(cx.at, raw_signature_cost(len));
                 cx.memo.signatures += 1;
                 let ok = v.verify(frame).is_ok();
                 if !ok {
+                    // Affordable (above), and nothing was spent since. A
+                    // good signature is not paid for: the frame is taken.
+                    cx.memo
+                        .spend_on_raw_signature(cx.at, raw_signature_cost(len));
                     cx.memo.set_raw_signature_failed(cx.at);
                 }
                 ok

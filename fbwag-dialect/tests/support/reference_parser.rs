@@ -10,7 +10,9 @@
 use fbwag_dialect::mavframe::frame::{
     frame_len, Frame, FrameError, Header, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
-use fbwag_dialect::mavframe::parser::{Stats, Unsigned, RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
+use fbwag_dialect::mavframe::parser::{
+    Stats, Unsigned, BYTES_PER_RAW_SIGNATURE_BYTE, RAW_SIGNATURE_BURST,
+};
 use fbwag_dialect::mavframe::signing::{SignatureError, Verifier};
 use fbwag_dialect::mavframe::{Dialect, MessageMeta};
 use std::marker::PhantomData;
@@ -73,7 +75,7 @@ impl<D: Dialect> Reference<D> {
             at_eof: false,
             work: 0,
             returned: 0,
-            sig_credit: RAW_SIGNATURE_BURST,
+            sig_credit: RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE,
             sig_credit_at: 0,
             sig_paid_at: None,
             _dialect: PhantomData,
@@ -283,11 +285,14 @@ impl<D: Dialect> Reference<D> {
         } else {
             let at = self.stats.bytes_dropped + self.returned;
             let checked = frame.is_signed() && self.verifier.is_some();
+            // In units of 1 / BYTES_PER_RAW_SIGNATURE_BYTE hashed byte: a
+            // byte consumed earns one.
+            let cost = (len as u64 + 26) * BYTES_PER_RAW_SIGNATURE_BYTE;
             if checked && self.sig_paid_at != Some(at) {
-                let earned = (at - self.sig_credit_at) * RAW_SIGNATURE_RATE;
-                self.sig_credit = (self.sig_credit + earned).min(RAW_SIGNATURE_BURST);
+                let earned = at - self.sig_credit_at;
+                self.sig_credit = (self.sig_credit + earned)
+                    .min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE);
                 self.sig_credit_at = at;
-                let cost = len as u64 + 26;
                 if self.sig_credit < cost {
                     self.stats.signatures_unchecked += 1;
                     return Verdict::Reject;
@@ -298,15 +303,16 @@ impl<D: Dialect> Reference<D> {
                 Inside::Undecided(needed) if !at_eof => return Verdict::Need(needed),
                 Inside::Undecided(_) | Inside::No => {}
             }
-            if checked && self.sig_paid_at != Some(at) {
-                self.sig_credit -= len as u64 + 26;
-                self.sig_paid_at = Some(at);
-            }
             let authenticated_raw = frame.is_signed()
                 && self
                     .verifier
                     .as_mut()
                     .is_some_and(|v| v.verify(&frame).is_ok());
+            // Only a failed check is paid for.
+            if checked && !authenticated_raw && self.sig_paid_at != Some(at) {
+                self.sig_credit -= cost;
+                self.sig_paid_at = Some(at);
+            }
             match bytes.get(len) {
                 _ if authenticated_raw => {
                     return Verdict::Accept {

@@ -38,7 +38,7 @@
 //! rings index them modulo their size, which exceeds the span of positions
 //! alive at once (see the constants).
 
-use super::{msg_id, RAW_SIGNATURE_BURST, RAW_SIGNATURE_RATE};
+use super::{msg_id, BYTES_PER_RAW_SIGNATURE_BYTE, RAW_SIGNATURE_BURST};
 use crate::crc;
 use crate::frame::{
     frame_len, Frame, FrameError, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_KNOWN,
@@ -200,8 +200,9 @@ pub(super) struct Memo {
     /// failed: the verifier has not changed since (a change needs an
     /// accepted frame, which moves the candidate), so it would fail again.
     raw_signature_failed: u64,
-    /// Hashed bytes the budget for unknown ids' signatures holds (see the
-    /// parser's module docs), as of stream position `sig_credit_at`.
+    /// What the budget for unknown ids' failed signatures holds (see the
+    /// parser's module docs and [`Memo::sig_credit_at`]), as of stream
+    /// position `sig_credit_at`.
     sig_credit: u64,
     sig_credit_at: u64,
     /// CRC_EXTRA of MAVLink 1 ids (0–255) as the dialect says, looked up
@@ -336,7 +337,7 @@ impl Memo {
             last_wake: 0,
             good_candidate: 0,
             raw_signature_failed: 0,
-            sig_credit: RAW_SIGNATURE_BURST,
+            sig_credit: RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE,
             sig_credit_at: 0,
             v1_extra: [0; 256],
             v2_extra: [(0, 0); V2_EXTRA_SLOTS],
@@ -945,23 +946,23 @@ impl Memo {
         self.raw_signature_failed = at + 1;
     }
 
-    /// The budget for unknown ids' signatures, in hashed bytes, with what
-    /// the bytes up to stream position `at` earned. (Computed, not stored,
-    /// when a candidate asks: most ask and are refused.)
+    /// The budget for unknown ids' failed signatures, in hashed bytes times
+    /// [`BYTES_PER_RAW_SIGNATURE_BYTE`] (each byte consumed earns one: no
+    /// remainder to keep), with what the bytes up to stream position `at`
+    /// earned. (Computed, not stored, when a candidate asks: most ask and
+    /// are refused.)
     #[inline(always)]
     fn sig_credit_at(&self, at: u64) -> u64 {
-        let earned = at
-            .saturating_sub(self.sig_credit_at)
-            .saturating_mul(RAW_SIGNATURE_RATE);
+        let earned = at.saturating_sub(self.sig_credit_at);
         self.sig_credit
             .saturating_add(earned)
-            .min(RAW_SIGNATURE_BURST)
+            .min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE)
     }
 
     /// Whether the budget holds `cost` hashed bytes at stream position `at`.
     #[inline(always)]
     pub(super) fn raw_signature_affordable(&self, at: u64, cost: u64) -> bool {
-        self.sig_credit_at(at) >= cost
+        self.sig_credit_at(at) >= cost * BYTES_PER_RAW_SIGNATURE_BYTE
     }
 
     /// Takes `cost` hashed bytes from the budget at stream position `at`
@@ -969,7 +970,9 @@ impl Memo {
     /// [`raw_signature_affordable`](Self::raw_signature_affordable)).
     #[inline(always)]
     pub(super) fn spend_on_raw_signature(&mut self, at: u64, cost: u64) {
-        self.sig_credit = self.sig_credit_at(at).saturating_sub(cost);
+        self.sig_credit = self
+            .sig_credit_at(at)
+            .saturating_sub(cost * BYTES_PER_RAW_SIGNATURE_BYTE);
         self.sig_credit_at = self.sig_credit_at.max(at);
     }
 }

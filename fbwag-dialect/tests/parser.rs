@@ -397,6 +397,35 @@ fn a_flood_of_forged_signed_unknown_ids_is_bounded_by_the_signature_budget() {
     assert!(checks < flood.len() as u64 / 64, "{checks}");
 }
 
+/// Forged signed candidates of unknown ids, each with a good frame of a
+/// known id inside (a signed HEARTBEAT whose signature is garbage): the
+/// search inside them is paid from the budget as their hash would be, so
+/// once it is spent they are refused before any search. (When a good frame
+/// inside decided them for free, the budget stayed full and every one cost
+/// a search: `found_g` of the parser's worst-case benchmark.)
+#[test]
+fn forged_signed_unknown_ids_with_a_good_frame_inside_spend_the_budget() {
+    const PATTERN: &[u8] = &[
+        0xfd, 0x01, 0x01, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0xf2, 0x00, 0xfe, 0xfd,
+        0xfd, 0x01, 0x01, 0xfe, 0xfd, 0xfd, 0x01, 0x01, 0xfe, 0xfd, 0xfd, 0xfe, 0xfd, 0xfd, 0x01,
+        0x01,
+    ];
+    let stream = PATTERN.repeat(8 * 1024);
+    for chunk in [7, 300, 4096] {
+        let mut p = Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Refuse);
+        assert!(
+            parse_all(&mut p, &stream, chunk).is_empty(),
+            "chunk {chunk}"
+        );
+        let s = *p.stats();
+        // Five such candidates per 31 bytes, which earn a sixth of one.
+        assert!(
+            s.signatures_unchecked * 8 > stream.len() as u64,
+            "chunk {chunk}: {s:?}"
+        );
+    }
+}
+
 #[test]
 fn unknown_ids_are_surfaced_raw_and_confirmed() {
     let good = frames(2, &mut Rng(7));

@@ -44,14 +44,16 @@
 //! candidate with a good checksum or of an unknown id. A known id's bad
 //! signature skips the frame up to its checksum (at least 12 bytes per
 //! SHA-256), but an unknown id has no checksum to vouch for it, and garbage
-//! can hold such a candidate at every other byte: their SHA-256s draw on a
-//! budget that earns one hashed byte per [`BYTES_PER_RAW_SIGNATURE_BYTE`]
-//! bytes consumed (up to [`RAW_SIGNATURE_BURST`] saved). A signature is
-//! checked only when the budget holds its cost (the frame's length + 26
-//! hashed bytes), and only a failed check takes it: a good one costs
-//! nothing (the frame is returned, its bytes pay for its hash), so no
-//! stream of genuine frames exhausts it. A candidate found when the budget
-//! cannot pay is not authenticated, so it is rejected
+//! can hold such a candidate at every other byte: their checks (the search
+//! for a known frame inside, then the SHA-256) draw on a budget that earns
+//! one hashed byte per [`BYTES_PER_RAW_SIGNATURE_BYTE`] bytes consumed (up
+//! to [`RAW_SIGNATURE_BURST`] saved). A signed candidate is checked only
+//! when the budget holds its cost (the frame's length + 26 hashed bytes),
+//! which the check takes, as does a rejection for a good frame inside
+//! before the candidate is whole; a good signature gives it back (the frame
+//! is returned, its bytes pay for its check), so no stream of genuine
+//! frames exhausts it. A candidate found when the budget cannot pay is not
+//! authenticated, so it is rejected
 //! ([`Stats::signatures_unchecked`]): a flood of forged signed frames of
 //! unknown ids (or of frames signed with another key) can cost genuine ones
 //! of unknown ids, never known ones, and
@@ -1214,7 +1216,7 @@ fn raw_refused_alone(
         let next = bytes.get(len)?;
         return (*next != STX_V1 && *next != STX_V2).then_some(Why::Unconfirmed);
     }
-    (!memo.raw_signature_failed(at) && !memo.raw_signature_affordable(at, raw_signature_cost(len)))
+    (!memo.raw_check_paid(at) && !memo.raw_signature_affordable(at, raw_signature_cost(len)))
         .then_some(Why::Unpaid)
 }
 
@@ -1270,6 +1272,7 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
             if D::meta(msg_id(bytes)).is_none()
                 && cx.memo.inside::<D>(bytes, cx.at, bytes.len()) == Inside::Yes
             {
+                pay_for_signed_raw(bytes, len, &mut cx);
                 return Verdict::Reject;
             }
             return need(len);
@@ -1292,6 +1295,25 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
         return v;
     }
     signing(&frame, meta, cx)
+}
+
+/// A signed candidate of an unknown id, `len` bytes long but not whole in
+/// `bytes`, rejected for a good frame inside: with a key, paid for (or
+/// counted unchecked) as its check would be, had all its bytes been there
+/// (how many were is a matter of read sizes, which must not change the
+/// budget).
+#[cold]
+fn pay_for_signed_raw<const N: usize>(bytes: &[u8], len: usize, cx: &mut Ctx<'_, N>) {
+    let signed = bytes[0] == STX_V2 && bytes[2] & crate::frame::IFLAG_SIGNED != 0;
+    if !signed || cx.verifier.is_none() || cx.memo.raw_check_paid(cx.at) {
+        return;
+    }
+    let cost = raw_signature_cost(len);
+    if cx.memo.raw_signature_affordable(cx.at, cost) {
+        cx.memo.spend_on_raw_signature(cx.at, cost);
+    } else {
+        cx.stats.signatures_unchecked += 1;
+    }
 }
 
 /// The decision of the signing policy about a whole candidate `frame` that
@@ -1368,6 +1390,14 @@ fn raw_verdict<D: Dialect, const N: usize>(
         Some(_) => return Some(Verdict::Reject),
         None => {}
     }
+    if checked && !cx.memo.raw_check_paid(cx.at) {
+        // Affordable (above). The search inside is paid for as well as the
+        // hash (a good signature gives it back, below): forged candidates
+        // with a good frame inside, back to back, are then refused before
+        // any search.
+        cx.memo
+            .spend_on_raw_signature(cx.at, raw_signature_cost(len));
+    }
     let inside = if maybe.none_inside(len) {
         Inside::No
     } else {
@@ -1386,11 +1416,10 @@ fn raw_verdict<D: Dialect, const N: usize>(
             Some(v) => {
                 cx.memo.signatures += 1;
                 let ok = v.verify(frame).is_ok();
-                if !ok {
-                    // Affordable (above), and nothing was spent since. A
-                    // good signature is not paid for: the frame is taken.
-                    cx.memo
-                        .spend_on_raw_signature(cx.at, raw_signature_cost(len));
+                if ok {
+                    // A genuine frame is taken: its bytes pay for its check.
+                    cx.memo.refund_raw_signature(cx.at, raw_signature_cost(len));
+                } else {
                     cx.memo.set_raw_signature_failed(cx.at);
                 }
                 ok

@@ -247,6 +247,14 @@ impl<D: Dialect> Reference<D> {
         link.2 += 1;
     }
 
+    /// The budget with what the bytes up to stream position `at` earned.
+    fn earn(&mut self, at: u64) {
+        let earned = at - self.sig_credit_at;
+        self.sig_credit =
+            (self.sig_credit + earned).min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE);
+        self.sig_credit_at = at;
+    }
+
     fn check(&mut self, bytes: &[u8]) -> Verdict {
         let at_eof = self.at_eof;
         let need = |n: usize| {
@@ -262,6 +270,19 @@ impl<D: Dialect> Reference<D> {
                 if D::meta(msg_id(bytes)).is_none()
                     && known_frame_inside::<D>(bytes, bytes.len(), &mut self.work) == Inside::Yes
                 {
+                    // A signed one pays as it would whole.
+                    let at = self.stats.bytes_dropped + self.returned;
+                    let signed = bytes[0] == STX_V2 && bytes[2] & 0x01 != 0;
+                    if signed && self.verifier.is_some() && self.sig_paid_at != Some(at) {
+                        let cost = (len as u64 + 26) * BYTES_PER_RAW_SIGNATURE_BYTE;
+                        self.earn(at);
+                        if self.sig_credit < cost {
+                            self.stats.signatures_unchecked += 1;
+                        } else {
+                            self.sig_credit -= cost;
+                            self.sig_paid_at = Some(at);
+                        }
+                    }
                     return Verdict::Reject;
                 }
                 return need(len);
@@ -289,14 +310,15 @@ impl<D: Dialect> Reference<D> {
             // byte consumed earns one.
             let cost = (len as u64 + 26) * BYTES_PER_RAW_SIGNATURE_BYTE;
             if checked && self.sig_paid_at != Some(at) {
-                let earned = at - self.sig_credit_at;
-                self.sig_credit = (self.sig_credit + earned)
-                    .min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE);
-                self.sig_credit_at = at;
+                self.earn(at);
                 if self.sig_credit < cost {
                     self.stats.signatures_unchecked += 1;
                     return Verdict::Reject;
                 }
+                // Paid before the search inside: a good signature gives it
+                // back (below).
+                self.sig_credit -= cost;
+                self.sig_paid_at = Some(at);
             }
             match known_frame_inside::<D>(bytes, len, &mut self.work) {
                 Inside::Yes => return Verdict::Reject,
@@ -308,10 +330,10 @@ impl<D: Dialect> Reference<D> {
                     .verifier
                     .as_mut()
                     .is_some_and(|v| v.verify(&frame).is_ok());
-            // Only a failed check is paid for.
-            if checked && !authenticated_raw && self.sig_paid_at != Some(at) {
-                self.sig_credit -= cost;
-                self.sig_paid_at = Some(at);
+            if checked && authenticated_raw {
+                self.earn(at);
+                let cap = RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE;
+                self.sig_credit = (self.sig_credit + cost).min(cap);
             }
             match bytes.get(len) {
                 _ if authenticated_raw => {

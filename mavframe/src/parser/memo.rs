@@ -200,6 +200,10 @@ pub(super) struct Memo {
     /// failed: the verifier has not changed since (a change needs an
     /// accepted frame, which moves the candidate), so it would fail again.
     raw_signature_failed: u64,
+    /// Candidate position + 1 of the last unknown-id frame whose check the
+    /// budget paid for: a candidate waiting for bytes is checked again, and
+    /// paid for once. (Not forgotten with the bytes: the budget is spent.)
+    raw_check_paid: u64,
     /// What the budget for unknown ids' failed signatures holds (see the
     /// parser's module docs and [`Memo::sig_credit_at`]), as of stream
     /// position `sig_credit_at`.
@@ -337,6 +341,7 @@ impl Memo {
             last_wake: 0,
             good_candidate: 0,
             raw_signature_failed: 0,
+            raw_check_paid: 0,
             sig_credit: RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE,
             sig_credit_at: 0,
             v1_extra: [0; 256],
@@ -965,14 +970,32 @@ impl Memo {
         self.sig_credit_at(at) >= cost * BYTES_PER_RAW_SIGNATURE_BYTE
     }
 
-    /// Takes `cost` hashed bytes from the budget at stream position `at`
-    /// (which holds them: see
+    /// Takes `cost` hashed bytes from the budget for the check of the
+    /// candidate at stream position `at` (the budget holds them: see
     /// [`raw_signature_affordable`](Self::raw_signature_affordable)).
     #[inline(always)]
     pub(super) fn spend_on_raw_signature(&mut self, at: u64, cost: u64) {
         self.sig_credit = self
             .sig_credit_at(at)
             .saturating_sub(cost * BYTES_PER_RAW_SIGNATURE_BYTE);
+        self.sig_credit_at = self.sig_credit_at.max(at);
+        self.raw_check_paid = at + 1;
+    }
+
+    /// Whether the check of the candidate at `at` was paid for.
+    #[inline(always)]
+    pub(super) fn raw_check_paid(&self, at: u64) -> bool {
+        self.raw_check_paid == at + 1
+    }
+
+    /// Gives back what the check of the candidate at `at` took: its
+    /// signature is good.
+    #[inline(always)]
+    pub(super) fn refund_raw_signature(&mut self, at: u64, cost: u64) {
+        self.sig_credit = self
+            .sig_credit_at(at)
+            .saturating_add(cost * BYTES_PER_RAW_SIGNATURE_BYTE)
+            .min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE);
         self.sig_credit_at = self.sig_credit_at.max(at);
     }
 }

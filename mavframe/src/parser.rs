@@ -105,10 +105,11 @@ pub struct Stats {
     pub signatures_unchecked: u64,
 }
 
-/// Bytes consumed per hashed byte the budget for failed signatures of
-/// unknown ids earns (see the module docs): an attacker without the key
-/// makes the parser hash at most one byte per this many it sends, beyond
-/// [`RAW_SIGNATURE_BURST`].
+/// Bytes consumed per hashed byte that the budget for checking signed
+/// candidates of unknown ids earns (see the module docs): an attacker
+/// without the key makes the parser hash at most one byte per this many it
+/// sends, beyond [`RAW_SIGNATURE_BURST`] (a good signature gives its cost
+/// back).
 pub const BYTES_PER_RAW_SIGNATURE_BYTE: u64 = 2;
 
 /// Hashed bytes of the budget saved up at most (and at the start): eight

@@ -204,7 +204,7 @@ pub(super) struct Memo {
     /// budget paid for: a candidate waiting for bytes is checked again, and
     /// paid for once. (Not forgotten with the bytes: the budget is spent.)
     raw_check_paid: u64,
-    /// What the budget for unknown ids' failed signatures holds (see the
+    /// What the budget for checking unknown ids' signatures holds (see the
     /// parser's module docs and [`Memo::sig_credit_at`]), as of stream
     /// position `sig_credit_at`.
     sig_credit: u64,
@@ -951,7 +951,7 @@ impl Memo {
         self.raw_signature_failed = at + 1;
     }
 
-    /// The budget for unknown ids' failed signatures, in hashed bytes times
+    /// The budget for checking unknown ids' signatures, in hashed bytes times
     /// [`BYTES_PER_RAW_SIGNATURE_BYTE`] (each byte consumed earns one: no
     /// remainder to keep), with what the bytes up to stream position `at`
     /// earned. (Computed, not stored, when a candidate asks: most ask and

@@ -14,7 +14,7 @@ mod reference;
 
 use dialects::{row, AllKnown, Few, NoZero, ALL_ROWS, FEW_ROWS};
 use fbwag_dialect::mavframe::frame::{finish, Header, Version};
-use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
+use fbwag_dialect::mavframe::parser::{Parser, Stats, Unsigned};
 use fbwag_dialect::mavframe::{Dialect, MessageMeta, Signer, Verifier};
 use reference::{Got, Reference};
 
@@ -432,6 +432,28 @@ fn a_cut_mavlink1_header_inside_a_raw_frame_no_longer_depends_on_chunking() {
     assert!(old_cut.contains(&raw) && !old_cut.contains(&v1.to_vec()));
 }
 
+/// The frames `p` returns from `stream` pushed in reads of `chunk()` bytes
+/// and flushed, and its counters then.
+fn parse_in_reads<D: Dialect>(
+    mut p: Parser<D>,
+    stream: &[u8],
+    chunk: &mut dyn FnMut() -> usize,
+) -> (Vec<Vec<u8>>, Stats) {
+    let mut out = Vec::new();
+    let mut rest = stream;
+    while !rest.is_empty() {
+        let (mut c, tail) = rest.split_at(chunk().clamp(1, rest.len()));
+        rest = tail;
+        while let Some(r) = p.next(&mut c) {
+            out.push(r.frame.as_bytes().to_vec());
+        }
+    }
+    while let Some(r) = p.flush() {
+        out.push(r.frame.as_bytes().to_vec());
+    }
+    (out, *p.stats())
+}
+
 /// With that change, the new parser gives the same frames for every
 /// chunking in a dialect without id 0 too.
 #[test]
@@ -440,20 +462,7 @@ fn same_frames_for_every_chunking_without_id_0() {
     for trial in 0..60 {
         let stream = make_stream::<NoZero>(&mut rng, &FEW_ROWS[1..], 3000);
         let parse = |chunk: &mut dyn FnMut() -> usize| {
-            let mut p = Parser::<NoZero>::new();
-            let mut out = Vec::new();
-            let mut rest = &stream[..];
-            while !rest.is_empty() {
-                let (mut c, tail) = rest.split_at(chunk().clamp(1, rest.len()));
-                rest = tail;
-                while let Some(r) = p.next(&mut c) {
-                    out.push(r.frame.as_bytes().to_vec());
-                }
-            }
-            while let Some(r) = p.flush() {
-                out.push(r.frame.as_bytes().to_vec());
-            }
-            (out, *p.stats())
+            parse_in_reads(Parser::<NoZero>::new(), &stream, chunk)
         };
         let whole = parse(&mut || usize::MAX);
         let mut c = Rng(trial + 11);
@@ -477,21 +486,9 @@ fn same_frames_and_budget_for_every_chunking_with_a_key() {
             make_hostile::<fbwag_dialect::Dialect>(&mut rng, fbwag_dialect::MESSAGES, 3000);
         for unsigned in [Unsigned::Accept, Unsigned::Refuse] {
             let parse = |chunk: &mut dyn FnMut() -> usize| {
-                let mut p =
+                let p =
                     Parser::<fbwag_dialect::Dialect>::with_signing(Verifier::new(KEY), unsigned);
-                let mut out = Vec::new();
-                let mut rest = &stream[..];
-                while !rest.is_empty() {
-                    let (mut c, tail) = rest.split_at(chunk().clamp(1, rest.len()));
-                    rest = tail;
-                    while let Some(r) = p.next(&mut c) {
-                        out.push(r.frame.as_bytes().to_vec());
-                    }
-                }
-                while let Some(r) = p.flush() {
-                    out.push(r.frame.as_bytes().to_vec());
-                }
-                (out, *p.stats())
+                parse_in_reads(p, &stream, chunk)
             };
             let whole = parse(&mut || usize::MAX);
             let mut c = Rng(trial + 21);

@@ -1204,7 +1204,11 @@ fn raw_alone<D: Dialect, const N: usize>(
 /// inside it, if anything: refused when nothing can confirm it (no
 /// signature to check, and the byte after it is not a start byte), or when
 /// its signature (`checked`: signed, and a key to check it) is one the
-/// budget cannot pay for. `None` also when the byte after it is not there.
+/// budget cannot pay for. Else a signed one's check is paid for here, the
+/// search inside it as well as the hash (a good signature gives it back):
+/// forged candidates with a good frame inside, back to back, are then
+/// refused before any search. `None` also when the byte after it is not
+/// there.
 #[inline(always)]
 fn raw_refused_alone(
     bytes: &[u8],
@@ -1217,8 +1221,7 @@ fn raw_refused_alone(
         let next = bytes.get(len)?;
         return (*next != STX_V1 && *next != STX_V2).then_some(Why::Unconfirmed);
     }
-    (!memo.raw_check_paid(at) && !memo.raw_signature_affordable(at, raw_signature_cost(len)))
-        .then_some(Why::Unpaid)
+    (!memo.pay_for_raw_check(at, raw_signature_cost(len))).then_some(Why::Unpaid)
 }
 
 /// Bytes a signed frame of `len` bytes makes SHA-256 hash: the 32-byte key,
@@ -1305,14 +1308,9 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
 /// budget).
 #[cold]
 fn pay_for_signed_raw<const N: usize>(bytes: &[u8], len: usize, cx: &mut Ctx<'_, N>) {
-    let signed = bytes[0] == STX_V2 && bytes[2] & crate::frame::IFLAG_SIGNED != 0;
-    if !signed || cx.verifier.is_none() || cx.memo.raw_check_paid(cx.at) {
-        return;
-    }
-    let cost = raw_signature_cost(len);
-    if cx.memo.raw_signature_affordable(cx.at, cost) {
-        cx.memo.spend_on_raw_signature(cx.at, cost);
-    } else {
+    let signed = matches!(bytes, [STX_V2, _, flags, ..] if flags & crate::frame::IFLAG_SIGNED != 0);
+    if signed && cx.verifier.is_some() && !cx.memo.pay_for_raw_check(cx.at, raw_signature_cost(len))
+    {
         cx.stats.signatures_unchecked += 1;
     }
 }
@@ -1390,14 +1388,6 @@ fn raw_verdict<D: Dialect, const N: usize>(
         }
         Some(_) => return Some(Verdict::Reject),
         None => {}
-    }
-    if checked && !cx.memo.raw_check_paid(cx.at) {
-        // Affordable (above). The search inside is paid for as well as the
-        // hash (a good signature gives it back, below): forged candidates
-        // with a good frame inside, back to back, are then refused before
-        // any search.
-        cx.memo
-            .spend_on_raw_signature(cx.at, raw_signature_cost(len));
     }
     let inside = if maybe.none_inside(len) {
         Inside::No

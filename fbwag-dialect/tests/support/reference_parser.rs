@@ -8,7 +8,8 @@
 #![allow(dead_code)]
 
 use fbwag_dialect::mavframe::frame::{
-    frame_len, Frame, FrameError, Header, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
+    frame_len, Frame, FrameError, Header, IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1,
+    STX_V2,
 };
 use fbwag_dialect::mavframe::parser::{
     Stats, Unsigned, BYTES_PER_RAW_SIGNATURE_BYTE, RAW_SIGNATURE_BURST,
@@ -18,6 +19,16 @@ use fbwag_dialect::mavframe::{Dialect, MessageMeta};
 use std::marker::PhantomData;
 
 const BUF_LEN: usize = 2 * MAX_FRAME_LEN;
+
+/// The signature budget, in units of 1 / BYTES_PER_RAW_SIGNATURE_BYTE
+/// hashed byte: a byte consumed earns one.
+const CREDIT_CAP: u64 = RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE;
+
+/// What checking a signed frame of `len` bytes costs the budget (SHA-256
+/// over the key and the frame less its 6 signature bytes).
+fn cost(len: usize) -> u64 {
+    (len as u64 + 26) * BYTES_PER_RAW_SIGNATURE_BYTE
+}
 const MAX_TRACKED_LINKS: usize = 32;
 
 /// (sysid, compid, received, lost, gaps, last_seq)
@@ -75,7 +86,7 @@ impl<D: Dialect> Reference<D> {
             at_eof: false,
             work: 0,
             returned: 0,
-            sig_credit: RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE,
+            sig_credit: CREDIT_CAP,
             sig_credit_at: 0,
             sig_paid_at: None,
             _dialect: PhantomData,
@@ -247,12 +258,32 @@ impl<D: Dialect> Reference<D> {
         link.2 += 1;
     }
 
-    /// The budget with what the bytes up to stream position `at` earned.
-    fn earn(&mut self, at: u64) {
-        let earned = at - self.sig_credit_at;
-        self.sig_credit =
-            (self.sig_credit + earned).min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE);
+    /// The candidate's stream position.
+    fn at(&self) -> u64 {
+        self.stats.bytes_dropped + self.returned
+    }
+
+    /// The budget with what the bytes up to the candidate earned.
+    fn earn(&mut self) {
+        let at = self.at();
+        self.sig_credit = (self.sig_credit + at - self.sig_credit_at).min(CREDIT_CAP);
         self.sig_credit_at = at;
+    }
+
+    /// Pays for the check of the candidate, `len` bytes long, once: false
+    /// when the budget cannot.
+    fn pay(&mut self, len: usize) -> bool {
+        let at = self.at();
+        if self.sig_paid_at == Some(at) {
+            return true;
+        }
+        self.earn();
+        if self.sig_credit < cost(len) {
+            return false;
+        }
+        self.sig_credit -= cost(len);
+        self.sig_paid_at = Some(at);
+        true
     }
 
     fn check(&mut self, bytes: &[u8]) -> Verdict {
@@ -271,17 +302,10 @@ impl<D: Dialect> Reference<D> {
                     && known_frame_inside::<D>(bytes, bytes.len(), &mut self.work) == Inside::Yes
                 {
                     // A signed one pays as it would whole.
-                    let at = self.stats.bytes_dropped + self.returned;
-                    let signed = bytes[0] == STX_V2 && bytes[2] & 0x01 != 0;
-                    if signed && self.verifier.is_some() && self.sig_paid_at != Some(at) {
-                        let cost = (len as u64 + 26) * BYTES_PER_RAW_SIGNATURE_BYTE;
-                        self.earn(at);
-                        if self.sig_credit < cost {
-                            self.stats.signatures_unchecked += 1;
-                        } else {
-                            self.sig_credit -= cost;
-                            self.sig_paid_at = Some(at);
-                        }
+                    let signed =
+                        matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0);
+                    if signed && self.verifier.is_some() && !self.pay(len) {
+                        self.stats.signatures_unchecked += 1;
                     }
                     return Verdict::Reject;
                 }
@@ -304,21 +328,12 @@ impl<D: Dialect> Reference<D> {
                 return Verdict::Reject;
             }
         } else {
-            let at = self.stats.bytes_dropped + self.returned;
             let checked = frame.is_signed() && self.verifier.is_some();
-            // In units of 1 / BYTES_PER_RAW_SIGNATURE_BYTE hashed byte: a
-            // byte consumed earns one.
-            let cost = (len as u64 + 26) * BYTES_PER_RAW_SIGNATURE_BYTE;
-            if checked && self.sig_paid_at != Some(at) {
-                self.earn(at);
-                if self.sig_credit < cost {
-                    self.stats.signatures_unchecked += 1;
-                    return Verdict::Reject;
-                }
-                // Paid before the search inside: a good signature gives it
-                // back (below).
-                self.sig_credit -= cost;
-                self.sig_paid_at = Some(at);
+            // Paid before the search inside: a good signature gives it back
+            // (below).
+            if checked && !self.pay(len) {
+                self.stats.signatures_unchecked += 1;
+                return Verdict::Reject;
             }
             match known_frame_inside::<D>(bytes, len, &mut self.work) {
                 Inside::Yes => return Verdict::Reject,
@@ -331,9 +346,8 @@ impl<D: Dialect> Reference<D> {
                     .as_mut()
                     .is_some_and(|v| v.verify(&frame).is_ok());
             if checked && authenticated_raw {
-                self.earn(at);
-                let cap = RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE;
-                self.sig_credit = (self.sig_credit + cost).min(cap);
+                self.earn();
+                self.sig_credit = (self.sig_credit + cost(len)).min(CREDIT_CAP);
             }
             match bytes.get(len) {
                 _ if authenticated_raw => {

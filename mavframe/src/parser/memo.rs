@@ -100,6 +100,10 @@ fn scan_end(end: usize, len: usize) -> usize {
         .min(len)
 }
 
+/// The most the budget for checking unknown ids' signatures holds, in its
+/// units (see [`Memo::sig_credit_at`]).
+const CREDIT_CAP: u64 = RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE;
+
 /// Ids above 255 whose CRC_EXTRA [`Memo`] keeps at once.
 const V2_EXTRA_SLOTS: usize = 32;
 
@@ -342,7 +346,7 @@ impl Memo {
             good_candidate: 0,
             raw_signature_failed: 0,
             raw_check_paid: 0,
-            sig_credit: RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE,
+            sig_credit: CREDIT_CAP,
             sig_credit_at: 0,
             v1_extra: [0; 256],
             v2_extra: [(0, 0); V2_EXTRA_SLOTS],
@@ -959,33 +963,25 @@ impl Memo {
     #[inline(always)]
     fn sig_credit_at(&self, at: u64) -> u64 {
         let earned = at.saturating_sub(self.sig_credit_at);
-        self.sig_credit
-            .saturating_add(earned)
-            .min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE)
+        self.sig_credit.saturating_add(earned).min(CREDIT_CAP)
     }
 
-    /// Whether the budget holds `cost` hashed bytes at stream position `at`.
+    /// Pays for the check of the candidate at stream position `at`, `cost`
+    /// hashed bytes, once however often it is checked: false when the
+    /// budget cannot (the candidate is refused unchecked).
     #[inline(always)]
-    pub(super) fn raw_signature_affordable(&self, at: u64, cost: u64) -> bool {
-        self.sig_credit_at(at) >= cost * BYTES_PER_RAW_SIGNATURE_BYTE
-    }
-
-    /// Takes `cost` hashed bytes from the budget for the check of the
-    /// candidate at stream position `at` (the budget holds them: see
-    /// [`raw_signature_affordable`](Self::raw_signature_affordable)).
-    #[inline(always)]
-    pub(super) fn spend_on_raw_signature(&mut self, at: u64, cost: u64) {
-        self.sig_credit = self
-            .sig_credit_at(at)
-            .saturating_sub(cost * BYTES_PER_RAW_SIGNATURE_BYTE);
+    pub(super) fn pay_for_raw_check(&mut self, at: u64, cost: u64) -> bool {
+        if self.raw_check_paid == at + 1 {
+            return true;
+        }
+        let (held, cost) = (self.sig_credit_at(at), cost * BYTES_PER_RAW_SIGNATURE_BYTE);
+        if held < cost {
+            return false;
+        }
+        self.sig_credit = held - cost;
         self.sig_credit_at = self.sig_credit_at.max(at);
         self.raw_check_paid = at + 1;
-    }
-
-    /// Whether the check of the candidate at `at` was paid for.
-    #[inline(always)]
-    pub(super) fn raw_check_paid(&self, at: u64) -> bool {
-        self.raw_check_paid == at + 1
+        true
     }
 
     /// Gives back what the check of the candidate at `at` took: its
@@ -995,7 +991,7 @@ impl Memo {
         self.sig_credit = self
             .sig_credit_at(at)
             .saturating_add(cost * BYTES_PER_RAW_SIGNATURE_BYTE)
-            .min(RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE);
+            .min(CREDIT_CAP);
         self.sig_credit_at = self.sig_credit_at.max(at);
     }
 }

@@ -397,6 +397,36 @@ fn a_flood_of_forged_signed_unknown_ids_is_bounded_by_the_signature_budget() {
     assert!(checks < flood.len() as u64 / 64, "{checks}");
 }
 
+/// A genuine signed frame of an unknown id, then replays of it back to
+/// back (an attacker without the key who captured it): the first is
+/// returned, every replay fails its check and none gives the budget back
+/// (only a good signature does), so once it is spent the replays are
+/// refused unchecked. Known ids stay outside the budget: a genuine HEARTBEAT
+/// after them is returned.
+#[test]
+fn replays_of_a_genuine_signed_unknown_id_spend_the_budget() {
+    let mut signer = Signer::new(KEY, 1, 1_000);
+    let genuine = raw_frame_signed(14_999, 1, &[0x07; 40], Some(&mut signer));
+    let known = frame_of(
+        0,
+        &minimal::Heartbeat::default(),
+        Version::V2,
+        Some(&mut signer),
+    );
+    let replays = genuine.repeat(2_000);
+    let stream = [replays, known.clone()].concat();
+    for chunk in [1, 300, 4096] {
+        let mut p = Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Refuse);
+        let got = parse_all(&mut p, &stream, chunk);
+        assert_eq!(got, vec![genuine.clone(), known.clone()], "chunk {chunk}");
+        let s = *p.stats();
+        // 65 bytes each, costing 91 hashed bytes and earning 32.5: about
+        // two in three are refused unchecked.
+        assert!(s.signatures_unchecked > 1_000, "chunk {chunk}: {s:?}");
+        assert!(p.work().signatures < 1_000, "chunk {chunk}: {:?}", p.work());
+    }
+}
+
 /// Forged signed candidates of unknown ids, each with a good frame of a
 /// known id inside (a signed HEARTBEAT whose signature is garbage): the
 /// search inside them is paid from the budget as their hash would be, so

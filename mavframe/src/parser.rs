@@ -17,7 +17,9 @@
 //! one that spans chunks is assembled in a buffer inside the parser (room
 //! for two frames: confirming a raw frame, below, may need the head of the
 //! next one; 1 KiB, so that dropping bytes from its front never moves more
-//! than it drops, on average). When a candidate frame is rejected (bad
+//! than it drops, on average). The bytes the buffer takes ahead from the
+//! new chunk stay in the input until they are consumed: once the bytes of
+//! earlier chunks are dropped, the parser goes back to the input in place. When a candidate frame is rejected (bad
 //! checksum, unknown incompatibility flags) the parser resumes at the byte
 //! after its start byte, so a corrupted or truncated frame never swallows
 //! the good frames inside the length it claimed, which pymavlink and the C
@@ -284,10 +286,11 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     /// Stream position (bytes pushed before it) of the first byte not
     /// consumed yet: the first byte held, or of the input when none is.
     pos: u64,
-    /// Bytes held that were pushed before the current call's input; once
-    /// they are all dropped, the rest held is a copy of the input just
-    /// taken, and the parser goes back to the input in place.
-    held_before: usize,
+    /// The last this many bytes held are copies of the first as many of
+    /// the input, taken ahead of the candidate without consuming them:
+    /// once the bytes held before them are all dropped, the parser goes
+    /// back to the input in place, where the caller passes them again.
+    shadow: usize,
     /// What is known about the bytes after the candidate.
     memo: Memo,
     stats: Stats,
@@ -329,7 +332,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             returned_from_buf: 0,
             resume_in_garbage: false,
             pos: 0,
-            held_before: 0,
+            shadow: 0,
             memo: Memo::new(),
             stats: Stats::default(),
             links: [LinkStats::default(); MAX_TRACKED_LINKS],
@@ -394,9 +397,9 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         &self.links[..self.tracked]
     }
 
-    /// Bytes held for an incomplete frame.
+    /// Bytes held for an incomplete frame (consumed from the input).
     pub fn pending(&self) -> usize {
-        self.len
+        self.len - self.shadow
     }
 
     /// The work done so far, for tests and monitoring: the steps are
@@ -416,11 +419,15 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// `None` once `input` is used up (a partial frame stays buffered for
     /// the next chunk). `input` is advanced past what was consumed.
     pub fn next<'r, 'i: 'r>(&'r mut self, input: &mut &'i [u8]) -> Option<Received<'r, D>> {
+        if input.len() < self.shadow {
+            // Not the rest of the input the copies were taken from (a
+            // caller that dropped it, or a flush): they are all there is.
+            self.shadow = 0;
+        }
         self.release_returned();
         if !input.is_empty() {
             self.at_eof = false;
         }
-        let whole: &'i [u8] = input;
         // The last verdict was a rejection: garbage, maybe dense in start
         // bytes, where `reject_run` is the fast way through.
         // (With bytes held, `step_held` takes it.)
@@ -443,12 +450,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 InPlace::Other => {}
             }
         }
-        self.held_before = self.len;
         // Decide in the loop, borrow after it: the frame borrows either the
         // input or the buffer.
         let found = loop {
             if self.len != 0 {
-                match self.step_held(input, whole) {
+                match self.step_held(input) {
                     Held::Next => continue,
                     Held::Wait => return None,
                     Held::Found(f) => break f,
@@ -515,7 +521,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 (frame, meta, auth)
             }
             Found::InBuf(len, meta, auth) => {
-                self.give_back_after(len, input, whole);
+                self.settle_returned(len, input);
                 self.returned_from_buf = len;
                 (&self.buf[self.head..self.head + len], meta, auth)
             }
@@ -586,14 +592,16 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// bytes held from earlier calls are dropped, else a check of the
     /// candidate held.
     #[inline(never)]
-    fn step_held<'i>(&mut self, input: &mut &'i [u8], whole: &'i [u8]) -> Held {
-        if self.held_before == 0 {
-            // What is held was copied from `whole` (its older bytes are
-            // dropped): back to checking candidates in place, where a
-            // rejection does not go through the buffer.
-            let taken = whole.len() - input.len();
-            *input = whole.get(taken.saturating_sub(self.len)..).unwrap_or(input);
-            (self.head, self.len) = (0, 0);
+    fn step_held(&mut self, input: &mut &[u8]) -> Held {
+        if self.len == self.shadow {
+            // All that is held is a copy of the head of the input (the
+            // bytes before it are dropped): back to checking candidates in
+            // place, where a rejection does not go through the buffer. What
+            // the memo knows of these positions came from the copies: a
+            // caller that passes other bytes than those it was given must
+            // not have them judged by it.
+            (self.head, self.len, self.shadow) = (0, 0, 0);
+            self.memo.forget_from(self.pos);
             return Held::Next;
         }
         self.top_up(input);
@@ -603,9 +611,12 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         match self.check_at_buf() {
             // Cannot happen (a need is always for more than is held);
             // rejecting keeps the loop making progress regardless.
-            Verdict::Need(needed) if needed <= self.len => self.drop_front(1),
+            Verdict::Need(needed) if needed <= self.len => self.drop_front(1, input),
             Verdict::Need(needed) => {
                 if self.take_input(input, needed) {
+                    // The input is all copied: consumed.
+                    *input = &[];
+                    self.shadow = 0;
                     self.at_eof = false;
                     return Held::Wait;
                 }
@@ -616,11 +627,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 authenticated,
             } => return Held::Found(Found::InBuf(len, meta, authenticated)),
             Verdict::Skip(len) => {
-                self.drop_front(len);
+                self.drop_front(len, input);
                 return self.reject_run_held(input);
             }
             Verdict::Reject => {
-                self.drop_front(1);
+                self.drop_front(1, input);
                 return self.reject_run_held(input);
             }
         }
@@ -633,7 +644,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// more than the bytes).
     #[inline(always)]
     fn top_up(&mut self, input: &mut &[u8]) {
-        if self.len + TOP_UP_SLACK < MAX_NEEDED && !input.is_empty() {
+        if self.len + TOP_UP_SLACK < MAX_NEEDED && input.len() > self.shadow {
             self.take_input(input, self.len);
         }
     }
@@ -649,7 +660,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             let (held, cx) = self.held_and_ctx();
             let run = reject_run::<D, STREAMS>(held, cx);
             if run.dropped > 0 {
-                self.consume_held(run.dropped);
+                self.consume_held(run.dropped, input);
             }
             let len = match run.end {
                 RunEnd::Check => break,
@@ -665,27 +676,27 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                     meta,
                     authenticated,
                 } => return Held::Found(Found::InBuf(len, meta, authenticated)),
-                verdict => self.drop_front(dropped_by(verdict)),
+                verdict => self.drop_front(dropped_by(verdict), input),
             }
         }
         Held::Next
     }
 
     /// A frame of `len` bytes at the start of the bytes held is returned:
-    /// when it holds every byte pushed before this call, the bytes after it
-    /// are copies of `whole`'s, taken ahead; they go back to `input`, so
-    /// that the next call finds the buffer empty and parses in place (a
-    /// stream of frames read in chunks would otherwise go through the
-    /// buffer from its first chunk boundary on).
-    fn give_back_after<'i>(&mut self, len: usize, input: &mut &'i [u8], whole: &'i [u8]) {
-        if self.held_before > len {
-            return;
+    /// the copies of the input it holds are consumed, and when only copies
+    /// follow it they are dropped from the buffer, so that the next call
+    /// finds it empty and parses in place (a stream of frames read in
+    /// chunks would otherwise go through the buffer from its first chunk
+    /// boundary on).
+    fn settle_returned(&mut self, len: usize, input: &mut &[u8]) {
+        let before = self.len - self.shadow;
+        if len > before {
+            let copied = len - before;
+            *input = &input[copied..];
+            self.shadow -= copied;
         }
-        let taken = whole.len() - input.len();
-        let after = self.len - len;
-        if let Some(rest) = taken.checked_sub(after).and_then(|from| whole.get(from..)) {
-            *input = rest;
-            self.len = len;
+        if self.len - len == self.shadow {
+            (self.len, self.shadow) = (len, 0);
         }
     }
 
@@ -714,7 +725,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     fn release_returned(&mut self) {
         let n = core::mem::take(&mut self.returned_from_buf);
         if n > 0 {
-            self.consume_held(n);
+            // (Consumed from the input when returned: no copy left in it.)
+            self.consume_held(n, &mut &[][..]);
         }
     }
 
@@ -725,13 +737,15 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         *input = &input[n..];
     }
 
-    /// Moves bytes of `input` to the buffer until `needed` are held, and
-    /// more, up to the longest any candidate can need, when there is room
-    /// without moving the bytes held: the candidates after this one are
-    /// then decided without a check per byte copied. True when `input` ran
-    /// out before `needed`.
+    /// Copies bytes of `input` (after those copied already) to the buffer
+    /// until `needed` are held, and more, up to the longest any candidate
+    /// can need, when there is room without moving the bytes held: the
+    /// candidates after this one are then decided without a check per byte
+    /// copied. The input is not consumed: the copies are its head
+    /// ([`Parser::shadow`]). True when `input` ran out before `needed`.
     #[inline(never)]
-    fn take_input(&mut self, input: &mut &[u8], needed: usize) -> bool {
+    fn take_input(&mut self, input: &[u8], needed: usize) -> bool {
+        let input = &input[self.shadow..];
         // `needed` is at most MAX_NEEDED (< BUF_LEN); min() keeps this total.
         let needed = needed.min(MAX_NEEDED);
         let must = (needed - self.len).min(input.len());
@@ -755,14 +769,20 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         let end = self.head + self.len;
         self.buf[end..end + take].copy_from_slice(&input[..take]);
         self.len += take;
+        self.shadow += take;
         self.memo.steps += take as u64;
-        *input = &input[take..];
         self.len < needed
     }
 
-    /// Forgets the first `n` bytes held.
-    fn consume_held(&mut self, n: usize) {
-        self.held_before = self.held_before.saturating_sub(n);
+    /// Forgets the first `n` bytes held; those that are copies of the
+    /// input's head are consumed from it.
+    fn consume_held(&mut self, n: usize, input: &mut &[u8]) {
+        let before = self.len - self.shadow;
+        if n > before {
+            let copied = n - before;
+            *input = &input[copied..];
+            self.shadow -= copied;
+        }
         self.head += n;
         self.len -= n;
         self.pos += n as u64;
@@ -794,7 +814,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     /// Drops `n` bytes of the buffered candidate, then everything up to the
     /// next start byte in what remains (all counted as dropped).
-    fn drop_front(&mut self, n: usize) {
+    fn drop_front(&mut self, n: usize, input: &mut &[u8]) {
         let rest = &self.buf[self.head + n..self.head + self.len];
         let next = rest
             .iter()
@@ -802,7 +822,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             .unwrap_or(rest.len());
         self.stats.bytes_dropped += (n + next) as u64;
         self.memo.steps += next as u64;
-        self.consume_held(n + next);
+        self.consume_held(n + next, input);
     }
 
     #[inline(always)]

@@ -32,7 +32,7 @@ mod serial;
 mod split;
 mod tcp;
 #[cfg(test)]
-mod test_dialect;
+pub(crate) mod test_dialect;
 #[cfg(feature = "tokio")]
 pub mod tokio;
 mod transport;

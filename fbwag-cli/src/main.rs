@@ -44,12 +44,15 @@ macro_rules! link_rules {
         "
 Links and peers:
   Every send and receive error is logged (at most 5 lines per 10 s) and never
-  ends the program. With udpin, frames go to --peer if given; otherwise nothing
-  is sent until a trusted frame arrives (the configured peer's ids, and a
-  verified signature with --require-signed), then to that frame's source. A
+  ends the program. With udpin or tcpin, frames go to --peer if given;
+  otherwise nothing is sent until a trusted frame arrives (the configured
+  peer's ids, and a verified signature with --require-signed), then to that
+  frame's source (for tcpin: that client; other clients get nothing). A
   trusted frame from another address moves the peer only when its signature
-  verified, or when the current peer has been silent for 3 s. With a signing
-  key, frames older than one minute (by their signing timestamp) are refused."
+  verified, or when the current peer has been silent for 3 s. tcpin serves 32
+  clients at once: another evicts the one that has shown the least (nothing,
+  then unsigned frames only), never the peer. With a signing key, frames
+  older than one minute (by their signing timestamp) are refused."
     };
 }
 
@@ -102,9 +105,9 @@ Ground stations:
   while the pilot flies, else are refused with a STATUSTEXT); missions: a
   download is empty, an upload refused (but for an empty one); TIMESYNC.
   What is received and not served is logged (\"not served: ...\") and counted
-  in the summary. On udpin, answers go where every frame goes (--peer, or the
-  companion's address): put a router (e.g. MAVProxy) between fc-sim and
-  several ground stations.
+  in the summary. On udpin and tcpin, answers go where every frame goes
+  (--peer, or the companion's address): put a router (e.g. MAVProxy) between
+  fc-sim and several ground stations.
 ",
     link_rules!()
 );
@@ -205,11 +208,13 @@ enum Command {
     #[command(after_long_help = CC_EVENTS)]
     Cc {
         /// Connection string: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
-        /// tcpin:IP:PORT, serial:PATH:BAUD. With udpin, frames go to --peer,
-        /// or else to the source of the FC's trusted frames (see below).
+        /// tcpin:IP:PORT, serial:PATH:BAUD. With udpin or tcpin, frames go to
+        /// --peer, or else to the source of the FC's trusted frames (see
+        /// below).
         #[arg(long, value_name = "CONN")]
         link: String,
-        /// udpin only: send to this address (IP:PORT) and no other.
+        /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,
+        /// the client connected from it) and no other.
         #[arg(long, value_name = "IP:PORT")]
         peer: Option<std::net::SocketAddr>,
         /// Also route to and from this link (repeatable): a ground station,
@@ -291,7 +296,8 @@ enum Command {
         /// Connection string (see `fbwag cc --help`).
         #[arg(long, value_name = "CONN")]
         link: String,
-        /// udpin only: send to this address (IP:PORT) and no other.
+        /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,
+        /// the client connected from it) and no other.
         #[arg(long, value_name = "IP:PORT")]
         peer: Option<std::net::SocketAddr>,
         /// Keep the signing timestamps (this signer's, and each peer

@@ -20,8 +20,6 @@
 //! of what the binary under test parses of them (measured first, so they
 //! load an unoptimised build and, later, a faster parser alike), except one
 //! that is over capacity on purpose; small-datagram floods at fixed rates.
-//!
-//! Two tests are ignored, each with the bug it shows (see their docs).
 
 #[path = "common/attack.rs"]
 mod attack;
@@ -765,6 +763,47 @@ fn peer_hijack_with_signing_required() {
     assert_eq!(sent.received, 0, "the CC answered the attacker\n{both}");
     assert!(!cc.log.contains(&format!("answering {addr}")), "{both}");
     assert!(cc.events.summary("untrusted_notices") > 0, "{both}");
+}
+
+/// An FC on `tcpin` with few file descriptors (`ulimit -n 36`), and 100
+/// idle connections held open before the companion connects. Before, the
+/// FC accepted until it ran out of descriptors, then retried the failing
+/// accept at 100 % CPU: the companion's connection waited in the backlog
+/// for good, and the FC fell back to RTL. Now at most 32 clients are kept,
+/// idle ones are evicted first, and the handover happens.
+#[test]
+fn idle_connections_to_a_tcpin_fc_never_lock_the_companion_out() {
+    let _heavy = heavy();
+    let dir = scratch("tcpin-exhaust");
+    let s = Setup::signed();
+    let port = free_port();
+    let mut fc_args = args(&["fc-sim", "--link", &format!("tcpin:127.0.0.1:{port}")]);
+    fc_args.extend(args(&[
+        "--rc-loss-at",
+        "2",
+        "--duration",
+        &s.duration.to_string(),
+    ]));
+    fc_args.extend(s.signing_args());
+    let fc = Daemon::spawn_with_file_limit(&dir, "fc", &fc_args, 36);
+    let mut idle = Vec::new();
+    for _ in 0..50 {
+        match std::net::TcpStream::connect(local(port)) {
+            Ok(c) => idle.push(c),
+            Err(_) => std::thread::sleep(Duration::from_millis(20)),
+        }
+    }
+    while idle.len() < 100 {
+        idle.push(std::net::TcpStream::connect(local(port)).expect("connect"));
+    }
+    let mut cc_args = args(&["cc", "--link", &format!("tcp:127.0.0.1:{port}")]);
+    cc_args.extend(args(&["--duration", &s.cc_duration().to_string()]));
+    cc_args.extend(s.signing_args());
+    let cc = Daemon::spawn(&dir, "cc", &cc_args);
+    let limit = Duration::from_secs_f64(s.cc_duration() + 10.0);
+    let (fc, cc) = (fc.finish(limit), cc.finish(limit));
+    drop(idle);
+    assert_safe_handover(&fc, &cc, &s);
 }
 
 /// The attacker of the hijack tests: garbage, one-byte datagrams, and the

@@ -51,6 +51,7 @@ use std::format;
 use std::io;
 use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use std::vec::Vec;
@@ -88,6 +89,21 @@ const PARSE_CHUNK: usize = 1024;
 /// Output a `tcpin` client may have queued before it is dropped.
 const CLIENT_QUEUE: usize = 256;
 
+/// Clients a `tcpin` link serves at once. A connection beyond evicts the
+/// client that has shown the least (nothing accepted, then unauthenticated
+/// frames only, then authenticated ones), the oldest of those, and never the
+/// peer the link sends to under [`ReplyTo::Fixed`] or [`ReplyTo::Pinned`]:
+/// idle or garbage connections cannot lock a signing peer out, nor run the
+/// process out of file descriptors.
+pub const MAX_CLIENTS: usize = 32;
+
+/// A `tcpin` link whose accept failed waits this long before the next
+/// (retried at once, out of file descriptors the link spun at 100 % CPU)...
+const ACCEPT_BACKOFF: Duration = Duration::from_millis(50);
+/// ...or this long when it evicted a client to make room (time for the
+/// client's task to close its socket).
+const EVICTED_BACKOFF: Duration = Duration::from_millis(5);
+
 /// How one link is opened and secured.
 #[derive(Debug, Clone)]
 pub struct LinkConfig {
@@ -98,8 +114,10 @@ pub struct LinkConfig {
     /// When `key` is set: whether unsigned frames are returned (marked
     /// unauthenticated) or dropped. Without a key every frame is accepted.
     pub unsigned: Unsigned,
-    /// `udpin` and `udpbcast`: whom to send to (see [`ReplyTo`]; `udpbcast`
-    /// broadcasts while the rule names nobody).
+    /// `udpin`, `udpbcast` and `tcpin`: whom to send to (see [`ReplyTo`];
+    /// `udpbcast` broadcasts while the rule names nobody; `tcpin` sends to
+    /// every client under [`ReplyTo::LastSender`], else to the client
+    /// connected from the address the rule names, if any).
     pub reply_to: ReplyTo,
     /// Keep the link's signing state (signer, verifier) in this file.
     pub signing_state: Option<PathBuf>,
@@ -179,6 +197,9 @@ pub struct LinkCounters {
     pub dropped_full: u64,
     /// Sends that failed (the frame is lost; the link goes on).
     pub send_errors: u64,
+    /// `tcpin`: connections that could not be accepted (each pauses
+    /// accepting for a moment).
+    pub accept_errors: u64,
     /// The link's parser's counters.
     pub parser: Stats,
 }
@@ -763,22 +784,52 @@ impl<D: Dialect + 'static> LinkTask<D> {
 
     /// `tcpin`: every client in a task of its own (with its own parser),
     /// fed the link's output through a bounded queue: a client that falls
-    /// [`CLIENT_QUEUE`] frames behind is dropped, the others go on.
+    /// [`CLIENT_QUEUE`] frames behind is dropped, the others go on. At most
+    /// [`MAX_CLIENTS`] at once; the link's [`ReplyTo`] rule says which get
+    /// the output.
     async fn server(&mut self, listener: TcpListener, framer: &mut Framer) -> Ended {
-        let mut clients: Vec<mpsc::Sender<Box<[u8]>>> = Vec::new();
+        let mut clients: Vec<Client> = Vec::new();
+        let (mut accepted, mut pinned) = (0u64, None::<SocketAddr>);
+        let mut paused_until = None::<tokio::time::Instant>;
         loop {
+            let peer = match self.config.reply_to {
+                ReplyTo::LastSender => None,
+                ReplyTo::Fixed(a) => Some(a),
+                ReplyTo::Pinned => pinned,
+            };
+            let resume = paused_until.unwrap_or_else(tokio::time::Instant::now);
             tokio::select! {
-                r = listener.accept() => {
-                    let Ok((stream, addr)) = r else { continue };
-                    let _ = stream.set_nodelay(true);
-                    let (tx, rx) = mpsc::channel(CLIENT_QUEUE);
-                    clients.push(tx);
-                    tokio::spawn(serve_client(stream, addr, self.id, self.codec(), rx, self.events.clone()));
-                }
+                r = listener.accept(), if paused_until.is_none() => match r {
+                    Ok((stream, addr)) => {
+                        clients.retain(|c| !c.output.is_closed());
+                        if clients.len() >= MAX_CLIENTS {
+                            evict(&mut clients, peer);
+                        }
+                        let _ = stream.set_nodelay(true);
+                        let (tx, rx) = mpsc::channel(CLIENT_QUEUE);
+                        let standing = Arc::new(AtomicU8::new(SHOWN_NOTHING));
+                        accepted += 1;
+                        clients.push(Client { addr, output: tx, standing: standing.clone(), order: accepted });
+                        tokio::spawn(serve_client(stream, addr, self.id, self.codec(), rx, self.events.clone(), standing));
+                    }
+                    Err(e) => {
+                        // Out of file descriptors, a client's socket makes
+                        // room; any failure waits a little.
+                        clients.retain(|c| !c.output.is_closed());
+                        let evicted = is_out_of_descriptors(&e) && evict(&mut clients, peer);
+                        self.count(|c| c.accept_errors = c.accept_errors.saturating_add(1));
+                        let wait = if evicted { EVICTED_BACKOFF } else { ACCEPT_BACKOFF };
+                        paused_until = Some(tokio::time::Instant::now() + wait);
+                    }
+                },
+                _ = tokio::time::sleep_until(resume), if paused_until.is_some() => paused_until = None,
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
                     let bytes: Box<[u8]> = match &c {
-                        Command::Pin(_) => continue,
+                        Command::Pin(addr) => {
+                            pinned = Some(*addr);
+                            continue;
+                        }
                         Command::Raw(b) => b.clone(),
                         Command::Message { sysid, compid, meta, payload } => {
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
@@ -788,11 +839,64 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         }
                     };
                     // Full or closed: the client is dropped.
-                    clients.retain(|tx| tx.try_send(bytes.clone()).is_ok());
+                    let rule = self.config.reply_to;
+                    clients.retain(|c| !c.gets(rule, peer) || c.output.try_send(bytes.clone()).is_ok());
                 }
             }
         }
     }
+}
+
+/// A `tcpin` client, as the link's task sees it.
+struct Client {
+    addr: SocketAddr,
+    output: mpsc::Sender<Box<[u8]>>,
+    /// What it has sent: [`SHOWN_NOTHING`], [`SHOWN_FRAMES`] or
+    /// [`SHOWN_AUTHENTICATED`] (set by its task).
+    standing: Arc<AtomicU8>,
+    /// Accepted as the link's `order`th client.
+    order: u64,
+}
+
+/// No frame accepted from the client yet.
+const SHOWN_NOTHING: u8 = 0;
+/// Frames accepted, none authenticated.
+const SHOWN_FRAMES: u8 = 1;
+/// An authenticated frame.
+const SHOWN_AUTHENTICATED: u8 = 2;
+
+impl Client {
+    /// Whether the link's output goes to this client: every client under
+    /// [`ReplyTo::LastSender`], else the one at the rule's address.
+    fn gets(&self, rule: ReplyTo, peer: Option<SocketAddr>) -> bool {
+        match rule {
+            ReplyTo::LastSender => true,
+            _ => peer == Some(self.addr),
+        }
+    }
+}
+
+/// Drops the client that has shown the least, the oldest of those, never
+/// `peer` (see [`MAX_CLIENTS`]); its task ends when its queue closes.
+/// False when there was none to drop.
+fn evict(clients: &mut Vec<Client>, peer: Option<SocketAddr>) -> bool {
+    let victim = clients
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| Some(c.addr) != peer)
+        .min_by_key(|(_, c)| (c.standing.load(Ordering::Relaxed), c.order))
+        .map(|(i, _)| i);
+    if let Some(i) = victim {
+        clients.swap_remove(i);
+    }
+    victim.is_some()
+}
+
+/// Whether an accept failed for want of file descriptors (the process's or
+/// the system's).
+fn is_out_of_descriptors(e: &io::Error) -> bool {
+    // EMFILE and ENFILE, the same numbers on Linux, the BSDs and macOS.
+    cfg!(unix) && matches!(e.raw_os_error(), Some(23 | 24))
 }
 
 /// How a link's transport ended.
@@ -810,6 +914,7 @@ async fn serve_client<D: Dialect>(
     mut codec: FrameCodec<D>,
     mut output: mpsc::Receiver<Box<[u8]>>,
     events: mpsc::Sender<RouterEvent<D>>,
+    standing: Arc<AtomicU8>,
 ) {
     let mut buf = BytesMut::with_capacity(STREAM_ROOM);
     loop {
@@ -818,6 +923,8 @@ async fn serve_client<D: Dialect>(
             r = stream.read_buf(&mut buf) => match r {
                 Ok(n) if n > 0 => {
                     while let Ok(Some(frame)) = codec.decode(&mut buf) {
+                        let shown = if frame.is_authenticated() { SHOWN_AUTHENTICATED } else { SHOWN_FRAMES };
+                        standing.fetch_max(shown, Ordering::Relaxed);
                         let event = RouterEvent::Frame(Inbound { link, frame, source: Some(addr) });
                         if events.send(event).await.is_err() {
                             return;
@@ -842,6 +949,7 @@ mod tests {
     use crate::conn::test_dialect::{Ping, TestDialect};
     use crate::frame::{FrameBuf, Header, Version};
     use std::net::UdpSocket as StdUdp;
+    use std::vec::Vec;
 
     /// Datagrams of garbage (65,507 and 20 bytes) before each frame: no
     /// frame is cut short. (A receive into the room the earlier datagrams'
@@ -878,5 +986,96 @@ mod tests {
             };
             assert_eq!(inbound.frame.as_bytes(), &frame[..], "frame {value}");
         }
+    }
+
+    async fn tcpin(reply_to: ReplyTo) -> (Router<TestDialect>, LinkId, SocketAddr) {
+        let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut router = Router::<TestDialect>::new();
+        let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+        config.reply_to = reply_to;
+        let link = router.add(config).await.unwrap();
+        (router, link, addr)
+    }
+
+    fn ping(value: u32) -> FrameBuf {
+        let h = Header {
+            seq: value as u8,
+            sysid: 1,
+            compid: 1,
+        };
+        FrameBuf::encode(Version::V2, h, &Ping { value }, None).unwrap()
+    }
+
+    /// Reads what arrives within `ms`: `None` at the end of the stream.
+    async fn read_for(stream: &mut TcpStream, ms: u64) -> Option<Vec<u8>> {
+        let mut got = Vec::new();
+        let mut buf = [0u8; 256];
+        let until = tokio::time::Instant::now() + Duration::from_millis(ms);
+        loop {
+            match tokio::time::timeout_at(until, stream.read(&mut buf)).await {
+                Err(_) => return Some(got),
+                Ok(Ok(0)) | Ok(Err(_)) => return None,
+                Ok(Ok(n)) => got.extend_from_slice(&buf[..n]),
+            }
+        }
+    }
+
+    /// `tcpin` under [`ReplyTo::Pinned`]: nothing goes out until the owner
+    /// pins a client, then only to that client (before, every client got
+    /// everything: a stranger that connected received the companion's
+    /// control).
+    #[tokio::test]
+    async fn tcpin_sends_only_to_the_pinned_client() {
+        let (mut router, link, addr) = tcpin(ReplyTo::Pinned).await;
+        let mut peer = TcpStream::connect(addr).await.unwrap();
+        let mut stranger = TcpStream::connect(addr).await.unwrap();
+        peer.write_all(&ping(1)).await.unwrap();
+        let Some(RouterEvent::Frame(inbound)) = router.recv().await else {
+            panic!("no frame");
+        };
+        assert_eq!(inbound.source, Some(peer.local_addr().unwrap()));
+        router.send_raw(Links::only(link), &ping(2));
+        assert_eq!(
+            read_for(&mut peer, 200).await,
+            Some(Vec::new()),
+            "not pinned yet"
+        );
+        router.pin_peer(link, peer.local_addr().unwrap());
+        router.send_raw(Links::only(link), &ping(3));
+        assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+        assert_eq!(read_for(&mut stranger, 100).await, Some(Vec::new()));
+    }
+
+    /// More connections than [`MAX_CLIENTS`]: idle ones are evicted, oldest
+    /// first; the pinned client and one that sent frames stay.
+    #[tokio::test]
+    async fn tcpin_evicts_idle_clients_never_the_pinned_one() {
+        let (mut router, link, addr) = tcpin(ReplyTo::Pinned).await;
+        let mut peer = TcpStream::connect(addr).await.unwrap();
+        peer.write_all(&ping(1)).await.unwrap();
+        let _ = router.recv().await;
+        router.pin_peer(link, peer.local_addr().unwrap());
+        let mut idle = Vec::new();
+        for _ in 0..MAX_CLIENTS - 2 {
+            idle.push(TcpStream::connect(addr).await.unwrap());
+        }
+        let mut talker = TcpStream::connect(addr).await.unwrap();
+        talker.write_all(&ping(2)).await.unwrap();
+        let _ = router.recv().await;
+        // The link is full: each of these evicts the oldest idle client.
+        let mut late = Vec::new();
+        for _ in 0..5 {
+            late.push(TcpStream::connect(addr).await.unwrap());
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        for (i, stream) in idle.iter_mut().enumerate() {
+            let open = read_for(stream, 20).await.is_some();
+            assert_eq!(open, i >= 5, "idle client {i}");
+        }
+        assert!(read_for(&mut talker, 20).await.is_some(), "the talker");
+        router.send_raw(Links::only(link), &ping(3));
+        assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
     }
 }

@@ -8,8 +8,9 @@
 //! - receive work is bounded: link tasks parse at most 1 KB between yields,
 //!   and the loop services the protocol's timers before every frame, so a
 //!   flood delays the receiver sampling and the timers by one frame's work;
-//! - the peer rule of `udpin` (docs/delegation.md, "Links, peers and
-//!   restarts"): with `--peer ADDR`, frames go to ADDR only; without it,
+//! - the peer rule of `udpin` and `tcpin` (docs/delegation.md, "Links,
+//!   peers and restarts"): with `--peer ADDR`, frames go to ADDR only (for
+//!   `tcpin`, the client connected from ADDR); without it,
 //!   nothing is sent until a frame the engine trusts arrives, then to that
 //!   frame's source; another source of trusted frames takes over only with
 //!   a verified signature, or after [`PEER_SILENCE`] of the current peer;
@@ -93,7 +94,8 @@ impl Net {
         Ok(Net {
             router,
             main,
-            pinned: matches!(opts.endpoint, Endpoint::UdpIn(_)) && opts.peer.is_none(),
+            pinned: matches!(opts.endpoint, Endpoint::UdpIn(_) | Endpoint::TcpIn(_))
+                && opts.peer.is_none(),
             pin: PeerPin::default(),
             untrusted: Limiter::new(5, Duration::from_secs(10)),
             link_errors: Limiter::new(5, Duration::from_secs(10)),

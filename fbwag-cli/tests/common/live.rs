@@ -64,11 +64,25 @@ impl Daemon {
     /// Starts `fbwag <args> --events <dir>/<name>.events`, stdout and
     /// stderr to `<dir>/<name>.log`.
     pub fn spawn(dir: &Path, name: &str, args: &[String]) -> Daemon {
+        Self::spawn_with(Command::new(env!("CARGO_BIN_EXE_fbwag")), dir, name, args)
+    }
+
+    /// [`spawn`](Self::spawn) with at most `files` file descriptors open
+    /// (`ulimit -n`).
+    pub fn spawn_with_file_limit(dir: &Path, name: &str, args: &[String], files: u32) -> Daemon {
+        let mut sh = Command::new("sh");
+        sh.arg("-c")
+            .arg(format!("ulimit -n {files} && exec \"$0\" \"$@\""))
+            .arg(env!("CARGO_BIN_EXE_fbwag"));
+        Self::spawn_with(sh, dir, name, args)
+    }
+
+    fn spawn_with(mut command: Command, dir: &Path, name: &str, args: &[String]) -> Daemon {
         let events = dir.join(format!("{name}.events"));
         let log = dir.join(format!("{name}.log"));
         let out = fs::File::create(&log).expect("log file");
         let err = out.try_clone().expect("log file");
-        let child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        let child = command
             .args(args)
             .arg("--events")
             .arg(&events)

@@ -922,32 +922,43 @@ fn without_signing_peer_flag_pins_the_answers_but_not_what_is_believed() {
 /// answers to its new port at once.
 #[test]
 fn fc_reboot_while_the_cc_controls() {
-    fc_reboot(Setup::signed());
+    fc_reboot(Setup::signed(), 6.5, 0.3, 4.0);
+}
+
+/// A quick reboot: the new boot loses the receiver 1.4 s into it, a few
+/// hundred milliseconds of its clock before the old boot's event, too close
+/// to tell from a late notice by the ids alone. The CC recognises the new
+/// boot when the FC repeats the notice a retry later, and the handover
+/// happens (before, it waited until the old event was 6 s behind, and the
+/// new FC fell back to RTL at the end of its 5 s handshake).
+#[test]
+fn quick_fc_reboot_while_the_cc_controls() {
+    fc_reboot(Setup::signed(), 1.6, 1.4, 8.0);
 }
 
 /// The same unsigned: the CC moves its answers to the rebooted FC's new
 /// port only once the old port has been silent for 3 s (PEER_SILENCE),
-/// which is inside the new FC's 5 s handshake, so the handover should
-/// still happen. It does not: until the move, the CC acknowledges the new
-/// boot's notices to the dead port, and it spends its per-event budget of
-/// 1 + 3 acknowledgements twice a second (its own 1 s retry timer and the
-/// FC's repeated notice fire together), so it is spent 2 s after the first
-/// notice; after the move (3 s) the FC's last notice goes unanswered and it
-/// falls back to RTL.
+/// which is inside the new FC's 5 s handshake: until the move it
+/// acknowledges the new boot's notices to the dead port, and its per-event
+/// budget of acknowledgements (one per retry interval, whether its own
+/// timer or the FC's repeated notice asks) lasts until the FC's notices
+/// after the move are answered, so the handover still happens.
 #[test]
 fn fc_reboot_while_the_cc_controls_unsigned() {
-    fc_reboot(Setup::unsigned());
+    fc_reboot(Setup::unsigned(), 6.5, 0.3, 4.0);
 }
 
-fn fc_reboot(signing: Setup) {
+/// fc-sim losing the receiver `loss1` s into its run, killed in control
+/// and started again to lose it `loss2` s into its `run2` s run.
+fn fc_reboot(signing: Setup, loss1: f64, loss2: f64, run2: f64) {
     let dir = scratch("fc-reboot");
     let s = Setup {
-        rc_loss_at: 6.5,
+        rc_loss_at: loss1,
         duration: 30.0,
         ..signing
     };
     let cc_port = free_port();
-    let cc_time = 13.0;
+    let cc_time = loss1 + run2 + 9.0;
     let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, cc_time));
     let mut fc1 = Daemon::spawn(&dir, "fc1", &fc_args(cc_port, &s, s.rc_loss_at, s.duration));
     fc1.wait_for("handover", Duration::from_secs(10), |e| {
@@ -956,8 +967,8 @@ fn fc_reboot(signing: Setup) {
     std::thread::sleep(Duration::from_millis(500));
     fc1.kill();
     let s2 = Setup {
-        rc_loss_at: 0.3,
-        duration: 4.0,
+        rc_loss_at: loss2,
+        duration: run2,
         ..s.clone()
     };
     let fc2 = Daemon::spawn(

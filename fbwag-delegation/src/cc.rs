@@ -154,8 +154,10 @@ pub enum CcAction {
     /// Control ends: stop overriding.
     StopControl,
     /// The FC has rebooted: a notice came whose event id is older than any
-    /// live event of the boot the companion knew. Its events are forgotten
-    /// and the notice is handled as new.
+    /// live event of the boot the companion knew, or an RC-loss notice of
+    /// an event older than the newest came again a retry later (the FC
+    /// repeats only its current event). Its events are forgotten and the
+    /// notice is handled as new.
     FcRebooted,
 }
 
@@ -240,6 +242,9 @@ pub struct Companion {
     /// notice of it (or of an older one) must not start control again,
     /// unless it is too old to be live (the FC rebooted).
     newest_event: Option<(u32, Instant)>,
+    /// An RC-loss notice of an event older than the newest, and when it
+    /// first came: see [`Companion::repeats_an_older_event`].
+    older_notice: Option<(u32, Instant)>,
     stats: CcStats,
     out: Outbox<CcAction, 8>,
 }
@@ -253,6 +258,7 @@ impl Companion {
             last_fc: None,
             normal_acks: (0, 0),
             newest_event: None,
+            older_notice: None,
             stats: CcStats::default(),
             out: Outbox::new(),
         }
@@ -439,12 +445,13 @@ impl Companion {
     }
 
     fn notice(&mut self, now: Instant, status: Status, timestamp: u32) {
-        if self.is_of_a_new_boot(now, timestamp) {
+        let repeated = status == Status::RC_LOST && self.repeats_an_older_event(now, timestamp);
+        if repeated || self.is_of_a_new_boot(now, timestamp) {
             // The episode of the old boot is over, whatever it was.
             self.stop(State::Standby);
             self.stats.fc_reboots = self.stats.fc_reboots.saturating_add(1);
             self.out.push(CcAction::FcRebooted);
-            self.newest_event = None;
+            (self.newest_event, self.older_notice) = (None, None);
             self.normal_acks = (0, 0);
         }
         match status {
@@ -551,6 +558,32 @@ impl Companion {
         let behind = u64::from(newest.wrapping_sub(timestamp));
         let since = now.since(arrived).as_millis() as u64;
         behind + since > self.cfg.fc_event_lifetime.as_millis() as u64
+    }
+
+    /// True when RC-loss event `timestamp`, older than the newest event,
+    /// was notified before, at least half an `ack_retry_interval` ago. The
+    /// FC repeats the notice of its current event every retry interval (the
+    /// companion's matches it), and only of its current event: one whose id
+    /// went back comes from a new boot whose clock restarted, though fewer
+    /// than `fc_event_lifetime` ago (a quick reboot, or one early in the
+    /// old boot). A late or duplicated frame of the old boot comes once, or
+    /// twice close together. The first such notice is remembered here.
+    fn repeats_an_older_event(&mut self, now: Instant, timestamp: u32) -> bool {
+        let Some((newest, _)) = self.newest_event else {
+            return false;
+        };
+        if timestamp == newest || event_after(timestamp, newest) {
+            return false;
+        }
+        match self.older_notice {
+            Some((event, first)) if event == timestamp => {
+                now.since(first) >= self.cfg.ack_retry_interval / 2
+            }
+            _ => {
+                self.older_notice = Some((timestamp, now));
+                false
+            }
+        }
     }
 
     fn fc_timeout(&self) -> Duration {

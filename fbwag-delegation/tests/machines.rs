@@ -451,6 +451,52 @@ fn companion_recognises_an_fc_reboot() {
     assert!(!drain_cc(&mut cc).contains(&CcAction::FcRebooted));
 }
 
+/// A quick reboot: the new boot's RC loss comes 1.4 s into it, 200 ms of
+/// its clock before the old boot's event, which is too close to tell apart
+/// from a late notice of the old boot by the ids alone. The FC repeats the
+/// notice of its current event every retry interval, and only of that one:
+/// the second notice of the older event, a retry later, proves the new
+/// boot. (Before, the companion waited until the old event was 6 s behind,
+/// and the FC's 5 s handshake ended in RTL.)
+#[test]
+fn companion_recognises_a_quick_fc_reboot() {
+    let mut cc = Companion::new(CcConfig::default());
+    let rc_lost = |timestamp| CcInput::Notice {
+        status: Status::RC_LOST,
+        timestamp,
+    };
+    cc.handle_input(ms(1_000), rc_lost(1_600));
+    assert_eq!(cc.state(), CcState::Controlling);
+    drain_cc(&mut cc);
+    // The new boot's first notice, and a duplicate of it close behind: a
+    // late frame of the old boot would look the same.
+    cc.handle_input(ms(2_900), rc_lost(1_400));
+    cc.handle_input(ms(3_000), rc_lost(1_400));
+    assert!(drain_cc(&mut cc).is_empty(), "not yet a reboot");
+    assert_eq!(cc.event(), Some(1_600));
+    // Its retry, a second later.
+    cc.handle_input(ms(3_900), rc_lost(1_400));
+    let acts = drain_cc(&mut cc);
+    assert_eq!(
+        acts,
+        vec![
+            CcAction::StopControl,
+            CcAction::FcRebooted,
+            CcAction::SendNotice {
+                status: Status::CC_TAKEOVER_CONFIRMED,
+                timestamp: 1_400
+            },
+            CcAction::StartControl,
+            CcAction::SendControl,
+        ]
+    );
+    assert_eq!(cc.event(), Some(1_400));
+    // A late notice of another older event, once, is still stale.
+    cc.handle_input(ms(4_000), rc_lost(1_300));
+    assert!(drain_cc(&mut cc).is_empty(), "stale, not a reboot");
+    assert_eq!(cc.stats().fc_reboots, 1);
+}
+
 #[test]
 fn settings_that_cannot_work_are_refused() {
     use fbwag_delegation::ConfigError;

@@ -234,7 +234,9 @@ enum Command {
         /// stream's) in this file across restarts, so a restart neither
         /// replays old timestamps nor accepts replays of frames accepted
         /// before (saved every second and at exit; a damaged file stops the
-        /// program: remove it to start from the clock).
+        /// program: remove it to start from the clock). Without it, a
+        /// restarted daemon accepts once, per stream, frames captured up to
+        /// a minute before: use it whenever signing.
         #[arg(long, value_name = "PATH", requires = "sign_key")]
         signing_state: Option<PathBuf>,
         /// Write machine-readable events to this file (`-`: stdout), one
@@ -304,7 +306,9 @@ enum Command {
         /// stream's) in this file across restarts, so a restart neither
         /// replays old timestamps nor accepts replays of frames accepted
         /// before (saved every second and at exit; a damaged file stops the
-        /// program: remove it to start from the clock).
+        /// program: remove it to start from the clock). Without it, a
+        /// restarted daemon accepts once, per stream, frames captured up to
+        /// a minute before: use it whenever signing.
         #[arg(long, value_name = "PATH", requires = "sign_key")]
         signing_state: Option<PathBuf>,
         /// Write machine-readable events to this file (`-`: stdout), one

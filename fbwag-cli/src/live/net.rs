@@ -77,8 +77,13 @@ impl Net {
     /// device, a damaged signing state file) end the program before it
     /// starts; later errors never do.
     pub async fn open(opts: &LinkOptions, log: &mut Log) -> io::Result<Net> {
-        if let (Some(path), Some(_)) = (&opts.signing_state, opts.key) {
-            log_state_file(path, log)?;
+        match (&opts.signing_state, opts.key) {
+            (Some(path), Some(_)) => log_state_file(path, log)?,
+            (None, Some(_)) => log.line(
+                "signing state: none kept (--signing-state): after a restart, frames captured \
+                 up to a minute before are accepted once",
+            ),
+            _ => {}
         }
         let mut router = Router::new();
         let main = router

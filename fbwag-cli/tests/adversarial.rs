@@ -484,6 +484,46 @@ fn without_signing_spoofing_the_companion_ids_takes_control() {
     );
 }
 
+/// Without signing, frames with the peer's ids are trusted, and the
+/// daemons log the notices (and the FC's texts) they hear: a flood of
+/// them, 2,000 a second each way, wrote about 8,000 lines to each log in
+/// 4 s. Now at most 20 such lines a second are logged, then a count.
+#[test]
+fn a_flood_of_trusted_looking_notices_does_not_flood_the_logs() {
+    let _heavy = heavy();
+    let dir = scratch("log-flood");
+    let s = Setup {
+        duration: 4.0,
+        ..Setup::unsigned()
+    };
+    let pair = Pair::start(&dir, &s);
+    let attacker = Attacker::start(&pair.targets(), 2000.0, 11, |_, n| {
+        if n % 2 == 0 {
+            // To the FC, as the companion: a confirmation of no event.
+            frame(
+                CC,
+                n as u8,
+                &wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, 7),
+                None,
+            )
+        } else {
+            // To the companion, as the FC: a hand-back it answered long ago.
+            frame(FC, n as u8, &wire::notice(FC, Status::NORMAL, 3), None)
+        }
+    });
+    let (fc, cc) = pair.finish();
+    let sent = attacker.stop();
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    fc.assert_ran_to_the_end(s.duration);
+    cc.assert_ran_to_the_end(s.cc_duration());
+    assert!(sent.datagrams > 4000, "{sent:?}");
+    for d in [&fc, &cc] {
+        let lines = d.log.lines().count();
+        assert!(lines < 400, "{}: {lines} lines\n{both}", d.name);
+    }
+    assert!(fc.log.contains("notices suppressed"), "{both}");
+}
+
 // ---------------------------------------------------------------------------
 // Replayed frames.
 

@@ -81,6 +81,8 @@ struct Daemon {
     report: CcReport,
     spoofs: Limiter,
     gate: Limiter,
+    /// The FC's notices and texts logged: [`super::HEARD_PER_SECOND`].
+    heard: Limiter,
     spoofed: u64,
     duration: Option<Duration>,
     exit_after_handback: bool,
@@ -140,6 +142,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         report: CcReport::default(),
         spoofs: Limiter::new(5, Duration::from_secs(10)),
         gate: Limiter::new(5, Duration::from_secs(10)),
+        heard: Limiter::new(super::HEARD_PER_SECOND, Duration::from_secs(1)),
         spoofed: 0,
         duration: o.duration,
         exit_after_handback: o.exit_after_handback,
@@ -358,15 +361,19 @@ impl Daemon {
     fn describe(&mut self, frame: &fbwag_dialect::ReceivedFrame, log: &mut Log) {
         let f = frame.frame();
         match MessageView::new(f.msg_id(), f.payload()) {
-            Some(MessageView::FbwagNotice(n)) => log.line(&format!(
-                "<- FBWAG_NOTICE status {} event {}",
-                n.failsafe_status().0,
-                n.timestamp()
-            )),
-            Some(MessageView::Statustext(t)) => log.line(&format!(
-                "<- STATUSTEXT {:?}",
-                String::from_utf8_lossy(t.text().as_bytes())
-            )),
+            Some(MessageView::FbwagNotice(n)) => self.heard.log(log, "notices and texts", || {
+                format!(
+                    "<- FBWAG_NOTICE status {} event {}",
+                    n.failsafe_status().0,
+                    n.timestamp()
+                )
+            }),
+            Some(MessageView::Statustext(t)) => self.heard.log(log, "notices and texts", || {
+                format!(
+                    "<- STATUSTEXT {:?}",
+                    String::from_utf8_lossy(t.text().as_bytes())
+                )
+            }),
             Some(MessageView::Heartbeat(h)) if self.fc_mode != Some(h.custom_mode()) => {
                 self.fc_mode = Some(h.custom_mode());
                 let mode = mode_name(h.custom_mode());

@@ -148,6 +148,8 @@ struct Daemon {
     /// STATUSTEXT replies (reasons of refusals): at most 5 per 10 s.
     texts: Limiter,
     gcs_log: Limiter,
+    /// Trusted notices logged: [`super::HEARD_PER_SECOND`].
+    heard: Limiter,
     events: Events,
     report: FcReport,
     clock: Clock,
@@ -204,6 +206,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         refused_unsigned: 0,
         texts: Limiter::new(5, Duration::from_secs(10)),
         gcs_log: Limiter::new(10, Duration::from_secs(10)),
+        heard: Limiter::new(super::HEARD_PER_SECOND, Duration::from_secs(1)),
         events,
         report: FcReport::default(),
         clock,
@@ -526,10 +529,12 @@ impl Node for Daemon {
         let verdict = self.engine.handle_frame(now, &f, frame.is_authenticated());
         if verdict == Verdict::Trusted && f.msg_id() == fbwag_dialect::FbwagNotice::ID {
             if let Some(Message::FbwagNotice(n)) = frame.message() {
-                log.line(&format!(
-                    "<- FBWAG_NOTICE status {} event {}",
-                    n.failsafe_status.0, n.timestamp
-                ));
+                self.heard.log(log, "notices", || {
+                    format!(
+                        "<- FBWAG_NOTICE status {} event {}",
+                        n.failsafe_status.0, n.timestamp
+                    )
+                });
             }
         }
         self.drain(net, log);

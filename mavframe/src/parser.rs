@@ -686,9 +686,9 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             // place, where a rejection does not go through the buffer. What
             // the memo knows of these positions came from the copies: a
             // caller that passes other bytes than those it was given must
-            // not have them judged by it.
+            // not have a frame taken on their checksum.
             (self.head, self.len, self.shadow) = (0, 0, 0);
-            self.memo.forget_from(self.pos);
+            self.memo.forget_good_candidate();
             return Held::Next;
         }
         self.top_up(input);

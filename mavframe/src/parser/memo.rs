@@ -731,6 +731,12 @@ impl Memo {
         }
     }
 
+    /// Forgets that the candidate's checksum was found good, the one fact
+    /// a frame is taken on without reading its bytes again.
+    pub(super) fn forget_good_candidate(&mut self) {
+        self.good_candidate = 0;
+    }
+
     /// Forgets what is known about stream positions from `pos` on, and
     /// what was computed from bytes there (in constant time): called when
     /// the bytes from `pos` on may not be those seen. At the end of a

@@ -408,6 +408,22 @@ fn the_largest_retry_limit_is_bounded() {
     assert_eq!(acks, 256, "1 + 255 acknowledgements of one event");
 }
 
+/// What the companion does when a notice shows the FC rebooted while it
+/// controlled: it ends the old boot's episode and takes over event
+/// `timestamp` of the new one.
+fn takeover_of_a_new_boot(timestamp: u32) -> Vec<CcAction> {
+    vec![
+        CcAction::StopControl,
+        CcAction::FcRebooted,
+        CcAction::SendNotice {
+            status: Status::CC_TAKEOVER_CONFIRMED,
+            timestamp,
+        },
+        CcAction::StartControl,
+        CcAction::SendControl,
+    ]
+}
+
 /// The FC reboots while the companion controls: its new boot counts events
 /// from zero again. The companion recognises the new boot and hands over
 /// normally instead of ignoring every notice as older than the last one.
@@ -431,19 +447,7 @@ fn companion_recognises_an_fc_reboot() {
     // The FC reboots; 2.2 s into its new boot the receiver is still lost.
     cc.handle_input(ms(9_000), rc_lost(2_200));
     let acts = drain_cc(&mut cc);
-    assert_eq!(
-        acts,
-        vec![
-            CcAction::StopControl,
-            CcAction::FcRebooted,
-            CcAction::SendNotice {
-                status: Status::CC_TAKEOVER_CONFIRMED,
-                timestamp: 2_200
-            },
-            CcAction::StartControl,
-            CcAction::SendControl,
-        ]
-    );
+    assert_eq!(acts, takeover_of_a_new_boot(2_200));
     assert_eq!(cc.event(), Some(2_200));
     assert_eq!(cc.stats().fc_reboots, 1);
     // The new boot's retries are its own event, not another reboot.
@@ -477,19 +481,7 @@ fn companion_recognises_a_quick_fc_reboot() {
     // Its retry, a second later.
     cc.handle_input(ms(3_900), rc_lost(1_400));
     let acts = drain_cc(&mut cc);
-    assert_eq!(
-        acts,
-        vec![
-            CcAction::StopControl,
-            CcAction::FcRebooted,
-            CcAction::SendNotice {
-                status: Status::CC_TAKEOVER_CONFIRMED,
-                timestamp: 1_400
-            },
-            CcAction::StartControl,
-            CcAction::SendControl,
-        ]
-    );
+    assert_eq!(acts, takeover_of_a_new_boot(1_400));
     assert_eq!(cc.event(), Some(1_400));
     // A late notice of another older event, once, is still stale.
     cc.handle_input(ms(4_000), rc_lost(1_300));

@@ -1077,7 +1077,7 @@ struct Rest<'a, const N: usize> {
 
 /// Candidates [`Parser::raw_frame_in_place`] rejects before it leaves the
 /// rest to [`reject_run`] (which goes by masks through dense garbage).
-const RAW_RUN_MAX: u64 = 3;
+const RAW_RUN_MAX: u64 = 8;
 
 /// What [`Parser::raw_frame_in_place`] makes of a candidate.
 enum RawAlone {

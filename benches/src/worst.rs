@@ -65,6 +65,23 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         ],
         true,
     ),
+    // Found by `search time 150 5` at stop 20, once the next frame of an
+    // unknown id was decided in place: a frame of unknown id 10 every 16
+    // bytes, after more candidates than that path takes...
+    (
+        "found_i",
+        &[
+            0xfe, 0xfe, 0x00, 0xfe, 0xfe, 0xfd, 0x0a, 0x00, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfd,
+            0xfe, 0xfd,
+        ],
+        false,
+    ),
+    // ...and a MAVLink 2 frame of an unknown id every 18 bytes.
+    (
+        "found_j",
+        &[0xfe, 0xfe, 0xfe, 0xfe, 0xfd, 0x00, 0x00, 0xfe, 0xfe],
+        false,
+    ),
     // A signed frame of unknown id 3 and long 0xFE candidates: the worst
     // with a key in 64-byte reads.
     (

@@ -51,8 +51,11 @@ Links and peers:
   trusted frame from another address moves the peer only when its signature
   verified, or when the current peer has been silent for 3 s. tcpin serves 32
   clients at once: another evicts the one that has shown the least (nothing,
-  then unsigned frames only), never the peer. With a signing key, frames
-  older than one minute (by their signing timestamp) are refused."
+  then unsigned frames only; with a key, unsigned frames count as nothing),
+  never the peer; --peer IP:0 matches a tcpin client from IP on any port.
+  With a signing key, frames older than one minute (by their signing
+  timestamp) are refused, and a frame accepted once is refused again on any
+  connection."
     };
 }
 

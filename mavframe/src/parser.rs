@@ -392,6 +392,13 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         self.verifier.as_ref()
     }
 
+    /// The signature verifier, to change: e.g. to swap in the state that
+    /// several parsers of one link share (the router's `tcpin` clients), so
+    /// that a frame accepted on one is a replay on the others.
+    pub fn verifier_mut(&mut self) -> Option<&mut Verifier<STREAMS>> {
+        self.verifier.as_mut()
+    }
+
     /// Sequence statistics per sender (the first [`MAX_TRACKED_LINKS`]).
     pub fn links(&self) -> &[LinkStats] {
         &self.links[..self.tracked]

@@ -52,7 +52,7 @@ use std::io;
 use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 use std::vec::Vec;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
@@ -91,10 +91,12 @@ const CLIENT_QUEUE: usize = 256;
 
 /// Clients a `tcpin` link serves at once. A connection beyond evicts the
 /// client that has shown the least (nothing accepted, then unauthenticated
-/// frames only, then authenticated ones), the oldest of those, and never the
+/// frames only, then authenticated ones; on a link with a key an
+/// unauthenticated frame shows nothing), the oldest of those, and never the
 /// peer the link sends to under [`ReplyTo::Fixed`] or [`ReplyTo::Pinned`]:
-/// idle or garbage connections cannot lock a signing peer out, nor run the
-/// process out of file descriptors.
+/// idle, garbage or unsigned connections cannot lock a signing peer out,
+/// nor run the process out of file descriptors. The clients share the
+/// link's verifier: a frame accepted from one is a replay from another.
 pub const MAX_CLIENTS: usize = 32;
 
 /// A `tcpin` link whose accept failed waits this long before the next
@@ -567,7 +569,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                     .await
                 }
                 Transport::Stream(stream) => self.stream(stream, &mut codec, &mut framer).await,
-                Transport::Server(listener) => self.server(listener, &mut framer).await,
+                Transport::Server(listener) => self.server(listener, &mut codec, &mut framer).await,
             };
             self.save_state(&codec, &framer);
             match ended {
@@ -606,20 +608,26 @@ impl<D: Dialect + 'static> LinkTask<D> {
 
     /// Saves the signing state now.
     fn save_state(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
+        self.save_verifier(codec.parser().verifier(), framer);
+    }
+
+    fn save_verifier(&mut self, verifier: Option<&Verifier>, framer: &Framer) {
         if let Some(file) = &mut self.state.file {
             // Failures leave the last saved state in place and are retried
             // at the next save; the link goes on.
-            let _ = file.save(framer.signer(), codec.parser().verifier());
+            let _ = file.save(framer.signer(), verifier);
         }
     }
 
-    fn maybe_save(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
-        if self
-            .state
+    fn save_due(&self, framer: &Framer) -> bool {
+        self.state
             .file
             .as_ref()
             .is_some_and(|f| f.due(framer.signer()))
-        {
+    }
+
+    fn maybe_save(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
+        if self.save_due(framer) {
             self.save_state(codec, framer);
         }
     }
@@ -787,7 +795,20 @@ impl<D: Dialect + 'static> LinkTask<D> {
     /// [`CLIENT_QUEUE`] frames behind is dropped, the others go on. At most
     /// [`MAX_CLIENTS`] at once; the link's [`ReplyTo`] rule says which get
     /// the output.
-    async fn server(&mut self, listener: TcpListener, framer: &mut Framer) -> Ended {
+    async fn server(
+        &mut self,
+        listener: TcpListener,
+        codec: &mut FrameCodec<D>,
+        framer: &mut Framer,
+    ) -> Ended {
+        // One verifier for all clients, swapped into each one's parser while
+        // it parses: a frame accepted from one client is a replay from any
+        // other (with one each, a capture replayed on a new connection was
+        // authenticated again, and could move the pinned peer).
+        let shared = codec
+            .parser_mut()
+            .verifier_mut()
+            .map(|v| Arc::new(Mutex::new(v.clone())));
         let mut clients: Vec<Client> = Vec::new();
         let (mut accepted, mut pinned) = (0u64, None::<SocketAddr>);
         let mut paused_until = None::<tokio::time::Instant>;
@@ -810,7 +831,8 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         let standing = Arc::new(AtomicU8::new(SHOWN_NOTHING));
                         accepted += 1;
                         clients.push(Client { addr, output: tx, standing: standing.clone(), order: accepted });
-                        tokio::spawn(serve_client(stream, addr, self.id, self.codec(), rx, self.events.clone(), standing));
+                        let task = ClientTask { addr, link: self.id, shared: shared.clone(), standing };
+                        tokio::spawn(serve_client(stream, task, self.codec(), rx, self.events.clone()));
                     }
                     Err(e) => {
                         // Out of file descriptors, a client's socket makes
@@ -841,6 +863,10 @@ impl<D: Dialect + 'static> LinkTask<D> {
                     // Full or closed: the client is dropped.
                     let rule = self.config.reply_to;
                     clients.retain(|c| !c.gets(rule, peer) || c.output.try_send(bytes.clone()).is_ok());
+                    if let (Some(v), true) = (&shared, self.save_due(framer)) {
+                        let v = v.lock().unwrap_or_else(PoisonError::into_inner).clone();
+                        self.save_verifier(Some(&v), framer);
+                    }
                 }
             }
         }
@@ -869,9 +895,14 @@ impl Client {
     /// Whether the link's output goes to this client: every client under
     /// [`ReplyTo::LastSender`], else the one at the rule's address.
     fn gets(&self, rule: ReplyTo, peer: Option<SocketAddr>) -> bool {
-        match rule {
-            ReplyTo::LastSender => true,
-            _ => peer == Some(self.addr),
+        match (rule, peer) {
+            (ReplyTo::LastSender, _) => true,
+            // A TCP client's port is its system's choice: port 0 in the
+            // rule's address matches any.
+            (_, Some(p)) => {
+                p.ip() == self.addr.ip() && (p.port() == 0 || p.port() == self.addr.port())
+            }
+            (_, None) => false,
         }
     }
 }
@@ -907,14 +938,27 @@ enum Ended {
     Failed(io::Error),
 }
 
-async fn serve_client<D: Dialect>(
-    mut stream: TcpStream,
+/// What a `tcpin` client's task needs of its link.
+struct ClientTask {
     addr: SocketAddr,
     link: LinkId,
+    /// The link's verifier, when it has a key (see [`LinkTask::server`]).
+    shared: Option<Arc<Mutex<Verifier>>>,
+    /// What the client has shown ([`Client::standing`]).
+    standing: Arc<AtomicU8>,
+}
+
+/// A client that takes longer than this to accept a frame is dropped (its
+/// task would otherwise wait on it for good, with its socket, after the
+/// link let it go).
+const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_secs(2);
+
+async fn serve_client<D: Dialect>(
+    mut stream: TcpStream,
+    task: ClientTask,
     mut codec: FrameCodec<D>,
     mut output: mpsc::Receiver<Box<[u8]>>,
     events: mpsc::Sender<RouterEvent<D>>,
-    standing: Arc<AtomicU8>,
 ) {
     let mut buf = BytesMut::with_capacity(STREAM_ROOM);
     loop {
@@ -922,10 +966,16 @@ async fn serve_client<D: Dialect>(
         tokio::select! {
             r = stream.read_buf(&mut buf) => match r {
                 Ok(n) if n > 0 => {
-                    while let Ok(Some(frame)) = codec.decode(&mut buf) {
-                        let shown = if frame.is_authenticated() { SHOWN_AUTHENTICATED } else { SHOWN_FRAMES };
-                        standing.fetch_max(shown, Ordering::Relaxed);
-                        let event = RouterEvent::Frame(Inbound { link, frame, source: Some(addr) });
+                    for frame in decode_shared(&mut codec, &mut buf, task.shared.as_deref()) {
+                        // With a key, only an authenticated frame shows more
+                        // than an idle connection does.
+                        let shown = match (frame.is_authenticated(), &task.shared) {
+                            (true, _) => SHOWN_AUTHENTICATED,
+                            (false, None) => SHOWN_FRAMES,
+                            (false, Some(_)) => SHOWN_NOTHING,
+                        };
+                        task.standing.fetch_max(shown, Ordering::Relaxed);
+                        let event = RouterEvent::Frame(Inbound { link: task.link, frame, source: Some(task.addr) });
                         if events.send(event).await.is_err() {
                             return;
                         }
@@ -935,12 +985,34 @@ async fn serve_client<D: Dialect>(
             },
             out = output.recv() => {
                 let Some(bytes) = out else { return };
-                if stream.write_all(&bytes).await.is_err() {
+                let written = tokio::time::timeout(CLIENT_WRITE_TIMEOUT, stream.write_all(&bytes)).await;
+                if !matches!(written, Ok(Ok(()))) {
                     return;
                 }
             }
         }
     }
+}
+
+/// The frames in `buf`, parsed with the link's `shared` verifier state (if
+/// any) in the client's parser.
+fn decode_shared<D: Dialect>(
+    codec: &mut FrameCodec<D>,
+    buf: &mut BytesMut,
+    shared: Option<&Mutex<Verifier>>,
+) -> Vec<ReceivedFrame<D>> {
+    let mut state = shared.map(|m| m.lock().unwrap_or_else(PoisonError::into_inner));
+    if let (Some(state), Some(own)) = (state.as_deref_mut(), codec.parser_mut().verifier_mut()) {
+        core::mem::swap(state, own);
+    }
+    let mut frames = Vec::new();
+    while let Ok(Some(frame)) = codec.decode(buf) {
+        frames.push(frame);
+    }
+    if let (Some(state), Some(own)) = (state.as_deref_mut(), codec.parser_mut().verifier_mut()) {
+        core::mem::swap(state, own);
+    }
+    frames
 }
 
 #[cfg(test)]
@@ -1077,5 +1149,53 @@ mod tests {
         assert!(read_for(&mut talker, 20).await.is_some(), "the talker");
         router.send_raw(Links::only(link), &ping(3));
         assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+    }
+
+    /// A signed frame accepted from one `tcpin` client is a replay from
+    /// any other: the clients share the link's verifier. (Each had its own,
+    /// so a capture replayed on a new connection was authenticated again
+    /// and, under the daemons' peer rule, moved the pinned peer to the
+    /// attacker.)
+    #[tokio::test]
+    async fn tcpin_clients_share_one_replay_window() {
+        use crate::signing::{timestamp_now, Signer};
+        let key = [5u8; 32];
+        let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut router = Router::<TestDialect>::new();
+        let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+        config.key = Some(key);
+        router.add(config).await.unwrap();
+        let mut signer = Signer::new(key, 1, timestamp_now());
+        let h = |seq| Header {
+            seq,
+            sysid: 1,
+            compid: 1,
+        };
+        let first =
+            FrameBuf::encode(Version::V2, h(1), &Ping { value: 1 }, Some(&mut signer)).unwrap();
+        let second =
+            FrameBuf::encode(Version::V2, h(2), &Ping { value: 2 }, Some(&mut signer)).unwrap();
+        let mut peer = TcpStream::connect(addr).await.unwrap();
+        peer.write_all(&first).await.unwrap();
+        peer.write_all(&second).await.unwrap();
+        for want in [&first, &second] {
+            let Some(RouterEvent::Frame(f)) = router.recv().await else {
+                panic!("no frame");
+            };
+            assert!(f.frame.is_authenticated());
+            assert_eq!(f.frame.as_bytes(), &want[..]);
+        }
+        let mut replayer = TcpStream::connect(addr).await.unwrap();
+        replayer.write_all(&first).await.unwrap();
+        replayer.write_all(&ping(9)).await.unwrap();
+        // The unsigned frame after the replay comes through (unsigned
+        // frames are accepted on this link); the replay does not.
+        let Some(RouterEvent::Frame(f)) = router.recv().await else {
+            panic!("no frame");
+        };
+        assert!(!f.frame.is_authenticated(), "a replay was authenticated");
+        assert_eq!(f.frame.as_bytes(), &ping(9)[..]);
     }
 }

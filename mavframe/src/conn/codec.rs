@@ -71,6 +71,11 @@ impl<D: Dialect> FrameCodec<D> {
     pub fn parser(&self) -> &Parser<D> {
         &self.parser
     }
+
+    /// The parser, to change (its verifier's state).
+    pub fn parser_mut(&mut self) -> &mut Parser<D> {
+        &mut self.parser
+    }
 }
 
 impl<D: Dialect> Decoder for FrameCodec<D> {

@@ -19,8 +19,9 @@
 //! next one; 1 KiB, so that dropping bytes from its front never moves more
 //! than it drops, on average). The bytes the buffer takes ahead from the
 //! new chunk stay in the input until they are consumed: once the bytes of
-//! earlier chunks are dropped, the parser goes back to the input in place. When a candidate frame is rejected (bad
-//! checksum, unknown incompatibility flags) the parser resumes at the byte
+//! earlier chunks are dropped, the parser goes back to the input in place.
+//! When a candidate frame is rejected (bad checksum, unknown
+//! incompatibility flags) the parser resumes at the byte
 //! after its start byte, so a corrupted or truncated frame never swallows
 //! the good frames inside the length it claimed, which pymavlink and the C
 //! parser do. A frame with a valid checksum but a bad signature is skipped
@@ -632,7 +633,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         self.stats.bad_crc += bad_crc;
         self.stats.bad_incompat_flags += bad_flags;
         self.memo.steps += at as u64 + bad_crc + bad_flags + refused_raw;
-        self.drop_input(input, at.min(input.len()));
+        self.drop_input(input, at);
         found
     }
 
@@ -783,12 +784,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// chunks would otherwise go through the buffer from its first chunk
     /// boundary on).
     fn settle_returned(&mut self, len: usize, input: &mut &[u8]) {
-        let before = self.len - self.shadow;
-        if len > before {
-            let copied = len - before;
-            *input = &input[copied..];
-            self.shadow -= copied;
-        }
+        self.consume_copies(len, input);
         if self.len - len == self.shadow {
             (self.len, self.shadow) = (len, 0);
         }
@@ -871,18 +867,21 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// Forgets the first `n` bytes held; those that are copies of the
     /// input's head are consumed from it.
     fn consume_held(&mut self, n: usize, input: &mut &[u8]) {
-        let before = self.len - self.shadow;
-        if n > before {
-            let copied = n - before;
-            *input = &input[copied..];
-            self.shadow -= copied;
-        }
+        self.consume_copies(n, input);
         self.head += n;
         self.len -= n;
         self.pos += n as u64;
         if self.len == 0 {
             self.head = 0;
         }
+    }
+
+    /// The first `n` bytes held are taken: those of them that are copies of
+    /// the input's head (see [`Parser::shadow`]) are consumed from it.
+    fn consume_copies(&mut self, n: usize, input: &mut &[u8]) {
+        let copied = n.saturating_sub(self.len - self.shadow);
+        *input = &input[copied..];
+        self.shadow -= copied;
     }
 
     /// Ends the stream: call until `None`. Buffered bytes are parsed as if

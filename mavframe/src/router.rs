@@ -893,17 +893,18 @@ const SHOWN_AUTHENTICATED: u8 = 2;
 
 impl Client {
     /// Whether the link's output goes to this client: every client under
-    /// [`ReplyTo::LastSender`], else the one at the rule's address.
+    /// [`ReplyTo::LastSender`], else the peer.
     fn gets(&self, rule: ReplyTo, peer: Option<SocketAddr>) -> bool {
-        match (rule, peer) {
-            (ReplyTo::LastSender, _) => true,
-            // A TCP client's port is its system's choice: port 0 in the
-            // rule's address matches any.
-            (_, Some(p)) => {
-                p.ip() == self.addr.ip() && (p.port() == 0 || p.port() == self.addr.port())
-            }
-            (_, None) => false,
-        }
+        rule == ReplyTo::LastSender || self.is(peer)
+    }
+
+    /// Whether this is the client at `peer`, the address the link's rule
+    /// names. A TCP client's port is its system's choice: port 0 in the
+    /// rule's address matches any.
+    fn is(&self, peer: Option<SocketAddr>) -> bool {
+        peer.is_some_and(|p| {
+            p.ip() == self.addr.ip() && (p.port() == 0 || p.port() == self.addr.port())
+        })
     }
 }
 
@@ -1002,16 +1003,18 @@ fn decode_shared<D: Dialect>(
     shared: Option<&Mutex<Verifier>>,
 ) -> Vec<ReceivedFrame<D>> {
     let mut state = shared.map(|m| m.lock().unwrap_or_else(PoisonError::into_inner));
-    if let (Some(state), Some(own)) = (state.as_deref_mut(), codec.parser_mut().verifier_mut()) {
-        core::mem::swap(state, own);
-    }
+    let mut exchange = |codec: &mut FrameCodec<D>| {
+        if let (Some(state), Some(own)) = (state.as_deref_mut(), codec.parser_mut().verifier_mut())
+        {
+            core::mem::swap(state, own);
+        }
+    };
+    exchange(codec);
     let mut frames = Vec::new();
     while let Ok(Some(frame)) = codec.decode(buf) {
         frames.push(frame);
     }
-    if let (Some(state), Some(own)) = (state.as_deref_mut(), codec.parser_mut().verifier_mut()) {
-        core::mem::swap(state, own);
-    }
+    exchange(codec);
     frames
 }
 

@@ -109,15 +109,15 @@ impl Events {
     }
 }
 
-/// At most `per_window` lines of one kind per window; the rest are counted
-/// and reported when the next window opens: a flood of bad frames cannot
-/// flood the log.
 /// Lines about trusted frames (notices, the FC's texts) each daemon logs
 /// per second at most: a handover is a few; without signing, anyone who
 /// sends the peer's ids is trusted, and a flood of them logged every frame
 /// (about 4,400 lines a second).
 pub const HEARD_PER_SECOND: u32 = 20;
 
+/// At most `per_window` lines of one kind per window; the rest are counted
+/// and reported when the next window opens: a flood of bad frames cannot
+/// flood the log.
 pub struct Limiter {
     window: Duration,
     per_window: u32,

@@ -846,7 +846,14 @@ impl<D: Dialect + 'static> LinkTask<D> {
                 },
                 _ = tokio::time::sleep_until(resume), if paused_until.is_some() => paused_until = None,
                 c = self.commands.recv() => {
-                    let Some(c) = c else { return Ended::RouterGone };
+                    let Some(c) = c else {
+                        // The link's last save (in `run`) is of the shared
+                        // state, not of the one the link opened with.
+                        if let (Some(v), Some(own)) = (&shared, codec.parser_mut().verifier_mut()) {
+                            *own = v.lock().unwrap_or_else(PoisonError::into_inner).clone();
+                        }
+                        return Ended::RouterGone;
+                    };
                     let bytes: Box<[u8]> = match &c {
                         Command::Pin(addr) => {
                             pinned = Some(*addr);
@@ -909,14 +916,15 @@ impl Client {
 }
 
 /// Drops the client that has shown the least, the oldest of those, never
-/// `peer` (see [`MAX_CLIENTS`]); its task ends when its queue closes.
-/// False when there was none to drop.
+/// the one at `peer` while there are others (see [`MAX_CLIENTS`]; `peer`
+/// may be an address with port 0, which every client from its host
+/// matches); its task ends when its queue closes. False when there was
+/// none to drop.
 fn evict(clients: &mut Vec<Client>, peer: Option<SocketAddr>) -> bool {
     let victim = clients
         .iter()
         .enumerate()
-        .filter(|(_, c)| Some(c.addr) != peer)
-        .min_by_key(|(_, c)| (c.standing.load(Ordering::Relaxed), c.order))
+        .min_by_key(|(_, c)| (c.is(peer), c.standing.load(Ordering::Relaxed), c.order))
         .map(|(i, _)| i);
     if let Some(i) = victim {
         clients.swap_remove(i);
@@ -1200,5 +1208,79 @@ mod tests {
         };
         assert!(!f.frame.is_authenticated(), "a replay was authenticated");
         assert_eq!(f.frame.as_bytes(), &ping(9)[..]);
+    }
+
+    /// Under `--peer IP:0` (any port of that host), the client from that
+    /// host is the peer and is not evicted while others can be: here it
+    /// connects first and stays idle, then more strangers than the link
+    /// serves come from another loopback address. (The eviction matched the
+    /// peer's address exactly, port 0 included, so it matched no client.)
+    #[tokio::test]
+    async fn tcpin_never_evicts_the_peer_of_an_any_port_rule() {
+        let any_port: SocketAddr = "127.0.0.1:0".parse().unwrap();
+        let (router, link, addr) = tcpin(ReplyTo::Fixed(any_port)).await;
+        let mut peer = TcpStream::connect(addr).await.unwrap();
+        let mut strangers = Vec::new();
+        for _ in 0..MAX_CLIENTS + 4 {
+            let socket = tokio::net::TcpSocket::new_v4().unwrap();
+            socket.bind("127.0.0.2:0".parse().unwrap()).unwrap();
+            strangers.push(socket.connect(addr).await.unwrap());
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+        router.send_raw(Links::only(link), &ping(3));
+        assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+        let closed = {
+            let mut n = 0;
+            for s in &mut strangers {
+                n += usize::from(read_for(s, 10).await.is_none());
+            }
+            n
+        };
+        assert_eq!(closed, 5, "the oldest strangers evicted");
+    }
+
+    /// A `tcpin` link with a state file saves, when it ends, the verifier
+    /// its clients share, not the one it opened with (which had seen no
+    /// frame: a restart would have accepted every capture of the session).
+    #[tokio::test]
+    async fn tcpin_saves_the_shared_verifier_at_the_end() {
+        use crate::signing::state::StateFile;
+        use crate::signing::{timestamp_now, Signer};
+        let key = [6u8; 32];
+        let dir = std::env::temp_dir().join(format!("mavframe-tcpin-state-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("link.state");
+        let _ = std::fs::remove_file(&path);
+        let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut router = Router::<TestDialect>::new();
+        let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+        (config.key, config.signing_state) = (Some(key), Some(path.clone()));
+        router.add(config).await.unwrap();
+        let mut signer = Signer::new(key, 3, timestamp_now());
+        let h = Header {
+            seq: 0,
+            sysid: 7,
+            compid: 8,
+        };
+        let frame =
+            FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, Some(&mut signer)).unwrap();
+        let mut peer = TcpStream::connect(addr).await.unwrap();
+        peer.write_all(&frame).await.unwrap();
+        let Some(RouterEvent::Frame(f)) = router.recv().await else {
+            panic!("no frame");
+        };
+        assert!(f.frame.is_authenticated());
+        router.shutdown(Duration::from_secs(2)).await;
+        let (file, _) = StateFile::open(&path).unwrap();
+        let streams = &file.state().streams;
+        assert!(
+            streams
+                .iter()
+                .any(|s| (s.link_id, s.sysid, s.compid) == (3, 7, 8)),
+            "the stream the client's frame came on is saved: {streams:?}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

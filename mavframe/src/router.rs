@@ -960,7 +960,11 @@ struct ClientTask {
 /// A client that takes longer than this to accept a frame is dropped (its
 /// task would otherwise wait on it for good, with its socket, after the
 /// link let it go).
+#[cfg(not(test))]
 const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_secs(2);
+/// (The same rule, quicker to test.)
+#[cfg(test)]
+const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_millis(300);
 
 async fn serve_client<D: Dialect>(
     mut stream: TcpStream,
@@ -970,12 +974,14 @@ async fn serve_client<D: Dialect>(
     events: mpsc::Sender<RouterEvent<D>>,
 ) {
     let mut buf = BytesMut::with_capacity(STREAM_ROOM);
+    let mut frames = Vec::new();
     loop {
         buf.reserve(STREAM_ROOM);
         tokio::select! {
             r = stream.read_buf(&mut buf) => match r {
                 Ok(n) if n > 0 => {
-                    for frame in decode_shared(&mut codec, &mut buf, task.shared.as_deref()) {
+                    decode_shared(&mut codec, &mut buf, task.shared.as_deref(), &mut frames);
+                    for frame in frames.drain(..) {
                         // With a key, only an authenticated frame shows more
                         // than an idle connection does.
                         let shown = match (frame.is_authenticated(), &task.shared) {
@@ -1004,12 +1010,14 @@ async fn serve_client<D: Dialect>(
 }
 
 /// The frames in `buf`, parsed with the link's `shared` verifier state (if
-/// any) in the client's parser.
+/// any) in the client's parser, into `frames` (one vector for the
+/// client's life, not one per read).
 fn decode_shared<D: Dialect>(
     codec: &mut FrameCodec<D>,
     buf: &mut BytesMut,
     shared: Option<&Mutex<Verifier>>,
-) -> Vec<ReceivedFrame<D>> {
+    frames: &mut Vec<ReceivedFrame<D>>,
+) {
     let mut state = shared.map(|m| m.lock().unwrap_or_else(PoisonError::into_inner));
     let mut exchange = |codec: &mut FrameCodec<D>| {
         if let (Some(state), Some(own)) = (state.as_deref_mut(), codec.parser_mut().verifier_mut())
@@ -1018,12 +1026,10 @@ fn decode_shared<D: Dialect>(
         }
     };
     exchange(codec);
-    let mut frames = Vec::new();
     while let Ok(Some(frame)) = codec.decode(buf) {
         frames.push(frame);
     }
     exchange(codec);
-    frames
 }
 
 #[cfg(test)]
@@ -1129,6 +1135,40 @@ mod tests {
         router.send_raw(Links::only(link), &ping(3));
         assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
         assert_eq!(read_for(&mut stranger, 100).await, Some(Vec::new()));
+    }
+
+    /// A client that stops reading is dropped once a write to it has
+    /// waited [`CLIENT_WRITE_TIMEOUT`], its queue not yet full: its task
+    /// ends and its socket closes. (Its task waited on it for good, with
+    /// the socket, and wrote on when it read again.)
+    #[tokio::test]
+    async fn tcpin_drops_a_client_that_stops_reading() {
+        let (mut router, link, addr) = tcpin(ReplyTo::LastSender).await;
+        let socket = tokio::net::TcpSocket::new_v4().unwrap();
+        socket.set_recv_buffer_size(4096).unwrap();
+        let mut sleeper = socket.connect(addr).await.unwrap();
+        sleeper.write_all(&ping(1)).await.unwrap();
+        let _ = router.recv().await;
+        // 13 MB in 200 writes (fewer than the client's queue holds): far
+        // more than the sockets' buffers, so the writes stall.
+        let chunk = std::vec![0u8; 64 * 1024];
+        let chunks = 200;
+        for _ in 0..chunks {
+            router.send_raw(Links::only(link), &chunk);
+        }
+        tokio::time::sleep(CLIENT_WRITE_TIMEOUT * 3).await;
+        // Reading again: what the buffers held, then the end of the stream.
+        let (mut got, mut buf) = (0usize, std::vec![0u8; 64 * 1024]);
+        let until = tokio::time::Instant::now() + Duration::from_secs(5);
+        let ended = loop {
+            match tokio::time::timeout_at(until, sleeper.read(&mut buf)).await {
+                Err(_) => break false,
+                Ok(Ok(0)) | Ok(Err(_)) => break true,
+                Ok(Ok(n)) => got += n,
+            }
+        };
+        assert!(ended, "the connection is still open after {got} bytes");
+        assert!(got < chunks * chunk.len(), "all {got} bytes were sent");
     }
 
     /// More connections than [`MAX_CLIENTS`]: idle ones are evicted, oldest

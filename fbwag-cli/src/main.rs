@@ -70,6 +70,10 @@ and \"event\":
   {\"event\":\"summary\",\"takeovers\":N,\"handbacks\":N,\"trusted_frames\":N,
    \"untrusted_frames\":N,\"untrusted_notices\":N,\"controls_forwarded\":N,
    \"controls_dropped\":N}                               at exit
+  {\"event\":\"dropped\",\"events\":N}   N events were dropped before this one:
+                                          the reader had stopped reading (the
+                                          daemon never waits for it; nor for
+                                          its log, which says the same)
 ",
     link_rules!()
 );
@@ -89,6 +93,10 @@ and \"event\":
    \"untrusted_notices\":N,\"controls_applied\":N,\"controls_untrusted\":N,
    \"controls_misaddressed\":N,\"controls_outside_companion\":N,
    \"gcs_unsigned_refused\":N, \"not_served\":{\"NAME\":N,...}}   at exit
+  {\"event\":\"dropped\",\"events\":N}   N events were dropped before this one:
+                                          the reader had stopped reading (the
+                                          daemon never waits for it; nor for
+                                          its log, which says the same)
 
 Ground stations:
   Served for any sender (with --require-signed: only frames whose signature

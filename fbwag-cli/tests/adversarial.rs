@@ -484,10 +484,52 @@ fn without_signing_spoofing_the_companion_ids_takes_control() {
     );
 }
 
+/// A reader of the FC's log and events that stops reading (a full pipe)
+/// while a flood of control makes it write an event per frame: the FC
+/// runs on, sending telemetry to the end of its run, and exits on time.
+/// (Its writes blocked the thread its timers and links run on: it froze
+/// about 0.5 s into companion control, and ran past its end.)
+#[test]
+fn a_stalled_reader_of_the_logs_never_stops_a_daemon() {
+    let _heavy = heavy();
+    let dir = scratch("stalled-reader");
+    let s = Setup {
+        rc_loss_at: 0.5,
+        duration: 3.5,
+        ..Setup::unsigned()
+    };
+    let gcs = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    gcs.set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    let to = gcs.local_addr().unwrap().port();
+    let fc = Daemon::spawn_unread(&dir, "fc", &fc_args(to, &s, s.rc_loss_at, s.duration));
+    let fc_port = udp_port_of(fc.pid());
+    let attacker = Attacker::start(&[local(fc_port)], 3000.0, 5, forgeries(500));
+    let started = std::time::Instant::now();
+    let (mut last, mut buf) = (Duration::ZERO, [0u8; 2048]);
+    while started.elapsed() < Duration::from_secs_f64(s.duration + 1.0) {
+        if gcs.recv(&mut buf).is_ok() {
+            last = started.elapsed();
+        }
+    }
+    let fc = fc.finish(Duration::from_secs(20));
+    attacker.stop();
+    assert!(fc.status.success(), "{}", fc.dump());
+    assert!(
+        last > Duration::from_secs_f64(s.duration - 1.0),
+        "the FC fell silent at {last:?} of its {} s\n{}",
+        s.duration,
+        fc.dump()
+    );
+}
+
 /// Without signing, frames with the peer's ids are trusted, and the
 /// daemons log the notices (and the FC's texts) they hear: a flood of
 /// them, 2,000 a second each way, wrote about 8,000 lines to each log in
-/// 4 s. Now at most 20 such lines a second are logged, then a count.
+/// 4 s. Now at most 20 such lines a second are logged, then a count. The
+/// same for the FC's mode changes the companion reports (spoofed
+/// heartbeats flapping the mode at 500 a second wrote a line and an event
+/// each).
 #[test]
 fn a_flood_of_trusted_looking_notices_does_not_flood_the_logs() {
     let _heavy = heavy();
@@ -506,9 +548,14 @@ fn a_flood_of_trusted_looking_notices_does_not_flood_the_logs() {
                 &wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, 7),
                 None,
             )
-        } else {
+        } else if n % 4 == 1 {
             // To the companion, as the FC: a hand-back it answered long ago.
             frame(FC, n as u8, &wire::notice(FC, Status::NORMAL, 3), None)
+        } else {
+            // To the companion, as the FC: a mode change at every frame.
+            use fbwag_delegation::fc::Authority;
+            let by = [Authority::Pilot, Authority::Companion][(n / 4 % 2) as usize];
+            frame(FC, n as u8, &wire::fc_heartbeat(by), None)
         }
     });
     let (fc, cc) = pair.finish();
@@ -522,6 +569,8 @@ fn a_flood_of_trusted_looking_notices_does_not_flood_the_logs() {
         assert!(lines < 400, "{}: {lines} lines\n{both}", d.name);
     }
     assert!(fc.log.contains("notices suppressed"), "{both}");
+    let modes = cc.events.of("fc_mode").count();
+    assert!(modes < 200, "{modes} mode changes reported\n{both}");
 }
 
 // ---------------------------------------------------------------------------

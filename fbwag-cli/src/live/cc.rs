@@ -81,7 +81,8 @@ struct Daemon {
     report: CcReport,
     spoofs: Limiter,
     gate: Limiter,
-    /// The FC's notices and texts logged: [`super::HEARD_PER_SECOND`].
+    /// The FC's notices, texts and mode changes logged:
+    /// [`super::HEARD_PER_SECOND`].
     heard: Limiter,
     spoofed: u64,
     duration: Option<Duration>,
@@ -361,24 +362,39 @@ impl Daemon {
     fn describe(&mut self, frame: &fbwag_dialect::ReceivedFrame, log: &mut Log) {
         let f = frame.frame();
         match MessageView::new(f.msg_id(), f.payload()) {
-            Some(MessageView::FbwagNotice(n)) => self.heard.log(log, "notices and texts", || {
-                format!(
-                    "<- FBWAG_NOTICE status {} event {}",
-                    n.failsafe_status().0,
-                    n.timestamp()
-                )
-            }),
-            Some(MessageView::Statustext(t)) => self.heard.log(log, "notices and texts", || {
-                format!(
-                    "<- STATUSTEXT {:?}",
-                    String::from_utf8_lossy(t.text().as_bytes())
-                )
-            }),
+            Some(MessageView::FbwagNotice(n)) => {
+                self.heard.log(log, "notices, texts and mode changes", || {
+                    format!(
+                        "<- FBWAG_NOTICE status {} event {}",
+                        n.failsafe_status().0,
+                        n.timestamp()
+                    )
+                })
+            }
+            Some(MessageView::Statustext(t)) => {
+                self.heard.log(log, "notices, texts and mode changes", || {
+                    format!(
+                        "<- STATUSTEXT {:?}",
+                        String::from_utf8_lossy(t.text().as_bytes())
+                    )
+                })
+            }
             Some(MessageView::Heartbeat(h)) if self.fc_mode != Some(h.custom_mode()) => {
-                self.fc_mode = Some(h.custom_mode());
-                let mode = mode_name(h.custom_mode());
-                log.line(&format!("FC mode {mode}"));
-                self.events.emit("fc_mode", json!({"mode": mode}));
+                // Limited with the notices: without signing, anyone with
+                // the FC's ids can flap its mode at every frame. A change
+                // not admitted is reported by the next heartbeat admitted.
+                let (show, suppressed) = self.heard.admit();
+                if let Some(n) = suppressed {
+                    log.line(&format!(
+                        "({n} more notices, texts and mode changes suppressed)"
+                    ));
+                }
+                if show {
+                    self.fc_mode = Some(h.custom_mode());
+                    let mode = mode_name(h.custom_mode());
+                    log.line(&format!("FC mode {mode}"));
+                    self.events.emit("fc_mode", json!({"mode": mode}));
+                }
             }
             _ => {}
         }

@@ -21,6 +21,7 @@ use serde_json::{Map, Value};
 use std::fs::File;
 use std::io::{self, Write};
 use std::path::Path;
+use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
 use std::time::{Duration, Instant as WallInstant};
 
 /// The engines' time from a wall clock started with the program.
@@ -50,35 +51,112 @@ impl Clock {
     }
 }
 
+/// Lines queued for a writer (log or events) and not written yet, at
+/// most: about a megabyte.
+const LINES_QUEUED: usize = 4096;
+
+/// How long the end of a daemon waits for its queued lines to be written.
+const LINES_DRAIN: Duration = Duration::from_millis(500);
+
+/// Lines written, each flushed, by a thread of their own, fed through a
+/// bounded queue: a reader that stops reading (a full pipe, a stopped
+/// terminal) stops that thread, never the daemon, whose timers and links
+/// all run on one thread. (A blocking write there froze a daemon mid-flight
+/// once 64 KiB of events waited in a pipe nobody read.) A line that finds
+/// the queue full is dropped and counted; the count goes out, as a line of
+/// its own, once there is room.
+struct Lines {
+    queue: Option<SyncSender<String>>,
+    /// Lines dropped since the queue last took one.
+    dropped: u64,
+    /// Closed by the writer thread when it has written every line.
+    written: Receiver<()>,
+}
+
+impl Lines {
+    fn new(mut out: Box<dyn Write + Send>) -> Self {
+        let (queue, lines) = mpsc::sync_channel::<String>(LINES_QUEUED);
+        let (done, written) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in lines {
+                // Nobody reading any more (a closed pipe) fails each write:
+                // the lines are dropped here rather than filling the queue.
+                let _ = out.write_all(line.as_bytes()).and_then(|()| out.flush());
+            }
+            drop(done);
+        });
+        Lines {
+            queue: Some(queue),
+            dropped: 0,
+            written,
+        }
+    }
+
+    /// Queues `line` (ending in a newline); when lines were dropped, first
+    /// `dropped(n)`, the line that says so.
+    fn push(&mut self, line: String, dropped: impl FnOnce(u64) -> String) {
+        let Some(queue) = &self.queue else {
+            return;
+        };
+        if self.dropped > 0 {
+            match queue.try_send(dropped(self.dropped)) {
+                Ok(()) => self.dropped = 0,
+                Err(TrySendError::Full(_)) => {
+                    self.dropped += 1;
+                    return;
+                }
+                Err(TrySendError::Disconnected(_)) => return,
+            }
+        }
+        if let Err(TrySendError::Full(_)) = queue.try_send(line) {
+            self.dropped += 1;
+        }
+    }
+}
+
+impl Drop for Lines {
+    /// Waits for the queued lines to be written, at most [`LINES_DRAIN`]
+    /// (a stalled reader does not hold the exit).
+    fn drop(&mut self) {
+        self.queue = None;
+        let _ = self.written.recv_timeout(LINES_DRAIN);
+    }
+}
+
 /// Human-readable log lines with the time since start, on stdout (or
 /// anywhere), one flush per line so nothing is lost when the process is
-/// killed.
+/// killed, written by a thread of their own (see [`Lines`]): a stalled
+/// reader never stops the daemon.
 pub struct Log {
-    out: Box<dyn Write + Send>,
+    out: Lines,
     clock: Clock,
     who: &'static str,
 }
 
 impl Log {
     pub fn new(out: Box<dyn Write + Send>, clock: Clock, who: &'static str) -> Self {
-        Log { out, clock, who }
+        Log {
+            out: Lines::new(out),
+            clock,
+            who,
+        }
     }
 
     pub fn line(&mut self, what: &str) {
-        let _ = writeln!(
-            self.out,
-            "[{:>8.3} s] {}: {what}",
-            self.clock.secs(),
-            self.who
-        );
-        let _ = self.out.flush();
+        let (t, who) = (self.clock.secs(), self.who);
+        self.out.push(format!("[{t:>8.3} s] {who}: {what}\n"), |n| {
+            format!("[{t:>8.3} s] {who}: {n} log lines dropped (the output was not read)\n")
+        });
     }
 }
 
 /// Machine-readable events: one JSON object per line, `{"t_ms": <ms since
-/// start>, "event": <name>, ...}`, flushed per line. `None` writes nothing.
+/// start>, "event": <name>, ...}`, flushed per line, written by a thread of
+/// their own (see [`Lines`]): events that find a stalled reader's queue
+/// full are dropped, then counted in `{"event": "dropped", "events": N}`.
+/// `None` writes nothing.
 pub struct Events {
-    out: Option<Box<dyn Write + Send>>,
+    out: Option<Lines>,
     clock: Clock,
 }
 
@@ -90,7 +168,10 @@ impl Events {
             Some(p) if p.as_os_str() == "-" => Some(Box::new(io::stdout())),
             Some(p) => Some(Box::new(File::create(p)?)),
         };
-        Ok(Events { out, clock })
+        Ok(Events {
+            out: out.map(Lines::new),
+            clock,
+        })
     }
 
     /// Writes one event with `fields` (a JSON object's entries).
@@ -98,14 +179,16 @@ impl Events {
         let Some(out) = &mut self.out else {
             return;
         };
+        let t_ms = self.clock.millis();
         let mut line = Map::new();
-        line.insert("t_ms".into(), self.clock.millis().into());
+        line.insert("t_ms".into(), t_ms.into());
         line.insert("event".into(), event.into());
         if let Value::Object(extra) = fields {
             line.extend(extra);
         }
-        let _ = writeln!(out, "{}", Value::Object(line));
-        let _ = out.flush();
+        out.push(format!("{}\n", Value::Object(line)), |n| {
+            format!("{{\"t_ms\":{t_ms},\"event\":\"dropped\",\"events\":{n}}}\n")
+        });
     }
 }
 

@@ -50,6 +50,8 @@ pub struct Daemon {
     pub events: PathBuf,
     pub log: PathBuf,
     started: Instant,
+    /// Its stdout, held open and never read ([`Daemon::spawn_unread`]).
+    unread: Option<std::process::ChildStdout>,
 }
 
 /// A daemon that has exited: its status and everything it reported.
@@ -77,6 +79,31 @@ impl Daemon {
         Self::spawn_with(sh, dir, name, args)
     }
 
+    /// Starts `fbwag <args> --events -`: its log and its events go to a
+    /// pipe that nothing reads (a stalled reader: the pipe fills, then
+    /// every write to it blocks); stderr to `<dir>/<name>.log`. No events
+    /// can be read from it.
+    pub fn spawn_unread(dir: &Path, name: &str, args: &[String]) -> Daemon {
+        let log = dir.join(format!("{name}.log"));
+        let err = fs::File::create(&log).expect("log file");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(args)
+            .args(["--events", "-"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(err)
+            .spawn()
+            .unwrap_or_else(|e| panic!("spawn {name}: {e}"));
+        Daemon {
+            name: name.into(),
+            unread: child.stdout.take(),
+            child: Some(child),
+            events: dir.join(format!("{name}.events")),
+            log,
+            started: Instant::now(),
+        }
+    }
+
     fn spawn_with(mut command: Command, dir: &Path, name: &str, args: &[String]) -> Daemon {
         let events = dir.join(format!("{name}.events"));
         let log = dir.join(format!("{name}.log"));
@@ -97,6 +124,7 @@ impl Daemon {
             events,
             log,
             started: Instant::now(),
+            unread: None,
         }
     }
 

@@ -199,3 +199,37 @@ fn values_at_the_bounds_are_accepted() {
         );
     }
 }
+
+/// A signing state file that cannot be written stops `cc` and `fc-sim` at
+/// start, naming it: each save would fail, and a restart would begin from
+/// the clock, open to replays (it failed silently at every save).
+#[test]
+fn a_signing_state_file_that_cannot_be_written_is_refused_at_start() {
+    let dir = std::env::temp_dir().join(format!("fbwag-state-{}", std::process::id()));
+    let path = dir.join("no-such-dir").join("state");
+    let path = path.to_str().unwrap();
+    for daemon in [CC, FC] {
+        let started = Instant::now();
+        let child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(daemon)
+            .args([
+                "--sign-key",
+                KEY,
+                "--signing-state",
+                path,
+                "--duration",
+                "5",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let out = wait_bounded(child, started).expect("still running");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{daemon:?} ran");
+        assert!(
+            err.contains(path) && err.contains("cannot be written"),
+            "{daemon:?}: {err}"
+        );
+    }
+}

@@ -202,6 +202,10 @@ pub struct LinkCounters {
     /// `tcpin`: connections that could not be accepted (each pauses
     /// accepting for a moment).
     pub accept_errors: u64,
+    /// Saves of the signing state file that failed (each tried again a
+    /// save interval later; until one succeeds, a restart would start
+    /// from the last state saved).
+    pub state_save_errors: u64,
     /// The link's parser's counters.
     pub parser: Stats,
 }
@@ -614,8 +618,10 @@ impl<D: Dialect + 'static> LinkTask<D> {
     fn save_verifier(&mut self, verifier: Option<&Verifier>, framer: &Framer) {
         if let Some(file) = &mut self.state.file {
             // Failures leave the last saved state in place and are retried
-            // at the next save; the link goes on.
-            let _ = file.save(framer.signer(), verifier);
+            // a save interval later; the link goes on, and counts them.
+            if file.save(framer.signer(), verifier).is_err() {
+                self.count(|c| c.state_save_errors = c.state_save_errors.saturating_add(1));
+            }
         }
     }
 

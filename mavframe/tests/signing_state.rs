@@ -472,6 +472,31 @@ fn saves_come_before_the_signer_outruns_the_margin() {
     std::fs::remove_file(&path).unwrap();
 }
 
+/// A file that cannot be written: the save fails, and the next is due
+/// only an interval later, however far the signer runs ahead (it was tried
+/// again at every frame, each an attempt to create a file).
+#[test]
+fn a_failed_save_is_tried_again_an_interval_later() {
+    let dir = temp_path("unwritable-dir");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("no-such-dir").join("state");
+    let (file, loaded) = StateFile::open(&path).unwrap();
+    assert_eq!(loaded, Loaded::Fresh);
+    let interval = std::time::Duration::from_millis(300);
+    let mut file = file.with_interval(interval);
+    let mut signer = Signer::new(KEY, 0, 1_000_000_000);
+    assert!(file.due(Some(&signer)));
+    assert!(matches!(
+        file.save::<16>(Some(&signer), None),
+        Err(StateError::Io(_))
+    ));
+    signer.advance_to(signer.timestamp() + 10 * SIGNER_MARGIN);
+    assert!(!file.due(Some(&signer)), "tried again at once");
+    std::thread::sleep(interval);
+    assert!(file.due(Some(&signer)), "never tried again");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The spec's window, exactly: a new stream one minute behind is accepted,
 /// one tick more is not.
 #[test]

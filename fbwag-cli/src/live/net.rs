@@ -24,10 +24,10 @@ use fbwag_delegation::Instant;
 use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::route::{LinkId, Links};
-use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
+use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, LinkCounters, Router, RouterEvent};
 use fbwag_dialect::mavframe::signing::state::{Loaded, StateFile};
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{Dialect, Endpoint, Stats};
+use fbwag_dialect::{Dialect, Endpoint};
 use std::io;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -68,7 +68,8 @@ pub struct Net {
     pin: PeerPin,
     untrusted: Limiter,
     link_errors: Limiter,
-    refused_seen: Vec<Stats>,
+    /// Each link's counters when last reported.
+    refused_seen: Vec<LinkCounters>,
     refused_at: tokio::time::Instant,
 }
 
@@ -189,19 +190,25 @@ impl Net {
 
     /// Every [`REFUSED_INTERVAL`], what each link's parser refused since
     /// (bad checksums, bad signatures, unsigned frames, bytes dropped), when
-    /// it refused anything: one line per link, whatever the flood.
+    /// it refused anything, and what the link lost (frames dropped for a
+    /// full queue, send errors, signing state saves that failed): a line or
+    /// two per link, whatever the flood.
     fn report_refused(&mut self, log: &mut Log) {
         if self.refused_at.elapsed() < REFUSED_INTERVAL {
             return;
         }
         self.refused_at = tokio::time::Instant::now();
         for link in self.router.links().iter() {
-            let now = self.router.counters(link).parser;
+            let counters = self.router.counters(link);
             let i = usize::from(link);
             if self.refused_seen.len() <= i {
-                self.refused_seen.resize(i + 1, Stats::default());
+                self.refused_seen.resize(i + 1, LinkCounters::default());
             }
-            let was = std::mem::replace(&mut self.refused_seen[i], now);
+            let was = std::mem::replace(&mut self.refused_seen[i], counters);
+            let name = self.router.endpoint(link).map(|e| e.to_string());
+            let name = name.unwrap_or_default();
+            report_lost(&name, &was, &counters, log);
+            let (now, was) = (counters.parser, was.parser);
             let parts: Vec<String> = [
                 ("bad checksums", now.bad_crc - was.bad_crc),
                 ("bad signatures", now.bad_signature - was.bad_signature),
@@ -216,15 +223,39 @@ impl Net {
             .map(|(what, n)| format!("{n} {what}"))
             .collect();
             if !parts.is_empty() {
-                let name = self.router.endpoint(link).map(|e| e.to_string());
                 log.line(&format!(
-                    "{}: link refused in the last {} s: {}",
-                    name.unwrap_or_default(),
+                    "{name}: link refused in the last {} s: {}",
                     REFUSED_INTERVAL.as_secs(),
                     parts.join(", ")
                 ));
             }
         }
+    }
+}
+
+/// What the link at `name` lost since `was`, if anything: one line.
+fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log) {
+    let parts: Vec<String> = [
+        (
+            "frames dropped (queue full)",
+            now.dropped_full - was.dropped_full,
+        ),
+        ("send errors", now.send_errors - was.send_errors),
+        (
+            "signing state saves failed (a restart would start from the last state saved)",
+            now.state_save_errors - was.state_save_errors,
+        ),
+    ]
+    .iter()
+    .filter(|(_, n)| *n > 0)
+    .map(|(what, n)| format!("{n} {what}"))
+    .collect();
+    if !parts.is_empty() {
+        log.line(&format!(
+            "{name}: link lost in the last {} s: {}",
+            REFUSED_INTERVAL.as_secs(),
+            parts.join(", ")
+        ));
     }
 }
 
@@ -234,11 +265,19 @@ fn opened(endpoint: &Endpoint, e: io::Error) -> io::Error {
 
 /// Says what the signing state file holds (the router opens it again);
 /// a damaged file stops the program: it could mean tampering, and dropping
-/// it silently would reopen replays.
+/// it silently would reopen replays. So does a file that cannot be written
+/// (written back now, as loaded): every save would fail, and the next start
+/// would begin from the clock.
 fn log_state_file(path: &std::path::Path, log: &mut Log) -> io::Result<()> {
     let (file, loaded) = StateFile::open(path).map_err(|e| {
         io::Error::other(format!(
             "signing state {}: {e}; remove the file to start from the clock",
+            path.display()
+        ))
+    })?;
+    file.state().save(path).map_err(|e| {
+        io::Error::other(format!(
+            "signing state {}: cannot be written: {e}",
             path.display()
         ))
     })?;

@@ -531,6 +531,9 @@ pub struct StateFile {
     state: SigningState,
     saved_at: Instant,
     interval: Duration,
+    /// When the last save failed, if it did: the next waits an interval
+    /// (a file that cannot be written was tried again at every frame).
+    failed_at: Option<Instant>,
 }
 
 impl StateFile {
@@ -549,6 +552,7 @@ impl StateFile {
             state,
             saved_at: Instant::now(),
             interval: SAVE_INTERVAL,
+            failed_at: None,
         };
         Ok((file, loaded))
     }
@@ -580,13 +584,14 @@ impl StateFile {
             Some(saved) => s.timestamp() >= saved.saturating_add(SIGNER_MARGIN / 2),
             None => true,
         });
-        ran_ahead || self.saved_at.elapsed() >= self.interval
+        let retry = self.failed_at.is_none_or(|t| t.elapsed() >= self.interval);
+        retry && (ran_ahead || self.saved_at.elapsed() >= self.interval)
     }
 
     /// Captures `signer` and `verifier` and writes them when they differ
     /// from the last saved state (an idle link writes nothing). Returns
     /// whether it wrote. On error, the last saved state stays the reference,
-    /// so [`due`](Self::due) keeps asking.
+    /// so [`due`](Self::due) asks again, an interval later.
     pub fn save<const N: usize>(
         &mut self,
         signer: Option<&Signer>,
@@ -597,7 +602,11 @@ impl StateFile {
             self.saved_at = Instant::now();
             return Ok(false);
         }
-        now.save(&self.path)?;
+        if let Err(e) = now.save(&self.path) {
+            self.failed_at = Some(Instant::now());
+            return Err(e);
+        }
+        self.failed_at = None;
         self.state = now;
         self.saved_at = Instant::now();
         Ok(true)

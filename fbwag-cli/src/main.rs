@@ -244,8 +244,9 @@ enum Command {
         /// Keep the signing timestamps (this signer's, and each peer
         /// stream's) in this file across restarts, so a restart neither
         /// replays old timestamps nor accepts replays of frames accepted
-        /// before (saved every second and at exit; a damaged file stops the
-        /// program: remove it to start from the clock). Without it, a
+        /// before (saved every second and at exit, SIGINT and SIGTERM
+        /// included; a damaged file, or one that cannot be written, stops
+        /// the program: remove it to start from the clock). Without it, a
         /// restarted daemon accepts once, per stream, frames captured up to
         /// a minute before: use it whenever signing.
         #[arg(long, value_name = "PATH", requires = "sign_key")]
@@ -316,8 +317,9 @@ enum Command {
         /// Keep the signing timestamps (this signer's, and each peer
         /// stream's) in this file across restarts, so a restart neither
         /// replays old timestamps nor accepts replays of frames accepted
-        /// before (saved every second and at exit; a damaged file stops the
-        /// program: remove it to start from the clock). Without it, a
+        /// before (saved every second and at exit, SIGINT and SIGTERM
+        /// included; a damaged file, or one that cannot be written, stops
+        /// the program: remove it to start from the clock). Without it, a
         /// restarted daemon accepts once, per stream, frames captured up to
         /// a minute before: use it whenever signing.
         #[arg(long, value_name = "PATH", requires = "sign_key")]

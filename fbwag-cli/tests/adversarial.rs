@@ -677,6 +677,69 @@ fn replayed_capture_is_refused_once_the_peers_have_spoken() {
 /// that knew only the clock accepted the seconds-old capture: the CC took
 /// over for the captured event, answered the replayer, and the captured
 /// event id (later than the real one) made the real RC loss look stale.
+/// SIGTERM (and SIGINT) stop a daemon as the end of its run does, saving
+/// its signing state: an RC-loss notice it took just before is a replay
+/// once it is restarted on that state. (Killed by the signal, it skipped
+/// that save, and the periodic one comes at most once a second: the replay
+/// was taken, and the companion took over for it again.)
+#[test]
+fn a_cc_stopped_by_sigterm_saves_its_signing_state() {
+    let dir = scratch("sigterm");
+    let state = dir.join("cc.state").display().to_string();
+    let cc_port = free_port();
+    let s = Setup {
+        cc_args: args(&["--signing-state", &state]),
+        ..Setup::signed()
+    };
+    let fc_socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let now = fbwag_dialect::mavframe::signing::timestamp_now();
+    let mut signer = fbwag_dialect::Signer::new(key_bytes(KEY), 0, now);
+    let mut cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, 30.0));
+    let mut send = |frame: &[u8]| fc_socket.send_to(frame, local(cc_port)).unwrap();
+    let heartbeat = wire::fc_heartbeat(fbwag_delegation::fc::Authority::Pilot);
+    // Until the CC has its first save behind it (it found the FC)...
+    let until = std::time::Instant::now() + Duration::from_secs(10);
+    while !cc.events_now().0.iter().any(|e| e["event"] == "fc") {
+        assert!(
+            std::time::Instant::now() < until,
+            "the CC never found the FC"
+        );
+        send(&frame(FC, 0, &heartbeat, Some(&mut signer)));
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // ...then, within a second of a save, the RC loss.
+    std::thread::sleep(Duration::from_millis(1200));
+    send(&frame(FC, 1, &heartbeat, Some(&mut signer)));
+    let loss = frame(
+        FC,
+        2,
+        &wire::notice(FC, Status::RC_LOST, 777),
+        Some(&mut signer),
+    );
+    send(&loss);
+    cc.wait_for("takeover", Duration::from_secs(5), |e| {
+        e["event"] == "control" && e["state"] == "start"
+    });
+    let killed = std::process::Command::new("kill")
+        .args(["-TERM", &cc.pid().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let first = cc.finish(Duration::from_secs(40));
+    assert!(first.status.success(), "{}", first.dump());
+    assert!(first.log.contains("SIGTERM: stopping"), "{}", first.dump());
+    assert!(first.events.last("summary").is_some(), "{}", first.dump());
+    let again = Daemon::spawn(&dir, "cc-again", &cc_args(cc_port, &s, 2.0));
+    std::thread::sleep(Duration::from_millis(300));
+    fc_socket.send_to(&loss, local(cc_port)).unwrap();
+    let again = again.finish(Duration::from_secs(15));
+    assert!(
+        again.events.control_starts().is_empty(),
+        "the replayed notice was taken\n{}",
+        again.dump()
+    );
+}
+
 /// With its signing state file (`--signing-state`), the restarted CC knows
 /// the FC's stream up to the last frame it accepted, and refuses the
 /// capture.

@@ -318,6 +318,7 @@ pub trait Node {
 /// or a link's change) or the next deadline, whichever comes first; then
 /// the links are stopped, each saving its signing state.
 pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log) {
+    let mut stop = StopSignals::new(log);
     while !node.done(clock) {
         let now = clock.now();
         if node.poll_timeout().is_some_and(|t| t <= now) {
@@ -336,9 +337,59 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                 None => break,
             },
             _ = tokio::time::sleep(wait) => {}
+            name = stop.recv() => {
+                log.line(&format!("{name}: stopping"));
+                break;
+            }
         }
     }
     net.router.shutdown(Duration::from_secs(1)).await;
+}
+
+/// SIGINT (Ctrl-C) and SIGTERM (`kill`, `systemctl stop`): the daemon
+/// stops as at the end of its run, its links saving their signing state.
+/// (Killed by either, it skipped that save: with `--signing-state`, what
+/// it had accepted since the last periodic save could be replayed into it
+/// once restarted.)
+struct StopSignals {
+    #[cfg(unix)]
+    signals: Option<[tokio::signal::unix::Signal; 2]>,
+}
+
+impl StopSignals {
+    fn new(log: &mut Log) -> Self {
+        #[cfg(unix)]
+        {
+            use tokio::signal::unix::{signal, SignalKind};
+            let signals = signal(SignalKind::interrupt())
+                .and_then(|i| Ok([i, signal(SignalKind::terminate())?]));
+            if let Err(e) = &signals {
+                log.line(&format!(
+                    "cannot handle stop signals ({e}): they end the daemon unsaved"
+                ));
+            }
+            StopSignals {
+                signals: signals.ok(),
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = log;
+            StopSignals {}
+        }
+    }
+
+    /// The name of the next stop signal received (never, without them).
+    async fn recv(&mut self) -> &'static str {
+        #[cfg(unix)]
+        if let Some([interrupt, terminate]) = &mut self.signals {
+            return tokio::select! {
+                _ = interrupt.recv() => "SIGINT",
+                _ = terminate.recv() => "SIGTERM",
+            };
+        }
+        std::future::pending().await
+    }
 }
 
 /// Runs `daemon` on a current-thread tokio runtime.

@@ -695,7 +695,7 @@ fn a_cc_stopped_by_sigterm_saves_its_signing_state() {
     let now = fbwag_dialect::mavframe::signing::timestamp_now();
     let mut signer = fbwag_dialect::Signer::new(key_bytes(KEY), 0, now);
     let cc = Daemon::spawn(&dir, "cc", &cc_args(cc_port, &s, 30.0));
-    let mut send = |frame: &[u8]| fc_socket.send_to(frame, local(cc_port)).unwrap();
+    let send = |frame: &[u8]| fc_socket.send_to(frame, local(cc_port)).unwrap();
     let heartbeat = wire::fc_heartbeat(fbwag_delegation::fc::Authority::Pilot);
     // Until the CC has its first save behind it (it found the FC)...
     let until = std::time::Instant::now() + Duration::from_secs(10);

@@ -1020,6 +1020,43 @@ fn without_signing_a_spoofed_fc_captures_the_cc_answers() {
     );
 }
 
+/// Without signing, a forged FC reboot from a third port while the real FC
+/// talks: a hand-back notice of a far newer event, then one of event 0 (a
+/// new boot, by the CC's rules), then heartbeats. The CC's answers stay with the real FC,
+/// which hands over. (The CC forgot its peer at every reboot it recognised,
+/// so the forger's frame moved the answers to it at once: the real FC's RC
+/// loss went unanswered, and it fell back to RTL.)
+#[test]
+fn without_signing_a_forged_fc_reboot_does_not_move_the_answers() {
+    let dir = scratch("forged-reboot");
+    let s = Setup {
+        rc_loss_at: 2.0,
+        duration: 4.0,
+        ..Setup::unsigned()
+    };
+    let pair = Pair::start(&dir, &s);
+    std::thread::sleep(Duration::from_millis(800));
+    // Then the heartbeats of an FC in companion control: talking, so that
+    // the real FC's frames cannot move the answers back.
+    let forger = |_: &mut rand_pcg::Pcg64, n: u64| match n {
+        0 | 1 => {
+            let event = [100_000_000, 0][n as usize];
+            frame(FC, n as u8, &wire::notice(FC, Status::NORMAL, event), None)
+        }
+        _ => {
+            let by = fbwag_delegation::fc::Authority::Companion;
+            frame(FC, n as u8, &wire::fc_heartbeat(by), None)
+        }
+    };
+    let attacker = Attacker::start(&[local(pair.cc_port)], 5.0, 0, forger);
+    let (fc, cc) = pair.finish();
+    let sent = attacker.stop();
+    let both = format!("{}\n{}", fc.dump(), cc.dump());
+    assert!(cc.log.contains("FC rebooted"), "no forged reboot\n{both}");
+    assert_eq!(sent.received, 0, "the CC answered the forger\n{both}");
+    assert_safe_handover(&fc, &cc, &s);
+}
+
 /// The same spoofer against a CC given `--peer` (the FC listening on a
 /// known port): what `--peer` does and does not do without signing. The CC
 /// sends only to the configured FC, never to the spoofer, and the real FC

@@ -203,19 +203,17 @@ impl Daemon {
             self.spoof(inbound, "the companion's own ids on the FC link", log);
             return;
         }
-        let reboots = self.engine.machine().stats().fc_reboots;
         let verdict = self
             .engine
             .handle_frame(now, &frame.frame(), frame.is_authenticated());
         if verdict == Verdict::Trusted {
             self.describe(frame, log);
-            if self.engine.machine().stats().fc_reboots != reboots {
-                // The new boot speaks from wherever it bound: answer it
-                // there at once (its notices need answers within its
-                // handshake, not after the old port's silence).
-                net.reset_pin();
-            }
         }
+        // A rebooted FC speaking from a new port is answered there by the
+        // peer rule alone: at once when its frame is authenticated, after
+        // the old port's silence otherwise. (Forgetting the peer at every
+        // reboot let a forged unsigned "reboot" move it to the attacker at
+        // once, and the real FC's RC loss went unanswered: RTL.)
         net.judged(inbound, verdict, log);
         self.drain(now, net, log);
         net.router.forward(inbound);

@@ -157,13 +157,6 @@ impl Net {
         }
     }
 
-    /// Forgets the pinned peer: the next trusted frame pins its source (the
-    /// peer restarted on a new port, and said so in a way the engine
-    /// recognised).
-    pub fn reset_pin(&mut self) {
-        self.pin.reset();
-    }
-
     fn link_event(&mut self, event: RouterEvent<Dialect>, log: &mut Log) {
         let name = |net: &Net, link| {
             net.router

@@ -573,6 +573,79 @@ fn a_flood_of_trusted_looking_notices_does_not_flood_the_logs() {
     assert!(modes < 200, "{modes} mode changes reported\n{both}");
 }
 
+/// A TCP relay that accepts one connection and carries it to `to` at about
+/// `bytes_per_sec` each way: a link of a real serial speed. Ends when
+/// either side closes.
+fn slow_relay(to: std::net::SocketAddr, bytes_per_sec: f64) -> u16 {
+    use std::io::{Read, Write};
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    std::thread::spawn(move || {
+        let Ok((near, _)) = listener.accept() else {
+            return;
+        };
+        let Ok(far) = std::net::TcpStream::connect(to) else {
+            return;
+        };
+        for (mut from, mut into) in [
+            (near.try_clone().unwrap(), far.try_clone().unwrap()),
+            (far, near),
+        ] {
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 512];
+                while let Ok(n @ 1..) = from.read(&mut buf) {
+                    if into.write_all(&buf[..n]).is_err() {
+                        break;
+                    }
+                    std::thread::sleep(Duration::from_secs_f64(n as f64 / bytes_per_sec));
+                }
+                let _ = into.shutdown(std::net::Shutdown::Both);
+            });
+        }
+    });
+    port
+}
+
+/// A ground station's flood into the CC's `--out` link, routed to the FC
+/// over a TCP link of about 460,800 baud (46 KB/s), 2.5 times what that
+/// link carries: the handover happens and companion control holds. (The
+/// flood and the CC's own frames shared one queue, and the kernel's send
+/// buffer grew to megabytes of flood: the CC's acknowledgement never
+/// reached the FC, which fell back to RTL.)
+#[test]
+fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
+    let _heavy = heavy();
+    let dir = scratch("slow-link");
+    let s = Setup {
+        rc_loss_at: 3.0,
+        duration: 6.0,
+        ..Setup::signed()
+    };
+    let fc_port = free_port();
+    let mut fc_a = args(&["fc-sim", "--link", &format!("tcpin:127.0.0.1:{fc_port}")]);
+    fc_a.extend(args(&["--rc-loss-at", "3", "--duration", "6"]));
+    fc_a.extend(s.signing_args());
+    let fc = Daemon::spawn(&dir, "fc", &fc_a);
+    std::thread::sleep(Duration::from_millis(300));
+    let relay = slow_relay(local(fc_port), 46_000.0);
+    let out_port = free_port();
+    let mut cc_a = args(&["cc", "--link", &format!("tcp:127.0.0.1:{relay}")]);
+    cc_a.extend(args(&["--out", &format!("udpin:127.0.0.1:{out_port}")]));
+    cc_a.extend(args(&["--duration", &s.cc_duration().to_string()]));
+    cc_a.extend(s.signing_args());
+    let cc = Daemon::spawn(&dir, "cc", &cc_a);
+    std::thread::sleep(Duration::from_millis(500));
+    // Broadcast heartbeats of a ground station, 58.8 KB a datagram.
+    let hb = frame(GCS, 0, &wire::cc_heartbeat(), None);
+    let datagram: Vec<u8> = hb.iter().copied().cycle().take(hb.len() * 2800).collect();
+    let attacker = Attacker::start(&[local(out_port)], 2.0, 0, move |_, _| datagram.clone());
+    let limit = Duration::from_secs_f64(s.cc_duration() + 10.0);
+    let (fc, cc) = (fc.finish(limit), cc.finish(limit));
+    let sent = attacker.stop();
+    assert!(sent.datagrams >= 8, "{sent:?}");
+    assert_safe_handover(&fc, &cc, &s);
+}
+
 // ---------------------------------------------------------------------------
 // Replayed frames.
 

@@ -183,13 +183,51 @@ enum Command {
     },
     /// `udpin` with [`ReplyTo::Pinned`]: answer this address.
     Pin(SocketAddr),
+    /// Send these frame bytes, routed from another link ([`Queues`]).
+    Routed(Box<[u8]>),
 }
 
 struct LinkHandle {
     endpoint: Endpoint,
     commands: mpsc::Sender<Command>,
+    /// Frames routed through the link ([`Router::forward`]): see [`Queues`].
+    routed: mpsc::Sender<Box<[u8]>>,
     counters: Arc<Mutex<LinkCounters>>,
     task: tokio::task::JoinHandle<()>,
+}
+
+/// A link's queues, as its task reads them: the owner's frames and
+/// commands, and the frames routed through the link, which go only when
+/// none of the owner's wait. Routed traffic (a ground station's flood of
+/// another link) never holds the owner's protocol frames back behind it:
+/// on a link slower than that flood, one queue let it crowd them out, and
+/// the companion's acknowledgement never reached the FC.
+struct Queues {
+    own: mpsc::Receiver<Command>,
+    routed: mpsc::Receiver<Box<[u8]>>,
+    /// The routed queue's sender is gone (the router with it).
+    routed_closed: bool,
+}
+
+impl Queues {
+    /// The next command, the owner's first; `None` once the router is
+    /// gone (after what was queued).
+    async fn recv(&mut self) -> Option<Command> {
+        tokio::select! {
+            biased;
+            c = self.own.recv() => match c {
+                Some(c) => Some(c),
+                None => self.routed.try_recv().ok().map(Command::Routed),
+            },
+            r = self.routed.recv(), if !self.routed_closed => match r {
+                Some(bytes) => Some(Command::Routed(bytes)),
+                None => {
+                    self.routed_closed = true;
+                    self.own.recv().await
+                }
+            },
+        }
+    }
 }
 
 /// Counters of one link.
@@ -197,6 +235,10 @@ struct LinkHandle {
 pub struct LinkCounters {
     /// Frames queued for the link and dropped because its queue was full.
     pub dropped_full: u64,
+    /// Frames routed to the link ([`Router::forward`]) and dropped because
+    /// their queue was full: they go after the owner's own, so a link
+    /// slower than what is routed to it drops these first.
+    pub routed_dropped: u64,
     /// Sends that failed (the frame is lost; the link goes on).
     pub send_errors: u64,
     /// `tcpin`: connections that could not be accepted (each pauses
@@ -250,13 +292,18 @@ impl<D: Dialect + 'static> Router<D> {
         let endpoint = config.endpoint.clone();
         let transport = Transport::open(&config).await?;
         let state = LinkState::open(&config)?;
-        let (commands, rx) = mpsc::channel(LINK_QUEUE);
+        let (commands, own) = mpsc::channel(LINK_QUEUE);
+        let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
         let counters = Arc::new(Mutex::new(LinkCounters::default()));
         let task = LinkTask {
             id,
             config,
             events: self.events_tx.clone(),
-            commands: rx,
+            commands: Queues {
+                own,
+                routed: routed_rx,
+                routed_closed: false,
+            },
             counters: counters.clone(),
             state,
         };
@@ -264,6 +311,7 @@ impl<D: Dialect + 'static> Router<D> {
         self.links.push(LinkHandle {
             endpoint,
             commands,
+            routed,
             counters,
             task,
         });
@@ -278,7 +326,7 @@ impl<D: Dialect + 'static> Router<D> {
         let tasks: Vec<_> = links
             .into_iter()
             .map(|l| {
-                drop(l.commands);
+                drop((l.commands, l.routed));
                 l.task
             })
             .collect();
@@ -321,12 +369,26 @@ impl<D: Dialect + 'static> Router<D> {
 
     /// Learns `inbound`'s sender and sends its bytes, untouched, to every
     /// link the routing rules name (see [`crate::route`]); returns them.
+    /// On each link, routed frames go after the owner's own ([`send_raw`],
+    /// [`send_message`]), and are the ones dropped when the link cannot
+    /// keep up ([`LinkCounters::routed_dropped`]).
+    ///
+    /// [`send_raw`]: Router::send_raw
+    /// [`send_message`]: Router::send_message
     pub fn forward(&mut self, inbound: &Inbound<D>) -> Links {
         let frame = inbound.frame.frame();
         let to = self
             .table
             .route(inbound.link, &frame, inbound.frame.meta(), self.links());
-        self.send_raw(to, inbound.frame.as_bytes());
+        for link in to.iter() {
+            let Some(l) = self.links.get(link as usize) else {
+                continue;
+            };
+            if l.routed.try_send(inbound.frame.as_bytes().into()).is_err() {
+                let mut c = l.counters.lock().unwrap_or_else(|e| e.into_inner());
+                c.routed_dropped = c.routed_dropped.saturating_add(1);
+            }
+        }
         to
     }
 
@@ -448,12 +510,12 @@ impl Transport {
                 }
             }
             Endpoint::Tcp(addr) => {
-                let stream = TcpStream::connect(addr.resolve_async().await?.as_slice()).await?;
+                let stream = connect_bounded(&addr.resolve_async().await?).await?;
                 stream.set_nodelay(true)?;
                 Transport::Stream(Box::new(stream))
             }
             Endpoint::TcpIn(addr) => {
-                Transport::Server(TcpListener::bind(addr.resolve_async().await?.as_slice()).await?)
+                Transport::Server(listen_bounded(&addr.resolve_async().await?)?)
             }
             Endpoint::File(_) => {
                 return Err(io::Error::new(
@@ -468,6 +530,56 @@ impl Transport {
             }
         })
     }
+}
+
+/// The send buffer asked for on TCP links (the system may double it):
+/// what the kernel holds behind the link's queues. Frames routed through a
+/// link go after its owner's own in those queues ([`Queues`]), but not in
+/// the kernel's buffer, which grows to megabytes by itself: on a link
+/// slower than a flood routed to it, the owner's frames then waited
+/// seconds behind the flood's. With this bound they wait at most what 16
+/// KiB takes to send (0.35 s at 46 KB/s, 460,800 baud); the throughput it
+/// allows, 16 KiB per round trip, is far above a MAVLink link's.
+const TCP_SEND_BUFFER: u32 = 8 * 1024;
+
+/// Connects to the first of `addrs` that accepts, with the send buffer
+/// [`TCP_SEND_BUFFER`].
+async fn connect_bounded(addrs: &[SocketAddr]) -> io::Result<TcpStream> {
+    let mut last = io::Error::new(io::ErrorKind::InvalidInput, "no address");
+    for &addr in addrs {
+        let socket = match addr {
+            SocketAddr::V4(_) => tokio::net::TcpSocket::new_v4()?,
+            SocketAddr::V6(_) => tokio::net::TcpSocket::new_v6()?,
+        };
+        socket.set_send_buffer_size(TCP_SEND_BUFFER)?;
+        match socket.connect(addr).await {
+            Ok(stream) => return Ok(stream),
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
+}
+
+/// Listens on the first of `addrs` that binds; accepted connections have
+/// the send buffer [`TCP_SEND_BUFFER`].
+fn listen_bounded(addrs: &[SocketAddr]) -> io::Result<TcpListener> {
+    let mut last = io::Error::new(io::ErrorKind::InvalidInput, "no address");
+    for &addr in addrs {
+        let socket = match addr {
+            SocketAddr::V4(_) => tokio::net::TcpSocket::new_v4()?,
+            SocketAddr::V6(_) => tokio::net::TcpSocket::new_v6()?,
+        };
+        // As `TcpListener::bind` does on Unix: a restarted daemon binds its
+        // port again at once.
+        #[cfg(unix)]
+        socket.set_reuseaddr(true)?;
+        socket.set_send_buffer_size(TCP_SEND_BUFFER)?;
+        match socket.bind(addr).and_then(|()| socket.listen(1024)) {
+            Ok(listener) => return Ok(listener),
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
 }
 
 /// A link's signing: what its parser and framer start from, and its state
@@ -508,7 +620,7 @@ struct LinkTask<D: Dialect> {
     id: LinkId,
     config: LinkConfig,
     events: mpsc::Sender<RouterEvent<D>>,
-    commands: mpsc::Receiver<Command>,
+    commands: Queues,
     counters: Arc<Mutex<LinkCounters>>,
     state: LinkState,
 }
@@ -732,7 +844,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             }
                             continue;
                         }
-                        Command::Raw(b) => &b[..],
+                        Command::Raw(b) | Command::Routed(b) => &b[..],
                         Command::Message { sysid, compid, meta, payload } => {
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b,
@@ -778,7 +890,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                     let Some(c) = c else { return Ended::RouterGone };
                     let bytes = match &c {
                         Command::Pin(_) => continue,
-                        Command::Raw(b) => &b[..],
+                        Command::Raw(b) | Command::Routed(b) => &b[..],
                         Command::Message { sysid, compid, meta, payload } => {
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b,
@@ -833,12 +945,14 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             evict(&mut clients, peer);
                         }
                         let _ = stream.set_nodelay(true);
-                        let (tx, rx) = mpsc::channel(CLIENT_QUEUE);
+                        let (tx, own) = mpsc::channel(CLIENT_QUEUE);
+                        let (routed, routed_rx) = mpsc::channel(CLIENT_QUEUE);
                         let standing = Arc::new(AtomicU8::new(SHOWN_NOTHING));
                         accepted += 1;
-                        clients.push(Client { addr, output: tx, standing: standing.clone(), order: accepted });
+                        clients.push(Client { addr, output: tx, routed, standing: standing.clone(), order: accepted });
                         let task = ClientTask { addr, link: self.id, shared: shared.clone(), standing };
-                        tokio::spawn(serve_client(stream, task, self.codec(), rx, self.events.clone()));
+                        let output = Queues { own, routed: routed_rx, routed_closed: false };
+                        tokio::spawn(serve_client(stream, task, self.codec(), output, self.events.clone()));
                     }
                     Err(e) => {
                         // Out of file descriptors, a client's socket makes
@@ -865,6 +979,18 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             pinned = Some(*addr);
                             continue;
                         }
+                        Command::Routed(b) => {
+                            // After the owner's own, each client's; when its
+                            // queue for them is full, the frame is dropped,
+                            // not the client.
+                            let rule = self.config.reply_to;
+                            for c in clients.iter().filter(|c| c.gets(rule, peer)) {
+                                if c.routed.try_send(b.clone()).is_err() {
+                                    self.count(|c| c.routed_dropped = c.routed_dropped.saturating_add(1));
+                                }
+                            }
+                            continue;
+                        }
                         Command::Raw(b) => b.clone(),
                         Command::Message { sysid, compid, meta, payload } => {
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
@@ -875,7 +1001,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                     };
                     // Full or closed: the client is dropped.
                     let rule = self.config.reply_to;
-                    clients.retain(|c| !c.gets(rule, peer) || c.output.try_send(bytes.clone()).is_ok());
+                    clients.retain(|c| !c.gets(rule, peer) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
                     if let (Some(v), true) = (&shared, self.save_due(framer)) {
                         let v = v.lock().unwrap_or_else(PoisonError::into_inner).clone();
                         self.save_verifier(Some(&v), framer);
@@ -889,7 +1015,9 @@ impl<D: Dialect + 'static> LinkTask<D> {
 /// A `tcpin` client, as the link's task sees it.
 struct Client {
     addr: SocketAddr,
-    output: mpsc::Sender<Box<[u8]>>,
+    output: mpsc::Sender<Command>,
+    /// Frames routed to the link, sent after `output`'s ([`Queues`]).
+    routed: mpsc::Sender<Box<[u8]>>,
     /// What it has sent: [`SHOWN_NOTHING`], [`SHOWN_FRAMES`] or
     /// [`SHOWN_AUTHENTICATED`] (set by its task).
     standing: Arc<AtomicU8>,
@@ -976,7 +1104,7 @@ async fn serve_client<D: Dialect>(
     mut stream: TcpStream,
     task: ClientTask,
     mut codec: FrameCodec<D>,
-    mut output: mpsc::Receiver<Box<[u8]>>,
+    mut output: Queues,
     events: mpsc::Sender<RouterEvent<D>>,
 ) {
     let mut buf = BytesMut::with_capacity(STREAM_ROOM);
@@ -1005,7 +1133,9 @@ async fn serve_client<D: Dialect>(
                 _ => return,
             },
             out = output.recv() => {
-                let Some(bytes) = out else { return };
+                let (Some(Command::Raw(bytes)) | Some(Command::Routed(bytes))) = out else {
+                    return;
+                };
                 let written = tokio::time::timeout(CLIENT_WRITE_TIMEOUT, stream.write_all(&bytes)).await;
                 if !matches!(written, Ok(Ok(()))) {
                     return;

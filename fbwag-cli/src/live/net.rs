@@ -233,6 +233,10 @@ fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log
             "frames dropped (queue full)",
             now.dropped_full - was.dropped_full,
         ),
+        (
+            "routed frames dropped (more routed to the link than it carries)",
+            now.routed_dropped - was.routed_dropped,
+        ),
         ("send errors", now.send_errors - was.send_errors),
         (
             "signing state saves failed (a restart would start from the last state saved)",

@@ -10,7 +10,9 @@ lost at 0.6 s; the handover is the FC's own `handover` event (receiver
 failure -> companion control). A run ends at the handover, at RTL, or after
 6.5 s (the FC falls back 5 s after its first notice), and counts as failed
 without a handover. Then `fbwag decode` MB/s on 1 MB of each pattern (best of
-3).
+3). Last, the handover over a TCP FC link of 46 kB/s (about 460,800 baud,
+through a pacing relay) while a ground station's flood into the CC's
+`--out` link, 1 and 2.5 times what that link carries, is routed to the FC.
 
 Usage: handover_under_flood.py FBWAG_BINARY [RUNS]
 Stdlib only. Prints markdown.
@@ -231,6 +233,104 @@ def one_run(fbwag, tmp, pool, per_sec):
             p.wait()
 
 
+def slow_relay(to_port, bytes_per_sec, far_buffer):
+    """A TCP relay on 127.0.0.1 that accepts one connection and carries it
+    to `to_port` at about `bytes_per_sec` each way (a serial-speed link).
+    `far_buffer`: the receive buffer of the accepted side in bytes (what
+    the far end of the link holds: a UART's few KiB), or None for the
+    system's (it grows to 100 KiB and more: a modem's). Returns its port."""
+    listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    if far_buffer:
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, far_buffer)
+    listener.bind(("127.0.0.1", 0))
+    listener.listen(1)
+    port = listener.getsockname()[1]
+
+    def pump(src, dst):
+        try:
+            while True:
+                data = src.recv(512)
+                if not data:
+                    break
+                dst.sendall(data)
+                time.sleep(len(data) / bytes_per_sec)
+        except OSError:
+            pass
+        for s in (src, dst):
+            try:
+                s.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+
+    def serve():
+        near, _ = listener.accept()
+        listener.close()
+        far = socket.create_connection(("127.0.0.1", to_port))
+        threading.Thread(target=pump, args=(near, far), daemon=True).start()
+        threading.Thread(target=pump, args=(far, near), daemon=True).start()
+
+    threading.Thread(target=serve, daemon=True).start()
+    return port
+
+
+def ground_station_flood(fbwag, tmp):
+    """One 58.8 KB datagram of a ground station's broadcast heartbeats."""
+    hb = encode(fbwag, ['{"name":"HEARTBEAT","sysid":255,"compid":190,"seq":0,'
+                        '"fields":{"type":6}}'], [])[0]
+    return [hb * 2800]
+
+
+def one_slow_run(fbwag, tmp, pool, per_sec, link_rate, far_buffer):
+    """The handover in ms over a TCP FC link carrying `link_rate` B/s,
+    with `pool` sent into the CC's --out link (routed to the FC): None when
+    it did not happen."""
+    fc_port, out_port = free_port(), free_port()
+    cc_events, fc_events = os.path.join(tmp, "cc.ev"), os.path.join(tmp, "fc.ev")
+    for p in (cc_events, fc_events):
+        if os.path.exists(p):
+            os.remove(p)
+    sign = ["--sign-key", KEY, "--require-signed"]
+    quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    rc_loss_at = 3.0
+    fc = subprocess.Popen(
+        [fbwag, "fc-sim", "--link", "tcpin:127.0.0.1:%d" % fc_port,
+         "--rc-loss-at", str(rc_loss_at), "--duration", "12",
+         "--events", fc_events, *sign], **quiet)
+    time.sleep(0.3)
+    relay = slow_relay(fc_port, link_rate, far_buffer)
+    cc = subprocess.Popen(
+        [fbwag, "cc", "--link", "tcp:127.0.0.1:%d" % relay,
+         "--out", "udpin:127.0.0.1:%d" % out_port,
+         "--duration", "12", "--events", cc_events, *sign], **quiet)
+    flooder = None
+    try:
+        time.sleep(0.5)
+        if pool:
+            flooder = Flooder(pool, per_sec, [("127.0.0.1", out_port)])
+            flooder.start()
+        deadline = time.monotonic() + rc_loss_at + RUN_LIMIT
+        while time.monotonic() < deadline:
+            text = events(fc_events)
+            if '"handover"' in text or '"RTL"' in text:
+                break
+            time.sleep(0.01)
+        for line in events(fc_events).splitlines():
+            try:
+                event = json.loads(line)
+            except ValueError:
+                continue
+            if event.get("event") == "handover":
+                return event["ms"]
+        return None
+    finally:
+        if flooder:
+            flooder.stop.set()
+            flooder.join()
+        for p in (fc, cc):
+            p.kill()
+            p.wait()
+
+
 def percentile(values, q):
     values = sorted(values)
     k = (len(values) - 1) * q
@@ -291,6 +391,27 @@ def main():
             stats = ("%.0f | %.0f | %d" % (percentile(ok, 0.5), percentile(ok, 0.95), max(ok))
                      if ok else "- | - | -")
             print("| %s | %s | %d/%d | %s |" % (kind, per_port, len(ok), runs, stats))
+            sys.stdout.flush()
+        print()
+        # A ground station's flood into the CC's --out link, routed to the
+        # FC over a TCP link of about 460,800 baud.
+        link_rate = 46_000
+        gcs = ground_station_flood(fbwag, tmp)
+        print("| FC link (TCP, %d kB/s), its far end's buffer | flood into the CC's "
+              "`--out`, routed to the FC | handovers | p50 ms | p95 ms | max ms |"
+              % (link_rate // 1000))
+        print("|---|---|---|---|---|---|")
+        for far_buffer, per_sec in ((4096, 0), (4096, 1), (4096, 2), (None, 2)):
+            pool = gcs if per_sec else None
+            got = [one_slow_run(fbwag, tmp, pool, per_sec, link_rate, far_buffer)
+                   for _ in range(runs)]
+            ok = [g for g in got if g is not None]
+            what = "none" if not per_sec else "%d/s x %d B = %.1fx the link" % (
+                per_sec, len(gcs[0]), per_sec * len(gcs[0]) / link_rate)
+            far = "4 KiB (a UART)" if far_buffer else "the system's (a modem's)"
+            stats = ("%.0f | %.0f | %d" % (percentile(ok, 0.5), percentile(ok, 0.95), max(ok))
+                     if ok else "- | - | -")
+            print("| %s | %s | %d/%d | %s |" % (far, what, len(ok), runs, stats))
             sys.stdout.flush()
         print()
         print("| `fbwag decode`, 1 MB of | MB/s |")

@@ -769,6 +769,7 @@ fn main() -> ExitCode {
                 duration: duration.map(std::time::Duration::from_secs_f64),
                 exit_after_handback,
                 events,
+                stop_on_signals: true,
             };
             live::cc::run_cc(opts, Box::new(std::io::stdout()))
                 .map(|_| true)
@@ -804,6 +805,7 @@ fn main() -> ExitCode {
                 duration,
                 require_signed,
                 events,
+                stop_on_signals: true,
                 home,
                 pilot_mode,
             };

@@ -574,11 +574,18 @@ fn a_flood_of_trusted_looking_notices_does_not_flood_the_logs() {
 }
 
 /// A TCP relay that accepts one connection and carries it to `to` at about
-/// `bytes_per_sec` each way: a link of a real serial speed. Ends when
-/// either side closes.
+/// `bytes_per_sec` each way: a link of a real serial speed, whose far end
+/// holds a few KiB (a UART's buffer; the system's would grow past 100 KiB,
+/// seconds of this link, out of the sender's reach). Ends when either side
+/// closes.
 fn slow_relay(to: std::net::SocketAddr, bytes_per_sec: f64) -> u16 {
+    use socket2::{Domain, Socket, Type};
     use std::io::{Read, Write};
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let socket = Socket::new(Domain::IPV4, Type::STREAM, None).unwrap();
+    socket.set_recv_buffer_size(4096).unwrap();
+    socket.bind(&local(0).into()).unwrap();
+    socket.listen(1).unwrap();
+    let listener: std::net::TcpListener = socket.into();
     let port = listener.local_addr().unwrap().port();
     std::thread::spawn(move || {
         let Ok((near, _)) = listener.accept() else {
@@ -744,12 +751,6 @@ fn replayed_capture_is_refused_once_the_peers_have_spoken() {
     assert!(fc.refused("bad signatures") > 0, "{both}");
 }
 
-/// The same capture replayed into the CC restarted (a companion reboot)
-/// before the FC speaks again. Signing lets a new stream start up to one
-/// minute behind the newest timestamp the receiver knows, so a verifier
-/// that knew only the clock accepted the seconds-old capture: the CC took
-/// over for the captured event, answered the replayer, and the captured
-/// event id (later than the real one) made the real RC loss look stale.
 /// SIGTERM (and SIGINT) stop a daemon as the end of its run does, saving
 /// its signing state: an RC-loss notice it took just before is a replay
 /// once it is restarted on that state. (Killed by the signal, it skipped
@@ -803,7 +804,15 @@ fn a_cc_stopped_by_sigterm_saves_its_signing_state() {
     assert!(first.log.contains("SIGTERM: stopping"), "{}", first.dump());
     assert!(first.events.last("summary").is_some(), "{}", first.dump());
     let again = Daemon::spawn(&dir, "cc-again", &cc_args(cc_port, &s, 2.0));
-    std::thread::sleep(Duration::from_millis(300));
+    // Once it listens (its first line names its link), the replay.
+    let until = std::time::Instant::now() + Duration::from_secs(10);
+    while !std::fs::read_to_string(&again.log).is_ok_and(|l| l.contains("FC link")) {
+        assert!(
+            std::time::Instant::now() < until,
+            "the CC did not start again"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
     fc_socket.send_to(&loss, local(cc_port)).unwrap();
     let again = again.finish(Duration::from_secs(15));
     assert!(
@@ -813,6 +822,12 @@ fn a_cc_stopped_by_sigterm_saves_its_signing_state() {
     );
 }
 
+/// The same capture replayed into the CC restarted (a companion reboot)
+/// before the FC speaks again. Signing lets a new stream start up to one
+/// minute behind the newest timestamp the receiver knows, so a verifier
+/// that knew only the clock accepted the seconds-old capture: the CC took
+/// over for the captured event, answered the replayer, and the captured
+/// event id (later than the real one) made the real RC loss look stale.
 /// With its signing state file (`--signing-state`), the restarted CC knows
 /// the FC's stream up to the last frame it accepted, and refuses the
 /// capture.

@@ -123,6 +123,13 @@ pub struct LinkConfig {
     pub reply_to: ReplyTo,
     /// Keep the link's signing state (signer, verifier) in this file.
     pub signing_state: Option<PathBuf>,
+    /// TCP links (and `tcpin` clients): let the kernel hold at most 8 KiB
+    /// unsent (`TCP_NOTSENT_LOWAT`, Linux and Android), so that what is
+    /// routed through the link cannot sit there, megabytes of it, ahead of
+    /// the owner's own frames (a protocol's acknowledgement on a link
+    /// slower than a flood routed to it). Off by default: a router's
+    /// throughput on fast links is better without.
+    pub bound_unsent: bool,
 }
 
 impl LinkConfig {
@@ -134,6 +141,7 @@ impl LinkConfig {
             unsigned: Unsigned::Accept,
             reply_to: ReplyTo::LastSender,
             signing_state: None,
+            bound_unsent: false,
         }
     }
 }
@@ -232,6 +240,7 @@ impl Queues {
 
 /// Counters of one link.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct LinkCounters {
     /// Frames queued for the link and dropped because its queue was full.
     pub dropped_full: u64,
@@ -380,16 +389,25 @@ impl<D: Dialect + 'static> Router<D> {
         let to = self
             .table
             .route(inbound.link, &frame, inbound.frame.meta(), self.links());
-        for link in to.iter() {
+        self.send_routed(to, inbound.frame.as_bytes());
+        to
+    }
+
+    /// Sends `bytes` on each of `links` as routed traffic, as
+    /// [`forward`](Self::forward) does: after the owner's own frames, and
+    /// dropped first. For frames the owner passes on for someone else (a
+    /// local program's telemetry for the ground stations, say), which must
+    /// not hold its own protocol frames back.
+    pub fn send_routed(&self, links: Links, bytes: &[u8]) {
+        for link in links.iter() {
             let Some(l) = self.links.get(link as usize) else {
                 continue;
             };
-            if l.routed.try_send(inbound.frame.as_bytes().into()).is_err() {
+            if l.routed.try_send(bytes.into()).is_err() {
                 let mut c = l.counters.lock().unwrap_or_else(|e| e.into_inner());
                 c.routed_dropped = c.routed_dropped.saturating_add(1);
             }
         }
-        to
     }
 
     /// Learns that `sysid`/`compid` is reachable through `link` without
@@ -510,12 +528,15 @@ impl Transport {
                 }
             }
             Endpoint::Tcp(addr) => {
-                let stream = connect_bounded(&addr.resolve_async().await?).await?;
+                let stream = TcpStream::connect(addr.resolve_async().await?.as_slice()).await?;
                 stream.set_nodelay(true)?;
+                if config.bound_unsent {
+                    bound_unsent(&stream);
+                }
                 Transport::Stream(Box::new(stream))
             }
             Endpoint::TcpIn(addr) => {
-                Transport::Server(listen_bounded(&addr.resolve_async().await?)?)
+                Transport::Server(TcpListener::bind(addr.resolve_async().await?.as_slice()).await?)
             }
             Endpoint::File(_) => {
                 return Err(io::Error::new(
@@ -532,54 +553,25 @@ impl Transport {
     }
 }
 
-/// The send buffer asked for on TCP links (the system may double it):
-/// what the kernel holds behind the link's queues. Frames routed through a
-/// link go after its owner's own in those queues ([`Queues`]), but not in
-/// the kernel's buffer, which grows to megabytes by itself: on a link
-/// slower than a flood routed to it, the owner's frames then waited
-/// seconds behind the flood's. With this bound they wait at most what 16
-/// KiB takes to send (0.35 s at 46 KB/s, 460,800 baud); the throughput it
-/// allows, 16 KiB per round trip, is far above a MAVLink link's.
-const TCP_SEND_BUFFER: u32 = 8 * 1024;
+/// Bytes a TCP link with [`LinkConfig::bound_unsent`] lets the kernel hold
+/// unsent (`TCP_NOTSENT_LOWAT`, Linux and Android; elsewhere the system
+/// decides). Frames routed through a link go after its owner's own in the
+/// link's queues ([`Queues`]), but the kernel's send buffer grows to
+/// megabytes by itself: on a link slower than a flood routed to it, the
+/// owner's frames then waited seconds behind the flood's. This bounds only
+/// what is not sent yet, not what is in flight. (What the far end has
+/// received and not yet passed on, a modem's or a relay's buffer, is out of
+/// the sender's reach.)
+#[cfg(any(target_os = "linux", target_os = "android"))]
+const TCP_UNSENT_MAX: u32 = 8 * 1024;
 
-/// Connects to the first of `addrs` that accepts, with the send buffer
-/// [`TCP_SEND_BUFFER`].
-async fn connect_bounded(addrs: &[SocketAddr]) -> io::Result<TcpStream> {
-    let mut last = io::Error::new(io::ErrorKind::InvalidInput, "no address");
-    for &addr in addrs {
-        let socket = match addr {
-            SocketAddr::V4(_) => tokio::net::TcpSocket::new_v4()?,
-            SocketAddr::V6(_) => tokio::net::TcpSocket::new_v6()?,
-        };
-        socket.set_send_buffer_size(TCP_SEND_BUFFER)?;
-        match socket.connect(addr).await {
-            Ok(stream) => return Ok(stream),
-            Err(e) => last = e,
-        }
-    }
-    Err(last)
-}
-
-/// Listens on the first of `addrs` that binds; accepted connections have
-/// the send buffer [`TCP_SEND_BUFFER`].
-fn listen_bounded(addrs: &[SocketAddr]) -> io::Result<TcpListener> {
-    let mut last = io::Error::new(io::ErrorKind::InvalidInput, "no address");
-    for &addr in addrs {
-        let socket = match addr {
-            SocketAddr::V4(_) => tokio::net::TcpSocket::new_v4()?,
-            SocketAddr::V6(_) => tokio::net::TcpSocket::new_v6()?,
-        };
-        // As `TcpListener::bind` does on Unix: a restarted daemon binds its
-        // port again at once.
-        #[cfg(unix)]
-        socket.set_reuseaddr(true)?;
-        socket.set_send_buffer_size(TCP_SEND_BUFFER)?;
-        match socket.bind(addr).and_then(|()| socket.listen(1024)) {
-            Ok(listener) => return Ok(listener),
-            Err(e) => last = e,
-        }
-    }
-    Err(last)
+/// See [`TCP_UNSENT_MAX`]. (Best effort: without it the link works as
+/// before, its owner's frames first in its queues.)
+fn bound_unsent(stream: &TcpStream) {
+    #[cfg(any(target_os = "linux", target_os = "android"))]
+    let _ = socket2::SockRef::from(stream).set_tcp_notsent_lowat(TCP_UNSENT_MAX);
+    #[cfg(not(any(target_os = "linux", target_os = "android")))]
+    let _ = stream;
 }
 
 /// A link's signing: what its parser and framer start from, and its state
@@ -945,6 +937,9 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             evict(&mut clients, peer);
                         }
                         let _ = stream.set_nodelay(true);
+                        if self.config.bound_unsent {
+                            bound_unsent(&stream);
+                        }
                         let (tx, own) = mpsc::channel(CLIENT_QUEUE);
                         let (routed, routed_rx) = mpsc::channel(CLIENT_QUEUE);
                         let standing = Arc::new(AtomicU8::new(SHOWN_NOTHING));
@@ -980,14 +975,26 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             continue;
                         }
                         Command::Routed(b) => {
-                            // After the owner's own, each client's; when its
-                            // queue for them is full, the frame is dropped,
-                            // not the client.
+                            // After the owner's own, in each client's queue
+                            // for them. A client behind on those loses
+                            // frames (counted), not its connection: routed
+                            // bursts come faster than any one client takes
+                            // them, and the client may be the protocol peer.
                             let rule = self.config.reply_to;
-                            for c in clients.iter().filter(|c| c.gets(rule, peer)) {
-                                if c.routed.try_send(b.clone()).is_err() {
-                                    self.count(|c| c.routed_dropped = c.routed_dropped.saturating_add(1));
-                                }
+                            let mut full = 0u64;
+                            clients.retain(|c| {
+                                !c.gets(rule, peer)
+                                    || match c.routed.try_send(b.clone()) {
+                                        Ok(()) => true,
+                                        Err(mpsc::error::TrySendError::Full(_)) => {
+                                            full += 1;
+                                            true
+                                        }
+                                        Err(mpsc::error::TrySendError::Closed(_)) => false,
+                                    }
+                            });
+                            if full > 0 {
+                                self.count(|c| c.routed_dropped = c.routed_dropped.saturating_add(full));
                             }
                             continue;
                         }
@@ -1271,6 +1278,46 @@ mod tests {
         router.send_raw(Links::only(link), &ping(3));
         assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
         assert_eq!(read_for(&mut stranger, 100).await, Some(Vec::new()));
+    }
+
+    /// A link sends its owner's frames before routed ones queued earlier,
+    /// each class in order; once the router is gone, what was routed is
+    /// still sent, then the link ends.
+    #[tokio::test]
+    async fn a_link_sends_the_owners_frames_before_routed_ones() {
+        let (own_tx, own) = mpsc::channel(8);
+        let (routed_tx, routed) = mpsc::channel(8);
+        let mut queues = Queues {
+            own,
+            routed,
+            routed_closed: false,
+        };
+        for b in [1u8, 2, 3] {
+            routed_tx.try_send(Box::from(&[b][..])).unwrap();
+        }
+        for b in [7u8, 8] {
+            own_tx.try_send(Command::Raw(Box::from(&[b][..]))).unwrap();
+        }
+        async fn next(queues: &mut Queues) -> Option<(bool, u8)> {
+            match queues.recv().await {
+                Some(Command::Raw(b)) => Some((true, b[0])),
+                Some(Command::Routed(b)) => Some((false, b[0])),
+                Some(_) => panic!("not a frame"),
+                None => None,
+            }
+        }
+        let q = &mut queues;
+        assert_eq!(next(q).await, Some((true, 7)));
+        assert_eq!(next(q).await, Some((true, 8)));
+        assert_eq!(next(q).await, Some((false, 1)));
+        own_tx
+            .try_send(Command::Raw(Box::from(&[9u8][..])))
+            .unwrap();
+        assert_eq!(next(q).await, Some((true, 9)));
+        drop((own_tx, routed_tx));
+        assert_eq!(next(q).await, Some((false, 2)));
+        assert_eq!(next(q).await, Some((false, 3)));
+        assert_eq!(next(q).await, None);
     }
 
     /// A client that stops reading is dropped once a write to it has

@@ -53,6 +53,9 @@ pub struct CcOptions {
     pub duration: Option<Duration>,
     pub exit_after_handback: bool,
     pub events: Option<PathBuf>,
+    /// Stop as at the end of the run on SIGTERM, and on SIGINT when run
+    /// from a terminal (`fbwag cc`; not the demo, which runs both daemons).
+    pub stop_on_signals: bool,
 }
 
 /// What the daemon did, for the demo and tests.
@@ -148,7 +151,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         duration: o.duration,
         exit_after_handback: o.exit_after_handback,
     };
-    net::run(&mut daemon, net, &clock, &mut log).await;
+    net::run(&mut daemon, net, &clock, &mut log, o.stop_on_signals).await;
     daemon.summary();
     Ok(daemon.report)
 }
@@ -265,7 +268,8 @@ impl Daemon {
             return;
         }
         net.router.learn(inbound);
-        net.router.send_raw(self.outs, inbound.frame.as_bytes());
+        // Routed traffic: after the companion's own frames on those links.
+        net.router.send_routed(self.outs, inbound.frame.as_bytes());
     }
 
     /// The frame claims the FC's or the companion's ids (which live on the

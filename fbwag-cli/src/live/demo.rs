@@ -174,6 +174,7 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
                 duration: Some(Duration::from_secs_f64(duration + 0.3)),
                 exit_after_handback: false,
                 events: None,
+                stop_on_signals: false,
             },
             Box::new(io::stdout()),
         )
@@ -192,6 +193,7 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
             duration,
             require_signed: false,
             events: None,
+            stop_on_signals: false,
             home: super::plane::Home::DEFAULT,
             pilot_mode: super::fc::PilotMode::Fbwa,
         },

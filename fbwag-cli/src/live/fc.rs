@@ -89,6 +89,8 @@ pub struct FcOptions {
     pub duration: f64,
     pub require_signed: bool,
     pub events: Option<PathBuf>,
+    /// See `CcOptions::stop_on_signals`.
+    pub stop_on_signals: bool,
     /// Where the model starts (and RTL returns to).
     pub home: Home,
     /// The pilot's flight mode.
@@ -214,7 +216,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     daemon
         .events
         .emit("mode", json!({"mode": o.pilot_mode.name()}));
-    net::run(&mut daemon, net, &clock, &mut log).await;
+    net::run(&mut daemon, net, &clock, &mut log, o.stop_on_signals).await;
     daemon.finish(&mut log);
     Ok(daemon.report)
 }

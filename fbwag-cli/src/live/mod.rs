@@ -55,8 +55,9 @@ impl Clock {
 /// most: about a megabyte.
 const LINES_QUEUED: usize = 4096;
 
-/// How long the end of a daemon waits for its queued lines to be written.
-const LINES_DRAIN: Duration = Duration::from_millis(500);
+/// How long the end of a daemon waits for its queued lines to be written
+/// (the summary event is among the last).
+const LINES_DRAIN: Duration = Duration::from_secs(1);
 
 /// Lines written, each flushed, by a thread of their own, fed through a
 /// bounded queue: a reader that stops reading (a full pipe, a stopped
@@ -64,17 +65,19 @@ const LINES_DRAIN: Duration = Duration::from_millis(500);
 /// all run on one thread. (A blocking write there froze a daemon mid-flight
 /// once 64 KiB of events waited in a pipe nobody read.) A line that finds
 /// the queue full is dropped and counted; the count goes out, as a line of
-/// its own, once there is room.
+/// its own (`dropped`), once there is room, or at the end.
 struct Lines {
     queue: Option<SyncSender<String>>,
     /// Lines dropped since the queue last took one.
     dropped: u64,
+    /// The line that says `n` lines were dropped.
+    note: Box<dyn Fn(u64) -> String + Send>,
     /// Closed by the writer thread when it has written every line.
     written: Receiver<()>,
 }
 
 impl Lines {
-    fn new(mut out: Box<dyn Write + Send>) -> Self {
+    fn new(mut out: Box<dyn Write + Send>, note: Box<dyn Fn(u64) -> String + Send>) -> Self {
         let (queue, lines) = mpsc::sync_channel::<String>(LINES_QUEUED);
         let (done, written) = mpsc::channel();
         std::thread::spawn(move || {
@@ -88,18 +91,19 @@ impl Lines {
         Lines {
             queue: Some(queue),
             dropped: 0,
+            note,
             written,
         }
     }
 
-    /// Queues `line` (ending in a newline); when lines were dropped, first
-    /// `dropped(n)`, the line that says so.
-    fn push(&mut self, line: String, dropped: impl FnOnce(u64) -> String) {
+    /// Queues `line` (ending in a newline), after the note of lines dropped
+    /// before it, if any.
+    fn push(&mut self, line: String) {
         let Some(queue) = &self.queue else {
             return;
         };
         if self.dropped > 0 {
-            match queue.try_send(dropped(self.dropped)) {
+            match queue.try_send((self.note)(self.dropped)) {
                 Ok(()) => self.dropped = 0,
                 Err(TrySendError::Full(_)) => {
                     self.dropped += 1;
@@ -115,9 +119,13 @@ impl Lines {
 }
 
 impl Drop for Lines {
-    /// Waits for the queued lines to be written, at most [`LINES_DRAIN`]
-    /// (a stalled reader does not hold the exit).
+    /// Queues the note of lines dropped, if any, then waits for the queued
+    /// lines to be written, at most [`LINES_DRAIN`] (a stalled reader does
+    /// not hold the exit).
     fn drop(&mut self) {
+        if let (Some(queue), true) = (&self.queue, self.dropped > 0) {
+            let _ = queue.try_send((self.note)(self.dropped));
+        }
         self.queue = None;
         let _ = self.written.recv_timeout(LINES_DRAIN);
     }
@@ -135,8 +143,12 @@ pub struct Log {
 
 impl Log {
     pub fn new(out: Box<dyn Write + Send>, clock: Clock, who: &'static str) -> Self {
+        let note = Box::new(move |n| {
+            let t = clock.secs();
+            format!("[{t:>8.3} s] {who}: {n} log lines dropped (the output was not read)\n")
+        });
         Log {
-            out: Lines::new(out),
+            out: Lines::new(out, note),
             clock,
             who,
         }
@@ -144,9 +156,7 @@ impl Log {
 
     pub fn line(&mut self, what: &str) {
         let (t, who) = (self.clock.secs(), self.who);
-        self.out.push(format!("[{t:>8.3} s] {who}: {what}\n"), |n| {
-            format!("[{t:>8.3} s] {who}: {n} log lines dropped (the output was not read)\n")
-        });
+        self.out.push(format!("[{t:>8.3} s] {who}: {what}\n"));
     }
 }
 
@@ -168,8 +178,12 @@ impl Events {
             Some(p) if p.as_os_str() == "-" => Some(Box::new(io::stdout())),
             Some(p) => Some(Box::new(File::create(p)?)),
         };
+        let note = move |n| {
+            let t_ms = clock.millis();
+            format!("{{\"t_ms\":{t_ms},\"event\":\"dropped\",\"events\":{n}}}\n")
+        };
         Ok(Events {
-            out: out.map(Lines::new),
+            out: out.map(|out| Lines::new(out, Box::new(note))),
             clock,
         })
     }
@@ -179,16 +193,13 @@ impl Events {
         let Some(out) = &mut self.out else {
             return;
         };
-        let t_ms = self.clock.millis();
         let mut line = Map::new();
-        line.insert("t_ms".into(), t_ms.into());
+        line.insert("t_ms".into(), self.clock.millis().into());
         line.insert("event".into(), event.into());
         if let Value::Object(extra) = fields {
             line.extend(extra);
         }
-        out.push(format!("{}\n", Value::Object(line)), |n| {
-            format!("{{\"t_ms\":{t_ms},\"event\":\"dropped\",\"events\":{n}}}\n")
-        });
+        out.push(format!("{}\n", Value::Object(line)));
     }
 }
 

@@ -94,6 +94,9 @@ impl Net {
                 unsigned: Unsigned::Accept,
                 reply_to: opts.peer.map_or(ReplyTo::Pinned, ReplyTo::Fixed),
                 signing_state: opts.signing_state.clone(),
+                // The protocol's link: what is routed to it (a ground
+                // station's traffic) must not sit ahead of its frames.
+                bound_unsent: true,
             })
             .await
             .map_err(|e| opened(&opts.endpoint, e))?;
@@ -201,15 +204,23 @@ impl Net {
             let name = self.router.endpoint(link).map(|e| e.to_string());
             let name = name.unwrap_or_default();
             report_lost(&name, &was, &counters, log);
+            // (A reopened link's parser counts from zero again: saturating,
+            // what it refused before this report is not reported.)
             let (now, was) = (counters.parser, was.parser);
             let parts: Vec<String> = [
-                ("bad checksums", now.bad_crc - was.bad_crc),
-                ("bad signatures", now.bad_signature - was.bad_signature),
+                ("bad checksums", now.bad_crc.saturating_sub(was.bad_crc)),
+                (
+                    "bad signatures",
+                    now.bad_signature.saturating_sub(was.bad_signature),
+                ),
                 (
                     "unsigned refused",
-                    now.unsigned_rejected - was.unsigned_rejected,
+                    now.unsigned_rejected.saturating_sub(was.unsigned_rejected),
                 ),
-                ("bytes dropped", now.bytes_dropped - was.bytes_dropped),
+                (
+                    "bytes dropped",
+                    now.bytes_dropped.saturating_sub(was.bytes_dropped),
+                ),
             ]
             .iter()
             .filter(|(_, n)| *n > 0)
@@ -231,16 +242,19 @@ fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log
     let parts: Vec<String> = [
         (
             "frames dropped (queue full)",
-            now.dropped_full - was.dropped_full,
+            now.dropped_full.saturating_sub(was.dropped_full),
         ),
         (
             "routed frames dropped (more routed to the link than it carries)",
-            now.routed_dropped - was.routed_dropped,
+            now.routed_dropped.saturating_sub(was.routed_dropped),
         ),
-        ("send errors", now.send_errors - was.send_errors),
+        (
+            "send errors",
+            now.send_errors.saturating_sub(was.send_errors),
+        ),
         (
             "signing state saves failed (a restart would start from the last state saved)",
-            now.state_save_errors - was.state_save_errors,
+            now.state_save_errors.saturating_sub(was.state_save_errors),
         ),
     ]
     .iter()
@@ -274,7 +288,7 @@ fn log_state_file(path: &std::path::Path, log: &mut Log) -> io::Result<()> {
     })?;
     file.state().save(path).map_err(|e| {
         io::Error::other(format!(
-            "signing state {}: cannot be written: {e}",
+            "signing state {}: cannot be written (saves replace the file: its directory must be writable): {e}",
             path.display()
         ))
     })?;
@@ -314,8 +328,10 @@ pub trait Node {
 /// Runs `node` until it is done: timers when due, then one event (a frame
 /// or a link's change) or the next deadline, whichever comes first; then
 /// the links are stopped, each saving its signing state.
-pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log) {
-    let mut stop = StopSignals::new(log);
+/// With `signals`, SIGTERM (and SIGINT, from a terminal) end it the same
+/// way ([`StopSignals`]).
+pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log, signals: bool) {
+    let mut stop = StopSignals::new(signals, log);
     while !node.done(clock) {
         let now = clock.now();
         if node.poll_timeout().is_some_and(|t| t <= now) {
@@ -335,43 +351,60 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
             },
             _ = tokio::time::sleep(wait) => {}
             name = stop.recv() => {
-                log.line(&format!("{name}: stopping"));
+                log.line(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }
         }
     }
-    net.router.shutdown(Duration::from_secs(1)).await;
+    tokio::select! {
+        _ = net.router.shutdown(Duration::from_secs(1)) => {}
+        // A second signal: the user does not wait.
+        name = stop.recv() => std::process::exit(if name == "SIGINT" { 130 } else { 143 }),
+    }
 }
 
-/// SIGINT (Ctrl-C) and SIGTERM (`kill`, `systemctl stop`): the daemon
-/// stops as at the end of its run, its links saving their signing state.
+/// SIGTERM (`kill`, `systemctl stop`), and SIGINT (Ctrl-C) when standard
+/// input is a terminal: the daemon stops as at the end of its run, its
+/// links saving their signing state; a second signal ends it at once.
 /// (Killed by either, it skipped that save: with `--signing-state`, what
 /// it had accepted since the last periodic save could be replayed into it
-/// once restarted.)
+/// once restarted.) SIGINT is left alone otherwise: a daemon a script
+/// starts in the background inherits it ignored, and keeps running.
 struct StopSignals {
     #[cfg(unix)]
-    signals: Option<[tokio::signal::unix::Signal; 2]>,
+    interrupt: Option<tokio::signal::unix::Signal>,
+    #[cfg(unix)]
+    terminate: Option<tokio::signal::unix::Signal>,
 }
 
 impl StopSignals {
-    fn new(log: &mut Log) -> Self {
+    fn new(enabled: bool, log: &mut Log) -> Self {
         #[cfg(unix)]
         {
+            use std::io::IsTerminal;
             use tokio::signal::unix::{signal, SignalKind};
-            let signals = signal(SignalKind::interrupt())
-                .and_then(|i| Ok([i, signal(SignalKind::terminate())?]));
-            if let Err(e) = &signals {
-                log.line(&format!(
-                    "cannot handle stop signals ({e}): they end the daemon unsaved"
-                ));
-            }
+            let mut listen = |kind: SignalKind, name: &str| {
+                signal(kind)
+                    .map_err(|e| {
+                        log.line(&format!(
+                            "cannot handle {name} ({e}): it ends the daemon unsaved"
+                        ))
+                    })
+                    .ok()
+            };
+            let interactive = std::io::stdin().is_terminal();
             StopSignals {
-                signals: signals.ok(),
+                interrupt: (enabled && interactive)
+                    .then(|| listen(SignalKind::interrupt(), "SIGINT"))
+                    .flatten(),
+                terminate: enabled
+                    .then(|| listen(SignalKind::terminate(), "SIGTERM"))
+                    .flatten(),
             }
         }
         #[cfg(not(unix))]
         {
-            let _ = log;
+            let _ = (enabled, log);
             StopSignals {}
         }
     }
@@ -379,12 +412,24 @@ impl StopSignals {
     /// The name of the next stop signal received (never, without them).
     async fn recv(&mut self) -> &'static str {
         #[cfg(unix)]
-        if let Some([interrupt, terminate]) = &mut self.signals {
-            return tokio::select! {
-                _ = interrupt.recv() => "SIGINT",
-                _ = terminate.recv() => "SIGTERM",
-            };
+        {
+            async fn next(s: &mut Option<tokio::signal::unix::Signal>) {
+                match s {
+                    // (`None`: the runtime is going away; nothing more.)
+                    Some(s) => {
+                        if s.recv().await.is_none() {
+                            std::future::pending::<()>().await;
+                        }
+                    }
+                    None => std::future::pending().await,
+                }
+            }
+            tokio::select! {
+                _ = next(&mut self.interrupt) => "SIGINT",
+                _ = next(&mut self.terminate) => "SIGTERM",
+            }
         }
+        #[cfg(not(unix))]
         std::future::pending().await
     }
 }

@@ -576,22 +576,24 @@ impl StateFile {
     }
 
     /// Whether a save is due: the signer ran half of [`SIGNER_MARGIN`] past
-    /// the saved timestamp (checked first, so keep calling this even when
-    /// saves fail), or the interval has passed since the last save. Cheap:
-    /// call it every loop iteration.
+    /// the saved timestamp, or the interval has passed since the last save;
+    /// after a failed save, not before [`SAVE_INTERVAL`] (or the interval,
+    /// if shorter) has passed since (a file that cannot be written was
+    /// tried again at every frame). Cheap: call it every loop iteration.
     pub fn due(&self, signer: Option<&Signer>) -> bool {
         let ran_ahead = signer.is_some_and(|s| match self.state.signer {
             Some(saved) => s.timestamp() >= saved.saturating_add(SIGNER_MARGIN / 2),
             None => true,
         });
-        let retry = self.failed_at.is_none_or(|t| t.elapsed() >= self.interval);
+        let retry_after = self.interval.min(SAVE_INTERVAL);
+        let retry = self.failed_at.is_none_or(|t| t.elapsed() >= retry_after);
         retry && (ran_ahead || self.saved_at.elapsed() >= self.interval)
     }
 
     /// Captures `signer` and `verifier` and writes them when they differ
     /// from the last saved state (an idle link writes nothing). Returns
     /// whether it wrote. On error, the last saved state stays the reference,
-    /// so [`due`](Self::due) asks again, an interval later.
+    /// so [`due`](Self::due) asks again, a [`SAVE_INTERVAL`] later at most.
     pub fn save<const N: usize>(
         &mut self,
         signer: Option<&Signer>,

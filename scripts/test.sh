@@ -31,6 +31,28 @@ print("MAVProxy", v("MAVProxy"), "mavsdk", v("mavsdk"), "pymavlink", v("pymavlin
 step "cargo fmt --check"
 cargo fmt --all -- --check
 
+# Libraries with `test = false` (no unit tests: not compiled a second time
+# as empty test binaries) must stay without: a unit test added to one
+# would never run.
+step "libraries with test = false have no unit tests"
+cargo metadata --no-deps --format-version 1 --locked | python3 -c '
+import json, os, re, sys
+found = []
+for p in json.load(sys.stdin)["packages"]:
+    if not any("lib" in t["kind"] and not t["test"] for t in p["targets"]):
+        continue
+    root = os.path.dirname(p["manifest_path"])
+    for d, subdirs, files in os.walk(root):
+        if d == root:  # targets of their own, tested as such
+            subdirs[:] = [s for s in subdirs if s not in ("tests", "examples", "benches", "target")]
+        for f in files:
+            path = os.path.join(d, f)
+            if f.endswith(".rs") and re.search(r"#\[\s*(test|cfg\(\s*test\s*\))\s*\]", open(path).read()):
+                found.append(os.path.relpath(path))
+print("\n".join(f"{f}: a unit test in a library with test = false" for f in found) or "none found")
+sys.exit(1 if found else 0)
+'
+
 step "cargo clippy -D warnings (default features, then all: serial, tokio)"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 cargo clippy --workspace --all-targets --all-features --locked -- -D warnings

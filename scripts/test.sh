@@ -53,12 +53,80 @@ print("\n".join(f"{f}: a unit test in a library with test = false" for f in foun
 sys.exit(1 if found else 0)
 '
 
+# Builds with target directories of their own run in the background, beside
+# clippy, rustdoc and the test build, which leave one of two cores idle much
+# of the time: the fuzz targets (target/fuzz), and the published crates
+# packaged and verified (target/package-verify, target/package-check).
+# They are only builds, and they are joined before the first test runs, so
+# no test, timed or not, shares the machine with them. The log is printed at
+# the join; a failure there fails this script. In a process group of its
+# own, so that an earlier failure stops it too.
+BACKGROUND_LOG=target/test-background.log
+mkdir -p target
+bstep() { printf '\n==> [background] %s (at %dm%02ds)\n' "$*" $((SECONDS / 60)) $((SECONDS % 60)); }
+set -m
+(
+    set -euo pipefail
+    bstep "conformance: fuzz targets built (run below)"
+    bash conformance/scripts/fuzz.sh build
+
+    # --- publishing (issue 12) ---
+    # Every crate meant for crates.io, packaged and verified together: cargo
+    # (>= 1.83) builds each packaged tarball against the others through a local
+    # registry overlay, so path dependencies not yet on crates.io resolve.
+    # --allow-dirty: package the working tree as it is (a clean clone is clean).
+    PUBLISHED=(-p mavframe -p mavgen-rs -p fbwag-dialect -p fbwag-dialect-cc -p fbwag-delegation -p fbwag-cli)
+    bstep "cargo package: ${PUBLISHED[*]}"
+    # The verification resolves the packaged crates as registry crates, which
+    # cargo takes as immutable per version: it reuses their unpacked copies in
+    # $CARGO_HOME/registry/src/<overlay>/ and what it compiled from them, so a
+    # second run from the same checkout would verify against the first run's
+    # code (same version, other code). So: those copies removed (the names are
+    # not on crates.io: nothing else lives there), and a target directory of
+    # its own, emptied first.
+    PACKAGED=target/package-verify
+    rm -rf "$PACKAGED"
+    for crate in mavframe mavgen-rs fbwag-dialect fbwag-dialect-cc fbwag-delegation fbwag-cli; do
+        version="$(cargo pkgid -p "$crate" | sed 's/.*[#@]//')"
+        rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/"$crate-$version"
+    done
+    cargo package --locked --allow-dirty --target-dir "$PACKAGED" "${PUBLISHED[@]}"
+
+    # The verification builds default features only; `codegen` reads the XML
+    # the package carries (message_definitions/, symbolic links in the
+    # repository): generate from the packaged copy, against the packaged crates.
+    bstep "packaged fbwag-dialect with feature codegen (its own message_definitions)"
+    packaged() { echo "$PACKAGED/package/$1-$(cargo pkgid -p "$1" | sed 's/.*[#@]//')"; }
+    cargo build --manifest-path "$(packaged fbwag-dialect)/Cargo.toml" --features codegen \
+        --config "patch.crates-io.mavframe.path=\"$(packaged mavframe)\"" \
+        --config "patch.crates-io.mavgen-rs.path=\"$(packaged mavgen-rs)\"" \
+        --target-dir target/package-check
+    # --- end publishing ---
+    bstep "done"
+) </dev/null >"$BACKGROUND_LOG" 2>&1 &
+background=$!
+set +m
+trap 'kill -- "-$background" 2>/dev/null || true' EXIT
+
 step "cargo clippy -D warnings (default features, then all: serial, tokio)"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 cargo clippy --workspace --all-targets --all-features --locked -- -D warnings
 
 step "cargo doc -D warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
+
+step "cargo test: build"
+cargo test --workspace --locked --no-run
+
+step "background builds joined: fuzz targets, cargo package"
+status=0
+wait "$background" || status=$?
+trap - EXIT
+cat "$BACKGROUND_LOG"
+if [ "$status" -ne 0 ]; then
+    echo "the background builds failed (exit $status): $BACKGROUND_LOG" >&2
+    exit "$status"
+fi
 
 step "cargo test"
 cargo test --workspace --locked
@@ -106,36 +174,8 @@ FBWAG_DIALECT_MESSAGES=ATTITUDE,COMMAND_LONG \
 cargo build -p fbwag-delegation --no-default-features --locked
 
 # --- publishing and a user's crate (issue 12) ---
-# Every crate meant for crates.io, packaged and verified together: cargo
-# (>= 1.83) builds each packaged tarball against the others through a local
-# registry overlay, so path dependencies not yet on crates.io resolve.
-# --allow-dirty: package the working tree as it is (a clean clone is clean).
-PUBLISHED=(-p mavframe -p mavgen-rs -p fbwag-dialect -p fbwag-dialect-cc -p fbwag-delegation -p fbwag-cli)
-step "cargo package: ${PUBLISHED[*]}"
-# The verification resolves the packaged crates as registry crates, which
-# cargo takes as immutable per version: it reuses their unpacked copies in
-# $CARGO_HOME/registry/src/<overlay>/ and what it compiled from them, so a
-# second run from the same checkout would verify against the first run's
-# code (same version, other code). So: those copies removed (the names are
-# not on crates.io: nothing else lives there), and a target directory of
-# its own, emptied first.
-PACKAGED=target/package-verify
-rm -rf "$PACKAGED"
-for crate in mavframe mavgen-rs fbwag-dialect fbwag-dialect-cc fbwag-delegation fbwag-cli; do
-    version="$(cargo pkgid -p "$crate" | sed 's/.*[#@]//')"
-    rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/"$crate-$version"
-done
-cargo package --locked --allow-dirty --target-dir "$PACKAGED" "${PUBLISHED[@]}"
-
-# The verification builds default features only; `codegen` reads the XML
-# the package carries (message_definitions/, symbolic links in the
-# repository): generate from the packaged copy, against the packaged crates.
-step "packaged fbwag-dialect with feature codegen (its own message_definitions)"
-packaged() { echo "$PACKAGED/package/$1-$(cargo pkgid -p "$1" | sed 's/.*[#@]//')"; }
-cargo build --manifest-path "$(packaged fbwag-dialect)/Cargo.toml" --features codegen \
-    --config "patch.crates-io.mavframe.path=\"$(packaged mavframe)\"" \
-    --config "patch.crates-io.mavgen-rs.path=\"$(packaged mavgen-rs)\"" \
-    --target-dir target/package-check
+# (cargo package and the packaged codegen build ran in the background
+# builds, above.)
 
 # A crate outside the workspace, with its own lock file: the README's
 # own-dialect section. Shares the target directory (the same dependency

@@ -30,6 +30,10 @@ pub const PWM_US: (u16, u16) = (800, 2200);
 /// Largest mean burst length of `fbwag sim --burst` (frames).
 pub const MAX_BURST: f64 = 1_000_000.0;
 
+/// Lowest and highest `fbwag cc --routed-rate` (bytes a second): from a
+/// 1,200-baud line's share to far more than any MAVLink link carries.
+pub const ROUTED_RATE: (u32, u32) = (60, 100_000_000);
+
 /// Largest signing timestamp: the signature block holds 48 bits.
 pub const MAX_SIGN_TIMESTAMP: u64 = (1 << 48) - 1;
 
@@ -93,6 +97,24 @@ pub fn sim_seed(s: &str) -> Result<u64, String> {
 /// A throttle pulse width in µs, within [`PWM_US`].
 pub fn pwm_us(s: &str) -> Result<u16, String> {
     integer_in(s, PWM_US.0, PWM_US.1, "a pulse width in µs")
+}
+
+/// A value of `fbwag cc --routed-rate`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RoutedRate {
+    /// `off`: unpaced.
+    Off,
+    /// At most this many bytes a second.
+    BytesPerSecond(u32),
+}
+
+/// `--routed-rate`: bytes a second within [`ROUTED_RATE`], or `off`.
+pub fn routed_rate(s: &str) -> Result<RoutedRate, String> {
+    if s.trim() == "off" {
+        return Ok(RoutedRate::Off);
+    }
+    integer_in(s, ROUTED_RATE.0, ROUTED_RATE.1, "bytes a second (or `off`)")
+        .map(RoutedRate::BytesPerSecond)
 }
 
 /// A MAVLink system or component id of a sender: 1 to 255 (0 addresses
@@ -196,6 +218,7 @@ mod tests {
             assert!(pwm_us(bad).is_err(), "pwm {bad}");
             assert!(mavlink_id(bad).is_err(), "id {bad}");
             assert!(sign_timestamp(bad).is_err(), "timestamp {bad}");
+            assert!(routed_rate(bad).is_err(), "routed rate {bad}");
         }
     }
 
@@ -217,6 +240,10 @@ mod tests {
         assert!(mavlink_id("0").is_err() && mavlink_id("256").is_err());
         assert_eq!(sign_timestamp("281474976710655"), Ok(MAX_SIGN_TIMESTAMP));
         assert!(sign_timestamp("281474976710656").is_err());
+        assert_eq!(routed_rate("60"), Ok(RoutedRate::BytesPerSecond(60)));
+        assert_eq!(routed_rate("off"), Ok(RoutedRate::Off));
+        assert!(routed_rate("59").is_err() && routed_rate("0").is_err());
+        assert!(routed_rate("100000001").is_err());
     }
 
     #[test]

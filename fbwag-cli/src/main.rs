@@ -233,6 +233,17 @@ enum Command {
         /// are forwarded untouched (signed ones stay verifiable).
         #[arg(long = "out", value_name = "CONN")]
         outs: Vec<String>,
+        /// What --out links route to the FC link goes at most this many
+        /// bytes a second (or `off`); the companion's own frames are never
+        /// held back. Keep it below what the FC link carries: then a
+        /// flood from a ground station's side can never fill the buffer at
+        /// the link's far end (a telemetry modem's, a serial bridge's)
+        /// ahead of the companion's acknowledgement; routed frames beyond
+        /// it are dropped and counted. Default: half a serial link's byte
+        /// rate (baud / 20), 8000 on other links (a ground station's uplink
+        /// needs a few hundred).
+        #[arg(long, value_name = "BYTES_PER_S|off", allow_hyphen_values = true, value_parser = args::routed_rate)]
+        routed_rate: Option<args::RoutedRate>,
         /// The link of your own autonomy program (e.g. udpin:127.0.0.1:14560).
         /// It receives everything the FC sends and the companion's notices;
         /// its RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET and MANUAL_CONTROL
@@ -717,6 +728,7 @@ fn main() -> ExitCode {
             link,
             peer,
             outs,
+            routed_rate,
             autonomy,
             signing_state,
             events,
@@ -755,11 +767,15 @@ fn main() -> ExitCode {
                     .as_deref()
                     .map(|e| parse("--autonomy", e))
                     .transpose()?,
-                link: live::net::LinkOptions {
-                    endpoint: link.parse().map_err(|e| format!("--link: {e}"))?,
-                    key: sign_key.as_deref().map(key).transpose()?,
-                    peer,
-                    signing_state,
+                link: {
+                    let endpoint = link.parse().map_err(|e| format!("--link: {e}"))?;
+                    live::net::LinkOptions {
+                        routed_rate: live::net::routed_rate(&endpoint, routed_rate),
+                        endpoint,
+                        key: sign_key.as_deref().map(key).transpose()?,
+                        peer,
+                        signing_state,
+                    }
                 },
                 own: fbwag_delegation::Peer::new(sysid, compid),
                 fc: fbwag_delegation::Peer::new(fc_sysid, fc_compid),
@@ -798,6 +814,8 @@ fn main() -> ExitCode {
                     key: sign_key.as_deref().map(key).transpose()?,
                     peer,
                     signing_state,
+                    // Nothing is routed through the simulator.
+                    routed_rate: None,
                 },
                 own: fbwag_delegation::Peer::new(sysid, compid),
                 companion: fbwag_delegation::Peer::new(cc_sysid, cc_compid),

@@ -575,14 +575,16 @@ fn a_flood_of_trusted_looking_notices_does_not_flood_the_logs() {
 
 /// A TCP relay that accepts one connection and carries it to `to` at about
 /// `bytes_per_sec` each way: a link of a real serial speed, whose far end
-/// holds a few KiB (a UART's buffer; the system's would grow past 100 KiB,
-/// seconds of this link, out of the sender's reach). Ends when either side
-/// closes.
-fn slow_relay(to: std::net::SocketAddr, bytes_per_sec: f64) -> u16 {
+/// holds `far_buffer` bytes (a UART's few KiB), or what the system's
+/// receive buffer grows to (`None`: past 100 KiB, seconds of such a link,
+/// out of the sender's reach, as a modem's). Ends when either side closes.
+fn slow_relay(to: std::net::SocketAddr, bytes_per_sec: f64, far_buffer: Option<usize>) -> u16 {
     use socket2::{Domain, Socket, Type};
     use std::io::{Read, Write};
     let socket = Socket::new(Domain::IPV4, Type::STREAM, None).unwrap();
-    socket.set_recv_buffer_size(4096).unwrap();
+    if let Some(bytes) = far_buffer {
+        socket.set_recv_buffer_size(bytes).unwrap();
+    }
     socket.bind(&local(0).into()).unwrap();
     socket.listen(1).unwrap();
     let listener: std::net::TcpListener = socket.into();
@@ -634,7 +636,7 @@ fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
     fc_a.extend(s.signing_args());
     let fc = Daemon::spawn(&dir, "fc", &fc_a);
     std::thread::sleep(Duration::from_millis(300));
-    let relay = slow_relay(local(fc_port), 46_000.0);
+    let relay = slow_relay(local(fc_port), 46_000.0, Some(4096));
     let out_port = free_port();
     let mut cc_a = args(&["cc", "--link", &format!("tcp:127.0.0.1:{relay}")]);
     cc_a.extend(args(&["--out", &format!("udpin:127.0.0.1:{out_port}")]));
@@ -650,6 +652,46 @@ fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
     let (fc, cc) = (fc.finish(limit), cc.finish(limit));
     let sent = attacker.stop();
     assert!(sent.datagrams >= 8, "{sent:?}");
+    assert_safe_handover(&fc, &cc, &s);
+}
+
+/// The same flood routed to a slower link (20 KB/s, about 230,400 baud)
+/// whose far end buffers what it is sent, as a radio modem or a serial
+/// bridge does: the CC paces what it routes to the FC link (8 KB/s by
+/// default, below the link's rate), so that buffer never fills ahead of
+/// its acknowledgement, and the handover happens. (Unpaced, `--routed-rate
+/// off`, the buffer held seconds of the flood and the FC fell back to RTL.)
+#[test]
+fn a_flood_routed_to_a_slow_link_never_fills_its_far_end() {
+    let _heavy = heavy();
+    let dir = scratch("slow-modem");
+    let s = Setup {
+        rc_loss_at: 3.0,
+        duration: 6.0,
+        ..Setup::signed()
+    };
+    let fc_port = free_port();
+    let mut fc_a = args(&["fc-sim", "--link", &format!("tcpin:127.0.0.1:{fc_port}")]);
+    fc_a.extend(args(&["--rc-loss-at", "3", "--duration", "6"]));
+    fc_a.extend(s.signing_args());
+    let fc = Daemon::spawn(&dir, "fc", &fc_a);
+    std::thread::sleep(Duration::from_millis(300));
+    let relay = slow_relay(local(fc_port), 20_000.0, None);
+    let out_port = free_port();
+    let mut cc_a = args(&["cc", "--link", &format!("tcp:127.0.0.1:{relay}")]);
+    cc_a.extend(args(&["--out", &format!("udpin:127.0.0.1:{out_port}")]));
+    cc_a.extend(args(&["--duration", &s.cc_duration().to_string()]));
+    cc_a.extend(s.signing_args());
+    let cc = Daemon::spawn(&dir, "cc", &cc_a);
+    std::thread::sleep(Duration::from_millis(500));
+    let hb = frame(GCS, 0, &wire::cc_heartbeat(), None);
+    let datagram: Vec<u8> = hb.iter().copied().cycle().take(hb.len() * 2800).collect();
+    let attacker = Attacker::start(&[local(out_port)], 2.0, 0, move |_, _| datagram.clone());
+    let limit = Duration::from_secs_f64(s.cc_duration() + 10.0);
+    let (fc, cc) = (fc.finish(limit), cc.finish(limit));
+    let sent = attacker.stop();
+    assert!(sent.datagrams >= 8, "{sent:?}");
+    assert!(cc.log.contains("at most 8000 bytes/s"), "{}", cc.dump());
     assert_safe_handover(&fc, &cc, &s);
 }
 

@@ -61,6 +61,10 @@ use tokio::sync::mpsc;
 use tokio_util::bytes::BytesMut;
 use tokio_util::codec::Decoder;
 
+mod pace;
+use core::num::NonZeroU32;
+use pace::Pace;
+
 /// How often a failed link is opened again.
 pub const REOPEN_INTERVAL: Duration = Duration::from_secs(1);
 
@@ -130,6 +134,17 @@ pub struct LinkConfig {
     /// slower than a flood routed to it). Off by default: a router's
     /// throughput on fast links is better without.
     pub bound_unsent: bool,
+    /// Frames routed through the link ([`Router::forward`],
+    /// [`Router::send_routed`]) go at most this many bytes a second (after
+    /// a burst of an eighth of a second's, or one frame), each `tcpin`
+    /// client's apart; the owner's own frames are never held back. Below
+    /// the link's own rate, a flood routed to the link can never fill its
+    /// far end's buffer (a modem's, a serial bridge's), so the owner's next
+    /// frame waits behind one routed frame at most; the kernel bound above
+    /// cannot reach that buffer. Routed frames the pace holds back fill
+    /// the link's queue, and those that find it full are dropped
+    /// ([`LinkCounters::routed_dropped`]). `None` (the default): unpaced.
+    pub routed_rate: Option<NonZeroU32>,
 }
 
 impl LinkConfig {
@@ -142,6 +157,7 @@ impl LinkConfig {
             reply_to: ReplyTo::LastSender,
             signing_state: None,
             bound_unsent: false,
+            routed_rate: None,
         }
     }
 }
@@ -206,35 +222,87 @@ struct LinkHandle {
 
 /// A link's queues, as its task reads them: the owner's frames and
 /// commands, and the frames routed through the link, which go only when
-/// none of the owner's wait. Routed traffic (a ground station's flood of
-/// another link) never holds the owner's protocol frames back behind it:
-/// on a link slower than that flood, one queue let it crowd them out, and
-/// the companion's acknowledgement never reached the FC.
+/// none of the owner's wait, and no faster than the link's
+/// [`LinkConfig::routed_rate`] (the [`pace`] module). Routed traffic (a
+/// ground station's flood of another link) never holds the owner's
+/// protocol frames back behind it: on a link slower than that flood, one
+/// queue let it crowd them out, and the companion's acknowledgement never
+/// reached the FC.
 struct Queues {
     own: mpsc::Receiver<Command>,
     routed: mpsc::Receiver<Box<[u8]>>,
+    /// The owner's queue is closed (the router is gone): what was routed
+    /// goes out as it is, unpaced, then the link ends.
+    own_closed: bool,
     /// The routed queue's sender is gone (the router with it).
     routed_closed: bool,
+    pace: Option<Pace>,
+    /// A routed frame taken from its queue, waiting for the pace.
+    waiting: Option<Box<[u8]>>,
 }
 
 impl Queues {
+    fn new(
+        own: mpsc::Receiver<Command>,
+        routed: mpsc::Receiver<Box<[u8]>>,
+        rate: Option<NonZeroU32>,
+    ) -> Queues {
+        Queues {
+            own,
+            routed,
+            own_closed: false,
+            routed_closed: false,
+            pace: rate.map(|r| Pace::new(r, tokio::time::Instant::now())),
+            waiting: None,
+        }
+    }
+
     /// The next command, the owner's first; `None` once the router is
     /// gone (after what was queued).
     async fn recv(&mut self) -> Option<Command> {
-        tokio::select! {
-            biased;
-            c = self.own.recv() => match c {
-                Some(c) => Some(c),
-                None => self.routed.try_recv().ok().map(Command::Routed),
-            },
-            r = self.routed.recv(), if !self.routed_closed => match r {
-                Some(bytes) => Some(Command::Routed(bytes)),
-                None => {
-                    self.routed_closed = true;
-                    self.own.recv().await
+        loop {
+            if let Some(bytes) = self.waiting.take() {
+                let Some(wait) = self.pace_wait(bytes.len()) else {
+                    return Some(Command::Routed(bytes));
+                };
+                self.waiting = Some(bytes);
+                tokio::select! {
+                    biased;
+                    c = self.own.recv(), if !self.own_closed => match c {
+                        Some(c) => return Some(c),
+                        None => self.own_closed = true,
+                    },
+                    () = tokio::time::sleep(wait) => {}
                 }
-            },
+                continue;
+            }
+            if self.own_closed {
+                return self.routed.try_recv().ok().map(Command::Routed);
+            }
+            tokio::select! {
+                biased;
+                c = self.own.recv() => match c {
+                    Some(c) => return Some(c),
+                    None => self.own_closed = true,
+                },
+                r = self.routed.recv(), if !self.routed_closed => match r {
+                    Some(bytes) => self.waiting = Some(bytes),
+                    None => self.routed_closed = true,
+                },
+            }
         }
+    }
+
+    /// How long a routed frame of `len` bytes must wait for the pace;
+    /// `None` when it may go now (its bytes taken from the pace).
+    fn pace_wait(&mut self, len: usize) -> Option<Duration> {
+        if self.own_closed {
+            return None;
+        }
+        self.pace
+            .as_mut()?
+            .admit(len, tokio::time::Instant::now())
+            .err()
     }
 }
 
@@ -304,15 +372,16 @@ impl<D: Dialect + 'static> Router<D> {
         let (commands, own) = mpsc::channel(LINK_QUEUE);
         let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
         let counters = Arc::new(Mutex::new(LinkCounters::default()));
+        // A `tcpin` link paces each client's connection, not its fan-out.
+        let rate = match config.endpoint {
+            Endpoint::TcpIn(_) => None,
+            _ => config.routed_rate,
+        };
         let task = LinkTask {
             id,
             config,
             events: self.events_tx.clone(),
-            commands: Queues {
-                own,
-                routed: routed_rx,
-                routed_closed: false,
-            },
+            commands: Queues::new(own, routed_rx, rate),
             counters: counters.clone(),
             state,
         };
@@ -946,7 +1015,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         accepted += 1;
                         clients.push(Client { addr, output: tx, routed, standing: standing.clone(), order: accepted });
                         let task = ClientTask { addr, link: self.id, shared: shared.clone(), standing };
-                        let output = Queues { own, routed: routed_rx, routed_closed: false };
+                        let output = Queues::new(own, routed_rx, self.config.routed_rate);
                         tokio::spawn(serve_client(stream, task, self.codec(), output, self.events.clone()));
                     }
                     Err(e) => {
@@ -1287,11 +1356,7 @@ mod tests {
     async fn a_link_sends_the_owners_frames_before_routed_ones() {
         let (own_tx, own) = mpsc::channel(8);
         let (routed_tx, routed) = mpsc::channel(8);
-        let mut queues = Queues {
-            own,
-            routed,
-            routed_closed: false,
-        };
+        let mut queues = Queues::new(own, routed, None);
         for b in [1u8, 2, 3] {
             routed_tx.try_send(Box::from(&[b][..])).unwrap();
         }
@@ -1318,6 +1383,57 @@ mod tests {
         assert_eq!(next(q).await, Some((false, 2)));
         assert_eq!(next(q).await, Some((false, 3)));
         assert_eq!(next(q).await, None);
+    }
+
+    /// A paced link sends routed frames at its rate after a burst, and its
+    /// owner's frames at once while a routed one waits; once the router is
+    /// gone, what was routed goes unpaced.
+    #[tokio::test(start_paused = true)]
+    async fn a_paced_link_holds_routed_frames_never_its_own() {
+        use tokio::time::{sleep, Instant};
+        let (own_tx, own) = mpsc::channel(8);
+        let (routed_tx, routed) = mpsc::channel(8);
+        // 2,240 bytes a second: a burst of one 280-byte frame, then one
+        // every 125 ms.
+        let mut queues = Queues::new(own, routed, NonZeroU32::new(2_240));
+        for b in 0..5u8 {
+            routed_tx.try_send(Box::from(&[b; 280][..])).unwrap();
+        }
+        let t0 = Instant::now();
+        async fn next(queues: &mut Queues, t0: Instant) -> (u64, bool, u8) {
+            let c = queues.recv().await;
+            let ms = t0.elapsed().as_millis() as u64;
+            match c {
+                Some(Command::Raw(b)) => (ms, true, b[0]),
+                Some(Command::Routed(b)) => (ms, false, b[0]),
+                _ => panic!("not a frame"),
+            }
+        }
+        let q = &mut queues;
+        assert_eq!(next(q, t0).await, (0, false, 0));
+        let sender = tokio::spawn(async move {
+            sleep(Duration::from_millis(30)).await;
+            own_tx
+                .send(Command::Raw(Box::from(&[9u8][..])))
+                .await
+                .unwrap();
+            own_tx
+        });
+        assert_eq!(
+            next(q, t0).await,
+            (30, true, 9),
+            "the owner's frame at once"
+        );
+        assert_eq!(next(q, t0).await, (125, false, 1));
+        assert_eq!(next(q, t0).await, (250, false, 2));
+        drop((sender.await.unwrap(), routed_tx));
+        assert_eq!(
+            next(q, t0).await,
+            (250, false, 3),
+            "unpaced once the router is gone"
+        );
+        assert_eq!(next(q, t0).await, (250, false, 4));
+        assert!(q.recv().await.is_none());
     }
 
     /// A client that stops reading is dropped once a write to it has

@@ -134,6 +134,14 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     for out in &o.outs {
         log.line(&format!("routing to and from {out}"));
     }
+    if !o.outs.is_empty() {
+        log.line(&match o.link.routed_rate {
+            Some(rate) => format!(
+                "routed to the FC link: at most {rate} bytes/s (--routed-rate), the companion's own frames first"
+            ),
+            None => "routed to the FC link: unpaced (--routed-rate off)".to_string(),
+        });
+    }
     let mut daemon = Daemon {
         engine,
         own: o.own,

@@ -165,6 +165,8 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
                     key: None,
                     peer: None,
                     signing_state: None,
+                    // No --out link: nothing is routed.
+                    routed_rate: None,
                 },
                 own: cc_id,
                 fc: fc_id,
@@ -186,6 +188,7 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
                 key: None,
                 peer: None,
                 signing_state: None,
+                routed_rate: None,
             },
             own: fc_id,
             companion: cc_id,

@@ -19,6 +19,7 @@
 //!   rate-limited, with counts.
 
 use super::{Clock, Limiter, Log, PeerPin};
+use crate::args::RoutedRate;
 use fbwag_delegation::engine::Verdict;
 use fbwag_delegation::Instant;
 use fbwag_dialect::mavframe::conn::ReplyTo;
@@ -30,6 +31,7 @@ use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{Dialect, Endpoint};
 use std::io;
 use std::net::SocketAddr;
+use std::num::NonZeroU32;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -55,6 +57,31 @@ pub struct LinkOptions {
     /// Keep the signer's and verifier's timestamps across restarts in this
     /// file (with `key`).
     pub signing_state: Option<PathBuf>,
+    /// Bytes a second at most of what is routed to the link
+    /// ([`LinkConfig::routed_rate`]): see [`routed_rate`].
+    pub routed_rate: Option<NonZeroU32>,
+}
+
+/// Routed bytes a second a daemon's main link takes by default when it is
+/// not serial (a serial link's baud rate says what it carries): far more
+/// than a ground station's uplink needs (heartbeats, commands, parameter
+/// and mission transfers: a few hundred), and less than the slowest links
+/// of the setups this daemon serves carry (460,800-baud serial bridges,
+/// radio modems), so that a flood routed to the link cannot fill the
+/// buffer at its far end.
+pub const DEFAULT_ROUTED_RATE: u32 = 8_000;
+
+/// The pace of what is routed to the main link `endpoint`: as `given` by
+/// `--routed-rate`, else half a serial link's byte rate (10 bits a byte on
+/// the line), else [`DEFAULT_ROUTED_RATE`].
+pub fn routed_rate(endpoint: &Endpoint, given: Option<RoutedRate>) -> Option<NonZeroU32> {
+    let rate = match (given, endpoint) {
+        (Some(RoutedRate::Off), _) => return None,
+        (Some(RoutedRate::BytesPerSecond(rate)), _) => rate,
+        (None, Endpoint::Serial { baud, .. }) => baud / 20,
+        (None, _) => DEFAULT_ROUTED_RATE,
+    };
+    NonZeroU32::new(rate.max(1))
 }
 
 /// A daemon's links: the main one (to the protocol peer) and any others.
@@ -97,6 +124,7 @@ impl Net {
                 // The protocol's link: what is routed to it (a ground
                 // station's traffic) must not sit ahead of its frames.
                 bound_unsent: true,
+                routed_rate: opts.routed_rate,
             })
             .await
             .map_err(|e| opened(&opts.endpoint, e))?;
@@ -440,4 +468,23 @@ pub fn block_on<T>(daemon: impl std::future::Future<Output = io::Result<T>>) -> 
         .enable_all()
         .build()?
         .block_on(daemon)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn routed_traffic_is_paced_below_the_link_by_default() {
+        let serial: Endpoint = "serial:/dev/ttyS0:57600".parse().unwrap();
+        let tcp: Endpoint = "tcp:127.0.0.1:5760".parse().unwrap();
+        let rate = |e: &Endpoint, given| routed_rate(e, given).map(NonZeroU32::get);
+        assert_eq!(rate(&serial, None), Some(2_880), "half of 5,760 B/s");
+        assert_eq!(rate(&tcp, None), Some(DEFAULT_ROUTED_RATE));
+        let given = Some(RoutedRate::BytesPerSecond(100));
+        assert_eq!(rate(&serial, given), Some(100));
+        assert_eq!(rate(&tcp, Some(RoutedRate::Off)), None);
+        let slow: Endpoint = "serial:/dev/ttyS0:10".parse().unwrap();
+        assert_eq!(rate(&slow, None), Some(1), "never 0");
+    }
 }

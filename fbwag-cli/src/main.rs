@@ -263,7 +263,9 @@ enum Command {
         #[arg(long, value_name = "PATH", requires = "sign_key")]
         signing_state: Option<PathBuf>,
         /// Write machine-readable events to this file (`-`: stdout), one
-        /// JSON object per line (keys below).
+        /// JSON object per line (keys below). A FIFO is written once a
+        /// reader opens it (events queue meanwhile, up to 4,096, then are
+        /// counted as dropped); it never holds the daemon.
         #[arg(long, value_name = "PATH")]
         events: Option<PathBuf>,
         /// Our system id (1–255).
@@ -336,7 +338,9 @@ enum Command {
         #[arg(long, value_name = "PATH", requires = "sign_key")]
         signing_state: Option<PathBuf>,
         /// Write machine-readable events to this file (`-`: stdout), one
-        /// JSON object per line (keys below).
+        /// JSON object per line (keys below). A FIFO is written once a
+        /// reader opens it (events queue meanwhile, up to 4,096, then are
+        /// counted as dropped); it never holds the daemon.
         #[arg(long, value_name = "PATH")]
         events: Option<PathBuf>,
         /// Lose the receiver at this time (seconds after start, 0–1,000,000).

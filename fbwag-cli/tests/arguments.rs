@@ -46,6 +46,11 @@ const CASES: &[Case] = &[
     (CC, "--fc-compid", ID_BAD),
     (
         CC,
+        "--routed-rate",
+        &["0", "-1", "59", "100000001", "NaN", "inf", "1.5", "of"],
+    ),
+    (
+        CC,
         "--sign-key",
         &[
             "abc",
@@ -232,4 +237,59 @@ fn a_signing_state_file_that_cannot_be_written_is_refused_at_start() {
             "{daemon:?}: {err}"
         );
     }
+}
+
+/// `--events` naming a FIFO nobody reads yet: the daemon starts and runs
+/// its whole time (opening a FIFO for writing waits for a reader, and it
+/// was opened before anything else: the daemon hung there, links never
+/// opened); a reader that comes later reads its events.
+#[cfg(unix)]
+#[test]
+fn events_to_a_fifo_without_a_reader_never_hold_a_daemon() {
+    use std::io::Read;
+    let dir = std::env::temp_dir().join(format!("fbwag-fifo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (daemon, read_later) in [(CC, false), (FC, false), (FC, true)] {
+        let fifo = dir.join("events");
+        let _ = std::fs::remove_file(&fifo);
+        let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
+        assert!(made.success());
+        let started = Instant::now();
+        let child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(daemon)
+            .args(["--duration", "1.5", "--events"])
+            .arg(&fifo)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let reader = read_later.then(|| {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_millis(500));
+                let mut text = String::new();
+                std::fs::File::open(fifo)
+                    .unwrap()
+                    .read_to_string(&mut text)
+                    .unwrap();
+                text
+            })
+        });
+        let out = wait_bounded(child, started).expect("the daemon hung");
+        let log = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{daemon:?}: {log}");
+        assert!(
+            started.elapsed() >= Duration::from_millis(1500) && log.contains("127.0.0.1"),
+            "{daemon:?} did not run: {log}"
+        );
+        if let Some(reader) = reader {
+            let text = reader.join().unwrap();
+            assert!(
+                text.contains("\"event\":\"summary\""),
+                "events read: {text}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -76,11 +76,21 @@ struct Lines {
     written: Receiver<()>,
 }
 
+/// What a [`Lines`] writer thread writes to, opened by that thread:
+/// opening a FIFO for writing waits for a reader, and must not hold the
+/// daemon's start (its lines queue meanwhile, as for a stalled reader).
+type Opener = Box<dyn FnOnce() -> io::Result<Box<dyn Write + Send>> + Send>;
+
 impl Lines {
-    fn new(mut out: Box<dyn Write + Send>, note: Box<dyn Fn(u64) -> String + Send>) -> Self {
+    fn new(open: Opener, note: Box<dyn Fn(u64) -> String + Send>) -> Self {
         let (queue, lines) = mpsc::sync_channel::<String>(LINES_QUEUED);
         let (done, written) = mpsc::channel();
         std::thread::spawn(move || {
+            // A failed open drops every line (the queue closes with the
+            // thread).
+            let Ok(mut out) = open() else {
+                return;
+            };
             for line in lines {
                 // Nobody reading any more (a closed pipe) fails each write:
                 // the lines are dropped here rather than filling the queue.
@@ -148,7 +158,7 @@ impl Log {
             format!("[{t:>8.3} s] {who}: {n} log lines dropped (the output was not read)\n")
         });
         Log {
-            out: Lines::new(out, note),
+            out: Lines::new(Box::new(|| Ok(out)), note),
             clock,
             who,
         }
@@ -171,12 +181,24 @@ pub struct Events {
 }
 
 impl Events {
-    /// Events to `path` (`-`: stdout), or none.
+    /// Events to `path` (`-`: stdout), or none. A file is created now (an
+    /// error ends the program before it starts); a FIFO is opened by the
+    /// writer thread, once a reader opens it.
     pub fn open(path: Option<&Path>, clock: Clock) -> io::Result<Self> {
-        let out: Option<Box<dyn Write + Send>> = match path {
+        let out: Option<Opener> = match path {
             None => None,
-            Some(p) if p.as_os_str() == "-" => Some(Box::new(io::stdout())),
-            Some(p) => Some(Box::new(File::create(p)?)),
+            Some(p) if p.as_os_str() == "-" => Some(Box::new(|| Ok(Box::new(io::stdout())))),
+            Some(p) if is_fifo(p) => {
+                let p = p.to_owned();
+                Some(Box::new(move || {
+                    let fifo = std::fs::OpenOptions::new().write(true).open(p)?;
+                    Ok(Box::new(fifo))
+                }))
+            }
+            Some(p) => {
+                let file: Box<dyn Write + Send> = Box::new(File::create(p)?);
+                Some(Box::new(|| Ok(file)))
+            }
         };
         let note = move |n| {
             let t_ms = clock.millis();
@@ -200,6 +222,20 @@ impl Events {
             line.extend(extra);
         }
         out.push(format!("{}\n", Value::Object(line)));
+    }
+}
+
+/// Whether `path` is a FIFO (a named pipe).
+fn is_fifo(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        std::fs::metadata(path).is_ok_and(|m| m.file_type().is_fifo())
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        false
     }
 }
 

@@ -10,11 +10,14 @@ lost at 0.6 s; the handover is the FC's own `handover` event (receiver
 failure -> companion control). A run ends at the handover, at RTL, or after
 6.5 s (the FC falls back 5 s after its first notice), and counts as failed
 without a handover. Then `fbwag decode` MB/s on 1 MB of each pattern (best of
-3). Last, the handover over a TCP FC link of 46 kB/s (about 460,800 baud,
-through a pacing relay) while a ground station's flood into the CC's
-`--out` link, 1 and 2.5 times what that link carries, is routed to the FC.
+3). Last, the handover over a TCP FC link of 46 or 20 kB/s (about 460,800
+and 230,400 baud, through a pacing relay) while a ground station's flood into
+the CC's `--out` link, up to 6 times what that link carries, is routed to
+the FC: with the CC's default pace of routed traffic (`--routed-rate`) and
+without it (`off`).
 
-Usage: handover_under_flood.py FBWAG_BINARY [RUNS]
+Usage: handover_under_flood.py FBWAG_BINARY [RUNS] [slow]
+(`slow`: the slow-link table alone.)
 Stdlib only. Prints markdown.
 """
 
@@ -280,10 +283,10 @@ def ground_station_flood(fbwag, tmp):
     return [hb * 2800]
 
 
-def one_slow_run(fbwag, tmp, pool, per_sec, link_rate, far_buffer):
+def one_slow_run(fbwag, tmp, pool, per_sec, link_rate, far_buffer, cc_args):
     """The handover in ms over a TCP FC link carrying `link_rate` B/s,
-    with `pool` sent into the CC's --out link (routed to the FC): None when
-    it did not happen."""
+    with `pool` sent into the CC's --out link (routed to the FC), the CC
+    run with `cc_args` too: None when it did not happen."""
     fc_port, out_port = free_port(), free_port()
     cc_events, fc_events = os.path.join(tmp, "cc.ev"), os.path.join(tmp, "fc.ev")
     for p in (cc_events, fc_events):
@@ -301,7 +304,7 @@ def one_slow_run(fbwag, tmp, pool, per_sec, link_rate, far_buffer):
     cc = subprocess.Popen(
         [fbwag, "cc", "--link", "tcp:127.0.0.1:%d" % relay,
          "--out", "udpin:127.0.0.1:%d" % out_port,
-         "--duration", "12", "--events", cc_events, *sign], **quiet)
+         "--duration", "12", "--events", cc_events, *sign, *cc_args], **quiet)
     flooder = None
     try:
         time.sleep(0.5)
@@ -376,6 +379,9 @@ def main():
         ("strangers", 20000),
     ]
     with tempfile.TemporaryDirectory() as tmp:
+        if sys.argv[3:] == ["slow"]:
+            slow_link_table(fbwag, tmp, runs)
+            return
         pools = {k: datagrams(k, fbwag, tmp) for k, _ in plan if k != "none"}
         print("| flood into both ports | per port | handovers | p50 ms | p95 ms | max ms |")
         print("|---|---|---|---|---|---|")
@@ -393,27 +399,7 @@ def main():
             print("| %s | %s | %d/%d | %s |" % (kind, per_port, len(ok), runs, stats))
             sys.stdout.flush()
         print()
-        # A ground station's flood into the CC's --out link, routed to the
-        # FC over a TCP link of about 460,800 baud.
-        link_rate = 46_000
-        gcs = ground_station_flood(fbwag, tmp)
-        print("| FC link (TCP, %d kB/s), its far end's buffer | flood into the CC's "
-              "`--out`, routed to the FC | handovers | p50 ms | p95 ms | max ms |"
-              % (link_rate // 1000))
-        print("|---|---|---|---|---|---|")
-        for far_buffer, per_sec in ((4096, 0), (4096, 1), (4096, 2), (None, 2)):
-            pool = gcs if per_sec else None
-            got = [one_slow_run(fbwag, tmp, pool, per_sec, link_rate, far_buffer)
-                   for _ in range(runs)]
-            ok = [g for g in got if g is not None]
-            what = "none" if not per_sec else "%d/s x %d B = %.1fx the link" % (
-                per_sec, len(gcs[0]), per_sec * len(gcs[0]) / link_rate)
-            far = "4 KiB (a UART)" if far_buffer else "the system's (a modem's)"
-            stats = ("%.0f | %.0f | %d" % (percentile(ok, 0.5), percentile(ok, 0.95), max(ok))
-                     if ok else "- | - | -")
-            print("| %s | %s | %d/%d | %s |" % (far, what, len(ok), runs, stats))
-            sys.stdout.flush()
-        print()
+        slow_link_table(fbwag, tmp, runs)
         print("| `fbwag decode`, 1 MB of | MB/s |")
         print("|---|---|")
         rng = random.Random(1)
@@ -421,6 +407,36 @@ def main():
             # A list of datagrams: 1 MB of them back to back.
             pool = pools.get(kind) or [garbage(kind, rng, 1 << 16)]
             print("| %s | %.2f |" % (kind, decode_rate(fbwag, tmp, kind, pool)))
+
+
+def slow_link_table(fbwag, tmp, runs):
+    """A ground station's flood into the CC's --out link, routed to the FC
+    over a TCP link of about 460,800 or 230,400 baud, whose far end holds a
+    UART's 4 KiB or what the system's buffer grows to (a modem's)."""
+    gcs = ground_station_flood(fbwag, tmp)
+    print("| FC link (TCP) | its far end's buffer | flood into the CC's `--out`, "
+          "routed to the FC | CC's `--routed-rate` | handovers | p50 ms | p95 ms | max ms |")
+    print("|---|---|---|---|---|---|---|---|")
+    rows = [(46_000, 4096, 0, "default"), (46_000, 4096, 1, "default"),
+            (46_000, 4096, 2, "default"), (46_000, None, 2, "default"),
+            (46_000, None, 2, "off"), (20_000, None, 2, "default"),
+            (20_000, None, 2, "off")]
+    for link_rate, far_buffer, per_sec, routed in rows:
+        pool = gcs if per_sec else None
+        cc_args = ["--routed-rate", "off"] if routed == "off" else []
+        got = [one_slow_run(fbwag, tmp, pool, per_sec, link_rate, far_buffer, cc_args)
+               for _ in range(runs)]
+        ok = [g for g in got if g is not None]
+        what = "none" if not per_sec else "%d/s x %d B = %.1fx the link" % (
+            per_sec, len(gcs[0]), per_sec * len(gcs[0]) / link_rate)
+        far = "4 KiB (a UART)" if far_buffer else "the system's (a modem's)"
+        rate = "8000 B/s (default)" if routed == "default" else "off"
+        stats = ("%.0f | %.0f | %d" % (percentile(ok, 0.5), percentile(ok, 0.95), max(ok))
+                 if ok else "- | - | -")
+        print("| %d kB/s | %s | %s | %s | %d/%d | %s |" % (
+            link_rate // 1000, far, what, rate, len(ok), runs, stats))
+        sys.stdout.flush()
+    print()
 
 
 def human(bps):

@@ -235,13 +235,14 @@ enum Command {
         outs: Vec<String>,
         /// What --out links route to the FC link goes at most this many
         /// bytes a second (or `off`); the companion's own frames are never
-        /// held back. Keep it below what the FC link carries: then a
-        /// flood from a ground station's side can never fill the buffer at
-        /// the link's far end (a telemetry modem's, a serial bridge's)
-        /// ahead of the companion's acknowledgement; routed frames beyond
-        /// it are dropped and counted. Default: half a serial link's byte
-        /// rate (baud / 20), 8000 on other links (a ground station's uplink
-        /// needs a few hundred).
+        /// held back. Keep it below what the FC link carries: then a flood
+        /// from a ground station's side can never fill the buffer at the
+        /// link's far end (a telemetry modem's, a serial bridge's) ahead of
+        /// the companion's acknowledgement. At most a second of routed
+        /// frames waits; older ones are dropped first and counted. Default:
+        /// half a serial link's byte rate (baud / 20), 8000 on other links.
+        /// A ground station's commands and transfers need a few hundred;
+        /// RTK corrections (GPS_RTCM_DATA) 1–5 kB/s more.
         #[arg(long, value_name = "BYTES_PER_S|off", allow_hyphen_values = true, value_parser = args::routed_rate)]
         routed_rate: Option<args::RoutedRate>,
         /// The link of your own autonomy program (e.g. udpin:127.0.0.1:14560).

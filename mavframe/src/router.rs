@@ -63,7 +63,7 @@ use tokio_util::codec::Decoder;
 
 mod pace;
 use core::num::NonZeroU32;
-use pace::Pace;
+use pace::Backlog;
 
 /// How often a failed link is opened again.
 pub const REOPEN_INTERVAL: Duration = Duration::from_secs(1);
@@ -137,13 +137,14 @@ pub struct LinkConfig {
     /// Frames routed through the link ([`Router::forward`],
     /// [`Router::send_routed`]) go at most this many bytes a second (after
     /// a burst of an eighth of a second's, or one frame), each `tcpin`
-    /// client's apart; the owner's own frames are never held back. Below
-    /// the link's own rate, a flood routed to the link can never fill its
-    /// far end's buffer (a modem's, a serial bridge's), so the owner's next
-    /// frame waits behind one routed frame at most; the kernel bound above
-    /// cannot reach that buffer. Routed frames the pace holds back fill
-    /// the link's queue, and those that find it full are dropped
-    /// ([`LinkCounters::routed_dropped`]). `None` (the default): unpaced.
+    /// client's apart; the owner's own frames are never held back behind
+    /// them. Below the link's own rate, a flood routed to the link can
+    /// never fill its far end's buffer (a modem's, a serial bridge's): the
+    /// owner's next frame waits behind one burst at most; the kernel bound
+    /// above cannot reach that buffer. The pace holds back a second of
+    /// routed frames at most, dropping the oldest first
+    /// ([`LinkCounters::routed_dropped`]), and drops what it holds while
+    /// the link is down. `None` (the default): unpaced.
     pub routed_rate: Option<NonZeroU32>,
 }
 
@@ -236,9 +237,11 @@ struct Queues {
     own_closed: bool,
     /// The routed queue's sender is gone (the router with it).
     routed_closed: bool,
-    pace: Option<Pace>,
-    /// A routed frame taken from its queue, waiting for the pace.
-    waiting: Option<Box<[u8]>>,
+    /// With [`LinkConfig::routed_rate`]: the routed frames the pace holds
+    /// back.
+    backlog: Option<Backlog>,
+    /// The link's counters: frames the backlog drops.
+    counters: Arc<Mutex<LinkCounters>>,
 }
 
 impl Queues {
@@ -246,64 +249,120 @@ impl Queues {
         own: mpsc::Receiver<Command>,
         routed: mpsc::Receiver<Box<[u8]>>,
         rate: Option<NonZeroU32>,
+        counters: Arc<Mutex<LinkCounters>>,
     ) -> Queues {
         Queues {
             own,
             routed,
             own_closed: false,
             routed_closed: false,
-            pace: rate.map(|r| Pace::new(r, tokio::time::Instant::now())),
-            waiting: None,
+            backlog: rate.map(|r| Backlog::new(r, tokio::time::Instant::now())),
+            counters,
         }
     }
 
     /// The next command, the owner's first; `None` once the router is
-    /// gone (after what was queued).
+    /// gone (after what was queued). Cancel-safe: what it takes from the
+    /// queues before it returns stays in the backlog.
     async fn recv(&mut self) -> Option<Command> {
         loop {
-            if let Some(bytes) = self.waiting.take() {
-                let Some(wait) = self.pace_wait(bytes.len()) else {
-                    return Some(Command::Routed(bytes));
-                };
-                self.waiting = Some(bytes);
-                tokio::select! {
-                    biased;
-                    c = self.own.recv(), if !self.own_closed => match c {
-                        Some(c) => return Some(c),
-                        None => self.own_closed = true,
-                    },
-                    () = tokio::time::sleep(wait) => {}
-                }
-                continue;
-            }
-            if self.own_closed {
-                return self.routed.try_recv().ok().map(Command::Routed);
-            }
+            let wait = match self.paced() {
+                Paced::Go(c) => return c,
+                Paced::Wait(wait) => wait,
+            };
             tokio::select! {
                 biased;
-                c = self.own.recv() => match c {
+                c = self.own.recv(), if !self.own_closed => match c {
                     Some(c) => return Some(c),
                     None => self.own_closed = true,
                 },
-                r = self.routed.recv(), if !self.routed_closed => match r {
-                    Some(bytes) => self.waiting = Some(bytes),
-                    None => self.routed_closed = true,
+                r = self.routed.recv(), if !self.routed_closed && !self.own_closed => match (r, &mut self.backlog) {
+                    (Some(bytes), None) => return Some(Command::Routed(bytes)),
+                    (Some(bytes), Some(backlog)) => {
+                        let dropped = backlog.push(bytes);
+                        self.count_dropped(dropped);
+                    }
+                    (None, _) => self.routed_closed = true,
                 },
+                () = sleep_for(wait), if wait.is_some() => {}
             }
         }
     }
 
-    /// How long a routed frame of `len` bytes must wait for the pace;
-    /// `None` when it may go now (its bytes taken from the pace).
-    fn pace_wait(&mut self, len: usize) -> Option<Duration> {
+    /// What [`recv`](Self::recv) does before it waits: once the router is
+    /// gone, the frames routed so far, unpaced; else a frame of the owner's
+    /// already queued, then the oldest routed frame held back when the pace
+    /// lets it go; else how long the pace holds it (`None`: nothing held).
+    fn paced(&mut self) -> Paced {
         if self.own_closed {
-            return None;
+            let held = self.backlog.as_mut().and_then(Backlog::pop);
+            let next = held.or_else(|| self.routed.try_recv().ok());
+            return Paced::Go(next.map(Command::Routed));
         }
-        self.pace
-            .as_mut()?
-            .admit(len, tokio::time::Instant::now())
-            .err()
+        if self.backlog.as_ref().is_none_or(Backlog::is_empty) {
+            return Paced::Wait(None);
+        }
+        match self.own.try_recv() {
+            Ok(c) => return Paced::Go(Some(c)),
+            Err(mpsc::error::TryRecvError::Disconnected) => {
+                self.own_closed = true;
+                return self.paced();
+            }
+            Err(mpsc::error::TryRecvError::Empty) => {}
+        }
+        match self
+            .backlog
+            .as_mut()
+            .map(|b| b.release(tokio::time::Instant::now()))
+        {
+            Some(Ok(Some(bytes))) => Paced::Go(Some(Command::Routed(bytes))),
+            Some(Err(wait)) => Paced::Wait(Some(wait)),
+            _ => Paced::Wait(None),
+        }
     }
+
+    /// Waits for the next command or routed frame and drops it, with the
+    /// backlog (a link that is down): `false` once the router is gone.
+    async fn drop_next(&mut self) -> bool {
+        if let Some(backlog) = &mut self.backlog {
+            let dropped = backlog.clear();
+            self.count_dropped(dropped);
+        }
+        if self.own_closed {
+            return false;
+        }
+        tokio::select! {
+            biased;
+            c = self.own.recv() => {
+                self.own_closed = c.is_none();
+                c.is_some()
+            }
+            r = self.routed.recv(), if !self.routed_closed => {
+                self.routed_closed = r.is_none();
+                true
+            }
+        }
+    }
+
+    fn count_dropped(&self, dropped: u64) {
+        if dropped > 0 {
+            let mut c = self.counters.lock().unwrap_or_else(PoisonError::into_inner);
+            c.routed_dropped = c.routed_dropped.saturating_add(dropped);
+        }
+    }
+}
+
+/// What [`Queues::paced`] decided.
+enum Paced {
+    /// Return this.
+    Go(Option<Command>),
+    /// Wait for a queue, or this long for the pace.
+    Wait(Option<Duration>),
+}
+
+/// Sleeps `wait` (a branch disabled when `None`).
+async fn sleep_for(wait: Option<Duration>) {
+    tokio::time::sleep(wait.unwrap_or_default()).await;
 }
 
 /// Counters of one link.
@@ -381,7 +440,7 @@ impl<D: Dialect + 'static> Router<D> {
             id,
             config,
             events: self.events_tx.clone(),
-            commands: Queues::new(own, routed_rx, rate),
+            commands: Queues::new(own, routed_rx, rate, counters.clone()),
             counters: counters.clone(),
             state,
         };
@@ -778,7 +837,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
         loop {
             tokio::select! {
                 _ = tokio::time::sleep_until(until) => return Ok(()),
-                c = self.commands.recv() => if c.is_none() { return Err(()) },
+                more = self.commands.drop_next() => if !more { return Err(()) },
             }
         }
     }
@@ -1015,7 +1074,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         accepted += 1;
                         clients.push(Client { addr, output: tx, routed, standing: standing.clone(), order: accepted });
                         let task = ClientTask { addr, link: self.id, shared: shared.clone(), standing };
-                        let output = Queues::new(own, routed_rx, self.config.routed_rate);
+                        let output = Queues::new(own, routed_rx, self.config.routed_rate, self.counters.clone());
                         tokio::spawn(serve_client(stream, task, self.codec(), output, self.events.clone()));
                     }
                     Err(e) => {
@@ -1356,7 +1415,7 @@ mod tests {
     async fn a_link_sends_the_owners_frames_before_routed_ones() {
         let (own_tx, own) = mpsc::channel(8);
         let (routed_tx, routed) = mpsc::channel(8);
-        let mut queues = Queues::new(own, routed, None);
+        let mut queues = Queues::new(own, routed, None, Arc::default());
         for b in [1u8, 2, 3] {
             routed_tx.try_send(Box::from(&[b][..])).unwrap();
         }
@@ -1395,7 +1454,7 @@ mod tests {
         let (routed_tx, routed) = mpsc::channel(8);
         // 2,240 bytes a second: a burst of one 280-byte frame, then one
         // every 125 ms.
-        let mut queues = Queues::new(own, routed, NonZeroU32::new(2_240));
+        let mut queues = Queues::new(own, routed, NonZeroU32::new(2_240), Arc::default());
         for b in 0..5u8 {
             routed_tx.try_send(Box::from(&[b; 280][..])).unwrap();
         }
@@ -1434,6 +1493,97 @@ mod tests {
         );
         assert_eq!(next(q, t0).await, (250, false, 4));
         assert!(q.recv().await.is_none());
+    }
+
+    /// Routed frames beyond a second of the pace are dropped, the oldest
+    /// first, and counted: a frame routed into a flood goes within about a
+    /// second. The owner's frame queued while a routed one waits for the
+    /// pace goes first; a link that is down drops what the pace held.
+    #[tokio::test(start_paused = true)]
+    async fn a_paced_link_keeps_a_second_of_routed_frames_the_newest() {
+        use tokio::time::Instant;
+        let (own_tx, own) = mpsc::channel(8);
+        let (routed_tx, routed) = mpsc::channel(LINK_QUEUE);
+        let counters = Arc::new(Mutex::new(LinkCounters::default()));
+        // 2,240 bytes a second: a burst and a backlog of 280-byte frames,
+        // one every 125 ms.
+        let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), counters.clone());
+        let frame = |b: u8| Box::from(&[b; 280][..]);
+        for b in 0..100u8 {
+            routed_tx.try_send(frame(b)).unwrap();
+        }
+        let t0 = Instant::now();
+        let mut got: Vec<(u128, u8)> = Vec::new();
+        while got.last().is_none_or(|g| g.1 != 200) && got.len() < 20 {
+            match q.recv().await {
+                Some(Command::Routed(b)) => got.push((t0.elapsed().as_millis(), b[0])),
+                _ => panic!("not a routed frame"),
+            }
+            if got.len() == 2 {
+                // Queued behind a flood: goes within a second.
+                routed_tx.try_send(frame(200)).unwrap();
+                own_tx
+                    .try_send(Command::Raw(Box::from(&[9u8][..])))
+                    .unwrap();
+                assert!(
+                    matches!(q.recv().await, Some(Command::Raw(_))),
+                    "the owner's first"
+                );
+            }
+        }
+        let last = got
+            .iter()
+            .find(|g| g.1 == 200)
+            .expect("the late frame went");
+        assert!(last.0 <= 1_250, "{got:?}");
+        assert_eq!(
+            got.len(),
+            10,
+            "the first, eight newest of the flood, the late one: {got:?}"
+        );
+        let dropped = counters.lock().unwrap().routed_dropped;
+        assert!(dropped >= 90, "{dropped} dropped, {got:?}");
+        // Down: what the pace held is dropped.
+        routed_tx.try_send(frame(201)).unwrap();
+        routed_tx.try_send(frame(202)).unwrap();
+        assert!(matches!(q.recv().await, Some(Command::Routed(_))));
+        let before = counters.lock().unwrap().routed_dropped;
+        routed_tx.try_send(frame(203)).unwrap();
+        assert!(q.drop_next().await);
+        assert!(q.backlog.as_ref().is_some_and(Backlog::is_empty));
+        let held = counters.lock().unwrap().routed_dropped - before;
+        assert_eq!(held, 1, "202, held by the pace, dropped and counted");
+        drop((own_tx, routed_tx));
+        assert!(!q.drop_next().await);
+    }
+
+    /// A routed frame the pace has let go still waits for the owner's frame
+    /// queued meanwhile; a `recv` cancelled while the pace holds a frame
+    /// keeps it.
+    #[tokio::test(start_paused = true)]
+    async fn a_paced_link_lets_the_owners_frame_pass_a_released_one() {
+        use tokio::time::{sleep, timeout};
+        let (own_tx, own) = mpsc::channel(8);
+        let (routed_tx, routed) = mpsc::channel(8);
+        let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), Arc::default());
+        for b in [0u8, 1] {
+            routed_tx.try_send(Box::from(&[b; 280][..])).unwrap();
+        }
+        assert!(matches!(q.recv().await, Some(Command::Routed(b)) if b[0] == 0));
+        // Frame 1 taken into the backlog, held 125 ms: cancelled at 10.
+        assert!(timeout(Duration::from_millis(10), q.recv()).await.is_err());
+        sleep(Duration::from_millis(200)).await;
+        own_tx
+            .try_send(Command::Raw(Box::from(&[9u8][..])))
+            .unwrap();
+        assert!(
+            matches!(q.recv().await, Some(Command::Raw(_))),
+            "the owner's first"
+        );
+        assert!(
+            matches!(q.recv().await, Some(Command::Routed(b)) if b[0] == 1),
+            "then 1, kept"
+        );
     }
 
     /// A client that stops reading is dropped once a write to it has

@@ -21,7 +21,9 @@ use serde_json::{Map, Value};
 use std::fs::File;
 use std::io::{self, Write};
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+use std::sync::Arc;
 use std::time::{Duration, Instant as WallInstant};
 
 /// The engines' time from a wall clock started with the program.
@@ -74,22 +76,41 @@ struct Lines {
     note: Box<dyn Fn(u64) -> String + Send>,
     /// Closed by the writer thread when it has written every line.
     written: Receiver<()>,
+    /// Set by the writer thread once it has opened its output: until then
+    /// (a FIFO nobody has opened to read) there is nothing to wait for at
+    /// the end.
+    opened: Arc<AtomicBool>,
 }
 
-/// What a [`Lines`] writer thread writes to, opened by that thread:
-/// opening a FIFO for writing waits for a reader, and must not hold the
-/// daemon's start (its lines queue meanwhile, as for a stalled reader).
-type Opener = Box<dyn FnOnce() -> io::Result<Box<dyn Write + Send>> + Send>;
+/// What a [`Lines`] writer thread writes to.
+enum Output {
+    /// Open already.
+    Open(Box<dyn Write + Send>),
+    /// Opened by that thread: opening a FIFO for writing waits for a
+    /// reader, and must not hold the daemon's start (its lines queue
+    /// meanwhile, as for a stalled reader).
+    Later(Box<dyn FnOnce() -> io::Result<Box<dyn Write + Send>> + Send>),
+}
 
 impl Lines {
-    fn new(open: Opener, note: Box<dyn Fn(u64) -> String + Send>) -> Self {
+    fn new(output: Output, note: Box<dyn Fn(u64) -> String + Send>) -> Self {
         let (queue, lines) = mpsc::sync_channel::<String>(LINES_QUEUED);
         let (done, written) = mpsc::channel();
+        let opened = Arc::new(AtomicBool::new(matches!(output, Output::Open(_))));
+        let open_flag = opened.clone();
         std::thread::spawn(move || {
-            // A failed open drops every line (the queue closes with the
-            // thread).
-            let Ok(mut out) = open() else {
-                return;
+            let mut out = match output {
+                Output::Open(out) => out,
+                // A failed open drops every line (the queue closes with the
+                // thread): checked at start (`Events::open`), it can only
+                // fail if the file changed since.
+                Output::Later(open) => match open() {
+                    Ok(out) => {
+                        open_flag.store(true, Ordering::Release);
+                        out
+                    }
+                    Err(_) => return,
+                },
             };
             for line in lines {
                 // Nobody reading any more (a closed pipe) fails each write:
@@ -103,6 +124,7 @@ impl Lines {
             dropped: 0,
             note,
             written,
+            opened,
         }
     }
 
@@ -137,7 +159,9 @@ impl Drop for Lines {
             let _ = queue.try_send((self.note)(self.dropped));
         }
         self.queue = None;
-        let _ = self.written.recv_timeout(LINES_DRAIN);
+        if self.opened.load(Ordering::Acquire) {
+            let _ = self.written.recv_timeout(LINES_DRAIN);
+        }
     }
 }
 
@@ -158,7 +182,7 @@ impl Log {
             format!("[{t:>8.3} s] {who}: {n} log lines dropped (the output was not read)\n")
         });
         Log {
-            out: Lines::new(Box::new(|| Ok(out)), note),
+            out: Lines::new(Output::Open(out), note),
             clock,
             who,
         }
@@ -185,20 +209,20 @@ impl Events {
     /// error ends the program before it starts); a FIFO is opened by the
     /// writer thread, once a reader opens it.
     pub fn open(path: Option<&Path>, clock: Clock) -> io::Result<Self> {
-        let out: Option<Opener> = match path {
+        let out = match path {
             None => None,
-            Some(p) if p.as_os_str() == "-" => Some(Box::new(|| Ok(Box::new(io::stdout())))),
+            Some(p) if p.as_os_str() == "-" => Some(Output::Open(Box::new(io::stdout()))),
             Some(p) if is_fifo(p) => {
+                fifo_can_be_opened(p).map_err(|e| events_error(p, e))?;
                 let p = p.to_owned();
-                Some(Box::new(move || {
+                Some(Output::Later(Box::new(move || {
                     let fifo = std::fs::OpenOptions::new().write(true).open(p)?;
                     Ok(Box::new(fifo))
-                }))
+                })))
             }
-            Some(p) => {
-                let file: Box<dyn Write + Send> = Box::new(File::create(p)?);
-                Some(Box::new(|| Ok(file)))
-            }
+            Some(p) => Some(Output::Open(Box::new(
+                File::create(p).map_err(|e| events_error(p, e))?,
+            ))),
         };
         let note = move |n| {
             let t_ms = clock.millis();
@@ -222,6 +246,34 @@ impl Events {
             line.extend(extra);
         }
         out.push(format!("{}\n", Value::Object(line)));
+    }
+}
+
+/// `e`, naming the `--events` file it came from.
+fn events_error(path: &Path, e: io::Error) -> io::Error {
+    io::Error::new(e.kind(), format!("--events {}: {e}", path.display()))
+}
+
+/// Fails as opening the FIFO `path` for writing would (no permission, say),
+/// except for having no reader yet: checked at start, where an error ends
+/// the program, since the writer thread opens it later.
+fn fifo_can_be_opened(path: &Path) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        let probe = std::fs::OpenOptions::new()
+            .write(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(path);
+        match probe {
+            Err(e) if e.raw_os_error() != Some(libc::ENXIO) => Err(e),
+            _ => Ok(()),
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        Ok(())
     }
 }
 

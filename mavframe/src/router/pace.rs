@@ -5,13 +5,20 @@
 //! buffer (a telemetry modem's, a serial bridge's), which a flood routed
 //! to a link slower than the flood fills, seconds of it, ahead of the
 //! owner's next frame. Routed frames that go no faster than the link
-//! carries never fill it: then the owner's frame waits for one routed frame
-//! at most.
+//! carries never fill it: then the owner's frame waits for at most a burst
+//! of them (an eighth of a second of the pace).
+//!
+//! What the pace holds back waits in a [`Backlog`] of a second of the pace
+//! at most; older frames are dropped first, so that a ground station's
+//! command sent into a flood goes within about a second, not after the
+//! flood's whole queue.
 //!
 //! [`LinkConfig::routed_rate`]: super::LinkConfig::routed_rate
 
 use crate::frame::MAX_FRAME_LEN;
 use core::num::NonZeroU32;
+use std::boxed::Box;
+use std::collections::VecDeque;
 use std::time::Duration;
 use tokio::time::Instant;
 
@@ -54,6 +61,70 @@ impl Pace {
         } else {
             Err(Duration::from_secs_f64((len - self.tokens) / self.rate))
         }
+    }
+}
+
+/// Routed frames the pace holds back, a second of the pace (or a frame of
+/// the longest) at most: a frame that would make it longer drops the oldest.
+#[derive(Debug)]
+pub(super) struct Backlog {
+    pace: Pace,
+    frames: VecDeque<Box<[u8]>>,
+    bytes: usize,
+    cap: usize,
+}
+
+impl Backlog {
+    pub(super) fn new(rate: NonZeroU32, now: Instant) -> Backlog {
+        Backlog {
+            pace: Pace::new(rate, now),
+            frames: VecDeque::new(),
+            bytes: 0,
+            cap: (rate.get() as usize).max(MAX_FRAME_LEN),
+        }
+    }
+
+    /// Holds `frame` back; returns how many older frames it dropped.
+    pub(super) fn push(&mut self, frame: Box<[u8]>) -> u64 {
+        self.bytes += frame.len();
+        self.frames.push_back(frame);
+        let mut dropped = 0;
+        while self.bytes > self.cap && self.frames.len() > 1 {
+            if let Some(old) = self.frames.pop_front() {
+                self.bytes -= old.len();
+                dropped += 1;
+            }
+        }
+        dropped
+    }
+
+    /// The oldest frame held when the pace lets it go at `now`; `Ok(None)`
+    /// when none is held; else how long until it may go.
+    pub(super) fn release(&mut self, now: Instant) -> Result<Option<Box<[u8]>>, Duration> {
+        let Some(len) = self.frames.front().map(|f| f.len()) else {
+            return Ok(None);
+        };
+        self.pace.admit(len, now)?;
+        Ok(self.pop())
+    }
+
+    pub(super) fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// The oldest frame held, whatever the pace (the router is gone).
+    pub(super) fn pop(&mut self) -> Option<Box<[u8]>> {
+        let frame = self.frames.pop_front()?;
+        self.bytes -= frame.len();
+        Some(frame)
+    }
+
+    /// Drops every frame held (the link is down); returns how many.
+    pub(super) fn clear(&mut self) -> u64 {
+        let n = self.frames.len() as u64;
+        self.frames.clear();
+        self.bytes = 0;
+        n
     }
 }
 
@@ -105,5 +176,28 @@ mod tests {
         let mut big = Pace::new(rate(100), t0);
         assert_eq!(big.admit(10 * MAX_FRAME_LEN, t0), Ok(()));
         assert!(big.admit(10 * MAX_FRAME_LEN, t0).is_err());
+    }
+
+    #[test]
+    fn a_backlog_keeps_a_second_of_the_pace_the_newest_frames() {
+        let t0 = Instant::now();
+        // 1,000 B/s: a backlog of 1,000 bytes, a burst of 280.
+        let mut backlog = Backlog::new(rate(1_000), t0);
+        let dropped: u64 = (0..30u8)
+            .map(|i| backlog.push(Box::from(&[i; 100][..])))
+            .sum();
+        assert_eq!(dropped, 20, "ten frames of 100 bytes kept");
+        let first = |r: Result<Option<Box<[u8]>>, Duration>| r.map(|f| f.map(|f| f[0]));
+        assert_eq!(first(backlog.release(t0)), Ok(Some(20)), "the oldest kept");
+        assert_eq!(first(backlog.release(t0)), Ok(Some(21)));
+        assert!(backlog.release(t0).is_err(), "the burst spent");
+        assert_eq!(backlog.pop().map(|f| f[0]), Some(22), "unpaced");
+        assert_eq!(backlog.clear(), 7);
+        assert_eq!(first(backlog.release(t0)), Ok(None));
+        // A frame longer than the cap is kept alone.
+        let mut small = Backlog::new(rate(60), t0);
+        assert_eq!(small.push(Box::from(&[1u8; 200][..])), 0);
+        assert_eq!(small.push(Box::from(&[2u8; 280][..])), 1);
+        assert_eq!(small.pop().map(|f| f.len()), Some(280));
     }
 }

@@ -249,33 +249,40 @@ fn events_to_a_fifo_without_a_reader_never_hold_a_daemon() {
     use std::io::Read;
     let dir = std::env::temp_dir().join(format!("fbwag-fifo-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    for (daemon, read_later) in [(CC, false), (FC, false), (FC, true)] {
-        let fifo = dir.join("events");
-        let _ = std::fs::remove_file(&fifo);
-        let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
-        assert!(made.success());
-        let started = Instant::now();
-        let child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
-            .args(daemon)
-            .args(["--duration", "1.5", "--events"])
-            .arg(&fifo)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let reader = read_later.then(|| {
-            let fifo = fifo.clone();
-            std::thread::spawn(move || {
-                std::thread::sleep(Duration::from_millis(500));
-                let mut text = String::new();
-                std::fs::File::open(fifo)
-                    .unwrap()
-                    .read_to_string(&mut text)
-                    .unwrap();
-                text
-            })
-        });
+    let started = Instant::now();
+    // The three side by side: a CC and a FC nobody reads, a FC read late.
+    let runs: Vec<_> = [(CC, false), (FC, false), (FC, true)]
+        .into_iter()
+        .enumerate()
+        .map(|(i, (daemon, read_later))| {
+            let fifo = dir.join(format!("events-{i}"));
+            let _ = std::fs::remove_file(&fifo);
+            let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
+            assert!(made.success());
+            let child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+                .args(daemon)
+                .args(["--duration", "1.5", "--events"])
+                .arg(&fifo)
+                .stdin(Stdio::null())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap();
+            let reader = read_later.then(|| {
+                std::thread::spawn(move || {
+                    std::thread::sleep(Duration::from_millis(500));
+                    let mut text = String::new();
+                    std::fs::File::open(fifo)
+                        .unwrap()
+                        .read_to_string(&mut text)
+                        .unwrap();
+                    text
+                })
+            });
+            (daemon, child, reader)
+        })
+        .collect();
+    for (daemon, child, reader) in runs {
         let out = wait_bounded(child, started).expect("the daemon hung");
         let log = String::from_utf8_lossy(&out.stdout);
         assert!(out.status.success(), "{daemon:?}: {log}");

@@ -615,16 +615,19 @@ fn slow_relay(to: std::net::SocketAddr, bytes_per_sec: f64, far_buffer: Option<u
     port
 }
 
-/// A ground station's flood into the CC's `--out` link, routed to the FC
-/// over a TCP link of about 460,800 baud (46 KB/s), 2.5 times what that
-/// link carries: the handover happens and companion control holds. (The
-/// flood and the CC's own frames shared one queue, and the kernel's send
-/// buffer grew to megabytes of flood: the CC's acknowledgement never
-/// reached the FC, which fell back to RTL.)
-#[test]
-fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
+/// A signed FC (`tcpin`) and CC (`tcp:` through [`slow_relay`] carrying
+/// `link_rate` bytes a second, its far end holding `far_buffer`), the RC
+/// lost at 3 s, and a ground station's broadcast heartbeats, 58.8 KB
+/// datagrams twice a second, sent into the CC's `--out` link, which routes
+/// them to the FC: the handover must happen and companion control hold.
+/// Returns the CC's run.
+fn handover_with_a_flood_routed_to_a_slow_link(
+    name: &str,
+    link_rate: f64,
+    far_buffer: Option<usize>,
+) -> Finished {
     let _heavy = heavy();
-    let dir = scratch("slow-link");
+    let dir = scratch(name);
     let s = Setup {
         rc_loss_at: 3.0,
         duration: 6.0,
@@ -636,7 +639,7 @@ fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
     fc_a.extend(s.signing_args());
     let fc = Daemon::spawn(&dir, "fc", &fc_a);
     std::thread::sleep(Duration::from_millis(300));
-    let relay = slow_relay(local(fc_port), 46_000.0, Some(4096));
+    let relay = slow_relay(local(fc_port), link_rate, far_buffer);
     let out_port = free_port();
     let mut cc_a = args(&["cc", "--link", &format!("tcp:127.0.0.1:{relay}")]);
     cc_a.extend(args(&["--out", &format!("udpin:127.0.0.1:{out_port}")]));
@@ -644,7 +647,6 @@ fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
     cc_a.extend(s.signing_args());
     let cc = Daemon::spawn(&dir, "cc", &cc_a);
     std::thread::sleep(Duration::from_millis(500));
-    // Broadcast heartbeats of a ground station, 58.8 KB a datagram.
     let hb = frame(GCS, 0, &wire::cc_heartbeat(), None);
     let datagram: Vec<u8> = hb.iter().copied().cycle().take(hb.len() * 2800).collect();
     let attacker = Attacker::start(&[local(out_port)], 2.0, 0, move |_, _| datagram.clone());
@@ -653,46 +655,29 @@ fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
     let sent = attacker.stop();
     assert!(sent.datagrams >= 8, "{sent:?}");
     assert_safe_handover(&fc, &cc, &s);
+    cc
 }
 
-/// The same flood routed to a slower link (20 KB/s, about 230,400 baud)
-/// whose far end buffers what it is sent, as a radio modem or a serial
-/// bridge does: the CC paces what it routes to the FC link (8 KB/s by
-/// default, below the link's rate), so that buffer never fills ahead of
-/// its acknowledgement, and the handover happens. (Unpaced, `--routed-rate
-/// off`, the buffer held seconds of the flood and the FC fell back to RTL.)
+/// The flood at 2.5 times what a TCP link of about 460,800 baud (46 KB/s)
+/// carries, its far end a UART's 4 KiB. (The flood and the CC's own frames
+/// shared one queue, and the kernel's send buffer grew to megabytes of
+/// flood: the CC's acknowledgement never reached the FC, which fell back to
+/// RTL.)
+#[test]
+fn a_flood_routed_to_a_slow_fc_link_never_crowds_out_the_protocol() {
+    handover_with_a_flood_routed_to_a_slow_link("slow-link", 46_000.0, Some(4096));
+}
+
+/// The flood routed to a slower link (20 KB/s, about 230,400 baud) whose
+/// far end buffers what it is sent, as a radio modem or a serial bridge
+/// does: the CC paces what it routes to the FC link (8 KB/s by default,
+/// below the link's rate), so that buffer never fills ahead of its
+/// acknowledgement. (Unpaced, `--routed-rate off`, the buffer held seconds
+/// of the flood and the FC fell back to RTL.)
 #[test]
 fn a_flood_routed_to_a_slow_link_never_fills_its_far_end() {
-    let _heavy = heavy();
-    let dir = scratch("slow-modem");
-    let s = Setup {
-        rc_loss_at: 3.0,
-        duration: 6.0,
-        ..Setup::signed()
-    };
-    let fc_port = free_port();
-    let mut fc_a = args(&["fc-sim", "--link", &format!("tcpin:127.0.0.1:{fc_port}")]);
-    fc_a.extend(args(&["--rc-loss-at", "3", "--duration", "6"]));
-    fc_a.extend(s.signing_args());
-    let fc = Daemon::spawn(&dir, "fc", &fc_a);
-    std::thread::sleep(Duration::from_millis(300));
-    let relay = slow_relay(local(fc_port), 20_000.0, None);
-    let out_port = free_port();
-    let mut cc_a = args(&["cc", "--link", &format!("tcp:127.0.0.1:{relay}")]);
-    cc_a.extend(args(&["--out", &format!("udpin:127.0.0.1:{out_port}")]));
-    cc_a.extend(args(&["--duration", &s.cc_duration().to_string()]));
-    cc_a.extend(s.signing_args());
-    let cc = Daemon::spawn(&dir, "cc", &cc_a);
-    std::thread::sleep(Duration::from_millis(500));
-    let hb = frame(GCS, 0, &wire::cc_heartbeat(), None);
-    let datagram: Vec<u8> = hb.iter().copied().cycle().take(hb.len() * 2800).collect();
-    let attacker = Attacker::start(&[local(out_port)], 2.0, 0, move |_, _| datagram.clone());
-    let limit = Duration::from_secs_f64(s.cc_duration() + 10.0);
-    let (fc, cc) = (fc.finish(limit), cc.finish(limit));
-    let sent = attacker.stop();
-    assert!(sent.datagrams >= 8, "{sent:?}");
+    let cc = handover_with_a_flood_routed_to_a_slow_link("slow-modem", 20_000.0, None);
     assert!(cc.log.contains("at most 8000 bytes/s"), "{}", cc.dump());
-    assert_safe_handover(&fc, &cc, &s);
 }
 
 // ---------------------------------------------------------------------------

@@ -239,7 +239,8 @@ enum Command {
         /// from a ground station's side can never fill the buffer at the
         /// link's far end (a telemetry modem's, a serial bridge's) ahead of
         /// the companion's acknowledgement. At most a second of routed
-        /// frames waits; older ones are dropped first and counted. Default:
+        /// frames waits, each sender's (address) in turn; the busiest
+        /// sender's oldest are dropped first, and counted. Default:
         /// half a serial link's byte rate (baud / 20), 8000 on other links.
         /// A ground station's commands and transfers need a few hundred;
         /// RTK corrections (GPS_RTCM_DATA) 1–5 kB/s more.

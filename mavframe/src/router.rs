@@ -142,9 +142,11 @@ pub struct LinkConfig {
     /// never fill its far end's buffer (a modem's, a serial bridge's): the
     /// owner's next frame waits behind one burst at most; the kernel bound
     /// above cannot reach that buffer. The pace holds back a second of
-    /// routed frames at most, dropping the oldest first
-    /// ([`LinkCounters::routed_dropped`]), and drops what it holds while
-    /// the link is down. `None` (the default): unpaced.
+    /// routed frames at most, a queue per sender (link and source address)
+    /// served in turn, dropping the oldest of the longest queue first
+    /// ([`LinkCounters::routed_dropped`]): a flood from one sender does not
+    /// hold another's frames back. It drops what it holds while the link
+    /// is down. `None` (the default): unpaced.
     pub routed_rate: Option<NonZeroU32>,
 }
 
@@ -208,17 +210,32 @@ enum Command {
     },
     /// `udpin` with [`ReplyTo::Pinned`]: answer this address.
     Pin(SocketAddr),
-    /// Send these frame bytes, routed from another link ([`Queues`]).
-    Routed(Box<[u8]>),
+    /// Send these frame bytes, routed from another link ([`Queues`]), from
+    /// the sender of this key ([`sender_key`]).
+    Routed(u32, Box<[u8]>),
 }
 
 struct LinkHandle {
     endpoint: Endpoint,
     commands: mpsc::Sender<Command>,
     /// Frames routed through the link ([`Router::forward`]): see [`Queues`].
-    routed: mpsc::Sender<Box<[u8]>>,
+    routed: mpsc::Sender<RoutedFrame>,
     counters: Arc<Mutex<LinkCounters>>,
     task: tokio::task::JoinHandle<()>,
+}
+
+/// A routed frame in a link's queue: the key of its sender
+/// ([`sender_key`]) and its bytes.
+type RoutedFrame = (u32, Box<[u8]>);
+
+/// The key of a routed frame's sender: the link it came in on and the
+/// address it came from (a paced link queues senders apart: [`Backlog`]).
+/// 0 is the owner's (frames it routes itself, [`Router::send_routed`]).
+fn sender_key(link: LinkId, source: Option<SocketAddr>) -> u32 {
+    use core::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (link, source).hash(&mut h);
+    (h.finish() as u32).max(1)
 }
 
 /// A link's queues, as its task reads them: the owner's frames and
@@ -231,7 +248,7 @@ struct LinkHandle {
 /// reached the FC.
 struct Queues {
     own: mpsc::Receiver<Command>,
-    routed: mpsc::Receiver<Box<[u8]>>,
+    routed: mpsc::Receiver<RoutedFrame>,
     /// The owner's queue is closed (the router is gone): what was routed
     /// goes out as it is, unpaced, then the link ends.
     own_closed: bool,
@@ -247,7 +264,7 @@ struct Queues {
 impl Queues {
     fn new(
         own: mpsc::Receiver<Command>,
-        routed: mpsc::Receiver<Box<[u8]>>,
+        routed: mpsc::Receiver<RoutedFrame>,
         rate: Option<NonZeroU32>,
         counters: Arc<Mutex<LinkCounters>>,
     ) -> Queues {
@@ -277,9 +294,9 @@ impl Queues {
                     None => self.own_closed = true,
                 },
                 r = self.routed.recv(), if !self.routed_closed && !self.own_closed => match (r, &mut self.backlog) {
-                    (Some(bytes), None) => return Some(Command::Routed(bytes)),
-                    (Some(bytes), Some(backlog)) => {
-                        let dropped = backlog.push(bytes);
+                    (Some((from, bytes)), None) => return Some(Command::Routed(from, bytes)),
+                    (Some((from, bytes)), Some(backlog)) => {
+                        let dropped = backlog.push(from, bytes);
                         self.count_dropped(dropped);
                     }
                     (None, _) => self.routed_closed = true,
@@ -295,9 +312,9 @@ impl Queues {
     /// lets it go; else how long the pace holds it (`None`: nothing held).
     fn paced(&mut self) -> Paced {
         if self.own_closed {
-            let held = self.backlog.as_mut().and_then(Backlog::pop);
+            let held = self.backlog.as_mut().and_then(Backlog::pop).map(|b| (0, b));
             let next = held.or_else(|| self.routed.try_recv().ok());
-            return Paced::Go(next.map(Command::Routed));
+            return Paced::Go(next.map(|(from, b)| Command::Routed(from, b)));
         }
         if self.backlog.as_ref().is_none_or(Backlog::is_empty) {
             return Paced::Wait(None);
@@ -315,7 +332,7 @@ impl Queues {
             .as_mut()
             .map(|b| b.release(tokio::time::Instant::now()))
         {
-            Some(Ok(Some(bytes))) => Paced::Go(Some(Command::Routed(bytes))),
+            Some(Ok(Some(bytes))) => Paced::Go(Some(Command::Routed(0, bytes))),
             Some(Err(wait)) => Paced::Wait(Some(wait)),
             _ => Paced::Wait(None),
         }
@@ -517,7 +534,8 @@ impl<D: Dialect + 'static> Router<D> {
         let to = self
             .table
             .route(inbound.link, &frame, inbound.frame.meta(), self.links());
-        self.send_routed(to, inbound.frame.as_bytes());
+        let from = sender_key(inbound.link, inbound.source);
+        self.send_routed_from(from, to, inbound.frame.as_bytes());
         to
     }
 
@@ -527,11 +545,16 @@ impl<D: Dialect + 'static> Router<D> {
     /// local program's telemetry for the ground stations, say), which must
     /// not hold its own protocol frames back.
     pub fn send_routed(&self, links: Links, bytes: &[u8]) {
+        self.send_routed_from(0, links, bytes);
+    }
+
+    /// [`send_routed`](Self::send_routed), from the sender of key `from`.
+    fn send_routed_from(&self, from: u32, links: Links, bytes: &[u8]) {
         for link in links.iter() {
             let Some(l) = self.links.get(link as usize) else {
                 continue;
             };
-            if l.routed.try_send(bytes.into()).is_err() {
+            if l.routed.try_send((from, bytes.into())).is_err() {
                 let mut c = l.counters.lock().unwrap_or_else(|e| e.into_inner());
                 c.routed_dropped = c.routed_dropped.saturating_add(1);
             }
@@ -964,7 +987,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             }
                             continue;
                         }
-                        Command::Raw(b) | Command::Routed(b) => &b[..],
+                        Command::Raw(b) | Command::Routed(_, b) => &b[..],
                         Command::Message { sysid, compid, meta, payload } => {
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b,
@@ -1010,7 +1033,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                     let Some(c) = c else { return Ended::RouterGone };
                     let bytes = match &c {
                         Command::Pin(_) => continue,
-                        Command::Raw(b) | Command::Routed(b) => &b[..],
+                        Command::Raw(b) | Command::Routed(_, b) => &b[..],
                         Command::Message { sysid, compid, meta, payload } => {
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b,
@@ -1102,7 +1125,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             pinned = Some(*addr);
                             continue;
                         }
-                        Command::Routed(b) => {
+                        Command::Routed(from, b) => {
                             // After the owner's own, in each client's queue
                             // for them. A client behind on those loses
                             // frames (counted), not its connection: routed
@@ -1112,7 +1135,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             let mut full = 0u64;
                             clients.retain(|c| {
                                 !c.gets(rule, peer)
-                                    || match c.routed.try_send(b.clone()) {
+                                    || match c.routed.try_send((*from, b.clone())) {
                                         Ok(()) => true,
                                         Err(mpsc::error::TrySendError::Full(_)) => {
                                             full += 1;
@@ -1152,7 +1175,7 @@ struct Client {
     addr: SocketAddr,
     output: mpsc::Sender<Command>,
     /// Frames routed to the link, sent after `output`'s ([`Queues`]).
-    routed: mpsc::Sender<Box<[u8]>>,
+    routed: mpsc::Sender<RoutedFrame>,
     /// What it has sent: [`SHOWN_NOTHING`], [`SHOWN_FRAMES`] or
     /// [`SHOWN_AUTHENTICATED`] (set by its task).
     standing: Arc<AtomicU8>,
@@ -1268,7 +1291,7 @@ async fn serve_client<D: Dialect>(
                 _ => return,
             },
             out = output.recv() => {
-                let (Some(Command::Raw(bytes)) | Some(Command::Routed(bytes))) = out else {
+                let (Some(Command::Raw(bytes)) | Some(Command::Routed(_, bytes))) = out else {
                     return;
                 };
                 let written = tokio::time::timeout(CLIENT_WRITE_TIMEOUT, stream.write_all(&bytes)).await;
@@ -1417,7 +1440,7 @@ mod tests {
         let (routed_tx, routed) = mpsc::channel(8);
         let mut queues = Queues::new(own, routed, None, Arc::default());
         for b in [1u8, 2, 3] {
-            routed_tx.try_send(Box::from(&[b][..])).unwrap();
+            routed_tx.try_send((1, Box::from(&[b][..]))).unwrap();
         }
         for b in [7u8, 8] {
             own_tx.try_send(Command::Raw(Box::from(&[b][..]))).unwrap();
@@ -1425,7 +1448,7 @@ mod tests {
         async fn next(queues: &mut Queues) -> Option<(bool, u8)> {
             match queues.recv().await {
                 Some(Command::Raw(b)) => Some((true, b[0])),
-                Some(Command::Routed(b)) => Some((false, b[0])),
+                Some(Command::Routed(_, b)) => Some((false, b[0])),
                 Some(_) => panic!("not a frame"),
                 None => None,
             }
@@ -1456,7 +1479,7 @@ mod tests {
         // every 125 ms.
         let mut queues = Queues::new(own, routed, NonZeroU32::new(2_240), Arc::default());
         for b in 0..5u8 {
-            routed_tx.try_send(Box::from(&[b; 280][..])).unwrap();
+            routed_tx.try_send((1, Box::from(&[b; 280][..]))).unwrap();
         }
         let t0 = Instant::now();
         async fn next(queues: &mut Queues, t0: Instant) -> (u64, bool, u8) {
@@ -1464,7 +1487,7 @@ mod tests {
             let ms = t0.elapsed().as_millis() as u64;
             match c {
                 Some(Command::Raw(b)) => (ms, true, b[0]),
-                Some(Command::Routed(b)) => (ms, false, b[0]),
+                Some(Command::Routed(_, b)) => (ms, false, b[0]),
                 _ => panic!("not a frame"),
             }
         }
@@ -1510,18 +1533,18 @@ mod tests {
         let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), counters.clone());
         let frame = |b: u8| Box::from(&[b; 280][..]);
         for b in 0..100u8 {
-            routed_tx.try_send(frame(b)).unwrap();
+            routed_tx.try_send((1, frame(b))).unwrap();
         }
         let t0 = Instant::now();
         let mut got: Vec<(u128, u8)> = Vec::new();
         while got.last().is_none_or(|g| g.1 != 200) && got.len() < 20 {
             match q.recv().await {
-                Some(Command::Routed(b)) => got.push((t0.elapsed().as_millis(), b[0])),
+                Some(Command::Routed(_, b)) => got.push((t0.elapsed().as_millis(), b[0])),
                 _ => panic!("not a routed frame"),
             }
             if got.len() == 2 {
                 // Queued behind a flood: goes within a second.
-                routed_tx.try_send(frame(200)).unwrap();
+                routed_tx.try_send((1, frame(200))).unwrap();
                 own_tx
                     .try_send(Command::Raw(Box::from(&[9u8][..])))
                     .unwrap();
@@ -1544,11 +1567,11 @@ mod tests {
         let dropped = counters.lock().unwrap().routed_dropped;
         assert!(dropped >= 90, "{dropped} dropped, {got:?}");
         // Down: what the pace held is dropped.
-        routed_tx.try_send(frame(201)).unwrap();
-        routed_tx.try_send(frame(202)).unwrap();
-        assert!(matches!(q.recv().await, Some(Command::Routed(_))));
+        routed_tx.try_send((1, frame(201))).unwrap();
+        routed_tx.try_send((1, frame(202))).unwrap();
+        assert!(matches!(q.recv().await, Some(Command::Routed(..))));
         let before = counters.lock().unwrap().routed_dropped;
-        routed_tx.try_send(frame(203)).unwrap();
+        routed_tx.try_send((1, frame(203))).unwrap();
         assert!(q.drop_next().await);
         assert!(q.backlog.as_ref().is_some_and(Backlog::is_empty));
         let held = counters.lock().unwrap().routed_dropped - before;
@@ -1567,9 +1590,9 @@ mod tests {
         let (routed_tx, routed) = mpsc::channel(8);
         let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), Arc::default());
         for b in [0u8, 1] {
-            routed_tx.try_send(Box::from(&[b; 280][..])).unwrap();
+            routed_tx.try_send((1, Box::from(&[b; 280][..]))).unwrap();
         }
-        assert!(matches!(q.recv().await, Some(Command::Routed(b)) if b[0] == 0));
+        assert!(matches!(q.recv().await, Some(Command::Routed(_, b)) if b[0] == 0));
         // Frame 1 taken into the backlog, held 125 ms: cancelled at 10.
         assert!(timeout(Duration::from_millis(10), q.recv()).await.is_err());
         sleep(Duration::from_millis(200)).await;
@@ -1581,9 +1604,38 @@ mod tests {
             "the owner's first"
         );
         assert!(
-            matches!(q.recv().await, Some(Command::Routed(b)) if b[0] == 1),
+            matches!(q.recv().await, Some(Command::Routed(_, b)) if b[0] == 1),
             "then 1, kept"
         );
+    }
+
+    /// A paced link serves the senders of routed frames in turn: a frame
+    /// from a quiet sender goes at its turn, not behind a flood from
+    /// another, whose oldest frames are the ones dropped.
+    #[tokio::test(start_paused = true)]
+    async fn a_paced_link_serves_a_quiet_sender_before_a_flood() {
+        let (_own_tx, own) = mpsc::channel(8);
+        let (routed_tx, routed) = mpsc::channel(LINK_QUEUE);
+        let counters = Arc::new(Mutex::new(LinkCounters::default()));
+        let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), counters.clone());
+        for b in 0..200u8 {
+            routed_tx.try_send((7, Box::from(&[b; 280][..]))).unwrap();
+        }
+        routed_tx
+            .try_send((9, Box::from(&[255u8; 40][..])))
+            .unwrap();
+        let mut got = Vec::new();
+        while !got.contains(&255) {
+            match q.recv().await {
+                Some(Command::Routed(_, b)) => got.push(b[0]),
+                _ => panic!("not a routed frame"),
+            }
+            assert!(
+                got.len() < 5,
+                "the quiet sender waits behind the flood: {got:?}"
+            );
+        }
+        assert!(counters.lock().unwrap().routed_dropped >= 190);
     }
 
     /// A client that stops reading is dropped once a write to it has

@@ -9,9 +9,10 @@
 //! of them (an eighth of a second of the pace).
 //!
 //! What the pace holds back waits in a [`Backlog`] of a second of the pace
-//! at most; older frames are dropped first, so that a ground station's
-//! command sent into a flood goes within about a second, not after the
-//! flood's whole queue.
+//! at most, a queue per sender (the link and address a routed frame came
+//! from), served in turn: a flood from one sender fills its own queue, whose
+//! oldest frames are the ones dropped, and a ground station's command from
+//! another goes at its turn, within a burst or two, not behind the flood.
 //!
 //! [`LinkConfig::routed_rate`]: super::LinkConfig::routed_rate
 
@@ -20,6 +21,7 @@ use core::num::NonZeroU32;
 use std::boxed::Box;
 use std::collections::VecDeque;
 use std::time::Duration;
+use std::vec::Vec;
 use tokio::time::Instant;
 
 /// A token bucket of bytes: at most `rate` bytes a second after a burst.
@@ -64,66 +66,138 @@ impl Pace {
     }
 }
 
+/// Senders a [`Backlog`] queues apart; frames of further senders share the
+/// last queue.
+pub(super) const SENDER_QUEUES: usize = 8;
+
 /// Routed frames the pace holds back, a second of the pace (or a frame of
-/// the longest) at most: a frame that would make it longer drops the oldest.
+/// the longest) at most, a queue per sender (a key the router gives each
+/// link and source address), released from each queue in turn. A frame
+/// that makes the backlog too long drops the oldest frame of the longest
+/// queue (a flood's, not a quiet sender's).
 #[derive(Debug)]
 pub(super) struct Backlog {
     pace: Pace,
-    frames: VecDeque<Box<[u8]>>,
+    /// The non-empty queues, in turn from `turn`.
+    queues: Vec<SenderQueue>,
+    turn: usize,
     bytes: usize,
     cap: usize,
+}
+
+#[derive(Debug)]
+struct SenderQueue {
+    from: u32,
+    frames: VecDeque<Box<[u8]>>,
+    bytes: usize,
 }
 
 impl Backlog {
     pub(super) fn new(rate: NonZeroU32, now: Instant) -> Backlog {
         Backlog {
             pace: Pace::new(rate, now),
-            frames: VecDeque::new(),
+            queues: Vec::new(),
+            turn: 0,
             bytes: 0,
             cap: (rate.get() as usize).max(MAX_FRAME_LEN),
         }
     }
 
-    /// Holds `frame` back; returns how many older frames it dropped.
-    pub(super) fn push(&mut self, frame: Box<[u8]>) -> u64 {
+    /// Holds back `frame` from sender `from`; returns how many frames it
+    /// dropped (the oldest of the longest queue) to stay within the cap.
+    pub(super) fn push(&mut self, from: u32, frame: Box<[u8]>) -> u64 {
+        let at = match self.queues.iter().position(|q| q.from == from) {
+            Some(at) => at,
+            None if self.queues.len() < SENDER_QUEUES => {
+                self.queues.push(SenderQueue {
+                    from,
+                    frames: VecDeque::new(),
+                    bytes: 0,
+                });
+                self.queues.len() - 1
+            }
+            None => SENDER_QUEUES - 1,
+        };
+        let q = &mut self.queues[at];
+        q.bytes += frame.len();
         self.bytes += frame.len();
-        self.frames.push_back(frame);
+        q.frames.push_back(frame);
         let mut dropped = 0;
-        while self.bytes > self.cap && self.frames.len() > 1 {
-            if let Some(old) = self.frames.pop_front() {
-                self.bytes -= old.len();
-                dropped += 1;
+        while self.bytes > self.cap && self.len() > 1 {
+            let longest = (0..self.queues.len()).max_by_key(|&i| self.queues[i].bytes);
+            match longest {
+                Some(i) if self.drop_oldest(i) => dropped += 1,
+                _ => break,
             }
         }
         dropped
     }
 
-    /// The oldest frame held when the pace lets it go at `now`; `Ok(None)`
-    /// when none is held; else how long until it may go.
+    /// The next frame held, in turn, when the pace lets it go at `now`;
+    /// `Ok(None)` when none is held; else how long until it may go.
     pub(super) fn release(&mut self, now: Instant) -> Result<Option<Box<[u8]>>, Duration> {
-        let Some(len) = self.frames.front().map(|f| f.len()) else {
+        let Some(q) = self.queues.get(self.turn) else {
             return Ok(None);
         };
+        let len = q.frames.front().map_or(0, |f| f.len());
         self.pace.admit(len, now)?;
         Ok(self.pop())
     }
 
-    pub(super) fn is_empty(&self) -> bool {
-        self.frames.is_empty()
+    /// The next frame held, in turn, whatever the pace (the router is gone).
+    pub(super) fn pop(&mut self) -> Option<Box<[u8]>> {
+        let turn = self.turn;
+        let q = self.queues.get_mut(turn)?;
+        let frame = q.frames.pop_front()?;
+        q.bytes -= frame.len();
+        self.bytes -= frame.len();
+        if q.frames.is_empty() {
+            // The next queue moves into its place: its turn now.
+            self.queues.remove(turn);
+        } else {
+            self.turn += 1;
+        }
+        if self.turn >= self.queues.len() {
+            self.turn = 0;
+        }
+        Some(frame)
     }
 
-    /// The oldest frame held, whatever the pace (the router is gone).
-    pub(super) fn pop(&mut self) -> Option<Box<[u8]>> {
-        let frame = self.frames.pop_front()?;
+    /// Drops the oldest frame of queue `i`, and the queue once empty.
+    fn drop_oldest(&mut self, i: usize) -> bool {
+        let Some(q) = self.queues.get_mut(i) else {
+            return false;
+        };
+        let Some(frame) = q.frames.pop_front() else {
+            return false;
+        };
+        q.bytes -= frame.len();
         self.bytes -= frame.len();
-        Some(frame)
+        if q.frames.is_empty() {
+            self.queues.remove(i);
+            if self.turn > i {
+                self.turn -= 1;
+            }
+            if self.turn >= self.queues.len() {
+                self.turn = 0;
+            }
+        }
+        true
+    }
+
+    fn len(&self) -> usize {
+        self.queues.iter().map(|q| q.frames.len()).sum()
+    }
+
+    pub(super) fn is_empty(&self) -> bool {
+        self.queues.is_empty()
     }
 
     /// Drops every frame held (the link is down); returns how many.
     pub(super) fn clear(&mut self) -> u64 {
-        let n = self.frames.len() as u64;
-        self.frames.clear();
-        self.bytes = 0;
+        let n = self.len() as u64;
+        self.queues.clear();
+        (self.turn, self.bytes) = (0, 0);
         n
     }
 }
@@ -184,7 +258,7 @@ mod tests {
         // 1,000 B/s: a backlog of 1,000 bytes, a burst of 280.
         let mut backlog = Backlog::new(rate(1_000), t0);
         let dropped: u64 = (0..30u8)
-            .map(|i| backlog.push(Box::from(&[i; 100][..])))
+            .map(|i| backlog.push(1, Box::from(&[i; 100][..])))
             .sum();
         assert_eq!(dropped, 20, "ten frames of 100 bytes kept");
         let first = |r: Result<Option<Box<[u8]>>, Duration>| r.map(|f| f.map(|f| f[0]));
@@ -196,8 +270,44 @@ mod tests {
         assert_eq!(first(backlog.release(t0)), Ok(None));
         // A frame longer than the cap is kept alone.
         let mut small = Backlog::new(rate(60), t0);
-        assert_eq!(small.push(Box::from(&[1u8; 200][..])), 0);
-        assert_eq!(small.push(Box::from(&[2u8; 280][..])), 1);
+        assert_eq!(small.push(1, Box::from(&[1u8; 200][..])), 0);
+        assert_eq!(small.push(1, Box::from(&[2u8; 280][..])), 1);
         assert_eq!(small.pop().map(|f| f.len()), Some(280));
+    }
+
+    #[test]
+    fn a_backlog_serves_its_senders_in_turn_and_drops_the_floods_frames() {
+        let t0 = Instant::now();
+        // 10,000 B/s: a backlog of 10,000 bytes, a burst of 1,250.
+        let mut backlog = Backlog::new(rate(10_000), t0);
+        let frame = |b: u8| Box::from(&[b; 100][..]);
+        // A flood from sender 1, then one frame from sender 2, then more
+        // flood.
+        let mut dropped = 0;
+        for i in 0..150u8 {
+            dropped += backlog.push(1, frame(i));
+        }
+        dropped += backlog.push(2, frame(200));
+        for i in 150..200u8 {
+            dropped += backlog.push(1, frame(i));
+        }
+        assert_eq!(dropped, 101, "the flood's oldest, 100 frames kept");
+        let mut order = Vec::new();
+        while let Ok(Some(f)) = backlog.release(t0) {
+            order.push(f[0]);
+        }
+        assert_eq!(
+            order[..3],
+            [101, 200, 102],
+            "sender 2 at its turn: {order:?}"
+        );
+        // Senders past the queues share the last one.
+        let mut many = Backlog::new(rate(10_000), t0);
+        for from in 0..20 {
+            many.push(from, frame(from as u8));
+        }
+        assert_eq!(many.queues.len(), SENDER_QUEUES);
+        assert_eq!(many.clear(), 20);
+        assert!(many.is_empty());
     }
 }

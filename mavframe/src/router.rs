@@ -220,6 +220,9 @@ struct LinkHandle {
     commands: mpsc::Sender<Command>,
     /// Frames routed through the link ([`Router::forward`]): see [`Queues`].
     routed: mpsc::Sender<RoutedFrame>,
+    /// [`LinkConfig::routed_rate`] is set: routed frames need their
+    /// sender's key.
+    paced: bool,
     counters: Arc<Mutex<LinkCounters>>,
     task: tokio::task::JoinHandle<()>,
 }
@@ -448,6 +451,7 @@ impl<D: Dialect + 'static> Router<D> {
         let (commands, own) = mpsc::channel(LINK_QUEUE);
         let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
         let counters = Arc::new(Mutex::new(LinkCounters::default()));
+        let paced = config.routed_rate.is_some();
         // A `tcpin` link paces each client's connection, not its fan-out.
         let rate = match config.endpoint {
             Endpoint::TcpIn(_) => None,
@@ -466,6 +470,7 @@ impl<D: Dialect + 'static> Router<D> {
             endpoint,
             commands,
             routed,
+            paced,
             counters,
             task,
         });
@@ -534,7 +539,15 @@ impl<D: Dialect + 'static> Router<D> {
         let to = self
             .table
             .route(inbound.link, &frame, inbound.frame.meta(), self.links());
-        let from = sender_key(inbound.link, inbound.source);
+        // (A hash per frame only when a link of `to` needs it.)
+        let paced = to
+            .iter()
+            .any(|l| self.links.get(l as usize).is_some_and(|l| l.paced));
+        let from = if paced {
+            sender_key(inbound.link, inbound.source)
+        } else {
+            0
+        };
         self.send_routed_from(from, to, inbound.frame.as_bytes());
         to
     }

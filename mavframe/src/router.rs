@@ -365,10 +365,15 @@ impl Queues {
     }
 
     fn count_dropped(&self, dropped: u64) {
-        if dropped > 0 {
-            let mut c = self.counters.lock().unwrap_or_else(PoisonError::into_inner);
-            c.routed_dropped = c.routed_dropped.saturating_add(dropped);
-        }
+        count_routed_dropped(&self.counters, dropped);
+    }
+}
+
+/// Adds `n` routed frames dropped to a link's counters.
+fn count_routed_dropped(counters: &Mutex<LinkCounters>, n: u64) {
+    if n > 0 {
+        let mut c = counters.lock().unwrap_or_else(PoisonError::into_inner);
+        c.routed_dropped = c.routed_dropped.saturating_add(n);
     }
 }
 
@@ -568,8 +573,7 @@ impl<D: Dialect + 'static> Router<D> {
                 continue;
             };
             if l.routed.try_send((from, bytes.into())).is_err() {
-                let mut c = l.counters.lock().unwrap_or_else(|e| e.into_inner());
-                c.routed_dropped = c.routed_dropped.saturating_add(1);
+                count_routed_dropped(&l.counters, 1);
             }
         }
     }
@@ -1157,9 +1161,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                                         Err(mpsc::error::TrySendError::Closed(_)) => false,
                                     }
                             });
-                            if full > 0 {
-                                self.count(|c| c.routed_dropped = c.routed_dropped.saturating_add(full));
-                            }
+                            count_routed_dropped(&self.counters, full);
                             continue;
                         }
                         Command::Raw(b) => b.clone(),
@@ -1480,19 +1482,53 @@ mod tests {
         assert_eq!(next(q).await, None);
     }
 
+    /// A paced link's queues at 2,240 bytes a second (a burst and a
+    /// backlog of 280 bytes: one longest frame, then one every 125 ms), with
+    /// the senders of its two queues and its counters.
+    struct Paced {
+        own: mpsc::Sender<Command>,
+        routed: mpsc::Sender<RoutedFrame>,
+        queues: Queues,
+        counters: Arc<Mutex<LinkCounters>>,
+    }
+
+    fn paced() -> Paced {
+        let (own, own_rx) = mpsc::channel(8);
+        let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
+        let counters = Arc::new(Mutex::new(LinkCounters::default()));
+        let queues = Queues::new(own_rx, routed_rx, NonZeroU32::new(2_240), counters.clone());
+        Paced {
+            own,
+            routed,
+            queues,
+            counters,
+        }
+    }
+
+    /// `len` bytes of `b`, routed from sender `from`.
+    fn routed_frame(from: u32, b: u8, len: usize) -> RoutedFrame {
+        (from, std::vec![b; len].into_boxed_slice())
+    }
+
+    /// A frame of the owner's: one byte, `b`.
+    fn own_frame(b: u8) -> Command {
+        Command::Raw(Box::from(&[b][..]))
+    }
+
     /// A paced link sends routed frames at its rate after a burst, and its
     /// owner's frames at once while a routed one waits; once the router is
     /// gone, what was routed goes unpaced.
     #[tokio::test(start_paused = true)]
     async fn a_paced_link_holds_routed_frames_never_its_own() {
         use tokio::time::{sleep, Instant};
-        let (own_tx, own) = mpsc::channel(8);
-        let (routed_tx, routed) = mpsc::channel(8);
-        // 2,240 bytes a second: a burst of one 280-byte frame, then one
-        // every 125 ms.
-        let mut queues = Queues::new(own, routed, NonZeroU32::new(2_240), Arc::default());
+        let Paced {
+            own: own_tx,
+            routed: routed_tx,
+            mut queues,
+            ..
+        } = paced();
         for b in 0..5u8 {
-            routed_tx.try_send((1, Box::from(&[b; 280][..]))).unwrap();
+            routed_tx.try_send(routed_frame(1, b, 280)).unwrap();
         }
         let t0 = Instant::now();
         async fn next(queues: &mut Queues, t0: Instant) -> (u64, bool, u8) {
@@ -1508,10 +1544,7 @@ mod tests {
         assert_eq!(next(q, t0).await, (0, false, 0));
         let sender = tokio::spawn(async move {
             sleep(Duration::from_millis(30)).await;
-            own_tx
-                .send(Command::Raw(Box::from(&[9u8][..])))
-                .await
-                .unwrap();
+            own_tx.send(own_frame(9)).await.unwrap();
             own_tx
         });
         assert_eq!(
@@ -1538,15 +1571,15 @@ mod tests {
     #[tokio::test(start_paused = true)]
     async fn a_paced_link_keeps_a_second_of_routed_frames_the_newest() {
         use tokio::time::Instant;
-        let (own_tx, own) = mpsc::channel(8);
-        let (routed_tx, routed) = mpsc::channel(LINK_QUEUE);
-        let counters = Arc::new(Mutex::new(LinkCounters::default()));
-        // 2,240 bytes a second: a burst and a backlog of 280-byte frames,
-        // one every 125 ms.
-        let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), counters.clone());
-        let frame = |b: u8| Box::from(&[b; 280][..]);
+        let Paced {
+            own: own_tx,
+            routed: routed_tx,
+            queues: mut q,
+            counters,
+        } = paced();
+        let frame = |b: u8| routed_frame(1, b, 280);
         for b in 0..100u8 {
-            routed_tx.try_send((1, frame(b))).unwrap();
+            routed_tx.try_send(frame(b)).unwrap();
         }
         let t0 = Instant::now();
         let mut got: Vec<(u128, u8)> = Vec::new();
@@ -1557,10 +1590,8 @@ mod tests {
             }
             if got.len() == 2 {
                 // Queued behind a flood: goes within a second.
-                routed_tx.try_send((1, frame(200))).unwrap();
-                own_tx
-                    .try_send(Command::Raw(Box::from(&[9u8][..])))
-                    .unwrap();
+                routed_tx.try_send(frame(200)).unwrap();
+                own_tx.try_send(own_frame(9)).unwrap();
                 assert!(
                     matches!(q.recv().await, Some(Command::Raw(_))),
                     "the owner's first"
@@ -1580,11 +1611,11 @@ mod tests {
         let dropped = counters.lock().unwrap().routed_dropped;
         assert!(dropped >= 90, "{dropped} dropped, {got:?}");
         // Down: what the pace held is dropped.
-        routed_tx.try_send((1, frame(201))).unwrap();
-        routed_tx.try_send((1, frame(202))).unwrap();
+        routed_tx.try_send(frame(201)).unwrap();
+        routed_tx.try_send(frame(202)).unwrap();
         assert!(matches!(q.recv().await, Some(Command::Routed(..))));
         let before = counters.lock().unwrap().routed_dropped;
-        routed_tx.try_send((1, frame(203))).unwrap();
+        routed_tx.try_send(frame(203)).unwrap();
         assert!(q.drop_next().await);
         assert!(q.backlog.as_ref().is_some_and(Backlog::is_empty));
         let held = counters.lock().unwrap().routed_dropped - before;
@@ -1599,19 +1630,20 @@ mod tests {
     #[tokio::test(start_paused = true)]
     async fn a_paced_link_lets_the_owners_frame_pass_a_released_one() {
         use tokio::time::{sleep, timeout};
-        let (own_tx, own) = mpsc::channel(8);
-        let (routed_tx, routed) = mpsc::channel(8);
-        let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), Arc::default());
+        let Paced {
+            own: own_tx,
+            routed: routed_tx,
+            queues: mut q,
+            ..
+        } = paced();
         for b in [0u8, 1] {
-            routed_tx.try_send((1, Box::from(&[b; 280][..]))).unwrap();
+            routed_tx.try_send(routed_frame(1, b, 280)).unwrap();
         }
         assert!(matches!(q.recv().await, Some(Command::Routed(_, b)) if b[0] == 0));
         // Frame 1 taken into the backlog, held 125 ms: cancelled at 10.
         assert!(timeout(Duration::from_millis(10), q.recv()).await.is_err());
         sleep(Duration::from_millis(200)).await;
-        own_tx
-            .try_send(Command::Raw(Box::from(&[9u8][..])))
-            .unwrap();
+        own_tx.try_send(own_frame(9)).unwrap();
         assert!(
             matches!(q.recv().await, Some(Command::Raw(_))),
             "the owner's first"
@@ -1627,16 +1659,16 @@ mod tests {
     /// another, whose oldest frames are the ones dropped.
     #[tokio::test(start_paused = true)]
     async fn a_paced_link_serves_a_quiet_sender_before_a_flood() {
-        let (_own_tx, own) = mpsc::channel(8);
-        let (routed_tx, routed) = mpsc::channel(LINK_QUEUE);
-        let counters = Arc::new(Mutex::new(LinkCounters::default()));
-        let mut q = Queues::new(own, routed, NonZeroU32::new(2_240), counters.clone());
+        let Paced {
+            own: _own_tx,
+            routed: routed_tx,
+            queues: mut q,
+            counters,
+        } = paced();
         for b in 0..200u8 {
-            routed_tx.try_send((7, Box::from(&[b; 280][..]))).unwrap();
+            routed_tx.try_send(routed_frame(7, b, 280)).unwrap();
         }
-        routed_tx
-            .try_send((9, Box::from(&[255u8; 40][..])))
-            .unwrap();
+        routed_tx.try_send(routed_frame(9, 255, 40)).unwrap();
         let mut got = Vec::new();
         while !got.contains(&255) {
             match q.recv().await {

@@ -63,12 +63,12 @@ pub struct LinkOptions {
 }
 
 /// Routed bytes a second a daemon's main link takes by default when it is
-/// not serial (a serial link's baud rate says what it carries): far more
-/// than a ground station's uplink needs (heartbeats, commands, parameter
-/// and mission transfers: a few hundred), and less than the slowest links
-/// of the setups this daemon serves carry (460,800-baud serial bridges,
-/// radio modems), so that a flood routed to the link cannot fill the
-/// buffer at its far end.
+/// not serial (a serial link's baud rate says what it carries): more than a
+/// ground station's uplink needs (heartbeats, commands, parameter and
+/// mission transfers: a few hundred), and less than a 115,200-baud link
+/// carries (11.5 kB/s), so that a flood routed to such a link cannot fill
+/// the buffer at its far end. A slower link behind TCP or UDP (a
+/// 57,600-baud radio) needs `--routed-rate` set below its rate.
 pub const DEFAULT_ROUTED_RATE: u32 = 8_000;
 
 /// The pace of what is routed to the main link `endpoint`: as `given` by

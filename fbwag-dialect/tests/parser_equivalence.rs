@@ -76,10 +76,16 @@ fn make_frame(rng: &mut Rng, meta: &MessageMeta, unknown: bool) -> Vec<u8> {
         let p: Vec<u8> = buf[10..10 + len].to_vec();
         buf[6..6 + len].copy_from_slice(&p);
     }
+    // Mostly three senders; now and then any: more than the parser tracks,
+    // so that the last slot is taken over again and again.
+    let (sysid, compid) = match rng.chance(20) {
+        true => (rng.below(40) as u8, rng.below(4) as u8),
+        false => (1 + rng.below(3) as u8, 1),
+    };
     let header = Header {
         seq: rng.byte(),
-        sysid: 1 + rng.below(3) as u8,
-        compid: 1,
+        sysid,
+        compid,
     };
     let mut signer = match rng.below(6) {
         0 | 1 => Some(Signer::new(

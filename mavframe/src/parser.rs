@@ -71,6 +71,7 @@
 //! only on its own bytes' checksum.
 
 mod memo;
+mod senders;
 
 use crate::frame::{
     frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, MAX_FRAME_LEN, STX_V1, STX_V2,
@@ -79,6 +80,7 @@ use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
 use memo::{Inside, Memo, Starts, Whole};
+use senders::Senders;
 
 /// Counters of what the parser saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -240,11 +242,7 @@ enum Found {
 }
 
 /// The counters a returned frame updates.
-type Counters<'a> = (
-    &'a mut Stats,
-    &'a mut [LinkStats; MAX_TRACKED_LINKS],
-    &'a mut usize,
-);
+type Counters<'a> = (&'a mut Stats, &'a mut Senders);
 
 /// What the hot path found at the start of the input.
 enum InPlace {
@@ -295,8 +293,7 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     /// What is known about the bytes after the candidate.
     memo: Memo,
     stats: Stats,
-    links: [LinkStats; MAX_TRACKED_LINKS],
-    tracked: usize,
+    links: Senders,
     verifier: Option<Verifier<STREAMS>>,
     accept_unsigned: bool,
     /// Set by [`Parser::flush`]: no more bytes will come.
@@ -336,8 +333,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             shadow: 0,
             memo: Memo::new(),
             stats: Stats::default(),
-            links: [LinkStats::default(); MAX_TRACKED_LINKS],
-            tracked: 0,
+            links: Senders::new(),
             verifier: None,
             accept_unsigned: true,
             at_eof: false,
@@ -402,7 +398,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     /// Sequence statistics per sender (the first [`MAX_TRACKED_LINKS`]).
     pub fn links(&self) -> &[LinkStats] {
-        &self.links[..self.tracked]
+        self.links.links()
     }
 
     /// Bytes held for an incomplete frame (consumed from the input).
@@ -451,7 +447,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                         frame,
                         Some(meta),
                         false,
-                        (&mut self.stats, &mut self.links, &mut self.tracked),
+                        (&mut self.stats, &mut self.links),
                     ));
                 }
                 InPlace::BadCrc => rejected = true,
@@ -469,7 +465,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                     frame,
                     None,
                     false,
-                    (&mut self.stats, &mut self.links, &mut self.tracked),
+                    (&mut self.stats, &mut self.links),
                 ));
             }
         }
@@ -557,7 +553,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             bytes,
             meta,
             authenticated,
-            (&mut self.stats, &mut self.links, &mut self.tracked),
+            (&mut self.stats, &mut self.links),
         ))
     }
 
@@ -670,10 +666,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         bytes: &'r [u8],
         meta: Option<&'static MessageMeta>,
         authenticated: bool,
-        (stats, links, tracked): Counters<'_>,
+        (stats, links): Counters<'_>,
     ) -> Received<'r, D> {
         let frame = Frame::new_unchecked(bytes);
-        Self::record(stats, links, tracked, frame.header(), meta.is_some());
+        Self::record(stats, links, frame.header(), meta.is_some());
         Received {
             frame,
             meta,
@@ -959,38 +955,13 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         )
     }
 
-    fn record(
-        stats: &mut Stats,
-        links: &mut [LinkStats; MAX_TRACKED_LINKS],
-        tracked: &mut usize,
-        h: Header,
-        known: bool,
-    ) {
+    fn record(stats: &mut Stats, links: &mut Senders, h: Header, known: bool) {
         if known {
             stats.frames += 1;
         } else {
             stats.unknown_frames += 1;
         }
-        let slot = match links[..*tracked]
-            .iter()
-            .position(|l| (l.sysid, l.compid) == (h.sysid, h.compid))
-        {
-            Some(i) => i,
-            None => {
-                let i = (*tracked).min(MAX_TRACKED_LINKS - 1);
-                links[i] = LinkStats {
-                    sysid: h.sysid,
-                    compid: h.compid,
-                    received: 0,
-                    lost: 0,
-                    gaps: 0,
-                    last_seq: h.seq.wrapping_sub(1),
-                };
-                *tracked = (*tracked + 1).min(MAX_TRACKED_LINKS);
-                i
-            }
-        };
-        let link = &mut links[slot];
+        let link = links.get(h.sysid, h.compid, h.seq);
         let lost = h.seq.wrapping_sub(link.last_seq.wrapping_add(1)) as u64;
         if lost != 0 {
             link.lost += lost;

@@ -744,7 +744,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// the input (garbage dense in start bytes can keep a parser in its
     /// buffer for as long as it returns a frame every few bytes).
     fn reject_run_held(&mut self, input: &mut &[u8]) -> Held {
-        while self.len != 0 {
+        // Until only copies of the input are held: then `step_held` goes
+        // back to the input in place (topped up again and again, the run
+        // would keep a parser refusing frame after frame in its buffer to
+        // the end of the input, copying every byte).
+        while self.len > self.shadow {
             // As before a check: what the run decides of a frame of an
             // unknown id depends on the bytes after it.
             self.top_up(input);

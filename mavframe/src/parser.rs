@@ -959,6 +959,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         )
     }
 
+    #[inline(always)]
     fn record(stats: &mut Stats, links: &mut Senders, h: Header, known: bool) {
         if known {
             stats.frames += 1;

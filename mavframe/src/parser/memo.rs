@@ -593,6 +593,7 @@ impl Memo {
         // would make each wait for the previous one's).
         for base in (0..end - lo).step_by(64) {
             let n = end - lo - base;
+            self.masks_ahead(bytes, at, at + (lo + base + n.min(64)) as u64);
             let Starts { kinds, .. } = self.starts_seen(bytes, at, lo + base, n.min(64));
             let (whole, mut good) = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
             let (mut bad, mut raw) = (whole & !good, 0);
@@ -886,11 +887,42 @@ impl Memo {
         )
     }
 
+    /// Moves the frontier of [`v1_verdicts`](Self::v1_verdicts) past `end`
+    /// by whole blocks of 64 positions from it, when `bytes` (from stream
+    /// position `at`) hold every frame starting in them, the ring of masks
+    /// holds their start bytes, and the ring of verdicts keeps them: the
+    /// fast rejection loop's blocks start at its candidate, wherever that
+    /// is, and would check the few positions past the frontier each time.
+    fn v1_blocks_ahead<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: u64) {
+        while self.v1_frontier < end {
+            let x = self.v1_frontier;
+            let rel = (x - at) as usize;
+            let Some(masks) = self.remembered_masks(x, 64) else {
+                return;
+            };
+            if x + 64 > at + (SCAN_RING - MAX_FRAME_LEN) as u64 || bytes.len() < rel + V1_WINDOW {
+                return;
+            }
+            let (whole, good) = self.v1_checks::<D>(bytes, at, rel, masks.0);
+            merge_bits(&mut self.v1_whole, x, whole, !0);
+            merge_bits(&mut self.v1_good, x, good, !0);
+            self.steps += 64 + u64::from(masks.0.count_ones());
+            self.v1_frontier = x + 64;
+            self.v1_from = self
+                .v1_from
+                .max(self.v1_frontier.saturating_sub(SCAN_RING as u64));
+        }
+    }
+
     /// Of the MAVLink 1 start bytes `mask` among the 64 positions from
     /// `bytes[0]` (stream position `at`, no later than the current
     /// candidate; all of them when `bytes` is shorter): those whose frame
     /// is whole, of a known id, with a bad checksum.
     pub(super) fn v1_bad_crc<D: Dialect>(&mut self, bytes: &[u8], at: u64, mask: u64) -> u64 {
+        let end = at + bytes.len().min(64) as u64;
+        if end > self.v1_frontier && at >= self.v1_from && at <= self.v1_frontier {
+            self.v1_blocks_ahead::<D>(bytes, at, end);
+        }
         let (whole, good) = self.v1_verdicts::<D>(bytes, at, 0, (mask, bytes.len()));
         whole & !good
     }
@@ -1050,6 +1082,33 @@ impl Memo {
             .remembered_masks(at + base as u64, n)
             .unwrap_or_else(|| raw_masks(bytes, base, n));
         starts_of(bytes, base, masks)
+    }
+
+    /// Moves the frontier of the ring of masks on to `end` (whole blocks,
+    /// as far as `bytes`, from stream position `at`, hold them), when the
+    /// ring reaches `at` and keeps every position from it: the scan's
+    /// blocks are then read again by the fast rejection loop and by
+    /// [`v1_blocks_ahead`](Self::v1_blocks_ahead), not computed three times.
+    #[inline]
+    fn masks_ahead(&mut self, bytes: &[u8], at: u64, end: u64) {
+        if self.masks_from > at || self.masks_frontier < at || self.masks_frontier >= end {
+            return;
+        }
+        while self.masks_frontier < end && self.masks_frontier + 64 <= at + (SCAN_RING - 64) as u64
+        {
+            let x = self.masks_frontier;
+            let Some(window) = bytes.get((x - at) as usize..(x - at) as usize + 64 + 2) else {
+                return;
+            };
+            let (v1, v2, flags) = masks_by_words(window);
+            merge_bits(&mut self.mask_v1, x, v1, !0);
+            merge_bits(&mut self.mask_v2, x, v2, !0);
+            merge_bits(&mut self.mask_flags, x, flags, !0);
+            self.masks_frontier = x + 64;
+        }
+        self.masks_from = self
+            .masks_from
+            .max(self.masks_frontier.saturating_sub(SCAN_RING as u64));
     }
 
     /// Computes the masks of the positions from the frontier (or from

@@ -513,9 +513,16 @@ impl Memo {
     /// Whether a good frame of a known id starts at a position after
     /// `bytes[0]` (stream position `at`, the candidate) and before
     /// `bytes[len]`, as far as `bytes` tells.
+    #[inline(always)]
     pub(super) fn inside<D: Dialect>(&mut self, bytes: &[u8], at: u64, len: usize) -> Inside {
         let end = len.min(bytes.len());
-        self.wake::<D>(bytes, at);
+        let avail = at + bytes.len() as u64;
+        if avail < self.woken || self.woken < avail.min(self.last_wake) {
+            self.wake::<D>(bytes, at);
+        } else {
+            // Nothing waits for these bytes.
+            self.woken = avail;
+        }
         if at + end as u64 > self.frontier {
             // Ahead of what is asked, so that the next candidates (in
             // garbage, a byte or two later) find their positions decided.
@@ -537,6 +544,7 @@ impl Memo {
     /// Classifies again the pending positions whose wake-up position the
     /// bytes have reached, each as of its wake-up position (so that what it
     /// waits for next is at most a frame ahead of the positions handled).
+    #[inline(never)]
     fn wake<D: Dialect>(&mut self, bytes: &[u8], at: u64) {
         let avail = at + bytes.len() as u64;
         if avail < self.woken {
@@ -573,6 +581,7 @@ impl Memo {
 
     /// Classifies the positions from the frontier (or just after the
     /// candidate) to `bytes[end]`, exclusive.
+    #[inline(never)]
     fn scan<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: usize) {
         let to = at + end as u64;
         if self.frontier <= at {
@@ -841,6 +850,7 @@ impl Memo {
     /// position whose frame was not whole when checked stays "not whole":
     /// callers check those on their own. `mask` holds every start byte of
     /// the first `n` positions of the block (`n` ≤ 64).
+    #[inline(always)]
     pub(super) fn v1_verdicts<D: Dialect>(
         &mut self,
         bytes: &[u8],
@@ -858,6 +868,21 @@ impl Memo {
                 bits_from(&self.v1_good, first) & mask,
             );
         }
+        self.v1_verdicts_fresh::<D>(bytes, at, block, (mask, n))
+    }
+
+    /// [`v1_verdicts`](Self::v1_verdicts) of a block not all checked yet
+    /// (out of line: the check of a block all checked stays small).
+    #[inline(never)]
+    fn v1_verdicts_fresh<D: Dialect>(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        block: usize,
+        (mask, n): (u64, usize),
+    ) -> (u64, u64) {
+        let first = at + block as u64;
+        let end = first + n.min(64) as u64;
         // The positions of the block already checked.
         let (lo, hi) = (self.v1_from.max(first), self.v1_frontier.min(end));
         let known = if lo < hi {
@@ -893,6 +918,7 @@ impl Memo {
     /// holds their start bytes, and the ring of verdicts keeps them: the
     /// fast rejection loop's blocks start at its candidate, wherever that
     /// is, and would check the few positions past the frontier each time.
+    #[inline(never)]
     fn v1_blocks_ahead<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: u64) {
         while self.v1_frontier < end {
             let x = self.v1_frontier;
@@ -918,6 +944,7 @@ impl Memo {
     /// `bytes[0]` (stream position `at`, no later than the current
     /// candidate; all of them when `bytes` is shorter): those whose frame
     /// is whole, of a known id, with a bad checksum.
+    #[inline(always)]
     pub(super) fn v1_bad_crc<D: Dialect>(&mut self, bytes: &[u8], at: u64, mask: u64) -> u64 {
         let end = at + bytes.len().min(64) as u64;
         if end > self.v1_frontier && at >= self.v1_from && at <= self.v1_frontier {

@@ -151,6 +151,34 @@ enum Class {
     Pending { undecided: bool, wake: u64 },
 }
 
+/// What [`Memo::v1_checks`] finds of MAVLink 1 start bytes, a bit per
+/// position of a block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct V1 {
+    /// The frame is whole and of a known id...
+    pub(super) whole: u64,
+    /// ...and its checksum is good.
+    pub(super) good: u64,
+    /// The frame is whole and of an unknown id.
+    pub(super) raw: u64,
+}
+
+impl V1 {
+    const NONE: V1 = V1 {
+        whole: 0,
+        good: 0,
+        raw: 0,
+    };
+
+    fn masked(self, mask: u64) -> V1 {
+        V1 {
+            whole: self.whole & mask,
+            good: self.good & mask,
+            raw: self.raw & mask,
+        }
+    }
+}
+
 /// See the module documentation. About 6 KiB.
 pub(super) struct Memo {
     /// `prefix[x % PREFIX_RING]`: the CRC register after the bytes from the
@@ -230,6 +258,9 @@ pub(super) struct Memo {
     /// the fast rejection loop ask about the same positions.
     v1_whole: [u64; SCAN_WORDS],
     v1_good: [u64; SCAN_WORDS],
+    /// The MAVLink 1 start bytes whose frame was whole and of an unknown
+    /// id, at the same positions.
+    v1_raw: [u64; SCAN_WORDS],
     v1_from: u64,
     v1_frontier: u64,
     /// Start bytes by kind, and MAVLink 2 flags other than known, of the
@@ -353,6 +384,7 @@ impl Memo {
             v1_filled: false,
             v1_whole: [0; SCAN_WORDS],
             v1_good: [0; SCAN_WORDS],
+            v1_raw: [0; SCAN_WORDS],
             v1_from: 0,
             v1_frontier: 0,
             busy_until: 0,
@@ -604,10 +636,12 @@ impl Memo {
             let n = end - lo - base;
             self.masks_ahead(bytes, at, at + (lo + base + n.min(64)) as u64);
             let Starts { kinds, .. } = self.starts_seen(bytes, at, lo + base, n.min(64));
-            let (whole, mut good) = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
-            let (mut bad, mut raw) = (whole & !good, 0);
-            self.steps += u64::from(whole.count_ones());
-            for mut starts in [kinds[0] & !whole, kinds[1]] {
+            let v1 = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
+            let (mut good, mut bad, mut raw) = (v1.good, v1.whole & !v1.good, v1.raw);
+            self.steps += u64::from((v1.whole | v1.raw).count_ones());
+            // (A whole frame of an unknown id is that and nothing else:
+            // what `classify_start` would say.)
+            for mut starts in [kinds[0] & !v1.whole & !v1.raw, kinds[1]] {
                 self.steps += u64::from(starts.count_ones());
                 while starts != 0 {
                     let j = starts.trailing_zeros();
@@ -772,8 +806,8 @@ impl Memo {
 
     /// Of the MAVLink 1 start bytes `mask` among the 64 positions from
     /// `bytes[block]` (`bytes[0]` is stream position `at`, no later than
-    /// the current candidate): those whose frame is whole and of a known id
-    /// (`.0`), and of those, the ones whose checksum is good (`.1`). One
+    /// the current candidate): those whose frame is whole, of a known id or
+    /// not, and of the known ones, those whose checksum is good. One
     /// tight loop over prefix states extended once: in garbage dense in
     /// 0xFE this is the cost of every byte.
     pub(super) fn v1_checks<D: Dialect>(
@@ -782,9 +816,9 @@ impl Memo {
         at: u64,
         block: usize,
         mask: u64,
-    ) -> (u64, u64) {
+    ) -> V1 {
         if mask == 0 {
-            return (0, 0);
+            return V1::NONE;
         }
         self.fill_v1_extra::<D>();
         // Every frame of the block whole in `bytes`: no bound to check.
@@ -793,12 +827,15 @@ impl Memo {
             .and_then(|w| <&[u8; V1_WINDOW]>::try_from(w).ok());
         // Only known ids have a checksum to check: without one in the
         // block (a stream of frames of unknown ids), no prefix state.
-        let mask = match window {
-            Some(window) => v1_known(&self.v1_extra, window, mask),
-            None => mask,
+        let (mask, raw) = match window {
+            Some(window) => {
+                let known = v1_known(&self.v1_extra, window, mask);
+                (known, mask & !known)
+            }
+            None => (mask, 0),
         };
         if mask == 0 {
-            return (0, 0);
+            return V1 { raw, ..V1::NONE };
         }
         // The farthest a checksum of a frame starting in the block reaches.
         let far = at + (block + 64 + HEADER_LEN_V1 + 255).min(bytes.len()) as u64;
@@ -813,9 +850,13 @@ impl Memo {
                 at + block as u64,
                 mask,
             );
-            return (mask, good);
+            return V1 {
+                whole: mask,
+                good,
+                raw,
+            };
         }
-        let (mut whole, mut good) = (0u64, 0u64);
+        let (mut whole, mut good, mut raw) = (0u64, 0u64, 0u64);
         let mut m = mask;
         while m != 0 {
             let j = m.trailing_zeros() as usize;
@@ -830,6 +871,7 @@ impl Memo {
                 continue;
             };
             if extra & 0x100 == 0 {
+                raw |= 1 << j;
                 continue;
             }
             let start = at + (rel + 1) as u64;
@@ -840,7 +882,7 @@ impl Memo {
             whole |= 1 << j;
             good |= u64::from(ok) << j;
         }
-        (whole, good)
+        V1 { whole, good, raw }
     }
 
     /// [`v1_checks`](Self::v1_checks), each position checked once: the
@@ -857,16 +899,13 @@ impl Memo {
         at: u64,
         block: usize,
         (mask, n): (u64, usize),
-    ) -> (u64, u64) {
+    ) -> V1 {
         let first = at + block as u64;
         let end = first + n.min(64) as u64;
         if first >= self.v1_from && end <= self.v1_frontier {
             // All checked already (the scan runs ahead of the fast
             // rejection loop): most calls from the loop.
-            return (
-                bits_from(&self.v1_whole, first) & mask,
-                bits_from(&self.v1_good, first) & mask,
-            );
+            return self.remembered_v1(first).masked(mask);
         }
         self.v1_verdicts_fresh::<D>(bytes, at, block, (mask, n))
     }
@@ -880,7 +919,7 @@ impl Memo {
         at: u64,
         block: usize,
         (mask, n): (u64, usize),
-    ) -> (u64, u64) {
+    ) -> V1 {
         let first = at + block as u64;
         let end = first + n.min(64) as u64;
         // The positions of the block already checked.
@@ -891,7 +930,7 @@ impl Memo {
             0
         };
         let fresh = mask & !known;
-        let (whole, good) = self.v1_checks::<D>(bytes, at, block, fresh);
+        let checked = self.v1_checks::<D>(bytes, at, block, fresh);
         self.steps += u64::from(fresh.count_ones());
         if self.v1_frontier < first || self.v1_from > self.v1_frontier {
             // Nothing remembered reaches the block: start again from it.
@@ -900,16 +939,37 @@ impl Memo {
         if first >= self.v1_from && first <= self.v1_frontier && end > self.v1_frontier {
             let from = self.v1_frontier;
             let new = span_mask(from - first, end - first);
-            merge_bits(&mut self.v1_whole, first, whole, new);
-            merge_bits(&mut self.v1_good, first, good, new);
+            self.remember_v1(first, checked, new);
             self.steps += end - from;
             self.v1_frontier = end;
             self.v1_from = self.v1_from.max(end.saturating_sub(SCAN_RING as u64));
         }
-        (
-            (whole | bits_from(&self.v1_whole, first) & known) & mask,
-            (good | bits_from(&self.v1_good, first) & known) & mask,
-        )
+        let before = self.remembered_v1(first).masked(known);
+        V1 {
+            whole: checked.whole | before.whole,
+            good: checked.good | before.good,
+            raw: checked.raw | before.raw,
+        }
+        .masked(mask)
+    }
+
+    /// The verdicts remembered of the 64 positions from `first`.
+    #[inline(always)]
+    fn remembered_v1(&self, first: u64) -> V1 {
+        V1 {
+            whole: bits_from(&self.v1_whole, first),
+            good: bits_from(&self.v1_good, first),
+            raw: bits_from(&self.v1_raw, first),
+        }
+    }
+
+    /// Remembers the verdicts `v1` of the positions `which` of the 64 from
+    /// `first`.
+    #[inline(always)]
+    fn remember_v1(&mut self, first: u64, v1: V1, which: u64) {
+        merge_bits(&mut self.v1_whole, first, v1.whole, which);
+        merge_bits(&mut self.v1_good, first, v1.good, which);
+        merge_bits(&mut self.v1_raw, first, v1.raw, which);
     }
 
     /// Moves the frontier of [`v1_verdicts`](Self::v1_verdicts) past `end`
@@ -929,9 +989,8 @@ impl Memo {
             if x + 64 > at + (SCAN_RING - MAX_FRAME_LEN) as u64 || bytes.len() < rel + V1_WINDOW {
                 return;
             }
-            let (whole, good) = self.v1_checks::<D>(bytes, at, rel, masks.0);
-            merge_bits(&mut self.v1_whole, x, whole, !0);
-            merge_bits(&mut self.v1_good, x, good, !0);
+            let checked = self.v1_checks::<D>(bytes, at, rel, masks.0);
+            self.remember_v1(x, checked, !0);
             self.steps += 64 + u64::from(masks.0.count_ones());
             self.v1_frontier = x + 64;
             self.v1_from = self
@@ -950,8 +1009,8 @@ impl Memo {
         if end > self.v1_frontier && at >= self.v1_from && at <= self.v1_frontier {
             self.v1_blocks_ahead::<D>(bytes, at, end);
         }
-        let (whole, good) = self.v1_verdicts::<D>(bytes, at, 0, (mask, bytes.len()));
-        whole & !good
+        let v1 = self.v1_verdicts::<D>(bytes, at, 0, (mask, bytes.len()));
+        v1.whole & !v1.good
     }
 
     /// Whether [`v1_verdicts`](Self::v1_verdicts) found the MAVLink 1
@@ -1509,7 +1568,7 @@ mod tests {
                 i += 1;
             }
         }
-        let mut good_seen = 0;
+        let (mut good_seen, mut raw_seen) = (0, 0);
         for whole_rest in [true, false] {
             let mut memo = Memo::new();
             let mut at = 0usize;
@@ -1532,17 +1591,23 @@ mod tests {
                     if whole_rest {
                         assert_eq!(got, want, "at {at}, block {base}");
                     } else {
-                        assert_eq!(got.0 & !want.0, 0, "whole: at {at}, block {base}");
-                        assert_eq!(got.1, want.1 & got.0, "good: at {at}, block {base}");
+                        assert_eq!(got.whole & !want.whole, 0, "whole: at {at}, block {base}");
+                        assert_eq!(
+                            got.good,
+                            want.good & got.whole,
+                            "good: at {at}, block {base}"
+                        );
+                        assert_eq!(got.raw & !want.raw, 0, "raw: at {at}, block {base}");
                     }
-                    good_seen += got.1.count_ones();
+                    good_seen += got.good.count_ones();
+                    raw_seen += got.raw.count_ones();
                 }
                 at += 1 + next() as usize % if next() % 8 == 0 { 600 } else { 20 };
             }
         }
         assert!(
-            good_seen > 100,
-            "{good_seen} good frames: the test must see some"
+            good_seen > 100 && raw_seen > 100,
+            "{good_seen} good frames, {raw_seen} of unknown ids: the test must see some"
         );
     }
 

@@ -907,21 +907,22 @@ impl Memo {
             // rejection loop): most calls from the loop.
             return self.remembered_v1(first).masked(mask);
         }
-        self.v1_verdicts_fresh::<D>(bytes, at, block, (mask, n))
+        self.v1_verdicts_fresh::<D>(bytes, at, block, mask, end)
     }
 
-    /// [`v1_verdicts`](Self::v1_verdicts) of a block not all checked yet
-    /// (out of line: the check of a block all checked stays small).
+    /// [`v1_verdicts`](Self::v1_verdicts) of a block (positions from
+    /// `bytes[block]` to stream position `end`) not all checked yet (out of
+    /// line: the check of a block all checked stays small).
     #[inline(never)]
     fn v1_verdicts_fresh<D: Dialect>(
         &mut self,
         bytes: &[u8],
         at: u64,
         block: usize,
-        (mask, n): (u64, usize),
+        mask: u64,
+        end: u64,
     ) -> V1 {
         let first = at + block as u64;
-        let end = first + n.min(64) as u64;
         // The positions of the block already checked.
         let (lo, hi) = (self.v1_from.max(first), self.v1_frontier.min(end));
         let known = if lo < hi {
@@ -1157,11 +1158,11 @@ impl Memo {
     }
 
     /// [`starts`](Self::starts) for the scan: read from the ring of masks
-    /// when it holds them, else computed and not remembered. The scan
-    /// passes over each position once, ahead of the rejection loop, which
-    /// passes again and again over positions behind it: a ring moved to the
-    /// scan's positions would lose the loop's (in small reads, masks were
-    /// computed five times over).
+    /// when it holds them, else computed and not remembered (the scan
+    /// moves the ring only where [`masks_ahead`](Self::masks_ahead) lets
+    /// it, so that it never loses the positions the rejection loop passes
+    /// over again and again: in small reads, masks were once computed five
+    /// times over).
     #[inline]
     fn starts_seen(&self, bytes: &[u8], at: u64, base: usize, n: usize) -> Starts {
         let masks = self
@@ -1170,42 +1171,36 @@ impl Memo {
         starts_of(bytes, base, masks)
     }
 
-    /// Moves the frontier of the ring of masks on to `end` (whole blocks,
-    /// as far as `bytes`, from stream position `at`, hold them), when the
-    /// ring reaches `at` and keeps every position from it: the scan's
-    /// blocks are then read again by the fast rejection loop and by
+    /// Moves the frontier of the ring of masks on to `end`, when the ring
+    /// reaches `at` and keeps every position from it: the scan's blocks are
+    /// then read again by the fast rejection loop and by
     /// [`v1_blocks_ahead`](Self::v1_blocks_ahead), not computed three times.
     #[inline]
     fn masks_ahead(&mut self, bytes: &[u8], at: u64, end: u64) {
         if self.masks_from > at || self.masks_frontier < at || self.masks_frontier >= end {
             return;
         }
-        while self.masks_frontier < end && self.masks_frontier + 64 <= at + (SCAN_RING - 64) as u64
-        {
-            let x = self.masks_frontier;
-            let Some(window) = bytes.get((x - at) as usize..(x - at) as usize + 64 + 2) else {
-                return;
-            };
-            let (v1, v2, flags) = masks_by_words(window);
-            merge_bits(&mut self.mask_v1, x, v1, !0);
-            merge_bits(&mut self.mask_v2, x, v2, !0);
-            merge_bits(&mut self.mask_flags, x, flags, !0);
-            self.masks_frontier = x + 64;
-        }
-        self.masks_from = self
-            .masks_from
-            .max(self.masks_frontier.saturating_sub(SCAN_RING as u64));
+        // Blocks are added while the frontier is at most `last` (so it
+        // stays within SCAN_RING - 64 positions of `at`).
+        let last = at + (SCAN_RING - 128) as u64;
+        self.extend_masks(bytes, at, end.min(last + 1));
     }
 
     /// Computes the masks of the positions from the frontier (or from
-    /// `first` when the frontier is behind it) to two blocks after `first`,
-    /// as far as whole blocks of `bytes` (from stream position `at`) go.
+    /// `first` when the frontier is behind it) to two blocks after `first`.
     #[inline(never)]
     fn remember_masks(&mut self, bytes: &[u8], at: u64, first: u64) {
         if self.masks_frontier < first || self.masks_from > first {
             (self.masks_from, self.masks_frontier) = (first, first);
         }
-        while self.masks_frontier < first + 128 {
+        self.extend_masks(bytes, at, first + 128);
+    }
+
+    /// Moves the frontier of the ring of masks by whole blocks of 64
+    /// positions until it reaches `upto`, as far as `bytes` (from stream
+    /// position `at`) hold them, and forgets what the ring no longer keeps.
+    fn extend_masks(&mut self, bytes: &[u8], at: u64, upto: u64) {
+        while self.masks_frontier < upto {
             let x = self.masks_frontier;
             let Some(window) = usize::try_from(x - at)
                 .ok()

@@ -269,6 +269,11 @@ def slow_relay(to_port, bytes_per_sec, far_buffer):
         near, _ = listener.accept()
         listener.close()
         far = socket.create_connection(("127.0.0.1", to_port))
+        # A serial link sends each byte as it comes: without this, Nagle's
+        # algorithm holds the relay's small writes until the peer's delayed
+        # ACK (40 ms on Linux), a delay of the harness, not of the link.
+        for s in (near, far):
+            s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         threading.Thread(target=pump, args=(near, far), daemon=True).start()
         threading.Thread(target=pump, args=(far, near), daemon=True).start()
 

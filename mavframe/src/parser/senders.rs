@@ -17,7 +17,7 @@
 use super::{LinkStats, MAX_TRACKED_LINKS};
 
 /// The tracked senders: what [`Parser::links`](super::Parser::links)
-/// returns, and their ids side by side.
+/// returns, and the tables that find a sender's slot.
 pub(super) struct Senders {
     links: [LinkStats; MAX_TRACKED_LINKS],
     /// Bit `i` of `by_sysid[fold(s)]`: slot `i` is taken by a sender whose
@@ -29,17 +29,9 @@ pub(super) struct Senders {
 }
 
 impl Senders {
-    pub(super) const fn new() -> Self {
-        const NONE: LinkStats = LinkStats {
-            sysid: 0,
-            compid: 0,
-            received: 0,
-            lost: 0,
-            gaps: 0,
-            last_seq: 0,
-        };
+    pub(super) fn new() -> Self {
         Senders {
-            links: [NONE; MAX_TRACKED_LINKS],
+            links: [LinkStats::default(); MAX_TRACKED_LINKS],
             by_sysid: [0; FOLDED],
             by_compid: [0; FOLDED],
             tracked: 0,

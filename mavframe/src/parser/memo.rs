@@ -522,20 +522,15 @@ impl Memo {
             return;
         };
         let mut r = self.prefix[slot_of(self.prefix_end, PREFIX_MASK)];
-        let mut x = self.prefix_end;
-        let mut fours = new.chunks_exact(4);
-        for b in &mut fours {
-            let states = crc::step4(r, [b[0], b[1], b[2], b[3]]);
-            for s in states {
-                x += 1;
-                self.prefix[slot_of(x, PREFIX_MASK)] = s;
-            }
-            r = states[3];
-        }
-        for &b in fours.remainder() {
-            r = crc::step(r, b);
-            x += 1;
-            self.prefix[slot_of(x, PREFIX_MASK)] = r;
+        // The states after each new byte, in at most two runs of the ring
+        // (it wraps once at most): no index masked per state.
+        let mut slot = slot_of(self.prefix_end + 1, PREFIX_MASK);
+        let mut new = new;
+        while !new.is_empty() {
+            let n = new.len().min(PREFIX_RING - slot);
+            let (bytes, rest) = new.split_at(n);
+            r = prefix_states(r, bytes, &mut self.prefix[slot..slot + n]);
+            (new, slot) = (rest, 0);
         }
         self.steps += upto - self.prefix_end;
         self.prefix_end = upto;
@@ -1218,6 +1213,24 @@ impl Memo {
             .masks_from
             .max(self.masks_frontier.saturating_sub(SCAN_RING as u64));
     }
+}
+
+/// Writes to `states` the CRC register after each of `bytes` folded into
+/// `r` in turn (as many states as bytes), and returns the last.
+#[inline(always)]
+fn prefix_states(mut r: u16, bytes: &[u8], states: &mut [u16]) -> u16 {
+    let mut fours = bytes.chunks_exact(4);
+    let mut outs = states.chunks_exact_mut(4);
+    for (b, out) in (&mut fours).zip(&mut outs) {
+        let four = crc::step4(r, [b[0], b[1], b[2], b[3]]);
+        out.copy_from_slice(&four);
+        r = four[3];
+    }
+    for (&b, out) in fours.remainder().iter().zip(outs.into_remainder()) {
+        r = crc::step(r, b);
+        *out = r;
+    }
+    r
 }
 
 /// Of the MAVLink 1 start bytes `mask` of a block whose every frame is

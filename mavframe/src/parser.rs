@@ -1032,13 +1032,17 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
     // masks of 64 positions once the start bytes prove dense.
     let mut i = 0;
     for n in 1.. {
-        if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN {
+        // (The masks' loop hands unsigned frames back: a run that skips
+        // them goes on here.)
+        if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN && count.unsigned == 0 {
             memo.dense_starts = true;
             let (j, end) =
                 reject_masked::<D, N>(&bytes[i..], at + i as u64, memo, &mut rest, &mut count);
             return count.record(i + j, end, memo, rest.stats);
         }
         let bytes = &bytes[i..];
+        // The bytes this candidate drops.
+        let mut drop = 1;
         match bytes.first() {
             Some(&STX_V2) if refused(bytes) => count.bad_flags += 1,
             Some(&STX_V1) if memo.v1_known_bad(at + i as u64) => count.bad_crc += 1,
@@ -1046,15 +1050,20 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
                 match alone::<D, N>(bytes, at + i as u64, memo, &mut rest, MaybeGood::UNKNOWN) {
                     Alone::BadCrc => count.bad_crc += 1,
                     Alone::Refused => count.by_check_raw += 1,
+                    Alone::Ends(RunEnd::Policy(len)) if rest.refuses_unsigned(&bytes[..len]) => {
+                        count.unsigned += 1;
+                        drop = len;
+                    }
                     Alone::Ends(end) => return count.record(i, end, memo, rest.stats),
                 }
             }
             None => break,
         }
-        i += 1 + bytes[1..]
-            .iter()
-            .position(|&b| b == STX_V1 || b == STX_V2)
-            .unwrap_or(bytes.len() - 1);
+        i += drop
+            + bytes[drop..]
+                .iter()
+                .position(|&b| b == STX_V1 || b == STX_V2)
+                .unwrap_or(bytes.len() - drop);
     }
     count.record(i, RunEnd::Check, memo, rest.stats)
 }
@@ -1067,6 +1076,19 @@ struct Rest<'a, const N: usize> {
     accept_unsigned: bool,
     at_eof: bool,
     stats: &'a mut Stats,
+}
+
+impl<const N: usize> Rest<'_, N> {
+    /// Whether the signing policy skips the whole frame `frame` of an
+    /// unknown id that [`check_raw`] leaves to it ([`signing`]'s
+    /// `Skip`): unsigned where signatures are required. The rejection loop
+    /// then goes on after it instead of handing it back to the caller (in
+    /// garbage of unsigned frames at a keyed parser, a round trip per
+    /// frame).
+    #[inline(always)]
+    fn refuses_unsigned(&self, frame: &[u8]) -> bool {
+        self.verifier.is_some() && !self.accept_unsigned && !Frame::new_unchecked(frame).is_signed()
+    }
 }
 
 /// Candidates [`Parser::raw_frame_in_place`] rejects before it leaves the
@@ -1096,6 +1118,9 @@ struct Rejected {
     bad_flags: u64,
     /// Those [`check_raw`] refused (and counted as it does).
     by_check_raw: u64,
+    /// Whole frames of unknown ids the signing policy refused unsigned
+    /// ([`Rest::refuses_unsigned`]).
+    unsigned: u64,
 }
 
 /// Why [`check_raw`] refuses a whole candidate of an unknown id before
@@ -1141,13 +1166,14 @@ enum RunEnd {
 impl Rejected {
     /// The candidates rejected.
     fn rejected(&self) -> u64 {
-        self.bad_crc + self.bad_flags + self.by_check_raw
+        self.bad_crc + self.bad_flags + self.by_check_raw + self.unsigned
     }
 
     /// Counts the rejections and the `dropped` bytes: the run's end.
     fn record(self, dropped: usize, end: RunEnd, memo: &mut Memo, stats: &mut Stats) -> Run {
         stats.bad_crc += self.bad_crc;
         stats.bad_incompat_flags += self.bad_flags;
+        stats.unsigned_rejected += self.unsigned;
         stats.bytes_dropped += dropped as u64;
         memo.steps += (dropped as u64) + self.rejected();
         Run { dropped, end }

@@ -82,6 +82,19 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         &[0xfe, 0xfe, 0xfe, 0xfe, 0xfd, 0x00, 0x00, 0xfe, 0xfe],
         false,
     ),
+    // Built by hand (stop 24), beyond what the search climbed to: found_i's
+    // frame of unknown id 10 with eleven 0xFE candidates and a 0xFD after
+    // it. The worst input known in 64 KiB reads, and by far in 300- and
+    // 64-byte reads, where each 0xFE's 262-byte frame is cut by the read
+    // (classified as pending, then again when its bytes come).
+    (
+        "found_k",
+        &[
+            0xfe, 0x00, 0xfe, 0xfe, 0xfd, 0x0a, 0x00, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe,
+            0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfd,
+        ],
+        false,
+    ),
     // A signed frame of unknown id 3 and long 0xFE candidates: the worst
     // with a key in 64-byte reads.
     (

@@ -582,6 +582,12 @@ impl Memo {
         if avail < self.woken {
             self.forget_from(at);
         }
+        let upto = avail.min(self.last_wake).min(at + PREFIX_REACH);
+        if upto > self.prefix_end || self.prefix_end <= at {
+            // The checksums of the positions woken, from prefix states
+            // extended once (in small reads, a few bytes per position).
+            self.extend_prefix(bytes, at, upto);
+        }
         while self.woken < avail.min(self.last_wake) {
             self.woken += 1;
             let w = self.woken;

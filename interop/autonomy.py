@@ -26,13 +26,18 @@ parser.add_argument("--compid", type=int, default=196)
 args = parser.parse_args()
 
 link = connect(args.device, args.sysid, args.compid)
+# Say we are here at once (udpout: the companion learns our address from
+# it), then that we are up: a test starts its FC's timeline after this line.
+link.mav.heartbeat_send(fbwag.MAV_TYPE_ONBOARD_CONTROLLER, fbwag.MAV_AUTOPILOT_INVALID, 0, 0,
+                        fbwag.MAV_STATE_ACTIVE)
+log("autonomy", "up")
 sent = 0
 in_control_sent = 0
 modes = []
 notices = []
 in_control = False
 next_override = 0.0
-next_heartbeat = 0.0
+next_heartbeat = time.time() + 1.0
 end = time.time() + args.seconds
 while time.time() < end:
     now = time.time()

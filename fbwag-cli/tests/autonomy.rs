@@ -31,21 +31,39 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
     let mut cc = Command::new(env!("CARGO_BIN_EXE_fbwag"))
         .args(["cc", "--link", &format!("udpin:127.0.0.1:{fc_port}")])
         .args(["--autonomy", &format!("udpin:127.0.0.1:{autonomy_port}")])
-        .args(["--sign-key", &key, "--require-signed", "--duration", "8"])
+        .args(["--sign-key", &key, "--require-signed", "--duration", "12"])
         .arg("--events")
         .arg(&cc_events)
         .stdout(Stdio::piped())
         .spawn()
         .unwrap();
     std::thread::sleep(Duration::from_millis(300));
-    let autonomy = Command::new(&py)
+    let mut autonomy = Command::new(&py)
         .arg(repo().join("interop/autonomy.py"))
         .arg(format!("udpout:127.0.0.1:{autonomy_port}"))
-        .args(["--seconds", "8", "--chan1", "1234"])
+        .args(["--seconds", "10", "--chan1", "1234"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    // The FC's timeline starts once the autonomy is up: the companion
+    // learns its address from its first heartbeat, and notices sent before
+    // that reach nobody (a loaded machine took over 2 s to start Python,
+    // and the takeover notice went by).
+    let stdout = std::io::BufReader::new(autonomy.stdout.take().unwrap());
+    let (up_tx, up_rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        let mut lines = Vec::new();
+        for line in std::io::BufRead::lines(stdout).map_while(Result::ok) {
+            if line == "autonomy: up" {
+                let _ = up_tx.send(());
+            }
+            lines.push(line);
+        }
+        lines.join("\n")
+    });
+    let _ = up_rx.recv_timeout(Duration::from_secs(30));
+    std::thread::sleep(Duration::from_millis(200));
     // The FC: receiver lost at 2 s, back at 5 s.
     let fc = Command::new(env!("CARGO_BIN_EXE_fbwag"))
         .args(["fc-sim", "--link", &format!("udpout:127.0.0.1:{fc_port}")])
@@ -56,6 +74,7 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
         .output()
         .unwrap();
     let autonomy = autonomy.wait_with_output().unwrap();
+    let autonomy_stdout = reader.join().unwrap();
     // The daemon ends on its own (its summary is written at exit); killed
     // only if it overstays.
     for _ in 0..50 {
@@ -70,7 +89,7 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
         "--- fc-sim\n{}\n--- cc\n{}\n--- autonomy\n{}{}",
         String::from_utf8_lossy(&fc.stdout),
         String::from_utf8_lossy(&cc.stdout),
-        String::from_utf8_lossy(&autonomy.stdout),
+        autonomy_stdout,
         String::from_utf8_lossy(&autonomy.stderr)
     );
     assert!(fc.status.success(), "{report}");
@@ -122,8 +141,8 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
     );
     assert!(s["controls_forwarded"].as_u64().unwrap() > 20, "{s}");
     // The autonomy saw its FC's mode and the takeover notices.
-    let line = String::from_utf8_lossy(&autonomy.stdout);
-    let result: Value = serde_json::from_str(line.lines().last().unwrap_or("{}")).unwrap();
+    let result: Value =
+        serde_json::from_str(autonomy_stdout.lines().last().unwrap_or("{}")).unwrap();
     let seen: Vec<u64> = result["modes"]
         .as_array()
         .unwrap()

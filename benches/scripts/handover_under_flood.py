@@ -34,6 +34,9 @@ import time
 
 KEY = "5a1f0c3d9e8b7a6f5e4d3c2b1a0f9e8d7c6b5a49382716051f2e3d4c5b6a7988"
 WORST = bytes.fromhex("fefefefdfd0000fe00fe")
+# The parser's worst input known (benches/src/worst.rs, `found_k`, stop 24),
+# sent in 300-byte datagrams, the read size where it costs most.
+FOUND_K = bytes.fromhex("fe00fefefd0a00fe" + "fe" * 11 + "fd")
 RC_LOSS_AT = 0.6
 RUN_LIMIT = 6.5
 
@@ -49,6 +52,8 @@ def garbage(kind, rng, n):
         )
     if kind == "worst":
         return (WORST * (n // len(WORST) + 1))[:n]
+    if kind == "found-k":
+        return (FOUND_K * (n // len(FOUND_K) + 1))[:n]
     raise ValueError(kind)
 
 
@@ -125,6 +130,8 @@ def datagrams(kind, fbwag, tmp):
         return stranger_frames(fbwag, tmp)
     if kind == "worst-64k":
         return [garbage("worst", rng, 65000)]
+    if kind == "found-k":
+        return [garbage(kind, rng, 300)]
     return [garbage(kind, rng, 1024) for _ in range(16)]
 
 
@@ -378,6 +385,8 @@ def main():
         ("worst", 100),
         ("worst", 1000),
         ("worst-64k", 5),
+        ("found-k", 1000),
+        ("found-k", 10000),
         ("false-header", 2000),
         ("false-header", 20000),
         ("strangers", 2000),
@@ -408,7 +417,7 @@ def main():
         print("| `fbwag decode`, 1 MB of | MB/s |")
         print("|---|---|")
         rng = random.Random(1)
-        for kind in ("random", "start-dense", "worst", "false-header", "strangers"):
+        for kind in ("random", "start-dense", "worst", "found-k", "false-header", "strangers"):
             # A list of datagrams: 1 MB of them back to back.
             pool = pools.get(kind) or [garbage(kind, rng, 1 << 16)]
             print("| %s | %.2f |" % (kind, decode_rate(fbwag, tmp, kind, pool)))

@@ -62,7 +62,9 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
         }
         lines.join("\n")
     });
-    let _ = up_rx.recv_timeout(Duration::from_secs(30));
+    up_rx
+        .recv_timeout(Duration::from_secs(30))
+        .expect("the autonomy program did not start within 30 s");
     std::thread::sleep(Duration::from_millis(200));
     // The FC: receiver lost at 2 s, back at 5 s.
     let fc = Command::new(env!("CARGO_BIN_EXE_fbwag"))

@@ -494,7 +494,9 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 self.pos += run.dropped as u64;
                 *input = &input[run.dropped..];
                 match run.end {
-                    RunEnd::Authenticated(len) => break Found::InInput(len, None, true),
+                    RunEnd::Accepted { len, authenticated } => {
+                        break Found::InInput(len, None, authenticated)
+                    }
                     RunEnd::Policy(len) => {
                         // What `check` would decide, from its signing
                         // policy on.
@@ -771,7 +773,9 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             }
             let len = match run.end {
                 RunEnd::Check => break,
-                RunEnd::Authenticated(len) => return Held::Found(Found::InBuf(len, None, true)),
+                RunEnd::Accepted { len, authenticated } => {
+                    return Held::Found(Found::InBuf(len, None, authenticated))
+                }
                 RunEnd::Policy(len) => len,
             };
             // What `check` would decide, from its signing policy on.
@@ -1032,9 +1036,9 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
     // masks of 64 positions once the start bytes prove dense.
     let mut i = 0;
     for n in 1.. {
-        // (The masks' loop hands unsigned frames back: a run that skips
-        // them goes on here.)
-        if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN && count.unsigned == 0 {
+        // (The masks' loop hands the frames for the signing policy back: a
+        // run that skipped one goes on here.)
+        if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN && count.skipped == 0 {
             memo.dense_starts = true;
             let (j, end) =
                 reject_masked::<D, N>(&bytes[i..], at + i as u64, memo, &mut rest, &mut count);
@@ -1050,9 +1054,24 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
                 match alone::<D, N>(bytes, at + i as u64, memo, &mut rest, MaybeGood::UNKNOWN) {
                     Alone::BadCrc => count.bad_crc += 1,
                     Alone::Refused => count.by_check_raw += 1,
-                    Alone::Ends(RunEnd::Policy(len)) if rest.refuses_unsigned(&bytes[..len]) => {
-                        count.unsigned += 1;
-                        drop = len;
+                    Alone::Ends(RunEnd::Policy(len)) => {
+                        // The signing policy, here: a frame it skips (unsigned
+                        // where signatures are required) is dropped and the
+                        // run goes on, not handed back for `next` to skip
+                        // (a round trip per frame in garbage of unsigned
+                        // frames at a keyed parser).
+                        let frame = Frame::new_unchecked(&bytes[..len]);
+                        match signing(&frame, None, rest.ctx(at + i as u64, memo)) {
+                            Verdict::Skip(n) => {
+                                count.skipped += 1;
+                                drop = n;
+                            }
+                            Verdict::Accept { authenticated, .. } => {
+                                let end = RunEnd::Accepted { len, authenticated };
+                                return count.record(i, end, memo, rest.stats);
+                            }
+                            _ => return count.record(i, RunEnd::Policy(len), memo, rest.stats),
+                        }
                     }
                     Alone::Ends(end) => return count.record(i, end, memo, rest.stats),
                 }
@@ -1079,15 +1098,17 @@ struct Rest<'a, const N: usize> {
 }
 
 impl<const N: usize> Rest<'_, N> {
-    /// Whether the signing policy skips the whole frame `frame` of an
-    /// unknown id that [`check_raw`] leaves to it ([`signing`]'s
-    /// `Skip`): unsigned where signatures are required. The rejection loop
-    /// then goes on after it instead of handing it back to the caller (in
-    /// garbage of unsigned frames at a keyed parser, a round trip per
-    /// frame).
+    /// The context of a check of the candidate at stream position `at`.
     #[inline(always)]
-    fn refuses_unsigned(&self, frame: &[u8]) -> bool {
-        self.verifier.is_some() && !self.accept_unsigned && !Frame::new_unchecked(frame).is_signed()
+    fn ctx<'c>(&'c mut self, at: u64, memo: &'c mut Memo) -> Ctx<'c, N> {
+        Ctx {
+            at,
+            memo,
+            verifier: self.verifier,
+            accept_unsigned: self.accept_unsigned,
+            at_eof: self.at_eof,
+            stats: self.stats,
+        }
     }
 }
 
@@ -1121,9 +1142,9 @@ struct Rejected {
     bad_flags: u64,
     /// Those [`check_raw`] refused (and counted as it does).
     by_check_raw: u64,
-    /// Whole frames of unknown ids the signing policy refused unsigned
-    /// ([`Rest::refuses_unsigned`]).
-    unsigned: u64,
+    /// Whole frames of unknown ids the signing policy skipped (and counted
+    /// as it does).
+    skipped: u64,
 }
 
 /// Why [`check_raw`] refuses a whole candidate of an unknown id before
@@ -1161,22 +1182,21 @@ enum RunEnd {
     /// A frame of an unknown id, this long, that [`check_raw`] leaves to
     /// the signing policy ([`signing`]).
     Policy(usize),
-    /// A frame of an unknown id, this long, that [`check_raw`] took: its
-    /// signature is good.
-    Authenticated(usize),
+    /// A frame of an unknown id, `len` bytes long, taken: by [`check_raw`]
+    /// for its good signature (`authenticated`), or by the signing policy.
+    Accepted { len: usize, authenticated: bool },
 }
 
 impl Rejected {
     /// The candidates rejected.
     fn rejected(&self) -> u64 {
-        self.bad_crc + self.bad_flags + self.by_check_raw + self.unsigned
+        self.bad_crc + self.bad_flags + self.by_check_raw + self.skipped
     }
 
     /// Counts the rejections and the `dropped` bytes: the run's end.
     fn record(self, dropped: usize, end: RunEnd, memo: &mut Memo, stats: &mut Stats) -> Run {
         stats.bad_crc += self.bad_crc;
         stats.bad_incompat_flags += self.bad_flags;
-        stats.unsigned_rejected += self.unsigned;
         stats.bytes_dropped += dropped as u64;
         memo.steps += (dropped as u64) + self.rejected();
         Run { dropped, end }
@@ -1326,18 +1346,12 @@ fn raw_alone<D: Dialect, const N: usize>(
         return Alone::Ends(RunEnd::Check);
     };
     let frame = Frame::new_unchecked(&bytes[..len]);
-    let cx = Ctx {
-        at,
-        memo,
-        verifier: rest.verifier,
-        accept_unsigned: rest.accept_unsigned,
-        at_eof: rest.at_eof,
-        stats: rest.stats,
-    };
-    match raw_verdict::<D, N>(bytes, &frame, cx, maybe) {
+    match raw_verdict::<D, N>(bytes, &frame, rest.ctx(at, memo), maybe) {
         Some(Verdict::Reject) => Alone::Refused,
         // Only an authenticated frame is taken there.
-        Some(Verdict::Accept { len, .. }) => Alone::Ends(RunEnd::Authenticated(len)),
+        Some(Verdict::Accept {
+            len, authenticated, ..
+        }) => Alone::Ends(RunEnd::Accepted { len, authenticated }),
         Some(_) => Alone::Ends(RunEnd::Check),
         None => Alone::Ends(RunEnd::Policy(len)),
     }

@@ -631,9 +631,7 @@ impl Memo {
         clear_range(&mut self.undecided, from, to);
         // The MAVLink 1 verdicts by whole blocks from their frontier: the
         // scan's blocks start wherever it stopped last.
-        if self.v1_frontier < from {
-            (self.v1_from, self.v1_frontier) = (from, from);
-        }
+        self.v1_reach(from);
         self.v1_blocks_ahead::<D>(bytes, at, to);
         let lo = (from - at) as usize;
         // By kind, so that no branch per position asks which kind it is
@@ -941,10 +939,7 @@ impl Memo {
         let fresh = mask & !known;
         let checked = self.v1_checks::<D>(bytes, at, block, fresh);
         self.steps += u64::from(fresh.count_ones());
-        if self.v1_frontier < first || self.v1_from > self.v1_frontier {
-            // Nothing remembered reaches the block: start again from it.
-            (self.v1_from, self.v1_frontier) = (first, first);
-        }
+        self.v1_reach(first);
         if first >= self.v1_from && first <= self.v1_frontier && end > self.v1_frontier {
             let from = self.v1_frontier;
             let new = span_mask(from - first, end - first);
@@ -960,6 +955,15 @@ impl Memo {
             raw: checked.raw | before.raw,
         }
         .masked(mask)
+    }
+
+    /// Starts the MAVLink 1 verdicts again at stream position `first` when
+    /// nothing remembered reaches it (their frontier moves on from there).
+    #[inline(always)]
+    fn v1_reach(&mut self, first: u64) {
+        if self.v1_frontier < first || self.v1_from > self.v1_frontier {
+            (self.v1_from, self.v1_frontier) = (first, first);
+        }
     }
 
     /// The verdicts remembered of the 64 positions from `first`.

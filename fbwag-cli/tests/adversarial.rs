@@ -263,6 +263,17 @@ fn flood_of_the_worst_parser_pattern() {
     flood(Garbage::Worst, rate, FLOOD_DATAGRAM);
 }
 
+/// 300-byte datagrams of the parser's worst input known (`FOUND_K`): at
+/// a signed pair its frames are unsigned and refused whole, and each
+/// datagram cuts the long candidates' frames. Same bytes per second as a
+/// quarter of what the daemons parse of it.
+#[test]
+fn flood_of_the_worst_input_known_in_small_datagrams() {
+    let _one = heavy();
+    let per_1k = flood_rate(&scratch("rate"), Garbage::FoundK);
+    flood(Garbage::FoundK, per_1k * FLOOD_DATAGRAM as f64 / 300.0, 300);
+}
+
 /// 10-byte headers announcing 200–255 payload bytes, one per datagram, at
 /// 2,000 datagrams/s per port: a parser that keeps a partial frame across
 /// datagrams lets each hold the next real frame back, and mixes up which

@@ -28,6 +28,15 @@ pub const GCS: Peer = Peer::new(255, 190);
 /// candidate that only fails at its checksum.
 pub const WORST: [u8; 10] = [0xfe, 0xfe, 0xfe, 0xfd, 0xfd, 0x00, 0x00, 0xfe, 0x00, 0xfe];
 
+/// The parser's worst input known (`found_k` of benches/src/worst.rs, stop
+/// 24): an unsigned MAVLink 1 frame of unknown id 10, confirmed, after
+/// eleven long 0xFE candidates and a 0xFD, every 20 bytes. Worst in small
+/// reads, where each candidate's frame is cut by the datagram.
+pub const FOUND_K: [u8; 20] = [
+    0xfe, 0x00, 0xfe, 0xfe, 0xfd, 0x0a, 0x00, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfe,
+    0xfe, 0xfe, 0xfe, 0xfd,
+];
+
 /// Channel values no real controller in these tests sends: a control
 /// applied with them came from the attacker.
 pub const MARK: [u16; 8] = [1111, 1999, 1111, 1999, 1111, 1999, 1111, 1999];
@@ -113,6 +122,8 @@ pub enum Garbage {
     StartDense,
     /// [`WORST`] repeated.
     Worst,
+    /// [`FOUND_K`] repeated.
+    FoundK,
     /// 10-byte MAVLink 2 headers announcing a long payload that never
     /// comes (one per datagram).
     FalseHeader,
@@ -130,6 +141,7 @@ impl Garbage {
                 })
                 .collect(),
             Garbage::Worst => WORST.iter().copied().cycle().take(len).collect(),
+            Garbage::FoundK => FOUND_K.iter().copied().cycle().take(len).collect(),
             Garbage::FalseHeader => {
                 // Known ids, so the parser waits for the whole payload.
                 let id: u32 = [15001, 70, 0, 253][rng.gen_range(0..4)];

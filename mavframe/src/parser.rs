@@ -79,7 +79,7 @@ use crate::frame::{
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
-use memo::{Inside, Memo, Starts, Whole};
+use memo::{Block, Inside, Memo, Starts, Whole};
 use senders::Senders;
 
 /// Counters of what the parser saw.
@@ -453,10 +453,15 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 InPlace::BadCrc => rejected = true,
                 InPlace::Other => {}
             }
-        } else if rejected && self.len == 0 && self.verifier.is_none() && !self.memo.dense_starts {
+        } else if rejected && self.len == 0 && self.verifier.is_none() {
             // After a frame of an unknown id: garbage's or a router's next
             // one, decided from what the memo knows.
-            if let Some(len) = self.raw_frame_in_place(input) {
+            let found = match self.raw_frame_by_masks(input) {
+                Some(found) => found,
+                None if !self.memo.dense_starts => self.raw_frame_in_place(input),
+                None => None,
+            };
+            if let Some(len) = found {
                 let (frame, rest) = input.split_at(len);
                 *input = rest;
                 self.pos += len as u64;
@@ -645,6 +650,87 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         self.memo.steps += at as u64 + bad_crc + bad_flags + refused_raw;
         self.drop_input(input, at);
         found
+    }
+
+    /// [`Parser::raw_frame_in_place`] by the masks of the 64 positions from
+    /// the first byte of `input`, when the memo has them (`None`, nothing
+    /// dropped, when it has not): drops at once the candidates
+    /// [`reject_run`] rejects by their masks, then goes through the others
+    /// in turn while each is a frame of an unknown id that `check_raw`
+    /// refuses. Returns the length of the first it would take
+    /// (`Some(Some(len))`), or `Some(None)` at the first candidate of
+    /// another kind (or past the 64 positions), left for the general loop.
+    /// In garbage returning such a frame every few bytes, the general
+    /// loop's set-up per frame was a third of the work (`found_k`,
+    /// `found_c`), and the candidates one by one half of `found_j`'s.
+    #[inline(always)]
+    fn raw_frame_by_masks(&mut self, input: &mut &[u8]) -> Option<Option<usize>> {
+        if input.len() < 64 + HEADER_LEN_V2 {
+            return None;
+        }
+        let Block {
+            starts,
+            bad_v1,
+            refused,
+        } = self.memo.block(input, self.pos)?;
+        let maybe_good = starts & !bad_v1 & !refused;
+        let mut others = maybe_good;
+        let mut refused_raw = 0;
+        let (j, found) = loop {
+            if others == 0 {
+                break (64, None);
+            }
+            let j = others.trailing_zeros() as usize;
+            others &= others - 1;
+            let maybe = MaybeGood {
+                starts: maybe_good >> j,
+                positions: 64 - j,
+            };
+            match self.raw_alone_by_masks(&input[j..], self.pos + j as u64, maybe) {
+                RawAlone::Take(len) => break (j, Some(len)),
+                RawAlone::Refused => refused_raw += 1,
+                RawAlone::Other => break (j, None),
+            }
+        };
+        // The candidates before the one it stopped at are rejected.
+        let before = u64::MAX.checked_shr(64 - j as u32).unwrap_or(0);
+        let (bad_crc, bad_flags) = (
+            u64::from((bad_v1 & before).count_ones()),
+            u64::from((refused & before).count_ones()),
+        );
+        self.stats.bad_crc += bad_crc;
+        self.stats.bad_incompat_flags += bad_flags;
+        self.memo.steps += j as u64 + bad_crc + bad_flags + refused_raw;
+        self.drop_input(input, j);
+        Some(found)
+    }
+
+    /// [`Parser::raw_alone_in_place`] with what the masks tell of the
+    /// positions inside the frame (`maybe`).
+    #[inline(always)]
+    fn raw_alone_by_masks(&mut self, cand: &[u8], at: u64, maybe: MaybeGood) -> RawAlone {
+        let Some(w) = Whole::at(cand) else {
+            return RawAlone::Other;
+        };
+        if self.memo.crc_extra::<D>(w.id).is_some() {
+            return RawAlone::Other;
+        }
+        let Ok(len) = frame_len(cand) else {
+            return RawAlone::Other;
+        };
+        match cand.get(len) {
+            Some(&(STX_V1 | STX_V2)) => {}
+            Some(_) => return RawAlone::Refused,
+            None => return RawAlone::Other,
+        }
+        if maybe.none_inside(len) {
+            return RawAlone::Take(len);
+        }
+        match self.memo.inside::<D>(cand, at, len) {
+            Inside::No => RawAlone::Take(len),
+            Inside::Yes => RawAlone::Refused,
+            Inside::Undecided(_) => RawAlone::Other,
+        }
     }
 
     /// What [`Parser::raw_frame_in_place`] makes of its candidate at

@@ -1156,6 +1156,31 @@ impl Memo {
         starts_of(bytes, base, masks)
     }
 
+    /// What the rings know of the 64 positions from stream position
+    /// `first` (`bytes[0]`), when the MAVLink 1 verdicts cover them all
+    /// (`None` otherwise; their masks are computed here if the ring does
+    /// not hold them): the start bytes by kind, and of those the ones
+    /// rejected whatever follows. `bytes` holds every header starting there
+    /// (a MAVLink 2 start byte's flags are refused only where its header is
+    /// whole).
+    #[inline(always)]
+    pub(super) fn block(&mut self, bytes: &[u8], first: u64) -> Option<Block> {
+        if first < self.v1_from || first + 64 > self.v1_frontier {
+            return None;
+        }
+        if first < self.masks_from || first + 64 > self.masks_frontier {
+            self.remember_masks(bytes, first, first);
+        }
+        let (v1, v2, flags) = self.remembered_masks(first, 64)?;
+        let whole = bits_from(&self.v1_whole, first);
+        let good = bits_from(&self.v1_good, first);
+        Some(Block {
+            starts: v1 | v2,
+            bad_v1: v1 & whole & !good,
+            refused: v2 & flags,
+        })
+    }
+
     /// The masks of the `n` positions from `first` (`n` ≤ 64), when the
     /// ring holds them all.
     #[inline(always)]
@@ -1444,6 +1469,19 @@ pub(super) struct Starts {
     pub(super) kinds: [u64; 2],
     /// The 0xFD whose whole header has unknown incompatibility flags: no
     /// frame there, as `frame_len` says (most of garbage's 0xFD).
+    pub(super) refused: u64,
+}
+
+/// The 64 positions from one, as [`Memo::block`] finds them
+/// (bit `j`: the position `j` after the first).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Block {
+    /// The start bytes, of either kind.
+    pub(super) starts: u64,
+    /// The MAVLink 1 ones whose frame is whole, of a known id, with a bad
+    /// checksum...
+    pub(super) bad_v1: u64,
+    /// ...and the MAVLink 2 ones with unknown incompatibility flags.
     pub(super) refused: u64,
 }
 

@@ -1122,9 +1122,7 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
     // masks of 64 positions once the start bytes prove dense.
     let mut i = 0;
     for n in 1.. {
-        // (The masks' loop hands the frames for the signing policy back: a
-        // run that skipped one goes on here.)
-        if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN && count.skipped == 0 {
+        if n % SHORT_RUN == 0 && i < DENSE * SHORT_RUN {
             memo.dense_starts = true;
             let (j, end) =
                 reject_masked::<D, N>(&bytes[i..], at + i as u64, memo, &mut rest, &mut count);
@@ -1141,22 +1139,9 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
                     Alone::BadCrc => count.bad_crc += 1,
                     Alone::Refused => count.by_check_raw += 1,
                     Alone::Ends(RunEnd::Policy(len)) => {
-                        // The signing policy, here: a frame it skips (unsigned
-                        // where signatures are required) is dropped and the
-                        // run goes on, not handed back for `next` to skip
-                        // (a round trip per frame in garbage of unsigned
-                        // frames at a keyed parser).
-                        let frame = Frame::new_unchecked(&bytes[..len]);
-                        match signing(&frame, None, rest.ctx(at + i as u64, memo)) {
-                            Verdict::Skip(n) => {
-                                count.skipped += 1;
-                                drop = n;
-                            }
-                            Verdict::Accept { authenticated, .. } => {
-                                let end = RunEnd::Accepted { len, authenticated };
-                                return count.record(i, end, memo, rest.stats);
-                            }
-                            _ => return count.record(i, RunEnd::Policy(len), memo, rest.stats),
+                        match policy::<N>(bytes, len, at + i as u64, memo, &mut rest, &mut count) {
+                            Ok(skipped) => drop = skipped,
+                            Err(end) => return count.record(i, end, memo, rest.stats),
                         }
                     }
                     Alone::Ends(end) => return count.record(i, end, memo, rest.stats),
@@ -1171,6 +1156,32 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
                 .unwrap_or(bytes.len() - drop);
     }
     count.record(i, RunEnd::Check, memo, rest.stats)
+}
+
+/// The signing policy ([`signing`]) on the frame of an unknown id, `len`
+/// bytes at the start of `bytes` (stream position `at`), that `check_raw`
+/// leaves to it: `Ok(n)` when it skips the frame (unsigned where
+/// signatures are required), `n` bytes dropped and counted, and the run
+/// goes on (not handed back for `next` to skip: a round trip per frame in
+/// garbage of unsigned frames at a keyed parser); else how the run ends.
+#[inline(always)]
+fn policy<const N: usize>(
+    bytes: &[u8],
+    len: usize,
+    at: u64,
+    memo: &mut Memo,
+    rest: &mut Rest<'_, N>,
+    count: &mut Rejected,
+) -> Result<usize, RunEnd> {
+    let frame = Frame::new_unchecked(&bytes[..len]);
+    match signing(&frame, None, rest.ctx(at, memo)) {
+        Verdict::Skip(n) => {
+            count.skipped += 1;
+            Ok(n)
+        }
+        Verdict::Accept { authenticated, .. } => Err(RunEnd::Accepted { len, authenticated }),
+        _ => Err(RunEnd::Policy(len)),
+    }
 }
 
 /// What a check needs besides the bytes, the position and the memo: what
@@ -1274,6 +1285,16 @@ enum RunEnd {
 }
 
 impl Rejected {
+    /// Counts the candidates of a block of [`reject_masked`] rejected by
+    /// their masks (MAVLink 2 flags `refused`, MAVLink 1 checksums
+    /// `bad_v1`) from bit `from` to bit `to` (exclusive; `from` < 64).
+    #[inline(always)]
+    fn masked(&mut self, refused: u64, bad_v1: u64, from: usize, to: usize) {
+        let span = (u64::MAX << from) & u64::MAX.checked_shr(64 - to as u32).unwrap_or(0);
+        self.bad_flags += u64::from((refused & span).count_ones());
+        self.bad_crc += u64::from((bad_v1 & span).count_ones());
+    }
+
     /// The candidates rejected.
     fn rejected(&self) -> u64 {
         self.bad_crc + self.bad_flags + self.by_check_raw + self.skipped
@@ -1316,7 +1337,8 @@ fn reject_masked<D: Dialect, const N: usize>(
     rest: &mut Rest<'_, N>,
     count: &mut Rejected,
 ) -> (usize, RunEnd) {
-    for base in (0..bytes.len()).step_by(64) {
+    let mut base = 0;
+    'blocks: while base < bytes.len() {
         let Starts { kinds, refused } = memo.starts(bytes, at, base, bytes.len());
         // The MAVLink 1 frames with a bad checksum, all at once (each
         // position checked once, however many runs pass over it).
@@ -1328,10 +1350,13 @@ fn reject_masked<D: Dialect, const N: usize>(
         let maybe_good = others;
         let n = (bytes.len() - base).min(64);
         let raw = memo.raw_starts(at + base as u64) & others;
+        // The rejections by count are those from this bit on (those before
+        // it were inside a frame the signing policy skipped).
+        let mut from = 0;
         while others != 0 {
-            let j = others.trailing_zeros();
+            let j = others.trailing_zeros() as usize;
             others &= others - 1;
-            let i = base + j as usize;
+            let i = base + j;
             // The scan's "unknown id" was read from bytes a caller may not
             // have passed again (one that drops its input after a frame):
             // read again from these before `check_raw`'s policy may take
@@ -1339,7 +1364,7 @@ fn reject_masked<D: Dialect, const N: usize>(
             let unknown = raw >> j & 1 != 0 && memo.crc_extra::<D>(msg_id(&bytes[i..])).is_none();
             let maybe = MaybeGood {
                 starts: maybe_good >> j,
-                positions: n - j as usize,
+                positions: n - j,
             };
             let alone = if unknown {
                 raw_alone::<D, N>(&bytes[i..], at + i as u64, memo, rest, maybe)
@@ -1355,16 +1380,31 @@ fn reject_masked<D: Dialect, const N: usize>(
                     count.by_check_raw += 1;
                     continue;
                 }
+                Alone::Ends(RunEnd::Policy(len)) => {
+                    match policy::<N>(&bytes[i..], len, at + i as u64, memo, rest, count) {
+                        Ok(skipped) => {
+                            count.masked(refused, bad_v1, from, j);
+                            // On after the frame, in this block or from it.
+                            let next = j + skipped;
+                            if next < n {
+                                from = next;
+                                others &= u64::MAX << next;
+                                continue;
+                            }
+                            base += next;
+                            continue 'blocks;
+                        }
+                        Err(end) => end,
+                    }
+                }
                 Alone::Ends(end) => end,
             };
             // The refused and bad before it are dropped with it.
-            let before = (1u64 << j) - 1;
-            count.bad_flags += u64::from((refused & before).count_ones());
-            count.bad_crc += u64::from((bad_v1 & before).count_ones());
+            count.masked(refused, bad_v1, from, j);
             return (i, end);
         }
-        count.bad_flags += u64::from(refused.count_ones());
-        count.bad_crc += u64::from(bad_v1.count_ones());
+        count.masked(refused, bad_v1, from, 64);
+        base += 64;
     }
     (bytes.len(), RunEnd::Check)
 }

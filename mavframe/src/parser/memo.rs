@@ -1123,6 +1123,18 @@ impl Memo {
         true
     }
 
+    /// Whether the budget cannot pay for the check of any signed frame
+    /// at stream position `at` (of the shortest, the cheapest to check),
+    /// the candidate not paid for already: refused unchecked whatever its
+    /// length, as [`pay_for_raw_check`](Self::pay_for_raw_check) would.
+    #[inline(always)]
+    pub(super) fn cannot_pay_any(&self, at: u64) -> bool {
+        const SHORTEST: usize = HEADER_LEN_V2 + CHECKSUM_LEN + SIGNATURE_LEN;
+        self.raw_check_paid != at + 1
+            && self.sig_credit_at(at)
+                < super::raw_signature_cost(SHORTEST) * BYTES_PER_RAW_SIGNATURE_BYTE
+    }
+
     /// Gives back what the check of the candidate at `at` took: its
     /// signature is good.
     #[inline(always)]
@@ -1599,6 +1611,28 @@ fn test_bit<const W: usize>(bits: &[u64; W], x: u64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cannot_pay_any_is_what_paying_for_the_shortest_signed_frame_says() {
+        // A signed frame's header with an empty payload.
+        let header = [STX_V2, 0, IFLAG_SIGNED, 0, 0, 0, 0, 0, 0, 0];
+        let shortest = frame_len(&header).unwrap();
+        let cost = super::super::raw_signature_cost(shortest);
+        // Every credit around the cost of the shortest frame's check.
+        for credit in 0..3 * cost * BYTES_PER_RAW_SIGNATURE_BYTE {
+            let mut memo = Memo::new();
+            (memo.sig_credit, memo.sig_credit_at) = (credit, 1000);
+            let at = 1000 + credit % 7;
+            let refused = memo.cannot_pay_any(at);
+            assert_eq!(
+                refused,
+                !memo.pay_for_raw_check(at, cost),
+                "credit {credit}"
+            );
+            // Paid for once: the candidate is not refused when asked again.
+            assert!(refused || !memo.cannot_pay_any(at));
+        }
+    }
 
     #[test]
     fn masks_by_words_and_by_vectors_equal_masks_by_bytes() {

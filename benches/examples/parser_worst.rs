@@ -414,9 +414,15 @@ fn main() {
                 .iter()
                 .find_map(|a| a.strip_prefix("chunk=")?.parse().ok())
                 .unwrap_or(worst::CHUNK);
+            let datagram: Option<usize> = args
+                .iter()
+                .find_map(|a| a.strip_prefix("datagram=")?.parse().ok());
             for _ in 0..passes {
                 let mut p = worst::parser(keyed);
-                std::hint::black_box(worst::parse(&mut p, &bytes, chunk));
+                std::hint::black_box(match datagram {
+                    Some(size) => worst::parse_datagrams(&mut p, &bytes, size),
+                    None => worst::parse(&mut p, &bytes, chunk),
+                });
             }
         }
         None | Some("measure") => {

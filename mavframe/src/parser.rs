@@ -1139,6 +1139,7 @@ fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
                 match alone::<D, N>(bytes, at + i as u64, memo, &mut rest, MaybeGood::UNKNOWN) {
                     Alone::BadCrc => count.bad_crc += 1,
                     Alone::Refused => count.by_check_raw += 1,
+                    Alone::Cut => count.cut += 1,
                     Alone::Ends(RunEnd::Policy(len)) => {
                         match policy::<N>(bytes, len, at + i as u64, memo, &mut rest, &mut count) {
                             Ok(skipped) => drop = skipped,
@@ -1243,6 +1244,8 @@ struct Rejected {
     /// Whole frames of unknown ids the signing policy skipped (and counted
     /// as it does).
     skipped: u64,
+    /// Frames not whole at the end of the stream.
+    cut: u64,
 }
 
 /// Why [`check_raw`] refuses a whole candidate of an unknown id before
@@ -1263,6 +1266,9 @@ enum Alone {
     /// A whole frame of an unknown id that [`check_raw`] refused (and
     /// counted as it does).
     Refused,
+    /// A frame not whole at the end of the stream: rejected, uncounted (as
+    /// `check` rejects it).
+    Cut,
     /// The run ends at it.
     Ends(RunEnd),
 }
@@ -1298,7 +1304,7 @@ impl Rejected {
 
     /// The candidates rejected.
     fn rejected(&self) -> u64 {
-        self.bad_crc + self.bad_flags + self.by_check_raw + self.skipped
+        self.bad_crc + self.bad_flags + self.by_check_raw + self.skipped + self.cut
     }
 
     /// Counts the rejections and the `dropped` bytes: the run's end.
@@ -1385,6 +1391,10 @@ fn reject_masked<D: Dialect, const N: usize>(
                     count.by_check_raw += 1;
                     continue;
                 }
+                Alone::Cut => {
+                    count.cut += 1;
+                    continue;
+                }
                 Alone::Ends(RunEnd::Policy(len)) => {
                     match policy::<N>(&bytes[i..], len, at + i as u64, memo, rest, count) {
                         Ok(skipped) => {
@@ -1426,12 +1436,37 @@ fn alone<D: Dialect, const N: usize>(
     maybe: MaybeGood,
 ) -> Alone {
     let Some(w) = Whole::at(bytes) else {
-        return Alone::Ends(RunEnd::Check);
+        return cut::<D, N>(bytes, rest);
     };
     match memo.crc_extra::<D>(w.id) {
         Some(extra) if memo.candidate_crc_ok(bytes, at, &w, extra) => Alone::Ends(RunEnd::Check),
         Some(_) => Alone::BadCrc,
         None => raw_alone::<D, N>(bytes, at, memo, rest, maybe),
+    }
+}
+
+/// What [`reject_run`] makes alone of a candidate whose frame is not whole
+/// in `bytes`: before the end of the stream, one for `check` (which waits
+/// for its bytes). At the end (of a datagram, or a flush) `check` rejects
+/// it, as its bytes can never come: rejected here, in the run (in a
+/// datagram of garbage whose candidates claim long frames, each one left
+/// to `check` was a round trip through the general loop per byte of the
+/// datagram's tail). Except where `check` does more than reject it: a
+/// MAVLink 2 header with unknown flags is counted, and a signed frame of
+/// an unknown id that a key would check pays for a good frame inside it
+/// (see [`pay_for_signed_raw`]).
+#[inline(always)]
+fn cut<D: Dialect, const N: usize>(bytes: &[u8], rest: &Rest<'_, N>) -> Alone {
+    if !rest.at_eof {
+        return Alone::Ends(RunEnd::Check);
+    }
+    let paid = rest.verifier.is_some()
+        && matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0)
+        && D::meta(msg_id(bytes)).is_none();
+    match frame_len(bytes) {
+        Err(FrameError::UnknownIncompatFlags(_)) => Alone::Ends(RunEnd::Check),
+        _ if paid => Alone::Ends(RunEnd::Check),
+        _ => Alone::Cut,
     }
 }
 
@@ -1474,7 +1509,7 @@ fn raw_alone<D: Dialect, const N: usize>(
     maybe: MaybeGood,
 ) -> Alone {
     let Some(len) = frame_len(bytes).ok().filter(|&n| bytes.len() >= n) else {
-        return Alone::Ends(RunEnd::Check);
+        return cut::<D, N>(bytes, rest);
     };
     let frame = Frame::new_unchecked(&bytes[..len]);
     match raw_verdict::<D, N>(bytes, &frame, rest.ctx(at, memo), maybe) {

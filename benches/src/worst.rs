@@ -233,13 +233,13 @@ pub fn parser(keyed: bool) -> Parser<Dialect> {
 }
 
 /// Pushes `bytes` through `parser` as datagrams of `size` bytes, each
-/// ended with [`Parser::end_of_datagram`] (MAVLink over UDP, as the
-/// daemons' `udpin` links parse it: no frame spans datagrams); returns the
-/// frames.
+/// parsed by [`Parser::next_in_datagram`] and ended with
+/// [`Parser::end_of_datagram`] (MAVLink over UDP, as the daemons' `udpin`
+/// links parse it: no frame spans datagrams); returns the frames.
 pub fn parse_datagrams(parser: &mut Parser<Dialect>, bytes: &[u8], size: usize) -> usize {
     let mut n = 0;
     for mut d in bytes.chunks(size) {
-        while let Some(r) = parser.next(&mut d) {
+        while let Some(r) = parser.next_in_datagram(&mut d) {
             black_box(&r.frame);
             n += 1;
         }

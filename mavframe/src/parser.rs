@@ -299,6 +299,9 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     accept_unsigned: bool,
     /// Set by [`Parser::flush`]: no more bytes will come.
     at_eof: bool,
+    /// Set by [`Parser::next_in_datagram`] for the call it makes: the
+    /// input ends where its datagram does.
+    datagram_ends: bool,
     // fn() -> D: the dialect is a type-level tag; the parser is Send and Sync
     // whatever the tag type is.
     _dialect: PhantomData<fn() -> D>,
@@ -338,6 +341,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             verifier: None,
             accept_unsigned: true,
             at_eof: false,
+            datagram_ends: false,
             _dialect: PhantomData,
         }
     }
@@ -430,9 +434,19 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             self.shadow = 0;
         }
         self.release_returned();
+        // (With bytes held from an earlier call, the held ones are checked
+        // before the input's are all copied: the end of the stream is not
+        // at hand, and the datagram is ended as usual.)
+        let datagram_ends = core::mem::take(&mut self.datagram_ends) && self.len == 0;
         if !input.is_empty() {
-            self.at_eof = false;
+            if self.at_eof && !datagram_ends {
+                // More bytes after a flush not drained: what the memo
+                // decided for the end of the stream no longer holds.
+                self.memo.forget_from(self.pos);
+            }
+            self.at_eof = datagram_ends;
         }
+        self.memo.at_eof = self.at_eof;
         // The last verdict was a rejection: garbage, maybe dense in start
         // bytes, where `reject_run` is the fast way through.
         // (With bytes held, `step_held` takes it.)
@@ -996,6 +1010,24 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     pub fn flush(&mut self) -> Option<Received<'_, D>> {
         self.at_eof = true;
         self.next(&mut &[][..])
+    }
+
+    /// [`next`](Self::next) for `input` that ends a datagram (on links
+    /// where a frame never spans datagrams: MAVLink over UDP): the
+    /// datagram's end is the end of the stream for every candidate, so a
+    /// candidate cut by it is rejected at once (as
+    /// [`end_of_datagram`](Self::end_of_datagram) would reject it), and
+    /// nothing waits for bytes that cannot come. The same frames, in the
+    /// same order, as `next` and then `end_of_datagram`; in a datagram of
+    /// garbage whose candidates claim frames longer than what is left of
+    /// it, without holding and searching again each one's bytes. Call
+    /// `end_of_datagram` after the last call all the same.
+    pub fn next_in_datagram<'r, 'i: 'r>(
+        &'r mut self,
+        input: &mut &'i [u8],
+    ) -> Option<Received<'r, D>> {
+        self.datagram_ends = true;
+        self.next(input)
     }
 
     /// Ends a datagram: call until `None` once a datagram's bytes are all

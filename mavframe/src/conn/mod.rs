@@ -107,10 +107,13 @@ impl<D: Dialect> Inbox<D> {
     fn next_in_buffer(&mut self) -> Option<ReceivedFrame<D>> {
         while self.start < self.end {
             let mut input = &self.buf[self.start..self.end];
-            let got = self
-                .parser
-                .next(&mut input)
-                .map(|r| ReceivedFrame::from(&r));
+            // A datagram read is the whole datagram: its end is known now.
+            let got = if self.datagrams {
+                self.parser.next_in_datagram(&mut input)
+            } else {
+                self.parser.next(&mut input)
+            }
+            .map(|r| ReceivedFrame::from(&r));
             let start = self.end - input.len();
             let progressed = start != self.start;
             self.start = start;

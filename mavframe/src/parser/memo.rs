@@ -559,7 +559,14 @@ impl Memo {
         if at + end as u64 > self.frontier {
             // Ahead of what is asked, so that the next candidates (in
             // garbage, a byte or two later) find their positions decided.
-            self.scan::<D>(bytes, at, scan_end(end, bytes.len()));
+            let to = if self.at_eof {
+                // Nothing waits at the end of the stream: as far as the
+                // bytes go.
+                end.max(bytes.len().min(end + SCAN_AHEAD))
+            } else {
+                scan_end(end, bytes.len())
+            };
+            self.scan::<D>(bytes, at, to);
         }
         let (from, to) = (at + 1, at + end as u64);
         self.steps += 1;
@@ -657,7 +664,12 @@ impl Memo {
                 while starts != 0 {
                     let j = starts.trailing_zeros();
                     starts &= starts - 1;
-                    match self.classify_start::<D>(bytes, at, lo + base + j as usize) {
+                    let rel = lo + base + j as usize;
+                    if self.at_eof && cut(bytes, rel) {
+                        // Never good: its bytes will not come.
+                        continue;
+                    }
+                    match self.classify_start::<D>(bytes, at, rel) {
                         Start::Good => good |= 1 << j,
                         Start::BadCrc => bad |= 1 << j,
                         Start::Raw => raw |= 1 << j,
@@ -1518,6 +1530,18 @@ pub(super) struct Block {
     pub(super) bad_v1: u64,
     /// ...and the MAVLink 2 ones with unknown incompatibility flags.
     pub(super) refused: u64,
+}
+
+/// Whether the frame of the start byte `bytes[rel]` is cut by the end of
+/// `bytes` (its header, or the length its header claims), as `frame_len`
+/// reads it.
+#[inline(always)]
+fn cut(bytes: &[u8], rel: usize) -> bool {
+    match bytes.get(rel..).map(frame_len) {
+        Some(Ok(n)) => bytes.len() - rel < n,
+        Some(Err(FrameError::Incomplete { .. })) => true,
+        _ => false,
+    }
 }
 
 /// Bytes needed (from `bytes[0]`) to decide about the undecided position

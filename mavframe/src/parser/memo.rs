@@ -278,7 +278,7 @@ pub(super) struct Memo {
     pub(super) dense_starts: bool,
     /// The bytes at hand end the stream (a flush, or the end of a
     /// datagram): a position whose frame they cut is not undecided but
-    /// never good. Set by the parser with its own.
+    /// never good, and none waits. Set by the parser with its own.
     pub(super) at_eof: bool,
     /// No state about positions from here on (the frontier, the prefix
     /// states and the last direct checksum all end before): a candidate
@@ -617,7 +617,7 @@ impl Memo {
                 // Positions before the candidate are of no more use.
                 if q > at {
                     let upto = &bytes[..bytes.len().min((w - at) as usize)];
-                    let class = self.classify::<D>(upto, at, (q - at) as usize, false);
+                    let class = self.classify::<D>(upto, at, (q - at) as usize);
                     self.record(q, class);
                 }
             }
@@ -705,7 +705,7 @@ impl Memo {
                 None => Start::Raw,
             },
             None => {
-                let class = self.classify::<D>(bytes, at, rel, self.at_eof);
+                let class = self.classify::<D>(bytes, at, rel);
                 self.record(at + rel as u64, class);
                 Start::Other
             }
@@ -731,28 +731,10 @@ impl Memo {
     /// frame is not whole. (Before, a MAVLink 1 header cut before its id
     /// byte was read as id 0: with a dialect without id 0 the answer then
     /// depended on where a chunk ended.)
-    fn classify<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize, last: bool) -> Class {
+    fn classify<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Class {
         let Some(inner) = bytes.get(rel..) else {
             return Class::NotGood;
         };
-        let class = self.classify_in::<D>(inner, bytes, at, rel);
-        match class {
-            // The bytes end the stream: what they cut never becomes good.
-            Class::Pending { .. } if last => Class::NotGood,
-            class => class,
-        }
-    }
-
-    /// [`classify`](Self::classify) of `inner`, the bytes from the
-    /// position on.
-    #[inline(always)]
-    fn classify_in<D: Dialect>(
-        &mut self,
-        inner: &[u8],
-        bytes: &[u8],
-        at: u64,
-        rel: usize,
-    ) -> Class {
         let q = at + rel as u64;
         let v1 = inner.first() == Some(&STX_V1);
         self.steps += 1;

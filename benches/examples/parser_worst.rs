@@ -2,12 +2,12 @@
 //! benchmark, and searches for worse repeating patterns by hill climbing.
 //!
 //! ```sh
-//! cargo run --release -p benches --example parser_worst -- measure [CHUNK]
-//! cargo run --release -p benches --example parser_worst -- ratio [ROUNDS] [CHUNK]
+//! cargo run --release -p benches --example parser_worst -- measure [READS]
+//! cargo run --release -p benches --example parser_worst -- ratio [ROUNDS] [READS]
 //! cargo run --release -p benches --example parser_worst -- search steps|time [keyed] [SECONDS] [SEED]
 //! cargo run --release -p benches --example parser_worst -- mix [keyed] [SECONDS] [SEED]
-//! cargo run --release -p benches --example parser_worst -- pattern HEX [CHUNK]
-//! cargo run --release -p benches --example parser_worst -- one NAME|hex:HEX [keyed] [passes=N] [chunk=N]
+//! cargo run --release -p benches --example parser_worst -- pattern HEX [READS]
+//! cargo run --release -p benches --example parser_worst -- one NAME|hex:HEX [keyed] [passes=N] [chunk=N|datagram=N]
 //! ```
 //!
 //! `measure` prints, per input: MB/s (best of 3 runs of 0.3 s, in CPU time: the time the
@@ -24,7 +24,7 @@
 //!
 //! [`Parser::work`]: fbwag_dialect::mavframe::parser::Parser::work
 
-use benches::worst;
+use benches::worst::{self, Reads};
 use std::time::Instant;
 
 /// Bytes of pattern pushed per evaluation.
@@ -79,12 +79,12 @@ fn cpu_time() -> f64 {
 
 /// (steps per byte, signatures per byte, CPU ns per byte, best of `runs`)
 /// of `bytes`.
-fn cost(bytes: &[u8], keyed: bool, chunk: usize, runs: usize) -> (f64, f64, f64) {
-    cost_for(bytes, keyed, chunk, runs, MIN_RUN)
+fn cost(bytes: &[u8], keyed: bool, reads: Reads, runs: usize) -> (f64, f64, f64) {
+    cost_for(bytes, keyed, reads, runs, MIN_RUN)
 }
 
 /// [`cost`] with timed runs of at least `min_run` CPU seconds.
-fn cost_for(bytes: &[u8], keyed: bool, chunk: usize, runs: usize, min_run: f64) -> (f64, f64, f64) {
+fn cost_for(bytes: &[u8], keyed: bool, reads: Reads, runs: usize, min_run: f64) -> (f64, f64, f64) {
     let mut best = f64::MAX;
     let mut work = Default::default();
     for _ in 0..runs {
@@ -92,7 +92,7 @@ fn cost_for(bytes: &[u8], keyed: bool, chunk: usize, runs: usize, min_run: f64) 
         let (t, mut passes) = (cpu_time(), 0u32);
         while passes == 0 || cpu_time() - t < min_run {
             let mut p = worst::parser(keyed);
-            std::hint::black_box(worst::parse(&mut p, bytes, chunk));
+            std::hint::black_box(worst::parse_reads(&mut p, bytes, reads));
             work = p.work();
             passes += 1;
         }
@@ -109,9 +109,9 @@ fn cost_for(bytes: &[u8], keyed: bool, chunk: usize, runs: usize, min_run: f64) 
 fn score(pattern: &[u8], keyed: bool, by_time: bool) -> f64 {
     let bytes = worst::repeat(pattern, EVAL_LEN);
     if by_time {
-        cost(&bytes, keyed, worst::CHUNK, 3).2
+        cost(&bytes, keyed, Reads::Stream(worst::CHUNK), 3).2
     } else {
-        let (steps, sigs, _) = cost(&bytes, keyed, worst::CHUNK, 1);
+        let (steps, sigs, _) = cost(&bytes, keyed, Reads::Stream(worst::CHUNK), 1);
         steps + 64.0 * sigs
     }
 }
@@ -185,7 +185,12 @@ fn search(by_time: bool, keyed: bool, seconds: f64, seed: u64) {
         if keyed { "keyed, strict" } else { "no key" },
     );
     for (s, p) in &best {
-        let (steps, sigs, ns) = cost(&worst::repeat(p, worst::INPUT_LEN), keyed, worst::CHUNK, 5);
+        let (steps, sigs, ns) = cost(
+            &worst::repeat(p, worst::INPUT_LEN),
+            keyed,
+            Reads::Stream(worst::CHUNK),
+            5,
+        );
         println!(
             "  score {s:9.2}  {:8.1} MB/s  steps/B {steps:6.2}  sigs/B {sigs:.4}  {}",
             1e3 / ns,
@@ -215,7 +220,15 @@ fn draw(mix: &[(u8, u32)], len: usize, seed: u64) -> Vec<u8> {
 fn search_mix(keyed: bool, seconds: f64, seed: u64) {
     let mut rng = Rng(seed | 1);
     let start = Instant::now();
-    let score = |mix: &[(u8, u32)]| cost(&draw(mix, EVAL_LEN, 5), keyed, worst::CHUNK, 3).2;
+    let score = |mix: &[(u8, u32)]| {
+        cost(
+            &draw(mix, EVAL_LEN, 5),
+            keyed,
+            Reads::Stream(worst::CHUNK),
+            3,
+        )
+        .2
+    };
     let mut best: Vec<(f64, Vec<(u8, u32)>)> = Vec::new();
     let mut climbs = 0;
     while start.elapsed().as_secs_f64() < seconds {
@@ -259,7 +272,7 @@ fn search_mix(keyed: bool, seconds: f64, seed: u64) {
     );
     for (s, mix) in &best {
         let bytes = draw(mix, worst::INPUT_LEN, 9);
-        let (steps, sigs, ns) = cost(&bytes, keyed, worst::CHUNK, 5);
+        let (steps, sigs, ns) = cost(&bytes, keyed, Reads::Stream(worst::CHUNK), 5);
         let desc: Vec<String> = mix.iter().map(|(v, w)| format!("{v:02x}x{w}")).collect();
         println!(
             "  score {s:7.2}  {:8.1} MB/s  steps/B {steps:6.2}  sigs/B {sigs:.4}  {}",
@@ -289,7 +302,7 @@ fn hex(p: &[u8]) -> String {
     p.iter().map(|b| format!("{b:02x}")).collect()
 }
 
-fn measure(chunk: usize) {
+fn measure(reads: Reads) {
     println!(
         "Parser<fbwag_dialect::Dialect>: {} bytes",
         std::mem::size_of::<fbwag_dialect::mavframe::parser::Parser<fbwag_dialect::Dialect>>()
@@ -300,14 +313,14 @@ fn measure(chunk: usize) {
     );
     for (name, bytes, keyed) in worst::inputs() {
         for keyed in [keyed, true] {
-            measure_row(&name, &bytes, keyed, chunk);
+            measure_row(&name, &bytes, keyed, reads);
         }
     }
 }
 
 /// One row of `measure`: MB/s, steps and signature checks per byte.
-fn measure_row(name: &str, bytes: &[u8], keyed: bool, chunk: usize) {
-    let (steps, sigs, ns) = cost_for(bytes, keyed, chunk, 3, MEASURE_RUN);
+fn measure_row(name: &str, bytes: &[u8], keyed: bool, reads: Reads) {
+    let (steps, sigs, ns) = cost_for(bytes, keyed, reads, 3, MEASURE_RUN);
     let policy = if keyed { "keyed" } else { "nokey" };
     println!(
         "{:<28} {:9.1} {steps:8.2} {sigs:8.4}",
@@ -320,7 +333,7 @@ fn measure_row(name: &str, bytes: &[u8], keyed: bool, chunk: usize) {
 /// policy, from `rounds` rounds that each time every input once (so a
 /// slow spell of a shared machine hits all of them alike); best time of
 /// each input over the rounds.
-fn ratio(rounds: usize, chunk: usize) {
+fn ratio(rounds: usize, reads: Reads) {
     let rows: Vec<(String, Vec<u8>, bool)> = worst::inputs()
         .into_iter()
         .flat_map(|(name, bytes, keyed)| {
@@ -335,7 +348,7 @@ fn ratio(rounds: usize, chunk: usize) {
     for round in 0..rounds {
         eprint!("\rround {}/{rounds}", round + 1);
         for (row, (_, bytes, keyed)) in rows.iter().enumerate() {
-            let (_, _, ns) = cost_for(bytes, *keyed, chunk, 1, RATIO_RUN);
+            let (_, _, ns) = cost_for(bytes, *keyed, reads, 1, RATIO_RUN);
             best[row] = best[row].min(ns);
         }
     }
@@ -345,6 +358,7 @@ fn ratio(rounds: usize, chunk: usize) {
             .position(|(n, _, k)| n == "random" && *k == keyed)
             .map_or(f64::NAN, |i| best[i])
     };
+    println!("({reads})");
     println!("{:<28} {:>9} {:>12}", "input", "MB/s", "x random");
     let mut worst_row = (0.0, String::new());
     for ((name, _, keyed), ns) in rows.iter().zip(&best) {
@@ -383,9 +397,11 @@ fn main() {
             // One repeating pattern given in hex, with and without a key.
             let p = unhex(arg(1).unwrap_or("fe"));
             let bytes = worst::repeat(&p, worst::INPUT_LEN);
-            let chunk = arg(2).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK);
+            let reads = arg(2)
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(Reads::Stream(worst::CHUNK));
             for keyed in [false, true] {
-                measure_row(&hex(&p), &bytes, keyed, chunk);
+                measure_row(&hex(&p), &bytes, keyed, reads);
             }
         }
         Some("one") => {
@@ -410,29 +426,36 @@ fn main() {
                 .iter()
                 .find_map(|a| a.strip_prefix("passes=")?.parse().ok())
                 .unwrap_or(20);
-            let chunk = args
+            // chunk=N: N-byte reads; datagram=N: N-byte datagrams.
+            let reads = args
                 .iter()
-                .find_map(|a| a.strip_prefix("chunk=")?.parse().ok())
-                .unwrap_or(worst::CHUNK);
-            let datagram: Option<usize> = args
-                .iter()
-                .find_map(|a| a.strip_prefix("datagram=")?.parse().ok());
+                .find_map(|a| {
+                    let (key, n) = a.split_once('=')?;
+                    let n = n.parse().ok()?;
+                    match key {
+                        "chunk" => Some(Reads::Stream(n)),
+                        "datagram" => Some(Reads::Datagrams(n)),
+                        _ => None,
+                    }
+                })
+                .unwrap_or(Reads::Stream(worst::CHUNK));
             for _ in 0..passes {
                 let mut p = worst::parser(keyed);
-                std::hint::black_box(match datagram {
-                    Some(size) => worst::parse_datagrams(&mut p, &bytes, size),
-                    None => worst::parse(&mut p, &bytes, chunk),
-                });
+                std::hint::black_box(worst::parse_reads(&mut p, &bytes, reads));
             }
         }
-        None | Some("measure") => {
-            measure(arg(1).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK))
-        }
+        None | Some("measure") => measure(
+            arg(1)
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(Reads::Stream(worst::CHUNK)),
+        ),
         Some("ratio") => {
             let rounds = arg(1).and_then(|s| s.parse().ok()).unwrap_or(5);
             ratio(
                 rounds,
-                arg(2).and_then(|s| s.parse().ok()).unwrap_or(worst::CHUNK),
+                arg(2)
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or(Reads::Stream(worst::CHUNK)),
             );
         }
         Some("-h" | "--help" | "help") => print!("{USAGE}"),
@@ -449,19 +472,21 @@ The parser's worst inputs: measure them, or search for worse ones.
 
 usage: parser_worst [COMMAND] [ARGS]
 
-  measure [CHUNK]            MB/s (best of 3 runs of 0.3 s of CPU time), work steps and
+  measure [READS]            MB/s (best of 3 runs of 0.3 s of CPU time), work steps and
                              signature checks per byte of every input of benches/src/worst.rs,
-                             pushed in CHUNK-byte reads (default 65536); the default command
-  ratio [ROUNDS] [CHUNK]     every input's time per byte against random bytes' (same policy),
+                             pushed as READS says (default 65536); the default command
+  ratio [ROUNDS] [READS]     every input's time per byte against random bytes' (same policy),
                              best of ROUNDS (default 5) interleaved rounds of 0.1 s each
   search steps|time [keyed] [SECONDS] [SEED]
                              hill-climb repeating patterns for the most work steps or time
                              per byte (default 60 s, seed 1); prints the ten worst
   mix [keyed] [SECONDS] [SEED]
                              the same over random bytes drawn from weighted values
-  pattern HEX [CHUNK]        one repeating pattern, with and without a key
-  one NAME|hex:HEX [keyed] [passes=N] [chunk=N]
+  pattern HEX [READS]        one repeating pattern, with and without a key
+  one NAME|hex:HEX [keyed] [passes=N] [chunk=N|datagram=N]
                              parse one input N times (default 20), for valgrind or perf
 
+READS: N for reads of N bytes from a stream (serial, TCP, a file), dN for datagrams of N
+bytes (UDP: each parsed by next_in_datagram and ended by end_of_datagram).
 `keyed`: the parser has a signing key and refuses unsigned frames.
 ";

@@ -232,6 +232,44 @@ pub fn parser(keyed: bool) -> Parser<Dialect> {
     }
 }
 
+/// How the bytes reach the parser: reads of a stream, or datagrams.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reads {
+    /// Reads of this many bytes from a stream (serial, TCP, a file).
+    Stream(usize),
+    /// Datagrams of this many bytes (UDP): see [`parse_datagrams`].
+    Datagrams(usize),
+}
+
+impl std::str::FromStr for Reads {
+    type Err = std::num::ParseIntError;
+
+    /// `N`: reads of N bytes; `dN`: datagrams of N bytes.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.strip_prefix('d') {
+            Some(n) => Ok(Reads::Datagrams(n.parse()?)),
+            None => Ok(Reads::Stream(s.parse()?)),
+        }
+    }
+}
+
+impl std::fmt::Display for Reads {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Reads::Stream(n) => write!(f, "{n}-byte reads"),
+            Reads::Datagrams(n) => write!(f, "{n}-byte datagrams"),
+        }
+    }
+}
+
+/// Pushes `bytes` through `parser` as `reads` say; returns the frames.
+pub fn parse_reads(parser: &mut Parser<Dialect>, bytes: &[u8], reads: Reads) -> usize {
+    match reads {
+        Reads::Stream(n) => parse(parser, bytes, n),
+        Reads::Datagrams(n) => parse_datagrams(parser, bytes, n),
+    }
+}
+
 /// Pushes `bytes` through `parser` as datagrams of `size` bytes, each
 /// parsed by [`Parser::next_in_datagram`] and ended with
 /// [`Parser::end_of_datagram`] (MAVLink over UDP, as the daemons' `udpin`

@@ -1478,7 +1478,7 @@ fn alone<D: Dialect, const N: usize>(
     maybe: MaybeGood,
 ) -> Alone {
     let Some(w) = Whole::at(bytes) else {
-        return cut::<D, N>(bytes, rest);
+        return cut::<D, N>(bytes, at, memo, rest);
     };
     match memo.crc_extra::<D>(w.id) {
         Some(extra) if memo.candidate_crc_ok(bytes, at, &w, extra) => Alone::Ends(RunEnd::Check),
@@ -1488,26 +1488,38 @@ fn alone<D: Dialect, const N: usize>(
 }
 
 /// What [`reject_run`] makes alone of a candidate whose frame is not whole
-/// in `bytes`: before the end of the stream, one for `check` (which waits
-/// for its bytes). At the end (of a datagram, or a flush) `check` rejects
-/// it, as its bytes can never come: rejected here, in the run (in a
-/// datagram of garbage whose candidates claim long frames, each one left
-/// to `check` was a round trip through the general loop per byte of the
-/// datagram's tail). Except where `check` does more than reject it: a
-/// MAVLink 2 header with unknown flags is counted, and a signed frame of
-/// an unknown id that a key would check pays for a good frame inside it
-/// (see [`pay_for_signed_raw`]).
+/// in `bytes` (at stream position `at`): before the end of the stream, one
+/// for `check` (which waits for its bytes). At the end (of a datagram, or a
+/// flush) `check` rejects it, as its bytes can never come: rejected here,
+/// in the run, as `check` rejects it (in a datagram of garbage whose
+/// candidates claim long frames, each one left to `check` was a round trip
+/// through the general loop per byte of the datagram's tail). A signed
+/// frame of an unknown id that a key would check pays for its check first
+/// when a good frame starts inside it, as `check` makes it pay
+/// ([`pay_for_signed_raw`]); a MAVLink 2 header with unknown flags is left
+/// to `check`, which counts it.
 #[inline(always)]
-fn cut<D: Dialect, const N: usize>(bytes: &[u8], rest: &Rest<'_, N>) -> Alone {
+fn cut<D: Dialect, const N: usize>(
+    bytes: &[u8],
+    at: u64,
+    memo: &mut Memo,
+    rest: &mut Rest<'_, N>,
+) -> Alone {
     if !rest.at_eof {
         return Alone::Ends(RunEnd::Check);
     }
-    let paid = rest.verifier.is_some()
-        && matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0)
-        && D::meta(msg_id(bytes)).is_none();
     match frame_len(bytes) {
         Err(FrameError::UnknownIncompatFlags(_)) => Alone::Ends(RunEnd::Check),
-        _ if paid => Alone::Ends(RunEnd::Check),
+        Ok(len)
+            if rest.verifier.is_some()
+                && matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0)
+                && D::meta(msg_id(bytes)).is_none() =>
+        {
+            if memo.inside::<D>(bytes, at, bytes.len()) == Inside::Yes {
+                pay_for_signed_raw(bytes, len, &mut rest.ctx(at, memo));
+            }
+            Alone::Cut
+        }
         _ => Alone::Cut,
     }
 }
@@ -1551,7 +1563,7 @@ fn raw_alone<D: Dialect, const N: usize>(
     maybe: MaybeGood,
 ) -> Alone {
     let Some(len) = frame_len(bytes).ok().filter(|&n| bytes.len() >= n) else {
-        return cut::<D, N>(bytes, rest);
+        return cut::<D, N>(bytes, at, memo, rest);
     };
     let frame = Frame::new_unchecked(&bytes[..len]);
     match raw_verdict::<D, N>(bytes, &frame, rest.ctx(at, memo), maybe) {

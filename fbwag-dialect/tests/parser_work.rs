@@ -174,6 +174,7 @@ const FOUND: &[(&str, &[u8])] = &[
             0xfe, 0xfe, 0xfe, 0xfe, 0xfe, 0xfd,
         ],
     ),
+    ("found_l", &[0xfe, 0x0b, 0xfe, 0x0f, 0xfe, 0xfd, 0xfe, 0x00]),
 ];
 
 #[derive(Clone, Copy, Debug)]
@@ -181,8 +182,11 @@ enum Chunking {
     Whole,
     Fixed(usize),
     Random,
-    /// Random chunks, each ended as a datagram.
+    /// Random chunks, each ended as a datagram (told after it).
     Datagrams,
+    /// Random chunks, each a datagram from its first byte
+    /// (`next_in_datagram`, as the connections parse UDP).
+    InDatagrams,
 }
 
 /// Steps per (byte + call), signature checks, start bytes, and the frames.
@@ -199,18 +203,23 @@ fn run<D: Dialect>(bytes: &[u8], keyed: bool, chunking: Chunking, seed: u64) -> 
         let n = match chunking {
             Chunking::Whole => rest.len(),
             Chunking::Fixed(n) => n,
-            Chunking::Random | Chunking::Datagrams => 1 + rng.below(300),
+            Chunking::Random | Chunking::Datagrams | Chunking::InDatagrams => 1 + rng.below(300),
         };
         let (mut c, tail) = rest.split_at(n.min(rest.len()));
         rest = tail;
         loop {
             calls += 1;
             assert!(calls < 10 * bytes.len() as u64 + 100, "calls do not end");
-            if p.next(&mut c).is_none() {
+            let got = if matches!(chunking, Chunking::InDatagrams) {
+                p.next_in_datagram(&mut c)
+            } else {
+                p.next(&mut c)
+            };
+            if got.is_none() {
                 break;
             }
         }
-        if matches!(chunking, Chunking::Datagrams) {
+        if matches!(chunking, Chunking::Datagrams | Chunking::InDatagrams) {
             loop {
                 calls += 1;
                 if p.end_of_datagram().is_none() {
@@ -246,6 +255,7 @@ fn check_all<D: Dialect>(dialect: &str, n: usize) -> f64 {
                 Chunking::Fixed(7),
                 Chunking::Random,
                 Chunking::Datagrams,
+                Chunking::InDatagrams,
             ] {
                 let (per, sigs, starts) = run::<D>(&bytes, keyed, chunking, 5);
                 assert!(

@@ -36,7 +36,9 @@
 //! authenticated by its signature), and no known frame with a valid checksum
 //! starts inside it: a known good frame always wins. The last frame of a
 //! stream is confirmed by [`Parser::flush`], the last of a datagram by
-//! [`Parser::end_of_datagram`].
+//! [`Parser::end_of_datagram`]. A datagram's bytes are best pushed with
+//! [`Parser::next_in_datagram`]: the same frames, but a candidate its end
+//! cuts is rejected at once instead of waiting for the end to be told.
 //!
 //! The work per byte is bounded whatever the input, adversarial included:
 //! a good frame's checksum is computed once, directly; a checksum over bytes

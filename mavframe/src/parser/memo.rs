@@ -298,8 +298,6 @@ pub(super) struct Whole {
     pub(super) id: u32,
     /// Bytes the checksum covers (after the start byte, up to the checksum).
     pub(super) covered: usize,
-    /// The checksum the frame carries.
-    carried: u16,
 }
 
 impl Whole {
@@ -337,12 +335,16 @@ impl Whole {
         if bytes.len() < len {
             return None;
         }
-        let carried = u16::from_le_bytes([bytes[covered + 1], bytes[covered + 2]]);
-        Some(Whole {
-            id,
-            covered,
-            carried,
-        })
+        Some(Whole { id, covered })
+    }
+
+    /// The checksum the frame carries, in its bytes `frame` (from its start
+    /// byte): read when a checksum is compared with it, not for every
+    /// frame of an unknown id.
+    #[inline(always)]
+    fn carried(&self, frame: &[u8]) -> Option<u16> {
+        let c = frame.get(self.covered + 1..self.covered + 3)?;
+        Some(u16::from_le_bytes([c[0], c[1]]))
     }
 
     /// The same, for a frame already delimited.
@@ -355,7 +357,6 @@ impl Whole {
         Whole {
             id: frame.msg_id(),
             covered: header - 1 + frame.payload_len(),
-            carried: frame.checksum(),
         }
     }
 }
@@ -420,13 +421,15 @@ impl Memo {
             }
             let before = self.prefix[slot_of(start, PREFIX_MASK)];
             let after = self.prefix[slot_of(end, PREFIX_MASK)];
-            return crc::between_extra(before, after, w.covered, crc_extra) == Some(w.carried);
+            let carried = bytes.get(rel..).and_then(|f| w.carried(f));
+            return carried.is_some()
+                && crc::between_extra(before, after, w.covered, crc_extra) == carried;
         }
         self.direct_end = end;
         self.busy_until = self.busy_until.max(end);
         self.steps += w.covered as u64;
         match bytes.get(rel + 1..rel + 1 + w.covered) {
-            Some(covered) => crc::frame_crc(covered, crc_extra) == w.carried,
+            Some(covered) => Some(crc::frame_crc(covered, crc_extra)) == w.carried(&bytes[rel..]),
             None => false,
         }
     }
@@ -495,7 +498,7 @@ impl Memo {
             && ((self.direct_end == end && direct_end != end)
                 || bytes
                     .get(1..1 + w.covered)
-                    .is_some_and(|c| crc::frame_crc(c, crc_extra) == w.carried));
+                    .is_some_and(|c| Some(crc::frame_crc(c, crc_extra)) == w.carried(bytes)));
         if ok {
             self.good_candidate = at + 1;
         }
@@ -660,10 +663,10 @@ impl Memo {
             // (A whole frame of an unknown id is that and nothing else:
             // what `classify_start` would say.)
             for mut starts in [kinds[0] & !v1.whole & !v1.raw, kinds[1]] {
-                self.steps += u64::from(starts.count_ones());
                 while starts != 0 {
                     let j = starts.trailing_zeros();
                     starts &= starts - 1;
+                    self.steps += 1;
                     let rel = lo + base + j as usize;
                     if self.at_eof && cut(bytes, rel) {
                         // Never good: its bytes will not come.

@@ -84,9 +84,10 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
     ),
     // Built by hand (stop 24), beyond what the search climbed to: found_i's
     // frame of unknown id 10 with eleven 0xFE candidates and a 0xFD after
-    // it. The worst input known in 64 KiB reads, and by far in 300- and
-    // 64-byte reads, where each 0xFE's 262-byte frame is cut by the read
-    // (classified as pending, then again when its bytes come).
+    // it. The worst input known in 64 KiB reads at stop 24, and still by
+    // far in 300- and 64-byte reads of a stream, where each 0xFE's
+    // 262-byte frame is cut by the read (classified as pending, then again
+    // when its bytes come).
     (
         "found_k",
         &[

@@ -650,7 +650,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             } else if cand[0] == STX_V2 && refused(cand) {
                 bad_flags += 1;
             } else {
-                match self.raw_alone_in_place(cand, pos) {
+                match self.raw_alone_in_place(cand, pos, MaybeGood::UNKNOWN) {
                     RawAlone::Take(len) => break Some(len),
                     RawAlone::Refused => refused_raw += 1,
                     RawAlone::Other => break None,
@@ -703,7 +703,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 starts: maybe_good >> j,
                 positions: 64 - j,
             };
-            match self.raw_alone_by_masks(&input[j..], self.pos + j as u64, maybe) {
+            match self.raw_alone_in_place(&input[j..], self.pos + j as u64, maybe) {
                 RawAlone::Take(len) => break (j, Some(len)),
                 RawAlone::Refused => refused_raw += 1,
                 RawAlone::Other => break (j, None),
@@ -719,10 +719,14 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         Some(found)
     }
 
-    /// [`Parser::raw_alone_in_place`] with what the masks tell of the
-    /// positions inside the frame (`maybe`).
+    /// What [`Parser::raw_frame_in_place`] and
+    /// [`Parser::raw_frame_by_masks`] make of their candidate at stream
+    /// position `at`: a whole frame of an unknown id is taken or refused as
+    /// [`check_raw`] would (without a key), anything else is left to the
+    /// general loop. `maybe`: what the masks tell of the positions inside
+    /// it.
     #[inline(always)]
-    fn raw_alone_by_masks(&mut self, cand: &[u8], at: u64, maybe: MaybeGood) -> RawAlone {
+    fn raw_alone_in_place(&mut self, cand: &[u8], at: u64, maybe: MaybeGood) -> RawAlone {
         let Some(w) = Whole::at(cand) else {
             return RawAlone::Other;
         };
@@ -739,33 +743,6 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         }
         if maybe.none_inside(len) {
             return RawAlone::Take(len);
-        }
-        match self.memo.inside::<D>(cand, at, len) {
-            Inside::No => RawAlone::Take(len),
-            Inside::Yes => RawAlone::Refused,
-            Inside::Undecided(_) => RawAlone::Other,
-        }
-    }
-
-    /// What [`Parser::raw_frame_in_place`] makes of its candidate at
-    /// stream position `at`: a whole frame of an unknown id is taken or
-    /// refused as [`check_raw`] would (without a key), anything else is
-    /// left to the general loop.
-    #[inline(always)]
-    fn raw_alone_in_place(&mut self, cand: &[u8], at: u64) -> RawAlone {
-        let Some(w) = Whole::at(cand) else {
-            return RawAlone::Other;
-        };
-        if self.memo.crc_extra::<D>(w.id).is_some() {
-            return RawAlone::Other;
-        }
-        let Ok(len) = frame_len(cand) else {
-            return RawAlone::Other;
-        };
-        match cand.get(len) {
-            Some(&(STX_V1 | STX_V2)) => {}
-            Some(_) => return RawAlone::Refused,
-            None => return RawAlone::Other,
         }
         match self.memo.inside::<D>(cand, at, len) {
             Inside::No => RawAlone::Take(len),

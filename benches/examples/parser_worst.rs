@@ -4,7 +4,7 @@
 //! ```sh
 //! cargo run --release -p benches --example parser_worst -- measure [READS]
 //! cargo run --release -p benches --example parser_worst -- ratio [ROUNDS] [READS]
-//! cargo run --release -p benches --example parser_worst -- search steps|time [keyed] [SECONDS] [SEED]
+//! cargo run --release -p benches --example parser_worst -- search steps|time [keyed] [SECONDS] [SEED] [reads=READS]
 //! cargo run --release -p benches --example parser_worst -- mix [keyed] [SECONDS] [SEED]
 //! cargo run --release -p benches --example parser_worst -- pattern HEX [READS]
 //! cargo run --release -p benches --example parser_worst -- one NAME|hex:HEX [keyed] [passes=N] [chunk=N|datagram=N]
@@ -106,12 +106,12 @@ fn cost_for(bytes: &[u8], keyed: bool, reads: Reads, runs: usize, min_run: f64) 
     )
 }
 
-fn score(pattern: &[u8], keyed: bool, by_time: bool) -> f64 {
+fn score(pattern: &[u8], keyed: bool, by_time: bool, reads: Reads) -> f64 {
     let bytes = worst::repeat(pattern, EVAL_LEN);
     if by_time {
-        cost(&bytes, keyed, Reads::Stream(worst::CHUNK), 3).2
+        cost(&bytes, keyed, reads, 3).2
     } else {
-        let (steps, sigs, _) = cost(&bytes, keyed, Reads::Stream(worst::CHUNK), 1);
+        let (steps, sigs, _) = cost(&bytes, keyed, reads, 1);
         steps + 64.0 * sigs
     }
 }
@@ -142,7 +142,7 @@ fn mutate(p: &[u8], rng: &mut Rng) -> Vec<u8> {
     q
 }
 
-fn search(by_time: bool, keyed: bool, seconds: f64, seed: u64) {
+fn search(by_time: bool, keyed: bool, seconds: f64, seed: u64, reads: Reads) {
     let mut rng = Rng(seed | 1);
     let seeds: Vec<Vec<u8>> = vec![
         worst::ISSUE_PATTERN.to_vec(),
@@ -161,11 +161,11 @@ fn search(by_time: bool, keyed: bool, seconds: f64, seed: u64) {
             None => (0..1 + rng.below(16)).map(|_| rng.byte()).collect(),
         };
         restart += 1;
-        let mut cur_score = score(&cur, keyed, by_time);
+        let mut cur_score = score(&cur, keyed, by_time, reads);
         let mut stale = 0;
         while stale < 40 && start.elapsed().as_secs_f64() < seconds {
             let cand = mutate(&cur, &mut rng);
-            let s = score(&cand, keyed, by_time);
+            let s = score(&cand, keyed, by_time, reads);
             if s >= cur_score {
                 stale = if s > cur_score * 1.001 { 0 } else { stale + 1 };
                 cur = cand;
@@ -180,17 +180,12 @@ fn search(by_time: bool, keyed: bool, seconds: f64, seed: u64) {
         best.truncate(10);
     }
     println!(
-        "search by {} ({}), {restart} climbs in {seconds} s; best patterns:",
+        "search by {} ({}, {reads}), {restart} climbs in {seconds} s; best patterns:",
         if by_time { "time" } else { "steps" },
         if keyed { "keyed, strict" } else { "no key" },
     );
     for (s, p) in &best {
-        let (steps, sigs, ns) = cost(
-            &worst::repeat(p, worst::INPUT_LEN),
-            keyed,
-            Reads::Stream(worst::CHUNK),
-            5,
-        );
+        let (steps, sigs, ns) = cost(&worst::repeat(p, worst::INPUT_LEN), keyed, reads, 5);
         println!(
             "  score {s:9.2}  {:8.1} MB/s  steps/B {steps:6.2}  sigs/B {sigs:.4}  {}",
             1e3 / ns,
@@ -382,7 +377,12 @@ fn main() {
             let nums: Vec<f64> = args.iter().filter_map(|a| a.parse().ok()).collect();
             let seconds = nums.first().copied().unwrap_or(60.0);
             let seed = nums.get(1).copied().unwrap_or(1.0) as u64;
-            search(by_time, keyed, seconds, seed);
+            // reads=N or reads=dN: the reads to search in (default 64 KiB).
+            let reads = args
+                .iter()
+                .find_map(|a| a.strip_prefix("reads=")?.parse().ok())
+                .unwrap_or(Reads::Stream(worst::CHUNK));
+            search(by_time, keyed, seconds, seed, reads);
         }
         Some("mix") => {
             let keyed = args.iter().any(|a| a == "keyed");
@@ -477,9 +477,9 @@ usage: parser_worst [COMMAND] [ARGS]
                              pushed as READS says (default 65536); the default command
   ratio [ROUNDS] [READS]     every input's time per byte against random bytes' (same policy),
                              best of ROUNDS (default 5) interleaved rounds of 0.1 s each
-  search steps|time [keyed] [SECONDS] [SEED]
+  search steps|time [keyed] [SECONDS] [SEED] [reads=READS]
                              hill-climb repeating patterns for the most work steps or time
-                             per byte (default 60 s, seed 1); prints the ten worst
+                             per byte (default 60 s, seed 1, 64 KiB reads); prints the ten worst
   mix [keyed] [SECONDS] [SEED]
                              the same over random bytes drawn from weighted values
   pattern HEX [READS]        one repeating pattern, with and without a key

@@ -82,7 +82,7 @@ use crate::frame::{
 use crate::message::{Dialect, MessageMeta};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
-use memo::{Block, Inside, Memo, Starts, Whole};
+use memo::{span_mask, Block, Inside, Memo, Starts, Whole};
 use senders::Senders;
 
 /// Counters of what the parser saw.
@@ -448,7 +448,6 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             }
             self.at_eof = datagram_ends;
         }
-        self.memo.at_eof = self.at_eof;
         // The last verdict was a rejection: garbage, maybe dense in start
         // bytes, where `reject_run` is the fast way through.
         // (With bytes held, `step_held` takes it.)
@@ -710,7 +709,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             }
         };
         // The candidates before the one it stopped at are rejected.
-        let before = u64::MAX.checked_shr(64 - j as u32).unwrap_or(0);
+        let before = span_mask(0, j as u64);
         let (bad_crc, bad_flags) = (ones(bad_v1 & before), ones(refused & before));
         self.stats.bad_crc += bad_crc;
         self.stats.bad_incompat_flags += bad_flags;
@@ -744,7 +743,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         if maybe.none_inside(len) {
             return RawAlone::Take(len);
         }
-        match self.memo.inside::<D>(cand, at, len) {
+        match self.memo.inside::<D>(cand, at, len, self.at_eof) {
             Inside::No => RawAlone::Take(len),
             Inside::Yes => RawAlone::Refused,
             Inside::Undecided(_) => RawAlone::Other,
@@ -1305,7 +1304,7 @@ impl Rejected {
     /// `bad_v1`) from bit `from` to bit `to` (exclusive; `from` < 64).
     #[inline(always)]
     fn masked(&mut self, refused: u64, bad_v1: u64, from: usize, to: usize) {
-        let span = (u64::MAX << from) & u64::MAX.checked_shr(64 - to as u32).unwrap_or(0);
+        let span = span_mask(from as u64, to as u64);
         self.bad_flags += u64::from((refused & span).count_ones());
         self.bad_crc += u64::from((bad_v1 & span).count_ones());
     }
@@ -1490,11 +1489,9 @@ fn cut<D: Dialect, const N: usize>(
     match frame_len(bytes) {
         Err(FrameError::UnknownIncompatFlags(_)) => Alone::Ends(RunEnd::Check),
         Ok(len)
-            if rest.verifier.is_some()
-                && matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0)
-                && D::meta(msg_id(bytes)).is_none() =>
+            if rest.verifier.is_some() && signed_v2(bytes) && D::meta(msg_id(bytes)).is_none() =>
         {
-            if memo.inside::<D>(bytes, at, bytes.len()) == Inside::Yes {
+            if memo.inside::<D>(bytes, at, bytes.len(), rest.at_eof) == Inside::Yes {
                 pay_for_signed_raw(bytes, len, &mut rest.ctx(at, memo));
             }
             Alone::Cut
@@ -1594,12 +1591,18 @@ fn unpaid_signed<const N: usize>(
     memo: &Memo,
     rest: &mut Rest<'_, N>,
 ) -> bool {
-    let signed = matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0);
-    if !signed || rest.verifier.is_none() || !memo.cannot_pay_any(at) {
+    if !signed_v2(bytes) || rest.verifier.is_none() || !memo.cannot_pay_any(at) {
         return false;
     }
     rest.stats.signatures_unchecked += 1;
     true
+}
+
+/// Whether `bytes` start a MAVLink 2 header whose flags say signed (its
+/// flags byte there; the rest may be cut).
+#[inline(always)]
+fn signed_v2(bytes: &[u8]) -> bool {
+    matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0)
 }
 
 /// Bytes a signed frame of `len` bytes makes SHA-256 hash: the 32-byte key,
@@ -1652,7 +1655,7 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
         Ok(len) => {
             // An unverifiable candidate loses at once to a good frame inside.
             if D::meta(msg_id(bytes)).is_none()
-                && cx.memo.inside::<D>(bytes, cx.at, bytes.len()) == Inside::Yes
+                && cx.memo.inside::<D>(bytes, cx.at, bytes.len(), cx.at_eof) == Inside::Yes
             {
                 pay_for_signed_raw(bytes, len, &mut cx);
                 return Verdict::Reject;
@@ -1686,8 +1689,9 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdic
 /// budget).
 #[cold]
 fn pay_for_signed_raw<const N: usize>(bytes: &[u8], len: usize, cx: &mut Ctx<'_, N>) {
-    let signed = matches!(bytes, [STX_V2, _, flags, ..] if flags & IFLAG_SIGNED != 0);
-    if signed && cx.verifier.is_some() && !cx.memo.pay_for_raw_check(cx.at, raw_signature_cost(len))
+    if signed_v2(bytes)
+        && cx.verifier.is_some()
+        && !cx.memo.pay_for_raw_check(cx.at, raw_signature_cost(len))
     {
         cx.stats.signatures_unchecked += 1;
     }
@@ -1770,7 +1774,7 @@ fn raw_verdict<D: Dialect, const N: usize>(
     let inside = if maybe.none_inside(len) {
         Inside::No
     } else {
-        cx.memo.inside::<D>(bytes, cx.at, len)
+        cx.memo.inside::<D>(bytes, cx.at, len, cx.at_eof)
     };
     match inside {
         Inside::Yes => return Some(Verdict::Reject),

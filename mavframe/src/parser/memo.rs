@@ -276,10 +276,6 @@ pub(super) struct Memo {
     /// The fast rejection loop's last run found start bytes dense (fewer
     /// than its `DENSE` bytes apart): the next one goes by masks at once.
     pub(super) dense_starts: bool,
-    /// The bytes at hand end the stream (a flush, or the end of a
-    /// datagram): a position whose frame they cut is not undecided but
-    /// never good, and none waits. Set by the parser with its own.
-    pub(super) at_eof: bool,
     /// No state about positions from here on (the frontier, the prefix
     /// states and the last direct checksum all end before): a candidate
     /// there is checked exactly as without a memo.
@@ -395,7 +391,6 @@ impl Memo {
             v1_frontier: 0,
             busy_until: 0,
             dense_starts: false,
-            at_eof: false,
             mask_v1: [0; SCAN_WORDS],
             mask_v2: [0; SCAN_WORDS],
             mask_flags: [0; SCAN_WORDS],
@@ -548,9 +543,17 @@ impl Memo {
 
     /// Whether a good frame of a known id starts at a position after
     /// `bytes[0]` (stream position `at`, the candidate) and before
-    /// `bytes[len]`, as far as `bytes` tells.
+    /// `bytes[len]`, as far as `bytes` tells. `at_eof`: `bytes` end the
+    /// stream (a flush, or the end of a datagram), so a position whose
+    /// frame they cut is never good, and none waits.
     #[inline(always)]
-    pub(super) fn inside<D: Dialect>(&mut self, bytes: &[u8], at: u64, len: usize) -> Inside {
+    pub(super) fn inside<D: Dialect>(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        len: usize,
+        at_eof: bool,
+    ) -> Inside {
         let end = len.min(bytes.len());
         let avail = at + bytes.len() as u64;
         if avail < self.woken || self.woken < avail.min(self.last_wake) {
@@ -562,14 +565,14 @@ impl Memo {
         if at + end as u64 > self.frontier {
             // Ahead of what is asked, so that the next candidates (in
             // garbage, a byte or two later) find their positions decided.
-            let to = if self.at_eof {
+            let to = if at_eof {
                 // Nothing waits at the end of the stream: as far as the
                 // bytes go.
                 end.max(bytes.len().min(end + SCAN_AHEAD))
             } else {
                 scan_end(end, bytes.len())
             };
-            self.scan::<D>(bytes, at, to);
+            self.scan::<D>(bytes, at, to, at_eof);
         }
         let (from, to) = (at + 1, at + end as u64);
         self.steps += 1;
@@ -629,9 +632,9 @@ impl Memo {
     }
 
     /// Classifies the positions from the frontier (or just after the
-    /// candidate) to `bytes[end]`, exclusive.
+    /// candidate) to `bytes[end]`, exclusive (`at_eof`: as [`inside`](Self::inside)).
     #[inline(never)]
-    fn scan<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: usize) {
+    fn scan<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: usize, at_eof: bool) {
         let to = at + end as u64;
         if self.frontier <= at {
             self.frontier = at + 1;
@@ -668,7 +671,7 @@ impl Memo {
                     starts &= starts - 1;
                     self.steps += 1;
                     let rel = lo + base + j as usize;
-                    if self.at_eof && cut(bytes, rel) {
+                    if at_eof && cut_by_end(bytes, rel) {
                         // Never good: its bytes will not come.
                         continue;
                     }
@@ -1521,7 +1524,7 @@ pub(super) struct Block {
 /// `bytes` (its header, or the length its header claims), as `frame_len`
 /// reads it.
 #[inline(always)]
-fn cut(bytes: &[u8], rel: usize) -> bool {
+fn cut_by_end(bytes: &[u8], rel: usize) -> bool {
     match bytes.get(rel..).map(frame_len) {
         Some(Ok(n)) => bytes.len() - rel < n,
         Some(Err(FrameError::Incomplete { .. })) => true,
@@ -1613,7 +1616,7 @@ fn first_set<const W: usize>(bits: &[u64; W], from: u64, to: u64) -> Option<u64>
 
 /// The bits `from..to` of a `u64` (`from <= to <= 64`).
 #[inline(always)]
-fn span_mask(from: u64, to: u64) -> u64 {
+pub(super) fn span_mask(from: u64, to: u64) -> u64 {
     let ones = if to - from >= 64 {
         !0
     } else {

@@ -1368,7 +1368,19 @@ fn raw_masks(bytes: &[u8], base: usize, n: usize) -> (u64, u64, u64) {
             let (v1, v2, bad_flags) = masks_of_block(window);
             (v1 & first_n, v2 & first_n, bad_flags & first_n)
         }
-        None => masks_by_bytes(bytes, base, n),
+        None => {
+            // The last block of the bytes: in a buffer of zeros, which
+            // start nothing and have known flags (in a datagram every run
+            // over its tail passes here: a byte at a time cost about 13
+            // instructions per byte of `found_c` in 300-byte datagrams).
+            let mut window = [0u8; 64 + 2];
+            let tail = bytes.get(base..).unwrap_or(&[]);
+            let len = tail.len().min(window.len());
+            window[..len].copy_from_slice(&tail[..len]);
+            let first_n = u64::MAX >> (64 - n);
+            let (v1, v2, bad_flags) = masks_of_block(&window);
+            (v1 & first_n, v2 & first_n, bad_flags & first_n)
+        }
     }
 }
 
@@ -1469,7 +1481,8 @@ fn masks_by_words(window: &[u8]) -> (u64, u64, u64) {
     (v1, v2, bad_flags)
 }
 
-/// The same, a byte at a time: for the last, shorter blocks.
+/// The same, a byte at a time: the reference of the tests.
+#[cfg(test)]
 fn masks_by_bytes(bytes: &[u8], base: usize, n: usize) -> (u64, u64, u64) {
     let (mut v1, mut v2, mut bad_flags) = (0u64, 0u64, 0u64);
     for (j, &b) in bytes[base..base + n].iter().enumerate() {
@@ -1689,6 +1702,13 @@ mod tests {
             let by_bytes = masks_by_bytes(&window, 0, 64);
             assert_eq!(masks_by_words(&window), by_bytes);
             assert_eq!(masks_of_block(&window), by_bytes);
+            // The last, shorter block of the bytes (padded with zeros).
+            let cut = round % 66;
+            let n = cut.min(64);
+            if n > 0 {
+                let tail = &window[..cut];
+                assert_eq!(raw_masks(tail, 0, n), masks_by_bytes(tail, 0, n), "{cut}");
+            }
         }
         for b in 0..=255u8 {
             assert_eq!(

@@ -72,6 +72,7 @@
 //! bytes can make it miss frames, never accept a bad one: a frame is taken
 //! only on its own bytes' checksum.
 
+mod end_cut;
 mod memo;
 mod senders;
 
@@ -1303,8 +1304,9 @@ impl Rejected {
     /// their masks (MAVLink 2 flags `refused`, MAVLink 1 checksums
     /// `bad_v1`) from bit `from` to bit `to` (exclusive; `from` < 64).
     #[inline(always)]
-    fn masked(&mut self, refused: u64, bad_v1: u64, from: usize, to: usize) {
+    fn masked(&mut self, refused: u64, bad_v1: u64, cut: u64, from: usize, to: usize) {
         let span = span_mask(from as u64, to as u64);
+        self.cut += u64::from((cut & span).count_ones());
         self.bad_flags += u64::from((refused & span).count_ones());
         self.bad_crc += u64::from((bad_v1 & span).count_ones());
     }
@@ -1367,13 +1369,25 @@ fn reject_masked<D: Dialect, const N: usize>(
     let mut base = 0;
     'blocks: while base < bytes.len() {
         let Starts { kinds, refused } = memo.starts(bytes, at, base, bytes.len());
+        // At the end of the stream, the frames its end cuts (in a datagram
+        // of garbage, most of its start bytes'), all at once: none of them
+        // can be good. Not the signed MAVLink 2 ones a key may have to pay
+        // for ([`cut`]).
+        let cut = match rest.at_eof {
+            true => {
+                let end = memo.end_cuts.at(bytes, at, base);
+                let keyed = u64::from(rest.verifier.is_some()).wrapping_neg();
+                end.cut & (kinds[0] | (kinds[1] & !(end.signed & keyed)))
+            }
+            false => 0,
+        };
         // The MAVLink 1 frames with a bad checksum, all at once (each
         // position checked once, however many runs pass over it).
-        let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0]);
+        let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0] & !cut);
         // Those are rejected by their count; the others one by one, those
         // the scan found whole with an unknown id straight to `check_raw`'s
         // policy once their id is read again.
-        let mut others = (kinds[0] | kinds[1]) & !bad_v1;
+        let mut others = (kinds[0] | kinds[1]) & !bad_v1 & !cut;
         let maybe_good = others;
         let n = (bytes.len() - base).min(64);
         let raw = memo.raw_starts(at + base as u64) & others;
@@ -1418,7 +1432,7 @@ fn reject_masked<D: Dialect, const N: usize>(
                 Alone::Ends(RunEnd::Policy(len)) => {
                     match policy::<N>(&bytes[i..], len, at + i as u64, memo, rest, count) {
                         Ok(skipped) => {
-                            count.masked(refused, bad_v1, from, j);
+                            count.masked(refused, bad_v1, cut, from, j);
                             // On after the frame, in this block or from it.
                             let next = j + skipped;
                             if next < n {
@@ -1435,10 +1449,10 @@ fn reject_masked<D: Dialect, const N: usize>(
                 Alone::Ends(end) => end,
             };
             // The refused and bad before it are dropped with it.
-            count.masked(refused, bad_v1, from, j);
+            count.masked(refused, bad_v1, cut, from, j);
             return (i, end);
         }
-        count.masked(refused, bad_v1, from, 64);
+        count.masked(refused, bad_v1, cut, from, 64);
         base += 64;
     }
     (bytes.len(), RunEnd::Check)

@@ -38,6 +38,7 @@
 //! rings index them modulo their size, which exceeds the span of positions
 //! alive at once (see the constants).
 
+use super::end_cut::EndCuts;
 use super::{msg_id, BYTES_PER_RAW_SIGNATURE_BYTE, RAW_SIGNATURE_BURST};
 use crate::crc;
 use crate::frame::{
@@ -280,6 +281,8 @@ pub(super) struct Memo {
     /// states and the last direct checksum all end before): a candidate
     /// there is checked exactly as without a memo.
     busy_until: u64,
+    /// At the end of the stream, the start bytes whose frame it cuts.
+    pub(super) end_cuts: EndCuts,
     /// Elementary steps taken: see [`super::Work::steps`].
     pub(super) steps: u64,
     /// Signatures checked (SHA-256): see [`super::Work::signatures`].
@@ -396,6 +399,7 @@ impl Memo {
             mask_flags: [0; SCAN_WORDS],
             masks_from: 0,
             masks_frontier: 0,
+            end_cuts: EndCuts::new(),
             steps: 0,
             signatures: 0,
         }
@@ -662,19 +666,21 @@ impl Memo {
             let Starts { kinds, .. } = self.starts_seen(bytes, at, lo + base, n.min(64));
             let v1 = self.v1_verdicts::<D>(bytes, at, lo + base, (kinds[0], n));
             let (mut good, mut bad, mut raw) = (v1.good, v1.whole & !v1.good, v1.raw);
-            self.steps += u64::from((v1.whole | v1.raw).count_ones());
+            // At the end, the frames it cuts are never good: their bytes
+            // will not come.
+            let cut = match at_eof {
+                true => self.end_cuts.at(bytes, at, lo + base).cut & (kinds[0] | kinds[1]),
+                false => 0,
+            };
+            self.steps += u64::from((v1.whole | v1.raw | cut).count_ones());
             // (A whole frame of an unknown id is that and nothing else:
             // what `classify_start` would say.)
-            for mut starts in [kinds[0] & !v1.whole & !v1.raw, kinds[1]] {
+            for mut starts in [kinds[0] & !v1.whole & !v1.raw & !cut, kinds[1] & !cut] {
                 while starts != 0 {
                     let j = starts.trailing_zeros();
                     starts &= starts - 1;
                     self.steps += 1;
                     let rel = lo + base + j as usize;
-                    if at_eof && cut_by_end(bytes, rel) {
-                        // Never good: its bytes will not come.
-                        continue;
-                    }
                     match self.classify_start::<D>(bytes, at, rel) {
                         Start::Good => good |= 1 << j,
                         Start::BadCrc => bad |= 1 << j,
@@ -831,6 +837,7 @@ impl Memo {
         (self.prefix_end, self.direct_end) = (0, self.direct_end.max(pos));
         (self.good_candidate, self.raw_signature_failed) = (0, 0);
         self.busy_until = self.direct_end;
+        self.end_cuts.forget();
     }
 
     /// Of the MAVLink 1 start bytes `mask` among the 64 positions from
@@ -1531,18 +1538,6 @@ pub(super) struct Block {
     pub(super) bad_v1: u64,
     /// ...and the MAVLink 2 ones with unknown incompatibility flags.
     pub(super) refused: u64,
-}
-
-/// Whether the frame of the start byte `bytes[rel]` is cut by the end of
-/// `bytes` (its header, or the length its header claims), as `frame_len`
-/// reads it.
-#[inline(always)]
-fn cut_by_end(bytes: &[u8], rel: usize) -> bool {
-    match bytes.get(rel..).map(frame_len) {
-        Some(Ok(n)) => bytes.len() - rel < n,
-        Some(Err(FrameError::Incomplete { .. })) => true,
-        _ => false,
-    }
 }
 
 /// Bytes needed (from `bytes[0]`) to decide about the undecided position

@@ -268,6 +268,79 @@ fn datagrams_of_dense_garbage_lose_no_frame() {
     }
 }
 
+/// A flush not called until `None` (a caller that takes one frame at the
+/// end of what it has, then gets more bytes): the bytes held after the
+/// frame it returned are those of the stream that goes on, in chunks
+/// whose ends are not the stream's (frames cut by them wait), and what the
+/// parser decided for the end of the stream no longer holds once more
+/// bytes come. Every good frame comes out, in order, but one that the
+/// flush's end cut.
+#[test]
+fn bytes_after_a_flush_not_drained_continue_the_stream() {
+    let mut rng = Rng(17);
+    for trial in 0..300 {
+        let frames = frames(10, &mut rng);
+        let mut stream = Vec::new();
+        for f in &frames {
+            for _ in 0..rng.below(30) {
+                stream.push(match rng.below(4) {
+                    0 => 0xFD,
+                    1 => 0xFE,
+                    _ => rng.byte(),
+                });
+            }
+            stream.extend_from_slice(f);
+        }
+        let split = rng.below(stream.len());
+        let mut p = Parser::<Dialect>::new();
+        let mut got = Vec::new();
+        let mut first = &stream[..split];
+        while let Some(r) = p.next(&mut first) {
+            got.push(r.frame.as_bytes().to_vec());
+        }
+        // One frame of the flush, if any, and no more.
+        if let Some(r) = p.flush() {
+            got.push(r.frame.as_bytes().to_vec());
+        }
+        // The rest in small chunks: frames cut by a chunk's end wait for
+        // their bytes, as in any stream.
+        let chunk = 1 + rng.below(20);
+        for mut piece in stream[split..].chunks(chunk) {
+            while let Some(r) = p.next(&mut piece) {
+                got.push(r.frame.as_bytes().to_vec());
+            }
+        }
+        while let Some(r) = p.flush() {
+            got.push(r.frame.as_bytes().to_vec());
+        }
+        let known: Vec<_> = got.iter().filter(|f| frames.contains(f)).cloned().collect();
+        // The flush ended the stream where it decided: a frame its end cut
+        // (before the frame it returned, or with none) is lost, and only
+        // that one.
+        let lost = frames.iter().filter(|f| !known.contains(f)).count();
+        assert!(lost <= 1, "trial {trial} split {split}: {lost} frames lost");
+        if lost == 1 {
+            // Only one that straddles the split.
+            let at = frames
+                .iter()
+                .position(|f| !known.contains(f))
+                .expect("the lost frame");
+            let start = find(&stream, &frames[at]);
+            assert!(
+                start < split && split < start + frames[at].len(),
+                "trial {trial} split {split}: frame {at} lost, not cut by the flush"
+            );
+        }
+    }
+}
+
+/// Where `needle` first occurs in `hay`.
+fn find(hay: &[u8], needle: &[u8]) -> usize {
+    hay.windows(needle.len())
+        .position(|w| w == needle)
+        .expect("in the stream")
+}
+
 #[test]
 fn corrupted_and_truncated_frames_do_not_swallow_the_next() {
     let mut rng = Rng(4);
@@ -568,6 +641,41 @@ fn unknown_ids_are_surfaced_raw_and_confirmed() {
     let stream = [hiding, good[0].clone(), good[1].clone()].concat();
     let mut p = Parser::<Dialect>::new();
     assert_eq!(parse_all(&mut p, &stream, 1), good);
+}
+
+/// The case where what a flush decided would be wrong afterwards: the
+/// flush returns a raw frame `g` (an unknown id, waiting on a position
+/// inside it whose frame the end cut), and while deciding about it
+/// classified the positions after it as the end left them: the start of a
+/// good frame `f`, cut, never good. More bytes then complete `f`, inside a
+/// raw candidate `r`: `f` must win over `r`, as without the flush.
+#[test]
+fn a_good_frame_cut_by_a_flush_not_drained_wins_once_its_bytes_come() {
+    let f = frames(1, &mut Rng(5)).remove(0);
+    // A 0xFE inside `g` claims a frame far past the first part's end.
+    let g = raw_frame(14_999, 1, &[0x00, 0xFE, 0xFF]);
+    let r = raw_frame(14_998, 2, &[[0u8; 4].as_slice(), &f, &[0u8; 4]].concat());
+    let stream = [g.clone(), r.clone(), vec![0xFD, 0x00]].concat();
+    let f_at = g.len() + 10 + 4;
+    for split in f_at + 1..f_at + f.len() {
+        let mut p = Parser::<Dialect>::new();
+        let mut got = Vec::new();
+        let mut first = &stream[..split];
+        while let Some(x) = p.next(&mut first) {
+            got.push(x.frame.as_bytes().to_vec());
+        }
+        assert!(got.is_empty(), "split {split}: g waits for its inside");
+        let x = p.flush().expect("the flush decides g");
+        got.push(x.frame.as_bytes().to_vec());
+        let mut rest = &stream[split..];
+        while let Some(x) = p.next(&mut rest) {
+            got.push(x.frame.as_bytes().to_vec());
+        }
+        while let Some(x) = p.flush() {
+            got.push(x.frame.as_bytes().to_vec());
+        }
+        assert_eq!(got, vec![g.clone(), f.clone()], "split {split}");
+    }
 }
 
 #[test]

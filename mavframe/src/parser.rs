@@ -1383,7 +1383,12 @@ fn reject_masked<D: Dialect, const N: usize>(
         };
         // The MAVLink 1 frames with a bad checksum, all at once (each
         // position checked once, however many runs pass over it).
-        let bad_v1 = memo.v1_bad_crc::<D>(&bytes[base..], at + base as u64, kinds[0] & !cut);
+        let bad_v1 = memo.v1_bad_crc::<D>(
+            &bytes[base..],
+            at + base as u64,
+            kinds[0] & !cut,
+            rest.at_eof,
+        );
         // Those are rejected by their count; the others one by one, those
         // the scan found whole with an unknown id straight to `check_raw`'s
         // policy once their id is read again.

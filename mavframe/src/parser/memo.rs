@@ -654,7 +654,7 @@ impl Memo {
         // The MAVLink 1 verdicts by whole blocks from their frontier: the
         // scan's blocks start wherever it stopped last.
         self.v1_reach(from);
-        self.v1_blocks_ahead::<D>(bytes, at, to);
+        self.v1_blocks_ahead::<D>(bytes, at, to, at_eof);
         let lo = (from - at) as usize;
         // By kind, so that no branch per position asks which kind it is
         // (in garbage, unpredictable): each position is decided alone, and
@@ -1023,17 +1023,22 @@ impl Memo {
     /// that is, and would check the few positions past the frontier each
     /// time (a call per block, not about two: `found_i` and `found_j` with
     /// a key 1-2 instructions per byte less).
+    /// At the end of the stream (`at_eof`), a block whose frames the end
+    /// cuts is checked all the same, its positions in `bytes`: those frames
+    /// never will be whole (in datagrams, the blocks would otherwise never
+    /// be whole, and every run paid for the positions past the frontier).
     #[inline(never)]
-    fn v1_blocks_ahead<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: u64) {
+    fn v1_blocks_ahead<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: u64, at_eof: bool) {
         while self.v1_frontier < end {
             let x = self.v1_frontier;
             let rel = (x - at) as usize;
-            if x + 64 > at + (V1_RING - MAX_FRAME_LEN) as u64 || bytes.len() < rel + V1_WINDOW {
+            let held = rel + if at_eof { 64 } else { V1_WINDOW };
+            if x + 64 > at + (V1_RING - MAX_FRAME_LEN) as u64 || bytes.len() < held {
                 return;
             }
             let masks = self
                 .remembered_masks(x, 64)
-                .unwrap_or_else(|| masks_of_block(&bytes[rel..]));
+                .unwrap_or_else(|| raw_masks(bytes, rel, 64));
             let checked = self.v1_checks::<D>(bytes, at, rel, masks.0);
             self.remember_v1(x, checked, !0);
             self.steps += 64 + u64::from(masks.0.count_ones());
@@ -1046,13 +1051,20 @@ impl Memo {
 
     /// Of the MAVLink 1 start bytes `mask` among the 64 positions from
     /// `bytes[0]` (stream position `at`, no later than the current
-    /// candidate; all of them when `bytes` is shorter): those whose frame
-    /// is whole, of a known id, with a bad checksum.
+    /// candidate; all of them when `bytes` is shorter; `at_eof`: they end
+    /// the stream): those whose frame is whole, of a known id, with a bad
+    /// checksum.
     #[inline(always)]
-    pub(super) fn v1_bad_crc<D: Dialect>(&mut self, bytes: &[u8], at: u64, mask: u64) -> u64 {
+    pub(super) fn v1_bad_crc<D: Dialect>(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        mask: u64,
+        at_eof: bool,
+    ) -> u64 {
         let end = at + bytes.len().min(64) as u64;
         if end > self.v1_frontier && at >= self.v1_from && at <= self.v1_frontier {
-            self.v1_blocks_ahead::<D>(bytes, at, end);
+            self.v1_blocks_ahead::<D>(bytes, at, end, at_eof);
         }
         let v1 = self.v1_verdicts::<D>(bytes, at, 0, (mask, bytes.len()));
         v1.whole & !v1.good

@@ -41,7 +41,8 @@ if [ ${#inputs[@]} -eq 0 ]; then
         "signed_raw keyed" "signed_raw_confirmed keyed" found_a found_b found_c "found_c keyed"
         found_d "found_e keyed" found_f "found_f keyed" "found_g keyed" "found_h keyed"
         found_i "found_i keyed" found_j "found_j keyed" found_k "found_k keyed" found_l
-        "found_l keyed" found_m "found_m keyed" many_senders "many_senders keyed")
+        "found_l keyed" found_m "found_m keyed" found_n
+        "found_n keyed" many_senders "many_senders keyed")
 fi
 printf '%-28s %10s\n' input instr/B
 for input in "${inputs[@]}"; do

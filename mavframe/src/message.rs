@@ -202,6 +202,16 @@ pub trait Dialect {
     /// Every message of the dialect, sorted by id.
     const MESSAGES: &'static [MessageMeta];
 
+    /// The largest id [`meta`](Self::meta) knows: an id above it is
+    /// unknown without a look-up (the parser rejects most ids of garbage,
+    /// three bytes at random, so). By default the last of
+    /// [`MESSAGES`](Self::MESSAGES); a dialect whose `meta` knows ids
+    /// beyond those sets it.
+    const MAX_ID: u32 = match Self::MESSAGES.last() {
+        Some(m) => m.id,
+        None => 0,
+    };
+
     /// Table row for `id`, if the dialect knows it.
     fn meta(id: u32) -> Option<&'static MessageMeta> {
         Self::MESSAGES

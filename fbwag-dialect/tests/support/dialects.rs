@@ -44,6 +44,7 @@ impl Dialect for AllKnown {
     type Message = ();
     type View<'a> = ();
     const MESSAGES: &'static [MessageMeta] = &[];
+    const MAX_ID: u32 = u32::MAX;
     fn meta(id: u32) -> Option<&'static MessageMeta> {
         Some(&ALL_ROWS[(id & 0xFF) as usize])
     }

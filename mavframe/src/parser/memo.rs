@@ -1114,6 +1114,12 @@ impl Memo {
     /// search among its ids).
     #[inline(always)]
     fn v2_crc_extra<D: Dialect>(&mut self, id: u32) -> Option<u8> {
+        // Above the dialect's largest id (most ids of garbage, three bytes
+        // at random), unknown without the cache: ids chosen to share its
+        // slots made every look-up a search (`found_n`).
+        if id > D::MAX_ID {
+            return None;
+        }
         let slot = &mut self.v2_extra[(id ^ id >> 7 ^ id >> 14) as usize % V2_EXTRA_SLOTS];
         if slot.0 != id || slot.1 == 0 {
             *slot = (

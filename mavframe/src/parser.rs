@@ -38,7 +38,9 @@
 //! stream is confirmed by [`Parser::flush`], the last of a datagram by
 //! [`Parser::end_of_datagram`]. A datagram's bytes are best pushed with
 //! [`Parser::next_in_datagram`]: the same frames, but a candidate its end
-//! cuts is rejected at once instead of waiting for the end to be told.
+//! cuts is rejected at once instead of waiting for the end to be told (in
+//! garbage, most of a datagram's candidates claim frames longer than what
+//! is left of it: the private `end_cut` module rejects them 64 at a time).
 //!
 //! The work per byte is bounded whatever the input, adversarial included:
 //! a good frame's checksum is computed once, directly; a checksum over bytes

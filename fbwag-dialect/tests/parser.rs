@@ -643,20 +643,23 @@ fn unknown_ids_are_surfaced_raw_and_confirmed() {
     assert_eq!(parse_all(&mut p, &stream, 1), good);
 }
 
-/// The case where what a flush decided would be wrong afterwards: the
-/// flush returns a raw frame `g` (an unknown id, waiting on a position
-/// inside it whose frame the end cut), and while deciding about it
-/// classified the positions after it as the end left them: the start of a
-/// good frame `f`, cut, never good. More bytes then complete `f`, inside a
-/// raw candidate `r`: `f` must win over `r`, as without the flush.
+/// The case where what a flush decided would be wrong afterwards. A
+/// HEARTBEAT header `e` claims 263 bytes, so the parser waits there and
+/// looks no further; the flush rejects it (cut), takes the raw frame `g`
+/// after it (an unknown id, confirmed by the start byte after it) and, to
+/// know whether a good frame starts inside `g` (a MAVLink 2 start byte
+/// there may), scans as far as the bytes go: past `g`, to the start of a
+/// good frame `f`, which the end cuts, so never good. More bytes then
+/// complete `f`, inside a raw candidate `r`: `f` must win over `r`, as
+/// without the flush.
 #[test]
 fn a_good_frame_cut_by_a_flush_not_drained_wins_once_its_bytes_come() {
     let f = frames(1, &mut Rng(5)).remove(0);
-    // A 0xFE inside `g` claims a frame far past the first part's end.
-    let g = raw_frame(14_999, 1, &[0x00, 0xFE, 0xFF]);
+    let e = [0xFE, 0xFF, 0x01, 0x01, 0x01, 0x00];
+    let g = raw_frame(14_999, 1, &[0x00, 0xFD, 0x05, 0x00, 0x01]);
     let r = raw_frame(14_998, 2, &[[0u8; 4].as_slice(), &f, &[0u8; 4]].concat());
-    let stream = [g.clone(), r.clone(), vec![0xFD, 0x00]].concat();
-    let f_at = g.len() + 10 + 4;
+    let stream = [e.as_slice(), &g, &r, &[0xFD, 0x00]].concat();
+    let f_at = e.len() + g.len() + 10 + 4;
     for split in f_at + 1..f_at + f.len() {
         let mut p = Parser::<Dialect>::new();
         let mut got = Vec::new();
@@ -664,8 +667,8 @@ fn a_good_frame_cut_by_a_flush_not_drained_wins_once_its_bytes_come() {
         while let Some(x) = p.next(&mut first) {
             got.push(x.frame.as_bytes().to_vec());
         }
-        assert!(got.is_empty(), "split {split}: g waits for its inside");
-        let x = p.flush().expect("the flush decides g");
+        assert!(got.is_empty(), "split {split}: e waits for its bytes");
+        let x = p.flush().expect("the flush takes g");
         got.push(x.frame.as_bytes().to_vec());
         let mut rest = &stream[split..];
         while let Some(x) = p.next(&mut rest) {

@@ -6,7 +6,9 @@
 //!
 //! - [`parser`]: the streaming parser over any bytes, any chunking, any
 //!   signing policy: same result for every chunking, returned frames whole,
-//!   in order, checksums valid, policy respected, every byte accounted for.
+//!   in order, checksums valid, policy respected, every byte accounted for;
+//!   cut into datagrams, the same frames and counters whether each
+//!   datagram's end is told up front (`next_in_datagram`) or after.
 //! - [`frame`]: `frame_len` / `Frame::new_checked` and every accessor over
 //!   any bytes; signature check; canonical frames re-encode identically.
 //! - [`view`]: every message's zero-copy view and owned message over any
@@ -67,6 +69,56 @@ fn run_parser(
     (out, *p.stats())
 }
 
+/// The stream cut into datagrams of `chunk(i)` bytes, each parsed by
+/// `next_in_datagram` when `told` (its end known from its first byte, as
+/// the connections parse UDP), else by `next`, and then ended by
+/// `end_of_datagram`.
+fn run_datagrams(
+    stream: &[u8],
+    policy: u8,
+    mut chunk: impl FnMut(usize) -> usize,
+    told: bool,
+) -> (Vec<Got>, Stats) {
+    let mut p = match policy {
+        0 => Parser::<Dialect>::new(),
+        1 => Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Accept),
+        _ => Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Refuse),
+    };
+    let got = |rx: fbwag_dialect::mavframe::parser::Received<'_, Dialect>| {
+        (
+            rx.frame.as_bytes().to_vec(),
+            rx.meta.is_some(),
+            rx.authenticated,
+        )
+    };
+    let mut out = Vec::new();
+    let mut rest = stream;
+    let mut i = 0;
+    while !rest.is_empty() {
+        let n = chunk(i).clamp(1, rest.len());
+        i += 1;
+        let (mut c, tail) = rest.split_at(n);
+        rest = tail;
+        loop {
+            let rx = if told {
+                p.next_in_datagram(&mut c)
+            } else {
+                p.next(&mut c)
+            };
+            match rx {
+                Some(rx) => out.push(got(rx)),
+                None => break,
+            }
+        }
+        assert!(c.is_empty(), "datagram left unconsumed");
+        while let Some(rx) = p.end_of_datagram() {
+            out.push(got(rx));
+        }
+        assert_eq!(p.pending(), 0, "bytes held after the end of a datagram");
+    }
+    (out, *p.stats())
+}
+
 /// Byte 0: signing policy (no key / key, unsigned accepted / key, unsigned
 /// refused) and chunking; the rest is the stream.
 pub fn parser(data: &[u8]) {
@@ -79,6 +131,14 @@ pub fn parser(data: &[u8]) {
     let (whole, whole_stats) = run_parser(stream, policy, |_| usize::MAX);
     assert_eq!(chunked, whole, "chunking changed the frames");
     assert_eq!(stats, whole_stats, "chunking changed the counters");
+    // Datagrams: told their end up front, the same as ended after.
+    let size = |i: usize| 1 + (seed * 11 + i * 29) % (4 * seed + 8);
+    let told = run_datagrams(stream, policy, size, true);
+    let ended = run_datagrams(stream, policy, size, false);
+    assert_eq!(
+        told, ended,
+        "next_in_datagram changed the frames or counters"
+    );
     assert_eq!(
         stats.frames + stats.unknown_frames,
         whole.len() as u64,

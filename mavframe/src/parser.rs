@@ -1371,18 +1371,7 @@ fn reject_masked<D: Dialect, const N: usize>(
     let mut base = 0;
     'blocks: while base < bytes.len() {
         let Starts { kinds, refused } = memo.starts(bytes, at, base, bytes.len());
-        // At the end of the stream, the frames its end cuts (in a datagram
-        // of garbage, most of its start bytes'), all at once: none of them
-        // can be good. Not the signed MAVLink 2 ones a key may have to pay
-        // for ([`cut`]).
-        let cut = match rest.at_eof {
-            true => {
-                let end = memo.end_cuts.at(bytes, at, base);
-                let keyed = u64::from(rest.verifier.is_some()).wrapping_neg();
-                end.cut & (kinds[0] | (kinds[1] & !(end.signed & keyed)))
-            }
-            false => 0,
-        };
+        let cut = cut_by_the_end(bytes, at, base, kinds, memo, rest);
         // The MAVLink 1 frames with a bad checksum, all at once (each
         // position checked once, however many runs pass over it).
         let bad_v1 = memo.v1_bad_crc::<D>(
@@ -1463,6 +1452,28 @@ fn reject_masked<D: Dialect, const N: usize>(
         base += 64;
     }
     (bytes.len(), RunEnd::Check)
+}
+
+/// At the end of the stream, of the start bytes `kinds` of the block at
+/// `bytes[base]` (`bytes[0]` at stream position `at`), those whose frame
+/// the end cuts, all at once (in a datagram of garbage, most of them): none
+/// can be good. Not the signed MAVLink 2 ones a key may have to pay for
+/// ([`cut`]). None before the end.
+#[inline(always)]
+fn cut_by_the_end<const N: usize>(
+    bytes: &[u8],
+    at: u64,
+    base: usize,
+    kinds: [u64; 2],
+    memo: &mut Memo,
+    rest: &Rest<'_, N>,
+) -> u64 {
+    if !rest.at_eof {
+        return 0;
+    }
+    let end = memo.end_cuts.at(bytes, at, base);
+    let keyed = u64::from(rest.verifier.is_some()).wrapping_neg();
+    end.cut & (kinds[0] | (kinds[1] & !(end.signed & keyed)))
 }
 
 /// What [`reject_run`] makes alone of the candidate at the start of `rest`

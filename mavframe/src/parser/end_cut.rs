@@ -29,8 +29,11 @@ pub(super) struct EndCut {
     pub(super) signed: u64,
 }
 
-/// Blocks kept: more than a 300-byte datagram spans.
+/// Blocks kept: more than the bytes asked about span (the last
+/// 64 + [`MAX_FRAME_LEN`] before the end, 344: at most seven blocks).
 const SLOTS: usize = 8;
+
+const _: () = assert!(SLOTS * 64 >= 64 + MAX_FRAME_LEN + 2 * 64);
 
 /// The blocks of 64 positions (aligned on stream positions) computed for
 /// the bytes that end at stream position `end`.

@@ -32,52 +32,23 @@ pub const KEY: [u8; 32] = [0x42; 32];
 
 type Got = (Vec<u8>, bool, bool);
 
+/// How [`run_parser`] pushes its chunks.
+#[derive(Clone, Copy)]
+enum Ends {
+    /// A stream, flushed at the end.
+    Stream,
+    /// Each chunk a datagram, ended by `end_of_datagram`; its end told up
+    /// front (`next_in_datagram`, as the connections parse UDP) or not.
+    Datagrams { told: bool },
+}
+
+/// The stream through a parser of the signing `policy`, in chunks of
+/// `chunk(i)` bytes pushed as `ends` says: the frames and the counters.
 fn run_parser(
     stream: &[u8],
     policy: u8,
     mut chunk: impl FnMut(usize) -> usize,
-) -> (Vec<Got>, Stats) {
-    let mut p = match policy {
-        0 => Parser::<Dialect>::new(),
-        1 => Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Accept),
-        _ => Parser::<Dialect>::with_signing(Verifier::new(KEY), Unsigned::Refuse),
-    };
-    let mut out = Vec::new();
-    let mut rest = stream;
-    let mut i = 0;
-    while !rest.is_empty() {
-        let n = chunk(i).clamp(1, rest.len());
-        i += 1;
-        let (mut c, tail) = rest.split_at(n);
-        rest = tail;
-        while let Some(rx) = p.next(&mut c) {
-            out.push((
-                rx.frame.as_bytes().to_vec(),
-                rx.meta.is_some(),
-                rx.authenticated,
-            ));
-        }
-        assert!(c.is_empty(), "input left unconsumed");
-    }
-    while let Some(rx) = p.flush() {
-        out.push((
-            rx.frame.as_bytes().to_vec(),
-            rx.meta.is_some(),
-            rx.authenticated,
-        ));
-    }
-    (out, *p.stats())
-}
-
-/// The stream cut into datagrams of `chunk(i)` bytes, each parsed by
-/// `next_in_datagram` when `told` (its end known from its first byte, as
-/// the connections parse UDP), else by `next`, and then ended by
-/// `end_of_datagram`.
-fn run_datagrams(
-    stream: &[u8],
-    policy: u8,
-    mut chunk: impl FnMut(usize) -> usize,
-    told: bool,
+    ends: Ends,
 ) -> (Vec<Got>, Stats) {
     let mut p = match policy {
         0 => Parser::<Dialect>::new(),
@@ -100,21 +71,25 @@ fn run_datagrams(
         let (mut c, tail) = rest.split_at(n);
         rest = tail;
         loop {
-            let rx = if told {
-                p.next_in_datagram(&mut c)
-            } else {
-                p.next(&mut c)
+            let rx = match ends {
+                Ends::Datagrams { told: true } => p.next_in_datagram(&mut c),
+                _ => p.next(&mut c),
             };
             match rx {
                 Some(rx) => out.push(got(rx)),
                 None => break,
             }
         }
-        assert!(c.is_empty(), "datagram left unconsumed");
-        while let Some(rx) = p.end_of_datagram() {
-            out.push(got(rx));
+        assert!(c.is_empty(), "input left unconsumed");
+        if let Ends::Datagrams { .. } = ends {
+            while let Some(rx) = p.end_of_datagram() {
+                out.push(got(rx));
+            }
+            assert_eq!(p.pending(), 0, "bytes held after the end of a datagram");
         }
-        assert_eq!(p.pending(), 0, "bytes held after the end of a datagram");
+    }
+    while let Some(rx) = p.flush() {
+        out.push(got(rx));
     }
     (out, *p.stats())
 }
@@ -127,14 +102,15 @@ pub fn parser(data: &[u8]) {
     };
     let policy = cfg % 3;
     let seed = (cfg / 3) as usize;
-    let (chunked, stats) = run_parser(stream, policy, |i| 1 + (seed * 7 + i * 13) % (seed + 1));
-    let (whole, whole_stats) = run_parser(stream, policy, |_| usize::MAX);
+    let chunks = |i: usize| 1 + (seed * 7 + i * 13) % (seed + 1);
+    let (chunked, stats) = run_parser(stream, policy, chunks, Ends::Stream);
+    let (whole, whole_stats) = run_parser(stream, policy, |_| usize::MAX, Ends::Stream);
     assert_eq!(chunked, whole, "chunking changed the frames");
     assert_eq!(stats, whole_stats, "chunking changed the counters");
     // Datagrams: told their end up front, the same as ended after.
     let size = |i: usize| 1 + (seed * 11 + i * 29) % (4 * seed + 8);
-    let told = run_datagrams(stream, policy, size, true);
-    let ended = run_datagrams(stream, policy, size, false);
+    let told = run_parser(stream, policy, size, Ends::Datagrams { told: true });
+    let ended = run_parser(stream, policy, size, Ends::Datagrams { told: false });
     assert_eq!(
         told, ended,
         "next_in_datagram changed the frames or counters"

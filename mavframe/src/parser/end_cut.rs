@@ -11,6 +11,7 @@
 //! start at their candidates, wherever those are, and would compute each
 //! block about four times over).
 
+use super::memo::{zero_padded, BLOCK_WINDOW};
 #[cfg(test)]
 use crate::frame::{frame_len, FrameError};
 use crate::frame::{
@@ -135,12 +136,9 @@ fn compute(bytes: &[u8], at: u64, first: u64, end: u64) -> EndCut {
         // No start bytes there.
         return EndCut::default();
     }
-    let mut window = [0u8; 64 + 2];
     let from = first.max(at);
     let (skip, rel) = ((from - first) as usize, (from - at) as usize);
-    let tail = &bytes[rel.min(bytes.len())..];
-    let n = tail.len().min(window.len() - skip);
-    window[skip..skip + n].copy_from_slice(&tail[..n]);
+    let window = zero_padded(&bytes[rel.min(bytes.len())..], skip);
     // At most 64 + MAX_FRAME_LEN + 63: an i16.
     let room = (end - first).min(i16::MAX as u64) as usize;
     cut_of_block(&window, room)
@@ -157,7 +155,7 @@ fn compute(bytes: &[u8], at: u64, first: u64, end: u64) -> EndCut {
     any(target_arch = "x86", target_arch = "x86_64"),
     target_feature = "sse2"
 ))]
-fn cut_of_block(window: &[u8; 64 + 2], room: usize) -> EndCut {
+fn cut_of_block(window: &[u8; BLOCK_WINDOW], room: usize) -> EndCut {
     use safe_arch::{
         add_i16_m128i, add_i8_m128i, bitand_m128i, bitandnot_m128i, cmp_eq_mask_i8_m128i,
         cmp_gt_mask_i16_m128i, load_unaligned_m128i, m128i, move_mask_i8_m128i,
@@ -217,7 +215,7 @@ fn cut_of_block(window: &[u8; 64 + 2], room: usize) -> EndCut {
     ),
     allow(dead_code)
 )]
-fn cut_by_positions(window: &[u8; 64 + 2], room: usize) -> EndCut {
+fn cut_by_positions(window: &[u8; BLOCK_WINDOW], room: usize) -> EndCut {
     let byte = |i: usize| window.get(i).copied().unwrap_or(0);
     let (mut cut, mut signed) = (0u64, 0u64);
     for j in 0..64 {
@@ -237,7 +235,7 @@ fn cut_by_positions(window: &[u8; 64 + 2], room: usize) -> EndCut {
     any(target_arch = "x86", target_arch = "x86_64"),
     target_feature = "sse2"
 )))]
-fn cut_of_block(window: &[u8; 64 + 2], room: usize) -> EndCut {
+fn cut_of_block(window: &[u8; BLOCK_WINDOW], room: usize) -> EndCut {
     cut_by_positions(window, room)
 }
 

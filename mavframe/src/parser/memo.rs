@@ -1303,7 +1303,7 @@ impl Memo {
             let x = self.masks_frontier;
             let Some(window) = usize::try_from(x - at)
                 .ok()
-                .and_then(|rel| bytes.get(rel..rel + 64 + 2))
+                .and_then(|rel| bytes.get(rel..rel + BLOCK_WINDOW))
             else {
                 break;
             };
@@ -1386,7 +1386,7 @@ fn v1_good_whole(
 /// (0xFE, 0xFD, flags other than known) of the `n` positions from
 /// `bytes[base]`.
 fn raw_masks(bytes: &[u8], base: usize, n: usize) -> (u64, u64, u64) {
-    match bytes.get(base..base + 64 + 2) {
+    match bytes.get(base..base + BLOCK_WINDOW) {
         Some(window) => {
             // (A short block, the last of a scan, where bytes follow.)
             let first_n = u64::MAX >> (64 - n);
@@ -1398,15 +1398,26 @@ fn raw_masks(bytes: &[u8], base: usize, n: usize) -> (u64, u64, u64) {
             // start nothing and have known flags (in a datagram every run
             // over its tail passes here: a byte at a time cost about 13
             // instructions per byte of `found_c` in 300-byte datagrams).
-            let mut window = [0u8; 64 + 2];
-            let tail = bytes.get(base..).unwrap_or(&[]);
-            let len = tail.len().min(window.len());
-            window[..len].copy_from_slice(&tail[..len]);
+            let window = zero_padded(bytes.get(base..).unwrap_or(&[]), 0);
             let first_n = u64::MAX >> (64 - n);
             let (v1, v2, bad_flags) = masks_of_block(&window);
             (v1 & first_n, v2 & first_n, bad_flags & first_n)
         }
     }
+}
+
+/// The bytes a block's masks read: its 64 positions and two more (the
+/// flags of the last two).
+pub(super) const BLOCK_WINDOW: usize = 64 + 2;
+
+/// A block's window of zeros with `bytes` from its position `skip` on (as
+/// many as fit): for blocks the bytes do not fill.
+#[inline]
+pub(super) fn zero_padded(bytes: &[u8], skip: usize) -> [u8; BLOCK_WINDOW] {
+    let mut window = [0u8; BLOCK_WINDOW];
+    let n = bytes.len().min(BLOCK_WINDOW.saturating_sub(skip));
+    window[skip..skip + n].copy_from_slice(&bytes[..n]);
+    window
 }
 
 /// The [`Starts`] of the block at `bytes[base]` from its masks.

@@ -454,6 +454,7 @@ fn add_stats(a: &mut mavframe::parser::Stats, b: &mavframe::parser::Stats) {
     a.unknown_frames += b.unknown_frames;
     a.bad_crc += b.bad_crc;
     a.bad_signature += b.bad_signature;
+    a.stale_timestamp += b.stale_timestamp;
     a.unsigned_rejected += b.unsigned_rejected;
     a.bad_incompat_flags += b.bad_incompat_flags;
     a.bytes_dropped += b.bytes_dropped;
@@ -495,7 +496,7 @@ fn run_streams<D: Dialect>(dialect: &str, seed: u64, policy: Policy, count: usiz
         }
         let returned: usize = got.iter().map(|g| g.bytes.len()).sum();
         let rest = s.bytes.len() as i64 - returned as i64 - stats.bytes_dropped as i64;
-        let skipped_frames = stats.bad_signature + stats.unsigned_rejected;
+        let skipped_frames = stats.bad_signature + stats.stale_timestamp + stats.unsigned_rejected;
         if rest < 0 || (rest > 0 && skipped_frames == 0) || rest as u64 > skipped_frames * 280 {
             push_example(&mut rep.accounting, || {
                 format!("stream {si}: {} bytes, {returned} in frames, {} dropped, {rest} unaccounted; {stats:?}", s.bytes.len(), stats.bytes_dropped)

@@ -289,3 +289,21 @@ mod outage_tests {
         );
     }
 }
+
+/// `fbwag cc --autonomy-fallback`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AutonomyFallback {
+    /// Decline the takeover: the FC's failsafe runs at once.
+    Decline,
+    /// Take over and fly wings level until the autonomy speaks.
+    WingsLevel,
+}
+
+impl From<AutonomyFallback> for fbwag_delegation::node::AutonomyFallback {
+    fn from(f: AutonomyFallback) -> Self {
+        match f {
+            AutonomyFallback::Decline => Self::Decline,
+            AutonomyFallback::WingsLevel => Self::WingsLevel,
+        }
+    }
+}

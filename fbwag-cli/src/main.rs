@@ -47,14 +47,17 @@ Links and peers:
   ends the program. With udpin or tcpin, frames go to --peer if given;
   otherwise nothing is sent until a trusted frame arrives (the configured
   peer's ids, and a verified signature with --require-signed), then to that
-  frame's source (for tcpin: that client; other clients get nothing). A
-  trusted frame from another address moves the peer only when its signature
-  verified, or when the current peer has been silent for 3 s. tcpin serves 32
-  clients at once: another evicts the one that has shown the least (nothing,
-  then unsigned frames only; with a key, unsigned frames count as nothing),
-  never the peer; --peer IP:0 matches a tcpin client from IP on any port.
-  With a signing key, frames older than one minute (by their signing
-  timestamp) are refused, and a frame accepted once is refused again on any
+  frame's source (for tcpin: that client; other clients get nothing); frames
+  from any other address are dropped (counted as not_peer). A trusted frame
+  from another address moves the peer only when its signature verified, or
+  when the current peer has been silent for 3 s. A datagram without a valid
+  frame changes nothing. udpout sockets are connected to their target: the
+  system drops datagrams from anyone else. tcpin serves 32 clients at once:
+  another evicts the one that has shown the least (nothing, then unsigned
+  frames only), never the peer nor a client that sent a verified frame;
+  --peer IP:0 matches a tcpin client from IP on any port. With a signing
+  key, frames older than one minute (by their signing timestamp) are
+  refused, and a frame accepted once is refused again on any
   connection."
     };
 }
@@ -67,9 +70,15 @@ and \"event\":
   {\"event\":\"fc_mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"|...}
   {\"event\":\"control\",\"state\":\"start\",\"fc_event\":N}   the companion took over
   {\"event\":\"control\",\"state\":\"stop\"}
+  {\"event\":\"takeover\",\"decision\":\"declined\",\"reason\":\"autonomy silent\",
+   \"fc_event\":N}                           the autonomy was silent: the FC falls back
+  {\"event\":\"autonomy\",\"state\":\"silent\"|\"speaking\"}
+  {\"event\":\"drops\",\"dropped\":{\"REASON\":N,...}}   frames dropped so far, by reason
+                                          (own_ids, impersonation, unauthenticated,
+                                          not_peer, gated), every 5 s while they change
   {\"event\":\"summary\",\"takeovers\":N,\"handbacks\":N,\"trusted_frames\":N,
    \"untrusted_frames\":N,\"untrusted_notices\":N,\"controls_forwarded\":N,
-   \"controls_dropped\":N}                               at exit
+   \"controls_dropped\":N,\"dropped\":{\"REASON\":N,...}}   at exit
   {\"event\":\"dropped\",\"events\":N}   N events were dropped before this one:
                                           the reader had stopped reading (the
                                           daemon never waits for it; nor for
@@ -92,7 +101,8 @@ and \"event\":
   {\"event\":\"summary\",\"trusted_frames\":N,\"untrusted_frames\":N,
    \"untrusted_notices\":N,\"controls_applied\":N,\"controls_untrusted\":N,
    \"controls_misaddressed\":N,\"controls_outside_companion\":N,
-   \"gcs_unsigned_refused\":N, \"not_served\":{\"NAME\":N,...}}   at exit
+   \"gcs_unsigned_refused\":N, \"not_served\":{\"NAME\":N,...},
+   \"dropped\":{\"REASON\":N,...}}   at exit
   {\"event\":\"dropped\",\"events\":N}   N events were dropped before this one:
                                           the reader had stopped reading (the
                                           daemon never waits for it; nor for
@@ -254,6 +264,20 @@ enum Command {
         /// messages go to the --out links only. Replaces --controller.
         #[arg(long, value_name = "CONN")]
         autonomy: Option<String>,
+        /// The autonomy program's address (IP:PORT): the autonomy link
+        /// answers it only and drops frames from anyone else. Without it,
+        /// the first program heard is the autonomy until it has been silent
+        /// for 3 s.
+        #[arg(long, value_name = "IP:PORT", requires = "autonomy")]
+        autonomy_peer: Option<std::net::SocketAddr>,
+        /// What happens when the autonomy has sent nothing for 500 ms (it
+        /// should stream its control, gated, at its own rate all the time):
+        /// `decline`: the companion declines the FC's takeover (and gives
+        /// back an episode it holds), so the FC's failsafe (RTL) runs at
+        /// once rather than after its timeouts; `wings-level`: it takes
+        /// over and flies wings level until the autonomy speaks.
+        #[arg(long, value_enum, default_value = "decline", requires = "autonomy")]
+        autonomy_fallback: args::AutonomyFallback,
         /// Keep the signing timestamps (this signer's, and each peer
         /// stream's) in this file across restarts, so a restart neither
         /// replays old timestamps nor accepts replays of frames accepted
@@ -429,6 +453,34 @@ enum Command {
         /// tcpin:IP:PORT, serial:PATH:BAUD (two or more).
         #[arg(value_name = "CONN", num_args = 2.., required = true)]
         links: Vec<String>,
+        /// Verify every link's signatures with this key (64 hex digits, or
+        /// @FILE holding them). Frames are still forwarded untouched: the
+        /// router signs nothing on anyone's behalf. On a listening link
+        /// (udpin, tcpin) only sources of verified frames are answered, and
+        /// a tcpin client that sent one is never evicted.
+        #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
+        sign_key: Option<String>,
+        /// Route only frames whose signature verified (the rest are dropped
+        /// and counted as "unauthenticated").
+        #[arg(long, requires = "sign_key")]
+        require_signed: bool,
+        /// Keep each link's signing timestamps across restarts: the first
+        /// link's in PATH, link N's (from 1) in PATH.N (see `fbwag cc
+        /// --help`).
+        #[arg(long, value_name = "PATH", requires = "sign_key")]
+        signing_state: Option<PathBuf>,
+        /// Listening links (udpin, tcpin) answer this address only (for
+        /// tcpin, the client connected from it; IP:0, from IP on any port).
+        /// Without it they answer the sources that spoke recently (8 at
+        /// most; a newcomer takes the place of one silent for 3 s, never of
+        /// one still speaking).
+        #[arg(long, value_name = "IP:PORT")]
+        peer: Option<std::net::SocketAddr>,
+        /// Write machine-readable events to this file (`-`: stdout): frames
+        /// dropped by reason every report, and a summary at exit
+        /// (`{"event":"summary","frames":N,"forwarded":N,"dropped":{...}}`).
+        #[arg(long, value_name = "PATH")]
+        events: Option<PathBuf>,
         /// Stop after this many seconds (0–1,000,000).
         #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
         duration: Option<f64>,
@@ -691,6 +743,11 @@ fn main() -> ExitCode {
         ),
         Command::Router {
             links,
+            sign_key,
+            require_signed,
+            signing_state,
+            peer,
+            events,
             duration,
             report,
         } => (|| {
@@ -699,9 +756,16 @@ fn main() -> ExitCode {
                 .map(|e| e.parse().map_err(|err| format!("{e}: {err}")))
                 .collect::<Result<Vec<_>, _>>()?;
             live::router::run_router(
-                endpoints,
-                duration.map(std::time::Duration::from_secs_f64),
-                std::time::Duration::from_secs_f64(report.max(0.1)),
+                live::router::RouterOptions {
+                    endpoints,
+                    key: sign_key.as_deref().map(key).transpose()?,
+                    require_signed,
+                    signing_state,
+                    peer,
+                    duration: duration.map(std::time::Duration::from_secs_f64),
+                    report: std::time::Duration::from_secs_f64(report.max(0.1)),
+                    events,
+                },
                 Box::new(std::io::stdout()),
             )
             .map(|()| true)
@@ -736,6 +800,8 @@ fn main() -> ExitCode {
             outs,
             routed_rate,
             autonomy,
+            autonomy_peer,
+            autonomy_fallback,
             signing_state,
             events,
             sysid,
@@ -773,6 +839,8 @@ fn main() -> ExitCode {
                     .as_deref()
                     .map(|e| parse("--autonomy", e))
                     .transpose()?,
+                autonomy_peer,
+                autonomy_fallback: autonomy_fallback.into(),
                 link: {
                     let endpoint = link.parse().map_err(|e| format!("--link: {e}"))?;
                     live::net::LinkOptions {

@@ -153,6 +153,14 @@ pub enum CcAction {
     StartControl,
     /// Control ends: stop overriding.
     StopControl,
+    /// The companion declined the takeover of this event, or gave up
+    /// control of it, because its control source (the autonomy) is silent:
+    /// it answered the notice with status 0, which sends the FC to its
+    /// failsafe at once rather than into companion control without control.
+    Declined {
+        /// The FC's event.
+        event: u32,
+    },
     /// The FC has rebooted: a notice came whose event id is older than any
     /// live event of the boot the companion knew, or an RC-loss notice of
     /// an event older than the newest came again a retry later (the FC
@@ -177,6 +185,8 @@ pub enum CcState {
 pub struct CcStats {
     /// Takeover requests answered (events).
     pub takeovers: u32,
+    /// Takeovers declined or given up for a silent control source (events).
+    pub declines: u32,
     /// Acknowledgements sent, all statuses.
     pub acks_sent: u32,
     /// Control messages sent.
@@ -245,6 +255,11 @@ pub struct Companion {
     /// An RC-loss notice of an event older than the newest, and when it
     /// first came: see [`Companion::repeats_an_older_event`].
     older_notice: Option<(u32, Instant)>,
+    /// Whether the control source can fly now (see
+    /// [`Companion::set_control_ready`]).
+    control_ready: bool,
+    /// The last event declined, and how often the decline was sent.
+    declined: (u32, u16),
     stats: CcStats,
     out: Outbox<CcAction, 8>,
 }
@@ -259,6 +274,8 @@ impl Companion {
             normal_acks: (0, 0),
             newest_event: None,
             older_notice: None,
+            control_ready: true,
+            declined: (0, 0),
             stats: CcStats::default(),
             out: Outbox::new(),
         }
@@ -294,6 +311,19 @@ impl Companion {
     /// Counters.
     pub fn stats(&self) -> &CcStats {
         &self.stats
+    }
+
+    /// Whether the control source (a built-in controller always; an
+    /// external autonomy while it speaks) can fly the aircraft. While it
+    /// cannot, a takeover is declined; when it stops during control, the
+    /// companion gives the event back (status 0 for it), so the FC never
+    /// sits in companion control without control.
+    pub fn set_control_ready(&mut self, ready: bool) {
+        self.control_ready = ready;
+        if let (false, State::Controlling { event, .. }) = (ready, self.state) {
+            self.stop(State::Standby);
+            self.decline(event);
+        }
     }
 
     /// The next action to carry out, if any.
@@ -486,10 +516,20 @@ impl Companion {
                         }
                     }
                 }
+                // A decline the FC may not have heard: say it again.
+                _ if self.declined.0 == timestamp && self.declined.1 > 0 => {
+                    if self.declined.1 <= u16::from(self.cfg.max_ack_retries) {
+                        self.decline(timestamp);
+                    }
+                }
                 // An event already handled, or older: late or duplicated.
                 _ if self
                     .newest_event
                     .is_some_and(|(n, _)| !event_after(timestamp, n)) => {}
+                _ if !self.control_ready => {
+                    self.newest_event = Some((timestamp, now));
+                    self.decline(timestamp);
+                }
                 _ => {
                     self.newest_event = Some((timestamp, now));
                     self.stats.takeovers = self.stats.takeovers.saturating_add(1);
@@ -598,6 +638,20 @@ impl Companion {
             self.out.push(CcAction::StopControl);
         }
         self.state = next;
+    }
+
+    /// Answers RC-loss event `event` with status 0: not taken (or no
+    /// longer held), within the per-event bound of acknowledgements.
+    fn decline(&mut self, event: u32) {
+        let count = if self.declined.0 == event {
+            self.declined.1
+        } else {
+            self.stats.declines = self.stats.declines.saturating_add(1);
+            self.out.push(CcAction::Declined { event });
+            0
+        };
+        self.declined = (event, count.saturating_add(1));
+        self.ack(Status::NORMAL, event);
     }
 
     fn ack(&mut self, status: Status, timestamp: u32) {

@@ -189,6 +189,9 @@ pub struct FcStats {
     pub takeovers: u32,
     /// RTL fallbacks.
     pub fallbacks: u32,
+    /// Events the companion declined or gave back (status 0 for the
+    /// current RC-loss event): each a fallback at once.
+    pub declined: u32,
     /// Acknowledgements of another (older) event: ignored.
     pub stale_acks: u32,
 }
@@ -516,6 +519,15 @@ impl FlightController {
                 // confirmation; repeat it (bounded by the companion's
                 // per-event acknowledgement limit).
                 self.out.push(FcAction::ConfirmTakeover { event });
+            }
+            // The companion declines the event (its control source is
+            // silent) or gives it back: the failsafe runs now, not after
+            // the retries or the override timeout.
+            (Status::NORMAL, State::Handshake { event, .. } | State::Companion { event, .. })
+                if event == timestamp =>
+            {
+                self.stats.declined = self.stats.declined.saturating_add(1);
+                self.fall_back(now);
             }
             (Status::NORMAL, _) if self.handback.is_some_and(|h| h.event == timestamp) => {
                 self.handback = None;

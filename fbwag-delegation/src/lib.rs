@@ -35,6 +35,7 @@ pub mod command;
 pub mod control;
 pub mod engine;
 pub mod fc;
+pub mod node;
 mod outbox;
 #[cfg(feature = "std")]
 pub mod sim;

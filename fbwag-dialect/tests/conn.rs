@@ -315,7 +315,7 @@ fn serial_endpoint_without_a_device_fails_to_open() {
 // ---------------------------------------------------------------------- UDP
 
 #[test]
-fn udpin_and_udpout_exchange_notices_and_replies_go_to_the_last_peer() {
+fn udpin_and_udpout_exchange_notices_and_replies_go_to_every_station_that_spoke() {
     let mut server = open("udpin:127.0.0.1:0");
     let port = port_of(&server);
     let mut a = Link::open(&Endpoint::UdpOut(localhost(port).into())).unwrap();
@@ -335,20 +335,26 @@ fn udpin_and_udpout_exchange_notices_and_replies_go_to_the_last_peer() {
     let (h, n) = expect_notice(&mut a);
     assert_eq!((h.sysid, h.seq, n), (1, 1, notice(2)));
 
-    // B speaks: the next reply goes to B only.
+    // B speaks: replies go to both stations, A not displaced.
     b.send_auto(20, 1, &notice(3)).unwrap();
     let (h, _) = expect_notice(&mut server);
     assert_eq!(h.sysid, 20);
     server.send_auto(1, 1, &notice(4)).unwrap();
     assert_eq!(expect_notice(&mut b).1, notice(4));
-    assert!(a.recv(QUIET).unwrap().is_none(), "A is no longer the peer");
+    assert_eq!(expect_notice(&mut a).1, notice(4));
 
-    // And back to A when A speaks again.
-    a.send_auto(10, 1, &notice(5)).unwrap();
-    expect_notice(&mut server);
-    server.send_auto(1, 1, &notice(6)).unwrap();
-    assert_eq!(expect_notice(&mut a).1, notice(6));
-    assert_eq!(server.stats().frames, 3);
+    // Garbage from a third socket (no frame) makes it no peer.
+    let stranger = std::net::UdpSocket::bind(localhost(0)).unwrap();
+    stranger.send_to(b"\x00", localhost(port)).unwrap();
+    assert!(server.recv(QUIET).unwrap().is_none());
+    server.send_auto(1, 1, &notice(5)).unwrap();
+    assert_eq!(expect_notice(&mut a).1, notice(5));
+    stranger.set_read_timeout(QUIET).unwrap();
+    assert!(
+        stranger.recv(&mut [0u8; 64]).is_err(),
+        "the stranger got traffic"
+    );
+    assert_eq!(server.stats().frames, 2);
     assert_eq!(server.stats().seq_lost, 0);
 }
 

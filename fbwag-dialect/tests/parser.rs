@@ -413,9 +413,9 @@ fn signing_policy_replay_and_wrong_key() {
     assert_eq!(got, vec![signed1.clone(), signed2.clone()]);
     let s = strict.stats();
     assert_eq!(
-        (s.bad_signature, s.unsigned_rejected),
-        (2, 1),
-        "replay + forged; unsigned refused"
+        (s.stale_timestamp, s.bad_signature, s.unsigned_rejected),
+        (1, 1, 1),
+        "replay; forged; unsigned refused"
     );
 
     let mut lenient = Parser::<Dialect>::with_signing(Verifier::new(key), Unsigned::Accept);

@@ -147,7 +147,7 @@ pub fn parser(data: &[u8]) {
         }
     }
     let total = stream.len() as u64;
-    let skipped = stats.bad_signature + stats.unsigned_rejected;
+    let skipped = stats.bad_signature + stats.stale_timestamp + stats.unsigned_rejected;
     assert!(
         returned + stats.bytes_dropped <= total,
         "more bytes than input"

@@ -5,7 +5,7 @@ use crate::frame::{
     finish, FrameError, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN,
 };
 use crate::message::{Encode, MessageMeta};
-use crate::signing::Signer;
+use crate::signing::{Signer, Verifier};
 use core::fmt;
 
 /// Frames messages for one sender: its sequence numbers (one per frame,
@@ -19,7 +19,10 @@ use core::fmt;
 /// ([`set_clock`](Self::set_clock)) it also keeps up with the clock before
 /// each frame. With `std`, [`new`](Self::new) sets the system clock; without
 /// it there is none until you set one (an RTC, or time since boot plus a
-/// saved epoch).
+/// saved epoch). On a link that also verifies, the signer adopts what the
+/// link's verifier accepted ([`adopt_from`](Self::adopt_from), after
+/// receiving or before framing), so a peer whose clock is ahead is
+/// followed (see `crate::signing`).
 ///
 /// ```
 /// # use mavframe::{Message, MessageMeta, BufferTooSmall};
@@ -113,6 +116,26 @@ impl Framer {
     /// The sequence number the next frame carries.
     pub fn seq(&self) -> u8 {
         self.seq
+    }
+
+    /// Adopts a timestamp `t` of a frame the link verified: the next frame
+    /// is signed at `t` or later (never earlier than it would have been).
+    /// Without a signer, nothing.
+    pub fn adopt(&mut self, t: u64) {
+        if let Some(signer) = &mut self.signer {
+            signer.advance_to(t);
+        }
+    }
+
+    /// Adopts `verifier`'s notion of now ([`Verifier::newest_timestamp`]:
+    /// the newest timestamp it accepted, or its clock if that is ahead),
+    /// as the C library's single signing timestamp does: call it with the
+    /// link's parser's verifier (`parser.verifier()`) after receiving, or
+    /// before framing. `None` (a parser without a key): nothing.
+    pub fn adopt_from<const N: usize>(&mut self, verifier: Option<&Verifier<N>>) {
+        if let Some(v) = verifier {
+            self.adopt(v.newest_timestamp());
+        }
     }
 
     /// The clock signing timestamps keep up with: a function returning the
@@ -274,6 +297,33 @@ mod tests {
         framer.set_signer(Some(Signer::new([3; 32], 2, 10)));
         framer.frame(1, 2, &Big(7)).unwrap();
         assert_eq!(framer.signer().unwrap().timestamp(), 11);
+    }
+
+    /// Adopting moves the next timestamp up to what the link verified,
+    /// never down, and only with a signer; what was signed stays the
+    /// signer's bound until it signs again.
+    #[test]
+    fn adopting_raises_the_next_timestamp_never_lowers_it() {
+        let mut framer = Framer::new();
+        framer.set_clock(Some(ticks));
+        framer.adopt(1_000_000);
+        assert!(framer.signer().is_none());
+        framer.set_signer(Some(Signer::new([3; 32], 2, 10)));
+        framer.frame(1, 2, &Big(7)).unwrap();
+        framer.adopt(900_000);
+        framer.adopt(100);
+        let signer = framer.signer().unwrap();
+        assert_eq!(
+            (signer.timestamp(), signer.signed_below()),
+            (900_000, 5_001)
+        );
+        let verifier = Verifier::<4>::with_timestamp([3; 32], 2_000_000);
+        framer.adopt_from(Some(&verifier));
+        framer.adopt_from::<4>(None);
+        let bytes = framer.frame(1, 2, &Big(7)).unwrap();
+        let frame = Frame::new_checked(bytes).unwrap();
+        assert_eq!(frame.signature().unwrap().timestamp(), 2_000_000);
+        assert_eq!(framer.signer().unwrap().timestamp(), 2_000_001);
     }
 
     #[test]

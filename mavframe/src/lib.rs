@@ -33,6 +33,7 @@ pub mod frame;
 mod framer;
 pub mod message;
 pub mod parser;
+pub mod peers;
 mod received;
 pub mod route;
 #[cfg(feature = "tokio")]

@@ -97,9 +97,16 @@ pub struct Stats {
     pub unknown_frames: u64,
     /// Candidate frames rejected for their checksum.
     pub bad_crc: u64,
-    /// Frames rejected for a signature that does not verify (wrong key,
-    /// replay, too old).
+    /// Frames rejected for a signature that does not match the key (and
+    /// signed frames of unknown ids refused for any signing reason: their
+    /// checksum cannot vouch for them).
     pub bad_signature: u64,
+    /// Frames of known ids refused for their signing timestamp (a replay,
+    /// or a new stream more than a minute behind: see
+    /// [`SignatureError::is_stale`]), counted apart from `bad_signature`:
+    /// the timestamp is checked first, so these may be genuine frames from
+    /// a signer whose clock is behind.
+    pub stale_timestamp: u64,
     /// Unsigned frames rejected because the signing policy requires signatures.
     pub unsigned_rejected: u64,
     /// Candidate frames rejected for unknown incompatibility flags.
@@ -1751,8 +1758,12 @@ fn signing<const N: usize>(
                 cx.stats.unsigned_rejected += 1;
                 return Verdict::Skip(len);
             }
-            Err(_) => {
-                cx.stats.bad_signature += 1;
+            Err(e) => {
+                if e.is_stale() {
+                    cx.stats.stale_timestamp += 1;
+                } else {
+                    cx.stats.bad_signature += 1;
+                }
                 // A good checksum vouches for the header and payload only: the
                 // 13 bytes after it may be the head of the next frame (a frame
                 // cut inside its signature block), so those are searched

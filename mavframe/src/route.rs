@@ -16,8 +16,22 @@
 //!   forwarded as received (signed frames stay verifiable).
 //!
 //! A sender seen on several links is reachable through all of them: a frame
-//! forged with another system's ids adds a copy on the forger's link, but it
-//! cannot divert that system's traffic away from its real link.
+//! forged with another system's ids cannot divert that system's traffic
+//! away from its real link.
+//!
+//! Routes are *trusted* or not, as the caller says when it learns them
+//! (`trusted`: the frame was authenticated, or came on a link the owner
+//! trusts): strangers on a link can neither drop a trusted route nor share
+//! it.
+//!
+//! - A full table forgets the least recently seen untrusted route; a
+//!   trusted route is forgotten only for another trusted one (the least
+//!   recently seen trusted route then goes), never for a stranger's: a
+//!   flood of made-up ids cannot push the autopilot out of the table.
+//! - An untrusted frame with a trusted route's ids changes nothing: the
+//!   forger's link gets no copy of that system's traffic. An untrusted
+//!   route becomes trusted with its first trusted frame, and from then on
+//!   goes only where trusted frames came from.
 //!
 //! ```
 //! use mavframe::route::{Links, RoutingTable};
@@ -28,16 +42,17 @@
 //! #   let mut b = vec![0xfd, payload.len() as u8, 0, 0, 0, sysid, compid, 76, 0, 0];
 //! #   b.extend_from_slice(payload); b.extend_from_slice(&[0, 0]); b }
 //! let mut table = RoutingTable::<16>::new();
-//! // The autopilot (1/1) speaks on link 0, a ground station (255/190) on link 2.
-//! table.learn(0, 1, 1);
-//! table.learn(2, 255, 190);
+//! // The autopilot (1/1) speaks on link 0 (trusted), a ground station
+//! // (255/190) on link 2.
+//! table.learn(0, 1, 1, true);
+//! table.learn(2, 255, 190, false);
 //! // A COMMAND_LONG from the ground station to system 1, component 1:
 //! let mut payload = [0u8; 33];
 //! payload[30] = 1;
 //! payload[31] = 1;
 //! let bytes = frame(255, 190, &payload);
 //! let f = Frame::new_checked(&bytes).unwrap();
-//! let to = table.route(2, &f, Some(&meta), Links::all(3));
+//! let to = table.route(2, &f, Some(&meta), Links::all(3), false);
 //! assert_eq!(to, Links::only(0));
 //! ```
 
@@ -105,12 +120,15 @@ struct Route {
     sysid: u8,
     compid: u8,
     links: Links,
+    /// Learned from a trusted frame (see the module docs).
+    trusted: bool,
     /// Learning order, for eviction: the least recently seen route goes.
     seen: u64,
 }
 
 /// Where each (system, component) was seen: up to `N` senders (a full
-/// table forgets the sender heard least recently).
+/// table forgets the untrusted sender heard least recently; see the module
+/// docs).
 #[derive(Debug, Clone)]
 pub struct RoutingTable<const N: usize = 64> {
     routes: [Route; N],
@@ -132,6 +150,7 @@ impl<const N: usize> RoutingTable<N> {
                 sysid: 0,
                 compid: 0,
                 links: Links::NONE,
+                trusted: false,
                 seen: 0,
             }; N],
             len: 0,
@@ -139,9 +158,11 @@ impl<const N: usize> RoutingTable<N> {
         }
     }
 
-    /// Records that `sysid`/`compid` sent a frame through `link`. System 0
+    /// Records that `sysid`/`compid` sent a frame through `link`;
+    /// `trusted`: the frame was authenticated, or its link is trusted (see
+    /// the module docs for what an untrusted frame may change). System 0
     /// is nobody (the broadcast address) and is not learned.
-    pub fn learn(&mut self, link: LinkId, sysid: u8, compid: u8) {
+    pub fn learn(&mut self, link: LinkId, sysid: u8, compid: u8, trusted: bool) {
         if sysid == 0 || N == 0 {
             return;
         }
@@ -152,23 +173,41 @@ impl<const N: usize> RoutingTable<N> {
             .iter_mut()
             .find(|r| (r.sysid, r.compid) == (sysid, compid))
         {
-            r.links = r.links.union(Links::only(link));
-            r.seen = clock;
+            match (r.trusted, trusted) {
+                // A stranger's frame with a trusted sender's ids.
+                (true, false) => {}
+                // Trusted from now on: only where trusted frames came from.
+                (false, true) => (r.links, r.trusted, r.seen) = (Links::only(link), true, clock),
+                _ => (r.links, r.seen) = (r.links.union(Links::only(link)), clock),
+            }
             return;
         }
-        let slot = if self.len < N {
-            self.len += 1;
-            self.len - 1
-        } else {
-            // Full: forget the sender heard least recently.
-            (0..N).min_by_key(|&i| self.routes[i].seen).unwrap_or(0)
+        let Some(slot) = self.free_slot(trusted) else {
+            return;
         };
         self.routes[slot] = Route {
             sysid,
             compid,
             links: Links::only(link),
+            trusted,
             seen: clock,
         };
+    }
+
+    /// The slot a new route takes: a free one, else the least recently
+    /// seen untrusted route's, else (for a trusted route only) the least
+    /// recently seen trusted route's.
+    fn free_slot(&mut self, trusted: bool) -> Option<usize> {
+        if self.len < N {
+            self.len += 1;
+            return Some(self.len - 1);
+        }
+        let least_recent = |want_trusted: bool| {
+            (0..N)
+                .filter(|&i| self.routes[i].trusted == want_trusted)
+                .min_by_key(|&i| self.routes[i].seen)
+        };
+        least_recent(false).or_else(|| least_recent(true).filter(|_| trusted))
     }
 
     /// The links where `sysid` (and `compid`, unless 0) was seen.
@@ -179,9 +218,10 @@ impl<const N: usize> RoutingTable<N> {
             .fold(Links::NONE, |acc, r| acc.union(r.links))
     }
 
-    /// Learns `frame`'s sender on `from`, then returns the links among
-    /// `links` (the router's open links) it must be forwarded to. `meta` is
-    /// the message's table row (`None` for an id the dialect does not know:
+    /// Learns `frame`'s sender on `from` (`trusted` as for
+    /// [`learn`](Self::learn)), then returns the links among `links` (the
+    /// router's open links) it must be forwarded to. `meta` is the
+    /// message's table row (`None` for an id the dialect does not know:
     /// such a frame is forwarded everywhere, raw).
     pub fn route<T: AsRef<[u8]>>(
         &mut self,
@@ -189,10 +229,11 @@ impl<const N: usize> RoutingTable<N> {
         frame: &Frame<T>,
         meta: Option<&MessageMeta>,
         links: Links,
+        trusted: bool,
     ) -> Links {
         let frame = &frame.as_view();
         let h = frame.header();
-        self.learn(from, h.sysid, h.compid);
+        self.learn(from, h.sysid, h.compid, trusted);
         let others = links.without(from);
         match target(frame, meta) {
             Some((sysid, compid)) => self.links_to(sysid, compid).intersection(others),
@@ -255,7 +296,7 @@ mod tests {
 
     fn route(t: &mut RoutingTable<8>, from: LinkId, b: &[u8], meta: Option<&MessageMeta>) -> Links {
         let f = Frame::new_checked(b).unwrap();
-        t.route(from, &f, meta, Links::all(4))
+        t.route(from, &f, meta, Links::all(4), false)
     }
 
     #[test]
@@ -278,8 +319,8 @@ mod tests {
             Links::NONE,
             "an unknown addressee goes nowhere"
         );
-        t.learn(0, 1, 1); // the autopilot on link 0
-        t.learn(3, 1, 191); // its companion on link 3
+        t.learn(0, 1, 1, true); // the autopilot on link 0
+        t.learn(3, 1, 191, true); // its companion on link 3
         assert_eq!(route(&mut t, 2, &to_fc, Some(&TARGETED)), Links::only(0));
         let to_system = bytes(255, 190, Some((1, 0)));
         assert_eq!(
@@ -298,25 +339,45 @@ mod tests {
     #[test]
     fn a_forged_sender_cannot_divert_traffic() {
         let mut t = RoutingTable::<8>::new();
-        t.learn(0, 1, 1);
+        t.learn(0, 1, 1, false);
         // An attacker on link 2 sends frames with the autopilot's ids.
-        t.learn(2, 1, 1);
+        t.learn(2, 1, 1, false);
         let to_fc = bytes(255, 190, Some((1, 1)));
         let to = route(&mut t, 3, &to_fc, Some(&TARGETED));
         assert!(to.contains(0), "still reaches the real autopilot");
     }
 
+    /// An untrusted frame with a trusted route's ids gets its link no
+    /// copy; an untrusted route that turns trusted keeps only the trusted
+    /// link, then adds the links trusted frames come from.
+    #[test]
+    fn a_stranger_gets_no_copy_of_a_trusted_senders_traffic() {
+        let mut t = RoutingTable::<8>::new();
+        t.learn(0, 1, 1, true);
+        t.learn(2, 1, 1, false);
+        assert_eq!(t.links_to(1, 1), Links::only(0));
+        t.learn(2, 5, 1, false);
+        t.learn(3, 5, 1, true);
+        assert_eq!(
+            t.links_to(5, 1),
+            Links::only(3),
+            "the stranger's link dropped"
+        );
+        t.learn(1, 5, 1, true);
+        assert_eq!(t.links_to(5, 1), Links(0b1010));
+    }
+
     #[test]
     fn a_full_table_forgets_the_least_recent_sender() {
         let mut t = RoutingTable::<2>::new();
-        t.learn(0, 1, 1);
-        t.learn(1, 2, 1);
-        t.learn(0, 1, 1); // heard again: now the most recent
-        t.learn(2, 3, 1); // evicts 2/1
+        t.learn(0, 1, 1, false);
+        t.learn(1, 2, 1, false);
+        t.learn(0, 1, 1, false); // heard again: now the most recent
+        t.learn(2, 3, 1, false); // evicts 2/1
         assert_eq!(t.links_to(1, 1), Links::only(0));
         assert_eq!(t.links_to(2, 1), Links::NONE);
         assert_eq!(t.links_to(3, 1), Links::only(2));
-        t.learn(0, 0, 0);
+        t.learn(0, 0, 0, true);
         assert_eq!(t.links_to(0, 0), Links::NONE, "system 0 is nobody");
     }
 
@@ -328,5 +389,45 @@ mod tests {
         b[1] = 10;
         let f = Frame::new_checked(&b[..22]).unwrap();
         assert_eq!(target(&f, Some(&TARGETED)), None);
+    }
+
+    /// HEARTBEATs of 200 strangers' ids never evict the autopilot's
+    /// trusted route from a 64-route table (the least recently seen route
+    /// went, whoever it was); strangers evict each other.
+    #[test]
+    fn strangers_never_evict_a_trusted_route() {
+        let mut t = RoutingTable::<64>::new();
+        t.learn(0, 1, 1, true);
+        for id in 0..200u8 {
+            t.learn(2, 2 + id, 1, false);
+        }
+        assert_eq!(t.links_to(1, 1), Links::only(0));
+        assert_eq!(t.links_to(201, 1), Links::only(2), "the newest stranger");
+        assert_eq!(t.links_to(2, 1), Links::NONE, "the oldest stranger went");
+    }
+
+    /// Trusted routes go least recently seen first among themselves; a
+    /// table of trusted routes only learns no stranger.
+    #[test]
+    fn trusted_routes_evict_each_other_least_recent_first() {
+        let mut t = RoutingTable::<3>::new();
+        t.learn(0, 1, 1, true);
+        t.learn(1, 2, 1, true);
+        t.learn(2, 9, 1, false);
+        t.learn(0, 1, 1, true); // now the most recent
+        t.learn(3, 3, 1, true); // the stranger goes first, trusted or not
+        assert_eq!(t.links_to(9, 1), Links::NONE);
+        t.learn(3, 4, 1, true); // full of trusted routes: 2/1 goes
+        assert_eq!(t.links_to(2, 1), Links::NONE);
+        assert_eq!(t.links_to(1, 1), Links::only(0));
+        t.learn(2, 9, 1, false);
+        assert_eq!(
+            t.links_to(9, 1),
+            Links::NONE,
+            "a stranger evicted a trusted route"
+        );
+        for (sysid, link) in [(1, 0), (3, 3), (4, 3)] {
+            assert_eq!(t.links_to(sysid, 1), Links::only(link), "{sysid}");
+        }
     }
 }

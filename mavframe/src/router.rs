@@ -12,9 +12,29 @@
 //!
 //! The router does not forward on its own: the owner reads each frame with
 //! [`Router::recv`] and calls [`Router::forward`] for the frames it wants
-//! routed (all of them, for a plain router), so a node that also speaks on
-//! its links (a companion computer) sees every frame first. Frames are
-//! forwarded as received, byte for byte: signed frames stay verifiable.
+//! routed by the router's table (all of them, for a plain router), or
+//! [`Router::route`] to send one where its own policy says, so a node that
+//! also speaks on its links (a companion computer) sees every frame first.
+//! Frames are forwarded as received, byte for byte: signed frames stay
+//! verifiable.
+//!
+//! Strangers on a link can neither take a peer's traffic nor drop its
+//! routes:
+//!
+//! - `udpin` and `udpbcast` links send to the peers their [`ReplyTo`] rule
+//!   names: by default the senders of frames the link's parser accepted
+//!   (authenticated ones, on a link with a key), kept in a [`PeerSet`]
+//!   (up to eight; a station that keeps speaking is never displaced); under [`ReplyTo::Owner`] only the
+//!   addresses the owner gives ([`Router::set_peers`]). A datagram alone
+//!   never moves them.
+//! - `udpout` sockets are connected to their target: the system drops
+//!   datagrams from anyone else.
+//! - A `tcpin` link never evicts a client that has sent an authenticated
+//!   frame or is a peer of its rule for a new connection (see
+//!   [`MAX_CLIENTS`]).
+//! - The routing table learns a route as trusted from an authenticated
+//!   frame or a link the owner trusts ([`Router::set_trusted`]); a
+//!   stranger's route never evicts a trusted one (see [`crate::route`]).
 //!
 //! ```no_run
 //! # use mavframe::{Dialect, MessageMeta, Encode, BufferTooSmall};
@@ -43,6 +63,7 @@ use crate::conn::codec::{FrameCodec, Framer};
 use crate::conn::{Endpoint, ReceivedFrame, ReplyTo};
 use crate::message::{Dialect, Encode, MessageMeta};
 use crate::parser::{Parser, Stats, Unsigned};
+use crate::peers::PeerSet;
 use crate::route::{LinkId, Links, RoutingTable};
 use crate::signing::state::{SigningState, StateError, StateFile};
 use crate::signing::Verifier;
@@ -95,12 +116,15 @@ const CLIENT_QUEUE: usize = 256;
 
 /// Clients a `tcpin` link serves at once. A connection beyond evicts the
 /// client that has shown the least (nothing accepted, then unauthenticated
-/// frames only, then authenticated ones; on a link with a key an
-/// unauthenticated frame shows nothing), the oldest of those, and never the
-/// peer the link sends to under [`ReplyTo::Fixed`] or [`ReplyTo::Pinned`]:
-/// idle, garbage or unsigned connections cannot lock a signing peer out,
-/// nor run the process out of file descriptors. The clients share the
-/// link's verifier: a frame accepted from one is a replay from another.
+/// frames only; on a link with a key an unauthenticated frame shows
+/// nothing), the oldest of those; it never evicts a client that has sent
+/// an authenticated frame, nor a peer of the link's rule (the address of
+/// [`ReplyTo::Fixed`], any port of its host for port 0; the owner's under
+/// [`ReplyTo::Owner`]). When every client is one of those, the new
+/// connection is closed instead ([`LinkCounters::refused_clients`]): idle,
+/// garbage or unsigned connections cannot lock a signing peer out, nor run
+/// the process out of file descriptors. The clients share the link's
+/// verifier: a frame accepted from one is a replay from another.
 pub const MAX_CLIENTS: usize = 32;
 
 /// A `tcpin` link whose accept failed waits this long before the next
@@ -121,9 +145,10 @@ pub struct LinkConfig {
     /// unauthenticated) or dropped. Without a key every frame is accepted.
     pub unsigned: Unsigned,
     /// `udpin`, `udpbcast` and `tcpin`: whom to send to (see [`ReplyTo`];
-    /// `udpbcast` broadcasts while the rule names nobody; `tcpin` sends to
-    /// every client under [`ReplyTo::LastSender`], else to the client
-    /// connected from the address the rule names, if any).
+    /// `udpbcast` broadcasts while the rule names nobody; `tcpin` sends,
+    /// under [`ReplyTo::Accepted`], to every client whose frame the link
+    /// accepted (an authenticated one, with a key), else to the clients
+    /// connected from the addresses the rule names).
     pub reply_to: ReplyTo,
     /// Keep the link's signing state (signer, verifier) in this file.
     pub signing_state: Option<PathBuf>,
@@ -151,13 +176,14 @@ pub struct LinkConfig {
 }
 
 impl LinkConfig {
-    /// An unsigned link to `endpoint`; `udpin` answers the last sender.
+    /// An unsigned link to `endpoint`; `udpin` answers the senders of the
+    /// frames it accepts ([`ReplyTo::Accepted`]).
     pub fn new(endpoint: Endpoint) -> Self {
         LinkConfig {
             endpoint,
             key: None,
             unsigned: Unsigned::Accept,
-            reply_to: ReplyTo::LastSender,
+            reply_to: ReplyTo::Accepted,
             signing_state: None,
             bound_unsent: false,
             routed_rate: None,
@@ -208,8 +234,8 @@ enum Command {
         meta: &'static MessageMeta,
         payload: Box<[u8]>,
     },
-    /// `udpin` with [`ReplyTo::Pinned`]: answer this address.
-    Pin(SocketAddr),
+    /// [`ReplyTo::Owner`]: send to these addresses ([`Router::set_peers`]).
+    Peers(Box<[SocketAddr]>),
     /// Send these frame bytes, routed from another link ([`Queues`]), from
     /// the sender of this key ([`sender_key`]).
     Routed(u32, Box<[u8]>),
@@ -405,6 +431,9 @@ pub struct LinkCounters {
     /// `tcpin`: connections that could not be accepted (each pauses
     /// accepting for a moment).
     pub accept_errors: u64,
+    /// `tcpin`: connections closed at once because every client was one
+    /// the link never evicts (see [`MAX_CLIENTS`]).
+    pub refused_clients: u64,
     /// Saves of the signing state file that failed (each tried again a
     /// save interval later; until one succeeds, a restart would start
     /// from the last state saved).
@@ -419,6 +448,9 @@ pub struct Router<D: Dialect> {
     events: mpsc::Receiver<RouterEvent<D>>,
     events_tx: mpsc::Sender<RouterEvent<D>>,
     table: RoutingTable<64>,
+    /// Links whose frames the table learns as trusted
+    /// ([`set_trusted`](Router::set_trusted)).
+    trusted: Links,
 }
 
 impl<D: Dialect + 'static> Default for Router<D> {
@@ -436,6 +468,7 @@ impl<D: Dialect + 'static> Router<D> {
             events,
             events_tx,
             table: RoutingTable::new(),
+            trusted: Links::NONE,
         }
     }
 
@@ -469,6 +502,7 @@ impl<D: Dialect + 'static> Router<D> {
             commands: Queues::new(own, routed_rx, rate, counters.clone()),
             counters: counters.clone(),
             state,
+            clients_accepted: 0,
         };
         let task = tokio::spawn(task.run(transport));
         self.links.push(LinkHandle {
@@ -531,19 +565,37 @@ impl<D: Dialect + 'static> Router<D> {
         &self.table
     }
 
-    /// Learns `inbound`'s sender and sends its bytes, untouched, to every
-    /// link the routing rules name (see [`crate::route`]); returns them.
-    /// On each link, routed frames go after the owner's own ([`send_raw`],
-    /// [`send_message`]), and are the ones dropped when the link cannot
-    /// keep up ([`LinkCounters::routed_dropped`]).
+    /// Learns `inbound`'s sender (trusted if the frame is authenticated
+    /// or its link trusted: [`set_trusted`](Self::set_trusted)) and sends
+    /// its bytes, untouched, to every link the routing rules name (see
+    /// [`crate::route`]); returns them. On each link, routed frames go
+    /// after the owner's own ([`send_raw`], [`send_message`]), and are the
+    /// ones dropped when the link cannot keep up
+    /// ([`LinkCounters::routed_dropped`]).
     ///
     /// [`send_raw`]: Router::send_raw
     /// [`send_message`]: Router::send_message
     pub fn forward(&mut self, inbound: &Inbound<D>) -> Links {
         let frame = inbound.frame.frame();
-        let to = self
-            .table
-            .route(inbound.link, &frame, inbound.frame.meta(), self.links());
+        let trusted = self.is_trusted(inbound);
+        let to = self.table.route(
+            inbound.link,
+            &frame,
+            inbound.frame.meta(),
+            self.links(),
+            trusted,
+        );
+        self.route(inbound, to)
+    }
+
+    /// Sends `inbound`'s bytes, untouched, on `links` (those that exist),
+    /// as [`forward`](Self::forward) does but where the owner's policy
+    /// says, without the router's table (which learns nothing); returns
+    /// the links. Routed traffic: after the owner's own frames, dropped
+    /// first, and paced per sender on a link with
+    /// [`LinkConfig::routed_rate`].
+    pub fn route(&self, inbound: &Inbound<D>, links: Links) -> Links {
+        let to = links.intersection(self.links());
         // (A hash per frame only when a link of `to` needs it.)
         let paced = to
             .iter()
@@ -555,6 +607,21 @@ impl<D: Dialect + 'static> Router<D> {
         };
         self.send_routed_from(from, to, inbound.frame.as_bytes());
         to
+    }
+
+    /// Frames from `link` teach the table trusted routes (see
+    /// [`crate::route`]) whether authenticated or not: a link the owner
+    /// trusts (a serial port to the autopilot, say). No link is, at first.
+    pub fn set_trusted(&mut self, link: LinkId, trusted: bool) {
+        self.trusted = match trusted {
+            true => self.trusted.union(Links::only(link)),
+            false => self.trusted.without(link),
+        };
+    }
+
+    /// Whether the table learns `inbound`'s sender as trusted.
+    fn is_trusted(&self, inbound: &Inbound<D>) -> bool {
+        inbound.frame.is_authenticated() || self.trusted.contains(inbound.link)
     }
 
     /// Sends `bytes` on each of `links` as routed traffic, as
@@ -578,11 +645,13 @@ impl<D: Dialect + 'static> Router<D> {
         }
     }
 
-    /// Learns that `sysid`/`compid` is reachable through `link` without
-    /// forwarding anything (for frames the owner keeps to itself).
+    /// Learns that `inbound`'s sender is reachable through its link
+    /// without forwarding anything (for frames the owner keeps to itself),
+    /// trusted as by [`forward`](Self::forward).
     pub fn learn(&mut self, inbound: &Inbound<D>) {
         let h = inbound.frame.header();
-        self.table.learn(inbound.link, h.sysid, h.compid);
+        let trusted = self.is_trusted(inbound);
+        self.table.learn(inbound.link, h.sysid, h.compid, trusted);
     }
 
     /// Sends frame bytes, untouched, on `links`.
@@ -620,9 +689,18 @@ impl<D: Dialect + 'static> Router<D> {
         }
     }
 
-    /// A `udpin` link with [`ReplyTo::Pinned`] sends to `peer` from now on.
+    /// A link under [`ReplyTo::Owner`] (`udpin`, `udpbcast`, `tcpin`)
+    /// sends to `peers` from now on, and only to them (the first
+    /// [`MAX_PEERS`](crate::peers::MAX_PEERS); port 0 ignored); a `tcpin`
+    /// link never evicts their clients. Call it when the set changes, not
+    /// per frame: each call is a command queued to the link.
+    pub fn set_peers(&self, link: LinkId, peers: &[SocketAddr]) {
+        self.command(link, Command::Peers(peers.into()));
+    }
+
+    /// [`set_peers`](Self::set_peers) of one address.
     pub fn pin_peer(&self, link: LinkId, peer: SocketAddr) {
-        self.command(link, Command::Pin(peer));
+        self.set_peers(link, &[peer]);
     }
 
     fn command(&self, link: LinkId, command: Command) {
@@ -680,11 +758,18 @@ impl Transport {
                 target: None,
                 broadcast: None,
             },
-            Endpoint::UdpOut(target) => Transport::Udp {
-                socket: ephemeral_udp(first(target).await?).await?,
-                target: Some(first(target).await?),
-                broadcast: None,
-            },
+            Endpoint::UdpOut(target) => {
+                let target = first(target).await?;
+                let socket = ephemeral_udp(target).await?;
+                // Connected: the system drops every other sender's datagrams
+                // (a stranger's frames sent to this port, as the target's).
+                socket.connect(target).await?;
+                Transport::Udp {
+                    socket,
+                    target: Some(target),
+                    broadcast: None,
+                }
+            }
             Endpoint::UdpBcast(target) => {
                 let to = first(target).await?;
                 let socket = ephemeral_udp(to).await?;
@@ -718,6 +803,88 @@ impl Transport {
                 Transport::Stream(Box::new(port))
             }
         })
+    }
+}
+
+/// Whom a `udpin`, `udpbcast` or `tcpin` link sends to: its [`ReplyTo`]
+/// rule and its peers (the rule of [`crate::peers`], shared with the
+/// blocking `conn::UdpIn`).
+struct Replies {
+    rule: ReplyTo,
+    peers: PeerSet,
+    /// The origin of the peers' times.
+    epoch: tokio::time::Instant,
+}
+
+impl Replies {
+    fn new(rule: ReplyTo) -> Replies {
+        Replies {
+            rule,
+            peers: PeerSet::new(),
+            epoch: tokio::time::Instant::now(),
+        }
+    }
+
+    /// `from` sent a frame the link accepted (authenticated, with a key).
+    fn heard(&mut self, from: SocketAddr) {
+        if self.rule == ReplyTo::Accepted {
+            self.peers.heard(from, self.epoch.elapsed());
+        }
+    }
+
+    /// The owner's peers ([`Router::set_peers`]).
+    fn given(&mut self, addrs: &[SocketAddr]) {
+        if self.rule == ReplyTo::Owner {
+            self.peers.set(addrs, self.epoch.elapsed());
+        }
+    }
+
+    /// Whether `addr` is a peer: the fixed address (port 0: any port of
+    /// its host, a TCP client's port being its system's choice), or one of
+    /// the set.
+    fn names(&self, addr: SocketAddr) -> bool {
+        match self.rule {
+            ReplyTo::Fixed(p) => p.ip() == addr.ip() && (p.port() == 0 || p.port() == addr.port()),
+            _ => self.peers.contains(addr),
+        }
+    }
+
+    /// Sends `bytes` to every peer, or to `fallback` (`udpbcast`'s
+    /// broadcast address) while there is none; the first error.
+    async fn send(
+        &self,
+        socket: &UdpSocket,
+        bytes: &[u8],
+        fallback: Option<SocketAddr>,
+    ) -> io::Result<()> {
+        if let ReplyTo::Fixed(to) = self.rule {
+            return socket.send_to(bytes, to).await.map(drop);
+        }
+        let fallback = fallback.filter(|_| self.peers.is_empty());
+        let mut sent = Ok(());
+        for to in self.peers.iter().chain(fallback) {
+            if let (Err(e), Ok(())) = (socket.send_to(bytes, to).await, &sent) {
+                sent = Err(e);
+            }
+        }
+        sent
+    }
+}
+
+/// Sends `bytes` on a connected socket (`udpout`). A send that reports an
+/// earlier datagram's ICMP error (Linux does on connected sockets, once
+/// per error) sent nothing: tried once more, so a target that is not up
+/// yet costs no frame once it is.
+async fn send_connected(socket: &UdpSocket, bytes: &[u8]) -> io::Result<()> {
+    let refused = |e: &io::Error| {
+        matches!(
+            e.kind(),
+            io::ErrorKind::ConnectionRefused | io::ErrorKind::ConnectionReset
+        )
+    };
+    match socket.send(bytes).await {
+        Err(e) if refused(&e) => socket.send(bytes).await.map(drop),
+        other => other.map(drop),
     }
 }
 
@@ -783,6 +950,8 @@ struct LinkTask<D: Dialect> {
     commands: Queues,
     counters: Arc<Mutex<LinkCounters>>,
     state: LinkState,
+    /// `tcpin`: clients accepted so far (each client's order).
+    clients_accepted: u64,
 }
 
 impl<D: Dialect + 'static> LinkTask<D> {
@@ -882,9 +1051,15 @@ impl<D: Dialect + 'static> LinkTask<D> {
         }
     }
 
-    /// Saves the signing state now.
+    /// Saves the signing state now, as at exit (`StateFile::save_final`:
+    /// the signer's exact bound; its next signature makes a checkpoint due).
     fn save_state(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
-        self.save_verifier(codec.parser().verifier(), framer);
+        let (signer, verifier) = (framer.signer(), codec.parser().verifier());
+        if let Some(file) = &mut self.state.file {
+            if file.save_final(signer, verifier).is_err() {
+                self.count(|c| c.state_save_errors = c.state_save_errors.saturating_add(1));
+            }
+        }
     }
 
     fn save_verifier(&mut self, verifier: Option<&Verifier>, framer: &Framer) {
@@ -906,7 +1081,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
 
     fn maybe_save(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
         if self.save_due(framer) {
-            self.save_state(codec, framer);
+            self.save_verifier(codec.parser().verifier(), framer);
         }
     }
 
@@ -918,13 +1093,16 @@ impl<D: Dialect + 'static> LinkTask<D> {
     /// (nothing after it completes a frame started in it). Parsed
     /// [`PARSE_CHUNK`] bytes at a time, yielding in between, so one large
     /// datagram never holds the runtime (and the owner's timers) for long.
+    /// `Ok(true)` when a frame among them vouches for its sender
+    /// ([`vouches`](Self::vouches)).
     async fn deliver(
         &mut self,
         codec: &mut FrameCodec<D>,
         bytes: &mut BytesMut,
         end: bool,
         source: Option<SocketAddr>,
-    ) -> Result<(), ()> {
+    ) -> Result<bool, ()> {
+        let mut vouched = false;
         loop {
             let mut chunk = bytes.split_to(bytes.len().min(PARSE_CHUNK));
             let last = bytes.is_empty();
@@ -937,6 +1115,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                 let Ok(Some(frame)) = frame else {
                     break;
                 };
+                vouched |= self.vouches(&frame);
                 let event = RouterEvent::Frame(Inbound {
                     link: self.id,
                     frame,
@@ -953,9 +1132,20 @@ impl<D: Dialect + 'static> LinkTask<D> {
         }
         let stats = *codec.parser().stats();
         self.count(|c| c.parser = stats);
-        Ok(())
+        Ok(vouched)
     }
 
+    /// Whether `frame` makes its sender a peer under [`ReplyTo::Accepted`]:
+    /// any frame the parser accepted, and on a link with a key only an
+    /// authenticated one (an unsigned frame, even accepted, is anyone's).
+    fn vouches(&self, frame: &ReceivedFrame<D>) -> bool {
+        frame.is_authenticated() || self.config.key.is_none()
+    }
+
+    /// A UDP link: `udpout` (`target`, a connected socket) sends to its
+    /// target; `udpin` and `udpbcast` (`replies`) to the peers of the
+    /// link's rule, `udpbcast` to its broadcast address (`target`) while
+    /// there is none.
     async fn udp(
         &mut self,
         socket: UdpSocket,
@@ -965,43 +1155,30 @@ impl<D: Dialect + 'static> LinkTask<D> {
         framer: &mut Framer,
     ) -> Ended {
         let mut buf = BytesMut::with_capacity(DATAGRAM_ROOM);
-        let (mut last_sender, mut pinned) = (None::<SocketAddr>, None::<SocketAddr>);
-        let reply_to = self.config.reply_to;
+        let mut peers = Replies::new(self.config.reply_to);
         loop {
             buf.clear();
             // (The parsed bytes were copied out: the room is reclaimed.)
             buf.reserve(DATAGRAM_ROOM);
-            // `replies`: the reply rule decides (udpin; udpbcast, whose
-            // `target` is the broadcast address used until it names
-            // someone); otherwise `target` is the only peer (udpout).
-            let rule = match reply_to {
-                ReplyTo::LastSender => last_sender,
-                ReplyTo::Fixed(a) => Some(a),
-                ReplyTo::Pinned => pinned,
-            };
-            let peer = match replies {
-                true => rule.or(target),
-                false => target,
-            };
             tokio::select! {
                 // A failed receive (an ICMP error on some systems) says
                 // nothing about the next one: it is skipped.
                 r = socket.recv_buf_from(&mut buf) => if let Ok((_, from)) = r {
-                    if from.port() != 0 {
-                        last_sender = Some(from);
+                    match self.deliver(codec, &mut buf, true, Some(from)).await {
+                        Err(()) => return Ended::RouterGone,
+                        // Only a frame accepted makes its sender a peer.
+                        Ok(vouched) => if vouched && replies {
+                            peers.heard(from);
+                        }
                     }
-                    if self.deliver(codec, &mut buf, true, Some(from)).await.is_err() {
-                        return Ended::RouterGone;
-                    }
+                    framer.adopt_from(codec.parser().verifier());
                     self.maybe_save(codec, framer);
                 },
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
                     let bytes = match &c {
-                        Command::Pin(addr) => {
-                            if addr.port() != 0 {
-                                pinned = Some(*addr);
-                            }
+                        Command::Peers(addrs) => {
+                            peers.given(addrs);
                             continue;
                         }
                         Command::Raw(b) | Command::Routed(_, b) => &b[..],
@@ -1012,10 +1189,12 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             }
                         }
                     };
-                    if let Some(p) = peer {
-                        if socket.send_to(bytes, p).await.is_err() {
-                            self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
-                        }
+                    let sent = match replies {
+                        true => peers.send(&socket, bytes, target).await,
+                        false => send_connected(&socket, bytes).await,
+                    };
+                    if sent.is_err() {
+                        self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
                     }
                     self.maybe_save(codec, framer);
                 }
@@ -1042,6 +1221,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         if self.deliver(codec, &mut buf, false, None).await.is_err() {
                             return Ended::RouterGone;
                         }
+                        framer.adopt_from(codec.parser().verifier());
                         self.maybe_save(codec, framer);
                     }
                     Err(e) => return Ended::Failed(e),
@@ -1049,7 +1229,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
                     let bytes = match &c {
-                        Command::Pin(_) => continue,
+                        Command::Peers(_) => continue,
                         Command::Raw(b) | Command::Routed(_, b) => &b[..],
                         Command::Message { sysid, compid, meta, payload } => {
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
@@ -1082,46 +1262,24 @@ impl<D: Dialect + 'static> LinkTask<D> {
         // One verifier for all clients, swapped into each one's parser while
         // it parses: a frame accepted from one client is a replay from any
         // other (with one each, a capture replayed on a new connection was
-        // authenticated again, and could move the pinned peer).
+        // authenticated again, and could move the owner's peer).
         let shared = codec
             .parser_mut()
             .verifier_mut()
             .map(|v| Arc::new(Mutex::new(v.clone())));
         let mut clients: Vec<Client> = Vec::new();
-        let (mut accepted, mut pinned) = (0u64, None::<SocketAddr>);
+        let mut peers = Replies::new(self.config.reply_to);
         let mut paused_until = None::<tokio::time::Instant>;
         loop {
-            let peer = match self.config.reply_to {
-                ReplyTo::LastSender => None,
-                ReplyTo::Fixed(a) => Some(a),
-                ReplyTo::Pinned => pinned,
-            };
             let resume = paused_until.unwrap_or_else(tokio::time::Instant::now);
             tokio::select! {
                 r = listener.accept(), if paused_until.is_none() => match r {
-                    Ok((stream, addr)) => {
-                        clients.retain(|c| !c.output.is_closed());
-                        if clients.len() >= MAX_CLIENTS {
-                            evict(&mut clients, peer);
-                        }
-                        let _ = stream.set_nodelay(true);
-                        if self.config.bound_unsent {
-                            bound_unsent(&stream);
-                        }
-                        let (tx, own) = mpsc::channel(CLIENT_QUEUE);
-                        let (routed, routed_rx) = mpsc::channel(CLIENT_QUEUE);
-                        let standing = Arc::new(AtomicU8::new(SHOWN_NOTHING));
-                        accepted += 1;
-                        clients.push(Client { addr, output: tx, routed, standing: standing.clone(), order: accepted });
-                        let task = ClientTask { addr, link: self.id, shared: shared.clone(), standing };
-                        let output = Queues::new(own, routed_rx, self.config.routed_rate, self.counters.clone());
-                        tokio::spawn(serve_client(stream, task, self.codec(), output, self.events.clone()));
-                    }
+                    Ok((stream, addr)) => self.admit(stream, addr, &mut clients, &peers, &shared),
                     Err(e) => {
                         // Out of file descriptors, a client's socket makes
                         // room; any failure waits a little.
                         clients.retain(|c| !c.output.is_closed());
-                        let evicted = is_out_of_descriptors(&e) && evict(&mut clients, peer);
+                        let evicted = is_out_of_descriptors(&e) && evict(&mut clients, &peers);
                         self.count(|c| c.accept_errors = c.accept_errors.saturating_add(1));
                         let wait = if evicted { EVICTED_BACKOFF } else { ACCEPT_BACKOFF };
                         paused_until = Some(tokio::time::Instant::now() + wait);
@@ -1138,8 +1296,8 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         return Ended::RouterGone;
                     };
                     let bytes: Box<[u8]> = match &c {
-                        Command::Pin(addr) => {
-                            pinned = Some(*addr);
+                        Command::Peers(addrs) => {
+                            peers.given(addrs);
                             continue;
                         }
                         Command::Routed(from, b) => {
@@ -1148,10 +1306,9 @@ impl<D: Dialect + 'static> LinkTask<D> {
                             // frames (counted), not its connection: routed
                             // bursts come faster than any one client takes
                             // them, and the client may be the protocol peer.
-                            let rule = self.config.reply_to;
                             let mut full = 0u64;
                             clients.retain(|c| {
-                                !c.gets(rule, peer)
+                                !c.gets(&peers)
                                     || match c.routed.try_send((*from, b.clone())) {
                                         Ok(()) => true,
                                         Err(mpsc::error::TrySendError::Full(_)) => {
@@ -1166,6 +1323,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         }
                         Command::Raw(b) => b.clone(),
                         Command::Message { sysid, compid, meta, payload } => {
+                            if let Some(v) = &shared { framer.adopt_from(Some(&*v.lock().unwrap_or_else(PoisonError::into_inner))); }
                             match framer.frame_payload(*sysid, *compid, meta, payload) {
                                 Ok(b) => b.into(),
                                 Err(_) => continue,
@@ -1173,8 +1331,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         }
                     };
                     // Full or closed: the client is dropped.
-                    let rule = self.config.reply_to;
-                    clients.retain(|c| !c.gets(rule, peer) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
+                    clients.retain(|c| !c.gets(&peers) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
                     if let (Some(v), true) = (&shared, self.save_due(framer)) {
                         let v = v.lock().unwrap_or_else(PoisonError::into_inner).clone();
                         self.save_verifier(Some(&v), framer);
@@ -1182,6 +1339,53 @@ impl<D: Dialect + 'static> LinkTask<D> {
                 }
             }
         }
+    }
+}
+
+impl<D: Dialect + 'static> LinkTask<D> {
+    /// A new `tcpin` client at `addr`: served in a task of its own, after
+    /// the eviction of the client that has shown the least if the link is
+    /// full; closed at once when every client is one the link never evicts
+    /// (see [`MAX_CLIENTS`]).
+    fn admit(
+        &mut self,
+        stream: TcpStream,
+        addr: SocketAddr,
+        clients: &mut Vec<Client>,
+        peers: &Replies,
+        shared: &Option<Arc<Mutex<Verifier>>>,
+    ) {
+        clients.retain(|c| !c.output.is_closed());
+        if clients.len() >= MAX_CLIENTS && !evict(clients, peers) {
+            drop(stream);
+            self.count(|c| c.refused_clients = c.refused_clients.saturating_add(1));
+            return;
+        }
+        let _ = stream.set_nodelay(true);
+        if self.config.bound_unsent {
+            bound_unsent(&stream);
+        }
+        let (tx, own) = mpsc::channel(CLIENT_QUEUE);
+        let (routed, routed_rx) = mpsc::channel(CLIENT_QUEUE);
+        let standing = Arc::new(AtomicU8::new(SHOWN_NOTHING));
+        self.clients_accepted += 1;
+        clients.push(Client {
+            addr,
+            output: tx,
+            routed,
+            standing: standing.clone(),
+            order: self.clients_accepted,
+        });
+        let task = ClientTask {
+            addr,
+            link: self.id,
+            shared: shared.clone(),
+            standing,
+        };
+        let rate = self.config.routed_rate;
+        let output = Queues::new(own, routed_rx, rate, self.counters.clone());
+        let events = self.events.clone();
+        tokio::spawn(serve_client(stream, task, self.codec(), output, events));
     }
 }
 
@@ -1206,32 +1410,36 @@ const SHOWN_FRAMES: u8 = 1;
 const SHOWN_AUTHENTICATED: u8 = 2;
 
 impl Client {
-    /// Whether the link's output goes to this client: every client under
-    /// [`ReplyTo::LastSender`], else the peer.
-    fn gets(&self, rule: ReplyTo, peer: Option<SocketAddr>) -> bool {
-        rule == ReplyTo::LastSender || self.is(peer)
+    fn standing(&self) -> u8 {
+        self.standing.load(Ordering::Relaxed)
     }
 
-    /// Whether this is the client at `peer`, the address the link's rule
-    /// names. A TCP client's port is its system's choice: port 0 in the
-    /// rule's address matches any.
-    fn is(&self, peer: Option<SocketAddr>) -> bool {
-        peer.is_some_and(|p| {
-            p.ip() == self.addr.ip() && (p.port() == 0 || p.port() == self.addr.port())
-        })
+    /// Whether the link's output goes to this client: under
+    /// [`ReplyTo::Accepted`], once a frame of its was accepted (an
+    /// authenticated one, with a key); else when the rule names it.
+    fn gets(&self, peers: &Replies) -> bool {
+        match peers.rule {
+            ReplyTo::Accepted => self.standing() >= SHOWN_FRAMES,
+            _ => peers.names(self.addr),
+        }
+    }
+
+    /// Whether the link never evicts this client: it sent an
+    /// authenticated frame, or the rule names it.
+    fn protected(&self, peers: &Replies) -> bool {
+        self.standing() == SHOWN_AUTHENTICATED || peers.names(self.addr)
     }
 }
 
-/// Drops the client that has shown the least, the oldest of those, never
-/// the one at `peer` while there are others (see [`MAX_CLIENTS`]; `peer`
-/// may be an address with port 0, which every client from its host
-/// matches); its task ends when its queue closes. False when there was
-/// none to drop.
-fn evict(clients: &mut Vec<Client>, peer: Option<SocketAddr>) -> bool {
+/// Drops the client that has shown the least, the oldest of those, among
+/// those not [`protected`](Client::protected) (see [`MAX_CLIENTS`]); its
+/// task ends when its queue closes. False when there was none to drop.
+fn evict(clients: &mut Vec<Client>, peers: &Replies) -> bool {
     let victim = clients
         .iter()
         .enumerate()
-        .min_by_key(|(_, c)| (c.is(peer), c.standing.load(Ordering::Relaxed), c.order))
+        .filter(|(_, c)| !c.protected(peers))
+        .min_by_key(|(_, c)| (c.standing(), c.order))
         .map(|(i, _)| i);
     if let Some(i) = victim {
         clients.swap_remove(i);
@@ -1346,6 +1554,7 @@ mod tests {
     use super::*;
     use crate::conn::test_dialect::{Ping, TestDialect};
     use crate::frame::{FrameBuf, Header, Version};
+    use crate::peers::MAX_PEERS;
     use std::net::UdpSocket as StdUdp;
     use std::vec::Vec;
 
@@ -1420,13 +1629,13 @@ mod tests {
         }
     }
 
-    /// `tcpin` under [`ReplyTo::Pinned`]: nothing goes out until the owner
-    /// pins a client, then only to that client (before, every client got
+    /// `tcpin` under [`ReplyTo::Owner`]: nothing goes out until the owner
+    /// names a client, then only to that client (before, every client got
     /// everything: a stranger that connected received the companion's
     /// control).
     #[tokio::test]
-    async fn tcpin_sends_only_to_the_pinned_client() {
-        let (mut router, link, addr) = tcpin(ReplyTo::Pinned).await;
+    async fn tcpin_sends_only_to_the_owners_peer() {
+        let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
         let mut peer = TcpStream::connect(addr).await.unwrap();
         let mut stranger = TcpStream::connect(addr).await.unwrap();
         peer.write_all(&ping(1)).await.unwrap();
@@ -1438,7 +1647,7 @@ mod tests {
         assert_eq!(
             read_for(&mut peer, 200).await,
             Some(Vec::new()),
-            "not pinned yet"
+            "no peer named yet"
         );
         router.pin_peer(link, peer.local_addr().unwrap());
         router.send_raw(Links::only(link), &ping(3));
@@ -1689,7 +1898,7 @@ mod tests {
     /// the socket, and wrote on when it read again.)
     #[tokio::test]
     async fn tcpin_drops_a_client_that_stops_reading() {
-        let (mut router, link, addr) = tcpin(ReplyTo::LastSender).await;
+        let (mut router, link, addr) = tcpin(ReplyTo::Accepted).await;
         let socket = tokio::net::TcpSocket::new_v4().unwrap();
         socket.set_recv_buffer_size(4096).unwrap();
         let mut sleeper = socket.connect(addr).await.unwrap();
@@ -1718,10 +1927,10 @@ mod tests {
     }
 
     /// More connections than [`MAX_CLIENTS`]: idle ones are evicted, oldest
-    /// first; the pinned client and one that sent frames stay.
+    /// first; the owner's peer and one that sent frames stay.
     #[tokio::test]
-    async fn tcpin_evicts_idle_clients_never_the_pinned_one() {
-        let (mut router, link, addr) = tcpin(ReplyTo::Pinned).await;
+    async fn tcpin_evicts_idle_clients_never_the_owners_peer() {
+        let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
         let mut peer = TcpStream::connect(addr).await.unwrap();
         peer.write_all(&ping(1)).await.unwrap();
         let _ = router.recv().await;
@@ -1868,5 +2077,337 @@ mod tests {
             "the stream the client's frame came on is saved: {streams:?}"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A `udpin` link on 127.0.0.1 with `reply_to` (`None`: the default
+    /// rule), and its address.
+    async fn udpin(reply_to: Option<ReplyTo>) -> (Router<TestDialect>, LinkId, SocketAddr) {
+        let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut router = Router::<TestDialect>::new();
+        let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
+        if let Some(rule) = reply_to {
+            config.reply_to = rule;
+        }
+        let link = router.add(config).await.unwrap();
+        (router, link, addr)
+    }
+
+    /// A UDP socket on 127.0.0.1 (a station, a stranger).
+    async fn udp_socket() -> UdpSocket {
+        UdpSocket::bind("127.0.0.1:0").await.unwrap()
+    }
+
+    /// The datagram `socket` receives within `ms`, if any.
+    async fn datagram_for(socket: &UdpSocket, ms: u64) -> Option<Vec<u8>> {
+        let mut buf = [0u8; 512];
+        let got = tokio::time::timeout(Duration::from_millis(ms), socket.recv(&mut buf)).await;
+        got.ok().and_then(Result::ok).map(|n| buf[..n].to_vec())
+    }
+
+    /// The next frame the router reports, within 2 s.
+    async fn next_frame(router: &mut Router<TestDialect>) -> Inbound<TestDialect> {
+        match tokio::time::timeout(Duration::from_secs(2), router.recv()).await {
+            Ok(Some(RouterEvent::Frame(f))) => f,
+            _ => panic!("no frame"),
+        }
+    }
+
+    /// Waits (2 s at most) until `link`'s parser has dropped `bytes` bytes.
+    async fn dropped_bytes(router: &Router<TestDialect>, link: LinkId, bytes: u64) {
+        let until = tokio::time::Instant::now() + Duration::from_secs(2);
+        while router.counters(link).parser.bytes_dropped < bytes {
+            assert!(tokio::time::Instant::now() < until, "bytes not received");
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    }
+
+    /// A stranger's 1-byte datagrams, every 10 ms, never move a `udpin`
+    /// link's replies away from the station whose frame it accepted.
+    /// (Answering whoever sent last, a datagram without a frame took the
+    /// station's traffic.)
+    #[tokio::test]
+    async fn udpin_is_not_redirected_by_datagrams_without_a_frame() {
+        let (mut router, link, addr) = udpin(None).await;
+        let (station, stranger) = (udp_socket().await, udp_socket().await);
+        station.send_to(&ping(1), addr).await.unwrap();
+        next_frame(&mut router).await;
+        for i in 0..20u64 {
+            stranger.send_to(&[0u8], addr).await.unwrap();
+            tokio::time::sleep(Duration::from_millis(10)).await;
+            dropped_bytes(&router, link, i + 1).await;
+            router.send_raw(Links::only(link), &ping(2));
+            assert_eq!(
+                datagram_for(&station, 500).await,
+                Some(ping(2).to_vec()),
+                "datagram {i}"
+            );
+        }
+        assert_eq!(
+            datagram_for(&stranger, 50).await,
+            None,
+            "the stranger got traffic"
+        );
+    }
+
+    /// 200 strangers, each with a valid frame, arrive while a station keeps
+    /// speaking: the station receives every frame sent meanwhile, and at
+    /// most [`MAX_PEERS`] − 1 strangers (the free slots) get copies.
+    #[tokio::test]
+    async fn a_speaking_station_keeps_its_traffic_among_200_strangers() {
+        let (mut router, link, addr) = udpin(None).await;
+        let station = udp_socket().await;
+        let mut strangers = Vec::new();
+        for i in 0..200u32 {
+            if i % 20 == 0 {
+                station.send_to(&ping(1000 + i), addr).await.unwrap();
+                next_frame(&mut router).await;
+            }
+            let s = udp_socket().await;
+            s.send_to(&ping(i), addr).await.unwrap();
+            next_frame(&mut router).await;
+            strangers.push(s);
+            if i % 20 == 19 {
+                router.send_raw(Links::only(link), &ping(5000 + i));
+                let got = datagram_for(&station, 500).await;
+                assert_eq!(got, Some(ping(5000 + i).to_vec()), "after stranger {i}");
+            }
+        }
+        let mut served = 0;
+        for s in &strangers {
+            served += usize::from(datagram_for(s, 1).await.is_some());
+        }
+        assert!(served < MAX_PEERS, "{served} strangers got traffic");
+    }
+
+    /// A `udpout` link's socket is connected to its target: a frame sent to
+    /// its local port from a third socket never reaches the router, the
+    /// target's does.
+    #[tokio::test]
+    async fn udpout_ignores_third_parties() {
+        let target = udp_socket().await;
+        let mut router = Router::<TestDialect>::new();
+        let url = format!("udpout:{}", target.local_addr().unwrap());
+        let link = router
+            .add(LinkConfig::new(url.parse().unwrap()))
+            .await
+            .unwrap();
+        router.send_raw(Links::only(link), &ping(1));
+        let mut buf = [0u8; 64];
+        let (_, local) = tokio::time::timeout(Duration::from_secs(2), target.recv_from(&mut buf))
+            .await
+            .unwrap()
+            .unwrap();
+        let local = SocketAddr::from(([127, 0, 0, 1], local.port()));
+        let third = udp_socket().await;
+        third.send_to(&ping(66), local).await.unwrap();
+        target.send_to(&ping(7), local).await.unwrap();
+        let f = next_frame(&mut router).await;
+        assert_eq!(
+            f.frame.as_bytes(),
+            &ping(7)[..],
+            "a third party's frame was taken"
+        );
+        assert_eq!(f.source, Some(target.local_addr().unwrap()));
+    }
+
+    /// A signed PING from `sysid`, stream `link_id` of `key`.
+    fn signed_ping(key: [u8; 32], link_id: u8, sysid: u8) -> FrameBuf {
+        use crate::signing::{timestamp_now, Signer};
+        let mut signer = Signer::new(key, link_id, timestamp_now());
+        let h = Header {
+            seq: 0,
+            sysid,
+            compid: 1,
+        };
+        FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, Some(&mut signer)).unwrap()
+    }
+
+    /// A `tcpin` link with a key whose every client has sent an
+    /// authenticated frame: a flood of new connections, each sending an
+    /// unsigned frame, evicts none of them; the new connections are closed.
+    /// (The oldest authenticated client was evicted for the first of them.)
+    #[tokio::test]
+    async fn tcpin_flood_never_evicts_an_authenticated_client() {
+        let key = [8u8; 32];
+        let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut router = Router::<TestDialect>::new();
+        let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+        config.key = Some(key);
+        let link = router.add(config).await.unwrap();
+        let mut clients = Vec::new();
+        for i in 0..MAX_CLIENTS as u8 {
+            let mut c = TcpStream::connect(addr).await.unwrap();
+            c.write_all(&signed_ping(key, 1, 10 + i)).await.unwrap();
+            let f = next_frame(&mut router).await;
+            assert!(f.frame.is_authenticated());
+            clients.push(c);
+        }
+        let mut flood = Vec::new();
+        for i in 0..20u32 {
+            let mut s = TcpStream::connect(addr).await.unwrap();
+            let _ = s.write_all(&ping(i)).await;
+            flood.push(s);
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        router.send_raw(Links::only(link), &ping(3));
+        for (i, c) in clients.iter_mut().enumerate() {
+            let mut got = [0u8; 13];
+            let read = tokio::time::timeout(Duration::from_secs(2), c.read_exact(&mut got)).await;
+            assert!(matches!(read, Ok(Ok(_))), "client {i} evicted");
+            assert_eq!(got[..], ping(3)[..], "client {i}");
+        }
+        for (i, s) in flood.iter_mut().enumerate() {
+            assert_eq!(read_for(s, 20).await, None, "flood connection {i} is open");
+        }
+        assert_eq!(router.counters(link).refused_clients, 20);
+    }
+
+    /// A `tcpin` link without a key under [`ReplyTo::Owner`]: a flood of
+    /// connections, each sending an unsigned frame every 10 ms, never
+    /// evicts the client the owner named, and gets none of its traffic.
+    #[tokio::test]
+    async fn tcpin_flood_never_evicts_the_owners_peer() {
+        let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
+        let mut peer = TcpStream::connect(addr).await.unwrap();
+        peer.write_all(&ping(1)).await.unwrap();
+        next_frame(&mut router).await;
+        router.set_peers(link, &[peer.local_addr().unwrap()]);
+        let mut flood = Vec::new();
+        for i in 0..MAX_CLIENTS as u32 + 8 {
+            let mut s = TcpStream::connect(addr).await.unwrap();
+            let _ = s.write_all(&ping(i)).await;
+            flood.push(s);
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        router.send_raw(Links::only(link), &ping(3));
+        assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+        let mut served = 0;
+        for s in &mut flood {
+            served += usize::from(read_for(s, 5).await.is_some_and(|b| !b.is_empty()));
+        }
+        assert_eq!(served, 0, "strangers got the owner's traffic");
+    }
+
+    /// `udpin` under [`ReplyTo::Owner`]: nothing goes out until the owner
+    /// names peers, then to those only, whoever sends frames.
+    #[tokio::test]
+    async fn udpin_sends_only_to_the_owners_peers() {
+        let (mut router, link, addr) = udpin(Some(ReplyTo::Owner)).await;
+        let (a, b, stranger) = (udp_socket().await, udp_socket().await, udp_socket().await);
+        for s in [&a, &b, &stranger] {
+            s.send_to(&ping(1), addr).await.unwrap();
+            next_frame(&mut router).await;
+        }
+        router.send_raw(Links::only(link), &ping(2));
+        assert_eq!(datagram_for(&a, 100).await, None, "no peer named yet");
+        let named = [a.local_addr().unwrap(), b.local_addr().unwrap()];
+        router.set_peers(link, &named);
+        router.send_raw(Links::only(link), &ping(3));
+        assert_eq!(datagram_for(&a, 500).await, Some(ping(3).to_vec()));
+        assert_eq!(datagram_for(&b, 500).await, Some(ping(3).to_vec()));
+        assert_eq!(datagram_for(&stranger, 50).await, None);
+        router.pin_peer(link, b.local_addr().unwrap());
+        router.send_raw(Links::only(link), &ping(4));
+        assert_eq!(datagram_for(&b, 500).await, Some(ping(4).to_vec()));
+        assert_eq!(datagram_for(&a, 50).await, None, "pin_peer: one peer");
+    }
+
+    /// On a `udpin` link with a key, an unsigned frame (accepted, as the
+    /// link's policy says) makes its sender no peer; an authenticated one
+    /// does.
+    #[tokio::test]
+    async fn udpin_with_a_key_answers_only_authenticated_senders() {
+        let key = [9u8; 32];
+        let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut router = Router::<TestDialect>::new();
+        let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
+        config.key = Some(key);
+        let link = router.add(config).await.unwrap();
+        let (station, stranger) = (udp_socket().await, udp_socket().await);
+        stranger.send_to(&ping(1), addr).await.unwrap();
+        assert!(!next_frame(&mut router).await.frame.is_authenticated());
+        router.send_raw(Links::only(link), &ping(2));
+        assert_eq!(
+            datagram_for(&stranger, 100).await,
+            None,
+            "an unsigned sender answered"
+        );
+        station
+            .send_to(&signed_ping(key, 1, 1), addr)
+            .await
+            .unwrap();
+        assert!(next_frame(&mut router).await.frame.is_authenticated());
+        router.send_raw(Links::only(link), &ping(3));
+        assert_eq!(datagram_for(&station, 500).await, Some(ping(3).to_vec()));
+        assert_eq!(datagram_for(&stranger, 50).await, None);
+    }
+
+    /// `Router::route` sends a frame where the owner says, and the table
+    /// learns nothing from it.
+    #[tokio::test]
+    async fn route_sends_where_the_owner_says_without_the_table() {
+        let (mut router, from, addr) = udpin(None).await;
+        let (t1, t2) = (udp_socket().await, udp_socket().await);
+        let mut outs = Vec::new();
+        for t in [&t1, &t2] {
+            let url = format!("udpout:{}", t.local_addr().unwrap());
+            outs.push(
+                router
+                    .add(LinkConfig::new(url.parse().unwrap()))
+                    .await
+                    .unwrap(),
+            );
+        }
+        let station = udp_socket().await;
+        station.send_to(&ping(5), addr).await.unwrap();
+        let inbound = next_frame(&mut router).await;
+        assert_eq!(inbound.link, from);
+        let to = router.route(&inbound, Links::only(outs[1]).union(Links::only(40)));
+        assert_eq!(to, Links::only(outs[1]), "links that exist only");
+        assert_eq!(datagram_for(&t2, 500).await, Some(ping(5).to_vec()));
+        assert_eq!(datagram_for(&t1, 50).await, None);
+        assert_eq!(
+            router.table().links_to(1, 1),
+            Links::NONE,
+            "the table learned"
+        );
+    }
+
+    /// `forward` learns authenticated senders, and every sender of a link
+    /// the owner trusts, as trusted: 200 strangers' ids through another
+    /// link never evict that route.
+    #[tokio::test]
+    async fn forward_keeps_trusted_routes_among_200_strangers() {
+        let (mut router, trusted, _) = udpin(None).await;
+        let other = LinkConfig::new("udpin:127.0.0.1:0".parse().unwrap());
+        let stranger_link = router.add(other).await.unwrap();
+        router.set_trusted(trusted, true);
+        let inbound = |link, sysid: u8| {
+            let h = Header {
+                seq: 0,
+                sysid,
+                compid: 1,
+            };
+            let bytes = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, None).unwrap();
+            let mut parser = Parser::<TestDialect>::new();
+            let mut input = &[&bytes[..], &[0xfd][..]].concat()[..];
+            let frame = ReceivedFrame::from(&parser.next(&mut input).unwrap());
+            Inbound::<TestDialect> {
+                link,
+                frame,
+                source: None,
+            }
+        };
+        router.forward(&inbound(trusted, 1));
+        for id in 0..200u8 {
+            router.forward(&inbound(stranger_link, 2 + id));
+        }
+        assert_eq!(router.table().links_to(1, 1), Links::only(trusted));
     }
 }

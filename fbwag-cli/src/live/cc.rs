@@ -1,38 +1,29 @@
-//! `fbwag cc`: the companion-computer daemon. It runs the companion engine
-//! on the FC link and is the companion's MAVLink node: it routes between
-//! the FC link and any number of other links (`--out`: ground stations,
-//! MAVProxy, other onboard programs) by the MAVLink routing rules, and it
-//! is the gateway of the user's own autonomy (`--autonomy`), whose control
-//! reaches the FC only while the companion holds control.
-//!
-//! What goes where:
-//! - frames from the FC link: to the engine (the FC's protocol messages,
-//!   trusted by ids and signature), then routed to the other links;
-//! - frames from an `--out` link: routed (to the FC link where their
-//!   addressee is, broadcasts everywhere but back), untouched; a frame
-//!   claiming the FC's or the companion's own ids there is a spoof (or a
-//!   loop) and is dropped;
-//! - frames from the autonomy link: its RC_CHANNELS_OVERRIDE,
-//!   SET_ATTITUDE_TARGET and MANUAL_CONTROL go to the engine's gate
-//!   (re-addressed to the FC, signed with the companion's key, sent only
-//!   while the companion holds control, dropped and counted otherwise);
-//!   its other messages go to the `--out` links only, never to the FC: the
-//!   autonomy flies the aircraft only through the gate;
-//! - the companion's own messages (heartbeat, notices, control): to the FC
-//!   link, and the broadcast ones to every other link too (so the autonomy
-//!   and the ground station see the takeover).
+//! `fbwag cc`: the companion-computer daemon. It runs the companion's node
+//! (`fbwag_delegation::node::CompanionNode`: the companion engine and the
+//! policy of its links) on the FC link, any number of ground-side links
+//! (`--out`: ground stations, MAVProxy, other onboard programs) and the
+//! user's autonomy (`--autonomy`), and carries out what the node decides:
+//! the node says which frames are protocol input, which go where (by the
+//! MAVLink routing rules, byte for byte), whom each listening link answers,
+//! which autonomy control reaches the FC (through the companion's gate,
+//! only while it holds control) and which frames are dropped and why. This
+//! module moves bytes and time, and reports.
 
 use super::net::{self, LinkOptions, Net, Node};
 use super::{mode_name, Clock, Events, Limiter, Log};
 use fbwag_delegation::cc::{CcConfig, CcState};
-use fbwag_delegation::control::{Control, Controller};
-use fbwag_delegation::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
+use fbwag_delegation::control::Controller;
+use fbwag_delegation::engine::CcOutput;
+use fbwag_delegation::node::{
+    AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, LinkSpec, Output, Role,
+};
 use fbwag_delegation::{Instant, Peer, Status};
-use fbwag_dialect::mavframe::route::{LinkId, Links};
+use fbwag_dialect::mavframe::route::LinkId;
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::{Dialect, Endpoint, Message, MessageView};
 use serde_json::json;
 use std::io;
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -44,6 +35,11 @@ pub struct CcOptions {
     pub outs: Vec<Endpoint>,
     /// The user's autonomy program's link.
     pub autonomy: Option<Endpoint>,
+    /// The autonomy program's address: the autonomy link answers it only,
+    /// and drops frames from anyone else.
+    pub autonomy_peer: Option<SocketAddr>,
+    /// What flies while the autonomy is silent.
+    pub autonomy_fallback: AutonomyFallback,
     pub own: Peer,
     pub fc: Peer,
     pub rate_hz: f64,
@@ -72,24 +68,55 @@ pub fn run_cc(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepo
 }
 
 struct Daemon {
-    engine: CcEngine,
+    node: CompanionNode,
     own: Peer,
-    fc: Peer,
+    /// The built-in controller, when there is no autonomy.
     controller: Option<Box<dyn Controller + Send>>,
-    /// The `--out` links, and the autonomy's.
-    outs: Links,
-    autonomy: Option<LinkId>,
     events: Events,
     fc_mode: Option<u32>,
     report: CcReport,
-    spoofs: Limiter,
-    gate: Limiter,
     /// The FC's notices, texts and mode changes logged:
     /// [`super::HEARD_PER_SECOND`].
     heard: Limiter,
-    spoofed: u64,
     duration: Option<Duration>,
     exit_after_handback: bool,
+}
+
+/// The daemon's links, open, each with its place in the node.
+struct Opened {
+    net: Net,
+    specs: Vec<(LinkId, LinkSpec)>,
+    autonomy: Option<LinkId>,
+}
+
+async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
+    let mut net = Net::open(&o.link, log).await?;
+    let spec = |role, endpoint, peer| LinkSpec {
+        role,
+        answers: net::answers(endpoint, peer),
+    };
+    let mut specs = vec![(net.main, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
+    for e in &o.outs {
+        // Ground links verify with the key too: a ground station that signs
+        // reaches the FC where signing is required.
+        let link = net.add(e, o.link.key, None).await?;
+        specs.push((link, spec(Role::Ground, e, None)));
+    }
+    let mut autonomy = None;
+    if let Some(e) = &o.autonomy {
+        let link = net.add(e, None, o.autonomy_peer).await?;
+        specs.push((link, spec(Role::Autonomy, e, o.autonomy_peer)));
+        autonomy = Some(link);
+    }
+    Ok(Opened {
+        net,
+        specs,
+        autonomy,
+    })
+}
+
+fn invalid(e: impl std::error::Error + Send + Sync + 'static) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidInput, e)
 }
 
 async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcReport> {
@@ -102,18 +129,38 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         control_period: Duration::from_secs_f64(1.0 / o.rate_hz),
         ..CcConfig::default()
     };
-    let engine = CcEngine::new(cfg, clock.now())
-        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
     let events = Events::open(o.events.as_deref(), clock)?;
-    let mut net = Net::open(&o.link, &mut log).await?;
-    let mut outs = Links::NONE;
-    for e in &o.outs {
-        outs = outs.union(Links::only(net.add(e).await?));
+    let opened = open_links(&o, &mut log).await?;
+    let source = opened
+        .autonomy
+        .map_or(ControlSource::Builtin, |link| ControlSource::Autonomy {
+            link,
+            fallback: o.autonomy_fallback,
+            silence: fbwag_delegation::node::AUTONOMY_SILENCE,
+        });
+    let mut node = CompanionNode::new(cfg, source, clock.now()).map_err(invalid)?;
+    for (link, spec) in &opened.specs {
+        node.add_link(*link, *spec).map_err(invalid)?;
     }
-    let autonomy = match &o.autonomy {
-        Some(e) => Some(net.add(e).await?),
-        None => None,
+    log_start(&o, &mut log);
+    let mut daemon = Daemon {
+        node,
+        own: o.own,
+        controller: o.autonomy.is_none().then_some(o.controller),
+        events,
+        fc_mode: None,
+        report: CcReport::default(),
+        heard: Limiter::new(super::HEARD_PER_SECOND, Duration::from_secs(1)),
+        duration: o.duration,
+        exit_after_handback: o.exit_after_handback,
     };
+    net::run(&mut daemon, opened.net, &clock, &mut log, o.stop_on_signals).await;
+    daemon.summary();
+    Ok(daemon.report)
+}
+
+/// What the daemon says at start.
+fn log_start(o: &CcOptions, log: &mut Log) {
     log.line(&format!(
         "FC link {} as {}/{}, serving FC {}/{}, {}{}",
         o.link.endpoint,
@@ -122,7 +169,13 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         o.fc.sysid,
         o.fc.compid,
         match &o.autonomy {
-            Some(a) => format!("autonomy on {a}"),
+            Some(a) => format!(
+                "autonomy on {a} (silent 500 ms: {})",
+                match o.autonomy_fallback {
+                    AutonomyFallback::Decline => "takeovers declined",
+                    AutonomyFallback::WingsLevel => "wings level until it speaks",
+                }
+            ),
             None => format!("controller {}", o.controller.name()),
         },
         if o.require_signed {
@@ -142,35 +195,15 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
             None => "routed to the FC link: unpaced (--routed-rate off)".to_string(),
         });
     }
-    let mut daemon = Daemon {
-        engine,
-        own: o.own,
-        fc: o.fc,
-        controller: o.autonomy.is_none().then_some(o.controller),
-        outs,
-        autonomy,
-        events,
-        fc_mode: None,
-        report: CcReport::default(),
-        spoofs: Limiter::new(5, Duration::from_secs(10)),
-        gate: Limiter::new(5, Duration::from_secs(10)),
-        heard: Limiter::new(super::HEARD_PER_SECOND, Duration::from_secs(1)),
-        spoofed: 0,
-        duration: o.duration,
-        exit_after_handback: o.exit_after_handback,
-    };
-    net::run(&mut daemon, net, &clock, &mut log, o.stop_on_signals).await;
-    daemon.summary();
-    Ok(daemon.report)
 }
 
 impl Node for Daemon {
     fn poll_timeout(&self) -> Option<Instant> {
-        self.engine.poll_timeout()
+        self.node.poll_timeout()
     }
 
     fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
-        self.engine.handle_timeout(now);
+        self.node.handle_timeout(now);
         self.drain(now, net, log);
     }
 
@@ -181,13 +214,27 @@ impl Node for Daemon {
         net: &mut Net,
         log: &mut Log,
     ) {
-        if inbound.link == net.main {
-            self.on_fc_frame(now, inbound, net, log);
-        } else if Some(inbound.link) == self.autonomy {
-            self.on_autonomy_frame(now, inbound, net, log);
-        } else {
-            self.on_out_frame(inbound, net, log);
+        let fate = self.node.handle_frame(now, net::arrival(inbound));
+        match fate.dropped {
+            Some(reason) => net.dropped(inbound, reason, log),
+            None => {
+                if fate.input && inbound.link == net.main {
+                    self.describe(&inbound.frame, log);
+                }
+                if !fate.route.is_empty() {
+                    net.router.route(inbound, fate.route);
+                }
+            }
         }
+        self.drain(now, net, log);
+    }
+
+    fn link_reopened(&mut self, link: LinkId) {
+        self.node.link_reopened(link);
+    }
+
+    fn report(&mut self, net: &mut Net) {
+        net.report_drops(self.node.drops(), &mut self.events);
     }
 
     fn done(&self, clock: &Clock) -> bool {
@@ -195,176 +242,97 @@ impl Node for Daemon {
             .is_some_and(|d| clock.secs() >= d.as_secs_f64())
             || (self.exit_after_handback
                 && self.report.handbacks > 0
-                && self.engine.state() != CcState::Controlling)
+                && self.node.engine().state() != CcState::Controlling)
     }
 }
 
 impl Daemon {
-    /// A frame from the FC link: the engine judges it; then it is routed.
-    fn on_fc_frame(
-        &mut self,
-        now: Instant,
-        inbound: &Inbound<Dialect>,
-        net: &mut Net,
-        log: &mut Log,
-    ) {
-        let frame = &inbound.frame;
-        let h = frame.header();
-        if (h.sysid, h.compid) == (self.own.sysid, self.own.compid) {
-            self.spoof(inbound, "the companion's own ids on the FC link", log);
-            return;
-        }
-        let verdict = self
-            .engine
-            .handle_frame(now, &frame.frame(), frame.is_authenticated());
-        if verdict == Verdict::Trusted {
-            self.describe(frame, log);
-        }
-        // A rebooted FC speaking from a new port is answered there by the
-        // peer rule alone: at once when its frame is authenticated, after
-        // the old port's silence otherwise. (Forgetting the peer at every
-        // reboot let a forged unsigned "reboot" move it to the attacker at
-        // once, and the real FC's RC loss went unanswered: RTL.)
-        net.judged(inbound, verdict, log);
-        self.drain(now, net, log);
-        net.router.forward(inbound);
-    }
-
-    /// A frame from an `--out` link: routed, unless it claims the FC's or
-    /// the companion's ids (those live on the FC link, and here).
-    fn on_out_frame(&mut self, inbound: &Inbound<Dialect>, net: &mut Net, log: &mut Log) {
-        if self.claims_ours(inbound) {
-            self.spoof(
-                inbound,
-                "the FC's or the companion's ids on another link",
-                log,
-            );
-            return;
-        }
-        net.router.forward(inbound);
-    }
-
-    /// A frame from the autonomy: control through the gate; the rest to the
-    /// `--out` links only.
-    fn on_autonomy_frame(
-        &mut self,
-        now: Instant,
-        inbound: &Inbound<Dialect>,
-        net: &mut Net,
-        log: &mut Log,
-    ) {
-        if self.claims_ours(inbound) {
-            self.spoof(
-                inbound,
-                "the FC's or the companion's ids on the autonomy link",
-                log,
-            );
-            return;
-        }
-        let frame = inbound.frame.frame();
-        let view = MessageView::new(frame.msg_id(), frame.payload());
-        if let Some(control) = view.as_ref().and_then(Control::from_view) {
-            match self.engine.submit_control(now, control) {
-                ControlVerdict::Forwarded => self.drain(now, net, log),
-                ControlVerdict::NotInControl => self.gate.log(log, "gated controls", || {
-                    format!(
-                        "autonomy {} dropped: the companion does not hold control",
-                        control.name()
-                    )
-                }),
-            }
-            return;
-        }
-        net.router.learn(inbound);
-        // Routed traffic: after the companion's own frames on those links.
-        net.router.send_routed(self.outs, inbound.frame.as_bytes());
-    }
-
-    /// The frame claims the FC's or the companion's ids (which live on the
-    /// FC link, and here).
-    fn claims_ours(&self, inbound: &Inbound<Dialect>) -> bool {
-        let h = inbound.frame.header();
-        let ids = (h.sysid, h.compid);
-        ids == (self.own.sysid, self.own.compid) || ids == (self.fc.sysid, self.fc.compid)
-    }
-
-    fn spoof(&mut self, inbound: &Inbound<Dialect>, what: &str, log: &mut Log) {
-        self.spoofed = self.spoofed.saturating_add(1);
-        let h = inbound.frame.header();
-        let source = inbound
-            .source
-            .map_or(String::new(), |s| format!(" from {s}"));
-        self.spoofs.log(log, "spoofed frames", || {
-            format!(
-                "dropped a frame as {}/{}{source}: {what}",
-                h.sysid, h.compid
-            )
-        });
-    }
-
-    /// Carries out the engine's outputs.
+    /// Carries out the node's outputs.
     fn drain(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
-        while let Some(out) = self.engine.poll_output() {
+        while let Some(out) = self.node.poll_output() {
             match out {
-                CcOutput::Transmit(msg) => self.transmit(&msg, net, log),
-                CcOutput::ControlDue => {
-                    if let Some(c) = &mut self.controller {
-                        let control = c.control(now, self.fc);
-                        let _ = self.engine.submit_control(now, control);
-                    }
+                Output::Transmit { links, message } => {
+                    self.note_sent(&message, log);
+                    net.router
+                        .send_message(links, self.own.sysid, self.own.compid, &message);
                 }
-                CcOutput::ControlStarted { event } => {
-                    self.report.takeovers += 1;
-                    let who = self
-                        .controller
-                        .as_ref()
-                        .map_or("the autonomy", |c| c.name());
-                    log.line(&format!("takeover (event {event}): {who} streams control"));
-                    self.events
-                        .emit("control", json!({"state": "start", "fc_event": event}));
-                }
-                CcOutput::ControlStopped => {
-                    log.line("control ends: overrides stopped");
-                    self.events.emit("control", json!({"state": "stop"}));
-                }
-                CcOutput::FcFound => {
-                    log.line("FC found");
-                    self.events.emit("fc", json!({"state": "found"}));
-                }
-                CcOutput::FcLost => {
-                    log.line("FC lost (silent)");
-                    self.events.emit("fc", json!({"state": "lost"}));
-                }
-                CcOutput::FcRebooted => {
-                    log.line("FC rebooted: answering its new boot");
-                    self.events.emit("fc", json!({"state": "rebooted"}));
+                Output::Peers { link, peers } => net.set_peers(link, peers, log),
+                Output::Event(CompanionEvent::Engine(event)) => self.engine_event(now, event, log),
+                Output::Event(CompanionEvent::AutonomySilent(silent)) => {
+                    log.line(if silent {
+                        "autonomy silent"
+                    } else {
+                        "autonomy speaks"
+                    });
+                    self.events.emit(
+                        "autonomy",
+                        json!({"state": if silent { "silent" } else { "speaking" }}),
+                    );
                 }
             }
         }
     }
 
-    /// The companion's own message: to the FC link; a broadcast also to
-    /// every other link.
-    fn transmit(&mut self, msg: &Message, net: &mut Net, log: &mut Log) {
+    fn engine_event(&mut self, now: Instant, event: CcOutput, log: &mut Log) {
+        match event {
+            CcOutput::ControlDue => {
+                if let Some(c) = &mut self.controller {
+                    let control = c.control(now, self.node.engine().machine().config().fc);
+                    let _ = self.node.submit_control(now, control);
+                }
+            }
+            CcOutput::ControlStarted { event } => {
+                self.report.takeovers += 1;
+                let who = self
+                    .controller
+                    .as_ref()
+                    .map_or("the autonomy", |c| c.name());
+                log.line(&format!("takeover (event {event}): {who} streams control"));
+                self.events
+                    .emit("control", json!({"state": "start", "fc_event": event}));
+            }
+            CcOutput::ControlStopped => {
+                log.line("control ends: overrides stopped");
+                self.events.emit("control", json!({"state": "stop"}));
+            }
+            CcOutput::Declined { event } => {
+                log.line(&format!(
+                    "takeover of event {event} declined: the autonomy is silent (the FC falls back)"
+                ));
+                self.events.emit(
+                    "takeover",
+                    json!({"decision": "declined", "reason": "autonomy silent", "fc_event": event}),
+                );
+            }
+            CcOutput::FcFound => {
+                log.line("FC found");
+                self.events.emit("fc", json!({"state": "found"}));
+            }
+            CcOutput::FcLost => {
+                log.line("FC lost (silent)");
+                self.events.emit("fc", json!({"state": "lost"}));
+            }
+            CcOutput::FcRebooted => {
+                log.line("FC rebooted: answering its new boot");
+                self.events.emit("fc", json!({"state": "rebooted"}));
+            }
+            CcOutput::Transmit(_) => {}
+        }
+    }
+
+    /// Logs the companion's notices as they go, and counts hand-backs.
+    fn note_sent(&mut self, msg: &Message, log: &mut Log) {
         if let Message::FbwagNotice(n) = msg {
             log.line(&format!(
                 "-> FBWAG_NOTICE status {} event {}",
                 n.failsafe_status.0, n.timestamp
             ));
-            if n.failsafe_status == Status::NORMAL {
+            if n.failsafe_status == Status::NORMAL
+                && self.node.engine().machine().stats().declines == 0
+            {
                 self.report.handbacks += 1;
             }
         }
-        let targeted = fbwag_dialect::mavframe::Encode::meta(msg)
-            .target_system_offset
-            .is_some();
-        let to = if targeted {
-            Links::only(net.main)
-        } else {
-            net.router.links()
-        };
-        net.router
-            .send_message(to, self.own.sysid, self.own.compid, msg);
     }
 
     /// Logs what the FC says that a person follows: notices, its mode,
@@ -411,7 +379,7 @@ impl Daemon {
     }
 
     fn summary(&mut self) {
-        let s = *self.engine.stats();
+        let s = *self.node.engine().stats();
         self.events.emit(
             "summary",
             json!({
@@ -422,7 +390,7 @@ impl Daemon {
                 "untrusted_notices": s.untrusted_notices,
                 "controls_forwarded": s.controls_forwarded,
                 "controls_dropped": s.controls_dropped,
-                "spoofed_frames": self.spoofed,
+                "dropped": net::drop_counts(self.node.drops()),
             }),
         );
     }

@@ -160,6 +160,8 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
             CcOptions {
                 outs: Vec::new(),
                 autonomy: None,
+                autonomy_peer: None,
+                autonomy_fallback: Default::default(),
                 link: LinkOptions {
                     endpoint: Endpoint::UdpIn(cc_addr.into()),
                     key: None,

@@ -1,5 +1,6 @@
 //! `fbwag fc-sim`: a flight-controller simulator speaking like ArduPlane.
-//! It runs the FC engine (receiver sampling, the FC state machine, its
+//! It runs the FC's node (`fbwag_delegation::node::FcNode`: the policy of
+//! its link around the FC engine: receiver sampling, the FC state machine, its
 //! heartbeats and notices, the control it applies) with a receiver that
 //! fails and returns on schedule, flies a kinematic fixed-wing model
 //! ([`super::plane`]) in the mode the engine chose (the applied control
@@ -8,9 +9,9 @@
 //! commands, parameters ([`super::params`]), telemetry rates, an empty
 //! mission.
 //!
-//! Ground-station services answer any sender, except that with
-//! `--require-signed` only frames whose signature verified are served (as
-//! ArduPilot serves only signed frames on a link that requires signing).
+//! Ground-station services answer any sender the node lets through (with
+//! `--require-signed` only frames whose signature verified, as ArduPilot
+//! serves only signed frames on a link that requires signing).
 //! They never decide who flies: commands that would (mode changes, arming,
 //! RTL, reboot) are denied, and parameters change only while the pilot
 //! flies.
@@ -21,8 +22,9 @@ use super::plane::{Guidance, Home, Plane, Sticks};
 use super::telemetry::{self, Status};
 use super::{mode_name, Clock, Events, Limiter, Log};
 use fbwag_delegation::control::Control;
-use fbwag_delegation::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
+use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
+use fbwag_delegation::node::{FcNode, LinkSpec, Output, Role};
 use fbwag_delegation::{mode, wire, Instant, Peer};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavState};
 use fbwag_dialect::mavframe::router::Inbound;
@@ -129,11 +131,9 @@ struct ParamCursor {
 }
 
 struct Daemon {
-    engine: FcEngine,
+    node: FcNode,
     /// The engine's configuration (parameters read and write it).
     cfg: FcConfig,
-    /// Counters of engines replaced by a parameter change.
-    stats_before: FcEngineStats,
     own: Peer,
     outages: Vec<(f64, Option<f64>)>,
     duration: f64,
@@ -171,10 +171,15 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         require_signed: o.require_signed,
         ..FcConfig::default()
     };
-    let engine = FcEngine::new(cfg, clock.now())
-        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+    let invalid = |e| io::Error::new(io::ErrorKind::InvalidInput, e);
+    let mut node = FcNode::new(cfg, clock.now()).map_err(invalid)?;
     let endpoint = o.link.endpoint.clone();
     let net = Net::open(&o.link, &mut log).await?;
+    let spec = LinkSpec {
+        role: Role::Peer,
+        answers: net::answers(&endpoint, o.link.peer),
+    };
+    node.add_link(net.main, spec).map_err(invalid)?;
     let events = Events::open(o.events.as_deref(), clock)?;
     log.line(&format!(
         "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}; home {},{},{}",
@@ -192,9 +197,8 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         o.home.alt_m,
     ));
     let mut daemon = Daemon {
-        engine,
+        node,
         cfg,
-        stats_before: FcEngineStats::default(),
         own: o.own,
         outages: o.outages,
         duration: o.duration,
@@ -225,7 +229,7 @@ impl Daemon {
     /// The exit summary: the engine's counters (over every engine a
     /// parameter change replaced) and what was left unanswered.
     fn finish(&mut self, log: &mut Log) {
-        let s = sum(self.stats_before, *self.engine.stats());
+        let s = self.node.stats();
         let unhandled = self.unhandled.summary();
         if !unhandled.is_empty() {
             let list: Vec<String> = unhandled.iter().map(|(k, n)| format!("{k} x{n}")).collect();
@@ -244,6 +248,7 @@ impl Daemon {
                 "controls_misaddressed": s.controls_misaddressed,
                 "controls_outside_companion": s.controls_outside_companion,
                 "gcs_unsigned_refused": self.refused_unsigned,
+                "dropped": net::drop_counts(self.node.drops()),
                 "not_served": unhandled,
             }),
         );
@@ -264,7 +269,7 @@ impl Daemon {
             return;
         }
         self.receiver_ok = ok;
-        self.engine.set_receiver_ok(ok);
+        self.node.set_receiver_ok(ok);
         if ok {
             log.line("receiver: signal back");
         } else {
@@ -289,19 +294,28 @@ impl Daemon {
     }
 
     fn drain(&mut self, net: &mut Net, log: &mut Log) {
-        while let Some(out) = self.engine.poll_output() {
+        while let Some(out) = self.node.poll_output() {
             match out {
-                FcOutput::Transmit(Message::Heartbeat(h)) => {
+                Output::Transmit {
+                    links,
+                    message: Message::Heartbeat(h),
+                } => {
                     let h = self.heartbeat(h);
-                    net.send(self.own.sysid, self.own.compid, &h);
+                    net.router
+                        .send_message(links, self.own.sysid, self.own.compid, &h);
                 }
-                FcOutput::Transmit(msg) => {
-                    log_sent(&msg, log);
-                    net.send(self.own.sysid, self.own.compid, &msg);
+                Output::Transmit { links, message } => {
+                    log_sent(&message, log);
+                    net.router
+                        .send_message(links, self.own.sysid, self.own.compid, &message);
                 }
-                FcOutput::SetMode(a) => self.mode_changed(a, log),
-                FcOutput::ApplyControl { from, control } => self.apply(from, &control),
-                FcOutput::ReleaseControl => self.applied = None,
+                Output::Peers { link, peers } => net.set_peers(link, peers, log),
+                Output::Event(FcOutput::SetMode(a)) => self.mode_changed(a, log),
+                Output::Event(FcOutput::ApplyControl { from, control }) => {
+                    self.apply(from, &control)
+                }
+                Output::Event(FcOutput::ReleaseControl) => self.applied = None,
+                Output::Event(FcOutput::Transmit(_)) => {}
             }
         }
     }
@@ -385,7 +399,7 @@ impl Daemon {
 
     /// What flies the model in the engine's current mode.
     fn guidance(&self) -> Guidance {
-        match self.engine.authority() {
+        match self.node.engine().authority() {
             Authority::Pilot | Authority::Companion => {
                 Guidance::Sticks(Sticks::from_channels(&self.channels()))
             }
@@ -444,23 +458,6 @@ fn log_sent(msg: &Message, log: &mut Log) {
     }
 }
 
-/// Engine counters added up (saturating, like the engine's).
-fn sum(a: FcEngineStats, b: FcEngineStats) -> FcEngineStats {
-    FcEngineStats {
-        trusted_frames: a.trusted_frames.saturating_add(b.trusted_frames),
-        untrusted_frames: a.untrusted_frames.saturating_add(b.untrusted_frames),
-        untrusted_notices: a.untrusted_notices.saturating_add(b.untrusted_notices),
-        controls_applied: a.controls_applied.saturating_add(b.controls_applied),
-        controls_untrusted: a.controls_untrusted.saturating_add(b.controls_untrusted),
-        controls_misaddressed: a
-            .controls_misaddressed
-            .saturating_add(b.controls_misaddressed),
-        controls_outside_companion: a
-            .controls_outside_companion
-            .saturating_add(b.controls_outside_companion),
-    }
-}
-
 /// Channels 1–8 a control message stands for: an RC override as it is;
 /// MANUAL_CONTROL's axes mapped to aileron, elevator, throttle, rudder;
 /// SET_ATTITUDE_TARGET's roll and thrust likewise.
@@ -500,7 +497,7 @@ fn channels_of(control: &Control) -> [u16; 8] {
 impl Node for Daemon {
     fn poll_timeout(&self) -> Option<Instant> {
         [
-            self.engine.poll_timeout(),
+            self.node.poll_timeout(),
             self.streams.poll_timeout().map(Instant),
             self.param_list.map(|c| c.due),
             self.next_receiver_change(),
@@ -513,7 +510,7 @@ impl Node for Daemon {
     fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
         self.fly_to(now);
         self.update_receiver(log);
-        self.engine.handle_timeout(now);
+        self.node.handle_timeout(now);
         self.drain(net, log);
         self.telemetry(now, net, log);
     }
@@ -526,10 +523,12 @@ impl Node for Daemon {
         log: &mut Log,
     ) {
         self.fly_to(now);
+        let fate = self.node.handle_frame(now, net::arrival(inbound));
+        if let Some(reason) = fate.dropped {
+            net.dropped(inbound, reason, log);
+        }
         let frame = &inbound.frame;
-        let f = frame.frame();
-        let verdict = self.engine.handle_frame(now, &f, frame.is_authenticated());
-        if verdict == Verdict::Trusted && f.msg_id() == fbwag_dialect::FbwagNotice::ID {
+        if fate.input && frame.frame().msg_id() == fbwag_dialect::FbwagNotice::ID {
             if let Some(Message::FbwagNotice(n)) = frame.message() {
                 self.heard.log(log, "notices", || {
                     format!(
@@ -540,8 +539,17 @@ impl Node for Daemon {
             }
         }
         self.drain(net, log);
-        self.serve_frame(now, frame, net, log);
-        net.judged(inbound, verdict, log);
+        if fate.dropped.is_none() {
+            self.serve_frame(now, frame, fate.serve, net, log);
+        }
+    }
+
+    fn link_reopened(&mut self, link: fbwag_dialect::mavframe::route::LinkId) {
+        self.node.link_reopened(link);
+    }
+
+    fn report(&mut self, net: &mut Net) {
+        net.report_drops(self.node.drops(), &mut self.events);
     }
 
     fn done(&self, clock: &Clock) -> bool {

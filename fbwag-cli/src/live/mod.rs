@@ -2,10 +2,11 @@
 //! cc`), a flight-controller simulator speaking like ArduPlane (`fbwag
 //! fc-sim`), and both over a lossy loopback relay (`fbwag demo`).
 //!
-//! Both daemons drive the protocol engines of `fbwag_delegation::engine`,
-//! the very code the simulator runs: which frames count, who is trusted and
-//! which control is applied is decided there. This module only moves bytes
-//! and time ([`net`]) and reports ([`Events`], [`Log`]).
+//! Each daemon drives a node of `fbwag_delegation::node` (around the
+//! protocol engines the simulator runs): which frames count, who is
+//! trusted, whom a link answers, where a frame may go and which control is
+//! applied is decided there. This module only moves bytes and time
+//! ([`net`]) and reports ([`Events`], [`Log`]).
 
 pub mod cc;
 pub mod demo;
@@ -349,45 +350,6 @@ impl Limiter {
         if show {
             log.line(&line());
         }
-    }
-}
-
-/// The peer rule of a `udpin` link without `--peer` (see
-/// docs/delegation.md, "Links, peers and restarts"): the first source of
-/// trusted frames becomes the peer; another source of trusted frames
-/// replaces it only with a verified signature, or after the current peer
-/// has been silent for [`net::PEER_SILENCE`].
-#[derive(Debug, Default)]
-pub struct PeerPin {
-    current: Option<(std::net::SocketAddr, std::time::Instant)>,
-}
-
-impl PeerPin {
-    /// A trusted frame from `source`: returns the new peer when it moves.
-    /// Port 0 is never a peer (nothing can be sent there).
-    pub fn trusted(
-        &mut self,
-        source: std::net::SocketAddr,
-        authenticated: bool,
-    ) -> Option<std::net::SocketAddr> {
-        if source.port() == 0 {
-            return None;
-        }
-        let now = std::time::Instant::now();
-        let moves = match self.current {
-            Some((addr, _)) if addr == source => false,
-            Some((_, heard)) => authenticated || now.duration_since(heard) > net::PEER_SILENCE,
-            None => true,
-        };
-        if moves || self.current.is_some_and(|(addr, _)| addr == source) {
-            self.current = Some((source, now));
-        }
-        moves.then_some(source)
-    }
-
-    /// Forgets the peer (a link opened again).
-    pub fn reset(&mut self) {
-        self.current = None;
     }
 }
 

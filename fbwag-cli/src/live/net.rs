@@ -8,19 +8,16 @@
 //! - receive work is bounded: link tasks parse at most 1 KB between yields,
 //!   and the loop services the protocol's timers before every frame, so a
 //!   flood delays the receiver sampling and the timers by one frame's work;
-//! - the peer rule of `udpin` and `tcpin` (docs/delegation.md, "Links,
-//!   peers and restarts"): with `--peer ADDR`, frames go to ADDR only (for
-//!   `tcpin`, the client connected from ADDR); without it,
-//!   nothing is sent until a frame the engine trusts arrives, then to that
-//!   frame's source; another source of trusted frames takes over only with
-//!   a verified signature, or after [`PEER_SILENCE`] of the current peer;
-//!   frames from anyone else never redirect anything;
-//! - untrusted frames and each link's parser refusals are logged
+//! - who is answered and where each frame goes is the node policy's
+//!   (`fbwag_delegation::node`): with `--peer ADDR` a listening link
+//!   answers ADDR only; otherwise it answers whom the node names
+//!   ([`Net::set_peers`]), never whoever spoke last;
+//! - frames the node drops and each link's parser refusals are logged
 //!   rate-limited, with counts.
 
-use super::{Clock, Limiter, Log, PeerPin};
+use super::{Clock, Events, Limiter, Log};
 use crate::args::RoutedRate;
-use fbwag_delegation::engine::Verdict;
+use fbwag_delegation::node::{Answers, Arrival, DropReason, Drops, Peers};
 use fbwag_delegation::Instant;
 use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::Unsigned;
@@ -29,15 +26,12 @@ use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, LinkCounters, Router,
 use fbwag_dialect::mavframe::signing::state::{Loaded, StateFile};
 use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{Dialect, Endpoint};
+use serde_json::json;
 use std::io;
 use std::net::SocketAddr;
 use std::num::NonZeroU32;
 use std::path::PathBuf;
 use std::time::Duration;
-
-/// An unsigned `udpin` peer silent this long may be replaced by another
-/// source of trusted frames.
-pub const PEER_SILENCE: Duration = Duration::from_secs(3);
 
 /// How often the links' parser refusals are summarised in the log.
 const REFUSED_INTERVAL: Duration = Duration::from_secs(5);
@@ -52,7 +46,7 @@ pub struct LinkOptions {
     pub endpoint: Endpoint,
     /// Sign what is sent and verify what comes with this key.
     pub key: Option<[u8; 32]>,
-    /// `udpin` only: answer this address and no other.
+    /// `udpin` and `tcpin`: answer this address and no other.
     pub peer: Option<SocketAddr>,
     /// Keep the signer's and verifier's timestamps across restarts in this
     /// file (with `key`).
@@ -90,11 +84,11 @@ pub struct Net {
     pub router: Router<Dialect>,
     /// The link to the protocol peer.
     pub main: LinkId,
-    /// The main link is a `udpin` whose peer this node pins.
-    pinned: bool,
-    pin: PeerPin,
-    untrusted: Limiter,
+    /// Frames the node dropped, logged at most 5 lines per 10 s.
+    dropped: Limiter,
     link_errors: Limiter,
+    /// The node's drop counts when last reported.
+    drops_seen: Drops,
     /// Each link's counters when last reported.
     refused_seen: Vec<LinkCounters>,
     refused_at: tokio::time::Instant,
@@ -119,7 +113,7 @@ impl Net {
                 endpoint: opts.endpoint.clone(),
                 key: opts.key,
                 unsigned: Unsigned::Accept,
-                reply_to: opts.peer.map_or(ReplyTo::Pinned, ReplyTo::Fixed),
+                reply_to: reply_to(opts.peer),
                 signing_state: opts.signing_state.clone(),
                 // The protocol's link: what is routed to it (a ground
                 // station's traffic) must not sit ahead of its frames.
@@ -131,20 +125,30 @@ impl Net {
         Ok(Net {
             router,
             main,
-            pinned: matches!(opts.endpoint, Endpoint::UdpIn(_) | Endpoint::TcpIn(_))
-                && opts.peer.is_none(),
-            pin: PeerPin::default(),
-            untrusted: Limiter::new(5, Duration::from_secs(10)),
+            dropped: Limiter::new(5, Duration::from_secs(10)),
             link_errors: Limiter::new(5, Duration::from_secs(10)),
+            drops_seen: Drops::default(),
             refused_seen: Vec::new(),
             refused_at: tokio::time::Instant::now(),
         })
     }
 
-    /// Opens another (unsigned) link.
-    pub async fn add(&mut self, endpoint: &Endpoint) -> io::Result<LinkId> {
+    /// Opens another link: `key` verifies its frames' signatures (and signs
+    /// what this node sends there); `peer`: a listening link answers this
+    /// address only, else whom the node names.
+    pub async fn add(
+        &mut self,
+        endpoint: &Endpoint,
+        key: Option<[u8; 32]>,
+        peer: Option<SocketAddr>,
+    ) -> io::Result<LinkId> {
+        let config = LinkConfig {
+            key,
+            reply_to: reply_to(peer),
+            ..LinkConfig::new(endpoint.clone())
+        };
         self.router
-            .add(LinkConfig::new(endpoint.clone()))
+            .add(config)
             .await
             .map_err(|e| opened(endpoint, e))
     }
@@ -157,58 +161,70 @@ impl Net {
             .send_message(Links::only(self.main), sysid, compid, msg);
     }
 
-    /// What the engine made of a frame of the main link: a trusted one may
-    /// pin the peer; untrusted ones are logged, rate-limited.
-    pub fn judged(&mut self, inbound: &Inbound<Dialect>, verdict: Verdict, log: &mut Log) {
-        let frame = &inbound.frame;
-        match verdict {
-            Verdict::Trusted => {
-                if let (true, Some(source)) = (self.pinned, inbound.source) {
-                    if let Some(peer) = self.pin.trusted(source, frame.is_authenticated()) {
-                        self.router.pin_peer(self.main, peer);
-                        log.line(&format!("answering {peer} (trusted peer)"));
-                    }
-                }
-            }
-            Verdict::Untrusted => self.untrusted.log(log, "untrusted frames", || {
-                let h = frame.header();
-                format!(
-                    "untrusted: {} from {}/{}{}{}",
-                    frame.meta().map_or("an unknown message", |m| m.name),
-                    h.sysid,
-                    h.compid,
-                    if frame.is_authenticated() {
-                        ", signed"
-                    } else {
-                        ", not authenticated"
-                    },
-                    inbound.source.map_or(String::new(), |s| format!(" ({s})")),
-                )
-            }),
-        }
+    /// A listening link answers `peers` from now on (the node's choice).
+    pub fn set_peers(&mut self, link: LinkId, peers: Peers, log: &mut Log) {
+        let list: Vec<SocketAddr> = peers.iter().collect();
+        self.router.set_peers(link, &list);
+        let name = self.name(link);
+        let list: Vec<String> = list.iter().map(ToString::to_string).collect();
+        log.line(&format!("{name}: answering {}", list.join(", ")));
     }
 
-    fn link_event(&mut self, event: RouterEvent<Dialect>, log: &mut Log) {
-        let name = |net: &Net, link| {
-            net.router
-                .endpoint(link)
-                .map(|e| e.to_string())
-                .unwrap_or_default()
-        };
+    /// A frame the node dropped: logged, rate-limited.
+    pub fn dropped(&mut self, inbound: &Inbound<Dialect>, reason: DropReason, log: &mut Log) {
+        let name = self.name(inbound.link);
+        let frame = &inbound.frame;
+        self.dropped.log(log, "dropped frames", || {
+            let h = frame.header();
+            format!(
+                "{name}: dropped {} from {}/{}{}{}: {}",
+                frame.meta().map_or("an unknown message", |m| m.name),
+                h.sysid,
+                h.compid,
+                if frame.is_authenticated() {
+                    ", signed"
+                } else {
+                    ", not authenticated"
+                },
+                inbound.source.map_or(String::new(), |s| format!(" ({s})")),
+                reason.name(),
+            )
+        });
+    }
+
+    /// With the links' reports (every [`REFUSED_INTERVAL`]): the node's
+    /// drops so far, by reason, when they changed.
+    pub fn report_drops(&mut self, drops: &Drops, events: &mut Events) {
+        if drops.total() == self.drops_seen.total() {
+            return;
+        }
+        self.drops_seen = *drops;
+        events.emit("drops", json!({ "dropped": drop_counts(drops) }));
+    }
+
+    fn name(&self, link: LinkId) -> String {
+        self.router
+            .endpoint(link)
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    }
+
+    /// A link's change: logged; returns the link opened again, whose peers
+    /// the node forgets.
+    fn link_event(&mut self, event: RouterEvent<Dialect>, log: &mut Log) -> Option<LinkId> {
         match event {
             RouterEvent::LinkDown { link, error } => {
-                if link == self.main {
-                    self.pin.reset();
-                }
-                let name = name(self, link);
+                let name = self.name(link);
                 self.link_errors.log(log, "link errors", || {
                     format!("link {name} failed ({error}); opening it again every second")
                 });
+                None
             }
             RouterEvent::LinkUp { link } => {
-                log.line(&format!("link {} open again", name(self, link)))
+                log.line(&format!("link {} open again", self.name(link)));
+                Some(link)
             }
-            RouterEvent::Frame(_) => {}
+            RouterEvent::Frame(_) => None,
         }
     }
 
@@ -217,9 +233,9 @@ impl Net {
     /// it refused anything, and what the link lost (frames dropped for a
     /// full queue, send errors, signing state saves that failed): a line or
     /// two per link, whatever the flood.
-    fn report_refused(&mut self, log: &mut Log) {
+    fn report_refused(&mut self, log: &mut Log) -> bool {
         if self.refused_at.elapsed() < REFUSED_INTERVAL {
-            return;
+            return false;
         }
         self.refused_at = tokio::time::Instant::now();
         for link in self.router.links().iter() {
@@ -242,6 +258,10 @@ impl Net {
                     now.bad_signature.saturating_sub(was.bad_signature),
                 ),
                 (
+                    "stale signing timestamps",
+                    now.stale_timestamp.saturating_sub(was.stale_timestamp),
+                ),
+                (
                     "unsigned refused",
                     now.unsigned_rejected.saturating_sub(was.unsigned_rejected),
                 ),
@@ -262,6 +282,7 @@ impl Net {
                 ));
             }
         }
+        true
     }
 }
 
@@ -296,6 +317,39 @@ fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log
             parts.join(", ")
         ));
     }
+}
+
+/// The `ReplyTo` rule of a link: `--peer`, or whom the node names.
+fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
+    peer.map_or(ReplyTo::Owner, ReplyTo::Fixed)
+}
+
+/// Whom a link opened to `endpoint` answers, for the node policy.
+pub fn answers(endpoint: &Endpoint, peer: Option<SocketAddr>) -> Answers {
+    match (endpoint, peer) {
+        (Endpoint::UdpIn(_) | Endpoint::TcpIn(_), Some(peer)) => Answers::Fixed(peer),
+        (Endpoint::UdpIn(_) | Endpoint::TcpIn(_), None) => Answers::Chosen,
+        _ => Answers::Target,
+    }
+}
+
+/// A frame a link delivered, as the node policy takes it.
+pub fn arrival(inbound: &Inbound<Dialect>) -> Arrival<'_> {
+    Arrival {
+        link: inbound.link,
+        source: inbound.source,
+        frame: inbound.frame.frame(),
+        authenticated: inbound.frame.is_authenticated(),
+    }
+}
+
+/// The node's drops as a JSON object: reason -> count.
+pub fn drop_counts(drops: &Drops) -> serde_json::Value {
+    drops
+        .counts()
+        .map(|(reason, n)| (reason.name().to_string(), n.into()))
+        .collect::<serde_json::Map<_, _>>()
+        .into()
 }
 
 fn opened(endpoint: &Endpoint, e: io::Error) -> io::Error {
@@ -340,8 +394,8 @@ pub trait Node {
     fn poll_timeout(&self) -> Option<Instant>;
     /// Timers due at `now`.
     fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log);
-    /// A frame from any link (see `inbound.link`). A frame of the main link
-    /// goes through the engine, then to [`Net::judged`].
+    /// A frame from any link (see `inbound.link`): the node policy decides
+    /// its fate; the daemon carries it out.
     fn handle_frame(
         &mut self,
         now: Instant,
@@ -349,6 +403,10 @@ pub trait Node {
         net: &mut Net,
         log: &mut Log,
     );
+    /// Link `link` was opened again.
+    fn link_reopened(&mut self, link: LinkId);
+    /// With the links' periodic report: the node's own (drops by reason).
+    fn report(&mut self, net: &mut Net);
     /// True when the daemon should stop.
     fn done(&self, clock: &Clock) -> bool;
 }
@@ -365,7 +423,9 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
         if node.poll_timeout().is_some_and(|t| t <= now) {
             node.handle_timeout(now, &mut net, log);
         }
-        net.report_refused(log);
+        if net.report_refused(log) {
+            node.report(&mut net);
+        }
         let wait = node
             .poll_timeout()
             .map_or(MAX_WAIT, |t| clock.until(t).min(MAX_WAIT));
@@ -374,7 +434,11 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                 Some(RouterEvent::Frame(inbound)) => {
                     node.handle_frame(clock.now(), &inbound, &mut net, log)
                 }
-                Some(event) => net.link_event(event, log),
+                Some(event) => {
+                    if let Some(link) = net.link_event(event, log) {
+                        node.link_reopened(link);
+                    }
+                }
                 None => break,
             },
             _ = tokio::time::sleep(wait) => {}

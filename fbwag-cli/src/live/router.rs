@@ -3,70 +3,183 @@
 //! (see `mavframe::route`): addressed frames go where their addressee was
 //! seen, broadcasts and unknown ids everywhere but back; frames are
 //! forwarded untouched, so signed frames stay verifiable end to end.
+//!
+//! Where each frame goes, whom each listening link answers and what is
+//! dropped is the router node's (`fbwag_delegation::node::RouterNode`);
+//! this module moves bytes and reports.
 
-use super::{Clock, Limiter, Log};
-use fbwag_dialect::mavframe::router::{LinkConfig, Router, RouterEvent};
+use super::net::{self, drop_counts};
+use super::{Clock, Events, Limiter, Log};
+use fbwag_delegation::node::{DropReason, Output, RouterNode};
+use fbwag_dialect::mavframe::conn::ReplyTo;
+use fbwag_dialect::mavframe::parser::Unsigned;
+use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
 use fbwag_dialect::{Dialect, Endpoint};
+use serde_json::json;
 use std::io;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// Runs the router for `duration` (or until killed), printing a line per
-/// link change and a summary every `report` seconds.
-pub fn run_router(
-    endpoints: Vec<Endpoint>,
-    duration: Option<Duration>,
-    report: Duration,
-    out: Box<dyn io::Write + Send>,
-) -> io::Result<()> {
-    tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()?
-        .block_on(async move {
-            let clock = Clock::start();
-            let mut log = Log::new(out, clock, "router");
-            let mut router = Router::<Dialect>::new();
-            for e in &endpoints {
-                router
-                    .add(LinkConfig::new(e.clone()))
-                    .await
-                    .map_err(|err| io::Error::new(err.kind(), format!("cannot open {e}: {err}")))?;
-                log.line(&format!("link {e}"));
-            }
-            let end = duration.map(|d| tokio::time::Instant::now() + d);
-            let mut next_report = tokio::time::Instant::now() + report;
-            let mut errors = Limiter::new(5, Duration::from_secs(10));
-            let (mut frames, mut forwarded) = (0u64, 0u64);
-            loop {
-                let wake = end.map_or(next_report, |e| e.min(next_report));
-                tokio::select! {
-                    event = router.recv() => match event {
-                        Some(RouterEvent::Frame(f)) => {
-                            frames += 1;
-                            forwarded += router.forward(&f).iter().count() as u64;
+/// Settings of the router.
+#[derive(Debug, Clone)]
+pub struct RouterOptions {
+    /// The links, in order.
+    pub endpoints: Vec<Endpoint>,
+    /// Verify every link's signatures with this key.
+    pub key: Option<[u8; 32]>,
+    /// Route only frames whose signature verified.
+    pub require_signed: bool,
+    /// Keep each link's signing state: the first link's in this file, link
+    /// N's (from 1) in this path with `.N` added.
+    pub signing_state: Option<PathBuf>,
+    /// Listening links answer this address only.
+    pub peer: Option<SocketAddr>,
+    /// Stop after this long.
+    pub duration: Option<Duration>,
+    /// A traffic line this often.
+    pub report: Duration,
+    /// Machine-readable events.
+    pub events: Option<PathBuf>,
+}
+
+/// The signing state file of link `index`.
+fn state_file(path: &Path, index: usize) -> PathBuf {
+    if index == 0 {
+        return path.to_owned();
+    }
+    let mut name = path.as_os_str().to_owned();
+    name.push(format!(".{index}"));
+    PathBuf::from(name)
+}
+
+/// Counts of what the router did.
+#[derive(Debug, Default)]
+struct Traffic {
+    frames: u64,
+    forwarded: u64,
+}
+
+/// Runs the router for its duration (or until killed), printing a line
+/// per link change and a summary every `report`.
+pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Result<()> {
+    net::block_on(async move {
+        let clock = Clock::start();
+        let mut log = Log::new(out, clock, "router");
+        let mut events = Events::open(o.events.as_deref(), clock)?;
+        let mut router = Router::<Dialect>::new();
+        let mut node = RouterNode::new(o.require_signed);
+        for (i, e) in o.endpoints.iter().enumerate() {
+            let config = LinkConfig {
+                key: o.key,
+                // The node drops what signing requires it to, counted.
+                unsigned: Unsigned::Accept,
+                reply_to: o.peer.map_or(ReplyTo::Owner, ReplyTo::Fixed),
+                signing_state: o.signing_state.as_deref().map(|p| state_file(p, i)),
+                ..LinkConfig::new(e.clone())
+            };
+            let link = router
+                .add(config)
+                .await
+                .map_err(|err| io::Error::new(err.kind(), format!("cannot open {e}: {err}")))?;
+            node.add_link(link, net::answers(e, o.peer), o.key.is_some())
+                .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
+            log.line(&format!("link {e}"));
+        }
+        let traffic = serve(&o, &mut router, &mut node, &mut log, &mut events).await;
+        log.line(&format!(
+            "done: {} frames in, {} sent on, {} dropped",
+            traffic.frames,
+            traffic.forwarded,
+            node.drops().total()
+        ));
+        events.emit(
+            "summary",
+            json!({
+                "frames": traffic.frames,
+                "forwarded": traffic.forwarded,
+                "dropped": drop_counts(node.drops()),
+            }),
+        );
+        router.shutdown(Duration::from_secs(1)).await;
+        Ok(())
+    })
+}
+
+/// The router's loop: each frame to the node and on where it says; link
+/// changes and a traffic line every `o.report` logged.
+async fn serve(
+    o: &RouterOptions,
+    router: &mut Router<Dialect>,
+    node: &mut RouterNode,
+    log: &mut Log,
+    events: &mut Events,
+) -> Traffic {
+    let end = o.duration.map(|d| tokio::time::Instant::now() + d);
+    let mut next_report = tokio::time::Instant::now() + o.report;
+    let mut errors = Limiter::new(5, Duration::from_secs(10));
+    let mut drops = Limiter::new(5, Duration::from_secs(10));
+    let mut traffic = Traffic::default();
+    let start = std::time::Instant::now();
+    loop {
+        let wake = end.map_or(next_report, |e| e.min(next_report));
+        tokio::select! {
+            event = router.recv() => match event {
+                Some(RouterEvent::Frame(f)) => {
+                    traffic.frames += 1;
+                    let now = fbwag_delegation::Instant(start.elapsed().as_micros() as u64);
+                    let fate = node.handle_frame(now, net::arrival(&f));
+                    match fate.dropped {
+                        Some(reason) => log_drop(&f, reason, &mut drops, log),
+                        None => {
+                            router.route(&f, fate.route);
+                            traffic.forwarded += fate.route.iter().count() as u64;
                         }
-                        Some(RouterEvent::LinkDown { link, error }) => {
-                            let name = router.endpoint(link).map(|e| e.to_string()).unwrap_or_default();
-                            errors.log(&mut log, "link errors", || {
-                                format!("link {name} failed ({error}); opening it again every second")
-                            });
-                        }
-                        Some(RouterEvent::LinkUp { link }) => {
-                            let name = router.endpoint(link).map(|e| e.to_string()).unwrap_or_default();
-                            log.line(&format!("link {name} open again"));
-                        }
-                        None => break,
-                    },
-                    _ = tokio::time::sleep_until(wake) => {
-                        if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
-                            break;
-                        }
-                        next_report += report;
-                        log.line(&format!("{frames} frames in, {forwarded} sent on"));
+                    }
+                    while let Some(Output::Peers { link, peers }) = node.poll_output() {
+                        let list: Vec<SocketAddr> = peers.iter().collect();
+                        router.set_peers(link, &list);
                     }
                 }
+                Some(RouterEvent::LinkDown { link, error }) => {
+                    let name = router.endpoint(link).map(|e| e.to_string()).unwrap_or_default();
+                    errors.log(log, "link errors", || {
+                        format!("link {name} failed ({error}); opening it again every second")
+                    });
+                }
+                Some(RouterEvent::LinkUp { link }) => {
+                    node.link_reopened(link);
+                    let name = router.endpoint(link).map(|e| e.to_string()).unwrap_or_default();
+                    log.line(&format!("link {name} open again"));
+                }
+                None => break,
+            },
+            _ = tokio::time::sleep_until(wake) => {
+                if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
+                    break;
+                }
+                next_report += o.report;
+                log.line(&format!(
+                    "{} frames in, {} sent on, {} dropped",
+                    traffic.frames, traffic.forwarded, node.drops().total()
+                ));
+                events.emit("drops", json!({ "dropped": drop_counts(node.drops()) }));
             }
-            log.line(&format!("done: {frames} frames in, {forwarded} sent on"));
-            router.shutdown(Duration::from_secs(1)).await;
-            Ok(())
-        })
+        }
+    }
+    traffic
+}
+
+/// A frame the node dropped: logged, rate-limited.
+fn log_drop(f: &Inbound<Dialect>, reason: DropReason, limiter: &mut Limiter, log: &mut Log) {
+    limiter.log(log, "dropped frames", || {
+        let h = f.frame.header();
+        format!(
+            "dropped a frame from {}/{}{}: {}",
+            h.sysid,
+            h.compid,
+            f.source.map_or(String::new(), |s| format!(" ({s})")),
+            reason.name()
+        )
+    });
 }

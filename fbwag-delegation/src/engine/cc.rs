@@ -60,6 +60,13 @@ pub enum CcOutput {
     /// # Ok::<(), fbwag_delegation::ConfigError>(())
     /// ```
     FcLost,
+    /// The companion declined the takeover of this FC event, or gave it
+    /// back, because its control source is silent (see
+    /// [`CcEngine::set_control_ready`]): the FC falls back at once.
+    Declined {
+        /// The FC's event.
+        event: u32,
+    },
     /// The FC rebooted (its event ids restarted); its old events are
     /// forgotten, and the companion answers the new boot's notices.
     FcRebooted,
@@ -220,6 +227,15 @@ impl CcEngine {
         Verdict::Trusted
     }
 
+    /// Whether the control source can fly now: a built-in controller always
+    /// can; an external autonomy only while it speaks. While it cannot, the
+    /// companion declines takeovers, and gives back an episode it holds
+    /// ([`CcOutput::Declined`]), so the FC never sits in companion control
+    /// without control.
+    pub fn set_control_ready(&mut self, ready: bool) {
+        self.with_machine(|m| m.set_control_ready(ready));
+    }
+
     /// Control from the companion's controller or autonomy: forwarded to the
     /// FC (re-addressed to it) only while the companion holds control
     /// (from its acknowledgement until the FC ends the episode); dropped and
@@ -256,6 +272,7 @@ impl CcEngine {
                 },
                 CcAction::StopControl => CcOutput::ControlStopped,
                 CcAction::FcRebooted => CcOutput::FcRebooted,
+                CcAction::Declined { event } => CcOutput::Declined { event },
             };
             self.out.push(output);
         }

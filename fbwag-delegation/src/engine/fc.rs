@@ -50,6 +50,25 @@ pub struct FcEngineStats {
     pub controls_outside_companion: u64,
 }
 
+impl FcEngineStats {
+    /// These counters and `other`'s added up (saturating).
+    pub fn plus(&self, other: &FcEngineStats) -> FcEngineStats {
+        let add = |a: u64, b: u64| a.saturating_add(b);
+        FcEngineStats {
+            trusted_frames: add(self.trusted_frames, other.trusted_frames),
+            untrusted_frames: add(self.untrusted_frames, other.untrusted_frames),
+            untrusted_notices: add(self.untrusted_notices, other.untrusted_notices),
+            controls_applied: add(self.controls_applied, other.controls_applied),
+            controls_untrusted: add(self.controls_untrusted, other.controls_untrusted),
+            controls_misaddressed: add(self.controls_misaddressed, other.controls_misaddressed),
+            controls_outside_companion: add(
+                self.controls_outside_companion,
+                other.controls_outside_companion,
+            ),
+        }
+    }
+}
+
 /// The flight controller's side of the protocol on the wire: receiver
 /// sampling, the FC state machine, its heartbeats and notices, and the
 /// control it applies. See the [module docs](super) for what it decides.

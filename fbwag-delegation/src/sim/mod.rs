@@ -1,10 +1,18 @@
-//! A deterministic simulator: the two protocol engines of
-//! [`crate::engine`] (the very code `fbwag fc-sim` and `fbwag cc` run), and
-//! modelled links carrying real MAVLink frames (encoded, signed, parsed by
-//! the runtime), on a virtual clock. The simulator only moves bytes and
-//! time: which frames count, who is trusted and which control is applied
-//! is decided by the engines. A trial is identified by its scenario, link
-//! and seed.
+//! A deterministic simulator: the two protocol nodes of [`crate::node`]
+//! ([`FcNode`] and [`CompanionNode`]: the engines with the policy of their
+//! links, the very code `fbwag fc-sim` and `fbwag cc` run), and modelled
+//! links carrying real MAVLink frames (encoded, signed, parsed by the
+//! runtime), on a virtual clock. The simulator only moves bytes and time:
+//! which frames count, where they are routed, who is trusted and which
+//! control is applied is decided by the nodes. A trial is identified by its
+//! scenario, link and seed.
+//!
+//! The FC node has one link, 0: the modelled radio or serial line to the
+//! companion. The companion node has link 0 (that line), link 1 (a
+//! ground-station port) and, where an autonomy flies, link 2 (the
+//! autonomy's port). What the companion sends or routes to link 0 crosses
+//! the uplink model, byte for byte; what it puts on links 1 and 2 is
+//! checked and counted.
 //!
 //! Invariants are checked on every event of every trial (see
 //! [`Violation`]); [`report`] aggregates trials into Table I and sweeps.
@@ -14,11 +22,19 @@ pub mod report;
 
 use crate::cc::CcConfig;
 use crate::control::{Control, Controller, WingsLevel};
-use crate::engine::{CcEngine, CcOutput, FcEngine, FcOutput};
+use crate::engine::{CcOutput, FcOutput};
 use crate::fc::{Authority, FcConfig};
-use crate::{Instant, Peer, Status};
+use crate::node::{
+    Answers, Arrival, AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, Drops, Fate,
+    FcNode, LinkId, LinkSpec, Output, Peers, Role, AUTONOMY_SILENCE,
+};
+use crate::{Instant, Origin, Peer, Status};
+use core::net::SocketAddr;
+use fbwag_dialect::dialects::common::{CommandLong, ManualControl, MavCmd};
+use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavType};
+use fbwag_dialect::dialects::standard::GlobalPositionInt;
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Message, Parser, Signer, Unsigned, Verifier, Version};
+use fbwag_dialect::{encode, Frame, Header, Message, Parser, Signer, Unsigned, Verifier, Version};
 use link::{GilbertElliott, Link, LinkModel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -60,11 +76,31 @@ pub enum Scenario {
     /// the companion controls, and not one of the attacker's messages is
     /// applied.
     SpoofedControl,
+    /// Signed links; the companion's control comes from an autonomy (link
+    /// 2) streaming RC overrides (channel 1 = 1234) at 20 Hz from 100 ms on.
+    /// Strangers throughout: unsigned frames with the FC's ids on the FC
+    /// line and on the ground port, a bystander's unsigned frames on the FC
+    /// line, a second autonomy at another address streaming overrides
+    /// (channel 1 = 1999), a hijacker on the ground port speaking from
+    /// hundreds of addresses, and one signed ground station speaking from
+    /// the start. Success: companion control within the handshake timeout,
+    /// the autonomy's control applied, the FC's frames reaching the
+    /// autonomy, and the station answered.
+    Strangers,
+    /// The companion's control comes from an autonomy that never speaks:
+    /// it declines the takeover. Success: never a takeover, and the FC in
+    /// RTL one round trip (plus 5 ms) after its first RC-loss notice.
+    SilentAutonomy,
+    /// As [`Scenario::SilentAutonomy`], but the companion flies wings level
+    /// while its autonomy is silent. Success: companion control within the
+    /// handshake timeout, and the wings-level control (throttle 1500)
+    /// applied.
+    SilentAutonomyFallback,
 }
 
 impl Scenario {
     /// Every scenario.
-    pub const ALL: [Scenario; 10] = [
+    pub const ALL: [Scenario; 13] = [
         Scenario::NormalRc,
         Scenario::RcLoss,
         Scenario::MessageLoss,
@@ -75,6 +111,9 @@ impl Scenario {
         Scenario::SpoofedTakeover,
         Scenario::WrongKey,
         Scenario::SpoofedControl,
+        Scenario::Strangers,
+        Scenario::SilentAutonomy,
+        Scenario::SilentAutonomyFallback,
     ];
 
     /// Its command-line name.
@@ -90,6 +129,9 @@ impl Scenario {
             Scenario::SpoofedTakeover => "spoofed-takeover",
             Scenario::WrongKey => "wrong-key",
             Scenario::SpoofedControl => "spoofed-control",
+            Scenario::Strangers => "strangers",
+            Scenario::SilentAutonomy => "silent-autonomy",
+            Scenario::SilentAutonomyFallback => "silent-autonomy-fallback",
         }
     }
 
@@ -107,7 +149,23 @@ impl Scenario {
                 | Scenario::RcFlapping
                 | Scenario::CcReboot
                 | Scenario::SpoofedControl
+                | Scenario::Strangers
+                | Scenario::SilentAutonomyFallback
         )
+    }
+
+    /// Where the companion's control comes from.
+    fn source(self) -> ControlSource {
+        let autonomy = |fallback| ControlSource::Autonomy {
+            link: AUTONOMY_LINK,
+            fallback,
+            silence: AUTONOMY_SILENCE,
+        };
+        match self {
+            Scenario::Strangers | Scenario::SilentAutonomy => autonomy(AutonomyFallback::Decline),
+            Scenario::SilentAutonomyFallback => autonomy(AutonomyFallback::WingsLevel),
+            _ => ControlSource::Builtin,
+        }
     }
 }
 
@@ -180,16 +238,20 @@ pub struct Outcome {
     /// The FC fell back to RTL at least once.
     pub fallback: bool,
     /// Companion control began where it must not (normal RC, companion
-    /// off, spoofed, wrong key).
+    /// off, spoofed, wrong key, silent autonomy).
     pub false_takeover: bool,
     /// Broken invariants (must be empty).
     pub violations: Vec<Violation>,
     /// Who flies at the end.
     pub final_authority: Authority,
-    /// Frames sent, both directions.
+    /// Frames sent across the modelled link, both directions.
     pub frames: u64,
     /// Control messages the FC applied (from whomever: see `violations`).
     pub controls_applied: u64,
+    /// Frames the FC's node dropped, by reason.
+    pub fc_drops: Drops,
+    /// Frames the companion's node dropped, by reason (its last boot).
+    pub cc_drops: Drops,
     /// The timeline, when [`Trial::trace`] is set.
     pub trace: Vec<String>,
 }
@@ -207,21 +269,82 @@ const SPOOF_CONTROL: Duration = Duration::from_millis(20);
 /// How often invariants are checked between other events.
 const PROBE: Duration = Duration::from_millis(50);
 
+/// The companion's links; the FC's only link is 0 as well.
+const FC_LINK: LinkId = 0;
+const GROUND_LINK: LinkId = 1;
+const AUTONOMY_LINK: LinkId = 2;
+
+/// The autonomy's ids (the companion re-addresses its control to the FC).
+const AUTONOMY: Peer = Peer::new(1, 192);
+/// A ground station's ids.
+const STATION: Peer = Peer::new(255, 190);
+/// A device on the FC line that is neither the FC nor the companion.
+const BYSTANDER: Peer = Peer::new(42, 1);
+/// Channel 1 of the autonomy's control, and of every stranger's.
+const AUTONOMY_CH1: u16 = 1234;
+const STRANGER_CH1: u16 = 1999;
+/// Throttle (channel 3) of the companion's wings-level fallback.
+const FALLBACK_THROTTLE: u16 = 1500;
+/// The autonomy speaks from then on, at 20 Hz.
+const AUTONOMY_START: Duration = Duration::from_millis(100);
+const AUTONOMY_PERIOD: Duration = Duration::from_millis(50);
+/// The forger's round of frames with the FC's ids, and the hijacker's pace.
+const FORGER_PERIOD: Duration = Duration::from_millis(100);
+const HIJACKER_PERIOD: Duration = Duration::from_millis(20);
+/// The ground station's heartbeat.
+const STATION_PERIOD: Duration = Duration::from_secs(1);
+
+/// Where the programs around the companion speak from.
+fn addr(ip: [u8; 4], port: u16) -> SocketAddr {
+    SocketAddr::from((ip, port))
+}
+const LOCALHOST: [u8; 4] = [127, 0, 0, 1];
+const AUTONOMY_PORT: u16 = 14600;
+const IMPOSTOR_PORT: u16 = 14601;
+/// The ground station's address.
+fn station_addr() -> SocketAddr {
+    addr([192, 0, 2, 10], 14550)
+}
+const FORGER_ADDR: ([u8; 4], u16) = ([198, 51, 100, 7], 14550);
+
+/// The two ends of the modelled link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-enum Node {
+enum Side {
     Fc,
     Cc,
 }
 
+/// Who put a datagram on the modelled link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sender {
+    /// The node at that end, its own frames.
+    Own,
+    /// The companion, routing another link's frame byte for byte.
+    Routed,
+    /// Someone else on the line.
+    Stranger,
+}
+
+/// The programs of [`Scenario::Strangers`], each a periodic event.
+#[derive(Debug, Clone, Copy)]
+enum Stranger {
+    Autonomy,
+    Impostor,
+    Forger,
+    Hijacker,
+    Station,
+}
+
 #[derive(Debug)]
 enum Event {
-    Deliver(Node, Vec<u8>),
+    Deliver(Side, Sender, Vec<u8>),
     Rc(bool),
     FcTimer,
     CcTimer,
     CcPower(bool),
     Spoof,
     SpoofControl,
+    Stranger(Stranger),
     Probe,
 }
 
@@ -239,12 +362,7 @@ impl Endpoint {
             id,
             seq: 0,
             signer: sign_key.map(|k| Signer::new(k, 0, 1)),
-            parser: match verify_key {
-                // Unsigned frames reach the machine, marked unauthenticated:
-                // whether they count is the machine's policy.
-                Some(k) => Parser::with_signing(Verifier::new(k), Unsigned::Accept),
-                None => Parser::new(),
-            },
+            parser: parser(verify_key),
         }
     }
 
@@ -260,6 +378,159 @@ impl Endpoint {
             .expect("280 bytes fit any frame");
         buf[..n].to_vec()
     }
+
+    /// The same frame as `id` would send it.
+    fn frame_as<M: Encode + ?Sized>(&mut self, id: Peer, msg: &M) -> Vec<u8> {
+        self.id = id;
+        self.frame(msg)
+    }
+}
+
+/// A link's parser: with a key, unsigned frames reach the node marked
+/// unauthenticated (whether they count is the node's policy).
+fn parser(verify_key: Option<[u8; 32]>) -> Parser {
+    match verify_key {
+        Some(k) => Parser::with_signing(Verifier::new(k), Unsigned::Accept),
+        None => Parser::new(),
+    }
+}
+
+/// The frames of one datagram, copied out of the parser, each with whether
+/// its signature verified. A delivery is one packet, as on UDP or a
+/// packetising radio: nothing after it completes a frame started in it, so
+/// the parser is told the packet ended (`flush`). Otherwise a false start
+/// byte (say, in the signature block of a frame refused as a replay) would
+/// hold the next packet's frames until enough bytes arrived to refute it:
+/// seconds, at the protocol's rates.
+fn parse(parser: &mut Parser, bytes: &[u8]) -> Vec<(Vec<u8>, bool)> {
+    let mut frames = Vec::new();
+    let mut input = bytes;
+    while let Some(r) = parser.next(&mut input) {
+        frames.push((r.frame.as_bytes().to_vec(), r.authenticated));
+    }
+    while let Some(r) = parser.flush() {
+        frames.push((r.frame.as_bytes().to_vec(), r.authenticated));
+    }
+    frames
+}
+
+/// The sender's ids of a frame.
+fn ids(frame: &Frame<&[u8]>) -> Peer {
+    let h = frame.header();
+    Peer::new(h.sysid, h.compid)
+}
+
+/// Each side's settings and keys for a trial.
+struct Setup {
+    fc: FcConfig,
+    cc: CcConfig,
+    fc_key: Option<[u8; 32]>,
+    cc_sign: Option<[u8; 32]>,
+    cc_verify: Option<[u8; 32]>,
+}
+
+impl Setup {
+    fn of(trial: &Trial) -> Setup {
+        let signed_fc = FcConfig {
+            require_signed: true,
+            ..trial.fc
+        };
+        let signed_cc = CcConfig {
+            require_signed: true,
+            ..trial.cc
+        };
+        let (key, cc_key, fc, cc) = match trial.scenario {
+            Scenario::SpoofedTakeover => (KEY, KEY, signed_fc, trial.cc),
+            Scenario::WrongKey => (KEY, WRONG_KEY, signed_fc, signed_cc),
+            Scenario::SpoofedControl | Scenario::Strangers => (KEY, KEY, signed_fc, signed_cc),
+            _ => {
+                return Setup {
+                    fc: trial.fc,
+                    cc: trial.cc,
+                    fc_key: None,
+                    cc_sign: None,
+                    cc_verify: None,
+                }
+            }
+        };
+        Setup {
+            fc,
+            cc,
+            fc_key: Some(key),
+            cc_sign: Some(cc_key),
+            cc_verify: Some(cc_key),
+        }
+    }
+}
+
+/// The companion's node as the daemon sets it up: the FC line, a ground
+/// port and, with an autonomy, the autonomy's port.
+fn companion(cfg: CcConfig, source: ControlSource, now: Instant) -> CompanionNode {
+    let mut node =
+        CompanionNode::new(cfg, source, now).expect("the trial's companion settings are valid");
+    let mut links = vec![
+        (FC_LINK, Role::Peer, Answers::Target),
+        (GROUND_LINK, Role::Ground, Answers::Chosen),
+    ];
+    if matches!(source, ControlSource::Autonomy { .. }) {
+        links.push((AUTONOMY_LINK, Role::Autonomy, Answers::Chosen));
+    }
+    for (link, role, answers) in links {
+        node.add_link(link, LinkSpec { role, answers })
+            .expect("distinct links");
+    }
+    node
+}
+
+/// The FC's node: its one link, the line to the companion.
+fn flight_controller(cfg: FcConfig, now: Instant) -> FcNode {
+    let mut node = FcNode::new(cfg, now).expect("the trial's FC settings are valid");
+    let spec = LinkSpec {
+        role: Role::Peer,
+        answers: Answers::Target,
+    };
+    node.add_link(FC_LINK, spec).expect("one link");
+    node
+}
+
+/// The programs around the companion: the autonomy and the strangers of
+/// [`Scenario::Strangers`].
+struct Around {
+    autonomy: Endpoint,
+    impostor: Endpoint,
+    /// Unsigned frames with the FC's ids, and a bystander's.
+    forger: Endpoint,
+    /// Unsigned frames from ever new addresses, with many ids.
+    hijacker: Endpoint,
+    hijacks: u32,
+    /// A ground station that signs.
+    station: Endpoint,
+    /// The ground port answers it: from then on it must keep answering it.
+    station_answered: bool,
+    /// The companion's parsers of its ground and autonomy ports.
+    ground_parser: Parser,
+    autonomy_parser: Parser,
+}
+
+impl Around {
+    fn new(key: Option<[u8; 32]>) -> Self {
+        let station_key = key.map(|k| Signer::new(k, 1, 1));
+        Around {
+            autonomy: Endpoint::new(AUTONOMY, None, None),
+            impostor: Endpoint::new(AUTONOMY, None, None),
+            forger: Endpoint::new(FC, None, None),
+            hijacker: Endpoint::new(STATION, None, None),
+            hijacks: 0,
+            station: Endpoint {
+                signer: station_key,
+                ..Endpoint::new(STATION, None, None)
+            },
+            station_answered: false,
+            // Ground ports verify with the FC line's key, as in the daemon.
+            ground_parser: parser(key),
+            autonomy_parser: parser(None),
+        }
+    }
 }
 
 struct World {
@@ -269,13 +540,15 @@ struct World {
     queue: BinaryHeap<Reverse<(Instant, u64, usize)>>,
     events: HashMap<usize, Event>,
     next_id: usize,
-    fc: FcEngine,
-    cc: CcEngine,
+    fc: FcNode,
+    cc: CompanionNode,
     cc_cfg: CcConfig,
+    source: ControlSource,
     controller: WingsLevel,
     fc_end: Endpoint,
     cc_end: Endpoint,
     spoof_end: [Endpoint; 2],
+    around: Around,
     down: Link,
     up: Link,
     receiver_ok: bool,
@@ -287,13 +560,19 @@ struct World {
     rc_lost_at: Option<Instant>,
     last_event: Option<u32>,
     // Observations.
-    authority_since: Instant,
     left_companion_at: Option<Instant>,
     first_companion: Option<Instant>,
     first_rtl: Option<Instant>,
+    first_notice: Option<Instant>,
     fallback: bool,
     takeovers: u32,
     controls_applied: u64,
+    /// Controls applied carrying the autonomy's mark, and the wings-level
+    /// fallback's.
+    autonomy_applied: u64,
+    fallback_applied: u64,
+    /// The FC's frames the companion routed to the autonomy.
+    fc_to_autonomy: u64,
     notices: HashMap<(u8, u32), u8>,
     acks: HashMap<(u8, u32), u8>,
     violations: Vec<Violation>,
@@ -303,45 +582,8 @@ struct World {
 
 impl World {
     fn new(trial: Trial) -> Self {
-        let (fc_key, cc_sign, cc_verify, fc_cfg, cc_cfg) = match trial.scenario {
-            Scenario::SpoofedTakeover => (
-                Some(KEY),
-                Some(KEY),
-                Some(KEY),
-                FcConfig {
-                    require_signed: true,
-                    ..trial.fc
-                },
-                trial.cc,
-            ),
-            Scenario::WrongKey => (
-                Some(KEY),
-                Some(WRONG_KEY),
-                Some(WRONG_KEY),
-                FcConfig {
-                    require_signed: true,
-                    ..trial.fc
-                },
-                CcConfig {
-                    require_signed: true,
-                    ..trial.cc
-                },
-            ),
-            Scenario::SpoofedControl => (
-                Some(KEY),
-                Some(KEY),
-                Some(KEY),
-                FcConfig {
-                    require_signed: true,
-                    ..trial.fc
-                },
-                CcConfig {
-                    require_signed: true,
-                    ..trial.cc
-                },
-            ),
-            _ => (None, None, None, trial.fc, trial.cc),
-        };
+        let setup = Setup::of(&trial);
+        let source = trial.scenario.source();
         let mut rng = Pcg64::seed_from_u64(trial.seed);
         // The engines' timers (receiver sampling, heartbeats) start at a
         // random phase.
@@ -354,16 +596,18 @@ impl World {
             queue: BinaryHeap::new(),
             events: HashMap::new(),
             next_id: 0,
-            fc: FcEngine::new(fc_cfg, fc_start).expect("the trial's FC settings are valid"),
-            cc: CcEngine::new(cc_cfg, cc_start).expect("the trial's companion settings are valid"),
-            cc_cfg,
+            fc: flight_controller(setup.fc, fc_start),
+            cc: companion(setup.cc, source, cc_start),
+            cc_cfg: setup.cc,
+            source,
             controller: WingsLevel { throttle: 1600 },
-            fc_end: Endpoint::new(FC, fc_key, fc_key),
-            cc_end: Endpoint::new(CC, cc_sign, cc_verify),
+            fc_end: Endpoint::new(FC, setup.fc_key, setup.fc_key),
+            cc_end: Endpoint::new(CC, setup.cc_sign, setup.cc_verify),
             spoof_end: [
                 Endpoint::new(CC, None, None),
-                Endpoint::new(Peer::new(255, 190), None, None),
+                Endpoint::new(STATION, None, None),
             ],
+            around: Around::new(setup.cc_verify),
             down: Link::new(trial.downlink),
             up: Link::new(trial.uplink),
             receiver_ok: true,
@@ -373,13 +617,16 @@ impl World {
             after_loss: 0,
             rc_lost_at: None,
             last_event: None,
-            authority_since: Instant::ZERO,
             left_companion_at: None,
             first_companion: None,
             first_rtl: None,
+            first_notice: None,
             fallback: false,
             takeovers: 0,
             controls_applied: 0,
+            autonomy_applied: 0,
+            fallback_applied: 0,
+            fc_to_autonomy: 0,
             notices: HashMap::new(),
             acks: HashMap::new(),
             violations: Vec::new(),
@@ -408,8 +655,8 @@ impl World {
         }
     }
 
-    /// Sends `bytes` from `from` across its link.
-    fn send(&mut self, from: Node, bytes: Vec<u8>) {
+    /// Sends `bytes` from side `from` across the modelled link.
+    fn send(&mut self, from: Side, sender: Sender, bytes: Vec<u8>) {
         self.frames += 1;
         let drop = match (self.trial.drop_pattern, self.rc_lost_at) {
             (Some(mask), Some(_)) => {
@@ -420,15 +667,15 @@ impl World {
             _ => false,
         };
         let arrivals = match from {
-            Node::Fc => self.down.transmit(self.now, &mut self.rng),
-            Node::Cc => self.up.transmit(self.now, &mut self.rng),
+            Side::Fc => self.down.transmit(self.now, &mut self.rng),
+            Side::Cc => self.up.transmit(self.now, &mut self.rng),
         };
         if drop {
             return;
         }
-        let to = if from == Node::Fc { Node::Cc } else { Node::Fc };
+        let to = if from == Side::Fc { Side::Cc } else { Side::Fc };
         for at in arrivals {
-            self.at(at, Event::Deliver(to, bytes.clone()));
+            self.at(at, Event::Deliver(to, sender, bytes.clone()));
         }
     }
 
@@ -491,8 +738,33 @@ impl World {
                 self.at(loss, Event::Rc(false));
                 self.at(Instant::from_millis(1000), Event::SpoofControl);
             }
+            Scenario::Strangers => {
+                self.at(loss, Event::Rc(false));
+                self.schedule_strangers();
+            }
             _ => self.at(loss, Event::Rc(false)),
         }
+    }
+
+    /// The autonomy from 100 ms on; the strangers at random phases, the
+    /// second autonomy once the first has spoken (the autonomy's port
+    /// answers the first program it hears while that one speaks).
+    fn schedule_strangers(&mut self) {
+        let r = random_below;
+        let start = Instant::ZERO + AUTONOMY_START;
+        self.at(start, Event::Stranger(Stranger::Autonomy));
+        let impostor = start + Duration::from_millis(1) + r(&mut self.rng, AUTONOMY_PERIOD);
+        self.at(impostor, Event::Stranger(Stranger::Impostor));
+        let forger = Instant::ZERO + r(&mut self.rng, FORGER_PERIOD);
+        self.at(forger, Event::Stranger(Stranger::Forger));
+        let hijacker = Instant::ZERO + r(&mut self.rng, HIJACKER_PERIOD);
+        self.at(hijacker, Event::Stranger(Stranger::Hijacker));
+        // The station speaks before the hijacker has taken every slot of
+        // the ground port (8 frames, 160 ms): a station that keeps
+        // speaking keeps its slot, but one that comes after a stranger
+        // has filled the port waits for a slot silent 3 s.
+        let station = Instant::ZERO + r(&mut self.rng, Duration::from_millis(100));
+        self.at(station, Event::Stranger(Stranger::Station));
     }
 
     fn handle(&mut self, event: Event) {
@@ -519,21 +791,7 @@ impl World {
                     }
                 }
             }
-            Event::CcPower(on) => {
-                self.log(|| {
-                    format!(
-                        "companion powered {}",
-                        if on { "on (reboot)" } else { "off" }
-                    )
-                });
-                self.cc_powered = on;
-                if on {
-                    // A restart forgets everything.
-                    self.cc = CcEngine::new(self.cc_cfg, self.now)
-                        .expect("the trial's companion settings are valid");
-                    self.cc_timer = None;
-                }
-            }
+            Event::CcPower(on) => self.power(on),
             Event::Spoof => {
                 // Acknowledge the FC's current event, as the companion and
                 // as a ground station, unsigned.
@@ -541,7 +799,7 @@ impl World {
                     for k in 0..2 {
                         let forged = crate::wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, event);
                         let bytes = self.spoof_end[k].frame(&forged);
-                        self.send(Node::Cc, bytes);
+                        self.send(Side::Cc, Sender::Stranger, bytes);
                     }
                 }
                 self.at(self.now + Duration::from_millis(250), Event::Spoof);
@@ -556,88 +814,212 @@ impl World {
                     _ => Control::Manual(Default::default()).addressed_to(FC),
                 };
                 let bytes = self.spoof_end[k % 2].frame(&forged.to_message());
-                self.send(Node::Cc, bytes);
+                self.send(Side::Cc, Sender::Stranger, bytes);
                 self.at(self.now + SPOOF_CONTROL, Event::SpoofControl);
             }
+            Event::Stranger(who) => self.stranger(who),
             Event::Probe => self.at(self.now + PROBE, Event::Probe),
-            Event::Deliver(Node::Fc, bytes) => self.deliver_fc(&bytes),
-            Event::Deliver(Node::Cc, bytes) => {
-                if self.cc_powered {
-                    self.deliver_cc(&bytes);
+            Event::Deliver(Side::Fc, sender, bytes) => self.deliver_fc(sender, &bytes),
+            Event::Deliver(Side::Cc, _, bytes) => self.deliver_cc(FC_LINK, None, &bytes),
+        }
+    }
+
+    fn power(&mut self, on: bool) {
+        self.log(|| {
+            format!(
+                "companion powered {}",
+                if on { "on (reboot)" } else { "off" }
+            )
+        });
+        self.cc_powered = on;
+        if on {
+            // A restart forgets everything.
+            self.cc = companion(self.cc_cfg, self.source, self.now);
+            self.cc_timer = None;
+        }
+    }
+
+    /// One turn of a program around the companion: what it sends now, and
+    /// when it speaks next.
+    fn stranger(&mut self, who: Stranger) {
+        let next = match who {
+            Stranger::Autonomy => {
+                let control = Control::rc(AUTONOMY, [AUTONOMY_CH1, 1500, 1550, 1500, 0, 0, 0, 0]);
+                let bytes = self.around.autonomy.frame(&control.to_message());
+                let at = addr(LOCALHOST, AUTONOMY_PORT);
+                self.deliver_cc(AUTONOMY_LINK, Some(at), &bytes);
+                // Its own heartbeat once a second: for the ground stations.
+                if self.now.as_millis() % 1000 < AUTONOMY_PERIOD.as_millis() as u64 {
+                    let hb = Message::Heartbeat(Heartbeat {
+                        r#type: MavType::ONBOARD_CONTROLLER,
+                        autopilot: MavAutopilot::INVALID,
+                        ..Heartbeat::default()
+                    });
+                    let bytes = self.around.autonomy.frame(&hb);
+                    self.deliver_cc(AUTONOMY_LINK, Some(at), &bytes);
                 }
+                AUTONOMY_PERIOD
             }
-        }
-    }
-
-    // A delivery is one packet, as on UDP or a packetising radio: nothing
-    // after it completes a frame started in it, so the parser is told the
-    // packet ended (`flush`). Otherwise a false start byte (say, in the
-    // signature block of a frame refused as a replay) would hold the next
-    // packet's frames until enough bytes arrived to refute it: seconds, at
-    // the protocol's rates.
-    fn deliver_fc(&mut self, bytes: &[u8]) {
-        let mut input = bytes;
-        while let Some(r) = self.fc_end.parser.next(&mut input) {
-            let _ = self.fc.handle_frame(self.now, &r.frame, r.authenticated);
-        }
-        while let Some(r) = self.fc_end.parser.flush() {
-            let _ = self.fc.handle_frame(self.now, &r.frame, r.authenticated);
-        }
-    }
-
-    fn deliver_cc(&mut self, bytes: &[u8]) {
-        let mut input = bytes;
-        while let Some(r) = self.cc_end.parser.next(&mut input) {
-            let _ = self.cc.handle_frame(self.now, &r.frame, r.authenticated);
-        }
-        while let Some(r) = self.cc_end.parser.flush() {
-            let _ = self.cc.handle_frame(self.now, &r.frame, r.authenticated);
-        }
-    }
-
-    /// Carries out the engines' outputs and re-arms their timers.
-    fn pump(&mut self) {
-        while let Some(out) = self.fc.poll_output() {
-            match out {
-                FcOutput::Transmit(msg) => self.fc_transmit(msg),
-                FcOutput::SetMode(a) => self.authority_changed(a),
-                FcOutput::ApplyControl { from, control } => {
-                    self.controls_applied += 1;
-                    let trusted = from.peer == CC
-                        && (from.authenticated || !self.fc.machine().config().require_signed);
-                    if !trusted || self.fc.authority() != Authority::Companion {
-                        self.violation(format!(
-                            "FC applied {} from {}/{} (authenticated {}) in {:?}",
-                            control.name(),
-                            from.peer.sysid,
-                            from.peer.compid,
-                            from.authenticated,
-                            self.fc.authority()
-                        ));
-                    }
-                }
-                FcOutput::ReleaseControl => {}
+            Stranger::Impostor => {
+                let control = Control::rc(AUTONOMY, [STRANGER_CH1, 2000, 2000, 1000, 0, 0, 0, 0]);
+                let bytes = self.around.impostor.frame(&control.to_message());
+                self.deliver_cc(AUTONOMY_LINK, Some(addr(LOCALHOST, IMPOSTOR_PORT)), &bytes);
+                AUTONOMY_PERIOD
             }
+            Stranger::Forger => {
+                self.forge();
+                FORGER_PERIOD
+            }
+            Stranger::Hijacker => {
+                self.hijack();
+                HIJACKER_PERIOD
+            }
+            Stranger::Station => {
+                let hb = Message::Heartbeat(Heartbeat {
+                    r#type: MavType::GCS,
+                    autopilot: MavAutopilot::INVALID,
+                    ..Heartbeat::default()
+                });
+                let bytes = self.around.station.frame(&hb);
+                self.deliver_cc(GROUND_LINK, Some(station_addr()), &bytes);
+                STATION_PERIOD
+            }
+        };
+        self.at(self.now + next, Event::Stranger(who));
+    }
+
+    /// Unsigned frames with the FC's ids on the FC line (as if on the same
+    /// serial line) and on the ground port: a heartbeat claiming companion
+    /// control and a position; and a bystander's position on the FC line.
+    fn forge(&mut self) {
+        let hb = Message::Heartbeat(crate::wire::fc_heartbeat(Authority::Companion));
+        let position = Message::GlobalPositionInt(GlobalPositionInt {
+            time_boot_ms: self.now.as_millis() as u32,
+            lat: 474_000_000,
+            lon: 85_000_000,
+            alt: 500_000,
+            relative_alt: 100_000,
+            ..GlobalPositionInt::default()
+        });
+        let ground = addr(FORGER_ADDR.0, FORGER_ADDR.1);
+        for msg in [hb, position] {
+            let bytes = self.around.forger.frame_as(FC, &msg);
+            self.deliver_cc(FC_LINK, None, &bytes);
+            let bytes = self.around.forger.frame_as(FC, &msg);
+            self.deliver_cc(GROUND_LINK, Some(ground), &bytes);
         }
-        while self.cc_powered {
-            let Some(out) = self.cc.poll_output() else {
-                break;
+        let bytes = self.around.forger.frame_as(BYSTANDER, &position);
+        self.deliver_cc(FC_LINK, None, &bytes);
+    }
+
+    /// One frame from a new address on the ground port, unsigned: control
+    /// and commands for the FC and the autonomy, the companion's own
+    /// acknowledgement, heartbeats; as the ground station, the companion
+    /// and systems of its own.
+    fn hijack(&mut self) {
+        let k = self.around.hijacks;
+        self.around.hijacks += 1;
+        let source = addr(
+            [203, 0, 113, (1 + k % 250) as u8],
+            20_000 + (k % 997) as u16,
+        );
+        let other = Peer::new(100 + (k % 100) as u8, 1);
+        let command = |target: Peer| {
+            Message::CommandLong(CommandLong {
+                target_system: target.sysid,
+                target_component: target.compid,
+                command: MavCmd::COMPONENT_ARM_DISARM,
+                param1: 0.0,
+                param2: 21196.0,
+                ..CommandLong::default()
+            })
+        };
+        let (id, msg) = match k % 7 {
+            0 => (
+                STATION,
+                Control::rc(FC, [STRANGER_CH1, 2000, 2000, 1000, 0, 0, 0, 0]).to_message(),
+            ),
+            1 => (other, command(FC)),
+            2 => (other, command(AUTONOMY)),
+            3 => {
+                let event = self.last_event.unwrap_or_default();
+                let ack = crate::wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, event);
+                (CC, Message::FbwagNotice(ack))
+            }
+            4 => (
+                other,
+                Control::Attitude(Default::default())
+                    .addressed_to(FC)
+                    .to_message(),
+            ),
+            5 => (
+                other,
+                Control::Manual(ManualControl {
+                    x: 1000,
+                    z: 1000,
+                    ..ManualControl::default()
+                })
+                .addressed_to(FC)
+                .to_message(),
+            ),
+            _ => (
+                other,
+                Message::Heartbeat(Heartbeat {
+                    r#type: MavType::GCS,
+                    ..Heartbeat::default()
+                }),
+            ),
+        };
+        let bytes = self.around.hijacker.frame_as(id, &msg);
+        self.deliver_cc(GROUND_LINK, Some(source), &bytes);
+    }
+
+    /// A datagram at the FC: each frame's fate is the FC node's; its
+    /// outputs are carried out at once, so applied control is traced to the
+    /// datagram's sender.
+    fn deliver_fc(&mut self, sender: Sender, bytes: &[u8]) {
+        for (frame, authenticated) in parse(&mut self.fc_end.parser, bytes) {
+            let arrival = Arrival {
+                link: FC_LINK,
+                source: None,
+                frame: Frame::new_unchecked(&frame[..]),
+                authenticated,
             };
-            match out {
-                CcOutput::Transmit(msg) => self.cc_transmit(msg),
-                CcOutput::ControlDue => {
-                    let control = self.controller.control(self.now, FC);
-                    let _ = self.cc.submit_control(self.now, control);
-                }
-                CcOutput::ControlStarted { event } => {
-                    self.log(|| format!("CC starts controlling (event {event})"))
-                }
-                CcOutput::ControlStopped => self.log(|| "CC stops controlling".into()),
-                CcOutput::FcFound => self.log(|| "CC hears the FC".into()),
-                CcOutput::FcLost => self.log(|| "CC lost the FC".into()),
-                CcOutput::FcRebooted => self.log(|| "CC: the FC rebooted".into()),
-            }
+            let _: Fate = self.fc.handle_frame(self.now, arrival);
+            self.pump_fc(Some(sender));
         }
+    }
+
+    /// A datagram at the companion's link `link`: each frame's fate is the
+    /// companion node's. Its own outputs go first, then the frame where
+    /// the node routes it: byte for byte over the uplink for link 0,
+    /// checked and counted for the others.
+    fn deliver_cc(&mut self, link: LinkId, source: Option<SocketAddr>, bytes: &[u8]) {
+        if !self.cc_powered {
+            return;
+        }
+        let parser = match link {
+            FC_LINK => &mut self.cc_end.parser,
+            GROUND_LINK => &mut self.around.ground_parser,
+            _ => &mut self.around.autonomy_parser,
+        };
+        for (frame, authenticated) in parse(parser, bytes) {
+            let arrival = Arrival {
+                link,
+                source,
+                frame: Frame::new_unchecked(&frame[..]),
+                authenticated,
+            };
+            let fate = self.cc.handle_frame(self.now, arrival);
+            self.pump_cc();
+            self.routed(&arrival, &fate);
+        }
+    }
+
+    /// Carries out both nodes' outputs and re-arms their timers.
+    fn pump(&mut self) {
+        self.pump_fc(None);
+        self.pump_cc();
         if let Some(t) = self.fc.poll_timeout() {
             if self.fc_timer.is_none_or(|old| t < old) {
                 self.fc_timer = Some(t);
@@ -653,6 +1035,180 @@ impl World {
         }
     }
 
+    /// The FC node's outputs; `sender`: who sent the datagram being handled.
+    fn pump_fc(&mut self, sender: Option<Sender>) {
+        while let Some(out) = self.fc.poll_output() {
+            match out {
+                Output::Transmit { links, message } => {
+                    if links.contains(FC_LINK) {
+                        self.fc_transmit(message);
+                    }
+                }
+                Output::Event(FcOutput::SetMode(a)) => self.authority_changed(a),
+                Output::Event(FcOutput::ApplyControl { from, control }) => {
+                    self.applied(from, control, sender)
+                }
+                Output::Event(FcOutput::ReleaseControl | FcOutput::Transmit(_)) => {}
+                Output::Peers { .. } => {}
+            }
+        }
+    }
+
+    /// Control the FC applied: only the trusted companion's, in companion
+    /// control, from a datagram the companion itself sent, and never a
+    /// stranger's.
+    fn applied(&mut self, from: Origin, control: Control, sender: Option<Sender>) {
+        self.controls_applied += 1;
+        let authority = self.fc.engine().authority();
+        let trusted = from.peer == CC && (from.authenticated || !self.fc.config().require_signed);
+        if !trusted || authority != Authority::Companion {
+            self.violation(format!(
+                "FC applied {} from {}/{} (authenticated {}) in {authority:?}",
+                control.name(),
+                from.peer.sysid,
+                from.peer.compid,
+                from.authenticated,
+            ));
+        }
+        if sender != Some(Sender::Own) {
+            self.violation(format!(
+                "FC applied {} that the companion did not send ({sender:?})",
+                control.name()
+            ));
+        }
+        let channels = control.rc_channels().unwrap_or_default();
+        match channels {
+            [STRANGER_CH1, ..] => self.violation(format!(
+                "FC applied a stranger's {} (channel 1 = {STRANGER_CH1})",
+                control.name()
+            )),
+            [AUTONOMY_CH1, ..] => self.autonomy_applied += 1,
+            [1500, 1500, FALLBACK_THROTTLE, 1500, ..] => self.fallback_applied += 1,
+            _ => {}
+        }
+    }
+
+    /// The companion node's outputs (none while it is off).
+    fn pump_cc(&mut self) {
+        while self.cc_powered {
+            let Some(out) = self.cc.poll_output() else {
+                break;
+            };
+            match out {
+                Output::Transmit { links, message } => {
+                    if links.contains(FC_LINK) {
+                        self.cc_transmit(message);
+                    }
+                    self.sent_around(links.without(FC_LINK), &message);
+                }
+                Output::Peers { link, peers } => self.peers_changed(link, peers),
+                Output::Event(CompanionEvent::Engine(e)) => self.cc_event(e),
+                Output::Event(CompanionEvent::AutonomySilent(silent)) => self
+                    .log(|| format!("CC: autonomy {}", if silent { "silent" } else { "speaks" })),
+            }
+        }
+    }
+
+    fn cc_event(&mut self, event: CcOutput) {
+        match event {
+            CcOutput::ControlDue => {
+                let control = self.controller.control(self.now, FC);
+                let _ = self.cc.submit_control(self.now, control);
+            }
+            CcOutput::ControlStarted { event } => {
+                self.log(|| format!("CC starts controlling (event {event})"))
+            }
+            CcOutput::ControlStopped => self.log(|| "CC stops controlling".into()),
+            CcOutput::FcFound => self.log(|| "CC hears the FC".into()),
+            CcOutput::FcLost => self.log(|| "CC lost the FC".into()),
+            CcOutput::FcRebooted => self.log(|| "CC: the FC rebooted".into()),
+            CcOutput::Declined { event } => self.log(|| format!("CC declines event {event}")),
+            CcOutput::Transmit(_) => {}
+        }
+    }
+
+    /// The companion's own messages on its ground and autonomy ports:
+    /// control is for the FC only. (Its notices, which name no target,
+    /// go to every link, so ground stations see the handshake.)
+    fn sent_around(&mut self, links: crate::node::Links, message: &Message) {
+        if Control::from_message(message).is_some() && !links.is_empty() {
+            self.violation(format!(
+                "the companion sent {} to links {:?}",
+                message.meta().name,
+                links.iter().collect::<Vec<_>>()
+            ));
+        }
+    }
+
+    /// Where the companion routes a frame: byte for byte over the uplink
+    /// for link 0, checked on every link. With signing required, nothing
+    /// unauthenticated reaches the FC or the autonomy, nothing with the
+    /// FC's ids goes anywhere unauthenticated; the autonomy reaches the FC
+    /// only through the companion's gate.
+    fn routed(&mut self, a: &Arrival, fate: &Fate) {
+        let route = fate.route;
+        if route.is_empty() {
+            return;
+        }
+        let from = ids(&a.frame);
+        let what = || {
+            format!(
+                "{} from {}/{} on link {}",
+                <fbwag_dialect::Dialect as fbwag_dialect::mavframe::Dialect>::meta(
+                    a.frame.msg_id()
+                )
+                .map_or("an unknown message", |m| m.name),
+                from.sysid,
+                from.compid,
+                a.link
+            )
+        };
+        let to = route.iter().collect::<Vec<_>>();
+        if self.cc_cfg.require_signed && !a.authenticated {
+            if from == FC {
+                self.violation(format!("unauthenticated {} routed to links {to:?}", what()));
+            }
+            if a.link == FC_LINK && route.contains(AUTONOMY_LINK) {
+                self.violation(format!("unauthenticated {} routed to the autonomy", what()));
+            }
+            if route.contains(FC_LINK) {
+                self.violation(format!("unauthenticated {} routed to the FC", what()));
+            }
+        }
+        if a.link == AUTONOMY_LINK && route.contains(FC_LINK) {
+            self.violation(format!("{} routed to the FC past the gate", what()));
+        }
+        if from == FC && a.link == FC_LINK && route.contains(AUTONOMY_LINK) {
+            self.fc_to_autonomy += 1;
+        }
+        if route.contains(FC_LINK) {
+            self.send(Side::Cc, Sender::Routed, a.frame.as_bytes().to_vec());
+        }
+    }
+
+    /// Whom a companion port answers: the ground station keeps its place
+    /// against any number of strangers; the autonomy's port answers the
+    /// autonomy only.
+    fn peers_changed(&mut self, link: LinkId, peers: Peers) {
+        let station = station_addr();
+        if link == GROUND_LINK {
+            match (self.around.station_answered, peers.contains(station)) {
+                (true, false) => self.violation(format!(
+                    "the ground port no longer answers the station {station}"
+                )),
+                (false, true) => self.around.station_answered = true,
+                _ => {}
+            }
+        }
+        let autonomy = addr(LOCALHOST, AUTONOMY_PORT);
+        if link == AUTONOMY_LINK && peers.iter().any(|p| p != autonomy) {
+            self.violation(format!(
+                "the autonomy's port answers {:?}",
+                peers.iter().collect::<Vec<_>>()
+            ));
+        }
+    }
+
     fn fc_transmit(&mut self, msg: Message) {
         match &msg {
             Message::FbwagNotice(n) => {
@@ -660,7 +1216,7 @@ impl World {
                 self.log(|| format!("FC -> notice status {} event {timestamp}", status.0));
                 let count = self.notices.entry((status.0, timestamp)).or_insert(0);
                 *count += 1;
-                if *count > 1 + self.fc.machine().config().max_retries {
+                if *count > 1 + self.fc.config().max_retries {
                     let c = *count;
                     self.violation(format!(
                         "FC sent notice status {} event {timestamp} {c} times",
@@ -669,6 +1225,7 @@ impl World {
                 }
                 if status == Status::RC_LOST {
                     self.last_event = Some(timestamp);
+                    self.first_notice.get_or_insert(self.now);
                 }
             }
             Message::Statustext(t) => {
@@ -684,7 +1241,7 @@ impl World {
             _ => {}
         }
         let bytes = self.fc_end.frame(&msg);
-        self.send(Node::Fc, bytes);
+        self.send(Side::Fc, Sender::Own, bytes);
     }
 
     fn cc_transmit(&mut self, msg: Message) {
@@ -693,7 +1250,7 @@ impl World {
             self.log(|| format!("CC -> notice status {} event {timestamp}", status.0));
             let count = self.acks.entry((status.0, timestamp)).or_insert(0);
             *count += 1;
-            if *count > 1 + self.cc.machine().config().max_ack_retries {
+            if *count > 1 + self.cc_cfg.max_ack_retries {
                 let c = *count;
                 self.violation(format!(
                     "companion acknowledged status {} event {timestamp} {c} times",
@@ -702,7 +1259,7 @@ impl World {
             }
         }
         let bytes = self.cc_end.frame(&msg);
-        self.send(Node::Cc, bytes);
+        self.send(Side::Cc, Sender::Own, bytes);
     }
 
     fn authority_changed(&mut self, a: Authority) {
@@ -722,16 +1279,15 @@ impl World {
         if a != Authority::Companion && self.left_companion_at.is_none() && self.takeovers > 0 {
             self.left_companion_at = Some(self.now);
         }
-        self.authority_since = self.now;
     }
 
     /// Invariants that must hold at every event.
     fn check(&mut self) {
         if self.cc_powered
-            && self.cc.machine().believes_in_control(self.now)
-            && self.fc.authority() != Authority::Companion
+            && self.cc.engine().machine().believes_in_control(self.now)
+            && self.fc.engine().authority() != Authority::Companion
         {
-            let retry = self.fc.machine().config().retry_interval;
+            let retry = self.fc.config().retry_interval;
             match self.left_companion_at {
                 Some(left) if self.now.since(left) <= retry => {}
                 Some(left) => {
@@ -745,49 +1301,80 @@ impl World {
         }
     }
 
+    /// The scenario's success criterion, and the response time it reports.
+    fn verdict(&self) -> (bool, Option<Duration>) {
+        let auth = self.fc.engine().authority();
+        let cc_state = self.cc.engine().state();
+        let loss = self.rc_lost_at;
+        let since_loss = |t: Option<Instant>| t.zip(loss).map(|(t, l)| t.since(l));
+        let handshake = self.trial.fc.handshake_timeout;
+        let within = |t: Option<Instant>| since_loss(t).is_some_and(|d| d <= handshake);
+        let to_companion = since_loss(self.first_companion);
+        let to_rtl = since_loss(self.first_rtl);
+        match self.trial.scenario {
+            Scenario::NormalRc => (self.notices.is_empty() && auth == Authority::Pilot, None),
+            Scenario::RcLoss | Scenario::MessageLoss => {
+                (within(self.first_companion), to_companion)
+            }
+            Scenario::CcFailure | Scenario::SpoofedTakeover | Scenario::WrongKey => {
+                (self.takeovers == 0 && auth == Authority::Rtl, to_rtl)
+            }
+            Scenario::RcFlapping => (
+                self.takeovers == 4
+                    && auth == Authority::Pilot
+                    && cc_state != crate::cc::CcState::Controlling,
+                to_companion,
+            ),
+            Scenario::RcReturnMidHandshake => (
+                auth == Authority::Pilot && cc_state != crate::cc::CcState::Controlling,
+                None,
+            ),
+            Scenario::CcReboot => (self.takeovers == 1 && auth == Authority::Rtl, to_rtl),
+            Scenario::SpoofedControl => (
+                within(self.first_companion) && auth == Authority::Companion,
+                to_companion,
+            ),
+            Scenario::Strangers => (
+                within(self.first_companion)
+                    && auth == Authority::Companion
+                    && self.autonomy_applied > 0
+                    && self.fc_to_autonomy > 0
+                    && self.around.station_answered,
+                to_companion,
+            ),
+            Scenario::SilentAutonomy => {
+                // The decline's round trip: both directions' worst delay.
+                let (d, u) = (self.trial.downlink, self.trial.uplink);
+                let round_trip = d.latency + d.jitter + u.latency + u.jitter;
+                let prompt = self
+                    .first_rtl
+                    .zip(self.first_notice)
+                    .is_some_and(|(rtl, notice)| {
+                        rtl.since(notice) <= round_trip + Duration::from_millis(5)
+                    });
+                (
+                    self.takeovers == 0 && auth == Authority::Rtl && prompt,
+                    to_rtl,
+                )
+            }
+            Scenario::SilentAutonomyFallback => (
+                within(self.first_companion)
+                    && auth == Authority::Companion
+                    && self.fallback_applied > 0,
+                to_companion,
+            ),
+        }
+    }
+
     fn finish(mut self) -> Outcome {
-        let auth = self.fc.authority();
+        let auth = self.fc.engine().authority();
         if auth == Authority::Handshake {
             self.violation("the handshake never ended".into());
         }
         let s = self.trial.scenario;
-        let loss = self.rc_lost_at;
-        let within = |t: Option<Instant>, limit: Duration| match (t, loss) {
-            (Some(t), Some(l)) => t.since(l) <= limit,
-            _ => false,
-        };
-        let handshake = self.trial.fc.handshake_timeout;
         let false_takeover =
             !s.expects_takeover() && s != Scenario::RcReturnMidHandshake && self.takeovers > 0;
-        let (success, response) = match s {
-            Scenario::NormalRc => (self.notices.is_empty() && auth == Authority::Pilot, None),
-            Scenario::RcLoss | Scenario::MessageLoss => (
-                within(self.first_companion, handshake),
-                self.first_companion.zip(loss).map(|(t, l)| t.since(l)),
-            ),
-            Scenario::CcFailure | Scenario::SpoofedTakeover | Scenario::WrongKey => (
-                self.takeovers == 0 && auth == Authority::Rtl,
-                self.first_rtl.zip(loss).map(|(t, l)| t.since(l)),
-            ),
-            Scenario::RcFlapping => (
-                self.takeovers == 4
-                    && auth == Authority::Pilot
-                    && self.cc.state() != crate::cc::CcState::Controlling,
-                self.first_companion.zip(loss).map(|(t, l)| t.since(l)),
-            ),
-            Scenario::RcReturnMidHandshake => (
-                auth == Authority::Pilot && self.cc.state() != crate::cc::CcState::Controlling,
-                None,
-            ),
-            Scenario::CcReboot => (
-                self.takeovers == 1 && auth == Authority::Rtl,
-                self.first_rtl.zip(loss).map(|(t, l)| t.since(l)),
-            ),
-            Scenario::SpoofedControl => (
-                within(self.first_companion, handshake) && auth == Authority::Companion,
-                self.first_companion.zip(loss).map(|(t, l)| t.since(l)),
-            ),
-        };
+        let (success, response) = self.verdict();
         Outcome {
             success: success && self.violations.is_empty(),
             response,
@@ -797,6 +1384,8 @@ impl World {
             final_authority: auth,
             frames: self.frames,
             controls_applied: self.controls_applied,
+            fc_drops: *self.fc.drops(),
+            cc_drops: *self.cc.drops(),
             trace: self.trace,
         }
     }

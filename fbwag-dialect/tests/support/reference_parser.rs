@@ -372,8 +372,14 @@ impl<D: Dialect> Reference<D> {
                     self.stats.unsigned_rejected += 1;
                     return Verdict::Skip(len);
                 }
-                Err(_) => {
-                    self.stats.bad_signature += 1;
+                Err(e) => {
+                    // Frames of known ids refused for their timestamp are
+                    // counted apart (their checksum vouches for them).
+                    if meta.is_some() && e.is_stale() {
+                        self.stats.stale_timestamp += 1;
+                    } else {
+                        self.stats.bad_signature += 1;
+                    }
                     return if meta.is_some() {
                         Verdict::Skip(len - SIGNATURE_LEN)
                     } else {

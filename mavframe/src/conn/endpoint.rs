@@ -196,10 +196,10 @@ impl From<ResolveError> for io::Error {
 ///
 /// | string | meaning |
 /// |---|---|
-/// | `udpin:HOST:PORT` | bind and listen; replies go to the last peer that sent a datagram |
+/// | `udpin:HOST:PORT` | bind and listen; replies go to the senders of accepted frames (up to 8, see [`ReplyTo`](super::ReplyTo)) |
 /// | `udp:HOST:PORT` | alias of `udpin` (MAVProxy's `udp:` listens too); displayed as `udpin:` |
-/// | `udpout:HOST:PORT` | send to `HOST:PORT` from an ephemeral port; replies are received |
-/// | `udpbcast:HOST:PORT` | broadcast to `HOST:PORT` (`SO_BROADCAST`) until a datagram arrives, then reply to the last sender |
+/// | `udpout:HOST:PORT` | send to `HOST:PORT` from an ephemeral port connected to it; its replies, and only its, are received |
+/// | `udpbcast:HOST:PORT` | broadcast to `HOST:PORT` (`SO_BROADCAST`) until a frame is accepted, then reply to the senders of accepted frames |
 /// | `tcp:HOST:PORT` | TCP client |
 /// | `tcpout:HOST:PORT` | alias of `tcp` (pymavlink's name); displayed as `tcp:` |
 /// | `tcpin:HOST:PORT` | TCP server: accepts clients, sends to all, receives from any |
@@ -244,7 +244,8 @@ pub enum Endpoint {
     /// `udpout:`: send to this address from an ephemeral local port.
     UdpOut(Address),
     /// `udpbcast:`: broadcast to this address from an ephemeral local
-    /// port until a datagram arrives, then send to the last sender.
+    /// port until a frame is accepted, then send to the senders of
+    /// accepted frames.
     UdpBcast(Address),
     /// `tcp:` (or `tcpout:`): connect to this server.
     Tcp(Address),

@@ -56,6 +56,8 @@ use crate::signing::{timestamp_now, Signer};
 use core::fmt;
 use std::boxed::Box;
 use std::io;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 use std::vec;
 use transport::Deadline;
@@ -75,6 +77,10 @@ pub(crate) struct Inbox<D: Dialect> {
     datagrams: bool,
     /// The parser has not been told yet that the datagram read ended.
     datagram_open: bool,
+    /// The verifier's notion of now after the last frame, which the link's
+    /// signer adopts ([`Outbox::for_inbox`]; shared, as a split
+    /// connection's halves may live on two threads).
+    verified: Arc<AtomicU64>,
 }
 
 impl<D: Dialect> Inbox<D> {
@@ -86,12 +92,23 @@ impl<D: Dialect> Inbox<D> {
             end: 0,
             datagrams,
             datagram_open: false,
+            verified: Arc::default(),
         }
     }
 
     /// The next frame in the bytes already read; at the end of a datagram,
-    /// those its end decides.
+    /// those its end decides. What the verifier accepted is then handed to
+    /// the link's signer ([`Inbox::verified`]).
     pub(crate) fn next(&mut self) -> Option<ReceivedFrame<D>> {
+        let frame = self.parse_next();
+        if let Some(v) = self.parser.verifier() {
+            self.verified
+                .fetch_max(v.newest_timestamp(), Ordering::Relaxed);
+        }
+        frame
+    }
+
+    fn parse_next(&mut self) -> Option<ReceivedFrame<D>> {
         if let Some(frame) = self.next_in_buffer() {
             return Some(frame);
         }
@@ -139,6 +156,11 @@ impl<D: Dialect> Inbox<D> {
         let deadline = Deadline::after(timeout);
         loop {
             if let Some(frame) = self.next() {
+                // With a key, only an authenticated frame vouches for its
+                // sender (`udpin` answers whom the transport is told of).
+                if frame.is_authenticated() || self.parser.verifier().is_none() {
+                    transport.accepted();
+                }
                 return Ok(Some(frame));
             }
             let n = transport.recv(self.space(), deadline.remaining())?;
@@ -169,6 +191,9 @@ pub(crate) struct Outbox {
     pub(crate) version: Version,
     pub(crate) seq: u8,
     buf: [u8; MAX_FRAME_LEN],
+    /// The link's verified timestamps ([`Inbox::verified`]), adopted by the
+    /// signer before each frame.
+    verified: Arc<AtomicU64>,
 }
 
 impl Outbox {
@@ -178,6 +203,16 @@ impl Outbox {
             version: Version::V2,
             seq: 0,
             buf: [0; MAX_FRAME_LEN],
+            verified: Arc::default(),
+        }
+    }
+
+    /// The send side of the link `inbox` receives on: its signer adopts
+    /// what `inbox`'s verifier accepts (see `crate::signing`).
+    pub(crate) fn for_inbox<D: Dialect>(inbox: &Inbox<D>) -> Self {
+        Outbox {
+            verified: inbox.verified.clone(),
+            ..Outbox::new()
         }
     }
 
@@ -208,6 +243,7 @@ impl Outbox {
             // dependency), and the read is ~35 ns of a send that costs a
             // system call.
             signer.advance_to(timestamp_now());
+            signer.advance_to(self.verified.load(Ordering::Relaxed));
         }
         let n = encode(version, header, msg, self.signer.as_mut(), &mut self.buf)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
@@ -256,10 +292,11 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// [`Parser::with_signing`] verifies signatures.
     pub fn with_parser(transport: T, parser: Parser<D>) -> Self {
         let datagrams = transport.is_datagram();
+        let inbox = Inbox::new(parser, datagrams);
         Connection {
             transport,
-            inbox: Inbox::new(parser, datagrams),
-            outbox: Outbox::new(),
+            outbox: Outbox::for_inbox(&inbox),
+            inbox,
         }
     }
 

@@ -33,11 +33,8 @@ enum SendHalf {
 impl SendHalf {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
         match self {
-            SendHalf::Udp { socket, peer } => match peer.get() {
-                Some(to) => socket.send_to(frame, to).map(drop),
-                // udpin before anyone sent: dropped, as the whole link does.
-                None => Ok(()),
-            },
+            // udpin before any peer: dropped, as the whole link does.
+            SendHalf::Udp { socket, peer } => peer.send(socket, frame),
             // Blocking (split leaves the stream so): all or an error.
             SendHalf::Tcp(stream) => stream.write_all(frame),
             #[cfg(feature = "serial")]
@@ -125,7 +122,8 @@ impl Sender {
         self.outbox.seq
     }
 
-    /// Where a UDP link's next frame goes (`None`: nowhere yet, or not UDP).
+    /// Where a UDP link's next frame goes (`None`: nowhere yet, or not
+    /// UDP); with several peers, the one heard most recently.
     pub fn peer(&self) -> Option<SocketAddr> {
         match &self.half {
             SendHalf::Udp { peer, .. } => peer.get(),
@@ -251,9 +249,9 @@ impl<D: Dialect> Connection<D, AnyTransport> {
     /// receiver keeps the transport and the parser with any bytes it
     /// held.
     ///
-    /// `udpin:` and `udpbcast:` senders follow the receiver's last sender
-    /// as the whole link does; a `udpin:` reply rule of `Fixed` or
-    /// `Pinned` is taken as it is at the split (pin the peer first). A
+    /// `udpin:` and `udpbcast:` senders send to the receiver's peers as
+    /// the whole link does (under `udpin:`'s `ReplyTo::Owner`, those given
+    /// before the split); a `Fixed` rule is taken as it is. A
     /// `file:` sender refuses to send, as the link does. A `tcpin:`
     /// server cannot be split ([`SplitError`] hands the connection back).
     ///

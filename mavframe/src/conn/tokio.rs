@@ -210,10 +210,11 @@ impl<D: Dialect> AsyncConnection<D> {
     /// signatures).
     pub fn with_parser(transport: AsyncTransport, parser: Parser<D>) -> Self {
         let datagrams = transport.is_datagram();
+        let inbox = Inbox::new(parser, datagrams);
         AsyncConnection {
             transport,
-            inbox: Inbox::new(parser, datagrams),
-            outbox: Outbox::new(),
+            outbox: Outbox::for_inbox(&inbox),
+            inbox,
         }
     }
 

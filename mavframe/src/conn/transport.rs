@@ -35,6 +35,15 @@ pub trait Transport {
     fn is_datagram(&self) -> bool {
         false
     }
+
+    /// The connection's parser accepted a frame from the bytes the last
+    /// [`recv`](Self::recv) returned (an authenticated frame, when the
+    /// parser verifies signatures): [`Connection`](super::Connection)
+    /// calls this once per such frame, never for bytes that hold none. A
+    /// transport that serves several remote ends decides whom it answers
+    /// from this, never from bytes alone: [`UdpIn`] and [`UdpBcast`] make
+    /// the sender a peer (see [`crate::peers`]). Does nothing by default.
+    fn accepted(&mut self) {}
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -49,6 +58,10 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     fn is_datagram(&self) -> bool {
         (**self).is_datagram()
     }
+
+    fn accepted(&mut self) {
+        (**self).accepted()
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for &mut T {
@@ -62,6 +75,10 @@ impl<T: Transport + ?Sized> Transport for &mut T {
 
     fn is_datagram(&self) -> bool {
         (**self).is_datagram()
+    }
+
+    fn accepted(&mut self) {
+        (**self).accepted()
     }
 }
 
@@ -128,8 +145,9 @@ pub fn open(endpoint: &Endpoint) -> io::Result<AnyTransport> {
 
 impl AnyTransport {
     /// The sender of the last datagram a UDP transport received: every
-    /// frame a [`Connection`](super::Connection) returns came from it.
-    /// `None` for other transports, or before any datagram.
+    /// frame a [`Connection`](super::Connection) returns came from it
+    /// (which makes it no peer: see [`Transport::accepted`]). `None` for
+    /// other transports, or before any datagram.
     pub fn last_source(&self) -> Option<SocketAddr> {
         match self {
             AnyTransport::UdpIn(t) => t.last_source(),
@@ -198,6 +216,14 @@ impl Transport for AnyTransport {
             AnyTransport::TcpIn(t) => t.is_datagram(),
             #[cfg(feature = "serial")]
             AnyTransport::Serial(t) => t.is_datagram(),
+        }
+    }
+
+    fn accepted(&mut self) {
+        match self {
+            AnyTransport::UdpIn(t) => t.accepted(),
+            AnyTransport::UdpBcast(t) => t.accepted(),
+            _ => {}
         }
     }
 }

@@ -1,11 +1,23 @@
-//! UDP transports: `udpin` (listen; reply to the peer its [`ReplyTo`] rule
-//! names) and `udpout` (send to one address, receive replies).
+//! UDP transports: `udpin` (listen; send to the peers its [`ReplyTo`] rule
+//! names), `udpout` (a socket connected to one address) and `udpbcast`
+//! (broadcast until a frame is accepted, then send to its senders).
+//!
+//! Whom `udpin` and `udpbcast` answer is never decided by a datagram
+//! alone: anyone can send one, from any port. Under the default rule,
+//! [`ReplyTo::Accepted`], a sender becomes a peer only once the
+//! connection's parser accepted a frame of its (authenticated, on a link
+//! with a key; see [`Transport::accepted`]), and by the rule of
+//! [`crate::peers`]: up to [`MAX_PEERS`](crate::peers::MAX_PEERS) peers, a new one taking a slot
+//! only if one is free or its holder has been silent for
+//! [`SILENCE`](crate::peers::SILENCE). A stranger's datagrams, valid
+//! frames or not, neither take a station's traffic nor displace it.
 
 use super::transport::{is_timeout, Deadline, ReadMode, SetReadMode, Transport};
+use crate::peers::PeerSet;
 use std::io;
 use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, UdpSocket};
 use std::sync::{Arc, Mutex, PoisonError};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Waits for one non-empty datagram; `None` when the time ran out.
 fn recv_datagram(
@@ -23,16 +35,11 @@ fn recv_datagram(
             Ok((0, _)) => {}
             Ok((n, from)) => return Ok(Some((n, from))),
             Err(e) if is_timeout(&e) => return Ok(None),
-            // Windows reports an earlier send's ICMP "port unreachable" on
-            // the next receive (Linux does not, on unconnected sockets): it
-            // says nothing about incoming data, and a peer may start later.
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::ConnectionReset
-                        | io::ErrorKind::ConnectionRefused
-                        | io::ErrorKind::Interrupted
-                ) => {}
+            // An earlier send's ICMP "port unreachable", reported on the
+            // next receive (Windows; Linux on connected sockets, as
+            // `udpout`'s): it says nothing about incoming data, and a peer
+            // may start later.
+            Err(e) if is_refused(&e) || e.kind() == io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e),
         }
         if deadline.passed() {
@@ -41,94 +48,175 @@ fn recv_datagram(
     }
 }
 
-/// The last sender, shared with a split-off [`Sender`](super::Sender)
-/// that replies to it.
-pub(crate) type SharedSource = Arc<Mutex<Option<SocketAddr>>>;
-
-/// Records `from` as the last sender, and in `shared` when split.
-fn note_source(last: &mut Option<SocketAddr>, shared: &Option<SharedSource>, from: SocketAddr) {
-    *last = Some(from);
-    if let Some(shared) = shared {
-        // A poisoned lock only means another thread panicked mid-store of
-        // a Copy value: the value is still whole.
-        *shared.lock().unwrap_or_else(PoisonError::into_inner) = Some(from);
-    }
+/// An error that reports an earlier datagram's ICMP error, not this call's.
+pub(crate) fn is_refused(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::ConnectionReset | io::ErrorKind::ConnectionRefused
+    )
 }
 
-/// [`recv_datagram`] for a [`Transport`]: the sender noted, 0 when the time
-/// ran out.
+/// [`recv_datagram`] for a [`Transport`]: the sender noted in `last`, 0
+/// when the time ran out.
 fn recv_noting_source(
     socket: &UdpSocket,
     mode: &mut ReadMode,
-    (last, shared): (&mut Option<SocketAddr>, &Option<SharedSource>),
+    last: &mut Option<SocketAddr>,
     buf: &mut [u8],
     timeout: Option<Duration>,
 ) -> io::Result<usize> {
     Ok(match recv_datagram(socket, mode, buf, timeout)? {
         Some((n, from)) => {
-            note_source(last, shared, from);
+            *last = Some(from);
             n
         }
         None => 0,
     })
 }
 
-/// Reads a shared last sender.
-pub(crate) fn shared_source(shared: &SharedSource) -> Option<SocketAddr> {
-    *shared.lock().unwrap_or_else(PoisonError::into_inner)
+/// Sends `frame` on a connected socket. A send that reports an earlier
+/// datagram's ICMP error (Linux does on connected sockets, once per error)
+/// sent nothing: tried once more, so a peer that is not up yet, or
+/// restarted, causes no error.
+pub(crate) fn send_connected(socket: &UdpSocket, frame: &[u8]) -> io::Result<()> {
+    match socket.send(frame) {
+        Err(e) if is_refused(&e) => socket.send(frame).map(drop),
+        other => other.map(drop),
+    }
 }
 
-/// Whom a [`UdpIn`] sends to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Sends `frame` to each of `peers`: the first error, once every peer was
+/// tried (a peer gone does not keep the others from theirs).
+fn send_each(
+    socket: &UdpSocket,
+    peers: impl Iterator<Item = SocketAddr>,
+    frame: &[u8],
+) -> io::Result<()> {
+    let mut first = Ok(());
+    for peer in peers {
+        if let (Err(e), Ok(())) = (socket.send_to(frame, peer), &first) {
+            first = Err(e);
+        }
+    }
+    first
+}
+
+/// A link's peers, shared with a split-off [`Sender`](super::Sender).
+pub(crate) type SharedPeers = Arc<Mutex<PeerSet>>;
+
+/// The peers a link's send half reads (a poisoned lock only means another
+/// thread panicked mid-copy of plain data: what is there is still whole).
+fn read_shared(shared: &SharedPeers) -> std::sync::MutexGuard<'_, PeerSet> {
+    shared.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// A link's peers and the clock they are heard on.
+#[derive(Debug)]
+struct Peers {
+    set: PeerSet,
+    /// The origin of the set's times.
+    epoch: Instant,
+    /// Set by `split`: a copy the send half reads, kept up to date.
+    shared: Option<SharedPeers>,
+}
+
+impl Peers {
+    fn new() -> Self {
+        Peers {
+            set: PeerSet::new(),
+            epoch: Instant::now(),
+            shared: None,
+        }
+    }
+
+    /// `from` sent a frame the parser accepted.
+    fn heard(&mut self, from: Option<SocketAddr>) {
+        if let Some(from) = from {
+            let now = self.epoch.elapsed();
+            self.set.heard(from, now);
+            self.publish();
+        }
+    }
+
+    fn set(&mut self, addrs: &[SocketAddr]) {
+        self.set.set(addrs, self.epoch.elapsed());
+        self.publish();
+    }
+
+    fn clear(&mut self) {
+        self.set.clear();
+        self.publish();
+    }
+
+    fn publish(&self) {
+        if let Some(shared) = &self.shared {
+            *read_shared(shared) = self.set.clone();
+        }
+    }
+
+    /// The set, shared from now on with a send half.
+    fn share(&mut self) -> SharedPeers {
+        let shared = Arc::new(Mutex::new(self.set.clone()));
+        self.shared = Some(shared.clone());
+        shared
+    }
+}
+
+/// Whom a [`UdpIn`] (or the router's `udpin`, `udpbcast` and `tcpin`
+/// links) sends to.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum ReplyTo {
-    /// The sender of the last datagram received, as MAVProxy and pymavlink
-    /// do (the default). Anyone who can send a datagram to the port
-    /// redirects what follows: fine for a ground station's port, wrong for
-    /// a link that carries control.
-    LastSender,
+    /// The senders of frames the parser accepted (authenticated ones only,
+    /// when the link has a key), up to [`MAX_PEERS`](crate::peers::MAX_PEERS) of them, by the rule
+    /// of [`crate::peers`] (the default). A datagram without such a frame
+    /// moves nothing; a stranger with valid frames gets a free slot, or
+    /// the slot of a peer silent for [`SILENCE`](crate::peers::SILENCE),
+    /// never a speaking station's.
+    #[default]
+    Accepted,
     /// This address only, whoever else sends.
     Fixed(SocketAddr),
-    /// Only the address set with [`UdpIn::set_peer`] (nobody until then):
-    /// the application pins the peer it has authenticated.
-    Pinned,
+    /// Only the addresses the owner gives ([`UdpIn::set_peers`],
+    /// `Router::set_peers`; nobody until then): the application decides
+    /// its peers by a policy of its own.
+    Owner,
 }
 
-/// `udpin:`: a bound socket that answers one peer, chosen by its
-/// [`ReplyTo`] rule (by default the sender of the last datagram).
+/// `udpin:`: a bound socket that answers the peers its [`ReplyTo`] rule
+/// names (by default, the senders of frames the connection accepted: see
+/// the module docs).
 ///
 /// While there is nobody to send to, [`send`](Transport::send) drops frames
 /// silently, as MAVProxy and pymavlink do (a ground station's heartbeat loop
 /// must not fail before a vehicle shows up). A sender whose source port is
 /// 0 can be received from but never replied to (no datagram can go to port
-/// 0), so it never becomes the peer.
+/// 0), so it never becomes a peer.
 ///
-/// One [`send`](Transport::send) is one datagram, so each frame travels in
-/// its own datagram, as MAVLink over UDP expects. A receive buffer should
-/// hold a whole datagram (65,507 bytes; [`Connection`](super::Connection)'s
-/// does): the system cuts a longer one short.
+/// One [`send`](Transport::send) is one datagram per peer, so each frame
+/// travels in its own datagram, as MAVLink over UDP expects. A receive
+/// buffer should hold a whole datagram (65,507 bytes;
+/// [`Connection`](super::Connection)'s does): the system cuts a longer one
+/// short.
 #[derive(Debug)]
 pub struct UdpIn {
     socket: UdpSocket,
     reply_to: ReplyTo,
-    /// The last sender (a possible peer), and the pinned peer.
+    /// The sender of the last datagram (not a peer for that).
     last_source: Option<SocketAddr>,
-    pinned: Option<SocketAddr>,
+    peers: Peers,
     mode: ReadMode,
-    /// Set by `split`: where a split-off sender reads the last sender.
-    shared: Option<SharedSource>,
 }
 
 impl UdpIn {
     /// Binds to `addr` (port 0: the system picks one, see
-    /// [`local_addr`](Self::local_addr)), replying to the last sender.
+    /// [`local_addr`](Self::local_addr)), under [`ReplyTo::Accepted`].
     pub fn bind(addr: SocketAddr) -> io::Result<Self> {
         Ok(UdpIn {
             socket: UdpSocket::bind(addr)?,
-            reply_to: ReplyTo::LastSender,
+            reply_to: ReplyTo::Accepted,
             last_source: None,
-            pinned: None,
+            peers: Peers::new(),
             mode: ReadMode::default(),
-            shared: None,
         })
     }
 
@@ -137,8 +225,12 @@ impl UdpIn {
         self.socket.local_addr()
     }
 
-    /// Chooses whom to send to from now on.
+    /// Chooses whom to send to from now on (a new rule starts with no
+    /// peers).
     pub fn set_reply_to(&mut self, reply_to: ReplyTo) {
+        if reply_to != self.reply_to {
+            self.peers.clear();
+        }
         self.reply_to = reply_to;
     }
 
@@ -147,24 +239,44 @@ impl UdpIn {
         self.reply_to
     }
 
-    /// Pins the peer of [`ReplyTo::Pinned`] (ignored for port 0).
+    /// Sets the peers of [`ReplyTo::Owner`]: frames go to these addresses
+    /// only (the first [`MAX_PEERS`](crate::peers::MAX_PEERS), port 0 ignored) until the next call.
+    /// Under [`ReplyTo::Accepted`] they are peers as if heard now; under
+    /// [`ReplyTo::Fixed`] they are not used.
+    pub fn set_peers(&mut self, peers: &[SocketAddr]) {
+        self.peers.set(peers);
+    }
+
+    /// [`set_peers`](Self::set_peers) of one address (ignored for port 0:
+    /// the peers stay as they are).
     pub fn set_peer(&mut self, peer: SocketAddr) {
         if peer.port() != 0 {
-            self.pinned = Some(peer);
+            self.set_peers(&[peer]);
         }
     }
 
-    /// The peer frames go to now, if any.
+    /// Where frames go now, if anywhere: the fixed address, else the peer
+    /// heard (or given) most recently. See [`peers`](Self::peers) for all.
     pub fn peer(&self) -> Option<SocketAddr> {
         match self.reply_to {
-            ReplyTo::LastSender => self.last_source.filter(|a| a.port() != 0),
             ReplyTo::Fixed(addr) => Some(addr),
-            ReplyTo::Pinned => self.pinned,
+            _ => self.peers.set.latest(),
         }
+    }
+
+    /// Every address a frame goes to now.
+    pub fn peers(&self) -> impl Iterator<Item = SocketAddr> + '_ {
+        let fixed = match self.reply_to {
+            ReplyTo::Fixed(addr) => Some(addr),
+            _ => None,
+        };
+        let others = self.peers.set.iter().filter(move |_| fixed.is_none());
+        fixed.into_iter().chain(others)
     }
 
     /// The sender of the last datagram received (every frame a
-    /// [`Connection`](super::Connection) returns came from it).
+    /// [`Connection`](super::Connection) returns came from it; that alone
+    /// makes it no peer).
     pub fn last_source(&self) -> Option<SocketAddr> {
         self.last_source
     }
@@ -177,18 +289,13 @@ impl UdpIn {
 
 impl UdpIn {
     /// The send half's handle: a clone of the socket and whom it sends to
-    /// (the reply rule as it is now; a `LastSender` rule follows the
-    /// receiving half from then on).
+    /// (the fixed address, or the peers, which follow the receiving half's
+    /// from then on).
     pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
         self.mode.share();
         let peer = match self.reply_to {
-            ReplyTo::LastSender => {
-                let shared = Arc::new(Mutex::new(self.last_source));
-                self.shared = Some(shared.clone());
-                UdpPeer::LastSender(shared, None)
-            }
-            ReplyTo::Fixed(a) => UdpPeer::Fixed(Some(a)),
-            ReplyTo::Pinned => UdpPeer::Fixed(self.pinned),
+            ReplyTo::Fixed(a) => UdpPeer::Fixed(a),
+            ReplyTo::Accepted | ReplyTo::Owner => UdpPeer::Peers(self.peers.share(), None),
         };
         Ok((self.socket.try_clone()?, peer))
     }
@@ -197,50 +304,86 @@ impl UdpIn {
 /// Whom a split-off UDP sender sends to.
 #[derive(Debug)]
 pub(crate) enum UdpPeer {
-    /// This address; nobody (frames dropped, as `udpin` does) for `None`.
-    Fixed(Option<SocketAddr>),
-    /// The receiving half's last sender, else the fallback (`udpbcast`'s
-    /// broadcast address), else nobody.
-    LastSender(SharedSource, Option<SocketAddr>),
+    /// This address.
+    Fixed(SocketAddr),
+    /// The socket's connected address (`udpout`'s target).
+    Connected(SocketAddr),
+    /// The receiving half's peers, else the fallback (`udpbcast`'s
+    /// broadcast address), else nobody (frames dropped, as `udpin` does).
+    Peers(SharedPeers, Option<SocketAddr>),
 }
 
 impl UdpPeer {
+    /// Where frames go: the one address, or the peer heard most recently.
     pub(crate) fn get(&self) -> Option<SocketAddr> {
         match self {
-            UdpPeer::Fixed(a) => *a,
-            UdpPeer::LastSender(shared, fallback) => shared_source(shared)
-                .filter(|a| a.port() != 0)
-                .or(*fallback),
+            UdpPeer::Fixed(a) | UdpPeer::Connected(a) => Some(*a),
+            UdpPeer::Peers(shared, fallback) => read_shared(shared).latest().or(*fallback),
+        }
+    }
+
+    /// Sends `frame` on `socket` (this half's clone) to the peers.
+    pub(crate) fn send(&self, socket: &UdpSocket, frame: &[u8]) -> io::Result<()> {
+        match self {
+            UdpPeer::Fixed(a) => socket.send_to(frame, a).map(drop),
+            UdpPeer::Connected(_) => send_connected(socket, frame),
+            UdpPeer::Peers(shared, fallback) => {
+                // A copy: no lock held across the sends.
+                let peers = read_shared(shared).clone();
+                match (peers.is_empty(), fallback) {
+                    (true, Some(to)) => socket.send_to(frame, to).map(drop),
+                    _ => send_each(socket, peers.iter(), frame),
+                }
+            }
         }
     }
 }
 
 impl Transport for UdpIn {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        match self.peer() {
-            Some(peer) => self.socket.send_to(frame, peer).map(drop),
-            None => Ok(()),
-        }
+        send_each(&self.socket, self.peers(), frame)
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        let source = (&mut self.last_source, &self.shared);
-        recv_noting_source(&self.socket, &mut self.mode, source, buf, timeout)
+        recv_noting_source(
+            &self.socket,
+            &mut self.mode,
+            &mut self.last_source,
+            buf,
+            timeout,
+        )
     }
 
     fn is_datagram(&self) -> bool {
         true
     }
+
+    fn accepted(&mut self) {
+        if self.reply_to == ReplyTo::Accepted {
+            self.peers.heard(self.last_source);
+        }
+    }
+}
+
+/// An ephemeral port of `target`'s address family, unconnected.
+fn ephemeral(target: SocketAddr) -> io::Result<UdpSocket> {
+    let local = match target {
+        SocketAddr::V4(_) => SocketAddr::from((Ipv4Addr::UNSPECIFIED, 0)),
+        SocketAddr::V6(_) => SocketAddr::from((Ipv6Addr::UNSPECIFIED, 0)),
+    };
+    UdpSocket::bind(local)
 }
 
 /// `udpout:`: sends to one address from an ephemeral port and receives
-/// what comes back.
+/// what comes back from that address.
 ///
-/// The socket is not `connect`ed: datagrams from any sender are received
-/// (as pymavlink's `udpout` does, so a reply from another address of the
-/// peer still arrives), and a peer that is not up yet causes no error on
-/// later receives. Broadcast targets need
-/// `get_ref().set_broadcast(true)`.
+/// The socket is `connect`ed to the target: the system drops datagrams
+/// from any other address, so a stranger cannot slip frames in as the
+/// target's by sending to the local port (a reply from another address of
+/// the peer is dropped too). An ICMP error an earlier datagram drew (the
+/// peer not up yet) is no error of a later receive or send. Broadcast
+/// targets need `udpbcast:` (a socket connected to a broadcast address
+/// would receive no answer).
 ///
 /// One [`send`](Transport::send) is one datagram, so each frame travels in
 /// its own datagram, as MAVLink over UDP expects. A receive buffer should
@@ -252,38 +395,35 @@ pub struct UdpOut {
     target: SocketAddr,
     last_source: Option<SocketAddr>,
     mode: ReadMode,
-    /// Always `None`: a `udpout` sender has a fixed target.
-    shared: Option<SharedSource>,
 }
 
 impl UdpOut {
-    /// Binds an ephemeral port of `target`'s address family.
+    /// Binds an ephemeral port of `target`'s address family and connects
+    /// it to `target`.
     pub fn new(target: SocketAddr) -> io::Result<Self> {
-        let local = match target {
-            SocketAddr::V4(_) => SocketAddr::from((Ipv4Addr::UNSPECIFIED, 0)),
-            SocketAddr::V6(_) => SocketAddr::from((Ipv6Addr::UNSPECIFIED, 0)),
-        };
+        let socket = ephemeral(target)?;
+        socket.connect(target)?;
         Ok(UdpOut {
-            socket: UdpSocket::bind(local)?,
+            socket,
             target,
             last_source: None,
             mode: ReadMode::default(),
-            shared: None,
         })
     }
 
-    /// The ephemeral local address.
+    /// The local address (the system's choice of port, and of the address
+    /// that reaches the target).
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
         self.socket.local_addr()
     }
 
-    /// Where frames are sent.
+    /// Where frames are sent, and the only address they are received from.
     pub fn target(&self) -> SocketAddr {
         self.target
     }
 
-    /// The sender of the last datagram received (replies are accepted from
-    /// any address; see the type's docs).
+    /// The sender of the last datagram received (the target, once it
+    /// answered).
     pub fn last_source(&self) -> Option<SocketAddr> {
         self.last_source
     }
@@ -295,21 +435,27 @@ impl UdpOut {
 }
 
 impl UdpOut {
-    /// The send half's handle: a clone of the socket and its target.
+    /// The send half's handle: a clone of the socket, connected to the
+    /// target.
     pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
         self.mode.share();
-        Ok((self.socket.try_clone()?, UdpPeer::Fixed(Some(self.target))))
+        Ok((self.socket.try_clone()?, UdpPeer::Connected(self.target)))
     }
 }
 
 impl Transport for UdpOut {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        self.socket.send_to(frame, self.target).map(drop)
+        send_connected(&self.socket, frame)
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        let source = (&mut self.last_source, &self.shared);
-        recv_noting_source(&self.socket, &mut self.mode, source, buf, timeout)
+        recv_noting_source(
+            &self.socket,
+            &mut self.mode,
+            &mut self.last_source,
+            buf,
+            timeout,
+        )
     }
 
     fn is_datagram(&self) -> bool {
@@ -319,38 +465,33 @@ impl Transport for UdpOut {
 
 /// `udpbcast:`: broadcasts to one address (e.g. `255.255.255.255:14550`
 /// or a subnet's broadcast address) from an ephemeral port with
-/// `SO_BROADCAST` set, until a datagram arrives; from then on frames go to
-/// the sender of the last datagram received, as MAVProxy's `udpbcast`
-/// link does once a peer answers. (pymavlink's `mavudp` locks onto the
-/// first sender for good; following the last one lets a restarted peer,
-/// which comes back from a new port, take over.)
-///
-/// Anyone who can send a datagram to the port redirects what follows, as
-/// with [`ReplyTo::LastSender`]: for discovery on a trusted network, not
-/// for a link that carries control. A sender with source port 0 never
-/// becomes the peer.
+/// `SO_BROADCAST` set, until a frame is accepted; from then on frames go
+/// to the senders of accepted frames, by [`ReplyTo::Accepted`]'s rule (up
+/// to [`MAX_PEERS`](crate::peers::MAX_PEERS), a station that keeps speaking never displaced), as
+/// MAVProxy's `udpbcast` link answers a peer once one speaks. A datagram
+/// without an accepted frame moves nothing; a sender with source port 0
+/// never becomes a peer.
 #[derive(Debug)]
 pub struct UdpBcast {
     socket: UdpSocket,
     target: SocketAddr,
     last_source: Option<SocketAddr>,
+    peers: Peers,
     mode: ReadMode,
-    /// Set by `split`: where a split-off sender reads the last sender.
-    shared: Option<SharedSource>,
 }
 
 impl UdpBcast {
     /// Binds an ephemeral port of `target`'s address family with
     /// `SO_BROADCAST` set.
     pub fn new(target: SocketAddr) -> io::Result<Self> {
-        let UdpOut { socket, .. } = UdpOut::new(target)?;
+        let socket = ephemeral(target)?;
         socket.set_broadcast(true)?;
         Ok(UdpBcast {
             socket,
             target,
             last_source: None,
+            peers: Peers::new(),
             mode: ReadMode::default(),
-            shared: None,
         })
     }
 
@@ -364,11 +505,15 @@ impl UdpBcast {
         self.target
     }
 
-    /// Where frames go now: the last sender, or the broadcast address.
+    /// Where frames go now: the peer heard most recently, or the broadcast
+    /// address (see [`peers`](Self::peers) for all).
     pub fn peer(&self) -> SocketAddr {
-        self.last_source
-            .filter(|a| a.port() != 0)
-            .unwrap_or(self.target)
+        self.peers.set.latest().unwrap_or(self.target)
+    }
+
+    /// The peers (none while broadcasting).
+    pub fn peers(&self) -> impl Iterator<Item = SocketAddr> + '_ {
+        self.peers.set.iter()
     }
 
     /// The sender of the last datagram received.
@@ -384,28 +529,38 @@ impl UdpBcast {
 
 impl UdpBcast {
     /// The send half's handle: a clone of the socket, sending to the
-    /// receiving half's last sender, else broadcasting.
+    /// receiving half's peers, else broadcasting.
     pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
         self.mode.share();
-        let shared = Arc::new(Mutex::new(self.last_source));
-        self.shared = Some(shared.clone());
-        let peer = UdpPeer::LastSender(shared, Some(self.target));
+        let peer = UdpPeer::Peers(self.peers.share(), Some(self.target));
         Ok((self.socket.try_clone()?, peer))
     }
 }
 
 impl Transport for UdpBcast {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        self.socket.send_to(frame, self.peer()).map(drop)
+        if self.peers.set.is_empty() {
+            return self.socket.send_to(frame, self.target).map(drop);
+        }
+        send_each(&self.socket, self.peers.set.iter(), frame)
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        let source = (&mut self.last_source, &self.shared);
-        recv_noting_source(&self.socket, &mut self.mode, source, buf, timeout)
+        recv_noting_source(
+            &self.socket,
+            &mut self.mode,
+            &mut self.last_source,
+            buf,
+            timeout,
+        )
     }
 
     fn is_datagram(&self) -> bool {
         true
+    }
+
+    fn accepted(&mut self) {
+        self.peers.heard(self.last_source);
     }
 }
 
@@ -437,38 +592,54 @@ mod tests {
         assert!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap() > 0);
     }
 
+    /// By default a sender is answered once a frame of its was accepted
+    /// (the connection calls `accepted`), with every other peer; a
+    /// datagram alone moves nothing.
     #[test]
-    fn last_sender_is_answered_by_default() {
+    fn senders_of_accepted_frames_are_answered_by_default() {
         let mut udp = UdpIn::bind(local()).unwrap();
+        assert_eq!(udp.reply_to(), ReplyTo::Accepted);
         let at = udp.local_addr().unwrap();
         let (a, b) = (peer(), peer());
         udp.send(b"nobody yet").unwrap();
         a.send_to(b"x", at).unwrap();
         receive(&mut udp);
+        udp.send(b"still nobody").unwrap();
+        assert_eq!(got(&a), None, "a datagram alone made a peer");
+        udp.accepted();
         udp.send(b"to a").unwrap();
         assert_eq!(got(&a).as_deref(), Some(&b"to a"[..]));
         b.send_to(b"y", at).unwrap();
         receive(&mut udp);
-        udp.send(b"to b").unwrap();
-        assert_eq!(got(&b).as_deref(), Some(&b"to b"[..]));
-        assert_eq!(got(&a), None, "the last sender took over");
+        udp.accepted();
+        udp.send(b"to both").unwrap();
+        assert_eq!(got(&a).as_deref(), Some(&b"to both"[..]));
+        assert_eq!(got(&b).as_deref(), Some(&b"to both"[..]));
+        assert_eq!(udp.peer(), Some(b.local_addr().unwrap()), "the latest");
+        assert_eq!(udp.peers().count(), 2);
     }
 
-    /// A pinned peer stays the peer whoever else sends: a stranger's
-    /// datagrams cannot redirect the link.
+    /// Under [`ReplyTo::Owner`] the owner's peers stay the peers whoever
+    /// else sends, accepted frames or not.
     #[test]
-    fn a_pinned_peer_is_not_redirected_by_strangers() {
+    fn an_owners_peer_is_not_redirected_by_strangers() {
         let mut udp = UdpIn::bind(local()).unwrap();
-        udp.set_reply_to(ReplyTo::Pinned);
+        udp.set_reply_to(ReplyTo::Owner);
         let at = udp.local_addr().unwrap();
         let (real, stranger) = (peer(), peer());
         real.send_to(b"x", at).unwrap();
         receive(&mut udp);
-        udp.send(b"before pinning").unwrap();
-        assert_eq!(got(&real), None, "nothing is sent until a peer is pinned");
+        udp.accepted();
+        udp.send(b"before the owner says").unwrap();
+        assert_eq!(
+            got(&real),
+            None,
+            "nothing is sent until the owner names a peer"
+        );
         udp.set_peer(real.local_addr().unwrap());
         stranger.send_to(b"hijack", at).unwrap();
         receive(&mut udp);
+        udp.accepted();
         assert_eq!(udp.last_source(), Some(stranger.local_addr().unwrap()));
         udp.send(b"still real").unwrap();
         assert_eq!(got(&real).as_deref(), Some(&b"still real"[..]));
@@ -476,29 +647,36 @@ mod tests {
         // Port 0 can never be a peer (no datagram can go there).
         udp.set_peer(SocketAddr::from(([127, 0, 0, 1], 0)));
         assert_eq!(udp.peer(), Some(real.local_addr().unwrap()));
+        udp.set_peers(&[stranger.local_addr().unwrap(), real.local_addr().unwrap()]);
+        udp.send(b"both").unwrap();
+        assert_eq!(got(&real).as_deref(), Some(&b"both"[..]));
+        assert_eq!(got(&stranger).as_deref(), Some(&b"both"[..]));
     }
 
-    /// `udpbcast` sends to its target (with SO_BROADCAST on) until a
-    /// datagram arrives, then to the last sender.
+    /// `udpbcast` sends to its target (with SO_BROADCAST on) until a frame
+    /// is accepted, then to the senders of accepted frames.
     #[test]
-    fn udpbcast_broadcasts_until_answered_then_follows_the_last_sender() {
+    fn udpbcast_broadcasts_until_a_frame_is_accepted() {
         let (target, a, b) = (peer(), peer(), peer());
         let mut udp = UdpBcast::new(target.local_addr().unwrap()).unwrap();
         assert!(udp.get_ref().broadcast().unwrap());
         udp.send(b"anyone?").unwrap();
         assert_eq!(got(&target).as_deref(), Some(&b"anyone?"[..]));
         let at = SocketAddr::from(([127, 0, 0, 1], udp.local_addr().unwrap().port()));
-        a.send_to(b"me", at).unwrap();
+        b.send_to(b"noise", at).unwrap();
         let mut buf = [0u8; 64];
+        assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 5);
+        udp.send(b"still anyone?").unwrap();
+        assert_eq!(got(&target).as_deref(), Some(&b"still anyone?"[..]));
+        assert_eq!(got(&b), None, "a datagram alone made a peer");
+        a.send_to(b"me", at).unwrap();
         assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 2);
+        udp.accepted();
         udp.send(b"to a").unwrap();
         assert_eq!(got(&a).as_deref(), Some(&b"to a"[..]));
-        b.send_to(b"me too", at).unwrap();
-        assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 6);
-        udp.send(b"to b").unwrap();
-        assert_eq!(got(&b).as_deref(), Some(&b"to b"[..]));
-        assert_eq!(got(&a), None);
+        assert_eq!(udp.peer(), a.local_addr().unwrap());
         assert_eq!(got(&target), None, "no more broadcasts once answered");
+        assert_eq!(got(&b), None);
     }
 
     #[test]
@@ -513,5 +691,149 @@ mod tests {
         udp.send(b"second").unwrap();
         assert_eq!(got(&fixed).as_deref(), Some(&b"second"[..]));
         assert_eq!(got(&other), None);
+    }
+
+    /// A `udpout` socket is connected to its target: a third socket's
+    /// datagram to its local port is never received, the target's is.
+    #[test]
+    fn udpout_ignores_third_parties() {
+        let target = peer();
+        let mut udp = UdpOut::new(target.local_addr().unwrap()).unwrap();
+        udp.send(b"hello").unwrap();
+        let mut buf = [0u8; 64];
+        let (_, from) = target.recv_from(&mut buf).unwrap();
+        let local = SocketAddr::from(([127, 0, 0, 1], from.port()));
+        let third = peer();
+        third.send_to(b"forged", local).unwrap();
+        assert_eq!(
+            udp.recv(&mut buf, Some(Duration::from_millis(200)))
+                .unwrap(),
+            0,
+            "a third party's datagram was received"
+        );
+        target.send_to(b"reply", local).unwrap();
+        assert_eq!(udp.recv(&mut buf, Some(Duration::from_secs(2))).unwrap(), 5);
+        assert_eq!(&buf[..5], b"reply");
+    }
+
+    /// A link that drops its packets and never answers: sends to it cause
+    /// no error, however many ICMP errors they draw.
+    #[test]
+    fn udpout_sends_to_a_closed_port_without_error() {
+        let closed = peer().local_addr().unwrap(); // dropped: nobody there
+        let mut udp = UdpOut::new(closed).unwrap();
+        let mut buf = [0u8; 16];
+        for _ in 0..3 {
+            udp.send(b"anyone?").unwrap();
+            assert_eq!(
+                udp.recv(&mut buf, Some(Duration::from_millis(20))).unwrap(),
+                0
+            );
+        }
+    }
+
+    mod connection {
+        use super::super::super::test_dialect::{Ping, TestDialect};
+        use super::super::super::Connection;
+        use super::*;
+        use crate::frame::{FrameBuf, Header, Version};
+        use crate::peers::MAX_PEERS;
+
+        fn ping(value: u32) -> FrameBuf {
+            let h = Header {
+                seq: value as u8,
+                sysid: 1,
+                compid: 1,
+            };
+            FrameBuf::encode(Version::V2, h, &Ping { value }, None).unwrap()
+        }
+
+        fn server() -> (Connection<TestDialect, UdpIn>, SocketAddr) {
+            let udp = UdpIn::bind(local()).unwrap();
+            let at = udp.local_addr().unwrap();
+            (Connection::new(udp), at)
+        }
+
+        /// A stranger's 1-byte datagrams, every 10 ms, never move a
+        /// `udpin` connection's replies away from the station whose frame
+        /// it accepted (answering the last sender, each one did).
+        #[test]
+        fn one_byte_datagrams_never_redirect_a_udpin_link() {
+            let (mut link, at) = server();
+            let (station, stranger) = (peer(), peer());
+            station.send_to(&ping(1), at).unwrap();
+            assert!(link.recv(Some(Duration::from_secs(2))).unwrap().is_some());
+            for i in 0..20u32 {
+                stranger.send_to(&[0], at).unwrap();
+                std::thread::sleep(Duration::from_millis(10));
+                assert!(link
+                    .recv(Some(Duration::from_millis(20)))
+                    .unwrap()
+                    .is_none());
+                assert_eq!(link.transport().last_source(), stranger.local_addr().ok());
+                link.send_raw(&ping(100 + i)).unwrap();
+                assert_eq!(got(&station).as_deref(), Some(&ping(100 + i)[..]), "{i}");
+            }
+            assert_eq!(got(&stranger), None, "the stranger got traffic");
+        }
+
+        /// 200 strangers, each with a valid frame, arrive while a station
+        /// keeps speaking: the station receives every frame sent meanwhile;
+        /// 7 strangers at most (the free slots) get copies.
+        #[test]
+        fn a_speaking_station_keeps_its_traffic_among_200_strangers() {
+            let (mut link, at) = server();
+            let station = peer();
+            let mut strangers = Vec::new();
+            for i in 0..200u32 {
+                if i % 20 == 0 {
+                    station.send_to(&ping(1000 + i), at).unwrap();
+                    assert!(link.recv(Some(Duration::from_secs(2))).unwrap().is_some());
+                }
+                let s = UdpSocket::bind(local()).unwrap();
+                s.set_read_timeout(Some(Duration::from_millis(5))).unwrap();
+                s.send_to(&ping(i), at).unwrap();
+                assert!(link.recv(Some(Duration::from_secs(2))).unwrap().is_some());
+                strangers.push(s);
+                if i % 20 == 19 {
+                    link.send_raw(&ping(5000 + i)).unwrap();
+                    let want = ping(5000 + i);
+                    assert_eq!(got(&station).as_deref(), Some(&want[..]), "after {i}");
+                }
+            }
+            let served = strangers.iter().filter(|s| got(s).is_some()).count();
+            assert!(served < MAX_PEERS, "{served} strangers got traffic");
+            assert_eq!(link.transport().peers().count(), MAX_PEERS);
+        }
+
+        /// With a key, an unsigned frame (accepted, unauthenticated) makes
+        /// its sender no peer; an authenticated one does.
+        #[test]
+        fn with_a_key_only_authenticated_frames_make_peers() {
+            use crate::parser::{Parser, Unsigned};
+            use crate::signing::{timestamp_now, Signer, Verifier};
+            let key = [4u8; 32];
+            let udp = UdpIn::bind(local()).unwrap();
+            let at = udp.local_addr().unwrap();
+            let parser = Parser::with_signing(Verifier::new(key), Unsigned::Accept);
+            let mut link = Connection::<TestDialect, _>::with_parser(udp, parser);
+            let (station, stranger) = (peer(), peer());
+            stranger.send_to(&ping(1), at).unwrap();
+            let f = link.recv(Some(Duration::from_secs(2))).unwrap().unwrap();
+            assert!(!f.is_authenticated());
+            assert_eq!(link.transport().peer(), None);
+            let mut signer = Signer::new(key, 1, timestamp_now());
+            let h = Header::default();
+            let signed =
+                FrameBuf::encode(Version::V2, h, &Ping { value: 2 }, Some(&mut signer)).unwrap();
+            station.send_to(&signed, at).unwrap();
+            assert!(link
+                .recv(Some(Duration::from_secs(2)))
+                .unwrap()
+                .unwrap()
+                .is_authenticated());
+            assert_eq!(link.transport().peer(), station.local_addr().ok());
+            assert_eq!(link.transport().peers().count(), 1);
+        }
     }
 }

@@ -211,6 +211,7 @@ impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncLink<T, D
 impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncLink<T, D, BUF, STREAMS> {
     /// As [`Link::send`](super::Link::send).
     pub async fn send(&mut self, msg: &(impl Encode + ?Sized)) -> Result<(), SendError<T::Error>> {
+        self.outbox.framer.adopt_from(self.inbox.parser.verifier());
         send(&mut self.io, &mut self.outbox, msg).await
     }
 

@@ -254,8 +254,10 @@ impl<T: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
 
 impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize> Link<T, D, BUF, STREAMS> {
     /// Frames `msg` (next sequence number, signed if the framer has a
-    /// signer) and writes the whole frame. Does not flush.
+    /// signer, no earlier than what the link's verifier accepted: see
+    /// [`Framer::adopt_from`]) and writes the whole frame. Does not flush.
     pub fn send(&mut self, msg: &(impl Encode + ?Sized)) -> Result<(), SendError<T::Error>> {
+        self.outbox.framer.adopt_from(self.inbox.parser.verifier());
         send(&mut self.io, &mut self.outbox, msg)
     }
 

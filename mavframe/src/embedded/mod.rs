@@ -57,7 +57,10 @@
 //! `Verifier::with_clock`); a [`Signer`](crate::Signer)'s timestamps must
 //! keep increasing across restarts, so start it above the last one it
 //! sent, and give the [`Framer`] a clock if you have one
-//! ([`Framer::set_clock`]). See [`crate::signing`].
+//! ([`Framer::set_clock`]). A [`Link`]'s signer adopts what its verifier
+//! accepted; with a [`Receiver`] and a [`Sender`], hand it over yourself
+//! (`sender.framer_mut().adopt_from(receiver.parser().verifier())`). See
+//! [`crate::signing`].
 //!
 //! # Async cancellation and fairness
 //!

@@ -434,7 +434,7 @@ fn signing_round_trip_and_refusals_over_a_link() {
     // A replay of the captured frame, injected on the line.
     attacker.send_frame(got.as_bytes()).unwrap();
     assert_eq!(cc.recv().unwrap_err(), RecvError::Eof);
-    assert_eq!(cc.parser().stats().bad_signature, 1);
+    assert_eq!(cc.parser().stats().stale_timestamp, 1);
 
     // A frame signed with another key, and an unsigned one.
     let mut forger = Framer::new();
@@ -448,11 +448,33 @@ fn signing_round_trip_and_refusals_over_a_link() {
     // signature block may have started a candidate frame).
     assert!(cc.recv_eof().is_none());
     let stats = cc.parser().stats();
-    assert_eq!((stats.bad_signature, stats.unsigned_rejected), (2, 1));
+    assert_eq!((stats.bad_signature, stats.unsigned_rejected), (1, 1));
 
     // The real sender still gets through.
     fc.send(&Ping { value: 9 }).unwrap();
     assert_eq!(cc.recv().unwrap().message(), Some(Ping { value: 9 }));
+}
+
+/// Two boards without clocks whose signers start far apart: the one
+/// behind adopts the timestamp of the first frame it verified from the one
+/// ahead, so its next frame is accepted by it (a new stream more than a
+/// minute behind what the one ahead saw would be refused as stale).
+#[test]
+fn a_link_signs_at_the_newest_timestamp_it_verified() {
+    let key = [0x5a; 32];
+    let (a, b) = wire_pair(5);
+    let mut ahead = signed_link(a, key, 1, 1);
+    let mut behind = signed_link(b, key, 2, 191);
+    ahead
+        .framer_mut()
+        .set_signer(Some(Signer::new(key, 1, 90_000_000)));
+    ahead.send(&Ping { value: 1 }).unwrap();
+    assert!(behind.recv().unwrap().is_authenticated());
+    behind.send(&Ping { value: 2 }).unwrap();
+    let got = ahead.recv().unwrap();
+    assert!(got.is_authenticated());
+    assert!(got.frame().signature().unwrap().timestamp() >= 90_000_000);
+    assert_eq!(ahead.parser().stats().stale_timestamp, 0);
 }
 
 #[test]

@@ -5,18 +5,94 @@
 //! spec (mavlink.io, "Message Signing") and the C library's
 //! `mavlink_signature_check` do.
 //!
-//! Timestamps count 10 µs since 2015-01-01 00:00 UTC (`timestamp_now`, with
-//! `std`). Replay protection rests on them, so where they start matters:
+//! # Timestamps
 //!
-//! - a [`Verifier`] on a live link starts from the clock
-//!   (`Verifier::starting_now` (std), or [`Verifier::with_clock`] /
-//!   [`Verifier::with_timestamp`] without `std`); [`Verifier::new`] starts
-//!   at 0 and accepts any capture as a new stream, so it is for decoding
-//!   recordings and for tests only;
-//! - a [`Signer`] starts at the clock, and never below what it sent before a
-//!   restart: the MAVLink spec asks signers to keep their timestamps
-//!   increasing across restarts, which `signing::state` (with `std`) does
-//!   with a small state file that also keeps the verifier's table.
+//! Timestamps count 10 µs since 2015-01-01 00:00 UTC (`timestamp_now`, with
+//! `std`; a clock before 2015 reads 0). Replay protection rests on them, and
+//! clocks disagree (a companion board without a real-time clock boots in
+//! 1970), so these are the rules, and what each is for.
+//!
+//! **What a verifier accepts.** A signed frame with timestamp `t` whose
+//! signature matches the key is accepted when `t` passes its stream's check
+//! (see [`Verifier`] for the table and its eviction):
+//!
+//! - a stream the verifier knows: `t` is greater than the stream's last
+//!   accepted timestamp, however old `t` is (else [`SignatureError::Replay`]);
+//! - a new stream: `t` is at most [`NEW_STREAM_WINDOW`] (one minute) before
+//!   the verifier's notion of now (else [`SignatureError::TooOld`]), and
+//!   above its bucket's eviction floor (else [`SignatureError::BelowFloor`]);
+//! - there is no upper bound: a frame from the future is accepted, as in the
+//!   C library and pymavlink. A receiver whose clock is behind (booted in
+//!   1970, an hour slow) must accept a correctly clocked peer to learn the
+//!   time from it (below); only key holders can sign, and a key holder can
+//!   sign anything anyway.
+//!
+//! The timestamp is checked before the signature (a refused timestamp costs
+//! no SHA-256), so a frame refused for it ([`SignatureError::is_stale`]) is
+//! not known to be forged: it is a replay, a capture, or a genuine frame
+//! from a peer whose clock is behind. Parsers count these apart from
+//! signatures that do not match the key (`parser::Stats::stale_timestamp`
+//! and `bad_signature`; frames of ids the dialect does not know, whose
+//! checksum cannot vouch for them, count as bad signatures either way).
+//!
+//! **The verifier's notion of now** ([`Verifier::newest_timestamp`]) is the
+//! greatest of: its start (the clock, or a saved value), every timestamp it
+//! accepted, and, with a clock, the clock read whenever a new stream
+//! appears. A clock that is behind never lowers it, and once a frame from a
+//! correctly clocked peer is accepted, it is that peer's time: captures more
+//! than a minute older than the peer's frames are then refused as new
+//! streams, although the local clock would have called them fresh.
+//!
+//! **The window** is one minute ([`NEW_STREAM_WINDOW`]), the spec's and the
+//! C library's `MAVLINK_SIGNING_TIMESTAMP_LIMIT`: a verifier that does not
+//! know a stream (a fresh start without a state file, a stream evicted or
+//! seen only on another link) accepts its captures up to a minute old, once.
+//! A longer window would widen that; a shorter one would refuse peers whose
+//! clocks are a little behind before they adopt (below).
+//!
+//! **A signer never goes back:** every frame carries a timestamp greater
+//! than the previous one ([`Signer::advance_to`] only raises it); with a
+//! clock (`Framer`, the connections) it keeps up with the clock before each
+//! frame.
+//!
+//! **A signer adopts the newest timestamp its link verified:** after a frame
+//! with timestamp `t` is accepted by the link's verifier, the link's signer
+//! signs its next frame at `max(own, t)` or later (the C library's
+//! `mavlink_signature_check` sets its signing timestamp so). The front ends
+//! do it on every link that verifies and signs: the router's links, the
+//! blocking and async connections (split halves too) and the `embedded`
+//! `Link`s; elsewhere call `Framer::adopt_from` with the parser's verifier.
+//! So a clock skew between two signers of the key does not stop their link:
+//! the frames of the one ahead are accepted by the one behind (no upper
+//! bound), which jumps forward, and its next frames are accepted by the one
+//! ahead. Until then, the one ahead refuses the frames of the one behind as
+//! stale (if the skew is over a minute).
+//!
+//! Limits, as they follow from the rules:
+//!
+//! - If neither side sends before it has accepted a frame of the other (a
+//!   listener that waits for a peer to answer), and the clocks differ by more
+//!   than a minute, the side ahead refuses the other's frames as stale and
+//!   neither adopts: the side ahead must be heard first, or the clocks set.
+//! - A key holder whose clock is far ahead (or who signs ahead on purpose)
+//!   drags every adopting signer with it, and verifiers that accepted its
+//!   frames then refuse correctly clocked new streams as too old until those
+//!   adopt in turn (a new stream must be heard by them first). The C library
+//!   does the same: the protocol trusts the key.
+//! - A verifier whose clock is behind and that has no saved state accepts
+//!   any capture less than a minute older than its clock, once per stream
+//!   (in 1970: every capture). Keep the state across restarts
+//!   (`signing::state`, with `std`), which also keeps the stream table.
+//!
+//! **Starting points.** A [`Verifier`] on a live link starts from the clock
+//! (`Verifier::starting_now` (std), or [`Verifier::with_clock`] /
+//! [`Verifier::with_timestamp`] without `std`); [`Verifier::new`] starts at 0
+//! and accepts any capture as a new stream, so it is for decoding recordings
+//! and for tests only. A [`Signer`] starts at the clock and never below what
+//! it signed before a restart (the spec asks signers to keep their
+//! timestamps increasing across restarts): `signing::state` (with `std`)
+//! keeps that bound, and the verifier's table, in a small state file,
+//! without moving the signer ahead at each restart (see there).
 
 use crate::frame::SIGNATURE_LEN;
 use core::fmt;
@@ -148,6 +224,8 @@ pub struct Signer {
     key: [u8; 32],
     link_id: u8,
     timestamp: u64,
+    /// Above every timestamp signed (see [`Signer::signed_below`]).
+    signed_below: u64,
 }
 
 impl fmt::Debug for Signer {
@@ -156,17 +234,20 @@ impl fmt::Debug for Signer {
         f.debug_struct("Signer")
             .field("link_id", &self.link_id)
             .field("timestamp", &self.timestamp)
+            .field("signed_below", &self.signed_below)
             .finish_non_exhaustive()
     }
 }
 
 impl Signer {
-    /// A signer for `link_id` whose next frame carries `timestamp`.
+    /// A signer for `link_id` whose next frame carries `timestamp`, that
+    /// has signed nothing yet ([`signed_below`](Self::signed_below) 0).
     pub fn new(key: [u8; 32], link_id: u8, timestamp: u64) -> Self {
         Signer {
             key,
             link_id,
             timestamp,
+            signed_below: 0,
         }
     }
 
@@ -175,8 +256,19 @@ impl Signer {
         self.timestamp
     }
 
+    /// One past the greatest timestamp signed (0: none): every frame this
+    /// signer signed, and for one restored from a state file
+    /// (`signing::state`) every frame signed before the restart, carries a
+    /// smaller one. Unlike [`timestamp`](Self::timestamp), it does not move
+    /// when the signer adopts a timestamp or keeps up with a clock: it is
+    /// what a restart must stay above, and no more.
+    pub fn signed_below(&self) -> u64 {
+        self.signed_below
+    }
+
     /// Moves the timestamp forward to `now` (never back: receivers reject a
-    /// stream whose timestamps do not increase).
+    /// stream whose timestamps do not increase). Also how a signer adopts a
+    /// timestamp its link verified (see the module docs).
     pub fn advance_to(&mut self, now: u64) {
         self.timestamp = self.timestamp.max(now);
     }
@@ -205,6 +297,7 @@ impl Signer {
         });
         block.copy_from_slice(&sig);
         self.timestamp += 1;
+        self.signed_below = self.signed_below.max(self.timestamp);
     }
 }
 
@@ -243,6 +336,23 @@ impl fmt::Display for SignatureError {
             }
             SignatureError::TooManyStreams => "verifier has no stream slots",
         })
+    }
+}
+
+impl SignatureError {
+    /// Whether the frame was refused for its timestamp ([`Replay`],
+    /// [`TooOld`], [`BelowFloor`]): a replay, or a frame from a signer
+    /// whose clock is behind. The timestamp is checked first, so such a
+    /// frame is not known to be forged (see the module docs).
+    ///
+    /// [`Replay`]: SignatureError::Replay
+    /// [`TooOld`]: SignatureError::TooOld
+    /// [`BelowFloor`]: SignatureError::BelowFloor
+    pub fn is_stale(&self) -> bool {
+        matches!(
+            self,
+            SignatureError::Replay | SignatureError::TooOld | SignatureError::BelowFloor
+        )
     }
 }
 

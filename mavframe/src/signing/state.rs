@@ -22,26 +22,43 @@
 //! let (mut file, loaded) = StateFile::open("cc.signing-state")?;
 //! let mut verifier: Verifier = file.state().verifier(key);
 //! let mut signer: Signer = file.state().signer(key, 0);
-//! // In the loop, after handling input (cheap when nothing is due):
+//! // In the loop, after handling input and sending (cheap when nothing is
+//! // due): a checkpoint, which covers a crash.
 //! if file.due(Some(&signer)) {
 //!     file.save(Some(&signer), Some(&verifier))?;
 //! }
-//! // At exit, always:
-//! file.save(Some(&signer), Some(&verifier))?;
+//! // At exit, always, when nothing more is signed: exactly what was signed.
+//! file.save_final(Some(&signer), Some(&verifier))?;
 //! # let _ = loaded; Ok(()) }
 //! ```
 //!
 //! # Guarantees and limits
 //!
-//! - A signer built from the state starts at the greater of the clock and
-//!   the saved timestamp plus [`SIGNER_MARGIN`] (10 s of timestamps). That
-//!   is strictly after anything it sent, provided each save came before its
-//!   timestamp ran [`SIGNER_MARGIN`] past the previous one:
-//!   [`StateFile::due`] asks for a save once it has run half of that, and
-//!   every [`SAVE_INTERVAL`]. A save that fails (full disk) loses that
-//!   guarantee until the next one succeeds: after a crash in that time, the
-//!   signer may restart below what receivers saw and be rejected as a replay
-//!   until its timestamp catches up (unavailability, not a replay).
+//! - The file's `signer` value is a *bound*: every timestamp signed before
+//!   the save is below it. A signer built from the state
+//!   ([`SigningState::signer`]) starts at the greater of the clock and the
+//!   bound, and never below: nothing it signs can be refused as a replay of
+//!   what it signed before the restart.
+//! - The bound records what was signed ([`Signer::signed_below`]), not where
+//!   the signer was: a signer that adopted a peer's timestamp or kept up
+//!   with the clock without signing moves nothing. [`StateFile::save_final`]
+//!   (at exit) writes it exactly; a checkpoint ([`StateFile::save`]) after
+//!   new signatures writes it plus [`SIGNER_MARGIN`] (10 s of timestamps),
+//!   which covers what the signer signs until the next checkpoint, due
+//!   ([`StateFile::due`]) once it signed within half the margin of the
+//!   bound. A save with nothing signed since the last keeps the bound.
+//! - Hence a restart with nothing signed since the last save leaves the
+//!   signer where it was; a clean restart (the exit's `save_final`) starts
+//!   just above the last frame signed, so any number of quick restarts do
+//!   not drift ahead of the clock; and a restart after a crash starts above
+//!   everything signed, at most [`SIGNER_MARGIN`] above the last frame
+//!   signed (each crash after signing can move the signer that far ahead of
+//!   the clock; the clock catches up in 10 s).
+//! - A save that fails (full disk) loses the crash guarantee until the next
+//!   one succeeds: after a crash in that time, the signer may restart below
+//!   what receivers saw and be refused as a replay until its timestamp
+//!   passes it, or it adopts a timestamp its link verified (unavailability,
+//!   not a replay).
 //! - A verifier built from the state rejects replays of every frame it had
 //!   accepted up to the last save. Frames it accepted after the last save
 //!   and before a crash (at most [`SAVE_INTERVAL`] of them, with the
@@ -57,13 +74,13 @@
 //!   its user only. One file per process: two processes sharing one would
 //!   overwrite each other's state.
 //!
-//! # Format (version 1)
+//! # Format (version 2)
 //!
 //! ASCII lines, each ending in `\n`, numbers in decimal, in this order:
 //!
 //! ```text
-//! mavframe-signing-state 1
-//! signer <next timestamp of the signer, or "none">
+//! mavframe-signing-state 2
+//! signer <the signer's bound (see above), or "none">
 //! newest <the verifier's notion of now>
 //! floors <16 numbers separated by one space: the eviction floors by bucket>
 //! stream <link id> <system id> <component id> <last timestamp>
@@ -75,6 +92,11 @@
 //! is the first 8 bytes of the SHA-256 of every byte before its line, so a
 //! truncated or damaged file is an error rather than lowered timestamps.
 //! Files are at most [`MAX_FILE_LEN`] bytes.
+//!
+//! Version 1 files are read too: the same lines, but `signer` was the
+//! signer's next timestamp, to which a restart added [`SIGNER_MARGIN`]; it
+//! is read as that sum (what a version 1 reader would have started from).
+//! Files are written as version 2.
 
 use super::{timestamp_now, Signer, StreamState, Verifier, FLOOR_BUCKETS};
 use sha2::{Digest, Sha256};
@@ -88,11 +110,12 @@ use std::string::String;
 use std::time::{Duration, Instant};
 use std::vec::Vec;
 
-/// Format version this code writes and reads.
-pub const VERSION: u32 = 1;
+/// Format version this code writes (it reads version 1 too).
+pub const VERSION: u32 = 2;
 
-/// How far past its saved timestamp a restored signer starts (10 s of
-/// timestamps): more than it can have sent between two saves.
+/// How far above the last frame signed a checkpoint puts the signer's bound
+/// (10 s of timestamps): more than it signs until the next checkpoint
+/// (see the module docs).
 pub const SIGNER_MARGIN: u64 = 1_000_000;
 
 /// How often [`StateFile::due`] asks for a save when the state changed.
@@ -182,7 +205,8 @@ impl From<io::Error> for StateError {
 /// The saved signing state of one program (see the module docs).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct SigningState {
-    /// The signer's next timestamp, if the program signs.
+    /// The signer's bound, if the program signs: every timestamp it signed
+    /// is below it, and a restarted signer starts there or later.
     pub signer: Option<u64>,
     /// The verifier's notion of now.
     pub newest: u64,
@@ -193,13 +217,14 @@ pub struct SigningState {
 }
 
 impl SigningState {
-    /// The state of `signer` and `verifier` (either may be absent).
+    /// The state of `signer` and `verifier` (either may be absent); the
+    /// signer's bound exactly what it signed ([`Signer::signed_below`]).
     pub fn capture<const N: usize>(
         signer: Option<&Signer>,
         verifier: Option<&Verifier<N>>,
     ) -> Self {
         let mut s = SigningState {
-            signer: signer.map(Signer::timestamp),
+            signer: signer.map(Signer::signed_below),
             ..SigningState::default()
         };
         if let Some(v) = verifier {
@@ -211,18 +236,25 @@ impl SigningState {
     }
 
     /// Where a restored signer starts when the clock reads `now`: the
-    /// greater of `now` and the saved timestamp plus [`SIGNER_MARGIN`].
+    /// greater of `now` and the saved bound (which holds any margin a
+    /// crash needs: see the module docs).
     pub fn signer_start(&self, now: u64) -> u64 {
-        match self.signer {
-            Some(saved) => now.max(saved.saturating_add(SIGNER_MARGIN)),
-            None => now,
-        }
+        now.max(self.signer.unwrap_or(0))
     }
 
     /// A signer for `key` and `link_id` starting at
-    /// [`signer_start`](Self::signer_start) of the system clock.
+    /// [`signer_start`](Self::signer_start) of `now`, whose
+    /// [`signed_below`](Signer::signed_below) is the saved bound (so saving
+    /// it before it signs keeps the bound where it was).
+    pub fn signer_at(&self, key: [u8; 32], link_id: u8, now: u64) -> Signer {
+        let mut signer = Signer::new(key, link_id, self.signer_start(now));
+        signer.signed_below = self.signer.unwrap_or(0);
+        signer
+    }
+
+    /// [`signer_at`](Self::signer_at) the system clock.
     pub fn signer(&self, key: [u8; 32], link_id: u8) -> Signer {
-        Signer::new(key, link_id, self.signer_start(timestamp_now()))
+        self.signer_at(key, link_id, timestamp_now())
     }
 
     /// A verifier for `key` on the system clock
@@ -274,10 +306,17 @@ impl SigningState {
         t
     }
 
-    /// Parses a file's bytes (see the module docs).
+    /// Parses a file's bytes (see the module docs; a version 1 file's
+    /// `signer` is read with [`SIGNER_MARGIN`] added).
     pub fn from_text(bytes: &[u8]) -> Result<Self, StateError> {
-        let text = parse::split(bytes)?;
-        parse::body(text)
+        let (text, version) = parse::split(bytes)?;
+        let mut state = parse::body(text)?;
+        if version == 1 {
+            state.signer = state
+                .signer
+                .map(|next| next.saturating_add(SIGNER_MARGIN).min(MAX_TIMESTAMP));
+        }
+        Ok(state)
     }
 
     /// Reads the file at `path`.
@@ -359,9 +398,9 @@ mod parse {
     use super::*;
 
     /// Checks the header, the ending and the checksum; returns the text
-    /// before the `check` line.
-    pub(super) fn split(bytes: &[u8]) -> Result<&str, StateError> {
-        version(bytes)?;
+    /// before the `check` line and the format version.
+    pub(super) fn split(bytes: &[u8]) -> Result<(&str, u32), StateError> {
+        let version = version(bytes)?;
         let Some(content) = bytes.strip_suffix(b"\n") else {
             return Err(StateError::Truncated);
         };
@@ -378,14 +417,15 @@ mod parse {
         }
         // The checksum matched, so this is what was written; still, a file
         // written by hand with a fresh checksum must be ASCII.
-        std::str::from_utf8(body).map_err(|_| StateError::Corrupt {
+        let text = std::str::from_utf8(body).map_err(|_| StateError::Corrupt {
             line: 1,
             reason: "not text",
-        })
+        })?;
+        Ok((text, version))
     }
 
-    /// The first line: the magic and a version this code reads.
-    fn version(bytes: &[u8]) -> Result<(), StateError> {
+    /// The first line: the magic and a version this code reads (1 or 2).
+    fn version(bytes: &[u8]) -> Result<u32, StateError> {
         let bad = StateError::Corrupt {
             line: 1,
             reason: "not a mavframe signing state file",
@@ -407,7 +447,7 @@ mod parse {
             });
         };
         match std::str::from_utf8(digits).ok().and_then(decimal) {
-            Some(v) if v == u64::from(VERSION) => Ok(()),
+            Some(v) if (1..=u64::from(VERSION)).contains(&v) => Ok(v as u32),
             Some(v) => Err(StateError::UnsupportedVersion(
                 u32::try_from(v).unwrap_or(u32::MAX),
             )),
@@ -534,6 +574,12 @@ pub struct StateFile {
     /// When the last save failed, if it did: the next waits an interval
     /// (a file that cannot be written was tried again at every frame).
     failed_at: Option<Instant>,
+    /// The signer's bound as loaded: what runs before this one may have
+    /// signed, which no save goes below.
+    loaded_bound: u64,
+    /// The signer's [`Signer::signed_below`] at the last save (the loaded
+    /// bound before any): signatures above it are new since.
+    signed_at_save: u64,
 }
 
 impl StateFile {
@@ -547,12 +593,15 @@ impl StateFile {
             Err(StateError::Missing) => (SigningState::default(), Loaded::Fresh),
             Err(e) => return Err(e),
         };
+        let bound = state.signer.unwrap_or(0);
         let file = StateFile {
             path,
             state,
             saved_at: Instant::now(),
             interval: SAVE_INTERVAL,
             failed_at: None,
+            loaded_bound: bound,
+            signed_at_save: bound,
         };
         Ok((file, loaded))
     }
@@ -575,42 +624,89 @@ impl StateFile {
         &self.state
     }
 
-    /// Whether a save is due: the signer ran half of [`SIGNER_MARGIN`] past
-    /// the saved timestamp, or the interval has passed since the last save;
-    /// after a failed save, not before [`SAVE_INTERVAL`] (or the interval,
-    /// if shorter) has passed since (a file that cannot be written was
-    /// tried again at every frame). Cheap: call it every loop iteration.
+    /// Whether a save is due: the signer signed since the last save and
+    /// came within half of [`SIGNER_MARGIN`] of the saved bound (or past
+    /// it), or the interval has passed since the last save; after a failed
+    /// save, not before [`SAVE_INTERVAL`] (or the interval, if shorter) has
+    /// passed since (a file that cannot be written was tried again at every
+    /// frame). Cheap: call it every loop iteration.
     pub fn due(&self, signer: Option<&Signer>) -> bool {
-        let ran_ahead = signer.is_some_and(|s| match self.state.signer {
-            Some(saved) => s.timestamp() >= saved.saturating_add(SIGNER_MARGIN / 2),
-            None => true,
+        let bound = self.state.signer.unwrap_or(0);
+        let ran_ahead = signer.is_some_and(|s| {
+            let signed = s.signed_below();
+            signed > self.signed_at_save && signed.saturating_add(SIGNER_MARGIN / 2) > bound
         });
         let retry_after = self.interval.min(SAVE_INTERVAL);
         let retry = self.failed_at.is_none_or(|t| t.elapsed() >= retry_after);
         retry && (ran_ahead || self.saved_at.elapsed() >= self.interval)
     }
 
-    /// Captures `signer` and `verifier` and writes them when they differ
-    /// from the last saved state (an idle link writes nothing). Returns
-    /// whether it wrote. On error, the last saved state stays the reference,
-    /// so [`due`](Self::due) asks again, a [`SAVE_INTERVAL`] later at most.
+    /// A checkpoint while the program runs: captures `signer` and
+    /// `verifier` and writes them when they differ from the last saved
+    /// state (an idle link writes nothing). The signer's bound moves only
+    /// when it signed since the last save and came within half the margin
+    /// of the bound: then to [`SIGNER_MARGIN`] above its last signature,
+    /// which covers a crash before the next checkpoint. Returns whether it
+    /// wrote. On error, the last saved state stays the reference, so
+    /// [`due`](Self::due) asks again, a [`SAVE_INTERVAL`] later at most.
     pub fn save<const N: usize>(
         &mut self,
         signer: Option<&Signer>,
         verifier: Option<&Verifier<N>>,
     ) -> Result<bool, StateError> {
-        let now = SigningState::capture(signer, verifier);
-        if now == self.state {
-            self.saved_at = Instant::now();
-            return Ok(false);
+        let bound = signer.map(|s| self.checkpoint_bound(s.signed_below()));
+        self.write(signer, verifier, bound)
+    }
+
+    /// The save at exit, when nothing more will be signed: as
+    /// [`save`](Self::save), but the signer's bound is exactly above its
+    /// last signature (never below the bound loaded at
+    /// [`open`](Self::open)), so a restart does not start ahead of what was
+    /// signed. A program that goes on signing after it is covered again by
+    /// the next checkpoint, due at its next signature.
+    pub fn save_final<const N: usize>(
+        &mut self,
+        signer: Option<&Signer>,
+        verifier: Option<&Verifier<N>>,
+    ) -> Result<bool, StateError> {
+        let bound = signer.map(|s| s.signed_below().max(self.loaded_bound));
+        self.write(signer, verifier, bound)
+    }
+
+    /// The bound a checkpoint writes for a signer that signed below
+    /// `signed` (see [`save`](Self::save)).
+    fn checkpoint_bound(&self, signed: u64) -> u64 {
+        let bound = self.state.signer.unwrap_or(0).max(self.loaded_bound);
+        if signed <= self.signed_at_save || signed.saturating_add(SIGNER_MARGIN / 2) <= bound {
+            bound.max(signed)
+        } else {
+            signed.saturating_add(SIGNER_MARGIN).min(MAX_TIMESTAMP)
         }
-        if let Err(e) = now.save(&self.path) {
-            self.failed_at = Some(Instant::now());
-            return Err(e);
+    }
+
+    fn write<const N: usize>(
+        &mut self,
+        signer: Option<&Signer>,
+        verifier: Option<&Verifier<N>>,
+        bound: Option<u64>,
+    ) -> Result<bool, StateError> {
+        let now = SigningState {
+            signer: bound,
+            ..SigningState::capture(signer, verifier)
+        };
+        let wrote = now != self.state;
+        if wrote {
+            if let Err(e) = now.save(&self.path) {
+                self.failed_at = Some(Instant::now());
+                return Err(e);
+            }
         }
         self.failed_at = None;
         self.state = now;
         self.saved_at = Instant::now();
-        Ok(true)
+        if let Some(s) = signer {
+            self.signed_at_save = s.signed_below();
+        }
+        Ok(wrote)
     }
 }

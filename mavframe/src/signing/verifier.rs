@@ -61,6 +61,13 @@ struct Slot {
 ///   rule for new streams) *and* `t` is greater than the floor of the
 ///   stream's bucket (else [`SignatureError::BelowFloor`], see eviction).
 ///
+/// There is no upper bound: a correctly signed frame from the future is
+/// accepted, as in the C library, so that a receiver whose clock is behind
+/// learns the time from a correctly clocked peer (see `crate::signing`:
+/// the link's signer then adopts it). The timestamp rules run before the
+/// SHA-256; a frame they refuse is [stale](SignatureError::is_stale), not
+/// known to be forged.
+///
 /// The notion of now is the greatest of: the start value (0 for
 /// [`new`](Self::new), the clock for `starting_now` (std) and
 /// [`with_clock`](Self::with_clock), the given value for
@@ -71,7 +78,10 @@ struct Slot {
 /// and however long the link has been idle. That is what the spec asks of a
 /// receiver ("accepted if it is not more than one minute behind the current
 /// timestamp"); the C library and pymavlink use their local signing
-/// timestamp, which the application sets from the clock or storage.
+/// timestamp, which the application sets from the clock or storage, and
+/// which accepted timestamps raise as here. A clock that is behind never
+/// lowers it: after a frame of a correctly clocked peer, captures more than
+/// a minute older than that peer's frames are refused as new streams.
 ///
 /// Which constructor:
 ///
@@ -196,7 +206,8 @@ impl<const N: usize> Verifier<N> {
     }
 
     /// The verifier's notion of now: the greatest of its start, the
-    /// timestamps accepted and the clock reads so far.
+    /// timestamps accepted and the clock reads so far; what the link's
+    /// signer adopts (`Framer::adopt_from`).
     pub fn newest_timestamp(&self) -> u64 {
         self.newest
     }

@@ -2,13 +2,12 @@
 //! read out of a frame is answered here, with the daemon's model, streams,
 //! parameters and engine at hand.
 
-use super::{sum, Daemon, ParamCursor, PARAM_LIST_INTERVAL};
+use super::{Daemon, ParamCursor, PARAM_LIST_INTERVAL};
 use crate::live::gcs::{self, Command, Interval, Kind, Plan, Request, Stream};
 use crate::live::net::Net;
 use crate::live::params::{Param, ParamError};
 use crate::live::telemetry;
 use crate::live::Log;
-use fbwag_delegation::engine::FcEngine;
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::{Instant, Peer};
 use fbwag_dialect::dialects::common::{
@@ -20,18 +19,21 @@ use fbwag_dialect::ReceivedFrame;
 use serde_json::json;
 
 impl Daemon {
-    /// Serves `frame` if it asks something of a ground-station service.
+    /// Serves `frame` if it asks something of a ground-station service
+    /// and the node lets it be served (`serve`: with signing required,
+    /// only a frame whose signature verified).
     pub(super) fn serve_frame(
         &mut self,
         now: Instant,
         frame: &ReceivedFrame,
+        serve: bool,
         net: &mut Net,
         log: &mut Log,
     ) {
         let h = frame.header();
         let from = Peer::new(h.sysid, h.compid);
         match gcs::classify(frame, self.own) {
-            Kind::Request(_) if self.cfg.require_signed && !frame.is_authenticated() => {
+            Kind::Request(_) if !serve => {
                 self.refused_unsigned = self.refused_unsigned.saturating_add(1);
                 self.gcs_log.log(log, "GCS log lines", || {
                     format!(
@@ -319,11 +321,12 @@ impl Daemon {
     /// time but the pilot flying with a working receiver and no notice
     /// still being retried.
     fn busy(&self) -> Option<&'static str> {
-        let a = self.engine.authority();
+        let engine = self.node.engine();
+        let a = engine.authority();
         let idle = a == Authority::Pilot
             && self.receiver_ok
-            && self.engine.machine().receiver_ok()
-            && self.engine.machine().poll_timeout().is_none();
+            && engine.machine().receiver_ok()
+            && engine.machine().poll_timeout().is_none();
         if idle {
             return None;
         }
@@ -341,13 +344,11 @@ impl Daemon {
         if cfg == self.cfg {
             return;
         }
-        let Ok(mut engine) = FcEngine::new(cfg, now) else {
+        if self.node.reconfigure(cfg, now).is_err() {
             // Param::apply validated it; keep the engine that runs.
             return;
-        };
-        engine.set_receiver_ok(self.receiver_ok);
-        self.stats_before = sum(self.stats_before, *self.engine.stats());
-        self.engine = engine;
+        }
+        self.node.set_receiver_ok(self.receiver_ok);
         self.cfg = cfg;
         let value = p.value(&cfg);
         log.line(&format!(

@@ -1,0 +1,333 @@
+//! The companion computer's node: the FC link, ground-station links and
+//! the autonomy's link around the companion engine.
+
+use super::{sender, Arrival, Core, DropReason, Fate, LinkId, LinkSpec, NodeError, Output, Role};
+use crate::cc::CcConfig;
+use crate::control::{Control, Controller, WingsLevel};
+use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
+use crate::outbox::Outbox;
+use crate::{Instant, Origin, Trust};
+use core::time::Duration;
+use fbwag_dialect::MessageView;
+
+/// What the companion does when its autonomy is silent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AutonomyFallback {
+    /// Decline a takeover, and give back an episode held (the FC's failsafe
+    /// runs at once).
+    #[default]
+    Decline,
+    /// Take over and fly wings level until the autonomy speaks.
+    WingsLevel,
+}
+
+/// Where the companion's control comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ControlSource {
+    /// A built-in controller: the program answers each
+    /// [`CcOutput::ControlDue`] with [`CompanionNode::submit_control`].
+    Builtin,
+    /// The user's autonomy program, on this link.
+    Autonomy {
+        /// Its link (added with [`Role::Autonomy`]).
+        link: LinkId,
+        /// What to do while it is silent.
+        fallback: AutonomyFallback,
+        /// How long without a frame from it makes it silent.
+        silence: Duration,
+    },
+}
+
+/// The default silence of an autonomy: it streams its control (gated
+/// until the companion holds it) at 20 Hz or so, so half a second without
+/// a frame means it is not flying.
+pub const AUTONOMY_SILENCE: Duration = Duration::from_millis(500);
+
+/// Throttle of the wings-level fallback (µs).
+const FALLBACK_THROTTLE: u16 = 1500;
+
+/// The companion's node: the [`CcEngine`] and the policy of its links
+/// (see the [module docs](super)).
+#[derive(Debug, Clone)]
+pub struct CompanionNode {
+    engine: CcEngine,
+    core: Core,
+    cfg: CcConfig,
+    source: ControlSource,
+    /// When the autonomy last spoke.
+    autonomy_heard: Option<Instant>,
+    /// The autonomy is silent (or was never heard).
+    silent: bool,
+    out: Outbox<Output<CompanionEvent>, 24>,
+}
+
+/// What the companion's node reports besides transmissions and peers.
+// Carried by value (no_std, no allocation), as the engine's outputs.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CompanionEvent {
+    /// The engine's event ([`CcOutput::Transmit`] never comes here).
+    Engine(CcOutput),
+    /// The autonomy fell silent (`true`: takeovers are declined, or the
+    /// wings-level fallback flies) or speaks again.
+    AutonomySilent(bool),
+}
+
+impl CompanionNode {
+    /// A node whose engine starts at `now`, with no links yet.
+    pub fn new(cfg: CcConfig, source: ControlSource, now: Instant) -> Result<Self, NodeError> {
+        Ok(CompanionNode {
+            engine: CcEngine::new(cfg, now)?,
+            core: Core::new(cfg.require_signed),
+            cfg,
+            source,
+            autonomy_heard: None,
+            silent: false,
+            out: Outbox::new(),
+        }
+        .with_readiness(now))
+    }
+
+    /// Starts with the autonomy silent: it has not spoken yet.
+    fn with_readiness(mut self, now: Instant) -> Self {
+        self.update_readiness(now);
+        self
+    }
+
+    /// Adds link `link`.
+    pub fn add_link(&mut self, link: LinkId, spec: LinkSpec) -> Result<(), NodeError> {
+        self.core.add(link, spec)
+    }
+
+    /// The engine (read only).
+    pub fn engine(&self) -> &CcEngine {
+        &self.engine
+    }
+
+    /// Frames dropped, by reason.
+    pub fn drops(&self) -> &super::Drops {
+        &self.core.drops
+    }
+
+    /// A link was opened again: whom it answered is forgotten.
+    pub fn link_reopened(&mut self, link: LinkId) {
+        self.core.reopened(link);
+    }
+
+    /// When [`handle_timeout`](Self::handle_timeout) must next run.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        [self.engine.poll_timeout(), self.silence_deadline()]
+            .into_iter()
+            .flatten()
+            .min()
+    }
+
+    /// Timers due at `now`.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        self.update_readiness(now);
+        self.engine.handle_timeout(now);
+        self.drain_engine(now);
+    }
+
+    /// Control from a built-in controller ([`ControlSource::Builtin`]).
+    pub fn submit_control(&mut self, now: Instant, control: Control) -> ControlVerdict {
+        let verdict = self.engine.submit_control(now, control);
+        self.drain_engine(now);
+        verdict
+    }
+
+    /// The next output, if any.
+    pub fn poll_output(&mut self) -> Option<Output<CompanionEvent>> {
+        self.out.pop()
+    }
+
+    /// A frame link `a.link` delivered at `now`: its fate.
+    pub fn handle_frame(&mut self, now: Instant, a: Arrival) -> Fate {
+        let Some(spec) = self.core.spec(a.link) else {
+            return Fate::default();
+        };
+        let fate = if sender(&a.frame) == self.cfg.own {
+            self.core.drop(DropReason::OwnIds)
+        } else {
+            match spec.role {
+                Role::Peer => self.on_fc_link(now, &a),
+                Role::Ground => self.on_ground_link(now, &a),
+                Role::Autonomy => self.on_autonomy_link(now, &a),
+            }
+        };
+        self.update_readiness(now);
+        self.drain_engine(now);
+        fate
+    }
+
+    /// A frame of the FC link. The engine sees every frame from the
+    /// link's peer (it counts what it does not trust); only the FC's
+    /// trusted frames act, and may make their source the peer.
+    fn on_fc_link(&mut self, now: Instant, a: &Arrival) -> Fate {
+        let from = sender(&a.frame);
+        let trusted = Trust {
+            peer: self.cfg.fc,
+            require_signed: self.cfg.require_signed,
+        }
+        .admits(Origin {
+            peer: from,
+            authenticated: a.authenticated,
+            seq: 0,
+        });
+        let out = &mut self.out;
+        let admitted =
+            self.core
+                .admits_source(a, now, trusted, a.authenticated, &mut |link, peers| {
+                    out.push(Output::Peers { link, peers })
+                });
+        if !admitted {
+            return self.core.drop(DropReason::NotPeer);
+        }
+        let verdict = self.engine.handle_frame(now, &a.frame, a.authenticated);
+        if from == self.cfg.fc && verdict == Verdict::Untrusted {
+            return self.core.drop(DropReason::Unauthenticated);
+        }
+        let mut fate = self.routed(a, true);
+        fate.input = verdict == Verdict::Trusted;
+        fate
+    }
+
+    /// A frame of a ground-station link.
+    fn on_ground_link(&mut self, now: Instant, a: &Arrival) -> Fate {
+        let from = sender(&a.frame);
+        if from == self.cfg.fc {
+            return self.core.drop(DropReason::Impersonation);
+        }
+        let out = &mut self.out;
+        let known = self
+            .core
+            .admits_source(a, now, true, a.authenticated, &mut |link, peers| {
+                out.push(Output::Peers { link, peers })
+            });
+        let fixed = matches!(
+            self.core.spec(a.link).map(|s| s.answers),
+            Some(super::Answers::Fixed(_))
+        );
+        if !known && fixed {
+            return self.core.drop(DropReason::NotPeer);
+        }
+        self.routed(a, a.authenticated)
+    }
+
+    /// A frame of the autonomy's link.
+    fn on_autonomy_link(&mut self, now: Instant, a: &Arrival) -> Fate {
+        let out = &mut self.out;
+        let admitted = self
+            .core
+            .admits_source(a, now, true, false, &mut |link, peers| {
+                out.push(Output::Peers { link, peers })
+            });
+        if !admitted {
+            return self.core.drop(DropReason::NotPeer);
+        }
+        let from = sender(&a.frame);
+        if from == self.cfg.fc {
+            return self.core.drop(DropReason::Impersonation);
+        }
+        self.autonomy_heard = Some(now);
+        let view = MessageView::new(a.frame.msg_id(), a.frame.payload());
+        let Some(control) = view.as_ref().and_then(Control::from_view) else {
+            let to = self.core.route(a, true, self.core.of(Role::Ground));
+            return Fate::routed(to);
+        };
+        match self.engine.submit_control(now, control) {
+            ControlVerdict::Forwarded => Fate {
+                input: true,
+                ..Fate::default()
+            },
+            ControlVerdict::NotInControl => self.core.drop(DropReason::Gated),
+        }
+    }
+
+    /// Routes a frame (of the FC link or a ground link; `trusted`: its
+    /// route outranks strangers'): unauthenticated, where signing is
+    /// required, only to ground links.
+    fn routed(&mut self, a: &Arrival, trusted: bool) -> Fate {
+        let full = self.core.route(a, trusted, self.core.all());
+        if a.authenticated || !self.cfg.require_signed {
+            return Fate::routed(full);
+        }
+        let to = full.intersection(self.core.of(Role::Ground));
+        if to.is_empty() && !full.is_empty() {
+            return self.core.drop(DropReason::Unauthenticated);
+        }
+        Fate::routed(to)
+    }
+
+    /// When the autonomy falls silent, while it speaks.
+    fn silence_deadline(&self) -> Option<Instant> {
+        match self.source {
+            ControlSource::Autonomy { silence, .. } if !self.silent => {
+                self.autonomy_heard.map(|t| t + silence)
+            }
+            _ => None,
+        }
+    }
+
+    /// Follows the autonomy's silence at `now`: declining takeovers while
+    /// it is silent, or flying the fallback then.
+    fn update_readiness(&mut self, now: Instant) {
+        let ControlSource::Autonomy {
+            fallback, silence, ..
+        } = self.source
+        else {
+            return;
+        };
+        let silent = self.autonomy_heard.is_none_or(|t| now >= t + silence);
+        if silent == self.silent {
+            return;
+        }
+        self.silent = silent;
+        if fallback == AutonomyFallback::Decline {
+            self.engine.set_control_ready(!silent);
+        }
+        self.out
+            .push(Output::Event(CompanionEvent::AutonomySilent(silent)));
+    }
+
+    /// Carries the engine's outputs out: its messages on their links
+    /// (addressed ones to the FC, broadcasts everywhere), control due to the
+    /// fallback or the program, events to the program.
+    fn drain_engine(&mut self, now: Instant) {
+        while let Some(output) = self.engine.poll_output() {
+            match output {
+                CcOutput::Transmit(message) => {
+                    let targeted = message.meta().target_system_offset.is_some();
+                    let links = if targeted {
+                        self.core.of(Role::Peer)
+                    } else {
+                        self.core.all()
+                    };
+                    self.out.push(Output::Transmit { links, message });
+                }
+                CcOutput::ControlDue => self.control_due(now),
+                event => self.out.push(Output::Event(CompanionEvent::Engine(event))),
+            }
+        }
+    }
+
+    fn control_due(&mut self, now: Instant) {
+        match self.source {
+            ControlSource::Builtin => self
+                .out
+                .push(Output::Event(CompanionEvent::Engine(CcOutput::ControlDue))),
+            ControlSource::Autonomy {
+                fallback: AutonomyFallback::WingsLevel,
+                ..
+            } if self.silent => {
+                let control = WingsLevel {
+                    throttle: FALLBACK_THROTTLE,
+                }
+                .control(now, self.cfg.fc);
+                let _ = self.engine.submit_control(now, control);
+            }
+            // The autonomy keeps its own pace.
+            ControlSource::Autonomy { .. } => {}
+        }
+    }
+}

@@ -1,0 +1,153 @@
+//! The flight controller's node: its companion link (which also carries
+//! the ground stations' traffic the companion routes) around the FC
+//! engine.
+
+use super::{sender, Arrival, Core, DropReason, Drops, Fate, LinkId, LinkSpec, NodeError, Output};
+use crate::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
+use crate::fc::FcConfig;
+use crate::outbox::Outbox;
+use crate::{Instant, Origin, Trust};
+
+/// The flight controller's node: the [`FcEngine`] and the policy of its
+/// links (see the [module docs](super)).
+#[derive(Debug, Clone)]
+pub struct FcNode {
+    engine: FcEngine,
+    core: Core,
+    cfg: FcConfig,
+    /// Counters of engines replaced by [`FcNode::reconfigure`].
+    stats_before: FcEngineStats,
+    out: Outbox<Output<FcOutput>, 24>,
+}
+
+impl FcNode {
+    /// A node whose engine starts at `now`, with no links yet.
+    pub fn new(cfg: FcConfig, now: Instant) -> Result<Self, NodeError> {
+        Ok(FcNode {
+            engine: FcEngine::new(cfg, now)?,
+            core: Core::new(cfg.require_signed),
+            cfg,
+            stats_before: FcEngineStats::default(),
+            out: Outbox::new(),
+        })
+    }
+
+    /// Adds link `link`.
+    pub fn add_link(&mut self, link: LinkId, spec: LinkSpec) -> Result<(), NodeError> {
+        self.core.add(link, spec)
+    }
+
+    /// The engine (read only).
+    pub fn engine(&self) -> &FcEngine {
+        &self.engine
+    }
+
+    /// The settings in force.
+    pub fn config(&self) -> &FcConfig {
+        &self.cfg
+    }
+
+    /// The engine's counters, over every engine a reconfiguration replaced.
+    pub fn stats(&self) -> FcEngineStats {
+        self.stats_before.plus(self.engine.stats())
+    }
+
+    /// Frames dropped, by reason.
+    pub fn drops(&self) -> &Drops {
+        &self.core.drops
+    }
+
+    /// New settings, from `now`: a new engine (call it only while nothing
+    /// of a handover is under way; the receiver state carries over).
+    pub fn reconfigure(&mut self, cfg: FcConfig, now: Instant) -> Result<(), NodeError> {
+        let mut engine = FcEngine::new(cfg, now)?;
+        engine.set_receiver_ok(self.engine.machine().receiver_ok());
+        self.stats_before = self.stats();
+        self.engine = engine;
+        self.cfg = cfg;
+        self.core.require_signed = cfg.require_signed;
+        Ok(())
+    }
+
+    /// A link was opened again: whom it answered is forgotten.
+    pub fn link_reopened(&mut self, link: LinkId) {
+        self.core.reopened(link);
+    }
+
+    /// The receiver's state, sampled by the engine's RC check.
+    pub fn set_receiver_ok(&mut self, ok: bool) {
+        self.engine.set_receiver_ok(ok);
+    }
+
+    /// When [`handle_timeout`](Self::handle_timeout) must next run.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.engine.poll_timeout()
+    }
+
+    /// Timers due at `now`.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        self.engine.handle_timeout(now);
+        self.drain_engine();
+    }
+
+    /// The next output, if any.
+    pub fn poll_output(&mut self) -> Option<Output<FcOutput>> {
+        self.out.pop()
+    }
+
+    /// A frame link `a.link` delivered at `now`: its fate. The FC routes
+    /// nothing; a ground station's request is served only when its
+    /// signature verified, where signing is required (as ArduPilot serves
+    /// a signed link).
+    pub fn handle_frame(&mut self, now: Instant, a: Arrival) -> Fate {
+        if self.core.spec(a.link).is_none() {
+            return Fate::default();
+        }
+        let from = sender(&a.frame);
+        if from == self.cfg.own {
+            return self.core.drop(DropReason::OwnIds);
+        }
+        let trust = Trust {
+            peer: self.cfg.companion,
+            require_signed: self.cfg.require_signed,
+        };
+        let trusted = trust.admits(Origin {
+            peer: from,
+            authenticated: a.authenticated,
+            seq: 0,
+        });
+        let out = &mut self.out;
+        let admitted =
+            self.core
+                .admits_source(&a, now, trusted, a.authenticated, &mut |link, peers| {
+                    out.push(Output::Peers { link, peers })
+                });
+        if !admitted {
+            return self.core.drop(DropReason::NotPeer);
+        }
+        // The engine sees every frame of the peer's address: it acts on the
+        // companion's trusted ones and counts the rest.
+        let verdict = self.engine.handle_frame(now, &a.frame, a.authenticated);
+        self.drain_engine();
+        if from == self.cfg.companion && verdict == Verdict::Untrusted {
+            return self.core.drop(DropReason::Unauthenticated);
+        }
+        Fate {
+            input: verdict == Verdict::Trusted,
+            serve: a.authenticated || !self.cfg.require_signed,
+            ..Fate::default()
+        }
+    }
+
+    fn drain_engine(&mut self) {
+        while let Some(output) = self.engine.poll_output() {
+            self.out.push(match output {
+                FcOutput::Transmit(message) => Output::Transmit {
+                    links: self.core.all(),
+                    message,
+                },
+                event => Output::Event(event),
+            });
+        }
+    }
+}

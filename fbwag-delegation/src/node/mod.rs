@@ -1,0 +1,416 @@
+//! The node policy: every frame's fate, decided once, sans-IO.
+//!
+//! A program that speaks this protocol is a MAVLink *node* with several
+//! links: the companion ([`CompanionNode`]: the FC link, ground-station
+//! links, the autonomy's link), the flight controller ([`FcNode`]: its
+//! companion link, which also carries ground stations' traffic) and a plain
+//! router ([`RouterNode`]). For every frame a link delivers, the node takes
+//! the link, the source address, the frame and whether its signature
+//! verified, with the time, and returns its [`Fate`]: protocol input to
+//! the engine, control through the companion's gate, the links it is routed
+//! to (byte for byte), or a drop with a counted [`DropReason`]. It also
+//! decides whom each listening link answers ([`Output::Peers`]) and on
+//! which links its own messages go ([`Output::Transmit`]).
+//!
+//! The programs (`fbwag cc`, `fbwag fc-sim`, `fbwag router`) and the
+//! simulator only move bytes and time: each rule below lives here and
+//! nowhere else.
+//!
+//! | source | frame | signature | fate |
+//! |---|---|---|---|
+//! | any link | the node's own ids | any | dropped: `own_ids` (a loop, or a spoof) |
+//! | peer link, from an address that is not the link's peer | any | not verified | dropped: `not_peer` (a verified frame moves the peer; so does an unsigned trusted frame once the peer is silent 3 s, without signing) |
+//! | peer link | the peer's ids | verified, or signing not required | engine input; routed to ground links and the autonomy |
+//! | peer link | the peer's ids | not verified, signing required | dropped: `unauthenticated` |
+//! | peer link | other ids | not verified, signing required | routed to ground links only (never to the autonomy) |
+//! | ground link | the FC's or the companion's ids | any | dropped: `impersonation` (they live on the peer link) |
+//! | ground link | other ids | not verified, signing required | routed to ground links only; dropped (`unauthenticated`) when it was addressed only to the FC or the autonomy |
+//! | ground link | other ids | verified, or signing not required | routed by the routing table, to every kind of link |
+//! | autonomy link, from an address other than the autonomy's | any | any | dropped: `not_peer` |
+//! | autonomy link | the FC's or the companion's ids | any | dropped: `impersonation` |
+//! | autonomy link | RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL | any | the companion's gate: to the FC, re-addressed and signed, while the companion holds control; else dropped: `gated` |
+//! | autonomy link | other messages | any | routed to ground links only, never to the FC |
+//! | router link | any | not verified, signing required | dropped: `unauthenticated` |
+//!
+//! Listening links (`udpin`, `tcpin`) answer only whom the node admits
+//! ([`Peers`], under `mavframe::peers`' rule): the peer link and the autonomy link one address (a
+//! verified frame's source at once; without signing, the first trusted
+//! source, replaced after 3 s of silence), ground links the stations that
+//! spoke recently (8 at most: a newcomer takes a free slot or a slot silent
+//! 3 s, so a stranger cannot push a speaking station out). Routes learned
+//! from verified frames, from the peer link or from the autonomy outrank
+//! those learned from strangers, so a flood of ids cannot make the node
+//! forget the FC.
+//!
+//! Call order, as for the engines: after every `handle_*` call drain
+//! `poll_output` until `None`, then call `handle_timeout` at
+//! `poll_timeout()`.
+
+mod companion;
+mod flight;
+mod peers;
+mod router;
+
+pub use companion::{
+    AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, AUTONOMY_SILENCE,
+};
+pub use flight::FcNode;
+pub use peers::{Admission, Peers, MAX_PEERS, PEER_SILENCE};
+use peers::Answered;
+pub use router::RouterNode;
+
+use crate::{Instant, Peer};
+use core::net::SocketAddr;
+use fbwag_dialect::mavframe::route::RoutingTable;
+use fbwag_dialect::{Frame, Message};
+
+pub use fbwag_dialect::mavframe::route::{LinkId, Links};
+
+/// Links a node has at most.
+pub const MAX_LINKS: usize = 32;
+
+/// Senders (system, component) the routing table holds.
+pub const ROUTES: usize = 256;
+
+/// What a link is to the node.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The link to the protocol peer: the companion's FC link, the FC's
+    /// companion link.
+    Peer,
+    /// Ground stations, MAVProxy, other programs; every link of a router.
+    Ground,
+    /// The companion's autonomy program.
+    Autonomy,
+}
+
+/// Whom a link sends to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Answers {
+    /// The one far end it was opened to (`udpout`, `tcp`, serial): nothing
+    /// to choose, and nobody else can send into it.
+    Target,
+    /// This address only (`--peer`; a port of 0 matches any port of that
+    /// host, as a TCP client's port is its system's choice).
+    Fixed(SocketAddr),
+    /// Whom the node admits (`udpin`, `tcpin`): see the [module docs](self).
+    Chosen,
+}
+
+/// A link as the node sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LinkSpec {
+    /// What it is.
+    pub role: Role,
+    /// Whom it sends to.
+    pub answers: Answers,
+}
+
+/// A frame a link delivered.
+#[derive(Debug, Clone, Copy)]
+pub struct Arrival<'a> {
+    /// The link.
+    pub link: LinkId,
+    /// The sender's address (datagram links, `tcpin` clients).
+    pub source: Option<SocketAddr>,
+    /// The frame, as the link's parser accepted it.
+    pub frame: Frame<&'a [u8]>,
+    /// Its signature verified with the link's key.
+    pub authenticated: bool,
+}
+
+/// Why a node dropped a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum DropReason {
+    /// It claims the node's own ids: a loop, or a spoof.
+    OwnIds,
+    /// It claims a trusted party's ids (the FC's, the companion's) on a
+    /// link where that party does not live.
+    Impersonation,
+    /// Not authenticated where signing is required, and bound for
+    /// something that acts (the engine, the FC, the autonomy).
+    Unauthenticated,
+    /// From an address the link does not answer (not its peer).
+    NotPeer,
+    /// Control while the companion does not hold control.
+    Gated,
+}
+
+impl DropReason {
+    /// Every reason, in the order of [`Drops::counts`].
+    pub const ALL: [DropReason; 5] = [
+        DropReason::OwnIds,
+        DropReason::Impersonation,
+        DropReason::Unauthenticated,
+        DropReason::NotPeer,
+        DropReason::Gated,
+    ];
+
+    /// Its name in logs and events.
+    pub const fn name(self) -> &'static str {
+        match self {
+            DropReason::OwnIds => "own_ids",
+            DropReason::Impersonation => "impersonation",
+            DropReason::Unauthenticated => "unauthenticated",
+            DropReason::NotPeer => "not_peer",
+            DropReason::Gated => "gated",
+        }
+    }
+}
+
+/// Frames dropped, by reason (saturating).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Drops([u64; 5]);
+
+impl Drops {
+    fn count(&mut self, reason: DropReason) {
+        let i = DropReason::ALL
+            .iter()
+            .position(|r| *r == reason)
+            .unwrap_or(0);
+        self.0[i] = self.0[i].saturating_add(1);
+    }
+
+    /// Frames dropped for `reason`.
+    pub fn get(&self, reason: DropReason) -> u64 {
+        DropReason::ALL
+            .iter()
+            .position(|r| *r == reason)
+            .map_or(0, |i| self.0[i])
+    }
+
+    /// Each reason with its count.
+    pub fn counts(&self) -> impl Iterator<Item = (DropReason, u64)> + '_ {
+        DropReason::ALL.iter().copied().zip(self.0)
+    }
+
+    /// All frames dropped.
+    pub fn total(&self) -> u64 {
+        self.0.iter().fold(0, |a, n| a.saturating_add(*n))
+    }
+}
+
+/// What became of a frame.
+#[must_use]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Fate {
+    /// The links it goes to, byte for byte (after the node's own frames).
+    pub route: Links,
+    /// Why it was dropped, if it was (it goes nowhere then).
+    pub dropped: Option<DropReason>,
+    /// It was a protocol input the engine acted on.
+    pub input: bool,
+    /// The FC serves it as a ground station's request (parameters,
+    /// commands, telemetry rates).
+    pub serve: bool,
+}
+
+impl Fate {
+    fn dropped(reason: DropReason) -> Fate {
+        Fate {
+            dropped: Some(reason),
+            ..Fate::default()
+        }
+    }
+
+    fn routed(route: Links) -> Fate {
+        Fate {
+            route,
+            ..Fate::default()
+        }
+    }
+}
+
+/// What a node asks its program to do.
+// No allocation (no_std): a message to send is carried by value.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Output<E> {
+    /// Frame `message` with the node's ids and send it on `links` (each
+    /// link signs with its key).
+    Transmit {
+        /// Where.
+        links: Links,
+        /// What.
+        message: Message,
+    },
+    /// A listening link answers these addresses from now on.
+    Peers {
+        /// The link.
+        link: LinkId,
+        /// Whom it answers.
+        peers: Peers,
+    },
+    /// The engine's event (mode changes, control to apply, handover).
+    Event(E),
+}
+
+/// A link's place in a node.
+#[derive(Debug, Clone)]
+struct LinkState {
+    spec: LinkSpec,
+    peers: Answered,
+}
+
+/// What every node has: its links, whom they answer, the routing table
+/// and the drop counters.
+#[derive(Debug, Clone)]
+struct Core {
+    links: [Option<LinkState>; MAX_LINKS],
+    table: RoutingTable<ROUTES>,
+    drops: Drops,
+    require_signed: bool,
+}
+
+/// Errors of a node's set-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NodeError {
+    /// More than [`MAX_LINKS`] links.
+    TooManyLinks,
+    /// The link number is taken, or past [`MAX_LINKS`].
+    BadLink(LinkId),
+    /// The engine's settings.
+    Config(crate::ConfigError),
+}
+
+impl core::fmt::Display for NodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            NodeError::TooManyLinks => write!(f, "more than {MAX_LINKS} links"),
+            NodeError::BadLink(l) => write!(f, "link {l} is taken or out of range"),
+            NodeError::Config(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for NodeError {}
+
+impl From<crate::ConfigError> for NodeError {
+    fn from(e: crate::ConfigError) -> Self {
+        NodeError::Config(e)
+    }
+}
+
+impl Core {
+    fn new(require_signed: bool) -> Self {
+        Core {
+            links: [const { None }; MAX_LINKS],
+            table: RoutingTable::new(),
+            drops: Drops::default(),
+            require_signed,
+        }
+    }
+
+    fn add(&mut self, link: LinkId, spec: LinkSpec) -> Result<(), NodeError> {
+        let slot = self
+            .links
+            .get_mut(usize::from(link))
+            .ok_or(NodeError::BadLink(link))?;
+        if slot.is_some() {
+            return Err(NodeError::BadLink(link));
+        }
+        let peers = if spec.role == Role::Ground {
+            Answered::Stations(Default::default())
+        } else {
+            Answered::One(Default::default())
+        };
+        *slot = Some(LinkState { spec, peers });
+        Ok(())
+    }
+
+    fn spec(&self, link: LinkId) -> Option<LinkSpec> {
+        self.links
+            .get(usize::from(link))
+            .and_then(|l| l.as_ref())
+            .map(|l| l.spec)
+    }
+
+    /// The links of `role`.
+    fn of(&self, role: Role) -> Links {
+        self.links
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.as_ref().is_some_and(|l| l.spec.role == role))
+            .fold(Links::NONE, |acc, (i, _)| {
+                acc.union(Links::only(i as LinkId))
+            })
+    }
+
+    /// Every link.
+    fn all(&self) -> Links {
+        self.of(Role::Peer)
+            .union(self.of(Role::Ground))
+            .union(self.of(Role::Autonomy))
+    }
+
+    /// Whether the link takes frames from `source`: any source where the
+    /// link has one far end; the configured one under `--peer`; a peer, or
+    /// a newcomer the peer set admits (`joins`: the frame may make its
+    /// source a peer; `displaces`: at once), where the node chooses.
+    fn admits_source(
+        &mut self,
+        a: &Arrival,
+        now: Instant,
+        joins: bool,
+        displaces: bool,
+        out: &mut impl FnMut(LinkId, Peers),
+    ) -> bool {
+        let (Some(state), Some(source)) = (
+            self.links
+                .get_mut(usize::from(a.link))
+                .and_then(|l| l.as_mut()),
+            a.source,
+        ) else {
+            return true;
+        };
+        match state.spec.answers {
+            Answers::Target => true,
+            Answers::Fixed(peer) => {
+                peer.ip() == source.ip() && (peer.port() == 0 || peer.port() == source.port())
+            }
+            Answers::Chosen if !joins => state.peers.contains(source),
+            Answers::Chosen => match state.peers.heard(source, now, displaces) {
+                Admission::Known => true,
+                Admission::Added => {
+                    out(a.link, state.peers.peers());
+                    true
+                }
+                Admission::Refused => false,
+            },
+        }
+    }
+
+    /// Learns the sender's route (`trusted`: it outranks strangers'), then
+    /// the links among `allowed` the routing rules send the frame to.
+    fn route(&mut self, a: &Arrival, trusted: bool, allowed: Links) -> Links {
+        let h = a.frame.header();
+        self.table.learn(a.link, h.sysid, h.compid, trusted);
+        let meta =
+            <fbwag_dialect::Dialect as fbwag_dialect::mavframe::Dialect>::meta(a.frame.msg_id());
+        let others = allowed.intersection(self.all()).without(a.link);
+        match fbwag_dialect::mavframe::route::target(&a.frame, meta) {
+            Some((sysid, compid)) => self.table.links_to(sysid, compid).intersection(others),
+            None => others,
+        }
+    }
+
+    /// Counts a drop.
+    fn drop(&mut self, reason: DropReason) -> Fate {
+        self.drops.count(reason);
+        Fate::dropped(reason)
+    }
+
+    /// A link opened again: its peers are forgotten.
+    fn reopened(&mut self, link: LinkId) {
+        if let Some(Some(state)) = self.links.get_mut(usize::from(link)) {
+            state.peers.clear();
+        }
+    }
+}
+
+/// The sender of `frame`.
+fn sender(frame: &Frame<&[u8]>) -> Peer {
+    let h = frame.header();
+    Peer::new(h.sysid, h.compid)
+}

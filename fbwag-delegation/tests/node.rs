@@ -1,0 +1,369 @@
+//! The node policy, rule by rule: each row of the table in
+//! `fbwag_delegation::node` (and docs/delegation.md) driven through the
+//! nodes' public API with real frames.
+
+use fbwag_delegation::cc::CcConfig;
+use fbwag_delegation::engine::{CcOutput, FcOutput};
+use fbwag_delegation::fc::{Authority, FcConfig};
+use fbwag_delegation::node::{
+    Answers, Arrival, AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, DropReason,
+    FcNode, LinkSpec, Links, Output, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS,
+};
+use fbwag_delegation::{wire, Instant, Peer, Status};
+use fbwag_dialect::dialects::common::{CommandLong, RcChannelsOverride};
+use fbwag_dialect::dialects::standard::GlobalPositionInt;
+use fbwag_dialect::mavframe::Encode;
+use fbwag_dialect::{encode, Frame, Header, Message, Version};
+use std::net::SocketAddr;
+use std::time::Duration;
+
+const FC: Peer = Peer::new(1, 1);
+const CC: Peer = Peer::new(1, 191);
+const GCS: Peer = Peer::new(255, 190);
+const FC_LINK: u8 = 0;
+const GROUND: u8 = 1;
+const AUTONOMY: u8 = 2;
+
+fn bytes(from: Peer, msg: &(impl Encode + ?Sized)) -> Vec<u8> {
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
+    let h = Header {
+        seq: 0,
+        sysid: from.sysid,
+        compid: from.compid,
+    };
+    let n = encode(Version::V2, h, msg, None, &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+fn addr(port: u16) -> SocketAddr {
+    SocketAddr::from(([127, 0, 0, 1], port))
+}
+
+fn arrival(link: u8, source: Option<SocketAddr>, b: &[u8], authenticated: bool) -> Arrival<'_> {
+    Arrival {
+        link,
+        source,
+        frame: Frame::new_checked(b).unwrap(),
+        authenticated,
+    }
+}
+
+fn position() -> GlobalPositionInt {
+    GlobalPositionInt {
+        lat: 123,
+        ..Default::default()
+    }
+}
+
+fn heartbeat() -> Message {
+    Message::Heartbeat(wire::fc_heartbeat(Authority::Pilot))
+}
+
+fn rc(chan1: u16) -> RcChannelsOverride {
+    RcChannelsOverride {
+        chan1_raw: chan1,
+        ..Default::default()
+    }
+}
+
+/// A signed companion with a ground-station port and an autonomy port.
+fn companion(source: impl Fn(u8) -> ControlSource) -> CompanionNode {
+    let cfg = CcConfig {
+        require_signed: true,
+        ..CcConfig::default()
+    };
+    let mut cc = CompanionNode::new(cfg, source(AUTONOMY), Instant::ZERO).unwrap();
+    let spec = |role, answers| LinkSpec { role, answers };
+    cc.add_link(FC_LINK, spec(Role::Peer, Answers::Chosen)).unwrap();
+    cc.add_link(GROUND, spec(Role::Ground, Answers::Chosen)).unwrap();
+    cc.add_link(AUTONOMY, spec(Role::Autonomy, Answers::Chosen))
+        .unwrap();
+    cc
+}
+
+fn builtin(_: u8) -> ControlSource {
+    ControlSource::Builtin
+}
+
+fn autonomy(fallback: AutonomyFallback) -> impl Fn(u8) -> ControlSource {
+    move |link| ControlSource::Autonomy {
+        link,
+        fallback,
+        silence: AUTONOMY_SILENCE,
+    }
+}
+
+fn drain(cc: &mut CompanionNode) -> Vec<Output<CompanionEvent>> {
+    std::iter::from_fn(|| cc.poll_output()).collect()
+}
+
+const FC_ADDR: u16 = 14551;
+
+/// The companion has heard the FC (signed) from `FC_ADDR`.
+fn heard_fc(cc: &mut CompanionNode, at: Instant) {
+    let hb = bytes(FC, &heartbeat());
+    let fate = cc.handle_frame(at, arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, true));
+    assert!(fate.input && fate.dropped.is_none(), "{fate:?}");
+    drain(cc);
+}
+
+#[test]
+fn unsigned_frames_with_the_fcs_ids_never_reach_the_autonomy_or_a_ground_station() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    heard_fc(&mut cc, Instant::ZERO);
+    let forged = bytes(FC, &position());
+    for source in [Some(addr(FC_ADDR)), Some(addr(9999)), None] {
+        let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, source, &forged, false));
+        assert_eq!(fate.route, Links::NONE, "{source:?}");
+        assert!(fate.dropped.is_some() && !fate.input, "{source:?}");
+    }
+    // The genuine frame, signed, goes to both.
+    let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, Some(addr(FC_ADDR)), &forged, true));
+    assert_eq!(fate.route, Links::only(GROUND).union(Links::only(AUTONOMY)));
+    assert_eq!(cc.drops().get(DropReason::Unauthenticated), 2);
+    assert_eq!(cc.drops().get(DropReason::NotPeer), 1);
+}
+
+#[test]
+fn unauthenticated_traffic_of_other_ids_stays_on_the_ground_side() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    heard_fc(&mut cc, Instant::ZERO);
+    let camera = bytes(Peer::new(1, 100), &position());
+    let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, Some(addr(FC_ADDR)), &camera, false));
+    assert_eq!(fate.route, Links::only(GROUND));
+    // A ground station's unsigned command to the FC goes nowhere that acts.
+    let command = bytes(
+        GCS,
+        &CommandLong {
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        },
+    );
+    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, Some(addr(14550)), &command, false));
+    assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
+    // Signed, it reaches the FC.
+    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, Some(addr(14550)), &command, true));
+    assert_eq!(fate.route, Links::only(FC_LINK));
+}
+
+#[test]
+fn the_fcs_and_the_companions_ids_are_dropped_where_they_do_not_live() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    let hb = bytes(FC, &heartbeat());
+    for link in [GROUND, AUTONOMY] {
+        let fate = cc.handle_frame(Instant::ZERO, arrival(link, Some(addr(5000)), &hb, true));
+        assert_eq!(fate.dropped, Some(DropReason::Impersonation), "link {link}");
+    }
+    let own = bytes(CC, &heartbeat());
+    for link in [FC_LINK, GROUND, AUTONOMY] {
+        let fate = cc.handle_frame(Instant::ZERO, arrival(link, Some(addr(5001)), &own, true));
+        assert_eq!(fate.dropped, Some(DropReason::OwnIds), "link {link}");
+    }
+}
+
+#[test]
+fn the_autonomy_is_one_program_and_flies_only_through_the_gate() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    let first = bytes(Peer::new(1, 196), &rc(1234));
+    let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, Some(addr(7000)), &first, false));
+    assert_eq!(fate.dropped, Some(DropReason::Gated), "not in control yet");
+    let second = bytes(Peer::new(1, 197), &rc(1999));
+    let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, Some(addr(7001)), &second, false));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer));
+    // Its other messages go to the ground side only, never to the FC.
+    let telemetry = bytes(Peer::new(1, 196), &position());
+    let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, Some(addr(7000)), &telemetry, false));
+    assert_eq!(fate.route, Links::only(GROUND));
+}
+
+#[test]
+fn a_station_keeps_its_answers_among_200_strangers() {
+    let mut cc = companion(builtin);
+    let station = addr(14550);
+    let hb = bytes(GCS, &heartbeat());
+    let mut peers = None;
+    for i in 0..200u16 {
+        let now = Instant::from_millis(u64::from(i) * 10);
+        if i % 50 == 0 {
+            let _ = cc.handle_frame(now, arrival(GROUND, Some(station), &hb, false));
+        }
+        let stranger = bytes(Peer::new(i as u8 + 2, 1), &heartbeat());
+        let _ = cc.handle_frame(now, arrival(GROUND, Some(addr(20_000 + i)), &stranger, false));
+        for out in drain(&mut cc) {
+            if let Output::Peers { link: GROUND, peers: p } = out {
+                peers = Some(p);
+            }
+        }
+    }
+    let peers = peers.unwrap();
+    assert!(peers.contains(station));
+    assert_eq!(peers.iter().count(), MAX_PEERS);
+}
+
+#[test]
+fn a_flood_of_stranger_ids_never_makes_the_companion_forget_the_fc() {
+    let mut cc = companion(builtin);
+    heard_fc(&mut cc, Instant::ZERO);
+    for i in 0..1000u32 {
+        let stranger = bytes(Peer::new((i % 250) as u8 + 2, (i / 250) as u8 + 1), &heartbeat());
+        let source = Some(addr(20_000 + (i % 7) as u16));
+        let _ = cc.handle_frame(Instant::ZERO, arrival(GROUND, source, &stranger, false));
+    }
+    let command = bytes(
+        GCS,
+        &CommandLong {
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        },
+    );
+    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, Some(addr(14550)), &command, true));
+    assert_eq!(fate.route, Links::only(FC_LINK));
+}
+
+/// The FC's RC-loss notice of `event`, signed.
+fn rc_lost(cc: &mut CompanionNode, at: Instant, event: u32) -> Vec<Output<CompanionEvent>> {
+    let notice = bytes(FC, &Message::FbwagNotice(wire::notice(FC, Status::RC_LOST, event)));
+    let fate = cc.handle_frame(at, arrival(FC_LINK, Some(addr(FC_ADDR)), &notice, true));
+    assert!(fate.input);
+    drain(cc)
+}
+
+fn notices(out: &[Output<CompanionEvent>]) -> Vec<(Status, u32)> {
+    out.iter()
+        .filter_map(|o| match o {
+            Output::Transmit {
+                message: Message::FbwagNotice(n),
+                ..
+            } => Some((n.failsafe_status, n.timestamp)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_silent_autonomy_declines_the_takeover() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    heard_fc(&mut cc, Instant::ZERO);
+    let out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
+    assert_eq!(notices(&out), [(Status::NORMAL, 2000)]);
+    assert!(out.contains(&Output::Event(CompanionEvent::Engine(
+        CcOutput::Declined { event: 2000 }
+    ))));
+}
+
+#[test]
+fn a_speaking_autonomy_takes_over_and_gives_back_when_it_falls_silent() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    heard_fc(&mut cc, Instant::ZERO);
+    let control = bytes(Peer::new(1, 196), &rc(1234));
+    let t = Instant::from_millis(1900);
+    let _ = cc.handle_frame(t, arrival(AUTONOMY, Some(addr(7000)), &control, false));
+    let out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
+    assert_eq!(notices(&out), [(Status::CC_TAKEOVER_CONFIRMED, 2000)]);
+    let fate = cc.handle_frame(
+        Instant::from_millis(2010),
+        arrival(AUTONOMY, Some(addr(7000)), &control, false),
+    );
+    assert!(fate.input && fate.dropped.is_none());
+    // Silent from 2010 ms on: the episode is given back at 2510 ms.
+    let silent = Instant::from_millis(2010) + AUTONOMY_SILENCE;
+    let mut out = Vec::new();
+    while let Some(t) = cc.poll_timeout().filter(|t| *t <= silent) {
+        cc.handle_timeout(t);
+        out.extend(drain(&mut cc));
+    }
+    assert!(notices(&out).contains(&(Status::NORMAL, 2000)), "{out:?}");
+}
+
+#[test]
+fn a_silent_autonomy_with_the_wings_level_fallback_takes_over_and_flies() {
+    let mut cc = companion(autonomy(AutonomyFallback::WingsLevel));
+    heard_fc(&mut cc, Instant::ZERO);
+    let mut out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
+    assert_eq!(notices(&out)[0], (Status::CC_TAKEOVER_CONFIRMED, 2000));
+    while let Some(t) = cc.poll_timeout().filter(|t| *t <= Instant::from_millis(2200)) {
+        cc.handle_timeout(t);
+        out.extend(drain(&mut cc));
+    }
+    let overrides = out
+        .iter()
+        .filter(|o| {
+            matches!(o, Output::Transmit { links, message: Message::RcChannelsOverride(m) }
+                if *links == Links::only(FC_LINK) && m.chan3_raw == 1500)
+        })
+        .count();
+    assert!(overrides >= 3, "{out:?}");
+}
+
+fn fc_node() -> FcNode {
+    let cfg = FcConfig {
+        require_signed: true,
+        ..FcConfig::default()
+    };
+    let mut fc = FcNode::new(cfg, Instant::ZERO).unwrap();
+    let spec = LinkSpec {
+        role: Role::Peer,
+        answers: Answers::Target,
+    };
+    fc.add_link(0, spec).unwrap();
+    fc
+}
+
+#[test]
+fn the_fc_falls_back_at_once_when_the_companion_declines() {
+    let mut fc = fc_node();
+    fc.set_receiver_ok(false);
+    let mut event = None;
+    let mut t = Instant::ZERO;
+    while event.is_none() {
+        t = fc.poll_timeout().unwrap();
+        fc.handle_timeout(t);
+        while let Some(out) = fc.poll_output() {
+            if let Output::Transmit {
+                message: Message::FbwagNotice(n),
+                ..
+            } = out
+            {
+                event = Some(n.timestamp);
+            }
+        }
+    }
+    let decline = bytes(CC, &Message::FbwagNotice(wire::notice(FC, Status::NORMAL, event.unwrap())));
+    let later = t + Duration::from_millis(5);
+    let _ = fc.handle_frame(later, arrival(0, None, &decline, true));
+    let modes: Vec<_> = std::iter::from_fn(|| fc.poll_output())
+        .filter_map(|o| match o {
+            Output::Event(FcOutput::SetMode(a)) => Some(a),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(modes, [Authority::Rtl]);
+    // Unsigned, the same notice is dropped and changes nothing.
+    let mut fc = fc_node();
+    let fate = fc.handle_frame(later, arrival(0, None, &decline, false));
+    assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
+}
+
+#[test]
+fn a_signed_router_routes_only_authenticated_frames_and_answers_only_their_sources() {
+    let mut router = RouterNode::new(true);
+    router.add_link(0, Answers::Chosen, true).unwrap();
+    router.add_link(1, Answers::Target, true).unwrap();
+    let hb = bytes(GCS, &heartbeat());
+    let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6000)), &hb, false));
+    assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
+    assert!(router.poll_output().is_none(), "an unsigned source earned answers");
+    let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6001)), &hb, true));
+    assert_eq!(fate.route, Links::only(1));
+    assert!(matches!(router.poll_output(), Some(Output::Peers { link: 0, peers }) if peers.contains(addr(6001))));
+    // Without signing required, on a keyed link, unsigned frames are
+    // routed but earn no answers.
+    let mut router = RouterNode::new(false);
+    router.add_link(0, Answers::Chosen, true).unwrap();
+    router.add_link(1, Answers::Target, false).unwrap();
+    let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6000)), &hb, false));
+    assert_eq!(fate.route, Links::only(1));
+    assert!(router.poll_output().is_none());
+}

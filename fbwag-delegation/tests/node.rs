@@ -74,8 +74,10 @@ fn companion(source: impl Fn(u8) -> ControlSource) -> CompanionNode {
     };
     let mut cc = CompanionNode::new(cfg, source(AUTONOMY), Instant::ZERO).unwrap();
     let spec = |role, answers| LinkSpec { role, answers };
-    cc.add_link(FC_LINK, spec(Role::Peer, Answers::Chosen)).unwrap();
-    cc.add_link(GROUND, spec(Role::Ground, Answers::Chosen)).unwrap();
+    cc.add_link(FC_LINK, spec(Role::Peer, Answers::Chosen))
+        .unwrap();
+    cc.add_link(GROUND, spec(Role::Ground, Answers::Chosen))
+        .unwrap();
     cc.add_link(AUTONOMY, spec(Role::Autonomy, Answers::Chosen))
         .unwrap();
     cc
@@ -118,7 +120,10 @@ fn unsigned_frames_with_the_fcs_ids_never_reach_the_autonomy_or_a_ground_station
         assert!(fate.dropped.is_some() && !fate.input, "{source:?}");
     }
     // The genuine frame, signed, goes to both.
-    let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, Some(addr(FC_ADDR)), &forged, true));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(FC_LINK, Some(addr(FC_ADDR)), &forged, true),
+    );
     assert_eq!(fate.route, Links::only(GROUND).union(Links::only(AUTONOMY)));
     assert_eq!(cc.drops().get(DropReason::Unauthenticated), 2);
     assert_eq!(cc.drops().get(DropReason::NotPeer), 1);
@@ -129,7 +134,10 @@ fn unauthenticated_traffic_of_other_ids_stays_on_the_ground_side() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
     heard_fc(&mut cc, Instant::ZERO);
     let camera = bytes(Peer::new(1, 100), &position());
-    let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, Some(addr(FC_ADDR)), &camera, false));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(FC_LINK, Some(addr(FC_ADDR)), &camera, false),
+    );
     assert_eq!(fate.route, Links::only(GROUND));
     // A ground station's unsigned command to the FC goes nowhere that acts.
     let command = bytes(
@@ -140,10 +148,16 @@ fn unauthenticated_traffic_of_other_ids_stays_on_the_ground_side() {
             ..Default::default()
         },
     );
-    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, Some(addr(14550)), &command, false));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(GROUND, Some(addr(14550)), &command, false),
+    );
     assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
     // Signed, it reaches the FC.
-    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, Some(addr(14550)), &command, true));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(GROUND, Some(addr(14550)), &command, true),
+    );
     assert_eq!(fate.route, Links::only(FC_LINK));
 }
 
@@ -166,14 +180,23 @@ fn the_fcs_and_the_companions_ids_are_dropped_where_they_do_not_live() {
 fn the_autonomy_is_one_program_and_flies_only_through_the_gate() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
     let first = bytes(Peer::new(1, 196), &rc(1234));
-    let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, Some(addr(7000)), &first, false));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(AUTONOMY, Some(addr(7000)), &first, false),
+    );
     assert_eq!(fate.dropped, Some(DropReason::Gated), "not in control yet");
     let second = bytes(Peer::new(1, 197), &rc(1999));
-    let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, Some(addr(7001)), &second, false));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(AUTONOMY, Some(addr(7001)), &second, false),
+    );
     assert_eq!(fate.dropped, Some(DropReason::NotPeer));
     // Its other messages go to the ground side only, never to the FC.
     let telemetry = bytes(Peer::new(1, 196), &position());
-    let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, Some(addr(7000)), &telemetry, false));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(AUTONOMY, Some(addr(7000)), &telemetry, false),
+    );
     assert_eq!(fate.route, Links::only(GROUND));
 }
 
@@ -189,9 +212,16 @@ fn a_station_keeps_its_answers_among_200_strangers() {
             let _ = cc.handle_frame(now, arrival(GROUND, Some(station), &hb, false));
         }
         let stranger = bytes(Peer::new(i as u8 + 2, 1), &heartbeat());
-        let _ = cc.handle_frame(now, arrival(GROUND, Some(addr(20_000 + i)), &stranger, false));
+        let _ = cc.handle_frame(
+            now,
+            arrival(GROUND, Some(addr(20_000 + i)), &stranger, false),
+        );
         for out in drain(&mut cc) {
-            if let Output::Peers { link: GROUND, peers: p } = out {
+            if let Output::Peers {
+                link: GROUND,
+                peers: p,
+            } = out
+            {
                 peers = Some(p);
             }
         }
@@ -206,7 +236,10 @@ fn a_flood_of_stranger_ids_never_makes_the_companion_forget_the_fc() {
     let mut cc = companion(builtin);
     heard_fc(&mut cc, Instant::ZERO);
     for i in 0..1000u32 {
-        let stranger = bytes(Peer::new((i % 250) as u8 + 2, (i / 250) as u8 + 1), &heartbeat());
+        let stranger = bytes(
+            Peer::new((i % 250) as u8 + 2, (i / 250) as u8 + 1),
+            &heartbeat(),
+        );
         let source = Some(addr(20_000 + (i % 7) as u16));
         let _ = cc.handle_frame(Instant::ZERO, arrival(GROUND, source, &stranger, false));
     }
@@ -218,13 +251,19 @@ fn a_flood_of_stranger_ids_never_makes_the_companion_forget_the_fc() {
             ..Default::default()
         },
     );
-    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, Some(addr(14550)), &command, true));
+    let fate = cc.handle_frame(
+        Instant::ZERO,
+        arrival(GROUND, Some(addr(14550)), &command, true),
+    );
     assert_eq!(fate.route, Links::only(FC_LINK));
 }
 
 /// The FC's RC-loss notice of `event`, signed.
 fn rc_lost(cc: &mut CompanionNode, at: Instant, event: u32) -> Vec<Output<CompanionEvent>> {
-    let notice = bytes(FC, &Message::FbwagNotice(wire::notice(FC, Status::RC_LOST, event)));
+    let notice = bytes(
+        FC,
+        &Message::FbwagNotice(wire::notice(FC, Status::RC_LOST, event)),
+    );
     let fate = cc.handle_frame(at, arrival(FC_LINK, Some(addr(FC_ADDR)), &notice, true));
     assert!(fate.input);
     drain(cc)
@@ -248,9 +287,11 @@ fn a_silent_autonomy_declines_the_takeover() {
     heard_fc(&mut cc, Instant::ZERO);
     let out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
     assert_eq!(notices(&out), [(Status::NORMAL, 2000)]);
-    assert!(out.contains(&Output::Event(CompanionEvent::Engine(
-        CcOutput::Declined { event: 2000 }
-    ))));
+    assert!(
+        out.contains(&Output::Event(CompanionEvent::Engine(CcOutput::Declined {
+            event: 2000
+        })))
+    );
 }
 
 #[test]
@@ -283,7 +324,10 @@ fn a_silent_autonomy_with_the_wings_level_fallback_takes_over_and_flies() {
     heard_fc(&mut cc, Instant::ZERO);
     let mut out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
     assert_eq!(notices(&out)[0], (Status::CC_TAKEOVER_CONFIRMED, 2000));
-    while let Some(t) = cc.poll_timeout().filter(|t| *t <= Instant::from_millis(2200)) {
+    while let Some(t) = cc
+        .poll_timeout()
+        .filter(|t| *t <= Instant::from_millis(2200))
+    {
         cc.handle_timeout(t);
         out.extend(drain(&mut cc));
     }
@@ -330,7 +374,10 @@ fn the_fc_falls_back_at_once_when_the_companion_declines() {
             }
         }
     }
-    let decline = bytes(CC, &Message::FbwagNotice(wire::notice(FC, Status::NORMAL, event.unwrap())));
+    let decline = bytes(
+        CC,
+        &Message::FbwagNotice(wire::notice(FC, Status::NORMAL, event.unwrap())),
+    );
     let later = t + Duration::from_millis(5);
     let _ = fc.handle_frame(later, arrival(0, None, &decline, true));
     let modes: Vec<_> = std::iter::from_fn(|| fc.poll_output())
@@ -354,10 +401,15 @@ fn a_signed_router_routes_only_authenticated_frames_and_answers_only_their_sourc
     let hb = bytes(GCS, &heartbeat());
     let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6000)), &hb, false));
     assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
-    assert!(router.poll_output().is_none(), "an unsigned source earned answers");
+    assert!(
+        router.poll_output().is_none(),
+        "an unsigned source earned answers"
+    );
     let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6001)), &hb, true));
     assert_eq!(fate.route, Links::only(1));
-    assert!(matches!(router.poll_output(), Some(Output::Peers { link: 0, peers }) if peers.contains(addr(6001))));
+    assert!(
+        matches!(router.poll_output(), Some(Output::Peers { link: 0, peers }) if peers.contains(addr(6001)))
+    );
     // Without signing required, on a keyed link, unsigned frames are
     // routed but earn no answers.
     let mut router = RouterNode::new(false);
@@ -366,4 +418,47 @@ fn a_signed_router_routes_only_authenticated_frames_and_answers_only_their_sourc
     let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6000)), &hb, false));
     assert_eq!(fate.route, Links::only(1));
     assert!(router.poll_output().is_none());
+}
+
+#[test]
+fn a_key_holder_behind_in_time_gets_a_signed_heartbeat_and_never_the_peers_place() {
+    let mut cc = companion(builtin);
+    // Signed with the key, but stale to this companion's clock: its parser
+    // returns such a frame unauthenticated.
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
+    let mut signer = fbwag_dialect::Signer::new([7; 32], 0, 1);
+    let h = Header {
+        seq: 0,
+        sysid: 1,
+        compid: 1,
+    };
+    let n = encode(Version::V2, h, &heartbeat(), Some(&mut signer), &mut buf).unwrap();
+    let stale = &buf[..n];
+    let fc = addr(FC_ADDR);
+    let beacons = |out: &[Output<CompanionEvent>]| {
+        out.iter()
+            .filter(|o| {
+                matches!(o, Output::TransmitTo { link: FC_LINK, to, message: Message::Heartbeat(_) }
+                    if *to == fc)
+            })
+            .count()
+    };
+    let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, Some(fc), stale, false));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer));
+    assert_eq!(beacons(&drain(&mut cc)), 1);
+    // At most one a second, and never for an unsigned frame.
+    let soon = Instant::from_millis(500);
+    let _ = cc.handle_frame(soon, arrival(FC_LINK, Some(fc), stale, false));
+    assert_eq!(beacons(&drain(&mut cc)), 0);
+    let unsigned = bytes(FC, &heartbeat());
+    let later = Instant::from_millis(1500);
+    let _ = cc.handle_frame(later, arrival(FC_LINK, Some(fc), &unsigned, false));
+    assert_eq!(beacons(&drain(&mut cc)), 0);
+    let _ = cc.handle_frame(later, arrival(FC_LINK, Some(fc), stale, false));
+    let out = drain(&mut cc);
+    assert_eq!(beacons(&out), 1);
+    assert!(
+        !out.iter().any(|o| matches!(o, Output::Peers { .. })),
+        "{out:?}"
+    );
 }

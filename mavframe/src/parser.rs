@@ -1758,6 +1758,14 @@ fn signing<const N: usize>(
                 cx.stats.unsigned_rejected += 1;
                 return Verdict::Skip(len);
             }
+            // Under `Unsigned::Accept`, a frame the key signed but whose
+            // timestamp is stale is returned unauthenticated, as an
+            // unsigned one would be: it can act on nothing that requires
+            // a signature, and its sender (a key holder whose clock is
+            // behind, or a replay) can be answered so that it catches up.
+            Err(e) if e.is_stale() && cx.accept_unsigned && v.signed_with_key(frame) => {
+                cx.stats.stale_timestamp += 1;
+            }
             Err(e) => {
                 if e.is_stale() {
                     cx.stats.stale_timestamp += 1;

@@ -18,7 +18,7 @@ use fbwag_delegation::node::{
     AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, LinkSpec, Output, Role,
 };
 use fbwag_delegation::{Instant, Peer, Status};
-use fbwag_dialect::mavframe::route::LinkId;
+use fbwag_dialect::mavframe::route::{LinkId, Links};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::{Dialect, Endpoint, Message, MessageView};
 use serde_json::json;
@@ -255,6 +255,15 @@ impl Daemon {
                     self.note_sent(&message, log);
                     net.router
                         .send_message(links, self.own.sysid, self.own.compid, &message);
+                }
+                Output::TransmitTo { link, to, message } => {
+                    net.router.send_message_to(
+                        Links::only(link),
+                        Some(to),
+                        self.own.sysid,
+                        self.own.compid,
+                        &message,
+                    );
                 }
                 Output::Peers { link, peers } => net.set_peers(link, peers, log),
                 Output::Event(CompanionEvent::Engine(event)) => self.engine_event(now, event, log),

@@ -309,6 +309,21 @@ impl Daemon {
                     net.router
                         .send_message(links, self.own.sysid, self.own.compid, &message);
                 }
+                Output::TransmitTo {
+                    link,
+                    to,
+                    message: Message::Heartbeat(h),
+                } => {
+                    let h = self.heartbeat(h);
+                    net.router.send_message_to(
+                        fbwag_dialect::mavframe::route::Links::only(link),
+                        Some(to),
+                        self.own.sysid,
+                        self.own.compid,
+                        &h,
+                    );
+                }
+                Output::TransmitTo { .. } => {}
                 Output::Peers { link, peers } => net.set_peers(link, peers, log),
                 Output::Event(FcOutput::SetMode(a)) => self.mode_changed(a, log),
                 Output::Event(FcOutput::ApplyControl { from, control }) => {

@@ -6,9 +6,9 @@ use crate::cc::CcConfig;
 use crate::control::{Control, Controller, WingsLevel};
 use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
 use crate::outbox::Outbox;
-use crate::{Instant, Origin, Trust};
+use crate::{wire, Instant, Origin, Trust};
 use core::time::Duration;
-use fbwag_dialect::MessageView;
+use fbwag_dialect::{Message, MessageView};
 
 /// What the companion does when its autonomy is silent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -181,6 +181,15 @@ impl CompanionNode {
                     out.push(Output::Peers { link, peers })
                 });
         if !admitted {
+            if from == self.cfg.fc {
+                if let Some(to) = self.core.time_beacon(a, now) {
+                    self.out.push(Output::TransmitTo {
+                        link: a.link,
+                        to,
+                        message: Message::Heartbeat(wire::cc_heartbeat()),
+                    });
+                }
+            }
             return self.core.drop(DropReason::NotPeer);
         }
         let verdict = self.engine.handle_frame(now, &a.frame, a.authenticated);

@@ -6,7 +6,8 @@ use super::{sender, Arrival, Core, DropReason, Drops, Fate, LinkId, LinkSpec, No
 use crate::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
 use crate::fc::FcConfig;
 use crate::outbox::Outbox;
-use crate::{Instant, Origin, Trust};
+use crate::{wire, Instant, Origin, Trust};
+use fbwag_dialect::Message;
 
 /// The flight controller's node: the [`FcEngine`] and the policy of its
 /// links (see the [module docs](super)).
@@ -123,6 +124,16 @@ impl FcNode {
                     out.push(Output::Peers { link, peers })
                 });
         if !admitted {
+            if from == self.cfg.companion {
+                if let Some(to) = self.core.time_beacon(&a, now) {
+                    let authority = self.engine.authority();
+                    self.out.push(Output::TransmitTo {
+                        link: a.link,
+                        to,
+                        message: Message::Heartbeat(wire::fc_heartbeat(authority)),
+                    });
+                }
+            }
             return self.core.drop(DropReason::NotPeer);
         }
         // The engine sees every frame of the peer's address: it acts on the

@@ -55,8 +55,8 @@ pub use companion::{
     AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, AUTONOMY_SILENCE,
 };
 pub use flight::FcNode;
-pub use peers::{Admission, Peers, MAX_PEERS, PEER_SILENCE};
 use peers::Answered;
+pub use peers::{Admission, Peers, MAX_PEERS, PEER_SILENCE};
 pub use router::RouterNode;
 
 use crate::{Instant, Peer};
@@ -234,6 +234,18 @@ pub enum Output<E> {
         /// What.
         message: Message,
     },
+    /// Frame `message` with the node's ids and send it on listening link
+    /// `link` to `to` only, which does not become a peer: the node's
+    /// signed heartbeat for a key holder whose clock is behind (see
+    /// docs/delegation.md, "Signing time").
+    TransmitTo {
+        /// The link.
+        link: LinkId,
+        /// The address.
+        to: SocketAddr,
+        /// What.
+        message: Message,
+    },
     /// A listening link answers these addresses from now on.
     Peers {
         /// The link.
@@ -260,6 +272,8 @@ struct Core {
     table: RoutingTable<ROUTES>,
     drops: Drops,
     require_signed: bool,
+    /// When the last time beacon went out ([`Core::time_beacon`]).
+    beacon_at: Option<Instant>,
 }
 
 /// Errors of a node's set-up.
@@ -299,6 +313,7 @@ impl Core {
             table: RoutingTable::new(),
             drops: Drops::default(),
             require_signed,
+            beacon_at: None,
         }
     }
 
@@ -393,6 +408,29 @@ impl Core {
             Some((sysid, compid)) => self.table.links_to(sysid, compid).intersection(others),
             None => others,
         }
+    }
+
+    /// Where to send the node's signed heartbeat, if anywhere: `a` claims
+    /// the peer's ids and carries a signature, but the link's parser could
+    /// not accept it as fresh (it returns such a frame, signed with the
+    /// key but stale, unauthenticated), and the listening link answers
+    /// nobody yet. Its sender holds the key: a peer whose clock is behind
+    /// this node's (or a replay). A heartbeat a second at most lets a
+    /// genuine peer adopt this node's signing time, after which its frames
+    /// are fresh; the sender does not become the peer, and learns nothing
+    /// but the heartbeat.
+    fn time_beacon(&mut self, a: &Arrival, now: Instant) -> Option<SocketAddr> {
+        let source = a.source?;
+        let state = self.links.get(usize::from(a.link))?.as_ref()?;
+        let waits = state.spec.answers == Answers::Chosen && state.peers.peers().is_empty();
+        let due = self
+            .beacon_at
+            .is_none_or(|t| now.since(t) >= core::time::Duration::from_secs(1));
+        if !(a.frame.is_signed() && !a.authenticated && waits && due) {
+            return None;
+        }
+        self.beacon_at = Some(now);
+        Some(source)
     }
 
     /// Counts a drop.

@@ -29,7 +29,7 @@ use crate::node::{
     FcNode, LinkId, LinkSpec, Output, Peers, Role, AUTONOMY_SILENCE,
 };
 use crate::{Instant, Origin, Peer, Status};
-use core::net::SocketAddr;
+use core::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use fbwag_dialect::dialects::common::{CommandLong, ManualControl, MavCmd};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavType};
 use fbwag_dialect::dialects::standard::GlobalPositionInt;
@@ -295,17 +295,14 @@ const HIJACKER_PERIOD: Duration = Duration::from_millis(20);
 const STATION_PERIOD: Duration = Duration::from_secs(1);
 
 /// Where the programs around the companion speak from.
-fn addr(ip: [u8; 4], port: u16) -> SocketAddr {
-    SocketAddr::from((ip, port))
+const fn addr(ip: [u8; 4], port: u16) -> SocketAddr {
+    let [a, b, c, d] = ip;
+    SocketAddr::V4(SocketAddrV4::new(Ipv4Addr::new(a, b, c, d), port))
 }
-const LOCALHOST: [u8; 4] = [127, 0, 0, 1];
-const AUTONOMY_PORT: u16 = 14600;
-const IMPOSTOR_PORT: u16 = 14601;
-/// The ground station's address.
-fn station_addr() -> SocketAddr {
-    addr([192, 0, 2, 10], 14550)
-}
-const FORGER_ADDR: ([u8; 4], u16) = ([198, 51, 100, 7], 14550);
+const AUTONOMY_ADDR: SocketAddr = addr([127, 0, 0, 1], 14600);
+const IMPOSTOR_ADDR: SocketAddr = addr([127, 0, 0, 1], 14601);
+const STATION_ADDR: SocketAddr = addr([192, 0, 2, 10], 14550);
+const FORGER_ADDR: SocketAddr = addr([198, 51, 100, 7], 14550);
 
 /// The two ends of the modelled link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -846,8 +843,7 @@ impl World {
             Stranger::Autonomy => {
                 let control = Control::rc(AUTONOMY, [AUTONOMY_CH1, 1500, 1550, 1500, 0, 0, 0, 0]);
                 let bytes = self.around.autonomy.frame(&control.to_message());
-                let at = addr(LOCALHOST, AUTONOMY_PORT);
-                self.deliver_cc(AUTONOMY_LINK, Some(at), &bytes);
+                self.deliver_cc(AUTONOMY_LINK, Some(AUTONOMY_ADDR), &bytes);
                 // Its own heartbeat once a second: for the ground stations.
                 if self.now.as_millis() % 1000 < AUTONOMY_PERIOD.as_millis() as u64 {
                     let hb = Message::Heartbeat(Heartbeat {
@@ -856,14 +852,14 @@ impl World {
                         ..Heartbeat::default()
                     });
                     let bytes = self.around.autonomy.frame(&hb);
-                    self.deliver_cc(AUTONOMY_LINK, Some(at), &bytes);
+                    self.deliver_cc(AUTONOMY_LINK, Some(AUTONOMY_ADDR), &bytes);
                 }
                 AUTONOMY_PERIOD
             }
             Stranger::Impostor => {
                 let control = Control::rc(AUTONOMY, [STRANGER_CH1, 2000, 2000, 1000, 0, 0, 0, 0]);
                 let bytes = self.around.impostor.frame(&control.to_message());
-                self.deliver_cc(AUTONOMY_LINK, Some(addr(LOCALHOST, IMPOSTOR_PORT)), &bytes);
+                self.deliver_cc(AUTONOMY_LINK, Some(IMPOSTOR_ADDR), &bytes);
                 AUTONOMY_PERIOD
             }
             Stranger::Forger => {
@@ -881,7 +877,7 @@ impl World {
                     ..Heartbeat::default()
                 });
                 let bytes = self.around.station.frame(&hb);
-                self.deliver_cc(GROUND_LINK, Some(station_addr()), &bytes);
+                self.deliver_cc(GROUND_LINK, Some(STATION_ADDR), &bytes);
                 STATION_PERIOD
             }
         };
@@ -901,12 +897,11 @@ impl World {
             relative_alt: 100_000,
             ..GlobalPositionInt::default()
         });
-        let ground = addr(FORGER_ADDR.0, FORGER_ADDR.1);
         for msg in [hb, position] {
             let bytes = self.around.forger.frame_as(FC, &msg);
             self.deliver_cc(FC_LINK, None, &bytes);
             let bytes = self.around.forger.frame_as(FC, &msg);
-            self.deliver_cc(GROUND_LINK, Some(ground), &bytes);
+            self.deliver_cc(GROUND_LINK, Some(FORGER_ADDR), &bytes);
         }
         let bytes = self.around.forger.frame_as(BYSTANDER, &position);
         self.deliver_cc(FC_LINK, None, &bytes);
@@ -1048,6 +1043,7 @@ impl World {
                 Output::Event(FcOutput::ApplyControl { from, control }) => {
                     self.applied(from, control, sender)
                 }
+                Output::TransmitTo { .. } => {}
                 Output::Event(FcOutput::ReleaseControl | FcOutput::Transmit(_)) => {}
                 Output::Peers { .. } => {}
             }
@@ -1102,6 +1098,8 @@ impl World {
                     self.sent_around(links.without(FC_LINK), &message);
                 }
                 Output::Peers { link, peers } => self.peers_changed(link, peers),
+                // The simulated links carry no signing time to catch up.
+                Output::TransmitTo { .. } => {}
                 Output::Event(CompanionEvent::Engine(e)) => self.cc_event(e),
                 Output::Event(CompanionEvent::AutonomySilent(silent)) => self
                     .log(|| format!("CC: autonomy {}", if silent { "silent" } else { "speaks" })),
@@ -1190,7 +1188,7 @@ impl World {
     /// against any number of strangers; the autonomy's port answers the
     /// autonomy only.
     fn peers_changed(&mut self, link: LinkId, peers: Peers) {
-        let station = station_addr();
+        let station = STATION_ADDR;
         if link == GROUND_LINK {
             match (self.around.station_answered, peers.contains(station)) {
                 (true, false) => self.violation(format!(
@@ -1200,8 +1198,7 @@ impl World {
                 _ => {}
             }
         }
-        let autonomy = addr(LOCALHOST, AUTONOMY_PORT);
-        if link == AUTONOMY_LINK && peers.iter().any(|p| p != autonomy) {
+        if link == AUTONOMY_LINK && peers.iter().any(|p| p != AUTONOMY_ADDR) {
             self.violation(format!(
                 "the autonomy's port answers {:?}",
                 peers.iter().collect::<Vec<_>>()

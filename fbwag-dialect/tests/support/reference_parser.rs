@@ -372,6 +372,16 @@ impl<D: Dialect> Reference<D> {
                     self.stats.unsigned_rejected += 1;
                     return Verdict::Skip(len);
                 }
+                // A frame of a known id the key signed, stale: returned
+                // unauthenticated where unsigned frames are.
+                Err(e)
+                    if meta.is_some()
+                        && e.is_stale()
+                        && self.accept_unsigned
+                        && v.signed_with_key(&frame) =>
+                {
+                    self.stats.stale_timestamp += 1;
+                }
                 Err(e) => {
                     // Frames of known ids refused for their timestamp are
                     // counted apart (their checksum vouches for them).

@@ -73,7 +73,14 @@
 //! - If neither side sends before it has accepted a frame of the other (a
 //!   listener that waits for a peer to answer), and the clocks differ by more
 //!   than a minute, the side ahead refuses the other's frames as stale and
-//!   neither adopts: the side ahead must be heard first, or the clocks set.
+//!   neither adopts: the side ahead must be heard first. A parser under
+//!   `Unsigned::Accept` therefore returns a frame of a known id that the
+//!   key signed but whose timestamp is stale as unauthenticated (as it
+//!   would an unsigned one; [`Verifier::signed_with_key`] tells it, at the
+//!   cost of a SHA-256), so the listener can answer its sender with a
+//!   signed frame of its own without trusting it: `fbwag_delegation`'s
+//!   nodes send their heartbeat, once a second at most, to such a sender
+//!   of the peer's ids while they answer nobody yet.
 //! - A key holder whose clock is far ahead (or who signs ahead on purpose)
 //!   drags every adopting signer with it, and verifiers that accepted its
 //!   frames then refuse correctly clocked new streams as too old until those

@@ -290,6 +290,21 @@ impl<const N: usize> Verifier<N> {
         // before the SHA-256, so old captures and garbage with an
         // out-of-window timestamp cost a table look-up, not a hash.
         self.timestamp_check(&stream)?;
+        if !self.signed_with_key(&frame) {
+            return Err(SignatureError::Mismatch);
+        }
+        self.accept(stream)
+    }
+
+    /// Whether `frame` carries this key's signature, whatever its
+    /// timestamp (a SHA-256; nothing recorded). A frame refused as stale
+    /// that the key signed comes from a key holder: a replay, or a peer
+    /// whose clock is behind, which a signed answer lets catch up.
+    pub fn signed_with_key<T: AsRef<[u8]>>(&self, frame: &Frame<T>) -> bool {
+        let frame = frame.as_view();
+        let Some(block) = frame.signature() else {
+            return false;
+        };
         // The key, then the frame's bytes up to the timestamp.
         let bytes = frame.as_bytes();
         let signed = &bytes[..bytes.len() - 6];
@@ -303,10 +318,7 @@ impl<const N: usize> Verifier<N> {
         });
         // Not constant-time: the signature is public once sent, and a
         // mismatch only drops the frame.
-        if expected != block.signature() {
-            return Err(SignatureError::Mismatch);
-        }
-        self.accept(stream)
+        expected == block.signature()
     }
 
     /// The replay rules of [`accept`](Self::accept) without changing

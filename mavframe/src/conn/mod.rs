@@ -4,8 +4,9 @@
 //! feature `serial`), and [`Connection`], which frames messages over a
 //! transport and parses what comes back. [`Connection::split`] gives a
 //! [`Sender`] and a [`Receiver`] for two threads. Feature `tokio` adds
-//! `conn::codec` (tokio_util codecs for any async transport) and
-//! `conn::tokio::AsyncConnection` (UDP and TCP client).
+//! `conn::codec` (a tokio_util codec for any async byte stream); for async
+//! links of every kind, with their peers, signing state and routing, use
+//! `crate::router`.
 //!
 //! ```no_run
 //! # use mavframe::{Dialect, MessageMeta};
@@ -33,8 +34,6 @@ mod split;
 mod tcp;
 #[cfg(test)]
 pub(crate) mod test_dialect;
-#[cfg(feature = "tokio")]
-pub mod tokio;
 mod transport;
 mod udp;
 

@@ -28,6 +28,14 @@ from pymavlink.dialects.v20 import fbwag
 print("MAVProxy", v("MAVProxy"), "mavsdk", v("mavsdk"), "pymavlink", v("pymavlink"),
       "FBWAG_NOTICE crc_extra", fbwag.MAVLink_fbwag_notice_message.crc_extra)'
 
+# fbwag-cli/tests/trust.rs runs daemons on a skewed clock (LD_PRELOAD).
+step "libfaketime (daemons on a skewed clock)"
+if [ ! -e /usr/lib/x86_64-linux-gnu/faketime/libfaketime.so.1 ]; then
+    as_root=""; [ "$(id -u)" -eq 0 ] || as_root=sudo
+    $as_root apt-get update
+    $as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y libfaketime
+fi
+
 step "cargo fmt --check"
 cargo fmt --all -- --check
 

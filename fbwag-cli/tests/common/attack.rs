@@ -431,3 +431,95 @@ pub fn send_from_port_zero(to: SocketAddr, payload: &[u8]) -> std::io::Result<()
     socket.send_to(&d, &SockAddr::from(to))?;
     Ok(())
 }
+
+/// An attacker on the path: a relay between an `udpout` FC (which sends to
+/// [`OnPath::fc_side`]) and an `udpin` CC that forwards everything both
+/// ways and also sends datagrams of its own to both daemons at a steady
+/// rate. They come from the address each daemon hears its peer from (what
+/// a radio on the link, or a switch between the daemons, can do), so its
+/// frames reach the engines, and only signing tells them from the peer's.
+pub struct OnPath {
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<Sent>>,
+    pub fc_side: SocketAddr,
+}
+
+impl OnPath {
+    /// Relays between the FC and the CC at `cc`, sending `per_sec` datagrams
+    /// a second to each daemon, each made by `gen(rng, n)` (to the FC only
+    /// once it has spoken: its address is not known before).
+    pub fn start(
+        cc: SocketAddr,
+        per_sec: f64,
+        seed: u64,
+        mut gen: impl FnMut(&mut Pcg64, u64) -> Vec<u8> + Send + 'static,
+    ) -> OnPath {
+        let fc_socket = UdpSocket::bind("127.0.0.1:0").expect("relay");
+        let cc_socket = UdpSocket::bind("127.0.0.1:0").expect("relay");
+        let fc_side = fc_socket.local_addr().expect("relay address");
+        for s in [&fc_socket, &cc_socket] {
+            s.set_nonblocking(true).expect("non-blocking");
+        }
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop2 = stop.clone();
+        let thread = std::thread::spawn(move || {
+            let mut rng = Pcg64::seed_from_u64(seed);
+            let mut sent = Sent::default();
+            let (start, mut n, mut fc) = (Instant::now(), 0u64, None);
+            let mut buf = [0u8; 65536];
+            while !stop2.load(Ordering::Relaxed) {
+                while let Ok((len, from)) = fc_socket.recv_from(&mut buf) {
+                    fc = Some(from);
+                    sent.received += 1;
+                    let _ = cc_socket.send_to(&buf[..len], cc);
+                }
+                while let Ok(len) = cc_socket.recv(&mut buf) {
+                    sent.received += 1;
+                    if let Some(fc) = fc {
+                        let _ = fc_socket.send_to(&buf[..len], fc);
+                    }
+                }
+                let due = (start.elapsed().as_secs_f64() * per_sec) as u64;
+                // Behind schedule: skip ahead rather than burst (as Attacker).
+                n = n.max(due.saturating_sub((per_sec * 0.02) as u64 + 1));
+                while n < due {
+                    let d = gen(&mut rng, n);
+                    let to_fc = fc.map(|fc| (&fc_socket, fc));
+                    for (socket, to) in [Some((&cc_socket, cc)), to_fc].into_iter().flatten() {
+                        if socket.send_to(&d, to).is_ok() {
+                            sent.datagrams += 1;
+                            sent.bytes += d.len() as u64;
+                        }
+                    }
+                    n += 1;
+                }
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            sent
+        });
+        OnPath {
+            stop,
+            thread: Some(thread),
+            fc_side,
+        }
+    }
+
+    /// Stops and says what it sent of its own (`received`: the datagrams it
+    /// relayed).
+    pub fn stop(mut self) -> Sent {
+        self.stop.store(true, Ordering::Relaxed);
+        self.thread
+            .take()
+            .map(|t| t.join().expect("relay thread"))
+            .unwrap_or_default()
+    }
+}
+
+impl Drop for OnPath {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}

@@ -104,6 +104,37 @@ impl Daemon {
         }
     }
 
+    /// [`spawn`](Self::spawn) with these environment variables set (a
+    /// faked clock, for one).
+    pub fn spawn_with_env(dir: &Path, name: &str, args: &[String], env: &[(&str, &str)]) -> Daemon {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_fbwag"));
+        command.envs(env.iter().copied());
+        Self::spawn_with(command, dir, name, args)
+    }
+
+    /// Starts `fbwag <args>` without `--events` (for a program that takes
+    /// none), stdout and stderr to `<dir>/<name>.log`; its events stay empty.
+    pub fn spawn_without_events(dir: &Path, name: &str, args: &[String]) -> Daemon {
+        let log = dir.join(format!("{name}.log"));
+        let out = fs::File::create(&log).expect("log file");
+        let err = out.try_clone().expect("log file");
+        let child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(out)
+            .stderr(err)
+            .spawn()
+            .unwrap_or_else(|e| panic!("spawn {name}: {e}"));
+        Daemon {
+            name: name.into(),
+            child: Some(child),
+            events: dir.join(format!("{name}.events")),
+            log,
+            started: Instant::now(),
+            unread: None,
+        }
+    }
+
     fn spawn_with(mut command: Command, dir: &Path, name: &str, args: &[String]) -> Daemon {
         let events = dir.join(format!("{name}.events"));
         let log = dir.join(format!("{name}.log"));

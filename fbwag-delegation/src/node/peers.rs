@@ -54,6 +54,9 @@ pub enum Admission {
 
 /// Whom a link the node chooses for answers: one peer (the FC link, the
 /// autonomy's link) or the stations of a ground link.
+// Links are few and fixed (no_std, no allocation): the one-peer variant's
+// unused room costs less than a box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 pub(super) enum Answered {
     /// One peer: a verified frame's source replaces it at once.

@@ -55,8 +55,8 @@ pub use companion::{
     AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, AUTONOMY_SILENCE,
 };
 pub use flight::FcNode;
-use peers::Answered;
-pub use peers::{Admission, Peers, MAX_PEERS, PEER_SILENCE};
+use peers::{Admission, Answered};
+pub use peers::{Peers, MAX_PEERS, PEER_SILENCE};
 pub use router::RouterNode;
 
 use crate::{Instant, Peer};

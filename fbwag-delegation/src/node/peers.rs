@@ -42,7 +42,7 @@ impl Peers {
 
 /// What [`Answered::heard`] made of a source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Admission {
+pub(super) enum Admission {
     /// Already answered.
     Known,
     /// Answered from now on: the set changed.

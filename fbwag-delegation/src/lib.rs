@@ -4,23 +4,30 @@
 //! so every timing path is testable and simulated without sleeping.
 //! `docs/delegation.md` is the specification.
 //!
-//! - [`engine`]: what to embed. [`engine::FcEngine`] (the flight
-//!   controller's side) and [`engine::CcEngine`] (the companion's) take
-//!   parsed MAVLink frames and decide everything between the frames and the
-//!   protocol: which messages are inputs, who is trusted (configured ids,
-//!   and a verified signature when signing is required), which control
-//!   messages are accepted and applied, and what goes on the wire. The
-//!   simulator and the `fbwag` daemons both drive these engines, so what the
-//!   simulator proves is what the live programs run.
+//! - [`node`]: what to embed. A program that speaks the protocol is a
+//!   MAVLink node with several links: [`node::CompanionNode`],
+//!   [`node::FcNode`] and [`node::RouterNode`] take every frame a link
+//!   delivers (with its source address and whether its signature verified)
+//!   and decide its fate once: protocol input, control through the
+//!   companion's gate, the links it is routed to, or a drop with a counted
+//!   reason; and whom each listening link answers. The simulator and the
+//!   `fbwag` daemons drive these nodes, so what the simulator checks is
+//!   what the live programs run.
+//! - [`engine`]: inside each node, [`engine::FcEngine`] (the flight
+//!   controller's side) and [`engine::CcEngine`] (the companion's): which
+//!   messages are inputs, who is trusted (configured ids, and a verified
+//!   signature when signing is required), which control messages are
+//!   accepted and applied, the protocol's timers.
 //! - [`fc::FlightController`] and [`cc::Companion`]: the two state machines
 //!   inside the engines, with typed inputs already judged trustworthy.
 //! - [`control`]: the control the companion sends and the FC applies.
-//! - [`sim`] (feature `std`): both engines over modelled links on a virtual
-//!   clock: Table I of the paper, scenarios and loss sweeps.
+//! - [`sim`] (feature `std`): the FC's and the companion's nodes over
+//!   modelled links on a virtual clock, strangers included: Table I of the
+//!   paper, scenarios and loss sweeps.
 //!
 //! # Call order
 //!
-//! Every machine and engine follows the same contract, as quinn-proto does:
+//! Every machine, engine and node follows the same contract, as quinn-proto does:
 //! after **every** `handle_*` call, drain the outputs (`poll_output` /
 //! `poll_action`) until `None`, then ask `poll_timeout` for the next
 //! deadline and call `handle_timeout` at (or after) it. Outputs queue in a

@@ -228,7 +228,18 @@ fn a_station_keeps_its_answers_among_200_strangers() {
     }
     let peers = peers.unwrap();
     assert!(peers.contains(station));
-    assert_eq!(peers.iter().count(), MAX_PEERS);
+    // Half the slots are for stations that sign: strangers without the key
+    // get the other half at most.
+    assert_eq!(peers.iter().count(), MAX_PEERS / 2);
+    // A station that signs, arriving late, is answered all the same.
+    let late = addr(14560);
+    let now = Instant::from_millis(2000);
+    let _ = cc.handle_frame(now, arrival(GROUND, Some(late), &hb, true));
+    let out = drain(&mut cc);
+    assert!(
+        out.iter().any(|o| matches!(o, Output::Peers { link: GROUND, peers } if peers.contains(late) && peers.contains(station))),
+        "{out:?}"
+    );
 }
 
 #[test]

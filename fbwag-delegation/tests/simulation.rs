@@ -160,3 +160,94 @@ fn a_bursty_sweep_uses_the_burst_length_it_is_given() {
         "the burst length must matter here"
     );
 }
+
+/// Every stranger of the scenario was there and turned away by the
+/// companion's node, for the reason the policy gives.
+#[test]
+fn strangers_are_turned_away_and_the_autonomy_flies() {
+    use fbwag_delegation::node::DropReason;
+    let s = Scenario::Strangers;
+    let row = run_many(s, 0.0, 500, 1001, |seed| Trial::new(s, 0.0, seed));
+    assert!(row.violations.is_empty(), "{:?}", row.violations);
+    assert_eq!(row.success_rate(), 1.0);
+    assert_eq!((row.false_takeovers, row.fallbacks), (0, 0));
+    // Two receiver samples at 10 Hz plus one round trip, strangers or not.
+    assert!(row.quantile_ms(1.0).unwrap() < 300.0);
+    let o = run(&Trial::new(s, 0.0, 7));
+    for reason in [
+        DropReason::OwnIds,
+        DropReason::Impersonation,
+        DropReason::Unauthenticated,
+        DropReason::NotPeer,
+        DropReason::Gated,
+    ] {
+        assert!(
+            o.cc_drops.get(reason) > 0,
+            "no {} drop: {:?}",
+            reason.name(),
+            o.cc_drops
+        );
+    }
+    // The companion let no stranger through: the FC's node had nothing
+    // to drop.
+    assert_eq!(o.fc_drops.total(), 0, "{:?}", o.fc_drops);
+}
+
+#[test]
+fn strangers_on_lossy_links_break_no_invariant() {
+    let s = Scenario::Strangers;
+    for (loss, burst) in [(0.2, None), (0.5, Some(4.0))] {
+        let row = run_many(s, loss, 150, 202, |seed| {
+            let t = Trial::new(s, loss, seed);
+            burst.map_or(t, |b| t.bursty(loss, b))
+        });
+        assert!(
+            row.violations.is_empty(),
+            "loss {loss}: {:?}",
+            row.violations
+        );
+        assert_eq!(row.false_takeovers, 0);
+        assert!(
+            row.success_rate() > 0.5,
+            "loss {loss}: {}",
+            row.success_rate()
+        );
+    }
+}
+
+#[test]
+fn a_silent_autonomy_declines_and_the_fc_returns_home_at_once() {
+    let s = Scenario::SilentAutonomy;
+    let row = run_many(s, 0.0, 1000, 303, |seed| Trial::new(s, 0.0, seed));
+    assert!(row.violations.is_empty(), "{:?}", row.violations);
+    assert_eq!(row.success_rate(), 1.0);
+    assert_eq!((row.false_takeovers, row.fallbacks), (0, 1000));
+    // RTL one round trip after the first notice: far from the 5 s of a
+    // companion that never answers.
+    assert!(row.quantile_ms(1.0).unwrap() < 300.0);
+    let trial = Trial {
+        trace: true,
+        ..Trial::new(s, 0.0, 1)
+    };
+    let t = run(&trial).trace.join("\n");
+    for step in [
+        "CC: autonomy silent",
+        "FC -> notice status 1",
+        "CC declines event",
+        "CC -> notice status 0",
+        "FC authority -> Rtl",
+    ] {
+        assert!(t.contains(step), "missing {step:?} in\n{t}");
+    }
+    assert!(!t.contains("FC authority -> Companion"), "{t}");
+}
+
+#[test]
+fn a_silent_autonomy_with_the_fallback_flies_wings_level() {
+    let s = Scenario::SilentAutonomyFallback;
+    let row = run_many(s, 0.0, 1000, 404, |seed| Trial::new(s, 0.0, seed));
+    assert!(row.violations.is_empty(), "{:?}", row.violations);
+    assert_eq!(row.success_rate(), 1.0);
+    assert_eq!((row.false_takeovers, row.fallbacks), (0, 0));
+    assert!(row.quantile_ms(1.0).unwrap() < 300.0);
+}

@@ -36,8 +36,10 @@
 //! ([`Peers`], under `mavframe::peers`' rule): the peer link and the autonomy link one address (a
 //! verified frame's source at once; without signing, the first trusted
 //! source, replaced after 3 s of silence), ground links the stations that
-//! spoke recently (8 at most: a newcomer takes a free slot or a slot silent
-//! 3 s, so a stranger cannot push a speaking station out). Routes learned
+//! spoke recently (8 at most, half of them for stations whose frames
+//! verified: a newcomer takes a free slot or a slot silent 3 s, so a
+//! stranger can neither push a speaking station out nor, without the key,
+//! take the slots of stations that sign). Routes learned
 //! from verified frames, from the peer link or from the autonomy outrank
 //! those learned from strangers, so a flood of ids cannot make the node
 //! forget the FC.
@@ -326,7 +328,7 @@ impl Core {
             return Err(NodeError::BadLink(link));
         }
         let peers = if spec.role == Role::Ground {
-            Answered::Stations(Default::default())
+            Answered::stations()
         } else {
             Answered::One(Default::default())
         };

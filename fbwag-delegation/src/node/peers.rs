@@ -16,7 +16,7 @@ pub struct Peers {
 }
 
 impl Peers {
-    fn from_iter(addrs: impl Iterator<Item = SocketAddr>) -> Self {
+    fn from_addrs(addrs: impl Iterator<Item = SocketAddr>) -> Self {
         let mut peers = Peers::default();
         for (slot, addr) in peers.addrs.iter_mut().zip(addrs) {
             *slot = Some(addr);
@@ -52,6 +52,11 @@ pub(super) enum Admission {
     Refused,
 }
 
+/// Stations of a ground link whose frames verified, and others: half of
+/// the slots each, so strangers (without the key) never hold the slots of
+/// stations that sign, however many addresses they speak from.
+pub(super) const STATION_SLOTS: usize = MAX_PEERS / 2;
+
 /// Whom a link the node chooses for answers: one peer (the FC link, the
 /// autonomy's link) or the stations of a ground link.
 // Links are few and fixed (no_std, no allocation): the one-peer variant's
@@ -61,24 +66,39 @@ pub(super) enum Admission {
 pub(super) enum Answered {
     /// One peer: a verified frame's source replaces it at once.
     One(PeerSet<1>),
-    /// Up to [`MAX_PEERS`] stations.
-    Stations(PeerSet<MAX_PEERS>),
+    /// Stations: those whose frames verified, and the others.
+    Stations {
+        verified: PeerSet<STATION_SLOTS>,
+        others: PeerSet<STATION_SLOTS>,
+    },
 }
 
 impl Answered {
-    /// `addr` sent a frame the node admitted at `now`; `displaces`: its
+    /// Stations of a ground link.
+    pub(super) fn stations() -> Self {
+        Answered::Stations {
+            verified: PeerSet::new(),
+            others: PeerSet::new(),
+        }
+    }
+
+    /// `addr` sent a frame the node admitted at `now`; `verified`: its
     /// signature verified, so on a one-peer link it becomes the peer at
-    /// once (a peer restarted on a new port).
-    pub(super) fn heard(&mut self, addr: SocketAddr, now: Instant, displaces: bool) -> Admission {
+    /// once (a peer restarted on a new port), and on a ground link it
+    /// competes only with other stations that sign.
+    pub(super) fn heard(&mut self, addr: SocketAddr, now: Instant, verified: bool) -> Admission {
         let t = Duration::from_micros(now.0);
         let heard = match self {
             Answered::One(set) => set.heard(addr, t),
-            Answered::Stations(set) => set.heard(addr, t),
+            Answered::Stations { verified: v, .. } if verified => v.heard(addr, t),
+            // A station that signed once stays among those that sign.
+            Answered::Stations { verified: v, .. } if v.contains(addr) => v.heard(addr, t),
+            Answered::Stations { others, .. } => others.heard(addr, t),
         };
         match (heard, &mut *self) {
             (Heard::Known, _) => Admission::Known,
             (Heard::Added(_), _) => Admission::Added,
-            (Heard::Refused, Answered::One(set)) if displaces && addr.port() != 0 => {
+            (Heard::Refused, Answered::One(set)) if verified && addr.port() != 0 => {
                 set.set(&[addr], t);
                 Admission::Added
             }
@@ -89,23 +109,28 @@ impl Answered {
     pub(super) fn contains(&self, addr: SocketAddr) -> bool {
         match self {
             Answered::One(set) => set.contains(addr),
-            Answered::Stations(set) => set.contains(addr),
+            Answered::Stations { verified, others } => {
+                verified.contains(addr) || others.contains(addr)
+            }
         }
     }
 
     pub(super) fn peers(&self) -> Peers {
         match self {
-            Answered::One(set) => Peers::from_iter(set.iter()),
-            Answered::Stations(set) => Peers::from_iter(set.iter()),
+            Answered::One(set) => Peers::from_addrs(set.iter()),
+            Answered::Stations { verified, others } => {
+                let others = others.iter().filter(|a| !verified.contains(*a));
+                Peers::from_addrs(verified.iter().chain(others))
+            }
         }
     }
 
     /// Forgets every peer (the link was opened again).
     pub(super) fn clear(&mut self) {
-        match self {
-            Answered::One(set) => *set = PeerSet::new(),
-            Answered::Stations(set) => *set = PeerSet::new(),
-        }
+        *self = match self {
+            Answered::One(_) => Answered::One(PeerSet::new()),
+            Answered::Stations { .. } => Answered::stations(),
+        };
     }
 }
 
@@ -126,11 +151,19 @@ mod tests {
         assert_eq!(one.heard(addr(0), soon, true), Admission::Refused);
         assert_eq!(one.heard(addr(2), soon, true), Admission::Added);
         assert!(one.contains(addr(2)) && !one.contains(addr(1)));
-        let mut stations = Answered::Stations(PeerSet::new());
+        // Strangers fill the slots of stations that do not sign; one that
+        // signs is answered all the same, and keeps its slot.
+        let mut stations = Answered::stations();
         for port in 1..=MAX_PEERS as u16 {
-            assert_eq!(stations.heard(addr(port), soon, false), Admission::Added);
+            let want = if usize::from(port) <= STATION_SLOTS {
+                Admission::Added
+            } else {
+                Admission::Refused
+            };
+            assert_eq!(stations.heard(addr(port), soon, false), want);
         }
-        assert_eq!(stations.heard(addr(99), soon, true), Admission::Refused);
-        assert_eq!(stations.peers().iter().count(), MAX_PEERS);
+        assert_eq!(stations.heard(addr(99), soon, true), Admission::Added);
+        assert_eq!(stations.heard(addr(99), soon, false), Admission::Known);
+        assert_eq!(stations.peers().iter().count(), STATION_SLOTS + 1);
     }
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Handover time (receiver failure -> companion control, as `fbwag fc-sim`
 reports it: "handover N ms after the receiver failed"), measured in one
-session over several runs of each set-up, all on 127.0.0.1 UDP:
+invocation over several runs of each set-up, all on 127.0.0.1 UDP:
 
   direct            fc-sim --udpout--> fbwag cc
   router            fc-sim --> fbwag router --> fbwag cc

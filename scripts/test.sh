@@ -78,7 +78,7 @@ set -m
     bstep "conformance: fuzz targets built (run below)"
     bash conformance/scripts/fuzz.sh build
 
-    # --- publishing (issue 12) ---
+    # --- publishing ---
     # Every crate meant for crates.io, packaged and verified together: cargo
     # (>= 1.83) builds each packaged tarball against the others through a local
     # registry overlay, so path dependencies not yet on crates.io resolve.
@@ -142,7 +142,7 @@ cargo test --workspace --locked
 step "mavframe with every feature (serial over a pseudo-terminal, tokio)"
 cargo test -p mavframe --all-features --locked
 
-# --- conformance (issue 6) ---
+# --- conformance ---
 # The conformance tests ran in `cargo test` above (conformance/tests/wire.rs
 # prints its report: every message of fbwag.xml and all.xml against pymavlink
 # 2.4.50 and the MAVLink C library, and the corrupted streams). Here: the
@@ -153,7 +153,7 @@ bash conformance/scripts/fuzz.sh run 15
 
 step "conformance: summary"
 bash conformance/scripts/summary.sh
-# --- end conformance (issue 6) ---
+# --- end conformance ---
 
 step "no_std builds: fbwag-dialect, fbwag-dialect-cc, fbwag-delegation, mavframe's embedded adapters"
 cargo build -p fbwag-dialect --no-default-features --locked
@@ -181,7 +181,7 @@ FBWAG_DIALECT_MESSAGES=ATTITUDE,COMMAND_LONG \
     cargo build -p fbwag-dialect --no-default-features --features codegen --locked
 cargo build -p fbwag-delegation --no-default-features --locked
 
-# --- publishing and a user's crate (issue 12) ---
+# --- publishing and a user's crate ---
 # (cargo package and the packaged codegen build ran in the background
 # builds, above.)
 

@@ -1,7 +1,7 @@
 //! The parser's throughput on adversarial input next to random bytes
-//! (issue 10: the worst case within 10× of random bytes): MB/s of
+//! (the target: the worst case within 10× of random bytes): MB/s of
 //! `Parser::next` over the inputs of `benches::worst` (random bytes,
-//! garbage dense in start bytes, the issue's pattern, the worst patterns
+//! garbage dense in start bytes, `issue_pattern`, the worst patterns
 //! `examples/parser_worst.rs` found), in 64 KiB chunks as `fbwag decode`
 //! reads, and byte by byte (every candidate then spans calls).
 

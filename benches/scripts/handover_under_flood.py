@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Handover time of the live programs under floods, and parser MB/s on each
-flood pattern (issue 10, item 7). Timings live here, not in tests.
+flood pattern. Timings live here, not in tests (the safety outcomes of the
+same floods are fbwag-cli/tests/adversarial.rs).
 
 For every flood (none, random bytes, start-byte-dense garbage, the worst
 parser pattern, 10-byte false headers, valid frames from strangers) at each
@@ -34,8 +35,8 @@ import time
 
 KEY = "5a1f0c3d9e8b7a6f5e4d3c2b1a0f9e8d7c6b5a49382716051f2e3d4c5b6a7988"
 WORST = bytes.fromhex("fefefefdfd0000fe00fe")
-# The parser's worst input known (benches/src/worst.rs, `found_k`, stop 24),
-# sent in 300-byte datagrams, the read size where it costs most.
+# `found_k` of benches/src/worst.rs, among the parser's costliest inputs
+# (BENCHMARKS.md, "Parser worst case"), sent in 300-byte datagrams.
 FOUND_K = bytes.fromhex("fe00fefefd0a00fe" + "fe" * 11 + "fd")
 RC_LOSS_AT = 0.6
 RUN_LIMIT = 6.5

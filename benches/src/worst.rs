@@ -1,7 +1,8 @@
 //! Inputs of the parser's worst-case benchmark (`benches/parser_worst.rs`)
 //! and of the search for worst patterns (`examples/parser_worst.rs`): random
-//! bytes, garbage dense in start bytes, the repeating pattern of issue 10,
-//! and the worst short patterns the search found.
+//! bytes, garbage dense in start bytes, a repeating pattern that made the
+//! previous parser's cost quadratic, and the worst short patterns the
+//! search found.
 
 use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
 use fbwag_dialect::mavframe::signing::Verifier;
@@ -15,7 +16,9 @@ pub const INPUT_LEN: usize = 256 * 1024;
 /// Chunks the inputs are pushed in: what `fbwag decode` reads at once.
 pub const CHUNK: usize = 64 * 1024;
 
-/// The 10-byte pattern of issue 10: 1 MB of it took `fbwag decode` 3.6 s.
+/// A 10-byte pattern dense in start bytes: 1 MB of it took `fbwag decode`
+/// 3.6 s with the previous parser, which scanned every candidate for a
+/// frame inside.
 pub const ISSUE_PATTERN: &[u8] = &[0xfe, 0xfe, 0xfe, 0xfd, 0xfd, 0x00, 0x00, 0xfe, 0x00, 0xfe];
 
 /// The worst repeating patterns `examples/parser_worst.rs` found (see
@@ -46,7 +49,7 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
     ),
     ("found_d", &[0xfe, 0xfd, 0xfd, 0x01, 0x00], false),
     ("found_e", &[0xfd, 0x07, 0x01, 0xfe], true),
-    // Built by hand, not climbed (stop 17): a frame of unknown id 0xFF,
+    // Built by hand, not climbed: a frame of unknown id 0xFF,
     // 8 bytes, confirmed by the 0xFE after it, every 9 bytes of 0xFE
     // candidates of known ids.
     (
@@ -65,9 +68,9 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         ],
         true,
     ),
-    // Found by `search time 150 5` at stop 20, once the next frame of an
-    // unknown id was decided in place: a frame of unknown id 10 every 16
-    // bytes, after more candidates than that path takes...
+    // Found by `search time 150 5`: a frame of unknown id 10 every 16
+    // bytes, after more candidates than the parser's in-place path for the
+    // next frame of an unknown id takes...
     (
         "found_i",
         &[
@@ -82,10 +85,9 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         &[0xfe, 0xfe, 0xfe, 0xfe, 0xfd, 0x00, 0x00, 0xfe, 0xfe],
         false,
     ),
-    // Built by hand (stop 24), beyond what the search climbed to: found_i's
-    // frame of unknown id 10 with eleven 0xFE candidates and a 0xFD after
-    // it. The worst input known in 64 KiB reads at stop 24, and still by
-    // far in 300- and 64-byte reads of a stream, where each 0xFE's
+    // Built by hand, beyond what the search climbed to: found_i's frame of
+    // unknown id 10 with eleven 0xFE candidates and a 0xFD after it. By far
+    // the worst in 300- and 64-byte reads of a stream, where each 0xFE's
     // 262-byte frame is cut by the read (classified as pending, then again
     // when its bytes come).
     (
@@ -96,20 +98,19 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         ],
         false,
     ),
-    // Climbed by the time search at stop 25 (`search time 150 7`): a frame
-    // of unknown id 15 every 8 bytes, its successor's three candidates
-    // rejected by their masks and one refused (a MAVLink 2 frame of an
-    // unknown id not confirmed). With `found_f` the worst in 64 KiB reads
-    // after stop 25.
+    // Climbed by the time search (`search time 150 7`): a frame of unknown
+    // id 15 every 8 bytes, its successor's three candidates rejected by
+    // their masks and one refused (a MAVLink 2 frame of an unknown id not
+    // confirmed). Among the worst in 64 KiB reads.
     (
         "found_l",
         &[0xfe, 0x0b, 0xfe, 0x0f, 0xfe, 0xfd, 0xfe, 0x00],
         false,
     ),
-    // Climbed by the time search in 300-byte datagrams at stop 26
-    // (`search time 200 5 reads=d300`): a MAVLink 1 frame of unknown id 10
-    // every 12 bytes, confirmed by the 0xFE after it, among candidates the
-    // datagram's end cuts. The worst in those datagrams after stop 26.
+    // Climbed by the time search in 300-byte datagrams (`search time 200 5
+    // reads=d300`): a MAVLink 1 frame of unknown id 10 every 12 bytes,
+    // confirmed by the 0xFE after it, among candidates the datagram's end
+    // cuts. Among the slowest in those datagrams.
     (
         "found_m",
         &[
@@ -117,12 +118,13 @@ pub const FOUND: &[(&str, &[u8], bool)] = &[
         ],
         false,
     ),
-    // Climbed by the time search in 64 KiB reads at stop 26 (`search time
-    // 200 9`): MAVLink 2 frames of unknown ids, a 12-byte one confirmed
-    // every 23 bytes, the others refused (not confirmed), now and then a
-    // confirmed 268-byte one whose inside is scanned; too few candidates
-    // between frames for the masks. The most instructions per byte in
-    // 64 KiB reads after stop 26.
+    // Climbed by the time search in 64 KiB reads (`search time 200 9`):
+    // MAVLink 2 frames of unknown ids, a 12-byte one confirmed every 23
+    // bytes, the others refused (not confirmed), now and then a confirmed
+    // 268-byte one whose inside is scanned; too few candidates between
+    // frames for the masks; two of its ids share a slot of the memo's
+    // CRC_EXTRA cache, so their look-ups search the dialect (ids above the
+    // dialect's largest skip the cache: `Dialect::MAX_ID`).
     (
         "found_n",
         &[
@@ -241,10 +243,10 @@ pub fn inputs() -> Vec<(String, Vec<u8>, bool)> {
 
 /// `found_f` with its frame of an unknown id sent by a new system id each
 /// time (0 to 255, over and over): more senders than the parser tracks.
-/// Built by hand (stop 23), beyond the search's 48-byte patterns: the
-/// parser's search for a frame's sender among those it tracks went slot by
-/// slot, 13 % more work per byte than `found_f` (stop 22: 125.7
-/// instructions per byte, against 111.5).
+/// Built by hand, beyond the search's 48-byte patterns: a new sender for
+/// every frame, against the parser's per-sender statistics. A slot-by-slot
+/// look-up of the sender made it 13 % more work per byte than `found_f`;
+/// the look-up is constant time (`mavframe/src/parser/senders.rs`).
 pub fn many_senders(len: usize) -> Vec<u8> {
     let (_, found_f, _) = FOUND.iter().find(|(n, _, _)| *n == "found_f").unwrap();
     (0..=255u8)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Prints the conformance summary of the last run (issue 6): dialects,
+# Prints the conformance summary of the last run: dialects,
 # messages, frames compared per mode and peer, mismatches, good frames each
 # parser recovered from the corrupted streams, fuzz executions, and a final
 # `conformance: N passed, N failed` line. Reads what tests/wire.rs and
@@ -22,7 +22,7 @@ $1 == "recovered" { want[$3] += $4; rr[$3] += $5; rp[$3] += $6; rc[$3] += $7 }
 $1 == "result"  { passed += $2; failed += $3 }
 END {
     print ""
-    print "== conformance summary (issue 6) =="
+    print "== conformance summary =="
     printf "dialects: %d (%s), %d messages\n", nd, dialects, nm
     print "frames compared, each packed by both sides and decoded both ways:"
     printf "  %-19s %12s %18s %12s %11s\n", "", "MAVLink 2", "MAVLink 2 signed", "MAVLink 1", "mismatches"

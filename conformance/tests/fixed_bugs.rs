@@ -45,8 +45,9 @@ fn owned_messages_keep_char_bytes_after_the_first_nul() {
 /// fails is skipped whole (`parser::check`: `Verdict::Skip(len)`). When the
 /// frame was cut inside its signature block, the "signature" is the head of
 /// the next, good frame, which is lost with it: the parser does not
-/// resynchronise inside the rejected frame's claimed length, as issue 6
-/// requires. pymavlink and the C library lose it too. Fix: on a bad
+/// resynchronise inside the rejected frame's claimed length, as it must (a
+/// rejected frame never swallows the good frames inside the length it
+/// claimed). pymavlink and the C library lose it too. Fix: on a bad
 /// signature, drop the frame up to its checksum and rescan the 13 signature
 /// bytes (counting them dropped when nothing starts there).
 #[test]

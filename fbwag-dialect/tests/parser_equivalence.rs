@@ -564,9 +564,10 @@ fn dropping_input_after_a_frame_never_yields_a_bad_frame() {
     go::<Few>(&FEW_ROWS, 23);
 }
 
-// Hostile streams of frames of unknown ids, signed and not (stop 17's
-// review: these found a frame of a known id with a bad checksum let out
-// as a raw frame, below).
+// Hostile streams of frames of unknown ids, signed and not: a parser that
+// trusts a remembered "whole frame of an unknown id" mark over the bytes at
+// hand lets a frame of a known id with a bad checksum out as a raw frame
+// (the tests below).
 
 /// A frame of `id` (unknown to the dialect when `unknown`), payload of
 /// `len` nonzero bytes rich in start bytes, signed by `signer` if any.

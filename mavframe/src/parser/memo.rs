@@ -87,12 +87,12 @@ const V1_WINDOW: usize = 64 + HEADER_LEN_V1 + 255 + CHECKSUM_LEN;
 /// as every frame starting there is whole in the bytes at hand (one whose
 /// end is not there would wait, to be classified again, and would likely
 /// never be asked about). Where frames are cut, only the positions asked
-/// about: stop 17 kept 32 more there (each scan has a fixed cost, and
-/// candidates whose frames end a few bytes apart paid a scan each), but
-/// since the MAVLink 1 verdicts and the masks are computed by whole blocks
-/// for the scan too, no minimum is cheaper in 300- and 64-byte reads on
+/// about. Keeping a minimum of 32 more there (each scan has a fixed cost,
+/// and candidates whose frames end a few bytes apart pay a scan each) costs
+/// more: the MAVLink 1 verdicts and the masks are computed by whole blocks
+/// for the scan too, so no minimum is cheaper in 300- and 64-byte reads on
 /// every input but `many_senders` (+2 %; `found_j` −27 % in 64-byte reads)
-/// and the same in 64 KiB reads (stop 24).
+/// and the same in 64 KiB reads.
 const SCAN_AHEAD: usize = 192;
 
 /// Where the scan for a candidate needing positions before `end` stops, in
@@ -1449,7 +1449,7 @@ fn start_masks(bytes: &[u8], count: usize) -> impl Iterator<Item = Starts> + '_ 
 /// are after them), 16 bytes at a time in SSE2 registers (every x86-64 has
 /// them): in garbage dense in start bytes every block passes here once, and
 /// the eight-byte words of [`masks_by_words`] cost about 4 instructions per
-/// byte more (`found_i`, stop 24).
+/// byte more (`found_i`).
 #[cfg(all(
     any(target_arch = "x86", target_arch = "x86_64"),
     target_feature = "sse2"

@@ -139,9 +139,10 @@ fn fc_await_confirmation<T: embedded_io::Read>(
 struct Outcome {
     /// The event's timestamp the CC confirmed.
     confirmed: u32,
-    /// Frames each side's parser accepted, and refused for their signature.
+    /// Frames each side's parser accepted, and refused for their signing
+    /// timestamp (replays).
     cc_frames: u64,
-    cc_bad_signatures: u64,
+    cc_stale: u64,
     fc_frames: u64,
 }
 
@@ -168,7 +169,7 @@ fn blocking_handshake(fifo: usize) -> Result<Outcome, Box<dyn std::error::Error>
     Ok(Outcome {
         confirmed,
         cc_frames: cc.parser().stats().frames,
-        cc_bad_signatures: cc.parser().stats().bad_signature,
+        cc_stale: cc.parser().stats().stale_timestamp,
         fc_frames: fc.parser().stats().frames,
     })
 }
@@ -380,7 +381,7 @@ mod tests {
                 Outcome {
                     confirmed: 123_456,
                     cc_frames: 2,
-                    cc_bad_signatures: 2,
+                    cc_stale: 2,
                     fc_frames: 1,
                 },
                 "fifo {fifo}"

@@ -9,9 +9,10 @@ use crate::signing::{Signer, Verifier};
 use core::fmt;
 
 /// Frames messages for one sender: its sequence numbers (one per frame,
-/// wrapping), protocol version and signer, into a buffer of its own. The
-/// async connections, the router and the `embedded` adapters frame through
-/// it; use it directly to frame once and send the bytes on several links.
+/// wrapping), protocol version and signer, into a buffer of its own. Every
+/// link frames through it (the blocking connections, the router and the
+/// `embedded` adapters); use it directly to frame once and send the bytes
+/// on several links.
 ///
 /// Signing timestamps must increase, and receivers refuse a new stream more
 /// than a minute behind the newest timestamp they saw. The signer's
@@ -158,14 +159,26 @@ impl Framer {
         compid: u8,
         msg: &(impl Encode + ?Sized),
     ) -> Result<&[u8], FrameError> {
-        let meta = msg.meta();
-        let at = self.payload_at();
+        let header = self.next_header(sysid, compid);
+        self.frame_as(self.version, header, msg)
+    }
+
+    /// Frames `msg` with `header` in `version`, whatever the framer's own
+    /// sequence number and version (a caller that numbers frames itself);
+    /// signed as [`frame`](Self::frame) signs.
+    pub fn frame_as(
+        &mut self,
+        version: Version,
+        header: Header,
+        msg: &(impl Encode + ?Sized),
+    ) -> Result<&[u8], FrameError> {
+        let at = payload_at(version);
         let len =
             msg.emit_payload(&mut self.buf[at..])
                 .map_err(|e| FrameError::BufferTooSmall {
                     needed: at + e.needed,
                 })?;
-        self.finish(sysid, compid, meta, len)
+        self.finish(version, header, msg.meta(), len)
     }
 
     /// Frames a message known by its table row and payload bytes (all of
@@ -179,40 +192,41 @@ impl Framer {
         meta: &MessageMeta,
         payload: &[u8],
     ) -> Result<&[u8], FrameError> {
-        let at = self.payload_at();
+        let at = payload_at(self.version);
         let max = meta.max_len as usize;
         let len = payload.len().min(max);
         // `at + max` is at most 10 + 255, inside the 280-byte buffer.
         self.buf[at..at + max].fill(0);
         self.buf[at..at + len].copy_from_slice(&payload[..len]);
-        self.finish(sysid, compid, meta, max)
+        let header = self.next_header(sysid, compid);
+        self.finish(self.version, header, meta, max)
     }
 
-    fn payload_at(&self) -> usize {
-        match self.version {
-            Version::V2 => HEADER_LEN_V2,
-            Version::V1 => HEADER_LEN_V1,
-        }
+    /// Sets the sequence number the next frame carries.
+    pub fn set_seq(&mut self, seq: u8) {
+        self.seq = seq;
+    }
+
+    /// The header of the next frame from `sysid`/`compid`; the sequence
+    /// number advances.
+    pub fn next_header(&mut self, sysid: u8, compid: u8) -> Header {
+        let seq = self.seq;
+        self.seq = seq.wrapping_add(1);
+        Header { seq, sysid, compid }
     }
 
     fn finish(
         &mut self,
-        sysid: u8,
-        compid: u8,
+        version: Version,
+        header: Header,
         meta: &MessageMeta,
         len: usize,
     ) -> Result<&[u8], FrameError> {
-        let header = Header {
-            seq: self.seq,
-            sysid,
-            compid,
-        };
-        self.seq = self.seq.wrapping_add(1);
         if let (Some(signer), Some(clock)) = (&mut self.signer, self.clock) {
             signer.advance_to(clock());
         }
         let n = finish(
-            self.version,
+            version,
             header,
             meta,
             len,
@@ -223,8 +237,13 @@ impl Framer {
     }
 }
 
-/// Lets `?` turn a framing error into an I/O error in code that returns
-/// `io::Result` (the blocking and tokio connections).
+fn payload_at(version: Version) -> usize {
+    match version {
+        Version::V2 => HEADER_LEN_V2,
+        Version::V1 => HEADER_LEN_V1,
+    }
+}
+
 #[cfg(feature = "std")]
 impl From<FrameError> for std::io::Error {
     fn from(e: FrameError) -> Self {

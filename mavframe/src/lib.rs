@@ -31,6 +31,8 @@ pub mod field;
 pub mod flags;
 pub mod frame;
 mod framer;
+#[cfg(any(feature = "std", feature = "embedded-io"))]
+mod link;
 pub mod message;
 pub mod parser;
 pub mod peers;

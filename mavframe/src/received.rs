@@ -7,7 +7,7 @@ use core::fmt;
 use core::marker::PhantomData;
 
 /// A frame the parser accepted, copied out of it so it outlives the next
-/// receive: what the blocking and async connections and the `embedded`
+/// receive: what the blocking connections, the router and the `embedded`
 /// adapters return, and what `ReceivedFrame::from(&received)` makes of any
 /// [`Received`]. No heap: the bytes sit inline (at most [`MAX_FRAME_LEN`]).
 ///

@@ -2,9 +2,10 @@
 //! [`Endpoint`] names, one task each, and the routing rules of
 //! [`crate::route`] between them.
 //!
-//! Each link task owns its transport, its parser (with the link's key, if
-//! any: signatures are verified per link) and its [`Framer`] (sequence
-//! numbers and signing for messages this node sends on it). It reads frames
+//! Each link task owns its transport and drives the link's core
+//! (`crate::link`): its parser (with the link's key, if any: signatures are
+//! verified per link) and its [`Framer`](crate::Framer) (sequence numbers
+//! and signing for messages this node sends on it). It reads frames
 //! and hands them to the [`Router`] as [`RouterEvent::Frame`]; it sends what
 //! the router queues for it. A link that fails (a TCP peer gone, a serial
 //! port unplugged) reports [`RouterEvent::LinkDown`] and is opened again
@@ -23,7 +24,7 @@
 //!
 //! - `udpin` and `udpbcast` links send to the peers their [`ReplyTo`] rule
 //!   names: by default the senders of frames the link's parser accepted
-//!   (authenticated ones, on a link with a key), kept in a [`PeerSet`]
+//!   (authenticated ones, on a link with a key), kept in a [`PeerSet`](crate::peers::PeerSet)
 //!   (up to eight; a station that keeps speaking is never displaced); under [`ReplyTo::Owner`] only the
 //!   addresses the owner gives ([`Router::set_peers`]). A datagram alone
 //!   never moves them.
@@ -59,28 +60,24 @@
 //! # Ok(()) }
 //! ```
 
-use crate::conn::codec::{FrameCodec, Framer};
-use crate::conn::{Endpoint, ReceivedFrame, ReplyTo};
+use crate::conn::{AnyTransport, Endpoint, ReceivedFrame, ReplyTo};
+use crate::link::{Inbox, LinkCore, Peers, SigningFile};
 use crate::message::{Dialect, Encode, MessageMeta};
-use crate::parser::{Parser, Stats, Unsigned};
-use crate::peers::PeerSet;
+use crate::parser::{Stats, Unsigned};
 use crate::route::{LinkId, Links, RoutingTable};
-use crate::signing::state::{SigningState, StateError, StateFile};
 use crate::signing::Verifier;
 use std::boxed::Box;
-use std::format;
 use std::io;
-use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
+use std::vec;
 use std::vec::Vec;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, UdpSocket};
 use tokio::sync::mpsc;
-use tokio_util::bytes::BytesMut;
-use tokio_util::codec::Decoder;
 
 mod pace;
 use core::num::NonZeroU32;
@@ -329,7 +326,7 @@ impl Queues {
                     (Some((from, bytes)), None) => return Some(Command::Routed(from, bytes)),
                     (Some((from, bytes)), Some(backlog)) => {
                         let dropped = backlog.push(from, bytes);
-                        self.count_dropped(dropped);
+                        count_routed_dropped(&self.counters, dropped);
                     }
                     (None, _) => self.routed_closed = true,
                 },
@@ -375,7 +372,7 @@ impl Queues {
     async fn drop_next(&mut self) -> bool {
         if let Some(backlog) = &mut self.backlog {
             let dropped = backlog.clear();
-            self.count_dropped(dropped);
+            count_routed_dropped(&self.counters, dropped);
         }
         if self.own_closed {
             return false;
@@ -391,10 +388,6 @@ impl Queues {
                 true
             }
         }
-    }
-
-    fn count_dropped(&self, dropped: u64) {
-        count_routed_dropped(&self.counters, dropped);
     }
 }
 
@@ -488,7 +481,8 @@ impl<D: Dialect + 'static> Router<D> {
         let id = self.links.len() as LinkId;
         let endpoint = config.endpoint.clone();
         let transport = Transport::open(&config).await?;
-        let state = LinkState::open(&config)?;
+        let signing =
+            SigningFile::open(config.key, config.unsigned, config.signing_state.as_deref())?;
         let (commands, own) = mpsc::channel(LINK_QUEUE);
         let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
         let counters = Arc::new(Mutex::new(LinkCounters::default()));
@@ -504,7 +498,7 @@ impl<D: Dialect + 'static> Router<D> {
             events: self.events_tx.clone(),
             commands: Queues::new(own, routed_rx, rate, counters.clone()),
             counters: counters.clone(),
-            state,
+            signing,
             clients_accepted: 0,
         };
         let task = tokio::spawn(task.run(transport));
@@ -737,11 +731,12 @@ impl<D: Dialect + 'static> Router<D> {
 enum Transport {
     Udp {
         socket: UdpSocket,
-        /// `udpout`'s target.
-        target: Option<SocketAddr>,
-        /// `udpbcast`'s broadcast address: where frames go while the
-        /// reply rule names nobody.
-        broadcast: Option<SocketAddr>,
+        /// `udpout`'s target, or `udpbcast`'s broadcast address (where
+        /// frames go while the reply rule names nobody).
+        to: Option<SocketAddr>,
+        /// `udpin` and `udpbcast`: frames go to the peers of the link's
+        /// rule.
+        replies: bool,
     },
     Stream(Box<dyn AsyncStream>),
     Server(TcpListener),
@@ -751,65 +746,14 @@ enum Transport {
 trait AsyncStream: AsyncRead + AsyncWrite + Send + Unpin {}
 impl<T: AsyncRead + AsyncWrite + Send + Unpin> AsyncStream for T {}
 
-/// The first address `addr` resolves to (a UDP socket uses one).
-async fn first(addr: &crate::conn::Address) -> io::Result<SocketAddr> {
-    let all = addr.resolve_async().await?;
-    // resolve_async never returns an empty list.
-    all.first()
-        .copied()
-        .ok_or_else(|| io::Error::from(io::ErrorKind::NotFound))
-}
-
-/// A socket on an ephemeral port of `target`'s address family.
-async fn ephemeral_udp(target: SocketAddr) -> io::Result<UdpSocket> {
-    let local = match target {
-        SocketAddr::V4(_) => SocketAddr::from((Ipv4Addr::UNSPECIFIED, 0)),
-        SocketAddr::V6(_) => SocketAddr::from((Ipv6Addr::UNSPECIFIED, 0)),
-    };
-    UdpSocket::bind(local).await
-}
-
 impl Transport {
+    /// Opens `config`'s endpoint: resolved and opened as the blocking
+    /// transports are ([`conn::open`](crate::conn::open): `udpout`
+    /// connected to its target, `udpbcast` with `SO_BROADCAST`), on a
+    /// blocking thread, then handed to tokio.
     async fn open(config: &LinkConfig) -> io::Result<Transport> {
-        Ok(match &config.endpoint {
-            Endpoint::UdpIn(addr) => Transport::Udp {
-                socket: UdpSocket::bind(addr.resolve_async().await?.as_slice()).await?,
-                target: None,
-                broadcast: None,
-            },
-            Endpoint::UdpOut(target) => {
-                let target = first(target).await?;
-                let socket = ephemeral_udp(target).await?;
-                // Connected: the system drops every other sender's datagrams
-                // (a stranger's frames sent to this port, as the target's).
-                socket.connect(target).await?;
-                Transport::Udp {
-                    socket,
-                    target: Some(target),
-                    broadcast: None,
-                }
-            }
-            Endpoint::UdpBcast(target) => {
-                let to = first(target).await?;
-                let socket = ephemeral_udp(to).await?;
-                socket.set_broadcast(true)?;
-                Transport::Udp {
-                    socket,
-                    target: None,
-                    broadcast: Some(to),
-                }
-            }
-            Endpoint::Tcp(addr) => {
-                let stream = TcpStream::connect(addr.resolve_async().await?.as_slice()).await?;
-                stream.set_nodelay(true)?;
-                if config.bound_unsent {
-                    bound_unsent(&stream);
-                }
-                Transport::Stream(Box::new(stream))
-            }
-            Endpoint::TcpIn(addr) => {
-                Transport::Server(TcpListener::bind(addr.resolve_async().await?.as_slice()).await?)
-            }
+        let endpoint = config.endpoint.clone();
+        let opened = match &endpoint {
             Endpoint::File(_) => {
                 return Err(io::Error::new(
                     io::ErrorKind::Unsupported,
@@ -819,75 +763,53 @@ impl Transport {
             Endpoint::Serial { path, baud } => {
                 use tokio_serial::SerialPortBuilderExt;
                 let port = tokio_serial::new(path, *baud).open_native_async()?;
-                Transport::Stream(Box::new(port))
+                return Ok(Transport::Stream(Box::new(port)));
             }
-        })
+            // (tokio's listener: SO_REUSEADDR, as the system's is not.)
+            Endpoint::TcpIn(addr) => {
+                let addr = addr.clone();
+                let addrs = blocking(move || Ok(addr.resolve()?)).await?;
+                return Ok(Transport::Server(
+                    TcpListener::bind(addrs.as_slice()).await?,
+                ));
+            }
+            _ => blocking(move || crate::conn::open(&endpoint)).await?,
+        };
+        let udp = |socket: &std::net::UdpSocket, to, replies| {
+            let socket = socket.try_clone()?;
+            socket.set_nonblocking(true)?;
+            let socket = UdpSocket::from_std(socket)?;
+            io::Result::Ok(Transport::Udp {
+                socket,
+                to,
+                replies,
+            })
+        };
+        match opened {
+            AnyTransport::UdpIn(t) => udp(t.get_ref(), None, true),
+            AnyTransport::UdpOut(t) => udp(t.get_ref(), Some(t.target()), false),
+            AnyTransport::UdpBcast(t) => udp(t.get_ref(), Some(t.target()), true),
+            AnyTransport::Tcp(t) => {
+                let stream = t.get_ref().try_clone()?;
+                stream.set_nonblocking(true)?;
+                let stream = TcpStream::from_std(stream)?;
+                if config.bound_unsent {
+                    bound_unsent(&stream);
+                }
+                Ok(Transport::Stream(Box::new(stream)))
+            }
+            _ => Err(io::ErrorKind::Unsupported.into()),
+        }
     }
 }
 
-/// Whom a `udpin`, `udpbcast` or `tcpin` link sends to: its [`ReplyTo`]
-/// rule and its peers (the rule of [`crate::peers`], shared with the
-/// blocking `conn::UdpIn`).
-struct Replies {
-    rule: ReplyTo,
-    peers: PeerSet,
-    /// The origin of the peers' times.
-    epoch: tokio::time::Instant,
-}
-
-impl Replies {
-    fn new(rule: ReplyTo) -> Replies {
-        Replies {
-            rule,
-            peers: PeerSet::new(),
-            epoch: tokio::time::Instant::now(),
-        }
-    }
-
-    /// `from` sent a frame the link accepted (authenticated, with a key).
-    fn heard(&mut self, from: SocketAddr) {
-        if self.rule == ReplyTo::Accepted {
-            self.peers.heard(from, self.epoch.elapsed());
-        }
-    }
-
-    /// The owner's peers ([`Router::set_peers`]).
-    fn given(&mut self, addrs: &[SocketAddr]) {
-        if self.rule == ReplyTo::Owner {
-            self.peers.set(addrs, self.epoch.elapsed());
-        }
-    }
-
-    /// Whether `addr` is a peer: the fixed address (port 0: any port of
-    /// its host, a TCP client's port being its system's choice), or one of
-    /// the set.
-    fn names(&self, addr: SocketAddr) -> bool {
-        match self.rule {
-            ReplyTo::Fixed(p) => p.ip() == addr.ip() && (p.port() == 0 || p.port() == addr.port()),
-            _ => self.peers.contains(addr),
-        }
-    }
-
-    /// Sends `bytes` to every peer, or to `fallback` (`udpbcast`'s
-    /// broadcast address) while there is none; the first error.
-    async fn send(
-        &self,
-        socket: &UdpSocket,
-        bytes: &[u8],
-        fallback: Option<SocketAddr>,
-    ) -> io::Result<()> {
-        if let ReplyTo::Fixed(to) = self.rule {
-            return socket.send_to(bytes, to).await.map(drop);
-        }
-        let fallback = fallback.filter(|_| self.peers.is_empty());
-        let mut sent = Ok(());
-        for to in self.peers.iter().chain(fallback) {
-            if let (Err(e), Ok(())) = (socket.send_to(bytes, to).await, &sent) {
-                sent = Err(e);
-            }
-        }
-        sent
-    }
+/// Runs `f` (a name lookup, a connect) on tokio's blocking threads.
+async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> io::Result<T> + Send + 'static,
+) -> io::Result<T> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(io::Error::other)?
 }
 
 /// Sends `bytes` on a connected socket (`udpout`). A send that reports an
@@ -895,14 +817,8 @@ impl Replies {
 /// per error) sent nothing: tried once more, so a target that is not up
 /// yet costs no frame once it is.
 async fn send_connected(socket: &UdpSocket, bytes: &[u8]) -> io::Result<()> {
-    let refused = |e: &io::Error| {
-        matches!(
-            e.kind(),
-            io::ErrorKind::ConnectionRefused | io::ErrorKind::ConnectionReset
-        )
-    };
     match socket.send(bytes).await {
-        Err(e) if refused(&e) => socket.send(bytes).await.map(drop),
+        Err(e) if crate::conn::is_refused(&e) => socket.send(bytes).await.map(drop),
         other => other.map(drop),
     }
 }
@@ -928,39 +844,6 @@ fn bound_unsent(stream: &TcpStream) {
     let _ = stream;
 }
 
-/// A link's signing: what its parser and framer start from, and its state
-/// file.
-struct LinkState {
-    file: Option<StateFile>,
-    start: SigningState,
-}
-
-impl LinkState {
-    fn open(config: &LinkConfig) -> io::Result<LinkState> {
-        let file = match (&config.signing_state, config.key) {
-            (Some(path), Some(_)) => {
-                Some(StateFile::open(path).map_err(|e| state_error(path, e))?.0)
-            }
-            (Some(_), None) => {
-                return Err(io::Error::new(
-                    io::ErrorKind::InvalidInput,
-                    "a signing state file needs a signing key",
-                ))
-            }
-            (None, _) => None,
-        };
-        let start = file.as_ref().map(|f| f.state().clone()).unwrap_or_default();
-        Ok(LinkState { file, start })
-    }
-}
-
-fn state_error(path: &std::path::Path, e: StateError) -> io::Error {
-    io::Error::other(format!(
-        "signing state {}: {e}; remove the file to start from the clock",
-        path.display()
-    ))
-}
-
 /// One link's task.
 struct LinkTask<D: Dialect> {
     id: LinkId,
@@ -968,36 +851,50 @@ struct LinkTask<D: Dialect> {
     events: mpsc::Sender<RouterEvent<D>>,
     commands: Queues,
     counters: Arc<Mutex<LinkCounters>>,
-    state: LinkState,
+    signing: SigningFile,
     /// `tcpin`: clients accepted so far (each client's order).
     clients_accepted: u64,
 }
 
-impl<D: Dialect + 'static> LinkTask<D> {
-    fn codec(&self) -> FrameCodec<D> {
-        FrameCodec::with_parser(match self.config.key {
-            Some(key) => {
-                let verifier: Verifier = self.state.start.verifier(key);
-                Parser::with_signing(verifier, self.config.unsigned)
-            }
-            None => Parser::new(),
-        })
-    }
+/// A link's core, as a task drives it.
+type Core<D> = LinkCore<D, Box<[u8]>>;
 
-    fn framer(&self) -> Framer {
-        let mut framer = Framer::new();
-        if let Some(key) = self.config.key {
-            framer.set_signer(Some(self.state.start.signer(key, 0)));
+/// The bytes `command` sends, a message framed by `core` (`None`: none).
+fn outgoing<'a, D: Dialect>(core: &'a mut Core<D>, command: &'a Command) -> Option<&'a [u8]> {
+    match command {
+        Command::Peers(_) => None,
+        Command::Raw(b) | Command::Routed(_, b) => Some(b),
+        Command::Message {
+            sysid,
+            compid,
+            meta,
+            payload,
+            ..
+        } => {
+            core.adopt();
+            core.framer
+                .frame_payload(*sysid, *compid, meta, payload)
+                .ok()
         }
-        framer
+    }
+}
+
+impl<D: Dialect + 'static> LinkTask<D> {
+    /// An inbox with the link's key and `room` bytes to receive into.
+    fn inbox(&self, room: usize) -> Inbox<D, Box<[u8]>> {
+        let mut inbox = Inbox::new(self.signing.parser(), vec![0u8; room].into_boxed_slice());
+        inbox.set_chunk(PARSE_CHUNK);
+        inbox
     }
 
     /// Runs the link until the router is dropped, reopening it when it
     /// fails.
     async fn run(mut self, first: Transport) {
         let mut transport = Some(first);
-        let mut codec = self.codec();
-        let mut framer = self.framer();
+        let mut core = LinkCore {
+            inbox: self.inbox(DATAGRAM_ROOM),
+            framer: self.signing.framer(),
+        };
         loop {
             let t = match transport.take() {
                 Some(t) => t,
@@ -1020,22 +917,13 @@ impl<D: Dialect + 'static> LinkTask<D> {
             let ended = match t {
                 Transport::Udp {
                     socket,
-                    target,
-                    broadcast,
-                } => {
-                    self.udp(
-                        socket,
-                        target.or(broadcast),
-                        target.is_none(),
-                        &mut codec,
-                        &mut framer,
-                    )
-                    .await
-                }
-                Transport::Stream(stream) => self.stream(stream, &mut codec, &mut framer).await,
-                Transport::Server(listener) => self.server(listener, &mut codec, &mut framer).await,
+                    to,
+                    replies,
+                } => self.udp(socket, to, replies, &mut core).await,
+                Transport::Stream(stream) => self.stream(stream, &mut core).await,
+                Transport::Server(listener) => self.server(listener, &mut core).await,
             };
-            self.save_state(&codec, &framer);
+            self.save(&core, None, true);
             match ended {
                 Ended::RouterGone => return,
                 Ended::Failed(error) => {
@@ -1047,9 +935,9 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         return;
                     }
                     // Signing goes on from where the failed transport was.
-                    self.state.start =
-                        SigningState::capture(framer.signer(), codec.parser().verifier());
-                    codec = self.codec();
+                    let verifier = core.inbox.parser.verifier();
+                    self.signing.go_on_from(&core.framer, verifier);
+                    core.inbox = self.inbox(DATAGRAM_ROOM);
                     if self.wait_reopen().await.is_err() {
                         return;
                     }
@@ -1070,37 +958,12 @@ impl<D: Dialect + 'static> LinkTask<D> {
         }
     }
 
-    /// Saves the signing state now, as at exit (`StateFile::save_final`:
-    /// the signer's exact bound; its next signature makes a checkpoint due).
-    fn save_state(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
-        let (signer, verifier) = (framer.signer(), codec.parser().verifier());
-        if let Some(file) = &mut self.state.file {
-            if file.save_final(signer, verifier).is_err() {
-                self.count(|c| c.state_save_errors = c.state_save_errors.saturating_add(1));
-            }
-        }
-    }
-
-    fn save_verifier(&mut self, verifier: Option<&Verifier>, framer: &Framer) {
-        if let Some(file) = &mut self.state.file {
-            // Failures leave the last saved state in place and are retried
-            // a save interval later; the link goes on, and counts them.
-            if file.save(framer.signer(), verifier).is_err() {
-                self.count(|c| c.state_save_errors = c.state_save_errors.saturating_add(1));
-            }
-        }
-    }
-
-    fn save_due(&self, framer: &Framer) -> bool {
-        self.state
-            .file
-            .as_ref()
-            .is_some_and(|f| f.due(framer.signer()))
-    }
-
-    fn maybe_save(&mut self, codec: &FrameCodec<D>, framer: &Framer) {
-        if self.save_due(framer) {
-            self.save_verifier(codec.parser().verifier(), framer);
+    /// Saves the signing state if due, or now as at exit (`last`), with
+    /// `verifier` (`None`: the core's); failures are counted.
+    fn save(&mut self, core: &Core<D>, verifier: Option<&Verifier>, last: bool) {
+        let verifier = verifier.or(core.inbox.parser.verifier());
+        if !self.signing.save(&core.framer, verifier, last) {
+            self.count(|c| c.state_save_errors = c.state_save_errors.saturating_add(1));
         }
     }
 
@@ -1108,57 +971,40 @@ impl<D: Dialect + 'static> LinkTask<D> {
         f(&mut self.counters.lock().unwrap_or_else(|e| e.into_inner()));
     }
 
-    /// Hands every frame in `bytes` to the router; `end` ends a datagram
-    /// (nothing after it completes a frame started in it). Parsed
+    /// Hands every frame the core holds to the router (at the end of a
+    /// stream, `eof`, those the held bytes still make). Parsed
     /// [`PARSE_CHUNK`] bytes at a time, yielding in between, so one large
     /// datagram never holds the runtime (and the owner's timers) for long.
-    /// `Ok(true)` when a frame among them vouches for its sender
-    /// ([`vouches`](Self::vouches)).
-    async fn deliver(
-        &mut self,
-        codec: &mut FrameCodec<D>,
-        bytes: &mut BytesMut,
-        end: bool,
-        source: Option<SocketAddr>,
-    ) -> Result<bool, ()> {
+    /// `Ok(true)` when a frame among them vouches for its sender.
+    async fn deliver(&mut self, core: &mut Core<D>, eof: bool) -> Result<bool, ()> {
         let mut vouched = false;
         loop {
-            let mut chunk = bytes.split_to(bytes.len().min(PARSE_CHUNK));
-            let last = bytes.is_empty();
-            loop {
-                let frame = if end && last {
-                    codec.decode_eof(&mut chunk)
-                } else {
-                    codec.decode(&mut chunk)
-                };
-                let Ok(Some(frame)) = frame else {
-                    break;
-                };
-                vouched |= self.vouches(&frame);
-                let event = RouterEvent::Frame(Inbound {
-                    link: self.id,
-                    frame,
-                    source,
-                });
-                if self.events.send(event).await.is_err() {
-                    return Err(());
+            let frame = match core.next() {
+                Some(frame) => frame,
+                None if core.inbox.held() > 0 => {
+                    tokio::task::yield_now().await;
+                    continue;
                 }
+                None if eof => match core.inbox.take_at_eof(|r| ReceivedFrame::from(&r)) {
+                    Some(frame) => frame,
+                    None => break,
+                },
+                None => break,
+            };
+            vouched |= core.inbox.vouches(&frame);
+            let source = core.inbox.source;
+            let event = RouterEvent::Frame(Inbound {
+                link: self.id,
+                frame,
+                source,
+            });
+            if self.events.send(event).await.is_err() {
+                return Err(());
             }
-            if last {
-                break;
-            }
-            tokio::task::yield_now().await;
         }
-        let stats = *codec.parser().stats();
+        let stats = *core.inbox.parser.stats();
         self.count(|c| c.parser = stats);
         Ok(vouched)
-    }
-
-    /// Whether `frame` makes its sender a peer under [`ReplyTo::Accepted`]:
-    /// any frame the parser accepted, and on a link with a key only an
-    /// authenticated one (an unsigned frame, even accepted, is anyone's).
-    fn vouches(&self, frame: &ReceivedFrame<D>) -> bool {
-        frame.is_authenticated() || self.config.key.is_none()
     }
 
     /// A UDP link: `udpout` (`target`, a connected socket) sends to its
@@ -1170,101 +1016,71 @@ impl<D: Dialect + 'static> LinkTask<D> {
         socket: UdpSocket,
         target: Option<SocketAddr>,
         replies: bool,
-        codec: &mut FrameCodec<D>,
-        framer: &mut Framer,
+        core: &mut Core<D>,
     ) -> Ended {
-        let mut buf = BytesMut::with_capacity(DATAGRAM_ROOM);
-        let mut peers = Replies::new(self.config.reply_to);
+        let mut peers = Peers::new(self.config.reply_to);
         loop {
-            buf.clear();
-            // (The parsed bytes were copied out: the room is reclaimed.)
-            buf.reserve(DATAGRAM_ROOM);
             tokio::select! {
                 // A failed receive (an ICMP error on some systems) says
                 // nothing about the next one: it is skipped.
-                r = socket.recv_buf_from(&mut buf) => if let Ok((_, from)) = r {
-                    match self.deliver(codec, &mut buf, true, Some(from)).await {
+                r = socket.recv_from(core.inbox.space()) => if let Ok((n, from)) = r {
+                    core.inbox.received(n, Some(from), true);
+                    match self.deliver(core, false).await {
                         Err(()) => return Ended::RouterGone,
                         // Only a frame accepted makes its sender a peer.
                         Ok(vouched) => if vouched && replies {
-                            peers.heard(from);
+                            peers.heard(Some(from));
                         }
                     }
-                    framer.adopt_from(codec.parser().verifier());
-                    self.maybe_save(codec, framer);
+                    self.save(core, None, false);
                 },
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
-                    let bytes = match &c {
-                        Command::Peers(addrs) => {
-                            peers.given(addrs);
-                            continue;
-                        }
-                        Command::Raw(b) | Command::Routed(_, b) => &b[..],
-                        Command::Message { sysid, compid, meta, payload, .. } => {
-                            match framer.frame_payload(*sysid, *compid, meta, payload) {
-                                Ok(b) => b,
-                                Err(_) => continue,
-                            }
-                        }
-                    };
-                    let sent = match (replies, &c) {
-                        (true, Command::Message { to: Some(to), .. }) => {
-                            socket.send_to(bytes, to).await.map(drop)
-                        }
-                        (true, _) => peers.send(&socket, bytes, target).await,
+                    if let Command::Peers(addrs) = &c {
+                        owner_gives(&mut peers, addrs);
+                        continue;
+                    }
+                    let to = c.to();
+                    let Some(bytes) = outgoing(core, &c) else { continue };
+                    let sent = match (replies, to) {
+                        (true, Some(to)) => socket.send_to(bytes, to).await.map(drop),
+                        (true, None) => send_each(&socket, peers.targets(target), bytes).await,
                         (false, _) => send_connected(&socket, bytes).await,
                     };
                     if sent.is_err() {
                         self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
                     }
-                    self.maybe_save(codec, framer);
+                    self.save(core, None, false);
                 }
             }
         }
     }
 
-    async fn stream(
-        &mut self,
-        mut stream: Box<dyn AsyncStream>,
-        codec: &mut FrameCodec<D>,
-        framer: &mut Framer,
-    ) -> Ended {
-        let mut buf = BytesMut::with_capacity(STREAM_ROOM);
+    async fn stream(&mut self, mut stream: Box<dyn AsyncStream>, core: &mut Core<D>) -> Ended {
         loop {
-            buf.reserve(STREAM_ROOM);
             tokio::select! {
-                r = stream.read_buf(&mut buf) => match r {
+                r = stream.read(core.inbox.space()) => match r {
                     Ok(0) => {
-                        let _ = self.deliver(codec, &mut buf, true, None).await;
+                        let _ = self.deliver(core, true).await;
                         return Ended::Failed(io::Error::new(io::ErrorKind::UnexpectedEof, "closed by the peer"));
                     }
-                    Ok(_) => {
-                        if self.deliver(codec, &mut buf, false, None).await.is_err() {
+                    Ok(n) => {
+                        core.inbox.received(n, None, false);
+                        if self.deliver(core, false).await.is_err() {
                             return Ended::RouterGone;
                         }
-                        framer.adopt_from(codec.parser().verifier());
-                        self.maybe_save(codec, framer);
+                        self.save(core, None, false);
                     }
                     Err(e) => return Ended::Failed(e),
                 },
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
-                    let bytes = match &c {
-                        Command::Peers(_) => continue,
-                        Command::Raw(b) | Command::Routed(_, b) => &b[..],
-                        Command::Message { sysid, compid, meta, payload, .. } => {
-                            match framer.frame_payload(*sysid, *compid, meta, payload) {
-                                Ok(b) => b,
-                                Err(_) => continue,
-                            }
-                        }
-                    };
+                    let Some(bytes) = outgoing(core, &c) else { continue };
                     if let Err(e) = stream.write_all(bytes).await {
                         self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
                         return Ended::Failed(e);
                     }
-                    self.maybe_save(codec, framer);
+                    self.save(core, None, false);
                 }
             }
         }
@@ -1275,22 +1091,20 @@ impl<D: Dialect + 'static> LinkTask<D> {
     /// [`CLIENT_QUEUE`] frames behind is dropped, the others go on. At most
     /// [`MAX_CLIENTS`] at once; the link's [`ReplyTo`] rule says which get
     /// the output.
-    async fn server(
-        &mut self,
-        listener: TcpListener,
-        codec: &mut FrameCodec<D>,
-        framer: &mut Framer,
-    ) -> Ended {
+    async fn server(&mut self, listener: TcpListener, core: &mut Core<D>) -> Ended {
         // One verifier for all clients, swapped into each one's parser while
         // it parses: a frame accepted from one client is a replay from any
         // other (with one each, a capture replayed on a new connection was
         // authenticated again, and could move the owner's peer).
-        let shared = codec
-            .parser_mut()
+        let shared = core
+            .inbox
+            .parser
             .verifier_mut()
             .map(|v| Arc::new(Mutex::new(v.clone())));
+        let lock =
+            |v: &Arc<Mutex<Verifier>>| v.lock().unwrap_or_else(PoisonError::into_inner).clone();
         let mut clients: Vec<Client> = Vec::new();
-        let mut peers = Replies::new(self.config.reply_to);
+        let mut peers = Peers::new(self.config.reply_to);
         let mut paused_until = None::<tokio::time::Instant>;
         loop {
             let resume = paused_until.unwrap_or_else(tokio::time::Instant::now);
@@ -1312,22 +1126,19 @@ impl<D: Dialect + 'static> LinkTask<D> {
                     let Some(c) = c else {
                         // The link's last save (in `run`) is of the shared
                         // state, not of the one the link opened with.
-                        if let (Some(v), Some(own)) = (&shared, codec.parser_mut().verifier_mut()) {
-                            *own = v.lock().unwrap_or_else(PoisonError::into_inner).clone();
+                        if let (Some(v), Some(own)) = (&shared, core.inbox.parser.verifier_mut()) {
+                            *own = lock(v);
                         }
                         return Ended::RouterGone;
                     };
-                    let bytes: Box<[u8]> = match &c {
-                        Command::Peers(addrs) => {
-                            peers.given(addrs);
-                            continue;
-                        }
+                    match &c {
+                        Command::Peers(addrs) => owner_gives(&mut peers, addrs),
+                        // After the owner's own, in each client's queue
+                        // for them. A client behind on those loses frames
+                        // (counted), not its connection: routed bursts
+                        // come faster than any one client takes them, and
+                        // the client may be the protocol peer.
                         Command::Routed(from, b) => {
-                            // After the owner's own, in each client's queue
-                            // for them. A client behind on those loses
-                            // frames (counted), not its connection: routed
-                            // bursts come faster than any one client takes
-                            // them, and the client may be the protocol peer.
                             let mut full = 0u64;
                             clients.retain(|c| {
                                 !c.gets(&peers)
@@ -1341,32 +1152,55 @@ impl<D: Dialect + 'static> LinkTask<D> {
                                     }
                             });
                             count_routed_dropped(&self.counters, full);
-                            continue;
                         }
-                        Command::Raw(b) => b.clone(),
-                        Command::Message { sysid, compid, meta, payload, .. } => {
-                            if let Some(v) = &shared { framer.adopt_from(Some(&*v.lock().unwrap_or_else(PoisonError::into_inner))); }
-                            match framer.frame_payload(*sysid, *compid, meta, payload) {
-                                Ok(b) => b.into(),
-                                Err(_) => continue,
-                            }
+                        Command::Raw(_) | Command::Message { .. } => {
+                            let verifier = shared.as_ref().map(lock);
+                            core.framer.adopt_from(verifier.as_ref());
+                            let to = c.to();
+                            let Some(bytes) = outgoing(core, &c) else { continue };
+                            let bytes: Box<[u8]> = bytes.into();
+                            let gets = |c: &Client| to.map_or_else(|| c.gets(&peers), |to| c.addr == to);
+                            // Full or closed: the client is dropped.
+                            clients.retain(|c| !gets(c) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
+                            self.save(core, verifier.as_ref(), false);
                         }
-                    };
-                    let to = match &c {
-                        Command::Message { to, .. } => *to,
-                        _ => None,
-                    };
-                    let gets = |c: &Client| to.map_or_else(|| c.gets(&peers), |to| c.addr == to);
-                    // Full or closed: the client is dropped.
-                    clients.retain(|c| !gets(c) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
-                    if let (Some(v), true) = (&shared, self.save_due(framer)) {
-                        let v = v.lock().unwrap_or_else(PoisonError::into_inner).clone();
-                        self.save_verifier(Some(&v), framer);
                     }
                 }
             }
         }
     }
+}
+
+impl Command {
+    /// `Message`'s one addressee, if given.
+    fn to(&self) -> Option<SocketAddr> {
+        match self {
+            Command::Message { to, .. } => *to,
+            _ => None,
+        }
+    }
+}
+
+/// [`Router::set_peers`]: the peers of a link under [`ReplyTo::Owner`].
+fn owner_gives(peers: &mut Peers, addrs: &[SocketAddr]) {
+    if peers.rule == ReplyTo::Owner {
+        peers.given(addrs);
+    }
+}
+
+/// Sends `bytes` to each of `to`: the first error, once each was tried.
+async fn send_each(
+    socket: &UdpSocket,
+    to: impl Iterator<Item = SocketAddr>,
+    bytes: &[u8],
+) -> io::Result<()> {
+    let mut sent = Ok(());
+    for to in to {
+        if let (Err(e), Ok(())) = (socket.send_to(bytes, to).await, &sent) {
+            sent = Err(e);
+        }
+    }
+    sent
 }
 
 impl<D: Dialect + 'static> LinkTask<D> {
@@ -1379,7 +1213,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
         stream: TcpStream,
         addr: SocketAddr,
         clients: &mut Vec<Client>,
-        peers: &Replies,
+        peers: &Peers,
         shared: &Option<Arc<Mutex<Verifier>>>,
     ) {
         clients.retain(|c| !c.output.is_closed());
@@ -1412,7 +1246,13 @@ impl<D: Dialect + 'static> LinkTask<D> {
         let rate = self.config.routed_rate;
         let output = Queues::new(own, routed_rx, rate, self.counters.clone());
         let events = self.events.clone();
-        tokio::spawn(serve_client(stream, task, self.codec(), output, events));
+        tokio::spawn(serve_client(
+            stream,
+            task,
+            self.inbox(STREAM_ROOM),
+            output,
+            events,
+        ));
     }
 }
 
@@ -1444,7 +1284,7 @@ impl Client {
     /// Whether the link's output goes to this client: under
     /// [`ReplyTo::Accepted`], once a frame of its was accepted (an
     /// authenticated one, with a key); else when the rule names it.
-    fn gets(&self, peers: &Replies) -> bool {
+    fn gets(&self, peers: &Peers) -> bool {
         match peers.rule {
             ReplyTo::Accepted => self.standing() >= SHOWN_FRAMES,
             _ => peers.names(self.addr),
@@ -1453,7 +1293,7 @@ impl Client {
 
     /// Whether the link never evicts this client: it sent an
     /// authenticated frame, or the rule names it.
-    fn protected(&self, peers: &Replies) -> bool {
+    fn protected(&self, peers: &Peers) -> bool {
         self.standing() == SHOWN_AUTHENTICATED || peers.names(self.addr)
     }
 }
@@ -1461,7 +1301,7 @@ impl Client {
 /// Drops the client that has shown the least, the oldest of those, among
 /// those not [`protected`](Client::protected) (see [`MAX_CLIENTS`]); its
 /// task ends when its queue closes. False when there was none to drop.
-fn evict(clients: &mut Vec<Client>, peers: &Replies) -> bool {
+fn evict(clients: &mut Vec<Client>, peers: &Peers) -> bool {
     let victim = clients
         .iter()
         .enumerate()
@@ -1511,18 +1351,17 @@ const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_millis(300);
 async fn serve_client<D: Dialect>(
     mut stream: TcpStream,
     task: ClientTask,
-    mut codec: FrameCodec<D>,
+    mut inbox: Inbox<D, Box<[u8]>>,
     mut output: Queues,
     events: mpsc::Sender<RouterEvent<D>>,
 ) {
-    let mut buf = BytesMut::with_capacity(STREAM_ROOM);
     let mut frames = Vec::new();
     loop {
-        buf.reserve(STREAM_ROOM);
         tokio::select! {
-            r = stream.read_buf(&mut buf) => match r {
+            r = stream.read(inbox.space()) => match r {
                 Ok(n) if n > 0 => {
-                    decode_shared(&mut codec, &mut buf, task.shared.as_deref(), &mut frames);
+                    inbox.received(n, Some(task.addr), false);
+                    take_shared(&mut inbox, task.shared.as_deref(), &mut frames);
                     for frame in frames.drain(..) {
                         // With a key, only an authenticated frame shows more
                         // than an idle connection does.
@@ -1553,27 +1392,29 @@ async fn serve_client<D: Dialect>(
     }
 }
 
-/// The frames in `buf`, parsed with the link's `shared` verifier state (if
-/// any) in the client's parser, into `frames` (one vector for the
-/// client's life, not one per read).
-fn decode_shared<D: Dialect>(
-    codec: &mut FrameCodec<D>,
-    buf: &mut BytesMut,
+/// The frames `inbox` holds, parsed with the link's `shared` verifier
+/// state (if any) in the client's parser, into `frames` (one vector for
+/// the client's life, not one per read).
+fn take_shared<D: Dialect>(
+    inbox: &mut Inbox<D, Box<[u8]>>,
     shared: Option<&Mutex<Verifier>>,
     frames: &mut Vec<ReceivedFrame<D>>,
 ) {
     let mut state = shared.map(|m| m.lock().unwrap_or_else(PoisonError::into_inner));
-    let mut exchange = |codec: &mut FrameCodec<D>| {
-        if let (Some(state), Some(own)) = (state.as_deref_mut(), codec.parser_mut().verifier_mut())
-        {
+    let mut exchange = |inbox: &mut Inbox<D, Box<[u8]>>| {
+        if let (Some(state), Some(own)) = (state.as_deref_mut(), inbox.parser.verifier_mut()) {
             core::mem::swap(state, own);
         }
     };
-    exchange(codec);
-    while let Ok(Some(frame)) = codec.decode(buf) {
-        frames.push(frame);
+    exchange(inbox);
+    loop {
+        match inbox.next() {
+            Some(frame) => frames.push(frame),
+            None if inbox.held() > 0 => {}
+            None => break,
+        }
     }
-    exchange(codec);
+    exchange(inbox);
 }
 
 #[cfg(test)]
@@ -1582,6 +1423,8 @@ mod tests {
     use crate::conn::test_dialect::{Ping, TestDialect};
     use crate::frame::{FrameBuf, Header, Version};
     use crate::peers::MAX_PEERS;
+    use crate::Parser;
+    use std::format;
     use std::net::UdpSocket as StdUdp;
     use std::vec::Vec;
 
@@ -2065,7 +1908,7 @@ mod tests {
 
     /// A `tcpin` link with a state file saves, when it ends, the verifier
     /// its clients share, not the one it opened with (which had seen no
-    /// frame: a restart would have accepted every capture of the session).
+    /// frame: a restart would have accepted every capture of the run).
     #[tokio::test]
     async fn tcpin_saves_the_shared_verifier_at_the_end() {
         use crate::signing::state::StateFile;

@@ -69,23 +69,6 @@ impl Address {
         resolved(host, port, found)
     }
 
-    /// [`resolve`](Self::resolve) without blocking a tokio runtime.
-    #[cfg(feature = "tokio")]
-    pub async fn resolve_async(&self) -> Result<Vec<SocketAddr>, ResolveError> {
-        let (host, port) = match self {
-            Address::Ip(a) => return Ok(std::vec![*a]),
-            Address::Name { host, port } => (host, *port),
-        };
-        let found = ::tokio::net::lookup_host((host.as_str(), port))
-            .await
-            .map_err(|source| ResolveError::Lookup {
-                host: host.clone(),
-                port,
-                source,
-            })?;
-        resolved(host, port, found)
-    }
-
     /// The first address [`resolve`](Self::resolve) gives: what a UDP
     /// socket binds or sends to.
     pub fn resolve_first(&self) -> Result<SocketAddr, ResolveError> {

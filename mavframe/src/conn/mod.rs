@@ -37,6 +37,7 @@ pub(crate) mod test_dialect;
 mod transport;
 mod udp;
 
+pub use crate::link::ReplyTo;
 pub use endpoint::{Address, Endpoint, ParseEndpointError, ResolveError, DEFAULT_BAUD};
 pub use file::FileLink;
 #[cfg(feature = "serial")]
@@ -44,19 +45,21 @@ pub use serial::{Serial, WRITE_TIMEOUT as SERIAL_WRITE_TIMEOUT};
 pub use split::{Receiver, Sender, SplitError, SPLIT_ZERO_WAIT};
 pub use tcp::{TcpClient, TcpServer, MAX_PENDING_OUTPUT};
 pub use transport::{open, AnyTransport, Transport};
-pub use udp::{ReplyTo, UdpBcast, UdpIn, UdpOut};
+#[cfg(feature = "tokio")]
+pub(crate) use udp::is_refused;
+pub use udp::{UdpBcast, UdpIn, UdpOut};
 // What connections return; no_std code uses it too (`crate::ReceivedFrame`).
 pub use crate::received::ReceivedFrame;
 
-use crate::frame::{encode, Header, Version, MAX_FRAME_LEN};
+use crate::frame::{Header, Version};
+use crate::framer::Framer;
+use crate::link::{Inbox, LinkCore};
 use crate::message::{Dialect, Encode};
 use crate::parser::{LinkStats, Parser, Stats};
-use crate::signing::{timestamp_now, Signer};
+use crate::signing::Signer;
 use core::fmt;
 use std::boxed::Box;
 use std::io;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
 use std::vec;
 use transport::Deadline;
@@ -65,188 +68,35 @@ use transport::Deadline;
 /// most), so none is cut short; stream transports fill it as they can.
 pub const RECV_BUFFER_LEN: usize = 64 * 1024;
 
-/// The receive side shared by the blocking and async connections: the
-/// parser and the bytes read but not parsed yet.
-pub(crate) struct Inbox<D: Dialect> {
-    parser: Parser<D>,
-    buf: Box<[u8]>,
-    start: usize,
-    end: usize,
-    /// Each read is one datagram (see [`Transport::is_datagram`]).
-    datagrams: bool,
-    /// The parser has not been told yet that the datagram read ended.
-    datagram_open: bool,
-    /// The verifier's notion of now after the last frame, which the link's
-    /// signer adopts ([`Outbox::for_inbox`]; shared, as a split
-    /// connection's halves may live on two threads).
-    verified: Arc<AtomicU64>,
+/// The receive side of a blocking link ([`Connection`], [`Receiver`]).
+pub(crate) type ConnInbox<D> = Inbox<D, Box<[u8]>>;
+
+/// A receive side with a buffer of [`RECV_BUFFER_LEN`].
+pub(crate) fn inbox<D: Dialect>(parser: Parser<D>) -> ConnInbox<D> {
+    Inbox::new(parser, vec![0u8; RECV_BUFFER_LEN].into_boxed_slice())
 }
 
-impl<D: Dialect> Inbox<D> {
-    pub(crate) fn new(parser: Parser<D>, datagrams: bool) -> Self {
-        Inbox {
-            parser,
-            buf: vec![0u8; RECV_BUFFER_LEN].into_boxed_slice(),
-            start: 0,
-            end: 0,
-            datagrams,
-            datagram_open: false,
-            verified: Arc::default(),
-        }
-    }
-
-    /// The next frame in the bytes already read; at the end of a datagram,
-    /// those its end decides. What the verifier accepted is then handed to
-    /// the link's signer ([`Inbox::verified`]).
-    pub(crate) fn next(&mut self) -> Option<ReceivedFrame<D>> {
-        let frame = self.parse_next();
-        if let Some(v) = self.parser.verifier() {
-            self.verified
-                .fetch_max(v.newest_timestamp(), Ordering::Relaxed);
-        }
-        frame
-    }
-
-    fn parse_next(&mut self) -> Option<ReceivedFrame<D>> {
-        if let Some(frame) = self.next_in_buffer() {
-            return Some(frame);
-        }
-        if self.datagram_open {
-            match self.parser.end_of_datagram() {
-                Some(r) => return Some(ReceivedFrame::from(&r)),
-                None => self.datagram_open = false,
+/// The next frame in `inbox`, receiving from `transport` as needed,
+/// waiting up to `timeout` in all (see [`Connection::recv`]).
+pub(crate) fn recv<D: Dialect, T: Transport + ?Sized>(
+    inbox: &mut ConnInbox<D>,
+    transport: &mut T,
+    timeout: Option<Duration>,
+) -> io::Result<Option<ReceivedFrame<D>>> {
+    let deadline = Deadline::after(timeout);
+    loop {
+        if let Some(frame) = inbox.next() {
+            // `udpin` answers whom the transport is told of.
+            if inbox.vouches(&frame) {
+                transport.accepted();
             }
+            return Ok(Some(frame));
         }
-        None
-    }
-
-    fn next_in_buffer(&mut self) -> Option<ReceivedFrame<D>> {
-        while self.start < self.end {
-            let mut input = &self.buf[self.start..self.end];
-            // A datagram read is the whole datagram: its end is known now.
-            let got = if self.datagrams {
-                self.parser.next_in_datagram(&mut input)
-            } else {
-                self.parser.next(&mut input)
-            }
-            .map(|r| ReceivedFrame::from(&r));
-            let start = self.end - input.len();
-            let progressed = start != self.start;
-            self.start = start;
-            if got.is_some() {
-                return got;
-            }
-            // The parser consumes its whole input before it says None; this
-            // only guards against spinning should that ever change.
-            if !progressed {
-                self.start = self.end;
-            }
+        let n = transport.recv(inbox.space(), deadline.remaining())?;
+        if n == 0 {
+            return Ok(None);
         }
-        None
-    }
-
-    /// The next frame, reading from `transport` as needed, waiting up to
-    /// `timeout` in all (see [`Connection::recv`]).
-    pub(crate) fn recv<T: Transport + ?Sized>(
-        &mut self,
-        transport: &mut T,
-        timeout: Option<Duration>,
-    ) -> io::Result<Option<ReceivedFrame<D>>> {
-        let deadline = Deadline::after(timeout);
-        loop {
-            if let Some(frame) = self.next() {
-                // With a key, only an authenticated frame vouches for its
-                // sender (`udpin` answers whom the transport is told of).
-                if frame.is_authenticated() || self.parser.verifier().is_none() {
-                    transport.accepted();
-                }
-                return Ok(Some(frame));
-            }
-            let n = transport.recv(self.space(), deadline.remaining())?;
-            if n == 0 {
-                return Ok(None);
-            }
-            self.filled(n);
-        }
-    }
-
-    /// Where the transport reads to: the whole buffer, since it is read
-    /// into only once parsed to the end (the parser keeps a partial frame).
-    pub(crate) fn space(&mut self) -> &mut [u8] {
-        &mut self.buf
-    }
-
-    /// `n` bytes were read into [`space`](Self::space).
-    pub(crate) fn filled(&mut self, n: usize) {
-        self.start = 0;
-        self.end = n.min(self.buf.len());
-        self.datagram_open = self.datagrams;
-    }
-}
-
-/// The send side shared by the blocking and async connections.
-pub(crate) struct Outbox {
-    pub(crate) signer: Option<Signer>,
-    pub(crate) version: Version,
-    pub(crate) seq: u8,
-    buf: [u8; MAX_FRAME_LEN],
-    /// The link's verified timestamps ([`Inbox::verified`]), adopted by the
-    /// signer before each frame.
-    verified: Arc<AtomicU64>,
-}
-
-impl Outbox {
-    pub(crate) fn new() -> Self {
-        Outbox {
-            signer: None,
-            version: Version::V2,
-            seq: 0,
-            buf: [0; MAX_FRAME_LEN],
-            verified: Arc::default(),
-        }
-    }
-
-    /// The send side of the link `inbox` receives on: its signer adopts
-    /// what `inbox`'s verifier accepts (see `crate::signing`).
-    pub(crate) fn for_inbox<D: Dialect>(inbox: &Inbox<D>) -> Self {
-        Outbox {
-            verified: inbox.verified.clone(),
-            ..Outbox::new()
-        }
-    }
-
-    /// The header for an automatically numbered frame.
-    pub(crate) fn auto_header(&mut self, sysid: u8, compid: u8) -> Header {
-        let seq = self.seq;
-        self.seq = seq.wrapping_add(1);
-        Header { seq, sysid, compid }
-    }
-
-    /// Encodes a frame and returns its bytes.
-    pub(crate) fn encode<M: Encode + ?Sized>(
-        &mut self,
-        version: Version,
-        header: Header,
-        msg: &M,
-    ) -> io::Result<&[u8]> {
-        if let Some(signer) = &mut self.signer {
-            // Receivers drop a new stream whose timestamps are more than a
-            // minute behind the newest they have seen: keep up with the
-            // clock, never going back. The clock is read for every frame, on
-            // purpose: the signer counts one tick (10 µs) per frame, so a
-            // sender slower than 100,000 frames/s falls behind real time by
-            // however long it paused, which only a clock can tell; reading
-            // it every N frames instead leaves the lag unbounded (a link
-            // that sends once a minute would lag N minutes). std has no
-            // cheaper clock (a coarse one needs `unsafe` libc or another
-            // dependency), and the read is ~35 ns of a send that costs a
-            // system call.
-            signer.advance_to(timestamp_now());
-            signer.advance_to(self.verified.load(Ordering::Relaxed));
-        }
-        let n = encode(version, header, msg, self.signer.as_mut(), &mut self.buf)
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        Ok(&self.buf[..n])
+        inbox.received(n, None, transport.is_datagram());
     }
 }
 
@@ -257,18 +107,15 @@ impl Outbox {
 /// [`Connection::open`] makes from an [`Endpoint`].
 pub struct Connection<D: Dialect, T: Transport = AnyTransport> {
     transport: T,
-    inbox: Inbox<D>,
-    outbox: Outbox,
+    core: LinkCore<D, Box<[u8]>>,
 }
 
 impl<D: Dialect, T: Transport + fmt::Debug> fmt::Debug for Connection<D, T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Connection")
             .field("transport", &self.transport)
-            .field("parser", &self.inbox.parser)
-            .field("version", &self.outbox.version)
-            .field("next_seq", &self.outbox.seq)
-            .field("signer", &self.outbox.signer)
+            .field("parser", self.parser())
+            .field("framer", &self.core.framer)
             .finish()
     }
 }
@@ -290,13 +137,11 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// A connection whose frames go through `parser`: one made with
     /// [`Parser::with_signing`] verifies signatures.
     pub fn with_parser(transport: T, parser: Parser<D>) -> Self {
-        let datagrams = transport.is_datagram();
-        let inbox = Inbox::new(parser, datagrams);
-        Connection {
-            transport,
-            outbox: Outbox::for_inbox(&inbox),
-            inbox,
-        }
+        let core = LinkCore {
+            inbox: inbox(parser),
+            framer: Framer::new(),
+        };
+        Connection { transport, core }
     }
 
     /// The next frame the parser accepts, waiting up to `timeout` in all
@@ -304,14 +149,16 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// when the time runs out first. Frames already read are returned
     /// without touching the transport.
     pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedFrame<D>>> {
-        self.inbox.recv(&mut self.transport, timeout)
+        let frame = recv(&mut self.core.inbox, &mut self.transport, timeout)?;
+        self.core.adopt();
+        Ok(frame)
     }
 
     /// Sends `msg` with `header` in the connection's protocol version
     /// ([`set_version`](Self::set_version); MAVLink 2 unless changed),
     /// signed when a signer is set.
     pub fn send<M: Encode + ?Sized>(&mut self, header: Header, msg: &M) -> io::Result<()> {
-        self.send_version(self.outbox.version, header, msg)
+        self.send_version(self.core.framer.version(), header, msg)
     }
 
     /// Sends `msg` with `header` in `version`. MAVLink 1 frames are never
@@ -323,7 +170,7 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
         header: Header,
         msg: &M,
     ) -> io::Result<()> {
-        let frame = self.outbox.encode(version, header, msg)?;
+        let frame = self.core.framer.frame_as(version, header, msg)?;
         self.transport.send(frame)
     }
 
@@ -336,7 +183,7 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
         compid: u8,
         msg: &M,
     ) -> io::Result<()> {
-        let header = self.outbox.auto_header(sysid, compid);
+        let header = self.core.framer.next_header(sysid, compid);
         self.send(header, msg)
     }
 
@@ -349,48 +196,48 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// Sets the protocol version of [`send`](Self::send) and
     /// [`send_auto`](Self::send_auto).
     pub fn set_version(&mut self, version: Version) {
-        self.outbox.version = version;
+        self.core.framer.set_version(version);
     }
 
     /// The protocol version of [`send`](Self::send).
     pub fn version(&self) -> Version {
-        self.outbox.version
+        self.core.framer.version()
     }
 
     /// Signs every MAVLink 2 frame sent from now on (`None`: stop signing).
     /// The signer's timestamp is kept at least at the current time.
     pub fn set_signer(&mut self, signer: Option<Signer>) {
-        self.outbox.signer = signer;
+        self.core.framer.set_signer(signer);
     }
 
     /// The signer, if frames are signed.
     pub fn signer(&self) -> Option<&Signer> {
-        self.outbox.signer.as_ref()
+        self.core.framer.signer()
     }
 
     /// The sequence number [`send_auto`](Self::send_auto) uses next.
     pub fn next_seq(&self) -> u8 {
-        self.outbox.seq
+        self.core.framer.seq()
     }
 
     /// Sets the sequence number [`send_auto`](Self::send_auto) uses next.
     pub fn set_next_seq(&mut self, seq: u8) {
-        self.outbox.seq = seq;
+        self.core.framer.set_seq(seq);
     }
 
     /// The parser's counters (frames, bad checksums, dropped bytes, …).
     pub fn stats(&self) -> &Stats {
-        self.inbox.parser.stats()
+        self.parser().stats()
     }
 
     /// Sequence statistics per sender.
     pub fn links(&self) -> &[LinkStats] {
-        self.inbox.parser.links()
+        self.parser().links()
     }
 
     /// The parser.
     pub fn parser(&self) -> &Parser<D> {
-        &self.inbox.parser
+        &self.core.inbox.parser
     }
 
     /// The transport.
@@ -414,6 +261,7 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
 mod tests {
     use super::test_dialect::{Ping, TestDialect};
     use super::*;
+    use crate::frame::MAX_FRAME_LEN;
     use std::net::SocketAddr;
     use std::string::ToString;
 
@@ -432,10 +280,9 @@ mod tests {
     fn several_frames_in_one_datagram_are_all_returned() {
         let (mut server, mut client) = udp_pair();
         let mut bytes = std::vec::Vec::new();
-        let mut out = Outbox::new();
+        let mut out = Framer::new();
         for v in 0..3 {
-            let h = out.auto_header(1, 1);
-            bytes.extend_from_slice(out.encode(Version::V2, h, &Ping { value: v }).unwrap());
+            bytes.extend_from_slice(out.frame(1, 1, &Ping { value: v }).unwrap());
         }
         client.send_raw(&bytes).unwrap();
         for v in 0..3 {
@@ -453,17 +300,16 @@ mod tests {
     fn signed_frames_keep_up_with_the_clock_and_always_increase() {
         use crate::frame::Frame;
         use crate::signing::{timestamp_now, Signer};
-        fn stamp(out: &mut Outbox) -> u64 {
-            let h = out.auto_header(1, 1);
-            let bytes = out.encode(Version::V2, h, &Ping { value: 1 }).unwrap();
+        fn stamp(out: &mut Framer) -> u64 {
+            let bytes = out.frame(1, 1, &Ping { value: 1 }).unwrap();
             Frame::new_checked(bytes)
                 .unwrap()
                 .signature()
                 .unwrap()
                 .timestamp()
         }
-        let mut out = Outbox::new();
-        out.signer = Some(Signer::new([3; 32], 0, 0));
+        let mut out = Framer::new();
+        out.set_signer(Some(Signer::new([3; 32], 0, 0)));
         let start = timestamp_now();
         let burst: std::vec::Vec<u64> = (0..1000).map(|_| stamp(&mut out)).collect();
         assert!(burst[0] >= start);
@@ -476,7 +322,7 @@ mod tests {
         // A signer ahead of the clock (timestamps may run ahead) goes on from
         // where it is.
         let ahead = timestamp_now() + 6_000_000;
-        out.signer = Some(Signer::new([3; 32], 0, ahead));
+        out.set_signer(Some(Signer::new([3; 32], 0, ahead)));
         assert_eq!(stamp(&mut out), ahead);
         assert_eq!(stamp(&mut out), ahead + 1);
     }
@@ -503,11 +349,7 @@ mod tests {
     const FALSE_HEADER: [u8; 10] = [0xFD, 200, 0, 0, 0, 1, 1, 1, 0, 0];
 
     fn ping_frame(value: u32) -> std::vec::Vec<u8> {
-        let mut out = Outbox::new();
-        let h = out.auto_header(1, 1);
-        out.encode(Version::V2, h, &Ping { value })
-            .unwrap()
-            .to_vec()
+        Framer::new().frame(1, 1, &Ping { value }).unwrap().to_vec()
     }
 
     /// A datagram ends every frame in it: a false header at the end of one
@@ -543,10 +385,10 @@ mod tests {
     /// the good frame inside comes out once that many bytes arrived.
     #[test]
     fn a_false_header_on_a_stream_waits_for_the_length_it_claims() {
-        let mut inbox = Inbox::<TestDialect>::new(Parser::new(), false);
-        let push = |inbox: &mut Inbox<TestDialect>, bytes: &[u8]| {
+        let mut inbox = inbox::<TestDialect>(Parser::new());
+        let push = |inbox: &mut ConnInbox<TestDialect>, bytes: &[u8]| {
             inbox.space()[..bytes.len()].copy_from_slice(bytes);
-            inbox.filled(bytes.len());
+            inbox.received(bytes.len(), None, false);
             let mut got = std::vec::Vec::new();
             while let Some(f) = inbox.next() {
                 got.push(f.message());

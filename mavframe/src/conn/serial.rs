@@ -1,6 +1,6 @@
 //! Serial ports (feature `serial`), through the `serialport` crate.
 
-use super::transport::{Deadline, Transport};
+use super::transport::{recv_stream, Transport};
 use std::boxed::Box;
 use std::io::{self, Read, Write};
 use std::time::Duration;
@@ -66,37 +66,11 @@ impl Transport for Serial {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        if buf.is_empty() {
-            return Ok(0);
-        }
-        let deadline = Deadline::after(timeout);
-        loop {
-            let wait = deadline.remaining().unwrap_or(LONG_WAIT).min(LONG_WAIT);
-            self.port.set_timeout(wait)?;
-            match self.port.read(buf) {
-                // Readiness reported, then nothing: the device went away.
-                Ok(0) => {
-                    return Err(io::Error::new(
-                        io::ErrorKind::UnexpectedEof,
-                        "serial device closed",
-                    ))
-                }
-                Ok(n) => return Ok(n),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut
-                            | io::ErrorKind::WouldBlock
-                            | io::ErrorKind::Interrupted
-                    ) =>
-                {
-                    if deadline.passed() {
-                        return Ok(0);
-                    }
-                }
-                Err(e) => return Err(e),
-            }
-        }
+        let port = &mut self.port;
+        recv_stream(buf, timeout, "serial device closed", |buf, wait| {
+            port.set_timeout(wait.unwrap_or(LONG_WAIT).min(LONG_WAIT))?;
+            port.read(buf)
+        })
     }
 }
 

@@ -2,27 +2,28 @@
 //! can use at once (one blocked in `recv` while the other sends).
 
 use super::transport::AnyTransport;
-use super::udp::UdpPeer;
+use super::udp::UdpSender;
 #[cfg(feature = "serial")]
 use super::Transport;
-use super::{Connection, Inbox, Outbox, ReceivedFrame};
+use super::{recv, ConnInbox, Connection, ReceivedFrame};
 use crate::frame::{Header, Version};
+use crate::framer::Framer;
+use crate::link::LinkCore;
 use crate::message::{Dialect, Encode};
 use crate::parser::{LinkStats, Parser, Stats};
 use crate::signing::Signer;
 use core::fmt;
 use std::boxed::Box;
 use std::io::{self, Write};
-use std::net::{SocketAddr, TcpStream, UdpSocket};
+use std::net::{SocketAddr, TcpStream};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// The half that writes to the link.
 #[derive(Debug)]
 enum SendHalf {
-    Udp {
-        socket: UdpSocket,
-        peer: UdpPeer,
-    },
+    Udp(UdpSender),
     Tcp(TcpStream),
     #[cfg(feature = "serial")]
     Serial(super::serial::Serial),
@@ -34,15 +35,12 @@ impl SendHalf {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
         match self {
             // udpin before any peer: dropped, as the whole link does.
-            SendHalf::Udp { socket, peer } => peer.send(socket, frame),
+            SendHalf::Udp(udp) => udp.send(frame),
             // Blocking (split leaves the stream so): all or an error.
             SendHalf::Tcp(stream) => stream.write_all(frame),
             #[cfg(feature = "serial")]
             SendHalf::Serial(port) => port.send(frame),
-            SendHalf::ReadOnly => Err(io::Error::new(
-                io::ErrorKind::Unsupported,
-                "a file: link is read-only: frames cannot be sent to a capture",
-            )),
+            SendHalf::ReadOnly => Err(super::file::read_only()),
         }
     }
 }
@@ -51,26 +49,18 @@ impl SendHalf {
 /// (version, sequence number, signer) and a handle on the link; `Send`,
 /// so it can move to another thread while the [`Receiver`] blocks in
 /// `recv`. Wrap it in a `Mutex` to send from several threads.
+#[derive(Debug)]
 pub struct Sender {
     half: SendHalf,
-    outbox: Outbox,
-}
-
-impl fmt::Debug for Sender {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Sender")
-            .field("half", &self.half)
-            .field("version", &self.outbox.version)
-            .field("next_seq", &self.outbox.seq)
-            .field("signer", &self.outbox.signer)
-            .finish()
-    }
+    framer: Framer,
+    /// What the [`Receiver`]'s verifier accepted, which the signer adopts.
+    verified: Arc<AtomicU64>,
 }
 
 impl Sender {
     /// Sends `msg` with `header` (see [`Connection::send`]).
     pub fn send<M: Encode + ?Sized>(&mut self, header: Header, msg: &M) -> io::Result<()> {
-        self.send_version(self.outbox.version, header, msg)
+        self.send_version(self.framer.version(), header, msg)
     }
 
     /// Sends `msg` with `header` in `version` (see
@@ -81,7 +71,8 @@ impl Sender {
         header: Header,
         msg: &M,
     ) -> io::Result<()> {
-        let frame = self.outbox.encode(version, header, msg)?;
+        self.framer.adopt(self.verified.load(Ordering::Relaxed));
+        let frame = self.framer.frame_as(version, header, msg)?;
         self.half.send(frame)
     }
 
@@ -93,7 +84,7 @@ impl Sender {
         compid: u8,
         msg: &M,
     ) -> io::Result<()> {
-        let header = self.outbox.auto_header(sysid, compid);
+        let header = self.framer.next_header(sysid, compid);
         self.send(header, msg)
     }
 
@@ -104,29 +95,29 @@ impl Sender {
 
     /// Sets the protocol version of [`send`](Self::send).
     pub fn set_version(&mut self, version: Version) {
-        self.outbox.version = version;
+        self.framer.set_version(version);
     }
 
     /// Signs every MAVLink 2 frame sent from now on (`None`: stop).
     pub fn set_signer(&mut self, signer: Option<Signer>) {
-        self.outbox.signer = signer;
+        self.framer.set_signer(signer);
     }
 
     /// The signer, if frames are signed.
     pub fn signer(&self) -> Option<&Signer> {
-        self.outbox.signer.as_ref()
+        self.framer.signer()
     }
 
     /// The sequence number [`send_auto`](Self::send_auto) uses next.
     pub fn next_seq(&self) -> u8 {
-        self.outbox.seq
+        self.framer.seq()
     }
 
     /// Where a UDP link's next frame goes (`None`: nowhere yet, or not
     /// UDP); with several peers, the one heard most recently.
     pub fn peer(&self) -> Option<SocketAddr> {
         match &self.half {
-            SendHalf::Udp { peer, .. } => peer.get(),
+            SendHalf::Udp(udp) => udp.peer(),
             _ => None,
         }
     }
@@ -136,14 +127,16 @@ impl Sender {
 /// to read) and the parser.
 pub struct Receiver<D: Dialect> {
     transport: AnyTransport,
-    inbox: Inbox<D>,
+    inbox: ConnInbox<D>,
+    /// Shared with the [`Sender`]: what the verifier accepted.
+    verified: Arc<AtomicU64>,
 }
 
 impl<D: Dialect> fmt::Debug for Receiver<D> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Receiver")
             .field("transport", &self.transport)
-            .field("parser", &self.inbox.parser)
+            .field("parser", self.parser())
             .finish()
     }
 }
@@ -154,17 +147,22 @@ impl<D: Dialect> Receiver<D> {
     /// socket's non-blocking flag, which the receiver must not set under
     /// the sender's writes.
     pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedFrame<D>>> {
-        self.inbox.recv(&mut self.transport, timeout)
+        let frame = recv(&mut self.inbox, &mut self.transport, timeout)?;
+        if let Some(v) = self.inbox.parser.verifier() {
+            self.verified
+                .fetch_max(v.newest_timestamp(), Ordering::Relaxed);
+        }
+        Ok(frame)
     }
 
     /// The parser's counters.
     pub fn stats(&self) -> &Stats {
-        self.inbox.parser.stats()
+        self.parser().stats()
     }
 
     /// Sequence statistics per sender.
     pub fn links(&self) -> &[LinkStats] {
-        self.inbox.parser.links()
+        self.parser().links()
     }
 
     /// The parser.
@@ -216,9 +214,9 @@ impl<D: Dialect> core::error::Error for SplitError<D> {
 /// The send half for `transport`, which keeps the receiving.
 fn send_half(transport: &mut AnyTransport) -> io::Result<SendHalf> {
     Ok(match transport {
-        AnyTransport::UdpIn(t) => udp(t.split_sender()?),
-        AnyTransport::UdpOut(t) => udp(t.split_sender()?),
-        AnyTransport::UdpBcast(t) => udp(t.split_sender()?),
+        AnyTransport::UdpIn(t) => SendHalf::Udp(t.split_sender()?),
+        AnyTransport::UdpOut(t) => SendHalf::Udp(t.split_sender()?),
+        AnyTransport::UdpBcast(t) => SendHalf::Udp(t.split_sender()?),
         AnyTransport::Tcp(t) => SendHalf::Tcp(t.split_sender()?),
         AnyTransport::File(_) => SendHalf::ReadOnly,
         #[cfg(feature = "serial")]
@@ -234,10 +232,6 @@ fn send_half(transport: &mut AnyTransport) -> io::Result<SendHalf> {
             ))
         }
     })
-}
-
-fn udp((socket, peer): (UdpSocket, UdpPeer)) -> SendHalf {
-    SendHalf::Udp { socket, peer }
 }
 
 impl<D: Dialect> Connection<D, AnyTransport> {
@@ -286,16 +280,21 @@ impl<D: Dialect> Connection<D, AnyTransport> {
     /// ```
     pub fn split(mut self) -> Result<(Sender, Receiver<D>), SplitError<D>> {
         match send_half(&mut self.transport) {
-            Ok(half) => Ok((
-                Sender {
-                    half,
-                    outbox: self.outbox,
-                },
-                Receiver {
+            Ok(half) => {
+                let LinkCore { inbox, framer } = self.core;
+                let verified = Arc::new(AtomicU64::new(0));
+                let receiver = Receiver {
                     transport: self.transport,
-                    inbox: self.inbox,
-                },
-            )),
+                    inbox,
+                    verified: verified.clone(),
+                };
+                let sender = Sender {
+                    half,
+                    framer,
+                    verified,
+                };
+                Ok((sender, receiver))
+            }
             Err(error) => Err(SplitError {
                 connection: Box::new(self),
                 error,

@@ -1,18 +1,12 @@
 //! TCP transports: `tcp` (client) and `tcpin` (server for many clients).
 
-use super::transport::{is_timeout, Deadline, ReadMode, SetReadMode, Transport};
+use super::transport::{recv_stream, Deadline, ReadMode, SetReadMode, Transport};
 use crate::frame::{frame_len, FrameError};
 use core::fmt;
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::time::Duration;
 use std::vec::Vec;
-
-/// A connection closed by its peer: an error, so that 0 from
-/// [`Transport::recv`] keeps meaning "timed out".
-fn closed() -> io::Error {
-    io::Error::new(io::ErrorKind::UnexpectedEof, "connection closed by peer")
-}
 
 /// `tcp:`: a TCP client.
 ///
@@ -87,25 +81,11 @@ impl Transport for TcpClient {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        if buf.is_empty() {
-            return Ok(0);
-        }
-        let deadline = Deadline::after(timeout);
-        loop {
-            self.stream
-                .prepare_read(&mut self.mode, deadline.remaining())?;
-            match self.stream.read(buf) {
-                Ok(0) => return Err(closed()),
-                Ok(n) => return Ok(n),
-                Err(e) if is_timeout(&e) => return Ok(0),
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {
-                    if deadline.passed() {
-                        return Ok(0);
-                    }
-                }
-                Err(e) => return Err(e),
-            }
-        }
+        let (stream, mode) = (&mut self.stream, &mut self.mode);
+        recv_stream(buf, timeout, "connection closed by peer", |buf, wait| {
+            stream.prepare_read(mode, wait)?;
+            stream.read(buf)
+        })
     }
 }
 

@@ -46,41 +46,29 @@ pub trait Transport {
     fn accepted(&mut self) {}
 }
 
-impl<T: Transport + ?Sized> Transport for Box<T> {
-    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        (**self).send(frame)
-    }
+/// A transport behind a pointer is that transport.
+macro_rules! forward {
+    ($($ptr:ty),*) => {$(
+        impl<T: Transport + ?Sized> Transport for $ptr {
+            fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+                (**self).send(frame)
+            }
 
-    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        (**self).recv(buf, timeout)
-    }
+            fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
+                (**self).recv(buf, timeout)
+            }
 
-    fn is_datagram(&self) -> bool {
-        (**self).is_datagram()
-    }
+            fn is_datagram(&self) -> bool {
+                (**self).is_datagram()
+            }
 
-    fn accepted(&mut self) {
-        (**self).accepted()
-    }
+            fn accepted(&mut self) {
+                (**self).accepted()
+            }
+        }
+    )*};
 }
-
-impl<T: Transport + ?Sized> Transport for &mut T {
-    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        (**self).send(frame)
-    }
-
-    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        (**self).recv(buf, timeout)
-    }
-
-    fn is_datagram(&self) -> bool {
-        (**self).is_datagram()
-    }
-
-    fn accepted(&mut self) {
-        (**self).accepted()
-    }
-}
+forward!(Box<T>, &mut T);
 
 /// Any transport an [`Endpoint`] names, as [`open`] returns it.
 ///
@@ -179,52 +167,37 @@ impl AnyTransport {
     }
 }
 
+/// `$e` for the transport inside `$any`, named `$t`.
+macro_rules! each {
+    ($any:expr, $t:ident => $e:expr) => {
+        match $any {
+            AnyTransport::UdpIn($t) => $e,
+            AnyTransport::UdpOut($t) => $e,
+            AnyTransport::UdpBcast($t) => $e,
+            AnyTransport::File($t) => $e,
+            AnyTransport::Tcp($t) => $e,
+            AnyTransport::TcpIn($t) => $e,
+            #[cfg(feature = "serial")]
+            AnyTransport::Serial($t) => $e,
+        }
+    };
+}
+
 impl Transport for AnyTransport {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        match self {
-            AnyTransport::UdpIn(t) => t.send(frame),
-            AnyTransport::UdpOut(t) => t.send(frame),
-            AnyTransport::UdpBcast(t) => t.send(frame),
-            AnyTransport::File(t) => t.send(frame),
-            AnyTransport::Tcp(t) => t.send(frame),
-            AnyTransport::TcpIn(t) => t.send(frame),
-            #[cfg(feature = "serial")]
-            AnyTransport::Serial(t) => t.send(frame),
-        }
+        each!(self, t => t.send(frame))
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        match self {
-            AnyTransport::UdpIn(t) => t.recv(buf, timeout),
-            AnyTransport::UdpOut(t) => t.recv(buf, timeout),
-            AnyTransport::UdpBcast(t) => t.recv(buf, timeout),
-            AnyTransport::File(t) => t.recv(buf, timeout),
-            AnyTransport::Tcp(t) => t.recv(buf, timeout),
-            AnyTransport::TcpIn(t) => t.recv(buf, timeout),
-            #[cfg(feature = "serial")]
-            AnyTransport::Serial(t) => t.recv(buf, timeout),
-        }
+        each!(self, t => t.recv(buf, timeout))
     }
 
     fn is_datagram(&self) -> bool {
-        match self {
-            AnyTransport::UdpIn(t) => t.is_datagram(),
-            AnyTransport::UdpOut(t) => t.is_datagram(),
-            AnyTransport::UdpBcast(t) => t.is_datagram(),
-            AnyTransport::File(t) => t.is_datagram(),
-            AnyTransport::Tcp(t) => t.is_datagram(),
-            AnyTransport::TcpIn(t) => t.is_datagram(),
-            #[cfg(feature = "serial")]
-            AnyTransport::Serial(t) => t.is_datagram(),
-        }
+        each!(self, t => t.is_datagram())
     }
 
     fn accepted(&mut self) {
-        match self {
-            AnyTransport::UdpIn(t) => t.accepted(),
-            AnyTransport::UdpBcast(t) => t.accepted(),
-            _ => {}
-        }
+        each!(self, t => t.accepted())
     }
 }
 
@@ -320,6 +293,34 @@ impl SetReadMode for std::net::TcpStream {
     }
     fn set_read_timeout(&self, t: Option<Duration>) -> io::Result<()> {
         std::net::TcpStream::set_read_timeout(self, t)
+    }
+}
+
+/// A byte stream's [`Transport::recv`] (TCP, serial): `read` waits up to
+/// the time it is given (`None`: without limit). 0 once `timeout` ran out
+/// with no data; a stream its peer closed is an `UnexpectedEof` error
+/// (`closed` says what closed), so that 0 keeps meaning "timed out".
+pub(crate) fn recv_stream(
+    buf: &mut [u8],
+    timeout: Option<Duration>,
+    closed: &str,
+    mut read: impl FnMut(&mut [u8], Option<Duration>) -> io::Result<usize>,
+) -> io::Result<usize> {
+    if buf.is_empty() {
+        return Ok(0);
+    }
+    let deadline = Deadline::after(timeout);
+    loop {
+        match read(buf, deadline.remaining()) {
+            Ok(0) => return Err(io::Error::new(io::ErrorKind::UnexpectedEof, closed)),
+            Ok(n) => return Ok(n),
+            Err(e) if is_timeout(&e) || e.kind() == io::ErrorKind::Interrupted => {
+                if deadline.passed() {
+                    return Ok(0);
+                }
+            }
+            Err(e) => return Err(e),
+        }
     }
 }
 

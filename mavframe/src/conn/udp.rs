@@ -13,38 +13,65 @@
 //! frames or not, neither take a station's traffic nor displace it.
 
 use super::transport::{is_timeout, Deadline, ReadMode, SetReadMode, Transport};
-use crate::peers::PeerSet;
+use crate::link::{Peers, ReplyTo};
 use std::io;
 use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, UdpSocket};
-use std::sync::{Arc, Mutex, PoisonError};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-/// Waits for one non-empty datagram; `None` when the time ran out.
-fn recv_datagram(
-    socket: &UdpSocket,
-    mode: &mut ReadMode,
-    buf: &mut [u8],
-    timeout: Option<Duration>,
-) -> io::Result<Option<(usize, SocketAddr)>> {
-    let deadline = Deadline::after(timeout);
-    loop {
-        socket.prepare_read(mode, deadline.remaining())?;
-        match socket.recv_from(buf) {
-            // An empty datagram carries nothing for the parser, and 0 would
-            // read as "timed out": keep waiting.
-            Ok((0, _)) => {}
-            Ok((n, from)) => return Ok(Some((n, from))),
-            Err(e) if is_timeout(&e) => return Ok(None),
-            // An earlier send's ICMP "port unreachable", reported on the
-            // next receive (Windows; Linux on connected sockets, as
-            // `udpout`'s): it says nothing about incoming data, and a peer
-            // may start later.
-            Err(e) if is_refused(&e) || e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
+/// What every UDP transport holds: its socket, how the socket waits, and
+/// the sender of the last datagram.
+#[derive(Debug)]
+struct Udp {
+    socket: UdpSocket,
+    mode: ReadMode,
+    last_source: Option<SocketAddr>,
+}
+
+impl Udp {
+    fn new(socket: UdpSocket) -> Udp {
+        Udp {
+            socket,
+            mode: ReadMode::default(),
+            last_source: None,
         }
-        if deadline.passed() {
-            return Ok(None);
+    }
+
+    /// Waits for one non-empty datagram, noting its sender; 0 when the
+    /// time ran out.
+    fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
+        let deadline = Deadline::after(timeout);
+        loop {
+            self.socket
+                .prepare_read(&mut self.mode, deadline.remaining())?;
+            match self.socket.recv_from(buf) {
+                // An empty datagram carries nothing for the parser, and 0
+                // would read as "timed out": keep waiting.
+                Ok((0, _)) => {}
+                Ok((n, from)) => {
+                    self.last_source = Some(from);
+                    return Ok(n);
+                }
+                Err(e) if is_timeout(&e) => return Ok(0),
+                // An earlier send's ICMP "port unreachable", reported on the
+                // next receive (Windows; Linux on connected sockets, as
+                // `udpout`'s): it says nothing about incoming data, and a
+                // peer may start later.
+                Err(e) if is_refused(&e) || e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+            if deadline.passed() {
+                return Ok(0);
+            }
         }
+    }
+
+    /// A send half: a clone of the socket (reads never set the
+    /// non-blocking flag they share from then on), sending to `peers`,
+    /// else to `to`.
+    fn sender(&mut self, peers: Option<Peers>, to: Option<SocketAddr>) -> io::Result<UdpSender> {
+        self.mode.share();
+        let socket = self.socket.try_clone()?;
+        Ok(UdpSender { socket, peers, to })
     }
 }
 
@@ -54,24 +81,6 @@ pub(crate) fn is_refused(e: &io::Error) -> bool {
         e.kind(),
         io::ErrorKind::ConnectionReset | io::ErrorKind::ConnectionRefused
     )
-}
-
-/// [`recv_datagram`] for a [`Transport`]: the sender noted in `last`, 0
-/// when the time ran out.
-fn recv_noting_source(
-    socket: &UdpSocket,
-    mode: &mut ReadMode,
-    last: &mut Option<SocketAddr>,
-    buf: &mut [u8],
-    timeout: Option<Duration>,
-) -> io::Result<usize> {
-    Ok(match recv_datagram(socket, mode, buf, timeout)? {
-        Some((n, from)) => {
-            *last = Some(from);
-            n
-        }
-        None => 0,
-    })
 }
 
 /// Sends `frame` on a connected socket. A send that reports an earlier
@@ -101,87 +110,6 @@ fn send_each(
     first
 }
 
-/// A link's peers, shared with a split-off [`Sender`](super::Sender).
-pub(crate) type SharedPeers = Arc<Mutex<PeerSet>>;
-
-/// The peers a link's send half reads (a poisoned lock only means another
-/// thread panicked mid-copy of plain data: what is there is still whole).
-fn read_shared(shared: &SharedPeers) -> std::sync::MutexGuard<'_, PeerSet> {
-    shared.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-/// A link's peers and the clock they are heard on.
-#[derive(Debug)]
-struct Peers {
-    set: PeerSet,
-    /// The origin of the set's times.
-    epoch: Instant,
-    /// Set by `split`: a copy the send half reads, kept up to date.
-    shared: Option<SharedPeers>,
-}
-
-impl Peers {
-    fn new() -> Self {
-        Peers {
-            set: PeerSet::new(),
-            epoch: Instant::now(),
-            shared: None,
-        }
-    }
-
-    /// `from` sent a frame the parser accepted.
-    fn heard(&mut self, from: Option<SocketAddr>) {
-        if let Some(from) = from {
-            let now = self.epoch.elapsed();
-            self.set.heard(from, now);
-            self.publish();
-        }
-    }
-
-    fn set(&mut self, addrs: &[SocketAddr]) {
-        self.set.set(addrs, self.epoch.elapsed());
-        self.publish();
-    }
-
-    fn clear(&mut self) {
-        self.set.clear();
-        self.publish();
-    }
-
-    fn publish(&self) {
-        if let Some(shared) = &self.shared {
-            *read_shared(shared) = self.set.clone();
-        }
-    }
-
-    /// The set, shared from now on with a send half.
-    fn share(&mut self) -> SharedPeers {
-        let shared = Arc::new(Mutex::new(self.set.clone()));
-        self.shared = Some(shared.clone());
-        shared
-    }
-}
-
-/// Whom a [`UdpIn`] (or the router's `udpin`, `udpbcast` and `tcpin`
-/// links) sends to.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum ReplyTo {
-    /// The senders of frames the parser accepted (authenticated ones only,
-    /// when the link has a key), up to [`MAX_PEERS`](crate::peers::MAX_PEERS) of them, by the rule
-    /// of [`crate::peers`] (the default). A datagram without such a frame
-    /// moves nothing; a stranger with valid frames gets a free slot, or
-    /// the slot of a peer silent for [`SILENCE`](crate::peers::SILENCE),
-    /// never a speaking station's.
-    #[default]
-    Accepted,
-    /// This address only, whoever else sends.
-    Fixed(SocketAddr),
-    /// Only the addresses the owner gives ([`UdpIn::set_peers`],
-    /// `Router::set_peers`; nobody until then): the application decides
-    /// its peers by a policy of its own.
-    Owner,
-}
-
 /// `udpin:`: a bound socket that answers the peers its [`ReplyTo`] rule
 /// names (by default, the senders of frames the connection accepted: see
 /// the module docs).
@@ -199,12 +127,9 @@ pub enum ReplyTo {
 /// short.
 #[derive(Debug)]
 pub struct UdpIn {
-    socket: UdpSocket,
-    reply_to: ReplyTo,
-    /// The sender of the last datagram (not a peer for that).
-    last_source: Option<SocketAddr>,
+    /// (The sender of its last datagram is not a peer for that.)
+    udp: Udp,
     peers: Peers,
-    mode: ReadMode,
 }
 
 impl UdpIn {
@@ -212,31 +137,25 @@ impl UdpIn {
     /// [`local_addr`](Self::local_addr)), under [`ReplyTo::Accepted`].
     pub fn bind(addr: SocketAddr) -> io::Result<Self> {
         Ok(UdpIn {
-            socket: UdpSocket::bind(addr)?,
-            reply_to: ReplyTo::Accepted,
-            last_source: None,
-            peers: Peers::new(),
-            mode: ReadMode::default(),
+            udp: Udp::new(UdpSocket::bind(addr)?),
+            peers: Peers::new(ReplyTo::Accepted),
         })
     }
 
     /// The bound address.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
-        self.socket.local_addr()
+        self.udp.socket.local_addr()
     }
 
     /// Chooses whom to send to from now on (a new rule starts with no
     /// peers).
     pub fn set_reply_to(&mut self, reply_to: ReplyTo) {
-        if reply_to != self.reply_to {
-            self.peers.clear();
-        }
-        self.reply_to = reply_to;
+        self.peers.set_rule(reply_to);
     }
 
     /// The rule choosing whom to send to.
     pub fn reply_to(&self) -> ReplyTo {
-        self.reply_to
+        self.peers.rule
     }
 
     /// Sets the peers of [`ReplyTo::Owner`]: frames go to these addresses
@@ -244,7 +163,7 @@ impl UdpIn {
     /// Under [`ReplyTo::Accepted`] they are peers as if heard now; under
     /// [`ReplyTo::Fixed`] they are not used.
     pub fn set_peers(&mut self, peers: &[SocketAddr]) {
-        self.peers.set(peers);
+        self.peers.given(peers);
     }
 
     /// [`set_peers`](Self::set_peers) of one address (ignored for port 0:
@@ -258,32 +177,24 @@ impl UdpIn {
     /// Where frames go now, if anywhere: the fixed address, else the peer
     /// heard (or given) most recently. See [`peers`](Self::peers) for all.
     pub fn peer(&self) -> Option<SocketAddr> {
-        match self.reply_to {
-            ReplyTo::Fixed(addr) => Some(addr),
-            _ => self.peers.set.latest(),
-        }
+        self.peers.latest()
     }
 
     /// Every address a frame goes to now.
     pub fn peers(&self) -> impl Iterator<Item = SocketAddr> + '_ {
-        let fixed = match self.reply_to {
-            ReplyTo::Fixed(addr) => Some(addr),
-            _ => None,
-        };
-        let others = self.peers.set.iter().filter(move |_| fixed.is_none());
-        fixed.into_iter().chain(others)
+        self.peers.targets(None)
     }
 
     /// The sender of the last datagram received (every frame a
     /// [`Connection`](super::Connection) returns came from it; that alone
     /// makes it no peer).
     pub fn last_source(&self) -> Option<SocketAddr> {
-        self.last_source
+        self.udp.last_source
     }
 
     /// The socket, for options this type does not cover.
     pub fn get_ref(&self) -> &UdpSocket {
-        &self.socket
+        &self.udp.socket
     }
 }
 
@@ -291,67 +202,44 @@ impl UdpIn {
     /// The send half's handle: a clone of the socket and whom it sends to
     /// (the fixed address, or the peers, which follow the receiving half's
     /// from then on).
-    pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
-        self.mode.share();
-        let peer = match self.reply_to {
-            ReplyTo::Fixed(a) => UdpPeer::Fixed(a),
-            ReplyTo::Accepted | ReplyTo::Owner => UdpPeer::Peers(self.peers.share(), None),
-        };
-        Ok((self.socket.try_clone()?, peer))
+    pub(crate) fn split_sender(&mut self) -> io::Result<UdpSender> {
+        self.udp.sender(Some(self.peers.clone()), None)
     }
 }
 
-/// Whom a split-off UDP sender sends to.
+/// A split-off UDP send half: a clone of the socket, and whom it sends to.
 #[derive(Debug)]
-pub(crate) enum UdpPeer {
-    /// This address.
-    Fixed(SocketAddr),
-    /// The socket's connected address (`udpout`'s target).
-    Connected(SocketAddr),
-    /// The receiving half's peers, else the fallback (`udpbcast`'s
-    /// broadcast address), else nobody (frames dropped, as `udpin` does).
-    Peers(SharedPeers, Option<SocketAddr>),
+pub(crate) struct UdpSender {
+    socket: UdpSocket,
+    /// `udpin`, `udpbcast`: the receiving half's peers (shared); `None`:
+    /// the socket's connected address (`udpout`).
+    peers: Option<Peers>,
+    /// `udpout`'s target, `udpbcast`'s broadcast address (where frames go
+    /// while there is no peer; `udpin` drops them then).
+    to: Option<SocketAddr>,
 }
 
-impl UdpPeer {
-    /// Where frames go: the one address, or the peer heard most recently.
-    pub(crate) fn get(&self) -> Option<SocketAddr> {
-        match self {
-            UdpPeer::Fixed(a) | UdpPeer::Connected(a) => Some(*a),
-            UdpPeer::Peers(shared, fallback) => read_shared(shared).latest().or(*fallback),
-        }
+impl UdpSender {
+    /// Where frames go: the peer heard most recently, or the one address.
+    pub(crate) fn peer(&self) -> Option<SocketAddr> {
+        self.peers.as_ref().and_then(Peers::latest).or(self.to)
     }
 
-    /// Sends `frame` on `socket` (this half's clone) to the peers.
-    pub(crate) fn send(&self, socket: &UdpSocket, frame: &[u8]) -> io::Result<()> {
-        match self {
-            UdpPeer::Fixed(a) => socket.send_to(frame, a).map(drop),
-            UdpPeer::Connected(_) => send_connected(socket, frame),
-            UdpPeer::Peers(shared, fallback) => {
-                // A copy: no lock held across the sends.
-                let peers = read_shared(shared).clone();
-                match (peers.is_empty(), fallback) {
-                    (true, Some(to)) => socket.send_to(frame, to).map(drop),
-                    _ => send_each(socket, peers.iter(), frame),
-                }
-            }
+    pub(crate) fn send(&self, frame: &[u8]) -> io::Result<()> {
+        match &self.peers {
+            None => send_connected(&self.socket, frame),
+            Some(peers) => send_each(&self.socket, peers.targets(self.to), frame),
         }
     }
 }
 
 impl Transport for UdpIn {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        send_each(&self.socket, self.peers(), frame)
+        send_each(&self.udp.socket, self.peers(), frame)
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        recv_noting_source(
-            &self.socket,
-            &mut self.mode,
-            &mut self.last_source,
-            buf,
-            timeout,
-        )
+        self.udp.recv(buf, timeout)
     }
 
     fn is_datagram(&self) -> bool {
@@ -359,9 +247,7 @@ impl Transport for UdpIn {
     }
 
     fn accepted(&mut self) {
-        if self.reply_to == ReplyTo::Accepted {
-            self.peers.heard(self.last_source);
-        }
+        self.peers.heard(self.udp.last_source);
     }
 }
 
@@ -391,10 +277,8 @@ fn ephemeral(target: SocketAddr) -> io::Result<UdpSocket> {
 /// does): the system cuts a longer one short.
 #[derive(Debug)]
 pub struct UdpOut {
-    socket: UdpSocket,
+    udp: Udp,
     target: SocketAddr,
-    last_source: Option<SocketAddr>,
-    mode: ReadMode,
 }
 
 impl UdpOut {
@@ -404,17 +288,15 @@ impl UdpOut {
         let socket = ephemeral(target)?;
         socket.connect(target)?;
         Ok(UdpOut {
-            socket,
+            udp: Udp::new(socket),
             target,
-            last_source: None,
-            mode: ReadMode::default(),
         })
     }
 
     /// The local address (the system's choice of port, and of the address
     /// that reaches the target).
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
-        self.socket.local_addr()
+        self.udp.socket.local_addr()
     }
 
     /// Where frames are sent, and the only address they are received from.
@@ -425,37 +307,30 @@ impl UdpOut {
     /// The sender of the last datagram received (the target, once it
     /// answered).
     pub fn last_source(&self) -> Option<SocketAddr> {
-        self.last_source
+        self.udp.last_source
     }
 
     /// The socket, for options this type does not cover.
     pub fn get_ref(&self) -> &UdpSocket {
-        &self.socket
+        &self.udp.socket
     }
 }
 
 impl UdpOut {
     /// The send half's handle: a clone of the socket, connected to the
     /// target.
-    pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
-        self.mode.share();
-        Ok((self.socket.try_clone()?, UdpPeer::Connected(self.target)))
+    pub(crate) fn split_sender(&mut self) -> io::Result<UdpSender> {
+        self.udp.sender(None, Some(self.target))
     }
 }
 
 impl Transport for UdpOut {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        send_connected(&self.socket, frame)
+        send_connected(&self.udp.socket, frame)
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        recv_noting_source(
-            &self.socket,
-            &mut self.mode,
-            &mut self.last_source,
-            buf,
-            timeout,
-        )
+        self.udp.recv(buf, timeout)
     }
 
     fn is_datagram(&self) -> bool {
@@ -473,11 +348,9 @@ impl Transport for UdpOut {
 /// never becomes a peer.
 #[derive(Debug)]
 pub struct UdpBcast {
-    socket: UdpSocket,
+    udp: Udp,
     target: SocketAddr,
-    last_source: Option<SocketAddr>,
     peers: Peers,
-    mode: ReadMode,
 }
 
 impl UdpBcast {
@@ -487,17 +360,15 @@ impl UdpBcast {
         let socket = ephemeral(target)?;
         socket.set_broadcast(true)?;
         Ok(UdpBcast {
-            socket,
+            udp: Udp::new(socket),
             target,
-            last_source: None,
-            peers: Peers::new(),
-            mode: ReadMode::default(),
+            peers: Peers::new(ReplyTo::Accepted),
         })
     }
 
     /// The ephemeral local address.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
-        self.socket.local_addr()
+        self.udp.socket.local_addr()
     }
 
     /// The broadcast address frames go to until a peer answers.
@@ -508,51 +379,44 @@ impl UdpBcast {
     /// Where frames go now: the peer heard most recently, or the broadcast
     /// address (see [`peers`](Self::peers) for all).
     pub fn peer(&self) -> SocketAddr {
-        self.peers.set.latest().unwrap_or(self.target)
+        self.peers.latest().unwrap_or(self.target)
     }
 
     /// The peers (none while broadcasting).
     pub fn peers(&self) -> impl Iterator<Item = SocketAddr> + '_ {
-        self.peers.set.iter()
+        self.peers.targets(None)
     }
 
     /// The sender of the last datagram received.
     pub fn last_source(&self) -> Option<SocketAddr> {
-        self.last_source
+        self.udp.last_source
     }
 
     /// The socket, for options this type does not cover.
     pub fn get_ref(&self) -> &UdpSocket {
-        &self.socket
+        &self.udp.socket
     }
 }
 
 impl UdpBcast {
     /// The send half's handle: a clone of the socket, sending to the
     /// receiving half's peers, else broadcasting.
-    pub(crate) fn split_sender(&mut self) -> io::Result<(UdpSocket, UdpPeer)> {
-        self.mode.share();
-        let peer = UdpPeer::Peers(self.peers.share(), Some(self.target));
-        Ok((self.socket.try_clone()?, peer))
+    pub(crate) fn split_sender(&mut self) -> io::Result<UdpSender> {
+        self.udp.sender(Some(self.peers.clone()), Some(self.target))
     }
 }
 
 impl Transport for UdpBcast {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        if self.peers.set.is_empty() {
-            return self.socket.send_to(frame, self.target).map(drop);
-        }
-        send_each(&self.socket, self.peers.set.iter(), frame)
+        send_each(
+            &self.udp.socket,
+            self.peers.targets(Some(self.target)),
+            frame,
+        )
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Option<Duration>) -> io::Result<usize> {
-        recv_noting_source(
-            &self.socket,
-            &mut self.mode,
-            &mut self.last_source,
-            buf,
-            timeout,
-        )
+        self.udp.recv(buf, timeout)
     }
 
     fn is_datagram(&self) -> bool {
@@ -560,7 +424,7 @@ impl Transport for UdpBcast {
     }
 
     fn accepted(&mut self) {
-        self.peers.heard(self.last_source);
+        self.peers.heard(self.udp.last_source);
     }
 }
 

@@ -2,11 +2,13 @@
 //! blocking ones' twins (same state, same rules), awaiting instead of
 //! blocking.
 
-use super::{Inbox, Outbox, RecvError, SendError, DEFAULT_BUF};
-use crate::framer::Framer;
+use super::parts::{Async, LinkOf, ReceiverOf, SenderOf};
+use super::{Inbox, RecvError, SendError, DEFAULT_BUF};
 use crate::message::{Dialect, Encode};
-use crate::parser::{Parser, Received};
+use crate::parser::Received;
 use crate::received::ReceivedFrame;
+#[cfg(doc)]
+use crate::{framer::Framer, parser::Parser};
 use core::future::Future;
 use core::pin::Pin;
 use core::task::{Context, Poll};
@@ -55,7 +57,7 @@ async fn recv_with<R: Read, D: Dialect, const BUF: usize, const S: usize, T>(
         match io.read(inbox.space()).await {
             Ok(0) => return Err(RecvError::Eof),
             Ok(n) => {
-                inbox.filled(n);
+                inbox.received(n, None, false);
                 unproductive += n;
             }
             Err(e) => return Err(RecvError::Read(e)),
@@ -74,15 +76,6 @@ async fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendErr
         }
     }
     Ok(())
-}
-
-async fn send<W: Write>(
-    io: &mut W,
-    outbox: &mut Outbox,
-    msg: &(impl Encode + ?Sized),
-) -> Result<(), SendError<W::Error>> {
-    let frame = outbox.frame(msg).map_err(SendError::Frame)?;
-    write_all(io, frame).await
 }
 
 /// MAVLink over one async `Read + Write` (an async UART): the async twin
@@ -125,74 +118,12 @@ async fn send<W: Write>(
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// # }).unwrap();
 /// ```
-pub struct AsyncLink<T, D: Dialect, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> {
-    io: T,
-    inbox: Inbox<D, BUF, STREAMS>,
-    outbox: Outbox,
-}
+pub type AsyncLink<T, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
+    LinkOf<Async, T, D, BUF, STREAMS>;
 
-impl<T, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncLink<T, D, BUF, STREAMS> {
-    /// As [`Link::new`](super::Link::new).
-    pub fn new(io: T, sysid: u8, compid: u8) -> Self {
-        Self::with_parts(io, Parser::new(), Framer::new(), sysid, compid)
-    }
-
-    /// As [`Link::with_parts`](super::Link::with_parts).
-    pub fn with_parts(
-        io: T,
-        parser: Parser<D, STREAMS>,
-        framer: Framer,
-        sysid: u8,
-        compid: u8,
-    ) -> Self {
-        AsyncLink {
-            io,
-            inbox: Inbox::new(parser),
-            outbox: Outbox {
-                framer,
-                sysid,
-                compid,
-            },
-        }
-    }
-
-    /// The parser: its counters and verifier.
-    pub fn parser(&self) -> &Parser<D, STREAMS> {
-        &self.inbox.parser
-    }
-
-    /// The framer.
-    pub fn framer(&self) -> &Framer {
-        &self.outbox.framer
-    }
-
-    /// The framer, to set a signer, a clock or the protocol version.
-    pub fn framer_mut(&mut self) -> &mut Framer {
-        &mut self.outbox.framer
-    }
-
-    /// The I/O.
-    pub fn get_ref(&self) -> &T {
-        &self.io
-    }
-
-    /// The I/O (reading or writing it directly bypasses the adapter).
-    pub fn get_mut(&mut self) -> &mut T {
-        &mut self.io
-    }
-
-    /// The I/O back; bytes read and not parsed yet are dropped.
-    pub fn into_inner(self) -> T {
-        self.io
-    }
-
-    /// As [`Link::recv_eof`](super::Link::recv_eof).
-    pub fn recv_eof(&mut self) -> Option<ReceivedFrame<D>> {
-        self.inbox.take_at_eof(|r| ReceivedFrame::from(&r))
-    }
-}
-
-impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncLink<T, D, BUF, STREAMS> {
+impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
+    LinkOf<Async, T, D, BUF, STREAMS>
+{
     /// Waits for the next frame and returns a copy of it.
     pub async fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<T::Error>> {
         self.recv_with(|r| ReceivedFrame::from(&r)).await
@@ -204,15 +135,18 @@ impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncLink<T, D
         &mut self,
         f: impl FnOnce(Received<'_, D>) -> U,
     ) -> Result<U, RecvError<T::Error>> {
-        recv_with(&mut self.io, &mut self.inbox, f).await
+        recv_with(&mut self.io, &mut self.core.inbox, f).await
     }
 }
 
-impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncLink<T, D, BUF, STREAMS> {
+impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize>
+    LinkOf<Async, T, D, BUF, STREAMS>
+{
     /// As [`Link::send`](super::Link::send).
     pub async fn send(&mut self, msg: &(impl Encode + ?Sized)) -> Result<(), SendError<T::Error>> {
-        self.outbox.framer.adopt_from(self.inbox.parser.verifier());
-        send(&mut self.io, &mut self.outbox, msg).await
+        self.core.adopt();
+        let frame = self.core.framer.frame(self.sysid, self.compid, msg);
+        write_all(&mut self.io, frame.map_err(SendError::Frame)?).await
     }
 
     /// As [`Link::send_frame`](super::Link::send_frame).
@@ -228,54 +162,11 @@ impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncLink<T, 
 
 /// The receiving half over an async `Read` (an async UART's `Rx`): the
 /// async twin of [`Receiver`](super::Receiver).
-pub struct AsyncReceiver<R, D: Dialect, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> {
-    io: R,
-    inbox: Inbox<D, BUF, STREAMS>,
-}
-
-impl<R, D: Dialect, const BUF: usize, const STREAMS: usize> AsyncReceiver<R, D, BUF, STREAMS> {
-    /// A receiver accepting signed frames unverified.
-    pub fn new(io: R) -> Self {
-        Self::with_parser(io, Parser::new())
-    }
-
-    /// A receiver through `parser` (one made with
-    /// [`Parser::with_signing`] verifies signatures).
-    pub fn with_parser(io: R, parser: Parser<D, STREAMS>) -> Self {
-        AsyncReceiver {
-            io,
-            inbox: Inbox::new(parser),
-        }
-    }
-
-    /// The parser: its counters and verifier.
-    pub fn parser(&self) -> &Parser<D, STREAMS> {
-        &self.inbox.parser
-    }
-
-    /// The reader.
-    pub fn get_ref(&self) -> &R {
-        &self.io
-    }
-
-    /// The reader (reading it directly bypasses the parser).
-    pub fn get_mut(&mut self) -> &mut R {
-        &mut self.io
-    }
-
-    /// The reader back; bytes read and not parsed yet are dropped.
-    pub fn into_inner(self) -> R {
-        self.io
-    }
-
-    /// As [`Link::recv_eof`](super::Link::recv_eof).
-    pub fn recv_eof(&mut self) -> Option<ReceivedFrame<D>> {
-        self.inbox.take_at_eof(|r| ReceivedFrame::from(&r))
-    }
-}
+pub type AsyncReceiver<R, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
+    ReceiverOf<Async, R, D, BUF, STREAMS>;
 
 impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
-    AsyncReceiver<R, D, BUF, STREAMS>
+    ReceiverOf<Async, R, D, BUF, STREAMS>
 {
     /// As [`AsyncLink::recv`].
     pub async fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<R::Error>> {
@@ -293,61 +184,13 @@ impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
 
 /// The sending half over an async `Write` (an async UART's `Tx`): the
 /// async twin of [`Sender`](super::Sender).
-#[derive(Debug)]
-pub struct AsyncSender<W> {
-    io: W,
-    outbox: Outbox,
-}
+pub type AsyncSender<W> = SenderOf<Async, W>;
 
-impl<W> AsyncSender<W> {
-    /// A sender of unsigned MAVLink 2 frames.
-    pub fn new(io: W, sysid: u8, compid: u8) -> Self {
-        Self::with_framer(io, Framer::new(), sysid, compid)
-    }
-
-    /// A sender framing through `framer` (its signer, version and
-    /// sequence numbers).
-    pub fn with_framer(io: W, framer: Framer, sysid: u8, compid: u8) -> Self {
-        AsyncSender {
-            io,
-            outbox: Outbox {
-                framer,
-                sysid,
-                compid,
-            },
-        }
-    }
-
-    /// The framer.
-    pub fn framer(&self) -> &Framer {
-        &self.outbox.framer
-    }
-
-    /// The framer, to set a signer, a clock or the protocol version.
-    pub fn framer_mut(&mut self) -> &mut Framer {
-        &mut self.outbox.framer
-    }
-
-    /// The writer.
-    pub fn get_ref(&self) -> &W {
-        &self.io
-    }
-
-    /// The writer.
-    pub fn get_mut(&mut self) -> &mut W {
-        &mut self.io
-    }
-
-    /// The writer back.
-    pub fn into_inner(self) -> W {
-        self.io
-    }
-}
-
-impl<W: Write> AsyncSender<W> {
+impl<W: Write> SenderOf<Async, W> {
     /// As [`AsyncLink::send`].
     pub async fn send(&mut self, msg: &(impl Encode + ?Sized)) -> Result<(), SendError<W::Error>> {
-        send(&mut self.io, &mut self.outbox, msg).await
+        let frame = self.framer.frame(self.sysid, self.compid, msg);
+        write_all(&mut self.io, frame.map_err(SendError::Frame)?).await
     }
 
     /// As [`AsyncLink::send_frame`].

@@ -1,10 +1,12 @@
 //! The blocking adapters, over `embedded_io::{Read, Write}`.
 
-use super::{Inbox, Outbox, RecvError, SendError, DEFAULT_BUF};
-use crate::framer::Framer;
+use super::parts::{Blocking, LinkOf, ReceiverOf, SenderOf};
+use super::{Inbox, RecvError, SendError, DEFAULT_BUF};
 use crate::message::{Dialect, Encode};
-use crate::parser::{Parser, Received};
+use crate::parser::Received;
 use crate::received::ReceivedFrame;
+#[cfg(doc)]
+use crate::{framer::Framer, parser::Parser};
 use embedded_io::{Error as _, ErrorKind, Read, ReadReady, Write};
 
 /// Reads until `inbox` yields a frame, handed to `f`.
@@ -50,7 +52,7 @@ fn read<R: Read, D: Dialect, const BUF: usize, const S: usize>(
     match io.read(inbox.space()) {
         Ok(0) => Err(RecvError::Eof),
         Ok(n) => {
-            inbox.filled(n);
+            inbox.received(n, None, false);
             Ok(())
         }
         Err(e) => Err(RecvError::Read(e)),
@@ -70,15 +72,6 @@ fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendError<W::
         }
     }
     Ok(())
-}
-
-fn send<W: Write>(
-    io: &mut W,
-    outbox: &mut Outbox,
-    msg: &(impl Encode + ?Sized),
-) -> Result<(), SendError<W::Error>> {
-    let frame = outbox.frame(msg).map_err(SendError::Frame)?;
-    write_all(io, frame)
 }
 
 /// MAVLink over one blocking `Read + Write` (a UART): receives frames with
@@ -145,80 +138,12 @@ fn send<W: Write>(
 /// assert_eq!((frame.message(), frame.header().compid), (Some(Ping(7)), 191));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub struct Link<T, D: Dialect, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> {
-    io: T,
-    inbox: Inbox<D, BUF, STREAMS>,
-    outbox: Outbox,
-}
+pub type Link<T, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
+    LinkOf<Blocking, T, D, BUF, STREAMS>;
 
-impl<T, D: Dialect, const BUF: usize, const STREAMS: usize> Link<T, D, BUF, STREAMS> {
-    /// A link over `io` sending as `sysid`/`compid`: MAVLink 2, unsigned;
-    /// signed frames received are accepted unverified.
-    pub fn new(io: T, sysid: u8, compid: u8) -> Self {
-        Self::with_parts(io, Parser::new(), Framer::new(), sysid, compid)
-    }
-
-    /// A link receiving through `parser` (one made with
-    /// [`Parser::with_signing`] verifies signatures) and sending through
-    /// `framer` (its signer, version and sequence numbers).
-    pub fn with_parts(
-        io: T,
-        parser: Parser<D, STREAMS>,
-        framer: Framer,
-        sysid: u8,
-        compid: u8,
-    ) -> Self {
-        Link {
-            io,
-            inbox: Inbox::new(parser),
-            outbox: Outbox {
-                framer,
-                sysid,
-                compid,
-            },
-        }
-    }
-
-    /// The parser: its counters (bad checksums, signatures, sequence
-    /// gaps…) and verifier.
-    pub fn parser(&self) -> &Parser<D, STREAMS> {
-        &self.inbox.parser
-    }
-
-    /// The framer.
-    pub fn framer(&self) -> &Framer {
-        &self.outbox.framer
-    }
-
-    /// The framer, to set a signer, a clock or the protocol version.
-    pub fn framer_mut(&mut self) -> &mut Framer {
-        &mut self.outbox.framer
-    }
-
-    /// The I/O.
-    pub fn get_ref(&self) -> &T {
-        &self.io
-    }
-
-    /// The I/O (reading or writing it directly bypasses the adapter).
-    pub fn get_mut(&mut self) -> &mut T {
-        &mut self.io
-    }
-
-    /// The I/O back; bytes read and not parsed yet are dropped.
-    pub fn into_inner(self) -> T {
-        self.io
-    }
-
-    /// At the end of the stream (after [`RecvError::Eof`]): the frames
-    /// the held bytes still make, decided as if nothing follows. Call until
-    /// `None`.
-    pub fn recv_eof(&mut self) -> Option<ReceivedFrame<D>> {
-        self.inbox.take_at_eof(|r| ReceivedFrame::from(&r))
-    }
-}
-
-impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize> Link<T, D, BUF, STREAMS> {
+impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
+    LinkOf<Blocking, T, D, BUF, STREAMS>
+{
     /// Waits for the next frame and returns a copy of it.
     pub fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<T::Error>> {
         self.recv_with(|r| ReceivedFrame::from(&r))
@@ -230,12 +155,12 @@ impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize> Link<T, D, BUF
         &mut self,
         f: impl FnOnce(Received<'_, D>) -> U,
     ) -> Result<U, RecvError<T::Error>> {
-        recv_with(&mut self.io, &mut self.inbox, f)
+        recv_with(&mut self.io, &mut self.core.inbox, f)
     }
 }
 
 impl<T: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
-    Link<T, D, BUF, STREAMS>
+    LinkOf<Blocking, T, D, BUF, STREAMS>
 {
     /// The next frame if the bytes waiting make one, without blocking:
     /// reads only while the reader is ready, `Ok(None)` once it is not.
@@ -248,17 +173,20 @@ impl<T: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
         &mut self,
         f: impl FnOnce(Received<'_, D>) -> U,
     ) -> Result<Option<U>, RecvError<T::Error>> {
-        try_recv_with(&mut self.io, &mut self.inbox, f)
+        try_recv_with(&mut self.io, &mut self.core.inbox, f)
     }
 }
 
-impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize> Link<T, D, BUF, STREAMS> {
+impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize>
+    LinkOf<Blocking, T, D, BUF, STREAMS>
+{
     /// Frames `msg` (next sequence number, signed if the framer has a
     /// signer, no earlier than what the link's verifier accepted: see
     /// [`Framer::adopt_from`]) and writes the whole frame. Does not flush.
     pub fn send(&mut self, msg: &(impl Encode + ?Sized)) -> Result<(), SendError<T::Error>> {
-        self.outbox.framer.adopt_from(self.inbox.parser.verifier());
-        send(&mut self.io, &mut self.outbox, msg)
+        self.core.adopt();
+        let frame = self.core.framer.frame(self.sysid, self.compid, msg);
+        write_all(&mut self.io, frame.map_err(SendError::Frame)?)
     }
 
     /// Writes a frame's bytes as they are (to forward a received frame:
@@ -276,53 +204,12 @@ impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize> Link<T, D, BU
 /// The receiving half: MAVLink frames from a blocking `Read` (a UART's
 /// `Rx`), through the crate's [`Parser`]. The same as [`Link`]'s receive
 /// side; see the [module docs](super) for an example.
-pub struct Receiver<R, D: Dialect, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> {
-    io: R,
-    inbox: Inbox<D, BUF, STREAMS>,
-}
+pub type Receiver<R, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
+    ReceiverOf<Blocking, R, D, BUF, STREAMS>;
 
-impl<R, D: Dialect, const BUF: usize, const STREAMS: usize> Receiver<R, D, BUF, STREAMS> {
-    /// A receiver accepting signed frames unverified.
-    pub fn new(io: R) -> Self {
-        Self::with_parser(io, Parser::new())
-    }
-
-    /// A receiver through `parser` (one made with
-    /// [`Parser::with_signing`] verifies signatures).
-    pub fn with_parser(io: R, parser: Parser<D, STREAMS>) -> Self {
-        Receiver {
-            io,
-            inbox: Inbox::new(parser),
-        }
-    }
-
-    /// The parser: its counters and verifier.
-    pub fn parser(&self) -> &Parser<D, STREAMS> {
-        &self.inbox.parser
-    }
-
-    /// The reader.
-    pub fn get_ref(&self) -> &R {
-        &self.io
-    }
-
-    /// The reader (reading it directly bypasses the parser).
-    pub fn get_mut(&mut self) -> &mut R {
-        &mut self.io
-    }
-
-    /// The reader back; bytes read and not parsed yet are dropped.
-    pub fn into_inner(self) -> R {
-        self.io
-    }
-
-    /// As [`Link::recv_eof`].
-    pub fn recv_eof(&mut self) -> Option<ReceivedFrame<D>> {
-        self.inbox.take_at_eof(|r| ReceivedFrame::from(&r))
-    }
-}
-
-impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize> Receiver<R, D, BUF, STREAMS> {
+impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
+    ReceiverOf<Blocking, R, D, BUF, STREAMS>
+{
     /// As [`Link::recv`].
     pub fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<R::Error>> {
         self.recv_with(|r| ReceivedFrame::from(&r))
@@ -338,7 +225,7 @@ impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize> Receiver<R, D,
 }
 
 impl<R: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
-    Receiver<R, D, BUF, STREAMS>
+    ReceiverOf<Blocking, R, D, BUF, STREAMS>
 {
     /// As [`Link::try_recv`].
     pub fn try_recv(&mut self) -> Result<Option<ReceivedFrame<D>>, RecvError<R::Error>> {
@@ -358,61 +245,13 @@ impl<R: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
 /// signing) as system `sysid`, component `compid`, written whole to a
 /// blocking `Write` (a UART's `Tx`). The same as [`Link`]'s send side;
 /// see the [module docs](super) for an example.
-#[derive(Debug)]
-pub struct Sender<W> {
-    io: W,
-    outbox: Outbox,
-}
+pub type Sender<W> = SenderOf<Blocking, W>;
 
-impl<W> Sender<W> {
-    /// A sender of unsigned MAVLink 2 frames.
-    pub fn new(io: W, sysid: u8, compid: u8) -> Self {
-        Self::with_framer(io, Framer::new(), sysid, compid)
-    }
-
-    /// A sender framing through `framer` (its signer, version and
-    /// sequence numbers).
-    pub fn with_framer(io: W, framer: Framer, sysid: u8, compid: u8) -> Self {
-        Sender {
-            io,
-            outbox: Outbox {
-                framer,
-                sysid,
-                compid,
-            },
-        }
-    }
-
-    /// The framer.
-    pub fn framer(&self) -> &Framer {
-        &self.outbox.framer
-    }
-
-    /// The framer, to set a signer, a clock or the protocol version.
-    pub fn framer_mut(&mut self) -> &mut Framer {
-        &mut self.outbox.framer
-    }
-
-    /// The writer.
-    pub fn get_ref(&self) -> &W {
-        &self.io
-    }
-
-    /// The writer.
-    pub fn get_mut(&mut self) -> &mut W {
-        &mut self.io
-    }
-
-    /// The writer back.
-    pub fn into_inner(self) -> W {
-        self.io
-    }
-}
-
-impl<W: Write> Sender<W> {
+impl<W: Write> SenderOf<Blocking, W> {
     /// As [`Link::send`].
     pub fn send(&mut self, msg: &(impl Encode + ?Sized)) -> Result<(), SendError<W::Error>> {
-        send(&mut self.io, &mut self.outbox, msg)
+        let frame = self.framer.frame(self.sysid, self.compid, msg);
+        write_all(&mut self.io, frame.map_err(SendError::Frame)?)
     }
 
     /// As [`Link::send_frame`].

@@ -115,6 +115,7 @@
 #[cfg(feature = "embedded-io-async")]
 mod asynch;
 mod blocking;
+mod parts;
 #[cfg(test)]
 mod tests;
 
@@ -128,11 +129,17 @@ pub use embedded_io;
 /// matches.
 #[cfg(feature = "embedded-io-async")]
 pub use embedded_io_async;
+#[cfg(feature = "embedded-io-async")]
+pub use parts::Async;
+pub use parts::{Blocking, LinkOf, ReceiverOf, SenderOf};
 
 use crate::frame::FrameError;
+#[cfg(doc)]
 use crate::framer::Framer;
-use crate::message::{Dialect, Encode};
-use crate::parser::{Parser, Received};
+use crate::message::Dialect;
+use crate::parser::Parser;
+#[cfg(doc)]
+use crate::parser::Received;
 #[cfg(doc)]
 use crate::ReceivedFrame;
 use core::fmt;
@@ -207,82 +214,14 @@ impl<E: core::error::Error + 'static> core::error::Error for SendError<E> {
     }
 }
 
-/// The receive side shared by every adapter: the parser and the bytes read
-/// but not parsed yet (`buf[start..end]`).
-struct Inbox<D: Dialect, const BUF: usize, const STREAMS: usize> {
-    parser: Parser<D, STREAMS>,
-    buf: [u8; BUF],
-    start: usize,
-    end: usize,
-}
+/// The receive side of every adapter: the link core's, over a read buffer
+/// of `BUF` bytes.
+type Inbox<D, const BUF: usize, const STREAMS: usize> = crate::link::Inbox<D, [u8; BUF], STREAMS>;
 
-impl<D: Dialect, const BUF: usize, const STREAMS: usize> Inbox<D, BUF, STREAMS> {
-    fn new(parser: Parser<D, STREAMS>) -> Self {
-        // A read into an empty buffer returns 0, which would read as the end
-        // of the stream forever: refuse it when the type is built.
-        const { assert!(BUF > 0, "the read buffer must hold at least one byte") };
-        Inbox {
-            parser,
-            buf: [0; BUF],
-            start: 0,
-            end: 0,
-        }
-    }
-
-    /// The next frame from the bytes read so far (and those the parser
-    /// holds), handed to `f`; `Err(f)` when they hold none, and then the
-    /// read buffer is free for [`space`](Self::space).
-    ///
-    /// Taking a closure rather than returning the frame keeps the borrow
-    /// checker content in the callers' read loops (a borrow returned from
-    /// a loop iteration conflicts with the next read).
-    fn take<T, F: FnOnce(Received<'_, D>) -> T>(&mut self, f: F) -> Result<T, F> {
-        let mut input = self.buf.get(self.start..self.end).unwrap_or(&[]);
-        let got = self.parser.next(&mut input);
-        // The parser consumes all its input before it says None; the read
-        // buffer is free then whatever it did.
-        self.start = match got {
-            Some(_) => self.end - input.len(),
-            None => self.end,
-        };
-        match got {
-            Some(received) => Ok(f(received)),
-            None => Err(f),
-        }
-    }
-
-    /// The buffer to read into (all consumed: after `take` said `Err`).
-    fn space(&mut self) -> &mut [u8] {
-        &mut self.buf
-    }
-
-    /// `n` bytes were read into [`space`](Self::space); a reader claiming
-    /// more than the buffer held is believed up to the buffer's length.
-    fn filled(&mut self, n: usize) {
-        self.start = 0;
-        self.end = n.min(BUF);
-    }
-
-    /// At the end of the stream: the bytes held, decided as if nothing
-    /// follows (call until `None`).
-    fn take_at_eof<T>(&mut self, f: impl FnOnce(Received<'_, D>) -> T) -> Option<T> {
-        match self.take(f) {
-            Ok(t) => Some(t),
-            Err(f) => self.parser.flush().map(f),
-        }
-    }
-}
-
-/// The send side shared by every adapter: the framer and our ids.
-#[derive(Debug, Clone)]
-struct Outbox {
-    framer: Framer,
-    sysid: u8,
-    compid: u8,
-}
-
-impl Outbox {
-    fn frame(&mut self, msg: &(impl Encode + ?Sized)) -> Result<&[u8], FrameError> {
-        self.framer.frame(self.sysid, self.compid, msg)
-    }
+/// An inbox over a read buffer of `BUF` bytes.
+fn inbox<D: Dialect, const BUF: usize, const S: usize>(parser: Parser<D, S>) -> Inbox<D, BUF, S> {
+    // A read into an empty buffer returns 0, which would read as the end
+    // of the stream forever: refuse it when the type is built.
+    const { assert!(BUF > 0, "the read buffer must hold at least one byte") };
+    Inbox::new(parser, [0; BUF])
 }

@@ -12,6 +12,7 @@ mod test_dialect;
 
 use super::*;
 use crate::frame::{Version, IFLAG_SIGNED};
+use crate::framer::Framer;
 use crate::parser::Unsigned;
 use crate::signing::{Signer, Verifier};
 use core::cell::RefCell;

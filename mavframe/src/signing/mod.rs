@@ -59,9 +59,10 @@
 //! with timestamp `t` is accepted by the link's verifier, the link's signer
 //! signs its next frame at `max(own, t)` or later (the C library's
 //! `mavlink_signature_check` sets its signing timestamp so). The front ends
-//! do it on every link that verifies and signs: the router's links, the
-//! blocking and async connections (split halves too) and the `embedded`
-//! `Link`s; elsewhere call `Framer::adopt_from` with the parser's verifier.
+//! do it on every link that verifies and signs (the link core of
+//! `crate::link` under the router's links, the blocking connections, split
+//! halves too, and the `embedded` `Link`s); elsewhere call
+//! `Framer::adopt_from` with the parser's verifier.
 //! So a clock skew between two signers of the key does not stop their link:
 //! the frames of the one ahead are accepted by the one behind (no upper
 //! bound), which jumps forward, and its next frames are accepted by the one

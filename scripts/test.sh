@@ -83,7 +83,7 @@ set -m
     # (>= 1.83) builds each packaged tarball against the others through a local
     # registry overlay, so path dependencies not yet on crates.io resolve.
     # --allow-dirty: package the working tree as it is (a clean clone is clean).
-    PUBLISHED=(-p mavframe -p mavgen-rs -p fbwag-dialect -p fbwag-dialect-cc -p fbwag-delegation -p fbwag-cli)
+    PUBLISHED=(-p mavframe -p mavgen-rs -p fbwag-dialect -p fbwag-dialect-cc -p fbwag-delegation -p fbwag-model -p fbwag-cli)
     bstep "cargo package: ${PUBLISHED[*]}"
     # The verification resolves the packaged crates as registry crates, which
     # cargo takes as immutable per version: it reuses their unpacked copies in
@@ -94,7 +94,7 @@ set -m
     # its own, emptied first.
     PACKAGED=target/package-verify
     rm -rf "$PACKAGED"
-    for crate in mavframe mavgen-rs fbwag-dialect fbwag-dialect-cc fbwag-delegation fbwag-cli; do
+    for crate in mavframe mavgen-rs fbwag-dialect fbwag-dialect-cc fbwag-delegation fbwag-model fbwag-cli; do
         version="$(cargo pkgid -p "$crate" | sed 's/.*[#@]//')"
         rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/"$crate-$version"
     done

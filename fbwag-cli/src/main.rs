@@ -528,6 +528,17 @@ enum Command {
         /// against loss) as SVG.
         #[arg(long, value_name = "FILE", requires = "sweep")]
         svg: Option<PathBuf>,
+        /// Check the protocol exhaustively instead (stateright, breadth
+        /// first, on the real nodes): prints the states explored, the
+        /// invariants checked and, for a violation, its shortest
+        /// counterexample as a timeline; exit status 1 on a violation.
+        /// With --json the last line is one JSON object.
+        #[arg(long, conflicts_with_all = ["table1", "sweep", "scenario", "list"])]
+        model_check: bool,
+        /// With --model-check: every state within N steps of the start is
+        /// explored (default 8).
+        #[arg(long, value_name = "N", requires = "model_check", value_parser = clap::value_parser!(u16).range(1..=64))]
+        depth: Option<u16>,
     },
 }
 
@@ -782,6 +793,8 @@ fn main() -> ExitCode {
             seed,
             json,
             svg,
+            model_check,
+            depth,
         } => sim::run(sim::SimArgs {
             table1,
             sweep,
@@ -793,6 +806,8 @@ fn main() -> ExitCode {
             seed,
             json,
             svg,
+            model_check,
+            depth: depth.map(usize::from),
         }),
         Command::Cc {
             link,

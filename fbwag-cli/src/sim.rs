@@ -17,6 +17,8 @@ pub struct SimArgs {
     pub seed: u64,
     pub json: bool,
     pub svg: Option<PathBuf>,
+    pub model_check: bool,
+    pub depth: Option<usize>,
 }
 
 fn scenario(name: &str) -> Result<Scenario, String> {
@@ -48,6 +50,9 @@ fn violations(rows: &[Row]) -> Result<(), String> {
 }
 
 pub fn run(a: SimArgs) -> Result<bool, String> {
+    if a.model_check {
+        return model_check(&a);
+    }
     if a.list {
         for s in Scenario::ALL {
             println!("{}", s.name());
@@ -146,4 +151,80 @@ pub fn run(a: SimArgs) -> Result<bool, String> {
     }
     violations(&[row])?;
     Ok(true)
+}
+
+/// `fbwag sim --model-check`: the exhaustive check of the real nodes
+/// (fbwag-model), breadth first to `--depth`; exit status 1 when an
+/// invariant is broken.
+fn model_check(a: &SimArgs) -> Result<bool, String> {
+    let mut opts = fbwag_model::CheckOptions::default();
+    if let Some(d) = a.depth {
+        opts.depth = d;
+    }
+    eprintln!(
+        "model check: breadth first to depth {} on {} threads…",
+        opts.depth, opts.threads
+    );
+    let report = fbwag_model::check(opts, |states, depth| {
+        eprintln!("  {states} states, depth {depth}");
+    });
+    print_model_report(&report, a.json);
+    Ok(report.violations.is_empty())
+}
+
+fn print_model_report(r: &fbwag_model::Report, json: bool) {
+    let scope = if r.complete {
+        format!("every state within {} steps", r.depth)
+    } else {
+        format!("stopped at the first violation, at depth {}", r.depth)
+    };
+    println!(
+        "states explored: {} ({scope}; {} transitions), {:.1} s",
+        r.states,
+        r.generated,
+        r.elapsed.as_secs_f64()
+    );
+    println!("invariants checked: {}", r.invariants.join(", "));
+    let reached: Vec<String> = r
+        .reached
+        .iter()
+        .map(|(name, steps)| format!("{name} ({steps} steps)"))
+        .collect();
+    println!("reached: {}", reached.join(", "));
+    if r.violations.is_empty() {
+        println!("violations: none");
+    }
+    for v in &r.violations {
+        println!(
+            "VIOLATION of {} (shortest counterexample, {} steps):",
+            v.invariant, v.steps
+        );
+        for line in &v.trace {
+            println!("  {line}");
+        }
+    }
+    if json {
+        let violations: Vec<_> = r
+            .violations
+            .iter()
+            .map(|v| {
+                serde_json::json!({
+                    "invariant": v.invariant,
+                    "steps": v.steps,
+                    "trace": v.trace,
+                })
+            })
+            .collect();
+        let line = serde_json::json!({
+            "states": r.states,
+            "generated": r.generated,
+            "depth": r.depth,
+            "complete": r.complete,
+            "seconds": r.elapsed.as_secs_f64(),
+            "invariants": r.invariants,
+            "reached": r.reached.iter().map(|(n, steps)| serde_json::json!({"state": n, "steps": steps})).collect::<Vec<_>>(),
+            "violations": violations,
+        });
+        println!("{line}");
+    }
 }

@@ -80,6 +80,12 @@ impl CcConfig {
         if self.control_period >= self.control_lease {
             return Err(ConfigError::Order("control_period", "control_lease"));
         }
+        // The belief of being in control must end within one retry period
+        // of the FC's decision (found by the model check: a 3 s lease let
+        // the companion believe it controlled a restarted FC for 3 s).
+        if self.control_lease >= self.ack_retry_interval {
+            return Err(ConfigError::Order("control_lease", "ack_retry_interval"));
+        }
         Ok(())
     }
 }

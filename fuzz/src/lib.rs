@@ -135,8 +135,13 @@ pub fn parser(data: &[u8]) {
         if *known {
             let m = Dialect::meta(f.msg_id()).expect("known id");
             assert!(f.check_crc(m.crc_extra), "known frame with a bad checksum");
-            if policy != 0 && f.is_signed() {
-                assert!(*authenticated, "signed frame accepted unverified");
+            // Signed and returned unverified only where unsigned frames
+            // are accepted, and only with the key's signature (a frame
+            // whose timestamp is stale).
+            if policy != 0 && f.is_signed() && !*authenticated {
+                assert_eq!(policy, 1, "signed frame accepted unverified");
+                let key_signed = Verifier::<1>::new(KEY).signed_with_key(&f);
+                assert!(key_signed, "forged signed frame accepted unverified");
             }
         }
         if policy == 2 {

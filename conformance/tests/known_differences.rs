@@ -287,6 +287,42 @@ fn pymavlink_forged_signature_advances_stream_timestamp() {
     assert_eq!(stats.bad_signature, 1);
 }
 
+/// A replay (a frame the key signed, its timestamp not newer than its
+/// stream's last) where unsigned frames are accepted: pymavlink and the C
+/// library drop it; mavframe returns it unauthenticated, as it would the
+/// same frame unsigned (it can act on nothing that needs a signature), so
+/// that a listener can answer a key holder whose clock is behind. Counted
+/// as a stale timestamp either way. Where unsigned frames are refused, all
+/// three drop it.
+#[test]
+fn a_replay_is_returned_unauthenticated_where_unsigned_frames_are_accepted() {
+    let hb = fbwag("HEARTBEAT");
+    let header = Header {
+        seq: 0,
+        sysid: 1,
+        compid: 1,
+    };
+    let f1 = build_frame(hb, Mode::V2s, header, &[1; 9], 0, 1000, &KEY);
+    let stream = [f1.clone(), f1.clone()].concat();
+    let (py, c) = peer_streams("fbwag", Policy::KeyAcceptUnsigned, &stream);
+    assert_eq!(
+        py,
+        format!("{}\t-\t0", hex(&f1)),
+        "pymavlink drops the replay"
+    );
+    assert_eq!(c, hex(&f1), "the C library drops the replay");
+    let (got, stats) =
+        rust_parse::<fbwag_dialect::Dialect>(&stream, Policy::KeyAcceptUnsigned, || 0);
+    let got: Vec<_> = got
+        .iter()
+        .map(|g| (g.bytes.clone(), g.authenticated))
+        .collect();
+    assert_eq!(got, vec![(f1.clone(), true), (f1.clone(), false)]);
+    assert_eq!(stats.stale_timestamp, 1);
+    let (got, _) = rust_parse::<fbwag_dialect::Dialect>(&stream, Policy::KeyRejectUnsigned, || 0);
+    assert_eq!(got.len(), 1);
+}
+
 /// A signed frame cut inside its signature block, followed by a good frame:
 /// the checksum is intact, so without a key the cut frame plus the next
 /// frame's first bytes is a valid frame for all three parsers, and that good

@@ -6,7 +6,7 @@ use crate::cc::CcConfig;
 use crate::control::{Control, Controller, WingsLevel};
 use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
 use crate::outbox::Outbox;
-use crate::{wire, Instant, Origin, Trust};
+use crate::{wire, Instant};
 use core::time::Duration;
 use fbwag_dialect::{Message, MessageView};
 
@@ -165,32 +165,12 @@ impl CompanionNode {
     /// trusted frames act, and may make their source the peer.
     fn on_fc_link(&mut self, now: Instant, a: &Arrival) -> Fate {
         let from = sender(&a.frame);
-        let trusted = Trust {
-            peer: self.cfg.fc,
-            require_signed: self.cfg.require_signed,
-        }
-        .admits(Origin {
-            peer: from,
-            authenticated: a.authenticated,
-            seq: 0,
-        });
-        let out = &mut self.out;
-        let admitted =
-            self.core
-                .admits_source(a, now, trusted, a.authenticated, &mut |link, peers| {
-                    out.push(Output::Peers { link, peers })
-                });
-        if !admitted {
-            if from == self.cfg.fc {
-                if let Some(to) = self.core.time_beacon(a, now) {
-                    self.out.push(Output::TransmitTo {
-                        link: a.link,
-                        to,
-                        message: Message::Heartbeat(wire::cc_heartbeat()),
-                    });
-                }
-            }
-            return self.core.drop(DropReason::NotPeer);
+        let heartbeat = || Message::Heartbeat(wire::cc_heartbeat());
+        if let Err(dropped) = self
+            .core
+            .peer_source(a, now, self.cfg.fc, &mut self.out, heartbeat)
+        {
+            return dropped;
         }
         let verdict = self.engine.handle_frame(now, &a.frame, a.authenticated);
         if from == self.cfg.fc && verdict == Verdict::Untrusted {

@@ -6,7 +6,7 @@ use super::{sender, Arrival, Core, DropReason, Drops, Fate, LinkId, LinkSpec, No
 use crate::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
 use crate::fc::FcConfig;
 use crate::outbox::Outbox;
-use crate::{wire, Instant, Origin, Trust};
+use crate::{wire, Instant};
 use fbwag_dialect::Message;
 
 /// The flight controller's node: the [`FcEngine`] and the policy of its
@@ -108,33 +108,14 @@ impl FcNode {
         if from == self.cfg.own {
             return self.core.drop(DropReason::OwnIds);
         }
-        let trust = Trust {
-            peer: self.cfg.companion,
-            require_signed: self.cfg.require_signed,
-        };
-        let trusted = trust.admits(Origin {
-            peer: from,
-            authenticated: a.authenticated,
-            seq: 0,
-        });
-        let out = &mut self.out;
-        let admitted =
-            self.core
-                .admits_source(&a, now, trusted, a.authenticated, &mut |link, peers| {
-                    out.push(Output::Peers { link, peers })
-                });
-        if !admitted {
-            if from == self.cfg.companion {
-                if let Some(to) = self.core.time_beacon(&a, now) {
-                    let authority = self.engine.authority();
-                    self.out.push(Output::TransmitTo {
-                        link: a.link,
-                        to,
-                        message: Message::Heartbeat(wire::fc_heartbeat(authority)),
-                    });
-                }
-            }
-            return self.core.drop(DropReason::NotPeer);
+        let authority = self.engine.authority();
+        let heartbeat = || Message::Heartbeat(wire::fc_heartbeat(authority));
+        let peer = self.cfg.companion;
+        if let Err(dropped) = self
+            .core
+            .peer_source(&a, now, peer, &mut self.out, heartbeat)
+        {
+            return dropped;
         }
         // The engine sees every frame of the peer's address: it acts on the
         // companion's trusted ones and counts the rest.

@@ -435,6 +435,48 @@ impl Core {
         Some(source)
     }
 
+    /// The source rule of a peer link, once for the FC and the companion:
+    /// `Ok(trusted)` when `a` may go on (from the link's peer, or a trusted
+    /// frame that makes its source the peer: `Trust` with `peer`'s ids);
+    /// otherwise a `not_peer` drop, after a time beacon (`heartbeat`, the
+    /// node's own) to a key holder behind in time that claims `peer`'s ids.
+    fn peer_source<E: Copy>(
+        &mut self,
+        a: &Arrival,
+        now: Instant,
+        peer: Peer,
+        out: &mut crate::outbox::Outbox<Output<E>, 24>,
+        heartbeat: impl FnOnce() -> Message,
+    ) -> Result<bool, Fate> {
+        let from = sender(&a.frame);
+        let trusted = crate::Trust {
+            peer,
+            require_signed: self.require_signed,
+        }
+        .admits(crate::Origin {
+            peer: from,
+            authenticated: a.authenticated,
+            seq: 0,
+        });
+        let admitted = self.admits_source(a, now, trusted, a.authenticated, &mut |link, peers| {
+            out.push(Output::Peers { link, peers })
+        });
+        if admitted {
+            return Ok(trusted);
+        }
+        if from == peer {
+            if let Some(to) = self.time_beacon(a, now) {
+                let message = heartbeat();
+                out.push(Output::TransmitTo {
+                    link: a.link,
+                    to,
+                    message,
+                });
+            }
+        }
+        Err(self.drop(DropReason::NotPeer))
+    }
+
     /// Counts a drop.
     fn drop(&mut self, reason: DropReason) -> Fate {
         self.drops.count(reason);

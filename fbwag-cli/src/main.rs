@@ -243,6 +243,19 @@ enum Command {
         /// are forwarded untouched (signed ones stay verifiable).
         #[arg(long = "out", value_name = "CONN")]
         outs: Vec<String>,
+        /// Like --out, for a ground tool that cannot sign (MAVSDK, MAVProxy
+        /// without a key) where the FC requires signatures: the link is
+        /// trusted like --sign-key, and what arrives on it goes on to the
+        /// FC signed with the key. Whoever can send into it can command
+        /// the aircraft, so it must be local: only loopback addresses or a
+        /// serial port, unless --trusted-out-remote. On a plain --out, an
+        /// unsigned tool under --require-signed gets telemetry only.
+        #[arg(long = "trusted-out", value_name = "CONN", requires = "sign_key")]
+        trusted_outs: Vec<String>,
+        /// Accept --trusted-out addresses that are not loopback (a trusted
+        /// network of your own).
+        #[arg(long, requires = "trusted_outs")]
+        trusted_out_remote: bool,
         /// What --out links route to the FC link goes at most this many
         /// bytes a second (or `off`); the companion's own frames are never
         /// held back. Keep it below what the FC link carries: then a flood
@@ -813,6 +826,8 @@ fn main() -> ExitCode {
             link,
             peer,
             outs,
+            trusted_outs,
+            trusted_out_remote,
             routed_rate,
             autonomy,
             autonomy_peer,
@@ -850,6 +865,15 @@ fn main() -> ExitCode {
                     .iter()
                     .map(|e| parse("--out", e))
                     .collect::<Result<_, _>>()?,
+                trusted_outs: trusted_outs
+                    .iter()
+                    .map(|e| {
+                        let endpoint = parse("--trusted-out", e)?;
+                        live::cc::check_trusted(&endpoint, trusted_out_remote)
+                            .map_err(|err| format!("--trusted-out {e}: {err}"))?;
+                        Ok(endpoint)
+                    })
+                    .collect::<Result<_, String>>()?,
                 autonomy: autonomy
                     .as_deref()
                     .map(|e| parse("--autonomy", e))

@@ -159,6 +159,7 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
         run_cc(
             CcOptions {
                 outs: Vec::new(),
+                trusted_outs: Vec::new(),
                 autonomy: None,
                 autonomy_peer: None,
                 autonomy_fallback: Default::default(),

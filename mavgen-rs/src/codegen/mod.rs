@@ -365,34 +365,6 @@ fn parallel_map<J: Sync, R: Send>(jobs: &[J], f: impl Fn(&J) -> R + Sync) -> Vec
     results.into_iter().map(|(_, r)| r).collect()
 }
 
-/// Puts a blank line after every item that ends at the top level or at the
-/// first indentation level (methods), which prettyplease leaves packed.
-fn space_items(code: &str) -> String {
-    let mut out = String::with_capacity(code.len() + code.len() / 20);
-    let mut prev = "";
-    for line in code.lines() {
-        // A top-level macro call (`flag_set!(…);`) ends an item too.
-        let closes_item = prev == "}"
-            || prev == "    }"
-            || prev == "};"
-            || prev == "    };"
-            || prev == ");"
-            || (!prev.starts_with(' ') && prev.contains("!(") && prev.ends_with(");"));
-        let same_level = if prev == "    }" || prev == "    };" {
-            line.starts_with("    ") && !line.starts_with("    }")
-        } else {
-            !line.is_empty()
-        };
-        if closes_item && same_level && !line.starts_with('}') {
-            out.push('\n');
-        }
-        out.push_str(line);
-        out.push('\n');
-        prev = line;
-    }
-    out
-}
-
 /// Parses attribute text such as `#[derive(Hash)] #[serde(rename_all = "lowercase")]`:
 /// one or more outer attributes.
 pub(crate) fn parse_attributes(text: &str) -> Result<Vec<syn::Attribute>, String> {
@@ -584,6 +556,19 @@ impl Gen<'_> {
             })
             .collect();
         let file: syn::File = syn::parse2(quote!(#(#tokens)*)).map_err(|e| e.to_string())?;
-        Ok(space_items(&prettyplease::unparse(&file)))
+        // prettyplease prints a file's items back to back: printing each
+        // alone and joining them puts a blank line between items.
+        let items: Vec<String> = file
+            .items
+            .into_iter()
+            .map(|item| {
+                prettyplease::unparse(&syn::File {
+                    shebang: None,
+                    attrs: Vec::new(),
+                    items: vec![item],
+                })
+            })
+            .collect();
+        Ok(items.join("\n"))
     }
 }

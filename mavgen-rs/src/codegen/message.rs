@@ -9,8 +9,10 @@ use crate::names::{self, camel, doc_lines, ident};
 use proc_macro2::{Ident, TokenStream};
 use quote::{format_ident, quote};
 
-/// The names of a message's generated types.
+/// The names of a message's generated types, and the runtime's path
+/// (parsed once per message, not per field).
 struct Names {
+    rt: TokenStream,
     /// `FooBar`, as text for docs.
     base: String,
     owned: Ident,
@@ -33,6 +35,7 @@ impl Gen<'_> {
     pub(super) fn message(&self, module: usize, m: &Message, layout: &Layout) -> TokenStream {
         let base = camel(&m.name);
         let names = Names {
+            rt: self.rt(),
             owned: format_ident!("{}", base),
             view: format_ident!("{}View", base),
             writer: format_ident!("{}Mut", base),
@@ -58,7 +61,7 @@ impl Gen<'_> {
         names: &Names,
         parts: &mut FieldParts,
     ) {
-        let rt = &self.rt();
+        let rt = &names.rt;
         let rust_name = names::field(&f.name);
         let fid = ident(&rust_name);
         let off = lit(offset as u64);
@@ -259,7 +262,7 @@ impl Gen<'_> {
         names: &Names,
         parts: &FieldParts,
     ) -> TokenStream {
-        let rt = &self.rt();
+        let rt = &names.rt;
         let (owned, view) = (&names.owned, &names.view);
         let (id, name, crc, min, max) = (
             lit(m.id),
@@ -312,7 +315,7 @@ impl Gen<'_> {
 
     /// `impl mavframe::Message` for the owned struct.
     fn message_impl(&self, names: &Names) -> TokenStream {
-        let rt = &self.rt();
+        let rt = &names.rt;
         let (owned, view) = (&names.owned, &names.view);
         quote! {
             impl #rt::Message for #owned {
@@ -378,7 +381,7 @@ impl Gen<'_> {
 
     /// The in-place writer and its setters.
     fn writer_items(&self, names: &Names, setters: &[TokenStream]) -> TokenStream {
-        let rt = &self.rt();
+        let rt = &names.rt;
         let (base, owned, view, writer) = (&names.base, &names.owned, &names.view, &names.writer);
         let mut_doc =
             format!(" Writes the fields of a [`{base}`](struct@{base}) payload in place.");

@@ -3,7 +3,15 @@
 //!
 //! Items are built as token streams with `quote` and printed with
 //! `prettyplease`, so the output is deterministic and reads like hand-written
-//! code.
+//! code. Each top-level item is printed alone and the items are joined with
+//! a blank line (prettyplease packs a file's items together).
+//!
+//! Where each part is built: `message` (a message's owned struct, view and
+//! writer), `field` (per kind of field, its part of each of those), `enums`
+//! (value enums and flag sets), `dialect` (the root file's `Message`,
+//! `MessageView`, `MESSAGES`, `Dialect`), `check` (Rust name collisions,
+//! found before anything is built); this file chooses what to generate,
+//! names the modules and assembles the files.
 
 mod check;
 mod dialect;

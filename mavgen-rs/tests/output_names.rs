@@ -205,3 +205,34 @@ fn two_inputs_with_one_output_name_are_refused_by_the_cli() {
     );
     assert!(listing(&out).is_empty(), "wrote {:?}", listing(&out));
 }
+
+#[test]
+fn an_included_keyword_file_is_referred_to_by_its_escaped_module() {
+    let tmp = TempDir::new("included_keyword");
+    std::fs::write(
+        tmp.0.join("fn.xml"),
+        "<mavlink><enums><enum name=\"MY_E\"><entry value=\"1\" name=\"MY_E_A\"/></enum></enums></mavlink>\n",
+    )
+    .unwrap();
+    let root = tmp.0.join("root.xml");
+    std::fs::write(
+        &root,
+        "<mavlink><include>fn.xml</include><messages>\n\
+         <message id=\"2\" name=\"ROOT_M\"><field type=\"uint8_t\" name=\"e\" enum=\"MY_E\">e</field></message>\n\
+         </messages></mavlink>\n",
+    )
+    .unwrap();
+    let generated = Config::new()
+        .generate(&[&root])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let files = &generated.output.files;
+    let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["mod.rs", "root.rs", "fn_.rs"]);
+    assert_eq!(declared_modules(&files[0].1), ["root", "fn_"]);
+    syn::parse_file(&files[1].1).unwrap_or_else(|e| panic!("root.rs: {e}"));
+    assert!(
+        files[1].1.contains("pub e: super::fn_::MyE,"),
+        "{}",
+        files[1].1
+    );
+}

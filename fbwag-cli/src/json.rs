@@ -1,7 +1,6 @@
 //! Frames ↔ JSON lines. The envelope comes from the frame and the dialect's
-//! table; the `fields` object from the generated messages' serde impls, in
-//! their compact form (enums as numbers, as pymavlink prints them), written
-//! and read by the small serde format of [`fields`], keys in wire order.
+//! table; the `fields` object from the generated messages' serde impls
+//! (see [`fields`]), keys in wire order.
 //!
 //! One object per frame:
 //! `{"version":2,"seq":0,"sysid":1,"compid":1,"msgid":15001,"name":"FBWAG_NOTICE","signed":false,"fields":{…}}`.
@@ -22,16 +21,18 @@
 //! rounding beyond the nearest representable float, and every byte the
 //! line describes must land in the frame (see [`json_to_frame`]).
 
+mod error;
 mod fields;
 
+pub use error::Error;
+
 use fbwag_dialect::mavframe::frame::{
-    truncated_len, Frame, Header, Version, IFLAG_SIGNED, MAX_FRAME_LEN,
+    truncated_len, Frame, FrameError, Header, Version, IFLAG_SIGNED, MAX_FRAME_LEN,
 };
 use fbwag_dialect::mavframe::{Dialect as _, MessageMeta, Signer};
 use fbwag_dialect::Dialect;
-use serde::de::{Deserialize, Deserializer, Error as _, MapAccess, Visitor};
+use serde::de::{Deserialize, DeserializeOwned, Deserializer, Error as _, MapAccess, Visitor};
 use serde_json::value::RawValue;
-use serde_json::Value;
 use std::collections::HashSet;
 use std::fmt::{self, Write as _};
 
@@ -45,19 +46,22 @@ pub fn hex(bytes: &[u8]) -> String {
 }
 
 /// Bytes of hex text, whitespace ignored.
-pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
+pub fn unhex(text: &str) -> Result<Vec<u8>, Error> {
+    unhex_key(None, text)
+}
+
+/// Bytes of hex text, the value of `key` if it is one.
+fn unhex_key(key: Option<&'static str>, text: &str) -> Result<Vec<u8>, Error> {
     let digits: Vec<u8> = text.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
     if digits.len() % 2 != 0 {
-        return Err(format!("odd number of hex digits ({})", digits.len()));
+        return Err(Error::OddHex(key, digits.len()));
     }
-    digits
-        .chunks(2)
-        .enumerate()
-        .map(|(i, pair)| {
-            let s = std::str::from_utf8(pair)
-                .map_err(|_| format!("non-ASCII byte in hex at digit {}", 2 * i))?;
-            u8::from_str_radix(s, 16).map_err(|_| format!("`{s}` is not hex (digit {})", 2 * i))
-        })
+    let nibble = |i: usize| match (digits[i] as char).to_digit(16) {
+        Some(d) => Ok(d as u8),
+        None => Err(Error::NotHex(key, i)),
+    };
+    (0..digits.len() / 2)
+        .map(|i| Ok((nibble(2 * i)? << 4) | nibble(2 * i + 1)?))
         .collect()
 }
 
@@ -88,12 +92,14 @@ pub fn frame_to_json(
     let Some(message) = Dialect::parse(frame.msg_id(), frame.payload()) else {
         return raw_json(out, frame);
     };
-    let mut fields = String::with_capacity(256);
-    if let Err(e) = fields::write(&mut fields, meta, &message) {
-        // Cannot happen for generated messages; the raw frame loses nothing.
-        debug_assert!(false, "{}: {e}", meta.name);
-        return raw_json(out, frame);
-    }
+    let fields = match fields::write(meta, &message) {
+        Ok(fields) => fields,
+        Err(e) => {
+            // Cannot happen for generated messages; the raw frame loses nothing.
+            debug_assert!(false, "{}: {e}", meta.name);
+            return raw_json(out, frame);
+        }
+    };
     let _ = write!(
         out,
         "\"name\":\"{}\",\"signed\":{}",
@@ -167,7 +173,7 @@ pub struct Encoded {
 
 /// A JSON object as its keys and their raw values, in order; a repeated key
 /// is an error (which of the two values was meant is unknowable). Raw values
-/// keep numbers as written, so floats are parsed exactly for their type.
+/// are the text as written, handed on to the generated `Deserialize`.
 struct Object<'a>(Vec<(String, &'a RawValue)>);
 
 impl<'de> Deserialize<'de> for Object<'de> {
@@ -179,22 +185,11 @@ impl<'de> Deserialize<'de> for Object<'de> {
                 f.write_str("a JSON object")
             }
             fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Object<'de>, A::Error> {
-                // A line's few keys are compared directly; a set takes over
-                // for long objects, so a flood of keys stays linear.
-                const DIRECT: usize = 32;
                 let mut seen = HashSet::new();
-                let mut entries: Vec<(String, &'de RawValue)> = Vec::new();
+                let mut entries = Vec::new();
                 while let Some((k, v)) = map.next_entry::<String, &'de RawValue>()? {
-                    let repeated = if entries.len() < DIRECT {
-                        entries.iter().any(|(e, _)| *e == k)
-                    } else {
-                        if seen.is_empty() {
-                            seen.extend(entries.iter().map(|(e, _)| e.clone()));
-                        }
-                        !seen.insert(k.clone())
-                    };
-                    if repeated {
-                        return Err(A::Error::custom(format!("duplicate key `{k}`")));
+                    if !seen.insert(k.clone()) {
+                        return Err(A::Error::custom(format_args!("duplicate key `{k}`")));
                     }
                     entries.push((k, v));
                 }
@@ -206,13 +201,6 @@ impl<'de> Deserialize<'de> for Object<'de> {
 }
 
 impl<'a> Object<'a> {
-    fn parse(text: &'a str) -> Result<Self, String> {
-        serde_json::from_str(text).map_err(|e| match e.classify() {
-            serde_json::error::Category::Data => e.to_string(),
-            _ => format!("not JSON: {e}"),
-        })
-    }
-
     /// The raw value of `key`; `null` counts as absent.
     fn get(&self, key: &str) -> Option<&'a RawValue> {
         self.0
@@ -227,47 +215,57 @@ impl<'a> Object<'a> {
     }
 
     /// Refuses any key not in `allowed`: a misspelt key must not be ignored.
-    fn only(&self, allowed: &[&str]) -> Result<(), String> {
+    fn only(&self, allowed: &'static [&'static str]) -> Result<(), Error> {
         match self.0.iter().find(|(k, _)| !allowed.contains(&k.as_str())) {
-            Some((k, _)) => Err(format!(
-                "unknown key `{k}` (expected: {})",
-                allowed.join(", ")
-            )),
+            Some((k, _)) => Err(Error::UnknownKey {
+                key: k.clone(),
+                expected: allowed,
+            }),
             None => Ok(()),
         }
     }
 
-    fn uint(&self, key: &str, max: u64) -> Result<Option<u64>, String> {
+    /// The value of `key` as a `T`, described as `expected` when it is not.
+    fn typed<T: DeserializeOwned>(
+        &self,
+        key: &'static str,
+        expected: &'static str,
+    ) -> Result<Option<T>, Error> {
         let Some(raw) = self.get(key) else {
             return Ok(None);
         };
-        match value(raw).as_u64() {
-            Some(n) if n <= max => Ok(Some(n)),
-            _ => Err(format!(
-                "`{key}` must be an integer from 0 to {max}, not {}",
-                shown(raw)
-            )),
+        serde_json::from_str(raw.get())
+            .map(Some)
+            .map_err(|_| Error::Type {
+                key,
+                expected,
+                value: shown(raw),
+            })
+    }
+
+    fn uint(&self, key: &'static str, max: u64) -> Result<Option<u64>, Error> {
+        match self.typed::<u64>(key, "an integer") {
+            Ok(Some(n)) if n > max => Err(Error::Range {
+                key,
+                max,
+                value: n.to_string(),
+            }),
+            Err(Error::Type { value, .. }) => Err(Error::Range { key, max, value }),
+            other => other,
         }
     }
 
-    fn bool(&self, key: &str) -> Result<Option<bool>, String> {
-        let Some(raw) = self.get(key) else {
-            return Ok(None);
-        };
-        match value(raw) {
-            Value::Bool(b) => Ok(Some(b)),
-            _ => Err(format!("`{key}` must be true or false, not {}", shown(raw))),
-        }
+    fn bool(&self, key: &'static str) -> Result<Option<bool>, Error> {
+        self.typed(key, "true or false")
     }
 
-    fn string(&self, key: &str) -> Result<Option<String>, String> {
-        let Some(raw) = self.get(key) else {
-            return Ok(None);
-        };
-        match value(raw) {
-            Value::String(s) => Ok(Some(s)),
-            _ => Err(format!("`{key}` must be a string, not {}", shown(raw))),
-        }
+    fn string(&self, key: &'static str) -> Result<Option<String>, Error> {
+        self.typed(key, "a string")
+    }
+
+    /// The bytes of the hex string of `key` (none when absent).
+    fn hex(&self, key: &'static str) -> Result<Vec<u8>, Error> {
+        unhex_key(Some(key), &self.string(key)?.unwrap_or_default())
     }
 }
 
@@ -279,12 +277,6 @@ fn shown(raw: &RawValue) -> String {
         Some((cut, _)) => format!("{}…", &text[..cut]),
         None => text.to_string(),
     }
-}
-
-/// A raw value as a [`Value`]. Raw values come from a parsed document, so
-/// they are valid JSON; `Null` is only a fallback that every caller refuses.
-fn value(raw: &RawValue) -> Value {
-    serde_json::from_str(raw.get()).unwrap_or(Value::Null)
 }
 
 /// Keys of a known message's line.
@@ -311,23 +303,26 @@ const RAW_KEYS: &[&str] = &[
     "tlog_us", "version", "seq", "sysid", "compid", "msgid", "name", "signed", "raw",
 ];
 
+/// Keys of a signature block.
+const SIGNATURE_KEYS: [&str; 3] = ["signature", "link_id", "sign_timestamp"];
+
 /// Encodes one JSON line into `out`.
 ///
 /// Refused (the error says why): anything not a JSON object of the keys
 /// above (unknown or repeated keys included); a known message without
 /// `fields` (`"fields":{}` asks for all zeros; fields left out are zero);
-/// unknown field names; values of the wrong JSON type, out of their
-/// field's range, or strings and arrays longer than the field (arrays must
-/// have exactly the declared length); `payload_len` that would cut off
-/// non-zero field bytes, or exceed the message without `extra` holding the
-/// bytes beyond it; `"signed": true` without a `signature` to copy or a
-/// signer; signing a MAVLink 1 frame or an unsigned raw frame.
+/// unknown field names; values the field's type does not hold exactly
+/// (wrong JSON type, out of range, strings and byte arrays longer than a
+/// `char[N]`, arrays not of the declared length); `payload_len` that would
+/// cut off non-zero field bytes, or exceed the message without `extra`
+/// holding the bytes beyond it; `"signed": true` without a `signature` to
+/// copy or a signer; signing a MAVLink 1 frame or an unsigned raw frame.
 pub fn json_to_frame(
     line: &str,
     opts: &mut EncodeOptions<'_>,
     out: &mut [u8; MAX_FRAME_LEN],
-) -> Result<Encoded, String> {
-    let obj = Object::parse(line)?;
+) -> Result<Encoded, Error> {
+    let obj: Object<'_> = serde_json::from_str(line).map_err(Error::Json)?;
     let tlog_us = obj.uint("tlog_us", u64::MAX)?;
     let len = if obj.has("raw") {
         raw_frame(&obj, opts, out)?
@@ -343,19 +338,16 @@ fn raw_frame(
     obj: &Object<'_>,
     opts: &mut EncodeOptions<'_>,
     out: &mut [u8; MAX_FRAME_LEN],
-) -> Result<usize, String> {
+) -> Result<usize, Error> {
     obj.only(RAW_KEYS)?;
-    let bytes = unhex(&obj.string("raw")?.unwrap_or_default())?;
-    let frame = Frame::new_checked(&bytes).map_err(|e| format!("`raw` is not a frame: {e}"))?;
+    let bytes = obj.hex("raw")?;
+    let frame = Frame::new_checked(&bytes).map_err(Error::RawFrame)?;
     let n = frame.as_bytes().len();
     if n != bytes.len() {
-        return Err(format!(
-            "`raw` holds {} bytes after its frame",
-            bytes.len() - n
-        ));
+        return Err(Error::RawTrailing(bytes.len() - n));
     }
     if obj.has("name") {
-        return Err("`name` must be null for a `raw` frame".into());
+        return Err(Error::Refused("`name` must be null for a `raw` frame"));
     }
     let h = frame.header();
     let v2 = frame.version() == Version::V2;
@@ -366,19 +358,18 @@ fn raw_frame(
         ("compid", u64::from(h.compid)),
         ("msgid", u64::from(frame.msg_id())),
     ] {
-        if let Some(said) = obj.uint(key, u64::MAX)? {
-            if said != actual {
-                return Err(format!(
-                    "`{key}` is {said}, but the `raw` frame's is {actual}"
-                ));
-            }
+        match obj.uint(key, u64::MAX)? {
+            Some(said) if said != actual => return Err(Error::RawDisagrees { key, said, actual }),
+            _ => {}
         }
     }
     if obj.bool("signed")?.is_some_and(|s| s != frame.is_signed()) {
-        return Err("`signed` disagrees with the `raw` frame".into());
+        return Err(Error::Refused("`signed` disagrees with the `raw` frame"));
     }
     if v2 && opts.force_v1 {
-        return Err("--v1: a raw MAVLink 2 frame of an unknown message cannot be converted".into());
+        return Err(Error::Refused(
+            "--v1: a raw MAVLink 2 frame of an unknown message cannot be converted",
+        ));
     }
     out[..n].copy_from_slice(&bytes);
     match opts.signer.as_deref_mut() {
@@ -386,16 +377,20 @@ fn raw_frame(
         // Re-signing keeps the checksum; adding a signature would change the
         // flags it covers, and an unknown message's checksum cannot be redone.
         Some(signer) if frame.is_signed() => sign(signer, &mut out[..n])?,
-        Some(_) if v2 => return Err("--sign-key: this unsigned frame of an unknown message cannot be signed (its checksum cannot be recomputed)".into()),
-        Some(_) => return Err("--sign-key: this MAVLink 1 frame cannot be signed".into()),
+        Some(_) if v2 => return Err(Error::Refused("--sign-key: this unsigned frame of an unknown message cannot be signed (its checksum cannot be recomputed)")),
+        Some(_) => return Err(Error::Refused(V1_SIGN_KEY)),
     }
     Ok(n)
 }
 
+const V1_SIGN_KEY: &str = "--sign-key: this MAVLink 1 frame cannot be signed";
+
 /// Signs a whole MAVLink 2 frame (its last 13 bytes are the block).
-fn sign(signer: &mut Signer, frame: &mut [u8]) -> Result<(), String> {
+fn sign(signer: &mut Signer, frame: &mut [u8]) -> Result<(), Error> {
     if signer.timestamp() > crate::args::MAX_SIGN_TIMESTAMP {
-        return Err("the signing timestamp passed 2^48 - 1 (48 bits)".into());
+        return Err(Error::Refused(
+            "the signing timestamp passed 2^48 - 1 (48 bits)",
+        ));
     }
     signer.sign_frame(frame);
     Ok(())
@@ -406,15 +401,19 @@ fn message_frame(
     obj: &Object<'_>,
     opts: &mut EncodeOptions<'_>,
     out: &mut [u8; MAX_FRAME_LEN],
-) -> Result<usize, String> {
+) -> Result<usize, Error> {
     obj.only(MESSAGE_KEYS)?;
     let meta = message_meta(obj)?;
-    let fields = obj.get("fields").ok_or(
+    let fields = obj.get("fields").ok_or(Error::Refused(
         "no `fields`: a message line lists its field values (`\"fields\":{}` for all zeros)",
-    )?;
+    ))?;
+    let fields: Object<'_> = serde_json::from_str(fields.get()).map_err(Error::Fields)?;
+    let message = fields::read(meta, &fields)?;
     // A fresh buffer per line: nothing of an earlier line can leak in.
     let mut payload = [0u8; 255];
-    fill_fields(meta, fields, &mut payload)?;
+    message
+        .emit(&mut payload)
+        .map_err(|e| Error::Frame(FrameError::BufferTooSmall { needed: e.needed }))?;
     let header = Header {
         seq: obj.uint("seq", 255)?.unwrap_or(0) as u8,
         sysid: obj.uint("sysid", 255)?.unwrap_or(0) as u8,
@@ -426,42 +425,29 @@ fn message_frame(
     match obj.uint("version", 255)? {
         Some(1) => v1_line(obj, meta, header, &mut payload, opts, out),
         None | Some(2) => v2_line(obj, meta, header, &mut payload, opts, out),
-        Some(v) => Err(format!("`version` must be 1 or 2, not {v}")),
+        Some(v) => Err(Error::Version(v)),
     }
 }
 
 /// The message a line names by `name`, `msgid` or both (which must agree).
-fn message_meta(obj: &Object<'_>) -> Result<&'static MessageMeta, String> {
+fn message_meta(obj: &Object<'_>) -> Result<&'static MessageMeta, Error> {
     let id = obj.uint("msgid", 0xFF_FFFF)?;
     let Some(name) = obj.string("name")? else {
-        let id = id.ok_or("needs `name` or `msgid`")?;
-        return Dialect::meta(id as u32).ok_or_else(|| format!("unknown message id {id}"));
+        let id = id.ok_or(Error::Refused("needs `name` or `msgid`"))?;
+        return Dialect::meta(id as u32).ok_or(Error::UnknownId(id));
     };
     let m = Dialect::MESSAGES
         .iter()
         .find(|m| m.name == name)
-        .ok_or_else(|| format!("unknown message name `{name}`"))?;
+        .ok_or(Error::UnknownName(name))?;
     match id {
-        Some(id) if id != u64::from(m.id) => Err(format!(
-            "`msgid` {id} does not match `name` {name} (id {})",
-            m.id
-        )),
+        Some(id) if id != u64::from(m.id) => Err(Error::IdMismatch {
+            id,
+            name: m.name,
+            expected: m.id,
+        }),
         _ => Ok(m),
     }
-}
-
-/// Fills `payload` with the message of `fields` (fields left out are zero).
-fn fill_fields(
-    meta: &'static MessageMeta,
-    fields: &RawValue,
-    payload: &mut [u8],
-) -> Result<(), String> {
-    let fields = Object::parse(fields.get()).map_err(|e| format!("`fields`: {e}"))?;
-    let message = fields::read(meta, &fields).map_err(|e| e.to_string())?;
-    message
-        .emit(payload)
-        .map(|_| ())
-        .map_err(|e| format!("{}: {e}", meta.name))
 }
 
 /// A MAVLink 2 frame as the line says: its length, flags and signature.
@@ -472,7 +458,7 @@ fn v2_line(
     payload: &mut [u8; 255],
     opts: &mut EncodeOptions<'_>,
     out: &mut [u8; MAX_FRAME_LEN],
-) -> Result<usize, String> {
+) -> Result<usize, Error> {
     let canonical = truncated_len(&payload[..meta.max_len as usize]);
     let len = payload_length(obj, meta, payload, canonical)?;
     let compat = obj.uint("compat_flags", 255)?;
@@ -484,16 +470,16 @@ fn v2_line(
     let signed = block.is_some() || opts.signer.is_some();
     let flags = if signed { IFLAG_SIGNED } else { 0 };
     let mut frame = Frame::new_v2(&mut out[..], len as u8, flags, compat.unwrap_or(0) as u8)
-        .map_err(|e| e.to_string())?;
+        .map_err(Error::Frame)?;
     frame.set_header(header);
-    frame.set_msg_id(meta.id).map_err(|e| e.to_string())?;
+    frame.set_msg_id(meta.id).map_err(Error::Frame)?;
     frame.payload_mut().copy_from_slice(&payload[..len]);
     frame.fill_checksum(meta.crc_extra);
     match (opts.signer.as_deref_mut(), block) {
         (Some(signer), _) => sign(signer, frame.as_bytes_mut())?,
         (None, Some((link_id, timestamp, signature))) => frame
             .set_signature(link_id, timestamp, signature)
-            .map_err(|e| e.to_string())?,
+            .map_err(Error::Frame)?,
         (None, None) => {}
     }
     Ok(frame.frame_len())
@@ -503,31 +489,29 @@ fn v2_line(
 type SignatureFields = (u8, u64, [u8; 6]);
 
 /// The signature block a line carries, checked against its `signed`.
-fn signature_block(obj: &Object<'_>) -> Result<Option<SignatureFields>, String> {
-    let keys = ["signature", "link_id", "sign_timestamp"];
-    let given = keys.iter().filter(|k| obj.has(k)).count();
+fn signature_block(obj: &Object<'_>) -> Result<Option<SignatureFields>, Error> {
+    let given = SIGNATURE_KEYS.iter().filter(|k| obj.has(k)).count();
     match (obj.bool("signed")?, given) {
         (Some(false) | None, 0) => return Ok(None),
         (Some(false), _) => {
-            return Err("`signed` is false, but the line has a signature".into());
+            return Err(Error::Refused(
+                "`signed` is false, but the line has a signature",
+            ))
         }
-        (Some(true), 0) => {
-            return Err(
-                "`signed` is true, but there is no `signature` to copy and no --sign-key to sign with"
-                    .into(),
-            );
-        }
-        (_, n) if n < keys.len() => {
-            return Err(
-                "a signature needs all of `signature`, `link_id` and `sign_timestamp`".into(),
-            );
+        (Some(true), 0) => return Err(Error::Refused(
+            "`signed` is true, but there is no `signature` to copy and no --sign-key to sign with",
+        )),
+        (_, n) if n < SIGNATURE_KEYS.len() => {
+            return Err(Error::Refused(
+                "a signature needs all of `signature`, `link_id` and `sign_timestamp`",
+            ))
         }
         _ => {}
     }
-    let sig = unhex(&obj.string("signature")?.unwrap_or_default())?;
-    let sig: [u8; 6] = sig
+    let sig: [u8; 6] = obj
+        .hex("signature")?
         .try_into()
-        .map_err(|s: Vec<u8>| format!("`signature` must be 6 bytes, not {}", s.len()))?;
+        .map_err(|s: Vec<u8>| Error::SignatureLen(s.len()))?;
     let link_id = obj.uint("link_id", 255)?.unwrap_or(0) as u8;
     let ts = obj
         .uint("sign_timestamp", crate::args::MAX_SIGN_TIMESTAMP)?
@@ -543,36 +527,34 @@ fn payload_length(
     meta: &MessageMeta,
     payload: &mut [u8; 255],
     default: usize,
-) -> Result<usize, String> {
-    let max = meta.max_len as usize;
-    let extra = match obj.string("extra")? {
-        Some(h) => unhex(&h).map_err(|e| format!("`extra`: {e}"))?,
-        None => Vec::new(),
-    };
+) -> Result<usize, Error> {
+    let (message, max) = (meta.name, meta.max_len as usize);
+    let extra = obj.hex("extra")?;
     let full = max + extra.len();
-    let slot = payload.get_mut(max..full).ok_or_else(|| {
-        format!(
-            "`extra`: {} bytes after {}'s {max} exceed a 255-byte payload",
-            extra.len(),
-            meta.name
-        )
-    })?;
-    slot.copy_from_slice(&extra);
+    payload
+        .get_mut(max..full)
+        .ok_or(Error::ExtraTooLong {
+            message,
+            max,
+            extra: extra.len(),
+        })?
+        .copy_from_slice(&extra);
     let len = match obj.uint("payload_len", 255)? {
         Some(n) => n as usize,
         None if !extra.is_empty() => full,
         None => default,
     };
     if len > max && len != full {
-        return Err(format!(
-            "payload_len {len} is above {}'s {max} bytes: `extra` must hold the {} bytes beyond them (it holds {})",
-            meta.name,
-            len - max,
-            extra.len()
-        ));
+        let extra = extra.len();
+        return Err(Error::ExtraMissing {
+            message,
+            max,
+            len,
+            extra,
+        });
     }
     if !extra.is_empty() && len != full {
-        return Err(format!("`extra` needs payload_len {full}, not {len}"));
+        return Err(Error::ExtraLen { full, len });
     }
     let used = payload[..full]
         .iter()
@@ -584,9 +566,7 @@ fn payload_length(
             .iter()
             .find(|f| (f.offset as usize..f.offset as usize + f.wire_len()).contains(&(used - 1)))
             .map_or("`extra`", |f| f.name);
-        return Err(format!(
-            "payload_len {len} would cut off {field}, whose bytes end at {used}"
-        ));
+        return Err(Error::CutOff { len, field, used });
     }
     Ok(len)
 }
@@ -599,16 +579,15 @@ fn v1_line(
     payload: &mut [u8; 255],
     opts: &EncodeOptions<'_>,
     out: &mut [u8; MAX_FRAME_LEN],
-) -> Result<usize, String> {
-    let sig_keys = ["signature", "link_id", "sign_timestamp"];
-    if obj.bool("signed")? == Some(true) || sig_keys.iter().any(|k| obj.has(k)) {
-        return Err("a MAVLink 1 frame cannot be signed".into());
+) -> Result<usize, Error> {
+    if obj.bool("signed")? == Some(true) || SIGNATURE_KEYS.iter().any(|k| obj.has(k)) {
+        return Err(Error::Refused("a MAVLink 1 frame cannot be signed"));
     }
     if opts.signer.is_some() {
-        return Err("--sign-key: this MAVLink 1 frame cannot be signed".into());
+        return Err(Error::Refused(V1_SIGN_KEY));
     }
     if obj.uint("compat_flags", 255)?.is_some_and(|c| c != 0) {
-        return Err("a MAVLink 1 frame has no compat_flags".into());
+        return Err(Error::Refused("a MAVLink 1 frame has no compat_flags"));
     }
     let len = payload_length(obj, meta, payload, meta.min_len as usize)?;
     v1_frame(meta, header, &payload[..len], out)
@@ -619,12 +598,14 @@ fn v1_frame(
     header: Header,
     payload: &[u8],
     out: &mut [u8; MAX_FRAME_LEN],
-) -> Result<usize, String> {
-    let id = u8::try_from(meta.id)
-        .map_err(|_| format!("{} (id {}) cannot be sent as MAVLink 1", meta.name, meta.id))?;
-    let mut frame = Frame::new_v1(&mut out[..], payload.len() as u8).map_err(|e| e.to_string())?;
+) -> Result<usize, Error> {
+    let id = u8::try_from(meta.id).map_err(|_| Error::NotV1 {
+        message: meta.name,
+        id: meta.id,
+    })?;
+    let mut frame = Frame::new_v1(&mut out[..], payload.len() as u8).map_err(Error::Frame)?;
     frame.set_header(header);
-    frame.set_msg_id(u32::from(id)).map_err(|e| e.to_string())?;
+    frame.set_msg_id(u32::from(id)).map_err(Error::Frame)?;
     frame.payload_mut().copy_from_slice(payload);
     frame.fill_checksum(meta.crc_extra);
     Ok(frame.frame_len())

@@ -19,7 +19,8 @@
 //! [`mavframe::serde`]: fbwag_dialect::mavframe::serde
 //! [`float`]: fbwag_dialect::mavframe::serde::float
 
-use super::{Error, Object};
+use super::object::Object;
+use super::Error;
 use fbwag_dialect::mavframe::serde::float::{self, Float};
 use fbwag_dialect::mavframe::{FieldMeta, FieldType, MessageMeta};
 use fbwag_dialect::Message;
@@ -31,11 +32,13 @@ pub fn write(meta: &MessageMeta, message: &Message) -> Result<String, serde_json
     let mut w = Writer {
         meta,
         field: None,
-        texts: vec![String::new(); meta.fields.len()],
+        values: String::with_capacity(16 * meta.fields.len()),
+        spans: vec![(0, 0); meta.fields.len()],
     };
     message.serialize(&mut w)?;
-    let mut out = String::with_capacity(16 * meta.fields.len());
-    for (f, text) in meta.fields.iter().zip(&w.texts) {
+    let mut out = String::with_capacity(w.values.len() + 16 * meta.fields.len());
+    for (f, &(start, end)) in meta.fields.iter().zip(&w.spans) {
+        let text = &w.values[start..end];
         if text.is_empty() {
             return Err(ser::Error::custom(format_args!(
                 "no value for `{}`",
@@ -49,13 +52,15 @@ pub fn write(meta: &MessageMeta, message: &Message) -> Result<String, serde_json
     Ok(out)
 }
 
-/// A serde serializer taking one message in compact form: each field's
-/// JSON text, by wire index.
+/// A serde serializer taking one message in compact form: the JSON text of
+/// its field values, one after the other.
 struct Writer<'m> {
     meta: &'m MessageMeta,
     /// Wire index of the field being written.
     field: Option<usize>,
-    texts: Vec<String>,
+    values: String,
+    /// Each field's text in `values`, by wire index.
+    spans: Vec<(usize, usize)>,
 }
 
 type WriteResult<T = ()> = Result<T, serde_json::Error>;
@@ -63,7 +68,7 @@ type WriteResult<T = ()> = Result<T, serde_json::Error>;
 impl Writer<'_> {
     fn text(&mut self) -> WriteResult<&mut String> {
         match self.field {
-            Some(i) => Ok(&mut self.texts[i]),
+            Some(_) => Ok(&mut self.values),
             None => Err(ser::Error::custom("a value outside a message field")),
         }
     }
@@ -209,7 +214,10 @@ impl SerializeStruct for &mut Writer<'_> {
         let i = self.meta.fields.iter().position(|f| f.name == key);
         let i = i.ok_or_else(|| ser::Error::custom(format_args!("no field `{key}`")))?;
         self.field = Some(i);
-        v.serialize(&mut **self)
+        let start = self.values.len();
+        v.serialize(&mut **self)?;
+        self.spans[i] = (start, self.values.len());
+        Ok(())
     }
 
     fn end(self) -> WriteResult {

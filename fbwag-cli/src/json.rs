@@ -19,7 +19,9 @@
 //!
 //! Encoding is exact or refused: every value must fit its field without
 //! rounding beyond the nearest representable float, and every byte the
-//! line describes must land in the frame (see [`json_to_frame`]).
+//! line describes must land in the frame (see [`json_to_frame`]). Field
+//! values may also be in the generated impls' other forms: enum entry
+//! names, bitmask text, `{"hex": …}` for chars.
 
 mod encode;
 mod error;

@@ -740,7 +740,7 @@ fn encode(
 
 /// A 32-byte key from 64 hex digits.
 fn key(hex: &str) -> Result<[u8; 32], String> {
-    let bytes = json::unhex(hex)?;
+    let bytes = json::unhex(hex).map_err(|e| e.to_string())?;
     bytes
         .try_into()
         .map_err(|b: Vec<u8>| format!("a signing key is 32 bytes (64 hex digits), got {}", b.len()))

@@ -34,6 +34,7 @@
 //! small fixed buffer; a caller that does not drain loses the newest ones
 //! (a debug assertion flags it).
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 

@@ -44,6 +44,7 @@
 //! message, enum and [`Message`], in the forms of `fbwag-dialect` (see
 //! `mavframe::serde`); `no_std` too.
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 #[cfg(feature = "std")]

@@ -194,6 +194,41 @@ struct Pending {
 
 /// The client side of the command protocol for one sender (`own`), with
 /// up to `N` commands in flight.
+///
+/// A target that never answers: the command goes out `tries` times, one
+/// timeout apart (COMMAND_LONG's `confirmation` counting the resends),
+/// then ends as [`Outcome::TimedOut`]. The module example shows an answer.
+///
+/// ```
+/// use fbwag_delegation::command::{CommandClient, CommandConfig, CommandOutput, Outcome, Request};
+/// use fbwag_delegation::{Instant, Peer};
+/// use fbwag_dialect::Message;
+///
+/// let fc = Peer::new(1, 1);
+/// let cfg = CommandConfig::default(); // 1.5 s, 3 tries
+/// let mut client = CommandClient::<4>::with_config(Peer::new(1, 191), cfg);
+/// let id = client.send(Instant::ZERO, Request::request_message(fc, 24))?; // GPS_RAW_INT
+/// let mut confirmations = Vec::new();
+/// let mut outcome = None;
+/// let mut now = Instant::ZERO;
+/// loop {
+///     while let Some(out) = client.poll_output() {
+///         match out {
+///             CommandOutput::Transmit(Message::CommandLong(c)) => confirmations.push(c.confirmation),
+///             CommandOutput::Finished { id: done, outcome: o } => outcome = Some((done, o)),
+///             _ => {}
+///         }
+///     }
+///     // Silence: run the client's timer until it has nothing left to wait for.
+///     let Some(t) = client.poll_timeout() else { break };
+///     now = t;
+///     client.handle_timeout(now);
+/// }
+/// assert_eq!(confirmations, [0, 1, 2]);
+/// assert_eq!(outcome, Some((id, Outcome::TimedOut)));
+/// assert_eq!(now, Instant::from_millis(4_500));
+/// # Ok::<(), fbwag_delegation::command::Busy>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct CommandClient<const N: usize = 8> {
     own: Peer,

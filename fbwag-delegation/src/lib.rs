@@ -33,7 +33,73 @@
 //! deadline and call `handle_timeout` at (or after) it. Outputs queue in a
 //! small fixed buffer; a caller that does not drain loses the newest ones
 //! (a debug assertion flags it).
+//!
+//! # Example: a takeover, frame by frame
+//!
+//! The flight controller's and the companion's engines, wired to each
+//! other through real MAVLink frames (encoded, then parsed) on a virtual
+//! clock: the pilot's radio is lost, the FC asks, the companion takes
+//! over. A live program does the same with a `Connection` per link and
+//! the system clock (the `fbwag` daemons drive [`node`]s this way).
+//!
+//! ```
+//! use fbwag_delegation::cc::{CcConfig, CcState};
+//! use fbwag_delegation::engine::{CcEngine, CcOutput, FcEngine, FcOutput};
+//! use fbwag_delegation::fc::{Authority, FcConfig};
+//! use fbwag_delegation::{Instant, Peer};
+//! use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
+//! use fbwag_dialect::{encode, Frame, Header, Message, Parser, Version};
+//!
+//! /// `msg` framed as `from` sends it, then parsed as its peer receives it.
+//! fn deliver(from: Peer, msg: &Message, rx: &mut Parser, mut to: impl FnMut(&Frame<&[u8]>, bool)) {
+//!     let mut buf = [0u8; MAX_FRAME_LEN];
+//!     let header = Header { seq: 0, sysid: from.sysid, compid: from.compid };
+//!     let len = encode(Version::V2, header, msg, None, &mut buf).expect("fits");
+//!     let mut input = &buf[..len];
+//!     while let Some(received) = rx.next(&mut input) {
+//!         to(&received.frame, received.authenticated);
+//!     }
+//! }
+//!
+//! let (fc_cfg, cc_cfg) = (FcConfig::default(), CcConfig::default());
+//! let mut fc = FcEngine::new(fc_cfg, Instant::ZERO)?;
+//! let mut cc = CcEngine::new(cc_cfg, Instant::ZERO)?;
+//! let (mut fc_rx, mut cc_rx) = (Parser::new(), Parser::new());
+//!
+//! fc.set_receiver_ok(false); // the pilot's radio link is gone
+//! let mut now = Instant::ZERO;
+//! while fc.authority() != Authority::Companion {
+//!     // Drain both engines; what one transmits, the other receives.
+//!     let mut idle = true;
+//!     while let Some(out) = fc.poll_output() {
+//!         idle = false;
+//!         if let FcOutput::Transmit(msg) = out {
+//!             deliver(fc_cfg.own, &msg, &mut cc_rx, |f, auth| {
+//!                 let _ = cc.handle_frame(now, f, auth);
+//!             });
+//!         }
+//!     }
+//!     while let Some(out) = cc.poll_output() {
+//!         idle = false;
+//!         if let CcOutput::Transmit(msg) = out {
+//!             deliver(cc_cfg.own, &msg, &mut fc_rx, |f, auth| {
+//!                 let _ = fc.handle_frame(now, f, auth);
+//!             });
+//!         }
+//!     }
+//!     if idle {
+//!         // Nothing left to say: on to the next deadline of either side.
+//!         now = fc.poll_timeout().into_iter().chain(cc.poll_timeout()).min().unwrap();
+//!         fc.handle_timeout(now);
+//!         cc.handle_timeout(now);
+//!     }
+//!     assert!(now < Instant::from_millis(2_000), "no takeover");
+//! }
+//! assert_eq!(cc.state(), CcState::Controlling);
+//! # Ok::<(), fbwag_delegation::ConfigError>(())
+//! ```
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 

@@ -43,7 +43,12 @@
 //! The `serde` feature implements `Serialize` and `Deserialize` for every
 //! message, enum and [`Message`], in the forms of `fbwag-dialect` (see
 //! `mavframe::serde`); `no_std` too.
+//!
+//! The runtime is re-exported as [`mavframe`]; which of its types does which
+//! job (links, async, routing, signing), with an example each:
+//! [mavframe's *Start here*](mavframe#start-here).
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 #[cfg(feature = "std")]

@@ -55,8 +55,12 @@
 //! # Ok::<(), fbwag_dialect::FrameError>(())
 //! ```
 //!
-//! With `std`, a `Connection` does the same over UDP, TCP or a serial
-//! port (`mavframe::conn`).
+//! With `std`, a [`Connection`] does the same over UDP, TCP or a serial
+//! port; with `tokio`, `mavframe::conn::codec::FrameCodec<Dialect>` over any
+//! async byte stream and `mavframe::router::Router<Dialect>` between many
+//! links; signing state that survives restarts is
+//! `mavframe::signing::state::StateFile`. Which type does which job, with an
+//! example each: [mavframe's *Start here*](mavframe#start-here).
 //!
 //! # serde
 //!
@@ -95,7 +99,12 @@
 //! assert_eq!(heartbeat.base_mode.bits(), 0x81);
 //! # }
 //! ```
+// `Connection` exists only with `std`: without it, the link goes to the
+// runtime's list of features (rustdoc would report it as broken).
+#![cfg_attr(feature = "std", doc = "[`Connection`]: Connection")]
+#![cfg_attr(not(feature = "std"), doc = "[`Connection`]: mavframe#features")]
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 #[cfg(feature = "std")]

@@ -1,11 +1,30 @@
 //! An exhaustive model check of the FBWAG RC-loss delegation protocol with
 //! [stateright](https://docs.rs/stateright), driving the real sans-IO nodes
-//! of `fbwag-delegation` (`FcNode`, `CompanionNode`): no copy of their
+//! of `fbwag-delegation` ([`FcNode`], [`CompanionNode`]): no copy of their
 //! logic. The world around them (a lossy, reordering, duplicating link of
 //! real signed MAVLink bytes, the pilot's receiver, restarts, a stranger
 //! without the key, the companion's autonomy, the virtual clock) is the
 //! model's; every decision is the nodes'. `docs/delegation.md`, section
 //! "Model-checked", states the invariants and the bounds.
+//!
+//! Start with [`check`]: [`CheckOptions`] bound the world
+//! ([`ModelConfig`]) and the search's depth, and the [`Report`] lists
+//! every invariant broken with its shortest counterexample. A
+//! [`ModelConfig::for_fault`] plants a known bug, which the check must find.
+//!
+//! ```
+//! use fbwag_model::{check, CheckOptions};
+//!
+//! // Every state within three actions of the start (the command line's
+//! // `fbwag sim --model-check` goes deeper: `DEFAULT_DEPTH`).
+//! let report = check(CheckOptions { depth: 3, ..CheckOptions::default() }, |_, _| {});
+//! assert!(report.complete);
+//! assert!(report.violations.is_empty(), "{:?}", report.violations);
+//! assert!(report.states > 1 && !report.invariants.is_empty());
+//! ```
+//!
+//! [`FcNode`]: fbwag_delegation::node::FcNode
+//! [`CompanionNode`]: fbwag_delegation::node::CompanionNode
 
 pub mod model;
 pub mod props;

@@ -6,16 +6,81 @@
 //! MAVLink 1/2 [`frame`]s, the [`crc`], [`signing`], and the streaming
 //! [`parser`]. All of that is `no_std` and allocates nothing.
 //!
-//! Features: `std` adds the blocking transports and connection strings
-//! (`conn`: UDP, TCP, via mio), the signing state file that carries
-//! timestamps over restarts (`signing::state`), the system clock for
+//! # Start here
+//!
+//! Every type below is generic over a dialect `D`: the `Dialect` type of a
+//! generated crate, such as `fbwag_dialect::Dialect` (which also has aliases
+//! with it filled in: `fbwag_dialect::Parser`, `fbwag_dialect::Connection`).
+//!
+//! | To … | reach for | feature |
+//! |---|---|---|
+//! | parse a byte stream cut anywhere, frame by frame | [`Parser`] (and [`Parser::with_signing`] to verify signatures) | — |
+//! | encode one message into a frame | [`encode`], or a [`Framer`] (sequence numbers, signing) | — |
+//! | read a frame's fields without copying | [`Frame`], [`Received::view`] | — |
+//! | talk to a vehicle or a ground station over UDP, TCP, serial or a capture file | [`Connection`] from an [`Endpoint`] string (`udpin:0.0.0.0:14550`) | `std` (`serial`) |
+//! | receive on one thread and send on another | [`Connection::split`]: a [`Sender`] and a [`Receiver`] | `std` |
+//! | the same on tokio, over any async byte stream or a UDP socket | [`FrameCodec`] with `tokio_util::codec`, [`Framer`] to send | `tokio` |
+//! | route between many links (a companion computer, a router daemon) | [`Router`]: one task per link, [`route`] rules, per-link keys | `tokio` |
+//! | routing rules without I/O | [`route::RoutingTable`] | — |
+//! | sign and verify | [`Signer`], [`Verifier`], and [`StateFile`] so timestamps survive restarts | `std` for `StateFile` |
+//! | a UART on a microcontroller (`no_std`, no heap) | [`embedded`]: `Link`, `Receiver`, `Sender`, and their async twins | `embedded-io` (`embedded-io-async`) |
+//! | JSON (or any serde format) of messages | [`serde`] | `serde` |
+//!
+//! The examples in this crate's pages declare, hidden, a stand-in dialect
+//! named `D` or `MyDialect` of one or two messages (this crate sits below
+//! the generator, so no generated dialect is at hand): read it as
+//! `fbwag_dialect::Dialect` or your own generated crate's `Dialect`.
+//!
+//! # Features
+//!
+//! `std` adds the blocking transports and connection strings
+//! ([`conn`]: UDP, TCP, via mio), the signing state file that carries
+//! timestamps over restarts ([`signing::state`]), the system clock for
 //! signing (`Verifier::starting_now`) and `std::error::Error` impls; `serial` adds
-//! serial ports (serialport crate); `tokio` adds async UDP and TCP; `serde`
-//! adds [`serde`] (the serde crate, re-exported, and the forms of MAVLink
-//! values that generated messages serialize with), still `no_std`;
-//! `embedded-io` and `embedded-io-async` add `embedded`: `no_std` links
-//! over any embedded-io (async) byte stream, such as a UART.
+//! serial ports (serialport crate); `tokio` adds async connections
+//! ([`conn::codec`]) and the [`router`]; `serde` adds [`serde`] (the serde
+//! crate, re-exported, and the forms of MAVLink values that generated
+//! messages serialize with), still `no_std`; `embedded-io` and
+//! `embedded-io-async` add [`embedded`]: `no_std` links over any
+//! embedded-io (async) byte stream, such as a UART. The pages on docs.rs
+//! mark each item with the feature it needs.
+//!
+//! [`Received::view`]: parser::Received::view
+// Links to items that exist only with a feature: without it, to the list
+// of features (rustdoc would report them as broken).
+#![cfg_attr(feature = "std", doc = "[`Connection`]: conn::Connection")]
+#![cfg_attr(not(feature = "std"), doc = "[`Connection`]: #features")]
+#![cfg_attr(feature = "std", doc = "[`Endpoint`]: conn::Endpoint")]
+#![cfg_attr(not(feature = "std"), doc = "[`Endpoint`]: #features")]
+#![cfg_attr(
+    feature = "std",
+    doc = "[`Connection::split`]: conn::Connection::split"
+)]
+#![cfg_attr(not(feature = "std"), doc = "[`Connection::split`]: #features")]
+#![cfg_attr(feature = "std", doc = "[`Sender`]: conn::Sender")]
+#![cfg_attr(not(feature = "std"), doc = "[`Sender`]: #features")]
+#![cfg_attr(feature = "std", doc = "[`Receiver`]: conn::Receiver")]
+#![cfg_attr(not(feature = "std"), doc = "[`Receiver`]: #features")]
+#![cfg_attr(feature = "std", doc = "[`conn`]: conn")]
+#![cfg_attr(not(feature = "std"), doc = "[`conn`]: #features")]
+#![cfg_attr(feature = "std", doc = "[`StateFile`]: signing::state::StateFile")]
+#![cfg_attr(not(feature = "std"), doc = "[`StateFile`]: #features")]
+#![cfg_attr(feature = "std", doc = "[`signing::state`]: signing::state")]
+#![cfg_attr(not(feature = "std"), doc = "[`signing::state`]: #features")]
+#![cfg_attr(feature = "tokio", doc = "[`FrameCodec`]: conn::codec::FrameCodec")]
+#![cfg_attr(not(feature = "tokio"), doc = "[`FrameCodec`]: #features")]
+#![cfg_attr(feature = "tokio", doc = "[`conn::codec`]: conn::codec")]
+#![cfg_attr(not(feature = "tokio"), doc = "[`conn::codec`]: #features")]
+#![cfg_attr(feature = "tokio", doc = "[`Router`]: router::Router")]
+#![cfg_attr(not(feature = "tokio"), doc = "[`Router`]: #features")]
+#![cfg_attr(feature = "tokio", doc = "[`router`]: router")]
+#![cfg_attr(not(feature = "tokio"), doc = "[`router`]: #features")]
+#![cfg_attr(feature = "serde", doc = "[`serde`]: serde")]
+#![cfg_attr(not(feature = "serde"), doc = "[`serde`]: #features")]
+#![cfg_attr(feature = "embedded-io", doc = "[`embedded`]: embedded")]
+#![cfg_attr(not(feature = "embedded-io"), doc = "[`embedded`]: #features")]
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 

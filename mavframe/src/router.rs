@@ -453,6 +453,61 @@ pub struct LinkCounters {
 }
 
 /// The router: its links and the routing table.
+///
+/// ```
+/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
+/// # impl Message for Ping {
+/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
+/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   type View<'a> = u8;
+/// #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
+/// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {
+/// #     *p.first_mut().ok_or(BufferTooSmall { needed: 1, got: 0 })? = self.0; Ok(1) }
+/// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
+/// # }
+/// # struct D;
+/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
+/// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
+/// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
+/// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
+/// // (this crate sits below the generator); use a generated crate's
+/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// use mavframe::router::{LinkConfig, Router, RouterEvent};
+/// use std::time::Duration;
+/// use tokio::net::UdpSocket;
+///
+/// let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+/// runtime.block_on(async {
+///     // A ground station on this machine: here a bare UDP socket.
+///     let station = UdpSocket::bind("127.0.0.1:0").await?;
+///     let mut router = Router::<D>::new();
+///     let to_station = format!("udpout:{}", station.local_addr()?);
+///     let link = router.add(LinkConfig::new(to_station.parse()?)).await?;
+///
+///     // The router's own message, with the link's sequence numbers (and signer).
+///     router.send_message(router.links(), 1, 191, &Ping(7));
+///     let mut buf = [0u8; 280];
+///     let (len, from) = station.recv_from(&mut buf).await?;
+///
+///     // The station sends a frame back: the owner sees it first...
+///     station.send_to(&buf[..len], from).await?;
+///     let inbound = loop {
+///         match router.recv().await {
+///             Some(RouterEvent::Frame(inbound)) => break inbound,
+///             Some(_) => continue, // a link down or up again
+///             None => unreachable!("links are reopened, never gone"),
+///         }
+///     };
+///     assert_eq!((inbound.link, inbound.frame.message()), (link, Some(Ping(7))));
+///     // ...and routes it: to every other link of a broadcast (none here).
+///     assert!(router.forward(&inbound).is_empty());
+///     router.shutdown(Duration::from_secs(1)).await;
+///     Ok::<(), Box<dyn std::error::Error>>(())
+/// })?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Router<D: Dialect> {
     links: Vec<LinkHandle>,
     events: mpsc::Receiver<RouterEvent<D>>,

@@ -48,6 +48,47 @@ const FALLBACK_THROTTLE: u16 = 1500;
 
 /// The companion's node: the [`CcEngine`] and the policy of its links
 /// (see the [module docs](super)).
+///
+/// ```
+/// use fbwag_delegation::cc::CcConfig;
+/// use fbwag_delegation::node::{Answers, Arrival, CompanionNode, ControlSource, DropReason};
+/// use fbwag_delegation::node::{LinkSpec, Role};
+/// use fbwag_delegation::Instant;
+/// use fbwag_dialect::dialects::minimal::Heartbeat;
+/// use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
+/// use fbwag_dialect::{encode, Frame, Header, Version};
+///
+/// let cfg = CcConfig::default(); // the FC is 1/1, the companion 1/191
+/// let mut node = CompanionNode::new(cfg, ControlSource::Builtin, Instant::ZERO)?;
+/// let (fc_link, ground_link) = (0, 1);
+/// node.add_link(fc_link, LinkSpec { role: Role::Peer, answers: Answers::Target })?;
+/// node.add_link(ground_link, LinkSpec { role: Role::Ground, answers: Answers::Chosen })?;
+///
+/// // The FC's HEARTBEAT, as its link's parser hands it over.
+/// let mut buf = [0u8; MAX_FRAME_LEN];
+/// let header = Header { seq: 0, sysid: 1, compid: 1 };
+/// let len = encode(Version::V2, header, &Heartbeat::default(), None, &mut buf)?;
+/// let frame = Frame::new_checked(&buf[..len])?;
+///
+/// // On the FC link: protocol input, and routed on to the ground station.
+/// let fate = node.handle_frame(
+///     Instant::ZERO,
+///     Arrival { link: fc_link, source: None, frame, authenticated: false },
+/// );
+/// while let Some(_output) = node.poll_output() { /* send, answer, log */ }
+/// assert!(fate.input && fate.route.contains(ground_link));
+///
+/// // The same ids from a ground link: someone posing as the FC.
+/// let source = Some("192.168.1.20:14550".parse()?);
+/// let fate = node.handle_frame(
+///     Instant::ZERO,
+///     Arrival { link: ground_link, source, frame, authenticated: false },
+/// );
+/// while let Some(_output) = node.poll_output() {}
+/// assert_eq!(fate.dropped, Some(DropReason::Impersonation));
+/// assert_eq!(node.drops().get(DropReason::Impersonation), 1);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct CompanionNode {
     engine: CcEngine,

@@ -11,6 +11,10 @@ use fbwag_dialect::Message;
 
 /// The flight controller's node: the [`FcEngine`] and the policy of its
 /// links (see the [module docs](super)).
+///
+/// Driven as [`CompanionNode`](super::CompanionNode)'s example shows: each
+/// frame a link's parser accepted goes to `handle_frame` as an
+/// [`Arrival`](super::Arrival), and its [`Fate`](super::Fate) says where it goes.
 #[derive(Debug, Clone)]
 pub struct FcNode {
     engine: FcEngine,

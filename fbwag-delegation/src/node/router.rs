@@ -13,6 +13,10 @@ use core::convert::Infallible;
 /// only sources of authenticated frames), and with signing required routes
 /// only authenticated frames (see the [module docs](super)). Its only
 /// outputs are [`Output::Peers`].
+///
+/// Driven as [`CompanionNode`](super::CompanionNode)'s example shows: each
+/// frame a link's parser accepted goes to `handle_frame` as an
+/// [`Arrival`](super::Arrival), and its [`Fate`](super::Fate) says where it goes.
 #[derive(Debug, Clone)]
 pub struct RouterNode {
     core: Core,

@@ -44,6 +44,64 @@ pub use crate::framer::Framer;
 /// every byte handed to [`decode`](Decoder::decode) is consumed, and a
 /// partial frame waits inside the parser. Encoding writes frame bytes as
 /// they are (use [`Framer`] to make them).
+///
+/// With a `Stream` / `Sink` crate (futures' `StreamExt`), wrap the stream
+/// in `tokio_util::codec::Framed` and `next().await` yields frames. Without
+/// one, decode as the reads come:
+///
+/// ```
+/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
+/// # impl Message for Ping {
+/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
+/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   type View<'a> = u8;
+/// #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
+/// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {
+/// #     *p.first_mut().ok_or(BufferTooSmall { needed: 1, got: 0 })? = self.0; Ok(1) }
+/// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
+/// # }
+/// # struct D;
+/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
+/// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
+/// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
+/// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
+/// // (this crate sits below the generator); use a generated crate's
+/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// use mavframe::conn::codec::{FrameCodec, Framer};
+/// use tokio::io::{AsyncReadExt, AsyncWriteExt};
+/// use tokio::net::{TcpListener, TcpStream};
+/// use tokio_util::bytes::BytesMut;
+/// use tokio_util::codec::Decoder;
+///
+/// let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+/// runtime.block_on(async {
+///     // A TCP link on this machine; a tokio-serial port reads the same way.
+///     let listener = TcpListener::bind("127.0.0.1:0").await?;
+///     let mut out = TcpStream::connect(listener.local_addr()?).await?;
+///     let (mut input, _) = listener.accept().await?;
+///
+///     // Sending: the framer numbers (and signs) frames; the bytes go out as they are.
+///     let mut framer = Framer::new();
+///     out.write_all(framer.frame(1, 1, &Ping(7))?).await?;
+///     out.write_all(framer.frame(1, 1, &Ping(8))?).await?;
+///
+///     // Receiving: bytes in as the reads cut them, checked frames out.
+///     let mut codec = FrameCodec::<D>::new();
+///     let mut bytes = BytesMut::new();
+///     let mut got = Vec::new();
+///     while got.len() < 2 {
+///         match codec.decode(&mut bytes)? {
+///             Some(frame) => got.push(frame.message()),
+///             None => assert!(input.read_buf(&mut bytes).await? > 0, "closed"),
+///         }
+///     }
+///     assert_eq!(got, [Some(Ping(7)), Some(Ping(8))]);
+///     Ok::<(), Box<dyn std::error::Error>>(())
+/// })?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct FrameCodec<D: Dialect> {
     parser: Parser<D>,
 }

@@ -105,6 +105,50 @@ pub(crate) fn recv<D: Dialect, T: Transport + ?Sized>(
 ///
 /// `T` is any [`Transport`]; the default, [`AnyTransport`], is what
 /// [`Connection::open`] makes from an [`Endpoint`].
+///
+/// To receive on one thread and send on another, [`split`](Connection::split)
+/// it; for tokio, see `codec` (feature `tokio`).
+///
+/// ```
+/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
+/// # impl Message for Ping {
+/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
+/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   type View<'a> = u8;
+/// #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
+/// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {
+/// #     *p.first_mut().ok_or(BufferTooSmall { needed: 1, got: 0 })? = self.0; Ok(1) }
+/// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
+/// # }
+/// # struct D;
+/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
+/// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
+/// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
+/// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
+/// // (this crate sits below the generator); use a generated crate's
+/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// use mavframe::conn::Connection;
+/// use std::time::Duration;
+///
+/// // A vehicle listening on a UDP port, and a ground station sending to it.
+/// let mut vehicle = Connection::<D>::open(&"udpin:127.0.0.1:0".parse()?)?;
+/// let port = vehicle.transport().local_addr()?.port();
+/// let mut station = Connection::<D>::open(&format!("udpout:127.0.0.1:{port}").parse()?)?;
+///
+/// // `send_auto` numbers frames itself (and signs them, given a signer).
+/// station.send_auto(255, 190, &Ping(7))?;
+/// let received = vehicle.recv(Some(Duration::from_secs(5)))?.expect("a frame in time");
+/// assert_eq!(received.message(), Some(Ping(7)));
+/// assert_eq!(received.header().sysid, 255);
+///
+/// // `udpin` answers whom it heard from: the station gets the reply.
+/// vehicle.send_auto(1, 1, &Ping(8))?;
+/// let reply = station.recv(Some(Duration::from_secs(5)))?.expect("a reply");
+/// assert_eq!(reply.message(), Some(Ping(8)));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Connection<D: Dialect, T: Transport = AnyTransport> {
     transport: T,
     core: LinkCore<D, Box<[u8]>>,

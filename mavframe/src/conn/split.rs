@@ -49,6 +49,9 @@ impl SendHalf {
 /// (version, sequence number, signer) and a handle on the link; `Send`,
 /// so it can move to another thread while the [`Receiver`] blocks in
 /// `recv`. Wrap it in a `Mutex` to send from several threads.
+///
+/// Made by [`Connection::split`], whose example sends from a thread of
+/// its own while the receiving half waits.
 #[derive(Debug)]
 pub struct Sender {
     half: SendHalf,
@@ -125,6 +128,8 @@ impl Sender {
 
 /// The receiving half of a split [`Connection`]: the transport (used only
 /// to read) and the parser.
+///
+/// Made by [`Connection::split`] (an example there).
 pub struct Receiver<D: Dialect> {
     transport: AnyTransport,
     inbox: ConnInbox<D>,

@@ -24,7 +24,7 @@ pub struct Blocking;
 pub struct Async;
 
 /// MAVLink over one `Read + Write`: [`Link`](super::Link) (blocking) or
-/// `AsyncLink` (async, `M` = [`Async`]).
+/// `AsyncLink` (async, `M` = `Async`, feature `embedded-io-async`).
 pub struct LinkOf<M, T, D: Dialect, const BUF: usize, const STREAMS: usize> {
     pub(super) io: T,
     pub(super) core: LinkCore<D, [u8; BUF], STREAMS>,

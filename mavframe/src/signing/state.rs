@@ -565,6 +565,52 @@ pub enum Loaded {
 
 /// A state file and the save policy of the module docs: the state last
 /// read or written, and when.
+///
+/// ```
+/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
+/// # impl Message for Ping {
+/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
+/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   type View<'a> = u8;
+/// #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
+/// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {
+/// #     *p.first_mut().ok_or(BufferTooSmall { needed: 1, got: 0 })? = self.0; Ok(1) }
+/// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
+/// # }
+/// # struct D;
+/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
+/// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
+/// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
+/// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
+/// // (this crate sits below the generator); use a generated crate's
+/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// use mavframe::signing::state::{Loaded, StateFile};
+/// use mavframe::{Framer, Verifier};
+///
+/// let path = std::env::temp_dir().join(format!("mavframe-doc-{}.state", std::process::id()));
+/// let key = [7u8; 32];
+///
+/// // First run: no file yet; the signer starts from the clock.
+/// let (mut file, loaded) = StateFile::open(path.clone())?;
+/// assert_eq!(loaded, Loaded::Fresh);
+/// let mut framer = Framer::new();
+/// framer.set_signer(Some(file.state().signer(key, 0)));
+/// framer.frame(1, 191, &Ping(1))?; // signed
+/// let signed = framer.signer().unwrap().signed_below();
+/// // At exit (and at checkpoints, when `due`): what was signed, to the file.
+/// file.save_final(framer.signer(), None::<&Verifier>)?;
+///
+/// // A restart whose clock reads 0 (a board without a real-time clock): the
+/// // signer still starts above everything it signed, so no receiver takes
+/// // its frames for replays.
+/// let (file, loaded) = StateFile::open(path.clone())?;
+/// assert_eq!(loaded, Loaded::Existing);
+/// assert!(file.state().signer_at(key, 0, 0).timestamp() >= signed);
+/// std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug)]
 pub struct StateFile {
     path: PathBuf,

@@ -136,6 +136,9 @@ cargo clippy --workspace --all-targets --all-features --locked -- -D warnings
 step "cargo doc -D warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
 
+step "API docs as docs.rs builds them, no link left as text"
+bash scripts/check-docs.sh
+
 step "cargo test: build"
 cargo test --workspace --locked --no-run
 

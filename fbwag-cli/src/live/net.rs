@@ -86,7 +86,7 @@ pub struct Net {
     pub main: LinkId,
     /// Frames the node dropped, logged at most 5 lines per 10 s.
     dropped: Limiter,
-    link_errors: Limiter,
+    link_changes: LinkChanges,
     /// The node's drop counts when last reported.
     drops_seen: Drops,
     /// Each link's counters when last reported.
@@ -126,7 +126,7 @@ impl Net {
             router,
             main,
             dropped: Limiter::new(5, Duration::from_secs(10)),
-            link_errors: Limiter::new(5, Duration::from_secs(10)),
+            link_changes: LinkChanges::default(),
             drops_seen: Drops::default(),
             refused_seen: Vec::new(),
             refused_at: tokio::time::Instant::now(),
@@ -203,29 +203,7 @@ impl Net {
     }
 
     fn name(&self, link: LinkId) -> String {
-        self.router
-            .endpoint(link)
-            .map(|e| e.to_string())
-            .unwrap_or_default()
-    }
-
-    /// A link's change: logged; returns the link opened again, whose peers
-    /// the node forgets.
-    fn link_event(&mut self, event: RouterEvent<Dialect>, log: &mut Log) -> Option<LinkId> {
-        match event {
-            RouterEvent::LinkDown { link, error } => {
-                let name = self.name(link);
-                self.link_errors.log(log, "link errors", || {
-                    format!("link {name} failed ({error}); opening it again every second")
-                });
-                None
-            }
-            RouterEvent::LinkUp { link } => {
-                log.line(&format!("link {} open again", self.name(link)));
-                Some(link)
-            }
-            RouterEvent::Frame(_) => None,
-        }
+        link_name(&self.router, link)
     }
 
     /// Every [`REFUSED_INTERVAL`], what each link's parser refused since
@@ -245,8 +223,7 @@ impl Net {
                 self.refused_seen.resize(i + 1, LinkCounters::default());
             }
             let was = std::mem::replace(&mut self.refused_seen[i], counters);
-            let name = self.router.endpoint(link).map(|e| e.to_string());
-            let name = name.unwrap_or_default();
+            let name = link_name(&self.router, link);
             report_lost(&name, &was, &counters, log);
             // (A reopened link's parser counts from zero again: saturating,
             // what it refused before this report is not reported.)
@@ -286,6 +263,54 @@ impl Net {
     }
 }
 
+/// The name of `link` in the log: its connection string.
+pub fn link_name(router: &Router<Dialect>, link: LinkId) -> String {
+    router
+        .endpoint(link)
+        .map(|e| e.to_string())
+        .unwrap_or_default()
+}
+
+/// Links' failures and returns, logged: failures at most 5 lines per 10 s
+/// (a link that keeps failing is opened again every second).
+pub struct LinkChanges {
+    errors: Limiter,
+}
+
+impl Default for LinkChanges {
+    fn default() -> Self {
+        LinkChanges {
+            errors: Limiter::new(5, Duration::from_secs(10)),
+        }
+    }
+}
+
+impl LinkChanges {
+    /// A link's change: logged; returns the link opened again, whose peers
+    /// the node forgets.
+    pub fn log(
+        &mut self,
+        router: &Router<Dialect>,
+        event: RouterEvent<Dialect>,
+        log: &mut Log,
+    ) -> Option<LinkId> {
+        match event {
+            RouterEvent::LinkDown { link, error } => {
+                let name = link_name(router, link);
+                self.errors.log(log, "link errors", || {
+                    format!("link {name} failed ({error}); opening it again every second")
+                });
+                None
+            }
+            RouterEvent::LinkUp { link } => {
+                log.line(&format!("link {} open again", link_name(router, link)));
+                Some(link)
+            }
+            RouterEvent::Frame(_) => None,
+        }
+    }
+}
+
 /// What the link at `name` lost since `was`, if anything: one line.
 fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log) {
     let parts: Vec<String> = [
@@ -320,7 +345,7 @@ fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log
 }
 
 /// The `ReplyTo` rule of a link: `--peer`, or whom the node names.
-fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
+pub fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
     peer.map_or(ReplyTo::Owner, ReplyTo::Fixed)
 }
 
@@ -352,7 +377,8 @@ pub fn drop_counts(drops: &Drops) -> serde_json::Value {
         .into()
 }
 
-fn opened(endpoint: &Endpoint, e: io::Error) -> io::Error {
+/// `e`, naming the link that could not be opened.
+pub fn opened(endpoint: &Endpoint, e: io::Error) -> io::Error {
     io::Error::new(e.kind(), format!("cannot open {endpoint}: {e}"))
 }
 
@@ -435,7 +461,7 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                     node.handle_frame(clock.now(), &inbound, &mut net, log)
                 }
                 Some(event) => {
-                    if let Some(link) = net.link_event(event, log) {
+                    if let Some(link) = net.link_changes.log(&net.router, event, log) {
                         node.link_reopened(link);
                     }
                 }

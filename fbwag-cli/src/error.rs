@@ -81,12 +81,12 @@ pub enum CliError {
     },
     /// An error of the JSON conversions ([`crate::json`]), whatever its type.
     #[error("{0}")]
-    Json(Box<dyn std::error::Error + Send + Sync>),
+    Json(Box<dyn std::error::Error>),
 }
 
 impl CliError {
     /// Wraps an error of [`crate::json`].
-    pub fn json(e: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> Self {
+    pub fn json(e: impl Into<Box<dyn std::error::Error>>) -> Self {
         CliError::Json(e.into())
     }
 

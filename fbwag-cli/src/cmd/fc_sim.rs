@@ -35,21 +35,9 @@ pub struct FcSimArgs {
     /// the client connected from it) and no other.
     #[arg(long, value_name = "IP:PORT")]
     pub peer: Option<SocketAddr>,
-    /// Keep the signing timestamps (this signer's, and each peer
-    /// stream's) in this file across restarts, so a restart neither
-    /// replays old timestamps nor accepts replays of frames accepted
-    /// before (saved every second and at exit, SIGINT and SIGTERM
-    /// included; a damaged file, or one that cannot be written, stops
-    /// the program: remove it to start from the clock). Without it, a
-    /// restarted daemon accepts once, per stream, frames captured up to
-    /// a minute before: use it whenever signing.
-    #[arg(long, value_name = "PATH", requires = "sign_key")]
+    #[arg(long, value_name = "PATH", requires = "sign_key", help = help::SIGNING_STATE)]
     pub signing_state: Option<PathBuf>,
-    /// Write machine-readable events to this file (`-`: stdout), one
-    /// JSON object per line (keys below). A FIFO is written once a
-    /// reader opens it (events queue meanwhile, up to 4,096, then are
-    /// counted as dropped); it never holds the daemon.
-    #[arg(long, value_name = "PATH")]
+    #[arg(long, value_name = "PATH", help = help::EVENTS)]
     pub events: Option<PathBuf>,
     /// Lose the receiver at this time (seconds after start, 0–1,000,000).
     /// Repeatable, with --rc-back-at, for several failures: the k-th

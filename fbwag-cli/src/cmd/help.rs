@@ -109,3 +109,16 @@ Ground stations:
 ",
     link_rules!()
 );
+
+/// `--signing-state` of both daemons.
+pub const SIGNING_STATE: &str = "Keep the signing timestamps (this signer's, and each peer \
+stream's) in this file across restarts, so a restart neither replays old timestamps nor \
+accepts replays of frames accepted before (saved every second and at exit, SIGINT and \
+SIGTERM included; a damaged file, or one that cannot be written, stops the program: remove \
+it to start from the clock). Without it, a restarted daemon accepts once, per stream, \
+frames captured up to a minute before: use it whenever signing";
+
+/// `--events` of both daemons.
+pub const EVENTS: &str = "Write machine-readable events to this file (`-`: stdout), one JSON \
+object per line (keys below). A FIFO is written once a reader opens it (events queue \
+meanwhile, up to 4,096, then are counted as dropped); it never holds the daemon";

@@ -19,6 +19,7 @@ mod log;
 mod modes;
 pub mod net;
 pub mod router;
+mod signals;
 mod writer;
 
 pub use clock::Clock;

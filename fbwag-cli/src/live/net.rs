@@ -15,6 +15,7 @@
 //! - frames the node drops and each link's parser refusals are logged
 //!   rate-limited, with counts.
 
+use super::signals::StopSignals;
 use super::{Clock, Events, Limiter, Log};
 use crate::args::RoutedRate;
 use fbwag_delegation::node::{Answers, Arrival, DropReason, Drops, Peers};
@@ -478,77 +479,6 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
         _ = net.router.shutdown(Duration::from_secs(1)) => {}
         // A second signal: the user does not wait.
         name = stop.recv() => std::process::exit(if name == "SIGINT" { 130 } else { 143 }),
-    }
-}
-
-/// SIGTERM (`kill`, `systemctl stop`), and SIGINT (Ctrl-C) when standard
-/// input is a terminal: the daemon stops as at the end of its run, its
-/// links saving their signing state; a second signal ends it at once.
-/// (Killed by either, it skipped that save: with `--signing-state`, what
-/// it had accepted since the last periodic save could be replayed into it
-/// once restarted.) SIGINT is left alone otherwise: a daemon a script
-/// starts in the background inherits it ignored, and keeps running.
-struct StopSignals {
-    #[cfg(unix)]
-    interrupt: Option<tokio::signal::unix::Signal>,
-    #[cfg(unix)]
-    terminate: Option<tokio::signal::unix::Signal>,
-}
-
-impl StopSignals {
-    fn new(enabled: bool, log: &mut Log) -> Self {
-        #[cfg(unix)]
-        {
-            use std::io::IsTerminal;
-            use tokio::signal::unix::{signal, SignalKind};
-            let mut listen = |kind: SignalKind, name: &str| {
-                signal(kind)
-                    .map_err(|e| {
-                        log.line(&format!(
-                            "cannot handle {name} ({e}): it ends the daemon unsaved"
-                        ))
-                    })
-                    .ok()
-            };
-            let interactive = std::io::stdin().is_terminal();
-            StopSignals {
-                interrupt: (enabled && interactive)
-                    .then(|| listen(SignalKind::interrupt(), "SIGINT"))
-                    .flatten(),
-                terminate: enabled
-                    .then(|| listen(SignalKind::terminate(), "SIGTERM"))
-                    .flatten(),
-            }
-        }
-        #[cfg(not(unix))]
-        {
-            let _ = (enabled, log);
-            StopSignals {}
-        }
-    }
-
-    /// The name of the next stop signal received (never, without them).
-    async fn recv(&mut self) -> &'static str {
-        #[cfg(unix)]
-        {
-            async fn next(s: &mut Option<tokio::signal::unix::Signal>) {
-                match s {
-                    // (`None`: the runtime is going away; nothing more.)
-                    Some(s) => {
-                        if s.recv().await.is_none() {
-                            std::future::pending::<()>().await;
-                        }
-                    }
-                    None => std::future::pending().await,
-                }
-            }
-            tokio::select! {
-                _ = next(&mut self.interrupt) => "SIGINT",
-                _ = next(&mut self.terminate) => "SIGTERM",
-            }
-        }
-        #[cfg(not(unix))]
-        std::future::pending().await
     }
 }
 

@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
 # Ensure $REPO/target/peerenv is a venv holding the real MAVLink peers the
-# interop tests run against, pinned, plus the FBWAG dialect and MAVProxy
-# module installed into them (interop/install_dialect.py):
+# interop tests run against, pinned, plus this repository's Python package
+# python/ (fbwag-mavlink: the FBWAG dialect for pymavlink and the MAVProxy
+# module `fbwag`), installed the way an integrator installs it:
 #   MAVProxy 1.8.75 (mavproxy.py), pymavlink 2.4.50 (the same pin as
 #   scripts/python-env.sh), mavsdk 3.17.4 (the last 3.x; its wheel ships the
-#   mavsdk_server binary, 4.x does not).
+#   mavsdk_server binary, 4.x does not), and `pip install ./python`.
 #   executed: scripts/peer-env.sh        -> prints the venv's python path
 #   sourced:  . scripts/peer-env.sh      -> sets PEER_PYTHON (no output)
-# Idempotent: when every pin already imports, pip is not run at all (the
-# dialect step still runs: it rewrites nothing that is up to date).
+# Idempotent: when every pin already imports, pip is not run for them; the
+# package is reinstalled only when the content of python/ changed since it
+# was installed (its hash is kept in target/peerenv/fbwag-mavlink.sha256).
+# Only the package registry is used: the pins, and hatchling (the package's
+# pinned build backend) in pip's isolated build environment. The build
+# writes nothing into python/.
 # Override the interpreter used to create the venv with PYTHON=/path/python3.
 #
 # Why a venv of its own: target/pyenv is the conformance reference and holds
@@ -20,7 +25,8 @@
 # installed), used only by its GUI modules (map3d, graphs, camera views). The
 # headless router (--non-interactive/--daemon, default modules) runs without
 # them; `pip check` lists exactly those four as missing. Everything else is
-# pinned to the versions a full resolve chose, so the set is reproducible.
+# pinned to the versions a full resolve chose, so the set is reproducible
+# (python/README.md shows the same install for integrators).
 
 _peerenv_pins=(
     "pymavlink==2.4.50" "lxml==6.1.3" "fastcrc==0.5.0"
@@ -72,11 +78,42 @@ EOF
             return 1
         fi
     fi
-    if ! "$py" "$repo/interop/install_dialect.py" --quiet >&2; then
-        echo "peer-env.sh: installing the FBWAG dialect into $venv failed" >&2
-        return 1
-    fi
+    _peerenv_package "$repo" "$venv" "$py" || return 1
     PEER_PYTHON="$py"
+}
+
+# (Re)install python/ when its content differs from what was installed,
+# then check what it placed: the dialect modules where pymavlink's
+# set_dialect looks, and MAVProxy's `module load fbwag`.
+_peerenv_package() {
+    local repo="$1" venv="$2" py="$3" stamp="$2/fbwag-mavlink.sha256" want
+    want="$(cd "$repo" && find python -type f ! -path '*/__pycache__/*' ! -name '*.pyc' -print0 |
+        LC_ALL=C sort -z | xargs -0 sha256sum | sha256sum | cut -d' ' -f1)" || return 1
+    if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ] || ! _peerenv_package_ok "$py"; then
+        rm -f "$stamp"
+        if ! "$py" -m pip install --quiet --disable-pip-version-check --no-deps \
+                --force-reinstall "$repo/python" >&2; then
+            echo "peer-env.sh: pip install $repo/python into $venv failed" >&2
+            return 1
+        fi
+        if ! _peerenv_package_ok "$py"; then
+            echo "peer-env.sh: $repo/python installed, but its modules do not import from $py" >&2
+            "$py" -c 'import pymavlink.dialects.v20.fbwag, MAVProxy.modules.mavproxy_fbwag' >&2
+            return 1
+        fi
+        printf '%s\n' "$want" >"$stamp"
+    fi
+}
+
+_peerenv_package_ok() {
+    "$1" - >/dev/null 2>&1 <<'EOF'
+import pymavlink.dialects.v10.fbwag as v10
+import pymavlink.dialects.v20.fbwag as v20
+import MAVProxy.modules.mavproxy_fbwag as module
+assert v20.MAVLink_fbwag_notice_message.crc_extra == 30
+assert hasattr(v10, "MAVLink_heartbeat_message")
+assert callable(module.init)
+EOF
 }
 
 if [ "${BASH_SOURCE[0]}" = "$0" ]; then
@@ -85,7 +122,7 @@ if [ "${BASH_SOURCE[0]}" = "$0" ]; then
 else
     _peerenv_ensure
     _peerenv_rc=$?
-    unset -f _peerenv_ensure _peerenv_ok
+    unset -f _peerenv_ensure _peerenv_ok _peerenv_package _peerenv_package_ok
     unset _peerenv_pins
     [ "$_peerenv_rc" -eq 0 ] && export PEER_PYTHON
     return "$_peerenv_rc" 2>/dev/null || true

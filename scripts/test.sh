@@ -5,7 +5,8 @@
 #   generated-code behaviour, and conformance against pymavlink 2.4.50.
 # Installs what it needs itself: the pinned pymavlink in a venv under
 # target/pyenv (cached; see scripts/python-env.sh) and the pinned MAVProxy,
-# mavsdk and pymavlink in target/peerenv (cached; see scripts/peer-env.sh).
+# mavsdk and pymavlink in target/peerenv, with python/ (fbwag-mavlink)
+# installed (cached; see scripts/peer-env.sh).
 # Needs cargo, python3, gcc.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -20,13 +21,25 @@ python="$(bash scripts/python-env.sh)"
 "$python" -c 'import pymavlink; print("pymavlink", pymavlink.__version__)'
 
 # The real peers of fbwag-cli/tests/mavproxy.rs, pinned, in target/peerenv
-# (cached), with the FBWAG dialect and the MAVProxy module installed into them.
-step "Peer environment (MAVProxy 1.8.75, mavsdk 3.17.4, pymavlink 2.4.50 + FBWAG dialect)"
+# (cached), with this repository's package python/ (fbwag-mavlink: the FBWAG
+# dialect for pymavlink and the MAVProxy module) installed by pip, which
+# must write nothing into python/.
+step "Peer environment (MAVProxy 1.8.75, mavsdk 3.17.4, pymavlink 2.4.50 + python/ fbwag-mavlink)"
+python_tree() { git status --porcelain --ignored --untracked-files=all python/; }
+python_before="$(python_tree)"
 peer="$(bash scripts/peer-env.sh)"
+[ "$(python_tree)" = "$python_before" ] || { echo "pip install ./python wrote into python/" >&2; python_tree >&2; exit 1; }
 "$peer" -c 'from importlib.metadata import version as v
 from pymavlink.dialects.v20 import fbwag
 print("MAVProxy", v("MAVProxy"), "mavsdk", v("mavsdk"), "pymavlink", v("pymavlink"),
+      "fbwag-mavlink", v("fbwag-mavlink"),
       "FBWAG_NOTICE crc_extra", fbwag.MAVLink_fbwag_notice_message.crc_extra)'
+
+# python/: the checked-in dialect modules are pymavlink 2.4.50's mavgen output
+# for message_definitions/fbwag.xml; the MAVProxy module fed frames (no
+# MAVProxy). -B: no byte code in the tree.
+step "python/ (fbwag-mavlink): dialect regenerated and compared, MAVProxy module"
+"$peer" -B -m unittest discover -s python/tests -v
 
 # fbwag-cli/tests/trust.rs runs daemons on a skewed clock (LD_PRELOAD).
 step "libfaketime (daemons on a skewed clock)"

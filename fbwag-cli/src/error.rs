@@ -3,6 +3,7 @@
 
 use crate::args::OutageError;
 use crate::hexstream::HexError;
+use crate::live::cc::TrustedOutError;
 use crate::sim::SimError;
 use fbwag_dialect::mavframe::conn::ParseEndpointError;
 use std::io;
@@ -64,6 +65,12 @@ pub enum CliError {
     Endpoint {
         arg: String,
         source: ParseEndpointError,
+    },
+    /// A `--trusted-out` link that is not local.
+    #[error("--trusted-out {conn}: {source}")]
+    TrustedOut {
+        conn: String,
+        source: TrustedOutError,
     },
     /// A signing key of the wrong length.
     #[error("a signing key is 32 bytes (64 hex digits), got {0}")]

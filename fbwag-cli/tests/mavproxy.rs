@@ -1,5 +1,6 @@
 //! The paper's deployment: MAVProxy 1.8.75 (pinned, installed with
-//! pymavlink 2.4.50 and the FBWAG dialect into target/peerenv by
+//! pymavlink 2.4.50 and this repository's package python/ (fbwag-mavlink:
+//! the FBWAG dialect and the MAVProxy module) into target/peerenv by
 //! scripts/peer-env.sh) as the router between `fbwag fc-sim` and `fbwag cc`,
 //! over UDP on 127.0.0.1:
 //!
@@ -12,8 +13,9 @@
 //! default dialect MAVProxy's routing thread dies at the companion's first
 //! FBWAG_NOTICE (both work-arounds shown to work), and MAVProxy re-sends an
 //! unsigned companion's frames as itself (255/230), which the FC refuses.
-//! Also `module load fbwag` (interop/mavproxy_fbwag.py) driven through
-//! MAVProxy's console. The optional tap (interop/mavlink_tap.py) logs every
+//! Also `module load fbwag` (python/src/fbwag_mavlink/mavproxy_fbwag.py, as
+//! installed) driven through MAVProxy's console, and what it says when the FC
+//! falls back to RTL. The optional tap (interop/mavlink_tap.py) logs every
 //! frame between the FC and MAVProxy.
 //!
 //! Each test starts its own processes and kills exactly those (on drop, even
@@ -264,6 +266,22 @@ impl Logs {
         );
     }
 
+    /// The module's line on the FC's fallback, and before RC comes back no
+    /// notice read as "RC in control".
+    fn assert_module_says_rtl(&self, line: &str) {
+        assert!(self.mavproxy.contains(line), "{line:?}\n{}", self.all());
+        let rc_lost = self
+            .mavproxy
+            .split("(RC back, pilot in control)")
+            .next()
+            .unwrap_or_default();
+        assert!(
+            !rc_lost.contains("(RC in control)"),
+            "RC in control said while RC was lost\n{}",
+            self.all()
+        );
+    }
+
     fn handover_ms(&self) -> Option<u32> {
         let at = self.fc.find("handover ")? + "handover ".len();
         self.fc[at..].split(' ').next()?.parse().ok()
@@ -399,13 +417,14 @@ fn default_dialect_with_a_key_stops_routing_at_the_first_notice() {
 
 /// MAVProxy signs what it forwards with its own identity: an unsigned
 /// companion's FBWAG_NOTICE reaches the FC as 255/230, not 1/191, so a
-/// signing FC refuses every takeover (safe, but always).
+/// signing FC refuses every takeover (safe, but always). The module says
+/// why the FC returns home: the handshake ran out.
 #[test]
 fn mavproxy_cannot_sign_for_an_unsigned_companion() {
     let Some(logs) = run(ChainSpec {
         test: "unsigned-cc-signing-mavproxy",
         mavproxy: MavproxySetup {
-            args: &["--dialect=fbwag"],
+            args: &["--dialect=fbwag", "--load-module=fbwag"],
             cmd: signing_cmd(""),
             console: false,
         },
@@ -428,6 +447,40 @@ fn mavproxy_cannot_sign_for_an_unsigned_companion() {
             .iter()
             .all(|l| l.contains(" 255/230 ") && l.ends_with("signed=1")),
         "{to_fc:#?}"
+    );
+    logs.assert_module_says_rtl(
+        "fbwag: RTL: companion did not take over: no acknowledgement accepted by the FC in",
+    );
+}
+
+/// A companion whose autonomy is silent declines the takeover, and the FC
+/// returns home at once: the module says so, and never that RC is in
+/// control while it is still lost.
+#[test]
+fn mavproxy_module_fbwag_says_the_companion_declined() {
+    let autonomy = format!("udpin:127.0.0.1:{}", free_port());
+    let Some(logs) = run(ChainSpec {
+        test: "module-declined",
+        mavproxy: MavproxySetup {
+            args: &["--load-module=fbwag"],
+            cmd: None,
+            console: false,
+        },
+        fc_args: &[],
+        cc_args: &["--autonomy", &autonomy],
+        schedule: CYCLE,
+        tap: false,
+    }) else {
+        return;
+    };
+    logs.assert_never_delegated();
+    logs.assert_module_says_rtl("fbwag: RTL: companion did not take over: it declined");
+    // The FC's "RC has taken over!" answers the companion's acknowledgement
+    // of status 0: no hand-back while RC is lost.
+    assert!(
+        !logs.mavproxy.contains("fbwag: hand-back confirmed"),
+        "{}",
+        logs.all()
     );
 }
 

@@ -73,7 +73,7 @@ fn companion(source: impl Fn(u8) -> ControlSource) -> CompanionNode {
         ..CcConfig::default()
     };
     let mut cc = CompanionNode::new(cfg, source(AUTONOMY), Instant::ZERO).unwrap();
-    let spec = |role, answers| LinkSpec { role, answers };
+    let spec = LinkSpec::new;
     cc.add_link(FC_LINK, spec(Role::Peer, Answers::Chosen))
         .unwrap();
     cc.add_link(GROUND, spec(Role::Ground, Answers::Chosen))
@@ -358,10 +358,7 @@ fn fc_node() -> FcNode {
         ..FcConfig::default()
     };
     let mut fc = FcNode::new(cfg, Instant::ZERO).unwrap();
-    let spec = LinkSpec {
-        role: Role::Peer,
-        answers: Answers::Target,
-    };
+    let spec = LinkSpec::new(Role::Peer, Answers::Target);
     fc.add_link(0, spec).unwrap();
     fc
 }
@@ -472,4 +469,48 @@ fn a_key_holder_behind_in_time_gets_a_signed_heartbeat_and_never_the_peers_place
         !out.iter().any(|o| matches!(o, Output::Peers { .. })),
         "{out:?}"
     );
+}
+
+/// A link trusted like the key (`--trusted-out`): a tool's unsigned
+/// command reaches the FC, to be signed on the way; the same command from
+/// an ordinary ground link is dropped; the trusted link still cannot claim
+/// the FC's ids, and a frame the dialect does not know (which cannot be
+/// signed) stays on the ground side.
+#[test]
+fn a_trusted_link_reaches_the_fc_signed_on_the_way() {
+    const TRUSTED: u8 = 3;
+    let mut cc = companion(builtin);
+    let trusted = LinkSpec {
+        trusted: true,
+        ..LinkSpec::new(Role::Ground, Answers::Chosen)
+    };
+    cc.add_link(TRUSTED, trusted).unwrap();
+    heard_fc(&mut cc, Instant::ZERO);
+    let command = bytes(
+        GCS,
+        &CommandLong {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            ..Default::default()
+        },
+    );
+    let tool = Some(addr(14560));
+    let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &command, false));
+    assert_eq!(
+        (fate.route, fate.sign),
+        (Links::only(FC_LINK), true),
+        "{fate:?}"
+    );
+
+    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, tool, &command, false));
+    assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
+
+    let forged = bytes(FC, &position());
+    let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &forged, false));
+    assert_eq!(fate.dropped, Some(DropReason::Impersonation));
+
+    let mut unknown = bytes(GCS, &position());
+    unknown[7..10].copy_from_slice(&[0xfe, 0xff, 0xff]); // an id no dialect defines
+    let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &unknown, false));
+    assert!(!fate.sign && !fate.route.contains(FC_LINK), "{fate:?}");
 }

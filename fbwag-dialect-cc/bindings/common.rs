@@ -8,6 +8,7 @@
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct AttitudeTargetTypemask(pub u8);
+
 impl AttitudeTargetTypemask {
     /// Ignore body roll rate
     pub const BODY_ROLL_RATE_IGNORE: Self = Self(1);
@@ -78,6 +79,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for AttitudeTargetTypemask {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavCmd(pub u16);
+
 impl MavCmd {
     /// Navigate to waypoint. This is intended for use in missions (for guided commands outside of
     /// missions use MAV_CMD_DO_REPOSITION).
@@ -2371,12 +2373,10 @@ impl MavCmd {
     pub const fn from_raw(value: u16) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u16 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2847,6 +2847,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavCmd {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavResult(pub u8);
+
 impl MavResult {
     /// Command is valid (is supported and has valid parameters), and was executed.
     pub const ACCEPTED: Self = Self(0);
@@ -2881,12 +2882,10 @@ impl MavResult {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2975,6 +2974,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavResult {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavSeverity(pub u8);
+
 impl MavSeverity {
     /// System is unusable. This is a "panic" condition.
     pub const EMERGENCY: Self = Self(0);
@@ -2999,12 +2999,10 @@ impl MavSeverity {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3090,6 +3088,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavSeverity {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MavSysStatusSensor(pub u32);
+
 impl MavSysStatusSensor {
     /// 0x01 3D gyro
     pub const SENSOR_3D_GYRO: Self = Self(1);
@@ -3240,6 +3239,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavSysStatusSensor {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MavSysStatusSensorExtended(pub u32);
+
 impl MavSysStatusSensorExtended {
     /// 0x01 Recovery system (parachute, balloon, retracts etc)
     pub const MAV_SYS_STATUS_RECOVERY_SYSTEM: Self = Self(1);
@@ -3519,7 +3519,6 @@ impl SysStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -3554,13 +3553,11 @@ impl SysStatus {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SysStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -3616,12 +3613,10 @@ impl ::mavframe::Message for SysStatus {
     fn parse(payload: &[u8]) -> Self {
         SysStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SysStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SysStatusView<'_> {
         SysStatusView::new(payload)
@@ -3643,19 +3638,16 @@ impl<'a> SysStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SysStatus {
         SysStatus::from_view(self)
     }
-
     /// Reads [`SysStatus::onboard_control_sensors_present`](SysStatus::onboard_control_sensors_present) (`onboard_control_sensors_present` at offset 0).
     #[inline]
     pub fn onboard_control_sensors_present(&self) -> MavSysStatusSensor {
@@ -3663,7 +3655,6 @@ impl<'a> SysStatusView<'a> {
             ::mavframe::field::read::<u32>(self.payload, 0),
         )
     }
-
     /// Reads [`SysStatus::onboard_control_sensors_enabled`](SysStatus::onboard_control_sensors_enabled) (`onboard_control_sensors_enabled` at offset 4).
     #[inline]
     pub fn onboard_control_sensors_enabled(&self) -> MavSysStatusSensor {
@@ -3671,7 +3662,6 @@ impl<'a> SysStatusView<'a> {
             ::mavframe::field::read::<u32>(self.payload, 4),
         )
     }
-
     /// Reads [`SysStatus::onboard_control_sensors_health`](SysStatus::onboard_control_sensors_health) (`onboard_control_sensors_health` at offset 8).
     #[inline]
     pub fn onboard_control_sensors_health(&self) -> MavSysStatusSensor {
@@ -3679,67 +3669,56 @@ impl<'a> SysStatusView<'a> {
             ::mavframe::field::read::<u32>(self.payload, 8),
         )
     }
-
     /// Reads [`SysStatus::load`](SysStatus::load) (`load` at offset 12).
     #[inline]
     pub fn load(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 12)
     }
-
     /// Reads [`SysStatus::voltage_battery`](SysStatus::voltage_battery) (`voltage_battery` at offset 14).
     #[inline]
     pub fn voltage_battery(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 14)
     }
-
     /// Reads [`SysStatus::current_battery`](SysStatus::current_battery) (`current_battery` at offset 16).
     #[inline]
     pub fn current_battery(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 16)
     }
-
     /// Reads [`SysStatus::battery_remaining`](SysStatus::battery_remaining) (`battery_remaining` at offset 30).
     #[inline]
     pub fn battery_remaining(&self) -> i8 {
         ::mavframe::field::read::<i8>(self.payload, 30)
     }
-
     /// Reads [`SysStatus::drop_rate_comm`](SysStatus::drop_rate_comm) (`drop_rate_comm` at offset 18).
     #[inline]
     pub fn drop_rate_comm(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 18)
     }
-
     /// Reads [`SysStatus::errors_comm`](SysStatus::errors_comm) (`errors_comm` at offset 20).
     #[inline]
     pub fn errors_comm(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 20)
     }
-
     /// Reads [`SysStatus::errors_count1`](SysStatus::errors_count1) (`errors_count1` at offset 22).
     #[inline]
     pub fn errors_count1(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 22)
     }
-
     /// Reads [`SysStatus::errors_count2`](SysStatus::errors_count2) (`errors_count2` at offset 24).
     #[inline]
     pub fn errors_count2(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 24)
     }
-
     /// Reads [`SysStatus::errors_count3`](SysStatus::errors_count3) (`errors_count3` at offset 26).
     #[inline]
     pub fn errors_count3(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 26)
     }
-
     /// Reads [`SysStatus::errors_count4`](SysStatus::errors_count4) (`errors_count4` at offset 28).
     #[inline]
     pub fn errors_count4(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 28)
     }
-
     /// Reads [`SysStatus::onboard_control_sensors_present_extended`](SysStatus::onboard_control_sensors_present_extended) (`onboard_control_sensors_present_extended` at offset 31).
     #[inline]
     pub fn onboard_control_sensors_present_extended(
@@ -3749,7 +3728,6 @@ impl<'a> SysStatusView<'a> {
             ::mavframe::field::read::<u32>(self.payload, 31),
         )
     }
-
     /// Reads [`SysStatus::onboard_control_sensors_enabled_extended`](SysStatus::onboard_control_sensors_enabled_extended) (`onboard_control_sensors_enabled_extended` at offset 35).
     #[inline]
     pub fn onboard_control_sensors_enabled_extended(
@@ -3759,7 +3737,6 @@ impl<'a> SysStatusView<'a> {
             ::mavframe::field::read::<u32>(self.payload, 35),
         )
     }
-
     /// Reads [`SysStatus::onboard_control_sensors_health_extended`](SysStatus::onboard_control_sensors_health_extended) (`onboard_control_sensors_health_extended` at offset 39).
     #[inline]
     pub fn onboard_control_sensors_health_extended(&self) -> MavSysStatusSensorExtended {
@@ -3786,90 +3763,75 @@ impl<'a> SysStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SysStatusView<'_> {
         SysStatusView::new(self.payload)
     }
-
     /// Sets the `onboard_control_sensors_present` field.
     #[inline]
     pub fn set_onboard_control_sensors_present(&mut self, value: MavSysStatusSensor) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 0)
     }
-
     /// Sets the `onboard_control_sensors_enabled` field.
     #[inline]
     pub fn set_onboard_control_sensors_enabled(&mut self, value: MavSysStatusSensor) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 4)
     }
-
     /// Sets the `onboard_control_sensors_health` field.
     #[inline]
     pub fn set_onboard_control_sensors_health(&mut self, value: MavSysStatusSensor) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 8)
     }
-
     /// Sets the `load` field.
     #[inline]
     pub fn set_load(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `voltage_battery` field.
     #[inline]
     pub fn set_voltage_battery(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `current_battery` field.
     #[inline]
     pub fn set_current_battery(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `battery_remaining` field.
     #[inline]
     pub fn set_battery_remaining(&mut self, value: i8) {
         ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
-
     /// Sets the `drop_rate_comm` field.
     #[inline]
     pub fn set_drop_rate_comm(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `errors_comm` field.
     #[inline]
     pub fn set_errors_comm(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `errors_count1` field.
     #[inline]
     pub fn set_errors_count1(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
-
     /// Sets the `errors_count2` field.
     #[inline]
     pub fn set_errors_count2(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `errors_count3` field.
     #[inline]
     pub fn set_errors_count3(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
-
     /// Sets the `errors_count4` field.
     #[inline]
     pub fn set_errors_count4(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `onboard_control_sensors_present_extended` field.
     #[inline]
     pub fn set_onboard_control_sensors_present_extended(
@@ -3878,7 +3840,6 @@ impl<'a> SysStatusMut<'a> {
     ) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 31)
     }
-
     /// Sets the `onboard_control_sensors_enabled_extended` field.
     #[inline]
     pub fn set_onboard_control_sensors_enabled_extended(
@@ -3887,7 +3848,6 @@ impl<'a> SysStatusMut<'a> {
     ) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 35)
     }
-
     /// Sets the `onboard_control_sensors_health_extended` field.
     #[inline]
     pub fn set_onboard_control_sensors_health_extended(
@@ -4017,7 +3977,6 @@ impl Attitude {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -4031,13 +3990,11 @@ impl Attitude {
             yawspeed: ::mavframe::field::read::<f32>(p, 24),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AttitudeView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -4060,12 +4017,10 @@ impl ::mavframe::Message for Attitude {
     fn parse(payload: &[u8]) -> Self {
         Attitude::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Attitude::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AttitudeView<'_> {
         AttitudeView::new(payload)
@@ -4087,55 +4042,46 @@ impl<'a> AttitudeView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Attitude {
         Attitude::from_view(self)
     }
-
     /// Reads [`Attitude::time_boot_ms`](Attitude::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`Attitude::roll`](Attitude::roll) (`roll` at offset 4).
     #[inline]
     pub fn roll(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`Attitude::pitch`](Attitude::pitch) (`pitch` at offset 8).
     #[inline]
     pub fn pitch(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`Attitude::yaw`](Attitude::yaw) (`yaw` at offset 12).
     #[inline]
     pub fn yaw(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`Attitude::rollspeed`](Attitude::rollspeed) (`rollspeed` at offset 16).
     #[inline]
     pub fn rollspeed(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`Attitude::pitchspeed`](Attitude::pitchspeed) (`pitchspeed` at offset 20).
     #[inline]
     pub fn pitchspeed(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`Attitude::yawspeed`](Attitude::yawspeed) (`yawspeed` at offset 24).
     #[inline]
     pub fn yawspeed(&self) -> f32 {
@@ -4160,48 +4106,40 @@ impl<'a> AttitudeMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AttitudeView<'_> {
         AttitudeView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `rollspeed` field.
     #[inline]
     pub fn set_rollspeed(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `pitchspeed` field.
     #[inline]
     pub fn set_pitchspeed(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `yawspeed` field.
     #[inline]
     pub fn set_yawspeed(&mut self, value: f32) {
@@ -4480,7 +4418,6 @@ impl RcChannels {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -4508,13 +4445,11 @@ impl RcChannels {
             rssi: ::mavframe::field::read::<u8>(p, 41),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RcChannelsView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -4551,12 +4486,10 @@ impl ::mavframe::Message for RcChannels {
     fn parse(payload: &[u8]) -> Self {
         RcChannels::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RcChannels::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RcChannelsView<'_> {
         RcChannelsView::new(payload)
@@ -4578,139 +4511,116 @@ impl<'a> RcChannelsView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> RcChannels {
         RcChannels::from_view(self)
     }
-
     /// Reads [`RcChannels::time_boot_ms`](RcChannels::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`RcChannels::chancount`](RcChannels::chancount) (`chancount` at offset 40).
     #[inline]
     pub fn chancount(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 40)
     }
-
     /// Reads [`RcChannels::chan1_raw`](RcChannels::chan1_raw) (`chan1_raw` at offset 4).
     #[inline]
     pub fn chan1_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 4)
     }
-
     /// Reads [`RcChannels::chan2_raw`](RcChannels::chan2_raw) (`chan2_raw` at offset 6).
     #[inline]
     pub fn chan2_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 6)
     }
-
     /// Reads [`RcChannels::chan3_raw`](RcChannels::chan3_raw) (`chan3_raw` at offset 8).
     #[inline]
     pub fn chan3_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 8)
     }
-
     /// Reads [`RcChannels::chan4_raw`](RcChannels::chan4_raw) (`chan4_raw` at offset 10).
     #[inline]
     pub fn chan4_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 10)
     }
-
     /// Reads [`RcChannels::chan5_raw`](RcChannels::chan5_raw) (`chan5_raw` at offset 12).
     #[inline]
     pub fn chan5_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 12)
     }
-
     /// Reads [`RcChannels::chan6_raw`](RcChannels::chan6_raw) (`chan6_raw` at offset 14).
     #[inline]
     pub fn chan6_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 14)
     }
-
     /// Reads [`RcChannels::chan7_raw`](RcChannels::chan7_raw) (`chan7_raw` at offset 16).
     #[inline]
     pub fn chan7_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 16)
     }
-
     /// Reads [`RcChannels::chan8_raw`](RcChannels::chan8_raw) (`chan8_raw` at offset 18).
     #[inline]
     pub fn chan8_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 18)
     }
-
     /// Reads [`RcChannels::chan9_raw`](RcChannels::chan9_raw) (`chan9_raw` at offset 20).
     #[inline]
     pub fn chan9_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 20)
     }
-
     /// Reads [`RcChannels::chan10_raw`](RcChannels::chan10_raw) (`chan10_raw` at offset 22).
     #[inline]
     pub fn chan10_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 22)
     }
-
     /// Reads [`RcChannels::chan11_raw`](RcChannels::chan11_raw) (`chan11_raw` at offset 24).
     #[inline]
     pub fn chan11_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 24)
     }
-
     /// Reads [`RcChannels::chan12_raw`](RcChannels::chan12_raw) (`chan12_raw` at offset 26).
     #[inline]
     pub fn chan12_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 26)
     }
-
     /// Reads [`RcChannels::chan13_raw`](RcChannels::chan13_raw) (`chan13_raw` at offset 28).
     #[inline]
     pub fn chan13_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 28)
     }
-
     /// Reads [`RcChannels::chan14_raw`](RcChannels::chan14_raw) (`chan14_raw` at offset 30).
     #[inline]
     pub fn chan14_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 30)
     }
-
     /// Reads [`RcChannels::chan15_raw`](RcChannels::chan15_raw) (`chan15_raw` at offset 32).
     #[inline]
     pub fn chan15_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 32)
     }
-
     /// Reads [`RcChannels::chan16_raw`](RcChannels::chan16_raw) (`chan16_raw` at offset 34).
     #[inline]
     pub fn chan16_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 34)
     }
-
     /// Reads [`RcChannels::chan17_raw`](RcChannels::chan17_raw) (`chan17_raw` at offset 36).
     #[inline]
     pub fn chan17_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 36)
     }
-
     /// Reads [`RcChannels::chan18_raw`](RcChannels::chan18_raw) (`chan18_raw` at offset 38).
     #[inline]
     pub fn chan18_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 38)
     }
-
     /// Reads [`RcChannels::rssi`](RcChannels::rssi) (`rssi` at offset 41).
     #[inline]
     pub fn rssi(&self) -> u8 {
@@ -4735,132 +4645,110 @@ impl<'a> RcChannelsMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RcChannelsView<'_> {
         RcChannelsView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `chancount` field.
     #[inline]
     pub fn set_chancount(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `chan1_raw` field.
     #[inline]
     pub fn set_chan1_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `chan2_raw` field.
     #[inline]
     pub fn set_chan2_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `chan3_raw` field.
     #[inline]
     pub fn set_chan3_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `chan4_raw` field.
     #[inline]
     pub fn set_chan4_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `chan5_raw` field.
     #[inline]
     pub fn set_chan5_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `chan6_raw` field.
     #[inline]
     pub fn set_chan6_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `chan7_raw` field.
     #[inline]
     pub fn set_chan7_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `chan8_raw` field.
     #[inline]
     pub fn set_chan8_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `chan9_raw` field.
     #[inline]
     pub fn set_chan9_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `chan10_raw` field.
     #[inline]
     pub fn set_chan10_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
-
     /// Sets the `chan11_raw` field.
     #[inline]
     pub fn set_chan11_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `chan12_raw` field.
     #[inline]
     pub fn set_chan12_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
-
     /// Sets the `chan13_raw` field.
     #[inline]
     pub fn set_chan13_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `chan14_raw` field.
     #[inline]
     pub fn set_chan14_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
-
     /// Sets the `chan15_raw` field.
     #[inline]
     pub fn set_chan15_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `chan16_raw` field.
     #[inline]
     pub fn set_chan16_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 34)
     }
-
     /// Sets the `chan17_raw` field.
     #[inline]
     pub fn set_chan17_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `chan18_raw` field.
     #[inline]
     pub fn set_chan18_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 38)
     }
-
     /// Sets the `rssi` field.
     #[inline]
     pub fn set_rssi(&mut self, value: u8) {
@@ -5114,7 +5002,6 @@ impl ManualControl {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5137,13 +5024,11 @@ impl ManualControl {
             aux6: ::mavframe::field::read::<i16>(p, 28),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &ManualControlView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -5175,12 +5060,10 @@ impl ::mavframe::Message for ManualControl {
     fn parse(payload: &[u8]) -> Self {
         ManualControl::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         ManualControl::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> ManualControlView<'_> {
         ManualControlView::new(payload)
@@ -5202,109 +5085,91 @@ impl<'a> ManualControlView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> ManualControl {
         ManualControl::from_view(self)
     }
-
     /// Reads [`ManualControl::target`](ManualControl::target) (`target` at offset 10).
     #[inline]
     pub fn target(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 10)
     }
-
     /// Reads [`ManualControl::x`](ManualControl::x) (`x` at offset 0).
     #[inline]
     pub fn x(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 0)
     }
-
     /// Reads [`ManualControl::y`](ManualControl::y) (`y` at offset 2).
     #[inline]
     pub fn y(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 2)
     }
-
     /// Reads [`ManualControl::z`](ManualControl::z) (`z` at offset 4).
     #[inline]
     pub fn z(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 4)
     }
-
     /// Reads [`ManualControl::r`](ManualControl::r) (`r` at offset 6).
     #[inline]
     pub fn r(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 6)
     }
-
     /// Reads [`ManualControl::buttons`](ManualControl::buttons) (`buttons` at offset 8).
     #[inline]
     pub fn buttons(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 8)
     }
-
     /// Reads [`ManualControl::buttons2`](ManualControl::buttons2) (`buttons2` at offset 11).
     #[inline]
     pub fn buttons2(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 11)
     }
-
     /// Reads [`ManualControl::enabled_extensions`](ManualControl::enabled_extensions) (`enabled_extensions` at offset 13).
     #[inline]
     pub fn enabled_extensions(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 13)
     }
-
     /// Reads [`ManualControl::s`](ManualControl::s) (`s` at offset 14).
     #[inline]
     pub fn s(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 14)
     }
-
     /// Reads [`ManualControl::t`](ManualControl::t) (`t` at offset 16).
     #[inline]
     pub fn t(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 16)
     }
-
     /// Reads [`ManualControl::aux1`](ManualControl::aux1) (`aux1` at offset 18).
     #[inline]
     pub fn aux1(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 18)
     }
-
     /// Reads [`ManualControl::aux2`](ManualControl::aux2) (`aux2` at offset 20).
     #[inline]
     pub fn aux2(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 20)
     }
-
     /// Reads [`ManualControl::aux3`](ManualControl::aux3) (`aux3` at offset 22).
     #[inline]
     pub fn aux3(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 22)
     }
-
     /// Reads [`ManualControl::aux4`](ManualControl::aux4) (`aux4` at offset 24).
     #[inline]
     pub fn aux4(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 24)
     }
-
     /// Reads [`ManualControl::aux5`](ManualControl::aux5) (`aux5` at offset 26).
     #[inline]
     pub fn aux5(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 26)
     }
-
     /// Reads [`ManualControl::aux6`](ManualControl::aux6) (`aux6` at offset 28).
     #[inline]
     pub fn aux6(&self) -> i16 {
@@ -5329,102 +5194,85 @@ impl<'a> ManualControlMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> ManualControlView<'_> {
         ManualControlView::new(self.payload)
     }
-
     /// Sets the `target` field.
     #[inline]
     pub fn set_target(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `x` field.
     #[inline]
     pub fn set_x(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `y` field.
     #[inline]
     pub fn set_y(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `z` field.
     #[inline]
     pub fn set_z(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `r` field.
     #[inline]
     pub fn set_r(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `buttons` field.
     #[inline]
     pub fn set_buttons(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `buttons2` field.
     #[inline]
     pub fn set_buttons2(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
-
     /// Sets the `enabled_extensions` field.
     #[inline]
     pub fn set_enabled_extensions(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
-
     /// Sets the `s` field.
     #[inline]
     pub fn set_s(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `t` field.
     #[inline]
     pub fn set_t(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `aux1` field.
     #[inline]
     pub fn set_aux1(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `aux2` field.
     #[inline]
     pub fn set_aux2(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `aux3` field.
     #[inline]
     pub fn set_aux3(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
-
     /// Sets the `aux4` field.
     #[inline]
     pub fn set_aux4(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `aux5` field.
     #[inline]
     pub fn set_aux5(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
-
     /// Sets the `aux6` field.
     #[inline]
     pub fn set_aux6(&mut self, value: i16) {
@@ -5719,7 +5567,6 @@ impl RcChannelsOverride {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5746,13 +5593,11 @@ impl RcChannelsOverride {
             chan18_raw: ::mavframe::field::read::<u16>(p, 36),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RcChannelsOverrideView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -5788,12 +5633,10 @@ impl ::mavframe::Message for RcChannelsOverride {
     fn parse(payload: &[u8]) -> Self {
         RcChannelsOverride::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RcChannelsOverride::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RcChannelsOverrideView<'_> {
         RcChannelsOverrideView::new(payload)
@@ -5815,133 +5658,111 @@ impl<'a> RcChannelsOverrideView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> RcChannelsOverride {
         RcChannelsOverride::from_view(self)
     }
-
     /// Reads [`RcChannelsOverride::target_system`](RcChannelsOverride::target_system) (`target_system` at offset 16).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 16)
     }
-
     /// Reads [`RcChannelsOverride::target_component`](RcChannelsOverride::target_component) (`target_component` at offset 17).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 17)
     }
-
     /// Reads [`RcChannelsOverride::chan1_raw`](RcChannelsOverride::chan1_raw) (`chan1_raw` at offset 0).
     #[inline]
     pub fn chan1_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 0)
     }
-
     /// Reads [`RcChannelsOverride::chan2_raw`](RcChannelsOverride::chan2_raw) (`chan2_raw` at offset 2).
     #[inline]
     pub fn chan2_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 2)
     }
-
     /// Reads [`RcChannelsOverride::chan3_raw`](RcChannelsOverride::chan3_raw) (`chan3_raw` at offset 4).
     #[inline]
     pub fn chan3_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 4)
     }
-
     /// Reads [`RcChannelsOverride::chan4_raw`](RcChannelsOverride::chan4_raw) (`chan4_raw` at offset 6).
     #[inline]
     pub fn chan4_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 6)
     }
-
     /// Reads [`RcChannelsOverride::chan5_raw`](RcChannelsOverride::chan5_raw) (`chan5_raw` at offset 8).
     #[inline]
     pub fn chan5_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 8)
     }
-
     /// Reads [`RcChannelsOverride::chan6_raw`](RcChannelsOverride::chan6_raw) (`chan6_raw` at offset 10).
     #[inline]
     pub fn chan6_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 10)
     }
-
     /// Reads [`RcChannelsOverride::chan7_raw`](RcChannelsOverride::chan7_raw) (`chan7_raw` at offset 12).
     #[inline]
     pub fn chan7_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 12)
     }
-
     /// Reads [`RcChannelsOverride::chan8_raw`](RcChannelsOverride::chan8_raw) (`chan8_raw` at offset 14).
     #[inline]
     pub fn chan8_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 14)
     }
-
     /// Reads [`RcChannelsOverride::chan9_raw`](RcChannelsOverride::chan9_raw) (`chan9_raw` at offset 18).
     #[inline]
     pub fn chan9_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 18)
     }
-
     /// Reads [`RcChannelsOverride::chan10_raw`](RcChannelsOverride::chan10_raw) (`chan10_raw` at offset 20).
     #[inline]
     pub fn chan10_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 20)
     }
-
     /// Reads [`RcChannelsOverride::chan11_raw`](RcChannelsOverride::chan11_raw) (`chan11_raw` at offset 22).
     #[inline]
     pub fn chan11_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 22)
     }
-
     /// Reads [`RcChannelsOverride::chan12_raw`](RcChannelsOverride::chan12_raw) (`chan12_raw` at offset 24).
     #[inline]
     pub fn chan12_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 24)
     }
-
     /// Reads [`RcChannelsOverride::chan13_raw`](RcChannelsOverride::chan13_raw) (`chan13_raw` at offset 26).
     #[inline]
     pub fn chan13_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 26)
     }
-
     /// Reads [`RcChannelsOverride::chan14_raw`](RcChannelsOverride::chan14_raw) (`chan14_raw` at offset 28).
     #[inline]
     pub fn chan14_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 28)
     }
-
     /// Reads [`RcChannelsOverride::chan15_raw`](RcChannelsOverride::chan15_raw) (`chan15_raw` at offset 30).
     #[inline]
     pub fn chan15_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 30)
     }
-
     /// Reads [`RcChannelsOverride::chan16_raw`](RcChannelsOverride::chan16_raw) (`chan16_raw` at offset 32).
     #[inline]
     pub fn chan16_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 32)
     }
-
     /// Reads [`RcChannelsOverride::chan17_raw`](RcChannelsOverride::chan17_raw) (`chan17_raw` at offset 34).
     #[inline]
     pub fn chan17_raw(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 34)
     }
-
     /// Reads [`RcChannelsOverride::chan18_raw`](RcChannelsOverride::chan18_raw) (`chan18_raw` at offset 36).
     #[inline]
     pub fn chan18_raw(&self) -> u16 {
@@ -5966,126 +5787,105 @@ impl<'a> RcChannelsOverrideMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RcChannelsOverrideView<'_> {
         RcChannelsOverrideView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 17)
     }
-
     /// Sets the `chan1_raw` field.
     #[inline]
     pub fn set_chan1_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `chan2_raw` field.
     #[inline]
     pub fn set_chan2_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `chan3_raw` field.
     #[inline]
     pub fn set_chan3_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `chan4_raw` field.
     #[inline]
     pub fn set_chan4_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `chan5_raw` field.
     #[inline]
     pub fn set_chan5_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `chan6_raw` field.
     #[inline]
     pub fn set_chan6_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `chan7_raw` field.
     #[inline]
     pub fn set_chan7_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `chan8_raw` field.
     #[inline]
     pub fn set_chan8_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `chan9_raw` field.
     #[inline]
     pub fn set_chan9_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `chan10_raw` field.
     #[inline]
     pub fn set_chan10_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `chan11_raw` field.
     #[inline]
     pub fn set_chan11_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
-
     /// Sets the `chan12_raw` field.
     #[inline]
     pub fn set_chan12_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `chan13_raw` field.
     #[inline]
     pub fn set_chan13_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
-
     /// Sets the `chan14_raw` field.
     #[inline]
     pub fn set_chan14_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `chan15_raw` field.
     #[inline]
     pub fn set_chan15_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
-
     /// Sets the `chan16_raw` field.
     #[inline]
     pub fn set_chan16_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `chan17_raw` field.
     #[inline]
     pub fn set_chan17_raw(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 34)
     }
-
     /// Sets the `chan18_raw` field.
     #[inline]
     pub fn set_chan18_raw(&mut self, value: u16) {
@@ -6200,7 +6000,6 @@ impl VfrHud {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6213,13 +6012,11 @@ impl VfrHud {
             climb: ::mavframe::field::read::<f32>(p, 12),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &VfrHudView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -6241,12 +6038,10 @@ impl ::mavframe::Message for VfrHud {
     fn parse(payload: &[u8]) -> Self {
         VfrHud::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         VfrHud::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> VfrHudView<'_> {
         VfrHudView::new(payload)
@@ -6268,49 +6063,41 @@ impl<'a> VfrHudView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> VfrHud {
         VfrHud::from_view(self)
     }
-
     /// Reads [`VfrHud::airspeed`](VfrHud::airspeed) (`airspeed` at offset 0).
     #[inline]
     pub fn airspeed(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`VfrHud::groundspeed`](VfrHud::groundspeed) (`groundspeed` at offset 4).
     #[inline]
     pub fn groundspeed(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`VfrHud::heading`](VfrHud::heading) (`heading` at offset 16).
     #[inline]
     pub fn heading(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 16)
     }
-
     /// Reads [`VfrHud::throttle`](VfrHud::throttle) (`throttle` at offset 18).
     #[inline]
     pub fn throttle(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 18)
     }
-
     /// Reads [`VfrHud::alt`](VfrHud::alt) (`alt` at offset 8).
     #[inline]
     pub fn alt(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`VfrHud::climb`](VfrHud::climb) (`climb` at offset 12).
     #[inline]
     pub fn climb(&self) -> f32 {
@@ -6335,42 +6122,35 @@ impl<'a> VfrHudMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> VfrHudView<'_> {
         VfrHudView::new(self.payload)
     }
-
     /// Sets the `airspeed` field.
     #[inline]
     pub fn set_airspeed(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `groundspeed` field.
     #[inline]
     pub fn set_groundspeed(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `heading` field.
     #[inline]
     pub fn set_heading(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `throttle` field.
     #[inline]
     pub fn set_throttle(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `climb` field.
     #[inline]
     pub fn set_climb(&mut self, value: f32) {
@@ -6546,7 +6326,6 @@ impl CommandLong {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6564,13 +6343,11 @@ impl CommandLong {
             param7: ::mavframe::field::read::<f32>(p, 24),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CommandLongView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -6597,12 +6374,10 @@ impl ::mavframe::Message for CommandLong {
     fn parse(payload: &[u8]) -> Self {
         CommandLong::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CommandLong::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CommandLongView<'_> {
         CommandLongView::new(payload)
@@ -6624,79 +6399,66 @@ impl<'a> CommandLongView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CommandLong {
         CommandLong::from_view(self)
     }
-
     /// Reads [`CommandLong::target_system`](CommandLong::target_system) (`target_system` at offset 30).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 30)
     }
-
     /// Reads [`CommandLong::target_component`](CommandLong::target_component) (`target_component` at offset 31).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 31)
     }
-
     /// Reads [`CommandLong::command`](CommandLong::command) (`command` at offset 28).
     #[inline]
     pub fn command(&self) -> MavCmd {
         MavCmd::from_raw(::mavframe::field::read::<u16>(self.payload, 28))
     }
-
     /// Reads [`CommandLong::confirmation`](CommandLong::confirmation) (`confirmation` at offset 32).
     #[inline]
     pub fn confirmation(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 32)
     }
-
     /// Reads [`CommandLong::param1`](CommandLong::param1) (`param1` at offset 0).
     #[inline]
     pub fn param1(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`CommandLong::param2`](CommandLong::param2) (`param2` at offset 4).
     #[inline]
     pub fn param2(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`CommandLong::param3`](CommandLong::param3) (`param3` at offset 8).
     #[inline]
     pub fn param3(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`CommandLong::param4`](CommandLong::param4) (`param4` at offset 12).
     #[inline]
     pub fn param4(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`CommandLong::param5`](CommandLong::param5) (`param5` at offset 16).
     #[inline]
     pub fn param5(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`CommandLong::param6`](CommandLong::param6) (`param6` at offset 20).
     #[inline]
     pub fn param6(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`CommandLong::param7`](CommandLong::param7) (`param7` at offset 24).
     #[inline]
     pub fn param7(&self) -> f32 {
@@ -6721,72 +6483,60 @@ impl<'a> CommandLongMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CommandLongView<'_> {
         CommandLongView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 31)
     }
-
     /// Sets the `command` field.
     #[inline]
     pub fn set_command(&mut self, value: MavCmd) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 28)
     }
-
     /// Sets the `confirmation` field.
     #[inline]
     pub fn set_confirmation(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `param1` field.
     #[inline]
     pub fn set_param1(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `param2` field.
     #[inline]
     pub fn set_param2(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `param3` field.
     #[inline]
     pub fn set_param3(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `param4` field.
     #[inline]
     pub fn set_param4(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `param5` field.
     #[inline]
     pub fn set_param5(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `param6` field.
     #[inline]
     pub fn set_param6(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `param7` field.
     #[inline]
     pub fn set_param7(&mut self, value: f32) {
@@ -6903,7 +6653,6 @@ impl CommandAck {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6916,13 +6665,11 @@ impl CommandAck {
             target_component: ::mavframe::field::read::<u8>(p, 9),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CommandAckView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -6944,12 +6691,10 @@ impl ::mavframe::Message for CommandAck {
     fn parse(payload: &[u8]) -> Self {
         CommandAck::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CommandAck::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CommandAckView<'_> {
         CommandAckView::new(payload)
@@ -6971,49 +6716,41 @@ impl<'a> CommandAckView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CommandAck {
         CommandAck::from_view(self)
     }
-
     /// Reads [`CommandAck::command`](CommandAck::command) (`command` at offset 0).
     #[inline]
     pub fn command(&self) -> MavCmd {
         MavCmd::from_raw(::mavframe::field::read::<u16>(self.payload, 0))
     }
-
     /// Reads [`CommandAck::result`](CommandAck::result) (`result` at offset 2).
     #[inline]
     pub fn result(&self) -> MavResult {
         MavResult::from_raw(::mavframe::field::read::<u8>(self.payload, 2))
     }
-
     /// Reads [`CommandAck::progress`](CommandAck::progress) (`progress` at offset 3).
     #[inline]
     pub fn progress(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 3)
     }
-
     /// Reads [`CommandAck::result_param2`](CommandAck::result_param2) (`result_param2` at offset 4).
     #[inline]
     pub fn result_param2(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`CommandAck::target_system`](CommandAck::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`CommandAck::target_component`](CommandAck::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
@@ -7038,42 +6775,35 @@ impl<'a> CommandAckMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CommandAckView<'_> {
         CommandAckView::new(self.payload)
     }
-
     /// Sets the `command` field.
     #[inline]
     pub fn set_command(&mut self, value: MavCmd) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
-
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: MavResult) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 2)
     }
-
     /// Sets the `progress` field.
     #[inline]
     pub fn set_progress(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 3)
     }
-
     /// Sets the `result_param2` field.
     #[inline]
     pub fn set_result_param2(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
@@ -7222,7 +6952,6 @@ impl SetAttitudeTarget {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7240,13 +6969,11 @@ impl SetAttitudeTarget {
             thrust: ::mavframe::field::read::<f32>(p, 32),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SetAttitudeTargetView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -7271,12 +6998,10 @@ impl ::mavframe::Message for SetAttitudeTarget {
     fn parse(payload: &[u8]) -> Self {
         SetAttitudeTarget::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SetAttitudeTarget::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SetAttitudeTargetView<'_> {
         SetAttitudeTargetView::new(payload)
@@ -7298,37 +7023,31 @@ impl<'a> SetAttitudeTargetView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SetAttitudeTarget {
         SetAttitudeTarget::from_view(self)
     }
-
     /// Reads [`SetAttitudeTarget::time_boot_ms`](SetAttitudeTarget::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`SetAttitudeTarget::target_system`](SetAttitudeTarget::target_system) (`target_system` at offset 36).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 36)
     }
-
     /// Reads [`SetAttitudeTarget::target_component`](SetAttitudeTarget::target_component) (`target_component` at offset 37).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 37)
     }
-
     /// Reads [`SetAttitudeTarget::type_mask`](SetAttitudeTarget::type_mask) (`type_mask` at offset 38).
     #[inline]
     pub fn type_mask(&self) -> AttitudeTargetTypemask {
@@ -7336,31 +7055,26 @@ impl<'a> SetAttitudeTargetView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 38),
         )
     }
-
     /// Reads [`SetAttitudeTarget::q`](SetAttitudeTarget::q) (`q` at offset 4).
     #[inline]
     pub fn q(&self) -> ::mavframe::field::ArrayView<'a, f32, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 4)
     }
-
     /// Reads [`SetAttitudeTarget::body_roll_rate`](SetAttitudeTarget::body_roll_rate) (`body_roll_rate` at offset 20).
     #[inline]
     pub fn body_roll_rate(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`SetAttitudeTarget::body_pitch_rate`](SetAttitudeTarget::body_pitch_rate) (`body_pitch_rate` at offset 24).
     #[inline]
     pub fn body_pitch_rate(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`SetAttitudeTarget::body_yaw_rate`](SetAttitudeTarget::body_yaw_rate) (`body_yaw_rate` at offset 28).
     #[inline]
     pub fn body_yaw_rate(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`SetAttitudeTarget::thrust`](SetAttitudeTarget::thrust) (`thrust` at offset 32).
     #[inline]
     pub fn thrust(&self) -> f32 {
@@ -7385,60 +7099,50 @@ impl<'a> SetAttitudeTargetMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SetAttitudeTargetView<'_> {
         SetAttitudeTargetView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 37)
     }
-
     /// Sets the `type_mask` field.
     #[inline]
     pub fn set_type_mask(&mut self, value: AttitudeTargetTypemask) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 38)
     }
-
     /// Sets the `q` field.
     #[inline]
     pub fn set_q(&mut self, value: &[f32; 4]) {
         ::mavframe::field::write_array(self.payload, 4, value)
     }
-
     /// Sets the `body_roll_rate` field.
     #[inline]
     pub fn set_body_roll_rate(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `body_pitch_rate` field.
     #[inline]
     pub fn set_body_pitch_rate(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `body_yaw_rate` field.
     #[inline]
     pub fn set_body_yaw_rate(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `thrust` field.
     #[inline]
     pub fn set_thrust(&mut self, value: f32) {
@@ -7534,7 +7238,6 @@ impl Statustext {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7545,13 +7248,11 @@ impl Statustext {
             chunk_seq: ::mavframe::field::read::<u8>(p, 53),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &StatustextView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -7582,12 +7283,10 @@ impl ::mavframe::Message for Statustext {
     fn parse(payload: &[u8]) -> Self {
         Statustext::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Statustext::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> StatustextView<'_> {
         StatustextView::new(payload)
@@ -7609,37 +7308,31 @@ impl<'a> StatustextView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Statustext {
         Statustext::from_view(self)
     }
-
     /// Reads [`Statustext::severity`](Statustext::severity) (`severity` at offset 0).
     #[inline]
     pub fn severity(&self) -> MavSeverity {
         MavSeverity::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
-
     /// Reads [`Statustext::text`](Statustext::text) (`text` at offset 1).
     #[inline]
     pub fn text(&self) -> ::mavframe::field::CharArray<'a, 50> {
         ::mavframe::field::CharArray::new(self.payload, 1)
     }
-
     /// Reads [`Statustext::id`](Statustext::id) (`id` at offset 51).
     #[inline]
     pub fn id(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 51)
     }
-
     /// Reads [`Statustext::chunk_seq`](Statustext::chunk_seq) (`chunk_seq` at offset 53).
     #[inline]
     pub fn chunk_seq(&self) -> u8 {
@@ -7664,30 +7357,25 @@ impl<'a> StatustextMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> StatustextView<'_> {
         StatustextView::new(self.payload)
     }
-
     /// Sets the `severity` field.
     #[inline]
     pub fn set_severity(&mut self, value: MavSeverity) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
-
     /// Sets the `text` field.
     #[inline]
     pub fn set_text(&mut self, value: &[u8; 50]) {
         ::mavframe::field::write_array(self.payload, 1, value)
     }
-
     /// Sets the `id` field.
     #[inline]
     pub fn set_id(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 51)
     }
-
     /// Sets the `chunk_seq` field.
     #[inline]
     pub fn set_chunk_seq(&mut self, value: u8) {

@@ -8,6 +8,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct FbwagFailsafeStatus(pub u8);
+
 impl FbwagFailsafeStatus {
     /// Normal operation: the RC pilot is in control (sent by the flight controller when RC
     /// returns, echoed by the companion computer as its acknowledgement).
@@ -21,12 +22,10 @@ impl FbwagFailsafeStatus {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -191,7 +190,6 @@ impl FbwagNotice {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -205,13 +203,11 @@ impl FbwagNotice {
             timestamp: ::mavframe::field::read::<u32>(p, 0),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &FbwagNoticeView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -232,12 +228,10 @@ impl ::mavframe::Message for FbwagNotice {
     fn parse(payload: &[u8]) -> Self {
         FbwagNotice::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         FbwagNotice::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> FbwagNoticeView<'_> {
         FbwagNoticeView::new(payload)
@@ -259,43 +253,36 @@ impl<'a> FbwagNoticeView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> FbwagNotice {
         FbwagNotice::from_view(self)
     }
-
     /// Reads [`FbwagNotice::system_id`](FbwagNotice::system_id) (`system_id` at offset 4).
     #[inline]
     pub fn system_id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`FbwagNotice::component_id`](FbwagNotice::component_id) (`component_id` at offset 5).
     #[inline]
     pub fn component_id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`FbwagNotice::failsafe_status`](FbwagNotice::failsafe_status) (`failsafe_status` at offset 6).
     #[inline]
     pub fn failsafe_status(&self) -> FbwagFailsafeStatus {
         FbwagFailsafeStatus::from_raw(::mavframe::field::read::<u8>(self.payload, 6))
     }
-
     /// Reads [`FbwagNotice::text`](FbwagNotice::text) (`text` at offset 7).
     #[inline]
     pub fn text(&self) -> ::mavframe::field::CharArray<'a, 5> {
         ::mavframe::field::CharArray::new(self.payload, 7)
     }
-
     /// Reads [`FbwagNotice::timestamp`](FbwagNotice::timestamp) (`timestamp` at offset 0).
     #[inline]
     pub fn timestamp(&self) -> u32 {
@@ -320,36 +307,30 @@ impl<'a> FbwagNoticeMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> FbwagNoticeView<'_> {
         FbwagNoticeView::new(self.payload)
     }
-
     /// Sets the `system_id` field.
     #[inline]
     pub fn set_system_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `component_id` field.
     #[inline]
     pub fn set_component_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `failsafe_status` field.
     #[inline]
     pub fn set_failsafe_status(&mut self, value: FbwagFailsafeStatus) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 6)
     }
-
     /// Sets the `text` field.
     #[inline]
     pub fn set_text(&mut self, value: &[u8; 5]) {
         ::mavframe::field::write_array(self.payload, 7, value)
     }
-
     /// Sets the `timestamp` field.
     #[inline]
     pub fn set_timestamp(&mut self, value: u32) {
@@ -454,9 +435,11 @@ pub const MESSAGES: &[::mavframe::MessageMeta] = &[
     super::common::Statustext::META,
     FbwagNotice::META,
 ];
+
 /// This dialect, for code generic over dialects.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Dialect;
+
 impl ::mavframe::Dialect for Dialect {
     type Message = Message;
     type View<'a> = MessageView<'a>;
@@ -485,11 +468,9 @@ impl ::mavframe::Dialect for Dialect {
             },
         )
     }
-
     fn parse(id: u32, payload: &[u8]) -> Option<Message> {
         Message::parse(id, payload)
     }
-
     fn view(id: u32, payload: &[u8]) -> Option<MessageView<'_>> {
         MessageView::new(id, payload)
     }
@@ -521,7 +502,6 @@ impl Message {
         };
         Some(parse(payload))
     }
-
     /// The message's table row.
     pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
@@ -540,17 +520,14 @@ impl Message {
             Self::FbwagNotice(_) => &FbwagNotice::META,
         }
     }
-
     /// The message id.
     pub fn id(&self) -> u32 {
         self.meta().id
     }
-
     /// The message name in the XML.
     pub fn name(&self) -> &'static str {
         self.meta().name
     }
-
     /// Writes the full payload; returns its length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         match self {
@@ -578,7 +555,6 @@ impl ::mavframe::Encode for Message {
     fn meta(&self) -> &'static ::mavframe::MessageMeta {
         Message::meta(self)
     }
-
     #[inline]
     fn emit_payload(
         &self,
@@ -623,7 +599,6 @@ impl<'a> MessageView<'a> {
             },
         )
     }
-
     /// The message's table row.
     pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
@@ -642,7 +617,6 @@ impl<'a> MessageView<'a> {
             Self::FbwagNotice(_) => &FbwagNotice::META,
         }
     }
-
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
         type Parse = fn(&[u8]) -> Message;

@@ -136,7 +136,6 @@ impl GlobalPositionInt {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -152,13 +151,11 @@ impl GlobalPositionInt {
             hdg: ::mavframe::field::read::<u16>(p, 26),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GlobalPositionIntView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -183,12 +180,10 @@ impl ::mavframe::Message for GlobalPositionInt {
     fn parse(payload: &[u8]) -> Self {
         GlobalPositionInt::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GlobalPositionInt::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GlobalPositionIntView<'_> {
         GlobalPositionIntView::new(payload)
@@ -210,67 +205,56 @@ impl<'a> GlobalPositionIntView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GlobalPositionInt {
         GlobalPositionInt::from_view(self)
     }
-
     /// Reads [`GlobalPositionInt::time_boot_ms`](GlobalPositionInt::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`GlobalPositionInt::lat`](GlobalPositionInt::lat) (`lat` at offset 4).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`GlobalPositionInt::lon`](GlobalPositionInt::lon) (`lon` at offset 8).
     #[inline]
     pub fn lon(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`GlobalPositionInt::alt`](GlobalPositionInt::alt) (`alt` at offset 12).
     #[inline]
     pub fn alt(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 12)
     }
-
     /// Reads [`GlobalPositionInt::relative_alt`](GlobalPositionInt::relative_alt) (`relative_alt` at offset 16).
     #[inline]
     pub fn relative_alt(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 16)
     }
-
     /// Reads [`GlobalPositionInt::vx`](GlobalPositionInt::vx) (`vx` at offset 20).
     #[inline]
     pub fn vx(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 20)
     }
-
     /// Reads [`GlobalPositionInt::vy`](GlobalPositionInt::vy) (`vy` at offset 22).
     #[inline]
     pub fn vy(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 22)
     }
-
     /// Reads [`GlobalPositionInt::vz`](GlobalPositionInt::vz) (`vz` at offset 24).
     #[inline]
     pub fn vz(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 24)
     }
-
     /// Reads [`GlobalPositionInt::hdg`](GlobalPositionInt::hdg) (`hdg` at offset 26).
     #[inline]
     pub fn hdg(&self) -> u16 {
@@ -295,60 +279,50 @@ impl<'a> GlobalPositionIntMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GlobalPositionIntView<'_> {
         GlobalPositionIntView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `lon` field.
     #[inline]
     pub fn set_lon(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `relative_alt` field.
     #[inline]
     pub fn set_relative_alt(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `vx` field.
     #[inline]
     pub fn set_vx(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `vy` field.
     #[inline]
     pub fn set_vy(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
-
     /// Sets the `vz` field.
     #[inline]
     pub fn set_vz(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `hdg` field.
     #[inline]
     pub fn set_hdg(&mut self, value: u16) {

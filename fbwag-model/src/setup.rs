@@ -55,10 +55,7 @@ pub fn cc_config() -> CcConfig {
 /// The FC's node as `fbwag fc-sim` sets it up: one link, to the companion.
 pub fn fc_node(cfg: FcConfig, now: Instant) -> FcNode {
     let mut node = FcNode::new(cfg, now).expect("the model's FC settings are valid");
-    let spec = LinkSpec {
-        role: Role::Peer,
-        answers: Answers::Target,
-    };
+    let spec = LinkSpec::new(Role::Peer, Answers::Target);
     node.add_link(FC_LINK, spec).expect("one link");
     node
 }
@@ -77,7 +74,7 @@ pub fn cc_node(cfg: CcConfig, now: Instant) -> CompanionNode {
         (AUTONOMY_LINK, Role::Autonomy, Answers::Chosen),
     ];
     for (link, role, answers) in links {
-        node.add_link(link, LinkSpec { role, answers })
+        node.add_link(link, LinkSpec::new(role, answers))
             .expect("distinct links");
     }
     node

@@ -2,7 +2,7 @@
 //! version, signer) and a frame buffer, without std or a heap.
 
 use crate::frame::{
-    finish, FrameError, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN,
+    finish, Frame, FrameError, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2, MAX_FRAME_LEN,
 };
 use crate::message::{Encode, MessageMeta};
 use crate::signing::{Signer, Verifier};
@@ -192,14 +192,36 @@ impl Framer {
         meta: &MessageMeta,
         payload: &[u8],
     ) -> Result<&[u8], FrameError> {
-        let at = payload_at(self.version);
+        let written = self.put_payload(self.version, meta, payload);
+        let header = self.next_header(sysid, compid);
+        self.finish(self.version, header, meta, written)
+    }
+
+    /// Frames again, as MAVLink 2 signed with this framer's signer (if
+    /// any), a whole frame of `meta`'s message from elsewhere, keeping its
+    /// header (sender, sequence number): what a router does with the
+    /// frames of a link its owner trusts like the key, on their way to a
+    /// link that requires signatures. Its own signature, if any, is
+    /// dropped.
+    ///
+    /// Errors: the [`FrameError`] of `frame` when it is not a whole frame.
+    pub fn resign(&mut self, frame: &[u8], meta: &MessageMeta) -> Result<&[u8], FrameError> {
+        let frame = Frame::new_checked(frame)?;
+        let written = self.put_payload(Version::V2, meta, frame.payload());
+        self.finish(Version::V2, frame.header(), meta, written)
+    }
+
+    /// Copies `payload` (`meta.max_len` bytes at most; zeros follow a
+    /// shorter one) where a `version` frame's payload goes; returns the
+    /// length written.
+    fn put_payload(&mut self, version: Version, meta: &MessageMeta, payload: &[u8]) -> usize {
+        let at = payload_at(version);
         let max = meta.max_len as usize;
         let len = payload.len().min(max);
         // `at + max` is at most 10 + 255, inside the 280-byte buffer.
         self.buf[at..at + max].fill(0);
         self.buf[at..at + len].copy_from_slice(&payload[..len]);
-        let header = self.next_header(sysid, compid);
-        self.finish(self.version, header, meta, max)
+        max
     }
 
     /// Sets the sequence number the next frame carries.

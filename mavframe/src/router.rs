@@ -236,9 +236,23 @@ enum Command {
     },
     /// [`ReplyTo::Owner`]: send to these addresses ([`Router::set_peers`]).
     Peers(Box<[SocketAddr]>),
-    /// Send these frame bytes, routed from another link ([`Queues`]), from
-    /// the sender of this key ([`sender_key`]).
-    Routed(u32, Box<[u8]>),
+    /// Send this frame, routed from another link ([`Queues`]), from the
+    /// sender of this key ([`sender_key`]).
+    Routed(u32, RoutedBytes),
+}
+
+/// A routed frame's bytes, and the message's row when the link signs it on
+/// the way ([`Router::route_signed`]).
+#[derive(Debug, Clone)]
+struct RoutedBytes {
+    bytes: Box<[u8]>,
+    sign: Option<&'static MessageMeta>,
+}
+
+impl AsRef<[u8]> for RoutedBytes {
+    fn as_ref(&self) -> &[u8] {
+        &self.bytes
+    }
 }
 
 struct LinkHandle {
@@ -255,7 +269,7 @@ struct LinkHandle {
 
 /// A routed frame in a link's queue: the key of its sender
 /// ([`sender_key`]) and its bytes.
-type RoutedFrame = (u32, Box<[u8]>);
+type RoutedFrame = (u32, RoutedBytes);
 
 /// The key of a routed frame's sender: the link it came in on and the
 /// address it came from (a paced link queues senders apart: [`Backlog`]).
@@ -285,7 +299,7 @@ struct Queues {
     routed_closed: bool,
     /// With [`LinkConfig::routed_rate`]: the routed frames the pace holds
     /// back.
-    backlog: Option<Backlog>,
+    backlog: Option<Backlog<RoutedBytes>>,
     /// The link's counters: frames the backlog drops.
     counters: Arc<Mutex<LinkCounters>>,
 }
@@ -592,6 +606,28 @@ impl<D: Dialect + 'static> Router<D> {
     /// first, and paced per sender on a link with
     /// [`LinkConfig::routed_rate`].
     pub fn route(&self, inbound: &Inbound<D>, links: Links) -> Links {
+        self.route_as(inbound, links, None)
+    }
+
+    /// [`route`](Self::route), except that each link frames it again,
+    /// signed with the link's key (when it has one) and sequence numbers
+    /// kept: for a link the owner trusts like the key (a local ground tool
+    /// that cannot sign). A MAVLink 1 frame goes as MAVLink 2; a frame of
+    /// an id the dialect does not know (whose checksum cannot be made)
+    /// goes nowhere.
+    pub fn route_signed(&self, inbound: &Inbound<D>, links: Links) -> Links {
+        match inbound.frame.meta() {
+            Some(meta) => self.route_as(inbound, links, Some(meta)),
+            None => Links::NONE,
+        }
+    }
+
+    fn route_as(
+        &self,
+        inbound: &Inbound<D>,
+        links: Links,
+        sign: Option<&'static MessageMeta>,
+    ) -> Links {
         let to = links.intersection(self.links());
         // (A hash per frame only when a link of `to` needs it.)
         let paced = to
@@ -602,7 +638,7 @@ impl<D: Dialect + 'static> Router<D> {
         } else {
             0
         };
-        self.send_routed_from(from, to, inbound.frame.as_bytes());
+        self.send_routed_from(from, to, inbound.frame.as_bytes(), sign);
         to
     }
 
@@ -627,16 +663,26 @@ impl<D: Dialect + 'static> Router<D> {
     /// local program's telemetry for the ground stations, say), which must
     /// not hold its own protocol frames back.
     pub fn send_routed(&self, links: Links, bytes: &[u8]) {
-        self.send_routed_from(0, links, bytes);
+        self.send_routed_from(0, links, bytes, None);
     }
 
     /// [`send_routed`](Self::send_routed), from the sender of key `from`.
-    fn send_routed_from(&self, from: u32, links: Links, bytes: &[u8]) {
+    fn send_routed_from(
+        &self,
+        from: u32,
+        links: Links,
+        bytes: &[u8],
+        sign: Option<&'static MessageMeta>,
+    ) {
         for link in links.iter() {
             let Some(l) = self.links.get(link as usize) else {
                 continue;
             };
-            if l.routed.try_send((from, bytes.into())).is_err() {
+            let bytes = RoutedBytes {
+                bytes: bytes.into(),
+                sign,
+            };
+            if l.routed.try_send((from, bytes)).is_err() {
                 count_routed_dropped(&l.counters, 1);
             }
         }
@@ -863,7 +909,8 @@ type Core<D> = LinkCore<D, Box<[u8]>>;
 fn outgoing<'a, D: Dialect>(core: &'a mut Core<D>, command: &'a Command) -> Option<&'a [u8]> {
     match command {
         Command::Peers(_) => None,
-        Command::Raw(b) | Command::Routed(_, b) => Some(b),
+        Command::Raw(b) => Some(b),
+        Command::Routed(_, routed) => routed_bytes(core, routed),
         Command::Message {
             sysid,
             compid,
@@ -875,6 +922,21 @@ fn outgoing<'a, D: Dialect>(core: &'a mut Core<D>, command: &'a Command) -> Opti
             core.framer
                 .frame_payload(*sysid, *compid, meta, payload)
                 .ok()
+        }
+    }
+}
+
+/// The bytes a link sends for a routed frame: framed again and signed by
+/// `core` where the owner asked ([`Router::route_signed`]).
+fn routed_bytes<'a, D: Dialect>(
+    core: &'a mut Core<D>,
+    routed: &'a RoutedBytes,
+) -> Option<&'a [u8]> {
+    match routed.sign {
+        None => Some(&routed.bytes),
+        Some(meta) => {
+            core.adopt();
+            core.framer.resign(&routed.bytes, meta).ok()
         }
     }
 }
@@ -1138,7 +1200,11 @@ impl<D: Dialect + 'static> LinkTask<D> {
                         // (counted), not its connection: routed bursts
                         // come faster than any one client takes them, and
                         // the client may be the protocol peer.
-                        Command::Routed(from, b) => {
+                        Command::Routed(from, routed) => {
+                            let verifier = shared.as_ref().map(lock);
+                            core.framer.adopt_from(verifier.as_ref());
+                            let Some(bytes) = routed_bytes(core, routed) else { continue };
+                            let b = RoutedBytes { bytes: bytes.into(), sign: None };
                             let mut full = 0u64;
                             clients.retain(|c| {
                                 !c.gets(&peers)
@@ -1380,10 +1446,12 @@ async fn serve_client<D: Dialect>(
                 _ => return,
             },
             out = output.recv() => {
-                let (Some(Command::Raw(bytes)) | Some(Command::Routed(_, bytes))) = out else {
-                    return;
+                let bytes = match &out {
+                    Some(Command::Raw(bytes)) => bytes,
+                    Some(Command::Routed(_, routed)) => &routed.bytes,
+                    _ => return,
                 };
-                let written = tokio::time::timeout(CLIENT_WRITE_TIMEOUT, stream.write_all(&bytes)).await;
+                let written = tokio::time::timeout(CLIENT_WRITE_TIMEOUT, stream.write_all(bytes)).await;
                 if !matches!(written, Ok(Ok(()))) {
                     return;
                 }
@@ -1534,7 +1602,9 @@ mod tests {
         let (routed_tx, routed) = mpsc::channel(8);
         let mut queues = Queues::new(own, routed, None, Arc::default());
         for b in [1u8, 2, 3] {
-            routed_tx.try_send((1, Box::from(&[b][..]))).unwrap();
+            routed_tx
+                .try_send((1, unsigned(Box::from(&[b][..]))))
+                .unwrap();
         }
         for b in [7u8, 8] {
             own_tx.try_send(Command::Raw(Box::from(&[b][..]))).unwrap();
@@ -1542,7 +1612,7 @@ mod tests {
         async fn next(queues: &mut Queues) -> Option<(bool, u8)> {
             match queues.recv().await {
                 Some(Command::Raw(b)) => Some((true, b[0])),
-                Some(Command::Routed(_, b)) => Some((false, b[0])),
+                Some(Command::Routed(_, b)) => Some((false, b.bytes[0])),
                 Some(_) => panic!("not a frame"),
                 None => None,
             }
@@ -1585,8 +1655,12 @@ mod tests {
     }
 
     /// `len` bytes of `b`, routed from sender `from`.
+    fn unsigned(bytes: Box<[u8]>) -> RoutedBytes {
+        RoutedBytes { bytes, sign: None }
+    }
+
     fn routed_frame(from: u32, b: u8, len: usize) -> RoutedFrame {
-        (from, std::vec![b; len].into_boxed_slice())
+        (from, unsigned(std::vec![b; len].into_boxed_slice()))
     }
 
     /// A frame of the owner's: one byte, `b`.
@@ -1615,7 +1689,7 @@ mod tests {
             let ms = t0.elapsed().as_millis() as u64;
             match c {
                 Some(Command::Raw(b)) => (ms, true, b[0]),
-                Some(Command::Routed(_, b)) => (ms, false, b[0]),
+                Some(Command::Routed(_, b)) => (ms, false, b.bytes[0]),
                 _ => panic!("not a frame"),
             }
         }
@@ -1664,7 +1738,7 @@ mod tests {
         let mut got: Vec<(u128, u8)> = Vec::new();
         while got.last().is_none_or(|g| g.1 != 200) && got.len() < 20 {
             match q.recv().await {
-                Some(Command::Routed(_, b)) => got.push((t0.elapsed().as_millis(), b[0])),
+                Some(Command::Routed(_, b)) => got.push((t0.elapsed().as_millis(), b.bytes[0])),
                 _ => panic!("not a routed frame"),
             }
             if got.len() == 2 {
@@ -1718,7 +1792,7 @@ mod tests {
         for b in [0u8, 1] {
             routed_tx.try_send(routed_frame(1, b, 280)).unwrap();
         }
-        assert!(matches!(q.recv().await, Some(Command::Routed(_, b)) if b[0] == 0));
+        assert!(matches!(q.recv().await, Some(Command::Routed(_, b)) if b.bytes[0] == 0));
         // Frame 1 taken into the backlog, held 125 ms: cancelled at 10.
         assert!(timeout(Duration::from_millis(10), q.recv()).await.is_err());
         sleep(Duration::from_millis(200)).await;
@@ -1728,7 +1802,7 @@ mod tests {
             "the owner's first"
         );
         assert!(
-            matches!(q.recv().await, Some(Command::Routed(_, b)) if b[0] == 1),
+            matches!(q.recv().await, Some(Command::Routed(_, b)) if b.bytes[0] == 1),
             "then 1, kept"
         );
     }
@@ -1751,7 +1825,7 @@ mod tests {
         let mut got = Vec::new();
         while !got.contains(&255) {
             match q.recv().await {
-                Some(Command::Routed(_, b)) => got.push(b[0]),
+                Some(Command::Routed(_, b)) => got.push(b.bytes[0]),
                 _ => panic!("not a routed frame"),
             }
             assert!(
@@ -2248,6 +2322,59 @@ mod tests {
             router.table().links_to(1, 1),
             Links::NONE,
             "the table learned"
+        );
+    }
+
+    /// `route_signed` frames an unsigned frame again on each link, signed
+    /// with that link's key and keeping the sender's header; a link
+    /// without a key sends it unsigned, and `route` never signs.
+    #[tokio::test]
+    async fn route_signed_signs_with_each_links_key() {
+        use crate::signing::Verifier;
+        let key = [7u8; 32];
+        let (mut router, _, addr) = udpin(None).await;
+        let (signed_to, plain_to) = (udp_socket().await, udp_socket().await);
+        let mut keyed = LinkConfig::new(
+            format!("udpout:{}", signed_to.local_addr().unwrap())
+                .parse()
+                .unwrap(),
+        );
+        keyed.key = Some(key);
+        let keyed = router.add(keyed).await.unwrap();
+        let plain_url = format!("udpout:{}", plain_to.local_addr().unwrap());
+        let plain = router
+            .add(LinkConfig::new(plain_url.parse().unwrap()))
+            .await
+            .unwrap();
+        udp_socket().await.send_to(&ping(5), addr).await.unwrap();
+        let inbound = next_frame(&mut router).await;
+
+        router.route(&inbound, Links::only(keyed));
+        assert_eq!(
+            datagram_for(&signed_to, 500).await,
+            Some(ping(5).to_vec()),
+            "route: as it came"
+        );
+        router.route_signed(&inbound, Links::only(keyed).union(Links::only(plain)));
+        let got = datagram_for(&signed_to, 500).await.expect("a frame");
+        let frame = crate::frame::Frame::new_checked(&got[..]).unwrap();
+        assert!(frame.is_signed());
+        assert_eq!(
+            frame.header(),
+            inbound.frame.header(),
+            "the sender's header kept"
+        );
+        assert_eq!(frame.payload(), inbound.frame.frame().payload());
+        let mut verifier = Verifier::<4>::starting_now(key);
+        assert_eq!(
+            verifier.verify(&frame),
+            Ok(()),
+            "signed with the link's key"
+        );
+        assert_eq!(
+            datagram_for(&plain_to, 500).await,
+            Some(ping(5).to_vec()),
+            "no key: unsigned"
         );
     }
 

@@ -23,7 +23,9 @@ use std::path::{Path, PathBuf};
 /// `cargo:rerun-if-changed` for every file read, and the crate includes
 /// the result with `include!(concat!(env!("OUT_DIR"), "/mod.rs"))`.
 /// Elsewhere, name the directory ([`out_dir`](Self::out_dir)), or only
-/// [`generate`](Self::generate) to get the text:
+/// [`generate`](Self::generate) to get the text. Module and file names
+/// follow the rule of the [crate's output files](crate#output-files)
+/// (`fn.xml` → `fn_.rs`); no output file is ever written twice.
 ///
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {

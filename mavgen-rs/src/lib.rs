@@ -42,8 +42,38 @@
 //! }
 //! ```
 //!
-//! [`Config`] shows the rest (a tested example, message filters,
+//! The same generation without files, from a text, as a tool or a test
+//! might run it:
+//!
+//! ```
+//! let xml = r#"<mavlink><messages>
+//!     <message id="42" name="PING_ME">
+//!       <description>A ping.</description>
+//!       <field type="uint32_t" name="seq">Sequence number.</field>
+//!     </message>
+//!   </messages></mavlink>"#;
+//! let schema = mavgen_rs::Schema::from_text("ping.xml", xml).unwrap();
+//! let generated = mavgen_rs::Config::new().generate_from(&schema).unwrap();
+//! let names: Vec<&str> = generated.output.files.iter().map(|(n, _)| n.as_str()).collect();
+//! assert_eq!(names, ["mod.rs", "ping.rs"]);
+//! let code = &generated.output.files[1].1;
+//! assert!(code.contains("pub struct PingMe {"));
+//! assert!(code.contains("pub fn seq(&self) -> u32"));
+//! ```
+//!
+//! [`Config`] shows the rest (writing files, message filters,
 //! attributes); the repository's `examples/own-dialect` is a whole crate.
+//!
+//! # Output files
+//!
+//! `mod.rs` declares one module per XML file read (the dialects and their
+//! includes), each in its own file `<module>.rs`. The module is the file
+//! name without `.xml` in snake case (`uAvionix.xml` → `uavionix`), with
+//! `_` appended when that is a Rust keyword (`fn.xml` → `fn_`, `self.xml` →
+//! `self_`, `mod.xml` → `mod_`): a module read from a file cannot have a raw
+//! name, and `mod.rs` is the root. Two files that would get one module (the
+//! same name in two directories, or `fn.xml` next to `fn_.xml`) are an
+//! error pointing at the second file, and nothing is written.
 #![warn(missing_docs)]
 
 mod codegen;

@@ -1,6 +1,6 @@
 //! `mavgen-rs`: generate, check and tabulate MAVLink XML dialects.
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use mavgen_rs::{Config, Diagnostic, Error, Schema};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -46,32 +46,7 @@ enum Command {
     /// Nothing is written unless all input is valid. Unchanged files are left
     /// untouched; generated files of an earlier run that are no longer
     /// produced are removed (only files carrying mavgen-rs's header).
-    Generate {
-        /// Dialect files (each becomes a module with a `Message` enum).
-        #[arg(required = true)]
-        xml: Vec<PathBuf>,
-        /// Output directory (created if missing).
-        #[arg(short, long, value_name = "DIR")]
-        out: PathBuf,
-        /// Only these messages and the enums they use: XML names, comma
-        /// separated, or `@FILE` for a file of names (one or more per line,
-        /// separated by commas or spaces; `#` starts a comment).
-        #[arg(long, value_name = "A,B,…|@FILE", value_delimiter = ',')]
-        messages: Option<Vec<String>>,
-        /// Path of the runtime crate in the generated code.
-        #[arg(long, value_name = "PATH", default_value = "::mavframe")]
-        runtime: String,
-        /// Attributes for generated messages and enums (repeatable):
-        /// PATTERN is `.` for all or an XML message or enum name, ATTRS one
-        /// or more attributes, e.g. `MAV_TYPE=#[derive(PartialOrd)]`.
-        #[arg(long, value_name = "PATTERN=ATTRS", value_parser = pattern_and_attributes)]
-        type_attribute: Vec<(String, String)>,
-        /// Attributes for message fields (repeatable): PATTERN is `.`, an
-        /// XML message name (all its fields) or MESSAGE.field, e.g.
-        /// `HEARTBEAT.custom_mode=#[doc(alias = "mode")]`.
-        #[arg(long, value_name = "PATTERN=ATTRS", value_parser = pattern_and_attributes)]
-        field_attribute: Vec<(String, String)>,
-    },
+    Generate(GenerateArgs),
     /// Validate only: report errors and warnings, write nothing.
     Check {
         /// Dialect files.
@@ -86,6 +61,35 @@ enum Command {
         /// Dialect file.
         xml: PathBuf,
     },
+}
+
+/// The arguments of `generate`.
+#[derive(Args)]
+struct GenerateArgs {
+    /// Dialect files (each becomes a module with a `Message` enum).
+    #[arg(required = true)]
+    xml: Vec<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(short, long, value_name = "DIR")]
+    out: PathBuf,
+    /// Only these messages and the enums they use: XML names, comma
+    /// separated, or `@FILE` for a file of names (one or more per line,
+    /// separated by commas or spaces; `#` starts a comment).
+    #[arg(long, value_name = "A,B,…|@FILE", value_delimiter = ',')]
+    messages: Option<Vec<String>>,
+    /// Path of the runtime crate in the generated code.
+    #[arg(long, value_name = "PATH", default_value = "::mavframe")]
+    runtime: String,
+    /// Attributes for generated messages and enums (repeatable):
+    /// PATTERN is `.` for all or an XML message or enum name, ATTRS one
+    /// or more attributes, e.g. `MAV_TYPE=#[derive(PartialOrd)]`.
+    #[arg(long, value_name = "PATTERN=ATTRS", value_parser = pattern_and_attributes)]
+    type_attribute: Vec<(String, String)>,
+    /// Attributes for message fields (repeatable): PATTERN is `.`, an
+    /// XML message name (all its fields) or MESSAGE.field, e.g.
+    /// `HEARTBEAT.custom_mode=#[doc(alias = "mode")]`.
+    #[arg(long, value_name = "PATTERN=ATTRS", value_parser = pattern_and_attributes)]
+    field_attribute: Vec<(String, String)>,
 }
 
 /// `PATTERN=ATTRS`, split at the first `=` (patterns have none).
@@ -122,99 +126,101 @@ fn report(diags: &[Diagnostic]) {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    match cli.command {
-        Command::Generate {
-            xml,
-            out,
-            messages,
-            runtime,
-            type_attribute,
-            field_attribute,
-        } => {
-            let mut config = Config::new();
-            config
-                .out_dir(&out)
-                .runtime_crate(runtime)
-                .cargo_output(false);
-            for (pattern, attrs) in type_attribute {
-                config.type_attribute(pattern, attrs);
+    match Cli::parse().command {
+        Command::Generate(args) => generate(args),
+        Command::Check { xml } => check(&xml),
+        Command::Table { xml } => table(xml),
+    }
+}
+
+fn generate(args: GenerateArgs) -> ExitCode {
+    let mut config = Config::new();
+    config
+        .out_dir(&args.out)
+        .runtime_crate(args.runtime)
+        .cargo_output(false);
+    for (pattern, attrs) in args.type_attribute {
+        config.type_attribute(pattern, attrs);
+    }
+    for (pattern, attrs) in args.field_attribute {
+        config.field_attribute(pattern, attrs);
+    }
+    if let Some(m) = args.messages {
+        match expand_message_files(m) {
+            Ok(names) => {
+                config.messages(names);
             }
-            for (pattern, attrs) in field_attribute {
-                config.field_attribute(pattern, attrs);
-            }
-            if let Some(m) = messages {
-                match expand_message_files(m) {
-                    Ok(names) => {
-                        config.messages(names);
-                    }
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
-                }
-            }
-            match config.compile(&xml) {
-                Ok(g) => {
-                    report(&g.warnings);
-                    eprintln!(
-                        "wrote {} files to {} ({} messages, {} enums, from {} XML files)",
-                        g.output.files.len(),
-                        out.display(),
-                        g.messages,
-                        g.enums,
-                        g.inputs.len()
-                    );
-                    ExitCode::SUCCESS
-                }
-                Err(Error::Invalid(diags)) => {
-                    report(&diags);
-                    ExitCode::FAILURE
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
             }
         }
-        Command::Check { xml } => match Schema::load(&xml) {
-            Ok(schema) => {
-                report(schema.warnings());
-                eprintln!(
-                    "ok: {} messages, {} enums in {} files",
-                    schema.messages().count(),
-                    schema.enums().count(),
-                    schema.paths().count()
-                );
-                ExitCode::SUCCESS
+    }
+    match config.compile(&args.xml) {
+        Ok(g) => {
+            report(&g.warnings);
+            eprintln!(
+                "wrote {} files to {} ({} messages, {} enums, from {} XML files)",
+                g.output.files.len(),
+                args.out.display(),
+                g.messages,
+                g.enums,
+                g.inputs.len()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(Error::Invalid(diags)) => {
+            report(&diags);
+            ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn check(xml: &[PathBuf]) -> ExitCode {
+    match Schema::load(xml) {
+        Ok(schema) => {
+            report(schema.warnings());
+            eprintln!(
+                "ok: {} messages, {} enums in {} files",
+                schema.messages().count(),
+                schema.enums().count(),
+                schema.paths().count()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(diags) => {
+            report(&diags);
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn table(xml: PathBuf) -> ExitCode {
+    match Schema::load(&[xml]) {
+        Ok(schema) => {
+            let mut rows: Vec<_> = schema.messages().collect();
+            rows.sort_by_key(|m| m.id());
+            let mut out = String::new();
+            for m in rows {
+                out.push_str(&format!(
+                    "{} {} {} {} {}\n",
+                    m.id(),
+                    m.name(),
+                    m.crc_extra(),
+                    m.min_len(),
+                    m.max_len()
+                ));
             }
-            Err(diags) => {
-                report(&diags);
-                ExitCode::FAILURE
-            }
-        },
-        Command::Table { xml } => match Schema::load(&[xml]) {
-            Ok(schema) => {
-                let mut rows: Vec<_> = schema.messages().collect();
-                rows.sort_by_key(|m| m.id());
-                let mut out = String::new();
-                for m in rows {
-                    out.push_str(&format!(
-                        "{} {} {} {} {}\n",
-                        m.id(),
-                        m.name(),
-                        m.crc_extra(),
-                        m.min_len(),
-                        m.max_len()
-                    ));
-                }
-                print!("{out}");
-                ExitCode::SUCCESS
-            }
-            Err(diags) => {
-                report(&diags);
-                ExitCode::FAILURE
-            }
-        },
+            print!("{out}");
+            ExitCode::SUCCESS
+        }
+        Err(diags) => {
+            report(&diags);
+            ExitCode::FAILURE
+        }
     }
 }

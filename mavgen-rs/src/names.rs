@@ -78,6 +78,18 @@ pub fn snake(name: &str) -> String {
     out
 }
 
+/// The module for an XML file named `stem`: [`snake`] case, and a trailing
+/// `_` for a Rust keyword (`fn.xml` → `fn_`, `mod.xml` → `mod_`, `self.xml`
+/// → `self_`). The module's file is `<module>.rs`, so a keyword cannot be a
+/// raw identifier (`r#fn.rs`), and `mod.rs` stays the root of the output.
+pub fn module(stem: &str) -> String {
+    let mut name = snake(stem);
+    if KEYWORDS.contains(&name.as_str()) || name == "_" {
+        name.push('_');
+    }
+    name
+}
+
 /// The name of an enum entry inside its enum: the enum's name is stripped
 /// (`MAV_TYPE_FIXED_WING` in `MAV_TYPE` → `FIXED_WING`) unless what remains
 /// would start with a digit, where the enum's last word stays

@@ -5,7 +5,7 @@
 use crate::diag::{Diagnostic, Diagnostics, Loc, Source};
 use crate::input::{self, ReadError, MAX_FILE_BYTES, MAX_TOTAL_BYTES};
 use crate::layout::Layout;
-use crate::model::{Enum, XmlFile};
+use crate::model::{Enum, Message, XmlFile};
 use crate::xml;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -290,6 +290,22 @@ impl Schema {
     /// enum appends its entries to the first one; auto-numbered entries of
     /// the first that overlap the later range are renumbered above it.
     fn merge_enums(&mut self, diags: &mut Diagnostics) {
+        let mut merged = self.merged_declarations();
+        // Reachability of the files declaring a merged enum only, computed
+        // when first needed: one bit per file each, so a long include chain
+        // costs no more than it must.
+        let mut reach: HashMap<usize, Vec<u64>> = HashMap::new();
+        for m in merged.values_mut() {
+            m.home = self.enum_home(m, &mut reach);
+            self.check_entries(m, diags);
+            // After the checks, so "first declared" means first in the files.
+            m.def.entries.sort_by_key(|e| e.value); // stable, as Python's sorted
+        }
+        self.enums = merged;
+    }
+
+    /// Every enum with its later declarations appended to the first.
+    fn merged_declarations(&self) -> BTreeMap<String, MergedEnum> {
         let mut merged: BTreeMap<String, MergedEnum> = BTreeMap::new();
         for (f, file) in self.files.iter().enumerate() {
             for e in &file.enums {
@@ -330,71 +346,77 @@ impl Schema {
                 }
             }
         }
-        // Reachability of the files declaring a merged enum only, computed
-        // when first needed: one bit per file each, so a long include chain
-        // costs no more than it must.
-        let mut reach: HashMap<usize, Vec<u64>> = HashMap::new();
-        for m in merged.values_mut() {
-            // Home: included by the most other declaring files; ties go to
-            // the file loaded first (common.xml before a vendor file that
-            // extends MAV_CMD without including common.xml).
-            if m.declared_in.len() > 1 {
-                for &e in &m.declared_in {
-                    reach.entry(e).or_insert_with(|| self.reachable_bits(e));
-                }
-            }
-            let reaches = |e: usize, d: usize| reach.get(&e).map_or(e == d, |b| bit(b, d));
-            m.home = *m
-                .declared_in
-                .iter()
-                .max_by_key(|&&d| {
-                    (
-                        m.declared_in.iter().filter(|&&e| reaches(e, d)).count(),
-                        std::cmp::Reverse(d),
-                    )
-                })
-                .expect("declared at least once");
-            let mut names: HashMap<&str, Loc> = HashMap::new();
-            let mut values: HashMap<u64, (&str, Loc)> = HashMap::new();
-            for entry in &m.def.entries {
-                if let Some(prev) = names.insert(&entry.name, entry.loc) {
-                    let at = self.sources[prev.file].position(prev.offset);
-                    diags.error(
-                        &self.sources,
-                        entry.loc,
-                        format!(
-                            "duplicate enum entry name {}.{} (first declared at {}:{})",
-                            m.def.name,
-                            entry.name,
-                            at.file.display(),
-                            at.line
-                        ),
-                    );
-                } else if let Some((prev_name, prev)) =
-                    values.insert(entry.value, (&entry.name, entry.loc))
-                {
-                    let at = self.sources[prev.file].position(prev.offset);
-                    diags.error(
-                        &self.sources,
-                        entry.loc,
-                        format!(
-                            "duplicate enum value {} = {} in {} (already used by {} at {}:{})",
-                            entry.name,
-                            entry.value,
-                            m.def.name,
-                            prev_name,
-                            at.file.display(),
-                            at.line
-                        ),
-                    );
-                }
-            }
-            // After the checks, so "first declared" means first in the files.
-            m.def.entries.sort_by_key(|e| e.value); // stable, as Python's sorted
-        }
-        self.enums = merged;
+        merged
     }
 
+    /// The file an enum is generated in: included by the most other
+    /// declaring files; ties go to the file loaded first (common.xml before
+    /// a vendor file that extends MAV_CMD without including common.xml).
+    fn enum_home(&self, m: &MergedEnum, reach: &mut HashMap<usize, Vec<u64>>) -> usize {
+        if m.declared_in.len() > 1 {
+            for &e in &m.declared_in {
+                reach.entry(e).or_insert_with(|| self.reachable_bits(e));
+            }
+        }
+        let reaches = |e: usize, d: usize| reach.get(&e).map_or(e == d, |b| bit(b, d));
+        *m.declared_in
+            .iter()
+            .max_by_key(|&&d| {
+                (
+                    m.declared_in.iter().filter(|&&e| reaches(e, d)).count(),
+                    std::cmp::Reverse(d),
+                )
+            })
+            .expect("declared at least once")
+    }
+
+    /// Entry names and values unique within a merged enum.
+    fn check_entries(&self, m: &MergedEnum, diags: &mut Diagnostics) {
+        let mut names: HashMap<&str, Loc> = HashMap::new();
+        let mut values: HashMap<u64, (&str, Loc)> = HashMap::new();
+        for entry in &m.def.entries {
+            if let Some(prev) = names.insert(&entry.name, entry.loc) {
+                let at = self.sources[prev.file].position(prev.offset);
+                diags.error(
+                    &self.sources,
+                    entry.loc,
+                    format!(
+                        "duplicate enum entry name {}.{} (first declared at {}:{})",
+                        m.def.name,
+                        entry.name,
+                        at.file.display(),
+                        at.line
+                    ),
+                );
+            } else if let Some((prev_name, prev)) =
+                values.insert(entry.value, (&entry.name, entry.loc))
+            {
+                let at = self.sources[prev.file].position(prev.offset);
+                diags.error(
+                    &self.sources,
+                    entry.loc,
+                    format!(
+                        "duplicate enum value {} = {} in {} (already used by {} at {}:{})",
+                        entry.name,
+                        entry.value,
+                        m.def.name,
+                        prev_name,
+                        at.file.display(),
+                        at.line
+                    ),
+                );
+            }
+        }
+    }
+
+    /// `FILE:LINE` of `l`, for messages pointing at an earlier declaration.
+    fn here(&self, l: Loc) -> String {
+        let p = self.sources[l.file].position(l.offset);
+        format!("{}:{}", p.file.display(), p.line)
+    }
+
+    /// Every message's checks, ids and names unique across all files, and
+    /// the wire layouts.
     fn check_messages(&mut self, diags: &mut Diagnostics) {
         let mut by_id: HashMap<u64, (String, Loc)> = HashMap::new();
         let mut by_name: HashMap<String, Loc> = HashMap::new();
@@ -402,23 +424,7 @@ impl Schema {
         for file in &self.files {
             let mut file_layouts = Vec::with_capacity(file.messages.len());
             for m in &file.messages {
-                let here = |l: Loc| {
-                    let p = self.sources[l.file].position(l.offset);
-                    format!("{}:{}", p.file.display(), p.line)
-                };
-                if !is_identifier(&m.name) {
-                    diags.error(
-                        &self.sources,
-                        m.loc,
-                        format!(
-                            "message name `{}` is not an identifier ([A-Za-z_][A-Za-z0-9_]*)",
-                            m.name
-                        ),
-                    );
-                }
-                if m.id > MAX_MESSAGE_ID {
-                    diags.error(&self.sources, m.id_loc, format!("message {}: id {} is above {MAX_MESSAGE_ID}, the largest a MAVLink 2 frame carries", m.name, m.id));
-                }
+                self.check_name_and_id(m, diags);
                 if let Some((other, l)) = by_id.get(&m.id) {
                     diags.error(
                         &self.sources,
@@ -427,7 +433,7 @@ impl Schema {
                             "duplicate message id {} for {} (also used by {other} at {})",
                             m.id,
                             m.name,
-                            here(*l)
+                            self.here(*l)
                         ),
                     );
                 } else {
@@ -440,82 +446,116 @@ impl Schema {
                         format!(
                             "duplicate message name {} (first declared at {})",
                             m.name,
-                            here(*l)
+                            self.here(*l)
                         ),
                     );
                 } else {
                     by_name.insert(m.name.clone(), m.loc);
                 }
-                if m.fields.is_empty() {
-                    diags.error(
-                        &self.sources,
-                        m.loc,
-                        format!("message {} has no fields", m.name),
-                    );
-                }
-                if m.fields.len() > MAX_FIELDS {
-                    diags.error(
-                        &self.sources,
-                        m.loc,
-                        format!(
-                            "message {} has {} fields; at most {MAX_FIELDS} are allowed",
-                            m.name,
-                            m.fields.len()
-                        ),
-                    );
-                }
-                let mut seen: HashMap<&str, Loc> = HashMap::new();
-                for f in &m.fields {
-                    if !is_identifier(&f.name) {
-                        diags.error(
-                            &self.sources,
-                            f.loc,
-                            format!("field name `{}` in {} is not an identifier", f.name, m.name),
-                        );
-                    }
-                    if let Some(l) = seen.insert(&f.name, f.loc) {
-                        diags.error(
-                            &self.sources,
-                            f.loc,
-                            format!(
-                                "duplicate field {} in message {} (first at {})",
-                                f.name,
-                                m.name,
-                                here(l)
-                            ),
-                        );
-                    }
-                    if let Some(e) = &f.enum_name {
-                        if !self.enums.contains_key(e) {
-                            diags.error(
-                                &self.sources,
-                                f.enum_loc,
-                                format!("field {}.{} refers to unknown enum {e}", m.name, f.name),
-                            );
-                        }
-                    }
-                    if C_CLASHING_FIELD_NAMES.contains(&f.name.as_str()) {
-                        diags.warning(
-                            &self.sources,
-                            f.loc,
-                            format!(
-                                "field {}.{} has the name of a parameter of the official C generator's mavlink_msg_{}_pack/_send functions: the C header pymavlink generates for it does not compile (see docs/c-generator-name-clash.md)",
-                                m.name,
-                                f.name,
-                                m.name.to_lowercase()
-                            ),
-                        );
-                    }
-                }
-                let layout = Layout::of(m);
-                if layout.max_len > MAX_PAYLOAD {
-                    diags.error(&self.sources, m.loc, format!("message {} has a {}-byte payload; a frame carries at most {MAX_PAYLOAD}", m.name, layout.max_len));
-                }
-                file_layouts.push(layout);
+                file_layouts.push(self.check_message(m, diags));
             }
             layouts.push(file_layouts);
         }
         self.layouts = layouts;
+    }
+
+    /// A message's name is an identifier and its id fits a frame.
+    fn check_name_and_id(&self, m: &Message, diags: &mut Diagnostics) {
+        if !is_identifier(&m.name) {
+            diags.error(
+                &self.sources,
+                m.loc,
+                format!(
+                    "message name `{}` is not an identifier ([A-Za-z_][A-Za-z0-9_]*)",
+                    m.name
+                ),
+            );
+        }
+        if m.id > MAX_MESSAGE_ID {
+            diags.error(&self.sources, m.id_loc, format!("message {}: id {} is above {MAX_MESSAGE_ID}, the largest a MAVLink 2 frame carries", m.name, m.id));
+        }
+    }
+
+    /// One message's fields and payload size; returns its layout.
+    fn check_message(&self, m: &Message, diags: &mut Diagnostics) -> Layout {
+        if m.fields.is_empty() {
+            diags.error(
+                &self.sources,
+                m.loc,
+                format!("message {} has no fields", m.name),
+            );
+        }
+        if m.fields.len() > MAX_FIELDS {
+            diags.error(
+                &self.sources,
+                m.loc,
+                format!(
+                    "message {} has {} fields; at most {MAX_FIELDS} are allowed",
+                    m.name,
+                    m.fields.len()
+                ),
+            );
+        }
+        self.check_fields(m, diags);
+        let layout = Layout::of(m);
+        if layout.max_len > MAX_PAYLOAD {
+            diags.error(
+                &self.sources,
+                m.loc,
+                format!(
+                    "message {} has a {}-byte payload; a frame carries at most {MAX_PAYLOAD}",
+                    m.name, layout.max_len
+                ),
+            );
+        }
+        layout
+    }
+
+    /// The fields of message `m`: names, duplicates, enum references.
+    fn check_fields(&self, m: &Message, diags: &mut Diagnostics) {
+        let mut seen: HashMap<&str, Loc> = HashMap::new();
+        for f in &m.fields {
+            if !is_identifier(&f.name) {
+                diags.error(
+                    &self.sources,
+                    f.loc,
+                    format!("field name `{}` in {} is not an identifier", f.name, m.name),
+                );
+            }
+            if let Some(l) = seen.insert(&f.name, f.loc) {
+                diags.error(
+                    &self.sources,
+                    f.loc,
+                    format!(
+                        "duplicate field {} in message {} (first at {})",
+                        f.name,
+                        m.name,
+                        self.here(l)
+                    ),
+                );
+            }
+            if let Some(e) = &f.enum_name {
+                if !self.enums.contains_key(e) {
+                    diags.error(
+                        &self.sources,
+                        f.enum_loc,
+                        format!("field {}.{} refers to unknown enum {e}", m.name, f.name),
+                    );
+                }
+            }
+            if C_CLASHING_FIELD_NAMES.contains(&f.name.as_str()) {
+                diags.warning(
+                    &self.sources,
+                    f.loc,
+                    format!(
+                        "field {}.{} has the name of a parameter of the official C generator's mavlink_msg_{}_pack/_send functions: the C header pymavlink generates for it does not compile (see docs/c-generator-name-clash.md)",
+                        m.name,
+                        f.name,
+                        m.name.to_lowercase()
+                    ),
+                );
+            }
+        }
     }
 }
 

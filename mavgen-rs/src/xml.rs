@@ -330,37 +330,7 @@ impl Parser<'_, '_> {
         let path = self.path();
         let loc = self.loc(start);
         match path.as_str() {
-            "mavlink.messages.message" => {
-                let attrs = self.attrs(e, start);
-                let name = self
-                    .required(&attrs, "name", "message", start)
-                    .unwrap_or_default();
-                let id_text = self.required(&attrs, "id", "message", start);
-                let id_loc = self.loc(self.attr_offset(start, "id"));
-                let id = match id_text.as_deref().map(parse_int) {
-                    Some(Some(v)) => v,
-                    Some(None) => {
-                        let msg = format!(
-                            "message {name}: id `{}` is not a non-negative integer",
-                            id_text.unwrap_or_default()
-                        );
-                        self.error(id_loc.offset, msg);
-                        0
-                    }
-                    None => 0,
-                };
-                self.in_extensions = false;
-                self.out.messages.push(Message {
-                    id,
-                    name,
-                    description: String::new(),
-                    deprecated: None,
-                    wip: false,
-                    fields: Vec::new(),
-                    loc,
-                    id_loc,
-                });
-            }
+            "mavlink.messages.message" => self.start_message(e, start, loc),
             "mavlink.messages.message.wip" => {
                 if let Some(m) = self.out.messages.last_mut() {
                     m.wip = true;
@@ -377,61 +347,8 @@ impl Parser<'_, '_> {
             "mavlink.messages.message.description" => {
                 self.collect(Text::MessageDescription, loc);
             }
-            "mavlink.messages.message.field" => {
-                let attrs = self.attrs(e, start);
-                let name = self
-                    .required(&attrs, "name", "field", start)
-                    .unwrap_or_default();
-                let ty = self
-                    .required(&attrs, "type", "field", start)
-                    .unwrap_or_else(|| "uint8_t".into());
-                let type_at = self.attr_offset(start, "type");
-                let enum_loc = self.loc(self.attr_offset(start, "enum"));
-                let (primitive, array_len, mavlink_version) = match parse_type(&ty) {
-                    Ok(t) => t,
-                    Err(msg) => {
-                        self.error(type_at, format!("field {name}: {msg}"));
-                        (Primitive::U8, None, false)
-                    }
-                };
-                let field = Field {
-                    name,
-                    primitive,
-                    array_len,
-                    mavlink_version,
-                    enum_name: get(&attrs, "enum").filter(|s| !s.is_empty()),
-                    display: get(&attrs, "display"),
-                    units: get(&attrs, "units").filter(|s| !s.is_empty()),
-                    multiplier: get(&attrs, "multiplier"),
-                    instance: get(&attrs, "instance").is_some_and(|v| v == "true"),
-                    invalid: get(&attrs, "invalid"),
-                    default: get(&attrs, "default"),
-                    description: String::new(),
-                    extension: self.in_extensions,
-                    loc,
-                    enum_loc,
-                };
-                if let Some(m) = self.out.messages.last_mut() {
-                    m.fields.push(field);
-                }
-                self.collect(Text::Field, loc);
-            }
-            "mavlink.enums.enum" => {
-                let attrs = self.attrs(e, start);
-                let name = self
-                    .required(&attrs, "name", "enum", start)
-                    .unwrap_or_default();
-                self.out.enums.push(Enum {
-                    name,
-                    description: String::new(),
-                    bitmask: get(&attrs, "bitmask").is_some_and(|v| v == "true"),
-                    deprecated: None,
-                    entries: Vec::new(),
-                    start_value: None,
-                    highest_value: 0,
-                    loc,
-                });
-            }
+            "mavlink.messages.message.field" => self.start_field(e, start, loc),
+            "mavlink.enums.enum" => self.start_enum(e, start, loc),
             "mavlink.enums.enum.description" => {
                 self.collect(Text::EnumDescription, loc);
             }
@@ -442,44 +359,7 @@ impl Parser<'_, '_> {
                 }
                 self.collect(Text::EnumDeprecated, loc);
             }
-            "mavlink.enums.enum.entry" => {
-                let attrs = self.attrs(e, start);
-                let name = self
-                    .required(&attrs, "name", "enum entry", start)
-                    .unwrap_or_default();
-                let value_text = get(&attrs, "value");
-                let value_at = self.attr_offset(start, "value");
-                let Some(en) = self.out.enums.last() else {
-                    return;
-                };
-                // pymavlink: an entry without a value is one above the highest
-                // so far, and the highest starts at 0 (so the first is 1).
-                let (value, autovalue) = match value_text.as_deref() {
-                    None => (en.highest_value + 1, true),
-                    Some(t) => match parse_value(t) {
-                        Some(v) => (v, false),
-                        None => {
-                            self.error(value_at, format!("enum entry {name}: value `{t}` is not a non-negative integer (decimal, 0x…, 0b…, 0o… or A**B)"));
-                            (0, false)
-                        }
-                    },
-                };
-                let en = self.out.enums.last_mut().expect("checked above");
-                if en.start_value.is_none_or(|s| value < s) {
-                    en.start_value = Some(value);
-                }
-                en.highest_value = en.highest_value.max(value);
-                en.entries.push(Entry {
-                    name,
-                    value,
-                    autovalue,
-                    description: String::new(),
-                    deprecated: None,
-                    wip: false,
-                    params: Vec::new(),
-                    loc,
-                });
-            }
+            "mavlink.enums.enum.entry" => self.start_entry(e, start, loc),
             "mavlink.enums.enum.entry.description" => {
                 self.collect(Text::EntryDescription, loc);
             }
@@ -495,26 +375,161 @@ impl Parser<'_, '_> {
                 }
                 self.collect(Text::EntryDeprecated, loc);
             }
-            "mavlink.enums.enum.entry.param" => {
-                let attrs = self.attrs(e, start);
-                let index = self
-                    .required(&attrs, "index", "enum param", start)
-                    .unwrap_or_default();
-                if let Some(en) = self.out.enums.last_mut().and_then(|e| e.entries.last_mut()) {
-                    en.params.push(Param {
-                        index,
-                        label: get(&attrs, "label").filter(|s| !s.is_empty()),
-                        units: get(&attrs, "units").filter(|s| !s.is_empty()),
-                        description: String::new(),
-                    });
-                }
-                self.collect(Text::Param, loc);
-            }
+            "mavlink.enums.enum.entry.param" => self.start_param(e, start, loc),
             "mavlink.include" => self.collect(Text::Include, loc),
             "mavlink.version" => self.collect(Text::Version, loc),
             "mavlink.dialect" => self.collect(Text::Dialect, loc),
             _ => {}
         }
+    }
+
+    /// A `<message>`: its name and id.
+    fn start_message(&mut self, e: &BytesStart, start: usize, loc: Loc) {
+        let attrs = self.attrs(e, start);
+        let name = self
+            .required(&attrs, "name", "message", start)
+            .unwrap_or_default();
+        let id_text = self.required(&attrs, "id", "message", start);
+        let id_loc = self.loc(self.attr_offset(start, "id"));
+        let id = match id_text.as_deref().map(parse_int) {
+            Some(Some(v)) => v,
+            Some(None) => {
+                let msg = format!(
+                    "message {name}: id `{}` is not a non-negative integer",
+                    id_text.unwrap_or_default()
+                );
+                self.error(id_loc.offset, msg);
+                0
+            }
+            None => 0,
+        };
+        self.in_extensions = false;
+        self.out.messages.push(Message {
+            id,
+            name,
+            description: String::new(),
+            deprecated: None,
+            wip: false,
+            fields: Vec::new(),
+            loc,
+            id_loc,
+        });
+    }
+
+    /// A message's `<field>`: its type, enum and the other attributes.
+    fn start_field(&mut self, e: &BytesStart, start: usize, loc: Loc) {
+        let attrs = self.attrs(e, start);
+        let name = self
+            .required(&attrs, "name", "field", start)
+            .unwrap_or_default();
+        let ty = self
+            .required(&attrs, "type", "field", start)
+            .unwrap_or_else(|| "uint8_t".into());
+        let type_at = self.attr_offset(start, "type");
+        let enum_loc = self.loc(self.attr_offset(start, "enum"));
+        let (primitive, array_len, mavlink_version) = match parse_type(&ty) {
+            Ok(t) => t,
+            Err(msg) => {
+                self.error(type_at, format!("field {name}: {msg}"));
+                (Primitive::U8, None, false)
+            }
+        };
+        let field = Field {
+            name,
+            primitive,
+            array_len,
+            mavlink_version,
+            enum_name: get(&attrs, "enum").filter(|s| !s.is_empty()),
+            display: get(&attrs, "display"),
+            units: get(&attrs, "units").filter(|s| !s.is_empty()),
+            multiplier: get(&attrs, "multiplier"),
+            instance: get(&attrs, "instance").is_some_and(|v| v == "true"),
+            invalid: get(&attrs, "invalid"),
+            default: get(&attrs, "default"),
+            description: String::new(),
+            extension: self.in_extensions,
+            loc,
+            enum_loc,
+        };
+        if let Some(m) = self.out.messages.last_mut() {
+            m.fields.push(field);
+        }
+        self.collect(Text::Field, loc);
+    }
+
+    /// An `<enum>`.
+    fn start_enum(&mut self, e: &BytesStart, start: usize, loc: Loc) {
+        let attrs = self.attrs(e, start);
+        let name = self
+            .required(&attrs, "name", "enum", start)
+            .unwrap_or_default();
+        self.out.enums.push(Enum {
+            name,
+            description: String::new(),
+            bitmask: get(&attrs, "bitmask").is_some_and(|v| v == "true"),
+            deprecated: None,
+            entries: Vec::new(),
+            start_value: None,
+            highest_value: 0,
+            loc,
+        });
+    }
+
+    /// An enum `<entry>`, numbered as pymavlink does when it has no value.
+    fn start_entry(&mut self, e: &BytesStart, start: usize, loc: Loc) {
+        let attrs = self.attrs(e, start);
+        let name = self
+            .required(&attrs, "name", "enum entry", start)
+            .unwrap_or_default();
+        let value_text = get(&attrs, "value");
+        let value_at = self.attr_offset(start, "value");
+        let Some(en) = self.out.enums.last() else {
+            return;
+        };
+        // pymavlink: an entry without a value is one above the highest
+        // so far, and the highest starts at 0 (so the first is 1).
+        let (value, autovalue) = match value_text.as_deref() {
+            None => (en.highest_value + 1, true),
+            Some(t) => match parse_value(t) {
+                Some(v) => (v, false),
+                None => {
+                    self.error(value_at, format!("enum entry {name}: value `{t}` is not a non-negative integer (decimal, 0x…, 0b…, 0o… or A**B)"));
+                    (0, false)
+                }
+            },
+        };
+        let en = self.out.enums.last_mut().expect("checked above");
+        if en.start_value.is_none_or(|s| value < s) {
+            en.start_value = Some(value);
+        }
+        en.highest_value = en.highest_value.max(value);
+        en.entries.push(Entry {
+            name,
+            value,
+            autovalue,
+            description: String::new(),
+            deprecated: None,
+            wip: false,
+            params: Vec::new(),
+            loc,
+        });
+    }
+
+    /// An entry's `<param>`.
+    fn start_param(&mut self, e: &BytesStart, start: usize, loc: Loc) {
+        let attrs = self.attrs(e, start);
+        let index = self
+            .required(&attrs, "index", "enum param", start)
+            .unwrap_or_default();
+        if let Some(en) = self.out.enums.last_mut().and_then(|e| e.entries.last_mut()) {
+            en.params.push(Param {
+                index,
+                label: get(&attrs, "label").filter(|s| !s.is_empty()),
+                units: get(&attrs, "units").filter(|s| !s.is_empty()),
+                description: String::new(),
+            });
+        }
+        self.collect(Text::Param, loc);
     }
 
     fn deprecated(&mut self, e: &BytesStart, start: usize) -> Deprecated {

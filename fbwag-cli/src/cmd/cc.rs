@@ -3,7 +3,7 @@
 use super::help;
 use crate::args::{self, ControllerKind};
 use crate::error::{CliError, Outcome};
-use crate::live::cc::{run_cc, CcOptions};
+use crate::live::cc::{check_trusted, run_cc, CcOptions};
 use crate::live::net::routed_rate;
 use fbwag_delegation::Peer;
 use fbwag_dialect::Endpoint;
@@ -42,6 +42,19 @@ pub struct CcArgs {
     /// are forwarded untouched (signed ones stay verifiable).
     #[arg(long = "out", value_name = "CONN")]
     pub outs: Vec<String>,
+    /// Like --out, for a ground tool that cannot sign (MAVSDK, MAVProxy
+    /// without a key) where the FC requires signatures: the link is
+    /// trusted like --sign-key, and what arrives on it goes on to the
+    /// FC signed with the key. Whoever can send into it can command
+    /// the aircraft, so it must be local: only loopback addresses or a
+    /// serial port, unless --trusted-out-remote. On a plain --out, an
+    /// unsigned tool under --require-signed gets telemetry only.
+    #[arg(long = "trusted-out", value_name = "CONN", requires = "sign_key")]
+    pub trusted_outs: Vec<String>,
+    /// Accept --trusted-out addresses that are not loopback (a trusted
+    /// network of your own).
+    #[arg(long, requires = "trusted_outs")]
+    pub trusted_out_remote: bool,
     /// What --out links route to the FC link goes at most this many
     /// bytes a second (or `off`); the companion's own frames are never
     /// held back. Keep it below what the FC link carries: then a flood
@@ -116,6 +129,16 @@ pub struct CcArgs {
     pub exit_after_handback: bool,
 }
 
+/// A `--trusted-out` link: local unless `remote` allows any.
+fn trusted_out(conn: &str, remote: bool) -> Result<Endpoint, CliError> {
+    let e = endpoint("--trusted-out", conn)?;
+    check_trusted(&e, remote).map_err(|source| CliError::TrustedOut {
+        conn: conn.into(),
+        source,
+    })?;
+    Ok(e)
+}
+
 /// A connection string of `flag`.
 fn endpoint(flag: &str, conn: &str) -> Result<Endpoint, CliError> {
     conn.parse()
@@ -128,6 +151,9 @@ impl TryFrom<CcArgs> for CcOptions {
     fn try_from(a: CcArgs) -> Result<Self, CliError> {
         let outs = a.outs.iter().map(|e| endpoint("--out", e));
         let outs = outs.collect::<Result<_, _>>()?;
+        let trusted = a.trusted_outs.iter();
+        let trusted_outs = trusted.map(|e| trusted_out(e, a.trusted_out_remote));
+        let trusted_outs = trusted_outs.collect::<Result<_, _>>()?;
         let autonomy = a.autonomy.as_deref().map(|e| endpoint("--autonomy", e));
         let autonomy = autonomy.transpose()?;
         let mut link =
@@ -136,6 +162,7 @@ impl TryFrom<CcArgs> for CcOptions {
         Ok(CcOptions {
             link,
             outs,
+            trusted_outs,
             autonomy,
             autonomy_peer: a.autonomy_peer,
             autonomy_fallback: a.autonomy_fallback.into(),

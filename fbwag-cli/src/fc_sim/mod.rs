@@ -179,10 +179,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     let mut node = FcNode::new(cfg, clock.now()).map_err(invalid)?;
     let endpoint = o.link.endpoint.clone();
     let net = Net::open(&o.link, &mut log).await?;
-    let spec = LinkSpec {
-        role: Role::Peer,
-        answers: net::answers(&endpoint, o.link.peer),
-    };
+    let spec = LinkSpec::new(Role::Peer, net::answers(&endpoint, o.link.peer));
     node.add_link(net.main, spec).map_err(invalid)?;
     let events = Events::open(o.events.as_deref(), clock)?;
     log_start(&o, &endpoint, &mut log);

@@ -33,6 +33,8 @@ pub struct CcOptions {
     pub link: LinkOptions,
     /// Other links the companion routes to and from.
     pub outs: Vec<Endpoint>,
+    /// Links trusted like the key ([`LinkSpec::trusted`]).
+    pub trusted_outs: Vec<Endpoint>,
     /// The user's autonomy program's link.
     pub autonomy: Option<Endpoint>,
     /// The autonomy program's address: the autonomy link answers it only,
@@ -91,16 +93,21 @@ struct Opened {
 
 async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     let mut net = Net::open(&o.link, log).await?;
-    let spec = |role, endpoint, peer| LinkSpec {
-        role,
-        answers: net::answers(endpoint, peer),
-    };
+    let spec = |role, endpoint, peer| LinkSpec::new(role, net::answers(endpoint, peer));
     let mut specs = vec![(net.main, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
     for e in &o.outs {
         // Ground links verify with the key too: a ground station that signs
         // reaches the FC where signing is required.
         let link = net.add(e, o.link.key, None).await?;
         specs.push((link, spec(Role::Ground, e, None)));
+    }
+    for e in &o.trusted_outs {
+        let link = net.add(e, o.link.key, None).await?;
+        let trusted = LinkSpec {
+            trusted: true,
+            ..spec(Role::Ground, e, None)
+        };
+        specs.push((link, trusted));
     }
     let mut autonomy = None;
     if let Some(e) = &o.autonomy {
@@ -113,6 +120,30 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
         specs,
         autonomy,
     })
+}
+
+/// Why a `--trusted-out` link is refused.
+#[derive(Debug, thiserror::Error)]
+pub enum TrustedOutError {
+    /// Its address is not loopback (and `--trusted-out-remote` is not set).
+    #[error("{0} is not a loopback address: anyone who can reach it could command the aircraft (--trusted-out-remote accepts it)")]
+    NotLocal(String),
+    /// Its host name did not resolve.
+    #[error("{0}")]
+    Resolve(fbwag_dialect::mavframe::conn::ResolveError),
+}
+
+/// A trusted link must be local: loopback addresses (every address its
+/// host name resolves to) or a serial port, unless `remote` allows any.
+pub fn check_trusted(endpoint: &Endpoint, remote: bool) -> Result<(), TrustedOutError> {
+    let Some(address) = endpoint.address().filter(|_| !remote) else {
+        return Ok(());
+    };
+    let resolved = address.resolve().map_err(TrustedOutError::Resolve)?;
+    match resolved.iter().find(|a| !a.ip().is_loopback()) {
+        Some(a) => Err(TrustedOutError::NotLocal(a.to_string())),
+        None => Ok(()),
+    }
 }
 
 fn invalid(e: impl std::error::Error + Send + Sync + 'static) -> io::Error {
@@ -221,7 +252,9 @@ impl Node for Daemon {
                 if fate.input && inbound.link == net.main {
                     self.describe(&inbound.frame, log);
                 }
-                if !fate.route.is_empty() {
+                if fate.sign {
+                    net.router.route_signed(inbound, fate.route);
+                } else if !fate.route.is_empty() {
                     net.router.route(inbound, fate.route);
                 }
             }

@@ -151,6 +151,7 @@ fn plain_link(endpoint: Endpoint) -> LinkOptions {
 fn companion(addr: SocketAddr, own: Peer, fc: Peer, duration: f64) -> CcOptions {
     CcOptions {
         outs: Vec::new(),
+        trusted_outs: Vec::new(),
         autonomy: None,
         autonomy_peer: None,
         autonomy_fallback: Default::default(),

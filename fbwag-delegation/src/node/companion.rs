@@ -151,7 +151,7 @@ impl CompanionNode {
         } else {
             match spec.role {
                 Role::Peer => self.on_fc_link(now, &a),
-                Role::Ground => self.on_ground_link(now, &a),
+                Role::Ground => self.on_ground_link(now, &a, spec),
                 Role::Autonomy => self.on_autonomy_link(now, &a),
             }
         };
@@ -176,31 +176,33 @@ impl CompanionNode {
         if from == self.cfg.fc && verdict == Verdict::Untrusted {
             return self.core.drop(DropReason::Unauthenticated);
         }
-        let mut fate = self.routed(a, true);
+        let mut fate = self.routed(a, a.authenticated);
         fate.input = verdict == Verdict::Trusted;
         fate
     }
 
-    /// A frame of a ground-station link.
-    fn on_ground_link(&mut self, now: Instant, a: &Arrival) -> Fate {
+    /// A frame of a ground-station link. A trusted link's frames count as
+    /// verified (those of ids the dialect knows: the others cannot be
+    /// signed on the way).
+    fn on_ground_link(&mut self, now: Instant, a: &Arrival, spec: LinkSpec) -> Fate {
         let from = sender(&a.frame);
         if from == self.cfg.fc {
             return self.core.drop(DropReason::Impersonation);
         }
+        let sign = spec.trusted && !a.authenticated && super::known(&a.frame);
+        let verified = a.authenticated || sign;
         let out = &mut self.out;
         let known = self
             .core
-            .admits_source(a, now, true, a.authenticated, &mut |link, peers| {
+            .admits_source(a, now, true, verified, &mut |link, peers| {
                 out.push(Output::Peers { link, peers })
             });
-        let fixed = matches!(
-            self.core.spec(a.link).map(|s| s.answers),
-            Some(super::Answers::Fixed(_))
-        );
-        if !known && fixed {
+        if !known && matches!(spec.answers, super::Answers::Fixed(_)) {
             return self.core.drop(DropReason::NotPeer);
         }
-        self.routed(a, a.authenticated)
+        let mut fate = self.routed(a, verified);
+        fate.sign = sign && !fate.route.is_empty();
+        fate
     }
 
     /// A frame of the autonomy's link.
@@ -233,12 +235,14 @@ impl CompanionNode {
         }
     }
 
-    /// Routes a frame (of the FC link or a ground link; `trusted`: its
-    /// route outranks strangers'): unauthenticated, where signing is
-    /// required, only to ground links.
-    fn routed(&mut self, a: &Arrival, trusted: bool) -> Fate {
-        let full = self.core.route(a, trusted, self.core.all());
-        if a.authenticated || !self.cfg.require_signed {
+    /// Routes a frame of the FC link or a ground link (`verified`: its
+    /// signature, or its link's trust): unverified, where signing is
+    /// required, only to ground links. Routes learned from the FC link or
+    /// from verified frames outrank strangers'.
+    fn routed(&mut self, a: &Arrival, verified: bool) -> Fate {
+        let fc_link = self.core.spec(a.link).is_some_and(|s| s.role == Role::Peer);
+        let full = self.core.route(a, verified || fc_link, self.core.all());
+        if verified || !self.cfg.require_signed {
             return Fate::routed(full);
         }
         let to = full.intersection(self.core.of(Role::Ground));

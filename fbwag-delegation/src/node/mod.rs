@@ -26,6 +26,7 @@
 //! | ground link | the FC's or the companion's ids | any | dropped: `impersonation` (they live on the peer link) |
 //! | ground link | other ids | not verified, signing required | routed to ground links only; dropped (`unauthenticated`) when it was addressed only to the FC or the autonomy |
 //! | ground link | other ids | verified, or signing not required | routed by the routing table, to every kind of link |
+//! | trusted ground link ([`LinkSpec::trusted`]) | other ids | not verified, a message the dialect knows | as verified, and signed on the way ([`Fate::sign`]) |
 //! | autonomy link, from an address other than the autonomy's | any | any | dropped: `not_peer` |
 //! | autonomy link | the FC's or the companion's ids | any | dropped: `impersonation` |
 //! | autonomy link | RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL | any | the companion's gate: to the FC, re-addressed and signed, while the companion holds control; else dropped: `gated` |
@@ -106,6 +107,22 @@ pub struct LinkSpec {
     pub role: Role,
     /// Whom it sends to.
     pub answers: Answers,
+    /// A ground link trusted like the key (`fbwag cc --trusted-out`): its
+    /// frames count as verified, and those that are not go on signed
+    /// ([`Fate::sign`]). For a local tool that cannot sign; whoever can
+    /// send into the link can command the FC.
+    pub trusted: bool,
+}
+
+impl LinkSpec {
+    /// A link of `role` answering `answers`, not trusted.
+    pub const fn new(role: Role, answers: Answers) -> Self {
+        LinkSpec {
+            role,
+            answers,
+            trusted: false,
+        }
+    }
 }
 
 /// A frame a link delivered.
@@ -205,6 +222,10 @@ pub struct Fate {
     /// The FC serves it as a ground station's request (parameters,
     /// commands, telemetry rates).
     pub serve: bool,
+    /// Each link of `route` frames it again, signed with its key, instead
+    /// of sending its bytes: an unverified frame of a trusted link
+    /// ([`LinkSpec::trusted`]).
+    pub sign: bool,
 }
 
 impl Fate {
@@ -495,4 +516,10 @@ impl Core {
 fn sender(frame: &Frame<&[u8]>) -> Peer {
     let h = frame.header();
     Peer::new(h.sysid, h.compid)
+}
+
+/// Whether the dialect knows `frame`'s message (a router can frame it
+/// again: its checksum needs the message's CRC_EXTRA).
+fn known(frame: &Frame<&[u8]>) -> bool {
+    <fbwag_dialect::Dialect as fbwag_dialect::mavframe::Dialect>::meta(frame.msg_id()).is_some()
 }

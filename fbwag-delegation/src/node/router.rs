@@ -38,13 +38,7 @@ impl RouterNode {
         answers: Answers,
         keyed: bool,
     ) -> Result<(), NodeError> {
-        self.core.add(
-            link,
-            LinkSpec {
-                role: Role::Ground,
-                answers,
-            },
-        )?;
+        self.core.add(link, LinkSpec::new(Role::Ground, answers))?;
         if keyed {
             self.keyed = self.keyed.union(Links::only(link));
         }

@@ -473,7 +473,7 @@ fn companion(cfg: CcConfig, source: ControlSource, now: Instant) -> CompanionNod
         links.push((AUTONOMY_LINK, Role::Autonomy, Answers::Chosen));
     }
     for (link, role, answers) in links {
-        node.add_link(link, LinkSpec { role, answers })
+        node.add_link(link, LinkSpec::new(role, answers))
             .expect("distinct links");
     }
     node
@@ -482,10 +482,7 @@ fn companion(cfg: CcConfig, source: ControlSource, now: Instant) -> CompanionNod
 /// The FC's node: its one link, the line to the companion.
 fn flight_controller(cfg: FcConfig, now: Instant) -> FcNode {
     let mut node = FcNode::new(cfg, now).expect("the trial's FC settings are valid");
-    let spec = LinkSpec {
-        role: Role::Peer,
-        answers: Answers::Target,
-    };
+    let spec = LinkSpec::new(Role::Peer, Answers::Target);
     node.add_link(FC_LINK, spec).expect("one link");
     node
 }

@@ -289,147 +289,197 @@ pub fn sweep_text(rows: &[Row]) -> String {
 /// A sweep as an SVG chart: success rate (left axis) and handover time p50
 /// and p95 (right axis, ms) against loss.
 pub fn sweep_svg(rows: &[Row], title: &str) -> String {
-    let (w, h, left, right, top, bottom) = (720.0, 420.0, 70.0, 70.0, 50.0, 60.0);
-    let pw = w - left - right;
-    let ph = h - top - bottom;
     let max_ms = rows
         .iter()
         .filter_map(|r| r.quantile_ms(0.95))
         .fold(1000.0f64, f64::max);
-    let max_ms = (max_ms / 1000.0).ceil() * 1000.0;
-    let x = |loss: f64| left + loss / 0.9 * pw;
-    let y_rate = |rate: f64| top + (1.0 - rate) * ph;
-    let y_ms = |ms: f64| top + (1.0 - ms / max_ms) * ph;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"#
-    );
-    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{title}</text>"#,
-        w / 2.0
-    );
-    for k in 0..=10 {
-        let yy = top + ph * k as f64 / 10.0;
-        let _ = writeln!(
-            s,
-            r##"<line x1="{left}" y1="{yy}" x2="{}" y2="{yy}" stroke="#e4e4e4"/>"##,
-            left + pw
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="{}" text-anchor="end">{}%</text>"#,
-            left - 6.0,
-            yy + 4.0,
-            100 - k * 10
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="{}">{:.0}</text>"#,
-            left + pw + 6.0,
-            yy + 4.0,
-            max_ms * (10 - k) as f64 / 10.0
-        );
-    }
-    for r in rows {
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="{}" text-anchor="middle">{:.0}%</text>"#,
-            x(r.loss),
-            top + ph + 18.0,
-            r.loss * 100.0
-        );
-    }
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="{}" text-anchor="middle">frame loss per direction</text>"#,
-        left + pw / 2.0,
-        h - 16.0
-    );
-    let _ = writeln!(
-        s,
-        r#"<text x="16" y="{}" transform="rotate(-90 16 {})" text-anchor="middle">success within 5 s</text>"#,
-        top + ph / 2.0,
-        top + ph / 2.0
-    );
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="{}" transform="rotate(90 {} {})" text-anchor="middle">handover time (ms)</text>"#,
-        w - 14.0,
-        top + ph / 2.0,
-        w - 14.0,
-        top + ph / 2.0
-    );
-    let line = |pts: Vec<(f64, f64)>, color: &str, dash: &str| {
-        let d: Vec<String> = pts.iter().map(|(a, b)| format!("{a:.1},{b:.1}")).collect();
-        format!(
-            r#"<polyline fill="none" stroke="{color}" stroke-width="2" {dash} points="{}"/>"#,
-            d.join(" ")
-        )
+    let chart = Chart {
+        max_ms: (max_ms / 1000.0).ceil() * 1000.0,
+        ..Chart::default()
     };
-    let _ = writeln!(
-        s,
-        "{}",
-        line(
-            rows.iter()
-                .map(|r| (x(r.loss), y_rate(r.success_rate())))
-                .collect(),
-            "#1f77b4",
-            ""
-        )
-    );
-    let _ = writeln!(
-        s,
-        "{}",
-        line(
-            rows.iter()
-                .filter_map(|r| r.quantile_ms(0.5).map(|m| (x(r.loss), y_ms(m))))
-                .collect(),
-            "#d62728",
-            ""
-        )
-    );
-    let _ = writeln!(
-        s,
-        "{}",
-        line(
-            rows.iter()
-                .filter_map(|r| r.quantile_ms(0.95).map(|m| (x(r.loss), y_ms(m))))
-                .collect(),
-            "#d62728",
-            r#"stroke-dasharray="6 4""#
-        )
-    );
-    for r in rows {
-        let _ = writeln!(
-            s,
-            r##"<circle cx="{:.1}" cy="{:.1}" r="3" fill="#1f77b4"/>"##,
-            x(r.loss),
-            y_rate(r.success_rate())
-        );
-    }
-    let legend = [
-        ("#1f77b4", "", "success rate"),
-        ("#d62728", "", "handover p50"),
-        ("#d62728", r#"stroke-dasharray="6 4""#, "handover p95"),
-    ];
-    for (i, (c, dash, label)) in legend.iter().enumerate() {
-        let ly = top + 14.0 + i as f64 * 16.0;
-        let _ = writeln!(
-            s,
-            r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="{c}" stroke-width="2" {dash}/>"#,
-            left + 12.0,
-            left + 36.0
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="{}">{label}</text>"#,
-            left + 42.0,
-            ly + 4.0
-        );
-    }
+    let mut s = String::new();
+    chart.frame(&mut s, title);
+    chart.grid(&mut s, rows);
+    chart.axis_names(&mut s);
+    chart.series(&mut s, rows);
+    chart.legend(&mut s);
     s.push_str("</svg>\n");
     s
+}
+
+/// The geometry of [`sweep_svg`]'s chart.
+struct Chart {
+    w: f64,
+    h: f64,
+    left: f64,
+    right: f64,
+    top: f64,
+    bottom: f64,
+    /// The right axis' top, in ms.
+    max_ms: f64,
+}
+
+impl Default for Chart {
+    fn default() -> Self {
+        Chart {
+            w: 720.0,
+            h: 420.0,
+            left: 70.0,
+            right: 70.0,
+            top: 50.0,
+            bottom: 60.0,
+            max_ms: 1000.0,
+        }
+    }
+}
+
+impl Chart {
+    fn pw(&self) -> f64 {
+        self.w - self.left - self.right
+    }
+
+    fn ph(&self) -> f64 {
+        self.h - self.top - self.bottom
+    }
+
+    fn x(&self, loss: f64) -> f64 {
+        self.left + loss / 0.9 * self.pw()
+    }
+
+    fn y_rate(&self, rate: f64) -> f64 {
+        self.top + (1.0 - rate) * self.ph()
+    }
+
+    fn y_ms(&self, ms: f64) -> f64 {
+        self.top + (1.0 - ms / self.max_ms) * self.ph()
+    }
+
+    /// The document and its title.
+    fn frame(&self, s: &mut String, title: &str) {
+        let (w, h) = (self.w, self.h);
+        let _ = writeln!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"#
+        );
+        let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{title}</text>"#,
+            w / 2.0
+        );
+    }
+
+    /// The axes' names.
+    fn axis_names(&self, s: &mut String) {
+        let (w, h, top, ph) = (self.w, self.h, self.top, self.ph());
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}" text-anchor="middle">frame loss per direction</text>"#,
+            self.left + self.pw() / 2.0,
+            h - 16.0
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="16" y="{}" transform="rotate(-90 16 {})" text-anchor="middle">success within 5 s</text>"#,
+            top + ph / 2.0,
+            top + ph / 2.0
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}" transform="rotate(90 {} {})" text-anchor="middle">handover time (ms)</text>"#,
+            w - 14.0,
+            top + ph / 2.0,
+            w - 14.0,
+            top + ph / 2.0
+        );
+    }
+
+    /// Grid lines with both axes' ticks, and the losses under the x axis.
+    fn grid(&self, s: &mut String, rows: &[Row]) {
+        let (left, pw, top, ph) = (self.left, self.pw(), self.top, self.ph());
+        for k in 0..=10 {
+            let yy = top + ph * k as f64 / 10.0;
+            let _ = writeln!(
+                s,
+                r##"<line x1="{left}" y1="{yy}" x2="{}" y2="{yy}" stroke="#e4e4e4"/>"##,
+                left + pw
+            );
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}" text-anchor="end">{}%</text>"#,
+                left - 6.0,
+                yy + 4.0,
+                100 - k * 10
+            );
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}">{:.0}</text>"#,
+                left + pw + 6.0,
+                yy + 4.0,
+                self.max_ms * (10 - k) as f64 / 10.0
+            );
+        }
+        for r in rows {
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}" text-anchor="middle">{:.0}%</text>"#,
+                self.x(r.loss),
+                top + ph + 18.0,
+                r.loss * 100.0
+            );
+        }
+    }
+
+    /// The success rate (with its points) and the handover p50 and p95.
+    fn series(&self, s: &mut String, rows: &[Row]) {
+        let rate = rows
+            .iter()
+            .map(|r| (self.x(r.loss), self.y_rate(r.success_rate())));
+        let ms = |q: f64| {
+            rows.iter()
+                .filter_map(move |r| r.quantile_ms(q).map(|m| (self.x(r.loss), self.y_ms(m))))
+        };
+        polyline(s, rate.clone(), "#1f77b4", "");
+        polyline(s, ms(0.5), "#d62728", "");
+        polyline(s, ms(0.95), "#d62728", r#"stroke-dasharray="6 4""#);
+        for (cx, cy) in rate {
+            let _ = writeln!(
+                s,
+                r##"<circle cx="{cx:.1}" cy="{cy:.1}" r="3" fill="#1f77b4"/>"##
+            );
+        }
+    }
+
+    fn legend(&self, s: &mut String) {
+        let legend = [
+            ("#1f77b4", "", "success rate"),
+            ("#d62728", "", "handover p50"),
+            ("#d62728", r#"stroke-dasharray="6 4""#, "handover p95"),
+        ];
+        for (i, (c, dash, label)) in legend.iter().enumerate() {
+            let ly = self.top + 14.0 + i as f64 * 16.0;
+            let _ = writeln!(
+                s,
+                r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="{c}" stroke-width="2" {dash}/>"#,
+                self.left + 12.0,
+                self.left + 36.0
+            );
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}">{label}</text>"#,
+                self.left + 42.0,
+                ly + 4.0
+            );
+        }
+    }
+}
+
+/// A line through `points`.
+fn polyline(s: &mut String, points: impl Iterator<Item = (f64, f64)>, color: &str, dash: &str) {
+    let d: Vec<String> = points.map(|(a, b)| format!("{a:.1},{b:.1}")).collect();
+    let _ = writeln!(
+        s,
+        r#"<polyline fill="none" stroke="{color}" stroke-width="2" {dash} points="{}"/>"#,
+        d.join(" ")
+    );
 }

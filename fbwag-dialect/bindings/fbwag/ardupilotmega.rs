@@ -8,6 +8,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct AccelcalVehiclePos(pub u32);
+
 impl AccelcalVehiclePos {
     /// `ACCELCAL_VEHICLE_POS_LEVEL`
     pub const LEVEL: Self = Self(1);
@@ -29,12 +30,10 @@ impl AccelcalVehiclePos {
     pub const fn from_raw(value: u32) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u32 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -121,6 +120,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for AccelcalVehiclePos {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct CameraFeedbackFlags(pub u8);
+
 impl CameraFeedbackFlags {
     /// Shooting photos, not video.
     pub const CAMERA_FEEDBACK_PHOTO: Self = Self(0);
@@ -137,12 +137,10 @@ impl CameraFeedbackFlags {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -223,6 +221,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for CameraFeedbackFlags {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct CameraStatusTypes(pub u8);
+
 impl CameraStatusTypes {
     /// Camera heartbeat, announce camera component ID at 1Hz.
     pub const CAMERA_STATUS_TYPE_HEARTBEAT: Self = Self(0);
@@ -242,12 +241,10 @@ impl CameraStatusTypes {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -332,6 +329,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for CameraStatusTypes {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct CopterMode(pub u8);
+
 impl CopterMode {
     /// STABILIZE
     pub const STABILIZE: Self = Self(0);
@@ -389,12 +387,10 @@ impl CopterMode {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -517,6 +513,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for CopterMode {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct DeepstallStage(pub u8);
+
 impl DeepstallStage {
     /// Flying to the landing point.
     pub const FLY_TO_LANDING: Self = Self(0);
@@ -536,12 +533,10 @@ impl DeepstallStage {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -626,6 +621,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for DeepstallStage {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct DeviceOpBustype(pub u8);
+
 impl DeviceOpBustype {
     /// I2C Device operation.
     pub const I2C: Self = Self(0);
@@ -635,12 +631,10 @@ impl DeviceOpBustype {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -714,6 +708,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for DeviceOpBustype {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct EkfStatusFlags(pub u16);
+
 impl EkfStatusFlags {
     /// Set if EKF's attitude estimate is good.
     pub const EKF_ATTITUDE: Self = Self(1);
@@ -799,6 +794,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for EkfStatusFlags {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GimbalAxis(pub u8);
+
 impl GimbalAxis {
     /// Gimbal yaw axis.
     pub const YAW: Self = Self(0);
@@ -810,12 +806,10 @@ impl GimbalAxis {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -892,6 +886,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalAxis {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GimbalAxisCalibrationRequired(pub u8);
+
 impl GimbalAxisCalibrationRequired {
     /// Whether or not this axis requires calibration is unknown at this time.
     pub const UNKNOWN: Self = Self(0);
@@ -903,12 +898,10 @@ impl GimbalAxisCalibrationRequired {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -987,6 +980,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalAxisCalibrationRequired 
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GimbalAxisCalibrationStatus(pub u8);
+
 impl GimbalAxisCalibrationStatus {
     /// Axis calibration is in progress.
     pub const IN_PROGRESS: Self = Self(0);
@@ -998,12 +992,10 @@ impl GimbalAxisCalibrationStatus {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1080,6 +1072,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GimbalAxisCalibrationStatus {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproBurstRate(pub u8);
+
 impl GoproBurstRate {
     /// 3 Shots / 1 Second.
     pub const RATE_3_IN_1_SECOND: Self = Self(0);
@@ -1103,12 +1096,10 @@ impl GoproBurstRate {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1197,6 +1188,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproBurstRate {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproCaptureMode(pub u8);
+
 impl GoproCaptureMode {
     /// Video mode.
     pub const VIDEO: Self = Self(0);
@@ -1218,12 +1210,10 @@ impl GoproCaptureMode {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1310,6 +1300,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproCaptureMode {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproCharging(pub u8);
+
 impl GoproCharging {
     /// Charging disabled.
     pub const DISABLED: Self = Self(0);
@@ -1319,12 +1310,10 @@ impl GoproCharging {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1399,6 +1388,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproCharging {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproCommand(pub u8);
+
 impl GoproCommand {
     /// (Get/Set).
     pub const POWER: Self = Self(0);
@@ -1438,12 +1428,10 @@ impl GoproCommand {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1548,6 +1536,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproCommand {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproFieldOfView(pub u8);
+
 impl GoproFieldOfView {
     /// 0x00: Wide.
     pub const WIDE: Self = Self(0);
@@ -1559,12 +1548,10 @@ impl GoproFieldOfView {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1641,6 +1628,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproFieldOfView {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproFrameRate(pub u8);
+
 impl GoproFrameRate {
     /// 12 FPS.
     pub const RATE_12: Self = Self(0);
@@ -1674,12 +1662,10 @@ impl GoproFrameRate {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1777,6 +1763,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproFrameRate {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct GoproHeartbeatFlags(pub u8);
+
 impl GoproHeartbeatFlags {
     /// GoPro is currently recording.
     pub const GOPRO_FLAG_RECORDING: Self = Self(1);
@@ -1822,6 +1809,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproHeartbeatFlags {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproHeartbeatStatus(pub u8);
+
 impl GoproHeartbeatStatus {
     /// No GoPro connected.
     pub const DISCONNECTED: Self = Self(0);
@@ -1836,12 +1824,10 @@ impl GoproHeartbeatStatus {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1920,6 +1906,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproHeartbeatStatus {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproModel(pub u8);
+
 impl GoproModel {
     /// Unknown gopro model.
     pub const UNKNOWN: Self = Self(0);
@@ -1935,12 +1922,10 @@ impl GoproModel {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2021,6 +2006,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproModel {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproPhotoResolution(pub u8);
+
 impl GoproPhotoResolution {
     /// 5MP Medium.
     pub const RESOLUTION_5MP_MEDIUM: Self = Self(0);
@@ -2036,12 +2022,10 @@ impl GoproPhotoResolution {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2122,6 +2106,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproPhotoResolution {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproProtuneColour(pub u8);
+
 impl GoproProtuneColour {
     /// Auto.
     pub const STANDARD: Self = Self(0);
@@ -2131,12 +2116,10 @@ impl GoproProtuneColour {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2211,6 +2194,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneColour {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproProtuneExposure(pub u8);
+
 impl GoproProtuneExposure {
     /// -5.0 EV (Hero 3+ Only).
     pub const NEG_5_0: Self = Self(0);
@@ -2258,12 +2242,10 @@ impl GoproProtuneExposure {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2376,6 +2358,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneExposure {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproProtuneGain(pub u8);
+
 impl GoproProtuneGain {
     /// ISO 400.
     pub const GAIN_400: Self = Self(0);
@@ -2391,12 +2374,10 @@ impl GoproProtuneGain {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2477,6 +2458,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneGain {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproProtuneSharpness(pub u8);
+
 impl GoproProtuneSharpness {
     /// Low Sharpness.
     pub const LOW: Self = Self(0);
@@ -2488,12 +2470,10 @@ impl GoproProtuneSharpness {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2570,6 +2550,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneSharpness {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproProtuneWhiteBalance(pub u8);
+
 impl GoproProtuneWhiteBalance {
     /// Auto.
     pub const AUTO: Self = Self(0);
@@ -2585,12 +2566,10 @@ impl GoproProtuneWhiteBalance {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2671,6 +2650,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproProtuneWhiteBalance {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproRequestStatus(pub u8);
+
 impl GoproRequestStatus {
     /// The write message with ID indicated succeeded.
     pub const GOPRO_REQUEST_SUCCESS: Self = Self(0);
@@ -2680,12 +2660,10 @@ impl GoproRequestStatus {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2760,6 +2738,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproRequestStatus {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct GoproResolution(pub u8);
+
 impl GoproResolution {
     /// 848 x 480 (480p).
     pub const RESOLUTION_480P: Self = Self(0);
@@ -2793,12 +2772,10 @@ impl GoproResolution {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -2896,6 +2873,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproResolution {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct GoproVideoSettingsFlags(pub u8);
+
 impl GoproVideoSettingsFlags {
     /// 0=NTSC, 1=PAL.
     pub const GOPRO_VIDEO_SETTINGS_TV_MODE: Self = Self(1);
@@ -2943,6 +2921,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for GoproVideoSettingsFlags {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct LedControlPattern(pub u8);
+
 impl LedControlPattern {
     /// LED patterns off (return control to regular vehicle control).
     pub const OFF: Self = Self(0);
@@ -2954,12 +2933,10 @@ impl LedControlPattern {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3036,6 +3013,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for LedControlPattern {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct LimitsState(pub u8);
+
 impl LimitsState {
     /// Pre-initialization.
     pub const LIMITS_INIT: Self = Self(0);
@@ -3053,12 +3031,10 @@ impl LimitsState {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3140,6 +3116,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for LimitsState {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct LimitModule(pub u8);
+
 impl LimitModule {
     /// Pre-initialization.
     pub const LIMIT_GPSLOCK: Self = Self(1);
@@ -3193,6 +3170,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for LimitModule {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavCmdDoAuxFunctionSwitchLevel(pub u8);
+
 impl MavCmdDoAuxFunctionSwitchLevel {
     /// Switch Low.
     pub const LOW: Self = Self(0);
@@ -3204,12 +3182,10 @@ impl MavCmdDoAuxFunctionSwitchLevel {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3288,6 +3264,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavCmdDoAuxFunctionSwitchLevel
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavModeGimbal(pub u8);
+
 impl MavModeGimbal {
     /// Gimbal is powered on but has not started initializing yet.
     pub const UNINITIALIZED: Self = Self(0);
@@ -3309,12 +3286,10 @@ impl MavModeGimbal {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3399,6 +3374,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavModeGimbal {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavRemoteLogDataBlockCommands(pub u32);
+
 impl MavRemoteLogDataBlockCommands {
     /// UAV to stop sending DataFlash blocks.
     pub const MAV_REMOTE_LOG_DATA_BLOCK_STOP: Self = Self(2147483645);
@@ -3408,12 +3384,10 @@ impl MavRemoteLogDataBlockCommands {
     pub const fn from_raw(value: u32) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u32 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3490,6 +3464,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavRemoteLogDataBlockCommands 
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavRemoteLogDataBlockStatuses(pub u8);
+
 impl MavRemoteLogDataBlockStatuses {
     /// This block has NOT been received.
     pub const MAV_REMOTE_LOG_DATA_BLOCK_NACK: Self = Self(0);
@@ -3499,12 +3474,10 @@ impl MavRemoteLogDataBlockStatuses {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3581,6 +3554,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavRemoteLogDataBlockStatuses 
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct OsdParamConfigError(pub u8);
+
 impl OsdParamConfigError {
     /// `OSD_PARAM_SUCCESS`
     pub const OSD_PARAM_SUCCESS: Self = Self(0);
@@ -3594,12 +3568,10 @@ impl OsdParamConfigError {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3678,6 +3650,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for OsdParamConfigError {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct OsdParamConfigType(pub u8);
+
 impl OsdParamConfigType {
     /// `OSD_PARAM_NONE`
     pub const OSD_PARAM_NONE: Self = Self(0);
@@ -3701,12 +3674,10 @@ impl OsdParamConfigType {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3795,6 +3766,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for OsdParamConfigType {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct PidTuningAxis(pub u8);
+
 impl PidTuningAxis {
     /// `PID_TUNING_ROLL`
     pub const PID_TUNING_ROLL: Self = Self(1);
@@ -3832,12 +3804,10 @@ impl PidTuningAxis {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -3940,6 +3910,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for PidTuningAxis {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct PlaneMode(pub u8);
+
 impl PlaneMode {
     /// MANUAL
     pub const MANUAL: Self = Self(0);
@@ -3997,12 +3968,10 @@ impl PlaneMode {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -4125,6 +4094,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for PlaneMode {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct RallyFlags(pub u8);
+
 impl RallyFlags {
     /// Flag set when requiring favorable winds for landing.
     pub const FAVORABLE_WIND: Self = Self(1);
@@ -4140,12 +4110,10 @@ impl RallyFlags {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -4224,6 +4192,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for RallyFlags {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct RoverMode(pub u8);
+
 impl RoverMode {
     /// MANUAL
     pub const MANUAL: Self = Self(0);
@@ -4257,12 +4226,10 @@ impl RoverMode {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -4361,6 +4328,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for RoverMode {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct ScriptingCmd(pub u8);
+
 impl ScriptingCmd {
     /// Start a REPL session.
     pub const REPL_START: Self = Self(0);
@@ -4374,12 +4342,10 @@ impl ScriptingCmd {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -4458,6 +4424,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for ScriptingCmd {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct SecureCommandOp(pub u32);
+
 impl SecureCommandOp {
     /// Get an 8 byte session key which is used for remote secure updates which operate on flight
     /// controller data such as bootloader public keys. Return data will be 8 bytes on success.
@@ -4501,12 +4468,10 @@ impl SecureCommandOp {
     pub const fn from_raw(value: u32) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u32 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -4593,6 +4558,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for SecureCommandOp {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct SubMode(pub u8);
+
 impl SubMode {
     /// STABILIZE
     pub const STABILIZE: Self = Self(0);
@@ -4620,12 +4586,10 @@ impl SubMode {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -4718,6 +4682,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for SubMode {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct TrackerMode(pub u8);
+
 impl TrackerMode {
     /// MANUAL
     pub const MANUAL: Self = Self(0);
@@ -4737,12 +4702,10 @@ impl TrackerMode {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -4996,7 +4959,6 @@ impl SensorOffsets {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5015,13 +4977,11 @@ impl SensorOffsets {
             accel_cal_z: ::mavframe::field::read::<f32>(p, 32),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SensorOffsetsView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -5049,12 +5009,10 @@ impl ::mavframe::Message for SensorOffsets {
     fn parse(payload: &[u8]) -> Self {
         SensorOffsets::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SensorOffsets::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SensorOffsetsView<'_> {
         SensorOffsetsView::new(payload)
@@ -5076,85 +5034,71 @@ impl<'a> SensorOffsetsView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SensorOffsets {
         SensorOffsets::from_view(self)
     }
-
     /// Reads [`SensorOffsets::mag_ofs_x`](SensorOffsets::mag_ofs_x) (`mag_ofs_x` at offset 36).
     #[inline]
     pub fn mag_ofs_x(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 36)
     }
-
     /// Reads [`SensorOffsets::mag_ofs_y`](SensorOffsets::mag_ofs_y) (`mag_ofs_y` at offset 38).
     #[inline]
     pub fn mag_ofs_y(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 38)
     }
-
     /// Reads [`SensorOffsets::mag_ofs_z`](SensorOffsets::mag_ofs_z) (`mag_ofs_z` at offset 40).
     #[inline]
     pub fn mag_ofs_z(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 40)
     }
-
     /// Reads [`SensorOffsets::mag_declination`](SensorOffsets::mag_declination) (`mag_declination` at offset 0).
     #[inline]
     pub fn mag_declination(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`SensorOffsets::raw_press`](SensorOffsets::raw_press) (`raw_press` at offset 4).
     #[inline]
     pub fn raw_press(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`SensorOffsets::raw_temp`](SensorOffsets::raw_temp) (`raw_temp` at offset 8).
     #[inline]
     pub fn raw_temp(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`SensorOffsets::gyro_cal_x`](SensorOffsets::gyro_cal_x) (`gyro_cal_x` at offset 12).
     #[inline]
     pub fn gyro_cal_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`SensorOffsets::gyro_cal_y`](SensorOffsets::gyro_cal_y) (`gyro_cal_y` at offset 16).
     #[inline]
     pub fn gyro_cal_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`SensorOffsets::gyro_cal_z`](SensorOffsets::gyro_cal_z) (`gyro_cal_z` at offset 20).
     #[inline]
     pub fn gyro_cal_z(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`SensorOffsets::accel_cal_x`](SensorOffsets::accel_cal_x) (`accel_cal_x` at offset 24).
     #[inline]
     pub fn accel_cal_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`SensorOffsets::accel_cal_y`](SensorOffsets::accel_cal_y) (`accel_cal_y` at offset 28).
     #[inline]
     pub fn accel_cal_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`SensorOffsets::accel_cal_z`](SensorOffsets::accel_cal_z) (`accel_cal_z` at offset 32).
     #[inline]
     pub fn accel_cal_z(&self) -> f32 {
@@ -5179,78 +5123,65 @@ impl<'a> SensorOffsetsMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SensorOffsetsView<'_> {
         SensorOffsetsView::new(self.payload)
     }
-
     /// Sets the `mag_ofs_x` field.
     #[inline]
     pub fn set_mag_ofs_x(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `mag_ofs_y` field.
     #[inline]
     pub fn set_mag_ofs_y(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 38)
     }
-
     /// Sets the `mag_ofs_z` field.
     #[inline]
     pub fn set_mag_ofs_z(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `mag_declination` field.
     #[inline]
     pub fn set_mag_declination(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `raw_press` field.
     #[inline]
     pub fn set_raw_press(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `raw_temp` field.
     #[inline]
     pub fn set_raw_temp(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `gyro_cal_x` field.
     #[inline]
     pub fn set_gyro_cal_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `gyro_cal_y` field.
     #[inline]
     pub fn set_gyro_cal_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `gyro_cal_z` field.
     #[inline]
     pub fn set_gyro_cal_z(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `accel_cal_x` field.
     #[inline]
     pub fn set_accel_cal_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `accel_cal_y` field.
     #[inline]
     pub fn set_accel_cal_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `accel_cal_z` field.
     #[inline]
     pub fn set_accel_cal_z(&mut self, value: f32) {
@@ -5349,7 +5280,6 @@ impl SetMagOffsets {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5361,13 +5291,11 @@ impl SetMagOffsets {
             mag_ofs_z: ::mavframe::field::read::<i16>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SetMagOffsetsView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -5388,12 +5316,10 @@ impl ::mavframe::Message for SetMagOffsets {
     fn parse(payload: &[u8]) -> Self {
         SetMagOffsets::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SetMagOffsets::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SetMagOffsetsView<'_> {
         SetMagOffsetsView::new(payload)
@@ -5415,43 +5341,36 @@ impl<'a> SetMagOffsetsView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SetMagOffsets {
         SetMagOffsets::from_view(self)
     }
-
     /// Reads [`SetMagOffsets::target_system`](SetMagOffsets::target_system) (`target_system` at offset 6).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 6)
     }
-
     /// Reads [`SetMagOffsets::target_component`](SetMagOffsets::target_component) (`target_component` at offset 7).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 7)
     }
-
     /// Reads [`SetMagOffsets::mag_ofs_x`](SetMagOffsets::mag_ofs_x) (`mag_ofs_x` at offset 0).
     #[inline]
     pub fn mag_ofs_x(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 0)
     }
-
     /// Reads [`SetMagOffsets::mag_ofs_y`](SetMagOffsets::mag_ofs_y) (`mag_ofs_y` at offset 2).
     #[inline]
     pub fn mag_ofs_y(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 2)
     }
-
     /// Reads [`SetMagOffsets::mag_ofs_z`](SetMagOffsets::mag_ofs_z) (`mag_ofs_z` at offset 4).
     #[inline]
     pub fn mag_ofs_z(&self) -> i16 {
@@ -5476,36 +5395,30 @@ impl<'a> SetMagOffsetsMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SetMagOffsetsView<'_> {
         SetMagOffsetsView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
-
     /// Sets the `mag_ofs_x` field.
     #[inline]
     pub fn set_mag_ofs_x(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `mag_ofs_y` field.
     #[inline]
     pub fn set_mag_ofs_y(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `mag_ofs_z` field.
     #[inline]
     pub fn set_mag_ofs_z(&mut self, value: i16) {
@@ -5582,7 +5495,6 @@ impl Meminfo {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5592,13 +5504,11 @@ impl Meminfo {
             freemem32: ::mavframe::field::read::<u32>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &MeminfoView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -5617,12 +5527,10 @@ impl ::mavframe::Message for Meminfo {
     fn parse(payload: &[u8]) -> Self {
         Meminfo::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Meminfo::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> MeminfoView<'_> {
         MeminfoView::new(payload)
@@ -5644,31 +5552,26 @@ impl<'a> MeminfoView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Meminfo {
         Meminfo::from_view(self)
     }
-
     /// Reads [`Meminfo::brkval`](Meminfo::brkval) (`brkval` at offset 0).
     #[inline]
     pub fn brkval(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 0)
     }
-
     /// Reads [`Meminfo::freemem`](Meminfo::freemem) (`freemem` at offset 2).
     #[inline]
     pub fn freemem(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 2)
     }
-
     /// Reads [`Meminfo::freemem32`](Meminfo::freemem32) (`freemem32` at offset 4).
     #[inline]
     pub fn freemem32(&self) -> u32 {
@@ -5693,24 +5596,20 @@ impl<'a> MeminfoMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> MeminfoView<'_> {
         MeminfoView::new(self.payload)
     }
-
     /// Sets the `brkval` field.
     #[inline]
     pub fn set_brkval(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `freemem` field.
     #[inline]
     pub fn set_freemem(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `freemem32` field.
     #[inline]
     pub fn set_freemem32(&mut self, value: u32) {
@@ -5819,7 +5718,6 @@ impl ApAdc {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5832,13 +5730,11 @@ impl ApAdc {
             adc6: ::mavframe::field::read::<u16>(p, 10),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &ApAdcView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -5860,12 +5756,10 @@ impl ::mavframe::Message for ApAdc {
     fn parse(payload: &[u8]) -> Self {
         ApAdc::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         ApAdc::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> ApAdcView<'_> {
         ApAdcView::new(payload)
@@ -5887,49 +5781,41 @@ impl<'a> ApAdcView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> ApAdc {
         ApAdc::from_view(self)
     }
-
     /// Reads [`ApAdc::adc1`](ApAdc::adc1) (`adc1` at offset 0).
     #[inline]
     pub fn adc1(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 0)
     }
-
     /// Reads [`ApAdc::adc2`](ApAdc::adc2) (`adc2` at offset 2).
     #[inline]
     pub fn adc2(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 2)
     }
-
     /// Reads [`ApAdc::adc3`](ApAdc::adc3) (`adc3` at offset 4).
     #[inline]
     pub fn adc3(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 4)
     }
-
     /// Reads [`ApAdc::adc4`](ApAdc::adc4) (`adc4` at offset 6).
     #[inline]
     pub fn adc4(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 6)
     }
-
     /// Reads [`ApAdc::adc5`](ApAdc::adc5) (`adc5` at offset 8).
     #[inline]
     pub fn adc5(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 8)
     }
-
     /// Reads [`ApAdc::adc6`](ApAdc::adc6) (`adc6` at offset 10).
     #[inline]
     pub fn adc6(&self) -> u16 {
@@ -5954,42 +5840,35 @@ impl<'a> ApAdcMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> ApAdcView<'_> {
         ApAdcView::new(self.payload)
     }
-
     /// Sets the `adc1` field.
     #[inline]
     pub fn set_adc1(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `adc2` field.
     #[inline]
     pub fn set_adc2(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `adc3` field.
     #[inline]
     pub fn set_adc3(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `adc4` field.
     #[inline]
     pub fn set_adc4(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `adc5` field.
     #[inline]
     pub fn set_adc5(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `adc6` field.
     #[inline]
     pub fn set_adc6(&mut self, value: u16) {
@@ -6155,7 +6034,6 @@ impl DigicamConfigure {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6173,13 +6051,11 @@ impl DigicamConfigure {
             extra_value: ::mavframe::field::read::<f32>(p, 0),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &DigicamConfigureView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -6206,12 +6082,10 @@ impl ::mavframe::Message for DigicamConfigure {
     fn parse(payload: &[u8]) -> Self {
         DigicamConfigure::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DigicamConfigure::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> DigicamConfigureView<'_> {
         DigicamConfigureView::new(payload)
@@ -6233,79 +6107,66 @@ impl<'a> DigicamConfigureView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> DigicamConfigure {
         DigicamConfigure::from_view(self)
     }
-
     /// Reads [`DigicamConfigure::target_system`](DigicamConfigure::target_system) (`target_system` at offset 6).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 6)
     }
-
     /// Reads [`DigicamConfigure::target_component`](DigicamConfigure::target_component) (`target_component` at offset 7).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 7)
     }
-
     /// Reads [`DigicamConfigure::mode`](DigicamConfigure::mode) (`mode` at offset 8).
     #[inline]
     pub fn mode(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`DigicamConfigure::shutter_speed`](DigicamConfigure::shutter_speed) (`shutter_speed` at offset 4).
     #[inline]
     pub fn shutter_speed(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 4)
     }
-
     /// Reads [`DigicamConfigure::aperture`](DigicamConfigure::aperture) (`aperture` at offset 9).
     #[inline]
     pub fn aperture(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 9)
     }
-
     /// Reads [`DigicamConfigure::iso`](DigicamConfigure::iso) (`iso` at offset 10).
     #[inline]
     pub fn iso(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 10)
     }
-
     /// Reads [`DigicamConfigure::exposure_type`](DigicamConfigure::exposure_type) (`exposure_type` at offset 11).
     #[inline]
     pub fn exposure_type(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 11)
     }
-
     /// Reads [`DigicamConfigure::command_id`](DigicamConfigure::command_id) (`command_id` at offset 12).
     #[inline]
     pub fn command_id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 12)
     }
-
     /// Reads [`DigicamConfigure::engine_cut_off`](DigicamConfigure::engine_cut_off) (`engine_cut_off` at offset 13).
     #[inline]
     pub fn engine_cut_off(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 13)
     }
-
     /// Reads [`DigicamConfigure::extra_param`](DigicamConfigure::extra_param) (`extra_param` at offset 14).
     #[inline]
     pub fn extra_param(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 14)
     }
-
     /// Reads [`DigicamConfigure::extra_value`](DigicamConfigure::extra_value) (`extra_value` at offset 0).
     #[inline]
     pub fn extra_value(&self) -> f32 {
@@ -6330,72 +6191,60 @@ impl<'a> DigicamConfigureMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> DigicamConfigureView<'_> {
         DigicamConfigureView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
-
     /// Sets the `mode` field.
     #[inline]
     pub fn set_mode(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `shutter_speed` field.
     #[inline]
     pub fn set_shutter_speed(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `aperture` field.
     #[inline]
     pub fn set_aperture(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
-
     /// Sets the `iso` field.
     #[inline]
     pub fn set_iso(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `exposure_type` field.
     #[inline]
     pub fn set_exposure_type(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
-
     /// Sets the `command_id` field.
     #[inline]
     pub fn set_command_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `engine_cut_off` field.
     #[inline]
     pub fn set_engine_cut_off(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
-
     /// Sets the `extra_param` field.
     #[inline]
     pub fn set_extra_param(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `extra_value` field.
     #[inline]
     pub fn set_extra_value(&mut self, value: f32) {
@@ -6550,7 +6399,6 @@ impl DigicamControl {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6567,13 +6415,11 @@ impl DigicamControl {
             extra_value: ::mavframe::field::read::<f32>(p, 0),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &DigicamControlView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -6599,12 +6445,10 @@ impl ::mavframe::Message for DigicamControl {
     fn parse(payload: &[u8]) -> Self {
         DigicamControl::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DigicamControl::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> DigicamControlView<'_> {
         DigicamControlView::new(payload)
@@ -6626,73 +6470,61 @@ impl<'a> DigicamControlView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> DigicamControl {
         DigicamControl::from_view(self)
     }
-
     /// Reads [`DigicamControl::target_system`](DigicamControl::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`DigicamControl::target_component`](DigicamControl::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`DigicamControl::session`](DigicamControl::session) (`session` at offset 6).
     #[inline]
     pub fn session(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 6)
     }
-
     /// Reads [`DigicamControl::zoom_pos`](DigicamControl::zoom_pos) (`zoom_pos` at offset 7).
     #[inline]
     pub fn zoom_pos(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 7)
     }
-
     /// Reads [`DigicamControl::zoom_step`](DigicamControl::zoom_step) (`zoom_step` at offset 8).
     #[inline]
     pub fn zoom_step(&self) -> i8 {
         ::mavframe::field::read::<i8>(self.payload, 8)
     }
-
     /// Reads [`DigicamControl::focus_lock`](DigicamControl::focus_lock) (`focus_lock` at offset 9).
     #[inline]
     pub fn focus_lock(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 9)
     }
-
     /// Reads [`DigicamControl::shot`](DigicamControl::shot) (`shot` at offset 10).
     #[inline]
     pub fn shot(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 10)
     }
-
     /// Reads [`DigicamControl::command_id`](DigicamControl::command_id) (`command_id` at offset 11).
     #[inline]
     pub fn command_id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 11)
     }
-
     /// Reads [`DigicamControl::extra_param`](DigicamControl::extra_param) (`extra_param` at offset 12).
     #[inline]
     pub fn extra_param(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 12)
     }
-
     /// Reads [`DigicamControl::extra_value`](DigicamControl::extra_value) (`extra_value` at offset 0).
     #[inline]
     pub fn extra_value(&self) -> f32 {
@@ -6717,66 +6549,55 @@ impl<'a> DigicamControlMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> DigicamControlView<'_> {
         DigicamControlView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `session` field.
     #[inline]
     pub fn set_session(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `zoom_pos` field.
     #[inline]
     pub fn set_zoom_pos(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
-
     /// Sets the `zoom_step` field.
     #[inline]
     pub fn set_zoom_step(&mut self, value: i8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `focus_lock` field.
     #[inline]
     pub fn set_focus_lock(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
-
     /// Sets the `shot` field.
     #[inline]
     pub fn set_shot(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `command_id` field.
     #[inline]
     pub fn set_command_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
-
     /// Sets the `extra_param` field.
     #[inline]
     pub fn set_extra_param(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `extra_value` field.
     #[inline]
     pub fn set_extra_value(&mut self, value: f32) {
@@ -6886,7 +6707,6 @@ impl MountConfigure {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6901,13 +6721,11 @@ impl MountConfigure {
             stab_yaw: ::mavframe::field::read::<u8>(p, 5),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &MountConfigureView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -6929,12 +6747,10 @@ impl ::mavframe::Message for MountConfigure {
     fn parse(payload: &[u8]) -> Self {
         MountConfigure::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MountConfigure::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> MountConfigureView<'_> {
         MountConfigureView::new(payload)
@@ -6956,31 +6772,26 @@ impl<'a> MountConfigureView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> MountConfigure {
         MountConfigure::from_view(self)
     }
-
     /// Reads [`MountConfigure::target_system`](MountConfigure::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`MountConfigure::target_component`](MountConfigure::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`MountConfigure::mount_mode`](MountConfigure::mount_mode) (`mount_mode` at offset 2).
     #[inline]
     pub fn mount_mode(&self) -> super::common::MavMountMode {
@@ -6988,19 +6799,16 @@ impl<'a> MountConfigureView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 2),
         )
     }
-
     /// Reads [`MountConfigure::stab_roll`](MountConfigure::stab_roll) (`stab_roll` at offset 3).
     #[inline]
     pub fn stab_roll(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 3)
     }
-
     /// Reads [`MountConfigure::stab_pitch`](MountConfigure::stab_pitch) (`stab_pitch` at offset 4).
     #[inline]
     pub fn stab_pitch(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`MountConfigure::stab_yaw`](MountConfigure::stab_yaw) (`stab_yaw` at offset 5).
     #[inline]
     pub fn stab_yaw(&self) -> u8 {
@@ -7025,42 +6833,35 @@ impl<'a> MountConfigureMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> MountConfigureView<'_> {
         MountConfigureView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `mount_mode` field.
     #[inline]
     pub fn set_mount_mode(&mut self, value: super::common::MavMountMode) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 2)
     }
-
     /// Sets the `stab_roll` field.
     #[inline]
     pub fn set_stab_roll(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 3)
     }
-
     /// Sets the `stab_pitch` field.
     #[inline]
     pub fn set_stab_pitch(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `stab_yaw` field.
     #[inline]
     pub fn set_stab_yaw(&mut self, value: u8) {
@@ -7170,7 +6971,6 @@ impl MountControl {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7183,13 +6983,11 @@ impl MountControl {
             save_position: ::mavframe::field::read::<u8>(p, 14),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &MountControlView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -7211,12 +7009,10 @@ impl ::mavframe::Message for MountControl {
     fn parse(payload: &[u8]) -> Self {
         MountControl::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MountControl::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> MountControlView<'_> {
         MountControlView::new(payload)
@@ -7238,49 +7034,41 @@ impl<'a> MountControlView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> MountControl {
         MountControl::from_view(self)
     }
-
     /// Reads [`MountControl::target_system`](MountControl::target_system) (`target_system` at offset 12).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 12)
     }
-
     /// Reads [`MountControl::target_component`](MountControl::target_component) (`target_component` at offset 13).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 13)
     }
-
     /// Reads [`MountControl::input_a`](MountControl::input_a) (`input_a` at offset 0).
     #[inline]
     pub fn input_a(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 0)
     }
-
     /// Reads [`MountControl::input_b`](MountControl::input_b) (`input_b` at offset 4).
     #[inline]
     pub fn input_b(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`MountControl::input_c`](MountControl::input_c) (`input_c` at offset 8).
     #[inline]
     pub fn input_c(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`MountControl::save_position`](MountControl::save_position) (`save_position` at offset 14).
     #[inline]
     pub fn save_position(&self) -> u8 {
@@ -7305,42 +7093,35 @@ impl<'a> MountControlMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> MountControlView<'_> {
         MountControlView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
-
     /// Sets the `input_a` field.
     #[inline]
     pub fn set_input_a(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `input_b` field.
     #[inline]
     pub fn set_input_b(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `input_c` field.
     #[inline]
     pub fn set_input_c(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `save_position` field.
     #[inline]
     pub fn set_save_position(&mut self, value: u8) {
@@ -7450,7 +7231,6 @@ impl MountStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7465,13 +7245,11 @@ impl MountStatus {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &MountStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -7493,12 +7271,10 @@ impl ::mavframe::Message for MountStatus {
     fn parse(payload: &[u8]) -> Self {
         MountStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MountStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> MountStatusView<'_> {
         MountStatusView::new(payload)
@@ -7520,49 +7296,41 @@ impl<'a> MountStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> MountStatus {
         MountStatus::from_view(self)
     }
-
     /// Reads [`MountStatus::target_system`](MountStatus::target_system) (`target_system` at offset 12).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 12)
     }
-
     /// Reads [`MountStatus::target_component`](MountStatus::target_component) (`target_component` at offset 13).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 13)
     }
-
     /// Reads [`MountStatus::pointing_a`](MountStatus::pointing_a) (`pointing_a` at offset 0).
     #[inline]
     pub fn pointing_a(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 0)
     }
-
     /// Reads [`MountStatus::pointing_b`](MountStatus::pointing_b) (`pointing_b` at offset 4).
     #[inline]
     pub fn pointing_b(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`MountStatus::pointing_c`](MountStatus::pointing_c) (`pointing_c` at offset 8).
     #[inline]
     pub fn pointing_c(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`MountStatus::mount_mode`](MountStatus::mount_mode) (`mount_mode` at offset 14).
     #[inline]
     pub fn mount_mode(&self) -> super::common::MavMountMode {
@@ -7589,42 +7357,35 @@ impl<'a> MountStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> MountStatusView<'_> {
         MountStatusView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
-
     /// Sets the `pointing_a` field.
     #[inline]
     pub fn set_pointing_a(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `pointing_b` field.
     #[inline]
     pub fn set_pointing_b(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `pointing_c` field.
     #[inline]
     pub fn set_pointing_c(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `mount_mode` field.
     #[inline]
     pub fn set_mount_mode(&mut self, value: super::common::MavMountMode) {
@@ -7736,7 +7497,6 @@ impl FencePoint {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7749,13 +7509,11 @@ impl FencePoint {
             lng: ::mavframe::field::read::<f32>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &FencePointView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -7777,12 +7535,10 @@ impl ::mavframe::Message for FencePoint {
     fn parse(payload: &[u8]) -> Self {
         FencePoint::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         FencePoint::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> FencePointView<'_> {
         FencePointView::new(payload)
@@ -7804,49 +7560,41 @@ impl<'a> FencePointView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> FencePoint {
         FencePoint::from_view(self)
     }
-
     /// Reads [`FencePoint::target_system`](FencePoint::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`FencePoint::target_component`](FencePoint::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 9)
     }
-
     /// Reads [`FencePoint::idx`](FencePoint::idx) (`idx` at offset 10).
     #[inline]
     pub fn idx(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 10)
     }
-
     /// Reads [`FencePoint::count`](FencePoint::count) (`count` at offset 11).
     #[inline]
     pub fn count(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 11)
     }
-
     /// Reads [`FencePoint::lat`](FencePoint::lat) (`lat` at offset 0).
     #[inline]
     pub fn lat(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`FencePoint::lng`](FencePoint::lng) (`lng` at offset 4).
     #[inline]
     pub fn lng(&self) -> f32 {
@@ -7871,42 +7619,35 @@ impl<'a> FencePointMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> FencePointView<'_> {
         FencePointView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
-
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: f32) {
@@ -7982,7 +7723,6 @@ impl FenceFetchPoint {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7992,13 +7732,11 @@ impl FenceFetchPoint {
             idx: ::mavframe::field::read::<u8>(p, 2),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &FenceFetchPointView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -8017,12 +7755,10 @@ impl ::mavframe::Message for FenceFetchPoint {
     fn parse(payload: &[u8]) -> Self {
         FenceFetchPoint::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         FenceFetchPoint::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> FenceFetchPointView<'_> {
         FenceFetchPointView::new(payload)
@@ -8044,31 +7780,26 @@ impl<'a> FenceFetchPointView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> FenceFetchPoint {
         FenceFetchPoint::from_view(self)
     }
-
     /// Reads [`FenceFetchPoint::target_system`](FenceFetchPoint::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`FenceFetchPoint::target_component`](FenceFetchPoint::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`FenceFetchPoint::idx`](FenceFetchPoint::idx) (`idx` at offset 2).
     #[inline]
     pub fn idx(&self) -> u8 {
@@ -8093,24 +7824,20 @@ impl<'a> FenceFetchPointMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> FenceFetchPointView<'_> {
         FenceFetchPointView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
@@ -8246,7 +7973,6 @@ impl Ahrs {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -8260,13 +7986,11 @@ impl Ahrs {
             error_yaw: ::mavframe::field::read::<f32>(p, 24),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AhrsView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -8289,12 +8013,10 @@ impl ::mavframe::Message for Ahrs {
     fn parse(payload: &[u8]) -> Self {
         Ahrs::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Ahrs::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AhrsView<'_> {
         AhrsView::new(payload)
@@ -8316,55 +8038,46 @@ impl<'a> AhrsView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Ahrs {
         Ahrs::from_view(self)
     }
-
     /// Reads [`Ahrs::omega_ix`](Ahrs::omega_ix) (`omegaIx` at offset 0).
     #[inline]
     pub fn omega_ix(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`Ahrs::omega_iy`](Ahrs::omega_iy) (`omegaIy` at offset 4).
     #[inline]
     pub fn omega_iy(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`Ahrs::omega_iz`](Ahrs::omega_iz) (`omegaIz` at offset 8).
     #[inline]
     pub fn omega_iz(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`Ahrs::accel_weight`](Ahrs::accel_weight) (`accel_weight` at offset 12).
     #[inline]
     pub fn accel_weight(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`Ahrs::renorm_val`](Ahrs::renorm_val) (`renorm_val` at offset 16).
     #[inline]
     pub fn renorm_val(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`Ahrs::error_rp`](Ahrs::error_rp) (`error_rp` at offset 20).
     #[inline]
     pub fn error_rp(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`Ahrs::error_yaw`](Ahrs::error_yaw) (`error_yaw` at offset 24).
     #[inline]
     pub fn error_yaw(&self) -> f32 {
@@ -8389,48 +8102,40 @@ impl<'a> AhrsMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AhrsView<'_> {
         AhrsView::new(self.payload)
     }
-
     /// Sets the `omegaIx` field.
     #[inline]
     pub fn set_omega_ix(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `omegaIy` field.
     #[inline]
     pub fn set_omega_iy(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `omegaIz` field.
     #[inline]
     pub fn set_omega_iz(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `accel_weight` field.
     #[inline]
     pub fn set_accel_weight(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `renorm_val` field.
     #[inline]
     pub fn set_renorm_val(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `error_rp` field.
     #[inline]
     pub fn set_error_rp(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `error_yaw` field.
     #[inline]
     pub fn set_error_yaw(&mut self, value: f32) {
@@ -8603,7 +8308,6 @@ impl Simstate {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -8621,13 +8325,11 @@ impl Simstate {
             lng: ::mavframe::field::read::<i32>(p, 40),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SimstateView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -8654,12 +8356,10 @@ impl ::mavframe::Message for Simstate {
     fn parse(payload: &[u8]) -> Self {
         Simstate::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Simstate::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SimstateView<'_> {
         SimstateView::new(payload)
@@ -8681,79 +8381,66 @@ impl<'a> SimstateView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Simstate {
         Simstate::from_view(self)
     }
-
     /// Reads [`Simstate::roll`](Simstate::roll) (`roll` at offset 0).
     #[inline]
     pub fn roll(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`Simstate::pitch`](Simstate::pitch) (`pitch` at offset 4).
     #[inline]
     pub fn pitch(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`Simstate::yaw`](Simstate::yaw) (`yaw` at offset 8).
     #[inline]
     pub fn yaw(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`Simstate::xacc`](Simstate::xacc) (`xacc` at offset 12).
     #[inline]
     pub fn xacc(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`Simstate::yacc`](Simstate::yacc) (`yacc` at offset 16).
     #[inline]
     pub fn yacc(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`Simstate::zacc`](Simstate::zacc) (`zacc` at offset 20).
     #[inline]
     pub fn zacc(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`Simstate::xgyro`](Simstate::xgyro) (`xgyro` at offset 24).
     #[inline]
     pub fn xgyro(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`Simstate::ygyro`](Simstate::ygyro) (`ygyro` at offset 28).
     #[inline]
     pub fn ygyro(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`Simstate::zgyro`](Simstate::zgyro) (`zgyro` at offset 32).
     #[inline]
     pub fn zgyro(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`Simstate::lat`](Simstate::lat) (`lat` at offset 36).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 36)
     }
-
     /// Reads [`Simstate::lng`](Simstate::lng) (`lng` at offset 40).
     #[inline]
     pub fn lng(&self) -> i32 {
@@ -8778,72 +8465,60 @@ impl<'a> SimstateMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SimstateView<'_> {
         SimstateView::new(self.payload)
     }
-
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `xacc` field.
     #[inline]
     pub fn set_xacc(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `yacc` field.
     #[inline]
     pub fn set_yacc(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `zacc` field.
     #[inline]
     pub fn set_zacc(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `xgyro` field.
     #[inline]
     pub fn set_xgyro(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `ygyro` field.
     #[inline]
     pub fn set_ygyro(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `zgyro` field.
     #[inline]
     pub fn set_zgyro(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
@@ -8912,7 +8587,6 @@ impl Hwstatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -8921,13 +8595,11 @@ impl Hwstatus {
             i2_cerr: ::mavframe::field::read::<u8>(p, 2),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &HwstatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -8945,12 +8617,10 @@ impl ::mavframe::Message for Hwstatus {
     fn parse(payload: &[u8]) -> Self {
         Hwstatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Hwstatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> HwstatusView<'_> {
         HwstatusView::new(payload)
@@ -8972,25 +8642,21 @@ impl<'a> HwstatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Hwstatus {
         Hwstatus::from_view(self)
     }
-
     /// Reads [`Hwstatus::vcc`](Hwstatus::vcc) (`Vcc` at offset 0).
     #[inline]
     pub fn vcc(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 0)
     }
-
     /// Reads [`Hwstatus::i2_cerr`](Hwstatus::i2_cerr) (`I2Cerr` at offset 2).
     #[inline]
     pub fn i2_cerr(&self) -> u8 {
@@ -9015,18 +8681,15 @@ impl<'a> HwstatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> HwstatusView<'_> {
         HwstatusView::new(self.payload)
     }
-
     /// Sets the `Vcc` field.
     #[inline]
     pub fn set_vcc(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `I2Cerr` field.
     #[inline]
     pub fn set_i2_cerr(&mut self, value: u8) {
@@ -9146,7 +8809,6 @@ impl Radio {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9160,13 +8822,11 @@ impl Radio {
             fixed: ::mavframe::field::read::<u16>(p, 2),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RadioView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -9189,12 +8849,10 @@ impl ::mavframe::Message for Radio {
     fn parse(payload: &[u8]) -> Self {
         Radio::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Radio::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RadioView<'_> {
         RadioView::new(payload)
@@ -9216,55 +8874,46 @@ impl<'a> RadioView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Radio {
         Radio::from_view(self)
     }
-
     /// Reads [`Radio::rssi`](Radio::rssi) (`rssi` at offset 4).
     #[inline]
     pub fn rssi(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`Radio::remrssi`](Radio::remrssi) (`remrssi` at offset 5).
     #[inline]
     pub fn remrssi(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`Radio::txbuf`](Radio::txbuf) (`txbuf` at offset 6).
     #[inline]
     pub fn txbuf(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 6)
     }
-
     /// Reads [`Radio::noise`](Radio::noise) (`noise` at offset 7).
     #[inline]
     pub fn noise(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 7)
     }
-
     /// Reads [`Radio::remnoise`](Radio::remnoise) (`remnoise` at offset 8).
     #[inline]
     pub fn remnoise(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`Radio::rxerrors`](Radio::rxerrors) (`rxerrors` at offset 0).
     #[inline]
     pub fn rxerrors(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 0)
     }
-
     /// Reads [`Radio::fixed`](Radio::fixed) (`fixed` at offset 2).
     #[inline]
     pub fn fixed(&self) -> u16 {
@@ -9289,48 +8938,40 @@ impl<'a> RadioMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RadioView<'_> {
         RadioView::new(self.payload)
     }
-
     /// Sets the `rssi` field.
     #[inline]
     pub fn set_rssi(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `remrssi` field.
     #[inline]
     pub fn set_remrssi(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `txbuf` field.
     #[inline]
     pub fn set_txbuf(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `noise` field.
     #[inline]
     pub fn set_noise(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
-
     /// Sets the `remnoise` field.
     #[inline]
     pub fn set_remnoise(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `rxerrors` field.
     #[inline]
     pub fn set_rxerrors(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `fixed` field.
     #[inline]
     pub fn set_fixed(&mut self, value: u16) {
@@ -9472,7 +9113,6 @@ impl LimitsStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9494,13 +9134,11 @@ impl LimitsStatus {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &LimitsStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -9525,12 +9163,10 @@ impl ::mavframe::Message for LimitsStatus {
     fn parse(payload: &[u8]) -> Self {
         LimitsStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         LimitsStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> LimitsStatusView<'_> {
         LimitsStatusView::new(payload)
@@ -9552,67 +9188,56 @@ impl<'a> LimitsStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> LimitsStatus {
         LimitsStatus::from_view(self)
     }
-
     /// Reads [`LimitsStatus::limits_state`](LimitsStatus::limits_state) (`limits_state` at offset 18).
     #[inline]
     pub fn limits_state(&self) -> LimitsState {
         LimitsState::from_raw(::mavframe::field::read::<u8>(self.payload, 18))
     }
-
     /// Reads [`LimitsStatus::last_trigger`](LimitsStatus::last_trigger) (`last_trigger` at offset 0).
     #[inline]
     pub fn last_trigger(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`LimitsStatus::last_action`](LimitsStatus::last_action) (`last_action` at offset 4).
     #[inline]
     pub fn last_action(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 4)
     }
-
     /// Reads [`LimitsStatus::last_recovery`](LimitsStatus::last_recovery) (`last_recovery` at offset 8).
     #[inline]
     pub fn last_recovery(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 8)
     }
-
     /// Reads [`LimitsStatus::last_clear`](LimitsStatus::last_clear) (`last_clear` at offset 12).
     #[inline]
     pub fn last_clear(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 12)
     }
-
     /// Reads [`LimitsStatus::breach_count`](LimitsStatus::breach_count) (`breach_count` at offset 16).
     #[inline]
     pub fn breach_count(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 16)
     }
-
     /// Reads [`LimitsStatus::mods_enabled`](LimitsStatus::mods_enabled) (`mods_enabled` at offset 19).
     #[inline]
     pub fn mods_enabled(&self) -> LimitModule {
         LimitModule::from_bits_retain(::mavframe::field::read::<u8>(self.payload, 19))
     }
-
     /// Reads [`LimitsStatus::mods_required`](LimitsStatus::mods_required) (`mods_required` at offset 20).
     #[inline]
     pub fn mods_required(&self) -> LimitModule {
         LimitModule::from_bits_retain(::mavframe::field::read::<u8>(self.payload, 20))
     }
-
     /// Reads [`LimitsStatus::mods_triggered`](LimitsStatus::mods_triggered) (`mods_triggered` at offset 21).
     #[inline]
     pub fn mods_triggered(&self) -> LimitModule {
@@ -9637,60 +9262,50 @@ impl<'a> LimitsStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> LimitsStatusView<'_> {
         LimitsStatusView::new(self.payload)
     }
-
     /// Sets the `limits_state` field.
     #[inline]
     pub fn set_limits_state(&mut self, value: LimitsState) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 18)
     }
-
     /// Sets the `last_trigger` field.
     #[inline]
     pub fn set_last_trigger(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `last_action` field.
     #[inline]
     pub fn set_last_action(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `last_recovery` field.
     #[inline]
     pub fn set_last_recovery(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `last_clear` field.
     #[inline]
     pub fn set_last_clear(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `breach_count` field.
     #[inline]
     pub fn set_breach_count(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `mods_enabled` field.
     #[inline]
     pub fn set_mods_enabled(&mut self, value: LimitModule) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 19)
     }
-
     /// Sets the `mods_required` field.
     #[inline]
     pub fn set_mods_required(&mut self, value: LimitModule) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 20)
     }
-
     /// Sets the `mods_triggered` field.
     #[inline]
     pub fn set_mods_triggered(&mut self, value: LimitModule) {
@@ -9769,7 +9384,6 @@ impl Wind {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9779,13 +9393,11 @@ impl Wind {
             speed_z: ::mavframe::field::read::<f32>(p, 8),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &WindView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -9804,12 +9416,10 @@ impl ::mavframe::Message for Wind {
     fn parse(payload: &[u8]) -> Self {
         Wind::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Wind::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> WindView<'_> {
         WindView::new(payload)
@@ -9831,31 +9441,26 @@ impl<'a> WindView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Wind {
         Wind::from_view(self)
     }
-
     /// Reads [`Wind::direction`](Wind::direction) (`direction` at offset 0).
     #[inline]
     pub fn direction(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`Wind::speed`](Wind::speed) (`speed` at offset 4).
     #[inline]
     pub fn speed(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`Wind::speed_z`](Wind::speed_z) (`speed_z` at offset 8).
     #[inline]
     pub fn speed_z(&self) -> f32 {
@@ -9880,24 +9485,20 @@ impl<'a> WindMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> WindView<'_> {
         WindView::new(self.payload)
     }
-
     /// Sets the `direction` field.
     #[inline]
     pub fn set_direction(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `speed` field.
     #[inline]
     pub fn set_speed(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `speed_z` field.
     #[inline]
     pub fn set_speed_z(&mut self, value: f32) {
@@ -9974,7 +9575,6 @@ impl Data16 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9984,13 +9584,11 @@ impl Data16 {
             data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &Data16View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -10009,12 +9607,10 @@ impl ::mavframe::Message for Data16 {
     fn parse(payload: &[u8]) -> Self {
         Data16::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data16::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> Data16View<'_> {
         Data16View::new(payload)
@@ -10036,31 +9632,26 @@ impl<'a> Data16View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Data16 {
         Data16::from_view(self)
     }
-
     /// Reads [`Data16::type`](struct@Data16) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`Data16::len`](Data16::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`Data16::data`](Data16::data) (`data` at offset 2).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 16> {
@@ -10085,24 +9676,20 @@ impl<'a> Data16Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> Data16View<'_> {
         Data16View::new(self.payload)
     }
-
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 16]) {
@@ -10179,7 +9766,6 @@ impl Data32 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10189,13 +9775,11 @@ impl Data32 {
             data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &Data32View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -10214,12 +9798,10 @@ impl ::mavframe::Message for Data32 {
     fn parse(payload: &[u8]) -> Self {
         Data32::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data32::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> Data32View<'_> {
         Data32View::new(payload)
@@ -10241,31 +9823,26 @@ impl<'a> Data32View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Data32 {
         Data32::from_view(self)
     }
-
     /// Reads [`Data32::type`](struct@Data32) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`Data32::len`](Data32::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`Data32::data`](Data32::data) (`data` at offset 2).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 32> {
@@ -10290,24 +9867,20 @@ impl<'a> Data32Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> Data32View<'_> {
         Data32View::new(self.payload)
     }
-
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 32]) {
@@ -10384,7 +9957,6 @@ impl Data64 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10394,13 +9966,11 @@ impl Data64 {
             data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &Data64View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -10429,12 +9999,10 @@ impl ::mavframe::Message for Data64 {
     fn parse(payload: &[u8]) -> Self {
         Data64::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data64::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> Data64View<'_> {
         Data64View::new(payload)
@@ -10456,31 +10024,26 @@ impl<'a> Data64View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Data64 {
         Data64::from_view(self)
     }
-
     /// Reads [`Data64::type`](struct@Data64) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`Data64::len`](Data64::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`Data64::data`](Data64::data) (`data` at offset 2).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 64> {
@@ -10505,24 +10068,20 @@ impl<'a> Data64Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> Data64View<'_> {
         Data64View::new(self.payload)
     }
-
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 64]) {
@@ -10599,7 +10158,6 @@ impl Data96 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10609,13 +10167,11 @@ impl Data96 {
             data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &Data96View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -10644,12 +10200,10 @@ impl ::mavframe::Message for Data96 {
     fn parse(payload: &[u8]) -> Self {
         Data96::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Data96::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> Data96View<'_> {
         Data96View::new(payload)
@@ -10671,31 +10225,26 @@ impl<'a> Data96View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Data96 {
         Data96::from_view(self)
     }
-
     /// Reads [`Data96::type`](struct@Data96) (`type` at offset 0).
     #[inline]
     pub fn r#type(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`Data96::len`](Data96::len) (`len` at offset 1).
     #[inline]
     pub fn len(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`Data96::data`](Data96::data) (`data` at offset 2).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 96> {
@@ -10720,24 +10269,20 @@ impl<'a> Data96Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> Data96View<'_> {
         Data96View::new(self.payload)
     }
-
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `len` field.
     #[inline]
     pub fn set_len(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 96]) {
@@ -10804,7 +10349,6 @@ impl Rangefinder {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10813,13 +10357,11 @@ impl Rangefinder {
             voltage: ::mavframe::field::read::<f32>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RangefinderView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -10837,12 +10379,10 @@ impl ::mavframe::Message for Rangefinder {
     fn parse(payload: &[u8]) -> Self {
         Rangefinder::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Rangefinder::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RangefinderView<'_> {
         RangefinderView::new(payload)
@@ -10864,25 +10404,21 @@ impl<'a> RangefinderView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Rangefinder {
         Rangefinder::from_view(self)
     }
-
     /// Reads [`Rangefinder::distance`](Rangefinder::distance) (`distance` at offset 0).
     #[inline]
     pub fn distance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`Rangefinder::voltage`](Rangefinder::voltage) (`voltage` at offset 4).
     #[inline]
     pub fn voltage(&self) -> f32 {
@@ -10907,18 +10443,15 @@ impl<'a> RangefinderMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RangefinderView<'_> {
         RangefinderView::new(self.payload)
     }
-
     /// Sets the `distance` field.
     #[inline]
     pub fn set_distance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: f32) {
@@ -11117,7 +10650,6 @@ impl AirspeedAutocal {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -11136,13 +10668,11 @@ impl AirspeedAutocal {
             pcz: ::mavframe::field::read::<f32>(p, 44),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AirspeedAutocalView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -11170,12 +10700,10 @@ impl ::mavframe::Message for AirspeedAutocal {
     fn parse(payload: &[u8]) -> Self {
         AirspeedAutocal::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AirspeedAutocal::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AirspeedAutocalView<'_> {
         AirspeedAutocalView::new(payload)
@@ -11197,85 +10725,71 @@ impl<'a> AirspeedAutocalView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> AirspeedAutocal {
         AirspeedAutocal::from_view(self)
     }
-
     /// Reads [`AirspeedAutocal::vx`](AirspeedAutocal::vx) (`vx` at offset 0).
     #[inline]
     pub fn vx(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`AirspeedAutocal::vy`](AirspeedAutocal::vy) (`vy` at offset 4).
     #[inline]
     pub fn vy(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`AirspeedAutocal::vz`](AirspeedAutocal::vz) (`vz` at offset 8).
     #[inline]
     pub fn vz(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`AirspeedAutocal::diff_pressure`](AirspeedAutocal::diff_pressure) (`diff_pressure` at offset 12).
     #[inline]
     pub fn diff_pressure(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`AirspeedAutocal::eas2_tas`](AirspeedAutocal::eas2_tas) (`EAS2TAS` at offset 16).
     #[inline]
     pub fn eas2_tas(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`AirspeedAutocal::ratio`](AirspeedAutocal::ratio) (`ratio` at offset 20).
     #[inline]
     pub fn ratio(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`AirspeedAutocal::state_x`](AirspeedAutocal::state_x) (`state_x` at offset 24).
     #[inline]
     pub fn state_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`AirspeedAutocal::state_y`](AirspeedAutocal::state_y) (`state_y` at offset 28).
     #[inline]
     pub fn state_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`AirspeedAutocal::state_z`](AirspeedAutocal::state_z) (`state_z` at offset 32).
     #[inline]
     pub fn state_z(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`AirspeedAutocal::pax`](AirspeedAutocal::pax) (`Pax` at offset 36).
     #[inline]
     pub fn pax(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 36)
     }
-
     /// Reads [`AirspeedAutocal::pby`](AirspeedAutocal::pby) (`Pby` at offset 40).
     #[inline]
     pub fn pby(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 40)
     }
-
     /// Reads [`AirspeedAutocal::pcz`](AirspeedAutocal::pcz) (`Pcz` at offset 44).
     #[inline]
     pub fn pcz(&self) -> f32 {
@@ -11300,78 +10814,65 @@ impl<'a> AirspeedAutocalMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AirspeedAutocalView<'_> {
         AirspeedAutocalView::new(self.payload)
     }
-
     /// Sets the `vx` field.
     #[inline]
     pub fn set_vx(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `vy` field.
     #[inline]
     pub fn set_vy(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `vz` field.
     #[inline]
     pub fn set_vz(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `diff_pressure` field.
     #[inline]
     pub fn set_diff_pressure(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `EAS2TAS` field.
     #[inline]
     pub fn set_eas2_tas(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `ratio` field.
     #[inline]
     pub fn set_ratio(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `state_x` field.
     #[inline]
     pub fn set_state_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `state_y` field.
     #[inline]
     pub fn set_state_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `state_z` field.
     #[inline]
     pub fn set_state_z(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `Pax` field.
     #[inline]
     pub fn set_pax(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `Pby` field.
     #[inline]
     pub fn set_pby(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `Pcz` field.
     #[inline]
     pub fn set_pcz(&mut self, value: f32) {
@@ -11525,7 +11026,6 @@ impl RallyPoint {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -11542,13 +11042,11 @@ impl RallyPoint {
             flags: RallyFlags::from_raw(::mavframe::field::read::<u8>(p, 18)),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RallyPointView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -11574,12 +11072,10 @@ impl ::mavframe::Message for RallyPoint {
     fn parse(payload: &[u8]) -> Self {
         RallyPoint::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RallyPoint::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RallyPointView<'_> {
         RallyPointView::new(payload)
@@ -11601,73 +11097,61 @@ impl<'a> RallyPointView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> RallyPoint {
         RallyPoint::from_view(self)
     }
-
     /// Reads [`RallyPoint::target_system`](RallyPoint::target_system) (`target_system` at offset 14).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 14)
     }
-
     /// Reads [`RallyPoint::target_component`](RallyPoint::target_component) (`target_component` at offset 15).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 15)
     }
-
     /// Reads [`RallyPoint::idx`](RallyPoint::idx) (`idx` at offset 16).
     #[inline]
     pub fn idx(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 16)
     }
-
     /// Reads [`RallyPoint::count`](RallyPoint::count) (`count` at offset 17).
     #[inline]
     pub fn count(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 17)
     }
-
     /// Reads [`RallyPoint::lat`](RallyPoint::lat) (`lat` at offset 0).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 0)
     }
-
     /// Reads [`RallyPoint::lng`](RallyPoint::lng) (`lng` at offset 4).
     #[inline]
     pub fn lng(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`RallyPoint::alt`](RallyPoint::alt) (`alt` at offset 8).
     #[inline]
     pub fn alt(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 8)
     }
-
     /// Reads [`RallyPoint::break_alt`](RallyPoint::break_alt) (`break_alt` at offset 10).
     #[inline]
     pub fn break_alt(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 10)
     }
-
     /// Reads [`RallyPoint::land_dir`](RallyPoint::land_dir) (`land_dir` at offset 12).
     #[inline]
     pub fn land_dir(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 12)
     }
-
     /// Reads [`RallyPoint::flags`](RallyPoint::flags) (`flags` at offset 18).
     #[inline]
     pub fn flags(&self) -> RallyFlags {
@@ -11692,66 +11176,55 @@ impl<'a> RallyPointMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RallyPointView<'_> {
         RallyPointView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 15)
     }
-
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 17)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `break_alt` field.
     #[inline]
     pub fn set_break_alt(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `land_dir` field.
     #[inline]
     pub fn set_land_dir(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: RallyFlags) {
@@ -11828,7 +11301,6 @@ impl RallyFetchPoint {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -11838,13 +11310,11 @@ impl RallyFetchPoint {
             idx: ::mavframe::field::read::<u8>(p, 2),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RallyFetchPointView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -11863,12 +11333,10 @@ impl ::mavframe::Message for RallyFetchPoint {
     fn parse(payload: &[u8]) -> Self {
         RallyFetchPoint::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RallyFetchPoint::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RallyFetchPointView<'_> {
         RallyFetchPointView::new(payload)
@@ -11890,31 +11358,26 @@ impl<'a> RallyFetchPointView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> RallyFetchPoint {
         RallyFetchPoint::from_view(self)
     }
-
     /// Reads [`RallyFetchPoint::target_system`](RallyFetchPoint::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`RallyFetchPoint::target_component`](RallyFetchPoint::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`RallyFetchPoint::idx`](RallyFetchPoint::idx) (`idx` at offset 2).
     #[inline]
     pub fn idx(&self) -> u8 {
@@ -11939,24 +11402,20 @@ impl<'a> RallyFetchPointMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RallyFetchPointView<'_> {
         RallyFetchPointView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `idx` field.
     #[inline]
     pub fn set_idx(&mut self, value: u8) {
@@ -12078,7 +11537,6 @@ impl CompassmotStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -12091,13 +11549,11 @@ impl CompassmotStatus {
             compensation_z: ::mavframe::field::read::<f32>(p, 12),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CompassmotStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -12119,12 +11575,10 @@ impl ::mavframe::Message for CompassmotStatus {
     fn parse(payload: &[u8]) -> Self {
         CompassmotStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CompassmotStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CompassmotStatusView<'_> {
         CompassmotStatusView::new(payload)
@@ -12146,49 +11600,41 @@ impl<'a> CompassmotStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CompassmotStatus {
         CompassmotStatus::from_view(self)
     }
-
     /// Reads [`CompassmotStatus::throttle`](CompassmotStatus::throttle) (`throttle` at offset 16).
     #[inline]
     pub fn throttle(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 16)
     }
-
     /// Reads [`CompassmotStatus::current`](CompassmotStatus::current) (`current` at offset 0).
     #[inline]
     pub fn current(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`CompassmotStatus::interference`](CompassmotStatus::interference) (`interference` at offset 18).
     #[inline]
     pub fn interference(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 18)
     }
-
     /// Reads [`CompassmotStatus::compensation_x`](CompassmotStatus::compensation_x) (`CompensationX` at offset 4).
     #[inline]
     pub fn compensation_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`CompassmotStatus::compensation_y`](CompassmotStatus::compensation_y) (`CompensationY` at offset 8).
     #[inline]
     pub fn compensation_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`CompassmotStatus::compensation_z`](CompassmotStatus::compensation_z) (`CompensationZ` at offset 12).
     #[inline]
     pub fn compensation_z(&self) -> f32 {
@@ -12213,42 +11659,35 @@ impl<'a> CompassmotStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CompassmotStatusView<'_> {
         CompassmotStatusView::new(self.payload)
     }
-
     /// Sets the `throttle` field.
     #[inline]
     pub fn set_throttle(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `interference` field.
     #[inline]
     pub fn set_interference(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `CompensationX` field.
     #[inline]
     pub fn set_compensation_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `CompensationY` field.
     #[inline]
     pub fn set_compensation_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `CompensationZ` field.
     #[inline]
     pub fn set_compensation_z(&mut self, value: f32) {
@@ -12361,7 +11800,6 @@ impl Ahrs2 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -12374,13 +11812,11 @@ impl Ahrs2 {
             lng: ::mavframe::field::read::<i32>(p, 20),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &Ahrs2View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -12402,12 +11838,10 @@ impl ::mavframe::Message for Ahrs2 {
     fn parse(payload: &[u8]) -> Self {
         Ahrs2::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Ahrs2::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> Ahrs2View<'_> {
         Ahrs2View::new(payload)
@@ -12429,49 +11863,41 @@ impl<'a> Ahrs2View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Ahrs2 {
         Ahrs2::from_view(self)
     }
-
     /// Reads [`Ahrs2::roll`](Ahrs2::roll) (`roll` at offset 0).
     #[inline]
     pub fn roll(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`Ahrs2::pitch`](Ahrs2::pitch) (`pitch` at offset 4).
     #[inline]
     pub fn pitch(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`Ahrs2::yaw`](Ahrs2::yaw) (`yaw` at offset 8).
     #[inline]
     pub fn yaw(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`Ahrs2::altitude`](Ahrs2::altitude) (`altitude` at offset 12).
     #[inline]
     pub fn altitude(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`Ahrs2::lat`](Ahrs2::lat) (`lat` at offset 16).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 16)
     }
-
     /// Reads [`Ahrs2::lng`](Ahrs2::lng) (`lng` at offset 20).
     #[inline]
     pub fn lng(&self) -> i32 {
@@ -12496,42 +11922,35 @@ impl<'a> Ahrs2Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> Ahrs2View<'_> {
         Ahrs2View::new(self.payload)
     }
-
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `altitude` field.
     #[inline]
     pub fn set_altitude(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
@@ -12678,7 +12097,6 @@ impl CameraStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -12694,13 +12112,11 @@ impl CameraStatus {
             p4: ::mavframe::field::read::<f32>(p, 20),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CameraStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -12725,12 +12141,10 @@ impl ::mavframe::Message for CameraStatus {
     fn parse(payload: &[u8]) -> Self {
         CameraStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CameraStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CameraStatusView<'_> {
         CameraStatusView::new(payload)
@@ -12752,67 +12166,56 @@ impl<'a> CameraStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CameraStatus {
         CameraStatus::from_view(self)
     }
-
     /// Reads [`CameraStatus::time_usec`](CameraStatus::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
         ::mavframe::field::read::<u64>(self.payload, 0)
     }
-
     /// Reads [`CameraStatus::target_system`](CameraStatus::target_system) (`target_system` at offset 26).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 26)
     }
-
     /// Reads [`CameraStatus::cam_idx`](CameraStatus::cam_idx) (`cam_idx` at offset 27).
     #[inline]
     pub fn cam_idx(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 27)
     }
-
     /// Reads [`CameraStatus::img_idx`](CameraStatus::img_idx) (`img_idx` at offset 24).
     #[inline]
     pub fn img_idx(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 24)
     }
-
     /// Reads [`CameraStatus::event_id`](CameraStatus::event_id) (`event_id` at offset 28).
     #[inline]
     pub fn event_id(&self) -> CameraStatusTypes {
         CameraStatusTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 28))
     }
-
     /// Reads [`CameraStatus::p1`](CameraStatus::p1) (`p1` at offset 8).
     #[inline]
     pub fn p1(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`CameraStatus::p2`](CameraStatus::p2) (`p2` at offset 12).
     #[inline]
     pub fn p2(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`CameraStatus::p3`](CameraStatus::p3) (`p3` at offset 16).
     #[inline]
     pub fn p3(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`CameraStatus::p4`](CameraStatus::p4) (`p4` at offset 20).
     #[inline]
     pub fn p4(&self) -> f32 {
@@ -12837,60 +12240,50 @@ impl<'a> CameraStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CameraStatusView<'_> {
         CameraStatusView::new(self.payload)
     }
-
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
-
     /// Sets the `cam_idx` field.
     #[inline]
     pub fn set_cam_idx(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 27)
     }
-
     /// Sets the `img_idx` field.
     #[inline]
     pub fn set_img_idx(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `event_id` field.
     #[inline]
     pub fn set_event_id(&mut self, value: CameraStatusTypes) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 28)
     }
-
     /// Sets the `p1` field.
     #[inline]
     pub fn set_p1(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `p2` field.
     #[inline]
     pub fn set_p2(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `p3` field.
     #[inline]
     pub fn set_p3(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `p4` field.
     #[inline]
     pub fn set_p4(&mut self, value: f32) {
@@ -13096,7 +12489,6 @@ impl CameraFeedback {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -13117,13 +12509,11 @@ impl CameraFeedback {
             completed_captures: ::mavframe::field::read::<u16>(p, 45),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CameraFeedbackView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -13153,12 +12543,10 @@ impl ::mavframe::Message for CameraFeedback {
     fn parse(payload: &[u8]) -> Self {
         CameraFeedback::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CameraFeedback::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CameraFeedbackView<'_> {
         CameraFeedbackView::new(payload)
@@ -13180,97 +12568,81 @@ impl<'a> CameraFeedbackView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CameraFeedback {
         CameraFeedback::from_view(self)
     }
-
     /// Reads [`CameraFeedback::time_usec`](CameraFeedback::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
         ::mavframe::field::read::<u64>(self.payload, 0)
     }
-
     /// Reads [`CameraFeedback::target_system`](CameraFeedback::target_system) (`target_system` at offset 42).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 42)
     }
-
     /// Reads [`CameraFeedback::cam_idx`](CameraFeedback::cam_idx) (`cam_idx` at offset 43).
     #[inline]
     pub fn cam_idx(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 43)
     }
-
     /// Reads [`CameraFeedback::img_idx`](CameraFeedback::img_idx) (`img_idx` at offset 40).
     #[inline]
     pub fn img_idx(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 40)
     }
-
     /// Reads [`CameraFeedback::lat`](CameraFeedback::lat) (`lat` at offset 8).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`CameraFeedback::lng`](CameraFeedback::lng) (`lng` at offset 12).
     #[inline]
     pub fn lng(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 12)
     }
-
     /// Reads [`CameraFeedback::alt_msl`](CameraFeedback::alt_msl) (`alt_msl` at offset 16).
     #[inline]
     pub fn alt_msl(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`CameraFeedback::alt_rel`](CameraFeedback::alt_rel) (`alt_rel` at offset 20).
     #[inline]
     pub fn alt_rel(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`CameraFeedback::roll`](CameraFeedback::roll) (`roll` at offset 24).
     #[inline]
     pub fn roll(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`CameraFeedback::pitch`](CameraFeedback::pitch) (`pitch` at offset 28).
     #[inline]
     pub fn pitch(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`CameraFeedback::yaw`](CameraFeedback::yaw) (`yaw` at offset 32).
     #[inline]
     pub fn yaw(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`CameraFeedback::foc_len`](CameraFeedback::foc_len) (`foc_len` at offset 36).
     #[inline]
     pub fn foc_len(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 36)
     }
-
     /// Reads [`CameraFeedback::flags`](CameraFeedback::flags) (`flags` at offset 44).
     #[inline]
     pub fn flags(&self) -> CameraFeedbackFlags {
         CameraFeedbackFlags::from_raw(::mavframe::field::read::<u8>(self.payload, 44))
     }
-
     /// Reads [`CameraFeedback::completed_captures`](CameraFeedback::completed_captures) (`completed_captures` at offset 45).
     #[inline]
     pub fn completed_captures(&self) -> u16 {
@@ -13295,90 +12667,75 @@ impl<'a> CameraFeedbackMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CameraFeedbackView<'_> {
         CameraFeedbackView::new(self.payload)
     }
-
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 42)
     }
-
     /// Sets the `cam_idx` field.
     #[inline]
     pub fn set_cam_idx(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 43)
     }
-
     /// Sets the `img_idx` field.
     #[inline]
     pub fn set_img_idx(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `alt_msl` field.
     #[inline]
     pub fn set_alt_msl(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `alt_rel` field.
     #[inline]
     pub fn set_alt_rel(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `foc_len` field.
     #[inline]
     pub fn set_foc_len(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: CameraFeedbackFlags) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 44)
     }
-
     /// Sets the `completed_captures` field.
     #[inline]
     pub fn set_completed_captures(&mut self, value: u16) {
@@ -13444,7 +12801,6 @@ impl Battery2 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -13453,13 +12809,11 @@ impl Battery2 {
             current_battery: ::mavframe::field::read::<i16>(p, 2),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &Battery2View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -13477,12 +12831,10 @@ impl ::mavframe::Message for Battery2 {
     fn parse(payload: &[u8]) -> Self {
         Battery2::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Battery2::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> Battery2View<'_> {
         Battery2View::new(payload)
@@ -13504,25 +12856,21 @@ impl<'a> Battery2View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Battery2 {
         Battery2::from_view(self)
     }
-
     /// Reads [`Battery2::voltage`](Battery2::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 0)
     }
-
     /// Reads [`Battery2::current_battery`](Battery2::current_battery) (`current_battery` at offset 2).
     #[inline]
     pub fn current_battery(&self) -> i16 {
@@ -13547,18 +12895,15 @@ impl<'a> Battery2Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> Battery2View<'_> {
         Battery2View::new(self.payload)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `current_battery` field.
     #[inline]
     pub fn set_current_battery(&mut self, value: i16) {
@@ -13719,7 +13064,6 @@ impl Ahrs3 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -13736,13 +13080,11 @@ impl Ahrs3 {
             v4: ::mavframe::field::read::<f32>(p, 36),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &Ahrs3View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -13768,12 +13110,10 @@ impl ::mavframe::Message for Ahrs3 {
     fn parse(payload: &[u8]) -> Self {
         Ahrs3::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Ahrs3::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> Ahrs3View<'_> {
         Ahrs3View::new(payload)
@@ -13795,73 +13135,61 @@ impl<'a> Ahrs3View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Ahrs3 {
         Ahrs3::from_view(self)
     }
-
     /// Reads [`Ahrs3::roll`](Ahrs3::roll) (`roll` at offset 0).
     #[inline]
     pub fn roll(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`Ahrs3::pitch`](Ahrs3::pitch) (`pitch` at offset 4).
     #[inline]
     pub fn pitch(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`Ahrs3::yaw`](Ahrs3::yaw) (`yaw` at offset 8).
     #[inline]
     pub fn yaw(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`Ahrs3::altitude`](Ahrs3::altitude) (`altitude` at offset 12).
     #[inline]
     pub fn altitude(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`Ahrs3::lat`](Ahrs3::lat) (`lat` at offset 16).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 16)
     }
-
     /// Reads [`Ahrs3::lng`](Ahrs3::lng) (`lng` at offset 20).
     #[inline]
     pub fn lng(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 20)
     }
-
     /// Reads [`Ahrs3::v1`](Ahrs3::v1) (`v1` at offset 24).
     #[inline]
     pub fn v1(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`Ahrs3::v2`](Ahrs3::v2) (`v2` at offset 28).
     #[inline]
     pub fn v2(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`Ahrs3::v3`](Ahrs3::v3) (`v3` at offset 32).
     #[inline]
     pub fn v3(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`Ahrs3::v4`](Ahrs3::v4) (`v4` at offset 36).
     #[inline]
     pub fn v4(&self) -> f32 {
@@ -13886,66 +13214,55 @@ impl<'a> Ahrs3Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> Ahrs3View<'_> {
         Ahrs3View::new(self.payload)
     }
-
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `altitude` field.
     #[inline]
     pub fn set_altitude(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `v1` field.
     #[inline]
     pub fn set_v1(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `v2` field.
     #[inline]
     pub fn set_v2(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `v3` field.
     #[inline]
     pub fn set_v3(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `v4` field.
     #[inline]
     pub fn set_v4(&mut self, value: f32) {
@@ -14010,7 +13327,6 @@ impl AutopilotVersionRequest {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -14019,13 +13335,11 @@ impl AutopilotVersionRequest {
             target_component: ::mavframe::field::read::<u8>(p, 1),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AutopilotVersionRequestView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -14043,12 +13357,10 @@ impl ::mavframe::Message for AutopilotVersionRequest {
     fn parse(payload: &[u8]) -> Self {
         AutopilotVersionRequest::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AutopilotVersionRequest::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AutopilotVersionRequestView<'_> {
         AutopilotVersionRequestView::new(payload)
@@ -14070,25 +13382,21 @@ impl<'a> AutopilotVersionRequestView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> AutopilotVersionRequest {
         AutopilotVersionRequest::from_view(self)
     }
-
     /// Reads [`AutopilotVersionRequest::target_system`](AutopilotVersionRequest::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`AutopilotVersionRequest::target_component`](AutopilotVersionRequest::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
@@ -14113,18 +13421,15 @@ impl<'a> AutopilotVersionRequestMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AutopilotVersionRequestView<'_> {
         AutopilotVersionRequestView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
@@ -14213,7 +13518,6 @@ impl RemoteLogDataBlock {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -14226,13 +13530,11 @@ impl RemoteLogDataBlock {
             data: ::mavframe::field::ArrayView::new(p, 6).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RemoteLogDataBlockView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -14263,12 +13565,10 @@ impl ::mavframe::Message for RemoteLogDataBlock {
     fn parse(payload: &[u8]) -> Self {
         RemoteLogDataBlock::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RemoteLogDataBlock::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RemoteLogDataBlockView<'_> {
         RemoteLogDataBlockView::new(payload)
@@ -14290,31 +13590,26 @@ impl<'a> RemoteLogDataBlockView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> RemoteLogDataBlock {
         RemoteLogDataBlock::from_view(self)
     }
-
     /// Reads [`RemoteLogDataBlock::target_system`](RemoteLogDataBlock::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`RemoteLogDataBlock::target_component`](RemoteLogDataBlock::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`RemoteLogDataBlock::seqno`](RemoteLogDataBlock::seqno) (`seqno` at offset 0).
     #[inline]
     pub fn seqno(&self) -> MavRemoteLogDataBlockCommands {
@@ -14322,7 +13617,6 @@ impl<'a> RemoteLogDataBlockView<'a> {
             ::mavframe::field::read::<u32>(self.payload, 0),
         )
     }
-
     /// Reads [`RemoteLogDataBlock::data`](RemoteLogDataBlock::data) (`data` at offset 6).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 200> {
@@ -14347,30 +13641,25 @@ impl<'a> RemoteLogDataBlockMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RemoteLogDataBlockView<'_> {
         RemoteLogDataBlockView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `seqno` field.
     #[inline]
     pub fn set_seqno(&mut self, value: MavRemoteLogDataBlockCommands) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 200]) {
@@ -14458,7 +13747,6 @@ impl RemoteLogBlockStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -14471,13 +13759,11 @@ impl RemoteLogBlockStatus {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RemoteLogBlockStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -14497,12 +13783,10 @@ impl ::mavframe::Message for RemoteLogBlockStatus {
     fn parse(payload: &[u8]) -> Self {
         RemoteLogBlockStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         RemoteLogBlockStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RemoteLogBlockStatusView<'_> {
         RemoteLogBlockStatusView::new(payload)
@@ -14524,37 +13808,31 @@ impl<'a> RemoteLogBlockStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> RemoteLogBlockStatus {
         RemoteLogBlockStatus::from_view(self)
     }
-
     /// Reads [`RemoteLogBlockStatus::target_system`](RemoteLogBlockStatus::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`RemoteLogBlockStatus::target_component`](RemoteLogBlockStatus::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`RemoteLogBlockStatus::seqno`](RemoteLogBlockStatus::seqno) (`seqno` at offset 0).
     #[inline]
     pub fn seqno(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`RemoteLogBlockStatus::status`](RemoteLogBlockStatus::status) (`status` at offset 6).
     #[inline]
     pub fn status(&self) -> MavRemoteLogDataBlockStatuses {
@@ -14581,30 +13859,25 @@ impl<'a> RemoteLogBlockStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RemoteLogBlockStatusView<'_> {
         RemoteLogBlockStatusView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `seqno` field.
     #[inline]
     pub fn set_seqno(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: MavRemoteLogDataBlockStatuses) {
@@ -14714,7 +13987,6 @@ impl LedControl {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -14727,13 +13999,11 @@ impl LedControl {
             custom_bytes: ::mavframe::field::ArrayView::new(p, 5).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &LedControlView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -14755,12 +14025,10 @@ impl ::mavframe::Message for LedControl {
     fn parse(payload: &[u8]) -> Self {
         LedControl::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         LedControl::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> LedControlView<'_> {
         LedControlView::new(payload)
@@ -14782,49 +14050,41 @@ impl<'a> LedControlView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> LedControl {
         LedControl::from_view(self)
     }
-
     /// Reads [`LedControl::target_system`](LedControl::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`LedControl::target_component`](LedControl::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`LedControl::instance`](LedControl::instance) (`instance` at offset 2).
     #[inline]
     pub fn instance(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 2)
     }
-
     /// Reads [`LedControl::pattern`](LedControl::pattern) (`pattern` at offset 3).
     #[inline]
     pub fn pattern(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 3)
     }
-
     /// Reads [`LedControl::custom_len`](LedControl::custom_len) (`custom_len` at offset 4).
     #[inline]
     pub fn custom_len(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`LedControl::custom_bytes`](LedControl::custom_bytes) (`custom_bytes` at offset 5).
     #[inline]
     pub fn custom_bytes(&self) -> ::mavframe::field::ArrayView<'a, u8, 24> {
@@ -14849,42 +14109,35 @@ impl<'a> LedControlMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> LedControlView<'_> {
         LedControlView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `instance` field.
     #[inline]
     pub fn set_instance(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `pattern` field.
     #[inline]
     pub fn set_pattern(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 3)
     }
-
     /// Sets the `custom_len` field.
     #[inline]
     pub fn set_custom_len(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `custom_bytes` field.
     #[inline]
     pub fn set_custom_bytes(&mut self, value: &[u8; 24]) {
@@ -15032,7 +14285,6 @@ impl MagCalProgress {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -15050,13 +14302,11 @@ impl MagCalProgress {
             direction_z: ::mavframe::field::read::<f32>(p, 8),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &MagCalProgressView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -15081,12 +14331,10 @@ impl ::mavframe::Message for MagCalProgress {
     fn parse(payload: &[u8]) -> Self {
         MagCalProgress::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         MagCalProgress::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> MagCalProgressView<'_> {
         MagCalProgressView::new(payload)
@@ -15108,31 +14356,26 @@ impl<'a> MagCalProgressView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> MagCalProgress {
         MagCalProgress::from_view(self)
     }
-
     /// Reads [`MagCalProgress::compass_id`](MagCalProgress::compass_id) (`compass_id` at offset 12).
     #[inline]
     pub fn compass_id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 12)
     }
-
     /// Reads [`MagCalProgress::cal_mask`](MagCalProgress::cal_mask) (`cal_mask` at offset 13).
     #[inline]
     pub fn cal_mask(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 13)
     }
-
     /// Reads [`MagCalProgress::cal_status`](MagCalProgress::cal_status) (`cal_status` at offset 14).
     #[inline]
     pub fn cal_status(&self) -> super::common::MagCalStatus {
@@ -15140,37 +14383,31 @@ impl<'a> MagCalProgressView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 14),
         )
     }
-
     /// Reads [`MagCalProgress::attempt`](MagCalProgress::attempt) (`attempt` at offset 15).
     #[inline]
     pub fn attempt(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 15)
     }
-
     /// Reads [`MagCalProgress::completion_pct`](MagCalProgress::completion_pct) (`completion_pct` at offset 16).
     #[inline]
     pub fn completion_pct(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 16)
     }
-
     /// Reads [`MagCalProgress::completion_mask`](MagCalProgress::completion_mask) (`completion_mask` at offset 17).
     #[inline]
     pub fn completion_mask(&self) -> ::mavframe::field::ArrayView<'a, u8, 10> {
         ::mavframe::field::ArrayView::new(self.payload, 17)
     }
-
     /// Reads [`MagCalProgress::direction_x`](MagCalProgress::direction_x) (`direction_x` at offset 0).
     #[inline]
     pub fn direction_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`MagCalProgress::direction_y`](MagCalProgress::direction_y) (`direction_y` at offset 4).
     #[inline]
     pub fn direction_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`MagCalProgress::direction_z`](MagCalProgress::direction_z) (`direction_z` at offset 8).
     #[inline]
     pub fn direction_z(&self) -> f32 {
@@ -15195,60 +14432,50 @@ impl<'a> MagCalProgressMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> MagCalProgressView<'_> {
         MagCalProgressView::new(self.payload)
     }
-
     /// Sets the `compass_id` field.
     #[inline]
     pub fn set_compass_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `cal_mask` field.
     #[inline]
     pub fn set_cal_mask(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
-
     /// Sets the `cal_status` field.
     #[inline]
     pub fn set_cal_status(&mut self, value: super::common::MagCalStatus) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 14)
     }
-
     /// Sets the `attempt` field.
     #[inline]
     pub fn set_attempt(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 15)
     }
-
     /// Sets the `completion_pct` field.
     #[inline]
     pub fn set_completion_pct(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `completion_mask` field.
     #[inline]
     pub fn set_completion_mask(&mut self, value: &[u8; 10]) {
         ::mavframe::field::write_array(self.payload, 17, value)
     }
-
     /// Sets the `direction_x` field.
     #[inline]
     pub fn set_direction_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `direction_y` field.
     #[inline]
     pub fn set_direction_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `direction_z` field.
     #[inline]
     pub fn set_direction_z(&mut self, value: f32) {
@@ -15376,7 +14603,6 @@ impl EkfStatusReport {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -15392,13 +14618,11 @@ impl EkfStatusReport {
             airspeed_variance: ::mavframe::field::read::<f32>(p, 22),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EkfStatusReportView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -15421,12 +14645,10 @@ impl ::mavframe::Message for EkfStatusReport {
     fn parse(payload: &[u8]) -> Self {
         EkfStatusReport::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EkfStatusReport::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EkfStatusReportView<'_> {
         EkfStatusReportView::new(payload)
@@ -15448,19 +14670,16 @@ impl<'a> EkfStatusReportView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EkfStatusReport {
         EkfStatusReport::from_view(self)
     }
-
     /// Reads [`EkfStatusReport::flags`](EkfStatusReport::flags) (`flags` at offset 20).
     #[inline]
     pub fn flags(&self) -> EkfStatusFlags {
@@ -15468,37 +14687,31 @@ impl<'a> EkfStatusReportView<'a> {
             ::mavframe::field::read::<u16>(self.payload, 20),
         )
     }
-
     /// Reads [`EkfStatusReport::velocity_variance`](EkfStatusReport::velocity_variance) (`velocity_variance` at offset 0).
     #[inline]
     pub fn velocity_variance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`EkfStatusReport::pos_horiz_variance`](EkfStatusReport::pos_horiz_variance) (`pos_horiz_variance` at offset 4).
     #[inline]
     pub fn pos_horiz_variance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`EkfStatusReport::pos_vert_variance`](EkfStatusReport::pos_vert_variance) (`pos_vert_variance` at offset 8).
     #[inline]
     pub fn pos_vert_variance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`EkfStatusReport::compass_variance`](EkfStatusReport::compass_variance) (`compass_variance` at offset 12).
     #[inline]
     pub fn compass_variance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`EkfStatusReport::terrain_alt_variance`](EkfStatusReport::terrain_alt_variance) (`terrain_alt_variance` at offset 16).
     #[inline]
     pub fn terrain_alt_variance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`EkfStatusReport::airspeed_variance`](EkfStatusReport::airspeed_variance) (`airspeed_variance` at offset 22).
     #[inline]
     pub fn airspeed_variance(&self) -> f32 {
@@ -15523,48 +14736,40 @@ impl<'a> EkfStatusReportMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EkfStatusReportView<'_> {
         EkfStatusReportView::new(self.payload)
     }
-
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: EkfStatusFlags) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 20)
     }
-
     /// Sets the `velocity_variance` field.
     #[inline]
     pub fn set_velocity_variance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `pos_horiz_variance` field.
     #[inline]
     pub fn set_pos_horiz_variance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `pos_vert_variance` field.
     #[inline]
     pub fn set_pos_vert_variance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `compass_variance` field.
     #[inline]
     pub fn set_compass_variance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `terrain_alt_variance` field.
     #[inline]
     pub fn set_terrain_alt_variance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `airspeed_variance` field.
     #[inline]
     pub fn set_airspeed_variance(&mut self, value: f32) {
@@ -15735,7 +14940,6 @@ impl PidTuning {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -15751,13 +14955,11 @@ impl PidTuning {
             pdmod: ::mavframe::field::read::<f32>(p, 29),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &PidTuningView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -15782,12 +14984,10 @@ impl ::mavframe::Message for PidTuning {
     fn parse(payload: &[u8]) -> Self {
         PidTuning::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         PidTuning::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> PidTuningView<'_> {
         PidTuningView::new(payload)
@@ -15809,67 +15009,56 @@ impl<'a> PidTuningView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> PidTuning {
         PidTuning::from_view(self)
     }
-
     /// Reads [`PidTuning::axis`](PidTuning::axis) (`axis` at offset 24).
     #[inline]
     pub fn axis(&self) -> PidTuningAxis {
         PidTuningAxis::from_raw(::mavframe::field::read::<u8>(self.payload, 24))
     }
-
     /// Reads [`PidTuning::desired`](PidTuning::desired) (`desired` at offset 0).
     #[inline]
     pub fn desired(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`PidTuning::achieved`](PidTuning::achieved) (`achieved` at offset 4).
     #[inline]
     pub fn achieved(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`PidTuning::ff`](PidTuning::ff) (`FF` at offset 8).
     #[inline]
     pub fn ff(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`PidTuning::p`](PidTuning::p) (`P` at offset 12).
     #[inline]
     pub fn p(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`PidTuning::i`](PidTuning::i) (`I` at offset 16).
     #[inline]
     pub fn i(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`PidTuning::d`](PidTuning::d) (`D` at offset 20).
     #[inline]
     pub fn d(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`PidTuning::srate`](PidTuning::srate) (`SRate` at offset 25).
     #[inline]
     pub fn srate(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 25)
     }
-
     /// Reads [`PidTuning::pdmod`](PidTuning::pdmod) (`PDmod` at offset 29).
     #[inline]
     pub fn pdmod(&self) -> f32 {
@@ -15894,60 +15083,50 @@ impl<'a> PidTuningMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> PidTuningView<'_> {
         PidTuningView::new(self.payload)
     }
-
     /// Sets the `axis` field.
     #[inline]
     pub fn set_axis(&mut self, value: PidTuningAxis) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 24)
     }
-
     /// Sets the `desired` field.
     #[inline]
     pub fn set_desired(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `achieved` field.
     #[inline]
     pub fn set_achieved(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `FF` field.
     #[inline]
     pub fn set_ff(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `P` field.
     #[inline]
     pub fn set_p(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `I` field.
     #[inline]
     pub fn set_i(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `D` field.
     #[inline]
     pub fn set_d(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `SRate` field.
     #[inline]
     pub fn set_srate(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 25)
     }
-
     /// Sets the `PDmod` field.
     #[inline]
     pub fn set_pdmod(&mut self, value: f32) {
@@ -16103,7 +15282,6 @@ impl Deepstall {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16120,13 +15298,11 @@ impl Deepstall {
             stage: DeepstallStage::from_raw(::mavframe::field::read::<u8>(p, 36)),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &DeepstallView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -16152,12 +15328,10 @@ impl ::mavframe::Message for Deepstall {
     fn parse(payload: &[u8]) -> Self {
         Deepstall::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Deepstall::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> DeepstallView<'_> {
         DeepstallView::new(payload)
@@ -16179,73 +15353,61 @@ impl<'a> DeepstallView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Deepstall {
         Deepstall::from_view(self)
     }
-
     /// Reads [`Deepstall::landing_lat`](Deepstall::landing_lat) (`landing_lat` at offset 0).
     #[inline]
     pub fn landing_lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 0)
     }
-
     /// Reads [`Deepstall::landing_lon`](Deepstall::landing_lon) (`landing_lon` at offset 4).
     #[inline]
     pub fn landing_lon(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`Deepstall::path_lat`](Deepstall::path_lat) (`path_lat` at offset 8).
     #[inline]
     pub fn path_lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`Deepstall::path_lon`](Deepstall::path_lon) (`path_lon` at offset 12).
     #[inline]
     pub fn path_lon(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 12)
     }
-
     /// Reads [`Deepstall::arc_entry_lat`](Deepstall::arc_entry_lat) (`arc_entry_lat` at offset 16).
     #[inline]
     pub fn arc_entry_lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 16)
     }
-
     /// Reads [`Deepstall::arc_entry_lon`](Deepstall::arc_entry_lon) (`arc_entry_lon` at offset 20).
     #[inline]
     pub fn arc_entry_lon(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 20)
     }
-
     /// Reads [`Deepstall::altitude`](Deepstall::altitude) (`altitude` at offset 24).
     #[inline]
     pub fn altitude(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`Deepstall::expected_travel_distance`](Deepstall::expected_travel_distance) (`expected_travel_distance` at offset 28).
     #[inline]
     pub fn expected_travel_distance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`Deepstall::cross_track_error`](Deepstall::cross_track_error) (`cross_track_error` at offset 32).
     #[inline]
     pub fn cross_track_error(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`Deepstall::stage`](Deepstall::stage) (`stage` at offset 36).
     #[inline]
     pub fn stage(&self) -> DeepstallStage {
@@ -16270,66 +15432,55 @@ impl<'a> DeepstallMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> DeepstallView<'_> {
         DeepstallView::new(self.payload)
     }
-
     /// Sets the `landing_lat` field.
     #[inline]
     pub fn set_landing_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `landing_lon` field.
     #[inline]
     pub fn set_landing_lon(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `path_lat` field.
     #[inline]
     pub fn set_path_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `path_lon` field.
     #[inline]
     pub fn set_path_lon(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `arc_entry_lat` field.
     #[inline]
     pub fn set_arc_entry_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `arc_entry_lon` field.
     #[inline]
     pub fn set_arc_entry_lon(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `altitude` field.
     #[inline]
     pub fn set_altitude(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `expected_travel_distance` field.
     #[inline]
     pub fn set_expected_travel_distance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `cross_track_error` field.
     #[inline]
     pub fn set_cross_track_error(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `stage` field.
     #[inline]
     pub fn set_stage(&mut self, value: DeepstallStage) {
@@ -16514,7 +15665,6 @@ impl GimbalReport {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16533,13 +15683,11 @@ impl GimbalReport {
             joint_az: ::mavframe::field::read::<f32>(p, 36),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GimbalReportView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -16567,12 +15715,10 @@ impl ::mavframe::Message for GimbalReport {
     fn parse(payload: &[u8]) -> Self {
         GimbalReport::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GimbalReport::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GimbalReportView<'_> {
         GimbalReportView::new(payload)
@@ -16594,85 +15740,71 @@ impl<'a> GimbalReportView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GimbalReport {
         GimbalReport::from_view(self)
     }
-
     /// Reads [`GimbalReport::target_system`](GimbalReport::target_system) (`target_system` at offset 40).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 40)
     }
-
     /// Reads [`GimbalReport::target_component`](GimbalReport::target_component) (`target_component` at offset 41).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 41)
     }
-
     /// Reads [`GimbalReport::delta_time`](GimbalReport::delta_time) (`delta_time` at offset 0).
     #[inline]
     pub fn delta_time(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`GimbalReport::delta_angle_x`](GimbalReport::delta_angle_x) (`delta_angle_x` at offset 4).
     #[inline]
     pub fn delta_angle_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`GimbalReport::delta_angle_y`](GimbalReport::delta_angle_y) (`delta_angle_y` at offset 8).
     #[inline]
     pub fn delta_angle_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`GimbalReport::delta_angle_z`](GimbalReport::delta_angle_z) (`delta_angle_z` at offset 12).
     #[inline]
     pub fn delta_angle_z(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`GimbalReport::delta_velocity_x`](GimbalReport::delta_velocity_x) (`delta_velocity_x` at offset 16).
     #[inline]
     pub fn delta_velocity_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`GimbalReport::delta_velocity_y`](GimbalReport::delta_velocity_y) (`delta_velocity_y` at offset 20).
     #[inline]
     pub fn delta_velocity_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`GimbalReport::delta_velocity_z`](GimbalReport::delta_velocity_z) (`delta_velocity_z` at offset 24).
     #[inline]
     pub fn delta_velocity_z(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`GimbalReport::joint_roll`](GimbalReport::joint_roll) (`joint_roll` at offset 28).
     #[inline]
     pub fn joint_roll(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`GimbalReport::joint_el`](GimbalReport::joint_el) (`joint_el` at offset 32).
     #[inline]
     pub fn joint_el(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`GimbalReport::joint_az`](GimbalReport::joint_az) (`joint_az` at offset 36).
     #[inline]
     pub fn joint_az(&self) -> f32 {
@@ -16697,78 +15829,65 @@ impl<'a> GimbalReportMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GimbalReportView<'_> {
         GimbalReportView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 41)
     }
-
     /// Sets the `delta_time` field.
     #[inline]
     pub fn set_delta_time(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `delta_angle_x` field.
     #[inline]
     pub fn set_delta_angle_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `delta_angle_y` field.
     #[inline]
     pub fn set_delta_angle_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `delta_angle_z` field.
     #[inline]
     pub fn set_delta_angle_z(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `delta_velocity_x` field.
     #[inline]
     pub fn set_delta_velocity_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `delta_velocity_y` field.
     #[inline]
     pub fn set_delta_velocity_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `delta_velocity_z` field.
     #[inline]
     pub fn set_delta_velocity_z(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `joint_roll` field.
     #[inline]
     pub fn set_joint_roll(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `joint_el` field.
     #[inline]
     pub fn set_joint_el(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `joint_az` field.
     #[inline]
     pub fn set_joint_az(&mut self, value: f32) {
@@ -16869,7 +15988,6 @@ impl GimbalControl {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16881,13 +15999,11 @@ impl GimbalControl {
             demanded_rate_z: ::mavframe::field::read::<f32>(p, 8),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GimbalControlView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -16908,12 +16024,10 @@ impl ::mavframe::Message for GimbalControl {
     fn parse(payload: &[u8]) -> Self {
         GimbalControl::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GimbalControl::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GimbalControlView<'_> {
         GimbalControlView::new(payload)
@@ -16935,43 +16049,36 @@ impl<'a> GimbalControlView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GimbalControl {
         GimbalControl::from_view(self)
     }
-
     /// Reads [`GimbalControl::target_system`](GimbalControl::target_system) (`target_system` at offset 12).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 12)
     }
-
     /// Reads [`GimbalControl::target_component`](GimbalControl::target_component) (`target_component` at offset 13).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 13)
     }
-
     /// Reads [`GimbalControl::demanded_rate_x`](GimbalControl::demanded_rate_x) (`demanded_rate_x` at offset 0).
     #[inline]
     pub fn demanded_rate_x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`GimbalControl::demanded_rate_y`](GimbalControl::demanded_rate_y) (`demanded_rate_y` at offset 4).
     #[inline]
     pub fn demanded_rate_y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`GimbalControl::demanded_rate_z`](GimbalControl::demanded_rate_z) (`demanded_rate_z` at offset 8).
     #[inline]
     pub fn demanded_rate_z(&self) -> f32 {
@@ -16996,36 +16103,30 @@ impl<'a> GimbalControlMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GimbalControlView<'_> {
         GimbalControlView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 13)
     }
-
     /// Sets the `demanded_rate_x` field.
     #[inline]
     pub fn set_demanded_rate_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `demanded_rate_y` field.
     #[inline]
     pub fn set_demanded_rate_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `demanded_rate_z` field.
     #[inline]
     pub fn set_demanded_rate_z(&mut self, value: f32) {
@@ -17123,7 +16224,6 @@ impl GimbalTorqueCmdReport {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17135,13 +16235,11 @@ impl GimbalTorqueCmdReport {
             az_torque_cmd: ::mavframe::field::read::<i16>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GimbalTorqueCmdReportView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -17162,12 +16260,10 @@ impl ::mavframe::Message for GimbalTorqueCmdReport {
     fn parse(payload: &[u8]) -> Self {
         GimbalTorqueCmdReport::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GimbalTorqueCmdReport::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GimbalTorqueCmdReportView<'_> {
         GimbalTorqueCmdReportView::new(payload)
@@ -17189,43 +16285,36 @@ impl<'a> GimbalTorqueCmdReportView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GimbalTorqueCmdReport {
         GimbalTorqueCmdReport::from_view(self)
     }
-
     /// Reads [`GimbalTorqueCmdReport::target_system`](GimbalTorqueCmdReport::target_system) (`target_system` at offset 6).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 6)
     }
-
     /// Reads [`GimbalTorqueCmdReport::target_component`](GimbalTorqueCmdReport::target_component) (`target_component` at offset 7).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 7)
     }
-
     /// Reads [`GimbalTorqueCmdReport::rl_torque_cmd`](GimbalTorqueCmdReport::rl_torque_cmd) (`rl_torque_cmd` at offset 0).
     #[inline]
     pub fn rl_torque_cmd(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 0)
     }
-
     /// Reads [`GimbalTorqueCmdReport::el_torque_cmd`](GimbalTorqueCmdReport::el_torque_cmd) (`el_torque_cmd` at offset 2).
     #[inline]
     pub fn el_torque_cmd(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 2)
     }
-
     /// Reads [`GimbalTorqueCmdReport::az_torque_cmd`](GimbalTorqueCmdReport::az_torque_cmd) (`az_torque_cmd` at offset 4).
     #[inline]
     pub fn az_torque_cmd(&self) -> i16 {
@@ -17250,36 +16339,30 @@ impl<'a> GimbalTorqueCmdReportMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GimbalTorqueCmdReportView<'_> {
         GimbalTorqueCmdReportView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
-
     /// Sets the `rl_torque_cmd` field.
     #[inline]
     pub fn set_rl_torque_cmd(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `el_torque_cmd` field.
     #[inline]
     pub fn set_el_torque_cmd(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `az_torque_cmd` field.
     #[inline]
     pub fn set_az_torque_cmd(&mut self, value: i16) {
@@ -17358,7 +16441,6 @@ impl GoproHeartbeat {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17372,13 +16454,11 @@ impl GoproHeartbeat {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GoproHeartbeatView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -17397,12 +16477,10 @@ impl ::mavframe::Message for GoproHeartbeat {
     fn parse(payload: &[u8]) -> Self {
         GoproHeartbeat::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproHeartbeat::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GoproHeartbeatView<'_> {
         GoproHeartbeatView::new(payload)
@@ -17424,31 +16502,26 @@ impl<'a> GoproHeartbeatView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GoproHeartbeat {
         GoproHeartbeat::from_view(self)
     }
-
     /// Reads [`GoproHeartbeat::status`](GoproHeartbeat::status) (`status` at offset 0).
     #[inline]
     pub fn status(&self) -> GoproHeartbeatStatus {
         GoproHeartbeatStatus::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
-
     /// Reads [`GoproHeartbeat::capture_mode`](GoproHeartbeat::capture_mode) (`capture_mode` at offset 1).
     #[inline]
     pub fn capture_mode(&self) -> GoproCaptureMode {
         GoproCaptureMode::from_raw(::mavframe::field::read::<u8>(self.payload, 1))
     }
-
     /// Reads [`GoproHeartbeat::flags`](GoproHeartbeat::flags) (`flags` at offset 2).
     #[inline]
     pub fn flags(&self) -> GoproHeartbeatFlags {
@@ -17475,24 +16548,20 @@ impl<'a> GoproHeartbeatMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GoproHeartbeatView<'_> {
         GoproHeartbeatView::new(self.payload)
     }
-
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: GoproHeartbeatStatus) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
-
     /// Sets the `capture_mode` field.
     #[inline]
     pub fn set_capture_mode(&mut self, value: GoproCaptureMode) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 1)
     }
-
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: GoproHeartbeatFlags) {
@@ -17568,7 +16637,6 @@ impl GoproGetRequest {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17578,13 +16646,11 @@ impl GoproGetRequest {
             cmd_id: GoproCommand::from_raw(::mavframe::field::read::<u8>(p, 2)),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GoproGetRequestView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -17603,12 +16669,10 @@ impl ::mavframe::Message for GoproGetRequest {
     fn parse(payload: &[u8]) -> Self {
         GoproGetRequest::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproGetRequest::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GoproGetRequestView<'_> {
         GoproGetRequestView::new(payload)
@@ -17630,31 +16694,26 @@ impl<'a> GoproGetRequestView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GoproGetRequest {
         GoproGetRequest::from_view(self)
     }
-
     /// Reads [`GoproGetRequest::target_system`](GoproGetRequest::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`GoproGetRequest::target_component`](GoproGetRequest::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`GoproGetRequest::cmd_id`](GoproGetRequest::cmd_id) (`cmd_id` at offset 2).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
@@ -17679,24 +16738,20 @@ impl<'a> GoproGetRequestMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GoproGetRequestView<'_> {
         GoproGetRequestView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
@@ -17774,7 +16829,6 @@ impl GoproGetResponse {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17784,13 +16838,11 @@ impl GoproGetResponse {
             value: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GoproGetResponseView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -17809,12 +16861,10 @@ impl ::mavframe::Message for GoproGetResponse {
     fn parse(payload: &[u8]) -> Self {
         GoproGetResponse::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproGetResponse::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GoproGetResponseView<'_> {
         GoproGetResponseView::new(payload)
@@ -17836,31 +16886,26 @@ impl<'a> GoproGetResponseView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GoproGetResponse {
         GoproGetResponse::from_view(self)
     }
-
     /// Reads [`GoproGetResponse::cmd_id`](GoproGetResponse::cmd_id) (`cmd_id` at offset 0).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
         GoproCommand::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
-
     /// Reads [`GoproGetResponse::status`](GoproGetResponse::status) (`status` at offset 1).
     #[inline]
     pub fn status(&self) -> GoproRequestStatus {
         GoproRequestStatus::from_raw(::mavframe::field::read::<u8>(self.payload, 1))
     }
-
     /// Reads [`GoproGetResponse::value`](GoproGetResponse::value) (`value` at offset 2).
     #[inline]
     pub fn value(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
@@ -17885,24 +16930,20 @@ impl<'a> GoproGetResponseMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GoproGetResponseView<'_> {
         GoproGetResponseView::new(self.payload)
     }
-
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
-
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: GoproRequestStatus) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 1)
     }
-
     /// Sets the `value` field.
     #[inline]
     pub fn set_value(&mut self, value: &[u8; 4]) {
@@ -17990,7 +17031,6 @@ impl GoproSetRequest {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18001,13 +17041,11 @@ impl GoproSetRequest {
             value: ::mavframe::field::ArrayView::new(p, 3).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GoproSetRequestView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -18027,12 +17065,10 @@ impl ::mavframe::Message for GoproSetRequest {
     fn parse(payload: &[u8]) -> Self {
         GoproSetRequest::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproSetRequest::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GoproSetRequestView<'_> {
         GoproSetRequestView::new(payload)
@@ -18054,37 +17090,31 @@ impl<'a> GoproSetRequestView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GoproSetRequest {
         GoproSetRequest::from_view(self)
     }
-
     /// Reads [`GoproSetRequest::target_system`](GoproSetRequest::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`GoproSetRequest::target_component`](GoproSetRequest::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`GoproSetRequest::cmd_id`](GoproSetRequest::cmd_id) (`cmd_id` at offset 2).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
         GoproCommand::from_raw(::mavframe::field::read::<u8>(self.payload, 2))
     }
-
     /// Reads [`GoproSetRequest::value`](GoproSetRequest::value) (`value` at offset 3).
     #[inline]
     pub fn value(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
@@ -18109,30 +17139,25 @@ impl<'a> GoproSetRequestMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GoproSetRequestView<'_> {
         GoproSetRequestView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 2)
     }
-
     /// Sets the `value` field.
     #[inline]
     pub fn set_value(&mut self, value: &[u8; 4]) {
@@ -18198,7 +17223,6 @@ impl GoproSetResponse {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18207,13 +17231,11 @@ impl GoproSetResponse {
             status: GoproRequestStatus::from_raw(::mavframe::field::read::<u8>(p, 1)),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GoproSetResponseView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -18231,12 +17253,10 @@ impl ::mavframe::Message for GoproSetResponse {
     fn parse(payload: &[u8]) -> Self {
         GoproSetResponse::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GoproSetResponse::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GoproSetResponseView<'_> {
         GoproSetResponseView::new(payload)
@@ -18258,25 +17278,21 @@ impl<'a> GoproSetResponseView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GoproSetResponse {
         GoproSetResponse::from_view(self)
     }
-
     /// Reads [`GoproSetResponse::cmd_id`](GoproSetResponse::cmd_id) (`cmd_id` at offset 0).
     #[inline]
     pub fn cmd_id(&self) -> GoproCommand {
         GoproCommand::from_raw(::mavframe::field::read::<u8>(self.payload, 0))
     }
-
     /// Reads [`GoproSetResponse::status`](GoproSetResponse::status) (`status` at offset 1).
     #[inline]
     pub fn status(&self) -> GoproRequestStatus {
@@ -18301,18 +17317,15 @@ impl<'a> GoproSetResponseMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GoproSetResponseView<'_> {
         GoproSetResponseView::new(self.payload)
     }
-
     /// Sets the `cmd_id` field.
     #[inline]
     pub fn set_cmd_id(&mut self, value: GoproCommand) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 0)
     }
-
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: GoproRequestStatus) {
@@ -18379,7 +17392,6 @@ impl Rpm {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18388,13 +17400,11 @@ impl Rpm {
             rpm2: ::mavframe::field::read::<f32>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &RpmView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -18412,12 +17422,10 @@ impl ::mavframe::Message for Rpm {
     fn parse(payload: &[u8]) -> Self {
         Rpm::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Rpm::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> RpmView<'_> {
         RpmView::new(payload)
@@ -18439,25 +17447,21 @@ impl<'a> RpmView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Rpm {
         Rpm::from_view(self)
     }
-
     /// Reads [`Rpm::rpm1`](Rpm::rpm1) (`rpm1` at offset 0).
     #[inline]
     pub fn rpm1(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`Rpm::rpm2`](Rpm::rpm2) (`rpm2` at offset 4).
     #[inline]
     pub fn rpm2(&self) -> f32 {
@@ -18482,18 +17486,15 @@ impl<'a> RpmMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> RpmView<'_> {
         RpmView::new(self.payload)
     }
-
     /// Sets the `rpm1` field.
     #[inline]
     pub fn set_rpm1(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `rpm2` field.
     #[inline]
     pub fn set_rpm2(&mut self, value: f32) {
@@ -18649,7 +17650,6 @@ impl DeviceOpRead {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18666,13 +17666,11 @@ impl DeviceOpRead {
             bank: ::mavframe::field::read::<u8>(p, 51),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &DeviceOpReadView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -18715,12 +17713,10 @@ impl ::mavframe::Message for DeviceOpRead {
     fn parse(payload: &[u8]) -> Self {
         DeviceOpRead::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpRead::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> DeviceOpReadView<'_> {
         DeviceOpReadView::new(payload)
@@ -18742,73 +17738,61 @@ impl<'a> DeviceOpReadView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> DeviceOpRead {
         DeviceOpRead::from_view(self)
     }
-
     /// Reads [`DeviceOpRead::target_system`](DeviceOpRead::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`DeviceOpRead::target_component`](DeviceOpRead::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`DeviceOpRead::request_id`](DeviceOpRead::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`DeviceOpRead::bustype`](DeviceOpRead::bustype) (`bustype` at offset 6).
     #[inline]
     pub fn bustype(&self) -> DeviceOpBustype {
         DeviceOpBustype::from_raw(::mavframe::field::read::<u8>(self.payload, 6))
     }
-
     /// Reads [`DeviceOpRead::bus`](DeviceOpRead::bus) (`bus` at offset 7).
     #[inline]
     pub fn bus(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 7)
     }
-
     /// Reads [`DeviceOpRead::address`](DeviceOpRead::address) (`address` at offset 8).
     #[inline]
     pub fn address(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`DeviceOpRead::busname`](DeviceOpRead::busname) (`busname` at offset 9).
     #[inline]
     pub fn busname(&self) -> ::mavframe::field::CharArray<'a, 40> {
         ::mavframe::field::CharArray::new(self.payload, 9)
     }
-
     /// Reads [`DeviceOpRead::regstart`](DeviceOpRead::regstart) (`regstart` at offset 49).
     #[inline]
     pub fn regstart(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 49)
     }
-
     /// Reads [`DeviceOpRead::count`](DeviceOpRead::count) (`count` at offset 50).
     #[inline]
     pub fn count(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 50)
     }
-
     /// Reads [`DeviceOpRead::bank`](DeviceOpRead::bank) (`bank` at offset 51).
     #[inline]
     pub fn bank(&self) -> u8 {
@@ -18833,66 +17817,55 @@ impl<'a> DeviceOpReadMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> DeviceOpReadView<'_> {
         DeviceOpReadView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `bustype` field.
     #[inline]
     pub fn set_bustype(&mut self, value: DeviceOpBustype) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 6)
     }
-
     /// Sets the `bus` field.
     #[inline]
     pub fn set_bus(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
-
     /// Sets the `address` field.
     #[inline]
     pub fn set_address(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `busname` field.
     #[inline]
     pub fn set_busname(&mut self, value: &[u8; 40]) {
         ::mavframe::field::write_array(self.payload, 9, value)
     }
-
     /// Sets the `regstart` field.
     #[inline]
     pub fn set_regstart(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 49)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 50)
     }
-
     /// Sets the `bank` field.
     #[inline]
     pub fn set_bank(&mut self, value: u8) {
@@ -19003,7 +17976,6 @@ impl DeviceOpReadReply {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19016,13 +17988,11 @@ impl DeviceOpReadReply {
             bank: ::mavframe::field::read::<u8>(p, 135),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &DeviceOpReadReplyView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -19057,12 +18027,10 @@ impl ::mavframe::Message for DeviceOpReadReply {
     fn parse(payload: &[u8]) -> Self {
         DeviceOpReadReply::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpReadReply::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> DeviceOpReadReplyView<'_> {
         DeviceOpReadReplyView::new(payload)
@@ -19084,49 +18052,41 @@ impl<'a> DeviceOpReadReplyView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> DeviceOpReadReply {
         DeviceOpReadReply::from_view(self)
     }
-
     /// Reads [`DeviceOpReadReply::request_id`](DeviceOpReadReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`DeviceOpReadReply::result`](DeviceOpReadReply::result) (`result` at offset 4).
     #[inline]
     pub fn result(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`DeviceOpReadReply::regstart`](DeviceOpReadReply::regstart) (`regstart` at offset 5).
     #[inline]
     pub fn regstart(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`DeviceOpReadReply::count`](DeviceOpReadReply::count) (`count` at offset 6).
     #[inline]
     pub fn count(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 6)
     }
-
     /// Reads [`DeviceOpReadReply::data`](DeviceOpReadReply::data) (`data` at offset 7).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 128> {
         ::mavframe::field::ArrayView::new(self.payload, 7)
     }
-
     /// Reads [`DeviceOpReadReply::bank`](DeviceOpReadReply::bank) (`bank` at offset 135).
     #[inline]
     pub fn bank(&self) -> u8 {
@@ -19151,42 +18111,35 @@ impl<'a> DeviceOpReadReplyMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> DeviceOpReadReplyView<'_> {
         DeviceOpReadReplyView::new(self.payload)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `regstart` field.
     #[inline]
     pub fn set_regstart(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 128]) {
         ::mavframe::field::write_array(self.payload, 7, value)
     }
-
     /// Sets the `bank` field.
     #[inline]
     pub fn set_bank(&mut self, value: u8) {
@@ -19354,7 +18307,6 @@ impl DeviceOpWrite {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19372,13 +18324,11 @@ impl DeviceOpWrite {
             bank: ::mavframe::field::read::<u8>(p, 179),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &DeviceOpWriteView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -19423,12 +18373,10 @@ impl ::mavframe::Message for DeviceOpWrite {
     fn parse(payload: &[u8]) -> Self {
         DeviceOpWrite::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpWrite::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> DeviceOpWriteView<'_> {
         DeviceOpWriteView::new(payload)
@@ -19450,79 +18398,66 @@ impl<'a> DeviceOpWriteView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> DeviceOpWrite {
         DeviceOpWrite::from_view(self)
     }
-
     /// Reads [`DeviceOpWrite::target_system`](DeviceOpWrite::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`DeviceOpWrite::target_component`](DeviceOpWrite::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`DeviceOpWrite::request_id`](DeviceOpWrite::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`DeviceOpWrite::bustype`](DeviceOpWrite::bustype) (`bustype` at offset 6).
     #[inline]
     pub fn bustype(&self) -> DeviceOpBustype {
         DeviceOpBustype::from_raw(::mavframe::field::read::<u8>(self.payload, 6))
     }
-
     /// Reads [`DeviceOpWrite::bus`](DeviceOpWrite::bus) (`bus` at offset 7).
     #[inline]
     pub fn bus(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 7)
     }
-
     /// Reads [`DeviceOpWrite::address`](DeviceOpWrite::address) (`address` at offset 8).
     #[inline]
     pub fn address(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`DeviceOpWrite::busname`](DeviceOpWrite::busname) (`busname` at offset 9).
     #[inline]
     pub fn busname(&self) -> ::mavframe::field::CharArray<'a, 40> {
         ::mavframe::field::CharArray::new(self.payload, 9)
     }
-
     /// Reads [`DeviceOpWrite::regstart`](DeviceOpWrite::regstart) (`regstart` at offset 49).
     #[inline]
     pub fn regstart(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 49)
     }
-
     /// Reads [`DeviceOpWrite::count`](DeviceOpWrite::count) (`count` at offset 50).
     #[inline]
     pub fn count(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 50)
     }
-
     /// Reads [`DeviceOpWrite::data`](DeviceOpWrite::data) (`data` at offset 51).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 128> {
         ::mavframe::field::ArrayView::new(self.payload, 51)
     }
-
     /// Reads [`DeviceOpWrite::bank`](DeviceOpWrite::bank) (`bank` at offset 179).
     #[inline]
     pub fn bank(&self) -> u8 {
@@ -19547,72 +18482,60 @@ impl<'a> DeviceOpWriteMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> DeviceOpWriteView<'_> {
         DeviceOpWriteView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `bustype` field.
     #[inline]
     pub fn set_bustype(&mut self, value: DeviceOpBustype) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 6)
     }
-
     /// Sets the `bus` field.
     #[inline]
     pub fn set_bus(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 7)
     }
-
     /// Sets the `address` field.
     #[inline]
     pub fn set_address(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `busname` field.
     #[inline]
     pub fn set_busname(&mut self, value: &[u8; 40]) {
         ::mavframe::field::write_array(self.payload, 9, value)
     }
-
     /// Sets the `regstart` field.
     #[inline]
     pub fn set_regstart(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 49)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 50)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 128]) {
         ::mavframe::field::write_array(self.payload, 51, value)
     }
-
     /// Sets the `bank` field.
     #[inline]
     pub fn set_bank(&mut self, value: u8) {
@@ -19677,7 +18600,6 @@ impl DeviceOpWriteReply {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19686,13 +18608,11 @@ impl DeviceOpWriteReply {
             result: ::mavframe::field::read::<u8>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &DeviceOpWriteReplyView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -19710,12 +18630,10 @@ impl ::mavframe::Message for DeviceOpWriteReply {
     fn parse(payload: &[u8]) -> Self {
         DeviceOpWriteReply::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         DeviceOpWriteReply::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> DeviceOpWriteReplyView<'_> {
         DeviceOpWriteReplyView::new(payload)
@@ -19737,25 +18655,21 @@ impl<'a> DeviceOpWriteReplyView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> DeviceOpWriteReply {
         DeviceOpWriteReply::from_view(self)
     }
-
     /// Reads [`DeviceOpWriteReply::request_id`](DeviceOpWriteReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`DeviceOpWriteReply::result`](DeviceOpWriteReply::result) (`result` at offset 4).
     #[inline]
     pub fn result(&self) -> u8 {
@@ -19780,18 +18694,15 @@ impl<'a> DeviceOpWriteReplyMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> DeviceOpWriteReplyView<'_> {
         DeviceOpWriteReplyView::new(self.payload)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: u8) {
@@ -19918,7 +18829,6 @@ impl SecureCommand {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19932,13 +18842,11 @@ impl SecureCommand {
             data: ::mavframe::field::ArrayView::new(p, 12).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SecureCommandView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -19975,12 +18883,10 @@ impl ::mavframe::Message for SecureCommand {
     fn parse(payload: &[u8]) -> Self {
         SecureCommand::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SecureCommand::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SecureCommandView<'_> {
         SecureCommandView::new(payload)
@@ -20002,55 +18908,46 @@ impl<'a> SecureCommandView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SecureCommand {
         SecureCommand::from_view(self)
     }
-
     /// Reads [`SecureCommand::target_system`](SecureCommand::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`SecureCommand::target_component`](SecureCommand::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 9)
     }
-
     /// Reads [`SecureCommand::sequence`](SecureCommand::sequence) (`sequence` at offset 0).
     #[inline]
     pub fn sequence(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`SecureCommand::operation`](SecureCommand::operation) (`operation` at offset 4).
     #[inline]
     pub fn operation(&self) -> SecureCommandOp {
         SecureCommandOp::from_raw(::mavframe::field::read::<u32>(self.payload, 4))
     }
-
     /// Reads [`SecureCommand::data_length`](SecureCommand::data_length) (`data_length` at offset 10).
     #[inline]
     pub fn data_length(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 10)
     }
-
     /// Reads [`SecureCommand::sig_length`](SecureCommand::sig_length) (`sig_length` at offset 11).
     #[inline]
     pub fn sig_length(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 11)
     }
-
     /// Reads [`SecureCommand::data`](SecureCommand::data) (`data` at offset 12).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 220> {
@@ -20075,48 +18972,40 @@ impl<'a> SecureCommandMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SecureCommandView<'_> {
         SecureCommandView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
-
     /// Sets the `sequence` field.
     #[inline]
     pub fn set_sequence(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `operation` field.
     #[inline]
     pub fn set_operation(&mut self, value: SecureCommandOp) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 4)
     }
-
     /// Sets the `data_length` field.
     #[inline]
     pub fn set_data_length(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `sig_length` field.
     #[inline]
     pub fn set_sig_length(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 11)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 220]) {
@@ -20217,7 +19106,6 @@ impl SecureCommandReply {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20231,13 +19119,11 @@ impl SecureCommandReply {
             data: ::mavframe::field::ArrayView::new(p, 10).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SecureCommandReplyView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -20270,12 +19156,10 @@ impl ::mavframe::Message for SecureCommandReply {
     fn parse(payload: &[u8]) -> Self {
         SecureCommandReply::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SecureCommandReply::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SecureCommandReplyView<'_> {
         SecureCommandReplyView::new(payload)
@@ -20297,31 +19181,26 @@ impl<'a> SecureCommandReplyView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SecureCommandReply {
         SecureCommandReply::from_view(self)
     }
-
     /// Reads [`SecureCommandReply::sequence`](SecureCommandReply::sequence) (`sequence` at offset 0).
     #[inline]
     pub fn sequence(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`SecureCommandReply::operation`](SecureCommandReply::operation) (`operation` at offset 4).
     #[inline]
     pub fn operation(&self) -> SecureCommandOp {
         SecureCommandOp::from_raw(::mavframe::field::read::<u32>(self.payload, 4))
     }
-
     /// Reads [`SecureCommandReply::result`](SecureCommandReply::result) (`result` at offset 8).
     #[inline]
     pub fn result(&self) -> super::common::MavResult {
@@ -20329,13 +19208,11 @@ impl<'a> SecureCommandReplyView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 8),
         )
     }
-
     /// Reads [`SecureCommandReply::data_length`](SecureCommandReply::data_length) (`data_length` at offset 9).
     #[inline]
     pub fn data_length(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 9)
     }
-
     /// Reads [`SecureCommandReply::data`](SecureCommandReply::data) (`data` at offset 10).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 220> {
@@ -20360,36 +19237,30 @@ impl<'a> SecureCommandReplyMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SecureCommandReplyView<'_> {
         SecureCommandReplyView::new(self.payload)
     }
-
     /// Sets the `sequence` field.
     #[inline]
     pub fn set_sequence(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `operation` field.
     #[inline]
     pub fn set_operation(&mut self, value: SecureCommandOp) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 4)
     }
-
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: super::common::MavResult) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 8)
     }
-
     /// Sets the `data_length` field.
     #[inline]
     pub fn set_data_length(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 220]) {
@@ -20588,7 +19459,6 @@ impl AdapTuning {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20608,13 +19478,11 @@ impl AdapTuning {
             u: ::mavframe::field::read::<f32>(p, 44),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AdapTuningView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -20643,12 +19511,10 @@ impl ::mavframe::Message for AdapTuning {
     fn parse(payload: &[u8]) -> Self {
         AdapTuning::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AdapTuning::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AdapTuningView<'_> {
         AdapTuningView::new(payload)
@@ -20670,91 +19536,76 @@ impl<'a> AdapTuningView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> AdapTuning {
         AdapTuning::from_view(self)
     }
-
     /// Reads [`AdapTuning::axis`](AdapTuning::axis) (`axis` at offset 48).
     #[inline]
     pub fn axis(&self) -> PidTuningAxis {
         PidTuningAxis::from_raw(::mavframe::field::read::<u8>(self.payload, 48))
     }
-
     /// Reads [`AdapTuning::desired`](AdapTuning::desired) (`desired` at offset 0).
     #[inline]
     pub fn desired(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`AdapTuning::achieved`](AdapTuning::achieved) (`achieved` at offset 4).
     #[inline]
     pub fn achieved(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`AdapTuning::error`](AdapTuning::error) (`error` at offset 8).
     #[inline]
     pub fn error(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`AdapTuning::theta`](AdapTuning::theta) (`theta` at offset 12).
     #[inline]
     pub fn theta(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`AdapTuning::omega`](AdapTuning::omega) (`omega` at offset 16).
     #[inline]
     pub fn omega(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`AdapTuning::sigma`](AdapTuning::sigma) (`sigma` at offset 20).
     #[inline]
     pub fn sigma(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`AdapTuning::theta_dot`](AdapTuning::theta_dot) (`theta_dot` at offset 24).
     #[inline]
     pub fn theta_dot(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`AdapTuning::omega_dot`](AdapTuning::omega_dot) (`omega_dot` at offset 28).
     #[inline]
     pub fn omega_dot(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`AdapTuning::sigma_dot`](AdapTuning::sigma_dot) (`sigma_dot` at offset 32).
     #[inline]
     pub fn sigma_dot(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`AdapTuning::f`](AdapTuning::f) (`f` at offset 36).
     #[inline]
     pub fn f(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 36)
     }
-
     /// Reads [`AdapTuning::f_dot`](AdapTuning::f_dot) (`f_dot` at offset 40).
     #[inline]
     pub fn f_dot(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 40)
     }
-
     /// Reads [`AdapTuning::u`](AdapTuning::u) (`u` at offset 44).
     #[inline]
     pub fn u(&self) -> f32 {
@@ -20779,84 +19630,70 @@ impl<'a> AdapTuningMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AdapTuningView<'_> {
         AdapTuningView::new(self.payload)
     }
-
     /// Sets the `axis` field.
     #[inline]
     pub fn set_axis(&mut self, value: PidTuningAxis) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 48)
     }
-
     /// Sets the `desired` field.
     #[inline]
     pub fn set_desired(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `achieved` field.
     #[inline]
     pub fn set_achieved(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `error` field.
     #[inline]
     pub fn set_error(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `theta` field.
     #[inline]
     pub fn set_theta(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `omega` field.
     #[inline]
     pub fn set_omega(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `sigma` field.
     #[inline]
     pub fn set_sigma(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `theta_dot` field.
     #[inline]
     pub fn set_theta_dot(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `omega_dot` field.
     #[inline]
     pub fn set_omega_dot(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `sigma_dot` field.
     #[inline]
     pub fn set_sigma_dot(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `f` field.
     #[inline]
     pub fn set_f(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `f_dot` field.
     #[inline]
     pub fn set_f_dot(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `u` field.
     #[inline]
     pub fn set_u(&mut self, value: f32) {
@@ -20959,7 +19796,6 @@ impl VisionPositionDelta {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20971,13 +19807,11 @@ impl VisionPositionDelta {
             confidence: ::mavframe::field::read::<f32>(p, 40),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &VisionPositionDeltaView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -20998,12 +19832,10 @@ impl ::mavframe::Message for VisionPositionDelta {
     fn parse(payload: &[u8]) -> Self {
         VisionPositionDelta::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         VisionPositionDelta::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> VisionPositionDeltaView<'_> {
         VisionPositionDeltaView::new(payload)
@@ -21025,43 +19857,36 @@ impl<'a> VisionPositionDeltaView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> VisionPositionDelta {
         VisionPositionDelta::from_view(self)
     }
-
     /// Reads [`VisionPositionDelta::time_usec`](VisionPositionDelta::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
         ::mavframe::field::read::<u64>(self.payload, 0)
     }
-
     /// Reads [`VisionPositionDelta::time_delta_usec`](VisionPositionDelta::time_delta_usec) (`time_delta_usec` at offset 8).
     #[inline]
     pub fn time_delta_usec(&self) -> u64 {
         ::mavframe::field::read::<u64>(self.payload, 8)
     }
-
     /// Reads [`VisionPositionDelta::angle_delta`](VisionPositionDelta::angle_delta) (`angle_delta` at offset 16).
     #[inline]
     pub fn angle_delta(&self) -> ::mavframe::field::ArrayView<'a, f32, 3> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`VisionPositionDelta::position_delta`](VisionPositionDelta::position_delta) (`position_delta` at offset 28).
     #[inline]
     pub fn position_delta(&self) -> ::mavframe::field::ArrayView<'a, f32, 3> {
         ::mavframe::field::ArrayView::new(self.payload, 28)
     }
-
     /// Reads [`VisionPositionDelta::confidence`](VisionPositionDelta::confidence) (`confidence` at offset 40).
     #[inline]
     pub fn confidence(&self) -> f32 {
@@ -21086,36 +19911,30 @@ impl<'a> VisionPositionDeltaMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> VisionPositionDeltaView<'_> {
         VisionPositionDeltaView::new(self.payload)
     }
-
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `time_delta_usec` field.
     #[inline]
     pub fn set_time_delta_usec(&mut self, value: u64) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `angle_delta` field.
     #[inline]
     pub fn set_angle_delta(&mut self, value: &[f32; 3]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `position_delta` field.
     #[inline]
     pub fn set_position_delta(&mut self, value: &[f32; 3]) {
         ::mavframe::field::write_array(self.payload, 28, value)
     }
-
     /// Sets the `confidence` field.
     #[inline]
     pub fn set_confidence(&mut self, value: f32) {
@@ -21199,7 +20018,6 @@ impl AoaSsa {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21209,13 +20027,11 @@ impl AoaSsa {
             ssa: ::mavframe::field::read::<f32>(p, 12),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AoaSsaView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -21234,12 +20050,10 @@ impl ::mavframe::Message for AoaSsa {
     fn parse(payload: &[u8]) -> Self {
         AoaSsa::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AoaSsa::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AoaSsaView<'_> {
         AoaSsaView::new(payload)
@@ -21261,31 +20075,26 @@ impl<'a> AoaSsaView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> AoaSsa {
         AoaSsa::from_view(self)
     }
-
     /// Reads [`AoaSsa::time_usec`](AoaSsa::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
         ::mavframe::field::read::<u64>(self.payload, 0)
     }
-
     /// Reads [`AoaSsa::aoa`](AoaSsa::aoa) (`AOA` at offset 8).
     #[inline]
     pub fn aoa(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`AoaSsa::ssa`](AoaSsa::ssa) (`SSA` at offset 12).
     #[inline]
     pub fn ssa(&self) -> f32 {
@@ -21310,24 +20119,20 @@ impl<'a> AoaSsaMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AoaSsaView<'_> {
         AoaSsaView::new(self.payload)
     }
-
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `AOA` field.
     #[inline]
     pub fn set_aoa(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `SSA` field.
     #[inline]
     pub fn set_ssa(&mut self, value: f32) {
@@ -21442,7 +20247,6 @@ impl EscTelemetry1To4 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21455,13 +20259,11 @@ impl EscTelemetry1To4 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry1To4View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -21483,12 +20285,10 @@ impl ::mavframe::Message for EscTelemetry1To4 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry1To4::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry1To4::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry1To4View<'_> {
         EscTelemetry1To4View::new(payload)
@@ -21510,49 +20310,41 @@ impl<'a> EscTelemetry1To4View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry1To4 {
         EscTelemetry1To4::from_view(self)
     }
-
     /// Reads [`EscTelemetry1To4::temperature`](EscTelemetry1To4::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry1To4::voltage`](EscTelemetry1To4::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry1To4::current`](EscTelemetry1To4::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry1To4::totalcurrent`](EscTelemetry1To4::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry1To4::rpm`](EscTelemetry1To4::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry1To4::count`](EscTelemetry1To4::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -21577,42 +20369,35 @@ impl<'a> EscTelemetry1To4Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry1To4View<'_> {
         EscTelemetry1To4View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -21727,7 +20512,6 @@ impl EscTelemetry5To8 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21740,13 +20524,11 @@ impl EscTelemetry5To8 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry5To8View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -21768,12 +20550,10 @@ impl ::mavframe::Message for EscTelemetry5To8 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry5To8::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry5To8::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry5To8View<'_> {
         EscTelemetry5To8View::new(payload)
@@ -21795,49 +20575,41 @@ impl<'a> EscTelemetry5To8View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry5To8 {
         EscTelemetry5To8::from_view(self)
     }
-
     /// Reads [`EscTelemetry5To8::temperature`](EscTelemetry5To8::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry5To8::voltage`](EscTelemetry5To8::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry5To8::current`](EscTelemetry5To8::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry5To8::totalcurrent`](EscTelemetry5To8::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry5To8::rpm`](EscTelemetry5To8::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry5To8::count`](EscTelemetry5To8::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -21862,42 +20634,35 @@ impl<'a> EscTelemetry5To8Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry5To8View<'_> {
         EscTelemetry5To8View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -22012,7 +20777,6 @@ impl EscTelemetry9To12 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22025,13 +20789,11 @@ impl EscTelemetry9To12 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry9To12View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -22053,12 +20815,10 @@ impl ::mavframe::Message for EscTelemetry9To12 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry9To12::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry9To12::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry9To12View<'_> {
         EscTelemetry9To12View::new(payload)
@@ -22080,49 +20840,41 @@ impl<'a> EscTelemetry9To12View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry9To12 {
         EscTelemetry9To12::from_view(self)
     }
-
     /// Reads [`EscTelemetry9To12::temperature`](EscTelemetry9To12::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry9To12::voltage`](EscTelemetry9To12::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry9To12::current`](EscTelemetry9To12::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry9To12::totalcurrent`](EscTelemetry9To12::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry9To12::rpm`](EscTelemetry9To12::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry9To12::count`](EscTelemetry9To12::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -22147,42 +20899,35 @@ impl<'a> EscTelemetry9To12Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry9To12View<'_> {
         EscTelemetry9To12View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -22342,7 +21087,6 @@ impl OsdParamConfig {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22361,13 +21105,11 @@ impl OsdParamConfig {
             increment: ::mavframe::field::read::<f32>(p, 12),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &OsdParamConfigView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -22393,12 +21135,10 @@ impl ::mavframe::Message for OsdParamConfig {
     fn parse(payload: &[u8]) -> Self {
         OsdParamConfig::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamConfig::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> OsdParamConfigView<'_> {
         OsdParamConfigView::new(payload)
@@ -22420,73 +21160,61 @@ impl<'a> OsdParamConfigView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> OsdParamConfig {
         OsdParamConfig::from_view(self)
     }
-
     /// Reads [`OsdParamConfig::target_system`](OsdParamConfig::target_system) (`target_system` at offset 16).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 16)
     }
-
     /// Reads [`OsdParamConfig::target_component`](OsdParamConfig::target_component) (`target_component` at offset 17).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 17)
     }
-
     /// Reads [`OsdParamConfig::request_id`](OsdParamConfig::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`OsdParamConfig::osd_screen`](OsdParamConfig::osd_screen) (`osd_screen` at offset 18).
     #[inline]
     pub fn osd_screen(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 18)
     }
-
     /// Reads [`OsdParamConfig::osd_index`](OsdParamConfig::osd_index) (`osd_index` at offset 19).
     #[inline]
     pub fn osd_index(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 19)
     }
-
     /// Reads [`OsdParamConfig::param_id`](OsdParamConfig::param_id) (`param_id` at offset 20).
     #[inline]
     pub fn param_id(&self) -> ::mavframe::field::CharArray<'a, 16> {
         ::mavframe::field::CharArray::new(self.payload, 20)
     }
-
     /// Reads [`OsdParamConfig::config_type`](OsdParamConfig::config_type) (`config_type` at offset 36).
     #[inline]
     pub fn config_type(&self) -> OsdParamConfigType {
         OsdParamConfigType::from_raw(::mavframe::field::read::<u8>(self.payload, 36))
     }
-
     /// Reads [`OsdParamConfig::min_value`](OsdParamConfig::min_value) (`min_value` at offset 4).
     #[inline]
     pub fn min_value(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`OsdParamConfig::max_value`](OsdParamConfig::max_value) (`max_value` at offset 8).
     #[inline]
     pub fn max_value(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`OsdParamConfig::increment`](OsdParamConfig::increment) (`increment` at offset 12).
     #[inline]
     pub fn increment(&self) -> f32 {
@@ -22511,66 +21239,55 @@ impl<'a> OsdParamConfigMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> OsdParamConfigView<'_> {
         OsdParamConfigView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 17)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `osd_screen` field.
     #[inline]
     pub fn set_osd_screen(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `osd_index` field.
     #[inline]
     pub fn set_osd_index(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 19)
     }
-
     /// Sets the `param_id` field.
     #[inline]
     pub fn set_param_id(&mut self, value: &[u8; 16]) {
         ::mavframe::field::write_array(self.payload, 20, value)
     }
-
     /// Sets the `config_type` field.
     #[inline]
     pub fn set_config_type(&mut self, value: OsdParamConfigType) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 36)
     }
-
     /// Sets the `min_value` field.
     #[inline]
     pub fn set_min_value(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `max_value` field.
     #[inline]
     pub fn set_max_value(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `increment` field.
     #[inline]
     pub fn set_increment(&mut self, value: f32) {
@@ -22636,7 +21353,6 @@ impl OsdParamConfigReply {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22645,13 +21361,11 @@ impl OsdParamConfigReply {
             result: OsdParamConfigError::from_raw(::mavframe::field::read::<u8>(p, 4)),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &OsdParamConfigReplyView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -22669,12 +21383,10 @@ impl ::mavframe::Message for OsdParamConfigReply {
     fn parse(payload: &[u8]) -> Self {
         OsdParamConfigReply::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamConfigReply::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> OsdParamConfigReplyView<'_> {
         OsdParamConfigReplyView::new(payload)
@@ -22696,25 +21408,21 @@ impl<'a> OsdParamConfigReplyView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> OsdParamConfigReply {
         OsdParamConfigReply::from_view(self)
     }
-
     /// Reads [`OsdParamConfigReply::request_id`](OsdParamConfigReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`OsdParamConfigReply::result`](OsdParamConfigReply::result) (`result` at offset 4).
     #[inline]
     pub fn result(&self) -> OsdParamConfigError {
@@ -22739,18 +21447,15 @@ impl<'a> OsdParamConfigReplyMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> OsdParamConfigReplyView<'_> {
         OsdParamConfigReplyView::new(self.payload)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: OsdParamConfigError) {
@@ -22848,7 +21553,6 @@ impl OsdParamShowConfig {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22860,13 +21564,11 @@ impl OsdParamShowConfig {
             osd_index: ::mavframe::field::read::<u8>(p, 7),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &OsdParamShowConfigView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -22887,12 +21589,10 @@ impl ::mavframe::Message for OsdParamShowConfig {
     fn parse(payload: &[u8]) -> Self {
         OsdParamShowConfig::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamShowConfig::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> OsdParamShowConfigView<'_> {
         OsdParamShowConfigView::new(payload)
@@ -22914,43 +21614,36 @@ impl<'a> OsdParamShowConfigView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> OsdParamShowConfig {
         OsdParamShowConfig::from_view(self)
     }
-
     /// Reads [`OsdParamShowConfig::target_system`](OsdParamShowConfig::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`OsdParamShowConfig::target_component`](OsdParamShowConfig::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`OsdParamShowConfig::request_id`](OsdParamShowConfig::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`OsdParamShowConfig::osd_screen`](OsdParamShowConfig::osd_screen) (`osd_screen` at offset 6).
     #[inline]
     pub fn osd_screen(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 6)
     }
-
     /// Reads [`OsdParamShowConfig::osd_index`](OsdParamShowConfig::osd_index) (`osd_index` at offset 7).
     #[inline]
     pub fn osd_index(&self) -> u8 {
@@ -22975,36 +21668,30 @@ impl<'a> OsdParamShowConfigMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> OsdParamShowConfigView<'_> {
         OsdParamShowConfigView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `osd_screen` field.
     #[inline]
     pub fn set_osd_screen(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 6)
     }
-
     /// Sets the `osd_index` field.
     #[inline]
     pub fn set_osd_index(&mut self, value: u8) {
@@ -23132,7 +21819,6 @@ impl OsdParamShowConfigReply {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23148,13 +21834,11 @@ impl OsdParamShowConfigReply {
             increment: ::mavframe::field::read::<f32>(p, 12),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &OsdParamShowConfigReplyView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -23177,12 +21861,10 @@ impl ::mavframe::Message for OsdParamShowConfigReply {
     fn parse(payload: &[u8]) -> Self {
         OsdParamShowConfigReply::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         OsdParamShowConfigReply::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> OsdParamShowConfigReplyView<'_> {
         OsdParamShowConfigReplyView::new(payload)
@@ -23204,55 +21886,46 @@ impl<'a> OsdParamShowConfigReplyView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> OsdParamShowConfigReply {
         OsdParamShowConfigReply::from_view(self)
     }
-
     /// Reads [`OsdParamShowConfigReply::request_id`](OsdParamShowConfigReply::request_id) (`request_id` at offset 0).
     #[inline]
     pub fn request_id(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`OsdParamShowConfigReply::result`](OsdParamShowConfigReply::result) (`result` at offset 16).
     #[inline]
     pub fn result(&self) -> OsdParamConfigError {
         OsdParamConfigError::from_raw(::mavframe::field::read::<u8>(self.payload, 16))
     }
-
     /// Reads [`OsdParamShowConfigReply::param_id`](OsdParamShowConfigReply::param_id) (`param_id` at offset 17).
     #[inline]
     pub fn param_id(&self) -> ::mavframe::field::CharArray<'a, 16> {
         ::mavframe::field::CharArray::new(self.payload, 17)
     }
-
     /// Reads [`OsdParamShowConfigReply::config_type`](OsdParamShowConfigReply::config_type) (`config_type` at offset 33).
     #[inline]
     pub fn config_type(&self) -> OsdParamConfigType {
         OsdParamConfigType::from_raw(::mavframe::field::read::<u8>(self.payload, 33))
     }
-
     /// Reads [`OsdParamShowConfigReply::min_value`](OsdParamShowConfigReply::min_value) (`min_value` at offset 4).
     #[inline]
     pub fn min_value(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`OsdParamShowConfigReply::max_value`](OsdParamShowConfigReply::max_value) (`max_value` at offset 8).
     #[inline]
     pub fn max_value(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`OsdParamShowConfigReply::increment`](OsdParamShowConfigReply::increment) (`increment` at offset 12).
     #[inline]
     pub fn increment(&self) -> f32 {
@@ -23277,48 +21950,40 @@ impl<'a> OsdParamShowConfigReplyMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> OsdParamShowConfigReplyView<'_> {
         OsdParamShowConfigReplyView::new(self.payload)
     }
-
     /// Sets the `request_id` field.
     #[inline]
     pub fn set_request_id(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `result` field.
     #[inline]
     pub fn set_result(&mut self, value: OsdParamConfigError) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 16)
     }
-
     /// Sets the `param_id` field.
     #[inline]
     pub fn set_param_id(&mut self, value: &[u8; 16]) {
         ::mavframe::field::write_array(self.payload, 17, value)
     }
-
     /// Sets the `config_type` field.
     #[inline]
     pub fn set_config_type(&mut self, value: OsdParamConfigType) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 33)
     }
-
     /// Sets the `min_value` field.
     #[inline]
     pub fn set_min_value(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `max_value` field.
     #[inline]
     pub fn set_max_value(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `increment` field.
     #[inline]
     pub fn set_increment(&mut self, value: f32) {
@@ -23469,7 +22134,6 @@ impl ObstacleDistance3d {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23489,13 +22153,11 @@ impl ObstacleDistance3d {
             max_distance: ::mavframe::field::read::<f32>(p, 20),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &ObstacleDistance3dView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -23520,12 +22182,10 @@ impl ::mavframe::Message for ObstacleDistance3d {
     fn parse(payload: &[u8]) -> Self {
         ObstacleDistance3d::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         ObstacleDistance3d::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> ObstacleDistance3dView<'_> {
         ObstacleDistance3dView::new(payload)
@@ -23547,25 +22207,21 @@ impl<'a> ObstacleDistance3dView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> ObstacleDistance3d {
         ObstacleDistance3d::from_view(self)
     }
-
     /// Reads [`ObstacleDistance3d::time_boot_ms`](ObstacleDistance3d::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`ObstacleDistance3d::sensor_type`](ObstacleDistance3d::sensor_type) (`sensor_type` at offset 26).
     #[inline]
     pub fn sensor_type(&self) -> super::common::MavDistanceSensor {
@@ -23573,7 +22229,6 @@ impl<'a> ObstacleDistance3dView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 26),
         )
     }
-
     /// Reads [`ObstacleDistance3d::frame`](ObstacleDistance3d::frame) (`frame` at offset 27).
     #[inline]
     pub fn frame(&self) -> super::common::MavFrame {
@@ -23581,37 +22236,31 @@ impl<'a> ObstacleDistance3dView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 27),
         )
     }
-
     /// Reads [`ObstacleDistance3d::obstacle_id`](ObstacleDistance3d::obstacle_id) (`obstacle_id` at offset 24).
     #[inline]
     pub fn obstacle_id(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 24)
     }
-
     /// Reads [`ObstacleDistance3d::x`](ObstacleDistance3d::x) (`x` at offset 4).
     #[inline]
     pub fn x(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`ObstacleDistance3d::y`](ObstacleDistance3d::y) (`y` at offset 8).
     #[inline]
     pub fn y(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`ObstacleDistance3d::z`](ObstacleDistance3d::z) (`z` at offset 12).
     #[inline]
     pub fn z(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`ObstacleDistance3d::min_distance`](ObstacleDistance3d::min_distance) (`min_distance` at offset 16).
     #[inline]
     pub fn min_distance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`ObstacleDistance3d::max_distance`](ObstacleDistance3d::max_distance) (`max_distance` at offset 20).
     #[inline]
     pub fn max_distance(&self) -> f32 {
@@ -23636,60 +22285,50 @@ impl<'a> ObstacleDistance3dMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> ObstacleDistance3dView<'_> {
         ObstacleDistance3dView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `sensor_type` field.
     #[inline]
     pub fn set_sensor_type(&mut self, value: super::common::MavDistanceSensor) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 26)
     }
-
     /// Sets the `frame` field.
     #[inline]
     pub fn set_frame(&mut self, value: super::common::MavFrame) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 27)
     }
-
     /// Sets the `obstacle_id` field.
     #[inline]
     pub fn set_obstacle_id(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `x` field.
     #[inline]
     pub fn set_x(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `y` field.
     #[inline]
     pub fn set_y(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `z` field.
     #[inline]
     pub fn set_z(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `min_distance` field.
     #[inline]
     pub fn set_min_distance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `max_distance` field.
     #[inline]
     pub fn set_max_distance(&mut self, value: f32) {
@@ -23860,7 +22499,6 @@ impl WaterDepth {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23878,13 +22516,11 @@ impl WaterDepth {
             temperature: ::mavframe::field::read::<f32>(p, 32),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &WaterDepthView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -23911,12 +22547,10 @@ impl ::mavframe::Message for WaterDepth {
     fn parse(payload: &[u8]) -> Self {
         WaterDepth::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         WaterDepth::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> WaterDepthView<'_> {
         WaterDepthView::new(payload)
@@ -23938,79 +22572,66 @@ impl<'a> WaterDepthView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> WaterDepth {
         WaterDepth::from_view(self)
     }
-
     /// Reads [`WaterDepth::time_boot_ms`](WaterDepth::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`WaterDepth::id`](WaterDepth::id) (`id` at offset 36).
     #[inline]
     pub fn id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 36)
     }
-
     /// Reads [`WaterDepth::healthy`](WaterDepth::healthy) (`healthy` at offset 37).
     #[inline]
     pub fn healthy(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 37)
     }
-
     /// Reads [`WaterDepth::lat`](WaterDepth::lat) (`lat` at offset 4).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`WaterDepth::lng`](WaterDepth::lng) (`lng` at offset 8).
     #[inline]
     pub fn lng(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`WaterDepth::alt`](WaterDepth::alt) (`alt` at offset 12).
     #[inline]
     pub fn alt(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`WaterDepth::roll`](WaterDepth::roll) (`roll` at offset 16).
     #[inline]
     pub fn roll(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`WaterDepth::pitch`](WaterDepth::pitch) (`pitch` at offset 20).
     #[inline]
     pub fn pitch(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`WaterDepth::yaw`](WaterDepth::yaw) (`yaw` at offset 24).
     #[inline]
     pub fn yaw(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`WaterDepth::distance`](WaterDepth::distance) (`distance` at offset 28).
     #[inline]
     pub fn distance(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`WaterDepth::temperature`](WaterDepth::temperature) (`temperature` at offset 32).
     #[inline]
     pub fn temperature(&self) -> f32 {
@@ -24035,72 +22656,60 @@ impl<'a> WaterDepthMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> WaterDepthView<'_> {
         WaterDepthView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `id` field.
     #[inline]
     pub fn set_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `healthy` field.
     #[inline]
     pub fn set_healthy(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 37)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `lng` field.
     #[inline]
     pub fn set_lng(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `roll` field.
     #[inline]
     pub fn set_roll(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `pitch` field.
     #[inline]
     pub fn set_pitch(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `yaw` field.
     #[inline]
     pub fn set_yaw(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `distance` field.
     #[inline]
     pub fn set_distance(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: f32) {
@@ -24204,7 +22813,6 @@ impl McuStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24216,13 +22824,11 @@ impl McuStatus {
             mcu_voltage_max: ::mavframe::field::read::<u16>(p, 6),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &McuStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -24243,12 +22849,10 @@ impl ::mavframe::Message for McuStatus {
     fn parse(payload: &[u8]) -> Self {
         McuStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         McuStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> McuStatusView<'_> {
         McuStatusView::new(payload)
@@ -24270,43 +22874,36 @@ impl<'a> McuStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> McuStatus {
         McuStatus::from_view(self)
     }
-
     /// Reads [`McuStatus::id`](McuStatus::id) (`id` at offset 8).
     #[inline]
     pub fn id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`McuStatus::mcu_temperature`](McuStatus::mcu_temperature) (`MCU_temperature` at offset 0).
     #[inline]
     pub fn mcu_temperature(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 0)
     }
-
     /// Reads [`McuStatus::mcu_voltage`](McuStatus::mcu_voltage) (`MCU_voltage` at offset 2).
     #[inline]
     pub fn mcu_voltage(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 2)
     }
-
     /// Reads [`McuStatus::mcu_voltage_min`](McuStatus::mcu_voltage_min) (`MCU_voltage_min` at offset 4).
     #[inline]
     pub fn mcu_voltage_min(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 4)
     }
-
     /// Reads [`McuStatus::mcu_voltage_max`](McuStatus::mcu_voltage_max) (`MCU_voltage_max` at offset 6).
     #[inline]
     pub fn mcu_voltage_max(&self) -> u16 {
@@ -24331,36 +22928,30 @@ impl<'a> McuStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> McuStatusView<'_> {
         McuStatusView::new(self.payload)
     }
-
     /// Sets the `id` field.
     #[inline]
     pub fn set_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `MCU_temperature` field.
     #[inline]
     pub fn set_mcu_temperature(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `MCU_voltage` field.
     #[inline]
     pub fn set_mcu_voltage(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 2)
     }
-
     /// Sets the `MCU_voltage_min` field.
     #[inline]
     pub fn set_mcu_voltage_min(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `MCU_voltage_max` field.
     #[inline]
     pub fn set_mcu_voltage_max(&mut self, value: u16) {
@@ -24475,7 +23066,6 @@ impl EscTelemetry13To16 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24488,13 +23078,11 @@ impl EscTelemetry13To16 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry13To16View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -24516,12 +23104,10 @@ impl ::mavframe::Message for EscTelemetry13To16 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry13To16::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry13To16::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry13To16View<'_> {
         EscTelemetry13To16View::new(payload)
@@ -24543,49 +23129,41 @@ impl<'a> EscTelemetry13To16View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry13To16 {
         EscTelemetry13To16::from_view(self)
     }
-
     /// Reads [`EscTelemetry13To16::temperature`](EscTelemetry13To16::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry13To16::voltage`](EscTelemetry13To16::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry13To16::current`](EscTelemetry13To16::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry13To16::totalcurrent`](EscTelemetry13To16::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry13To16::rpm`](EscTelemetry13To16::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry13To16::count`](EscTelemetry13To16::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -24610,42 +23188,35 @@ impl<'a> EscTelemetry13To16Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry13To16View<'_> {
         EscTelemetry13To16View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -24760,7 +23331,6 @@ impl EscTelemetry17To20 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24773,13 +23343,11 @@ impl EscTelemetry17To20 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry17To20View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -24801,12 +23369,10 @@ impl ::mavframe::Message for EscTelemetry17To20 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry17To20::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry17To20::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry17To20View<'_> {
         EscTelemetry17To20View::new(payload)
@@ -24828,49 +23394,41 @@ impl<'a> EscTelemetry17To20View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry17To20 {
         EscTelemetry17To20::from_view(self)
     }
-
     /// Reads [`EscTelemetry17To20::temperature`](EscTelemetry17To20::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry17To20::voltage`](EscTelemetry17To20::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry17To20::current`](EscTelemetry17To20::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry17To20::totalcurrent`](EscTelemetry17To20::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry17To20::rpm`](EscTelemetry17To20::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry17To20::count`](EscTelemetry17To20::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -24895,42 +23453,35 @@ impl<'a> EscTelemetry17To20Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry17To20View<'_> {
         EscTelemetry17To20View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -25045,7 +23596,6 @@ impl EscTelemetry21To24 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25058,13 +23608,11 @@ impl EscTelemetry21To24 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry21To24View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -25086,12 +23634,10 @@ impl ::mavframe::Message for EscTelemetry21To24 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry21To24::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry21To24::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry21To24View<'_> {
         EscTelemetry21To24View::new(payload)
@@ -25113,49 +23659,41 @@ impl<'a> EscTelemetry21To24View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry21To24 {
         EscTelemetry21To24::from_view(self)
     }
-
     /// Reads [`EscTelemetry21To24::temperature`](EscTelemetry21To24::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry21To24::voltage`](EscTelemetry21To24::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry21To24::current`](EscTelemetry21To24::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry21To24::totalcurrent`](EscTelemetry21To24::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry21To24::rpm`](EscTelemetry21To24::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry21To24::count`](EscTelemetry21To24::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -25180,42 +23718,35 @@ impl<'a> EscTelemetry21To24Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry21To24View<'_> {
         EscTelemetry21To24View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -25330,7 +23861,6 @@ impl EscTelemetry25To28 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25343,13 +23873,11 @@ impl EscTelemetry25To28 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry25To28View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -25371,12 +23899,10 @@ impl ::mavframe::Message for EscTelemetry25To28 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry25To28::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry25To28::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry25To28View<'_> {
         EscTelemetry25To28View::new(payload)
@@ -25398,49 +23924,41 @@ impl<'a> EscTelemetry25To28View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry25To28 {
         EscTelemetry25To28::from_view(self)
     }
-
     /// Reads [`EscTelemetry25To28::temperature`](EscTelemetry25To28::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry25To28::voltage`](EscTelemetry25To28::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry25To28::current`](EscTelemetry25To28::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry25To28::totalcurrent`](EscTelemetry25To28::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry25To28::rpm`](EscTelemetry25To28::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry25To28::count`](EscTelemetry25To28::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -25465,42 +23983,35 @@ impl<'a> EscTelemetry25To28Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry25To28View<'_> {
         EscTelemetry25To28View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -25615,7 +24126,6 @@ impl EscTelemetry29To32 {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25628,13 +24138,11 @@ impl EscTelemetry29To32 {
             count: ::mavframe::field::ArrayView::new(p, 32).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &EscTelemetry29To32View<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -25656,12 +24164,10 @@ impl ::mavframe::Message for EscTelemetry29To32 {
     fn parse(payload: &[u8]) -> Self {
         EscTelemetry29To32::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         EscTelemetry29To32::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> EscTelemetry29To32View<'_> {
         EscTelemetry29To32View::new(payload)
@@ -25683,49 +24189,41 @@ impl<'a> EscTelemetry29To32View<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> EscTelemetry29To32 {
         EscTelemetry29To32::from_view(self)
     }
-
     /// Reads [`EscTelemetry29To32::temperature`](EscTelemetry29To32::temperature) (`temperature` at offset 40).
     #[inline]
     pub fn temperature(&self) -> ::mavframe::field::ArrayView<'a, u8, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`EscTelemetry29To32::voltage`](EscTelemetry29To32::voltage) (`voltage` at offset 0).
     #[inline]
     pub fn voltage(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 0)
     }
-
     /// Reads [`EscTelemetry29To32::current`](EscTelemetry29To32::current) (`current` at offset 8).
     #[inline]
     pub fn current(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 8)
     }
-
     /// Reads [`EscTelemetry29To32::totalcurrent`](EscTelemetry29To32::totalcurrent) (`totalcurrent` at offset 16).
     #[inline]
     pub fn totalcurrent(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 16)
     }
-
     /// Reads [`EscTelemetry29To32::rpm`](EscTelemetry29To32::rpm) (`rpm` at offset 24).
     #[inline]
     pub fn rpm(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
         ::mavframe::field::ArrayView::new(self.payload, 24)
     }
-
     /// Reads [`EscTelemetry29To32::count`](EscTelemetry29To32::count) (`count` at offset 32).
     #[inline]
     pub fn count(&self) -> ::mavframe::field::ArrayView<'a, u16, 4> {
@@ -25750,42 +24248,35 @@ impl<'a> EscTelemetry29To32Mut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> EscTelemetry29To32View<'_> {
         EscTelemetry29To32View::new(self.payload)
     }
-
     /// Sets the `temperature` field.
     #[inline]
     pub fn set_temperature(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `voltage` field.
     #[inline]
     pub fn set_voltage(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `current` field.
     #[inline]
     pub fn set_current(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `totalcurrent` field.
     #[inline]
     pub fn set_totalcurrent(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 16, value)
     }
-
     /// Sets the `rpm` field.
     #[inline]
     pub fn set_rpm(&mut self, value: &[u16; 4]) {
         ::mavframe::field::write_array(self.payload, 24, value)
     }
-
     /// Sets the `count` field.
     #[inline]
     pub fn set_count(&mut self, value: &[u16; 4]) {
@@ -25866,7 +24357,6 @@ impl NamedValueString {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25876,13 +24366,11 @@ impl NamedValueString {
             value: ::mavframe::field::CharArray::new(p, 14).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &NamedValueStringView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -25911,12 +24399,10 @@ impl ::mavframe::Message for NamedValueString {
     fn parse(payload: &[u8]) -> Self {
         NamedValueString::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         NamedValueString::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> NamedValueStringView<'_> {
         NamedValueStringView::new(payload)
@@ -25938,31 +24424,26 @@ impl<'a> NamedValueStringView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> NamedValueString {
         NamedValueString::from_view(self)
     }
-
     /// Reads [`NamedValueString::time_boot_ms`](NamedValueString::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`NamedValueString::name`](NamedValueString::name) (`name` at offset 4).
     #[inline]
     pub fn name(&self) -> ::mavframe::field::CharArray<'a, 10> {
         ::mavframe::field::CharArray::new(self.payload, 4)
     }
-
     /// Reads [`NamedValueString::value`](NamedValueString::value) (`value` at offset 14).
     #[inline]
     pub fn value(&self) -> ::mavframe::field::CharArray<'a, 64> {
@@ -25987,24 +24468,20 @@ impl<'a> NamedValueStringMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> NamedValueStringView<'_> {
         NamedValueStringView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `name` field.
     #[inline]
     pub fn set_name(&mut self, value: &[u8; 10]) {
         ::mavframe::field::write_array(self.payload, 4, value)
     }
-
     /// Sets the `value` field.
     #[inline]
     pub fn set_value(&mut self, value: &[u8; 64]) {

@@ -8,6 +8,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct AirlinkAuthResponseType(pub u8);
+
 impl AirlinkAuthResponseType {
     /// Login or password error
     pub const AIRLINK_ERROR_LOGIN_OR_PASS: Self = Self(0);
@@ -17,12 +18,10 @@ impl AirlinkAuthResponseType {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -148,7 +147,6 @@ impl AirlinkAuth {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -157,13 +155,11 @@ impl AirlinkAuth {
             password: ::mavframe::field::CharArray::new(p, 50).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AirlinkAuthView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -190,12 +186,10 @@ impl ::mavframe::Message for AirlinkAuth {
     fn parse(payload: &[u8]) -> Self {
         AirlinkAuth::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AirlinkAuth::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AirlinkAuthView<'_> {
         AirlinkAuthView::new(payload)
@@ -217,25 +211,21 @@ impl<'a> AirlinkAuthView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> AirlinkAuth {
         AirlinkAuth::from_view(self)
     }
-
     /// Reads [`AirlinkAuth::login`](AirlinkAuth::login) (`login` at offset 0).
     #[inline]
     pub fn login(&self) -> ::mavframe::field::CharArray<'a, 50> {
         ::mavframe::field::CharArray::new(self.payload, 0)
     }
-
     /// Reads [`AirlinkAuth::password`](AirlinkAuth::password) (`password` at offset 50).
     #[inline]
     pub fn password(&self) -> ::mavframe::field::CharArray<'a, 50> {
@@ -260,18 +250,15 @@ impl<'a> AirlinkAuthMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AirlinkAuthView<'_> {
         AirlinkAuthView::new(self.payload)
     }
-
     /// Sets the `login` field.
     #[inline]
     pub fn set_login(&mut self, value: &[u8; 50]) {
         ::mavframe::field::write_array(self.payload, 0, value)
     }
-
     /// Sets the `password` field.
     #[inline]
     pub fn set_password(&mut self, value: &[u8; 50]) {
@@ -326,7 +313,6 @@ impl AirlinkAuthResponse {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -336,13 +322,11 @@ impl AirlinkAuthResponse {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AirlinkAuthResponseView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -359,12 +343,10 @@ impl ::mavframe::Message for AirlinkAuthResponse {
     fn parse(payload: &[u8]) -> Self {
         AirlinkAuthResponse::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AirlinkAuthResponse::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AirlinkAuthResponseView<'_> {
         AirlinkAuthResponseView::new(payload)
@@ -386,19 +368,16 @@ impl<'a> AirlinkAuthResponseView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> AirlinkAuthResponse {
         AirlinkAuthResponse::from_view(self)
     }
-
     /// Reads [`AirlinkAuthResponse::resp_type`](AirlinkAuthResponse::resp_type) (`resp_type` at offset 0).
     #[inline]
     pub fn resp_type(&self) -> AirlinkAuthResponseType {
@@ -423,12 +402,10 @@ impl<'a> AirlinkAuthResponseMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AirlinkAuthResponseView<'_> {
         AirlinkAuthResponseView::new(self.payload)
     }
-
     /// Sets the `resp_type` field.
     #[inline]
     pub fn set_resp_type(&mut self, value: AirlinkAuthResponseType) {

@@ -47,7 +47,6 @@ impl CubepilotRawRc {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -55,13 +54,11 @@ impl CubepilotRawRc {
             rc_raw: ::mavframe::field::ArrayView::new(p, 0).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CubepilotRawRcView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -78,12 +75,10 @@ impl ::mavframe::Message for CubepilotRawRc {
     fn parse(payload: &[u8]) -> Self {
         CubepilotRawRc::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CubepilotRawRc::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CubepilotRawRcView<'_> {
         CubepilotRawRcView::new(payload)
@@ -105,19 +100,16 @@ impl<'a> CubepilotRawRcView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CubepilotRawRc {
         CubepilotRawRc::from_view(self)
     }
-
     /// Reads [`CubepilotRawRc::rc_raw`](CubepilotRawRc::rc_raw) (`rc_raw` at offset 0).
     #[inline]
     pub fn rc_raw(&self) -> ::mavframe::field::ArrayView<'a, u8, 32> {
@@ -142,12 +134,10 @@ impl<'a> CubepilotRawRcMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CubepilotRawRcView<'_> {
         CubepilotRawRcView::new(self.payload)
     }
-
     /// Sets the `rc_raw` field.
     #[inline]
     pub fn set_rc_raw(&mut self, value: &[u8; 32]) {
@@ -281,7 +271,6 @@ impl HerelinkVideoStreamInformation {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -296,13 +285,11 @@ impl HerelinkVideoStreamInformation {
             uri: ::mavframe::field::CharArray::new(p, 16).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &HerelinkVideoStreamInformationView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -341,12 +328,10 @@ impl ::mavframe::Message for HerelinkVideoStreamInformation {
     fn parse(payload: &[u8]) -> Self {
         HerelinkVideoStreamInformation::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         HerelinkVideoStreamInformation::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> HerelinkVideoStreamInformationView<'_> {
         HerelinkVideoStreamInformationView::new(payload)
@@ -368,61 +353,51 @@ impl<'a> HerelinkVideoStreamInformationView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> HerelinkVideoStreamInformation {
         HerelinkVideoStreamInformation::from_view(self)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::camera_id`](HerelinkVideoStreamInformation::camera_id) (`camera_id` at offset 14).
     #[inline]
     pub fn camera_id(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 14)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::status`](HerelinkVideoStreamInformation::status) (`status` at offset 15).
     #[inline]
     pub fn status(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 15)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::framerate`](HerelinkVideoStreamInformation::framerate) (`framerate` at offset 0).
     #[inline]
     pub fn framerate(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::resolution_h`](HerelinkVideoStreamInformation::resolution_h) (`resolution_h` at offset 8).
     #[inline]
     pub fn resolution_h(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 8)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::resolution_v`](HerelinkVideoStreamInformation::resolution_v) (`resolution_v` at offset 10).
     #[inline]
     pub fn resolution_v(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 10)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::bitrate`](HerelinkVideoStreamInformation::bitrate) (`bitrate` at offset 4).
     #[inline]
     pub fn bitrate(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 4)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::rotation`](HerelinkVideoStreamInformation::rotation) (`rotation` at offset 12).
     #[inline]
     pub fn rotation(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 12)
     }
-
     /// Reads [`HerelinkVideoStreamInformation::uri`](HerelinkVideoStreamInformation::uri) (`uri` at offset 16).
     #[inline]
     pub fn uri(&self) -> ::mavframe::field::CharArray<'a, 230> {
@@ -447,54 +422,45 @@ impl<'a> HerelinkVideoStreamInformationMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> HerelinkVideoStreamInformationView<'_> {
         HerelinkVideoStreamInformationView::new(self.payload)
     }
-
     /// Sets the `camera_id` field.
     #[inline]
     pub fn set_camera_id(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 15)
     }
-
     /// Sets the `framerate` field.
     #[inline]
     pub fn set_framerate(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `resolution_h` field.
     #[inline]
     pub fn set_resolution_h(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `resolution_v` field.
     #[inline]
     pub fn set_resolution_v(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 10)
     }
-
     /// Sets the `bitrate` field.
     #[inline]
     pub fn set_bitrate(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `rotation` field.
     #[inline]
     pub fn set_rotation(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `uri` field.
     #[inline]
     pub fn set_uri(&mut self, value: &[u8; 230]) {
@@ -614,7 +580,6 @@ impl HerelinkTelem {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -628,13 +593,11 @@ impl HerelinkTelem {
             board_temp: ::mavframe::field::read::<i16>(p, 16),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &HerelinkTelemView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -657,12 +620,10 @@ impl ::mavframe::Message for HerelinkTelem {
     fn parse(payload: &[u8]) -> Self {
         HerelinkTelem::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         HerelinkTelem::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> HerelinkTelemView<'_> {
         HerelinkTelemView::new(payload)
@@ -684,55 +645,46 @@ impl<'a> HerelinkTelemView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> HerelinkTelem {
         HerelinkTelem::from_view(self)
     }
-
     /// Reads [`HerelinkTelem::rssi`](HerelinkTelem::rssi) (`rssi` at offset 18).
     #[inline]
     pub fn rssi(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 18)
     }
-
     /// Reads [`HerelinkTelem::snr`](HerelinkTelem::snr) (`snr` at offset 12).
     #[inline]
     pub fn snr(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 12)
     }
-
     /// Reads [`HerelinkTelem::rf_freq`](HerelinkTelem::rf_freq) (`rf_freq` at offset 0).
     #[inline]
     pub fn rf_freq(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`HerelinkTelem::link_bw`](HerelinkTelem::link_bw) (`link_bw` at offset 4).
     #[inline]
     pub fn link_bw(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 4)
     }
-
     /// Reads [`HerelinkTelem::link_rate`](HerelinkTelem::link_rate) (`link_rate` at offset 8).
     #[inline]
     pub fn link_rate(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 8)
     }
-
     /// Reads [`HerelinkTelem::cpu_temp`](HerelinkTelem::cpu_temp) (`cpu_temp` at offset 14).
     #[inline]
     pub fn cpu_temp(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 14)
     }
-
     /// Reads [`HerelinkTelem::board_temp`](HerelinkTelem::board_temp) (`board_temp` at offset 16).
     #[inline]
     pub fn board_temp(&self) -> i16 {
@@ -757,48 +709,40 @@ impl<'a> HerelinkTelemMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> HerelinkTelemView<'_> {
         HerelinkTelemView::new(self.payload)
     }
-
     /// Sets the `rssi` field.
     #[inline]
     pub fn set_rssi(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 18)
     }
-
     /// Sets the `snr` field.
     #[inline]
     pub fn set_snr(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `rf_freq` field.
     #[inline]
     pub fn set_rf_freq(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `link_bw` field.
     #[inline]
     pub fn set_link_bw(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `link_rate` field.
     #[inline]
     pub fn set_link_rate(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `cpu_temp` field.
     #[inline]
     pub fn set_cpu_temp(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 14)
     }
-
     /// Sets the `board_temp` field.
     #[inline]
     pub fn set_board_temp(&mut self, value: i16) {
@@ -885,7 +829,6 @@ impl CubepilotFirmwareUpdateStart {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -896,13 +839,11 @@ impl CubepilotFirmwareUpdateStart {
             crc: ::mavframe::field::read::<u32>(p, 4),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CubepilotFirmwareUpdateStartView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -922,12 +863,10 @@ impl ::mavframe::Message for CubepilotFirmwareUpdateStart {
     fn parse(payload: &[u8]) -> Self {
         CubepilotFirmwareUpdateStart::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CubepilotFirmwareUpdateStart::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CubepilotFirmwareUpdateStartView<'_> {
         CubepilotFirmwareUpdateStartView::new(payload)
@@ -949,37 +888,31 @@ impl<'a> CubepilotFirmwareUpdateStartView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CubepilotFirmwareUpdateStart {
         CubepilotFirmwareUpdateStart::from_view(self)
     }
-
     /// Reads [`CubepilotFirmwareUpdateStart::target_system`](CubepilotFirmwareUpdateStart::target_system) (`target_system` at offset 8).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 8)
     }
-
     /// Reads [`CubepilotFirmwareUpdateStart::target_component`](CubepilotFirmwareUpdateStart::target_component) (`target_component` at offset 9).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 9)
     }
-
     /// Reads [`CubepilotFirmwareUpdateStart::size`](CubepilotFirmwareUpdateStart::size) (`size` at offset 0).
     #[inline]
     pub fn size(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`CubepilotFirmwareUpdateStart::crc`](CubepilotFirmwareUpdateStart::crc) (`crc` at offset 4).
     #[inline]
     pub fn crc(&self) -> u32 {
@@ -1004,30 +937,25 @@ impl<'a> CubepilotFirmwareUpdateStartMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CubepilotFirmwareUpdateStartView<'_> {
         CubepilotFirmwareUpdateStartView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 9)
     }
-
     /// Sets the `size` field.
     #[inline]
     pub fn set_size(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `crc` field.
     #[inline]
     pub fn set_crc(&mut self, value: u32) {
@@ -1103,7 +1031,6 @@ impl CubepilotFirmwareUpdateResp {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -1113,13 +1040,11 @@ impl CubepilotFirmwareUpdateResp {
             offset: ::mavframe::field::read::<u32>(p, 0),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &CubepilotFirmwareUpdateRespView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -1138,12 +1063,10 @@ impl ::mavframe::Message for CubepilotFirmwareUpdateResp {
     fn parse(payload: &[u8]) -> Self {
         CubepilotFirmwareUpdateResp::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         CubepilotFirmwareUpdateResp::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> CubepilotFirmwareUpdateRespView<'_> {
         CubepilotFirmwareUpdateRespView::new(payload)
@@ -1165,31 +1088,26 @@ impl<'a> CubepilotFirmwareUpdateRespView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> CubepilotFirmwareUpdateResp {
         CubepilotFirmwareUpdateResp::from_view(self)
     }
-
     /// Reads [`CubepilotFirmwareUpdateResp::target_system`](CubepilotFirmwareUpdateResp::target_system) (`target_system` at offset 4).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`CubepilotFirmwareUpdateResp::target_component`](CubepilotFirmwareUpdateResp::target_component) (`target_component` at offset 5).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 5)
     }
-
     /// Reads [`CubepilotFirmwareUpdateResp::offset`](CubepilotFirmwareUpdateResp::offset) (`offset` at offset 0).
     #[inline]
     pub fn offset(&self) -> u32 {
@@ -1214,24 +1132,20 @@ impl<'a> CubepilotFirmwareUpdateRespMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> CubepilotFirmwareUpdateRespView<'_> {
         CubepilotFirmwareUpdateRespView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 5)
     }
-
     /// Sets the `offset` field.
     #[inline]
     pub fn set_offset(&mut self, value: u32) {

@@ -8,6 +8,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct IcarousFmsState(pub u8);
+
 impl IcarousFmsState {
     /// `ICAROUS_FMS_STATE_IDLE`
     pub const IDLE: Self = Self(0);
@@ -25,12 +26,10 @@ impl IcarousFmsState {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -113,6 +112,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for IcarousFmsState {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct IcarousTrackBandTypes(pub u8);
+
 impl IcarousTrackBandTypes {
     /// `ICAROUS_TRACK_BAND_TYPE_NONE`
     pub const ICAROUS_TRACK_BAND_TYPE_NONE: Self = Self(0);
@@ -124,12 +124,10 @@ impl IcarousTrackBandTypes {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -245,7 +243,6 @@ impl IcarousHeartbeat {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -253,13 +250,11 @@ impl IcarousHeartbeat {
             status: IcarousFmsState::from_raw(::mavframe::field::read::<u8>(p, 0)),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &IcarousHeartbeatView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -276,12 +271,10 @@ impl ::mavframe::Message for IcarousHeartbeat {
     fn parse(payload: &[u8]) -> Self {
         IcarousHeartbeat::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         IcarousHeartbeat::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> IcarousHeartbeatView<'_> {
         IcarousHeartbeatView::new(payload)
@@ -303,19 +296,16 @@ impl<'a> IcarousHeartbeatView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> IcarousHeartbeat {
         IcarousHeartbeat::from_view(self)
     }
-
     /// Reads [`IcarousHeartbeat::status`](IcarousHeartbeat::status) (`status` at offset 0).
     #[inline]
     pub fn status(&self) -> IcarousFmsState {
@@ -340,12 +330,10 @@ impl<'a> IcarousHeartbeatMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> IcarousHeartbeatView<'_> {
         IcarousHeartbeatView::new(self.payload)
     }
-
     /// Sets the `status` field.
     #[inline]
     pub fn set_status(&mut self, value: IcarousFmsState) {
@@ -580,7 +568,6 @@ impl IcarousKinematicBands {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -603,13 +590,11 @@ impl IcarousKinematicBands {
             max5: ::mavframe::field::read::<f32>(p, 36),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &IcarousKinematicBandsView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -641,12 +626,10 @@ impl ::mavframe::Message for IcarousKinematicBands {
     fn parse(payload: &[u8]) -> Self {
         IcarousKinematicBands::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         IcarousKinematicBands::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> IcarousKinematicBandsView<'_> {
         IcarousKinematicBandsView::new(payload)
@@ -668,109 +651,91 @@ impl<'a> IcarousKinematicBandsView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> IcarousKinematicBands {
         IcarousKinematicBands::from_view(self)
     }
-
     /// Reads [`IcarousKinematicBands::num_bands`](IcarousKinematicBands::num_bands) (`numBands` at offset 40).
     #[inline]
     pub fn num_bands(&self) -> i8 {
         ::mavframe::field::read::<i8>(self.payload, 40)
     }
-
     /// Reads [`IcarousKinematicBands::type1`](IcarousKinematicBands::type1) (`type1` at offset 41).
     #[inline]
     pub fn type1(&self) -> IcarousTrackBandTypes {
         IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 41))
     }
-
     /// Reads [`IcarousKinematicBands::min1`](IcarousKinematicBands::min1) (`min1` at offset 0).
     #[inline]
     pub fn min1(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`IcarousKinematicBands::max1`](IcarousKinematicBands::max1) (`max1` at offset 4).
     #[inline]
     pub fn max1(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`IcarousKinematicBands::type2`](IcarousKinematicBands::type2) (`type2` at offset 42).
     #[inline]
     pub fn type2(&self) -> IcarousTrackBandTypes {
         IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 42))
     }
-
     /// Reads [`IcarousKinematicBands::min2`](IcarousKinematicBands::min2) (`min2` at offset 8).
     #[inline]
     pub fn min2(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`IcarousKinematicBands::max2`](IcarousKinematicBands::max2) (`max2` at offset 12).
     #[inline]
     pub fn max2(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`IcarousKinematicBands::type3`](IcarousKinematicBands::type3) (`type3` at offset 43).
     #[inline]
     pub fn type3(&self) -> IcarousTrackBandTypes {
         IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 43))
     }
-
     /// Reads [`IcarousKinematicBands::min3`](IcarousKinematicBands::min3) (`min3` at offset 16).
     #[inline]
     pub fn min3(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`IcarousKinematicBands::max3`](IcarousKinematicBands::max3) (`max3` at offset 20).
     #[inline]
     pub fn max3(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`IcarousKinematicBands::type4`](IcarousKinematicBands::type4) (`type4` at offset 44).
     #[inline]
     pub fn type4(&self) -> IcarousTrackBandTypes {
         IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 44))
     }
-
     /// Reads [`IcarousKinematicBands::min4`](IcarousKinematicBands::min4) (`min4` at offset 24).
     #[inline]
     pub fn min4(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 24)
     }
-
     /// Reads [`IcarousKinematicBands::max4`](IcarousKinematicBands::max4) (`max4` at offset 28).
     #[inline]
     pub fn max4(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 28)
     }
-
     /// Reads [`IcarousKinematicBands::type5`](IcarousKinematicBands::type5) (`type5` at offset 45).
     #[inline]
     pub fn type5(&self) -> IcarousTrackBandTypes {
         IcarousTrackBandTypes::from_raw(::mavframe::field::read::<u8>(self.payload, 45))
     }
-
     /// Reads [`IcarousKinematicBands::min5`](IcarousKinematicBands::min5) (`min5` at offset 32).
     #[inline]
     pub fn min5(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`IcarousKinematicBands::max5`](IcarousKinematicBands::max5) (`max5` at offset 36).
     #[inline]
     pub fn max5(&self) -> f32 {
@@ -795,102 +760,85 @@ impl<'a> IcarousKinematicBandsMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> IcarousKinematicBandsView<'_> {
         IcarousKinematicBandsView::new(self.payload)
     }
-
     /// Sets the `numBands` field.
     #[inline]
     pub fn set_num_bands(&mut self, value: i8) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `type1` field.
     #[inline]
     pub fn set_type1(&mut self, value: IcarousTrackBandTypes) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 41)
     }
-
     /// Sets the `min1` field.
     #[inline]
     pub fn set_min1(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `max1` field.
     #[inline]
     pub fn set_max1(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `type2` field.
     #[inline]
     pub fn set_type2(&mut self, value: IcarousTrackBandTypes) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 42)
     }
-
     /// Sets the `min2` field.
     #[inline]
     pub fn set_min2(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `max2` field.
     #[inline]
     pub fn set_max2(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `type3` field.
     #[inline]
     pub fn set_type3(&mut self, value: IcarousTrackBandTypes) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 43)
     }
-
     /// Sets the `min3` field.
     #[inline]
     pub fn set_min3(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `max3` field.
     #[inline]
     pub fn set_max3(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `type4` field.
     #[inline]
     pub fn set_type4(&mut self, value: IcarousTrackBandTypes) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 44)
     }
-
     /// Sets the `min4` field.
     #[inline]
     pub fn set_min4(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `max4` field.
     #[inline]
     pub fn set_max4(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `type5` field.
     #[inline]
     pub fn set_type5(&mut self, value: IcarousTrackBandTypes) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 45)
     }
-
     /// Sets the `min5` field.
     #[inline]
     pub fn set_min5(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `max5` field.
     #[inline]
     pub fn set_max5(&mut self, value: f32) {

@@ -310,7 +310,6 @@ impl LoweheiserGovEfi {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -340,13 +339,11 @@ impl LoweheiserGovEfi {
             efi_status: ::mavframe::field::read::<u16>(p, 82),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &LoweheiserGovEfiView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -385,12 +382,10 @@ impl ::mavframe::Message for LoweheiserGovEfi {
     fn parse(payload: &[u8]) -> Self {
         LoweheiserGovEfi::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         LoweheiserGovEfi::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> LoweheiserGovEfiView<'_> {
         LoweheiserGovEfiView::new(payload)
@@ -412,151 +407,126 @@ impl<'a> LoweheiserGovEfiView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> LoweheiserGovEfi {
         LoweheiserGovEfi::from_view(self)
     }
-
     /// Reads [`LoweheiserGovEfi::volt_batt`](LoweheiserGovEfi::volt_batt) (`volt_batt` at offset 0).
     #[inline]
     pub fn volt_batt(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 0)
     }
-
     /// Reads [`LoweheiserGovEfi::curr_batt`](LoweheiserGovEfi::curr_batt) (`curr_batt` at offset 4).
     #[inline]
     pub fn curr_batt(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 4)
     }
-
     /// Reads [`LoweheiserGovEfi::curr_gen`](LoweheiserGovEfi::curr_gen) (`curr_gen` at offset 8).
     #[inline]
     pub fn curr_gen(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 8)
     }
-
     /// Reads [`LoweheiserGovEfi::curr_rot`](LoweheiserGovEfi::curr_rot) (`curr_rot` at offset 12).
     #[inline]
     pub fn curr_rot(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 12)
     }
-
     /// Reads [`LoweheiserGovEfi::fuel_level`](LoweheiserGovEfi::fuel_level) (`fuel_level` at offset 16).
     #[inline]
     pub fn fuel_level(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 16)
     }
-
     /// Reads [`LoweheiserGovEfi::throttle`](LoweheiserGovEfi::throttle) (`throttle` at offset 20).
     #[inline]
     pub fn throttle(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 20)
     }
-
     /// Reads [`LoweheiserGovEfi::runtime`](LoweheiserGovEfi::runtime) (`runtime` at offset 24).
     #[inline]
     pub fn runtime(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 24)
     }
-
     /// Reads [`LoweheiserGovEfi::until_maintenance`](LoweheiserGovEfi::until_maintenance) (`until_maintenance` at offset 28).
     #[inline]
     pub fn until_maintenance(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 28)
     }
-
     /// Reads [`LoweheiserGovEfi::rectifier_temp`](LoweheiserGovEfi::rectifier_temp) (`rectifier_temp` at offset 32).
     #[inline]
     pub fn rectifier_temp(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`LoweheiserGovEfi::generator_temp`](LoweheiserGovEfi::generator_temp) (`generator_temp` at offset 36).
     #[inline]
     pub fn generator_temp(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 36)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_batt`](LoweheiserGovEfi::efi_batt) (`efi_batt` at offset 40).
     #[inline]
     pub fn efi_batt(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 40)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_rpm`](LoweheiserGovEfi::efi_rpm) (`efi_rpm` at offset 44).
     #[inline]
     pub fn efi_rpm(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 44)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_pw`](LoweheiserGovEfi::efi_pw) (`efi_pw` at offset 48).
     #[inline]
     pub fn efi_pw(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 48)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_fuel_flow`](LoweheiserGovEfi::efi_fuel_flow) (`efi_fuel_flow` at offset 52).
     #[inline]
     pub fn efi_fuel_flow(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 52)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_fuel_consumed`](LoweheiserGovEfi::efi_fuel_consumed) (`efi_fuel_consumed` at offset 56).
     #[inline]
     pub fn efi_fuel_consumed(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 56)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_baro`](LoweheiserGovEfi::efi_baro) (`efi_baro` at offset 60).
     #[inline]
     pub fn efi_baro(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 60)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_mat`](LoweheiserGovEfi::efi_mat) (`efi_mat` at offset 64).
     #[inline]
     pub fn efi_mat(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 64)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_clt`](LoweheiserGovEfi::efi_clt) (`efi_clt` at offset 68).
     #[inline]
     pub fn efi_clt(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 68)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_tps`](LoweheiserGovEfi::efi_tps) (`efi_tps` at offset 72).
     #[inline]
     pub fn efi_tps(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 72)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_exhaust_gas_temperature`](LoweheiserGovEfi::efi_exhaust_gas_temperature) (`efi_exhaust_gas_temperature` at offset 76).
     #[inline]
     pub fn efi_exhaust_gas_temperature(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 76)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_index`](LoweheiserGovEfi::efi_index) (`efi_index` at offset 84).
     #[inline]
     pub fn efi_index(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 84)
     }
-
     /// Reads [`LoweheiserGovEfi::generator_status`](LoweheiserGovEfi::generator_status) (`generator_status` at offset 80).
     #[inline]
     pub fn generator_status(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 80)
     }
-
     /// Reads [`LoweheiserGovEfi::efi_status`](LoweheiserGovEfi::efi_status) (`efi_status` at offset 82).
     #[inline]
     pub fn efi_status(&self) -> u16 {
@@ -581,144 +551,120 @@ impl<'a> LoweheiserGovEfiMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> LoweheiserGovEfiView<'_> {
         LoweheiserGovEfiView::new(self.payload)
     }
-
     /// Sets the `volt_batt` field.
     #[inline]
     pub fn set_volt_batt(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `curr_batt` field.
     #[inline]
     pub fn set_curr_batt(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `curr_gen` field.
     #[inline]
     pub fn set_curr_gen(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `curr_rot` field.
     #[inline]
     pub fn set_curr_rot(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `fuel_level` field.
     #[inline]
     pub fn set_fuel_level(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `throttle` field.
     #[inline]
     pub fn set_throttle(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `runtime` field.
     #[inline]
     pub fn set_runtime(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `until_maintenance` field.
     #[inline]
     pub fn set_until_maintenance(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `rectifier_temp` field.
     #[inline]
     pub fn set_rectifier_temp(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `generator_temp` field.
     #[inline]
     pub fn set_generator_temp(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 36)
     }
-
     /// Sets the `efi_batt` field.
     #[inline]
     pub fn set_efi_batt(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 40)
     }
-
     /// Sets the `efi_rpm` field.
     #[inline]
     pub fn set_efi_rpm(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 44)
     }
-
     /// Sets the `efi_pw` field.
     #[inline]
     pub fn set_efi_pw(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 48)
     }
-
     /// Sets the `efi_fuel_flow` field.
     #[inline]
     pub fn set_efi_fuel_flow(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 52)
     }
-
     /// Sets the `efi_fuel_consumed` field.
     #[inline]
     pub fn set_efi_fuel_consumed(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 56)
     }
-
     /// Sets the `efi_baro` field.
     #[inline]
     pub fn set_efi_baro(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 60)
     }
-
     /// Sets the `efi_mat` field.
     #[inline]
     pub fn set_efi_mat(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 64)
     }
-
     /// Sets the `efi_clt` field.
     #[inline]
     pub fn set_efi_clt(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 68)
     }
-
     /// Sets the `efi_tps` field.
     #[inline]
     pub fn set_efi_tps(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 72)
     }
-
     /// Sets the `efi_exhaust_gas_temperature` field.
     #[inline]
     pub fn set_efi_exhaust_gas_temperature(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 76)
     }
-
     /// Sets the `efi_index` field.
     #[inline]
     pub fn set_efi_index(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 84)
     }
-
     /// Sets the `generator_status` field.
     #[inline]
     pub fn set_generator_status(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 80)
     }
-
     /// Sets the `efi_status` field.
     #[inline]
     pub fn set_efi_status(&mut self, value: u16) {

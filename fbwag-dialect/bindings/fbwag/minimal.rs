@@ -8,6 +8,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavAutopilot(pub u8);
+
 impl MavAutopilot {
     /// Generic autopilot, full support for everything
     pub const GENERIC: Self = Self(0);
@@ -55,12 +56,10 @@ impl MavAutopilot {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -181,6 +180,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavAutopilot {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavComponent(pub u8);
+
 impl MavComponent {
     /// Target id (target_component) used to broadcast messages to all components of the receiving
     /// system. Components should attempt to process messages with this component ID and forward
@@ -555,12 +555,10 @@ impl MavComponent {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -902,6 +900,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavComponent {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MavModeFlag(pub u8);
+
 impl MavModeFlag {
     /// 0b00000001 Reserved for future use.
     pub const CUSTOM_MODE_ENABLED: Self = Self(1);
@@ -981,6 +980,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavModeFlag {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MavModeFlagDecodePosition(pub u8);
+
 impl MavModeFlagDecodePosition {
     /// Eighth bit: 00000001
     pub const CUSTOM_MODE: Self = Self(1);
@@ -1052,6 +1052,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavModeFlagDecodePosition {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavState(pub u8);
+
 impl MavState {
     /// Uninitialized system, state is unknown.
     pub const UNINIT: Self = Self(0);
@@ -1076,12 +1077,10 @@ impl MavState {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1173,6 +1172,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavState {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct MavType(pub u8);
+
 impl MavType {
     /// Generic micro air vehicle
     pub const GENERIC: Self = Self(0);
@@ -1281,12 +1281,10 @@ impl MavType {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -1556,7 +1554,6 @@ impl Heartbeat {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -1571,13 +1568,11 @@ impl Heartbeat {
             mavlink_version: ::mavframe::field::read::<u8>(p, 8),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &HeartbeatView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -1612,12 +1607,10 @@ impl ::mavframe::Message for Heartbeat {
     fn parse(payload: &[u8]) -> Self {
         Heartbeat::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         Heartbeat::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> HeartbeatView<'_> {
         HeartbeatView::new(payload)
@@ -1639,49 +1632,41 @@ impl<'a> HeartbeatView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> Heartbeat {
         Heartbeat::from_view(self)
     }
-
     /// Reads [`Heartbeat::type`](struct@Heartbeat) (`type` at offset 4).
     #[inline]
     pub fn r#type(&self) -> MavType {
         MavType::from_raw(::mavframe::field::read::<u8>(self.payload, 4))
     }
-
     /// Reads [`Heartbeat::autopilot`](Heartbeat::autopilot) (`autopilot` at offset 5).
     #[inline]
     pub fn autopilot(&self) -> MavAutopilot {
         MavAutopilot::from_raw(::mavframe::field::read::<u8>(self.payload, 5))
     }
-
     /// Reads [`Heartbeat::base_mode`](Heartbeat::base_mode) (`base_mode` at offset 6).
     #[inline]
     pub fn base_mode(&self) -> MavModeFlag {
         MavModeFlag::from_bits_retain(::mavframe::field::read::<u8>(self.payload, 6))
     }
-
     /// Reads [`Heartbeat::custom_mode`](Heartbeat::custom_mode) (`custom_mode` at offset 0).
     #[inline]
     pub fn custom_mode(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`Heartbeat::system_status`](Heartbeat::system_status) (`system_status` at offset 7).
     #[inline]
     pub fn system_status(&self) -> MavState {
         MavState::from_raw(::mavframe::field::read::<u8>(self.payload, 7))
     }
-
     /// Reads [`Heartbeat::mavlink_version`](Heartbeat::mavlink_version) (`mavlink_version` at offset 8).
     #[inline]
     pub fn mavlink_version(&self) -> u8 {
@@ -1706,42 +1691,35 @@ impl<'a> HeartbeatMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> HeartbeatView<'_> {
         HeartbeatView::new(self.payload)
     }
-
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: MavType) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 4)
     }
-
     /// Sets the `autopilot` field.
     #[inline]
     pub fn set_autopilot(&mut self, value: MavAutopilot) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 5)
     }
-
     /// Sets the `base_mode` field.
     #[inline]
     pub fn set_base_mode(&mut self, value: MavModeFlag) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 6)
     }
-
     /// Sets the `custom_mode` field.
     #[inline]
     pub fn set_custom_mode(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `system_status` field.
     #[inline]
     pub fn set_system_status(&mut self, value: MavState) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 7)
     }
-
     /// Sets the `mavlink_version` field.
     #[inline]
     pub fn set_mavlink_version(&mut self, value: u8) {

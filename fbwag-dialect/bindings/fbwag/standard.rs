@@ -10,6 +10,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct FirmwareVersionType(pub u8);
+
 impl FirmwareVersionType {
     /// development release
     pub const DEV: Self = Self(0);
@@ -25,12 +26,10 @@ impl FirmwareVersionType {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -111,6 +110,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for FirmwareVersionType {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MavBool(pub u8);
+
 impl MavBool {
     /// False.
     pub const FALSE: Self = Self(0);
@@ -161,6 +161,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for MavBool {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MavProtocolCapability(pub u64);
+
 impl MavProtocolCapability {
     /// Autopilot supports the MISSION_ITEM float message type. Note that MISSION_ITEM is
     /// deprecated, and autopilots should use MISSION_ITEM_INT instead.
@@ -421,7 +422,6 @@ impl GlobalPositionInt {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -437,13 +437,11 @@ impl GlobalPositionInt {
             hdg: ::mavframe::field::read::<u16>(p, 26),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &GlobalPositionIntView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -468,12 +466,10 @@ impl ::mavframe::Message for GlobalPositionInt {
     fn parse(payload: &[u8]) -> Self {
         GlobalPositionInt::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         GlobalPositionInt::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> GlobalPositionIntView<'_> {
         GlobalPositionIntView::new(payload)
@@ -495,67 +491,56 @@ impl<'a> GlobalPositionIntView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> GlobalPositionInt {
         GlobalPositionInt::from_view(self)
     }
-
     /// Reads [`GlobalPositionInt::time_boot_ms`](GlobalPositionInt::time_boot_ms) (`time_boot_ms` at offset 0).
     #[inline]
     pub fn time_boot_ms(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`GlobalPositionInt::lat`](GlobalPositionInt::lat) (`lat` at offset 4).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`GlobalPositionInt::lon`](GlobalPositionInt::lon) (`lon` at offset 8).
     #[inline]
     pub fn lon(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`GlobalPositionInt::alt`](GlobalPositionInt::alt) (`alt` at offset 12).
     #[inline]
     pub fn alt(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 12)
     }
-
     /// Reads [`GlobalPositionInt::relative_alt`](GlobalPositionInt::relative_alt) (`relative_alt` at offset 16).
     #[inline]
     pub fn relative_alt(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 16)
     }
-
     /// Reads [`GlobalPositionInt::vx`](GlobalPositionInt::vx) (`vx` at offset 20).
     #[inline]
     pub fn vx(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 20)
     }
-
     /// Reads [`GlobalPositionInt::vy`](GlobalPositionInt::vy) (`vy` at offset 22).
     #[inline]
     pub fn vy(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 22)
     }
-
     /// Reads [`GlobalPositionInt::vz`](GlobalPositionInt::vz) (`vz` at offset 24).
     #[inline]
     pub fn vz(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 24)
     }
-
     /// Reads [`GlobalPositionInt::hdg`](GlobalPositionInt::hdg) (`hdg` at offset 26).
     #[inline]
     pub fn hdg(&self) -> u16 {
@@ -580,60 +565,50 @@ impl<'a> GlobalPositionIntMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> GlobalPositionIntView<'_> {
         GlobalPositionIntView::new(self.payload)
     }
-
     /// Sets the `time_boot_ms` field.
     #[inline]
     pub fn set_time_boot_ms(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `lon` field.
     #[inline]
     pub fn set_lon(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `alt` field.
     #[inline]
     pub fn set_alt(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `relative_alt` field.
     #[inline]
     pub fn set_relative_alt(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `vx` field.
     #[inline]
     pub fn set_vx(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `vy` field.
     #[inline]
     pub fn set_vy(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 22)
     }
-
     /// Sets the `vz` field.
     #[inline]
     pub fn set_vz(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `hdg` field.
     #[inline]
     pub fn set_hdg(&mut self, value: u16) {
@@ -828,7 +803,6 @@ impl AutopilotVersion {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -850,13 +824,11 @@ impl AutopilotVersion {
             uid2: ::mavframe::field::ArrayView::new(p, 60).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &AutopilotVersionView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -884,12 +856,10 @@ impl ::mavframe::Message for AutopilotVersion {
     fn parse(payload: &[u8]) -> Self {
         AutopilotVersion::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         AutopilotVersion::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> AutopilotVersionView<'_> {
         AutopilotVersionView::new(payload)
@@ -911,19 +881,16 @@ impl<'a> AutopilotVersionView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> AutopilotVersion {
         AutopilotVersion::from_view(self)
     }
-
     /// Reads [`AutopilotVersion::capabilities`](AutopilotVersion::capabilities) (`capabilities` at offset 0).
     #[inline]
     pub fn capabilities(&self) -> MavProtocolCapability {
@@ -931,67 +898,56 @@ impl<'a> AutopilotVersionView<'a> {
             ::mavframe::field::read::<u64>(self.payload, 0),
         )
     }
-
     /// Reads [`AutopilotVersion::flight_sw_version`](AutopilotVersion::flight_sw_version) (`flight_sw_version` at offset 16).
     #[inline]
     pub fn flight_sw_version(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 16)
     }
-
     /// Reads [`AutopilotVersion::middleware_sw_version`](AutopilotVersion::middleware_sw_version) (`middleware_sw_version` at offset 20).
     #[inline]
     pub fn middleware_sw_version(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 20)
     }
-
     /// Reads [`AutopilotVersion::os_sw_version`](AutopilotVersion::os_sw_version) (`os_sw_version` at offset 24).
     #[inline]
     pub fn os_sw_version(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 24)
     }
-
     /// Reads [`AutopilotVersion::board_version`](AutopilotVersion::board_version) (`board_version` at offset 28).
     #[inline]
     pub fn board_version(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 28)
     }
-
     /// Reads [`AutopilotVersion::flight_custom_version`](AutopilotVersion::flight_custom_version) (`flight_custom_version` at offset 36).
     #[inline]
     pub fn flight_custom_version(&self) -> ::mavframe::field::ArrayView<'a, u8, 8> {
         ::mavframe::field::ArrayView::new(self.payload, 36)
     }
-
     /// Reads [`AutopilotVersion::middleware_custom_version`](AutopilotVersion::middleware_custom_version) (`middleware_custom_version` at offset 44).
     #[inline]
     pub fn middleware_custom_version(&self) -> ::mavframe::field::ArrayView<'a, u8, 8> {
         ::mavframe::field::ArrayView::new(self.payload, 44)
     }
-
     /// Reads [`AutopilotVersion::os_custom_version`](AutopilotVersion::os_custom_version) (`os_custom_version` at offset 52).
     #[inline]
     pub fn os_custom_version(&self) -> ::mavframe::field::ArrayView<'a, u8, 8> {
         ::mavframe::field::ArrayView::new(self.payload, 52)
     }
-
     /// Reads [`AutopilotVersion::vendor_id`](AutopilotVersion::vendor_id) (`vendor_id` at offset 32).
     #[inline]
     pub fn vendor_id(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 32)
     }
-
     /// Reads [`AutopilotVersion::product_id`](AutopilotVersion::product_id) (`product_id` at offset 34).
     #[inline]
     pub fn product_id(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 34)
     }
-
     /// Reads [`AutopilotVersion::uid`](AutopilotVersion::uid) (`uid` at offset 8).
     #[inline]
     pub fn uid(&self) -> u64 {
         ::mavframe::field::read::<u64>(self.payload, 8)
     }
-
     /// Reads [`AutopilotVersion::uid2`](AutopilotVersion::uid2) (`uid2` at offset 60).
     #[inline]
     pub fn uid2(&self) -> ::mavframe::field::ArrayView<'a, u8, 18> {
@@ -1016,78 +972,65 @@ impl<'a> AutopilotVersionMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> AutopilotVersionView<'_> {
         AutopilotVersionView::new(self.payload)
     }
-
     /// Sets the `capabilities` field.
     #[inline]
     pub fn set_capabilities(&mut self, value: MavProtocolCapability) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 0)
     }
-
     /// Sets the `flight_sw_version` field.
     #[inline]
     pub fn set_flight_sw_version(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `middleware_sw_version` field.
     #[inline]
     pub fn set_middleware_sw_version(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `os_sw_version` field.
     #[inline]
     pub fn set_os_sw_version(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `board_version` field.
     #[inline]
     pub fn set_board_version(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `flight_custom_version` field.
     #[inline]
     pub fn set_flight_custom_version(&mut self, value: &[u8; 8]) {
         ::mavframe::field::write_array(self.payload, 36, value)
     }
-
     /// Sets the `middleware_custom_version` field.
     #[inline]
     pub fn set_middleware_custom_version(&mut self, value: &[u8; 8]) {
         ::mavframe::field::write_array(self.payload, 44, value)
     }
-
     /// Sets the `os_custom_version` field.
     #[inline]
     pub fn set_os_custom_version(&mut self, value: &[u8; 8]) {
         ::mavframe::field::write_array(self.payload, 52, value)
     }
-
     /// Sets the `vendor_id` field.
     #[inline]
     pub fn set_vendor_id(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `product_id` field.
     #[inline]
     pub fn set_product_id(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 34)
     }
-
     /// Sets the `uid` field.
     #[inline]
     pub fn set_uid(&mut self, value: u64) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `uid2` field.
     #[inline]
     pub fn set_uid2(&mut self, value: &[u8; 18]) {

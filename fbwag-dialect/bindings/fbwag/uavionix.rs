@@ -8,6 +8,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct UavionixAdsbEmergencyStatus(pub u8);
+
 impl UavionixAdsbEmergencyStatus {
     /// `UAVIONIX_ADSB_OUT_NO_EMERGENCY`
     pub const UAVIONIX_ADSB_OUT_NO_EMERGENCY: Self = Self(0);
@@ -29,12 +30,10 @@ impl UavionixAdsbEmergencyStatus {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -121,6 +120,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbEmergencyStatus {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct UavionixAdsbOutCfgAircraftSize(pub u8);
+
 impl UavionixAdsbOutCfgAircraftSize {
     /// `UAVIONIX_ADSB_OUT_CFG_AIRCRAFT_SIZE_NO_DATA`
     pub const NO_DATA: Self = Self(0);
@@ -158,12 +158,10 @@ impl UavionixAdsbOutCfgAircraftSize {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -268,6 +266,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutCfgAircraftSize
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct UavionixAdsbOutCfgGpsOffsetLat(pub u8);
+
 impl UavionixAdsbOutCfgGpsOffsetLat {
     /// `UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LAT_NO_DATA`
     pub const NO_DATA: Self = Self(0);
@@ -289,12 +288,10 @@ impl UavionixAdsbOutCfgGpsOffsetLat {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -383,6 +380,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutCfgGpsOffsetLat
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct UavionixAdsbOutCfgGpsOffsetLon(pub u8);
+
 impl UavionixAdsbOutCfgGpsOffsetLon {
     /// `UAVIONIX_ADSB_OUT_CFG_GPS_OFFSET_LON_NO_DATA`
     pub const NO_DATA: Self = Self(0);
@@ -392,12 +390,10 @@ impl UavionixAdsbOutCfgGpsOffsetLon {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -473,6 +469,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutCfgGpsOffsetLon
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct UavionixAdsbOutControlState(pub u8);
+
 impl UavionixAdsbOutControlState {
     /// `UAVIONIX_ADSB_OUT_CONTROL_STATE_EXTERNAL_BARO_CROSSCHECKED`
     pub const EXTERNAL_BARO_CROSSCHECKED: Self = Self(1);
@@ -542,6 +539,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutControlState {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct UavionixAdsbOutDynamicGpsFix(pub u8);
+
 impl UavionixAdsbOutDynamicGpsFix {
     /// `UAVIONIX_ADSB_OUT_DYNAMIC_GPS_FIX_NONE_0`
     pub const NONE_0: Self = Self(0);
@@ -559,12 +557,10 @@ impl UavionixAdsbOutDynamicGpsFix {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -646,6 +642,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutDynamicGpsFix {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct UavionixAdsbOutDynamicState(pub u16);
+
 impl UavionixAdsbOutDynamicState {
     /// `UAVIONIX_ADSB_OUT_DYNAMIC_STATE_INTENT_CHANGE`
     pub const INTENT_CHANGE: Self = Self(1);
@@ -707,6 +704,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutDynamicState {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct UavionixAdsbOutRfSelect(pub u8);
+
 impl UavionixAdsbOutRfSelect {
     /// `UAVIONIX_ADSB_OUT_RF_SELECT_RX_ENABLED`
     pub const RX_ENABLED: Self = Self(1);
@@ -756,6 +754,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutRfSelect {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct UavionixAdsbOutStatusFault(pub u8);
+
 impl UavionixAdsbOutStatusFault {
     /// `UAVIONIX_ADSB_OUT_STATUS_FAULT_STATUS_MESSAGE_UNAVAIL`
     pub const STATUS_MESSAGE_UNAVAIL: Self = Self(8);
@@ -818,6 +817,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutStatusFault {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct UavionixAdsbOutStatusNicNacp(pub u8);
+
 impl UavionixAdsbOutStatusNicNacp {
     /// `UAVIONIX_ADSB_NIC_CR_20_NM`
     pub const UAVIONIX_ADSB_NIC_CR_20_NM: Self = Self(1);
@@ -867,12 +867,10 @@ impl UavionixAdsbOutStatusNicNacp {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -986,6 +984,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutStatusNicNacp {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct UavionixAdsbOutStatusState(pub u8);
+
 impl UavionixAdsbOutStatusState {
     /// `UAVIONIX_ADSB_OUT_STATUS_STATE_ON_GROUND`
     pub const ON_GROUND: Self = Self(1);
@@ -1057,6 +1056,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbOutStatusState {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct UavionixAdsbRfHealth(pub u8);
+
 impl UavionixAdsbRfHealth {
     /// `UAVIONIX_ADSB_RF_HEALTH_OK`
     pub const OK: Self = Self(1);
@@ -1109,6 +1109,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for UavionixAdsbRfHealth {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct UavionixAdsbXbit(pub u8);
+
 impl UavionixAdsbXbit {
     /// `UAVIONIX_ADSB_XBIT_ENABLED`
     pub const ENABLED: Self = Self(128);
@@ -1292,7 +1293,6 @@ impl UavionixAdsbOutCfg {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -1317,13 +1317,11 @@ impl UavionixAdsbOutCfg {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbOutCfgView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -1347,12 +1345,10 @@ impl ::mavframe::Message for UavionixAdsbOutCfg {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutCfg::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutCfg::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutCfgView<'_> {
         UavionixAdsbOutCfgView::new(payload)
@@ -1374,31 +1370,26 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutCfg {
         UavionixAdsbOutCfg::from_view(self)
     }
-
     /// Reads [`UavionixAdsbOutCfg::icao`](UavionixAdsbOutCfg::icao) (`ICAO` at offset 0).
     #[inline]
     pub fn icao(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`UavionixAdsbOutCfg::callsign`](UavionixAdsbOutCfg::callsign) (`callsign` at offset 6).
     #[inline]
     pub fn callsign(&self) -> ::mavframe::field::CharArray<'a, 9> {
         ::mavframe::field::CharArray::new(self.payload, 6)
     }
-
     /// Reads [`UavionixAdsbOutCfg::emitter_type`](UavionixAdsbOutCfg::emitter_type) (`emitterType` at offset 15).
     #[inline]
     pub fn emitter_type(&self) -> super::common::AdsbEmitterType {
@@ -1406,7 +1397,6 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 15),
         )
     }
-
     /// Reads [`UavionixAdsbOutCfg::aircraft_size`](UavionixAdsbOutCfg::aircraft_size) (`aircraftSize` at offset 16).
     #[inline]
     pub fn aircraft_size(&self) -> UavionixAdsbOutCfgAircraftSize {
@@ -1414,7 +1404,6 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 16),
         )
     }
-
     /// Reads [`UavionixAdsbOutCfg::gps_offset_lat`](UavionixAdsbOutCfg::gps_offset_lat) (`gpsOffsetLat` at offset 17).
     #[inline]
     pub fn gps_offset_lat(&self) -> UavionixAdsbOutCfgGpsOffsetLat {
@@ -1422,7 +1411,6 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 17),
         )
     }
-
     /// Reads [`UavionixAdsbOutCfg::gps_offset_lon`](UavionixAdsbOutCfg::gps_offset_lon) (`gpsOffsetLon` at offset 18).
     #[inline]
     pub fn gps_offset_lon(&self) -> UavionixAdsbOutCfgGpsOffsetLon {
@@ -1430,13 +1418,11 @@ impl<'a> UavionixAdsbOutCfgView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 18),
         )
     }
-
     /// Reads [`UavionixAdsbOutCfg::stall_speed`](UavionixAdsbOutCfg::stall_speed) (`stallSpeed` at offset 4).
     #[inline]
     pub fn stall_speed(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 4)
     }
-
     /// Reads [`UavionixAdsbOutCfg::rf_select`](UavionixAdsbOutCfg::rf_select) (`rfSelect` at offset 19).
     #[inline]
     pub fn rf_select(&self) -> UavionixAdsbOutRfSelect {
@@ -1463,54 +1449,45 @@ impl<'a> UavionixAdsbOutCfgMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbOutCfgView<'_> {
         UavionixAdsbOutCfgView::new(self.payload)
     }
-
     /// Sets the `ICAO` field.
     #[inline]
     pub fn set_icao(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `callsign` field.
     #[inline]
     pub fn set_callsign(&mut self, value: &[u8; 9]) {
         ::mavframe::field::write_array(self.payload, 6, value)
     }
-
     /// Sets the `emitterType` field.
     #[inline]
     pub fn set_emitter_type(&mut self, value: super::common::AdsbEmitterType) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 15)
     }
-
     /// Sets the `aircraftSize` field.
     #[inline]
     pub fn set_aircraft_size(&mut self, value: UavionixAdsbOutCfgAircraftSize) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 16)
     }
-
     /// Sets the `gpsOffsetLat` field.
     #[inline]
     pub fn set_gps_offset_lat(&mut self, value: UavionixAdsbOutCfgGpsOffsetLat) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 17)
     }
-
     /// Sets the `gpsOffsetLon` field.
     #[inline]
     pub fn set_gps_offset_lon(&mut self, value: UavionixAdsbOutCfgGpsOffsetLon) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 18)
     }
-
     /// Sets the `stallSpeed` field.
     #[inline]
     pub fn set_stall_speed(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `rfSelect` field.
     #[inline]
     pub fn set_rf_select(&mut self, value: UavionixAdsbOutRfSelect) {
@@ -1749,7 +1726,6 @@ impl UavionixAdsbOutDynamic {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -1778,13 +1754,11 @@ impl UavionixAdsbOutDynamic {
             squawk: ::mavframe::field::read::<u16>(p, 36),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbOutDynamicView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -1816,12 +1790,10 @@ impl ::mavframe::Message for UavionixAdsbOutDynamic {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutDynamic::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutDynamic::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutDynamicView<'_> {
         UavionixAdsbOutDynamicView::new(payload)
@@ -1843,43 +1815,36 @@ impl<'a> UavionixAdsbOutDynamicView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutDynamic {
         UavionixAdsbOutDynamic::from_view(self)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::utc_time`](UavionixAdsbOutDynamic::utc_time) (`utcTime` at offset 0).
     #[inline]
     pub fn utc_time(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 0)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::gps_lat`](UavionixAdsbOutDynamic::gps_lat) (`gpsLat` at offset 4).
     #[inline]
     pub fn gps_lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 4)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::gps_lon`](UavionixAdsbOutDynamic::gps_lon) (`gpsLon` at offset 8).
     #[inline]
     pub fn gps_lon(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 8)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::gps_alt`](UavionixAdsbOutDynamic::gps_alt) (`gpsAlt` at offset 12).
     #[inline]
     pub fn gps_alt(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 12)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::gps_fix`](UavionixAdsbOutDynamic::gps_fix) (`gpsFix` at offset 38).
     #[inline]
     pub fn gps_fix(&self) -> UavionixAdsbOutDynamicGpsFix {
@@ -1887,55 +1852,46 @@ impl<'a> UavionixAdsbOutDynamicView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 38),
         )
     }
-
     /// Reads [`UavionixAdsbOutDynamic::num_sats`](UavionixAdsbOutDynamic::num_sats) (`numSats` at offset 39).
     #[inline]
     pub fn num_sats(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 39)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::baro_alt_msl`](UavionixAdsbOutDynamic::baro_alt_msl) (`baroAltMSL` at offset 16).
     #[inline]
     pub fn baro_alt_msl(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 16)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::accuracy_hor`](UavionixAdsbOutDynamic::accuracy_hor) (`accuracyHor` at offset 20).
     #[inline]
     pub fn accuracy_hor(&self) -> u32 {
         ::mavframe::field::read::<u32>(self.payload, 20)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::accuracy_vert`](UavionixAdsbOutDynamic::accuracy_vert) (`accuracyVert` at offset 24).
     #[inline]
     pub fn accuracy_vert(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 24)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::accuracy_vel`](UavionixAdsbOutDynamic::accuracy_vel) (`accuracyVel` at offset 26).
     #[inline]
     pub fn accuracy_vel(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 26)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::vel_vert`](UavionixAdsbOutDynamic::vel_vert) (`velVert` at offset 28).
     #[inline]
     pub fn vel_vert(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 28)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::vel_ns`](UavionixAdsbOutDynamic::vel_ns) (`velNS` at offset 30).
     #[inline]
     pub fn vel_ns(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 30)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::vel_ew`](UavionixAdsbOutDynamic::vel_ew) (`VelEW` at offset 32).
     #[inline]
     pub fn vel_ew(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 32)
     }
-
     /// Reads [`UavionixAdsbOutDynamic::emergency_status`](UavionixAdsbOutDynamic::emergency_status) (`emergencyStatus` at offset 40).
     #[inline]
     pub fn emergency_status(&self) -> UavionixAdsbEmergencyStatus {
@@ -1943,7 +1899,6 @@ impl<'a> UavionixAdsbOutDynamicView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 40),
         )
     }
-
     /// Reads [`UavionixAdsbOutDynamic::state`](UavionixAdsbOutDynamic::state) (`state` at offset 34).
     #[inline]
     pub fn state(&self) -> UavionixAdsbOutDynamicState {
@@ -1951,7 +1906,6 @@ impl<'a> UavionixAdsbOutDynamicView<'a> {
             ::mavframe::field::read::<u16>(self.payload, 34),
         )
     }
-
     /// Reads [`UavionixAdsbOutDynamic::squawk`](UavionixAdsbOutDynamic::squawk) (`squawk` at offset 36).
     #[inline]
     pub fn squawk(&self) -> u16 {
@@ -1976,102 +1930,85 @@ impl<'a> UavionixAdsbOutDynamicMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbOutDynamicView<'_> {
         UavionixAdsbOutDynamicView::new(self.payload)
     }
-
     /// Sets the `utcTime` field.
     #[inline]
     pub fn set_utc_time(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `gpsLat` field.
     #[inline]
     pub fn set_gps_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `gpsLon` field.
     #[inline]
     pub fn set_gps_lon(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `gpsAlt` field.
     #[inline]
     pub fn set_gps_alt(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 12)
     }
-
     /// Sets the `gpsFix` field.
     #[inline]
     pub fn set_gps_fix(&mut self, value: UavionixAdsbOutDynamicGpsFix) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 38)
     }
-
     /// Sets the `numSats` field.
     #[inline]
     pub fn set_num_sats(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 39)
     }
-
     /// Sets the `baroAltMSL` field.
     #[inline]
     pub fn set_baro_alt_msl(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `accuracyHor` field.
     #[inline]
     pub fn set_accuracy_hor(&mut self, value: u32) {
         ::mavframe::field::Scalar::write(value, self.payload, 20)
     }
-
     /// Sets the `accuracyVert` field.
     #[inline]
     pub fn set_accuracy_vert(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 24)
     }
-
     /// Sets the `accuracyVel` field.
     #[inline]
     pub fn set_accuracy_vel(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 26)
     }
-
     /// Sets the `velVert` field.
     #[inline]
     pub fn set_vel_vert(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `velNS` field.
     #[inline]
     pub fn set_vel_ns(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 30)
     }
-
     /// Sets the `VelEW` field.
     #[inline]
     pub fn set_vel_ew(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `emergencyStatus` field.
     #[inline]
     pub fn set_emergency_status(&mut self, value: UavionixAdsbEmergencyStatus) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 40)
     }
-
     /// Sets the `state` field.
     #[inline]
     pub fn set_state(&mut self, value: UavionixAdsbOutDynamicState) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 34)
     }
-
     /// Sets the `squawk` field.
     #[inline]
     pub fn set_squawk(&mut self, value: u16) {
@@ -2127,7 +2064,6 @@ impl UavionixAdsbTransceiverHealthReport {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2137,13 +2073,11 @@ impl UavionixAdsbTransceiverHealthReport {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbTransceiverHealthReportView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -2160,12 +2094,10 @@ impl ::mavframe::Message for UavionixAdsbTransceiverHealthReport {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbTransceiverHealthReport::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbTransceiverHealthReport::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbTransceiverHealthReportView<'_> {
         UavionixAdsbTransceiverHealthReportView::new(payload)
@@ -2187,19 +2119,16 @@ impl<'a> UavionixAdsbTransceiverHealthReportView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbTransceiverHealthReport {
         UavionixAdsbTransceiverHealthReport::from_view(self)
     }
-
     /// Reads [`UavionixAdsbTransceiverHealthReport::rf_health`](UavionixAdsbTransceiverHealthReport::rf_health) (`rfHealth` at offset 0).
     #[inline]
     pub fn rf_health(&self) -> UavionixAdsbRfHealth {
@@ -2226,12 +2155,10 @@ impl<'a> UavionixAdsbTransceiverHealthReportMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbTransceiverHealthReportView<'_> {
         UavionixAdsbTransceiverHealthReportView::new(self.payload)
     }
-
     /// Sets the `rfHealth` field.
     #[inline]
     pub fn set_rf_health(&mut self, value: UavionixAdsbRfHealth) {
@@ -2287,7 +2214,6 @@ impl UavionixAdsbOutCfgRegistration {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2295,13 +2221,11 @@ impl UavionixAdsbOutCfgRegistration {
             registration: ::mavframe::field::CharArray::new(p, 0).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbOutCfgRegistrationView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -2318,12 +2242,10 @@ impl ::mavframe::Message for UavionixAdsbOutCfgRegistration {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutCfgRegistration::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutCfgRegistration::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutCfgRegistrationView<'_> {
         UavionixAdsbOutCfgRegistrationView::new(payload)
@@ -2345,19 +2267,16 @@ impl<'a> UavionixAdsbOutCfgRegistrationView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutCfgRegistration {
         UavionixAdsbOutCfgRegistration::from_view(self)
     }
-
     /// Reads [`UavionixAdsbOutCfgRegistration::registration`](UavionixAdsbOutCfgRegistration::registration) (`registration` at offset 0).
     #[inline]
     pub fn registration(&self) -> ::mavframe::field::CharArray<'a, 9> {
@@ -2382,12 +2301,10 @@ impl<'a> UavionixAdsbOutCfgRegistrationMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbOutCfgRegistrationView<'_> {
         UavionixAdsbOutCfgRegistrationView::new(self.payload)
     }
-
     /// Sets the `registration` field.
     #[inline]
     pub fn set_registration(&mut self, value: &[u8; 9]) {
@@ -2444,7 +2361,6 @@ impl UavionixAdsbOutCfgFlightid {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2452,13 +2368,11 @@ impl UavionixAdsbOutCfgFlightid {
             flight_id: ::mavframe::field::CharArray::new(p, 0).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbOutCfgFlightidView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -2475,12 +2389,10 @@ impl ::mavframe::Message for UavionixAdsbOutCfgFlightid {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutCfgFlightid::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutCfgFlightid::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutCfgFlightidView<'_> {
         UavionixAdsbOutCfgFlightidView::new(payload)
@@ -2502,19 +2414,16 @@ impl<'a> UavionixAdsbOutCfgFlightidView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutCfgFlightid {
         UavionixAdsbOutCfgFlightid::from_view(self)
     }
-
     /// Reads [`UavionixAdsbOutCfgFlightid::flight_id`](UavionixAdsbOutCfgFlightid::flight_id) (`flight_id` at offset 0).
     #[inline]
     pub fn flight_id(&self) -> ::mavframe::field::CharArray<'a, 9> {
@@ -2539,12 +2448,10 @@ impl<'a> UavionixAdsbOutCfgFlightidMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbOutCfgFlightidView<'_> {
         UavionixAdsbOutCfgFlightidView::new(self.payload)
     }
-
     /// Sets the `flight_id` field.
     #[inline]
     pub fn set_flight_id(&mut self, value: &[u8; 9]) {
@@ -2599,7 +2506,6 @@ impl UavionixAdsbGet {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2607,13 +2513,11 @@ impl UavionixAdsbGet {
             req_message_id: ::mavframe::field::read::<u32>(p, 0),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbGetView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -2630,12 +2534,10 @@ impl ::mavframe::Message for UavionixAdsbGet {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbGet::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbGet::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbGetView<'_> {
         UavionixAdsbGetView::new(payload)
@@ -2657,19 +2559,16 @@ impl<'a> UavionixAdsbGetView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbGet {
         UavionixAdsbGet::from_view(self)
     }
-
     /// Reads [`UavionixAdsbGet::req_message_id`](UavionixAdsbGet::req_message_id) (`ReqMessageId` at offset 0).
     #[inline]
     pub fn req_message_id(&self) -> u32 {
@@ -2694,12 +2593,10 @@ impl<'a> UavionixAdsbGetMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbGetView<'_> {
         UavionixAdsbGetView::new(self.payload)
     }
-
     /// Sets the `ReqMessageId` field.
     #[inline]
     pub fn set_req_message_id(&mut self, value: u32) {
@@ -2817,7 +2714,6 @@ impl UavionixAdsbOutControl {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2836,13 +2732,11 @@ impl UavionixAdsbOutControl {
             ),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbOutControlView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -2864,12 +2758,10 @@ impl ::mavframe::Message for UavionixAdsbOutControl {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutControl::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutControl::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutControlView<'_> {
         UavionixAdsbOutControlView::new(payload)
@@ -2891,19 +2783,16 @@ impl<'a> UavionixAdsbOutControlView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutControl {
         UavionixAdsbOutControl::from_view(self)
     }
-
     /// Reads [`UavionixAdsbOutControl::state`](UavionixAdsbOutControl::state) (`state` at offset 6).
     #[inline]
     pub fn state(&self) -> UavionixAdsbOutControlState {
@@ -2911,19 +2800,16 @@ impl<'a> UavionixAdsbOutControlView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 6),
         )
     }
-
     /// Reads [`UavionixAdsbOutControl::baro_alt_msl`](UavionixAdsbOutControl::baro_alt_msl) (`baroAltMSL` at offset 0).
     #[inline]
     pub fn baro_alt_msl(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 0)
     }
-
     /// Reads [`UavionixAdsbOutControl::squawk`](UavionixAdsbOutControl::squawk) (`squawk` at offset 4).
     #[inline]
     pub fn squawk(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 4)
     }
-
     /// Reads [`UavionixAdsbOutControl::emergency_status`](UavionixAdsbOutControl::emergency_status) (`emergencyStatus` at offset 7).
     #[inline]
     pub fn emergency_status(&self) -> UavionixAdsbEmergencyStatus {
@@ -2931,13 +2817,11 @@ impl<'a> UavionixAdsbOutControlView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 7),
         )
     }
-
     /// Reads [`UavionixAdsbOutControl::flight_id`](UavionixAdsbOutControl::flight_id) (`flight_id` at offset 8).
     #[inline]
     pub fn flight_id(&self) -> ::mavframe::field::CharArray<'a, 8> {
         ::mavframe::field::CharArray::new(self.payload, 8)
     }
-
     /// Reads [`UavionixAdsbOutControl::x_bit`](UavionixAdsbOutControl::x_bit) (`x_bit` at offset 16).
     #[inline]
     pub fn x_bit(&self) -> UavionixAdsbXbit {
@@ -2964,42 +2848,35 @@ impl<'a> UavionixAdsbOutControlMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbOutControlView<'_> {
         UavionixAdsbOutControlView::new(self.payload)
     }
-
     /// Sets the `state` field.
     #[inline]
     pub fn set_state(&mut self, value: UavionixAdsbOutControlState) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 6)
     }
-
     /// Sets the `baroAltMSL` field.
     #[inline]
     pub fn set_baro_alt_msl(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `squawk` field.
     #[inline]
     pub fn set_squawk(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `emergencyStatus` field.
     #[inline]
     pub fn set_emergency_status(&mut self, value: UavionixAdsbEmergencyStatus) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 7)
     }
-
     /// Sets the `flight_id` field.
     #[inline]
     pub fn set_flight_id(&mut self, value: &[u8; 8]) {
         ::mavframe::field::write_array(self.payload, 8, value)
     }
-
     /// Sets the `x_bit` field.
     #[inline]
     pub fn set_x_bit(&mut self, value: UavionixAdsbXbit) {
@@ -3118,7 +2995,6 @@ impl UavionixAdsbOutStatus {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -3137,13 +3013,11 @@ impl UavionixAdsbOutStatus {
             flight_id: ::mavframe::field::CharArray::new(p, 6).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &UavionixAdsbOutStatusView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -3165,12 +3039,10 @@ impl ::mavframe::Message for UavionixAdsbOutStatus {
     fn parse(payload: &[u8]) -> Self {
         UavionixAdsbOutStatus::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         UavionixAdsbOutStatus::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> UavionixAdsbOutStatusView<'_> {
         UavionixAdsbOutStatusView::new(payload)
@@ -3192,19 +3064,16 @@ impl<'a> UavionixAdsbOutStatusView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> UavionixAdsbOutStatus {
         UavionixAdsbOutStatus::from_view(self)
     }
-
     /// Reads [`UavionixAdsbOutStatus::state`](UavionixAdsbOutStatus::state) (`state` at offset 2).
     #[inline]
     pub fn state(&self) -> UavionixAdsbOutStatusState {
@@ -3212,13 +3081,11 @@ impl<'a> UavionixAdsbOutStatusView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 2),
         )
     }
-
     /// Reads [`UavionixAdsbOutStatus::squawk`](UavionixAdsbOutStatus::squawk) (`squawk` at offset 0).
     #[inline]
     pub fn squawk(&self) -> u16 {
         ::mavframe::field::read::<u16>(self.payload, 0)
     }
-
     /// Reads [`UavionixAdsbOutStatus::nic_nacp`](UavionixAdsbOutStatus::nic_nacp) (`NIC_NACp` at offset 3).
     #[inline]
     pub fn nic_nacp(&self) -> UavionixAdsbOutStatusNicNacp {
@@ -3226,13 +3093,11 @@ impl<'a> UavionixAdsbOutStatusView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 3),
         )
     }
-
     /// Reads [`UavionixAdsbOutStatus::board_temp`](UavionixAdsbOutStatus::board_temp) (`boardTemp` at offset 4).
     #[inline]
     pub fn board_temp(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 4)
     }
-
     /// Reads [`UavionixAdsbOutStatus::fault`](UavionixAdsbOutStatus::fault) (`fault` at offset 5).
     #[inline]
     pub fn fault(&self) -> UavionixAdsbOutStatusFault {
@@ -3240,7 +3105,6 @@ impl<'a> UavionixAdsbOutStatusView<'a> {
             ::mavframe::field::read::<u8>(self.payload, 5),
         )
     }
-
     /// Reads [`UavionixAdsbOutStatus::flight_id`](UavionixAdsbOutStatus::flight_id) (`flight_id` at offset 6).
     #[inline]
     pub fn flight_id(&self) -> ::mavframe::field::CharArray<'a, 8> {
@@ -3265,42 +3129,35 @@ impl<'a> UavionixAdsbOutStatusMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> UavionixAdsbOutStatusView<'_> {
         UavionixAdsbOutStatusView::new(self.payload)
     }
-
     /// Sets the `state` field.
     #[inline]
     pub fn set_state(&mut self, value: UavionixAdsbOutStatusState) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 2)
     }
-
     /// Sets the `squawk` field.
     #[inline]
     pub fn set_squawk(&mut self, value: u16) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `NIC_NACp` field.
     #[inline]
     pub fn set_nic_nacp(&mut self, value: UavionixAdsbOutStatusNicNacp) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 3)
     }
-
     /// Sets the `boardTemp` field.
     #[inline]
     pub fn set_board_temp(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 4)
     }
-
     /// Sets the `fault` field.
     #[inline]
     pub fn set_fault(&mut self, value: UavionixAdsbOutStatusFault) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 5)
     }
-
     /// Sets the `flight_id` field.
     #[inline]
     pub fn set_flight_id(&mut self, value: &[u8; 8]) {

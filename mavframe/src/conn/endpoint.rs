@@ -260,6 +260,19 @@ impl Endpoint {
             Endpoint::File(_) => "file",
         }
     }
+
+    /// The network address, for the schemes that have one (not `serial:`
+    /// or `file:`).
+    pub fn address(&self) -> Option<&Address> {
+        match self {
+            Endpoint::UdpIn(a)
+            | Endpoint::UdpOut(a)
+            | Endpoint::UdpBcast(a)
+            | Endpoint::Tcp(a)
+            | Endpoint::TcpIn(a) => Some(a),
+            Endpoint::Serial { .. } | Endpoint::File(_) => None,
+        }
+    }
 }
 
 impl fmt::Display for Endpoint {

@@ -76,24 +76,24 @@ pub(super) const SENDER_QUEUES: usize = 8;
 /// that makes the backlog too long drops the oldest frame of the longest
 /// queue (a flood's, not a quiet sender's).
 #[derive(Debug)]
-pub(super) struct Backlog {
+pub(super) struct Backlog<F = Box<[u8]>> {
     pace: Pace,
     /// The non-empty queues, in turn from `turn`.
-    queues: Vec<SenderQueue>,
+    queues: Vec<SenderQueue<F>>,
     turn: usize,
     bytes: usize,
     cap: usize,
 }
 
 #[derive(Debug)]
-struct SenderQueue {
+struct SenderQueue<F> {
     from: u32,
-    frames: VecDeque<Box<[u8]>>,
+    frames: VecDeque<F>,
     bytes: usize,
 }
 
-impl Backlog {
-    pub(super) fn new(rate: NonZeroU32, now: Instant) -> Backlog {
+impl<F: AsRef<[u8]>> Backlog<F> {
+    pub(super) fn new(rate: NonZeroU32, now: Instant) -> Backlog<F> {
         Backlog {
             pace: Pace::new(rate, now),
             queues: Vec::new(),
@@ -105,7 +105,7 @@ impl Backlog {
 
     /// Holds back `frame` from sender `from`; returns how many frames it
     /// dropped (the oldest of the longest queue) to stay within the cap.
-    pub(super) fn push(&mut self, from: u32, frame: Box<[u8]>) -> u64 {
+    pub(super) fn push(&mut self, from: u32, frame: F) -> u64 {
         let at = match self.queues.iter().position(|q| q.from == from) {
             Some(at) => at,
             None if self.queues.len() < SENDER_QUEUES => {
@@ -119,8 +119,8 @@ impl Backlog {
             None => SENDER_QUEUES - 1,
         };
         let q = &mut self.queues[at];
-        q.bytes += frame.len();
-        self.bytes += frame.len();
+        q.bytes += frame.as_ref().len();
+        self.bytes += frame.as_ref().len();
         q.frames.push_back(frame);
         let mut dropped = 0;
         while self.bytes > self.cap && self.len() > 1 {
@@ -135,22 +135,22 @@ impl Backlog {
 
     /// The next frame held, in turn, when the pace lets it go at `now`;
     /// `Ok(None)` when none is held; else how long until it may go.
-    pub(super) fn release(&mut self, now: Instant) -> Result<Option<Box<[u8]>>, Duration> {
+    pub(super) fn release(&mut self, now: Instant) -> Result<Option<F>, Duration> {
         let Some(q) = self.queues.get(self.turn) else {
             return Ok(None);
         };
-        let len = q.frames.front().map_or(0, |f| f.len());
+        let len = q.frames.front().map_or(0, |f| f.as_ref().len());
         self.pace.admit(len, now)?;
         Ok(self.pop())
     }
 
     /// The next frame held, in turn, whatever the pace (the router is gone).
-    pub(super) fn pop(&mut self) -> Option<Box<[u8]>> {
+    pub(super) fn pop(&mut self) -> Option<F> {
         let turn = self.turn;
         let q = self.queues.get_mut(turn)?;
         let frame = q.frames.pop_front()?;
-        q.bytes -= frame.len();
-        self.bytes -= frame.len();
+        q.bytes -= frame.as_ref().len();
+        self.bytes -= frame.as_ref().len();
         if q.frames.is_empty() {
             // The next queue moves into its place: its turn now.
             self.queues.remove(turn);
@@ -171,8 +171,8 @@ impl Backlog {
         let Some(frame) = q.frames.pop_front() else {
             return false;
         };
-        q.bytes -= frame.len();
-        self.bytes -= frame.len();
+        q.bytes -= frame.as_ref().len();
+        self.bytes -= frame.as_ref().len();
         if q.frames.is_empty() {
             self.queues.remove(i);
             if self.turn > i {

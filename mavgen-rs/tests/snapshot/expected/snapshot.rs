@@ -8,6 +8,7 @@
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct SnapCmd(pub u8);
+
 impl SnapCmd {
     /// A command with parameters.
     ///
@@ -19,12 +20,10 @@ impl SnapCmd {
     pub const fn from_raw(value: u8) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u8 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -94,6 +93,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for SnapCmd {
 /// A flag set: bits the XML does not list are kept, not dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct SnapFlags(pub u32);
+
 impl SnapFlags {
     /// Bit 0.
     pub const A: Self = Self(1);
@@ -144,6 +144,7 @@ impl<'de> ::mavframe::serde::Deserialize<'de> for SnapFlags {
 /// a message is never rejected for carrying one.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub struct SnapMode(pub u16);
+
 impl SnapMode {
     /// Off.
     pub const OFF: Self = Self(0);
@@ -159,12 +160,10 @@ impl SnapMode {
     pub const fn from_raw(value: u16) -> Self {
         Self(value)
     }
-
     /// The raw wire value.
     pub const fn to_raw(self) -> u16 {
         self.0
     }
-
     /// The entry's name in the XML, `None` for a value it does not list.
     pub const fn name(self) -> Option<&'static str> {
         Some(
@@ -444,7 +443,6 @@ impl SnapAllTypes {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -466,13 +464,11 @@ impl SnapAllTypes {
             omega_ix: ::mavframe::field::read::<u8>(p, 61),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SnapAllTypesView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -525,12 +521,10 @@ impl ::mavframe::Message for SnapAllTypes {
     fn parse(payload: &[u8]) -> Self {
         SnapAllTypes::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SnapAllTypes::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SnapAllTypesView<'_> {
         SnapAllTypesView::new(payload)
@@ -552,103 +546,86 @@ impl<'a> SnapAllTypesView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SnapAllTypes {
         SnapAllTypes::from_view(self)
     }
-
     /// Reads [`SnapAllTypes::u8v`](SnapAllTypes::u8v) (`u8v` at offset 46).
     #[inline]
     pub fn u8v(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 46)
     }
-
     /// Reads [`SnapAllTypes::i8v`](SnapAllTypes::i8v) (`i8v` at offset 47).
     #[inline]
     pub fn i8v(&self) -> i8 {
         ::mavframe::field::read::<i8>(self.payload, 47)
     }
-
     /// Reads [`SnapAllTypes::mode`](SnapAllTypes::mode) (`mode` at offset 36).
     #[inline]
     pub fn mode(&self) -> SnapMode {
         SnapMode::from_raw(::mavframe::field::read::<u16>(self.payload, 36))
     }
-
     /// Reads [`SnapAllTypes::i16v`](SnapAllTypes::i16v) (`i16v` at offset 38).
     #[inline]
     pub fn i16v(&self) -> i16 {
         ::mavframe::field::read::<i16>(self.payload, 38)
     }
-
     /// Reads [`SnapAllTypes::flags`](SnapAllTypes::flags) (`flags` at offset 24).
     #[inline]
     pub fn flags(&self) -> SnapFlags {
         SnapFlags::from_bits_retain(::mavframe::field::read::<u32>(self.payload, 24))
     }
-
     /// Reads [`SnapAllTypes::lat`](SnapAllTypes::lat) (`lat` at offset 28).
     #[inline]
     pub fn lat(&self) -> i32 {
         ::mavframe::field::read::<i32>(self.payload, 28)
     }
-
     /// Reads [`SnapAllTypes::time_usec`](SnapAllTypes::time_usec) (`time_usec` at offset 0).
     #[inline]
     pub fn time_usec(&self) -> u64 {
         ::mavframe::field::read::<u64>(self.payload, 0)
     }
-
     /// Reads [`SnapAllTypes::i64v`](SnapAllTypes::i64v) (`i64v` at offset 8).
     #[inline]
     pub fn i64v(&self) -> i64 {
         ::mavframe::field::read::<i64>(self.payload, 8)
     }
-
     /// Reads [`SnapAllTypes::type`](struct@SnapAllTypes) (`type` at offset 32).
     #[inline]
     pub fn r#type(&self) -> f32 {
         ::mavframe::field::read::<f32>(self.payload, 32)
     }
-
     /// Reads [`SnapAllTypes::f64v`](SnapAllTypes::f64v) (`f64v` at offset 16).
     #[inline]
     pub fn f64v(&self) -> f64 {
         ::mavframe::field::read::<f64>(self.payload, 16)
     }
-
     /// Reads [`SnapAllTypes::tag`](SnapAllTypes::tag) (`tag` at offset 48).
     #[inline]
     pub fn tag(&self) -> ::mavframe::field::CharArray<'a, 4> {
         ::mavframe::field::CharArray::new(self.payload, 48)
     }
-
     /// Reads [`SnapAllTypes::vals`](SnapAllTypes::vals) (`vals` at offset 40).
     #[inline]
     pub fn vals(&self) -> ::mavframe::field::ArrayView<'a, u16, 3> {
         ::mavframe::field::ArrayView::new(self.payload, 40)
     }
-
     /// Reads [`SnapAllTypes::version`](SnapAllTypes::version) (`version` at offset 52).
     #[inline]
     pub fn version(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 52)
     }
-
     /// Reads [`SnapAllTypes::ext_pair`](SnapAllTypes::ext_pair) (`ext_pair` at offset 53).
     #[inline]
     pub fn ext_pair(&self) -> ::mavframe::field::ArrayView<'a, f32, 2> {
         ::mavframe::field::ArrayView::new(self.payload, 53)
     }
-
     /// Reads [`SnapAllTypes::omega_ix`](SnapAllTypes::omega_ix) (`omegaIx` at offset 61).
     #[inline]
     pub fn omega_ix(&self) -> u8 {
@@ -673,96 +650,80 @@ impl<'a> SnapAllTypesMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SnapAllTypesView<'_> {
         SnapAllTypesView::new(self.payload)
     }
-
     /// Sets the `u8v` field.
     #[inline]
     pub fn set_u8v(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 46)
     }
-
     /// Sets the `i8v` field.
     #[inline]
     pub fn set_i8v(&mut self, value: i8) {
         ::mavframe::field::Scalar::write(value, self.payload, 47)
     }
-
     /// Sets the `mode` field.
     #[inline]
     pub fn set_mode(&mut self, value: SnapMode) {
         ::mavframe::field::Scalar::write(value.to_raw(), self.payload, 36)
     }
-
     /// Sets the `i16v` field.
     #[inline]
     pub fn set_i16v(&mut self, value: i16) {
         ::mavframe::field::Scalar::write(value, self.payload, 38)
     }
-
     /// Sets the `flags` field.
     #[inline]
     pub fn set_flags(&mut self, value: SnapFlags) {
         ::mavframe::field::Scalar::write(value.bits(), self.payload, 24)
     }
-
     /// Sets the `lat` field.
     #[inline]
     pub fn set_lat(&mut self, value: i32) {
         ::mavframe::field::Scalar::write(value, self.payload, 28)
     }
-
     /// Sets the `time_usec` field.
     #[inline]
     pub fn set_time_usec(&mut self, value: u64) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `i64v` field.
     #[inline]
     pub fn set_i64v(&mut self, value: i64) {
         ::mavframe::field::Scalar::write(value, self.payload, 8)
     }
-
     /// Sets the `type` field.
     #[inline]
     pub fn set_type(&mut self, value: f32) {
         ::mavframe::field::Scalar::write(value, self.payload, 32)
     }
-
     /// Sets the `f64v` field.
     #[inline]
     pub fn set_f64v(&mut self, value: f64) {
         ::mavframe::field::Scalar::write(value, self.payload, 16)
     }
-
     /// Sets the `tag` field.
     #[inline]
     pub fn set_tag(&mut self, value: &[u8; 4]) {
         ::mavframe::field::write_array(self.payload, 48, value)
     }
-
     /// Sets the `vals` field.
     #[inline]
     pub fn set_vals(&mut self, value: &[u16; 3]) {
         ::mavframe::field::write_array(self.payload, 40, value)
     }
-
     /// Sets the `version` field.
     #[inline]
     pub fn set_version(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 52)
     }
-
     /// Sets the `ext_pair` field.
     #[inline]
     pub fn set_ext_pair(&mut self, value: &[f32; 2]) {
         ::mavframe::field::write_array(self.payload, 53, value)
     }
-
     /// Sets the `omegaIx` field.
     #[inline]
     pub fn set_omega_ix(&mut self, value: u8) {
@@ -840,7 +801,6 @@ impl SnapMaxId {
             },
         ],
     };
-
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -850,13 +810,11 @@ impl SnapMaxId {
             data: ::mavframe::field::ArrayView::new(p, 2).to_array(),
         }
     }
-
     /// Copies every field out of a view.
     #[inline]
     pub fn from_view(view: &SnapMaxIdView<'_>) -> Self {
         Self::parse(view.as_bytes())
     }
-
     /// Writes all [`Self::MAX_LEN`] payload bytes at the start of
     /// `payload`; returns that length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
@@ -885,12 +843,10 @@ impl ::mavframe::Message for SnapMaxId {
     fn parse(payload: &[u8]) -> Self {
         SnapMaxId::parse(payload)
     }
-
     #[inline]
     fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         SnapMaxId::emit(self, payload)
     }
-
     #[inline]
     fn view(payload: &[u8]) -> SnapMaxIdView<'_> {
         SnapMaxIdView::new(payload)
@@ -912,31 +868,26 @@ impl<'a> SnapMaxIdView<'a> {
     pub const fn new(payload: &'a [u8]) -> Self {
         Self { payload }
     }
-
     /// The payload bytes this view reads.
     #[inline]
     pub const fn as_bytes(&self) -> &'a [u8] {
         self.payload
     }
-
     /// Copies every field out.
     #[inline]
     pub fn to_message(&self) -> SnapMaxId {
         SnapMaxId::from_view(self)
     }
-
     /// Reads [`SnapMaxId::target_system`](SnapMaxId::target_system) (`target_system` at offset 0).
     #[inline]
     pub fn target_system(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 0)
     }
-
     /// Reads [`SnapMaxId::target_component`](SnapMaxId::target_component) (`target_component` at offset 1).
     #[inline]
     pub fn target_component(&self) -> u8 {
         ::mavframe::field::read::<u8>(self.payload, 1)
     }
-
     /// Reads [`SnapMaxId::data`](SnapMaxId::data) (`data` at offset 2).
     #[inline]
     pub fn data(&self) -> ::mavframe::field::ArrayView<'a, u8, 40> {
@@ -961,24 +912,20 @@ impl<'a> SnapMaxIdMut<'a> {
         }
         Ok(Self { payload })
     }
-
     /// A view of the fields written so far.
     pub fn view(&self) -> SnapMaxIdView<'_> {
         SnapMaxIdView::new(self.payload)
     }
-
     /// Sets the `target_system` field.
     #[inline]
     pub fn set_target_system(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 0)
     }
-
     /// Sets the `target_component` field.
     #[inline]
     pub fn set_target_component(&mut self, value: u8) {
         ::mavframe::field::Scalar::write(value, self.payload, 1)
     }
-
     /// Sets the `data` field.
     #[inline]
     pub fn set_data(&mut self, value: &[u8; 40]) {
@@ -1014,9 +961,11 @@ pub enum MessageView<'a> {
 /// The dialect's table: id, name, CRC_EXTRA and lengths of every
 /// message, sorted by id.
 pub const MESSAGES: &[::mavframe::MessageMeta] = &[SnapAllTypes::META, SnapMaxId::META];
+
 /// This dialect, for code generic over dialects.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Dialect;
+
 impl ::mavframe::Dialect for Dialect {
     type Message = Message;
     type View<'a> = MessageView<'a>;
@@ -1034,11 +983,9 @@ impl ::mavframe::Dialect for Dialect {
             },
         )
     }
-
     fn parse(id: u32, payload: &[u8]) -> Option<Message> {
         Message::parse(id, payload)
     }
-
     fn view(id: u32, payload: &[u8]) -> Option<MessageView<'_>> {
         MessageView::new(id, payload)
     }
@@ -1055,7 +1002,6 @@ impl Message {
         };
         Some(parse(payload))
     }
-
     /// The message's table row.
     pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
@@ -1063,17 +1009,14 @@ impl Message {
             Self::SnapMaxId(_) => &SnapMaxId::META,
         }
     }
-
     /// The message id.
     pub fn id(&self) -> u32 {
         self.meta().id
     }
-
     /// The message name in the XML.
     pub fn name(&self) -> &'static str {
         self.meta().name
     }
-
     /// Writes the full payload; returns its length.
     pub fn emit(&self, payload: &mut [u8]) -> Result<usize, ::mavframe::BufferTooSmall> {
         match self {
@@ -1090,7 +1033,6 @@ impl ::mavframe::Encode for Message {
     fn meta(&self) -> &'static ::mavframe::MessageMeta {
         Message::meta(self)
     }
-
     #[inline]
     fn emit_payload(
         &self,
@@ -1112,7 +1054,6 @@ impl<'a> MessageView<'a> {
             },
         )
     }
-
     /// The message's table row.
     pub fn meta(&self) -> &'static ::mavframe::MessageMeta {
         match self {
@@ -1120,7 +1061,6 @@ impl<'a> MessageView<'a> {
             Self::SnapMaxId(_) => &SnapMaxId::META,
         }
     }
-
     /// Copies the message out.
     pub fn to_message(&self) -> Message {
         type Parse = fn(&[u8]) -> Message;

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# MAVSDK (which cannot sign) reading and commanding an FC that requires
+# signatures, through the companion's --trusted-out link.
+# Needs: fbwag on PATH; python3 with `mavsdk` 3.x (pip install mavsdk==3.17.4:
+# its wheel ships mavsdk_server, which System() starts).
+set -euo pipefail
+P_FC=${P_FC:-14550}                  # the companion's port for the FC
+P_MAVSDK=${P_MAVSDK:-14540}          # mavsdk_server's port, the companion's --trusted-out
+P_GRPC=${P_GRPC:-50051}              # mavsdk_server's gRPC port
+PYTHON=${PYTHON:-python3}
+KEY=$(printf %s fbwag-bench | sha256sum | cut -c1-64)
+RUN=$(mktemp -d)
+trap 'kill $(jobs -p) 2>/dev/null || true' EXIT
+expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || { echo "FAILED: no '$2' in $1:"; cat "$RUN/$1"; exit 1; }; }
+
+# 1. The FC (fc-sim here), signed.
+fbwag fc-sim --link udpin:127.0.0.1:$P_FC --sign-key $KEY --require-signed \
+    --duration 60 >$RUN/fc.log 2>&1 &
+# 2. The companion: what MAVSDK sends on the trusted link goes on to the FC
+#    signed with the key. Loopback only: whoever can send into that port
+#    commands the aircraft.
+fbwag cc --link udpout:127.0.0.1:$P_FC --sign-key $KEY --require-signed \
+    --trusted-out udpout:127.0.0.1:$P_MAVSDK --duration 60 >$RUN/cc.log 2>&1 &
+# 3. A MAVSDK program.
+cat >$RUN/gcs.py <<PY
+import asyncio
+from mavsdk import System
+
+async def main():
+    drone = System(port=$P_GRPC)
+    await drone.connect(system_address="udpin://127.0.0.1:$P_MAVSDK")
+    async for state in drone.core.connection_state():
+        if state.is_connected:
+            break
+    for _ in range(20):  # the version comes with the first AUTOPILOT_VERSION
+        try:
+            v = await drone.info.get_version()
+            break
+        except Exception:
+            await asyncio.sleep(0.5)
+    print("version", v.flight_sw_major, v.flight_sw_minor, v.flight_sw_patch)
+    print("FS_SHORT_ACTN", await drone.param.get_param_int("FS_SHORT_ACTN"))
+    await drone.param.set_param_float("FS_LONG_TIMEOUT", 6.0)
+    print("FS_LONG_TIMEOUT", await drone.param.get_param_float("FS_LONG_TIMEOUT"))
+    try:
+        await drone.action.return_to_launch()
+        print("RTL accepted")
+    except Exception as e:
+        print("RTL", e)
+
+asyncio.run(asyncio.wait_for(main(), 60))
+PY
+$PYTHON -W ignore::FutureWarning $RUN/gcs.py >$RUN/gcs.log 2>&1
+
+# What to expect: the version and parameters of the signed FC, the
+# parameter set, and RTL answered (denied: fc-sim's engine decides modes).
+expect gcs.log "version 4 6 0"
+expect gcs.log "FS_SHORT_ACTN 5"
+expect gcs.log "FS_LONG_TIMEOUT 6.0"
+expect gcs.log "RTL .*COMMAND_DENIED"
+echo "runbook passed (logs in $RUN)"

@@ -57,3 +57,36 @@ fn arrays_chars_and_floats_keep_the_tool_s_forms() {
         "{json}"
     );
 }
+
+/// `fbwag encode --hex` of one line, which must encode.
+fn encode(line: &str) -> String {
+    let (hex, err, code) = fbwag(&["encode", "--hex"], line.as_bytes());
+    assert_eq!(code, Some(0), "{line}: {err}");
+    hex
+}
+
+#[test]
+fn encode_also_takes_the_generated_serde_forms() {
+    // Entry names and bitmask text for enums; `{"hex": …}` and fewer byte
+    // values than the field holds for chars (the rest are NULs).
+    let named = r#"{"name":"HEARTBEAT","fields":{"type":"MAV_TYPE_FIXED_WING","base_mode":"MAV_MODE_FLAG_SAFETY_ARMED | 0x1"}}"#;
+    let numbers = r#"{"name":"HEARTBEAT","fields":{"type":1,"base_mode":129}}"#;
+    assert_eq!(encode(named), encode(numbers));
+    let whole = format!(
+        r#"{{"name":"STATUSTEXT","fields":{{"text":[65,255{}]}}}}"#,
+        ",0".repeat(48)
+    );
+    for short in [
+        r#"{"name":"STATUSTEXT","fields":{"text":{"hex":"41ff"}}}"#,
+        r#"{"name":"STATUSTEXT","fields":{"text":[65,255]}}"#,
+    ] {
+        assert_eq!(encode(short), encode(&whole), "{short}");
+    }
+    // Decode writes what pymavlink prints: numbers, and every byte of a
+    // char array that is not text.
+    let (json, _, _) = fbwag(&["decode", "--hex"], encode(named).as_bytes());
+    assert!(
+        json.contains(r#""type":1,"autopilot":0,"base_mode":129"#),
+        "{json}"
+    );
+}

@@ -6,6 +6,8 @@
 //! these arguments `allow_hyphen_values`, so `-1` or `-inf` reaches the
 //! validator (clap would otherwise take it for an unknown flag).
 
+use std::io::{self, Read};
+
 /// Longest time any time argument may name: 1,000,000 s (11.6 days). Keeps
 /// every time well inside what `Duration`, `Instant` arithmetic and the
 /// FC's 32-bit `time_boot_ms` (49.7 days) can hold.
@@ -37,65 +39,100 @@ pub const ROUTED_RATE: (u32, u32) = (60, 100_000_000);
 /// Largest signing timestamp: the signature block holds 48 bits.
 pub const MAX_SIGN_TIMESTAMP: u64 = (1 << 48) - 1;
 
-/// A finite number from `lo` to `hi` (inclusive), else a message naming
+/// A value a validator refused: shown by clap after the argument's name.
+#[derive(Debug, thiserror::Error)]
+pub enum ArgError {
+    /// Not a number of the kind, or outside its range.
+    #[error("expected {what} from {lo} to {hi}")]
+    OutOfRange {
+        what: &'static str,
+        lo: String,
+        hi: String,
+    },
+    /// A signing key that is not 64 hex digits.
+    #[error("expected 64 hex digits (a 32-byte key), got {chars} characters{}",
+        if *.non_hex { " with non-hex ones" } else { "" })]
+    KeyDigits { chars: usize, non_hex: bool },
+    /// `--sign-key @PATH` naming a file that cannot be read.
+    #[error("cannot read the key file {path}: {source}")]
+    KeyFileUnreadable { path: String, source: io::Error },
+    /// A key file naming another key file.
+    #[error("the key file {0} must hold 64 hex digits")]
+    KeyFileIndirect(String),
+    /// A key file that does not hold a key.
+    #[error("key file {path}: {source}")]
+    KeyFile { path: String, source: Box<ArgError> },
+}
+
+/// A finite number from `lo` to `hi` (inclusive), else an error naming
 /// `what` was expected.
-fn number_in(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
-    let refuse = || format!("expected {what} from {lo} to {hi}");
-    let v: f64 = s.trim().parse().map_err(|_| refuse())?;
+fn number_in(s: &str, lo: f64, hi: f64, what: &'static str) -> Result<f64, ArgError> {
+    let v: f64 = s.trim().parse().map_err(|_| out_of_range(lo, hi, what))?;
     // `contains` is false for NaN; the range bounds are finite.
     if (lo..=hi).contains(&v) {
         Ok(v)
     } else {
-        Err(refuse())
+        Err(out_of_range(lo, hi, what))
     }
 }
 
 /// An integer from `lo` to `hi` (inclusive).
-fn integer_in<T>(s: &str, lo: T, hi: T, what: &str) -> Result<T, String>
+fn integer_in<T>(s: &str, lo: T, hi: T, what: &'static str) -> Result<T, ArgError>
 where
     T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy,
 {
-    let refuse = || format!("expected {what} from {lo} to {hi}");
-    let v: T = s.trim().parse().map_err(|_| refuse())?;
+    let v: T = s.trim().parse().map_err(|_| out_of_range(lo, hi, what))?;
     if lo <= v && v <= hi {
         Ok(v)
     } else {
-        Err(refuse())
+        Err(out_of_range(lo, hi, what))
+    }
+}
+
+fn out_of_range(
+    lo: impl std::fmt::Display,
+    hi: impl std::fmt::Display,
+    what: &'static str,
+) -> ArgError {
+    ArgError::OutOfRange {
+        what,
+        lo: lo.to_string(),
+        hi: hi.to_string(),
     }
 }
 
 /// A time in seconds: finite, from 0 to [`MAX_SECONDS`].
-pub fn seconds(s: &str) -> Result<f64, String> {
+pub fn seconds(s: &str) -> Result<f64, ArgError> {
     number_in(s, 0.0, MAX_SECONDS, "a number of seconds")
 }
 
 /// A share (loss probability): from 0 to 1.
-pub fn share(s: &str) -> Result<f64, String> {
+pub fn share(s: &str) -> Result<f64, ArgError> {
     number_in(s, 0.0, 1.0, "a share")
 }
 
 /// A stream rate in Hz, within [`RATE_HZ`].
-pub fn rate_hz(s: &str) -> Result<f64, String> {
+pub fn rate_hz(s: &str) -> Result<f64, ArgError> {
     number_in(s, RATE_HZ.0, RATE_HZ.1, "a rate in Hz")
 }
 
 /// A mean burst length in frames: from 1 to [`MAX_BURST`].
-pub fn burst(s: &str) -> Result<f64, String> {
+pub fn burst(s: &str) -> Result<f64, ArgError> {
     number_in(s, 1.0, MAX_BURST, "a mean burst length in frames")
 }
 
 /// A trial count: from 1 to [`MAX_TRIALS`].
-pub fn trials(s: &str) -> Result<u32, String> {
+pub fn trials(s: &str) -> Result<u32, ArgError> {
     integer_in(s, 1, MAX_TRIALS, "a number of trials")
 }
 
 /// A simulator seed: from 0 to [`MAX_SEED`].
-pub fn sim_seed(s: &str) -> Result<u64, String> {
+pub fn sim_seed(s: &str) -> Result<u64, ArgError> {
     integer_in(s, 0, MAX_SEED, "a seed")
 }
 
 /// A throttle pulse width in µs, within [`PWM_US`].
-pub fn pwm_us(s: &str) -> Result<u16, String> {
+pub fn pwm_us(s: &str) -> Result<u16, ArgError> {
     integer_in(s, PWM_US.0, PWM_US.1, "a pulse width in µs")
 }
 
@@ -109,7 +146,7 @@ pub enum RoutedRate {
 }
 
 /// `--routed-rate`: bytes a second within [`ROUTED_RATE`], or `off`.
-pub fn routed_rate(s: &str) -> Result<RoutedRate, String> {
+pub fn routed_rate(s: &str) -> Result<RoutedRate, ArgError> {
     if s.trim() == "off" {
         return Ok(RoutedRate::Off);
     }
@@ -119,63 +156,73 @@ pub fn routed_rate(s: &str) -> Result<RoutedRate, String> {
 
 /// A MAVLink system or component id of a sender: 1 to 255 (0 addresses
 /// every system or component and is no sender's id).
-pub fn mavlink_id(s: &str) -> Result<u8, String> {
+pub fn mavlink_id(s: &str) -> Result<u8, ArgError> {
     integer_in(s, 1, 255, "an id")
 }
 
 /// A signing timestamp (10 µs units since 2015-01-01): up to
 /// [`MAX_SIGN_TIMESTAMP`].
-pub fn sign_timestamp(s: &str) -> Result<u64, String> {
+pub fn sign_timestamp(s: &str) -> Result<u64, ArgError> {
     integer_in(s, 0, MAX_SIGN_TIMESTAMP, "a 48-bit signing timestamp")
 }
 
 /// A 32-byte signing key as exactly 64 hex digits, or `@PATH`: a file
 /// holding them (surrounding whitespace ignored), so that the key need not
 /// appear in the process list. Returns the hex digits.
-pub fn sign_key(s: &str) -> Result<String, String> {
+pub fn sign_key(s: &str) -> Result<String, ArgError> {
     if let Some(path) = s.strip_prefix('@') {
         return sign_key_file(path);
     }
     if s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
         Ok(s.to_string())
     } else {
-        Err(format!(
-            "expected 64 hex digits (a 32-byte key), got {} characters{}",
-            s.chars().count(),
-            if s.bytes().all(|b| b.is_ascii_hexdigit()) {
-                ""
-            } else {
-                " with non-hex ones"
-            }
-        ))
+        Err(ArgError::KeyDigits {
+            chars: s.chars().count(),
+            non_hex: !s.bytes().all(|b| b.is_ascii_hexdigit()),
+        })
     }
 }
 
 /// The key of `--sign-key @PATH`: the file is read up to 4 KiB (a key file,
 /// not whatever the path names).
-fn sign_key_file(path: &str) -> Result<String, String> {
-    use std::io::Read;
+fn sign_key_file(path: &str) -> Result<String, ArgError> {
     let mut text = String::new();
     std::fs::File::open(path)
         .and_then(|f| f.take(4096).read_to_string(&mut text))
-        .map_err(|e| format!("cannot read the key file {path}: {e}"))?;
+        .map_err(|source| ArgError::KeyFileUnreadable {
+            path: path.into(),
+            source,
+        })?;
     let key = text.trim();
     if key.starts_with('@') {
-        return Err(format!("the key file {path} must hold 64 hex digits"));
+        return Err(ArgError::KeyFileIndirect(path.into()));
     }
-    sign_key(key).map_err(|e| format!("key file {path}: {e}"))
+    sign_key(key).map_err(|e| ArgError::KeyFile {
+        path: path.into(),
+        source: Box::new(e),
+    })
+}
+
+/// Receiver failures of `fbwag fc-sim` that do not pair up.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OutageError {
+    #[error("{lost} --rc-loss-at and {back} --rc-back-at: give one return per failure (the last may be left out)")]
+    Count { lost: usize, back: usize },
+    #[error("the failure at {0} s starts before the previous one ended")]
+    Overlap(f64),
+    #[error("--rc-back-at {back} is not after --rc-loss-at {lost}")]
+    BackFirst { lost: f64, back: f64 },
 }
 
 /// The receiver failures of `fbwag fc-sim`: the k-th `--rc-back-at` ends
 /// the k-th `--rc-loss-at` (the last failure may stay open); in order, each
 /// return after its failure and before the next failure.
-pub fn outages(lost: &[f64], back: &[f64]) -> Result<Vec<(f64, Option<f64>)>, String> {
+pub fn outages(lost: &[f64], back: &[f64]) -> Result<Vec<(f64, Option<f64>)>, OutageError> {
     if back.len() > lost.len() || back.len() + 1 < lost.len() {
-        return Err(format!(
-            "{} --rc-loss-at and {} --rc-back-at: give one return per failure (the last may be left out)",
-            lost.len(),
-            back.len()
-        ));
+        return Err(OutageError::Count {
+            lost: lost.len(),
+            back: back.len(),
+        });
     }
     let outages: Vec<(f64, Option<f64>)> = lost
         .iter()
@@ -185,14 +232,10 @@ pub fn outages(lost: &[f64], back: &[f64]) -> Result<Vec<(f64, Option<f64>)>, St
     let mut end = f64::NEG_INFINITY;
     for &(l, b) in &outages {
         if l < end {
-            return Err(format!(
-                "the failure at {l} s starts before the previous one ended"
-            ));
+            return Err(OutageError::Overlap(l));
         }
         match b {
-            Some(b) if b <= l => {
-                return Err(format!("--rc-back-at {b} is not after --rc-loss-at {l}"))
-            }
+            Some(b) if b <= l => return Err(OutageError::BackFirst { lost: l, back: b }),
             Some(b) => end = b,
             None => end = f64::INFINITY,
         }
@@ -224,24 +267,27 @@ mod tests {
 
     #[test]
     fn the_bounds_are_inclusive() {
-        assert_eq!(seconds("0"), Ok(0.0));
-        assert_eq!(seconds("1000000"), Ok(MAX_SECONDS));
+        assert_eq!(seconds("0").ok(), Some(0.0));
+        assert_eq!(seconds("1000000").ok(), Some(MAX_SECONDS));
         assert!(seconds("1000000.001").is_err());
-        assert_eq!(share("1"), Ok(1.0));
+        assert_eq!(share("1").ok(), Some(1.0));
         assert!(share("1.0000001").is_err());
-        assert_eq!(rate_hz("100"), Ok(100.0));
+        assert_eq!(rate_hz("100").ok(), Some(100.0));
         assert!(rate_hz("0.5").is_err());
-        assert_eq!(trials("1000000"), Ok(MAX_TRIALS));
+        assert_eq!(trials("1000000").ok(), Some(MAX_TRIALS));
         assert!(trials("0").is_err());
-        assert_eq!(sim_seed(&MAX_SEED.to_string()), Ok(MAX_SEED));
+        assert_eq!(sim_seed(&MAX_SEED.to_string()).ok(), Some(MAX_SEED));
         assert!(sim_seed(&u64::MAX.to_string()).is_err());
-        assert_eq!(pwm_us("800"), Ok(800));
+        assert_eq!(pwm_us("800").ok(), Some(800));
         assert!(pwm_us("0").is_err() && pwm_us("65535").is_err());
         assert!(mavlink_id("0").is_err() && mavlink_id("256").is_err());
-        assert_eq!(sign_timestamp("281474976710655"), Ok(MAX_SIGN_TIMESTAMP));
+        assert_eq!(
+            sign_timestamp("281474976710655").ok(),
+            Some(MAX_SIGN_TIMESTAMP)
+        );
         assert!(sign_timestamp("281474976710656").is_err());
-        assert_eq!(routed_rate("60"), Ok(RoutedRate::BytesPerSecond(60)));
-        assert_eq!(routed_rate("off"), Ok(RoutedRate::Off));
+        assert_eq!(routed_rate("60").ok(), Some(RoutedRate::BytesPerSecond(60)));
+        assert_eq!(routed_rate("off").ok(), Some(RoutedRate::Off));
         assert!(routed_rate("59").is_err() && routed_rate("0").is_err());
         assert!(routed_rate("100000001").is_err());
     }
@@ -249,12 +295,15 @@ mod tests {
     #[test]
     fn keys_are_64_hex_digits() {
         let k = "0f".repeat(32);
-        assert_eq!(sign_key(&k), Ok(k.clone()));
+        assert_eq!(sign_key(&k).ok(), Some(k.clone()));
         let dir = std::env::temp_dir().join(format!("fbwag-key-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let file = dir.join("key.hex");
         std::fs::write(&file, format!("{k}\n")).unwrap();
-        assert_eq!(sign_key(&format!("@{}", file.display())), Ok(k.clone()));
+        assert_eq!(
+            sign_key(&format!("@{}", file.display())).ok(),
+            Some(k.clone())
+        );
         std::fs::write(&file, &k[..62]).unwrap();
         assert!(sign_key(&format!("@{}", file.display())).is_err());
         assert!(sign_key(&format!("@{}", dir.join("absent").display())).is_err());
@@ -304,6 +353,25 @@ impl From<AutonomyFallback> for fbwag_delegation::node::AutonomyFallback {
         match f {
             AutonomyFallback::Decline => Self::Decline,
             AutonomyFallback::WingsLevel => Self::WingsLevel,
+        }
+    }
+}
+
+/// `fbwag cc --controller`: what flies in companion control without an
+/// autonomy program.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ControllerKind {
+    WingsLevel,
+    Circle,
+}
+
+impl ControllerKind {
+    /// The controller, at cruise `throttle` (PWM µs).
+    pub fn build(self, throttle: u16) -> Box<dyn fbwag_delegation::control::Controller + Send> {
+        use fbwag_delegation::control::{Circle, WingsLevel};
+        match self {
+            ControllerKind::WingsLevel => Box::new(WingsLevel { throttle }),
+            ControllerKind::Circle => Box::new(Circle { throttle }),
         }
     }
 }

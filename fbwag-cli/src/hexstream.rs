@@ -1,6 +1,18 @@
 //! Hex text to bytes in chunks (for `fbwag decode --hex`), so input of any
 //! size is decoded in bounded memory; a digit pair may span two chunks.
 
+/// Hex text that is not whole bytes of hex digits.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum HexError {
+    /// A byte that is neither a hex digit nor whitespace, after `digit`
+    /// digits.
+    #[error("byte 0x{byte:02x} is not a hex digit (digit {digit})")]
+    NotHex { byte: u8, digit: u64 },
+    /// The text ended half way through a byte.
+    #[error("odd number of hex digits ({0})")]
+    OddDigits(u64),
+}
+
 /// Decodes hex digits, ignoring ASCII whitespace.
 #[derive(Default)]
 pub struct HexDecoder {
@@ -12,13 +24,14 @@ pub struct HexDecoder {
 
 impl HexDecoder {
     /// Appends the bytes of `text`'s digit pairs to `out`.
-    pub fn push(&mut self, text: &[u8], out: &mut Vec<u8>) -> Result<(), String> {
+    pub fn push(&mut self, text: &[u8], out: &mut Vec<u8>) -> Result<(), HexError> {
         for &c in text {
             if c.is_ascii_whitespace() {
                 continue;
             }
-            let v = (c as char).to_digit(16).ok_or_else(|| {
-                format!("byte 0x{c:02x} is not a hex digit (digit {})", self.digits)
+            let v = (c as char).to_digit(16).ok_or(HexError::NotHex {
+                byte: c,
+                digit: self.digits,
             })? as u8;
             self.digits += 1;
             match self.pending.take() {
@@ -30,9 +43,9 @@ impl HexDecoder {
     }
 
     /// Checks the text ended on a whole byte.
-    pub fn finish(&self) -> Result<(), String> {
+    pub fn finish(&self) -> Result<(), HexError> {
         match self.pending {
-            Some(_) => Err(format!("odd number of hex digits ({})", self.digits)),
+            Some(_) => Err(HexError::OddDigits(self.digits)),
             None => Ok(()),
         }
     }

@@ -1,34 +1,66 @@
 //! `fbwag sim`: the delegation protocol in the simulator.
 
+use crate::error::Outcome;
 use fbwag_delegation::sim::report::{self, Losses, Row};
 use fbwag_delegation::sim::{Scenario, Trial};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// What `fbwag sim` was asked.
-pub struct SimArgs {
-    pub table1: bool,
-    pub sweep: bool,
-    pub list: bool,
-    pub scenario: Option<String>,
-    pub loss: f64,
-    pub burst: Option<f64>,
-    pub trials: Option<u32>,
-    pub seed: u64,
-    pub json: bool,
-    pub svg: Option<PathBuf>,
-    pub model_check: bool,
-    pub depth: Option<usize>,
+/// What `fbwag sim` was asked to do.
+pub enum Request {
+    /// Print the scenarios' names.
+    List,
+    /// The paper's Table I.
+    Table1 { trials: u32, seed: u64, json: bool },
+    /// A scenario over loss 0–90 %, and its chart.
+    Sweep {
+        scenario: Scenario,
+        trials: u32,
+        seed: u64,
+        burst: Option<f64>,
+        svg: Option<PathBuf>,
+        json: bool,
+    },
+    /// One scenario at one loss.
+    Scenario {
+        scenario: Scenario,
+        loss: f64,
+        burst: Option<f64>,
+        trials: u32,
+        seed: u64,
+        json: bool,
+    },
+    /// The exhaustive check of the real nodes, to `depth` steps.
+    ModelCheck { depth: Option<usize>, json: bool },
 }
 
-fn scenario(name: &str) -> Result<Scenario, String> {
-    Scenario::from_name(name).ok_or_else(|| {
-        let names: Vec<_> = Scenario::ALL.iter().map(|s| s.name()).collect();
-        format!("unknown scenario `{name}`; one of: {}", names.join(", "))
-    })
+/// Why `fbwag sim` could not do its work.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("unknown scenario `{name}`; one of: {}", scenario_names().join(", "))]
+    UnknownScenario { name: String },
+    #[error("say what to run: --table1, --sweep, or --scenario NAME (--list shows the names)")]
+    NothingToRun,
+    #[error("cannot write {}: {source}", path.display())]
+    Chart {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// Each broken invariant: scenario, seed, time and what broke.
+    #[error("invariants broken:\n  {}", .0.join("\n  "))]
+    Invariants(Vec<String>),
 }
 
-fn violations(rows: &[Row]) -> Result<(), String> {
+fn scenario_names() -> Vec<&'static str> {
+    Scenario::ALL.iter().map(|s| s.name()).collect()
+}
+
+/// The scenario called `name`.
+pub fn scenario(name: &str) -> Result<Scenario, SimError> {
+    Scenario::from_name(name).ok_or_else(|| SimError::UnknownScenario { name: name.into() })
+}
+
+fn violations(rows: &[Row]) -> Result<(), SimError> {
     let broken: Vec<String> = rows
         .iter()
         .flat_map(|r| {
@@ -45,93 +77,118 @@ fn violations(rows: &[Row]) -> Result<(), String> {
     if broken.is_empty() {
         Ok(())
     } else {
-        Err(format!("invariants broken:\n  {}", broken.join("\n  ")))
+        Err(SimError::Invariants(broken))
     }
 }
 
-pub fn run(a: SimArgs) -> Result<bool, String> {
-    if a.model_check {
-        return model_check(&a);
-    }
-    if a.list {
-        for s in Scenario::ALL {
-            println!("{}", s.name());
+/// Runs `request`: [`Outcome::Flagged`] when the model check found a
+/// violation; a broken invariant of a trial is an error.
+pub fn run(request: Request) -> Result<Outcome, SimError> {
+    match request {
+        Request::List => {
+            for name in scenario_names() {
+                println!("{name}");
+            }
         }
-        return Ok(true);
+        Request::Table1 { trials, seed, json } => table1(trials, seed, json)?,
+        Request::Sweep {
+            scenario,
+            trials,
+            seed,
+            burst,
+            svg,
+            json,
+        } => sweep(scenario, trials, seed, burst, svg.as_deref(), json)?,
+        Request::Scenario {
+            scenario,
+            loss,
+            burst,
+            trials,
+            seed,
+            json,
+        } => one_scenario(scenario, loss, burst, trials, seed, json)?,
+        Request::ModelCheck { depth, json } => return Ok(model_check(depth, json)),
     }
-    if !(0.0..=1.0).contains(&a.loss) {
-        return Err(format!("--loss must be from 0 to 1, not {}", a.loss));
+    Ok(Outcome::Clean)
+}
+
+/// Rows as JSON lines, or as `text` renders them.
+fn print_rows(rows: &[Row], json: bool, text: fn(&[Row]) -> String) {
+    if json {
+        for r in rows {
+            println!("{}", r.json());
+        }
+    } else {
+        print!("{}", text(rows));
     }
+}
+
+fn table1(trials: u32, seed: u64, json: bool) -> Result<(), SimError> {
     let started = Instant::now();
-    if a.table1 {
-        let trials = a.trials.unwrap_or(10_000);
-        eprintln!(
-            "running Table I: 4 rows × {trials} trials (seed {})…",
-            a.seed
-        );
-        let rows = report::table1(trials, a.seed);
-        if a.json {
-            for r in &rows {
-                println!("{}", r.json());
-            }
+    eprintln!("running Table I: 4 rows × {trials} trials (seed {seed})…");
+    let rows = report::table1(trials, seed);
+    print_rows(&rows, json, report::table1_text);
+    eprintln!("done in {:.1} s", started.elapsed().as_secs_f64());
+    violations(&rows)
+}
+
+fn sweep(
+    s: Scenario,
+    trials: u32,
+    seed: u64,
+    burst: Option<f64>,
+    svg: Option<&Path>,
+    json: bool,
+) -> Result<(), SimError> {
+    let started = Instant::now();
+    eprintln!(
+        "sweeping {} over loss 0–90 % ({} loss): 10 rows × {trials} trials…",
+        s.name(),
+        if burst.is_some() {
+            "bursty"
         } else {
-            print!("{}", report::table1_text(&rows));
+            "independent"
         }
-        eprintln!("done in {:.1} s", started.elapsed().as_secs_f64());
-        violations(&rows)?;
-        return Ok(true);
-    }
-    if a.sweep {
-        let s = scenario(a.scenario.as_deref().unwrap_or("message-loss"))?;
-        let trials = a.trials.unwrap_or(1000);
-        eprintln!(
-            "sweeping {} over loss 0–90 % ({} loss): 10 rows × {trials} trials…",
-            s.name(),
-            if a.burst.is_some() {
-                "bursty"
-            } else {
-                "independent"
-            }
-        );
-        let losses = match a.burst {
-            Some(mean_burst) => Losses::Bursty { mean_burst },
-            None => Losses::Independent,
-        };
-        let rows = report::sweep(s, trials, a.seed, losses);
-        if a.json {
-            for r in &rows {
-                println!("{}", r.json());
-            }
-        } else {
-            print!("{}", report::sweep_text(&rows));
-        }
-        if let Some(path) = &a.svg {
-            let title = format!("{}: success within 5 s and handover time vs frame loss ({trials} trials per point)", s.name());
-            std::fs::write(path, report::sweep_svg(&rows, &title))
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-            eprintln!("chart written to {}", path.display());
-        }
-        eprintln!("done in {:.1} s", started.elapsed().as_secs_f64());
-        violations(&rows)?;
-        return Ok(true);
-    }
-    let Some(name) = a.scenario.as_deref() else {
-        return Err(
-            "say what to run: --table1, --sweep, or --scenario NAME (--list shows the names)"
-                .into(),
-        );
+    );
+    let losses = match burst {
+        Some(mean_burst) => Losses::Bursty { mean_burst },
+        None => Losses::Independent,
     };
-    let s = scenario(name)?;
-    let trials = a.trials.unwrap_or(10_000);
-    let (loss, burst) = (a.loss, a.burst);
-    let row = report::run_many(s, loss, trials, a.seed, |seed| {
+    let rows = report::sweep(s, trials, seed, losses);
+    print_rows(&rows, json, report::sweep_text);
+    if let Some(path) = svg {
+        let title = format!(
+            "{}: success within 5 s and handover time vs frame loss ({trials} trials per point)",
+            s.name()
+        );
+        std::fs::write(path, report::sweep_svg(&rows, &title)).map_err(|source| {
+            SimError::Chart {
+                path: path.to_owned(),
+                source,
+            }
+        })?;
+        eprintln!("chart written to {}", path.display());
+    }
+    eprintln!("done in {:.1} s", started.elapsed().as_secs_f64());
+    violations(&rows)
+}
+
+fn one_scenario(
+    s: Scenario,
+    loss: f64,
+    burst: Option<f64>,
+    trials: u32,
+    seed: u64,
+    json: bool,
+) -> Result<(), SimError> {
+    let row = report::run_many(s, loss, trials, seed, |seed| {
         let t = Trial::new(s, loss, seed);
         match burst {
             Some(len) => t.bursty(loss, len),
             None => t,
         }
     });
-    if a.json {
+    if json {
         println!("{}", row.json());
     } else {
         let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.0} ms"));
@@ -149,16 +206,15 @@ pub fn run(a: SimArgs) -> Result<bool, String> {
             row.violations.len()
         );
     }
-    violations(&[row])?;
-    Ok(true)
+    violations(&[row])
 }
 
 /// `fbwag sim --model-check`: the exhaustive check of the real nodes
 /// (fbwag-model), breadth first to `--depth`; exit status 1 when an
 /// invariant is broken.
-fn model_check(a: &SimArgs) -> Result<bool, String> {
+fn model_check(depth: Option<usize>, json: bool) -> Outcome {
     let mut opts = fbwag_model::CheckOptions::default();
-    if let Some(d) = a.depth {
+    if let Some(d) = depth {
         opts.depth = d;
     }
     eprintln!(
@@ -168,8 +224,8 @@ fn model_check(a: &SimArgs) -> Result<bool, String> {
     let report = fbwag_model::check(opts, |states, depth| {
         eprintln!("  {states} states, depth {depth}");
     });
-    print_model_report(&report, a.json);
-    Ok(report.violations.is_empty())
+    print_model_report(&report, json);
+    Outcome::clean_if(report.violations.is_empty())
 }
 
 fn print_model_report(r: &fbwag_model::Report, json: bool) {
@@ -204,27 +260,31 @@ fn print_model_report(r: &fbwag_model::Report, json: bool) {
         }
     }
     if json {
-        let violations: Vec<_> = r
-            .violations
-            .iter()
-            .map(|v| {
-                serde_json::json!({
-                    "invariant": v.invariant,
-                    "steps": v.steps,
-                    "trace": v.trace,
-                })
-            })
-            .collect();
-        let line = serde_json::json!({
-            "states": r.states,
-            "generated": r.generated,
-            "depth": r.depth,
-            "complete": r.complete,
-            "seconds": r.elapsed.as_secs_f64(),
-            "invariants": r.invariants,
-            "reached": r.reached.iter().map(|(n, steps)| serde_json::json!({"state": n, "steps": steps})).collect::<Vec<_>>(),
-            "violations": violations,
-        });
-        println!("{line}");
+        println!("{}", model_report_json(r));
     }
+}
+
+/// The last line of `fbwag sim --model-check --json`.
+fn model_report_json(r: &fbwag_model::Report) -> serde_json::Value {
+    let violations: Vec<_> = r
+        .violations
+        .iter()
+        .map(|v| {
+            serde_json::json!({
+                "invariant": v.invariant,
+                "steps": v.steps,
+                "trace": v.trace,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "states": r.states,
+        "generated": r.generated,
+        "depth": r.depth,
+        "complete": r.complete,
+        "seconds": r.elapsed.as_secs_f64(),
+        "invariants": r.invariants,
+        "reached": r.reached.iter().map(|(n, steps)| serde_json::json!({"state": n, "steps": steps})).collect::<Vec<_>>(),
+        "violations": violations,
+    })
 }

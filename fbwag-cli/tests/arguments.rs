@@ -300,3 +300,106 @@ fn events_to_a_fifo_without_a_reader_never_hold_a_daemon() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Arguments refused after parsing (connection strings, receiver failures
+/// that do not pair up, unknown scenarios, unreadable input) exit with
+/// status 2 and an `error:` line naming what was refused; work done on
+/// input with problems exits with 1; `fbwag --help` lists the statuses.
+#[test]
+fn refusals_after_parsing_exit_2_and_flagged_input_exits_1() {
+    const NO_RUN: &[&str] = &["--duration", "1"];
+    let cases: &[(&[&str], &str, i32, &str)] = &[
+        (&["cc", "--link", "bogus"], "", 2, "error: --link: `bogus`"),
+        (
+            &["cc", "--link", "udpin:127.0.0.1:0", "--out", "nope"],
+            "",
+            2,
+            "error: --out nope: ",
+        ),
+        (
+            &["cc", "--link", "udpin:127.0.0.1:0", "--autonomy", "x:1"],
+            "",
+            2,
+            "error: --autonomy x:1: ",
+        ),
+        (&["fc-sim", "--link", "udp"], "", 2, "error: --link: "),
+        (
+            &[
+                "fc-sim",
+                "--link",
+                "udpout:127.0.0.1:9",
+                "--rc-back-at",
+                "3",
+            ],
+            "",
+            2,
+            "error: 0 --rc-loss-at and 1 --rc-back-at",
+        ),
+        (
+            &["router", "udpin:127.0.0.1:0", "nope"],
+            "",
+            2,
+            "error: nope: ",
+        ),
+        (
+            &["sim", "--scenario", "nope"],
+            "",
+            2,
+            "unknown scenario `nope`",
+        ),
+        (&["sim"], "", 2, "error: say what to run"),
+        (
+            &["decode", "--hex"],
+            "0z",
+            2,
+            "error: byte 0x7a is not a hex digit",
+        ),
+        (
+            &["decode", "--hex"],
+            "fd0",
+            2,
+            "error: odd number of hex digits (3)",
+        ),
+        (
+            &["decode", "/nonexistent/fbwag"],
+            "",
+            2,
+            "error: cannot open input",
+        ),
+        (&["decode", "--hex"], "00ff", 1, "2 bytes dropped"),
+        (&["encode"], "{}\n", 1, "line 1: "),
+    ];
+    for (args, stdin, code, says) in cases {
+        let daemon = matches!(args[0], "cc" | "fc-sim" | "router");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(*args)
+            .args(if daemon { NO_RUN } else { &[] })
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run fbwag");
+        use std::io::Write;
+        let mut input = child.stdin.take().unwrap();
+        input.write_all(stdin.as_bytes()).unwrap();
+        drop(input);
+        let out = wait_bounded(child, Instant::now()).expect("still running");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.code() == Some(*code) && err.contains(says),
+            "{args:?}: exit {:?}, expected {code} and `{says}`: {err}",
+            out.status.code()
+        );
+    }
+    let help = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        .arg("--help")
+        .output()
+        .expect("run fbwag");
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        ["Exit status:", "\n  0  ", "\n  1  ", "\n  2  "]
+            .iter()
+            .all(|s| help.contains(s)),
+        "{help}"
+    );
+}

@@ -123,27 +123,15 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
 }
 
 /// Why a `--trusted-out` link is refused.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum TrustedOutError {
     /// Its address is not loopback (and `--trusted-out-remote` is not set).
+    #[error("{0} is not a loopback address: anyone who can reach it could command the aircraft (--trusted-out-remote accepts it)")]
     NotLocal(String),
     /// Its host name did not resolve.
+    #[error("{0}")]
     Resolve(fbwag_dialect::mavframe::conn::ResolveError),
 }
-
-impl std::fmt::Display for TrustedOutError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            TrustedOutError::NotLocal(a) => write!(
-                f,
-                "{a} is not a loopback address: anyone who can reach it could command the aircraft (--trusted-out-remote accepts it)"
-            ),
-            TrustedOutError::Resolve(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl std::error::Error for TrustedOutError {}
 
 /// A trusted link must be local: loopback addresses (every address its
 /// host name resolves to) or a serial port, unless `remote` allows any.

@@ -2,8 +2,8 @@
 //! UDP through a relay that drops a share of the datagrams each way.
 
 use super::cc::{run_cc, CcOptions};
-use super::fc::{run_fc, FcOptions, FcReport};
 use super::net::LinkOptions;
+use crate::fc_sim::{run_fc, FcOptions, FcReport};
 use fbwag_delegation::control::WingsLevel;
 use fbwag_delegation::Peer;
 use fbwag_dialect::Endpoint;
@@ -135,8 +135,41 @@ pub struct DemoOptions {
 /// When the demo's first failure comes (s): the daemons have met by then.
 const FIRST_FAILURE: f64 = 2.0;
 
-/// Runs the demo: prints the timeline and a summary of the handovers.
-pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
+/// A link with neither signing nor a fixed peer; nothing is routed to it
+/// (the demo has no other link).
+fn plain_link(endpoint: Endpoint) -> LinkOptions {
+    LinkOptions {
+        endpoint,
+        key: None,
+        peer: None,
+        signing_state: None,
+        routed_rate: None,
+    }
+}
+
+/// The companion of the demo: listening at `addr`, flying wings level.
+fn companion(addr: SocketAddr, own: Peer, fc: Peer, duration: f64) -> CcOptions {
+    CcOptions {
+        outs: Vec::new(),
+        trusted_outs: Vec::new(),
+        autonomy: None,
+        autonomy_peer: None,
+        autonomy_fallback: Default::default(),
+        link: plain_link(Endpoint::UdpIn(addr.into())),
+        own,
+        fc,
+        rate_hz: 20.0,
+        controller: Box::new(WingsLevel { throttle: 1600 }),
+        require_signed: false,
+        duration: Some(Duration::from_secs_f64(duration)),
+        exit_after_handback: false,
+        events: None,
+        stop_on_signals: false,
+    }
+}
+
+/// The FC of the demo, sending to the relay at `relay`.
+fn flight_controller(relay: SocketAddr, own: Peer, companion: Peer, o: &DemoOptions) -> FcOptions {
     let period = o.lost_for + o.back_for;
     let outages: Vec<(f64, Option<f64>)> = (0..o.cycles)
         .map(|k| {
@@ -144,7 +177,28 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
             (lost, Some(lost + o.lost_for))
         })
         .collect();
-    let duration = FIRST_FAILURE + f64::from(o.cycles) * period + 0.5;
+    FcOptions {
+        link: plain_link(Endpoint::UdpOut(relay.into())),
+        own,
+        companion,
+        outages,
+        duration: demo_duration(o),
+        require_signed: false,
+        events: None,
+        stop_on_signals: false,
+        home: crate::fc_sim::plane::Home::DEFAULT,
+        pilot_mode: crate::fc_sim::PilotMode::Fbwa,
+    }
+}
+
+/// How long the FC runs: every failure and return, and half a second.
+fn demo_duration(o: &DemoOptions) -> f64 {
+    FIRST_FAILURE + f64::from(o.cycles) * (o.lost_for + o.back_for) + 0.5
+}
+
+/// Runs the demo: prints the timeline and a summary of the handovers.
+pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
+    let duration = demo_duration(&o);
     let (loss, seed) = (o.loss, o.seed);
     // The CC listens; the relay forwards the FC's datagrams to it and the
     // CC's answers back to the FC.
@@ -155,56 +209,11 @@ pub fn demo(o: DemoOptions) -> io::Result<FcReport> {
     let cc_addr = SocketAddr::from(([127, 0, 0, 1], cc_port));
     let relay = std::thread::spawn(move || run_relay(relay_socket, cc_addr, loss, until, seed));
     let (fc_id, cc_id) = (Peer::new(1, 1), Peer::new(1, 191));
-    let cc = std::thread::spawn(move || {
-        run_cc(
-            CcOptions {
-                outs: Vec::new(),
-                trusted_outs: Vec::new(),
-                autonomy: None,
-                autonomy_peer: None,
-                autonomy_fallback: Default::default(),
-                link: LinkOptions {
-                    endpoint: Endpoint::UdpIn(cc_addr.into()),
-                    key: None,
-                    peer: None,
-                    signing_state: None,
-                    // No --out link: nothing is routed.
-                    routed_rate: None,
-                },
-                own: cc_id,
-                fc: fc_id,
-                rate_hz: 20.0,
-                controller: Box::new(WingsLevel { throttle: 1600 }),
-                require_signed: false,
-                duration: Some(Duration::from_secs_f64(duration + 0.3)),
-                exit_after_handback: false,
-                events: None,
-                stop_on_signals: false,
-            },
-            Box::new(io::stdout()),
-        )
-    });
-    let report = run_fc(
-        FcOptions {
-            link: LinkOptions {
-                endpoint: Endpoint::UdpOut(SocketAddr::from(([127, 0, 0, 1], relay_port)).into()),
-                key: None,
-                peer: None,
-                signing_state: None,
-                routed_rate: None,
-            },
-            own: fc_id,
-            companion: cc_id,
-            outages,
-            duration,
-            require_signed: false,
-            events: None,
-            stop_on_signals: false,
-            home: super::plane::Home::DEFAULT,
-            pilot_mode: super::fc::PilotMode::Fbwa,
-        },
-        Box::new(io::stdout()),
-    )?;
+    let cc_opts = companion(cc_addr, cc_id, fc_id, duration + 0.3);
+    let cc = std::thread::spawn(move || run_cc(cc_opts, Box::new(io::stdout())));
+    let relay_addr = SocketAddr::from(([127, 0, 0, 1], relay_port));
+    let fc_opts = flight_controller(relay_addr, fc_id, cc_id, &o);
+    let report = run_fc(fc_opts, Box::new(io::stdout()))?;
     let joined = |what| io::Error::other(format!("{what} thread panicked"));
     let cc_report = cc.join().map_err(|_| joined("companion"))??;
     let (passed, dropped) = relay.join().map_err(|_| joined("relay"))??;

@@ -15,6 +15,7 @@
 //! - frames the node drops and each link's parser refusals are logged
 //!   rate-limited, with counts.
 
+use super::signals::StopSignals;
 use super::{Clock, Events, Limiter, Log};
 use crate::args::RoutedRate;
 use fbwag_delegation::node::{Answers, Arrival, DropReason, Drops, Peers};
@@ -86,7 +87,7 @@ pub struct Net {
     pub main: LinkId,
     /// Frames the node dropped, logged at most 5 lines per 10 s.
     dropped: Limiter,
-    link_errors: Limiter,
+    link_changes: LinkChanges,
     /// The node's drop counts when last reported.
     drops_seen: Drops,
     /// Each link's counters when last reported.
@@ -126,7 +127,7 @@ impl Net {
             router,
             main,
             dropped: Limiter::new(5, Duration::from_secs(10)),
-            link_errors: Limiter::new(5, Duration::from_secs(10)),
+            link_changes: LinkChanges::default(),
             drops_seen: Drops::default(),
             refused_seen: Vec::new(),
             refused_at: tokio::time::Instant::now(),
@@ -203,29 +204,7 @@ impl Net {
     }
 
     fn name(&self, link: LinkId) -> String {
-        self.router
-            .endpoint(link)
-            .map(|e| e.to_string())
-            .unwrap_or_default()
-    }
-
-    /// A link's change: logged; returns the link opened again, whose peers
-    /// the node forgets.
-    fn link_event(&mut self, event: RouterEvent<Dialect>, log: &mut Log) -> Option<LinkId> {
-        match event {
-            RouterEvent::LinkDown { link, error } => {
-                let name = self.name(link);
-                self.link_errors.log(log, "link errors", || {
-                    format!("link {name} failed ({error}); opening it again every second")
-                });
-                None
-            }
-            RouterEvent::LinkUp { link } => {
-                log.line(&format!("link {} open again", self.name(link)));
-                Some(link)
-            }
-            RouterEvent::Frame(_) => None,
-        }
+        link_name(&self.router, link)
     }
 
     /// Every [`REFUSED_INTERVAL`], what each link's parser refused since
@@ -245,8 +224,7 @@ impl Net {
                 self.refused_seen.resize(i + 1, LinkCounters::default());
             }
             let was = std::mem::replace(&mut self.refused_seen[i], counters);
-            let name = self.router.endpoint(link).map(|e| e.to_string());
-            let name = name.unwrap_or_default();
+            let name = link_name(&self.router, link);
             report_lost(&name, &was, &counters, log);
             // (A reopened link's parser counts from zero again: saturating,
             // what it refused before this report is not reported.)
@@ -286,6 +264,54 @@ impl Net {
     }
 }
 
+/// The name of `link` in the log: its connection string.
+pub fn link_name(router: &Router<Dialect>, link: LinkId) -> String {
+    router
+        .endpoint(link)
+        .map(|e| e.to_string())
+        .unwrap_or_default()
+}
+
+/// Links' failures and returns, logged: failures at most 5 lines per 10 s
+/// (a link that keeps failing is opened again every second).
+pub struct LinkChanges {
+    errors: Limiter,
+}
+
+impl Default for LinkChanges {
+    fn default() -> Self {
+        LinkChanges {
+            errors: Limiter::new(5, Duration::from_secs(10)),
+        }
+    }
+}
+
+impl LinkChanges {
+    /// A link's change: logged; returns the link opened again, whose peers
+    /// the node forgets.
+    pub fn log(
+        &mut self,
+        router: &Router<Dialect>,
+        event: RouterEvent<Dialect>,
+        log: &mut Log,
+    ) -> Option<LinkId> {
+        match event {
+            RouterEvent::LinkDown { link, error } => {
+                let name = link_name(router, link);
+                self.errors.log(log, "link errors", || {
+                    format!("link {name} failed ({error}); opening it again every second")
+                });
+                None
+            }
+            RouterEvent::LinkUp { link } => {
+                log.line(&format!("link {} open again", link_name(router, link)));
+                Some(link)
+            }
+            RouterEvent::Frame(_) => None,
+        }
+    }
+}
+
 /// What the link at `name` lost since `was`, if anything: one line.
 fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log) {
     let parts: Vec<String> = [
@@ -320,7 +346,7 @@ fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log
 }
 
 /// The `ReplyTo` rule of a link: `--peer`, or whom the node names.
-fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
+pub fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
     peer.map_or(ReplyTo::Owner, ReplyTo::Fixed)
 }
 
@@ -352,7 +378,8 @@ pub fn drop_counts(drops: &Drops) -> serde_json::Value {
         .into()
 }
 
-fn opened(endpoint: &Endpoint, e: io::Error) -> io::Error {
+/// `e`, naming the link that could not be opened.
+pub fn opened(endpoint: &Endpoint, e: io::Error) -> io::Error {
     io::Error::new(e.kind(), format!("cannot open {endpoint}: {e}"))
 }
 
@@ -435,7 +462,7 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                     node.handle_frame(clock.now(), &inbound, &mut net, log)
                 }
                 Some(event) => {
-                    if let Some(link) = net.link_event(event, log) {
+                    if let Some(link) = net.link_changes.log(&net.router, event, log) {
                         node.link_reopened(link);
                     }
                 }
@@ -452,77 +479,6 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
         _ = net.router.shutdown(Duration::from_secs(1)) => {}
         // A second signal: the user does not wait.
         name = stop.recv() => std::process::exit(if name == "SIGINT" { 130 } else { 143 }),
-    }
-}
-
-/// SIGTERM (`kill`, `systemctl stop`), and SIGINT (Ctrl-C) when standard
-/// input is a terminal: the daemon stops as at the end of its run, its
-/// links saving their signing state; a second signal ends it at once.
-/// (Killed by either, it skipped that save: with `--signing-state`, what
-/// it had accepted since the last periodic save could be replayed into it
-/// once restarted.) SIGINT is left alone otherwise: a daemon a script
-/// starts in the background inherits it ignored, and keeps running.
-struct StopSignals {
-    #[cfg(unix)]
-    interrupt: Option<tokio::signal::unix::Signal>,
-    #[cfg(unix)]
-    terminate: Option<tokio::signal::unix::Signal>,
-}
-
-impl StopSignals {
-    fn new(enabled: bool, log: &mut Log) -> Self {
-        #[cfg(unix)]
-        {
-            use std::io::IsTerminal;
-            use tokio::signal::unix::{signal, SignalKind};
-            let mut listen = |kind: SignalKind, name: &str| {
-                signal(kind)
-                    .map_err(|e| {
-                        log.line(&format!(
-                            "cannot handle {name} ({e}): it ends the daemon unsaved"
-                        ))
-                    })
-                    .ok()
-            };
-            let interactive = std::io::stdin().is_terminal();
-            StopSignals {
-                interrupt: (enabled && interactive)
-                    .then(|| listen(SignalKind::interrupt(), "SIGINT"))
-                    .flatten(),
-                terminate: enabled
-                    .then(|| listen(SignalKind::terminate(), "SIGTERM"))
-                    .flatten(),
-            }
-        }
-        #[cfg(not(unix))]
-        {
-            let _ = (enabled, log);
-            StopSignals {}
-        }
-    }
-
-    /// The name of the next stop signal received (never, without them).
-    async fn recv(&mut self) -> &'static str {
-        #[cfg(unix)]
-        {
-            async fn next(s: &mut Option<tokio::signal::unix::Signal>) {
-                match s {
-                    // (`None`: the runtime is going away; nothing more.)
-                    Some(s) => {
-                        if s.recv().await.is_none() {
-                            std::future::pending::<()>().await;
-                        }
-                    }
-                    None => std::future::pending().await,
-                }
-            }
-            tokio::select! {
-                _ = next(&mut self.interrupt) => "SIGINT",
-                _ = next(&mut self.terminate) => "SIGTERM",
-            }
-        }
-        #[cfg(not(unix))]
-        std::future::pending().await
     }
 }
 

@@ -8,10 +8,9 @@
 //! dropped is the router node's (`fbwag_delegation::node::RouterNode`);
 //! this module moves bytes and reports.
 
-use super::net::{self, drop_counts};
+use super::net::{self, drop_counts, LinkChanges};
 use super::{Clock, Events, Limiter, Log};
 use fbwag_delegation::node::{DropReason, Output, RouterNode};
-use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
 use fbwag_dialect::{Dialect, Endpoint};
@@ -74,14 +73,14 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 key: o.key,
                 // The node drops what signing requires it to, counted.
                 unsigned: Unsigned::Accept,
-                reply_to: o.peer.map_or(ReplyTo::Owner, ReplyTo::Fixed),
+                reply_to: net::reply_to(o.peer),
                 signing_state: o.signing_state.as_deref().map(|p| state_file(p, i)),
                 ..LinkConfig::new(e.clone())
             };
             let link = router
                 .add(config)
                 .await
-                .map_err(|err| io::Error::new(err.kind(), format!("cannot open {e}: {err}")))?;
+                .map_err(|err| net::opened(e, err))?;
             node.add_link(link, net::answers(e, o.peer), o.key.is_some())
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
             log.line(&format!("link {e}"));
@@ -106,6 +105,48 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
     })
 }
 
+/// What the router's loop keeps between events.
+struct Serving<'a> {
+    router: &'a mut Router<Dialect>,
+    node: &'a mut RouterNode,
+    log: &'a mut Log,
+    links: LinkChanges,
+    drops: Limiter,
+    traffic: Traffic,
+    clock: Clock,
+}
+
+impl Serving<'_> {
+    /// A frame to the node, and on where it says.
+    fn frame(&mut self, f: &Inbound<Dialect>) {
+        self.traffic.frames += 1;
+        let fate = self.node.handle_frame(self.clock.now(), net::arrival(f));
+        match fate.dropped {
+            Some(reason) => log_drop(f, reason, &mut self.drops, self.log),
+            None => {
+                self.router.route(f, fate.route);
+                self.traffic.forwarded += fate.route.iter().count() as u64;
+            }
+        }
+        while let Some(Output::Peers { link, peers }) = self.node.poll_output() {
+            let list: Vec<SocketAddr> = peers.iter().collect();
+            self.router.set_peers(link, &list);
+        }
+    }
+
+    /// The traffic line of every report, and the drops event.
+    fn report(&mut self, events: &mut Events) {
+        let (t, dropped) = (&self.traffic, self.node.drops());
+        self.log.line(&format!(
+            "{} frames in, {} sent on, {} dropped",
+            t.frames,
+            t.forwarded,
+            dropped.total()
+        ));
+        events.emit("drops", json!({ "dropped": drop_counts(dropped) }));
+    }
+}
+
 /// The router's loop: each frame to the node and on where it says; link
 /// changes and a traffic line every `o.report` logged.
 async fn serve(
@@ -117,40 +158,24 @@ async fn serve(
 ) -> Traffic {
     let end = o.duration.map(|d| tokio::time::Instant::now() + d);
     let mut next_report = tokio::time::Instant::now() + o.report;
-    let mut errors = Limiter::new(5, Duration::from_secs(10));
-    let mut drops = Limiter::new(5, Duration::from_secs(10));
-    let mut traffic = Traffic::default();
-    let start = std::time::Instant::now();
+    let mut s = Serving {
+        router,
+        node,
+        log,
+        links: LinkChanges::default(),
+        drops: Limiter::new(5, Duration::from_secs(10)),
+        traffic: Traffic::default(),
+        clock: Clock::start(),
+    };
     loop {
         let wake = end.map_or(next_report, |e| e.min(next_report));
         tokio::select! {
-            event = router.recv() => match event {
-                Some(RouterEvent::Frame(f)) => {
-                    traffic.frames += 1;
-                    let now = fbwag_delegation::Instant(start.elapsed().as_micros() as u64);
-                    let fate = node.handle_frame(now, net::arrival(&f));
-                    match fate.dropped {
-                        Some(reason) => log_drop(&f, reason, &mut drops, log),
-                        None => {
-                            router.route(&f, fate.route);
-                            traffic.forwarded += fate.route.iter().count() as u64;
-                        }
+            event = s.router.recv() => match event {
+                Some(RouterEvent::Frame(f)) => s.frame(&f),
+                Some(event) => {
+                    if let Some(link) = s.links.log(s.router, event, s.log) {
+                        s.node.link_reopened(link);
                     }
-                    while let Some(Output::Peers { link, peers }) = node.poll_output() {
-                        let list: Vec<SocketAddr> = peers.iter().collect();
-                        router.set_peers(link, &list);
-                    }
-                }
-                Some(RouterEvent::LinkDown { link, error }) => {
-                    let name = router.endpoint(link).map(|e| e.to_string()).unwrap_or_default();
-                    errors.log(log, "link errors", || {
-                        format!("link {name} failed ({error}); opening it again every second")
-                    });
-                }
-                Some(RouterEvent::LinkUp { link }) => {
-                    node.link_reopened(link);
-                    let name = router.endpoint(link).map(|e| e.to_string()).unwrap_or_default();
-                    log.line(&format!("link {name} open again"));
                 }
                 None => break,
             },
@@ -159,15 +184,11 @@ async fn serve(
                     break;
                 }
                 next_report += o.report;
-                log.line(&format!(
-                    "{} frames in, {} sent on, {} dropped",
-                    traffic.frames, traffic.forwarded, node.drops().total()
-                ));
-                events.emit("drops", json!({ "dropped": drop_counts(node.drops()) }));
+                s.report(events);
             }
         }
     }
-    traffic
+    s.traffic
 }
 
 /// A frame the node dropped: logged, rate-limited.

@@ -3,10 +3,10 @@
 //! its link around the FC engine: receiver sampling, the FC state machine, its
 //! heartbeats and notices, the control it applies) with a receiver that
 //! fails and returns on schedule, flies a kinematic fixed-wing model
-//! ([`super::plane`]) in the mode the engine chose (the applied control
+//! ([`plane`]) in the mode the engine chose (the applied control
 //! steers it in companion control), reports it as ArduPlane does
-//! ([`super::telemetry`]), and serves ground stations ([`super::gcs`]):
-//! commands, parameters ([`super::params`]), telemetry rates, an empty
+//! ([`telemetry`]), and serves ground stations ([`gcs`]):
+//! commands, parameters ([`params`]), telemetry rates, an empty
 //! mission.
 //!
 //! Ground-station services answer any sender the node lets through (with
@@ -16,11 +16,8 @@
 //! RTL, reboot) are denied, and parameters change only while the pilot
 //! flies.
 
-use super::gcs::{Stream, Streams, Unhandled};
-use super::net::{self, LinkOptions, Net, Node};
-use super::plane::{Guidance, Home, Plane, Sticks};
-use super::telemetry::{self, Status};
-use super::{mode_name, Clock, Events, Limiter, Log};
+use crate::live::net::{self, LinkOptions, Net, Node};
+use crate::live::{mode_name, Clock, Events, Limiter, Log};
 use fbwag_delegation::control::Control;
 use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
@@ -30,12 +27,19 @@ use fbwag_dialect::dialects::minimal::{Heartbeat, MavState};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{Dialect, Message};
+use gcs::{Stream, Streams, Unhandled};
+use plane::{Guidance, Home, Plane, Sticks};
 use serde_json::json;
 use std::io;
 use std::path::PathBuf;
 use std::time::Duration;
+use telemetry::Status;
 
+pub mod gcs;
+pub mod params;
+pub mod plane;
 mod serve;
+pub mod telemetry;
 
 /// The mode the pilot flies while the receiver works: an ArduPlane mode
 /// flown with the sticks. The engine reports the pilot's authority as FBWA;
@@ -150,7 +154,7 @@ struct Daemon {
     /// STATUSTEXT replies (reasons of refusals): at most 5 per 10 s.
     texts: Limiter,
     gcs_log: Limiter,
-    /// Trusted notices logged: [`super::HEARD_PER_SECOND`].
+    /// Trusted notices logged: [`crate::live::HEARD_PER_SECOND`].
     heard: Limiter,
     events: Events,
     report: FcReport,
@@ -178,21 +182,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     let spec = LinkSpec::new(Role::Peer, net::answers(&endpoint, o.link.peer));
     node.add_link(net.main, spec).map_err(invalid)?;
     let events = Events::open(o.events.as_deref(), clock)?;
-    log.line(&format!(
-        "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}; home {},{},{}",
-        o.own.sysid,
-        o.own.compid,
-        o.companion.sysid,
-        o.companion.compid,
-        if o.require_signed {
-            ", signed frames only"
-        } else {
-            ""
-        },
-        o.home.lat_deg,
-        o.home.lon_deg,
-        o.home.alt_m,
-    ));
+    log_start(&o, &endpoint, &mut log);
     let mut daemon = Daemon {
         node,
         cfg,
@@ -209,7 +199,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         refused_unsigned: 0,
         texts: Limiter::new(5, Duration::from_secs(10)),
         gcs_log: Limiter::new(10, Duration::from_secs(10)),
-        heard: Limiter::new(super::HEARD_PER_SECOND, Duration::from_secs(1)),
+        heard: Limiter::new(crate::live::HEARD_PER_SECOND, Duration::from_secs(1)),
         events,
         report: FcReport::default(),
         clock,
@@ -220,6 +210,25 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     net::run(&mut daemon, net, &clock, &mut log, o.stop_on_signals).await;
     daemon.finish(&mut log);
     Ok(daemon.report)
+}
+
+/// The first line of the log: who the simulator is, and where.
+fn log_start(o: &FcOptions, endpoint: &fbwag_dialect::Endpoint, log: &mut Log) {
+    log.line(&format!(
+        "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}; home {},{},{}",
+        o.own.sysid,
+        o.own.compid,
+        o.companion.sysid,
+        o.companion.compid,
+        if o.require_signed {
+            ", signed frames only"
+        } else {
+            ""
+        },
+        o.home.lat_deg,
+        o.home.lon_deg,
+        o.home.alt_m,
+    ));
 }
 
 impl Daemon {

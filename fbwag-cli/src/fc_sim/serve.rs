@@ -1,12 +1,12 @@
-//! fc-sim's ground-station services, carried out: what [`crate::live::gcs`]
+//! fc-sim's ground-station services, carried out: what [`super::gcs`]
 //! read out of a frame is answered here, with the daemon's model, streams,
 //! parameters and engine at hand.
 
+use super::gcs::{self, Command, Interval, Kind, Plan, Request, Stream};
+use super::params::{Param, ParamError};
+use super::telemetry;
 use super::{Daemon, ParamCursor, PARAM_LIST_INTERVAL};
-use crate::live::gcs::{self, Command, Interval, Kind, Plan, Request, Stream};
 use crate::live::net::Net;
-use crate::live::params::{Param, ParamError};
-use crate::live::telemetry;
 use crate::live::Log;
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::{Instant, Peer};

@@ -246,7 +246,7 @@ pub fn autopilot_version(own: Peer) -> AutopilotVersion {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::live::plane::Home;
+    use crate::fc_sim::plane::Home;
 
     fn status(receiver_ok: bool) -> Status {
         Status {

@@ -1,0 +1,186 @@
+//! `fbwag cc`: the companion daemon's arguments.
+
+use super::help;
+use crate::args::{self, ControllerKind};
+use crate::error::{CliError, Outcome};
+use crate::live::cc::{check_trusted, run_cc, CcOptions};
+use crate::live::net::routed_rate;
+use fbwag_delegation::Peer;
+use fbwag_dialect::Endpoint;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// The companion-computer daemon: answer the FC's FBWAG notices.
+///
+/// Waits for the flight controller, acknowledges RC-loss notices with
+/// status 2 (echoing the event timestamp), streams RC_CHANNELS_OVERRIDE
+/// from the controller while delegated, stops and acknowledges on status
+/// 0; recognises a rebooted FC. Sends a 1 Hz HEARTBEAT. Logs every
+/// transition with a timestamp.
+///
+/// Only the configured FC's frames count (--fc-sysid/--fc-compid), and
+/// with --require-signed only those whose signature verified; everything
+/// else is ignored and counted (logged at most 5 lines per 10 s). No
+/// send or receive error ends the daemon; a TCP or serial link that
+/// fails is opened again every second.
+#[derive(clap::Args)]
+#[command(after_long_help = help::CC_EVENTS)]
+pub struct CcArgs {
+    /// Connection string: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
+    /// tcpin:IP:PORT, serial:PATH:BAUD. With udpin or tcpin, frames go to
+    /// --peer, or else to the source of the FC's trusted frames (see
+    /// below).
+    #[arg(long, value_name = "CONN")]
+    pub link: String,
+    /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,
+    /// the client connected from it) and no other.
+    #[arg(long, value_name = "IP:PORT")]
+    pub peer: Option<SocketAddr>,
+    /// Also route to and from this link (repeatable): a ground station,
+    /// MAVProxy, other onboard programs. MAVLink routing rules; frames
+    /// are forwarded untouched (signed ones stay verifiable).
+    #[arg(long = "out", value_name = "CONN")]
+    pub outs: Vec<String>,
+    /// Like --out, for a ground tool that cannot sign (MAVSDK, MAVProxy
+    /// without a key) where the FC requires signatures: the link is
+    /// trusted like --sign-key, and what arrives on it goes on to the
+    /// FC signed with the key. Whoever can send into it can command
+    /// the aircraft, so it must be local: only loopback addresses or a
+    /// serial port, unless --trusted-out-remote. On a plain --out, an
+    /// unsigned tool under --require-signed gets telemetry only.
+    #[arg(long = "trusted-out", value_name = "CONN", requires = "sign_key")]
+    pub trusted_outs: Vec<String>,
+    /// Accept --trusted-out addresses that are not loopback (a trusted
+    /// network of your own).
+    #[arg(long, requires = "trusted_outs")]
+    pub trusted_out_remote: bool,
+    /// What --out links route to the FC link goes at most this many
+    /// bytes a second (or `off`); the companion's own frames are never
+    /// held back. Keep it below what the FC link carries: then a flood
+    /// from a ground station's side can never fill the buffer at the
+    /// link's far end (a telemetry modem's, a serial bridge's) ahead of
+    /// the companion's acknowledgement. At most a second of routed
+    /// frames waits, each sender's (address) in turn; the busiest
+    /// sender's oldest are dropped first, and counted. Default:
+    /// half a serial link's byte rate (baud / 20), 8000 on other links.
+    /// A ground station's commands and transfers need a few hundred;
+    /// RTK corrections (GPS_RTCM_DATA) 1–5 kB/s more.
+    #[arg(long, value_name = "BYTES_PER_S|off", allow_hyphen_values = true, value_parser = args::routed_rate)]
+    pub routed_rate: Option<args::RoutedRate>,
+    /// The link of your own autonomy program (e.g. udpin:127.0.0.1:14560).
+    /// It receives everything the FC sends and the companion's notices;
+    /// its RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET and MANUAL_CONTROL
+    /// go to the FC (re-addressed, signed with --sign-key) only while
+    /// the companion holds control, and are dropped otherwise; its other
+    /// messages go to the --out links only. Replaces --controller.
+    #[arg(long, value_name = "CONN")]
+    pub autonomy: Option<String>,
+    /// The autonomy program's address (IP:PORT): the autonomy link
+    /// answers it only and drops frames from anyone else. Without it,
+    /// the first program heard is the autonomy until it has been silent
+    /// for 3 s.
+    #[arg(long, value_name = "IP:PORT", requires = "autonomy")]
+    pub autonomy_peer: Option<SocketAddr>,
+    /// What happens when the autonomy has sent nothing for 500 ms (it
+    /// should stream its control, gated, at its own rate all the time):
+    /// `decline`: the companion declines the FC's takeover (and gives
+    /// back an episode it holds), so the FC's failsafe (RTL) runs at
+    /// once rather than after its timeouts; `wings-level`: it takes
+    /// over and flies wings level until the autonomy speaks.
+    #[arg(long, value_enum, default_value = "decline", requires = "autonomy")]
+    pub autonomy_fallback: args::AutonomyFallback,
+    #[arg(long, value_name = "PATH", requires = "sign_key", help = help::SIGNING_STATE)]
+    pub signing_state: Option<PathBuf>,
+    #[arg(long, value_name = "PATH", help = help::EVENTS)]
+    pub events: Option<PathBuf>,
+    /// Our system id (1–255).
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
+    pub sysid: u8,
+    /// Our component id (1–255; 191: onboard computer).
+    #[arg(long, default_value_t = 191, allow_hyphen_values = true, value_parser = args::mavlink_id)]
+    pub compid: u8,
+    /// The flight controller's system id (1–255).
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
+    pub fc_sysid: u8,
+    /// The flight controller's component id (1–255).
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
+    pub fc_compid: u8,
+    /// Control stream rate (Hz, 1–100).
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = args::rate_hz)]
+    pub rate: f64,
+    /// Controller: wings-level (cruise throttle) or circle.
+    #[arg(long, value_enum, default_value = "wings-level")]
+    pub controller: ControllerKind,
+    /// Cruise throttle (PWM µs, 800–2200).
+    #[arg(long, default_value_t = 1600, allow_hyphen_values = true, value_parser = args::pwm_us)]
+    pub throttle: u16,
+    /// Sign outgoing frames and verify incoming ones with this key (64 hex digits, or @FILE holding them).
+    #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
+    pub sign_key: Option<String>,
+    /// Act only on the FC's frames whose signature verified.
+    #[arg(long, requires = "sign_key")]
+    pub require_signed: bool,
+    /// Stop after this many seconds (0–1,000,000).
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
+    pub duration: Option<f64>,
+    /// Exit once control has been handed back to the pilot.
+    #[arg(long)]
+    pub exit_after_handback: bool,
+}
+
+/// A `--trusted-out` link: local unless `remote` allows any.
+fn trusted_out(conn: &str, remote: bool) -> Result<Endpoint, CliError> {
+    let e = endpoint("--trusted-out", conn)?;
+    check_trusted(&e, remote).map_err(|source| CliError::TrustedOut {
+        conn: conn.into(),
+        source,
+    })?;
+    Ok(e)
+}
+
+/// A connection string of `flag`.
+fn endpoint(flag: &str, conn: &str) -> Result<Endpoint, CliError> {
+    conn.parse()
+        .map_err(CliError::endpoint(format!("{flag} {conn}")))
+}
+
+impl TryFrom<CcArgs> for CcOptions {
+    type Error = CliError;
+
+    fn try_from(a: CcArgs) -> Result<Self, CliError> {
+        let outs = a.outs.iter().map(|e| endpoint("--out", e));
+        let outs = outs.collect::<Result<_, _>>()?;
+        let trusted = a.trusted_outs.iter();
+        let trusted_outs = trusted.map(|e| trusted_out(e, a.trusted_out_remote));
+        let trusted_outs = trusted_outs.collect::<Result<_, _>>()?;
+        let autonomy = a.autonomy.as_deref().map(|e| endpoint("--autonomy", e));
+        let autonomy = autonomy.transpose()?;
+        let mut link =
+            super::link_options(&a.link, a.sign_key.as_deref(), a.peer, a.signing_state)?;
+        link.routed_rate = routed_rate(&link.endpoint, a.routed_rate);
+        Ok(CcOptions {
+            link,
+            outs,
+            trusted_outs,
+            autonomy,
+            autonomy_peer: a.autonomy_peer,
+            autonomy_fallback: a.autonomy_fallback.into(),
+            own: Peer::new(a.sysid, a.compid),
+            fc: Peer::new(a.fc_sysid, a.fc_compid),
+            rate_hz: a.rate,
+            controller: a.controller.build(a.throttle),
+            require_signed: a.require_signed,
+            duration: a.duration.map(Duration::from_secs_f64),
+            exit_after_handback: a.exit_after_handback,
+            events: a.events,
+            stop_on_signals: true,
+        })
+    }
+}
+
+pub fn run(a: CcArgs) -> Result<Outcome, CliError> {
+    let opts = CcOptions::try_from(a)?;
+    run_cc(opts, Box::new(std::io::stdout())).map_err(CliError::daemon("cc"))?;
+    Ok(Outcome::Clean)
+}

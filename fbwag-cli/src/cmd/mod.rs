@@ -1,0 +1,82 @@
+//! The command line: one clap `Args` struct per subcommand, each in a
+//! module of its own with what turns it into the options of the code that
+//! runs it.
+
+mod cc;
+mod decode;
+mod demo;
+mod encode;
+mod fc_sim;
+mod help;
+mod router;
+mod sim;
+
+use crate::error::{CliError, Outcome, EXIT_STATUS};
+use crate::json;
+use crate::live::net::LinkOptions;
+use clap::{Parser, Subcommand};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+/// Tools for the FBWAG MAVLink dialect (ardupilotmega + FBWAG_NOTICE, id 15001).
+#[derive(Parser)]
+#[command(name = "fbwag", version, after_help = after_help())]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+fn after_help() -> String {
+    format!("{}\n\n{EXIT_STATUS}", help::EXAMPLES)
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Decode(decode::DecodeArgs),
+    Encode(encode::EncodeArgs),
+    Cc(cc::CcArgs),
+    FcSim(fc_sim::FcSimArgs),
+    Demo(demo::DemoArgs),
+    Router(router::RouterArgs),
+    Sim(sim::SimArgs),
+}
+
+impl Cli {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<Outcome, CliError> {
+        match self.command {
+            Command::Decode(a) => decode::run(a),
+            Command::Encode(a) => encode::run(a),
+            Command::Cc(a) => cc::run(a),
+            Command::FcSim(a) => fc_sim::run(a),
+            Command::Demo(a) => demo::run(a),
+            Command::Router(a) => router::run(a),
+            Command::Sim(a) => sim::run(a),
+        }
+    }
+}
+
+/// A 32-byte key from the 64 hex digits `--sign-key` checked.
+fn key(hex: &str) -> Result<[u8; 32], CliError> {
+    let bytes = json::unhex(hex).map_err(CliError::json)?;
+    bytes
+        .try_into()
+        .map_err(|b: Vec<u8>| CliError::KeyLength(b.len()))
+}
+
+/// The options of a daemon's main link, from its arguments; nothing routed
+/// to it is paced (the companion sets `routed_rate`).
+fn link_options(
+    link: &str,
+    sign_key: Option<&str>,
+    peer: Option<SocketAddr>,
+    signing_state: Option<PathBuf>,
+) -> Result<LinkOptions, CliError> {
+    Ok(LinkOptions {
+        endpoint: link.parse().map_err(CliError::endpoint("--link"))?,
+        routed_rate: None,
+        key: sign_key.map(key).transpose()?,
+        peer,
+        signing_state,
+    })
+}

@@ -1,0 +1,74 @@
+//! The signals that stop a daemon as at the end of its run.
+
+use super::Log;
+
+/// SIGTERM (`kill`, `systemctl stop`), and SIGINT (Ctrl-C) when standard
+/// input is a terminal: the daemon stops as at the end of its run, its
+/// links saving their signing state; a second signal ends it at once.
+/// (Killed by either, it skipped that save: with `--signing-state`, what
+/// it had accepted since the last periodic save could be replayed into it
+/// once restarted.) SIGINT is left alone otherwise: a daemon a script
+/// starts in the background inherits it ignored, and keeps running.
+pub struct StopSignals {
+    #[cfg(unix)]
+    interrupt: Option<tokio::signal::unix::Signal>,
+    #[cfg(unix)]
+    terminate: Option<tokio::signal::unix::Signal>,
+}
+
+impl StopSignals {
+    pub fn new(enabled: bool, log: &mut Log) -> Self {
+        #[cfg(unix)]
+        {
+            use std::io::IsTerminal;
+            use tokio::signal::unix::{signal, SignalKind};
+            let mut listen = |kind: SignalKind, name: &str| {
+                signal(kind)
+                    .map_err(|e| {
+                        log.line(&format!(
+                            "cannot handle {name} ({e}): it ends the daemon unsaved"
+                        ))
+                    })
+                    .ok()
+            };
+            let interactive = std::io::stdin().is_terminal();
+            StopSignals {
+                interrupt: (enabled && interactive)
+                    .then(|| listen(SignalKind::interrupt(), "SIGINT"))
+                    .flatten(),
+                terminate: enabled
+                    .then(|| listen(SignalKind::terminate(), "SIGTERM"))
+                    .flatten(),
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = (enabled, log);
+            StopSignals {}
+        }
+    }
+
+    /// The name of the next stop signal received (never, without them).
+    pub async fn recv(&mut self) -> &'static str {
+        #[cfg(unix)]
+        {
+            async fn next(s: &mut Option<tokio::signal::unix::Signal>) {
+                match s {
+                    // (`None`: the runtime is going away; nothing more.)
+                    Some(s) => {
+                        if s.recv().await.is_none() {
+                            std::future::pending::<()>().await;
+                        }
+                    }
+                    None => std::future::pending().await,
+                }
+            }
+            tokio::select! {
+                _ = next(&mut self.interrupt) => "SIGINT",
+                _ = next(&mut self.terminate) => "SIGTERM",
+            }
+        }
+        #[cfg(not(unix))]
+        std::future::pending().await
+    }
+}

@@ -82,7 +82,7 @@ fn violations(rows: &[Row]) -> Result<(), SimError> {
 }
 
 /// Runs `request`: [`Outcome::Flagged`] when the model check found a
-/// violation; a broken invariant of a trial is an error.
+/// violation; [`SimError::Invariants`] when a trial broke an invariant.
 pub fn run(request: Request) -> Result<Outcome, SimError> {
     match request {
         Request::List => {

@@ -6,7 +6,7 @@
 
 use benches::mavlink_fbwag::fbwag::MavMessage as TheirFbwag;
 use benches::{mavlink_header, OurEncoder, TheirEncoder, Theirs, KEY};
-use fbwag_dialect::mavframe::{Dialect as _, Verifier};
+use fbwag_dialect::mavframe::{MessageSet as _, Verifier};
 use fbwag_dialect::{
     Dialect, FbwagNotice, Header, Message, MessageView, Parser, Unsigned, MESSAGES,
 };

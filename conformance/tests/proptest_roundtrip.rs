@@ -17,7 +17,7 @@
 mod support;
 
 use mavframe::frame::Header;
-use mavframe::{Dialect, FieldType, MessageMeta, Parser, Unsigned, Verifier};
+use mavframe::{FieldType, MessageMeta, MessageSet, Parser, Unsigned, Verifier};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -52,7 +52,7 @@ fn emit<M: Owned>(m: &M) -> Vec<u8> {
     out
 }
 
-fn identity<D: Dialect>() -> usize
+fn identity<D: MessageSet>() -> usize
 where
     D::Message: Owned,
 {

@@ -13,7 +13,7 @@
 
 mod support;
 
-use mavframe::{Dialect, MessageMeta};
+use mavframe::{MessageMeta, MessageSet};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -137,7 +137,7 @@ struct FramesReport {
     pymavlink_v1_extension_frames: usize,
 }
 
-fn run_frames<D: Dialect>(dialect: &str, seed: u64, per_mode: usize) -> FramesReport
+fn run_frames<D: MessageSet>(dialect: &str, seed: u64, per_mode: usize) -> FramesReport
 where
     D::Message: Owned,
 {
@@ -467,7 +467,12 @@ fn push_example(v: &mut Vec<String>, s: impl FnOnce() -> String) {
     }
 }
 
-fn run_streams<D: Dialect>(dialect: &str, seed: u64, policy: Policy, count: usize) -> StreamReport {
+fn run_streams<D: MessageSet>(
+    dialect: &str,
+    seed: u64,
+    policy: Policy,
+    count: usize,
+) -> StreamReport {
     let mut rng = Rng::new(seed ^ (policy as u64 + 1).wrapping_mul(0x9E37_79B9));
     let built: Vec<_> = (0..count)
         .map(|_| streams::build::<D>(&mut rng, policy, FRAMES_PER_STREAM))
@@ -687,7 +692,7 @@ struct DialectReport {
     seconds: f64,
 }
 
-fn run_dialect<D: Dialect>(
+fn run_dialect<D: MessageSet>(
     name: &'static str,
     seed: u64,
     per_mode: usize,

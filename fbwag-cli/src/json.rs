@@ -32,7 +32,7 @@ pub use encode::{json_to_frame, EncodeOptions};
 pub use error::Error;
 
 use fbwag_dialect::mavframe::frame::{truncated_len, Frame, Version};
-use fbwag_dialect::mavframe::{Dialect as _, MessageMeta};
+use fbwag_dialect::mavframe::{MessageMeta, MessageSet as _};
 use fbwag_dialect::Dialect;
 use std::fmt::Write as _;
 

@@ -132,7 +132,7 @@ fn same(ours: &Value, theirs: &Value, is_f32: bool) -> bool {
 }
 
 fn f32_fields(meta_name: &str) -> Vec<&'static str> {
-    use fbwag_dialect::mavframe::{Dialect as _, FieldType};
+    use fbwag_dialect::mavframe::{FieldType, MessageSet as _};
     fbwag_dialect::Dialect::MESSAGES
         .iter()
         .find(|m| m.name == meta_name)

@@ -3606,7 +3606,7 @@ impl SysStatus {
     }
 }
 
-impl ::mavframe::Message for SysStatus {
+impl ::mavframe::MessageData for SysStatus {
     const META: ::mavframe::MessageMeta = SysStatus::META;
     type View<'a> = SysStatusView<'a>;
     #[inline]
@@ -4010,7 +4010,7 @@ impl Attitude {
     }
 }
 
-impl ::mavframe::Message for Attitude {
+impl ::mavframe::MessageData for Attitude {
     const META: ::mavframe::MessageMeta = Attitude::META;
     type View<'a> = AttitudeView<'a>;
     #[inline]
@@ -4479,7 +4479,7 @@ impl RcChannels {
     }
 }
 
-impl ::mavframe::Message for RcChannels {
+impl ::mavframe::MessageData for RcChannels {
     const META: ::mavframe::MessageMeta = RcChannels::META;
     type View<'a> = RcChannelsView<'a>;
     #[inline]
@@ -5053,7 +5053,7 @@ impl ManualControl {
     }
 }
 
-impl ::mavframe::Message for ManualControl {
+impl ::mavframe::MessageData for ManualControl {
     const META: ::mavframe::MessageMeta = ManualControl::META;
     type View<'a> = ManualControlView<'a>;
     #[inline]
@@ -5626,7 +5626,7 @@ impl RcChannelsOverride {
     }
 }
 
-impl ::mavframe::Message for RcChannelsOverride {
+impl ::mavframe::MessageData for RcChannelsOverride {
     const META: ::mavframe::MessageMeta = RcChannelsOverride::META;
     type View<'a> = RcChannelsOverrideView<'a>;
     #[inline]
@@ -6031,7 +6031,7 @@ impl VfrHud {
     }
 }
 
-impl ::mavframe::Message for VfrHud {
+impl ::mavframe::MessageData for VfrHud {
     const META: ::mavframe::MessageMeta = VfrHud::META;
     type View<'a> = VfrHudView<'a>;
     #[inline]
@@ -6367,7 +6367,7 @@ impl CommandLong {
     }
 }
 
-impl ::mavframe::Message for CommandLong {
+impl ::mavframe::MessageData for CommandLong {
     const META: ::mavframe::MessageMeta = CommandLong::META;
     type View<'a> = CommandLongView<'a>;
     #[inline]
@@ -6684,7 +6684,7 @@ impl CommandAck {
     }
 }
 
-impl ::mavframe::Message for CommandAck {
+impl ::mavframe::MessageData for CommandAck {
     const META: ::mavframe::MessageMeta = CommandAck::META;
     type View<'a> = CommandAckView<'a>;
     #[inline]
@@ -6991,7 +6991,7 @@ impl SetAttitudeTarget {
     }
 }
 
-impl ::mavframe::Message for SetAttitudeTarget {
+impl ::mavframe::MessageData for SetAttitudeTarget {
     const META: ::mavframe::MessageMeta = SetAttitudeTarget::META;
     type View<'a> = SetAttitudeTargetView<'a>;
     #[inline]
@@ -7276,7 +7276,7 @@ impl Default for Statustext {
     }
 }
 
-impl ::mavframe::Message for Statustext {
+impl ::mavframe::MessageData for Statustext {
     const META: ::mavframe::MessageMeta = Statustext::META;
     type View<'a> = StatustextView<'a>;
     #[inline]

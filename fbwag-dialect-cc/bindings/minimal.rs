@@ -798,7 +798,7 @@ impl Default for Heartbeat {
     }
 }
 
-impl ::mavframe::Message for Heartbeat {
+impl ::mavframe::MessageData for Heartbeat {
     const META: ::mavframe::MessageMeta = Heartbeat::META;
     type View<'a> = HeartbeatView<'a>;
     #[inline]

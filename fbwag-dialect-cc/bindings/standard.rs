@@ -173,7 +173,7 @@ impl GlobalPositionInt {
     }
 }
 
-impl ::mavframe::Message for GlobalPositionInt {
+impl ::mavframe::MessageData for GlobalPositionInt {
     const META: ::mavframe::MessageMeta = GlobalPositionInt::META;
     type View<'a> = GlobalPositionIntView<'a>;
     #[inline]

@@ -139,7 +139,7 @@ pub type Connection = mavframe::conn::Connection<Dialect>;
 
 /// A frame a [`Connection`] accepted, copied out of the parser.
 #[cfg(feature = "std")]
-pub type ReceivedFrame = mavframe::conn::ReceivedFrame<Dialect>;
+pub type ReceivedBuf = mavframe::conn::ReceivedBuf<Dialect>;
 
 #[cfg(feature = "std")]
 pub use mavframe::conn::Endpoint;

@@ -53,7 +53,7 @@ fn port_of(link: &Link) -> u16 {
 /// Waits for the next frame, failing the test after [`LIMIT`].
 fn expect_frame<T: Transport>(
     link: &mut Connection<Dialect, T>,
-) -> fbwag_dialect::mavframe::ReceivedFrame<Dialect> {
+) -> fbwag_dialect::mavframe::ReceivedBuf<Dialect> {
     link.recv(LIMIT)
         .unwrap()
         .expect("no frame within the time limit")

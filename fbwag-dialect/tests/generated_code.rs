@@ -2,7 +2,7 @@
 // Uses messages outside the companion-computer subset.
 
 use fbwag_dialect::dialects::{common, minimal};
-use fbwag_dialect::mavframe::{field::chars, Dialect as _};
+use fbwag_dialect::mavframe::{field::chars, MessageSet as _};
 use fbwag_dialect::{
     Dialect, FbwagFailsafeStatus, FbwagNotice, FbwagNoticeMut, FbwagNoticeView, Message,
     MessageView, MESSAGES,

@@ -6,7 +6,7 @@ use fbwag_dialect::dialects::{common, minimal};
 use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::mavframe::frame::{encode, Header, Version};
 use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
-use fbwag_dialect::mavframe::{Dialect as _, Signer, Verifier};
+use fbwag_dialect::mavframe::{MessageSet as _, Signer, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice};
 
 /// A small deterministic generator (xorshift), so failures reproduce.
@@ -26,7 +26,7 @@ impl Rng {
     }
 }
 
-fn frame_of<M: fbwag_dialect::mavframe::Message>(
+fn frame_of<M: fbwag_dialect::mavframe::MessageData>(
     seq: u8,
     m: &M,
     v: Version,

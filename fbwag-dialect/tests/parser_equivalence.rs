@@ -15,7 +15,7 @@ mod reference;
 use dialects::{row, AllKnown, Few, NoZero, ALL_ROWS, FEW_ROWS};
 use fbwag_dialect::mavframe::frame::{finish, Header, Version};
 use fbwag_dialect::mavframe::parser::{Parser, Stats, Unsigned};
-use fbwag_dialect::mavframe::{Dialect, MessageMeta, Signer, Verifier};
+use fbwag_dialect::mavframe::{MessageMeta, MessageSet, Signer, Verifier};
 use reference::{Got, Reference};
 
 const KEY: [u8; 32] = [0x42; 32];
@@ -104,7 +104,7 @@ fn make_frame(rng: &mut Rng, meta: &MessageMeta, unknown: bool) -> Vec<u8> {
 /// A stream: frames (known and unknown ids), garbage dense in start bytes,
 /// damaged frames (cut, bit flips, inflated length), repeated short
 /// patterns.
-fn make_stream<D: Dialect>(rng: &mut Rng, known: &[MessageMeta], size: usize) -> Vec<u8> {
+fn make_stream<D: MessageSet>(rng: &mut Rng, known: &[MessageMeta], size: usize) -> Vec<u8> {
     let mut s = Vec::new();
     let mut frames: Vec<Vec<u8>> = Vec::new();
     while s.len() < size {
@@ -169,7 +169,7 @@ fn make_stream<D: Dialect>(rng: &mut Rng, known: &[MessageMeta], size: usize) ->
     s
 }
 
-fn policy_parsers<D: Dialect>(policy: Policy) -> (Parser<D>, Reference<D>) {
+fn policy_parsers<D: MessageSet>(policy: Policy) -> (Parser<D>, Reference<D>) {
     match policy {
         Policy::NoKey => (Parser::new(), Reference::new()),
         Policy::Lenient => (
@@ -183,7 +183,7 @@ fn policy_parsers<D: Dialect>(policy: Policy) -> (Parser<D>, Reference<D>) {
     }
 }
 
-fn got(r: Option<fbwag_dialect::mavframe::parser::Received<'_, impl Dialect>>) -> Option<Got> {
+fn got(r: Option<fbwag_dialect::mavframe::parser::Received<'_, impl MessageSet>>) -> Option<Got> {
     r.map(|r| {
         (
             r.frame.as_bytes().to_vec(),
@@ -208,7 +208,7 @@ fn got(r: Option<fbwag_dialect::mavframe::parser::Received<'_, impl Dialect>>) -
 /// one's. (The same holds of a raw candidate whose next byte rules it out
 /// while a position inside it is undecided: the old parser waited for that
 /// position first.)
-fn compare<D: Dialect>(
+fn compare<D: MessageSet>(
     stream: &[u8],
     policy: Policy,
     mut chunk: impl FnMut() -> usize,
@@ -300,7 +300,7 @@ fn compare<D: Dialect>(
     a_frames
 }
 
-fn run<D: Dialect>(known: &[MessageMeta], seed: u64, trials: usize, size: usize) {
+fn run<D: MessageSet>(known: &[MessageMeta], seed: u64, trials: usize, size: usize) {
     let mut rng = Rng(seed);
     let mut frames = 0;
     for trial in 0..trials {
@@ -450,7 +450,7 @@ fn a_cut_mavlink1_header_inside_a_raw_frame_no_longer_depends_on_chunking() {
 
 /// The frames `p` returns from `stream` pushed in reads of `chunk()` bytes
 /// and flushed, and its counters then.
-fn parse_in_reads<D: Dialect>(
+fn parse_in_reads<D: MessageSet>(
     mut p: Parser<D>,
     stream: &[u8],
     chunk: &mut dyn FnMut() -> usize,
@@ -522,7 +522,7 @@ fn same_frames_and_budget_for_every_chunking_with_a_key() {
 /// call ends, in every dialect.
 #[test]
 fn dropping_input_after_a_frame_never_yields_a_bad_frame() {
-    fn go<D: Dialect>(known: &[MessageMeta], seed: u64) {
+    fn go<D: MessageSet>(known: &[MessageMeta], seed: u64) {
         let mut rng = Rng(seed);
         for trial in 0..40 {
             let a = make_stream::<D>(&mut rng, known, 4000);
@@ -604,7 +604,7 @@ fn frame_of(
 /// Dense start bytes, signed and unsigned frames of unknown ids (good
 /// key, wrong key, replayed, cut, confirmed or not), good and damaged known
 /// frames.
-fn make_hostile<D: Dialect>(rng: &mut Rng, known: &[MessageMeta], size: usize) -> Vec<u8> {
+fn make_hostile<D: MessageSet>(rng: &mut Rng, known: &[MessageMeta], size: usize) -> Vec<u8> {
     let mut good = Signer::new(KEY, 1, 10_000);
     let mut wrong = Signer::new([7; 32], 1, 10_000);
     let mut s = Vec::new();
@@ -704,7 +704,7 @@ fn make_hostile<D: Dialect>(rng: &mut Rng, known: &[MessageMeta], size: usize) -
     s
 }
 
-fn hostile<D: Dialect>(known: &[MessageMeta], seed: u64, trials: usize, size: usize) {
+fn hostile<D: MessageSet>(known: &[MessageMeta], seed: u64, trials: usize, size: usize) {
     let mut rng = Rng(seed);
     let mut frames = 0;
     let sizes = [
@@ -759,7 +759,7 @@ fn hostile_all_known() {
 /// returned unauthenticated with a key.
 #[test]
 fn dropping_input_with_every_policy() {
-    fn go<D: Dialect>(known: &[MessageMeta], seed: u64) {
+    fn go<D: MessageSet>(known: &[MessageMeta], seed: u64) {
         let mut rng = Rng(seed);
         for trial in 0..20 {
             let a = make_hostile::<D>(&mut rng, known, 4000);
@@ -831,7 +831,7 @@ fn dropping_input_with_every_policy() {
 /// with a bad checksum comes out, under any policy.
 #[test]
 fn other_ids_at_the_same_positions_never_yield_a_bad_frame() {
-    fn go<D: Dialect>(known: &[MessageMeta], seed: u64) {
+    fn go<D: MessageSet>(known: &[MessageMeta], seed: u64) {
         let mut rng = Rng(seed);
         let mut hits = 0;
         for trial in 0..60 {

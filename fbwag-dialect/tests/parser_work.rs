@@ -27,7 +27,7 @@ mod reference;
 use dialects::{AllKnown, Few};
 use fbwag_dialect::mavframe::frame::{finish, Header, Version};
 use fbwag_dialect::mavframe::parser::{Parser, Unsigned};
-use fbwag_dialect::mavframe::{Dialect, Signer, Verifier};
+use fbwag_dialect::mavframe::{MessageSet, Signer, Verifier};
 
 /// The bound on steps per (byte + call).
 const C: f64 = 16.0;
@@ -203,7 +203,7 @@ enum Chunking {
 }
 
 /// Steps per (byte + call), signature checks, start bytes, and the frames.
-fn run<D: Dialect>(bytes: &[u8], keyed: bool, chunking: Chunking, seed: u64) -> (f64, u64, u64) {
+fn run<D: MessageSet>(bytes: &[u8], keyed: bool, chunking: Chunking, seed: u64) -> (f64, u64, u64) {
     let mut p = if keyed {
         Parser::<D>::with_signing(Verifier::new(KEY), Unsigned::Refuse)
     } else {
@@ -256,7 +256,7 @@ fn run<D: Dialect>(bytes: &[u8], keyed: bool, chunking: Chunking, seed: u64) -> 
     )
 }
 
-fn check_all<D: Dialect>(dialect: &str, n: usize) -> f64 {
+fn check_all<D: MessageSet>(dialect: &str, n: usize) -> f64 {
     let mut worst: f64 = 0.0;
     let mut worst_at = String::new();
     for (name, bytes) in inputs(n) {

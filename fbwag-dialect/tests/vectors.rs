@@ -5,7 +5,7 @@
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType};
 use fbwag_dialect::mavframe::field::chars;
 use fbwag_dialect::mavframe::frame::{encode, Frame, Header, Version};
-use fbwag_dialect::mavframe::{Dialect as _, Signer, Verifier};
+use fbwag_dialect::mavframe::{MessageSet as _, Signer, Verifier};
 use fbwag_dialect::{Dialect, FbwagFailsafeStatus, FbwagNotice};
 
 fn hex(s: &str) -> Vec<u8> {
@@ -51,7 +51,7 @@ fn heartbeat() -> Heartbeat {
     }
 }
 
-fn encoded<M: fbwag_dialect::mavframe::Message>(
+fn encoded<M: fbwag_dialect::mavframe::MessageData>(
     v: Version,
     m: &M,
     signer: Option<&mut Signer>,

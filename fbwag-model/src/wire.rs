@@ -125,7 +125,7 @@ pub fn forged(id: Peer, seq: u8, message: &Message) -> Vec<u8> {
 /// The message in a whole frame's bytes, if the dialect knows it.
 pub fn message_of(bytes: &[u8]) -> Option<Message> {
     let frame = Frame::new_checked(bytes).ok()?;
-    <fbwag_dialect::Dialect as fbwag_dialect::mavframe::Dialect>::parse(
+    <fbwag_dialect::Dialect as fbwag_dialect::mavframe::MessageSet>::parse(
         frame.msg_id(),
         frame.payload(),
     )

@@ -24,7 +24,7 @@ use fbwag_dialect::mavframe::frame::{
 };
 use fbwag_dialect::mavframe::parser::{Parser, Stats, Unsigned};
 use fbwag_dialect::mavframe::signing::Verifier;
-use fbwag_dialect::mavframe::Dialect as _;
+use fbwag_dialect::mavframe::MessageSet as _;
 use fbwag_dialect::{Dialect, Message, MessageView};
 
 /// The key of the signing policies (frames in the corpus are signed with it).

@@ -26,9 +26,9 @@ use core::fmt;
 /// followed (see `crate::signing`).
 ///
 /// ```
-/// # use mavframe::{Message, MessageMeta, BufferTooSmall};
+/// # use mavframe::{MessageData, MessageMeta, BufferTooSmall};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 /// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = ();
@@ -277,13 +277,13 @@ impl From<FrameError> for std::io::Error {
 mod tests {
     use super::*;
     use crate::frame::{Frame, IFLAG_SIGNED};
-    use crate::message::{BufferTooSmall, Message};
+    use crate::message::{BufferTooSmall, MessageData};
 
     /// Id 300 (too large for MAVLink 1), two bytes.
     #[derive(Debug, Clone, Default, PartialEq)]
     struct Big(u16);
 
-    impl Message for Big {
+    impl MessageData for Big {
         const META: MessageMeta = MessageMeta {
             id: 300,
             name: "BIG",

@@ -2,13 +2,13 @@
 //!
 //! Generated code depends on this crate only: field codecs that read
 //! little-endian values in place from (possibly truncated) payloads, and the
-//! [`Message`] and [`Dialect`] traits with their table rows. On top of them:
+//! [`MessageData`] and [`MessageSet`] traits with their table rows. On top of them:
 //! MAVLink 1/2 [`frame`]s, the [`crc`], [`signing`], and the streaming
 //! [`parser`]. All of that is `no_std` and allocates nothing.
 //!
 //! # Start here
 //!
-//! Every type below is generic over a dialect `D`: the `Dialect` type of a
+//! Every type below is generic over a dialect `D`: the `MessageSet` type of a
 //! generated crate, such as `fbwag_dialect::Dialect` (which also has aliases
 //! with it filled in: `fbwag_dialect::Parser`, `fbwag_dialect::Connection`).
 //!
@@ -29,7 +29,7 @@
 //! The examples in this crate's pages declare, hidden, a stand-in dialect
 //! named `D` or `MyDialect` of one or two messages (this crate sits below
 //! the generator, so no generated dialect is at hand): read it as
-//! `fbwag_dialect::Dialect` or your own generated crate's `Dialect`.
+//! `fbwag_dialect::Dialect` or your own generated crate's `MessageSet`.
 //!
 //! # Features
 //!
@@ -113,9 +113,11 @@ pub mod signing;
 pub use conn::{Connection, Endpoint, Transport};
 pub use frame::{encode, Frame, FrameBuf, FrameError, Header, Version};
 pub use framer::Framer;
-pub use message::{BufferTooSmall, Dialect, Encode, FieldMeta, FieldType, Message, MessageMeta};
+pub use message::{
+    BufferTooSmall, Encode, FieldMeta, FieldType, MessageData, MessageMeta, MessageSet,
+};
 pub use parser::{Parser, Received, Unsigned};
-pub use received::ReceivedFrame;
+pub use received::ReceivedBuf;
 pub use signing::{Signer, Verifier};
 
 /// Re-exported for generated bitmask enums (they implement

@@ -18,9 +18,9 @@
 #![cfg_attr(not(feature = "tokio"), allow(dead_code))]
 
 use crate::framer::Framer;
-use crate::message::Dialect;
+use crate::message::MessageSet;
 use crate::parser::{Parser, Received};
-use crate::received::ReceivedFrame;
+use crate::received::ReceivedBuf;
 use core::net::SocketAddr;
 
 #[cfg(feature = "std")]
@@ -30,7 +30,7 @@ pub(crate) use self::std_parts::SigningFile;
 
 /// The receive side of a link: the parser, and the bytes received but not
 /// parsed yet (`buf[start..end]`).
-pub(crate) struct Inbox<D: Dialect, B, const STREAMS: usize = 16> {
+pub(crate) struct Inbox<D: MessageSet, B, const STREAMS: usize = 16> {
     pub(crate) parser: Parser<D, STREAMS>,
     buf: B,
     start: usize,
@@ -45,7 +45,7 @@ pub(crate) struct Inbox<D: Dialect, B, const STREAMS: usize = 16> {
     chunk: usize,
 }
 
-impl<D: Dialect, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> Inbox<D, B, S> {
+impl<D: MessageSet, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> Inbox<D, B, S> {
     /// An inbox reading into `buf`.
     pub(crate) fn new(parser: Parser<D, S>, buf: B) -> Self {
         Inbox {
@@ -126,8 +126,8 @@ impl<D: Dialect, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> Inbox<D, B, S> {
     }
 
     /// [`take`](Self::take), copied out.
-    pub(crate) fn next(&mut self) -> Option<ReceivedFrame<D>> {
-        self.take(|r| ReceivedFrame::from(&r)).ok()
+    pub(crate) fn next(&mut self) -> Option<ReceivedBuf<D>> {
+        self.take(|r| ReceivedBuf::from(&r)).ok()
     }
 
     /// At the end of the stream: the bytes held, decided as if nothing
@@ -143,19 +143,19 @@ impl<D: Dialect, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> Inbox<D, B, S> {
     /// [`ReplyTo::Accepted`]): any frame the parser accepted, and on a link
     /// with a key only an authenticated one (an unsigned frame, even
     /// accepted, is anyone's).
-    pub(crate) fn vouches(&self, frame: &ReceivedFrame<D>) -> bool {
+    pub(crate) fn vouches(&self, frame: &ReceivedBuf<D>) -> bool {
         frame.is_authenticated() || self.parser.verifier().is_none()
     }
 }
 
 /// One link: its [`Inbox`] and its [`Framer`], whose signer follows what
 /// the inbox's verifier accepted.
-pub(crate) struct LinkCore<D: Dialect, B, const STREAMS: usize = 16> {
+pub(crate) struct LinkCore<D: MessageSet, B, const STREAMS: usize = 16> {
     pub(crate) inbox: Inbox<D, B, STREAMS>,
     pub(crate) framer: Framer,
 }
 
-impl<D: Dialect, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> LinkCore<D, B, S> {
+impl<D: MessageSet, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> LinkCore<D, B, S> {
     /// The signer adopts what the verifier accepted: after receiving,
     /// and before framing (a verifier with a clock moves on meanwhile).
     pub(crate) fn adopt(&mut self) {
@@ -163,7 +163,7 @@ impl<D: Dialect, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> LinkCore<D, B, S>
     }
 
     /// [`Inbox::next`], then [`adopt`](Self::adopt).
-    pub(crate) fn next(&mut self) -> Option<ReceivedFrame<D>> {
+    pub(crate) fn next(&mut self) -> Option<ReceivedBuf<D>> {
         let got = self.inbox.next();
         self.adopt();
         got
@@ -345,7 +345,7 @@ mod std_parts {
         }
 
         /// A parser with the key's verifier, from the state saved.
-        pub(crate) fn parser<D: crate::Dialect>(&self) -> Parser<D> {
+        pub(crate) fn parser<D: crate::MessageSet>(&self) -> Parser<D> {
             match self.key {
                 Some(key) => Parser::with_signing(self.start.verifier(key), self.unsigned),
                 None => Parser::new(),

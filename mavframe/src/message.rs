@@ -132,7 +132,7 @@ pub struct MessageMeta {
 }
 
 /// An owned message of a generated dialect.
-pub trait Message: Sized + Clone + fmt::Debug + PartialEq + Default {
+pub trait MessageData: Sized + Clone + fmt::Debug + PartialEq + Default {
     /// This message's table row.
     const META: MessageMeta;
     /// The zero-copy view over this message's payload bytes.
@@ -156,12 +156,12 @@ pub trait Message: Sized + Clone + fmt::Debug + PartialEq + Default {
 /// [`encode`](crate::frame::encode) and `Connection::send` as a single type.
 ///
 /// ```
-/// # use mavframe::{Encode, Message, MessageMeta, BufferTooSmall};
+/// # use mavframe::{Encode, MessageData, MessageMeta, BufferTooSmall};
 /// fn describe<M: Encode + ?Sized>(m: &M) -> (&'static str, u8) {
 ///     (m.meta().name, m.meta().max_len)
 /// }
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 0,
 /// #     max_len: 0, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = ();
@@ -180,7 +180,7 @@ pub trait Encode {
     fn emit_payload(&self, payload: &mut [u8]) -> Result<usize, BufferTooSmall>;
 }
 
-impl<M: Message> Encode for M {
+impl<M: MessageData> Encode for M {
     #[inline]
     fn meta(&self) -> &'static MessageMeta {
         const { &M::META }
@@ -193,7 +193,7 @@ impl<M: Message> Encode for M {
 }
 
 /// A generated dialect: the set of messages a link understands.
-pub trait Dialect {
+pub trait MessageSet {
     /// The owned message enum.
     type Message: Clone + fmt::Debug + PartialEq;
     /// The borrowed view enum.

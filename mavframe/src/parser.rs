@@ -1,8 +1,8 @@
 //! A streaming frame parser: push bytes in any chunking, take frames out.
 //!
 //! ```
-//! # use mavframe::{parser::Parser, Dialect, MessageMeta};
-//! # struct D; impl Dialect for D { type Message = (); type View<'a> = ();
+//! # use mavframe::{parser::Parser, MessageSet, MessageMeta};
+//! # struct D; impl MessageSet for D { type Message = (); type View<'a> = ();
 //! #   const MESSAGES: &'static [MessageMeta] = &[];
 //! #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
 //! let mut parser = Parser::<D>::new();
@@ -82,7 +82,7 @@ use crate::frame::{
     frame_len, Frame, FrameError, Header, HEADER_LEN_V2, IFLAG_KNOWN, IFLAG_SIGNED, MAX_FRAME_LEN,
     STX_V1, STX_V2,
 };
-use crate::message::{Dialect, MessageMeta};
+use crate::message::{MessageMeta, MessageSet};
 use crate::signing::{SignatureError, Verifier};
 use core::marker::PhantomData;
 use memo::{span_mask, Block, Inside, Memo, Starts, Whole};
@@ -197,7 +197,7 @@ pub enum Unsigned {
 pub const MAX_TRACKED_LINKS: usize = 32;
 
 /// A frame the parser accepted.
-pub struct Received<'a, D: Dialect> {
+pub struct Received<'a, D: MessageSet> {
     /// The frame, borrowed from the input chunk or the parser's buffer.
     pub frame: Frame<&'a [u8]>,
     /// The message's table row; `None` for an id the dialect does not know
@@ -208,7 +208,7 @@ pub struct Received<'a, D: Dialect> {
     _dialect: PhantomData<D>,
 }
 
-impl<'a, D: Dialect> Received<'a, D> {
+impl<'a, D: MessageSet> Received<'a, D> {
     /// A zero-copy view of the message; `None` for an unknown id.
     pub fn view(&self) -> Option<D::View<'a>> {
         self.meta?;
@@ -222,7 +222,7 @@ impl<'a, D: Dialect> Received<'a, D> {
     }
 }
 
-impl<D: Dialect> core::fmt::Debug for Received<'_, D> {
+impl<D: MessageSet> core::fmt::Debug for Received<'_, D> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Received")
             .field("frame", &self.frame)
@@ -279,7 +279,7 @@ enum Held {
 
 /// The streaming parser for dialect `D`, verifying signatures for up to
 /// `STREAMS` signing streams when a key is configured.
-pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
+pub struct Parser<D: MessageSet, const STREAMS: usize = 16> {
     /// Bytes held for a candidate that spans chunks.
     buf: [u8; BUF_LEN],
     /// Where the bytes held start in `buf`.
@@ -319,13 +319,13 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     _dialect: PhantomData<fn() -> D>,
 }
 
-impl<D: Dialect, const STREAMS: usize> Default for Parser<D, STREAMS> {
+impl<D: MessageSet, const STREAMS: usize> Default for Parser<D, STREAMS> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<D: Dialect, const STREAMS: usize> core::fmt::Debug for Parser<D, STREAMS> {
+impl<D: MessageSet, const STREAMS: usize> core::fmt::Debug for Parser<D, STREAMS> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Parser")
             .field("pending", &self.len)
@@ -335,7 +335,7 @@ impl<D: Dialect, const STREAMS: usize> core::fmt::Debug for Parser<D, STREAMS> {
     }
 }
 
-impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
+impl<D: MessageSet, const STREAMS: usize> Parser<D, STREAMS> {
     /// A parser without signing: signed frames are accepted unverified
     /// (as pymavlink and the C library do when no key is set up).
     pub fn new() -> Self {
@@ -365,11 +365,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// use mavframe::parser::{Parser, Unsigned};
     /// use mavframe::signing::{Signer, Verifier};
     /// use mavframe::frame::{FrameBuf, Header, Version};
-    /// # use mavframe::{Dialect, MessageMeta, Encode, BufferTooSmall};
+    /// # use mavframe::{MessageSet, MessageMeta, Encode, BufferTooSmall};
     /// # const PING: MessageMeta = MessageMeta { id: 4242, name: "PING_EXAMPLE",
     /// #   crc_extra: 7, min_len: 1, max_len: 1, target_system_offset: None,
     /// #   target_component_offset: None, fields: &[] };
-    /// # struct D; impl Dialect for D { type Message = (); type View<'a> = ();
+    /// # struct D; impl MessageSet for D { type Message = (); type View<'a> = ();
     /// #   const MESSAGES: &'static [MessageMeta] = &[PING];
     /// #   fn parse(_: u32, _: &[u8]) -> Option<()> { Some(()) }
     /// #   fn view(_: u32, _: &[u8]) -> Option<()> { Some(()) } }
@@ -1108,7 +1108,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 /// `check` (or the end of the bytes), or at a frame of an unknown id that
 /// `check_raw` has taken or left to the signing policy (see [`RunEnd`]).
 #[inline(never)]
-fn reject_run<D: Dialect, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
+fn reject_run<D: MessageSet, const N: usize>(bytes: &[u8], cx: Ctx<'_, N>) -> Run {
     let Ctx {
         at,
         memo,
@@ -1368,7 +1368,7 @@ fn refused(rest: &[u8]) -> bool {
 /// `cx.at`): the start bytes 64 at a time, by mask. In garbage the kind of
 /// each is unpredictable: a branch on it per byte would mostly be
 /// mispredicted. Returns where the run ended, and how.
-fn reject_masked<D: Dialect, const N: usize>(
+fn reject_masked<D: MessageSet, const N: usize>(
     bytes: &[u8],
     at: u64,
     memo: &mut Memo,
@@ -1487,7 +1487,7 @@ fn cut_by_the_end<const N: usize>(
 /// (stream position `at`): what [`check`] would decide of it, as far as it
 /// can without the rest of the check.
 #[inline(always)]
-fn alone<D: Dialect, const N: usize>(
+fn alone<D: MessageSet, const N: usize>(
     bytes: &[u8],
     at: u64,
     memo: &mut Memo,
@@ -1516,7 +1516,7 @@ fn alone<D: Dialect, const N: usize>(
 /// ([`pay_for_signed_raw`]); a MAVLink 2 header with unknown flags is left
 /// to `check`, which counts it.
 #[inline(always)]
-fn cut<D: Dialect, const N: usize>(
+fn cut<D: MessageSet, const N: usize>(
     bytes: &[u8],
     at: u64,
     memo: &mut Memo,
@@ -1570,7 +1570,7 @@ impl MaybeGood {
 /// too, unless a caller passed other bytes since: then `check_raw` reads
 /// them again.)
 #[inline(always)]
-fn raw_alone<D: Dialect, const N: usize>(
+fn raw_alone<D: MessageSet, const N: usize>(
     bytes: &[u8],
     at: u64,
     memo: &mut Memo,
@@ -1679,7 +1679,7 @@ impl<const N: usize> Ctx<'_, N> {
 /// The decision about the candidate at the start of `bytes` (the bytes
 /// available from its start byte on).
 #[inline(always)]
-fn check<D: Dialect, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdict {
+fn check<D: MessageSet, const N: usize>(bytes: &[u8], mut cx: Ctx<'_, N>) -> Verdict {
     // At the end of the stream an incomplete candidate is not a frame.
     let at_eof = cx.at_eof;
     let need = |n: usize| {
@@ -1792,7 +1792,7 @@ fn signing<const N: usize>(
 /// (an unsigned frame, or any frame without a key). Out of line: `check`'s
 /// hot path, good frames of known ids, does not pay for it.
 #[inline(never)]
-fn check_raw<D: Dialect, const N: usize>(
+fn check_raw<D: MessageSet, const N: usize>(
     bytes: &[u8],
     frame: &Frame<&[u8]>,
     cx: Ctx<'_, N>,
@@ -1803,7 +1803,7 @@ fn check_raw<D: Dialect, const N: usize>(
 /// [`check_raw`], in line: in [`reject_run`], where frames of unknown ids
 /// are the candidates it cannot reject by their checksum.
 #[inline(always)]
-fn raw_verdict<D: Dialect, const N: usize>(
+fn raw_verdict<D: MessageSet, const N: usize>(
     bytes: &[u8],
     frame: &Frame<&[u8]>,
     cx: Ctx<'_, N>,

@@ -1,33 +1,35 @@
-//! [`ReceivedFrame`]: a frame the parser accepted, owned (no std, no heap).
+//! [`ReceivedBuf`]: a frame the parser accepted, owned (no std, no heap).
 
 use crate::frame::{Frame, Header, MAX_FRAME_LEN};
-use crate::message::{Dialect, MessageMeta};
+use crate::message::{MessageMeta, MessageSet};
 use crate::parser::Received;
 use core::fmt;
 use core::marker::PhantomData;
 
 /// A frame the parser accepted, copied out of it so it outlives the next
 /// receive: what the blocking connections, the router and the `embedded`
-/// adapters return, and what `ReceivedFrame::from(&received)` makes of any
-/// [`Received`]. No heap: the bytes sit inline (at most [`MAX_FRAME_LEN`]).
+/// adapters return, and what `ReceivedBuf::from(&received)` makes of any
+/// [`Received`] (which borrows, as a [`Frame`] view does, where this owns, as
+/// a [`FrameBuf`](crate::FrameBuf) does). No heap: the bytes sit inline (at
+/// most [`MAX_FRAME_LEN`]).
 ///
 /// ```
-/// # use mavframe::{Dialect, MessageMeta};
-/// # struct D; impl Dialect for D { type Message = (); type View<'a> = ();
+/// # use mavframe::{MessageSet, MessageMeta};
+/// # struct D; impl MessageSet for D { type Message = (); type View<'a> = ();
 /// #   const MESSAGES: &'static [MessageMeta] = &[];
 /// #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
-/// use mavframe::{Parser, ReceivedFrame};
+/// use mavframe::{Parser, ReceivedBuf};
 ///
 /// let mut parser = Parser::<D>::new();
 /// // A frame of an id this dialect does not know, confirmed by the start
 /// // byte after it.
 /// let mut bytes: &[u8] = b"\xfd\x01\x00\x00\x07\x01\x01\x2a\x00\x00\x09\x12\x34\xfd";
-/// let owned = ReceivedFrame::from(&parser.next(&mut bytes).expect("a frame"));
+/// let owned = ReceivedBuf::from(&parser.next(&mut bytes).expect("a frame"));
 /// drop(parser); // the copy outlives the parser
 /// assert_eq!((owned.msg_id(), owned.header().seq), (42, 7));
 /// assert!(owned.meta().is_none() && owned.message().is_none());
 /// ```
-pub struct ReceivedFrame<D: Dialect> {
+pub struct ReceivedBuf<D: MessageSet> {
     bytes: [u8; MAX_FRAME_LEN],
     len: usize,
     meta: Option<&'static MessageMeta>,
@@ -37,12 +39,12 @@ pub struct ReceivedFrame<D: Dialect> {
     _dialect: PhantomData<fn() -> D>,
 }
 
-impl<D: Dialect> ReceivedFrame<D> {
+impl<D: MessageSet> ReceivedBuf<D> {
     /// The frame.
     pub fn frame(&self) -> Frame<&[u8]> {
         // Only ever built from a frame the parser checked: cannot fail.
         Frame::new_checked(self.as_bytes())
-            .unwrap_or_else(|_| unreachable!("ReceivedFrame holds a whole frame"))
+            .unwrap_or_else(|_| unreachable!("ReceivedBuf holds a whole frame"))
     }
 
     /// The frame's bytes, as received.
@@ -86,14 +88,14 @@ impl<D: Dialect> ReceivedFrame<D> {
     }
 }
 
-impl<D: Dialect> From<&Received<'_, D>> for ReceivedFrame<D> {
+impl<D: MessageSet> From<&Received<'_, D>> for ReceivedBuf<D> {
     fn from(r: &Received<'_, D>) -> Self {
         let src = r.frame.as_bytes();
         let mut bytes = [0u8; MAX_FRAME_LEN];
         // A frame is never longer than MAX_FRAME_LEN; min() keeps this total.
         let len = src.len().min(MAX_FRAME_LEN);
         bytes[..len].copy_from_slice(&src[..len]);
-        ReceivedFrame {
+        ReceivedBuf {
             bytes,
             len,
             meta: r.meta,
@@ -103,9 +105,9 @@ impl<D: Dialect> From<&Received<'_, D>> for ReceivedFrame<D> {
     }
 }
 
-impl<D: Dialect> Clone for ReceivedFrame<D> {
+impl<D: MessageSet> Clone for ReceivedBuf<D> {
     fn clone(&self) -> Self {
-        ReceivedFrame {
+        ReceivedBuf {
             bytes: self.bytes,
             len: self.len,
             meta: self.meta,
@@ -115,9 +117,9 @@ impl<D: Dialect> Clone for ReceivedFrame<D> {
     }
 }
 
-impl<D: Dialect> fmt::Debug for ReceivedFrame<D> {
+impl<D: MessageSet> fmt::Debug for ReceivedBuf<D> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("ReceivedFrame")
+        f.debug_struct("ReceivedBuf")
             .field("frame", &self.frame())
             .field("name", &self.meta.map(|m| m.name))
             .field("authenticated", &self.authenticated)

@@ -38,11 +38,11 @@
 //!   stranger's route never evicts a trusted one (see [`crate::route`]).
 //!
 //! ```no_run
-//! # use mavframe::{Dialect, MessageMeta, Encode, BufferTooSmall};
+//! # use mavframe::{MessageSet, MessageMeta, Encode, BufferTooSmall};
 //! # #[derive(Debug, Clone, PartialEq)] struct M;
 //! # impl Encode for M { fn meta(&self) -> &'static MessageMeta { unimplemented!() }
 //! #   fn emit_payload(&self, _: &mut [u8]) -> Result<usize, BufferTooSmall> { Ok(0) } }
-//! # struct D; impl Dialect for D { type Message = M; type View<'a> = ();
+//! # struct D; impl MessageSet for D { type Message = M; type View<'a> = ();
 //! #   const MESSAGES: &'static [MessageMeta] = &[];
 //! #   fn parse(_: u32, _: &[u8]) -> Option<M> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
 //! # async fn run() -> std::io::Result<()> {
@@ -60,9 +60,9 @@
 //! # Ok(()) }
 //! ```
 
-use crate::conn::{AnyTransport, Endpoint, ReceivedFrame, ReplyTo};
+use crate::conn::{AnyTransport, Endpoint, ReceivedBuf, ReplyTo};
 use crate::link::{Inbox, LinkCore, Peers, SigningFile};
-use crate::message::{Dialect, Encode, MessageMeta};
+use crate::message::{Encode, MessageMeta, MessageSet};
 use crate::parser::{Stats, Unsigned};
 use crate::route::{LinkId, Links, RoutingTable};
 use crate::signing::Verifier;
@@ -190,11 +190,11 @@ impl LinkConfig {
 
 /// A frame a link received.
 #[derive(Debug, Clone)]
-pub struct Inbound<D: Dialect> {
+pub struct Inbound<D: MessageSet> {
     /// The link it came in on.
     pub link: LinkId,
     /// The frame, as the link's parser accepted it.
-    pub frame: ReceivedFrame<D>,
+    pub frame: ReceivedBuf<D>,
     /// The sender's address (UDP, TCP clients of a `tcpin` link).
     pub source: Option<SocketAddr>,
 }
@@ -203,7 +203,7 @@ pub struct Inbound<D: Dialect> {
 // Frames are nearly every event: boxing them would allocate per frame.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
-pub enum RouterEvent<D: Dialect> {
+pub enum RouterEvent<D: MessageSet> {
     /// A frame.
     Frame(Inbound<D>),
     /// A link failed; it is opened again every [`REOPEN_INTERVAL`].
@@ -455,9 +455,9 @@ pub struct LinkCounters {
 /// The router: its links and the routing table.
 ///
 /// ```
-/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 /// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = u8;
@@ -467,13 +467,13 @@ pub struct LinkCounters {
 /// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
 /// # }
 /// # struct D;
-/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// # impl MessageSet for D { type Message = Ping; type View<'a> = u8;
 /// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
 /// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 /// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
 /// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
 /// // (this crate sits below the generator); use a generated crate's
-/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// // `MessageSet` and messages, e.g. `fbwag_dialect::Dialect`.
 /// use mavframe::router::{LinkConfig, Router, RouterEvent};
 /// use std::time::Duration;
 /// use tokio::net::UdpSocket;
@@ -508,7 +508,7 @@ pub struct LinkCounters {
 /// })?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub struct Router<D: Dialect> {
+pub struct Router<D: MessageSet> {
     links: Vec<LinkHandle>,
     events: mpsc::Receiver<RouterEvent<D>>,
     events_tx: mpsc::Sender<RouterEvent<D>>,
@@ -518,13 +518,13 @@ pub struct Router<D: Dialect> {
     trusted: Links,
 }
 
-impl<D: Dialect + 'static> Default for Router<D> {
+impl<D: MessageSet + 'static> Default for Router<D> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<D: Dialect + 'static> Router<D> {
+impl<D: MessageSet + 'static> Router<D> {
     /// A router without links.
     pub fn new() -> Self {
         let (events_tx, events) = mpsc::channel(INBOUND_QUEUE);
@@ -946,7 +946,7 @@ fn bound_unsent(stream: &TcpStream) {
 }
 
 /// One link's task.
-struct LinkTask<D: Dialect> {
+struct LinkTask<D: MessageSet> {
     id: LinkId,
     config: LinkConfig,
     events: mpsc::Sender<RouterEvent<D>>,
@@ -961,7 +961,7 @@ struct LinkTask<D: Dialect> {
 type Core<D> = LinkCore<D, Box<[u8]>>;
 
 /// The bytes `command` sends, a message framed by `core` (`None`: none).
-fn outgoing<'a, D: Dialect>(core: &'a mut Core<D>, command: &'a Command) -> Option<&'a [u8]> {
+fn outgoing<'a, D: MessageSet>(core: &'a mut Core<D>, command: &'a Command) -> Option<&'a [u8]> {
     match command {
         Command::Peers(_) => None,
         Command::Raw(b) => Some(b),
@@ -983,7 +983,7 @@ fn outgoing<'a, D: Dialect>(core: &'a mut Core<D>, command: &'a Command) -> Opti
 
 /// The bytes a link sends for a routed frame: framed again and signed by
 /// `core` where the owner asked ([`Router::route_signed`]).
-fn routed_bytes<'a, D: Dialect>(
+fn routed_bytes<'a, D: MessageSet>(
     core: &'a mut Core<D>,
     routed: &'a RoutedBytes,
 ) -> Option<&'a [u8]> {
@@ -996,7 +996,7 @@ fn routed_bytes<'a, D: Dialect>(
     }
 }
 
-impl<D: Dialect + 'static> LinkTask<D> {
+impl<D: MessageSet + 'static> LinkTask<D> {
     /// An inbox with the link's key and `room` bytes to receive into.
     fn inbox(&self, room: usize) -> Inbox<D, Box<[u8]>> {
         let mut inbox = Inbox::new(self.signing.parser(), vec![0u8; room].into_boxed_slice());
@@ -1102,7 +1102,7 @@ impl<D: Dialect + 'static> LinkTask<D> {
                     tokio::task::yield_now().await;
                     continue;
                 }
-                None if eof => match core.inbox.take_at_eof(|r| ReceivedFrame::from(&r)) {
+                None if eof => match core.inbox.take_at_eof(|r| ReceivedBuf::from(&r)) {
                     Some(frame) => frame,
                     None => break,
                 },
@@ -1324,7 +1324,7 @@ async fn send_each(
     sent
 }
 
-impl<D: Dialect + 'static> LinkTask<D> {
+impl<D: MessageSet + 'static> LinkTask<D> {
     /// A new `tcpin` client at `addr`: served in a task of its own, after
     /// the eviction of the client that has shown the least if the link is
     /// full; closed at once when every client is one the link never evicts
@@ -1469,7 +1469,7 @@ const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_secs(2);
 #[cfg(test)]
 const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_millis(300);
 
-async fn serve_client<D: Dialect>(
+async fn serve_client<D: MessageSet>(
     mut stream: TcpStream,
     task: ClientTask,
     mut inbox: Inbox<D, Box<[u8]>>,
@@ -1518,10 +1518,10 @@ async fn serve_client<D: Dialect>(
 /// The frames `inbox` holds, parsed with the link's `shared` verifier
 /// state (if any) in the client's parser, into `frames` (one vector for
 /// the client's life, not one per read).
-fn take_shared<D: Dialect>(
+fn take_shared<D: MessageSet>(
     inbox: &mut Inbox<D, Box<[u8]>>,
     shared: Option<&Mutex<Verifier>>,
-    frames: &mut Vec<ReceivedFrame<D>>,
+    frames: &mut Vec<ReceivedBuf<D>>,
 ) {
     let mut state = shared.map(|m| m.lock().unwrap_or_else(PoisonError::into_inner));
     let mut exchange = |inbox: &mut Inbox<D, Box<[u8]>>| {
@@ -2451,7 +2451,7 @@ mod tests {
             let bytes = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, None).unwrap();
             let mut parser = Parser::<TestDialect>::new();
             let mut input = &[&bytes[..], &[0xfd][..]].concat()[..];
-            let frame = ReceivedFrame::from(&parser.next(&mut input).unwrap());
+            let frame = ReceivedBuf::from(&parser.next(&mut input).unwrap());
             Inbound::<TestDialect> {
                 link,
                 frame,

@@ -8,7 +8,7 @@
 
 use mavframe::conn::{AnyTransport, Connection, ReplyTo};
 use mavframe::frame::{finish, Frame, Header, Version, MAX_FRAME_LEN};
-use mavframe::message::{BufferTooSmall, Dialect, Message, MessageMeta};
+use mavframe::message::{BufferTooSmall, MessageData, MessageMeta, MessageSet};
 use mavframe::parser::{Parser, Stats, Unsigned};
 use mavframe::signing::state::{Loaded, SigningState, StateError, StateFile, SIGNER_MARGIN};
 use mavframe::signing::{timestamp_now, SignatureError, Signer, Verifier, NEW_STREAM_WINDOW};
@@ -665,7 +665,7 @@ fn a_crash_after_signing_restarts_above_every_frame_signed() {
 #[derive(Debug, Clone, Default, PartialEq)]
 struct Notice([u8; 12]);
 
-impl Message for Notice {
+impl MessageData for Notice {
     const META: MessageMeta = META;
     type View<'a> = &'a [u8];
     fn parse(p: &[u8]) -> Self {
@@ -688,7 +688,7 @@ impl Message for Notice {
 
 struct Notices;
 
-impl Dialect for Notices {
+impl MessageSet for Notices {
     type Message = Notice;
     type View<'a> = &'a [u8];
     const MESSAGES: &'static [MessageMeta] = &[META];

@@ -4,7 +4,7 @@
 use super::values::values_text;
 use mavframe::crc::frame_crc;
 use mavframe::frame::{finish, Header, Version, HEADER_LEN_V1, HEADER_LEN_V2};
-use mavframe::{BufferTooSmall, Dialect, MessageMeta, Parser, Signer, Unsigned, Verifier};
+use mavframe::{BufferTooSmall, MessageMeta, MessageSet, Parser, Signer, Unsigned, Verifier};
 
 /// The signing key of every signed frame of the tests (32 bytes 0x00..0x1f
 /// reversed, so it is neither zero nor a simple pattern of the seed).
@@ -144,7 +144,7 @@ pub struct RustDecode {
 /// [`KEY`], unsigned refused, when `signed`), reads its values through the
 /// field table, checks the typed owned message gives the same payload, and
 /// re-encodes it.
-pub fn rust_decode<D: Dialect>(frame: &[u8], signed: bool) -> RustDecode
+pub fn rust_decode<D: MessageSet>(frame: &[u8], signed: bool) -> RustDecode
 where
     D::Message: Owned,
 {
@@ -174,7 +174,7 @@ where
     }
 }
 
-fn one<D: Dialect>(rx: &mavframe::Received<'_, D>) -> RustDecode
+fn one<D: MessageSet>(rx: &mavframe::Received<'_, D>) -> RustDecode
 where
     D::Message: Owned,
 {

@@ -10,7 +10,7 @@ use mavframe::crc::frame_crc;
 use mavframe::frame::{Frame, Header, Version, MAX_FRAME_LEN, SIGNATURE_LEN};
 use mavframe::parser::Stats;
 use mavframe::signing::signature;
-use mavframe::{Dialect, MessageMeta, Parser, Unsigned, Verifier};
+use mavframe::{MessageMeta, MessageSet, Parser, Unsigned, Verifier};
 use std::collections::BTreeMap;
 
 /// What the receivers know and accept.
@@ -136,7 +136,7 @@ fn recrc_and_resign(frame: &mut [u8], meta: &MessageMeta, key: &[u8; 32]) {
 }
 
 /// Builds one stream of `n` frames of dialect `D`.
-pub fn build<D: Dialect>(rng: &mut Rng, policy: Policy, n: usize) -> Stream {
+pub fn build<D: MessageSet>(rng: &mut Rng, policy: Policy, n: usize) -> Stream {
     let msgs = D::MESSAGES;
     let mut bytes = Vec::new();
     let mut expected = Vec::new();
@@ -342,7 +342,7 @@ pub struct Got {
 
 /// Runs the Rust parser over `bytes` in chunks whose sizes `chunks` yields
 /// (0 = the rest), then flushes. Returns the frames and the counters.
-pub fn rust_parse<D: Dialect>(
+pub fn rust_parse<D: MessageSet>(
     bytes: &[u8],
     policy: Policy,
     mut chunks: impl FnMut() -> usize,
@@ -417,7 +417,7 @@ pub enum Shadow {
 
 /// Whether the frame at `pos` starts inside a candidate of a known message,
 /// starting before it, whose checksum is valid.
-pub fn shadow<D: Dialect>(bytes: &[u8], pos: usize, policy: Policy) -> Option<Shadow> {
+pub fn shadow<D: MessageSet>(bytes: &[u8], pos: usize, policy: Policy) -> Option<Shadow> {
     for q in pos.saturating_sub(MAX_FRAME_LEN)..pos {
         if bytes[q] != 0xFD && bytes[q] != 0xFE {
             continue;

@@ -13,7 +13,7 @@
 
 use fbwag_delegation::Peer;
 use fbwag_dialect::dialects::common::{MavCmd, MavDataStream, MavMissionType};
-use fbwag_dialect::{MessageView, ReceivedFrame};
+use fbwag_dialect::{MessageView, ReceivedBuf};
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -84,7 +84,7 @@ pub enum Kind {
 }
 
 /// Reads what `frame` asks of an FC with the ids `own`.
-pub fn classify(frame: &ReceivedFrame, own: Peer) -> Kind {
+pub fn classify(frame: &ReceivedBuf, own: Peer) -> Kind {
     let f = frame.frame();
     let Some(view) = MessageView::new(f.msg_id(), f.payload()) else {
         return Kind::Unhandled;

@@ -15,7 +15,7 @@ use fbwag_dialect::dialects::common::{
     MissionAck, MissionCount, ParamValue, Statustext, Timesync,
 };
 use fbwag_dialect::mavframe::field::chars;
-use fbwag_dialect::ReceivedFrame;
+use fbwag_dialect::ReceivedBuf;
 use serde_json::json;
 
 impl Daemon {
@@ -25,7 +25,7 @@ impl Daemon {
     pub(super) fn serve_frame(
         &mut self,
         now: Instant,
-        frame: &ReceivedFrame,
+        frame: &ReceivedBuf,
         serve: bool,
         net: &mut Net,
         log: &mut Log,

@@ -5,7 +5,7 @@ use super::{fields, Error};
 use fbwag_dialect::mavframe::frame::{
     truncated_len, Frame, FrameError, Header, Version, IFLAG_SIGNED, MAX_FRAME_LEN,
 };
-use fbwag_dialect::mavframe::{Dialect as _, MessageMeta, Signer};
+use fbwag_dialect::mavframe::{MessageMeta, MessageSet as _, Signer};
 use fbwag_dialect::Dialect;
 
 /// Options of [`json_to_frame`].

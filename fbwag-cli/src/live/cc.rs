@@ -379,7 +379,7 @@ impl Daemon {
 
     /// Logs what the FC says that a person follows: notices, its mode,
     /// its confirmations.
-    fn describe(&mut self, frame: &fbwag_dialect::ReceivedFrame, log: &mut Log) {
+    fn describe(&mut self, frame: &fbwag_dialect::ReceivedBuf, log: &mut Log) {
         let f = frame.frame();
         match MessageView::new(f.msg_id(), f.payload()) {
             Some(MessageView::FbwagNotice(n)) => {

@@ -425,7 +425,7 @@ impl Core {
         let h = a.frame.header();
         self.table.learn(a.link, h.sysid, h.compid, trusted);
         let meta =
-            <fbwag_dialect::Dialect as fbwag_dialect::mavframe::Dialect>::meta(a.frame.msg_id());
+            <fbwag_dialect::Dialect as fbwag_dialect::mavframe::MessageSet>::meta(a.frame.msg_id());
         let others = allowed.intersection(self.all()).without(a.link);
         match fbwag_dialect::mavframe::route::target(&a.frame, meta) {
             Some((sysid, compid)) => self.table.links_to(sysid, compid).intersection(others),
@@ -521,5 +521,5 @@ fn sender(frame: &Frame<&[u8]>) -> Peer {
 /// Whether the dialect knows `frame`'s message (a router can frame it
 /// again: its checksum needs the message's CRC_EXTRA).
 fn known(frame: &Frame<&[u8]>) -> bool {
-    <fbwag_dialect::Dialect as fbwag_dialect::mavframe::Dialect>::meta(frame.msg_id()).is_some()
+    <fbwag_dialect::Dialect as fbwag_dialect::mavframe::MessageSet>::meta(frame.msg_id()).is_some()
 }

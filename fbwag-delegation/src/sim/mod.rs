@@ -1149,7 +1149,7 @@ impl World {
         let what = || {
             format!(
                 "{} from {}/{} on link {}",
-                <fbwag_dialect::Dialect as fbwag_dialect::mavframe::Dialect>::meta(
+                <fbwag_dialect::Dialect as fbwag_dialect::mavframe::MessageSet>::meta(
                     a.frame.msg_id()
                 )
                 .map_or("an unknown message", |m| m.name),

@@ -5002,7 +5002,7 @@ impl SensorOffsets {
     }
 }
 
-impl ::mavframe::Message for SensorOffsets {
+impl ::mavframe::MessageData for SensorOffsets {
     const META: ::mavframe::MessageMeta = SensorOffsets::META;
     type View<'a> = SensorOffsetsView<'a>;
     #[inline]
@@ -5309,7 +5309,7 @@ impl SetMagOffsets {
     }
 }
 
-impl ::mavframe::Message for SetMagOffsets {
+impl ::mavframe::MessageData for SetMagOffsets {
     const META: ::mavframe::MessageMeta = SetMagOffsets::META;
     type View<'a> = SetMagOffsetsView<'a>;
     #[inline]
@@ -5520,7 +5520,7 @@ impl Meminfo {
     }
 }
 
-impl ::mavframe::Message for Meminfo {
+impl ::mavframe::MessageData for Meminfo {
     const META: ::mavframe::MessageMeta = Meminfo::META;
     type View<'a> = MeminfoView<'a>;
     #[inline]
@@ -5749,7 +5749,7 @@ impl ApAdc {
     }
 }
 
-impl ::mavframe::Message for ApAdc {
+impl ::mavframe::MessageData for ApAdc {
     const META: ::mavframe::MessageMeta = ApAdc::META;
     type View<'a> = ApAdcView<'a>;
     #[inline]
@@ -6075,7 +6075,7 @@ impl DigicamConfigure {
     }
 }
 
-impl ::mavframe::Message for DigicamConfigure {
+impl ::mavframe::MessageData for DigicamConfigure {
     const META: ::mavframe::MessageMeta = DigicamConfigure::META;
     type View<'a> = DigicamConfigureView<'a>;
     #[inline]
@@ -6438,7 +6438,7 @@ impl DigicamControl {
     }
 }
 
-impl ::mavframe::Message for DigicamControl {
+impl ::mavframe::MessageData for DigicamControl {
     const META: ::mavframe::MessageMeta = DigicamControl::META;
     type View<'a> = DigicamControlView<'a>;
     #[inline]
@@ -6740,7 +6740,7 @@ impl MountConfigure {
     }
 }
 
-impl ::mavframe::Message for MountConfigure {
+impl ::mavframe::MessageData for MountConfigure {
     const META: ::mavframe::MessageMeta = MountConfigure::META;
     type View<'a> = MountConfigureView<'a>;
     #[inline]
@@ -7002,7 +7002,7 @@ impl MountControl {
     }
 }
 
-impl ::mavframe::Message for MountControl {
+impl ::mavframe::MessageData for MountControl {
     const META: ::mavframe::MessageMeta = MountControl::META;
     type View<'a> = MountControlView<'a>;
     #[inline]
@@ -7264,7 +7264,7 @@ impl MountStatus {
     }
 }
 
-impl ::mavframe::Message for MountStatus {
+impl ::mavframe::MessageData for MountStatus {
     const META: ::mavframe::MessageMeta = MountStatus::META;
     type View<'a> = MountStatusView<'a>;
     #[inline]
@@ -7528,7 +7528,7 @@ impl FencePoint {
     }
 }
 
-impl ::mavframe::Message for FencePoint {
+impl ::mavframe::MessageData for FencePoint {
     const META: ::mavframe::MessageMeta = FencePoint::META;
     type View<'a> = FencePointView<'a>;
     #[inline]
@@ -7748,7 +7748,7 @@ impl FenceFetchPoint {
     }
 }
 
-impl ::mavframe::Message for FenceFetchPoint {
+impl ::mavframe::MessageData for FenceFetchPoint {
     const META: ::mavframe::MessageMeta = FenceFetchPoint::META;
     type View<'a> = FenceFetchPointView<'a>;
     #[inline]
@@ -8006,7 +8006,7 @@ impl Ahrs {
     }
 }
 
-impl ::mavframe::Message for Ahrs {
+impl ::mavframe::MessageData for Ahrs {
     const META: ::mavframe::MessageMeta = Ahrs::META;
     type View<'a> = AhrsView<'a>;
     #[inline]
@@ -8349,7 +8349,7 @@ impl Simstate {
     }
 }
 
-impl ::mavframe::Message for Simstate {
+impl ::mavframe::MessageData for Simstate {
     const META: ::mavframe::MessageMeta = Simstate::META;
     type View<'a> = SimstateView<'a>;
     #[inline]
@@ -8610,7 +8610,7 @@ impl Hwstatus {
     }
 }
 
-impl ::mavframe::Message for Hwstatus {
+impl ::mavframe::MessageData for Hwstatus {
     const META: ::mavframe::MessageMeta = Hwstatus::META;
     type View<'a> = HwstatusView<'a>;
     #[inline]
@@ -8842,7 +8842,7 @@ impl Radio {
     }
 }
 
-impl ::mavframe::Message for Radio {
+impl ::mavframe::MessageData for Radio {
     const META: ::mavframe::MessageMeta = Radio::META;
     type View<'a> = RadioView<'a>;
     #[inline]
@@ -9156,7 +9156,7 @@ impl LimitsStatus {
     }
 }
 
-impl ::mavframe::Message for LimitsStatus {
+impl ::mavframe::MessageData for LimitsStatus {
     const META: ::mavframe::MessageMeta = LimitsStatus::META;
     type View<'a> = LimitsStatusView<'a>;
     #[inline]
@@ -9409,7 +9409,7 @@ impl Wind {
     }
 }
 
-impl ::mavframe::Message for Wind {
+impl ::mavframe::MessageData for Wind {
     const META: ::mavframe::MessageMeta = Wind::META;
     type View<'a> = WindView<'a>;
     #[inline]
@@ -9600,7 +9600,7 @@ impl Data16 {
     }
 }
 
-impl ::mavframe::Message for Data16 {
+impl ::mavframe::MessageData for Data16 {
     const META: ::mavframe::MessageMeta = Data16::META;
     type View<'a> = Data16View<'a>;
     #[inline]
@@ -9791,7 +9791,7 @@ impl Data32 {
     }
 }
 
-impl ::mavframe::Message for Data32 {
+impl ::mavframe::MessageData for Data32 {
     const META: ::mavframe::MessageMeta = Data32::META;
     type View<'a> = Data32View<'a>;
     #[inline]
@@ -9992,7 +9992,7 @@ impl Default for Data64 {
     }
 }
 
-impl ::mavframe::Message for Data64 {
+impl ::mavframe::MessageData for Data64 {
     const META: ::mavframe::MessageMeta = Data64::META;
     type View<'a> = Data64View<'a>;
     #[inline]
@@ -10193,7 +10193,7 @@ impl Default for Data96 {
     }
 }
 
-impl ::mavframe::Message for Data96 {
+impl ::mavframe::MessageData for Data96 {
     const META: ::mavframe::MessageMeta = Data96::META;
     type View<'a> = Data96View<'a>;
     #[inline]
@@ -10372,7 +10372,7 @@ impl Rangefinder {
     }
 }
 
-impl ::mavframe::Message for Rangefinder {
+impl ::mavframe::MessageData for Rangefinder {
     const META: ::mavframe::MessageMeta = Rangefinder::META;
     type View<'a> = RangefinderView<'a>;
     #[inline]
@@ -10693,7 +10693,7 @@ impl AirspeedAutocal {
     }
 }
 
-impl ::mavframe::Message for AirspeedAutocal {
+impl ::mavframe::MessageData for AirspeedAutocal {
     const META: ::mavframe::MessageMeta = AirspeedAutocal::META;
     type View<'a> = AirspeedAutocalView<'a>;
     #[inline]
@@ -11065,7 +11065,7 @@ impl RallyPoint {
     }
 }
 
-impl ::mavframe::Message for RallyPoint {
+impl ::mavframe::MessageData for RallyPoint {
     const META: ::mavframe::MessageMeta = RallyPoint::META;
     type View<'a> = RallyPointView<'a>;
     #[inline]
@@ -11326,7 +11326,7 @@ impl RallyFetchPoint {
     }
 }
 
-impl ::mavframe::Message for RallyFetchPoint {
+impl ::mavframe::MessageData for RallyFetchPoint {
     const META: ::mavframe::MessageMeta = RallyFetchPoint::META;
     type View<'a> = RallyFetchPointView<'a>;
     #[inline]
@@ -11568,7 +11568,7 @@ impl CompassmotStatus {
     }
 }
 
-impl ::mavframe::Message for CompassmotStatus {
+impl ::mavframe::MessageData for CompassmotStatus {
     const META: ::mavframe::MessageMeta = CompassmotStatus::META;
     type View<'a> = CompassmotStatusView<'a>;
     #[inline]
@@ -11831,7 +11831,7 @@ impl Ahrs2 {
     }
 }
 
-impl ::mavframe::Message for Ahrs2 {
+impl ::mavframe::MessageData for Ahrs2 {
     const META: ::mavframe::MessageMeta = Ahrs2::META;
     type View<'a> = Ahrs2View<'a>;
     #[inline]
@@ -12134,7 +12134,7 @@ impl CameraStatus {
     }
 }
 
-impl ::mavframe::Message for CameraStatus {
+impl ::mavframe::MessageData for CameraStatus {
     const META: ::mavframe::MessageMeta = CameraStatus::META;
     type View<'a> = CameraStatusView<'a>;
     #[inline]
@@ -12536,7 +12536,7 @@ impl CameraFeedback {
     }
 }
 
-impl ::mavframe::Message for CameraFeedback {
+impl ::mavframe::MessageData for CameraFeedback {
     const META: ::mavframe::MessageMeta = CameraFeedback::META;
     type View<'a> = CameraFeedbackView<'a>;
     #[inline]
@@ -12824,7 +12824,7 @@ impl Battery2 {
     }
 }
 
-impl ::mavframe::Message for Battery2 {
+impl ::mavframe::MessageData for Battery2 {
     const META: ::mavframe::MessageMeta = Battery2::META;
     type View<'a> = Battery2View<'a>;
     #[inline]
@@ -13103,7 +13103,7 @@ impl Ahrs3 {
     }
 }
 
-impl ::mavframe::Message for Ahrs3 {
+impl ::mavframe::MessageData for Ahrs3 {
     const META: ::mavframe::MessageMeta = Ahrs3::META;
     type View<'a> = Ahrs3View<'a>;
     #[inline]
@@ -13350,7 +13350,7 @@ impl AutopilotVersionRequest {
     }
 }
 
-impl ::mavframe::Message for AutopilotVersionRequest {
+impl ::mavframe::MessageData for AutopilotVersionRequest {
     const META: ::mavframe::MessageMeta = AutopilotVersionRequest::META;
     type View<'a> = AutopilotVersionRequestView<'a>;
     #[inline]
@@ -13558,7 +13558,7 @@ impl Default for RemoteLogDataBlock {
     }
 }
 
-impl ::mavframe::Message for RemoteLogDataBlock {
+impl ::mavframe::MessageData for RemoteLogDataBlock {
     const META: ::mavframe::MessageMeta = RemoteLogDataBlock::META;
     type View<'a> = RemoteLogDataBlockView<'a>;
     #[inline]
@@ -13776,7 +13776,7 @@ impl RemoteLogBlockStatus {
     }
 }
 
-impl ::mavframe::Message for RemoteLogBlockStatus {
+impl ::mavframe::MessageData for RemoteLogBlockStatus {
     const META: ::mavframe::MessageMeta = RemoteLogBlockStatus::META;
     type View<'a> = RemoteLogBlockStatusView<'a>;
     #[inline]
@@ -14018,7 +14018,7 @@ impl LedControl {
     }
 }
 
-impl ::mavframe::Message for LedControl {
+impl ::mavframe::MessageData for LedControl {
     const META: ::mavframe::MessageMeta = LedControl::META;
     type View<'a> = LedControlView<'a>;
     #[inline]
@@ -14324,7 +14324,7 @@ impl MagCalProgress {
     }
 }
 
-impl ::mavframe::Message for MagCalProgress {
+impl ::mavframe::MessageData for MagCalProgress {
     const META: ::mavframe::MessageMeta = MagCalProgress::META;
     type View<'a> = MagCalProgressView<'a>;
     #[inline]
@@ -14638,7 +14638,7 @@ impl EkfStatusReport {
     }
 }
 
-impl ::mavframe::Message for EkfStatusReport {
+impl ::mavframe::MessageData for EkfStatusReport {
     const META: ::mavframe::MessageMeta = EkfStatusReport::META;
     type View<'a> = EkfStatusReportView<'a>;
     #[inline]
@@ -14977,7 +14977,7 @@ impl PidTuning {
     }
 }
 
-impl ::mavframe::Message for PidTuning {
+impl ::mavframe::MessageData for PidTuning {
     const META: ::mavframe::MessageMeta = PidTuning::META;
     type View<'a> = PidTuningView<'a>;
     #[inline]
@@ -15321,7 +15321,7 @@ impl Deepstall {
     }
 }
 
-impl ::mavframe::Message for Deepstall {
+impl ::mavframe::MessageData for Deepstall {
     const META: ::mavframe::MessageMeta = Deepstall::META;
     type View<'a> = DeepstallView<'a>;
     #[inline]
@@ -15708,7 +15708,7 @@ impl GimbalReport {
     }
 }
 
-impl ::mavframe::Message for GimbalReport {
+impl ::mavframe::MessageData for GimbalReport {
     const META: ::mavframe::MessageMeta = GimbalReport::META;
     type View<'a> = GimbalReportView<'a>;
     #[inline]
@@ -16017,7 +16017,7 @@ impl GimbalControl {
     }
 }
 
-impl ::mavframe::Message for GimbalControl {
+impl ::mavframe::MessageData for GimbalControl {
     const META: ::mavframe::MessageMeta = GimbalControl::META;
     type View<'a> = GimbalControlView<'a>;
     #[inline]
@@ -16253,7 +16253,7 @@ impl GimbalTorqueCmdReport {
     }
 }
 
-impl ::mavframe::Message for GimbalTorqueCmdReport {
+impl ::mavframe::MessageData for GimbalTorqueCmdReport {
     const META: ::mavframe::MessageMeta = GimbalTorqueCmdReport::META;
     type View<'a> = GimbalTorqueCmdReportView<'a>;
     #[inline]
@@ -16470,7 +16470,7 @@ impl GoproHeartbeat {
     }
 }
 
-impl ::mavframe::Message for GoproHeartbeat {
+impl ::mavframe::MessageData for GoproHeartbeat {
     const META: ::mavframe::MessageMeta = GoproHeartbeat::META;
     type View<'a> = GoproHeartbeatView<'a>;
     #[inline]
@@ -16662,7 +16662,7 @@ impl GoproGetRequest {
     }
 }
 
-impl ::mavframe::Message for GoproGetRequest {
+impl ::mavframe::MessageData for GoproGetRequest {
     const META: ::mavframe::MessageMeta = GoproGetRequest::META;
     type View<'a> = GoproGetRequestView<'a>;
     #[inline]
@@ -16854,7 +16854,7 @@ impl GoproGetResponse {
     }
 }
 
-impl ::mavframe::Message for GoproGetResponse {
+impl ::mavframe::MessageData for GoproGetResponse {
     const META: ::mavframe::MessageMeta = GoproGetResponse::META;
     type View<'a> = GoproGetResponseView<'a>;
     #[inline]
@@ -17058,7 +17058,7 @@ impl GoproSetRequest {
     }
 }
 
-impl ::mavframe::Message for GoproSetRequest {
+impl ::mavframe::MessageData for GoproSetRequest {
     const META: ::mavframe::MessageMeta = GoproSetRequest::META;
     type View<'a> = GoproSetRequestView<'a>;
     #[inline]
@@ -17246,7 +17246,7 @@ impl GoproSetResponse {
     }
 }
 
-impl ::mavframe::Message for GoproSetResponse {
+impl ::mavframe::MessageData for GoproSetResponse {
     const META: ::mavframe::MessageMeta = GoproSetResponse::META;
     type View<'a> = GoproSetResponseView<'a>;
     #[inline]
@@ -17415,7 +17415,7 @@ impl Rpm {
     }
 }
 
-impl ::mavframe::Message for Rpm {
+impl ::mavframe::MessageData for Rpm {
     const META: ::mavframe::MessageMeta = Rpm::META;
     type View<'a> = RpmView<'a>;
     #[inline]
@@ -17706,7 +17706,7 @@ impl Default for DeviceOpRead {
     }
 }
 
-impl ::mavframe::Message for DeviceOpRead {
+impl ::mavframe::MessageData for DeviceOpRead {
     const META: ::mavframe::MessageMeta = DeviceOpRead::META;
     type View<'a> = DeviceOpReadView<'a>;
     #[inline]
@@ -18020,7 +18020,7 @@ impl Default for DeviceOpReadReply {
     }
 }
 
-impl ::mavframe::Message for DeviceOpReadReply {
+impl ::mavframe::MessageData for DeviceOpReadReply {
     const META: ::mavframe::MessageMeta = DeviceOpReadReply::META;
     type View<'a> = DeviceOpReadReplyView<'a>;
     #[inline]
@@ -18366,7 +18366,7 @@ impl Default for DeviceOpWrite {
     }
 }
 
-impl ::mavframe::Message for DeviceOpWrite {
+impl ::mavframe::MessageData for DeviceOpWrite {
     const META: ::mavframe::MessageMeta = DeviceOpWrite::META;
     type View<'a> = DeviceOpWriteView<'a>;
     #[inline]
@@ -18623,7 +18623,7 @@ impl DeviceOpWriteReply {
     }
 }
 
-impl ::mavframe::Message for DeviceOpWriteReply {
+impl ::mavframe::MessageData for DeviceOpWriteReply {
     const META: ::mavframe::MessageMeta = DeviceOpWriteReply::META;
     type View<'a> = DeviceOpWriteReplyView<'a>;
     #[inline]
@@ -18876,7 +18876,7 @@ impl Default for SecureCommand {
     }
 }
 
-impl ::mavframe::Message for SecureCommand {
+impl ::mavframe::MessageData for SecureCommand {
     const META: ::mavframe::MessageMeta = SecureCommand::META;
     type View<'a> = SecureCommandView<'a>;
     #[inline]
@@ -19149,7 +19149,7 @@ impl Default for SecureCommandReply {
     }
 }
 
-impl ::mavframe::Message for SecureCommandReply {
+impl ::mavframe::MessageData for SecureCommandReply {
     const META: ::mavframe::MessageMeta = SecureCommandReply::META;
     type View<'a> = SecureCommandReplyView<'a>;
     #[inline]
@@ -19504,7 +19504,7 @@ impl AdapTuning {
     }
 }
 
-impl ::mavframe::Message for AdapTuning {
+impl ::mavframe::MessageData for AdapTuning {
     const META: ::mavframe::MessageMeta = AdapTuning::META;
     type View<'a> = AdapTuningView<'a>;
     #[inline]
@@ -19825,7 +19825,7 @@ impl VisionPositionDelta {
     }
 }
 
-impl ::mavframe::Message for VisionPositionDelta {
+impl ::mavframe::MessageData for VisionPositionDelta {
     const META: ::mavframe::MessageMeta = VisionPositionDelta::META;
     type View<'a> = VisionPositionDeltaView<'a>;
     #[inline]
@@ -20043,7 +20043,7 @@ impl AoaSsa {
     }
 }
 
-impl ::mavframe::Message for AoaSsa {
+impl ::mavframe::MessageData for AoaSsa {
     const META: ::mavframe::MessageMeta = AoaSsa::META;
     type View<'a> = AoaSsaView<'a>;
     #[inline]
@@ -20278,7 +20278,7 @@ impl EscTelemetry1To4 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry1To4 {
+impl ::mavframe::MessageData for EscTelemetry1To4 {
     const META: ::mavframe::MessageMeta = EscTelemetry1To4::META;
     type View<'a> = EscTelemetry1To4View<'a>;
     #[inline]
@@ -20543,7 +20543,7 @@ impl EscTelemetry5To8 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry5To8 {
+impl ::mavframe::MessageData for EscTelemetry5To8 {
     const META: ::mavframe::MessageMeta = EscTelemetry5To8::META;
     type View<'a> = EscTelemetry5To8View<'a>;
     #[inline]
@@ -20808,7 +20808,7 @@ impl EscTelemetry9To12 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry9To12 {
+impl ::mavframe::MessageData for EscTelemetry9To12 {
     const META: ::mavframe::MessageMeta = EscTelemetry9To12::META;
     type View<'a> = EscTelemetry9To12View<'a>;
     #[inline]
@@ -21128,7 +21128,7 @@ impl OsdParamConfig {
     }
 }
 
-impl ::mavframe::Message for OsdParamConfig {
+impl ::mavframe::MessageData for OsdParamConfig {
     const META: ::mavframe::MessageMeta = OsdParamConfig::META;
     type View<'a> = OsdParamConfigView<'a>;
     #[inline]
@@ -21376,7 +21376,7 @@ impl OsdParamConfigReply {
     }
 }
 
-impl ::mavframe::Message for OsdParamConfigReply {
+impl ::mavframe::MessageData for OsdParamConfigReply {
     const META: ::mavframe::MessageMeta = OsdParamConfigReply::META;
     type View<'a> = OsdParamConfigReplyView<'a>;
     #[inline]
@@ -21582,7 +21582,7 @@ impl OsdParamShowConfig {
     }
 }
 
-impl ::mavframe::Message for OsdParamShowConfig {
+impl ::mavframe::MessageData for OsdParamShowConfig {
     const META: ::mavframe::MessageMeta = OsdParamShowConfig::META;
     type View<'a> = OsdParamShowConfigView<'a>;
     #[inline]
@@ -21854,7 +21854,7 @@ impl OsdParamShowConfigReply {
     }
 }
 
-impl ::mavframe::Message for OsdParamShowConfigReply {
+impl ::mavframe::MessageData for OsdParamShowConfigReply {
     const META: ::mavframe::MessageMeta = OsdParamShowConfigReply::META;
     type View<'a> = OsdParamShowConfigReplyView<'a>;
     #[inline]
@@ -22175,7 +22175,7 @@ impl ObstacleDistance3d {
     }
 }
 
-impl ::mavframe::Message for ObstacleDistance3d {
+impl ::mavframe::MessageData for ObstacleDistance3d {
     const META: ::mavframe::MessageMeta = ObstacleDistance3d::META;
     type View<'a> = ObstacleDistance3dView<'a>;
     #[inline]
@@ -22540,7 +22540,7 @@ impl WaterDepth {
     }
 }
 
-impl ::mavframe::Message for WaterDepth {
+impl ::mavframe::MessageData for WaterDepth {
     const META: ::mavframe::MessageMeta = WaterDepth::META;
     type View<'a> = WaterDepthView<'a>;
     #[inline]
@@ -22842,7 +22842,7 @@ impl McuStatus {
     }
 }
 
-impl ::mavframe::Message for McuStatus {
+impl ::mavframe::MessageData for McuStatus {
     const META: ::mavframe::MessageMeta = McuStatus::META;
     type View<'a> = McuStatusView<'a>;
     #[inline]
@@ -23097,7 +23097,7 @@ impl EscTelemetry13To16 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry13To16 {
+impl ::mavframe::MessageData for EscTelemetry13To16 {
     const META: ::mavframe::MessageMeta = EscTelemetry13To16::META;
     type View<'a> = EscTelemetry13To16View<'a>;
     #[inline]
@@ -23362,7 +23362,7 @@ impl EscTelemetry17To20 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry17To20 {
+impl ::mavframe::MessageData for EscTelemetry17To20 {
     const META: ::mavframe::MessageMeta = EscTelemetry17To20::META;
     type View<'a> = EscTelemetry17To20View<'a>;
     #[inline]
@@ -23627,7 +23627,7 @@ impl EscTelemetry21To24 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry21To24 {
+impl ::mavframe::MessageData for EscTelemetry21To24 {
     const META: ::mavframe::MessageMeta = EscTelemetry21To24::META;
     type View<'a> = EscTelemetry21To24View<'a>;
     #[inline]
@@ -23892,7 +23892,7 @@ impl EscTelemetry25To28 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry25To28 {
+impl ::mavframe::MessageData for EscTelemetry25To28 {
     const META: ::mavframe::MessageMeta = EscTelemetry25To28::META;
     type View<'a> = EscTelemetry25To28View<'a>;
     #[inline]
@@ -24157,7 +24157,7 @@ impl EscTelemetry29To32 {
     }
 }
 
-impl ::mavframe::Message for EscTelemetry29To32 {
+impl ::mavframe::MessageData for EscTelemetry29To32 {
     const META: ::mavframe::MessageMeta = EscTelemetry29To32::META;
     type View<'a> = EscTelemetry29To32View<'a>;
     #[inline]
@@ -24392,7 +24392,7 @@ impl Default for NamedValueString {
     }
 }
 
-impl ::mavframe::Message for NamedValueString {
+impl ::mavframe::MessageData for NamedValueString {
     const META: ::mavframe::MessageMeta = NamedValueString::META;
     type View<'a> = NamedValueStringView<'a>;
     #[inline]

@@ -17108,7 +17108,7 @@ impl SysStatus {
     }
 }
 
-impl ::mavframe::Message for SysStatus {
+impl ::mavframe::MessageData for SysStatus {
     const META: ::mavframe::MessageMeta = SysStatus::META;
     type View<'a> = SysStatusView<'a>;
     #[inline]
@@ -17445,7 +17445,7 @@ impl SystemTime {
     }
 }
 
-impl ::mavframe::Message for SystemTime {
+impl ::mavframe::MessageData for SystemTime {
     const META: ::mavframe::MessageMeta = SystemTime::META;
     type View<'a> = SystemTimeView<'a>;
     #[inline]
@@ -17644,7 +17644,7 @@ impl Ping {
     }
 }
 
-impl ::mavframe::Message for Ping {
+impl ::mavframe::MessageData for Ping {
     const META: ::mavframe::MessageMeta = Ping::META;
     type View<'a> = PingView<'a>;
     #[inline]
@@ -17861,7 +17861,7 @@ impl ChangeOperatorControl {
     }
 }
 
-impl ::mavframe::Message for ChangeOperatorControl {
+impl ::mavframe::MessageData for ChangeOperatorControl {
     const META: ::mavframe::MessageMeta = ChangeOperatorControl::META;
     type View<'a> = ChangeOperatorControlView<'a>;
     #[inline]
@@ -18062,7 +18062,7 @@ impl ChangeOperatorControlAck {
     }
 }
 
-impl ::mavframe::Message for ChangeOperatorControlAck {
+impl ::mavframe::MessageData for ChangeOperatorControlAck {
     const META: ::mavframe::MessageMeta = ChangeOperatorControlAck::META;
     type View<'a> = ChangeOperatorControlAckView<'a>;
     #[inline]
@@ -18228,7 +18228,7 @@ impl AuthKey {
     }
 }
 
-impl ::mavframe::Message for AuthKey {
+impl ::mavframe::MessageData for AuthKey {
     const META: ::mavframe::MessageMeta = AuthKey::META;
     type View<'a> = AuthKeyView<'a>;
     #[inline]
@@ -18399,7 +18399,7 @@ impl SetMode {
     }
 }
 
-impl ::mavframe::Message for SetMode {
+impl ::mavframe::MessageData for SetMode {
     const META: ::mavframe::MessageMeta = SetMode::META;
     type View<'a> = SetModeView<'a>;
     #[inline]
@@ -18611,7 +18611,7 @@ impl ParamRequestRead {
     }
 }
 
-impl ::mavframe::Message for ParamRequestRead {
+impl ::mavframe::MessageData for ParamRequestRead {
     const META: ::mavframe::MessageMeta = ParamRequestRead::META;
     type View<'a> = ParamRequestReadView<'a>;
     #[inline]
@@ -18800,7 +18800,7 @@ impl ParamRequestList {
     }
 }
 
-impl ::mavframe::Message for ParamRequestList {
+impl ::mavframe::MessageData for ParamRequestList {
     const META: ::mavframe::MessageMeta = ParamRequestList::META;
     type View<'a> = ParamRequestListView<'a>;
     #[inline]
@@ -19013,7 +19013,7 @@ impl ParamValue {
     }
 }
 
-impl ::mavframe::Message for ParamValue {
+impl ::mavframe::MessageData for ParamValue {
     const META: ::mavframe::MessageMeta = ParamValue::META;
     type View<'a> = ParamValueView<'a>;
     #[inline]
@@ -19258,7 +19258,7 @@ impl ParamSet {
     }
 }
 
-impl ::mavframe::Message for ParamSet {
+impl ::mavframe::MessageData for ParamSet {
     const META: ::mavframe::MessageMeta = ParamSet::META;
     type View<'a> = ParamSetView<'a>;
     #[inline]
@@ -19653,7 +19653,7 @@ impl GpsRawInt {
     }
 }
 
-impl ::mavframe::Message for GpsRawInt {
+impl ::mavframe::MessageData for GpsRawInt {
     const META: ::mavframe::MessageMeta = GpsRawInt::META;
     type View<'a> = GpsRawIntView<'a>;
     #[inline]
@@ -20020,7 +20020,7 @@ impl GpsStatus {
     }
 }
 
-impl ::mavframe::Message for GpsStatus {
+impl ::mavframe::MessageData for GpsStatus {
     const META: ::mavframe::MessageMeta = GpsStatus::META;
     type View<'a> = GpsStatusView<'a>;
     #[inline]
@@ -20347,7 +20347,7 @@ impl ScaledImu {
     }
 }
 
-impl ::mavframe::Message for ScaledImu {
+impl ::mavframe::MessageData for ScaledImu {
     const META: ::mavframe::MessageMeta = ScaledImu::META;
     type View<'a> = ScaledImuView<'a>;
     #[inline]
@@ -20744,7 +20744,7 @@ impl RawImu {
     }
 }
 
-impl ::mavframe::Message for RawImu {
+impl ::mavframe::MessageData for RawImu {
     const META: ::mavframe::MessageMeta = RawImu::META;
     type View<'a> = RawImuView<'a>;
     #[inline]
@@ -21053,7 +21053,7 @@ impl RawPressure {
     }
 }
 
-impl ::mavframe::Message for RawPressure {
+impl ::mavframe::MessageData for RawPressure {
     const META: ::mavframe::MessageMeta = RawPressure::META;
     type View<'a> = RawPressureView<'a>;
     #[inline]
@@ -21294,7 +21294,7 @@ impl ScaledPressure {
     }
 }
 
-impl ::mavframe::Message for ScaledPressure {
+impl ::mavframe::MessageData for ScaledPressure {
     const META: ::mavframe::MessageMeta = ScaledPressure::META;
     type View<'a> = ScaledPressureView<'a>;
     #[inline]
@@ -21563,7 +21563,7 @@ impl Attitude {
     }
 }
 
-impl ::mavframe::Message for Attitude {
+impl ::mavframe::MessageData for Attitude {
     const META: ::mavframe::MessageMeta = Attitude::META;
     type View<'a> = AttitudeView<'a>;
     #[inline]
@@ -21888,7 +21888,7 @@ impl AttitudeQuaternion {
     }
 }
 
-impl ::mavframe::Message for AttitudeQuaternion {
+impl ::mavframe::MessageData for AttitudeQuaternion {
     const META: ::mavframe::MessageMeta = AttitudeQuaternion::META;
     type View<'a> = AttitudeQuaternionView<'a>;
     #[inline]
@@ -22197,7 +22197,7 @@ impl LocalPositionNed {
     }
 }
 
-impl ::mavframe::Message for LocalPositionNed {
+impl ::mavframe::MessageData for LocalPositionNed {
     const META: ::mavframe::MessageMeta = LocalPositionNed::META;
     type View<'a> = LocalPositionNedView<'a>;
     #[inline]
@@ -22534,7 +22534,7 @@ impl RcChannelsScaled {
     }
 }
 
-impl ::mavframe::Message for RcChannelsScaled {
+impl ::mavframe::MessageData for RcChannelsScaled {
     const META: ::mavframe::MessageMeta = RcChannelsScaled::META;
     type View<'a> = RcChannelsScaledView<'a>;
     #[inline]
@@ -22912,7 +22912,7 @@ impl RcChannelsRaw {
     }
 }
 
-impl ::mavframe::Message for RcChannelsRaw {
+impl ::mavframe::MessageData for RcChannelsRaw {
     const META: ::mavframe::MessageMeta = RcChannelsRaw::META;
     type View<'a> = RcChannelsRawView<'a>;
     #[inline]
@@ -23391,7 +23391,7 @@ impl ServoOutputRaw {
     }
 }
 
-impl ::mavframe::Message for ServoOutputRaw {
+impl ::mavframe::MessageData for ServoOutputRaw {
     const META: ::mavframe::MessageMeta = ServoOutputRaw::META;
     type View<'a> = ServoOutputRawView<'a>;
     #[inline]
@@ -23760,7 +23760,7 @@ impl MissionRequestPartialList {
     }
 }
 
-impl ::mavframe::Message for MissionRequestPartialList {
+impl ::mavframe::MessageData for MissionRequestPartialList {
     const META: ::mavframe::MessageMeta = MissionRequestPartialList::META;
     type View<'a> = MissionRequestPartialListView<'a>;
     #[inline]
@@ -23999,7 +23999,7 @@ impl MissionWritePartialList {
     }
 }
 
-impl ::mavframe::Message for MissionWritePartialList {
+impl ::mavframe::MessageData for MissionWritePartialList {
     const META: ::mavframe::MessageMeta = MissionWritePartialList::META;
     type View<'a> = MissionWritePartialListView<'a>;
     #[inline]
@@ -24380,7 +24380,7 @@ impl MissionItem {
     }
 }
 
-impl ::mavframe::Message for MissionItem {
+impl ::mavframe::MessageData for MissionItem {
     const META: ::mavframe::MessageMeta = MissionItem::META;
     type View<'a> = MissionItemView<'a>;
     #[inline]
@@ -24708,7 +24708,7 @@ impl MissionRequest {
     }
 }
 
-impl ::mavframe::Message for MissionRequest {
+impl ::mavframe::MessageData for MissionRequest {
     const META: ::mavframe::MessageMeta = MissionRequest::META;
     type View<'a> = MissionRequestView<'a>;
     #[inline]
@@ -24916,7 +24916,7 @@ impl MissionSetCurrent {
     }
 }
 
-impl ::mavframe::Message for MissionSetCurrent {
+impl ::mavframe::MessageData for MissionSetCurrent {
     const META: ::mavframe::MessageMeta = MissionSetCurrent::META;
     type View<'a> = MissionSetCurrentView<'a>;
     #[inline]
@@ -25128,7 +25128,7 @@ impl MissionCurrent {
     }
 }
 
-impl ::mavframe::Message for MissionCurrent {
+impl ::mavframe::MessageData for MissionCurrent {
     const META: ::mavframe::MessageMeta = MissionCurrent::META;
     type View<'a> = MissionCurrentView<'a>;
     #[inline]
@@ -25329,7 +25329,7 @@ impl MissionRequestList {
     }
 }
 
-impl ::mavframe::Message for MissionRequestList {
+impl ::mavframe::MessageData for MissionRequestList {
     const META: ::mavframe::MessageMeta = MissionRequestList::META;
     type View<'a> = MissionRequestListView<'a>;
     #[inline]
@@ -25535,7 +25535,7 @@ impl MissionCount {
     }
 }
 
-impl ::mavframe::Message for MissionCount {
+impl ::mavframe::MessageData for MissionCount {
     const META: ::mavframe::MessageMeta = MissionCount::META;
     type View<'a> = MissionCountView<'a>;
     #[inline]
@@ -25736,7 +25736,7 @@ impl MissionClearAll {
     }
 }
 
-impl ::mavframe::Message for MissionClearAll {
+impl ::mavframe::MessageData for MissionClearAll {
     const META: ::mavframe::MessageMeta = MissionClearAll::META;
     type View<'a> = MissionClearAllView<'a>;
     #[inline]
@@ -25902,7 +25902,7 @@ impl MissionItemReached {
     }
 }
 
-impl ::mavframe::Message for MissionItemReached {
+impl ::mavframe::MessageData for MissionItemReached {
     const META: ::mavframe::MessageMeta = MissionItemReached::META;
     type View<'a> = MissionItemReachedView<'a>;
     #[inline]
@@ -26088,7 +26088,7 @@ impl MissionAck {
     }
 }
 
-impl ::mavframe::Message for MissionAck {
+impl ::mavframe::MessageData for MissionAck {
     const META: ::mavframe::MessageMeta = MissionAck::META;
     type View<'a> = MissionAckView<'a>;
     #[inline]
@@ -26321,7 +26321,7 @@ impl SetGpsGlobalOrigin {
     }
 }
 
-impl ::mavframe::Message for SetGpsGlobalOrigin {
+impl ::mavframe::MessageData for SetGpsGlobalOrigin {
     const META: ::mavframe::MessageMeta = SetGpsGlobalOrigin::META;
     type View<'a> = SetGpsGlobalOriginView<'a>;
     #[inline]
@@ -26549,7 +26549,7 @@ impl GpsGlobalOrigin {
     }
 }
 
-impl ::mavframe::Message for GpsGlobalOrigin {
+impl ::mavframe::MessageData for GpsGlobalOrigin {
     const META: ::mavframe::MessageMeta = GpsGlobalOrigin::META;
     type View<'a> = GpsGlobalOriginView<'a>;
     #[inline]
@@ -26839,7 +26839,7 @@ impl ParamMapRc {
     }
 }
 
-impl ::mavframe::Message for ParamMapRc {
+impl ::mavframe::MessageData for ParamMapRc {
     const META: ::mavframe::MessageMeta = ParamMapRc::META;
     type View<'a> = ParamMapRcView<'a>;
     #[inline]
@@ -27105,7 +27105,7 @@ impl MissionRequestInt {
     }
 }
 
-impl ::mavframe::Message for MissionRequestInt {
+impl ::mavframe::MessageData for MissionRequestInt {
     const META: ::mavframe::MessageMeta = MissionRequestInt::META;
     type View<'a> = MissionRequestIntView<'a>;
     #[inline]
@@ -27392,7 +27392,7 @@ impl SafetySetAllowedArea {
     }
 }
 
-impl ::mavframe::Message for SafetySetAllowedArea {
+impl ::mavframe::MessageData for SafetySetAllowedArea {
     const META: ::mavframe::MessageMeta = SafetySetAllowedArea::META;
     type View<'a> = SafetySetAllowedAreaView<'a>;
     #[inline]
@@ -27701,7 +27701,7 @@ impl SafetyAllowedArea {
     }
 }
 
-impl ::mavframe::Message for SafetyAllowedArea {
+impl ::mavframe::MessageData for SafetyAllowedArea {
     const META: ::mavframe::MessageMeta = SafetyAllowedArea::META;
     type View<'a> = SafetyAllowedAreaView<'a>;
     #[inline]
@@ -27981,7 +27981,7 @@ impl AttitudeQuaternionCov {
     }
 }
 
-impl ::mavframe::Message for AttitudeQuaternionCov {
+impl ::mavframe::MessageData for AttitudeQuaternionCov {
     const META: ::mavframe::MessageMeta = AttitudeQuaternionCov::META;
     type View<'a> = AttitudeQuaternionCovView<'a>;
     #[inline]
@@ -28271,7 +28271,7 @@ impl NavControllerOutput {
     }
 }
 
-impl ::mavframe::Message for NavControllerOutput {
+impl ::mavframe::MessageData for NavControllerOutput {
     const META: ::mavframe::MessageMeta = NavControllerOutput::META;
     type View<'a> = NavControllerOutputView<'a>;
     #[inline]
@@ -28634,7 +28634,7 @@ impl Default for GlobalPositionIntCov {
     }
 }
 
-impl ::mavframe::Message for GlobalPositionIntCov {
+impl ::mavframe::MessageData for GlobalPositionIntCov {
     const META: ::mavframe::MessageMeta = GlobalPositionIntCov::META;
     type View<'a> = GlobalPositionIntCovView<'a>;
     #[inline]
@@ -29049,7 +29049,7 @@ impl Default for LocalPositionNedCov {
     }
 }
 
-impl ::mavframe::Message for LocalPositionNedCov {
+impl ::mavframe::MessageData for LocalPositionNedCov {
     const META: ::mavframe::MessageMeta = LocalPositionNedCov::META;
     type View<'a> = LocalPositionNedCovView<'a>;
     #[inline]
@@ -29568,7 +29568,7 @@ impl RcChannels {
     }
 }
 
-impl ::mavframe::Message for RcChannels {
+impl ::mavframe::MessageData for RcChannels {
     const META: ::mavframe::MessageMeta = RcChannels::META;
     type View<'a> = RcChannelsView<'a>;
     #[inline]
@@ -29964,7 +29964,7 @@ impl RequestDataStream {
     }
 }
 
-impl ::mavframe::Message for RequestDataStream {
+impl ::mavframe::MessageData for RequestDataStream {
     const META: ::mavframe::MessageMeta = RequestDataStream::META;
     type View<'a> = RequestDataStreamView<'a>;
     #[inline]
@@ -30174,7 +30174,7 @@ impl DataStream {
     }
 }
 
-impl ::mavframe::Message for DataStream {
+impl ::mavframe::MessageData for DataStream {
     const META: ::mavframe::MessageMeta = DataStream::META;
     type View<'a> = DataStreamView<'a>;
     #[inline]
@@ -30568,7 +30568,7 @@ impl ManualControl {
     }
 }
 
-impl ::mavframe::Message for ManualControl {
+impl ::mavframe::MessageData for ManualControl {
     const META: ::mavframe::MessageMeta = ManualControl::META;
     type View<'a> = ManualControlView<'a>;
     #[inline]
@@ -31141,7 +31141,7 @@ impl RcChannelsOverride {
     }
 }
 
-impl ::mavframe::Message for RcChannelsOverride {
+impl ::mavframe::MessageData for RcChannelsOverride {
     const META: ::mavframe::MessageMeta = RcChannelsOverride::META;
     type View<'a> = RcChannelsOverrideView<'a>;
     #[inline]
@@ -31671,7 +31671,7 @@ impl MissionItemInt {
     }
 }
 
-impl ::mavframe::Message for MissionItemInt {
+impl ::mavframe::MessageData for MissionItemInt {
     const META: ::mavframe::MessageMeta = MissionItemInt::META;
     type View<'a> = MissionItemIntView<'a>;
     #[inline]
@@ -32026,7 +32026,7 @@ impl VfrHud {
     }
 }
 
-impl ::mavframe::Message for VfrHud {
+impl ::mavframe::MessageData for VfrHud {
     const META: ::mavframe::MessageMeta = VfrHud::META;
     type View<'a> = VfrHudView<'a>;
     #[inline]
@@ -32384,7 +32384,7 @@ impl CommandInt {
     }
 }
 
-impl ::mavframe::Message for CommandInt {
+impl ::mavframe::MessageData for CommandInt {
     const META: ::mavframe::MessageMeta = CommandInt::META;
     type View<'a> = CommandIntView<'a>;
     #[inline]
@@ -32790,7 +32790,7 @@ impl CommandLong {
     }
 }
 
-impl ::mavframe::Message for CommandLong {
+impl ::mavframe::MessageData for CommandLong {
     const META: ::mavframe::MessageMeta = CommandLong::META;
     type View<'a> = CommandLongView<'a>;
     #[inline]
@@ -33107,7 +33107,7 @@ impl CommandAck {
     }
 }
 
-impl ::mavframe::Message for CommandAck {
+impl ::mavframe::MessageData for CommandAck {
     const META: ::mavframe::MessageMeta = CommandAck::META;
     type View<'a> = CommandAckView<'a>;
     #[inline]
@@ -33383,7 +33383,7 @@ impl ManualSetpoint {
     }
 }
 
-impl ::mavframe::Message for ManualSetpoint {
+impl ::mavframe::MessageData for ManualSetpoint {
     const META: ::mavframe::MessageMeta = ManualSetpoint::META;
     type View<'a> = ManualSetpointView<'a>;
     #[inline]
@@ -33700,7 +33700,7 @@ impl SetAttitudeTarget {
     }
 }
 
-impl ::mavframe::Message for SetAttitudeTarget {
+impl ::mavframe::MessageData for SetAttitudeTarget {
     const META: ::mavframe::MessageMeta = SetAttitudeTarget::META;
     type View<'a> = SetAttitudeTargetView<'a>;
     #[inline]
@@ -34014,7 +34014,7 @@ impl AttitudeTarget {
     }
 }
 
-impl ::mavframe::Message for AttitudeTarget {
+impl ::mavframe::MessageData for AttitudeTarget {
     const META: ::mavframe::MessageMeta = AttitudeTarget::META;
     type View<'a> = AttitudeTargetView<'a>;
     #[inline]
@@ -34431,7 +34431,7 @@ impl SetPositionTargetLocalNed {
     }
 }
 
-impl ::mavframe::Message for SetPositionTargetLocalNed {
+impl ::mavframe::MessageData for SetPositionTargetLocalNed {
     const META: ::mavframe::MessageMeta = SetPositionTargetLocalNed::META;
     type View<'a> = SetPositionTargetLocalNedView<'a>;
     #[inline]
@@ -34913,7 +34913,7 @@ impl PositionTargetLocalNed {
     }
 }
 
-impl ::mavframe::Message for PositionTargetLocalNed {
+impl ::mavframe::MessageData for PositionTargetLocalNed {
     const META: ::mavframe::MessageMeta = PositionTargetLocalNed::META;
     type View<'a> = PositionTargetLocalNedView<'a>;
     #[inline]
@@ -35403,7 +35403,7 @@ impl SetPositionTargetGlobalInt {
     }
 }
 
-impl ::mavframe::Message for SetPositionTargetGlobalInt {
+impl ::mavframe::MessageData for SetPositionTargetGlobalInt {
     const META: ::mavframe::MessageMeta = SetPositionTargetGlobalInt::META;
     type View<'a> = SetPositionTargetGlobalIntView<'a>;
     #[inline]
@@ -35887,7 +35887,7 @@ impl PositionTargetGlobalInt {
     }
 }
 
-impl ::mavframe::Message for PositionTargetGlobalInt {
+impl ::mavframe::MessageData for PositionTargetGlobalInt {
     const META: ::mavframe::MessageMeta = PositionTargetGlobalInt::META;
     type View<'a> = PositionTargetGlobalIntView<'a>;
     #[inline]
@@ -36249,7 +36249,7 @@ impl LocalPositionNedSystemGlobalOffset {
     }
 }
 
-impl ::mavframe::Message for LocalPositionNedSystemGlobalOffset {
+impl ::mavframe::MessageData for LocalPositionNedSystemGlobalOffset {
     const META: ::mavframe::MessageMeta = LocalPositionNedSystemGlobalOffset::META;
     type View<'a> = LocalPositionNedSystemGlobalOffsetView<'a>;
     #[inline]
@@ -36657,7 +36657,7 @@ impl HilState {
     }
 }
 
-impl ::mavframe::Message for HilState {
+impl ::mavframe::MessageData for HilState {
     const META: ::mavframe::MessageMeta = HilState::META;
     type View<'a> = HilStateView<'a>;
     #[inline]
@@ -37092,7 +37092,7 @@ impl HilControls {
     }
 }
 
-impl ::mavframe::Message for HilControls {
+impl ::mavframe::MessageData for HilControls {
     const META: ::mavframe::MessageMeta = HilControls::META;
     type View<'a> = HilControlsView<'a>;
     #[inline]
@@ -37510,7 +37510,7 @@ impl HilRcInputsRaw {
     }
 }
 
-impl ::mavframe::Message for HilRcInputsRaw {
+impl ::mavframe::MessageData for HilRcInputsRaw {
     const META: ::mavframe::MessageMeta = HilRcInputsRaw::META;
     type View<'a> = HilRcInputsRawView<'a>;
     #[inline]
@@ -37833,7 +37833,7 @@ impl HilActuatorControls {
     }
 }
 
-impl ::mavframe::Message for HilActuatorControls {
+impl ::mavframe::MessageData for HilActuatorControls {
     const META: ::mavframe::MessageMeta = HilActuatorControls::META;
     type View<'a> = HilActuatorControlsView<'a>;
     #[inline]
@@ -38137,7 +38137,7 @@ impl OpticalFlow {
     }
 }
 
-impl ::mavframe::Message for OpticalFlow {
+impl ::mavframe::MessageData for OpticalFlow {
     const META: ::mavframe::MessageMeta = OpticalFlow::META;
     type View<'a> = OpticalFlowView<'a>;
     #[inline]
@@ -38489,7 +38489,7 @@ impl GlobalVisionPositionEstimate {
     }
 }
 
-impl ::mavframe::Message for GlobalVisionPositionEstimate {
+impl ::mavframe::MessageData for GlobalVisionPositionEstimate {
     const META: ::mavframe::MessageMeta = GlobalVisionPositionEstimate::META;
     type View<'a> = GlobalVisionPositionEstimateView<'a>;
     #[inline]
@@ -38830,7 +38830,7 @@ impl VisionPositionEstimate {
     }
 }
 
-impl ::mavframe::Message for VisionPositionEstimate {
+impl ::mavframe::MessageData for VisionPositionEstimate {
     const META: ::mavframe::MessageMeta = VisionPositionEstimate::META;
     type View<'a> = VisionPositionEstimateView<'a>;
     #[inline]
@@ -39129,7 +39129,7 @@ impl VisionSpeedEstimate {
     }
 }
 
-impl ::mavframe::Message for VisionSpeedEstimate {
+impl ::mavframe::MessageData for VisionSpeedEstimate {
     const META: ::mavframe::MessageMeta = VisionSpeedEstimate::META;
     type View<'a> = VisionSpeedEstimateView<'a>;
     #[inline]
@@ -39424,7 +39424,7 @@ impl ViconPositionEstimate {
     }
 }
 
-impl ::mavframe::Message for ViconPositionEstimate {
+impl ::mavframe::MessageData for ViconPositionEstimate {
     const META: ::mavframe::MessageMeta = ViconPositionEstimate::META;
     type View<'a> = ViconPositionEstimateView<'a>;
     #[inline]
@@ -39853,7 +39853,7 @@ impl HighresImu {
     }
 }
 
-impl ::mavframe::Message for HighresImu {
+impl ::mavframe::MessageData for HighresImu {
     const META: ::mavframe::MessageMeta = HighresImu::META;
     type View<'a> = HighresImuView<'a>;
     #[inline]
@@ -40305,7 +40305,7 @@ impl OpticalFlowRad {
     }
 }
 
-impl ::mavframe::Message for OpticalFlowRad {
+impl ::mavframe::MessageData for OpticalFlowRad {
     const META: ::mavframe::MessageMeta = OpticalFlowRad::META;
     type View<'a> = OpticalFlowRadView<'a>;
     #[inline]
@@ -40773,7 +40773,7 @@ impl HilSensor {
     }
 }
 
-impl ::mavframe::Message for HilSensor {
+impl ::mavframe::MessageData for HilSensor {
     const META: ::mavframe::MessageMeta = HilSensor::META;
     type View<'a> = HilSensorView<'a>;
     #[inline]
@@ -41381,7 +41381,7 @@ impl SimState {
     }
 }
 
-impl ::mavframe::Message for SimState {
+impl ::mavframe::MessageData for SimState {
     const META: ::mavframe::MessageMeta = SimState::META;
     type View<'a> = SimStateView<'a>;
     #[inline]
@@ -41827,7 +41827,7 @@ impl RadioStatus {
     }
 }
 
-impl ::mavframe::Message for RadioStatus {
+impl ::mavframe::MessageData for RadioStatus {
     const META: ::mavframe::MessageMeta = RadioStatus::META;
     type View<'a> = RadioStatusView<'a>;
     #[inline]
@@ -42084,7 +42084,7 @@ impl Default for FileTransferProtocol {
     }
 }
 
-impl ::mavframe::Message for FileTransferProtocol {
+impl ::mavframe::MessageData for FileTransferProtocol {
     const META: ::mavframe::MessageMeta = FileTransferProtocol::META;
     type View<'a> = FileTransferProtocolView<'a>;
     #[inline]
@@ -42283,7 +42283,7 @@ impl Timesync {
     }
 }
 
-impl ::mavframe::Message for Timesync {
+impl ::mavframe::MessageData for Timesync {
     const META: ::mavframe::MessageMeta = Timesync::META;
     type View<'a> = TimesyncView<'a>;
     #[inline]
@@ -42452,7 +42452,7 @@ impl CameraTrigger {
     }
 }
 
-impl ::mavframe::Message for CameraTrigger {
+impl ::mavframe::MessageData for CameraTrigger {
     const META: ::mavframe::MessageMeta = CameraTrigger::META;
     type View<'a> = CameraTriggerView<'a>;
     #[inline]
@@ -42798,7 +42798,7 @@ impl HilGps {
     }
 }
 
-impl ::mavframe::Message for HilGps {
+impl ::mavframe::MessageData for HilGps {
     const META: ::mavframe::MessageMeta = HilGps::META;
     type View<'a> = HilGpsView<'a>;
     #[inline]
@@ -43237,7 +43237,7 @@ impl HilOpticalFlow {
     }
 }
 
-impl ::mavframe::Message for HilOpticalFlow {
+impl ::mavframe::MessageData for HilOpticalFlow {
     const META: ::mavframe::MessageMeta = HilOpticalFlow::META;
     type View<'a> = HilOpticalFlowView<'a>;
     #[inline]
@@ -43695,7 +43695,7 @@ impl HilStateQuaternion {
     }
 }
 
-impl ::mavframe::Message for HilStateQuaternion {
+impl ::mavframe::MessageData for HilStateQuaternion {
     const META: ::mavframe::MessageMeta = HilStateQuaternion::META;
     type View<'a> = HilStateQuaternionView<'a>;
     #[inline]
@@ -44122,7 +44122,7 @@ impl ScaledImu2 {
     }
 }
 
-impl ::mavframe::Message for ScaledImu2 {
+impl ::mavframe::MessageData for ScaledImu2 {
     const META: ::mavframe::MessageMeta = ScaledImu2::META;
     type View<'a> = ScaledImu2View<'a>;
     #[inline]
@@ -44408,7 +44408,7 @@ impl LogRequestList {
     }
 }
 
-impl ::mavframe::Message for LogRequestList {
+impl ::mavframe::MessageData for LogRequestList {
     const META: ::mavframe::MessageMeta = LogRequestList::META;
     type View<'a> = LogRequestListView<'a>;
     #[inline]
@@ -44634,7 +44634,7 @@ impl LogEntry {
     }
 }
 
-impl ::mavframe::Message for LogEntry {
+impl ::mavframe::MessageData for LogEntry {
     const META: ::mavframe::MessageMeta = LogEntry::META;
     type View<'a> = LogEntryView<'a>;
     #[inline]
@@ -44870,7 +44870,7 @@ impl LogRequestData {
     }
 }
 
-impl ::mavframe::Message for LogRequestData {
+impl ::mavframe::MessageData for LogRequestData {
     const META: ::mavframe::MessageMeta = LogRequestData::META;
     type View<'a> = LogRequestDataView<'a>;
     #[inline]
@@ -45105,7 +45105,7 @@ impl Default for LogData {
     }
 }
 
-impl ::mavframe::Message for LogData {
+impl ::mavframe::MessageData for LogData {
     const META: ::mavframe::MessageMeta = LogData::META;
     type View<'a> = LogDataView<'a>;
     #[inline]
@@ -45292,7 +45292,7 @@ impl LogErase {
     }
 }
 
-impl ::mavframe::Message for LogErase {
+impl ::mavframe::MessageData for LogErase {
     const META: ::mavframe::MessageMeta = LogErase::META;
     type View<'a> = LogEraseView<'a>;
     #[inline]
@@ -45459,7 +45459,7 @@ impl LogRequestEnd {
     }
 }
 
-impl ::mavframe::Message for LogRequestEnd {
+impl ::mavframe::MessageData for LogRequestEnd {
     const META: ::mavframe::MessageMeta = LogRequestEnd::META;
     type View<'a> = LogRequestEndView<'a>;
     #[inline]
@@ -45664,7 +45664,7 @@ impl Default for GpsInjectData {
     }
 }
 
-impl ::mavframe::Message for GpsInjectData {
+impl ::mavframe::MessageData for GpsInjectData {
     const META: ::mavframe::MessageMeta = GpsInjectData::META;
     type View<'a> = GpsInjectDataView<'a>;
     #[inline]
@@ -46070,7 +46070,7 @@ impl Gps2Raw {
     }
 }
 
-impl ::mavframe::Message for Gps2Raw {
+impl ::mavframe::MessageData for Gps2Raw {
     const META: ::mavframe::MessageMeta = Gps2Raw::META;
     type View<'a> = Gps2RawView<'a>;
     #[inline]
@@ -46412,7 +46412,7 @@ impl PowerStatus {
     }
 }
 
-impl ::mavframe::Message for PowerStatus {
+impl ::mavframe::MessageData for PowerStatus {
     const META: ::mavframe::MessageMeta = PowerStatus::META;
     type View<'a> = PowerStatusView<'a>;
     #[inline]
@@ -46662,7 +46662,7 @@ impl Default for SerialControl {
     }
 }
 
-impl ::mavframe::Message for SerialControl {
+impl ::mavframe::MessageData for SerialControl {
     const META: ::mavframe::MessageMeta = SerialControl::META;
     type View<'a> = SerialControlView<'a>;
     #[inline]
@@ -47017,7 +47017,7 @@ impl GpsRtk {
     }
 }
 
-impl ::mavframe::Message for GpsRtk {
+impl ::mavframe::MessageData for GpsRtk {
     const META: ::mavframe::MessageMeta = GpsRtk::META;
     type View<'a> = GpsRtkView<'a>;
     #[inline]
@@ -47442,7 +47442,7 @@ impl Gps2Rtk {
     }
 }
 
-impl ::mavframe::Message for Gps2Rtk {
+impl ::mavframe::MessageData for Gps2Rtk {
     const META: ::mavframe::MessageMeta = Gps2Rtk::META;
     type View<'a> = Gps2RtkView<'a>;
     #[inline]
@@ -47841,7 +47841,7 @@ impl ScaledImu3 {
     }
 }
 
-impl ::mavframe::Message for ScaledImu3 {
+impl ::mavframe::MessageData for ScaledImu3 {
     const META: ::mavframe::MessageMeta = ScaledImu3::META;
     type View<'a> = ScaledImu3View<'a>;
     #[inline]
@@ -48168,7 +48168,7 @@ impl DataTransmissionHandshake {
     }
 }
 
-impl ::mavframe::Message for DataTransmissionHandshake {
+impl ::mavframe::MessageData for DataTransmissionHandshake {
     const META: ::mavframe::MessageMeta = DataTransmissionHandshake::META;
     type View<'a> = DataTransmissionHandshakeView<'a>;
     #[inline]
@@ -48393,7 +48393,7 @@ impl Default for EncapsulatedData {
     }
 }
 
-impl ::mavframe::Message for EncapsulatedData {
+impl ::mavframe::MessageData for EncapsulatedData {
     const META: ::mavframe::MessageMeta = EncapsulatedData::META;
     type View<'a> = EncapsulatedDataView<'a>;
     #[inline]
@@ -48712,7 +48712,7 @@ impl DistanceSensor {
     }
 }
 
-impl ::mavframe::Message for DistanceSensor {
+impl ::mavframe::MessageData for DistanceSensor {
     const META: ::mavframe::MessageMeta = DistanceSensor::META;
     type View<'a> = DistanceSensorView<'a>;
     #[inline]
@@ -49006,7 +49006,7 @@ impl TerrainRequest {
     }
 }
 
-impl ::mavframe::Message for TerrainRequest {
+impl ::mavframe::MessageData for TerrainRequest {
     const META: ::mavframe::MessageMeta = TerrainRequest::META;
     type View<'a> = TerrainRequestView<'a>;
     #[inline]
@@ -49235,7 +49235,7 @@ impl TerrainData {
     }
 }
 
-impl ::mavframe::Message for TerrainData {
+impl ::mavframe::MessageData for TerrainData {
     const META: ::mavframe::MessageMeta = TerrainData::META;
     type View<'a> = TerrainDataView<'a>;
     #[inline]
@@ -49434,7 +49434,7 @@ impl TerrainCheck {
     }
 }
 
-impl ::mavframe::Message for TerrainCheck {
+impl ::mavframe::MessageData for TerrainCheck {
     const META: ::mavframe::MessageMeta = TerrainCheck::META;
     type View<'a> = TerrainCheckView<'a>;
     #[inline]
@@ -49670,7 +49670,7 @@ impl TerrainReport {
     }
 }
 
-impl ::mavframe::Message for TerrainReport {
+impl ::mavframe::MessageData for TerrainReport {
     const META: ::mavframe::MessageMeta = TerrainReport::META;
     type View<'a> = TerrainReportView<'a>;
     #[inline]
@@ -49930,7 +49930,7 @@ impl ScaledPressure2 {
     }
 }
 
-impl ::mavframe::Message for ScaledPressure2 {
+impl ::mavframe::MessageData for ScaledPressure2 {
     const META: ::mavframe::MessageMeta = ScaledPressure2::META;
     type View<'a> = ScaledPressure2View<'a>;
     #[inline]
@@ -50189,7 +50189,7 @@ impl AttPosMocap {
     }
 }
 
-impl ::mavframe::Message for AttPosMocap {
+impl ::mavframe::MessageData for AttPosMocap {
     const META: ::mavframe::MessageMeta = AttPosMocap::META;
     type View<'a> = AttPosMocapView<'a>;
     #[inline]
@@ -50442,7 +50442,7 @@ impl SetActuatorControlTarget {
     }
 }
 
-impl ::mavframe::Message for SetActuatorControlTarget {
+impl ::mavframe::MessageData for SetActuatorControlTarget {
     const META: ::mavframe::MessageMeta = SetActuatorControlTarget::META;
     type View<'a> = SetActuatorControlTargetView<'a>;
     #[inline]
@@ -50659,7 +50659,7 @@ impl ActuatorControlTarget {
     }
 }
 
-impl ::mavframe::Message for ActuatorControlTarget {
+impl ::mavframe::MessageData for ActuatorControlTarget {
     const META: ::mavframe::MessageMeta = ActuatorControlTarget::META;
     type View<'a> = ActuatorControlTargetView<'a>;
     #[inline]
@@ -50923,7 +50923,7 @@ impl Altitude {
     }
 }
 
-impl ::mavframe::Message for Altitude {
+impl ::mavframe::MessageData for Altitude {
     const META: ::mavframe::MessageMeta = Altitude::META;
     type View<'a> = AltitudeView<'a>;
     #[inline]
@@ -51195,7 +51195,7 @@ impl Default for ResourceRequest {
     }
 }
 
-impl ::mavframe::Message for ResourceRequest {
+impl ::mavframe::MessageData for ResourceRequest {
     const META: ::mavframe::MessageMeta = ResourceRequest::META;
     type View<'a> = ResourceRequestView<'a>;
     #[inline]
@@ -51435,7 +51435,7 @@ impl ScaledPressure3 {
     }
 }
 
-impl ::mavframe::Message for ScaledPressure3 {
+impl ::mavframe::MessageData for ScaledPressure3 {
     const META: ::mavframe::MessageMeta = ScaledPressure3::META;
     type View<'a> = ScaledPressure3View<'a>;
     #[inline]
@@ -51756,7 +51756,7 @@ impl FollowTarget {
     }
 }
 
-impl ::mavframe::Message for FollowTarget {
+impl ::mavframe::MessageData for FollowTarget {
     const META: ::mavframe::MessageMeta = FollowTarget::META;
     type View<'a> = FollowTargetView<'a>;
     #[inline]
@@ -52226,7 +52226,7 @@ impl ControlSystemState {
     }
 }
 
-impl ::mavframe::Message for ControlSystemState {
+impl ::mavframe::MessageData for ControlSystemState {
     const META: ::mavframe::MessageMeta = ControlSystemState::META;
     type View<'a> = ControlSystemStateView<'a>;
     #[inline]
@@ -52729,7 +52729,7 @@ impl BatteryStatus {
     }
 }
 
-impl ::mavframe::Message for BatteryStatus {
+impl ::mavframe::MessageData for BatteryStatus {
     const META: ::mavframe::MessageMeta = BatteryStatus::META;
     type View<'a> = BatteryStatusView<'a>;
     #[inline]
@@ -53195,7 +53195,7 @@ impl LandingTarget {
     }
 }
 
-impl ::mavframe::Message for LandingTarget {
+impl ::mavframe::MessageData for LandingTarget {
     const META: ::mavframe::MessageMeta = LandingTarget::META;
     type View<'a> = LandingTargetView<'a>;
     #[inline]
@@ -53526,7 +53526,7 @@ impl FenceStatus {
     }
 }
 
-impl ::mavframe::Message for FenceStatus {
+impl ::mavframe::MessageData for FenceStatus {
     const META: ::mavframe::MessageMeta = FenceStatus::META;
     type View<'a> = FenceStatusView<'a>;
     #[inline]
@@ -53952,7 +53952,7 @@ impl MagCalReport {
     }
 }
 
-impl ::mavframe::Message for MagCalReport {
+impl ::mavframe::MessageData for MagCalReport {
     const META: ::mavframe::MessageMeta = MagCalReport::META;
     type View<'a> = MagCalReportView<'a>;
     #[inline]
@@ -54522,7 +54522,7 @@ impl EfiStatus {
     }
 }
 
-impl ::mavframe::Message for EfiStatus {
+impl ::mavframe::MessageData for EfiStatus {
     const META: ::mavframe::MessageMeta = EfiStatus::META;
     type View<'a> = EfiStatusView<'a>;
     #[inline]
@@ -54985,7 +54985,7 @@ impl EstimatorStatus {
     }
 }
 
-impl ::mavframe::Message for EstimatorStatus {
+impl ::mavframe::MessageData for EstimatorStatus {
     const META: ::mavframe::MessageMeta = EstimatorStatus::META;
     type View<'a> = EstimatorStatusView<'a>;
     #[inline]
@@ -55339,7 +55339,7 @@ impl WindCov {
     }
 }
 
-impl ::mavframe::Message for WindCov {
+impl ::mavframe::MessageData for WindCov {
     const META: ::mavframe::MessageMeta = WindCov::META;
     type View<'a> = WindCovView<'a>;
     #[inline]
@@ -55815,7 +55815,7 @@ impl GpsInput {
     }
 }
 
-impl ::mavframe::Message for GpsInput {
+impl ::mavframe::MessageData for GpsInput {
     const META: ::mavframe::MessageMeta = GpsInput::META;
     type View<'a> = GpsInputView<'a>;
     #[inline]
@@ -56185,7 +56185,7 @@ impl Default for GpsRtcmData {
     }
 }
 
-impl ::mavframe::Message for GpsRtcmData {
+impl ::mavframe::MessageData for GpsRtcmData {
     const META: ::mavframe::MessageMeta = GpsRtcmData::META;
     type View<'a> = GpsRtcmDataView<'a>;
     #[inline]
@@ -56652,7 +56652,7 @@ impl HighLatency {
     }
 }
 
-impl ::mavframe::Message for HighLatency {
+impl ::mavframe::MessageData for HighLatency {
     const META: ::mavframe::MessageMeta = HighLatency::META;
     type View<'a> = HighLatencyView<'a>;
     #[inline]
@@ -57375,7 +57375,7 @@ impl HighLatency2 {
     }
 }
 
-impl ::mavframe::Message for HighLatency2 {
+impl ::mavframe::MessageData for HighLatency2 {
     const META: ::mavframe::MessageMeta = HighLatency2::META;
     type View<'a> = HighLatency2View<'a>;
     #[inline]
@@ -57866,7 +57866,7 @@ impl Vibration {
     }
 }
 
-impl ::mavframe::Message for Vibration {
+impl ::mavframe::MessageData for Vibration {
     const META: ::mavframe::MessageMeta = Vibration::META;
     type View<'a> = VibrationView<'a>;
     #[inline]
@@ -58230,7 +58230,7 @@ impl HomePosition {
     }
 }
 
-impl ::mavframe::Message for HomePosition {
+impl ::mavframe::MessageData for HomePosition {
     const META: ::mavframe::MessageMeta = HomePosition::META;
     type View<'a> = HomePositionView<'a>;
     #[inline]
@@ -58648,7 +58648,7 @@ impl SetHomePosition {
     }
 }
 
-impl ::mavframe::Message for SetHomePosition {
+impl ::mavframe::MessageData for SetHomePosition {
     const META: ::mavframe::MessageMeta = SetHomePosition::META;
     type View<'a> = SetHomePositionView<'a>;
     #[inline]
@@ -58919,7 +58919,7 @@ impl MessageInterval {
     }
 }
 
-impl ::mavframe::Message for MessageInterval {
+impl ::mavframe::MessageData for MessageInterval {
     const META: ::mavframe::MessageMeta = MessageInterval::META;
     type View<'a> = MessageIntervalView<'a>;
     #[inline]
@@ -59087,7 +59087,7 @@ impl ExtendedSysState {
     }
 }
 
-impl ::mavframe::Message for ExtendedSysState {
+impl ::mavframe::MessageData for ExtendedSysState {
     const META: ::mavframe::MessageMeta = ExtendedSysState::META;
     type View<'a> = ExtendedSysStateView<'a>;
     #[inline]
@@ -59406,7 +59406,7 @@ impl AdsbVehicle {
     }
 }
 
-impl ::mavframe::Message for AdsbVehicle {
+impl ::mavframe::MessageData for AdsbVehicle {
     const META: ::mavframe::MessageMeta = AdsbVehicle::META;
     type View<'a> = AdsbVehicleView<'a>;
     #[inline]
@@ -59756,7 +59756,7 @@ impl Collision {
     }
 }
 
-impl ::mavframe::Message for Collision {
+impl ::mavframe::MessageData for Collision {
     const META: ::mavframe::MessageMeta = Collision::META;
     type View<'a> = CollisionView<'a>;
     #[inline]
@@ -60039,7 +60039,7 @@ impl Default for V2Extension {
     }
 }
 
-impl ::mavframe::Message for V2Extension {
+impl ::mavframe::MessageData for V2Extension {
     const META: ::mavframe::MessageMeta = V2Extension::META;
     type View<'a> = V2ExtensionView<'a>;
     #[inline]
@@ -60265,7 +60265,7 @@ impl MemoryVect {
     }
 }
 
-impl ::mavframe::Message for MemoryVect {
+impl ::mavframe::MessageData for MemoryVect {
     const META: ::mavframe::MessageMeta = MemoryVect::META;
     type View<'a> = MemoryVectView<'a>;
     #[inline]
@@ -60498,7 +60498,7 @@ impl DebugVect {
     }
 }
 
-impl ::mavframe::Message for DebugVect {
+impl ::mavframe::MessageData for DebugVect {
     const META: ::mavframe::MessageMeta = DebugVect::META;
     type View<'a> = DebugVectView<'a>;
     #[inline]
@@ -60712,7 +60712,7 @@ impl NamedValueFloat {
     }
 }
 
-impl ::mavframe::Message for NamedValueFloat {
+impl ::mavframe::MessageData for NamedValueFloat {
     const META: ::mavframe::MessageMeta = NamedValueFloat::META;
     type View<'a> = NamedValueFloatView<'a>;
     #[inline]
@@ -60906,7 +60906,7 @@ impl NamedValueInt {
     }
 }
 
-impl ::mavframe::Message for NamedValueInt {
+impl ::mavframe::MessageData for NamedValueInt {
     const META: ::mavframe::MessageMeta = NamedValueInt::META;
     type View<'a> = NamedValueIntView<'a>;
     #[inline]
@@ -61129,7 +61129,7 @@ impl Default for Statustext {
     }
 }
 
-impl ::mavframe::Message for Statustext {
+impl ::mavframe::MessageData for Statustext {
     const META: ::mavframe::MessageMeta = Statustext::META;
     type View<'a> = StatustextView<'a>;
     #[inline]
@@ -61331,7 +61331,7 @@ impl Debug {
     }
 }
 
-impl ::mavframe::Message for Debug {
+impl ::mavframe::MessageData for Debug {
     const META: ::mavframe::MessageMeta = Debug::META;
     type View<'a> = DebugView<'a>;
     #[inline]
@@ -61536,7 +61536,7 @@ impl SetupSigning {
     }
 }
 
-impl ::mavframe::Message for SetupSigning {
+impl ::mavframe::MessageData for SetupSigning {
     const META: ::mavframe::MessageMeta = SetupSigning::META;
     type View<'a> = SetupSigningView<'a>;
     #[inline]
@@ -61736,7 +61736,7 @@ impl ButtonChange {
     }
 }
 
-impl ::mavframe::Message for ButtonChange {
+impl ::mavframe::MessageData for ButtonChange {
     const META: ::mavframe::MessageMeta = ButtonChange::META;
     type View<'a> = ButtonChangeView<'a>;
     #[inline]
@@ -61953,7 +61953,7 @@ impl Default for PlayTune {
     }
 }
 
-impl ::mavframe::Message for PlayTune {
+impl ::mavframe::MessageData for PlayTune {
     const META: ::mavframe::MessageMeta = PlayTune::META;
     type View<'a> = PlayTuneView<'a>;
     #[inline]
@@ -62350,7 +62350,7 @@ impl Default for CameraInformation {
     }
 }
 
-impl ::mavframe::Message for CameraInformation {
+impl ::mavframe::MessageData for CameraInformation {
     const META: ::mavframe::MessageMeta = CameraInformation::META;
     type View<'a> = CameraInformationView<'a>;
     #[inline]
@@ -62700,7 +62700,7 @@ impl CameraSettings {
     }
 }
 
-impl ::mavframe::Message for CameraSettings {
+impl ::mavframe::MessageData for CameraSettings {
     const META: ::mavframe::MessageMeta = CameraSettings::META;
     type View<'a> = CameraSettingsView<'a>;
     #[inline]
@@ -63049,7 +63049,7 @@ impl StorageInformation {
     }
 }
 
-impl ::mavframe::Message for StorageInformation {
+impl ::mavframe::MessageData for StorageInformation {
     const META: ::mavframe::MessageMeta = StorageInformation::META;
     type View<'a> = StorageInformationView<'a>;
     #[inline]
@@ -63404,7 +63404,7 @@ impl CameraCaptureStatus {
     }
 }
 
-impl ::mavframe::Message for CameraCaptureStatus {
+impl ::mavframe::MessageData for CameraCaptureStatus {
     const META: ::mavframe::MessageMeta = CameraCaptureStatus::META;
     type View<'a> = CameraCaptureStatusView<'a>;
     #[inline]
@@ -63779,7 +63779,7 @@ impl Default for CameraImageCaptured {
     }
 }
 
-impl ::mavframe::Message for CameraImageCaptured {
+impl ::mavframe::MessageData for CameraImageCaptured {
     const META: ::mavframe::MessageMeta = CameraImageCaptured::META;
     type View<'a> = CameraImageCapturedView<'a>;
     #[inline]
@@ -64081,7 +64081,7 @@ impl FlightInformation {
     }
 }
 
-impl ::mavframe::Message for FlightInformation {
+impl ::mavframe::MessageData for FlightInformation {
     const META: ::mavframe::MessageMeta = FlightInformation::META;
     type View<'a> = FlightInformationView<'a>;
     #[inline]
@@ -64322,7 +64322,7 @@ impl MountOrientation {
     }
 }
 
-impl ::mavframe::Message for MountOrientation {
+impl ::mavframe::MessageData for MountOrientation {
     const META: ::mavframe::MessageMeta = MountOrientation::META;
     type View<'a> = MountOrientationView<'a>;
     #[inline]
@@ -64586,7 +64586,7 @@ impl Default for LoggingData {
     }
 }
 
-impl ::mavframe::Message for LoggingData {
+impl ::mavframe::MessageData for LoggingData {
     const META: ::mavframe::MessageMeta = LoggingData::META;
     type View<'a> = LoggingDataView<'a>;
     #[inline]
@@ -64860,7 +64860,7 @@ impl Default for LoggingDataAcked {
     }
 }
 
-impl ::mavframe::Message for LoggingDataAcked {
+impl ::mavframe::MessageData for LoggingDataAcked {
     const META: ::mavframe::MessageMeta = LoggingDataAcked::META;
     type View<'a> = LoggingDataAckedView<'a>;
     #[inline]
@@ -65080,7 +65080,7 @@ impl LoggingAck {
     }
 }
 
-impl ::mavframe::Message for LoggingAck {
+impl ::mavframe::MessageData for LoggingAck {
     const META: ::mavframe::MessageMeta = LoggingAck::META;
     type View<'a> = LoggingAckView<'a>;
     #[inline]
@@ -65449,7 +65449,7 @@ impl Default for VideoStreamInformation {
     }
 }
 
-impl ::mavframe::Message for VideoStreamInformation {
+impl ::mavframe::MessageData for VideoStreamInformation {
     const META: ::mavframe::MessageMeta = VideoStreamInformation::META;
     type View<'a> = VideoStreamInformationView<'a>;
     #[inline]
@@ -65837,7 +65837,7 @@ impl VideoStreamStatus {
     }
 }
 
-impl ::mavframe::Message for VideoStreamStatus {
+impl ::mavframe::MessageData for VideoStreamStatus {
     const META: ::mavframe::MessageMeta = VideoStreamStatus::META;
     type View<'a> = VideoStreamStatusView<'a>;
     #[inline]
@@ -66202,7 +66202,7 @@ impl CameraFovStatus {
     }
 }
 
-impl ::mavframe::Message for CameraFovStatus {
+impl ::mavframe::MessageData for CameraFovStatus {
     const META: ::mavframe::MessageMeta = CameraFovStatus::META;
     type View<'a> = CameraFovStatusView<'a>;
     #[inline]
@@ -66602,7 +66602,7 @@ impl CameraTrackingImageStatus {
     }
 }
 
-impl ::mavframe::Message for CameraTrackingImageStatus {
+impl ::mavframe::MessageData for CameraTrackingImageStatus {
     const META: ::mavframe::MessageMeta = CameraTrackingImageStatus::META;
     type View<'a> = CameraTrackingImageStatusView<'a>;
     #[inline]
@@ -67035,7 +67035,7 @@ impl CameraTrackingGeoStatus {
     }
 }
 
-impl ::mavframe::Message for CameraTrackingGeoStatus {
+impl ::mavframe::MessageData for CameraTrackingGeoStatus {
     const META: ::mavframe::MessageMeta = CameraTrackingGeoStatus::META;
     type View<'a> = CameraTrackingGeoStatusView<'a>;
     #[inline]
@@ -67428,7 +67428,7 @@ impl CameraThermalRange {
     }
 }
 
-impl ::mavframe::Message for CameraThermalRange {
+impl ::mavframe::MessageData for CameraThermalRange {
     const META: ::mavframe::MessageMeta = CameraThermalRange::META;
     type View<'a> = CameraThermalRangeView<'a>;
     #[inline]
@@ -67770,7 +67770,7 @@ impl GimbalManagerInformation {
     }
 }
 
-impl ::mavframe::Message for GimbalManagerInformation {
+impl ::mavframe::MessageData for GimbalManagerInformation {
     const META: ::mavframe::MessageMeta = GimbalManagerInformation::META;
     type View<'a> = GimbalManagerInformationView<'a>;
     #[inline]
@@ -68080,7 +68080,7 @@ impl GimbalManagerStatus {
     }
 }
 
-impl ::mavframe::Message for GimbalManagerStatus {
+impl ::mavframe::MessageData for GimbalManagerStatus {
     const META: ::mavframe::MessageMeta = GimbalManagerStatus::META;
     type View<'a> = GimbalManagerStatusView<'a>;
     #[inline]
@@ -68390,7 +68390,7 @@ impl GimbalManagerSetAttitude {
     }
 }
 
-impl ::mavframe::Message for GimbalManagerSetAttitude {
+impl ::mavframe::MessageData for GimbalManagerSetAttitude {
     const META: ::mavframe::MessageMeta = GimbalManagerSetAttitude::META;
     type View<'a> = GimbalManagerSetAttitudeView<'a>;
     #[inline]
@@ -68848,7 +68848,7 @@ impl GimbalDeviceInformation {
     }
 }
 
-impl ::mavframe::Message for GimbalDeviceInformation {
+impl ::mavframe::MessageData for GimbalDeviceInformation {
     const META: ::mavframe::MessageMeta = GimbalDeviceInformation::META;
     type View<'a> = GimbalDeviceInformationView<'a>;
     #[inline]
@@ -69257,7 +69257,7 @@ impl GimbalDeviceSetAttitude {
     }
 }
 
-impl ::mavframe::Message for GimbalDeviceSetAttitude {
+impl ::mavframe::MessageData for GimbalDeviceSetAttitude {
     const META: ::mavframe::MessageMeta = GimbalDeviceSetAttitude::META;
     type View<'a> = GimbalDeviceSetAttitudeView<'a>;
     #[inline]
@@ -69645,7 +69645,7 @@ impl GimbalDeviceAttitudeStatus {
     }
 }
 
-impl ::mavframe::Message for GimbalDeviceAttitudeStatus {
+impl ::mavframe::MessageData for GimbalDeviceAttitudeStatus {
     const META: ::mavframe::MessageMeta = GimbalDeviceAttitudeStatus::META;
     type View<'a> = GimbalDeviceAttitudeStatusView<'a>;
     #[inline]
@@ -70077,7 +70077,7 @@ impl AutopilotStateForGimbalDevice {
     }
 }
 
-impl ::mavframe::Message for AutopilotStateForGimbalDevice {
+impl ::mavframe::MessageData for AutopilotStateForGimbalDevice {
     const META: ::mavframe::MessageMeta = AutopilotStateForGimbalDevice::META;
     type View<'a> = AutopilotStateForGimbalDeviceView<'a>;
     #[inline]
@@ -70447,7 +70447,7 @@ impl GimbalManagerSetPitchyaw {
     }
 }
 
-impl ::mavframe::Message for GimbalManagerSetPitchyaw {
+impl ::mavframe::MessageData for GimbalManagerSetPitchyaw {
     const META: ::mavframe::MessageMeta = GimbalManagerSetPitchyaw::META;
     type View<'a> = GimbalManagerSetPitchyawView<'a>;
     #[inline]
@@ -70769,7 +70769,7 @@ impl GimbalManagerSetManualControl {
     }
 }
 
-impl ::mavframe::Message for GimbalManagerSetManualControl {
+impl ::mavframe::MessageData for GimbalManagerSetManualControl {
     const META: ::mavframe::MessageMeta = GimbalManagerSetManualControl::META;
     type View<'a> = GimbalManagerSetManualControlView<'a>;
     #[inline]
@@ -71043,7 +71043,7 @@ impl Airspeed {
     }
 }
 
-impl ::mavframe::Message for Airspeed {
+impl ::mavframe::MessageData for Airspeed {
     const META: ::mavframe::MessageMeta = Airspeed::META;
     type View<'a> = AirspeedView<'a>;
     #[inline]
@@ -71400,7 +71400,7 @@ impl GlobalPositionSensor {
     }
 }
 
-impl ::mavframe::Message for GlobalPositionSensor {
+impl ::mavframe::MessageData for GlobalPositionSensor {
     const META: ::mavframe::MessageMeta = GlobalPositionSensor::META;
     type View<'a> = GlobalPositionSensorView<'a>;
     #[inline]
@@ -71693,7 +71693,7 @@ impl Default for WifiConfigAp {
     }
 }
 
-impl ::mavframe::Message for WifiConfigAp {
+impl ::mavframe::MessageData for WifiConfigAp {
     const META: ::mavframe::MessageMeta = WifiConfigAp::META;
     type View<'a> = WifiConfigApView<'a>;
     #[inline]
@@ -72061,7 +72061,7 @@ impl AisVessel {
     }
 }
 
-impl ::mavframe::Message for AisVessel {
+impl ::mavframe::MessageData for AisVessel {
     const META: ::mavframe::MessageMeta = AisVessel::META;
     type View<'a> = AisVesselView<'a>;
     #[inline]
@@ -72435,7 +72435,7 @@ impl UavcanNodeStatus {
     }
 }
 
-impl ::mavframe::Message for UavcanNodeStatus {
+impl ::mavframe::MessageData for UavcanNodeStatus {
     const META: ::mavframe::MessageMeta = UavcanNodeStatus::META;
     type View<'a> = UavcanNodeStatusView<'a>;
     #[inline]
@@ -72760,7 +72760,7 @@ impl Default for UavcanNodeInfo {
     }
 }
 
-impl ::mavframe::Message for UavcanNodeInfo {
+impl ::mavframe::MessageData for UavcanNodeInfo {
     const META: ::mavframe::MessageMeta = UavcanNodeInfo::META;
     type View<'a> = UavcanNodeInfoView<'a>;
     #[inline]
@@ -73028,7 +73028,7 @@ impl ParamExtRequestRead {
     }
 }
 
-impl ::mavframe::Message for ParamExtRequestRead {
+impl ::mavframe::MessageData for ParamExtRequestRead {
     const META: ::mavframe::MessageMeta = ParamExtRequestRead::META;
     type View<'a> = ParamExtRequestReadView<'a>;
     #[inline]
@@ -73216,7 +73216,7 @@ impl ParamExtRequestList {
     }
 }
 
-impl ::mavframe::Message for ParamExtRequestList {
+impl ::mavframe::MessageData for ParamExtRequestList {
     const META: ::mavframe::MessageMeta = ParamExtRequestList::META;
     type View<'a> = ParamExtRequestListView<'a>;
     #[inline]
@@ -73441,7 +73441,7 @@ impl Default for ParamExtValue {
     }
 }
 
-impl ::mavframe::Message for ParamExtValue {
+impl ::mavframe::MessageData for ParamExtValue {
     const META: ::mavframe::MessageMeta = ParamExtValue::META;
     type View<'a> = ParamExtValueView<'a>;
     #[inline]
@@ -73698,7 +73698,7 @@ impl Default for ParamExtSet {
     }
 }
 
-impl ::mavframe::Message for ParamExtSet {
+impl ::mavframe::MessageData for ParamExtSet {
     const META: ::mavframe::MessageMeta = ParamExtSet::META;
     type View<'a> = ParamExtSetView<'a>;
     #[inline]
@@ -73937,7 +73937,7 @@ impl Default for ParamExtAck {
     }
 }
 
-impl ::mavframe::Message for ParamExtAck {
+impl ::mavframe::MessageData for ParamExtAck {
     const META: ::mavframe::MessageMeta = ParamExtAck::META;
     type View<'a> = ParamExtAckView<'a>;
     #[inline]
@@ -74254,7 +74254,7 @@ impl Default for ObstacleDistance {
     }
 }
 
-impl ::mavframe::Message for ObstacleDistance {
+impl ::mavframe::MessageData for ObstacleDistance {
     const META: ::mavframe::MessageMeta = ObstacleDistance::META;
     type View<'a> = ObstacleDistanceView<'a>;
     #[inline]
@@ -74727,7 +74727,7 @@ impl Odometry {
     }
 }
 
-impl ::mavframe::Message for Odometry {
+impl ::mavframe::MessageData for Odometry {
     const META: ::mavframe::MessageMeta = Odometry::META;
     type View<'a> = OdometryView<'a>;
     #[inline]
@@ -75228,7 +75228,7 @@ impl TrajectoryRepresentationWaypoints {
     }
 }
 
-impl ::mavframe::Message for TrajectoryRepresentationWaypoints {
+impl ::mavframe::MessageData for TrajectoryRepresentationWaypoints {
     const META: ::mavframe::MessageMeta = TrajectoryRepresentationWaypoints::META;
     type View<'a> = TrajectoryRepresentationWaypointsView<'a>;
     #[inline]
@@ -75590,7 +75590,7 @@ impl TrajectoryRepresentationBezier {
     }
 }
 
-impl ::mavframe::Message for TrajectoryRepresentationBezier {
+impl ::mavframe::MessageData for TrajectoryRepresentationBezier {
     const META: ::mavframe::MessageMeta = TrajectoryRepresentationBezier::META;
     type View<'a> = TrajectoryRepresentationBezierView<'a>;
     #[inline]
@@ -75889,7 +75889,7 @@ impl IsbdLinkStatus {
     }
 }
 
-impl ::mavframe::Message for IsbdLinkStatus {
+impl ::mavframe::MessageData for IsbdLinkStatus {
     const META: ::mavframe::MessageMeta = IsbdLinkStatus::META;
     type View<'a> = IsbdLinkStatusView<'a>;
     #[inline]
@@ -76117,7 +76117,7 @@ impl RawRpm {
     }
 }
 
-impl ::mavframe::Message for RawRpm {
+impl ::mavframe::MessageData for RawRpm {
     const META: ::mavframe::MessageMeta = RawRpm::META;
     type View<'a> = RawRpmView<'a>;
     #[inline]
@@ -76496,7 +76496,7 @@ impl UtmGlobalPosition {
     }
 }
 
-impl ::mavframe::Message for UtmGlobalPosition {
+impl ::mavframe::MessageData for UtmGlobalPosition {
     const META: ::mavframe::MessageMeta = UtmGlobalPosition::META;
     type View<'a> = UtmGlobalPositionView<'a>;
     #[inline]
@@ -76870,7 +76870,7 @@ impl ParamError {
     }
 }
 
-impl ::mavframe::Message for ParamError {
+impl ::mavframe::MessageData for ParamError {
     const META: ::mavframe::MessageMeta = ParamError::META;
     type View<'a> = ParamErrorView<'a>;
     #[inline]
@@ -77112,7 +77112,7 @@ impl Default for DebugFloatArray {
     }
 }
 
-impl ::mavframe::Message for DebugFloatArray {
+impl ::mavframe::MessageData for DebugFloatArray {
     const META: ::mavframe::MessageMeta = DebugFloatArray::META;
     type View<'a> = DebugFloatArrayView<'a>;
     #[inline]
@@ -77359,7 +77359,7 @@ impl OrbitExecutionStatus {
     }
 }
 
-impl ::mavframe::Message for OrbitExecutionStatus {
+impl ::mavframe::MessageData for OrbitExecutionStatus {
     const META: ::mavframe::MessageMeta = OrbitExecutionStatus::META;
     type View<'a> = OrbitExecutionStatusView<'a>;
     #[inline]
@@ -77801,7 +77801,7 @@ impl Default for SmartBatteryInfo {
     }
 }
 
-impl ::mavframe::Message for SmartBatteryInfo {
+impl ::mavframe::MessageData for SmartBatteryInfo {
     const META: ::mavframe::MessageMeta = SmartBatteryInfo::META;
     type View<'a> = SmartBatteryInfoView<'a>;
     #[inline]
@@ -78247,7 +78247,7 @@ impl GeneratorStatus {
     }
 }
 
-impl ::mavframe::Message for GeneratorStatus {
+impl ::mavframe::MessageData for GeneratorStatus {
     const META: ::mavframe::MessageMeta = GeneratorStatus::META;
     type View<'a> = GeneratorStatusView<'a>;
     #[inline]
@@ -78521,7 +78521,7 @@ impl ActuatorOutputStatus {
     }
 }
 
-impl ::mavframe::Message for ActuatorOutputStatus {
+impl ::mavframe::MessageData for ActuatorOutputStatus {
     const META: ::mavframe::MessageMeta = ActuatorOutputStatus::META;
     type View<'a> = ActuatorOutputStatusView<'a>;
     #[inline]
@@ -78715,7 +78715,7 @@ impl RelayStatus {
     }
 }
 
-impl ::mavframe::Message for RelayStatus {
+impl ::mavframe::MessageData for RelayStatus {
     const META: ::mavframe::MessageMeta = RelayStatus::META;
     type View<'a> = RelayStatusView<'a>;
     #[inline]
@@ -78956,7 +78956,7 @@ impl Default for Tunnel {
     }
 }
 
-impl ::mavframe::Message for Tunnel {
+impl ::mavframe::MessageData for Tunnel {
     const META: ::mavframe::MessageMeta = Tunnel::META;
     type View<'a> = TunnelView<'a>;
     #[inline]
@@ -79206,7 +79206,7 @@ impl CanFrame {
     }
 }
 
-impl ::mavframe::Message for CanFrame {
+impl ::mavframe::MessageData for CanFrame {
     const META: ::mavframe::MessageMeta = CanFrame::META;
     type View<'a> = CanFrameView<'a>;
     #[inline]
@@ -79480,7 +79480,7 @@ impl Default for CanfdFrame {
     }
 }
 
-impl ::mavframe::Message for CanfdFrame {
+impl ::mavframe::MessageData for CanfdFrame {
     const META: ::mavframe::MessageMeta = CanfdFrame::META;
     type View<'a> = CanfdFrameView<'a>;
     #[inline]
@@ -79744,7 +79744,7 @@ impl CanFilterModify {
     }
 }
 
-impl ::mavframe::Message for CanFilterModify {
+impl ::mavframe::MessageData for CanFilterModify {
     const META: ::mavframe::MessageMeta = CanFilterModify::META;
     type View<'a> = CanFilterModifyView<'a>;
     #[inline]
@@ -80243,7 +80243,7 @@ impl OnboardComputerStatus {
     }
 }
 
-impl ::mavframe::Message for OnboardComputerStatus {
+impl ::mavframe::MessageData for OnboardComputerStatus {
     const META: ::mavframe::MessageMeta = OnboardComputerStatus::META;
     type View<'a> = OnboardComputerStatusView<'a>;
     #[inline]
@@ -80618,7 +80618,7 @@ impl WheelDistance {
     }
 }
 
-impl ::mavframe::Message for WheelDistance {
+impl ::mavframe::MessageData for WheelDistance {
     const META: ::mavframe::MessageMeta = WheelDistance::META;
     type View<'a> = WheelDistanceView<'a>;
     #[inline]
@@ -80882,7 +80882,7 @@ impl WinchStatus {
     }
 }
 
-impl ::mavframe::Message for WinchStatus {
+impl ::mavframe::MessageData for WinchStatus {
     const META: ::mavframe::MessageMeta = WinchStatus::META;
     type View<'a> = WinchStatusView<'a>;
     #[inline]
@@ -81172,7 +81172,7 @@ impl OpenDroneIdBasicId {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdBasicId {
+impl ::mavframe::MessageData for OpenDroneIdBasicId {
     const META: ::mavframe::MessageMeta = OpenDroneIdBasicId::META;
     type View<'a> = OpenDroneIdBasicIdView<'a>;
     #[inline]
@@ -81629,7 +81629,7 @@ impl OpenDroneIdLocation {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdLocation {
+impl ::mavframe::MessageData for OpenDroneIdLocation {
     const META: ::mavframe::MessageMeta = OpenDroneIdLocation::META;
     type View<'a> = OpenDroneIdLocationView<'a>;
     #[inline]
@@ -82074,7 +82074,7 @@ impl OpenDroneIdAuthentication {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdAuthentication {
+impl ::mavframe::MessageData for OpenDroneIdAuthentication {
     const META: ::mavframe::MessageMeta = OpenDroneIdAuthentication::META;
     type View<'a> = OpenDroneIdAuthenticationView<'a>;
     #[inline]
@@ -82362,7 +82362,7 @@ impl OpenDroneIdSelfId {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdSelfId {
+impl ::mavframe::MessageData for OpenDroneIdSelfId {
     const META: ::mavframe::MessageMeta = OpenDroneIdSelfId::META;
     type View<'a> = OpenDroneIdSelfIdView<'a>;
     #[inline]
@@ -82750,7 +82750,7 @@ impl OpenDroneIdSystem {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdSystem {
+impl ::mavframe::MessageData for OpenDroneIdSystem {
     const META: ::mavframe::MessageMeta = OpenDroneIdSystem::META;
     type View<'a> = OpenDroneIdSystemView<'a>;
     #[inline]
@@ -83098,7 +83098,7 @@ impl OpenDroneIdOperatorId {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdOperatorId {
+impl ::mavframe::MessageData for OpenDroneIdOperatorId {
     const META: ::mavframe::MessageMeta = OpenDroneIdOperatorId::META;
     type View<'a> = OpenDroneIdOperatorIdView<'a>;
     #[inline]
@@ -83368,7 +83368,7 @@ impl Default for OpenDroneIdMessagePack {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdMessagePack {
+impl ::mavframe::MessageData for OpenDroneIdMessagePack {
     const META: ::mavframe::MessageMeta = OpenDroneIdMessagePack::META;
     type View<'a> = OpenDroneIdMessagePackView<'a>;
     #[inline]
@@ -83589,7 +83589,7 @@ impl Default for OpenDroneIdArmStatus {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdArmStatus {
+impl ::mavframe::MessageData for OpenDroneIdArmStatus {
     const META: ::mavframe::MessageMeta = OpenDroneIdArmStatus::META;
     type View<'a> = OpenDroneIdArmStatusView<'a>;
     #[inline]
@@ -83813,7 +83813,7 @@ impl OpenDroneIdSystemUpdate {
     }
 }
 
-impl ::mavframe::Message for OpenDroneIdSystemUpdate {
+impl ::mavframe::MessageData for OpenDroneIdSystemUpdate {
     const META: ::mavframe::MessageMeta = OpenDroneIdSystemUpdate::META;
     type View<'a> = OpenDroneIdSystemUpdateView<'a>;
     #[inline]
@@ -84034,7 +84034,7 @@ impl HygrometerSensor {
     }
 }
 
-impl ::mavframe::Message for HygrometerSensor {
+impl ::mavframe::MessageData for HygrometerSensor {
     const META: ::mavframe::MessageMeta = HygrometerSensor::META;
     type View<'a> = HygrometerSensorView<'a>;
     #[inline]

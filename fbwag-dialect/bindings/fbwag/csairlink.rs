@@ -179,7 +179,7 @@ impl Default for AirlinkAuth {
     }
 }
 
-impl ::mavframe::Message for AirlinkAuth {
+impl ::mavframe::MessageData for AirlinkAuth {
     const META: ::mavframe::MessageMeta = AirlinkAuth::META;
     type View<'a> = AirlinkAuthView<'a>;
     #[inline]
@@ -336,7 +336,7 @@ impl AirlinkAuthResponse {
     }
 }
 
-impl ::mavframe::Message for AirlinkAuthResponse {
+impl ::mavframe::MessageData for AirlinkAuthResponse {
     const META: ::mavframe::MessageMeta = AirlinkAuthResponse::META;
     type View<'a> = AirlinkAuthResponseView<'a>;
     #[inline]

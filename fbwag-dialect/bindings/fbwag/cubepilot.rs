@@ -68,7 +68,7 @@ impl CubepilotRawRc {
     }
 }
 
-impl ::mavframe::Message for CubepilotRawRc {
+impl ::mavframe::MessageData for CubepilotRawRc {
     const META: ::mavframe::MessageMeta = CubepilotRawRc::META;
     type View<'a> = CubepilotRawRcView<'a>;
     #[inline]
@@ -321,7 +321,7 @@ impl Default for HerelinkVideoStreamInformation {
     }
 }
 
-impl ::mavframe::Message for HerelinkVideoStreamInformation {
+impl ::mavframe::MessageData for HerelinkVideoStreamInformation {
     const META: ::mavframe::MessageMeta = HerelinkVideoStreamInformation::META;
     type View<'a> = HerelinkVideoStreamInformationView<'a>;
     #[inline]
@@ -613,7 +613,7 @@ impl HerelinkTelem {
     }
 }
 
-impl ::mavframe::Message for HerelinkTelem {
+impl ::mavframe::MessageData for HerelinkTelem {
     const META: ::mavframe::MessageMeta = HerelinkTelem::META;
     type View<'a> = HerelinkTelemView<'a>;
     #[inline]
@@ -856,7 +856,7 @@ impl CubepilotFirmwareUpdateStart {
     }
 }
 
-impl ::mavframe::Message for CubepilotFirmwareUpdateStart {
+impl ::mavframe::MessageData for CubepilotFirmwareUpdateStart {
     const META: ::mavframe::MessageMeta = CubepilotFirmwareUpdateStart::META;
     type View<'a> = CubepilotFirmwareUpdateStartView<'a>;
     #[inline]
@@ -1056,7 +1056,7 @@ impl CubepilotFirmwareUpdateResp {
     }
 }
 
-impl ::mavframe::Message for CubepilotFirmwareUpdateResp {
+impl ::mavframe::MessageData for CubepilotFirmwareUpdateResp {
     const META: ::mavframe::MessageMeta = CubepilotFirmwareUpdateResp::META;
     type View<'a> = CubepilotFirmwareUpdateRespView<'a>;
     #[inline]

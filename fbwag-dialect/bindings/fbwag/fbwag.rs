@@ -221,7 +221,7 @@ impl FbwagNotice {
     }
 }
 
-impl ::mavframe::Message for FbwagNotice {
+impl ::mavframe::MessageData for FbwagNotice {
     const META: ::mavframe::MessageMeta = FbwagNotice::META;
     type View<'a> = FbwagNoticeView<'a>;
     #[inline]
@@ -2196,7 +2196,7 @@ pub const MESSAGES: &[::mavframe::MessageMeta] = &[
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Dialect;
 
-impl ::mavframe::Dialect for Dialect {
+impl ::mavframe::MessageSet for Dialect {
     type Message = Message;
     type View<'a> = MessageView<'a>;
     const MESSAGES: &'static [::mavframe::MessageMeta] = MESSAGES;

@@ -264,7 +264,7 @@ impl IcarousHeartbeat {
     }
 }
 
-impl ::mavframe::Message for IcarousHeartbeat {
+impl ::mavframe::MessageData for IcarousHeartbeat {
     const META: ::mavframe::MessageMeta = IcarousHeartbeat::META;
     type View<'a> = IcarousHeartbeatView<'a>;
     #[inline]
@@ -619,7 +619,7 @@ impl IcarousKinematicBands {
     }
 }
 
-impl ::mavframe::Message for IcarousKinematicBands {
+impl ::mavframe::MessageData for IcarousKinematicBands {
     const META: ::mavframe::MessageMeta = IcarousKinematicBands::META;
     type View<'a> = IcarousKinematicBandsView<'a>;
     #[inline]

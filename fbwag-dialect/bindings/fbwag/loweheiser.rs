@@ -375,7 +375,7 @@ impl LoweheiserGovEfi {
     }
 }
 
-impl ::mavframe::Message for LoweheiserGovEfi {
+impl ::mavframe::MessageData for LoweheiserGovEfi {
     const META: ::mavframe::MessageMeta = LoweheiserGovEfi::META;
     type View<'a> = LoweheiserGovEfiView<'a>;
     #[inline]

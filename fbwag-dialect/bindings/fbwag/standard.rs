@@ -459,7 +459,7 @@ impl GlobalPositionInt {
     }
 }
 
-impl ::mavframe::Message for GlobalPositionInt {
+impl ::mavframe::MessageData for GlobalPositionInt {
     const META: ::mavframe::MessageMeta = GlobalPositionInt::META;
     type View<'a> = GlobalPositionIntView<'a>;
     #[inline]
@@ -849,7 +849,7 @@ impl AutopilotVersion {
     }
 }
 
-impl ::mavframe::Message for AutopilotVersion {
+impl ::mavframe::MessageData for AutopilotVersion {
     const META: ::mavframe::MessageMeta = AutopilotVersion::META;
     type View<'a> = AutopilotVersionView<'a>;
     #[inline]

@@ -1338,7 +1338,7 @@ impl UavionixAdsbOutCfg {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbOutCfg {
+impl ::mavframe::MessageData for UavionixAdsbOutCfg {
     const META: ::mavframe::MessageMeta = UavionixAdsbOutCfg::META;
     type View<'a> = UavionixAdsbOutCfgView<'a>;
     #[inline]
@@ -1783,7 +1783,7 @@ impl UavionixAdsbOutDynamic {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbOutDynamic {
+impl ::mavframe::MessageData for UavionixAdsbOutDynamic {
     const META: ::mavframe::MessageMeta = UavionixAdsbOutDynamic::META;
     type View<'a> = UavionixAdsbOutDynamicView<'a>;
     #[inline]
@@ -2087,7 +2087,7 @@ impl UavionixAdsbTransceiverHealthReport {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbTransceiverHealthReport {
+impl ::mavframe::MessageData for UavionixAdsbTransceiverHealthReport {
     const META: ::mavframe::MessageMeta = UavionixAdsbTransceiverHealthReport::META;
     type View<'a> = UavionixAdsbTransceiverHealthReportView<'a>;
     #[inline]
@@ -2235,7 +2235,7 @@ impl UavionixAdsbOutCfgRegistration {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbOutCfgRegistration {
+impl ::mavframe::MessageData for UavionixAdsbOutCfgRegistration {
     const META: ::mavframe::MessageMeta = UavionixAdsbOutCfgRegistration::META;
     type View<'a> = UavionixAdsbOutCfgRegistrationView<'a>;
     #[inline]
@@ -2382,7 +2382,7 @@ impl UavionixAdsbOutCfgFlightid {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbOutCfgFlightid {
+impl ::mavframe::MessageData for UavionixAdsbOutCfgFlightid {
     const META: ::mavframe::MessageMeta = UavionixAdsbOutCfgFlightid::META;
     type View<'a> = UavionixAdsbOutCfgFlightidView<'a>;
     #[inline]
@@ -2527,7 +2527,7 @@ impl UavionixAdsbGet {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbGet {
+impl ::mavframe::MessageData for UavionixAdsbGet {
     const META: ::mavframe::MessageMeta = UavionixAdsbGet::META;
     type View<'a> = UavionixAdsbGetView<'a>;
     #[inline]
@@ -2751,7 +2751,7 @@ impl UavionixAdsbOutControl {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbOutControl {
+impl ::mavframe::MessageData for UavionixAdsbOutControl {
     const META: ::mavframe::MessageMeta = UavionixAdsbOutControl::META;
     type View<'a> = UavionixAdsbOutControlView<'a>;
     #[inline]
@@ -3032,7 +3032,7 @@ impl UavionixAdsbOutStatus {
     }
 }
 
-impl ::mavframe::Message for UavionixAdsbOutStatus {
+impl ::mavframe::MessageData for UavionixAdsbOutStatus {
     const META: ::mavframe::MessageMeta = UavionixAdsbOutStatus::META;
     type View<'a> = UavionixAdsbOutStatusView<'a>;
     #[inline]

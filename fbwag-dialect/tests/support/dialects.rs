@@ -3,7 +3,7 @@
 //! numbers (most candidates are raw); the same without id 0.
 #![allow(dead_code)]
 
-use fbwag_dialect::mavframe::{Dialect, MessageMeta};
+use fbwag_dialect::mavframe::{MessageMeta, MessageSet};
 
 pub fn row(id: u32, crc_extra: u8) -> MessageMeta {
     MessageMeta {
@@ -40,7 +40,7 @@ pub static ALL_ROWS: [MessageMeta; 256] = {
     }
     t
 };
-impl Dialect for AllKnown {
+impl MessageSet for AllKnown {
     type Message = ();
     type View<'a> = ();
     const MESSAGES: &'static [MessageMeta] = &[];
@@ -79,7 +79,7 @@ pub static FEW_ROWS: [MessageMeta; 7] = {
     }
     t
 };
-impl Dialect for Few {
+impl MessageSet for Few {
     type Message = ();
     type View<'a> = ();
     const MESSAGES: &'static [MessageMeta] = &FEW_ROWS;
@@ -93,7 +93,7 @@ impl Dialect for Few {
 
 /// [`Few`] without id 0 (every real dialect has HEARTBEAT = 0).
 pub struct NoZero;
-impl Dialect for NoZero {
+impl MessageSet for NoZero {
     type Message = ();
     type View<'a> = ();
     const MESSAGES: &'static [MessageMeta] = &FEW_ROWS;

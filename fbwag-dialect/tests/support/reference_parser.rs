@@ -15,7 +15,7 @@ use fbwag_dialect::mavframe::parser::{
     Stats, Unsigned, BYTES_PER_RAW_SIGNATURE_BYTE, RAW_SIGNATURE_BURST,
 };
 use fbwag_dialect::mavframe::signing::{SignatureError, Verifier};
-use fbwag_dialect::mavframe::{Dialect, MessageMeta};
+use fbwag_dialect::mavframe::{MessageMeta, MessageSet};
 use std::marker::PhantomData;
 
 const BUF_LEN: usize = 2 * MAX_FRAME_LEN;
@@ -48,7 +48,7 @@ enum Verdict {
     Reject,
 }
 
-pub struct Reference<D: Dialect> {
+pub struct Reference<D: MessageSet> {
     buf: [u8; BUF_LEN],
     len: usize,
     returned_from_buf: usize,
@@ -72,7 +72,7 @@ pub struct Reference<D: Dialect> {
     _dialect: PhantomData<D>,
 }
 
-impl<D: Dialect> Reference<D> {
+impl<D: MessageSet> Reference<D> {
     pub fn new() -> Self {
         Reference {
             buf: [0; BUF_LEN],
@@ -413,7 +413,7 @@ enum Inside {
     Undecided(usize),
 }
 
-fn known_frame_inside<D: Dialect>(bytes: &[u8], len: usize, work: &mut u64) -> Inside {
+fn known_frame_inside<D: MessageSet>(bytes: &[u8], len: usize, work: &mut u64) -> Inside {
     let mut undecided = None;
     for at in 1..len.min(bytes.len()) {
         *work += 1;

@@ -10,8 +10,8 @@
 //! follows, so no frame is ever assembled across datagrams.
 //!
 //! ```
-//! # use mavframe::{Dialect, MessageMeta};
-//! # struct D; impl Dialect for D { type Message = (); type View<'a> = ();
+//! # use mavframe::{MessageSet, MessageMeta};
+//! # struct D; impl MessageSet for D { type Message = (); type View<'a> = ();
 //! #   const MESSAGES: &'static [MessageMeta] = &[];
 //! #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
 //! use mavframe::conn::codec::FrameCodec;
@@ -26,8 +26,8 @@
 //! assert_eq!(frame.msg_id(), 42);
 //! ```
 
-use super::ReceivedFrame;
-use crate::message::Dialect;
+use super::ReceivedBuf;
+use crate::message::MessageSet;
 use crate::parser::Parser;
 use std::io;
 use tokio_util::bytes::{Buf, BytesMut};
@@ -50,9 +50,9 @@ pub use crate::framer::Framer;
 /// one, decode as the reads come:
 ///
 /// ```
-/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 /// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = u8;
@@ -62,13 +62,13 @@ pub use crate::framer::Framer;
 /// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
 /// # }
 /// # struct D;
-/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// # impl MessageSet for D { type Message = Ping; type View<'a> = u8;
 /// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
 /// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 /// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
 /// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
 /// // (this crate sits below the generator); use a generated crate's
-/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// // `MessageSet` and messages, e.g. `fbwag_dialect::Dialect`.
 /// use mavframe::conn::codec::{FrameCodec, Framer};
 /// use tokio::io::{AsyncReadExt, AsyncWriteExt};
 /// use tokio::net::{TcpListener, TcpStream};
@@ -102,17 +102,17 @@ pub use crate::framer::Framer;
 /// })?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub struct FrameCodec<D: Dialect> {
+pub struct FrameCodec<D: MessageSet> {
     parser: Parser<D>,
 }
 
-impl<D: Dialect> Default for FrameCodec<D> {
+impl<D: MessageSet> Default for FrameCodec<D> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<D: Dialect> FrameCodec<D> {
+impl<D: MessageSet> FrameCodec<D> {
     /// A codec whose parser verifies nothing (signed frames pass
     /// unverified, as in pymavlink without a key).
     pub fn new() -> Self {
@@ -136,16 +136,13 @@ impl<D: Dialect> FrameCodec<D> {
     }
 }
 
-impl<D: Dialect> Decoder for FrameCodec<D> {
-    type Item = ReceivedFrame<D>;
+impl<D: MessageSet> Decoder for FrameCodec<D> {
+    type Item = ReceivedBuf<D>;
     type Error = io::Error;
 
-    fn decode(&mut self, src: &mut BytesMut) -> io::Result<Option<ReceivedFrame<D>>> {
+    fn decode(&mut self, src: &mut BytesMut) -> io::Result<Option<ReceivedBuf<D>>> {
         let mut input: &[u8] = src;
-        let frame = self
-            .parser
-            .next(&mut input)
-            .map(|r| ReceivedFrame::from(&r));
+        let frame = self.parser.next(&mut input).map(|r| ReceivedBuf::from(&r));
         let consumed = src.len() - input.len();
         src.advance(consumed);
         Ok(frame)
@@ -153,15 +150,15 @@ impl<D: Dialect> Decoder for FrameCodec<D> {
 
     /// The end of the stream, or of a datagram: frames still undecided are
     /// decided as if nothing follows (see `Parser::flush`).
-    fn decode_eof(&mut self, src: &mut BytesMut) -> io::Result<Option<ReceivedFrame<D>>> {
+    fn decode_eof(&mut self, src: &mut BytesMut) -> io::Result<Option<ReceivedBuf<D>>> {
         if let Some(frame) = self.decode(src)? {
             return Ok(Some(frame));
         }
-        Ok(self.parser.flush().map(|r| ReceivedFrame::from(&r)))
+        Ok(self.parser.flush().map(|r| ReceivedBuf::from(&r)))
     }
 }
 
-impl<D: Dialect> Encoder<&[u8]> for FrameCodec<D> {
+impl<D: MessageSet> Encoder<&[u8]> for FrameCodec<D> {
     type Error = io::Error;
 
     fn encode(&mut self, frame: &[u8], dst: &mut BytesMut) -> io::Result<()> {
@@ -174,7 +171,7 @@ impl<D: Dialect> Encoder<&[u8]> for FrameCodec<D> {
 mod tests {
     use super::*;
     use crate::conn::test_dialect::{Ping, TestDialect};
-    use crate::message::Message;
+    use crate::message::MessageData;
     use crate::signing::{timestamp_now, Signer};
 
     fn frames(codec: &mut FrameCodec<TestDialect>, bytes: &[u8], eof: bool) -> std::vec::Vec<u32> {

@@ -9,8 +9,8 @@
 //! `crate::router`.
 //!
 //! ```no_run
-//! # use mavframe::{Dialect, MessageMeta};
-//! # struct MyDialect; impl Dialect for MyDialect { type Message = (); type View<'a> = ();
+//! # use mavframe::{MessageSet, MessageMeta};
+//! # struct MyDialect; impl MessageSet for MyDialect { type Message = (); type View<'a> = ();
 //! #   const MESSAGES: &'static [MessageMeta] = &[];
 //! #   fn parse(_: u32, _: &[u8]) -> Option<()> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
 //! use mavframe::conn::{Connection, Endpoint};
@@ -48,13 +48,13 @@ pub use transport::{open, AnyTransport, Transport};
 #[cfg(feature = "tokio")]
 pub(crate) use udp::is_refused;
 pub use udp::{UdpBcast, UdpIn, UdpOut};
-// What connections return; no_std code uses it too (`crate::ReceivedFrame`).
-pub use crate::received::ReceivedFrame;
+// What connections return; no_std code uses it too (`crate::ReceivedBuf`).
+pub use crate::received::ReceivedBuf;
 
 use crate::frame::{Header, Version};
 use crate::framer::Framer;
 use crate::link::{Inbox, LinkCore};
-use crate::message::{Dialect, Encode};
+use crate::message::{Encode, MessageSet};
 use crate::parser::{LinkStats, Parser, Stats};
 use crate::signing::Signer;
 use core::fmt;
@@ -72,17 +72,17 @@ pub const RECV_BUFFER_LEN: usize = 64 * 1024;
 pub(crate) type ConnInbox<D> = Inbox<D, Box<[u8]>>;
 
 /// A receive side with a buffer of [`RECV_BUFFER_LEN`].
-pub(crate) fn inbox<D: Dialect>(parser: Parser<D>) -> ConnInbox<D> {
+pub(crate) fn inbox<D: MessageSet>(parser: Parser<D>) -> ConnInbox<D> {
     Inbox::new(parser, vec![0u8; RECV_BUFFER_LEN].into_boxed_slice())
 }
 
 /// The next frame in `inbox`, receiving from `transport` as needed,
 /// waiting up to `timeout` in all (see [`Connection::recv`]).
-pub(crate) fn recv<D: Dialect, T: Transport + ?Sized>(
+pub(crate) fn recv<D: MessageSet, T: Transport + ?Sized>(
     inbox: &mut ConnInbox<D>,
     transport: &mut T,
     timeout: Option<Duration>,
-) -> io::Result<Option<ReceivedFrame<D>>> {
+) -> io::Result<Option<ReceivedBuf<D>>> {
     let deadline = Deadline::after(timeout);
     loop {
         if let Some(frame) = inbox.next() {
@@ -110,9 +110,9 @@ pub(crate) fn recv<D: Dialect, T: Transport + ?Sized>(
 /// it; for tokio, see `codec` (feature `tokio`).
 ///
 /// ```
-/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 /// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = u8;
@@ -122,13 +122,13 @@ pub(crate) fn recv<D: Dialect, T: Transport + ?Sized>(
 /// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
 /// # }
 /// # struct D;
-/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// # impl MessageSet for D { type Message = Ping; type View<'a> = u8;
 /// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
 /// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 /// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
 /// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
 /// // (this crate sits below the generator); use a generated crate's
-/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// // `MessageSet` and messages, e.g. `fbwag_dialect::Dialect`.
 /// use mavframe::conn::Connection;
 /// use std::time::Duration;
 ///
@@ -149,12 +149,12 @@ pub(crate) fn recv<D: Dialect, T: Transport + ?Sized>(
 /// assert_eq!(reply.message(), Some(Ping(8)));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub struct Connection<D: Dialect, T: Transport = AnyTransport> {
+pub struct Connection<D: MessageSet, T: Transport = AnyTransport> {
     transport: T,
     core: LinkCore<D, Box<[u8]>>,
 }
 
-impl<D: Dialect, T: Transport + fmt::Debug> fmt::Debug for Connection<D, T> {
+impl<D: MessageSet, T: Transport + fmt::Debug> fmt::Debug for Connection<D, T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Connection")
             .field("transport", &self.transport)
@@ -164,14 +164,14 @@ impl<D: Dialect, T: Transport + fmt::Debug> fmt::Debug for Connection<D, T> {
     }
 }
 
-impl<D: Dialect> Connection<D, AnyTransport> {
+impl<D: MessageSet> Connection<D, AnyTransport> {
     /// Opens `endpoint` (see [`open`]) with a parser without signing.
     pub fn open(endpoint: &Endpoint) -> io::Result<Self> {
         Ok(Self::new(open(endpoint)?))
     }
 }
 
-impl<D: Dialect, T: Transport> Connection<D, T> {
+impl<D: MessageSet, T: Transport> Connection<D, T> {
     /// A connection over `transport`, with a parser without signing
     /// (signed frames are accepted unverified).
     pub fn new(transport: T) -> Self {
@@ -192,7 +192,7 @@ impl<D: Dialect, T: Transport> Connection<D, T> {
     /// (`None`: without limit; zero: only bytes already there); `Ok(None)`
     /// when the time runs out first. Frames already read are returned
     /// without touching the transport.
-    pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedFrame<D>>> {
+    pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedBuf<D>>> {
         let frame = recv(&mut self.core.inbox, &mut self.transport, timeout)?;
         self.core.adopt();
         Ok(frame)
@@ -490,10 +490,10 @@ mod tests {
     fn types_cross_threads_and_frames_stay_small() {
         fn check<T: Send + Sync>() {}
         fn check_send<T: Send>() {}
-        check::<ReceivedFrame<TestDialect>>();
+        check::<ReceivedBuf<TestDialect>>();
         check::<Endpoint>();
         check_send::<AnyTransport>();
         check_send::<Connection<TestDialect>>();
-        assert!(core::mem::size_of::<ReceivedFrame<TestDialect>>() <= MAX_FRAME_LEN + 32);
+        assert!(core::mem::size_of::<ReceivedBuf<TestDialect>>() <= MAX_FRAME_LEN + 32);
     }
 }

@@ -5,11 +5,11 @@ use super::transport::AnyTransport;
 use super::udp::UdpSender;
 #[cfg(feature = "serial")]
 use super::Transport;
-use super::{recv, ConnInbox, Connection, ReceivedFrame};
+use super::{recv, ConnInbox, Connection, ReceivedBuf};
 use crate::frame::{Header, Version};
 use crate::framer::Framer;
 use crate::link::LinkCore;
-use crate::message::{Dialect, Encode};
+use crate::message::{Encode, MessageSet};
 use crate::parser::{LinkStats, Parser, Stats};
 use crate::signing::Signer;
 use core::fmt;
@@ -130,14 +130,14 @@ impl Sender {
 /// to read) and the parser.
 ///
 /// Made by [`Connection::split`] (an example there).
-pub struct Receiver<D: Dialect> {
+pub struct Receiver<D: MessageSet> {
     transport: AnyTransport,
     inbox: ConnInbox<D>,
     /// Shared with the [`Sender`]: what the verifier accepted.
     verified: Arc<AtomicU64>,
 }
 
-impl<D: Dialect> fmt::Debug for Receiver<D> {
+impl<D: MessageSet> fmt::Debug for Receiver<D> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Receiver")
             .field("transport", &self.transport)
@@ -146,12 +146,12 @@ impl<D: Dialect> fmt::Debug for Receiver<D> {
     }
 }
 
-impl<D: Dialect> Receiver<D> {
+impl<D: MessageSet> Receiver<D> {
     /// The next frame (see [`Connection::recv`]). A zero timeout waits up
     /// to [`SPLIT_ZERO_WAIT`] on a network link: the halves share the
     /// socket's non-blocking flag, which the receiver must not set under
     /// the sender's writes.
-    pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedFrame<D>>> {
+    pub fn recv(&mut self, timeout: Option<Duration>) -> io::Result<Option<ReceivedBuf<D>>> {
         let frame = recv(&mut self.inbox, &mut self.transport, timeout)?;
         if let Some(v) = self.inbox.parser.verifier() {
             self.verified
@@ -187,7 +187,7 @@ impl<D: Dialect> Receiver<D> {
 pub const SPLIT_ZERO_WAIT: Duration = super::transport::SHARED_POLL;
 
 /// A connection that cannot be split, handed back whole with the reason.
-pub struct SplitError<D: Dialect> {
+pub struct SplitError<D: MessageSet> {
     /// The connection, unchanged apart from what a failed handle clone
     /// may have left set (a UDP or TCP socket's blocking mode).
     pub connection: Box<Connection<D>>,
@@ -196,7 +196,7 @@ pub struct SplitError<D: Dialect> {
     pub error: io::Error,
 }
 
-impl<D: Dialect> fmt::Debug for SplitError<D> {
+impl<D: MessageSet> fmt::Debug for SplitError<D> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("SplitError")
             .field("error", &self.error)
@@ -204,13 +204,13 @@ impl<D: Dialect> fmt::Debug for SplitError<D> {
     }
 }
 
-impl<D: Dialect> fmt::Display for SplitError<D> {
+impl<D: MessageSet> fmt::Display for SplitError<D> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "cannot split the connection: {}", self.error)
     }
 }
 
-impl<D: Dialect> core::error::Error for SplitError<D> {
+impl<D: MessageSet> core::error::Error for SplitError<D> {
     fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
         Some(&self.error)
     }
@@ -239,7 +239,7 @@ fn send_half(transport: &mut AnyTransport) -> io::Result<SendHalf> {
     })
 }
 
-impl<D: Dialect> Connection<D, AnyTransport> {
+impl<D: MessageSet> Connection<D, AnyTransport> {
     /// Splits the connection into a [`Sender`] and a [`Receiver`] that
     /// two threads can use at once, e.g. one blocked in `recv` while the
     /// other sends heartbeats. The sender takes the sending state
@@ -255,9 +255,9 @@ impl<D: Dialect> Connection<D, AnyTransport> {
     /// server cannot be split ([`SplitError`] hands the connection back).
     ///
     /// ```
-    /// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+    /// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
     /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
-    /// # impl Message for Ping {
+    /// # impl MessageData for Ping {
     /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 0,
     /// #     max_len: 0, target_system_offset: None, target_component_offset: None, fields: &[] };
     /// #   type View<'a> = ();
@@ -265,7 +265,7 @@ impl<D: Dialect> Connection<D, AnyTransport> {
     /// #   fn emit(&self, _: &mut [u8]) -> Result<usize, BufferTooSmall> { Ok(0) }
     /// #   fn view(_: &[u8]) {}
     /// # }
-    /// # struct MyDialect; impl Dialect for MyDialect { type Message = Ping; type View<'a> = ();
+    /// # struct MyDialect; impl MessageSet for MyDialect { type Message = Ping; type View<'a> = ();
     /// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
     /// #   fn parse(id: u32, _: &[u8]) -> Option<Ping> { (id == 4).then_some(Ping) }
     /// #   fn view(_: u32, _: &[u8]) -> Option<()> { None } }

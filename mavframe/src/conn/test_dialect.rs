@@ -2,7 +2,7 @@
 //! generated one (mavframe sits below the generator's output).
 
 use crate::field::Scalar;
-use crate::message::{BufferTooSmall, Dialect, FieldMeta, FieldType, Message, MessageMeta};
+use crate::message::{BufferTooSmall, FieldMeta, FieldType, MessageData, MessageMeta, MessageSet};
 
 /// Id 1, one `uint32_t`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -32,7 +32,7 @@ const BIG_FIELDS: &[FieldMeta] = &[FieldMeta {
     extension: false,
 }];
 
-impl Message for Ping {
+impl MessageData for Ping {
     const META: MessageMeta = MessageMeta {
         id: 1,
         name: "PING_TEST",
@@ -65,7 +65,7 @@ impl Message for Ping {
     }
 }
 
-impl Message for Big {
+impl MessageData for Big {
     const META: MessageMeta = MessageMeta {
         id: 300,
         name: "BIG_TEST",
@@ -100,7 +100,7 @@ impl Message for Big {
 /// The dialect of [`Ping`] and [`Big`].
 pub struct TestDialect;
 
-impl Dialect for TestDialect {
+impl MessageSet for TestDialect {
     type Message = Ping;
     type View<'a> = &'a [u8];
     const MESSAGES: &'static [MessageMeta] = &[Ping::META, Big::META];

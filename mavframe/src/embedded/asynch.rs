@@ -4,9 +4,9 @@
 
 use super::parts::{Async, LinkOf, ReceiverOf, SenderOf};
 use super::{Inbox, RecvError, SendError, DEFAULT_BUF};
-use crate::message::{Dialect, Encode};
+use crate::message::{Encode, MessageSet};
 use crate::parser::Received;
-use crate::received::ReceivedFrame;
+use crate::received::ReceivedBuf;
 #[cfg(doc)]
 use crate::{framer::Framer, parser::Parser};
 use core::future::Future;
@@ -38,7 +38,7 @@ impl Future for YieldNow {
 
 /// Reads until `inbox` yields a frame, handed to `f`. Cancel-safe as far
 /// as the adapter goes: the inbox changes only between awaits.
-async fn recv_with<R: Read, D: Dialect, const BUF: usize, const S: usize, T>(
+async fn recv_with<R: Read, D: MessageSet, const BUF: usize, const S: usize, T>(
     io: &mut R,
     inbox: &mut Inbox<D, BUF, S>,
     f: impl FnOnce(Received<'_, D>) -> T,
@@ -82,9 +82,9 @@ async fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendErr
 /// of [`Link`](super::Link), with the same constructors and rules.
 ///
 /// ```
-/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 /// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = u8;
@@ -94,7 +94,7 @@ async fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendErr
 /// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
 /// # }
 /// # struct MyDialect;
-/// # impl Dialect for MyDialect { type Message = Ping; type View<'a> = u8;
+/// # impl MessageSet for MyDialect { type Message = Ping; type View<'a> = u8;
 /// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
 /// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 /// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
@@ -121,12 +121,12 @@ async fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendErr
 pub type AsyncLink<T, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
     LinkOf<Async, T, D, BUF, STREAMS>;
 
-impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<T: Read, D: MessageSet, const BUF: usize, const STREAMS: usize>
     LinkOf<Async, T, D, BUF, STREAMS>
 {
     /// Waits for the next frame and returns a copy of it.
-    pub async fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<T::Error>> {
-        self.recv_with(|r| ReceivedFrame::from(&r)).await
+    pub async fn recv(&mut self) -> Result<ReceivedBuf<D>, RecvError<T::Error>> {
+        self.recv_with(|r| ReceivedBuf::from(&r)).await
     }
 
     /// Waits for the next frame and hands it to `f` in place; returns what
@@ -139,7 +139,7 @@ impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
     }
 }
 
-impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<T: Write, D: MessageSet, const BUF: usize, const STREAMS: usize>
     LinkOf<Async, T, D, BUF, STREAMS>
 {
     /// As [`Link::send`](super::Link::send).
@@ -165,12 +165,12 @@ impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize>
 pub type AsyncReceiver<R, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
     ReceiverOf<Async, R, D, BUF, STREAMS>;
 
-impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<R: Read, D: MessageSet, const BUF: usize, const STREAMS: usize>
     ReceiverOf<Async, R, D, BUF, STREAMS>
 {
     /// As [`AsyncLink::recv`].
-    pub async fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<R::Error>> {
-        self.recv_with(|r| ReceivedFrame::from(&r)).await
+    pub async fn recv(&mut self) -> Result<ReceivedBuf<D>, RecvError<R::Error>> {
+        self.recv_with(|r| ReceivedBuf::from(&r)).await
     }
 
     /// As [`AsyncLink::recv_with`].

@@ -2,15 +2,15 @@
 
 use super::parts::{Blocking, LinkOf, ReceiverOf, SenderOf};
 use super::{Inbox, RecvError, SendError, DEFAULT_BUF};
-use crate::message::{Dialect, Encode};
+use crate::message::{Encode, MessageSet};
 use crate::parser::Received;
-use crate::received::ReceivedFrame;
+use crate::received::ReceivedBuf;
 #[cfg(doc)]
 use crate::{framer::Framer, parser::Parser};
 use embedded_io::{Error as _, ErrorKind, Read, ReadReady, Write};
 
 /// Reads until `inbox` yields a frame, handed to `f`.
-fn recv_with<R: Read, D: Dialect, const BUF: usize, const S: usize, T>(
+fn recv_with<R: Read, D: MessageSet, const BUF: usize, const S: usize, T>(
     io: &mut R,
     inbox: &mut Inbox<D, BUF, S>,
     f: impl FnOnce(Received<'_, D>) -> T,
@@ -26,7 +26,7 @@ fn recv_with<R: Read, D: Dialect, const BUF: usize, const S: usize, T>(
 }
 
 /// As [`recv_with`], reading only while the reader says bytes wait.
-fn try_recv_with<R: Read + ReadReady, D: Dialect, const BUF: usize, const S: usize, T>(
+fn try_recv_with<R: Read + ReadReady, D: MessageSet, const BUF: usize, const S: usize, T>(
     io: &mut R,
     inbox: &mut Inbox<D, BUF, S>,
     f: impl FnOnce(Received<'_, D>) -> T,
@@ -45,7 +45,7 @@ fn try_recv_with<R: Read + ReadReady, D: Dialect, const BUF: usize, const S: usi
 }
 
 /// One read into the inbox's free buffer.
-fn read<R: Read, D: Dialect, const BUF: usize, const S: usize>(
+fn read<R: Read, D: MessageSet, const BUF: usize, const S: usize>(
     io: &mut R,
     inbox: &mut Inbox<D, BUF, S>,
 ) -> Result<(), RecvError<R::Error>> {
@@ -83,9 +83,9 @@ fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendError<W::
 /// happens on partial reads and writes, read errors and end of stream.
 ///
 /// ```
-/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 /// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = u8;
@@ -95,7 +95,7 @@ fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendError<W::
 /// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
 /// # }
 /// # struct MyDialect;
-/// # impl Dialect for MyDialect { type Message = Ping; type View<'a> = u8;
+/// # impl MessageSet for MyDialect { type Message = Ping; type View<'a> = u8;
 /// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
 /// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 /// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
@@ -141,12 +141,12 @@ fn write_all<W: Write>(io: &mut W, mut bytes: &[u8]) -> Result<(), SendError<W::
 pub type Link<T, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
     LinkOf<Blocking, T, D, BUF, STREAMS>;
 
-impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<T: Read, D: MessageSet, const BUF: usize, const STREAMS: usize>
     LinkOf<Blocking, T, D, BUF, STREAMS>
 {
     /// Waits for the next frame and returns a copy of it.
-    pub fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<T::Error>> {
-        self.recv_with(|r| ReceivedFrame::from(&r))
+    pub fn recv(&mut self) -> Result<ReceivedBuf<D>, RecvError<T::Error>> {
+        self.recv_with(|r| ReceivedBuf::from(&r))
     }
 
     /// Waits for the next frame and hands it to `f` in place (a view over
@@ -159,13 +159,13 @@ impl<T: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
     }
 }
 
-impl<T: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<T: Read + ReadReady, D: MessageSet, const BUF: usize, const STREAMS: usize>
     LinkOf<Blocking, T, D, BUF, STREAMS>
 {
     /// The next frame if the bytes waiting make one, without blocking:
     /// reads only while the reader is ready, `Ok(None)` once it is not.
-    pub fn try_recv(&mut self) -> Result<Option<ReceivedFrame<D>>, RecvError<T::Error>> {
-        self.try_recv_with(|r| ReceivedFrame::from(&r))
+    pub fn try_recv(&mut self) -> Result<Option<ReceivedBuf<D>>, RecvError<T::Error>> {
+        self.try_recv_with(|r| ReceivedBuf::from(&r))
     }
 
     /// [`try_recv`](Self::try_recv), handing the frame to `f` in place.
@@ -177,7 +177,7 @@ impl<T: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
     }
 }
 
-impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<T: Write, D: MessageSet, const BUF: usize, const STREAMS: usize>
     LinkOf<Blocking, T, D, BUF, STREAMS>
 {
     /// Frames `msg` (next sequence number, signed if the framer has a
@@ -190,7 +190,7 @@ impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize>
     }
 
     /// Writes a frame's bytes as they are (to forward a received frame:
-    /// [`ReceivedFrame::as_bytes`]).
+    /// [`ReceivedBuf::as_bytes`]).
     pub fn send_frame(&mut self, frame: &[u8]) -> Result<(), SendError<T::Error>> {
         write_all(&mut self.io, frame)
     }
@@ -207,12 +207,12 @@ impl<T: Write, D: Dialect, const BUF: usize, const STREAMS: usize>
 pub type Receiver<R, D, const BUF: usize = DEFAULT_BUF, const STREAMS: usize = 16> =
     ReceiverOf<Blocking, R, D, BUF, STREAMS>;
 
-impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<R: Read, D: MessageSet, const BUF: usize, const STREAMS: usize>
     ReceiverOf<Blocking, R, D, BUF, STREAMS>
 {
     /// As [`Link::recv`].
-    pub fn recv(&mut self) -> Result<ReceivedFrame<D>, RecvError<R::Error>> {
-        self.recv_with(|r| ReceivedFrame::from(&r))
+    pub fn recv(&mut self) -> Result<ReceivedBuf<D>, RecvError<R::Error>> {
+        self.recv_with(|r| ReceivedBuf::from(&r))
     }
 
     /// As [`Link::recv_with`].
@@ -224,12 +224,12 @@ impl<R: Read, D: Dialect, const BUF: usize, const STREAMS: usize>
     }
 }
 
-impl<R: Read + ReadReady, D: Dialect, const BUF: usize, const STREAMS: usize>
+impl<R: Read + ReadReady, D: MessageSet, const BUF: usize, const STREAMS: usize>
     ReceiverOf<Blocking, R, D, BUF, STREAMS>
 {
     /// As [`Link::try_recv`].
-    pub fn try_recv(&mut self) -> Result<Option<ReceivedFrame<D>>, RecvError<R::Error>> {
-        self.try_recv_with(|r| ReceivedFrame::from(&r))
+    pub fn try_recv(&mut self) -> Result<Option<ReceivedBuf<D>>, RecvError<R::Error>> {
+        self.try_recv_with(|r| ReceivedBuf::from(&r))
     }
 
     /// As [`Link::try_recv_with`].

@@ -13,7 +13,7 @@
 //! sequence numbers, and signing when it has a signer.
 //!
 //! Each received frame comes either copied ([`recv`](Link::recv), a
-//! [`ReceivedFrame`]) or borrowed in place ([`recv_with`](Link::recv_with)
+//! [`ReceivedBuf`]) or borrowed in place ([`recv_with`](Link::recv_with)
 //! hands a [`Received`] view to a closure, with no copy).
 //!
 //! # What a UART gives, and what the adapters do with it
@@ -74,9 +74,9 @@
 //! (garbage flooding a large driver buffer) cannot starve other tasks.
 //!
 //! ```
-//! # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+//! # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 //! # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
-//! # impl Message for Ping {
+//! # impl MessageData for Ping {
 //! #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 //! #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 //! #   type View<'a> = u8;
@@ -86,7 +86,7 @@
 //! #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
 //! # }
 //! # struct MyDialect;
-//! # impl Dialect for MyDialect { type Message = Ping; type View<'a> = u8;
+//! # impl MessageSet for MyDialect { type Message = Ping; type View<'a> = u8;
 //! #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
 //! #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 //! #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
@@ -136,12 +136,12 @@ pub use parts::{Blocking, LinkOf, ReceiverOf, SenderOf};
 use crate::frame::FrameError;
 #[cfg(doc)]
 use crate::framer::Framer;
-use crate::message::Dialect;
+use crate::message::MessageSet;
 use crate::parser::Parser;
 #[cfg(doc)]
 use crate::parser::Received;
 #[cfg(doc)]
-use crate::ReceivedFrame;
+use crate::ReceivedBuf;
 use core::fmt;
 
 /// The read buffer's default length: what one read may fill.
@@ -219,7 +219,9 @@ impl<E: core::error::Error + 'static> core::error::Error for SendError<E> {
 type Inbox<D, const BUF: usize, const STREAMS: usize> = crate::link::Inbox<D, [u8; BUF], STREAMS>;
 
 /// An inbox over a read buffer of `BUF` bytes.
-fn inbox<D: Dialect, const BUF: usize, const S: usize>(parser: Parser<D, S>) -> Inbox<D, BUF, S> {
+fn inbox<D: MessageSet, const BUF: usize, const S: usize>(
+    parser: Parser<D, S>,
+) -> Inbox<D, BUF, S> {
     // A read into an empty buffer returns 0, which would read as the end
     // of the stream forever: refuse it when the type is built.
     const { assert!(BUF > 0, "the read buffer must hold at least one byte") };

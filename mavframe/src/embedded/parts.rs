@@ -7,9 +7,9 @@ use super::RecvError;
 use super::{inbox, Inbox};
 use crate::framer::Framer;
 use crate::link::LinkCore;
-use crate::message::Dialect;
+use crate::message::MessageSet;
 use crate::parser::Parser;
-use crate::received::ReceivedFrame;
+use crate::received::ReceivedBuf;
 use core::marker::PhantomData;
 
 /// Marks the blocking adapters ([`Link`](super::Link),
@@ -25,7 +25,7 @@ pub struct Async;
 
 /// MAVLink over one `Read + Write`: [`Link`](super::Link) (blocking) or
 /// `AsyncLink` (async, `M` = `Async`, feature `embedded-io-async`).
-pub struct LinkOf<M, T, D: Dialect, const BUF: usize, const STREAMS: usize> {
+pub struct LinkOf<M, T, D: MessageSet, const BUF: usize, const STREAMS: usize> {
     pub(super) io: T,
     pub(super) core: LinkCore<D, [u8; BUF], STREAMS>,
     pub(super) sysid: u8,
@@ -35,7 +35,7 @@ pub struct LinkOf<M, T, D: Dialect, const BUF: usize, const STREAMS: usize> {
 
 /// The receiving half over a `Read`: [`Receiver`](super::Receiver) or
 /// `AsyncReceiver`.
-pub struct ReceiverOf<M, R, D: Dialect, const BUF: usize, const STREAMS: usize> {
+pub struct ReceiverOf<M, R, D: MessageSet, const BUF: usize, const STREAMS: usize> {
     pub(super) io: R,
     pub(super) inbox: Inbox<D, BUF, STREAMS>,
     mode: PhantomData<M>,
@@ -52,7 +52,7 @@ pub struct SenderOf<M, W> {
     mode: PhantomData<M>,
 }
 
-impl<M, T, D: Dialect, const BUF: usize, const STREAMS: usize> LinkOf<M, T, D, BUF, STREAMS> {
+impl<M, T, D: MessageSet, const BUF: usize, const STREAMS: usize> LinkOf<M, T, D, BUF, STREAMS> {
     /// A link over `io` sending as `sysid`/`compid`: MAVLink 2, unsigned;
     /// signed frames received are accepted unverified.
     pub fn new(io: T, sysid: u8, compid: u8) -> Self {
@@ -115,12 +115,14 @@ impl<M, T, D: Dialect, const BUF: usize, const STREAMS: usize> LinkOf<M, T, D, B
     /// At the end of the stream (after [`RecvError::Eof`]): the frames
     /// the held bytes still make, decided as if nothing follows. Call until
     /// `None`.
-    pub fn recv_eof(&mut self) -> Option<ReceivedFrame<D>> {
-        self.core.inbox.take_at_eof(|r| ReceivedFrame::from(&r))
+    pub fn recv_eof(&mut self) -> Option<ReceivedBuf<D>> {
+        self.core.inbox.take_at_eof(|r| ReceivedBuf::from(&r))
     }
 }
 
-impl<M, R, D: Dialect, const BUF: usize, const STREAMS: usize> ReceiverOf<M, R, D, BUF, STREAMS> {
+impl<M, R, D: MessageSet, const BUF: usize, const STREAMS: usize>
+    ReceiverOf<M, R, D, BUF, STREAMS>
+{
     /// A receiver accepting signed frames unverified.
     pub fn new(io: R) -> Self {
         Self::with_parser(io, Parser::new())
@@ -157,8 +159,8 @@ impl<M, R, D: Dialect, const BUF: usize, const STREAMS: usize> ReceiverOf<M, R, 
     }
 
     /// As [`Link::recv_eof`](LinkOf::recv_eof).
-    pub fn recv_eof(&mut self) -> Option<ReceivedFrame<D>> {
-        self.inbox.take_at_eof(|r| ReceivedFrame::from(&r))
+    pub fn recv_eof(&mut self) -> Option<ReceivedBuf<D>> {
+        self.inbox.take_at_eof(|r| ReceivedBuf::from(&r))
     }
 }
 

@@ -45,7 +45,7 @@ use crate::frame::{
     frame_len, Frame, FrameError, Version, CHECKSUM_LEN, HEADER_LEN_V1, HEADER_LEN_V2, IFLAG_KNOWN,
     IFLAG_SIGNED, MAX_FRAME_LEN, SIGNATURE_LEN, STX_V1, STX_V2,
 };
-use crate::message::Dialect;
+use crate::message::MessageSet;
 
 /// Prefix states kept. A checksum asked for while the candidate is at `c`
 /// starts after a position inside the candidate (before `c + MAX_FRAME_LEN`) and
@@ -551,7 +551,7 @@ impl Memo {
     /// stream (a flush, or the end of a datagram), so a position whose
     /// frame they cut is never good, and none waits.
     #[inline(always)]
-    pub(super) fn inside<D: Dialect>(
+    pub(super) fn inside<D: MessageSet>(
         &mut self,
         bytes: &[u8],
         at: u64,
@@ -595,7 +595,7 @@ impl Memo {
     /// bytes have reached, each as of its wake-up position (so that what it
     /// waits for next is at most a frame ahead of the positions handled).
     #[inline(never)]
-    fn wake<D: Dialect>(&mut self, bytes: &[u8], at: u64) {
+    fn wake<D: MessageSet>(&mut self, bytes: &[u8], at: u64) {
         let avail = at + bytes.len() as u64;
         if avail < self.woken {
             self.forget_from(at);
@@ -638,7 +638,7 @@ impl Memo {
     /// Classifies the positions from the frontier (or just after the
     /// candidate) to `bytes[end]`, exclusive (`at_eof`: as [`inside`](Self::inside)).
     #[inline(never)]
-    fn scan<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: usize, at_eof: bool) {
+    fn scan<D: MessageSet>(&mut self, bytes: &[u8], at: u64, end: usize, at_eof: bool) {
         let to = at + end as u64;
         if self.frontier <= at {
             self.frontier = at + 1;
@@ -709,7 +709,7 @@ impl Memo {
     /// known id, whether its checksum is good; the rest by
     /// [`classify`](Self::classify), recorded here.
     #[inline(always)]
-    fn classify_start<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Start {
+    fn classify_start<D: MessageSet>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Start {
         match Whole::at(&bytes[rel..]) {
             Some(w) => match self.crc_extra::<D>(w.id) {
                 Some(extra) if self.crc_matches(bytes, at, rel, &w, extra) => Start::Good,
@@ -743,7 +743,7 @@ impl Memo {
     /// frame is not whole. (Before, a MAVLink 1 header cut before its id
     /// byte was read as id 0: with a dialect without id 0 the answer then
     /// depended on where a chunk ended.)
-    fn classify<D: Dialect>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Class {
+    fn classify<D: MessageSet>(&mut self, bytes: &[u8], at: u64, rel: usize) -> Class {
         let Some(inner) = bytes.get(rel..) else {
             return Class::NotGood;
         };
@@ -846,7 +846,7 @@ impl Memo {
     /// not, and of the known ones, those whose checksum is good. One
     /// tight loop over prefix states extended once: in garbage dense in
     /// 0xFE this is the cost of every byte.
-    pub(super) fn v1_checks<D: Dialect>(
+    pub(super) fn v1_checks<D: MessageSet>(
         &mut self,
         bytes: &[u8],
         at: u64,
@@ -929,7 +929,7 @@ impl Memo {
     /// callers check those on their own. `mask` holds every start byte of
     /// the first `n` positions of the block (`n` ≤ 64).
     #[inline(always)]
-    pub(super) fn v1_verdicts<D: Dialect>(
+    pub(super) fn v1_verdicts<D: MessageSet>(
         &mut self,
         bytes: &[u8],
         at: u64,
@@ -950,7 +950,7 @@ impl Memo {
     /// `bytes[block]` to stream position `end`) not all checked yet (out of
     /// line: the check of a block all checked stays small).
     #[inline(never)]
-    fn v1_verdicts_fresh<D: Dialect>(
+    fn v1_verdicts_fresh<D: MessageSet>(
         &mut self,
         bytes: &[u8],
         at: u64,
@@ -1028,7 +1028,7 @@ impl Memo {
     /// never will be whole (in datagrams, the blocks would otherwise never
     /// be whole, and every run paid for the positions past the frontier).
     #[inline(never)]
-    fn v1_blocks_ahead<D: Dialect>(&mut self, bytes: &[u8], at: u64, end: u64, at_eof: bool) {
+    fn v1_blocks_ahead<D: MessageSet>(&mut self, bytes: &[u8], at: u64, end: u64, at_eof: bool) {
         while self.v1_frontier < end {
             let x = self.v1_frontier;
             let rel = (x - at) as usize;
@@ -1055,7 +1055,7 @@ impl Memo {
     /// the stream): those whose frame is whole, of a known id, with a bad
     /// checksum.
     #[inline(always)]
-    pub(super) fn v1_bad_crc<D: Dialect>(
+    pub(super) fn v1_bad_crc<D: MessageSet>(
         &mut self,
         bytes: &[u8],
         at: u64,
@@ -1083,7 +1083,7 @@ impl Memo {
     }
 
     /// Looks up the CRC_EXTRA of every MAVLink 1 id, once.
-    fn fill_v1_extra<D: Dialect>(&mut self) {
+    fn fill_v1_extra<D: MessageSet>(&mut self) {
         if !self.v1_filled {
             for id in 0..256 {
                 self.crc_extra::<D>(id);
@@ -1095,7 +1095,7 @@ impl Memo {
     /// The CRC_EXTRA of message `id`, `None` when the dialect does not know
     /// it.
     #[inline(always)]
-    pub(super) fn crc_extra<D: Dialect>(&mut self, id: u32) -> Option<u8> {
+    pub(super) fn crc_extra<D: MessageSet>(&mut self, id: u32) -> Option<u8> {
         let Some(cached) = self.v1_extra.get_mut(id as usize) else {
             return self.v2_crc_extra::<D>(id);
         };
@@ -1113,7 +1113,7 @@ impl Memo {
     /// candidates, and garbage repeats its ids (the dialect's look-up is a
     /// search among its ids).
     #[inline(always)]
-    fn v2_crc_extra<D: Dialect>(&mut self, id: u32) -> Option<u8> {
+    fn v2_crc_extra<D: MessageSet>(&mut self, id: u32) -> Option<u8> {
         // Above the dialect's largest id (most ids of garbage, three bytes
         // at random), unknown without the cache: ids chosen to share its
         // slots made every look-up a search (`found_n`).
@@ -1757,7 +1757,7 @@ mod tests {
             fields: &[],
         }
     }
-    impl Dialect for Three {
+    impl MessageSet for Three {
         type Message = ();
         type View<'a> = ();
         const MESSAGES: &'static [crate::message::MessageMeta] =

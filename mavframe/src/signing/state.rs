@@ -567,9 +567,9 @@ pub enum Loaded {
 /// read or written, and when.
 ///
 /// ```
-/// # use mavframe::{BufferTooSmall, Dialect, Message, MessageMeta};
+/// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
-/// # impl Message for Ping {
+/// # impl MessageData for Ping {
 /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
 /// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
 /// #   type View<'a> = u8;
@@ -579,13 +579,13 @@ pub enum Loaded {
 /// #   fn view(p: &[u8]) -> u8 { p.first().copied().unwrap_or(0) }
 /// # }
 /// # struct D;
-/// # impl Dialect for D { type Message = Ping; type View<'a> = u8;
+/// # impl MessageSet for D { type Message = Ping; type View<'a> = u8;
 /// #   const MESSAGES: &'static [MessageMeta] = &[Ping::META];
 /// #   fn parse(id: u32, p: &[u8]) -> Option<Ping> { (id == 4).then(|| Ping::parse(p)) }
 /// #   fn view(id: u32, p: &[u8]) -> Option<u8> { (id == 4).then(|| Ping::view(p)) } }
 /// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
 /// // (this crate sits below the generator); use a generated crate's
-/// // `Dialect` and messages, e.g. `fbwag_dialect::Dialect`.
+/// // `MessageSet` and messages, e.g. `fbwag_dialect::Dialect`.
 /// use mavframe::signing::state::{Loaded, StateFile};
 /// use mavframe::{Framer, Verifier};
 ///

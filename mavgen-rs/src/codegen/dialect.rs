@@ -133,7 +133,7 @@ impl Gen<'_> {
             #[derive(Debug, Clone, Copy, Default)]
             pub struct Dialect;
 
-            impl #rt::Dialect for Dialect {
+            impl #rt::MessageSet for Dialect {
                 type Message = Message;
                 type View<'a> = MessageView<'a>;
                 const MESSAGES: &'static [#rt::MessageMeta] = MESSAGES;

@@ -313,12 +313,12 @@ impl Gen<'_> {
         }
     }
 
-    /// `impl mavframe::Message` for the owned struct.
+    /// `impl mavframe::MessageData` for the owned struct.
     fn message_impl(&self, names: &Names) -> TokenStream {
         let rt = &names.rt;
         let (owned, view) = (&names.owned, &names.view);
         quote! {
-            impl #rt::Message for #owned {
+            impl #rt::MessageData for #owned {
                 const META: #rt::MessageMeta = #owned::META;
                 type View<'a> = #view<'a>;
 

@@ -514,7 +514,7 @@ impl Default for SnapAllTypes {
     }
 }
 
-impl ::mavframe::Message for SnapAllTypes {
+impl ::mavframe::MessageData for SnapAllTypes {
     const META: ::mavframe::MessageMeta = SnapAllTypes::META;
     type View<'a> = SnapAllTypesView<'a>;
     #[inline]
@@ -836,7 +836,7 @@ impl Default for SnapMaxId {
     }
 }
 
-impl ::mavframe::Message for SnapMaxId {
+impl ::mavframe::MessageData for SnapMaxId {
     const META: ::mavframe::MessageMeta = SnapMaxId::META;
     type View<'a> = SnapMaxIdView<'a>;
     #[inline]
@@ -966,7 +966,7 @@ pub const MESSAGES: &[::mavframe::MessageMeta] = &[SnapAllTypes::META, SnapMaxId
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Dialect;
 
-impl ::mavframe::Dialect for Dialect {
+impl ::mavframe::MessageSet for Dialect {
     type Message = Message;
     type View<'a> = MessageView<'a>;
     const MESSAGES: &'static [::mavframe::MessageMeta] = MESSAGES;

@@ -163,6 +163,7 @@ pub enum Unsigned {
 
 /// Senders tracked for sequence gaps; more are folded into the last slot.
 pub const MAX_TRACKED_LINKS: usize = 32;
+const _: () = assert!(MAX_TRACKED_LINKS <= u8::MAX as usize);
 
 /// A frame the parser accepted.
 pub struct Received<'a, D: Dialect> {
@@ -430,7 +431,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     /// Sequence statistics per sender (the first [`MAX_TRACKED_LINKS`]).
     pub fn links(&self) -> &[LinkStats] {
-        &self.links.links[..self.links.tracked]
+        &self.links.links[..usize::from(self.links.tracked)]
     }
 
     /// Bytes held for an incomplete frame (consumed from the input).
@@ -443,7 +444,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// bytes (the parser tests pin the constant).
     pub fn work(&self) -> Work {
         Work {
-            steps: self.memo.steps,
+            // Each byte consumed was searched for a start byte and, when
+            // it was part of a frame returned or skipped, checksummed once;
+            // each frame returned was a check. Counted here rather than on
+            // the hot path.
+            steps: self.memo.steps + 2 * self.pos + self.stats.frames + self.stats.unknown_frames,
             signatures: self.signatures,
         }
     }
@@ -502,9 +507,36 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         } else if !input.is_empty() {
             self.at_eof = false;
         }
-        // Decide in the loop, borrow after it: the frame borrows either the
-        // input or the buffer.
-        let (in_buf, len, meta, authenticated) = loop {
+        // Decide first, borrow after: the frame borrows either the input or
+        // the buffer.
+        let (in_buf, len, meta, authenticated) = self.decide(input)?;
+        let bytes = if in_buf {
+            self.returned = len;
+            &self.buf[self.head..self.head + len]
+        } else {
+            let (frame, rest) = input.split_at(len);
+            *input = rest;
+            self.pos += len as u64;
+            frame
+        };
+        let frame = Frame::new_unchecked(bytes);
+        self.links
+            .record(&mut self.stats, frame.header(), meta.is_some());
+        Some(Received {
+            frame,
+            meta,
+            authenticated,
+            _dialect: PhantomData,
+        })
+    }
+
+    /// Candidates until one is accepted (where: the buffer, or the input),
+    /// or `None` once the input is used up.
+    fn decide(
+        &mut self,
+        input: &mut &[u8],
+    ) -> Option<(bool, usize, Option<&'static MessageMeta>, bool)> {
+        loop {
             let held = self.len != 0;
             if !held && !self.skip_to_start(input) {
                 return None;
@@ -528,46 +560,33 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                     len,
                     meta,
                     authenticated,
-                } => break (held, len, meta, authenticated),
+                } => return Some((held, len, meta, authenticated)),
                 Verdict::Need(n) if held => {
+                    self.memo.steps += 1;
                     if !self.top_up(input, n) {
                         return None;
                     }
                 }
                 Verdict::Need(_) => {
+                    self.memo.steps += 1;
                     self.hold(input);
                     return None;
                 }
                 Verdict::Skip(n) => self.drop(input, n, held),
                 Verdict::Reject => self.drop(input, 1, held),
             }
-        };
-        let bytes = if in_buf {
-            self.returned = len;
-            &self.buf[self.head..self.head + len]
-        } else {
-            let (frame, rest) = input.split_at(len);
-            *input = rest;
-            self.pos += len as u64;
-            frame
-        };
-        let frame = Frame::new_unchecked(bytes);
-        self.links
-            .record(&mut self.stats, frame.header(), meta.is_some());
-        Some(Received {
-            frame,
-            meta,
-            authenticated,
-            _dialect: PhantomData,
-        })
+        }
     }
 
     /// Drops the input up to its first start byte: false when it has none
     /// (all dropped).
+    #[inline]
     fn skip_to_start(&mut self, input: &mut &[u8]) -> bool {
+        if matches!(input.first(), Some(&(STX_V1 | STX_V2))) {
+            return true;
+        }
         let start = input.iter().position(|&b| b == STX_V2 || b == STX_V1);
         let n = start.unwrap_or(input.len());
-        self.memo.steps += n as u64 + 1;
         self.stats.bytes_dropped += n as u64;
         self.pos += n as u64;
         *input = &input[n..];
@@ -577,6 +596,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// Drops the candidate's first `n` bytes (counted): from the input, or
     /// from the bytes held, then those up to the next start byte held.
     fn drop(&mut self, input: &mut &[u8], n: usize, held: bool) {
+        // (The check that decided it.)
+        self.memo.steps += 1;
         self.stats.bytes_dropped += n as u64;
         self.pos += n as u64;
         if !held {
@@ -588,7 +609,6 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             .iter()
             .position(|&b| b == STX_V2 || b == STX_V1)
             .unwrap_or(rest.len());
-        self.memo.steps += skip as u64 + 1;
         self.stats.bytes_dropped += skip as u64;
         self.pos += skip as u64;
         self.head += n + skip;
@@ -606,7 +626,8 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     }
 
     /// Copies bytes of the input after those held until `needed` are held
-    /// (consumed from the input): false when the input ran out first.
+    /// (consumed from the input): false when the input ran out first (or
+    /// had nothing to give).
     fn top_up(&mut self, input: &mut &[u8], needed: usize) -> bool {
         let needed = needed.min(MAX_NEEDED);
         let take = needed.saturating_sub(self.len).min(input.len());
@@ -617,10 +638,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         }
         let end = self.head + self.len;
         self.buf[end..end + take].copy_from_slice(&input[..take]);
-        self.memo.steps += take as u64 + 1;
+        self.memo.steps += take as u64;
         self.len += take;
         *input = &input[take..];
-        self.len >= needed
+        take > 0 && self.len >= needed
     }
 
     fn release_returned(&mut self) {
@@ -648,6 +669,7 @@ struct Cx<'a, const N: usize> {
 
 /// The decision about the candidate at the start of `bytes` (a start byte:
 /// the bytes at hand from it on); `end`: no byte follows them.
+#[inline]
 fn check<D: Dialect, const N: usize>(bytes: &[u8], end: bool, cx: &mut Cx<'_, N>) -> Verdict {
     let need = |n: usize| {
         if end {
@@ -656,14 +678,11 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], end: bool, cx: &mut Cx<'_, N>
             Verdict::Need(n)
         }
     };
-    cx.memo.steps += 1;
     let len = match frame_len(bytes) {
         Ok(len) if bytes.len() >= len => len,
         Ok(len) => {
             // An unverifiable candidate loses at once to a good frame inside.
-            if D::meta(msg_id(bytes)).is_none()
-                && cx.memo.inside::<D>(bytes, cx.at, bytes.len()) == Inside::Yes
-            {
+            if !known::<D>(bytes) && cx.memo.inside::<D>(bytes, cx.at, bytes.len()) == Inside::Yes {
                 // A signed one pays as it would whole (how many of its bytes
                 // were there is a matter of read sizes, which must not
                 // change the budget).
@@ -699,6 +718,13 @@ fn check<D: Dialect, const N: usize>(bytes: &[u8], end: bool, cx: &mut Cx<'_, N>
         return v;
     }
     signing(&frame, meta, cx)
+}
+
+/// Whether the candidate's (maybe cut) header has a known id: out of line,
+/// so that the hot path's look-up is the one inlined.
+#[inline(never)]
+fn known<D: Dialect>(bytes: &[u8]) -> bool {
+    D::meta(msg_id(bytes)).is_some()
 }
 
 /// The decision about a whole candidate `frame` of an unknown id (see the
@@ -829,9 +855,9 @@ fn msg_id(bytes: &[u8]) -> u32 {
 /// [`MAX_TRACKED_LINKS`], the last one taken over by any sender after them.
 struct Senders {
     links: [LinkStats; MAX_TRACKED_LINKS],
-    tracked: usize,
+    tracked: u8,
     /// The slot of the last frame's sender: most frames come from it.
-    last: usize,
+    last: u8,
 }
 
 impl Senders {
@@ -852,6 +878,7 @@ impl Senders {
     }
 
     /// Counts a frame returned, and its sender's sequence gap or repeat.
+    #[inline]
     fn record(&mut self, stats: &mut Stats, h: Header, known: bool) {
         if known {
             stats.frames += 1;
@@ -873,24 +900,26 @@ impl Senders {
         link.last_seq = h.seq;
     }
 
+    #[inline]
     fn find(&mut self, sysid: u8, compid: u8, seq: u8) -> &mut LinkStats {
         let same = |l: &LinkStats| (l.sysid, l.compid) == (sysid, compid);
-        let slot = if self.tracked > 0 && same(&self.links[self.last]) {
-            self.last
-        } else if let Some(i) = self.links[..self.tracked].iter().position(same) {
+        let (tracked, last) = (usize::from(self.tracked), usize::from(self.last));
+        let slot = if tracked > 0 && same(&self.links[last]) {
+            last
+        } else if let Some(i) = self.links[..tracked].iter().position(same) {
             i
         } else {
-            let i = self.tracked.min(MAX_TRACKED_LINKS - 1);
+            let i = tracked.min(MAX_TRACKED_LINKS - 1);
             self.links[i] = LinkStats {
                 sysid,
                 compid,
                 last_seq: seq.wrapping_sub(1),
                 ..LinkStats::default()
             };
-            self.tracked = (self.tracked + 1).min(MAX_TRACKED_LINKS);
+            self.tracked = (tracked + 1).min(MAX_TRACKED_LINKS) as u8;
             i
         };
-        self.last = slot;
+        self.last = slot as u8;
         &mut self.links[slot]
     }
 }

@@ -151,6 +151,9 @@ pub(super) struct Memo {
     /// + 1 of the first (0: none), `next[slot]` of the one after it.
     head: [u16; RING],
     next: [u16; RING],
+    /// Nothing is known about positions from here on (the frontier, the
+    /// prefix states and the last direct checksum end before).
+    busy: u64,
     /// Wake-up positions up to this one are handled...
     woken: u64,
     /// ...and none is listed after this one.
@@ -171,6 +174,7 @@ impl Memo {
             pending: [0; WORDS],
             head: [0; RING],
             next: [0; RING],
+            busy: 0,
             woken: 0,
             last_wake: 0,
             steps: 0,
@@ -182,6 +186,7 @@ impl Memo {
     /// bytes' checksum: a good verdict remembered (from bytes a caller may
     /// not have passed again) is confirmed directly; the cost is the
     /// frame's, which is then consumed.
+    #[inline]
     pub(super) fn candidate<D: Dialect>(
         &mut self,
         bytes: &[u8],
@@ -189,21 +194,47 @@ impl Memo {
         covered: usize,
         crc_extra: u8,
     ) -> Crc {
-        let fresh = at >= self.frontier && at + 1 >= self.prefix_end.max(self.direct_end);
-        if !fresh {
-            self.classify_to::<D>(bytes, at, at + 1);
-            if !bit(&self.good, at) && !bit(&self.pending, at) {
-                return Crc::Bad;
-            }
+        if at < self.busy {
+            return self.remembered::<D>(bytes, at, covered, crc_extra);
         }
-        self.frontier = self.frontier.max(at + 1);
-        self.direct_end = self.direct_end.max(at + 1 + covered as u64);
-        self.steps += covered as u64;
+        // Nothing known here or after: the check without a memo. A good
+        // frame is consumed (the next candidate starts after its checksum);
+        // a bad one's checksum is remembered as direct, so that the
+        // candidates inside it use prefix states.
+        if crc::frame_crc(&bytes[1..1 + covered], crc_extra) == carried(bytes, covered) {
+            return Crc::Good;
+        }
+        self.direct(at, covered);
+        Crc::Bad
+    }
+
+    /// [`Memo::candidate`] where something is known.
+    #[inline(never)]
+    fn remembered<D: Dialect>(
+        &mut self,
+        bytes: &[u8],
+        at: u64,
+        covered: usize,
+        crc_extra: u8,
+    ) -> Crc {
+        self.classify_to::<D>(bytes, at, at + 1);
+        if !bit(&self.good, at) && !bit(&self.pending, at) {
+            return Crc::Bad;
+        }
+        self.direct(at, covered);
         if crc::frame_crc(&bytes[1..1 + covered], crc_extra) == carried(bytes, covered) {
             Crc::Good
         } else {
             Crc::Bad
         }
+    }
+
+    /// A checksum of the frame at `at` computed directly.
+    fn direct(&mut self, at: u64, covered: usize) {
+        self.frontier = self.frontier.max(at + 1);
+        self.direct_end = self.direct_end.max(at + 1 + covered as u64);
+        self.busy = self.busy.max(self.direct_end);
+        self.steps += covered as u64;
     }
 
     /// Whether a good frame of a known id starts after the candidate at
@@ -254,6 +285,7 @@ impl Memo {
             o += i + 1;
         }
         self.frontier = hi;
+        self.busy = self.busy.max(hi);
     }
 
     /// Classifies position `q` (its bits clear): good, pending (listed
@@ -311,6 +343,7 @@ impl Memo {
     fn crc_at(&mut self, bytes: &[u8], at: u64, q: u64, covered: usize, extra: u8) -> Option<u16> {
         let o = (q - at) as usize;
         let (s, e) = (q + 1, q + 1 + covered as u64);
+        self.busy = self.busy.max(e);
         if s >= self.prefix_end.max(self.direct_end) {
             self.direct_end = e;
             self.steps += covered as u64;

@@ -536,7 +536,18 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         &mut self,
         input: &mut &[u8],
     ) -> Option<(bool, usize, Option<&'static MessageMeta>, bool)> {
+        let whole = *input;
+        // The last this many bytes held were copied from `whole` in this
+        // call: once they are all that is held, they are given back and the
+        // candidates are checked in place again (in garbage dense in start
+        // bytes the bytes held never run out: every byte after the first
+        // chunk boundary would be copied and checked twice).
+        let mut copied = 0;
         loop {
+            if self.len != 0 && self.len <= copied {
+                *input = &whole[whole.len() - input.len() - self.len..];
+                (self.head, self.len, copied) = (0, 0, 0);
+            }
             let held = self.len != 0;
             if !held && !self.skip_to_start(input) {
                 return None;
@@ -563,7 +574,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 } => return Some((held, len, meta, authenticated)),
                 Verdict::Need(n) if held => {
                     self.memo.steps += 1;
-                    if !self.top_up(input, n) {
+                    let before = self.len;
+                    let enough = self.top_up(input, n);
+                    copied += self.len - before;
+                    if !enough {
                         return None;
                     }
                 }
@@ -575,6 +589,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 Verdict::Skip(n) => self.drop(input, n, held),
                 Verdict::Reject => self.drop(input, 1, held),
             }
+            copied = copied.min(self.len);
         }
     }
 

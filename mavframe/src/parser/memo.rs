@@ -208,7 +208,9 @@ impl Memo {
         Crc::Bad
     }
 
-    /// [`Memo::candidate`] where something is known.
+    /// [`Memo::candidate`] where something is known: the verdict of an
+    /// earlier candidate's scan, or the checksum from prefix states. A good
+    /// one is confirmed on the frame's own bytes.
     #[inline(never)]
     fn remembered<D: Dialect>(
         &mut self,
@@ -217,8 +219,14 @@ impl Memo {
         covered: usize,
         crc_extra: u8,
     ) -> Crc {
-        self.classify_to::<D>(bytes, at, at + 1);
-        if !bit(&self.good, at) && !bit(&self.pending, at) {
+        let maybe_good = if at < self.frontier {
+            self.wake::<D>(bytes, at);
+            bit(&self.good, at) || bit(&self.pending, at)
+        } else {
+            self.frontier = at + 1;
+            self.crc_at(bytes, at, at, covered, crc_extra) == Some(carried(bytes, covered))
+        };
+        if !maybe_good {
             return Crc::Bad;
         }
         self.direct(at, covered);

@@ -532,6 +532,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     /// Candidates until one is accepted (where: the buffer, or the input),
     /// or `None` once the input is used up.
+    #[inline(always)]
     fn decide(
         &mut self,
         input: &mut &[u8],
@@ -659,7 +660,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         take > 0 && self.len >= needed
     }
 
+    #[inline]
     fn release_returned(&mut self) {
+        if self.returned == 0 {
+            return;
+        }
         let n = core::mem::take(&mut self.returned);
         self.head += n;
         self.len -= n;
@@ -684,7 +689,7 @@ struct Cx<'a, const N: usize> {
 
 /// The decision about the candidate at the start of `bytes` (a start byte:
 /// the bytes at hand from it on); `end`: no byte follows them.
-#[inline]
+#[inline(always)]
 fn check<D: Dialect, const N: usize>(bytes: &[u8], end: bool, cx: &mut Cx<'_, N>) -> Verdict {
     let need = |n: usize| {
         if end {

@@ -74,41 +74,32 @@ fn slot(x: u64) -> usize {
     (x % RING as u64) as usize
 }
 
-/// Sets (`on`) or clears the bits of positions `lo..hi` (fewer than
-/// [`RING`]).
+/// The words holding the bits of positions `lo..hi` (fewer than
+/// [`RING`]), in order: (word, shift of the first position's bit, a mask of
+/// as many bits as positions in the word, the first position).
+fn spans(lo: u64, hi: u64) -> impl Iterator<Item = (usize, usize, u64, u64)> {
+    let (mut x, mut s) = (lo, slot(lo));
+    core::iter::from_fn(move || {
+        if x >= hi {
+            return None;
+        }
+        let n = (64 - s % 64).min(RING - s).min((hi - x) as usize);
+        let span = (s / 64, s % 64, mask(n), x);
+        x += n as u64;
+        s = if s + n == RING { 0 } else { s + n };
+        Some(span)
+    })
+}
+
+/// Sets (`on`) or clears the bits of positions `lo..hi`.
 fn set_range(bits: &mut [u64; WORDS], lo: u64, hi: u64, on: bool) {
-    let mut x = lo;
-    while x < hi {
-        let (s, n) = word_span(x, hi);
-        let m = mask(n) << (s % 64);
+    for (w, shift, m, _) in spans(lo, hi) {
         if on {
-            bits[s / 64] |= m;
+            bits[w] |= m << shift;
         } else {
-            bits[s / 64] &= !m;
+            bits[w] &= !(m << shift);
         }
-        x += n as u64;
     }
-}
-
-/// The first position of `lo..hi` (fewer than [`RING`]) whose bit is set.
-fn first_set(bits: &[u64; WORDS], lo: u64, hi: u64) -> Option<u64> {
-    let mut x = lo;
-    while x < hi {
-        let (s, n) = word_span(x, hi);
-        let m = (bits[s / 64] >> (s % 64)) & mask(n);
-        if m != 0 {
-            return Some(x + u64::from(m.trailing_zeros()));
-        }
-        x += n as u64;
-    }
-    None
-}
-
-/// The slot of `x` and how many positions from it share its word, up to
-/// `hi`.
-fn word_span(x: u64, hi: u64) -> (usize, usize) {
-    let s = slot(x);
-    (s, (64 - s % 64).min(RING - s).min((hi - x) as usize))
 }
 
 fn mask(n: usize) -> u64 {
@@ -151,6 +142,9 @@ pub(super) struct Memo {
     /// + 1 of the first (0: none), `next[slot]` of the one after it.
     head: [u16; RING],
     next: [u16; RING],
+    /// No good or pending bit is set from here on (in garbage most
+    /// searches inside a candidate end here at once).
+    marked_end: u64,
     /// Nothing is known about positions from here on (the frontier, the
     /// prefix states and the last direct checksum end before).
     busy: u64,
@@ -174,6 +168,7 @@ impl Memo {
             pending: [0; WORDS],
             head: [0; RING],
             next: [0; RING],
+            marked_end: 0,
             busy: 0,
             woken: 0,
             last_wake: 0,
@@ -252,10 +247,17 @@ impl Memo {
         let hi = at + upto.min(bytes.len()) as u64;
         self.classify_to::<D>(bytes, at, hi);
         self.steps += 1;
-        if first_set(&self.good, at + 1, hi).is_some() {
-            return Inside::Yes;
+        let mut pending = None;
+        for (w, shift, m, x) in spans(at + 1, hi.min(self.marked_end)) {
+            if (self.good[w] >> shift) & m != 0 {
+                return Inside::Yes;
+            }
+            let p = (self.pending[w] >> shift) & m;
+            if pending.is_none() && p != 0 {
+                pending = Some(x + u64::from(p.trailing_zeros()));
+            }
         }
-        match first_set(&self.pending, at + 1, hi) {
+        match pending {
             Some(q) => match class::<D>(&bytes[(q - at) as usize..]) {
                 Class::Wait(n) => Inside::Undecided((q - at) as usize + n),
                 // Wake-ups are handled: only bytes other than those the
@@ -306,6 +308,7 @@ impl Memo {
             Class::Wait(n) => {
                 let w = q + n as u64;
                 set_range(&mut self.pending, q, q + 1, true);
+                self.marked_end = self.marked_end.max(q + 1);
                 let s = slot(q);
                 self.next[s] = self.head[slot(w)];
                 self.head[slot(w)] = s as u16 + 1;
@@ -317,6 +320,7 @@ impl Memo {
             Class::Whole { covered, crc_extra } => {
                 if self.crc_at(bytes, at, q, covered, crc_extra) == Some(carried(b, covered)) {
                     set_range(&mut self.good, q, q + 1, true);
+                    self.marked_end = self.marked_end.max(q + 1);
                 }
             }
         }
@@ -326,9 +330,11 @@ impl Memo {
     /// position `at`): their pending positions are classified again.
     fn wake<D: Dialect>(&mut self, bytes: &[u8], at: u64) {
         let avail = at + bytes.len() as u64;
+        let mut w = slot(self.woken);
         while self.woken < avail.min(self.last_wake) {
             self.woken += 1;
-            let mut s = core::mem::take(&mut self.head[slot(self.woken)]);
+            w = if w + 1 == RING { 0 } else { w + 1 };
+            let mut s = core::mem::take(&mut self.head[w]);
             self.steps += 1;
             while s != 0 {
                 let sl = usize::from(s - 1);
@@ -361,12 +367,16 @@ impl Memo {
             (self.prefix_start, self.prefix_end) = (s, s);
             self.prefix[slot(s)] = 0xFFFF;
         }
-        while self.prefix_end < e {
-            let x = self.prefix_end;
-            let state = crc::step(self.prefix[slot(x)], bytes[(x - at) as usize]);
-            self.prefix[slot(x + 1)] = state;
-            self.prefix_end += 1;
-            self.steps += 1;
+        if self.prefix_end < e {
+            let (mut i, from) = (slot(self.prefix_end), (self.prefix_end - at) as usize);
+            let mut state = self.prefix[i];
+            for &b in &bytes[from..from + (e - self.prefix_end) as usize] {
+                state = crc::step(state, b);
+                i = if i + 1 == RING { 0 } else { i + 1 };
+                self.prefix[i] = state;
+            }
+            self.steps += e - self.prefix_end;
+            self.prefix_end = e;
         }
         let (before, after) = (self.prefix[slot(s)], self.prefix[slot(e)]);
         crc::between_extra(before, after, covered, extra)

@@ -545,10 +545,6 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         // chunk boundary would be copied and checked twice).
         let mut copied = 0;
         loop {
-            if self.len != 0 && self.len <= copied {
-                *input = &whole[whole.len() - input.len() - self.len..];
-                (self.head, self.len, copied) = (0, 0, 0);
-            }
             let held = self.len != 0;
             if !held && !self.skip_to_start(input) {
                 return None;
@@ -590,7 +586,13 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 Verdict::Skip(n) => self.drop(input, n, held),
                 Verdict::Reject => self.drop(input, 1, held),
             }
-            copied = copied.min(self.len);
+            if held {
+                copied = copied.min(self.len);
+                if self.len != 0 && self.len == copied {
+                    *input = &whole[whole.len() - input.len() - copied..];
+                    (self.head, self.len, copied) = (0, 0, 0);
+                }
+            }
         }
     }
 

@@ -4,8 +4,8 @@
 //!
 //! The parser looks at one *candidate* at a time: the first start byte
 //! (0xFD for MAVLink 2, 0xFE for MAVLink 1) not yet consumed, at a stream
-//! position (the bytes pushed before it). It decides the candidate from the
-//! bytes at hand, as the simple parser does:
+//! position (the bytes pushed before it), and decides it from the bytes at
+//! hand:
 //!
 //! - a header with unknown incompatibility flags, or a frame of a known id
 //!   whose checksum is bad, is *rejected*: the start byte is dropped and the
@@ -53,12 +53,16 @@
 //! unknown ids can cost genuine ones of unknown ids, never known ones, and
 //! never admits a forgery.
 //!
-//! A frame whole in the input is returned in place (no copy); one that
-//! spans chunks is assembled in the buffer. After a frame, pass the rest of
-//! the input (what [`Parser::next`] left in it) on the next call. A caller
-//! that drops it and pushes other bytes can make the parser miss frames,
-//! never accept a bad one: a frame is taken only on its own bytes'
-//! checksum.
+//! One loop serves [`Parser::next`], [`Parser::next_in_datagram`],
+//! [`Parser::flush`] and [`Parser::end_of_datagram`]: the last three only
+//! tell it that no byte follows the ones at hand. A frame whole in the
+//! input is returned in place (no copy); one that spans chunks is assembled
+//! in the buffer, and once the buffer holds nothing but copies of the
+//! current input the loop goes back to it in place. After a frame, pass
+//! the rest of the input (what [`Parser::next`] left in it) on the next
+//! call. A caller that drops it and pushes other bytes can make the parser
+//! miss frames, never accept a bad one: a frame is taken only on its own
+//! bytes' checksum.
 
 mod memo;
 

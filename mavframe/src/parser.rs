@@ -317,6 +317,12 @@ pub struct Parser<D: Dialect, const STREAMS: usize = 16> {
     /// A frame at the start of the bytes held, returned by the last call:
     /// dropped when the parser next runs.
     returned: usize,
+    /// The last this many bytes held are copies of the first as many of
+    /// the input, not consumed from it: once the bytes held before them are
+    /// dropped, the parser goes back to the input in place (in garbage
+    /// dense in start bytes the bytes held never run out: every byte after
+    /// a chunk boundary would be copied and checked twice).
+    shadow: usize,
     /// Stream position of the first byte not consumed (held, or of the
     /// input when none is).
     pos: u64,
@@ -360,6 +366,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             head: 0,
             len: 0,
             returned: 0,
+            shadow: 0,
             pos: 0,
             at_eof: false,
             memo: Memo::new(),
@@ -440,7 +447,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
 
     /// Bytes held for an incomplete frame (consumed from the input).
     pub fn pending(&self) -> usize {
-        self.len
+        self.len - self.shadow
     }
 
     /// The work done so far, for tests and monitoring: the steps are
@@ -506,6 +513,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         ends: bool,
     ) -> Option<Received<'r, D>> {
         self.release_returned();
+        if input.len() < self.shadow {
+            // Not the rest of the input the copies were taken from: they
+            // are all there is.
+            self.shadow = 0;
+        }
         if ends {
             self.at_eof = true;
         } else if !input.is_empty() {
@@ -537,24 +549,20 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
     /// Candidates until one is accepted (where: the buffer, or the input),
     /// or `None` once the input is used up.
     #[inline(always)]
-    fn decide(
-        &mut self,
-        input: &mut &[u8],
-    ) -> Option<(bool, usize, Option<&'static MessageMeta>, bool)> {
-        let whole = *input;
-        // The last this many bytes held were copied from `whole` in this
-        // call: once they are all that is held, they are given back and the
-        // candidates are checked in place again (in garbage dense in start
-        // bytes the bytes held never run out: every byte after the first
-        // chunk boundary would be copied and checked twice).
-        let mut copied = 0;
+    fn decide(&mut self, input: &mut &[u8]) -> Option<Accepted> {
         loop {
             let held = self.len != 0;
+            if held && self.len == self.shadow {
+                // Only copies of the input are held: back to it in place.
+                (self.head, self.len, self.shadow) = (0, 0, 0);
+                continue;
+            }
             if !held && !self.skip_to_start(input) {
                 return None;
             }
             let (bytes, end) = if held {
-                (&self.buf[self.head..self.head + self.len], input.is_empty())
+                let end = input.len() == self.shadow;
+                (&self.buf[self.head..self.head + self.len], end)
             } else {
                 (*input, true)
             };
@@ -572,13 +580,18 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                     len,
                     meta,
                     authenticated,
-                } => return Some((held, len, meta, authenticated)),
+                } => {
+                    if held {
+                        self.settle(input, len);
+                    }
+                    return Some((held, len, meta, authenticated));
+                }
                 Verdict::Need(n) if held => {
                     self.memo.steps += 1;
-                    let before = self.len;
-                    let enough = self.top_up(input, n);
-                    copied += self.len - before;
-                    if !enough {
+                    if !self.top_up(input, n) {
+                        // The input is all copied: consumed.
+                        *input = &[];
+                        self.shadow = 0;
                         return None;
                     }
                 }
@@ -590,14 +603,26 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
                 Verdict::Skip(n) => self.drop(input, n, held),
                 Verdict::Reject => self.drop(input, 1, held),
             }
-            if held {
-                copied = copied.min(self.len);
-                if self.len != 0 && self.len == copied {
-                    *input = &whole[whole.len() - input.len() - copied..];
-                    (self.head, self.len, copied) = (0, 0, 0);
-                }
-            }
         }
+    }
+
+    /// A frame of `len` bytes at the start of the bytes held is returned:
+    /// the copies of the input it holds are consumed, and when only copies
+    /// follow it they are dropped from the buffer (the next call parses
+    /// them in place).
+    fn settle(&mut self, input: &mut &[u8], len: usize) {
+        self.consume_copies(input, len);
+        if self.len - len == self.shadow {
+            (self.len, self.shadow) = (len, 0);
+        }
+    }
+
+    /// The first `n` bytes held are taken: those of them that are copies of
+    /// the input's head are consumed from it.
+    fn consume_copies(&mut self, input: &mut &[u8], n: usize) {
+        let copies = n.saturating_sub(self.len - self.shadow);
+        *input = &input[copies..];
+        self.shadow -= copies;
     }
 
     /// Drops the input up to its first start byte: false when it has none
@@ -633,6 +658,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
             .unwrap_or(rest.len());
         self.stats.bytes_dropped += skip as u64;
         self.pos += skip as u64;
+        self.consume_copies(input, n + skip);
         self.head += n + skip;
         self.len -= n + skip;
     }
@@ -647,10 +673,11 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         *input = &input[n..];
     }
 
-    /// Copies bytes of the input after those held until `needed` are held
-    /// (consumed from the input): false when the input ran out first (or
-    /// had nothing to give).
-    fn top_up(&mut self, input: &mut &[u8], needed: usize) -> bool {
+    /// Copies bytes of the input after those copied already until `needed`
+    /// are held (not consumed: see [`Parser::shadow`]): false when the
+    /// input ran out first (or had nothing to give).
+    fn top_up(&mut self, input: &[u8], needed: usize) -> bool {
+        let input = &input[self.shadow..];
         let needed = needed.min(MAX_NEEDED);
         let take = needed.saturating_sub(self.len).min(input.len());
         if self.head + self.len + take > BUF_LEN {
@@ -662,7 +689,7 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         self.buf[end..end + take].copy_from_slice(&input[..take]);
         self.memo.steps += take as u64;
         self.len += take;
-        *input = &input[take..];
+        self.shadow += take;
         take > 0 && self.len >= needed
     }
 
@@ -680,6 +707,10 @@ impl<D: Dialect, const STREAMS: usize> Parser<D, STREAMS> {
         }
     }
 }
+
+/// A frame accepted: in the buffer (else in the input), its length, its
+/// message's row, authenticated.
+type Accepted = (bool, usize, Option<&'static MessageMeta>, bool);
 
 /// What a check of a candidate needs besides its bytes.
 struct Cx<'a, const N: usize> {
@@ -1020,7 +1051,7 @@ mod tests {
     #[test]
     fn the_parser_is_small() {
         let size = core::mem::size_of::<Parser<D>>();
-        assert!(size <= 4256, "{size} bytes");
+        assert!(size <= 4264, "{size} bytes");
     }
 
     #[test]

@@ -257,19 +257,25 @@ fn run<D: MessageSet>(bytes: &[u8], keyed: bool, chunking: Chunking, seed: u64) 
 }
 
 fn check_all<D: MessageSet>(dialect: &str, n: usize) -> f64 {
+    let chunkings = [
+        Chunking::Whole,
+        Chunking::Fixed(64 * 1024),
+        Chunking::Fixed(1),
+        Chunking::Fixed(7),
+        Chunking::Random,
+        Chunking::Datagrams,
+        Chunking::InDatagrams,
+    ];
     let mut worst: f64 = 0.0;
     let mut worst_at = String::new();
+    // Per chunking: random bytes' steps (without and with a key), and the
+    // worst input's ratio to them.
+    let mut random = [[0.0f64; 2]; 7];
+    let mut ratio: [(f64, String); 7] = Default::default();
+    // ("random" comes first.)
     for (name, bytes) in inputs(n) {
         for keyed in [false, true] {
-            for chunking in [
-                Chunking::Whole,
-                Chunking::Fixed(64 * 1024),
-                Chunking::Fixed(1),
-                Chunking::Fixed(7),
-                Chunking::Random,
-                Chunking::Datagrams,
-                Chunking::InDatagrams,
-            ] {
+            for (c, chunking) in chunkings.into_iter().enumerate() {
                 let (per, sigs, starts) = run::<D>(&bytes, keyed, chunking, 5);
                 assert!(
                     per <= C,
@@ -288,10 +294,21 @@ fn check_all<D: MessageSet>(dialect: &str, n: usize) -> f64 {
                     worst = per;
                     worst_at = format!("{name} keyed {keyed} {chunking:?}");
                 }
+                if name == "random" {
+                    random[c][usize::from(keyed)] = per;
+                }
+                let r = per / random[c][usize::from(keyed)];
+                if r > ratio[c].0 {
+                    ratio[c] = (r, format!("{name} keyed {keyed}"));
+                }
             }
         }
     }
     eprintln!("{dialect}: at most {worst:.2} steps per byte + call ({worst_at})");
+    for (c, chunking) in chunkings.into_iter().enumerate() {
+        let (r, at) = &ratio[c];
+        eprintln!("{dialect} {chunking:?}: the worst input {r:.2}x random bytes ({at})");
+    }
     worst
 }
 

@@ -256,22 +256,6 @@ fn apply_nibbles(map: &NibbleMap, x: u16) -> u16 {
     map[0][x & 15] ^ map[1][x >> 4 & 15] ^ map[2][x >> 8 & 15] ^ map[3][x >> 12]
 }
 
-/// The registers after each of the 4 bytes `b` folded into `r`, all four
-/// from `r` (the table of the byte's distance to the end of its block): the
-/// next four depend on the last only, one step of table loads for four
-/// bytes instead of four dependent steps.
-#[inline(always)]
-pub(crate) fn step4(r: u16, b: [u8; 4]) -> [u16; 4] {
-    let lo = usize::from(r as u8 ^ b[0]);
-    let hi = usize::from((r >> 8) as u8 ^ b[1]);
-    [
-        (r >> 8) ^ TABLES[0][lo],
-        TABLES[1][lo] ^ TABLES[0][hi],
-        TABLES[2][lo] ^ TABLES[1][hi] ^ TABLES[0][usize::from(b[2])],
-        TABLES[3][lo] ^ TABLES[2][hi] ^ TABLES[1][usize::from(b[2])] ^ TABLES[0][usize::from(b[3])],
-    ]
-}
-
 /// Folds one byte into a register: the step [`between`]'s prefix states are
 /// made of.
 #[inline(always)]
@@ -301,24 +285,6 @@ fn between(before: u16, after: u16, k: usize) -> Option<u16> {
 pub(crate) fn between_extra(before: u16, after: u16, k: usize, crc_extra: u8) -> Option<u16> {
     let end = step(after, 0) ^ TABLES[0][usize::from(crc_extra)];
     advance(0xFFFF ^ before, k + 1).map(|r| r ^ end)
-}
-
-/// CRC_EXTRA's part of a frame checksum computed from prefix states
-/// ([`between_v1`]): its byte step from a zero register.
-pub(crate) fn extra_fold(crc_extra: u8) -> u16 {
-    TABLES[0][usize::from(crc_extra)]
-}
-
-/// [`between_extra`] of a MAVLink 1 frame whose payload is `len` bytes
-/// (`len + 5` covered), with CRC_EXTRA as its [`extra_fold`]: every length
-/// is in range, and the extra byte's load is the caller's (one per message
-/// id, not per candidate). The parser's cost per start byte in garbage
-/// dense in 0xFE.
-#[inline(always)]
-pub(crate) fn between_v1(before: u16, after: u16, len: u8, fold: u16) -> u16 {
-    // `len + 5` covered bytes and the extra byte.
-    let advanced = apply_nibbles(&ADVANCE[usize::from(len) + 6], !before);
-    advanced ^ step(after, 0) ^ fold
 }
 
 /// `A^k · r`: the register `r` after `k` zero bytes (`k` ≤
@@ -449,35 +415,11 @@ mod tests {
                             Some(c.get_crc()),
                             "with extra {extra:#x}, start {start:#x} at {s} length {k}"
                         );
-                        // A MAVLink 1 frame covers its payload and 5 bytes.
-                        if let Some(len) = k.checked_sub(5).and_then(|n| u8::try_from(n).ok()) {
-                            assert_eq!(
-                                between_v1(prefix[s], prefix[s + k], len, extra_fold(extra)),
-                                c.get_crc(),
-                                "MAVLink 1, extra {extra:#x}, start {start:#x} at {s} length {k}"
-                            );
-                        }
                     }
                 }
             }
         }
         assert_eq!(between(0, 0, 16 * (MAX_COVERED / 16 + 2)), None);
         assert_eq!(between_extra(0, 0, 16 * (MAX_COVERED / 16 + 2), 0), None);
-    }
-
-    #[test]
-    fn four_steps_at_once_equal_four_steps() {
-        let mut data = [0u8; 256];
-        pseudo_random(&mut data);
-        for r in [0u16, 0xFFFF, 0x1234, 0x8001] {
-            for b in data.chunks_exact(4) {
-                let mut one = r;
-                let each: [u16; 4] = core::array::from_fn(|i| {
-                    one = step(one, b[i]);
-                    one
-                });
-                assert_eq!(step4(r, [b[0], b[1], b[2], b[3]]), each);
-            }
-        }
     }
 }

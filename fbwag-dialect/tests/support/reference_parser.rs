@@ -248,6 +248,12 @@ impl<D: MessageSet> Reference<D> {
             }
         };
         let link = &mut self.links[slot];
+        link.2 += 1;
+        // A repeat of the sender's last sequence number is a duplicate.
+        if link.2 > 1 && h.seq == link.5 {
+            self.stats.duplicates += 1;
+            return;
+        }
         let lost = h.seq.wrapping_sub(link.5.wrapping_add(1)) as u64;
         if lost != 0 {
             link.3 += lost;
@@ -255,7 +261,6 @@ impl<D: MessageSet> Reference<D> {
             self.stats.seq_lost += lost;
         }
         link.5 = h.seq;
-        link.2 += 1;
     }
 
     /// The candidate's stream position.

@@ -166,7 +166,9 @@ pub enum Unsigned {
 }
 
 /// Senders tracked for sequence gaps; more are folded into the last slot.
-pub const MAX_TRACKED_LINKS: usize = 32;
+/// As many as a verifier's signing streams by default: a link with more
+/// senders than that is a swarm's, whose statistics fold.
+pub const MAX_TRACKED_LINKS: usize = 16;
 const _: () = assert!(MAX_TRACKED_LINKS <= u8::MAX as usize);
 
 /// A frame the parser accepted.
@@ -1046,12 +1048,12 @@ mod tests {
         (*p.stats(), p.links()[0])
     }
 
-    /// The per-sender table (1 KiB) and the verifier (584 bytes) are most
+    /// The per-sender table (512 bytes) and the verifier (584 bytes) are most
     /// of it; the buffer and the memo are a frame's length or two each.
     #[test]
     fn the_parser_is_small() {
         let size = core::mem::size_of::<Parser<D>>();
-        assert!(size <= 4264, "{size} bytes");
+        assert!(size <= 4096, "{size} bytes");
     }
 
     #[test]

@@ -29,7 +29,7 @@ const CREDIT_CAP: u64 = RAW_SIGNATURE_BURST * BYTES_PER_RAW_SIGNATURE_BYTE;
 fn cost(len: usize) -> u64 {
     (len as u64 + 26) * BYTES_PER_RAW_SIGNATURE_BYTE
 }
-const MAX_TRACKED_LINKS: usize = 32;
+const MAX_TRACKED_LINKS: usize = 16;
 
 /// (sysid, compid, received, lost, gaps, last_seq)
 type Link = (u8, u8, u64, u64, u64, u8);

@@ -61,8 +61,8 @@ const FALLBACK_THROTTLE: u16 = 1500;
 /// let cfg = CcConfig::default(); // the FC is 1/1, the companion 1/191
 /// let mut node = CompanionNode::new(cfg, ControlSource::Builtin, Instant::ZERO)?;
 /// let (fc_link, ground_link) = (0, 1);
-/// node.add_link(fc_link, LinkSpec { role: Role::Peer, answers: Answers::Target })?;
-/// node.add_link(ground_link, LinkSpec { role: Role::Ground, answers: Answers::Chosen })?;
+/// node.add_link(fc_link, LinkSpec::new(Role::Peer, Answers::Target))?;
+/// node.add_link(ground_link, LinkSpec::new(Role::Ground, Answers::Chosen))?;
 ///
 /// // The FC's HEARTBEAT, as its link's parser hands it over.
 /// let mut buf = [0u8; MAX_FRAME_LEN];

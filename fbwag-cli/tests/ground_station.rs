@@ -19,8 +19,8 @@
 
 use serde_json::Value;
 use std::io::Write;
-use std::net::{SocketAddr, TcpListener, UdpSocket};
-use std::path::{Path, PathBuf};
+use std::net::{SocketAddr, UdpSocket};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -30,7 +30,7 @@ use std::time::{Duration, Instant};
 mod common;
 
 use common::lines::LineProc;
-use common::{peer_python, repo};
+use common::{free_tcp_port, mavsdk_server, peer_python, repo};
 
 /// Home of these runs (not fc-sim's default, to show --home is used).
 const HOME: (f64, f64, f64) = (50.4501, 30.5234, 180.0);
@@ -41,32 +41,8 @@ static SERIAL: Mutex<()> = Mutex::new(());
 
 // --- processes -------------------------------------------------------------
 
-/// The mavsdk_server the pip package ships.
-fn mavsdk_server(py: &Path) -> PathBuf {
-    let out = Command::new(py)
-        .args(["-W", "ignore::FutureWarning", "-c"])
-        .arg("import mavsdk, os; print(os.path.join(os.path.dirname(mavsdk.__file__), 'bin', 'mavsdk_server'))")
-        .output()
-        .expect("python");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
-}
-
 fn free_udp_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-/// A free TCP port (mavsdk_server's gRPC listens on all interfaces).
-fn free_tcp_port() -> u16 {
-    TcpListener::bind("0.0.0.0:0")
         .unwrap()
         .local_addr()
         .unwrap()

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{free_port, peer_python, repo};
+use common::{free_port, free_tcp_port, peer_python, repo};
 
 /// One at a time: MAVProxy and mavsdk_server start slowly on two cores.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -67,9 +67,7 @@ fn run(name: &str) {
     for var in ["P_FC", "P_CC", "P_MAVPROXY", "P_MAVSDK", "P_AUTONOMY"] {
         cmd.env(var, free_port().to_string());
     }
-    let grpc = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    cmd.env("P_GRPC", grpc.local_addr().unwrap().port().to_string());
-    drop(grpc);
+    cmd.env("P_GRPC", free_tcp_port().to_string());
     let started = Instant::now();
     let out = cmd.output().expect("bash");
     let log = format!(

@@ -13,43 +13,18 @@
 //! network address is tested without any peer.
 
 use serde_json::Value;
-use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
 mod common;
 
 use common::lines::LineProc;
-use common::{free_port, peer_python, repo};
+use common::{free_port, free_tcp_port, mavsdk_server, peer_python, repo};
 
 const KEY_HEX: &str = "77b5e1c2a0d94f3e8b6c5d4a3f2e1d0c9b8a7f6e5d4c3b2a1f0e9d8c7b6a5f4e";
 
 fn fbwag() -> Command {
     Command::new(env!("CARGO_BIN_EXE_fbwag"))
-}
-
-/// The mavsdk_server the pip package ships.
-fn mavsdk_server(py: &Path) -> PathBuf {
-    let out = Command::new(py)
-        .args(["-W", "ignore::FutureWarning", "-c"])
-        .arg("import mavsdk, os; print(os.path.join(os.path.dirname(mavsdk.__file__), 'bin', 'mavsdk_server'))")
-        .output()
-        .expect("python");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
-}
-
-/// A free TCP port (mavsdk_server's gRPC).
-fn free_tcp_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// The result of each request interop/mavsdk_gcs_check.py made.

@@ -121,3 +121,28 @@ pub fn fbwag(args: &[&str], input: &[u8]) -> (Vec<u8>, String, Option<i32>) {
         out.status.code(),
     )
 }
+
+/// A free TCP port on every interface (mavsdk_server's gRPC listens on all
+/// of them), bound then released.
+pub fn free_tcp_port() -> u16 {
+    std::net::TcpListener::bind("0.0.0.0:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// The mavsdk_server the pip package `mavsdk` ships, in `py`'s venv.
+pub fn mavsdk_server(py: &std::path::Path) -> PathBuf {
+    let out = Command::new(py)
+        .args(["-W", "ignore::FutureWarning", "-c"])
+        .arg("import mavsdk, os; print(os.path.join(os.path.dirname(mavsdk.__file__), 'bin', 'mavsdk_server'))")
+        .output()
+        .expect("python");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
+}

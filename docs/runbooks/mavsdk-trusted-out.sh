@@ -2,7 +2,7 @@
 # MAVSDK (which cannot sign) reading and commanding an FC that requires
 # signatures, through the companion's --trusted-out link.
 # Needs: fbwag on PATH; python3 with `mavsdk` 3.x (pip install mavsdk==3.17.4:
-# its wheel ships mavsdk_server, which System() starts).
+# its wheel ships mavsdk_server).
 set -euo pipefail
 P_FC=${P_FC:-14550}                  # the companion's port for the FC
 P_MAVSDK=${P_MAVSDK:-14540}          # mavsdk_server's port, the companion's --trusted-out
@@ -12,26 +12,36 @@ KEY=$(printf %s fbwag-bench | sha256sum | cut -c1-64)
 RUN=$(mktemp -d)
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT
 expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || { echo "FAILED: no '$2' in $1:"; cat "$RUN/$1"; exit 1; }; }
+wait_for() { for _ in $(seq 150); do grep -q -- "$2" "$RUN/$1" && return; sleep 0.2; done; expect "$1" "$2"; }
 
 # 1. The FC (fc-sim here), signed.
 fbwag fc-sim --link udpin:127.0.0.1:$P_FC --sign-key $KEY --require-signed \
-    --duration 60 >$RUN/fc.log 2>&1 &
-# 2. The companion: what MAVSDK sends on the trusted link goes on to the FC
+    --duration 120 >$RUN/fc.log 2>&1 &
+# 2. mavsdk_server, before the companion (as a service would run it): it
+#    takes the first component it hears for the vehicle, and the companion
+#    speaks on its links only once it hears the FC. (System() can start
+#    the server itself, but then a failing program never exits: mavsdk 3.x
+#    joins the server's log thread before it stops the server.)
+SERVER=$($PYTHON -W ignore -c 'import mavsdk, os; print(os.path.dirname(mavsdk.__file__) + "/bin/mavsdk_server")')
+$SERVER -p $P_GRPC udpin://127.0.0.1:$P_MAVSDK >$RUN/mavsdk_server.log 2>&1 &
+wait_for mavsdk_server.log "Waiting to discover"
+# 3. The companion: what MAVSDK sends on the trusted link goes on to the FC
 #    signed with the key. Loopback only: whoever can send into that port
 #    commands the aircraft.
 fbwag cc --link udpout:127.0.0.1:$P_FC --sign-key $KEY --require-signed \
-    --trusted-out udpout:127.0.0.1:$P_MAVSDK --duration 60 >$RUN/cc.log 2>&1 &
-# 3. A MAVSDK program.
+    --trusted-out udpout:127.0.0.1:$P_MAVSDK --duration 120 >$RUN/cc.log 2>&1 &
+# 4. A MAVSDK program.
 cat >$RUN/gcs.py <<PY
 import asyncio
 from mavsdk import System
 
 async def main():
-    drone = System(port=$P_GRPC)
-    await drone.connect(system_address="udpin://127.0.0.1:$P_MAVSDK")
+    drone = System(mavsdk_server_address="127.0.0.1", port=$P_GRPC)
+    await drone.connect()
     async for state in drone.core.connection_state():
         if state.is_connected:
             break
+    print("connected", flush=True)
     for _ in range(20):  # the version comes with the first AUTOPILOT_VERSION
         try:
             v = await drone.info.get_version()
@@ -48,9 +58,9 @@ async def main():
     except Exception as e:
         print("RTL", e)
 
-asyncio.run(asyncio.wait_for(main(), 60))
+asyncio.run(asyncio.wait_for(main(), 90))
 PY
-$PYTHON -W ignore::FutureWarning $RUN/gcs.py >$RUN/gcs.log 2>&1
+$PYTHON -W ignore::FutureWarning $RUN/gcs.py >$RUN/gcs.log 2>&1 || true
 
 # What to expect: the version and parameters of the signed FC, the
 # parameter set, and RTL answered (denied: fc-sim's engine decides modes).

@@ -53,6 +53,20 @@ fn mavsdk_reads_and_commands_a_signed_fc_through_a_trusted_link() {
                 "60",
             ]),
     );
+    let mut server = LineProc::spawn(
+        "mavsdk_server",
+        Command::new(mavsdk_server(&py))
+            .args(["-p", &grpc.to_string()])
+            .arg(format!("udpin://127.0.0.1:{mavsdk_port}")),
+    );
+    // The server before the companion: it takes the first component it
+    // hears for the vehicle, and the companion speaks only once it hears
+    // the FC.
+    assert!(
+        server.wait_for("Waiting to discover", Duration::from_secs(20)),
+        "{}",
+        server.log
+    );
     let mut cc = LineProc::spawn(
         "fbwag cc",
         fbwag()
@@ -60,12 +74,6 @@ fn mavsdk_reads_and_commands_a_signed_fc_through_a_trusted_link() {
             .args(["--sign-key", KEY_HEX, "--require-signed"])
             .args(["--trusted-out", &format!("udpout:127.0.0.1:{mavsdk_port}")])
             .args(["--duration", "60"]),
-    );
-    let mut server = LineProc::spawn(
-        "mavsdk_server",
-        Command::new(mavsdk_server(&py))
-            .args(["-p", &grpc.to_string()])
-            .arg(format!("udpin://127.0.0.1:{mavsdk_port}")),
     );
     let mut check = LineProc::spawn(
         "mavsdk_gcs_check.py",

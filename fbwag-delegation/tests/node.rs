@@ -514,3 +514,34 @@ fn a_trusted_link_reaches_the_fc_signed_on_the_way() {
     let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &unknown, false));
     assert!(!fate.sign && !fate.route.contains(FC_LINK), "{fate:?}");
 }
+
+/// Ground tools hear the companion's heartbeat only once the FC is heard:
+/// mavsdk_server 3.x takes the first component it hears for the vehicle
+/// and, when that is the companion, never finds the autopilot.
+#[test]
+fn the_companions_heartbeat_reaches_ground_links_once_the_fc_is_heard() {
+    let mut cc = companion(builtin);
+    let heartbeats = |cc: &mut CompanionNode, at: Instant| -> Vec<Links> {
+        cc.handle_timeout(at);
+        drain(cc)
+            .into_iter()
+            .filter_map(|out| match out {
+                Output::Transmit {
+                    links,
+                    message: Message::Heartbeat(_),
+                } => Some(links),
+                _ => None,
+            })
+            .collect()
+    };
+    let before = heartbeats(&mut cc, Instant::ZERO);
+    assert_eq!(before, [Links::only(FC_LINK)], "only the FC link");
+
+    heard_fc(&mut cc, Instant::from_millis(500));
+    let after = heartbeats(&mut cc, Instant::from_millis(1000));
+    assert_eq!(after.len(), 1, "{after:?}");
+    assert!(
+        after[0].contains(FC_LINK) && after[0].contains(GROUND),
+        "{after:?}"
+    );
+}

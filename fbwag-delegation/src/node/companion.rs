@@ -2,7 +2,7 @@
 //! the autonomy's link around the companion engine.
 
 use super::{sender, Arrival, Core, DropReason, Fate, LinkId, LinkSpec, NodeError, Output, Role};
-use crate::cc::CcConfig;
+use crate::cc::{CcConfig, CcState};
 use crate::control::{Control, Controller, WingsLevel};
 use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
 use crate::outbox::Outbox;
@@ -326,13 +326,18 @@ impl CompanionNode {
 
     /// Carries the engine's outputs out: its messages on their links
     /// (addressed ones to the FC, broadcasts everywhere), control due to the
-    /// fallback or the program, events to the program.
+    /// fallback or the program, events to the program. Until the FC is
+    /// heard, broadcasts (the heartbeat) go to the FC link only: a ground
+    /// tool that takes the first component it hears for the vehicle
+    /// (mavsdk_server 3.x waits for ever once it heard a companion first)
+    /// hears the FC's heartbeat, routed, before the companion's.
     fn drain_engine(&mut self, now: Instant) {
         while let Some(output) = self.engine.poll_output() {
             match output {
                 CcOutput::Transmit(message) => {
                     let targeted = message.meta().target_system_offset.is_some();
-                    let links = if targeted {
+                    let fc_heard = self.engine.state() != CcState::Idle;
+                    let links = if targeted || !fc_heard {
                         self.core.of(Role::Peer)
                     } else {
                         self.core.all()

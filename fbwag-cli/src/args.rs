@@ -62,6 +62,9 @@ pub enum ArgError {
     /// A key file that does not hold a key.
     #[error("key file {path}: {source}")]
     KeyFile { path: String, source: Box<ArgError> },
+    /// A connection string that does not parse.
+    #[error(transparent)]
+    Endpoint(#[from] fbwag_dialect::mavframe::conn::ParseEndpointError),
 }
 
 /// A finite number from `lo` to `hi` (inclusive), else an error naming
@@ -169,6 +172,13 @@ pub fn sign_timestamp(s: &str) -> Result<u64, ArgError> {
 /// A 32-byte signing key as exactly 64 hex digits, or `@PATH`: a file
 /// holding them (surrounding whitespace ignored), so that the key need not
 /// appear in the process list. Returns the hex digits.
+/// A connection string (`udpin:IP:PORT`, `serial:PATH:BAUD`, ...),
+/// checked as it is read, kept as given.
+pub fn endpoint(s: &str) -> Result<String, ArgError> {
+    s.parse::<fbwag_dialect::Endpoint>()?;
+    Ok(s.to_string())
+}
+
 pub fn sign_key(s: &str) -> Result<String, ArgError> {
     if let Some(path) = s.strip_prefix('@') {
         return sign_key_file(path);

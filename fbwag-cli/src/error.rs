@@ -86,6 +86,9 @@ pub enum CliError {
         command: &'static str,
         source: io::Error,
     },
+    /// A `--config` file refused.
+    #[error(transparent)]
+    Config(#[from] crate::cmd::config::ConfigError),
     /// An error of the JSON conversions ([`crate::json`]), whatever its type.
     #[error("{0}")]
     Json(Box<dyn std::error::Error>),

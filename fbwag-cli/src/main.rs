@@ -10,11 +10,11 @@ mod lines;
 mod live;
 mod sim;
 
-use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    match cmd::Cli::parse().run() {
+    let run = cmd::Cli::from_args(std::env::args_os().collect()).and_then(cmd::Cli::run);
+    match run {
         Ok(outcome) => outcome.exit_code(),
         Err(e) => {
             eprintln!("error: {e}");

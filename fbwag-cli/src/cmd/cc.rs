@@ -31,8 +31,15 @@ pub struct CcArgs {
     /// tcpin:IP:PORT, serial:PATH:BAUD. With udpin or tcpin, frames go to
     /// --peer, or else to the source of the FC's trusted frames (see
     /// below).
-    #[arg(long, value_name = "CONN")]
+    #[arg(long, value_name = "CONN", value_parser = args::endpoint)]
     pub link: String,
+    /// Read options from this TOML file first: one key per long option
+    /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
+    /// for repeatable ones). Options given on the command line
+    /// as well win; repeatable ones add to the file's. Example:
+    /// deploy/cc.toml.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,
     /// the client connected from it) and no other.
     #[arg(long, value_name = "IP:PORT")]
@@ -40,7 +47,7 @@ pub struct CcArgs {
     /// Also route to and from this link (repeatable): a ground station,
     /// MAVProxy, other onboard programs. MAVLink routing rules; frames
     /// are forwarded untouched (signed ones stay verifiable).
-    #[arg(long = "out", value_name = "CONN")]
+    #[arg(long = "out", value_name = "CONN", value_parser = args::endpoint)]
     pub outs: Vec<String>,
     /// Like --out, for a ground tool that cannot sign (MAVSDK, MAVProxy
     /// without a key) where the FC requires signatures: the link is
@@ -49,7 +56,7 @@ pub struct CcArgs {
     /// the aircraft, so it must be local: only loopback addresses or a
     /// serial port, unless --trusted-out-remote. On a plain --out, an
     /// unsigned tool under --require-signed gets telemetry only.
-    #[arg(long = "trusted-out", value_name = "CONN", requires = "sign_key")]
+    #[arg(long = "trusted-out", value_name = "CONN", value_parser = args::endpoint, requires = "sign_key")]
     pub trusted_outs: Vec<String>,
     /// Accept --trusted-out addresses that are not loopback (a trusted
     /// network of your own).
@@ -74,7 +81,7 @@ pub struct CcArgs {
     /// go to the FC (re-addressed, signed with --sign-key) only while
     /// the companion holds control, and are dropped otherwise; its other
     /// messages go to the --out links only. Replaces --controller.
-    #[arg(long, value_name = "CONN")]
+    #[arg(long, value_name = "CONN", value_parser = args::endpoint)]
     pub autonomy: Option<String>,
     /// The autonomy program's address (IP:PORT): the autonomy link
     /// answers it only and drops frames from anyone else. Without it,

@@ -3,6 +3,7 @@
 //! runs it.
 
 mod cc;
+pub mod config;
 mod decode;
 mod demo;
 mod encode;
@@ -14,7 +15,8 @@ mod sim;
 use crate::error::{CliError, Outcome, EXIT_STATUS};
 use crate::json;
 use crate::live::net::LinkOptions;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use std::ffi::OsString;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
@@ -42,6 +44,26 @@ enum Command {
 }
 
 impl Cli {
+    /// The command line `argv`, with the options of `--config FILE` before
+    /// its own ([`config`]); the command line's single-valued options win.
+    /// Exits as clap does for `--help`, `--version` and a refused command
+    /// line; a refused file, or a value of the file an option refuses, is
+    /// an error naming the file's line.
+    pub fn from_args(argv: Vec<OsString>) -> Result<Cli, CliError> {
+        let mut command = Cli::command();
+        for daemon in ["router", "cc"] {
+            command = command.mut_subcommand(daemon, |c| c.args_override_self(true));
+        }
+        let (argv, file) = config::expand(&command, argv)?;
+        let parsed = command
+            .try_get_matches_from(argv)
+            .and_then(|m| Cli::from_arg_matches(&m));
+        parsed.or_else(|e| match file.as_ref().and_then(|f| f.blame(&e)) {
+            Some(refused) => Err(refused.into()),
+            None => e.exit(),
+        })
+    }
+
     /// Runs the subcommand.
     pub fn run(self) -> Result<Outcome, CliError> {
         match self.command {

@@ -20,8 +20,15 @@ use std::time::Duration;
 pub struct RouterArgs {
     /// Links: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
     /// tcpin:IP:PORT, serial:PATH:BAUD (two or more).
-    #[arg(value_name = "CONN", num_args = 2.., required = true)]
+    #[arg(value_name = "CONN", value_parser = args::endpoint, num_args = 2.., required = true)]
     pub links: Vec<String>,
+    /// Read options from this TOML file first: one key per long option
+    /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
+    /// for repeatable ones), `links = [...]` for the links. Options given on the command line
+    /// as well win; repeatable ones add to the file's. Example:
+    /// deploy/router.toml.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// Verify every link's signatures with this key (64 hex digits, or
     /// @FILE holding them). Frames are still forwarded untouched: the
     /// router signs nothing on anyone's behalf. On a listening link

@@ -1,0 +1,373 @@
+//! `--config FILE`: a daemon's options from a TOML file.
+//!
+//! The file holds the options of the command line, one key per long
+//! option (`sign_key` or `sign-key` for `--sign-key`), and `links` for
+//! `fbwag router`'s links. The clap `Args` structs stay the one
+//! definition of every option, so an option is configurable the day it
+//! exists, with the same checks and the same `--help`. The file's options
+//! come first on the command line they build: an option given on the
+//! command line as well wins, and list options (`out`, `links`) add to
+//! the file's.
+//!
+//! A file that is not TOML, a key that is no option, a value of the wrong
+//! kind, or a value the option refuses is reported with the file's line
+//! and column.
+
+use clap::{Arg, ArgAction, Command};
+use std::ffi::OsString;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use toml::de::{DeTable, DeValue};
+use toml::Spanned;
+
+/// The largest file read: a daemon's options fit in far less.
+const MAX_BYTES: u64 = 1 << 20;
+
+/// A place in a file: 1-based line and column.
+#[derive(Debug, Clone)]
+pub struct Location {
+    pub path: PathBuf,
+    pub line: usize,
+    pub column: usize,
+}
+
+impl Location {
+    fn at(path: &Path, text: &str, offset: usize) -> Self {
+        let before = &text[..offset.min(text.len())];
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        Location {
+            path: path.to_owned(),
+            line: before.matches('\n').count() + 1,
+            column: before[line_start..].chars().count() + 1,
+        }
+    }
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.path.display(), self.line, self.column)
+    }
+}
+
+/// Why a configuration file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{} is over {MAX_BYTES} bytes: not a configuration file", path.display())]
+    TooLarge { path: PathBuf },
+    #[error("{at}: {message}")]
+    Syntax { at: Location, message: String },
+    #[error("{at}: `{key}`: {why}")]
+    Key {
+        at: Location,
+        key: String,
+        why: String,
+    },
+}
+
+/// The options a file gave, as command-line words, and where each came
+/// from (to name the file's line when the option refuses its value).
+#[derive(Debug, Default)]
+pub struct FileArgs {
+    pub words: Vec<OsString>,
+    origins: Vec<Origin>,
+}
+
+/// Where the file gave an option.
+#[derive(Debug)]
+struct Origin {
+    /// As clap names it in an error: `--sign-key`, a positional's `<CONN>`.
+    name: String,
+    key: String,
+    at: Location,
+    values: Vec<String>,
+}
+
+/// Inserts the options of `--config FILE` (when the subcommand has that
+/// option and it is given) after the subcommand's name in `argv`, so the
+/// command line's own come after them.
+pub fn expand(
+    command: &Command,
+    mut argv: Vec<OsString>,
+) -> Result<(Vec<OsString>, Option<FileArgs>), ConfigError> {
+    let Some(sub) = argv
+        .get(1)
+        .and_then(|s| s.to_str())
+        .and_then(|s| command.find_subcommand(s))
+    else {
+        return Ok((argv, None));
+    };
+    if !sub.get_arguments().any(|a| a.get_id() == "config") {
+        return Ok((argv, None));
+    }
+    let Some(path) = config_path(&argv[2..]) else {
+        return Ok((argv, None));
+    };
+    let file = load(sub, &path)?;
+    argv.splice(2..2, file.words.iter().cloned());
+    Ok((argv, Some(file)))
+}
+
+/// The value of `--config PATH` or `--config=PATH`, up to a `--`.
+fn config_path(args: &[OsString]) -> Option<PathBuf> {
+    let mut args = args.iter().take_while(|a| *a != "--");
+    while let Some(a) = args.next() {
+        if a == "--config" {
+            return args.next().map(PathBuf::from);
+        }
+        if let Some(path) = a.to_str().and_then(|a| a.strip_prefix("--config=")) {
+            return Some(PathBuf::from(path));
+        }
+    }
+    None
+}
+
+impl FileArgs {
+    /// `e` as the file's error, when the value it refuses is one the file
+    /// gave.
+    pub fn blame(&self, e: &clap::Error) -> Option<ConfigError> {
+        use clap::error::{ContextKind, ContextValue};
+        let text = |kind| match e.get(kind) {
+            Some(ContextValue::String(s)) => Some(s.as_str()),
+            _ => None,
+        };
+        let flag = text(ContextKind::InvalidArg)?;
+        let value = text(ContextKind::InvalidValue);
+        let origin = self.origins.iter().find(|o| {
+            flag.split_whitespace().next() == Some(o.name.as_str())
+                && value.is_none_or(|v| o.values.iter().any(|w| w == v))
+        })?;
+        let rendered = e.to_string();
+        let first = rendered.lines().next().unwrap_or_default();
+        Some(ConfigError::Key {
+            at: origin.at.clone(),
+            key: origin.key.clone(),
+            why: first.trim_start_matches("error: ").to_owned(),
+        })
+    }
+}
+
+/// Reads `path` as the options of subcommand `command`.
+pub fn load(command: &Command, path: &Path) -> Result<FileArgs, ConfigError> {
+    let read = |source| ConfigError::Read {
+        path: path.to_owned(),
+        source,
+    };
+    let size = std::fs::metadata(path).map_err(read)?.len();
+    if size > MAX_BYTES {
+        return Err(ConfigError::TooLarge {
+            path: path.to_owned(),
+        });
+    }
+    let text = std::fs::read_to_string(path).map_err(read)?;
+    let table = DeTable::parse(&text).map_err(|e| ConfigError::Syntax {
+        at: Location::at(path, &text, e.span().map_or(0, |s| s.start)),
+        message: e.message().trim().to_owned(),
+    })?;
+    let mut out = FileArgs::default();
+    for (key, value) in table.get_ref() {
+        let at = |offset| Location::at(path, &text, offset);
+        let refuse = |why: String| ConfigError::Key {
+            at: at(key.span().start),
+            key: key.get_ref().to_string(),
+            why,
+        };
+        let arg = option(command, key.get_ref()).ok_or_else(|| {
+            refuse(format!(
+                "no such option; the options: {}",
+                names(command).join(", ")
+            ))
+        })?;
+        let (words, values) = words(arg, value).map_err(|why| ConfigError::Key {
+            at: at(value.span().start),
+            key: key.get_ref().to_string(),
+            why,
+        })?;
+        let name = match (arg.get_long(), arg.get_value_names()) {
+            (Some(long), _) => format!("--{long}"),
+            (None, Some([first, ..])) => format!("<{first}>"),
+            (None, _) => format!("<{}>", arg.get_id().as_str().to_uppercase()),
+        };
+        out.origins.push(Origin {
+            name,
+            key: key.get_ref().to_string(),
+            at: at(value.span().start),
+            values,
+        });
+        out.words.extend(words);
+    }
+    Ok(out)
+}
+
+/// The option a key names: its long name, `-` or `_` between words, or a
+/// positional's name; never `config` itself, `help` or `version`.
+fn option<'c>(command: &'c Command, key: &str) -> Option<&'c Arg> {
+    let key = key.replace('_', "-");
+    command
+        .get_arguments()
+        .filter(|a| !matches!(a.get_id().as_str(), "config" | "help" | "version"))
+        .find(|a| match a.get_long() {
+            Some(long) => long == key,
+            None => a.is_positional() && a.get_id().as_str().replace('_', "-") == key,
+        })
+}
+
+/// The keys a file may hold.
+fn names(command: &Command) -> Vec<String> {
+    command
+        .get_arguments()
+        .filter(|a| !matches!(a.get_id().as_str(), "config" | "help" | "version"))
+        .filter_map(|a| match a.get_long() {
+            Some(long) => Some(long.replace('-', "_")),
+            None => a.is_positional().then(|| a.get_id().to_string()),
+        })
+        .collect()
+}
+
+/// The command-line words of `value` for option `arg`: a switch takes
+/// `true` or `false`; a list option a list or one value; any other one
+/// value (a string, a number). With the values, as clap will see them.
+fn words(arg: &Arg, value: &Spanned<DeValue>) -> Result<(Vec<OsString>, Vec<String>), String> {
+    let flag = arg.get_long().map(|l| format!("--{l}"));
+    if matches!(arg.get_action(), ArgAction::SetTrue) {
+        return match value.get_ref() {
+            DeValue::Boolean(true) => {
+                Ok((flag.into_iter().map(OsString::from).collect(), Vec::new()))
+            }
+            DeValue::Boolean(false) => Ok((Vec::new(), Vec::new())),
+            other => Err(format!("a switch: true or false, not {}", other.type_str())),
+        };
+    }
+    let many = matches!(arg.get_action(), ArgAction::Append)
+        || arg.get_num_args().is_some_and(|n| n.max_values() > 1);
+    let values = match value.get_ref() {
+        DeValue::Array(items) if many => items
+            .iter()
+            .map(|v| scalar(v.get_ref()))
+            .collect::<Result<Vec<_>, _>>()?,
+        DeValue::Array(_) => return Err("takes one value, not a list".into()),
+        other => vec![scalar(other)?],
+    };
+    // `--flag=VALUE`: a value that starts with `-` stays a value.
+    let words = values
+        .iter()
+        .map(|v| match &flag {
+            Some(f) => OsString::from(format!("{f}={v}")),
+            None => OsString::from(v),
+        })
+        .collect();
+    Ok((words, values))
+}
+
+/// One value as the command line writes it.
+fn scalar(value: &DeValue) -> Result<String, String> {
+    match value {
+        DeValue::String(s) => Ok(s.to_string()),
+        DeValue::Integer(i) => {
+            let digits = i.as_str().replace('_', "");
+            i128::from_str_radix(&digits, i.radix())
+                .map(|n| n.to_string())
+                .map_err(|e| e.to_string())
+        }
+        DeValue::Float(f) => Ok(f.as_str().replace('_', "")),
+        other => Err(format!("a string or a number, not {}", other.type_str())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::{CommandFactory, Parser};
+
+    #[derive(Parser)]
+    struct Demo {
+        #[arg(value_name = "CONN", num_args = 2.., required = true)]
+        links: Vec<String>,
+        #[arg(long)]
+        sign_key: Option<String>,
+        #[arg(long)]
+        require_signed: bool,
+        #[arg(long = "out")]
+        outs: Vec<String>,
+        #[arg(long)]
+        report: Option<f64>,
+        #[arg(long)]
+        config: Option<PathBuf>,
+    }
+
+    fn load_text(text: &str) -> Result<FileArgs, ConfigError> {
+        let dir = std::env::temp_dir().join(format!("fbwag-config-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(format!(
+            "{:x}.toml",
+            text.len() * 31 + text.as_bytes()[0] as usize
+        ));
+        std::fs::write(&path, text).unwrap();
+        let r = load(&Demo::command(), &path);
+        std::fs::remove_file(&path).unwrap();
+        r
+    }
+
+    fn words(f: &FileArgs) -> Vec<String> {
+        f.words
+            .iter()
+            .map(|w| w.to_string_lossy().into_owned())
+            .collect()
+    }
+
+    #[test]
+    fn keys_become_the_options_of_the_command_line() {
+        let f = load_text(
+            "links = [\"udpin:0.0.0.0:1\", \"udpout:127.0.0.1:2\"]\n\
+             sign-key = \"@/etc/key\"\nrequire_signed = true\nout = \"udpout:1.2.3.4:5\"\n\
+             report = 0x10\n",
+        )
+        .unwrap();
+        let mut got = words(&f);
+        got.sort();
+        assert_eq!(
+            got,
+            [
+                "--out=udpout:1.2.3.4:5",
+                "--report=16",
+                "--require-signed",
+                "--sign-key=@/etc/key",
+                "udpin:0.0.0.0:1",
+                "udpout:127.0.0.1:2",
+            ]
+        );
+        let parsed = Demo::try_parse_from(
+            std::iter::once(OsString::from("demo")).chain(f.words.iter().cloned()),
+        )
+        .unwrap();
+        assert_eq!(parsed.links.len(), 2);
+        assert_eq!(parsed.report, Some(16.0));
+    }
+
+    #[test]
+    fn a_bad_file_is_refused_at_its_line_and_column() {
+        let e = load_text("report = 1\nsign_kye = \"x\"\n").unwrap_err();
+        assert!(
+            matches!(&e, ConfigError::Key { at, key, .. } if at.line == 2 && at.column == 1 && key == "sign_kye"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("sign_key"), "lists the options: {e}");
+        let e = load_text("report = 1\nrequire_signed = \"yes\"\n").unwrap_err();
+        assert!(
+            matches!(&e, ConfigError::Key { at, .. } if at.line == 2 && at.column == 18),
+            "{e}"
+        );
+        let e = load_text("report = 1\n\nreport = [1, 2\n").unwrap_err();
+        assert!(
+            matches!(&e, ConfigError::Syntax { at, .. } if at.line == 3),
+            "{e}"
+        );
+        for bad in ["report = [1, 2]\n", "config = \"x\"\n", "[table]\nx = 1\n"] {
+            assert!(load_text(bad).is_err(), "{bad}");
+        }
+    }
+}

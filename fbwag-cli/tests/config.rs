@@ -1,0 +1,213 @@
+//! `--config FILE`: `fbwag router` and `fbwag cc` take their options from
+//! a TOML file (deploy/router.toml and deploy/cc.toml are the examples);
+//! the command line's options win; a bad file or value is refused with
+//! the file's line and column, exit status 2.
+
+use fbwag_dialect::dialects::minimal::Heartbeat;
+use fbwag_dialect::{encode, Header, Version};
+use std::net::UdpSocket;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+mod common;
+
+use common::{free_port, repo};
+
+fn fbwag() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fbwag"))
+}
+
+/// A fresh directory for one test's files.
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fbwag-config-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn heartbeat() -> Vec<u8> {
+    let mut buf = [0u8; 280];
+    let h = Header {
+        seq: 0,
+        sysid: 1,
+        compid: 1,
+    };
+    let n = encode(Version::V2, h, &Heartbeat::default(), None, &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// The router's links from the file: what arrives on one leaves on the
+/// other; and `--duration` on the command line ends it before the file's.
+#[test]
+fn the_router_routes_between_the_links_of_its_file() {
+    let d = dir("routes");
+    let (a, b) = (free_port(), free_port());
+    let sink = UdpSocket::bind(("127.0.0.1", b)).unwrap();
+    sink.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let file = write(
+        &d,
+        "router.toml",
+        &format!(
+            "# two links\nlinks = [\"udpin:127.0.0.1:{a}\", \"udpout:127.0.0.1:{b}\"]\n\
+             duration = 600\nreport = 0.5\n"
+        ),
+    );
+    let started = Instant::now();
+    let child = fbwag()
+        .args(["router", "--config"])
+        .arg(&file)
+        .args(["--duration", "2"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let source = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let hb = heartbeat();
+    let mut buf = [0u8; 300];
+    let got = (0..20).find_map(|_| {
+        source.send_to(&hb, ("127.0.0.1", a)).unwrap();
+        sink.set_read_timeout(Some(Duration::from_millis(200)))
+            .unwrap();
+        sink.recv(&mut buf).ok()
+    });
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(got.map(|n| &buf[..n]), Some(&hb[..]), "{}", stderr(&out));
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        started.elapsed() < Duration::from_secs(30),
+        "--duration 2 on the command line wins over the file's 600"
+    );
+}
+
+/// What a bad file says, and where.
+#[test]
+fn a_bad_file_is_refused_with_its_line_and_column() {
+    let d = dir("bad");
+    let cases: &[(&str, &str, &str)] = &[
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nsign_kye = \"x\"\n",
+            ":2:1:",
+            "no such option",
+        ),
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nreport = -3\n",
+            ":2:10:",
+            "`report`",
+        ),
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nrequire_signed = 1\n",
+            ":2:18:",
+            "true or false",
+        ),
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"bogus:1\"]\n",
+            ":1:9:",
+            "`links`",
+        ),
+        ("links = [\"udpin:127.0.0.1:1\",\n", ":1:", "unclosed array"),
+        ("[router]\nlinks = []\n", ":1:2:", "no such option"),
+    ];
+    for (i, (text, place, what)) in cases.iter().enumerate() {
+        let file = write(&d, &format!("bad{i}.toml"), text);
+        let out = fbwag()
+            .args(["router", "--config"])
+            .arg(&file)
+            .output()
+            .unwrap();
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{text}: {err}");
+        let at = format!("{}{place}", file.display());
+        assert!(
+            err.contains(&at) && err.contains(what),
+            "{text}: wants {at} and {what}: {err}"
+        );
+    }
+    let out = fbwag()
+        .args(["router", "--config"])
+        .arg(d.join("missing.toml"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("missing.toml"), "{}", stderr(&out));
+}
+
+/// The examples in deploy/ hold only options the programs take, with
+/// values they accept: each runs, its devices and paths replaced by the
+/// test's own.
+#[test]
+fn the_example_files_run() {
+    let d = dir("examples");
+    let key = write(&d, "key", &"ab".repeat(32));
+    for (program, example) in [("router", "deploy/router.toml"), ("cc", "deploy/cc.toml")] {
+        let text = std::fs::read_to_string(repo().join(example)).unwrap();
+        let mut text = text
+            .replace("/etc/fbwag/key", &key.display().to_string())
+            .replace("/var/lib/fbwag", &d.display().to_string())
+            .replace("/var/log/fbwag", &d.display().to_string())
+            .replace(
+                "serial:/dev/ttyAMA0:921600",
+                &format!("udpout:127.0.0.1:{}", free_port()),
+            )
+            .replace("0.0.0.0", "127.0.0.1")
+            .replace("192.168.1.10", "127.0.0.1");
+        for port in ["14550", "14540"] {
+            text = text.replace(port, &free_port().to_string());
+        }
+        let file = write(&d, &format!("{program}.toml"), &text);
+        let out = fbwag()
+            .arg(program)
+            .arg("--config")
+            .arg(&file)
+            .args(["--duration", "0.5"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{example}: {}", stderr(&out));
+    }
+}
+
+/// The systemd units start the programs with the example's options, and
+/// systemd finds nothing wrong in them (when `systemd-analyze` is here).
+#[test]
+fn the_systemd_units_run_the_programs_from_their_files() {
+    let d = dir("units");
+    for program in ["router", "cc"] {
+        let unit = repo().join(format!("deploy/systemd/fbwag-{program}.service"));
+        let text = std::fs::read_to_string(&unit).unwrap();
+        let exec =
+            format!("ExecStart=/usr/local/bin/fbwag {program} --config /etc/fbwag/{program}.toml");
+        assert!(
+            text.lines().any(|l| l == exec),
+            "{}: no `{exec}`",
+            unit.display()
+        );
+        assert!(repo().join(format!("deploy/{program}.toml")).exists());
+        let local = write(
+            &d,
+            &format!("fbwag-{program}.service"),
+            &text.replace("/usr/local/bin/fbwag", env!("CARGO_BIN_EXE_fbwag")),
+        );
+        let Ok(out) = Command::new("systemd-analyze")
+            .args(["verify", "--man=no"])
+            .arg(&local)
+            .output()
+        else {
+            continue;
+        };
+        let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
+        assert!(
+            out.status.success() && said.trim().is_empty(),
+            "{}: {said}",
+            unit.display()
+        );
+    }
+}

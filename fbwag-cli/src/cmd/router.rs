@@ -56,6 +56,8 @@ pub struct RouterArgs {
     /// Print a traffic summary every this many seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0, allow_hyphen_values = true, value_parser = args::seconds)]
     pub report: f64,
+    #[command(flatten)]
+    pub tlog: super::tlog::TlogArgs,
 }
 
 impl TryFrom<RouterArgs> for RouterOptions {
@@ -75,6 +77,7 @@ impl TryFrom<RouterArgs> for RouterOptions {
             duration: a.duration.map(Duration::from_secs_f64),
             report: Duration::from_secs_f64(a.report.max(0.1)),
             events: a.events,
+            tlog: a.tlog.options(),
         })
     }
 }

@@ -180,7 +180,7 @@ fn routed_frames_are_logged_in_order_and_read_back() {
     assert_eq!(run.summary_tlog()["written"], 201, "{}", run.log);
     assert_eq!(run.summary_tlog()["dropped_queue_full"], 0);
     assert!(
-        run.log.contains("tlog: 201 frames written in 1 files"),
+        run.log.contains("tlog: 201 frames written (1 files begun)"),
         "{}",
         run.log
     );
@@ -352,4 +352,57 @@ fn a_tlog_cut_short_is_an_error_naming_the_offset() {
             "cut {cut}: {err}"
         );
     }
+}
+
+#[test]
+fn the_companion_logs_the_fc_frames_it_takes_and_its_own() {
+    let dir = scratch("cc");
+    let fc = UdpSocket::bind("127.0.0.1:0").unwrap();
+    fc.set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    let port = fc.local_addr().unwrap().port();
+    let cc = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(["cc", "--link", &format!("udpout:127.0.0.1:{port}")])
+            .arg("--tlog")
+            .arg(&dir)
+            .args(["--duration", "2.5"]),
+    );
+    // The FC answers each frame of the companion with a heartbeat.
+    let mut sent = Vec::new();
+    let mut buf = [0u8; 2048];
+    let end = std::time::Instant::now() + Duration::from_secs(2);
+    while std::time::Instant::now() < end {
+        if let Ok((_, from)) = fc.recv_from(&mut buf) {
+            let hb = heartbeat(1, sent.len() as u32);
+            fc.send_to(&hb, from).unwrap();
+            sent.push(hb);
+        }
+    }
+    let out = cc.finish(Duration::from_secs(5));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    let files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}\n{log}");
+    let name = files[0].file_name().unwrap().to_str().unwrap();
+    assert!(name.starts_with("fbwag-cc-"), "{name}");
+    let recs = records(&std::fs::read(&files[0]).unwrap());
+    let fc_frames: Vec<&Vec<u8>> = recs
+        .iter()
+        .filter(|(ts, _)| ts & 3 == 0)
+        .map(|(_, f)| f)
+        .collect();
+    assert!(!sent.is_empty(), "{log}");
+    assert_eq!(fc_frames, sent.iter().collect::<Vec<_>>(), "{log}");
+    // The companion's own heartbeats: from 1/191, marked 3.
+    let own = recs
+        .iter()
+        .filter(|(ts, f)| ts & 3 == 3 && f[5..7] == [1, 191] && f[7..10] == [0, 0, 0])
+        .count();
+    assert!(own >= 2, "{own} own heartbeats\n{log}");
+    assert!(log.contains("tlog: "), "{log}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

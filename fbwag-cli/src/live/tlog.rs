@@ -104,7 +104,7 @@ impl TlogCounts {
     /// The counts in the log's words.
     pub fn line(&self) -> String {
         format!(
-            "tlog: {} frames written in {} files, {} dropped (disk too slow), {} not written (low space or write errors), {} old files deleted",
+            "tlog: {} frames written ({} files begun), {} dropped (disk too slow), {} not written (low space or write errors), {} old files deleted",
             self.written, self.files, self.dropped, self.unwritten, self.deleted
         )
     }
@@ -134,19 +134,7 @@ impl Tlog {
         let (note_tx, notes) = mpsc::sync_channel(NOTES_QUEUED);
         let (done, written) = mpsc::channel::<()>();
         let shared = Arc::new(Shared::default());
-        let writer = Writer {
-            dir: o.dir.clone(),
-            prefix: format!("fbwag-{program}-"),
-            max_size: o.max_size.max(MAX_FRAME_LEN as u64 + 8),
-            min_free: o.min_free,
-            file: None,
-            stopped: false,
-            checked_at: None,
-            since_check: 0,
-            failing: false,
-            shared: shared.clone(),
-            notes: note_tx,
-        };
+        let writer = Writer::new(o, program, shared.clone(), note_tx, free_bytes);
         std::thread::Builder::new()
             .name("tlog".into())
             .spawn(move || {
@@ -240,11 +228,39 @@ struct Writer {
     since_check: u64,
     /// A write or open failed, said once until one succeeds.
     failing: bool,
+    /// When a file could not be created: the next try is a second later.
+    failed_at: Option<Instant>,
     shared: Arc<Shared>,
     notes: SyncSender<String>,
+    /// The free space of a directory's file system ([`free_bytes`]).
+    free: fn(&Path) -> io::Result<u64>,
 }
 
 impl Writer {
+    fn new(
+        o: &TlogOptions,
+        program: &str,
+        shared: Arc<Shared>,
+        notes: SyncSender<String>,
+        free: fn(&Path) -> io::Result<u64>,
+    ) -> Writer {
+        Writer {
+            dir: o.dir.clone(),
+            prefix: format!("fbwag-{program}-"),
+            max_size: o.max_size.max(MAX_FRAME_LEN as u64 + 8),
+            min_free: o.min_free,
+            file: None,
+            stopped: false,
+            checked_at: None,
+            since_check: 0,
+            failing: false,
+            failed_at: None,
+            shared,
+            notes,
+            free,
+        }
+    }
+
     /// Writes records as they come, flushing whenever the queue is empty
     /// (so a file holds what arrived up to a moment ago), until the daemon
     /// ends the log.
@@ -273,7 +289,10 @@ impl Writer {
 
     fn write(&mut self, r: &Record) {
         let due = self.checked_at.is_none_or(|t| t.elapsed() >= CHECK_EVERY);
-        if due || self.since_check >= CHECK_BYTES || self.file.is_none() {
+        // Also before each new file; while stopped, only when due (a
+        // directory listing per frame would make the disk slower still).
+        let new_file = self.file.is_none() && !self.stopped;
+        if due || self.since_check >= CHECK_BYTES || new_file {
             self.check_space();
         }
         let size = 8 + r.len as u64;
@@ -284,7 +303,8 @@ impl Writer {
         if full {
             self.close();
         }
-        if self.stopped || (self.file.is_none() && !self.open()) {
+        let retry = self.failed_at.is_none_or(|t| t.elapsed() >= CHECK_EVERY);
+        if self.stopped || (self.file.is_none() && !(retry && self.open())) {
             self.shared.unwritten.fetch_add(1, Ordering::Relaxed);
             return;
         }
@@ -343,6 +363,7 @@ impl Writer {
             let path = self.dir.join(file_name(&self.prefix, us));
             match OpenOptions::new().write(true).create_new(true).open(&path) {
                 Ok(f) => {
+                    self.failed_at = None;
                     self.shared.files.fetch_add(1, Ordering::Relaxed);
                     self.note(format!("tlog: writing {}", path.display()));
                     self.file = Some((BufWriter::with_capacity(64 * 1024, f), path, 0));
@@ -357,6 +378,7 @@ impl Writer {
         }
         let what =
             last.unwrap_or_else(|| format!("tlog: no free file name in {}", self.dir.display()));
+        self.failed_at = Some(Instant::now());
         self.fail(what);
         false
     }
@@ -366,7 +388,7 @@ impl Writer {
     fn check_space(&mut self) {
         self.checked_at = Some(Instant::now());
         self.since_check = 0;
-        let Ok(mut free) = free_bytes(&self.dir) else {
+        let Ok(mut free) = (self.free)(&self.dir) else {
             // Unknown: writing goes on (errors, if any, come with the writes).
             return;
         };
@@ -418,7 +440,7 @@ impl Writer {
                 continue;
             }
             self.shared.deleted.fetch_add(1, Ordering::Relaxed);
-            free = free_bytes(&self.dir).unwrap_or(free.saturating_add(size));
+            free = (self.free)(&self.dir).unwrap_or(free.saturating_add(size));
             self.note(format!(
                 "tlog: deleted {} ({size} bytes): {free} bytes free, floor {}",
                 path.display(),
@@ -519,6 +541,73 @@ mod tests {
         ] {
             assert!(!is_own("fbwag-router-", foreign), "{foreign}");
         }
+    }
+
+    /// The free space the writer under test sees.
+    static FREE: AtomicU64 = AtomicU64::new(0);
+
+    fn fake_free(_: &Path) -> io::Result<u64> {
+        Ok(FREE.load(Ordering::Relaxed))
+    }
+
+    fn record(n: u8) -> Record {
+        Record {
+            us: u64::from(n),
+            len: 12,
+            bytes: [n; MAX_FRAME_LEN],
+        }
+    }
+
+    #[test]
+    fn below_the_floor_own_logs_go_oldest_first_then_writing_waits_for_space() {
+        let dir = std::env::temp_dir().join(format!("fbwag-tlog-floor-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        let old = [
+            "fbwag-cc-20200101T000000.000000Z.tlog",
+            "fbwag-cc-20200101T000001.000000Z.tlog",
+        ];
+        for name in old.iter().chain(&["fbwag-router-20200101T000000.000000Z.tlog"]) {
+            fs::write(dir.join(name), b"x").unwrap();
+        }
+        let o = TlogOptions {
+            dir: dir.clone(),
+            max_size: 1 << 20,
+            min_free: 1000,
+        };
+        let shared = Arc::new(Shared::default());
+        let (tx, notes) = mpsc::sync_channel(NOTES_QUEUED);
+        let mut w = Writer::new(&o, "cc", shared.clone(), tx, fake_free);
+        FREE.store(500, Ordering::Relaxed);
+        for n in 0..3 {
+            w.write(&record(n));
+        }
+        let said: Vec<String> = notes.try_iter().collect();
+        assert_eq!(shared.deleted.load(Ordering::Relaxed), 2, "{said:?}");
+        assert!(said[0].contains(old[0]) && said[1].contains(old[1]), "oldest first: {said:?}");
+        let stops = said.iter().filter(|n| n.contains("stopped writing")).count();
+        assert_eq!(stops, 1, "said once: {said:?}");
+        assert_eq!(shared.unwritten.load(Ordering::Relaxed), 3);
+        assert!(dir.join("fbwag-router-20200101T000000.000000Z.tlog").exists());
+
+        // Space returns: the next check (after a second) resumes writing.
+        FREE.store(5000, Ordering::Relaxed);
+        std::thread::sleep(CHECK_EVERY);
+        w.write(&record(3));
+        w.close();
+        let said: Vec<String> = notes.try_iter().collect();
+        assert!(said.iter().any(|n| n.contains("writing again")), "{said:?}");
+        assert_eq!(shared.written.load(Ordering::Relaxed), 1);
+        let mut files: Vec<_> = fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|n| is_own("fbwag-cc-", n))
+            .collect();
+        assert_eq!(files.len(), 1, "{files:?}");
+        let bytes = fs::read(dir.join(files.pop().unwrap())).unwrap();
+        assert_eq!(bytes[..8], 3u64.to_be_bytes());
+        assert_eq!(bytes[8..], [3u8; 12]);
+        let _ = fs::remove_dir_all(&dir);
     }
 
     #[test]

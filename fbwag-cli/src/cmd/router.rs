@@ -48,6 +48,9 @@ pub struct RouterArgs {
     /// Write machine-readable events to this file (`-`: stdout): frames
     /// dropped by reason every report, and a summary at exit
     /// (`{"event":"summary","frames":N,"forwarded":N,"dropped":{...}}`).
+    /// With --tlog, every report also has `{"event":"tlog","written":N,
+    /// "dropped_queue_full":N,"not_written":N,"files":N,"deleted":N}`, and
+    /// the summary those counts as "tlog".
     #[arg(long, value_name = "PATH")]
     pub events: Option<PathBuf>,
     /// Stop after this many seconds (0–1,000,000).

@@ -567,7 +567,10 @@ mod tests {
             "fbwag-cc-20200101T000000.000000Z.tlog",
             "fbwag-cc-20200101T000001.000000Z.tlog",
         ];
-        for name in old.iter().chain(&["fbwag-router-20200101T000000.000000Z.tlog"]) {
+        for name in old
+            .iter()
+            .chain(&["fbwag-router-20200101T000000.000000Z.tlog"])
+        {
             fs::write(dir.join(name), b"x").unwrap();
         }
         let o = TlogOptions {
@@ -584,11 +587,19 @@ mod tests {
         }
         let said: Vec<String> = notes.try_iter().collect();
         assert_eq!(shared.deleted.load(Ordering::Relaxed), 2, "{said:?}");
-        assert!(said[0].contains(old[0]) && said[1].contains(old[1]), "oldest first: {said:?}");
-        let stops = said.iter().filter(|n| n.contains("stopped writing")).count();
+        assert!(
+            said[0].contains(old[0]) && said[1].contains(old[1]),
+            "oldest first: {said:?}"
+        );
+        let stops = said
+            .iter()
+            .filter(|n| n.contains("stopped writing"))
+            .count();
         assert_eq!(stops, 1, "said once: {said:?}");
         assert_eq!(shared.unwritten.load(Ordering::Relaxed), 3);
-        assert!(dir.join("fbwag-router-20200101T000000.000000Z.tlog").exists());
+        assert!(dir
+            .join("fbwag-router-20200101T000000.000000Z.tlog")
+            .exists());
 
         // Space returns: the next check (after a second) resumes writing.
         FREE.store(5000, Ordering::Relaxed);

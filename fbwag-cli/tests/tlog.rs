@@ -406,3 +406,18 @@ fn the_companion_logs_the_fc_frames_it_takes_and_its_own() {
     assert!(log.contains("tlog: "), "{log}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_limits_are_checked_and_need_a_directory() {
+    let links = ["router", "udpin:127.0.0.1:9", "udpin:127.0.0.1:10"];
+    let with = |extra: &[&str]| {
+        let args: Vec<&str> = links.iter().chain(extra).copied().collect();
+        fbwag(&args, b"")
+    };
+    let (_, err, code) = with(&["--tlog", "/nonexistent", "--tlog-max-size", "64X"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("a size in bytes"), "{err}");
+    let (_, err, code) = with(&["--tlog-min-free", "1G"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--tlog <DIR>"), "{err}");
+}

@@ -25,8 +25,9 @@ pub struct TlogArgs {
     #[arg(long, value_name = "DIR")]
     pub tlog: Option<PathBuf>,
     /// Begin a new .tlog file before one would grow past this size
-    /// (bytes; suffix K, M, G or T: powers of 1024).
-    #[arg(long, value_name = "BYTES", default_value = "64M", value_parser = args::byte_size)]
+    /// (bytes, 288 at least: one record of the largest frame; suffix K,
+    /// M, G or T: powers of 1024).
+    #[arg(long, value_name = "BYTES", default_value = "64M", value_parser = args::byte_size, requires = "tlog")]
     pub tlog_max_size: u64,
     /// Free space to keep on DIR's file system (checked every second or
     /// MiB written). Below it, the oldest .tlog files this program wrote
@@ -34,7 +35,7 @@ pub struct TlogArgs {
     /// by one; if that is not enough, writing stops (said once in the
     /// log; the frames are counted as not written) and resumes when
     /// space returns. Routing goes on either way.
-    #[arg(long, value_name = "BYTES", default_value = "100M", value_parser = args::byte_size)]
+    #[arg(long, value_name = "BYTES", default_value = "100M", value_parser = args::byte_size, requires = "tlog")]
     pub tlog_min_free: u64,
 }
 

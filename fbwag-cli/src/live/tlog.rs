@@ -622,6 +622,32 @@ mod tests {
     }
 
     #[test]
+    fn frames_that_find_the_queue_full_are_dropped_and_counted() {
+        // A writer that takes nothing: the queue fills.
+        let (queue, records) = mpsc::sync_channel(2);
+        let (_note_tx, notes) = mpsc::sync_channel(1);
+        let (_done, written) = mpsc::channel();
+        let mut tlog = Tlog {
+            queue: Some(queue),
+            dropped: 0,
+            shared: Arc::new(Shared::default()),
+            notes,
+            written,
+        };
+        for n in 0..5u8 {
+            tlog.received(7, &[n; 21]);
+        }
+        tlog.sent(&[9; 300]);
+        assert_eq!(tlog.counts().dropped, 4);
+        let kept: Vec<Record> = records.try_iter().collect();
+        assert_eq!(kept.len(), 2);
+        assert_eq!(kept[0].bytes[..kept[0].len], [0; 21]);
+        assert_eq!(kept[1].bytes[..kept[1].len], [1; 21]);
+        // Link 7 is marked 2 (the last mark of a link), never 3.
+        assert_eq!(kept[0].us & 3, 2);
+    }
+
+    #[test]
     fn days_become_dates_across_leap_years_and_centuries() {
         assert_eq!(civil_from_days(0), (1970, 1, 1));
         assert_eq!(civil_from_days(11_016), (2000, 2, 29));

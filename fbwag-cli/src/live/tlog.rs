@@ -288,13 +288,6 @@ impl Writer {
     }
 
     fn write(&mut self, r: &Record) {
-        let due = self.checked_at.is_none_or(|t| t.elapsed() >= CHECK_EVERY);
-        // Also before each new file; while stopped, only when due (a
-        // directory listing per frame would make the disk slower still).
-        let new_file = self.file.is_none() && !self.stopped;
-        if due || self.since_check >= CHECK_BYTES || new_file {
-            self.check_space();
-        }
         let size = 8 + r.len as u64;
         let full = self
             .file
@@ -302,6 +295,13 @@ impl Writer {
             .is_some_and(|(_, _, n)| *n > 0 && n + size > self.max_size);
         if full {
             self.close();
+        }
+        let due = self.checked_at.is_none_or(|t| t.elapsed() >= CHECK_EVERY);
+        // Also before each new file; while stopped, only when due (a
+        // directory listing per frame would make the disk slower still).
+        let new_file = self.file.is_none() && !self.stopped;
+        if due || self.since_check >= CHECK_BYTES || new_file {
+            self.check_space();
         }
         let retry = self.failed_at.is_none_or(|t| t.elapsed() >= CHECK_EVERY);
         if self.stopped || (self.file.is_none() && !(retry && self.open())) {

@@ -134,6 +134,36 @@ pub fn sim_seed(s: &str) -> Result<u64, ArgError> {
     integer_in(s, 0, MAX_SEED, "a seed")
 }
 
+/// Largest size `byte_size` takes: 1 EiB, beyond any disk.
+pub const MAX_BYTES: u64 = 1 << 60;
+
+/// A size in bytes, with an optional suffix K, M, G or T (powers of 1024,
+/// `KiB` and `k` accepted too): from 0 to [`MAX_BYTES`].
+pub fn byte_size(s: &str) -> Result<u64, ArgError> {
+    let what = "a size in bytes (suffix K, M, G or T: powers of 1024)";
+    let t = s.trim();
+    let t = t
+        .strip_suffix("iB")
+        .or_else(|| t.strip_suffix('B'))
+        .unwrap_or(t);
+    let (digits, shift) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => {
+            let shift = match c.to_ascii_uppercase() {
+                'K' => 10,
+                'M' => 20,
+                'G' => 30,
+                'T' => 40,
+                _ => return Err(out_of_range(0, MAX_BYTES, what)),
+            };
+            (&t[..i], shift)
+        }
+        _ => (t, 0),
+    };
+    let n: u64 = integer_in(digits, 0, MAX_BYTES >> shift, what)
+        .map_err(|_| out_of_range(0, MAX_BYTES, what))?;
+    Ok(n << shift)
+}
+
 /// A throttle pulse width in µs, within [`PWM_US`].
 pub fn pwm_us(s: &str) -> Result<u16, ArgError> {
     integer_in(s, PWM_US.0, PWM_US.1, "a pulse width in µs")
@@ -272,6 +302,20 @@ mod tests {
             assert!(mavlink_id(bad).is_err(), "id {bad}");
             assert!(sign_timestamp(bad).is_err(), "timestamp {bad}");
             assert!(routed_rate(bad).is_err(), "routed rate {bad}");
+            assert!(byte_size(bad).is_err(), "size {bad}");
+        }
+    }
+
+    #[test]
+    fn sizes_take_binary_suffixes() {
+        assert_eq!(byte_size("4096").ok(), Some(4096));
+        assert_eq!(byte_size("64M").ok(), Some(64 << 20));
+        assert_eq!(byte_size("64MiB").ok(), Some(64 << 20));
+        assert_eq!(byte_size("2k").ok(), Some(2048));
+        assert_eq!(byte_size("1T").ok(), Some(1 << 40));
+        assert_eq!(byte_size("1048576T").ok(), Some(MAX_BYTES));
+        for bad in ["1048577T", "64X", "M", "1.5M", "-1K"] {
+            assert!(byte_size(bad).is_err(), "size {bad}");
         }
     }
 

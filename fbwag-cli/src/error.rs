@@ -89,6 +89,15 @@ pub enum CliError {
     /// A `--config` file refused.
     #[error(transparent)]
     Config(#[from] crate::cmd::config::ConfigError),
+    /// `decode --tlog` input that ends inside a record (a log cut short by
+    /// a power loss, a copy interrupted): the records before it are
+    /// decoded.
+    #[error("tlog truncated: the record at byte offset {offset} has {left} bytes, it needs at least {needed}")]
+    TlogTruncated {
+        offset: u64,
+        left: usize,
+        needed: usize,
+    },
     /// An error of the JSON conversions ([`crate::json`]), whatever its type.
     #[error("{0}")]
     Json(Box<dyn std::error::Error>),

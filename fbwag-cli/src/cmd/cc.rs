@@ -134,6 +134,8 @@ pub struct CcArgs {
     /// Exit once control has been handed back to the pilot.
     #[arg(long)]
     pub exit_after_handback: bool,
+    #[command(flatten)]
+    pub tlog: super::tlog::TlogArgs,
 }
 
 /// A `--trusted-out` link: local unless `remote` allows any.
@@ -181,6 +183,7 @@ impl TryFrom<CcArgs> for CcOptions {
             duration: a.duration.map(Duration::from_secs_f64),
             exit_after_handback: a.exit_after_handback,
             events: a.events,
+            tlog: a.tlog.options(),
             stop_on_signals: true,
         })
     }

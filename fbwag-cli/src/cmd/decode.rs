@@ -2,7 +2,7 @@
 
 use crate::error::{CliError, Outcome};
 use crate::{hexstream, json};
-use fbwag_dialect::mavframe::frame::{frame_len, MAX_FRAME_LEN};
+use fbwag_dialect::mavframe::frame::{frame_len, FrameError, MAX_FRAME_LEN};
 use fbwag_dialect::mavframe::parser::{Parser, Stats};
 use fbwag_dialect::Dialect;
 use std::io::{BufWriter, Read, Write};
@@ -38,39 +38,58 @@ pub struct DecodeArgs {
 /// Where each line goes: stdout, buffered.
 type Emit<'a> = dyn FnMut(String) -> Result<(), CliError> + 'a;
 
+/// What was read of a tlog.
+#[derive(Debug, Default)]
+struct TlogRead {
+    /// Records decoded.
+    good: u64,
+    /// Records unreadable (each skipped one byte at a time).
+    bad: u64,
+    /// The byte offset of the first unreadable record.
+    first_bad: Option<u64>,
+    /// The input's offset of the bytes not used yet.
+    offset: u64,
+    /// The input ended inside a record.
+    truncated: Option<CliError>,
+}
+
 /// Decodes the input to stdout; [`Outcome::Flagged`] when any bytes were
-/// dropped (bad checksums, garbage, unreadable tlog records).
+/// dropped (bad checksums, garbage, unreadable tlog records); an error for
+/// a tlog that ends inside a record, once every record before it is out.
 pub fn run(a: DecodeArgs) -> Result<Outcome, CliError> {
     let mut input = open_input(&a.file).map_err(CliError::OpenInput)?;
     let stdout = std::io::stdout();
     let mut out = BufWriter::new(stdout.lock());
     let mut parser = Parser::<Dialect>::new();
     let mut emit = |line: String| writeln!(out, "{line}").map_err(CliError::Write);
-    let tlog_records = read_all(&mut input, &a, &mut parser, &mut emit)?;
+    let mut tlog = read_all(&mut input, &a, &mut parser, &mut emit)?;
     while let Some(r) = parser.flush() {
         emit(json::frame_to_json(&r.frame, r.meta, None))?;
     }
     out.flush().map_err(CliError::Write)?;
     let s = parser.stats();
-    eprintln!("{}", summary(s, a.tlog.then_some(tlog_records)));
+    eprintln!("{}", summary(s, a.tlog.then_some(&tlog)));
+    if let Some(e) = tlog.truncated.take() {
+        return Err(e);
+    }
     Ok(Outcome::clean_if(
-        s.bad_crc == 0 && s.bytes_dropped == 0 && tlog_records.1 == 0,
+        s.bad_crc == 0 && s.bytes_dropped == 0 && tlog.bad == 0,
     ))
 }
 
-/// Reads and decodes the whole input; returns the tlog records read and
-/// those unreadable. Every form is read in chunks, so memory stays bounded
-/// whatever the input's size (a device or an endless pipe included).
+/// Reads and decodes the whole input; what was read of a tlog. Every form
+/// is read in chunks, so memory stays bounded whatever the input's size (a
+/// device or an endless pipe included).
 fn read_all(
     input: &mut dyn Read,
     a: &DecodeArgs,
     parser: &mut Parser<Dialect>,
     emit: &mut Emit<'_>,
-) -> Result<(u64, u64), CliError> {
+) -> Result<TlogRead, CliError> {
     let mut chunk = vec![0u8; 64 * 1024];
     let mut hex_text = hexstream::HexDecoder::default();
     let mut bytes = Vec::new();
-    let mut tlog_records = (0u64, 0u64);
+    let mut tlog = TlogRead::default();
     loop {
         let n = match input.read(&mut chunk) {
             Ok(n) => n,
@@ -87,9 +106,8 @@ fn read_all(
             bytes.extend_from_slice(&chunk[..n]);
         }
         if a.tlog {
-            let (used, good, bad) = decode_tlog(&bytes, end, parser, emit)?;
+            let used = decode_tlog(&bytes, end, parser, emit, &mut tlog)?;
             bytes.drain(..used);
-            tlog_records = (tlog_records.0 + good, tlog_records.1 + bad);
         } else {
             let mut rest: &[u8] = &bytes;
             while let Some(r) = parser.next(&mut rest) {
@@ -98,13 +116,13 @@ fn read_all(
             bytes.clear();
         }
         if end {
-            return Ok(tlog_records);
+            return Ok(tlog);
         }
     }
 }
 
 /// The summary line on stderr.
-fn summary(s: &Stats, tlog_records: Option<(u64, u64)>) -> String {
+fn summary(s: &Stats, tlog: Option<&TlogRead>) -> String {
     let mut summary = format!(
         "decoded {} frames ({} known, {} unknown ids); rejected: {} bad CRC, {} bad incompat flags; {} bytes dropped; {} frames missing by sequence",
         s.frames + s.unknown_frames,
@@ -115,8 +133,11 @@ fn summary(s: &Stats, tlog_records: Option<(u64, u64)>) -> String {
         s.bytes_dropped,
         s.seq_lost
     );
-    if let Some((good, bad)) = tlog_records {
-        summary.push_str(&format!("; tlog: {good} records, {bad} unreadable"));
+    if let Some(t) = tlog {
+        summary.push_str(&format!("; tlog: {} records, {} unreadable", t.good, t.bad));
+        if let Some(at) = t.first_bad {
+            summary.push_str(&format!(" (the first at byte offset {at})"));
+        }
     }
     summary
 }
@@ -133,34 +154,67 @@ pub fn open_input(file: &Option<PathBuf>) -> std::io::Result<Box<dyn Read>> {
 /// unreadable record is skipped by resynchronising one byte further. Until
 /// the `end` of the input, a record is read only when a whole frame of the
 /// largest size could follow it, so the outcome does not depend on how the
-/// input was chunked. Returns the bytes used and the good and bad records.
+/// input was chunked. At the end, a record cut short (a timestamp, or a
+/// frame whose header announces more bytes than are left) is reported in
+/// `t.truncated`. Returns the bytes used.
 fn decode_tlog(
     raw: &[u8],
     end: bool,
     parser: &mut Parser<Dialect>,
     emit: &mut Emit<'_>,
-) -> Result<(usize, u64, u64), CliError> {
-    let (mut at, mut good, mut bad) = (0usize, 0u64, 0u64);
+    t: &mut TlogRead,
+) -> Result<usize, CliError> {
+    let mut at = 0usize;
     let lookahead = if end { 1 } else { MAX_FRAME_LEN };
     while at + 8 + lookahead <= raw.len() {
-        let ts = u64::from_be_bytes(raw[at..at + 8].try_into().expect("8 bytes"));
+        let mut ts = [0u8; 8];
+        ts.copy_from_slice(&raw[at..at + 8]);
         let rest = &raw[at + 8..];
-        let len = frame_len(rest)
-            .ok()
-            .filter(|&n| n <= rest.len() && n <= MAX_FRAME_LEN);
+        let len = match frame_len(rest) {
+            // The input ends inside this record's frame.
+            Ok(n) if end && n > rest.len() && n <= MAX_FRAME_LEN => break,
+            Err(FrameError::Incomplete { .. }) if end => break,
+            Ok(n) if n <= rest.len() && n <= MAX_FRAME_LEN => Some(n),
+            _ => None,
+        };
         let mut record: &[u8] = len.map_or(&[][..], |n| &rest[..n]);
         match parser.next(&mut record) {
             Some(r) if r.frame.as_bytes().len() == len.unwrap_or(0) => {
-                emit(json::frame_to_json(&r.frame, r.meta, Some(ts)))?;
+                emit(json::frame_to_json(
+                    &r.frame,
+                    r.meta,
+                    Some(u64::from_be_bytes(ts)),
+                ))?;
                 at += 8 + len.unwrap_or(0);
-                good += 1;
+                t.good += 1;
             }
             _ => {
                 while parser.flush().is_some() {}
-                bad += 1;
+                t.first_bad.get_or_insert(t.offset + at as u64);
+                t.bad += 1;
                 at += 1;
             }
         }
     }
-    Ok((at, good, bad))
+    if end && at < raw.len() {
+        t.truncated = Some(truncated(&raw[at..], t.offset + at as u64));
+        at = raw.len();
+    }
+    t.offset += at as u64;
+    Ok(at)
+}
+
+/// The error for the record at `offset` whose bytes `left` end the input.
+fn truncated(left: &[u8], offset: u64) -> CliError {
+    let needed = match left.get(8..).map(frame_len) {
+        Some(Ok(n)) => 8 + n,
+        Some(Err(FrameError::Incomplete { needed })) => 8 + needed,
+        // A timestamp, then at least a start byte.
+        _ => 9,
+    };
+    CliError::TlogTruncated {
+        offset,
+        left: left.len(),
+        needed,
+    }
 }

@@ -56,6 +56,10 @@ and \"event\":
   {\"event\":\"summary\",\"takeovers\":N,\"handbacks\":N,\"trusted_frames\":N,
    \"untrusted_frames\":N,\"untrusted_notices\":N,\"controls_forwarded\":N,
    \"controls_dropped\":N,\"dropped\":{\"REASON\":N,...}}   at exit
+                                          (with --tlog, also \"tlog\":{...} as below)
+  {\"event\":\"tlog\",\"written\":N,\"dropped_queue_full\":N,\"not_written\":N,
+   \"files\":N,\"deleted\":N}            --tlog: when log frames were lost (a disk
+                                          too slow, or space below --tlog-min-free)
   {\"event\":\"dropped\",\"events\":N}   N events were dropped before this one:
                                           the reader had stopped reading (the
                                           daemon never waits for it; nor for

@@ -11,6 +11,7 @@ mod fc_sim;
 mod help;
 mod router;
 mod sim;
+mod tlog;
 
 use crate::error::{CliError, Outcome, EXIT_STATUS};
 use crate::json;

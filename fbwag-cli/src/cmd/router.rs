@@ -55,6 +55,9 @@ pub struct RouterArgs {
     /// Write machine-readable events to this file (`-`: stdout): frames
     /// dropped by reason every report, and a summary at exit
     /// (`{"event":"summary","frames":N,"forwarded":N,"dropped":{...}}`).
+    /// With --tlog, every report also has `{"event":"tlog","written":N,
+    /// "dropped_queue_full":N,"not_written":N,"files":N,"deleted":N}`, and
+    /// the summary those counts as "tlog".
     #[arg(long, value_name = "PATH")]
     pub events: Option<PathBuf>,
     /// Stop after this many seconds (0–1,000,000).
@@ -63,6 +66,8 @@ pub struct RouterArgs {
     /// Print a traffic summary every this many seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0, allow_hyphen_values = true, value_parser = args::seconds)]
     pub report: f64,
+    #[command(flatten)]
+    pub tlog: super::tlog::TlogArgs,
 }
 
 impl TryFrom<RouterArgs> for RouterOptions {
@@ -82,6 +87,7 @@ impl TryFrom<RouterArgs> for RouterOptions {
             duration: a.duration.map(Duration::from_secs_f64),
             report: Duration::from_secs_f64(a.report.max(0.1)),
             events: a.events,
+            tlog: a.tlog.options(),
         })
     }
 }

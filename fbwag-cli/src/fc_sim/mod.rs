@@ -569,7 +569,7 @@ impl Node for Daemon {
         self.node.link_reopened(link);
     }
 
-    fn report(&mut self, net: &mut Net) {
+    fn report(&mut self, net: &mut Net, _log: &mut Log) {
         net.report_drops(self.node.drops(), &mut self.events);
     }
 

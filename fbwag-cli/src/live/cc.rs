@@ -10,7 +10,8 @@
 //! module moves bytes and time, and reports.
 
 use super::net::{self, LinkOptions, Net, Node};
-use super::{mode_name, Clock, Events, Limiter, Log};
+use super::tlog::TlogCounts;
+use super::{mode_name, Clock, Events, Limiter, Log, Tlog, TlogOptions};
 use fbwag_delegation::cc::{CcConfig, CcState};
 use fbwag_delegation::control::Controller;
 use fbwag_delegation::engine::CcOutput;
@@ -20,6 +21,7 @@ use fbwag_delegation::node::{
 use fbwag_delegation::{Instant, Peer, Status};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
 use fbwag_dialect::mavframe::router::Inbound;
+use fbwag_dialect::mavframe::Framer;
 use fbwag_dialect::{Dialect, Endpoint, Message, MessageView};
 use serde_json::json;
 use std::io;
@@ -51,6 +53,9 @@ pub struct CcOptions {
     pub duration: Option<Duration>,
     pub exit_after_handback: bool,
     pub events: Option<PathBuf>,
+    /// Log every frame accepted from any link, and the companion's own, to
+    /// `.tlog` files.
+    pub tlog: Option<TlogOptions>,
     /// Stop as at the end of the run on SIGTERM, and on SIGINT when run
     /// from a terminal (`fbwag cc`; not the demo, which runs both daemons).
     pub stop_on_signals: bool,
@@ -82,6 +87,36 @@ struct Daemon {
     heard: Limiter,
     duration: Option<Duration>,
     exit_after_handback: bool,
+    tlog: Option<OwnLog>,
+}
+
+/// The telemetry log, with what frames the companion's own messages for it
+/// (the links frame them again, each with its sequence and signature).
+struct OwnLog {
+    tlog: Tlog,
+    framer: Framer,
+    /// The losses when last reported.
+    reported: TlogCounts,
+}
+
+impl OwnLog {
+    fn sent(&mut self, own: Peer, message: &Message) {
+        if let Ok(frame) = self.framer.frame(own.sysid, own.compid, message) {
+            self.tlog.sent(frame);
+        }
+    }
+
+    /// The counts in the log when frames were lost since the last report.
+    fn report(&mut self, log: &mut Log, events: &mut Events) {
+        self.tlog.notes(log);
+        let now = self.tlog.counts();
+        let was = self.reported;
+        if (now.dropped, now.unwritten) != (was.dropped, was.unwritten) {
+            self.reported = now;
+            log.line(&now.line());
+            events.emit("tlog", now.json());
+        }
+    }
 }
 
 /// The daemon's links, open, each with its place in the node.
@@ -161,6 +196,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         ..CcConfig::default()
     };
     let events = Events::open(o.events.as_deref(), clock)?;
+    let tlog = o.tlog.as_ref().map(|t| Tlog::start(t, "cc")).transpose()?;
     let opened = open_links(&o, &mut log).await?;
     let source = opened
         .autonomy
@@ -184,9 +220,18 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         heard: Limiter::new(super::HEARD_PER_SECOND, Duration::from_secs(1)),
         duration: o.duration,
         exit_after_handback: o.exit_after_handback,
+        tlog: tlog.map(|tlog| OwnLog {
+            tlog,
+            framer: Framer::new(),
+            reported: TlogCounts::default(),
+        }),
     };
     net::run(&mut daemon, opened.net, &clock, &mut log, o.stop_on_signals).await;
-    daemon.summary();
+    let tlog = daemon.tlog.as_mut().map(|t| t.tlog.finish(&mut log));
+    if let Some(counts) = tlog {
+        log.line(&counts.line());
+    }
+    daemon.summary(tlog);
     Ok(daemon.report)
 }
 
@@ -249,6 +294,9 @@ impl Node for Daemon {
         match fate.dropped {
             Some(reason) => net.dropped(inbound, reason, log),
             None => {
+                if let Some(t) = &mut self.tlog {
+                    t.tlog.received(inbound.link, inbound.frame.as_bytes());
+                }
                 if fate.input && inbound.link == net.main {
                     self.describe(&inbound.frame, log);
                 }
@@ -266,8 +314,11 @@ impl Node for Daemon {
         self.node.link_reopened(link);
     }
 
-    fn report(&mut self, net: &mut Net) {
+    fn report(&mut self, net: &mut Net, log: &mut Log) {
         net.report_drops(self.node.drops(), &mut self.events);
+        if let Some(t) = &mut self.tlog {
+            t.report(log, &mut self.events);
+        }
     }
 
     fn done(&self, clock: &Clock) -> bool {
@@ -286,10 +337,16 @@ impl Daemon {
             match out {
                 Output::Transmit { links, message } => {
                     self.note_sent(&message, log);
+                    if let Some(t) = &mut self.tlog {
+                        t.sent(self.own, &message);
+                    }
                     net.router
                         .send_message(links, self.own.sysid, self.own.compid, &message);
                 }
                 Output::TransmitTo { link, to, message } => {
+                    if let Some(t) = &mut self.tlog {
+                        t.sent(self.own, &message);
+                    }
                     net.router.send_message_to(
                         Links::only(link),
                         Some(to),
@@ -420,11 +477,9 @@ impl Daemon {
         }
     }
 
-    fn summary(&mut self) {
+    fn summary(&mut self, tlog: Option<TlogCounts>) {
         let s = *self.node.engine().stats();
-        self.events.emit(
-            "summary",
-            json!({
+        let mut summary = json!({
                 "takeovers": self.report.takeovers,
                 "handbacks": self.report.handbacks,
                 "trusted_frames": s.trusted_frames,
@@ -433,7 +488,10 @@ impl Daemon {
                 "controls_forwarded": s.controls_forwarded,
                 "controls_dropped": s.controls_dropped,
                 "dropped": net::drop_counts(self.node.drops()),
-            }),
-        );
+        });
+        if let Some(counts) = tlog {
+            summary["tlog"] = counts.json();
+        }
+        self.events.emit("summary", summary);
     }
 }

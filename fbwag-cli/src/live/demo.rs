@@ -164,6 +164,7 @@ fn companion(addr: SocketAddr, own: Peer, fc: Peer, duration: f64) -> CcOptions 
         duration: Some(Duration::from_secs_f64(duration)),
         exit_after_handback: false,
         events: None,
+        tlog: None,
         stop_on_signals: false,
     }
 }

@@ -20,6 +20,7 @@ mod modes;
 pub mod net;
 pub mod router;
 mod signals;
+pub mod tlog;
 mod writer;
 
 pub use clock::Clock;
@@ -27,3 +28,4 @@ pub use events::Events;
 pub use limiter::{Limiter, HEARD_PER_SECOND};
 pub use log::Log;
 pub use modes::mode_name;
+pub use tlog::{Tlog, TlogOptions};

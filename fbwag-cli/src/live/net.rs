@@ -432,8 +432,9 @@ pub trait Node {
     );
     /// Link `link` was opened again.
     fn link_reopened(&mut self, link: LinkId);
-    /// With the links' periodic report: the node's own (drops by reason).
-    fn report(&mut self, net: &mut Net);
+    /// With the links' periodic report: the node's own (drops by reason,
+    /// the telemetry log's losses).
+    fn report(&mut self, net: &mut Net, log: &mut Log);
     /// True when the daemon should stop.
     fn done(&self, clock: &Clock) -> bool;
 }
@@ -451,7 +452,7 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
             node.handle_timeout(now, &mut net, log);
         }
         if net.report_refused(log) {
-            node.report(&mut net);
+            node.report(&mut net, log);
         }
         let wait = node
             .poll_timeout()

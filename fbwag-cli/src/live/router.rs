@@ -9,7 +9,7 @@
 //! this module moves bytes and reports.
 
 use super::net::{self, drop_counts, LinkChanges};
-use super::{Clock, Events, Limiter, Log};
+use super::{Clock, Events, Limiter, Log, Tlog, TlogOptions};
 use fbwag_delegation::node::{DropReason, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
@@ -40,6 +40,9 @@ pub struct RouterOptions {
     pub report: Duration,
     /// Machine-readable events.
     pub events: Option<PathBuf>,
+    /// Log every frame routed (every frame the node did not drop) to
+    /// `.tlog` files.
+    pub tlog: Option<TlogOptions>,
 }
 
 /// The signing state file of link `index`.
@@ -66,6 +69,11 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
         let clock = Clock::start();
         let mut log = Log::new(out, clock, "router");
         let mut events = Events::open(o.events.as_deref(), clock)?;
+        let mut tlog = o
+            .tlog
+            .as_ref()
+            .map(|t| Tlog::start(t, "router"))
+            .transpose()?;
         let mut router = Router::<Dialect>::new();
         let mut node = RouterNode::new(o.require_signed);
         for (i, e) in o.endpoints.iter().enumerate() {
@@ -85,21 +93,24 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
             log.line(&format!("link {e}"));
         }
-        let traffic = serve(&o, &mut router, &mut node, &mut log, &mut events).await;
+        let traffic = serve(&o, &mut router, &mut node, &mut log, &mut events, &mut tlog).await;
         log.line(&format!(
             "done: {} frames in, {} sent on, {} dropped",
             traffic.frames,
             traffic.forwarded,
             node.drops().total()
         ));
-        events.emit(
-            "summary",
-            json!({
-                "frames": traffic.frames,
-                "forwarded": traffic.forwarded,
-                "dropped": drop_counts(node.drops()),
-            }),
-        );
+        let mut summary = json!({
+            "frames": traffic.frames,
+            "forwarded": traffic.forwarded,
+            "dropped": drop_counts(node.drops()),
+        });
+        if let Some(tlog) = &mut tlog {
+            let counts = tlog.finish(&mut log);
+            log.line(&counts.line());
+            summary["tlog"] = counts.json();
+        }
+        events.emit("summary", summary);
         router.shutdown(Duration::from_secs(1)).await;
         Ok(())
     })
@@ -114,6 +125,7 @@ struct Serving<'a> {
     drops: Limiter,
     traffic: Traffic,
     clock: Clock,
+    tlog: &'a mut Option<Tlog>,
 }
 
 impl Serving<'_> {
@@ -124,6 +136,9 @@ impl Serving<'_> {
         match fate.dropped {
             Some(reason) => log_drop(f, reason, &mut self.drops, self.log),
             None => {
+                if let Some(tlog) = self.tlog.as_mut() {
+                    tlog.received(f.link, f.frame.as_bytes());
+                }
                 self.router.route(f, fate.route);
                 self.traffic.forwarded += fate.route.iter().count() as u64;
             }
@@ -144,6 +159,11 @@ impl Serving<'_> {
             dropped.total()
         ));
         events.emit("drops", json!({ "dropped": drop_counts(dropped) }));
+        if let Some(tlog) = self.tlog.as_mut() {
+            let counts = tlog.counts();
+            self.log.line(&counts.line());
+            events.emit("tlog", counts.json());
+        }
     }
 }
 
@@ -155,6 +175,7 @@ async fn serve(
     node: &mut RouterNode,
     log: &mut Log,
     events: &mut Events,
+    tlog: &mut Option<Tlog>,
 ) -> Traffic {
     let end = o.duration.map(|d| tokio::time::Instant::now() + d);
     let mut next_report = tokio::time::Instant::now() + o.report;
@@ -166,6 +187,7 @@ async fn serve(
         drops: Limiter::new(5, Duration::from_secs(10)),
         traffic: Traffic::default(),
         clock: Clock::start(),
+        tlog,
     };
     loop {
         let wake = end.map_or(next_report, |e| e.min(next_report));
@@ -186,6 +208,9 @@ async fn serve(
                 next_report += o.report;
                 s.report(events);
             }
+        }
+        if let Some(tlog) = s.tlog.as_mut() {
+            tlog.notes(s.log);
         }
     }
     s.traffic

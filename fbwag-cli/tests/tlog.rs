@@ -1,0 +1,423 @@
+//! `--tlog DIR`: `fbwag router` writes every frame it routes to .tlog files
+//! (8-byte big-endian µs timestamp, then the frame), in order; `fbwag
+//! decode --tlog` and pymavlink's mavlogdump.py read them back; files
+//! rotate at `--tlog-max-size`; below `--tlog-min-free` the router's own
+//! old logs are deleted, no other file is, and writing stops while routing
+//! goes on. Every link is on 127.0.0.1; each router runs a few seconds.
+
+mod common;
+
+use common::{fbwag, free_port, peer_python, Proc};
+use fbwag_delegation::wire;
+use fbwag_dialect::dialects::minimal::Heartbeat;
+use fbwag_dialect::{encode, Header, Version};
+use serde_json::Value;
+use std::net::UdpSocket;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+/// A HEARTBEAT from `sysid`/1 whose custom_mode is `n`, numbered `n`.
+fn heartbeat(sysid: u8, n: u32) -> Vec<u8> {
+    let hb = Heartbeat {
+        custom_mode: n,
+        ..wire::cc_heartbeat()
+    };
+    let header = Header {
+        seq: n as u8,
+        sysid,
+        compid: 1,
+    };
+    let mut buf = [0u8; 300];
+    let len = encode(Version::V2, header, &hb, None, &mut buf).expect("encode");
+    buf[..len].to_vec()
+}
+
+/// A fresh directory for one test's files.
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("tlog-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The router's .tlog files in `dir`, by name.
+fn own_logs(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_str().unwrap();
+            name.starts_with("fbwag-router-2") && name.ends_with("Z.tlog")
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// The records of a tlog: (timestamp, frame), read by the format's rule
+/// (a MAVLink 2 frame's length from its header); a record cut short fails.
+fn records(bytes: &[u8]) -> Vec<(u64, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    while at < bytes.len() {
+        let ts = u64::from_be_bytes(bytes[at..at + 8].try_into().unwrap());
+        let frame = &bytes[at + 8..];
+        assert_eq!(frame[0], 0xFD, "record at {at} is not a MAVLink 2 frame");
+        let signed = if frame[2] & 1 != 0 { 13 } else { 0 };
+        let len = 12 + frame[1] as usize + signed;
+        out.push((ts, frame[..len].to_vec()));
+        at += 8 + len;
+    }
+    out
+}
+
+/// A router of two udpin links logging to `dir` for `seconds`; the
+/// receiver on the second link speaks first, so it is answered; then
+/// `count` heartbeats from sysid 1 go in on the first link, 2 ms apart.
+/// The router's exit, its log, its events file and the frames the receiver
+/// got.
+struct Run {
+    status: std::process::ExitStatus,
+    log: String,
+    events: Vec<Value>,
+    sent: Vec<Vec<u8>>,
+    received: usize,
+}
+
+fn route(dir: &Path, seconds: &str, count: u32, extra: &[&str]) -> Run {
+    let (a, b) = (free_port(), free_port());
+    let events = dir.join("events.jsonl");
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("router")
+            .args([a, b].map(|p| format!("udpin:127.0.0.1:{p}")))
+            .arg("--tlog")
+            .arg(dir.join("logs"))
+            .args(["--duration", seconds, "--report", "1", "--events"])
+            .arg(&events)
+            .args(extra),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let receiver = UdpSocket::bind("127.0.0.1:0").unwrap();
+    receiver
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    receiver
+        .send_to(&heartbeat(2, 1_000_000), ("127.0.0.1", b))
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let sent: Vec<Vec<u8>> = (0..count).map(|n| heartbeat(1, n)).collect();
+    let mut received = 0;
+    let mut buf = [0u8; 2048];
+    for frame in &sent {
+        sender.send_to(frame, ("127.0.0.1", a)).unwrap();
+        std::thread::sleep(Duration::from_millis(2));
+        receiver.set_nonblocking(true).unwrap();
+        while receiver.recv(&mut buf).is_ok() {
+            received += 1;
+        }
+        receiver.set_nonblocking(false).unwrap();
+    }
+    while receiver.recv(&mut buf).is_ok() {
+        received += 1;
+    }
+    let out = router.finish(Duration::from_secs(10));
+    let events = std::fs::read_to_string(&events)
+        .unwrap_or_default()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    Run {
+        status: out.status,
+        log: String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr),
+        events,
+        sent,
+        received,
+    }
+}
+
+impl Run {
+    fn summary_tlog(&self) -> &Value {
+        let s = self.events.iter().find(|e| e["event"] == "summary");
+        &s.unwrap_or_else(|| panic!("no summary:\n{}", self.log))["tlog"]
+    }
+}
+
+fn now_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap()
+        .as_micros() as u64
+}
+
+#[test]
+fn routed_frames_are_logged_in_order_and_read_back() {
+    let dir = scratch("order");
+    let start = now_us();
+    let run = route(&dir, "3", 200, &[]);
+    let end = now_us();
+    assert!(run.status.success(), "{}", run.log);
+    assert_eq!(run.received, 200, "every frame routed: {}", run.log);
+    let files = own_logs(&dir.join("logs"));
+    assert_eq!(files.len(), 1, "{files:?}\n{}", run.log);
+    let bytes = std::fs::read(&files[0]).unwrap();
+    let recs = records(&bytes);
+    // The receiver's heartbeat (link 1), then the sender's 200 (link 0),
+    // byte for byte, in order, stamped with the wall clock in order.
+    assert_eq!(recs.len(), 201, "{}", run.log);
+    assert_eq!(recs[0].1, heartbeat(2, 1_000_000));
+    assert_eq!(recs[0].0 & 3, 1, "link 1 in the low bits");
+    for (k, (ts, frame)) in recs[1..].iter().enumerate() {
+        assert_eq!(frame, &run.sent[k], "record {}", k + 1);
+        assert_eq!(ts & 3, 0, "link 0 in the low bits");
+    }
+    assert!(recs.windows(2).all(|w| w[0].0 & !3 <= w[1].0 & !3));
+    assert!(recs[0].0 >= start & !3 && recs[200].0 <= end);
+    assert_eq!(run.summary_tlog()["written"], 201, "{}", run.log);
+    assert_eq!(run.summary_tlog()["dropped_queue_full"], 0);
+    assert!(
+        run.log.contains("tlog: 201 frames written (1 files begun)"),
+        "{}",
+        run.log
+    );
+
+    // `fbwag decode --tlog` reads the same records, timestamps included.
+    let file = files[0].to_str().unwrap();
+    let (out, err, code) = fbwag(&["decode", "--tlog", file], b"");
+    assert_eq!(code, Some(0), "{err}");
+    let lines: Vec<Value> = std::str::from_utf8(&out)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 201, "{err}");
+    for (line, (ts, _)) in lines.iter().zip(&recs) {
+        assert_eq!(line["tlog_us"], *ts);
+        assert_eq!(line["name"], "HEARTBEAT");
+    }
+    let modes: Vec<u64> = lines[1..]
+        .iter()
+        .map(|l| l["fields"]["custom_mode"].as_u64().unwrap())
+        .collect();
+    assert_eq!(modes, (0..200).collect::<Vec<u64>>());
+
+    // pymavlink's mavlogdump.py reads it as a tlog: every frame, in order,
+    // on the link the low bits name.
+    let Some(py) = peer_python() else {
+        return;
+    };
+    let dump = py.parent().unwrap().join("mavlogdump.py");
+    let mavlogdump = |link: &str| {
+        let out = Command::new(&py)
+            .arg(&dump)
+            .args(["--format", "json", "--link", link, file])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str::<Value>(l).unwrap())
+            .collect::<Vec<_>>()
+    };
+    let link0 = mavlogdump("0");
+    assert_eq!(link0.len(), 200);
+    for (k, m) in link0.iter().enumerate() {
+        assert_eq!(m["meta"]["type"], "HEARTBEAT");
+        assert_eq!(m["data"]["custom_mode"], k as u64);
+        let t = m["meta"]["timestamp"].as_f64().unwrap();
+        assert!((t - recs[k + 1].0 as f64 * 1e-6).abs() < 1e-3, "{t}");
+    }
+    let link1 = mavlogdump("1");
+    assert_eq!(link1.len(), 1);
+    assert_eq!(link1[0]["data"]["custom_mode"], 1_000_000);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn files_rotate_before_they_pass_the_size() {
+    let dir = scratch("rotate");
+    let run = route(&dir, "3", 300, &["--tlog-max-size", "2K"]);
+    assert!(run.status.success(), "{}", run.log);
+    let files = own_logs(&dir.join("logs"));
+    let sizes: Vec<u64> = files
+        .iter()
+        .map(|f| std::fs::metadata(f).unwrap().len())
+        .collect();
+    // 301 records of 29 bytes: 70 to a file of 2,048 bytes at most.
+    let record = 8 + heartbeat(1, 0).len() as u64;
+    assert_eq!(record, 29);
+    assert_eq!(files.len(), 5, "{sizes:?}\n{}", run.log);
+    for size in &sizes[..4] {
+        assert!(*size <= 2048 && size + record > 2048, "{sizes:?}");
+    }
+    // The files in name order hold the frames in order.
+    let mut all = Vec::new();
+    for f in &files {
+        all.extend(records(&std::fs::read(f).unwrap()));
+    }
+    assert_eq!(all.len(), 301);
+    for (k, (_, frame)) in all[1..].iter().enumerate() {
+        assert_eq!(frame, &run.sent[k], "record {}", k + 1);
+    }
+    assert_eq!(run.summary_tlog()["files"], 5, "{}", run.log);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The free space of `dir`'s file system, from `df`.
+fn free_space(dir: &Path) -> Option<u64> {
+    let out = Command::new("df")
+        .args(["-B1", "--output=avail"])
+        .arg(dir)
+        .output()
+        .ok()?;
+    String::from_utf8(out.stdout)
+        .ok()?
+        .lines()
+        .nth(1)?
+        .trim()
+        .parse()
+        .ok()
+}
+
+#[test]
+fn at_the_floor_only_own_old_logs_go_and_writing_stops_while_routing_goes_on() {
+    let dir = scratch("floor");
+    let logs = dir.join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let own = [
+        "fbwag-router-20200101T000000.000000Z.tlog",
+        "fbwag-router-20200101T000001.000000Z.tlog",
+    ];
+    let foreign = [
+        "fbwag-cc-20200101T000000.000000Z.tlog",
+        "fbwag-router-notes.tlog",
+        "flight.tlog",
+        "fbwag-router-20200101T000002.000000Z.tlog.bak",
+    ];
+    for name in own.iter().chain(&foreign) {
+        std::fs::write(logs.join(name), [0u8; 4096]).unwrap();
+    }
+    // A floor above what the file system has free: nothing can keep it.
+    let free = free_space(&logs).expect("df");
+    let floor = (free + (1 << 30)).to_string();
+    let run = route(&dir, "3", 100, &["--tlog-min-free", &floor]);
+    assert!(run.status.success(), "{}", run.log);
+    assert_eq!(run.received, 100, "routing goes on: {}", run.log);
+    for name in own {
+        assert!(!logs.join(name).exists(), "{name} kept\n{}", run.log);
+    }
+    for name in foreign {
+        assert!(logs.join(name).exists(), "{name} deleted\n{}", run.log);
+    }
+    assert!(own_logs(&logs).is_empty(), "{}", run.log);
+    assert_eq!(
+        run.log.matches("tlog: stopped writing").count(),
+        1,
+        "{}",
+        run.log
+    );
+    let t = run.summary_tlog();
+    assert_eq!(t["deleted"], 2, "{}", run.log);
+    assert_eq!(t["written"], 0);
+    assert_eq!(t["not_written"], 101);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_tlog_cut_short_is_an_error_naming_the_offset() {
+    let mut tlog = Vec::new();
+    for n in 0..3 {
+        tlog.extend_from_slice(&(1_000 + u64::from(n)).to_be_bytes());
+        tlog.extend_from_slice(&heartbeat(1, n));
+    }
+    let whole = tlog.len();
+    for (cut, left, needed) in [(5, 24, 29), (25, 4, 9), (21, 8, 14), (18, 11, 18)] {
+        let (out, err, code) = fbwag(&["decode", "--tlog"], &tlog[..whole - cut]);
+        assert_eq!(code, Some(2), "{err}");
+        let lines = std::str::from_utf8(&out).unwrap().lines().count();
+        assert_eq!(lines, 2, "the records before are decoded: {err}");
+        assert!(
+            err.contains(&format!(
+                "the record at byte offset 58 has {left} bytes, it needs at least {needed}"
+            )),
+            "cut {cut}: {err}"
+        );
+    }
+}
+
+#[test]
+fn the_companion_logs_the_fc_frames_it_takes_and_its_own() {
+    let dir = scratch("cc");
+    let fc = UdpSocket::bind("127.0.0.1:0").unwrap();
+    fc.set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    let port = fc.local_addr().unwrap().port();
+    let cc = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(["cc", "--link", &format!("udpout:127.0.0.1:{port}")])
+            .arg("--tlog")
+            .arg(&dir)
+            .args(["--duration", "2.5"]),
+    );
+    // The FC answers each frame of the companion with a heartbeat.
+    let mut sent = Vec::new();
+    let mut buf = [0u8; 2048];
+    let end = std::time::Instant::now() + Duration::from_secs(2);
+    while std::time::Instant::now() < end {
+        if let Ok((_, from)) = fc.recv_from(&mut buf) {
+            let hb = heartbeat(1, sent.len() as u32);
+            fc.send_to(&hb, from).unwrap();
+            sent.push(hb);
+        }
+    }
+    let out = cc.finish(Duration::from_secs(5));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    let files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}\n{log}");
+    let name = files[0].file_name().unwrap().to_str().unwrap();
+    assert!(name.starts_with("fbwag-cc-"), "{name}");
+    let recs = records(&std::fs::read(&files[0]).unwrap());
+    let fc_frames: Vec<&Vec<u8>> = recs
+        .iter()
+        .filter(|(ts, _)| ts & 3 == 0)
+        .map(|(_, f)| f)
+        .collect();
+    assert!(!sent.is_empty(), "{log}");
+    assert_eq!(fc_frames, sent.iter().collect::<Vec<_>>(), "{log}");
+    // The companion's own heartbeats: from 1/191, marked 3.
+    let own = recs
+        .iter()
+        .filter(|(ts, f)| ts & 3 == 3 && f[5..7] == [1, 191] && f[7..10] == [0, 0, 0])
+        .count();
+    assert!(own >= 2, "{own} own heartbeats\n{log}");
+    assert!(log.contains("tlog: "), "{log}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_limits_are_checked_and_need_a_directory() {
+    let links = ["router", "udpin:127.0.0.1:9", "udpin:127.0.0.1:10"];
+    let with = |extra: &[&str]| {
+        let args: Vec<&str> = links.iter().chain(extra).copied().collect();
+        fbwag(&args, b"")
+    };
+    let (_, err, code) = with(&["--tlog", "/nonexistent", "--tlog-max-size", "64X"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("a size in bytes"), "{err}");
+    let (_, err, code) = with(&["--tlog-min-free", "1G"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--tlog <DIR>"), "{err}");
+}

@@ -1,8 +1,10 @@
-//! `fbwag router --filter-in/--filter-out/--dedup`, driven over UDP on
-//! 127.0.0.1: a message id blocked out of a link never reaches it, the
-//! source a link's in-filter allows does, one it does not is dropped and
-//! counted; a frame sent over two links at once arrives once, and the
-//! same frame sent after the window arrives again.
+//! `fbwag router` and `fbwag cc` with `--filter-in/--filter-out/--dedup`,
+//! driven over UDP on 127.0.0.1: a message id blocked out of a link never
+//! reaches it, the source a link's in-filter allows does, one it does not
+//! is dropped and counted; a frame sent over two links at once arrives
+//! once, and the same frame sent after the window arrives again; the
+//! companion's ground links are filtered both ways while its own frames
+//! still reach the FC.
 
 use fbwag_dialect::dialects::common::{Attitude, SysStatus};
 use fbwag_dialect::dialects::minimal::Heartbeat;
@@ -149,4 +151,89 @@ fn bad_filter_text_is_refused_with_exit_status_2() {
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(says), "{args:?}: {err}");
     }
+}
+
+#[test]
+fn the_companions_out_links_are_filtered_and_its_fc_link_is_not() {
+    use fbwag_dialect::dialects::common::{CommandLong, ParamRequestList};
+    let fc = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let ground_port = free_port();
+    let dir = std::env::temp_dir().join(format!("fbwag-cc-filters-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let events = dir.join("cc.jsonl");
+    let cc = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("cc")
+            .arg("--link")
+            .arg(format!("udpout:{}", fc.local_addr().unwrap()))
+            .arg("--out")
+            .arg(format!("udpin:127.0.0.1:{ground_port}"))
+            .args(["--filter-in", "1:block-msg=COMMAND_LONG"])
+            .args(["--filter-out", "1:block-msg=ATTITUDE"])
+            .args(["--duration", "4"])
+            .arg("--events")
+            .arg(&events),
+    );
+    // The companion's heartbeat tells the FC end where the companion is.
+    fc.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
+    let mut buf = [0u8; 2048];
+    let (_, companion) = fc.recv_from(&mut buf).expect("the companion's heartbeat");
+    fc.connect(companion).unwrap();
+    let ground = UdpSocket::bind("127.0.0.1:0").unwrap();
+    ground.connect(("127.0.0.1", ground_port)).unwrap();
+    let start = Instant::now();
+    let mut heard = false;
+    for seq in 0..30 {
+        if heard || start.elapsed() > Duration::from_secs(3) {
+            break;
+        }
+        let _ = ground.send(&frame(255, seq, &Heartbeat::default()));
+        let fc_heartbeat = frame(1, seq, &Heartbeat::default());
+        fc.send(&fc_heartbeat).unwrap();
+        heard = count(&receive(&ground, Duration::from_millis(100)), &fc_heartbeat) > 0;
+    }
+    assert!(heard, "the FC's heartbeat never reached the ground link");
+    let attitude = frame(1, 50, &Attitude::default());
+    let position = frame(1, 51, &GlobalPositionInt::default());
+    fc.send(&attitude).unwrap();
+    fc.send(&position).unwrap();
+    let at_ground = receive(&ground, Duration::from_millis(300));
+    let to_fc = CommandLong {
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let command = frame(255, 60, &to_fc);
+    let request = frame(
+        255,
+        61,
+        &ParamRequestList {
+            target_system: 1,
+            target_component: 1,
+        },
+    );
+    ground.send(&command).unwrap();
+    ground.send(&request).unwrap();
+    let at_fc = receive(&fc, Duration::from_millis(1200));
+    let out = cc.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert_eq!(count(&at_ground, &attitude), 0, "blocked out\n{log}");
+    assert_eq!(count(&at_ground, &position), 1, "{log}");
+    assert_eq!(count(&at_fc, &command), 0, "blocked in\n{log}");
+    assert_eq!(count(&at_fc, &request), 1, "{log}");
+    // The companion's own heartbeat (1/191) still reaches the FC link.
+    let own = at_fc
+        .iter()
+        .filter(|d| d.len() > 8 && d[0] == 0xfd && d[5] == 1 && d[6] == 191)
+        .count();
+    assert!(own >= 1, "{log}");
+    let summary: Value = std::fs::read_to_string(&events)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap())
+        .find(|e| e["event"] == "summary")
+        .expect("a summary");
+    assert_eq!(summary["dropped"]["filtered"], 1, "{summary}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -134,8 +134,11 @@ impl fmt::Debug for MsgIds {
     }
 }
 
-/// Which frames one direction of a link lets through (see the [module
-/// docs](self)). Small (136 bytes), `Copy`, and [`Filter::ALL`] by default.
+/// Which frames one direction of a link lets through: every allow list
+/// given admits only what it lists, every block list removes what it
+/// lists (outranking an allow list), and a frame passes when its message
+/// id, source system and source component all pass. Small (136 bytes),
+/// `Copy`, and [`Filter::ALL`] by default.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Filter {
     systems: IdSet,

@@ -287,13 +287,12 @@ pub fn link_filters(
                 Direction::Out => "--filter-out",
             };
             let fault = |e| (format!("{flag} {}:{}", r.link, r.rule), e);
-            if r.link > links {
+            let Some(index) = r.link.checked_sub(1).filter(|i| *i < links) else {
                 return Err(fault(LinkFilterError::NoSuchLink {
                     link: r.link,
                     links,
                 }));
-            }
-            let index = r.link - 1;
+            };
             let at = match filters
                 .iter()
                 .position(|f| f.0 == index && f.1 == direction)

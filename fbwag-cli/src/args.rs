@@ -6,6 +6,7 @@
 //! these arguments `allow_hyphen_values`, so `-1` or `-inf` reaches the
 //! validator (clap would otherwise take it for an unknown flag).
 
+use fbwag_delegation::node::{Direction, Filter, FilterError, FilterRules, MAX_LINKS};
 use std::io::{self, Read};
 
 /// Longest time any time argument may name: 1,000,000 s (11.6 days). Keeps
@@ -65,6 +66,14 @@ pub enum ArgError {
     /// A connection string that does not parse.
     #[error(transparent)]
     Endpoint(#[from] fbwag_dialect::mavframe::conn::ParseEndpointError),
+    /// A filter rule without its link's place.
+    #[error(
+        "expected LINK:RULE, LINK a link's place from 1 to {MAX_LINKS} (2:block-msg=COMMAND_LONG)"
+    )]
+    LinkRule,
+    /// A filter rule that does not parse.
+    #[error(transparent)]
+    Filter(#[from] FilterError),
 }
 
 /// A finite number from `lo` to `hi` (inclusive), else an error naming
@@ -241,6 +250,113 @@ fn sign_key_file(path: &str) -> Result<String, ArgError> {
         path: path.into(),
         source: Box::new(e),
     })
+}
+
+/// Longest de-duplication window (ms): a minute, far more than redundant
+/// links' copies are apart.
+pub const MAX_DEDUP_MS: u64 = 60_000;
+
+/// A de-duplication window in milliseconds (0: off).
+pub fn dedup_ms(s: &str) -> Result<u64, ArgError> {
+    integer_in(s, 0, MAX_DEDUP_MS, "milliseconds")
+}
+
+/// A rule of `--filter-in`/`--filter-out`: `LINK:RULE`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LinkRule {
+    /// The link's place among the links given, from 1.
+    pub link: usize,
+    /// The rule, as given (it parses).
+    pub rule: String,
+}
+
+/// `LINK:RULE`, the rule checked as it is read (see
+/// `fbwag_delegation::node::FilterRules::parse`).
+pub fn link_rule(s: &str) -> Result<LinkRule, ArgError> {
+    let (link, rule) = s.split_once(':').ok_or(ArgError::LinkRule)?;
+    let link = link
+        .trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|n| (1..=MAX_LINKS).contains(n))
+        .ok_or(ArgError::LinkRule)?;
+    FilterRules::new().parse(rule)?;
+    Ok(LinkRule {
+        link,
+        rule: rule.trim().to_string(),
+    })
+}
+
+/// The filter of one direction of one link, from the rules given for it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LinkFilter {
+    /// The link's place among the links it numbers, from 0.
+    pub index: usize,
+    /// Which way.
+    pub direction: Direction,
+    /// The filter.
+    pub filter: Filter,
+    /// Its rules as given, for the log.
+    pub rules: Vec<String>,
+}
+
+/// Why the filter rules of a command line cannot apply.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LinkFilterError {
+    /// A rule for a link past the last one given.
+    #[error("link {link}: there are {links} links (counted from 1, in the order given)")]
+    NoSuchLink { link: usize, links: usize },
+    /// Rules that together do not make a filter (too many message ids).
+    #[error(transparent)]
+    Rules(#[from] FilterError),
+}
+
+/// The filters `--filter-in` (`ins`) and `--filter-out` (`outs`) rules
+/// make, over `links` links; an error names the flag and value at fault.
+pub fn link_filters(
+    ins: &[LinkRule],
+    outs: &[LinkRule],
+    links: usize,
+) -> Result<Vec<LinkFilter>, (String, LinkFilterError)> {
+    let mut filters: Vec<(usize, Direction, FilterRules, Vec<String>)> = Vec::new();
+    let given = [(Direction::In, ins), (Direction::Out, outs)];
+    for (direction, rules) in given {
+        for r in rules {
+            let flag = match direction {
+                Direction::In => "--filter-in",
+                Direction::Out => "--filter-out",
+            };
+            let fault = |e| (format!("{flag} {}:{}", r.link, r.rule), e);
+            let Some(index) = r.link.checked_sub(1).filter(|i| *i < links) else {
+                return Err(fault(LinkFilterError::NoSuchLink {
+                    link: r.link,
+                    links,
+                }));
+            };
+            let at = match filters
+                .iter()
+                .position(|f| f.0 == index && f.1 == direction)
+            {
+                Some(at) => at,
+                None => {
+                    filters.push((index, direction, FilterRules::new(), Vec::new()));
+                    filters.len() - 1
+                }
+            };
+            let entry = &mut filters[at];
+            entry.2.parse(&r.rule).map_err(|e| fault(e.into()))?;
+            entry.3.push(r.rule.clone());
+        }
+    }
+    Ok(filters
+        .into_iter()
+        .map(|(index, direction, rules, text)| LinkFilter {
+            index,
+            direction,
+            filter: rules.filter(),
+            rules: text,
+        })
+        .collect())
 }
 
 /// Receiver failures of `fbwag fc-sim` that do not pair up.

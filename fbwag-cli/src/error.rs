@@ -1,7 +1,7 @@
 //! The one error type of `fbwag`, and the exit status of each outcome
 //! ([`EXIT_STATUS`], shown by `fbwag --help`).
 
-use crate::args::OutageError;
+use crate::args::{LinkFilterError, OutageError};
 use crate::hexstream::HexError;
 use crate::live::cc::TrustedOutError;
 use crate::sim::SimError;
@@ -72,6 +72,13 @@ pub enum CliError {
         conn: String,
         source: TrustedOutError,
     },
+    /// `--filter-in`/`--filter-out` rules that cannot apply, named by
+    /// the argument at fault.
+    #[error("{arg}: {source}")]
+    Filter {
+        arg: String,
+        source: LinkFilterError,
+    },
     /// A signing key of the wrong length.
     #[error("a signing key is 32 bytes (64 hex digits), got {0}")]
     KeyLength(usize),
@@ -120,6 +127,11 @@ impl CliError {
             arg: arg.into(),
             source,
         }
+    }
+
+    /// Filter rules that cannot apply (see [`crate::args::link_filters`]).
+    pub fn filter((arg, source): (String, LinkFilterError)) -> Self {
+        CliError::Filter { arg, source }
     }
 
     /// Every error exits with status 2, as clap's own refusals do.

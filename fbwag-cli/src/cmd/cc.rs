@@ -49,6 +49,27 @@ pub struct CcArgs {
     /// are forwarded untouched (signed ones stay verifiable).
     #[arg(long = "out", value_name = "CONN", value_parser = args::endpoint)]
     pub outs: Vec<String>,
+    /// Take in from the LINKth --out link (from 1, in the order given)
+    /// only what RULE lets through; the rest goes nowhere and is counted
+    /// as "filtered". RULE as in `fbwag router --help`: allow-msg=,
+    /// block-msg= (ids or names), allow-sys=, block-sys=, allow-comp=,
+    /// block-comp= with a list (30,HEARTBEAT or 1,200-210); block lists
+    /// outrank allow lists. Filters never touch the FC link's protocol
+    /// frames nor the companion's own. Repeatable. Example: --filter-in
+    /// 1:block-msg=COMMAND_LONG,SET_MODE
+    #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
+    pub filter_in: Vec<args::LinkRule>,
+    /// Send on the LINKth --out link only what RULE lets through (as
+    /// --filter-in); the companion's own frames always go. Example:
+    /// --filter-out 2:block-msg=ATTITUDE
+    #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
+    pub filter_out: Vec<args::LinkRule>,
+    /// Route a frame that arrives twice (the same bytes, on any links)
+    /// within this many milliseconds once; the copies are counted as
+    /// "duplicate". 0: off (the default). The FC's protocol frames reach
+    /// the companion's own logic either way.
+    #[arg(long, value_name = "MS", default_value_t = 0, allow_hyphen_values = true, value_parser = args::dedup_ms)]
+    pub dedup: u64,
     /// Like --out, for a ground tool that cannot sign (MAVSDK, MAVProxy
     /// without a key) where the FC requires signatures: the link is
     /// trusted like --sign-key, and what arrives on it goes on to the
@@ -159,7 +180,9 @@ impl TryFrom<CcArgs> for CcOptions {
 
     fn try_from(a: CcArgs) -> Result<Self, CliError> {
         let outs = a.outs.iter().map(|e| endpoint("--out", e));
-        let outs = outs.collect::<Result<_, _>>()?;
+        let outs: Vec<Endpoint> = outs.collect::<Result<_, _>>()?;
+        let filters = args::link_filters(&a.filter_in, &a.filter_out, outs.len())
+            .map_err(CliError::filter)?;
         let trusted = a.trusted_outs.iter();
         let trusted_outs = trusted.map(|e| trusted_out(e, a.trusted_out_remote));
         let trusted_outs = trusted_outs.collect::<Result<_, _>>()?;
@@ -171,6 +194,8 @@ impl TryFrom<CcArgs> for CcOptions {
         Ok(CcOptions {
             link,
             outs,
+            filters,
+            dedup: (a.dedup > 0).then(|| Duration::from_millis(a.dedup)),
             trusted_outs,
             autonomy,
             autonomy_peer: a.autonomy_peer,

@@ -52,7 +52,8 @@ and \"event\":
   {\"event\":\"autonomy\",\"state\":\"silent\"|\"speaking\"}
   {\"event\":\"drops\",\"dropped\":{\"REASON\":N,...}}   frames dropped so far, by reason
                                           (own_ids, impersonation, unauthenticated,
-                                          not_peer, gated), every 5 s while they change
+                                          not_peer, gated, filtered, duplicate),
+                                          every 5 s while they change
   {\"event\":\"summary\",\"takeovers\":N,\"handbacks\":N,\"trusted_frames\":N,
    \"untrusted_frames\":N,\"untrusted_notices\":N,\"controls_forwarded\":N,
    \"controls_dropped\":N,\"dropped\":{\"REASON\":N,...}}   at exit

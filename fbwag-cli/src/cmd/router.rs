@@ -52,6 +52,30 @@ pub struct RouterArgs {
     /// one still speaking).
     #[arg(long, value_name = "IP:PORT")]
     pub peer: Option<SocketAddr>,
+    /// Take in from link LINK (its place among CONN, from 1) only what
+    /// RULE lets through; the rest is dropped before routing and counted
+    /// as "filtered". RULE is allow-msg=, block-msg= (message ids or
+    /// names), allow-sys=, block-sys= (source systems), allow-comp=,
+    /// block-comp= (source components) with a list: 30,HEARTBEAT or
+    /// 1,200-210. An allow list admits only what it lists, a block list
+    /// removes what it lists (and outranks an allow list); a frame goes
+    /// on when message, system and component all pass. Repeatable; the
+    /// rules of one link and direction add up (16 message ids at most
+    /// each). Example: --filter-in 3:block-msg=COMMAND_LONG,SET_MODE
+    #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
+    pub filter_in: Vec<args::LinkRule>,
+    /// Send on link LINK only what RULE lets through (as --filter-in):
+    /// a frame it refuses is not sent there, and still goes to the other
+    /// links of its route. Example: --filter-out 2:allow-sys=1
+    /// --filter-out 2:block-msg=ATTITUDE
+    #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
+    pub filter_out: Vec<args::LinkRule>,
+    /// Forward a frame that arrives twice (the same bytes, on any links:
+    /// redundant radios) within this many milliseconds once; the copies
+    /// are dropped and counted as "duplicate". 0: off (the default).
+    /// Up to 128 frames a window are remembered.
+    #[arg(long, value_name = "MS", default_value_t = 0, allow_hyphen_values = true, value_parser = args::dedup_ms)]
+    pub dedup: u64,
     /// Write machine-readable events to this file (`-`: stdout): frames
     /// dropped by reason every report, and a summary at exit
     /// (`{"event":"summary","frames":N,"forwarded":N,"dropped":{...}}`).
@@ -78,8 +102,12 @@ impl TryFrom<RouterArgs> for RouterOptions {
             .links
             .iter()
             .map(|e| e.parse().map_err(CliError::endpoint(e)));
+        let filters = args::link_filters(&a.filter_in, &a.filter_out, a.links.len())
+            .map_err(CliError::filter)?;
         Ok(RouterOptions {
             endpoints: endpoints.collect::<Result<_, _>>()?,
+            filters,
+            dedup: (a.dedup > 0).then(|| Duration::from_millis(a.dedup)),
             key: a.sign_key.as_deref().map(super::key).transpose()?,
             require_signed: a.require_signed,
             signing_state: a.signing_state,

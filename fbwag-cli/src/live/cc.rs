@@ -12,6 +12,7 @@
 use super::net::{self, LinkOptions, Net, Node};
 use super::tlog::TlogCounts;
 use super::{mode_name, Clock, Events, Limiter, Log, Tlog, TlogOptions};
+use crate::args::LinkFilter;
 use fbwag_delegation::cc::{CcConfig, CcState};
 use fbwag_delegation::control::Controller;
 use fbwag_delegation::engine::CcOutput;
@@ -35,6 +36,10 @@ pub struct CcOptions {
     pub link: LinkOptions,
     /// Other links the companion routes to and from.
     pub outs: Vec<Endpoint>,
+    /// Filters, each naming its link by its place in `outs`.
+    pub filters: Vec<LinkFilter>,
+    /// De-duplication window of routed frames (`None`: off).
+    pub dedup: Option<Duration>,
     /// Links trusted like the key ([`LinkSpec::trusted`]).
     pub trusted_outs: Vec<Endpoint>,
     /// The user's autonomy program's link.
@@ -123,6 +128,8 @@ impl OwnLog {
 struct Opened {
     net: Net,
     specs: Vec<(LinkId, LinkSpec)>,
+    /// The `--out` links, in order.
+    outs: Vec<LinkId>,
     autonomy: Option<LinkId>,
 }
 
@@ -130,11 +137,13 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     let mut net = Net::open(&o.link, log).await?;
     let spec = |role, endpoint, peer| LinkSpec::new(role, net::answers(endpoint, peer));
     let mut specs = vec![(net.main, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
+    let mut outs = Vec::with_capacity(o.outs.len());
     for e in &o.outs {
         // Ground links verify with the key too: a ground station that signs
         // reaches the FC where signing is required.
         let link = net.add(e, o.link.key, None).await?;
         specs.push((link, spec(Role::Ground, e, None)));
+        outs.push(link);
     }
     for e in &o.trusted_outs {
         let link = net.add(e, o.link.key, None).await?;
@@ -153,6 +162,7 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     Ok(Opened {
         net,
         specs,
+        outs,
         autonomy,
     })
 }
@@ -210,6 +220,14 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         node.add_link(*link, *spec).map_err(invalid)?;
     }
     log_start(&o, &mut log);
+    net::set_filters(&o.filters, &opened.outs, &o.outs, &mut log, |link, d, f| {
+        node.set_filter(link, d, f)
+    })?;
+    node.set_dedup(o.dedup);
+    if let Some(window) = o.dedup {
+        let ms = window.as_millis();
+        log.line(&format!("copies of a routed frame within {ms} ms dropped"));
+    }
     let mut daemon = Daemon {
         node,
         own: o.own,

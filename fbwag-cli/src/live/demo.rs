@@ -151,6 +151,8 @@ fn plain_link(endpoint: Endpoint) -> LinkOptions {
 fn companion(addr: SocketAddr, own: Peer, fc: Peer, duration: f64) -> CcOptions {
     CcOptions {
         outs: Vec::new(),
+        filters: Vec::new(),
+        dedup: None,
         trusted_outs: Vec::new(),
         autonomy: None,
         autonomy_peer: None,

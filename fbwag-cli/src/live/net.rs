@@ -17,8 +17,8 @@
 
 use super::signals::StopSignals;
 use super::{Clock, Events, Limiter, Log};
-use crate::args::RoutedRate;
-use fbwag_delegation::node::{Answers, Arrival, DropReason, Drops, Peers};
+use crate::args::{LinkFilter, RoutedRate};
+use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
 use fbwag_delegation::Instant;
 use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::Unsigned;
@@ -348,6 +348,32 @@ fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log
 /// The `ReplyTo` rule of a link: `--peer`, or whom the node names.
 pub fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
     peer.map_or(ReplyTo::Owner, ReplyTo::Fixed)
+}
+
+/// Gives the node each filter of `filters` (`set`), on the link at its
+/// place in `links` (opened to the endpoint at that place in
+/// `endpoints`), and logs it.
+pub fn set_filters<E: std::error::Error + Send + Sync + 'static>(
+    filters: &[LinkFilter],
+    links: &[LinkId],
+    endpoints: &[Endpoint],
+    log: &mut Log,
+    mut set: impl FnMut(LinkId, Direction, Filter) -> Result<(), E>,
+) -> io::Result<()> {
+    for f in filters {
+        let (Some(link), Some(endpoint)) = (links.get(f.index), endpoints.get(f.index)) else {
+            let error = format!("no link {} to filter", f.index + 1);
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, error));
+        };
+        set(*link, f.direction, f.filter)
+            .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
+        let way = match f.direction {
+            Direction::In => "in from",
+            Direction::Out => "out to",
+        };
+        log.line(&format!("filter {way} {endpoint}: {}", f.rules.join(" ")));
+    }
+    Ok(())
 }
 
 /// Whom a link opened to `endpoint` answers, for the node policy.

@@ -10,6 +10,7 @@
 
 use super::net::{self, drop_counts, LinkChanges};
 use super::{Clock, Events, Limiter, Log, Tlog, TlogOptions};
+use crate::args::LinkFilter;
 use fbwag_delegation::node::{DropReason, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
@@ -25,6 +26,10 @@ use std::time::Duration;
 pub struct RouterOptions {
     /// The links, in order.
     pub endpoints: Vec<Endpoint>,
+    /// Filters, each naming its link by its place in `endpoints`.
+    pub filters: Vec<LinkFilter>,
+    /// De-duplication window (`None`: off).
+    pub dedup: Option<Duration>,
     /// Verify every link's signatures with this key.
     pub key: Option<[u8; 32]>,
     /// Route only frames whose signature verified.
@@ -76,6 +81,8 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             .transpose()?;
         let mut router = Router::<Dialect>::new();
         let mut node = RouterNode::new(o.require_signed);
+        node.set_dedup(o.dedup);
+        let mut links = Vec::with_capacity(o.endpoints.len());
         for (i, e) in o.endpoints.iter().enumerate() {
             let config = LinkConfig {
                 key: o.key,
@@ -92,6 +99,16 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             node.add_link(link, net::answers(e, o.peer), o.key.is_some())
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
             log.line(&format!("link {e}"));
+            links.push(link);
+        }
+        net::set_filters(&o.filters, &links, &o.endpoints, &mut log, |link, d, f| {
+            node.set_filter(link, d, f)
+        })?;
+        if let Some(window) = o.dedup {
+            log.line(&format!(
+                "copies of a frame within {} ms dropped",
+                window.as_millis()
+            ));
         }
         let traffic = serve(&o, &mut router, &mut node, &mut log, &mut events, &mut tlog).await;
         log.line(&format!(

@@ -1,7 +1,10 @@
 //! The companion computer's node: the FC link, ground-station links and
 //! the autonomy's link around the companion engine.
 
-use super::{sender, Arrival, Core, DropReason, Fate, LinkId, LinkSpec, NodeError, Output, Role};
+use super::{
+    sender, Arrival, Core, Direction, DropReason, Fate, Filter, LinkId, LinkSpec, NodeError,
+    Output, Role,
+};
 use crate::cc::{CcConfig, CcState};
 use crate::control::{Control, Controller, WingsLevel};
 use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
@@ -140,6 +143,27 @@ impl CompanionNode {
         self.core.add(link, spec)
     }
 
+    /// Sets the filter of link `link` in `direction` (every link starts
+    /// with [`Filter::ALL`] both ways). Filters narrow routing only: the
+    /// engine takes its inputs from the FC link, and control from the
+    /// autonomy, before any filter is asked, and the node's own messages
+    /// (the protocol's, control to the FC) are never filtered.
+    pub fn set_filter(
+        &mut self,
+        link: LinkId,
+        direction: Direction,
+        filter: Filter,
+    ) -> Result<(), NodeError> {
+        self.core.set_filter(link, direction, filter)
+    }
+
+    /// Drops a copy of a routed frame that went on less than `window`
+    /// before, from any link (`None` or zero: off, the default); the
+    /// engine still sees every frame of the FC link.
+    pub fn set_dedup(&mut self, window: Option<Duration>) {
+        self.core.set_dedup(window);
+    }
+
     /// The engine (read only).
     pub fn engine(&self) -> &CcEngine {
         &self.engine
@@ -217,8 +241,21 @@ impl CompanionNode {
         if from == self.cfg.fc && verdict == Verdict::Untrusted {
             return self.core.drop(DropReason::Unauthenticated);
         }
+        let input = verdict == Verdict::Trusted;
+        // Filters and duplicates decide only whether the frame also goes
+        // on: an input the engine took is no drop.
+        if let Some(reason) = self.core.screen(a, now) {
+            return if input {
+                Fate {
+                    input,
+                    ..Fate::default()
+                }
+            } else {
+                self.core.drop(reason)
+            };
+        }
         let mut fate = self.routed(a, a.authenticated);
-        fate.input = verdict == Verdict::Trusted;
+        fate.input = input;
         fate
     }
 
@@ -240,6 +277,9 @@ impl CompanionNode {
             });
         if !known && matches!(spec.answers, super::Answers::Fixed(_)) {
             return self.core.drop(DropReason::NotPeer);
+        }
+        if let Some(reason) = self.core.screen(a, now) {
+            return self.core.drop(reason);
         }
         let mut fate = self.routed(a, verified);
         fate.sign = sign && !fate.route.is_empty();
@@ -264,6 +304,9 @@ impl CompanionNode {
         self.autonomy_heard = Some(now);
         let view = MessageView::new(a.frame.msg_id(), a.frame.payload());
         let Some(control) = view.as_ref().and_then(Control::from_view) else {
+            if let Some(reason) = self.core.screen(a, now) {
+                return self.core.drop(reason);
+            }
             let to = self.core.route(a, true, self.core.of(Role::Ground));
             return Fate::routed(to);
         };

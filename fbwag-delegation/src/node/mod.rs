@@ -32,6 +32,25 @@
 //! | autonomy link | RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL | any | the companion's gate: to the FC, re-addressed and signed, while the companion holds control; else dropped: `gated` |
 //! | autonomy link | other messages | any | routed to ground links only, never to the FC |
 //! | router link | any | not verified, signing required | dropped: `unauthenticated` |
+//! | any link, once the rows above let it be routed | refused by the link's in-filter | any | dropped: `filtered` |
+//! | any link, once the rows above let it be routed | the same bytes went on less than the de-duplication window ago | any | dropped: `duplicate` |
+//! | any | routed to a link whose out-filter refuses it | any | that link is taken off its route (no drop) |
+//!
+//! Filters ([`Filter`], per link and direction, from [`FilterRules`]:
+//! allow or block by message id, source system, source component) and
+//! de-duplication ([`Dedup`], one window for the node, off by default)
+//! narrow routing and nothing else. They are asked after the rules of
+//! trust, so they can remove a frame or a link from a route but never
+//! admit what those rules refuse. On the companion they never touch the
+//! protocol: a frame of the FC link reaches the engine before its
+//! in-filter is asked (an input the engine took is no drop, only not
+//! routed on), control from the autonomy goes to the gate unfiltered, and
+//! the node's own messages ([`Output::Transmit`]) pass no out-filter. An
+//! in-filter is asked after the link admitted the frame's source, so it
+//! does not change whom a listening link answers, and before the frame's
+//! route is learned, so a refused source teaches none; de-duplication
+//! after the in-filter, so that a copy refused on one link cannot make
+//! another link's copy a duplicate.
 //!
 //! Listening links (`udpin`, `tcpin`) answer only whom the node admits
 //! ([`Peers`], under `mavframe::peers`' rule): the peer link and the autonomy link one address (a
@@ -50,12 +69,16 @@
 //! `poll_timeout()`.
 
 mod companion;
+mod filter;
 mod flight;
 mod peers;
 mod router;
 
 pub use companion::{
     AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, AUTONOMY_SILENCE,
+};
+pub use filter::{
+    Dedup, Direction, Filter, FilterError, FilterRules, IdSet, Rule, DEDUP_SLOTS, MAX_MSG_IDS,
 };
 pub use flight::FcNode;
 use peers::{Admission, Answered};
@@ -153,16 +176,23 @@ pub enum DropReason {
     NotPeer,
     /// Control while the companion does not hold control.
     Gated,
+    /// Refused by the in-filter of its link ([`Direction::In`]).
+    Filtered,
+    /// A copy of a frame that went on less than the de-duplication
+    /// window before ([`Dedup`]).
+    Duplicate,
 }
 
 impl DropReason {
     /// Every reason, in the order of [`Drops::counts`].
-    pub const ALL: [DropReason; 5] = [
+    pub const ALL: [DropReason; 7] = [
         DropReason::OwnIds,
         DropReason::Impersonation,
         DropReason::Unauthenticated,
         DropReason::NotPeer,
         DropReason::Gated,
+        DropReason::Filtered,
+        DropReason::Duplicate,
     ];
 
     /// Its name in logs and events.
@@ -173,13 +203,15 @@ impl DropReason {
             DropReason::Unauthenticated => "unauthenticated",
             DropReason::NotPeer => "not_peer",
             DropReason::Gated => "gated",
+            DropReason::Filtered => "filtered",
+            DropReason::Duplicate => "duplicate",
         }
     }
 }
 
 /// Frames dropped, by reason (saturating).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Drops([u64; 5]);
+pub struct Drops([u64; DropReason::ALL.len()]);
 
 impl Drops {
     fn count(&mut self, reason: DropReason) {
@@ -285,6 +317,10 @@ pub enum Output<E> {
 struct LinkState {
     spec: LinkSpec,
     peers: Answered,
+    /// What it delivers that goes on ([`Direction::In`]).
+    filter_in: Filter,
+    /// What it is sent ([`Direction::Out`]).
+    filter_out: Filter,
 }
 
 /// What every node has: its links, whom they answer, the routing table
@@ -297,6 +333,11 @@ struct Core {
     require_signed: bool,
     /// When the last time beacon went out ([`Core::time_beacon`]).
     beacon_at: Option<Instant>,
+    /// Links whose out-filter is not [`Filter::ALL`]: the others cost
+    /// nothing per frame.
+    filtered_out: Links,
+    /// Frames seen lately, when de-duplication is on.
+    dedup: Option<Dedup>,
 }
 
 /// Errors of a node's set-up.
@@ -337,6 +378,8 @@ impl Core {
             drops: Drops::default(),
             require_signed,
             beacon_at: None,
+            filtered_out: Links::NONE,
+            dedup: None,
         }
     }
 
@@ -353,8 +396,71 @@ impl Core {
         } else {
             Answered::One(Default::default())
         };
-        *slot = Some(LinkState { spec, peers });
+        *slot = Some(LinkState {
+            spec,
+            peers,
+            filter_in: Filter::ALL,
+            filter_out: Filter::ALL,
+        });
         Ok(())
+    }
+
+    /// Sets the filter of `link` in `direction`.
+    fn set_filter(
+        &mut self,
+        link: LinkId,
+        direction: Direction,
+        filter: Filter,
+    ) -> Result<(), NodeError> {
+        let state = self
+            .links
+            .get_mut(usize::from(link))
+            .and_then(|l| l.as_mut())
+            .ok_or(NodeError::BadLink(link))?;
+        match direction {
+            Direction::In => state.filter_in = filter,
+            Direction::Out => {
+                state.filter_out = filter;
+                self.filtered_out = if filter.is_all() {
+                    self.filtered_out.without(link)
+                } else {
+                    self.filtered_out.union(Links::only(link))
+                };
+            }
+        }
+        Ok(())
+    }
+
+    /// De-duplication over `window`, or none (`None`, or a zero window).
+    fn set_dedup(&mut self, window: Option<core::time::Duration>) {
+        self.dedup = window.filter(|w| !w.is_zero()).map(Dedup::new);
+    }
+
+    /// Whether a frame its link admitted may be routed: why not, if not.
+    /// The in-filter first, so that a copy refused on one link does not
+    /// make the copy another link admits a duplicate.
+    fn screen(&mut self, a: &Arrival, now: Instant) -> Option<DropReason> {
+        let state = self.links.get(usize::from(a.link))?.as_ref()?;
+        if !state.filter_in.admits_frame(&a.frame) {
+            return Some(DropReason::Filtered);
+        }
+        let dedup = self.dedup.as_mut()?;
+        dedup
+            .is_duplicate(a.frame.as_bytes(), now)
+            .then_some(DropReason::Duplicate)
+    }
+
+    /// `to` without the links whose out-filter refuses `frame`.
+    fn filter_out(&self, frame: &Frame<&[u8]>, to: Links) -> Links {
+        to.intersection(self.filtered_out)
+            .iter()
+            .filter(|l| {
+                self.links
+                    .get(usize::from(*l))
+                    .and_then(|s| s.as_ref())
+                    .is_some_and(|s| !s.filter_out.admits_frame(frame))
+            })
+            .fold(to, Links::without)
     }
 
     fn spec(&self, link: LinkId) -> Option<LinkSpec> {
@@ -420,17 +526,19 @@ impl Core {
     }
 
     /// Learns the sender's route (`trusted`: it outranks strangers'), then
-    /// the links among `allowed` the routing rules send the frame to.
+    /// the links among `allowed` the routing rules send the frame to and
+    /// whose out-filters admit it.
     fn route(&mut self, a: &Arrival, trusted: bool, allowed: Links) -> Links {
         let h = a.frame.header();
         self.table.learn(a.link, h.sysid, h.compid, trusted);
         let meta =
             <fbwag_dialect::Dialect as fbwag_dialect::mavframe::MessageSet>::meta(a.frame.msg_id());
         let others = allowed.intersection(self.all()).without(a.link);
-        match fbwag_dialect::mavframe::route::target(&a.frame, meta) {
+        let to = match fbwag_dialect::mavframe::route::target(&a.frame, meta) {
             Some((sysid, compid)) => self.table.links_to(sysid, compid).intersection(others),
             None => others,
-        }
+        };
+        self.filter_out(&a.frame, to)
     }
 
     /// Where to send the node's signed heartbeat, if anywhere: `a` claims

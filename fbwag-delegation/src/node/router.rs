@@ -1,18 +1,21 @@
 //! A plain router's node: every link a ground link, no engine.
 
 use super::{
-    Answers, Arrival, Core, DropReason, Drops, Fate, LinkId, LinkSpec, Links, NodeError, Output,
-    Role,
+    Answers, Arrival, Core, Direction, DropReason, Drops, Fate, Filter, LinkId, LinkSpec, Links,
+    NodeError, Output, Role,
 };
 use crate::outbox::Outbox;
 use crate::Instant;
 use core::convert::Infallible;
+use core::time::Duration;
 
 /// A router's node: routes every frame by the routing rules, answers on
 /// each listening link only the sources it admits (on a link with a key,
 /// only sources of authenticated frames), and with signing required routes
-/// only authenticated frames (see the [module docs](super)). Its only
-/// outputs are [`Output::Peers`].
+/// only authenticated frames (see the [module docs](super)). Each link's
+/// filters ([`RouterNode::set_filter`]) and the de-duplication window
+/// ([`RouterNode::set_dedup`]) narrow what is routed. Its only outputs are
+/// [`Output::Peers`].
 ///
 /// Driven as [`CompanionNode`](super::CompanionNode)'s example shows: each
 /// frame a link's parser accepted goes to `handle_frame` as an
@@ -49,6 +52,23 @@ impl RouterNode {
         Ok(())
     }
 
+    /// Sets the filter of link `link` in `direction` (every link starts
+    /// with [`Filter::ALL`] both ways).
+    pub fn set_filter(
+        &mut self,
+        link: LinkId,
+        direction: Direction,
+        filter: Filter,
+    ) -> Result<(), NodeError> {
+        self.core.set_filter(link, direction, filter)
+    }
+
+    /// Drops a copy of a frame that went on less than `window` before,
+    /// from any link (`None` or zero: off, the default).
+    pub fn set_dedup(&mut self, window: Option<Duration>) {
+        self.core.set_dedup(window);
+    }
+
     /// Frames dropped, by reason.
     pub fn drops(&self) -> &Drops {
         &self.core.drops
@@ -82,6 +102,9 @@ impl RouterNode {
             });
         if !known && matches!(spec.answers, Answers::Fixed(_)) {
             return self.core.drop(DropReason::NotPeer);
+        }
+        if let Some(reason) = self.core.screen(&a, now) {
+            return self.core.drop(reason);
         }
         let all = self.core.all();
         Fate {

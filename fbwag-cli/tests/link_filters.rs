@@ -1,0 +1,239 @@
+//! `fbwag router` and `fbwag cc` with `--filter-in/--filter-out/--dedup`,
+//! driven over UDP on 127.0.0.1: a message id blocked out of a link never
+//! reaches it, the source a link's in-filter allows does, one it does not
+//! is dropped and counted; a frame sent over two links at once arrives
+//! once, and the same frame sent after the window arrives again; the
+//! companion's ground links are filtered both ways while its own frames
+//! still reach the FC.
+
+use fbwag_dialect::dialects::common::{Attitude, SysStatus};
+use fbwag_dialect::dialects::minimal::Heartbeat;
+use fbwag_dialect::dialects::standard::GlobalPositionInt;
+use fbwag_dialect::mavframe::Encode;
+use fbwag_dialect::{encode, Header, Version};
+use serde_json::Value;
+use std::net::UdpSocket;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+mod common;
+
+use common::{free_port, Proc};
+
+fn frame(sysid: u8, seq: u8, msg: &(impl Encode + ?Sized)) -> Vec<u8> {
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
+    let h = Header {
+        seq,
+        sysid,
+        compid: 1,
+    };
+    let n = encode(Version::V2, h, msg, None, &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// Every datagram `s` receives for `time`.
+fn receive(s: &UdpSocket, time: Duration) -> Vec<Vec<u8>> {
+    let end = Instant::now() + time;
+    let mut got = Vec::new();
+    let mut buf = [0u8; 2048];
+    while let Some(left) = end.checked_duration_since(Instant::now()) {
+        s.set_read_timeout(Some(left.max(Duration::from_millis(1))))
+            .unwrap();
+        if let Ok(n) = s.recv(&mut buf) {
+            got.push(buf[..n].to_vec());
+        }
+    }
+    got
+}
+
+/// How often `frame` is among `datagrams` (the router may put several
+/// frames in one).
+fn count(datagrams: &[Vec<u8>], frame: &[u8]) -> usize {
+    datagrams
+        .iter()
+        .map(|d| d.windows(frame.len()).filter(|w| *w == frame).count())
+        .sum()
+}
+
+#[test]
+fn filters_and_dedup_shape_what_the_router_forwards() {
+    let ports = [free_port(), free_port(), free_port()];
+    let dir = std::env::temp_dir().join(format!("fbwag-filters-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let events = dir.join("router.jsonl");
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("router")
+            .args(ports.map(|p| format!("udpin:127.0.0.1:{p}")))
+            .args(["--filter-in", "1:allow-sys=1"])
+            .args(["--filter-out", "3:block-msg=ATTITUDE"])
+            .args(["--dedup", "300", "--duration", "4"])
+            .arg("--events")
+            .arg(&events),
+    );
+    let socket = || UdpSocket::bind("127.0.0.1:0").unwrap();
+    let [one, two, ground] = [socket(), socket(), socket()];
+    for (s, port) in [&one, &two, &ground].into_iter().zip(ports) {
+        s.connect(("127.0.0.1", port)).unwrap();
+    }
+    // The ground end speaks first: link 3 answers it from then on.
+    let start = Instant::now();
+    let mut heard = false;
+    // Each try's frames differ (sequence numbers), so none is a copy.
+    for seq in 100..130 {
+        if heard || start.elapsed() > Duration::from_secs(3) {
+            break;
+        }
+        // Refused (ICMP) until the router has bound its ports.
+        let _ = ground.send(&frame(250, seq, &Heartbeat::default()));
+        let probe = frame(1, seq, &Heartbeat::default());
+        let _ = one.send(&probe);
+        heard = count(&receive(&ground, Duration::from_millis(100)), &probe) > 0;
+    }
+    assert!(heard, "the router never answered link 3");
+    let attitude = frame(1, 1, &Attitude::default());
+    let allowed = frame(1, 2, &GlobalPositionInt::default());
+    let stranger = frame(7, 3, &GlobalPositionInt::default());
+    let twice = frame(1, 4, &SysStatus::default());
+    one.send(&attitude).unwrap();
+    one.send(&allowed).unwrap();
+    one.send(&stranger).unwrap();
+    // The same frame over two links at once, as redundant radios deliver.
+    one.send(&twice).unwrap();
+    two.send(&twice).unwrap();
+    let early = receive(&ground, Duration::from_millis(500));
+    // 500 ms on, past the 300 ms window: the same bytes go on again.
+    two.send(&twice).unwrap();
+    let late = receive(&ground, Duration::from_millis(300));
+    let out = router.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert_eq!(count(&early, &attitude), 0, "blocked out of link 3\n{log}");
+    assert_eq!(count(&early, &allowed), 1, "an allowed source\n{log}");
+    assert_eq!(count(&early, &stranger), 0, "refused in on link 1\n{log}");
+    assert_eq!(count(&early, &twice), 1, "sent twice at once\n{log}");
+    assert_eq!(
+        count(&late, &twice),
+        1,
+        "sent again after the window\n{log}"
+    );
+    assert!(log.contains("filter out to udpin:127.0.0.1"), "{log}");
+    let summary: Value = std::fs::read_to_string(&events)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap())
+        .find(|e| e["event"] == "summary")
+        .expect("a summary");
+    assert_eq!(summary["dropped"]["filtered"], 1, "{summary}");
+    assert_eq!(summary["dropped"]["duplicate"], 1, "{summary}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_filter_text_is_refused_with_exit_status_2() {
+    let port = free_port();
+    let link = format!("udpin:127.0.0.1:{port}");
+    for (args, says) in [
+        (["--filter-in", "block-msg=0"], "expected LINK:RULE"),
+        (["--filter-in", "0:block-msg=0"], "expected LINK:RULE"),
+        (["--filter-out", "3:block-msg=0"], "there are 2 links"),
+        (["--filter-out", "1:block-msg=NOPE"], "message name"),
+        (["--filter-out", "1:block-sys=256"], "256 is out of range"),
+        (["--filter-out", "1:drop-sys=1"], "a rule is allow-msg"),
+        (["--dedup", "-5"], "milliseconds from 0 to 60000"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(["router", &link, &link])
+            .args(args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn the_companions_out_links_are_filtered_and_its_fc_link_is_not() {
+    use fbwag_dialect::dialects::common::{CommandLong, ParamRequestList};
+    let fc = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let ground_port = free_port();
+    let dir = std::env::temp_dir().join(format!("fbwag-cc-filters-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let events = dir.join("cc.jsonl");
+    let cc = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("cc")
+            .arg("--link")
+            .arg(format!("udpout:{}", fc.local_addr().unwrap()))
+            .arg("--out")
+            .arg(format!("udpin:127.0.0.1:{ground_port}"))
+            .args(["--filter-in", "1:block-msg=COMMAND_LONG"])
+            .args(["--filter-out", "1:block-msg=ATTITUDE"])
+            .args(["--duration", "4"])
+            .arg("--events")
+            .arg(&events),
+    );
+    // The companion's heartbeat tells the FC end where the companion is.
+    fc.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
+    let mut buf = [0u8; 2048];
+    let (_, companion) = fc.recv_from(&mut buf).expect("the companion's heartbeat");
+    fc.connect(companion).unwrap();
+    let ground = UdpSocket::bind("127.0.0.1:0").unwrap();
+    ground.connect(("127.0.0.1", ground_port)).unwrap();
+    let start = Instant::now();
+    let mut heard = false;
+    for seq in 0..30 {
+        if heard || start.elapsed() > Duration::from_secs(3) {
+            break;
+        }
+        let _ = ground.send(&frame(255, seq, &Heartbeat::default()));
+        let fc_heartbeat = frame(1, seq, &Heartbeat::default());
+        fc.send(&fc_heartbeat).unwrap();
+        heard = count(&receive(&ground, Duration::from_millis(100)), &fc_heartbeat) > 0;
+    }
+    assert!(heard, "the FC's heartbeat never reached the ground link");
+    let attitude = frame(1, 50, &Attitude::default());
+    let position = frame(1, 51, &GlobalPositionInt::default());
+    fc.send(&attitude).unwrap();
+    fc.send(&position).unwrap();
+    let at_ground = receive(&ground, Duration::from_millis(300));
+    let to_fc = CommandLong {
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let command = frame(255, 60, &to_fc);
+    let request = frame(
+        255,
+        61,
+        &ParamRequestList {
+            target_system: 1,
+            target_component: 1,
+        },
+    );
+    ground.send(&command).unwrap();
+    ground.send(&request).unwrap();
+    let at_fc = receive(&fc, Duration::from_millis(1200));
+    let out = cc.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert_eq!(count(&at_ground, &attitude), 0, "blocked out\n{log}");
+    assert_eq!(count(&at_ground, &position), 1, "{log}");
+    assert_eq!(count(&at_fc, &command), 0, "blocked in\n{log}");
+    assert_eq!(count(&at_fc, &request), 1, "{log}");
+    // The companion's own heartbeat (1/191) still reaches the FC link.
+    let own = at_fc
+        .iter()
+        .filter(|d| d.len() > 8 && d[0] == 0xfd && d[5] == 1 && d[6] == 191)
+        .count();
+    assert!(own >= 1, "{log}");
+    let summary: Value = std::fs::read_to_string(&events)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap())
+        .find(|e| e["event"] == "summary")
+        .expect("a summary");
+    assert_eq!(summary["dropped"]["filtered"], 1, "{summary}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -773,10 +773,10 @@ fn check<D: MessageSet, const N: usize>(bytes: &[u8], end: bool, cx: &mut Cx<'_,
             cx.stats.bad_crc += 1;
             return Verdict::Reject;
         }
-    } else if let Some(v) = check_raw::<D, N>(bytes, &frame, end, cx) {
+    } else if let Some(v) = check_raw::<D, N>(bytes, &frame, len, end, cx) {
         return v;
     }
-    signing(&frame, meta, cx)
+    signing(&frame, len, meta, cx)
 }
 
 /// Whether the candidate's (maybe cut) header has a known id: out of line,
@@ -786,15 +786,16 @@ fn known<D: MessageSet>(bytes: &[u8]) -> bool {
     D::meta(msg_id(bytes)).is_some()
 }
 
-/// The decision about a whole candidate `frame` of an unknown id (see the
-/// module docs), or `None` when only the signing policy is left to apply.
+/// The decision about a whole candidate `frame` of an unknown id, `len`
+/// bytes long (see the module docs), or `None` when only the signing policy
+/// is left to apply.
 fn check_raw<D: MessageSet, const N: usize>(
     bytes: &[u8],
     frame: &Frame<&[u8]>,
+    len: usize,
     end: bool,
     cx: &mut Cx<'_, N>,
 ) -> Option<Verdict> {
-    let len = frame.as_bytes().len();
     let checked = frame.is_signed() && cx.verifier.is_some();
     // Paid before the search inside: a good signature gives it back.
     if checked && !cx.budget.pay(cx.at, len) {
@@ -845,14 +846,16 @@ fn check_raw<D: MessageSet, const N: usize>(
     None
 }
 
-/// The decision of the signing policy about a whole candidate `frame` that
-/// nothing else refuses.
+/// The decision of the signing policy about a whole candidate `frame`,
+/// `len` bytes long, that nothing else refuses. The length is the one
+/// `check` delimited the frame with: read again from the header it would
+/// cost every frame a dozen instructions.
 fn signing<const N: usize>(
     frame: &Frame<&[u8]>,
+    len: usize,
     meta: Option<&'static MessageMeta>,
     cx: &mut Cx<'_, N>,
 ) -> Verdict {
-    let len = frame.as_bytes().len();
     let mut authenticated = false;
     if let Some(v) = cx.verifier {
         if frame.is_signed() {
@@ -962,7 +965,9 @@ impl Senders {
     #[inline]
     fn find(&mut self, sysid: u8, compid: u8, seq: u8) -> &mut LinkStats {
         let same = |l: &LinkStats| (l.sysid, l.compid) == (sysid, compid);
-        let (tracked, last) = (usize::from(self.tracked), usize::from(self.last));
+        // (`last` is a slot: the modulo only spares a bounds check.)
+        let tracked = usize::from(self.tracked);
+        let last = usize::from(self.last) % MAX_TRACKED_LINKS;
         let slot = if tracked > 0 && same(&self.links[last]) {
             last
         } else if let Some(i) = self.links[..tracked].iter().position(same) {

@@ -70,6 +70,19 @@ fn carried(b: &[u8], covered: usize) -> u16 {
     u16::from_le_bytes([b[covered + 1], b[covered + 2]])
 }
 
+/// Whether the whole frame at the start of `b` carries the checksum of its
+/// `covered` bytes, computed directly: one bounds check for the covered
+/// bytes and the checksum after them (every frame of a valid stream comes
+/// here).
+#[inline(always)]
+fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
+    let Some(body) = b.get(1..covered + 3) else {
+        return false;
+    };
+    let (data, sum) = body.split_at(covered);
+    crc::frame_crc(data, crc_extra) == u16::from_le_bytes([sum[0], sum[1]])
+}
+
 fn slot(x: u64) -> usize {
     (x % RING as u64) as usize
 }
@@ -196,7 +209,7 @@ impl Memo {
         // frame is consumed (the next candidate starts after its checksum);
         // a bad one's checksum is remembered as direct, so that the
         // candidates inside it use prefix states.
-        if crc::frame_crc(&bytes[1..1 + covered], crc_extra) == carried(bytes, covered) {
+        if direct_good(bytes, covered, crc_extra) {
             return Crc::Good;
         }
         self.direct(at, covered);
@@ -225,7 +238,7 @@ impl Memo {
             return Crc::Bad;
         }
         self.direct(at, covered);
-        if crc::frame_crc(&bytes[1..1 + covered], crc_extra) == carried(bytes, covered) {
+        if direct_good(bytes, covered, crc_extra) {
             Crc::Good
         } else {
             Crc::Bad

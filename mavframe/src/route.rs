@@ -27,7 +27,9 @@
 //! - An untrusted frame with a trusted route's ids changes nothing: the
 //!   forger's link gets no copy of that system's traffic. An untrusted
 //!   route becomes trusted with its first trusted frame, and from then on
-//!   goes only where trusted frames came from.
+//!   goes only where trusted frames came from. Nor does an untrusted
+//!   component 0 sender (which stands for its whole system) share a
+//!   trusted component's traffic.
 //! - A table that must forget a route forgets the least recently seen
 //!   untrusted one; a trusted route is forgotten only for another trusted
 //!   one (the least recently seen trusted route then goes), never for a
@@ -159,6 +161,19 @@ impl Route {
     }
 }
 
+/// Where a frame to one component goes, from that component's route and
+/// its system's component 0 sender's (which stands for the whole system):
+/// both, but a trusted component shares nothing with an untrusted
+/// component 0, or a stranger claiming the system would get a copy of the
+/// component's traffic.
+fn to_component(component: Option<Route>, system: Option<Route>) -> Links {
+    let links = |r: Option<Route>| r.map_or(Links::NONE, |r| r.links);
+    match (component, system) {
+        (Some(c), Some(s)) if c.trusted && !s.trusted => c.links,
+        _ => links(component).union(links(system)),
+    }
+}
+
 /// A sender's key: the system in the high byte, so that a system's
 /// components sort together (one range of the map).
 const fn key(sysid: u8, compid: u8) -> u16 {
@@ -205,9 +220,9 @@ impl RoutingTable {
 
     /// The links where `sysid` (and `compid`, unless 0) was seen.
     pub fn links_to(&self, sysid: u8, compid: u8) -> Links {
-        let seen = |k| self.routes.get(&k).map_or(Links::NONE, |r| r.links);
         if compid != 0 {
-            return seen(key(sysid, compid)).union(seen(key(sysid, 0)));
+            let route = |c| self.routes.get(&key(sysid, c)).copied();
+            return to_component(route(compid), route(0));
         }
         self.routes
             .range(key(sysid, 0)..=key(sysid, u8::MAX))
@@ -334,12 +349,17 @@ impl<const N: usize> FixedRoutingTable<N> {
 
     /// The links where `sysid` (and `compid`, unless 0) was seen.
     pub fn links_to(&self, sysid: u8, compid: u8) -> Links {
-        self.slots[..self.len]
-            .iter()
-            .filter(|s| {
-                let [s_sys, s_comp] = s.key.to_be_bytes();
-                s_sys == sysid && (compid == 0 || s_comp == compid || s_comp == 0)
-            })
+        let held = &self.slots[..self.len];
+        if compid != 0 {
+            let route = |c| {
+                held.iter()
+                    .find(|s| s.key == key(sysid, c))
+                    .map(|s| s.route)
+            };
+            return to_component(route(compid), route(0));
+        }
+        held.iter()
+            .filter(|s| s.key.to_be_bytes()[0] == sysid)
             .fold(Links::NONE, |acc, s| acc.union(s.route.links))
     }
 
@@ -476,6 +496,7 @@ mod tests {
         };
     }
     both!(
+        a_stranger_claiming_component_0_gets_no_copy,
         broadcasts_go_everywhere_but_back,
         addressed_frames_go_only_where_the_addressee_was_seen,
         a_forged_sender_cannot_divert_traffic,
@@ -560,6 +581,24 @@ mod tests {
         assert_eq!(t.links_to(5, 1), Links(0b1010));
     }
 
+    /// Component 0 stands for the whole system, but a stranger's
+    /// component 0 does not share a trusted component's traffic; an
+    /// untrusted component still shares with it, and a frame to every
+    /// component of the system reaches both.
+    fn a_stranger_claiming_component_0_gets_no_copy<T: Table>() {
+        let mut t = T::default();
+        t.learn(0, 1, 1, true);
+        t.learn(2, 1, 0, false);
+        assert_eq!(t.links_to(1, 1), Links::only(0));
+        assert_eq!(t.links_to(1, 0), Links(0b101));
+        assert_eq!(t.links_to(1, 7), Links::only(2), "unseen: the system's");
+        t.learn(3, 1, 0, true);
+        assert_eq!(t.links_to(1, 1), Links::only(0).union(Links::only(3)));
+        t.learn(0, 4, 1, false);
+        t.learn(2, 4, 0, false);
+        assert_eq!(t.links_to(4, 1), Links(0b101));
+    }
+
     #[test]
     fn a_truncated_payload_reads_a_zero_target() {
         // MAVLink 2 drops trailing zeros: a COMMAND_LONG to 0/0 may end
@@ -638,6 +677,8 @@ mod tests {
         assert_eq!(t.len(), 255 * 256);
         assert_eq!(t.routes[&key(1, 1)], Route::new(0, true), "1/1");
         assert_eq!(t.routes[&key(1, 191)], Route::new(1, true), "1/191");
+        assert_eq!(t.links_to(1, 1), Links::only(0), "not the stranger's 1/0");
+        assert_eq!(t.links_to(1, 191), Links::only(1));
         let turned = (100..=199u8).flat_map(|s| (1..=10u8).map(move |c| (s, c)));
         for (s, c) in turned.clone() {
             t.learn(3, s, c, true);

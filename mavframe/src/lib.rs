@@ -4,7 +4,8 @@
 //! little-endian values in place from (possibly truncated) payloads, and the
 //! [`MessageData`] and [`MessageSet`] traits with their table rows. On top of them:
 //! MAVLink 1/2 [`frame`]s, the [`crc`], [`signing`], and the streaming
-//! [`parser`]. All of that is `no_std` and allocates nothing.
+//! [`parser`]. All of that is `no_std` and allocates nothing (the routing
+//! table that holds every sender needs the `alloc` feature).
 //!
 //! # Start here
 //!
@@ -21,7 +22,8 @@
 //! | receive on one thread and send on another | [`Connection::split`]: a [`Sender`] and a [`Receiver`] | `std` |
 //! | the same on tokio, over any async byte stream or a UDP socket | [`FrameCodec`] with `tokio_util::codec`, [`Framer`] to send | `tokio` |
 //! | route between many links (a companion computer, a router daemon) | [`Router`]: one task per link, [`route`] rules, per-link keys | `tokio` |
-//! | routing rules without I/O | [`route::RoutingTable`] | — |
+//! | routing rules without I/O, for every (system, component) of the network | [`RoutingTable`] | `alloc` |
+//! | the same in a fixed array, without a heap | [`route::FixedRoutingTable`] | — |
 //! | sign and verify | [`Signer`], [`Verifier`], and [`StateFile`] so timestamps survive restarts | `std` for `StateFile` |
 //! | a UART on a microcontroller (`no_std`, no heap) | [`embedded`]: `Link`, `Receiver`, `Sender`, and their async twins | `embedded-io` (`embedded-io-async`) |
 //! | JSON (or any serde format) of messages | [`serde`] | `serde` |
@@ -33,8 +35,9 @@
 //!
 //! # Features
 //!
-//! `std` adds the blocking transports and connection strings
-//! ([`conn`]: UDP, TCP, via mio), the signing state file that carries
+//! `alloc` adds the routing table that holds every sender
+//! ([`RoutingTable`]); `std` (which turns `alloc` on) adds the blocking
+//! transports and connection strings ([`conn`]: UDP, TCP, via mio), the signing state file that carries
 //! timestamps over restarts ([`signing::state`]), the system clock for
 //! signing (`Verifier::starting_now`) and `std::error::Error` impls; `serial` adds
 //! serial ports (serialport crate); `tokio` adds async connections
@@ -48,6 +51,8 @@
 //! [`Received::view`]: parser::Received::view
 // Links to items that exist only with a feature: without it, to the list
 // of features (rustdoc would report them as broken).
+#![cfg_attr(feature = "alloc", doc = "[`RoutingTable`]: route::RoutingTable")]
+#![cfg_attr(not(feature = "alloc"), doc = "[`RoutingTable`]: #features")]
 #![cfg_attr(feature = "std", doc = "[`Connection`]: conn::Connection")]
 #![cfg_attr(not(feature = "std"), doc = "[`Connection`]: #features")]
 #![cfg_attr(feature = "std", doc = "[`Endpoint`]: conn::Endpoint")]
@@ -84,6 +89,8 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "alloc")]
+extern crate alloc;
 #[cfg(feature = "std")]
 extern crate std;
 

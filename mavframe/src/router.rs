@@ -512,7 +512,7 @@ pub struct Router<D: MessageSet> {
     links: Vec<LinkHandle>,
     events: mpsc::Receiver<RouterEvent<D>>,
     events_tx: mpsc::Sender<RouterEvent<D>>,
-    table: RoutingTable<64>,
+    table: RoutingTable,
     /// Links whose frames the table learns as trusted
     /// ([`set_trusted`](Router::set_trusted)).
     trusted: Links,
@@ -627,7 +627,7 @@ impl<D: MessageSet + 'static> Router<D> {
     }
 
     /// The routing table (read only).
-    pub fn table(&self) -> &RoutingTable<64> {
+    pub fn table(&self) -> &RoutingTable {
         &self.table
     }
 

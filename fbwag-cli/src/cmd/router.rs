@@ -14,8 +14,11 @@ use std::time::Duration;
 /// component) was seen; broadcasts, and frames of ids the dialect does
 /// not know, go to every other link; nothing is sent back where it came
 /// from, and frames are forwarded byte for byte (signed frames stay
-/// verifiable end to end). A link that fails is opened again every
-/// second; no link's error stops the others.
+/// verifiable end to end). Every system and component seen is kept, on
+/// every link it was seen on (a swarm or a flood of ids makes the router
+/// forget nobody); a route learned from a verified frame is never shared
+/// with a link that only forged its ids. A link that fails is opened
+/// again every second; no link's error stops the others.
 #[derive(clap::Args)]
 pub struct RouterArgs {
     /// Links: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,

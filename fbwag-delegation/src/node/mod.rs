@@ -59,7 +59,8 @@
 //! spoke recently (8 at most, half of them for stations whose frames
 //! verified: a newcomer takes a free slot or a slot silent 3 s, so a
 //! stranger can neither push a speaking station out nor, without the key,
-//! take the slots of stations that sign). Routes learned
+//! take the slots of stations that sign). The routing table holds every
+//! sender (with `std`; [`ROUTES`] without a heap), and routes learned
 //! from verified frames, from the peer link or from the autonomy outrank
 //! those learned from strangers, so a flood of ids cannot make the node
 //! forget the FC.
@@ -87,6 +88,9 @@ pub use router::RouterNode;
 
 use crate::{Instant, Peer};
 use core::net::SocketAddr;
+#[cfg(not(feature = "std"))]
+use fbwag_dialect::mavframe::route::FixedRoutingTable;
+#[cfg(feature = "std")]
 use fbwag_dialect::mavframe::route::RoutingTable;
 use fbwag_dialect::{Frame, Message};
 
@@ -95,8 +99,18 @@ pub use fbwag_dialect::mavframe::route::{LinkId, Links};
 /// Links a node has at most.
 pub const MAX_LINKS: usize = 32;
 
-/// Senders (system, component) the routing table holds.
+/// Senders (system, component) the routing table holds without `std`
+/// (no heap: a fixed array, whose least recently seen stranger goes when a
+/// new sender finds it full). With `std` it holds every sender.
 pub const ROUTES: usize = 256;
+
+/// The routing table: with `std`, every sender of the network (a swarm
+/// behind the FC's radio makes the node forget nobody); without, the
+/// [`ROUTES`] most recently seen, trusted ones first.
+#[cfg(feature = "std")]
+type Table = RoutingTable;
+#[cfg(not(feature = "std"))]
+type Table = FixedRoutingTable<ROUTES>;
 
 /// What a link is to the node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -328,7 +342,7 @@ struct LinkState {
 #[derive(Debug, Clone)]
 struct Core {
     links: [Option<LinkState>; MAX_LINKS],
-    table: RoutingTable<ROUTES>,
+    table: Table,
     drops: Drops,
     require_signed: bool,
     /// When the last time beacon went out ([`Core::time_beacon`]).
@@ -374,7 +388,7 @@ impl Core {
     fn new(require_signed: bool) -> Self {
         Core {
             links: [const { None }; MAX_LINKS],
-            table: RoutingTable::new(),
+            table: Table::new(),
             drops: Drops::default(),
             require_signed,
             beacon_at: None,

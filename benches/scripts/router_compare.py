@@ -82,6 +82,8 @@ def main():
         row(f"… router CPU busy", busy, "", " %")
         row(f"… CPU µs/frame (stat)", lambda d: cpu_us(d, "stat"), "lower")
         row(f"… CPU µs/frame (schedstat)", lambda d: cpu_us(d, "sched"), "lower")
+        row(f"… CPU µs per frame delivered (schedstat)",
+            lambda d: d["cpu_sched_ns"] / 1e3 / d["delivered"] if d["delivered"] else None, "lower")
         row(f"… frames per CPU-second (a whole core's capacity)",
             lambda d: 1e6 / cpu_us(d, "sched") if cpu_us(d, "sched") else None, "higher")
     for phase, label in (("r2000", "2,000"), ("r20000", "20,000")):

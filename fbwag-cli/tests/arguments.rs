@@ -309,18 +309,23 @@ fn events_to_a_fifo_without_a_reader_never_hold_a_daemon() {
 fn refusals_after_parsing_exit_2_and_flagged_input_exits_1() {
     const NO_RUN: &[&str] = &["--duration", "1"];
     let cases: &[(&[&str], &str, i32, &str)] = &[
-        (&["cc", "--link", "bogus"], "", 2, "error: --link: `bogus`"),
+        (
+            &["cc", "--link", "bogus"],
+            "",
+            2,
+            "invalid value 'bogus' for '--link <CONN>'",
+        ),
         (
             &["cc", "--link", "udpin:127.0.0.1:0", "--out", "nope"],
             "",
             2,
-            "error: --out nope: ",
+            "invalid value 'nope' for '--out <CONN>'",
         ),
         (
             &["cc", "--link", "udpin:127.0.0.1:0", "--autonomy", "x:1"],
             "",
             2,
-            "error: --autonomy x:1: ",
+            "invalid value 'x:1' for '--autonomy <CONN>'",
         ),
         (&["fc-sim", "--link", "udp"], "", 2, "error: --link: "),
         (
@@ -339,7 +344,7 @@ fn refusals_after_parsing_exit_2_and_flagged_input_exits_1() {
             &["router", "udpin:127.0.0.1:0", "nope"],
             "",
             2,
-            "error: nope: ",
+            "invalid value 'nope' for '<CONN> <CONN>...'",
         ),
         (
             &["sim", "--scenario", "nope"],

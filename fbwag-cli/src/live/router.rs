@@ -240,8 +240,12 @@ async fn serve(
         clock: Clock::start(),
         tlog,
     };
+    // One timer, reset when it fires: one made per turn (per frame) was
+    // registered with the runtime's timer wheel and cleared every time.
+    let wake = |next: tokio::time::Instant| end.map_or(next, |e| e.min(next));
+    let timer = tokio::time::sleep_until(wake(next_report));
+    tokio::pin!(timer);
     loop {
-        let wake = end.map_or(next_report, |e| e.min(next_report));
         tokio::select! {
             event = s.router.recv() => match event {
                 Some(RouterEvent::Frame(f)) => s.frame(&f),
@@ -252,11 +256,12 @@ async fn serve(
                 }
                 None => break,
             },
-            _ = tokio::time::sleep_until(wake) => {
+            () = &mut timer => {
                 if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
                     break;
                 }
                 next_report += o.report;
+                timer.as_mut().reset(wake(next_report));
                 s.report(events);
             }
         }

@@ -95,6 +95,15 @@ pub const LINK_QUEUE: usize = 512;
 /// instead of memory growing.
 pub const INBOUND_QUEUE: usize = 1024;
 
+/// The most bytes of frames a UDP link puts in one datagram it sends:
+/// frames already queued for the same addressees leave together (never
+/// split, never waited for), under a typical path MTU (1,500 bytes less
+/// IP and UDP headers and room for a tunnel). MAVLink receivers
+/// (mavlink-router, pymavlink, MAVProxy, MAVSDK) parse every frame of a
+/// datagram; at ten frames per datagram in, one send per frame cost the
+/// router as many system calls as frames.
+pub const DATAGRAM_FRAMES_MAX: usize = 1_400;
+
 /// Room for a whole UDP datagram (65,507 bytes at most), reserved before
 /// each receive: [`LinkTask::deliver`] splits the bytes off the front of
 /// the buffer, which takes their room with them, and a receive into less
@@ -302,6 +311,9 @@ struct Queues {
     backlog: Option<Backlog<RoutedBytes>>,
     /// The link's counters: frames the backlog drops.
     counters: Arc<Mutex<LinkCounters>>,
+    /// A routed frame taken to share a datagram that had no room left for
+    /// it ([`Queues::queued_routed`]): the next to go.
+    held: Option<RoutedFrame>,
 }
 
 impl Queues {
@@ -318,6 +330,7 @@ impl Queues {
             routed_closed: false,
             backlog: rate.map(|r| Backlog::new(r, tokio::time::Instant::now())),
             counters,
+            held: None,
         }
     }
 
@@ -325,6 +338,9 @@ impl Queues {
     /// gone (after what was queued). Cancel-safe: what it takes from the
     /// queues before it returns stays in the backlog.
     async fn recv(&mut self) -> Option<Command> {
+        if let Some((from, bytes)) = self.held.take() {
+            return Some(Command::Routed(from, bytes));
+        }
         loop {
             let wait = match self.paced() {
                 Paced::Go(c) => return c,
@@ -384,6 +400,10 @@ impl Queues {
     /// Waits for the next command or routed frame and drops it, with the
     /// backlog (a link that is down): `false` once the router is gone.
     async fn drop_next(&mut self) -> bool {
+        if self.held.take().is_some() {
+            count_routed_dropped(&self.counters, 1);
+            return true;
+        }
         if let Some(backlog) = &mut self.backlog {
             let dropped = backlog.clear();
             count_routed_dropped(&self.counters, dropped);
@@ -402,6 +422,24 @@ impl Queues {
                 true
             }
         }
+    }
+}
+
+impl Queues {
+    /// A routed frame already queued, to share the datagram of the frame
+    /// just taken: only when nothing paces the link and none of the
+    /// owner's frames waits (they go first).
+    fn queued_routed(&mut self) -> Option<RoutedFrame> {
+        if self.backlog.is_some() || self.own_closed || !self.own.is_empty() {
+            return None;
+        }
+        self.routed.try_recv().ok()
+    }
+
+    /// A frame [`queued_routed`](Self::queued_routed) gave that did not
+    /// fit: the next [`recv`](Self::recv) returns it.
+    fn hold(&mut self, frame: RoutedFrame) {
+        self.held = Some(frame);
     }
 }
 
@@ -1136,6 +1174,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
         core: &mut Core<D>,
     ) -> Ended {
         let mut peers = Peers::new(self.config.reply_to);
+        let mut datagram = Vec::with_capacity(DATAGRAM_FRAMES_MAX);
         loop {
             tokio::select! {
                 // A failed receive (an ICMP error on some systems) says
@@ -1159,6 +1198,17 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                     }
                     let to = c.to();
                     let Some(bytes) = outgoing(core, &c) else { continue };
+                    // Frames queued behind, for the same addressees, join it.
+                    let more = to.is_none().then(|| self.commands.queued_routed()).flatten();
+                    let bytes = match more {
+                        Some(next) => {
+                            datagram.clear();
+                            datagram.extend_from_slice(bytes);
+                            self.coalesce(next, &mut datagram);
+                            &datagram[..]
+                        }
+                        None => bytes,
+                    };
                     let sent = match (replies, to) {
                         (true, Some(to)) => socket.send_to(bytes, to).await.map(drop),
                         (true, None) => send_each(&socket, peers.targets(target), bytes).await,
@@ -1170,6 +1220,22 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                     self.save(core, None, false);
                 }
             }
+        }
+    }
+
+    /// Appends `next` and the routed frames queued behind it to
+    /// `datagram` while they fit in [`DATAGRAM_FRAMES_MAX`] bytes; the
+    /// first that does not (or that the link signs: signing it twice would
+    /// spend a signing timestamp) goes next, in a datagram of its own.
+    fn coalesce(&mut self, next: RoutedFrame, datagram: &mut Vec<u8>) {
+        let mut next = Some(next);
+        while let Some((from, routed)) = next.take() {
+            if routed.sign.is_some() || datagram.len() + routed.bytes.len() > DATAGRAM_FRAMES_MAX {
+                self.commands.hold((from, routed));
+                return;
+            }
+            datagram.extend_from_slice(&routed.bytes);
+            next = self.commands.queued_routed();
         }
     }
 
@@ -2180,6 +2246,46 @@ mod tests {
             served += usize::from(datagram_for(s, 1).await.is_some());
         }
         assert!(served < MAX_PEERS, "{served} strangers got traffic");
+    }
+
+    /// Frames routed to a `udpout` link faster than it sends leave
+    /// together: as many whole frames per datagram as fit in
+    /// [`DATAGRAM_FRAMES_MAX`] bytes, every one intact and in order.
+    #[tokio::test]
+    async fn udpout_sends_frames_queued_together_in_one_datagram() {
+        let target = udp_socket().await;
+        let mut router = Router::<TestDialect>::new();
+        let url = format!("udpout:{}", target.local_addr().unwrap());
+        let link = router
+            .add(LinkConfig::new(url.parse().unwrap()))
+            .await
+            .unwrap();
+        // On one thread the link's task runs only once all are queued.
+        let frames: Vec<FrameBuf> = (0..200).map(|i| ping(0x0101_0100 + i)).collect();
+        for f in &frames {
+            router.send_routed(Links::only(link), f);
+        }
+        let per_datagram = DATAGRAM_FRAMES_MAX / frames[0].len();
+        let sent: Vec<u8> = frames.iter().flat_map(|f| f.iter().copied()).collect();
+        let mut got = Vec::new();
+        let mut datagrams = Vec::new();
+        let mut buf = [0u8; 2048];
+        while got.len() < sent.len() {
+            let n = tokio::time::timeout(Duration::from_secs(2), target.recv(&mut buf))
+                .await
+                .expect("every frame arrives")
+                .unwrap();
+            got.extend_from_slice(&buf[..n]);
+            datagrams.push(n);
+        }
+        assert_eq!(got, sent, "every frame intact, in order");
+        let full = per_datagram * frames[0].len();
+        let rest = sent.len() - 2 * full;
+        assert_eq!(
+            datagrams,
+            [full, full, rest],
+            "whole frames, up to the limit"
+        );
     }
 
     /// A `udpout` link's socket is connected to its target: a frame sent to

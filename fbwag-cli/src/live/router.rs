@@ -11,7 +11,7 @@
 use super::net::{self, drop_counts, LinkChanges};
 use super::{Clock, Events, Limiter, Log, Tlog, TlogOptions};
 use crate::args::LinkFilter;
-use fbwag_delegation::node::{DropReason, Output, RouterNode};
+use fbwag_delegation::node::{DropReason, Drops, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
 use fbwag_dialect::{Dialect, Endpoint};
@@ -64,7 +64,48 @@ fn state_file(path: &Path, index: usize) -> PathBuf {
 #[derive(Debug, Default)]
 struct Traffic {
     frames: u64,
+    /// Frames handed to the links (a frame routed to two links counts
+    /// twice), some of which their full queues may have dropped.
     forwarded: u64,
+}
+
+impl Traffic {
+    /// The traffic line: frames in, sent on (routed, less what the links'
+    /// queues dropped: a link slower than what is routed to it drops
+    /// frames after the node let them go), dropped by the node and by the
+    /// links.
+    fn line(&self, node_dropped: u64, queue_dropped: u64) -> String {
+        let mut line = format!(
+            "{} frames in, {} sent on, {} dropped",
+            self.frames,
+            self.forwarded.saturating_sub(queue_dropped),
+            node_dropped
+        );
+        if queue_dropped > 0 {
+            line.push_str(&format!(", {queue_dropped} lost in full link queues"));
+        }
+        line
+    }
+
+    /// The summary's counts, as [`line`](Self::line) has them.
+    fn json(&self, drops: &Drops, queue_dropped: u64) -> serde_json::Value {
+        json!({
+            "frames": self.frames,
+            "forwarded": self.forwarded.saturating_sub(queue_dropped),
+            "dropped": drop_counts(drops),
+            "queue_dropped": queue_dropped,
+        })
+    }
+}
+
+/// Routed frames the links' queues dropped so far, every link's
+/// (`LinkCounters::routed_dropped`).
+fn queue_dropped(router: &Router<Dialect>) -> u64 {
+    router
+        .links()
+        .iter()
+        .map(|l| router.counters(l).routed_dropped)
+        .fold(0, u64::saturating_add)
 }
 
 /// Runs the router for its duration (or until killed), printing a line
@@ -111,17 +152,12 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             ));
         }
         let traffic = serve(&o, &mut router, &mut node, &mut log, &mut events, &mut tlog).await;
+        let lost = queue_dropped(&router);
         log.line(&format!(
-            "done: {} frames in, {} sent on, {} dropped",
-            traffic.frames,
-            traffic.forwarded,
-            node.drops().total()
+            "done: {}",
+            traffic.line(node.drops().total(), lost)
         ));
-        let mut summary = json!({
-            "frames": traffic.frames,
-            "forwarded": traffic.forwarded,
-            "dropped": drop_counts(node.drops()),
-        });
+        let mut summary = traffic.json(node.drops(), lost);
         if let Some(tlog) = &mut tlog {
             let counts = tlog.finish(&mut log);
             log.line(&counts.line());
@@ -168,14 +204,12 @@ impl Serving<'_> {
 
     /// The traffic line of every report, and the drops event.
     fn report(&mut self, events: &mut Events) {
-        let (t, dropped) = (&self.traffic, self.node.drops());
-        self.log.line(&format!(
-            "{} frames in, {} sent on, {} dropped",
-            t.frames,
-            t.forwarded,
-            dropped.total()
-        ));
-        events.emit("drops", json!({ "dropped": drop_counts(dropped) }));
+        let (dropped, lost) = (self.node.drops(), queue_dropped(self.router));
+        self.log.line(&self.traffic.line(dropped.total(), lost));
+        events.emit(
+            "drops",
+            json!({ "dropped": drop_counts(dropped), "queue_dropped": lost }),
+        );
         if let Some(tlog) = self.tlog.as_mut() {
             let counts = tlog.counts();
             self.log.line(&counts.line());
@@ -206,8 +240,12 @@ async fn serve(
         clock: Clock::start(),
         tlog,
     };
+    // One timer, reset when it fires: one made per turn (per frame) was
+    // registered with the runtime's timer wheel and cleared every time.
+    let wake = |next: tokio::time::Instant| end.map_or(next, |e| e.min(next));
+    let timer = tokio::time::sleep_until(wake(next_report));
+    tokio::pin!(timer);
     loop {
-        let wake = end.map_or(next_report, |e| e.min(next_report));
         tokio::select! {
             event = s.router.recv() => match event {
                 Some(RouterEvent::Frame(f)) => s.frame(&f),
@@ -218,11 +256,12 @@ async fn serve(
                 }
                 None => break,
             },
-            _ = tokio::time::sleep_until(wake) => {
+            () = &mut timer => {
                 if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
                     break;
                 }
                 next_report += o.report;
+                timer.as_mut().reset(wake(next_report));
                 s.report(events);
             }
         }
@@ -245,4 +284,50 @@ fn log_drop(f: &Inbound<Dialect>, reason: DropReason, limiter: &mut Limiter, log
             reason.name()
         )
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fbwag_dialect::mavframe::route::Links;
+    use fbwag_dialect::mavframe::router::LINK_QUEUE;
+
+    /// Frames routed to a link faster than it sends overflow its routed
+    /// queue: they count as lost, not sent on, in the line and the summary.
+    #[test]
+    fn frames_a_full_link_queue_drops_are_not_sent_on() {
+        let sink = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        let to = sink.local_addr().unwrap();
+        net::block_on(async move {
+            let mut router = Router::<Dialect>::new();
+            let endpoint: Endpoint = format!("udpout:{to}").parse().unwrap();
+            let link = router.add(LinkConfig::new(endpoint)).await?;
+            // HEARTBEAT (MAVLink 2, nine zero bytes of payload).
+            let mut frame = vec![0xfd, 9, 0, 0, 0, 1, 1, 0, 0, 0];
+            frame.extend([0; 11]);
+            // On one thread the link's task cannot run while these are
+            // routed: its queue takes what it holds, the rest is dropped.
+            let routed = 5_000;
+            for _ in 0..routed {
+                router.send_routed(Links::only(link), &frame);
+            }
+            let traffic = Traffic {
+                frames: routed,
+                forwarded: routed,
+            };
+            let lost = queue_dropped(&router);
+            let sent = LINK_QUEUE as u64;
+            assert_eq!(lost, routed - sent, "all but a queueful lost");
+            assert_eq!(
+                traffic.line(0, lost),
+                format!("{routed} frames in, {sent} sent on, 0 dropped, {lost} lost in full link queues")
+            );
+            let summary = traffic.json(&Drops::default(), lost);
+            assert_eq!(summary["forwarded"], sent);
+            assert_eq!(summary["queue_dropped"], lost);
+            router.shutdown(Duration::from_secs(1)).await;
+            Ok(())
+        })
+        .unwrap();
+    }
 }

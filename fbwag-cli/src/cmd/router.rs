@@ -27,9 +27,9 @@ pub struct RouterArgs {
     pub links: Vec<String>,
     /// Read options from this TOML file first: one key per long option
     /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
-    /// for repeatable ones), `links = [...]` for the links. Options given on the command line
-    /// as well win; repeatable ones add to the file's. Example:
-    /// deploy/router.toml.
+    /// for repeatable ones), `links = [...]` for the links. Options
+    /// given on the command line as well win; repeatable ones add to the
+    /// file's. Example: deploy/router.toml.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Verify every link's signatures with this key (64 hex digits, or

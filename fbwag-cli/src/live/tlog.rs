@@ -9,8 +9,8 @@
 //! the first three links (0, 1, 2; 2 also for any link after them) and
 //! [`OWN_FRAMES`] for the program's own frames.
 //!
-//! The daemon's loop only queues frames ([`Tlog::frame`]): a thread of its
-//! own writes them, through a bounded queue, so a slow disk never slows
+//! The daemon's loop only queues frames ([`Tlog::received`],
+//! [`Tlog::sent`]): a thread of its own writes them, through a bounded queue, so a slow disk never slows
 //! routing; a frame that finds the queue full is dropped and counted. That
 //! thread rotates files by size, keeps the file system's free space above
 //! a floor by deleting this program's oldest logs (only files named as it

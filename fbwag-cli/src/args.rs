@@ -71,6 +71,9 @@ pub enum ArgError {
         "expected LINK:RULE, LINK a link's place from 1 to {MAX_LINKS} (2:block-msg=COMMAND_LONG)"
     )]
     LinkRule,
+    /// A routed rate without its link's place.
+    #[error("expected LINK:RATE, LINK a link's place from 1 to {MAX_LINKS}, RATE bytes a second or `off` (2:5760)")]
+    LinkRate,
     /// A filter rule that does not parse.
     #[error(transparent)]
     Filter(#[from] FilterError),
@@ -194,6 +197,31 @@ pub fn routed_rate(s: &str) -> Result<RoutedRate, ArgError> {
     }
     integer_in(s, ROUTED_RATE.0, ROUTED_RATE.1, "bytes a second (or `off`)")
         .map(RoutedRate::BytesPerSecond)
+}
+
+/// `fbwag router --routed-rate LINK:RATE`: a link's place among the links
+/// given (from 1) and the pace of what is routed to it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LinkRate {
+    /// The link's place, from 1.
+    pub link: usize,
+    /// Its pace.
+    pub rate: RoutedRate,
+}
+
+/// `LINK:RATE`, both checked as they are read.
+pub fn link_rate(s: &str) -> Result<LinkRate, ArgError> {
+    let (link, rate) = s.split_once(':').ok_or(ArgError::LinkRate)?;
+    let link = link
+        .trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|n| (1..=MAX_LINKS).contains(n))
+        .ok_or(ArgError::LinkRate)?;
+    Ok(LinkRate {
+        link,
+        rate: routed_rate(rate)?,
+    })
 }
 
 /// A MAVLink system or component id of a sender: 1 to 255 (0 addresses

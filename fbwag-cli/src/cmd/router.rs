@@ -73,6 +73,14 @@ pub struct RouterArgs {
     /// --filter-out 2:block-msg=ATTITUDE
     #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
     pub filter_out: Vec<args::LinkRule>,
+    /// Pace what is routed to link LINK (its place among CONN, from 1):
+    /// at most RATE bytes a second (60–100,000,000), or `off`; at most a
+    /// second of it is held back, the oldest dropped first (counted as
+    /// lost in full link queues). For a link slower than what the others
+    /// send it: a radio modem behind a UDP or TCP bridge, a serial link.
+    /// Repeatable; unpaced by default. Example: --routed-rate 1:5760
+    #[arg(long, value_name = "LINK:RATE", value_parser = args::link_rate)]
+    pub routed_rate: Vec<args::LinkRate>,
     /// Forward a frame that arrives twice (the same bytes, on any links:
     /// redundant radios) within this many milliseconds once; the copies
     /// are dropped and counted as "duplicate". 0: off (the default).
@@ -107,9 +115,22 @@ impl TryFrom<RouterArgs> for RouterOptions {
             .map(|e| e.parse().map_err(CliError::endpoint(e)));
         let filters = args::link_filters(&a.filter_in, &a.filter_out, a.links.len())
             .map_err(CliError::filter)?;
+        let mut routed_rates = vec![None; a.links.len()];
+        for r in &a.routed_rate {
+            let Some(slot) = r.link.checked_sub(1).and_then(|i| routed_rates.get_mut(i)) else {
+                let arg = format!("--routed-rate {}", r.link);
+                let (link, links) = (r.link, a.links.len());
+                return Err(CliError::filter((
+                    arg,
+                    args::LinkFilterError::NoSuchLink { link, links },
+                )));
+            };
+            *slot = Some(r.rate);
+        }
         Ok(RouterOptions {
             endpoints: endpoints.collect::<Result<_, _>>()?,
             filters,
+            routed_rates,
             dedup: (a.dedup > 0).then(|| Duration::from_millis(a.dedup)),
             key: a.sign_key.as_deref().map(super::key).transpose()?,
             require_signed: a.require_signed,

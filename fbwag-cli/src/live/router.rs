@@ -10,7 +10,7 @@
 
 use super::net::{self, drop_counts, LinkChanges};
 use super::{Clock, Events, Limiter, Log, Tlog, TlogOptions};
-use crate::args::LinkFilter;
+use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{DropReason, Drops, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
@@ -18,6 +18,7 @@ use fbwag_dialect::{Dialect, Endpoint};
 use serde_json::json;
 use std::io;
 use std::net::SocketAddr;
+use std::num::NonZeroU32;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -28,6 +29,9 @@ pub struct RouterOptions {
     pub endpoints: Vec<Endpoint>,
     /// Filters, each naming its link by its place in `endpoints`.
     pub filters: Vec<LinkFilter>,
+    /// The pace of what is routed to each link, in `endpoints`' order
+    /// (`None`: unpaced).
+    pub routed_rates: Vec<Option<RoutedRate>>,
     /// De-duplication window (`None`: off).
     pub dedup: Option<Duration>,
     /// Verify every link's signatures with this key.
@@ -48,6 +52,12 @@ pub struct RouterOptions {
     /// Log every frame routed (every frame the node did not drop) to
     /// `.tlog` files.
     pub tlog: Option<TlogOptions>,
+}
+
+/// The pace of what is routed to link `index` (`e`), if it was given.
+fn paced(o: &RouterOptions, index: usize, e: &Endpoint) -> Option<NonZeroU32> {
+    let given = o.routed_rates.get(index).copied().flatten()?;
+    net::routed_rate(e, Some(given))
 }
 
 /// The signing state file of link `index`.
@@ -131,6 +141,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 unsigned: Unsigned::Accept,
                 reply_to: net::reply_to(o.peer),
                 signing_state: o.signing_state.as_deref().map(|p| state_file(p, i)),
+                routed_rate: paced(&o, i, e),
                 ..LinkConfig::new(e.clone())
             };
             let link = router

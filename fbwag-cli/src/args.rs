@@ -209,15 +209,16 @@ pub struct LinkRate {
     pub rate: RoutedRate,
 }
 
+/// `LINK:REST`: a link's place (1 to [`MAX_LINKS`]) and what follows it.
+fn link_place(s: &str) -> Option<(usize, &str)> {
+    let (link, rest) = s.split_once(':')?;
+    let link = link.trim().parse::<usize>().ok()?;
+    (1..=MAX_LINKS).contains(&link).then_some((link, rest))
+}
+
 /// `LINK:RATE`, both checked as they are read.
 pub fn link_rate(s: &str) -> Result<LinkRate, ArgError> {
-    let (link, rate) = s.split_once(':').ok_or(ArgError::LinkRate)?;
-    let link = link
-        .trim()
-        .parse::<usize>()
-        .ok()
-        .filter(|n| (1..=MAX_LINKS).contains(n))
-        .ok_or(ArgError::LinkRate)?;
+    let (link, rate) = link_place(s).ok_or(ArgError::LinkRate)?;
     Ok(LinkRate {
         link,
         rate: routed_rate(rate)?,
@@ -301,13 +302,7 @@ pub struct LinkRule {
 /// `LINK:RULE`, the rule checked as it is read (see
 /// `fbwag_delegation::node::FilterRules::parse`).
 pub fn link_rule(s: &str) -> Result<LinkRule, ArgError> {
-    let (link, rule) = s.split_once(':').ok_or(ArgError::LinkRule)?;
-    let link = link
-        .trim()
-        .parse::<usize>()
-        .ok()
-        .filter(|n| (1..=MAX_LINKS).contains(n))
-        .ok_or(ArgError::LinkRule)?;
+    let (link, rule) = link_place(s).ok_or(ArgError::LinkRule)?;
     FilterRules::new().parse(rule)?;
     Ok(LinkRule {
         link,

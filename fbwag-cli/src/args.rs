@@ -560,7 +560,10 @@ pub enum ControllerKind {
 
 impl ControllerKind {
     /// The controller, at cruise `throttle` (PWM µs).
-    pub fn build(self, throttle: u16) -> Box<dyn fbwag_delegation::control::Controller + Send> {
+    pub fn build(
+        self,
+        throttle: u16,
+    ) -> Box<dyn fbwag_delegation::control::Controller + Send + Sync> {
         use fbwag_delegation::control::{Circle, WingsLevel};
         match self {
             ControllerKind::WingsLevel => Box::new(WingsLevel { throttle }),

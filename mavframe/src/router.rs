@@ -76,11 +76,13 @@ use std::time::Duration;
 use std::vec;
 use std::vec::Vec;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
-use tokio::net::{TcpListener, TcpStream, UdpSocket};
+use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::mpsc;
 
+mod datagram;
 mod pace;
 use core::num::NonZeroU32;
+use datagram::Datagram;
 use pace::Backlog;
 
 /// How often a failed link is opened again.
@@ -869,7 +871,7 @@ impl<D: MessageSet + 'static> Router<D> {
 /// A link's transport, open.
 enum Transport {
     Udp {
-        socket: UdpSocket,
+        socket: Datagram,
         /// `udpout`'s target, or `udpbcast`'s broadcast address (where
         /// frames go while the reply rule names nobody).
         to: Option<SocketAddr>,
@@ -915,9 +917,7 @@ impl Transport {
             _ => blocking(move || crate::conn::open(&endpoint)).await?,
         };
         let udp = |socket: &std::net::UdpSocket, to, replies| {
-            let socket = socket.try_clone()?;
-            socket.set_nonblocking(true)?;
-            let socket = UdpSocket::from_std(socket)?;
+            let socket = Datagram::new(socket.try_clone()?)?;
             io::Result::Ok(Transport::Udp {
                 socket,
                 to,
@@ -955,7 +955,7 @@ async fn blocking<T: Send + 'static>(
 /// earlier datagram's ICMP error (Linux does on connected sockets, once
 /// per error) sent nothing: tried once more, so a target that is not up
 /// yet costs no frame once it is.
-async fn send_connected(socket: &UdpSocket, bytes: &[u8]) -> io::Result<()> {
+async fn send_connected(socket: &Datagram, bytes: &[u8]) -> io::Result<()> {
     match socket.send(bytes).await {
         Err(e) if crate::conn::is_refused(&e) => socket.send(bytes).await.map(drop),
         other => other.map(drop),
@@ -1168,7 +1168,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     /// there is none.
     async fn udp(
         &mut self,
-        socket: UdpSocket,
+        socket: Datagram,
         target: Option<SocketAddr>,
         replies: bool,
         core: &mut Core<D>,
@@ -1377,7 +1377,7 @@ fn owner_gives(peers: &mut Peers, addrs: &[SocketAddr]) {
 
 /// Sends `bytes` to each of `to`: the first error, once each was tried.
 async fn send_each(
-    socket: &UdpSocket,
+    socket: &Datagram,
     to: impl Iterator<Item = SocketAddr>,
     bytes: &[u8],
 ) -> io::Result<()> {
@@ -1616,6 +1616,7 @@ mod tests {
     use std::format;
     use std::net::UdpSocket as StdUdp;
     use std::vec::Vec;
+    use tokio::net::UdpSocket;
 
     /// Datagrams of garbage (65,507 and 20 bytes) before each frame: no
     /// frame is cut short. (A receive into the room the earlier datagrams'

@@ -53,7 +53,7 @@ pub struct CcOptions {
     pub fc: Peer,
     pub rate_hz: f64,
     /// The built-in controller (ignored when an autonomy link is given).
-    pub controller: Box<dyn Controller + Send>,
+    pub controller: Box<dyn Controller + Send + Sync>,
     pub require_signed: bool,
     pub duration: Option<Duration>,
     pub exit_after_handback: bool,
@@ -83,7 +83,7 @@ struct Daemon {
     node: CompanionNode,
     own: Peer,
     /// The built-in controller, when there is no autonomy.
-    controller: Option<Box<dyn Controller + Send>>,
+    controller: Option<Box<dyn Controller + Send + Sync>>,
     events: Events,
     fc_mode: Option<u32>,
     report: CcReport,

@@ -509,12 +509,18 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
     }
 }
 
-/// Runs `daemon` on a current-thread tokio runtime.
-pub fn block_on<T>(daemon: impl std::future::Future<Output = io::Result<T>>) -> io::Result<T> {
-    tokio::runtime::Builder::new_current_thread()
+/// Runs `daemon` on a current-thread tokio runtime, as a task: a task
+/// its links wake is queued and run, where the future `block_on` drives
+/// would cost an extra poll of the system's readiness per wake (an
+/// `epoll_wait` per frame routed).
+pub fn block_on<T: Send + 'static>(
+    daemon: impl std::future::Future<Output = io::Result<T>> + Send + 'static,
+) -> io::Result<T> {
+    let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
-        .build()?
-        .block_on(daemon)
+        .build()?;
+    rt.block_on(async { tokio::spawn(daemon).await })
+        .unwrap_or_else(|e| std::panic::resume_unwind(e.into_panic()))
 }
 
 #[cfg(test)]

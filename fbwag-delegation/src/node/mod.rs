@@ -350,6 +350,9 @@ struct Core {
     /// Links whose out-filter is not [`Filter::ALL`]: the others cost
     /// nothing per frame.
     filtered_out: Links,
+    /// The links of each role, in [`Role`]'s order: kept as links are
+    /// added, as every frame asks.
+    roles: [Links; 3],
     /// Frames seen lately, when de-duplication is on.
     dedup: Option<Dedup>,
 }
@@ -393,6 +396,7 @@ impl Core {
             require_signed,
             beacon_at: None,
             filtered_out: Links::NONE,
+            roles: [Links::NONE; 3],
             dedup: None,
         }
     }
@@ -416,6 +420,8 @@ impl Core {
             filter_in: Filter::ALL,
             filter_out: Filter::ALL,
         });
+        let role = &mut self.roles[spec.role as usize];
+        *role = role.union(Links::only(link));
         Ok(())
     }
 
@@ -486,13 +492,7 @@ impl Core {
 
     /// The links of `role`.
     fn of(&self, role: Role) -> Links {
-        self.links
-            .iter()
-            .enumerate()
-            .filter(|(_, l)| l.as_ref().is_some_and(|l| l.spec.role == role))
-            .fold(Links::NONE, |acc, (i, _)| {
-                acc.union(Links::only(i as LinkId))
-            })
+        self.roles[role as usize]
     }
 
     /// Every link.

@@ -8,6 +8,7 @@
 
 use fbwag_delegation::node::{Direction, Filter, FilterError, FilterRules, MAX_LINKS};
 use std::io::{self, Read};
+use std::net::SocketAddr;
 
 /// Longest time any time argument may name: 1,000,000 s (11.6 days). Keeps
 /// every time well inside what `Duration`, `Instant` arithmetic and the
@@ -77,6 +78,9 @@ pub enum ArgError {
     /// A filter rule that does not parse.
     #[error(transparent)]
     Filter(#[from] FilterError),
+    /// Not an address and port.
+    #[error("expected IP:PORT ([IPv6]:PORT), optionally after LINK: (2:10.0.0.5:14550)")]
+    Address,
 }
 
 /// A finite number from `lo` to `hi` (inclusive), else an error naming
@@ -216,6 +220,70 @@ fn link_place(s: &str) -> Option<(usize, &str)> {
     (1..=MAX_LINKS).contains(&link).then_some((link, rest))
 }
 
+/// A value of an option given per link: `LINK:VALUE` for the link at that
+/// place (from 1), or `VALUE` alone for every link without its own.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ForLink<T> {
+    /// The link's place, from 1; `None`: every link.
+    pub link: Option<usize>,
+    pub value: T,
+}
+
+impl<T> ForLink<T> {
+    /// `[LINK:]VALUE`, VALUE read by `parse`. (A value never starts with
+    /// a number and a colon: hex digits, `@PATH`, an IPv4 address have
+    /// none; an IPv6 one is in brackets.)
+    fn parse(s: &str, parse: impl Fn(&str) -> Result<T, ArgError>) -> Result<Self, ArgError> {
+        let (link, value) = match link_place(s) {
+            Some((link, value)) => (Some(link), value),
+            None => (None, s),
+        };
+        Ok(ForLink {
+            link,
+            value: parse(value)?,
+        })
+    }
+}
+
+/// `[LINK:]KEY`: a signing key (see [`sign_key`]), for one link or all.
+pub fn link_sign_key(s: &str) -> Result<ForLink<String>, ArgError> {
+    ForLink::parse(s, sign_key)
+}
+
+/// `[LINK:]IP:PORT`: a peer address, for one link or all.
+pub fn link_peer(s: &str) -> Result<ForLink<SocketAddr>, ArgError> {
+    ForLink::parse(s, |v| v.trim().parse().map_err(|_| ArgError::Address))
+}
+
+/// Each of `links` links' value of option `flag` from what was `given`:
+/// the link's own, else the one given for every link, else none. A link
+/// given two values, or two given for every link, is an error.
+pub fn per_link<T: Clone>(
+    flag: &str,
+    given: &[ForLink<T>],
+    links: usize,
+) -> Result<Vec<Option<T>>, (String, LinkOptionError)> {
+    let mut every: Option<T> = None;
+    let mut own: Vec<Option<T>> = vec![None; links];
+    for g in given {
+        let slot = match g.link {
+            None => &mut every,
+            Some(link) => own.get_mut(link - 1).ok_or_else(|| {
+                let error = LinkOptionError::NoSuchLink { link, links };
+                (format!("{flag} {link}:"), error)
+            })?,
+        };
+        if slot.replace(g.value.clone()).is_some() {
+            let arg = g.link.map_or(flag.to_string(), |l| format!("{flag} {l}:"));
+            return Err((arg, LinkOptionError::Twice));
+        }
+    }
+    Ok(own
+        .into_iter()
+        .map(|v| v.or_else(|| every.clone()))
+        .collect())
+}
+
 /// `LINK:RATE`, both checked as they are read.
 pub fn link_rate(s: &str) -> Result<LinkRate, ArgError> {
     let (link, rate) = link_place(s).ok_or(ArgError::LinkRate)?;
@@ -237,9 +305,6 @@ pub fn sign_timestamp(s: &str) -> Result<u64, ArgError> {
     integer_in(s, 0, MAX_SIGN_TIMESTAMP, "a 48-bit signing timestamp")
 }
 
-/// A 32-byte signing key as exactly 64 hex digits, or `@PATH`: a file
-/// holding them (surrounding whitespace ignored), so that the key need not
-/// appear in the process list. Returns the hex digits.
 /// A connection string (`udpin:IP:PORT`, `serial:PATH:BAUD`, ...),
 /// checked as it is read, kept as given.
 pub fn endpoint(s: &str) -> Result<String, ArgError> {
@@ -247,6 +312,9 @@ pub fn endpoint(s: &str) -> Result<String, ArgError> {
     Ok(s.to_string())
 }
 
+/// A 32-byte signing key as exactly 64 hex digits, or `@PATH`: a file
+/// holding them (surrounding whitespace ignored), so that the key need not
+/// appear in the process list. Returns the hex digits.
 pub fn sign_key(s: &str) -> Result<String, ArgError> {
     if let Some(path) = s.strip_prefix('@') {
         return sign_key_file(path);
@@ -323,12 +391,16 @@ pub struct LinkFilter {
     pub rules: Vec<String>,
 }
 
-/// Why the filter rules of a command line cannot apply.
+/// Why options given per link (filters, keys, peers, paces) cannot
+/// apply.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum LinkFilterError {
-    /// A rule for a link past the last one given.
+pub enum LinkOptionError {
+    /// A value for a link past the last one given.
     #[error("link {link}: there are {links} links (counted from 1, in the order given)")]
     NoSuchLink { link: usize, links: usize },
+    /// Two values for one link, or two for every link.
+    #[error("given twice for the same link")]
+    Twice,
     /// Rules that together do not make a filter (too many message ids).
     #[error(transparent)]
     Rules(#[from] FilterError),
@@ -340,7 +412,7 @@ pub fn link_filters(
     ins: &[LinkRule],
     outs: &[LinkRule],
     links: usize,
-) -> Result<Vec<LinkFilter>, (String, LinkFilterError)> {
+) -> Result<Vec<LinkFilter>, (String, LinkOptionError)> {
     let mut filters: Vec<(usize, Direction, FilterRules, Vec<String>)> = Vec::new();
     let given = [(Direction::In, ins), (Direction::Out, outs)];
     for (direction, rules) in given {
@@ -351,7 +423,7 @@ pub fn link_filters(
             };
             let fault = |e| (format!("{flag} {}:{}", r.link, r.rule), e);
             let Some(index) = r.link.checked_sub(1).filter(|i| *i < links) else {
-                return Err(fault(LinkFilterError::NoSuchLink {
+                return Err(fault(LinkOptionError::NoSuchLink {
                     link: r.link,
                     links,
                 }));
@@ -425,6 +497,42 @@ pub fn outages(lost: &[f64], back: &[f64]) -> Result<Vec<(f64, Option<f64>)>, Ou
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_value_for_one_link_outranks_the_one_for_every_link() {
+        let peers: Vec<_> = ["10.0.0.1:14550", "3:10.0.0.3:14550", "[::1]:5760"]
+            .iter()
+            .map(|s| link_peer(s).unwrap())
+            .collect();
+        assert_eq!(peers[0].link, None);
+        assert_eq!(peers[1].link, Some(3));
+        assert_eq!(peers[2].link, None, "an IPv6 address is no link");
+        let each = per_link("--peer", &peers[..2], 3).unwrap();
+        let addr = |s: &str| Some(s.parse::<SocketAddr>().unwrap());
+        let every = addr("10.0.0.1:14550");
+        assert_eq!(each, vec![every, every, addr("10.0.0.3:14550")]);
+        assert_eq!(per_link("--peer", &peers[1..2], 3).unwrap()[0], None);
+        let key = "ab".repeat(32);
+        assert_eq!(link_sign_key(&format!("2:{key}")).unwrap().link, Some(2));
+        assert_eq!(link_sign_key(&key).unwrap().link, None);
+        assert!(link_peer("2:nowhere").is_err());
+    }
+
+    #[test]
+    fn a_link_given_two_values_or_one_past_the_last_is_refused() {
+        let peer = |s: &str| link_peer(s).unwrap();
+        let twice = [peer("2:10.0.0.1:1"), peer("2:10.0.0.2:1")];
+        let err = per_link("--peer", &twice, 2).unwrap_err();
+        assert_eq!(err, ("--peer 2:".to_string(), LinkOptionError::Twice));
+        let both = [peer("10.0.0.1:1"), peer("10.0.0.2:1")];
+        assert_eq!(
+            per_link("--peer", &both, 2).unwrap_err().1,
+            LinkOptionError::Twice
+        );
+        let past = [peer("3:10.0.0.1:1")];
+        let err = per_link("--peer", &past, 2).unwrap_err().1;
+        assert_eq!(err, LinkOptionError::NoSuchLink { link: 3, links: 2 });
+    }
 
     #[test]
     fn non_finite_and_negative_numbers_are_refused_everywhere() {

@@ -1,7 +1,7 @@
 //! The one error type of `fbwag`, and the exit status of each outcome
 //! ([`EXIT_STATUS`], shown by `fbwag --help`).
 
-use crate::args::{LinkFilterError, OutageError};
+use crate::args::{LinkOptionError, OutageError};
 use crate::hexstream::HexError;
 use crate::live::cc::TrustedOutError;
 use crate::sim::SimError;
@@ -72,12 +72,12 @@ pub enum CliError {
         conn: String,
         source: TrustedOutError,
     },
-    /// `--filter-in`/`--filter-out` rules that cannot apply, named by
-    /// the argument at fault.
+    /// Options given per link (`--filter-in`, `--peer 2:...`) that
+    /// cannot apply, named by the argument at fault.
     #[error("{arg}: {source}")]
-    Filter {
+    LinkOption {
         arg: String,
-        source: LinkFilterError,
+        source: LinkOptionError,
     },
     /// A signing key of the wrong length.
     #[error("a signing key is 32 bytes (64 hex digits), got {0}")]
@@ -129,9 +129,10 @@ impl CliError {
         }
     }
 
-    /// Filter rules that cannot apply (see [`crate::args::link_filters`]).
-    pub fn filter((arg, source): (String, LinkFilterError)) -> Self {
-        CliError::Filter { arg, source }
+    /// Options per link that cannot apply (see [`crate::args::per_link`],
+    /// [`crate::args::link_filters`]).
+    pub fn link_option((arg, source): (String, LinkOptionError)) -> Self {
+        CliError::LinkOption { arg, source }
     }
 
     /// Every error exits with status 2, as clap's own refusals do.

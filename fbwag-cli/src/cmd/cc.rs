@@ -182,7 +182,7 @@ impl TryFrom<CcArgs> for CcOptions {
         let outs = a.outs.iter().map(|e| endpoint("--out", e));
         let outs: Vec<Endpoint> = outs.collect::<Result<_, _>>()?;
         let filters = args::link_filters(&a.filter_in, &a.filter_out, outs.len())
-            .map_err(CliError::filter)?;
+            .map_err(CliError::link_option)?;
         let trusted = a.trusted_outs.iter();
         let trusted_outs = trusted.map(|e| trusted_out(e, a.trusted_out_remote));
         let trusted_outs = trusted_outs.collect::<Result<_, _>>()?;

@@ -32,15 +32,18 @@ pub struct RouterArgs {
     /// file's. Example: deploy/router.toml.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Verify every link's signatures with this key (64 hex digits, or
-    /// @FILE holding them). Frames are still forwarded untouched: the
-    /// router signs nothing on anyone's behalf. On a listening link
-    /// (udpin, tcpin) only sources of verified frames are answered, and
-    /// a tcpin client that sent one is never evicted.
-    #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
-    pub sign_key: Option<String>,
+    /// Verify signatures with this key (64 hex digits, or @FILE holding
+    /// them): KEY for every link, LINK:KEY for link LINK (its place among
+    /// CONN, from 1), which then uses no other. Frames are still
+    /// forwarded untouched: the router signs nothing on anyone's behalf.
+    /// On a listening link (udpin, tcpin) with a key, only sources of
+    /// verified frames are answered, and a tcpin client that sent one is
+    /// never evicted. Repeatable. Example: --sign-key 1:@/etc/fbwag/fc.key
+    #[arg(long, value_name = "[LINK:]KEY", value_parser = args::link_sign_key)]
+    pub sign_key: Vec<args::ForLink<String>>,
     /// Route only frames whose signature verified (the rest are dropped
-    /// and counted as "unauthenticated").
+    /// and counted as "unauthenticated"): a link without a key routes
+    /// nothing.
     #[arg(long, requires = "sign_key")]
     pub require_signed: bool,
     /// Keep each link's signing timestamps across restarts: the first
@@ -48,13 +51,14 @@ pub struct RouterArgs {
     /// --help`).
     #[arg(long, value_name = "PATH", requires = "sign_key")]
     pub signing_state: Option<PathBuf>,
-    /// Listening links (udpin, tcpin) answer this address only (for
-    /// tcpin, the client connected from it; IP:0, from IP on any port).
-    /// Without it they answer the sources that spoke recently (8 at
-    /// most; a newcomer takes the place of one silent for 3 s, never of
-    /// one still speaking).
-    #[arg(long, value_name = "IP:PORT")]
-    pub peer: Option<SocketAddr>,
+    /// Listening links (udpin, tcpin) answer this address only: IP:PORT
+    /// for every one, LINK:IP:PORT for link LINK (for tcpin, the client
+    /// connected from it; IP:0, from IP on any port). Without it a
+    /// listening link answers the sources that spoke recently (8 at most;
+    /// a newcomer takes the place of one silent for 3 s, never of one
+    /// still speaking). Repeatable. Example: --peer 2:192.168.1.20:14550
+    #[arg(long, value_name = "[LINK:]IP:PORT", value_parser = args::link_peer)]
+    pub peer: Vec<args::ForLink<SocketAddr>>,
     /// Take in from link LINK (its place among CONN, from 1) only what
     /// RULE lets through; the rest is dropped before routing and counted
     /// as "filtered". RULE is allow-msg=, block-msg= (message ids or
@@ -114,28 +118,33 @@ impl TryFrom<RouterArgs> for RouterOptions {
             .iter()
             .map(|e| e.parse().map_err(CliError::endpoint(e)));
         let filters = args::link_filters(&a.filter_in, &a.filter_out, a.links.len())
-            .map_err(CliError::filter)?;
-        let mut routed_rates = vec![None; a.links.len()];
-        for r in &a.routed_rate {
-            let Some(slot) = r.link.checked_sub(1).and_then(|i| routed_rates.get_mut(i)) else {
-                let arg = format!("--routed-rate {}", r.link);
-                let (link, links) = (r.link, a.links.len());
-                return Err(CliError::filter((
-                    arg,
-                    args::LinkFilterError::NoSuchLink { link, links },
-                )));
-            };
-            *slot = Some(r.rate);
-        }
+            .map_err(CliError::link_option)?;
+        let links = a.links.len();
+        let rates: Vec<_> = a
+            .routed_rate
+            .iter()
+            .map(|r| args::ForLink {
+                link: Some(r.link),
+                value: r.rate,
+            })
+            .collect();
+        let per_link = |flag, given| args::per_link(flag, given, links);
+        let routed_rates = per_link("--routed-rate", &rates).map_err(CliError::link_option)?;
+        let keys = args::per_link("--sign-key", &a.sign_key, links)
+            .map_err(CliError::link_option)?
+            .into_iter()
+            .map(|k| k.as_deref().map(super::key).transpose())
+            .collect::<Result<_, _>>()?;
+        let peers = args::per_link("--peer", &a.peer, links).map_err(CliError::link_option)?;
         Ok(RouterOptions {
             endpoints: endpoints.collect::<Result<_, _>>()?,
             filters,
             routed_rates,
             dedup: (a.dedup > 0).then(|| Duration::from_millis(a.dedup)),
-            key: a.sign_key.as_deref().map(super::key).transpose()?,
+            keys,
             require_signed: a.require_signed,
             signing_state: a.signing_state,
-            peer: a.peer,
+            peers,
             duration: a.duration.map(Duration::from_secs_f64),
             report: Duration::from_secs_f64(a.report.max(0.1)),
             events: a.events,

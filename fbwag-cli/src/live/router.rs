@@ -34,15 +34,17 @@ pub struct RouterOptions {
     pub routed_rates: Vec<Option<RoutedRate>>,
     /// De-duplication window (`None`: off).
     pub dedup: Option<Duration>,
-    /// Verify every link's signatures with this key.
-    pub key: Option<[u8; 32]>,
+    /// Each link's key (`None`: the link verifies nothing), in
+    /// `endpoints`' order.
+    pub keys: Vec<Option<[u8; 32]>>,
     /// Route only frames whose signature verified.
     pub require_signed: bool,
     /// Keep each link's signing state: the first link's in this file, link
     /// N's (from 1) in this path with `.N` added.
     pub signing_state: Option<PathBuf>,
-    /// Listening links answer this address only.
-    pub peer: Option<SocketAddr>,
+    /// The address each listening link answers, and no other (`None`:
+    /// whom the node chooses), in `endpoints`' order.
+    pub peers: Vec<Option<SocketAddr>>,
     /// Stop after this long.
     pub duration: Option<Duration>,
     /// A traffic line this often.
@@ -135,11 +137,13 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
         node.set_dedup(o.dedup);
         let mut links = Vec::with_capacity(o.endpoints.len());
         for (i, e) in o.endpoints.iter().enumerate() {
+            let key = o.keys.get(i).copied().flatten();
+            let peer = o.peers.get(i).copied().flatten();
             let config = LinkConfig {
-                key: o.key,
+                key,
                 // The node drops what signing requires it to, counted.
                 unsigned: Unsigned::Accept,
-                reply_to: net::reply_to(o.peer),
+                reply_to: net::reply_to(peer),
                 signing_state: o.signing_state.as_deref().map(|p| state_file(p, i)),
                 routed_rate: paced(&o, i, e),
                 ..LinkConfig::new(e.clone())
@@ -148,7 +152,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 .add(config)
                 .await
                 .map_err(|err| net::opened(e, err))?;
-            node.add_link(link, net::answers(e, o.peer), o.key.is_some())
+            node.add_link(link, net::answers(e, peer), key.is_some())
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
             log.line(&format!("link {e}"));
             links.push(link);

@@ -1,0 +1,195 @@
+//! `fbwag router` with options given per link, driven over UDP on
+//! 127.0.0.1: `--peer 2:IP:PORT` pins what link 2 answers (a stranger who
+//! spoke first on it gets nothing) while link 1 still answers whoever
+//! spoke; `--sign-key KEY --sign-key 2:KEY2 --require-signed` verifies
+//! link 2 with its own key, so a frame signed with the other links' key
+//! or not signed is refused there and one signed with KEY2 goes on.
+
+use fbwag_dialect::dialects::minimal::Heartbeat;
+use fbwag_dialect::dialects::standard::GlobalPositionInt;
+use fbwag_dialect::mavframe::signing::timestamp_now;
+use fbwag_dialect::mavframe::Encode;
+use fbwag_dialect::{encode, Header, Signer, Version};
+use serde_json::Value;
+use std::net::UdpSocket;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+mod common;
+
+use common::{free_port, Proc};
+
+const KEY: &str = "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f";
+const KEY2: &str = "f0f1f2f3f4f5f6f7f8f9fafbfcfdfeff000102030405060708090a0b0c0d0e0f";
+
+fn key_bytes(hex: &str) -> [u8; 32] {
+    let mut k = [0u8; 32];
+    for (i, b) in k.iter_mut().enumerate() {
+        *b = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap();
+    }
+    k
+}
+
+fn frame(sysid: u8, seq: u8, msg: &(impl Encode + ?Sized), signer: Option<&mut Signer>) -> Vec<u8> {
+    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
+    let h = Header {
+        seq,
+        sysid,
+        compid: 1,
+    };
+    let n = encode(Version::V2, h, msg, signer, &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// Every datagram `s` receives for `time`.
+fn receive(s: &UdpSocket, time: Duration) -> Vec<Vec<u8>> {
+    let end = Instant::now() + time;
+    let mut got = Vec::new();
+    let mut buf = [0u8; 2048];
+    while let Some(left) = end.checked_duration_since(Instant::now()) {
+        s.set_read_timeout(Some(left.max(Duration::from_millis(1))))
+            .unwrap();
+        if let Ok(n) = s.recv(&mut buf) {
+            got.push(buf[..n].to_vec());
+        }
+    }
+    got
+}
+
+/// How often `frame` is among `datagrams` (several frames may share one).
+fn count(datagrams: &[Vec<u8>], frame: &[u8]) -> usize {
+    datagrams
+        .iter()
+        .map(|d| d.windows(frame.len()).filter(|w| *w == frame).count())
+        .sum()
+}
+
+fn connected(port: u16) -> UdpSocket {
+    let s = UdpSocket::bind("127.0.0.1:0").unwrap();
+    s.connect(("127.0.0.1", port)).unwrap();
+    s
+}
+
+/// Sends `make(n)` from `from` until `to` hears it (the router is up and
+/// answers `to` on its link), for 3 s at most.
+fn until_heard(from: &UdpSocket, to: &UdpSocket, mut make: impl FnMut(u8) -> Vec<u8>) -> bool {
+    let start = Instant::now();
+    for n in 0u8.. {
+        if start.elapsed() > Duration::from_secs(3) {
+            return false;
+        }
+        let probe = make(n);
+        // Refused (ICMP) until the router has bound its ports.
+        let _ = from.send(&probe);
+        if count(&receive(to, Duration::from_millis(100)), &probe) > 0 {
+            return true;
+        }
+    }
+    false
+}
+
+#[test]
+fn a_peer_pinned_on_one_link_leaves_the_others_answering_who_spoke() {
+    let ports = [free_port(), free_port()];
+    let pinned = UdpSocket::bind("127.0.0.1:0").unwrap();
+    pinned.connect(("127.0.0.1", ports[1])).unwrap();
+    let pin = pinned.local_addr().unwrap();
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("router")
+            .args(ports.map(|p| format!("udpin:127.0.0.1:{p}")))
+            .arg("--peer")
+            .arg(format!("2:{pin}"))
+            .args(["--duration", "4"]),
+    );
+    let (fc, stranger) = (connected(ports[0]), connected(ports[1]));
+    // The stranger speaks first on link 2; link 1 answers the FC, who
+    // spoke there: the pinned peer hears what the FC sends.
+    let _ = stranger.send(&frame(250, 0, &Heartbeat::default(), None));
+    let _ = fc.send(&frame(1, 0, &Heartbeat::default(), None));
+    let heard = until_heard(&fc, &pinned, |n| {
+        let _ = stranger.send(&frame(250, n, &Heartbeat::default(), None));
+        frame(1, n, &Heartbeat::default(), None)
+    });
+    assert!(heard, "the pinned peer never heard link 1");
+    let answered = until_heard(&pinned, &fc, |n| frame(255, n, &Heartbeat::default(), None));
+    assert!(answered, "link 1 (no pin) never answered the FC");
+    let telemetry = frame(1, 200, &GlobalPositionInt::default(), None);
+    fc.send(&telemetry).unwrap();
+    let to_pinned = receive(&pinned, Duration::from_millis(300));
+    let to_stranger = receive(&stranger, Duration::from_millis(100));
+    let out = router.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert_eq!(count(&to_pinned, &telemetry), 1, "{log}");
+    assert!(
+        to_stranger.is_empty(),
+        "the stranger on link 2 got frames\n{log}"
+    );
+}
+
+#[test]
+fn a_link_with_its_own_key_verifies_with_it_alone() {
+    let ports = [free_port(), free_port()];
+    let dir = std::env::temp_dir().join(format!("fbwag-router-links-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let events = dir.join("router.jsonl");
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("router")
+            .args(ports.map(|p| format!("udpin:127.0.0.1:{p}")))
+            .args(["--sign-key", KEY, "--sign-key", &format!("2:{KEY2}")])
+            .args(["--require-signed", "--duration", "4"])
+            .arg("--events")
+            .arg(&events),
+    );
+    let (fc, ground) = (connected(ports[0]), connected(ports[1]));
+    let now = timestamp_now();
+    let mut fc_signer = Signer::new(key_bytes(KEY), 1, now);
+    let mut ground_signer = Signer::new(key_bytes(KEY2), 2, now);
+    // Each end is answered once a frame of its own verified on its link.
+    let _ = ground.send(&frame(
+        255,
+        0,
+        &Heartbeat::default(),
+        Some(&mut ground_signer),
+    ));
+    let _ = fc.send(&frame(1, 0, &Heartbeat::default(), Some(&mut fc_signer)));
+    let heard = until_heard(&fc, &ground, |n| {
+        let beat = frame(255, n, &Heartbeat::default(), Some(&mut ground_signer));
+        let _ = ground.send(&beat);
+        frame(1, n, &Heartbeat::default(), Some(&mut fc_signer))
+    });
+    assert!(heard, "link 1's signed frames never reached link 2");
+    // Into link 2, signed with link 1's key: refused by the link's
+    // parser; unsigned: dropped by the node (--require-signed); signed
+    // with KEY2: routed.
+    let mut wrong = Signer::new(key_bytes(KEY), 3, timestamp_now());
+    let refused = frame(255, 100, &GlobalPositionInt::default(), Some(&mut wrong));
+    let unsigned = frame(255, 101, &GlobalPositionInt::default(), None);
+    let routed = frame(
+        255,
+        102,
+        &GlobalPositionInt::default(),
+        Some(&mut ground_signer),
+    );
+    for f in [&refused, &unsigned, &routed] {
+        ground.send(f).unwrap();
+    }
+    let to_fc = receive(&fc, Duration::from_millis(300));
+    let out = router.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert_eq!(count(&to_fc, &refused), 0, "{log}");
+    assert_eq!(count(&to_fc, &unsigned), 0, "{log}");
+    assert_eq!(count(&to_fc, &routed), 1, "{log}");
+    let summary: Value = std::fs::read_to_string(&events)
+        .unwrap()
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .find(|e| e["event"] == "summary")
+        .expect("a summary event");
+    let unauthenticated = summary["dropped"]["unauthenticated"].as_u64().unwrap_or(0);
+    assert!(unauthenticated >= 1, "{summary}\n{log}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

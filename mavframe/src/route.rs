@@ -123,9 +123,19 @@ impl Links {
         self.0 == 0
     }
 
-    /// The links, in order.
+    /// The links, in order: a step per link in the set, not per bit.
     pub fn iter(self) -> impl Iterator<Item = LinkId> {
-        (0..64u8).filter(move |&l| self.contains(l))
+        let mut rest = self.0;
+        core::iter::from_fn(move || {
+            let link = rest.trailing_zeros();
+            rest &= rest.checked_sub(1)?;
+            Some(link as LinkId)
+        })
+    }
+
+    /// How many links.
+    pub const fn len(self) -> usize {
+        self.0.count_ones() as usize
     }
 }
 
@@ -427,6 +437,21 @@ pub fn target(frame: &Frame<&[u8]>, meta: Option<&MessageMeta>) -> Option<(u8, u
 mod tests {
     use super::*;
     use crate::frame::STX_V2;
+    use std::vec::Vec;
+
+    #[test]
+    fn a_set_of_links_iterates_its_links_in_order() {
+        let listed = |l: Links| l.iter().collect::<Vec<_>>();
+        assert_eq!(listed(Links::NONE), Vec::<LinkId>::new());
+        assert_eq!(listed(Links::all(64)), (0..64).collect::<Vec<_>>());
+        let some = Links::only(0).union(Links::only(5)).union(Links::only(63));
+        assert_eq!(listed(some), [0, 5, 63]);
+        assert_eq!(
+            (some.len(), Links::NONE.len(), Links::all(64).len()),
+            (3, 0, 64)
+        );
+        assert!(Links::NONE.is_empty() && !some.is_empty());
+    }
 
     const TARGETED: MessageMeta = MessageMeta {
         id: 76,

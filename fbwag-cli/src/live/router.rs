@@ -208,7 +208,7 @@ impl Serving<'_> {
                     tlog.received(f.link, f.frame.as_bytes());
                 }
                 self.router.route(f, fate.route);
-                self.traffic.forwarded += fate.route.iter().count() as u64;
+                self.traffic.forwarded += fate.route.len() as u64;
             }
         }
         while let Some(Output::Peers { link, peers }) = self.node.poll_output() {

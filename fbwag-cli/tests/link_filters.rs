@@ -10,7 +10,6 @@ use fbwag_dialect::dialects::common::{Attitude, SysStatus};
 use fbwag_dialect::dialects::minimal::Heartbeat;
 use fbwag_dialect::dialects::standard::GlobalPositionInt;
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Version};
 use serde_json::Value;
 use std::net::UdpSocket;
 use std::process::Command;
@@ -18,41 +17,12 @@ use std::time::{Duration, Instant};
 
 mod common;
 
+use common::datagrams::{self, count, receive};
 use common::{free_port, Proc};
 
+/// `msg` framed, unsigned.
 fn frame(sysid: u8, seq: u8, msg: &(impl Encode + ?Sized)) -> Vec<u8> {
-    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
-    let h = Header {
-        seq,
-        sysid,
-        compid: 1,
-    };
-    let n = encode(Version::V2, h, msg, None, &mut buf).unwrap();
-    buf[..n].to_vec()
-}
-
-/// Every datagram `s` receives for `time`.
-fn receive(s: &UdpSocket, time: Duration) -> Vec<Vec<u8>> {
-    let end = Instant::now() + time;
-    let mut got = Vec::new();
-    let mut buf = [0u8; 2048];
-    while let Some(left) = end.checked_duration_since(Instant::now()) {
-        s.set_read_timeout(Some(left.max(Duration::from_millis(1))))
-            .unwrap();
-        if let Ok(n) = s.recv(&mut buf) {
-            got.push(buf[..n].to_vec());
-        }
-    }
-    got
-}
-
-/// How often `frame` is among `datagrams` (the router may put several
-/// frames in one).
-fn count(datagrams: &[Vec<u8>], frame: &[u8]) -> usize {
-    datagrams
-        .iter()
-        .map(|d| d.windows(frame.len()).filter(|w| *w == frame).count())
-        .sum()
+    datagrams::frame(sysid, seq, msg, None)
 }
 
 #[test]

@@ -8,8 +8,7 @@
 use fbwag_dialect::dialects::minimal::Heartbeat;
 use fbwag_dialect::dialects::standard::GlobalPositionInt;
 use fbwag_dialect::mavframe::signing::timestamp_now;
-use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Signer, Version};
+use fbwag_dialect::Signer;
 use serde_json::Value;
 use std::net::UdpSocket;
 use std::process::Command;
@@ -17,6 +16,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 
+use common::datagrams::{count, frame, receive};
 use common::{free_port, Proc};
 
 const KEY: &str = "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f";
@@ -28,40 +28,6 @@ fn key_bytes(hex: &str) -> [u8; 32] {
         *b = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap();
     }
     k
-}
-
-fn frame(sysid: u8, seq: u8, msg: &(impl Encode + ?Sized), signer: Option<&mut Signer>) -> Vec<u8> {
-    let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
-    let h = Header {
-        seq,
-        sysid,
-        compid: 1,
-    };
-    let n = encode(Version::V2, h, msg, signer, &mut buf).unwrap();
-    buf[..n].to_vec()
-}
-
-/// Every datagram `s` receives for `time`.
-fn receive(s: &UdpSocket, time: Duration) -> Vec<Vec<u8>> {
-    let end = Instant::now() + time;
-    let mut got = Vec::new();
-    let mut buf = [0u8; 2048];
-    while let Some(left) = end.checked_duration_since(Instant::now()) {
-        s.set_read_timeout(Some(left.max(Duration::from_millis(1))))
-            .unwrap();
-        if let Ok(n) = s.recv(&mut buf) {
-            got.push(buf[..n].to_vec());
-        }
-    }
-    got
-}
-
-/// How often `frame` is among `datagrams` (several frames may share one).
-fn count(datagrams: &[Vec<u8>], frame: &[u8]) -> usize {
-    datagrams
-        .iter()
-        .map(|d| d.windows(frame.len()).filter(|w| *w == frame).count())
-        .sum()
 }
 
 fn connected(port: u16) -> UdpSocket {

@@ -2,6 +2,7 @@
 //! running the binary, free ports, child processes.
 #![allow(dead_code)]
 
+pub mod datagrams;
 pub mod lines;
 
 use std::io::Write;

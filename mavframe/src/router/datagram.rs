@@ -6,16 +6,15 @@
 //! buffer: the runtime woke once more per frame routed, to find nothing to
 //! do. A UDP send almost never finds the send buffer full (the kernel
 //! drops at the receiver rather than block the sender); when it does, the
-//! task waits [`SEND_RETRY`] and tries again, as it waited for writability
-//! before.
+//! task waits [`SEND_RETRY`] and tries again.
 
 use std::io;
 use std::net::SocketAddr;
-use std::time::Duration;
 
 /// How long a send that found the socket's buffer full waits before it
 /// tries again.
-const SEND_RETRY: Duration = Duration::from_millis(1);
+#[cfg(unix)]
+const SEND_RETRY: std::time::Duration = std::time::Duration::from_millis(1);
 
 /// A non-blocking UDP socket, waited on for readability.
 #[cfg(unix)]

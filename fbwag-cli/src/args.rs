@@ -203,16 +203,6 @@ pub fn routed_rate(s: &str) -> Result<RoutedRate, ArgError> {
         .map(RoutedRate::BytesPerSecond)
 }
 
-/// `fbwag router --routed-rate LINK:RATE`: a link's place among the links
-/// given (from 1) and the pace of what is routed to it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct LinkRate {
-    /// The link's place, from 1.
-    pub link: usize,
-    /// Its pace.
-    pub rate: RoutedRate,
-}
-
 /// `LINK:REST`: a link's place (1 to [`MAX_LINKS`]) and what follows it.
 fn link_place(s: &str) -> Option<(usize, &str)> {
     let (link, rest) = s.split_once(':')?;
@@ -284,12 +274,14 @@ pub fn per_link<T: Clone>(
         .collect())
 }
 
-/// `LINK:RATE`, both checked as they are read.
-pub fn link_rate(s: &str) -> Result<LinkRate, ArgError> {
+/// `fbwag router --routed-rate LINK:RATE`: the pace of what is routed to
+/// the link at that place (from 1), both checked as they are read; LINK
+/// is required.
+pub fn link_rate(s: &str) -> Result<ForLink<RoutedRate>, ArgError> {
     let (link, rate) = link_place(s).ok_or(ArgError::LinkRate)?;
-    Ok(LinkRate {
-        link,
-        rate: routed_rate(rate)?,
+    Ok(ForLink {
+        link: Some(link),
+        value: routed_rate(rate)?,
     })
 }
 

@@ -425,9 +425,7 @@ impl Queues {
             }
         }
     }
-}
 
-impl Queues {
     /// A routed frame already queued, to share the datagram of the frame
     /// just taken: only when nothing paces the link and none of the
     /// owner's frames waits (they go first).
@@ -2162,6 +2160,17 @@ mod tests {
         (router, link, addr)
     }
 
+    /// A router with one link, `udpout` to `target`.
+    async fn udpout_to(target: &UdpSocket) -> (Router<TestDialect>, LinkId) {
+        let mut router = Router::<TestDialect>::new();
+        let url = format!("udpout:{}", target.local_addr().unwrap());
+        let link = router
+            .add(LinkConfig::new(url.parse().unwrap()))
+            .await
+            .unwrap();
+        (router, link)
+    }
+
     /// A UDP socket on 127.0.0.1 (a station, a stranger).
     async fn udp_socket() -> UdpSocket {
         UdpSocket::bind("127.0.0.1:0").await.unwrap()
@@ -2255,12 +2264,7 @@ mod tests {
     #[tokio::test]
     async fn udpout_sends_frames_queued_together_in_one_datagram() {
         let target = udp_socket().await;
-        let mut router = Router::<TestDialect>::new();
-        let url = format!("udpout:{}", target.local_addr().unwrap());
-        let link = router
-            .add(LinkConfig::new(url.parse().unwrap()))
-            .await
-            .unwrap();
+        let (router, link) = udpout_to(&target).await;
         // On one thread the link's task runs only once all are queued.
         let frames: Vec<FrameBuf> = (0..200).map(|i| ping(0x0101_0100 + i)).collect();
         for f in &frames {
@@ -2295,12 +2299,7 @@ mod tests {
     #[tokio::test]
     async fn udpout_ignores_third_parties() {
         let target = udp_socket().await;
-        let mut router = Router::<TestDialect>::new();
-        let url = format!("udpout:{}", target.local_addr().unwrap());
-        let link = router
-            .add(LinkConfig::new(url.parse().unwrap()))
-            .await
-            .unwrap();
+        let (mut router, link) = udpout_to(&target).await;
         router.send_raw(Links::only(link), &ping(1));
         let mut buf = [0u8; 64];
         let (_, local) = tokio::time::timeout(Duration::from_secs(2), target.recv_from(&mut buf))

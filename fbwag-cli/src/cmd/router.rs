@@ -84,7 +84,7 @@ pub struct RouterArgs {
     /// send it: a radio modem behind a UDP or TCP bridge, a serial link.
     /// Repeatable; unpaced by default. Example: --routed-rate 1:5760
     #[arg(long, value_name = "LINK:RATE", value_parser = args::link_rate)]
-    pub routed_rate: Vec<args::LinkRate>,
+    pub routed_rate: Vec<args::ForLink<args::RoutedRate>>,
     /// Forward a frame that arrives twice (the same bytes, on any links:
     /// redundant radios) within this many milliseconds once; the copies
     /// are dropped and counted as "duplicate". 0: off (the default).
@@ -120,16 +120,8 @@ impl TryFrom<RouterArgs> for RouterOptions {
         let filters = args::link_filters(&a.filter_in, &a.filter_out, a.links.len())
             .map_err(CliError::link_option)?;
         let links = a.links.len();
-        let rates: Vec<_> = a
-            .routed_rate
-            .iter()
-            .map(|r| args::ForLink {
-                link: Some(r.link),
-                value: r.rate,
-            })
-            .collect();
-        let per_link = |flag, given| args::per_link(flag, given, links);
-        let routed_rates = per_link("--routed-rate", &rates).map_err(CliError::link_option)?;
+        let routed_rates = args::per_link("--routed-rate", &a.routed_rate, links)
+            .map_err(CliError::link_option)?;
         let keys = args::per_link("--sign-key", &a.sign_key, links)
             .map_err(CliError::link_option)?
             .into_iter()

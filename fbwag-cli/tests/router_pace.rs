@@ -20,8 +20,10 @@ const HEARTBEAT_LEN: usize = 21;
 /// within `within` of a burst of FRAMES heartbeats (21 bytes each) sent
 /// to A; `pace`: the router's extra arguments.
 fn delivered(pace: &[&str], within: Duration) -> usize {
-    let (a, b) = (free_port(), free_port());
-    let sink = UdpSocket::bind(("127.0.0.1", b)).unwrap();
+    // The sink takes a port of its own: a port free_port saw free can be
+    // taken by a test running alongside before this one binds it.
+    let sink = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let (a, b) = (free_port(), sink.local_addr().unwrap().port());
     let mut router = Command::new(env!("CARGO_BIN_EXE_fbwag"))
         .args([
             "router",

@@ -1,8 +1,10 @@
 /*
  * Load source and checking sink for benches/scripts/router_compare.sh: UDP
- * routers measured side by side on 127.0.0.1, each router's phases
- * interleaved with the others' so a slow spell of a shared machine hits
- * both alike.
+ * routers measured side by side on 127.0.0.1. Each phase runs in slices
+ * (env ROUTER_LOAD_SLICES, default 6): in every slice each router takes the
+ * load in turn for the slice's share of the phase, so a slow spell of a
+ * shared machine hits all alike, and the slices of one router next to
+ * another's give paired ratios whose spread shows the noise.
  *
  *   router_load NAME:PID:IN_PORT:OUT_PORT [NAME:PID:IN_PORT:OUT_PORT ...]
  *
@@ -11,28 +13,30 @@
  * unsigned, six ArduPlane telemetry types (HEARTBEAT, SYS_STATUS, RAW_IMU,
  * ATTITUDE, GLOBAL_POSITION_INT, VFR_HUD) from systems 1-4 in turn, each
  * with its own sequence; the first four payload bytes carry a run-unique
- * counter (phase << 26 | index), so the sink can count per phase, check
- * order per system and look up the send time for the latency.
+ * counter ((slice id mod 64) << 26 | index), so the sink can count per
+ * slice, check order per system and look up the send time for the latency.
  *
  * The sink checks every frame it gets: start byte, length, CRC with the
- * type's CRC_EXTRA, a counter of the current phase, order per system. It
+ * type's CRC_EXTRA, a counter of the current slice, order per system. It
  * runs in a thread of its own (recvmmsg) beside the sender.
  *
- * Phases (durations scaled by env ROUTER_LOAD_SCALE, default 1; env
- * ROUTER_LOAD_ONLY=NAME runs that phase alone):
+ * Phases (whole durations, split into the slices; scaled by env
+ * ROUTER_LOAD_SCALE, default 1; env ROUTER_LOAD_ONLY=NAME runs that phase
+ * alone):
  *   sat1    3 s  as fast as sendmmsg goes, one frame per datagram
  *   sat10   3 s  as fast as sendmmsg goes, ten frames per datagram
  *   r2000   4 s  2,000 frames/s, one per datagram, paced
  *   r20000  3 s  20,000 frames/s, one per datagram, paced
  *   lat1000 3 s  1,000 frames/s; latency from the send-time table
  *
- * One line per phase and router on stdout (fields named in the header
- * line): frames sent, frames the router read (sent minus the datagrams the
+ * One line per router and slice of each phase on stdout (fields named in
+ * the header line): frames sent, frames the router read (sent minus the datagrams the
  * kernel dropped at its input socket), frames delivered to the sink, the
  * sink's bad, stale and out-of-order frames, drops at each socket (from
  * /proc/net/udp), the router's CPU from /proc/PID/stat (utime + stime, in
  * clock ticks) and from the schedstat of every thread under /proc/PID/task (ns),
- * the phase's wall time and the latency median and p99 in microseconds.
+ * the time the load was sent for and the latency median and p99 in
+ * microseconds.
  */
 #define _GNU_SOURCE
 #include <dirent.h>
@@ -84,23 +88,26 @@ struct phase {
     int per_dgram;
     int rate; /* frames/s; 0: as fast as it goes */
     int latency;
+    double drain; /* s after the load, for what the router still holds */
 };
 
 static const struct phase PHASES[] = {
-    {"sat1", 3, 1, 0, 0},       {"sat10", 3, 10, 0, 0},
-    {"r2000", 4, 1, 2000, 0},   {"r20000", 3, 1, 20000, 0},
-    {"lat1000", 3, 1, 1000, 1},
+    {"sat1", 3, 1, 0, 0, 0.3},     {"sat10", 3, 10, 0, 0, 0.3},
+    {"r2000", 4, 1, 2000, 0, 0.05}, {"r20000", 3, 1, 20000, 0, 0.05},
+    {"lat1000", 3, 1, 1000, 1, 0.05},
 };
 #define NPHASES (sizeof PHASES / sizeof PHASES[0])
 
 /* What the sink counts; reset by the sender between phases. */
 static struct {
     atomic_uint_fast64_t good, bad, stale, disorder;
-    atomic_uint phase_id; /* counter >> 26 of the current phase */
+    atomic_uint phase_id; /* counter >> 26 of the current slice */
     atomic_int lat_on;
     atomic_int stop;
 } sink;
+/* The sink's alone: the last counter per system, of the slice in seen_id. */
 static uint32_t last_counter[MAX_ROUTERS][SYSTEMS + 1];
+static unsigned seen_id[MAX_ROUTERS];
 static atomic_uint_fast64_t sent_at[LAT_MAX]; /* ns, by frame index; 0 none */
 static atomic_uint_fast64_t latency[LAT_MAX]; /* ns, by frame index; 0 none */
 static struct router routers[MAX_ROUTERS];
@@ -135,7 +142,7 @@ static const struct msg_type *type_of(uint32_t id) {
 static int make_frame(uint8_t *f, uint32_t phase_id, uint32_t index, uint8_t *seqs) {
     uint8_t sys = (uint8_t)(index % SYSTEMS + 1);
     const struct msg_type *t = &TYPES_[(index / SYSTEMS) % TYPES];
-    uint32_t counter = phase_id << 26 | (index & 0x3ffffff);
+    uint32_t counter = (phase_id & 63) << 26 | (index & 0x3ffffff);
     f[0] = 0xFD;
     f[1] = t->len;
     f[2] = 0;
@@ -160,7 +167,7 @@ static int make_frame(uint8_t *f, uint32_t phase_id, uint32_t index, uint8_t *se
 
 /* Checks one datagram's frames, counted into `sink`. */
 static void check_datagram(int r, const uint8_t *d, int n, uint64_t at) {
-    unsigned phase_id = atomic_load(&sink.phase_id);
+    unsigned phase_id = atomic_load(&sink.phase_id) & 63;
     int off = 0;
     while (off < n) {
         const uint8_t *f = d + off;
@@ -181,6 +188,10 @@ static void check_datagram(int r, const uint8_t *d, int n, uint64_t at) {
             atomic_fetch_add(&sink.stale, 1);
         } else {
             atomic_fetch_add(&sink.good, 1);
+            if (seen_id[r] != phase_id) { /* a new slice: order starts again */
+                memset(last_counter[r], 0, sizeof last_counter[r]);
+                seen_id[r] = phase_id;
+            }
             uint32_t *last = &last_counter[r][f[5]];
             if (*last && counter <= *last) atomic_fetch_add(&sink.disorder, 1);
             *last = counter;
@@ -346,14 +357,13 @@ static int udp_socket(int port, int bind_it) {
     return fd;
 }
 
-static void run_phase(int r, const struct phase *ph, uint32_t phase_id, long hz) {
+/* One slice of a phase for router r, under slice id `phase_id`. */
+static void run_slice(int r, const struct phase *ph, int slice, uint32_t phase_id, long hz) {
     struct router *ro = &routers[r];
     int fd = udp_socket(ro->in_port, 0);
     if (fd < 0) { perror("source socket"); exit(1); }
-    /* The new phase first: from here on the sink counts a late frame of
-     * the last phase as stale and reads no table entry for it. Counters
-     * only grow from phase to phase, so the order per system needs no
-     * reset. */
+    /* The new slice first: from here on the sink counts a late frame of
+     * the last one as stale and reads no table entry for it. */
     atomic_store(&sink.phase_id, phase_id);
     atomic_store(&sink.lat_on, 0);
     for (size_t i = 0; i < LAT_MAX; i++) atomic_store(&sent_at[i], 0), atomic_store(&latency[i], 0);
@@ -362,20 +372,20 @@ static void run_phase(int r, const struct phase *ph, uint32_t phase_id, long hz)
     atomic_store(&sink.lat_on, ph->latency);
     uint64_t in0 = udp_drops(ro->in_port), out0 = udp_drops(ro->out_port);
     uint64_t tk0 = stat_ticks(ro->pid), ns0 = sched_ns(ro->pid), t0 = now_ns();
-    uint64_t sent = send_phase(fd, ph, phase_id);
-    usleep(300000); /* what the router still holds reaches the sink */
-    uint64_t tk1 = stat_ticks(ro->pid), ns1 = sched_ns(ro->pid), t1 = now_ns();
+    uint64_t sent = send_phase(fd, ph, phase_id), t_sent = now_ns();
+    usleep((useconds_t)(ph->drain * 1e6));
+    uint64_t tk1 = stat_ticks(ro->pid), ns1 = sched_ns(ro->pid);
     uint64_t in_drops = udp_drops(ro->in_port) - in0, out_drops = udp_drops(ro->out_port) - out0;
     double p50, p99;
     latency_stats(ph->latency ? sent : 0, &p50, &p99);
     uint64_t lost_in = in_drops * (uint64_t)ph->per_dgram;
-    printf("%s %s %d %llu %llu %llu %llu %llu %llu %llu %llu %.6f %llu %.3f %.1f %.1f\n", ro->name,
-           ph->name, ph->per_dgram, (unsigned long long)sent,
+    printf("%s %s %d %d %llu %llu %llu %llu %llu %llu %llu %llu %.6f %llu %.3f %.1f %.1f\n", ro->name,
+           ph->name, slice, ph->per_dgram, (unsigned long long)sent,
            (unsigned long long)(sent > lost_in ? sent - lost_in : 0),
            (unsigned long long)atomic_load(&sink.good), (unsigned long long)atomic_load(&sink.bad),
            (unsigned long long)atomic_load(&sink.stale), (unsigned long long)atomic_load(&sink.disorder),
            (unsigned long long)in_drops, (unsigned long long)out_drops,
-           (double)(tk1 - tk0) / (double)hz, (unsigned long long)(ns1 - ns0), (double)(t1 - t0) / 1e9 - 0.3,
+           (double)(tk1 - tk0) / (double)hz, (unsigned long long)(ns1 - ns0), (double)(t_sent - t0) / 1e9,
            p50, p99);
     fflush(stdout);
     close(fd);
@@ -396,20 +406,23 @@ int main(int argc, char **argv) {
         ro->sink_fd = udp_socket(ro->out_port, 1);
         if (ro->sink_fd < 0) { perror("sink bind"); return 1; }
     }
-    const char *scale_s = getenv("ROUTER_LOAD_SCALE");
+    const char *scale_s = getenv("ROUTER_LOAD_SCALE"), *slices_s = getenv("ROUTER_LOAD_SLICES");
     double scale = scale_s ? atof(scale_s) : 1.0;
+    int slices = slices_s ? atoi(slices_s) : 6;
+    if (slices < 1 || slices > 100) slices = 6;
     long hz = sysconf(_SC_CLK_TCK);
     pthread_t th;
     if (pthread_create(&th, NULL, sink_main, NULL) != 0) return 1;
-    printf("router phase per_dgram sent read delivered bad stale disorder in_drops out_drops "
-           "cpu_stat_s cpu_sched_ns wall_s p50_us p99_us\n");
+    printf("router phase slice per_dgram sent read delivered bad stale disorder in_drops out_drops "
+           "cpu_stat_s cpu_sched_ns load_s p50_us p99_us\n");
     uint32_t phase_id = 1;
     for (unsigned p = 0; p < NPHASES; p++) {
         const char *only = getenv("ROUTER_LOAD_ONLY"); /* one phase, for profiles */
         if (only && strcmp(only, PHASES[p].name) != 0) continue;
         struct phase ph = PHASES[p];
-        ph.secs *= scale > 0 && scale <= 10 ? scale : 1.0;
-        for (int r = 0; r < nrouters; r++, phase_id++) run_phase(r, &ph, phase_id, hz);
+        ph.secs *= (scale > 0 && scale <= 10 ? scale : 1.0) / slices;
+        for (int k = 0; k < slices; k++)
+            for (int r = 0; r < nrouters; r++, phase_id++) run_slice(r, &ph, k, phase_id, hz);
     }
     atomic_store(&sink.stop, 1);
     pthread_join(th, NULL);

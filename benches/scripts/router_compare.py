@@ -1,17 +1,27 @@
 #!/usr/bin/env python3
 """The table of benches/scripts/router_compare.sh from router_load's lines.
 
-    router_compare.py RAW [FIRST_ROUTER SECOND_ROUTER]
+    router_compare.py RAW [FIRST_ROUTER SECOND_ROUTER [REFERENCE]]
 
-Ratios are FIRST ÷ SECOND (default fbwag ÷ mavlink-routerd), each from the
-same run; every row says which way is better. CPU per frame divides the
-router's CPU by the frames it read (sent minus those the kernel dropped at
-its input socket), so work on frames it never saw is not counted.
+One column per router, in the order given (default fbwag, mavlink-routerd,
+bare-forward when present). Each figure adds up the router's slices of the
+phase (latency: the median of the slices' medians and p99s). The ratio is
+FIRST ÷ SECOND over the whole phase; beside it, in brackets, the lowest
+and highest ratio of a slice against the slice that ran next to it, which
+shows how much of a difference the machine's noise can make. Every row says
+which way is better. CPU per frame divides the router's CPU by the frames it
+read (sent minus those the kernel dropped at its input socket), so work on
+frames it never saw is not counted.
 """
+import statistics
 import sys
+
+COUNTS = ("sent", "read", "delivered", "bad", "stale", "disorder", "in_drops",
+          "out_drops", "cpu_stat_s", "cpu_sched_ns", "load_s")
 
 
 def load(path):
+    """{(router, phase): [slice, ...]}, each slice a dict of its fields."""
     with open(path) as f:
         lines = [l.split() for l in f if l.strip()]
     head, rows = lines[0], lines[1:]
@@ -20,15 +30,23 @@ def load(path):
         d = dict(zip(head, r))
         for k in head[2:]:
             d[k] = float(d[k])
-        out[(d["router"], d["phase"])] = d
+        out.setdefault((d["router"], d["phase"]), []).append(d)
     return out
+
+
+def total(slices):
+    """The phase as one: counts added up, latency the median over slices."""
+    d = {k: sum(s[k] for s in slices) for k in COUNTS}
+    d["per_dgram"] = slices[0]["per_dgram"]
+    for k in ("p50_us", "p99_us"):
+        seen = [s[k] for s in slices if s[k] >= 0]
+        d[k] = statistics.median(seen) if seen else -1
+    return d
 
 
 def fmt(v, unit=""):
     if v is None:
         return "n/a"
-    if v >= 100000:
-        return f"{v:,.0f}{unit}"
     if v >= 100:
         return f"{v:,.0f}{unit}"
     if v >= 10:
@@ -37,7 +55,7 @@ def fmt(v, unit=""):
 
 
 def throughput(d):
-    return d["delivered"] / d["wall_s"] if d["wall_s"] > 0 else None
+    return d["delivered"] / d["load_s"] if d["load_s"] > 0 else None
 
 
 def loss(d):
@@ -48,12 +66,12 @@ def loss(d):
     at_in = d["in_drops"] * k
     at_sink = d["out_drops"]
     inside = max(d["read"] - d["delivered"] - at_sink, 0)
-    total = 100 * (d["sent"] - d["delivered"]) / d["sent"]
-    return (f"{total:.1f} % (input {100 * at_in / d['sent']:.1f}, "
-            f"router {100 * inside / d['sent']:.1f}, sink {100 * at_sink / d['sent']:.1f})")
+    pct = lambda n: 100 * n / d["sent"]
+    return (f"{pct(d['sent'] - d['delivered']):.1f} % (input {pct(at_in):.1f}, "
+            f"router {pct(inside):.1f}, sink {pct(at_sink):.1f})")
 
 
-def cpu_us(d, field):
+def cpu_us(d, field="sched"):
     if not d["read"]:
         return None
     secs = d["cpu_stat_s"] if field == "stat" else d["cpu_sched_ns"] / 1e9
@@ -61,54 +79,74 @@ def cpu_us(d, field):
 
 
 def busy(d):
-    return 100 * d["cpu_sched_ns"] / 1e9 / (d["wall_s"] + 0.3)
+    return 100 * d["cpu_sched_ns"] / 1e9 / d["load_s"] if d["load_s"] > 0 else None
+
+
+def latency(key):
+    return lambda d: d[key] if d[key] >= 0 else None
+
+
+def ratio(fn, a, b):
+    """a ÷ b over the phase, and the range of the paired slices' ratios."""
+    whole = fn(total(a)), fn(total(b))
+    if not all(isinstance(v, float) and v for v in whole):
+        return "n/a"
+    pairs = [fn(x) / fn(y) for x, y in zip(a, b)
+             if isinstance(fn(x), float) and isinstance(fn(y), float) and fn(y)]
+    spread = f" [{min(pairs):.2f}–{max(pairs):.2f}]" if len(pairs) > 1 else ""
+    return f"**{whole[0] / whole[1]:.2f}**{spread}"
+
+
+def table(raw, routers):
+    a, b = routers[0], routers[1]
+    rows = []
+
+    def row(phase, name, fn, better, unit="", paired=True):
+        def show(r):
+            if (r, phase) not in raw:
+                return "n/a"
+            v = fn(total(raw[(r, phase)]))
+            return v if isinstance(v, str) else fmt(v, unit)
+        both = (a, phase) in raw and (b, phase) in raw
+        r = ratio(fn, raw[(a, phase)], raw[(b, phase)]) if both and paired else ""
+        rows.append([name] + [show(x) for x in routers] + [r, better])
+
+    for phase, label in (("sat1", "1 frame/datagram"), ("sat10", "10 frames/datagram")):
+        row(phase, f"saturation, {label}: frames/s delivered", throughput, "higher")
+        row(phase, "… loss", loss, "", paired=False)
+        row(phase, "… router CPU busy", busy, "", " %", paired=False)
+        row(phase, "… CPU µs/frame (stat)", lambda d: cpu_us(d, "stat"), "lower", paired=False)
+        row(phase, "… CPU µs/frame (schedstat)", cpu_us, "lower")
+    for phase, label in (("r2000", "2,000"), ("r20000", "20,000")):
+        row(phase, f"{label} frames/s: frames/s delivered", throughput, "", paired=False)
+        row(phase, "… loss", loss, "", paired=False)
+        row(phase, "… CPU µs/frame (schedstat)", cpu_us, "lower")
+    row("lat1000", "1,000 frames/s: latency median µs", latency("p50_us"), "lower")
+    row("lat1000", "… latency p99 µs", latency("p99_us"), "lower")
+    row("lat1000", "… loss", loss, "", paired=False)
+
+    print("| | " + " | ".join(routers) + f" | {a} ÷ {b} [slices] | better |")
+    print("|---|" + "---:|" * (len(routers) + 1) + "---|")
+    for r in rows:
+        print("| " + " | ".join(r) + " |")
 
 
 def main():
     raw = load(sys.argv[1])
-    a, b = (sys.argv[2], sys.argv[3]) if len(sys.argv) > 3 else ("fbwag", "mavlink-routerd")
-    rows = []
-
-    def row(name, fn, better, unit=""):
-        va = fn(raw[(a, phase)]) if (a, phase) in raw else None
-        vb = fn(raw[(b, phase)]) if (b, phase) in raw else None
-        ratio = f"{va / vb:.2f}" if isinstance(va, float) and isinstance(vb, float) and vb else "n/a"
-        show = (lambda v: v if isinstance(v, str) else fmt(v, unit))
-        rows.append((name, show(va), show(vb), ratio, better))
-
-    for phase, label in (("sat1", "1 frame/datagram"), ("sat10", "10 frames/datagram")):
-        row(f"saturation, {label}: frames/s delivered", throughput, "higher")
-        row(f"… loss", loss, "")
-        row(f"… router CPU busy", busy, "", " %")
-        row(f"… CPU µs/frame (stat)", lambda d: cpu_us(d, "stat"), "lower")
-        row(f"… CPU µs/frame (schedstat)", lambda d: cpu_us(d, "sched"), "lower")
-        row(f"… CPU µs per frame delivered (schedstat)",
-            lambda d: d["cpu_sched_ns"] / 1e3 / d["delivered"] if d["delivered"] else None, "lower")
-        row(f"… frames per CPU-second (a whole core's capacity)",
-            lambda d: 1e6 / cpu_us(d, "sched") if cpu_us(d, "sched") else None, "higher")
-    for phase, label in (("r2000", "2,000"), ("r20000", "20,000")):
-        row(f"{label} frames/s: frames/s delivered", throughput, "")
-        row(f"… loss", loss, "")
-        row(f"… CPU µs/frame (stat)", lambda d: cpu_us(d, "stat"), "lower")
-        row(f"… CPU µs/frame (schedstat)", lambda d: cpu_us(d, "sched"), "lower")
-    phase = "lat1000"
-    row("1,000 frames/s: latency median µs", lambda d: d["p50_us"] if d["p50_us"] >= 0 else None, "lower")
-    row("… latency p99 µs", lambda d: d["p99_us"] if d["p99_us"] >= 0 else None, "lower")
-    row("… loss", loss, "")
-
-    print(f"| | {a} | {b} | {a} ÷ {b} | better |")
-    print("|---|---:|---:|---:|---|")
-    for r in rows:
-        print("| " + " | ".join(r) + " |")
-    bad = [(k, d) for k, d in raw.items() if d["bad"] or d["stale"] or d["disorder"]]
+    present = {r for r, _ in raw}
+    routers = sys.argv[2:] or ["fbwag", "mavlink-routerd"]
+    if len(sys.argv) <= 2 and "bare-forward" in present:
+        routers.append("bare-forward")
+    table(raw, routers)
     print()
-    if bad:
-        for (r, p), d in bad:
-            print(f"CHECK: {r} {p}: {d['bad']:.0f} bad, {d['stale']:.0f} stale, "
-                  f"{d['disorder']:.0f} out of order frames at the sink")
-    else:
+    bad = [(k, total(s)) for k, s in raw.items()]
+    bad = [(k, d) for k, d in bad if d["bad"] or d["stale"] or d["disorder"]]
+    for (r, p), d in bad:
+        print(f"CHECK: {r} {p}: {d['bad']:.0f} bad, {d['stale']:.0f} stale, "
+              f"{d['disorder']:.0f} out of order frames at the sink")
+    if not bad:
         print("Sink checks: every frame delivered had a good CRC, its type's length, "
-              "the current phase's counter and its system's order.")
+              "the current slice's counter and its system's order.")
 
 
 if __name__ == "__main__":

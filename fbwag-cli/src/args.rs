@@ -274,6 +274,30 @@ pub fn per_link<T: Clone>(
         .collect())
 }
 
+/// A link's place among a daemon's links, from 1.
+pub fn link_number(s: &str) -> Result<usize, ArgError> {
+    integer_in(s, 1, MAX_LINKS, "a link's place (from 1)")
+}
+
+/// The 0-based indices of the links `places` (from 1) name, over
+/// `links` links; `flag` names the option in an error.
+pub fn link_indices(
+    flag: &str,
+    places: &[usize],
+    links: usize,
+) -> Result<Vec<usize>, (String, LinkOptionError)> {
+    places
+        .iter()
+        .map(|&link| match link.checked_sub(1).filter(|i| *i < links) {
+            Some(index) => Ok(index),
+            None => Err((
+                format!("{flag} {link}"),
+                LinkOptionError::NoSuchLink { link, links },
+            )),
+        })
+        .collect()
+}
+
 /// `fbwag router --routed-rate LINK:RATE`: the pace of what is routed to
 /// the link at that place (from 1), both checked as they are read; LINK
 /// is required.
@@ -603,6 +627,16 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         assert!(sign_key(&k[..62]).is_err());
         assert!(sign_key(&format!("{}zz", &k[..62])).is_err());
+    }
+
+    #[test]
+    fn a_link_is_named_by_its_place_among_those_given() {
+        assert_eq!(link_number("3").ok(), Some(3));
+        assert!(link_number("0").is_err() && link_number("x").is_err());
+        assert_eq!(link_indices("--sniffer", &[3, 1], 3), Ok(vec![2, 0]));
+        let (arg, e) = link_indices("--sniffer", &[4], 3).unwrap_err();
+        assert_eq!(arg, "--sniffer 4");
+        assert_eq!(e, LinkOptionError::NoSuchLink { link: 4, links: 3 });
     }
 }
 

@@ -60,7 +60,7 @@ fn the_router_routes_between_the_links_of_its_file() {
         "router.toml",
         &format!(
             "# two links\nlinks = [\"udpin:127.0.0.1:{a}\", \"udpout:127.0.0.1:{b}\"]\n\
-             duration = 600\nreport = 0.5\n"
+             duration = 600\nreport = 0.5\nsniffer = [2]\n"
         ),
     );
     let started = Instant::now();
@@ -113,6 +113,11 @@ fn a_bad_file_is_refused_with_its_line_and_column() {
             "links = [\"udpin:127.0.0.1:1\", \"bogus:1\"]\n",
             ":1:9:",
             "`links`",
+        ),
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nsniffer = [1, 0]\n",
+            ":2:11:",
+            "`sniffer`",
         ),
         ("links = [\"udpin:127.0.0.1:1\",\n", ":1:", "unclosed array"),
         ("[router]\nlinks = []\n", ":1:2:", "no such option"),

@@ -3,8 +3,10 @@
 //! spoke first on it gets nothing) while link 1 still answers whoever
 //! spoke; `--sign-key KEY --sign-key 2:KEY2 --require-signed` verifies
 //! link 2 with its own key, so a frame signed with the other links' key
-//! or not signed is refused there and one signed with KEY2 goes on.
+//! or not signed is refused there and one signed with KEY2 goes on;
+//! `--sniffer 3` sends link 3 a command addressed to a system on link 1.
 
+use fbwag_dialect::dialects::common::{CommandLong, MavCmd};
 use fbwag_dialect::dialects::minimal::Heartbeat;
 use fbwag_dialect::dialects::standard::GlobalPositionInt;
 use fbwag_dialect::mavframe::signing::timestamp_now;
@@ -158,4 +160,45 @@ fn a_link_with_its_own_key_verifies_with_it_alone() {
     let unauthenticated = summary["dropped"]["unauthenticated"].as_u64().unwrap_or(0);
     assert!(unauthenticated >= 1, "{summary}\n{log}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_sniffer_link_gets_frames_addressed_to_others() {
+    let ports = [free_port(), free_port(), free_port()];
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("router")
+            .args(ports.map(|p| format!("udpin:127.0.0.1:{p}")))
+            .args(["--sniffer", "3", "--duration", "4"]),
+    );
+    let [fc, ground, tool] = ports.map(connected);
+    // Each speaks on its link, so each link answers it; the FC's
+    // heartbeats reach the ground station once all are up.
+    let heard = until_heard(&fc, &ground, |n| {
+        let _ = tool.send(&frame(254, n, &Heartbeat::default(), None));
+        let _ = ground.send(&frame(255, n, &Heartbeat::default(), None));
+        frame(1, n, &Heartbeat::default(), None)
+    });
+    assert!(heard, "link 1 never reached link 2");
+    // Addressed to system 1, seen on link 1 only: without --sniffer it
+    // would go there alone.
+    let command = frame(
+        255,
+        200,
+        &CommandLong {
+            target_system: 1,
+            command: MavCmd::COMPONENT_ARM_DISARM,
+            ..CommandLong::default()
+        },
+        None,
+    );
+    ground.send(&command).unwrap();
+    let to_fc = receive(&fc, Duration::from_millis(300));
+    let to_tool = receive(&tool, Duration::from_millis(100));
+    let out = router.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert_eq!(count(&to_fc, &command), 1, "{log}");
+    assert_eq!(count(&to_tool, &command), 1, "the sniffer missed it\n{log}");
+    assert!(log.contains("gets every frame routed"), "{log}");
 }

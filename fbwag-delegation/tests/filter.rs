@@ -1,6 +1,7 @@
-//! Link filters and de-duplication in the nodes: in-filters drop before
-//! routing (counted as `filtered`), out-filters take links off a route,
-//! copies within the window are dropped (counted as `duplicate`), and on
+//! Link filters, de-duplication and sniffers in the nodes: in-filters
+//! drop before routing (counted as `filtered`), out-filters take links off
+//! a route, copies within the window are dropped (counted as
+//! `duplicate`), a sniffer link gets frames addressed to others, and on
 //! the companion the engine's inputs and the node's own messages are
 //! decided before any filter.
 
@@ -141,6 +142,40 @@ fn an_out_filter_takes_its_link_off_the_route_without_a_drop() {
     let fate = r.handle_frame(t, arrival(0, &heartbeat(GCS, 3)));
     assert_eq!(fate.route, links(&[1, 2, 3]));
     assert!(r.set_filter(9, Direction::In, Filter::ALL).is_err());
+}
+
+fn command_to(from: Peer, target: Peer, seq: u8) -> Vec<u8> {
+    let cmd = CommandLong {
+        target_system: target.sysid,
+        target_component: target.compid,
+        ..CommandLong::default()
+    };
+    bytes(from, seq, &cmd)
+}
+
+#[test]
+fn a_sniffer_gets_frames_addressed_to_others_through_its_out_filter() {
+    let mut r = router(4);
+    let t = Instant::ZERO;
+    // The FC is seen on link 0; the ground station's command for it goes
+    // there alone.
+    let _ = r.handle_frame(t, arrival(0, &heartbeat(FC, 0)));
+    let fate = r.handle_frame(t, arrival(1, &command_to(GCS, FC, 0)));
+    assert_eq!(fate.route, links(&[0]));
+    r.set_sniffer(3).unwrap();
+    let fate = r.handle_frame(t, arrival(1, &command_to(GCS, FC, 1)));
+    assert_eq!(fate.route, links(&[0, 3]));
+    // Broadcasts as before; nothing goes back where it came from.
+    let fate = r.handle_frame(t, arrival(3, &heartbeat(GCS, 2)));
+    assert_eq!(fate.route, links(&[0, 1, 2]));
+    let fate = r.handle_frame(t, arrival(0, &command_to(FC, GCS, 1)));
+    assert_eq!(fate.route, links(&[1, 3]), "GCS was seen on links 1 and 3");
+    // Its out-filter still decides what it gets.
+    r.set_filter(3, Direction::Out, filter(&["block-msg=COMMAND_LONG"]))
+        .unwrap();
+    let fate = r.handle_frame(t, arrival(1, &command_to(GCS, FC, 3)));
+    assert_eq!(fate.route, links(&[0]));
+    assert!(r.set_sniffer(9).is_err());
 }
 
 #[test]

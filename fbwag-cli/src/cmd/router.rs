@@ -85,6 +85,13 @@ pub struct RouterArgs {
     /// Repeatable; unpaced by default. Example: --routed-rate 1:5760
     #[arg(long, value_name = "LINK:RATE", value_parser = args::link_rate)]
     pub routed_rate: Vec<args::ForLink<args::RoutedRate>>,
+    /// Send link LINK (its place among CONN, from 1) every frame routed:
+    /// those addressed to a system on another link as well as the
+    /// broadcasts, through its --filter-out. For a logger or a tool that
+    /// watches the whole network; what it sends is routed as any link's.
+    /// Repeatable. Example: --sniffer 3
+    #[arg(long, value_name = "LINK", value_parser = args::link_number)]
+    pub sniffer: Vec<usize>,
     /// Forward a frame that arrives twice (the same bytes, on any links:
     /// redundant radios) within this many milliseconds once; the copies
     /// are dropped and counted as "duplicate". 0: off (the default).
@@ -128,6 +135,8 @@ impl TryFrom<RouterArgs> for RouterOptions {
             .map(|k| k.as_deref().map(super::key).transpose())
             .collect::<Result<_, _>>()?;
         let peers = args::per_link("--peer", &a.peer, links).map_err(CliError::link_option)?;
+        let sniffers =
+            args::link_indices("--sniffer", &a.sniffer, links).map_err(CliError::link_option)?;
         Ok(RouterOptions {
             endpoints: endpoints.collect::<Result<_, _>>()?,
             filters,
@@ -137,6 +146,7 @@ impl TryFrom<RouterArgs> for RouterOptions {
             require_signed: a.require_signed,
             signing_state: a.signing_state,
             peers,
+            sniffers,
             duration: a.duration.map(Duration::from_secs_f64),
             report: Duration::from_secs_f64(a.report.max(0.1)),
             events: a.events,

@@ -45,6 +45,9 @@ pub struct RouterOptions {
     /// The address each listening link answers, and no other (`None`:
     /// whom the node chooses), in `endpoints`' order.
     pub peers: Vec<Option<SocketAddr>>,
+    /// The links that get every frame routed, by their place in
+    /// `endpoints`.
+    pub sniffers: Vec<usize>,
     /// Stop after this long.
     pub duration: Option<Duration>,
     /// A traffic line this often.
@@ -160,6 +163,11 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
         net::set_filters(&o.filters, &links, &o.endpoints, &mut log, |link, d, f| {
             node.set_filter(link, d, f)
         })?;
+        for &i in &o.sniffers {
+            node.set_sniffer(links[i])
+                .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
+            log.line(&format!("link {} gets every frame routed", o.endpoints[i]));
+        }
         if let Some(window) = o.dedup {
             log.line(&format!(
                 "copies of a frame within {} ms dropped",

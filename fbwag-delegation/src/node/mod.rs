@@ -355,6 +355,8 @@ struct Core {
     roles: [Links; 3],
     /// Frames seen lately, when de-duplication is on.
     dedup: Option<Dedup>,
+    /// Links that get addressed frames too, whoever they are for.
+    sniffers: Links,
 }
 
 /// Errors of a node's set-up.
@@ -398,6 +400,7 @@ impl Core {
             filtered_out: Links::NONE,
             roles: [Links::NONE; 3],
             dedup: None,
+            sniffers: Links::NONE,
         }
     }
 
@@ -448,6 +451,14 @@ impl Core {
                 };
             }
         }
+        Ok(())
+    }
+
+    /// Sends `link` the frames addressed to others as well as the
+    /// broadcasts (its out-filter still applies).
+    fn set_sniffer(&mut self, link: LinkId) -> Result<(), NodeError> {
+        self.spec(link).ok_or(NodeError::BadLink(link))?;
+        self.sniffers = self.sniffers.union(Links::only(link));
         Ok(())
     }
 
@@ -549,7 +560,9 @@ impl Core {
             <fbwag_dialect::Dialect as fbwag_dialect::mavframe::MessageSet>::meta(a.frame.msg_id());
         let others = allowed.intersection(self.all()).without(a.link);
         let to = match fbwag_dialect::mavframe::route::target(&a.frame, meta) {
-            Some((sysid, compid)) => self.table.links_to(sysid, compid).intersection(others),
+            Some((sysid, compid)) => (self.table.links_to(sysid, compid))
+                .union(self.sniffers)
+                .intersection(others),
             None => others,
         };
         self.filter_out(&a.frame, to)

@@ -63,6 +63,14 @@ impl RouterNode {
         self.core.set_filter(link, direction, filter)
     }
 
+    /// Makes `link` a sniffer: it gets every frame routed, those
+    /// addressed to systems on other links as well as the broadcasts (a
+    /// logger, a tool watching the whole network), through its
+    /// out-filter. What arrives on it is routed as from any link.
+    pub fn set_sniffer(&mut self, link: LinkId) -> Result<(), NodeError> {
+        self.core.set_sniffer(link)
+    }
+
     /// Drops a copy of a frame that went on less than `window` before,
     /// from any link (`None` or zero: off, the default).
     pub fn set_dedup(&mut self, window: Option<Duration>) {

@@ -79,6 +79,9 @@ pub enum CliError {
         arg: String,
         source: LinkOptionError,
     },
+    /// `fbwag router` with fewer than two links.
+    #[error("a router needs two links or more (CONN), got {0}")]
+    TooFewLinks(usize),
     /// A signing key of the wrong length.
     #[error("a signing key is 32 bytes (64 hex digits), got {0}")]
     KeyLength(usize),

@@ -1,7 +1,8 @@
-//! `--config FILE`: `fbwag router` and `fbwag cc` take their options from
-//! a TOML file (deploy/router.toml and deploy/cc.toml are the examples);
-//! the command line's options win; a bad file or value is refused with
-//! the file's line and column, exit status 2.
+//! `--config PATH`: `fbwag router` and `fbwag cc` take their options from
+//! a TOML file (deploy/router.toml and deploy/cc.toml are the examples),
+//! or from a directory's `*.toml` files in name order; a later file's
+//! options and the command line's win; a bad file or value is refused
+//! with the file's line and column, exit status 2.
 
 use fbwag_dialect::dialects::minimal::Heartbeat;
 use fbwag_dialect::{encode, Header, Version};
@@ -87,6 +88,90 @@ fn the_router_routes_between_the_links_of_its_file() {
         started.elapsed() < Duration::from_secs(30),
         "--duration 2 on the command line wins over the file's 600"
     );
+}
+
+/// A directory as mavlink-router's config.d: its *.toml files in name
+/// order, each adding links, a later one's single values winning; other
+/// files there left alone; a bad file named by its own path and line.
+#[test]
+fn a_directory_adds_up_its_files_in_name_order() {
+    let d = dir("conf-d");
+    let (a, b) = (free_port(), free_port());
+    let sink = UdpSocket::bind(("127.0.0.1", b)).unwrap();
+    write(
+        &d,
+        "10-fc.toml",
+        &format!("links = [\"udpin:127.0.0.1:{a}\"]\nduration = 600\n"),
+    );
+    write(
+        &d,
+        "20-ground.toml",
+        &format!("links = [\"udpout:127.0.0.1:{b}\"]\nduration = 2\n"),
+    );
+    write(&d, "20-ground.toml~", "this is no TOML [");
+    write(&d, "README", "this is no TOML [");
+    let started = Instant::now();
+    let child = fbwag()
+        .args(["router", "--config"])
+        .arg(&d)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let source = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let hb = heartbeat();
+    let mut buf = [0u8; 300];
+    let got = (0..20).find_map(|_| {
+        source.send_to(&hb, ("127.0.0.1", a)).unwrap();
+        sink.set_read_timeout(Some(Duration::from_millis(200)))
+            .unwrap();
+        sink.recv(&mut buf).ok()
+    });
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(got.map(|n| &buf[..n]), Some(&hb[..]), "{}", stderr(&out));
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        started.elapsed() < Duration::from_secs(30),
+        "20-ground.toml's duration 2 wins over 10-fc.toml's 600"
+    );
+
+    // The command line's links add to the files'.
+    let extra = free_port();
+    let out = fbwag()
+        .args(["router", "--config"])
+        .arg(&d)
+        .arg(format!("udpin:127.0.0.1:{extra}"))
+        .args(["--duration", "0.3"])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(log.matches("link ud").count(), 3, "{log}");
+    let out = fbwag()
+        .args(["router", "udpin:127.0.0.1:1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("two links or more"),
+        "{}",
+        stderr(&out)
+    );
+
+    let bad = write(&d, "30-bad.toml", "report = 1\nrequire_signed = 1\n");
+    let out = fbwag()
+        .args(["router", "--config"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let at = format!("{}:2:18:", bad.display());
+    assert!(stderr(&out).contains(&at), "wants {at}: {}", stderr(&out));
+    let out = fbwag()
+        .args(["router", "--config"])
+        .arg(d.join("absent.d"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
 }
 
 /// What a bad file says, and where.

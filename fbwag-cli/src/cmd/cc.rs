@@ -35,11 +35,12 @@ pub struct CcArgs {
     pub link: String,
     /// Read options from this TOML file first: one key per long option
     /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
-    /// for repeatable ones). Options given on the command line
-    /// as well win; repeatable ones add to the file's. Example:
+    /// for repeatable ones). A directory: its *.toml files in name order.
+    /// Repeatable; a later file's single-valued options win, and the
+    /// command line's over all; repeatable ones add up. Example:
     /// deploy/cc.toml.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
+    #[arg(long, value_name = "PATH")]
+    pub config: Vec<PathBuf>,
     /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,
     /// the client connected from it) and no other.
     #[arg(long, value_name = "IP:PORT")]

@@ -1,13 +1,16 @@
-//! `--config FILE`: a daemon's options from a TOML file.
+//! `--config PATH`: a daemon's options from TOML files.
 //!
-//! The file holds the options of the command line, one key per long
+//! A file holds the options of the command line, one key per long
 //! option (`sign_key` or `sign-key` for `--sign-key`), and `links` for
 //! `fbwag router`'s links. The clap `Args` structs stay the one
 //! definition of every option, so an option is configurable the day it
-//! exists, with the same checks and the same `--help`. The file's options
-//! come first on the command line they build: an option given on the
-//! command line as well wins, and list options (`out`, `links`) add to
-//! the file's.
+//! exists, with the same checks and the same `--help`. PATH may also be a
+//! directory: its `*.toml` files in name order, as mavlink-router reads
+//! its `config.d`, so a package can add a link in a file of its own.
+//! `--config` may be given more than once. The files' options come first
+//! on the command line they build, in order: a single-valued option of a
+//! later file, or of the command line, wins, and list options (`out`,
+//! `links`) add up.
 //!
 //! A file that is not TOML, a key that is no option, a value of the wrong
 //! kind, or a value the option refuses is reported with the file's line
@@ -73,7 +76,10 @@ pub enum ConfigError {
 /// from (to name the file's line when the option refuses its value).
 #[derive(Debug, Default)]
 pub struct FileArgs {
-    pub words: Vec<OsString>,
+    /// The links, every file's together: clap takes a positional's
+    /// values only as one run.
+    positionals: Vec<OsString>,
+    options: Vec<OsString>,
     origins: Vec<Origin>,
 }
 
@@ -87,9 +93,9 @@ struct Origin {
     values: Vec<String>,
 }
 
-/// Inserts the options of `--config FILE` (when the subcommand has that
-/// option and it is given) after the subcommand's name in `argv`, so the
-/// command line's own come after them.
+/// Inserts the options of every `--config PATH` (when the subcommand has
+/// that option and it is given) after the subcommand's name in `argv`, so
+/// the command line's own come after them.
 pub fn expand(
     command: &Command,
     mut argv: Vec<OsString>,
@@ -104,29 +110,70 @@ pub fn expand(
     if !sub.get_arguments().any(|a| a.get_id() == "config") {
         return Ok((argv, None));
     }
-    let Some(path) = config_path(&argv[2..]) else {
+    let paths = config_paths(&argv[2..]);
+    if paths.is_empty() {
         return Ok((argv, None));
-    };
-    let file = load(sub, &path)?;
-    argv.splice(2..2, file.words.iter().cloned());
-    Ok((argv, Some(file)))
+    }
+    let mut all = FileArgs::default();
+    for path in &paths {
+        for file in files(path)? {
+            all.append(load(sub, &file)?);
+        }
+    }
+    argv.splice(2..2, all.words().cloned().collect::<Vec<_>>());
+    Ok((argv, Some(all)))
 }
 
-/// The value of `--config PATH` or `--config=PATH`, up to a `--`.
-fn config_path(args: &[OsString]) -> Option<PathBuf> {
+/// The values of every `--config PATH` or `--config=PATH`, up to a `--`.
+fn config_paths(args: &[OsString]) -> Vec<PathBuf> {
+    let mut paths = Vec::new();
     let mut args = args.iter().take_while(|a| *a != "--");
     while let Some(a) = args.next() {
         if a == "--config" {
-            return args.next().map(PathBuf::from);
-        }
-        if let Some(path) = a.to_str().and_then(|a| a.strip_prefix("--config=")) {
-            return Some(PathBuf::from(path));
+            paths.extend(args.next().map(PathBuf::from));
+        } else if let Some(path) = a.to_str().and_then(|a| a.strip_prefix("--config=")) {
+            paths.push(PathBuf::from(path));
         }
     }
-    None
+    paths
+}
+
+/// The files `path` names: itself, or a directory's `*.toml` files (not
+/// hidden ones) in name order; anything else there is left alone (an
+/// editor's backup, a package manager's `.dpkg-old`).
+fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
+    if !path.is_dir() {
+        return Ok(vec![path.to_owned()]);
+    }
+    let read = |source| ConfigError::Read {
+        path: path.to_owned(),
+        source,
+    };
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(path).map_err(read)? {
+        let name = entry.map_err(read)?.file_name();
+        let name = name.to_string_lossy();
+        if name.ends_with(".toml") && !name.starts_with('.') {
+            found.push(path.join(&*name));
+        }
+    }
+    found.sort();
+    Ok(found)
 }
 
 impl FileArgs {
+    /// The command-line words, the links first.
+    pub fn words(&self) -> impl Iterator<Item = &OsString> {
+        self.positionals.iter().chain(&self.options)
+    }
+
+    /// `other`'s options after these.
+    fn append(&mut self, other: FileArgs) {
+        self.positionals.extend(other.positionals);
+        self.options.extend(other.options);
+        self.origins.extend(other.origins);
+    }
+
     /// `e` as the file's error, when the value it refuses is one the file
     /// gave.
     pub fn blame(&self, e: &clap::Error) -> Option<ConfigError> {
@@ -138,7 +185,11 @@ impl FileArgs {
         let flag = text(ContextKind::InvalidArg)?;
         let value = text(ContextKind::InvalidValue);
         let origin = self.origins.iter().find(|o| {
-            flag.split_whitespace().next() == Some(o.name.as_str())
+            // A list positional is `<CONN>...` in clap's errors.
+            flag.split_whitespace()
+                .next()
+                .map(|f| f.trim_end_matches("..."))
+                == Some(o.name.as_str())
                 && value.is_none_or(|v| o.values.iter().any(|w| w == v))
         })?;
         let rendered = e.to_string();
@@ -198,7 +249,11 @@ pub fn load(command: &Command, path: &Path) -> Result<FileArgs, ConfigError> {
             at: at(value.span().start),
             values,
         });
-        out.words.extend(words);
+        if arg.is_positional() {
+            out.positionals.extend(words);
+        } else {
+            out.options.extend(words);
+        }
     }
     Ok(out)
 }
@@ -313,8 +368,7 @@ mod tests {
     }
 
     fn words(f: &FileArgs) -> Vec<String> {
-        f.words
-            .iter()
+        f.words()
             .map(|w| w.to_string_lossy().into_owned())
             .collect()
     }
@@ -340,10 +394,9 @@ mod tests {
                 "udpout:127.0.0.1:2",
             ]
         );
-        let parsed = Demo::try_parse_from(
-            std::iter::once(OsString::from("demo")).chain(f.words.iter().cloned()),
-        )
-        .unwrap();
+        let parsed =
+            Demo::try_parse_from(std::iter::once(OsString::from("demo")).chain(f.words().cloned()))
+                .unwrap();
         assert_eq!(parsed.links.len(), 2);
         assert_eq!(parsed.report, Some(16.0));
     }

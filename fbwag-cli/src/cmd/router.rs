@@ -23,15 +23,18 @@ use std::time::Duration;
 pub struct RouterArgs {
     /// Links: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
     /// tcpin:IP:PORT, serial:PATH:BAUD (two or more).
-    #[arg(value_name = "CONN", value_parser = args::endpoint, num_args = 2.., required = true)]
+    // Counted after parsing, not by clap: a --config file's links and
+    // the command line's are two runs of values, each may hold one.
+    #[arg(value_name = "CONN", value_parser = args::endpoint, required = true)]
     pub links: Vec<String>,
     /// Read options from this TOML file first: one key per long option
     /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
-    /// for repeatable ones), `links = [...]` for the links. Options
-    /// given on the command line as well win; repeatable ones add to the
-    /// file's. Example: deploy/router.toml.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
+    /// for repeatable ones), `links = [...]` for the links. A directory:
+    /// its *.toml files in name order. Repeatable; a later file's
+    /// single-valued options win, and the command line's over all;
+    /// repeatable ones add up. Example: deploy/router.toml.
+    #[arg(long, value_name = "PATH")]
+    pub config: Vec<PathBuf>,
     /// Verify signatures with this key (64 hex digits, or @FILE holding
     /// them): KEY for every link, LINK:KEY for link LINK (its place among
     /// CONN, from 1), which then uses no other. Frames are still
@@ -120,6 +123,9 @@ impl TryFrom<RouterArgs> for RouterOptions {
     type Error = CliError;
 
     fn try_from(a: RouterArgs) -> Result<Self, CliError> {
+        if a.links.len() < 2 {
+            return Err(CliError::TooFewLinks(a.links.len()));
+        }
         let endpoints = a
             .links
             .iter()

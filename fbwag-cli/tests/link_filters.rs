@@ -4,7 +4,8 @@
 //! is dropped and counted; a frame sent over two links at once arrives
 //! once, and the same frame sent after the window arrives again; the
 //! companion's ground links are filtered both ways while its own frames
-//! still reach the FC.
+//! still reach the FC, and a `--trusted-out` link, counted after the
+//! `--out` links, is filtered too.
 
 use fbwag_dialect::dialects::common::{Attitude, SysStatus};
 use fbwag_dialect::dialects::minimal::Heartbeat;
@@ -206,4 +207,76 @@ fn the_companions_out_links_are_filtered_and_its_fc_link_is_not() {
         .expect("a summary");
     assert_eq!(summary["dropped"]["filtered"], 1, "{summary}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The message ids of the MAVLink 2 frames in `datagrams` (signed or not).
+fn message_ids(datagrams: &[Vec<u8>]) -> Vec<u32> {
+    let mut ids = Vec::new();
+    for d in datagrams {
+        let mut at = 0;
+        while d.len() >= at + 12 && d[at] == 0xfd {
+            ids.push(u32::from_le_bytes([d[at + 7], d[at + 8], d[at + 9], 0]));
+            let signature = if d[at + 2] & 1 == 1 { 13 } else { 0 };
+            at += 12 + usize::from(d[at + 1]) + signature;
+        }
+    }
+    ids
+}
+
+#[test]
+fn a_trusted_out_link_is_filtered_counted_after_the_out_links() {
+    use fbwag_dialect::dialects::common::{CommandLong, ParamRequestList};
+    let key = "00".repeat(32);
+    let fc = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let (ground_port, tool_port) = (free_port(), free_port());
+    let cc = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("cc")
+            .arg("--link")
+            .arg(format!("udpout:{}", fc.local_addr().unwrap()))
+            .args(["--sign-key", &key])
+            .arg("--out")
+            .arg(format!("udpin:127.0.0.1:{ground_port}"))
+            .arg("--trusted-out")
+            .arg(format!("udpin:127.0.0.1:{tool_port}"))
+            .args(["--filter-in", "2:block-msg=COMMAND_LONG"])
+            .args(["--duration", "4"]),
+    );
+    fc.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
+    let mut buf = [0u8; 2048];
+    let (_, companion) = fc.recv_from(&mut buf).expect("the companion's heartbeat");
+    fc.connect(companion).unwrap();
+    // An unsigned tool (MAVSDK, say) on the trusted link.
+    let tool = UdpSocket::bind("127.0.0.1:0").unwrap();
+    tool.connect(("127.0.0.1", tool_port)).unwrap();
+    let start = Instant::now();
+    let mut heard = false;
+    for seq in 0..30 {
+        if heard || start.elapsed() > Duration::from_secs(3) {
+            break;
+        }
+        let _ = tool.send(&frame(245, seq, &Heartbeat::default()));
+        let fc_heartbeat = frame(1, seq, &Heartbeat::default());
+        fc.send(&fc_heartbeat).unwrap();
+        heard = count(&receive(&tool, Duration::from_millis(100)), &fc_heartbeat) > 0;
+    }
+    assert!(heard, "the FC's heartbeat never reached the trusted link");
+    let command = CommandLong {
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let request = ParamRequestList {
+        target_system: 1,
+        target_component: 1,
+    };
+    tool.send(&frame(245, 60, &command)).unwrap();
+    tool.send(&frame(245, 61, &request)).unwrap();
+    let at_fc = message_ids(&receive(&fc, Duration::from_millis(1200)));
+    let out = cc.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    // Both would go on, signed on the way; the filter keeps the command.
+    assert!(at_fc.contains(&ParamRequestList::ID), "{at_fc:?}\n{log}");
+    assert!(!at_fc.contains(&CommandLong::ID), "{at_fc:?}\n{log}");
 }

@@ -50,18 +50,20 @@ pub struct CcArgs {
     /// are forwarded untouched (signed ones stay verifiable).
     #[arg(long = "out", value_name = "CONN", value_parser = args::endpoint)]
     pub outs: Vec<String>,
-    /// Take in from the LINKth --out link (from 1, in the order given)
-    /// only what RULE lets through; the rest goes nowhere and is counted
-    /// as "filtered". RULE as in `fbwag router --help`: allow-msg=,
+    /// Take in from link LINK only what RULE lets through; the rest goes
+    /// nowhere and is counted as "filtered". LINK counts the --out links,
+    /// then the --trusted-out links, then --autonomy, from 1 in the order
+    /// given: with one --out and one --trusted-out, 2 is the trusted one. RULE as in `fbwag router --help`: allow-msg=,
     /// block-msg= (ids or names), allow-sys=, block-sys=, allow-comp=,
     /// block-comp= with a list (30,HEARTBEAT or 1,200-210); block lists
     /// outrank allow lists. Filters never touch the FC link's protocol
-    /// frames nor the companion's own. Repeatable. Example: --filter-in
+    /// frames, the companion's own, nor the autonomy's control (which
+    /// the handover gates). Repeatable. Example: --filter-in
     /// 1:block-msg=COMMAND_LONG,SET_MODE
     #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
     pub filter_in: Vec<args::LinkRule>,
-    /// Send on the LINKth --out link only what RULE lets through (as
-    /// --filter-in); the companion's own frames always go. Example:
+    /// Send on link LINK (as --filter-in counts) only what RULE lets
+    /// through; the companion's own frames always go. Example:
     /// --filter-out 2:block-msg=ATTITUDE
     #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
     pub filter_out: Vec<args::LinkRule>,
@@ -182,13 +184,14 @@ impl TryFrom<CcArgs> for CcOptions {
     fn try_from(a: CcArgs) -> Result<Self, CliError> {
         let outs = a.outs.iter().map(|e| endpoint("--out", e));
         let outs: Vec<Endpoint> = outs.collect::<Result<_, _>>()?;
-        let filters = args::link_filters(&a.filter_in, &a.filter_out, outs.len())
-            .map_err(CliError::link_option)?;
         let trusted = a.trusted_outs.iter();
         let trusted_outs = trusted.map(|e| trusted_out(e, a.trusted_out_remote));
-        let trusted_outs = trusted_outs.collect::<Result<_, _>>()?;
+        let trusted_outs: Vec<Endpoint> = trusted_outs.collect::<Result<_, _>>()?;
         let autonomy = a.autonomy.as_deref().map(|e| endpoint("--autonomy", e));
         let autonomy = autonomy.transpose()?;
+        let filtered = outs.len() + trusted_outs.len() + usize::from(autonomy.is_some());
+        let filters = args::link_filters(&a.filter_in, &a.filter_out, filtered)
+            .map_err(CliError::link_option)?;
         let mut link =
             super::link_options(&a.link, a.sign_key.as_deref(), a.peer, a.signing_state)?;
         link.routed_rate = routed_rate(&link.endpoint, a.routed_rate);

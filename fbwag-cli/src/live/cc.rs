@@ -128,8 +128,9 @@ impl OwnLog {
 struct Opened {
     net: Net,
     specs: Vec<(LinkId, LinkSpec)>,
-    /// The `--out` links, in order.
-    outs: Vec<LinkId>,
+    /// The links filters name: the `--out` links, then the
+    /// `--trusted-out` links, then the autonomy's, each in order.
+    filtered: Vec<LinkId>,
     autonomy: Option<LinkId>,
 }
 
@@ -137,13 +138,13 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     let mut net = Net::open(&o.link, log).await?;
     let spec = |role, endpoint, peer| LinkSpec::new(role, net::answers(endpoint, peer));
     let mut specs = vec![(net.main, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
-    let mut outs = Vec::with_capacity(o.outs.len());
+    let mut filtered = Vec::with_capacity(o.outs.len() + o.trusted_outs.len() + 1);
     for e in &o.outs {
         // Ground links verify with the key too: a ground station that signs
         // reaches the FC where signing is required.
         let link = net.add(e, o.link.key, None).await?;
         specs.push((link, spec(Role::Ground, e, None)));
-        outs.push(link);
+        filtered.push(link);
     }
     for e in &o.trusted_outs {
         let link = net.add(e, o.link.key, None).await?;
@@ -152,17 +153,19 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
             ..spec(Role::Ground, e, None)
         };
         specs.push((link, trusted));
+        filtered.push(link);
     }
     let mut autonomy = None;
     if let Some(e) = &o.autonomy {
         let link = net.add(e, None, o.autonomy_peer).await?;
         specs.push((link, spec(Role::Autonomy, e, o.autonomy_peer)));
+        filtered.push(link);
         autonomy = Some(link);
     }
     Ok(Opened {
         net,
         specs,
-        outs,
+        filtered,
         autonomy,
     })
 }
@@ -220,9 +223,17 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         node.add_link(*link, *spec).map_err(invalid)?;
     }
     log_start(&o, &mut log);
-    net::set_filters(&o.filters, &opened.outs, &o.outs, &mut log, |link, d, f| {
-        node.set_filter(link, d, f)
-    })?;
+    let endpoints: Vec<Endpoint> = (o.outs.iter().chain(&o.trusted_outs))
+        .chain(&o.autonomy)
+        .cloned()
+        .collect();
+    net::set_filters(
+        &o.filters,
+        &opened.filtered,
+        &endpoints,
+        &mut log,
+        |link, d, f| node.set_filter(link, d, f),
+    )?;
     node.set_dedup(o.dedup);
     if let Some(window) = o.dedup {
         let ms = window.as_millis();

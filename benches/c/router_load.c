@@ -35,7 +35,8 @@
  * sink's bad, stale and out-of-order frames, drops at each socket (from
  * /proc/net/udp), the router's CPU from /proc/PID/stat (utime + stime, in
  * clock ticks) and from the schedstat of every thread under /proc/PID/task (ns),
- * the time the load was sent for and the latency median and p99 in
+ * the time the load was sent for, the time the CPU was measured over
+ * (the load and the drain after it) and the latency median and p99 in
  * microseconds.
  */
 #define _GNU_SOURCE
@@ -98,9 +99,12 @@ static const struct phase PHASES[] = {
 };
 #define NPHASES (sizeof PHASES / sizeof PHASES[0])
 
-/* What the sink counts; reset by the sender between phases. */
+/* What the sink counts, per router (a late frame of one router's slice
+ * is never charged to the next); reset by the sender as each slice of
+ * that router starts. */
 static struct {
-    atomic_uint_fast64_t good, bad, stale, disorder;
+    atomic_uint_fast64_t good[MAX_ROUTERS], bad[MAX_ROUTERS], stale[MAX_ROUTERS],
+        disorder[MAX_ROUTERS];
     atomic_uint phase_id; /* counter >> 26 of the current slice */
     atomic_int lat_on;
     atomic_int stop;
@@ -172,7 +176,7 @@ static void check_datagram(int r, const uint8_t *d, int n, uint64_t at) {
     while (off < n) {
         const uint8_t *f = d + off;
         if (n - off < 12 || f[0] != 0xFD || f[2] != 0 || n - off < 12 + f[1]) {
-            atomic_fetch_add(&sink.bad, 1);
+            atomic_fetch_add(&sink.bad[r], 1);
             return;
         }
         int len = f[1];
@@ -183,17 +187,17 @@ static void check_datagram(int r, const uint8_t *d, int n, uint64_t at) {
         if (len >= 4) memcpy(&counter, f + 10, 4);
         if (!t || f[5] < 1 || f[5] > SYSTEMS || len != t->len ||
             crc != frame_crc(f, len, t->crc_extra)) {
-            atomic_fetch_add(&sink.bad, 1);
+            atomic_fetch_add(&sink.bad[r], 1);
         } else if (counter >> 26 != phase_id) {
-            atomic_fetch_add(&sink.stale, 1);
+            atomic_fetch_add(&sink.stale[r], 1);
         } else {
-            atomic_fetch_add(&sink.good, 1);
+            atomic_fetch_add(&sink.good[r], 1);
             if (seen_id[r] != phase_id) { /* a new slice: order starts again */
                 memset(last_counter[r], 0, sizeof last_counter[r]);
                 seen_id[r] = phase_id;
             }
             uint32_t *last = &last_counter[r][f[5]];
-            if (*last && counter <= *last) atomic_fetch_add(&sink.disorder, 1);
+            if (*last && counter <= *last) atomic_fetch_add(&sink.disorder[r], 1);
             *last = counter;
             uint32_t index = counter & 0x3ffffff;
             uint64_t sent = index < LAT_MAX ? atomic_load(&sent_at[index]) : 0;
@@ -367,25 +371,25 @@ static void run_slice(int r, const struct phase *ph, int slice, uint32_t phase_i
     atomic_store(&sink.phase_id, phase_id);
     atomic_store(&sink.lat_on, 0);
     for (size_t i = 0; i < LAT_MAX; i++) atomic_store(&sent_at[i], 0), atomic_store(&latency[i], 0);
-    atomic_store(&sink.good, 0), atomic_store(&sink.bad, 0);
-    atomic_store(&sink.stale, 0), atomic_store(&sink.disorder, 0);
+    atomic_store(&sink.good[r], 0), atomic_store(&sink.bad[r], 0);
+    atomic_store(&sink.stale[r], 0), atomic_store(&sink.disorder[r], 0);
     atomic_store(&sink.lat_on, ph->latency);
     uint64_t in0 = udp_drops(ro->in_port), out0 = udp_drops(ro->out_port);
     uint64_t tk0 = stat_ticks(ro->pid), ns0 = sched_ns(ro->pid), t0 = now_ns();
     uint64_t sent = send_phase(fd, ph, phase_id), t_sent = now_ns();
     usleep((useconds_t)(ph->drain * 1e6));
-    uint64_t tk1 = stat_ticks(ro->pid), ns1 = sched_ns(ro->pid);
+    uint64_t tk1 = stat_ticks(ro->pid), ns1 = sched_ns(ro->pid), t1 = now_ns();
     uint64_t in_drops = udp_drops(ro->in_port) - in0, out_drops = udp_drops(ro->out_port) - out0;
     double p50, p99;
     latency_stats(ph->latency ? sent : 0, &p50, &p99);
     uint64_t lost_in = in_drops * (uint64_t)ph->per_dgram;
-    printf("%s %s %d %d %llu %llu %llu %llu %llu %llu %llu %llu %.6f %llu %.3f %.1f %.1f\n", ro->name,
+    printf("%s %s %d %d %llu %llu %llu %llu %llu %llu %llu %llu %.6f %llu %.3f %.3f %.1f %.1f\n", ro->name,
            ph->name, slice, ph->per_dgram, (unsigned long long)sent,
            (unsigned long long)(sent > lost_in ? sent - lost_in : 0),
-           (unsigned long long)atomic_load(&sink.good), (unsigned long long)atomic_load(&sink.bad),
-           (unsigned long long)atomic_load(&sink.stale), (unsigned long long)atomic_load(&sink.disorder),
+           (unsigned long long)atomic_load(&sink.good[r]), (unsigned long long)atomic_load(&sink.bad[r]),
+           (unsigned long long)atomic_load(&sink.stale[r]), (unsigned long long)atomic_load(&sink.disorder[r]),
            (unsigned long long)in_drops, (unsigned long long)out_drops,
-           (double)(tk1 - tk0) / (double)hz, (unsigned long long)(ns1 - ns0), (double)(t_sent - t0) / 1e9,
+           (double)(tk1 - tk0) / (double)hz, (unsigned long long)(ns1 - ns0), (double)(t_sent - t0) / 1e9, (double)(t1 - t0) / 1e9,
            p50, p99);
     fflush(stdout);
     close(fd);
@@ -414,7 +418,7 @@ int main(int argc, char **argv) {
     pthread_t th;
     if (pthread_create(&th, NULL, sink_main, NULL) != 0) return 1;
     printf("router phase slice per_dgram sent read delivered bad stale disorder in_drops out_drops "
-           "cpu_stat_s cpu_sched_ns load_s p50_us p99_us\n");
+           "cpu_stat_s cpu_sched_ns load_s wall_s p50_us p99_us\n");
     uint32_t phase_id = 1;
     for (unsigned p = 0; p < NPHASES; p++) {
         const char *only = getenv("ROUTER_LOAD_ONLY"); /* one phase, for profiles */

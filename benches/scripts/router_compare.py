@@ -17,7 +17,7 @@ import statistics
 import sys
 
 COUNTS = ("sent", "read", "delivered", "bad", "stale", "disorder", "in_drops",
-          "out_drops", "cpu_stat_s", "cpu_sched_ns", "load_s")
+          "out_drops", "cpu_stat_s", "cpu_sched_ns", "load_s", "wall_s")
 
 
 def load(path):
@@ -79,7 +79,8 @@ def cpu_us(d, field="sched"):
 
 
 def busy(d):
-    return 100 * d["cpu_sched_ns"] / 1e9 / d["load_s"] if d["load_s"] > 0 else None
+    """CPU over the time it was measured (the load and the drain)."""
+    return 100 * d["cpu_sched_ns"] / 1e9 / d["wall_s"] if d["wall_s"] > 0 else None
 
 
 def latency(key):
@@ -135,6 +136,8 @@ def main():
     raw = load(sys.argv[1])
     present = {r for r, _ in raw}
     routers = sys.argv[2:] or ["fbwag", "mavlink-routerd"]
+    if len(routers) < 2:
+        sys.exit("router_compare.py RAW [FIRST SECOND [REFERENCE]]: two routers to compare")
     if len(sys.argv) <= 2 and "bare-forward" in present:
         routers.append("bare-forward")
     table(raw, routers)

@@ -412,7 +412,7 @@ pub struct LinkFilter {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum LinkOptionError {
     /// A value for a link past the last one given.
-    #[error("link {link}: there are {links} links (counted from 1, in the order given)")]
+    #[error("link {link}: there are {links} links (counted from 1)")]
     NoSuchLink { link: usize, links: usize },
     /// Two values for one link, or two for every link.
     #[error("given twice for the same link")]

@@ -95,7 +95,8 @@ fn routes_a_heartbeat(mut router: Command, a: u16, sink: &UdpSocket) {
 
 /// A directory as mavlink-router's config.d: its *.toml files in name
 /// order, each adding links, a later one's single values winning; other
-/// files there left alone; a bad file named by its own path and line.
+/// entries there (backups, hidden files, a directory) left alone; a bad
+/// file named by its own path and line.
 #[test]
 fn a_directory_adds_up_its_files_in_name_order() {
     let d = dir("conf-d");
@@ -113,6 +114,8 @@ fn a_directory_adds_up_its_files_in_name_order() {
     );
     write(&d, "20-ground.toml~", "this is no TOML [");
     write(&d, "README", "this is no TOML [");
+    std::fs::create_dir(d.join("15-not-a-file.toml")).unwrap();
+    write(&d, ".hidden.toml", "this is no TOML [");
     let started = Instant::now();
     let mut router = fbwag();
     router.args(["router", "--config"]).arg(&d);
@@ -133,7 +136,11 @@ fn a_directory_adds_up_its_files_in_name_order() {
         .unwrap();
     let log = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}", stderr(&out));
-    assert_eq!(log.matches("link ud").count(), 3, "{log}");
+    assert_eq!(log.matches(": udpin:127.0.0.1:").count(), 2, "{log}");
+    assert!(
+        log.contains(&format!("link 3: udpin:127.0.0.1:{extra}")),
+        "{log}"
+    );
     let out = fbwag()
         .args(["router", "udpin:127.0.0.1:1"])
         .output()

@@ -223,3 +223,40 @@ pub fn run(a: CcArgs) -> Result<Outcome, CliError> {
     run_cc(opts, Box::new(std::io::stdout())).map_err(CliError::daemon("cc"))?;
     Ok(Outcome::Clean)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cc {
+        #[command(flatten)]
+        args: CcArgs,
+    }
+
+    /// The options of `fbwag cc` with three filterable links and `filter`.
+    fn options(filter: &str) -> Result<CcOptions, CliError> {
+        let key = "ab".repeat(32);
+        let args = Cc::try_parse_from([
+            "cc",
+            "--link=udpout:127.0.0.1:1",
+            &format!("--sign-key={key}"),
+            "--out=udpin:127.0.0.1:2",
+            "--trusted-out=udpin:127.0.0.1:3",
+            "--autonomy=udpin:127.0.0.1:4",
+            &format!("--filter-out={filter}"),
+        ])
+        .unwrap();
+        CcOptions::try_from(args.args)
+    }
+
+    #[test]
+    fn filters_count_the_out_then_the_trusted_then_the_autonomy_link() {
+        let o = options("3:block-msg=ATTITUDE").unwrap();
+        assert_eq!(o.filters.len(), 1);
+        assert_eq!(o.filters[0].index, 2, "the autonomy's link");
+        let e = options("4:block-msg=ATTITUDE").err().unwrap();
+        assert!(e.to_string().contains("there are 3 links"), "{e}");
+    }
+}

@@ -19,6 +19,7 @@
 use clap::{Arg, ArgAction, Command};
 use std::ffi::OsString;
 use std::fmt;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use toml::de::{DeTable, DeValue};
 use toml::Spanned;
@@ -139,8 +140,10 @@ fn config_paths(args: &[OsString]) -> Vec<PathBuf> {
 }
 
 /// The files `path` names: itself, or a directory's `*.toml` files (not
-/// hidden ones) in name order; anything else there is left alone (an
-/// editor's backup, a package manager's `.dpkg-old`).
+/// hidden ones, regular files or links to them) in name order; anything
+/// else there is left alone (an editor's backup, a package manager's
+/// `.dpkg-old`, a pipe). A path given itself is read whatever it is
+/// (`--config <(…)`).
 fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
     if !path.is_dir() {
         return Ok(vec![path.to_owned()]);
@@ -151,10 +154,13 @@ fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
     };
     let mut found = Vec::new();
     for entry in std::fs::read_dir(path).map_err(read)? {
-        let name = entry.map_err(read)?.file_name();
-        let name = name.to_string_lossy();
-        if name.ends_with(".toml") && !name.starts_with('.') {
-            found.push(path.join(&*name));
+        let file = entry.map_err(read)?.path();
+        let hidden = file
+            .file_name()
+            .is_some_and(|n| n.as_encoded_bytes().starts_with(b"."));
+        let toml = file.extension().is_some_and(|e| e == "toml");
+        if toml && !hidden && file.is_file() {
+            found.push(file);
         }
     }
     found.sort();
@@ -208,13 +214,17 @@ pub fn load(command: &Command, path: &Path) -> Result<FileArgs, ConfigError> {
         path: path.to_owned(),
         source,
     };
-    let size = std::fs::metadata(path).map_err(read)?.len();
-    if size > MAX_BYTES {
+    // Read at most one byte past the bound: a device or a pipe given as
+    // the file has no size to check first.
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_BYTES + 1).read_to_string(&mut text))
+        .map_err(read)?;
+    if text.len() as u64 > MAX_BYTES {
         return Err(ConfigError::TooLarge {
             path: path.to_owned(),
         });
     }
-    let text = std::fs::read_to_string(path).map_err(read)?;
     let table = DeTable::parse(&text).map_err(|e| ConfigError::Syntax {
         at: Location::at(path, &text, e.span().map_or(0, |s| s.start)),
         message: e.message().trim().to_owned(),

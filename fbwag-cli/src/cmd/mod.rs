@@ -45,7 +45,7 @@ enum Command {
 }
 
 impl Cli {
-    /// The command line `argv`, with the options of `--config FILE` before
+    /// The command line `argv`, with the options of `--config PATH` before
     /// its own ([`config`]); the command line's single-valued options win.
     /// Exits as clap does for `--help`, `--version` and a refused command
     /// line; a refused file, or a value of the file an option refuses, is

@@ -36,7 +36,8 @@ pub struct CcOptions {
     pub link: LinkOptions,
     /// Other links the companion routes to and from.
     pub outs: Vec<Endpoint>,
-    /// Filters, each naming its link by its place in `outs`.
+    /// Filters, each naming its link by its place among `outs`, then
+    /// `trusted_outs`, then `autonomy`.
     pub filters: Vec<LinkFilter>,
     /// De-duplication window of routed frames (`None`: off).
     pub dedup: Option<Duration>,

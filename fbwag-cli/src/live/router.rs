@@ -157,7 +157,10 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 .map_err(|err| net::opened(e, err))?;
             node.add_link(link, net::answers(e, peer), key.is_some())
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
-            log.line(&format!("link {e}"));
+            // Numbered, with what it was given: options name links by place.
+            let key = if key.is_some() { ", its key" } else { "" };
+            let pinned = peer.map_or(String::new(), |p| format!(", answers {p} only"));
+            log.line(&format!("link {}: {e}{key}{pinned}", i + 1));
             links.push(link);
         }
         net::set_filters(&o.filters, &links, &o.endpoints, &mut log, |link, d, f| {
@@ -166,7 +169,11 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
         for &i in &o.sniffers {
             node.set_sniffer(links[i])
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
-            log.line(&format!("link {} gets every frame routed", o.endpoints[i]));
+            log.line(&format!(
+                "link {}: {} gets every frame routed",
+                i + 1,
+                o.endpoints[i]
+            ));
         }
         if let Some(window) = o.dedup {
             log.line(&format!(

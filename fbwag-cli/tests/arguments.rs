@@ -344,7 +344,7 @@ fn refusals_after_parsing_exit_2_and_flagged_input_exits_1() {
             &["router", "udpin:127.0.0.1:0", "nope"],
             "",
             2,
-            "invalid value 'nope' for '<CONN> <CONN>...'",
+            "invalid value 'nope' for '<CONN>...'",
         ),
         (
             &["sim", "--scenario", "nope"],

@@ -92,3 +92,38 @@ impl Datagram {
         self.0.send(bytes).await
     }
 }
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+
+    /// A send that finds the buffer full is tried again every
+    /// [`SEND_RETRY`] until it goes through (loopback never fills a UDP
+    /// send buffer, so the full buffer is the closure's).
+    #[tokio::test(start_paused = true)]
+    async fn a_send_that_finds_the_buffer_full_is_tried_again() {
+        let socket = Datagram::new(std::net::UdpSocket::bind("127.0.0.1:0").unwrap()).unwrap();
+        let mut full = 3;
+        let start = tokio::time::Instant::now();
+        let sent = socket
+            .retry(|_| match full {
+                0 => Ok(7),
+                _ => {
+                    full -= 1;
+                    Err(io::ErrorKind::WouldBlock.into())
+                }
+            })
+            .await;
+        assert_eq!(sent.unwrap(), 7);
+        assert_eq!(start.elapsed(), SEND_RETRY * 3);
+        // Any other error ends it at once.
+        let refused = socket
+            .retry(|_| Err(io::ErrorKind::ConnectionRefused.into()))
+            .await;
+        assert_eq!(
+            refused.unwrap_err().kind(),
+            io::ErrorKind::ConnectionRefused
+        );
+        assert_eq!(start.elapsed(), SEND_RETRY * 3);
+    }
+}

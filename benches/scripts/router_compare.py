@@ -89,13 +89,17 @@ def latency(key):
 
 def ratio(fn, a, b):
     """a ÷ b over the phase, and the range of the paired slices' ratios."""
-    whole = fn(total(a)), fn(total(b))
-    if not all(isinstance(v, float) and v for v in whole):
+    def quotient(x, y):
+        vx, vy = fn(x), fn(y)
+        ok = isinstance(vx, float) and isinstance(vy, float) and vy
+        return vx / vy if ok else None
+
+    whole = quotient(total(a), total(b))
+    if whole is None:
         return "n/a"
-    pairs = [fn(x) / fn(y) for x, y in zip(a, b)
-             if isinstance(fn(x), float) and isinstance(fn(y), float) and fn(y)]
+    pairs = [q for q in map(quotient, a, b) if q is not None]
     spread = f" [{min(pairs):.2f}–{max(pairs):.2f}]" if len(pairs) > 1 else ""
-    return f"**{whole[0] / whole[1]:.2f}**{spread}"
+    return f"**{whole:.2f}**{spread}"
 
 
 def table(raw, routers):

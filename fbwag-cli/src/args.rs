@@ -279,6 +279,11 @@ pub fn link_number(s: &str) -> Result<usize, ArgError> {
     integer_in(s, 1, MAX_LINKS, "a link's place (from 1)")
 }
 
+/// The 0-based index of the link at place `link` (from 1) of `links`.
+fn link_index(link: usize, links: usize) -> Option<usize> {
+    link.checked_sub(1).filter(|i| *i < links)
+}
+
 /// The 0-based indices of the links `places` (from 1) name, over
 /// `links` links; `flag` names the option in an error.
 pub fn link_indices(
@@ -288,7 +293,7 @@ pub fn link_indices(
 ) -> Result<Vec<usize>, (String, LinkOptionError)> {
     places
         .iter()
-        .map(|&link| match link.checked_sub(1).filter(|i| *i < links) {
+        .map(|&link| match link_index(link, links) {
             Some(index) => Ok(index),
             None => Err((
                 format!("{flag} {link}"),
@@ -438,7 +443,7 @@ pub fn link_filters(
                 Direction::Out => "--filter-out",
             };
             let fault = |e| (format!("{flag} {}:{}", r.link, r.rule), e);
-            let Some(index) = r.link.checked_sub(1).filter(|i| *i < links) else {
+            let Some(index) = link_index(r.link, links) else {
                 return Err(fault(LinkOptionError::NoSuchLink {
                     link: r.link,
                     links,

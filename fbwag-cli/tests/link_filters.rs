@@ -124,6 +124,35 @@ fn bad_filter_text_is_refused_with_exit_status_2() {
     }
 }
 
+/// Connects `fc` to the companion (its heartbeat says where it is), then a
+/// station of system `sysid` to the companion's listening `port`: the
+/// station, once the FC's heartbeat reached it (within 3 s).
+fn station_heard(fc: &UdpSocket, port: u16, sysid: u8) -> Option<UdpSocket> {
+    fc.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
+    let mut buf = [0u8; 2048];
+    let (_, companion) = fc.recv_from(&mut buf).expect("the companion's heartbeat");
+    fc.connect(companion).unwrap();
+    let station = UdpSocket::bind("127.0.0.1:0").unwrap();
+    station.connect(("127.0.0.1", port)).unwrap();
+    let start = Instant::now();
+    for seq in 0..30 {
+        if start.elapsed() > Duration::from_secs(3) {
+            break;
+        }
+        let _ = station.send(&frame(sysid, seq, &Heartbeat::default()));
+        let fc_heartbeat = frame(1, seq, &Heartbeat::default());
+        fc.send(&fc_heartbeat).unwrap();
+        if count(
+            &receive(&station, Duration::from_millis(100)),
+            &fc_heartbeat,
+        ) > 0
+        {
+            return Some(station);
+        }
+    }
+    None
+}
+
 #[test]
 fn the_companions_out_links_are_filtered_and_its_fc_link_is_not() {
     use fbwag_dialect::dialects::common::{CommandLong, ParamRequestList};
@@ -145,25 +174,8 @@ fn the_companions_out_links_are_filtered_and_its_fc_link_is_not() {
             .arg("--events")
             .arg(&events),
     );
-    // The companion's heartbeat tells the FC end where the companion is.
-    fc.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
-    let mut buf = [0u8; 2048];
-    let (_, companion) = fc.recv_from(&mut buf).expect("the companion's heartbeat");
-    fc.connect(companion).unwrap();
-    let ground = UdpSocket::bind("127.0.0.1:0").unwrap();
-    ground.connect(("127.0.0.1", ground_port)).unwrap();
-    let start = Instant::now();
-    let mut heard = false;
-    for seq in 0..30 {
-        if heard || start.elapsed() > Duration::from_secs(3) {
-            break;
-        }
-        let _ = ground.send(&frame(255, seq, &Heartbeat::default()));
-        let fc_heartbeat = frame(1, seq, &Heartbeat::default());
-        fc.send(&fc_heartbeat).unwrap();
-        heard = count(&receive(&ground, Duration::from_millis(100)), &fc_heartbeat) > 0;
-    }
-    assert!(heard, "the FC's heartbeat never reached the ground link");
+    let ground = station_heard(&fc, ground_port, 255)
+        .expect("the FC's heartbeat never reached the ground link");
     let attitude = frame(1, 50, &Attitude::default());
     let position = frame(1, 51, &GlobalPositionInt::default());
     fc.send(&attitude).unwrap();
@@ -242,25 +254,9 @@ fn a_trusted_out_link_is_filtered_counted_after_the_out_links() {
             .args(["--filter-in", "2:block-msg=COMMAND_LONG"])
             .args(["--duration", "4"]),
     );
-    fc.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
-    let mut buf = [0u8; 2048];
-    let (_, companion) = fc.recv_from(&mut buf).expect("the companion's heartbeat");
-    fc.connect(companion).unwrap();
     // An unsigned tool (MAVSDK, say) on the trusted link.
-    let tool = UdpSocket::bind("127.0.0.1:0").unwrap();
-    tool.connect(("127.0.0.1", tool_port)).unwrap();
-    let start = Instant::now();
-    let mut heard = false;
-    for seq in 0..30 {
-        if heard || start.elapsed() > Duration::from_secs(3) {
-            break;
-        }
-        let _ = tool.send(&frame(245, seq, &Heartbeat::default()));
-        let fc_heartbeat = frame(1, seq, &Heartbeat::default());
-        fc.send(&fc_heartbeat).unwrap();
-        heard = count(&receive(&tool, Duration::from_millis(100)), &fc_heartbeat) > 0;
-    }
-    assert!(heard, "the FC's heartbeat never reached the trusted link");
+    let tool = station_heard(&fc, tool_port, 245)
+        .expect("the FC's heartbeat never reached the trusted link");
     let command = CommandLong {
         target_system: 1,
         target_component: 1,

@@ -53,8 +53,9 @@ pub struct CcArgs {
     /// Take in from link LINK only what RULE lets through; the rest goes
     /// nowhere and is counted as "filtered". LINK counts the --out links,
     /// then the --trusted-out links, then --autonomy, from 1 in the order
-    /// given: with one --out and one --trusted-out, 2 is the trusted one. RULE as in `fbwag router --help`: allow-msg=,
-    /// block-msg= (ids or names), allow-sys=, block-sys=, allow-comp=,
+    /// given: with one --out and one --trusted-out, 2 is the trusted one.
+    /// RULE as in `fbwag router --help`: allow-msg=, block-msg= (ids or
+    /// names), allow-sys=, block-sys=, allow-comp=,
     /// block-comp= with a list (30,HEARTBEAT or 1,200-210); block lists
     /// outrank allow lists. Filters never touch the FC link's protocol
     /// frames, the companion's own, nor the autonomy's control (which

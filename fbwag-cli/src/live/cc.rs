@@ -130,8 +130,10 @@ struct Opened {
     net: Net,
     specs: Vec<(LinkId, LinkSpec)>,
     /// The links filters name: the `--out` links, then the
-    /// `--trusted-out` links, then the autonomy's, each in order.
+    /// `--trusted-out` links, then the autonomy's, each in order; and
+    /// their endpoints, for the log.
     filtered: Vec<LinkId>,
+    filtered_endpoints: Vec<Endpoint>,
     autonomy: Option<LinkId>,
 }
 
@@ -139,7 +141,7 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     let mut net = Net::open(&o.link, log).await?;
     let spec = |role, endpoint, peer| LinkSpec::new(role, net::answers(endpoint, peer));
     let mut specs = vec![(net.main, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
-    let mut filtered = Vec::with_capacity(o.outs.len() + o.trusted_outs.len() + 1);
+    let mut filtered = Vec::new();
     for e in &o.outs {
         // Ground links verify with the key too: a ground station that signs
         // reaches the FC where signing is required.
@@ -163,10 +165,15 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
         filtered.push(link);
         autonomy = Some(link);
     }
+    let filtered_endpoints = (o.outs.iter().chain(&o.trusted_outs))
+        .chain(&o.autonomy)
+        .cloned()
+        .collect();
     Ok(Opened {
         net,
         specs,
         filtered,
+        filtered_endpoints,
         autonomy,
     })
 }
@@ -224,17 +231,10 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         node.add_link(*link, *spec).map_err(invalid)?;
     }
     log_start(&o, &mut log);
-    let endpoints: Vec<Endpoint> = (o.outs.iter().chain(&o.trusted_outs))
-        .chain(&o.autonomy)
-        .cloned()
-        .collect();
-    net::set_filters(
-        &o.filters,
-        &opened.filtered,
-        &endpoints,
-        &mut log,
-        |link, d, f| node.set_filter(link, d, f),
-    )?;
+    let (links, endpoints) = (&opened.filtered, &opened.filtered_endpoints);
+    net::set_filters(&o.filters, links, endpoints, &mut log, |link, d, f| {
+        node.set_filter(link, d, f)
+    })?;
     node.set_dedup(o.dedup);
     if let Some(window) = o.dedup {
         let ms = window.as_millis();

@@ -167,7 +167,11 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             node.set_filter(link, d, f)
         })?;
         for &i in &o.sniffers {
-            node.set_sniffer(links[i])
+            let Some(&link) = links.get(i) else {
+                let error = format!("no link {} to sniff", i + 1);
+                return Err(io::Error::new(io::ErrorKind::InvalidInput, error));
+            };
+            node.set_sniffer(link)
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
             log.line(&format!(
                 "link {}: {} gets every frame routed",

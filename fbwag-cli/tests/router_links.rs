@@ -4,7 +4,8 @@
 //! spoke; `--sign-key KEY --sign-key 2:KEY2 --require-signed` verifies
 //! link 2 with its own key, so a frame signed with the other links' key
 //! or not signed is refused there and one signed with KEY2 goes on;
-//! `--sniffer 3` sends link 3 a command addressed to a system on link 1.
+//! `--sniffer 3` sends link 3 a command addressed to a system on link 1,
+//! and to its pinned reader only.
 
 use fbwag_dialect::dialects::common::{CommandLong, MavCmd};
 use fbwag_dialect::dialects::minimal::Heartbeat;
@@ -165,16 +166,22 @@ fn a_link_with_its_own_key_verifies_with_it_alone() {
 #[test]
 fn a_sniffer_link_gets_frames_addressed_to_others() {
     let ports = [free_port(), free_port(), free_port()];
+    let [fc, ground, tool, stranger] = [ports[0], ports[1], ports[2], ports[2]].map(connected);
+    // The sniffer's reader pinned, as docs/deployment.md advises: a
+    // stranger who speaks to the same port first reads nothing.
+    let _ = stranger.send(&frame(250, 0, &Heartbeat::default(), None));
     let router = Proc::spawn(
         Command::new(env!("CARGO_BIN_EXE_fbwag"))
             .arg("router")
             .args(ports.map(|p| format!("udpin:127.0.0.1:{p}")))
-            .args(["--sniffer", "3", "--duration", "4"]),
+            .args(["--sniffer", "3", "--duration", "4"])
+            .arg("--peer")
+            .arg(format!("3:{}", tool.local_addr().unwrap())),
     );
-    let [fc, ground, tool] = ports.map(connected);
     // Each speaks on its link, so each link answers it; the FC's
     // heartbeats reach the ground station once all are up.
     let heard = until_heard(&fc, &ground, |n| {
+        let _ = stranger.send(&frame(250, n, &Heartbeat::default(), None));
         let _ = tool.send(&frame(254, n, &Heartbeat::default(), None));
         let _ = ground.send(&frame(255, n, &Heartbeat::default(), None));
         frame(1, n, &Heartbeat::default(), None)
@@ -195,10 +202,12 @@ fn a_sniffer_link_gets_frames_addressed_to_others() {
     ground.send(&command).unwrap();
     let to_fc = receive(&fc, Duration::from_millis(300));
     let to_tool = receive(&tool, Duration::from_millis(100));
+    let to_stranger = receive(&stranger, Duration::from_millis(100));
     let out = router.finish(Duration::from_secs(6));
     let log = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{log}");
     assert_eq!(count(&to_fc, &command), 1, "{log}");
     assert_eq!(count(&to_tool, &command), 1, "the sniffer missed it\n{log}");
+    assert!(to_stranger.is_empty(), "a stranger read the sniffer\n{log}");
     assert!(log.contains("gets every frame routed"), "{log}");
 }

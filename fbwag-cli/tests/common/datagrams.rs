@@ -39,6 +39,31 @@ pub fn receive(s: &UdpSocket, time: Duration) -> Vec<Vec<u8>> {
     got
 }
 
+/// Every datagram `s` receives for `time`, then on until `done` holds of
+/// them or `limit` (from the call) has passed: a loaded machine may
+/// deliver what is waited for late.
+pub fn receive_until(
+    s: &UdpSocket,
+    time: Duration,
+    limit: Duration,
+    done: impl Fn(&[Vec<u8>]) -> bool,
+) -> Vec<Vec<u8>> {
+    let end = Instant::now() + limit;
+    let mut got = receive(s, time);
+    let mut buf = [0u8; 2048];
+    while !done(&got) {
+        let Some(left) = end.checked_duration_since(Instant::now()) else {
+            break;
+        };
+        s.set_read_timeout(Some(left.max(Duration::from_millis(1))))
+            .unwrap();
+        if let Ok(n) = s.recv(&mut buf) {
+            got.push(buf[..n].to_vec());
+        }
+    }
+    got
+}
+
 /// How often `frame` is among `datagrams`.
 pub fn count(datagrams: &[Vec<u8>], frame: &[u8]) -> usize {
     datagrams

@@ -236,3 +236,64 @@ fn a_sniffer_link_gets_frames_addressed_to_others() {
     assert!(to_stranger.is_empty(), "a stranger read the sniffer\n{log}");
     assert!(log.contains("gets every frame routed"), "{log}");
 }
+
+/// A TCP link whose server is not up when the router starts (MAVProxy
+/// started later), and a serial port that is not there (a USB radio still
+/// enumerating), leave the router running: the other links route, and the
+/// TCP link opens once its server listens.
+#[test]
+fn links_not_there_at_start_are_opened_when_they_come() {
+    use std::io::Read;
+    let (udp, tcp) = (free_port(), free_port());
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("router")
+            .arg(format!("udpin:127.0.0.1:{udp}"))
+            .arg(format!("tcp:127.0.0.1:{tcp}"))
+            .arg("serial:/dev/fbwag-no-such-port:57600")
+            .args(["--duration", "5"]),
+    );
+    std::thread::sleep(Duration::from_millis(1500));
+    let server = std::net::TcpListener::bind(("127.0.0.1", tcp)).unwrap();
+    server.set_nonblocking(true).unwrap();
+    let fc = connected(udp);
+    let heartbeat = frame(1, 0, &Heartbeat::default(), None);
+    let start = Instant::now();
+    let mut stream = loop {
+        let _ = fc.send(&heartbeat);
+        if let Ok((stream, _)) = server.accept() {
+            break Some(stream);
+        }
+        if start.elapsed() > Duration::from_secs(3) {
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    .expect("the TCP link never connected");
+    stream.set_nonblocking(false).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    let mut got = Vec::new();
+    let mut buf = [0u8; 512];
+    while start.elapsed() < Duration::from_secs(3)
+        && !got.windows(heartbeat.len()).any(|w| w == heartbeat)
+    {
+        let _ = fc.send(&heartbeat);
+        if let Ok(n) = stream.read(&mut buf) {
+            got.extend_from_slice(&buf[..n]);
+        }
+    }
+    let out = router.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert!(
+        got.windows(heartbeat.len()).any(|w| w == heartbeat),
+        "nothing routed to the TCP link\n{log}"
+    );
+    assert!(
+        log.contains("fbwag-no-such-port"),
+        "the absent port is named\n{log}"
+    );
+    assert!(log.contains("open again"), "{log}");
+}

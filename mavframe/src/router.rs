@@ -575,9 +575,13 @@ impl<D: MessageSet + 'static> Router<D> {
         }
     }
 
-    /// Opens a link now (errors surface here: address in use, no such
-    /// device, connection refused, a damaged signing state file) and runs
-    /// it in a task of the current tokio runtime. At most 64 links.
+    /// Opens a link now and runs it in a task of the current tokio
+    /// runtime. At most 64 links. Errors surface here (address in use, a
+    /// damaged signing state file), but for a TCP client or a serial port:
+    /// their far end may come later than this program (a server not up
+    /// yet, a USB radio still enumerating), so such a link starts down,
+    /// reported as [`RouterEvent::LinkDown`], and is opened again every
+    /// [`REOPEN_INTERVAL`].
     pub async fn add(&mut self, config: LinkConfig) -> io::Result<LinkId> {
         if self.links.len() >= 64 {
             return Err(io::Error::new(
@@ -587,7 +591,12 @@ impl<D: MessageSet + 'static> Router<D> {
         }
         let id = self.links.len() as LinkId;
         let endpoint = config.endpoint.clone();
-        let transport = Transport::open(&config).await?;
+        let transport = match Transport::open(&config).await {
+            Err(e) if !matches!(endpoint, Endpoint::Tcp(_) | Endpoint::Serial { .. }) => {
+                return Err(e)
+            }
+            opened => opened,
+        };
         let signing =
             SigningFile::open(config.key, config.unsigned, config.signing_state.as_deref())?;
         let (commands, own) = mpsc::channel(LINK_QUEUE);
@@ -1041,9 +1050,21 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     }
 
     /// Runs the link until the router is dropped, reopening it when it
-    /// fails.
-    async fn run(mut self, first: Transport) {
-        let mut transport = Some(first);
+    /// fails; `first` is its opening in [`Router::add`].
+    async fn run(mut self, first: io::Result<Transport>) {
+        let mut transport = match first {
+            Ok(t) => Some(t),
+            Err(error) => {
+                let down = RouterEvent::LinkDown {
+                    link: self.id,
+                    error,
+                };
+                if self.events.send(down).await.is_err() || self.wait_reopen().await.is_err() {
+                    return;
+                }
+                None
+            }
+        };
         let mut core = LinkCore {
             inbox: self.inbox(DATAGRAM_ROOM),
             framer: self.signing.framer(),
@@ -1685,6 +1706,51 @@ mod tests {
                 Ok(Ok(n)) => got.extend_from_slice(&buf[..n]),
             }
         }
+    }
+
+    /// A TCP client link whose server is not up yet, and a serial port
+    /// that is not there, start down rather than fail the router; the TCP
+    /// link opens once its server listens. A listening link that cannot
+    /// bind still fails at once (a mistake, not a peer that comes later).
+    #[tokio::test]
+    async fn a_tcp_link_whose_server_comes_later_opens_then() {
+        let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut router = Router::<TestDialect>::new();
+        let tcp = LinkConfig::new(format!("tcp:{addr}").parse().unwrap());
+        let link = router.add(tcp).await.unwrap();
+        let serial = LinkConfig::new("serial:/dev/no-such-port:57600".parse().unwrap());
+        let absent = router.add(serial).await.unwrap();
+        let mut down = Vec::new();
+        for _ in 0..2 {
+            match tokio::time::timeout(Duration::from_secs(2), router.recv()).await {
+                Ok(Some(RouterEvent::LinkDown { link, .. })) => down.push(link),
+                _ => panic!("no LinkDown"),
+            }
+        }
+        down.sort_unstable();
+        assert_eq!(down, [link, absent]);
+        let bound = StdUdp::bind("127.0.0.1:0").unwrap();
+        let taken = LinkConfig::new(
+            format!("udpin:{}", bound.local_addr().unwrap())
+                .parse()
+                .unwrap(),
+        );
+        assert!(
+            router.add(taken).await.is_err(),
+            "a port in use is an error"
+        );
+
+        let server = tokio::net::TcpListener::bind(addr).await.unwrap();
+        let (mut stream, _) = tokio::time::timeout(Duration::from_secs(3), server.accept())
+            .await
+            .expect("the link connects within its reopening interval")
+            .unwrap();
+        let up = tokio::time::timeout(Duration::from_secs(1), router.recv()).await;
+        assert!(matches!(up, Ok(Some(RouterEvent::LinkUp { link: l })) if l == link));
+        router.send_raw(Links::only(link), &ping(7));
+        assert_eq!(read_for(&mut stream, 300).await.unwrap(), &ping(7)[..]);
     }
 
     /// `tcpin` under [`ReplyTo::Owner`]: nothing goes out until the owner

@@ -180,6 +180,19 @@ pub fn byte_size(s: &str) -> Result<u64, ArgError> {
     Ok(n << shift)
 }
 
+/// The smallest `.tlog` file: one record (8-byte time) of the largest
+/// frame.
+pub const MIN_TLOG_FILE: u64 = fbwag_dialect::mavframe::frame::MAX_FRAME_LEN as u64 + 8;
+
+/// `--tlog-max-size`: a [`byte_size`] of [`MIN_TLOG_FILE`] at least.
+pub fn tlog_file_size(s: &str) -> Result<u64, ArgError> {
+    let what = "a .tlog file size in bytes (suffix K, M, G or T: powers of 1024)";
+    byte_size(s)
+        .ok()
+        .filter(|n| *n >= MIN_TLOG_FILE)
+        .ok_or_else(|| out_of_range(MIN_TLOG_FILE, MAX_BYTES, what))
+}
+
 /// A throttle pulse width in µs, within [`PWM_US`].
 pub fn pwm_us(s: &str) -> Result<u16, ArgError> {
     integer_in(s, PWM_US.0, PWM_US.1, "a pulse width in µs")
@@ -260,11 +273,11 @@ pub fn per_link<T: Clone>(
             None => &mut every,
             Some(link) => own.get_mut(link - 1).ok_or_else(|| {
                 let error = LinkOptionError::NoSuchLink { link, links };
-                (format!("{flag} {link}:"), error)
+                (format!("{flag} {link}"), error)
             })?,
         };
         if slot.replace(g.value.clone()).is_some() {
-            let arg = g.link.map_or(flag.to_string(), |l| format!("{flag} {l}:"));
+            let arg = g.link.map_or(flag.to_string(), |l| format!("{flag} {l}"));
             return Err((arg, LinkOptionError::Twice));
         }
     }
@@ -425,6 +438,42 @@ pub enum LinkOptionError {
     /// Rules that together do not make a filter (too many message ids).
     #[error(transparent)]
     Rules(#[from] FilterError),
+    /// A peer for a link that answers its target or its stream only.
+    #[error("link {0} does not listen: a peer is for udpin and tcpin links")]
+    NotListening(String),
+    /// Port 0 (any port) for a link that sends to one address.
+    #[error("a udpin link sends to one port: IP:0 (any port of IP) is for tcpin links")]
+    AnyPort,
+}
+
+/// `--peer` values where they apply: a listening link (`udpin`, `tcpin`);
+/// `IP:0`, any port of IP, on `tcpin` only (a datagram needs a port). A
+/// value for every link applies to the listening ones.
+pub fn check_peers(
+    given: &[ForLink<SocketAddr>],
+    endpoints: &[fbwag_dialect::Endpoint],
+) -> Result<(), (String, LinkOptionError)> {
+    use fbwag_dialect::Endpoint;
+    for g in given {
+        let arg = || g.link.map_or("--peer".into(), |l| format!("--peer {l}"));
+        let on: Vec<&Endpoint> = match g.link {
+            Some(link) => endpoints.get(link - 1).into_iter().collect(),
+            None => endpoints.iter().collect(),
+        };
+        for endpoint in on {
+            match endpoint {
+                Endpoint::UdpIn(_) if g.value.port() == 0 => {
+                    return Err((arg(), LinkOptionError::AnyPort))
+                }
+                Endpoint::UdpIn(_) | Endpoint::TcpIn(_) => {}
+                other if g.link.is_some() => {
+                    return Err((arg(), LinkOptionError::NotListening(other.to_string())))
+                }
+                _ => {}
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The filters `--filter-in` (`ins`) and `--filter-out` (`outs`) rules
@@ -544,7 +593,7 @@ mod tests {
         let peer = |s: &str| link_peer(s).unwrap();
         let twice = [peer("2:10.0.0.1:1"), peer("2:10.0.0.2:1")];
         let err = per_link("--peer", &twice, 2).unwrap_err();
-        assert_eq!(err, ("--peer 2:".to_string(), LinkOptionError::Twice));
+        assert_eq!(err, ("--peer 2".to_string(), LinkOptionError::Twice));
         let both = [peer("10.0.0.1:1"), peer("10.0.0.2:1")];
         assert_eq!(
             per_link("--peer", &both, 2).unwrap_err().1,
@@ -553,6 +602,24 @@ mod tests {
         let past = [peer("3:10.0.0.1:1")];
         let err = per_link("--peer", &past, 2).unwrap_err().1;
         assert_eq!(err, LinkOptionError::NoSuchLink { link: 3, links: 2 });
+    }
+
+    /// A peer pinned on a link that does not listen would be ignored
+    /// while the log said otherwise; IP:0 on udpin would answer nobody.
+    #[test]
+    fn a_peer_goes_only_where_it_applies() {
+        let peer = |s: &str| link_peer(s).unwrap();
+        let links: Vec<fbwag_dialect::Endpoint> =
+            ["udpin:0.0.0.0:1", "udpout:10.0.0.9:2", "tcpin:0.0.0.0:3"]
+                .map(|e| e.parse().unwrap())
+                .into();
+        assert!(check_peers(&[peer("10.0.0.1:1"), peer("3:10.0.0.2:0")], &links).is_ok());
+        let err = check_peers(&[peer("2:10.0.0.1:1")], &links).unwrap_err();
+        assert!(matches!(err.1, LinkOptionError::NotListening(_)), "{err:?}");
+        for any_port in ["1:10.0.0.1:0", "10.0.0.1:0"] {
+            let err = check_peers(&[peer(any_port)], &links).unwrap_err();
+            assert_eq!(err.1, LinkOptionError::AnyPort, "{any_port}");
+        }
     }
 
     #[test]

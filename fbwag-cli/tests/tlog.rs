@@ -427,7 +427,11 @@ fn the_limits_are_checked_and_need_a_directory() {
     };
     let (_, err, code) = with(&["--tlog", "/nonexistent", "--tlog-max-size", "64X"]);
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("a size in bytes"), "{err}");
+    assert!(err.contains("size in bytes"), "{err}");
+    // Smaller than one record of the largest frame: refused, not rounded.
+    let (_, err, code) = with(&["--tlog", "/nonexistent", "--tlog-max-size", "100"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("from 288"), "{err}");
     let (_, err, code) = with(&["--tlog-min-free", "1G"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--tlog <DIR>"), "{err}");

@@ -90,6 +90,9 @@ fn mavsdk_reads_and_commands_a_signed_fc_through_a_trusted_link() {
         check.log, fc.log, cc.log
     );
     assert!(done, "mavsdk_gcs_check.py did not end\n{all}");
+    // The link that can command the aircraft is named at start.
+    let trusted = format!("routing to and from udpout:127.0.0.1:{mavsdk_port}, trusted");
+    assert!(cc.log.contains(&trusted), "{all}");
     let calls = calls(&check.log);
     let call = |name: &str| {
         calls

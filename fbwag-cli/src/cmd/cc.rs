@@ -23,7 +23,7 @@ use std::time::Duration;
 /// with --require-signed only those whose signature verified; everything
 /// else is ignored and counted (logged at most 5 lines per 10 s). No
 /// send or receive error ends the daemon; a TCP or serial link that
-/// fails is opened again every second.
+/// fails, or is not there yet at start, is opened again every second.
 #[derive(clap::Args)]
 #[command(after_long_help = help::CC_EVENTS)]
 pub struct CcArgs {
@@ -36,9 +36,9 @@ pub struct CcArgs {
     /// Read options from this TOML file first: one key per long option
     /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
     /// for repeatable ones). A directory: its *.toml files in name order.
-    /// Repeatable; a later file's single-valued options win, and the
-    /// command line's over all; repeatable ones add up. Example:
-    /// deploy/cc.toml.
+    /// Repeatable; a later file's single-valued options win (`false`
+    /// turns a switch off), and the command line's over all; repeatable
+    /// ones add up, the files' first. Example: deploy/cc.toml.
     #[arg(long, value_name = "PATH")]
     pub config: Vec<PathBuf>,
     /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,

@@ -81,6 +81,9 @@ pub struct FileArgs {
     /// values only as one run.
     positionals: Vec<OsString>,
     options: Vec<OsString>,
+    /// Switches (`--require-signed`) and their value, the last file's:
+    /// a later file's `false` turns one off.
+    switches: Vec<(OsString, bool)>,
     origins: Vec<Origin>,
 }
 
@@ -111,7 +114,7 @@ pub fn expand(
     if !sub.get_arguments().any(|a| a.get_id() == "config") {
         return Ok((argv, None));
     }
-    let paths = config_paths(&argv[2..]);
+    let paths = config_paths(command, &argv);
     if paths.is_empty() {
         return Ok((argv, None));
     }
@@ -125,18 +128,24 @@ pub fn expand(
     Ok((argv, Some(all)))
 }
 
-/// The values of every `--config PATH` or `--config=PATH`, up to a `--`.
-fn config_paths(args: &[OsString]) -> Vec<PathBuf> {
-    let mut paths = Vec::new();
-    let mut args = args.iter().take_while(|a| *a != "--");
-    while let Some(a) = args.next() {
-        if a == "--config" {
-            paths.extend(args.next().map(PathBuf::from));
-        } else if let Some(path) = a.to_str().and_then(|a| a.strip_prefix("--config=")) {
-            paths.push(PathBuf::from(path));
-        }
-    }
-    paths
+/// The values of every `--config` in `argv`, as clap reads them: the very
+/// ones the parse proper sees, whatever their spelling (`--config=PATH`)
+/// or encoding (a path that is not UTF-8). The rest of the command line
+/// may still be incomplete (links only in the files): errors are ignored
+/// here, and reported by the parse proper.
+fn config_paths(command: &Command, argv: &[OsString]) -> Vec<PathBuf> {
+    let Ok(matches) = command
+        .clone()
+        .ignore_errors(true)
+        .try_get_matches_from(argv)
+    else {
+        return Vec::new();
+    };
+    matches
+        .subcommand()
+        .and_then(|(_, m)| m.try_get_many::<PathBuf>("config").ok().flatten())
+        .map(|paths| paths.cloned().collect())
+        .unwrap_or_default()
 }
 
 /// The files `path` names: itself, or a directory's `*.toml` files (not
@@ -159,7 +168,16 @@ fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
             .file_name()
             .is_some_and(|n| n.as_encoded_bytes().starts_with(b"."));
         let toml = file.extension().is_some_and(|e| e == "toml");
-        if toml && !hidden && file.is_file() {
+        if !toml || hidden {
+            continue;
+        }
+        // A link whose target is gone is a lost drop-in: refused, not
+        // skipped (its keys, or its links, would vanish unnoticed).
+        let meta = std::fs::metadata(&file).map_err(|source| ConfigError::Read {
+            path: file.clone(),
+            source,
+        })?;
+        if meta.is_file() {
             found.push(file);
         }
     }
@@ -170,14 +188,28 @@ fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
 impl FileArgs {
     /// The command-line words, the links first.
     pub fn words(&self) -> impl Iterator<Item = &OsString> {
-        self.positionals.iter().chain(&self.options)
+        let on = self.switches.iter().filter(|(_, on)| *on);
+        self.positionals
+            .iter()
+            .chain(&self.options)
+            .chain(on.map(|(flag, _)| flag))
     }
 
     /// `other`'s options after these.
     fn append(&mut self, other: FileArgs) {
         self.positionals.extend(other.positionals);
         self.options.extend(other.options);
+        for (flag, on) in other.switches {
+            self.set_switch(flag, on);
+        }
         self.origins.extend(other.origins);
+    }
+
+    fn set_switch(&mut self, flag: OsString, on: bool) {
+        match self.switches.iter_mut().find(|(f, _)| *f == flag) {
+            Some(switch) => switch.1 = on,
+            None => self.switches.push((flag, on)),
+        }
     }
 
     /// `e` as the file's error, when the value it refuses is one the file
@@ -243,27 +275,35 @@ pub fn load(command: &Command, path: &Path) -> Result<FileArgs, ConfigError> {
                 names(command).join(", ")
             ))
         })?;
-        let (words, values) = words(arg, value).map_err(|why| ConfigError::Key {
+        let refuse_value = |why| ConfigError::Key {
             at: at(value.span().start),
             key: key.get_ref().to_string(),
             why,
-        })?;
+        };
         let name = match (arg.get_long(), arg.get_value_names()) {
             (Some(long), _) => format!("--{long}"),
             (None, Some([first, ..])) => format!("<{first}>"),
             (None, _) => format!("<{}>", arg.get_id().as_str().to_uppercase()),
         };
+        let mut values = Vec::new();
+        if matches!(arg.get_action(), ArgAction::SetTrue) {
+            let on = switch(value).map_err(refuse_value)?;
+            out.set_switch(name.clone().into(), on);
+        } else {
+            let words;
+            (words, values) = self::words(arg, value).map_err(refuse_value)?;
+            if arg.is_positional() {
+                out.positionals.extend(words);
+            } else {
+                out.options.extend(words);
+            }
+        }
         out.origins.push(Origin {
             name,
             key: key.get_ref().to_string(),
             at: at(value.span().start),
             values,
         });
-        if arg.is_positional() {
-            out.positionals.extend(words);
-        } else {
-            out.options.extend(words);
-        }
     }
     Ok(out)
 }
@@ -293,20 +333,19 @@ fn names(command: &Command) -> Vec<String> {
         .collect()
 }
 
-/// The command-line words of `value` for option `arg`: a switch takes
-/// `true` or `false`; a list option a list or one value; any other one
-/// value (a string, a number). With the values, as clap will see them.
+/// A switch's value: `true` or `false`.
+fn switch(value: &Spanned<DeValue>) -> Result<bool, String> {
+    match value.get_ref() {
+        DeValue::Boolean(on) => Ok(*on),
+        other => Err(format!("a switch: true or false, not {}", other.type_str())),
+    }
+}
+
+/// The command-line words of `value` for option `arg` (not a switch): a
+/// list option takes a list or one value; any other one value (a string,
+/// a number). With the values, as clap will see them.
 fn words(arg: &Arg, value: &Spanned<DeValue>) -> Result<(Vec<OsString>, Vec<String>), String> {
     let flag = arg.get_long().map(|l| format!("--{l}"));
-    if matches!(arg.get_action(), ArgAction::SetTrue) {
-        return match value.get_ref() {
-            DeValue::Boolean(true) => {
-                Ok((flag.into_iter().map(OsString::from).collect(), Vec::new()))
-            }
-            DeValue::Boolean(false) => Ok((Vec::new(), Vec::new())),
-            other => Err(format!("a switch: true or false, not {}", other.type_str())),
-        };
-    }
     let many = matches!(arg.get_action(), ArgAction::Append)
         || arg.get_num_args().is_some_and(|n| n.max_values() > 1);
     let values = match value.get_ref() {
@@ -381,6 +420,67 @@ mod tests {
         f.words()
             .map(|w| w.to_string_lossy().into_owned())
             .collect()
+    }
+
+    /// A fresh directory of the test's own.
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("fbwag-config-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// The words `expand` adds to `fbwag demo ARGS`.
+    fn expanded(args: Vec<OsString>) -> Result<Vec<String>, ConfigError> {
+        let cli = Command::new("fbwag").subcommand(Demo::command().name("demo"));
+        let argv = ["fbwag", "demo"]
+            .map(OsString::from)
+            .into_iter()
+            .chain(args);
+        let (_, file) = expand(&cli, argv.collect())?;
+        Ok(file.map(|f| words(&f)).unwrap_or_default())
+    }
+
+    #[test]
+    fn a_later_file_turns_a_switch_off() {
+        let dir = scratch("switch");
+        std::fs::write(dir.join("10-base.toml"), "require_signed = true\n").unwrap();
+        let on = expanded(vec!["--config".into(), dir.clone().into()]).unwrap();
+        assert!(on.iter().any(|w| w == "--require-signed"), "{on:?}");
+        std::fs::write(dir.join("20-off.toml"), "require_signed = false\n").unwrap();
+        let off = expanded(vec!["--config".into(), dir.clone().into()]).unwrap();
+        assert!(!off.iter().any(|w| w == "--require-signed"), "{off:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A drop-in whose target is gone would take its keys with it unseen.
+    #[cfg(unix)]
+    #[test]
+    fn a_dangling_link_in_a_directory_is_refused() {
+        let dir = scratch("dangling");
+        std::fs::write(dir.join("10-base.toml"), "report = 1\n").unwrap();
+        std::os::unix::fs::symlink(dir.join("gone"), dir.join("40-key.toml")).unwrap();
+        let e = expanded(vec!["--config".into(), dir.clone().into()]).unwrap_err();
+        assert!(
+            matches!(&e, ConfigError::Read { path, .. } if path.ends_with("40-key.toml")),
+            "{e}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// `--config=PATH` is read whatever PATH's encoding, as clap takes it.
+    #[cfg(unix)]
+    #[test]
+    fn a_path_that_is_not_utf8_is_read() {
+        use std::os::unix::ffi::{OsStrExt, OsStringExt};
+        let dir = scratch("utf8");
+        let name = std::ffi::OsStr::from_bytes(b"sec\xff.toml");
+        std::fs::write(dir.join(name), "require_signed = true\n").unwrap();
+        let mut arg = b"--config=".to_vec();
+        arg.extend_from_slice(dir.join(name).as_os_str().as_bytes());
+        let got = expanded(vec![OsString::from_vec(arg)]).unwrap();
+        assert!(got.iter().any(|w| w == "--require-signed"), "{got:?}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

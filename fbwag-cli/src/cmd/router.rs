@@ -17,8 +17,9 @@ use std::time::Duration;
 /// verifiable end to end). Every system and component seen is kept, on
 /// every link it was seen on (a swarm or a flood of ids makes the router
 /// forget nobody); a route learned from a verified frame is never shared
-/// with a link that only forged its ids. A link that fails is opened
-/// again every second; no link's error stops the others.
+/// with a link that only forged its ids. A link that fails, or a TCP or
+/// serial link not there yet at start, is opened again every second; no
+/// link's error stops the others.
 #[derive(clap::Args)]
 pub struct RouterArgs {
     /// Links: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
@@ -31,8 +32,10 @@ pub struct RouterArgs {
     /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
     /// for repeatable ones), `links = [...]` for the links. A directory:
     /// its *.toml files in name order. Repeatable; a later file's
-    /// single-valued options win, and the command line's over all;
-    /// repeatable ones add up. Example: deploy/router.toml.
+    /// single-valued options win (`false` turns a switch off), and the
+    /// command line's over all; repeatable ones add up, the files' first:
+    /// links are numbered (LINK) files' links first, then CONN's; the log
+    /// lists them at start. Example: deploy/router.toml.
     #[arg(long, value_name = "PATH")]
     pub config: Vec<PathBuf>,
     /// Verify signatures with this key (64 hex digits, or @FILE holding
@@ -141,10 +144,12 @@ impl TryFrom<RouterArgs> for RouterOptions {
             .map(|k| k.as_deref().map(super::key).transpose())
             .collect::<Result<_, _>>()?;
         let peers = args::per_link("--peer", &a.peer, links).map_err(CliError::link_option)?;
+        let endpoints: Vec<_> = endpoints.collect::<Result<_, _>>()?;
+        args::check_peers(&a.peer, &endpoints).map_err(CliError::link_option)?;
         let sniffers =
             args::link_indices("--sniffer", &a.sniffer, links).map_err(CliError::link_option)?;
         Ok(RouterOptions {
-            endpoints: endpoints.collect::<Result<_, _>>()?,
+            endpoints,
             filters,
             routed_rates,
             dedup: (a.dedup > 0).then(|| Duration::from_millis(a.dedup)),

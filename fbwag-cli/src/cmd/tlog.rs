@@ -27,7 +27,7 @@ pub struct TlogArgs {
     /// Begin a new .tlog file before one would grow past this size
     /// (bytes, 288 at least: one record of the largest frame; suffix K,
     /// M, G or T: powers of 1024).
-    #[arg(long, value_name = "BYTES", default_value = "64M", value_parser = args::byte_size, requires = "tlog")]
+    #[arg(long, value_name = "BYTES", default_value = "64M", value_parser = args::tlog_file_size, requires = "tlog")]
     pub tlog_max_size: u64,
     /// Free space to keep on DIR's file system (checked every second or
     /// MiB written). Below it, the oldest .tlog files this program wrote

@@ -293,7 +293,12 @@ fn log_start(o: &CcOptions, log: &mut Log) {
     for out in &o.outs {
         log.line(&format!("routing to and from {out}"));
     }
-    if !o.outs.is_empty() {
+    for out in &o.trusted_outs {
+        log.line(&format!(
+            "routing to and from {out}, trusted: what it sends reaches the FC signed"
+        ));
+    }
+    if !o.outs.is_empty() || !o.trusted_outs.is_empty() {
         log.line(&match o.link.routed_rate {
             Some(rate) => format!(
                 "routed to the FC link: at most {rate} bytes/s (--routed-rate), the companion's own frames first"

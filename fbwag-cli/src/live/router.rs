@@ -11,7 +11,7 @@
 use super::net::{self, drop_counts, LinkChanges};
 use super::{Clock, Events, Limiter, Log, Tlog, TlogOptions};
 use crate::args::{LinkFilter, RoutedRate};
-use fbwag_delegation::node::{DropReason, Drops, Output, RouterNode};
+use fbwag_delegation::node::{Answers, DropReason, Drops, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
 use fbwag_dialect::{Dialect, Endpoint};
@@ -155,11 +155,15 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 .add(config)
                 .await
                 .map_err(|err| net::opened(e, err))?;
-            node.add_link(link, net::answers(e, peer), key.is_some())
+            let answers = net::answers(e, peer);
+            node.add_link(link, answers, key.is_some())
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
             // Numbered, with what it was given: options name links by place.
             let key = if key.is_some() { ", its key" } else { "" };
-            let pinned = peer.map_or(String::new(), |p| format!(", answers {p} only"));
+            let pinned = match answers {
+                Answers::Fixed(p) => format!(", answers {p} only"),
+                _ => String::new(),
+            };
             log.line(&format!("link {}: {e}{key}{pinned}", i + 1));
             links.push(link);
         }

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{fbwag, free_port, peer_python, Proc};
+use common::{fbwag, free_port, peer_python, udp_port_bound, Proc};
 use fbwag_delegation::wire;
 use fbwag_dialect::dialects::minimal::Heartbeat;
 use fbwag_dialect::{encode, Header, Version};
@@ -99,7 +99,12 @@ fn route(dir: &Path, seconds: &str, count: u32, extra: &[&str]) -> Run {
             .arg(&events)
             .args(extra),
     );
-    std::thread::sleep(Duration::from_millis(300));
+    // One registration heartbeat only (the log's first record): sent
+    // once the router listens, not after a guess at its start-up time.
+    assert!(
+        udp_port_bound(a) && udp_port_bound(b),
+        "the router never listened"
+    );
     let receiver = UdpSocket::bind("127.0.0.1:0").unwrap();
     receiver
         .set_read_timeout(Some(Duration::from_millis(200)))

@@ -100,6 +100,19 @@ pub fn free_port() -> u16 {
         .port()
 }
 
+/// Waits until something has bound UDP `port` on 127.0.0.1 (a daemon
+/// that listens there is up), for 10 s at most; whether it did.
+pub fn udp_port_bound(port: u16) -> bool {
+    let start = std::time::Instant::now();
+    while start.elapsed() < std::time::Duration::from_secs(10) {
+        if std::net::UdpSocket::bind(("127.0.0.1", port)).is_err() {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    false
+}
+
 /// Runs the binary with `input` on stdin (written from another thread, so
 /// a large input cannot deadlock against a full stdout pipe): stdout,
 /// stderr, exit code.

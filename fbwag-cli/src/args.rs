@@ -444,6 +444,9 @@ pub enum LinkOptionError {
     /// Port 0 (any port) for a link that sends to one address.
     #[error("a udpin link sends to one port: IP:0 (any port of IP) is for tcpin links")]
     AnyPort,
+    /// An IPv6 peer for a link that listens on IPv4: it can never speak.
+    #[error("link {0} listens on IPv4: an IPv6 peer can never reach it")]
+    OtherFamily(String),
 }
 
 /// `--peer` values where they apply: a listening link (`udpin`, `tcpin`);
@@ -453,6 +456,7 @@ pub fn check_peers(
     given: &[ForLink<SocketAddr>],
     endpoints: &[fbwag_dialect::Endpoint],
 ) -> Result<(), (String, LinkOptionError)> {
+    use fbwag_dialect::mavframe::conn::Address;
     use fbwag_dialect::Endpoint;
     for g in given {
         let arg = || g.link.map_or("--peer".into(), |l| format!("--peer {l}"));
@@ -464,6 +468,12 @@ pub fn check_peers(
             match endpoint {
                 Endpoint::UdpIn(_) if g.value.port() == 0 => {
                     return Err((arg(), LinkOptionError::AnyPort))
+                }
+                Endpoint::UdpIn(Address::Ip(at)) | Endpoint::TcpIn(Address::Ip(at))
+                    if at.is_ipv4() && g.value.is_ipv6() =>
+                {
+                    let link = endpoint.to_string();
+                    return Err((arg(), LinkOptionError::OtherFamily(link)));
                 }
                 Endpoint::UdpIn(_) | Endpoint::TcpIn(_) => {}
                 other if g.link.is_some() => {
@@ -616,6 +626,8 @@ mod tests {
         assert!(check_peers(&[peer("10.0.0.1:1"), peer("3:10.0.0.2:0")], &links).is_ok());
         let err = check_peers(&[peer("2:10.0.0.1:1")], &links).unwrap_err();
         assert!(matches!(err.1, LinkOptionError::NotListening(_)), "{err:?}");
+        let err = check_peers(&[peer("3:[::1]:5")], &links).unwrap_err();
+        assert!(matches!(err.1, LinkOptionError::OtherFamily(_)), "{err:?}");
         for any_port in ["1:10.0.0.1:0", "10.0.0.1:0"] {
             let err = check_peers(&[peer(any_port)], &links).unwrap_err();
             assert_eq!(err.1, LinkOptionError::AnyPort, "{any_port}");

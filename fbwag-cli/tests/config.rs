@@ -202,6 +202,21 @@ fn a_bad_file_is_refused_with_its_line_and_column() {
             ":2:11:",
             "`sniffer`",
         ),
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nfilter_in = [\"9:allow-msg=0\"]\n",
+            ":2:13:",
+            "`filter_in`: 9:allow-msg=0: link 9: there are 2 links",
+        ),
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nsniffer = [5]\n",
+            ":2:11:",
+            "`sniffer`: 5: link 5: there are 2 links",
+        ),
+        (
+            "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\npeer = [\"2:127.0.0.1:5\"]\n",
+            ":2:8:",
+            "`peer`: 2: link udpout:127.0.0.1:2 does not listen",
+        ),
         ("links = [\"udpin:127.0.0.1:1\",\n", ":1:", "unclosed array"),
         ("[router]\nlinks = []\n", ":1:2:", "no such option"),
     ];

@@ -238,6 +238,29 @@ impl FileArgs {
             why: first.trim_start_matches("error: ").to_owned(),
         })
     }
+
+    /// The file's place of a per-link option a daemon refused after the
+    /// parse (`--filter-in 9:RULE`, `--peer 2`, `--sniffer 5`: the flag,
+    /// then the link's place), when a file gave that link a value of that
+    /// option: the refusal (`why`) as the file's error.
+    pub fn blame_link(&self, arg: &str, why: impl fmt::Display) -> Option<ConfigError> {
+        let (flag, value) = arg.split_once(' ')?;
+        let link_of = |v: &str| -> Option<usize> {
+            let place = v.split_once(':').map_or(v, |(link, _)| link);
+            place.trim().parse().ok()
+        };
+        let link = link_of(value)?;
+        let origin = self
+            .origins
+            .iter()
+            .rev()
+            .find(|o| o.name == flag && o.values.iter().any(|v| link_of(v) == Some(link)))?;
+        Some(ConfigError::Key {
+            at: origin.at.clone(),
+            key: origin.key.clone(),
+            why: format!("{value}: {why}"),
+        })
+    }
 }
 
 /// Reads `path` as the options of subcommand `command`.

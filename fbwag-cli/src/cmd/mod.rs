@@ -27,6 +27,10 @@ use std::path::PathBuf;
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// What the `--config` files gave, to name a file's line when a
+    /// daemon refuses a per-link option after the parse.
+    #[arg(skip)]
+    file: Option<config::FileArgs>,
 }
 
 fn after_help() -> String {
@@ -59,23 +63,39 @@ impl Cli {
         let parsed = command
             .try_get_matches_from(argv)
             .and_then(|m| Cli::from_arg_matches(&m));
-        parsed.or_else(|e| match file.as_ref().and_then(|f| f.blame(&e)) {
-            Some(refused) => Err(refused.into()),
-            None => e.exit(),
-        })
+        match parsed {
+            Ok(cli) => Ok(Cli { file, ..cli }),
+            Err(e) => match file.as_ref().and_then(|f| f.blame(&e)) {
+                Some(refused) => Err(refused.into()),
+                None => e.exit(),
+            },
+        }
     }
 
-    /// Runs the subcommand.
+    /// Runs the subcommand. A per-link option refused is named at the
+    /// file's line when a `--config` file gave it.
     pub fn run(self) -> Result<Outcome, CliError> {
-        match self.command {
-            Command::Decode(a) => decode::run(a),
-            Command::Encode(a) => encode::run(a),
-            Command::Cc(a) => cc::run(a),
-            Command::FcSim(a) => fc_sim::run(a),
-            Command::Demo(a) => demo::run(a),
-            Command::Router(a) => router::run(a),
-            Command::Sim(a) => sim::run(a),
-        }
+        let Cli { command, file } = self;
+        run(command).map_err(|e| match (e, &file) {
+            (CliError::LinkOption { arg, source }, Some(f)) => match f.blame_link(&arg, &source) {
+                Some(refused) => refused.into(),
+                None => CliError::LinkOption { arg, source },
+            },
+            (e, _) => e,
+        })
+    }
+}
+
+/// Runs `command`.
+fn run(command: Command) -> Result<Outcome, CliError> {
+    match command {
+        Command::Decode(a) => decode::run(a),
+        Command::Encode(a) => encode::run(a),
+        Command::Cc(a) => cc::run(a),
+        Command::FcSim(a) => fc_sim::run(a),
+        Command::Demo(a) => demo::run(a),
+        Command::Router(a) => router::run(a),
+        Command::Sim(a) => sim::run(a),
     }
 }
 

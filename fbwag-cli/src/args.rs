@@ -6,6 +6,7 @@
 //! these arguments `allow_hyphen_values`, so `-1` or `-inf` reaches the
 //! validator (clap would otherwise take it for an unknown flag).
 
+use fbwag_delegation::control::Control;
 use fbwag_delegation::node::{Direction, Filter, FilterError, FilterRules, MAX_LINKS};
 use std::io::{self, Read};
 use std::net::SocketAddr;
@@ -444,6 +445,10 @@ pub enum LinkOptionError {
     /// Port 0 (any port) for a link that sends to one address.
     #[error("a udpin link sends to one port: IP:0 (any port of IP) is for tcpin links")]
     AnyPort,
+    /// A rule blocking the autonomy's control message: the handover, not
+    /// a filter, decides where that goes.
+    #[error("the autonomy's {0} is never filtered: the handover gates it (leave out --autonomy to keep any program from steering)")]
+    AutonomyControl(&'static str),
     /// An IPv6 peer for a link that listens on IPv4: it can never speak.
     #[error("link {0} listens on IPv4: an IPv6 peer can never reach it")]
     OtherFamily(String),
@@ -532,6 +537,30 @@ pub fn link_filters(
             rules: text,
         })
         .collect())
+}
+
+/// Refuses a `--filter-in` rule of link `link` (the autonomy's place)
+/// that blocks one of the control messages: filters never touch them, so
+/// such a rule would only seem to keep the autonomy from steering.
+pub fn check_autonomy_rules(
+    ins: &[LinkRule],
+    link: usize,
+) -> Result<(), (String, LinkOptionError)> {
+    for r in ins.iter().filter(|r| r.link == link) {
+        let mut rules = FilterRules::new();
+        // Checked as it was read: an error here cannot block anything.
+        if rules.parse(&r.rule).is_err() {
+            continue;
+        }
+        let control = Control::MESSAGES
+            .into_iter()
+            .find(|(id, _)| rules.blocks_msg(*id));
+        if let Some((_, name)) = control {
+            let arg = format!("--filter-in {}:{}", r.link, r.rule);
+            return Err((arg, LinkOptionError::AutonomyControl(name)));
+        }
+    }
+    Ok(())
 }
 
 /// Receiver failures of `fbwag fc-sim` that do not pair up.

@@ -123,7 +123,14 @@ fn bad_filter_text_is_refused_with_exit_status_2() {
         (["--filter-in", "0:block-msg=0"], "expected LINK:RULE"),
         (["--filter-out", "3:block-msg=0"], "there are 2 links"),
         (["--filter-out", "1:block-msg=NOPE"], "message name"),
-        (["--filter-out", "1:block-sys=256"], "256 is out of range"),
+        (
+            ["--filter-out", "1:block-sys=256"],
+            "'1:block-sys=256' for '--filter-out <LINK:RULE>': an id is at most 255",
+        ),
+        (
+            ["--filter-in", "1:allow-msg=99999999999"],
+            "'1:allow-msg=99999999999' for '--filter-in <LINK:RULE>': an id is at most 16777215",
+        ),
         (["--filter-out", "1:drop-sys=1"], "a rule is allow-msg"),
         (["--dedup", "-5"], "milliseconds from 0 to 60000"),
     ] {

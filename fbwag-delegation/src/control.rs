@@ -32,6 +32,13 @@ pub enum Control {
 }
 
 impl Control {
+    /// The three control messages: (id, name).
+    pub const MESSAGES: [(u32, &'static str); 3] = [
+        (RcChannelsOverride::ID, RcChannelsOverride::NAME),
+        (SetAttitudeTarget::ID, SetAttitudeTarget::NAME),
+        (ManualControl::ID, ManualControl::NAME),
+    ];
+
     /// The control carried by `message`, if it is one of the three control
     /// messages.
     pub fn from_message(message: &Message) -> Option<Control> {

@@ -59,7 +59,7 @@ pub struct CcArgs {
     /// block-comp= with a list (30,HEARTBEAT or 1,200-210); block lists
     /// outrank allow lists. Filters never touch the FC link's protocol
     /// frames, the companion's own, nor the autonomy's control (which
-    /// the handover gates). Repeatable. Example: --filter-in
+    /// the handover gates: a rule blocking it is refused). Repeatable. Example: --filter-in
     /// 1:block-msg=COMMAND_LONG,SET_MODE
     #[arg(long, value_name = "LINK:RULE", value_parser = args::link_rule)]
     pub filter_in: Vec<args::LinkRule>,
@@ -193,6 +193,9 @@ impl TryFrom<CcArgs> for CcOptions {
         let filtered = outs.len() + trusted_outs.len() + usize::from(autonomy.is_some());
         let filters = args::link_filters(&a.filter_in, &a.filter_out, filtered)
             .map_err(CliError::link_option)?;
+        if autonomy.is_some() {
+            args::check_autonomy_rules(&a.filter_in, filtered).map_err(CliError::link_option)?;
+        }
         let mut link =
             super::link_options(&a.link, a.sign_key.as_deref(), a.peer, a.signing_state)?;
         link.routed_rate = routed_rate(&link.endpoint, a.routed_rate);
@@ -236,8 +239,14 @@ mod tests {
         args: CcArgs,
     }
 
-    /// The options of `fbwag cc` with three filterable links and `filter`.
+    /// The options of `fbwag cc` with three filterable links and `filter`
+    /// (`--filter-out=RULE`, or a whole `--filter-in=RULE` option).
     fn options(filter: &str) -> Result<CcOptions, CliError> {
+        let filter = if filter.starts_with("--") {
+            filter.to_owned()
+        } else {
+            format!("--filter-out={filter}")
+        };
         let key = "ab".repeat(32);
         let args = Cc::try_parse_from([
             "cc",
@@ -246,7 +255,7 @@ mod tests {
             "--out=udpin:127.0.0.1:2",
             "--trusted-out=udpin:127.0.0.1:3",
             "--autonomy=udpin:127.0.0.1:4",
-            &format!("--filter-out={filter}"),
+            &filter,
         ])
         .unwrap();
         CcOptions::try_from(args.args)
@@ -259,5 +268,23 @@ mod tests {
         assert_eq!(o.filters[0].index, 2, "the autonomy's link");
         let e = options("4:block-msg=ATTITUDE").err().unwrap();
         assert!(e.to_string().contains("there are 3 links"), "{e}");
+    }
+
+    #[test]
+    fn a_rule_blocking_the_autonomys_control_is_refused() {
+        for rule in ["3:block-msg=RC_CHANNELS_OVERRIDE", "3:block-msg=0,82"] {
+            let e = options(&format!("--filter-in={rule}")).err().unwrap();
+            assert!(e.to_string().contains("is never filtered"), "{rule}: {e}");
+        }
+        // Other links' rules, the autonomy's other messages, and its
+        // out-filter may name them.
+        for rule in [
+            "--filter-in=2:block-msg=RC_CHANNELS_OVERRIDE",
+            "--filter-in=3:block-msg=HEARTBEAT",
+            "--filter-in=3:allow-msg=HEARTBEAT",
+            "--filter-out=3:block-msg=MANUAL_CONTROL",
+        ] {
+            assert!(options(rule).is_ok(), "{rule}");
+        }
     }
 }

@@ -81,6 +81,8 @@ pub const MAX_MSG_IDS: usize = 16;
 
 /// The largest MAVLink 2 message id (24 bits).
 const MAX_MSG_ID: u32 = 0xFF_FFFF;
+/// The highest system or component id.
+const SYS_COMP_MAX: u32 = u8::MAX as u32;
 
 /// A sorted list of at most [`MAX_MSG_IDS`] message ids.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -265,9 +267,12 @@ pub enum FilterError {
     /// A system or component id that is not a number or a range `A-B`
     /// (`A` ≤ `B`).
     BadId,
-    /// A number past the rule's range (255 for systems and components,
-    /// 2²⁴−1 for messages).
-    OutOfRange(u32),
+    /// A number past the rule's range.
+    OutOfRange {
+        /// The highest id the rule takes: 255 for systems and components,
+        /// 2²⁴−1 for messages.
+        max: u32,
+    },
     /// More than [`MAX_MSG_IDS`] message ids in one list.
     TooManyMsgIds,
 }
@@ -285,7 +290,7 @@ impl fmt::Display for FilterError {
             FilterError::BadId => {
                 f.write_str("a system or component is a number or a range A-B (0-255)")
             }
-            FilterError::OutOfRange(n) => write!(f, "{n} is out of range"),
+            FilterError::OutOfRange { max } => write!(f, "an id is at most {max}"),
             FilterError::TooManyMsgIds => write!(f, "more than {MAX_MSG_IDS} message ids"),
         }
     }
@@ -316,7 +321,7 @@ impl FilterRules {
     pub fn add(&mut self, rule: Rule, id: u32) -> Result<(), FilterError> {
         if rule.is_msg() {
             if id > MAX_MSG_ID {
-                return Err(FilterError::OutOfRange(id));
+                return Err(FilterError::OutOfRange { max: MAX_MSG_ID });
             }
             let list = match rule {
                 Rule::AllowMsg => &mut self.allow_msgs,
@@ -324,7 +329,7 @@ impl FilterRules {
             };
             return list.insert(id);
         }
-        let id = u8::try_from(id).map_err(|_| FilterError::OutOfRange(id))?;
+        let id = u8::try_from(id).map_err(|_| FilterError::OutOfRange { max: SYS_COMP_MAX })?;
         match rule {
             Rule::AllowSys => self.allow_sys.get_or_insert(IdSet::NONE).insert(id),
             Rule::BlockSys => self.block_sys.insert(id),
@@ -362,6 +367,11 @@ impl FilterRules {
         }
     }
 
+    /// Whether a `block-msg` rule names message `id`.
+    pub fn blocks_msg(&self, id: u32) -> bool {
+        self.block_msgs.contains(id)
+    }
+
     /// The filter these rules make.
     pub fn filter(&self) -> Filter {
         let (msgs, msgs_only) = if self.allow_msgs.is_empty() {
@@ -387,7 +397,9 @@ impl FilterRules {
 /// A message id: a number, or a name the dialect knows.
 fn msg_id(item: &str) -> Result<u32, FilterError> {
     if item.bytes().all(|b| b.is_ascii_digit()) {
-        return item.parse().map_err(|_| FilterError::OutOfRange(u32::MAX));
+        return item
+            .parse()
+            .map_err(|_| FilterError::OutOfRange { max: MAX_MSG_ID });
     }
     <Dialect as MessageSet>::MESSAGES
         .iter()
@@ -405,7 +417,7 @@ fn id_range(item: &str) -> Result<(u32, u32), FilterError> {
             return Err(FilterError::BadId);
         }
         s.parse::<u32>()
-            .map_err(|_| FilterError::OutOfRange(u32::MAX))
+            .map_err(|_| FilterError::OutOfRange { max: SYS_COMP_MAX })
     };
     let (from, to) = match item.split_once('-') {
         Some((a, b)) => (number(a)?, number(b)?),
@@ -415,8 +427,8 @@ fn id_range(item: &str) -> Result<(u32, u32), FilterError> {
         return Err(FilterError::BadId);
     }
     // Checked here so that a huge range is refused before it is walked.
-    if to > u32::from(u8::MAX) {
-        return Err(FilterError::OutOfRange(to));
+    if to > SYS_COMP_MAX {
+        return Err(FilterError::OutOfRange { max: SYS_COMP_MAX });
     }
     Ok((from, to))
 }
@@ -558,12 +570,22 @@ mod tests {
             ("allow-msg= , ", FilterError::NoIds),
             ("permit-msg=1", FilterError::UnknownRule),
             ("allow-msg=NO_SUCH_MESSAGE", FilterError::UnknownMessage),
-            ("allow-msg=16777216", FilterError::OutOfRange(16_777_216)),
-            ("allow-msg=99999999999", FilterError::OutOfRange(u32::MAX)),
-            ("block-sys=256", FilterError::OutOfRange(256)),
+            (
+                "allow-msg=16777216",
+                FilterError::OutOfRange { max: 16_777_215 },
+            ),
+            (
+                "allow-msg=99999999999",
+                FilterError::OutOfRange { max: 16_777_215 },
+            ),
+            ("block-sys=256", FilterError::OutOfRange { max: 255 }),
             (
                 "block-sys=0-4000000000",
-                FilterError::OutOfRange(4_000_000_000),
+                FilterError::OutOfRange { max: 255 },
+            ),
+            (
+                "block-comp=1-99999999999",
+                FilterError::OutOfRange { max: 255 },
             ),
             ("block-sys=9-3", FilterError::BadId),
             ("block-comp=x", FilterError::BadId),

@@ -6,9 +6,11 @@
 One column per router, in the order given (default fbwag, mavlink-routerd,
 bare-forward when present). Each figure adds up the router's slices of the
 phase (latency: the median of the slices' medians and p99s). The ratio is
-FIRST ÷ SECOND over the whole phase; beside it, in brackets, the lowest
-and highest ratio of a slice against the slice that ran next to it, which
-shows how much of a difference the machine's noise can make. Every row says
+FIRST ÷ SECOND over the whole phase, and REFERENCE ÷ SECOND: how far
+below SECOND a program that only forwards gets on this machine. Beside
+each, in brackets, the lowest and highest ratio of a slice against the
+slice that ran next to it, which shows how much of a difference the
+machine's noise can make. Every row says
 which way is better. CPU per frame divides the router's CPU by the frames it
 read (sent minus those the kernel dropped at its input socket), so work on
 frames it never saw is not counted.
@@ -112,9 +114,11 @@ def table(raw, routers):
                 return "n/a"
             v = fn(total(raw[(r, phase)]))
             return v if isinstance(v, str) else fmt(v, unit)
-        both = (a, phase) in raw and (b, phase) in raw
-        r = ratio(fn, raw[(a, phase)], raw[(b, phase)]) if both and paired else ""
-        rows.append([name] + [show(x) for x in routers] + [r, better])
+        def against_b(x):
+            both = (x, phase) in raw and (b, phase) in raw
+            return ratio(fn, raw[(x, phase)], raw[(b, phase)]) if both and paired else ""
+        rows.append([name] + [show(x) for x in routers] + [against_b(a)]
+                    + [against_b(x) for x in routers[2:]] + [better])
 
     for phase, label in (("sat1", "1 frame/datagram"), ("sat10", "10 frames/datagram")):
         row(phase, f"saturation, {label}: frames/s delivered", throughput, "higher")
@@ -130,8 +134,11 @@ def table(raw, routers):
     row("lat1000", "… latency p99 µs", latency("p99_us"), "lower")
     row("lat1000", "… loss", loss, "", paired=False)
 
-    print("| | " + " | ".join(routers) + f" | {a} ÷ {b} [slices] | better |")
-    print("|---|" + "---:|" * (len(routers) + 1) + "---|")
+    # A reference (the bare forwarder) against the second router shows how
+    # far below the second any program can go on this machine.
+    references = "".join(f" {x} ÷ {b} |" for x in routers[2:])
+    print("| | " + " | ".join(routers) + f" | {a} ÷ {b} [slices] |{references} better |")
+    print("|---|" + "---:|" * (len(routers) + 1 + len(routers[2:])) + "---|")
     for r in rows:
         print("| " + " | ".join(r) + " |")
 

@@ -10,7 +10,7 @@
 //!   The signer adopts the timestamps the verifier accepted
 //!   ([`Framer::adopt_from`]) after each frame and before each send.
 //! - With `std`: [`Peers`], whom a link that several remote ends share
-//!   sends to (a [`ReplyTo`] rule over a [`PeerSet`]); [`SigningFile`],
+//!   sends to (a [`ReplyTo`] rule over a [`PeerSet`](crate::peers::PeerSet)); [`SigningFile`],
 //!   when the link's signing state is saved.
 
 // Each front end uses the parts it needs; the router (feature `tokio`),

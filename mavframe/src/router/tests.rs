@@ -1,0 +1,1011 @@
+use super::pace::Backlog;
+use super::server::CLIENT_WRITE_TIMEOUT;
+use super::*;
+use crate::conn::test_dialect::{Ping, TestDialect};
+use crate::frame::{FrameBuf, Header, Version};
+use crate::peers::MAX_PEERS;
+use crate::Parser;
+use std::boxed::Box;
+use std::format;
+use std::net::UdpSocket as StdUdp;
+use std::vec::Vec;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpStream, UdpSocket};
+
+/// Datagrams of garbage (65,507 and 20 bytes) before each frame: no
+/// frame is cut short. (A receive into the room the earlier datagrams'
+/// bytes left lost one 63-byte frame in 1,040 on a plain link, and
+/// every frame after a large datagram.)
+#[tokio::test]
+async fn no_datagram_is_cut_short_after_a_large_one() {
+    let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+    let port = probe.local_addr().unwrap().port();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let url = format!("udpin:127.0.0.1:{port}");
+    router
+        .add(LinkConfig::new(url.parse().unwrap()))
+        .await
+        .unwrap();
+    let sender = StdUdp::bind("127.0.0.1:0").unwrap();
+    let to = ("127.0.0.1", port);
+    let garbage = std::vec![0u8; 65_507];
+    for value in 0..20u32 {
+        let h = Header {
+            seq: value as u8,
+            sysid: 1,
+            compid: 1,
+        };
+        let frame = FrameBuf::encode(Version::V2, h, &Ping { value }, None).unwrap();
+        // 29 bytes of room left, then 9: less than the frame's 16.
+        sender.send_to(&garbage, to).unwrap();
+        sender.send_to(&garbage[..20], to).unwrap();
+        sender.send_to(&frame, to).unwrap();
+        let event = tokio::time::timeout(Duration::from_secs(2), router.recv()).await;
+        let Ok(Some(RouterEvent::Frame(inbound))) = event else {
+            panic!("frame {value} lost");
+        };
+        assert_eq!(inbound.frame.as_bytes(), &frame[..], "frame {value}");
+    }
+}
+
+async fn tcpin(reply_to: ReplyTo) -> (Router<TestDialect>, LinkId, SocketAddr) {
+    let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+    config.reply_to = reply_to;
+    let link = router.add(config).await.unwrap();
+    (router, link, addr)
+}
+
+fn ping(value: u32) -> FrameBuf {
+    let h = Header {
+        seq: value as u8,
+        sysid: 1,
+        compid: 1,
+    };
+    FrameBuf::encode(Version::V2, h, &Ping { value }, None).unwrap()
+}
+
+/// Reads what arrives within `ms`: `None` at the end of the stream.
+async fn read_for(stream: &mut TcpStream, ms: u64) -> Option<Vec<u8>> {
+    let mut got = Vec::new();
+    let mut buf = [0u8; 256];
+    let until = tokio::time::Instant::now() + Duration::from_millis(ms);
+    loop {
+        match tokio::time::timeout_at(until, stream.read(&mut buf)).await {
+            Err(_) => return Some(got),
+            Ok(Ok(0)) | Ok(Err(_)) => return None,
+            Ok(Ok(n)) => got.extend_from_slice(&buf[..n]),
+        }
+    }
+}
+
+/// A TCP client link whose server is not up yet, and a serial port
+/// that is not there, start down rather than fail the router; the TCP
+/// link opens once its server listens. A listening link that cannot
+/// bind still fails at once (a mistake, not a peer that comes later).
+#[tokio::test]
+async fn a_tcp_link_whose_server_comes_later_opens_then() {
+    let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let tcp = LinkConfig::new(format!("tcp:{addr}").parse().unwrap());
+    let link = router.add(tcp).await.unwrap();
+    let serial = LinkConfig::new("serial:/dev/no-such-port:57600".parse().unwrap());
+    let absent = router.add(serial).await.unwrap();
+    let mut down = Vec::new();
+    for _ in 0..2 {
+        match tokio::time::timeout(Duration::from_secs(2), router.recv()).await {
+            Ok(Some(RouterEvent::LinkDown { link, .. })) => down.push(link),
+            _ => panic!("no LinkDown"),
+        }
+    }
+    down.sort_unstable();
+    assert_eq!(down, [link, absent]);
+    let bound = StdUdp::bind("127.0.0.1:0").unwrap();
+    let taken = LinkConfig::new(
+        format!("udpin:{}", bound.local_addr().unwrap())
+            .parse()
+            .unwrap(),
+    );
+    assert!(
+        router.add(taken).await.is_err(),
+        "a port in use is an error"
+    );
+
+    let server = tokio::net::TcpListener::bind(addr).await.unwrap();
+    let (mut stream, _) = tokio::time::timeout(Duration::from_secs(3), server.accept())
+        .await
+        .expect("the link connects within its reopening interval")
+        .unwrap();
+    let up = tokio::time::timeout(Duration::from_secs(1), router.recv()).await;
+    assert!(matches!(up, Ok(Some(RouterEvent::LinkUp { link: l })) if l == link));
+    router.send_raw(Links::only(link), &ping(7));
+    assert_eq!(read_for(&mut stream, 300).await.unwrap(), &ping(7)[..]);
+}
+
+/// `tcpin` under [`ReplyTo::Owner`]: nothing goes out until the owner
+/// names a client, then only to that client (before, every client got
+/// everything: a stranger that connected received the companion's
+/// control).
+#[tokio::test]
+async fn tcpin_sends_only_to_the_owners_peer() {
+    let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
+    let mut peer = TcpStream::connect(addr).await.unwrap();
+    let mut stranger = TcpStream::connect(addr).await.unwrap();
+    peer.write_all(&ping(1)).await.unwrap();
+    let Some(RouterEvent::Frame(inbound)) = router.recv().await else {
+        panic!("no frame");
+    };
+    assert_eq!(inbound.source, Some(peer.local_addr().unwrap()));
+    router.send_raw(Links::only(link), &ping(2));
+    assert_eq!(
+        read_for(&mut peer, 200).await,
+        Some(Vec::new()),
+        "no peer named yet"
+    );
+    router.pin_peer(link, peer.local_addr().unwrap());
+    router.send_raw(Links::only(link), &ping(3));
+    assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+    assert_eq!(read_for(&mut stranger, 100).await, Some(Vec::new()));
+}
+
+/// A link sends its owner's frames before routed ones queued earlier,
+/// each class in order; once the router is gone, what was routed is
+/// still sent, then the link ends.
+#[tokio::test]
+async fn a_link_sends_the_owners_frames_before_routed_ones() {
+    let (own_tx, own) = mpsc::channel(8);
+    let (routed_tx, routed) = mpsc::channel(8);
+    let mut queues = Queues::new(own, routed, None, Arc::default());
+    for b in [1u8, 2, 3] {
+        routed_tx
+            .try_send((1, unsigned(Box::from(&[b][..]))))
+            .unwrap();
+    }
+    for b in [7u8, 8] {
+        own_tx.try_send(Command::Raw(Box::from(&[b][..]))).unwrap();
+    }
+    async fn next(queues: &mut Queues) -> Option<(bool, u8)> {
+        match queues.recv().await {
+            Some(Command::Raw(b)) => Some((true, b[0])),
+            Some(Command::Routed(_, b)) => Some((false, b.bytes[0])),
+            Some(_) => panic!("not a frame"),
+            None => None,
+        }
+    }
+    let q = &mut queues;
+    assert_eq!(next(q).await, Some((true, 7)));
+    assert_eq!(next(q).await, Some((true, 8)));
+    assert_eq!(next(q).await, Some((false, 1)));
+    own_tx
+        .try_send(Command::Raw(Box::from(&[9u8][..])))
+        .unwrap();
+    assert_eq!(next(q).await, Some((true, 9)));
+    drop((own_tx, routed_tx));
+    assert_eq!(next(q).await, Some((false, 2)));
+    assert_eq!(next(q).await, Some((false, 3)));
+    assert_eq!(next(q).await, None);
+}
+
+/// A paced link's queues at 2,240 bytes a second (a burst and a
+/// backlog of 280 bytes: one longest frame, then one every 125 ms), with
+/// the senders of its two queues and its counters.
+struct Paced {
+    own: mpsc::Sender<Command>,
+    routed: mpsc::Sender<RoutedFrame>,
+    queues: Queues,
+    counters: Arc<Mutex<LinkCounters>>,
+}
+
+fn paced() -> Paced {
+    let (own, own_rx) = mpsc::channel(8);
+    let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
+    let counters = Arc::new(Mutex::new(LinkCounters::default()));
+    let queues = Queues::new(own_rx, routed_rx, NonZeroU32::new(2_240), counters.clone());
+    Paced {
+        own,
+        routed,
+        queues,
+        counters,
+    }
+}
+
+/// `len` bytes of `b`, routed from sender `from`.
+fn unsigned(bytes: Box<[u8]>) -> RoutedBytes {
+    RoutedBytes { bytes, sign: None }
+}
+
+fn routed_frame(from: u32, b: u8, len: usize) -> RoutedFrame {
+    (from, unsigned(std::vec![b; len].into_boxed_slice()))
+}
+
+/// A frame of the owner's: one byte, `b`.
+fn own_frame(b: u8) -> Command {
+    Command::Raw(Box::from(&[b][..]))
+}
+
+/// A paced link sends routed frames at its rate after a burst, and its
+/// owner's frames at once while a routed one waits; once the router is
+/// gone, what was routed goes unpaced.
+#[tokio::test(start_paused = true)]
+async fn a_paced_link_holds_routed_frames_never_its_own() {
+    use tokio::time::{sleep, Instant};
+    let Paced {
+        own: own_tx,
+        routed: routed_tx,
+        mut queues,
+        ..
+    } = paced();
+    for b in 0..5u8 {
+        routed_tx.try_send(routed_frame(1, b, 280)).unwrap();
+    }
+    let t0 = Instant::now();
+    async fn next(queues: &mut Queues, t0: Instant) -> (u64, bool, u8) {
+        let c = queues.recv().await;
+        let ms = t0.elapsed().as_millis() as u64;
+        match c {
+            Some(Command::Raw(b)) => (ms, true, b[0]),
+            Some(Command::Routed(_, b)) => (ms, false, b.bytes[0]),
+            _ => panic!("not a frame"),
+        }
+    }
+    let q = &mut queues;
+    assert_eq!(next(q, t0).await, (0, false, 0));
+    let sender = tokio::spawn(async move {
+        sleep(Duration::from_millis(30)).await;
+        own_tx.send(own_frame(9)).await.unwrap();
+        own_tx
+    });
+    assert_eq!(
+        next(q, t0).await,
+        (30, true, 9),
+        "the owner's frame at once"
+    );
+    assert_eq!(next(q, t0).await, (125, false, 1));
+    assert_eq!(next(q, t0).await, (250, false, 2));
+    drop((sender.await.unwrap(), routed_tx));
+    assert_eq!(
+        next(q, t0).await,
+        (250, false, 3),
+        "unpaced once the router is gone"
+    );
+    assert_eq!(next(q, t0).await, (250, false, 4));
+    assert!(q.recv().await.is_none());
+}
+
+/// Routed frames beyond a second of the pace are dropped, the oldest
+/// first, and counted: a frame routed into a flood goes within about a
+/// second. The owner's frame queued while a routed one waits for the
+/// pace goes first; a link that is down drops what the pace held.
+#[tokio::test(start_paused = true)]
+async fn a_paced_link_keeps_a_second_of_routed_frames_the_newest() {
+    use tokio::time::Instant;
+    let Paced {
+        own: own_tx,
+        routed: routed_tx,
+        queues: mut q,
+        counters,
+    } = paced();
+    let frame = |b: u8| routed_frame(1, b, 280);
+    for b in 0..100u8 {
+        routed_tx.try_send(frame(b)).unwrap();
+    }
+    let t0 = Instant::now();
+    let mut got: Vec<(u128, u8)> = Vec::new();
+    while got.last().is_none_or(|g| g.1 != 200) && got.len() < 20 {
+        match q.recv().await {
+            Some(Command::Routed(_, b)) => got.push((t0.elapsed().as_millis(), b.bytes[0])),
+            _ => panic!("not a routed frame"),
+        }
+        if got.len() == 2 {
+            // Queued behind a flood: goes within a second.
+            routed_tx.try_send(frame(200)).unwrap();
+            own_tx.try_send(own_frame(9)).unwrap();
+            assert!(
+                matches!(q.recv().await, Some(Command::Raw(_))),
+                "the owner's first"
+            );
+        }
+    }
+    let last = got
+        .iter()
+        .find(|g| g.1 == 200)
+        .expect("the late frame went");
+    assert!(last.0 <= 1_250, "{got:?}");
+    assert_eq!(
+        got.len(),
+        10,
+        "the first, eight newest of the flood, the late one: {got:?}"
+    );
+    let dropped = counters.lock().unwrap().routed_dropped;
+    assert!(dropped >= 90, "{dropped} dropped, {got:?}");
+    // Down: what the pace held is dropped.
+    routed_tx.try_send(frame(201)).unwrap();
+    routed_tx.try_send(frame(202)).unwrap();
+    assert!(matches!(q.recv().await, Some(Command::Routed(..))));
+    let before = counters.lock().unwrap().routed_dropped;
+    routed_tx.try_send(frame(203)).unwrap();
+    assert!(q.drop_next().await);
+    assert!(q.backlog.as_ref().is_some_and(Backlog::is_empty));
+    let held = counters.lock().unwrap().routed_dropped - before;
+    assert_eq!(held, 1, "202, held by the pace, dropped and counted");
+    drop((own_tx, routed_tx));
+    assert!(!q.drop_next().await);
+}
+
+/// A routed frame the pace has let go still waits for the owner's frame
+/// queued meanwhile; a `recv` cancelled while the pace holds a frame
+/// keeps it.
+#[tokio::test(start_paused = true)]
+async fn a_paced_link_lets_the_owners_frame_pass_a_released_one() {
+    use tokio::time::{sleep, timeout};
+    let Paced {
+        own: own_tx,
+        routed: routed_tx,
+        queues: mut q,
+        ..
+    } = paced();
+    for b in [0u8, 1] {
+        routed_tx.try_send(routed_frame(1, b, 280)).unwrap();
+    }
+    assert!(matches!(q.recv().await, Some(Command::Routed(_, b)) if b.bytes[0] == 0));
+    // Frame 1 taken into the backlog, held 125 ms: cancelled at 10.
+    assert!(timeout(Duration::from_millis(10), q.recv()).await.is_err());
+    sleep(Duration::from_millis(200)).await;
+    own_tx.try_send(own_frame(9)).unwrap();
+    assert!(
+        matches!(q.recv().await, Some(Command::Raw(_))),
+        "the owner's first"
+    );
+    assert!(
+        matches!(q.recv().await, Some(Command::Routed(_, b)) if b.bytes[0] == 1),
+        "then 1, kept"
+    );
+}
+
+/// A paced link serves the senders of routed frames in turn: a frame
+/// from a quiet sender goes at its turn, not behind a flood from
+/// another, whose oldest frames are the ones dropped.
+#[tokio::test(start_paused = true)]
+async fn a_paced_link_serves_a_quiet_sender_before_a_flood() {
+    let Paced {
+        own: _own_tx,
+        routed: routed_tx,
+        queues: mut q,
+        counters,
+    } = paced();
+    for b in 0..200u8 {
+        routed_tx.try_send(routed_frame(7, b, 280)).unwrap();
+    }
+    routed_tx.try_send(routed_frame(9, 255, 40)).unwrap();
+    let mut got = Vec::new();
+    while !got.contains(&255) {
+        match q.recv().await {
+            Some(Command::Routed(_, b)) => got.push(b.bytes[0]),
+            _ => panic!("not a routed frame"),
+        }
+        assert!(
+            got.len() < 5,
+            "the quiet sender waits behind the flood: {got:?}"
+        );
+    }
+    assert!(counters.lock().unwrap().routed_dropped >= 190);
+}
+
+/// A client that stops reading is dropped once a write to it has
+/// waited [`CLIENT_WRITE_TIMEOUT`], its queue not yet full: its task
+/// ends and its socket closes. (Its task waited on it for good, with
+/// the socket, and wrote on when it read again.)
+#[tokio::test]
+async fn tcpin_drops_a_client_that_stops_reading() {
+    let (mut router, link, addr) = tcpin(ReplyTo::Accepted).await;
+    let socket = tokio::net::TcpSocket::new_v4().unwrap();
+    socket.set_recv_buffer_size(4096).unwrap();
+    let mut sleeper = socket.connect(addr).await.unwrap();
+    sleeper.write_all(&ping(1)).await.unwrap();
+    let _ = router.recv().await;
+    // 13 MB in 200 writes (fewer than the client's queue holds): far
+    // more than the sockets' buffers, so the writes stall.
+    let chunk = std::vec![0u8; 64 * 1024];
+    let chunks = 200;
+    for _ in 0..chunks {
+        router.send_raw(Links::only(link), &chunk);
+    }
+    tokio::time::sleep(CLIENT_WRITE_TIMEOUT * 3).await;
+    // Reading again: what the buffers held, then the end of the stream.
+    let (mut got, mut buf) = (0usize, std::vec![0u8; 64 * 1024]);
+    let until = tokio::time::Instant::now() + Duration::from_secs(5);
+    let ended = loop {
+        match tokio::time::timeout_at(until, sleeper.read(&mut buf)).await {
+            Err(_) => break false,
+            Ok(Ok(0)) | Ok(Err(_)) => break true,
+            Ok(Ok(n)) => got += n,
+        }
+    };
+    assert!(ended, "the connection is still open after {got} bytes");
+    assert!(got < chunks * chunk.len(), "all {got} bytes were sent");
+}
+
+/// More connections than [`MAX_CLIENTS`]: idle ones are evicted, oldest
+/// first; the owner's peer and one that sent frames stay.
+#[tokio::test]
+async fn tcpin_evicts_idle_clients_never_the_owners_peer() {
+    let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
+    let mut peer = TcpStream::connect(addr).await.unwrap();
+    peer.write_all(&ping(1)).await.unwrap();
+    let _ = router.recv().await;
+    router.pin_peer(link, peer.local_addr().unwrap());
+    let mut idle = Vec::new();
+    for _ in 0..MAX_CLIENTS - 2 {
+        idle.push(TcpStream::connect(addr).await.unwrap());
+    }
+    let mut talker = TcpStream::connect(addr).await.unwrap();
+    talker.write_all(&ping(2)).await.unwrap();
+    let _ = router.recv().await;
+    // The link is full: each of these evicts the oldest idle client.
+    let mut late = Vec::new();
+    for _ in 0..5 {
+        late.push(TcpStream::connect(addr).await.unwrap());
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    for (i, stream) in idle.iter_mut().enumerate() {
+        let open = read_for(stream, 20).await.is_some();
+        assert_eq!(open, i >= 5, "idle client {i}");
+    }
+    assert!(read_for(&mut talker, 20).await.is_some(), "the talker");
+    router.send_raw(Links::only(link), &ping(3));
+    assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+}
+
+/// A signed frame accepted from one `tcpin` client is a replay from
+/// any other: the clients share the link's verifier. (Each had its own,
+/// so a capture replayed on a new connection was authenticated again
+/// and, under the daemons' peer rule, moved the pinned peer to the
+/// attacker.)
+#[tokio::test]
+async fn tcpin_clients_share_one_replay_window() {
+    use crate::signing::{timestamp_now, Signer};
+    let key = [5u8; 32];
+    let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+    config.key = Some(key);
+    router.add(config).await.unwrap();
+    let mut signer = Signer::new(key, 1, timestamp_now());
+    let h = |seq| Header {
+        seq,
+        sysid: 1,
+        compid: 1,
+    };
+    let first = FrameBuf::encode(Version::V2, h(1), &Ping { value: 1 }, Some(&mut signer)).unwrap();
+    let second =
+        FrameBuf::encode(Version::V2, h(2), &Ping { value: 2 }, Some(&mut signer)).unwrap();
+    let mut peer = TcpStream::connect(addr).await.unwrap();
+    peer.write_all(&first).await.unwrap();
+    peer.write_all(&second).await.unwrap();
+    for want in [&first, &second] {
+        let Some(RouterEvent::Frame(f)) = router.recv().await else {
+            panic!("no frame");
+        };
+        assert!(f.frame.is_authenticated());
+        assert_eq!(f.frame.as_bytes(), &want[..]);
+    }
+    let mut replayer = TcpStream::connect(addr).await.unwrap();
+    replayer.write_all(&first).await.unwrap();
+    replayer.write_all(&ping(9)).await.unwrap();
+    // Unsigned frames are accepted on this link, unauthenticated: so is
+    // the replay (the key's frame, stale), never authenticated.
+    for want in [&first[..], &ping(9)[..]] {
+        let Some(RouterEvent::Frame(f)) = router.recv().await else {
+            panic!("no frame");
+        };
+        assert!(!f.frame.is_authenticated(), "a replay was authenticated");
+        assert_eq!(f.frame.as_bytes(), want);
+    }
+}
+
+/// Under `--peer IP:0` (any port of that host), the client from that
+/// host is the peer and is not evicted while others can be: here it
+/// connects first and stays idle, then more strangers than the link
+/// serves come from another loopback address. (The eviction matched the
+/// peer's address exactly, port 0 included, so it matched no client.)
+#[tokio::test]
+async fn tcpin_never_evicts_the_peer_of_an_any_port_rule() {
+    let any_port: SocketAddr = "127.0.0.1:0".parse().unwrap();
+    let (router, link, addr) = tcpin(ReplyTo::Fixed(any_port)).await;
+    let mut peer = TcpStream::connect(addr).await.unwrap();
+    let mut strangers = Vec::new();
+    for _ in 0..MAX_CLIENTS + 4 {
+        let socket = tokio::net::TcpSocket::new_v4().unwrap();
+        socket.bind("127.0.0.2:0".parse().unwrap()).unwrap();
+        strangers.push(socket.connect(addr).await.unwrap());
+    }
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    router.send_raw(Links::only(link), &ping(3));
+    assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+    let closed = {
+        let mut n = 0;
+        for s in &mut strangers {
+            n += usize::from(read_for(s, 10).await.is_none());
+        }
+        n
+    };
+    assert_eq!(closed, 5, "the oldest strangers evicted");
+}
+
+/// A `tcpin` link with a state file saves, when it ends, the verifier
+/// its clients share, not the one it opened with (which had seen no
+/// frame: a restart would have accepted every capture of the run).
+#[tokio::test]
+async fn tcpin_saves_the_shared_verifier_at_the_end() {
+    use crate::signing::state::StateFile;
+    use crate::signing::{timestamp_now, Signer};
+    let key = [6u8; 32];
+    let dir = std::env::temp_dir().join(format!("mavframe-tcpin-state-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("link.state");
+    let _ = std::fs::remove_file(&path);
+    let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+    (config.key, config.signing_state) = (Some(key), Some(path.clone()));
+    router.add(config).await.unwrap();
+    let mut signer = Signer::new(key, 3, timestamp_now());
+    let h = Header {
+        seq: 0,
+        sysid: 7,
+        compid: 8,
+    };
+    let frame = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, Some(&mut signer)).unwrap();
+    let mut peer = TcpStream::connect(addr).await.unwrap();
+    peer.write_all(&frame).await.unwrap();
+    let Some(RouterEvent::Frame(f)) = router.recv().await else {
+        panic!("no frame");
+    };
+    assert!(f.frame.is_authenticated());
+    router.shutdown(Duration::from_secs(2)).await;
+    let (file, _) = StateFile::open(&path).unwrap();
+    let streams = &file.state().streams;
+    assert!(
+        streams
+            .iter()
+            .any(|s| (s.link_id, s.sysid, s.compid) == (3, 7, 8)),
+        "the stream the client's frame came on is saved: {streams:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A `udpin` link on 127.0.0.1 with `reply_to` (`None`: the default
+/// rule), and its address.
+async fn udpin(reply_to: Option<ReplyTo>) -> (Router<TestDialect>, LinkId, SocketAddr) {
+    let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
+    if let Some(rule) = reply_to {
+        config.reply_to = rule;
+    }
+    let link = router.add(config).await.unwrap();
+    (router, link, addr)
+}
+
+/// A router with one link, `udpout` to `target`.
+async fn udpout_to(target: &UdpSocket) -> (Router<TestDialect>, LinkId) {
+    let mut router = Router::<TestDialect>::new();
+    let url = format!("udpout:{}", target.local_addr().unwrap());
+    let link = router
+        .add(LinkConfig::new(url.parse().unwrap()))
+        .await
+        .unwrap();
+    (router, link)
+}
+
+/// A UDP socket on 127.0.0.1 (a station, a stranger).
+async fn udp_socket() -> UdpSocket {
+    UdpSocket::bind("127.0.0.1:0").await.unwrap()
+}
+
+/// The datagram `socket` receives within `ms`, if any.
+async fn datagram_for(socket: &UdpSocket, ms: u64) -> Option<Vec<u8>> {
+    let mut buf = [0u8; 512];
+    let got = tokio::time::timeout(Duration::from_millis(ms), socket.recv(&mut buf)).await;
+    got.ok().and_then(Result::ok).map(|n| buf[..n].to_vec())
+}
+
+/// The next frame the router reports, within 2 s.
+async fn next_frame(router: &mut Router<TestDialect>) -> Inbound<TestDialect> {
+    match tokio::time::timeout(Duration::from_secs(2), router.recv()).await {
+        Ok(Some(RouterEvent::Frame(f))) => f,
+        _ => panic!("no frame"),
+    }
+}
+
+/// Waits (2 s at most) until `link`'s parser has dropped `bytes` bytes.
+async fn dropped_bytes(router: &Router<TestDialect>, link: LinkId, bytes: u64) {
+    let until = tokio::time::Instant::now() + Duration::from_secs(2);
+    while router.counters(link).parser.bytes_dropped < bytes {
+        assert!(tokio::time::Instant::now() < until, "bytes not received");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+}
+
+/// A stranger's 1-byte datagrams, every 10 ms, never move a `udpin`
+/// link's replies away from the station whose frame it accepted.
+/// (Answering whoever sent last, a datagram without a frame took the
+/// station's traffic.)
+#[tokio::test]
+async fn udpin_is_not_redirected_by_datagrams_without_a_frame() {
+    let (mut router, link, addr) = udpin(None).await;
+    let (station, stranger) = (udp_socket().await, udp_socket().await);
+    station.send_to(&ping(1), addr).await.unwrap();
+    next_frame(&mut router).await;
+    for i in 0..20u64 {
+        stranger.send_to(&[0u8], addr).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        dropped_bytes(&router, link, i + 1).await;
+        router.send_raw(Links::only(link), &ping(2));
+        assert_eq!(
+            datagram_for(&station, 500).await,
+            Some(ping(2).to_vec()),
+            "datagram {i}"
+        );
+    }
+    assert_eq!(
+        datagram_for(&stranger, 50).await,
+        None,
+        "the stranger got traffic"
+    );
+}
+
+/// 200 strangers, each with a valid frame, arrive while a station keeps
+/// speaking: the station receives every frame sent meanwhile, and at
+/// most [`MAX_PEERS`] − 1 strangers (the free slots) get copies.
+#[tokio::test]
+async fn a_speaking_station_keeps_its_traffic_among_200_strangers() {
+    let (mut router, link, addr) = udpin(None).await;
+    let station = udp_socket().await;
+    let mut strangers = Vec::new();
+    for i in 0..200u32 {
+        if i % 20 == 0 {
+            station.send_to(&ping(1000 + i), addr).await.unwrap();
+            next_frame(&mut router).await;
+        }
+        let s = udp_socket().await;
+        s.send_to(&ping(i), addr).await.unwrap();
+        next_frame(&mut router).await;
+        strangers.push(s);
+        if i % 20 == 19 {
+            router.send_raw(Links::only(link), &ping(5000 + i));
+            let got = datagram_for(&station, 500).await;
+            assert_eq!(got, Some(ping(5000 + i).to_vec()), "after stranger {i}");
+        }
+    }
+    let mut served = 0;
+    for s in &strangers {
+        served += usize::from(datagram_for(s, 1).await.is_some());
+    }
+    assert!(served < MAX_PEERS, "{served} strangers got traffic");
+}
+
+/// Frames routed to a `udpout` link faster than it sends leave
+/// together: as many whole frames per datagram as fit in
+/// [`DATAGRAM_FRAMES_MAX`] bytes, every one intact and in order.
+#[tokio::test]
+async fn udpout_sends_frames_queued_together_in_one_datagram() {
+    let target = udp_socket().await;
+    let (router, link) = udpout_to(&target).await;
+    // On one thread the link's task runs only once all are queued.
+    let frames: Vec<FrameBuf> = (0..200).map(|i| ping(0x0101_0100 + i)).collect();
+    for f in &frames {
+        router.send_routed(Links::only(link), f);
+    }
+    let per_datagram = DATAGRAM_FRAMES_MAX / frames[0].len();
+    let sent: Vec<u8> = frames.iter().flat_map(|f| f.iter().copied()).collect();
+    let mut got = Vec::new();
+    let mut datagrams = Vec::new();
+    let mut buf = [0u8; 2048];
+    while got.len() < sent.len() {
+        let n = tokio::time::timeout(Duration::from_secs(2), target.recv(&mut buf))
+            .await
+            .expect("every frame arrives")
+            .unwrap();
+        got.extend_from_slice(&buf[..n]);
+        datagrams.push(n);
+    }
+    assert_eq!(got, sent, "every frame intact, in order");
+    let full = per_datagram * frames[0].len();
+    let rest = sent.len() - 2 * full;
+    assert_eq!(
+        datagrams,
+        [full, full, rest],
+        "whole frames, up to the limit"
+    );
+}
+
+/// A `udpout` link's socket is connected to its target: a frame sent to
+/// its local port from a third socket never reaches the router, the
+/// target's does.
+#[tokio::test]
+async fn udpout_ignores_third_parties() {
+    let target = udp_socket().await;
+    let (mut router, link) = udpout_to(&target).await;
+    router.send_raw(Links::only(link), &ping(1));
+    let mut buf = [0u8; 64];
+    let (_, local) = tokio::time::timeout(Duration::from_secs(2), target.recv_from(&mut buf))
+        .await
+        .unwrap()
+        .unwrap();
+    let local = SocketAddr::from(([127, 0, 0, 1], local.port()));
+    let third = udp_socket().await;
+    third.send_to(&ping(66), local).await.unwrap();
+    target.send_to(&ping(7), local).await.unwrap();
+    let f = next_frame(&mut router).await;
+    assert_eq!(
+        f.frame.as_bytes(),
+        &ping(7)[..],
+        "a third party's frame was taken"
+    );
+    assert_eq!(f.source, Some(target.local_addr().unwrap()));
+}
+
+/// A signed PING from `sysid`, stream `link_id` of `key`.
+fn signed_ping(key: [u8; 32], link_id: u8, sysid: u8) -> FrameBuf {
+    use crate::signing::{timestamp_now, Signer};
+    let mut signer = Signer::new(key, link_id, timestamp_now());
+    let h = Header {
+        seq: 0,
+        sysid,
+        compid: 1,
+    };
+    FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, Some(&mut signer)).unwrap()
+}
+
+/// A `tcpin` link with a key whose every client has sent an
+/// authenticated frame: a flood of new connections, each sending an
+/// unsigned frame, evicts none of them; the new connections are closed.
+/// (The oldest authenticated client was evicted for the first of them.)
+#[tokio::test]
+async fn tcpin_flood_never_evicts_an_authenticated_client() {
+    let key = [8u8; 32];
+    let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
+    config.key = Some(key);
+    let link = router.add(config).await.unwrap();
+    let mut clients = Vec::new();
+    for i in 0..MAX_CLIENTS as u8 {
+        let mut c = TcpStream::connect(addr).await.unwrap();
+        c.write_all(&signed_ping(key, 1, 10 + i)).await.unwrap();
+        let f = next_frame(&mut router).await;
+        assert!(f.frame.is_authenticated());
+        clients.push(c);
+    }
+    let mut flood = Vec::new();
+    for i in 0..20u32 {
+        let mut s = TcpStream::connect(addr).await.unwrap();
+        let _ = s.write_all(&ping(i)).await;
+        flood.push(s);
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    router.send_raw(Links::only(link), &ping(3));
+    for (i, c) in clients.iter_mut().enumerate() {
+        let mut got = [0u8; 13];
+        let read = tokio::time::timeout(Duration::from_secs(2), c.read_exact(&mut got)).await;
+        assert!(matches!(read, Ok(Ok(_))), "client {i} evicted");
+        assert_eq!(got[..], ping(3)[..], "client {i}");
+    }
+    for (i, s) in flood.iter_mut().enumerate() {
+        assert_eq!(read_for(s, 20).await, None, "flood connection {i} is open");
+    }
+    assert_eq!(router.counters(link).refused_clients, 20);
+}
+
+/// A `tcpin` link without a key under [`ReplyTo::Owner`]: a flood of
+/// connections, each sending an unsigned frame every 10 ms, never
+/// evicts the client the owner named, and gets none of its traffic.
+#[tokio::test]
+async fn tcpin_flood_never_evicts_the_owners_peer() {
+    let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
+    let mut peer = TcpStream::connect(addr).await.unwrap();
+    peer.write_all(&ping(1)).await.unwrap();
+    next_frame(&mut router).await;
+    router.set_peers(link, &[peer.local_addr().unwrap()]);
+    let mut flood = Vec::new();
+    for i in 0..MAX_CLIENTS as u32 + 8 {
+        let mut s = TcpStream::connect(addr).await.unwrap();
+        let _ = s.write_all(&ping(i)).await;
+        flood.push(s);
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    router.send_raw(Links::only(link), &ping(3));
+    assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
+    let mut served = 0;
+    for s in &mut flood {
+        served += usize::from(read_for(s, 5).await.is_some_and(|b| !b.is_empty()));
+    }
+    assert_eq!(served, 0, "strangers got the owner's traffic");
+}
+
+/// `udpin` under [`ReplyTo::Owner`]: nothing goes out until the owner
+/// names peers, then to those only, whoever sends frames.
+#[tokio::test]
+async fn udpin_sends_only_to_the_owners_peers() {
+    let (mut router, link, addr) = udpin(Some(ReplyTo::Owner)).await;
+    let (a, b, stranger) = (udp_socket().await, udp_socket().await, udp_socket().await);
+    for s in [&a, &b, &stranger] {
+        s.send_to(&ping(1), addr).await.unwrap();
+        next_frame(&mut router).await;
+    }
+    router.send_raw(Links::only(link), &ping(2));
+    assert_eq!(datagram_for(&a, 100).await, None, "no peer named yet");
+    let named = [a.local_addr().unwrap(), b.local_addr().unwrap()];
+    router.set_peers(link, &named);
+    router.send_raw(Links::only(link), &ping(3));
+    assert_eq!(datagram_for(&a, 500).await, Some(ping(3).to_vec()));
+    assert_eq!(datagram_for(&b, 500).await, Some(ping(3).to_vec()));
+    assert_eq!(datagram_for(&stranger, 50).await, None);
+    router.pin_peer(link, b.local_addr().unwrap());
+    router.send_raw(Links::only(link), &ping(4));
+    assert_eq!(datagram_for(&b, 500).await, Some(ping(4).to_vec()));
+    assert_eq!(datagram_for(&a, 50).await, None, "pin_peer: one peer");
+}
+
+/// On a `udpin` link with a key, an unsigned frame (accepted, as the
+/// link's policy says) makes its sender no peer; an authenticated one
+/// does.
+#[tokio::test]
+async fn udpin_with_a_key_answers_only_authenticated_senders() {
+    let key = [9u8; 32];
+    let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
+    config.key = Some(key);
+    let link = router.add(config).await.unwrap();
+    let (station, stranger) = (udp_socket().await, udp_socket().await);
+    stranger.send_to(&ping(1), addr).await.unwrap();
+    assert!(!next_frame(&mut router).await.frame.is_authenticated());
+    router.send_raw(Links::only(link), &ping(2));
+    assert_eq!(
+        datagram_for(&stranger, 100).await,
+        None,
+        "an unsigned sender answered"
+    );
+    station
+        .send_to(&signed_ping(key, 1, 1), addr)
+        .await
+        .unwrap();
+    assert!(next_frame(&mut router).await.frame.is_authenticated());
+    router.send_raw(Links::only(link), &ping(3));
+    assert_eq!(datagram_for(&station, 500).await, Some(ping(3).to_vec()));
+    assert_eq!(datagram_for(&stranger, 50).await, None);
+}
+
+/// `Router::route` sends a frame where the owner says, and the table
+/// learns nothing from it.
+#[tokio::test]
+async fn route_sends_where_the_owner_says_without_the_table() {
+    let (mut router, from, addr) = udpin(None).await;
+    let (t1, t2) = (udp_socket().await, udp_socket().await);
+    let mut outs = Vec::new();
+    for t in [&t1, &t2] {
+        let url = format!("udpout:{}", t.local_addr().unwrap());
+        outs.push(
+            router
+                .add(LinkConfig::new(url.parse().unwrap()))
+                .await
+                .unwrap(),
+        );
+    }
+    let station = udp_socket().await;
+    station.send_to(&ping(5), addr).await.unwrap();
+    let inbound = next_frame(&mut router).await;
+    assert_eq!(inbound.link, from);
+    let to = router.route(&inbound, Links::only(outs[1]).union(Links::only(40)));
+    assert_eq!(to, Links::only(outs[1]), "links that exist only");
+    assert_eq!(datagram_for(&t2, 500).await, Some(ping(5).to_vec()));
+    assert_eq!(datagram_for(&t1, 50).await, None);
+    assert_eq!(
+        router.table().links_to(1, 1),
+        Links::NONE,
+        "the table learned"
+    );
+}
+
+/// `route_signed` frames an unsigned frame again on each link, signed
+/// with that link's key and keeping the sender's header; a link
+/// without a key sends it unsigned, and `route` never signs.
+#[tokio::test]
+async fn route_signed_signs_with_each_links_key() {
+    use crate::signing::Verifier;
+    let key = [7u8; 32];
+    let (mut router, _, addr) = udpin(None).await;
+    let (signed_to, plain_to) = (udp_socket().await, udp_socket().await);
+    let mut keyed = LinkConfig::new(
+        format!("udpout:{}", signed_to.local_addr().unwrap())
+            .parse()
+            .unwrap(),
+    );
+    keyed.key = Some(key);
+    let keyed = router.add(keyed).await.unwrap();
+    let plain_url = format!("udpout:{}", plain_to.local_addr().unwrap());
+    let plain = router
+        .add(LinkConfig::new(plain_url.parse().unwrap()))
+        .await
+        .unwrap();
+    udp_socket().await.send_to(&ping(5), addr).await.unwrap();
+    let inbound = next_frame(&mut router).await;
+
+    router.route(&inbound, Links::only(keyed));
+    assert_eq!(
+        datagram_for(&signed_to, 500).await,
+        Some(ping(5).to_vec()),
+        "route: as it came"
+    );
+    router.route_signed(&inbound, Links::only(keyed).union(Links::only(plain)));
+    let got = datagram_for(&signed_to, 500).await.expect("a frame");
+    let frame = crate::frame::Frame::new_checked(&got[..]).unwrap();
+    assert!(frame.is_signed());
+    assert_eq!(
+        frame.header(),
+        inbound.frame.header(),
+        "the sender's header kept"
+    );
+    assert_eq!(frame.payload(), inbound.frame.frame().payload());
+    let mut verifier = Verifier::<4>::starting_now(key);
+    assert_eq!(
+        verifier.verify(&frame),
+        Ok(()),
+        "signed with the link's key"
+    );
+    assert_eq!(
+        datagram_for(&plain_to, 500).await,
+        Some(ping(5).to_vec()),
+        "no key: unsigned"
+    );
+}
+
+/// `forward` learns authenticated senders, and every sender of a link
+/// the owner trusts, as trusted: 200 strangers' ids through another
+/// link never evict that route.
+#[tokio::test]
+async fn forward_keeps_trusted_routes_among_200_strangers() {
+    let (mut router, trusted, _) = udpin(None).await;
+    let other = LinkConfig::new("udpin:127.0.0.1:0".parse().unwrap());
+    let stranger_link = router.add(other).await.unwrap();
+    router.set_trusted(trusted, true);
+    let inbound = |link, sysid: u8| {
+        let h = Header {
+            seq: 0,
+            sysid,
+            compid: 1,
+        };
+        let bytes = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, None).unwrap();
+        let mut parser = Parser::<TestDialect>::new();
+        let mut input = &[&bytes[..], &[0xfd][..]].concat()[..];
+        let frame = ReceivedBuf::from(&parser.next(&mut input).unwrap());
+        Inbound::<TestDialect> {
+            link,
+            frame,
+            source: None,
+        }
+    };
+    router.forward(&inbound(trusted, 1));
+    for id in 0..200u8 {
+        router.forward(&inbound(stranger_link, 2 + id));
+    }
+    assert_eq!(router.table().links_to(1, 1), Links::only(trusted));
+}

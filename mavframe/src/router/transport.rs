@@ -1,0 +1,125 @@
+//! A link's transport, opened from its endpoint.
+
+use super::datagram::Datagram;
+use super::LinkConfig;
+use crate::conn::{AnyTransport, Endpoint};
+use std::boxed::Box;
+use std::io;
+use std::net::SocketAddr;
+use tokio::io::{AsyncRead, AsyncWrite};
+use tokio::net::{TcpListener, TcpStream};
+
+/// A link's transport, open.
+pub(super) enum Transport {
+    Udp {
+        socket: Datagram,
+        /// `udpout`'s target, or `udpbcast`'s broadcast address (where
+        /// frames go while the reply rule names nobody).
+        to: Option<SocketAddr>,
+        /// `udpin` and `udpbcast`: frames go to the peers of the link's
+        /// rule.
+        replies: bool,
+    },
+    Stream(Box<dyn AsyncStream>),
+    Server(TcpListener),
+}
+
+/// An async byte stream (TCP client, serial port).
+pub(super) trait AsyncStream: AsyncRead + AsyncWrite + Send + Unpin {}
+impl<T: AsyncRead + AsyncWrite + Send + Unpin> AsyncStream for T {}
+
+impl Transport {
+    /// Opens `config`'s endpoint: resolved and opened as the blocking
+    /// transports are ([`conn::open`](crate::conn::open): `udpout`
+    /// connected to its target, `udpbcast` with `SO_BROADCAST`), on a
+    /// blocking thread, then handed to tokio.
+    pub(super) async fn open(config: &LinkConfig) -> io::Result<Transport> {
+        let endpoint = config.endpoint.clone();
+        let opened = match &endpoint {
+            Endpoint::File(_) => {
+                return Err(io::Error::new(
+                    io::ErrorKind::Unsupported,
+                    "file: endpoints are not routed: a capture cannot take frames",
+                ))
+            }
+            Endpoint::Serial { path, baud } => {
+                use tokio_serial::SerialPortBuilderExt;
+                let port = tokio_serial::new(path, *baud).open_native_async()?;
+                return Ok(Transport::Stream(Box::new(port)));
+            }
+            // (tokio's listener: SO_REUSEADDR, as the system's is not.)
+            Endpoint::TcpIn(addr) => {
+                let addr = addr.clone();
+                let addrs = blocking(move || Ok(addr.resolve()?)).await?;
+                return Ok(Transport::Server(
+                    TcpListener::bind(addrs.as_slice()).await?,
+                ));
+            }
+            _ => blocking(move || crate::conn::open(&endpoint)).await?,
+        };
+        let udp = |socket: &std::net::UdpSocket, to, replies| {
+            let socket = Datagram::new(socket.try_clone()?)?;
+            io::Result::Ok(Transport::Udp {
+                socket,
+                to,
+                replies,
+            })
+        };
+        match opened {
+            AnyTransport::UdpIn(t) => udp(t.get_ref(), None, true),
+            AnyTransport::UdpOut(t) => udp(t.get_ref(), Some(t.target()), false),
+            AnyTransport::UdpBcast(t) => udp(t.get_ref(), Some(t.target()), true),
+            AnyTransport::Tcp(t) => {
+                let stream = t.get_ref().try_clone()?;
+                stream.set_nonblocking(true)?;
+                let stream = TcpStream::from_std(stream)?;
+                if config.bound_unsent {
+                    bound_unsent(&stream);
+                }
+                Ok(Transport::Stream(Box::new(stream)))
+            }
+            _ => Err(io::ErrorKind::Unsupported.into()),
+        }
+    }
+}
+
+/// Runs `f` (a name lookup, a connect) on tokio's blocking threads.
+pub(super) async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> io::Result<T> + Send + 'static,
+) -> io::Result<T> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(io::Error::other)?
+}
+
+/// Sends `bytes` on a connected socket (`udpout`). A send that reports an
+/// earlier datagram's ICMP error (Linux does on connected sockets, once
+/// per error) sent nothing: tried once more, so a target that is not up
+/// yet costs no frame once it is.
+pub(super) async fn send_connected(socket: &Datagram, bytes: &[u8]) -> io::Result<()> {
+    match socket.send(bytes).await {
+        Err(e) if crate::conn::is_refused(&e) => socket.send(bytes).await.map(drop),
+        other => other.map(drop),
+    }
+}
+
+/// Bytes a TCP link with [`LinkConfig::bound_unsent`] lets the kernel hold
+/// unsent (`TCP_NOTSENT_LOWAT`, Linux and Android; elsewhere the system
+/// decides). Frames routed through a link go after its owner's own in the
+/// link's queues ([`Queues`](super::queues::Queues)), but the kernel's send buffer grows to
+/// megabytes by itself: on a link slower than a flood routed to it, the
+/// owner's frames then waited seconds behind the flood's. This bounds only
+/// what is not sent yet, not what is in flight. (What the far end has
+/// received and not yet passed on, a modem's or a relay's buffer, is out of
+/// the sender's reach.)
+#[cfg(any(target_os = "linux", target_os = "android"))]
+pub(super) const TCP_UNSENT_MAX: u32 = 8 * 1024;
+
+/// See [`TCP_UNSENT_MAX`]. (Best effort: without it the link works as
+/// before, its owner's frames first in its queues.)
+pub(super) fn bound_unsent(stream: &TcpStream) {
+    #[cfg(any(target_os = "linux", target_os = "android"))]
+    let _ = socket2::SockRef::from(stream).set_tcp_notsent_lowat(TCP_UNSENT_MAX);
+    #[cfg(not(any(target_os = "linux", target_os = "android")))]
+    let _ = stream;
+}

@@ -297,3 +297,54 @@ fn links_not_there_at_start_are_opened_when_they_come() {
     );
     assert!(log.contains("open again"), "{log}");
 }
+
+/// Stopped by SIGTERM (`systemctl stop`), the router ends as at the end of
+/// its run: its last report, summary and saves, exit status 0. Its
+/// periodic report says what each link's parser refused (here frames with
+/// bad checksums), as the companion's does: a flood of garbage is seen.
+#[test]
+fn sigterm_ends_the_router_as_its_run_and_reports_name_refused_frames() {
+    let (a, b) = (free_port(), free_port());
+    let events = std::env::temp_dir().join(format!("fbwag-sigterm-{}.jsonl", std::process::id()));
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .arg("router")
+            .arg(format!("udpin:127.0.0.1:{a}"))
+            .arg(format!("udpout:127.0.0.1:{b}"))
+            .args(["--report", "1", "--events"])
+            .arg(&events),
+    );
+    assert!(common::udp_port_bound(a), "the router never listened");
+    // A HEARTBEAT whose checksum is wrong.
+    let mut bad = vec![0xfd, 9, 0, 0, 0, 1, 1, 0, 0, 0];
+    bad.extend([0; 9]);
+    bad.extend([0x12, 0x34]);
+    let sender = connected(a);
+    for _ in 0..50 {
+        sender.send(&bad).unwrap();
+    }
+    // The first report (after a second) names them.
+    std::thread::sleep(Duration::from_millis(1600));
+    let killed = Command::new("kill")
+        .args(["-TERM", &router.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = router.finish(Duration::from_secs(10));
+    let log =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}\n{log}", out.status);
+    assert!(
+        log.contains(&format!("udpin:127.0.0.1:{a}: link refused in the last")),
+        "{log}"
+    );
+    assert!(log.contains("50 bad checksums"), "{log}");
+    assert!(log.contains("SIGTERM: stopping"), "{log}");
+    assert!(log.contains("done: 0 frames in"), "{log}");
+    let summary = std::fs::read_to_string(&events).unwrap_or_default();
+    let _ = std::fs::remove_file(&events);
+    assert!(
+        summary.lines().any(|l| l.contains("\"summary\"")),
+        "{summary}"
+    );
+}

@@ -21,7 +21,7 @@ use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
 use fbwag_delegation::Instant;
 use fbwag_dialect::mavframe::conn::ReplyTo;
-use fbwag_dialect::mavframe::parser::Unsigned;
+use fbwag_dialect::mavframe::parser::{Stats, Unsigned};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, LinkCounters, Router, RouterEvent};
 use fbwag_dialect::mavframe::signing::state::{Loaded, StateFile};
@@ -90,9 +90,7 @@ pub struct Net {
     link_changes: LinkChanges,
     /// The node's drop counts when last reported.
     drops_seen: Drops,
-    /// Each link's counters when last reported.
-    refused_seen: Vec<LinkCounters>,
-    refused_at: tokio::time::Instant,
+    reports: LinkReports,
 }
 
 impl Net {
@@ -129,8 +127,7 @@ impl Net {
             dropped: Limiter::new(5, Duration::from_secs(10)),
             link_changes: LinkChanges::default(),
             drops_seen: Drops::default(),
-            refused_seen: Vec::new(),
-            refused_at: tokio::time::Instant::now(),
+            reports: LinkReports::default(),
         })
     }
 
@@ -207,61 +204,102 @@ impl Net {
         link_name(&self.router, link)
     }
 
-    /// Every [`REFUSED_INTERVAL`], what each link's parser refused since
-    /// (bad checksums, bad signatures, unsigned frames, bytes dropped), when
-    /// it refused anything, and what the link lost (frames dropped for a
-    /// full queue, send errors, signing state saves that failed): a line or
-    /// two per link, whatever the flood.
+    /// Every [`REFUSED_INTERVAL`], the links' report ([`LinkReports`]).
     fn report_refused(&mut self, log: &mut Log) -> bool {
-        if self.refused_at.elapsed() < REFUSED_INTERVAL {
+        if self.reports.since() < REFUSED_INTERVAL {
             return false;
         }
-        self.refused_at = tokio::time::Instant::now();
-        for link in self.router.links().iter() {
-            let counters = self.router.counters(link);
+        self.reports.report(&self.router, log);
+        true
+    }
+}
+
+/// What each link's parser refused (bad checksums, bad signatures,
+/// unsigned frames, bytes dropped) and what each link lost (frames dropped
+/// for a full queue, send errors, signing state saves that failed) since
+/// the last report: a line or two per link when there is anything to say,
+/// whatever the flood.
+pub struct LinkReports {
+    /// Each link's counters when last reported.
+    seen: Vec<LinkCounters>,
+    at: tokio::time::Instant,
+}
+
+impl Default for LinkReports {
+    fn default() -> Self {
+        LinkReports {
+            seen: Vec::new(),
+            at: tokio::time::Instant::now(),
+        }
+    }
+}
+
+impl LinkReports {
+    /// The time since the last report.
+    pub fn since(&self) -> Duration {
+        self.at.elapsed()
+    }
+
+    /// Logs what each link of `router` refused and lost since the last
+    /// report.
+    pub fn report(&mut self, router: &Router<Dialect>, log: &mut Log) {
+        let secs = self.at.elapsed().as_secs_f64().round().max(1.0);
+        self.at = tokio::time::Instant::now();
+        for link in router.links().iter() {
+            let counters = router.counters(link);
             let i = usize::from(link);
-            if self.refused_seen.len() <= i {
-                self.refused_seen.resize(i + 1, LinkCounters::default());
+            if self.seen.len() <= i {
+                self.seen.resize(i + 1, LinkCounters::default());
             }
-            let was = std::mem::replace(&mut self.refused_seen[i], counters);
-            let name = link_name(&self.router, link);
-            report_lost(&name, &was, &counters, log);
-            // (A reopened link's parser counts from zero again: saturating,
-            // what it refused before this report is not reported.)
-            let (now, was) = (counters.parser, was.parser);
-            let parts: Vec<String> = [
-                ("bad checksums", now.bad_crc.saturating_sub(was.bad_crc)),
-                (
-                    "bad signatures",
-                    now.bad_signature.saturating_sub(was.bad_signature),
-                ),
-                (
-                    "stale signing timestamps",
-                    now.stale_timestamp.saturating_sub(was.stale_timestamp),
-                ),
-                (
-                    "unsigned refused",
-                    now.unsigned_rejected.saturating_sub(was.unsigned_rejected),
-                ),
-                (
-                    "bytes dropped",
-                    now.bytes_dropped.saturating_sub(was.bytes_dropped),
-                ),
-            ]
-            .iter()
-            .filter(|(_, n)| *n > 0)
-            .map(|(what, n)| format!("{n} {what}"))
-            .collect();
-            if !parts.is_empty() {
+            let was = std::mem::replace(&mut self.seen[i], counters);
+            let name = link_name(router, link);
+            let lost = lost_parts(&was, &counters);
+            if !lost.is_empty() {
+                log.line(&format!("{name}: link lost in the last {secs} s: {lost}"));
+            }
+            let refused = refused_parts(&was.parser, &counters.parser);
+            if !refused.is_empty() {
                 log.line(&format!(
-                    "{name}: link refused in the last {} s: {}",
-                    REFUSED_INTERVAL.as_secs(),
-                    parts.join(", ")
+                    "{name}: link refused in the last {secs} s: {refused}"
                 ));
             }
         }
-        true
     }
+}
+
+/// What a link's parser refused from `was` to `now`, in words ("" if
+/// nothing). A reopened link's parser counts from zero again: saturating,
+/// what it refused before is not reported.
+fn refused_parts(was: &Stats, now: &Stats) -> String {
+    in_words(&[
+        ("bad checksums", now.bad_crc.saturating_sub(was.bad_crc)),
+        (
+            "bad signatures",
+            now.bad_signature.saturating_sub(was.bad_signature),
+        ),
+        (
+            "stale signing timestamps",
+            now.stale_timestamp.saturating_sub(was.stale_timestamp),
+        ),
+        (
+            "unsigned refused",
+            now.unsigned_rejected.saturating_sub(was.unsigned_rejected),
+        ),
+        (
+            "bytes dropped",
+            now.bytes_dropped.saturating_sub(was.bytes_dropped),
+        ),
+    ])
+}
+
+/// The counts that are not 0, as "N what, M what".
+fn in_words(counts: &[(&str, u64)]) -> String {
+    let parts: Vec<String> = counts
+        .iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(what, n)| format!("{n} {what}"))
+        .collect();
+    parts.join(", ")
 }
 
 /// The name of `link` in the log: its connection string.
@@ -312,9 +350,9 @@ impl LinkChanges {
     }
 }
 
-/// What the link at `name` lost since `was`, if anything: one line.
-fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log) {
-    let parts: Vec<String> = [
+/// What a link lost from `was` to `now`, in words ("" if nothing).
+fn lost_parts(was: &LinkCounters, now: &LinkCounters) -> String {
+    in_words(&[
         (
             "frames dropped (queue full)",
             now.dropped_full.saturating_sub(was.dropped_full),
@@ -331,18 +369,7 @@ fn report_lost(name: &str, was: &LinkCounters, now: &LinkCounters, log: &mut Log
             "signing state saves failed (a restart would start from the last state saved)",
             now.state_save_errors.saturating_sub(was.state_save_errors),
         ),
-    ]
-    .iter()
-    .filter(|(_, n)| *n > 0)
-    .map(|(what, n)| format!("{n} {what}"))
-    .collect();
-    if !parts.is_empty() {
-        log.line(&format!(
-            "{name}: link lost in the last {} s: {}",
-            REFUSED_INTERVAL.as_secs(),
-            parts.join(", ")
-        ));
-    }
+    ])
 }
 
 /// The `ReplyTo` rule of a link: `--peer`, or whom the node names.

@@ -8,7 +8,8 @@
 //! dropped is the router node's (`fbwag_delegation::node::RouterNode`);
 //! this module moves bytes and reports.
 
-use super::net::{self, drop_counts, LinkChanges};
+use super::net::{self, drop_counts, LinkChanges, LinkReports};
+use super::signals::StopSignals;
 use super::{Clock, Events, Limiter, Log, Tlog, TlogOptions};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, DropReason, Drops, Output, RouterNode};
@@ -189,7 +190,17 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 window.as_millis()
             ));
         }
-        let traffic = serve(&o, &mut router, &mut node, &mut log, &mut events, &mut tlog).await;
+        let mut stop = StopSignals::new(true, &mut log);
+        let traffic = serve(
+            &o,
+            &mut router,
+            &mut node,
+            &mut log,
+            &mut events,
+            &mut tlog,
+            &mut stop,
+        )
+        .await;
         let lost = queue_dropped(&router);
         log.line(&format!(
             "done: {}",
@@ -202,7 +213,11 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             summary["tlog"] = counts.json();
         }
         events.emit("summary", summary);
-        router.shutdown(Duration::from_secs(1)).await;
+        tokio::select! {
+            () = router.shutdown(Duration::from_secs(1)) => {}
+            // A second signal: the user does not wait.
+            name = stop.recv() => std::process::exit(if name == "SIGINT" { 130 } else { 143 }),
+        }
         Ok(())
     })
 }
@@ -217,6 +232,8 @@ struct Serving<'a> {
     traffic: Traffic,
     clock: Clock,
     tlog: &'a mut Option<Tlog>,
+    /// What the links refused and lost, with each report.
+    link_reports: LinkReports,
 }
 
 impl Serving<'_> {
@@ -244,6 +261,7 @@ impl Serving<'_> {
     fn report(&mut self, events: &mut Events) {
         let (dropped, lost) = (self.node.drops(), queue_dropped(self.router));
         self.log.line(&self.traffic.line(dropped.total(), lost));
+        self.link_reports.report(self.router, self.log);
         events.emit(
             "drops",
             json!({ "dropped": drop_counts(dropped), "queue_dropped": lost }),
@@ -265,6 +283,7 @@ async fn serve(
     log: &mut Log,
     events: &mut Events,
     tlog: &mut Option<Tlog>,
+    stop: &mut StopSignals,
 ) -> Traffic {
     let end = o.duration.map(|d| tokio::time::Instant::now() + d);
     let mut next_report = tokio::time::Instant::now() + o.report;
@@ -277,6 +296,7 @@ async fn serve(
         traffic: Traffic::default(),
         clock: Clock::start(),
         tlog,
+        link_reports: LinkReports::default(),
     };
     // One timer, reset when it fires: one made per turn (per frame) was
     // registered with the runtime's timer wheel and cleared every time.
@@ -301,6 +321,10 @@ async fn serve(
                 next_report += o.report;
                 timer.as_mut().reset(wake(next_report));
                 s.report(events);
+            }
+            name = stop.recv() => {
+                s.log.line(&format!("{name}: stopping (again to stop at once)"));
+                break;
             }
         }
         if let Some(tlog) = s.tlog.as_mut() {

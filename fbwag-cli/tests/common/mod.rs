@@ -43,6 +43,11 @@ impl Proc {
         Proc(Some(child))
     }
 
+    /// Its process id.
+    pub fn id(&self) -> u32 {
+        self.0.as_ref().map_or(0, std::process::Child::id)
+    }
+
     /// Waits up to `limit` for it to end by itself, then kills it; its
     /// output either way.
     pub fn finish(mut self, limit: std::time::Duration) -> std::process::Output {

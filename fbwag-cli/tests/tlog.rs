@@ -87,10 +87,22 @@ struct Run {
 }
 
 fn route(dir: &Path, seconds: &str, count: u32, extra: &[&str]) -> Run {
+    route_by(
+        Command::new(env!("CARGO_BIN_EXE_fbwag")),
+        dir,
+        seconds,
+        count,
+        extra,
+    )
+}
+
+/// [`route`], the router started by `fbwag` (the program, or a shell that
+/// runs it).
+fn route_by(mut fbwag: Command, dir: &Path, seconds: &str, count: u32, extra: &[&str]) -> Run {
     let (a, b) = (free_port(), free_port());
     let events = dir.join("events.jsonl");
     let router = Proc::spawn(
-        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        fbwag
             .arg("router")
             .args([a, b].map(|p| format!("udpin:127.0.0.1:{p}")))
             .arg("--tlog")
@@ -285,6 +297,63 @@ fn files_rotate_before_they_pass_the_size() {
         assert_eq!(frame, &run.sent[k], "record {}", k + 1);
     }
     assert_eq!(run.summary_tlog()["files"], 5, "{}", run.log);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A file that cannot grow (the process's file size limit, as a full
+/// disk or an I/O error would do): the router goes on routing every frame
+/// (the limit's SIGXFSZ would end it), keeps the file it wrote, cut back
+/// to whole records, makes no new file per frame, says so once, and its
+/// counts are what the file holds.
+#[test]
+fn a_file_that_cannot_grow_is_kept_whole_and_counted_true() {
+    let dir = scratch("fsize");
+    let mut shell = Command::new("sh");
+    // 4 blocks of 512 or 1,024 bytes (the shell's unit): 70 or 141 records.
+    shell.args(["-c", "ulimit -f 4 && exec \"$0\" \"$@\""]);
+    shell.arg(env!("CARGO_BIN_EXE_fbwag"));
+    let run = route_by(shell, &dir, "3", 400, &["--tlog-min-free", "0"]);
+    assert!(run.status.success(), "{:?}\n{}", run.status, run.log);
+    assert_eq!(run.received, 400, "routing goes on: {}", run.log);
+    // A new file is tried a second after a failure: one a second at most,
+    // whatever the frame rate.
+    let files = own_logs(&dir.join("logs"));
+    assert!((1..=3).contains(&files.len()), "{files:?}\n{}", run.log);
+    let mut kept = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
+        assert_eq!(bytes.len() % 29, 0, "whole records: {}", bytes.len());
+        kept += records(&bytes).len() as u64;
+    }
+    assert!(kept >= 70, "{kept} records\n{}", run.log);
+    let t = run.summary_tlog();
+    assert_eq!(t["written"], kept, "{}", run.log);
+    assert_eq!(t["not_written"], 401 - kept, "{}", run.log);
+    assert_eq!(t["files"], files.len(), "{}", run.log);
+    let said = run.log.matches("tlog: cannot write").count();
+    assert!((1..=files.len()).contains(&said), "{}", run.log);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A log directory that cannot be made (here its name is a file's; a
+/// card mounted read-only does the same): said once, and routing goes on.
+#[test]
+fn a_log_directory_that_cannot_be_made_leaves_routing_alone() {
+    let dir = scratch("nodir");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("logs"), b"a file").unwrap();
+    let run = route(&dir, "2", 50, &[]);
+    assert!(run.status.success(), "{}", run.log);
+    assert_eq!(run.received, 50, "{}", run.log);
+    assert_eq!(
+        run.log.matches("tlog: cannot create").count(),
+        1,
+        "{}",
+        run.log
+    );
+    let t = run.summary_tlog();
+    assert_eq!(t["written"], 0, "{}", run.log);
+    assert_eq!(t["not_written"], 51, "{}", run.log);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

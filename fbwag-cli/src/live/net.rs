@@ -546,8 +546,25 @@ pub fn block_on<T: Send + 'static>(
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
-    rt.block_on(async { tokio::spawn(daemon).await })
-        .unwrap_or_else(|e| std::panic::resume_unwind(e.into_panic()))
+    rt.block_on(async {
+        survive_file_size_limit();
+        tokio::spawn(daemon).await
+    })
+    .unwrap_or_else(|e| std::panic::resume_unwind(e.into_panic()))
+}
+
+/// A file grown past the process's size limit (`ulimit -f`, `LimitFSIZE=`)
+/// raises SIGXFSZ, whose default action ends the program: a daemon would
+/// stop routing for its log. Handled instead, the write fails with EFBIG
+/// like any other write error. (tokio's handler stays for the rest of the
+/// process, so the listener need not.)
+fn survive_file_size_limit() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        let xfsz = rustix::process::Signal::XFSZ.as_raw();
+        let _ = signal(SignalKind::from_raw(xfsz));
+    }
 }
 
 #[cfg(test)]

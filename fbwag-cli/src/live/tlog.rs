@@ -83,7 +83,8 @@ pub struct TlogCounts {
     pub dropped: u64,
     /// Frames not written: free space below the floor, or write errors.
     pub unwritten: u64,
-    /// Files begun.
+    /// Files begun (one given up empty after a write error is not
+    /// counted).
     pub files: u64,
     /// Old files deleted to keep the floor.
     pub deleted: u64,
@@ -122,19 +123,27 @@ pub struct Tlog {
 
 impl Tlog {
     /// Creates `o.dir` if needed and starts the writer; `program` names the
-    /// files (`fbwag-router-…`). Errors (a directory that cannot be made,
-    /// a file system whose free space cannot be read) stop the program
-    /// before it starts.
+    /// files (`fbwag-router-…`). A directory that cannot be made (a card
+    /// mounted read-only, a name taken by a file) is said in the log and
+    /// tried again with each new file: routing never waits for the log.
+    /// Only a writer thread that cannot start is an error.
     pub fn start(o: &TlogOptions, program: &str) -> io::Result<Tlog> {
         let context =
             |e: io::Error| io::Error::new(e.kind(), format!("--tlog {}: {e}", o.dir.display()));
-        fs::create_dir_all(&o.dir).map_err(context)?;
-        free_bytes(&o.dir).map_err(context)?;
         let (queue, records) = mpsc::sync_channel::<Record>(QUEUED);
         let (note_tx, notes) = mpsc::sync_channel(NOTES_QUEUED);
+        let created = fs::create_dir_all(&o.dir);
+        if let Err(e) = &created {
+            let _ = note_tx.try_send(format!(
+                "tlog: cannot create {}: {e}; tried again with each new file, frames counted as not written meanwhile",
+                o.dir.display()
+            ));
+        }
         let (done, written) = mpsc::channel::<()>();
         let shared = Arc::new(Shared::default());
-        let writer = Writer::new(o, program, shared.clone(), note_tx, free_bytes);
+        let mut writer = Writer::new(o, program, shared.clone(), note_tx, free_bytes);
+        // Said already: the first file that cannot be made is not said again.
+        writer.failing = created.is_err();
         std::thread::Builder::new()
             .name("tlog".into())
             .spawn(move || {
@@ -212,6 +221,20 @@ impl Tlog {
     }
 }
 
+/// The file being written.
+struct OpenFile {
+    out: BufWriter<File>,
+    path: PathBuf,
+    /// Bytes written to it, the buffered ones included: what rotation
+    /// counts.
+    size: u64,
+    /// Its size at the last flush that succeeded: what is surely on disk.
+    flushed: u64,
+    /// Frames buffered since that flush: counted as written once a flush
+    /// succeeds, as not written if it fails.
+    pending: u64,
+}
+
 /// The writer thread's state.
 struct Writer {
     dir: PathBuf,
@@ -219,16 +242,16 @@ struct Writer {
     prefix: String,
     max_size: u64,
     min_free: u64,
-    /// The open file, its path and its size.
-    file: Option<(BufWriter<File>, PathBuf, u64)>,
+    file: Option<OpenFile>,
     /// Below the floor with nothing left to delete: frames are counted, not
     /// written.
     stopped: bool,
     checked_at: Option<Instant>,
     since_check: u64,
-    /// A write or open failed, said once until one succeeds.
+    /// A write or open failed, said once until a frame is written again.
     failing: bool,
-    /// When a file could not be created: the next try is a second later.
+    /// When a file could not be created or written: the next file is
+    /// tried a second later, not with the next frame.
     failed_at: Option<Instant>,
     shared: Arc<Shared>,
     notes: SyncSender<String>,
@@ -292,7 +315,7 @@ impl Writer {
         let full = self
             .file
             .as_ref()
-            .is_some_and(|(_, _, n)| *n > 0 && n + size > self.max_size);
+            .is_some_and(|f| f.size > 0 && f.size + size > self.max_size);
         if full {
             self.close();
         }
@@ -308,25 +331,22 @@ impl Writer {
             self.shared.unwritten.fetch_add(1, Ordering::Relaxed);
             return;
         }
-        let Some((out, path, n)) = &mut self.file else {
+        let Some(f) = &mut self.file else {
             return;
         };
-        let result = out
+        let result = f
+            .out
             .write_all(&r.us.to_be_bytes())
-            .and_then(|()| out.write_all(&r.bytes[..r.len]));
+            .and_then(|()| f.out.write_all(&r.bytes[..r.len]));
         match result {
             Ok(()) => {
-                *n += size;
+                f.size += size;
+                f.pending += 1;
                 self.since_check += size;
-                self.failing = false;
-                self.shared.written.fetch_add(1, Ordering::Relaxed);
             }
             Err(e) => {
-                let what = format!("tlog: cannot write {}: {e}", path.display());
                 self.shared.unwritten.fetch_add(1, Ordering::Relaxed);
-                // A new file is tried with the next frame.
-                self.file = None;
-                self.fail(what);
+                self.give_up_file(&e);
             }
         }
     }
@@ -339,14 +359,47 @@ impl Writer {
         }
     }
 
+    /// Hands what is buffered to the system: the frames since the last
+    /// flush are written when it takes them.
     fn flush(&mut self) {
-        if let Some((out, path, _)) = &mut self.file {
-            if let Err(e) = out.flush() {
-                let what = format!("tlog: cannot write {}: {e}", path.display());
-                self.file = None;
-                self.fail(what);
+        let Some(f) = &mut self.file else {
+            return;
+        };
+        match f.out.flush() {
+            Ok(()) => {
+                self.shared.written.fetch_add(f.pending, Ordering::Relaxed);
+                if f.pending > 0 {
+                    self.failing = false;
+                }
+                f.pending = 0;
+                f.flushed = f.size;
             }
+            Err(e) => self.give_up_file(&e),
         }
+    }
+
+    /// Gives the open file up after a failed write (a full disk, a file
+    /// size limit, an I/O error): cut back to what the last good flush
+    /// wrote, so no half record stays, and removed if that is nothing; the
+    /// frames since are counted as not written. The next file is tried a
+    /// second later: a lasting error makes neither a file nor a log line
+    /// per frame.
+    fn give_up_file(&mut self, e: &io::Error) {
+        let Some(f) = self.file.take() else {
+            return;
+        };
+        self.shared
+            .unwritten
+            .fetch_add(f.pending, Ordering::Relaxed);
+        // Not flushed on the way out: the buffer is what failed.
+        let (file, _) = f.out.into_parts();
+        let _ = file.set_len(f.flushed);
+        drop(file);
+        if f.flushed == 0 && fs::remove_file(&f.path).is_ok() {
+            self.shared.files.fetch_sub(1, Ordering::Relaxed);
+        }
+        self.failed_at = Some(Instant::now());
+        self.fail(format!("tlog: cannot write {}: {e}", f.path.display()));
     }
 
     fn close(&mut self) {
@@ -357,6 +410,8 @@ impl Writer {
     /// Begins a file named by the time now (microseconds, UTC): names sort
     /// in time order. A name taken already is tried a microsecond later.
     fn open(&mut self) -> bool {
+        // The directory may be new (it could not be made before) or gone.
+        let _ = fs::create_dir_all(&self.dir);
         let mut us = now_us();
         let mut last = None;
         for _ in 0..1000 {
@@ -366,7 +421,13 @@ impl Writer {
                     self.failed_at = None;
                     self.shared.files.fetch_add(1, Ordering::Relaxed);
                     self.note(format!("tlog: writing {}", path.display()));
-                    self.file = Some((BufWriter::with_capacity(64 * 1024, f), path, 0));
+                    self.file = Some(OpenFile {
+                        out: BufWriter::with_capacity(64 * 1024, f),
+                        path,
+                        size: 0,
+                        flushed: 0,
+                        pending: 0,
+                    });
                     return true;
                 }
                 Err(e) if e.kind() == io::ErrorKind::AlreadyExists => us += 1,
@@ -416,7 +477,7 @@ impl Writer {
     /// Deletes this program's files in `dir`, oldest first, until `free`
     /// reaches the floor; the free space then.
     fn delete_oldest(&mut self, mut free: u64) -> u64 {
-        let open = self.file.as_ref().map(|(_, p, _)| p.clone());
+        let open = self.file.as_ref().map(|f| f.path.clone());
         let mut own: Vec<PathBuf> = match fs::read_dir(&self.dir) {
             Ok(entries) => entries
                 .filter_map(Result::ok)

@@ -15,6 +15,8 @@ use std::process::ExitCode;
 fn main() -> ExitCode {
     let run = cmd::Cli::from_args(std::env::args_os().collect()).and_then(cmd::Cli::run);
     match run {
+        // (Said on standard error as it happened.)
+        Ok(_) if live::writer::output_lost() => ExitCode::from(2),
         Ok(outcome) => outcome.exit_code(),
         Err(e) => {
             eprintln!("error: {e}");

@@ -348,3 +348,25 @@ fn sigterm_ends_the_router_as_its_run_and_reports_name_refused_frames() {
         "{summary}"
     );
 }
+
+/// Events the output refuses (`/dev/full`: a full disk) are said on
+/// standard error, and the program exits with status 2, as for any
+/// output not written; routing went on meanwhile.
+#[test]
+fn events_that_cannot_be_written_are_said_and_fail_the_run() {
+    let (a, b) = (free_port(), free_port());
+    let out = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        .arg("router")
+        .arg(format!("udpin:127.0.0.1:{a}"))
+        .arg(format!("udpout:127.0.0.1:{b}"))
+        .args(["--duration", "0.5", "--events", "/dev/full"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--events /dev/full: 1 lines at the end not written"),
+        "{err}"
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("done:"));
+}

@@ -6,6 +6,7 @@ use serde_json::{Map, Value};
 use std::fs::File;
 use std::io;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Machine-readable events: one JSON object per line, `{"t_ms": <ms since
 /// start>, "event": <name>, ...}`, flushed per line, written by a thread of
@@ -41,8 +42,9 @@ impl Events {
             let t_ms = clock.millis();
             format!("{{\"t_ms\":{t_ms},\"event\":\"dropped\",\"events\":{n}}}\n")
         };
+        let name = path.map(|p| format!("--events {}", p.display()));
         Ok(Events {
-            out: out.map(|out| Lines::new(out, Box::new(note))),
+            out: out.map(|out| Lines::new(out, Arc::new(note), name)),
             clock,
         })
     }

@@ -3,6 +3,7 @@
 use super::writer::{Lines, Output};
 use super::Clock;
 use std::io::Write;
+use std::sync::Arc;
 
 /// Human-readable log lines with the time since start, on stdout (or
 /// anywhere), one flush per line so nothing is lost when the process is
@@ -16,12 +17,12 @@ pub struct Log {
 
 impl Log {
     pub fn new(out: Box<dyn Write + Send>, clock: Clock, who: &'static str) -> Self {
-        let note = Box::new(move |n| {
+        let note = Arc::new(move |n| {
             let t = clock.secs();
             format!("[{t:>8.3} s] {who}: {n} log lines dropped (the output was not read)\n")
         });
         Log {
-            out: Lines::new(Output::Open(out), note),
+            out: Lines::new(Output::Open(out), note, None),
             clock,
             who,
         }

@@ -21,7 +21,7 @@ pub mod net;
 pub mod router;
 mod signals;
 pub mod tlog;
-mod writer;
+pub mod writer;
 
 pub use clock::Clock;
 pub use events::Events;

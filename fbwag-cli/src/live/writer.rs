@@ -4,7 +4,7 @@
 use std::io::{self, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 /// Lines queued for a writer (log or events) and not written yet, at
@@ -21,19 +21,36 @@ const LINES_DRAIN: Duration = Duration::from_secs(1);
 /// all run on one thread. (A blocking write there froze a daemon mid-flight
 /// once 64 KiB of events waited in a pipe nobody read.) A line that finds
 /// the queue full is dropped and counted; the count goes out, as a line of
-/// its own (`dropped`), once there is room, or at the end.
+/// its own (`dropped`), once there is room, or at the end. Lines the
+/// output refuses (a full disk, `/dev/full`) are counted the same way: the
+/// note goes out before the next line written, and what was never written
+/// is said on standard error at the end.
 pub(super) struct Lines {
     queue: Option<SyncSender<String>>,
     /// Lines dropped since the queue last took one.
     dropped: u64,
     /// The line that says `n` lines were dropped.
-    note: Box<dyn Fn(u64) -> String + Send>,
+    note: Note,
+    /// Lines the output refused since it last took one, and why.
+    refused: Arc<Mutex<Refused>>,
+    /// What the output is, for the end's message (`None`: nothing said).
+    name: Option<String>,
     /// Closed by the writer thread when it has written every line.
     written: Receiver<()>,
     /// Set by the writer thread once it has opened its output: until then
     /// (a FIFO nobody has opened to read) there is nothing to wait for at
     /// the end.
     opened: Arc<AtomicBool>,
+}
+
+/// The line that says `n` lines were dropped.
+pub(super) type Note = Arc<dyn Fn(u64) -> String + Send + Sync>;
+
+/// Lines a writer thread could not write since it last wrote one.
+#[derive(Default)]
+struct Refused {
+    lines: u64,
+    error: Option<io::Error>,
 }
 
 /// What a [`Lines`] writer thread writes to.
@@ -47,11 +64,16 @@ pub(super) enum Output {
 }
 
 impl Lines {
-    pub(super) fn new(output: Output, note: Box<dyn Fn(u64) -> String + Send>) -> Self {
+    /// Lines to `output` (named `name` in the end's message about lines
+    /// it refused; `None`: not said), `note` the line that counts those
+    /// dropped.
+    pub(super) fn new(output: Output, note: Note, name: Option<String>) -> Self {
         let (queue, lines) = mpsc::sync_channel::<String>(LINES_QUEUED);
         let (done, written) = mpsc::channel();
         let opened = Arc::new(AtomicBool::new(matches!(output, Output::Open(_))));
         let open_flag = opened.clone();
+        let refused = Arc::new(Mutex::new(Refused::default()));
+        let (thread_refused, thread_note) = (refused.clone(), note.clone());
         std::thread::spawn(move || {
             let mut out = match output {
                 Output::Open(out) => out,
@@ -67,9 +89,7 @@ impl Lines {
                 },
             };
             for line in lines {
-                // Nobody reading any more (a closed pipe) fails each write:
-                // the lines are dropped here rather than filling the queue.
-                let _ = out.write_all(line.as_bytes()).and_then(|()| out.flush());
+                write_counted(&mut out, &line, &thread_refused, &thread_note);
             }
             drop(done);
         });
@@ -77,6 +97,8 @@ impl Lines {
             queue: Some(queue),
             dropped: 0,
             note,
+            refused,
+            name,
             written,
             opened,
         }
@@ -104,6 +126,30 @@ impl Lines {
     }
 }
 
+/// Writes `line`, after the note of the lines refused before it, if any;
+/// a refused line is counted. (Nobody reading any more, a closed pipe,
+/// fails each write: the lines are dropped here rather than filling the
+/// queue.)
+fn write_counted(out: &mut dyn Write, line: &str, refused: &Mutex<Refused>, note: &Note) {
+    // Not held while writing: a reader that stalls the write must not
+    // stall the end of the daemon, which reads the count.
+    let lock = || refused.lock().unwrap_or_else(PoisonError::into_inner);
+    let before = lock().lines;
+    let mut write = |text: &str| out.write_all(text.as_bytes()).and_then(|()| out.flush());
+    let result = match before {
+        0 => write(line),
+        n => write(&note(n)).and_then(|()| {
+            *lock() = Refused::default();
+            write(line)
+        }),
+    };
+    if let Err(e) = result {
+        let mut r = lock();
+        r.lines += 1;
+        r.error = Some(e);
+    }
+}
+
 impl Drop for Lines {
     /// Queues the note of lines dropped, if any, then waits for the queued
     /// lines to be written, at most [`LINES_DRAIN`] (a stalled reader does
@@ -116,5 +162,65 @@ impl Drop for Lines {
         if self.opened.load(Ordering::Acquire) {
             let _ = self.written.recv_timeout(LINES_DRAIN);
         }
+        let r = self.refused.lock().unwrap_or_else(PoisonError::into_inner);
+        if let (Some(name), Some(e)) = (&self.name, &r.error) {
+            eprintln!(
+                "fbwag: {name}: {} lines at the end not written: {e}",
+                r.lines
+            );
+            OUTPUT_LOST.store(true, Ordering::Relaxed);
+        }
+    }
+}
+
+/// A named output ([`Lines::new`]) lost its last lines: the program exits
+/// with status 2 ("an output not written"), whatever else it did.
+static OUTPUT_LOST: AtomicBool = AtomicBool::new(false);
+
+/// Whether a named output lost its last lines.
+pub fn output_lost() -> bool {
+    OUTPUT_LOST.load(Ordering::Relaxed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Refuses its first `fail` writes, then keeps what it is given.
+    struct Flaky {
+        fail: usize,
+        kept: Arc<Mutex<String>>,
+    }
+
+    impl Write for Flaky {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            if self.fail > 0 {
+                self.fail -= 1;
+                return Err(io::Error::from(io::ErrorKind::StorageFull));
+            }
+            let mut kept = self.kept.lock().unwrap();
+            kept.push_str(std::str::from_utf8(buf).unwrap());
+            Ok(buf.len())
+        }
+
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn lines_the_output_refused_are_counted_before_the_next_one_written() {
+        let kept = Arc::new(Mutex::new(String::new()));
+        let out = Flaky {
+            fail: 2,
+            kept: kept.clone(),
+        };
+        let note: Note = Arc::new(|n| format!("{n} dropped\n"));
+        let mut lines = Lines::new(Output::Open(Box::new(out)), note, None);
+        for line in ["a\n", "b\n", "c\n", "d\n"] {
+            lines.push(line.to_string());
+        }
+        drop(lines);
+        assert_eq!(*kept.lock().unwrap(), "2 dropped\nc\nd\n");
     }
 }

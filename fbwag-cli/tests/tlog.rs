@@ -439,6 +439,45 @@ fn a_tlog_cut_short_is_an_error_naming_the_offset() {
     }
 }
 
+/// Garbage between records costs only its own bytes: a start byte in it
+/// that claims a long frame of an unknown id does not swallow the good
+/// records behind it, and a record whose length byte was flipped costs
+/// that record alone. The summary counts the frames printed.
+#[test]
+fn garbage_in_a_tlog_costs_only_its_own_bytes() {
+    let record = |n: u32| {
+        let mut r = (1_000 + u64::from(n)).to_be_bytes().to_vec();
+        r.extend_from_slice(&heartbeat(1, n));
+        r
+    };
+    let mut tlog = Vec::new();
+    for n in 0..20 {
+        if n == 5 {
+            tlog.extend_from_slice(b"\x00garbage\xfd\xff");
+        }
+        let mut r = record(n);
+        if n == 12 {
+            r[9] = 200; // The frame's length byte.
+        }
+        tlog.extend_from_slice(&r);
+    }
+    let (out, err, code) = fbwag(&["decode", "--tlog"], &tlog);
+    assert_eq!(code, Some(1), "bytes were skipped: {err}");
+    let modes: Vec<u64> = std::str::from_utf8(&out)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<Value>(l).unwrap()["fields"]["custom_mode"]
+                .as_u64()
+                .unwrap()
+        })
+        .collect();
+    let want: Vec<u64> = (0..20).filter(|n| *n != 12).collect();
+    assert_eq!(modes, want, "{err}");
+    assert!(err.starts_with("decoded 19 frames"), "{err}");
+    assert!(err.contains("tlog: 19 records"), "{err}");
+}
+
 #[test]
 fn the_companion_logs_the_fc_frames_it_takes_and_its_own() {
     let dir = scratch("cc");

@@ -2,8 +2,9 @@
 
 use crate::error::{CliError, Outcome};
 use crate::{hexstream, json};
-use fbwag_dialect::mavframe::frame::{frame_len, FrameError, MAX_FRAME_LEN};
+use fbwag_dialect::mavframe::frame::{frame_len, Frame, FrameError, MAX_FRAME_LEN};
 use fbwag_dialect::mavframe::parser::{Parser, Stats};
+use fbwag_dialect::mavframe::MessageSet;
 use fbwag_dialect::Dialect;
 use std::io::{BufWriter, Read, Write};
 use std::path::PathBuf;
@@ -151,7 +152,10 @@ pub fn open_input(file: &Option<PathBuf>) -> std::io::Result<Box<dyn Read>> {
 }
 
 /// Reads tlog records (8-byte big-endian µs timestamp, then one frame); an
-/// unreadable record is skipped by resynchronising one byte further. Until
+/// unreadable record is skipped by resynchronising one byte further. Only
+/// a record's whole frame ([`whole_record`]) reaches the parser, so garbage
+/// never leaves bytes in it that would swallow the next good record, and
+/// its counts are the frames printed. Until
 /// the `end` of the input, a record is read only when a whole frame of the
 /// largest size could follow it, so the outcome does not depend on how the
 /// input was chunked. At the end, a record cut short (a timestamp, or a
@@ -165,7 +169,9 @@ fn decode_tlog(
     t: &mut TlogRead,
 ) -> Result<usize, CliError> {
     let mut at = 0usize;
-    let lookahead = if end { 1 } else { MAX_FRAME_LEN };
+    // Until the end: room for the largest frame and the next record's
+    // start byte ([`whole_record`]).
+    let lookahead = if end { 1 } else { MAX_FRAME_LEN + 9 };
     while at + 8 + lookahead <= raw.len() {
         let mut ts = [0u8; 8];
         ts.copy_from_slice(&raw[at..at + 8]);
@@ -174,7 +180,7 @@ fn decode_tlog(
             // The input ends inside this record's frame.
             Ok(n) if end && n > rest.len() && n <= MAX_FRAME_LEN => break,
             Err(FrameError::Incomplete { .. }) if end => break,
-            Ok(n) if n <= rest.len() && n <= MAX_FRAME_LEN => Some(n),
+            Ok(n) if n <= rest.len() && n <= MAX_FRAME_LEN && whole_record(rest, n, end) => Some(n),
             _ => None,
         };
         let mut record: &[u8] = len.map_or(&[][..], |n| &rest[..n]);
@@ -202,6 +208,25 @@ fn decode_tlog(
     }
     t.offset += at as u64;
     Ok(at)
+}
+
+/// Whether the `n` bytes `rest` begins with are a record's whole frame:
+/// the length its header says, and the checksum right for a message the
+/// dialect knows. An unknown message's checksum cannot be checked: its
+/// record counts only when the next record starts where it ends (a start
+/// byte after the next timestamp) or the input `end`s there, so garbage
+/// claiming an unknown id is not taken for a record.
+fn whole_record(rest: &[u8], n: usize, end: bool) -> bool {
+    let Ok(frame) = Frame::new_checked(&rest[..n]) else {
+        return false;
+    };
+    if frame.frame_len() != n {
+        return false;
+    }
+    match <Dialect as MessageSet>::meta(frame.msg_id()) {
+        Some(m) => frame.check_crc(m.crc_extra),
+        None => rest.get(n + 8).map_or(end, |b| matches!(b, 0xfd | 0xfe)),
+    }
 }
 
 /// The error for the record at `offset` whose bytes `left` end the input.

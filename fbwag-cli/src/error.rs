@@ -51,8 +51,12 @@ impl Outcome {
 /// Why a command could not do its work (exit status 2).
 #[derive(Debug, thiserror::Error)]
 pub enum CliError {
-    #[error("cannot open input: {0}")]
-    OpenInput(#[source] io::Error),
+    /// The input file (`None`: standard input) could not be opened.
+    #[error("cannot open {}: {source}", path.as_ref().map_or("standard input".into(), |p| p.display().to_string()))]
+    OpenInput {
+        path: Option<std::path::PathBuf>,
+        source: io::Error,
+    },
     #[error("cannot read input: {0}")]
     ReadInput(#[source] io::Error),
     #[error("cannot write: {0}")]

@@ -369,7 +369,7 @@ fn refusals_after_parsing_exit_2_and_flagged_input_exits_1() {
             &["decode", "/nonexistent/fbwag"],
             "",
             2,
-            "error: cannot open input",
+            "error: cannot open /nonexistent/fbwag: No such file",
         ),
         (&["decode", "--hex"], "00ff", 1, "2 bytes dropped"),
         (&["encode"], "{}\n", 1, "line 1: "),

@@ -58,7 +58,10 @@ struct TlogRead {
 /// dropped (bad checksums, garbage, unreadable tlog records); an error for
 /// a tlog that ends inside a record, once every record before it is out.
 pub fn run(a: DecodeArgs) -> Result<Outcome, CliError> {
-    let mut input = open_input(&a.file).map_err(CliError::OpenInput)?;
+    let mut input = open_input(&a.file).map_err(|source| CliError::OpenInput {
+        path: a.file.clone(),
+        source,
+    })?;
     let stdout = std::io::stdout();
     let mut out = BufWriter::new(stdout.lock());
     let mut parser = Parser::<Dialect>::new();

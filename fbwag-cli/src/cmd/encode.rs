@@ -88,7 +88,10 @@ pub fn run(a: EncodeArgs) -> Result<Outcome, CliError> {
         (false, true) => Form::Tlog,
         (false, false) => Form::Binary,
     };
-    let input = open_input(&a.file).map_err(CliError::OpenInput)?;
+    let input = open_input(&a.file).map_err(|source| CliError::OpenInput {
+        path: a.file.clone(),
+        source,
+    })?;
     let stdout = std::io::stdout();
     let mut out = BufWriter::new(stdout.lock());
     let mut frame = [0u8; MAX_FRAME_LEN];

@@ -498,7 +498,7 @@ pub trait Node {
 /// With `signals`, SIGTERM (and SIGINT, from a terminal) end it the same
 /// way ([`StopSignals`]).
 pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log, signals: bool) {
-    let mut stop = StopSignals::new(signals, log);
+    let mut stopped = StopSignals::new(signals, log).watch();
     while !node.done(clock) {
         let now = clock.now();
         if node.poll_timeout().is_some_and(|t| t <= now) {
@@ -523,17 +523,13 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                 None => break,
             },
             _ = tokio::time::sleep(wait) => {}
-            name = stop.recv() => {
+            Ok(name) = &mut stopped => {
                 log.line(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }
         }
     }
-    tokio::select! {
-        _ = net.router.shutdown(Duration::from_secs(1)) => {}
-        // A second signal: the user does not wait.
-        name = stop.recv() => std::process::exit(if name == "SIGINT" { 130 } else { 143 }),
-    }
+    net.router.shutdown(Duration::from_secs(1)).await;
 }
 
 /// Runs `daemon` on a current-thread tokio runtime, as a task: a task

@@ -22,6 +22,7 @@ use std::net::SocketAddr;
 use std::num::NonZeroU32;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
+use tokio::sync::oneshot;
 
 /// Settings of the router.
 #[derive(Debug, Clone)]
@@ -190,7 +191,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 window.as_millis()
             ));
         }
-        let mut stop = StopSignals::new(true, &mut log);
+        let mut stopped = StopSignals::new(true, &mut log).watch();
         let traffic = serve(
             &o,
             &mut router,
@@ -198,7 +199,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             &mut log,
             &mut events,
             &mut tlog,
-            &mut stop,
+            &mut stopped,
         )
         .await;
         let lost = queue_dropped(&router);
@@ -213,11 +214,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             summary["tlog"] = counts.json();
         }
         events.emit("summary", summary);
-        tokio::select! {
-            () = router.shutdown(Duration::from_secs(1)) => {}
-            // A second signal: the user does not wait.
-            name = stop.recv() => std::process::exit(if name == "SIGINT" { 130 } else { 143 }),
-        }
+        router.shutdown(Duration::from_secs(1)).await;
         Ok(())
     })
 }
@@ -283,7 +280,7 @@ async fn serve(
     log: &mut Log,
     events: &mut Events,
     tlog: &mut Option<Tlog>,
-    stop: &mut StopSignals,
+    stopped: &mut oneshot::Receiver<&'static str>,
 ) -> Traffic {
     let end = o.duration.map(|d| tokio::time::Instant::now() + d);
     let mut next_report = tokio::time::Instant::now() + o.report;
@@ -322,7 +319,7 @@ async fn serve(
                 timer.as_mut().reset(wake(next_report));
                 s.report(events);
             }
-            name = stop.recv() => {
+            Ok(name) = &mut *stopped => {
                 s.log.line(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }

@@ -48,8 +48,23 @@ impl StopSignals {
         }
     }
 
+    /// Watches the signals from a task of its own: the first signal's name
+    /// is sent to the receiver returned (a daemon's loop polls only that);
+    /// a second one ends the process at once (exit status 130 for SIGINT,
+    /// 143 for SIGTERM), whatever the daemon is doing: the user does not
+    /// wait.
+    pub fn watch(mut self) -> tokio::sync::oneshot::Receiver<&'static str> {
+        let (first, stopped) = tokio::sync::oneshot::channel();
+        tokio::spawn(async move {
+            let _ = first.send(self.recv().await);
+            let again = self.recv().await;
+            std::process::exit(if again == "SIGINT" { 130 } else { 143 });
+        });
+        stopped
+    }
+
     /// The name of the next stop signal received (never, without them).
-    pub async fn recv(&mut self) -> &'static str {
+    async fn recv(&mut self) -> &'static str {
         #[cfg(unix)]
         {
             async fn next(s: &mut Option<tokio::signal::unix::Signal>) {

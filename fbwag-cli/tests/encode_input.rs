@@ -226,3 +226,16 @@ fn every_line_good_exits_0() {
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(String::from_utf8(out).unwrap().lines().count(), 2);
 }
+
+/// A line that is JSON of the wrong shape is named by its line alone:
+/// serde_json's own "at line 1 column N" counts in the line, not the input.
+#[test]
+fn a_line_of_the_wrong_shape_names_only_its_line() {
+    assert_refused(
+        &[],
+        &[(
+            b"[1, 2]",
+            "line 2: invalid type: sequence, expected a JSON object\n",
+        )],
+    );
+}

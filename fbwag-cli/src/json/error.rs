@@ -109,7 +109,9 @@ impl fmt::Display for Error {
         match self {
             Error::OddHex(key, n) => write!(f, "{}odd number of hex digits ({n})", key_of(key)),
             Error::NotHex(key, at) => write!(f, "{}not a hex digit at digit {at}", key_of(key)),
-            Error::Json(e) if e.classify() == serde_json::error::Category::Data => write!(f, "{e}"),
+            Error::Json(e) if e.classify() == serde_json::error::Category::Data => {
+                f.write_str(&bare(e))
+            }
             Error::Json(e) => write!(f, "not JSON: {e}"),
             Error::UnknownKey { key, expected } => {
                 write!(f, "unknown key `{key}` (expected: {})", expected.join(", "))

@@ -523,7 +523,7 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                 None => break,
             },
             _ = tokio::time::sleep(wait) => {}
-            Ok(name) = &mut stopped => {
+            Ok(name) = &mut stopped, if !stopped.is_terminated() => {
                 log.line(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }

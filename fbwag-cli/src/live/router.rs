@@ -319,7 +319,7 @@ async fn serve(
                 timer.as_mut().reset(wake(next_report));
                 s.report(events);
             }
-            Ok(name) = &mut *stopped => {
+            Ok(name) = &mut *stopped, if !stopped.is_terminated() => {
                 s.log.line(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }

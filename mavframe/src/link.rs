@@ -361,6 +361,11 @@ mod std_parts {
 
         /// Parsers made from now on go on from here (a transport failed
         /// and is opened again).
+        /// Whether the state is kept in a file.
+        pub(crate) fn keeps_state(&self) -> bool {
+            self.file.is_some()
+        }
+
         pub(crate) fn go_on_from(&mut self, framer: &Framer, verifier: Option<&Verifier>) {
             self.start = SigningState::capture(framer.signer(), verifier);
         }

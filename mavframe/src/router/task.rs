@@ -12,6 +12,7 @@ use crate::conn::{ReceivedBuf, ReplyTo};
 use crate::link::{Inbox, LinkCore, Peers, SigningFile};
 use crate::message::MessageSet;
 use crate::route::LinkId;
+use crate::signing::state::SAVE_INTERVAL;
 use crate::signing::Verifier;
 use std::boxed::Box;
 use std::io;
@@ -229,8 +230,15 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     ) -> Ended {
         let mut peers = Peers::new(self.config.reply_to);
         let mut datagram = Vec::with_capacity(DATAGRAM_FRAMES_MAX);
+        let tick = save_tick();
+        tokio::pin!(tick);
+        let keeps = self.signing.keeps_state();
         loop {
             tokio::select! {
+                () = &mut tick, if keeps => {
+                    self.save(core, None, false);
+                    tick.as_mut().reset(next_save_tick());
+                }
                 // A failed receive (an ICMP error on some systems) says
                 // nothing about the next one: it is skipped.
                 r = socket.recv_from(core.inbox.space()) => if let Ok((n, from)) = r {
@@ -294,8 +302,15 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     }
 
     async fn stream(&mut self, mut stream: Box<dyn AsyncStream>, core: &mut Core<D>) -> Ended {
+        let tick = save_tick();
+        tokio::pin!(tick);
+        let keeps = self.signing.keeps_state();
         loop {
             tokio::select! {
+                () = &mut tick, if keeps => {
+                    self.save(core, None, false);
+                    tick.as_mut().reset(next_save_tick());
+                }
                 r = stream.read(core.inbox.space()) => match r {
                     Ok(0) => {
                         let _ = self.deliver(core, true).await;
@@ -322,6 +337,20 @@ impl<D: MessageSet + 'static> LinkTask<D> {
             }
         }
     }
+}
+
+/// The tick that saves a link's signing state while the link is quiet:
+/// a save is otherwise asked for after each frame and send only, so a link
+/// that fell silent right after accepting frames kept them unsaved, and a
+/// crash then let them be replayed into the restarted program. (A pinned
+/// timer reset once a second: none made per frame.)
+pub(super) fn save_tick() -> tokio::time::Sleep {
+    tokio::time::sleep_until(next_save_tick())
+}
+
+/// When the next [`save_tick`] fires.
+pub(super) fn next_save_tick() -> tokio::time::Instant {
+    tokio::time::Instant::now() + SAVE_INTERVAL
 }
 
 impl Command {

@@ -584,6 +584,50 @@ async fn tcpin_saves_the_shared_verifier_at_the_end() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A link that falls quiet right after accepting a signed frame saves
+/// it within about a second, not at its next frame: killed then (a crash,
+/// a power loss), a restart refuses a replay of the frame.
+#[tokio::test]
+async fn a_quiet_link_saves_what_it_accepted_within_a_second() {
+    use crate::signing::state::{StateFile, SAVE_INTERVAL};
+    use crate::signing::{timestamp_now, Signer};
+    let key = [9u8; 32];
+    let dir = std::env::temp_dir().join(format!("mavframe-quiet-state-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("link.state");
+    let _ = std::fs::remove_file(&path);
+    let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
+    (config.key, config.signing_state) = (Some(key), Some(path.clone()));
+    router.add(config).await.unwrap();
+    let mut signer = Signer::new(key, 4, timestamp_now());
+    let h = Header {
+        seq: 0,
+        sysid: 5,
+        compid: 6,
+    };
+    let frame = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, Some(&mut signer)).unwrap();
+    udp_socket().await.send_to(&frame, addr).await.unwrap();
+    assert!(next_frame(&mut router).await.frame.is_authenticated());
+    // Nothing more arrives; the router keeps running.
+    tokio::time::sleep(SAVE_INTERVAL * 2 + Duration::from_millis(500)).await;
+    let saved = StateFile::open(&path)
+        .ok()
+        .map(|(file, _)| file.state().streams.clone());
+    router.shutdown(Duration::from_secs(2)).await;
+    let _ = std::fs::remove_dir_all(&dir);
+    let streams = saved.expect("a state file, saved while the router runs");
+    assert!(
+        streams
+            .iter()
+            .any(|s| (s.link_id, s.sysid, s.compid) == (4, 5, 6)),
+        "the frame's stream is saved: {streams:?}"
+    );
+}
+
 /// A `udpin` link on 127.0.0.1 with `reply_to` (`None`: the default
 /// rule), and its address.
 async fn udpin(reply_to: Option<ReplyTo>) -> (Router<TestDialect>, LinkId, SocketAddr) {

@@ -2,16 +2,19 @@
 
 use super::Log;
 
-/// SIGTERM (`kill`, `systemctl stop`), and SIGINT (Ctrl-C) when standard
-/// input is a terminal: the daemon stops as at the end of its run, its
-/// links saving their signing state; a second signal ends it at once.
-/// (Killed by either, it skipped that save: with `--signing-state`, what
-/// it had accepted since the last periodic save could be replayed into it
-/// once restarted.) SIGINT is left alone otherwise: a daemon a script
-/// starts in the background inherits it ignored, and keeps running.
+/// SIGTERM (`kill`, `systemctl stop`), and SIGINT (Ctrl-C) and SIGHUP (the
+/// terminal closed, the ssh session dropped) when standard input is a
+/// terminal: the daemon stops as at the end of its run, its links saving
+/// their signing state; a second signal ends it at once. (Killed by any of
+/// them, it skipped that save: with `--signing-state`, what it had
+/// accepted since the last periodic save could be replayed into it once
+/// restarted.) SIGINT and SIGHUP are left alone otherwise: a daemon a
+/// script or `nohup` starts inherits them ignored, and keeps running.
 pub struct StopSignals {
     #[cfg(unix)]
     interrupt: Option<tokio::signal::unix::Signal>,
+    #[cfg(unix)]
+    hangup: Option<tokio::signal::unix::Signal>,
     #[cfg(unix)]
     terminate: Option<tokio::signal::unix::Signal>,
 }
@@ -36,6 +39,9 @@ impl StopSignals {
                 interrupt: (enabled && interactive)
                     .then(|| listen(SignalKind::interrupt(), "SIGINT"))
                     .flatten(),
+                hangup: (enabled && interactive)
+                    .then(|| listen(SignalKind::hangup(), "SIGHUP"))
+                    .flatten(),
                 terminate: enabled
                     .then(|| listen(SignalKind::terminate(), "SIGTERM"))
                     .flatten(),
@@ -50,15 +56,19 @@ impl StopSignals {
 
     /// Watches the signals from a task of its own: the first signal's name
     /// is sent to the receiver returned (a daemon's loop polls only that);
-    /// a second one ends the process at once (exit status 130 for SIGINT,
-    /// 143 for SIGTERM), whatever the daemon is doing: the user does not
-    /// wait.
+    /// a second one ends the process at once (exit status 128 + the
+    /// signal's number: 130 for SIGINT, 129 for SIGHUP, 143 for SIGTERM),
+    /// whatever the daemon is doing: the user does not wait.
     pub fn watch(mut self) -> tokio::sync::oneshot::Receiver<&'static str> {
         let (first, stopped) = tokio::sync::oneshot::channel();
         tokio::spawn(async move {
             let _ = first.send(self.recv().await);
             let again = self.recv().await;
-            std::process::exit(if again == "SIGINT" { 130 } else { 143 });
+            std::process::exit(match again {
+                "SIGINT" => 130,
+                "SIGHUP" => 129,
+                _ => 143,
+            });
         });
         stopped
     }
@@ -80,6 +90,7 @@ impl StopSignals {
             }
             tokio::select! {
                 _ = next(&mut self.interrupt) => "SIGINT",
+                _ = next(&mut self.hangup) => "SIGHUP",
                 _ = next(&mut self.terminate) => "SIGTERM",
             }
         }

@@ -476,6 +476,22 @@ fn garbage_in_a_tlog_costs_only_its_own_bytes() {
     assert_eq!(modes, want, "{err}");
     assert!(err.starts_with("decoded 19 frames"), "{err}");
     assert!(err.contains("tlog: 19 records"), "{err}");
+
+    // Near the end, a start byte claiming more bytes than are left is
+    // garbage too when whole records follow it, not a cut record.
+    let mut tail = record(0);
+    tail.extend_from_slice(b"\x00\x01\x02\x03\x04\x05\x06\x07\xfd\xff");
+    for n in 1..4 {
+        tail.extend_from_slice(&record(n));
+    }
+    let (out, err, code) = fbwag(&["decode", "--tlog"], &tail);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(
+        std::str::from_utf8(&out).unwrap().lines().count(),
+        4,
+        "{err}"
+    );
+    assert!(err.contains("tlog: 4 records, 10 unreadable"), "{err}");
 }
 
 #[test]

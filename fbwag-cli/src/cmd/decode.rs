@@ -175,42 +175,82 @@ fn decode_tlog(
     // Until the end: room for the largest frame and the next record's
     // start byte ([`whole_record`]).
     let lookahead = if end { 1 } else { MAX_FRAME_LEN + 9 };
+    // At the end, the first record the input seems to end inside, and the
+    // counts before it: a truncation only if no whole record follows it
+    // (else its start byte was garbage, skipped as such).
+    let mut cut: Option<(usize, u64, Option<u64>)> = None;
     while at + 8 + lookahead <= raw.len() {
         let mut ts = [0u8; 8];
         ts.copy_from_slice(&raw[at..at + 8]);
         let rest = &raw[at + 8..];
         let len = match frame_len(rest) {
-            // The input ends inside this record's frame.
-            Ok(n) if end && n > rest.len() && n <= MAX_FRAME_LEN => break,
-            Err(FrameError::Incomplete { .. }) if end => break,
             Ok(n) if n <= rest.len() && n <= MAX_FRAME_LEN && whole_record(rest, n, end) => Some(n),
+            Ok(n) if end && n > rest.len() && n <= MAX_FRAME_LEN => {
+                cut.get_or_insert((at, t.bad, t.first_bad));
+                None
+            }
+            Err(FrameError::Incomplete { .. }) if end => {
+                cut.get_or_insert((at, t.bad, t.first_bad));
+                None
+            }
             _ => None,
         };
-        let mut record: &[u8] = len.map_or(&[][..], |n| &rest[..n]);
-        match parser.next(&mut record) {
-            Some(r) if r.frame.as_bytes().len() == len.unwrap_or(0) => {
-                emit(json::frame_to_json(
-                    &r.frame,
-                    r.meta,
-                    Some(u64::from_be_bytes(ts)),
-                ))?;
-                at += 8 + len.unwrap_or(0);
-                t.good += 1;
-            }
-            _ => {
-                while parser.flush().is_some() {}
-                t.first_bad.get_or_insert(t.offset + at as u64);
-                t.bad += 1;
-                at += 1;
-            }
+        let us = u64::from_be_bytes(ts);
+        let taken = match len {
+            Some(n) => emit_record(parser, &rest[..n], us, emit)?,
+            None => false,
+        };
+        if taken {
+            at += 8 + len.unwrap_or(0);
+            t.good += 1;
+            cut = None;
+        } else {
+            t.first_bad.get_or_insert(t.offset + at as u64);
+            t.bad += 1;
+            at += 1;
         }
     }
-    if end && at < raw.len() {
+    if end && (cut.is_some() || at < raw.len()) {
+        // The bytes from the cut record on are that record, not garbage.
+        if let Some((from, bad, first_bad)) = cut {
+            (at, t.bad, t.first_bad) = (from, bad, first_bad);
+        }
         t.truncated = Some(truncated(&raw[at..], t.offset + at as u64));
         at = raw.len();
     }
     t.offset += at as u64;
     Ok(at)
+}
+
+/// Decodes a record's whole frame `bytes` and emits it with the record's
+/// timestamp `us`; false when the parser does not take it whole. The
+/// record's end is the frame's end, as a datagram's is: a frame of an
+/// unknown id is not held back for the byte after it, which in a tlog is
+/// the next record's timestamp.
+fn emit_record(
+    parser: &mut Parser<Dialect>,
+    bytes: &[u8],
+    us: u64,
+    emit: &mut Emit<'_>,
+) -> Result<bool, CliError> {
+    let mut record = bytes;
+    let mut taken = false;
+    if let Some(r) = parser.next_in_datagram(&mut record) {
+        if r.frame.as_bytes().len() == bytes.len() {
+            emit(json::frame_to_json(&r.frame, r.meta, Some(us)))?;
+            taken = true;
+        }
+    }
+    if !taken {
+        if let Some(r) = parser.end_of_datagram() {
+            if r.frame.as_bytes().len() == bytes.len() {
+                emit(json::frame_to_json(&r.frame, r.meta, Some(us)))?;
+                taken = true;
+            }
+        }
+    }
+    while parser.end_of_datagram().is_some() {}
+    Ok(taken)
 }
 
 /// Whether the `n` bytes `rest` begins with are a record's whole frame:

@@ -366,7 +366,20 @@ impl Writer {
             return;
         };
         match f.out.flush() {
+            // Its directory removed (an operator's `rm -rf`): what went
+            // to it is gone, and a new file (and directory) is begun.
+            Ok(()) if unlinked(f.out.get_ref()) => {
+                let gone = io::Error::new(io::ErrorKind::NotFound, "removed while written");
+                self.give_up_file(&gone);
+            }
             Ok(()) => {
+                if f.flushed == 0 && f.size > 0 {
+                    // Said once it holds a frame: a file given up empty
+                    // (a full disk) is never named.
+                    let _ = self
+                        .notes
+                        .try_send(format!("tlog: writing {}", f.path.display()));
+                }
                 self.shared.written.fetch_add(f.pending, Ordering::Relaxed);
                 if f.pending > 0 {
                     self.failing = false;
@@ -420,7 +433,6 @@ impl Writer {
                 Ok(f) => {
                     self.failed_at = None;
                     self.shared.files.fetch_add(1, Ordering::Relaxed);
-                    self.note(format!("tlog: writing {}", path.display()));
                     self.file = Some(OpenFile {
                         out: BufWriter::with_capacity(64 * 1024, f),
                         path,
@@ -509,6 +521,21 @@ impl Writer {
             ));
         }
         free
+    }
+}
+
+/// Whether `file` was removed from its directory while open (writes to it
+/// then reach no file anyone can read).
+fn unlinked(file: &File) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        file.metadata().is_ok_and(|m| m.nlink() == 0)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = file;
+        false
     }
 }
 
@@ -678,6 +705,45 @@ mod tests {
         assert_eq!(files.len(), 1, "{files:?}");
         let bytes = fs::read(dir.join(files.pop().unwrap())).unwrap();
         assert_eq!(bytes[..8], 3u64.to_be_bytes());
+        assert_eq!(bytes[8..], [3u8; 12]);
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    /// The directory removed while a file is written (`rm -rf`): the
+    /// frames that went to the removed file count as not written, it is
+    /// said, and a second later a new directory and file are begun.
+    #[cfg(unix)]
+    #[test]
+    fn a_file_removed_while_written_is_given_up_and_a_new_one_begun() {
+        let dir = std::env::temp_dir().join(format!("fbwag-tlog-rm-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let o = TlogOptions {
+            dir: dir.clone(),
+            max_size: 1 << 20,
+            min_free: 0,
+        };
+        let shared = Arc::new(Shared::default());
+        let (tx, notes) = mpsc::sync_channel(NOTES_QUEUED);
+        let mut w = Writer::new(&o, "router", shared.clone(), tx, |_| Ok(u64::MAX));
+        w.write(&record(1));
+        w.flush();
+        fs::remove_dir_all(&dir).unwrap();
+        w.write(&record(2));
+        w.flush();
+        assert_eq!(shared.written.load(Ordering::Relaxed), 1);
+        assert_eq!(shared.unwritten.load(Ordering::Relaxed), 1);
+        std::thread::sleep(CHECK_EVERY);
+        w.write(&record(3));
+        w.close();
+        let said: Vec<String> = notes.try_iter().collect();
+        assert!(
+            said.iter().any(|n| n.contains("removed while written")),
+            "{said:?}"
+        );
+        assert_eq!(shared.written.load(Ordering::Relaxed), 2, "{said:?}");
+        let files: Vec<_> = fs::read_dir(&dir).unwrap().collect();
+        assert_eq!(files.len(), 1, "{said:?}");
+        let bytes = fs::read(files[0].as_ref().unwrap().path()).unwrap();
         assert_eq!(bytes[8..], [3u8; 12]);
         let _ = fs::remove_dir_all(&dir);
     }

@@ -365,8 +365,29 @@ fn events_that_cannot_be_written_are_said_and_fail_the_run() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("--events /dev/full: 1 lines at the end not written"),
+        err.contains("--events /dev/full: 1 line at the end not written"),
         "{err}"
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("done:"));
+
+    // A FIFO no reader ever opens: the same.
+    let fifo = std::env::temp_dir().join(format!("fbwag-events-fifo-{}", std::process::id()));
+    let _ = std::fs::remove_file(&fifo);
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let out = Command::new(env!("CARGO_BIN_EXE_fbwag"))
+        .arg("router")
+        .arg(format!("udpin:127.0.0.1:{a}"))
+        .arg(format!("udpout:127.0.0.1:{b}"))
+        .args(["--duration", "0.5", "--events"])
+        .arg(&fifo)
+        .output()
+        .unwrap();
+    let _ = std::fs::remove_file(&fifo);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("not written: no reader opened it"), "{err}");
 }

@@ -35,6 +35,8 @@ pub(super) struct Lines {
     refused: Arc<Mutex<Refused>>,
     /// What the output is, for the end's message (`None`: nothing said).
     name: Option<String>,
+    /// Lines queued (for the end's message when the output never opened).
+    queued: u64,
     /// Closed by the writer thread when it has written every line.
     written: Receiver<()>,
     /// Set by the writer thread once it has opened its output: until then
@@ -51,6 +53,9 @@ pub(super) type Note = Arc<dyn Fn(u64) -> String + Send + Sync>;
 struct Refused {
     lines: u64,
     error: Option<io::Error>,
+    /// The output took part of a line: the next text begins on a line of
+    /// its own, so the broken one stays alone.
+    broken: bool,
 }
 
 /// What a [`Lines`] writer thread writes to.
@@ -99,6 +104,7 @@ impl Lines {
             note,
             refused,
             name,
+            queued: 0,
             written,
             opened,
         }
@@ -120,8 +126,10 @@ impl Lines {
                 Err(TrySendError::Disconnected(_)) => return,
             }
         }
-        if let Err(TrySendError::Full(_)) = queue.try_send(line) {
-            self.dropped += 1;
+        match queue.try_send(line) {
+            Ok(()) => self.queued += 1,
+            Err(TrySendError::Full(_)) => self.dropped += 1,
+            Err(TrySendError::Disconnected(_)) => {}
         }
     }
 }
@@ -134,20 +142,49 @@ fn write_counted(out: &mut dyn Write, line: &str, refused: &Mutex<Refused>, note
     // Not held while writing: a reader that stalls the write must not
     // stall the end of the daemon, which reads the count.
     let lock = || refused.lock().unwrap_or_else(PoisonError::into_inner);
-    let before = lock().lines;
-    let mut write = |text: &str| out.write_all(text.as_bytes()).and_then(|()| out.flush());
-    let result = match before {
-        0 => write(line),
-        n => write(&note(n)).and_then(|()| {
-            *lock() = Refused::default();
-            write(line)
-        }),
+    let (before, broken) = {
+        let r = lock();
+        (r.lines, r.broken)
     };
-    if let Err(e) = result {
+    let result = match before {
+        0 => write_line(out, line),
+        n => {
+            let note = format!("{}{}", if broken { "\n" } else { "" }, note(n));
+            write_line(out, &note).and_then(|()| {
+                *lock() = Refused::default();
+                write_line(out, line)
+            })
+        }
+    };
+    if let Err((e, partly)) = result {
         let mut r = lock();
         r.lines += 1;
         r.error = Some(e);
+        r.broken |= partly;
     }
+}
+
+/// Writes all of `text` and flushes; on error, whether part of it was
+/// written.
+fn write_line(out: &mut dyn Write, text: &str) -> Result<(), (io::Error, bool)> {
+    let mut left = text.as_bytes();
+    while !left.is_empty() {
+        match out.write(left) {
+            Ok(0) => {
+                let partly = left.len() < text.len();
+                return Err((io::ErrorKind::WriteZero.into(), partly));
+            }
+            Ok(n) => left = &left[n..],
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err((e, left.len() < text.len())),
+        }
+    }
+    out.flush().map_err(|e| (e, false))
+}
+
+/// "1 line", "2 lines".
+fn lines(n: u64) -> String {
+    format!("{n} line{}", if n == 1 { "" } else { "s" })
 }
 
 impl Drop for Lines {
@@ -159,15 +196,24 @@ impl Drop for Lines {
             let _ = queue.try_send((self.note)(self.dropped));
         }
         self.queue = None;
-        if self.opened.load(Ordering::Acquire) {
+        let opened = self.opened.load(Ordering::Acquire);
+        if opened {
             let _ = self.written.recv_timeout(LINES_DRAIN);
         }
+        let Some(name) = &self.name else {
+            return;
+        };
         let r = self.refused.lock().unwrap_or_else(PoisonError::into_inner);
-        if let (Some(name), Some(e)) = (&self.name, &r.error) {
-            eprintln!(
-                "fbwag: {name}: {} lines at the end not written: {e}",
-                r.lines
-            );
+        let lost = match &r.error {
+            Some(e) => Some(format!("{} at the end not written: {e}", lines(r.lines))),
+            None if !opened && self.queued > 0 => Some(format!(
+                "{} not written: no reader opened it",
+                lines(self.queued)
+            )),
+            None => None,
+        };
+        if let Some(lost) = lost {
+            eprintln!("fbwag: {name}: {lost}");
             OUTPUT_LOST.store(true, Ordering::Relaxed);
         }
     }
@@ -222,5 +268,50 @@ mod tests {
         }
         drop(lines);
         assert_eq!(*kept.lock().unwrap(), "2 dropped\nc\nd\n");
+    }
+
+    /// Takes `room` bytes, then refuses until `refusals` writes failed.
+    struct Short {
+        room: usize,
+        refusals: usize,
+        kept: Arc<Mutex<String>>,
+    }
+
+    impl Write for Short {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            if self.room == 0 && self.refusals > 0 {
+                self.refusals -= 1;
+                return Err(io::Error::from(io::ErrorKind::StorageFull));
+            }
+            let n = if self.room > 0 {
+                buf.len().min(self.room)
+            } else {
+                buf.len()
+            };
+            self.room -= n.min(self.room);
+            let mut kept = self.kept.lock().unwrap();
+            kept.push_str(std::str::from_utf8(&buf[..n]).unwrap());
+            Ok(n)
+        }
+
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_line_cut_short_stays_on_a_line_of_its_own() {
+        let kept = Arc::new(Mutex::new(String::new()));
+        let out = Short {
+            room: 4,
+            refusals: 1,
+            kept: kept.clone(),
+        };
+        let note: Note = Arc::new(|n| format!("{n} dropped\n"));
+        let mut lines = Lines::new(Output::Open(Box::new(out)), note, None);
+        lines.push("{\"a\":1}\n".to_string());
+        lines.push("{\"b\":2}\n".to_string());
+        drop(lines);
+        assert_eq!(*kept.lock().unwrap(), "{\"a\"\n1 dropped\n{\"b\":2}\n");
     }
 }

@@ -260,8 +260,10 @@ pub fn link_peer(s: &str) -> Result<ForLink<SocketAddr>, ArgError> {
 }
 
 /// Each of `links` links' value of option `flag` from what was `given`:
-/// the link's own, else the one given for every link, else none. A link
-/// given two values, or two given for every link, is an error.
+/// the link's own, else the one given for every link, else none. A later
+/// value replaces an earlier one for the same link (or for every link),
+/// as single-valued options do: a `--config` file's come first, so the
+/// command line's win.
 pub fn per_link<T: Clone>(
     flag: &str,
     given: &[ForLink<T>],
@@ -277,10 +279,7 @@ pub fn per_link<T: Clone>(
                 (format!("{flag} {link}"), error)
             })?,
         };
-        if slot.replace(g.value.clone()).is_some() {
-            let arg = g.link.map_or(flag.to_string(), |l| format!("{flag} {l}"));
-            return Err((arg, LinkOptionError::Twice));
-        }
+        *slot = Some(g.value.clone());
     }
     Ok(own
         .into_iter()
@@ -433,9 +432,6 @@ pub enum LinkOptionError {
     /// A value for a link past the last one given.
     #[error("link {link}: there are {links} links (counted from 1)")]
     NoSuchLink { link: usize, links: usize },
-    /// Two values for one link, or two for every link.
-    #[error("given twice for the same link")]
-    Twice,
     /// Rules that together do not make a filter (too many message ids).
     #[error(transparent)]
     Rules(#[from] FilterError),
@@ -628,16 +624,15 @@ mod tests {
     }
 
     #[test]
-    fn a_link_given_two_values_or_one_past_the_last_is_refused() {
+    fn a_later_value_for_a_link_wins_and_one_past_the_last_is_refused() {
         let peer = |s: &str| link_peer(s).unwrap();
+        let addr = |s: &str| Some(s.parse::<SocketAddr>().unwrap());
         let twice = [peer("2:10.0.0.1:1"), peer("2:10.0.0.2:1")];
-        let err = per_link("--peer", &twice, 2).unwrap_err();
-        assert_eq!(err, ("--peer 2".to_string(), LinkOptionError::Twice));
+        let got = per_link("--peer", &twice, 2).unwrap();
+        assert_eq!(got, vec![None, addr("10.0.0.2:1")]);
         let both = [peer("10.0.0.1:1"), peer("10.0.0.2:1")];
-        assert_eq!(
-            per_link("--peer", &both, 2).unwrap_err().1,
-            LinkOptionError::Twice
-        );
+        let got = per_link("--peer", &both, 2).unwrap();
+        assert_eq!(got, vec![addr("10.0.0.2:1"); 2]);
         let past = [peer("3:10.0.0.1:1")];
         let err = per_link("--peer", &past, 2).unwrap_err().1;
         assert_eq!(err, LinkOptionError::NoSuchLink { link: 3, links: 2 });

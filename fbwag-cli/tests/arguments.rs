@@ -242,7 +242,8 @@ fn a_signing_state_file_that_cannot_be_written_is_refused_at_start() {
 /// `--events` naming a FIFO nobody reads yet: the daemon starts and runs
 /// its whole time (opening a FIFO for writing waits for a reader, and it
 /// was opened before anything else: the daemon hung there, links never
-/// opened); a reader that comes later reads its events.
+/// opened); a reader that comes later reads its events. With no reader
+/// ever, the events are lost: said, and the run exits 2.
 #[cfg(unix)]
 #[test]
 fn events_to_a_fifo_without_a_reader_never_hold_a_daemon() {
@@ -285,7 +286,18 @@ fn events_to_a_fifo_without_a_reader_never_hold_a_daemon() {
     for (daemon, child, reader) in runs {
         let out = wait_bounded(child, started).expect("the daemon hung");
         let log = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{daemon:?}: {log}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        let read = reader.is_some();
+        assert_eq!(
+            out.status.code(),
+            Some(if read { 0 } else { 2 }),
+            "{daemon:?}: {log}{err}"
+        );
+        assert_eq!(
+            err.contains("no reader opened it"),
+            !read,
+            "{daemon:?}: {err}"
+        );
         assert!(
             started.elapsed() >= Duration::from_millis(1500) && log.contains("127.0.0.1"),
             "{daemon:?} did not run: {log}"

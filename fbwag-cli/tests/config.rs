@@ -172,6 +172,43 @@ fn a_directory_adds_up_its_files_in_name_order() {
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
 }
 
+/// The command line's value for a link replaces a file's (a pinned peer
+/// moved without editing the file), and a value refused because of what
+/// the command line added is blamed on the command line, not the file.
+#[test]
+fn the_command_line_overrides_a_files_value_for_a_link() {
+    let d = dir("override");
+    let file = write(
+        &d,
+        "router.toml",
+        "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\n\
+         peer = [\"1:127.0.0.1:9\"]\n\
+         filter_in = [\"1:block-msg=1,2,3,4,5,6,7,8,9\"]\n",
+    );
+    let out = fbwag()
+        .args(["router", "--duration", "0.2", "--config"])
+        .arg(&file)
+        .args(["--peer", "1:127.0.0.1:7"])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(log.contains("answers 127.0.0.1:7 only"), "{log}");
+    let out = fbwag()
+        .args(["router", "--config"])
+        .arg(&file)
+        .args(["--filter-in", "1:block-msg=10,11,12,13,14,15,16,17"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--filter-in 1:block-msg=10,"), "{err}");
+    assert!(
+        !err.contains("router.toml"),
+        "the file is not at fault: {err}"
+    );
+}
+
 /// What a bad file says, and where.
 #[test]
 fn a_bad_file_is_refused_with_its_line_and_column() {

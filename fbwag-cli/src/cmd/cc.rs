@@ -37,8 +37,9 @@ pub struct CcArgs {
     /// (`sign_key = "@/etc/fbwag/key"`, `require_signed = true`, lists
     /// for repeatable ones). A directory: its *.toml files in name order.
     /// Repeatable; a later file's single-valued options win (`false`
-    /// turns a switch off), and the command line's over all; repeatable
-    /// ones add up, the files' first. Example: deploy/cc.toml.
+    /// turns a switch off), and the command line's over all, as does a
+    /// later value given for the same link (LINK:VALUE); repeatable ones
+    /// add up, the files' first. Example: deploy/cc.toml.
     #[arg(long, value_name = "PATH")]
     pub config: Vec<PathBuf>,
     /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,

@@ -245,22 +245,31 @@ impl FileArgs {
     /// option: the refusal (`why`) as the file's error.
     pub fn blame_link(&self, arg: &str, why: impl fmt::Display) -> Option<ConfigError> {
         let (flag, value) = arg.split_once(' ')?;
-        let link_of = |v: &str| -> Option<usize> {
-            let place = v.split_once(':').map_or(v, |(link, _)| link);
-            place.trim().parse().ok()
+        // `LINK` or `LINK:RULE` (a filter's rule, which must be the file's
+        // too: the command line may give the same link another).
+        let (link, rule) = link_and_rule(value);
+        link?;
+        let same = |v: &String| {
+            let (l, r) = link_and_rule(v);
+            l == link && rule.is_none_or(|rule| r == Some(rule))
         };
-        let link = link_of(value)?;
         let origin = self
             .origins
             .iter()
             .rev()
-            .find(|o| o.name == flag && o.values.iter().any(|v| link_of(v) == Some(link)))?;
+            .find(|o| o.name == flag && o.values.iter().any(same))?;
         Some(ConfigError::Key {
             at: origin.at.clone(),
             key: origin.key.clone(),
             why: format!("{value}: {why}"),
         })
     }
+}
+
+/// A per-link value's link place and what follows its colon, if any.
+fn link_and_rule(v: &str) -> (Option<usize>, Option<&str>) {
+    let (place, rule) = v.split_once(':').map_or((v, None), |(l, r)| (l, Some(r)));
+    (place.trim().parse().ok(), rule.map(str::trim))
 }
 
 /// Reads `path` as the options of subcommand `command`.

@@ -33,9 +33,10 @@ pub struct RouterArgs {
     /// for repeatable ones), `links = [...]` for the links. A directory:
     /// its *.toml files in name order. Repeatable; a later file's
     /// single-valued options win (`false` turns a switch off), and the
-    /// command line's over all; repeatable ones add up, the files' first:
-    /// links are numbered (LINK) files' links first, then CONN's; the log
-    /// lists them at start. Example: deploy/router.toml.
+    /// command line's over all, as does a later value given for the same
+    /// link (LINK:VALUE); repeatable ones add up, the files' first: links
+    /// are numbered (LINK) files' links first, then CONN's; the log lists
+    /// them at start. Example: deploy/router.toml.
     #[arg(long, value_name = "PATH")]
     pub config: Vec<PathBuf>,
     /// Verify signatures with this key (64 hex digits, or @FILE holding

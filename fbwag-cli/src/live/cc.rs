@@ -316,6 +316,11 @@ impl Node for Daemon {
     fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
         self.node.handle_timeout(now);
         self.drain(now, net, log);
+        // The log writer's notes (a file begun, a write error) as they
+        // come: timers fire every second at least (the heartbeat).
+        if let Some(t) = &mut self.tlog {
+            t.tlog.notes(log);
+        }
     }
 
     fn handle_frame(

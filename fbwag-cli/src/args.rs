@@ -430,7 +430,7 @@ pub struct LinkFilter {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum LinkOptionError {
     /// A value for a link past the last one given.
-    #[error("link {link}: there are {links} links (counted from 1)")]
+    #[error("link {link}: {} (counted from 1)", match links { 1 => "there is 1 link".to_string(), n => format!("there are {n} links") })]
     NoSuchLink { link: usize, links: usize },
     /// Rules that together do not make a filter (too many message ids).
     #[error(transparent)]

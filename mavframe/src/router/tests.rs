@@ -540,45 +540,52 @@ async fn tcpin_never_evicts_the_peer_of_an_any_port_rule() {
     assert_eq!(closed, 5, "the oldest strangers evicted");
 }
 
+/// A link `kind:addr` verifying `key`, its signing state kept in a file
+/// of a fresh directory named by `name`: the router, the directory.
+async fn keyed_link(
+    kind: &str,
+    addr: SocketAddr,
+    key: [u8; 32],
+    name: &str,
+) -> (Router<TestDialect>, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("mavframe-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut router = Router::<TestDialect>::new();
+    let mut config = LinkConfig::new(format!("{kind}:{addr}").parse().unwrap());
+    (config.key, config.signing_state) = (Some(key), Some(dir.join("link.state")));
+    router.add(config).await.unwrap();
+    (router, dir)
+}
+
+/// The streams saved in `dir`'s state file, if it holds one.
+fn saved_streams(dir: &std::path::Path) -> Option<Vec<crate::signing::StreamState>> {
+    let (file, _) = crate::signing::state::StateFile::open(dir.join("link.state")).ok()?;
+    Some(file.state().streams.clone())
+}
+
 /// A `tcpin` link with a state file saves, when it ends, the verifier
 /// its clients share, not the one it opened with (which had seen no
 /// frame: a restart would have accepted every capture of the run).
 #[tokio::test]
 async fn tcpin_saves_the_shared_verifier_at_the_end() {
-    use crate::signing::state::StateFile;
-    use crate::signing::{timestamp_now, Signer};
     let key = [6u8; 32];
-    let dir = std::env::temp_dir().join(format!("mavframe-tcpin-state-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("link.state");
-    let _ = std::fs::remove_file(&path);
     let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
-    let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
-    (config.key, config.signing_state) = (Some(key), Some(path.clone()));
-    router.add(config).await.unwrap();
-    let mut signer = Signer::new(key, 3, timestamp_now());
-    let h = Header {
-        seq: 0,
-        sysid: 7,
-        compid: 8,
-    };
-    let frame = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, Some(&mut signer)).unwrap();
+    let (mut router, dir) = keyed_link("tcpin", addr, key, "tcpin-state").await;
     let mut peer = TcpStream::connect(addr).await.unwrap();
-    peer.write_all(&frame).await.unwrap();
+    peer.write_all(&signed_ping(key, 3, 7)).await.unwrap();
     let Some(RouterEvent::Frame(f)) = router.recv().await else {
         panic!("no frame");
     };
     assert!(f.frame.is_authenticated());
     router.shutdown(Duration::from_secs(2)).await;
-    let (file, _) = StateFile::open(&path).unwrap();
-    let streams = &file.state().streams;
+    let streams = saved_streams(&dir).unwrap();
     assert!(
         streams
             .iter()
-            .any(|s| (s.link_id, s.sysid, s.compid) == (3, 7, 8)),
+            .any(|s| (s.link_id, s.sysid, s.compid) == (3, 7, 1)),
         "the stream the client's frame came on is saved: {streams:?}"
     );
     let _ = std::fs::remove_dir_all(&dir);
@@ -589,41 +596,25 @@ async fn tcpin_saves_the_shared_verifier_at_the_end() {
 /// a power loss), a restart refuses a replay of the frame.
 #[tokio::test]
 async fn a_quiet_link_saves_what_it_accepted_within_a_second() {
-    use crate::signing::state::{StateFile, SAVE_INTERVAL};
-    use crate::signing::{timestamp_now, Signer};
+    use crate::signing::state::SAVE_INTERVAL;
     let key = [9u8; 32];
-    let dir = std::env::temp_dir().join(format!("mavframe-quiet-state-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("link.state");
-    let _ = std::fs::remove_file(&path);
     let probe = StdUdp::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
-    let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
-    (config.key, config.signing_state) = (Some(key), Some(path.clone()));
-    router.add(config).await.unwrap();
-    let mut signer = Signer::new(key, 4, timestamp_now());
-    let h = Header {
-        seq: 0,
-        sysid: 5,
-        compid: 6,
-    };
-    let frame = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, Some(&mut signer)).unwrap();
+    let (mut router, dir) = keyed_link("udpin", addr, key, "quiet-state").await;
+    let frame = signed_ping(key, 4, 5);
     udp_socket().await.send_to(&frame, addr).await.unwrap();
     assert!(next_frame(&mut router).await.frame.is_authenticated());
     // Nothing more arrives; the router keeps running.
     tokio::time::sleep(SAVE_INTERVAL * 2 + Duration::from_millis(500)).await;
-    let saved = StateFile::open(&path)
-        .ok()
-        .map(|(file, _)| file.state().streams.clone());
+    let saved = saved_streams(&dir);
     router.shutdown(Duration::from_secs(2)).await;
     let _ = std::fs::remove_dir_all(&dir);
     let streams = saved.expect("a state file, saved while the router runs");
     assert!(
         streams
             .iter()
-            .any(|s| (s.link_id, s.sysid, s.compid) == (4, 5, 6)),
+            .any(|s| (s.link_id, s.sysid, s.compid) == (4, 5, 1)),
         "the frame's stream is saved: {streams:?}"
     );
 }

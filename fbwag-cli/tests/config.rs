@@ -231,28 +231,34 @@ fn a_bad_file_is_refused_with_its_line_and_column() {
         ),
         (
             "links = [\"udpin:127.0.0.1:1\", \"bogus:1\"]\n",
-            ":1:9:",
+            ":1:31:",
             "`links`",
         ),
         (
             "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nsniffer = [1, 0]\n",
-            ":2:11:",
+            ":2:15:",
             "`sniffer`",
         ),
         (
             "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nfilter_in = [\"9:allow-msg=0\"]\n",
-            ":2:13:",
+            ":2:14:",
             "`filter_in`: 9:allow-msg=0: link 9: there are 2 links",
         ),
         (
             "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\nsniffer = [5]\n",
-            ":2:11:",
+            ":2:12:",
             "`sniffer`: 5: link 5: there are 2 links",
         ),
         (
             "links = [\"udpin:127.0.0.1:1\", \"udpout:127.0.0.1:2\"]\npeer = [\"2:127.0.0.1:5\"]\n",
-            ":2:8:",
+            ":2:9:",
             "`peer`: 2: link udpout:127.0.0.1:2 does not listen",
+        ),
+        // An array over several lines: the element's own line.
+        (
+            "links = [\n  \"udpin:127.0.0.1:1\",\n  \"udpout:127.0.0.1:2\",\n]\nfilter_out = [\n  \"1:block-msg=0\",\n  \"3:block-msg=0\",\n]\n",
+            ":7:3:",
+            "`filter_out`: 3:block-msg=0: link 3: there are 2 links",
         ),
         ("links = [\"udpin:127.0.0.1:1\",\n", ":1:", "unclosed array"),
         ("[router]\nlinks = []\n", ":1:2:", "no such option"),

@@ -94,7 +94,19 @@ struct Origin {
     name: String,
     key: String,
     at: Location,
-    values: Vec<String>,
+    /// Each value as clap sees it, and where the file gives it (an
+    /// array's element on its own line, say).
+    values: Vec<(String, Location)>,
+}
+
+impl Origin {
+    /// Where the file gives the first value `wanted` accepts.
+    fn value_at(&self, wanted: impl Fn(&String) -> bool) -> Option<&Location> {
+        self.values
+            .iter()
+            .find(|(v, _)| wanted(v))
+            .map(|(_, at)| at)
+    }
 }
 
 /// Inserts the options of every `--config PATH` (when the subcommand has
@@ -222,18 +234,23 @@ impl FileArgs {
         };
         let flag = text(ContextKind::InvalidArg)?;
         let value = text(ContextKind::InvalidValue);
-        let origin = self.origins.iter().find(|o| {
+        let (origin, at) = self.origins.iter().find_map(|o| {
             // A list positional is `<CONN>...` in clap's errors.
-            flag.split_whitespace()
+            let named = flag
+                .split_whitespace()
                 .next()
                 .map(|f| f.trim_end_matches("..."))
-                == Some(o.name.as_str())
-                && value.is_none_or(|v| o.values.iter().any(|w| w == v))
+                == Some(o.name.as_str());
+            let at = match value {
+                Some(v) => o.value_at(|w| w == v)?,
+                None => &o.at,
+            };
+            named.then_some((o, at))
         })?;
         let rendered = e.to_string();
         let first = rendered.lines().next().unwrap_or_default();
         Some(ConfigError::Key {
-            at: origin.at.clone(),
+            at: at.clone(),
             key: origin.key.clone(),
             why: first.trim_start_matches("error: ").to_owned(),
         })
@@ -253,13 +270,14 @@ impl FileArgs {
             let (l, r) = link_and_rule(v);
             l == link && rule.is_none_or(|rule| r == Some(rule))
         };
-        let origin = self
+        let (origin, at) = self
             .origins
             .iter()
             .rev()
-            .find(|o| o.name == flag && o.values.iter().any(same))?;
+            .filter(|o| o.name == flag)
+            .find_map(|o| Some((o, o.value_at(same)?)))?;
         Some(ConfigError::Key {
-            at: origin.at.clone(),
+            at: at.clone(),
             key: origin.key.clone(),
             why: format!("{value}: {why}"),
         })
@@ -322,8 +340,16 @@ pub fn load(command: &Command, path: &Path) -> Result<FileArgs, ConfigError> {
             let on = switch(value).map_err(refuse_value)?;
             out.set_switch(name.clone().into(), on);
         } else {
-            let words;
-            (words, values) = self::words(arg, value).map_err(refuse_value)?;
+            let (words, given) =
+                self::words(arg, value).map_err(|(why, offset)| ConfigError::Key {
+                    at: at(offset),
+                    key: key.get_ref().to_string(),
+                    why,
+                })?;
+            values = given
+                .into_iter()
+                .map(|(v, offset)| (v, at(offset)))
+                .collect();
             if arg.is_positional() {
                 out.positionals.extend(words);
             } else {
@@ -373,25 +399,35 @@ fn switch(value: &Spanned<DeValue>) -> Result<bool, String> {
     }
 }
 
+/// An option's command-line words, and each value with the byte offset
+/// of where the file gives it.
+type Words = (Vec<OsString>, Vec<(String, usize)>);
+
 /// The command-line words of `value` for option `arg` (not a switch): a
 /// list option takes a list or one value; any other one value (a string,
-/// a number). With the values, as clap will see them.
-fn words(arg: &Arg, value: &Spanned<DeValue>) -> Result<(Vec<OsString>, Vec<String>), String> {
+/// a number). With the values, as clap will see them, each with where the
+/// file gives it; an error with where the value at fault is.
+fn words(arg: &Arg, value: &Spanned<DeValue>) -> Result<Words, (String, usize)> {
     let flag = arg.get_long().map(|l| format!("--{l}"));
     let many = matches!(arg.get_action(), ArgAction::Append)
         || arg.get_num_args().is_some_and(|n| n.max_values() > 1);
+    let one = |v: &Spanned<DeValue>| {
+        let at = v.span().start;
+        scalar(v.get_ref())
+            .map(|s| (s, at))
+            .map_err(|why| (why, at))
+    };
     let values = match value.get_ref() {
-        DeValue::Array(items) if many => items
-            .iter()
-            .map(|v| scalar(v.get_ref()))
-            .collect::<Result<Vec<_>, _>>()?,
-        DeValue::Array(_) => return Err("takes one value, not a list".into()),
-        other => vec![scalar(other)?],
+        DeValue::Array(items) if many => items.iter().map(one).collect::<Result<Vec<_>, _>>()?,
+        DeValue::Array(_) => {
+            return Err(("takes one value, not a list".into(), value.span().start))
+        }
+        _ => vec![one(value)?],
     };
     // `--flag=VALUE`: a value that starts with `-` stays a value.
     let words = values
         .iter()
-        .map(|v| match &flag {
+        .map(|(v, _)| match &flag {
             Some(f) => OsString::from(format!("{f}={v}")),
             None => OsString::from(v),
         })

@@ -3,7 +3,7 @@
 use crate::error::{CliError, Outcome};
 use crate::{hexstream, json};
 use fbwag_dialect::mavframe::frame::{frame_len, Frame, FrameError, MAX_FRAME_LEN};
-use fbwag_dialect::mavframe::parser::{Parser, Stats};
+use fbwag_dialect::mavframe::parser::{Parser, Received, Stats};
 use fbwag_dialect::mavframe::MessageSet;
 use fbwag_dialect::Dialect;
 use std::io::{BufWriter, Read, Write};
@@ -233,20 +233,21 @@ fn emit_record(
     us: u64,
     emit: &mut Emit<'_>,
 ) -> Result<bool, CliError> {
-    let mut record = bytes;
-    let mut taken = false;
-    if let Some(r) = parser.next_in_datagram(&mut record) {
-        if r.frame.as_bytes().len() == bytes.len() {
+    let mut emit_whole = |r: Received<'_, Dialect>| {
+        let whole = r.frame.as_bytes().len() == bytes.len();
+        if whole {
             emit(json::frame_to_json(&r.frame, r.meta, Some(us)))?;
-            taken = true;
         }
-    }
+        Ok::<bool, CliError>(whole)
+    };
+    let mut record = bytes;
+    let mut taken = match parser.next_in_datagram(&mut record) {
+        Some(r) => emit_whole(r)?,
+        None => false,
+    };
     if !taken {
         if let Some(r) = parser.end_of_datagram() {
-            if r.frame.as_bytes().len() == bytes.len() {
-                emit(json::frame_to_json(&r.frame, r.meta, Some(us)))?;
-                taken = true;
-            }
+            taken = emit_whole(r)?;
         }
     }
     while parser.end_of_datagram().is_some() {}

@@ -495,8 +495,8 @@ pub trait Node {
 /// Runs `node` until it is done: timers when due, then one event (a frame
 /// or a link's change) or the next deadline, whichever comes first; then
 /// the links are stopped, each saving its signing state.
-/// With `signals`, SIGTERM (and SIGINT, from a terminal) end it the same
-/// way ([`StopSignals`]).
+/// With `signals`, SIGTERM (and SIGINT or SIGHUP, from a terminal) end it
+/// the same way ([`StopSignals`]).
 pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log, signals: bool) {
     let mut stopped = StopSignals::new(signals, log).watch();
     while !node.done(clock) {

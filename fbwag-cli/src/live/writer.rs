@@ -232,45 +232,7 @@ pub fn output_lost() -> bool {
 mod tests {
     use super::*;
 
-    /// Refuses its first `fail` writes, then keeps what it is given.
-    struct Flaky {
-        fail: usize,
-        kept: Arc<Mutex<String>>,
-    }
-
-    impl Write for Flaky {
-        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-            if self.fail > 0 {
-                self.fail -= 1;
-                return Err(io::Error::from(io::ErrorKind::StorageFull));
-            }
-            let mut kept = self.kept.lock().unwrap();
-            kept.push_str(std::str::from_utf8(buf).unwrap());
-            Ok(buf.len())
-        }
-
-        fn flush(&mut self) -> io::Result<()> {
-            Ok(())
-        }
-    }
-
-    #[test]
-    fn lines_the_output_refused_are_counted_before_the_next_one_written() {
-        let kept = Arc::new(Mutex::new(String::new()));
-        let out = Flaky {
-            fail: 2,
-            kept: kept.clone(),
-        };
-        let note: Note = Arc::new(|n| format!("{n} dropped\n"));
-        let mut lines = Lines::new(Output::Open(Box::new(out)), note, None);
-        for line in ["a\n", "b\n", "c\n", "d\n"] {
-            lines.push(line.to_string());
-        }
-        drop(lines);
-        assert_eq!(*kept.lock().unwrap(), "2 dropped\nc\nd\n");
-    }
-
-    /// Takes `room` bytes, then refuses until `refusals` writes failed.
+    /// Takes `room` bytes, then refuses `refusals` writes, then takes all.
     struct Short {
         room: usize,
         refusals: usize,
@@ -297,6 +259,23 @@ mod tests {
         fn flush(&mut self) -> io::Result<()> {
             Ok(())
         }
+    }
+
+    #[test]
+    fn lines_the_output_refused_are_counted_before_the_next_one_written() {
+        let kept = Arc::new(Mutex::new(String::new()));
+        let out = Short {
+            room: 0,
+            refusals: 2,
+            kept: kept.clone(),
+        };
+        let note: Note = Arc::new(|n| format!("{n} dropped\n"));
+        let mut lines = Lines::new(Output::Open(Box::new(out)), note, None);
+        for line in ["a\n", "b\n", "c\n", "d\n"] {
+            lines.push(line.to_string());
+        }
+        drop(lines);
+        assert_eq!(*kept.lock().unwrap(), "2 dropped\nc\nd\n");
     }
 
     #[test]

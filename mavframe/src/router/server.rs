@@ -1,9 +1,7 @@
 //! `tcpin` links: the clients, each served by a task of its own.
 
 use super::queues::{count_routed_dropped, Command, Queues, RoutedBytes, RoutedFrame};
-use super::task::{
-    next_save_tick, outgoing, owner_gives, routed_bytes, save_tick, Core, Ended, LinkTask,
-};
+use super::task::{outgoing, owner_gives, routed_bytes, Core, Ended, LinkTask, SaveTick};
 use super::transport::bound_unsent;
 use super::{
     Inbound, RouterEvent, ACCEPT_BACKOFF, CLIENT_QUEUE, EVICTED_BACKOFF, MAX_CLIENTS, STREAM_ROOM,
@@ -45,17 +43,14 @@ impl<D: MessageSet + 'static> LinkTask<D> {
         let mut clients: Vec<Client> = Vec::new();
         let mut peers = Peers::new(self.config.reply_to);
         let mut paused_until = None::<tokio::time::Instant>;
-        let tick = save_tick();
-        tokio::pin!(tick);
-        let keeps = self.signing.keeps_state();
+        let mut tick = SaveTick::new(self.signing.keeps_state());
         loop {
             let resume = paused_until.unwrap_or_else(tokio::time::Instant::now);
             tokio::select! {
                 // What the clients accepted, in the shared verifier.
-                () = &mut tick, if keeps => {
+                () = tick.next() => {
                     let verifier = shared.as_ref().map(lock);
                     self.save(core, verifier.as_ref(), false);
-                    tick.as_mut().reset(next_save_tick());
                 }
                 r = listener.accept(), if paused_until.is_none() => match r {
                     Ok((stream, addr)) => self.admit(stream, addr, &mut clients, &peers, &shared),

@@ -14,6 +14,7 @@ use crate::message::MessageSet;
 use crate::route::LinkId;
 use crate::signing::state::SAVE_INTERVAL;
 use crate::signing::Verifier;
+use core::pin::Pin;
 use std::boxed::Box;
 use std::io;
 use std::net::SocketAddr;
@@ -22,6 +23,7 @@ use std::vec;
 use std::vec::Vec;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::mpsc;
+use tokio::time::Sleep;
 
 /// One link's task.
 pub(super) struct LinkTask<D: MessageSet> {
@@ -230,15 +232,10 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     ) -> Ended {
         let mut peers = Peers::new(self.config.reply_to);
         let mut datagram = Vec::with_capacity(DATAGRAM_FRAMES_MAX);
-        let tick = save_tick();
-        tokio::pin!(tick);
-        let keeps = self.signing.keeps_state();
+        let mut tick = SaveTick::new(self.signing.keeps_state());
         loop {
             tokio::select! {
-                () = &mut tick, if keeps => {
-                    self.save(core, None, false);
-                    tick.as_mut().reset(next_save_tick());
-                }
+                () = tick.next() => self.save(core, None, false),
                 // A failed receive (an ICMP error on some systems) says
                 // nothing about the next one: it is skipped.
                 r = socket.recv_from(core.inbox.space()) => if let Ok((n, from)) = r {
@@ -302,15 +299,10 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     }
 
     async fn stream(&mut self, mut stream: Box<dyn AsyncStream>, core: &mut Core<D>) -> Ended {
-        let tick = save_tick();
-        tokio::pin!(tick);
-        let keeps = self.signing.keeps_state();
+        let mut tick = SaveTick::new(self.signing.keeps_state());
         loop {
             tokio::select! {
-                () = &mut tick, if keeps => {
-                    self.save(core, None, false);
-                    tick.as_mut().reset(next_save_tick());
-                }
+                () = tick.next() => self.save(core, None, false),
                 r = stream.read(core.inbox.space()) => match r {
                     Ok(0) => {
                         let _ = self.deliver(core, true).await;
@@ -342,15 +334,29 @@ impl<D: MessageSet + 'static> LinkTask<D> {
 /// The tick that saves a link's signing state while the link is quiet:
 /// a save is otherwise asked for after each frame and send only, so a link
 /// that fell silent right after accepting frames kept them unsaved, and a
-/// crash then let them be replayed into the restarted program. (A pinned
-/// timer reset once a second: none made per frame.)
-pub(super) fn save_tick() -> tokio::time::Sleep {
-    tokio::time::sleep_until(next_save_tick())
-}
+/// crash then let them be replayed into the restarted program. One timer
+/// a link, reset as it fires: none made per frame.
+pub(super) struct SaveTick(Option<Pin<Box<Sleep>>>);
 
-/// When the next [`save_tick`] fires.
-pub(super) fn next_save_tick() -> tokio::time::Instant {
-    tokio::time::Instant::now() + SAVE_INTERVAL
+impl SaveTick {
+    /// Every [`SAVE_INTERVAL`] for a link that `keeps` a state file;
+    /// never for one that does not.
+    pub(super) fn new(keeps: bool) -> SaveTick {
+        SaveTick(keeps.then(|| Box::pin(tokio::time::sleep(SAVE_INTERVAL))))
+    }
+
+    /// Waits for the next tick. Cancel-safe (a `select!` branch): the
+    /// timer lives in `self`.
+    pub(super) async fn next(&mut self) {
+        match &mut self.0 {
+            Some(sleep) => {
+                sleep.as_mut().await;
+                let next = tokio::time::Instant::now() + SAVE_INTERVAL;
+                sleep.as_mut().reset(next);
+            }
+            None => std::future::pending().await,
+        }
+    }
 }
 
 impl Command {

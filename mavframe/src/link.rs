@@ -161,13 +161,6 @@ impl<D: MessageSet, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> LinkCore<D, B,
     pub(crate) fn adopt(&mut self) {
         self.framer.adopt_from(self.inbox.parser.verifier());
     }
-
-    /// [`Inbox::next`], then [`adopt`](Self::adopt).
-    pub(crate) fn next(&mut self) -> Option<ReceivedBuf<D>> {
-        let got = self.inbox.next();
-        self.adopt();
-        got
-    }
 }
 
 #[cfg(feature = "std")]
@@ -352,6 +345,12 @@ mod std_parts {
             }
         }
 
+        /// The key's verifier as the state saved leaves it (`None`
+        /// without a key).
+        pub(crate) fn verifier(&self) -> Option<([u8; 32], Verifier)> {
+            self.key.map(|key| (key, self.start.verifier(key)))
+        }
+
         /// A framer with the key's signer, from the state saved.
         pub(crate) fn framer(&self) -> Framer {
             let mut framer = Framer::new();
@@ -466,7 +465,8 @@ mod tests {
         };
         core.inbox.space()[..bytes.len()].copy_from_slice(&bytes);
         core.inbox.received(bytes.len(), None, false);
-        assert!(core.next().unwrap().is_authenticated());
+        assert!(core.inbox.next().unwrap().is_authenticated());
+        core.adopt();
         assert!(core.framer.signer().unwrap().timestamp() >= 5_000_000);
     }
 

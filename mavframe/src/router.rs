@@ -3,9 +3,10 @@
 //! [`crate::route`] between them.
 //!
 //! Each link task owns its transport and drives the link's core
-//! (`crate::link`): its parser (with the link's key, if any: signatures are
-//! verified per link) and its [`Framer`](crate::Framer) (sequence numbers
-//! and signing for messages this node sends on it). It reads frames
+//! (`crate::link`): its parser (with the link's key, if any, and that
+//! key's replay window, one for every link with the key) and its
+//! [`Framer`](crate::Framer) (sequence numbers and signing for messages
+//! this node sends on it). It reads frames
 //! and hands them to the [`Router`] as [`RouterEvent::Frame`]; it sends what
 //! the router queues for it. A link that fails (a TCP peer gone, a serial
 //! port unplugged) reports [`RouterEvent::LinkDown`] and is opened again
@@ -65,6 +66,7 @@ use crate::link::SigningFile;
 use crate::message::{Encode, MessageMeta, MessageSet};
 use crate::parser::{Stats, Unsigned};
 use crate::route::{LinkId, Links, RoutingTable};
+use crate::signing::Verifier;
 use core::num::NonZeroU32;
 use queues::{count_routed_dropped, sender_key, Command, Queues, RoutedBytes, RoutedFrame};
 use std::io;
@@ -326,6 +328,8 @@ pub struct LinkCounters {
 /// ```
 pub struct Router<D: MessageSet> {
     links: Vec<LinkHandle>,
+    /// One replay window per key, shared by every link verifying with it.
+    windows: Vec<([u8; 32], ReplayWindow)>,
     events: mpsc::Receiver<RouterEvent<D>>,
     events_tx: mpsc::Sender<RouterEvent<D>>,
     table: RoutingTable,
@@ -346,6 +350,7 @@ impl<D: MessageSet + 'static> Router<D> {
         let (events_tx, events) = mpsc::channel(INBOUND_QUEUE);
         Router {
             links: Vec::new(),
+            windows: Vec::new(),
             events,
             events_tx,
             table: RoutingTable::new(),
@@ -360,6 +365,9 @@ impl<D: MessageSet + 'static> Router<D> {
     /// yet, a USB radio still enumerating), so such a link starts down,
     /// reported as [`RouterEvent::LinkDown`], and is opened again every
     /// [`REOPEN_INTERVAL`].
+    ///
+    /// Links with the same key share one replay window: a signed frame
+    /// accepted on one is refused as a replay on the others.
     pub async fn add(&mut self, config: LinkConfig) -> io::Result<LinkId> {
         if self.links.len() >= 64 {
             return Err(io::Error::new(
@@ -377,6 +385,7 @@ impl<D: MessageSet + 'static> Router<D> {
         };
         let signing =
             SigningFile::open(config.key, config.unsigned, config.signing_state.as_deref())?;
+        let window = self.window(&signing);
         let (commands, own) = mpsc::channel(LINK_QUEUE);
         let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
         let counters = Arc::new(Mutex::new(LinkCounters::default()));
@@ -393,6 +402,7 @@ impl<D: MessageSet + 'static> Router<D> {
             commands: Queues::new(own, routed_rx, rate, counters.clone()),
             counters: counters.clone(),
             signing,
+            window,
             clients_accepted: 0,
         };
         let task = tokio::spawn(task.run(transport));
@@ -405,6 +415,25 @@ impl<D: MessageSet + 'static> Router<D> {
             task,
         });
         Ok(id)
+    }
+
+    /// The replay window of the key `signing` verifies with, shared with
+    /// the links added before with that key and raised to what `signing`
+    /// saved: a frame accepted on one link is a replay on every other, as
+    /// MAVLink keys replay state by (link id, system, component) of the
+    /// signature wherever a frame arrives (with a window per link, a
+    /// listener on one link replayed there what another link had
+    /// accepted). `None` without a key.
+    fn window(&mut self, signing: &SigningFile) -> Option<ReplayWindow> {
+        let (key, saved) = signing.verifier()?;
+        if let Some((_, window)) = self.windows.iter().find(|(k, _)| *k == key) {
+            let mut shared = lock(window);
+            shared.restore(saved.newest_timestamp(), &saved.floors(), saved.streams());
+            return Some(window.clone());
+        }
+        let window = Arc::new(Mutex::new(saved));
+        self.windows.push((key, window.clone()));
+        Some(window)
     }
 
     /// Stops every link after what is queued for it, saving each link's
@@ -651,6 +680,19 @@ impl<D: MessageSet + 'static> Router<D> {
             c.dropped_full = c.dropped_full.saturating_add(1);
         }
     }
+}
+
+/// The replay state of one key, shared by its links (see
+/// [`Router::add`]); held only while a frame is parsed or a state saved,
+/// never across an await.
+pub(crate) type ReplayWindow = Arc<Mutex<Verifier>>;
+
+/// `window`, locked (a poisoned lock still holds a whole verifier: each
+/// change to it is one call).
+fn lock(window: &Mutex<Verifier>) -> std::sync::MutexGuard<'_, Verifier> {
+    window
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 #[cfg(test)]

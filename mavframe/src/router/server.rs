@@ -1,21 +1,23 @@
 //! `tcpin` links: the clients, each served by a task of its own.
 
 use super::queues::{count_routed_dropped, Command, Queues, RoutedBytes, RoutedFrame};
-use super::task::{outgoing, owner_gives, routed_bytes, Core, Ended, LinkTask, SaveTick};
+use super::task::{
+    in_window, outgoing, owner_gives, routed_bytes, Core, Ended, LinkTask, SaveTick,
+};
 use super::transport::bound_unsent;
 use super::{
-    Inbound, RouterEvent, ACCEPT_BACKOFF, CLIENT_QUEUE, EVICTED_BACKOFF, MAX_CLIENTS, STREAM_ROOM,
+    Inbound, ReplayWindow, RouterEvent, ACCEPT_BACKOFF, CLIENT_QUEUE, EVICTED_BACKOFF, MAX_CLIENTS,
+    STREAM_ROOM,
 };
 use crate::conn::{ReceivedBuf, ReplyTo};
 use crate::link::{Inbox, Peers};
 use crate::message::MessageSet;
 use crate::route::LinkId;
-use crate::signing::Verifier;
 use std::boxed::Box;
 use std::io;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::Arc;
 use std::time::Duration;
 use std::vec::Vec;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -29,17 +31,11 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     /// [`MAX_CLIENTS`] at once; the link's [`ReplyTo`] rule says which get
     /// the output.
     pub(super) async fn server(&mut self, listener: TcpListener, core: &mut Core<D>) -> Ended {
-        // One verifier for all clients, swapped into each one's parser while
+        // The key's replay window, swapped into each client's parser while
         // it parses: a frame accepted from one client is a replay from any
         // other (with one each, a capture replayed on a new connection was
         // authenticated again, and could move the owner's peer).
-        let shared = core
-            .inbox
-            .parser
-            .verifier_mut()
-            .map(|v| Arc::new(Mutex::new(v.clone())));
-        let lock =
-            |v: &Arc<Mutex<Verifier>>| v.lock().unwrap_or_else(PoisonError::into_inner).clone();
+        let shared = self.window.clone();
         let mut clients: Vec<Client> = Vec::new();
         let mut peers = Peers::new(self.config.reply_to);
         let mut paused_until = None::<tokio::time::Instant>;
@@ -48,10 +44,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
             let resume = paused_until.unwrap_or_else(tokio::time::Instant::now);
             tokio::select! {
                 // What the clients accepted, in the shared verifier.
-                () = tick.next() => {
-                    let verifier = shared.as_ref().map(lock);
-                    self.save(core, verifier.as_ref(), false);
-                }
+                () = tick.next() => self.save(core, false),
                 r = listener.accept(), if paused_until.is_none() => match r {
                     Ok((stream, addr)) => self.admit(stream, addr, &mut clients, &peers, &shared),
                     Err(e) => {
@@ -66,14 +59,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                 },
                 _ = tokio::time::sleep_until(resume), if paused_until.is_some() => paused_until = None,
                 c = self.commands.recv() => {
-                    let Some(c) = c else {
-                        // The link's last save (in `run`) is of the shared
-                        // state, not of the one the link opened with.
-                        if let (Some(v), Some(own)) = (&shared, core.inbox.parser.verifier_mut()) {
-                            *own = lock(v);
-                        }
-                        return Ended::RouterGone;
-                    };
+                    let Some(c) = c else { return Ended::RouterGone };
                     match &c {
                         Command::Peers(addrs) => owner_gives(&mut peers, addrs),
                         // After the owner's own, in each client's queue
@@ -82,8 +68,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                         // come faster than any one client takes them, and
                         // the client may be the protocol peer.
                         Command::Routed(from, routed) => {
-                            let verifier = shared.as_ref().map(lock);
-                            core.framer.adopt_from(verifier.as_ref());
+                            self.adopt(core);
                             let Some(bytes) = routed_bytes(core, routed) else { continue };
                             let b = RoutedBytes { bytes: bytes.into(), sign: None };
                             let mut full = 0u64;
@@ -101,15 +86,14 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                             count_routed_dropped(&self.counters, full);
                         }
                         Command::Raw(_) | Command::Message { .. } => {
-                            let verifier = shared.as_ref().map(lock);
-                            core.framer.adopt_from(verifier.as_ref());
+                            self.adopt(core);
                             let to = c.to();
                             let Some(bytes) = outgoing(core, &c) else { continue };
                             let bytes: Box<[u8]> = bytes.into();
                             let gets = |c: &Client| to.map_or_else(|| c.gets(&peers), |to| c.addr == to);
                             // Full or closed: the client is dropped.
                             clients.retain(|c| !gets(c) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
-                            self.save(core, verifier.as_ref(), false);
+                            self.save(core, false);
                         }
                     }
                 }
@@ -127,7 +111,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
         addr: SocketAddr,
         clients: &mut Vec<Client>,
         peers: &Peers,
-        shared: &Option<Arc<Mutex<Verifier>>>,
+        shared: &Option<ReplayWindow>,
     ) {
         clients.retain(|c| !c.output.is_closed());
         if clients.len() >= MAX_CLIENTS && !evict(clients, peers) {
@@ -238,8 +222,9 @@ pub(super) fn is_out_of_descriptors(e: &io::Error) -> bool {
 pub(super) struct ClientTask {
     addr: SocketAddr,
     link: LinkId,
-    /// The link's verifier, when it has a key (see [`LinkTask::server`]).
-    shared: Option<Arc<Mutex<Verifier>>>,
+    /// The key's replay window, when the link has a key (see
+    /// [`LinkTask::server`]).
+    shared: Option<ReplayWindow>,
     /// What the client has shown ([`Client::standing`]).
     standing: Arc<AtomicU8>,
 }
@@ -266,7 +251,7 @@ pub(super) async fn serve_client<D: MessageSet>(
             r = stream.read(inbox.space()) => match r {
                 Ok(n) if n > 0 => {
                     inbox.received(n, Some(task.addr), false);
-                    take_shared(&mut inbox, task.shared.as_deref(), &mut frames);
+                    in_window(task.shared.as_deref(), &mut inbox, |inbox| take_all(inbox, &mut frames));
                     for frame in frames.drain(..) {
                         // With a key, only an authenticated frame shows more
                         // than an idle connection does.
@@ -299,21 +284,9 @@ pub(super) async fn serve_client<D: MessageSet>(
     }
 }
 
-/// The frames `inbox` holds, parsed with the link's `shared` verifier
-/// state (if any) in the client's parser, into `frames` (one vector for
-/// the client's life, not one per read).
-pub(super) fn take_shared<D: MessageSet>(
-    inbox: &mut Inbox<D, Box<[u8]>>,
-    shared: Option<&Mutex<Verifier>>,
-    frames: &mut Vec<ReceivedBuf<D>>,
-) {
-    let mut state = shared.map(|m| m.lock().unwrap_or_else(PoisonError::into_inner));
-    let mut exchange = |inbox: &mut Inbox<D, Box<[u8]>>| {
-        if let (Some(state), Some(own)) = (state.as_deref_mut(), inbox.parser.verifier_mut()) {
-            core::mem::swap(state, own);
-        }
-    };
-    exchange(inbox);
+/// The frames `inbox` holds, into `frames` (one vector for the client's
+/// life, not one per read).
+fn take_all<D: MessageSet>(inbox: &mut Inbox<D, Box<[u8]>>, frames: &mut Vec<ReceivedBuf<D>>) {
     loop {
         match inbox.next() {
             Some(frame) => frames.push(frame),
@@ -321,5 +294,4 @@ pub(super) fn take_shared<D: MessageSet>(
             None => break,
         }
     }
-    exchange(inbox);
 }

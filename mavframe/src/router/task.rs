@@ -5,8 +5,8 @@ use super::datagram::Datagram;
 use super::queues::{Command, Queues, RoutedBytes, RoutedFrame};
 use super::transport::{send_connected, AsyncStream, Transport};
 use super::{
-    Inbound, LinkConfig, LinkCounters, RouterEvent, DATAGRAM_FRAMES_MAX, DATAGRAM_ROOM,
-    PARSE_CHUNK, REOPEN_INTERVAL,
+    lock, Inbound, LinkConfig, LinkCounters, ReplayWindow, RouterEvent, DATAGRAM_FRAMES_MAX,
+    DATAGRAM_ROOM, PARSE_CHUNK, REOPEN_INTERVAL,
 };
 use crate::conn::{ReceivedBuf, ReplyTo};
 use crate::link::{Inbox, LinkCore, Peers, SigningFile};
@@ -33,6 +33,9 @@ pub(super) struct LinkTask<D: MessageSet> {
     pub(super) commands: Queues,
     pub(super) counters: Arc<Mutex<LinkCounters>>,
     pub(super) signing: SigningFile,
+    /// The replay window of the link's key, shared with the other links
+    /// that have it ([`Router::add`](super::Router::add)).
+    pub(super) window: Option<ReplayWindow>,
     /// `tcpin`: clients accepted so far (each client's order).
     pub(super) clients_accepted: u64,
 }
@@ -135,7 +138,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                 Transport::Stream(stream) => self.stream(stream, &mut core).await,
                 Transport::Server(listener) => self.server(listener, &mut core).await,
             };
-            self.save(&core, None, true);
+            self.save(&core, true);
             match ended {
                 Ended::RouterGone => return,
                 Ended::Failed(error) => {
@@ -146,9 +149,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                     if self.events.send(down).await.is_err() {
                         return;
                     }
-                    // Signing goes on from where the failed transport was.
-                    let verifier = core.inbox.parser.verifier();
-                    self.signing.go_on_from(&core.framer, verifier);
+                    self.go_on_from(&core);
                     core.inbox = self.inbox(DATAGRAM_ROOM);
                     if self.wait_reopen().await.is_err() {
                         return;
@@ -171,11 +172,39 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     }
 
     /// Saves the signing state if due, or now as at exit (`last`), with
-    /// `verifier` (`None`: the core's); failures are counted.
-    pub(super) fn save(&mut self, core: &Core<D>, verifier: Option<&Verifier>, last: bool) {
-        let verifier = verifier.or(core.inbox.parser.verifier());
+    /// the key's replay window; failures are counted.
+    pub(super) fn save(&mut self, core: &Core<D>, last: bool) {
+        if !self.signing.keeps_state() {
+            return;
+        }
+        let window = self.window.as_deref().map(lock);
+        let verifier = window.as_deref().or(core.inbox.parser.verifier());
         if !self.signing.save(&core.framer, verifier, last) {
             self.count(|c| c.state_save_errors = c.state_save_errors.saturating_add(1));
+        }
+    }
+
+    /// Signing goes on from where the failed transport was.
+    fn go_on_from(&mut self, core: &Core<D>) {
+        let window = self.window.as_deref().map(lock);
+        let verifier = window.as_deref().or(core.inbox.parser.verifier());
+        self.signing.go_on_from(&core.framer, verifier);
+    }
+
+    /// The next frame the core holds, parsed in the key's replay window;
+    /// then the link's signer adopts the window's notion of now.
+    fn next_frame(&mut self, core: &mut Core<D>) -> Option<ReceivedBuf<D>> {
+        let frame = in_window(self.window.as_deref(), &mut core.inbox, Inbox::next);
+        self.adopt(core);
+        frame
+    }
+
+    /// The signer adopts what the key's replay window accepted (on any of
+    /// its links): before framing, and after receiving.
+    pub(super) fn adopt(&self, core: &mut Core<D>) {
+        match self.window.as_deref() {
+            Some(window) => core.framer.adopt_from(Some(&*lock(window))),
+            None => core.adopt(),
         }
     }
 
@@ -191,16 +220,19 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     async fn deliver(&mut self, core: &mut Core<D>, eof: bool) -> Result<bool, ()> {
         let mut vouched = false;
         loop {
-            let frame = match core.next() {
+            let frame = match self.next_frame(core) {
                 Some(frame) => frame,
                 None if core.inbox.held() > 0 => {
                     tokio::task::yield_now().await;
                     continue;
                 }
-                None if eof => match core.inbox.take_at_eof(|r| ReceivedBuf::from(&r)) {
-                    Some(frame) => frame,
-                    None => break,
-                },
+                None if eof => {
+                    let at_eof = |i: &mut Inbox<D, _>| i.take_at_eof(|r| ReceivedBuf::from(&r));
+                    match in_window(self.window.as_deref(), &mut core.inbox, at_eof) {
+                        Some(frame) => frame,
+                        None => break,
+                    }
+                }
                 None => break,
             };
             vouched |= core.inbox.vouches(&frame);
@@ -235,7 +267,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
         let mut tick = SaveTick::new(self.signing.keeps_state());
         loop {
             tokio::select! {
-                () = tick.next() => self.save(core, None, false),
+                () = tick.next() => self.save(core, false),
                 // A failed receive (an ICMP error on some systems) says
                 // nothing about the next one: it is skipped.
                 r = socket.recv_from(core.inbox.space()) => if let Ok((n, from)) = r {
@@ -247,7 +279,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                             peers.heard(Some(from));
                         }
                     }
-                    self.save(core, None, false);
+                    self.save(core, false);
                 },
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
@@ -256,6 +288,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                         continue;
                     }
                     let to = c.to();
+                    self.adopt(core);
                     let Some(bytes) = outgoing(core, &c) else { continue };
                     // Frames queued behind, for the same addressees, join it.
                     let more = to.is_none().then(|| self.commands.queued_routed()).flatten();
@@ -276,7 +309,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                     if sent.is_err() {
                         self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
                     }
-                    self.save(core, None, false);
+                    self.save(core, false);
                 }
             }
         }
@@ -302,7 +335,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
         let mut tick = SaveTick::new(self.signing.keeps_state());
         loop {
             tokio::select! {
-                () = tick.next() => self.save(core, None, false),
+                () = tick.next() => self.save(core, false),
                 r = stream.read(core.inbox.space()) => match r {
                     Ok(0) => {
                         let _ = self.deliver(core, true).await;
@@ -313,18 +346,19 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                         if self.deliver(core, false).await.is_err() {
                             return Ended::RouterGone;
                         }
-                        self.save(core, None, false);
+                        self.save(core, false);
                     }
                     Err(e) => return Ended::Failed(e),
                 },
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
+                    self.adopt(core);
                     let Some(bytes) = outgoing(core, &c) else { continue };
                     if let Err(e) = stream.write_all(bytes).await {
                         self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
                         return Ended::Failed(e);
                     }
-                    self.save(core, None, false);
+                    self.save(core, false);
                 }
             }
         }
@@ -389,6 +423,26 @@ pub(super) async fn send_each(
         }
     }
     sent
+}
+
+/// Runs `f` on `inbox` with `window` (the key's shared replay state) in
+/// its parser's place, swapped back after: what `f` accepts is recorded in
+/// the window, for every link of the key.
+pub(super) fn in_window<D: MessageSet, R>(
+    window: Option<&Mutex<Verifier>>,
+    inbox: &mut Inbox<D, Box<[u8]>>,
+    f: impl FnOnce(&mut Inbox<D, Box<[u8]>>) -> R,
+) -> R {
+    let mut shared = window.map(lock);
+    let mut exchange = |inbox: &mut Inbox<D, Box<[u8]>>| {
+        if let (Some(shared), Some(own)) = (shared.as_deref_mut(), inbox.parser.verifier_mut()) {
+            core::mem::swap(shared, own);
+        }
+    };
+    exchange(inbox);
+    let r = f(inbox);
+    exchange(inbox);
+    r
 }
 
 /// How a link's transport ended.

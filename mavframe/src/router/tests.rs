@@ -1044,3 +1044,44 @@ async fn forward_keeps_trusted_routes_among_200_strangers() {
     }
     assert_eq!(router.table().links_to(1, 1), Links::only(trusted));
 }
+
+/// A signed frame one link accepted is a replay on every other link with
+/// the same key (one replay window per key, as MAVLink keys replay state
+/// by the signature's stream wherever a frame arrives); a link with
+/// another key keeps a window of its own. (With a window per link, a
+/// listener that received the frame routed to it replayed it into its own
+/// link, where it was authenticated again and routed on.)
+#[tokio::test]
+async fn links_with_one_key_share_one_replay_window() {
+    let (key, other_key) = ([11u8; 32], [12u8; 32]);
+    let mut router = Router::<TestDialect>::new();
+    let mut addrs = Vec::new();
+    for k in [key, key, other_key] {
+        let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
+        config.key = Some(k);
+        router.add(config).await.unwrap();
+        addrs.push(addr);
+    }
+    let sender = udp_socket().await;
+    let frame = signed_ping(key, 2, 9);
+    sender.send_to(&frame, addrs[0]).await.unwrap();
+    let first = next_frame(&mut router).await;
+    assert!(first.frame.is_authenticated() && first.link == 0);
+    // The replay into the key's other link: returned unauthenticated (the
+    // links accept unsigned frames), and counted as stale.
+    sender.send_to(&frame, addrs[1]).await.unwrap();
+    let replay = next_frame(&mut router).await;
+    assert_eq!(replay.link, 1);
+    assert!(
+        !replay.frame.is_authenticated(),
+        "a replay was authenticated"
+    );
+    assert_eq!(router.counters(1).parser.stale_timestamp, 1);
+    // The same stream, signed with the other key, is that key's own.
+    let theirs = signed_ping(other_key, 2, 9);
+    sender.send_to(&theirs, addrs[2]).await.unwrap();
+    assert!(next_frame(&mut router).await.frame.is_authenticated());
+}

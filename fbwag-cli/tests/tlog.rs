@@ -312,11 +312,13 @@ fn a_file_that_cannot_grow_is_kept_whole_and_counted_true() {
     // 4 blocks of 512 or 1,024 bytes (the shell's unit): 70 or 141 records.
     shell.args(["-c", "ulimit -f 4 && exec \"$0\" \"$@\""]);
     shell.arg(env!("CARGO_BIN_EXE_fbwag"));
-    let run = route_by(shell, &dir, "3", 400, &["--tlog-min-free", "0"]);
+    // Frames for about 4 s: a new file a second after each failure, and
+    // after 3 failed files in a row, none (before, one every second for
+    // as long as frames came).
+    let count = 1800;
+    let run = route_by(shell, &dir, "6", count, &["--tlog-min-free", "0"]);
     assert!(run.status.success(), "{:?}\n{}", run.status, run.log);
-    assert_eq!(run.received, 400, "routing goes on: {}", run.log);
-    // A new file is tried a second after a failure: one a second at most,
-    // whatever the frame rate.
+    assert_eq!(run.received, count as usize, "routing goes on: {}", run.log);
     let files = own_logs(&dir.join("logs"));
     assert!((1..=3).contains(&files.len()), "{files:?}\n{}", run.log);
     let mut kept = 0;
@@ -328,10 +330,11 @@ fn a_file_that_cannot_grow_is_kept_whole_and_counted_true() {
     assert!(kept >= 70, "{kept} records\n{}", run.log);
     let t = run.summary_tlog();
     assert_eq!(t["written"], kept, "{}", run.log);
-    assert_eq!(t["not_written"], 401 - kept, "{}", run.log);
+    assert_eq!(t["not_written"], u64::from(count) + 1 - kept, "{}", run.log);
     assert_eq!(t["files"], files.len(), "{}", run.log);
     let said = run.log.matches("tlog: cannot write").count();
     assert!((1..=files.len()).contains(&said), "{}", run.log);
+    assert_eq!(run.log.matches("tlog: given up").count(), 1, "{}", run.log);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

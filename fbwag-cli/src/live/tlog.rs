@@ -38,6 +38,11 @@ const QUEUED: usize = 4096;
 /// The free space is looked at again after this long, or after
 /// [`CHECK_BYTES`] written, whichever comes first.
 const CHECK_EVERY: Duration = Duration::from_secs(1);
+
+/// Files in a row that fail before the log is given up for the run: a
+/// lasting write error (a file size limit below `--tlog-max-size`, a
+/// failing card) would otherwise begin a file every second for ever.
+const FAILED_FILES_MAX: u32 = 3;
 const CHECK_BYTES: u64 = 1 << 20;
 
 /// How long the end of a daemon waits for the queued frames to be written.
@@ -253,6 +258,9 @@ struct Writer {
     /// When a file could not be created or written: the next file is
     /// tried a second later, not with the next frame.
     failed_at: Option<Instant>,
+    /// Files in a row given up on a write error (a file closed whole
+    /// resets it); at [`FAILED_FILES_MAX`] the log is given up.
+    failed_files: u32,
     shared: Arc<Shared>,
     notes: SyncSender<String>,
     /// The free space of a directory's file system ([`free_bytes`]).
@@ -278,6 +286,7 @@ impl Writer {
             since_check: 0,
             failing: false,
             failed_at: None,
+            failed_files: 0,
             shared,
             notes,
             free,
@@ -327,7 +336,8 @@ impl Writer {
             self.check_space();
         }
         let retry = self.failed_at.is_none_or(|t| t.elapsed() >= CHECK_EVERY);
-        if self.stopped || (self.file.is_none() && !(retry && self.open())) {
+        let given_up = self.failed_files >= FAILED_FILES_MAX;
+        if self.stopped || given_up || (self.file.is_none() && !(retry && self.open())) {
             self.shared.unwritten.fetch_add(1, Ordering::Relaxed);
             return;
         }
@@ -413,11 +423,20 @@ impl Writer {
         }
         self.failed_at = Some(Instant::now());
         self.fail(format!("tlog: cannot write {}: {e}", f.path.display()));
+        self.failed_files += 1;
+        if self.failed_files == FAILED_FILES_MAX {
+            self.note(format!(
+                "tlog: given up: {FAILED_FILES_MAX} files in a row failed (the last: {e}); \
+                 frames are counted as not written until the end of the run"
+            ));
+        }
     }
 
     fn close(&mut self) {
         self.flush();
-        self.file = None;
+        if self.file.take().is_some() {
+            self.failed_files = 0;
+        }
     }
 
     /// Begins a file named by the time now (microseconds, UTC): names sort

@@ -182,6 +182,11 @@ pub struct LinkConfig {
     /// hold another's frames back. It drops what it holds while the link
     /// is down. `None` (the default): unpaced.
     pub routed_rate: Option<NonZeroU32>,
+    /// The link opens only on a loopback address (its target, or the
+    /// address it listens on), checked at every (re)open, after the host
+    /// name is resolved again: for a link trusted like the key, whose
+    /// name must not come to resolve elsewhere. Off by default.
+    pub loopback_only: bool,
 }
 
 impl LinkConfig {
@@ -196,6 +201,7 @@ impl LinkConfig {
             signing_state: None,
             bound_unsent: false,
             routed_rate: None,
+            loopback_only: false,
         }
     }
 }

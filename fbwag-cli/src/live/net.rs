@@ -118,6 +118,7 @@ impl Net {
                 // station's traffic) must not sit ahead of its frames.
                 bound_unsent: true,
                 routed_rate: opts.routed_rate,
+                loopback_only: false,
             })
             .await
             .map_err(|e| opened(&opts.endpoint, e))?;
@@ -140,9 +141,23 @@ impl Net {
         key: Option<[u8; 32]>,
         peer: Option<SocketAddr>,
     ) -> io::Result<LinkId> {
+        self.add_checked(endpoint, key, peer, false).await
+    }
+
+    /// [`add`](Self::add), and with `loopback_only` the link opens only on
+    /// a loopback address, checked at every (re)open after its host name
+    /// is resolved again (a link trusted like the key).
+    pub async fn add_checked(
+        &mut self,
+        endpoint: &Endpoint,
+        key: Option<[u8; 32]>,
+        peer: Option<SocketAddr>,
+        loopback_only: bool,
+    ) -> io::Result<LinkId> {
         let config = LinkConfig {
             key,
             reply_to: reply_to(peer),
+            loopback_only,
             ..LinkConfig::new(endpoint.clone())
         };
         self.router

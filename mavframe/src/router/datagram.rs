@@ -53,6 +53,11 @@ impl Datagram {
         self.retry(|s| s.send(bytes)).await
     }
 
+    /// The address the socket is bound to.
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.0.get_ref().local_addr()
+    }
+
     /// `send` until it does not find the send buffer full.
     async fn retry(
         &self,
@@ -78,6 +83,11 @@ impl Datagram {
     pub fn new(socket: std::net::UdpSocket) -> io::Result<Datagram> {
         socket.set_nonblocking(true)?;
         Ok(Datagram(tokio::net::UdpSocket::from_std(socket)?))
+    }
+
+    /// The address the socket is bound to.
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.0.local_addr()
     }
 
     pub async fn recv_from(&self, buf: &mut [u8]) -> io::Result<(usize, SocketAddr)> {

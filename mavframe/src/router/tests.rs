@@ -1085,3 +1085,23 @@ async fn links_with_one_key_share_one_replay_window() {
     sender.send_to(&theirs, addrs[2]).await.unwrap();
     assert!(next_frame(&mut router).await.frame.is_authenticated());
 }
+
+/// A link trusted like the key opens only on loopback addresses, checked
+/// when the transport is opened (again at each reopen, once its name is
+/// resolved again): a target elsewhere, or a socket listening on every
+/// interface, is refused.
+#[tokio::test]
+async fn a_loopback_only_link_opens_on_loopback_addresses_only() {
+    let mut router = Router::<TestDialect>::new();
+    let config = |conn: &str| LinkConfig {
+        loopback_only: true,
+        ..LinkConfig::new(conn.parse().unwrap())
+    };
+    for conn in ["udpout:192.0.2.1:14550", "udpin:0.0.0.0:0"] {
+        let err = router.add(config(conn)).await.expect_err(conn);
+        assert_eq!(err.kind(), io::ErrorKind::PermissionDenied, "{conn}: {err}");
+        assert!(format!("{err}").contains("not a loopback address"), "{err}");
+    }
+    assert!(router.add(config("udpout:127.0.0.1:14550")).await.is_ok());
+    assert!(router.add(config("udpin:127.0.0.1:0")).await.is_ok());
+}

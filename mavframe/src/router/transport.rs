@@ -25,15 +25,60 @@ pub(super) enum Transport {
 }
 
 /// An async byte stream (TCP client, serial port).
-pub(super) trait AsyncStream: AsyncRead + AsyncWrite + Send + Unpin {}
-impl<T: AsyncRead + AsyncWrite + Send + Unpin> AsyncStream for T {}
+pub(super) trait AsyncStream: AsyncRead + AsyncWrite + Send + Unpin {
+    /// The far end's address, for a TCP stream.
+    fn peer(&self) -> Option<SocketAddr> {
+        None
+    }
+}
+impl AsyncStream for TcpStream {
+    fn peer(&self) -> Option<SocketAddr> {
+        self.peer_addr().ok()
+    }
+}
+impl AsyncStream for tokio_serial::SerialStream {}
 
 impl Transport {
     /// Opens `config`'s endpoint: resolved and opened as the blocking
     /// transports are ([`conn::open`](crate::conn::open): `udpout`
     /// connected to its target, `udpbcast` with `SO_BROADCAST`), on a
-    /// blocking thread, then handed to tokio.
+    /// blocking thread, then handed to tokio; refused when
+    /// [`LinkConfig::loopback_only`] and it is not on a loopback address.
     pub(super) async fn open(config: &LinkConfig) -> io::Result<Transport> {
+        let transport = Self::open_any(config).await?;
+        if config.loopback_only {
+            transport.check_loopback(&config.endpoint)?;
+        }
+        Ok(transport)
+    }
+
+    /// The address the transport talks to (`udpout`, TCP) or listens on.
+    fn address(&self) -> io::Result<Option<SocketAddr>> {
+        Ok(match self {
+            Transport::Udp { to: Some(to), .. } => Some(*to),
+            Transport::Udp { socket, .. } => Some(socket.local_addr()?),
+            Transport::Server(listener) => Some(listener.local_addr()?),
+            // A serial port, or a TCP stream (its peer, below).
+            Transport::Stream(_) => None,
+        })
+    }
+
+    /// Refuses a transport whose address is not loopback.
+    fn check_loopback(&self, endpoint: &Endpoint) -> io::Result<()> {
+        let address = match self {
+            Transport::Stream(s) => s.peer(),
+            other => other.address()?,
+        };
+        match address {
+            Some(a) if !a.ip().is_loopback() => Err(io::Error::new(
+                io::ErrorKind::PermissionDenied,
+                std::format!("{endpoint} resolved to {a}, not a loopback address"),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    async fn open_any(config: &LinkConfig) -> io::Result<Transport> {
         let endpoint = config.endpoint.clone();
         let opened = match &endpoint {
             Endpoint::File(_) => {

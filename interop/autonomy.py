@@ -10,6 +10,11 @@ companion must let it through only while it holds control.
 Prints one JSON line at the end: what it sent and saw.
 
 usage: autonomy.py CONNECTION [--seconds N] [--chan1 PWM] [--sysid N --compid N]
+                   [--source-port PORT]
+
+With udpout, --source-port sends from that port, the address `fbwag cc
+--autonomy-peer` pins (pymavlink's udpout sends from a port of the
+system's choice otherwise).
 """
 import argparse
 import json
@@ -23,9 +28,13 @@ parser.add_argument("--seconds", type=float, default=10.0)
 parser.add_argument("--chan1", type=int, default=1234)
 parser.add_argument("--sysid", type=int, default=1)
 parser.add_argument("--compid", type=int, default=196)
+parser.add_argument("--source-port", type=int, default=None)
 args = parser.parse_args()
 
 link = connect(args.device, args.sysid, args.compid)
+if args.source_port is not None:
+    # Before the first send, which would bind a port of the system's choice.
+    link.port.bind((link.destination_addr[0], args.source_port))
 # Say we are here at once (udpout: the companion learns our address from
 # it), then that we are up: a test starts its FC's timeline after this line.
 link.mav.heartbeat_send(fbwag.MAV_TYPE_ONBOARD_CONTROLLER, fbwag.MAV_AUTOPILOT_INVALID, 0, 0,

@@ -20,8 +20,9 @@ requests a ground station typically makes, then for --seconds prints:
     target/peerenv/bin/python interop/mavsdk_gcs_check.py --grpc-port 50051 --seconds 30
 
 The calls: info.get_version, param.get_param_int(FS_SHORT_ACTN),
-param.set_param_float(FS_LONG_TIMEOUT, 6.0) then its read-back,
-param.set_param_int(FS_SHORT_ACTN, 1) (refused by fc-sim),
+param.set_param_float(AIRSPEED_CRUISE, 22.0) then its read-back,
+param.set_param_float(FS_LONG_TIMEOUT, 6.0) (refused: it decides who flies,
+and fc-sim is armed),
 telemetry.set_rate_position(2), mission_raw.download_mission(),
 action.return_to_launch() (denied by fc-sim: the delegation engine decides
 modes). Each is bounded to 8 s.
@@ -105,11 +106,11 @@ async def requests(drone):
     await call("get_version", drone.info.get_version(),
                lambda v: [v.flight_sw_major, v.flight_sw_minor, v.flight_sw_patch])
     await call("get_param_int FS_SHORT_ACTN", drone.param.get_param_int("FS_SHORT_ACTN"))
+    await call("set_param_float AIRSPEED_CRUISE 22",
+               drone.param.set_param_float("AIRSPEED_CRUISE", 22.0), lambda v: None)
+    await call("get_param_float AIRSPEED_CRUISE", drone.param.get_param_float("AIRSPEED_CRUISE"))
     await call("set_param_float FS_LONG_TIMEOUT 6",
                drone.param.set_param_float("FS_LONG_TIMEOUT", 6.0), lambda v: None)
-    await call("get_param_float FS_LONG_TIMEOUT", drone.param.get_param_float("FS_LONG_TIMEOUT"))
-    await call("set_param_int FS_SHORT_ACTN 1",
-               drone.param.set_param_int("FS_SHORT_ACTN", 1), lambda v: None)
     await call("set_rate_position 2", drone.telemetry.set_rate_position(2.0), lambda v: None)
     await call("download_mission", drone.mission_raw.download_mission(), lambda v: len(v))
     await call("return_to_launch", drone.action.return_to_launch(), lambda v: None)

@@ -7,6 +7,7 @@
 set -euo pipefail
 P_FC=${P_FC:-14550}                  # the companion's port for the FC
 P_AUTONOMY=${P_AUTONOMY:-14560}      # the companion's port for the autonomy
+P_PROGRAM=${P_PROGRAM:-14561}        # the port the autonomy sends from
 PYTHON=${PYTHON:-python3}
 KEY=$(printf %s fbwag-bench | sha256sum | cut -c1-64)
 RUN=$(mktemp -d)
@@ -15,14 +16,17 @@ expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || { echo "FAILED: no 
 wait_for() { for _ in $(seq 150); do grep -q -- "$2" "$RUN/$1" && return; sleep 0.2; done; expect "$1" "$2"; }
 
 # 1. The companion, with the autonomy's link (no key there: the program
-#    speaks plain MAVLink; the companion signs what it lets through).
+#    speaks plain MAVLink; the companion signs what it lets through),
+#    pinned to the port the program sends from: no other program on this
+#    machine is heard there, whoever speaks first.
 fbwag cc --link udpin:127.0.0.1:$P_FC --autonomy udpin:127.0.0.1:$P_AUTONOMY \
+    --autonomy-peer 127.0.0.1:$P_PROGRAM \
     --sign-key $KEY --require-signed --duration 14 >$RUN/cc.log 2>&1 &
 sleep 0.5
 # 2. The autonomy speaks first, and streams its control (CHAN1 1234) all
 #    the time: the companion drops it until it holds control.
 PYTHONUNBUFFERED=1 $PYTHON interop/autonomy.py udpout:127.0.0.1:$P_AUTONOMY \
-    --seconds 11 --chan1 1234 >$RUN/autonomy.log 2>&1 &
+    --source-port $P_PROGRAM --seconds 11 --chan1 1234 >$RUN/autonomy.log 2>&1 &
 wait_for autonomy.log "up"
 # 3. The FC: RC lost at 3 s, back at 7 s; its events say which control it applied.
 fbwag fc-sim --link udpout:127.0.0.1:$P_FC --sign-key $KEY --require-signed \

@@ -82,6 +82,12 @@ pub enum ArgError {
     /// Not an address and port.
     #[error("expected IP:PORT ([IPv6]:PORT), optionally after LINK: (2:10.0.0.5:14550)")]
     Address,
+    /// `--autonomy-peer` that is neither `any` nor an address with a port.
+    #[error("expected the autonomy program's IP:PORT (127.0.0.1:14561), or `any` (unsafe: any program that speaks first flies the aircraft)")]
+    AutonomyPeer,
+    /// `--autonomy-peer` with port 0 (any port of the host).
+    #[error("port 0 admits every program on that host: give the port the autonomy sends from, or `any` to admit anyone on purpose")]
+    AutonomyAnyPort,
 }
 
 /// A finite number from `lo` to `hi` (inclusive), else an error naming
@@ -252,6 +258,27 @@ impl<T> ForLink<T> {
 /// `[LINK:]KEY`: a signing key (see [`sign_key`]), for one link or all.
 pub fn link_sign_key(s: &str) -> Result<ForLink<String>, ArgError> {
     ForLink::parse(s, sign_key)
+}
+
+/// Whom the autonomy link admits (`fbwag cc --autonomy-peer`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AutonomyPeer {
+    /// The program sending from this address, and nobody else.
+    At(SocketAddr),
+    /// Whoever speaks first (until silent 3 s): unsafe, on purpose.
+    Any,
+}
+
+/// `IP:PORT` (a port other than 0) or `any`.
+pub fn autonomy_peer(s: &str) -> Result<AutonomyPeer, ArgError> {
+    if s.trim() == "any" {
+        return Ok(AutonomyPeer::Any);
+    }
+    let addr: SocketAddr = s.trim().parse().map_err(|_| ArgError::AutonomyPeer)?;
+    if addr.port() == 0 {
+        return Err(ArgError::AutonomyAnyPort);
+    }
+    Ok(AutonomyPeer::At(addr))
 }
 
 /// `[LINK:]IP:PORT`: a peer address, for one link or all.

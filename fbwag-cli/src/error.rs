@@ -83,6 +83,9 @@ pub enum CliError {
         arg: String,
         source: LinkOptionError,
     },
+    /// `fbwag cc --autonomy` listening without `--autonomy-peer`.
+    #[error("--autonomy {0} listens: any program on this machine that speaks first would fly the aircraft; name the autonomy's address with --autonomy-peer IP:PORT (the port it sends from), or --autonomy-peer any to admit anyone (unsafe)")]
+    AutonomyUnpinned(String),
     /// `fbwag router` with fewer than two links.
     #[error("a router needs two links or more (CONN), got {0}")]
     TooFewLinks(usize),

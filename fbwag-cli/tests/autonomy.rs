@@ -23,7 +23,7 @@ fn events(path: &std::path::Path) -> Vec<Value> {
 #[test]
 fn the_autonomy_flies_only_while_the_companion_holds_control() {
     let py = python();
-    let (fc_port, autonomy_port) = (free_port(), free_port());
+    let (fc_port, autonomy_port, program) = (free_port(), free_port(), free_port());
     let dir = std::env::temp_dir().join(format!("fbwag-autonomy-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (fc_events, cc_events) = (dir.join("fc.jsonl"), dir.join("cc.jsonl"));
@@ -31,6 +31,7 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
     let mut cc = Command::new(env!("CARGO_BIN_EXE_fbwag"))
         .args(["cc", "--link", &format!("udpin:127.0.0.1:{fc_port}")])
         .args(["--autonomy", &format!("udpin:127.0.0.1:{autonomy_port}")])
+        .args(["--autonomy-peer", &format!("127.0.0.1:{program}")])
         .args(["--sign-key", &key, "--require-signed", "--duration", "12"])
         .arg("--events")
         .arg(&cc_events)
@@ -42,6 +43,7 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
         .arg(repo().join("interop/autonomy.py"))
         .arg(format!("udpout:127.0.0.1:{autonomy_port}"))
         .args(["--seconds", "10", "--chan1", "1234"])
+        .args(["--source-port", &program.to_string()])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

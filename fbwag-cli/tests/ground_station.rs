@@ -346,13 +346,18 @@ fn mavsdk_sees_position_modes_takeover_and_rtl() {
     assert_position(seen, all);
     assert_modes_and_rc_loss(seen, all);
     assert_flight_path(seen, all);
-    // The parameter MAVSDK set took effect in fc-sim's engine.
-    assert!(
+    // The parameter MAVSDK set took effect; the one that decides who
+    // flies did not (fc-sim is armed).
+    let set = |name: &str| {
         run.events
             .iter()
-            .any(|e| e["event"] == "param" && e["name"] == "FS_LONG_TIMEOUT" && e["value"] == 6.0),
-        "{all}"
-    );
+            .filter(|e| e["event"] == "param" && e["name"] == name)
+            .map(|e| e["value"].clone())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(set("AIRSPEED_CRUISE"), [Value::from(22.0)], "{all}");
+    assert!(set("FS_LONG_TIMEOUT").is_empty(), "{all}");
+    assert!(run.fc.contains("FS_LONG_TIMEOUT: not while armed"), "{all}");
     assert!(
         run.fc.contains("MODE CHANGE -> MANUAL (pilot in control)"),
         "{all}"
@@ -372,13 +377,14 @@ fn assert_requests_answered(seen: &Seen, all: &str) {
     };
     ok("get_version", serde_json::json!([4, 6, 0]));
     ok("get_param_int FS_SHORT_ACTN", 5.into());
-    ok("set_param_float FS_LONG_TIMEOUT 6", Value::Null);
-    ok("get_param_float FS_LONG_TIMEOUT", 6.0.into());
+    ok("set_param_float AIRSPEED_CRUISE 22", Value::Null);
+    ok("get_param_float AIRSPEED_CRUISE", 22.0.into());
     ok("set_rate_position 2", Value::Null);
     ok("download_mission", 0.into());
-    // Refused: FS_SHORT_ACTN is always 5 (MAVSDK times out waiting for
-    // the echo of its value); the RTL command is denied.
-    let refused = seen.call("set_param_int FS_SHORT_ACTN 1");
+    // Refused: FS_LONG_TIMEOUT decides who flies, and fc-sim is armed
+    // (MAVSDK times out waiting for the echo of its value); the RTL
+    // command is denied.
+    let refused = seen.call("set_param_float FS_LONG_TIMEOUT 6");
     assert!(refused["ok"] == false, "{refused}\n{all}");
     let rtl = seen.call("return_to_launch");
     assert!(
@@ -399,9 +405,12 @@ fn assert_position(seen: &Seen, all: &str) {
         "{home}\n{all}"
     );
     let samples = seen.samples();
+    // The first with a mode: MAVSDK may report a position before the
+    // first HEARTBEAT (1 Hz) it passes on.
     let first = samples
-        .first()
-        .unwrap_or_else(|| panic!("no position\n{all}"));
+        .iter()
+        .find(|s| s.custom_mode.is_some())
+        .unwrap_or_else(|| panic!("no position with a mode\n{all}"));
     // Over home at start (18 m/s for the few seconds MAVSDK takes to
     // connect), 100 m up, the pilot flying.
     assert!(distance_from_home(first) < 300.0, "{all}");
@@ -517,7 +526,7 @@ fn assert_flight_path(seen: &Seen, all: &str) {
 
 /// MAVProxy 1.8.75 between fc-sim and `fbwag cc`, with `module load fbwag`:
 /// MAVProxy names every mode itself (MANUAL, CIRCLE, RTL) and, with the
-/// module, FBWAG (never Mode(30)); it fetches the 12 parameters, shows
+/// module, FBWAG (never Mode(30)); it fetches the 13 parameters, shows
 /// FS_SHORT_ACTN 5, and its `mode RTL` is denied by fc-sim with the reason;
 /// no false fence breach.
 #[test]
@@ -572,7 +581,7 @@ fn mavproxy_names_the_modes_and_reads_the_failsafe_parameters() {
     };
     // MAVProxy tries FTP for parameters first (fc-sim has none), then the
     // parameter protocol.
-    let got_params = mavproxy.wait_for("Received 12 parameters", Duration::from_secs(30));
+    let got_params = mavproxy.wait_for("Received 13 parameters", Duration::from_secs(30));
     say("param show FS_SHORT_ACTN");
     let companion = mavproxy.wait_for("Mode FBWAG", Duration::from_secs(30));
     say("mode RTL");
@@ -895,6 +904,8 @@ fn with_require_signed_only_signed_requests_are_served() {
                 &format!("udpout:{}", socket.local_addr().unwrap()),
             ])
             .args(["--sign-key", KEY_HEX, "--require-signed", "--duration", "5"])
+            // On the ground: the FC's delegation settings may be written.
+            .args(["--arm-at", "100"])
             .arg("--events")
             .arg(&events),
     );

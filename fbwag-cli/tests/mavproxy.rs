@@ -459,6 +459,8 @@ fn mavproxy_cannot_sign_for_an_unsigned_companion() {
 #[test]
 fn mavproxy_module_fbwag_says_the_companion_declined() {
     let autonomy = format!("udpin:127.0.0.1:{}", free_port());
+    // Pinned to a port nobody sends from: the autonomy stays silent.
+    let program = format!("127.0.0.1:{}", free_port());
     let Some(logs) = run(ChainSpec {
         test: "module-declined",
         mavproxy: MavproxySetup {
@@ -467,7 +469,7 @@ fn mavproxy_module_fbwag_says_the_companion_declined() {
             console: false,
         },
         fc_args: &[],
-        cc_args: &["--autonomy", &autonomy],
+        cc_args: &["--autonomy", &autonomy, "--autonomy-peer", &program],
         schedule: CYCLE,
         tap: false,
     }) else {

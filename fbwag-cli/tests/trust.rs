@@ -84,6 +84,17 @@ fn signed() -> Vec<String> {
     args(&["--sign-key", KEY, "--require-signed"])
 }
 
+/// `fbwag cc`'s autonomy link listening on port `aut`, pinned to the
+/// program sending from port `program`.
+fn pinned_autonomy(aut: u16, program: u16) -> Vec<String> {
+    args(&[
+        "--autonomy",
+        &udpin(aut),
+        "--autonomy-peer",
+        &format!("127.0.0.1:{program}"),
+    ])
+}
+
 fn with(mut a: Vec<String>, more: &[&str]) -> Vec<String> {
     a.extend(args(more));
     a
@@ -320,9 +331,9 @@ fn forged_datagram(per_datagram: u64) -> impl FnMut(&mut Pcg64, u64) -> Vec<u8> 
 /// datagrams a second, to the companion's FC link.
 fn forged_telemetry(forger: Forger, per_datagram: u64, per_sec: f64) {
     let dir = scratch("forged-telemetry");
-    let (aut, gcs) = (free_port(), free_port());
+    let (aut, gcs, program) = (free_port(), free_port(), free_port());
     let autonomy = Station::start(
-        0,
+        program,
         Some(local(aut)),
         Duration::from_millis(200),
         heartbeat_of(AUTONOMY),
@@ -333,9 +344,9 @@ fn forged_telemetry(forger: Forger, per_datagram: u64, per_sec: f64) {
         Duration::from_secs(1),
         heartbeat_of(GCS),
     );
-    let cc = args(&["--autonomy", &udpin(aut), "--out", &udpin(gcs)]);
+    let cc = [pinned_autonomy(aut, program), args(&["--out", &udpin(gcs)])];
     let sides = Sides {
-        cc: [cc, signed(), args(&["--duration", "4.5"])].concat(),
+        cc: [cc.concat(), signed(), args(&["--duration", "4.5"])].concat(),
         fc: with(signed(), &["--duration", "4"]),
         cc_ports: &[aut, gcs],
         ..Sides::default()
@@ -764,10 +775,12 @@ fn quick_restarts_never_push_the_signer_ahead_of_the_clock() {
 fn a_silent_autonomy_declines_and_the_fc_returns_home_at_once() {
     let _one = timed();
     let dir = scratch("silent-decline");
-    let aut = free_port();
+    // Pinned to a port nobody sends from.
+    let (aut, program) = (free_port(), free_port());
     let sides = Sides {
         cc: [
-            args(&["--autonomy", &udpin(aut), "--duration", "4"]),
+            pinned_autonomy(aut, program),
+            args(&["--duration", "4"]),
             signed(),
         ]
         .concat(),
@@ -808,15 +821,13 @@ fn a_silent_autonomy_declines_and_the_fc_returns_home_at_once() {
 #[test]
 fn a_silent_autonomy_with_the_wings_level_fallback_is_flown_for() {
     let dir = scratch("silent-wings-level");
-    let aut = free_port();
-    let cc = args(&[
-        "--autonomy",
-        &udpin(aut),
-        "--autonomy-fallback",
-        "wings-level",
-    ]);
+    let (aut, program) = (free_port(), free_port());
+    let cc = [
+        pinned_autonomy(aut, program),
+        args(&["--autonomy-fallback", "wings-level"]),
+    ];
     let sides = Sides {
-        cc: [cc, signed(), args(&["--duration", "5"])].concat(),
+        cc: [cc.concat(), signed(), args(&["--duration", "5"])].concat(),
         fc: with(signed(), &["--rc-loss-at", "1", "--duration", "4.5"]),
         ..Sides::default()
     };
@@ -831,7 +842,7 @@ fn a_silent_autonomy_with_the_wings_level_fallback_is_flown_for() {
             frame(AUTONOMY, n as u8, &override_chan1(AUTONOMY_CHAN1), None),
         ]
     });
-    let _autonomy = Station::start(0, Some(local(aut)), Duration::from_millis(50), speaks);
+    let _autonomy = Station::start(program, Some(local(aut)), Duration::from_millis(50), speaks);
     let (fc, cc) = pair.finish();
     let all = dump(&[&fc, &cc]);
     fc.assert_ran_to_the_end(4.5);
@@ -1076,15 +1087,15 @@ fn forged_frames_to_the_companions_udpout_socket_are_not_routed() {
     let set = |value: f32| ParamSet {
         target_system: FC.sysid,
         target_component: FC.compid,
-        param_id: chars("FBWAG_RETRY_MAX"),
+        param_id: chars("AIRSPEED_CRUISE"),
         param_value: value,
         ..Default::default()
     };
-    let forged = frame(GCS, 0, &set(77.0), None);
+    let forged = frame(GCS, 0, &set(25.0), None);
     let forger = Attacker::start(&[socket], 100.0, 0, move |_, _| forged.clone());
     std::thread::sleep(Duration::from_millis(1000));
     for n in 0..3 {
-        assert!(ground.send(&frame(GCS, n, &set(9.0), None)));
+        assert!(ground.send(&frame(GCS, n, &set(20.0), None)));
         std::thread::sleep(Duration::from_millis(200));
     }
     let (fc, cc) = pair.finish();
@@ -1098,11 +1109,11 @@ fn forged_frames_to_the_companions_udpout_socket_are_not_routed() {
             .count()
     };
     assert!(
-        set_to(9.0) > 0,
+        set_to(20.0) > 0,
         "the station's own PARAM_SET was not routed\n{all}"
     );
     assert_eq!(
-        set_to(77.0),
+        set_to(25.0),
         0,
         "the forged PARAM_SET was routed to the FC\n{all}"
     );

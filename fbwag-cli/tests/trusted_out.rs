@@ -107,8 +107,17 @@ fn mavsdk_reads_and_commands_a_signed_fc_through_a_trusted_link() {
     };
     ok("get_version", serde_json::json!([4, 6, 0]));
     ok("get_param_int FS_SHORT_ACTN", 5.into());
-    ok("set_param_float FS_LONG_TIMEOUT 6", Value::Null);
-    ok("get_param_float FS_LONG_TIMEOUT", 6.0.into());
+    ok("set_param_float AIRSPEED_CRUISE 22", Value::Null);
+    ok("get_param_float AIRSPEED_CRUISE", 22.0.into());
+    // What decides who flies is never signed on for the trusted link: the
+    // companion drops it (counted), and the FC never sees it.
+    let refused = call("set_param_float FS_LONG_TIMEOUT 6");
+    assert!(refused["ok"] == false, "{refused}\n{all}");
+    assert!(
+        !fc.log.contains("FS_LONG_TIMEOUT"),
+        "the FC was asked to change FS_LONG_TIMEOUT\n{all}"
+    );
+    assert!(cc.log.contains("protected"), "{all}");
     // Answered, and denied: fc-sim's engine decides the modes.
     let rtl = call("return_to_launch");
     assert!(

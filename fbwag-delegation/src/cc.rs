@@ -129,12 +129,15 @@ pub enum CcInput {
     },
     /// The FC confirmed the takeover of an event (the paper's STATUSTEXT
     /// "FBWAG-ACK: CC has taken over!", whose `id` carries the event's low
-    /// 16 bits).
+    /// 16 bits, followed by the ids of the companion it accepted).
     TakeoverConfirmed {
         /// The frame's sequence number.
         seq: u8,
         /// The event's low 16 bits.
         event: u16,
+        /// Whom the FC accepted, when it says (the paper's text alone does
+        /// not: then it is taken to be this companion).
+        by: Option<Peer>,
     },
     /// Any other frame of the FC: it is alive.
     FcAlive,
@@ -166,6 +169,17 @@ pub enum CcAction {
     Declined {
         /// The FC's event.
         event: u32,
+    },
+    /// The FC confirmed the takeover of the event this companion controls
+    /// to another companion (a second companion with the FC's trust, or
+    /// one the FC was configured for on the ground): control stopped at
+    /// once ([`CcAction::StopControl`] before this), rather than a belief
+    /// of flying renewed by the FC's heartbeats in companion control.
+    Superseded {
+        /// The FC's event.
+        event: u32,
+        /// Whom the FC accepted.
+        by: Peer,
     },
     /// The FC has rebooted: a notice came whose event id is older than any
     /// live event of the boot the companion knew, or an RC-loss notice of
@@ -244,7 +258,8 @@ enum State {
 /// assert_eq!(cc.state(), CcState::Controlling);
 /// // It believes it is in control only once the FC confirms.
 /// assert!(!cc.believes_in_control(Instant::from_millis(1105)));
-/// cc.handle_input(Instant::from_millis(1110), CcInput::TakeoverConfirmed { seq: 7, event: 1100 });
+/// let confirmed = CcInput::TakeoverConfirmed { seq: 7, event: 1100, by: Some(cc.config().own) };
+/// cc.handle_input(Instant::from_millis(1110), confirmed);
 /// assert!(cc.believes_in_control(Instant::from_millis(1110)));
 /// ```
 #[derive(Debug, Clone)]
@@ -440,13 +455,19 @@ impl Companion {
                 seq,
                 companion_control,
             } => self.heartbeat(now, companion_control, seq),
-            CcInput::TakeoverConfirmed { seq, event: id } => {
+            CcInput::TakeoverConfirmed { seq, event: id, by } => {
                 // Bound to the event, so a late confirmation of an earlier
                 // episode confirms nothing.
-                let current =
-                    matches!(self.state, State::Controlling { event, .. } if event as u16 == id);
-                if current {
-                    self.confirm(now, seq);
+                let State::Controlling { event, .. } = self.state else {
+                    return;
+                };
+                match by {
+                    _ if event as u16 != id => {}
+                    Some(other) if other != self.cfg.own => {
+                        self.stop(State::Standby);
+                        self.out.push(CcAction::Superseded { event, by: other });
+                    }
+                    _ => self.confirm(now, seq),
                 }
             }
             CcInput::Notice { status, timestamp } => self.notice(now, status, timestamp),

@@ -110,6 +110,7 @@ pub mod engine;
 pub mod fc;
 pub mod node;
 mod outbox;
+pub mod protected;
 #[cfg(feature = "std")]
 pub mod sim;
 mod time;

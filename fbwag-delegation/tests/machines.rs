@@ -2,7 +2,7 @@
 
 use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
 use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
-use fbwag_delegation::{Instant, Status};
+use fbwag_delegation::{Instant, Peer, Status};
 
 fn ms(t: u64) -> Instant {
     Instant::from_millis(t)
@@ -221,7 +221,14 @@ fn companion_acks_streams_and_stops_on_hand_back() {
         !cc.believes_in_control(ms(100)),
         "not before the FC confirms"
     );
-    cc.handle_input(ms(110), CcInput::TakeoverConfirmed { seq: 2, event: 100 });
+    cc.handle_input(
+        ms(110),
+        CcInput::TakeoverConfirmed {
+            seq: 2,
+            event: 100,
+            by: None,
+        },
+    );
     assert!(cc.believes_in_control(ms(110)));
     assert!(
         !cc.believes_in_control(ms(900)),
@@ -305,10 +312,57 @@ fn companion_ignores_late_frames() {
         CcInput::TakeoverConfirmed {
             seq: 15,
             event: 100,
+            by: None,
         },
     );
     assert!(!cc.believes_in_control(ms(210)));
     assert_eq!(cc.state(), CcState::Controlling);
+}
+
+/// The FC names the companion it accepted: one that sees another
+/// accepted for its event stops at once, and FBWAG-mode heartbeats after
+/// it renew no belief; its own name confirms as the paper's text does.
+#[test]
+fn a_companion_that_sees_another_accepted_stops_at_once() {
+    let cfg = CcConfig::default();
+    let mut cc = Companion::new(cfg);
+    let lost = CcInput::Notice {
+        status: Status::RC_LOST,
+        timestamp: 100,
+    };
+    cc.handle_input(ms(100), lost);
+    while cc.poll_action().is_some() {}
+    let confirmed = |seq, by| CcInput::TakeoverConfirmed {
+        seq,
+        event: 100,
+        by: Some(by),
+    };
+    cc.handle_input(ms(110), confirmed(2, cfg.own));
+    assert!(cc.believes_in_control(ms(110)));
+    let stranger = Peer::new(1, 77);
+    cc.handle_input(ms(120), confirmed(3, stranger));
+    let actions: Vec<_> = std::iter::from_fn(|| cc.poll_action()).collect();
+    assert_eq!(
+        actions,
+        [
+            CcAction::StopControl,
+            CcAction::Superseded {
+                event: 100,
+                by: stranger
+            }
+        ]
+    );
+    assert_eq!(cc.state(), CcState::Standby);
+    assert!(!cc.believes_in_control(ms(120)));
+    cc.handle_input(
+        ms(130),
+        CcInput::Heartbeat {
+            seq: 4,
+            companion_control: true,
+        },
+    );
+    assert!(!cc.believes_in_control(ms(130)));
+    assert_eq!(cc.state(), CcState::Standby);
 }
 
 #[test]

@@ -471,6 +471,62 @@ fn a_key_holder_behind_in_time_gets_a_signed_heartbeat_and_never_the_peers_place
     );
 }
 
+/// Time beacons cannot be stolen and need no empty link: a replayer of
+/// one old signed frame, 100 datagrams a second from its own address,
+/// gets one beacon a second, and the genuine peer, restarted on a new
+/// address (its clock behind, no state) while the link still answers the
+/// old one, gets its own at its first frame; its next frame, fresh once it
+/// adopted the beacon's time, makes it the peer at once.
+#[test]
+fn a_replayer_never_takes_the_beacons_of_a_peer_that_restarted() {
+    let mut cc = companion(builtin);
+    heard_fc(&mut cc, Instant::ZERO);
+    let stale = |seq: u8| {
+        let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
+        let mut signer = fbwag_dialect::Signer::new([7; 32], 0, 1);
+        let h = Header {
+            seq,
+            sysid: FC.sysid,
+            compid: FC.compid,
+        };
+        let n = encode(Version::V2, h, &heartbeat(), Some(&mut signer), &mut buf).unwrap();
+        buf[..n].to_vec()
+    };
+    let (replayer, restarted) = (addr(40_000), addr(FC_ADDR + 1));
+    let old = stale(0);
+    let beacons = |cc: &mut CompanionNode, to: SocketAddr| {
+        drain(cc)
+            .iter()
+            .filter(|o| matches!(o, Output::TransmitTo { to: t, .. } if *t == to))
+            .count()
+    };
+    let (mut to_replayer, mut to_peer) = (0, 0);
+    for ms in (1_000..4_000u64).step_by(10) {
+        let now = Instant::from_millis(ms);
+        let _ = cc.handle_frame(now, arrival(FC_LINK, Some(replayer), &old, false));
+        to_replayer += beacons(&mut cc, replayer);
+        if ms % 1000 == 500 {
+            let own = stale((ms / 1000) as u8);
+            let fate = cc.handle_frame(now, arrival(FC_LINK, Some(restarted), &own, false));
+            assert_eq!(fate.dropped, Some(DropReason::NotPeer));
+            to_peer += beacons(&mut cc, restarted);
+        }
+    }
+    assert_eq!((to_replayer, to_peer), (3, 3));
+    // Fresh now: the restarted FC is the peer at once.
+    let hb = bytes(FC, &heartbeat());
+    let now = Instant::from_millis(4_000);
+    let fate = cc.handle_frame(now, arrival(FC_LINK, Some(restarted), &hb, true));
+    assert!(fate.input, "{fate:?}");
+    let out = drain(&mut cc);
+    assert!(
+        out.iter().any(
+            |o| matches!(o, Output::Peers { link: FC_LINK, peers } if peers.contains(restarted))
+        ),
+        "{out:?}"
+    );
+}
+
 /// A link trusted like the key (`--trusted-out`): a tool's unsigned
 /// command reaches the FC, to be signed on the way; the same command from
 /// an ordinary ground link is dropped; the trusted link still cannot claim
@@ -513,6 +569,71 @@ fn a_trusted_link_reaches_the_fc_signed_on_the_way() {
     unknown[7..10].copy_from_slice(&[0xfe, 0xff, 0xff]); // an id no dialect defines
     let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &unknown, false));
     assert!(!fate.sign && !fate.route.contains(FC_LINK), "{fate:?}");
+}
+
+/// Who flies is decided on the ground: a trusted link's unsigned frame
+/// that would change it (a delegation or failsafe parameter, the signing
+/// key, control) is never signed on, and is counted; an ordinary
+/// parameter write and a parameter read go on, signed on the way, and a
+/// station that signs its own frames is trusted with the key as before.
+#[test]
+fn a_trusted_link_never_signs_on_what_changes_who_flies() {
+    use fbwag_dialect::dialects::common::{ParamRequestRead, ParamSet, SetupSigning};
+    use fbwag_dialect::mavframe::field::chars;
+    const TRUSTED: u8 = 3;
+    let mut cc = companion(builtin);
+    let trusted = LinkSpec {
+        trusted: true,
+        ..LinkSpec::new(Role::Ground, Answers::Chosen)
+    };
+    cc.add_link(TRUSTED, trusted).unwrap();
+    heard_fc(&mut cc, Instant::ZERO);
+    let set = |name: &str, value: f32| {
+        bytes(
+            GCS,
+            &ParamSet {
+                target_system: FC.sysid,
+                target_component: FC.compid,
+                param_id: chars(name),
+                param_value: value,
+                ..Default::default()
+            },
+        )
+    };
+    let tool = Some(addr(14540));
+    let to_fc = |cc: &mut CompanionNode, frame: &[u8], authenticated| {
+        let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, frame, authenticated));
+        drain(cc);
+        fate
+    };
+    for frame in [
+        set("FBWAG_CC_COMPID", 77.0),
+        set("FBWAG_CC_SYSID", 77.0),
+        set("FS_SHORT_TIMEOUT", 25.5),
+        bytes(GCS, &SetupSigning::default()),
+        bytes(GCS, &rc(1999)),
+    ] {
+        let fate = to_fc(&mut cc, &frame, false);
+        assert_eq!(fate.dropped, Some(DropReason::Protected), "{fate:?}");
+        assert!(fate.route.is_empty() && !fate.sign);
+    }
+    assert_eq!(cc.drops().get(DropReason::Protected), 5);
+    let read = bytes(
+        GCS,
+        &ParamRequestRead {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            param_id: chars("FBWAG_CC_COMPID"),
+            param_index: -1,
+        },
+    );
+    for frame in [set("AIRSPEED_CRUISE", 20.0), read] {
+        let fate = to_fc(&mut cc, &frame, false);
+        assert_eq!((fate.route, fate.sign), (Links::only(FC_LINK), true));
+    }
+    // Signed by a station with the key: its own authority, untouched.
+    let fate = to_fc(&mut cc, &set("FBWAG_CC_COMPID", 191.0), true);
+    assert_eq!((fate.route, fate.sign), (Links::only(FC_LINK), false));
 }
 
 /// Ground tools hear the companion's heartbeat only once the FC is heard:

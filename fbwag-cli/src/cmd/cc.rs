@@ -109,12 +109,16 @@ pub struct CcArgs {
     /// messages go to the --out links only. Replaces --controller.
     #[arg(long, value_name = "CONN", value_parser = args::endpoint)]
     pub autonomy: Option<String>,
-    /// The autonomy program's address (IP:PORT): the autonomy link
-    /// answers it only and drops frames from anyone else. Without it,
-    /// the first program heard is the autonomy until it has been silent
-    /// for 3 s.
-    #[arg(long, value_name = "IP:PORT", requires = "autonomy")]
-    pub autonomy_peer: Option<SocketAddr>,
+    /// The autonomy program's address (IP:PORT, the port it sends from):
+    /// the autonomy link answers it only and drops frames from anyone
+    /// else; a restarted program is heard again at once. Needed when
+    /// --autonomy listens (udpin, tcpin, udpbcast): otherwise any local
+    /// program that spoke first would fly the aircraft. `any` admits the
+    /// first program heard, until it has been silent for 3 s: unsafe, for
+    /// a machine that runs nothing else. An --autonomy that connects
+    /// (udpout, tcp, serial) talks to its one far end and needs none.
+    #[arg(long, value_name = "IP:PORT|any", requires = "autonomy", value_parser = args::autonomy_peer)]
+    pub autonomy_peer: Option<args::AutonomyPeer>,
     /// What happens when the autonomy has sent nothing for 500 ms (it
     /// should stream its control, gated, at its own rate all the time):
     /// `decline`: the companion declines the FC's takeover (and gives
@@ -191,6 +195,9 @@ impl TryFrom<CcArgs> for CcOptions {
         let trusted_outs: Vec<Endpoint> = trusted_outs.collect::<Result<_, _>>()?;
         let autonomy = a.autonomy.as_deref().map(|e| endpoint("--autonomy", e));
         let autonomy = autonomy.transpose()?;
+        if let Some(e) = &autonomy {
+            check_autonomy_peer(e, a.autonomy_peer)?;
+        }
         let filtered = outs.len() + trusted_outs.len() + usize::from(autonomy.is_some());
         let filters = args::link_filters(&a.filter_in, &a.filter_out, filtered)
             .map_err(CliError::link_option)?;
@@ -206,8 +213,12 @@ impl TryFrom<CcArgs> for CcOptions {
             filters,
             dedup: (a.dedup > 0).then(|| Duration::from_millis(a.dedup)),
             trusted_outs,
+            trusted_out_remote: a.trusted_out_remote,
             autonomy,
-            autonomy_peer: a.autonomy_peer,
+            autonomy_peer: match a.autonomy_peer {
+                Some(args::AutonomyPeer::At(addr)) => Some(addr),
+                _ => None,
+            },
             autonomy_fallback: a.autonomy_fallback.into(),
             own: Peer::new(a.sysid, a.compid),
             fc: Peer::new(a.fc_sysid, a.fc_compid),
@@ -220,6 +231,20 @@ impl TryFrom<CcArgs> for CcOptions {
             tlog: a.tlog.options(),
             stop_on_signals: true,
         })
+    }
+}
+
+/// A listening autonomy link (`udpin`, `tcpin`, `udpbcast`) must name its
+/// program, or say `any` on purpose: the first local program that spoke
+/// would fly the aircraft otherwise.
+fn check_autonomy_peer(e: &Endpoint, peer: Option<args::AutonomyPeer>) -> Result<(), CliError> {
+    let listens = matches!(
+        e,
+        Endpoint::UdpIn(_) | Endpoint::TcpIn(_) | Endpoint::UdpBcast(_)
+    );
+    match peer {
+        None if listens => Err(CliError::AutonomyUnpinned(e.to_string())),
+        _ => Ok(()),
     }
 }
 
@@ -256,6 +281,7 @@ mod tests {
             "--out=udpin:127.0.0.1:2",
             "--trusted-out=udpin:127.0.0.1:3",
             "--autonomy=udpin:127.0.0.1:4",
+            "--autonomy-peer=127.0.0.1:5",
             &filter,
         ])
         .unwrap();

@@ -83,6 +83,13 @@ pub struct FcSimArgs {
     /// (the model flies the pilot's centred sticks in any of them).
     #[arg(long, value_enum, default_value = "fbwa")]
     pub pilot_mode: PilotMode,
+    /// Arm at this time (seconds after start, 0–1,000,000; 0: armed from
+    /// the start). Until then the FC is on the ground: its RC failsafe is
+    /// not armed (a lost receiver delegates nothing), its heartbeat says
+    /// disarmed, and the parameters that decide who flies (FS_*,
+    /// FBWAG_*, SYSID_*) may be written; armed, they are refused.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, allow_hyphen_values = true, value_parser = args::seconds)]
+    pub arm_at: f64,
 }
 
 impl TryFrom<FcSimArgs> for FcOptions {
@@ -100,6 +107,7 @@ impl TryFrom<FcSimArgs> for FcOptions {
             stop_on_signals: true,
             home: a.home,
             pilot_mode: a.pilot_mode,
+            arm_at: a.arm_at,
         })
     }
 }

@@ -13,8 +13,10 @@
 //! `--require-signed` only frames whose signature verified, as ArduPilot
 //! serves only signed frames on a link that requires signing).
 //! They never decide who flies: commands that would (mode changes, arming,
-//! RTL, reboot) are denied, and parameters change only while the pilot
-//! flies.
+//! RTL, reboot) are denied, and the parameters that decide it change only
+//! while disarmed and the pilot flies (others at any time). The simulator
+//! arms itself at `--arm-at` (at start by default); until then its RC
+//! failsafe is not armed, as ArduPlane's is not on the ground.
 
 use crate::live::net::{self, LinkOptions, Net, Node};
 use crate::live::{mode_name, Clock, Events, Limiter, Log};
@@ -23,11 +25,12 @@ use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{FcNode, LinkSpec, Output, Role};
 use fbwag_delegation::{mode, wire, Instant, Peer};
-use fbwag_dialect::dialects::minimal::{Heartbeat, MavState};
+use fbwag_dialect::dialects::minimal::{Heartbeat, MavModeFlag, MavState};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{Dialect, Message};
 use gcs::{Stream, Streams, Unhandled};
+use params::Settings;
 use plane::{Guidance, Home, Plane, Sticks};
 use serde_json::json;
 use std::io;
@@ -101,6 +104,8 @@ pub struct FcOptions {
     pub home: Home,
     /// The pilot's flight mode.
     pub pilot_mode: PilotMode,
+    /// When the FC arms (seconds after start; 0: armed from the start).
+    pub arm_at: f64,
 }
 
 /// What the FC simulator saw, for the demo and tests.
@@ -136,8 +141,12 @@ struct ParamCursor {
 
 struct Daemon {
     node: FcNode,
-    /// The engine's configuration (parameters read and write it).
-    cfg: FcConfig,
+    /// The engine's configuration and the model's airspeed (parameters
+    /// read and write them).
+    settings: Settings,
+    /// When the FC arms (seconds), and whether it has.
+    arm_at: f64,
+    armed: bool,
     own: Peer,
     outages: Vec<(f64, Option<f64>)>,
     duration: f64,
@@ -185,7 +194,12 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     log_start(&o, &endpoint, &mut log);
     let mut daemon = Daemon {
         node,
-        cfg,
+        settings: Settings {
+            fc: cfg,
+            cruise_airspeed: plane::CRUISE_AIRSPEED as f32,
+        },
+        arm_at: o.arm_at,
+        armed: false,
         own: o.own,
         outages: o.outages,
         duration: o.duration,
@@ -207,6 +221,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     daemon
         .events
         .emit("mode", json!({"mode": o.pilot_mode.name()}));
+    daemon.update_arming(&mut log);
     net::run(&mut daemon, net, &clock, &mut log, o.stop_on_signals).await;
     daemon.finish(&mut log);
     Ok(daemon.report)
@@ -268,6 +283,19 @@ impl Daemon {
             .any(|&(lost, back)| t >= lost && back.is_none_or(|b| t < b))
     }
 
+    /// Arms at `arm_at`: from then on the engine sees the receiver's
+    /// state (disarmed, the RC failsafe is not armed: it sees a working
+    /// receiver).
+    fn update_arming(&mut self, log: &mut Log) {
+        if self.armed || self.clock.secs() < self.arm_at {
+            return;
+        }
+        self.armed = true;
+        self.node.set_receiver_ok(self.receiver_ok);
+        log.line("armed");
+        self.events.emit("armed", json!({"armed": true}));
+    }
+
     fn update_receiver(&mut self, log: &mut Log) {
         let t = self.clock.secs();
         let ok = self.receiver_at(t);
@@ -275,7 +303,7 @@ impl Daemon {
             return;
         }
         self.receiver_ok = ok;
-        self.node.set_receiver_ok(ok);
+        self.node.set_receiver_ok(ok || !self.armed);
         if ok {
             log.line("receiver: signal back");
         } else {
@@ -287,12 +315,14 @@ impl Daemon {
             .emit("receiver", json!({"state": if ok { "ok" } else { "lost" }}));
     }
 
-    /// When the scheduled receiver state next changes.
+    /// When the scheduled receiver state (or arming) next changes.
     fn next_receiver_change(&self) -> Option<Instant> {
         let t = self.clock.secs();
+        let arming = (!self.armed).then_some(self.arm_at);
         self.outages
             .iter()
             .flat_map(|&(lost, back)| [Some(lost), back])
+            .chain([arming])
             .flatten()
             .filter(|&at| at > t)
             .map(|at| Instant((at * 1e6) as u64))
@@ -343,14 +373,17 @@ impl Daemon {
 
     /// The HEARTBEAT the engine built, as ArduPlane would send it: the
     /// pilot's own mode while the pilot flies (the engine's number for
-    /// that is FBWA), and CRITICAL while a failsafe (the lost receiver) is
-    /// on. The companion reads only whether the mode is FBWAG, which this
-    /// never changes.
+    /// that is FBWA), STANDBY and not armed until armed, CRITICAL while
+    /// a failsafe (the lost receiver) is on. The companion reads only
+    /// whether the mode is FBWAG, which this never changes.
     fn heartbeat(&self, mut h: Heartbeat) -> Heartbeat {
         if h.custom_mode == wire::custom_mode(Authority::Pilot) {
             h.custom_mode = self.pilot_mode.custom_mode();
         }
-        if !self.receiver_ok {
+        if !self.armed {
+            h.base_mode.remove(MavModeFlag::SAFETY_ARMED);
+            h.system_status = MavState::STANDBY;
+        } else if !self.receiver_ok {
             h.system_status = MavState::CRITICAL;
         }
         h
@@ -530,6 +563,7 @@ impl Node for Daemon {
 
     fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
         self.fly_to(now);
+        self.update_arming(log);
         self.update_receiver(log);
         self.node.handle_timeout(now);
         self.drain(net, log);

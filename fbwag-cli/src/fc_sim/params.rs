@@ -1,14 +1,18 @@
 //! `fbwag fc-sim`'s parameters: the failsafe settings of the delegation
 //! protocol, named as ArduPlane names them where ArduPlane has the setting
-//! (FS_*, SYSID_THISMAV) and `FBWAG_*` where it has none.
+//! (FS_*, SYSID_THISMAV) and `FBWAG_*` where it has none, and the model's
+//! cruise airspeed (AIRSPEED_CRUISE), an ordinary parameter.
 //!
-//! Every value is read from, and written into, the FC engine's
-//! [`FcConfig`]: there is no second copy to drift. A write is checked here
-//! (type, range, the engine's own [`FcConfig::validate`]) and gives the new
-//! configuration; when it may take effect (only while the pilot flies:
-//! changing timeouts or the trusted companion in the middle of a handover
-//! could end it) is the daemon's decision. Values travel as ArduPilot sends
-//! them: C-cast into PARAM_VALUE's float (MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST).
+//! Every value is read from, and written into, the [`Settings`] in force:
+//! the FC engine's [`FcConfig`] and the model's airspeed; there is no
+//! second copy to drift. A write is checked here (type, range, the
+//! engine's own [`FcConfig::validate`]) and gives the new settings; when
+//! it may take effect is the daemon's decision: the parameters that decide
+//! who flies ([`fbwag_delegation::protected`]) only while disarmed and
+//! with the pilot flying (changing timeouts or the trusted companion in
+//! the middle of a flight or a handover could end it), the others at any
+//! time. Values travel as ArduPilot sends them: C-cast into PARAM_VALUE's
+//! float (MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST).
 
 use fbwag_delegation::fc::FcConfig;
 use fbwag_delegation::{ConfigError, Peer};
@@ -21,6 +25,15 @@ use std::time::Duration;
 pub const FS_SHORT_ACTN_FBWAG: f32 = 5.0;
 /// ArduPlane's FS_LONG_ACTN value for RTL, the protocol's fallback.
 pub const FS_LONG_ACTN_RTL: f32 = 1.0;
+
+/// What the parameters read and write.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// The FC engine's.
+    pub fc: FcConfig,
+    /// The model's airspeed at trim throttle (m/s).
+    pub cruise_airspeed: f32,
+}
 
 /// One parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,11 +68,14 @@ pub enum Param {
     CcTimeout,
     /// 1 when only signed frames count; read only (--require-signed).
     Signed,
+    /// The airspeed the model flies at trim throttle (m/s); ArduPlane's
+    /// name since 4.5. Not protected: writable in flight.
+    AirspeedCruise,
 }
 
 impl Param {
     /// All parameters, in index order.
-    pub const ALL: [Param; 12] = [
+    pub const ALL: [Param; 13] = [
         Param::FsShortActn,
         Param::FsShortTimeout,
         Param::FsLongActn,
@@ -72,6 +88,7 @@ impl Param {
         Param::OvrdTime,
         Param::CcTimeout,
         Param::Signed,
+        Param::AirspeedCruise,
     ];
 
     /// The name on the wire (at most 16 characters).
@@ -89,6 +106,7 @@ impl Param {
             Param::OvrdTime => "FBWAG_OVRD_TIME",
             Param::CcTimeout => "FBWAG_CC_TIMEOUT",
             Param::Signed => "FBWAG_SIGNED",
+            Param::AirspeedCruise => "AIRSPEED_CRUISE",
         }
     }
 
@@ -103,7 +121,8 @@ impl Param {
             | Param::FsLongTimeout
             | Param::RetryTime
             | Param::OvrdTime
-            | Param::CcTimeout => MavParamType::REAL32,
+            | Param::CcTimeout
+            | Param::AirspeedCruise => MavParamType::REAL32,
         }
     }
 
@@ -126,9 +145,16 @@ impl Param {
             .find(|p| p.name().as_bytes() == &id[..end])
     }
 
+    /// Whether it decides who flies: writable only while disarmed
+    /// ([`fbwag_delegation::protected::is_protected_parameter`]).
+    pub fn is_protected(self) -> bool {
+        fbwag_delegation::protected::is_protected_parameter(self.name().as_bytes())
+    }
+
     /// The value now, as sent.
-    pub fn value(self, cfg: &FcConfig) -> f32 {
+    pub fn value(self, settings: &Settings) -> f32 {
         let secs = |d: Duration| d.as_secs_f32();
+        let cfg = &settings.fc;
         match self {
             Param::FsShortActn => FS_SHORT_ACTN_FBWAG,
             Param::FsShortTimeout => secs(cfg.rc_sample_period) * f32::from(cfg.rc_loss_samples),
@@ -142,20 +168,36 @@ impl Param {
             Param::OvrdTime => secs(cfg.override_timeout),
             Param::CcTimeout => secs(cfg.heartbeat_timeout),
             Param::Signed => f32::from(u8::from(cfg.require_signed)),
+            Param::AirspeedCruise => settings.cruise_airspeed,
         }
     }
 
-    /// The configuration with this parameter set to `value`, or why not.
-    pub fn apply(self, value: f32, cfg: &FcConfig) -> Result<FcConfig, ParamError> {
+    /// The settings with this parameter set to `value`, or why not.
+    pub fn apply(self, value: f32, settings: &Settings) -> Result<Settings, ParamError> {
         if !value.is_finite() {
             return Err(ParamError::NotFinite(self));
         }
+        if self == Param::AirspeedCruise {
+            let cruise_airspeed = range(self, value, 12.0, 30.0)?;
+            return Ok(Settings {
+                cruise_airspeed,
+                ..*settings
+            });
+        }
+        let cfg = &settings.fc;
         let mut new = *cfg;
         match self {
             Param::FsShortActn => fixed(self, value, FS_SHORT_ACTN_FBWAG, "always 5 (FBWAG)")?,
             Param::FsLongActn => fixed(self, value, FS_LONG_ACTN_RTL, "always 1 (RTL)")?,
-            Param::SysidThismav => fixed(self, value, self.value(cfg), "restart with --sysid")?,
-            Param::Signed => fixed(self, value, self.value(cfg), "start with --require-signed")?,
+            Param::SysidThismav => {
+                fixed(self, value, self.value(settings), "restart with --sysid")?
+            }
+            Param::Signed => fixed(
+                self,
+                value,
+                self.value(settings),
+                "start with --require-signed",
+            )?,
             Param::FsShortTimeout => {
                 let period = cfg.rc_sample_period.as_secs_f32();
                 let samples = range(self, value / period, 1.0, 255.0)?;
@@ -168,10 +210,13 @@ impl Param {
             Param::RetryMax => new.max_retries = integer(self, value, 0.0, 255.0)? as u8,
             Param::OvrdTime => new.override_timeout = seconds(self, value, 0.1, 2.9)?,
             Param::CcTimeout => new.heartbeat_timeout = seconds(self, value, 0.5, 60.0)?,
+            Param::AirspeedCruise => {}
         }
-        new.validate()
-            .map_err(|e| ParamError::Config(self, e))
-            .map(|()| new)
+        new.validate().map_err(|e| ParamError::Config(self, e))?;
+        Ok(Settings {
+            fc: new,
+            ..*settings
+        })
     }
 }
 
@@ -192,6 +237,8 @@ pub enum ParamError {
     /// Not while a handover is under way or the receiver is lost: the
     /// flight mode now.
     Busy(Param, &'static str),
+    /// It decides who flies: not while armed.
+    Armed(Param),
 }
 
 impl fmt::Display for ParamError {
@@ -204,6 +251,7 @@ impl fmt::Display for ParamError {
             ParamError::Range(p, lo, hi) => write!(f, "{}: {lo}..{hi} only", p.name()),
             ParamError::Config(p, e) => write!(f, "{}: {e}", p.name()),
             ParamError::Busy(p, mode) => write!(f, "{}: not in {mode}, pilot only", p.name()),
+            ParamError::Armed(p) => write!(f, "{}: not while armed", p.name()),
         }
     }
 }
@@ -269,7 +317,7 @@ mod tests {
 
     #[test]
     fn defaults_read_as_the_paper_values() {
-        let cfg = FcConfig::default();
+        let cfg = settings();
         let v = |p: Param| p.value(&cfg);
         assert_eq!(v(Param::FsShortActn), 5.0);
         assert!((v(Param::FsShortTimeout) - 0.2).abs() < 1e-6);
@@ -279,24 +327,33 @@ mod tests {
         assert_eq!(v(Param::RetryMax), 3.0);
         assert_eq!(v(Param::OvrdTime), 1.0);
         assert_eq!(v(Param::Signed), 0.0);
+        assert_eq!(v(Param::AirspeedCruise), 18.0);
+        // Every parameter but the airspeed decides who flies.
+        let free: Vec<Param> = Param::ALL
+            .into_iter()
+            .filter(|p| !p.is_protected())
+            .collect();
+        assert_eq!(free, [Param::AirspeedCruise]);
     }
 
     #[test]
     fn writes_change_the_engine_config() {
-        let cfg = FcConfig::default();
+        let cfg = settings();
         let new = Param::FsShortTimeout.apply(0.5, &cfg).unwrap();
-        assert_eq!(new.rc_loss_samples, 5);
+        assert_eq!(new.fc.rc_loss_samples, 5);
         let new = Param::CcSysid.apply(42.0, &cfg).unwrap();
-        assert_eq!(new.companion, Peer::new(42, 191));
+        assert_eq!(new.fc.companion, Peer::new(42, 191));
         let new = Param::FsLongTimeout.apply(7.25, &cfg).unwrap();
-        assert_eq!(new.handshake_timeout, Duration::from_millis(7250));
+        assert_eq!(new.fc.handshake_timeout, Duration::from_millis(7250));
+        let new = Param::AirspeedCruise.apply(22.0, &cfg).unwrap();
+        assert_eq!((new.cruise_airspeed, new.fc), (22.0, cfg.fc));
         // Writing the one allowed value of a fixed parameter is a no-op.
         assert_eq!(Param::FsShortActn.apply(5.0, &cfg), Ok(cfg));
     }
 
     #[test]
     fn bad_writes_are_refused_with_a_reason() {
-        let cfg = FcConfig::default();
+        let cfg = settings();
         let err = |p: Param, v: f32| p.apply(v, &cfg).unwrap_err();
         assert!(matches!(
             err(Param::FsShortActn, 1.0),
@@ -322,6 +379,18 @@ mod tests {
             err(Param::RetryTime, 0.15),
             ParamError::Config(..)
         ));
+        assert!(matches!(
+            err(Param::AirspeedCruise, 40.0),
+            ParamError::Range(..)
+        ));
         assert!(err(Param::FsShortActn, 1.0).to_string().len() <= 50);
+        assert!(ParamError::Armed(Param::FsShortTimeout).to_string().len() <= 50);
+    }
+
+    fn settings() -> Settings {
+        Settings {
+            fc: FcConfig::default(),
+            cruise_airspeed: 18.0,
+        }
     }
 }

@@ -23,8 +23,8 @@ const G: f64 = 9.80665;
 const EARTH_RADIUS: f64 = 6_371_000.0;
 /// The model's fixed step (s).
 pub const STEP: f64 = 0.02;
-/// Airspeed at trim throttle (m/s).
-const CRUISE_AIRSPEED: f64 = 18.0;
+/// Airspeed at trim throttle (m/s), until AIRSPEED_CRUISE says otherwise.
+pub const CRUISE_AIRSPEED: f64 = 18.0;
 /// Airspeed limits (m/s): ArduPlane's AIRSPEED_MIN/MAX defaults, roughly.
 const MIN_AIRSPEED: f64 = 12.0;
 const MAX_AIRSPEED: f64 = 30.0;
@@ -198,6 +198,8 @@ pub struct Plane {
     /// Heading, radians clockwise from north, 0..2π.
     heading: f64,
     airspeed: f64,
+    /// Airspeed at trim throttle (AIRSPEED_CRUISE).
+    cruise: f64,
     climb: f64,
     bank: f64,
     throttle: f64,
@@ -243,6 +245,7 @@ impl Plane {
             height: START_HEIGHT,
             heading: 0.0,
             airspeed: CRUISE_AIRSPEED,
+            cruise: CRUISE_AIRSPEED,
             climb: 0.0,
             bank: 0.0,
             throttle: TRIM_THROTTLE,
@@ -253,6 +256,12 @@ impl Plane {
 
     pub fn home(&self) -> Home {
         self.home
+    }
+
+    /// The airspeed flown at trim throttle from now on (m/s, within the
+    /// airspeed limits).
+    pub fn set_cruise_airspeed(&mut self, airspeed: f64) {
+        self.cruise = airspeed.clamp(MIN_AIRSPEED, MAX_AIRSPEED);
     }
 
     /// Advances in whole steps up to time `t` (s) under `guidance`; a time
@@ -275,7 +284,7 @@ impl Plane {
         self.bank += (bank - self.bank) * lag(BANK_TAU);
         self.roll_rate = (self.bank - bank_before) / STEP;
         self.throttle = throttle;
-        let speed = CRUISE_AIRSPEED + (throttle - TRIM_THROTTLE) * SPEED_PER_THROTTLE;
+        let speed = self.cruise + (throttle - TRIM_THROTTLE) * SPEED_PER_THROTTLE;
         let speed = speed.clamp(MIN_AIRSPEED, MAX_AIRSPEED);
         self.airspeed += (speed - self.airspeed) * lag(SPEED_TAU);
         self.climb += (climb - self.climb) * lag(CLIMB_TAU);

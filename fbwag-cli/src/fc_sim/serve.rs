@@ -3,12 +3,12 @@
 //! parameters and engine at hand.
 
 use super::gcs::{self, Command, Interval, Kind, Plan, Request, Stream};
-use super::params::{Param, ParamError};
+use super::params::{Param, ParamError, Settings};
 use super::telemetry;
 use super::{Daemon, ParamCursor, PARAM_LIST_INTERVAL};
 use crate::live::net::Net;
 use crate::live::Log;
-use fbwag_delegation::fc::{Authority, FcConfig};
+use fbwag_delegation::fc::Authority;
 use fbwag_delegation::{Instant, Peer};
 use fbwag_dialect::dialects::common::{
     CommandAck, MavCmd, MavMissionResult, MavMissionType, MavResult, MavSeverity, MessageInterval,
@@ -245,7 +245,7 @@ impl Daemon {
     fn param_value(&self, p: Param) -> ParamValue {
         ParamValue {
             param_id: chars(p.name()),
-            param_value: p.value(&self.cfg),
+            param_value: p.value(&self.settings),
             param_type: p.param_type(),
             param_count: Param::ALL.len() as u16,
             param_index: p.index(),
@@ -303,11 +303,11 @@ impl Daemon {
             return self.not_served(unknown_param("PARAM_SET", -1, id), from, log);
         };
         let result = self
-            .busy()
-            .map_or(Ok(()), |mode| Err(ParamError::Busy(p, mode)))
-            .and_then(|()| p.apply(value, &self.cfg));
+            .forbids(p)
+            .map_or(Ok(()), Err)
+            .and_then(|()| p.apply(value, &self.settings));
         match result {
-            Ok(cfg) => self.reconfigure(now, p, cfg, from, log),
+            Ok(settings) => self.reconfigure(now, p, settings, from, log),
             Err(e) => {
                 let why = e.to_string();
                 self.refusal(&why, &format!("PARAM_SET {value}"), from, net, log)
@@ -315,6 +315,18 @@ impl Daemon {
         }
         // The answer either way: the value now in force.
         self.send(&self.param_value(p), net);
+    }
+
+    /// Why `p` may not change now: a parameter that decides who flies
+    /// changes only on the ground (disarmed), and never during a handover.
+    fn forbids(&self, p: Param) -> Option<ParamError> {
+        if !p.is_protected() {
+            return None;
+        }
+        if self.armed {
+            return Some(ParamError::Armed(p));
+        }
+        self.busy().map(|mode| ParamError::Busy(p, mode))
     }
 
     /// The mode while a parameter change could disturb a handover: any
@@ -338,19 +350,32 @@ impl Daemon {
         })
     }
 
-    /// A new engine with `cfg`, started now: the old one was idle (see
-    /// [`Daemon::busy`]), so nothing of a handover is lost.
-    fn reconfigure(&mut self, now: Instant, p: Param, cfg: FcConfig, from: Peer, log: &mut Log) {
-        if cfg == self.cfg {
+    /// The new `settings` in force: a new engine for a new engine
+    /// configuration, started now (the old one was idle, see
+    /// [`Daemon::forbids`], so nothing of a handover is lost); the model's
+    /// new airspeed.
+    fn reconfigure(
+        &mut self,
+        now: Instant,
+        p: Param,
+        settings: Settings,
+        from: Peer,
+        log: &mut Log,
+    ) {
+        if settings == self.settings {
             return;
         }
-        if self.node.reconfigure(cfg, now).is_err() {
-            // Param::apply validated it; keep the engine that runs.
-            return;
+        if settings.fc != self.settings.fc {
+            if self.node.reconfigure(settings.fc, now).is_err() {
+                // Param::apply validated it; keep the engine that runs.
+                return;
+            }
+            self.node.set_receiver_ok(self.receiver_ok || !self.armed);
         }
-        self.node.set_receiver_ok(self.receiver_ok);
-        self.cfg = cfg;
-        let value = p.value(&cfg);
+        self.plane
+            .set_cruise_airspeed(f64::from(settings.cruise_airspeed));
+        self.settings = settings;
+        let value = p.value(&settings);
         log.line(&format!(
             "parameter {} = {value} (set by {}/{})",
             p.name(),

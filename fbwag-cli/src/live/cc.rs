@@ -43,6 +43,8 @@ pub struct CcOptions {
     pub dedup: Option<Duration>,
     /// Links trusted like the key ([`LinkSpec::trusted`]).
     pub trusted_outs: Vec<Endpoint>,
+    /// They may be on other than loopback addresses.
+    pub trusted_out_remote: bool,
     /// The user's autonomy program's link.
     pub autonomy: Option<Endpoint>,
     /// The autonomy program's address: the autonomy link answers it only,
@@ -150,7 +152,10 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
         filtered.push(link);
     }
     for e in &o.trusted_outs {
-        let link = net.add(e, o.link.key, None).await?;
+        // Checked at start (`check_trusted`), and again at each reopen
+        // after the name is resolved again.
+        let loopback_only = !o.trusted_out_remote;
+        let link = net.add_checked(e, o.link.key, None, loopback_only).await?;
         let trusted = LinkSpec {
             trusted: true,
             ..spec(Role::Ground, e, None)
@@ -454,6 +459,16 @@ impl Daemon {
             CcOutput::FcRebooted => {
                 log.line("FC rebooted: answering its new boot");
                 self.events.emit("fc", json!({"state": "rebooted"}));
+            }
+            CcOutput::Superseded { event, by } => {
+                let by = format!("{}/{}", by.sysid, by.compid);
+                log.line(&format!(
+                    "the FC accepted companion {by} for event {event}, not this one: control stopped"
+                ));
+                self.events.emit(
+                    "takeover",
+                    json!({"decision": "superseded", "by": by, "fc_event": event}),
+                );
             }
             CcOutput::Transmit(_) => {}
         }

@@ -154,6 +154,7 @@ fn companion(addr: SocketAddr, own: Peer, fc: Peer, duration: f64) -> CcOptions 
         filters: Vec::new(),
         dedup: None,
         trusted_outs: Vec::new(),
+        trusted_out_remote: false,
         autonomy: None,
         autonomy_peer: None,
         autonomy_fallback: Default::default(),
@@ -191,6 +192,7 @@ fn flight_controller(relay: SocketAddr, own: Peer, companion: Peer, o: &DemoOpti
         stop_on_signals: false,
         home: crate::fc_sim::plane::Home::DEFAULT,
         pilot_mode: crate::fc_sim::PilotMode::Fbwa,
+        arm_at: 0.0,
     }
 }
 

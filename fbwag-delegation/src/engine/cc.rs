@@ -70,6 +70,15 @@ pub enum CcOutput {
     /// The FC rebooted (its event ids restarted); its old events are
     /// forgotten, and the companion answers the new boot's notices.
     FcRebooted,
+    /// The FC confirmed the takeover of this event to another companion:
+    /// this one stopped at once ([`CcOutput::ControlStopped`] comes
+    /// before).
+    Superseded {
+        /// The FC's event.
+        event: u32,
+        /// Whom the FC accepted.
+        by: crate::Peer,
+    },
 }
 
 /// What became of a control message submitted to the engine.
@@ -213,14 +222,14 @@ impl CcEngine {
                 status: n.failsafe_status(),
                 timestamp: n.timestamp(),
             },
-            Some(MessageView::Statustext(t))
-                if t.text().as_bytes() == crate::TEXT_CC_TOOK_OVER.as_bytes() =>
-            {
-                CcInput::TakeoverConfirmed {
+            Some(MessageView::Statustext(t)) => match wire::takeover_by(t.text().as_bytes()) {
+                Some(by) => CcInput::TakeoverConfirmed {
                     seq: from.seq,
                     event: t.id(),
-                }
-            }
+                    by,
+                },
+                None => CcInput::FcAlive,
+            },
             _ => CcInput::FcAlive,
         };
         self.with_machine(|m| m.handle_input(now, input));
@@ -273,6 +282,7 @@ impl CcEngine {
                 CcAction::StopControl => CcOutput::ControlStopped,
                 CcAction::FcRebooted => CcOutput::FcRebooted,
                 CcAction::Declined { event } => CcOutput::Declined { event },
+                CcAction::Superseded { event, by } => CcOutput::Superseded { event, by },
             };
             self.out.push(output);
         }

@@ -264,9 +264,10 @@ impl FcEngine {
                 FcAction::SendNotice { status, timestamp } => {
                     self.transmit(Message::FbwagNotice(wire::notice(own, status, timestamp)))
                 }
-                FcAction::ConfirmTakeover { event } => self.transmit(Message::Statustext(
-                    wire::status_text(crate::TEXT_CC_TOOK_OVER, event),
-                )),
+                FcAction::ConfirmTakeover { event } => {
+                    let companion = self.machine.config().companion;
+                    self.transmit(Message::Statustext(wire::takeover_text(companion, event)))
+                }
                 FcAction::ConfirmHandBack { event } => self.transmit(Message::Statustext(
                     wire::status_text(crate::TEXT_RC_TOOK_OVER, event),
                 )),

@@ -278,6 +278,14 @@ impl CompanionNode {
         if !known && matches!(spec.answers, super::Answers::Fixed(_)) {
             return self.core.drop(DropReason::NotPeer);
         }
+        // Who flies is decided on the ground: the key is lent to the
+        // trusted link's tool for everything else.
+        if sign
+            && MessageView::new(a.frame.msg_id(), a.frame.payload())
+                .is_some_and(|view| crate::protected::protected(&view).is_some())
+        {
+            return self.core.drop(DropReason::Protected);
+        }
         if let Some(reason) = self.core.screen(a, now) {
             return self.core.drop(reason);
         }

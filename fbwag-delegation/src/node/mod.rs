@@ -27,6 +27,7 @@
 //! | ground link | other ids | not verified, signing required | routed to ground links only; dropped (`unauthenticated`) when it was addressed only to the FC or the autonomy |
 //! | ground link | other ids | verified, or signing not required | routed by the routing table, to every kind of link |
 //! | trusted ground link ([`LinkSpec::trusted`]) | other ids | not verified, a message the dialect knows | as verified, and signed on the way ([`Fate::sign`]) |
+//! | trusted ground link | a frame that would change who flies ([`crate::protected`]: delegation and failsafe parameters, SETUP_SIGNING, control, FTP writes, SERIAL_CONTROL) | not verified | dropped: `protected` (never signed on) |
 //! | autonomy link, from an address other than the autonomy's | any | any | dropped: `not_peer` |
 //! | autonomy link | the FC's or the companion's ids | any | dropped: `impersonation` |
 //! | autonomy link | RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL | any | the companion's gate: to the FC, re-addressed and signed, while the companion holds control; else dropped: `gated` |
@@ -195,11 +196,14 @@ pub enum DropReason {
     /// A copy of a frame that went on less than the de-duplication
     /// window before ([`Dedup`]).
     Duplicate,
+    /// An unsigned frame of a link trusted like the key that would change
+    /// who flies ([`crate::protected`]): never signed on for it.
+    Protected,
 }
 
 impl DropReason {
     /// Every reason, in the order of [`Drops::counts`].
-    pub const ALL: [DropReason; 7] = [
+    pub const ALL: [DropReason; 8] = [
         DropReason::OwnIds,
         DropReason::Impersonation,
         DropReason::Unauthenticated,
@@ -207,6 +211,7 @@ impl DropReason {
         DropReason::Gated,
         DropReason::Filtered,
         DropReason::Duplicate,
+        DropReason::Protected,
     ];
 
     /// Its name in logs and events.
@@ -219,6 +224,7 @@ impl DropReason {
             DropReason::Gated => "gated",
             DropReason::Filtered => "filtered",
             DropReason::Duplicate => "duplicate",
+            DropReason::Protected => "protected",
         }
     }
 }
@@ -345,8 +351,8 @@ struct Core {
     table: Table,
     drops: Drops,
     require_signed: bool,
-    /// When the last time beacon went out ([`Core::time_beacon`]).
-    beacon_at: Option<Instant>,
+    /// Who got a time beacon lately, and when ([`Core::time_beacon`]).
+    beacons: Beacons,
     /// Links whose out-filter is not [`Filter::ALL`]: the others cost
     /// nothing per frame.
     filtered_out: Links,
@@ -396,7 +402,7 @@ impl Core {
             table: Table::new(),
             drops: Drops::default(),
             require_signed,
-            beacon_at: None,
+            beacons: Beacons::default(),
             filtered_out: Links::NONE,
             roles: [Links::NONE; 3],
             dedup: None,
@@ -571,24 +577,24 @@ impl Core {
     /// Where to send the node's signed heartbeat, if anywhere: `a` claims
     /// the peer's ids and carries a signature, but the link's parser could
     /// not accept it as fresh (it returns such a frame, signed with the
-    /// key but stale, unauthenticated), and the listening link answers
-    /// nobody yet. Its sender holds the key: a peer whose clock is behind
-    /// this node's (or a replay). A heartbeat a second at most lets a
+    /// key but stale, unauthenticated), from an address the listening
+    /// link does not answer. Its sender holds the key: a peer whose clock
+    /// is behind this node's, perhaps restarted on a new address while the
+    /// link still answers the old one (or a replay). A heartbeat lets a
     /// genuine peer adopt this node's signing time, after which its frames
-    /// are fresh; the sender does not become the peer, and learns nothing
-    /// but the heartbeat.
+    /// are fresh and its next one moves the peer (a verified frame does at
+    /// once); the sender does not become the peer, and learns nothing but
+    /// the heartbeat. At most one a second to each address
+    /// ([`Beacons`]): a replayer from one address (or a few) gets its own
+    /// share, never the peer's.
     fn time_beacon(&mut self, a: &Arrival, now: Instant) -> Option<SocketAddr> {
         let source = a.source?;
         let state = self.links.get(usize::from(a.link))?.as_ref()?;
-        let waits = state.spec.answers == Answers::Chosen && state.peers.peers().is_empty();
-        let due = self
-            .beacon_at
-            .is_none_or(|t| now.since(t) >= core::time::Duration::from_secs(1));
-        if !(a.frame.is_signed() && !a.authenticated && waits && due) {
+        let listening = state.spec.answers == Answers::Chosen;
+        if !(a.frame.is_signed() && !a.authenticated && listening) {
             return None;
         }
-        self.beacon_at = Some(now);
-        Some(source)
+        self.beacons.take(source, now).then_some(source)
     }
 
     /// The source rule of a peer link, once for the FC and the companion:
@@ -644,6 +650,35 @@ impl Core {
         if let Some(Some(state)) = self.links.get_mut(usize::from(link)) {
             state.peers.clear();
         }
+    }
+}
+
+/// Addresses a node sends time beacons to at once, at most
+/// ([`Core::time_beacon`]): each gets one a second at most, and a new
+/// address takes the place of one served more than a second ago.
+pub const BEACON_ADDRESSES: usize = 16;
+
+/// The time beacons sent lately: to which address, and when.
+#[derive(Debug, Clone, Default)]
+struct Beacons([Option<(SocketAddr, Instant)>; BEACON_ADDRESSES]);
+
+impl Beacons {
+    /// Whether `to` may have a beacon at `now`; if so, it is counted.
+    fn take(&mut self, to: SocketAddr, now: Instant) -> bool {
+        const PERIOD: core::time::Duration = core::time::Duration::from_secs(1);
+        let idle = |slot: &Option<(SocketAddr, Instant)>| {
+            slot.is_none_or(|(_, at)| now.since(at) >= PERIOD)
+        };
+        let slot = match self.0.iter().position(|s| s.is_some_and(|(a, _)| a == to)) {
+            Some(i) if idle(&self.0[i]) => i,
+            Some(_) => return false,
+            None => match self.0.iter().position(idle) {
+                Some(i) => i,
+                None => return false,
+            },
+        };
+        self.0[slot] = Some((to, now));
+        true
     }
 }
 

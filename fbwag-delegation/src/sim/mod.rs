@@ -1118,6 +1118,12 @@ impl World {
             CcOutput::FcLost => self.log(|| "CC lost the FC".into()),
             CcOutput::FcRebooted => self.log(|| "CC: the FC rebooted".into()),
             CcOutput::Declined { event } => self.log(|| format!("CC declines event {event}")),
+            CcOutput::Superseded { event, by } => self.log(|| {
+                format!(
+                    "CC: the FC accepted {}/{} for event {event}",
+                    by.sysid, by.compid
+                )
+            }),
             CcOutput::Transmit(_) => {}
         }
     }

@@ -26,8 +26,9 @@ SERVER=$($PYTHON -W ignore -c 'import mavsdk, os; print(os.path.dirname(mavsdk._
 $SERVER -p $P_GRPC udpin://127.0.0.1:$P_MAVSDK >$RUN/mavsdk_server.log 2>&1 &
 wait_for mavsdk_server.log "Waiting to discover"
 # 3. The companion: what MAVSDK sends on the trusted link goes on to the FC
-#    signed with the key. Loopback only: whoever can send into that port
-#    commands the aircraft.
+#    signed with the key, but for what decides who flies (the delegation's
+#    and the failsafe's parameters, signing, control): never signed on.
+#    Loopback only: whoever can send into that port commands the aircraft.
 fbwag cc --link udpout:127.0.0.1:$P_FC --sign-key $KEY --require-signed \
     --trusted-out udpout:127.0.0.1:$P_MAVSDK --duration 120 >$RUN/cc.log 2>&1 &
 # 4. A MAVSDK program.
@@ -50,8 +51,13 @@ async def main():
             await asyncio.sleep(0.5)
     print("version", v.flight_sw_major, v.flight_sw_minor, v.flight_sw_patch)
     print("FS_SHORT_ACTN", await drone.param.get_param_int("FS_SHORT_ACTN"))
-    await drone.param.set_param_float("FS_LONG_TIMEOUT", 6.0)
-    print("FS_LONG_TIMEOUT", await drone.param.get_param_float("FS_LONG_TIMEOUT"))
+    await drone.param.set_param_float("AIRSPEED_CRUISE", 22.0)
+    print("AIRSPEED_CRUISE", await drone.param.get_param_float("AIRSPEED_CRUISE"))
+    try:
+        await drone.param.set_param_float("FS_LONG_TIMEOUT", 6.0)
+        print("FS_LONG_TIMEOUT set")
+    except Exception as e:
+        print("FS_LONG_TIMEOUT refused", e)
     try:
         await drone.action.return_to_launch()
         print("RTL accepted")
@@ -63,9 +69,13 @@ PY
 $PYTHON -W ignore::FutureWarning $RUN/gcs.py >$RUN/gcs.log 2>&1 || true
 
 # What to expect: the version and parameters of the signed FC, the
-# parameter set, and RTL answered (denied: fc-sim's engine decides modes).
+# ordinary parameter set, the failsafe's refused (the companion drops it:
+# `protected` in its log), and RTL answered (denied: fc-sim's engine
+# decides modes).
 expect gcs.log "version 4 6 0"
 expect gcs.log "FS_SHORT_ACTN 5"
-expect gcs.log "FS_LONG_TIMEOUT 6.0"
+expect gcs.log "AIRSPEED_CRUISE 22.0"
+expect gcs.log "FS_LONG_TIMEOUT refused"
+expect cc.log "protected"
 expect gcs.log "RTL .*COMMAND_DENIED"
 echo "runbook passed (logs in $RUN)"

@@ -26,7 +26,7 @@ mod live;
 #[path = "common/station.rs"]
 mod station;
 
-use attack::{frame, is_attackers, Attacker, OnPath, CC, FC, GCS, MARK};
+use attack::{frame, is_attackers, key_bytes, Attacker, OnPath, CC, FC, GCS, MARK};
 use fbwag_delegation::fc::Authority;
 use fbwag_delegation::{wire, Peer, Status};
 use fbwag_dialect::dialects::common::{ParamRequestRead, ParamSet, RcChannelsOverride};
@@ -1164,4 +1164,369 @@ fn the_router_counts_unsigned_frames_as_the_fc_as_unauthenticated() {
     let n = dropped(&router, UNAUTHENTICATED);
     assert!(n > 100, "{n} dropped as {UNAUTHENTICATED:?}\n{all}");
     assert_handover_held(&fc, 1000, &all);
+}
+
+// ---------------------------------------------------------------------------
+// 8. Trust at the edges: no frame chooses who flies; beacons, restarts,
+//    the autonomy's port and replays that no stranger can turn.
+
+/// FBWAG_NOTICE's id and its `failsafe_status` offset (after the u32
+/// timestamp and the two ids).
+const FBWAG_NOTICE: u32 = 15001;
+const NOTICE_STATUS_AT: usize = 6;
+
+/// The event of the first RC-loss notice of the FC `st` received, waiting
+/// up to `limit`.
+fn rc_loss_event(st: &Station, limit: Duration) -> Option<u32> {
+    let until = Instant::now() + limit;
+    while Instant::now() < until {
+        let event = st.frames().iter().find_map(|(_, f)| {
+            let lost = f.payload.get(NOTICE_STATUS_AT) == Some(&1);
+            (f.from(FC.sysid, FC.compid) && f.msgid == FBWAG_NOTICE && lost).then(|| f.u32_at(0))
+        });
+        if event.is_some() {
+            return event;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    None
+}
+
+/// A local process that binds the `--trusted-out` port first (deploy/
+/// cc.toml's, free while MAVSDK is not running) tries what would make it
+/// fly: PARAM_SETs naming it the FC's companion (FBWAG_CC_COMPID = 77,
+/// FBWAG_CC_SYSID = 77) and keeping the failsafe off (FS_SHORT_TIMEOUT
+/// 25.5), then at the RC loss an acknowledgement as 1/77 and its control.
+/// The companion signs none of the parameters on (counted `protected`),
+/// the FC changes none, the takeover is the companion's, every control
+/// applied is the companion's, and the FC's confirmation names it. (The
+/// FC accepted the writes, then 1/77's takeover and 220 of its overrides,
+/// while the companion believed for 11 s that it flew.)
+#[test]
+fn a_frame_on_the_trusted_link_never_changes_who_flies() {
+    let _one = timed();
+    let dir = scratch("who-flies");
+    let squatter = Station::listen(0);
+    let sides = Sides {
+        cc: [
+            signed(),
+            args(&["--trusted-out", &udpout(squatter.addr.port())]),
+            args(&["--duration", "6"]),
+        ]
+        .concat(),
+        fc: with(signed(), &["--rc-loss-at", "3", "--duration", "5.5"]),
+        ..Sides::default()
+    };
+    let pair = Pair::start(&dir, FcLink::CcListens, sides);
+    wait_for_fc(&squatter, Duration::from_secs(5), "the squatter");
+    let intruder = Peer::new(1, 77);
+    let set = |name: &str, value: f32| ParamSet {
+        target_system: FC.sysid,
+        target_component: FC.compid,
+        param_id: chars(name),
+        param_value: value,
+        ..Default::default()
+    };
+    let writes = [
+        set("FBWAG_CC_COMPID", 77.0),
+        set("FBWAG_CC_SYSID", 77.0),
+        set("FS_SHORT_TIMEOUT", 25.5),
+    ];
+    for (n, w) in writes.iter().enumerate() {
+        assert!(squatter.send(&frame(GCS, n as u8, w, None)));
+    }
+    let event = rc_loss_event(&squatter, Duration::from_secs(6));
+    let event = event.unwrap_or_else(|| panic!("no RC-loss notice reached the squatter"));
+    let ack = wire::notice(FC, Status::CC_TAKEOVER_CONFIRMED, event);
+    for n in 0..20u8 {
+        squatter.send(&frame(intruder, n, &ack, None));
+        squatter.send(&frame(intruder, n, &override_chan1(MARK[0]), None));
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (fc, cc) = pair.finish();
+    let all = dump(&[&fc, &cc]);
+    assert_eq!(fc.events.of("param").count(), 0, "{all}");
+    assert!(dropped(&cc, "protected") >= 3 + 20, "{all}");
+    assert_handover_held(&fc, 1000, &all);
+    assert_controls_signed_from_companion(&fc, &all);
+    assert!(
+        fc.log.contains("FBWAG-ACK: CC has taken over! 1/191"),
+        "the FC's confirmation names the companion\n{all}"
+    );
+}
+
+/// A keyless replayer of one old signed heartbeat of the companion, 100
+/// datagrams a second to the FC's listening port, with the companion an
+/// hour behind (a board without a real-time clock, and no state file):
+/// the companion still gets the FC's time beacon and hands over. (The
+/// replayer took the one beacon a second: every handover ended in RTL.)
+#[test]
+fn a_replayer_never_steals_the_time_beacon_of_a_companion_behind() {
+    let Some(env) = faked_clock("-1h") else {
+        return;
+    };
+    let _one = timed();
+    let dir = scratch("beacon-theft");
+    let port = free_port();
+    // Signed with the key two minutes ago (recorded then): stale, as the
+    // companion's own frames are until it adopts the FC's time.
+    let mut signer = Signer::new(key_bytes(KEY), 0, timestamp_now() - 12_000_000);
+    let old = frame(CC, 0, &wire::cc_heartbeat(), Some(&mut signer));
+    let replayer = Attacker::start(&[local(port)], 100.0, 0, move |_, _| old.clone());
+    let fc = Daemon::spawn(
+        &dir,
+        "fc",
+        &[
+            args(&["fc-sim", "--link", &udpin(port)]),
+            with(signed(), &["--rc-loss-at", "3", "--duration", "5"]),
+        ]
+        .concat(),
+    );
+    let cc = Daemon::spawn_with_env(
+        &dir,
+        "cc",
+        &[
+            args(&["cc", "--link", &udpout(port)]),
+            with(signed(), &["--duration", "5.5"]),
+        ]
+        .concat(),
+        &env,
+    );
+    let (fc, cc) = (
+        fc.finish(Duration::from_secs(30)),
+        cc.finish(Duration::from_secs(30)),
+    );
+    let sent = replayer.stop();
+    let all = dump(&[&fc, &cc]);
+    assert!(sent.datagrams > 300, "{sent:?}");
+    fc.assert_ran_to_the_end(5.0);
+    assert_handover_held(&fc, 1000, &all);
+    assert_controls_signed_from_companion(&fc, &all);
+}
+
+/// A signed pair, one side an hour behind without a state file; that side
+/// restarts on a new port while the other side's link still answers the
+/// old one. It is trusted again at its next frames (the other side's time
+/// beacon goes to its new address) and the next RC loss is handed over.
+/// The companion restarting behind a listening FC, and the FC restarting
+/// behind a listening companion. (The listening side sent no beacon while
+/// it answered the dead address, refused every frame as stale, and every
+/// later RC loss ended in RTL.)
+#[test]
+fn a_skewed_peer_that_restarts_on_a_new_port_is_trusted_again() {
+    let Some(env) = faked_clock("-1h") else {
+        return;
+    };
+    let _one = timed();
+    for restarting_fc in [false, true] {
+        let dir = scratch("skewed-restart");
+        let port = free_port();
+        let side = |program: &str, conn: String, more: &[&str]| {
+            [args(&[program, "--link", &conn]), with(signed(), more)].concat()
+        };
+        // The listener runs 7 s; the other side restarts 2.5 s in, and
+        // the FC's receiver fails 5 s in (its own clock starts with it).
+        let (listener, first, second) = if restarting_fc {
+            (
+                side("cc", udpin(port), &["--duration", "7"]),
+                side("fc-sim", udpout(port), &["--duration", "30"]),
+                side(
+                    "fc-sim",
+                    udpout(port),
+                    &["--rc-loss-at", "2.5", "--duration", "4.5"],
+                ),
+            )
+        } else {
+            (
+                side(
+                    "fc-sim",
+                    udpin(port),
+                    &["--rc-loss-at", "5", "--duration", "7"],
+                ),
+                side("cc", udpout(port), &["--duration", "30"]),
+                side("cc", udpout(port), &["--duration", "4.5"]),
+            )
+        };
+        let listener = Daemon::spawn(&dir, "listener", &listener);
+        let mut first = Daemon::spawn_with_env(&dir, "first", &first, &env);
+        std::thread::sleep(Duration::from_millis(2500));
+        first.kill();
+        let second = Daemon::spawn_with_env(&dir, "second", &second, &env);
+        let (listener, second) = (
+            listener.finish(Duration::from_secs(30)),
+            second.finish(Duration::from_secs(30)),
+        );
+        let all = dump(&[&listener, &second]);
+        let fc = if restarting_fc { &second } else { &listener };
+        assert_handover_held(fc, 1000, &all);
+        assert_controls_signed_from_companion(fc, &all);
+    }
+}
+
+/// A listening autonomy link names its program or admits anyone on
+/// purpose: without `--autonomy-peer` (or with port 0, any program of the
+/// host) `fbwag cc` refuses to start, saying why; `any` is taken.
+#[test]
+fn a_listening_autonomy_link_must_name_its_program() {
+    let run = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(["cc", "--link", "udpout:127.0.0.1:9", "--duration", "0.2"])
+            .args(["--autonomy", "udpin:127.0.0.1:0"])
+            .args(extra)
+            .output()
+            .expect("fbwag cc");
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        (out.status.code(), err)
+    };
+    let (code, err) = run(&[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--autonomy-peer IP:PORT"), "{err}");
+    let (code, err) = run(&["--autonomy-peer", "127.0.0.1:0"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("port 0 admits every program"), "{err}");
+    let (code, err) = run(&["--autonomy-peer", "any"]);
+    assert_eq!(code, Some(0), "{err}");
+}
+
+/// A local program that speaks first on the autonomy's port, and keeps
+/// speaking, never flies: the link is pinned to the autonomy's port. The
+/// autonomy restarts (the same port) half a second before the RC loss:
+/// it is heard at once, the takeover is not declined, and every control
+/// applied is its own. (Unpinned, the squatter flew the takeover; after
+/// the autonomy restarted on a new port it counted as silent for 2.5 s,
+/// an RC loss then was declined, and the squatter took the slot.)
+#[test]
+fn a_squatter_never_flies_and_a_pinned_autonomy_is_heard_again_at_once() {
+    let _one = timed();
+    let dir = scratch("autonomy-squatter");
+    let (aut, program) = (free_port(), free_port());
+    let control = |who: Peer, chan1: u16| -> Beat {
+        Box::new(move |n| {
+            vec![
+                frame(who, n as u8, &wire::cc_heartbeat(), None),
+                frame(who, n as u8, &override_chan1(chan1), None),
+            ]
+        })
+    };
+    let every = Duration::from_millis(50);
+    let squatter = Station::start(
+        0,
+        Some(local(aut)),
+        every,
+        control(Peer::new(1, 43), MARK[0]),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let sides = Sides {
+        cc: [
+            pinned_autonomy(aut, program),
+            signed(),
+            args(&["--duration", "5.5"]),
+        ]
+        .concat(),
+        fc: with(signed(), &["--rc-loss-at", "3", "--duration", "5"]),
+        ..Sides::default()
+    };
+    let pair = Pair::start(&dir, FcLink::CcListens, sides);
+    let first = Station::start(
+        program,
+        Some(local(aut)),
+        every,
+        control(AUTONOMY, AUTONOMY_CHAN1),
+    );
+    std::thread::sleep(Duration::from_millis(2300));
+    drop(first);
+    std::thread::sleep(Duration::from_millis(200));
+    let _again = Station::start(
+        program,
+        Some(local(aut)),
+        every,
+        control(AUTONOMY, AUTONOMY_CHAN1),
+    );
+    let (fc, cc) = pair.finish();
+    drop(squatter);
+    let all = dump(&[&fc, &cc]);
+    assert_handover_held(&fc, 1000, &all);
+    assert_controls_signed_from_companion(&fc, &all);
+    let chan1: Vec<u64> = applied_channels(&fc).iter().map(|c| c[0]).collect();
+    assert!(
+        !chan1.is_empty() && chan1.iter().all(|&c| c == u64::from(AUTONOMY_CHAN1)),
+        "applied: {chan1:?}\n{all}"
+    );
+    assert!(
+        cc.events
+            .of("takeover")
+            .all(|e| e["decision"] != "declined"),
+        "{all}"
+    );
+}
+
+/// `fbwag router` with the key on every link: a keyless listener on a
+/// ground link (udpout to it) receives the companion's signed frames and
+/// replays each back into that link. The replays are refused (the links
+/// share one replay window per key) and never reach the FC's link. (With
+/// a window per link all 15 were accepted and routed to the FC.)
+#[test]
+fn the_routers_links_share_one_replay_window() {
+    use std::net::UdpSocket;
+    let dir = scratch("router-replay");
+    let (from_cc, listener, fc) = (free_port(), free_port(), Station::listen(0));
+    let replayer = UdpSocket::bind(local(listener)).unwrap();
+    replayer
+        .set_read_timeout(Some(Duration::from_millis(20)))
+        .unwrap();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let replays = std::thread::spawn(move || {
+        let (mut buf, mut n) = ([0u8; 2048], 0u32);
+        while !stop2.load(std::sync::atomic::Ordering::Relaxed) {
+            if let Ok((len, from)) = replayer.recv_from(&mut buf) {
+                n += u32::from(replayer.send_to(&buf[..len], from).is_ok());
+            }
+        }
+        n
+    });
+    let router = Daemon::spawn(
+        &dir,
+        "router",
+        &[
+            args(&["router", &udpin(from_cc), &udpout(listener)]),
+            args(&[&udpout(fc.addr.port())]),
+            with(signed(), &["--duration", "3"]),
+        ]
+        .concat(),
+    );
+    assert!(
+        common_udp_bound(from_cc),
+        "the router never listened on {from_cc}"
+    );
+    let cc = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut signer = Signer::new(key_bytes(KEY), 0, timestamp_now());
+    for n in 0..15u8 {
+        let hb = frame(CC, n, &wire::cc_heartbeat(), Some(&mut signer));
+        cc.send_to(&hb, local(from_cc)).unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let router = router.finish(Duration::from_secs(10));
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let replayed = replays.join().unwrap();
+    let to_fc = fc
+        .frames()
+        .iter()
+        .filter(|(_, f)| f.from(CC.sysid, CC.compid))
+        .count();
+    let all = router.dump();
+    assert!(replayed >= 15, "{replayed} replays\n{all}");
+    assert_eq!(to_fc, 15, "each frame once, no replay\n{all}");
+}
+
+/// Whether something bound UDP `port` on 127.0.0.1 within 10 s.
+fn common_udp_bound(port: u16) -> bool {
+    let until = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < until {
+        if std::net::UdpSocket::bind(local(port)).is_err() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    false
 }

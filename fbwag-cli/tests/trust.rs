@@ -1282,6 +1282,9 @@ fn a_replayer_never_steals_the_time_beacon_of_a_companion_behind() {
         ]
         .concat(),
     );
+    // Half a second out of phase with the FC's start: a beacon a second
+    // for whoever asks first goes to the replayer, every time.
+    std::thread::sleep(Duration::from_millis(500));
     let cc = Daemon::spawn_with_env(
         &dir,
         "cc",

@@ -19,6 +19,7 @@ usage: target/peerenv/bin/python interop/measure_handover.py \\
            --fbwag target/release/fbwag [--runs 7] [--setups direct,mavproxy]
 """
 import argparse
+import datetime
 import os
 import re
 import socket
@@ -32,12 +33,18 @@ PASSPHRASE = "fbwag-bench"
 KEY_HEX = "1eeb12caa5637aa80caed04c6ac2783bdae83ca2c99c9f8a4cb9fe3861365094"  # sha256(PASSPHRASE)
 MAVPROXY = os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
 HANDOVER = re.compile(r"handover (\d+) ms")
-# fc-sim's log stamps (ms resolution) of its first status-1 notice and of the
-# companion's status-2 answer: the handshake's round trip, which is what a
-# router in the path adds to. The handover figure also holds the FC's own
-# failsafe detection delay (about 100-160 ms here, by the receiver's phase).
-SENT = re.compile(r"\[\s*([\d.]+) s\] fc: -> FBWAG_NOTICE status 1 ")
-ANSWER = re.compile(r"\[\s*([\d.]+) s\] fc: <- FBWAG_NOTICE status 2 ")
+# fc-sim's log stamps (UTC, RFC 3339, µs) of its first status-1 notice and
+# of the companion's status-2 answer: the handshake's round trip, which is
+# what a router in the path adds to. The handover figure also holds the
+# FC's own failsafe detection delay (about 100-160 ms here, by the
+# receiver's phase).
+SENT = re.compile(r"^(\S+) \w+ +fc: -> FBWAG_NOTICE status 1 ", re.M)
+ANSWER = re.compile(r"^(\S+) \w+ +fc: <- FBWAG_NOTICE status 2 ", re.M)
+
+
+def stamp(match):
+    """A log line's time, in seconds."""
+    return datetime.datetime.fromisoformat(match.group(1)).timestamp()
 
 
 def free_port():
@@ -104,7 +111,7 @@ def one_run(fbwag, setup, home):
         if m is None or sent is None or answer is None:
             sys.stderr.write(fc.stdout)
             return None
-        return int(m.group(1)), round((float(answer.group(1)) - float(sent.group(1))) * 1000)
+        return int(m.group(1)), round((stamp(answer) - stamp(sent)) * 1000)
     finally:
         for p in procs:
             p.kill()

@@ -131,6 +131,8 @@ pub struct CcArgs {
     pub signing_state: Option<PathBuf>,
     #[arg(long, value_name = "PATH", help = help::EVENTS)]
     pub events: Option<PathBuf>,
+    #[arg(long, value_enum, default_value = "info", help = help::LOG_LEVEL)]
+    pub log_level: crate::live::Level,
     /// Our system id (1–255).
     #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
     pub sysid: u8,
@@ -228,6 +230,7 @@ impl TryFrom<CcArgs> for CcOptions {
             duration: a.duration.map(Duration::from_secs_f64),
             exit_after_handback: a.exit_after_handback,
             events: a.events,
+            log_level: a.log_level,
             tlog: a.tlog.options(),
             stop_on_signals: true,
         })

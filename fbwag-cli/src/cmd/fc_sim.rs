@@ -39,6 +39,8 @@ pub struct FcSimArgs {
     pub signing_state: Option<PathBuf>,
     #[arg(long, value_name = "PATH", help = help::EVENTS)]
     pub events: Option<PathBuf>,
+    #[arg(long, value_enum, default_value = "info", help = help::LOG_LEVEL)]
+    pub log_level: crate::live::Level,
     /// Lose the receiver at this time (seconds after start, 0–1,000,000).
     /// Repeatable, with --rc-back-at, for several failures: the k-th
     /// --rc-back-at ends the k-th failure (the last may be left open).
@@ -104,6 +106,7 @@ impl TryFrom<FcSimArgs> for FcOptions {
             duration: a.duration,
             require_signed: a.require_signed,
             events: a.events,
+            log_level: a.log_level,
             stop_on_signals: true,
             home: a.home,
             pilot_mode: a.pilot_mode,

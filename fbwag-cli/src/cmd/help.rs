@@ -15,6 +15,12 @@ Examples:
   fbwag cc --link serial:/dev/serial0:460800                # the companion daemon
   fbwag fc-sim --link udpout:127.0.0.1:14550 --rc-loss-at 3 --rc-back-at 12";
 
+/// `--log-level` of the daemons.
+pub const LOG_LEVEL: &str = "Log lines at this level and above: error, warn, notice, info, debug. \
+Each line starts with the time (UTC, RFC 3339) and its level; under systemd (JOURNAL_STREAM \
+names the output) with its syslog priority instead, <3> (error) to <7> (debug), which the \
+journal files it by";
+
 /// What both daemons' `--help` says about links and peers.
 macro_rules! link_rules {
     () => {

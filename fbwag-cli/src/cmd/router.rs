@@ -113,6 +113,8 @@ pub struct RouterArgs {
     /// the summary those counts as "tlog".
     #[arg(long, value_name = "PATH")]
     pub events: Option<PathBuf>,
+    #[arg(long, value_enum, default_value = "info", help = super::help::LOG_LEVEL)]
+    pub log_level: crate::live::Level,
     /// Stop after this many seconds (0–1,000,000).
     #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
     pub duration: Option<f64>,
@@ -162,6 +164,7 @@ impl TryFrom<RouterArgs> for RouterOptions {
             duration: a.duration.map(Duration::from_secs_f64),
             report: Duration::from_secs_f64(a.report.max(0.1)),
             events: a.events,
+            log_level: a.log_level,
             tlog: a.tlog.options(),
         })
     }

@@ -19,7 +19,7 @@
 //! failsafe is not armed, as ArduPlane's is not on the ground.
 
 use crate::live::net::{self, LinkOptions, Net, Node};
-use crate::live::{mode_name, Clock, Events, Limiter, Log};
+use crate::live::{mode_name, Clock, Events, Level, Limiter, Log};
 use fbwag_delegation::control::Control;
 use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
@@ -98,6 +98,8 @@ pub struct FcOptions {
     pub duration: f64,
     pub require_signed: bool,
     pub events: Option<PathBuf>,
+    /// Lines logged: this level and above.
+    pub log_level: crate::live::Level,
     /// See `CcOptions::stop_on_signals`.
     pub stop_on_signals: bool,
     /// Where the model starts (and RTL returns to).
@@ -177,7 +179,7 @@ pub fn run_fc(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepo
 
 async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcReport> {
     let clock = Clock::start();
-    let mut log = Log::new(out, clock, "fc");
+    let mut log = Log::new(out, "fc", o.log_level, crate::live::Style::of_stdout());
     let cfg = FcConfig {
         own: o.own,
         companion: o.companion,
@@ -229,7 +231,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
 
 /// The first line of the log: who the simulator is, and where.
 fn log_start(o: &FcOptions, endpoint: &fbwag_dialect::Endpoint, log: &mut Log) {
-    log.line(&format!(
+    log.info(&format!(
         "ArduPlane simulator on {endpoint} as {}/{}; companion {}/{}{}; home {},{},{}",
         o.own.sysid,
         o.own.compid,
@@ -254,7 +256,7 @@ impl Daemon {
         let unhandled = self.unhandled.summary();
         if !unhandled.is_empty() {
             let list: Vec<String> = unhandled.iter().map(|(k, n)| format!("{k} x{n}")).collect();
-            log.line(&format!("not served: {}", list.join(", ")));
+            log.info(&format!("not served: {}", list.join(", ")));
         }
         let unhandled: serde_json::Map<String, serde_json::Value> =
             unhandled.into_iter().map(|(k, n)| (k, n.into())).collect();
@@ -292,7 +294,7 @@ impl Daemon {
         }
         self.armed = true;
         self.node.set_receiver_ok(self.receiver_ok);
-        log.line("armed");
+        log.notice("armed");
         self.events.emit("armed", json!({"armed": true}));
     }
 
@@ -305,11 +307,11 @@ impl Daemon {
         self.receiver_ok = ok;
         self.node.set_receiver_ok(ok || !self.armed);
         if ok {
-            log.line("receiver: signal back");
+            log.notice("receiver: signal back");
         } else {
             self.report.rc_lost_at = Some(t);
             self.report.outages += 1;
-            log.line("receiver: signal lost (failsafe)");
+            log.warn("receiver: signal lost (failsafe)");
         }
         self.events
             .emit("receiver", json!({"state": if ok { "ok" } else { "lost" }}));
@@ -407,13 +409,13 @@ impl Daemon {
             Authority::Companion => "companion control",
             Authority::Rtl => "fallback",
         };
-        log.line(&format!("MODE CHANGE -> {mode} ({why})"));
+        log.notice(&format!("MODE CHANGE -> {mode} ({why})"));
         self.events.emit("mode", json!({"mode": mode}));
         if a == Authority::Companion {
             if let Some(lost) = self.report.rc_lost_at.take() {
                 let ms = (t - lost) * 1000.0;
                 self.report.handovers.push(t - lost);
-                log.line(&format!("handover {ms:.0} ms after the receiver failed"));
+                log.notice(&format!("handover {ms:.0} ms after the receiver failed"));
                 self.events
                     .emit("handover", json!({"ms": ms.round() as u64}));
             }
@@ -497,13 +499,13 @@ impl Daemon {
 /// Logs the protocol's own messages as they go.
 fn log_sent(msg: &Message, log: &mut Log) {
     match msg {
-        Message::FbwagNotice(n) => log.line(&format!(
+        Message::FbwagNotice(n) => log.info(&format!(
             "-> FBWAG_NOTICE status {} event {}",
             n.failsafe_status.0, n.timestamp
         )),
         Message::Statustext(t) => {
             let end = t.text.iter().position(|&b| b == 0).unwrap_or(t.text.len());
-            log.line(&format!(
+            log.info(&format!(
                 "-> STATUSTEXT {:?}",
                 String::from_utf8_lossy(&t.text[..end])
             ))
@@ -585,7 +587,7 @@ impl Node for Daemon {
         let frame = &inbound.frame;
         if fate.input && frame.frame().msg_id() == fbwag_dialect::FbwagNotice::ID {
             if let Some(Message::FbwagNotice(n)) = frame.message() {
-                self.heard.log(log, "notices", || {
+                self.heard.log(log, Level::Info, "notices", || {
                     format!(
                         "<- FBWAG_NOTICE status {} event {}",
                         n.failsafe_status.0, n.timestamp

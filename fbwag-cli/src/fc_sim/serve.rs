@@ -7,6 +7,7 @@ use super::params::{Param, ParamError, Settings};
 use super::telemetry;
 use super::{Daemon, ParamCursor, PARAM_LIST_INTERVAL};
 use crate::live::net::Net;
+use crate::live::Level;
 use crate::live::Log;
 use fbwag_delegation::fc::Authority;
 use fbwag_delegation::{Instant, Peer};
@@ -35,7 +36,7 @@ impl Daemon {
         match gcs::classify(frame, self.own) {
             Kind::Request(_) if !serve => {
                 self.refused_unsigned = self.refused_unsigned.saturating_add(1);
-                self.gcs_log.log(log, "GCS log lines", || {
+                self.gcs_log.log(log, Level::Warn, "GCS log lines", || {
                     format!(
                         "not served: unsigned {} from {}/{}",
                         frame.meta().map_or("request", |m| m.name),
@@ -59,7 +60,7 @@ impl Daemon {
     /// Counts something asked and not served; logs its first occurrence.
     fn not_served(&mut self, what: String, from: Peer, log: &mut Log) {
         if self.unhandled.note(what.clone()) {
-            log.line(&format!(
+            log.info(&format!(
                 "not served: {what} from {}/{} (first; counted)",
                 from.sysid, from.compid
             ));
@@ -192,7 +193,7 @@ impl Daemon {
     /// Says why something was refused: in the log and, rate-limited, as a
     /// STATUSTEXT for the ground station's operator.
     fn refusal(&mut self, why: &str, what: &str, from: Peer, net: &mut Net, log: &mut Log) {
-        self.gcs_log.log(log, "GCS log lines", || {
+        self.gcs_log.log(log, Level::Notice, "GCS log lines", || {
             format!("refused {what} from {}/{}: {why}", from.sysid, from.compid)
         });
         if self.texts.admit().0 {
@@ -261,7 +262,7 @@ impl Daemon {
         }
         let Some(&p) = Param::ALL.get(cursor.index) else {
             self.param_list = None;
-            log.line(&format!(
+            log.info(&format!(
                 "sent {} parameters to {}/{}",
                 Param::ALL.len(),
                 cursor.to.sysid,
@@ -376,7 +377,7 @@ impl Daemon {
             .set_cruise_airspeed(f64::from(settings.cruise_airspeed));
         self.settings = settings;
         let value = p.value(&settings);
-        log.line(&format!(
+        log.notice(&format!(
             "parameter {} = {value} (set by {}/{})",
             p.name(),
             from.sysid,

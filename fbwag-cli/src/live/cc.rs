@@ -11,7 +11,7 @@
 
 use super::net::{self, LinkOptions, Net, Node};
 use super::tlog::TlogCounts;
-use super::{mode_name, Clock, Events, Limiter, Log, Tlog, TlogOptions};
+use super::{mode_name, Clock, Events, Level, Limiter, Log, Tlog, TlogOptions};
 use crate::args::LinkFilter;
 use fbwag_delegation::cc::{CcConfig, CcState};
 use fbwag_delegation::control::Controller;
@@ -61,6 +61,8 @@ pub struct CcOptions {
     pub duration: Option<Duration>,
     pub exit_after_handback: bool,
     pub events: Option<PathBuf>,
+    /// Lines logged: this level and above.
+    pub log_level: crate::live::Level,
     /// Log every frame accepted from any link, and the companion's own, to
     /// `.tlog` files.
     pub tlog: Option<TlogOptions>,
@@ -121,7 +123,7 @@ impl OwnLog {
         let was = self.reported;
         if (now.dropped, now.unwritten) != (was.dropped, was.unwritten) {
             self.reported = now;
-            log.line(&now.line());
+            log.warn(&now.line());
             events.emit("tlog", now.json());
         }
     }
@@ -213,7 +215,7 @@ fn invalid(e: impl std::error::Error + Send + Sync + 'static) -> io::Error {
 
 async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcReport> {
     let clock = Clock::start();
-    let mut log = Log::new(out, clock, "cc");
+    let mut log = Log::new(out, "cc", o.log_level, super::Style::of_stdout());
     let cfg = CcConfig {
         own: o.own,
         fc: o.fc,
@@ -243,7 +245,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     node.set_dedup(o.dedup);
     if let Some(window) = o.dedup {
         let ms = window.as_millis();
-        log.line(&format!("copies of a routed frame within {ms} ms dropped"));
+        log.info(&format!("copies of a routed frame within {ms} ms dropped"));
     }
     let mut daemon = Daemon {
         node,
@@ -264,7 +266,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     net::run(&mut daemon, opened.net, &clock, &mut log, o.stop_on_signals).await;
     let tlog = daemon.tlog.as_mut().map(|t| t.tlog.finish(&mut log));
     if let Some(counts) = tlog {
-        log.line(&counts.line());
+        log.info(&counts.line());
     }
     daemon.summary(tlog);
     Ok(daemon.report)
@@ -272,7 +274,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
 
 /// What the daemon says at start.
 fn log_start(o: &CcOptions, log: &mut Log) {
-    log.line(&format!(
+    log.info(&format!(
         "FC link {} as {}/{}, serving FC {}/{}, {}{}",
         o.link.endpoint,
         o.own.sysid,
@@ -296,15 +298,15 @@ fn log_start(o: &CcOptions, log: &mut Log) {
         }
     ));
     for out in &o.outs {
-        log.line(&format!("routing to and from {out}"));
+        log.info(&format!("routing to and from {out}"));
     }
     for out in &o.trusted_outs {
-        log.line(&format!(
+        log.info(&format!(
             "routing to and from {out}, trusted: what it sends reaches the FC signed"
         ));
     }
     if !o.outs.is_empty() || !o.trusted_outs.is_empty() {
-        log.line(&match o.link.routed_rate {
+        log.info(&match o.link.routed_rate {
             Some(rate) => format!(
                 "routed to the FC link: at most {rate} bytes/s (--routed-rate), the companion's own frames first"
             ),
@@ -403,11 +405,11 @@ impl Daemon {
                 Output::Peers { link, peers } => net.set_peers(link, peers, log),
                 Output::Event(CompanionEvent::Engine(event)) => self.engine_event(now, event, log),
                 Output::Event(CompanionEvent::AutonomySilent(silent)) => {
-                    log.line(if silent {
-                        "autonomy silent"
+                    if silent {
+                        log.warn("autonomy silent");
                     } else {
-                        "autonomy speaks"
-                    });
+                        log.notice("autonomy speaks");
+                    }
                     self.events.emit(
                         "autonomy",
                         json!({"state": if silent { "silent" } else { "speaking" }}),
@@ -431,16 +433,16 @@ impl Daemon {
                     .controller
                     .as_ref()
                     .map_or("the autonomy", |c| c.name());
-                log.line(&format!("takeover (event {event}): {who} streams control"));
+                log.notice(&format!("takeover (event {event}): {who} streams control"));
                 self.events
                     .emit("control", json!({"state": "start", "fc_event": event}));
             }
             CcOutput::ControlStopped => {
-                log.line("control ends: overrides stopped");
+                log.notice("control ends: overrides stopped");
                 self.events.emit("control", json!({"state": "stop"}));
             }
             CcOutput::Declined { event } => {
-                log.line(&format!(
+                log.warn(&format!(
                     "takeover of event {event} declined: the autonomy is silent (the FC falls back)"
                 ));
                 self.events.emit(
@@ -449,20 +451,20 @@ impl Daemon {
                 );
             }
             CcOutput::FcFound => {
-                log.line("FC found");
+                log.notice("FC found");
                 self.events.emit("fc", json!({"state": "found"}));
             }
             CcOutput::FcLost => {
-                log.line("FC lost (silent)");
+                log.warn("FC lost (silent)");
                 self.events.emit("fc", json!({"state": "lost"}));
             }
             CcOutput::FcRebooted => {
-                log.line("FC rebooted: answering its new boot");
+                log.warn("FC rebooted: answering its new boot");
                 self.events.emit("fc", json!({"state": "rebooted"}));
             }
             CcOutput::Superseded { event, by } => {
                 let by = format!("{}/{}", by.sysid, by.compid);
-                log.line(&format!(
+                log.error(&format!(
                     "the FC accepted companion {by} for event {event}, not this one: control stopped"
                 ));
                 self.events.emit(
@@ -477,7 +479,7 @@ impl Daemon {
     /// Logs the companion's notices as they go, and counts hand-backs.
     fn note_sent(&mut self, msg: &Message, log: &mut Log) {
         if let Message::FbwagNotice(n) = msg {
-            log.line(&format!(
+            log.info(&format!(
                 "-> FBWAG_NOTICE status {} event {}",
                 n.failsafe_status.0, n.timestamp
             ));
@@ -495,21 +497,23 @@ impl Daemon {
         let f = frame.frame();
         match MessageView::new(f.msg_id(), f.payload()) {
             Some(MessageView::FbwagNotice(n)) => {
-                self.heard.log(log, "notices, texts and mode changes", || {
-                    format!(
-                        "<- FBWAG_NOTICE status {} event {}",
-                        n.failsafe_status().0,
-                        n.timestamp()
-                    )
-                })
+                self.heard
+                    .log(log, Level::Info, "notices, texts and mode changes", || {
+                        format!(
+                            "<- FBWAG_NOTICE status {} event {}",
+                            n.failsafe_status().0,
+                            n.timestamp()
+                        )
+                    })
             }
             Some(MessageView::Statustext(t)) => {
-                self.heard.log(log, "notices, texts and mode changes", || {
-                    format!(
-                        "<- STATUSTEXT {:?}",
-                        String::from_utf8_lossy(t.text().as_bytes())
-                    )
-                })
+                self.heard
+                    .log(log, Level::Info, "notices, texts and mode changes", || {
+                        format!(
+                            "<- STATUSTEXT {:?}",
+                            String::from_utf8_lossy(t.text().as_bytes())
+                        )
+                    })
             }
             Some(MessageView::Heartbeat(h)) if self.fc_mode != Some(h.custom_mode()) => {
                 // Limited with the notices: without signing, anyone with
@@ -517,14 +521,14 @@ impl Daemon {
                 // not admitted is reported by the next heartbeat admitted.
                 let (show, suppressed) = self.heard.admit();
                 if let Some(n) = suppressed {
-                    log.line(&format!(
+                    log.info(&format!(
                         "({n} more notices, texts and mode changes suppressed)"
                     ));
                 }
                 if show {
                     self.fc_mode = Some(h.custom_mode());
                     let mode = mode_name(h.custom_mode());
-                    log.line(&format!("FC mode {mode}"));
+                    log.notice(&format!("FC mode {mode}"));
                     self.events.emit("fc_mode", json!({"mode": mode}));
                 }
             }

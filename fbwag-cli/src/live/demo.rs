@@ -167,6 +167,7 @@ fn companion(addr: SocketAddr, own: Peer, fc: Peer, duration: f64) -> CcOptions 
         duration: Some(Duration::from_secs_f64(duration)),
         exit_after_handback: false,
         events: None,
+        log_level: crate::live::Level::Info,
         tlog: None,
         stop_on_signals: false,
     }
@@ -189,6 +190,7 @@ fn flight_controller(relay: SocketAddr, own: Peer, companion: Peer, o: &DemoOpti
         duration: demo_duration(o),
         require_signed: false,
         events: None,
+        log_level: crate::live::Level::Info,
         stop_on_signals: false,
         home: crate::fc_sim::plane::Home::DEFAULT,
         pilot_mode: crate::fc_sim::PilotMode::Fbwa,

@@ -1,6 +1,6 @@
 //! Rate-limited log lines: a flood of bad frames cannot flood the log.
 
-use super::Log;
+use super::{Level, Log};
 use std::time::{Duration, Instant as WallInstant};
 
 /// Lines about trusted frames (notices, the FC's texts) each daemon logs
@@ -52,14 +52,15 @@ impl Limiter {
         }
     }
 
-    /// Logs `line()` through `log` if admitted, and the suppressed count.
-    pub fn log(&mut self, log: &mut Log, what: &str, line: impl FnOnce() -> String) {
+    /// Logs `line()` at `level` through `log` if admitted, and the
+    /// suppressed count.
+    pub fn log(&mut self, log: &mut Log, level: Level, what: &str, line: impl FnOnce() -> String) {
         let (show, report) = self.admit();
         if let Some(n) = report {
-            log.line(&format!("({n} more {what} suppressed)"));
+            log.at(level, &format!("({n} more {what} suppressed)"));
         }
         if show {
-            log.line(&line());
+            log.at(level, &line());
         }
     }
 }

@@ -26,6 +26,6 @@ pub mod writer;
 pub use clock::Clock;
 pub use events::Events;
 pub use limiter::{Limiter, HEARD_PER_SECOND};
-pub use log::Log;
+pub use log::{Level, Log, Style};
 pub use modes::mode_name;
 pub use tlog::{Tlog, TlogOptions};

@@ -16,7 +16,7 @@
 //!   rate-limited, with counts.
 
 use super::signals::StopSignals;
-use super::{Clock, Events, Limiter, Log};
+use super::{Clock, Events, Level, Limiter, Log};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
 use fbwag_delegation::Instant;
@@ -100,7 +100,7 @@ impl Net {
     pub async fn open(opts: &LinkOptions, log: &mut Log) -> io::Result<Net> {
         match (&opts.signing_state, opts.key) {
             (Some(path), Some(_)) => log_state_file(path, log)?,
-            (None, Some(_)) => log.line(
+            (None, Some(_)) => log.warn(
                 "signing state: none kept (--signing-state): after a restart, frames captured \
                  up to a minute before are accepted once",
             ),
@@ -180,14 +180,14 @@ impl Net {
         self.router.set_peers(link, &list);
         let name = self.name(link);
         let list: Vec<String> = list.iter().map(ToString::to_string).collect();
-        log.line(&format!("{name}: answering {}", list.join(", ")));
+        log.info(&format!("{name}: answering {}", list.join(", ")));
     }
 
     /// A frame the node dropped: logged, rate-limited.
     pub fn dropped(&mut self, inbound: &Inbound<Dialect>, reason: DropReason, log: &mut Log) {
         let name = self.name(inbound.link);
         let frame = &inbound.frame;
-        self.dropped.log(log, "dropped frames", || {
+        self.dropped.log(log, Level::Warn, "dropped frames", || {
             let h = frame.header();
             format!(
                 "{name}: dropped {} from {}/{}{}{}: {}",
@@ -270,11 +270,11 @@ impl LinkReports {
             let name = link_name(router, link);
             let lost = lost_parts(&was, &counters);
             if !lost.is_empty() {
-                log.line(&format!("{name}: link lost in the last {secs} s: {lost}"));
+                log.warn(&format!("{name}: link lost in the last {secs} s: {lost}"));
             }
             let refused = refused_parts(&was.parser, &counters.parser);
             if !refused.is_empty() {
-                log.line(&format!(
+                log.warn(&format!(
                     "{name}: link refused in the last {secs} s: {refused}"
                 ));
             }
@@ -351,13 +351,13 @@ impl LinkChanges {
         match event {
             RouterEvent::LinkDown { link, error } => {
                 let name = link_name(router, link);
-                self.errors.log(log, "link errors", || {
+                self.errors.log(log, Level::Error, "link errors", || {
                     format!("link {name} failed ({error}); opening it again every second")
                 });
                 None
             }
             RouterEvent::LinkUp { link } => {
-                log.line(&format!("link {} open again", link_name(router, link)));
+                log.notice(&format!("link {} open again", link_name(router, link)));
                 Some(link)
             }
             RouterEvent::Frame(_) => None,
@@ -413,7 +413,7 @@ pub fn set_filters<E: std::error::Error + Send + Sync + 'static>(
             Direction::In => "in from",
             Direction::Out => "out to",
         };
-        log.line(&format!("filter {way} {endpoint}: {}", f.rules.join(" ")));
+        log.info(&format!("filter {way} {endpoint}: {}", f.rules.join(" ")));
     }
     Ok(())
 }
@@ -469,7 +469,7 @@ fn log_state_file(path: &std::path::Path, log: &mut Log) -> io::Result<()> {
             path.display()
         ))
     })?;
-    log.line(&match loaded {
+    log.info(&match loaded {
         Loaded::Existing => format!(
             "signing state: loaded {} ({} streams)",
             path.display(),
@@ -539,7 +539,7 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
             },
             _ = tokio::time::sleep(wait) => {}
             Ok(name) = &mut stopped, if !stopped.is_terminated() => {
-                log.line(&format!("{name}: stopping (again to stop at once)"));
+                log.notice(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }
         }

@@ -10,7 +10,7 @@
 
 use super::net::{self, drop_counts, LinkChanges, LinkReports};
 use super::signals::StopSignals;
-use super::{Clock, Events, Limiter, Log, Tlog, TlogOptions};
+use super::{Clock, Events, Level, Limiter, Log, Tlog, TlogOptions};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, DropReason, Drops, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
@@ -56,6 +56,8 @@ pub struct RouterOptions {
     pub report: Duration,
     /// Machine-readable events.
     pub events: Option<PathBuf>,
+    /// Lines logged: this level and above.
+    pub log_level: crate::live::Level,
     /// Log every frame routed (every frame the node did not drop) to
     /// `.tlog` files.
     pub tlog: Option<TlogOptions>,
@@ -130,7 +132,7 @@ fn queue_dropped(router: &Router<Dialect>) -> u64 {
 pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Result<()> {
     net::block_on(async move {
         let clock = Clock::start();
-        let mut log = Log::new(out, clock, "router");
+        let mut log = Log::new(out, "router", o.log_level, super::Style::of_stdout());
         let mut events = Events::open(o.events.as_deref(), clock)?;
         let mut tlog = o
             .tlog
@@ -166,7 +168,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 Answers::Fixed(p) => format!(", answers {p} only"),
                 _ => String::new(),
             };
-            log.line(&format!("link {}: {e}{key}{pinned}", i + 1));
+            log.info(&format!("link {}: {e}{key}{pinned}", i + 1));
             links.push(link);
         }
         net::set_filters(&o.filters, &links, &o.endpoints, &mut log, |link, d, f| {
@@ -179,14 +181,14 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             };
             node.set_sniffer(link)
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
-            log.line(&format!(
+            log.info(&format!(
                 "link {}: {} gets every frame routed",
                 i + 1,
                 o.endpoints[i]
             ));
         }
         if let Some(window) = o.dedup {
-            log.line(&format!(
+            log.info(&format!(
                 "copies of a frame within {} ms dropped",
                 window.as_millis()
             ));
@@ -203,14 +205,14 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
         )
         .await;
         let lost = queue_dropped(&router);
-        log.line(&format!(
+        log.notice(&format!(
             "done: {}",
             traffic.line(node.drops().total(), lost)
         ));
         let mut summary = traffic.json(node.drops(), lost);
         if let Some(tlog) = &mut tlog {
             let counts = tlog.finish(&mut log);
-            log.line(&counts.line());
+            log.info(&counts.line());
             summary["tlog"] = counts.json();
         }
         events.emit("summary", summary);
@@ -257,7 +259,7 @@ impl Serving<'_> {
     /// The traffic line of every report, and the drops event.
     fn report(&mut self, events: &mut Events) {
         let (dropped, lost) = (self.node.drops(), queue_dropped(self.router));
-        self.log.line(&self.traffic.line(dropped.total(), lost));
+        self.log.info(&self.traffic.line(dropped.total(), lost));
         self.link_reports.report(self.router, self.log);
         events.emit(
             "drops",
@@ -265,7 +267,7 @@ impl Serving<'_> {
         );
         if let Some(tlog) = self.tlog.as_mut() {
             let counts = tlog.counts();
-            self.log.line(&counts.line());
+            self.log.info(&counts.line());
             events.emit("tlog", counts.json());
         }
     }
@@ -320,7 +322,7 @@ async fn serve(
                 s.report(events);
             }
             Ok(name) = &mut *stopped, if !stopped.is_terminated() => {
-                s.log.line(&format!("{name}: stopping (again to stop at once)"));
+                s.log.notice(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }
         }
@@ -333,7 +335,7 @@ async fn serve(
 
 /// A frame the node dropped: logged, rate-limited.
 fn log_drop(f: &Inbound<Dialect>, reason: DropReason, limiter: &mut Limiter, log: &mut Log) {
-    limiter.log(log, "dropped frames", || {
+    limiter.log(log, Level::Warn, "dropped frames", || {
         let h = f.frame.header();
         format!(
             "dropped a frame from {}/{}{}: {}",

@@ -28,7 +28,7 @@ impl StopSignals {
             let mut listen = |kind: SignalKind, name: &str| {
                 signal(kind)
                     .map_err(|e| {
-                        log.line(&format!(
+                        log.warn(&format!(
                             "cannot handle {name} ({e}): it ends the daemon unsaved"
                         ))
                     })

@@ -17,7 +17,7 @@
 //! names them), and stops writing, once said in the log, while the floor
 //! cannot be kept, resuming when space returns.
 
-use super::Log;
+use super::{Level, Log};
 use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
@@ -121,7 +121,7 @@ pub struct Tlog {
     queue: Option<SyncSender<Record>>,
     dropped: u64,
     shared: Arc<Shared>,
-    notes: Receiver<String>,
+    notes: Receiver<(Level, String)>,
     /// Closed by the writer thread when it has written every frame.
     written: Receiver<()>,
 }
@@ -139,9 +139,12 @@ impl Tlog {
         let (note_tx, notes) = mpsc::sync_channel(NOTES_QUEUED);
         let created = fs::create_dir_all(&o.dir);
         if let Err(e) = &created {
-            let _ = note_tx.try_send(format!(
-                "tlog: cannot create {}: {e}; tried again with each new file, frames counted as not written meanwhile",
-                o.dir.display()
+            let _ = note_tx.try_send((
+                Level::Error,
+                format!(
+                    "tlog: cannot create {}: {e}; tried again with each new file, frames counted as not written meanwhile",
+                    o.dir.display()
+                ),
             ));
         }
         let (done, written) = mpsc::channel::<()>();
@@ -198,8 +201,8 @@ impl Tlog {
     /// The writer's notes (files begun and deleted, the floor reached or
     /// left, write errors), into the daemon's log.
     pub fn notes(&mut self, log: &mut Log) {
-        while let Ok(note) = self.notes.try_recv() {
-            log.line(&note);
+        while let Ok((level, note)) = self.notes.try_recv() {
+            log.at(level, &note);
         }
     }
 
@@ -262,7 +265,7 @@ struct Writer {
     /// resets it); at [`FAILED_FILES_MAX`] the log is given up.
     failed_files: u32,
     shared: Arc<Shared>,
-    notes: SyncSender<String>,
+    notes: SyncSender<(Level, String)>,
     /// The free space of a directory's file system ([`free_bytes`]).
     free: fn(&Path) -> io::Result<u64>,
 }
@@ -272,7 +275,7 @@ impl Writer {
         o: &TlogOptions,
         program: &str,
         shared: Arc<Shared>,
-        notes: SyncSender<String>,
+        notes: SyncSender<(Level, String)>,
         free: fn(&Path) -> io::Result<u64>,
     ) -> Writer {
         Writer {
@@ -315,8 +318,8 @@ impl Writer {
         self.close();
     }
 
-    fn note(&self, what: String) {
-        let _ = self.notes.try_send(what);
+    fn note(&self, level: Level, what: String) {
+        let _ = self.notes.try_send((level, what));
     }
 
     fn write(&mut self, r: &Record) {
@@ -365,7 +368,7 @@ impl Writer {
     fn fail(&mut self, what: String) {
         if !self.failing {
             self.failing = true;
-            self.note(what);
+            self.note(Level::Error, what);
         }
     }
 
@@ -386,9 +389,8 @@ impl Writer {
                 if f.flushed == 0 && f.size > 0 {
                     // Said once it holds a frame: a file given up empty
                     // (a full disk) is never named.
-                    let _ = self
-                        .notes
-                        .try_send(format!("tlog: writing {}", f.path.display()));
+                    let writing = format!("tlog: writing {}", f.path.display());
+                    let _ = self.notes.try_send((Level::Info, writing));
                 }
                 self.shared.written.fetch_add(f.pending, Ordering::Relaxed);
                 if f.pending > 0 {
@@ -425,10 +427,13 @@ impl Writer {
         self.fail(format!("tlog: cannot write {}: {e}", f.path.display()));
         self.failed_files += 1;
         if self.failed_files == FAILED_FILES_MAX {
-            self.note(format!(
-                "tlog: given up: {FAILED_FILES_MAX} files in a row failed (the last: {e}); \
+            self.note(
+                Level::Error,
+                format!(
+                    "tlog: given up: {FAILED_FILES_MAX} files in a row failed (the last: {e}); \
                  frames are counted as not written until the end of the run"
-            ));
+                ),
+            );
         }
     }
 
@@ -491,7 +496,7 @@ impl Writer {
             (true, false) => {
                 self.stopped = true;
                 self.close();
-                self.note(format!(
+                self.note(Level::Error, format!(
                     "tlog: stopped writing: {free} bytes free in {}, below the floor of {} (--tlog-min-free), and no older log of this program left to delete; frames are counted as not written until space returns",
                     self.dir.display(),
                     self.min_free
@@ -499,7 +504,10 @@ impl Writer {
             }
             (false, true) => {
                 self.stopped = false;
-                self.note(format!("tlog: writing again: {free} bytes free"));
+                self.note(
+                    Level::Notice,
+                    format!("tlog: writing again: {free} bytes free"),
+                );
             }
             _ => {}
         }
@@ -533,11 +541,14 @@ impl Writer {
             }
             self.shared.deleted.fetch_add(1, Ordering::Relaxed);
             free = (self.free)(&self.dir).unwrap_or(free.saturating_add(size));
-            self.note(format!(
-                "tlog: deleted {} ({size} bytes): {free} bytes free, floor {}",
-                path.display(),
-                self.min_free
-            ));
+            self.note(
+                Level::Info,
+                format!(
+                    "tlog: deleted {} ({size} bytes): {free} bytes free, floor {}",
+                    path.display(),
+                    self.min_free
+                ),
+            );
         }
         free
     }
@@ -579,18 +590,13 @@ fn free_bytes(_dir: &Path) -> io::Result<u64> {
 }
 
 /// `{prefix}YYYYMMDDTHHMMSS.uuuuuuZ.tlog`, UTC: fixed width, so names
-/// sort as times do.
+/// sort as times do (RFC 3339's basic form: its extended form without the
+/// dashes and colons).
 fn file_name(prefix: &str, us: u64) -> String {
-    let secs = us / 1_000_000;
-    let (y, m, d) = civil_from_days(secs / 86_400);
-    let s = secs % 86_400;
-    format!(
-        "{prefix}{y:04}{m:02}{d:02}T{:02}{:02}{:02}.{:06}Z.tlog",
-        s / 3600,
-        s / 60 % 60,
-        s % 60,
-        us % 1_000_000
-    )
+    let at = std::time::UNIX_EPOCH + Duration::from_micros(us);
+    let stamp = humantime::format_rfc3339_micros(at).to_string();
+    let basic: String = stamp.chars().filter(|c| !matches!(c, '-' | ':')).collect();
+    format!("{prefix}{basic}.tlog")
 }
 
 /// True for a name [`file_name`] gives with `prefix`.
@@ -608,21 +614,6 @@ fn is_own(prefix: &str, name: &str) -> bool {
             15 => c == b'.',
             _ => c.is_ascii_digit(),
         })
-}
-
-/// Year, month and day of the `days`-th day since 1970-01-01 (the
-/// proleptic Gregorian calendar, by eras of 400 years).
-fn civil_from_days(days: u64) -> (u64, u64, u64) {
-    let z = days + 719_468;
-    let era = z / 146_097;
-    let doe = z % 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + u64::from(m <= 2);
-    (y, m, d)
 }
 
 #[cfg(test)]
@@ -692,7 +683,7 @@ mod tests {
         for n in 0..3 {
             w.write(&record(n));
         }
-        let said: Vec<String> = notes.try_iter().collect();
+        let said: Vec<String> = notes.try_iter().map(|(_, note)| note).collect();
         assert_eq!(shared.deleted.load(Ordering::Relaxed), 2, "{said:?}");
         assert!(
             said[0].contains(old[0]) && said[1].contains(old[1]),
@@ -713,7 +704,7 @@ mod tests {
         std::thread::sleep(CHECK_EVERY);
         w.write(&record(3));
         w.close();
-        let said: Vec<String> = notes.try_iter().collect();
+        let said: Vec<String> = notes.try_iter().map(|(_, note)| note).collect();
         assert!(said.iter().any(|n| n.contains("writing again")), "{said:?}");
         assert_eq!(shared.written.load(Ordering::Relaxed), 1);
         let mut files: Vec<_> = fs::read_dir(&dir)
@@ -754,7 +745,7 @@ mod tests {
         std::thread::sleep(CHECK_EVERY);
         w.write(&record(3));
         w.close();
-        let said: Vec<String> = notes.try_iter().collect();
+        let said: Vec<String> = notes.try_iter().map(|(_, note)| note).collect();
         assert!(
             said.iter().any(|n| n.contains("removed while written")),
             "{said:?}"
@@ -794,10 +785,12 @@ mod tests {
     }
 
     #[test]
-    fn days_become_dates_across_leap_years_and_centuries() {
-        assert_eq!(civil_from_days(0), (1970, 1, 1));
-        assert_eq!(civil_from_days(11_016), (2000, 2, 29));
-        assert_eq!(civil_from_days(47_541), (2100, 3, 1));
-        assert_eq!(civil_from_days(2_932_896), (9999, 12, 31));
+    fn file_names_are_the_utc_time_across_leap_years_and_centuries() {
+        let name = |days: u64| file_name("p-", days * 86_400_000_000 + 3_723_000_042);
+        assert_eq!(name(0), "p-19700101T010203.000042Z.tlog");
+        assert_eq!(name(11_016), "p-20000229T010203.000042Z.tlog");
+        assert_eq!(name(47_541), "p-21000301T010203.000042Z.tlog");
+        assert_eq!(name(2_932_896), "p-99991231T010203.000042Z.tlog");
+        assert!(is_own("p-", &name(11_016)));
     }
 }

@@ -84,13 +84,8 @@ impl Style {
 /// Whether standard output is the file `DEVICE:INODE` names.
 #[cfg(unix)]
 fn stdout_is(stream: &str) -> bool {
-    let Some((dev, ino)) = stream.split_once(':') else {
-        return false;
-    };
-    let Ok(stat) = rustix::fs::fstat(std::io::stdout()) else {
-        return false;
-    };
-    dev.parse() == Ok(stat.st_dev as u64) && ino.parse() == Ok(stat.st_ino as u64)
+    rustix::fs::fstat(std::io::stdout())
+        .is_ok_and(|stat| format!("{}:{}", stat.st_dev, stat.st_ino) == stream)
 }
 
 #[cfg(not(unix))]

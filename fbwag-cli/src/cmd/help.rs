@@ -124,8 +124,8 @@ Ground stations:
 /// `--signing-state` of both daemons.
 pub const SIGNING_STATE: &str = "Keep the signing timestamps (this signer's, and each peer \
 stream's) in this file across restarts, so a restart neither replays old timestamps nor \
-accepts replays of frames accepted before (saved every second and at exit: SIGTERM, and \
-SIGINT or SIGHUP from a terminal, stop the program as its end does; a damaged file, or one that cannot be written, stops the program: remove \
+accepts replays of frames accepted before (saved every second and at exit: SIGTERM, SIGINT, \
+and SIGHUP from a terminal, stop the program as its end does; a damaged file, or one that cannot be written, stops the program: remove \
 it to start from the clock). Without it, a restarted daemon accepts once, per stream, \
 frames captured up to a minute before: use it whenever signing";
 

@@ -2,14 +2,16 @@
 
 use super::Log;
 
-/// SIGTERM (`kill`, `systemctl stop`), and SIGINT (Ctrl-C) and SIGHUP (the
-/// terminal closed, the ssh session dropped) when standard input is a
-/// terminal: the daemon stops as at the end of its run, its links saving
-/// their signing state; a second signal ends it at once. (Killed by any of
-/// them, it skipped that save: with `--signing-state`, what it had
-/// accepted since the last periodic save could be replayed into it once
-/// restarted.) SIGINT and SIGHUP are left alone otherwise: a daemon a
-/// script or `nohup` starts inherits them ignored, and keeps running.
+/// SIGTERM (`kill`, `systemctl stop`) and SIGINT (Ctrl-C, `kill -INT`),
+/// and SIGHUP (the terminal closed, the ssh session dropped) when standard
+/// input is a terminal: the daemon stops as at the end of its run (exit
+/// status 0, its summary event written, its log and telemetry log
+/// flushed, its links saving their signing state); a second signal ends
+/// it at once. (Killed by any of them, it skipped that save: with
+/// `--signing-state`, what it had accepted since the last periodic save
+/// could be replayed into it once restarted.) SIGHUP is left alone
+/// otherwise: a daemon `nohup` starts inherits it ignored, and keeps
+/// running when its terminal goes.
 pub struct StopSignals {
     #[cfg(unix)]
     interrupt: Option<tokio::signal::unix::Signal>,
@@ -36,7 +38,7 @@ impl StopSignals {
             };
             let interactive = std::io::stdin().is_terminal();
             StopSignals {
-                interrupt: (enabled && interactive)
+                interrupt: enabled
                     .then(|| listen(SignalKind::interrupt(), "SIGINT"))
                     .flatten(),
                 hangup: (enabled && interactive)

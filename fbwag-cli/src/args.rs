@@ -6,10 +6,12 @@
 //! these arguments `allow_hyphen_values`, so `-1` or `-inf` reaches the
 //! validator (clap would otherwise take it for an unknown flag).
 
-use fbwag_delegation::control::Control;
-use fbwag_delegation::node::{Direction, Filter, FilterError, FilterRules, MAX_LINKS};
+use fbwag_delegation::node::{FilterError, MAX_LINKS};
 use std::io::{self, Read};
 use std::net::SocketAddr;
+
+mod links;
+pub use links::*;
 
 /// Longest time any time argument may name: 1,000,000 s (11.6 days). Keeps
 /// every time well inside what `Duration`, `Instant` arithmetic and the
@@ -70,12 +72,18 @@ pub enum ArgError {
     Endpoint(#[from] fbwag_dialect::mavframe::conn::ParseEndpointError),
     /// A filter rule without its link's place.
     #[error(
-        "expected LINK:RULE, LINK a link's place from 1 to {MAX_LINKS} (2:block-msg=COMMAND_LONG)"
+        "expected LINK:RULE, LINK a link's name or its place from 1 to {MAX_LINKS} (2:block-msg=COMMAND_LONG)"
     )]
     LinkRule,
-    /// A routed rate without its link's place.
-    #[error("expected LINK:RATE, LINK a link's place from 1 to {MAX_LINKS}, RATE bytes a second or `off` (2:5760)")]
+    /// A routed rate without its link.
+    #[error("expected LINK:RATE, LINK a link's name or its place from 1 to {MAX_LINKS}, RATE bytes a second or `off` (2:5760)")]
     LinkRate,
+    /// A serial link without its baud rate.
+    #[error("serial:{0} gives no baud rate: add the rate the flight controller's port runs at, e.g. serial:{0}:921600 (ArduPilot's SERIALn_BAUD 921) or serial:{0}:57600")]
+    SerialRate(String),
+    /// Neither a link's place nor a name.
+    #[error("expected a link's place from 1 to {MAX_LINKS}, or its name (NAME=CONN named it)")]
+    Link,
     /// A filter rule that does not parse.
     #[error(transparent)]
     Filter(#[from] FilterError),
@@ -205,6 +213,24 @@ pub fn pwm_us(s: &str) -> Result<u16, ArgError> {
     integer_in(s, PWM_US.0, PWM_US.1, "a pulse width in µs")
 }
 
+/// Shortest report period (s).
+pub const MIN_REPORT: f64 = 0.1;
+
+/// `--report`'s period: `None` for no text report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReportEvery(pub Option<std::time::Duration>);
+
+/// `--report SECONDS|off`: the period of the daemons' text report (and
+/// their status events), `off` or 0 for no text report (status events
+/// then every [`crate::live::STATUS_EVERY`]).
+pub fn report(s: &str) -> Result<ReportEvery, ArgError> {
+    if s.trim() == "off" || s.trim() == "0" {
+        return Ok(ReportEvery(None));
+    }
+    let secs = number_in(s, MIN_REPORT, MAX_SECONDS, "seconds (or `off`, or 0)")?;
+    Ok(ReportEvery(Some(std::time::Duration::from_secs_f64(secs))))
+}
+
 /// A value of `fbwag cc --routed-rate`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RoutedRate {
@@ -221,43 +247,6 @@ pub fn routed_rate(s: &str) -> Result<RoutedRate, ArgError> {
     }
     integer_in(s, ROUTED_RATE.0, ROUTED_RATE.1, "bytes a second (or `off`)")
         .map(RoutedRate::BytesPerSecond)
-}
-
-/// `LINK:REST`: a link's place (1 to [`MAX_LINKS`]) and what follows it.
-fn link_place(s: &str) -> Option<(usize, &str)> {
-    let (link, rest) = s.split_once(':')?;
-    let link = link.trim().parse::<usize>().ok()?;
-    (1..=MAX_LINKS).contains(&link).then_some((link, rest))
-}
-
-/// A value of an option given per link: `LINK:VALUE` for the link at that
-/// place (from 1), or `VALUE` alone for every link without its own.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ForLink<T> {
-    /// The link's place, from 1; `None`: every link.
-    pub link: Option<usize>,
-    pub value: T,
-}
-
-impl<T> ForLink<T> {
-    /// `[LINK:]VALUE`, VALUE read by `parse`. (A value never starts with
-    /// a number and a colon: hex digits, `@PATH`, an IPv4 address have
-    /// none; an IPv6 one is in brackets.)
-    fn parse(s: &str, parse: impl Fn(&str) -> Result<T, ArgError>) -> Result<Self, ArgError> {
-        let (link, value) = match link_place(s) {
-            Some((link, value)) => (Some(link), value),
-            None => (None, s),
-        };
-        Ok(ForLink {
-            link,
-            value: parse(value)?,
-        })
-    }
-}
-
-/// `[LINK:]KEY`: a signing key (see [`sign_key`]), for one link or all.
-pub fn link_sign_key(s: &str) -> Result<ForLink<String>, ArgError> {
-    ForLink::parse(s, sign_key)
 }
 
 /// Whom the autonomy link admits (`fbwag cc --autonomy-peer`).
@@ -281,79 +270,6 @@ pub fn autonomy_peer(s: &str) -> Result<AutonomyPeer, ArgError> {
     Ok(AutonomyPeer::At(addr))
 }
 
-/// `[LINK:]IP:PORT`: a peer address, for one link or all.
-pub fn link_peer(s: &str) -> Result<ForLink<SocketAddr>, ArgError> {
-    ForLink::parse(s, |v| v.trim().parse().map_err(|_| ArgError::Address))
-}
-
-/// Each of `links` links' value of option `flag` from what was `given`:
-/// the link's own, else the one given for every link, else none. A later
-/// value replaces an earlier one for the same link (or for every link),
-/// as single-valued options do: a `--config` file's come first, so the
-/// command line's win.
-pub fn per_link<T: Clone>(
-    flag: &str,
-    given: &[ForLink<T>],
-    links: usize,
-) -> Result<Vec<Option<T>>, (String, LinkOptionError)> {
-    let mut every: Option<T> = None;
-    let mut own: Vec<Option<T>> = vec![None; links];
-    for g in given {
-        let slot = match g.link {
-            None => &mut every,
-            Some(link) => own.get_mut(link - 1).ok_or_else(|| {
-                let error = LinkOptionError::NoSuchLink { link, links };
-                (format!("{flag} {link}"), error)
-            })?,
-        };
-        *slot = Some(g.value.clone());
-    }
-    Ok(own
-        .into_iter()
-        .map(|v| v.or_else(|| every.clone()))
-        .collect())
-}
-
-/// A link's place among a daemon's links, from 1.
-pub fn link_number(s: &str) -> Result<usize, ArgError> {
-    integer_in(s, 1, MAX_LINKS, "a link's place (from 1)")
-}
-
-/// The 0-based index of the link at place `link` (from 1) of `links`.
-fn link_index(link: usize, links: usize) -> Option<usize> {
-    link.checked_sub(1).filter(|i| *i < links)
-}
-
-/// The 0-based indices of the links `places` (from 1) name, over
-/// `links` links; `flag` names the option in an error.
-pub fn link_indices(
-    flag: &str,
-    places: &[usize],
-    links: usize,
-) -> Result<Vec<usize>, (String, LinkOptionError)> {
-    places
-        .iter()
-        .map(|&link| match link_index(link, links) {
-            Some(index) => Ok(index),
-            None => Err((
-                format!("{flag} {link}"),
-                LinkOptionError::NoSuchLink { link, links },
-            )),
-        })
-        .collect()
-}
-
-/// `fbwag router --routed-rate LINK:RATE`: the pace of what is routed to
-/// the link at that place (from 1), both checked as they are read; LINK
-/// is required.
-pub fn link_rate(s: &str) -> Result<ForLink<RoutedRate>, ArgError> {
-    let (link, rate) = link_place(s).ok_or(ArgError::LinkRate)?;
-    Ok(ForLink {
-        link: Some(link),
-        value: routed_rate(rate)?,
-    })
-}
-
 /// A MAVLink system or component id of a sender: 1 to 255 (0 addresses
 /// every system or component and is no sender's id).
 pub fn mavlink_id(s: &str) -> Result<u8, ArgError> {
@@ -367,9 +283,20 @@ pub fn sign_timestamp(s: &str) -> Result<u64, ArgError> {
 }
 
 /// A connection string (`udpin:IP:PORT`, `serial:PATH:BAUD`, ...),
+/// after a link's name if given (`NAME=CONN`, see [`split_link_name`]),
 /// checked as it is read, kept as given.
+/// A serial link must say its baud rate: the library's default
+/// (MAVProxy's 57,600) is seldom what a flight controller's port runs at,
+/// and a wrong rate looks like a silent FC.
 pub fn endpoint(s: &str) -> Result<String, ArgError> {
-    s.parse::<fbwag_dialect::Endpoint>()?;
+    let conn = split_link_name(s).1;
+    let endpoint = conn.parse::<fbwag_dialect::Endpoint>()?;
+    let rate_given = conn
+        .rsplit_once(':')
+        .is_some_and(|(_, baud)| baud.bytes().all(|b| b.is_ascii_digit()));
+    if let (fbwag_dialect::Endpoint::Serial { path, .. }, false) = (endpoint, rate_given) {
+        return Err(ArgError::SerialRate(path));
+    }
     Ok(s.to_string())
 }
 
@@ -419,173 +346,6 @@ pub fn dedup_ms(s: &str) -> Result<u64, ArgError> {
     integer_in(s, 0, MAX_DEDUP_MS, "milliseconds")
 }
 
-/// A rule of `--filter-in`/`--filter-out`: `LINK:RULE`.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct LinkRule {
-    /// The link's place among the links given, from 1.
-    pub link: usize,
-    /// The rule, as given (it parses).
-    pub rule: String,
-}
-
-/// `LINK:RULE`, the rule checked as it is read (see
-/// `fbwag_delegation::node::FilterRules::parse`).
-pub fn link_rule(s: &str) -> Result<LinkRule, ArgError> {
-    let (link, rule) = link_place(s).ok_or(ArgError::LinkRule)?;
-    FilterRules::new().parse(rule)?;
-    Ok(LinkRule {
-        link,
-        rule: rule.trim().to_string(),
-    })
-}
-
-/// The filter of one direction of one link, from the rules given for it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct LinkFilter {
-    /// The link's place among the links it numbers, from 0.
-    pub index: usize,
-    /// Which way.
-    pub direction: Direction,
-    /// The filter.
-    pub filter: Filter,
-    /// Its rules as given, for the log.
-    pub rules: Vec<String>,
-}
-
-/// Why options given per link (filters, keys, peers, paces) cannot
-/// apply.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum LinkOptionError {
-    /// A value for a link past the last one given.
-    #[error("link {link}: {} (counted from 1)", match links { 1 => "there is 1 link".to_string(), n => format!("there are {n} links") })]
-    NoSuchLink { link: usize, links: usize },
-    /// Rules that together do not make a filter (too many message ids).
-    #[error(transparent)]
-    Rules(#[from] FilterError),
-    /// A peer for a link that answers its target or its stream only.
-    #[error("link {0} does not listen: a peer is for udpin and tcpin links")]
-    NotListening(String),
-    /// Port 0 (any port) for a link that sends to one address.
-    #[error("a udpin link sends to one port: IP:0 (any port of IP) is for tcpin links")]
-    AnyPort,
-    /// A rule blocking the autonomy's control message: the handover, not
-    /// a filter, decides where that goes.
-    #[error("the autonomy's {0} is never filtered: the handover gates it (leave out --autonomy to keep any program from steering)")]
-    AutonomyControl(&'static str),
-    /// An IPv6 peer for a link that listens on IPv4: it can never speak.
-    #[error("link {0} listens on IPv4: an IPv6 peer can never reach it")]
-    OtherFamily(String),
-}
-
-/// `--peer` values where they apply: a listening link (`udpin`, `tcpin`);
-/// `IP:0`, any port of IP, on `tcpin` only (a datagram needs a port). A
-/// value for every link applies to the listening ones.
-pub fn check_peers(
-    given: &[ForLink<SocketAddr>],
-    endpoints: &[fbwag_dialect::Endpoint],
-) -> Result<(), (String, LinkOptionError)> {
-    use fbwag_dialect::mavframe::conn::Address;
-    use fbwag_dialect::Endpoint;
-    for g in given {
-        let arg = || g.link.map_or("--peer".into(), |l| format!("--peer {l}"));
-        let on: Vec<&Endpoint> = match g.link {
-            Some(link) => endpoints.get(link - 1).into_iter().collect(),
-            None => endpoints.iter().collect(),
-        };
-        for endpoint in on {
-            match endpoint {
-                Endpoint::UdpIn(_) if g.value.port() == 0 => {
-                    return Err((arg(), LinkOptionError::AnyPort))
-                }
-                Endpoint::UdpIn(Address::Ip(at)) | Endpoint::TcpIn(Address::Ip(at))
-                    if at.is_ipv4() && g.value.is_ipv6() =>
-                {
-                    let link = endpoint.to_string();
-                    return Err((arg(), LinkOptionError::OtherFamily(link)));
-                }
-                Endpoint::UdpIn(_) | Endpoint::TcpIn(_) => {}
-                other if g.link.is_some() => {
-                    return Err((arg(), LinkOptionError::NotListening(other.to_string())))
-                }
-                _ => {}
-            }
-        }
-    }
-    Ok(())
-}
-
-/// The filters `--filter-in` (`ins`) and `--filter-out` (`outs`) rules
-/// make, over `links` links; an error names the flag and value at fault.
-pub fn link_filters(
-    ins: &[LinkRule],
-    outs: &[LinkRule],
-    links: usize,
-) -> Result<Vec<LinkFilter>, (String, LinkOptionError)> {
-    let mut filters: Vec<(usize, Direction, FilterRules, Vec<String>)> = Vec::new();
-    let given = [(Direction::In, ins), (Direction::Out, outs)];
-    for (direction, rules) in given {
-        for r in rules {
-            let flag = match direction {
-                Direction::In => "--filter-in",
-                Direction::Out => "--filter-out",
-            };
-            let fault = |e| (format!("{flag} {}:{}", r.link, r.rule), e);
-            let Some(index) = link_index(r.link, links) else {
-                return Err(fault(LinkOptionError::NoSuchLink {
-                    link: r.link,
-                    links,
-                }));
-            };
-            let at = match filters
-                .iter()
-                .position(|f| f.0 == index && f.1 == direction)
-            {
-                Some(at) => at,
-                None => {
-                    filters.push((index, direction, FilterRules::new(), Vec::new()));
-                    filters.len() - 1
-                }
-            };
-            let entry = &mut filters[at];
-            entry.2.parse(&r.rule).map_err(|e| fault(e.into()))?;
-            entry.3.push(r.rule.clone());
-        }
-    }
-    Ok(filters
-        .into_iter()
-        .map(|(index, direction, rules, text)| LinkFilter {
-            index,
-            direction,
-            filter: rules.filter(),
-            rules: text,
-        })
-        .collect())
-}
-
-/// Refuses a `--filter-in` rule of link `link` (the autonomy's place)
-/// that blocks one of the control messages: filters never touch them, so
-/// such a rule would only seem to keep the autonomy from steering.
-pub fn check_autonomy_rules(
-    ins: &[LinkRule],
-    link: usize,
-) -> Result<(), (String, LinkOptionError)> {
-    for r in ins.iter().filter(|r| r.link == link) {
-        let mut rules = FilterRules::new();
-        // Checked as it was read: an error here cannot block anything.
-        if rules.parse(&r.rule).is_err() {
-            continue;
-        }
-        let control = Control::MESSAGES
-            .into_iter()
-            .find(|(id, _)| rules.blocks_msg(*id));
-        if let Some((_, name)) = control {
-            let arg = format!("--filter-in {}:{}", r.link, r.rule);
-            return Err((arg, LinkOptionError::AutonomyControl(name)));
-        }
-    }
-    Ok(())
-}
-
 /// Receiver failures of `fbwag fc-sim` that do not pair up.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum OutageError {
@@ -629,61 +389,6 @@ pub fn outages(lost: &[f64], back: &[f64]) -> Result<Vec<(f64, Option<f64>)>, Ou
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_value_for_one_link_outranks_the_one_for_every_link() {
-        let peers: Vec<_> = ["10.0.0.1:14550", "3:10.0.0.3:14550", "[::1]:5760"]
-            .iter()
-            .map(|s| link_peer(s).unwrap())
-            .collect();
-        assert_eq!(peers[0].link, None);
-        assert_eq!(peers[1].link, Some(3));
-        assert_eq!(peers[2].link, None, "an IPv6 address is no link");
-        let each = per_link("--peer", &peers[..2], 3).unwrap();
-        let addr = |s: &str| Some(s.parse::<SocketAddr>().unwrap());
-        let every = addr("10.0.0.1:14550");
-        assert_eq!(each, vec![every, every, addr("10.0.0.3:14550")]);
-        assert_eq!(per_link("--peer", &peers[1..2], 3).unwrap()[0], None);
-        let key = "ab".repeat(32);
-        assert_eq!(link_sign_key(&format!("2:{key}")).unwrap().link, Some(2));
-        assert_eq!(link_sign_key(&key).unwrap().link, None);
-        assert!(link_peer("2:nowhere").is_err());
-    }
-
-    #[test]
-    fn a_later_value_for_a_link_wins_and_one_past_the_last_is_refused() {
-        let peer = |s: &str| link_peer(s).unwrap();
-        let addr = |s: &str| Some(s.parse::<SocketAddr>().unwrap());
-        let twice = [peer("2:10.0.0.1:1"), peer("2:10.0.0.2:1")];
-        let got = per_link("--peer", &twice, 2).unwrap();
-        assert_eq!(got, vec![None, addr("10.0.0.2:1")]);
-        let both = [peer("10.0.0.1:1"), peer("10.0.0.2:1")];
-        let got = per_link("--peer", &both, 2).unwrap();
-        assert_eq!(got, vec![addr("10.0.0.2:1"); 2]);
-        let past = [peer("3:10.0.0.1:1")];
-        let err = per_link("--peer", &past, 2).unwrap_err().1;
-        assert_eq!(err, LinkOptionError::NoSuchLink { link: 3, links: 2 });
-    }
-
-    /// A peer pinned on a link that does not listen would be ignored
-    /// while the log said otherwise; IP:0 on udpin would answer nobody.
-    #[test]
-    fn a_peer_goes_only_where_it_applies() {
-        let peer = |s: &str| link_peer(s).unwrap();
-        let links: Vec<fbwag_dialect::Endpoint> =
-            ["udpin:0.0.0.0:1", "udpout:10.0.0.9:2", "tcpin:0.0.0.0:3"]
-                .map(|e| e.parse().unwrap())
-                .into();
-        assert!(check_peers(&[peer("10.0.0.1:1"), peer("3:10.0.0.2:0")], &links).is_ok());
-        let err = check_peers(&[peer("2:10.0.0.1:1")], &links).unwrap_err();
-        assert!(matches!(err.1, LinkOptionError::NotListening(_)), "{err:?}");
-        let err = check_peers(&[peer("3:[::1]:5")], &links).unwrap_err();
-        assert!(matches!(err.1, LinkOptionError::OtherFamily(_)), "{err:?}");
-        for any_port in ["1:10.0.0.1:0", "10.0.0.1:0"] {
-            let err = check_peers(&[peer(any_port)], &links).unwrap_err();
-            assert_eq!(err.1, LinkOptionError::AnyPort, "{any_port}");
-        }
-    }
 
     #[test]
     fn non_finite_and_negative_numbers_are_refused_everywhere() {
@@ -745,6 +450,16 @@ mod tests {
     }
 
     #[test]
+    fn a_serial_link_says_its_baud_rate() {
+        let err = endpoint("serial:/dev/ttyAMA0").unwrap_err().to_string();
+        assert!(err.contains("serial:/dev/ttyAMA0:921600"), "{err}");
+        assert!(endpoint("fc=serial:/dev/ttyAMA0").is_err());
+        assert!(endpoint("serial:/dev/ttyAMA0:921600").is_ok());
+        assert!(endpoint("fc=serial:/dev/ttyAMA0:57600").is_ok());
+        assert!(endpoint("udpin:0.0.0.0:14550").is_ok());
+    }
+
+    #[test]
     fn keys_are_64_hex_digits() {
         let k = "0f".repeat(32);
         assert_eq!(sign_key(&k).ok(), Some(k.clone()));
@@ -762,16 +477,6 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         assert!(sign_key(&k[..62]).is_err());
         assert!(sign_key(&format!("{}zz", &k[..62])).is_err());
-    }
-
-    #[test]
-    fn a_link_is_named_by_its_place_among_those_given() {
-        assert_eq!(link_number("3").ok(), Some(3));
-        assert!(link_number("0").is_err() && link_number("x").is_err());
-        assert_eq!(link_indices("--sniffer", &[3, 1], 3), Ok(vec![2, 0]));
-        let (arg, e) = link_indices("--sniffer", &[4], 3).unwrap_err();
-        assert_eq!(arg, "--sniffer 4");
-        assert_eq!(e, LinkOptionError::NoSuchLink { link: 4, links: 3 });
     }
 }
 

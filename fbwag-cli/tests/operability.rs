@@ -24,23 +24,19 @@ fn wait_for_log(daemon: &Daemon, text: &str) {
 /// SIGINT (Ctrl-C, `kill -INT`) stops each daemon as SIGTERM and the end
 /// of its run do, with its standard input not a terminal: exit status 0,
 /// the summary event written, the log's last lines out. (It ended with
-/// status 130 and no summary.)
+/// status 130 and no summary.) The companion hears an FC first: without
+/// one, its run ends with status 1.
 #[test]
 fn sigint_stops_every_daemon_as_its_end_does() {
     let dir = scratch("sigint");
+    let cc_port = free_port();
+    let fc_args = args(&["fc-sim", "--link", &format!("udpout:127.0.0.1:{cc_port}")]);
     for (name, program) in [
         (
             "cc",
-            args(&["cc", "--link", &format!("udpin:127.0.0.1:{}", free_port())]),
+            args(&["cc", "--link", &format!("udpin:127.0.0.1:{cc_port}")]),
         ),
-        (
-            "fc",
-            args(&[
-                "fc-sim",
-                "--link",
-                &format!("udpout:127.0.0.1:{}", free_port()),
-            ]),
-        ),
+        ("fc", fc_args.clone()),
         (
             "router",
             args(&[
@@ -51,6 +47,15 @@ fn sigint_stops_every_daemon_as_its_end_does() {
         ),
     ] {
         let daemon = Daemon::spawn(&dir, name, &[program, args(&["--duration", "60"])].concat());
+        let _fc = (name == "cc").then(|| {
+            let fc = Daemon::spawn(
+                &dir,
+                "fc-of-cc",
+                &[fc_args.clone(), args(&["--duration", "60"])].concat(),
+            );
+            wait_for_log(&daemon, "FC found");
+            fc
+        });
         wait_for_log(&daemon, "INFO");
         let sent = std::process::Command::new("kill")
             .args(["-INT", &daemon.pid().to_string()])
@@ -115,4 +120,174 @@ fn log_lines_carry_their_level_for_a_terminal_and_for_the_journal() {
     assert!(journal.contains("<5>fc: armed"), "{journal}");
     let quiet = run("quiet", "warn", true);
     assert!(!quiet.contains("<6>") && !quiet.contains("<5>"), "{quiet}");
+}
+
+/// The status event of `f` last written: its `links` object.
+fn last_links(f: &Finished) -> serde_json::Value {
+    let status = f.events.last("status");
+    let status = status.unwrap_or_else(|| panic!("{}: no status event\n{}", f.name, f.dump()));
+    status["links"].clone()
+}
+
+/// A wrong key on one side: both sides' status events count bad
+/// signatures on their link within one report period, and the companion,
+/// which never heard its FC, exits with status 1 and a line naming the
+/// link. (The summaries showed every count at 0, and `fbwag cc` exited 0
+/// as if idle.)
+#[test]
+fn a_wrong_key_shows_as_bad_signatures_on_both_sides() {
+    let dir = scratch("wrong-key");
+    let port = free_port();
+    let other = "11".repeat(32);
+    let fc = Daemon::spawn(
+        &dir,
+        "fc",
+        &args(&[
+            "fc-sim",
+            "--link",
+            &format!("cc=udpin:127.0.0.1:{port}"),
+            "--sign-key",
+            KEY,
+            "--require-signed",
+            "--report",
+            "1",
+            "--duration",
+            "2.5",
+        ]),
+    );
+    let cc = Daemon::spawn(
+        &dir,
+        "cc",
+        &args(&[
+            "cc",
+            "--link",
+            &format!("fc=udpout:127.0.0.1:{port}"),
+            "--sign-key",
+            &other,
+            "--require-signed",
+            "--report",
+            "1",
+            "--duration",
+            "2.5",
+        ]),
+    );
+    let (fc, cc) = (
+        fc.finish(Duration::from_secs(20)),
+        cc.finish(Duration::from_secs(20)),
+    );
+    let all = format!("{}\n{}", fc.dump(), cc.dump());
+    for (f, name) in [(&fc, "cc"), (&cc, "fc")] {
+        let link = &last_links(f)[name];
+        let bad = link["refused"]["bad_signature"].as_u64().unwrap_or(0);
+        assert!(bad >= 1, "{}: {link}\n{all}", f.name);
+        let first = f.events.of("status").next().expect("a status");
+        assert!(
+            first["t_ms"].as_u64().unwrap_or(u64::MAX) <= 1500,
+            "{first}"
+        );
+    }
+    assert_eq!(cc.status.code(), Some(1), "{all}");
+    assert!(
+        cc.log
+            .contains("ERROR  cc: the FC (1/1) was never heard on its link fc"),
+        "{all}"
+    );
+    assert_eq!(
+        cc.events.last("status").unwrap()["fc"],
+        "never heard",
+        "{all}"
+    );
+}
+
+/// Ground-side links that cannot open (a host name that does not
+/// resolve, a port another program holds) leave the companion running:
+/// each is said once, retried every second (its name resolved again),
+/// said again when it opens, and the handover on the FC link goes on.
+/// (An --out whose name did not resolve stopped `fbwag cc` at start with
+/// status 2: the companion never took over.)
+#[test]
+fn a_ground_link_that_cannot_open_never_stops_the_delegation() {
+    let dir = scratch("ground-fault");
+    let (port, held) = (
+        free_port(),
+        std::net::UdpSocket::bind("127.0.0.1:0").unwrap(),
+    );
+    let taken = held.local_addr().unwrap().port();
+    let cc = Daemon::spawn(
+        &dir,
+        "cc",
+        &args(&[
+            "cc",
+            "--link",
+            &format!("udpin:127.0.0.1:{port}"),
+            "--out",
+            "gcs=udpout:no-such-host.invalid:14550",
+            "--out",
+            &format!("mavproxy=udpin:127.0.0.1:{taken}"),
+            "--report",
+            "1",
+            "--duration",
+            "4.5",
+        ]),
+    );
+    let fc = Daemon::spawn(
+        &dir,
+        "fc",
+        &args(&[
+            "fc-sim",
+            "--link",
+            &format!("udpout:127.0.0.1:{port}"),
+            "--rc-loss-at",
+            "2",
+            "--duration",
+            "4",
+        ]),
+    );
+    std::thread::sleep(Duration::from_millis(1500));
+    drop(held);
+    let (fc, cc) = (
+        fc.finish(Duration::from_secs(20)),
+        cc.finish(Duration::from_secs(20)),
+    );
+    let all = format!("{}\n{}", fc.dump(), cc.dump());
+    assert!(cc.status.success(), "{all}");
+    assert!(fc.events.of("handover").count() == 1, "{all}");
+    let link_events = |name: &str| -> Vec<String> {
+        cc.events
+            .of("link")
+            .filter(|e| e["link"] == name)
+            .map(|e| e["state"].as_str().unwrap_or_default().to_string())
+            .collect()
+    };
+    let gcs = link_events("gcs");
+    assert_eq!(gcs.first().map(String::as_str), Some("failed"), "{all}");
+    assert!(
+        gcs.iter().skip(1).all(|s| s == "retrying"),
+        "{gcs:?}\n{all}"
+    );
+    let mavproxy = link_events("mavproxy");
+    assert_eq!(
+        mavproxy.first().map(String::as_str),
+        Some("failed"),
+        "{all}"
+    );
+    assert!(
+        mavproxy.contains(&"recovered".to_string()),
+        "{mavproxy:?}\n{all}"
+    );
+    assert_eq!(
+        cc.log.matches("link gcs failed").count(),
+        1,
+        "said once\n{all}"
+    );
+    assert!(cc.log.contains("link mavproxy open again"), "{all}");
+    let links = last_links(&cc);
+    assert_eq!(
+        (
+            links["gcs"]["up"].as_bool(),
+            links["mavproxy"]["up"].as_bool()
+        ),
+        (Some(false), Some(true)),
+        "{links}"
+    );
 }

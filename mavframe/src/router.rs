@@ -72,6 +72,7 @@ use queues::{count_routed_dropped, sender_key, Command, Queues, RoutedBytes, Rou
 use std::io;
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use std::vec::Vec;
@@ -148,6 +149,10 @@ const EVICTED_BACKOFF: Duration = Duration::from_millis(5);
 pub struct LinkConfig {
     /// Where to listen or connect.
     pub endpoint: Endpoint,
+    /// What the owner calls the link (mavlink-router's endpoint names):
+    /// [`Router::name`] gives it back. `None` (the default): the link is
+    /// named by its endpoint.
+    pub name: Option<std::string::String>,
     /// Verify incoming signatures and sign outgoing messages with this key.
     pub key: Option<[u8; 32]>,
     /// When `key` is set: whether unsigned frames are returned (marked
@@ -195,6 +200,7 @@ impl LinkConfig {
     pub fn new(endpoint: Endpoint) -> Self {
         LinkConfig {
             endpoint,
+            name: None,
             key: None,
             unsigned: Unsigned::Accept,
             reply_to: ReplyTo::Accepted,
@@ -240,6 +246,7 @@ pub enum RouterEvent<D: MessageSet> {
 
 struct LinkHandle {
     endpoint: Endpoint,
+    name: Option<std::string::String>,
     commands: mpsc::Sender<Command>,
     /// Frames routed through the link ([`Router::forward`]): see [`Queues`].
     routed: mpsc::Sender<RoutedFrame>,
@@ -247,6 +254,8 @@ struct LinkHandle {
     /// sender's key.
     paced: bool,
     counters: Arc<Mutex<LinkCounters>>,
+    /// The link's transport is open (set by its task).
+    up: Arc<AtomicBool>,
     task: tokio::task::JoinHandle<()>,
 }
 
@@ -260,6 +269,9 @@ pub struct LinkCounters {
     /// their queue was full: they go after the owner's own, so a link
     /// slower than what is routed to it drops these first.
     pub routed_dropped: u64,
+    /// Frames sent: handed to the system whole (a datagram's frames, a
+    /// stream's write), or to a `tcpin` client's queue.
+    pub frames_out: u64,
     /// Sends that failed (the frame is lost; the link goes on).
     pub send_errors: u64,
     /// `tcpin`: connections that could not be accepted (each pauses
@@ -365,12 +377,13 @@ impl<D: MessageSet + 'static> Router<D> {
     }
 
     /// Opens a link now and runs it in a task of the current tokio
-    /// runtime. At most 64 links. Errors surface here (address in use, a
-    /// damaged signing state file), but for a TCP client or a serial port:
-    /// their far end may come later than this program (a server not up
-    /// yet, a USB radio still enumerating), so such a link starts down,
-    /// reported as [`RouterEvent::LinkDown`], and is opened again every
-    /// [`REOPEN_INTERVAL`].
+    /// runtime. At most 64 links. Only a damaged signing state file is an
+    /// error here: a link that cannot be opened (a host name that does not
+    /// resolve yet, an address in use, a server not up yet, a USB radio
+    /// still enumerating) starts down, reported as
+    /// [`RouterEvent::LinkDown`], and is opened again (its name resolved
+    /// again) every [`REOPEN_INTERVAL`]: no link's failure stops the
+    /// others.
     ///
     /// Links with the same key share one replay window: a signed frame
     /// accepted on one is refused as a replay on the others.
@@ -383,12 +396,15 @@ impl<D: MessageSet + 'static> Router<D> {
         }
         let id = self.links.len() as LinkId;
         let endpoint = config.endpoint.clone();
-        let transport = match Transport::open(&config).await {
-            Err(e) if !matches!(endpoint, Endpoint::Tcp(_) | Endpoint::Serial { .. }) => {
-                return Err(e)
-            }
-            opened => opened,
-        };
+        let name = config.name.clone();
+        if matches!(endpoint, Endpoint::File(_)) {
+            return Err(io::Error::new(
+                io::ErrorKind::Unsupported,
+                "file: endpoints are not routed: a capture cannot take frames",
+            ));
+        }
+        let transport = Transport::open(&config).await;
+        let up = Arc::new(AtomicBool::new(transport.is_ok()));
         let signing =
             SigningFile::open(config.key, config.unsigned, config.signing_state.as_deref())?;
         let window = self.window(&signing);
@@ -409,15 +425,18 @@ impl<D: MessageSet + 'static> Router<D> {
             counters: counters.clone(),
             signing,
             window,
+            up: up.clone(),
             clients_accepted: 0,
         };
         let task = tokio::spawn(task.run(transport));
         self.links.push(LinkHandle {
             endpoint,
+            name,
             commands,
             routed,
             paced,
             counters,
+            up,
             task,
         });
         Ok(id)
@@ -470,6 +489,25 @@ impl<D: MessageSet + 'static> Router<D> {
     /// The endpoint of `link`.
     pub fn endpoint(&self, link: LinkId) -> Option<&Endpoint> {
         self.links.get(link as usize).map(|l| &l.endpoint)
+    }
+
+    /// The name of `link`: the one it was given
+    /// ([`LinkConfig::name`]), else its endpoint's connection string.
+    pub fn name(&self, link: LinkId) -> std::string::String {
+        use std::string::ToString;
+        self.links
+            .get(link as usize)
+            .map(|l| l.name.clone().unwrap_or_else(|| l.endpoint.to_string()))
+            .unwrap_or_default()
+    }
+
+    /// Whether `link`'s transport is open now (a link that failed is
+    /// down until it is open again: [`RouterEvent::LinkDown`],
+    /// [`RouterEvent::LinkUp`]).
+    pub fn is_up(&self, link: LinkId) -> bool {
+        self.links
+            .get(link as usize)
+            .is_some_and(|l| l.up.load(Ordering::Relaxed))
     }
 
     /// The counters of `link`.

@@ -4,7 +4,7 @@ use super::help;
 use crate::args::{self, ControllerKind};
 use crate::error::{CliError, Outcome};
 use crate::live::cc::{check_trusted, run_cc, CcOptions};
-use crate::live::net::routed_rate;
+use crate::live::net::{routed_rate, Named};
 use fbwag_delegation::Peer;
 use fbwag_dialect::Endpoint;
 use std::net::SocketAddr;
@@ -133,6 +133,8 @@ pub struct CcArgs {
     pub events: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "info", help = help::LOG_LEVEL)]
     pub log_level: crate::live::Level,
+    #[arg(long, value_name = "SECONDS|off", default_value = "10", allow_hyphen_values = true, value_parser = args::report, help = help::REPORT)]
+    pub report: args::ReportEvery,
     /// Our system id (1–255).
     #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = args::mavlink_id)]
     pub sysid: u8,
@@ -171,19 +173,24 @@ pub struct CcArgs {
 }
 
 /// A `--trusted-out` link: local unless `remote` allows any.
-fn trusted_out(conn: &str, remote: bool) -> Result<Endpoint, CliError> {
+fn trusted_out(conn: &str, remote: bool) -> Result<Named, CliError> {
     let e = endpoint("--trusted-out", conn)?;
-    check_trusted(&e, remote).map_err(|source| CliError::TrustedOut {
+    check_trusted(&e.endpoint, remote).map_err(|source| CliError::TrustedOut {
         conn: conn.into(),
         source,
     })?;
     Ok(e)
 }
 
-/// A connection string of `flag`.
-fn endpoint(flag: &str, conn: &str) -> Result<Endpoint, CliError> {
-    conn.parse()
-        .map_err(CliError::endpoint(format!("{flag} {conn}")))
+/// A link of `flag`: `[NAME=]CONN`.
+fn endpoint(flag: &str, given: &str) -> Result<Named, CliError> {
+    let (name, conn) = args::split_link_name(given);
+    Ok(Named {
+        endpoint: conn
+            .parse()
+            .map_err(CliError::endpoint(format!("{flag} {given}")))?,
+        name: name.map(str::to_string),
+    })
 }
 
 impl TryFrom<CcArgs> for CcOptions {
@@ -191,20 +198,33 @@ impl TryFrom<CcArgs> for CcOptions {
 
     fn try_from(a: CcArgs) -> Result<Self, CliError> {
         let outs = a.outs.iter().map(|e| endpoint("--out", e));
-        let outs: Vec<Endpoint> = outs.collect::<Result<_, _>>()?;
+        let outs: Vec<Named> = outs.collect::<Result<_, _>>()?;
         let trusted = a.trusted_outs.iter();
         let trusted_outs = trusted.map(|e| trusted_out(e, a.trusted_out_remote));
-        let trusted_outs: Vec<Endpoint> = trusted_outs.collect::<Result<_, _>>()?;
+        let trusted_outs: Vec<Named> = trusted_outs.collect::<Result<_, _>>()?;
         let autonomy = a.autonomy.as_deref().map(|e| endpoint("--autonomy", e));
         let autonomy = autonomy.transpose()?;
         if let Some(e) = &autonomy {
-            check_autonomy_peer(e, a.autonomy_peer)?;
+            check_autonomy_peer(&e.endpoint, a.autonomy_peer)?;
         }
-        let filtered = outs.len() + trusted_outs.len() + usize::from(autonomy.is_some());
-        let filters = args::link_filters(&a.filter_in, &a.filter_out, filtered)
+        // Filters name the --out, --trusted-out and --autonomy links; a
+        // name is one link's among all of them, the FC link's too.
+        let filtered: Vec<&str> = (a.outs.iter().chain(&a.trusted_outs))
+            .chain(&a.autonomy)
+            .map(String::as_str)
+            .collect();
+        let names = args::link_names("--out", filtered).map_err(CliError::link_option)?;
+        let fc_name = args::split_link_name(&a.link).0;
+        if let Some(twice) = fc_name.filter(|n| names.contains(&Some(n.to_string()))) {
+            let error = args::LinkOptionError::NameTwice(twice.to_string());
+            return Err(CliError::link_option((format!("--link {}", a.link), error)));
+        }
+        let filters = args::link_filters(&a.filter_in, &a.filter_out, &names)
             .map_err(CliError::link_option)?;
         if autonomy.is_some() {
-            args::check_autonomy_rules(&a.filter_in, filtered).map_err(CliError::link_option)?;
+            let autonomy = names.len() - 1;
+            args::check_autonomy_rules(&a.filter_in, autonomy, &names)
+                .map_err(CliError::link_option)?;
         }
         let mut link =
             super::link_options(&a.link, a.sign_key.as_deref(), a.peer, a.signing_state)?;
@@ -231,6 +251,7 @@ impl TryFrom<CcArgs> for CcOptions {
             exit_after_handback: a.exit_after_handback,
             events: a.events,
             log_level: a.log_level,
+            report: a.report.0,
             tlog: a.tlog.options(),
             stop_on_signals: true,
         })
@@ -251,10 +272,12 @@ fn check_autonomy_peer(e: &Endpoint, peer: Option<args::AutonomyPeer>) -> Result
     }
 }
 
+/// Runs the daemon: exit status 1 when the FC was never heard (a wrong
+/// serial port, baud rate or key looks idle otherwise).
 pub fn run(a: CcArgs) -> Result<Outcome, CliError> {
     let opts = CcOptions::try_from(a)?;
-    run_cc(opts, Box::new(std::io::stdout())).map_err(CliError::daemon("cc"))?;
-    Ok(Outcome::Clean)
+    let report = run_cc(opts, Box::new(std::io::stdout())).map_err(CliError::daemon("cc"))?;
+    Ok(Outcome::clean_if(report.fc_heard))
 }
 
 #[cfg(test)]

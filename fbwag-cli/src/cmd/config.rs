@@ -265,7 +265,7 @@ impl FileArgs {
         // `LINK` or `LINK:RULE` (a filter's rule, which must be the file's
         // too: the command line may give the same link another).
         let (link, rule) = link_and_rule(value);
-        link?;
+        link.as_ref()?;
         let same = |v: &String| {
             let (l, r) = link_and_rule(v);
             l == link && rule.is_none_or(|rule| r == Some(rule))
@@ -284,10 +284,11 @@ impl FileArgs {
     }
 }
 
-/// A per-link value's link place and what follows its colon, if any.
-fn link_and_rule(v: &str) -> (Option<usize>, Option<&str>) {
-    let (place, rule) = v.split_once(':').map_or((v, None), |(l, r)| (l, Some(r)));
-    (place.trim().parse().ok(), rule.map(str::trim))
+/// A per-link value's link (its place or name) and what follows its
+/// colon, if any.
+fn link_and_rule(v: &str) -> (Option<crate::args::LinkRef>, Option<&str>) {
+    let (link, rule) = v.split_once(':').map_or((v, None), |(l, r)| (l, Some(r)));
+    (crate::args::link(link).ok(), rule.map(str::trim))
 }
 
 /// Reads `path` as the options of subcommand `command`.

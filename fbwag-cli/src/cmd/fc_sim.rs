@@ -41,6 +41,8 @@ pub struct FcSimArgs {
     pub events: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "info", help = help::LOG_LEVEL)]
     pub log_level: crate::live::Level,
+    #[arg(long, value_name = "SECONDS|off", default_value = "10", allow_hyphen_values = true, value_parser = args::report, help = help::REPORT)]
+    pub report: args::ReportEvery,
     /// Lose the receiver at this time (seconds after start, 0–1,000,000).
     /// Repeatable, with --rc-back-at, for several failures: the k-th
     /// --rc-back-at ends the k-th failure (the last may be left open).
@@ -107,6 +109,7 @@ impl TryFrom<FcSimArgs> for FcOptions {
             require_signed: a.require_signed,
             events: a.events,
             log_level: a.log_level,
+            report: a.report.0,
             stop_on_signals: true,
             home: a.home,
             pilot_mode: a.pilot_mode,

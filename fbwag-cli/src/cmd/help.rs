@@ -21,6 +21,32 @@ Each line starts with the time (UTC, RFC 3339) and its level; under systemd (JOU
 names the output) with its syslog priority instead, <3> (error) to <7> (debug), which the \
 journal files it by";
 
+/// `--report` of the daemons.
+pub const REPORT: &str = "Say in the log every this many seconds (0.1 or more) what each link \
+took in, sent, refused (bad checksums, bad signatures, stale signing timestamps, unsigned \
+frames) and lost, and what the node dropped; and write a status event then (--events). \
+`off` or 0: no such lines, status events every 10 s";
+
+/// The health events every daemon writes (`--events`).
+macro_rules! health_events {
+    () => {
+        "
+  {\"event\":\"link\",\"link\":NAME,\"state\":\"open\"|\"failed\"|\"retrying\"|\"recovered\",
+   \"error\":TEXT (failed),\"down_s\":N (retrying, recovered)}   NAME: the link's NAME=,
+                                          else its connection string; a failed
+                                          link is opened again every second
+  {\"event\":\"status\",\"links\":{NAME:{\"up\":B,\"frames_in\":N,\"frames_out\":N,
+   \"refused\":{\"bad_checksum\":N,\"bad_signature\":N,\"stale_timestamp\":N,
+   \"unsigned\":N,\"bad_flags\":N,\"bytes_dropped\":N},\"lost\":{\"queue_full\":N,
+   \"routed\":N,\"send_errors\":N,\"state_saves\":N}},...},\"dropped\":{REASON:N,...}}
+                                          every --report period (10 s; with
+                                          --report off, 10 s) and at exit;
+                                          totals since start. A wrong key shows
+                                          as bad_signature; a clock or replays
+                                          as stale_timestamp"
+    };
+}
+
 /// What both daemons' `--help` says about links and peers.
 macro_rules! link_rules {
     () => {
@@ -48,18 +74,28 @@ Links and peers:
 pub const CC_EVENTS: &str = concat!(
     "\
 Events (--events), one JSON object per line, all with \"t_ms\" (ms since start)
-and \"event\":
-  {\"event\":\"fc\",\"state\":\"found\"|\"lost\"|\"rebooted\"}
+and \"event\":",
+    health_events!(),
+    "
+                                          and the companion's \"fc\": \"never
+                                          heard\"|\"found\"|\"controlling\"|\"lost\",
+                                          \"autonomy\", \"takeovers\"
+  {\"event\":\"fc\",\"state\":\"found\"|\"lost\"|\"rebooted\"}   (never heard in a
+                                          whole run: exit status 1)
   {\"event\":\"fc_mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"|...}
   {\"event\":\"control\",\"state\":\"start\",\"fc_event\":N}   the companion took over
   {\"event\":\"control\",\"state\":\"stop\"}
   {\"event\":\"takeover\",\"decision\":\"declined\",\"reason\":\"autonomy silent\",
    \"fc_event\":N}                           the autonomy was silent: the FC falls back
+  {\"event\":\"takeover\",\"decision\":\"superseded\",\"by\":\"S/C\",\"fc_event\":N}
+                                          the FC accepted another companion:
+                                          this one stopped
   {\"event\":\"autonomy\",\"state\":\"silent\"|\"speaking\"}
   {\"event\":\"drops\",\"dropped\":{\"REASON\":N,...}}   frames dropped so far, by reason
                                           (own_ids, impersonation, unauthenticated,
-                                          not_peer, gated, filtered, duplicate),
-                                          every 5 s while they change
+                                          not_peer, gated, filtered, duplicate,
+                                          protected), every --report period
+                                          while they change
   {\"event\":\"summary\",\"takeovers\":N,\"handbacks\":N,\"trusted_frames\":N,
    \"untrusted_frames\":N,\"untrusted_notices\":N,\"controls_forwarded\":N,
    \"controls_dropped\":N,\"dropped\":{\"REASON\":N,...}}   at exit
@@ -75,10 +111,25 @@ and \"event\":
     link_rules!()
 );
 
+pub const ROUTER_EVENTS: &str = concat!(
+    "\
+Events (--events), one JSON object per line, all with \"t_ms\" (ms since start)
+and \"event\":",
+    health_events!(),
+    "
+  {\"event\":\"drops\",\"dropped\":{REASON:N,...},\"queue_dropped\":N}   every report
+  {\"event\":\"summary\",\"frames\":N,\"forwarded\":N,\"dropped\":{...}}   at exit
+"
+);
+
 pub const FC_EVENTS: &str = concat!(
     "\
 Events (--events), one JSON object per line, all with \"t_ms\" (ms since start)
-and \"event\":
+and \"event\":",
+    health_events!(),
+    "
+                                          and fc-sim's \"mode\", \"armed\", \"receiver\"
+  {\"event\":\"armed\",\"armed\":true}     at --arm-at
   {\"event\":\"mode\",\"mode\":\"FBWA\"|\"CIRCLE\"|\"FBWAG\"|\"RTL\"|...}   at start and every
                                           change (the pilot's: --pilot-mode)
   {\"event\":\"receiver\",\"state\":\"ok\"|\"lost\"}
@@ -110,8 +161,10 @@ Ground stations:
   FS_SHORT_ACTN (always 5, FBWAG), FS_SHORT_TIMEOUT, FS_LONG_ACTN (always 1,
   RTL), FS_LONG_TIMEOUT (the handshake timeout), SYSID_THISMAV,
   FBWAG_CC_SYSID, FBWAG_CC_COMPID, FBWAG_RETRY_TIME, FBWAG_RETRY_MAX,
-  FBWAG_OVRD_TIME, FBWAG_CC_TIMEOUT, FBWAG_SIGNED (writes take effect only
-  while the pilot flies, else are refused with a STATUSTEXT); missions: a
+  FBWAG_OVRD_TIME, FBWAG_CC_TIMEOUT, FBWAG_SIGNED (they decide who flies:
+  writes take effect only while disarmed, see --arm-at, and the pilot flies,
+  else are refused with a STATUSTEXT), AIRSPEED_CRUISE (the model's speed at
+  trim throttle, 12-30 m/s, writable at any time); missions: a
   download is empty, an upload refused (but for an empty one); TIMESYNC.
   What is received and not served is logged (\"not served: ...\") and counted
   in the summary. On udpin and tcpin, answers go where every frame goes

@@ -115,8 +115,10 @@ fn link_options(
     peer: Option<SocketAddr>,
     signing_state: Option<PathBuf>,
 ) -> Result<LinkOptions, CliError> {
+    let (name, conn) = crate::args::split_link_name(link);
     Ok(LinkOptions {
-        endpoint: link.parse().map_err(CliError::endpoint("--link"))?,
+        endpoint: conn.parse().map_err(CliError::endpoint("--link"))?,
+        name: name.map(str::to_string),
         routed_rate: None,
         key: sign_key.map(key).transpose()?,
         peer,

@@ -21,6 +21,7 @@ use std::time::Duration;
 /// serial link not there yet at start, is opened again every second; no
 /// link's error stops the others.
 #[derive(clap::Args)]
+#[command(after_long_help = super::help::ROUTER_EVENTS)]
 pub struct RouterArgs {
     /// Links: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
     /// tcpin:IP:PORT, serial:PATH:BAUD (two or more).
@@ -97,8 +98,8 @@ pub struct RouterArgs {
     /// broadcasts, through its --filter-out. For a logger or a tool that
     /// watches the whole network; what it sends is routed as any link's.
     /// Repeatable. Example: --sniffer 3
-    #[arg(long, value_name = "LINK", value_parser = args::link_number)]
-    pub sniffer: Vec<usize>,
+    #[arg(long, value_name = "LINK", value_parser = args::link)]
+    pub sniffer: Vec<args::LinkRef>,
     /// Forward a frame that arrives twice (the same bytes, on any links:
     /// redundant radios) within this many milliseconds once; the copies
     /// are dropped and counted as "duplicate". 0: off (the default).
@@ -118,9 +119,8 @@ pub struct RouterArgs {
     /// Stop after this many seconds (0–1,000,000).
     #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = args::seconds)]
     pub duration: Option<f64>,
-    /// Print a traffic summary every this many seconds.
-    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, allow_hyphen_values = true, value_parser = args::seconds)]
-    pub report: f64,
+    #[arg(long, value_name = "SECONDS|off", default_value = "10", allow_hyphen_values = true, value_parser = args::report, help = super::help::REPORT)]
+    pub report: args::ReportEvery,
     #[command(flatten)]
     pub tlog: super::tlog::TlogArgs,
 }
@@ -132,27 +132,29 @@ impl TryFrom<RouterArgs> for RouterOptions {
         if a.links.len() < 2 {
             return Err(CliError::TooFewLinks(a.links.len()));
         }
-        let endpoints = a
-            .links
-            .iter()
-            .map(|e| e.parse().map_err(CliError::endpoint(e)));
-        let filters = args::link_filters(&a.filter_in, &a.filter_out, a.links.len())
+        let names = args::link_names("CONN", a.links.iter().map(String::as_str))
             .map_err(CliError::link_option)?;
-        let links = a.links.len();
-        let routed_rates = args::per_link("--routed-rate", &a.routed_rate, links)
+        let endpoints = a.links.iter().map(|e| {
+            let conn = args::split_link_name(e).1;
+            conn.parse().map_err(CliError::endpoint(e))
+        });
+        let filters = args::link_filters(&a.filter_in, &a.filter_out, &names)
             .map_err(CliError::link_option)?;
-        let keys = args::per_link("--sign-key", &a.sign_key, links)
+        let routed_rates = args::per_link("--routed-rate", &a.routed_rate, &names)
+            .map_err(CliError::link_option)?;
+        let keys = args::per_link("--sign-key", &a.sign_key, &names)
             .map_err(CliError::link_option)?
             .into_iter()
             .map(|k| k.as_deref().map(super::key).transpose())
             .collect::<Result<_, _>>()?;
-        let peers = args::per_link("--peer", &a.peer, links).map_err(CliError::link_option)?;
+        let peers = args::per_link("--peer", &a.peer, &names).map_err(CliError::link_option)?;
         let endpoints: Vec<_> = endpoints.collect::<Result<_, _>>()?;
-        args::check_peers(&a.peer, &endpoints).map_err(CliError::link_option)?;
+        args::check_peers(&a.peer, &endpoints, &names).map_err(CliError::link_option)?;
         let sniffers =
-            args::link_indices("--sniffer", &a.sniffer, links).map_err(CliError::link_option)?;
+            args::link_indices("--sniffer", &a.sniffer, &names).map_err(CliError::link_option)?;
         Ok(RouterOptions {
             endpoints,
+            names,
             filters,
             routed_rates,
             dedup: (a.dedup > 0).then(|| Duration::from_millis(a.dedup)),
@@ -162,7 +164,7 @@ impl TryFrom<RouterArgs> for RouterOptions {
             peers,
             sniffers,
             duration: a.duration.map(Duration::from_secs_f64),
-            report: Duration::from_secs_f64(a.report.max(0.1)),
+            report: a.report.0,
             events: a.events,
             log_level: a.log_level,
             tlog: a.tlog.options(),

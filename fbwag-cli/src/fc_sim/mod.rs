@@ -100,6 +100,8 @@ pub struct FcOptions {
     pub events: Option<PathBuf>,
     /// Lines logged: this level and above.
     pub log_level: crate::live::Level,
+    /// The text report's period (`None`: none), and the status events'.
+    pub report: Option<std::time::Duration>,
     /// See `CcOptions::stop_on_signals`.
     pub stop_on_signals: bool,
     /// Where the model starts (and RTL returns to).
@@ -189,7 +191,8 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     let invalid = |e| io::Error::new(io::ErrorKind::InvalidInput, e);
     let mut node = FcNode::new(cfg, clock.now()).map_err(invalid)?;
     let endpoint = o.link.endpoint.clone();
-    let net = Net::open(&o.link, &mut log).await?;
+    let mut net = Net::open(&o.link, &mut log).await?;
+    net.set_report(o.report);
     let spec = LinkSpec::new(Role::Peer, net::answers(&endpoint, o.link.peer));
     node.add_link(net.main, spec).map_err(invalid)?;
     let events = Events::open(o.events.as_deref(), clock)?;
@@ -607,6 +610,21 @@ impl Node for Daemon {
 
     fn report(&mut self, net: &mut Net, _log: &mut Log) {
         net.report_drops(self.node.drops(), &mut self.events);
+    }
+
+    fn status(&mut self, net: &mut Net) {
+        let mut more = serde_json::Map::new();
+        let mode = self.reported_mode(self.node.engine().authority());
+        more.insert("mode".into(), mode.into());
+        more.insert("armed".into(), self.armed.into());
+        let receiver = if self.receiver_ok { "ok" } else { "lost" };
+        more.insert("receiver".into(), receiver.into());
+        net.health
+            .status(&net.router, self.node.drops(), more, &mut self.events);
+    }
+
+    fn events(&mut self) -> &mut Events {
+        &mut self.events
     }
 
     fn done(&self, clock: &Clock) -> bool {

@@ -9,7 +9,7 @@
 //! only while it holds control) and which frames are dropped and why. This
 //! module moves bytes and time, and reports.
 
-use super::net::{self, LinkOptions, Net, Node};
+use super::net::{self, LinkOptions, Named, Net, Node};
 use super::tlog::TlogCounts;
 use super::{mode_name, Clock, Events, Level, Limiter, Log, Tlog, TlogOptions};
 use crate::args::LinkFilter;
@@ -35,18 +35,18 @@ pub struct CcOptions {
     /// The FC link.
     pub link: LinkOptions,
     /// Other links the companion routes to and from.
-    pub outs: Vec<Endpoint>,
+    pub outs: Vec<Named>,
     /// Filters, each naming its link by its place among `outs`, then
     /// `trusted_outs`, then `autonomy`.
     pub filters: Vec<LinkFilter>,
     /// De-duplication window of routed frames (`None`: off).
     pub dedup: Option<Duration>,
     /// Links trusted like the key ([`LinkSpec::trusted`]).
-    pub trusted_outs: Vec<Endpoint>,
+    pub trusted_outs: Vec<Named>,
     /// They may be on other than loopback addresses.
     pub trusted_out_remote: bool,
     /// The user's autonomy program's link.
-    pub autonomy: Option<Endpoint>,
+    pub autonomy: Option<Named>,
     /// The autonomy program's address: the autonomy link answers it only,
     /// and drops frames from anyone else.
     pub autonomy_peer: Option<SocketAddr>,
@@ -63,6 +63,8 @@ pub struct CcOptions {
     pub events: Option<PathBuf>,
     /// Lines logged: this level and above.
     pub log_level: crate::live::Level,
+    /// The text report's period (`None`: none), and the status events'.
+    pub report: Option<std::time::Duration>,
     /// Log every frame accepted from any link, and the companion's own, to
     /// `.tlog` files.
     pub tlog: Option<TlogOptions>,
@@ -76,6 +78,8 @@ pub struct CcOptions {
 pub struct CcReport {
     pub takeovers: u32,
     pub handbacks: u32,
+    /// The FC was heard during the run.
+    pub fc_heard: bool,
 }
 
 /// Runs the companion daemon until its duration ends (or the hand-back,
@@ -98,6 +102,10 @@ struct Daemon {
     duration: Option<Duration>,
     exit_after_handback: bool,
     tlog: Option<OwnLog>,
+    /// The FC was heard at least once.
+    fc_found: bool,
+    /// The autonomy is silent (`None`: no autonomy).
+    autonomy_silent: Option<bool>,
 }
 
 /// The telemetry log, with what frames the companion's own messages for it
@@ -137,12 +145,13 @@ struct Opened {
     /// `--trusted-out` links, then the autonomy's, each in order; and
     /// their endpoints, for the log.
     filtered: Vec<LinkId>,
-    filtered_endpoints: Vec<Endpoint>,
+    filtered_endpoints: Vec<String>,
     autonomy: Option<LinkId>,
 }
 
 async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     let mut net = Net::open(&o.link, log).await?;
+    net.set_report(o.report);
     let spec = |role, endpoint, peer| LinkSpec::new(role, net::answers(endpoint, peer));
     let mut specs = vec![(net.main, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
     let mut filtered = Vec::new();
@@ -150,7 +159,7 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
         // Ground links verify with the key too: a ground station that signs
         // reaches the FC where signing is required.
         let link = net.add(e, o.link.key, None).await?;
-        specs.push((link, spec(Role::Ground, e, None)));
+        specs.push((link, spec(Role::Ground, &e.endpoint, None)));
         filtered.push(link);
     }
     for e in &o.trusted_outs {
@@ -160,7 +169,7 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
         let link = net.add_checked(e, o.link.key, None, loopback_only).await?;
         let trusted = LinkSpec {
             trusted: true,
-            ..spec(Role::Ground, e, None)
+            ..spec(Role::Ground, &e.endpoint, None)
         };
         specs.push((link, trusted));
         filtered.push(link);
@@ -168,13 +177,13 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     let mut autonomy = None;
     if let Some(e) = &o.autonomy {
         let link = net.add(e, None, o.autonomy_peer).await?;
-        specs.push((link, spec(Role::Autonomy, e, o.autonomy_peer)));
+        specs.push((link, spec(Role::Autonomy, &e.endpoint, o.autonomy_peer)));
         filtered.push(link);
         autonomy = Some(link);
     }
     let filtered_endpoints = (o.outs.iter().chain(&o.trusted_outs))
         .chain(&o.autonomy)
-        .cloned()
+        .map(ToString::to_string)
         .collect();
     Ok(Opened {
         net,
@@ -226,6 +235,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     let events = Events::open(o.events.as_deref(), clock)?;
     let tlog = o.tlog.as_ref().map(|t| Tlog::start(t, "cc")).transpose()?;
     let opened = open_links(&o, &mut log).await?;
+    let fc_link = opened.net.router.name(opened.net.main);
     let source = opened
         .autonomy
         .map_or(ControlSource::Builtin, |link| ControlSource::Autonomy {
@@ -262,13 +272,22 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
             framer: Framer::new(),
             reported: TlogCounts::default(),
         }),
+        fc_found: false,
+        autonomy_silent: None,
     };
     net::run(&mut daemon, opened.net, &clock, &mut log, o.stop_on_signals).await;
     let tlog = daemon.tlog.as_mut().map(|t| t.tlog.finish(&mut log));
     if let Some(counts) = tlog {
         log.info(&counts.line());
     }
+    if !daemon.fc_found {
+        log.error(&format!(
+            "the FC ({}/{}) was never heard on its link {}: check the connection, its baud rate and the key",
+            o.fc.sysid, o.fc.compid, fc_link
+        ));
+    }
     daemon.summary(tlog);
+    daemon.report.fc_heard = daemon.fc_found;
     Ok(daemon.report)
 }
 
@@ -368,6 +387,28 @@ impl Node for Daemon {
         }
     }
 
+    fn status(&mut self, net: &mut Net) {
+        let state = match self.node.engine().state() {
+            CcState::Idle if self.fc_found => "lost",
+            CcState::Idle => "never heard",
+            CcState::Standby => "found",
+            CcState::Controlling => "controlling",
+        };
+        let mut more = serde_json::Map::new();
+        more.insert("fc".into(), state.into());
+        if let Some(silent) = self.autonomy_silent {
+            let autonomy = if silent { "silent" } else { "speaking" };
+            more.insert("autonomy".into(), autonomy.into());
+        }
+        more.insert("takeovers".into(), self.report.takeovers.into());
+        net.health
+            .status(&net.router, self.node.drops(), more, &mut self.events);
+    }
+
+    fn events(&mut self) -> &mut Events {
+        &mut self.events
+    }
+
     fn done(&self, clock: &Clock) -> bool {
         self.duration
             .is_some_and(|d| clock.secs() >= d.as_secs_f64())
@@ -405,6 +446,7 @@ impl Daemon {
                 Output::Peers { link, peers } => net.set_peers(link, peers, log),
                 Output::Event(CompanionEvent::Engine(event)) => self.engine_event(now, event, log),
                 Output::Event(CompanionEvent::AutonomySilent(silent)) => {
+                    self.autonomy_silent = Some(silent);
                     if silent {
                         log.warn("autonomy silent");
                     } else {
@@ -451,6 +493,7 @@ impl Daemon {
                 );
             }
             CcOutput::FcFound => {
+                self.fc_found = true;
                 log.notice("FC found");
                 self.events.emit("fc", json!({"state": "found"}));
             }

@@ -140,6 +140,7 @@ const FIRST_FAILURE: f64 = 2.0;
 fn plain_link(endpoint: Endpoint) -> LinkOptions {
     LinkOptions {
         endpoint,
+        name: None,
         key: None,
         peer: None,
         signing_state: None,
@@ -168,6 +169,7 @@ fn companion(addr: SocketAddr, own: Peer, fc: Peer, duration: f64) -> CcOptions 
         exit_after_handback: false,
         events: None,
         log_level: crate::live::Level::Info,
+        report: None,
         tlog: None,
         stop_on_signals: false,
     }
@@ -191,6 +193,7 @@ fn flight_controller(relay: SocketAddr, own: Peer, companion: Peer, o: &DemoOpti
         require_signed: false,
         events: None,
         log_level: crate::live::Level::Info,
+        report: None,
         stop_on_signals: false,
         home: crate::fc_sim::plane::Home::DEFAULT,
         pilot_mode: crate::fc_sim::PilotMode::Fbwa,

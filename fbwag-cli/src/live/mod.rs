@@ -14,6 +14,7 @@ pub mod cc;
 mod clock;
 pub mod demo;
 mod events;
+mod health;
 mod limiter;
 mod log;
 mod modes;
@@ -25,6 +26,7 @@ pub mod writer;
 
 pub use clock::Clock;
 pub use events::Events;
+pub use health::{Health, STATUS_EVERY};
 pub use limiter::{Limiter, HEARD_PER_SECOND};
 pub use log::{Level, Log, Style};
 pub use modes::mode_name;

@@ -16,7 +16,7 @@
 //!   rate-limited, with counts.
 
 use super::signals::StopSignals;
-use super::{Clock, Events, Level, Limiter, Log};
+use super::{Clock, Events, Health, Level, Limiter, Log};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
 use fbwag_delegation::Instant;
@@ -34,9 +34,6 @@ use std::num::NonZeroU32;
 use std::path::PathBuf;
 use std::time::Duration;
 
-/// How often the links' parser refusals are summarised in the log.
-const REFUSED_INTERVAL: Duration = Duration::from_secs(5);
-
 /// The longest the loop waits without looking at the clock.
 const MAX_WAIT: Duration = Duration::from_millis(100);
 
@@ -45,6 +42,8 @@ const MAX_WAIT: Duration = Duration::from_millis(100);
 pub struct LinkOptions {
     /// Where to connect or listen.
     pub endpoint: Endpoint,
+    /// Its name (`NAME=CONN`), for the log and events.
+    pub name: Option<String>,
     /// Sign what is sent and verify what comes with this key.
     pub key: Option<[u8; 32]>,
     /// `udpin` and `tcpin`: answer this address and no other.
@@ -55,6 +54,23 @@ pub struct LinkOptions {
     /// Bytes a second at most of what is routed to the link
     /// ([`LinkConfig::routed_rate`]): see [`routed_rate`].
     pub routed_rate: Option<NonZeroU32>,
+}
+
+/// A link's connection and the name it was given (`NAME=CONN`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Named {
+    pub endpoint: Endpoint,
+    pub name: Option<String>,
+}
+
+impl std::fmt::Display for Named {
+    /// `NAME=CONN`, or `CONN` without a name.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.name {
+            Some(name) => write!(f, "{name}={}", self.endpoint),
+            None => write!(f, "{}", self.endpoint),
+        }
+    }
 }
 
 /// Routed bytes a second a daemon's main link takes by default when it is
@@ -91,6 +107,10 @@ pub struct Net {
     /// The node's drop counts when last reported.
     drops_seen: Drops,
     reports: LinkReports,
+    /// The text report's period (`None`: none).
+    report: Option<Duration>,
+    /// The links' state and totals, for `link` and `status` events.
+    pub health: Health,
 }
 
 impl Net {
@@ -110,6 +130,7 @@ impl Net {
         let main = router
             .add(LinkConfig {
                 endpoint: opts.endpoint.clone(),
+                name: opts.name.clone(),
                 key: opts.key,
                 unsigned: Unsigned::Accept,
                 reply_to: reply_to(opts.peer),
@@ -129,7 +150,16 @@ impl Net {
             link_changes: LinkChanges::default(),
             drops_seen: Drops::default(),
             reports: LinkReports::default(),
+            report: None,
+            health: Health::new(super::STATUS_EVERY),
         })
+    }
+
+    /// Reports every `every` in the log (`None`: never), and a status
+    /// event then (every [`super::STATUS_EVERY`] without).
+    pub fn set_report(&mut self, every: Option<Duration>) {
+        self.report = every;
+        self.health = Health::new(every.unwrap_or(super::STATUS_EVERY));
     }
 
     /// Opens another link: `key` verifies its frames' signatures (and signs
@@ -137,7 +167,7 @@ impl Net {
     /// address only, else whom the node names.
     pub async fn add(
         &mut self,
-        endpoint: &Endpoint,
+        endpoint: &Named,
         key: Option<[u8; 32]>,
         peer: Option<SocketAddr>,
     ) -> io::Result<LinkId> {
@@ -149,7 +179,7 @@ impl Net {
     /// is resolved again (a link trusted like the key).
     pub async fn add_checked(
         &mut self,
-        endpoint: &Endpoint,
+        link: &Named,
         key: Option<[u8; 32]>,
         peer: Option<SocketAddr>,
         loopback_only: bool,
@@ -158,12 +188,13 @@ impl Net {
             key,
             reply_to: reply_to(peer),
             loopback_only,
-            ..LinkConfig::new(endpoint.clone())
+            name: link.name.clone(),
+            ..LinkConfig::new(link.endpoint.clone())
         };
         self.router
             .add(config)
             .await
-            .map_err(|e| opened(endpoint, e))
+            .map_err(|e| opened(&link.endpoint, e))
     }
 
     /// Sends `msg` as `sysid`/`compid` on the main link (framed and signed
@@ -219,9 +250,10 @@ impl Net {
         link_name(&self.router, link)
     }
 
-    /// Every [`REFUSED_INTERVAL`], the links' report ([`LinkReports`]).
+    /// Every report period, the links' report ([`LinkReports`]): true
+    /// when it was due.
     fn report_refused(&mut self, log: &mut Log) -> bool {
-        if self.reports.since() < REFUSED_INTERVAL {
+        if self.report.is_none_or(|every| self.reports.since() < every) {
             return false;
         }
         self.reports.report(&self.router, log);
@@ -317,12 +349,10 @@ fn in_words(counts: &[(&str, u64)]) -> String {
     parts.join(", ")
 }
 
-/// The name of `link` in the log: its connection string.
+/// The name of `link` in the log and events: the one it was given
+/// (`NAME=CONN`), else its connection string.
 pub fn link_name(router: &Router<Dialect>, link: LinkId) -> String {
-    router
-        .endpoint(link)
-        .map(|e| e.to_string())
-        .unwrap_or_default()
+    router.name(link)
 }
 
 /// Links' failures and returns, logged: failures at most 5 lines per 10 s
@@ -393,12 +423,12 @@ pub fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
 }
 
 /// Gives the node each filter of `filters` (`set`), on the link at its
-/// place in `links` (opened to the endpoint at that place in
-/// `endpoints`), and logs it.
+/// place in `links` (called as its place in `endpoints` says), and logs
+/// it.
 pub fn set_filters<E: std::error::Error + Send + Sync + 'static>(
     filters: &[LinkFilter],
     links: &[LinkId],
-    endpoints: &[Endpoint],
+    endpoints: &[String],
     log: &mut Log,
     mut set: impl FnMut(LinkId, Direction, Filter) -> Result<(), E>,
 ) -> io::Result<()> {
@@ -503,6 +533,11 @@ pub trait Node {
     /// With the links' periodic report: the node's own (drops by reason,
     /// the telemetry log's losses).
     fn report(&mut self, net: &mut Net, log: &mut Log);
+    /// The status event ([`Health::status`]) with the node's drops and
+    /// its own state.
+    fn status(&mut self, net: &mut Net);
+    /// Its events, for the links' changes.
+    fn events(&mut self) -> &mut Events;
     /// True when the daemon should stop.
     fn done(&self, clock: &Clock) -> bool;
 }
@@ -514,6 +549,7 @@ pub trait Node {
 /// the same way ([`StopSignals`]).
 pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log, signals: bool) {
     let mut stopped = StopSignals::new(signals, log).watch();
+    net.health.started(&net.router, node.events());
     while !node.done(clock) {
         let now = clock.now();
         if node.poll_timeout().is_some_and(|t| t <= now) {
@@ -521,6 +557,9 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
         }
         if net.report_refused(log) {
             node.report(&mut net, log);
+        }
+        if net.health.due() {
+            node.status(&mut net);
         }
         let wait = node
             .poll_timeout()
@@ -531,6 +570,7 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                     node.handle_frame(clock.now(), &inbound, &mut net, log)
                 }
                 Some(event) => {
+                    net.health.changed(&net.router, &event, node.events());
                     if let Some(link) = net.link_changes.log(&net.router, event, log) {
                         node.link_reopened(link);
                     }
@@ -544,6 +584,8 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
             }
         }
     }
+    // The last status, before the summary.
+    node.status(&mut net);
     net.router.shutdown(Duration::from_secs(1)).await;
 }
 

@@ -10,7 +10,7 @@
 
 use super::net::{self, drop_counts, LinkChanges, LinkReports};
 use super::signals::StopSignals;
-use super::{Clock, Events, Level, Limiter, Log, Tlog, TlogOptions};
+use super::{Clock, Events, Health, Level, Limiter, Log, Tlog, TlogOptions, STATUS_EVERY};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, DropReason, Drops, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
@@ -29,6 +29,8 @@ use tokio::sync::oneshot;
 pub struct RouterOptions {
     /// The links, in order.
     pub endpoints: Vec<Endpoint>,
+    /// Their names (`NAME=CONN`), where given.
+    pub names: Vec<Option<String>>,
     /// Filters, each naming its link by its place in `endpoints`.
     pub filters: Vec<LinkFilter>,
     /// The pace of what is routed to each link, in `endpoints`' order
@@ -53,7 +55,8 @@ pub struct RouterOptions {
     /// Stop after this long.
     pub duration: Option<Duration>,
     /// A traffic line this often.
-    pub report: Duration,
+    /// The text report's period (`None`: none); the status events'.
+    pub report: Option<Duration>,
     /// Machine-readable events.
     pub events: Option<PathBuf>,
     /// Lines logged: this level and above.
@@ -146,8 +149,10 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
         for (i, e) in o.endpoints.iter().enumerate() {
             let key = o.keys.get(i).copied().flatten();
             let peer = o.peers.get(i).copied().flatten();
+            let name = o.names.get(i).cloned().flatten();
             let config = LinkConfig {
                 key,
+                name: name.clone(),
                 // The node drops what signing requires it to, counted.
                 unsigned: Unsigned::Accept,
                 reply_to: net::reply_to(peer),
@@ -162,16 +167,19 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             let answers = net::answers(e, peer);
             node.add_link(link, answers, key.is_some())
                 .map_err(|err| io::Error::new(io::ErrorKind::InvalidInput, err))?;
-            // Numbered, with what it was given: options name links by place.
+            // Numbered, with what it was given: options name links by
+            // place or name.
             let key = if key.is_some() { ", its key" } else { "" };
             let pinned = match answers {
                 Answers::Fixed(p) => format!(", answers {p} only"),
                 _ => String::new(),
             };
-            log.info(&format!("link {}: {e}{key}{pinned}", i + 1));
+            let named = name.map_or(String::new(), |n| format!(" {n}"));
+            log.info(&format!("link {}{named}: {e}{key}{pinned}", i + 1));
             links.push(link);
         }
-        net::set_filters(&o.filters, &links, &o.endpoints, &mut log, |link, d, f| {
+        let labels: Vec<String> = links.iter().map(|&l| router.name(l)).collect();
+        net::set_filters(&o.filters, &links, &labels, &mut log, |link, d, f| {
             node.set_filter(link, d, f)
         })?;
         for &i in &o.sniffers {
@@ -233,6 +241,8 @@ struct Serving<'a> {
     tlog: &'a mut Option<Tlog>,
     /// What the links refused and lost, with each report.
     link_reports: LinkReports,
+    /// The links' state and totals, for `link` and `status` events.
+    health: Health,
 }
 
 impl Serving<'_> {
@@ -254,6 +264,13 @@ impl Serving<'_> {
             let list: Vec<SocketAddr> = peers.iter().collect();
             self.router.set_peers(link, &list);
         }
+    }
+
+    /// The status event.
+    fn status(&mut self, events: &mut Events) {
+        let more = serde_json::Map::new();
+        self.health
+            .status(self.router, self.node.drops(), more, events);
     }
 
     /// The traffic line of every report, and the drops event.
@@ -285,7 +302,8 @@ async fn serve(
     stopped: &mut oneshot::Receiver<&'static str>,
 ) -> Traffic {
     let end = o.duration.map(|d| tokio::time::Instant::now() + d);
-    let mut next_report = tokio::time::Instant::now() + o.report;
+    let every = o.report.unwrap_or(STATUS_EVERY);
+    let mut next_report = tokio::time::Instant::now() + every;
     let mut s = Serving {
         router,
         node,
@@ -296,7 +314,9 @@ async fn serve(
         clock: Clock::start(),
         tlog,
         link_reports: LinkReports::default(),
+        health: Health::new(every),
     };
+    s.health.started(s.router, events);
     // One timer, reset when it fires: one made per turn (per frame) was
     // registered with the runtime's timer wheel and cleared every time.
     let wake = |next: tokio::time::Instant| end.map_or(next, |e| e.min(next));
@@ -307,6 +327,7 @@ async fn serve(
             event = s.router.recv() => match event {
                 Some(RouterEvent::Frame(f)) => s.frame(&f),
                 Some(event) => {
+                    s.health.changed(s.router, &event, events);
                     if let Some(link) = s.links.log(s.router, event, s.log) {
                         s.node.link_reopened(link);
                     }
@@ -317,9 +338,12 @@ async fn serve(
                 if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
                     break;
                 }
-                next_report += o.report;
+                next_report += every;
                 timer.as_mut().reset(wake(next_report));
-                s.report(events);
+                if o.report.is_some() {
+                    s.report(events);
+                }
+                s.status(events);
             }
             Ok(name) = &mut *stopped, if !stopped.is_terminated() => {
                 s.log.notice(&format!("{name}: stopping (again to stop at once)"));
@@ -330,6 +354,8 @@ async fn serve(
             tlog.notes(s.log);
         }
     }
+    // The last status, before the summary.
+    s.status(events);
     s.traffic
 }
 

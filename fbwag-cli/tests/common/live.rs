@@ -274,18 +274,28 @@ impl Finished {
         );
     }
 
-    /// The numbers of "link refused in the last 5 s: ..." log lines, summed
-    /// per kind ("bad checksums", "bad signatures", "unsigned refused",
-    /// "bytes dropped"): proof that an attack reached the parser.
+    /// What its links' parsers refused, of `kind` ("bad checksums", "bad
+    /// signatures", "stale signing timestamps", "unsigned refused",
+    /// "bytes dropped"), over all its links: the totals of its last status
+    /// event (written at exit). Proof that an attack reached the parser.
     pub fn refused(&self, kind: &str) -> u64 {
-        self.log
-            .lines()
-            .filter_map(|l| l.split_once("link refused in the last 5 s: "))
-            .flat_map(|(_, parts)| parts.split(", "))
-            .filter_map(|p| p.split_once(' '))
-            .filter(|(_, what)| *what == kind)
-            .filter_map(|(n, _)| n.parse::<u64>().ok())
-            .sum()
+        let key = match kind {
+            "bad checksums" => "bad_checksum",
+            "bad signatures" => "bad_signature",
+            "stale signing timestamps" => "stale_timestamp",
+            "unsigned refused" => "unsigned",
+            "bytes dropped" => "bytes_dropped",
+            other => panic!("no such refusal: {other}"),
+        };
+        let Some(status) = self.events.last("status") else {
+            return 0;
+        };
+        status["links"].as_object().map_or(0, |links| {
+            links
+                .values()
+                .filter_map(|l| l["refused"][key].as_u64())
+                .sum()
+        })
     }
 
     /// The FC simulator's event ids of its RC-loss notices (from its log).

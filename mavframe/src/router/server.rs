@@ -71,11 +71,14 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                             self.adopt(core);
                             let Some(bytes) = routed_bytes(core, routed) else { continue };
                             let b = RoutedBytes { bytes: bytes.into(), sign: None };
-                            let mut full = 0u64;
+                            let (mut full, mut queued) = (0u64, 0u64);
                             clients.retain(|c| {
                                 !c.gets(&peers)
                                     || match c.routed.try_send((*from, b.clone())) {
-                                        Ok(()) => true,
+                                        Ok(()) => {
+                                            queued += 1;
+                                            true
+                                        }
                                         Err(mpsc::error::TrySendError::Full(_)) => {
                                             full += 1;
                                             true
@@ -84,6 +87,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                                     }
                             });
                             count_routed_dropped(&self.counters, full);
+                            self.count(|c| c.frames_out = c.frames_out.saturating_add(queued));
                         }
                         Command::Raw(_) | Command::Message { .. } => {
                             self.adopt(core);
@@ -92,7 +96,10 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                             let bytes: Box<[u8]> = bytes.into();
                             let gets = |c: &Client| to.map_or_else(|| c.gets(&peers), |to| c.addr == to);
                             // Full or closed: the client is dropped.
+                            let before = clients.iter().filter(|c| gets(c)).count();
                             clients.retain(|c| !gets(c) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
+                            let queued = clients.iter().filter(|c| gets(c)).count().min(before);
+                            self.count(|c| c.frames_out = c.frames_out.saturating_add(queued as u64));
                             self.save(core, false);
                         }
                     }

@@ -18,6 +18,7 @@ use core::pin::Pin;
 use std::boxed::Box;
 use std::io;
 use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::vec;
 use std::vec::Vec;
@@ -36,6 +37,8 @@ pub(super) struct LinkTask<D: MessageSet> {
     /// The replay window of the link's key, shared with the other links
     /// that have it ([`Router::add`](super::Router::add)).
     pub(super) window: Option<ReplayWindow>,
+    /// The transport is open ([`Router::is_up`](super::Router::is_up)).
+    pub(super) up: Arc<AtomicBool>,
     /// `tcpin`: clients accepted so far (each client's order).
     pub(super) clients_accepted: u64,
 }
@@ -115,6 +118,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                 Some(t) => t,
                 None => match Transport::open(&self.config).await {
                     Ok(t) => {
+                        self.up.store(true, Ordering::Relaxed);
                         let _ = self
                             .events
                             .send(RouterEvent::LinkUp { link: self.id })
@@ -142,6 +146,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
             match ended {
                 Ended::RouterGone => return,
                 Ended::Failed(error) => {
+                    self.up.store(false, Ordering::Relaxed);
                     let down = RouterEvent::LinkDown {
                         link: self.id,
                         error,
@@ -292,22 +297,23 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                     let Some(bytes) = outgoing(core, &c) else { continue };
                     // Frames queued behind, for the same addressees, join it.
                     let more = to.is_none().then(|| self.commands.queued_routed()).flatten();
-                    let bytes = match more {
+                    let (bytes, frames) = match more {
                         Some(next) => {
                             datagram.clear();
                             datagram.extend_from_slice(bytes);
-                            self.coalesce(next, &mut datagram);
-                            &datagram[..]
+                            let joined = self.coalesce(next, &mut datagram);
+                            (&datagram[..], 1 + joined)
                         }
-                        None => bytes,
+                        None => (bytes, 1),
                     };
                     let sent = match (replies, to) {
                         (true, Some(to)) => socket.send_to(bytes, to).await.map(drop),
                         (true, None) => send_each(&socket, peers.targets(target), bytes).await,
                         (false, _) => send_connected(&socket, bytes).await,
                     };
-                    if sent.is_err() {
-                        self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
+                    match sent {
+                        Ok(()) => self.count(|c| c.frames_out = c.frames_out.saturating_add(frames)),
+                        Err(_) => self.count(|c| c.send_errors = c.send_errors.saturating_add(1)),
                     }
                     self.save(core, false);
                 }
@@ -319,16 +325,20 @@ impl<D: MessageSet + 'static> LinkTask<D> {
     /// `datagram` while they fit in [`DATAGRAM_FRAMES_MAX`] bytes; the
     /// first that does not (or that the link signs: signing it twice would
     /// spend a signing timestamp) goes next, in a datagram of its own.
-    fn coalesce(&mut self, next: RoutedFrame, datagram: &mut Vec<u8>) {
+    /// The frames appended.
+    fn coalesce(&mut self, next: RoutedFrame, datagram: &mut Vec<u8>) -> u64 {
         let mut next = Some(next);
+        let mut joined = 0;
         while let Some((from, routed)) = next.take() {
             if routed.sign.is_some() || datagram.len() + routed.bytes.len() > DATAGRAM_FRAMES_MAX {
                 self.commands.hold((from, routed));
-                return;
+                break;
             }
             datagram.extend_from_slice(&routed.bytes);
+            joined += 1;
             next = self.commands.queued_routed();
         }
+        joined
     }
 
     async fn stream(&mut self, mut stream: Box<dyn AsyncStream>, core: &mut Core<D>) -> Ended {
@@ -358,6 +368,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                         self.count(|c| c.send_errors = c.send_errors.saturating_add(1));
                         return Ended::Failed(e);
                     }
+                    self.count(|c| c.frames_out = c.frames_out.saturating_add(1));
                     self.save(core, false);
                 }
             }

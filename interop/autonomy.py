@@ -10,11 +10,14 @@ companion must let it through only while it holds control.
 Prints one JSON line at the end: what it sent and saw.
 
 usage: autonomy.py CONNECTION [--seconds N] [--chan1 PWM] [--sysid N --compid N]
-                   [--source-port PORT]
+                   [--source-port PORT] [--attitude-hz HZ]
 
 With udpout, --source-port sends from that port, the address `fbwag cc
 --autonomy-peer` pins (pymavlink's udpout sends from a port of the
-system's choice otherwise).
+system's choice otherwise). --attitude-hz asks the FC for ATTITUDE at that
+rate (MAV_CMD_SET_MESSAGE_INTERVAL, which the companion signs on) with
+each heartbeat, and the JSON line says the most heard within one second
+("attitude_hz").
 """
 import argparse
 import json
@@ -29,6 +32,7 @@ parser.add_argument("--chan1", type=int, default=1234)
 parser.add_argument("--sysid", type=int, default=1)
 parser.add_argument("--compid", type=int, default=196)
 parser.add_argument("--source-port", type=int, default=None)
+parser.add_argument("--attitude-hz", type=float, default=None)
 args = parser.parse_args()
 
 link = connect(args.device, args.sysid, args.compid)
@@ -45,6 +49,7 @@ in_control_sent = 0
 modes = []
 notices = []
 in_control = False
+attitudes = []
 next_override = 0.0
 next_heartbeat = time.time() + 1.0
 end = time.time() + args.seconds
@@ -54,6 +59,10 @@ while time.time() < end:
         # Say we are here (udpout: the companion learns our address).
         link.mav.heartbeat_send(fbwag.MAV_TYPE_ONBOARD_CONTROLLER, fbwag.MAV_AUTOPILOT_INVALID, 0, 0,
                                 fbwag.MAV_STATE_ACTIVE)
+        if args.attitude_hz:
+            link.mav.command_long_send(1, 1, fbwag.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                                       fbwag.MAVLINK_MSG_ID_ATTITUDE, 1e6 / args.attitude_hz,
+                                       0, 0, 0, 0, 0)
         next_heartbeat = now + 1.0
     if now >= next_override:
         # Whatever ids we write, the companion re-addresses to its FC.
@@ -67,6 +76,8 @@ while time.time() < end:
         continue
     kind = msg.get_type()
     src = (msg.get_srcSystem(), msg.get_srcComponent())
+    if kind == "ATTITUDE" and src == (1, 1):
+        attitudes.append(now)
     if kind == "HEARTBEAT" and src == (1, 1):
         if not modes or modes[-1] != msg.custom_mode:
             modes.append(msg.custom_mode)
@@ -75,5 +86,12 @@ while time.time() < end:
     elif kind == "FBWAG_NOTICE":
         notices.append([src[0], src[1], msg.failsafe_status, msg.timestamp])
         log("autonomy", "FBWAG_NOTICE from %d/%d status %d" % (src[0], src[1], msg.failsafe_status))
-print(json.dumps({"sent": sent, "sent_in_control": in_control_sent, "modes": modes, "notices": notices}),
+# The most ATTITUDE frames heard within one second of the run.
+busiest, first = 0, 0
+for i, t in enumerate(attitudes):
+    while attitudes[first] < t - 1.0:
+        first += 1
+    busiest = max(busiest, i - first + 1)
+print(json.dumps({"sent": sent, "sent_in_control": in_control_sent, "modes": modes, "notices": notices,
+                  "attitude_hz": busiest}),
       flush=True)

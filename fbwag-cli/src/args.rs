@@ -61,6 +61,9 @@ pub enum ArgError {
     /// `--sign-key @PATH` naming a file that cannot be read.
     #[error("cannot read the key file {path}: {source}")]
     KeyFileUnreadable { path: String, source: io::Error },
+    /// A key file group or others may read.
+    #[error("the key file {path} may be read by others (mode {mode:o}): chmod 600 {path}")]
+    KeyFileOpen { path: String, mode: u32 },
     /// A key file naming another key file.
     #[error("the key file {0} must hold 64 hex digits")]
     KeyFileIndirect(String),
@@ -300,12 +303,19 @@ pub fn endpoint(s: &str) -> Result<String, ArgError> {
     Ok(s.to_string())
 }
 
-/// A 32-byte signing key as exactly 64 hex digits, or `@PATH`: a file
-/// holding them (surrounding whitespace ignored), so that the key need not
-/// appear in the process list. Returns the hex digits.
+/// A 32-byte signing key as exactly 64 hex digits; `@PATH`, a file
+/// holding them (surrounding whitespace ignored), readable by its owner
+/// only, so that the key need not appear in the process list; or
+/// `passphrase:TEXT`, the SHA-256 of TEXT, as MAVProxy's `signing setup
+/// TEXT` makes it (one secret for both). Returns the hex digits.
 pub fn sign_key(s: &str) -> Result<String, ArgError> {
     if let Some(path) = s.strip_prefix('@') {
         return sign_key_file(path);
+    }
+    if let Some(passphrase) = s.strip_prefix("passphrase:") {
+        use sha2::Digest;
+        let key = sha2::Sha256::digest(passphrase.as_bytes());
+        return Ok(key.iter().map(|b| format!("{b:02x}")).collect());
     }
     if s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
         Ok(s.to_string())
@@ -317,16 +327,46 @@ pub fn sign_key(s: &str) -> Result<String, ArgError> {
     }
 }
 
+/// A key file that group or others may read is refused: whoever reads
+/// the key can fly the aircraft.
+#[cfg(unix)]
+fn check_key_file_mode(path: &str, file: &std::fs::File) -> Result<(), ArgError> {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = file
+        .metadata()
+        .map_err(|source| ArgError::KeyFileUnreadable {
+            path: path.into(),
+            source,
+        })?
+        .permissions()
+        .mode();
+    if mode & 0o077 != 0 {
+        return Err(ArgError::KeyFileOpen {
+            path: path.into(),
+            mode: mode & 0o777,
+        });
+    }
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn check_key_file_mode(_: &str, _: &std::fs::File) -> Result<(), ArgError> {
+    Ok(())
+}
+
 /// The key of `--sign-key @PATH`: the file is read up to 4 KiB (a key file,
 /// not whatever the path names).
 fn sign_key_file(path: &str) -> Result<String, ArgError> {
     let mut text = String::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(4096).read_to_string(&mut text))
-        .map_err(|source| ArgError::KeyFileUnreadable {
-            path: path.into(),
-            source,
-        })?;
+    let unreadable = |source| ArgError::KeyFileUnreadable {
+        path: path.into(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(unreadable)?;
+    check_key_file_mode(path, &file)?;
+    file.take(4096)
+        .read_to_string(&mut text)
+        .map_err(unreadable)?;
     let key = text.trim();
     if key.starts_with('@') {
         return Err(ArgError::KeyFileIndirect(path.into()));
@@ -467,6 +507,13 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let file = dir.join("key.hex");
         std::fs::write(&file, format!("{k}\n")).unwrap();
+        // Readable by others (the umask's 644): refused, saying the fix.
+        use std::os::unix::fs::PermissionsExt;
+        let err = sign_key(&format!("@{}", file.display()))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("(mode 644): chmod 600"), "{err}");
+        std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o600)).unwrap();
         assert_eq!(
             sign_key(&format!("@{}", file.display())).ok(),
             Some(k.clone())
@@ -477,6 +524,11 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         assert!(sign_key(&k[..62]).is_err());
         assert!(sign_key(&format!("{}zz", &k[..62])).is_err());
+        // MAVProxy's `signing setup fbwag-bench` makes this key.
+        assert_eq!(
+            sign_key("passphrase:fbwag-bench").ok().as_deref(),
+            Some("1eeb12caa5637aa80caed04c6ac2783bdae83ca2c99c9f8a4cb9fe3861365094")
+        );
     }
 }
 

@@ -86,6 +86,12 @@ pub enum CliError {
     /// `fbwag cc --autonomy` listening without `--autonomy-peer`.
     #[error("--autonomy {0} listens: any program on this machine that speaks first would fly the aircraft; name the autonomy's address with --autonomy-peer IP:PORT (the port it sends from), or --autonomy-peer any to admit anyone (unsafe)")]
     AutonomyUnpinned(String),
+    /// `fbwag key new` could not write its file.
+    #[error("cannot write a new key to {}: {source}{}", path.display(), if source.kind() == io::ErrorKind::AlreadyExists { " (a key is never overwritten: remove the file, or choose another path)" } else { "" })]
+    KeyWrite {
+        path: std::path::PathBuf,
+        source: io::Error,
+    },
     /// `fbwag router` with fewer than two links.
     #[error("a router needs two links or more (CONN), got {0}")]
     TooFewLinks(usize),

@@ -44,6 +44,7 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
         .arg(format!("udpout:127.0.0.1:{autonomy_port}"))
         .args(["--seconds", "10", "--chan1", "1234"])
         .args(["--source-port", &program.to_string()])
+        .args(["--attitude-hz", "40"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -164,5 +165,9 @@ fn the_autonomy_flies_only_while_the_companion_holds_control() {
             .any(|n| n[0] == 1 && n[1] == 191 && n[2] == 2),
         "the autonomy saw the companion take over: {notices:?}"
     );
+    // It asked for ATTITUDE at 40 Hz (10 by default): the companion signed
+    // the request on to the FC, which sent it so.
+    let hz = result["attitude_hz"].as_f64().unwrap_or(0.0);
+    assert!(hz >= 30.0, "ATTITUDE at {hz} Hz\n{report}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -294,6 +294,9 @@ fn a_bad_file_is_refused_with_its_line_and_column() {
 fn the_example_files_run() {
     let d = dir("examples");
     let key = write(&d, "key", &"ab".repeat(32));
+    // A key file only its owner reads (a readable one is refused).
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o600)).unwrap();
     for (program, example) in [("router", "deploy/router.toml"), ("cc", "deploy/cc.toml")] {
         let text = std::fs::read_to_string(repo().join(example)).unwrap();
         let mut text = text

@@ -291,3 +291,114 @@ fn a_ground_link_that_cannot_open_never_stops_the_delegation() {
         "{links}"
     );
 }
+
+/// `fbwag key new`: 64 hex digits, mode 600, never over an existing file;
+/// a key file others may read is refused with the chmod that fixes it.
+#[test]
+fn a_new_key_is_the_owners_alone_and_never_overwritten() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("key-new");
+    let path = dir.join("key");
+    let fbwag = |a: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(a)
+            .output()
+            .unwrap()
+    };
+    let made = fbwag(&["key", "new", &path.display().to_string()]);
+    assert!(made.status.success(), "{made:?}");
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.trim().len() == 64 && text.trim().bytes().all(|b| b.is_ascii_hexdigit()));
+    let mode = std::fs::metadata(&path).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o600);
+    let again = fbwag(&["key", "new", &path.display().to_string()]);
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("never overwritten"));
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), text, "kept");
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640)).unwrap();
+    let key = format!("@{}", path.display());
+    let cc = fbwag(&[
+        "cc",
+        "--link",
+        "udpout:127.0.0.1:9",
+        "--sign-key",
+        &key,
+        "--duration",
+        "0",
+    ]);
+    let err = String::from_utf8_lossy(&cc.stderr);
+    assert_eq!(cc.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!("(mode 640): chmod 600 {}", path.display())),
+        "{err}"
+    );
+}
+
+/// `fbwag key push` sets a disarmed FC's key with SETUP_SIGNING; from then
+/// on the FC signs with it and counts only frames signed with it; an
+/// armed FC refuses a new key, and `push` says so with status 1. The key
+/// is kept next to the FC's signing state and taken again at its restart.
+#[test]
+fn key_push_sets_a_disarmed_fcs_key_and_an_armed_fc_refuses_it() {
+    let dir = scratch("key-push");
+    let state = dir.join("fc.state").display().to_string();
+    let fc_at = |arm_at: &str, port: u16, extra: &[&str]| {
+        let conn = format!("udpout:127.0.0.1:{port}");
+        let a = [
+            args(&[
+                "fc-sim",
+                "--link",
+                &conn,
+                "--arm-at",
+                arm_at,
+                "--duration",
+                "6",
+            ]),
+            args(&["--signing-state", &state]),
+            args(extra),
+        ];
+        Daemon::spawn(&dir, &format!("fc-{arm_at}-{port}"), &a.concat())
+    };
+    let push = |port: u16| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(["key", "push", "--link", &format!("udpin:127.0.0.1:{port}")])
+            .args(["--sign-key", "passphrase:fbwag-bench", "--timeout", "4"])
+            .output()
+            .unwrap()
+    };
+    // Armed: refused.
+    let port = free_port();
+    let armed = fc_at("0", port, &[]);
+    let out = push(port);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    drop(armed);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("signing: not while armed"), "{err}");
+    // Disarmed: taken, on every link at once, and kept.
+    let port = free_port();
+    let disarmed = fc_at("100", port, &[]);
+    let out = push(port);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    let done = disarmed.finish(Duration::from_secs(20));
+    assert_eq!(out.status.code(), Some(0), "{err}\n{}", done.dump());
+    assert!(err.contains("signs with the new key"), "{err}");
+    assert!(
+        done.log
+            .contains("signing: on (SETUP_SIGNING from 255/190)"),
+        "{}",
+        done.dump()
+    );
+    assert!(std::path::Path::new(&format!("{state}.key")).exists());
+    // Restarted without --sign-key: the kept key, signed frames only.
+    let port = free_port();
+    let listener = std::net::UdpSocket::bind(("127.0.0.1", port)).unwrap();
+    listener
+        .set_read_timeout(Some(Duration::from_secs(3)))
+        .unwrap();
+    let again = fc_at("100", port, &[]);
+    let mut buf = [0u8; 512];
+    let (n, _) = listener.recv_from(&mut buf).expect("the FC's first frame");
+    drop(again);
+    // MAVLink 2, the signed flag: the kept key signs.
+    assert_eq!((buf[0], buf[2] & 1), (0xfd, 1), "{:?}", &buf[..n]);
+}

@@ -148,14 +148,15 @@ fn a_trusted_link_on_a_network_address_is_refused_unless_forced() {
         assert_eq!(code, Some(2), "{addr}: {err}");
         assert!(err.contains("not a loopback address"), "{addr}: {err}");
     }
+    // Taken: the companion runs (and, no FC being there, ends with 1).
     let (code, err) = cc(&["--trusted-out", "udpin:127.0.0.1:0"]);
-    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(code, Some(1), "{err}");
     let (code, err) = cc(&[
         "--trusted-out",
         "udpout:192.0.2.1:14550",
         "--trusted-out-remote",
     ]);
-    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(code, Some(1), "{err}");
     // Without a key there is nothing to sign with.
     let out = fbwag()
         .args(["cc", "--link", "udpout:127.0.0.1:9"])

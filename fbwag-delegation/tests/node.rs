@@ -666,3 +666,67 @@ fn the_companions_heartbeat_reaches_ground_links_once_the_fc_is_heard() {
         "{after:?}"
     );
 }
+
+/// The autonomy asks the FC for the telemetry it needs: its rate requests
+/// go to the FC signed on by the companion; its other messages (a
+/// parameter write, a command) never reach the FC.
+#[test]
+fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
+    use fbwag_dialect::dialects::common::{MavCmd, ParamSet, RequestDataStream};
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    heard_fc(&mut cc, Instant::ZERO);
+    let me = Peer::new(1, 196);
+    let program = Some(addr(14561));
+    let rate = bytes(
+        me,
+        &CommandLong {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            command: MavCmd::SET_MESSAGE_INTERVAL,
+            param1: 30.0,
+            param2: 100_000.0,
+            ..Default::default()
+        },
+    );
+    let streams = bytes(
+        me,
+        &RequestDataStream {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            req_stream_id: fbwag_dialect::dialects::common::MavDataStream::ALL,
+            req_message_rate: 10,
+            start_stop: 1,
+        },
+    );
+    for frame in [rate, streams] {
+        let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, program, &frame, false));
+        drain(&mut cc);
+        assert_eq!(
+            (fate.route, fate.sign),
+            (Links::only(FC_LINK), true),
+            "{fate:?}"
+        );
+    }
+    let reboot = bytes(
+        me,
+        &CommandLong {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            command: MavCmd::PREFLIGHT_REBOOT_SHUTDOWN,
+            ..Default::default()
+        },
+    );
+    let write = bytes(
+        me,
+        &ParamSet {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            ..Default::default()
+        },
+    );
+    for frame in [reboot, write] {
+        let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, program, &frame, false));
+        drain(&mut cc);
+        assert!(!fate.route.contains(FC_LINK) && !fate.sign, "{fate:?}");
+    }
+}

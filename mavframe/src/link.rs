@@ -354,8 +354,21 @@ mod std_parts {
         /// A framer with the key's signer, from the state saved.
         pub(crate) fn framer(&self) -> Framer {
             let mut framer = Framer::new();
-            framer.set_signer(self.key.map(|key| self.start.signer(key, 0)));
+            framer.set_signer(self.signer());
             framer
+        }
+
+        /// The key's signer, from the state saved.
+        pub(crate) fn signer(&self) -> Option<crate::signing::Signer> {
+            self.key.map(|key| self.start.signer(key, 0))
+        }
+
+        /// Signs and verifies with `key` from now on, from the clock (a
+        /// new key has no timestamps of its own yet); the state file, if
+        /// any, keeps the new key's.
+        pub(crate) fn set_key(&mut self, key: Option<[u8; 32]>) {
+            self.key = key;
+            self.start = SigningState::default();
         }
 
         /// Parsers made from now on go on from here (a transport failed

@@ -242,6 +242,18 @@ pub enum RouterEvent<D: MessageSet> {
         /// The link.
         link: LinkId,
     },
+    /// A listening link (`udpin`, `udpbcast`) received from `source` a
+    /// datagram holding a frame whose signature did not verify with the
+    /// link's key (refused by the parser, counted in
+    /// [`Stats::bad_signature`]): a peer with another key, perhaps, that
+    /// the owner may tell so (a signed frame of its own it cannot verify
+    /// either). One event per such datagram.
+    BadSignature {
+        /// The link.
+        link: LinkId,
+        /// Where the datagram came from.
+        source: SocketAddr,
+    },
 }
 
 struct LinkHandle {
@@ -451,14 +463,28 @@ impl<D: MessageSet + 'static> Router<D> {
     /// accepted). `None` without a key.
     fn window(&mut self, signing: &SigningFile) -> Option<ReplayWindow> {
         let (key, saved) = signing.verifier()?;
-        if let Some((_, window)) = self.windows.iter().find(|(k, _)| *k == key) {
-            let mut shared = lock(window);
-            shared.restore(saved.newest_timestamp(), &saved.floors(), saved.streams());
-            return Some(window.clone());
-        }
-        let window = Arc::new(Mutex::new(saved));
-        self.windows.push((key, window.clone()));
+        let window = self.window_of(key, || saved.clone());
+        lock(&window).restore(saved.newest_timestamp(), &saved.floors(), saved.streams());
         Some(window)
+    }
+
+    /// The replay window of `key`, made by `new` for its first link.
+    fn window_of(&mut self, key: [u8; 32], new: impl FnOnce() -> Verifier) -> ReplayWindow {
+        if let Some((_, window)) = self.windows.iter().find(|(k, _)| *k == key) {
+            return window.clone();
+        }
+        let window = Arc::new(Mutex::new(new()));
+        self.windows.push((key, window.clone()));
+        window
+    }
+
+    /// Signs and verifies `link`'s frames with `key` from now on (`None`:
+    /// neither), in the key's replay window, its timestamps from the
+    /// clock: what a flight controller does on SETUP_SIGNING. A `tcpin`
+    /// link's clients are let go: they connect again under the key.
+    pub fn set_key(&mut self, link: LinkId, key: Option<[u8; 32]>) {
+        let window = key.map(|k| self.window_of(k, || Verifier::starting_now(k)));
+        self.command(link, Command::Key(key, window));
     }
 
     /// Stops every link after what is queued for it, saving each link's

@@ -156,7 +156,10 @@ pub struct CcArgs {
     /// Cruise throttle (PWM µs, 800–2200).
     #[arg(long, default_value_t = 1600, allow_hyphen_values = true, value_parser = args::pwm_us)]
     pub throttle: u16,
-    /// Sign outgoing frames and verify incoming ones with this key (64 hex digits, or @FILE holding them).
+    /// Sign outgoing frames and verify incoming ones with this key: 64
+    /// hex digits, @FILE holding them (readable by its owner only: `fbwag
+    /// key new` makes one), or passphrase:TEXT (what MAVProxy's `signing
+    /// setup TEXT` sets).
     #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
     pub sign_key: Option<String>,
     /// Act only on the FC's frames whose signature verified.

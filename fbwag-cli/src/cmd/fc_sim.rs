@@ -4,7 +4,7 @@ use super::help;
 use crate::args;
 use crate::error::{CliError, Outcome};
 use crate::fc_sim::plane::Home;
-use crate::fc_sim::{run_fc, FcOptions, PilotMode};
+use crate::fc_sim::{run_fc, signing, FcOptions, PilotMode};
 use fbwag_delegation::Peer;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -35,7 +35,10 @@ pub struct FcSimArgs {
     /// the client connected from it) and no other.
     #[arg(long, value_name = "IP:PORT")]
     pub peer: Option<SocketAddr>,
-    #[arg(long, value_name = "PATH", requires = "sign_key", help = help::SIGNING_STATE)]
+    /// As for `fbwag cc` (see there), and the key a SETUP_SIGNING set is
+    /// kept in PATH.key and taken again at start when --sign-key is not
+    /// given (then only signed frames count, as ArduPilot with a key).
+    #[arg(long, value_name = "PATH")]
     pub signing_state: Option<PathBuf>,
     #[arg(long, value_name = "PATH", help = help::EVENTS)]
     pub events: Option<PathBuf>,
@@ -66,7 +69,10 @@ pub struct FcSimArgs {
     /// Run this long (seconds, 0–1,000,000).
     #[arg(long, default_value_t = 20.0, allow_hyphen_values = true, value_parser = args::seconds)]
     pub duration: f64,
-    /// Sign and verify with this key (64 hex digits, or @FILE holding them).
+    /// Sign and verify with this key: 64 hex digits, @FILE holding them
+    /// (readable by its owner only), or passphrase:TEXT (what MAVProxy's
+    /// `signing setup TEXT` sets). Without it, SETUP_SIGNING sets one
+    /// while disarmed.
     #[arg(long, value_name = "HEX64", value_parser = args::sign_key)]
     pub sign_key: Option<String>,
     /// Accept the companion's takeover only from signed frames; serve
@@ -100,13 +106,25 @@ impl TryFrom<FcSimArgs> for FcOptions {
     type Error = CliError;
 
     fn try_from(a: FcSimArgs) -> Result<Self, CliError> {
+        let key_file = a.signing_state.as_deref().map(signing::key_file);
+        // The key SETUP_SIGNING set before, when none is given.
+        let kept = match (&a.sign_key, &key_file) {
+            (None, Some(path)) => signing::load(path).map_err(CliError::daemon("fc-sim"))?,
+            _ => None,
+        };
+        let hex = kept.map(|k| k.iter().map(|b| format!("{b:02x}")).collect::<String>());
+        let sign_key = a.sign_key.or(hex);
+        // A state file keeps a key's timestamps: none without a key.
+        let state = a.signing_state.filter(|_| sign_key.is_some());
+        let link = super::link_options(&a.link, sign_key.as_deref(), a.peer, state)?;
         Ok(FcOptions {
-            link: super::link_options(&a.link, a.sign_key.as_deref(), a.peer, a.signing_state)?,
+            link,
+            key_file,
             own: Peer::new(a.sysid, a.compid),
             companion: Peer::new(a.cc_sysid, a.cc_compid),
             outages: args::outages(&a.rc_loss_at, &a.rc_back_at)?,
             duration: a.duration,
-            require_signed: a.require_signed,
+            require_signed: a.require_signed || kept.is_some(),
             events: a.events,
             log_level: a.log_level,
             report: a.report.0,

@@ -9,6 +9,7 @@ mod demo;
 mod encode;
 mod fc_sim;
 mod help;
+mod key;
 mod router;
 mod sim;
 mod tlog;
@@ -46,6 +47,7 @@ enum Command {
     Demo(demo::DemoArgs),
     Router(router::RouterArgs),
     Sim(sim::SimArgs),
+    Key(key::KeyArgs),
 }
 
 impl Cli {
@@ -96,6 +98,7 @@ fn run(command: Command) -> Result<Outcome, CliError> {
         Command::Demo(a) => demo::run(a),
         Command::Router(a) => router::run(a),
         Command::Sim(a) => sim::run(a),
+        Command::Key(a) => key::run(a),
     }
 }
 

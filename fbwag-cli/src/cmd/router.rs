@@ -40,9 +40,10 @@ pub struct RouterArgs {
     /// them at start. Example: deploy/router.toml.
     #[arg(long, value_name = "PATH")]
     pub config: Vec<PathBuf>,
-    /// Verify signatures with this key (64 hex digits, or @FILE holding
-    /// them): KEY for every link, LINK:KEY for link LINK (its place among
-    /// CONN, from 1), which then uses no other. Frames are still
+    /// Verify signatures with this key (64 hex digits, @FILE holding
+    /// them, readable by its owner only, or passphrase:TEXT as MAVProxy's
+    /// `signing setup`): KEY for every link, LINK:KEY for link LINK (its
+    /// name or its place among CONN, from 1), which then uses no other. Frames are still
     /// forwarded untouched: the router signs nothing on anyone's behalf.
     /// On a listening link (udpin, tcpin) with a key, only sources of
     /// verified frames are answered, and a tcpin client that sent one is

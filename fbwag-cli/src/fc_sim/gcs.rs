@@ -57,6 +57,12 @@ pub enum Request {
     Timesync {
         ts1: i64,
     },
+    /// SETUP_SIGNING: sign and verify with this key from now on (all
+    /// zeros with a zero timestamp: no signing), as ArduPilot does.
+    SetupSigning {
+        key: [u8; 32],
+        timestamp: u64,
+    },
 }
 
 /// A command, from either COMMAND_LONG or COMMAND_INT.
@@ -130,6 +136,14 @@ fn request_of(view: &MessageView<'_>) -> Option<(Request, u8, u8)> {
         MessageView::ParamRequestList(p) => {
             (Request::ParamList, p.target_system(), p.target_component())
         }
+        MessageView::SetupSigning(s) => (
+            Request::SetupSigning {
+                key: s.secret_key().to_array(),
+                timestamp: s.initial_timestamp(),
+            },
+            s.target_system(),
+            s.target_component(),
+        ),
         MessageView::ParamRequestRead(p) => (
             Request::ParamRead {
                 index: p.param_index(),

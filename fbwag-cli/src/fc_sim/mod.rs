@@ -42,6 +42,7 @@ pub mod gcs;
 pub mod params;
 pub mod plane;
 mod serve;
+pub mod signing;
 pub mod telemetry;
 
 /// The mode the pilot flies while the receiver works: an ArduPlane mode
@@ -110,6 +111,9 @@ pub struct FcOptions {
     pub pilot_mode: PilotMode,
     /// When the FC arms (seconds after start; 0: armed from the start).
     pub arm_at: f64,
+    /// Where a key SETUP_SIGNING sets is kept (`--signing-state PATH`:
+    /// `PATH.key`).
+    pub key_file: Option<PathBuf>,
 }
 
 /// What the FC simulator saw, for the demo and tests.
@@ -151,6 +155,8 @@ struct Daemon {
     /// When the FC arms (seconds), and whether it has.
     arm_at: f64,
     armed: bool,
+    /// Where a key SETUP_SIGNING sets is kept.
+    key_file: Option<PathBuf>,
     own: Peer,
     outages: Vec<(f64, Option<f64>)>,
     duration: f64,
@@ -205,6 +211,7 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         },
         arm_at: o.arm_at,
         armed: false,
+        key_file: o.key_file.clone(),
         own: o.own,
         outages: o.outages,
         duration: o.duration,
@@ -610,6 +617,18 @@ impl Node for Daemon {
 
     fn report(&mut self, net: &mut Net, _log: &mut Log) {
         net.report_drops(self.node.drops(), &mut self.events);
+    }
+
+    fn bad_signature(
+        &mut self,
+        now: Instant,
+        link: fbwag_dialect::mavframe::route::LinkId,
+        source: std::net::SocketAddr,
+        net: &mut Net,
+        log: &mut Log,
+    ) {
+        self.node.handle_bad_signature(now, link, source);
+        self.drain(net, log);
     }
 
     fn status(&mut self, net: &mut Net) {

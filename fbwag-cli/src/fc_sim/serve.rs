@@ -117,6 +117,9 @@ impl Daemon {
                 let done = MavMissionResult::MAV_MISSION_ACCEPTED;
                 self.mission_ack(t, done, from, net)
             }
+            Request::SetupSigning { key, timestamp } => {
+                self.setup_signing(now, key, timestamp, from, net, log)
+            }
             Request::Timesync { ts1 } => {
                 let tc1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
                 self.send(&Timesync { tc1, ts1 }, net);
@@ -192,7 +195,14 @@ impl Daemon {
 
     /// Says why something was refused: in the log and, rate-limited, as a
     /// STATUSTEXT for the ground station's operator.
-    fn refusal(&mut self, why: &str, what: &str, from: Peer, net: &mut Net, log: &mut Log) {
+    pub(super) fn refusal(
+        &mut self,
+        why: &str,
+        what: &str,
+        from: Peer,
+        net: &mut Net,
+        log: &mut Log,
+    ) {
         self.gcs_log.log(log, Level::Notice, "GCS log lines", || {
             format!("refused {what} from {}/{}: {why}", from.sysid, from.compid)
         });

@@ -387,6 +387,18 @@ impl Node for Daemon {
         }
     }
 
+    fn bad_signature(
+        &mut self,
+        now: Instant,
+        link: LinkId,
+        source: SocketAddr,
+        net: &mut Net,
+        log: &mut Log,
+    ) {
+        self.node.handle_bad_signature(now, link, source);
+        self.drain(now, net, log);
+    }
+
     fn status(&mut self, net: &mut Net) {
         let state = match self.node.engine().state() {
             CcState::Idle if self.fc_found => "lost",

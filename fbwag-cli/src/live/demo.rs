@@ -198,6 +198,7 @@ fn flight_controller(relay: SocketAddr, own: Peer, companion: Peer, o: &DemoOpti
         home: crate::fc_sim::plane::Home::DEFAULT,
         pilot_mode: crate::fc_sim::PilotMode::Fbwa,
         arm_at: 0.0,
+        key_file: None,
     }
 }
 

@@ -113,7 +113,7 @@ impl Health {
                     json!({"link": name, "state": "recovered", "down_s": down_s}),
                 );
             }
-            RouterEvent::Frame(_) => {}
+            RouterEvent::Frame(_) | RouterEvent::BadSignature { .. } => {}
         }
     }
 

@@ -390,7 +390,7 @@ impl LinkChanges {
                 log.notice(&format!("link {} open again", link_name(router, link)));
                 Some(link)
             }
-            RouterEvent::Frame(_) => None,
+            RouterEvent::Frame(_) | RouterEvent::BadSignature { .. } => None,
         }
     }
 }
@@ -530,6 +530,16 @@ pub trait Node {
     );
     /// Link `link` was opened again.
     fn link_reopened(&mut self, link: LinkId);
+    /// Link `link`'s parser refused a frame from `source` for its
+    /// signature (the node may answer: a wrong key shows on both sides).
+    fn bad_signature(
+        &mut self,
+        now: Instant,
+        link: LinkId,
+        source: SocketAddr,
+        net: &mut Net,
+        log: &mut Log,
+    );
     /// With the links' periodic report: the node's own (drops by reason,
     /// the telemetry log's losses).
     fn report(&mut self, net: &mut Net, log: &mut Log);
@@ -568,6 +578,9 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
             event = net.router.recv() => match event {
                 Some(RouterEvent::Frame(inbound)) => {
                     node.handle_frame(clock.now(), &inbound, &mut net, log)
+                }
+                Some(RouterEvent::BadSignature { link, source }) => {
+                    node.bad_signature(clock.now(), link, source, &mut net, log)
                 }
                 Some(event) => {
                     net.health.changed(&net.router, &event, node.events());

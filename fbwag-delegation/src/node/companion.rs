@@ -41,6 +41,21 @@ pub enum ControlSource {
     },
 }
 
+/// Whether the autonomy's `view` asks the FC for telemetry (a rate, a
+/// message once): REQUEST_DATA_STREAM, MAV_CMD_SET_MESSAGE_INTERVAL,
+/// MAV_CMD_REQUEST_MESSAGE. The only messages of the autonomy but its
+/// control that reach the FC.
+fn asks_for_telemetry(view: &MessageView<'_>) -> bool {
+    use fbwag_dialect::dialects::common::MavCmd;
+    let telemetry = |c: MavCmd| matches!(c, MavCmd::SET_MESSAGE_INTERVAL | MavCmd::REQUEST_MESSAGE);
+    match view {
+        MessageView::RequestDataStream(_) => true,
+        MessageView::CommandLong(c) => telemetry(c.command()),
+        MessageView::CommandInt(c) => telemetry(c.command()),
+        _ => false,
+    }
+}
+
 /// The default silence of an autonomy: it streams its control (gated
 /// until the companion holds it) at 20 Hz or so, so half a second without
 /// a frame means it is not flying.
@@ -206,6 +221,26 @@ impl CompanionNode {
         self.out.pop()
     }
 
+    /// Link `link`'s parser refused a frame from `source` for its
+    /// signature: on the listening FC link, the source gets the
+    /// companion's signed heartbeat, once a second at most, so that an FC
+    /// with another key sees the mismatch too.
+    pub fn handle_bad_signature(
+        &mut self,
+        now: Instant,
+        link: LinkId,
+        source: core::net::SocketAddr,
+    ) {
+        if self.core.signature_beacon(link, source, now) {
+            let message = Message::Heartbeat(wire::cc_heartbeat());
+            self.out.push(Output::TransmitTo {
+                link,
+                to: source,
+                message,
+            });
+        }
+    }
+
     /// A frame link `a.link` delivered at `now`: its fate.
     pub fn handle_frame(&mut self, now: Instant, a: Arrival) -> Fate {
         let Some(spec) = self.core.spec(a.link) else {
@@ -314,6 +349,15 @@ impl CompanionNode {
         let Some(control) = view.as_ref().and_then(Control::from_view) else {
             if let Some(reason) = self.core.screen(a, now) {
                 return self.core.drop(reason);
+            }
+            // Telemetry rates for the FC, signed on; the rest stays on the
+            // ground side.
+            if view.as_ref().is_some_and(asks_for_telemetry) {
+                let to = self.core.route(a, true, self.core.of(Role::Peer));
+                return Fate {
+                    sign: !to.is_empty(),
+                    ..Fate::routed(to)
+                };
             }
             let to = self.core.route(a, true, self.core.of(Role::Ground));
             return Fate::routed(to);

@@ -135,6 +135,27 @@ impl FcNode {
         }
     }
 
+    /// Link `link`'s parser refused a frame from `source` for its
+    /// signature: on the listening companion link, the source gets the
+    /// FC's signed heartbeat, once a second at most, so that a companion
+    /// with another key sees the mismatch too.
+    pub fn handle_bad_signature(
+        &mut self,
+        now: Instant,
+        link: LinkId,
+        source: core::net::SocketAddr,
+    ) {
+        if self.core.signature_beacon(link, source, now) {
+            let authority = self.engine.authority();
+            let message = Message::Heartbeat(wire::fc_heartbeat(authority));
+            self.out.push(Output::TransmitTo {
+                link,
+                to: source,
+                message,
+            });
+        }
+    }
+
     fn drain_engine(&mut self) {
         while let Some(output) = self.engine.poll_output() {
             self.out.push(match output {

@@ -31,6 +31,7 @@
 //! | autonomy link, from an address other than the autonomy's | any | any | dropped: `not_peer` |
 //! | autonomy link | the FC's or the companion's ids | any | dropped: `impersonation` |
 //! | autonomy link | RC_CHANNELS_OVERRIDE, SET_ATTITUDE_TARGET, MANUAL_CONTROL | any | the companion's gate: to the FC, re-addressed and signed, while the companion holds control; else dropped: `gated` |
+//! | autonomy link | REQUEST_DATA_STREAM, MAV_CMD_SET_MESSAGE_INTERVAL, MAV_CMD_REQUEST_MESSAGE | any | to the FC, signed on ([`Fate::sign`]) |
 //! | autonomy link | other messages | any | routed to ground links only, never to the FC |
 //! | router link | any | not verified, signing required | dropped: `unauthenticated` |
 //! | any link, once the rows above let it be routed | refused by the link's in-filter | any | dropped: `filtered` |
@@ -595,6 +596,19 @@ impl Core {
             return None;
         }
         self.beacons.take(source, now).then_some(source)
+    }
+
+    /// Where to send the node's signed heartbeat when the peer link's
+    /// parser refused a frame from `source` for its signature: a listening
+    /// peer link, under the time beacon's limit ([`Beacons`]). A peer with
+    /// another key then counts a bad signature too: a wrong key shows on
+    /// both sides.
+    fn signature_beacon(&mut self, link: LinkId, source: SocketAddr, now: Instant) -> bool {
+        let Some(state) = self.links.get(usize::from(link)).and_then(|l| l.as_ref()) else {
+            return false;
+        };
+        let listening = state.spec.role == Role::Peer && state.spec.answers == Answers::Chosen;
+        listening && !state.peers.contains(source) && self.beacons.take(source, now)
     }
 
     /// The source rule of a peer link, once for the FC and the companion:

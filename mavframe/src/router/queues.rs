@@ -31,6 +31,9 @@ pub(super) enum Command {
     /// Send this frame, routed from another link ([`Queues`](super::queues::Queues)), from the
     /// sender of this key ([`sender_key`]).
     Routed(u32, RoutedBytes),
+    /// Sign and verify with this key from now on (`None`: none), in its
+    /// replay window ([`Router::set_key`](super::Router::set_key)).
+    Key(Option<[u8; 32]>, Option<super::ReplayWindow>),
 }
 
 /// A routed frame's bytes, and the message's row when the link signs it on

@@ -62,6 +62,12 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                     let Some(c) = c else { return Ended::RouterGone };
                     match &c {
                         Command::Peers(addrs) => owner_gives(&mut peers, addrs),
+                        // Clients parse with the key they connected
+                        // under: they connect again.
+                        Command::Key(key, window) => {
+                            self.rekey(core, *key, window.clone());
+                            clients.clear();
+                        }
                         // After the owner's own, in each client's queue
                         // for them. A client behind on those loses frames
                         // (counted), not its connection: routed bursts

@@ -52,7 +52,7 @@ pub(super) fn outgoing<'a, D: MessageSet>(
     command: &'a Command,
 ) -> Option<&'a [u8]> {
     match command {
-        Command::Peers(_) => None,
+        Command::Peers(_) | Command::Key(..) => None,
         Command::Raw(b) => Some(b),
         Command::Routed(_, routed) => routed_bytes(core, routed),
         Command::Message {
@@ -189,6 +189,20 @@ impl<D: MessageSet + 'static> LinkTask<D> {
         }
     }
 
+    /// Signs and verifies with `key` from now on, in its replay `window`:
+    /// a new parser and signer (the sequence numbers go on).
+    pub(super) fn rekey(
+        &mut self,
+        core: &mut Core<D>,
+        key: Option<[u8; 32]>,
+        window: Option<ReplayWindow>,
+    ) {
+        self.signing.set_key(key);
+        self.window = window;
+        core.inbox.parser = self.signing.parser();
+        core.framer.set_signer(self.signing.signer());
+    }
+
     /// Signing goes on from where the failed transport was.
     fn go_on_from(&mut self, core: &Core<D>) {
         let window = self.window.as_deref().map(lock);
@@ -277,6 +291,7 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                 // nothing about the next one: it is skipped.
                 r = socket.recv_from(core.inbox.space()) => if let Ok((n, from)) = r {
                     core.inbox.received(n, Some(from), true);
+                    let refused = core.inbox.parser.stats().bad_signature;
                     match self.deliver(core, false).await {
                         Err(()) => return Ended::RouterGone,
                         // Only a frame accepted makes its sender a peer.
@@ -284,13 +299,27 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                             peers.heard(Some(from));
                         }
                     }
+                    let bad = core.inbox.parser.stats().bad_signature > refused;
+                    if bad && replies {
+                        let event = RouterEvent::BadSignature { link: self.id, source: from };
+                        if self.events.send(event).await.is_err() {
+                            return Ended::RouterGone;
+                        }
+                    }
                     self.save(core, false);
                 },
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
-                    if let Command::Peers(addrs) = &c {
-                        owner_gives(&mut peers, addrs);
-                        continue;
+                    match c {
+                        Command::Peers(addrs) => {
+                            owner_gives(&mut peers, &addrs);
+                            continue;
+                        }
+                        Command::Key(key, window) => {
+                            self.rekey(core, key, window);
+                            continue;
+                        }
+                        _ => {}
                     }
                     let to = c.to();
                     self.adopt(core);
@@ -362,6 +391,10 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                 },
                 c = self.commands.recv() => {
                     let Some(c) = c else { return Ended::RouterGone };
+                    if let Command::Key(key, window) = c {
+                        self.rekey(core, key, window);
+                        continue;
+                    }
                     self.adopt(core);
                     let Some(bytes) = outgoing(core, &c) else { continue };
                     if let Err(e) = stream.write_all(bytes).await {

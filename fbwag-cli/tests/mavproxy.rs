@@ -549,6 +549,59 @@ fn mavproxy_module_fbwag_shows_the_delegation_and_sends_notices() {
     );
 }
 
+/// MAVProxy 1.8.75's own `signing setup PASSPHRASE` sets the key of an
+/// fc-sim on the ground (disarmed, no key), as it does an ArduPilot's:
+/// fc-sim takes it on its link and counts only signed frames from then on;
+/// once armed, its RC loss is handed to a companion that signs with
+/// `--sign-key passphrase:PASSPHRASE` (the same key), through MAVProxy,
+/// which now signs too.
+#[test]
+fn mavproxy_signing_setup_keys_a_disarmed_fc_for_a_signed_handover() {
+    let Some(py) = peer_python() else {
+        return;
+    };
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let passphrase = format!("passphrase:{PASSPHRASE}");
+    let spec = ChainSpec {
+        test: "signing-setup",
+        mavproxy: MavproxySetup {
+            args: &["--dialect=fbwag"],
+            cmd: None,
+            console: true,
+        },
+        fc_args: &["--arm-at", "4"],
+        cc_args: &["--sign-key", &passphrase, "--require-signed"],
+        schedule: Schedule {
+            loss: 6.0,
+            back: 9.0,
+            duration: 10.5,
+        },
+        tap: false,
+    };
+    let mut chain = start_chain(&py, &spec);
+    let mut console = chain.mavproxy.stdin();
+    assert!(
+        chain.mavproxy.wait_for("online system 1", Duration::from_secs(20)),
+        "{}",
+        chain.mavproxy.log
+    );
+    console
+        .write_all(format!("signing setup {PASSPHRASE}\n").as_bytes())
+        .unwrap();
+    console.flush().unwrap();
+    let keyed = chain.fc.wait_for("signing: on", Duration::from_secs(10));
+    let logs = chain.finish(&spec);
+    assert!(keyed, "{}", logs.all());
+    assert!(logs.mavproxy.contains("Sent secret_key"), "{}", logs.all());
+    logs.assert_fc_in_order(&[
+        "signing: on (SETUP_SIGNING from 255/",
+        "armed",
+        "MODE CHANGE -> CIRCLE",
+        "MODE CHANGE -> FBWAG",
+        "handover",
+    ]);
+}
+
 /// The other deployment: `fbwag cc` owns the FC link (signed) and routes to
 /// MAVProxy (`--out`), which a ground station would use; MAVProxy needs no
 /// key (it reads signed frames forwarded untouched) and its fbwag module

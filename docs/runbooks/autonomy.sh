@@ -11,8 +11,12 @@ P_PROGRAM=${P_PROGRAM:-14561}        # the port the autonomy sends from
 PYTHON=${PYTHON:-python3}
 KEY=$(printf %s fbwag-bench | sha256sum | cut -c1-64)
 RUN=$(mktemp -d)
-trap 'kill $(jobs -p) 2>/dev/null || true' EXIT
-expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || { echo "FAILED: no '$2' in $1:"; cat "$RUN/$1"; exit 1; }; }
+# On exit, stop what is still running and wait for it: its ports are free
+# for the next run.
+trap 'kill $(jobs -p) 2>/dev/null || true; wait' EXIT
+fail() { echo "FAILED: $1"; for f in "$RUN"/*.log "$RUN"/*.jsonl; do
+    [ -f "$f" ] && { echo "--- $f"; cat "$f"; }; done; exit 1; }
+expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || fail "no '$2' in $1"; }
 wait_for() { for _ in $(seq 150); do grep -q -- "$2" "$RUN/$1" && return; sleep 0.2; done; expect "$1" "$2"; }
 
 # 1. The companion, with the autonomy's link (no key there: the program

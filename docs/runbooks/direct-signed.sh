@@ -8,8 +8,12 @@ set -euo pipefail
 P_FC=${P_FC:-14550}                  # the companion's port for the FC
 KEY=$(printf %s fbwag-bench | sha256sum | cut -c1-64)   # 64 hex digits, both sides
 RUN=$(mktemp -d)                     # logs and signing state of this run
-trap 'kill $(jobs -p) 2>/dev/null || true' EXIT
-expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || { echo "FAILED: no '$2' in $1:"; cat "$RUN/$1"; exit 1; }; }
+# On exit, stop what is still running and wait for it: its ports are free
+# for the next run.
+trap 'kill $(jobs -p) 2>/dev/null || true; wait' EXIT
+fail() { echo "FAILED: $1"; for f in "$RUN"/*.log "$RUN"/*.jsonl; do
+    [ -f "$f" ] && { echo "--- $f"; cat "$f"; }; done; exit 1; }
+expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || fail "no '$2' in $1"; }
 
 # 1. The companion first: it listens, and answers the FC once it hears it.
 fbwag cc --link udpin:127.0.0.1:$P_FC --sign-key $KEY --require-signed \
@@ -24,5 +28,5 @@ fbwag fc-sim --link udpout:127.0.0.1:$P_FC --sign-key $KEY --require-signed \
 expect fc.log "MODE CHANGE -> FBWAG (companion control)"
 expect fc.log "handover"
 expect fc.log "MODE CHANGE -> FBWA (pilot in control)"
-if grep -q "RTL" $RUN/fc.log; then echo "FAILED: the FC fell back to RTL"; exit 1; fi
+if grep -q "RTL" $RUN/fc.log; then fail "the FC fell back to RTL"; fi
 echo "runbook passed (logs in $RUN)"

@@ -10,8 +10,12 @@ P_FC=${P_FC:-14550}                  # MAVProxy's master port (the FC's link)
 P_CC=${P_CC:-14551}                  # the companion's port, MAVProxy's --out
 KEY=$(printf %s fbwag-bench | sha256sum | cut -c1-64)   # = MAVProxy's `signing key fbwag-bench`
 RUN=$(mktemp -d)
-trap 'kill $(jobs -p) 2>/dev/null || true' EXIT
-expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || { echo "FAILED: no '$2' in $1:"; cat "$RUN/$1"; exit 1; }; }
+# On exit, stop what is still running and wait for it: its ports are free
+# for the next run.
+trap 'kill $(jobs -p) 2>/dev/null || true; wait' EXIT
+fail() { echo "FAILED: $1"; for f in "$RUN"/*.log "$RUN"/*.jsonl; do
+    [ -f "$f" ] && { echo "--- $f"; cat "$f"; }; done; exit 1; }
+expect() { grep -q -- "$2" "$RUN/$1" && echo "ok: $1: $2" || fail "no '$2' in $1"; }
 wait_for() { for _ in $(seq 150); do grep -q -- "$2" "$RUN/$1" && return; sleep 0.2; done; expect "$1" "$2"; }
 
 # 1. The companion: signs its own frames, verifies the FC's.
@@ -34,5 +38,5 @@ expect fc.log "MODE CHANGE -> FBWAG (companion control)"
 expect fc.log "MODE CHANGE -> FBWA (pilot in control)"
 expect mavproxy.log "takeover confirmed by the FC"
 expect mavproxy.log "FBWAG (companion control)"
-if grep -q "RTL" $RUN/fc.log; then echo "FAILED: the FC fell back to RTL"; exit 1; fi
+if grep -q "RTL" $RUN/fc.log; then fail "the FC fell back to RTL"; fi
 echo "runbook passed (logs in $RUN)"

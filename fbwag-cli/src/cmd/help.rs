@@ -137,6 +137,8 @@ and \"event\":",
   {\"event\":\"control_applied\",\"sysid\":N,\"compid\":N,\"authenticated\":B,
    \"message\":\"RC_CHANNELS_OVERRIDE\"|..., \"channels\":[8 values]}   each control applied
   {\"event\":\"param\",\"name\":S,\"value\":X,\"sysid\":N,\"compid\":N}   a parameter set
+  {\"event\":\"signing\",\"state\":\"on\"|\"off\",\"sysid\":N,\"compid\":N}   a key set
+                                          by SETUP_SIGNING (refused while armed)
   {\"event\":\"summary\",\"trusted_frames\":N,\"untrusted_frames\":N,
    \"untrusted_notices\":N,\"controls_applied\":N,\"controls_untrusted\":N,
    \"controls_misaddressed\":N,\"controls_outside_companion\":N,

@@ -295,7 +295,10 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
 fn log_start(o: &CcOptions, log: &mut Log) {
     log.info(&format!(
         "FC link {} as {}/{}, serving FC {}/{}, {}{}",
-        o.link.endpoint,
+        Named {
+            endpoint: o.link.endpoint.clone(),
+            name: o.link.name.clone(),
+        },
         o.own.sysid,
         o.own.compid,
         o.fc.sysid,

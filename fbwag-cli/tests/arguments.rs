@@ -341,6 +341,18 @@ fn refusals_after_parsing_exit_2_and_flagged_input_exits_1() {
         ),
         (&["fc-sim", "--link", "udp"], "", 2, "error: --link: "),
         (
+            &["cc", "--link", "fc=serial:/dev/ttyAMA0"],
+            "",
+            2,
+            "serial:/dev/ttyAMA0 gives no baud rate: add the rate",
+        ),
+        (
+            &["router", "udpin:127.0.0.1:0", "serial:/dev/ttyUSB0"],
+            "",
+            2,
+            "e.g. serial:/dev/ttyUSB0:921600",
+        ),
+        (
             &[
                 "fc-sim",
                 "--link",

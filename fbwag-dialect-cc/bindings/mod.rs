@@ -5,52 +5,52 @@
 // runtime's (`serde = ["mavframe/serde"]`), even if it never turns it on.
 
 #[doc = "Definitions of `fbwag.xml` (a dialect: see [`fbwag::Message`])."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod fbwag {
     include!("fbwag.rs");
 }
 #[doc = "Definitions of `ardupilotmega.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod ardupilotmega {
     include!("ardupilotmega.rs");
 }
 #[doc = "Definitions of `common.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod common {
     include!("common.rs");
 }
 #[doc = "Definitions of `uAvionix.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod uavionix {
     include!("uavionix.rs");
 }
 #[doc = "Definitions of `icarous.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod icarous {
     include!("icarous.rs");
 }
 #[doc = "Definitions of `loweheiser.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod loweheiser {
     include!("loweheiser.rs");
 }
 #[doc = "Definitions of `cubepilot.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod cubepilot {
     include!("cubepilot.rs");
 }
 #[doc = "Definitions of `csAirLink.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod csairlink {
     include!("csairlink.rs");
 }
 #[doc = "Definitions of `standard.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod standard {
     include!("standard.rs");
 }
 #[doc = "Definitions of `minimal.xml`."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod minimal {
     include!("minimal.rs");
 }

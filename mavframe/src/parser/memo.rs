@@ -83,6 +83,7 @@ fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
     crc::frame_crc(data, crc_extra) == u16::from_le_bytes([sum[0], sum[1]])
 }
 
+#[inline(never)]
 fn slot(x: u64) -> usize {
     (x % RING as u64) as usize
 }
@@ -136,25 +137,16 @@ pub(super) enum Crc {
 }
 
 /// See the module documentation.
+// In this order (`repr(C)`): the scalars within a byte's displacement of
+// the memo's address (shorter instructions), the rings after them.
+#[repr(C)]
 pub(super) struct Memo {
-    /// `prefix[slot(x)]`: the CRC register after the bytes from
-    /// `prefix_start` to `x` (exclusive), for `x` up to `prefix_end`.
-    prefix: [u16; RING],
     prefix_start: u64,
     prefix_end: u64,
     /// End of the last checksum computed directly.
     direct_end: u64,
     /// Positions before it (from the candidate on) are classified.
     frontier: u64,
-    /// A good frame of a known id starts at the position, or one may once
-    /// more bytes are there (neither: a whole frame of a known id starting
-    /// there has a bad checksum).
-    good: [u64; WORDS],
-    pending: [u64; WORDS],
-    /// Pending positions by wake-up position: `head[slot(w)]` is the slot
-    /// + 1 of the first (0: none), `next[slot]` of the one after it.
-    head: [u16; RING],
-    next: [u16; RING],
     /// No good or pending bit is set from here on (in garbage most
     /// searches inside a candidate end here at once).
     marked_end: u64,
@@ -167,6 +159,18 @@ pub(super) struct Memo {
     last_wake: u64,
     /// Elementary steps: see [`super::Work::steps`].
     pub(super) steps: u64,
+    /// A good frame of a known id starts at the position, or one may once
+    /// more bytes are there (neither: a whole frame of a known id starting
+    /// there has a bad checksum).
+    good: [u64; WORDS],
+    pending: [u64; WORDS],
+    /// `prefix[slot(x)]`: the CRC register after the bytes from
+    /// `prefix_start` to `x` (exclusive), for `x` up to `prefix_end`.
+    prefix: [u16; RING],
+    /// Pending positions by wake-up position: `head[slot(w)]` is the slot
+    /// + 1 of the first (0: none), `next[slot]` of the one after it.
+    head: [u16; RING],
+    next: [u16; RING],
 }
 
 impl Memo {

@@ -5,7 +5,7 @@
 // runtime's (`serde = ["mavframe/serde"]`), even if it never turns it on.
 
 #[doc = "Definitions of `snapshot.xml` (a dialect: see [`snapshot::Message`])."]
-#[allow(clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty)]
+#[allow(dead_code, clippy::enum_variant_names, clippy::large_enum_variant, clippy::len_without_is_empty, clippy::wrong_self_convention)]
 pub mod snapshot {
     include!("snapshot.rs");
 }

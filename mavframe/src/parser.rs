@@ -426,7 +426,10 @@ impl<D: MessageSet, const STREAMS: usize> Parser<D, STREAMS> {
     pub fn with_signing(verifier: Verifier<STREAMS>, unsigned: Unsigned) -> Self {
         let mut p = Self::new();
         p.verifier = Some(verifier);
-        p.keyed = Some(keyed::<D, STREAMS>);
+        p.keyed = Some(Keyed {
+            whole: keyed::<D, STREAMS>,
+            cut: pay_for_cut::<STREAMS>,
+        });
         p.accept_unsigned = unsigned == Unsigned::Accept;
         p
     }
@@ -733,12 +736,22 @@ struct Cx<'a, const N: usize> {
     signatures: &'a mut u64,
 }
 
-/// The rest of [`check`] for a parser with a key ([`keyed`]), through a
-/// pointer that only [`Parser::with_signing`] takes: a parser never given
-/// one links neither it nor the verifier's checks and SHA-256 (a small
-/// board's receiver).
-type Keyed<const N: usize> =
-    fn(&[u8], &Frame<&[u8]>, usize, Option<&'static MessageMeta>, bool, &mut Cx<'_, N>) -> Verdict;
+/// The checks of a parser with a key ([`keyed`], [`pay_for_cut`]),
+/// through pointers that only [`Parser::with_signing`] takes: a parser
+/// never given one links neither them nor the verifier's checks and
+/// SHA-256 (a small board's receiver).
+#[derive(Clone, Copy)]
+struct Keyed<const N: usize> {
+    whole: fn(
+        &[u8],
+        &Frame<&[u8]>,
+        usize,
+        Option<&'static MessageMeta>,
+        bool,
+        &mut Cx<'_, N>,
+    ) -> Verdict,
+    cut: fn(&[u8], usize, &mut Cx<'_, N>),
+}
 
 /// The decision about the candidate at the start of `bytes` (a start byte:
 /// the bytes at hand from it on); `end`: no byte follows them; `keyed`:
@@ -762,11 +775,8 @@ fn check<D: MessageSet, const N: usize>(
         Ok(len) => {
             // An unverifiable candidate loses at once to a good frame inside.
             if !known::<D>(bytes) && cx.memo.inside::<D>(bytes, cx.at, bytes.len()) == Inside::Yes {
-                // A signed one pays as it would whole (how many of its bytes
-                // were there is a matter of read sizes, which must not
-                // change the budget).
-                if signed_v2(bytes) && cx.verifier.is_some() && !cx.budget.pay(cx.at, len) {
-                    cx.stats.signatures_unchecked += 1;
+                if let Some(k) = keyed {
+                    (k.cut)(bytes, len, cx);
                 }
                 return Verdict::Reject;
             }
@@ -794,8 +804,8 @@ fn check<D: MessageSet, const N: usize>(
             return Verdict::Reject;
         }
     }
-    if let Some(keyed) = keyed {
-        return keyed(bytes, &frame, len, meta, end, cx);
+    if let Some(k) = keyed {
+        return (k.whole)(bytes, &frame, len, meta, end, cx);
     }
     if meta.is_none() {
         if let Some(v) = check_raw_unkeyed::<D, N>(bytes, len, end, cx) {
@@ -825,6 +835,16 @@ fn keyed<D: MessageSet, const N: usize>(
         }
     }
     signing(frame, len, meta, cx)
+}
+
+/// A raw candidate of `len` bytes cut short, which loses to a good frame
+/// inside, on a parser with a key: a signed one pays as it would whole
+/// (how many of its bytes were there is a matter of read sizes, which must
+/// not change the budget).
+fn pay_for_cut<const N: usize>(bytes: &[u8], len: usize, cx: &mut Cx<'_, N>) {
+    if signed_v2(bytes) && cx.verifier.is_some() && !cx.budget.pay(cx.at, len) {
+        cx.stats.signatures_unchecked += 1;
+    }
 }
 
 /// [`check_raw`] for a parser without a key: a raw candidate is confirmed

@@ -742,16 +742,13 @@ struct Cx<'a, const N: usize> {
 /// SHA-256 (a small board's receiver).
 #[derive(Clone, Copy)]
 struct Keyed<const N: usize> {
-    whole: fn(
-        &[u8],
-        &Frame<&[u8]>,
-        usize,
-        Option<&'static MessageMeta>,
-        bool,
-        &mut Cx<'_, N>,
-    ) -> Verdict,
+    whole: WholeCheck<N>,
     cut: fn(&[u8], usize, &mut Cx<'_, N>),
 }
+
+/// [`keyed`]'s signature.
+type WholeCheck<const N: usize> =
+    fn(&[u8], &Frame<&[u8]>, usize, Option<&'static MessageMeta>, bool, &mut Cx<'_, N>) -> Verdict;
 
 /// The decision about the candidate at the start of `bytes` (a start byte:
 /// the bytes at hand from it on); `end`: no byte follows them; `keyed`:

@@ -231,12 +231,13 @@ fn virtual_run() -> Behaviour {
                     ));
                 }
                 FcOutput::ReleaseControl => {}
+                other => panic!("an output this test does not know: {other:?}"),
             }
         }
         for (_, bytes) in incoming {
             let mut input = &bytes[..];
             while let Some(r) = parser.next(&mut input) {
-                let _ = fc.handle_frame(now, &r.frame, r.authenticated);
+                let _ = fc.handle_frame(now, &r.frame(), r.is_authenticated());
             }
         }
     }
@@ -294,7 +295,7 @@ fn live_run() -> Behaviour {
         while let Ok((n, _)) = companion.recv_from(&mut buf) {
             let mut input = &buf[..n];
             while let Some(r) = parser.next(&mut input) {
-                outgoing.extend(script.on_fc(&r.frame));
+                outgoing.extend(script.on_fc(&r.frame()));
             }
         }
         for (who, bytes) in outgoing {

@@ -202,6 +202,7 @@ pub enum CcState {
 
 /// Counters for logs and tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct CcStats {
     /// Takeover requests answered (events).
     pub takeovers: u32,

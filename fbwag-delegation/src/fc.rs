@@ -180,6 +180,7 @@ pub enum FcAction {
 
 /// Counters for logs and tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct FcStats {
     /// RC losses detected (events started).
     pub rc_losses: u32,

@@ -21,7 +21,7 @@
 //! - [`fc::FlightController`] and [`cc::Companion`]: the two state machines
 //!   inside the engines, with typed inputs already judged trustworthy.
 //! - [`control`]: the control the companion sends and the FC applies.
-//! - [`sim`] (feature `std`): the FC's and the companion's nodes over
+//! - [`sim`] (feature `sim`): the FC's and the companion's nodes over
 //!   modelled links on a virtual clock, strangers included: Table I of the
 //!   paper, scenarios and loss sweeps.
 //!
@@ -111,7 +111,7 @@ pub mod fc;
 pub mod node;
 mod outbox;
 pub mod protected;
-#[cfg(feature = "std")]
+#[cfg(feature = "sim")]
 pub mod sim;
 mod time;
 pub mod wire;

@@ -58,7 +58,7 @@ fn deliver(
 ) {
     let mut input = bytes;
     while let Some(r) = parser.next(&mut input) {
-        feed(&r.frame, r.authenticated);
+        feed(&r.frame(), r.is_authenticated());
     }
 }
 

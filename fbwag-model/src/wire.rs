@@ -83,11 +83,11 @@ impl Endpoint {
         let mut input = bytes;
         let got = parser
             .next(&mut input)
-            .map(|r| (r.frame.as_bytes().to_vec(), r.authenticated))
+            .map(|r| (r.frame().as_bytes().to_vec(), r.is_authenticated()))
             .or_else(|| {
                 parser
                     .flush()
-                    .map(|r| (r.frame.as_bytes().to_vec(), r.authenticated))
+                    .map(|r| (r.frame().as_bytes().to_vec(), r.is_authenticated()))
             });
         if let Some(v) = parser.verifier() {
             self.verifier = v.clone();

@@ -127,6 +127,13 @@ pub use parser::{Parser, Received, Unsigned};
 pub use received::ReceivedBuf;
 pub use signing::{Signer, Verifier};
 
+/// The version of this crate's interface to generated code: the
+/// generator writes the number it generates for into every dialect, which
+/// asserts at compile time that it equals this, so that bindings generated
+/// for another runtime say so instead of failing on a missing item.
+#[doc(hidden)]
+pub const GENERATED_CODE_INTERFACE: u32 = 1;
+
 /// Re-exported for generated bitmask enums (they implement
 /// [`bitflags::Flags`], see [`flags`]), so dialect crates need no direct
 /// dependency on it.

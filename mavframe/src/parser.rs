@@ -35,8 +35,9 @@
 //! checksum over fresh bytes is computed directly; one over bytes an
 //! earlier checksum covered comes from two CRC prefix states, each computed
 //! once (the CRC is affine over GF(2)). A raw candidate then asks "a good
-//! bit inside me?" of at most five words. [`Parser::work`] counts the
-//! steps: at most a constant times the bytes pushed plus the calls made.
+//! bit inside me?" of at most five words. The parser counts the steps (for
+//! its tests): at most a constant times the bytes pushed plus the calls
+//! made.
 //!
 //! Signing: with a key ([`Parser::with_signing`]) a signed frame must
 //! verify; an unsigned one is returned or dropped as [`Unsigned`] says. A
@@ -45,9 +46,9 @@
 //! refused for being unsigned is skipped whole. A raw candidate has no
 //! checksum to vouch for it, and garbage can hold one at every other byte:
 //! a signed one is checked (the search inside, then a SHA-256) only when a
-//! budget pays for it, which earns one hashed byte per
-//! [`BYTES_PER_RAW_SIGNATURE_BYTE`] bytes consumed (up to
-//! [`RAW_SIGNATURE_BURST`] saved); a good signature gives the cost back. A
+//! budget pays for it, which earns one hashed byte per two bytes consumed
+//! (up to eight of the longest signed frames' worth saved); a good
+//! signature gives the cost back. A
 //! candidate the budget cannot pay for is rejected
 //! ([`Stats::signatures_unchecked`]): a flood of forged signed frames of
 //! unknown ids can cost genuine ones of unknown ids, never known ones, and
@@ -76,6 +77,7 @@ use memo::{Crc, Inside, Memo};
 
 /// Counters of what the parser saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct Stats {
     /// Frames of known messages returned (checksum verified).
     pub frames: u64,
@@ -116,16 +118,19 @@ pub struct Stats {
 /// Bytes consumed per hashed byte that the budget for checking signed
 /// candidates of unknown ids earns (see the module docs): an attacker
 /// without the key makes the parser hash at most one byte per this many it
-/// sends, beyond [`RAW_SIGNATURE_BURST`] (a good signature gives its cost
+/// sends, beyond `RAW_SIGNATURE_BURST` (a good signature gives its cost
 /// back).
+#[doc(hidden)]
 pub const BYTES_PER_RAW_SIGNATURE_BYTE: u64 = 2;
 
 /// Hashed bytes of the budget saved up at most (and at the start): eight
 /// of the longest signed frames.
+#[doc(hidden)]
 pub const RAW_SIGNATURE_BURST: u64 = 8 * raw_signature_cost(crate::frame::MAX_FRAME_LEN);
 
 /// Per-sender sequence tracking.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct LinkStats {
     /// Sender system id.
     pub sysid: u8,
@@ -140,7 +145,9 @@ pub struct LinkStats {
     last_seq: u8,
 }
 
-/// How much work a parser did: see [`Parser::work`].
+/// How much work a parser did: see `Parser::work` (for tests: not part of
+/// the API).
+#[doc(hidden)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct Work {
@@ -171,19 +178,47 @@ pub enum Unsigned {
 pub const MAX_TRACKED_LINKS: usize = 16;
 const _: () = assert!(MAX_TRACKED_LINKS <= u8::MAX as usize);
 
-/// A frame the parser accepted.
+/// A frame the parser accepted, borrowed; [`ReceivedBuf`](crate::ReceivedBuf)
+/// is the same copied out, with the same accessors.
 pub struct Received<'a, D: MessageSet> {
-    /// The frame, borrowed from the input chunk or the parser's buffer.
-    pub frame: Frame<&'a [u8]>,
-    /// The message's table row; `None` for an id the dialect does not know
-    /// (a raw frame: its checksum could not be verified).
-    pub meta: Option<&'static MessageMeta>,
-    /// True when the frame's signature was verified with the key.
-    pub authenticated: bool,
+    frame: Frame<&'a [u8]>,
+    meta: Option<&'static MessageMeta>,
+    authenticated: bool,
     _dialect: PhantomData<D>,
 }
 
 impl<'a, D: MessageSet> Received<'a, D> {
+    /// The frame, borrowed from the input chunk or the parser's buffer.
+    pub fn frame(&self) -> Frame<&'a [u8]> {
+        self.frame
+    }
+
+    /// The frame's bytes, as received.
+    pub fn as_bytes(&self) -> &'a [u8] {
+        self.frame.as_bytes()
+    }
+
+    /// The sender's header fields.
+    pub fn header(&self) -> Header {
+        self.frame.header()
+    }
+
+    /// Message id.
+    pub fn msg_id(&self) -> u32 {
+        self.frame.msg_id()
+    }
+
+    /// The message's table row; `None` for an id the dialect does not know
+    /// (a raw frame: its checksum could not be verified).
+    pub fn meta(&self) -> Option<&'static MessageMeta> {
+        self.meta
+    }
+
+    /// True when the frame's signature was verified with the key.
+    pub fn is_authenticated(&self) -> bool {
+        self.authenticated
+    }
+
     /// A zero-copy view of the message; `None` for an unknown id.
     pub fn view(&self) -> Option<D::View<'a>> {
         self.meta?;
@@ -235,7 +270,7 @@ enum Verdict {
 }
 
 /// The budget for checking signed candidates of unknown ids (see the
-/// module docs), in units of 1 / [`BYTES_PER_RAW_SIGNATURE_BYTE`] hashed
+/// module docs), in units of 1 / `BYTES_PER_RAW_SIGNATURE_BYTE` hashed
 /// byte: each byte consumed earns one.
 struct Budget {
     credit: u64,
@@ -401,9 +436,7 @@ impl<D: MessageSet, const STREAMS: usize> Parser<D, STREAMS> {
     /// use mavframe::signing::{Signer, Verifier};
     /// use mavframe::frame::{FrameBuf, Header, Version};
     /// # use mavframe::{MessageSet, MessageMeta, Encode, BufferTooSmall};
-    /// # const PING: MessageMeta = MessageMeta { id: 4242, name: "PING_EXAMPLE",
-    /// #   crc_extra: 7, min_len: 1, max_len: 1, target_system_offset: None,
-    /// #   target_component_offset: None, fields: &[] };
+    /// # const PING: MessageMeta = MessageMeta::new(4242, "PING_EXAMPLE", 7, 1, 1, &[]);
     /// # struct D; impl MessageSet for D { type Message = (); type View<'a> = ();
     /// #   const MESSAGES: &'static [MessageMeta] = &[PING];
     /// #   fn parse(_: u32, _: &[u8]) -> Option<()> { Some(()) }
@@ -462,9 +495,10 @@ impl<D: MessageSet, const STREAMS: usize> Parser<D, STREAMS> {
         self.len - self.shadow
     }
 
-    /// The work done so far, for tests and monitoring: the steps are
-    /// bounded by a constant times (bytes pushed + calls), whatever the
-    /// bytes (the parser tests pin the constant).
+    /// The work done so far, for the parser's tests (not part of the API):
+    /// the steps are bounded by a constant times (bytes pushed + calls),
+    /// whatever the bytes (the tests pin the constant).
+    #[doc(hidden)]
     pub fn work(&self) -> Work {
         Work {
             // Each byte consumed was searched for a start byte and, when
@@ -1081,16 +1115,7 @@ mod tests {
     use crate::frame::{FrameBuf, Version};
     use crate::{BufferTooSmall, Encode};
 
-    const PING: MessageMeta = MessageMeta {
-        id: 4242,
-        name: "PING_EXAMPLE",
-        crc_extra: 7,
-        min_len: 1,
-        max_len: 1,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    };
+    const PING: MessageMeta = MessageMeta::new(4242, "PING_EXAMPLE", 7, 1, 1, &[]);
 
     struct D;
     impl MessageSet for D {

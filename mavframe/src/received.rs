@@ -90,7 +90,7 @@ impl<D: MessageSet> ReceivedBuf<D> {
 
 impl<D: MessageSet> From<&Received<'_, D>> for ReceivedBuf<D> {
     fn from(r: &Received<'_, D>) -> Self {
-        let src = r.frame.as_bytes();
+        let src = r.frame().as_bytes();
         let mut bytes = [0u8; MAX_FRAME_LEN];
         // A frame is never longer than MAX_FRAME_LEN; min() keeps this total.
         let len = src.len().min(MAX_FRAME_LEN);
@@ -98,8 +98,8 @@ impl<D: MessageSet> From<&Received<'_, D>> for ReceivedBuf<D> {
         ReceivedBuf {
             bytes,
             len,
-            meta: r.meta,
-            authenticated: r.authenticated,
+            meta: r.meta(),
+            authenticated: r.is_authenticated(),
             _dialect: PhantomData,
         }
     }

@@ -378,7 +378,8 @@ impl Daemon {
                     self.apply(from, &control)
                 }
                 Output::Event(FcOutput::ReleaseControl) => self.applied = None,
-                Output::Event(FcOutput::Transmit(_)) => {}
+                // Sent through the node; and outputs added later.
+                _ => {}
             }
         }
     }

@@ -469,6 +469,8 @@ impl Daemon {
                         json!({"state": if silent { "silent" } else { "speaking" }}),
                     );
                 }
+                // Outputs added later.
+                _ => {}
             }
         }
     }
@@ -527,7 +529,8 @@ impl Daemon {
                     json!({"decision": "superseded", "by": by, "fc_event": event}),
                 );
             }
-            CcOutput::Transmit(_) => {}
+            // Sent through the node; and outputs added later.
+            _ => {}
         }
     }
 

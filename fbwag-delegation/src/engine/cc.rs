@@ -13,6 +13,7 @@ use fbwag_dialect::{Frame, Message, MessageView};
 // outputs queue in a fixed buffer of the engine.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum CcOutput {
     /// Send this message with the companion's ids to the FC.
     Transmit(Message),
@@ -93,6 +94,7 @@ pub enum ControlVerdict {
 
 /// Counters of the engine, for logs and tests. They saturate.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct CcEngineStats {
     /// Frames from the trusted FC.
     pub trusted_frames: u64,

@@ -12,6 +12,7 @@ use fbwag_dialect::{Frame, Message, MessageView};
 // outputs queue in a fixed buffer of the engine.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum FcOutput {
     /// Send this message with the FC's ids, on every channel.
     Transmit(Message),
@@ -32,6 +33,7 @@ pub enum FcOutput {
 
 /// Counters of the engine, for logs and tests. They saturate.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct FcEngineStats {
     /// Frames from the trusted companion.
     pub trusted_frames: u64,

@@ -124,6 +124,7 @@ pub struct CompanionNode {
 // Carried by value (no_std, no allocation), as the engine's outputs.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum CompanionEvent {
     /// The engine's event ([`CcOutput::Transmit`] never comes here).
     Engine(CcOutput),

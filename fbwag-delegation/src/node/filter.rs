@@ -296,8 +296,7 @@ impl fmt::Display for FilterError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for FilterError {}
+impl core::error::Error for FilterError {}
 
 /// The rules of one direction of a link, as given; [`FilterRules::filter`]
 /// folds them into a [`Filter`]. An empty allow list is no allow list.

@@ -179,6 +179,7 @@ pub struct Arrival<'a> {
 
 /// Why a node dropped a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum DropReason {
     /// It claims the node's own ids: a loop, or a spoof.
     OwnIds,
@@ -301,6 +302,7 @@ impl Fate {
 // No allocation (no_std): a message to send is carried by value.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum Output<E> {
     /// Frame `message` with the node's ids and send it on `links` (each
     /// link signs with its key).
@@ -387,8 +389,7 @@ impl core::fmt::Display for NodeError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for NodeError {}
+impl core::error::Error for NodeError {}
 
 impl From<crate::ConfigError> for NodeError {
     fn from(e: crate::ConfigError) -> Self {

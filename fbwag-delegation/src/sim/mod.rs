@@ -403,10 +403,10 @@ fn parse(parser: &mut Parser, bytes: &[u8]) -> Vec<(Vec<u8>, bool)> {
     let mut frames = Vec::new();
     let mut input = bytes;
     while let Some(r) = parser.next(&mut input) {
-        frames.push((r.frame.as_bytes().to_vec(), r.authenticated));
+        frames.push((r.frame().as_bytes().to_vec(), r.is_authenticated()));
     }
     while let Some(r) = parser.flush() {
-        frames.push((r.frame.as_bytes().to_vec(), r.authenticated));
+        frames.push((r.frame().as_bytes().to_vec(), r.is_authenticated()));
     }
     frames
 }

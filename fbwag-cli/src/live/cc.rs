@@ -19,7 +19,7 @@ use fbwag_delegation::engine::CcOutput;
 use fbwag_delegation::node::{
     AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, LinkSpec, Output, Role,
 };
-use fbwag_delegation::{Instant, Peer, Status};
+use fbwag_delegation::{Moment, Peer, Status};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Framer;
@@ -335,11 +335,11 @@ fn log_start(o: &CcOptions, log: &mut Log) {
 }
 
 impl Node for Daemon {
-    fn poll_timeout(&self) -> Option<Instant> {
+    fn poll_timeout(&self) -> Option<Moment> {
         self.node.poll_timeout()
     }
 
-    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
         self.node.handle_timeout(now);
         self.drain(now, net, log);
         // The log writer's notes (a file begun, a write error) as they
@@ -351,7 +351,7 @@ impl Node for Daemon {
 
     fn handle_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         inbound: &Inbound<Dialect>,
         net: &mut Net,
         log: &mut Log,
@@ -432,7 +432,7 @@ impl Node for Daemon {
 
 impl Daemon {
     /// Carries out the node's outputs.
-    fn drain(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+    fn drain(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
         while let Some(out) = self.node.poll_output() {
             match out {
                 Output::Transmit { links, message } => {
@@ -475,7 +475,7 @@ impl Daemon {
         }
     }
 
-    fn engine_event(&mut self, now: Instant, event: CcOutput, log: &mut Log) {
+    fn engine_event(&mut self, now: Moment, event: CcOutput, log: &mut Log) {
         match event {
             CcOutput::ControlDue => {
                 if let Some(c) = &mut self.controller {

@@ -19,7 +19,7 @@ use super::signals::StopSignals;
 use super::{Clock, Events, Health, Level, Limiter, Log};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
-use fbwag_delegation::Instant;
+use fbwag_delegation::Moment;
 use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::{Stats, Unsigned};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
@@ -513,14 +513,14 @@ fn log_state_file(path: &std::path::Path, log: &mut Log) -> io::Result<()> {
 /// What a daemon does with time and frames.
 pub trait Node {
     /// When [`Node::handle_timeout`] must next run.
-    fn poll_timeout(&self) -> Option<Instant>;
+    fn poll_timeout(&self) -> Option<Moment>;
     /// Timers due at `now`.
-    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log);
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log);
     /// A frame from any link (see `inbound.link`): the node policy decides
     /// its fate; the daemon carries it out.
     fn handle_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         inbound: &Inbound<Dialect>,
         net: &mut Net,
         log: &mut Log,

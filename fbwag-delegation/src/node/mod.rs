@@ -88,7 +88,7 @@ use peers::{Admission, Answered};
 pub use peers::{Peers, MAX_PEERS, PEER_SILENCE};
 pub use router::RouterNode;
 
-use crate::{Instant, Peer};
+use crate::{Moment, Peer};
 use core::net::SocketAddr;
 #[cfg(not(feature = "std"))]
 use fbwag_dialect::mavframe::route::FixedRoutingTable;
@@ -478,7 +478,7 @@ impl Core {
     /// Whether a frame its link admitted may be routed: why not, if not.
     /// The in-filter first, so that a copy refused on one link does not
     /// make the copy another link admits a duplicate.
-    fn screen(&mut self, a: &Arrival, now: Instant) -> Option<DropReason> {
+    fn screen(&mut self, a: &Arrival, now: Moment) -> Option<DropReason> {
         let state = self.links.get(usize::from(a.link))?.as_ref()?;
         if !state.filter_in.admits_frame(&a.frame) {
             return Some(DropReason::Filtered);
@@ -528,7 +528,7 @@ impl Core {
     fn admits_source(
         &mut self,
         a: &Arrival,
-        now: Instant,
+        now: Moment,
         joins: bool,
         displaces: bool,
         out: &mut impl FnMut(LinkId, Peers),
@@ -589,7 +589,7 @@ impl Core {
     /// the heartbeat. At most one a second to each address
     /// ([`Beacons`]): a replayer from one address (or a few) gets its own
     /// share, never the peer's.
-    fn time_beacon(&mut self, a: &Arrival, now: Instant) -> Option<SocketAddr> {
+    fn time_beacon(&mut self, a: &Arrival, now: Moment) -> Option<SocketAddr> {
         let source = a.source?;
         let state = self.links.get(usize::from(a.link))?.as_ref()?;
         let listening = state.spec.answers == Answers::Chosen;
@@ -620,7 +620,7 @@ impl Core {
     fn peer_source<E: Copy>(
         &mut self,
         a: &Arrival,
-        now: Instant,
+        now: Moment,
         peer: Peer,
         out: &mut crate::outbox::Outbox<Output<E>, 24>,
         heartbeat: impl FnOnce() -> Message,
@@ -675,13 +675,13 @@ pub const BEACON_ADDRESSES: usize = 16;
 
 /// The time beacons sent lately: to which address, and when.
 #[derive(Debug, Clone, Default)]
-struct Beacons([Option<(SocketAddr, Instant)>; BEACON_ADDRESSES]);
+struct Beacons([Option<(SocketAddr, Moment)>; BEACON_ADDRESSES]);
 
 impl Beacons {
     /// Whether `to` may have a beacon at `now`; if so, it is counted.
-    fn take(&mut self, to: SocketAddr, now: Instant) -> bool {
+    fn take(&mut self, to: SocketAddr, now: Moment) -> bool {
         const PERIOD: core::time::Duration = core::time::Duration::from_secs(1);
-        let idle = |slot: &Option<(SocketAddr, Instant)>| {
+        let idle = |slot: &Option<(SocketAddr, Moment)>| {
             slot.is_none_or(|(_, at)| now.since(at) >= PERIOD)
         };
         let slot = match self.0.iter().position(|s| s.is_some_and(|(a, _)| a == to)) {

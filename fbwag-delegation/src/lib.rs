@@ -57,7 +57,7 @@
 //!     let len = encode(Version::V2, header, msg, None, &mut buf).expect("fits");
 //!     let mut input = &buf[..len];
 //!     while let Some(received) = rx.next(&mut input) {
-//!         to(&received.frame, received.authenticated);
+//!         to(&received.frame(), received.is_authenticated());
 //!     }
 //! }
 //!

@@ -39,8 +39,8 @@
 //! assert!(parser.next(&mut &first[..]).is_none());
 //! let mut input = second;
 //! let rx = parser.next(&mut input).expect("a whole frame");
-//! assert_eq!(rx.frame.header(), header);
-//! assert_eq!(rx.meta.map(|m| m.name), Some("FBWAG_NOTICE"));
+//! assert_eq!(rx.header(), header);
+//! assert_eq!(rx.meta().map(|m| m.name), Some("FBWAG_NOTICE"));
 //!
 //! // The view reads fields from the frame's bytes, without copying them.
 //! let Some(MessageView::FbwagNotice(view)) = rx.view() else {

@@ -339,7 +339,7 @@ const fn raw_signature_cost(len: usize) -> u64 {
 /// let mut frames = 0;
 /// for mut chunk in reads {
 ///     while let Some(received) = parser.next(&mut chunk) {
-///         assert_eq!(received.frame.msg_id(), 42);
+///         assert_eq!(received.msg_id(), 42);
 ///         frames += 1;
 ///     }
 /// }
@@ -453,7 +453,7 @@ impl<D: MessageSet, const STREAMS: usize> Parser<D, STREAMS> {
     /// let mut parser = Parser::<D>::with_signing(Verifier::new(key), Unsigned::Refuse);
     /// let mut input: &[u8] = &[&unsigned[..], &signed[..]].concat();
     /// let first = parser.next(&mut input).unwrap();
-    /// assert!(first.frame.is_signed()); // the unsigned frame was dropped
+    /// assert!(first.frame().is_signed()); // the unsigned frame was dropped
     /// assert_eq!(parser.stats().unsigned_rejected, 1);
     /// ```
     pub fn with_signing(verifier: Verifier<STREAMS>, unsigned: Unsigned) -> Self {
@@ -839,7 +839,7 @@ fn check<D: MessageSet, const N: usize>(
         return (k.whole)(bytes, &frame, len, meta, end, cx);
     }
     if meta.is_none() {
-        if let Some(v) = check_raw_unkeyed::<D, N>(bytes, len, end, cx) {
+        if let Some(v) = check_raw_unkeyed::<D>(bytes, len, end, cx.memo, cx.at) {
             return v;
         }
     }
@@ -881,16 +881,17 @@ fn pay_for_cut<const N: usize>(bytes: &[u8], len: usize, cx: &mut Cx<'_, N>) {
 /// [`check_raw`] for a parser without a key: a raw candidate is confirmed
 /// by the start byte after it (or the end of the stream), with no good
 /// frame of a known id inside.
-fn check_raw_unkeyed<D: MessageSet, const N: usize>(
+fn check_raw_unkeyed<D: MessageSet>(
     bytes: &[u8],
     len: usize,
     end: bool,
-    cx: &mut Cx<'_, N>,
+    memo: &mut Memo,
+    at: u64,
 ) -> Option<Verdict> {
     if bytes.get(len).is_some_and(|&b| b != STX_V1 && b != STX_V2) {
         return Some(Verdict::Reject);
     }
-    match cx.memo.inside::<D>(bytes, cx.at, len) {
+    match memo.inside::<D>(bytes, at, len) {
         Inside::Yes => Some(Verdict::Reject),
         Inside::Undecided(needed) if !end => Some(Verdict::Need(needed)),
         Inside::Undecided(_) | Inside::No if bytes.len() == len && !end => {

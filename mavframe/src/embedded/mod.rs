@@ -103,7 +103,7 @@
 //! assert_eq!(rx.recv()?.message(), Some(Ping(7)));
 //! let seq = rx.recv_with(|frame| {
 //!     assert_eq!(frame.view(), Some(8)); // a view in place, no copy
-//!     frame.frame.header().seq
+//!     frame.header().seq
 //! })?;
 //! assert_eq!(seq, 1);
 //! // Then zeros (not frames) and the end of the slice.

@@ -74,7 +74,9 @@ fn carried(b: &[u8], covered: usize) -> u16 {
 /// `covered` bytes, computed directly: one bounds check for the covered
 /// bytes and the checksum after them (every frame of a valid stream comes
 /// here).
-#[inline(always)]
+// Inlined where size does not count (`fast-crc`): every frame comes here.
+#[cfg_attr(feature = "fast-crc", inline(always))]
+#[cfg_attr(not(feature = "fast-crc"), inline(never))]
 fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
     let Some(body) = b.get(1..covered + 3) else {
         return false;
@@ -105,22 +107,22 @@ fn spans(lo: u64, hi: u64) -> impl Iterator<Item = (usize, usize, u64, u64)> {
     })
 }
 
-/// Sets (`on`) or clears the bits of positions `lo..hi`.
-fn set_range(bits: &mut [u64; WORDS], lo: u64, hi: u64, on: bool) {
-    for (w, shift, m, _) in spans(lo, hi) {
-        if on {
-            bits[w] |= m << shift;
-        } else {
-            bits[w] &= !(m << shift);
-        }
-    }
-}
-
 fn mask(n: usize) -> u64 {
     if n >= 64 {
         !0
     } else {
         (1 << n) - 1
+    }
+}
+
+/// Sets (`on`) or clears the bit of position `x`.
+fn set_bit(bits: &mut [u64; WORDS], x: u64, on: bool) {
+    let s = slot(x);
+    let m = 1 << (s % 64);
+    if on {
+        bits[s / 64] |= m;
+    } else {
+        bits[s / 64] &= !m;
     }
 }
 
@@ -198,7 +200,8 @@ impl Memo {
     /// bytes' checksum: a good verdict remembered (from bytes a caller may
     /// not have passed again) is confirmed directly; the cost is the
     /// frame's, which is then consumed.
-    #[inline]
+    #[cfg_attr(feature = "fast-crc", inline)]
+    #[cfg_attr(not(feature = "fast-crc"), inline(never))]
     pub(super) fn candidate<D: MessageSet>(
         &mut self,
         bytes: &[u8],
@@ -250,6 +253,7 @@ impl Memo {
     }
 
     /// A checksum of the frame at `at` computed directly.
+    #[inline(never)]
     fn direct(&mut self, at: u64, covered: usize) {
         self.frontier = self.frontier.max(at + 1);
         self.direct_end = self.direct_end.max(at + 1 + covered as u64);
@@ -262,31 +266,30 @@ impl Memo {
     /// far as the bytes at hand tell.
     pub(super) fn inside<D: MessageSet>(&mut self, bytes: &[u8], at: u64, upto: usize) -> Inside {
         let hi = at + upto.min(bytes.len()) as u64;
-        self.classify_to::<D>(bytes, at, hi);
-        self.steps += 1;
-        let mut pending = None;
-        for (w, shift, m, x) in spans(at + 1, hi.min(self.marked_end)) {
-            if (self.good[w] >> shift) & m != 0 {
-                return Inside::Yes;
-            }
-            let p = (self.pending[w] >> shift) & m;
-            if pending.is_none() && p != 0 {
-                pending = Some(x + u64::from(p.trailing_zeros()));
-            }
-        }
-        match pending {
-            Some(q) => match class::<D>(&bytes[(q - at) as usize..]) {
-                Class::Wait(n) => Inside::Undecided((q - at) as usize + n),
-                // Wake-ups are handled: only bytes other than those the
-                // position was classified from get here. Decided from
-                // these bytes.
-                _ => {
-                    set_range(&mut self.pending, q, q + 1, false);
-                    self.classify::<D>(bytes, at, q);
-                    self.inside::<D>(bytes, at, upto)
+        loop {
+            self.classify_to::<D>(bytes, at, hi);
+            self.steps += 1;
+            let mut pending = None;
+            for (w, shift, m, x) in spans(at + 1, hi.min(self.marked_end)) {
+                if (self.good[w] >> shift) & m != 0 {
+                    return Inside::Yes;
                 }
-            },
-            None => Inside::No,
+                let p = (self.pending[w] >> shift) & m;
+                if pending.is_none() && p != 0 {
+                    pending = Some(x + u64::from(p.trailing_zeros()));
+                }
+            }
+            let Some(q) = pending else {
+                return Inside::No;
+            };
+            if let Class::Wait(n) = class::<D>(&bytes[(q - at) as usize..]) {
+                return Inside::Undecided((q - at) as usize + n);
+            }
+            // Wake-ups are handled: only bytes other than those the
+            // position was classified from get here. Decided from these
+            // bytes, then the search again.
+            set_bit(&mut self.pending, q, false);
+            self.classify::<D>(bytes, at, q);
         }
     }
 
@@ -298,8 +301,9 @@ impl Memo {
         if lo >= hi {
             return;
         }
-        for bits in [&mut self.good, &mut self.pending] {
-            set_range(bits, lo, hi, false);
+        for (w, shift, m, _) in spans(lo, hi) {
+            self.good[w] &= !(m << shift);
+            self.pending[w] &= !(m << shift);
         }
         let mut o = (lo - at) as usize;
         let end = (hi - at) as usize;
@@ -324,7 +328,7 @@ impl Memo {
             Class::NotGood => {}
             Class::Wait(n) => {
                 let w = q + n as u64;
-                set_range(&mut self.pending, q, q + 1, true);
+                set_bit(&mut self.pending, q, true);
                 self.marked_end = self.marked_end.max(q + 1);
                 let s = slot(q);
                 self.next[s] = self.head[slot(w)];
@@ -336,7 +340,7 @@ impl Memo {
             }
             Class::Whole { covered, crc_extra } => {
                 if self.crc_at(bytes, at, q, covered, crc_extra) == Some(carried(b, covered)) {
-                    set_range(&mut self.good, q, q + 1, true);
+                    set_bit(&mut self.good, q, true);
                     self.marked_end = self.marked_end.max(q + 1);
                 }
             }
@@ -347,7 +351,7 @@ impl Memo {
     /// position `at`): their pending positions are classified again.
     fn wake<D: MessageSet>(&mut self, bytes: &[u8], at: u64) {
         let avail = at + bytes.len() as u64;
-        let mut w = slot(self.woken);
+        let (mut w, base) = (slot(self.woken), slot(at));
         while self.woken < avail.min(self.last_wake) {
             self.woken += 1;
             w = if w + 1 == RING { 0 } else { w + 1 };
@@ -358,9 +362,10 @@ impl Memo {
                 s = self.next[sl];
                 // The position of that slot among those alive (a position
                 // whose candidate has passed maps to one not classified).
-                let q = at + ((sl + RING - slot(at)) % RING) as u64;
+                let ahead = sl + RING - base;
+                let q = at + (if ahead >= RING { ahead - RING } else { ahead }) as u64;
                 if q < self.frontier && bit(&self.pending, q) {
-                    set_range(&mut self.pending, q, q + 1, false);
+                    set_bit(&mut self.pending, q, false);
                     self.classify::<D>(bytes, at, q);
                 }
             }

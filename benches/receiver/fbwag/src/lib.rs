@@ -24,15 +24,14 @@ pub unsafe extern "C" fn receive(data: *const u8, len: usize) -> u32 {
     let mut mode = u32::MAX;
     // The stream, then its end: a frame of an unknown id that waited for
     // the byte after it is decided there.
-    for end in [false, true] {
-        while let Some(rx) = if end {
-            parser.flush()
-        } else {
-            parser.next(&mut input)
-        } {
-            if let Some(MessageView::Heartbeat(h)) = rx.view() {
-                mode = h.custom_mode();
-            }
+    while let Some(rx) = parser.next(&mut input) {
+        if let Some(MessageView::Heartbeat(h)) = rx.view() {
+            mode = h.custom_mode();
+        }
+    }
+    while let Some(rx) = parser.flush() {
+        if let Some(MessageView::Heartbeat(h)) = rx.view() {
+            mode = h.custom_mode();
         }
     }
     mode

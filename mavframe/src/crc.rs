@@ -7,7 +7,7 @@
 //!   table) and, for the parser's recovery path, a register advanced over
 //!   `k` zero bytes by a multiplication by x^(8k) mod P, from 66 bytes of
 //!   tables: what a small board flashes;
-//! - with the `fast-crc` feature (which `std` turns on), "slice-by-16":
+//! - with the `fast` feature (which `std` turns on), "slice-by-16":
 //!   sixteen tables of 256 entries (8 KiB, built at compile time), so
 //!   sixteen bytes cost one xor of the register into the first two,
 //!   sixteen independent table loads and their xors, and the advance by
@@ -19,16 +19,16 @@
 //! ([`update_bytewise`]); crc-any's CRC-16/MCRF4XX is the test oracle of
 //! all of them.
 
-#[cfg(feature = "fast-crc")]
+#[cfg(feature = "fast")]
 mod fast;
 // The small implementation is the reference of the fast one's tests, so
 // it is compiled for them too.
-#[cfg(any(test, not(feature = "fast-crc")))]
+#[cfg(any(test, not(feature = "fast")))]
 mod small;
 
-#[cfg(feature = "fast-crc")]
+#[cfg(feature = "fast")]
 use fast as imp;
-#[cfg(not(feature = "fast-crc"))]
+#[cfg(not(feature = "fast"))]
 use small as imp;
 
 /// Reflected CRC-16/MCRF4XX polynomial (0x1021 bit-reversed).
@@ -152,7 +152,7 @@ mod tests {
             frame_crc: small::frame_crc,
             advance: small::advance,
         },
-        #[cfg(feature = "fast-crc")]
+        #[cfg(feature = "fast")]
         Imp {
             name: "fast",
             byte: fast::byte,

@@ -1,4 +1,4 @@
-//! Slice-by-16 (feature `fast-crc`): the specification's update takes a
+//! Slice-by-16 (feature `fast`): the specification's update takes a
 //! chain of about ten dependent operations per byte, which was most of the
 //! time of stream decoding. Here sixteen bytes cost one xor of the register
 //! into the first two, sixteen independent table loads and their xors;

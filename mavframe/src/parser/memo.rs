@@ -74,9 +74,9 @@ fn carried(b: &[u8], covered: usize) -> u16 {
 /// `covered` bytes, computed directly: one bounds check for the covered
 /// bytes and the checksum after them (every frame of a valid stream comes
 /// here).
-// Inlined where size does not count (`fast-crc`): every frame comes here.
-#[cfg_attr(feature = "fast-crc", inline(always))]
-#[cfg_attr(not(feature = "fast-crc"), inline(never))]
+// Inlined where size does not count (`fast`): every frame comes here.
+#[cfg_attr(feature = "fast", inline(always))]
+#[cfg_attr(not(feature = "fast"), inline(never))]
 fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
     let Some(body) = b.get(1..covered + 3) else {
         return false;
@@ -200,8 +200,8 @@ impl Memo {
     /// bytes' checksum: a good verdict remembered (from bytes a caller may
     /// not have passed again) is confirmed directly; the cost is the
     /// frame's, which is then consumed.
-    #[cfg_attr(feature = "fast-crc", inline)]
-    #[cfg_attr(not(feature = "fast-crc"), inline(never))]
+    #[cfg_attr(feature = "fast", inline)]
+    #[cfg_attr(not(feature = "fast"), inline(never))]
     pub(super) fn candidate<D: MessageSet>(
         &mut self,
         bytes: &[u8],

@@ -85,7 +85,8 @@ fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
     crc::frame_crc(data, crc_extra) == u16::from_le_bytes([sum[0], sum[1]])
 }
 
-#[inline(never)]
+// Out of line in small builds (about fifteen callers).
+#[cfg_attr(not(feature = "fast"), inline(never))]
 fn slot(x: u64) -> usize {
     (x % RING as u64) as usize
 }
@@ -253,7 +254,7 @@ impl Memo {
     }
 
     /// A checksum of the frame at `at` computed directly.
-    #[inline(never)]
+    #[cfg_attr(not(feature = "fast"), inline(never))]
     fn direct(&mut self, at: u64, covered: usize) {
         self.frontier = self.frontier.max(at + 1);
         self.direct_end = self.direct_end.max(at + 1 + covered as u64);

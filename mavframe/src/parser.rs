@@ -221,14 +221,13 @@ impl<'a, D: MessageSet> Received<'a, D> {
 
     /// A zero-copy view of the message; `None` for an unknown id.
     pub fn view(&self) -> Option<D::View<'a>> {
-        self.meta?;
-        D::view(self.frame.msg_id(), self.frame.payload())
+        // The row's id is the frame's: no second read of the header.
+        D::view(self.meta?.id, self.frame.payload())
     }
 
     /// The message, copied out; `None` for an unknown id.
     pub fn message(&self) -> Option<D::Message> {
-        self.meta?;
-        D::parse(self.frame.msg_id(), self.frame.payload())
+        D::parse(self.meta?.id, self.frame.payload())
     }
 }
 

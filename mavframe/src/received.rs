@@ -75,16 +75,12 @@ impl<D: MessageSet> ReceivedBuf<D> {
 
     /// The message, parsed; `None` for an unknown id.
     pub fn message(&self) -> Option<D::Message> {
-        self.meta?;
-        let f = self.frame();
-        D::parse(f.msg_id(), f.payload())
+        D::parse(self.meta?.id, self.frame().payload())
     }
 
     /// A zero-copy view of the message; `None` for an unknown id.
     pub fn view(&self) -> Option<D::View<'_>> {
-        self.meta?;
-        let f = self.frame();
-        D::view(f.msg_id(), f.payload())
+        D::view(self.meta?.id, self.frame().payload())
     }
 }
 

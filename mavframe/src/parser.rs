@@ -825,7 +825,7 @@ fn check<D: MessageSet, const N: usize>(
         Err(_) => return Verdict::Reject,
     };
     let frame = Frame::new_unchecked(&bytes[..len]);
-    let meta = D::meta(frame.msg_id());
+    let meta = D::meta(msg_id(bytes));
     if let Some(m) = meta {
         let covered = len
             - 3
@@ -1043,11 +1043,13 @@ fn signed_v2(bytes: &[u8]) -> bool {
 
 /// The message id in a (possibly incomplete) header at `bytes[0]`.
 fn msg_id(bytes: &[u8]) -> u32 {
-    match bytes.first() {
-        Some(&STX_V2) => u32::from_le_bytes([
+    // A whole header first: one bounds check (every frame comes here).
+    match *bytes {
+        [STX_V2, _, _, _, _, _, _, a, b, c, ..] => u32::from_le_bytes([a, b, c, 0]),
+        [STX_V2, ..] => u32::from_le_bytes([
             bytes.get(7).copied().unwrap_or(0),
             bytes.get(8).copied().unwrap_or(0),
-            bytes.get(9).copied().unwrap_or(0),
+            0,
             0,
         ]),
         _ => bytes.get(5).copied().unwrap_or(0) as u32,

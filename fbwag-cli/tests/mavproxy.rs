@@ -581,7 +581,9 @@ fn mavproxy_signing_setup_keys_a_disarmed_fc_for_a_signed_handover() {
     let mut chain = start_chain(&py, &spec);
     let mut console = chain.mavproxy.stdin();
     assert!(
-        chain.mavproxy.wait_for("online system 1", Duration::from_secs(20)),
+        chain
+            .mavproxy
+            .wait_for("online system 1", Duration::from_secs(20)),
         "{}",
         chain.mavproxy.log
     );

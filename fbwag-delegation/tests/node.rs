@@ -674,7 +674,7 @@ fn the_companions_heartbeat_reaches_ground_links_once_the_fc_is_heard() {
 fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
     use fbwag_dialect::dialects::common::{MavCmd, ParamSet, RequestDataStream};
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let me = Peer::new(1, 196);
     let program = Some(addr(14561));
     let rate = bytes(
@@ -699,7 +699,7 @@ fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
         },
     );
     for frame in [rate, streams] {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, program, &frame, false));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(AUTONOMY, program, &frame, false));
         drain(&mut cc);
         assert_eq!(
             (fate.route, fate.sign),
@@ -725,7 +725,7 @@ fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
         },
     );
     for frame in [reboot, write] {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, program, &frame, false));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(AUTONOMY, program, &frame, false));
         drain(&mut cc);
         assert!(!fate.route.contains(FC_LINK) && !fate.sign, "{fate:?}");
     }

@@ -622,7 +622,7 @@ impl Node for Daemon {
 
     fn bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: fbwag_dialect::mavframe::route::LinkId,
         source: std::net::SocketAddr,
         net: &mut Net,

@@ -389,7 +389,7 @@ impl Node for Daemon {
 
     fn bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: SocketAddr,
         net: &mut Net,

@@ -531,7 +531,7 @@ pub trait Node {
     /// signature (the node may answer: a wrong key shows on both sides).
     fn bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: SocketAddr,
         net: &mut Net,

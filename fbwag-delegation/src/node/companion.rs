@@ -228,7 +228,7 @@ impl CompanionNode {
     /// with another key sees the mismatch too.
     pub fn handle_bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: core::net::SocketAddr,
     ) {

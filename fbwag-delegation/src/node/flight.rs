@@ -141,7 +141,7 @@ impl FcNode {
     /// with another key sees the mismatch too.
     pub fn handle_bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: core::net::SocketAddr,
     ) {

@@ -604,7 +604,7 @@ impl Core {
     /// peer link, under the time beacon's limit ([`Beacons`]). A peer with
     /// another key then counts a bad signature too: a wrong key shows on
     /// both sides.
-    fn signature_beacon(&mut self, link: LinkId, source: SocketAddr, now: Instant) -> bool {
+    fn signature_beacon(&mut self, link: LinkId, source: SocketAddr, now: Moment) -> bool {
         let Some(state) = self.links.get(usize::from(link)).and_then(|l| l.as_ref()) else {
             return false;
         };

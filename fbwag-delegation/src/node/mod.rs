@@ -669,7 +669,7 @@ impl Core {
 }
 
 /// Addresses a node sends time beacons to at once, at most
-/// ([`Core::time_beacon`]): each gets one a second at most, and a new
+/// (`Core::time_beacon`): each gets one a second at most, and a new
 /// address takes the place of one served more than a second ago.
 pub const BEACON_ADDRESSES: usize = 16;
 
